@@ -1,0 +1,51 @@
+// `campaign report`: turns finished runs into report.md, report.html, figures and CSVs.
+// The runner queries its database and hands the runs over as plain records; this layer
+// never touches SQLite, and every analysis it calls is a pure function over a run's output.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace granary::analysis {
+
+// One run of the campaign as the runner knows it.
+struct RunRecord {
+  std::string run_id;
+  std::string state;              // planned, running, done, failed, interrupted, retired
+  std::string engine;             // native or liggghts
+  std::string point_id;           // id of the sweep point (runs differing only by replica share it)
+  int replica = 0;
+  nlohmann::json point;           // the sweep-axis values of this point, e.g. {"/silo/base_outlets/0/width": 10}
+  nlohmann::json spec;            // the resolved run spec (run.json)
+  std::filesystem::path run_dir;  // absolute
+  std::string failure;            // failed runs: reason and log tail
+};
+
+struct CampaignInfo {
+  std::string name;
+  std::string spec_hash;
+  nlohmann::json spec;            // the campaign spec as planned
+  std::vector<std::string> axes;  // sweep axes (JSON pointers into the run spec), in spec order
+  std::string granary_version;
+  std::string git_commit;
+};
+
+struct ReportOptions {
+  std::filesystem::path out_dir;  // created if missing
+  bool figures = true;            // run gnuplot (off in quick tests)
+};
+
+struct ReportSummary {
+  int runs_used = 0;
+  int runs_missing = 0;           // planned/running/interrupted
+  int runs_failed = 0;
+  std::filesystem::path markdown;
+  std::filesystem::path html;
+};
+
+ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
+                           const ReportOptions& options);
+
+}  // namespace granary::analysis

@@ -1,0 +1,143 @@
+// The resolved specification of one run: the contract between the campaign runner,
+// the native engine and the LIGGGHTS backend. The runner expands a campaign into
+// RunSpecs and writes each as `run.json` into the run's directory; an engine reads it.
+// JSON layout, defaults and allowed values: docs/run-spec.md. Physics: shared physics.md.
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json_fwd.hpp>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace granary {
+
+// A spec error names the JSON path (JSON Pointer, e.g. "/silo/base_outlets/0/width"),
+// the bad value and what is allowed. `what()` is "PATH: MESSAGE".
+class SpecError : public std::runtime_error {
+ public:
+  SpecError(std::string path, std::string message);
+  const std::string& path() const { return path_; }
+  const std::string& message() const { return message_; }
+
+ private:
+  std::string path_;
+  std::string message_;
+};
+
+enum class Shape { kDisc, kDumbbell, kSnowman, kRod };
+
+// One kind of body in the mixture. Every body is a rigid clump of discs (physics.md).
+struct Species {
+  std::string name;            // label in events and dumps; default: "disc", "dumbbell", "snowman", "rod<n>"
+  Shape shape = Shape::kDumbbell;
+  double fraction = 1.0;       // number fraction among all bodies (fractions must sum to 1)
+  double diameter = 1.0;       // disc: D; dumbbell: d; snowman: D_s (small disc); rod: each disc
+  double big_diameter = 1.0;   // snowman only: D_b (D_b/D_s in [1, 2])
+  int n = 2;                   // rod only: number of touching discs in a line
+};
+
+struct Bodies {
+  int count = 1000;            // total number of bodies in the bed
+  std::vector<Species> species;  // default: one species of dumbbells
+  double density = 1.0;        // areal density rho: disc mass = rho * pi * r^2
+};
+
+struct BaseOutlet {
+  double center = 0.0;         // x of the outlet centre (base at y = 0)
+  double width = 10.0;         // W
+};
+
+enum class Wall { kLeft, kRight };
+
+struct SideOutlet {
+  Wall wall = Wall::kRight;
+  double bottom = 3.5;         // height of the outlet's lower edge above the base
+  double width = 25.0;
+};
+
+struct Obstacle {
+  double x = 0.0;              // centre (silo coordinates: origin at the centre of the base)
+  double y = 10.0;
+  double diameter = 6.0;
+};
+
+struct Silo {
+  double width = 100.0;        // side walls at x = +-width/2
+  double height = 0.0;         // side-wall height; 0 = automatic (tall enough for the bed)
+  std::vector<BaseOutlet> base_outlets;  // default: one outlet of width 10 at x = 0
+  std::vector<SideOutlet> side_outlets;
+  std::vector<Obstacle> obstacles;
+};
+
+// LAMMPS caps spring + damping at mu|F_n|; LIGGGHTS 3.8 caps only the spring part.
+enum class TangentialCap { kLammps, kLiggghts };
+
+struct Contact {
+  double kn = 2.0e6;
+  double kt = 2.45e6;
+  double gamma_n = 1000.0;
+  double gamma_t = 1000.0;
+  double mu = 0.5;             // body-body friction
+  double mu_wall = 0.5;        // body-wall and body-obstacle friction (defaults to mu)
+  TangentialCap tangential_cap = TangentialCap::kLammps;
+  bool clip_normal = false;    // clip attractive F_n to zero (off: LAMMPS default)
+};
+
+struct Bed {
+  int batch_size = 500;            // bodies inserted per batch
+  double settle_ke_per_body = 1e-6;  // settled when kinetic energy per body (units m g d) is below this
+  double max_settle_time = 200.0;  // give up settling after this much simulated time
+  std::string cache_file;          // resolved by the runner: where the prepared bed is (or is to be) stored;
+                                   // empty = prepare inside the run directory (bed.json)
+};
+
+enum class DischargeMode { kRemove, kReinject };
+
+struct Discharge {
+  DischargeMode mode = DischargeMode::kRemove;
+  double max_time = 100.0;         // stop at this simulated time after opening
+  bool stop_on_clog = true;        // false = intermittent: run through clogs and unclogs until max_time
+  double clog_window = 5.0;        // a clog: no exit through any outlet for this long ...
+  double clog_ke_per_body = 1e-4;  // ... and kinetic energy per body near the outlets below this
+  double reinject_speed = 0.0;     // reinject mode: speed (downwards) given to a reinjected body
+  double exit_distance = 2.0;      // a body has left when its centre is this far past the outlet plane
+};
+
+struct Output {
+  double frame_interval = 0.0;     // simulated time between frames (0 = no frames)
+  bool contact_forces = false;     // also write contact-force frames at frame_interval
+  double checkpoint_interval = 10.0;  // simulated time between checkpoints (0 = none)
+};
+
+struct RunSpec {
+  std::string run_id;              // stable id set by the runner (hash of the resolved parameters)
+  std::uint64_t seed = 1;          // bed and reinjection randomness
+  std::string engine = "native";   // "native" or "liggghts"
+  double time_step = 1e-4;
+  double gravity = 1.0;
+  Silo silo;
+  Bodies bodies;
+  Contact contact;
+  Bed bed;
+  Discharge discharge;
+  Output output;
+
+  // Parse and validate completely; throws SpecError naming the JSON path.
+  // Missing keys take the defaults above; unknown keys are errors with the nearest valid key.
+  static RunSpec from_json(const nlohmann::json& j);
+  // Canonical JSON with every default filled in (sorted keys, as nlohmann::json stores them).
+  nlohmann::json to_json() const;
+  // The JSON of everything that determines the prepared bed (bodies, silo width, bed procedure,
+  // contact, time step, gravity, seed) but not the outlets or obstacles; hash it to name a cached bed.
+  nlohmann::json bed_key() const;
+};
+
+// Semantic checks beyond types (geometry fits, fractions sum to 1, ...); from_json calls it.
+void validate(const RunSpec& spec);
+
+std::string to_string(Shape shape);
+std::string to_string(DischargeMode mode);
+std::string to_string(TangentialCap cap);
+
+}  // namespace granary
