@@ -8,6 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "analysis/fit.h"
+#include "analysis/run_analysis.h"
+
 namespace granary::analysis {
 
 // One run of the campaign as the runner knows it.
@@ -35,6 +38,11 @@ struct CampaignInfo {
 struct ReportOptions {
   std::filesystem::path out_dir;  // created if missing
   bool figures = true;            // run gnuplot (off in quick tests)
+  AnalysisOptions analysis;       // window, clog threshold, region size, ...
+  // Extra models fitted to Q against the first outlet's W/d (besides the Beverloo forms);
+  // campaign spec /report/models (array of {name, expression, variable, initial}) adds more.
+  std::vector<FitModel> models;
+  std::string gnuplot = "gnuplot";  // the executable
 };
 
 struct ReportSummary {

@@ -1,0 +1,126 @@
+// Implementation of clogging.h.
+#include "analysis/clogging.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace granary::analysis {
+
+int ClogSeries::unclogs() const {
+  int n = 0;
+  for (const auto& c : clogged) n += c.complete ? 1 : 0;
+  return n;
+}
+
+std::vector<double> ClogSeries::avalanche_sizes() const {
+  std::vector<double> s;
+  for (const auto& f : flowing)
+    if (f.complete) s.push_back(f.exits);
+  return s;
+}
+
+std::vector<double> ClogSeries::flowing_times() const {
+  std::vector<double> t;
+  for (const auto& f : flowing)
+    if (f.complete) t.push_back(f.duration());
+  return t;
+}
+
+std::vector<double> ClogSeries::clogged_times() const {
+  std::vector<double> t;
+  for (const auto& c : clogged)
+    if (c.complete) t.push_back(c.duration());
+  return t;
+}
+
+ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_end, double clog_gap,
+                       bool ended_clogged) {
+  ClogSeries s;
+  std::vector<double> times;
+  for (const auto& e : events)
+    if (outlet < 0 || e.outlet == outlet) times.push_back(e.time);
+  std::sort(times.begin(), times.end());
+  s.t_end = std::max(t_end, times.empty() ? 0.0 : times.back());
+  Stretch current{0.0, 0.0, 0, true};
+  double previous = 0.0;
+  for (double t : times) {
+    if (t - previous >= clog_gap) {
+      current.end = previous;
+      s.flowing.push_back(current);
+      s.clogged.push_back({previous, t, 0, true});
+      current = Stretch{t, t, 0, true};
+    }
+    ++current.exits;
+    previous = t;
+  }
+  current.end = previous;
+  const bool final_clog = ended_clogged || s.t_end - previous >= clog_gap;
+  current.complete = final_clog;
+  s.flowing.push_back(current);
+  if (final_clog) s.clogged.push_back({previous, s.t_end, 0, false});
+  return s;
+}
+
+IntermittencyStats intermittency(std::span<const ClogSeries> runs) {
+  IntermittencyStats st;
+  std::vector<double> tf, tc;
+  for (const auto& r : runs) {
+    for (double t : r.flowing_times()) tf.push_back(t);
+    for (double t : r.clogged_times()) tc.push_back(t);
+    st.unclogs += r.unclogs();
+    st.observed_time += r.t_end;
+  }
+  st.t_flowing = mean_se(tf);
+  st.t_clogged = mean_se(tc);
+  if (st.observed_time > 0.0) st.unclog_rate = st.unclogs / st.observed_time;
+  return st;
+}
+
+AvalancheStats avalanche_stats(std::span<const double> sizes, int bins, double tail_from) {
+  AvalancheStats a;
+  a.sizes.assign(sizes.begin(), sizes.end());
+  a.size = mean_se(sizes);
+  if (sizes.empty()) return a;
+  double hi = 0.0;
+  for (double s : sizes) hi = std::max(hi, s);
+  a.histogram = make_histogram(sizes, bins, 0.0, hi + std::max(1.0, hi / bins));
+  const double from = tail_from >= 0.0 ? tail_from : median(a.sizes);
+  a.tail = fit_exponential_tail(sizes, from);
+  return a;
+}
+
+ClogIndex clogging_index(std::span<const ClogRun> runs, int min_exits, double stagnant) {
+  ClogIndex ci;
+  std::vector<const ClogRun*> kept;
+  std::vector<double> free_remaining;
+  for (const auto& r : runs) {
+    if (r.clogged && r.exited < min_exits) {
+      ++ci.discarded;
+      continue;
+    }
+    kept.push_back(&r);
+    if (r.clogged) {
+      ++ci.clogged;
+    } else {
+      free_remaining.push_back(r.undischarged);
+    }
+  }
+  if (stagnant >= 0.0) {
+    ci.n_stagnant = stagnant;
+  } else if (!free_remaining.empty()) {
+    ci.n_stagnant = mean_se(free_remaining).mean;
+  } else {
+    ci.n_stagnant = 0.0;
+    ci.note = "no run discharged freely: N_u = 0 assumed";
+  }
+  std::vector<double> psi;
+  for (const ClogRun* r : kept) {
+    const double denominator = r->bodies - ci.n_stagnant;
+    if (denominator <= 0.0) continue;
+    psi.push_back((r->undischarged - ci.n_stagnant) / denominator);
+  }
+  ci.psi = mean_se(psi);
+  return ci;
+}
+
+}  // namespace granary::analysis

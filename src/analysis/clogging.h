@@ -1,0 +1,83 @@
+// Clogging analyses: the clogging index Psi (ch. 3, eq. 3.1), avalanche sizes (ch. 4, 6)
+// and the flowing / clogged durations t_f, t_c with the unclogging rate N_u (ch. 7), all
+// from the exit stream. Pure functions.
+#pragma once
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include "analysis/run_reader.h"
+#include "analysis/stats.h"
+
+namespace granary::analysis {
+
+// The exit stream of one outlet (or all) cut into flowing and clogged stretches.
+// Rule: the opening at t = 0 counts as an exit; a gap of at least `clog_gap` between two
+// consecutive exits is a clog lasting from the earlier exit to the later one (t_c), and the
+// flowing stretch before it runs from its first exit's predecessor (the opening or the
+// unclog) to the last exit before the gap (t_f). After the last exit the stream is clogged
+// if t_end - t_last >= clog_gap or if the run ended because it clogged (`ended_clogged`);
+// that last clog has no end (censored): it counts for the avalanche but not for <t_c>.
+struct Stretch {
+  double start = 0.0;
+  double end = 0.0;
+  int exits = 0;                    // exits in a flowing stretch; 0 for a clog
+  bool complete = true;             // a flowing stretch ending in a clog / a clog ending in an unclog
+  double duration() const { return end - start; }
+};
+
+struct ClogSeries {
+  std::vector<Stretch> flowing;     // in time order; the last one may be incomplete (run ended flowing)
+  std::vector<Stretch> clogged;     // the last one may be incomplete (run ended clogged)
+  double t_end = 0.0;
+  int unclogs() const;              // number of complete clogs
+  std::vector<double> avalanche_sizes() const;  // exits of each flowing stretch that ended in a clog
+  std::vector<double> flowing_times() const;    // durations of complete flowing stretches
+  std::vector<double> clogged_times() const;    // durations of complete clogs
+};
+
+ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_end, double clog_gap,
+                       bool ended_clogged);
+
+// t_f, t_c and N_u of one outlet, pooled over several runs (each run's series).
+struct IntermittencyStats {
+  MeanSe t_flowing;                 // <t_f> over complete flowing stretches
+  MeanSe t_clogged;                 // <t_c> over complete clogs
+  double unclog_rate = kNaN;        // N_u = unclogs / observed time (sum of t_end)
+  int unclogs = 0;
+  double observed_time = 0.0;
+};
+IntermittencyStats intermittency(std::span<const ClogSeries> runs);
+
+struct AvalancheStats {
+  MeanSe size;                      // <s>, its standard error and the number of avalanches
+  Histogram histogram;              // of s
+  ExpTailFit tail;
+  std::vector<double> sizes;
+};
+// tail_from < 0: the tail starts at the median size.
+AvalancheStats avalanche_stats(std::span<const double> sizes, int bins = 20, double tail_from = -1.0);
+
+// One run's numbers for eq. 3.1.
+struct ClogRun {
+  bool clogged = false;             // the run ended because it clogged
+  int bodies = 0;                   // N_total
+  int undischarged = 0;             // N_undis (remaining)
+  int exited = 0;
+};
+
+// Psi = (1/n) sum_i (N_undis,i - N_u) / (N_total - N_u), N_u = mean N_undis of the runs
+// that did not clog (`stagnant` if given, i.e. >= 0; else from `runs`). Runs that clogged
+// with fewer than `min_exits` exits are discarded (ch. 3). If no run is non-clogged and no
+// `stagnant` is given, N_u = 0 and the note says so.
+struct ClogIndex {
+  MeanSe psi;                       // over the kept runs; se is the replica standard error
+  double n_stagnant = kNaN;         // N_u used
+  int discarded = 0;
+  int clogged = 0;
+  std::string note;
+};
+ClogIndex clogging_index(std::span<const ClogRun> runs, int min_exits = 100, double stagnant = -1.0);
+
+}  // namespace granary::analysis

@@ -1,0 +1,198 @@
+// Implementation of fit.h over gsl_multifit_nlinear.
+#include "analysis/fit.h"
+
+#include <gsl/gsl_blas.h>
+#include <gsl/gsl_cdf.h>
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_multifit_nlinear.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+
+#include "analysis/expression.h"
+
+namespace granary::analysis {
+
+FitModel beverloo_2d() { return {"beverloo_2d", "C * (x - k)^1.5", "x", {{"C", 1.0}, {"k", 0.0}}}; }
+FitModel beverloo_free() {
+  return {"beverloo_free", "C * (x - k)^b", "x", {{"C", 1.0}, {"k", 0.0}, {"b", 1.5}}};
+}
+FitModel mankoc() {
+  return {"mankoc", "C * (1 - exp(-b * (x - 1)) / 2) * (x - 1)^1.5", "x", {{"C", 1.0}, {"b", 1.0}}};
+}
+
+FitModel with_data_guess(FitModel model, std::span<const double> x, std::span<const double> y) {
+  if (x.empty() || x.size() != y.size()) return model;
+  std::size_t imax = 0;
+  for (std::size_t i = 1; i < x.size(); ++i)
+    if (x[i] > x[imax]) imax = i;
+  const double xm = x[imax];
+  const double ym = y[imax];
+  if (!(xm > 1.0) || !(ym > 0.0)) return model;
+  if (model.name == "mankoc") {
+    model.initial["C"] = ym / std::pow(xm - 1.0, 1.5);
+  } else if (model.name == "beverloo_2d" || model.name == "beverloo_free") {
+    model.initial["C"] = ym / std::pow(xm, 1.5);
+  }
+  return model;
+}
+
+const FitParameter* FitResult::parameter(const std::string& name) const {
+  for (const auto& p : parameters)
+    if (p.name == name) return &p;
+  return nullptr;
+}
+
+namespace {
+
+struct FitData {
+  const Expression* expression;
+  std::span<const double> x, y, sigma;
+};
+
+double model_value(const Expression& e, double x, const gsl_vector* p) {
+  std::vector<double> pars(p->size);
+  for (std::size_t i = 0; i < p->size; ++i) pars[i] = gsl_vector_get(p, i);
+  const double xv[1] = {x};
+  return e.evaluate(xv, pars);
+}
+
+// Residual vector. A parameter step into a region where the model is undefined (e.g. a
+// negative base under a fractional power) gets a huge residual instead of NaN, so the
+// trust-region method rejects the step and shrinks the radius rather than aborting.
+int residuals_f(const gsl_vector* p, void* params, gsl_vector* f) {
+  const auto* d = static_cast<const FitData*>(params);
+  for (std::size_t i = 0; i < d->x.size(); ++i) {
+    double r = d->y[i] - model_value(*d->expression, d->x[i], p);
+    if (!d->sigma.empty()) r /= d->sigma[i];
+    if (!std::isfinite(r)) r = 1e150;
+    gsl_vector_set(f, i, r);
+  }
+  return GSL_SUCCESS;
+}
+
+struct WorkspaceDeleter {
+  void operator()(gsl_multifit_nlinear_workspace* w) const { gsl_multifit_nlinear_free(w); }
+};
+struct VectorDeleter {
+  void operator()(gsl_vector* v) const { gsl_vector_free(v); }
+};
+struct MatrixDeleter {
+  void operator()(gsl_matrix* m) const { gsl_matrix_free(m); }
+};
+
+}  // namespace
+
+double FitResult::evaluate(double x_value) const {
+  if (parameters.empty()) return kNaN;
+  try {
+    const Expression e = Expression::parse(expression, {variable});
+    std::vector<double> pars;
+    for (const auto& name : e.parameters()) {
+      const FitParameter* p = parameter(name);
+      pars.push_back(p ? p->value : kNaN);
+    }
+    const double xv[1] = {x_value};
+    return e.evaluate(xv, pars);
+  } catch (const ExpressionError&) {
+    return kNaN;
+  }
+}
+
+FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<const double> y,
+                    std::span<const double> sigma) {
+  const Expression e = Expression::parse(model.expression, {model.variable});
+  FitResult r;
+  r.model_name = model.name;
+  r.expression = model.expression;
+  r.variable = model.variable;
+  if (x.size() != y.size() || (!sigma.empty() && sigma.size() != x.size()))
+    throw std::invalid_argument("fit '" + model.name + "': x, y and sigma sizes differ (" +
+                                std::to_string(x.size()) + ", " + std::to_string(y.size()) + ", " +
+                                std::to_string(sigma.size()) + ")");
+  r.x.assign(x.begin(), x.end());
+  r.y.assign(y.begin(), y.end());
+  bool weighted = !sigma.empty();
+  for (double s : sigma)
+    if (!(s > 0.0) || !std::isfinite(s)) weighted = false;
+  if (weighted) r.sigma.assign(sigma.begin(), sigma.end());
+
+  const std::size_t n = x.size();
+  const std::size_t p = e.parameters().size();
+  for (const auto& name : e.parameters()) {
+    FitParameter fp;
+    fp.name = name;
+    auto it = model.initial.find(name);
+    fp.value = it == model.initial.end() ? 1.0 : it->second;
+    r.parameters.push_back(fp);
+  }
+  r.fitted.assign(n, kNaN);
+  r.residuals.assign(n, kNaN);
+  if (p == 0 || n <= p) {
+    r.status = "not fitted: " + std::to_string(n) + " point(s) for " + std::to_string(p) + " parameter(s)";
+    return r;
+  }
+
+  FitData data{&e, x, y, weighted ? std::span<const double>(r.sigma) : std::span<const double>()};
+  gsl_multifit_nlinear_fdf fdf;
+  fdf.f = residuals_f;
+  fdf.df = nullptr;  // finite-difference Jacobian
+  fdf.fvv = nullptr;
+  fdf.n = n;
+  fdf.p = p;
+  fdf.params = &data;
+
+  gsl_multifit_nlinear_parameters fit_params = gsl_multifit_nlinear_default_parameters();
+  std::unique_ptr<gsl_multifit_nlinear_workspace, WorkspaceDeleter> w(
+      gsl_multifit_nlinear_alloc(gsl_multifit_nlinear_trust, &fit_params, n, p));
+  std::unique_ptr<gsl_vector, VectorDeleter> p0(gsl_vector_alloc(p));
+  for (std::size_t i = 0; i < p; ++i) gsl_vector_set(p0.get(), i, r.parameters[i].value);
+
+  // GSL's default handler aborts the program; errors must come back as status codes.
+  gsl_error_handler_t* old_handler = gsl_set_error_handler_off();
+  int status = gsl_multifit_nlinear_init(p0.get(), &fdf, w.get());
+  int info = 0;
+  if (status == GSL_SUCCESS) {
+    constexpr double kTol = 1e-10;
+    constexpr std::size_t kMaxIter = 500;
+    status = gsl_multifit_nlinear_driver(kMaxIter, kTol, kTol, kTol, nullptr, nullptr, &info, w.get());
+  }
+  r.gsl_status = status;
+  r.status = gsl_strerror(status);
+  r.convergence = info == 1 ? "small step" : info == 2 ? "small gradient" : "not converged";
+  r.iterations = static_cast<int>(gsl_multifit_nlinear_niter(w.get()));
+
+  const gsl_vector* best = gsl_multifit_nlinear_position(w.get());
+  const gsl_vector* fvec = gsl_multifit_nlinear_residual(w.get());
+  double chi2 = 0.0;
+  gsl_blas_ddot(fvec, fvec, &chi2);
+  r.chi2 = chi2;
+  r.dof = static_cast<int>(n - p);
+
+  std::unique_ptr<gsl_matrix, MatrixDeleter> covar(gsl_matrix_alloc(p, p));
+  const int cov_status = gsl_multifit_nlinear_covar(gsl_multifit_nlinear_jac(w.get()), 0.0, covar.get());
+  gsl_set_error_handler(old_handler);
+  if (r.gsl_status == GSL_SUCCESS && cov_status != GSL_SUCCESS) {
+    r.gsl_status = cov_status;
+    r.status = std::string("covariance: ") + gsl_strerror(cov_status);
+  }
+  const double reduced = chi2 / r.dof;
+  const double scale = weighted ? std::max(1.0, reduced) : reduced;
+  const double t = gsl_cdf_tdist_Pinv(0.975, static_cast<double>(r.dof));
+  for (std::size_t i = 0; i < p; ++i) {
+    auto& fp = r.parameters[i];
+    fp.value = gsl_vector_get(best, i);
+    fp.se = std::sqrt(gsl_matrix_get(covar.get(), i, i) * scale);
+    fp.ci_low = fp.value - t * fp.se;
+    fp.ci_high = fp.value + t * fp.se;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    r.fitted[i] = model_value(e, x[i], best);
+    r.residuals[i] = y[i] - r.fitted[i];
+  }
+  return r;
+}
+
+}  // namespace granary::analysis

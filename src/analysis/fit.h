@@ -1,0 +1,66 @@
+// Nonlinear least-squares fits of a model y = f(x; p) with GSL's trust-region solver
+// (gsl_multifit_nlinear, Levenberg-Marquardt, finite-difference Jacobian). Models are
+// expression strings (expression.h), so the Beverloo forms of ch. 4-5 and any model a user
+// writes go through the same code. A fit returns a value: parameters with standard errors
+// and 95% confidence intervals, residuals, chi^2 and the GSL status, never dropped.
+#pragma once
+
+#include <map>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "analysis/stats.h"
+
+namespace granary::analysis {
+
+struct FitModel {
+  std::string name;                     // "beverloo_2d", or the user's label
+  std::string expression;               // e.g. "C * (x - k)^1.5"
+  std::string variable = "x";           // the name of the independent variable in `expression`
+  std::map<std::string, double> initial;  // starting values; missing parameters start at 1
+};
+
+// The three forms of shared analyses.md; x = W/d.
+FitModel beverloo_2d();      // Q = C (x - k)^(3/2)
+FitModel beverloo_free();    // Q = C (x - k)^b
+FitModel mankoc();           // Q = C (1 - exp(-b (x - 1)) / 2) (x - 1)^(3/2)
+
+struct FitParameter {
+  std::string name;
+  double value = kNaN;
+  double se = kNaN;
+  double ci_low = kNaN;   // 95% confidence interval, Student t with dof = n - p
+  double ci_high = kNaN;
+};
+
+struct FitResult {
+  std::string model_name;
+  std::string expression;
+  std::string variable = "x";
+  std::vector<FitParameter> parameters;
+  std::vector<double> x, y, sigma;      // the data used (sigma empty = unweighted)
+  std::vector<double> fitted, residuals;  // residual = y - fitted
+  double chi2 = kNaN;                   // sum of squared (weighted) residuals
+  int dof = 0;
+  int iterations = 0;
+  int gsl_status = -1;                  // GSL_SUCCESS (0) or the GSL error code
+  std::string status;                   // gsl_strerror(gsl_status) or why the fit was not tried
+  std::string convergence;              // "small step", "small gradient", ... (GSL info)
+  bool ok() const { return gsl_status == 0; }
+  const FitParameter* parameter(const std::string& name) const;
+  double evaluate(double x_value) const;  // the fitted model at x (NaN if it cannot be evaluated)
+};
+
+// Fits `model` to (x, y). With sigma (same size, all > 0) the residuals are weighted by
+// 1/sigma; the parameter covariance is then scaled by max(1, chi2/dof) (GSL's convention),
+// unweighted by chi2/dof. Needs n > number of parameters; otherwise returns a result with
+// status "not fitted: ..." and gsl_status -1. Throws ExpressionError for a bad model text.
+FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<const double> y,
+                    std::span<const double> sigma = {});
+
+// Starting values for the built-in forms from the data (C from the largest point, k = 0,
+// b = 1.5 or 1): keeps the solver away from (x - k) < 0.
+FitModel with_data_guess(FitModel model, std::span<const double> x, std::span<const double> y);
+
+}  // namespace granary::analysis

@@ -1,0 +1,156 @@
+// Implementation of flow.h.
+#include "analysis/flow.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace granary::analysis {
+
+FlowWindow flow_window(const FlowInput& in, const FlowWindowRule& rule) {
+  FlowWindow w;
+  for (const auto& e : in.events) {
+    if (in.outlet >= 0 && e.outlet != in.outlet) continue;
+    w.times.push_back(e.time);
+    w.masses.push_back(e.mass);
+  }
+  const std::size_t n = w.times.size();
+  if (n == 0) {
+    w.note = "no exits";
+    return w;
+  }
+  // 1. End at the first clog.
+  std::size_t last = n - 1;
+  if (rule.stop_at_first_clog) {
+    double previous = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (w.times[i] - previous >= in.clog_gap) {
+        if (i == 0) {
+          w.note = "clogged before the first exit";
+          return w;
+        }
+        last = i - 1;
+        w.note = "window ends at the first clog (t = " + std::to_string(previous) + ")";
+        break;
+      }
+      previous = w.times[i];
+    }
+  }
+  // 2. Remove mode: stop while enough bodies remain. Counts use every exit (all outlets).
+  if (in.remove_mode && in.bodies > 0) {
+    const double keep = (1.0 - rule.shallow_fraction) * in.bodies;
+    std::size_t exited_all = 0;
+    double t_shallow = kNaN;
+    for (const auto& e : in.events) {
+      ++exited_all;
+      if (static_cast<double>(exited_all) > keep) {
+        t_shallow = e.time;
+        break;
+      }
+    }
+    if (std::isfinite(t_shallow)) {
+      std::size_t k = last + 1;
+      while (k > 0 && w.times[k - 1] >= t_shallow) --k;
+      if (k == 0) {
+        w.note = "bed shallow before any exit of this outlet";
+        return w;
+      }
+      if (k - 1 < last) {
+        last = k - 1;
+        w.note = "window ends when " + std::to_string(static_cast<int>(std::lround(rule.shallow_fraction * 100))) +
+                 "% of the bodies remain (t = " + std::to_string(t_shallow) + ")";
+      }
+    }
+  }
+  // 3. Start-up transient.
+  std::size_t first = static_cast<std::size_t>(std::ceil(rule.start_fraction * static_cast<double>(last + 1)));
+  while (first <= last && w.times[first] < rule.start_time) ++first;
+  w.first = first;
+  w.last = last;
+  if (first > last || static_cast<int>(last - first + 1) < rule.min_events) {
+    w.note = "only " + std::to_string(first > last ? 0 : last - first + 1) + " exits in the steady window (need " +
+             std::to_string(rule.min_events) + ")";
+    return w;
+  }
+  w.ok = true;
+  return w;
+}
+
+FlowRate flow_rate(const FlowInput& in, const FlowWindowRule& rule) {
+  FlowRate q;
+  const FlowWindow w = flow_window(in, rule);
+  q.note = w.note;
+  if (!w.ok) return q;
+  std::vector<double> t, count, mass;
+  double cumulative_mass = 0.0;
+  bool have_mass = true;
+  for (std::size_t i = 0; i <= w.last; ++i) {
+    cumulative_mass += w.masses[i];
+    if (!std::isfinite(w.masses[i])) have_mass = false;
+    if (i < w.first) continue;
+    t.push_back(w.times[i]);
+    count.push_back(static_cast<double>(i + 1));
+    mass.push_back(cumulative_mass);
+  }
+  q.t_start = t.front();
+  q.t_end = t.back();
+  q.n_events = static_cast<int>(t.size());
+  const LineFit fc = fit_line(t, count);
+  q.q_count = fc.slope;
+  q.q_count_se = fc.slope_se;
+  if (have_mass) {
+    const LineFit fm = fit_line(t, mass);
+    q.q_mass = fm.slope;
+    q.q_mass_se = fm.slope_se;
+  }
+  q.ok = std::isfinite(q.q_count);
+  if (!q.ok) q.note = "all exits of the window at one time";
+  return q;
+}
+
+VelocityProfileAccumulator::VelocityProfileAccumulator(double outlet_center, double outlet_width,
+                                                       const ProfileOptions& options)
+    : center_(outlet_center), width_(outlet_width), options_(options) {
+  const auto bins = static_cast<std::size_t>(std::max(1, options.bins));
+  sum_vx_.assign(bins, 0.0);
+  sum_vy_.assign(bins, 0.0);
+  count_.assign(bins, 0.0);
+}
+
+void VelocityProfileAccumulator::add(std::span<const Body> bodies) {
+  ++frames_;
+  const double bins = static_cast<double>(count_.size());
+  for (const Body& b : bodies) {
+    if (b.y < options_.band_low || b.y > options_.band_high) continue;
+    const double u = (b.x - center_) / width_ + 0.5;  // 0..1 across the outlet
+    if (u < 0.0 || u >= 1.0) continue;
+    const auto i = std::min(count_.size() - 1, static_cast<std::size_t>(u * bins));
+    sum_vx_[i] += b.vx;
+    sum_vy_[i] += b.vy;
+    count_[i] += 1.0;
+  }
+}
+
+VelocityProfile VelocityProfileAccumulator::result() const {
+  VelocityProfile p;
+  p.frames = frames_;
+  const std::size_t n = count_.size();
+  double max_vx = 0.0, max_vy = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    p.x_over_w.push_back(-0.5 + (static_cast<double>(i) + 0.5) / static_cast<double>(n));
+    p.samples.push_back(count_[i]);
+    const double vx = count_[i] > 0 ? sum_vx_[i] / count_[i] : kNaN;
+    const double vy = count_[i] > 0 ? sum_vy_[i] / count_[i] : kNaN;
+    p.vx.push_back(vx);
+    p.vy.push_back(vy);
+    if (std::isfinite(vx)) max_vx = std::max(max_vx, std::abs(vx));
+    if (std::isfinite(vy)) max_vy = std::max(max_vy, std::abs(vy));
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    p.vx_norm.push_back(max_vx > 0 ? p.vx[i] / max_vx : kNaN);
+    p.vy_norm.push_back(max_vy > 0 ? p.vy[i] / max_vy : kNaN);
+  }
+  if (max_vy > 0) p.v_max = max_vy;
+  return p;
+}
+
+}  // namespace granary::analysis

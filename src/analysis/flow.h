@@ -1,0 +1,97 @@
+// Flow analyses of ch. 4-6: the flow rate Q from the exit stream over an explicit steady
+// window, and velocity profiles across an outlet from frames. Pure functions over the
+// reader's values.
+#pragma once
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include "analysis/run_reader.h"
+#include "analysis/stats.h"
+
+namespace granary::analysis {
+
+// The steady window of a discharge (shared analyses.md "Flow rate"). Applied in this order:
+//  1. end: the last exit before the first clog, i.e. before the first gap of at least
+//     `clog_gap` in the exit stream (the opening at t = 0 counts as an exit), when
+//     `stop_at_first_clog`; otherwise the last exit;
+//  2. remove mode only: the end moves earlier to the last exit after which at least
+//     `shallow_fraction` of the bodies are still in the silo (the bed is then too shallow
+//     for a steady flow);
+//  3. start: exits before `start_time` and the first `start_fraction` of the exits up to
+//     the end are dropped (start-up transient).
+// At least `min_events` exits must remain.
+struct FlowWindowRule {
+  double start_time = 2.0;          // sqrt(d/g)
+  double start_fraction = 0.1;
+  double shallow_fraction = 0.3;
+  bool stop_at_first_clog = true;
+  int min_events = 10;
+};
+
+struct FlowInput {
+  std::span<const ExitEvent> events;  // sorted by time
+  bool remove_mode = true;
+  int bodies = 0;                   // bodies in the bed at the opening
+  double clog_gap = 5.0;            // a gap this long in the exit stream is a clog
+  int outlet = -1;                  // -1: all outlets together
+};
+
+struct FlowRate {
+  bool ok = false;
+  std::string note;                 // why not ok, or what limited the window
+  double t_start = kNaN, t_end = kNaN;
+  int n_events = 0;
+  double q_count = kNaN, q_count_se = kNaN;  // bodies per sqrt(d/g)
+  double q_mass = kNaN, q_mass_se = kNaN;    // mass per sqrt(d/g) (NaN without masses)
+};
+
+// Q = slope of the least-squares line through the cumulative count (mass) against time over
+// the window. The se is the OLS standard error of the slope; cumulative counts are
+// correlated, so it understates the scatter between replicas (the report shows both).
+FlowRate flow_rate(const FlowInput& input, const FlowWindowRule& rule);
+
+// The window alone, as indices [first, last] into the events of the outlet (all outlets if -1).
+struct FlowWindow {
+  bool ok = false;
+  std::string note;
+  std::vector<double> times;        // exit times of the selected outlet(s), all of them
+  std::vector<double> masses;
+  std::size_t first = 0, last = 0;  // inclusive
+};
+FlowWindow flow_window(const FlowInput& input, const FlowWindowRule& rule);
+
+// Velocity profile across a base outlet (ch. 4, 5): body centre-of-mass velocities of the
+// bodies with centre in the band y in [band_low, band_high] and x inside the outlet, binned
+// in x/W over [-1/2, 1/2], averaged over frames. Normalised profiles divide by max |v| of
+// the profile; V_max = max |v_y|.
+struct ProfileOptions {
+  int bins = 16;
+  double band_low = 0.0;
+  double band_high = 2.0;
+};
+
+struct VelocityProfile {
+  std::vector<double> x_over_w;     // bin centres
+  std::vector<double> vx, vy;       // mean per bin (NaN if empty)
+  std::vector<double> vx_norm, vy_norm;
+  std::vector<double> samples;      // body samples per bin
+  double v_max = kNaN;
+  int frames = 0;
+};
+
+class VelocityProfileAccumulator {
+ public:
+  VelocityProfileAccumulator(double outlet_center, double outlet_width, const ProfileOptions& options);
+  void add(std::span<const Body> bodies);
+  VelocityProfile result() const;
+
+ private:
+  double center_, width_;
+  ProfileOptions options_;
+  std::vector<double> sum_vx_, sum_vy_, count_;
+  int frames_ = 0;
+};
+
+}  // namespace granary::analysis

@@ -1,0 +1,68 @@
+// Implementation of metrics.h.
+#include "analysis/metrics.h"
+
+#include <map>
+
+namespace granary::analysis {
+
+PointMetrics point_metrics(const PointRuns& p, const AnalysisOptions& options) {
+  PointMetrics m;
+  m.point_id = p.point_id;
+  m.point = p.point;
+  m.runs = static_cast<int>(p.runs.size());
+  std::vector<double> q, qm, phi, t1, t2, vmax, avalanches;
+  std::vector<ClogRun> clog_runs;
+  bool remove_mode = false;
+  for (const RunAnalysis* r : p.runs) {
+    q.push_back(r->flow.ok ? r->flow.q_count : kNaN);
+    qm.push_back(r->flow.ok ? r->flow.q_mass : kNaN);
+    if (r->has_region) {
+      phi.push_back(r->region.phi.mean);
+      t1.push_back(r->region.tg_translational.mean);
+      t2.push_back(r->region.tg_full.mean);
+    }
+    if (r->has_profile) vmax.push_back(r->profile.v_max);
+    for (double s : r->series.avalanche_sizes()) avalanches.push_back(s);
+    if (r->remove_mode) {
+      remove_mode = true;
+      clog_runs.push_back(r->clog);
+    }
+  }
+  m.q_count = mean_se_finite(q);
+  m.q_mass = mean_se_finite(qm);
+  m.phi = mean_se_finite(phi);
+  m.tg_translational = mean_se_finite(t1);
+  m.tg_full = mean_se_finite(t2);
+  m.v_max = mean_se_finite(vmax);
+  m.avalanche_size = mean_se(avalanches);
+  if (remove_mode) m.clogging = clogging_index(clog_runs, options.min_exits_before_clog);
+  return m;
+}
+
+std::vector<PointMetrics> compute_point_metrics(const std::vector<RunRecord>& runs, const AnalysisOptions& options) {
+  std::vector<std::string> order;
+  std::map<std::string, nlohmann::json> points;
+  std::map<std::string, std::vector<RunAnalysis>> analysed;
+  for (const RunRecord& r : runs) {
+    if (!points.count(r.point_id)) {
+      order.push_back(r.point_id);
+      points[r.point_id] = r.point;
+      analysed[r.point_id];
+    }
+    if (r.state != "done") continue;
+    try {
+      analysed[r.point_id].push_back(analyse_run(r.run_dir, options));
+    } catch (const std::exception&) {
+      // unreadable run: left out of the point (the report lists it with the reason)
+    }
+  }
+  std::vector<PointMetrics> out;
+  for (const auto& id : order) {
+    PointRuns pr{id, points[id], {}};
+    for (const auto& a : analysed[id]) pr.runs.push_back(&a);
+    out.push_back(point_metrics(pr, options));
+  }
+  return out;
+}
+
+}  // namespace granary::analysis

@@ -1,0 +1,71 @@
+// Region statistics above an outlet (ch. 3 and ch. 4-6): packing (area) fraction, the two
+// granular temperatures and the v_x, v_y distributions. Pure functions over one frame plus
+// an accumulator for time averages.
+#pragma once
+
+#include <numbers>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "analysis/run_reader.h"
+#include "analysis/stats.h"
+
+namespace granary::analysis {
+
+struct Rect {
+  double x0 = 0, x1 = 0, y0 = 0, y1 = 0;
+  double area() const { return (x1 - x0) * (y1 - y0); }
+  bool contains(double x, double y) const { return x >= x0 && x < x1 && y >= y0 && y < y1; }
+};
+
+// Region size around an outlet of width W: (W + pad) x height, from the base upwards,
+// centred on the outlet. Lengths in d.
+struct RegionSize {
+  double pad = 2.0 * std::numbers::sqrt2;     // ch. 4-6: W + 2 sqrt(2) d
+  double height = 5.0 * std::numbers::sqrt2;  // ch. 4-6: 5 sqrt(2) d
+  std::string label = "ch. 4-6: (W + 2 sqrt2 d) x 5 sqrt2 d";
+};
+RegionSize chapter3_region();   // (W + 2d) x 10d
+RegionSize chapter4_region();   // (W + 2 sqrt2 d) x 5 sqrt2 d
+Rect region_above_outlet(double center, double width, const RegionSize& size);
+
+// Exact area of the intersection of a disc (centre cx, cy; radius r) with a rectangle.
+// Used for the packing fraction so that discs cut by the region's edges count with the part
+// that lies inside (no boundary bias from counting whole discs by their centres).
+double disc_rect_overlap(double cx, double cy, double r, const Rect& rect);
+
+// One frame. phi = sum of disc areas inside / region area (exact partial discs).
+// Temperatures use the bodies whose centre of mass is inside:
+//   tg_translational (ch. 3) = 1/2 <(v_x - <v_x>)^2 + (v_y - <v_y>)^2>
+//   tg_full (ch. 4-5)        = 1/3 <m |v - <v>|^2 + I (Omega - <Omega>)^2>
+// with <.> the unweighted average over those bodies in this frame. NaN with < 2 bodies.
+struct RegionFrame {
+  double phi = 0.0;
+  double tg_translational = kNaN;
+  double tg_full = kNaN;
+  int bodies = 0;
+};
+RegionFrame region_frame(std::span<const Disc> discs, std::span<const Body> bodies, const Rect& region);
+
+// Time average over frames: mean and se (over frames) of phi and the temperatures, and the
+// pooled velocities of the bodies inside for the distributions.
+struct RegionStats {
+  Rect region;
+  MeanSe phi, tg_translational, tg_full;
+  std::vector<double> vx, vy;       // samples (every body in the region in every frame)
+  int frames = 0;
+};
+
+class RegionAccumulator {
+ public:
+  explicit RegionAccumulator(const Rect& region) { stats_.region = region; }
+  void add(std::span<const Disc> discs, std::span<const Body> bodies);
+  RegionStats result() const;
+
+ private:
+  RegionStats stats_;
+  std::vector<double> phi_, tg_translational_, tg_full_;
+};
+
+}  // namespace granary::analysis

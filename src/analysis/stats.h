@@ -1,0 +1,69 @@
+// Small statistics used by every analysis: mean with standard error, straight-line least
+// squares with parameter errors, histograms and the exponential (geometric) tail fit of
+// avalanche-size distributions. Pure functions; NaN marks "not available".
+#pragma once
+
+#include <cstddef>
+#include <limits>
+#include <span>
+#include <vector>
+
+namespace granary::analysis {
+
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// A replica average: mean, standard error of the mean (sample sd / sqrt(n)) and n.
+// n = 1 gives se = NaN (unknown), n = 0 gives mean = NaN.
+struct MeanSe {
+  double mean = kNaN;
+  double se = kNaN;
+  int n = 0;
+};
+MeanSe mean_se(std::span<const double> values);
+// Ignores NaN entries (runs where the quantity is not defined).
+MeanSe mean_se_finite(std::span<const double> values);
+
+// Ordinary least squares y = intercept + slope x with the textbook standard errors
+// (residual variance / (n - 2)). Needs n >= 3 distinct x for errors; fewer gives NaNs.
+struct LineFit {
+  double slope = kNaN;
+  double intercept = kNaN;
+  double slope_se = kNaN;
+  double intercept_se = kNaN;
+  int n = 0;
+};
+LineFit fit_line(std::span<const double> x, std::span<const double> y);
+
+// Equal-width bins over [lo, hi); values outside are counted in `below`/`above`.
+struct Histogram {
+  double lo = 0.0;
+  double hi = 1.0;
+  std::vector<double> counts;
+  double below = 0.0;
+  double above = 0.0;
+  double bin_width() const { return counts.empty() ? kNaN : (hi - lo) / static_cast<double>(counts.size()); }
+  double center(std::size_t i) const { return lo + (static_cast<double>(i) + 0.5) * bin_width(); }
+  double total() const;
+  // Probability density of bin i (counts / (total * width)), total including below/above.
+  double density(std::size_t i) const;
+};
+Histogram make_histogram(std::span<const double> values, int bins, double lo, double hi);
+// Range from the data (min..max, widened a little so the maximum falls inside).
+Histogram make_histogram(std::span<const double> values, int bins);
+
+// Exponential tail of a distribution of integer sizes s (avalanche sizes, ch. 4 and 6):
+// P(s) ~ q^s for s >= s_min, i.e. exp(-s / s_decay), s_decay = -1/ln q. Maximum likelihood
+// for the geometric distribution of s - s_min: q = m / (1 + m), m = <s - s_min> over the tail.
+// se of s_decay from the delta method on se(m) = sd / sqrt(n_tail).
+struct ExpTailFit {
+  double s_min = kNaN;
+  double q = kNaN;
+  double s_decay = kNaN;
+  double s_decay_se = kNaN;
+  int n_tail = 0;
+};
+ExpTailFit fit_exponential_tail(std::span<const double> sizes, double s_min);
+
+double median(std::vector<double> values);
+
+}  // namespace granary::analysis

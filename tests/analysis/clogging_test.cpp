@@ -1,0 +1,103 @@
+// Avalanches, t_f / t_c / N_u and the clogging index from constructed exit streams.
+#include "analysis/clogging.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+namespace granary::analysis {
+namespace {
+
+std::vector<ExitEvent> at(std::initializer_list<double> times, int outlet = 0) {
+  std::vector<ExitEvent> ev;
+  for (double t : times) ev.push_back({t, 0, "dumbbell", 1.0, outlet});
+  return ev;
+}
+
+TEST(ClogSeries, StretchesAvalanchesAndTimes) {
+  // Flow 1..3, clog 3 -> 10, flow 10..11, clog 11 -> 20, flow 20..23, clogged until the end (30).
+  const auto ev = at({1, 2, 3, 10, 11, 20, 21, 22, 23});
+  const ClogSeries s = clog_series(ev, -1, 30.0, 5.0, false);
+  ASSERT_EQ(s.flowing.size(), 3u);
+  ASSERT_EQ(s.clogged.size(), 3u);
+  EXPECT_EQ(s.avalanche_sizes(), (std::vector<double>{3, 2, 4}));
+  EXPECT_EQ(s.flowing_times(), (std::vector<double>{3, 1, 3}));  // 0->3, 10->11, 20->23
+  EXPECT_EQ(s.clogged_times(), (std::vector<double>{7, 9}));      // the last clog is censored
+  EXPECT_FALSE(s.clogged.back().complete);
+  EXPECT_EQ(s.unclogs(), 2);
+
+  const ClogSeries list[] = {s};
+  const IntermittencyStats st = intermittency(list);
+  EXPECT_DOUBLE_EQ(st.t_flowing.mean, 7.0 / 3.0);
+  EXPECT_EQ(st.t_flowing.n, 3);
+  EXPECT_DOUBLE_EQ(st.t_clogged.mean, 8.0);
+  EXPECT_DOUBLE_EQ(st.unclog_rate, 2.0 / 30.0);
+}
+
+TEST(ClogSeries, EndsFlowingOrStoppedOnClog) {
+  const auto ev = at({1, 2, 3, 4});
+  // Ended while flowing: the only stretch is incomplete, no avalanche.
+  const ClogSeries flowing = clog_series(ev, -1, 6.0, 5.0, false);
+  EXPECT_TRUE(flowing.avalanche_sizes().empty());
+  EXPECT_TRUE(flowing.clogged.empty());
+  // The engine stopped on a clog: one avalanche of 4.
+  const ClogSeries clogged = clog_series(ev, -1, 6.0, 5.0, true);
+  EXPECT_EQ(clogged.avalanche_sizes(), std::vector<double>{4});
+}
+
+TEST(ClogSeries, PerOutlet) {
+  // Outlet 1 flows steadily; outlet 0 clogs between 2 and 12.
+  auto ev = at({1, 2, 12, 13});
+  for (double t = 0.5; t < 15; t += 1.0) ev.push_back({t, 0, "disc", 1.0, 1});
+  std::sort(ev.begin(), ev.end(), [](auto& a, auto& b) { return a.time < b.time; });
+  EXPECT_EQ(clog_series(ev, 0, 15.0, 5.0, false).clogged_times(), std::vector<double>{10});
+  EXPECT_TRUE(clog_series(ev, 1, 15.0, 5.0, false).clogged.empty());
+  EXPECT_TRUE(clog_series(ev, -1, 15.0, 5.0, false).clogged.empty());  // the silo never stops
+}
+
+TEST(Avalanches, MeanHistogramAndTail) {
+  const std::vector<double> sizes = {10, 20, 30, 40};
+  const AvalancheStats a = avalanche_stats(sizes, 4);
+  EXPECT_DOUBLE_EQ(a.size.mean, 25.0);
+  EXPECT_EQ(a.size.n, 4);
+  EXPECT_NEAR(a.size.se, std::sqrt(500.0 / 3.0 / 4.0), 1e-12);
+  EXPECT_DOUBLE_EQ(a.histogram.total(), 4.0);
+  EXPECT_DOUBLE_EQ(a.tail.s_min, 25.0);  // median
+  EXPECT_EQ(a.tail.n_tail, 2);
+  // Exponential avalanches with mean 50 (geometric, q = 50/51): tail decay recovered.
+  std::mt19937_64 rng(3);
+  std::geometric_distribution<int> geo(1.0 / 51.0);
+  std::vector<double> s;
+  for (int i = 0; i < 5000; ++i) s.push_back(geo(rng));
+  const AvalancheStats b = avalanche_stats(s);
+  const double decay = -1.0 / std::log(50.0 / 51.0);
+  EXPECT_NEAR(b.tail.s_decay, decay, 4.0 * b.tail.s_decay_se);
+  EXPECT_NEAR(b.size.mean, 50.0, 4.0 * b.size.se);
+}
+
+TEST(ClogIndex, Equation31WithDiscardRule) {
+  const std::vector<ClogRun> runs = {
+      {false, 1000, 50, 950},   // free: stagnant 50
+      {false, 1000, 70, 930},   // free: stagnant 70 -> N_u = 60
+      {true, 1000, 560, 440},
+      {true, 1000, 950, 50},    // clogged before 100 left: discarded
+      {true, 1000, 300, 700},
+  };
+  const ClogIndex ci = clogging_index(runs, 100);
+  EXPECT_DOUBLE_EQ(ci.n_stagnant, 60.0);
+  EXPECT_EQ(ci.discarded, 1);
+  EXPECT_EQ(ci.clogged, 2);
+  EXPECT_EQ(ci.psi.n, 4);
+  EXPECT_NEAR(ci.psi.mean, (500.0 - 10.0 + 10.0 + 240.0) / 940.0 / 4.0, 1e-14);
+  // All clogged and no stagnant count known: N_u = 0 and said so.
+  const std::vector<ClogRun> all_clogged = {{true, 100, 50, 50}, {true, 100, 30, 70}};
+  const ClogIndex c2 = clogging_index(all_clogged, 10);
+  EXPECT_DOUBLE_EQ(c2.psi.mean, 0.4);
+  EXPECT_FALSE(c2.note.empty());
+  EXPECT_DOUBLE_EQ(clogging_index(all_clogged, 10, 20.0).psi.mean, (30.0 / 80.0 + 10.0 / 80.0) / 2.0);
+}
+
+}  // namespace
+}  // namespace granary::analysis

@@ -1,0 +1,98 @@
+// Fits recover the parameters that generated noisy synthetic data (fixed seed).
+#include "analysis/fit.h"
+#include "analysis/expression.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace granary::analysis {
+namespace {
+
+struct Data {
+  std::vector<double> x, y, sigma;
+};
+
+Data make_data(double (*f)(double), double noise, std::uint64_t seed) {
+  Data d;
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> gauss(0.0, noise);
+  for (double w = 6.0; w <= 40.0; w += 2.0) {
+    d.x.push_back(w);
+    d.y.push_back(f(w) + gauss(rng));
+    d.sigma.push_back(noise);
+  }
+  return d;
+}
+
+// |fitted - true| within 4 standard errors, and the se itself is of the right size.
+void expect_recovered(const FitResult& r, const std::string& name, double truth, double max_se) {
+  const FitParameter* p = r.parameter(name);
+  ASSERT_NE(p, nullptr) << name;
+  EXPECT_NEAR(p->value, truth, 4.0 * p->se) << name;
+  EXPECT_GT(p->se, 0.0) << name;
+  EXPECT_LT(p->se, max_se) << name;
+  EXPECT_LT(p->ci_low, p->value);
+  EXPECT_GT(p->ci_high, p->value);
+}
+
+TEST(Fit, Beverloo2dRecoversCAndK) {
+  const Data d = make_data([](double w) { return 0.8 * std::pow(w - 1.5, 1.5); }, 0.5, 1);
+  const FitResult r = fit_model(with_data_guess(beverloo_2d(), d.x, d.y), d.x, d.y, d.sigma);
+  ASSERT_TRUE(r.ok()) << r.status;
+  expect_recovered(r, "C", 0.8, 0.01);
+  expect_recovered(r, "k", 1.5, 0.2);
+  EXPECT_EQ(r.dof, static_cast<int>(d.x.size()) - 2);
+  // chi2 of a correct model with known sigma ~ dof (within 5 sigma of chi2 spread).
+  EXPECT_NEAR(r.chi2, r.dof, 5.0 * std::sqrt(2.0 * r.dof));
+  ASSERT_EQ(r.residuals.size(), d.x.size());
+  for (std::size_t i = 0; i < d.x.size(); ++i) EXPECT_NEAR(r.residuals[i], d.y[i] - r.fitted[i], 1e-12);
+}
+
+TEST(Fit, FreeExponentRecoversB) {
+  const Data d = make_data([](double w) { return 0.3 * std::pow(w - 1.0, 1.72); }, 0.5, 2);
+  const FitResult r = fit_model(with_data_guess(beverloo_free(), d.x, d.y), d.x, d.y, d.sigma);
+  ASSERT_TRUE(r.ok()) << r.status;
+  expect_recovered(r, "b", 1.72, 0.05);
+  expect_recovered(r, "C", 0.3, 0.05);
+}
+
+TEST(Fit, MankocRecoversCAndB) {
+  const Data d = make_data(
+      [](double w) { return 0.9 * (1.0 - std::exp(-0.3 * (w - 1.0)) / 2.0) * std::pow(w - 1.0, 1.5); }, 0.3, 3);
+  const FitResult r = fit_model(with_data_guess(mankoc(), d.x, d.y), d.x, d.y, d.sigma);
+  ASSERT_TRUE(r.ok()) << r.status;
+  expect_recovered(r, "C", 0.9, 0.01);
+  expect_recovered(r, "b", 0.3, 0.1);
+}
+
+TEST(Fit, UserModelUnweighted) {
+  // A user's own form: exponential decay Q/Q0 = exp(-a (L)^c) as in ch. 5b.
+  std::vector<double> x, y;
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> gauss(0.0, 0.005);
+  for (double l = 1; l <= 40; l += 3) {
+    x.push_back(l);
+    y.push_back(std::exp(-0.25 * std::pow(l, 0.3)) + gauss(rng));
+  }
+  FitModel m{"two_outlets", "exp(-a * L^c)", "L", {{"a", 0.1}, {"c", 0.5}}};
+  const FitResult r = fit_model(m, x, y);
+  ASSERT_TRUE(r.ok()) << r.status;
+  expect_recovered(r, "a", 0.25, 0.05);
+  expect_recovered(r, "c", 0.3, 0.05);
+  EXPECT_NEAR(r.evaluate(10.0), std::exp(-r.parameter("a")->value * std::pow(10.0, r.parameter("c")->value)), 1e-12);
+}
+
+TEST(Fit, TooFewPointsIsReportedNotFitted) {
+  const std::vector<double> x = {10, 12};
+  const std::vector<double> y = {20, 30};
+  const FitResult r = fit_model(beverloo_2d(), x, y);
+  EXPECT_FALSE(r.ok());
+  EXPECT_EQ(r.status, "not fitted: 2 point(s) for 2 parameter(s)");
+}
+
+TEST(Fit, BadModelTextThrows) { EXPECT_THROW(fit_model({"bad", "C*(x", "x", {}}, {}, {}), ExpressionError); }
+
+}  // namespace
+}  // namespace granary::analysis

@@ -1,0 +1,118 @@
+// Flow rate from constructed exit streams with known rates; velocity profile of placed bodies.
+#include "analysis/flow.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+namespace granary::analysis {
+namespace {
+
+std::vector<ExitEvent> regular(int n, double t0, double dt, double mass = 2.0, int outlet = 0) {
+  std::vector<ExitEvent> ev;
+  for (int i = 0; i < n; ++i) ev.push_back({t0 + dt * i, i, "disc", mass, outlet});
+  return ev;
+}
+
+TEST(FlowRate, RemoveModeWindowRule) {
+  // 900 of 1000 bodies leave every 0.1: Q = 10 bodies, 20 mass per unit time.
+  const auto ev = regular(900, 0.05, 0.1);
+  FlowInput in{ev, true, 1000, 5.0, -1};
+  const FlowWindowRule rule;  // start 10% / t >= 2, stop when 30% remain
+  const FlowWindow w = flow_window(in, rule);
+  ASSERT_TRUE(w.ok) << w.note;
+  EXPECT_EQ(w.last, 699u);   // the 701st exit leaves 299 < 300 bodies
+  EXPECT_EQ(w.first, 70u);   // ceil(0.1 * 700)
+  const FlowRate q = flow_rate(in, rule);
+  ASSERT_TRUE(q.ok) << q.note;
+  EXPECT_NEAR(q.q_count, 10.0, 1e-9);
+  EXPECT_NEAR(q.q_mass, 20.0, 1e-9);
+  EXPECT_NEAR(q.t_start, 7.05, 1e-12);
+  EXPECT_NEAR(q.t_end, 69.95, 1e-12);
+  EXPECT_EQ(q.n_events, 630);
+  EXPECT_LT(q.q_count_se, 1e-9);
+}
+
+TEST(FlowRate, TransientAndClogAreExcluded) {
+  // Slow start (1 per unit time until t = 10), then 5 per unit time, then a clog at t = 60.
+  std::vector<ExitEvent> ev;
+  for (int i = 1; i <= 10; ++i) ev.push_back({static_cast<double>(i) - 0.5, i, "disc", 1.0, 0});
+  for (int i = 0; i < 250; ++i) ev.push_back({10.0 + 0.2 * i, 100 + i, "disc", 1.0, 0});
+  ev.push_back({80.0, 999, "disc", 1.0, 0});  // after a 20 s gap: a clog then an unclog
+  FlowInput in{ev, false, 0, 5.0, -1};
+  FlowWindowRule rule;
+  rule.start_time = 10.0;
+  const FlowRate q = flow_rate(in, rule);
+  ASSERT_TRUE(q.ok) << q.note;
+  EXPECT_NEAR(q.q_count, 5.0, 1e-9);
+  EXPECT_NEAR(q.t_end, 10.0 + 0.2 * 249, 1e-12);
+  EXPECT_NE(q.note.find("first clog"), std::string::npos) << q.note;
+  // Without the clog rule the window runs to the lone exit after the clog.
+  rule.stop_at_first_clog = false;
+  EXPECT_DOUBLE_EQ(flow_rate(in, rule).t_end, 80.0);
+}
+
+TEST(FlowRate, PerOutletAndNoisyRate) {
+  // Two outlets, Poisson streams of rate 4 and 1: the estimates agree within 4 se.
+  std::vector<ExitEvent> ev;
+  std::mt19937_64 rng(7);
+  std::exponential_distribution<double> a(4.0), b(1.0);
+  for (double t = a(rng); t < 500; t += a(rng)) ev.push_back({t, 0, "disc", 1.0, 0});
+  for (double t = b(rng); t < 500; t += b(rng)) ev.push_back({t, 0, "disc", 1.0, 1});
+  std::sort(ev.begin(), ev.end(), [](const ExitEvent& x, const ExitEvent& y) { return x.time < y.time; });
+  FlowWindowRule rule;
+  rule.stop_at_first_clog = false;
+  FlowInput in{ev, false, 0, 5.0, 0};
+  const FlowRate q0 = flow_rate(in, rule);
+  in.outlet = 1;
+  const FlowRate q1 = flow_rate(in, rule);
+  ASSERT_TRUE(q0.ok && q1.ok);
+  // The OLS se of a cumulative count understates the error; use the Poisson error sqrt(N)/T.
+  EXPECT_NEAR(q0.q_count, 4.0, 4.0 * std::sqrt(4.0 * 450) / 450);
+  EXPECT_NEAR(q1.q_count, 1.0, 4.0 * std::sqrt(1.0 * 450) / 450);
+}
+
+TEST(FlowRate, TooFewExits) {
+  const auto ev = regular(5, 3.0, 0.1);
+  FlowInput in{ev, false, 0, 5.0, -1};
+  const FlowRate q = flow_rate(in, FlowWindowRule());
+  EXPECT_FALSE(q.ok);
+  EXPECT_EQ(q.note, "only 4 exits in the steady window (need 10)");
+}
+
+TEST(VelocityProfile, BinsNormalisesAndVmax) {
+  ProfileOptions opt;
+  opt.bins = 5;  // bins of width 2 over x in [-5, 5)
+  VelocityProfileAccumulator acc(0.0, 10.0, opt);
+  auto body = [](double x, double y, double vx, double vy) {
+    Body b;
+    b.x = x;
+    b.y = y;
+    b.vx = vx;
+    b.vy = vy;
+    return b;
+  };
+  const std::vector<Body> f1 = {body(-4, 1, 0.5, -1), body(0, 1, 0, -2), body(4, 1, -0.5, -1),
+                                body(0, 3, 0, -9),  // above the band
+                                body(6, 1, 0, -9)};  // beside the outlet
+  const std::vector<Body> f2 = {body(0.5, 0.5, 0, -4)};
+  acc.add(f1);
+  acc.add(f2);
+  const VelocityProfile p = acc.result();
+  EXPECT_EQ(p.frames, 2);
+  ASSERT_EQ(p.vy.size(), 5u);
+  EXPECT_DOUBLE_EQ(p.x_over_w[0], -0.4);
+  EXPECT_DOUBLE_EQ(p.vy[2], -3.0);  // (-2 - 4) / 2
+  EXPECT_DOUBLE_EQ(p.vy[0], -1.0);
+  EXPECT_TRUE(std::isnan(p.vy[1]));
+  EXPECT_DOUBLE_EQ(p.v_max, 3.0);
+  EXPECT_DOUBLE_EQ(p.vy_norm[0], -1.0 / 3.0);
+  EXPECT_DOUBLE_EQ(p.vx_norm[0], 1.0);
+  EXPECT_DOUBLE_EQ(p.vx_norm[4], -1.0);
+  EXPECT_EQ(p.samples[2], 2.0);
+}
+
+}  // namespace
+}  // namespace granary::analysis

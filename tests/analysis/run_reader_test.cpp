@@ -1,0 +1,200 @@
+// Reader round trips on hand-written run files, and the errors on malformed input.
+#include "analysis/run_reader.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "test_util.h"
+
+namespace granary::analysis {
+namespace {
+
+using testing::TempDir;
+using testing::write_file;
+
+constexpr double kPi = std::numbers::pi;
+
+// Two frames: a dumbbell (body 0, discs d = 1 at x = 1 and 2, y = 5) moving with v = (1, 0)
+// and omega = 0, and a single disc (body 1, radius 0.7) with an extra column.
+const char* kFrames =
+    "ITEM: TIMESTEP\n100\nITEM: TIME\n0.01\nITEM: NUMBER OF ATOMS\n3\n"
+    "ITEM: BOX BOUNDS ff ff pp\n-50 50\n-5 160\n-0.5 0.5\n"
+    "ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz extra\n"
+    "1 0 1 1.0 5.0 0 0.5 0.7853981633974483 1.0 0.0 0 0.0 9\n"
+    "2 0 1 2.0 5.0 0 0.5 0.7853981633974483 1.0 0.0 0 0.0 9\n"
+    "3 1 2 4.0 3.0 0 0.7 1.5393804002589986 0.0 -2.0 0 0.5 9\n"
+    "\n"
+    "ITEM: TIMESTEP\n200\nITEM: TIME\n0.02\nITEM: NUMBER OF ATOMS\n2\n"
+    "ITEM: BOX BOUNDS ff ff pp\n-50 50\n-5 160\n-0.5 0.5\n"
+    "ITEM: ATOMS id mol x y radius vx vy omegaz\n"
+    // rotating dumbbell about its centre (1.5, 5): omega = 2, disc velocities -+omega * r
+    "2 0 2.0 5.0 0.5 0.0 1.0 2.0\n"
+    "1 0 1.0 5.0 0.5 0.0 -1.0 2.0\n";
+
+TEST(RunReader, FramesRoundTripAndBodies) {
+  TempDir dir;
+  write_file(dir.path() / "frames.dump", kFrames);
+  FrameReader reader(dir.path() / "frames.dump");
+  Frame f;
+  ASSERT_TRUE(reader.next(f));
+  EXPECT_EQ(f.timestep, 100);
+  EXPECT_DOUBLE_EQ(f.time, 0.01);
+  EXPECT_DOUBLE_EQ(f.box[1][1], 160.0);
+  ASSERT_EQ(f.discs.size(), 3u);
+  std::vector<Body> b = bodies_of(f.discs);
+  ASSERT_EQ(b.size(), 2u);
+  EXPECT_EQ(b[0].id, 0);
+  EXPECT_EQ(b[0].n_discs, 2);
+  EXPECT_NEAR(b[0].x, 1.5, 1e-14);
+  EXPECT_NEAR(b[0].y, 5.0, 1e-14);
+  EXPECT_NEAR(b[0].vx, 1.0, 1e-14);
+  EXPECT_NEAR(b[0].mass, kPi / 2.0, 1e-14);
+  // I = 2 [m (1/2)^2 + (2/5) m (1/2)^2] with m = pi/4 (physics.md)
+  EXPECT_NEAR(b[0].inertia, 2.0 * (kPi / 4.0) * (0.25 + 0.4 * 0.25), 1e-14);
+  EXPECT_NEAR(b[0].theta, 0.0, 1e-14);
+  EXPECT_NEAR(b[0].area, kPi / 2.0, 1e-14);
+  EXPECT_EQ(b[1].type, 2);
+  EXPECT_NEAR(b[1].vy, -2.0, 1e-14);
+  EXPECT_NEAR(b[1].omega, 0.5, 1e-14);
+  EXPECT_NEAR(b[1].inertia, 0.4 * kPi * 0.49 * 0.49, 1e-14);
+
+  // Second frame: no type or mass column, discs out of order.
+  ASSERT_TRUE(reader.next(f));
+  EXPECT_EQ(f.timestep, 200);
+  b = bodies_of(f.discs);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_NEAR(b[0].mass, kPi / 2.0, 1e-14);  // density 1: pi r^2 per disc
+  EXPECT_NEAR(b[0].vy, 0.0, 1e-14);
+  EXPECT_NEAR(b[0].omega, 2.0, 1e-14);
+  EXPECT_NEAR(b[0].theta, 0.0, 1e-14);  // from disc 1 to disc 2
+  EXPECT_FALSE(reader.next(f));
+}
+
+TEST(RunReader, TruncatedLastFrameEndsQuietly) {
+  TempDir dir;
+  std::string text = kFrames;
+  text.resize(text.size() - 20);  // cut the last row
+  write_file(dir.path() / "frames.dump", text);
+  FrameReader reader(dir.path() / "frames.dump");
+  Frame f;
+  EXPECT_TRUE(reader.next(f));
+  EXPECT_FALSE(reader.next(f));
+}
+
+TEST(RunReader, MalformedFrameNamesFileAndLine) {
+  TempDir dir;
+  const auto file = dir.path() / "frames.dump";
+  write_file(file,
+             "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id mol x y\n"
+             "1 0 abc 2\n");
+  FrameReader reader(file);
+  Frame f;
+  try {
+    reader.next(f);
+    FAIL() << "no error";
+  } catch (const ReadError& e) {
+    EXPECT_EQ(std::string(e.what()), file.string() + ":6: x 'abc' is not a number");
+  }
+  write_file(file, "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id x y\n1 1 2\n");
+  FrameReader r2(file);
+  try {
+    r2.next(f);
+    FAIL() << "no error";
+  } catch (const ReadError& e) {
+    EXPECT_EQ(std::string(e.what()), file.string() + ":5: atoms header has no 'mol' column ('ITEM: ATOMS id x y')");
+  }
+  write_file(file, "garbage\n");
+  FrameReader r3(file);
+  EXPECT_THROW(r3.next(f), ReadError);
+}
+
+TEST(RunReader, EventsWithExtraColumnsAndOrder) {
+  TempDir dir;
+  const auto file = dir.path() / "events.csv";
+  write_file(file,
+             "time,body,shape,mass,outlet,speed\n"
+             "1.5,7,dumbbell,1.5707963267948966,1,0.3\n"
+             "0.5,3,disc,1.5707963267948966,0,0.2\r\n");
+  const auto ev = read_events(file);
+  ASSERT_EQ(ev.size(), 2u);
+  EXPECT_DOUBLE_EQ(ev[0].time, 0.5);
+  EXPECT_EQ(ev[0].body, 3);
+  EXPECT_EQ(ev[0].shape, "disc");
+  EXPECT_EQ(ev[0].outlet, 0);
+  EXPECT_EQ(ev[1].outlet, 1);
+  EXPECT_NEAR(ev[1].mass, kPi / 2.0, 1e-15);
+}
+
+TEST(RunReader, MalformedEventsNameFileAndLine) {
+  TempDir dir;
+  const auto file = dir.path() / "events.csv";
+  write_file(file, "time,body,shape,mass,outlet\n1.0,1,disc,1.0,0\n2.0,2,disc\n");
+  try {
+    read_events(file);
+    FAIL() << "no error";
+  } catch (const ReadError& e) {
+    EXPECT_EQ(std::string(e.what()), file.string() + ":3: expected 5 fields, got 3 ('2.0,2,disc')");
+  }
+  write_file(file, "time,body,shape,mass,outlet\nx,1,disc,1.0,0\n");
+  try {
+    read_events(file);
+    FAIL() << "no error";
+  } catch (const ReadError& e) {
+    EXPECT_EQ(std::string(e.what()), file.string() + ":2: time 'x' is not a number");
+  }
+  write_file(file, "body,outlet\n1,0\n");
+  EXPECT_THROW(read_events(file), ReadError);
+}
+
+TEST(RunReader, SummaryAndRunDirectory) {
+  TempDir dir;
+  write_file(dir.path() / "summary.json",
+             R"({"engine":"native","engine_version":"0.1.0","granary_commit":"abc","run_id":"r1",
+                 "spec":{"discharge":{"mode":"remove"}},"end_reason":"clogged","bodies":100,
+                 "exited":40,"remaining":60,"exits_per_outlet":[40],"t_end":12.5,"new_key":[1,2]})");
+  write_file(dir.path() / "events.csv", "time,body,shape,mass,outlet\n0.1,1,disc,1,0\n");
+  write_file(dir.path() / "DONE", "");
+  const RunData r = read_run(dir.path());
+  EXPECT_TRUE(r.done);
+  EXPECT_TRUE(r.has_summary);
+  EXPECT_FALSE(r.has_frames);
+  EXPECT_EQ(r.summary.end_reason, "clogged");
+  EXPECT_EQ(r.summary.remaining, 60);
+  EXPECT_EQ(r.summary.exits_per_outlet, std::vector<int>{40});
+  EXPECT_DOUBLE_EQ(r.summary.t_end, 12.5);
+  EXPECT_EQ(r.spec["discharge"]["mode"], "remove");  // from summary when run.json is absent
+  EXPECT_EQ(r.events.size(), 1u);
+  EXPECT_EQ(r.summary.raw["new_key"].size(), 2u);
+
+  write_file(dir.path() / "summary.json", "{\"bodies\": \"many\"}");
+  EXPECT_THROW(read_run(dir.path()), ReadError);
+  write_file(dir.path() / "summary.json", "{not json");
+  EXPECT_THROW(read_run(dir.path()), ReadError);
+  EXPECT_THROW(read_run(dir.path() / "missing"), ReadError);
+}
+
+TEST(RunReader, Contacts) {
+  TempDir dir;
+  const auto file = dir.path() / "contacts.dump";
+  write_file(file,
+             "ITEM: TIMESTEP\n5\nITEM: TIME\n0.5\nITEM: NUMBER OF ENTRIES\n2\n"
+             "ITEM: BOX BOUNDS ff ff pp\n-50 50\n-5 160\n-0.5 0.5\n"
+             "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n"
+             "0 1 0 0 1 0 0.5 0 -2 0\n"
+             "1 -1 1 0.5 1 0 1 0 0 3\n");
+  ContactReader reader(file);
+  ContactFrame f;
+  ASSERT_TRUE(reader.next(f));
+  EXPECT_EQ(f.timestep, 5);
+  EXPECT_DOUBLE_EQ(f.time, 0.5);
+  ASSERT_EQ(f.contacts.size(), 2u);
+  EXPECT_EQ(f.contacts[1].body_j, -1);
+  EXPECT_DOUBLE_EQ(f.contacts[0].fx, -2.0);
+  EXPECT_DOUBLE_EQ(f.contacts[1].fy, 3.0);
+  EXPECT_FALSE(reader.next(f));
+}
+
+}  // namespace
+}  // namespace granary::analysis
