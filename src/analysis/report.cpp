@@ -1,0 +1,653 @@
+// `write_report`: analyses every finished run of a campaign once, aggregates per sweep point
+// and renders the sections that the data supports. Each section is one function in the
+// kSections table below; adding an analysis to the report means adding one entry.
+#include "analysis/report.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <functional>
+#include <map>
+#include <optional>
+#include <set>
+
+#include "analysis/metrics.h"
+#include "analysis/report_document.h"
+
+namespace granary::analysis {
+namespace {
+
+struct AnalysedRun {
+  const RunRecord* record = nullptr;
+  RunAnalysis analysis;
+  std::string engine_version;
+  std::string granary_commit;
+  std::string tangential_cap;
+};
+
+struct Point {
+  std::string id;
+  nlohmann::json point;
+  double x = kNaN;                          // value on the report's x axis
+  std::string group;                        // the other axes' values
+  std::vector<const AnalysedRun*> runs;
+  PointMetrics metrics;
+};
+
+struct Context {
+  const CampaignInfo* campaign = nullptr;
+  const ReportOptions* options = nullptr;
+  std::vector<const RunRecord*> missing, failed, retired;
+  std::vector<std::pair<const RunRecord*, std::string>> unreadable;
+  std::vector<AnalysedRun> used;
+  std::vector<Point> points;
+  std::string x_axis;                       // JSON pointer of the x axis ("" = none)
+  std::string x_label;
+  bool x_is_width = false;
+  std::vector<std::string> notes;
+};
+
+std::string short_axis(const std::string& pointer) {
+  std::string s = pointer;
+  if (!s.empty() && s.front() == '/') s.erase(0, 1);
+  for (const char* prefix : {"silo/", "bodies/", "contact/", "discharge/", "output/", "bed/"})
+    if (s.rfind(prefix, 0) == 0) s.erase(0, std::string(prefix).size());
+  std::replace(s.begin(), s.end(), '/', '.');
+  return s;
+}
+
+std::string json_text(const nlohmann::json& v) {
+  if (v.is_number()) return format_number(v.get<double>(), 6);
+  if (v.is_string()) return v.get<std::string>();
+  return v.dump();
+}
+
+// The value of a sweep axis for a run: from the point record, else from the run spec.
+std::optional<nlohmann::json> axis_value(const std::string& axis, const nlohmann::json& point,
+                                         const nlohmann::json& spec) {
+  if (point.is_object() && point.contains(axis)) return point.at(axis);
+  try {
+    const nlohmann::json::json_pointer ptr(axis);
+    if (spec.is_object() && spec.contains(ptr)) return spec.at(ptr);
+  } catch (const nlohmann::json::exception&) {
+  }
+  return std::nullopt;
+}
+
+std::string point_label(const Context& c, const nlohmann::json& point, const nlohmann::json& spec,
+                        const std::string& skip_axis) {
+  std::string s;
+  for (const auto& axis : c.campaign->axes) {
+    if (axis == skip_axis) continue;
+    const auto v = axis_value(axis, point, spec);
+    s += (s.empty() ? "" : ", ") + short_axis(axis) + "=" + (v ? json_text(*v) : "?");
+  }
+  return s;
+}
+
+std::string tangential_cap_of(const nlohmann::json& spec) {
+  if (spec.is_object() && spec.contains("contact") && spec.at("contact").is_object())
+    return spec.at("contact").value("tangential_cap", std::string("lammps")) + "";
+  return "lammps (default)";
+}
+
+std::string state_reason(const RunRecord& r) {
+  std::string f = r.failure;
+  if (f.size() > 300) f = f.substr(0, 300) + "...";
+  for (char& ch : f)
+    if (ch == '\n' || ch == '\r') ch = ' ';
+  return f;
+}
+
+// ---- context ----------------------------------------------------------------------------
+
+Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>& runs, const ReportOptions& options) {
+  Context c;
+  c.campaign = &campaign;
+  c.options = &options;
+  for (const RunRecord& r : runs) {
+    if (r.state == "failed") {
+      c.failed.push_back(&r);
+    } else if (r.state == "retired") {
+      c.retired.push_back(&r);
+    } else if (r.state != "done") {
+      c.missing.push_back(&r);
+    } else {
+      try {
+        AnalysedRun a;
+        a.record = &r;
+        const RunData data = read_run(r.run_dir);
+        if (!data.has_summary) throw ReadError((r.run_dir / "summary.json").string() + ": missing");
+        a.analysis = analyse_events(data, options.analysis);
+        analyse_frames(data, options.analysis, a.analysis);
+        a.engine_version = data.summary.engine_version;
+        a.granary_commit = data.summary.granary_commit;
+        a.tangential_cap = tangential_cap_of(data.spec.is_null() ? r.spec : data.spec);
+        if (a.analysis.engine.empty()) a.analysis.engine = r.engine;
+        c.used.push_back(std::move(a));
+      } catch (const std::exception& e) {
+        c.unreadable.emplace_back(&r, e.what());
+      }
+    }
+  }
+  // The x axis: an outlet width if swept, else the first numeric axis.
+  for (const auto& axis : campaign.axes) {
+    if (axis.find("outlets") != std::string::npos && axis.size() >= 6 && axis.substr(axis.size() - 6) == "/width") {
+      c.x_axis = axis;
+      c.x_is_width = true;
+      c.x_label = "W/d (outlet width " + short_axis(axis) + ")";
+      break;
+    }
+  }
+  // Points in first-appearance order.
+  std::map<std::string, std::size_t> index;
+  for (const RunRecord& r : runs) {
+    if (index.count(r.point_id)) continue;
+    index[r.point_id] = c.points.size();
+    Point p;
+    p.id = r.point_id;
+    p.point = r.point;
+    c.points.push_back(p);
+  }
+  if (c.x_axis.empty()) {
+    for (const auto& axis : campaign.axes) {
+      bool numeric = true;
+      for (const RunRecord& r : runs) {
+        const auto v = axis_value(axis, r.point, r.spec);
+        if (!v || !v->is_number()) numeric = false;
+      }
+      if (numeric && !runs.empty()) {
+        c.x_axis = axis;
+        c.x_label = short_axis(axis);
+        break;
+      }
+    }
+  }
+  for (const AnalysedRun& a : c.used) c.points[index[a.record->point_id]].runs.push_back(&a);
+  for (Point& p : c.points) {
+    const nlohmann::json spec = p.runs.empty() ? nlohmann::json() : p.runs.front()->record->spec;
+    nlohmann::json any_spec = spec;
+    if (any_spec.is_null())
+      for (const RunRecord& r : runs)
+        if (r.point_id == p.id) {
+          any_spec = r.spec;
+          break;
+        }
+    if (!c.x_axis.empty()) {
+      const auto v = axis_value(c.x_axis, p.point, any_spec);
+      if (v && v->is_number()) p.x = v->get<double>();
+    }
+    p.group = point_label(c, p.point, any_spec, c.x_axis);
+    PointRuns pr{p.id, p.point, {}};
+    for (const AnalysedRun* a : p.runs) pr.runs.push_back(&a->analysis);
+    p.metrics = point_metrics(pr, options.analysis);
+  }
+  std::stable_sort(c.points.begin(), c.points.end(), [](const Point& a, const Point& b) {
+    if (a.group != b.group) return a.group < b.group;
+    return a.x < b.x;
+  });
+  return c;
+}
+
+std::string point_name(const Context& c, const Point& p) {
+  std::string s = p.group;
+  if (!c.x_axis.empty()) s = short_axis(c.x_axis) + "=" + format_number(p.x, 6) + (s.empty() ? "" : ", " + s);
+  return s.empty() ? p.id : s;
+}
+
+std::vector<std::string> groups_of(const Context& c) {
+  std::vector<std::string> g;
+  for (const Point& p : c.points)
+    if (std::find(g.begin(), g.end(), p.group) == g.end()) g.push_back(p.group);
+  return g;
+}
+
+// One series per group of (x, mean, se, n) for points where `get` is defined.
+std::vector<Series> point_series(const Context& c, const std::function<MeanSe(const Point&)>& get,
+                                 const std::string& name) {
+  std::vector<Series> out;
+  for (const auto& g : groups_of(c)) {
+    Series s;
+    s.label = g.empty() ? name : g;
+    s.columns = {c.x_label.empty() ? "x" : short_axis(c.x_axis), name, name + "_se", "n"};
+    s.style = Series::Style::kErrorBars;
+    s.err = 2;
+    for (const Point& p : c.points) {
+      if (p.group != g || !std::isfinite(p.x)) continue;
+      const MeanSe m = get(p);
+      if (!std::isfinite(m.mean)) continue;
+      s.rows.push_back({p.x, m.mean, m.se, static_cast<double>(m.n)});
+    }
+    if (!s.rows.empty()) out.push_back(std::move(s));
+  }
+  return out;
+}
+
+bool has_x(const Context& c) {
+  int n = 0;
+  for (const Point& p : c.points) n += std::isfinite(p.x) ? 1 : 0;
+  return n >= 2;
+}
+
+// ---- sections ---------------------------------------------------------------------------
+
+std::optional<Section> runs_section(const Context& c) {
+  Section s{"runs", "Runs", {}};
+  const int total = static_cast<int>(c.used.size() + c.missing.size() + c.failed.size() + c.unreadable.size() +
+                                     c.retired.size());
+  s.blocks.push_back(Text{std::to_string(total) + " runs in the campaign: **" + std::to_string(c.used.size()) +
+                          " used**, " + std::to_string(c.missing.size()) + " missing (not finished), " +
+                          std::to_string(c.failed.size()) + " failed, " + std::to_string(c.unreadable.size()) +
+                          " finished but unreadable, " + std::to_string(c.retired.size()) + " retired. " +
+                          "Every number below is computed from the used runs only; a point with fewer replicas "
+                          "than planned says so in its `n`."});
+  Table t{"runs_not_used", "Runs not used, with the reason", {"run", "point", "replica", "state", "reason"}, {}};
+  for (const RunRecord* r : c.missing) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state, "not finished"});
+  for (const RunRecord* r : c.failed) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state, state_reason(*r)});
+  for (const auto& [r, why] : c.unreadable) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state, "unreadable: " + why});
+  for (const RunRecord* r : c.retired) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state, "retired (superseded)"});
+  if (!t.rows.empty()) s.blocks.push_back(t);
+  return s;
+}
+
+std::optional<Section> provenance_section(const Context& c) {
+  Section s{"provenance", "Provenance", {}};
+  const CampaignInfo& k = *c.campaign;
+  std::string text = "Campaign `" + k.name + "`, spec hash `" + k.spec_hash + "`; report written by Granary " +
+                     k.granary_version + " (commit `" + k.git_commit + "`)";
+#ifdef GRANARY_GIT_COMMIT
+  text += std::string(", analysis library built from commit `") + GRANARY_GIT_COMMIT + "`";
+#endif
+  text += ". Sweep axes: ";
+  for (std::size_t i = 0; i < k.axes.size(); ++i) text += (i ? ", " : "") + std::string("`") + k.axes[i] + "`";
+  if (k.axes.empty()) text += "none";
+  text += ".";
+  s.blocks.push_back(Text{text});
+  // engine, version, commit, tangential cap -> runs
+  std::map<std::vector<std::string>, int> rows;
+  for (const AnalysedRun& a : c.used)
+    ++rows[{a.analysis.engine, a.engine_version, a.granary_commit, a.tangential_cap}];
+  Table t{"provenance", "Engines that produced the used runs",
+          {"engine", "engine version", "granary commit", "tangential cap (/contact/tangential_cap)", "runs"}, {}};
+  for (const auto& [key, n] : rows) t.rows.push_back({key[0], key[1], key[2], key[3], std::to_string(n)});
+  s.blocks.push_back(t);
+  s.blocks.push_back(Text{"Tangential cap: `lammps` caps spring plus damping at mu|F_n| (LAMMPS convention, "
+                          "physics.md); `liggghts` caps only the spring part (LIGGGHTS 3.8). Runs with different "
+                          "caps are not the same model."});
+  return s;
+}
+
+std::optional<Section> per_run_section(const Context& c) {
+  if (c.used.empty()) return std::nullopt;
+  Section s{"per-run", "Per-run results", {}};
+  Table t{"per_run",
+          "Every used run (Q by least squares over the steady window; se is the OLS error of the slope)",
+          {"run", "point", "replica", "engine", "end", "bodies", "exited", "t_end", "window t", "Q (bodies/t)", "Q se",
+           "Q_mass (mass/t)", "phi", "T_g ch3", "T_g ch4", "notes"},
+          {}};
+  for (const Point& p : c.points) {
+    for (const AnalysedRun* a : p.runs) {
+      const RunAnalysis& r = a->analysis;
+      std::string notes;
+      for (const auto& n : r.notes) notes += (notes.empty() ? "" : "; ") + n;
+      t.rows.push_back({a->record->run_id, point_name(c, p), std::to_string(a->record->replica), r.engine,
+                        r.end_reason, std::to_string(r.bodies), std::to_string(r.exited), format_number(r.t_end),
+                        r.flow.ok ? format_number(r.flow.t_start, 3) + "-" + format_number(r.flow.t_end, 3) : "",
+                        format_number(r.flow.q_count), format_number(r.flow.q_count_se, 2),
+                        format_number(r.flow.q_mass), r.has_region ? format_number(r.region.phi.mean) : "",
+                        r.has_region ? format_number(r.region.tg_translational.mean) : "",
+                        r.has_region ? format_number(r.region.tg_full.mean) : "", notes});
+    }
+  }
+  s.blocks.push_back(t);
+  const FlowWindowRule& w = c.options->analysis.window;
+  s.blocks.push_back(Text{
+      "Steady window: exits before t = " + format_number(w.start_time) + " and the first " +
+      format_number(100 * w.start_fraction) + "% of the exits are dropped; the window ends at the first clog (a gap of "
+      "clog_window in the exit stream)" + std::string(w.stop_at_first_clog ? "" : " [off]") +
+      " and, in remove mode, when " + format_number(100 * w.shallow_fraction) + "% of the bodies remain."});
+  return s;
+}
+
+std::vector<FitModel> user_models(const Context& c) {
+  std::vector<FitModel> models = c.options->models;
+  const nlohmann::json& spec = c.campaign->spec;
+  if (spec.is_object() && spec.contains("report") && spec.at("report").is_object() &&
+      spec.at("report").contains("models")) {
+    for (const auto& m : spec.at("report").at("models")) {
+      FitModel f;
+      f.name = m.value("name", std::string("user"));
+      f.expression = m.value("expression", std::string());
+      f.variable = m.value("variable", std::string("x"));
+      if (m.contains("initial"))
+        for (const auto& [k, v] : m.at("initial").items()) f.initial[k] = v.get<double>();
+      models.push_back(f);
+    }
+  }
+  return models;
+}
+
+std::optional<Section> flow_section(const Context& c) {
+  bool any = false;
+  for (const Point& p : c.points) any = any || p.metrics.q_count.n > 0;
+  if (!any) return std::nullopt;
+  Section s{"flow", "Flow rate", {}};
+  Table t{"flow_rate", "Flow rate per sweep point: mean ± standard error (replicas)",
+          {"point", "Q (bodies/sqrt(d/g))", "Q_mass (mass/sqrt(d/g))", "V_max"}, {}};
+  for (const Point& p : c.points) {
+    const PointMetrics& m = p.metrics;
+    t.rows.push_back({point_name(c, p), format_mean_se(m.q_count.mean, m.q_count.se, m.q_count.n),
+                      format_mean_se(m.q_mass.mean, m.q_mass.se, m.q_mass.n),
+                      format_mean_se(m.v_max.mean, m.v_max.se, m.v_max.n)});
+  }
+  s.blocks.push_back(t);
+  if (!has_x(c)) return s;
+  Figure f{"flow_rate", "Flow rate Q against " + c.x_label, c.x_label, "Q (bodies per sqrt(d/g))",
+           point_series(c, [](const Point& p) { return p.metrics.q_count; }, "Q"), false, false,
+           "Error bars: standard error over replicas"};
+  // Fits against W/d per group (>= 3 widths).
+  Table fits{"flow_rate_fits", "Fits of Q(W/d) per group (95% confidence intervals, Student t)",
+             {"group", "model", "parameter", "value", "se", "95% CI", "chi2/dof", "points", "weighted", "status"}, {}};
+  Table residuals{"flow_rate_fit_residuals", "Fit residuals (Q - fit)",
+                  {"group", "model", "W/d", "Q", "fit", "residual"}, {}};
+  std::vector<FitModel> models;
+  if (c.x_is_width) models = {beverloo_2d(), beverloo_free(), mankoc()};
+  for (const auto& m : user_models(c)) models.push_back(m);
+  int fitted_groups = 0;
+  for (const auto& g : groups_of(c)) {
+    std::vector<double> x, y, sigma;
+    std::set<double> distinct;
+    for (const Point& p : c.points) {
+      if (p.group != g || !std::isfinite(p.x) || !std::isfinite(p.metrics.q_count.mean)) continue;
+      x.push_back(p.x);
+      y.push_back(p.metrics.q_count.mean);
+      sigma.push_back(p.metrics.q_count.se);
+      distinct.insert(p.x);
+    }
+    if (distinct.size() < 3) continue;
+    ++fitted_groups;
+    for (const FitModel& model : models) {
+      FitResult r;
+      try {
+        r = fit_model(with_data_guess(model, x, y), x, y, sigma);
+      } catch (const std::exception& e) {
+        fits.rows.push_back({g, model.name, "", "", "", "", "", std::to_string(x.size()), "", e.what()});
+        continue;
+      }
+      const std::string weighted = r.sigma.empty() ? "no" : "1/se^2";
+      for (const auto& par : r.parameters)
+        fits.rows.push_back({g, r.model_name + ": " + r.expression, par.name, format_number(par.value),
+                             format_number(par.se, 2),
+                             std::string("[") + format_number(par.ci_low) + ", " + format_number(par.ci_high) + "]",
+                             r.dof > 0 ? format_number(r.chi2 / r.dof, 3) : "", std::to_string(x.size()), weighted,
+                             r.status + (r.ok() ? " (" + r.convergence + ", " + std::to_string(r.iterations) + " it.)" : "")});
+      for (std::size_t i = 0; i < r.x.size(); ++i)
+        residuals.rows.push_back({g, r.model_name, format_number(r.x[i], 6), format_number(r.y[i]),
+                                  format_number(r.fitted[i]), format_number(r.residuals[i], 3)});
+      if (!r.ok()) continue;
+      Series curve;
+      curve.label = r.model_name + (g.empty() ? "" : " (" + g + ")");
+      curve.columns = {"W", "Q_fit"};
+      curve.style = Series::Style::kLines;
+      const double lo = *distinct.begin(), hi = *distinct.rbegin();
+      for (int i = 0; i <= 100; ++i) {
+        const double xv = lo + (hi - lo) * i / 100.0;
+        const double yv = r.evaluate(xv);
+        if (std::isfinite(yv)) curve.rows.push_back({xv, yv});
+      }
+      if (!curve.rows.empty()) f.series.push_back(std::move(curve));
+    }
+  }
+  s.blocks.push_back(f);
+  if (fitted_groups > 0) {
+    s.blocks.push_back(Text{"Models (shared analyses.md): 2-D Beverloo `Q = C (W/d - k)^(3/2)`, free exponent "
+                            "`Q = C (W/d - k)^b`, Mankoc `Q = C (1 - exp(-b (W/d - 1))/2) (W/d - 1)^(3/2)`, plus "
+                            "any model given in the campaign spec `/report/models`. GSL trust-region "
+                            "Levenberg-Marquardt with a finite-difference Jacobian; weights 1/se^2 when every "
+                            "point has a replica standard error, covariance scaled by max(1, chi2/dof) (weighted) "
+                            "or chi2/dof (unweighted)."});
+    s.blocks.push_back(fits);
+    s.blocks.push_back(residuals);
+  } else if (c.x_is_width) {
+    s.blocks.push_back(Text{"Beverloo fits need at least 3 outlet widths in a group; this campaign has fewer so far."});
+  }
+  return s;
+}
+
+std::optional<Section> profile_section(const Context& c) {
+  Figure fy{"velocity_profile_vy", "Normalised vertical velocity across the outlet", "x/W",
+            "v_y / max|v_y|", {}, false, false,
+            "Bodies with centre 0 <= y <= " + format_number(c.options->analysis.profile.band_high) +
+                " d above outlet 0, averaged over the steady-window frames and replicas"};
+  Figure fx{"velocity_profile_vx", "Normalised horizontal velocity across the outlet", "x/W", "v_x / max|v_x|",
+            {}, false, false, ""};
+  for (const Point& p : c.points) {
+    std::vector<const VelocityProfile*> prof;
+    for (const AnalysedRun* a : p.runs)
+      if (a->analysis.has_profile) prof.push_back(&a->analysis.profile);
+    if (prof.empty()) continue;
+    Series sy, sx;
+    sy.label = sx.label = point_name(c, p);
+    sy.columns = {"x_over_W", "vy_norm", "vy_norm_se", "n"};
+    sx.columns = {"x_over_W", "vx_norm", "vx_norm_se", "n"};
+    sy.style = sx.style = Series::Style::kLinesPoints;
+    for (std::size_t i = 0; i < prof.front()->x_over_w.size(); ++i) {
+      std::vector<double> vy, vx;
+      for (const auto* q : prof) {
+        if (i >= q->vy_norm.size()) continue;
+        vy.push_back(q->vy_norm[i]);
+        vx.push_back(q->vx_norm[i]);
+      }
+      const MeanSe my = mean_se_finite(vy), mx = mean_se_finite(vx);
+      sy.rows.push_back({prof.front()->x_over_w[i], my.mean, my.se, static_cast<double>(my.n)});
+      sx.rows.push_back({prof.front()->x_over_w[i], mx.mean, mx.se, static_cast<double>(mx.n)});
+    }
+    fy.series.push_back(sy);
+    fx.series.push_back(sx);
+  }
+  if (fy.series.empty()) return std::nullopt;
+  Section s{"profiles", "Velocity profiles across the outlet", {}};
+  s.blocks.push_back(fy);
+  s.blocks.push_back(fx);
+  if (has_x(c))
+    s.blocks.push_back(Figure{"v_max", "V_max against " + c.x_label, c.x_label, "V_max (sqrt(g d))",
+                              point_series(c, [](const Point& p) { return p.metrics.v_max; }, "V_max"), false, false,
+                              "max |v_y| of the profile"});
+  return s;
+}
+
+std::optional<Section> region_section(const Context& c) {
+  bool any = false;
+  for (const Point& p : c.points) any = any || p.metrics.phi.n > 0;
+  if (!any) return std::nullopt;
+  const RegionSize& size = c.options->analysis.region;
+  Section s{"region", "Region above the outlet", {}};
+  s.blocks.push_back(Text{"Region " + size.label + ", centred on outlet 0 from the base up (pad " +
+                          format_number(size.pad) + " d, height " + format_number(size.height) +
+                          " d). Packing fraction: exact area of every disc inside the region (discs cut by the "
+                          "edge count with their inside part) over the region area. Temperatures over the bodies "
+                          "whose centre of mass is inside, per frame, then averaged over frames: ch. 3 "
+                          "`T_g = 1/2 <(v_x - <v_x>)^2 + (v_y - <v_y>)^2>` and ch. 4-5 "
+                          "`T_g = 1/3 <m |v - <v>|^2 + I (Omega - <Omega>)^2>`."});
+  Table t{"region", "Region statistics per point: mean ± se over replicas (n)",
+          {"point", "phi", "T_g ch3 (g d)", "T_g ch4 (m g d)"}, {}};
+  for (const Point& p : c.points) {
+    const PointMetrics& m = p.metrics;
+    if (m.phi.n == 0) continue;
+    t.rows.push_back({point_name(c, p), format_mean_se(m.phi.mean, m.phi.se, m.phi.n),
+                      format_mean_se(m.tg_translational.mean, m.tg_translational.se, m.tg_translational.n),
+                      format_mean_se(m.tg_full.mean, m.tg_full.se, m.tg_full.n)});
+  }
+  s.blocks.push_back(t);
+  if (has_x(c)) {
+    s.blocks.push_back(Figure{"packing_fraction", "Packing fraction phi against " + c.x_label, c.x_label, "phi",
+                              point_series(c, [](const Point& p) { return p.metrics.phi; }, "phi"), false, false, ""});
+    Figure tg{"granular_temperature", "Granular temperature against " + c.x_label, c.x_label, "T_g", {}, false, false,
+              "Both definitions; error bars: se over replicas"};
+    for (auto se : point_series(c, [](const Point& p) { return p.metrics.tg_translational; }, "Tg_ch3")) {
+      se.label = "ch. 3 " + se.label;
+      tg.series.push_back(se);
+    }
+    for (auto se : point_series(c, [](const Point& p) { return p.metrics.tg_full; }, "Tg_ch4")) {
+      se.label = "ch. 4-5 " + se.label;
+      tg.series.push_back(se);
+    }
+    s.blocks.push_back(tg);
+  }
+  // Velocity distributions, pooled over the replicas of each point.
+  Figure dx{"velocity_distribution_vx", "Distribution of v_x in the region", "v_x (sqrt(g d))", "probability density",
+            {}, false, false, "Pooled over frames and replicas"};
+  Figure dy{"velocity_distribution_vy", "Distribution of v_y in the region", "v_y (sqrt(g d))", "probability density",
+            {}, false, false, "Pooled over frames and replicas"};
+  for (const Point& p : c.points) {
+    std::vector<double> vx, vy;
+    for (const AnalysedRun* a : p.runs) {
+      if (!a->analysis.has_region) continue;
+      vx.insert(vx.end(), a->analysis.region.vx.begin(), a->analysis.region.vx.end());
+      vy.insert(vy.end(), a->analysis.region.vy.begin(), a->analysis.region.vy.end());
+    }
+    if (vx.size() < 2) continue;
+    for (auto [values, fig, name] : {std::tuple{&vx, &dx, "vx"}, std::tuple{&vy, &dy, "vy"}}) {
+      const Histogram h = make_histogram(*values, 30);
+      Series se;
+      se.label = point_name(c, p);
+      se.columns = {name, "density", "count"};
+      se.style = Series::Style::kSteps;
+      for (std::size_t i = 0; i < h.counts.size(); ++i) se.rows.push_back({h.center(i), h.density(i), h.counts[i]});
+      fig->series.push_back(se);
+    }
+  }
+  if (!dx.series.empty()) {
+    s.blocks.push_back(dx);
+    s.blocks.push_back(dy);
+  }
+  return s;
+}
+
+std::optional<Section> clogging_index_section(const Context& c) {
+  bool any = false;
+  for (const Point& p : c.points) any = any || p.metrics.clogging.clogged > 0;
+  if (!any) return std::nullopt;
+  Section s{"clogging-index", "Clogging index Psi (ch. 3, eq. 3.1)", {}};
+  s.blocks.push_back(Text{"Psi = (1/n) sum_i (N_undis,i - N_u) / (N_total - N_u), N_u the mean number left in the "
+                          "point's runs that did not clog (stagnant zones). Runs that clogged before " +
+                          std::to_string(c.options->analysis.min_exits_before_clog) + " bodies left are discarded."});
+  Table t{"clogging_index", "Clogging index per point",
+          {"point", "Psi", "clogged runs", "discarded", "N_u", "note"}, {}};
+  for (const Point& p : c.points) {
+    const ClogIndex& ci = p.metrics.clogging;
+    if (ci.psi.n == 0 && ci.discarded == 0) continue;
+    t.rows.push_back({point_name(c, p), format_mean_se(ci.psi.mean, ci.psi.se, ci.psi.n), std::to_string(ci.clogged),
+                      std::to_string(ci.discarded), format_number(ci.n_stagnant), ci.note});
+  }
+  s.blocks.push_back(t);
+  if (has_x(c))
+    s.blocks.push_back(Figure{"clogging_index", "Clogging index Psi against " + c.x_label, c.x_label, "Psi",
+                              point_series(c, [](const Point& p) { return p.metrics.clogging.psi; }, "Psi"), false,
+                              false, "Error bars: se over replicas"});
+  return s;
+}
+
+std::optional<Section> avalanche_section(const Context& c) {
+  bool any = false;
+  for (const Point& p : c.points) any = any || p.metrics.avalanche_size.n > 0;
+  if (!any) return std::nullopt;
+  Section s{"avalanches", "Avalanche sizes (ch. 4, 6)", {}};
+  s.blocks.push_back(Text{"An avalanche is the number of bodies that leave between the opening (or an unclog) and a "
+                          "clog; a clog is a gap of at least the run's clog_window in the exit stream of all outlets "
+                          "together, or the engine's own stop on a clog. A stretch still flowing when a run ended is "
+                          "not an avalanche. The tail fit is the maximum-likelihood geometric law P(s) ~ "
+                          "exp(-s/s_decay) for s above the median."});
+  Table t{"avalanches", "Avalanche statistics per point (pooled over replicas)",
+          {"point", "<s> ± se (avalanches)", "tail from s", "s_decay", "s_decay se", "tail n"}, {}};
+  Figure dist{"avalanche_distribution", "Avalanche size distribution", "s (bodies)", "probability density", {}, false,
+              true, "Pooled over replicas"};
+  for (const Point& p : c.points) {
+    std::vector<double> sizes;
+    for (const AnalysedRun* a : p.runs)
+      for (double v : a->analysis.series.avalanche_sizes()) sizes.push_back(v);
+    if (sizes.empty()) continue;
+    const AvalancheStats st = avalanche_stats(sizes);
+    t.rows.push_back({point_name(c, p), format_mean_se(st.size.mean, st.size.se, st.size.n),
+                      format_number(st.tail.s_min), format_number(st.tail.s_decay), format_number(st.tail.s_decay_se, 2),
+                      std::to_string(st.tail.n_tail)});
+    Series se;
+    se.label = point_name(c, p);
+    se.columns = {"s", "density", "count"};
+    se.style = Series::Style::kPoints;
+    for (std::size_t i = 0; i < st.histogram.counts.size(); ++i)
+      if (st.histogram.counts[i] > 0) se.rows.push_back({st.histogram.center(i), st.histogram.density(i), st.histogram.counts[i]});
+    dist.series.push_back(se);
+  }
+  s.blocks.push_back(t);
+  if (has_x(c))
+    s.blocks.push_back(Figure{"avalanche_mean", "Mean avalanche size against " + c.x_label, c.x_label, "<s> (bodies)",
+                              point_series(c, [](const Point& p) { return p.metrics.avalanche_size; }, "s_mean"), false,
+                              false, "Error bars: standard error over avalanches"});
+  s.blocks.push_back(dist);
+  return s;
+}
+
+std::optional<Section> intermittency_section(const Context& c) {
+  bool any = false;
+  for (const AnalysedRun& a : c.used)
+    for (const auto& series : a.analysis.series_per_outlet) any = any || series.unclogs() > 0;
+  if (!any) return std::nullopt;
+  Section s{"intermittency", "Flowing and clogged times per outlet (ch. 7)", {}};
+  s.blocks.push_back(Text{"From the exit stream of each outlet: a gap of at least clog_window is a clog (t_c from the "
+                          "last exit before it to the first after it); a flowing stretch runs from the opening or an "
+                          "unclog to the last exit before a clog (t_f). Censored stretches (the run ended) are left "
+                          "out of the means. N_u = unclogging events per unit time, over the replicas' total time."});
+  Table t{"intermittency", "t_f, t_c and N_u per point and outlet (pooled over replicas)",
+          {"point", "outlet", "<t_f> ± se (n)", "<t_c> ± se (n)", "N_u (1/sqrt(d/g))", "unclogs", "time"}, {}};
+  std::map<std::size_t, Figure> tf_fig, tc_fig, nu_fig;
+  for (const Point& p : c.points) {
+    std::size_t outlets = 0;
+    for (const AnalysedRun* a : p.runs) outlets = std::max(outlets, a->analysis.series_per_outlet.size());
+    for (std::size_t o = 0; o < outlets; ++o) {
+      std::vector<ClogSeries> series;
+      std::string label = "outlet " + std::to_string(o);
+      for (const AnalysedRun* a : p.runs)
+        if (o < a->analysis.series_per_outlet.size()) {
+          series.push_back(a->analysis.series_per_outlet[o]);
+          label = a->analysis.outlets[o].label;
+        }
+      const IntermittencyStats st = intermittency(series);
+      t.rows.push_back({point_name(c, p), label, format_mean_se(st.t_flowing.mean, st.t_flowing.se, st.t_flowing.n),
+                        format_mean_se(st.t_clogged.mean, st.t_clogged.se, st.t_clogged.n),
+                        format_number(st.unclog_rate), std::to_string(st.unclogs), format_number(st.observed_time)});
+    }
+  }
+  s.blocks.push_back(t);
+  return s;
+}
+
+using SectionBuilder = std::optional<Section> (*)(const Context&);
+// The report's sections in order. A new analysis adds one function and one line here.
+constexpr SectionBuilder kSections[] = {runs_section,      provenance_section,     per_run_section,
+                                        flow_section,      profile_section,        region_section,
+                                        clogging_index_section, avalanche_section, intermittency_section};
+
+}  // namespace
+
+ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
+                           const ReportOptions& options) {
+  const Context c = build_context(campaign, runs, options);
+  std::vector<Section> sections;
+  for (SectionBuilder build : kSections)
+    if (auto s = build(c)) sections.push_back(std::move(*s));
+  RenderOptions render;
+  render.figures = options.figures;
+  render.gnuplot = options.gnuplot;
+  const RenderResult r = render_report("Granary report: " + campaign.name, sections, options.out_dir, render);
+  ReportSummary summary;
+  summary.runs_used = static_cast<int>(c.used.size());
+  summary.runs_missing = static_cast<int>(c.missing.size());
+  summary.runs_failed = static_cast<int>(c.failed.size() + c.unreadable.size());
+  summary.markdown = r.markdown;
+  summary.html = r.html;
+  return summary;
+}
+
+}  // namespace granary::analysis

@@ -1,0 +1,348 @@
+// Implementation of report_document.h: markdown, html, CSV and gnuplot SVG rendering.
+#include "analysis/report_document.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <regex>
+#include <sstream>
+
+namespace granary::analysis {
+
+namespace fs = std::filesystem;
+
+std::string format_number(double v, int significant) {
+  if (!std::isfinite(v)) return "";
+  if (v == std::floor(v) && std::abs(v) < 1e9) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.0f", v);
+    return buf;
+  }
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", significant, v);
+  return buf;
+}
+
+std::string format_mean_se(double mean, double se, int n, int significant) {
+  if (!std::isfinite(mean)) return "";
+  std::string s = format_number(mean, significant);
+  if (std::isfinite(se)) s += " ± " + format_number(se, 2);
+  return s + " (" + std::to_string(n) + ")";
+}
+
+std::string csv_escape(const std::string& f) {
+  if (f.find_first_of(",\"\n") == std::string::npos) return f;
+  std::string out = "\"";
+  for (char c : f) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string html_escape(const std::string& t) {
+  std::string out;
+  for (char c : t) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+namespace {
+
+constexpr double kNaNValue = std::numeric_limits<double>::quiet_NaN();
+
+// For CSV files: full precision so the numbers can be re-analysed. Missing values are "nan"
+// (read as NaN by gnuplot, numpy and pandas; an empty field would make gnuplot drop the row).
+std::string csv_number(double v) {
+  if (std::isnan(v)) return "nan";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+void write_text(const fs::path& file, const std::string& text) {
+  std::ofstream out(file);
+  out << text;
+  if (!out) throw std::runtime_error(file.string() + ": cannot write");
+}
+
+void write_table_csv(const fs::path& file, const Table& t) {
+  std::ostringstream s;
+  for (std::size_t i = 0; i < t.header.size(); ++i) s << (i ? "," : "") << csv_escape(t.header[i]);
+  s << "\n";
+  for (const auto& row : t.rows) {
+    for (std::size_t i = 0; i < row.size(); ++i) s << (i ? "," : "") << csv_escape(row[i]);
+    s << "\n";
+  }
+  write_text(file, s.str());
+}
+
+void write_series_csv(const fs::path& file, const Series& se) {
+  std::ostringstream s;
+  for (std::size_t i = 0; i < se.columns.size(); ++i) s << (i ? "," : "") << csv_escape(se.columns[i]);
+  s << "\n";
+  for (const auto& row : se.rows) {
+    for (std::size_t i = 0; i < row.size(); ++i) s << (i ? "," : "") << csv_number(row[i]);
+    s << "\n";
+  }
+  write_text(file, s.str());
+}
+
+bool has_finite_point(const Figure& f) {
+  for (const Series& se : f.series)
+    for (const auto& row : se.rows) {
+      const auto x = static_cast<std::size_t>(se.x), y = static_cast<std::size_t>(se.y);
+      if (x < row.size() && y < row.size() && std::isfinite(row[x]) && std::isfinite(row[y])) return true;
+    }
+  return false;
+}
+
+std::string series_file(const Figure& f, std::size_t k) { return f.name + "-" + std::to_string(k + 1) + ".csv"; }
+
+std::string gp_quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
+  return out + "'";
+}
+
+std::string gnuplot_script(const Figure& f) {
+  std::ostringstream s;
+  s << "set terminal svg size 760,460 font 'Helvetica,13' background rgb 'white'\n"
+    << "set output " << gp_quote(f.name + ".svg") << "\n"
+    << "set datafile separator ','\n"
+    << "set title " << gp_quote(f.title) << " noenhanced\n"
+    << "set xlabel " << gp_quote(f.xlabel) << " noenhanced\n"
+    << "set ylabel " << gp_quote(f.ylabel) << " noenhanced\n"
+    << "set grid\nset key outside right top noenhanced\nset offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n";
+  if (f.logx) s << "set logscale x\n";
+  if (f.logy) s << "set logscale y\n";
+  // gnuplot refuses a degenerate range (one x or one y value): widen it explicitly.
+  for (const int axis : {0, 1}) {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const Series& se : f.series)
+      for (const auto& row : se.rows) {
+        const int col = axis == 0 ? se.x : se.y;
+        const double v = col < static_cast<int>(row.size()) ? row[static_cast<std::size_t>(col)] : kNaNValue;
+        if (!std::isfinite(v)) continue;
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+      }
+    if (std::isfinite(lo) && hi - lo <= 1e-12 * std::max(1.0, std::abs(lo))) {
+      const double pad = lo != 0.0 ? 0.1 * std::abs(lo) : 1.0;
+      s << "set " << (axis == 0 ? "x" : "y") << "range [" << csv_number(lo - pad) << ":" << csv_number(hi + pad)
+        << "]\n";
+    }
+  }
+  s << "plot ";
+  for (std::size_t k = 0; k < f.series.size(); ++k) {
+    const Series& se = f.series[k];
+    const std::string x = "($" + std::to_string(se.x + 1) + ")";
+    const std::string y = "($" + std::to_string(se.y + 1) + ")";
+    s << (k ? ", \\\n     " : "") << gp_quote(series_file(f, k)) << " skip 1 using " << x << ":" << y;
+    switch (se.style) {
+      case Series::Style::kErrorBars:
+        {
+        const std::string e = std::string("$").append(std::to_string(se.err + 1));
+        s << ":(" << e << " == " << e << " ? " << e << " : 0) with yerrorbars pt 7 ps 0.7";  // unknown se: no bar
+        break;
+      }
+      case Series::Style::kLines: s << " with lines lw 2"; break;
+      case Series::Style::kLinesPoints: s << " with linespoints pt 7 ps 0.6"; break;
+      case Series::Style::kSteps: s << " with histeps lw 2"; break;
+      case Series::Style::kPoints: s << " with points pt 7 ps 0.7"; break;
+    }
+    s << " title " << gp_quote(se.label);
+  }
+  s << "\n";
+  return s.str();
+}
+
+// SVG for inlining: no XML prolog, ids made unique per figure so several SVGs share a page.
+std::string inline_svg(const std::string& svg, const std::string& prefix) {
+  std::string s = svg;
+  const auto start = s.find("<svg");
+  if (start != std::string::npos) s = s.substr(start);
+  s = std::regex_replace(s, std::regex("id='"), "id='" + prefix);
+  s = std::regex_replace(s, std::regex("id=\""), "id=\"" + prefix);
+  s = std::regex_replace(s, std::regex("href='#"), "href='#" + prefix);
+  s = std::regex_replace(s, std::regex("href=\"#"), "href=\"#" + prefix);
+  s = std::regex_replace(s, std::regex("url\\(#"), "url(#" + prefix);
+  return s;
+}
+
+bool have_gnuplot(const std::string& exe) {
+  const std::string cmd = "command -v '" + exe + "' > /dev/null 2>&1";
+  return std::system(cmd.c_str()) == 0;
+}
+
+// Runs gnuplot in the report directory; returns "" or the problem.
+std::string run_gnuplot(const std::string& exe, const fs::path& dir, const std::string& script) {
+  const std::string cmd = "cd '" + dir.string() + "' && '" + exe + "' '" + script + "' > '" + script +
+                          ".log' 2>&1";
+  const int rc = std::system(cmd.c_str());
+  if (rc != 0) {
+    std::ifstream in(dir / (script + ".log"));
+    std::string log((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (log.size() > 400) log = log.substr(log.size() - 400);
+    return "gnuplot failed on " + script + " (status " + std::to_string(rc) + "): " + log;
+  }
+  return "";
+}
+
+std::string read_text(const fs::path& file) {
+  std::ifstream in(file);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// Inline markup of Text: `code` and **bold** only.
+std::string html_inline(const std::string& text) {
+  std::string e = html_escape(text);
+  e = std::regex_replace(e, std::regex("\\*\\*([^*]+)\\*\\*"), "<b>$1</b>");
+  e = std::regex_replace(e, std::regex("`([^`]+)`"), "<code>$1</code>");
+  return e;
+}
+
+std::string md_cell(const std::string& s) {
+  std::string out;
+  for (char c : s) out += c == '|' ? std::string("\\|") : c == '\n' ? std::string(" ") : std::string(1, c);
+  return out;
+}
+
+const char* kCss =
+    "body{font-family:Helvetica,Arial,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}"
+    "h1{border-bottom:2px solid #446}h2{border-bottom:1px solid #ccd;margin-top:2em}"
+    "table{border-collapse:collapse;margin:1em 0;font-size:0.9em}"
+    "th,td{border:1px solid #ccd;padding:3px 8px;text-align:right}th{background:#eef}"
+    "td:first-child,th:first-child{text-align:left}caption{text-align:left;font-weight:bold;padding:4px 0}"
+    "figure{margin:1em 0}figcaption{font-size:0.9em;color:#444}code{background:#f4f4f8;padding:0 3px}"
+    ".csv{font-size:0.8em;color:#666}nav a{margin-right:1em}svg{max-width:100%;height:auto}";
+
+}  // namespace
+
+RenderResult render_report(const std::string& title, const std::vector<Section>& sections, const fs::path& out_dir,
+                           const RenderOptions& options) {
+  fs::create_directories(out_dir);
+  RenderResult result;
+  bool figures = options.figures;
+  if (figures && !have_gnuplot(options.gnuplot)) {
+    figures = false;
+    result.problems.push_back("gnuplot ('" + options.gnuplot +
+                              "') was not found: figures are omitted; every figure's numbers are in its CSV files");
+  } else if (!figures) {
+    result.problems.push_back("figures were switched off: every figure's numbers are in its CSV files");
+  }
+  std::ostringstream md, html;
+  md << "# " << title << "\n\n";
+  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << html_escape(title)
+       << "</title><style>" << kCss << "</style></head><body>\n<h1>" << html_escape(title) << "</h1>\n<nav>";
+  for (const auto& s : sections) html << "<a href=\"#" << s.id << "\">" << html_escape(s.title) << "</a>";
+  html << "</nav>\n";
+  // Problems are known only after drawing; collect the body first.
+  std::ostringstream md_body, html_body;
+  int figure_no = 0;
+  for (const auto& sec : sections) {
+    md_body << "## " << sec.title << "\n\n";
+    html_body << "<h2 id=\"" << sec.id << "\">" << html_escape(sec.title) << "</h2>\n";
+    for (const auto& block : sec.blocks) {
+      if (const auto* t = std::get_if<Text>(&block)) {
+        md_body << t->markdown << "\n\n";
+        std::istringstream paragraphs(t->markdown);
+        std::string line, para;
+        auto flush = [&]() {
+          if (!para.empty()) html_body << "<p>" << html_inline(para) << "</p>\n";
+          para.clear();
+        };
+        while (std::getline(paragraphs, line)) {
+          if (line.empty()) {
+            flush();
+          } else {
+            para += (para.empty() ? "" : " ") + line;
+          }
+        }
+        flush();
+      } else if (const auto* tb = std::get_if<Table>(&block)) {
+        const std::string csv = tb->name + ".csv";
+        write_table_csv(out_dir / csv, *tb);
+        if (!tb->caption.empty()) md_body << "**" << tb->caption << "** ([" << csv << "](" << csv << "))\n\n";
+        md_body << "|";
+        for (const auto& h : tb->header) md_body << " " << md_cell(h) << " |";
+        md_body << "\n|";
+        for (std::size_t i = 0; i < tb->header.size(); ++i) md_body << (i ? " ---: |" : " --- |");
+        md_body << "\n";
+        for (const auto& row : tb->rows) {
+          md_body << "|";
+          for (const auto& c : row) md_body << " " << md_cell(c) << " |";
+          md_body << "\n";
+        }
+        md_body << "\n";
+        html_body << "<table><caption>" << html_escape(tb->caption) << " <span class=\"csv\">(" << html_escape(csv)
+                  << ")</span></caption>\n<tr>";
+        for (const auto& h : tb->header) html_body << "<th>" << html_escape(h) << "</th>";
+        html_body << "</tr>\n";
+        for (const auto& row : tb->rows) {
+          html_body << "<tr>";
+          for (const auto& c : row) html_body << "<td>" << html_escape(c) << "</td>";
+          html_body << "</tr>\n";
+        }
+        html_body << "</table>\n";
+      } else if (const auto* f = std::get_if<Figure>(&block)) {
+        ++figure_no;
+        std::string csvs;
+        for (std::size_t k = 0; k < f->series.size(); ++k) {
+          write_series_csv(out_dir / series_file(*f, k), f->series[k]);
+          csvs += (k ? ", " : "") + series_file(*f, k);
+        }
+        std::string svg;
+        if (figures && has_finite_point(*f)) {
+          const std::string script = f->name + ".gp";
+          write_text(out_dir / script, gnuplot_script(*f));
+          const std::string problem = run_gnuplot(options.gnuplot, out_dir, script);
+          if (problem.empty() && fs::exists(out_dir / (f->name + ".svg"))) {
+            svg = read_text(out_dir / (f->name + ".svg"));
+            ++result.figures_drawn;
+          } else {
+            result.problems.push_back(problem.empty() ? f->name + ".svg was not written" : problem);
+          }
+        }
+        const std::string caption = "Figure " + std::to_string(figure_no) + ": " + f->title +
+                                    (f->caption.empty() ? "" : ". " + f->caption);
+        if (!svg.empty()) md_body << "![" << f->title << "](" << f->name << ".svg)\n\n";
+        md_body << "*" << caption << "* Data: " << csvs << "\n\n";
+        html_body << "<figure>";
+        if (!svg.empty()) html_body << inline_svg(svg, std::string("f").append(std::to_string(figure_no)).append("_"));
+        html_body << "<figcaption>" << html_inline(caption) << " <span class=\"csv\">Data: " << html_escape(csvs)
+                  << "</span></figcaption></figure>\n";
+      }
+    }
+  }
+  if (!result.problems.empty()) {
+    md << "## Problems while writing this report\n\n";
+    html << "<h2>Problems while writing this report</h2><ul>";
+    for (const auto& p : result.problems) {
+      md << "- " << p << "\n";
+      html << "<li>" << html_escape(p) << "</li>";
+    }
+    md << "\n";
+    html << "</ul>\n";
+  }
+  md << md_body.str();
+  html << html_body.str() << "</body></html>\n";
+  result.markdown = out_dir / "report.md";
+  result.html = out_dir / "report.html";
+  write_text(result.markdown, md.str());
+  write_text(result.html, html.str());
+  return result;
+}
+
+}  // namespace granary::analysis

@@ -1,0 +1,74 @@
+// The report as a document: sections of text, tables and figures, rendered to report.md and
+// a self-contained report.html (inline CSS, figures as inline SVG made by gnuplot). Every
+// table and every figure series is also written as a CSV next to the report. Analyses never
+// format; they fill Tables and Figures, and this layer renders them.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <variant>
+#include <vector>
+
+namespace granary::analysis {
+
+struct Table {
+  std::string name;                          // file stem of its CSV (unique in the report)
+  std::string caption;
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+};
+
+// One curve of a figure: columns of numbers (NaN = missing), its CSV is <figure>-<k>.csv.
+struct Series {
+  std::string label;
+  std::vector<std::string> columns;          // names, e.g. {"W", "Q", "Q_se"}
+  std::vector<std::vector<double>> rows;
+  enum class Style { kPoints, kErrorBars, kLines, kLinesPoints, kSteps } style = Style::kPoints;
+  // Columns plotted (0-based); err < 0: none (kErrorBars needs it).
+  int x = 0, y = 1, err = -1;
+};
+
+struct Figure {
+  std::string name;                          // file stem: <name>.svg, <name>-<k>.csv
+  std::string title;
+  std::string xlabel, ylabel;                // with units
+  std::vector<Series> series;
+  bool logx = false, logy = false;
+  std::string caption;
+};
+
+struct Text {
+  std::string markdown;                      // plain text with `code` and **bold**; paragraphs by blank lines
+};
+
+using Block = std::variant<Text, Table, Figure>;
+
+struct Section {
+  std::string id;                            // html anchor
+  std::string title;
+  std::vector<Block> blocks;
+};
+
+struct RenderOptions {
+  bool figures = true;
+  std::string gnuplot = "gnuplot";
+};
+
+struct RenderResult {
+  std::filesystem::path markdown, html;
+  int figures_drawn = 0;
+  std::vector<std::string> problems;         // e.g. "gnuplot not found: figures omitted"
+};
+
+// Writes report.md, report.html, every CSV and (with figures) every SVG into out_dir.
+RenderResult render_report(const std::string& title, const std::vector<Section>& sections,
+                           const std::filesystem::path& out_dir, const RenderOptions& options);
+
+// Helpers for filling tables: numbers with a fixed number of significant digits, NaN as "".
+std::string format_number(double value, int significant = 4);
+// "mean ± se (n)" in markdown/html cells; se NaN -> "mean (n)".
+std::string format_mean_se(double mean, double se, int n, int significant = 4);
+std::string csv_escape(const std::string& field);
+std::string html_escape(const std::string& text);
+
+}  // namespace granary::analysis

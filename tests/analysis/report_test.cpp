@@ -1,0 +1,236 @@
+// write_report and compute_point_metrics on a synthetic campaign: hand-written run
+// directories whose exit streams have known flow rates Q(W) = 0.8 (W - 1.5)^(3/2), one
+// frame file with a known packing fraction and temperature, a failed and a planned run.
+#include "analysis/report.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <numbers>
+#include <sstream>
+
+#include "analysis/metrics.h"
+#include "analysis/report_document.h"
+#include "test_util.h"
+
+namespace granary::analysis {
+namespace {
+
+using testing::read_file;
+using testing::TempDir;
+using testing::write_file;
+
+constexpr double kC = 0.8, kK = 1.5;
+double q_of(double w) { return kC * std::pow(w - kK, 1.5); }
+
+nlohmann::json spec_for(double w) {
+  return {{"engine", "native"},
+          {"silo", {{"width", 100}, {"base_outlets", {{{"center", 0.0}, {"width", w}}}}}},
+          {"bodies", {{"count", 2000}, {"density", 1.0}}},
+          {"contact", {{"tangential_cap", "lammps"}}},
+          {"discharge", {{"mode", "remove"}, {"clog_window", 5.0}}}};
+}
+
+// A run with n exits at a constant rate q (exact slope), mass 2 each.
+void write_run(const std::filesystem::path& dir, double w, double q, int n, const std::string& id) {
+  std::ostringstream ev;
+  ev.precision(17);
+  ev << "time,body,shape,mass,outlet\n";
+  for (int i = 1; i <= n; ++i) ev << (i / q) << "," << i << ",dumbbell,2.0,0\n";
+  write_file(dir / "events.csv", ev.str());
+  nlohmann::json summary = {{"engine", "native"},          {"engine_version", "0.1.0"}, {"granary_commit", "abc123"},
+                            {"run_id", id},                {"spec", spec_for(w)},       {"end_reason", "time_limit"},
+                            {"bodies", 2000},              {"exited", n},               {"remaining", 2000 - n},
+                            {"exits_per_outlet", {n}},     {"t_end", n / q + 1.0}};
+  write_file(dir / "summary.json", summary.dump());
+  write_file(dir / "run.json", spec_for(w).dump());
+  write_file(dir / "DONE", "");
+}
+
+// Two frames: a dumbbell (discs at (0,3), (2,3), v = (0,-1)) and a disc at (-3,3), v = (0,-3),
+// all radius 0.5, inside the ch. 4 region of W = 10 (|x| < 6.41, y < 7.07).
+void write_frames(const std::filesystem::path& dir) {
+  std::string f;
+  for (int k = 0; k < 2; ++k) {
+    f += "ITEM: TIMESTEP\n" + std::to_string(100000 * (k + 1)) + "\nITEM: TIME\n" + std::to_string(10.0 * (k + 1)) +
+         "\nITEM: NUMBER OF ATOMS\n3\nITEM: BOX BOUNDS ff ff pp\n-50 50\n-5 160\n-0.5 0.5\n"
+         "ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n"
+         "1 0 1 0 3 0 0.5 0.7853981633974483 0 -1 0 0\n"
+         "2 0 1 2 3 0 0.5 0.7853981633974483 0 -1 0 0\n"
+         "3 1 2 -3 3 0 0.5 0.7853981633974483 0 -3 0 0\n";
+  }
+  write_file(dir / "frames.dump", f);
+}
+
+struct Campaign {
+  CampaignInfo info;
+  std::vector<RunRecord> runs;
+};
+
+Campaign make_campaign(const std::filesystem::path& root) {
+  Campaign c;
+  c.info.name = "synthetic";
+  c.info.spec_hash = "hash42";
+  c.info.axes = {"/silo/base_outlets/0/width"};
+  c.info.granary_version = "0.1.0";
+  c.info.git_commit = "abc123";
+  const double widths[] = {10, 14, 18, 22};
+  for (double w : widths) {
+    for (int rep = 0; rep < 2; ++rep) {
+      RunRecord r;
+      r.point_id = "W" + std::to_string(static_cast<int>(w));
+      r.run_id = r.point_id + "r" + std::to_string(rep);
+      r.replica = rep;
+      r.engine = "native";
+      r.state = "done";
+      r.point = {{"/silo/base_outlets/0/width", w}};
+      r.spec = spec_for(w);
+      r.run_dir = root / r.run_id;
+      // Replicas at (1 -+ 1%) of Q(W): mean Q(W), se 1% of Q.
+      write_run(r.run_dir, w, q_of(w) * (rep == 0 ? 0.99 : 1.01), 1000, r.run_id);
+      if (w == 10 && rep == 0) write_frames(r.run_dir);
+      c.runs.push_back(r);
+    }
+  }
+  RunRecord failed = c.runs.front();
+  failed.run_id = "W10r2";
+  failed.replica = 2;
+  failed.state = "failed";
+  failed.failure = "engine exited with status 3: overlap too large";
+  failed.run_dir = root / "W10r2";
+  c.runs.push_back(failed);
+  RunRecord planned = c.runs.front();
+  planned.run_id = "W10r3";
+  planned.replica = 3;
+  planned.state = "planned";
+  planned.run_dir = root / "W10r3";
+  c.runs.push_back(planned);
+  return c;
+}
+
+// The value of `column` in the first CSV row whose cells contain all of `keys`.
+std::string csv_cell(const std::string& csv, const std::vector<std::string>& keys, int column) {
+  std::istringstream in(csv);
+  std::string line;
+  while (std::getline(in, line)) {
+    bool all = true;
+    for (const auto& k : keys) all = all && line.find(k) != std::string::npos;
+    if (!all) continue;
+    std::vector<std::string> cells;
+    std::string cell;
+    bool quoted = false;
+    for (char ch : line) {
+      if (ch == '"') {
+        quoted = !quoted;
+      } else if (ch == ',' && !quoted) {
+        cells.push_back(cell);
+        cell.clear();
+      } else {
+        cell += ch;
+      }
+    }
+    cells.push_back(cell);
+    return column < static_cast<int>(cells.size()) ? cells[static_cast<std::size_t>(column)] : "";
+  }
+  return "";
+}
+
+TEST(PointMetrics, FlowRateAndRegionFromRunDirectories) {
+  TempDir dir;
+  const Campaign c = make_campaign(dir.path());
+  const std::vector<PointMetrics> m = compute_point_metrics(c.runs, AnalysisOptions());
+  ASSERT_EQ(m.size(), 4u);
+  EXPECT_EQ(m[0].point_id, "W10");
+  EXPECT_EQ(m[0].runs, 2);  // the failed and planned runs are not analysed
+  EXPECT_EQ(m[0].q_count.n, 2);
+  EXPECT_NEAR(m[0].q_count.mean, q_of(10), 1e-9 * q_of(10));
+  EXPECT_NEAR(m[0].q_count.se, 0.01 * q_of(10), 1e-9 * q_of(10));
+  EXPECT_NEAR(m[3].q_mass.mean, 2.0 * q_of(22), 1e-9 * q_of(22));
+  // Region: three discs of radius 0.5 inside (W + 2 sqrt2) x 5 sqrt2.
+  const double area = (10.0 + 2.0 * std::numbers::sqrt2) * 5.0 * std::numbers::sqrt2;
+  EXPECT_EQ(m[0].phi.n, 1);
+  EXPECT_NEAR(m[0].phi.mean, 3.0 * std::numbers::pi * 0.25 / area, 1e-12);
+  EXPECT_NEAR(m[0].tg_translational.mean, 0.5, 1e-12);  // v_y = -1, -3 about -2
+  EXPECT_EQ(m[1].phi.n, 0);
+  // No clogs: Psi over the 2 runs is 0 with N_u = the remaining 1000.
+  EXPECT_EQ(m[0].clogging.clogged, 0);
+  EXPECT_NEAR(m[0].clogging.psi.mean, 0.0, 1e-12);
+  EXPECT_EQ(m[0].avalanche_size.n, 0);
+}
+
+TEST(WriteReport, SyntheticCampaign) {
+  TempDir dir;
+  const Campaign c = make_campaign(dir.path() / "runs");
+  ReportOptions opt;
+  opt.out_dir = dir.path() / "report";
+  opt.figures = std::system("command -v gnuplot > /dev/null 2>&1") == 0;
+  opt.models.push_back({"power_law", "a * x^b", "x", {{"a", 1.0}, {"b", 1.5}}});
+  const ReportSummary s = write_report(c.info, c.runs, opt);
+  EXPECT_EQ(s.runs_used, 8);
+  EXPECT_EQ(s.runs_missing, 1);
+  EXPECT_EQ(s.runs_failed, 1);
+  ASSERT_TRUE(std::filesystem::exists(s.markdown));
+  ASSERT_TRUE(std::filesystem::exists(s.html));
+
+  const std::string md = read_file(s.markdown);
+  EXPECT_NE(md.find("8 used"), std::string::npos);
+  EXPECT_NE(md.find("overlap too large"), std::string::npos);  // failure reason
+  EXPECT_NE(md.find("Flow rate"), std::string::npos);
+  EXPECT_EQ(md.find("Clogging index"), std::string::npos);  // no clogs: no section
+  EXPECT_EQ(md.find("Avalanche"), std::string::npos);
+
+  // Flow-rate table: mean ± se (n) at W = 14.
+  const std::string flow = read_file(opt.out_dir / "flow_rate.csv");
+  const std::string q14 = csv_cell(flow, {"width=14"}, 1);
+  EXPECT_EQ(q14.substr(0, q14.find(' ')), format_number(q_of(14)));
+  EXPECT_NE(q14.find("(2)"), std::string::npos);
+
+  // Beverloo 2-D recovers the generating C and k (the replica means lie on the curve).
+  const std::string fits = read_file(opt.out_dir / "flow_rate_fits.csv");
+  EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",C,"}, 3)), kC, 1e-3);
+  EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",k,"}, 3)), kK, 1e-3);
+  EXPECT_NE(csv_cell(fits, {"power_law", ",b,"}, 3), "");
+  EXPECT_NE(csv_cell(fits, {"beverloo_2d", ",C,"}, 9).find("success"), std::string::npos);
+
+  // Provenance: engine version, commit and tangential cap.
+  const std::string prov = read_file(opt.out_dir / "provenance.csv");
+  EXPECT_NE(prov.find("native,0.1.0,abc123,lammps,8"), std::string::npos) << prov;
+
+  // Region statistics of the run with frames; velocity profile section exists.
+  EXPECT_TRUE(std::filesystem::exists(opt.out_dir / "region.csv"));
+  EXPECT_NE(md.find("Velocity profiles"), std::string::npos);
+  // The figure data is there even without gnuplot.
+  const std::string series = read_file(opt.out_dir / "flow_rate-1.csv");
+  EXPECT_EQ(series.substr(0, series.find('\n')), "base_outlets.0.width,Q,Q_se,n");
+
+  const std::string html = read_file(s.html);
+  EXPECT_EQ(html.find("src=\"http"), std::string::npos);
+  EXPECT_EQ(html.find("<link"), std::string::npos);
+  EXPECT_EQ(html.find("<script"), std::string::npos);
+  if (opt.figures) {
+    EXPECT_TRUE(std::filesystem::exists(opt.out_dir / "flow_rate.svg"));
+    EXPECT_NE(html.find("<svg"), std::string::npos);
+  }
+  if (const char* keep = std::getenv("GRANARY_REPORT_DEMO_DIR")) {
+    opt.out_dir = keep;
+    write_report(c.info, c.runs, opt);
+  }
+}
+
+TEST(WriteReport, EmptyCampaignStillWritesReport) {
+  TempDir dir;
+  CampaignInfo info;
+  info.name = "empty";
+  ReportOptions opt;
+  opt.out_dir = dir.path() / "r";
+  opt.figures = false;
+  const ReportSummary s = write_report(info, {}, opt);
+  EXPECT_EQ(s.runs_used, 0);
+  const std::string md = read_file(s.markdown);
+  EXPECT_NE(md.find("0 runs in the campaign"), std::string::npos);
+  EXPECT_NE(md.find("figures were switched off"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace granary::analysis
