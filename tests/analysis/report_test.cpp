@@ -218,6 +218,88 @@ TEST(WriteReport, SyntheticCampaign) {
   }
 }
 
+// A run with the given exit times, mode and end.
+void write_run_times(const std::filesystem::path& dir, const std::vector<double>& times, const std::string& mode,
+                     const std::string& end, int bodies, double t_end, double w) {
+  std::ostringstream ev;
+  ev.precision(17);
+  ev << "time,body,shape,mass,outlet\n";
+  for (std::size_t i = 0; i < times.size(); ++i) ev << times[i] << "," << i << ",dumbbell,1.5707963267948966,0\n";
+  write_file(dir / "events.csv", ev.str());
+  nlohmann::json spec = spec_for(w);
+  spec["discharge"]["mode"] = mode;
+  spec["contact"]["tangential_cap"] = "liggghts";
+  const int exited = static_cast<int>(times.size());
+  const nlohmann::json summary = {{"engine", "liggghts"}, {"engine_version", "3.8.0"},  {"granary_commit", "def456"},
+                                  {"spec", spec},         {"end_reason", end},         {"bodies", bodies},
+                                  {"exited", exited},     {"remaining", bodies - exited}, {"t_end", t_end}};
+  write_file(dir / "summary.json", summary.dump());
+  write_file(dir / "run.json", spec.dump());
+  write_file(dir / "DONE", "");
+}
+
+std::vector<double> steady(double t0, double dt, int n) {
+  std::vector<double> t;
+  for (int i = 0; i < n; ++i) t.push_back(t0 + dt * i);
+  return t;
+}
+
+TEST(WriteReport, ClogSectionsWithKnownNumbers) {
+  TempDir dir;
+  CampaignInfo info;
+  info.name = "clogs";
+  info.axes = {"/silo/base_outlets/0/width"};
+  std::vector<RunRecord> runs;
+  auto add = [&](const std::string& id, double w, int replica) -> const std::filesystem::path& {
+    RunRecord r;
+    r.run_id = id;
+    r.point_id = "W" + format_number(w);
+    r.replica = replica;
+    r.state = "done";
+    r.engine = "liggghts";
+    r.point = {{"/silo/base_outlets/0/width", w}};
+    r.spec = spec_for(w);
+    r.run_dir = dir.path() / "runs" / id;
+    runs.push_back(r);
+    return runs.back().run_dir;
+  };
+  // W = 6, remove mode: clogs after 300 exits; clogs after 50 (discarded for Psi); discharges
+  // leaving 40 in the stagnant zones. Psi = ((700 - 40)/960 + 0)/2; avalanches 300 and 50.
+  write_run_times(add("a", 6, 0), steady(0.1, 0.1, 300), "remove", "clogged", 1000, 35.0, 6);
+  write_run_times(add("b", 6, 1), steady(0.1, 0.1, 50), "remove", "clogged", 1000, 10.0, 6);
+  write_run_times(add("c", 6, 2), steady(0.1, 0.1, 960), "remove", "discharged", 1000, 96.5, 6);
+  // W = 8, reinject: flow 0.5..10, clogged 10 -> 20, flow 20..25, end at 26 while flowing.
+  std::vector<double> t = steady(0.5, 0.5, 20);
+  for (double x : steady(20.0, 0.5, 11)) t.push_back(x);
+  write_run_times(add("d", 8, 0), t, "reinject", "time_limit", 1000, 26.0, 8);
+
+  ReportOptions opt;
+  opt.out_dir = dir.path() / "report";
+  opt.figures = false;
+  write_report(info, runs, opt);
+  const std::string md = read_file(opt.out_dir / "report.md");
+  EXPECT_NE(md.find("Clogging index"), std::string::npos);
+  EXPECT_NE(md.find("Avalanche sizes"), std::string::npos);
+  EXPECT_NE(md.find("Flowing and clogged times"), std::string::npos);
+
+  const std::string psi = read_file(opt.out_dir / "clogging_index.csv");
+  EXPECT_EQ(csv_cell(psi, {"width=6"}, 1), format_mean_se(660.0 / 960.0 / 2.0, 660.0 / 960.0 / 2.0, 2));
+  EXPECT_EQ(csv_cell(psi, {"width=6"}, 3), "1");   // discarded
+  EXPECT_EQ(csv_cell(psi, {"width=6"}, 4), "40");  // N_u
+
+  const std::string av = read_file(opt.out_dir / "avalanches.csv");
+  EXPECT_EQ(csv_cell(av, {"width=6"}, 1), format_mean_se(175.0, 125.0, 2));
+  EXPECT_EQ(csv_cell(av, {"width=8"}, 1), "20 (1)");
+
+  const std::string inter = read_file(opt.out_dir / "intermittency.csv");
+  EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 2), "10 (1)");   // t_f: 0 -> 10
+  EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 3), "10 (1)");   // t_c: 10 -> 20
+  EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 4), format_number(1.0 / 26.0));
+
+  const std::string prov = read_file(opt.out_dir / "provenance.csv");
+  EXPECT_NE(prov.find("liggghts,3.8.0,def456,liggghts,4"), std::string::npos) << prov;
+}
+
 TEST(WriteReport, EmptyCampaignStillWritesReport) {
   TempDir dir;
   CampaignInfo info;
