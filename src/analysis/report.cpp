@@ -443,13 +443,16 @@ std::optional<Section> profile_section(const Context& c) {
       sy.rows.push_back({prof.front()->x_over_w[i], my.mean, my.se, static_cast<double>(my.n)});
       sx.rows.push_back({prof.front()->x_over_w[i], mx.mean, mx.se, static_cast<double>(mx.n)});
     }
-    fy.series.push_back(sy);
-    fx.series.push_back(sx);
+    auto finite = [](const Series& se) {
+      return std::any_of(se.rows.begin(), se.rows.end(), [](const auto& row) { return std::isfinite(row[1]); });
+    };
+    if (finite(sy)) fy.series.push_back(sy);
+    if (finite(sx)) fx.series.push_back(sx);
   }
-  if (fy.series.empty()) return std::nullopt;
+  if (fy.series.empty() && fx.series.empty()) return std::nullopt;
   Section s{"profiles", "Velocity profiles across the outlet", {}};
-  s.blocks.push_back(fy);
-  s.blocks.push_back(fx);
+  if (!fy.series.empty()) s.blocks.push_back(fy);
+  if (!fx.series.empty()) s.blocks.push_back(fx);
   if (has_x(c))
     s.blocks.push_back(Figure{"v_max", "V_max against " + c.x_label, c.x_label, "V_max (sqrt(g d))",
                               point_series(c, [](const Point& p) { return p.metrics.v_max; }, "V_max"), false, false,

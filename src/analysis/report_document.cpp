@@ -2,6 +2,7 @@
 #include "analysis/report_document.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -213,6 +214,13 @@ std::string html_inline(const std::string& text) {
   return e;
 }
 
+// Numbers (and "mean ± se (n)") align right, words left.
+bool looks_numeric(const std::string& c) {
+  if (c.empty()) return true;
+  const char first = c.front();
+  return std::isdigit(static_cast<unsigned char>(first)) || ((first == '-' || first == '.' || first == '[') && c.size() > 1);
+}
+
 std::string md_cell(const std::string& s) {
   std::string out;
   for (char c : s) out += c == '|' ? std::string("\\|") : c == '\n' ? std::string(" ") : std::string(1, c);
@@ -224,7 +232,7 @@ const char* kCss =
     "h1{border-bottom:2px solid #446}h2{border-bottom:1px solid #ccd;margin-top:2em}"
     "table{border-collapse:collapse;margin:1em 0;font-size:0.9em}"
     "th,td{border:1px solid #ccd;padding:3px 8px;text-align:right}th{background:#eef}"
-    "td:first-child,th:first-child{text-align:left}caption{text-align:left;font-weight:bold;padding:4px 0}"
+    "td.t{text-align:left}caption{text-align:left;font-weight:bold;padding:4px 0}"
     "figure{margin:1em 0}figcaption{font-size:0.9em;color:#444}code{background:#f4f4f8;padding:0 3px}"
     ".csv{font-size:0.8em;color:#666}nav a{margin-right:1em}svg{max-width:100%;height:auto}";
 
@@ -292,7 +300,7 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         html_body << "</tr>\n";
         for (const auto& row : tb->rows) {
           html_body << "<tr>";
-          for (const auto& c : row) html_body << "<td>" << html_escape(c) << "</td>";
+          for (const auto& c : row) html_body << (looks_numeric(c) ? "<td>" : "<td class=\"t\">") << html_escape(c) << "</td>";
           html_body << "</tr>\n";
         }
         html_body << "</table>\n";

@@ -48,7 +48,7 @@ void write_run(const std::filesystem::path& dir, double w, double q, int n, cons
   write_file(dir / "DONE", "");
 }
 
-// Two frames: a dumbbell (discs at (0,3), (2,3), v = (0,-1)) and a disc at (-3,3), v = (0,-3),
+// Two frames: a dumbbell (discs at (0,1), (2,1), v = (0,-1)) and a disc at (-3,1), v = (0,-3),
 // all radius 0.5, inside the ch. 4 region of W = 10 (|x| < 6.41, y < 7.07).
 void write_frames(const std::filesystem::path& dir) {
   std::string f;
@@ -56,9 +56,9 @@ void write_frames(const std::filesystem::path& dir) {
     f += "ITEM: TIMESTEP\n" + std::to_string(100000 * (k + 1)) + "\nITEM: TIME\n" + std::to_string(10.0 * (k + 1)) +
          "\nITEM: NUMBER OF ATOMS\n3\nITEM: BOX BOUNDS ff ff pp\n-50 50\n-5 160\n-0.5 0.5\n"
          "ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n"
-         "1 0 1 0 3 0 0.5 0.7853981633974483 0 -1 0 0\n"
-         "2 0 1 2 3 0 0.5 0.7853981633974483 0 -1 0 0\n"
-         "3 1 2 -3 3 0 0.5 0.7853981633974483 0 -3 0 0\n";
+         "1 0 1 0 1 0 0.5 0.7853981633974483 0 -1 0 0\n"
+         "2 0 1 2 1 0 0.5 0.7853981633974483 0 -1 0 0\n"
+         "3 1 2 -3 1 0 0.5 0.7853981633974483 0 -3 0 0\n";
   }
   write_file(dir / "frames.dump", f);
 }
@@ -153,6 +153,7 @@ TEST(PointMetrics, FlowRateAndRegionFromRunDirectories) {
   EXPECT_NEAR(m[0].phi.mean, 3.0 * std::numbers::pi * 0.25 / area, 1e-12);
   EXPECT_NEAR(m[0].tg_translational.mean, 0.5, 1e-12);  // v_y = -1, -3 about -2
   EXPECT_EQ(m[1].phi.n, 0);
+  EXPECT_NEAR(m[0].v_max.mean, 3.0, 1e-12);  // both bodies within 2 d of the base
   // No clogs: Psi over the 2 runs is 0 with N_u = the remaining 1000.
   EXPECT_EQ(m[0].clogging.clogged, 0);
   EXPECT_NEAR(m[0].clogging.psi.mean, 0.0, 1e-12);
