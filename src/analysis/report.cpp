@@ -11,6 +11,7 @@
 #include <map>
 #include <optional>
 #include <set>
+#include <stdexcept>
 
 #include "analysis/metrics.h"
 #include "analysis/report_document.h"
@@ -632,11 +633,95 @@ constexpr SectionBuilder kSections[] = {runs_section,      provenance_section,  
                                         flow_section,      profile_section,        region_section,
                                         clogging_index_section, avalanche_section, intermittency_section};
 
+[[noreturn]] void bad_report_key(const std::string& path, const nlohmann::json& value, const std::string& allowed) {
+  throw std::invalid_argument(path + ": " + allowed + " (got " + value.dump() + ")");
+}
+
+double number_at(const nlohmann::json& j, const std::string& path, double lo, double hi) {
+  if (!j.is_number()) bad_report_key(path, j, "must be a number");
+  const double v = j.get<double>();
+  if (v < lo || v > hi)
+    bad_report_key(path, j, "must be in [" + format_number(lo) + ", " + format_number(hi) + "]");
+  return v;
+}
+
 }  // namespace
+
+void apply_report_spec(const nlohmann::json& campaign_spec, ReportOptions& options) {
+  if (!campaign_spec.is_object() || !campaign_spec.contains("report")) return;
+  const nlohmann::json& r = campaign_spec.at("report");
+  if (!r.is_object()) bad_report_key("/report", r, "must be an object");
+  AnalysisOptions& a = options.analysis;
+  constexpr double kBig = 1e300;
+  for (const auto& [key, v] : r.items()) {
+    const std::string path = "/report/" + key;
+    if (key == "models") {
+      if (!v.is_array()) bad_report_key(path, v, "must be an array of {name, expression, variable, initial}");
+    } else if (key == "region") {
+      if (v == "ch3") {
+        a.region = chapter3_region();
+      } else if (v == "ch4") {
+        a.region = chapter4_region();
+      } else if (v.is_object() && v.contains("pad") && v.contains("height")) {
+        a.region.pad = number_at(v.at("pad"), path + "/pad", -kBig, kBig);
+        a.region.height = number_at(v.at("height"), path + "/height", 0.0, kBig);
+        a.region.label = "(W + " + format_number(a.region.pad) + " d) x " + format_number(a.region.height) + " d";
+      } else {
+        bad_report_key(path, v, "must be \"ch3\", \"ch4\" or {\"pad\": .., \"height\": ..}");
+      }
+    } else if (key == "clog_gap") {
+      a.clog_gap = number_at(v, path, 0.0, kBig);
+    } else if (key == "min_exits_before_clog") {
+      a.min_exits_before_clog = static_cast<int>(number_at(v, path, 0.0, 1e9));
+    } else if (key == "frame_stride") {
+      a.frame_stride = static_cast<int>(number_at(v, path, 1.0, 1e9));
+    } else if (key == "max_frames") {
+      a.max_frames = static_cast<int>(number_at(v, path, 0.0, 1e9));
+    } else if (key == "window" && v.is_object()) {
+      for (const auto& [k, w] : v.items()) {
+        const std::string p = path + "/" + k;
+        if (k == "start_time") {
+          a.window.start_time = number_at(w, p, 0.0, kBig);
+        } else if (k == "start_fraction") {
+          a.window.start_fraction = number_at(w, p, 0.0, 1.0);
+        } else if (k == "shallow_fraction") {
+          a.window.shallow_fraction = number_at(w, p, 0.0, 1.0);
+        } else if (k == "min_events") {
+          a.window.min_events = static_cast<int>(number_at(w, p, 2.0, 1e9));
+        } else if (k == "stop_at_first_clog") {
+          if (!w.is_boolean()) bad_report_key(p, w, "must be true or false");
+          a.window.stop_at_first_clog = w.get<bool>();
+        } else {
+          bad_report_key(p, w, "unknown key (known: start_time, start_fraction, shallow_fraction, min_events, "
+                               "stop_at_first_clog)");
+        }
+      }
+    } else if (key == "profile" && v.is_object()) {
+      for (const auto& [k, w] : v.items()) {
+        const std::string p = path + "/" + k;
+        if (k == "bins") {
+          a.profile.bins = static_cast<int>(number_at(w, p, 1.0, 1e6));
+        } else if (k == "band_low") {
+          a.profile.band_low = number_at(w, p, -kBig, kBig);
+        } else if (k == "band_high") {
+          a.profile.band_high = number_at(w, p, -kBig, kBig);
+        } else {
+          bad_report_key(p, w, "unknown key (known: bins, band_low, band_high)");
+        }
+      }
+    } else {
+      bad_report_key(path, v,
+                     "unknown key or wrong type (known: models, region, clog_gap, min_exits_before_clog, "
+                     "frame_stride, max_frames, window {..}, profile {..})");
+    }
+  }
+}
 
 ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
                            const ReportOptions& options) {
-  const Context c = build_context(campaign, runs, options);
+  ReportOptions effective = options;
+  apply_report_spec(campaign.spec, effective);
+  const Context c = build_context(campaign, runs, effective);
   std::vector<Section> sections;
   for (SectionBuilder build : kSections)
     if (auto s = build(c)) sections.push_back(std::move(*s));

@@ -301,6 +301,30 @@ TEST(WriteReport, ClogSectionsWithKnownNumbers) {
   EXPECT_NE(prov.find("liggghts,3.8.0,def456,liggghts,4"), std::string::npos) << prov;
 }
 
+TEST(ReportSpec, OptionsFromCampaignSpec) {
+  ReportOptions opt;
+  apply_report_spec({{"report", {{"region", "ch3"}, {"clog_gap", 2.5}, {"window", {{"start_time", 4}}},
+                                 {"profile", {{"bins", 8}}}}}},
+                    opt);
+  EXPECT_DOUBLE_EQ(opt.analysis.region.pad, 2.0);
+  EXPECT_DOUBLE_EQ(opt.analysis.region.height, 10.0);
+  EXPECT_DOUBLE_EQ(opt.analysis.clog_gap, 2.5);
+  EXPECT_DOUBLE_EQ(opt.analysis.window.start_time, 4.0);
+  EXPECT_EQ(opt.analysis.profile.bins, 8);
+  try {
+    apply_report_spec({{"report", {{"window", {{"start_fraction", 1.5}}}}}}, opt);
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "/report/window/start_fraction: must be in [0, 1] (got 1.5)");
+  }
+  try {
+    apply_report_spec({{"report", {{"regoin", "ch3"}}}}, opt);
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("/report/regoin: unknown key"), std::string::npos) << e.what();
+  }
+}
+
 TEST(WriteReport, EmptyCampaignStillWritesReport) {
   TempDir dir;
   CampaignInfo info;
