@@ -32,6 +32,7 @@ struct Point {
   nlohmann::json point;
   double x = kNaN;                          // value on the report's x axis
   std::string group;                        // the other axes' values
+  nlohmann::json spec;                      // a run spec of this point (for axis values)
   std::vector<const AnalysedRun*> runs;
   PointMetrics metrics;
 };
@@ -180,6 +181,7 @@ Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>
       if (v && v->is_number()) p.x = v->get<double>();
     }
     p.group = point_label(c, p.point, any_spec, c.x_axis);
+    p.spec = any_spec;
     PointRuns pr{p.id, p.point, {}};
     for (const AnalysedRun* a : p.runs) pr.runs.push_back(&a->analysis);
     p.metrics = point_metrics(pr, options.analysis);
@@ -255,8 +257,10 @@ std::optional<Section> runs_section(const Context& c) {
 std::optional<Section> provenance_section(const Context& c) {
   Section s{"provenance", "Provenance", {}};
   const CampaignInfo& k = *c.campaign;
-  std::string text = "Campaign `" + k.name + "`, spec hash `" + k.spec_hash + "`; report written by Granary " +
-                     k.granary_version + " (commit `" + k.git_commit + "`)";
+  auto or_unknown = [](const std::string& v) { return v.empty() ? std::string("unknown") : v; };
+  std::string text = "Campaign `" + or_unknown(k.name) + "`, spec hash `" + or_unknown(k.spec_hash) +
+                     "`; report written by Granary " + or_unknown(k.granary_version) + " (commit `" +
+                     or_unknown(k.git_commit) + "`)";
 #ifdef GRANARY_GIT_COMMIT
   text += std::string(", analysis library built from commit `") + GRANARY_GIT_COMMIT + "`";
 #endif
@@ -356,7 +360,22 @@ std::optional<Section> flow_section(const Context& c) {
   if (c.x_is_width) models = {beverloo_2d(), beverloo_free(), mankoc()};
   for (const auto& m : user_models(c)) models.push_back(m);
   int fitted_groups = 0;
+  const std::vector<Series> data_series = f.series;
+  std::map<std::string, Figure> model_figures;
+  // The single other sweep axis (if any) against which fitted parameters are drawn.
+  std::string other_axis;
+  for (const auto& axis : c.campaign->axes)
+    if (axis != c.x_axis) other_axis = other_axis.empty() ? axis : "\n";  // "\n": more than one
+  std::map<std::string, Figure> trends;  // per model: its parameters against other_axis
   for (const auto& g : groups_of(c)) {
+    double group_value = kNaN;
+    if (!other_axis.empty() && other_axis != "\n")
+      for (const Point& p : c.points)
+        if (p.group == g) {
+          const auto v = axis_value(other_axis, p.point, p.spec);
+          if (v && v->is_number()) group_value = v->get<double>();
+          break;
+        }
     std::vector<double> x, y, sigma;
     std::set<double> distinct;
     for (const Point& p : c.points) {
@@ -387,6 +406,29 @@ std::optional<Section> flow_section(const Context& c) {
         residuals.rows.push_back({g, r.model_name, format_number(r.x[i], 6), format_number(r.y[i]),
                                   format_number(r.fitted[i]), format_number(r.residuals[i], 3)});
       if (!r.ok()) continue;
+      if (std::isfinite(group_value)) {
+        Figure& tf = trends[r.model_name];
+        if (tf.name.empty()) {
+          tf.name = "fit_parameters_" + r.model_name;
+          tf.title = "Fitted parameters of " + r.model_name + " (" + r.expression + ") against " + short_axis(other_axis);
+          tf.xlabel = short_axis(other_axis);
+          tf.ylabel = "parameter value";
+          tf.caption = "Error bars: standard errors of the fit";
+        }
+        for (const auto& par : r.parameters) {
+          auto it = std::find_if(tf.series.begin(), tf.series.end(), [&](const Series& se) { return se.label == par.name; });
+          if (it == tf.series.end()) {
+            Series se;
+            se.label = par.name;
+            se.columns = {short_axis(other_axis), par.name, par.name + "_se", "ci_low", "ci_high"};
+            se.style = Series::Style::kErrorBars;
+            se.err = 2;
+            tf.series.push_back(se);
+            it = tf.series.end() - 1;
+          }
+          it->rows.push_back({group_value, par.value, par.se, par.ci_low, par.ci_high});
+        }
+      }
       Series curve;
       curve.label = r.model_name + (g.empty() ? "" : " (" + g + ")");
       curve.columns = {"W", "Q_fit"};
@@ -397,10 +439,23 @@ std::optional<Section> flow_section(const Context& c) {
         const double yv = r.evaluate(xv);
         if (std::isfinite(yv)) curve.rows.push_back({xv, yv});
       }
-      if (!curve.rows.empty()) f.series.push_back(std::move(curve));
+      if (curve.rows.empty()) continue;
+      // The first model's curves go on the main figure; every other model gets its own
+      // figure (data + its curves) so that legends stay readable.
+      if (&model == &models.front()) {
+        f.series.push_back(std::move(curve));
+      } else {
+        Figure& mf = model_figures[model.name];
+        if (mf.name.empty()) {
+          mf = Figure{"flow_rate_fit_" + model.name, "Flow rate with the " + model.name + " fit (" + r.expression + ")",
+                      c.x_label, "Q (bodies per sqrt(d/g))", data_series, false, false, "Error bars: se over replicas"};
+        }
+        mf.series.push_back(std::move(curve));
+      }
     }
   }
   s.blocks.push_back(f);
+  for (auto& [name, mf] : model_figures) s.blocks.push_back(mf);
   if (fitted_groups > 0) {
     s.blocks.push_back(Text{"Models (shared analyses.md): 2-D Beverloo `Q = C (W/d - k)^(3/2)`, free exponent "
                             "`Q = C (W/d - k)^b`, Mankoc `Q = C (1 - exp(-b (W/d - 1))/2) (W/d - 1)^(3/2)`, plus "
@@ -409,6 +464,8 @@ std::optional<Section> flow_section(const Context& c) {
                             "point has a replica standard error, covariance scaled by max(1, chi2/dof) (weighted) "
                             "or chi2/dof (unweighted)."});
     s.blocks.push_back(fits);
+    for (auto& [model, tf] : trends)
+      if (!tf.series.empty() && tf.series.front().rows.size() >= 2) s.blocks.push_back(tf);
     s.blocks.push_back(residuals);
   } else if (c.x_is_width) {
     s.blocks.push_back(Text{"Beverloo fits need at least 3 outlet widths in a group; this campaign has fewer so far."});

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <numbers>
@@ -299,6 +300,45 @@ TEST(WriteReport, ClogSectionsWithKnownNumbers) {
 
   const std::string prov = read_file(opt.out_dir / "provenance.csv");
   EXPECT_NE(prov.find("liggghts,3.8.0,def456,liggghts,4"), std::string::npos) << prov;
+}
+
+TEST(WriteReport, FitsPerGroupOfAnotherAxis) {
+  // Q = C(X) (W - 1.5)^1.5 with C(X) = 0.8 / (1 + X/2) (the ch. 4 collapse): one fit per X.
+  TempDir dir;
+  CampaignInfo info;
+  info.name = "groups";
+  info.axes = {"/silo/base_outlets/0/width", "/bodies/species/0/fraction"};
+  std::vector<RunRecord> runs;
+  for (double x : {0.0, 0.5, 1.0}) {
+    for (double w : {8.0, 12.0, 16.0, 20.0}) {
+      RunRecord r;
+      r.point_id = "W" + format_number(w) + "X" + format_number(x);
+      r.run_id = r.point_id;
+      r.state = "done";
+      r.point = {{"/silo/base_outlets/0/width", w}, {"/bodies/species/0/fraction", x}};
+      r.spec = spec_for(w);
+      r.run_dir = dir.path() / r.run_id;
+      write_run(r.run_dir, w, kC / (1.0 + x / 2.0) * std::pow(w - kK, 1.5), 600, r.run_id);
+      runs.push_back(r);
+    }
+  }
+  ReportOptions opt;
+  opt.out_dir = dir.path() / "report";
+  opt.figures = false;
+  write_report(info, runs, opt);
+  const std::string fits = read_file(opt.out_dir / "flow_rate_fits.csv");
+  EXPECT_NEAR(std::stod(csv_cell(fits, {"fraction=0.5", "beverloo_2d", ",C,"}, 3)), 0.64, 1e-3);
+  EXPECT_NEAR(std::stod(csv_cell(fits, {"fraction=1", "beverloo_2d", ",k,"}, 3)), kK, 1e-3);
+  // The parameter trend against the other axis: C(X) for X = 0, 0.5, 1.
+  const std::string trend = read_file(opt.out_dir / "fit_parameters_beverloo_2d-1.csv");
+  EXPECT_EQ(trend.substr(0, trend.find('\n')), "species.0.fraction,C,C_se,ci_low,ci_high");
+  EXPECT_NEAR(std::stod(csv_cell(trend, {"0.5,"}, 1)), 0.64, 1e-3);
+  EXPECT_EQ(std::count(trend.begin(), trend.end(), '\n'), 4);
+  if (const char* keep = std::getenv("GRANARY_REPORT_DEMO_DIR2")) {
+    opt.out_dir = keep;
+    opt.figures = true;
+    write_report(info, runs, opt);
+  }
 }
 
 TEST(ReportSpec, OptionsFromCampaignSpec) {
