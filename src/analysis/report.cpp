@@ -360,6 +360,7 @@ std::optional<Section> flow_section(const Context& c) {
   if (c.x_is_width) models = {beverloo_2d(), beverloo_free(), mankoc()};
   for (const auto& m : user_models(c)) models.push_back(m);
   int fitted_groups = 0;
+  for (std::size_t k = 0; k < f.series.size(); ++k) f.series[k].color = static_cast<int>(k);
   const std::vector<Series> data_series = f.series;
   std::map<std::string, Figure> model_figures;
   // The single other sweep axis (if any) against which fitted parameters are drawn.
@@ -430,6 +431,8 @@ std::optional<Section> flow_section(const Context& c) {
         }
       }
       Series curve;
+      for (std::size_t k = 0; k < data_series.size(); ++k)
+        if (data_series[k].label == (g.empty() ? std::string("Q") : g)) curve.color = static_cast<int>(k);
       curve.label = r.model_name + (g.empty() ? "" : " (" + g + ")");
       curve.columns = {"W", "Q_fit"};
       curve.style = Series::Style::kLines;

@@ -119,13 +119,13 @@ std::string gp_quote(const std::string& s) {
 
 std::string gnuplot_script(const Figure& f) {
   std::ostringstream s;
-  s << "set terminal svg size 760,460 font 'Helvetica,13' background rgb 'white'\n"
+  s << "set terminal svg size 800,540 font 'Helvetica,13' background rgb 'white'\n"
     << "set output " << gp_quote(f.name + ".svg") << "\n"
     << "set datafile separator ','\n"
     << "set title " << gp_quote(f.title) << " noenhanced\n"
     << "set xlabel " << gp_quote(f.xlabel) << " noenhanced\n"
     << "set ylabel " << gp_quote(f.ylabel) << " noenhanced\n"
-    << "set grid\nset key outside right top noenhanced\nset offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n";
+    << "set grid\nset key below noenhanced\nset offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n";
   if (f.logx) s << "set logscale x\n";
   if (f.logy) s << "set logscale y\n";
   // gnuplot refuses a degenerate range (one x or one y value): widen it explicitly.
@@ -163,6 +163,7 @@ std::string gnuplot_script(const Figure& f) {
       case Series::Style::kSteps: s << " with histeps lw 2"; break;
       case Series::Style::kPoints: s << " with points pt 7 ps 0.7"; break;
     }
+    if (se.color >= 0) s << " lc " << se.color + 1;
     s << " title " << gp_quote(se.label);
   }
   s << "\n";

@@ -26,6 +26,7 @@ struct Series {
   enum class Style { kPoints, kErrorBars, kLines, kLinesPoints, kSteps } style = Style::kPoints;
   // Columns plotted (0-based); err < 0: none (kErrorBars needs it).
   int x = 0, y = 1, err = -1;
+  int color = -1;                            // gnuplot line type (0-based); -1: next in turn
 };
 
 struct Figure {
