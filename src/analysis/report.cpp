@@ -479,8 +479,10 @@ std::optional<Section> flow_section(const Context& c) {
 std::optional<Section> profile_section(const Context& c) {
   Figure fy{"velocity_profile_vy", "Normalised vertical velocity across the outlet", "x/W",
             "v_y / max|v_y|", {}, false, false,
-            "Bodies with centre 0 <= y <= " + format_number(c.options->analysis.profile.band_high) +
-                " d above outlet 0, averaged over the steady-window frames and replicas"};
+            "Bodies with centre within " + format_number(c.options->analysis.profile.band_low) + ".." +
+                format_number(c.options->analysis.profile.band_high) +
+                " d of outlet 0's wall (x along the outlet, v_y normal to it), averaged over the steady-window "
+                "frames and replicas"};
   Figure fx{"velocity_profile_vx", "Normalised horizontal velocity across the outlet", "x/W", "v_x / max|v_x|",
             {}, false, false, ""};
   for (const Point& p : c.points) {
@@ -527,7 +529,8 @@ std::optional<Section> region_section(const Context& c) {
   if (!any) return std::nullopt;
   const RegionSize& size = c.options->analysis.region;
   Section s{"region", "Region above the outlet", {}};
-  s.blocks.push_back(Text{"Region " + size.label + ", centred on outlet 0 from the base up (pad " +
+  s.blocks.push_back(Text{"Region " + size.label + ", centred on outlet 0 and reaching from its wall into the "
+                          "silo (above a base outlet, beside a lateral one; pad " +
                           format_number(size.pad) + " d, height " + format_number(size.height) +
                           " d). Packing fraction: exact area of every disc inside the region (discs cut by the "
                           "edge count with their inside part) over the region area. Temperatures over the bodies "
@@ -544,6 +547,30 @@ std::optional<Section> region_section(const Context& c) {
                       format_mean_se(m.tg_full.mean, m.tg_full.se, m.tg_full.n)});
   }
   s.blocks.push_back(t);
+  // Several outlets: the same statistics next to each of them.
+  Table per_outlet{"region_per_outlet", "Region statistics next to every outlet: mean ± se over replicas (n)",
+                   {"point", "outlet", "phi", "T_g ch3 (g d)", "T_g ch4 (m g d)"}, {}};
+  for (const Point& p : c.points) {
+    std::size_t outlets = 0;
+    for (const AnalysedRun* a : p.runs) outlets = std::max(outlets, a->analysis.region_per_outlet.size());
+    if (outlets < 2) continue;
+    for (std::size_t o = 0; o < outlets; ++o) {
+      std::vector<double> phi, t1, t2;
+      std::string label;
+      for (const AnalysedRun* a : p.runs) {
+        if (o >= a->analysis.region_per_outlet.size()) continue;
+        const RegionStats& r = a->analysis.region_per_outlet[o];
+        phi.push_back(r.phi.mean);
+        t1.push_back(r.tg_translational.mean);
+        t2.push_back(r.tg_full.mean);
+        label = a->analysis.outlets[o].label;
+      }
+      const MeanSe mp = mean_se_finite(phi), m1 = mean_se_finite(t1), m2 = mean_se_finite(t2);
+      per_outlet.rows.push_back({point_name(c, p), label, format_mean_se(mp.mean, mp.se, mp.n),
+                                 format_mean_se(m1.mean, m1.se, m1.n), format_mean_se(m2.mean, m2.se, m2.n)});
+    }
+  }
+  if (!per_outlet.rows.empty()) s.blocks.push_back(per_outlet);
   if (has_x(c)) {
     s.blocks.push_back(Figure{"packing_fraction", "Packing fraction phi against " + c.x_label, c.x_label, "phi",
                               point_series(c, [](const Point& p) { return p.metrics.phi; }, "phi"), false, false, ""});

@@ -2,12 +2,15 @@
 #include "analysis/run_analysis.h"
 
 #include <cmath>
+#include <limits>
+#include <numbers>
 
 namespace granary::analysis {
 
 std::vector<OutletGeometry> outlets_of(const nlohmann::json& spec) {
   std::vector<OutletGeometry> out;
   const nlohmann::json silo = spec.is_object() ? spec.value("silo", nlohmann::json::object()) : nlohmann::json::object();
+  const double half_width = 0.5 * silo.value("width", 100.0);
   if (silo.contains("base_outlets") && silo.at("base_outlets").is_array()) {
     for (const auto& o : silo.at("base_outlets")) {
       OutletGeometry g;
@@ -24,7 +27,10 @@ std::vector<OutletGeometry> outlets_of(const nlohmann::json& spec) {
       g.base = false;
       g.width = o.value("width", 25.0);
       g.center = o.value("bottom", 3.5) + 0.5 * g.width;
-      g.label = "side " + std::to_string(out.size()) + " (" + o.value("wall", std::string("right")) + ")";
+      const std::string wall = o.value("wall", std::string("right"));
+      g.right_wall = wall != "left";
+      g.wall_x = g.right_wall ? half_width : -half_width;
+      g.label = "side " + std::to_string(out.size()) + " (" + wall + ")";
       out.push_back(g);
     }
   }
@@ -71,9 +77,37 @@ RunAnalysis analyse_events(const RunData& data, const AnalysisOptions& options) 
   return a;
 }
 
+void to_outlet_frame(const OutletGeometry& o, std::vector<Disc>& discs, std::vector<Body>& bodies) {
+  // (x, y) -> (u, n): base: u = x - c, n = y. Right wall: u = y - c, n = X_w - x (a rotation).
+  // Left wall: u = y - c, n = x - X_w (a reflection; omega changes sign, its squares do not).
+  auto map = [&](double& x, double& y, double& vx, double& vy, double& omega) {
+    if (o.base) {
+      x -= o.center;
+      return;
+    }
+    const double u = y - o.center, vu = vy;
+    if (o.right_wall) {
+      y = o.wall_x - x;
+      vy = -vx;
+    } else {
+      y = x - o.wall_x;
+      vy = vx;
+      omega = -omega;
+    }
+    x = u;
+    vx = vu;
+  };
+  for (Disc& d : discs) map(d.x, d.y, d.vx, d.vy, d.omega);
+  for (Body& b : bodies) {
+    map(b.x, b.y, b.vx, b.vy, b.omega);
+    if (!o.base) b.theta = std::remainder(o.right_wall ? b.theta - 0.5 * std::numbers::pi
+                                                        : 0.5 * std::numbers::pi - b.theta,
+                                          2.0 * std::numbers::pi);
+  }
+}
+
 void analyse_frames(const RunData& data, const AnalysisOptions& options, RunAnalysis& a) {
-  if (!options.read_frames || !data.has_frames || a.outlets.empty() || !a.outlets.front().base) return;
-  const OutletGeometry& outlet = a.outlets.front();
+  if (!options.read_frames || !data.has_frames || a.outlets.empty()) return;
   double t0 = options.window.start_time;
   double t1 = std::numeric_limits<double>::infinity();
   if (a.flow.ok) {
@@ -83,8 +117,13 @@ void analyse_frames(const RunData& data, const AnalysisOptions& options, RunAnal
   double density = 1.0;
   if (data.spec.is_object() && data.spec.contains("bodies")) density = data.spec.at("bodies").value("density", 1.0);
   FrameReader reader(data.frames_file(), density);
-  RegionAccumulator region(region_above_outlet(outlet.center, outlet.width, options.region));
-  VelocityProfileAccumulator profile(outlet.center, outlet.width, options.profile);
+  std::vector<RegionAccumulator> regions;
+  std::vector<VelocityProfileAccumulator> profiles;
+  for (const OutletGeometry& o : a.outlets) {
+    // In outlet coordinates every outlet is centred at 0 on the line y = 0.
+    regions.emplace_back(region_above_outlet(0.0, o.width, options.region));
+    profiles.emplace_back(0.0, o.width, options.profile);
+  }
   Frame frame;
   int seen = 0, used = 0;
   while (reader.next(frame)) {
@@ -92,8 +131,13 @@ void analyse_frames(const RunData& data, const AnalysisOptions& options, RunAnal
     if (frame.time < t0) continue;
     if (seen++ % std::max(1, options.frame_stride) != 0) continue;
     const std::vector<Body> bodies = bodies_of(frame.discs);
-    region.add(frame.discs, bodies);
-    profile.add(bodies);
+    for (std::size_t k = 0; k < a.outlets.size(); ++k) {
+      std::vector<Disc> d = frame.discs;
+      std::vector<Body> b = bodies;
+      to_outlet_frame(a.outlets[k], d, b);
+      regions[k].add(d, b);
+      profiles[k].add(b);
+    }
     ++used;
     if (options.max_frames > 0 && used >= options.max_frames) break;
   }
@@ -101,10 +145,14 @@ void analyse_frames(const RunData& data, const AnalysisOptions& options, RunAnal
     a.notes.push_back("frames: none inside the window t = " + std::to_string(t0) + " .. " + std::to_string(t1));
     return;
   }
+  for (std::size_t k = 0; k < a.outlets.size(); ++k) {
+    a.region_per_outlet.push_back(regions[k].result());
+    a.profile_per_outlet.push_back(profiles[k].result());
+  }
   a.has_region = true;
-  a.region = region.result();
+  a.region = a.region_per_outlet.front();
   a.has_profile = true;
-  a.profile = profile.result();
+  a.profile = a.profile_per_outlet.front();
 }
 
 RunAnalysis analyse_run(const std::filesystem::path& dir, const AnalysisOptions& options) {

@@ -30,11 +30,19 @@ struct OutletGeometry {
   bool base = true;                   // base outlet (x centre, width) or side outlet
   double center = 0.0;                // base: x of the centre; side: y of the centre
   double width = 10.0;
-  std::string label;                  // "base 0", "side 0 (right)"
+  bool right_wall = true;             // side outlets: in the right (x = +silo/2) or left wall
+  double wall_x = 50.0;               // side outlets: x of that wall
+  std::string label;                  // "base 0", "side 1 (right)"
 };
 // Outlets of a resolved run spec in event order: base outlets, then side outlets. Missing
-// keys take the run-spec defaults (one base outlet of width 10 at x = 0).
+// keys take the run-spec defaults (one base outlet of width 10 at x = 0, silo width 100).
 std::vector<OutletGeometry> outlets_of(const nlohmann::json& spec);
+
+// Positions and velocities in the outlet's own frame, so that one region / profile code
+// serves base and lateral outlets (ch. 5a): x = along the outlet from its centre, y = distance
+// from the outlet's wall into the silo, v likewise (outflow has v_y < 0). The map is a rigid
+// rotation or reflection, so packing fractions and temperatures are unchanged by it.
+void to_outlet_frame(const OutletGeometry& outlet, std::vector<Disc>& discs, std::vector<Body>& bodies);
 
 struct RunAnalysis {
   std::string run_id;
@@ -52,15 +60,18 @@ struct RunAnalysis {
   ClogSeries series;                  // all outlets together (avalanches)
   std::vector<ClogSeries> series_per_outlet;  // t_f, t_c per outlet
   bool has_region = false;
-  RegionStats region;                 // above base outlet 0
+  RegionStats region;                 // next to outlet 0 (= region_per_outlet[0])
   bool has_profile = false;
-  VelocityProfile profile;            // across base outlet 0
+  VelocityProfile profile;            // across outlet 0 (= profile_per_outlet[0])
+  std::vector<RegionStats> region_per_outlet;     // in outlet coordinates (to_outlet_frame)
+  std::vector<VelocityProfile> profile_per_outlet;
   std::vector<std::string> notes;
 };
 
 // Everything that needs only summary.json, run.json and events.csv. Pure.
 RunAnalysis analyse_events(const RunData& data, const AnalysisOptions& options);
-// Streams frames.dump (if present and options.read_frames) and fills region and profile.
+// Streams frames.dump (if present and options.read_frames) and fills the region statistics
+// and velocity profiles of every outlet.
 // Frames inside the flow window are used (all frames after window.start_time if the flow
 // window is not defined). Throws ReadError on a malformed dump.
 void analyse_frames(const RunData& data, const AnalysisOptions& options, RunAnalysis& analysis);
