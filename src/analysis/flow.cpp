@@ -96,11 +96,23 @@ FlowRate flow_rate(const FlowInput& in, const FlowWindowRule& rule) {
   q.n_events = static_cast<int>(t.size());
   const LineFit fc = fit_line(t, count);
   q.q_count = fc.slope;
-  q.q_count_se = fc.slope_se;
-  if (have_mass) {
-    const LineFit fm = fit_line(t, mass);
-    q.q_mass = fm.slope;
-    q.q_mass_se = fm.slope_se;
+  q.q_count_se_ols = fc.slope_se;
+  if (have_mass) q.q_mass = fit_line(t, mass).slope;
+  // Batch means over equal time slices of the window.
+  const int batches = std::min(10, q.n_events / 5);
+  const double span = q.t_end - q.t_start;
+  if (batches >= 2 && span > 0.0) {
+    q.batches = batches;
+    std::vector<double> n_rate(static_cast<std::size_t>(batches), 0.0), m_rate = n_rate;
+    const double width = span / batches;
+    for (std::size_t i = w.first; i <= w.last; ++i) {
+      auto b = static_cast<std::size_t>((w.times[i] - q.t_start) / width);
+      b = std::min(b, n_rate.size() - 1);
+      n_rate[b] += 1.0 / width;
+      m_rate[b] += w.masses[i] / width;
+    }
+    q.q_count_se = mean_se(n_rate).se;
+    if (have_mass) q.q_mass_se = mean_se(m_rate).se;
   }
   q.ok = std::isfinite(q.q_count);
   if (!q.ok) q.note = "all exits of the window at one time";

@@ -43,13 +43,17 @@ struct FlowRate {
   std::string note;                 // why not ok, or what limited the window
   double t_start = kNaN, t_end = kNaN;
   int n_events = 0;
-  double q_count = kNaN, q_count_se = kNaN;  // bodies per sqrt(d/g)
+  double q_count = kNaN, q_count_se = kNaN;  // bodies per sqrt(d/g); se by batch means
   double q_mass = kNaN, q_mass_se = kNaN;    // mass per sqrt(d/g) (NaN without masses)
+  double q_count_se_ols = kNaN;              // OLS error of the slope (optimistic, see below)
+  int batches = 0;
 };
 
 // Q = slope of the least-squares line through the cumulative count (mass) against time over
-// the window. The se is the OLS standard error of the slope; cumulative counts are
-// correlated, so it understates the scatter between replicas (the report shows both).
+// the window. Cumulative counts are strongly correlated, so the OLS error of the slope
+// understates the uncertainty badly; the se reported is by batch means instead: the window
+// is cut into B = min(10, n/5) equal time batches, the rate of each is count (mass) / length,
+// and se = sd(rates) / sqrt(B) (NaN when B < 2). For a Poisson stream this is ~sqrt(Q/T).
 FlowRate flow_rate(const FlowInput& input, const FlowWindowRule& rule);
 
 // The window alone, as indices [first, last] into the events of the outlet (all outlets if -1).

@@ -287,7 +287,7 @@ std::optional<Section> per_run_section(const Context& c) {
   if (c.used.empty()) return std::nullopt;
   Section s{"per-run", "Per-run results", {}};
   Table t{"per_run",
-          "Every used run (Q by least squares over the steady window; se is the OLS error of the slope)",
+          "Every used run (Q by least squares over the steady window; se by batch means)",
           {"run", "point", "replica", "engine", "end", "bodies", "exited", "t_end", "window t", "Q (bodies/t)", "Q se",
            "Q_mass (mass/t)", "phi", "T_g ch3", "T_g ch4", "notes"},
           {}};
