@@ -172,7 +172,10 @@ FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<
   r.dof = static_cast<int>(n - p);
 
   std::unique_ptr<gsl_matrix, MatrixDeleter> covar(gsl_matrix_alloc(p, p));
-  const int cov_status = gsl_multifit_nlinear_covar(gsl_multifit_nlinear_jac(w.get()), 0.0, covar.get());
+  // epsrel > 0: a parameter the data do not determine (a Jacobian column ~ 0, e.g. Mankoc's b
+  // when exp(-b (x - 1)) vanishes at every x) gets a zero row instead of a meaningless number.
+  constexpr double kCovarEpsRel = 1e-10;
+  const int cov_status = gsl_multifit_nlinear_covar(gsl_multifit_nlinear_jac(w.get()), kCovarEpsRel, covar.get());
   gsl_set_error_handler(old_handler);
   if (r.gsl_status == GSL_SUCCESS && cov_status != GSL_SUCCESS) {
     r.gsl_status = cov_status;
@@ -184,7 +187,12 @@ FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<
   for (std::size_t i = 0; i < p; ++i) {
     auto& fp = r.parameters[i];
     fp.value = gsl_vector_get(best, i);
-    fp.se = std::sqrt(gsl_matrix_get(covar.get(), i, i) * scale);
+    const double variance = gsl_matrix_get(covar.get(), i, i);
+    if (!(variance > 0.0)) {
+      r.warning += (r.warning.empty() ? "" : "; ") + fp.name + " not determined by the data";
+      continue;  // se and the interval stay NaN
+    }
+    fp.se = std::sqrt(variance * scale);
     fp.ci_low = fp.value - t * fp.se;
     fp.ci_high = fp.value + t * fp.se;
   }

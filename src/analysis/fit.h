@@ -47,6 +47,7 @@ struct FitResult {
   int gsl_status = -1;                  // GSL_SUCCESS (0) or the GSL error code
   std::string status;                   // gsl_strerror(gsl_status) or why the fit was not tried
   std::string convergence;              // "small step", "small gradient", ... (GSL info)
+  std::string warning;                  // e.g. "b not determined by the data" (se = NaN)
   bool ok() const { return gsl_status == 0; }
   const FitParameter* parameter(const std::string& name) const;
   double evaluate(double x_value) const;  // the fitted model at x (NaN if it cannot be evaluated)

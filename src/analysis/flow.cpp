@@ -97,6 +97,7 @@ FlowRate flow_rate(const FlowInput& in, const FlowWindowRule& rule) {
   const LineFit fc = fit_line(t, count);
   q.q_count = fc.slope;
   q.q_count_se_ols = fc.slope_se;
+  q.count_intercept = fc.intercept;
   if (have_mass) q.q_mass = fit_line(t, mass).slope;
   // Batch means over equal time slices of the window.
   const int batches = std::min(10, q.n_events / 5);

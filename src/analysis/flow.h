@@ -46,6 +46,7 @@ struct FlowRate {
   double q_count = kNaN, q_count_se = kNaN;  // bodies per sqrt(d/g); se by batch means
   double q_mass = kNaN, q_mass_se = kNaN;    // mass per sqrt(d/g) (NaN without masses)
   double q_count_se_ols = kNaN;              // OLS error of the slope (optimistic, see below)
+  double count_intercept = kNaN;             // the line: cumulative count = intercept + q_count t
   int batches = 0;
 };
 

@@ -306,6 +306,38 @@ std::optional<Section> per_run_section(const Context& c) {
     }
   }
   s.blocks.push_back(t);
+  // Diagnostic: the exit streams and the fitted lines over their windows (first replica of
+  // up to 8 points), so that a reader can judge the window rule.
+  Figure cum{"cumulative_exits", "Cumulative exits against time", "t (sqrt(d/g))", "exits (all outlets)", {}, false,
+             false, "Curves: the exit streams; dots: the least-squares line over each run's steady window. First replica of up to "
+             "8 points"};
+  int shown = 0;
+  for (const Point& p : c.points) {
+    if (p.runs.empty() || shown >= 8) continue;
+    const RunAnalysis& r = p.runs.front()->analysis;
+    if (r.cumulative_t.empty()) continue;
+    Series data;
+    data.label = point_name(c, p);
+    data.columns = {"t", "exits"};
+    data.style = Series::Style::kLines;
+    data.color = shown;
+    for (std::size_t i = 0; i < r.cumulative_t.size(); ++i) data.rows.push_back({r.cumulative_t[i], r.cumulative_n[i]});
+    cum.series.push_back(data);
+    if (r.flow.ok) {
+      Series line;
+      line.label = "fit, " + data.label;
+      line.columns = {"t", "exits_fit"};
+      line.style = Series::Style::kPoints;
+      line.color = shown;
+      for (int i = 0; i <= 10; ++i) {
+        const double tv = r.flow.t_start + (r.flow.t_end - r.flow.t_start) * i / 10.0;
+        line.rows.push_back({tv, r.flow.count_intercept + r.flow.q_count * tv});
+      }
+      cum.series.push_back(line);
+    }
+    ++shown;
+  }
+  if (!cum.series.empty()) s.blocks.push_back(cum);
   const FlowWindowRule& w = c.options->analysis.window;
   s.blocks.push_back(Text{
       "Steady window: exits before t = " + format_number(w.start_time) + " and the first " +
@@ -402,7 +434,8 @@ std::optional<Section> flow_section(const Context& c) {
                              format_number(par.se, 2),
                              std::string("[") + format_number(par.ci_low) + ", " + format_number(par.ci_high) + "]",
                              r.dof > 0 ? format_number(r.chi2 / r.dof, 3) : "", std::to_string(x.size()), weighted,
-                             r.status + (r.ok() ? " (" + r.convergence + ", " + std::to_string(r.iterations) + " it.)" : "")});
+                             r.status + (r.ok() ? " (" + r.convergence + ", " + std::to_string(r.iterations) + " it.)" : "") +
+                                 (r.warning.empty() ? "" : "; " + r.warning)});
       for (std::size_t i = 0; i < r.x.size(); ++i)
         residuals.rows.push_back({g, r.model_name, format_number(r.x[i], 6), format_number(r.y[i]),
                                   format_number(r.fitted[i]), format_number(r.residuals[i], 3)});
@@ -654,6 +687,7 @@ std::optional<Section> avalanche_section(const Context& c) {
           {"point", "<s> ± se (avalanches)", "tail from s", "s_decay", "s_decay se", "tail n"}, {}};
   Figure dist{"avalanche_distribution", "Avalanche size distribution", "s (bodies)", "probability density", {}, false,
               true, "Pooled over replicas"};
+  int colour = 0;
   for (const Point& p : c.points) {
     std::vector<double> sizes;
     for (const AnalysedRun* a : p.runs)
@@ -669,7 +703,23 @@ std::optional<Section> avalanche_section(const Context& c) {
     se.style = Series::Style::kPoints;
     for (std::size_t i = 0; i < st.histogram.counts.size(); ++i)
       if (st.histogram.counts[i] > 0) se.rows.push_back({st.histogram.center(i), st.histogram.density(i), st.histogram.counts[i]});
+    se.color = colour;
     dist.series.push_back(se);
+    // The fitted tail drawn on the same density scale: (n_tail / n) (1 - q) q^(s - s_min).
+    if (std::isfinite(st.tail.q) && st.size.n > 0) {
+      Series tail;
+      tail.label = "tail fit, " + point_name(c, p);
+      tail.columns = {"s", "density_fit"};
+      tail.style = Series::Style::kLines;
+      tail.color = colour;
+      const double norm = static_cast<double>(st.tail.n_tail) / st.size.n * (1.0 - st.tail.q);
+      for (std::size_t i = 0; i < st.histogram.counts.size(); ++i) {
+        const double sv = st.histogram.center(i);
+        if (sv >= st.tail.s_min) tail.rows.push_back({sv, norm * std::pow(st.tail.q, sv - st.tail.s_min)});
+      }
+      if (!tail.rows.empty()) dist.series.push_back(tail);
+    }
+    ++colour;
   }
   s.blocks.push_back(t);
   if (has_x(c))

@@ -231,9 +231,10 @@ std::string md_cell(const std::string& s) {
 const char* kCss =
     "body{font-family:Helvetica,Arial,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}"
     "h1{border-bottom:2px solid #446}h2{border-bottom:1px solid #ccd;margin-top:2em}"
-    "table{border-collapse:collapse;margin:1em 0;font-size:0.9em}"
-    "th,td{border:1px solid #ccd;padding:3px 8px;text-align:right}th{background:#eef}"
-    "td.t{text-align:left}caption{text-align:left;font-weight:bold;padding:4px 0}"
+    "table{border-collapse:collapse;margin:1em 0;font-size:0.9em;display:block;overflow-x:auto;max-width:100%}"
+    "th,td{border:1px solid #ccd;padding:3px 8px;text-align:right;white-space:nowrap}th{background:#eef}"
+    "td.t{text-align:left;white-space:normal;min-width:9em;max-width:32em}"
+    "caption{text-align:left;font-weight:bold;padding:4px 0}"
     "figure{margin:1em 0}figcaption{font-size:0.9em;color:#444}code{background:#f4f4f8;padding:0 3px}"
     ".csv{font-size:0.8em;color:#666}nav a{margin-right:1em}svg{max-width:100%;height:auto}";
 

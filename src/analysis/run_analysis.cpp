@@ -59,6 +59,16 @@ RunAnalysis analyse_events(const RunData& data, const AnalysisOptions& options) 
   a.clog_gap = options.clog_gap >= 0.0 ? options.clog_gap : discharge.value("clog_window", 5.0);
   a.outlets = outlets_of(spec);
 
+  const std::size_t n_events = data.events.size();
+  const std::size_t stride = std::max<std::size_t>(1, n_events / 200);
+  for (std::size_t i = 0; i < n_events; i += stride) {
+    a.cumulative_t.push_back(data.events[i].time);
+    a.cumulative_n.push_back(static_cast<double>(i + 1));
+  }
+  if (n_events > 0 && (n_events - 1) % stride != 0) {
+    a.cumulative_t.push_back(data.events.back().time);
+    a.cumulative_n.push_back(static_cast<double>(n_events));
+  }
   FlowInput in{data.events, a.remove_mode, a.bodies, a.clog_gap, -1};
   a.flow = flow_rate(in, options.window);
   const bool ended_clogged = a.end_reason == "clogged";

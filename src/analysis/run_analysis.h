@@ -65,6 +65,7 @@ struct RunAnalysis {
   VelocityProfile profile;            // across outlet 0 (= profile_per_outlet[0])
   std::vector<RegionStats> region_per_outlet;     // in outlet coordinates (to_outlet_frame)
   std::vector<VelocityProfile> profile_per_outlet;
+  std::vector<double> cumulative_t, cumulative_n;  // cumulative exits (all outlets), thinned to <= 201 samples
   std::vector<std::string> notes;
 };
 

@@ -84,6 +84,23 @@ TEST(Fit, UserModelUnweighted) {
   EXPECT_NEAR(r.evaluate(10.0), std::exp(-r.parameter("a")->value * std::pow(10.0, r.parameter("c")->value)), 1e-12);
 }
 
+TEST(Fit, UndeterminedParameterHasNoError) {
+  // y does not depend on b where the data are (exp(-b x) ~ 0 for x >= 6 once b is large):
+  // b must come back without a standard error and with a warning, not with se = 0.
+  std::vector<double> x, y;
+  for (double w = 6; w <= 20; w += 2) {
+    x.push_back(w);
+    y.push_back(2.0 * w + 0.01 * std::sin(w));
+  }
+  FitModel m{"flat_b", "a * x + exp(-b * x)", "x", {{"a", 1.0}, {"b", 50.0}}};
+  const FitResult r = fit_model(m, x, y);
+  ASSERT_TRUE(r.ok()) << r.status;
+  EXPECT_NEAR(r.parameter("a")->value, 2.0, 1e-3);
+  EXPECT_GT(r.parameter("a")->se, 0.0);
+  EXPECT_TRUE(std::isnan(r.parameter("b")->se));
+  EXPECT_EQ(r.warning, "b not determined by the data");
+}
+
 TEST(Fit, TooFewPointsIsReportedNotFitted) {
   const std::vector<double> x = {10, 12};
   const std::vector<double> y = {20, 30};
