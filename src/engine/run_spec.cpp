@@ -1,0 +1,609 @@
+// Parsing, validation and canonical serialisation of the resolved run spec (run_spec.h).
+// Every error is a SpecError naming the JSON Pointer of the offending value, the value and
+// what is allowed, so a user can fix a campaign without reading code (style.md 8.3 item 8).
+// Keys, defaults and allowed values are documented in docs/run-spec.md.
+#include "engine/run_spec.h"
+
+// GCC 12 reports a false -Warray-bounds inside nlohmann::json's object construction when
+// JSON_DIAGNOSTICS is on (also seen in src/analysis); it is not a bug in this file.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Warray-bounds"
+#endif
+
+#include <algorithm>
+#include <cmath>
+#include <initializer_list>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
+#include <utility>
+
+namespace granary {
+
+using nlohmann::json;
+
+SpecError::SpecError(std::string path, std::string message)
+    : std::runtime_error(path + ": " + message), path_(std::move(path)), message_(std::move(message)) {}
+
+namespace {
+
+// Levenshtein distance for "did you mean" suggestions.
+std::size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diag = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0u : 1u)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string EscapePointerToken(const std::string& token) {
+  std::string out;
+  for (char c : token) {
+    if (c == '~') out += "~0";
+    else if (c == '/') out += "~1";
+    else out += c;
+  }
+  return out;
+}
+
+// A value as it appears in JSON, for messages ("got -3", "got \"abc\"").
+std::string Shown(const json& v) { return v.dump(); }
+std::string Shown(double v) { return json(v).dump(); }
+
+std::string TypeName(const json& v) {
+  if (v.is_number()) return "number";
+  return v.type_name();
+}
+
+std::string Quoted(const std::vector<std::string>& names) {
+  std::string out;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (i) out += ", ";
+    out += "\"" + names[i] + "\"";
+  }
+  return out;
+}
+
+std::string UnknownKeyMessage(const std::string& key, const std::vector<std::string>& allowed) {
+  std::string best;
+  std::size_t best_d = std::numeric_limits<std::size_t>::max();
+  for (const auto& a : allowed) {
+    const std::size_t d = EditDistance(key, a);
+    if (d < best_d) {
+      best_d = d;
+      best = a;
+    }
+  }
+  // A suggestion further than this is noise; list the allowed keys instead.
+  if (!best.empty() && best_d <= std::max<std::size_t>(2, best.size() / 3)) {
+    return "unknown key; did you mean \"" + best + "\"?";
+  }
+  return "unknown key; allowed: " + Quoted(allowed);
+}
+
+// A JSON object being read: checks for unknown keys up front and hands out typed values
+// with their JSON Pointer for error messages.
+class Reader {
+ public:
+  Reader(const json& j, std::string path, std::vector<std::string> keys)
+      : j_(j), path_(std::move(path)) {
+    if (!j.is_object()) {
+      throw SpecError(path_.empty() ? "/" : path_, "must be an object (got " + TypeName(j) + ")");
+    }
+    for (const auto& [key, value] : j.items()) {
+      if (std::find(keys.begin(), keys.end(), key) == keys.end()) {
+        throw SpecError(Path(key), UnknownKeyMessage(key, keys));
+      }
+    }
+  }
+
+  std::string Path(const std::string& key) const { return path_ + "/" + EscapePointerToken(key); }
+  bool Has(const std::string& key) const { return j_.contains(key); }
+  const json& At(const std::string& key) const { return j_.at(key); }
+
+  void Number(const std::string& key, double& out) const {
+    if (!Has(key)) return;
+    const json& v = j_.at(key);
+    if (!v.is_number()) throw SpecError(Path(key), "must be a number (got " + Shown(v) + ")");
+    out = v.get<double>();
+    if (!std::isfinite(out)) throw SpecError(Path(key), "must be finite (got " + Shown(v) + ")");
+  }
+  void Integer(const std::string& key, int& out) const {
+    if (!Has(key)) return;
+    const json& v = j_.at(key);
+    if (!v.is_number_integer() || v.get<std::int64_t>() > std::numeric_limits<int>::max() ||
+        v.get<std::int64_t>() < std::numeric_limits<int>::min()) {
+      throw SpecError(Path(key), "must be an integer (got " + Shown(v) + ")");
+    }
+    out = v.get<int>();
+  }
+  void Unsigned(const std::string& key, std::uint64_t& out) const {
+    if (!Has(key)) return;
+    const json& v = j_.at(key);
+    if (!v.is_number_unsigned()) {
+      throw SpecError(Path(key), "must be a non-negative integer (got " + Shown(v) + ")");
+    }
+    out = v.get<std::uint64_t>();
+  }
+  void Bool(const std::string& key, bool& out) const {
+    if (!Has(key)) return;
+    const json& v = j_.at(key);
+    if (!v.is_boolean()) throw SpecError(Path(key), "must be true or false (got " + Shown(v) + ")");
+    out = v.get<bool>();
+  }
+  void String(const std::string& key, std::string& out) const {
+    if (!Has(key)) return;
+    const json& v = j_.at(key);
+    if (!v.is_string()) throw SpecError(Path(key), "must be a string (got " + Shown(v) + ")");
+    out = v.get<std::string>();
+  }
+  template <typename E>
+  void Enum(const std::string& key, E& out, std::initializer_list<std::pair<const char*, E>> table) const {
+    if (!Has(key)) return;
+    const json& v = j_.at(key);
+    std::vector<std::string> names;
+    for (const auto& [name, value] : table) names.push_back(name);
+    if (v.is_string()) {
+      for (const auto& [name, value] : table) {
+        if (v.get<std::string>() == name) {
+          out = value;
+          return;
+        }
+      }
+    }
+    throw SpecError(Path(key), "must be one of " + Quoted(names) + " (got " + Shown(v) + ")");
+  }
+  const json& Array(const std::string& key) const {
+    const json& v = j_.at(key);
+    if (!v.is_array()) throw SpecError(Path(key), "must be an array (got " + TypeName(v) + ")");
+    return v;
+  }
+
+ private:
+  const json& j_;
+  std::string path_;
+};
+
+constexpr std::initializer_list<std::pair<const char*, Shape>> kShapes = {
+    {"disc", Shape::kDisc}, {"dumbbell", Shape::kDumbbell}, {"snowman", Shape::kSnowman}, {"rod", Shape::kRod}};
+constexpr std::initializer_list<std::pair<const char*, DischargeMode>> kModes = {
+    {"remove", DischargeMode::kRemove}, {"reinject", DischargeMode::kReinject}};
+constexpr std::initializer_list<std::pair<const char*, TangentialCap>> kCaps = {
+    {"lammps", TangentialCap::kLammps}, {"liggghts", TangentialCap::kLiggghts}};
+constexpr std::initializer_list<std::pair<const char*, Wall>> kWalls = {{"left", Wall::kLeft},
+                                                                        {"right", Wall::kRight}};
+
+std::string DefaultSpeciesName(const Species& s) {
+  if (s.shape == Shape::kRod) return "rod" + std::to_string(s.n);
+  return to_string(s.shape);
+}
+
+Species ParseSpecies(const json& j, const std::string& path) {
+  Reader r(j, path, {"name", "shape", "fraction", "diameter", "big_diameter", "n"});
+  Species s;
+  r.Enum("shape", s.shape, kShapes);
+  r.Number("fraction", s.fraction);
+  r.Number("diameter", s.diameter);
+  r.Number("big_diameter", s.big_diameter);
+  r.Integer("n", s.n);
+  s.name = DefaultSpeciesName(s);
+  r.String("name", s.name);
+  return s;
+}
+
+void ParseBodies(const Reader& parent, Bodies& b) {
+  if (!parent.Has("bodies")) {
+    b.species = {Species{}};
+    b.species[0].name = DefaultSpeciesName(b.species[0]);
+    return;
+  }
+  const std::string path = parent.Path("bodies");
+  Reader r(parent.At("bodies"), path, {"count", "species", "density"});
+  r.Integer("count", b.count);
+  r.Number("density", b.density);
+  if (r.Has("species")) {
+    const json& arr = r.Array("species");
+    for (std::size_t i = 0; i < arr.size(); ++i) {
+      b.species.push_back(ParseSpecies(arr[i], r.Path("species") + "/" + std::to_string(i)));
+    }
+  } else {
+    b.species = {Species{}};
+    b.species[0].name = DefaultSpeciesName(b.species[0]);
+  }
+}
+
+void ParseSilo(const Reader& parent, Silo& s) {
+  bool outlets_given = false;
+  if (parent.Has("silo")) {
+    Reader r(parent.At("silo"), parent.Path("silo"),
+             {"width", "height", "base_outlets", "side_outlets", "obstacles"});
+    r.Number("width", s.width);
+    r.Number("height", s.height);
+    if (r.Has("base_outlets")) {
+      outlets_given = true;
+      const json& arr = r.Array("base_outlets");
+      for (std::size_t i = 0; i < arr.size(); ++i) {
+        Reader o(arr[i], r.Path("base_outlets") + "/" + std::to_string(i), {"center", "width"});
+        BaseOutlet out;
+        o.Number("center", out.center);
+        o.Number("width", out.width);
+        s.base_outlets.push_back(out);
+      }
+    }
+    if (r.Has("side_outlets")) {
+      const json& arr = r.Array("side_outlets");
+      for (std::size_t i = 0; i < arr.size(); ++i) {
+        Reader o(arr[i], r.Path("side_outlets") + "/" + std::to_string(i), {"wall", "bottom", "width"});
+        SideOutlet out;
+        o.Enum("wall", out.wall, kWalls);
+        o.Number("bottom", out.bottom);
+        o.Number("width", out.width);
+        s.side_outlets.push_back(out);
+      }
+    }
+    if (r.Has("obstacles")) {
+      const json& arr = r.Array("obstacles");
+      for (std::size_t i = 0; i < arr.size(); ++i) {
+        Reader o(arr[i], r.Path("obstacles") + "/" + std::to_string(i), {"x", "y", "diameter"});
+        Obstacle ob;
+        o.Number("x", ob.x);
+        o.Number("y", ob.y);
+        o.Number("diameter", ob.diameter);
+        s.obstacles.push_back(ob);
+      }
+    }
+  }
+  if (!outlets_given) s.base_outlets = {BaseOutlet{}};
+}
+
+// Largest extent of one body (its length along its axis), in units of d.
+double BodyLength(const Species& s) {
+  switch (s.shape) {
+    case Shape::kDisc: return s.diameter;
+    case Shape::kDumbbell: return 2.0 * s.diameter;
+    case Shape::kSnowman: return s.diameter + s.big_diameter;
+    case Shape::kRod: return s.n * s.diameter;
+  }
+  return s.diameter;
+}
+
+// Area of one body's discs (overlaps of touching discs are zero: they touch, physics.md).
+double BodyArea(const Species& s) {
+  const double a = std::numbers::pi * s.diameter * s.diameter / 4.0;
+  switch (s.shape) {
+    case Shape::kDisc: return a;
+    case Shape::kDumbbell: return 2.0 * a;
+    case Shape::kSnowman: return a + std::numbers::pi * s.big_diameter * s.big_diameter / 4.0;
+    case Shape::kRod: return s.n * a;
+  }
+  return a;
+}
+
+void Positive(double v, const std::string& path) {
+  if (!(v > 0)) throw SpecError(path, "must be > 0 (got " + Shown(v) + ")");
+}
+void NonNegative(double v, const std::string& path) {
+  if (!(v >= 0)) throw SpecError(path, "must be >= 0 (got " + Shown(v) + ")");
+}
+
+}  // namespace
+
+std::string to_string(Shape shape) {
+  for (const auto& [name, value] : kShapes) {
+    if (value == shape) return name;
+  }
+  return "?";
+}
+std::string to_string(DischargeMode mode) {
+  for (const auto& [name, value] : kModes) {
+    if (value == mode) return name;
+  }
+  return "?";
+}
+std::string to_string(TangentialCap cap) {
+  for (const auto& [name, value] : kCaps) {
+    if (value == cap) return name;
+  }
+  return "?";
+}
+
+RunSpec RunSpec::from_json(const json& j) {
+  Reader r(j, "", {"run_id", "seed", "engine", "time_step", "gravity", "silo", "bodies", "contact", "bed",
+                   "discharge", "output"});
+  RunSpec s;
+  r.String("run_id", s.run_id);
+  r.Unsigned("seed", s.seed);
+  if (r.Has("engine")) {
+    const json& v = r.At("engine");
+    if (!v.is_string() || (v != "native" && v != "liggghts")) {
+      throw SpecError("/engine", "must be one of \"native\", \"liggghts\" (got " + Shown(v) + ")");
+    }
+    s.engine = v.get<std::string>();
+  }
+  r.Number("time_step", s.time_step);
+  r.Number("gravity", s.gravity);
+  ParseSilo(r, s.silo);
+  ParseBodies(r, s.bodies);
+  if (r.Has("contact")) {
+    Reader c(r.At("contact"), "/contact",
+             {"kn", "kt", "gamma_n", "gamma_t", "mu", "mu_wall", "tangential_cap", "clip_normal"});
+    c.Number("kn", s.contact.kn);
+    c.Number("kt", s.contact.kt);
+    c.Number("gamma_n", s.contact.gamma_n);
+    c.Number("gamma_t", s.contact.gamma_t);
+    c.Number("mu", s.contact.mu);
+    s.contact.mu_wall = s.contact.mu;  // physics.md: wall friction defaults to mu
+    c.Number("mu_wall", s.contact.mu_wall);
+    c.Enum("tangential_cap", s.contact.tangential_cap, kCaps);
+    c.Bool("clip_normal", s.contact.clip_normal);
+  }
+  if (r.Has("bed")) {
+    Reader b(r.At("bed"), "/bed", {"batch_size", "settle_ke_per_body", "max_settle_time", "cache_file"});
+    b.Integer("batch_size", s.bed.batch_size);
+    b.Number("settle_ke_per_body", s.bed.settle_ke_per_body);
+    b.Number("max_settle_time", s.bed.max_settle_time);
+    b.String("cache_file", s.bed.cache_file);
+  }
+  if (r.Has("discharge")) {
+    Reader d(r.At("discharge"), "/discharge",
+             {"mode", "max_time", "stop_on_clog", "clog_window", "clog_ke_per_body", "reinject_speed",
+              "exit_distance"});
+    d.Enum("mode", s.discharge.mode, kModes);
+    d.Number("max_time", s.discharge.max_time);
+    d.Bool("stop_on_clog", s.discharge.stop_on_clog);
+    d.Number("clog_window", s.discharge.clog_window);
+    d.Number("clog_ke_per_body", s.discharge.clog_ke_per_body);
+    d.Number("reinject_speed", s.discharge.reinject_speed);
+    d.Number("exit_distance", s.discharge.exit_distance);
+  }
+  if (r.Has("output")) {
+    Reader o(r.At("output"), "/output", {"frame_interval", "contact_forces", "checkpoint_interval"});
+    o.Number("frame_interval", s.output.frame_interval);
+    o.Bool("contact_forces", s.output.contact_forces);
+    o.Number("checkpoint_interval", s.output.checkpoint_interval);
+  }
+  validate(s);
+  return s;
+}
+
+void validate(const RunSpec& s) {
+  Positive(s.time_step, "/time_step");
+  Positive(s.gravity, "/gravity");
+
+  // Contact parameters (physics.md, contact law): stiffnesses positive, damping and friction >= 0.
+  Positive(s.contact.kn, "/contact/kn");
+  Positive(s.contact.kt, "/contact/kt");
+  NonNegative(s.contact.gamma_n, "/contact/gamma_n");
+  NonNegative(s.contact.gamma_t, "/contact/gamma_t");
+  NonNegative(s.contact.mu, "/contact/mu");
+  NonNegative(s.contact.mu_wall, "/contact/mu_wall");
+
+  // Bodies.
+  const Bodies& b = s.bodies;
+  if (b.count < 1) throw SpecError("/bodies/count", "must be >= 1 (got " + std::to_string(b.count) + ")");
+  Positive(b.density, "/bodies/density");
+  if (b.species.empty()) throw SpecError("/bodies/species", "must list at least one species (got [])");
+  double fraction_sum = 0.0;
+  double max_length = 0.0;
+  double mean_area = 0.0;
+  for (std::size_t i = 0; i < b.species.size(); ++i) {
+    const Species& sp = b.species[i];
+    const std::string p = "/bodies/species/" + std::to_string(i);
+    if (!(sp.fraction >= 0 && sp.fraction <= 1)) {
+      throw SpecError(p + "/fraction", "must be in [0, 1] (got " + Shown(sp.fraction) + ")");
+    }
+    Positive(sp.diameter, p + "/diameter");
+    if (sp.shape == Shape::kSnowman) {
+      Positive(sp.big_diameter, p + "/big_diameter");
+      const double ratio = sp.big_diameter / sp.diameter;
+      if (ratio < 1.0 || ratio > 2.0) {
+        throw SpecError(p + "/big_diameter",
+                        "D_b/D_s must be in [1, 2] (got " + Shown(sp.big_diameter) + "/" + Shown(sp.diameter) +
+                            " = " + Shown(ratio) + ")");
+      }
+    }
+    if (sp.shape == Shape::kRod && sp.n < 2) {
+      throw SpecError(p + "/n", "a rod needs n >= 2 discs (got " + std::to_string(sp.n) + ")");
+    }
+    if (sp.name.empty()) throw SpecError(p + "/name", "must not be empty (got \"\")");
+    for (std::size_t k = 0; k < i; ++k) {
+      if (b.species[k].name == sp.name) {
+        throw SpecError(p + "/name", "duplicate species name (got \"" + sp.name + "\", also species " +
+                                         std::to_string(k) + ")");
+      }
+    }
+    fraction_sum += sp.fraction;
+    max_length = std::max(max_length, BodyLength(sp));
+    mean_area += sp.fraction * BodyArea(sp);
+  }
+  if (std::abs(fraction_sum - 1.0) > 1e-9) {
+    throw SpecError("/bodies/species", "fractions must sum to 1 (got " + Shown(fraction_sum) + ")");
+  }
+
+  // Silo geometry: walls at x = +-width/2, base at y = 0 (physics.md, geometry).
+  const Silo& silo = s.silo;
+  Positive(silo.width, "/silo/width");
+  NonNegative(silo.height, "/silo/height");
+  const double half = silo.width / 2.0;
+  if (max_length >= silo.width) {
+    throw SpecError("/silo/width", "bodies of length " + Shown(max_length) + " cannot fit in a silo of width " +
+                                       Shown(silo.width));
+  }
+  if (silo.height > 0) {
+    // A random loose packing of discs fills ~80% of the area; a bed needing more than the silo
+    // holds cannot be prepared.
+    const double bed_area = b.count * mean_area / 0.8;
+    if (bed_area > silo.width * silo.height) {
+      throw SpecError("/silo/height", "the bed of " + std::to_string(b.count) + " bodies needs a height of about " +
+                                          Shown(std::ceil(bed_area / silo.width)) + " (got " +
+                                          Shown(silo.height) + ")");
+    }
+  }
+  if (silo.base_outlets.empty() && silo.side_outlets.empty()) {
+    throw SpecError("/silo/base_outlets", "the silo needs at least one outlet (got none)");
+  }
+  for (std::size_t i = 0; i < silo.base_outlets.size(); ++i) {
+    const BaseOutlet& o = silo.base_outlets[i];
+    const std::string p = "/silo/base_outlets/" + std::to_string(i);
+    Positive(o.width, p + "/width");
+    if (o.width >= silo.width) {
+      throw SpecError(p + "/width", "must be < the silo width " + Shown(silo.width) + " (got " + Shown(o.width) + ")");
+    }
+    const double lo = o.center - o.width / 2.0;
+    const double hi = o.center + o.width / 2.0;
+    if (lo < -half || hi > half) {
+      throw SpecError(p, "outlet [" + Shown(lo) + ", " + Shown(hi) + "] lies outside the base [" + Shown(-half) +
+                             ", " + Shown(half) + "]");
+    }
+    for (std::size_t k = 0; k < i; ++k) {
+      const BaseOutlet& q = silo.base_outlets[k];
+      if (lo < q.center + q.width / 2.0 && q.center - q.width / 2.0 < hi) {
+        throw SpecError(p, "overlaps base outlet " + std::to_string(k) + " ([" + Shown(lo) + ", " + Shown(hi) +
+                               "] and [" + Shown(q.center - q.width / 2.0) + ", " +
+                               Shown(q.center + q.width / 2.0) + "])");
+      }
+    }
+  }
+  for (std::size_t i = 0; i < silo.side_outlets.size(); ++i) {
+    const SideOutlet& o = silo.side_outlets[i];
+    const std::string p = "/silo/side_outlets/" + std::to_string(i);
+    NonNegative(o.bottom, p + "/bottom");
+    Positive(o.width, p + "/width");
+    if (silo.height > 0 && o.bottom + o.width > silo.height) {
+      throw SpecError(p, "top " + Shown(o.bottom + o.width) + " is above the wall height " + Shown(silo.height));
+    }
+    for (std::size_t k = 0; k < i; ++k) {
+      const SideOutlet& q = silo.side_outlets[k];
+      if (q.wall == o.wall && o.bottom < q.bottom + q.width && q.bottom < o.bottom + o.width) {
+        throw SpecError(p, "overlaps side outlet " + std::to_string(k) + " on the same wall");
+      }
+    }
+  }
+  for (std::size_t i = 0; i < silo.obstacles.size(); ++i) {
+    const Obstacle& o = silo.obstacles[i];
+    const std::string p = "/silo/obstacles/" + std::to_string(i);
+    Positive(o.diameter, p + "/diameter");
+    const double r = o.diameter / 2.0;
+    if (std::abs(o.x) + r > half) {
+      throw SpecError(p, "obstacle at x = " + Shown(o.x) + " of diameter " + Shown(o.diameter) +
+                             " crosses a side wall at x = +-" + Shown(half));
+    }
+    if (o.y - r < 0) {
+      throw SpecError(p, "obstacle at y = " + Shown(o.y) + " of diameter " + Shown(o.diameter) +
+                             " crosses the base at y = 0");
+    }
+    if (silo.height > 0 && o.y + r > silo.height) {
+      throw SpecError(p, "obstacle top " + Shown(o.y + r) + " is above the wall height " + Shown(silo.height));
+    }
+  }
+
+  if (s.bed.batch_size < 1) {
+    throw SpecError("/bed/batch_size", "must be >= 1 (got " + std::to_string(s.bed.batch_size) + ")");
+  }
+  Positive(s.bed.settle_ke_per_body, "/bed/settle_ke_per_body");
+  Positive(s.bed.max_settle_time, "/bed/max_settle_time");
+
+  Positive(s.discharge.max_time, "/discharge/max_time");
+  Positive(s.discharge.clog_window, "/discharge/clog_window");
+  NonNegative(s.discharge.clog_ke_per_body, "/discharge/clog_ke_per_body");
+  NonNegative(s.discharge.reinject_speed, "/discharge/reinject_speed");
+  NonNegative(s.discharge.exit_distance, "/discharge/exit_distance");
+
+  NonNegative(s.output.frame_interval, "/output/frame_interval");
+  NonNegative(s.output.checkpoint_interval, "/output/checkpoint_interval");
+}
+
+namespace {
+
+json SpeciesJson(const Species& sp) {
+  return {{"name", sp.name},         {"shape", to_string(sp.shape)}, {"fraction", sp.fraction},
+          {"diameter", sp.diameter}, {"big_diameter", sp.big_diameter}, {"n", sp.n}};
+}
+
+json BodiesJson(const Bodies& b) {
+  json species = json::array();
+  for (const auto& sp : b.species) species.push_back(SpeciesJson(sp));
+  return {{"count", b.count}, {"species", species}, {"density", b.density}};
+}
+
+json ContactJson(const Contact& c) {
+  return {{"kn", c.kn},
+          {"kt", c.kt},
+          {"gamma_n", c.gamma_n},
+          {"gamma_t", c.gamma_t},
+          {"mu", c.mu},
+          {"mu_wall", c.mu_wall},
+          {"tangential_cap", to_string(c.tangential_cap)},
+          {"clip_normal", c.clip_normal}};
+}
+
+json BedJson(const Bed& b, bool with_cache_file) {
+  json j = {{"batch_size", b.batch_size},
+            {"settle_ke_per_body", b.settle_ke_per_body},
+            {"max_settle_time", b.max_settle_time}};
+  if (with_cache_file) j["cache_file"] = b.cache_file;
+  return j;
+}
+
+}  // namespace
+
+json RunSpec::to_json() const {
+  json base = json::array();
+  for (const auto& o : silo.base_outlets) base.push_back({{"center", o.center}, {"width", o.width}});
+  json side = json::array();
+  for (const auto& o : silo.side_outlets) {
+    side.push_back({{"wall", o.wall == Wall::kLeft ? "left" : "right"}, {"bottom", o.bottom}, {"width", o.width}});
+  }
+  json obstacles = json::array();
+  for (const auto& o : silo.obstacles) obstacles.push_back({{"x", o.x}, {"y", o.y}, {"diameter", o.diameter}});
+  return {{"run_id", run_id},
+          {"seed", seed},
+          {"engine", engine},
+          {"time_step", time_step},
+          {"gravity", gravity},
+          {"silo",
+           {{"width", silo.width},
+            {"height", silo.height},
+            {"base_outlets", base},
+            {"side_outlets", side},
+            {"obstacles", obstacles}}},
+          {"bodies", BodiesJson(bodies)},
+          {"contact", ContactJson(contact)},
+          {"bed", BedJson(bed, true)},
+          {"discharge",
+           {{"mode", to_string(discharge.mode)},
+            {"max_time", discharge.max_time},
+            {"stop_on_clog", discharge.stop_on_clog},
+            {"clog_window", discharge.clog_window},
+            {"clog_ke_per_body", discharge.clog_ke_per_body},
+            {"reinject_speed", discharge.reinject_speed},
+            {"exit_distance", discharge.exit_distance}}},
+          {"output",
+           {{"frame_interval", output.frame_interval},
+            {"contact_forces", output.contact_forces},
+            {"checkpoint_interval", output.checkpoint_interval}}}};
+}
+
+json RunSpec::bed_key() const {
+  // Everything the bed preparation (physics.md, procedure step 1) depends on, and nothing
+  // about outlets or obstacles, so runs differing only in those share one prepared bed.
+  return {{"engine", engine},
+          {"seed", seed},
+          {"time_step", time_step},
+          {"gravity", gravity},
+          {"silo_width", silo.width},
+          {"silo_height", silo.height},
+          {"bodies", BodiesJson(bodies)},
+          {"contact", ContactJson(contact)},
+          {"bed", BedJson(bed, false)}};
+}
+
+}  // namespace granary

@@ -1,0 +1,154 @@
+// Tests of the run spec parser (src/engine/run_spec.cpp): defaults, canonical JSON and one
+// test per class of error, each asserting the exact message (style.md 8.3 item 8).
+#include "engine/run_spec.h"
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+namespace granary {
+namespace {
+
+using nlohmann::json;
+
+std::string ErrorOf(const json& j) {
+  try {
+    RunSpec::from_json(j);
+  } catch (const SpecError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(RunSpecTest, EmptyObjectTakesDefaults) {
+  const RunSpec s = RunSpec::from_json(json::object());
+  EXPECT_EQ(s.bodies.count, 1000);
+  ASSERT_EQ(s.bodies.species.size(), 1u);
+  EXPECT_EQ(s.bodies.species[0].shape, Shape::kDumbbell);
+  EXPECT_EQ(s.bodies.species[0].name, "dumbbell");
+  ASSERT_EQ(s.silo.base_outlets.size(), 1u);
+  EXPECT_EQ(s.silo.base_outlets[0].width, 10.0);
+  EXPECT_EQ(s.contact.kn, 2.0e6);
+  EXPECT_EQ(s.discharge.mode, DischargeMode::kRemove);
+}
+
+TEST(RunSpecTest, MuWallDefaultsToMu) {
+  const RunSpec s = RunSpec::from_json(json::parse(R"({"contact": {"mu": 0.3}})"));
+  EXPECT_EQ(s.contact.mu_wall, 0.3);
+  const RunSpec t = RunSpec::from_json(json::parse(R"({"contact": {"mu": 0.3, "mu_wall": 0.7}})"));
+  EXPECT_EQ(t.contact.mu_wall, 0.7);
+}
+
+TEST(RunSpecTest, RodDefaultNameCarriesN) {
+  const RunSpec s = RunSpec::from_json(json::parse(R"({"bodies": {"species": [{"shape": "rod", "n": 4}]}})"));
+  EXPECT_EQ(s.bodies.species[0].name, "rod4");
+}
+
+TEST(RunSpecTest, ToJsonRoundTripsAndFillsDefaults) {
+  const json in = json::parse(R"({"seed": 7, "silo": {"width": 40, "base_outlets": [{"center": -5, "width": 6}]},
+    "discharge": {"mode": "reinject"}, "bodies": {"count": 300}})");
+  const RunSpec s = RunSpec::from_json(in);
+  const json out = s.to_json();
+  EXPECT_EQ(out["discharge"]["mode"], "reinject");
+  EXPECT_EQ(out["silo"]["base_outlets"][0]["center"], -5.0);
+  EXPECT_EQ(out["contact"]["tangential_cap"], "lammps");
+  EXPECT_EQ(out["output"]["checkpoint_interval"], 10.0);
+  EXPECT_EQ(RunSpec::from_json(out).to_json(), out);
+}
+
+TEST(RunSpecTest, BedKeyIgnoresOutletsAndObstacles) {
+  const RunSpec a = RunSpec::from_json(json::parse(R"({"silo": {"base_outlets": [{"width": 6}]}})"));
+  const RunSpec b = RunSpec::from_json(
+      json::parse(R"({"silo": {"base_outlets": [{"width": 12}], "obstacles": [{"x": 0, "y": 20, "diameter": 5}]}})"));
+  EXPECT_EQ(a.bed_key(), b.bed_key());
+  const RunSpec c = RunSpec::from_json(json::parse(R"({"seed": 2})"));
+  EXPECT_NE(a.bed_key(), c.bed_key());
+}
+
+TEST(RunSpecErrorTest, UnknownKeySuggestsNearest) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"widht": 10}})")), "/silo/widht: unknown key; did you mean \"width\"?");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"zzzzzzzzzzzzzzzz": 1, "seed": 1})")).substr(0, 40),
+            "/zzzzzzzzzzzzzzzz: unknown key; allowed:");
+}
+
+TEST(RunSpecErrorTest, WrongType) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"width": "wide"}})")), "/silo/width: must be a number (got \"wide\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"count": 2.5}})")), "/bodies/count: must be an integer (got 2.5)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": []})")), "/silo: must be an object (got array)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"seed": -1})")), "/seed: must be a non-negative integer (got -1)");
+}
+
+TEST(RunSpecErrorTest, BadEnum) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"shape": "cube"}]}})")),
+            "/bodies/species/0/shape: must be one of \"disc\", \"dumbbell\", \"snowman\", \"rod\" (got \"cube\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"mode": "drain"}})")),
+            "/discharge/mode: must be one of \"remove\", \"reinject\" (got \"drain\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "lammps"})")),
+            "/engine: must be one of \"native\", \"liggghts\" (got \"lammps\")");
+}
+
+TEST(RunSpecErrorTest, NonPositiveParameter) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"base_outlets": [{"width": -3}]}})")),
+            "/silo/base_outlets/0/width: must be > 0 (got -3.0)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"contact": {"kn": 0}})")), "/contact/kn: must be > 0 (got 0.0)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"time_step": -1e-4})")), "/time_step: must be > 0 (got -0.0001)");
+}
+
+TEST(RunSpecErrorTest, OutletWiderThanBase) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"width": 40, "base_outlets": [{"width": 50}]}})")),
+            "/silo/base_outlets/0/width: must be < the silo width 40.0 (got 50.0)");
+}
+
+TEST(RunSpecErrorTest, OutletOutsideBase) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"width": 40, "base_outlets": [{"center": 18, "width": 6}]}})")),
+            "/silo/base_outlets/0: outlet [15.0, 21.0] lies outside the base [-20.0, 20.0]");
+}
+
+TEST(RunSpecErrorTest, OverlappingOutlets) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"base_outlets": [{"center": 0, "width": 10}, {"center": 8, "width": 10}]}})")),
+            "/silo/base_outlets/1: overlaps base outlet 0 ([3.0, 13.0] and [-5.0, 5.0])");
+}
+
+TEST(RunSpecErrorTest, SideOutletAboveWall) {
+  EXPECT_EQ(ErrorOf(json::parse(
+                R"({"bodies": {"count": 10}, "silo": {"height": 20, "side_outlets": [{"bottom": 10, "width": 15}]}})")),
+            "/silo/side_outlets/0: top 25.0 is above the wall height 20.0");
+}
+
+TEST(RunSpecErrorTest, ObstacleThroughWallOrBase) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"obstacles": [{"x": 48, "y": 20, "diameter": 6}]}})")),
+            "/silo/obstacles/0: obstacle at x = 48.0 of diameter 6.0 crosses a side wall at x = +-50.0");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"obstacles": [{"x": 0, "y": 2, "diameter": 6}]}})")),
+            "/silo/obstacles/0: obstacle at y = 2.0 of diameter 6.0 crosses the base at y = 0");
+}
+
+TEST(RunSpecErrorTest, BodiesDoNotFit) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"width": 1.5, "base_outlets": [{"width": 1}]}})")),
+            "/silo/width: bodies of length 2.0 cannot fit in a silo of width 1.5");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"count": 1000}, "silo": {"width": 10, "height": 10, "base_outlets": [{"width": 2}]}})")),
+            "/silo/height: the bed of 1000 bodies needs a height of about 197.0 (got 10.0)");
+}
+
+TEST(RunSpecErrorTest, FractionsMustSumToOne) {
+  EXPECT_EQ(ErrorOf(json::parse(
+                R"({"bodies": {"species": [{"shape": "disc", "fraction": 0.5}, {"shape": "dumbbell", "fraction": 0.4}]}})")),
+            "/bodies/species: fractions must sum to 1 (got 0.9)");
+}
+
+TEST(RunSpecErrorTest, SnowmanRatio) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"shape": "snowman", "diameter": 1, "big_diameter": 2.5}]}})")),
+            "/bodies/species/0/big_diameter: D_b/D_s must be in [1, 2] (got 2.5/1.0 = 2.5)");
+}
+
+TEST(RunSpecErrorTest, RodNeedsTwoDiscs) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"shape": "rod", "n": 1}]}})")),
+            "/bodies/species/0/n: a rod needs n >= 2 discs (got 1)");
+}
+
+TEST(RunSpecErrorTest, NoOutlet) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"base_outlets": []}})")),
+            "/silo/base_outlets: the silo needs at least one outlet (got none)");
+}
+
+}  // namespace
+}  // namespace granary
