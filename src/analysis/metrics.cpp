@@ -5,7 +5,15 @@
 
 namespace granary::analysis {
 
-PointMetrics point_metrics(const PointRuns& p, const AnalysisOptions& options) {
+double stagnant_count(const std::vector<const RunAnalysis*>& runs) {
+  std::vector<double> left;
+  for (const RunAnalysis* r : runs)
+    if (r->remove_mode && !r->clog.clogged) left.push_back(r->clog.undischarged);
+  return left.empty() ? -1.0 : mean_se(left).mean;
+}
+
+PointMetrics point_metrics(const PointRuns& p, const AnalysisOptions& options, double stagnant_fallback,
+                           const std::string& fallback_note) {
   PointMetrics m;
   m.point_id = p.point_id;
   m.point = p.point;
@@ -35,7 +43,11 @@ PointMetrics point_metrics(const PointRuns& p, const AnalysisOptions& options) {
   m.tg_full = mean_se_finite(t2);
   m.v_max = mean_se_finite(vmax);
   m.avalanche_size = mean_se(avalanches);
-  if (remove_mode) m.clogging = clogging_index(clog_runs, options.min_exits_before_clog);
+  if (remove_mode) {
+    const bool own = stagnant_count(p.runs) >= 0.0;
+    m.clogging = clogging_index(clog_runs, options.min_exits_before_clog, own ? -1.0 : stagnant_fallback);
+    if (!own && stagnant_fallback >= 0.0) m.clogging.note = fallback_note;
+  }
   return m;
 }
 
@@ -56,11 +68,15 @@ std::vector<PointMetrics> compute_point_metrics(const std::vector<RunRecord>& ru
       // unreadable run: left out of the point (the report lists it with the reason)
     }
   }
+  std::vector<const RunAnalysis*> all;
+  for (const auto& id : order)
+    for (const auto& a : analysed[id]) all.push_back(&a);
+  const double campaign_stagnant = stagnant_count(all);
   std::vector<PointMetrics> out;
   for (const auto& id : order) {
     PointRuns pr{id, points[id], {}};
     for (const auto& a : analysed[id]) pr.runs.push_back(&a);
-    out.push_back(point_metrics(pr, options));
+    out.push_back(point_metrics(pr, options, campaign_stagnant, "N_u from the campaign's freely discharging runs"));
   }
   return out;
 }

@@ -35,11 +35,19 @@ struct PointRuns {
 };
 
 // Pure: aggregates already-analysed runs. Replica means use the runs where the quantity is
-// defined (n says how many).
-PointMetrics point_metrics(const PointRuns& point, const AnalysisOptions& options);
+// defined (n says how many). `stagnant_fallback` (>= 0) is the N_u of eq. 3.1 to use when
+// none of the point's own runs discharged freely (every run clogged); the caller takes it
+// from comparable points (same silo, other widths). < 0: N_u = 0 in that case.
+PointMetrics point_metrics(const PointRuns& point, const AnalysisOptions& options, double stagnant_fallback = -1.0,
+                           const std::string& fallback_note = "");
+
+// Mean number left in the silo by the runs that discharged without clogging (remove mode),
+// or -1 if there are none: the stagnant-zone count N_u of eq. 3.1.
+double stagnant_count(const std::vector<const RunAnalysis*>& runs);
 
 // Groups runs by point_id (in first-appearance order), analyses the finished ones (state
-// "done") and aggregates. Runs that cannot be read are skipped.
+// "done") and aggregates. Runs that cannot be read are skipped. Points where every run
+// clogged take N_u from all freely discharging runs of the campaign.
 std::vector<PointMetrics> compute_point_metrics(const std::vector<RunRecord>& runs, const AnalysisOptions& options);
 
 }  // namespace granary::analysis

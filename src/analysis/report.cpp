@@ -182,9 +182,27 @@ Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>
     }
     p.group = point_label(c, p.point, any_spec, c.x_axis);
     p.spec = any_spec;
+  }
+  // N_u for points where every run clogged: the freely discharging runs of the same group
+  // (same silo and mixture, other widths), else of the whole campaign.
+  std::map<std::string, std::vector<const RunAnalysis*>> by_group;
+  std::vector<const RunAnalysis*> all;
+  for (const Point& p : c.points)
+    for (const AnalysedRun* a : p.runs) {
+      by_group[p.group].push_back(&a->analysis);
+      all.push_back(&a->analysis);
+    }
+  const double campaign_stagnant = stagnant_count(all);
+  for (Point& p : c.points) {
     PointRuns pr{p.id, p.point, {}};
     for (const AnalysedRun* a : p.runs) pr.runs.push_back(&a->analysis);
-    p.metrics = point_metrics(pr, options.analysis);
+    const double group_stagnant = stagnant_count(by_group[p.group]);
+    p.metrics = group_stagnant >= 0.0
+                    ? point_metrics(pr, options.analysis, group_stagnant,
+                                    "every run clogged: N_u from the freely discharging runs of " +
+                                        (p.group.empty() ? std::string("the campaign") : p.group))
+                    : point_metrics(pr, options.analysis, campaign_stagnant,
+                                    "every run clogged: N_u from the campaign's freely discharging runs");
   }
   std::stable_sort(c.points.begin(), c.points.end(), [](const Point& a, const Point& b) {
     if (a.group != b.group) return a.group < b.group;
@@ -686,8 +704,17 @@ std::optional<Section> avalanche_section(const Context& c) {
   Table t{"avalanches", "Avalanche statistics per point (pooled over replicas)",
           {"point", "<s> ± se (avalanches)", "tail from s", "s_decay", "s_decay se", "tail n"}, {}};
   Figure dist{"avalanche_distribution", "Avalanche size distribution", "s (bodies)", "probability density", {}, false,
-              true, "Pooled over replicas"};
+              true, "Pooled over replicas; at most 6 points drawn (all in the table and CSVs)"};
   int colour = 0;
+  // The distribution figure shows at most 6 points, spread over the list, to stay legible;
+  // the table and the CSVs have them all.
+  std::vector<const Point*> with_avalanches;
+  for (const Point& p : c.points)
+    if (p.metrics.avalanche_size.n > 0) with_avalanches.push_back(&p);
+  std::set<const Point*> drawn;
+  constexpr std::size_t kMaxDrawn = 6;
+  for (std::size_t k = 0; k < std::min(kMaxDrawn, with_avalanches.size()); ++k)
+    drawn.insert(with_avalanches[k * with_avalanches.size() / std::min(kMaxDrawn, with_avalanches.size())]);
   for (const Point& p : c.points) {
     std::vector<double> sizes;
     for (const AnalysedRun* a : p.runs)
@@ -703,6 +730,7 @@ std::optional<Section> avalanche_section(const Context& c) {
     se.style = Series::Style::kPoints;
     for (std::size_t i = 0; i < st.histogram.counts.size(); ++i)
       if (st.histogram.counts[i] > 0) se.rows.push_back({st.histogram.center(i), st.histogram.density(i), st.histogram.counts[i]});
+    if (!drawn.count(&p)) continue;
     se.color = colour;
     dist.series.push_back(se);
     // The fitted tail drawn on the same density scale: (n_tail / n) (1 - q) q^(s - s_min).

@@ -29,6 +29,7 @@ std::string format_number(double v, int significant) {
 
 std::string format_mean_se(double mean, double se, int n, int significant) {
   if (!std::isfinite(mean)) return "";
+  if (std::isfinite(se) && std::abs(mean) < 1e-9 * se) mean = 0.0;  // rounding noise of an exact zero
   std::string s = format_number(mean, significant);
   if (std::isfinite(se)) s += " ± " + format_number(se, 2);
   return s + " (" + std::to_string(n) + ")";
@@ -119,15 +120,18 @@ std::string gp_quote(const std::string& s) {
 
 std::string gnuplot_script(const Figure& f) {
   std::ostringstream s;
-  s << "set terminal svg size 800,540 font 'Helvetica,13' background rgb 'white'\n"
+  // The key sits below the plot in two columns; the canvas grows with it.
+  const std::size_t key_rows = (f.series.size() + 1) / 2;
+  const int height = 440 + 22 * static_cast<int>(key_rows);
+  s << "set terminal svg size 800," << height << " font 'Helvetica,13' background rgb 'white'\n"
     << "set output " << gp_quote(f.name + ".svg") << "\n"
     << "set datafile separator ','\n"
     << "set title " << gp_quote(f.title) << " noenhanced\n"
     << "set xlabel " << gp_quote(f.xlabel) << " noenhanced\n"
     << "set ylabel " << gp_quote(f.ylabel) << " noenhanced\n"
-    << "set grid\nset key below noenhanced\nset offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n";
+    << "set grid\nset key below maxcols 2 noenhanced\nset offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n";
   if (f.logx) s << "set logscale x\n";
-  if (f.logy) s << "set logscale y\n";
+  if (f.logy) s << "set logscale y\nset format y '%g'\n";
   // gnuplot refuses a degenerate range (one x or one y value): widen it explicitly.
   for (const int axis : {0, 1}) {
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
