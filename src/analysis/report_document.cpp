@@ -120,9 +120,12 @@ std::string gp_quote(const std::string& s) {
 
 std::string gnuplot_script(const Figure& f) {
   std::ostringstream s;
-  // The key sits below the plot in two columns; the canvas grows with it.
-  const std::size_t key_rows = (f.series.size() + 1) / 2;
-  const int height = 440 + 22 * static_cast<int>(key_rows);
+  // The key sits below the plot (two columns when the labels are short, else one); the
+  // canvas grows with it so that it is never cut.
+  std::size_t longest = 0;
+  for (const Series& se : f.series) longest = std::max(longest, se.label.size());
+  const std::size_t key_rows = longest <= 30 ? (f.series.size() + 1) / 2 : f.series.size();
+  const int height = 440 + 20 * static_cast<int>(key_rows);
   s << "set terminal svg size 800," << height << " font 'Helvetica,13' background rgb 'white'\n"
     << "set output " << gp_quote(f.name + ".svg") << "\n"
     << "set datafile separator ','\n"
