@@ -190,15 +190,22 @@ std::string inline_svg(const std::string& svg, const std::string& prefix) {
   return s;
 }
 
+// POSIX shell single quoting: ' -> '\''.
+std::string shell_quote(const std::string& s) {
+  std::string out = "'";
+  for (char ch : s) out += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
+  return out + "'";
+}
+
 bool have_gnuplot(const std::string& exe) {
-  const std::string cmd = "command -v '" + exe + "' > /dev/null 2>&1";
+  const std::string cmd = "command -v " + shell_quote(exe) + " > /dev/null 2>&1";
   return std::system(cmd.c_str()) == 0;
 }
 
 // Runs gnuplot in the report directory; returns "" or the problem.
 std::string run_gnuplot(const std::string& exe, const fs::path& dir, const std::string& script) {
-  const std::string cmd = "cd '" + dir.string() + "' && '" + exe + "' '" + script + "' > '" + script +
-                          ".log' 2>&1";
+  const std::string cmd = "cd " + shell_quote(dir.string()) + " && " + shell_quote(exe) + " " + shell_quote(script) +
+                          " > " + shell_quote(script + ".log") + " 2>&1";
   const int rc = std::system(cmd.c_str());
   if (rc != 0) {
     std::ifstream in(dir / (script + ".log"));

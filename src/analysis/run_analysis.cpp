@@ -84,6 +84,10 @@ RunAnalysis analyse_events(const RunData& data, const AnalysisOptions& options) 
   a.clog.exited = a.exited;
   a.clog.undischarged = data.has_summary ? data.summary.remaining : a.bodies - a.exited;
   if (!a.flow.ok) a.notes.push_back("flow rate: " + a.flow.note);
+  // The two records of the discharge must agree; a mismatch means a truncated or foreign file.
+  if (data.has_summary && data.summary.exited != static_cast<int>(n_events))
+    a.notes.push_back("events.csv has " + std::to_string(n_events) + " exits but summary.json says " +
+                      std::to_string(data.summary.exited));
   return a;
 }
 

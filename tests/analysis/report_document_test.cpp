@@ -39,11 +39,12 @@ TEST(RenderReport, TablesFiguresAndCsv) {
   s.blocks.push_back(Figure{"fig", "A figure", "x (d)", "y (1/t)", {se}, false, false, "caption"});
   RenderOptions opt;
   opt.figures = std::system("command -v gnuplot > /dev/null 2>&1") == 0;
-  const RenderResult r = render_report("Title", {s}, dir.path(), opt);
+  const auto out = dir.path() / "it's a report";  // shell quoting of the gnuplot call
+  const RenderResult r = render_report("Title", {s}, out, opt);
   const std::string md = read_file(r.markdown);
   EXPECT_NE(md.find("| x\\|y | 1,5 |"), std::string::npos) << md;
-  EXPECT_EQ(read_file(dir.path() / "tab.csv"), "name,value\nx|y,\"1,5\"\n");
-  EXPECT_EQ(read_file(dir.path() / "fig-1.csv"), "x,y,y_se\n1,2,0.1\n2,4,nan\n3,6,0.3\n");
+  EXPECT_EQ(read_file(out / "tab.csv"), "name,value\nx|y,\"1,5\"\n");
+  EXPECT_EQ(read_file(out / "fig-1.csv"), "x,y,y_se\n1,2,0.1\n2,4,nan\n3,6,0.3\n");
   const std::string html = read_file(r.html);
   EXPECT_NE(html.find("<b>bold</b>"), std::string::npos);
   EXPECT_NE(html.find("<code>code</code>"), std::string::npos);

@@ -106,5 +106,17 @@ TEST(AnalyseRun, RegionBesideASideOutlet) {
   EXPECT_DOUBLE_EQ(a.clog_gap, 3.0);
 }
 
+TEST(AnalyseRun, SummaryAndEventsDisagree) {
+  TempDir dir;
+  write_file(dir.path() / "summary.json", R"({"bodies":10,"exited":5,"remaining":5,"t_end":3,"end_reason":"time_limit"})");
+  write_file(dir.path() / "events.csv", "time,body,shape,mass,outlet\n1,0,disc,1,0\n2,1,disc,1,0\n2.5,2,disc,1,0\n");
+  const RunAnalysis a = analyse_run(dir.path(), AnalysisOptions());
+  bool found = false;
+  for (const auto& n : a.notes) found = found || n == "events.csv has 3 exits but summary.json says 5";
+  EXPECT_TRUE(found);
+  EXPECT_EQ(a.cumulative_n, (std::vector<double>{1, 2, 3}));
+  EXPECT_TRUE(a.remove_mode);  // run-spec default without run.json
+}
+
 }  // namespace
 }  // namespace granary::analysis
