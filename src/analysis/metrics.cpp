@@ -1,6 +1,8 @@
 // Implementation of metrics.h.
 #include "analysis/metrics.h"
 
+#include <algorithm>
+#include <cmath>
 #include <map>
 
 namespace granary::analysis {
@@ -49,6 +51,33 @@ PointMetrics point_metrics(const PointRuns& p, const AnalysisOptions& options, d
     if (!own && stagnant_fallback >= 0.0) m.clogging.note = fallback_note;
   }
   return m;
+}
+
+std::vector<PointComparison> compare_points(const std::vector<PointMetrics>& a, const std::vector<PointMetrics>& b) {
+  std::vector<PointComparison> out;
+  for (const PointMetrics& pa : a) {
+    const auto pb = std::find_if(b.begin(), b.end(), [&](const PointMetrics& x) { return x.point == pa.point; });
+    if (pb == b.end()) continue;
+    PointComparison c;
+    c.point = pa.point;
+    c.point_id_a = pa.point_id;
+    c.point_id_b = pb->point_id;
+    const std::pair<const char*, MeanSe PointMetrics::*> fields[] = {
+        {"q_count", &PointMetrics::q_count}, {"q_mass", &PointMetrics::q_mass},
+        {"phi", &PointMetrics::phi},         {"tg_translational", &PointMetrics::tg_translational},
+        {"tg_full", &PointMetrics::tg_full}, {"v_max", &PointMetrics::v_max},
+        {"avalanche_size", &PointMetrics::avalanche_size}};
+    auto add = [&](const char* name, const MeanSe& ma, const MeanSe& mb) {
+      if (!std::isfinite(ma.mean) || !std::isfinite(mb.mean)) return;
+      MetricDifference d{name, ma, mb, ma.mean - mb.mean, std::hypot(ma.se, mb.se), kNaN};
+      if (d.se > 0.0) d.z = d.difference / d.se;
+      c.metrics.push_back(d);
+    };
+    for (const auto& [name, field] : fields) add(name, pa.*field, (*pb).*field);
+    add("psi", pa.clogging.psi, pb->clogging.psi);
+    out.push_back(std::move(c));
+  }
+  return out;
 }
 
 std::vector<PointMetrics> compute_point_metrics(const std::vector<RunRecord>& runs, const AnalysisOptions& options) {

@@ -45,6 +45,25 @@ PointMetrics point_metrics(const PointRuns& point, const AnalysisOptions& option
 // or -1 if there are none: the stagnant-zone count N_u of eq. 3.1.
 double stagnant_count(const std::vector<const RunAnalysis*>& runs);
 
+// One metric of one sweep point in two campaigns (e.g. the native engine against LIGGGHTS):
+// difference a - b, its standard error sqrt(se_a^2 + se_b^2) and z = difference / se
+// (NaN when an se is unknown).
+struct MetricDifference {
+  std::string name;                   // "q_count", "phi", ...
+  MeanSe a, b;
+  double difference = kNaN;
+  double se = kNaN;
+  double z = kNaN;
+};
+struct PointComparison {
+  nlohmann::json point;               // the sweep values both campaigns share
+  std::string point_id_a, point_id_b;
+  std::vector<MetricDifference> metrics;  // only metrics defined in both
+};
+// Pure. Points are matched by their sweep values (`point`), not by id; points present in
+// only one list are left out.
+std::vector<PointComparison> compare_points(const std::vector<PointMetrics>& a, const std::vector<PointMetrics>& b);
+
 // Groups runs by point_id (in first-appearance order), analyses the finished ones (state
 // "done") and aggregates. Runs that cannot be read are skipped. Points where every run
 // clogged take N_u from all freely discharging runs of the campaign.

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 namespace granary::analysis {
 namespace {
 
@@ -50,6 +52,28 @@ TEST(PointMetrics, StagnantCountFallbackWhenEveryRunClogged) {
   EXPECT_DOUBLE_EQ(z.clogging.n_stagnant, 0.0);
   EXPECT_NEAR(z.clogging.psi.mean, (0.54 + 0.24) / 2.0, 1e-14);
   EXPECT_FALSE(z.clogging.note.empty());
+}
+
+TEST(ComparePoints, MatchedBySweepValuesWithZScores) {
+  PointMetrics a1, a2, b1;
+  a1.point_id = "native-1";
+  a1.point = {{"/silo/base_outlets/0/width", 10}};
+  a1.q_count = {20.0, 0.3, 4};
+  a1.phi = {0.8, 0.01, 4};
+  a2.point = {{"/silo/base_outlets/0/width", 12}};  // no partner
+  b1.point_id = "liggghts-7";
+  b1.point = {{"/silo/base_outlets/0/width", 10}};
+  b1.q_count = {19.0, 0.4, 5};
+  b1.phi = {0.8, kNaN, 1};
+  const auto c = compare_points({a1, a2}, {b1});
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_EQ(c[0].point_id_b, "liggghts-7");
+  ASSERT_EQ(c[0].metrics.size(), 2u);  // q_count and phi; the rest undefined in both
+  EXPECT_EQ(c[0].metrics[0].name, "q_count");
+  EXPECT_DOUBLE_EQ(c[0].metrics[0].difference, 1.0);
+  EXPECT_DOUBLE_EQ(c[0].metrics[0].se, 0.5);
+  EXPECT_DOUBLE_EQ(c[0].metrics[0].z, 2.0);
+  EXPECT_TRUE(std::isnan(c[0].metrics[1].z));  // se unknown on one side
 }
 
 }  // namespace
