@@ -691,6 +691,9 @@ std::optional<Section> clogging_index_section(const Context& c) {
   return s;
 }
 
+// Ch. 4 and 6 average <s> over at least this many avalanches per point.
+constexpr int kThesisAvalanches = 100;
+
 std::optional<Section> avalanche_section(const Context& c) {
   bool any = false;
   for (const Point& p : c.points) any = any || p.metrics.avalanche_size.n > 0;
@@ -702,7 +705,7 @@ std::optional<Section> avalanche_section(const Context& c) {
                           "not an avalanche. The tail fit is the maximum-likelihood geometric law P(s) ~ "
                           "exp(-s/s_decay) for s above the median."});
   Table t{"avalanches", "Avalanche statistics per point (pooled over replicas)",
-          {"point", "<s> ± se (avalanches)", "tail from s", "s_decay", "s_decay se", "tail n"}, {}};
+          {"point", "<s> ± se (avalanches)", "tail from s", "s_decay", "s_decay se", "tail n", "note"}, {}};
   Figure dist{"avalanche_distribution", "Avalanche size distribution", "s (bodies)", "probability density", {}, false,
               true, "Pooled over replicas; at most 6 points drawn (all in the table and CSVs)"};
   int colour = 0;
@@ -723,7 +726,10 @@ std::optional<Section> avalanche_section(const Context& c) {
     const AvalancheStats st = avalanche_stats(sizes);
     t.rows.push_back({point_name(c, p), format_mean_se(st.size.mean, st.size.se, st.size.n),
                       format_number(st.tail.s_min), format_number(st.tail.s_decay), format_number(st.tail.s_decay_se, 2),
-                      std::to_string(st.tail.n_tail)});
+                      std::to_string(st.tail.n_tail),
+                      st.size.n < kThesisAvalanches ? "fewer than " + std::to_string(kThesisAvalanches) +
+                                                          " avalanches (the thesis averages >= 100)"
+                                                    : ""});
     Series se;
     se.label = point_name(c, p);
     se.columns = {"s", "density", "count"};

@@ -101,6 +101,27 @@ TEST(Fit, UndeterminedParameterHasNoError) {
   EXPECT_EQ(r.warning, "b not determined by the data");
 }
 
+TEST(Fit, ConfidenceIntervalsCoverTheTruth) {
+  // 300 noisy data sets from Beverloo 2-D: the 95% intervals must contain the true k in about
+  // 95% of them (binomial sd 1.3%), which checks the covariance scaling and the t quantile.
+  int covered_c = 0, covered_k = 0, fitted = 0;
+  for (std::uint64_t seed = 100; seed < 400; ++seed) {
+    const Data d = make_data([](double w) { return 0.8 * std::pow(w - 1.5, 1.5); }, 1.0, seed);
+    const FitResult r = fit_model(with_data_guess(beverloo_2d(), d.x, d.y), d.x, d.y, d.sigma);
+    if (!r.ok()) continue;
+    ++fitted;
+    const FitParameter* c = r.parameter("C");
+    const FitParameter* k = r.parameter("k");
+    covered_c += (c->ci_low <= 0.8 && 0.8 <= c->ci_high) ? 1 : 0;
+    covered_k += (k->ci_low <= 1.5 && 1.5 <= k->ci_high) ? 1 : 0;
+  }
+  ASSERT_EQ(fitted, 300);
+  EXPECT_GT(covered_c, 0.90 * fitted);
+  EXPECT_LT(covered_c, 0.995 * fitted);
+  EXPECT_GT(covered_k, 0.90 * fitted);
+  EXPECT_LT(covered_k, 0.995 * fitted);
+}
+
 TEST(Fit, TooFewPointsIsReportedNotFitted) {
   const std::vector<double> x = {10, 12};
   const std::vector<double> y = {20, 30};
