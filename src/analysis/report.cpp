@@ -13,6 +13,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "analysis/expression.h"
 #include "analysis/metrics.h"
 #include "analysis/report_document.h"
 
@@ -365,24 +366,6 @@ std::optional<Section> per_run_section(const Context& c) {
   return s;
 }
 
-std::vector<FitModel> user_models(const Context& c) {
-  std::vector<FitModel> models = c.options->models;
-  const nlohmann::json& spec = c.campaign->spec;
-  if (spec.is_object() && spec.contains("report") && spec.at("report").is_object() &&
-      spec.at("report").contains("models")) {
-    for (const auto& m : spec.at("report").at("models")) {
-      FitModel f;
-      f.name = m.value("name", std::string("user"));
-      f.expression = m.value("expression", std::string());
-      f.variable = m.value("variable", std::string("x"));
-      if (m.contains("initial"))
-        for (const auto& [k, v] : m.at("initial").items()) f.initial[k] = v.get<double>();
-      models.push_back(f);
-    }
-  }
-  return models;
-}
-
 std::optional<Section> flow_section(const Context& c) {
   bool any = false;
   for (const Point& p : c.points) any = any || p.metrics.q_count.n > 0;
@@ -408,7 +391,7 @@ std::optional<Section> flow_section(const Context& c) {
                   {"group", "model", "W/d", "Q", "fit", "residual"}, {}};
   std::vector<FitModel> models;
   if (c.x_is_width) models = {beverloo_2d(), beverloo_free(), mankoc()};
-  for (const auto& m : user_models(c)) models.push_back(m);
+  for (const auto& m : c.options->models) models.push_back(m);
   int fitted_groups = 0;
   for (std::size_t k = 0; k < f.series.size(); ++k) f.series[k].color = static_cast<int>(k);
   const std::vector<Series> data_series = f.series;
@@ -828,6 +811,30 @@ void apply_report_spec(const nlohmann::json& campaign_spec, ReportOptions& optio
     const std::string path = "/report/" + key;
     if (key == "models") {
       if (!v.is_array()) bad_report_key(path, v, "must be an array of {name, expression, variable, initial}");
+      for (std::size_t i = 0; i < v.size(); ++i) {
+        const nlohmann::json& m = v[i];
+        const std::string mp = path + "/" + std::to_string(i);
+        if (!m.is_object() || !m.contains("expression") || !m.at("expression").is_string())
+          bad_report_key(mp, m, "must be {\"name\": .., \"expression\": \"C * x^b\", \"variable\": \"x\", \"initial\": {..}}");
+        FitModel f;
+        f.name = m.contains("name") && m.at("name").is_string() ? m.at("name").get<std::string>()
+                                                                : "model_" + std::to_string(i);
+        f.expression = m.at("expression").get<std::string>();
+        if (m.contains("variable")) {
+          if (!m.at("variable").is_string()) bad_report_key(mp + "/variable", m.at("variable"), "must be a name");
+          f.variable = m.at("variable").get<std::string>();
+        }
+        if (m.contains("initial")) {
+          if (!m.at("initial").is_object()) bad_report_key(mp + "/initial", m.at("initial"), "must be {parameter: value}");
+          for (const auto& [k, iv] : m.at("initial").items()) f.initial[k] = number_at(iv, mp + "/initial/" + k, -kBig, kBig);
+        }
+        try {
+          Expression::parse(f.expression, {f.variable});
+        } catch (const ExpressionError& e) {
+          throw std::invalid_argument(mp + "/expression: " + e.what());
+        }
+        options.models.push_back(f);
+      }
     } else if (key == "region") {
       if (v == "ch3") {
         a.region = chapter3_region();

@@ -357,6 +357,18 @@ TEST(ReportSpec, OptionsFromCampaignSpec) {
   } catch (const std::invalid_argument& e) {
     EXPECT_STREQ(e.what(), "/report/window/start_fraction: must be in [0, 1] (got 1.5)");
   }
+  apply_report_spec({{"report", {{"models", {{{"name", "collapse"}, {"expression", "a * W^b"}, {"variable", "W"},
+                                              {"initial", {{"b", 1.7}}}}}}}}},
+                    opt);
+  ASSERT_EQ(opt.models.size(), 1u);
+  EXPECT_EQ(opt.models[0].variable, "W");
+  EXPECT_DOUBLE_EQ(opt.models[0].initial.at("b"), 1.7);
+  try {
+    apply_report_spec({{"report", {{"models", {{{"expression", "a * (W"}, {"variable", "W"}}}}}}}, opt);
+    FAIL() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "/report/models/0/expression: model 'a * (W': position 7: expected ')'");
+  }
   try {
     apply_report_spec({{"report", {{"regoin", "ch3"}}}}, opt);
     FAIL() << "no error";
