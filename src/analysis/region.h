@@ -3,7 +3,9 @@
 // an accumulator for time averages.
 #pragma once
 
+#include <cstddef>
 #include <numbers>
+#include <random>
 #include <span>
 #include <string>
 #include <vector>
@@ -53,19 +55,29 @@ RegionFrame region_frame(std::span<const Disc> discs, std::span<const Body> bodi
 struct RegionStats {
   Rect region;
   MeanSe phi, tg_translational, tg_full;
-  std::vector<double> vx, vy;       // samples (every body in the region in every frame)
+  std::vector<double> vx, vy;       // samples of the bodies in the region (see RegionAccumulator)
   int frames = 0;
 };
 
+// The velocity samples are a uniform random subset (reservoir sampling, fixed seed, so
+// reports are reproducible) of at most `max_samples` per run: long runs with many frames
+// would otherwise hold millions of samples per run for a histogram.
 class RegionAccumulator {
  public:
-  explicit RegionAccumulator(const Rect& region) { stats_.region = region; }
+  static constexpr std::size_t kDefaultMaxSamples = 20000;
+  explicit RegionAccumulator(const Rect& region, std::size_t max_samples = kDefaultMaxSamples)
+      : max_samples_(max_samples) {
+    stats_.region = region;
+  }
   void add(std::span<const Disc> discs, std::span<const Body> bodies);
   RegionStats result() const;
 
  private:
   RegionStats stats_;
   std::vector<double> phi_, tg_translational_, tg_full_;
+  std::size_t max_samples_;
+  std::size_t seen_ = 0;
+  std::mt19937_64 rng_{20261122};
 };
 
 }  // namespace granary::analysis

@@ -92,6 +92,24 @@ TEST(RegionFrame, PackingAndBothTemperatures) {
   EXPECT_EQ(s.vx.size(), 8u);
 }
 
+TEST(RegionAccumulator, VelocitySamplesAreCappedUniformly) {
+  // 200 frames x 500 bodies with v_x = body index: a reservoir of 1000 keeps a uniform subset
+  // (mean ~ 249.5, sd of the mean of 1000 uniform draws ~ 4.6).
+  const Rect q{0, 100, 0, 100};
+  std::vector<Body> bodies(500);
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    bodies[i].x = 1.0 + 0.1 * static_cast<double>(i);
+    bodies[i].y = 1.0;
+    bodies[i].vx = static_cast<double>(i);
+  }
+  RegionAccumulator acc(q, 1000);
+  for (int f = 0; f < 200; ++f) acc.add({}, bodies);
+  const RegionStats s = acc.result();
+  ASSERT_EQ(s.vx.size(), 1000u);
+  EXPECT_NEAR(mean_se(s.vx).mean, 249.5, 20.0);
+  EXPECT_EQ(s.frames, 200);
+}
+
 TEST(Region, ThesisSizes) {
   const Rect r3 = region_above_outlet(0.0, 11.0, chapter3_region());
   EXPECT_DOUBLE_EQ(r3.x1 - r3.x0, 13.0);
