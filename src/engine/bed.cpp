@@ -1,0 +1,252 @@
+// Bed preparation: batch insertion, settling with the outlets plugged, the bed file and its
+// cache lock.
+#include "engine/bed.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <stdexcept>
+
+#include "engine/random.h"
+#include "engine/world.h"
+
+namespace granary::engine {
+namespace {
+
+constexpr double kInsertPackingFraction = 0.3;  // area fraction of a batch's insertion region
+constexpr int kSettleCheckEvery = 200;          // steps between kinetic-energy checks
+
+bool Overlaps(const ShapeTemplate& a, double ax, double ay, double ath, const ShapeTemplate& b, double bx,
+              double by, double bth) {
+  const double ddx = ax - bx, ddy = ay - by;
+  const double reach = a.bound_radius + b.bound_radius;
+  if (ddx * ddx + ddy * ddy >= reach * reach) return false;
+  const double ca = std::cos(ath), sa = std::sin(ath), cb = std::cos(bth), sb = std::sin(bth);
+  for (std::size_t i = 0; i < a.r.size(); ++i) {
+    const double xi = ax + ca * a.ox[i] - sa * a.oy[i], yi = ay + sa * a.ox[i] + ca * a.oy[i];
+    for (std::size_t j = 0; j < b.r.size(); ++j) {
+      const double xj = bx + cb * b.ox[j] - sb * b.oy[j], yj = by + sb * b.ox[j] + cb * b.oy[j];
+      const double rr = a.r[i] + b.r[j];
+      if ((xi - xj) * (xi - xj) + (yi - yj) * (yi - yj) < rr * rr) return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+std::vector<ShapeTemplate> MakeTemplates(const RunSpec& spec) {
+  std::vector<ShapeTemplate> t;
+  for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
+    t.push_back(MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
+  return t;
+}
+
+BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
+  std::vector<ShapeTemplate> templates = MakeTemplates(spec);
+  Silo closed = spec.silo;  // the bed never sees outlets or obstacles (bed_key)
+  closed.obstacles.clear();
+  World world(ParamsFromSpec(spec), templates, BuildGeometry(closed, kTallWall));
+  Rng rng(spec.seed);
+
+  // Bodies in random order so that every batch is a mixture.
+  std::vector<int> order;
+  const std::vector<int> counts = SpeciesCounts(spec.bodies);
+  for (std::size_t k = 0; k < counts.size(); ++k) order.insert(order.end(), static_cast<std::size_t>(counts[k]), static_cast<int>(k));
+  for (std::size_t i = order.size(); i > 1; --i) {
+    const std::size_t j = static_cast<std::size_t>(rng.Next() % i);
+    std::swap(order[i - 1], order[j]);
+  }
+  double mean_mass = 0.0;
+  for (int s : order) mean_mass += templates[static_cast<std::size_t>(s)].mass;
+  mean_mass /= static_cast<double>(order.size());
+  const double energy_unit = mean_mass * spec.gravity * 1.0;  // m g d with d = 1
+  const double hw = spec.silo.width / 2;
+  const double dt = spec.time_step;
+  double t = 0.0;
+  std::size_t inserted = 0;
+  const std::size_t total = order.size();
+
+  while (inserted < total) {
+    const std::size_t batch_end = std::min(total, inserted + static_cast<std::size_t>(spec.bed.batch_size));
+    double area = 0.0;
+    for (std::size_t k = inserted; k < batch_end; ++k) area += templates[static_cast<std::size_t>(order[k])].area;
+    double height = area / (spec.silo.width * kInsertPackingFraction);
+    const double y_base = world.MaxDiscTop() + 0.5;
+    std::vector<int> placed;
+    for (std::size_t k = inserted; k < batch_end; ++k) {
+      const ShapeTemplate& tp = templates[static_cast<std::size_t>(order[k])];
+      const double rb = tp.bound_radius;
+      bool ok = false;
+      double x = 0, y = 0, th = 0;
+      for (int attempt = 0; !ok; ++attempt) {
+        if (attempt > 0 && attempt % 200 == 0) height *= 1.1;  // region too crowded: grow it
+        x = rng.Uniform(-hw + rb, hw - rb);
+        y = rng.Uniform(y_base + rb, y_base + rb + height);
+        th = rng.Uniform(0.0, 2.0 * std::numbers::pi);
+        ok = true;
+        for (int b : placed) {
+          if (Overlaps(tp, x, y, th, templates[static_cast<std::size_t>(world.tmpl_[b])], world.bx_[b], world.by_[b],
+                       world.bth_[b])) {
+            ok = false;
+            break;
+          }
+        }
+      }
+      placed.push_back(world.AddBody(order[k], x, y, th));
+    }
+    inserted = batch_end;
+    world.ComputeForces();
+    // Let the batch fall through its region before the next one is placed above it.
+    const double fall = std::sqrt(2.0 * height / spec.gravity) + 1.0;
+    const long steps = inserted < total ? std::lround(fall / dt) : 0;
+    for (long s = 0; s < steps; ++s) {
+      world.Step();
+      t += dt;
+      if (progress && s % 10000 == 0)
+        progress(0.5 * static_cast<double>(inserted) / static_cast<double>(total), t);
+    }
+  }
+  // Settle until the kinetic energy per body is negligible (or give up at max_settle_time).
+  const double t_settle0 = t;
+  for (long s = 1;; ++s) {
+    world.Step();
+    t += dt;
+    if (s % kSettleCheckEvery == 0) {
+      const double ke = world.KineticEnergy() / static_cast<double>(world.active_count()) / energy_unit;
+      if (ke < spec.bed.settle_ke_per_body || t - t_settle0 >= spec.bed.max_settle_time) break;
+      if (progress && s % 10000 == 0) {
+        const double f = std::clamp(std::log(ke) / std::log(spec.bed.settle_ke_per_body), 0.0, 1.0);
+        progress(0.5 + 0.5 * std::max(f, (t - t_settle0) / spec.bed.max_settle_time), t);
+      }
+    }
+  }
+  BedState bed;
+  for (int b = 0; b < world.body_count(); ++b) {
+    bed.species.push_back(world.tmpl_[b]);
+    bed.x.push_back(world.bx_[b]);
+    bed.y.push_back(world.by_[b]);
+    bed.theta.push_back(world.bth_[b]);
+    bed.vx.push_back(world.bvx_[b]);
+    bed.vy.push_back(world.bvy_[b]);
+    bed.omega.push_back(world.bw_[b]);
+  }
+  bed.height = world.MaxDiscTop();
+  bed.settle_time = t;
+  return bed;
+}
+
+nlohmann::json BedToJson(const BedState& bed, const RunSpec& spec) {
+  nlohmann::json j;
+  j["format"] = "granary-bed";
+  j["version"] = 1;
+  j["key"] = spec.bed_key();
+  j["height"] = bed.height;
+  j["settle_time"] = bed.settle_time;
+  nlohmann::json rows = nlohmann::json::array();
+  for (std::size_t b = 0; b < bed.x.size(); ++b)
+    rows.push_back({bed.species[b], bed.x[b], bed.y[b], bed.theta[b], bed.vx[b], bed.vy[b], bed.omega[b]});
+  j["bodies"] = std::move(rows);
+  return j;
+}
+
+BedState BedFromJson(const nlohmann::json& j, const RunSpec& spec, const std::string& file) {
+  if (j.value("format", "") != "granary-bed")
+    throw std::runtime_error("bed file " + file + ": not a granary bed (format " + j.value("format", "?") + ")");
+  if (j.at("key") != spec.bed_key())
+    throw std::runtime_error("bed file " + file + " was prepared for another bed key (bodies, width, seed, ...): " +
+                             j.at("key").dump());
+  BedState bed;
+  bed.height = j.at("height").get<double>();
+  bed.settle_time = j.at("settle_time").get<double>();
+  for (const auto& row : j.at("bodies")) {
+    bed.species.push_back(row.at(0).get<int>());
+    bed.x.push_back(row.at(1).get<double>());
+    bed.y.push_back(row.at(2).get<double>());
+    bed.theta.push_back(row.at(3).get<double>());
+    bed.vx.push_back(row.at(4).get<double>());
+    bed.vy.push_back(row.at(5).get<double>());
+    bed.omega.push_back(row.at(6).get<double>());
+  }
+  if (static_cast<int>(bed.x.size()) != spec.bodies.count)
+    throw std::runtime_error("bed file " + file + " holds " + std::to_string(bed.x.size()) + " bodies, the spec wants " +
+                             std::to_string(spec.bodies.count));
+  return bed;
+}
+
+namespace {
+
+BedState ReadBedFile(const std::string& file, const RunSpec& spec) {
+  std::ifstream in(file);
+  if (!in) throw std::runtime_error("cannot read bed file " + file);
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const std::exception& e) {
+    throw std::runtime_error("bed file " + file + ": " + e.what());
+  }
+  return BedFromJson(j, spec, file);
+}
+
+void WriteFileAtomically(const std::string& file, const std::string& text) {
+  const std::string tmp = file + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error("cannot write " + tmp);
+    out << text;
+    out.flush();
+    if (!out) throw std::runtime_error("write failed: " + tmp);
+  }
+  std::filesystem::rename(tmp, file);
+}
+
+// RAII flock on `<file>.lock`.
+class FileLock {
+ public:
+  explicit FileLock(const std::string& path) {
+    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT, 0644);
+    if (fd_ < 0) throw std::runtime_error("cannot open lock file " + path);
+    if (::flock(fd_, LOCK_EX) != 0) {
+      ::close(fd_);
+      throw std::runtime_error("cannot lock " + path);
+    }
+  }
+  ~FileLock() {
+    ::flock(fd_, LOCK_UN);
+    ::close(fd_);
+  }
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+}  // namespace
+
+ObtainedBed ObtainBed(const RunSpec& spec, const std::string& run_dir, const BedProgress& progress) {
+  ObtainedBed out;
+  out.file = spec.bed.cache_file.empty() ? (std::filesystem::path(run_dir) / "bed.json").string() : spec.bed.cache_file;
+  const auto start = std::chrono::steady_clock::now();
+  const std::filesystem::path parent = std::filesystem::path(out.file).parent_path();
+  if (!parent.empty()) std::filesystem::create_directories(parent);
+  FileLock lock(out.file + ".lock");
+  if (std::filesystem::exists(out.file)) {
+    out.bed = ReadBedFile(out.file, spec);
+  } else {
+    out.bed = PrepareBed(spec, progress);
+    WriteFileAtomically(out.file, BedToJson(out.bed, spec).dump() + "\n");
+    out.prepared_here = true;
+  }
+  out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+}  // namespace granary::engine

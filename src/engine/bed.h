@@ -1,0 +1,52 @@
+// Bed preparation (physics.md "A run's life" step 1): bodies inserted at random, without
+// overlap, in batches with random orientations, then settled under gravity with the outlets
+// plugged. A prepared bed depends only on RunSpec::bed_key(); it is stored as JSON and
+// shared between runs through bed.cache_file (written atomically under an flock).
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/run_spec.h"
+#include "engine/shapes.h"
+
+namespace granary::engine {
+
+// Side walls used while preparing a bed and, unless the spec gives a height, during the
+// discharge: effectively unbounded so that the bed never depends on the silo height.
+inline constexpr double kTallWall = 1.0e5;
+
+struct BedState {
+  std::vector<int> species;  // per body: species index (template)
+  std::vector<double> x, y, theta, vx, vy, omega;
+  double height = 0.0;       // top of the bed: max y + r over discs
+  double settle_time = 0.0;  // simulated preparation time
+};
+
+// Progress of the preparation: fraction in [0, 1] and simulated time.
+using BedProgress = std::function<void(double fraction, double t)>;
+
+std::vector<ShapeTemplate> MakeTemplates(const RunSpec& spec);
+
+// Prepares a bed from scratch (deterministic in spec.seed).
+BedState PrepareBed(const RunSpec& spec, const BedProgress& progress);
+
+nlohmann::json BedToJson(const BedState& bed, const RunSpec& spec);
+// Reads a bed written by BedToJson; throws if it was prepared for another bed key.
+BedState BedFromJson(const nlohmann::json& j, const RunSpec& spec, const std::string& file);
+
+struct ObtainedBed {
+  BedState bed;
+  std::string file;
+  bool prepared_here = false;
+  double wall_s = 0.0;
+};
+
+// Loads the bed from spec.bed.cache_file (or DIR/bed.json when it is empty) if it exists;
+// otherwise prepares it and writes it atomically, holding an flock on `<file>.lock`.
+ObtainedBed ObtainBed(const RunSpec& spec, const std::string& run_dir, const BedProgress& progress);
+
+}  // namespace granary::engine

@@ -1,0 +1,115 @@
+// The contact law as pure functions (physics.md "Contact law"): Hertz normal force with
+// velocity damping and a tangential spring with history, capped by Coulomb friction.
+// The convention is LAMMPS pair gran/hertz/history (dampflag 1) with BODY masses in m_eff;
+// the LIGGGHTS 3.8 cap (only the spring part is capped) is selectable (liggghts-notes.md §1).
+// Inputs are scalars in reduced units; no state; geometry is computed separately.
+#pragma once
+
+#include <cmath>
+
+namespace granary::engine {
+
+struct ContactParams {
+  double kn = 2.0e6;
+  double kt = 2.45e6;
+  double gamma_n = 1000.0;
+  double gamma_t = 1000.0;
+  double mu = 0.5;
+  bool liggghts_cap = false;  // false: LAMMPS caps spring + damping; true: LIGGGHTS caps the spring only
+  bool clip_normal = false;   // clip an attractive normal force to zero
+};
+
+// Effective radius of two discs (physics.md): r_i r_j / (r_i + r_j). A wall is r_j = infinity.
+inline double EffectiveRadius(double ri, double rj) { return ri * rj / (ri + rj); }
+// Effective mass of two bodies: M_I M_J / (M_I + M_J). A wall or obstacle: M_I.
+inline double EffectiveMass(double mi, double mj) { return mi * mj / (mi + mj); }
+
+// Normal force magnitude along n (positive = repulsive):
+// F_n = sqrt(R_eff delta) (K_n delta - m_eff gamma_n v_n), v_n = (v_i - v_j).n (physics.md).
+inline double NormalForce(double delta, double r_eff, double m_eff, double v_n, const ContactParams& p) {
+  const double h = std::sqrt(r_eff * delta);
+  double fn = h * (p.kn * delta - m_eff * p.gamma_n * v_n);
+  if (p.clip_normal && fn < 0.0) fn = 0.0;
+  return fn;
+}
+
+// Result of the tangential law for one 2-D contact: force on body i (world frame) and the
+// new shear displacement vector (history).
+struct Tangential {
+  double fx = 0.0, fy = 0.0;
+  double sx = 0.0, sy = 0.0;
+};
+
+// Tangential force with history. (sx, sy) is the stored shear displacement, (nx, ny) the
+// current unit normal from j to i, (vtx, vty) the tangential relative velocity at the
+// contact point, fn the normal force. Steps, in LAMMPS' order: xi += v_t dt; project xi
+// onto the tangent line; F_t = -h (K_t xi + m_eff gamma_t v_t); cap at mu |F_n|.
+inline Tangential TangentialForce(double sx, double sy, double nx, double ny, double vtx, double vty,
+                                  double delta, double r_eff, double m_eff, double fn, double dt,
+                                  const ContactParams& p) {
+  const double h = std::sqrt(r_eff * delta);
+  sx += vtx * dt;
+  sy += vty * dt;
+  const double shrmag = std::sqrt(sx * sx + sy * sy);
+  const double rsht = sx * nx + sy * ny;
+  sx -= rsht * nx;
+  sy -= rsht * ny;
+  const double cap = p.mu * std::fabs(fn);
+  const double damp_x = m_eff * p.gamma_t * vtx;
+  const double damp_y = m_eff * p.gamma_t * vty;
+  Tangential t;
+  if (!p.liggghts_cap) {
+    double fx = -h * (p.kt * sx + damp_x);
+    double fy = -h * (p.kt * sy + damp_y);
+    const double fs = std::sqrt(fx * fx + fy * fy);
+    if (fs > cap) {
+      if (shrmag != 0.0) {
+        const double ratio = cap / fs;
+        // Rescale xi so that spring + damping give exactly the capped force (LAMMPS).
+        sx = ratio * (sx + damp_x / p.kt) - damp_x / p.kt;
+        sy = ratio * (sy + damp_y / p.kt) - damp_y / p.kt;
+        fx *= ratio;
+        fy *= ratio;
+      } else {
+        fx = 0.0;
+        fy = 0.0;
+      }
+    }
+    t.fx = fx;
+    t.fy = fy;
+  } else {
+    // LIGGGHTS 3.8 tangential_model_history: compare only the spring part with mu|F_n|;
+    // when it slips, F_t is the capped spring force without damping and xi = -F_t / k_t_eff.
+    const double kt_eff = h * p.kt;
+    const double gt_eff = h * m_eff * p.gamma_t;
+    const double spx = -kt_eff * sx;
+    const double spy = -kt_eff * sy;
+    const double spring = std::sqrt(spx * spx + spy * spy);
+    if (spring > cap) {
+      const double ratio = cap / spring;
+      t.fx = spx * ratio;
+      t.fy = spy * ratio;
+      if (kt_eff > 0.0) {
+        sx = -t.fx / kt_eff;
+        sy = -t.fy / kt_eff;
+      }
+    } else {
+      t.fx = spx - gt_eff * vtx;
+      t.fy = spy - gt_eff * vty;
+    }
+  }
+  t.sx = sx;
+  t.sy = sy;
+  return t;
+}
+
+// Duration of an undamped Hertz collision F = k delta^1.5 with k = K_n sqrt(R_eff) at impact
+// speed v0: delta_max = (5 m v0^2 / (4 k))^(2/5) and t_c = 2.9432 delta_max / v0 (closed form).
+// Used to recommend dt (t_c / 50, as MercuryDPM suggests).
+inline double HertzCollisionTime(double m_eff, double r_eff, double v0, double kn) {
+  const double k = kn * std::sqrt(r_eff);
+  const double delta_max = std::pow(1.25 * m_eff * v0 * v0 / k, 0.4);
+  return 2.9432 * delta_max / v0;
+}
+
+}  // namespace granary::engine

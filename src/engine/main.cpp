@@ -1,0 +1,9 @@
+// granary-engine: thin main over granary_engine (style.md 8.1).
+#include <string>
+#include <vector>
+
+#include "engine/cli.h"
+
+int main(int argc, char** argv) {
+  return granary::engine::EngineMain(std::vector<std::string>(argv + 1, argv + argc));
+}

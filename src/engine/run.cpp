@@ -1,0 +1,646 @@
+// The discharge driver: outlets open at t = 0, exits become events, reinjection or
+// removal, clog detection, outputs and checkpoints (docs/run-directory.md).
+#include "engine/run.h"
+
+#include <omp.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/bed.h"
+#include "engine/random.h"
+#include "engine/world.h"
+
+#ifndef GRANARY_VERSION
+#define GRANARY_VERSION "0.0.0"
+#endif
+#ifndef GRANARY_GIT_COMMIT
+#define GRANARY_GIT_COMMIT "unknown"
+#endif
+
+namespace granary::engine {
+namespace fs = std::filesystem;
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr char kCheckpointMagic[] = "GRANARY-CHECKPOINT-1";
+constexpr int kClogCheckEvery = 100;  // steps between clog checks once no exit for clog_window
+
+double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
+
+void WriteAtomically(const fs::path& file, const std::string& text) {
+  const fs::path tmp = file.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error("cannot write " + tmp.string());
+    out << text;
+    out.flush();
+    if (!out) throw std::runtime_error("write failed: " + tmp.string());
+  }
+  fs::rename(tmp, file);
+}
+
+// Binary (de)serialisation of the checkpoint: native doubles, so a continued run is bitwise
+// the same as an uninterrupted one on the same machine.
+class Out {
+ public:
+  template <typename T>
+  void Put(const T& v) {
+    buf_.append(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  template <typename T>
+  void PutVec(const std::vector<T>& v) {
+    Put<std::uint64_t>(v.size());
+    buf_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+  void PutStr(const std::string& s) {
+    Put<std::uint64_t>(s.size());
+    buf_ += s;
+  }
+  const std::string& str() const { return buf_; }
+
+ private:
+  std::string buf_;
+};
+
+class In {
+ public:
+  In(std::string buf, std::string name) : buf_(std::move(buf)), name_(std::move(name)) {}
+  template <typename T>
+  T Get() {
+    Need(sizeof(T));
+    T v;
+    std::memcpy(&v, buf_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return v;
+  }
+  template <typename T>
+  std::vector<T> GetVec() {
+    const auto n = Get<std::uint64_t>();
+    Need(n * sizeof(T));
+    std::vector<T> v(n);
+    std::memcpy(v.data(), buf_.data() + pos_, n * sizeof(T));
+    pos_ += n * sizeof(T);
+    return v;
+  }
+  std::string GetStr() {
+    const auto n = Get<std::uint64_t>();
+    Need(n);
+    std::string s = buf_.substr(pos_, n);
+    pos_ += n;
+    return s;
+  }
+
+ private:
+  void Need(std::size_t n) const {
+    if (pos_ + n > buf_.size()) throw std::runtime_error("checkpoint " + name_ + " is truncated");
+  }
+  std::string buf_;
+  std::string name_;
+  std::size_t pos_ = 0;
+};
+
+// A C stdio file we can flush, measure and truncate.
+class OutFile {
+ public:
+  OutFile() = default;
+  OutFile(const fs::path& path, bool continuing, long offset) : path_(path) {
+    if (continuing && fs::exists(path)) {
+      fs::resize_file(path, static_cast<std::uintmax_t>(offset));
+      f_ = std::fopen(path.c_str(), "ab");
+    } else {
+      f_ = std::fopen(path.c_str(), "wb");
+    }
+    if (!f_) throw std::runtime_error("cannot open " + path.string() + " for writing");
+  }
+  ~OutFile() {
+    if (f_) std::fclose(f_);
+  }
+  OutFile(OutFile&& o) noexcept : path_(std::move(o.path_)), f_(o.f_) { o.f_ = nullptr; }
+  OutFile& operator=(OutFile&& o) noexcept {
+    std::swap(f_, o.f_);
+    path_ = std::move(o.path_);
+    return *this;
+  }
+  std::FILE* get() const { return f_; }
+  bool open() const { return f_ != nullptr; }
+  long Offset() {
+    if (!f_) return 0;
+    std::fflush(f_);
+    return std::ftell(f_);
+  }
+
+ private:
+  fs::path path_;
+  std::FILE* f_ = nullptr;
+};
+
+struct Progress {
+  std::string phase;
+  double fraction = 0, t = 0, t_end = 0, wall_s = 0;
+  int exited = 0;
+};
+
+void ReportProgress(const fs::path& dir, const Progress& p, bool quiet) {
+  nlohmann::json j = {{"phase", p.phase}, {"fraction", p.fraction}, {"t", p.t},
+                      {"t_end", p.t_end}, {"exited", p.exited},     {"wall_s", p.wall_s}};
+  WriteAtomically(dir / "progress.json", j.dump() + "\n");
+  if (!quiet) {
+    std::printf("progress phase=%s fraction=%.3f t=%.4g exited=%d\n", p.phase.c_str(), p.fraction, p.t, p.exited);
+    std::fflush(stdout);
+  }
+}
+
+}  // namespace
+
+// The state of a discharge, everything a checkpoint must hold.
+class Discharge {
+ public:
+  Discharge(const RunSpec& spec, fs::path dir, RunOptions options)
+      : spec_(spec), dir_(std::move(dir)), options_(options), rng_(spec.seed ^ 0x9e3779b97f4a7c15ULL) {}
+
+  RunResult Run();
+
+ private:
+  void BuildWorld(const std::vector<int>& species);
+  void StartFresh();
+  void LoadCheckpoint();
+  void WriteCheckpoint();
+  void WriteFrame();
+  void WriteContacts();
+  void HandleExits();
+  int OutletOf(int b) const;
+  void Reinject(int b);
+  bool Stalled() const;
+  bool AnyBodyOverOutlets() const;
+  void WriteSummary(const std::string& end_reason);
+
+  RunSpec spec_;
+  fs::path dir_;
+  RunOptions options_;
+  Rng rng_;
+  std::unique_ptr<World> world_;
+  double energy_unit_ = 1.0;
+  double hw_ = 50.0;
+  double r_max_ = 0.5;
+  // Counters (checkpointed).
+  std::int64_t step_ = 0;
+  std::int64_t last_exit_step_ = 0;
+  std::int64_t disc_steps_ = 0;
+  std::vector<std::int64_t> exits_per_outlet_;
+  int clogs_ = 0;
+  bool in_clog_ = false;
+  // Bed provenance (checkpointed).
+  std::string bed_file_;
+  bool bed_prepared_here_ = false;
+  double bed_height_ = 0, bed_settle_time_ = 0, bed_wall_s_ = 0;
+  double discharge_wall_before_ = 0;  // wall time of earlier sessions
+  bool continued_ = false;
+  // Outputs.
+  OutFile events_, frames_, contacts_;
+  std::int64_t frame_every_ = 0, checkpoint_every_ = 0;
+  std::vector<World::ContactView> contact_buf_;
+  Clock::time_point session_start_ = Clock::now();
+};
+
+void Discharge::BuildWorld(const std::vector<int>& species) {
+  std::vector<ShapeTemplate> templates = MakeTemplates(spec_);
+  const double wall_height = spec_.silo.height > 0 ? spec_.silo.height : kTallWall;
+  world_ = std::make_unique<World>(ParamsFromSpec(spec_), templates, BuildGeometry(spec_.silo, wall_height));
+  double mean_mass = 0;
+  for (int s : species) mean_mass += templates[static_cast<std::size_t>(s)].mass;
+  mean_mass /= static_cast<double>(species.size());
+  energy_unit_ = mean_mass * spec_.gravity;
+  hw_ = spec_.silo.width / 2;
+  for (const auto& t : templates)
+    for (double r : t.r) r_max_ = std::max(r_max_, r);
+  for (int s : species) world_->AddBody(s, 0, 0, 0);
+  exits_per_outlet_.assign(world_->geometry().outlets.size(), 0);
+  world_->OpenOutlets();
+}
+
+void Discharge::StartFresh() {
+  const auto t0 = Clock::now();
+  ObtainedBed ob = ObtainBed(spec_, dir_.string(), [&](double f, double t) {
+    ReportProgress(dir_, {"bed", f, t, 0, Seconds(t0), 0}, options_.quiet);
+  });
+  bed_file_ = ob.file;
+  bed_prepared_here_ = ob.prepared_here;
+  bed_height_ = ob.bed.height;
+  bed_settle_time_ = ob.bed.settle_time;
+  bed_wall_s_ = ob.wall_s;
+  BuildWorld(ob.bed.species);
+  World& w = *world_;
+  for (int b = 0; b < w.body_count(); ++b)
+    w.PlaceBody(b, ob.bed.x[b], ob.bed.y[b], ob.bed.theta[b], ob.bed.vx[b], ob.bed.vy[b], ob.bed.omega[b]);
+  w.ComputeForces();
+  events_ = OutFile(dir_ / "events.csv", false, 0);
+  std::fprintf(events_.get(), "time,body,shape,mass,outlet\n");
+  if (frame_every_ > 0) frames_ = OutFile(dir_ / "frames.dump", false, 0);
+  if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = OutFile(dir_ / "contacts.dump", false, 0);
+  if (frame_every_ > 0) {
+    WriteFrame();
+    if (contacts_.open()) WriteContacts();
+  }
+}
+
+void Discharge::WriteCheckpoint() {
+  World& w = *world_;
+  // Both this run and a run continued from this checkpoint rebuild the lists here.
+  w.RebuildNow();
+  std::vector<HistoryEntry> pairs, walls;
+  w.ExportHistory(pairs, walls);
+  Out o;
+  o.PutStr(kCheckpointMagic);
+  o.PutStr(spec_.to_json().dump());
+  o.Put(step_);
+  o.Put(last_exit_step_);
+  o.Put(disc_steps_);
+  o.PutVec(exits_per_outlet_);
+  o.Put(clogs_);
+  o.Put(static_cast<std::uint8_t>(in_clog_));
+  o.PutStr(bed_file_);
+  o.Put(static_cast<std::uint8_t>(bed_prepared_here_));
+  o.Put(bed_height_);
+  o.Put(bed_settle_time_);
+  o.Put(bed_wall_s_);
+  o.Put(discharge_wall_before_ + Seconds(session_start_));
+  o.PutStr(rng_.Save());
+  o.PutVec(w.tmpl_);
+  o.PutVec(w.active_);
+  for (const auto* v : {&w.bx_, &w.by_, &w.bth_, &w.bvx_, &w.bvy_, &w.bw_, &w.bfx_, &w.bfy_, &w.btq_}) o.PutVec(*v);
+  o.PutVec(pairs);
+  o.PutVec(walls);
+  o.Put(events_.Offset());
+  o.Put(frames_.Offset());
+  o.Put(contacts_.Offset());
+  WriteAtomically(dir_ / "checkpoint.bin", o.str());
+}
+
+void Discharge::LoadCheckpoint() {
+  const fs::path file = dir_ / "checkpoint.bin";
+  std::ifstream f(file, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  In in(ss.str(), file.string());
+  if (in.GetStr() != kCheckpointMagic) throw std::runtime_error("checkpoint " + file.string() + ": not a granary checkpoint");
+  if (in.GetStr() != spec_.to_json().dump())
+    throw std::runtime_error("checkpoint " + file.string() + " belongs to a different run.json; remove it to start over");
+  step_ = in.Get<std::int64_t>();
+  last_exit_step_ = in.Get<std::int64_t>();
+  disc_steps_ = in.Get<std::int64_t>();
+  exits_per_outlet_ = in.GetVec<std::int64_t>();
+  clogs_ = in.Get<int>();
+  in_clog_ = in.Get<std::uint8_t>() != 0;
+  bed_file_ = in.GetStr();
+  bed_prepared_here_ = in.Get<std::uint8_t>() != 0;
+  bed_height_ = in.Get<double>();
+  bed_settle_time_ = in.Get<double>();
+  bed_wall_s_ = in.Get<double>();
+  discharge_wall_before_ = in.Get<double>();
+  rng_.Load(in.GetStr());
+  const std::vector<int> tmpl = in.GetVec<int>();
+  const std::vector<std::uint8_t> active = in.GetVec<std::uint8_t>();
+  const auto saved_exits = exits_per_outlet_;
+  BuildWorld(tmpl);
+  exits_per_outlet_ = saved_exits;
+  World& w = *world_;
+  for (auto* v : {&w.bx_, &w.by_, &w.bth_, &w.bvx_, &w.bvy_, &w.bw_, &w.bfx_, &w.bfy_, &w.btq_}) {
+    std::vector<double> x = in.GetVec<double>();
+    if (x.size() != v->size()) throw std::runtime_error("checkpoint " + file.string() + ": body count mismatch");
+    *v = std::move(x);
+  }
+  const std::vector<double> fx = w.bfx_, fy = w.bfy_, tq = w.btq_;
+  for (int b = 0; b < w.body_count(); ++b) {
+    w.PlaceBody(b, w.bx_[b], w.by_[b], w.bth_[b], w.bvx_[b], w.bvy_[b], w.bw_[b]);
+    if (!active[b]) w.Deactivate(b);
+  }
+  w.bfx_ = fx;  // the forces of the step the checkpoint was taken at
+  w.bfy_ = fy;
+  w.btq_ = tq;
+  const std::vector<HistoryEntry> pairs = in.GetVec<HistoryEntry>();
+  const std::vector<HistoryEntry> walls = in.GetVec<HistoryEntry>();
+  w.ImportHistory(pairs, walls);
+  const long ev = in.Get<long>(), fr = in.Get<long>(), co = in.Get<long>();
+  events_ = OutFile(dir_ / "events.csv", true, ev);
+  if (frame_every_ > 0) frames_ = OutFile(dir_ / "frames.dump", true, fr);
+  if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = OutFile(dir_ / "contacts.dump", true, co);
+  continued_ = true;
+}
+
+int Discharge::OutletOf(int b) const {
+  const World& w = *world_;
+  const double x = w.bx_[b], y = w.by_[b];
+  const double ed = spec_.discharge.exit_distance;
+  if (!(y < -ed || x > hw_ + ed || x < -hw_ - ed)) return -1;
+  const auto& outlets = w.geometry().outlets;
+  int best = 0;
+  double best_d = 1e300;
+  for (std::size_t k = 0; k < outlets.size(); ++k) {
+    const double dd = std::hypot(x - outlets[k].cx, y - outlets[k].cy);
+    if (dd < best_d) {
+      best_d = dd;
+      best = static_cast<int>(k);
+    }
+  }
+  return best;
+}
+
+void Discharge::Reinject(int b) {
+  World& w = *world_;
+  const ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
+  const double rb = tp.bound_radius;
+  const double x = rng_.Uniform(-hw_ + rb, hw_ - rb);
+  const double th = rng_.Uniform(0.0, 2.0 * std::numbers::pi);
+  // On top of the column below it: above every disc that could touch it.
+  double top = 0.0;
+  for (int i = 0; i < w.disc_count(); ++i) {
+    const int ob = w.dbody_[i];
+    if (ob == b || !w.active_[ob]) continue;
+    if (std::fabs(w.dx_[i] - x) < rb + w.dr_[i]) top = std::max(top, w.dy_[i] + w.dr_[i]);
+  }
+  w.PlaceBody(b, x, top + rb + 0.05, th, 0.0, -spec_.discharge.reinject_speed, 0.0);
+}
+
+void Discharge::HandleExits() {
+  World& w = *world_;
+  const double t = static_cast<double>(step_) * spec_.time_step;
+  for (int b = 0; b < w.body_count(); ++b) {
+    if (!w.active_[b]) continue;
+    const int k = OutletOf(b);
+    if (k < 0) continue;
+    const ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
+    std::fprintf(events_.get(), "%.10g,%d,%s,%.17g,%d\n", t, b, tp.name.c_str(), tp.mass, k);
+    ++exits_per_outlet_[static_cast<std::size_t>(k)];
+    last_exit_step_ = step_;
+    in_clog_ = false;
+    if (spec_.discharge.mode == DischargeMode::kReinject) {
+      Reinject(b);
+    } else {
+      w.Deactivate(b);
+    }
+  }
+}
+
+// No exit for clog_window and kinetic energy per body near the outlets below the threshold.
+// "Near" an outlet of width W: within W along it and up to 2W into the silo (docs/engine.md).
+bool Discharge::Stalled() const {
+  const World& w = *world_;
+  double ke = 0;
+  int n = 0;
+  for (int b = 0; b < w.body_count(); ++b) {
+    if (!w.active_[b]) continue;
+    for (const OutletFrame& o : w.geometry().outlets) {
+      const double px = w.bx_[b] - o.cx, py = w.by_[b] - o.cy;
+      const double s = px * o.ax + py * o.ay, h = px * o.nx + py * o.ny;
+      if (std::fabs(s) < o.width && h > -spec_.discharge.exit_distance && h < 2 * o.width) {
+        ke += 0.5 * w.bmass_[b] * (w.bvx_[b] * w.bvx_[b] + w.bvy_[b] * w.bvy_[b]) +
+              0.5 * w.binertia_[b] * w.bw_[b] * w.bw_[b];
+        ++n;
+        break;
+      }
+    }
+  }
+  return n == 0 || ke / n / energy_unit_ < spec_.discharge.clog_ke_per_body;
+}
+
+// A body hangs over an outlet gap (an arch): then a stall is a clog, otherwise the silo has
+// discharged what can flow out (the rest lies in the dead zones of the flat bottom).
+bool Discharge::AnyBodyOverOutlets() const {
+  const World& w = *world_;
+  for (int b = 0; b < w.body_count(); ++b) {
+    if (!w.active_[b]) continue;
+    for (const OutletFrame& o : w.geometry().outlets) {
+      const double px = w.bx_[b] - o.cx, py = w.by_[b] - o.cy;
+      const double s = px * o.ax + py * o.ay, h = px * o.nx + py * o.ny;
+      if (std::fabs(s) < 0.5 * o.width && h > -spec_.discharge.exit_distance && h < 0.5 * o.width + 2.0) return true;
+    }
+  }
+  return false;
+}
+
+void Discharge::WriteFrame() {
+  const World& w = *world_;
+  std::FILE* f = frames_.get();
+  int n = 0;
+  for (int i = 0; i < w.disc_count(); ++i) n += w.active_[w.dbody_[i]];
+  double ylo = 0, yhi = 0;
+  for (int i = 0; i < w.disc_count(); ++i)
+    if (w.active_[w.dbody_[i]]) {
+      ylo = std::min(ylo, w.dy_[i] - w.dr_[i]);
+      yhi = std::max(yhi, w.dy_[i] + w.dr_[i]);
+    }
+  std::fprintf(f, "ITEM: TIMESTEP\n%lld\nITEM: TIME\n%.10g\nITEM: NUMBER OF ATOMS\n%d\n", static_cast<long long>(step_),
+               static_cast<double>(step_) * spec_.time_step, n);
+  std::fprintf(f, "ITEM: BOX BOUNDS ff ff pp\n%.10g %.10g\n%.10g %.10g\n-0.5 0.5\n", -hw_ - spec_.discharge.exit_distance - 1,
+               hw_ + spec_.discharge.exit_distance + 1, ylo - 1, yhi + 1);
+  std::fprintf(f, "ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n");
+  for (int i = 0; i < w.disc_count(); ++i) {
+    const int b = w.dbody_[i];
+    if (!w.active_[b]) continue;
+    const double rx = w.dx_[i] - w.bx_[b], ry = w.dy_[i] - w.by_[b];
+    std::fprintf(f, "%d %d %d %.10g %.10g 0 %.10g %.10g %.10g %.10g 0 %.10g\n", i + 1, b, w.tmpl_[b] + 1, w.dx_[i], w.dy_[i],
+                 w.dr_[i], w.dmass_[i], w.bvx_[b] - w.bw_[b] * ry, w.bvy_[b] + w.bw_[b] * rx, w.bw_[b]);
+  }
+}
+
+void Discharge::WriteContacts() {
+  const World& w = *world_;
+  w.CollectContacts(contact_buf_);
+  std::FILE* f = contacts_.get();
+  std::fprintf(f, "ITEM: TIMESTEP\n%lld\nITEM: TIME\n%.10g\nITEM: NUMBER OF ENTRIES\n%zu\n", static_cast<long long>(step_),
+               static_cast<double>(step_) * spec_.time_step, contact_buf_.size());
+  std::fprintf(f, "ITEM: BOX BOUNDS ff ff pp\n%.10g %.10g\n-1 1\n-0.5 0.5\n", -hw_, hw_);
+  std::fprintf(f, "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n");
+  for (const auto& c : contact_buf_) {
+    const int bj = c.disc_j >= 0 ? w.dbody_[c.disc_j] : -1;
+    const double xj = c.disc_j >= 0 ? w.dx_[c.disc_j] : c.cx, yj = c.disc_j >= 0 ? w.dy_[c.disc_j] : c.cy;
+    std::fprintf(f, "%d %d %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n", w.dbody_[c.disc_i], bj, w.dx_[c.disc_i],
+                 w.dy_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy);
+  }
+}
+
+void Discharge::WriteSummary(const std::string& end_reason) {
+  const World& w = *world_;
+  std::int64_t exited = 0;
+  for (auto e : exits_per_outlet_) exited += e;
+  const double discharge_wall = discharge_wall_before_ + Seconds(session_start_);
+  nlohmann::json j;
+  j["engine"] = "native";
+  j["engine_version"] = GRANARY_VERSION;
+  j["granary_commit"] = GRANARY_GIT_COMMIT;
+  j["run_id"] = spec_.run_id;
+  j["spec"] = spec_.to_json();
+  j["end_reason"] = end_reason;
+  j["bodies"] = w.body_count();
+  j["exited"] = exited;
+  j["remaining"] = w.active_count();
+  j["exits_per_outlet"] = exits_per_outlet_;
+  j["t_end"] = static_cast<double>(step_) * spec_.time_step;
+  j["steps"] = step_;
+  j["clogs"] = clogs_;
+  j["bed"] = {{"file", bed_file_}, {"height", bed_height_}, {"prepared_here", bed_prepared_here_},
+              {"settle_time", bed_settle_time_}};
+  j["timing"] = {{"wall_s", bed_wall_s_ + discharge_wall},
+                 {"bed_wall_s", bed_wall_s_},
+                 {"discharge_wall_s", discharge_wall},
+                 {"disc_steps_per_s", discharge_wall > 0 ? static_cast<double>(disc_steps_) / discharge_wall : 0.0},
+                 {"threads", omp_get_max_threads()}};
+  j["continued_from_checkpoint"] = continued_;
+  WriteAtomically(dir_ / "summary.json", j.dump(2) + "\n");
+}
+
+RunResult Discharge::Run() {
+  session_start_ = Clock::now();
+  const double dt = spec_.time_step;
+  frame_every_ = spec_.output.frame_interval > 0 ? std::max<std::int64_t>(1, std::llround(spec_.output.frame_interval / dt)) : 0;
+  checkpoint_every_ =
+      spec_.output.checkpoint_interval > 0 ? std::max<std::int64_t>(1, std::llround(spec_.output.checkpoint_interval / dt)) : 0;
+  const std::int64_t max_steps = std::llround(spec_.discharge.max_time / dt);
+  const std::int64_t clog_steps = std::llround(spec_.discharge.clog_window / dt);
+  if (fs::exists(dir_ / "checkpoint.bin")) {
+    LoadCheckpoint();
+  } else {
+    StartFresh();
+    session_start_ = Clock::now();
+  }
+  World& w = *world_;
+  std::string end_reason;
+  auto last_report = Clock::now();
+  const std::int64_t first_step = step_;
+  while (end_reason.empty()) {
+    if (step_ >= max_steps) {
+      end_reason = "time_limit";
+      break;
+    }
+    if (w.active_count() == 0) {
+      end_reason = "discharged";
+      break;
+    }
+    w.Step();
+    ++step_;
+    disc_steps_ += w.disc_count();
+    HandleExits();
+    if (step_ - last_exit_step_ >= clog_steps && step_ % kClogCheckEvery == 0 && !in_clog_ && Stalled()) {
+      if (!AnyBodyOverOutlets() && spec_.discharge.mode == DischargeMode::kRemove) {
+        end_reason = "discharged";
+      } else {
+        ++clogs_;
+        in_clog_ = true;  // counted once until the next exit
+        if (spec_.discharge.stop_on_clog) end_reason = "clogged";
+      }
+    }
+    if (frame_every_ > 0 && step_ % frame_every_ == 0) {
+      WriteFrame();
+      if (contacts_.open()) WriteContacts();
+    }
+    if (checkpoint_every_ > 0 && step_ % checkpoint_every_ == 0 && end_reason.empty()) WriteCheckpoint();
+    if (options_.abort_after_steps >= 0 && step_ - first_step >= options_.abort_after_steps) {
+      RunResult r;
+      r.end_reason = "aborted";
+      r.steps = step_;
+      return r;
+    }
+    if (step_ % 200 == 0 && Seconds(last_report) >= options_.progress_every_s) {
+      last_report = Clock::now();
+      std::int64_t exited = 0;
+      for (auto e : exits_per_outlet_) exited += e;
+      ReportProgress(dir_,
+                     {"discharge", static_cast<double>(step_) / static_cast<double>(std::max<std::int64_t>(1, max_steps)),
+                      static_cast<double>(step_) * dt, spec_.discharge.max_time,
+                      discharge_wall_before_ + Seconds(session_start_), static_cast<int>(exited)},
+                     options_.quiet);
+    }
+  }
+  std::int64_t exited = 0;
+  for (auto e : exits_per_outlet_) exited += e;
+  events_ = OutFile();
+  frames_ = OutFile();
+  contacts_ = OutFile();
+  ReportProgress(dir_,
+                 {"discharge", 1.0, static_cast<double>(step_) * dt, spec_.discharge.max_time,
+                  discharge_wall_before_ + Seconds(session_start_), static_cast<int>(exited)},
+                 true);
+  WriteSummary(end_reason);
+  WriteAtomically(dir_ / "DONE", end_reason + "\n");
+  RunResult r;
+  r.end_reason = end_reason;
+  r.exited = static_cast<int>(exited);
+  r.steps = step_;
+  r.t_end = static_cast<double>(step_) * dt;
+  r.continued = continued_;
+  return r;
+}
+
+RunResult RunDirectory(const std::string& dir, const RunOptions& options) {
+  if (options.threads > 0) omp_set_num_threads(options.threads);
+  const fs::path d(dir);
+  const fs::path spec_file = d / "run.json";
+  std::ifstream in(spec_file);
+  if (!in) throw std::runtime_error("cannot read " + spec_file.string());
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const std::exception& e) {
+    throw std::runtime_error(spec_file.string() + ": " + e.what());
+  }
+  RunSpec spec;
+  try {
+    spec = RunSpec::from_json(j);
+  } catch (const SpecError& e) {
+    throw std::runtime_error(spec_file.string() + ": " + e.what());
+  }
+  if (spec.engine != "native")
+    throw std::runtime_error(spec_file.string() + ": engine is \"" + spec.engine + "\", not \"native\"");
+  fs::remove(d / "DONE");
+  Discharge discharge(spec, d, options);
+  return discharge.Run();
+}
+
+std::vector<BenchResult> RunBenchmark(const BenchOptions& options) {
+  const fs::path base = fs::temp_directory_path() / ("granary-bench-" + std::to_string(::getpid()));
+  fs::create_directories(base);
+  nlohmann::json spec = {
+      {"run_id", "bench"},
+      {"seed", 1},
+      {"silo", {{"width", 100.0}, {"base_outlets", {{{"center", 0.0}, {"width", 14.0}}}}}},
+      {"bodies", {{"count", options.bodies}}},
+      {"discharge", {{"mode", "reinject"}, {"max_time", static_cast<double>(options.steps) * 1e-4}, {"stop_on_clog", false}}},
+      {"output", {{"checkpoint_interval", 0.0}, {"frame_interval", 0.0}}},
+      {"bed", {{"cache_file", options.bed_file.empty()
+                                  ? (fs::temp_directory_path() / ("granary-bench-bed-" + std::to_string(options.bodies) + ".json")).string()
+                                  : options.bed_file}}}};
+  std::vector<BenchResult> results;
+  for (int threads : options.threads) {
+    const fs::path dir = base / ("t" + std::to_string(threads));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    WriteAtomically(dir / "run.json", spec.dump(2));
+    RunOptions ro;
+    ro.threads = threads;
+    ro.quiet = true;
+    RunDirectory(dir.string(), ro);
+    std::ifstream in(dir / "summary.json");
+    nlohmann::json summary;
+    in >> summary;
+    results.push_back({threads, summary["timing"]["disc_steps_per_s"].get<double>(),
+                       summary["timing"]["discharge_wall_s"].get<double>()});
+  }
+  fs::remove_all(base);
+  return results;
+}
+
+}  // namespace granary::engine

@@ -1,0 +1,549 @@
+// Forces, neighbour lists and the velocity-Verlet step of the rigid-clump DEM (physics.md).
+#include "engine/world.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace granary::engine {
+
+WorldParams ParamsFromSpec(const RunSpec& spec) {
+  WorldParams p;
+  p.dt = spec.time_step;
+  p.gravity = spec.gravity;
+  ContactParams c;
+  c.kn = spec.contact.kn;
+  c.kt = spec.contact.kt;
+  c.gamma_n = spec.contact.gamma_n;
+  c.gamma_t = spec.contact.gamma_t;
+  c.mu = spec.contact.mu;
+  c.liggghts_cap = spec.contact.tangential_cap == TangentialCap::kLiggghts;
+  c.clip_normal = spec.contact.clip_normal;
+  p.pair = c;
+  p.wall = c;
+  p.wall.mu = spec.contact.mu_wall;
+  return p;
+}
+
+World::World(WorldParams params, std::vector<ShapeTemplate> templates, SiloGeometry geometry)
+    : params_(params), templates_(std::move(templates)), geometry_(std::move(geometry)) {
+  for (const ShapeTemplate& t : templates_)
+    for (double r : t.r) max_radius_ = std::max(max_radius_, r);
+}
+
+int World::AddBody(int tmpl, double x, double y, double theta) {
+  if (tmpl < 0 || tmpl >= static_cast<int>(templates_.size()))
+    throw std::invalid_argument("World::AddBody: no shape template " + std::to_string(tmpl));
+  const ShapeTemplate& t = templates_[static_cast<std::size_t>(tmpl)];
+  const int id = body_count();
+  tmpl_.push_back(tmpl);
+  active_.push_back(1);
+  bx_.push_back(x);
+  by_.push_back(y);
+  bth_.push_back(theta);
+  bvx_.push_back(0);
+  bvy_.push_back(0);
+  bw_.push_back(0);
+  bfx_.push_back(0);
+  bfy_.push_back(0);
+  btq_.push_back(0);
+  bmass_.push_back(t.mass);
+  binertia_.push_back(t.inertia);
+  disc_begin_.push_back(disc_count());
+  disc_n_.push_back(static_cast<int>(t.r.size()));
+  for (std::size_t k = 0; k < t.r.size(); ++k) {
+    dbody_.push_back(id);
+    dr_.push_back(t.r[k]);
+    dmass_.push_back(t.disc_mass[k]);
+    dox_.push_back(t.ox[k]);
+    doy_.push_back(t.oy[k]);
+    dx_.push_back(0);
+    dy_.push_back(0);
+    dvx_.push_back(0);
+    dvy_.push_back(0);
+    dfx_.push_back(0);
+    dfy_.push_back(0);
+    dtz_.push_back(0);
+    refx_.push_back(0);
+    refy_.push_back(0);
+  }
+  ++active_count_;
+  UpdateDiscs(id);
+  rebuild_needed_ = true;
+  return id;
+}
+
+void World::SetVelocity(int b, double vx, double vy, double omega) {
+  bvx_[b] = vx;
+  bvy_[b] = vy;
+  bw_[b] = omega;
+  UpdateDiscs(b);
+}
+
+void World::PlaceBody(int b, double x, double y, double theta, double vx, double vy, double omega) {
+  if (!active_[b]) {
+    active_[b] = 1;
+    ++active_count_;
+  }
+  bx_[b] = x;
+  by_[b] = y;
+  bth_[b] = theta;
+  bvx_[b] = vx;
+  bvy_[b] = vy;
+  bw_[b] = omega;
+  // A body is placed where it touches nothing: its force until the next step is gravity.
+  bfx_[b] = 0.0;
+  bfy_[b] = -bmass_[b] * params_.gravity;
+  btq_[b] = 0.0;
+  UpdateDiscs(b);
+  rebuild_needed_ = true;
+}
+
+void World::Deactivate(int b) {
+  if (!active_[b]) return;
+  active_[b] = 0;
+  --active_count_;
+  bfx_[b] = bfy_[b] = btq_[b] = 0;
+  rebuild_needed_ = true;
+}
+
+void World::OpenOutlets() {
+  outlets_open_ = true;
+  rebuild_needed_ = true;
+}
+
+void World::CloseOutlets() {
+  outlets_open_ = false;
+  rebuild_needed_ = true;
+}
+
+bool World::ElementActive(const WallElement& e) const {
+  switch (e.group) {
+    case WallGroup::kAlways: return true;
+    case WallGroup::kPlug: return !outlets_open_;
+    case WallGroup::kOpen: return outlets_open_;
+  }
+  return true;
+}
+
+void World::UpdateDiscs(int b) {
+  const double c = std::cos(bth_[b]), s = std::sin(bth_[b]);
+  const int d0 = disc_begin_[b], d1 = d0 + disc_n_[b];
+  for (int d = d0; d < d1; ++d) {
+    const double wx = c * dox_[d] - s * doy_[d];
+    const double wy = s * dox_[d] + c * doy_[d];
+    dx_[d] = bx_[b] + wx;
+    dy_[d] = by_[b] + wy;
+    dvx_[d] = bvx_[b] - bw_[b] * wy;
+    dvy_[d] = bvy_[b] + bw_[b] * wx;
+  }
+}
+
+bool World::NeedsRebuild() const {
+  const int n = disc_count();
+  const double limit = 0.25 * params_.skin * params_.skin;
+  double worst = 0.0;
+#pragma omp parallel for schedule(static) reduction(max : worst)
+  for (int i = 0; i < n; ++i) {
+    if (!active_[dbody_[i]]) continue;
+    const double ddx = dx_[i] - refx_[i], ddy = dy_[i] - refy_[i];
+    worst = std::max(worst, ddx * ddx + ddy * ddy);
+  }
+  return worst > limit;
+}
+
+void World::RebuildNow() { Rebuild(); }
+
+void World::Rebuild() {
+  ++rebuilds_;
+  rebuild_needed_ = false;
+  const int n = disc_count();
+  old_start_.swap(nl_start_);
+  old_j_.swap(nl_j_);
+  old_sx_.swap(nl_sx_);
+  old_sy_.swap(nl_sy_);
+  old_wstart_.swap(wl_start_);
+  old_we_.swap(wl_e_);
+  old_wsx_.swap(wl_sx_);
+  old_wsy_.swap(wl_sy_);
+  const int old_n = old_start_.empty() ? 0 : static_cast<int>(old_start_.size()) - 1;
+  const int old_wn = old_wstart_.empty() ? 0 : static_cast<int>(old_wstart_.size()) - 1;
+
+  // Cell grid over the bounding box of the active discs.
+  double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
+  for (int i = 0; i < n; ++i) {
+    if (!active_[dbody_[i]]) continue;
+    xmin = std::min(xmin, dx_[i]);
+    xmax = std::max(xmax, dx_[i]);
+    ymin = std::min(ymin, dy_[i]);
+    ymax = std::max(ymax, dy_[i]);
+  }
+  if (xmin > xmax) xmin = xmax = ymin = ymax = 0.0;
+  double cell = 2.0 * max_radius_ + params_.skin;
+  long ncx = 0, ncy = 0;
+  for (;;) {
+    ncx = static_cast<long>((xmax - xmin) / cell) + 1;
+    ncy = static_cast<long>((ymax - ymin) / cell) + 1;
+    if (ncx * ncy <= 4L * n + 1024) break;
+    cell *= 1.5;  // a far-away body must not blow up the grid
+  }
+  const int ncells = static_cast<int>(ncx * ncy);
+  cell_count_.assign(static_cast<std::size_t>(ncells), 0);
+  disc_cell_.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    if (!active_[dbody_[i]]) {
+      disc_cell_[i] = -1;
+      continue;
+    }
+    const long cx = std::min(ncx - 1, static_cast<long>((dx_[i] - xmin) / cell));
+    const long cy = std::min(ncy - 1, static_cast<long>((dy_[i] - ymin) / cell));
+    disc_cell_[i] = static_cast<int>(cx + ncx * cy);
+    ++cell_count_[disc_cell_[i]];
+  }
+  cell_start_.resize(static_cast<std::size_t>(ncells) + 1);
+  cell_start_[0] = 0;
+  for (int c = 0; c < ncells; ++c) cell_start_[c + 1] = cell_start_[c] + cell_count_[c];
+  cell_disc_.resize(static_cast<std::size_t>(cell_start_[ncells]));
+  for (int c = 0; c < ncells; ++c) cell_count_[c] = cell_start_[c];
+  for (int i = 0; i < n; ++i)
+    if (disc_cell_[i] >= 0) cell_disc_[cell_count_[disc_cell_[i]]++] = i;
+
+  const double skin = params_.skin;
+  const int icx = static_cast<int>(ncx), icy = static_cast<int>(ncy);
+  // Visits the candidate partners j > i of disc i (different body, within cutoff).
+  auto for_neighbours = [&](int i, auto&& visit) {
+    const int c = disc_cell_[i];
+    if (c < 0) return;
+    const int cx = c % icx, cy = c / icx;
+    for (int yy = std::max(0, cy - 1); yy <= std::min(icy - 1, cy + 1); ++yy)
+      for (int xx = std::max(0, cx - 1); xx <= std::min(icx - 1, cx + 1); ++xx) {
+        const int cc = xx + icx * yy;
+        for (int k = cell_start_[cc]; k < cell_start_[cc + 1]; ++k) {
+          const int j = cell_disc_[k];
+          if (j <= i || dbody_[j] == dbody_[i]) continue;
+          const double ddx = dx_[i] - dx_[j], ddy = dy_[i] - dy_[j];
+          const double cut = dr_[i] + dr_[j] + skin;
+          if (ddx * ddx + ddy * ddy < cut * cut) visit(j);
+        }
+      }
+  };
+  nl_start_.resize(static_cast<std::size_t>(n) + 1);
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < n; ++i) {
+    int count = 0;
+    for_neighbours(i, [&](int) { ++count; });
+    nl_start_[i + 1] = count;
+  }
+  nl_start_[0] = 0;
+  for (int i = 0; i < n; ++i) nl_start_[i + 1] += nl_start_[i];
+  const int m = nl_start_[n];
+  nl_j_.resize(static_cast<std::size_t>(m));
+  nl_sx_.resize(static_cast<std::size_t>(m));
+  nl_sy_.resize(static_cast<std::size_t>(m));
+  nl_fx_.assign(static_cast<std::size_t>(m), 0.0);
+  nl_fy_.assign(static_cast<std::size_t>(m), 0.0);
+  nl_c_.assign(static_cast<std::size_t>(m), 0.0);
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < n; ++i) {
+    int k = nl_start_[i];
+    for_neighbours(i, [&](int j) { nl_j_[k++] = j; });
+    std::sort(nl_j_.begin() + nl_start_[i], nl_j_.begin() + nl_start_[i + 1]);
+    // History transfer: both segments are sorted by j.
+    int o = i < old_n ? old_start_[i] : 0;
+    const int oend = i < old_n ? old_start_[i + 1] : 0;
+    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
+      while (o < oend && old_j_[o] < nl_j_[e]) ++o;
+      if (o < oend && old_j_[o] == nl_j_[e]) {
+        nl_sx_[e] = old_sx_[o];
+        nl_sy_[e] = old_sy_[o];
+      } else {
+        nl_sx_[e] = 0.0;
+        nl_sy_[e] = 0.0;
+      }
+    }
+  }
+  // Transpose.
+  tl_start_.assign(static_cast<std::size_t>(n) + 1, 0);
+  for (int e = 0; e < m; ++e) ++tl_start_[nl_j_[e] + 1];
+  for (int i = 0; i < n; ++i) tl_start_[i + 1] += tl_start_[i];
+  tl_fill_.assign(tl_start_.begin(), tl_start_.end() - 1);
+  tl_entry_.resize(static_cast<std::size_t>(m));
+  for (int i = 0; i < n; ++i)
+    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) tl_entry_[tl_fill_[nl_j_[e]]++] = e;
+
+  // Wall list.
+  wl_start_.resize(static_cast<std::size_t>(n) + 1);
+  wl_start_[0] = 0;
+  wl_e_.clear();
+  wl_sx_.clear();
+  wl_sy_.clear();
+  const int ne = static_cast<int>(geometry_.elements.size());
+  for (int i = 0; i < n; ++i) {
+    if (active_[dbody_[i]]) {
+      int o = i < old_wn ? old_wstart_[i] : 0;
+      const int oend = i < old_wn ? old_wstart_[i + 1] : 0;
+      for (int e = 0; e < ne; ++e) {
+        const WallElement& el = geometry_.elements[e];
+        if (!ElementActive(el)) continue;
+        double reach = dr_[i] + skin;
+        double qx, qy;
+        if (el.kind == ElementKind::kSegment) {
+          // Keep segments whose line is within reach, even if the foot is just outside the
+          // segment now: the disc may slide onto it before the next rebuild.
+          const double sx = el.bx - el.ax, sy = el.by - el.ay;
+          const double len2 = sx * sx + sy * sy;
+          const double t = std::clamp(((dx_[i] - el.ax) * sx + (dy_[i] - el.ay) * sy) / len2, 0.0, 1.0);
+          qx = el.ax + t * sx;
+          qy = el.ay + t * sy;
+        } else {
+          qx = el.ax;
+          qy = el.ay;
+          reach += el.radius;
+        }
+        const double ddx = dx_[i] - qx, ddy = dy_[i] - qy;
+        if (ddx * ddx + ddy * ddy >= reach * reach) continue;
+        while (o < oend && old_we_[o] < e) ++o;
+        const bool had = o < oend && old_we_[o] == e;
+        wl_e_.push_back(e);
+        wl_sx_.push_back(had ? old_wsx_[o] : 0.0);
+        wl_sy_.push_back(had ? old_wsy_[o] : 0.0);
+      }
+    }
+    wl_start_[i + 1] = static_cast<int>(wl_e_.size());
+  }
+  wl_fx_.assign(wl_e_.size(), 0.0);
+  wl_fy_.assign(wl_e_.size(), 0.0);
+  for (int i = 0; i < n; ++i) {
+    refx_[i] = dx_[i];
+    refy_[i] = dy_[i];
+  }
+}
+
+void World::ComputeForces() {
+  if (rebuild_needed_ || NeedsRebuild()) Rebuild();
+  const int n = disc_count();
+  const double dt = params_.dt;
+  const ContactParams& pp = params_.pair;
+  const ContactParams& wp = params_.wall;
+
+  // 1. Pair forces, once per contact, into the contact's own slot.
+#pragma omp parallel for schedule(dynamic, 256)
+  for (int i = 0; i < n; ++i) {
+    const int bi = dbody_[i];
+    const double ri = dr_[i], xi = dx_[i], yi = dy_[i];
+    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
+      const int j = nl_j_[e];
+      const double ddx = xi - dx_[j], ddy = yi - dy_[j];
+      const double rsq = ddx * ddx + ddy * ddy;
+      const double radsum = ri + dr_[j];
+      if (rsq >= radsum * radsum) {
+        nl_fx_[e] = nl_fy_[e] = nl_c_[e] = 0.0;
+        nl_sx_[e] = nl_sy_[e] = 0.0;  // the contact opened: history reset
+        continue;
+      }
+      const int bj = dbody_[j];
+      const double r = std::sqrt(rsq);
+      const double nx = ddx / r, ny = ddy / r;
+      const double delta = radsum - r;
+      const double reff = EffectiveRadius(ri, dr_[j]);
+      const double meff = EffectiveMass(bmass_[bi], bmass_[bj]);
+      const double vrx = dvx_[i] - dvx_[j], vry = dvy_[i] - dvy_[j];
+      const double vn = vrx * nx + vry * ny;
+      const double wr = ri * bw_[bi] + dr_[j] * bw_[bj];
+      const double vtx = vrx - vn * nx + wr * ny;
+      const double vty = vry - vn * ny - wr * nx;
+      const double fn = NormalForce(delta, reff, meff, vn, pp);
+      const Tangential t = TangentialForce(nl_sx_[e], nl_sy_[e], nx, ny, vtx, vty, delta, reff, meff, fn, dt, pp);
+      nl_sx_[e] = t.sx;
+      nl_sy_[e] = t.sy;
+      nl_fx_[e] = fn * nx + t.fx;
+      nl_fy_[e] = fn * ny + t.fy;
+      nl_c_[e] = nx * t.fy - ny * t.fx;
+    }
+  }
+
+  // 2. Per disc, in a fixed order: own entries, transposed entries, walls.
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < n; ++i) {
+    const int bi = dbody_[i];
+    double fx = 0, fy = 0, c = 0;
+    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
+      fx += nl_fx_[e];
+      fy += nl_fy_[e];
+      c += nl_c_[e];
+    }
+    for (int k = tl_start_[i]; k < tl_start_[i + 1]; ++k) {
+      const int e = tl_entry_[k];
+      fx -= nl_fx_[e];
+      fy -= nl_fy_[e];
+      c += nl_c_[e];
+    }
+    const double ri = dr_[i];
+    double tz = -ri * c;  // torque of tangential forces at the contact point -r n (LAMMPS)
+    for (int k = wl_start_[i]; k < wl_start_[i + 1]; ++k) {
+      const WallElement& el = geometry_.elements[wl_e_[k]];
+      const Closest q = ClosestPoint(el, dx_[i], dy_[i]);
+      double ddx = dx_[i] - q.qx, ddy = dy_[i] - q.qy;
+      const double rsq = ddx * ddx + ddy * ddy;
+      const double reach = ri + el.radius;
+      if (!q.valid || rsq >= reach * reach || rsq == 0.0) {
+        wl_sx_[k] = wl_sy_[k] = wl_fx_[k] = wl_fy_[k] = 0.0;
+        continue;
+      }
+      const double r = std::sqrt(rsq);
+      const double nx = ddx / r, ny = ddy / r;
+      const double delta = reach - r;
+      const double reff = el.kind == ElementKind::kCircle ? EffectiveRadius(ri, el.radius) : ri;
+      const double meff = bmass_[bi];
+      const double vrx = dvx_[i], vry = dvy_[i];
+      const double vn = vrx * nx + vry * ny;
+      const double wr = ri * bw_[bi];
+      const double vtx = vrx - vn * nx + wr * ny;
+      const double vty = vry - vn * ny - wr * nx;
+      const double fn = NormalForce(delta, reff, meff, vn, wp);
+      const Tangential t = TangentialForce(wl_sx_[k], wl_sy_[k], nx, ny, vtx, vty, delta, reff, meff, fn, dt, wp);
+      wl_sx_[k] = t.sx;
+      wl_sy_[k] = t.sy;
+      const double wfx = fn * nx + t.fx, wfy = fn * ny + t.fy;
+      wl_fx_[k] = wfx;
+      wl_fy_[k] = wfy;
+      fx += wfx;
+      fy += wfy;
+      tz -= ri * (nx * t.fy - ny * t.fx);
+    }
+    dfx_[i] = fx;
+    dfy_[i] = fy;
+    dtz_[i] = tz;
+  }
+
+  // 3. Per body: sum of disc forces, gravity, torque about the centre of mass.
+  const int nb = body_count();
+  const double g = params_.gravity;
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < nb; ++b) {
+    if (!active_[b]) continue;
+    double fx = 0, fy = 0, tq = 0;
+    const int d0 = disc_begin_[b], d1 = d0 + disc_n_[b];
+    for (int d = d0; d < d1; ++d) {
+      fx += dfx_[d];
+      fy += dfy_[d];
+      tq += (dx_[d] - bx_[b]) * dfy_[d] - (dy_[d] - by_[b]) * dfx_[d] + dtz_[d];
+    }
+    bfx_[b] = fx;
+    bfy_[b] = fy - bmass_[b] * g;
+    btq_[b] = tq;
+  }
+}
+
+void World::Step() {
+  const int nb = body_count();
+  const double dt = params_.dt, half = 0.5 * params_.dt;
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < nb; ++b) {
+    if (!active_[b]) continue;
+    bvx_[b] += half * bfx_[b] / bmass_[b];
+    bvy_[b] += half * bfy_[b] / bmass_[b];
+    bw_[b] += half * btq_[b] / binertia_[b];
+    bx_[b] += dt * bvx_[b];
+    by_[b] += dt * bvy_[b];
+    bth_[b] += dt * bw_[b];
+    UpdateDiscs(b);
+  }
+  ComputeForces();
+#pragma omp parallel for schedule(static)
+  for (int b = 0; b < nb; ++b) {
+    if (!active_[b]) continue;
+    bvx_[b] += half * bfx_[b] / bmass_[b];
+    bvy_[b] += half * bfy_[b] / bmass_[b];
+    bw_[b] += half * btq_[b] / binertia_[b];
+  }
+}
+
+double World::KineticEnergy() const {
+  double ke = 0.0;
+  for (int b = 0; b < body_count(); ++b) {
+    if (!active_[b]) continue;
+    ke += 0.5 * bmass_[b] * (bvx_[b] * bvx_[b] + bvy_[b] * bvy_[b]) + 0.5 * binertia_[b] * bw_[b] * bw_[b];
+  }
+  return ke;
+}
+
+double World::MaxDiscTop() const {
+  double top = 0.0;
+  for (int i = 0; i < disc_count(); ++i)
+    if (active_[dbody_[i]]) top = std::max(top, dy_[i] + dr_[i]);
+  return top;
+}
+
+void World::ExportHistory(std::vector<HistoryEntry>& pairs, std::vector<HistoryEntry>& walls) const {
+  pairs.clear();
+  walls.clear();
+  const int n = static_cast<int>(nl_start_.empty() ? 0 : nl_start_.size() - 1);
+  for (int i = 0; i < n; ++i) {
+    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e)
+      if (nl_sx_[e] != 0.0 || nl_sy_[e] != 0.0) pairs.push_back({i, nl_j_[e], nl_sx_[e], nl_sy_[e]});
+    for (int k = wl_start_[i]; k < wl_start_[i + 1]; ++k)
+      if (wl_sx_[k] != 0.0 || wl_sy_[k] != 0.0) walls.push_back({i, wl_e_[k], wl_sx_[k], wl_sy_[k]});
+  }
+}
+
+namespace {
+
+// Lays out history entries (sorted by i, then j) as a CSR list over n discs.
+void HistoryToCsr(const std::vector<HistoryEntry>& entries, int n, const char* what, std::vector<int>& start,
+                  std::vector<int>& other, std::vector<double>& sx, std::vector<double>& sy) {
+  start.assign(static_cast<std::size_t>(n) + 1, 0);
+  other.clear();
+  sx.clear();
+  sy.clear();
+  for (const HistoryEntry& h : entries) {
+    if (h.i < 0 || h.i >= n)
+      throw std::runtime_error(std::string(what) + " history: disc " + std::to_string(h.i) + " out of range [0, " +
+                               std::to_string(n) + ")");
+    ++start[h.i + 1];
+    other.push_back(h.j);
+    sx.push_back(h.sx);
+    sy.push_back(h.sy);
+  }
+  for (int i = 0; i < n; ++i) start[i + 1] += start[i];
+}
+
+}  // namespace
+
+void World::ImportHistory(const std::vector<HistoryEntry>& pairs, const std::vector<HistoryEntry>& walls) {
+  // Present the stored entries as the "current" lists; the rebuild transfers them.
+  HistoryToCsr(pairs, disc_count(), "pair", nl_start_, nl_j_, nl_sx_, nl_sy_);
+  HistoryToCsr(walls, disc_count(), "wall", wl_start_, wl_e_, wl_sx_, wl_sy_);
+  Rebuild();
+}
+
+void World::CollectContacts(std::vector<ContactView>& out) const {
+  out.clear();
+  const int n = static_cast<int>(nl_start_.empty() ? 0 : nl_start_.size() - 1);
+  for (int i = 0; i < n; ++i) {
+    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
+      if (nl_fx_[e] == 0.0 && nl_fy_[e] == 0.0) continue;
+      const int j = nl_j_[e];
+      const double ddx = dx_[i] - dx_[j], ddy = dy_[i] - dy_[j];
+      const double r = std::sqrt(ddx * ddx + ddy * ddy);
+      out.push_back({i, j, -1, dx_[i] - dr_[i] * ddx / r, dy_[i] - dr_[i] * ddy / r, nl_fx_[e], nl_fy_[e]});
+    }
+    for (int k = wl_start_[i]; k < wl_start_[i + 1]; ++k) {
+      if (wl_fx_[k] == 0.0 && wl_fy_[k] == 0.0) continue;
+      const Closest q = ClosestPoint(geometry_.elements[wl_e_[k]], dx_[i], dy_[i]);
+      double cx = q.qx, cy = q.qy;
+      const WallElement& el = geometry_.elements[wl_e_[k]];
+      if (el.kind == ElementKind::kCircle) {
+        const double ddx = dx_[i] - el.ax, ddy = dy_[i] - el.ay;
+        const double r = std::sqrt(ddx * ddx + ddy * ddy);
+        cx = el.ax + el.radius * ddx / r;
+        cy = el.ay + el.radius * ddy / r;
+      }
+      out.push_back({i, -1, wl_e_[k], cx, cy, wl_fx_[k], wl_fy_[k]});
+    }
+  }
+}
+
+}  // namespace granary::engine
