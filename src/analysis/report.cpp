@@ -511,14 +511,22 @@ std::optional<Section> flow_section(const Context& c) {
 }
 
 std::optional<Section> profile_section(const Context& c) {
-  Figure fy{"velocity_profile_vy", "Normalised vertical velocity across the outlet", "x/W",
-            "v_y / max|v_y|", {}, false, false,
+  const bool lateral = !c.used.empty() && !c.used.front().analysis.outlets.empty() &&
+                       !c.used.front().analysis.outlets.front().base;
+  const std::string along = lateral ? "y/W (height along the lateral outlet, from its centre)" : "x/W";
+  Figure fy{"velocity_profile_vy",
+            lateral ? "Normalised horizontal (outflow) velocity across the lateral outlet (ch. 5a)"
+                    : "Normalised vertical velocity across the outlet",
+            along, lateral ? "v_n / max|v_n| (v_n: velocity away from the wall)" : "v_y / max|v_y|", {}, false, false,
             "Bodies with centre within " + format_number(c.options->analysis.profile.band_low) + ".." +
                 format_number(c.options->analysis.profile.band_high) +
                 " d of outlet 0's wall (x along the outlet, v_y normal to it), averaged over the steady-window "
                 "frames and replicas"};
-  Figure fx{"velocity_profile_vx", "Normalised horizontal velocity across the outlet", "x/W", "v_x / max|v_x|",
-            {}, false, false, ""};
+  Figure fx{"velocity_profile_vx",
+            lateral ? "Normalised vertical velocity across the lateral outlet"
+                    : "Normalised horizontal velocity across the outlet",
+            along, lateral ? "v_y / max|v_y|" : "v_x / max|v_x|", {}, false, false,
+            lateral ? "Sign: positive upwards" : ""};
   for (const Point& p : c.points) {
     std::vector<const VelocityProfile*> prof;
     for (const AnalysedRun* a : p.runs)
