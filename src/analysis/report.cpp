@@ -433,7 +433,9 @@ std::optional<Section> flow_section(const Context& c) {
       for (const auto& par : r.parameters)
         fits.rows.push_back({g, r.model_name + ": " + r.expression, par.name, format_number(par.value),
                              format_number(par.se, 2),
-                             std::string("[") + format_number(par.ci_low) + ", " + format_number(par.ci_high) + "]",
+                             std::isfinite(par.ci_low) ? std::string("[") + format_number(par.ci_low) + ", " +
+                                                             format_number(par.ci_high) + "]"
+                                                       : std::string(),
                              r.dof > 0 ? format_number(r.chi2 / r.dof, 3) : "", std::to_string(x.size()), weighted,
                              r.status + (r.ok() ? " (" + r.convergence + ", " + std::to_string(r.iterations) + " it.)" : "") +
                                  (r.warning.empty() ? "" : "; " + r.warning)});
