@@ -1,0 +1,282 @@
+// See campaign_db.h.
+#include "runner/campaign_db.h"
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <filesystem>
+#include <functional>
+
+namespace granary::runner {
+
+using nlohmann::json;
+
+double now_seconds() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+Holder this_process_holder() {
+  static const Holder holder = [] {
+    char host[256] = {0};
+    gethostname(host, sizeof host - 1);
+    Holder h;
+    h.host = host;
+    h.pid = static_cast<int>(getpid());
+    h.id = h.host + ":" + std::to_string(h.pid) + ":" + std::to_string(static_cast<long long>(now_seconds() * 1000));
+    return h;
+  }();
+  return holder;
+}
+
+PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vector<PlannedRun>& runs,
+                          const std::string& runs_root, bool dry_run) {
+  PlanSummary sum;
+  sum.total = static_cast<int>(runs.size());
+  sum.axes = spec.axes;
+  std::set<std::string> ids;
+  std::set<std::string> point_ids;
+  for (const auto& r : runs) {
+    if (!ids.insert(r.run_id).second) {
+      throw SpecError("/sweep", "two sweep points resolve to the same run (point " + r.point.dump() + ", replica " +
+                                    std::to_string(r.replica) + "); remove the duplicate");
+    }
+    point_ids.insert(r.point_id);
+    for (const auto& axis : spec.axes) {
+      if (!r.point.contains(axis)) continue;
+      auto& vals = sum.axis_values[axis];
+      if (std::find(vals.begin(), vals.end(), r.point[axis]) == vals.end()) vals.push_back(r.point[axis]);
+    }
+  }
+  sum.points = static_cast<int>(point_ids.size());
+
+  Transaction tx(store);
+  std::map<std::string, std::string> existing;  // run_id -> state
+  {
+    Statement q = store.prepare("SELECT run_id, state FROM runs ORDER BY seq");
+    while (q.step()) existing[q.text(0)] = q.text(1);
+  }
+  std::int64_t next_seq = 0;
+  {
+    Statement q = store.prepare("SELECT COALESCE(MAX(seq), -1) + 1 FROM runs");
+    q.step();
+    next_seq = q.integer(0);
+  }
+  for (const auto& r : runs) {
+    auto it = existing.find(r.run_id);
+    if (it == existing.end()) ++sum.added;
+    else if (it->second == "retired") ++sum.revived;
+    else ++sum.unchanged;
+  }
+  for (const auto& [id, state] : existing) {
+    if (!ids.count(id) && state != "retired") ++sum.retired;
+  }
+  if (dry_run) return sum;  // the transaction rolls back
+
+  Statement campaign = store.prepare(
+      "INSERT INTO campaign (id, name, spec, spec_hash, axes, granary_version, git_commit, planned_at) "
+      "VALUES (1, ?1, ?2, ?3, ?4, ?5, ?6, ?7) ON CONFLICT (id) DO UPDATE SET name = ?1, spec = ?2, "
+      "spec_hash = ?3, axes = ?4, granary_version = ?5, git_commit = ?6, planned_at = ?7");
+  campaign.bind(1, spec.name).bind(2, spec.raw.dump()).bind(3, spec.spec_hash()).bind(4, json(spec.axes).dump());
+  campaign.bind(5, GRANARY_VERSION).bind(6, GRANARY_GIT_COMMIT).bind(7, now_seconds()).run();
+
+  Statement insert = store.prepare(
+      "INSERT INTO runs (run_id, seq, point_id, point, replica, params, state, engine, granary_version, "
+      "git_commit, run_dir) VALUES (?1, ?2, ?3, ?4, ?5, ?6, 'planned', ?7, ?8, ?9, ?10)");
+  Statement revive = store.prepare(
+      "UPDATE runs SET state = COALESCE(retired_from, 'planned'), retired_from = NULL WHERE run_id = ?1");
+  Statement retire = store.prepare(
+      "UPDATE runs SET retired_from = state, state = 'retired' WHERE run_id = ?1 AND state != 'retired'");
+  for (const auto& r : runs) {
+    auto it = existing.find(r.run_id);
+    if (it == existing.end()) {
+      insert.reset();
+      insert.bind(1, r.run_id).bind(2, next_seq++).bind(3, r.point_id).bind(4, r.point.dump()).bind(5, r.replica);
+      insert.bind(6, r.params.dump()).bind(7, r.engine).bind(8, GRANARY_VERSION).bind(9, GRANARY_GIT_COMMIT);
+      insert.bind(10, (std::filesystem::path(runs_root) / r.run_id).string());
+      insert.run();
+    } else if (it->second == "retired") {
+      revive.reset();
+      revive.bind(1, r.run_id).run();
+    }
+  }
+  // Retiring never deletes: a finished run keeps its results and comes back if re-planned.
+  for (const auto& [id, state] : existing) {
+    if (!ids.count(id) && state != "retired") {
+      retire.reset();
+      retire.bind(1, id).run();
+    }
+  }
+  tx.commit();
+  return sum;
+}
+
+std::optional<CampaignRow> load_campaign(Store& store) {
+  Statement q = store.prepare("SELECT name, spec, spec_hash, axes, granary_version, git_commit FROM campaign WHERE id = 1");
+  if (!q.step()) return std::nullopt;
+  CampaignRow c;
+  c.name = q.text(0);
+  c.spec = json::parse(q.text(1));
+  c.spec_hash = q.text(2);
+  c.axes = json::parse(q.text(3)).get<std::vector<std::string>>();
+  c.granary_version = q.text(4);
+  c.git_commit = q.text(5);
+  return c;
+}
+
+namespace {
+
+constexpr char kRunColumns[] =
+    "SELECT run_id, seq, point_id, point, replica, params, state, attempts, engine, COALESCE(engine_version, ''), "
+    "COALESCE(host, ''), COALESCE(started_at, 0), COALESCE(ended_at, 0), COALESCE(wall_s, 0), "
+    "COALESCE(end_reason, ''), run_dir, COALESCE(failure, ''), COALESCE(lease_holder, ''), progress, "
+    "COALESCE(lease_host, ''), COALESCE(lease_pid, 0), COALESCE(lease_heartbeat, 0) FROM runs ";
+
+RunRow ReadRow(const Statement& q, bool with_params) {
+  RunRow r;
+  r.run_id = q.text(0);
+  r.seq = q.integer(1);
+  r.point_id = q.text(2);
+  r.point = json::parse(q.text(3));
+  r.replica = static_cast<int>(q.integer(4));
+  if (with_params) r.params = json::parse(q.text(5));
+  r.state = q.text(6);
+  r.attempts = static_cast<int>(q.integer(7));
+  r.engine = q.text(8);
+  r.engine_version = q.text(9);
+  r.host = q.text(10);
+  r.started_at = q.real(11);
+  r.ended_at = q.real(12);
+  r.wall_s = q.real(13);
+  r.end_reason = q.text(14);
+  r.run_dir = q.text(15);
+  r.failure = q.text(16);
+  r.lease_holder = q.text(17);
+  if (!q.is_null(18)) r.progress = json::parse(q.text(18), nullptr, false);
+  return r;
+}
+
+bool PidAlive(int pid) { return pid > 0 && (kill(pid, 0) == 0 || errno != ESRCH); }
+
+}  // namespace
+
+std::vector<RunRow> load_runs(Store& store, bool with_params) {
+  Statement q = store.prepare((std::string(kRunColumns) + "ORDER BY seq").c_str());
+  std::vector<RunRow> rows;
+  while (q.step()) rows.push_back(ReadRow(q, with_params));
+  return rows;
+}
+
+int recover_expired_leases(Store& store, const Holder& me, double now) {
+  Transaction tx(store);
+  Statement q = store.prepare(
+      "SELECT run_id, COALESCE(lease_host, ''), COALESCE(lease_pid, 0), COALESCE(lease_heartbeat, 0), "
+      "COALESCE(lease_holder, '') FROM runs WHERE state = 'running' ORDER BY seq");
+  std::vector<std::string> expired;
+  while (q.step()) {
+    const std::string holder = q.text(4);
+    if (holder == me.id) continue;
+    const bool stale = now - q.real(3) > kLeaseStaleSeconds;
+    const bool gone = q.text(1) == me.host && !PidAlive(static_cast<int>(q.integer(2)));
+    if (stale || gone) expired.push_back(q.text(0));
+  }
+  Statement u = store.prepare(
+      "UPDATE runs SET state = 'interrupted', failure = ?2, lease_holder = NULL, lease_host = NULL, "
+      "lease_pid = NULL, lease_heartbeat = NULL WHERE run_id = ?1");
+  for (const auto& id : expired) {
+    u.reset();
+    u.bind(1, id).bind(2, "runner lost (lease expired); continues from its checkpoint").run();
+  }
+  tx.commit();
+  return static_cast<int>(expired.size());
+}
+
+std::optional<RunRow> claim_next(Store& store, const Holder& me, double now,
+                                 const std::function<bool(const RunRow&)>& accept,
+                                 const std::set<std::string>& skip) {
+  Transaction tx(store);
+  Statement q = store.prepare(
+      (std::string(kRunColumns) + "WHERE state IN ('planned', 'interrupted', 'failed') ORDER BY seq").c_str());
+  std::optional<RunRow> found;
+  while (q.step()) {
+    if (skip.count(q.text(0))) continue;
+    RunRow r = ReadRow(q, true);
+    if (accept && !accept(r)) continue;
+    found = std::move(r);
+    break;
+  }
+  if (!found) return std::nullopt;
+  Statement u = store.prepare(
+      "UPDATE runs SET state = 'running', attempts = attempts + 1, host = ?2, started_at = ?3, ended_at = NULL, "
+      "lease_holder = ?4, lease_host = ?2, lease_pid = ?5, lease_heartbeat = ?3, granary_version = ?6, "
+      "git_commit = ?7 WHERE run_id = ?1 AND state IN ('planned', 'interrupted', 'failed')");
+  u.bind(1, found->run_id).bind(2, me.host).bind(3, now).bind(4, me.id).bind(5, me.pid);
+  u.bind(6, GRANARY_VERSION).bind(7, GRANARY_GIT_COMMIT).run();
+  if (sqlite3_changes(store.handle()) != 1) return std::nullopt;
+  tx.commit();
+  found->state = "running";
+  found->attempts += 1;
+  found->started_at = now;
+  return found;
+}
+
+void heartbeat(Store& store, const Holder& me, double now, const std::map<std::string, json>& progress_by_run) {
+  Transaction tx(store);
+  Statement u = store.prepare("UPDATE runs SET lease_heartbeat = ?2 WHERE lease_holder = ?1 AND state = 'running'");
+  u.bind(1, me.id).bind(2, now).run();
+  Statement p = store.prepare("UPDATE runs SET progress = ?2 WHERE run_id = ?1 AND lease_holder = ?3");
+  for (const auto& [id, prog] : progress_by_run) {
+    p.reset();
+    p.bind(1, id).bind(2, prog.dump()).bind(3, me.id).run();
+  }
+  tx.commit();
+}
+
+std::map<std::string, json> flatten_scalars(const json& summary) {
+  std::map<std::string, json> out;
+  std::function<void(const json&, const std::string&)> walk = [&](const json& j, const std::string& prefix) {
+    for (const auto& [key, value] : j.items()) {
+      const std::string name = prefix.empty() ? key : prefix + "/" + key;
+      if (prefix.empty() && key == "spec") continue;
+      if (value.is_object()) walk(value, name);
+      else if (value.is_number() || value.is_string() || value.is_boolean()) out[name] = value;
+    }
+  };
+  if (summary.is_object()) walk(summary, "");
+  return out;
+}
+
+void record_done(Store& store, const std::string& run_id, const json& summary, double now, double wall_s) {
+  Transaction tx(store);
+  Statement del = store.prepare("DELETE FROM results WHERE run_id = ?1");
+  del.bind(1, run_id).run();
+  Statement ins = store.prepare("INSERT INTO results (run_id, key, value, text) VALUES (?1, ?2, ?3, ?4)");
+  for (const auto& [key, value] : flatten_scalars(summary)) {
+    ins.reset();
+    ins.bind(1, run_id).bind(2, key);
+    if (value.is_number()) ins.bind(3, value.get<double>()).bind_null(4);
+    else if (value.is_boolean()) ins.bind(3, value.get<bool>() ? 1.0 : 0.0).bind_null(4);
+    else ins.bind_null(3).bind(4, value.get<std::string>());
+    ins.run();
+  }
+  Statement u = store.prepare(
+      "UPDATE runs SET state = 'done', ended_at = ?2, wall_s = ?3, end_reason = ?4, engine_version = ?5, "
+      "summary = ?6, failure = NULL, lease_holder = NULL, lease_host = NULL, lease_pid = NULL, "
+      "lease_heartbeat = NULL WHERE run_id = ?1");
+  u.bind(1, run_id).bind(2, now).bind(3, wall_s).bind(4, summary.value("end_reason", std::string()));
+  u.bind(5, summary.value("engine_version", std::string())).bind(6, summary.dump()).run();
+  tx.commit();
+}
+
+void record_end(Store& store, const std::string& run_id, const std::string& state, const std::string& reason,
+                double now, double wall_s) {
+  Transaction tx(store);
+  Statement u = store.prepare(
+      "UPDATE runs SET state = ?2, failure = ?3, ended_at = ?4, wall_s = ?5, end_reason = ?6, lease_holder = NULL, "
+      "lease_host = NULL, lease_pid = NULL, lease_heartbeat = NULL WHERE run_id = ?1");
+  u.bind(1, run_id).bind(2, state).bind(3, reason).bind(4, now).bind(5, wall_s).bind(6, state).run();
+  tx.commit();
+}
+
+}  // namespace granary::runner

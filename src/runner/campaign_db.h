@@ -1,0 +1,105 @@
+// The campaign's tables as operations: plan (idempotent, retire/add on edits), claim a run
+// under a lease, record its end, heartbeats, and read-back for status and report. Every
+// state change is one transaction; claims are BEGIN IMMEDIATE so two runners sharing a
+// database never claim the same run (docs/cli.md, "Resume and leases").
+#pragma once
+
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "runner/campaign_spec.h"
+#include "runner/store.h"
+
+namespace granary::runner {
+
+struct PlanSummary {
+  int total = 0;      // runs in the spec
+  int added = 0;      // new rows
+  int unchanged = 0;  // already present (any state)
+  int revived = 0;    // were retired, back in the spec
+  int retired = 0;    // no longer in the spec
+  int points = 0;
+  std::vector<std::string> axes;
+  std::map<std::string, std::vector<nlohmann::json>> axis_values;  // distinct values per axis, in order
+};
+
+// Stores the campaign and its runs. `runs_root` is where run directories go. With
+// dry_run, computes the summary and changes nothing.
+PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vector<PlannedRun>& runs,
+                          const std::string& runs_root, bool dry_run);
+
+struct RunRow {
+  std::string run_id;
+  std::int64_t seq = 0;
+  std::string point_id;
+  nlohmann::json point;
+  int replica = 0;
+  nlohmann::json params;
+  std::string state;
+  int attempts = 0;
+  std::string engine;
+  std::string engine_version;
+  std::string host;
+  double started_at = 0;  // unix seconds; 0 = never
+  double ended_at = 0;
+  double wall_s = 0;
+  std::string end_reason;
+  std::string run_dir;
+  std::string failure;
+  std::string lease_holder;
+  nlohmann::json progress;  // last progress.json seen, or null
+};
+
+struct CampaignRow {
+  std::string name;
+  nlohmann::json spec;
+  std::string spec_hash;
+  std::vector<std::string> axes;
+  std::string granary_version;
+  std::string git_commit;
+};
+
+std::optional<CampaignRow> load_campaign(Store& store);
+// with_params = false skips parsing the resolved parameters (fast status on big campaigns).
+std::vector<RunRow> load_runs(Store& store, bool with_params = true);
+
+// Who holds a lease: host, pid and start time make it unique.
+struct Holder {
+  std::string id;  // "host:pid:start"
+  std::string host;
+  int pid = 0;
+};
+Holder this_process_holder();
+
+// A lease is expired when its heartbeat is older than this, or its pid is gone on this host.
+inline constexpr double kLeaseStaleSeconds = 60.0;
+
+// Runs left `running` under an expired lease become `interrupted`. Returns how many.
+int recover_expired_leases(Store& store, const Holder& me, double now);
+
+// Claims the first runnable run (planned, interrupted or failed; in plan order) that passes
+// `accept` and is not in `skip`. Marks it running under `me`, attempts + 1.
+std::optional<RunRow> claim_next(Store& store, const Holder& me, double now,
+                                 const std::function<bool(const RunRow&)>& accept,
+                                 const std::set<std::string>& skip);
+
+void heartbeat(Store& store, const Holder& me, double now,
+               const std::map<std::string, nlohmann::json>& progress_by_run);
+
+// Ingests summary.json scalars into results, state done, lease cleared; one transaction.
+void record_done(Store& store, const std::string& run_id, const nlohmann::json& summary, double now,
+                 double wall_s);
+// state failed or interrupted with the reason (and log tail); lease cleared.
+void record_end(Store& store, const std::string& run_id, const std::string& state, const std::string& reason,
+                double now, double wall_s);
+
+// Flattens scalar values of summary.json ("timing/wall_s" -> 812.3), skipping "spec".
+std::map<std::string, nlohmann::json> flatten_scalars(const nlohmann::json& summary);
+
+double now_seconds();
+
+}  // namespace granary::runner

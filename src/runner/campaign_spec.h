@@ -1,0 +1,53 @@
+// The campaign spec (docs/campaign-spec.md): a base run spec, sweeps over any run-spec
+// parameter (grid, zip, explicit points; axes are JSON Pointers into the run spec) and
+// replicas. Parsing validates everything before anything runs; expand() resolves every
+// run with RunSpec::from_json and gives it a stable id (hash of its canonical parameters).
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "engine/run_spec.h"
+
+namespace granary::runner {
+
+struct CampaignSpec {
+  std::string name;
+  std::string description;
+  std::uint64_t seed = 1;
+  int replicas = 1;
+  std::string engine = "native";
+  nlohmann::json base = nlohmann::json::object();
+  nlohmann::json grid = nlohmann::json::object();   // pointer -> [values]: cartesian product
+  nlohmann::json zip = nlohmann::json::object();    // pointer -> [values]: paired, equal lengths
+  nlohmann::json points = nlohmann::json::array();  // [{pointer: value, ...}]: explicit points
+  nlohmann::json raw;                               // the spec as given
+  std::vector<std::string> axes;                    // grid, then zip, then point keys, in order
+
+  // Throws SpecError naming the JSON path in the campaign spec.
+  static CampaignSpec from_json(const nlohmann::json& j);
+  std::string spec_hash() const;
+};
+
+struct PlannedRun {
+  std::string run_id;
+  std::string point_id;  // shared by the replicas of one sweep point
+  nlohmann::json point;  // {pointer: value} of the sweep axes
+  int replica = 0;
+  nlohmann::json params;  // canonical resolved run spec (run.json)
+  std::string engine;
+};
+
+// The directory of prepared beds: $GRANARY_CACHE_DIR or ~/.cache/granary/beds.
+std::string default_cache_dir();
+
+// Expands the sweep into runs (points in order, replicas within a point). Every run is
+// validated; an error names the sweep point. bed.cache_file = <cache_dir>/<hash of bed_key>.bed.
+std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cache_dir);
+
+// Run id of a resolved run spec: hash of its canonical JSON without run_id and cache_file.
+std::string run_id_of(const RunSpec& spec);
+
+}  // namespace granary::runner

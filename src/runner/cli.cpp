@@ -1,0 +1,582 @@
+// See cli.h. Flags and exit codes are documented in docs/cli.md.
+#include "runner/cli.h"
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <thread>
+
+#include "runner/campaign_db.h"
+#include "runner/campaign_spec.h"
+#include "runner/scheduler.h"
+#include "runner/util.h"
+#ifdef GRANARY_HAVE_ANALYSIS
+#include "analysis/report.h"
+#endif
+
+namespace granary::runner {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Parsed flags of one verb: --name value, --name=value, or --name for booleans.
+struct Args {
+  std::vector<std::string> positional;
+  std::map<std::string, std::string> flags;
+  bool has(const std::string& f) const { return flags.count(f) > 0; }
+  std::string get(const std::string& f, const std::string& def) const {
+    auto it = flags.find(f);
+    return it == flags.end() ? def : it->second;
+  }
+  double number(const std::string& f, double def) const {
+    if (!has(f)) return def;
+    const std::string& v = flags.at(f);
+    try {
+      std::size_t used = 0;
+      const double x = std::stod(v, &used);
+      if (used != v.size() || !std::isfinite(x)) throw std::invalid_argument(v);
+      return x;
+    } catch (const std::exception&) {
+      throw UsageError("--" + f + ": must be a number (got \"" + v + "\")");
+    }
+  }
+  int integer(const std::string& f, int def, int min) const {
+    const double x = number(f, def);
+    if (x != std::floor(x) || x < min || x > 1e6) {
+      throw UsageError("--" + f + ": must be an integer >= " + std::to_string(min) + " (got \"" + get(f, "") + "\")");
+    }
+    return static_cast<int>(x);
+  }
+};
+
+struct FlagSpec {
+  std::string name;
+  bool takes_value;
+};
+
+Args Parse(const std::vector<std::string>& argv, const std::vector<FlagSpec>& known, const std::string& verb) {
+  Args a;
+  std::vector<std::string> names;
+  for (const auto& k : known) names.push_back(k.name);
+  for (std::size_t i = 0; i < argv.size(); ++i) {
+    const std::string& s = argv[i];
+    if (s.rfind("--", 0) != 0 || s == "--") {
+      a.positional.push_back(s);
+      continue;
+    }
+    std::string name = s.substr(2);
+    std::string value;
+    bool inline_value = false;
+    if (auto eq = name.find('='); eq != std::string::npos) {
+      value = name.substr(eq + 1);
+      name = name.substr(0, eq);
+      inline_value = true;
+    }
+    auto it = std::find_if(known.begin(), known.end(), [&](const FlagSpec& f) { return f.name == name; });
+    if (it == known.end()) {
+      const std::string best = nearest(name, names);
+      throw UsageError("campaign " + verb + ": unknown flag --" + name +
+                       (best.empty() ? "" : "; did you mean --" + best + "?") + " (see campaign " + verb + " --help)");
+    }
+    if (it->takes_value && !inline_value) {
+      if (i + 1 >= argv.size()) throw UsageError("--" + name + ": needs a value");
+      value = argv[++i];
+    }
+    a.flags[name] = value;
+  }
+  return a;
+}
+
+std::string DbPath(const Args& a) { return a.get("db", "granary.db"); }
+fs::path DbDir(const std::string& db) {
+  const fs::path p = fs::absolute(db).parent_path();
+  return p;
+}
+
+std::string Duration(double s) {
+  if (!(s >= 0) || !std::isfinite(s)) return "?";
+  const long t = std::lround(s);
+  std::ostringstream o;
+  if (t >= 3600) o << t / 3600 << "h" << std::setw(2) << std::setfill('0') << (t % 3600) / 60 << "m";
+  else if (t >= 60) o << t / 60 << "m" << std::setw(2) << std::setfill('0') << t % 60 << "s";
+  else o << t << "s";
+  return o.str();
+}
+
+std::string CompactPoint(const json& point) {
+  std::string out;
+  for (const auto& [key, value] : point.items()) {
+    if (!out.empty()) out += " ";
+    const auto slash = key.rfind('/');
+    std::string label = key.substr(slash + 1);
+    // "/silo/base_outlets/0/width" -> "base_outlets/0/width" is clearer than "width".
+    if (!label.empty() && std::isdigit(static_cast<unsigned char>(label[0]))) label = key;
+    else if (slash != std::string::npos && slash > 0) {
+      const auto prev = key.rfind('/', slash - 1);
+      const std::string parent = key.substr(prev + 1, slash - prev - 1);
+      if (!parent.empty() && std::isdigit(static_cast<unsigned char>(parent[0]))) label = key.substr(1);
+    }
+    out += label + "=" + value.dump();
+  }
+  return out.empty() ? "-" : out;
+}
+
+std::string Bar(double fraction, int width) {
+  const int filled = static_cast<int>(std::lround(std::clamp(fraction, 0.0, 1.0) * width));
+  std::string bar(static_cast<std::size_t>(width) + 2, '.');
+  bar.front() = '[';
+  bar.back() = ']';
+  for (int i = 0; i < filled; ++i) bar[static_cast<std::size_t>(i) + 1] = '#';
+  return bar;
+}
+
+// ---------------------------------------------------------------- plan
+const char kPlanHelp[] =
+    "usage: campaign plan SPEC [--db FILE] [--dry-run] [--json]\n"
+    "Expand the campaign spec SPEC into runs and store them in the database (default granary.db).\n"
+    "Planning the same spec again changes nothing; runs no longer in an edited spec are retired\n"
+    "(their results are kept), new ones are added.\n"
+    "  --db FILE    database (created if missing); run directories go to <db dir>/runs/<run id>/\n"
+    "  --dry-run    validate and show what would change, store nothing\n"
+    "  --json       print the summary as JSON\n";
+
+int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}, "plan");
+  if (a.positional.size() != 1) throw UsageError("campaign plan: needs exactly one SPEC file (see campaign plan --help)");
+  const std::string spec_path = a.positional[0];
+  std::ifstream in(spec_path);
+  if (!in) throw UsageError("campaign plan: cannot read " + spec_path);
+  json j = json::parse(in, nullptr, false);
+  if (j.is_discarded()) throw UsageError(spec_path + ": not valid JSON");
+  CampaignSpec spec;
+  try {
+    spec = CampaignSpec::from_json(j);
+  } catch (const SpecError& e) {
+    throw SpecError(e.path(), e.message() + " [" + spec_path + "]");
+  }
+#ifdef GRANARY_HAVE_ANALYSIS
+  try {
+    analysis::ReportOptions ro;
+    analysis::apply_report_spec(j, ro);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(spec_path + ": " + e.what());
+  }
+#endif
+  const std::vector<PlannedRun> runs = expand(spec, default_cache_dir());
+  const std::string db = DbPath(a);
+  Store store(db);
+  const PlanSummary s = plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), a.has("dry-run"));
+  if (a.has("json")) {
+    json axes = json::object();
+    for (const auto& [axis, values] : s.axis_values) axes[axis] = values;
+    out << json{{"campaign", spec.name}, {"runs", s.total},     {"points", s.points},     {"replicas", spec.replicas},
+                {"added", s.added},      {"unchanged", s.unchanged}, {"revived", s.revived}, {"retired", s.retired},
+                {"axes", axes},          {"dry_run", a.has("dry-run")}}
+               .dump(2)
+        << "\n";
+    return 0;
+  }
+  out << "campaign " << spec.name << (a.has("dry-run") ? " (dry run: nothing stored)" : "") << "\n";
+  out << "  axis                                      values\n";
+  for (const auto& axis : s.axes) {
+    const auto& vals = s.axis_values.count(axis) ? s.axis_values.at(axis) : std::vector<json>{};
+    std::string list;
+    for (std::size_t i = 0; i < vals.size() && i < 8; ++i) list += (i ? ", " : "") + vals[i].dump();
+    if (vals.size() > 8) list += ", ...";
+    out << "  " << std::left << std::setw(40) << axis << "  " << vals.size() << ": " << list << "\n";
+  }
+  out << "  points " << s.points << " x replicas " << spec.replicas << " = " << s.total << " runs\n";
+  out << "  added " << s.added << ", unchanged " << s.unchanged << ", revived " << s.revived << ", retired "
+      << s.retired << "\n";
+  return 0;
+}
+
+// ---------------------------------------------------------------- run
+const char kRunHelp[] =
+    "usage: campaign run [--db FILE] [--jobs N] [--engine E] [--only FILTER] [--threads-per-run T]\n"
+    "                    [--time-limit S] [--retries K]\n"
+    "Run every planned, interrupted or failed run, N at a time, each as an engine subprocess on\n"
+    "its run directory. Safe to repeat after a crash or kill: done runs are kept, interrupted ones\n"
+    "continue from their checkpoint, and two runners on one database never run the same run.\n"
+    "  --jobs N             concurrent runs (default: number of cores)\n"
+    "  --engine E           native | liggghts: only runs of that engine; a path: use that executable\n"
+    "  --only FILTER        a run-id prefix, or POINTER=VALUE, e.g. /silo/base_outlets/0/width=10\n"
+    "  --threads-per-run T  passed to the engine as --threads (default 1)\n"
+    "  --time-limit S       wall seconds per run; a run over it is killed and marked failed\n"
+    "  --retries K          extra attempts per run in this invocation (default 1)\n"
+    "Exit: 0 all ran, 1 some runs failed, 2 usage error, 130 interrupted (Ctrl-C / SIGTERM).\n";
+
+volatile std::sig_atomic_t g_stop = 0;
+extern "C" void OnStopSignal(int) { g_stop = 1; }
+
+class ConsoleObserver : public RunObserver {
+ public:
+  ConsoleObserver(std::ostream& out, bool tty) : out_(out), tty_(tty) {}
+  void on_begin(int total, int done, int failed) override {
+    start_ = std::chrono::steady_clock::now();
+    done_at_start_ = done;
+    out_ << "campaign run: " << total << " runs, " << done << " done, " << failed << " failed before this run\n";
+    out_.flush();
+  }
+  void on_event(const std::string& run_id, const std::string& state, const std::string& message) override {
+    Clear();
+    std::string first = message.substr(0, message.find('\n'));
+    out_ << std::left << std::setw(12) << state << " " << (run_id.empty() ? "" : run_id + "  ") << first << "\n";
+    if (state == "failed" || state == "interrupted") {
+      const auto nl = message.find('\n');
+      if (nl != std::string::npos) {
+        std::istringstream tail(message.substr(nl + 1));
+        std::string line;
+        std::vector<std::string> lines;
+        while (std::getline(tail, line)) lines.push_back(line);
+        for (std::size_t i = lines.size() > 5 ? lines.size() - 5 : 0; i < lines.size(); ++i) out_ << "    | " << lines[i] << "\n";
+      }
+    }
+    out_.flush();
+    Draw();
+  }
+  void on_tick(const std::vector<ActiveRun>& active, int done, int failed, int total) override {
+    active_ = active;
+    done_ = done;
+    failed_ = failed;
+    total_ = total;
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    if (tty_) {
+      Clear();
+      Draw();
+    } else if (elapsed - last_plain_ >= 10.0) {
+      last_plain_ = elapsed;
+      out_ << "progress " << done << "/" << total << " done, " << failed << " failed, " << active.size()
+           << " running, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed) << "\n";
+      out_.flush();
+    }
+  }
+  void on_end(int done, int failed, int total) override {
+    Clear();
+    done_ = done;
+    failed_ = failed;
+    total_ = total;
+    out_ << "campaign run: " << done_ << "/" << total_ << " done, " << failed_ << " failed\n";
+    out_.flush();
+  }
+
+ private:
+  std::string Eta(double elapsed) const {
+    const int finished_here = done_ - done_at_start_;
+    if (finished_here <= 0) return "?";
+    return Duration(elapsed / finished_here * std::max(0, total_ - done_ - failed_));
+  }
+  void Clear() {
+    if (!tty_ || lines_ == 0) return;
+    out_ << "\033[" << lines_ << "A\033[J";
+    lines_ = 0;
+  }
+  void Draw() {
+    if (!tty_ || total_ == 0) return;
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    out_ << Bar(static_cast<double>(done_) / total_, 30) << " " << done_ << "/" << total_ << " done, " << failed_
+         << " failed, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed) << "\n";
+    ++lines_;
+    for (const auto& a : active_) {
+      double f = 0;
+      std::string phase = "starting";
+      std::string eta = "?";
+      if (a.progress.is_object()) {
+        f = a.progress.value("fraction", 0.0);
+        phase = a.progress.value("phase", std::string("?"));
+        if (f > 0.01) eta = Duration(a.elapsed * (1 - f) / f);
+      }
+      out_ << "  " << a.run_id.substr(0, 10) << " " << std::left << std::setw(9) << phase << Bar(f, 20) << " "
+           << std::setw(3) << std::lround(f * 100) << "% ETA " << std::setw(6) << eta << " " << CompactPoint(json::parse(a.point))
+           << "\n";
+      ++lines_;
+    }
+    out_.flush();
+  }
+  std::ostream& out_;
+  bool tty_;
+  std::chrono::steady_clock::time_point start_;
+  int done_at_start_ = 0, done_ = 0, failed_ = 0, total_ = 0, lines_ = 0;
+  double last_plain_ = 0;
+  std::vector<ActiveRun> active_;
+};
+
+std::string ExeDir() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? "." : self.parent_path().string();
+}
+
+int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv,
+                       {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true},
+                        {"time-limit", true}, {"retries", true}, {"help", false}},
+                       "run");
+  if (!a.positional.empty()) throw UsageError("campaign run: unexpected argument \"" + a.positional[0] + "\"");
+  RunOptions o;
+  o.jobs = a.integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
+  o.engine = a.get("engine", "");
+  if (!o.engine.empty() && o.engine != "native" && o.engine != "liggghts" && o.engine.find('/') == std::string::npos) {
+    throw UsageError("--engine: must be native, liggghts or a path to an engine executable (got \"" + o.engine + "\")");
+  }
+  o.only = a.get("only", "");
+  o.threads_per_run = a.integer("threads-per-run", 1, 1);
+  o.time_limit = a.number("time-limit", 0);
+  if (o.time_limit < 0) throw UsageError("--time-limit: must be >= 0 (got \"" + a.get("time-limit", "") + "\")");
+  o.retries = a.integer("retries", 1, 0);
+  o.exe_dir = ExeDir();
+  const std::string db = DbPath(a);
+  if (!fs::exists(db)) throw UsageError("campaign run: no database " + db + " (run campaign plan SPEC --db " + db + " first)");
+  Store store(db);
+  if (!load_campaign(store)) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
+
+  struct sigaction sa {};
+  sa.sa_handler = OnStopSignal;
+  sigemptyset(&sa.sa_mask);
+  struct sigaction old_int {}, old_term {};
+  sigaction(SIGINT, &sa, &old_int);
+  sigaction(SIGTERM, &sa, &old_term);
+  g_stop = 0;
+  auto executor = make_local_executor(o.jobs);
+  ConsoleObserver observer(out, &out == &std::cout && isatty(STDOUT_FILENO));
+  ExitCode code;
+  try {
+    code = run_campaign(store, o, *executor, observer, &g_stop);
+  } catch (...) {
+    sigaction(SIGINT, &old_int, nullptr);
+    sigaction(SIGTERM, &old_term, nullptr);
+    throw;
+  }
+  sigaction(SIGINT, &old_int, nullptr);
+  sigaction(SIGTERM, &old_term, nullptr);
+  return static_cast<int>(code);
+}
+
+// ---------------------------------------------------------------- status
+const char kStatusHelp[] =
+    "usage: campaign status [--db FILE] [--json]\n"
+    "Counts by state, progress of running runs, failures with the tail of their log, elapsed\n"
+    "time and ETA.\n";
+
+int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, {{"db", true}, {"json", false}, {"help", false}}, "status");
+  const std::string db = DbPath(a);
+  if (!fs::exists(db)) throw UsageError("campaign status: no database " + db);
+  Store store(db);
+  const auto campaign = load_campaign(store);
+  const auto runs = load_runs(store, false);
+  std::map<std::string, int> counts = {{"planned", 0}, {"running", 0}, {"done", 0},
+                                       {"failed", 0},  {"interrupted", 0}, {"retired", 0}};
+  double first_start = 0, last_end = 0, wall_sum = 0, remaining_work = 0;
+  int wall_n = 0, active = 0;
+  const double now = now_seconds();
+  for (const auto& r : runs) {
+    ++counts[r.state];
+    if (r.started_at > 0 && (first_start == 0 || r.started_at < first_start)) first_start = r.started_at;
+    last_end = std::max(last_end, r.ended_at);
+    if (r.state == "done" && r.wall_s > 0) {
+      wall_sum += r.wall_s;
+      ++wall_n;
+    }
+    if (r.state == "planned" || r.state == "interrupted") remaining_work += 1;
+    if (r.state == "running") {
+      ++active;
+      const double f = r.progress.is_object() ? r.progress.value("fraction", 0.0) : 0.0;
+      remaining_work += 1 - std::clamp(f, 0.0, 1.0);
+    }
+  }
+  const double elapsed = first_start > 0 ? (active > 0 ? now : std::max(last_end, first_start)) - first_start : 0;
+  const double eta = wall_n > 0 ? remaining_work * (wall_sum / wall_n) / std::max(1, active) : -1;
+  if (a.has("json")) {
+    json list = json::array();
+    for (const auto& r : runs) {
+      json j = {{"run_id", r.run_id}, {"state", r.state},       {"point", r.point},      {"replica", r.replica},
+                {"attempts", r.attempts}, {"engine", r.engine}, {"wall_s", r.wall_s},    {"run_dir", r.run_dir}};
+      if (!r.progress.is_null()) j["progress"] = r.progress;
+      if (!r.failure.empty()) j["failure"] = r.failure;
+      if (!r.end_reason.empty()) j["end_reason"] = r.end_reason;
+      list.push_back(j);
+    }
+    out << json{{"campaign", campaign ? campaign->name : ""},
+                {"total", runs.size() - static_cast<std::size_t>(counts["retired"])},
+                {"counts", counts},
+                {"elapsed_s", elapsed},
+                {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
+                {"runs", list}}
+               .dump(2)
+        << "\n";
+    return 0;
+  }
+  out << "campaign " << (campaign ? campaign->name : "?") << ": " << runs.size() - static_cast<std::size_t>(counts["retired"])
+      << " runs (" << db << ")\n ";
+  for (const auto& [state, n] : counts) out << " " << state << " " << n;
+  out << "\n  elapsed " << Duration(elapsed) << ", ETA " << (eta >= 0 ? Duration(eta) : "?") << "\n";
+  bool header = false;
+  for (const auto& r : runs) {
+    if (r.state != "running") continue;
+    if (!header) out << "running:\n";
+    header = true;
+    double f = 0;
+    std::string phase = "starting";
+    if (r.progress.is_object()) {
+      f = r.progress.value("fraction", 0.0);
+      phase = r.progress.value("phase", std::string("?"));
+    }
+    out << "  " << r.run_id << " " << std::left << std::setw(9) << phase << Bar(f, 20) << " " << std::lround(f * 100)
+        << "%  " << CompactPoint(r.point) << " r" << r.replica << "\n";
+  }
+  header = false;
+  for (const auto& r : runs) {
+    if (r.state != "failed") continue;
+    if (!header) out << "failed:\n";
+    header = true;
+    out << "  " << r.run_id << "  " << CompactPoint(r.point) << " r" << r.replica << " (attempts " << r.attempts << ")\n";
+    std::istringstream lines(r.failure);
+    std::string line;
+    while (std::getline(lines, line)) out << "    | " << line << "\n";
+  }
+  return 0;
+}
+
+// ---------------------------------------------------------------- report
+const char kReportHelp[] =
+    "usage: campaign report [--db FILE] [--out DIR] [--no-figures]\n"
+    "Write report.md, report.html, figures and CSVs of the finished runs (default DIR:\n"
+    "<db dir>/report).\n";
+
+int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, {{"db", true}, {"out", true}, {"no-figures", false}, {"help", false}}, "report");
+  const std::string db = DbPath(a);
+  if (!fs::exists(db)) throw UsageError("campaign report: no database " + db);
+#ifdef GRANARY_HAVE_ANALYSIS
+  Store store(db);
+  const auto campaign = load_campaign(store);
+  if (!campaign) throw UsageError("campaign report: " + db + " holds no campaign");
+  analysis::CampaignInfo info;
+  info.name = campaign->name;
+  info.spec_hash = campaign->spec_hash;
+  info.spec = campaign->spec;
+  info.axes = campaign->axes;
+  info.granary_version = campaign->granary_version;
+  info.git_commit = campaign->git_commit;
+  std::vector<analysis::RunRecord> records;
+  for (const auto& r : load_runs(store, true)) {
+    if (r.state == "retired") continue;
+    analysis::RunRecord rec;
+    rec.run_id = r.run_id;
+    rec.state = r.state;
+    rec.engine = r.engine;
+    rec.point_id = r.point_id;
+    rec.replica = r.replica;
+    rec.point = r.point;
+    rec.spec = r.params;
+    rec.run_dir = fs::absolute(r.run_dir);
+    rec.failure = r.failure;
+    records.push_back(std::move(rec));
+  }
+  analysis::ReportOptions options;
+  options.out_dir = a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report";
+  options.figures = !a.has("no-figures");
+  try {
+    analysis::apply_report_spec(campaign->spec, options);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("campaign spec: ") + e.what());
+  }
+  const auto summary = analysis::write_report(info, records, options);
+  out << "report: " << summary.markdown.string() << "\n        " << summary.html.string() << "\n  runs used "
+      << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed << "\n";
+  return 0;
+#else
+  (void)out;
+  throw UsageError("campaign report: this build has no analysis library (granary_analysis)");
+#endif
+}
+
+// ---------------------------------------------------------------- table
+struct Verb {
+  const char* name;
+  const char* summary;
+  const char* help;
+  std::function<int(const std::vector<std::string>&, std::ostream&, std::ostream&)> run;
+};
+
+const std::vector<Verb>& Verbs() {
+  static const std::vector<Verb> kVerbs = {
+      {"plan", "expand a campaign spec into runs in the database", kPlanHelp, Plan},
+      {"run", "run what is not done (resumable, leases, N at a time)", kRunHelp, Run},
+      {"status", "counts, progress, failures, ETA", kStatusHelp, Status},
+      {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report},
+  };
+  return kVerbs;
+}
+
+std::string MainHelp() {
+  std::string h =
+      "usage: campaign VERB [flags]   (campaign VERB --help for its flags)\n"
+      "Granary campaign manager: plan, run and report sweeps of 2-D silo discharge simulations.\n\nverbs:\n";
+  for (const auto& v : Verbs()) h += "  " + std::string(v.name) + std::string(8 - std::string(v.name).size(), ' ') + v.summary + "\n";
+  h += "\nexit codes: 0 ok, 1 runs failed, 2 usage or spec error, 130 interrupted\n";
+  return h;
+}
+
+}  // namespace
+
+int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
+    (args.empty() ? err : out) << MainHelp();
+    return args.empty() ? static_cast<int>(ExitCode::kUsage) : 0;
+  }
+  if (args[0] == "--version") {
+    out << "campaign " << GRANARY_VERSION << " (" << GRANARY_GIT_COMMIT << ")\n";
+    return 0;
+  }
+  const Verb* verb = nullptr;
+  std::vector<std::string> names;
+  for (const auto& v : Verbs()) {
+    names.push_back(v.name);
+    if (args[0] == v.name) verb = &v;
+  }
+  if (!verb) {
+    const std::string best = nearest(args[0], names);
+    err << "campaign: unknown verb \"" << args[0] << "\"" << (best.empty() ? "" : "; did you mean \"" + best + "\"?")
+        << "\n" << MainHelp();
+    return static_cast<int>(ExitCode::kUsage);
+  }
+  const std::vector<std::string> rest(args.begin() + 1, args.end());
+  if (std::find(rest.begin(), rest.end(), "--help") != rest.end() || std::find(rest.begin(), rest.end(), "-h") != rest.end()) {
+    out << verb->help;
+    return 0;
+  }
+  try {
+    return verb->run(rest, out, err);
+  } catch (const UsageError& e) {
+    err << "error: " << e.what() << "\n";
+    return static_cast<int>(ExitCode::kUsage);
+  } catch (const SpecError& e) {
+    err << "error: " << e.what() << "\n";
+    return static_cast<int>(ExitCode::kUsage);
+  } catch (const StoreError& e) {
+    err << "error: " << e.what() << "\n";
+    return static_cast<int>(ExitCode::kUsage);
+  } catch (const std::exception& e) {
+    err << "error: " << e.what() << "\n";
+    return static_cast<int>(ExitCode::kRunsFailed);
+  }
+}
+
+}  // namespace granary::runner

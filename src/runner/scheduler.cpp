@@ -1,0 +1,273 @@
+// See scheduler.h.
+#include "runner/scheduler.h"
+
+#include <signal.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <thread>
+
+namespace granary::runner {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+bool matches_filter(const RunRow& row, const std::string& filter) {
+  if (filter.empty()) return true;
+  const auto eq = filter.find('=');
+  if (eq == std::string::npos || filter[0] != '/') return row.run_id.rfind(filter, 0) == 0;
+  const std::string pointer = filter.substr(0, eq);
+  const std::string text = filter.substr(eq + 1);
+  json::json_pointer ptr;
+  try {
+    ptr = json::json_pointer(pointer);
+  } catch (const json::exception&) {
+    return false;
+  }
+  if (!row.params.contains(ptr)) return false;
+  const json value = json::parse(text, nullptr, false);
+  const json& actual = row.params[ptr];
+  if (!value.is_discarded()) {
+    if (value.is_number() && actual.is_number()) return value.get<double>() == actual.get<double>();
+    if (value == actual) return true;
+  }
+  return actual.is_string() && actual.get<std::string>() == text;
+}
+
+std::string tail_of(const std::string& path, int lines) {
+  std::ifstream in(path);
+  if (!in) return "";
+  std::deque<std::string> last;
+  std::string line;
+  while (std::getline(in, line)) {
+    last.push_back(line);
+    if (static_cast<int>(last.size()) > lines) last.pop_front();
+  }
+  std::string out;
+  for (const auto& l : last) out += l + "\n";
+  return out;
+}
+
+namespace {
+
+json ReadJsonFile(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) return nullptr;
+  json j = json::parse(in, nullptr, false);
+  return j.is_discarded() ? json(nullptr) : j;
+}
+
+// run.json is written atomically so that an engine never reads half a file.
+void WriteRunJson(const fs::path& dir, const json& params) {
+  fs::create_directories(dir);
+  const fs::path target = dir / "run.json";
+  const std::string text = params.dump(2) + "\n";
+  {
+    std::ifstream in(target);
+    std::stringstream ss;
+    if (in) {
+      ss << in.rdbuf();
+      if (ss.str() == text) return;
+    }
+  }
+  const fs::path tmp = dir / "run.json.tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << text;
+    if (!out) throw std::runtime_error("run " + params.value("run_id", std::string()) + ": cannot write " + tmp.string());
+  }
+  fs::rename(tmp, target);
+}
+
+std::string EngineExe(const RunOptions& o, const std::string& engine) {
+  if (o.engine.find('/') != std::string::npos) return o.engine;
+  return (fs::path(o.exe_dir) / (engine == "liggghts" ? "granary-liggghts" : "granary-engine")).string();
+}
+
+struct Slot {
+  RunRow row;
+  std::chrono::steady_clock::time_point started;
+  bool timed_out = false;
+};
+
+}  // namespace
+
+ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executor, RunObserver& observer,
+                      const volatile std::sig_atomic_t* stop) {
+  const Holder me = this_process_holder();
+  const int recovered = recover_expired_leases(store, me, now_seconds());
+
+  int total = 0, done = 0, failed = 0;
+  for (const auto& r : load_runs(store, false)) {
+    if (r.state == "retired") continue;
+    ++total;
+    if (r.state == "done") ++done;
+    if (r.state == "failed") ++failed;
+  }
+  observer.on_begin(total, done, failed);
+  if (recovered > 0) {
+    observer.on_event("", "interrupted", std::to_string(recovered) + " run(s) of a lost runner will continue");
+  }
+
+  auto accept = [&](const RunRow& r) {
+    if ((options.engine == "native" || options.engine == "liggghts") && r.engine != options.engine) return false;
+    return matches_filter(r, options.only);
+  };
+  std::set<std::string> skip;             // exhausted in this invocation
+  std::map<std::string, int> failures;    // failed attempts in this invocation
+  std::map<std::string, Slot> slots;
+  bool any_final_failure = false;
+  bool stopping = false;
+  auto last_heartbeat = std::chrono::steady_clock::now();
+  auto last_tick = std::chrono::steady_clock::time_point{};
+
+  auto end_run = [&](const std::string& id, const std::string& state, const std::string& reason, double wall) {
+    record_end(store, id, state, reason, now_seconds(), wall);
+    if (state == "failed") ++failed;
+    ++failures[id];
+    if (failures[id] > options.retries) {
+      skip.insert(id);
+      if (state == "failed") any_final_failure = true;
+    } else if (state == "failed") {
+      --failed;  // will be retried: not counted as failed in the display
+    }
+    observer.on_event(id, state, reason);
+  };
+
+  auto finish_done = [&](const RunRow& row, double wall) -> bool {
+    const fs::path dir = row.run_dir;
+    if (!fs::exists(dir / "DONE")) return false;
+    const json summary = ReadJsonFile(dir / "summary.json");
+    if (!summary.is_object()) return false;
+    record_done(store, row.run_id, summary, now_seconds(), wall);
+    ++done;
+    if (row.state == "failed") --failed;
+    observer.on_event(row.run_id, "done",
+                      summary.value("end_reason", std::string("finished")) + " in " + std::to_string(static_cast<int>(wall)) + " s");
+    return true;
+  };
+
+  while (true) {
+    if (stop && *stop && !stopping) {
+      stopping = true;
+      // Forward the stop to the engines; they checkpoint or die, and continue next time.
+      executor.abort_all(SIGTERM);
+      const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+      while (executor.active() > 0 && std::chrono::steady_clock::now() < deadline) {
+        for (const auto& f : executor.poll()) {
+          const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - slots[f.run_id].started).count();
+          if (!(f.signal == 0 && f.exit_code == 0 && finish_done(slots[f.run_id].row, wall))) {
+            record_end(store, f.run_id, "interrupted", "interrupted by the user (runner stopped)", now_seconds(), wall);
+            observer.on_event(f.run_id, "interrupted", "stopped");
+          }
+          slots.erase(f.run_id);
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+      }
+      executor.abort_all(SIGKILL);
+      while (executor.active() > 0) {
+        for (const auto& f : executor.poll()) {
+          record_end(store, f.run_id, "interrupted", "interrupted by the user (killed)", now_seconds(), 0);
+          slots.erase(f.run_id);
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+      observer.on_end(done, failed, total);
+      return ExitCode::kInterrupted;
+    }
+
+    // Start as many runs as there are free slots.
+    bool nothing_left = false;
+    while (executor.can_start_more()) {
+      auto row = claim_next(store, me, now_seconds(), accept, skip);
+      if (!row) {
+        nothing_left = true;
+        break;
+      }
+      // A run whose engine finished but was never ingested (runner killed in between) is
+      // ingested now instead of being run twice.
+      if (finish_done(*row, row->wall_s)) continue;
+      const std::string exe = EngineExe(options, row->engine);
+      if (!fs::exists(exe)) {
+        record_end(store, row->run_id, "interrupted", "engine executable not found: " + exe, now_seconds(), 0);
+        throw std::runtime_error("engine executable not found: " + exe +
+                                 " (build it, or pass --engine PATH)");
+      }
+      try {
+        WriteRunJson(row->run_dir, row->params);
+        Launch launch;
+        launch.run_id = row->run_id;
+        launch.argv = {exe, "run", row->run_dir, "--threads", std::to_string(options.threads_per_run)};
+        launch.log_file = (fs::path(row->run_dir) / "engine.log").string();
+        executor.start(launch);
+      } catch (const std::exception& e) {
+        end_run(row->run_id, "failed", e.what(), 0);
+        continue;
+      }
+      slots[row->run_id] = Slot{*row, std::chrono::steady_clock::now(), false};
+      observer.on_event(row->run_id, "running", "attempt " + std::to_string(row->attempts));
+    }
+    if (nothing_left && executor.active() == 0) break;
+
+    for (const auto& f : executor.poll()) {
+      Slot slot = slots[f.run_id];
+      slots.erase(f.run_id);
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - slot.started).count();
+      const std::string log = (fs::path(slot.row.run_dir) / "engine.log").string();
+      if (f.signal == 0 && f.exit_code == 0) {
+        if (finish_done(slot.row, wall)) continue;
+        end_run(f.run_id, "failed", "engine exited 0 without DONE and summary.json\n" + tail_of(log, 20), wall);
+      } else if (slot.timed_out) {
+        end_run(f.run_id, "failed",
+                "wall-time limit of " + std::to_string(static_cast<int>(options.time_limit)) + " s exceeded\n" + tail_of(log, 20),
+                wall);
+      } else if (f.signal != 0) {
+        // Killed from outside: it continues from its checkpoint on the next attempt.
+        end_run(f.run_id, "interrupted", "engine killed by signal " + std::to_string(f.signal) + "\n" + tail_of(log, 20), wall);
+      } else {
+        end_run(f.run_id, "failed", "engine exited with status " + std::to_string(f.exit_code) + "\n" + tail_of(log, 20), wall);
+      }
+    }
+
+    const auto now = std::chrono::steady_clock::now();
+    if (options.time_limit > 0) {
+      for (auto& [id, slot] : slots) {
+        if (!slot.timed_out && std::chrono::duration<double>(now - slot.started).count() > options.time_limit) {
+          slot.timed_out = true;
+          executor.abort(id, SIGKILL);
+        }
+      }
+    }
+    if (std::chrono::duration<double>(now - last_tick).count() >= 0.5) {
+      last_tick = now;
+      std::vector<ActiveRun> active;
+      std::map<std::string, json> progress;
+      for (const auto& [id, slot] : slots) {
+        ActiveRun a;
+        a.run_id = id;
+        a.point = slot.row.point.dump();
+        a.attempt = slot.row.attempts;
+        a.elapsed = std::chrono::duration<double>(now - slot.started).count();
+        a.progress = ReadJsonFile(fs::path(slot.row.run_dir) / "progress.json");
+        if (!a.progress.is_null()) progress[id] = a.progress;
+        active.push_back(a);
+      }
+      observer.on_tick(active, done, failed, total);
+      if (std::chrono::duration<double>(now - last_heartbeat).count() >= options.heartbeat_interval) {
+        last_heartbeat = now;
+        heartbeat(store, me, now_seconds(), progress);
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::duration<double>(options.poll_interval));
+  }
+  observer.on_end(done, failed, total);
+  return any_final_failure ? ExitCode::kRunsFailed : ExitCode::kOk;
+}
+
+}  // namespace granary::runner

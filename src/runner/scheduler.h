@@ -1,0 +1,58 @@
+// `campaign run`: claims runs under leases, launches engines through an Executor, watches
+// time limits and signals, and records every end in its own transaction the moment it is
+// seen (style.md 8.3 item 11). The scheduler never prints: it reports to a RunObserver.
+#pragma once
+
+#include <csignal>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "runner/campaign_db.h"
+#include "runner/executor.h"
+#include "runner/store.h"
+
+namespace granary::runner {
+
+enum class ExitCode : int { kOk = 0, kRunsFailed = 1, kUsage = 2, kInterrupted = 130 };
+
+struct RunOptions {
+  int jobs = 1;
+  std::string engine;         // "" = each run's own; "native"/"liggghts" = only those; a path = that executable
+  std::string only;           // run-id prefix, or POINTER=VALUE on the resolved parameters
+  int threads_per_run = 1;
+  double time_limit = 0;      // seconds of wall time per run; 0 = none
+  int retries = 1;            // extra attempts per run within this invocation
+  std::string exe_dir;        // where granary-engine / granary-liggghts live
+  double poll_interval = 0.2;
+  double heartbeat_interval = 2.0;
+};
+
+struct ActiveRun {
+  std::string run_id;
+  std::string point;  // compact sweep point
+  int attempt = 0;
+  double elapsed = 0;
+  nlohmann::json progress;  // progress.json or null
+};
+
+class RunObserver {
+ public:
+  virtual ~RunObserver() = default;
+  virtual void on_begin(int total, int done, int failed) = 0;
+  virtual void on_event(const std::string& run_id, const std::string& state, const std::string& message) = 0;
+  virtual void on_tick(const std::vector<ActiveRun>& active, int done, int failed, int total) = 0;
+  virtual void on_end(int done, int failed, int total) = 0;
+};
+
+// Does `row` pass the --only filter?
+bool matches_filter(const RunRow& row, const std::string& filter);
+
+// Last `lines` lines of a text file ("" if missing).
+std::string tail_of(const std::string& path, int lines);
+
+// Runs what is not done. `stop` is set asynchronously (signal handler) to request a clean stop.
+ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executor, RunObserver& observer,
+                      const volatile std::sig_atomic_t* stop);
+
+}  // namespace granary::runner

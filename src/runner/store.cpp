@@ -1,0 +1,136 @@
+// SQLite ownership and migrations; see store.h.
+#include "runner/store.h"
+
+#include "runner/migrations_sql.h"
+
+namespace granary::runner {
+
+namespace {
+
+[[noreturn]] void Fail(sqlite3* db, int code, const std::string& what) {
+  throw StoreError(code, what + ": " + (db ? sqlite3_errmsg(db) : sqlite3_errstr(code)) + " (SQLite code " +
+                             std::to_string(code) + ")");
+}
+
+}  // namespace
+
+const std::vector<std::string>& migrations() {
+  static const std::vector<std::string> kMigrations = EmbeddedMigrations();
+  return kMigrations;
+}
+
+Statement::Statement(sqlite3* db, const char* sql) : db_(db) {
+  sqlite3_stmt* raw = nullptr;
+  const int rc = sqlite3_prepare_v2(db, sql, -1, &raw, nullptr);
+  if (rc != SQLITE_OK) Fail(db, rc, std::string("preparing \"") + sql + "\"");
+  stmt_.reset(raw);
+}
+
+Statement& Statement::bind(int index, const std::string& value) {
+  const int rc = sqlite3_bind_text(stmt_.get(), index, value.data(), static_cast<int>(value.size()), SQLITE_TRANSIENT);
+  if (rc != SQLITE_OK) Fail(db_, rc, "binding parameter " + std::to_string(index));
+  return *this;
+}
+Statement& Statement::bind(int index, const char* value) { return bind(index, std::string(value)); }
+Statement& Statement::bind(int index, double value) {
+  const int rc = sqlite3_bind_double(stmt_.get(), index, value);
+  if (rc != SQLITE_OK) Fail(db_, rc, "binding parameter " + std::to_string(index));
+  return *this;
+}
+Statement& Statement::bind(int index, std::int64_t value) {
+  const int rc = sqlite3_bind_int64(stmt_.get(), index, value);
+  if (rc != SQLITE_OK) Fail(db_, rc, "binding parameter " + std::to_string(index));
+  return *this;
+}
+Statement& Statement::bind_null(int index) {
+  const int rc = sqlite3_bind_null(stmt_.get(), index);
+  if (rc != SQLITE_OK) Fail(db_, rc, "binding parameter " + std::to_string(index));
+  return *this;
+}
+Statement& Statement::bind(int index, const std::optional<std::string>& value) {
+  return value ? bind(index, *value) : bind_null(index);
+}
+
+bool Statement::step() {
+  const int rc = sqlite3_step(stmt_.get());
+  if (rc == SQLITE_ROW) return true;
+  if (rc == SQLITE_DONE) return false;
+  Fail(db_, rc, std::string("executing \"") + sqlite3_sql(stmt_.get()) + "\"");
+}
+void Statement::run() {
+  while (step()) {
+  }
+}
+void Statement::reset() {
+  sqlite3_reset(stmt_.get());
+  sqlite3_clear_bindings(stmt_.get());
+}
+bool Statement::is_null(int col) const { return sqlite3_column_type(stmt_.get(), col) == SQLITE_NULL; }
+std::string Statement::text(int col) const {
+  const unsigned char* p = sqlite3_column_text(stmt_.get(), col);
+  if (!p) return "";
+  return std::string(reinterpret_cast<const char*>(p), static_cast<std::size_t>(sqlite3_column_bytes(stmt_.get(), col)));
+}
+double Statement::real(int col) const { return sqlite3_column_double(stmt_.get(), col); }
+std::int64_t Statement::integer(int col) const { return sqlite3_column_int64(stmt_.get(), col); }
+
+Store::Store(const std::string& path, int upto_version) : path_(path) {
+  sqlite3* raw = nullptr;
+  const int rc = sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
+  db_.reset(raw);
+  if (rc != SQLITE_OK) Fail(raw, rc, "opening database " + path);
+  // Several runners may share one database: wait for locks instead of failing at once.
+  sqlite3_busy_timeout(db_.get(), 30000);
+  exec("PRAGMA journal_mode = WAL");
+  exec("PRAGMA synchronous = NORMAL");
+  exec("PRAGMA foreign_keys = ON");
+
+  const int newest = static_cast<int>(migrations().size());
+  const int target = upto_version < 0 ? newest : std::min(upto_version, newest);
+  Transaction tx(*this);
+  int version = schema_version();
+  if (version > newest) {
+    throw StoreError(SQLITE_ERROR, "database " + path + " has schema version " + std::to_string(version) +
+                                       ", newer than this granary supports (" + std::to_string(newest) +
+                                       "); use a newer campaign binary");
+  }
+  // Ordered chain: each step runs inside the one transaction, so a failed migration
+  // leaves the database as it was.
+  while (version < target) {
+    exec(migrations()[static_cast<std::size_t>(version)]);
+    ++version;
+    exec("PRAGMA user_version = " + std::to_string(version));
+  }
+  tx.commit();
+}
+
+void Store::exec(const std::string& sql) {
+  char* err = nullptr;
+  const int rc = sqlite3_exec(db_.get(), sql.c_str(), nullptr, nullptr, &err);
+  if (rc != SQLITE_OK) {
+    const std::string msg = err ? err : sqlite3_errstr(rc);
+    sqlite3_free(err);
+    throw StoreError(rc, "executing \"" + sql.substr(0, 60) + "\": " + msg + " (SQLite code " + std::to_string(rc) + ")");
+  }
+}
+
+int Store::schema_version() {
+  Statement s = prepare("PRAGMA user_version");
+  s.step();
+  return static_cast<int>(s.integer(0));
+}
+
+Transaction::Transaction(Store& store, bool immediate) : store_(store) {
+  store_.exec(immediate ? "BEGIN IMMEDIATE" : "BEGIN");
+}
+
+Transaction::~Transaction() {
+  if (!done_) sqlite3_exec(store_.handle(), "ROLLBACK", nullptr, nullptr, nullptr);  // never throws
+}
+
+void Transaction::commit() {
+  store_.exec("COMMIT");
+  done_ = true;
+}
+
+}  // namespace granary::runner

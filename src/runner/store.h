@@ -1,0 +1,97 @@
+// Store: the one owner of a campaign's SQLite database (style.md 8.3 item 10). RAII handle
+// and statements, a Transaction that rolls back unless committed, one exception type that
+// carries the SQLite result code, and versioned migrations (db/NNN_*.sql, embedded at build
+// time) applied on open. A database newer than this binary is refused.
+#pragma once
+
+#include <sqlite3.h>
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace granary::runner {
+
+class StoreError : public std::runtime_error {
+ public:
+  StoreError(int code, const std::string& message) : std::runtime_error(message), code_(code) {}
+  int code() const { return code_; }
+
+ private:
+  int code_;
+};
+
+// The migrations compiled in: migrations()[i] takes the schema from version i to i + 1.
+const std::vector<std::string>& migrations();
+
+class Statement {
+ public:
+  Statement(sqlite3* db, const char* sql);
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+
+  Statement& bind(int index, const std::string& value);
+  Statement& bind(int index, const char* value);
+  Statement& bind(int index, double value);
+  Statement& bind(int index, std::int64_t value);
+  Statement& bind(int index, int value) { return bind(index, static_cast<std::int64_t>(value)); }
+  Statement& bind_null(int index);
+  Statement& bind(int index, const std::optional<std::string>& value);
+
+  bool step();  // true while a row is available
+  void run();   // step to completion
+  void reset();
+
+  bool is_null(int col) const;
+  std::string text(int col) const;  // "" for NULL
+  double real(int col) const;
+  std::int64_t integer(int col) const;
+
+ private:
+  struct Finalizer {
+    void operator()(sqlite3_stmt* s) const { sqlite3_finalize(s); }
+  };
+  sqlite3* db_;
+  std::unique_ptr<sqlite3_stmt, Finalizer> stmt_;
+};
+
+class Store {
+ public:
+  // Opens (creating if missing) and migrates to the newest schema. `upto_version` stops the
+  // migrations early (tests build an old database with it).
+  explicit Store(const std::string& path, int upto_version = -1);
+  Store(const Store&) = delete;
+  Store& operator=(const Store&) = delete;
+
+  void exec(const std::string& sql);
+  Statement prepare(const char* sql) { return Statement(db_.get(), sql); }
+  int schema_version();
+  sqlite3* handle() { return db_.get(); }
+  const std::string& path() const { return path_; }
+
+ private:
+  struct Closer {
+    void operator()(sqlite3* db) const { sqlite3_close(db); }
+  };
+  std::string path_;
+  std::unique_ptr<sqlite3, Closer> db_;
+};
+
+// BEGIN [IMMEDIATE] ... COMMIT; rolls back in the destructor unless commit() was called.
+class Transaction {
+ public:
+  explicit Transaction(Store& store, bool immediate = true);
+  Transaction(const Transaction&) = delete;
+  Transaction& operator=(const Transaction&) = delete;
+  ~Transaction();
+  void commit();
+
+ private:
+  Store& store_;
+  bool done_ = false;
+};
+
+}  // namespace granary::runner
