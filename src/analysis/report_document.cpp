@@ -229,6 +229,12 @@ std::string html_inline(const std::string& text) {
   return e;
 }
 
+// A link to a file next to report.html (relative: the report folder can be moved or mailed).
+std::string local_link(const std::string& file) {
+  const std::string f = html_escape(file);
+  return std::string("<a href=\"").append(f).append("\">").append(f).append("</a>");
+}
+
 // Numbers (and "mean ± se (n)") align right, words left.
 bool looks_numeric(const std::string& c) {
   if (c.empty()) return true;
@@ -310,7 +316,7 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
           md_body << "\n";
         }
         md_body << "\n";
-        html_body << "<table><caption>" << html_escape(tb->caption) << " <span class=\"csv\">(" << html_escape(csv)
+        html_body << "<table><caption>" << html_escape(tb->caption) << " <span class=\"csv\">(" << local_link(csv)
                   << ")</span></caption>\n<tr>";
         for (const auto& h : tb->header) html_body << "<th>" << html_escape(h) << "</th>";
         html_body << "</tr>\n";
@@ -322,10 +328,15 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         html_body << "</table>\n";
       } else if (const auto* f = std::get_if<Figure>(&block)) {
         ++figure_no;
-        std::string csvs;
+        std::string csvs, csv_links;
         for (std::size_t k = 0; k < f->series.size(); ++k) {
           write_series_csv(out_dir / series_file(*f, k), f->series[k]);
-          csvs += (k ? ", " : "") + series_file(*f, k);
+          if (k > 0) {
+            csvs += ", ";
+            csv_links += ", ";
+          }
+          csvs += series_file(*f, k);
+          csv_links += local_link(series_file(*f, k));
         }
         std::string svg;
         if (figures && has_finite_point(*f)) {
@@ -345,7 +356,7 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         md_body << "*" << caption << "* Data: " << csvs << "\n\n";
         html_body << "<figure>";
         if (!svg.empty()) html_body << inline_svg(svg, std::string("f").append(std::to_string(figure_no)).append("_"));
-        html_body << "<figcaption>" << html_inline(caption) << " <span class=\"csv\">Data: " << html_escape(csvs)
+        html_body << "<figcaption>" << html_inline(caption) << " <span class=\"csv\">Data: " << csv_links
                   << "</span></figcaption></figure>\n";
       }
     }
