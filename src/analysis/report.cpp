@@ -265,7 +265,9 @@ std::optional<Section> runs_section(const Context& c) {
                           "Every number below is computed from the used runs only; a point with fewer replicas "
                           "than planned says so in its `n`."});
   Table t{"runs_not_used", "Runs not used, with the reason", {"run", "point", "replica", "state", "reason"}, {}};
-  for (const RunRecord* r : c.missing) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state, "not finished"});
+  for (const RunRecord* r : c.missing)
+    t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state,
+                      r->failure.empty() ? "not finished" : "not finished: " + state_reason(*r)});
   for (const RunRecord* r : c.failed) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state, state_reason(*r)});
   for (const auto& [r, why] : c.unreadable) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state, "unreadable: " + why});
   for (const RunRecord* r : c.retired) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state, "retired (superseded)"});
