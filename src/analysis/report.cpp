@@ -845,7 +845,11 @@ void apply_report_spec(const nlohmann::json& campaign_spec, ReportOptions& optio
         } catch (const ExpressionError& e) {
           throw std::invalid_argument(mp + "/expression: " + e.what());
         }
-        options.models.push_back(f);
+        // Idempotent: a caller may apply the spec before write_report applies it again.
+        const bool known = std::any_of(options.models.begin(), options.models.end(), [&](const FitModel& x) {
+          return x.name == f.name && x.expression == f.expression && x.variable == f.variable;
+        });
+        if (!known) options.models.push_back(f);
       }
     } else if (key == "region") {
       if (v == "ch3") {

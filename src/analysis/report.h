@@ -55,7 +55,8 @@ struct ReportSummary {
 
 // Reads the campaign spec's optional "/report" object into `options` (models, region,
 // clog_gap, window, profile, min_exits_before_clog, frame_stride, max_frames); write_report
-// calls it. Throws std::invalid_argument naming the JSON path and the bad value.
+// calls it (applying it twice is harmless). Throws std::invalid_argument naming the JSON
+// path and the bad value.
 void apply_report_spec(const nlohmann::json& campaign_spec, ReportOptions& options);
 
 ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,

@@ -361,6 +361,9 @@ TEST(ReportSpec, OptionsFromCampaignSpec) {
                                               {"initial", {{"b", 1.7}}}}}}}}},
                     opt);
   ASSERT_EQ(opt.models.size(), 1u);
+  apply_report_spec({{"report", {{"models", {{{"name", "collapse"}, {"expression", "a * W^b"}, {"variable", "W"}}}}}}},
+                    opt);
+  ASSERT_EQ(opt.models.size(), 1u);  // the same model is not added twice
   EXPECT_EQ(opt.models[0].variable, "W");
   EXPECT_DOUBLE_EQ(opt.models[0].initial.at("b"), 1.7);
   try {
