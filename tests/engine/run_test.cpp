@@ -1,0 +1,208 @@
+// Small silo runs through the library and the real granary-engine executable: discharge,
+// clogging, checkpoint/continue, determinism across seeds and thread counts, bed cache.
+#include "engine/run.h"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace granary::engine {
+namespace {
+namespace fs = std::filesystem;
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+nlohmann::json ReadJson(const fs::path& p) { return nlohmann::json::parse(Slurp(p)); }
+
+// A fresh directory under the build tree's temp area; beds are cached next to it and
+// shared by every test (flock-protected).
+fs::path FreshDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("granary-engine-test-" + std::to_string(::getuid())) / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string BedCache(std::uint64_t seed) {
+  return (fs::temp_directory_path() / ("granary-engine-test-" + std::to_string(::getuid())) /
+          ("bed-" + std::to_string(seed) + "-" + GRANARY_GIT_COMMIT + ".json"))
+      .string();
+}
+
+nlohmann::json SmallSpec(double outlet, double max_time, std::uint64_t seed = 7) {
+  return {{"run_id", "test"},
+          {"seed", seed},
+          {"silo", {{"width", 16.0}, {"base_outlets", {{{"center", 0.0}, {"width", outlet}}}}}},
+          {"bodies", {{"count", 120}}},
+          {"bed", {{"batch_size", 120}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 10.0}, {"cache_file", BedCache(seed)}}},
+          {"discharge", {{"mode", "remove"}, {"max_time", max_time}, {"clog_window", 2.0}}},
+          {"output", {{"checkpoint_interval", 1.0}, {"frame_interval", 0.5}}}};
+}
+
+void WriteSpec(const fs::path& dir, const nlohmann::json& spec) { std::ofstream(dir / "run.json") << spec.dump(2); }
+
+std::vector<double> EventTimes(const fs::path& dir) {
+  std::ifstream in(dir / "events.csv");
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "time,body,shape,mass,outlet");
+  std::vector<double> t;
+  while (std::getline(in, line)) t.push_back(std::stod(line.substr(0, line.find(','))));
+  return t;
+}
+
+RunResult RunQuiet(const fs::path& dir, int threads = 1, std::int64_t abort_after = -1) {
+  RunOptions o;
+  o.threads = threads;
+  o.quiet = true;
+  o.abort_after_steps = abort_after;
+  return RunDirectory(dir.string(), o);
+}
+
+int RunExe(const std::string& args) {
+  const int status = std::system((std::string(GRANARY_ENGINE_EXE) + " " + args + " > /dev/null 2>&1").c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(Run, SmallSiloDischargesAndItsExitCountGrows) {
+  const fs::path dir = FreshDir("discharge");
+  WriteSpec(dir, SmallSpec(10.0, 5.0));
+  const RunResult r = RunQuiet(dir);
+  const std::vector<double> t = EventTimes(dir);
+  // Beverloo-like 2-D flow for W = 10 d is about 8 dumbbells per sqrt(d/g) once flowing
+  ASSERT_GT(t.size(), 15u);
+  for (std::size_t k = 1; k < t.size(); ++k) EXPECT_LE(t[k - 1], t[k]);
+  int late = 0;
+  for (double x : t) late += x > 3.0;
+  EXPECT_GT(late, 5);  // still flowing later on
+  const nlohmann::json s = ReadJson(dir / "summary.json");
+  EXPECT_EQ(s["exited"].get<std::size_t>(), t.size());
+  EXPECT_EQ(s["exited"].get<int>() + s["remaining"].get<int>(), 120);
+  EXPECT_EQ(r.exited, static_cast<int>(t.size()));
+  EXPECT_TRUE(fs::exists(dir / "DONE"));
+  // frames: one block per 0.5 time units including t = 0
+  const std::string frames = Slurp(dir / "frames.dump");
+  std::size_t blocks = 0;
+  for (std::size_t p = frames.find("ITEM: TIMESTEP"); p != std::string::npos; p = frames.find("ITEM: TIMESTEP", p + 1)) ++blocks;
+  EXPECT_EQ(blocks, 11u);
+}
+
+TEST(Run, TooNarrowOutletClogs) {
+  const fs::path dir = FreshDir("clog");
+  WriteSpec(dir, SmallSpec(2.0, 40.0));
+  const RunResult r = RunQuiet(dir);
+  EXPECT_EQ(r.end_reason, "clogged");
+  EXPECT_LT(r.t_end, 40.0);
+  EXPECT_LT(r.exited, 60);
+  EXPECT_EQ(ReadJson(dir / "summary.json")["end_reason"], "clogged");
+}
+
+TEST(Run, ContinuedRunEqualsUninterruptedRun) {
+  const fs::path a = FreshDir("ckpt-a"), b = FreshDir("ckpt-b");
+  WriteSpec(a, SmallSpec(8.0, 4.0));
+  WriteSpec(b, SmallSpec(8.0, 4.0));
+  RunQuiet(a);
+  // "killed" at t = 2.7, after the checkpoint at t = 2; continue with the real executable
+  EXPECT_EQ(RunQuiet(b, 1, 27000).end_reason, "aborted");
+  EXPECT_FALSE(fs::exists(b / "DONE"));
+  ASSERT_EQ(RunExe("run " + b.string() + " --threads 1"), 0);
+  EXPECT_TRUE(ReadJson(b / "summary.json")["continued_from_checkpoint"].get<bool>());
+  EXPECT_FALSE(Slurp(a / "events.csv").empty());
+  EXPECT_EQ(Slurp(a / "events.csv"), Slurp(b / "events.csv"));
+  EXPECT_EQ(Slurp(a / "frames.dump"), Slurp(b / "frames.dump"));
+}
+
+TEST(Run, SameSeedSameOutputOtherSeedOtherOutput) {
+  const fs::path a = FreshDir("seed-a"), b = FreshDir("seed-b"), c = FreshDir("seed-c");
+  WriteSpec(a, SmallSpec(8.0, 2.0, 7));
+  WriteSpec(b, SmallSpec(8.0, 2.0, 7));
+  WriteSpec(c, SmallSpec(8.0, 2.0, 8));
+  RunQuiet(a);
+  RunQuiet(b);
+  RunQuiet(c);
+  EXPECT_EQ(Slurp(a / "events.csv"), Slurp(b / "events.csv"));
+  EXPECT_EQ(Slurp(a / "frames.dump"), Slurp(b / "frames.dump"));
+  EXPECT_NE(Slurp(a / "frames.dump"), Slurp(c / "frames.dump"));
+}
+
+TEST(Run, OneAndTwoThreadsGiveIdenticalOutput) {
+  const fs::path a = FreshDir("threads-1"), b = FreshDir("threads-2");
+  WriteSpec(a, SmallSpec(8.0, 2.0));
+  WriteSpec(b, SmallSpec(8.0, 2.0));
+  RunQuiet(a, 1);
+  RunQuiet(b, 2);
+  EXPECT_EQ(Slurp(a / "events.csv"), Slurp(b / "events.csv"));
+  EXPECT_EQ(Slurp(a / "frames.dump"), Slurp(b / "frames.dump"));
+}
+
+TEST(Run, ReinjectKeepsTheBedAndReusesIds) {
+  const fs::path dir = FreshDir("reinject");
+  nlohmann::json spec = SmallSpec(8.0, 4.0);
+  spec["discharge"]["mode"] = "reinject";
+  spec["discharge"]["reinject_speed"] = 0.5;
+  WriteSpec(dir, spec);
+  const RunResult r = RunQuiet(dir);
+  EXPECT_EQ(r.end_reason, "time_limit");
+  const nlohmann::json s = ReadJson(dir / "summary.json");
+  EXPECT_EQ(s["remaining"].get<int>(), 120);
+  EXPECT_GT(s["exited"].get<int>(), 8);
+  // every id is a valid body (reinjected bodies keep theirs)
+  std::ifstream in(dir / "events.csv");
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    const int body = std::stoi(line.substr(line.find(',') + 1));
+    EXPECT_GE(body, 0);
+    EXPECT_LT(body, 120);
+  }
+}
+
+TEST(Run, BedIsPreparedOnceAndReused) {
+  const fs::path a = FreshDir("bed-a"), b = FreshDir("bed-b");
+  nlohmann::json spec = SmallSpec(8.0, 0.1, 11);
+  fs::remove(BedCache(11));
+  WriteSpec(a, spec);
+  spec["silo"]["base_outlets"][0]["width"] = 6.0;  // outlets do not change the bed
+  WriteSpec(b, spec);
+  RunQuiet(a);
+  RunQuiet(b);
+  EXPECT_TRUE(ReadJson(a / "summary.json")["bed"]["prepared_here"].get<bool>());
+  EXPECT_FALSE(ReadJson(b / "summary.json")["bed"]["prepared_here"].get<bool>());
+  EXPECT_EQ(ReadJson(a / "summary.json")["bed"]["height"], ReadJson(b / "summary.json")["bed"]["height"]);
+}
+
+TEST(Run, ExecutableReportsSpecErrorsAndHelp) {
+  const fs::path dir = FreshDir("bad");
+  nlohmann::json spec = SmallSpec(8.0, 1.0);
+  spec["silo"]["base_outlets"][0]["width"] = -3.0;
+  WriteSpec(dir, spec);
+  const std::string cmd = std::string(GRANARY_ENGINE_EXE) + " run " + dir.string() + " 2>&1";
+  FILE* p = ::popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  std::string out;
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p)) out += buf;
+  const int status = ::pclose(p);
+  EXPECT_NE(WEXITSTATUS(status), 0);
+  EXPECT_NE(out.find("/silo/base_outlets/0/width"), std::string::npos) << out;
+  EXPECT_EQ(RunExe("run --help"), 0);
+  EXPECT_EQ(RunExe("bench --help"), 0);
+  EXPECT_NE(RunExe("frobnicate"), 0);
+}
+
+}  // namespace
+}  // namespace granary::engine

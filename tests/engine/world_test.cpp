@@ -1,0 +1,233 @@
+// Dynamics of one or two bodies against closed forms and independent integrations:
+// restitution (RK4 of the Hertz-damped oscillator), friction on an incline, energy
+// conservation, free rotation, obstacle deflection, free fall (physics.md; style.md 8.7).
+#include "engine/world.h"
+
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+namespace granary::engine {
+namespace {
+
+Species Disc(double d) {
+  Species s;
+  s.name = "disc";
+  s.shape = Shape::kDisc;
+  s.diameter = d;
+  return s;
+}
+
+Species Dumbbell() {
+  Species s;
+  s.name = "dumbbell";
+  s.shape = Shape::kDumbbell;
+  s.diameter = 1.0;
+  return s;
+}
+
+WorldParams Params(double gravity) {
+  WorldParams p;
+  p.gravity = gravity;
+  return p;
+}
+
+WallElement Segment(double ax, double ay, double bx, double by) {
+  WallElement e;
+  e.kind = ElementKind::kSegment;
+  e.ax = ax;
+  e.ay = ay;
+  e.bx = bx;
+  e.by = by;
+  return e;
+}
+
+// Independent reference: RK4 integration of the Hertz-damped normal oscillator
+// m_eff delta'' = -sqrt(R delta) (K delta + m_eff gamma delta') from delta = 0, delta' = v0
+// until delta returns to 0; returns e = -delta'_end / v0.
+double RestitutionRk4(double kn, double gamma, double reff, double meff, double v0) {
+  auto acc = [&](double d, double v) {
+    const double dd = std::max(d, 0.0);
+    return -std::sqrt(reff * dd) * (kn * dd + meff * gamma * v) / meff;
+  };
+  double d = 0.0, v = v0;
+  const double h = 1e-8;
+  for (int i = 0; i < 100000000; ++i) {
+    const double k1d = v, k1v = acc(d, v);
+    const double k2d = v + 0.5 * h * k1v, k2v = acc(d + 0.5 * h * k1d, v + 0.5 * h * k1v);
+    const double k3d = v + 0.5 * h * k2v, k3v = acc(d + 0.5 * h * k2d, v + 0.5 * h * k2v);
+    const double k4d = v + h * k3v, k4v = acc(d + h * k3d, v + h * k3v);
+    const double dn = d + h / 6 * (k1d + 2 * k2d + 2 * k3d + k4d);
+    const double vn = v + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v);
+    if (dn <= 0.0 && i > 10) {
+      // linear interpolation of v at delta = 0
+      const double f = d / (d - dn);
+      return -(v + f * (vn - v)) / v0;
+    }
+    d = dn;
+    v = vn;
+  }
+  return -1.0;
+}
+
+TEST(World, DiscDiscRestitutionMatchesIndependentOscillator) {
+  World w(Params(0.0), {MakeTemplate(Disc(1.0), 1.0, 0)}, SiloGeometry{});
+  const int a = w.AddBody(0, -0.55, 0.0, 0.0);
+  const int b = w.AddBody(0, 0.55, 0.0, 0.0);
+  w.SetVelocity(a, 0.5, 0.0, 0.0);
+  w.SetVelocity(b, -0.5, 0.0, 0.0);
+  w.ComputeForces();
+  for (int s = 0; s < 3000; ++s) w.Step();
+  const double e_dem = (w.bvx_[b] - w.bvx_[a]) / 1.0;
+  const double m = std::numbers::pi * 0.25;
+  const WorldParams p = Params(0.0);
+  const double e_ref = RestitutionRk4(p.pair.kn, p.pair.gamma_n, 0.25, m / 2, 1.0);
+  EXPECT_GT(e_ref, 0.1);
+  EXPECT_LT(e_ref, 0.99);
+  EXPECT_NEAR(e_dem, e_ref, 0.01 * e_ref) << "e_dem=" << e_dem << " e_ref=" << e_ref;
+  // momentum is conserved exactly (equal and opposite pair forces)
+  EXPECT_NEAR(w.bvx_[a] + w.bvx_[b], 0.0, 1e-12);
+}
+
+TEST(World, DiscWallRestitutionMatchesIndependentOscillator) {
+  SiloGeometry g;
+  g.elements.push_back(Segment(-5, 0, 5, 0));
+  World w(Params(0.0), {MakeTemplate(Disc(1.0), 1.0, 0)}, g);
+  const int a = w.AddBody(0, 0.0, 0.6, 0.0);
+  w.SetVelocity(a, 0.0, -1.0, 0.0);
+  w.ComputeForces();
+  for (int s = 0; s < 3000; ++s) w.Step();
+  const double m = std::numbers::pi * 0.25;
+  const WorldParams p = Params(0.0);
+  const double e_ref = RestitutionRk4(p.wall.kn, p.wall.gamma_n, 0.5, m, 1.0);
+  EXPECT_NEAR(w.bvy_[a], e_ref, 0.01 * e_ref) << "e_ref=" << e_ref;
+}
+
+// A dumbbell lying along an inclined wall: static friction holds it while tan(angle) < mu;
+// above, it slides with a = g (sin a - mu cos a).
+double SlideVelocity(double tan_angle, double t_end) {
+  const double ang = std::atan(tan_angle);
+  const double c = std::cos(ang), s = std::sin(ang);
+  SiloGeometry g;
+  g.elements.push_back(Segment(-40 * c, -40 * s, 40 * c, 40 * s));
+  World w(Params(1.0), {MakeTemplate(Dumbbell(), 1.0, 0)}, g);
+  const int a = w.AddBody(0, -s * 0.5, c * 0.5, ang);
+  w.ComputeForces();
+  const int steps = static_cast<int>(std::lround(t_end / 1e-4));
+  for (int k = 0; k < steps; ++k) w.Step();
+  return -(w.bvx_[a] * c + w.bvy_[a] * s);  // speed down the slope
+}
+
+TEST(World, BodyOnInclineSticksBelowFrictionAngle) {
+  EXPECT_LT(std::fabs(SlideVelocity(0.3, 1.0)), 1e-3);
+}
+
+TEST(World, BodyOnInclineSlidesAboveFrictionAngle) {
+  const double tan_a = 0.8, ang = std::atan(tan_a), t = 1.0;
+  const double expected = (std::sin(ang) - 0.5 * std::cos(ang)) * t;
+  EXPECT_NEAR(SlideVelocity(tan_a, t), expected, 0.03 * expected);
+}
+
+// Hertz elastic energy of an overlap: U = (2/5) K_n sqrt(R) delta^(5/2).
+double HertzEnergy(double kn, double reff, double delta) {
+  return delta > 0 ? 0.4 * kn * std::sqrt(reff) * std::pow(delta, 2.5) : 0.0;
+}
+
+TEST(World, EnergyConservedWithoutDampingAndFriction) {
+  WorldParams p = Params(0.0);
+  for (ContactParams* c : {&p.pair, &p.wall}) {
+    c->gamma_n = c->gamma_t = 0.0;
+    c->mu = 0.0;
+  }
+  SiloGeometry g;
+  g.elements.push_back(Segment(-3, -3, 3, -3));
+  g.elements.push_back(Segment(3, -3, 3, 3));
+  g.elements.push_back(Segment(3, 3, -3, 3));
+  g.elements.push_back(Segment(-3, 3, -3, -3));
+  World w(p, {MakeTemplate(Disc(1.0), 1.0, 0), MakeTemplate(Dumbbell(), 1.0, 1)}, g);
+  w.AddBody(0, -1.5, 0.0, 0.0);
+  w.AddBody(0, 1.5, 0.2, 0.0);
+  w.AddBody(1, 0.0, -1.8, 0.3);
+  w.SetVelocity(0, 1.0, 0.3, 0.0);
+  w.SetVelocity(1, -0.8, 0.5, 0.0);
+  w.SetVelocity(2, 0.2, 0.9, 0.5);
+  auto energy = [&] {
+    double e = w.KineticEnergy();
+    for (int i = 0; i < w.disc_count(); ++i) {
+      for (int j = i + 1; j < w.disc_count(); ++j) {
+        if (w.dbody_[i] == w.dbody_[j]) continue;
+        const double d = w.dr_[i] + w.dr_[j] - std::hypot(w.dx_[i] - w.dx_[j], w.dy_[i] - w.dy_[j]);
+        e += HertzEnergy(p.pair.kn, w.dr_[i] * w.dr_[j] / (w.dr_[i] + w.dr_[j]), d);
+      }
+      const double dist[4] = {w.dy_[i] + 3, 3 - w.dx_[i], 3 - w.dy_[i], w.dx_[i] + 3};
+      for (double dd : dist) e += HertzEnergy(p.wall.kn, w.dr_[i], w.dr_[i] - dd);
+    }
+    return e;
+  };
+  w.ComputeForces();
+  const double e0 = energy();
+  int collisions = 0;
+  for (int k = 0; k < 50000; ++k) {
+    w.Step();
+    if (k % 100 == 0 && std::fabs(w.bfx_[0]) > 0) ++collisions;
+  }
+  EXPECT_GT(collisions, 0);
+  EXPECT_NEAR(energy(), e0, 1e-4 * e0);
+}
+
+TEST(World, DumbbellRotatesFreely) {
+  World w(Params(0.0), {MakeTemplate(Dumbbell(), 1.0, 0)}, SiloGeometry{});
+  const int a = w.AddBody(0, 1.0, 2.0, 0.3);
+  w.SetVelocity(a, 0.1, -0.2, 2.5);
+  w.ComputeForces();
+  const double l0 = w.binertia_[a] * w.bw_[a];
+  for (int k = 0; k < 20000; ++k) w.Step();
+  const double t = 2.0;
+  EXPECT_NEAR(w.bth_[a], 0.3 + 2.5 * t, 1e-10);
+  EXPECT_NEAR(w.binertia_[a] * w.bw_[a], l0, 1e-14);
+  EXPECT_NEAR(w.bx_[a], 1.0 + 0.1 * t, 1e-10);
+  // the discs sit at +-0.5 along the axis
+  EXPECT_NEAR(w.dx_[1] - w.dx_[0], std::cos(0.3 + 2.5 * t), 1e-9);
+  EXPECT_NEAR(w.dy_[1] - w.dy_[0], std::sin(0.3 + 2.5 * t), 1e-9);
+}
+
+double HorizontalVelocityAfterFall(double x0, bool with_obstacle) {
+  SiloGeometry g;
+  if (with_obstacle) {
+    WallElement e;
+    e.kind = ElementKind::kCircle;
+    e.ax = 0.0;
+    e.ay = 2.0;
+    e.radius = 1.0;
+    g.elements.push_back(e);
+  }
+  World w(Params(1.0), {MakeTemplate(Disc(1.0), 1.0, 0)}, g);
+  const int a = w.AddBody(0, x0, 5.0, 0.0);
+  w.ComputeForces();
+  for (int k = 0; k < 40000; ++k) w.Step();
+  return w.bvx_[a];
+}
+
+TEST(World, ObstacleDeflectsAFallingDisc) {
+  const double right = HorizontalVelocityAfterFall(0.3, true);
+  const double left = HorizontalVelocityAfterFall(-0.3, true);
+  EXPECT_GT(right, 0.1);
+  EXPECT_NEAR(left, -right, 1e-9);
+  EXPECT_EQ(HorizontalVelocityAfterFall(0.3, false), 0.0);
+}
+
+TEST(World, FreeFallIsExactUnderVelocityVerlet) {
+  World w(Params(1.0), {MakeTemplate(Dumbbell(), 1.0, 0)}, SiloGeometry{});
+  const int a = w.AddBody(0, 0.0, 10.0, 0.0);
+  w.SetVelocity(a, 0.0, 0.3, 0.0);
+  w.ComputeForces();
+  const int n = 12345;
+  for (int k = 0; k < n; ++k) w.Step();
+  const double t = n * 1e-4;
+  EXPECT_NEAR(w.by_[a], 10.0 + 0.3 * t - 0.5 * t * t, 1e-11);
+  EXPECT_NEAR(w.bvy_[a], 0.3 - t, 1e-12);
+}
+
+}  // namespace
+}  // namespace granary::engine
