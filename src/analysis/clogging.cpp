@@ -42,7 +42,10 @@ ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_e
   std::sort(times.begin(), times.end());
   s.t_end = std::max(t_end, times.empty() ? 0.0 : times.back());
   Stretch current{0.0, 0.0, 0, true};
+  // Gaps count from the first exit through any outlet, not from the opening: the start-up
+  // delay is not a clog, but an outlet that stays blocked while another one flows is.
   double previous = 0.0;
+  for (const auto& e : events) previous = previous == 0.0 ? e.time : std::min(previous, e.time);
   for (double t : times) {
     if (t - previous >= clog_gap) {
       current.end = previous;

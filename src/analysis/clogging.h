@@ -13,10 +13,12 @@
 namespace granary::analysis {
 
 // The exit stream of one outlet (or all) cut into flowing and clogged stretches.
-// Rule: the opening at t = 0 counts as an exit; a gap of at least `clog_gap` between two
-// consecutive exits is a clog lasting from the earlier exit to the later one (t_c), and the
-// flowing stretch before it runs from its first exit's predecessor (the opening or the
-// unclog) to the last exit before the gap (t_f). After the last exit the stream is clogged
+// Rule: a gap of at least `clog_gap` between two consecutive exits is a clog lasting from
+// the earlier exit to the later one (t_c), and the flowing stretch before it runs from the
+// opening (t = 0) or the unclog to the last exit before the gap (t_f). The first exit
+// through any outlet stands in for the opening when measuring gaps, so the start-up delay
+// (bodies fall exit_distance before they count) is not a clog, while an outlet that stays
+// blocked while another flows is (from that first exit on). After the last exit the stream is clogged
 // if t_end - t_last >= clog_gap or if the run ended because it clogged (`ended_clogged`);
 // that last clog has no end (censored): it counts for the avalanche but not for <t_c>.
 struct Stretch {

@@ -21,11 +21,13 @@ FlowWindow flow_window(const FlowInput& in, const FlowWindowRule& rule) {
   // 1. End at the first clog.
   std::size_t last = n - 1;
   if (rule.stop_at_first_clog) {
-    double previous = 0.0;
+    // The start-up delay (bodies must fall exit_distance before they count) is not a clog:
+    // gaps are measured from the first exit through any outlet.
+    double previous = in.events.front().time;
     for (std::size_t i = 0; i < n; ++i) {
       if (w.times[i] - previous >= in.clog_gap) {
         if (i == 0) {
-          w.note = "clogged before the first exit";
+          w.note = "outlet clogged from the opening (its first exit at t = " + std::to_string(w.times[0]) + ")";
           return w;
         }
         last = i - 1;

@@ -14,8 +14,9 @@ namespace granary::analysis {
 
 // The steady window of a discharge (shared analyses.md "Flow rate"). Applied in this order:
 //  1. end: the last exit before the first clog, i.e. before the first gap of at least
-//     `clog_gap` in the exit stream (the opening at t = 0 counts as an exit), when
-//     `stop_at_first_clog`; otherwise the last exit;
+//     `clog_gap` in the exit stream, when `stop_at_first_clog`; otherwise the last exit.
+//     Gaps count from the first exit through any outlet: the start-up delay (bodies fall
+//     exit_distance before they count) is not a clog;
 //  2. remove mode only: the end moves earlier to the last exit after which at least
 //     `shallow_fraction` of the bodies are still in the silo (the bed is then too shallow
 //     for a steady flow);

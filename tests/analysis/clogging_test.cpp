@@ -57,6 +57,20 @@ TEST(ClogSeries, PerOutlet) {
   EXPECT_TRUE(clog_series(ev, -1, 15.0, 5.0, false).clogged.empty());  // the silo never stops
 }
 
+TEST(ClogSeries, StartUpDelayIsNotAClogButABlockedOutletIs) {
+  // The first body needs 3 time units to leave (gap from the opening > clog_gap = 2): not a clog.
+  const auto ev = at({3.0, 3.5, 4.0, 4.5});
+  const ClogSeries s = clog_series(ev, -1, 5.0, 2.0, false);
+  EXPECT_TRUE(s.clogged.empty());
+  // Outlet 0 stays blocked until t = 10 while outlet 1 flows from t = 3: a clog from 3 to 10.
+  auto two = at({10.0, 10.5}, 0);
+  for (double t = 3.0; t < 12.0; t += 0.5) two.push_back({t, 0, "disc", 1.0, 1});
+  std::sort(two.begin(), two.end(), [](auto& a, auto& b) { return a.time < b.time; });
+  const ClogSeries o0 = clog_series(two, 0, 12.0, 2.0, false);
+  EXPECT_EQ(o0.clogged_times(), std::vector<double>{7.0});
+  EXPECT_EQ(o0.avalanche_sizes(), std::vector<double>{0.0});  // clogged before its first exit
+}
+
 TEST(Avalanches, MeanHistogramAndTail) {
   const std::vector<double> sizes = {10, 20, 30, 40};
   const AvalancheStats a = avalanche_stats(sizes, 4);

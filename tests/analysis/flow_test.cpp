@@ -80,6 +80,17 @@ TEST(FlowRate, PerOutletAndNoisyRate) {
   EXPECT_LT(q0.q_count_se_ols, 0.5 * q0.q_count_se);  // why the OLS error is not reported
 }
 
+TEST(FlowRate, StartUpDelayIsNotAClog) {
+  // First exit at t = 3 with clog_gap 2: the window must not end "at the opening".
+  const auto ev = regular(100, 3.0, 0.1);
+  FlowInput in{ev, false, 0, 2.0, -1};
+  FlowWindowRule rule;
+  rule.start_time = 0.0;
+  const FlowRate q = flow_rate(in, rule);
+  ASSERT_TRUE(q.ok) << q.note;
+  EXPECT_NEAR(q.q_count, 10.0, 1e-9);
+}
+
 TEST(FlowRate, TooFewExits) {
   const auto ev = regular(5, 3.0, 0.1);
   FlowInput in{ev, false, 0, 5.0, -1};
