@@ -225,7 +225,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
         end_run(f.run_id, "failed", "engine exited 0 without DONE and summary.json\n" + tail_of(log, 20), wall);
       } else if (slot.timed_out) {
         end_run(f.run_id, "failed",
-                "wall-time limit of " + std::to_string(static_cast<int>(options.time_limit)) + " s exceeded\n" + tail_of(log, 20),
+                "wall-time limit of " + json(options.time_limit).dump() + " s exceeded\n" + tail_of(log, 20),
                 wall);
       } else if (f.signal != 0) {
         // Killed from outside: it continues from its checkpoint on the next attempt.

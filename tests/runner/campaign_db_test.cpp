@@ -1,0 +1,135 @@
+// Tests of planning and leases on the database: planning twice changes nothing, an edited
+// spec adds and retires runs without touching finished results, claims never hand the same
+// run to two holders, and a dead holder's lease expires.
+#include "runner/campaign_db.h"
+
+#include <gtest/gtest.h>
+
+namespace granary::runner {
+namespace {
+
+using nlohmann::json;
+
+CampaignSpec Spec(const std::string& widths) {
+  return CampaignSpec::from_json(json::parse(R"({"name": "t", "replicas": 2, "base": {"silo": {"width": 30}},
+      "sweep": {"grid": {"/silo/base_outlets/0/width": )" + widths + "}}}"));
+}
+
+PlanSummary Plan(Store& store, const std::string& widths) {
+  const CampaignSpec s = Spec(widths);
+  return plan_campaign(store, s, expand(s, "/cache"), "/runs", false);
+}
+
+std::map<std::string, std::string> States(Store& store) {
+  std::map<std::string, std::string> m;
+  for (const auto& r : load_runs(store, false)) m[r.run_id] = r.state;
+  return m;
+}
+
+TEST(PlanTest, PlanningTwiceChangesNothing) {
+  Store store(":memory:");
+  const PlanSummary first = Plan(store, "[4, 6, 8]");
+  EXPECT_EQ(first.added, 6);
+  EXPECT_EQ(first.points, 3);
+  const auto before = load_runs(store, true);
+  const PlanSummary again = Plan(store, "[4, 6, 8]");
+  EXPECT_EQ(again.added, 0);
+  EXPECT_EQ(again.unchanged, 6);
+  EXPECT_EQ(again.retired, 0);
+  const auto after = load_runs(store, true);
+  ASSERT_EQ(before.size(), after.size());
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    EXPECT_EQ(before[i].run_id, after[i].run_id);
+    EXPECT_EQ(before[i].params, after[i].params);
+    EXPECT_EQ(after[i].run_dir, "/runs/" + after[i].run_id);
+  }
+}
+
+TEST(PlanTest, DryRunStoresNothing) {
+  Store store(":memory:");
+  const CampaignSpec s = Spec("[4, 6]");
+  const PlanSummary sum = plan_campaign(store, s, expand(s, "/cache"), "/runs", true);
+  EXPECT_EQ(sum.added, 4);
+  EXPECT_TRUE(load_runs(store).empty());
+  EXPECT_FALSE(load_campaign(store).has_value());
+}
+
+TEST(PlanTest, EditRetiresAndAddsButKeepsResults) {
+  Store store(":memory:");
+  Plan(store, "[4, 6]");
+  // Finish one width-4 run with a result.
+  const Holder me{"h:1:0", "h", 1};
+  auto row = claim_next(store, me, 100.0, nullptr, {});
+  ASSERT_TRUE(row);
+  ASSERT_EQ(row->params["silo"]["base_outlets"][0]["width"], 4.0);
+  record_done(store, row->run_id, json{{"end_reason", "discharged"}, {"exited", 77}}, 110.0, 10.0);
+
+  const PlanSummary edit = Plan(store, "[6, 8]");
+  EXPECT_EQ(edit.added, 2);
+  EXPECT_EQ(edit.unchanged, 2);
+  EXPECT_EQ(edit.retired, 2);
+  auto states = States(store);
+  EXPECT_EQ(states[row->run_id], "retired");
+  {
+    Statement q = store.prepare("SELECT value FROM results WHERE run_id = ?1 AND key = 'exited'");
+    q.bind(1, row->run_id);
+    ASSERT_TRUE(q.step());
+    EXPECT_EQ(q.real(0), 77.0);
+  }
+  // Back in the spec: the finished run is done again, not re-run.
+  const PlanSummary back = Plan(store, "[4, 6, 8]");
+  EXPECT_EQ(back.revived, 2);
+  states = States(store);
+  EXPECT_EQ(states[row->run_id], "done");
+  int planned = 0;
+  for (const auto& [id, st] : states) planned += st == "planned";
+  EXPECT_EQ(planned, 5);
+}
+
+TEST(LeaseTest, ClaimsAreExclusiveAndInPlanOrder) {
+  Store store(":memory:");
+  Plan(store, "[4, 6]");
+  const Holder a{"h:1:0", "h", 1}, b{"h:2:0", "h", 2};
+  std::set<std::string> seen;
+  for (int i = 0; i < 4; ++i) {
+    auto r = claim_next(store, i % 2 ? a : b, 100.0, nullptr, {});
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->seq, i);
+    EXPECT_TRUE(seen.insert(r->run_id).second);
+  }
+  EXPECT_FALSE(claim_next(store, a, 100.0, nullptr, {}));
+}
+
+TEST(LeaseTest, DeadOrSilentHolderLosesItsLease) {
+  Store store(":memory:");
+  Plan(store, "[4]");
+  const Holder me = this_process_holder();
+  // A holder on this host whose pid does not exist (pid_max is far below this).
+  const Holder dead{me.host + ":999999999:0", me.host, 999999999};
+  const Holder remote{"elsewhere:5:0", "elsewhere", 5};
+  auto r1 = claim_next(store, dead, now_seconds(), nullptr, {});
+  auto r2 = claim_next(store, remote, now_seconds(), nullptr, {});
+  ASSERT_TRUE(r1 && r2);
+  EXPECT_EQ(recover_expired_leases(store, me, now_seconds()), 1);  // the remote one is fresh
+  EXPECT_EQ(States(store)[r1->run_id], "interrupted");
+  EXPECT_EQ(States(store)[r2->run_id], "running");
+  EXPECT_EQ(recover_expired_leases(store, me, now_seconds() + kLeaseStaleSeconds + 1), 1);  // stale heartbeat
+  EXPECT_EQ(States(store)[r2->run_id], "interrupted");
+  // An interrupted run is claimed again, attempts counted.
+  auto again = claim_next(store, me, now_seconds(), nullptr, {});
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->run_id, r1->run_id);
+  EXPECT_EQ(again->attempts, 2);
+}
+
+TEST(IngestTest, FlattensScalarsSkippingSpec) {
+  const auto m = flatten_scalars(json::parse(
+      R"({"spec": {"seed": 1}, "exited": 5, "end_reason": "clogged", "timing": {"wall_s": 2.5}, "exits_per_outlet": [5]})"));
+  EXPECT_EQ(m.size(), 3u);
+  EXPECT_EQ(m.at("timing/wall_s"), 2.5);
+  EXPECT_EQ(m.at("end_reason"), "clogged");
+  EXPECT_EQ(m.count("spec/seed"), 0u);
+}
+
+}  // namespace
+}  // namespace granary::runner

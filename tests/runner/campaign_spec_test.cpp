@@ -1,0 +1,131 @@
+// Tests of the campaign spec: sweep expansion (grid, zip, points, replicas), stable ids,
+// replica seeds shared across points (so beds are shared), and one test per class of error.
+#include "runner/campaign_spec.h"
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "runner/util.h"
+
+namespace granary::runner {
+namespace {
+
+using nlohmann::json;
+
+std::string ErrorOf(const json& j) {
+  try {
+    const CampaignSpec s = CampaignSpec::from_json(j);
+    expand(s, "/cache");
+  } catch (const SpecError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(HashTest, Fnv1aKnownAnswers) {
+  // Reference values of FNV-1a 64 (Fowler/Noll/Vo test vectors).
+  EXPECT_EQ(hash_hex(""), "cbf29ce484222325");
+  EXPECT_EQ(hash_hex("a"), "af63dc4c8601ec8c");
+  EXPECT_EQ(hash_hex("foobar"), "85944171f73967e8");
+}
+
+TEST(NearestTest, SuggestsCloseWordsOnly) {
+  EXPECT_EQ(nearest("stauts", {"plan", "run", "status", "report"}), "status");
+  EXPECT_EQ(nearest("xyzzy", {"plan", "run", "status", "report"}), "");
+}
+
+TEST(CampaignSpecTest, GridZipPointsAndReplicasExpand) {
+  const json j = json::parse(R"({"name": "t", "replicas": 2,
+    "base": {"bodies": {"count": 300}, "silo": {"width": 30}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6, 8]},
+              "zip": {"/contact/mu": [0.3, 0.5], "/contact/mu_wall": [0.2, 0.4]},
+              "points": [{"/discharge/mode": "remove"}, {"/discharge/mode": "reinject"}]}})");
+  const CampaignSpec s = CampaignSpec::from_json(j);
+  EXPECT_EQ(s.axes, (std::vector<std::string>{"/silo/base_outlets/0/width", "/contact/mu", "/contact/mu_wall",
+                                              "/discharge/mode"}));
+  const auto runs = expand(s, "/cache");
+  ASSERT_EQ(runs.size(), 3u * 2u * 2u * 2u);
+  // Zipped axes stay paired.
+  for (const auto& r : runs) {
+    const double mu = r.params["contact"]["mu"];
+    const double mu_wall = r.params["contact"]["mu_wall"];
+    EXPECT_EQ(mu == 0.3 ? 0.2 : 0.4, mu_wall);
+  }
+  std::set<std::string> ids;
+  for (const auto& r : runs) ids.insert(r.run_id);
+  EXPECT_EQ(ids.size(), runs.size());
+  // The first grid axis is the slowest; replicas are innermost.
+  EXPECT_EQ(runs[0].params["silo"]["base_outlets"][0]["width"], 4.0);
+  EXPECT_EQ(runs[0].replica, 0);
+  EXPECT_EQ(runs[1].replica, 1);
+  EXPECT_EQ(runs[0].point_id, runs[1].point_id);
+  EXPECT_NE(runs[0].point_id, runs[2].point_id);
+  EXPECT_EQ(runs[0].params["run_id"], runs[0].run_id);
+}
+
+TEST(CampaignSpecTest, ReplicaSeedsAndBedsSharedAcrossOutletWidths) {
+  const json j = json::parse(R"({"name": "t", "seed": 9, "replicas": 2, "base": {"silo": {"width": 30}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6]}}})");
+  const auto runs = expand(CampaignSpec::from_json(j), "/cache");
+  ASSERT_EQ(runs.size(), 4u);
+  EXPECT_EQ(runs[0].params["seed"], runs[2].params["seed"]);  // replica 0 of both widths
+  EXPECT_NE(runs[0].params["seed"], runs[1].params["seed"]);
+  EXPECT_EQ(runs[0].params["seed"], replica_seed(9, 0));
+  EXPECT_EQ(runs[0].params["bed"]["cache_file"], runs[2].params["bed"]["cache_file"]);
+  EXPECT_NE(runs[0].params["bed"]["cache_file"], runs[1].params["bed"]["cache_file"]);
+  EXPECT_EQ(runs[0].params["bed"]["cache_file"].get<std::string>().rfind("/cache/", 0), 0u);
+}
+
+TEST(CampaignSpecTest, IdsAreStableAndIgnoreCacheDir) {
+  const json j = json::parse(R"({"name": "t", "base": {"silo": {"width": 30}}})");
+  const auto a = expand(CampaignSpec::from_json(j), "/cache-a");
+  const auto b = expand(CampaignSpec::from_json(j), "/cache-b");
+  EXPECT_EQ(a[0].run_id, b[0].run_id);
+  EXPECT_EQ(a[0].run_id.size(), 16u);
+}
+
+TEST(CampaignSpecErrorTest, UnknownKeys) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "replica": 2})")), "/replica: unknown key; did you mean \"replicas\"?");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"gird": {}}})")),
+            "/sweep/gird: unknown key; did you mean \"grid\"?");
+}
+
+TEST(CampaignSpecErrorTest, BadTopLevelValues) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"replicas": 2})")), "/name: must be a non-empty string (got nothing)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "replicas": 0})")), "/replicas: must be an integer in [1, 100000] (got 0)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": "lammps"})")),
+            "/engine: must be one of \"native\", \"liggghts\" (got \"lammps\")");
+}
+
+TEST(CampaignSpecErrorTest, BaseErrorsPointIntoBase) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "base": {"silo": {"widht": 30}}})")),
+            "/base/silo/widht: unknown key; did you mean \"width\"?");
+}
+
+TEST(CampaignSpecErrorTest, AxisMustBeAPointerWithValues) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"silo/width": [1]}}})")),
+            "/sweep/grid/silo~1width: an axis must be a JSON Pointer into the run spec such as \"/silo/width\" (got "
+            "\"silo/width\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/width": []}}})")),
+            "/sweep/grid/~1silo~1width: must be a non-empty array of values (got [])");
+}
+
+TEST(CampaignSpecErrorTest, ZipLengthsMustMatch) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"zip": {"/contact/mu": [0.1, 0.2], "/gravity": [1]}}})")),
+            "/sweep/zip/~1gravity: zipped axes must have equal lengths (got 1, \"/contact/mu\" has 2)");
+}
+
+TEST(CampaignSpecErrorTest, InvalidPointNamesThePoint) {
+  EXPECT_EQ(ErrorOf(json::parse(
+                R"({"name": "t", "base": {"silo": {"width": 30}}, "sweep": {"grid": {"/silo/base_outlets/0/width": [6, 40]}}})")),
+            "/sweep: point 1 {\"/silo/base_outlets/0/width\":40}: /silo/base_outlets/0/width: must be < the silo width "
+            "30.0 (got 40.0)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/widht": [6]}}})")),
+            "/sweep: point 0 {\"/silo/widht\":6}: /silo/widht: unknown key; did you mean \"width\"?");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/nothing/here": [6]}}})")),
+            "/sweep: point 0 {\"/nothing/here\":6}: axis \"/nothing/here\": \"/nothing\" does not exist in the run spec");
+}
+
+}  // namespace
+}  // namespace granary::runner

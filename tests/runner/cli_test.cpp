@@ -1,0 +1,221 @@
+// End-to-end tests of the real `campaign` binary with a fake engine (fake_engine.cpp):
+// exit codes, status --json, failures with the log tail, time limits, Ctrl-C, resume after
+// `kill -9` of the runner, and two runners on one database never running a run twice.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <chrono>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "test_util.h"
+
+namespace granary::runner {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using testing::CountLines;
+using testing::ReadFile;
+using testing::Sh;
+
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = testing::MakeTempDir();
+    setenv("GRANARY_CACHE_DIR", (dir_ / "beds").c_str(), 1);
+    setenv("FAKE_ENGINE_STEPS", "10", 1);
+    setenv("FAKE_ENGINE_STEP_MS", "20", 1);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // A campaign of `widths` x `replicas` runs; max_time 13 makes the fake engine fail.
+  std::string WriteSpec(const std::string& widths, int replicas, double max_time = 20) {
+    const fs::path p = dir_ / "c.json";
+    std::ofstream(p) << json{{"name", "t"},
+                             {"replicas", replicas},
+                             {"base", {{"bodies", {{"count", 100}}}, {"silo", {{"width", 30}}},
+                                       {"discharge", {{"max_time", max_time}}}}},
+                             {"sweep", {{"grid", {{"/silo/base_outlets/0/width", json::parse(widths)}}}}}};
+    return p.string();
+  }
+  std::string Db() const { return (dir_ / "g.db").string(); }
+  std::string Cmd(const std::string& verb_and_flags) const {
+    return testing::Campaign() + " " + verb_and_flags + " --db " + Db();
+  }
+  std::string RunCmd(const std::string& flags = "") const {
+    return Cmd("run --engine " + testing::FakeEngine() + " " + flags);
+  }
+  json Status() const {
+    const auto r = Sh(Cmd("status --json") + " 2>/dev/null");
+    EXPECT_EQ(r.code, 0) << r.output;
+    return json::parse(r.output);
+  }
+  fs::path dir_;
+};
+
+TEST_F(CliTest, HelpAndUnknownVerb) {
+  auto r = Sh(testing::Campaign() + " --help");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.output.find("verbs:"), std::string::npos);
+  for (const char* verb : {"plan", "run", "status", "report"}) {
+    r = Sh(testing::Campaign() + " " + verb + " --help");
+    EXPECT_EQ(r.code, 0) << verb;
+    EXPECT_EQ(r.output.rfind(std::string("usage: campaign ") + verb, 0), 0u) << r.output;
+  }
+  r = Sh(testing::Campaign() + " stauts");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.output.rfind("campaign: unknown verb \"stauts\"; did you mean \"status\"?", 0), 0u) << r.output;
+  r = Sh(testing::Campaign() + " run --jbos 2");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("unknown flag --jbos; did you mean --jobs?"), std::string::npos) << r.output;
+}
+
+TEST_F(CliTest, SpecErrorExitsTwoWithPath) {
+  const fs::path p = dir_ / "bad.json";
+  std::ofstream(p) << R"({"name": "t", "base": {"silo": {"widht": 3}}})";
+  const auto r = Sh(Cmd("plan " + p.string()));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.output, "error: /base/silo/widht: unknown key; did you mean \"width\"? [" + p.string() + "]\n");
+  EXPECT_FALSE(fs::exists(Db()) && Status()["total"] != 0);
+}
+
+TEST_F(CliTest, PlanRunStatusReport) {
+  const std::string spec = WriteSpec("[4, 6]", 2);
+  auto r = Sh(Cmd("plan " + spec));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("points 2 x replicas 2 = 4 runs"), std::string::npos) << r.output;
+  json s = Status();
+  EXPECT_EQ(s["counts"]["planned"], 4);
+
+  r = Sh(RunCmd("--jobs 2"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  s = Status();
+  EXPECT_EQ(s["counts"]["done"], 4);
+  for (const auto& run : s["runs"]) {
+    EXPECT_EQ(run["end_reason"], "discharged");
+    EXPECT_EQ(run["attempts"], 1);
+    EXPECT_TRUE(fs::exists(fs::path(run["run_dir"].get<std::string>()) / "engine.log"));
+    EXPECT_EQ(fs::path(run["run_dir"].get<std::string>()).parent_path(), dir_ / "runs");
+  }
+  // Running again has nothing to do.
+  r = Sh(RunCmd());
+  EXPECT_EQ(r.code, 0);
+  for (const auto& run : Status()["runs"]) {
+    EXPECT_EQ(CountLines(ReadFile(fs::path(run["run_dir"].get<std::string>()) / "launches.txt"), "start"), 1);
+  }
+#ifdef GRANARY_HAVE_ANALYSIS
+  r = Sh(Cmd("report --no-figures"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(dir_ / "report" / "report.md"));
+  EXPECT_TRUE(fs::exists(dir_ / "report" / "report.html"));
+#endif
+}
+
+TEST_F(CliTest, FailedRunExitsOneWithLogTail) {
+  Sh(Cmd("plan " + WriteSpec("[4]", 1, 13)));
+  const auto r = Sh(RunCmd("--retries 1"));
+  EXPECT_EQ(r.code, 1) << r.output;
+  const json s = Status();
+  ASSERT_EQ(s["counts"]["failed"], 1);
+  const json& run = s["runs"][0];
+  EXPECT_EQ(run["attempts"], 2);  // one retry
+  const std::string failure = run["failure"];
+  EXPECT_EQ(failure.rfind("engine exited with status 3\n", 0), 0u) << failure;
+  EXPECT_NE(failure.find("fake_engine: deliberate failure at step 5"), std::string::npos) << failure;
+  const auto text = Sh(Cmd("status"));
+  EXPECT_NE(text.output.find("failed:"), std::string::npos);
+  EXPECT_NE(text.output.find("    | fake_engine: deliberate failure"), std::string::npos) << text.output;
+}
+
+TEST_F(CliTest, TimeLimitKillsAndFails) {
+  Sh(Cmd("plan " + WriteSpec("[4]", 1, 666)));
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto r = Sh(RunCmd("--time-limit 0.5 --retries 0"));
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0);
+  const json s = Status();
+  EXPECT_EQ(std::string(s["runs"][0]["failure"]).rfind("wall-time limit of 0.5 s exceeded", 0), 0u) << s.dump();
+}
+
+TEST_F(CliTest, SigintStopsCleanlyAndResumes) {
+  setenv("FAKE_ENGINE_STEP_MS", "100", 1);
+  Sh(Cmd("plan " + WriteSpec("[4, 6]", 1)));
+  const std::string log = (dir_ / "runner.log").string();
+  const pid_t pid = testing::Spawn({testing::Campaign(), "run", "--db", Db(), "--jobs", "2", "--engine",
+                                    testing::FakeEngine()}, log);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  kill(pid, SIGINT);
+  EXPECT_EQ(testing::WaitExit(pid), 130) << ReadFile(log);
+  json s = Status();
+  EXPECT_EQ(s["counts"]["interrupted"], 2) << s.dump();
+  setenv("FAKE_ENGINE_STEP_MS", "20", 1);
+  ASSERT_EQ(Sh(RunCmd()).code, 0);
+  s = Status();
+  EXPECT_EQ(s["counts"]["done"], 2);
+  for (const auto& run : s["runs"]) {
+    const std::string dir = run["run_dir"];
+    EXPECT_EQ(CountLines(ReadFile(fs::path(dir) / "launches.txt"), "finish"), 1);
+    EXPECT_NE(ReadFile(fs::path(dir) / "engine.log").find("continuing from checkpoint"), std::string::npos);
+  }
+}
+
+TEST_F(CliTest, ResumesAfterKillMinusNineOfTheRunner) {
+  setenv("FAKE_ENGINE_STEP_MS", "100", 1);  // 1 s per run
+  Sh(Cmd("plan " + WriteSpec("[4, 6, 8]", 1)));
+  const std::string log = (dir_ / "runner.log").string();
+  const pid_t pid = testing::Spawn({testing::Campaign(), "run", "--db", Db(), "--jobs", "2", "--engine",
+                                    testing::FakeEngine()}, log);
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  kill(pid, SIGKILL);
+  testing::WaitExit(pid);
+  json s = Status();
+  EXPECT_EQ(s["counts"]["running"], 2) << s.dump();  // left behind by the dead runner
+  EXPECT_EQ(s["counts"]["planned"], 1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // engines die with their parent
+
+  setenv("FAKE_ENGINE_STEP_MS", "20", 1);
+  const auto r = Sh(RunCmd("--jobs 2"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  s = Status();
+  EXPECT_EQ(s["counts"]["done"], 3) << s.dump();
+  int continued = 0;
+  for (const auto& run : s["runs"]) {
+    const std::string launches = ReadFile(fs::path(run["run_dir"].get<std::string>()) / "launches.txt");
+    EXPECT_EQ(CountLines(launches, "finish"), 1) << launches;
+    continued += CountLines(launches, "start") == 2;
+  }
+  EXPECT_EQ(continued, 2);
+}
+
+TEST_F(CliTest, TwoRunnersNeverRunTheSameRun) {
+  setenv("FAKE_ENGINE_STEP_MS", "15", 1);
+  Sh(Cmd("plan " + WriteSpec("[3, 4, 5, 6, 7, 8]", 1)));
+  const std::vector<std::string> argv = {testing::Campaign(), "run", "--db", Db(), "--jobs", "2", "--engine",
+                                         testing::FakeEngine()};
+  const pid_t a = testing::Spawn(argv, (dir_ / "a.log").string());
+  const pid_t b = testing::Spawn(argv, (dir_ / "b.log").string());
+  EXPECT_EQ(testing::WaitExit(a), 0) << ReadFile(dir_ / "a.log");
+  EXPECT_EQ(testing::WaitExit(b), 0) << ReadFile(dir_ / "b.log");
+  const json s = Status();
+  EXPECT_EQ(s["counts"]["done"], 6);
+  for (const auto& run : s["runs"]) {
+    const std::string launches = ReadFile(fs::path(run["run_dir"].get<std::string>()) / "launches.txt");
+    EXPECT_EQ(CountLines(launches, "start"), 1) << launches;
+    EXPECT_EQ(run["attempts"], 1);
+  }
+}
+
+TEST_F(CliTest, OnlyFilterSelectsRuns) {
+  Sh(Cmd("plan " + WriteSpec("[4, 6]", 1)));
+  ASSERT_EQ(Sh(RunCmd("--only /silo/base_outlets/0/width=6")).code, 0);
+  const json s = Status();
+  EXPECT_EQ(s["counts"]["done"], 1);
+  for (const auto& run : s["runs"]) {
+    EXPECT_EQ(run["state"], run["point"]["/silo/base_outlets/0/width"] == 6 ? "done" : "planned");
+  }
+}
+
+}  // namespace
+}  // namespace granary::runner
