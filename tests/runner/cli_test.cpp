@@ -219,3 +219,33 @@ TEST_F(CliTest, OnlyFilterSelectsRuns) {
 
 }  // namespace
 }  // namespace granary::runner
+
+namespace granary::runner {
+namespace {
+
+// The real native engine on a tiny campaign: results are ingested from summary.json.
+TEST_F(CliTest, RealEngineEndToEnd) {
+  const std::string engine = testing::BinDir() + "/granary-engine";
+  if (!fs::exists(engine)) GTEST_SKIP() << "granary-engine not built";
+  const fs::path p = dir_ / "real.json";
+  std::ofstream(p) << R"({"name": "real", "seed": 2, "replicas": 1,
+    "base": {"bodies": {"count": 60}, "silo": {"width": 12},
+             "discharge": {"mode": "remove", "max_time": 2}, "output": {"checkpoint_interval": 1}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [3, 4]}}})";
+  ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
+  const auto r = Sh(Cmd("run --jobs 2"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const json s = Status();
+  EXPECT_EQ(s["counts"]["done"], 2) << s.dump();
+  for (const auto& run : s["runs"]) {
+    const json summary = json::parse(ReadFile(fs::path(run["run_dir"].get<std::string>()) / "summary.json"));
+    EXPECT_EQ(summary["run_id"], run["run_id"]);
+    EXPECT_EQ(run["end_reason"], summary["end_reason"]);
+    // The prepared bed is shared: both runs differ only in the outlet.
+    EXPECT_EQ(fs::path(summary["bed"]["file"].get<std::string>()).parent_path(), dir_ / "beds");
+  }
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir_ / "beds"), fs::directory_iterator{}) >= 1, true);
+}
+
+}  // namespace
+}  // namespace granary::runner
