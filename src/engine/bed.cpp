@@ -51,8 +51,10 @@ std::vector<ShapeTemplate> MakeTemplates(const RunSpec& spec) {
 
 BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
   std::vector<ShapeTemplate> templates = MakeTemplates(spec);
-  Silo closed = spec.silo;  // the bed never sees outlets or obstacles (bed_key)
-  closed.obstacles.clear();
+  // The bed never sees outlets or obstacles (bed_key): a closed silo whose walls are one
+  // segment per side, so element index = Side.
+  Silo closed;
+  closed.width = spec.silo.width;
   World world(ParamsFromSpec(spec), templates, BuildGeometry(closed, kTallWall));
   Rng rng(spec.seed);
 
@@ -138,6 +140,8 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
     bed.vy.push_back(world.bvy_[b]);
     bed.omega.push_back(world.bw_[b]);
   }
+  world.RebuildNow();
+  world.ExportHistory(bed.pair_history, bed.wall_history);
   bed.height = world.MaxDiscTop();
   bed.settle_time = t;
   return bed;
@@ -146,7 +150,7 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
 nlohmann::json BedToJson(const BedState& bed, const RunSpec& spec) {
   nlohmann::json j;
   j["format"] = "granary-bed";
-  j["version"] = 1;
+  j["version"] = 2;  // 2: with contact history
   j["key"] = spec.bed_key();
   j["height"] = bed.height;
   j["settle_time"] = bed.settle_time;
@@ -154,6 +158,11 @@ nlohmann::json BedToJson(const BedState& bed, const RunSpec& spec) {
   for (std::size_t b = 0; b < bed.x.size(); ++b)
     rows.push_back({bed.species[b], bed.x[b], bed.y[b], bed.theta[b], bed.vx[b], bed.vy[b], bed.omega[b]});
   j["bodies"] = std::move(rows);
+  for (const auto* h : {&bed.pair_history, &bed.wall_history}) {
+    nlohmann::json hist = nlohmann::json::array();
+    for (const HistoryEntry& e : *h) hist.push_back({e.i, e.j, e.sx, e.sy});
+    j[h == &bed.pair_history ? "pair_history" : "wall_history"] = std::move(hist);
+  }
   return j;
 }
 
@@ -174,6 +183,13 @@ BedState BedFromJson(const nlohmann::json& j, const RunSpec& spec, const std::st
     bed.vx.push_back(row.at(4).get<double>());
     bed.vy.push_back(row.at(5).get<double>());
     bed.omega.push_back(row.at(6).get<double>());
+  }
+  for (auto* h : {&bed.pair_history, &bed.wall_history}) {
+    const char* key = h == &bed.pair_history ? "pair_history" : "wall_history";
+    if (!j.contains(key)) continue;  // version 1 beds carry no history
+    for (const auto& row : j.at(key))
+      h->push_back({row.at(0).get<std::int32_t>(), row.at(1).get<std::int32_t>(), row.at(2).get<double>(),
+                    row.at(3).get<double>()});
   }
   if (static_cast<int>(bed.x.size()) != spec.bodies.count)
     throw std::runtime_error("bed file " + file + " holds " + std::to_string(bed.x.size()) + " bodies, the spec wants " +

@@ -12,6 +12,7 @@
 
 #include "engine/run_spec.h"
 #include "engine/shapes.h"
+#include "engine/world.h"
 
 namespace granary::engine {
 
@@ -22,6 +23,9 @@ inline constexpr double kTallWall = 1.0e5;
 struct BedState {
   std::vector<int> species;  // per body: species index (template)
   std::vector<double> x, y, theta, vx, vy, omega;
+  // Contact history of the settled bed, so that friction keeps holding it when the
+  // discharge starts: pairs by disc index (i < j), walls by disc and Side.
+  std::vector<HistoryEntry> pair_history, wall_history;
   double height = 0.0;       // top of the bed: max y + r over discs
   double settle_time = 0.0;  // simulated preparation time
 };

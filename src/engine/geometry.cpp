@@ -109,4 +109,21 @@ Closest ClosestPoint(const WallElement& e, double px, double py) {
   return {e.ax + t * dx, e.ay + t * dy, true};
 }
 
+int SideOf(const SiloGeometry& g, int element) {
+  const WallElement& e = g.elements[static_cast<std::size_t>(element)];
+  if (e.kind != ElementKind::kSegment || e.group != WallGroup::kAlways) return -1;
+  if (e.ay == 0.0 && e.by == 0.0) return static_cast<int>(Side::kBase);
+  if (e.ax == -g.half_width && e.bx == -g.half_width) return static_cast<int>(Side::kLeft);
+  if (e.ax == g.half_width && e.bx == g.half_width) return static_cast<int>(Side::kRight);
+  return -1;
+}
+
+int SegmentUnder(const SiloGeometry& g, Side side, double px, double py) {
+  for (std::size_t k = 0; k < g.elements.size(); ++k) {
+    if (SideOf(g, static_cast<int>(k)) != static_cast<int>(side)) continue;
+    if (ClosestPoint(g.elements[k], px, py).valid) return static_cast<int>(k);
+  }
+  return -1;
+}
+
 }  // namespace granary::engine

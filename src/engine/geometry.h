@@ -45,4 +45,13 @@ struct Closest {
 };
 Closest ClosestPoint(const WallElement& e, double px, double py);
 
+// The three straight walls of a silo. A closed silo (no outlets) has exactly one segment per
+// side, with element index equal to the side; with gaps, a side is split into segments.
+enum class Side { kBase = 0, kLeft = 1, kRight = 2 };
+
+// The side a wall segment lies on, or -1 for plug segments, points and circles.
+int SideOf(const SiloGeometry& g, int element);
+// The always-active segment of `side` whose interior is under (px, py), or -1 (over a gap).
+int SegmentUnder(const SiloGeometry& g, Side side, double px, double py);
+
 }  // namespace granary::engine

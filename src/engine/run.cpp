@@ -164,6 +164,17 @@ void ReportProgress(const fs::path& dir, const Progress& p, bool quiet) {
   }
 }
 
+// Lowest and highest disc edge (and the base line), for dump box bounds.
+std::pair<double, double> VerticalExtent(const World& w) {
+  double ylo = 0, yhi = 0;
+  for (int i = 0; i < w.disc_count(); ++i)
+    if (w.active_[w.dbody_[i]]) {
+      ylo = std::min(ylo, w.dy_[i] - w.dr_[i]);
+      yhi = std::max(yhi, w.dy_[i] + w.dr_[i]);
+    }
+  return {ylo, yhi};
+}
+
 }  // namespace
 
 // The state of a discharge, everything a checkpoint must hold.
@@ -219,7 +230,9 @@ class Discharge {
 void Discharge::BuildWorld(const std::vector<int>& species) {
   std::vector<ShapeTemplate> templates = MakeTemplates(spec_);
   const double wall_height = spec_.silo.height > 0 ? spec_.silo.height : kTallWall;
-  world_ = std::make_unique<World>(ParamsFromSpec(spec_), templates, BuildGeometry(spec_.silo, wall_height));
+  WorldParams params = ParamsFromSpec(spec_);
+  if (options_.parallel_min_discs >= 0) params.parallel_min_discs = options_.parallel_min_discs;
+  world_ = std::make_unique<World>(params, templates, BuildGeometry(spec_.silo, wall_height));
   double mean_mass = 0;
   for (int s : species) mean_mass += templates[static_cast<std::size_t>(s)].mass;
   mean_mass /= static_cast<double>(species.size());
@@ -246,6 +259,15 @@ void Discharge::StartFresh() {
   World& w = *world_;
   for (int b = 0; b < w.body_count(); ++b)
     w.PlaceBody(b, ob.bed.x[b], ob.bed.y[b], ob.bed.theta[b], ob.bed.vx[b], ob.bed.vy[b], ob.bed.omega[b]);
+  // The bed's wall contacts move to the segments of this silo (none over an open gap).
+  std::vector<HistoryEntry> walls;
+  for (const HistoryEntry& h : ob.bed.wall_history) {
+    const int e = SegmentUnder(w.geometry(), static_cast<Side>(h.j), w.dx_[h.i], w.dy_[h.i]);
+    if (e >= 0) walls.push_back({h.i, e, h.sx, h.sy});
+  }
+  std::stable_sort(walls.begin(), walls.end(),
+                   [](const HistoryEntry& a, const HistoryEntry& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
+  w.ImportHistory(ob.bed.pair_history, walls);
   w.ComputeForces();
   events_ = OutFile(dir_ / "events.csv", false, 0);
   std::fprintf(events_.get(), "time,body,shape,mass,outlet\n");
@@ -437,12 +459,7 @@ void Discharge::WriteFrame() {
   std::FILE* f = frames_.get();
   int n = 0;
   for (int i = 0; i < w.disc_count(); ++i) n += w.active_[w.dbody_[i]];
-  double ylo = 0, yhi = 0;
-  for (int i = 0; i < w.disc_count(); ++i)
-    if (w.active_[w.dbody_[i]]) {
-      ylo = std::min(ylo, w.dy_[i] - w.dr_[i]);
-      yhi = std::max(yhi, w.dy_[i] + w.dr_[i]);
-    }
+  const auto [ylo, yhi] = VerticalExtent(w);
   std::fprintf(f, "ITEM: TIMESTEP\n%lld\nITEM: TIME\n%.10g\nITEM: NUMBER OF ATOMS\n%d\n", static_cast<long long>(step_),
                static_cast<double>(step_) * spec_.time_step, n);
   std::fprintf(f, "ITEM: BOX BOUNDS ff ff pp\n%.10g %.10g\n%.10g %.10g\n-0.5 0.5\n", -hw_ - spec_.discharge.exit_distance - 1,
@@ -463,7 +480,9 @@ void Discharge::WriteContacts() {
   std::FILE* f = contacts_.get();
   std::fprintf(f, "ITEM: TIMESTEP\n%lld\nITEM: TIME\n%.10g\nITEM: NUMBER OF ENTRIES\n%zu\n", static_cast<long long>(step_),
                static_cast<double>(step_) * spec_.time_step, contact_buf_.size());
-  std::fprintf(f, "ITEM: BOX BOUNDS ff ff pp\n%.10g %.10g\n-1 1\n-0.5 0.5\n", -hw_, hw_);
+  const auto [ylo, yhi] = VerticalExtent(w);
+  std::fprintf(f, "ITEM: BOX BOUNDS ff ff pp\n%.10g %.10g\n%.10g %.10g\n-0.5 0.5\n", -hw_ - spec_.discharge.exit_distance - 1,
+               hw_ + spec_.discharge.exit_distance + 1, ylo - 1, yhi + 1);
   std::fprintf(f, "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n");
   for (const auto& c : contact_buf_) {
     const int bj = c.disc_j >= 0 ? w.dbody_[c.disc_j] : -1;
@@ -615,14 +634,21 @@ std::vector<BenchResult> RunBenchmark(const BenchOptions& options) {
   fs::create_directories(base);
   nlohmann::json spec = {
       {"run_id", "bench"},
-      {"seed", 1},
+      {"seed", std::uint64_t{1}},
       {"silo", {{"width", 100.0}, {"base_outlets", {{{"center", 0.0}, {"width", 14.0}}}}}},
       {"bodies", {{"count", options.bodies}}},
       {"discharge", {{"mode", "reinject"}, {"max_time", static_cast<double>(options.steps) * 1e-4}, {"stop_on_clog", false}}},
       {"output", {{"checkpoint_interval", 0.0}, {"frame_interval", 0.0}}},
-      {"bed", {{"cache_file", options.bed_file.empty()
+      {"bed", {{"batch_size", 2000}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 30.0},
+               {"cache_file", options.bed_file.empty()
                                   ? (fs::temp_directory_path() / ("granary-bench-bed-" + std::to_string(options.bodies) + ".json")).string()
                                   : options.bed_file}}}};
+  // Prepare (or load) the bed once with every thread; it is not timed.
+  omp_set_num_threads(*std::max_element(options.threads.begin(), options.threads.end()));
+  ObtainBed(RunSpec::from_json(spec), base.string(), [](double f, double t) {
+    std::printf("bench: preparing bed fraction=%.3f t=%.4g\n", f, t);
+    std::fflush(stdout);
+  });
   std::vector<BenchResult> results;
   for (int threads : options.threads) {
     const fs::path dir = base / ("t" + std::to_string(threads));

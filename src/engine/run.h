@@ -18,6 +18,8 @@ struct RunOptions {
   // Tests: stop (as if killed) after this many discharge steps, leaving the checkpoint
   // behind; < 0 = never.
   std::int64_t abort_after_steps = -1;
+  // Tests: parallelise even tiny systems (WorldParams::parallel_min_discs); < 0 = default.
+  int parallel_min_discs = -1;
 };
 
 struct RunResult {

@@ -145,7 +145,7 @@ bool World::NeedsRebuild() const {
   const int n = disc_count();
   const double limit = 0.25 * params_.skin * params_.skin;
   double worst = 0.0;
-#pragma omp parallel for schedule(static) reduction(max : worst)
+#pragma omp parallel for schedule(static) reduction(max : worst) if (Parallel())
   for (int i = 0; i < n; ++i) {
     if (!active_[dbody_[i]]) continue;
     const double ddx = dx_[i] - refx_[i], ddy = dy_[i] - refy_[i];
@@ -230,7 +230,7 @@ void World::Rebuild() {
       }
   };
   nl_start_.resize(static_cast<std::size_t>(n) + 1);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (Parallel())
   for (int i = 0; i < n; ++i) {
     int count = 0;
     for_neighbours(i, [&](int) { ++count; });
@@ -245,7 +245,7 @@ void World::Rebuild() {
   nl_fx_.assign(static_cast<std::size_t>(m), 0.0);
   nl_fy_.assign(static_cast<std::size_t>(m), 0.0);
   nl_c_.assign(static_cast<std::size_t>(m), 0.0);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (Parallel())
   for (int i = 0; i < n; ++i) {
     int k = nl_start_[i];
     for_neighbours(i, [&](int j) { nl_j_[k++] = j; });
@@ -329,7 +329,7 @@ void World::ComputeForces() {
   const ContactParams& wp = params_.wall;
 
   // 1. Pair forces, once per contact, into the contact's own slot.
-#pragma omp parallel for schedule(dynamic, 256)
+#pragma omp parallel for schedule(dynamic, 256) if (Parallel())
   for (int i = 0; i < n; ++i) {
     const int bi = dbody_[i];
     const double ri = dr_[i], xi = dx_[i], yi = dy_[i];
@@ -365,7 +365,7 @@ void World::ComputeForces() {
   }
 
   // 2. Per disc, in a fixed order: own entries, transposed entries, walls.
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (Parallel())
   for (int i = 0; i < n; ++i) {
     const int bi = dbody_[i];
     double fx = 0, fy = 0, c = 0;
@@ -421,7 +421,7 @@ void World::ComputeForces() {
   // 3. Per body: sum of disc forces, gravity, torque about the centre of mass.
   const int nb = body_count();
   const double g = params_.gravity;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (Parallel())
   for (int b = 0; b < nb; ++b) {
     if (!active_[b]) continue;
     double fx = 0, fy = 0, tq = 0;
@@ -440,7 +440,7 @@ void World::ComputeForces() {
 void World::Step() {
   const int nb = body_count();
   const double dt = params_.dt, half = 0.5 * params_.dt;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (Parallel())
   for (int b = 0; b < nb; ++b) {
     if (!active_[b]) continue;
     bvx_[b] += half * bfx_[b] / bmass_[b];
@@ -452,7 +452,7 @@ void World::Step() {
     UpdateDiscs(b);
   }
   ComputeForces();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (Parallel())
   for (int b = 0; b < nb; ++b) {
     if (!active_[b]) continue;
     bvx_[b] += half * bfx_[b] / bmass_[b];

@@ -22,6 +22,9 @@ struct WorldParams {
   ContactParams pair;   // body-body
   ContactParams wall;   // body-wall and body-obstacle (mu_wall)
   double skin = 0.3;    // Verlet-list skin in d
+  // Below this many discs the loops run on one thread: forking costs more than it saves
+  // (results are the same either way).
+  int parallel_min_discs = 2000;
 };
 
 WorldParams ParamsFromSpec(const RunSpec& spec);
@@ -102,6 +105,7 @@ class World {
   void Rebuild();
   bool NeedsRebuild() const;
   bool ElementActive(const WallElement& e) const;
+  bool Parallel() const { return disc_count() >= params_.parallel_min_discs; }
 
   WorldParams params_;
   std::vector<ShapeTemplate> templates_;
