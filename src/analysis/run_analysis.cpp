@@ -127,6 +127,8 @@ void analyse_frames(const RunData& data, const AnalysisOptions& options, RunAnal
   if (a.flow.ok) {
     t0 = a.flow.t_start;
     t1 = a.flow.t_end;
+  } else if (!a.series.flowing.empty() && a.series.flowing.front().complete && a.series.flowing.front().exits > 0) {
+    t1 = a.series.flowing.front().end;  // no steady window: still only frames before the first clog
   }
   double density = 1.0;
   if (data.spec.is_object() && data.spec.contains("bodies")) density = data.spec.at("bodies").value("density", 1.0);

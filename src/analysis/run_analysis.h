@@ -72,9 +72,9 @@ struct RunAnalysis {
 // Everything that needs only summary.json, run.json and events.csv. Pure.
 RunAnalysis analyse_events(const RunData& data, const AnalysisOptions& options);
 // Streams frames.dump (if present and options.read_frames) and fills the region statistics
-// and velocity profiles of every outlet.
-// Frames inside the flow window are used (all frames after window.start_time if the flow
-// window is not defined). Throws ReadError on a malformed dump.
+// and velocity profiles of every outlet, from the frames of the flow window; without one,
+// from the frames after window.start_time up to the first clog.
+// Throws ReadError on a malformed dump.
 void analyse_frames(const RunData& data, const AnalysisOptions& options, RunAnalysis& analysis);
 // read_run + analyse_events + analyse_frames.
 RunAnalysis analyse_run(const std::filesystem::path& dir, const AnalysisOptions& options);

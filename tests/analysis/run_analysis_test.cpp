@@ -106,6 +106,27 @@ TEST(AnalyseRun, RegionBesideASideOutlet) {
   EXPECT_DOUBLE_EQ(a.clog_gap, 3.0);
 }
 
+TEST(AnalyseRun, WithoutAFlowWindowFramesStopAtTheFirstClog) {
+  // 5 exits (too few for a flow rate), then a clog from t = 2.5 on; frames at t = 2.2
+  // (flowing) and t = 15 (clogged): only the first may enter the region statistics.
+  TempDir dir;
+  write_file(dir.path() / "run.json", kSpec.dump());
+  write_file(dir.path() / "summary.json", R"({"bodies":10,"exited":5,"remaining":10,"t_end":20,"end_reason":"time_limit"})");
+  write_file(dir.path() / "events.csv",
+             "time,body,shape,mass,outlet\n2.1,0,disc,1,0\n2.2,1,disc,1,0\n2.3,2,disc,1,0\n2.4,3,disc,1,0\n2.5,4,disc,1,0\n");
+  std::string frames;
+  for (double t : {2.2, 15.0})
+    frames += "ITEM: TIMESTEP\n1\nITEM: TIME\n" + std::to_string(t) +
+              "\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id mol x y radius vx vy omegaz\n1 0 -20 1 0.5 0 -1 0\n";
+  write_file(dir.path() / "frames.dump", frames);
+  AnalysisOptions opt;
+  opt.window.start_time = 1.0;
+  const RunAnalysis a = analyse_run(dir.path(), opt);
+  EXPECT_FALSE(a.flow.ok);
+  ASSERT_TRUE(a.has_region);
+  EXPECT_EQ(a.region.frames, 1);
+}
+
 TEST(AnalyseRun, SummaryAndEventsDisagree) {
   TempDir dir;
   write_file(dir.path() / "summary.json", R"({"bodies":10,"exited":5,"remaining":5,"t_end":3,"end_reason":"time_limit"})");
