@@ -62,6 +62,8 @@ TEST(CampaignSpecTest, GridZipPointsAndReplicasExpand) {
   EXPECT_EQ(runs[0].point_id, runs[1].point_id);
   EXPECT_NE(runs[0].point_id, runs[2].point_id);
   EXPECT_EQ(runs[0].params["run_id"], runs[0].run_id);
+  // The id is the hash of the resolved spec, whichever way it is recomputed.
+  for (const auto& r : runs) EXPECT_EQ(run_id_of(RunSpec::from_json(r.params)), r.run_id);
 }
 
 TEST(CampaignSpecTest, ReplicaSeedsAndBedsSharedAcrossOutletWidths) {
