@@ -309,8 +309,8 @@ std::optional<Section> per_run_section(const Context& c) {
   Section s{"per-run", "Per-run results", {}};
   Table t{"per_run",
           "Every used run (Q by least squares over the steady window; se by batch means)",
-          {"run", "point", "replica", "engine", "end", "bodies", "exited", "t_end", "window t", "Q (bodies/t)", "Q se",
-           "Q_mass (mass/t)", "phi", "T_g ch3", "T_g ch4", "notes"},
+          {"run", "point", "replica", "engine", "end", "bodies", "exited", "t_end", "clogs (engine/stream)", "window t",
+           "Q (bodies/t)", "Q se", "Q_mass (mass/t)", "phi", "T_g ch3", "T_g ch4", "notes"},
           {}};
   for (const Point& p : c.points) {
     for (const AnalysedRun* a : p.runs) {
@@ -319,6 +319,8 @@ std::optional<Section> per_run_section(const Context& c) {
       for (const auto& n : r.notes) notes += (notes.empty() ? "" : "; ") + n;
       t.rows.push_back({a->record->run_id, point_name(c, p), std::to_string(a->record->replica), r.engine,
                         r.end_reason, std::to_string(r.bodies), std::to_string(r.exited), format_number(r.t_end),
+                        (r.engine_clogs >= 0 ? std::to_string(r.engine_clogs) : std::string("?")) + " / " +
+                            std::to_string(r.series.clogged.size()),
                         r.flow.ok ? format_number(r.flow.t_start, 3) + "-" + format_number(r.flow.t_end, 3) : "",
                         format_number(r.flow.q_count), format_number(r.flow.q_count_se, 2),
                         format_number(r.flow.q_mass), r.has_region ? format_number(r.region.phi.mean) : "",

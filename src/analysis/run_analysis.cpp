@@ -79,6 +79,8 @@ RunAnalysis analyse_events(const RunData& data, const AnalysisOptions& options) 
     // A run that stopped on a clog stopped with every outlet blocked.
     a.series_per_outlet.push_back(clog_series(data.events, static_cast<int>(o), a.t_end, a.clog_gap, ended_clogged));
   }
+  if (data.summary.raw.is_object() && data.summary.raw.contains("clogs") && data.summary.raw.at("clogs").is_number())
+    a.engine_clogs = data.summary.raw.at("clogs").get<int>();
   a.clog.clogged = ended_clogged;
   a.clog.bodies = a.bodies;
   a.clog.exited = a.exited;

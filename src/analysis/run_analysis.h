@@ -58,6 +58,7 @@ struct RunAnalysis {
   std::vector<FlowRate> flow_per_outlet;
   ClogRun clog;                       // for Psi
   ClogSeries series;                  // all outlets together (avalanches)
+  int engine_clogs = -1;              // summary.json "clogs" if the engine counted them (KE-confirmed), else -1
   std::vector<ClogSeries> series_per_outlet;  // t_f, t_c per outlet
   bool has_region = false;
   RegionStats region;                 // next to outlet 0 (= region_per_outlet[0])

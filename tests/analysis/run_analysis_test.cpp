@@ -111,7 +111,7 @@ TEST(AnalyseRun, WithoutAFlowWindowFramesStopAtTheFirstClog) {
   // (flowing) and t = 15 (clogged): only the first may enter the region statistics.
   TempDir dir;
   write_file(dir.path() / "run.json", kSpec.dump());
-  write_file(dir.path() / "summary.json", R"({"bodies":10,"exited":5,"remaining":10,"t_end":20,"end_reason":"time_limit"})");
+  write_file(dir.path() / "summary.json", R"({"bodies":10,"exited":5,"remaining":10,"t_end":20,"end_reason":"time_limit","clogs":1})");
   write_file(dir.path() / "events.csv",
              "time,body,shape,mass,outlet\n2.1,0,disc,1,0\n2.2,1,disc,1,0\n2.3,2,disc,1,0\n2.4,3,disc,1,0\n2.5,4,disc,1,0\n");
   std::string frames;
@@ -125,6 +125,8 @@ TEST(AnalyseRun, WithoutAFlowWindowFramesStopAtTheFirstClog) {
   EXPECT_FALSE(a.flow.ok);
   ASSERT_TRUE(a.has_region);
   EXPECT_EQ(a.region.frames, 1);
+  EXPECT_EQ(a.engine_clogs, 1);
+  EXPECT_EQ(a.series.clogged.size(), 1u);
 }
 
 TEST(AnalyseRun, SummaryAndEventsDisagree) {
@@ -137,6 +139,7 @@ TEST(AnalyseRun, SummaryAndEventsDisagree) {
   EXPECT_TRUE(found);
   EXPECT_EQ(a.cumulative_n, (std::vector<double>{1, 2, 3}));
   EXPECT_TRUE(a.remove_mode);  // run-spec default without run.json
+  EXPECT_EQ(a.engine_clogs, -1);  // the summary has no "clogs"
 }
 
 }  // namespace
