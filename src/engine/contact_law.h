@@ -50,7 +50,7 @@ inline Tangential TangentialForce(double sx, double sy, double nx, double ny, do
   const double h = std::sqrt(r_eff * delta);
   sx += vtx * dt;
   sy += vty * dt;
-  const double shrmag = std::sqrt(sx * sx + sy * sy);
+  const double shrmag2 = sx * sx + sy * sy;  // |xi| before the projection (LAMMPS' shrmag)
   const double rsht = sx * nx + sy * ny;
   sx -= rsht * nx;
   sy -= rsht * ny;
@@ -61,10 +61,10 @@ inline Tangential TangentialForce(double sx, double sy, double nx, double ny, do
   if (!p.liggghts_cap) {
     double fx = -h * (p.kt * sx + damp_x);
     double fy = -h * (p.kt * sy + damp_y);
-    const double fs = std::sqrt(fx * fx + fy * fy);
-    if (fs > cap) {
-      if (shrmag != 0.0) {
-        const double ratio = cap / fs;
+    const double fs2 = fx * fx + fy * fy;
+    if (fs2 > cap * cap) {
+      if (shrmag2 != 0.0) {
+        const double ratio = cap / std::sqrt(fs2);
         // Rescale xi so that spring + damping give exactly the capped force (LAMMPS).
         sx = ratio * (sx + damp_x / p.kt) - damp_x / p.kt;
         sy = ratio * (sy + damp_y / p.kt) - damp_y / p.kt;
@@ -84,9 +84,9 @@ inline Tangential TangentialForce(double sx, double sy, double nx, double ny, do
     const double gt_eff = h * m_eff * p.gamma_t;
     const double spx = -kt_eff * sx;
     const double spy = -kt_eff * sy;
-    const double spring = std::sqrt(spx * spx + spy * spy);
-    if (spring > cap) {
-      const double ratio = cap / spring;
+    const double spring2 = spx * spx + spy * spy;
+    if (spring2 > cap * cap) {
+      const double ratio = cap / std::sqrt(spring2);
       t.fx = spx * ratio;
       t.fy = spy * ratio;
       if (kt_eff > 0.0) {

@@ -303,7 +303,8 @@ void Discharge::WriteCheckpoint() {
   o.PutStr(rng_.Save());
   o.PutVec(w.tmpl_);
   o.PutVec(w.active_);
-  for (const auto* v : {&w.bx_, &w.by_, &w.bth_, &w.bvx_, &w.bvy_, &w.bw_, &w.bfx_, &w.bfy_, &w.btq_}) o.PutVec(*v);
+  for (const auto* v : {&w.bx_, &w.by_, &w.bth_, &w.bc_, &w.bs_, &w.bvx_, &w.bvy_, &w.bw_, &w.bfx_, &w.bfy_, &w.btq_})
+    o.PutVec(*v);
   o.PutVec(pairs);
   o.PutVec(walls);
   o.Put(events_.Offset());
@@ -340,12 +341,12 @@ void Discharge::LoadCheckpoint() {
   BuildWorld(tmpl);
   exits_per_outlet_ = saved_exits;
   World& w = *world_;
-  for (auto* v : {&w.bx_, &w.by_, &w.bth_, &w.bvx_, &w.bvy_, &w.bw_, &w.bfx_, &w.bfy_, &w.btq_}) {
+  for (auto* v : {&w.bx_, &w.by_, &w.bth_, &w.bc_, &w.bs_, &w.bvx_, &w.bvy_, &w.bw_, &w.bfx_, &w.bfy_, &w.btq_}) {
     std::vector<double> x = in.GetVec<double>();
     if (x.size() != v->size()) throw std::runtime_error("checkpoint " + file.string() + ": body count mismatch");
     *v = std::move(x);
   }
-  const std::vector<double> fx = w.bfx_, fy = w.bfy_, tq = w.btq_;
+  const std::vector<double> fx = w.bfx_, fy = w.bfy_, tq = w.btq_, c = w.bc_, sn = w.bs_;
   for (int b = 0; b < w.body_count(); ++b) {
     w.PlaceBody(b, w.bx_[b], w.by_[b], w.bth_[b], w.bvx_[b], w.bvy_[b], w.bw_[b]);
     if (!active[b]) w.Deactivate(b);
@@ -353,6 +354,9 @@ void Discharge::LoadCheckpoint() {
   w.bfx_ = fx;  // the forces of the step the checkpoint was taken at
   w.bfy_ = fy;
   w.btq_ = tq;
+  w.bc_ = c;  // the integrated orientation, not cos/sin of theta
+  w.bs_ = sn;
+  w.RefreshDiscs();
   const std::vector<HistoryEntry> pairs = in.GetVec<HistoryEntry>();
   const std::vector<HistoryEntry> walls = in.GetVec<HistoryEntry>();
   w.ImportHistory(pairs, walls);

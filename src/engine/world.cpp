@@ -43,6 +43,8 @@ int World::AddBody(int tmpl, double x, double y, double theta) {
   bx_.push_back(x);
   by_.push_back(y);
   bth_.push_back(theta);
+  bc_.push_back(std::cos(theta));
+  bs_.push_back(std::sin(theta));
   bvx_.push_back(0);
   bvy_.push_back(0);
   bw_.push_back(0);
@@ -51,6 +53,8 @@ int World::AddBody(int tmpl, double x, double y, double theta) {
   btq_.push_back(0);
   bmass_.push_back(t.mass);
   binertia_.push_back(t.inertia);
+  binv_mass_.push_back(1.0 / t.mass);
+  binv_inertia_.push_back(1.0 / t.inertia);
   disc_begin_.push_back(disc_count());
   disc_n_.push_back(static_cast<int>(t.r.size()));
   for (std::size_t k = 0; k < t.r.size(); ++k) {
@@ -90,6 +94,8 @@ void World::PlaceBody(int b, double x, double y, double theta, double vx, double
   bx_[b] = x;
   by_[b] = y;
   bth_[b] = theta;
+  bc_[b] = std::cos(theta);
+  bs_[b] = std::sin(theta);
   bvx_[b] = vx;
   bvy_[b] = vy;
   bw_[b] = omega;
@@ -129,7 +135,7 @@ bool World::ElementActive(const WallElement& e) const {
 }
 
 void World::UpdateDiscs(int b) {
-  const double c = std::cos(bth_[b]), s = std::sin(bth_[b]);
+  const double c = bc_[b], s = bs_[b];
   const int d0 = disc_begin_[b], d1 = d0 + disc_n_[b];
   for (int d = d0; d < d1; ++d) {
     const double wx = c * dox_[d] - s * doy_[d];
@@ -139,6 +145,20 @@ void World::UpdateDiscs(int b) {
     dvx_[d] = bvx_[b] - bw_[b] * wy;
     dvy_[d] = bvy_[b] + bw_[b] * wx;
   }
+}
+
+void World::RefreshDiscs() {
+  for (int b = 0; b < body_count(); ++b) UpdateDiscs(b);
+}
+
+double World::Displacement2(int b) const {
+  double worst = 0.0;
+  const int d0 = disc_begin_[b], d1 = d0 + disc_n_[b];
+  for (int d = d0; d < d1; ++d) {
+    const double ddx = dx_[d] - refx_[d], ddy = dy_[d] - refy_[d];
+    worst = std::max(worst, ddx * ddx + ddy * ddy);
+  }
+  return worst;
 }
 
 bool World::NeedsRebuild() const {
@@ -321,26 +341,32 @@ void World::Rebuild() {
   }
 }
 
-void World::ComputeForces() {
-  if (rebuild_needed_ || NeedsRebuild()) Rebuild();
+void World::ComputeForces() { Forces(rebuild_needed_ || NeedsRebuild()); }
+
+void World::Forces(bool rebuild) {
+  if (rebuild) Rebuild();
   const int n = disc_count();
   const double dt = params_.dt;
   const ContactParams& pp = params_.pair;
   const ContactParams& wp = params_.wall;
 
-  // 1. Pair forces, once per contact, into the contact's own slot.
+  // 1. Pair forces, once per contact, into the contact's own slot; disc i sums its own
+  // entries on the way (in list order).
 #pragma omp parallel for schedule(dynamic, 256) if (Parallel())
   for (int i = 0; i < n; ++i) {
     const int bi = dbody_[i];
     const double ri = dr_[i], xi = dx_[i], yi = dy_[i];
+    double sfx = 0.0, sfy = 0.0, sc = 0.0;
     for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
       const int j = nl_j_[e];
       const double ddx = xi - dx_[j], ddy = yi - dy_[j];
       const double rsq = ddx * ddx + ddy * ddy;
       const double radsum = ri + dr_[j];
       if (rsq >= radsum * radsum) {
-        nl_fx_[e] = nl_fy_[e] = nl_c_[e] = 0.0;
-        nl_sx_[e] = nl_sy_[e] = 0.0;  // the contact opened: history reset
+        if (nl_sx_[e] != 0.0 || nl_sy_[e] != 0.0 || nl_fx_[e] != 0.0 || nl_fy_[e] != 0.0) {
+          nl_fx_[e] = nl_fy_[e] = nl_c_[e] = 0.0;
+          nl_sx_[e] = nl_sy_[e] = 0.0;  // the contact opened: history reset
+        }
         continue;
       }
       const int bj = dbody_[j];
@@ -358,22 +384,24 @@ void World::ComputeForces() {
       const Tangential t = TangentialForce(nl_sx_[e], nl_sy_[e], nx, ny, vtx, vty, delta, reff, meff, fn, dt, pp);
       nl_sx_[e] = t.sx;
       nl_sy_[e] = t.sy;
-      nl_fx_[e] = fn * nx + t.fx;
-      nl_fy_[e] = fn * ny + t.fy;
-      nl_c_[e] = nx * t.fy - ny * t.fx;
+      const double fx = fn * nx + t.fx, fy = fn * ny + t.fy, c = nx * t.fy - ny * t.fx;
+      nl_fx_[e] = fx;
+      nl_fy_[e] = fy;
+      nl_c_[e] = c;
+      sfx += fx;
+      sfy += fy;
+      sc += c;
     }
+    dfx_[i] = sfx;
+    dfy_[i] = sfy;
+    dtz_[i] = sc;
   }
 
   // 2. Per disc, in a fixed order: own entries, transposed entries, walls.
 #pragma omp parallel for schedule(static) if (Parallel())
   for (int i = 0; i < n; ++i) {
     const int bi = dbody_[i];
-    double fx = 0, fy = 0, c = 0;
-    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
-      fx += nl_fx_[e];
-      fy += nl_fy_[e];
-      c += nl_c_[e];
-    }
+    double fx = dfx_[i], fy = dfy_[i], c = dtz_[i];
     for (int k = tl_start_[i]; k < tl_start_[i + 1]; ++k) {
       const int e = tl_entry_[k];
       fx -= nl_fx_[e];
@@ -440,24 +468,42 @@ void World::ComputeForces() {
 void World::Step() {
   const int nb = body_count();
   const double dt = params_.dt, half = 0.5 * params_.dt;
-#pragma omp parallel for schedule(static) if (Parallel())
+  double worst = 0.0;
+#pragma omp parallel for schedule(static) reduction(max : worst) if (Parallel())
   for (int b = 0; b < nb; ++b) {
     if (!active_[b]) continue;
-    bvx_[b] += half * bfx_[b] / bmass_[b];
-    bvy_[b] += half * bfy_[b] / bmass_[b];
-    bw_[b] += half * btq_[b] / binertia_[b];
+    bvx_[b] += half * bfx_[b] * binv_mass_[b];
+    bvy_[b] += half * bfy_[b] * binv_mass_[b];
+    bw_[b] += half * btq_[b] * binv_inertia_[b];
     bx_[b] += dt * bvx_[b];
     by_[b] += dt * bvy_[b];
-    bth_[b] += dt * bw_[b];
+    const double a = dt * bw_[b];
+    bth_[b] += a;
+    // Rotate (cos, sin) by a. For |a| < 0.01 the series to a^8 is exact to rounding; one
+    // Newton step keeps |(c, s)| = 1 without a square root.
+    double ca, sa;
+    if (std::fabs(a) < 0.01) {
+      const double a2 = a * a;
+      ca = 1.0 - a2 / 2.0 * (1.0 - a2 / 12.0 * (1.0 - a2 / 30.0 * (1.0 - a2 / 56.0)));
+      sa = a * (1.0 - a2 / 6.0 * (1.0 - a2 / 20.0 * (1.0 - a2 / 42.0)));
+    } else {
+      ca = std::cos(a);
+      sa = std::sin(a);
+    }
+    double c = bc_[b] * ca - bs_[b] * sa, s = bs_[b] * ca + bc_[b] * sa;
+    const double f = 1.5 - 0.5 * (c * c + s * s);
+    bc_[b] = c * f;
+    bs_[b] = s * f;
     UpdateDiscs(b);
+    worst = std::max(worst, Displacement2(b));
   }
-  ComputeForces();
+  Forces(rebuild_needed_ || worst > 0.25 * params_.skin * params_.skin);
 #pragma omp parallel for schedule(static) if (Parallel())
   for (int b = 0; b < nb; ++b) {
     if (!active_[b]) continue;
-    bvx_[b] += half * bfx_[b] / bmass_[b];
-    bvy_[b] += half * bfy_[b] / bmass_[b];
-    bw_[b] += half * btq_[b] / binertia_[b];
+    bvx_[b] += half * bfx_[b] * binv_mass_[b];
+    bvy_[b] += half * bfy_[b] * binv_mass_[b];
+    bw_[b] += half * btq_[b] * binv_inertia_[b];
   }
 }
 

@@ -56,6 +56,8 @@ class World {
   void ComputeForces();
   // One velocity-Verlet step of dt.
   void Step();
+  // Recomputes every disc's position and velocity from the body state (after restoring it).
+  void RefreshDiscs();
   // Rebuild the lists at the next force computation (after adding/moving/removing bodies).
   void RequestRebuild() { rebuild_needed_ = true; }
 
@@ -83,6 +85,10 @@ class World {
   std::vector<int> tmpl_;
   std::vector<std::uint8_t> active_;
   std::vector<double> bx_, by_, bth_, bvx_, bvy_, bw_, bfx_, bfy_, btq_, bmass_, binertia_;
+  // Orientation as (cos, sin), rotated by omega dt each step (no libm call per body and
+  // step); theta is integrated alongside for reference. Checkpoints store both.
+  std::vector<double> bc_, bs_;
+  std::vector<double> binv_mass_, binv_inertia_;  // 1/M and 1/I (the step multiplies)
   std::vector<int> disc_begin_;  // per body; discs [disc_begin_[b], disc_begin_[b] + n)
   std::vector<int> disc_n_;
   // Disc state: owning body, radius, mass, body-frame offset, world position and velocity.
@@ -102,6 +108,9 @@ class World {
 
  private:
   void UpdateDiscs(int b);
+  // Max squared displacement of body b's discs since the last rebuild.
+  double Displacement2(int b) const;
+  void Forces(bool rebuild);
   void Rebuild();
   bool NeedsRebuild() const;
   bool ElementActive(const WallElement& e) const;
