@@ -773,7 +773,26 @@ std::optional<Section> intermittency_section(const Context& c) {
                           "out of the means. N_u = unclogging events per unit time, over the replicas' total time."});
   Table t{"intermittency", "t_f, t_c and N_u per point and outlet (pooled over replicas)",
           {"point", "outlet", "<t_f> ± se (n)", "<t_c> ± se (n)", "N_u (1/sqrt(d/g))", "unclogs", "time"}, {}};
-  std::map<std::size_t, Figure> tf_fig, tc_fig, nu_fig;
+  // Figures against the x axis: one series per (group, outlet).
+  Figure times{"intermittency_times", "Mean flowing and clogged times against " + c.x_label, c.x_label,
+               "<t_f>, <t_c> (sqrt(d/g))", {}, false, false, "Error bars: se over stretches pooled over replicas"};
+  Figure rate{"unclogging_rate", "Unclogging rate N_u against " + c.x_label, c.x_label, "N_u (1/sqrt(d/g))", {}, false,
+              false, "Unclogging events per unit time over the replicas' total time"};
+  std::map<std::string, std::size_t> tf_index, tc_index, nu_index;
+  auto series_for = [](Figure& f, std::map<std::string, std::size_t>& index, const std::string& label,
+                       const std::vector<std::string>& columns, Series::Style style) -> Series& {
+    auto it = index.find(label);
+    if (it == index.end()) {
+      Series se;
+      se.label = label;
+      se.columns = columns;
+      se.style = style;
+      se.err = style == Series::Style::kErrorBars ? 2 : -1;
+      f.series.push_back(se);
+      it = index.emplace(label, f.series.size() - 1).first;
+    }
+    return f.series[it->second];
+  };
   for (const Point& p : c.points) {
     std::size_t outlets = 0;
     for (const AnalysedRun* a : p.runs) outlets = std::max(outlets, a->analysis.series_per_outlet.size());
@@ -789,9 +808,25 @@ std::optional<Section> intermittency_section(const Context& c) {
       t.rows.push_back({point_name(c, p), label, format_mean_se(st.t_flowing.mean, st.t_flowing.se, st.t_flowing.n),
                         format_mean_se(st.t_clogged.mean, st.t_clogged.se, st.t_clogged.n),
                         format_number(st.unclog_rate), std::to_string(st.unclogs), format_number(st.observed_time)});
+      if (!std::isfinite(p.x)) continue;
+      const std::string key = label + (p.group.empty() ? "" : ", " + p.group);
+      const std::string xname = short_axis(c.x_axis);
+      if (std::isfinite(st.t_flowing.mean))
+        series_for(times, tf_index, "t_f " + key, {xname, "t_f", "t_f_se", "n"}, Series::Style::kErrorBars)
+            .rows.push_back({p.x, st.t_flowing.mean, st.t_flowing.se, static_cast<double>(st.t_flowing.n)});
+      if (std::isfinite(st.t_clogged.mean))
+        series_for(times, tc_index, "t_c " + key, {xname, "t_c", "t_c_se", "n"}, Series::Style::kErrorBars)
+            .rows.push_back({p.x, st.t_clogged.mean, st.t_clogged.se, static_cast<double>(st.t_clogged.n)});
+      if (std::isfinite(st.unclog_rate))
+        series_for(rate, nu_index, key, {xname, "N_u", "unclogs", "time"}, Series::Style::kLinesPoints)
+            .rows.push_back({p.x, st.unclog_rate, static_cast<double>(st.unclogs), st.observed_time});
     }
   }
   s.blocks.push_back(t);
+  if (has_x(c)) {
+    if (!times.series.empty()) s.blocks.push_back(times);
+    if (!rate.series.empty()) s.blocks.push_back(rate);
+  }
   return s;
 }
 

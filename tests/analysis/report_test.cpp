@@ -297,6 +297,10 @@ TEST(WriteReport, ClogSectionsWithKnownNumbers) {
   EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 2), "10 (1)");   // t_f: 0 -> 10
   EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 3), "10 (1)");   // t_c: 10 -> 20
   EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 4), format_number(1.0 / 26.0));
+  // The figure data: t_f of outlet 0 at W = 8 (W = 6 runs stopped on clogs: no complete t_c).
+  const std::string tf = read_file(opt.out_dir / "intermittency_times-1.csv");
+  EXPECT_EQ(tf.substr(0, tf.find('\n')), "base_outlets.0.width,t_f,t_f_se,n");
+  EXPECT_NE(tf.find("\n8,10,nan,1\n"), std::string::npos) << tf;
 
   const std::string prov = read_file(opt.out_dir / "provenance.csv");
   EXPECT_NE(prov.find("liggghts,3.8.0,def456,liggghts,4"), std::string::npos) << prov;
