@@ -4,7 +4,6 @@
 #include "analysis/report.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <ctime>
 #include <functional>
@@ -285,6 +284,14 @@ std::optional<Section> provenance_section(const Context& c) {
 #ifdef GRANARY_GIT_COMMIT
   text += std::string(", analysis library built from commit `") + GRANARY_GIT_COMMIT + "`";
 #endif
+  {
+    const std::time_t now = std::time(nullptr);
+    std::tm utc{};
+    gmtime_r(&now, &utc);
+    char stamp[32];
+    std::strftime(stamp, sizeof stamp, "%Y-%m-%d %H:%M UTC", &utc);
+    text += ", on " + std::string(stamp);
+  }
   text += ". Sweep axes: ";
   for (std::size_t i = 0; i < k.axes.size(); ++i) text += (i ? ", " : "") + std::string("`") + k.axes[i] + "`";
   if (k.axes.empty()) text += "none";

@@ -4,9 +4,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <map>
 #include <numbers>
-#include <sstream>
 #include <string_view>
 
 namespace granary::analysis {
