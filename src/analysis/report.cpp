@@ -957,6 +957,7 @@ void apply_report_spec(const nlohmann::json& campaign_spec, ReportOptions& optio
 
 ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
                            const ReportOptions& options) {
+  if (options.out_dir.empty()) throw std::invalid_argument("write_report: ReportOptions::out_dir is empty");
   ReportOptions effective = options;
   apply_report_spec(campaign.spec, effective);
   const Context c = build_context(campaign, runs, effective);

@@ -396,6 +396,8 @@ TEST(WriteReport, EmptyCampaignStillWritesReport) {
   const std::string md = read_file(s.markdown);
   EXPECT_NE(md.find("0 runs in the campaign"), std::string::npos);
   EXPECT_NE(md.find("figures were switched off"), std::string::npos);
+  opt.out_dir.clear();
+  EXPECT_THROW(write_report(info, {}, opt), std::invalid_argument);
 }
 
 }  // namespace
