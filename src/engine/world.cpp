@@ -371,7 +371,8 @@ void World::Forces(bool rebuild) {
       }
       const int bj = dbody_[j];
       const double r = std::sqrt(rsq);
-      const double nx = ddx / r, ny = ddy / r;
+      const double inv_r = 1.0 / r;
+      const double nx = ddx * inv_r, ny = ddy * inv_r;
       const double delta = radsum - r;
       const double reff = EffectiveRadius(ri, dr_[j]);
       const double meff = EffectiveMass(bmass_[bi], bmass_[bj]);
@@ -421,7 +422,8 @@ void World::Forces(bool rebuild) {
         continue;
       }
       const double r = std::sqrt(rsq);
-      const double nx = ddx / r, ny = ddy / r;
+      const double inv_r = 1.0 / r;
+      const double nx = ddx * inv_r, ny = ddy * inv_r;
       const double delta = reach - r;
       const double reff = el.kind == ElementKind::kCircle ? EffectiveRadius(ri, el.radius) : ri;
       const double meff = bmass_[bi];
