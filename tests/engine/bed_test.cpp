@@ -1,0 +1,76 @@
+// Bed preparation: a settled bed loaded from its JSON file, with its stored contact history,
+// is in equilibrium (net force per body << its weight); without the history (or with the
+// shear of each pair flipped, as a wrong disc renumbering would do) it is not. Also the bed
+// key check and the species counts of a mixture.
+#include "engine/bed.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace granary::engine {
+namespace {
+
+RunSpec SmallBedSpec() {
+  nlohmann::json j = {{"seed", std::uint64_t{5}},
+                      {"silo", {{"width", 12.0}, {"base_outlets", {{{"center", 0.0}, {"width", 6.0}}}}}},
+                      {"bodies", {{"count", 60}}},
+                      {"bed", {{"batch_size", 60}, {"settle_ke_per_body", 1e-6}, {"max_settle_time", 30.0}}}};
+  return RunSpec::from_json(j);
+}
+
+// RMS over bodies of |net force| / weight at the first force computation.
+double RmsNetForce(const RunSpec& spec, const BedState& bed, bool history, bool flip) {
+  Silo closed;
+  closed.width = spec.silo.width;
+  World w(ParamsFromSpec(spec), MakeTemplates(spec), BuildGeometry(closed, kTallWall));
+  for (std::size_t b = 0; b < bed.x.size(); ++b) {
+    const int id = w.AddBody(bed.species[b], bed.x[b], bed.y[b], bed.theta[b]);
+    w.SetVelocity(id, bed.vx[b], bed.vy[b], bed.omega[b]);
+  }
+  std::vector<HistoryEntry> pairs = bed.pair_history, walls = bed.wall_history;
+  if (!history) pairs.clear(), walls.clear();
+  if (flip)
+    for (HistoryEntry& h : pairs) h.sx = -h.sx, h.sy = -h.sy;
+  w.ImportHistory(pairs, walls);
+  w.ComputeForces();
+  double sum = 0.0;
+  for (int b = 0; b < w.body_count(); ++b)
+    sum += (w.bfx_[b] * w.bfx_[b] + w.bfy_[b] * w.bfy_[b]) / (w.bmass_[b] * w.bmass_[b] * spec.gravity * spec.gravity);
+  return std::sqrt(sum / w.body_count());
+}
+
+TEST(Bed, LoadedBedWithItsHistoryIsInEquilibrium) {
+  const RunSpec spec = SmallBedSpec();
+  const BedState prepared = PrepareBed(spec, nullptr);
+  const BedState bed = BedFromJson(nlohmann::json::parse(BedToJson(prepared, spec).dump()), spec, "test");
+  ASSERT_EQ(bed.x.size(), 60u);
+  EXPECT_EQ(bed.x, prepared.x);  // JSON round trip is exact
+  EXPECT_FALSE(bed.pair_history.empty());
+  EXPECT_FALSE(bed.wall_history.empty());
+  EXPECT_LT(RmsNetForce(spec, bed, true, false), 0.3);
+  EXPECT_GT(RmsNetForce(spec, bed, false, false), 1.0);
+  EXPECT_GT(RmsNetForce(spec, bed, true, true), 1.0);
+  // the bed lies on the base, below the height of 60 dumbbells packed in a width of 12
+  EXPECT_GT(bed.height, 60 * 1.5708 / 12 * 0.9);
+  EXPECT_LT(bed.height, 60 * 1.5708 / 12 / 0.6);
+}
+
+TEST(Bed, FileOfAnotherBedKeyIsRefused) {
+  RunSpec spec = SmallBedSpec();
+  BedState bed;
+  bed.species = {0};
+  bed.x = bed.y = bed.theta = bed.vx = bed.vy = bed.omega = {0.0};
+  const nlohmann::json j = BedToJson(bed, spec);
+  spec.seed = 6;
+  try {
+    BedFromJson(j, spec, "beds/x.json");
+    FAIL() << "expected a refusal";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("beds/x.json was prepared for another bed key"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace granary::engine
