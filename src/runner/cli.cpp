@@ -235,6 +235,10 @@ class ConsoleObserver : public RunObserver {
   }
   void on_event(const std::string& run_id, const std::string& state, const std::string& message) override {
     Clear();
+    if (state != "running") {
+      std::erase_if(active_, [&](const ActiveRun& a) { return a.run_id == run_id; });
+      if (state == "done") ++done_;
+    }
     std::string first = message.substr(0, message.find('\n'));
     out_ << std::left << std::setw(12) << state << " " << (run_id.empty() ? "" : run_id + "  ") << first << "\n";
     if (state == "failed" || state == "interrupted") {
@@ -301,7 +305,7 @@ class ConsoleObserver : public RunObserver {
         phase = a.progress.value("phase", std::string("?"));
         if (f > 0.01) eta = Duration(a.elapsed * (1 - f) / f);
       }
-      out_ << "  " << a.run_id.substr(0, 10) << " " << std::left << std::setw(9) << phase << Bar(f, 20) << " "
+      out_ << "  " << a.run_id.substr(0, 10) << " " << std::left << std::setw(10) << phase << Bar(f, 20) << " "
            << std::setw(3) << std::lround(f * 100) << "% ETA " << std::setw(6) << eta << " " << CompactPoint(json::parse(a.point))
            << "\n";
       ++lines_;
@@ -571,6 +575,9 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     err << "error: " << e.what() << "\n";
     return static_cast<int>(ExitCode::kUsage);
   } catch (const StoreError& e) {
+    err << "error: " << e.what() << "\n";
+    return static_cast<int>(ExitCode::kUsage);
+  } catch (const std::invalid_argument& e) {  // e.g. an engine executable that does not exist
     err << "error: " << e.what() << "\n";
     return static_cast<int>(ExitCode::kUsage);
   } catch (const std::exception& e) {

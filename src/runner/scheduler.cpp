@@ -11,6 +11,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <thread>
 
 namespace granary::runner {
@@ -100,6 +101,9 @@ struct Slot {
 
 ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executor, RunObserver& observer,
                       const volatile std::sig_atomic_t* stop) {
+  if (options.engine.find('/') != std::string::npos && !fs::exists(options.engine)) {
+    throw std::invalid_argument("engine executable not found: " + options.engine);
+  }
   const Holder me = this_process_holder();
   const int recovered = recover_expired_leases(store, me, now_seconds());
 
@@ -196,7 +200,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       const std::string exe = EngineExe(options, row->engine);
       if (!fs::exists(exe)) {
         record_end(store, row->run_id, "interrupted", "engine executable not found: " + exe, now_seconds(), 0);
-        throw std::runtime_error("engine executable not found: " + exe +
+        throw std::invalid_argument("engine executable not found: " + exe +
                                  " (build it, or pass --engine PATH)");
       }
       try {

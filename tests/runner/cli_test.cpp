@@ -72,6 +72,14 @@ TEST_F(CliTest, HelpAndUnknownVerb) {
   EXPECT_NE(r.output.find("unknown flag --jbos; did you mean --jobs?"), std::string::npos) << r.output;
 }
 
+TEST_F(CliTest, MissingEngineIsAUsageErrorAndTouchesNoRun) {
+  Sh(Cmd("plan " + WriteSpec("[4]", 1)));
+  const auto r = Sh(Cmd("run --engine /nonexistent/engine"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("error: engine executable not found: /nonexistent/engine"), std::string::npos) << r.output;
+  EXPECT_EQ(Status()["counts"]["planned"], 1);
+}
+
 TEST_F(CliTest, SpecErrorExitsTwoWithPath) {
   const fs::path p = dir_ / "bad.json";
   std::ofstream(p) << R"({"name": "t", "base": {"silo": {"widht": 3}}})";
