@@ -7,6 +7,7 @@
 #include <chrono>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 
 #include "test_util.h"
@@ -195,6 +196,36 @@ TEST_F(CliTest, ResumesAfterKillMinusNineOfTheRunner) {
     continued += CountLines(launches, "start") == 2;
   }
   EXPECT_EQ(continued, 2);
+}
+
+TEST_F(CliTest, EngineKilledMinusNineIsRelaunchedFromItsCheckpoint) {
+  setenv("FAKE_ENGINE_STEP_MS", "100", 1);
+  Sh(Cmd("plan " + WriteSpec("[4]", 1)));
+  const std::string log = (dir_ / "runner.log").string();
+  const pid_t runner = testing::Spawn({testing::Campaign(), "run", "--db", Db(), "--jobs", "1", "--retries", "1",
+                                       "--engine", testing::FakeEngine()}, log);
+  // Wait for the engine to start and pass a checkpoint, then kill it (not the runner).
+  const json plan = Status();
+  const fs::path run_dir = plan["runs"][0]["run_dir"].get<std::string>();
+  pid_t engine = 0;
+  for (int i = 0; i < 100 && engine == 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    std::istringstream in(ReadFile(run_dir / "launches.txt"));
+    std::string word;
+    in >> word >> engine;
+    if (!fs::exists(run_dir / "checkpoint.fake")) engine = 0;
+  }
+  ASSERT_GT(engine, 0);
+  kill(engine, SIGKILL);
+  EXPECT_EQ(testing::WaitExit(runner), 0) << ReadFile(log);
+  const json s = Status();
+  EXPECT_EQ(s["counts"]["done"], 1);
+  EXPECT_EQ(s["runs"][0]["attempts"], 2);
+  const std::string launches = ReadFile(run_dir / "launches.txt");
+  EXPECT_EQ(CountLines(launches, "start"), 2) << launches;
+  EXPECT_EQ(CountLines(launches, "finish"), 1) << launches;
+  EXPECT_NE(ReadFile(run_dir / "engine.log").find("continuing from checkpoint"), std::string::npos);
+  EXPECT_NE(ReadFile(log).find("engine killed by signal 9"), std::string::npos) << ReadFile(log);
 }
 
 TEST_F(CliTest, TwoRunnersNeverRunTheSameRun) {
