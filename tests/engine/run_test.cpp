@@ -29,19 +29,17 @@ std::string Slurp(const fs::path& p) {
 
 nlohmann::json ReadJson(const fs::path& p) { return nlohmann::json::parse(Slurp(p)); }
 
-// A fresh directory under the build tree's temp area; beds are cached next to it and
+// A fresh directory under this build tree's test area; beds are cached next to it and
 // shared by every test (flock-protected).
 fs::path FreshDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("granary-engine-test-" + std::to_string(::getuid())) / name;
+  const fs::path dir = fs::path(GRANARY_ENGINE_TEST_TMP) / name;
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
 }
 
 std::string BedCache(std::uint64_t seed) {
-  return (fs::temp_directory_path() / ("granary-engine-test-" + std::to_string(::getuid())) /
-          ("bed-" + std::to_string(seed) + "-" + GRANARY_GIT_COMMIT + ".json"))
-      .string();
+  return (fs::path(GRANARY_ENGINE_TEST_TMP) / ("bed-" + std::to_string(seed) + "-" + GRANARY_GIT_COMMIT + ".json")).string();
 }
 
 nlohmann::json SmallSpec(double outlet, double max_time, std::uint64_t seed = 7) {
