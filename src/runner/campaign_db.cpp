@@ -154,12 +154,20 @@ RunRow ReadRow(const Statement& q, bool with_params) {
   r.failure = q.text(16);
   r.lease_holder = q.text(17);
   if (!q.is_null(18)) r.progress = json::parse(q.text(18), nullptr, false);
+  r.lease_host = q.text(19);
+  r.lease_pid = static_cast<int>(q.integer(20));
+  r.lease_heartbeat = q.real(21);
   return r;
 }
 
 bool PidAlive(int pid) { return pid > 0 && (kill(pid, 0) == 0 || errno != ESRCH); }
 
 }  // namespace
+
+bool lease_expired(const RunRow& row, const std::string& host, double now) {
+  if (row.state != "running") return false;
+  return now - row.lease_heartbeat > kLeaseStaleSeconds || (row.lease_host == host && !PidAlive(row.lease_pid));
+}
 
 std::vector<RunRow> load_runs(Store& store, bool with_params) {
   Statement q = store.prepare((std::string(kRunColumns) + "ORDER BY seq").c_str());

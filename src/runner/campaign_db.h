@@ -51,6 +51,9 @@ struct RunRow {
   std::string run_dir;
   std::string failure;
   std::string lease_holder;
+  std::string lease_host;
+  int lease_pid = 0;
+  double lease_heartbeat = 0;
   nlohmann::json progress;  // last progress.json seen, or null
 };
 
@@ -77,6 +80,9 @@ Holder this_process_holder();
 
 // A lease is expired when its heartbeat is older than this, or its pid is gone on this host.
 inline constexpr double kLeaseStaleSeconds = 60.0;
+
+// Is the lease of a running row expired (stale heartbeat, or holder pid gone on `host`)?
+bool lease_expired(const RunRow& row, const std::string& host, double now);
 
 // Runs left `running` under an expired lease become `interrupted`. Returns how many.
 int recover_expired_leases(Store& store, const Holder& me, double now);

@@ -412,6 +412,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       json j = {{"run_id", r.run_id}, {"state", r.state},       {"point", r.point},      {"replica", r.replica},
                 {"attempts", r.attempts}, {"engine", r.engine}, {"wall_s", r.wall_s},    {"run_dir", r.run_dir}};
       if (!r.progress.is_null()) j["progress"] = r.progress;
+      if (r.state == "running") j["lease_expired"] = lease_expired(r, this_process_holder().host, now);
       if (!r.failure.empty()) j["failure"] = r.failure;
       if (!r.end_reason.empty()) j["end_reason"] = r.end_reason;
       list.push_back(j);
@@ -442,7 +443,9 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       phase = r.progress.value("phase", std::string("?"));
     }
     out << "  " << r.run_id << " " << std::left << std::setw(9) << phase << Bar(f, 20) << " " << std::lround(f * 100)
-        << "%  " << CompactPoint(r.point) << " r" << r.replica << "\n";
+        << "%  " << CompactPoint(r.point) << " r" << r.replica
+        << (lease_expired(r, this_process_holder().host, now) ? "  (runner gone: resumes on the next campaign run)" : "")
+        << "\n";
   }
   header = false;
   for (const auto& r : runs) {

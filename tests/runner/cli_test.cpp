@@ -181,6 +181,11 @@ TEST_F(CliTest, ResumesAfterKillMinusNineOfTheRunner) {
   testing::WaitExit(pid);
   json s = Status();
   EXPECT_EQ(s["counts"]["running"], 2) << s.dump();  // left behind by the dead runner
+  for (const auto& run : s["runs"]) {
+    if (run["state"] == "running") {
+      EXPECT_EQ(run["lease_expired"], true);
+    }
+  }
   EXPECT_EQ(s["counts"]["planned"], 1);
   std::this_thread::sleep_for(std::chrono::milliseconds(200));  // engines die with their parent
 
