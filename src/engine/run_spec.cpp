@@ -26,10 +26,8 @@ using nlohmann::json;
 SpecError::SpecError(std::string path, std::string message)
     : std::runtime_error(path + ": " + message), path_(std::move(path)), message_(std::move(message)) {}
 
-namespace {
-
 // Levenshtein distance for "did you mean" suggestions.
-std::size_t EditDistance(const std::string& a, const std::string& b) {
+std::size_t edit_distance(const std::string& a, const std::string& b) {
   std::vector<std::size_t> row(b.size() + 1);
   for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
   for (std::size_t i = 1; i <= a.size(); ++i) {
@@ -43,6 +41,8 @@ std::size_t EditDistance(const std::string& a, const std::string& b) {
   }
   return row[b.size()];
 }
+
+namespace {
 
 std::string EscapePointerToken(const std::string& token) {
   std::string out;
@@ -76,7 +76,7 @@ std::string UnknownKeyMessage(const std::string& key, const std::vector<std::str
   std::string best;
   std::size_t best_d = std::numeric_limits<std::size_t>::max();
   for (const auto& a : allowed) {
-    const std::size_t d = EditDistance(key, a);
+    const std::size_t d = edit_distance(key, a);
     if (d < best_d) {
       best_d = d;
       best = a;

@@ -4,6 +4,7 @@
 // JSON layout, defaults and allowed values: docs/run-spec.md. Physics: shared physics.md.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <nlohmann/json_fwd.hpp>
 #include <stdexcept>
@@ -135,6 +136,9 @@ struct RunSpec {
 
 // Semantic checks beyond types (geometry fits, fractions sum to 1, ...); from_json calls it.
 void validate(const RunSpec& spec);
+
+// Levenshtein distance, for "did you mean" suggestions (spec keys, CLI verbs).
+std::size_t edit_distance(const std::string& a, const std::string& b);
 
 std::string to_string(Shape shape);
 std::string to_string(DischargeMode mode);

@@ -1,6 +1,8 @@
 // See util.h.
 #include "runner/util.h"
 
+#include "engine/run_spec.h"
+
 #include <algorithm>
 #include <cstdio>
 #include <limits>
@@ -22,28 +24,12 @@ std::string hash_hex(const std::string& data) {
   return buf;
 }
 
-namespace {
-std::size_t Distance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diag = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0u : 1u)});
-      diag = up;
-    }
-  }
-  return row[b.size()];
-}
-}  // namespace
 
 std::string nearest(const std::string& word, const std::vector<std::string>& candidates) {
   std::string best;
   std::size_t best_d = std::numeric_limits<std::size_t>::max();
   for (const auto& c : candidates) {
-    const std::size_t d = Distance(word, c);
+    const std::size_t d = granary::edit_distance(word, c);
     if (d < best_d) {
       best_d = d;
       best = c;
