@@ -1,0 +1,603 @@
+// The LIGGGHTS backend (backend.h): bed, discharge and conversion into the run directory.
+#include "liggghts/backend.h"
+
+#include <signal.h>
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/prctl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
+#include <functional>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <regex>
+#include <set>
+#include <sstream>
+
+#include <boost/process.hpp>
+#include <boost/process/extend.hpp>
+
+#include "engine/shapes.h"
+#include "liggghts/input_script.h"
+
+namespace granary::liggghts {
+
+namespace fs = std::filesystem;
+namespace bp = boost::process;
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr int kLogTailLines = 25;
+
+double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
+
+void WriteAtomically(const fs::path& path, const std::string& text) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    if (!out) throw std::runtime_error("cannot write " + tmp.string());
+  }
+  fs::rename(tmp, path);
+}
+
+std::string ReadFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot read " + path.string());
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string Tail(const fs::path& path, int lines) {
+  std::ifstream in(path);
+  std::deque<std::string> last;
+  std::string line;
+  while (std::getline(in, line)) {
+    last.push_back(line);
+    if (static_cast<int>(last.size()) > lines) last.pop_front();
+  }
+  std::string out;
+  for (const std::string& l : last) out += l + "\n";
+  return out;
+}
+
+// Parent-death signal in the child: a killed backend never leaves LIGGGHTS writing into a
+// directory the runner will relaunch.
+struct DieWithParent : bp::extend::handler {
+  template <class Executor>
+  void on_exec_setup(Executor&) const {
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+  }
+};
+
+// Runs LIGGGHTS on `input` in `dir` (cwd), its log in `log`; calls on_line for every line
+// LIGGGHTS prints that starts with "GRANARY_". Returns the exit code.
+struct LiggghtsRun {
+  int exit_code = 0;
+  std::vector<std::string> errors;  // lines with "ERROR" from the screen output
+};
+LiggghtsRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir, const std::string& input,
+                        const std::string& log, const std::function<void(const std::string&)>& on_line) {
+  std::vector<std::string> args;
+  std::string program = exe;
+  if (threads > 1) {
+    program = bp::search_path("mpirun").string();
+    if (program.empty()) throw LiggghtsError("--threads " + std::to_string(threads) + " needs mpirun (Debian package openmpi-bin)");
+    if (geteuid() == 0) args.push_back("--allow-run-as-root");
+    args.insert(args.end(), {"-np", std::to_string(threads), exe});
+  }
+  args.insert(args.end(), {"-in", input, "-log", log, "-echo", "none"});
+  bp::ipstream out;
+  std::error_code ec;
+  bp::child child(bp::exe = program, bp::args = args, bp::start_dir = dir.string(), bp::std_in < bp::null,
+                  (bp::std_out & bp::std_err) > out, DieWithParent{}, ec);
+  if (ec) throw LiggghtsError("cannot start " + program + ": " + ec.message());
+  LiggghtsRun r;
+  std::string line;
+  while (std::getline(out, line)) {
+    if (line.rfind("GRANARY_", 0) == 0) on_line(line);
+    else if (line.find("ERROR") != std::string::npos && r.errors.size() < 5) r.errors.push_back(line);
+  }
+  child.wait(ec);
+  r.exit_code = child.exit_code();
+  return r;
+}
+
+[[noreturn]] void Fail(const std::string& what, const LiggghtsRun& r, const fs::path& log) {
+  std::string msg = what + " (LIGGGHTS exit status " + std::to_string(r.exit_code) + ")";
+  for (const std::string& e : r.errors) msg += "\n" + e;
+  msg += "\n--- last lines of " + log.filename().string() + " ---\n" + Tail(log, kLogTailLines);
+  throw LiggghtsError(msg);
+}
+
+void ReportProgress(const fs::path& dir, const std::string& phase, double fraction, double t, double t_end, int exited,
+                    double wall_s, bool quiet) {
+  fraction = std::clamp(fraction, 0.0, 1.0);
+  json j = {{"phase", phase}, {"fraction", fraction}, {"t", t}, {"t_end", t_end}, {"exited", exited}, {"wall_s", wall_s}};
+  WriteAtomically(dir / "progress.json", j.dump() + "\n");
+  if (!quiet) {
+    std::printf("progress phase=%s fraction=%.3f t=%.4g exited=%d\n", phase.c_str(), fraction, t, exited);
+    std::fflush(stdout);
+  }
+}
+
+std::vector<std::string> Tokens(const std::string& line) {
+  std::istringstream in(line);
+  std::vector<std::string> t;
+  std::string w;
+  while (in >> w) t.push_back(w);
+  return t;
+}
+
+// A LIGGGHTS text dump of one frame written by write_dump: columns id mol type x y radius.
+struct Sphere {
+  long long id;
+  long long mol;
+  int type;
+  double x, y, radius;
+};
+std::vector<Sphere> ReadAtomsDump(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("missing " + path.string());
+  std::string line;
+  std::vector<Sphere> out;
+  bool atoms = false;
+  while (std::getline(in, line)) {
+    if (line.rfind("ITEM: ATOMS", 0) == 0) {
+      atoms = true;
+      continue;
+    }
+    if (!atoms || line.empty()) continue;
+    const auto t = Tokens(line);
+    if (t.size() < 6) continue;
+    out.push_back({std::stoll(t[0]), std::stoll(t[1]), std::stoi(t[2]), std::stod(t[3]), std::stod(t[4]), std::stod(t[5])});
+  }
+  return out;
+}
+
+// Body id (0-based, stable for the run) of a sphere: the multisphere body, or the sphere.
+long long BodyOf(const Sphere& s, bool multisphere) { return multisphere ? s.mol - 1 : s.id - 1; }
+
+struct Checkpoint {
+  fs::path file;
+  long long step = -1;
+};
+Checkpoint NewestCheckpoint(const fs::path& dir) {
+  static const std::regex name(R"(checkpoint\.(\d+)\.restart)");
+  Checkpoint best;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    std::smatch m;
+    const std::string f = e.path().filename().string();
+    if (std::regex_match(f, m, name) && std::stoll(m[1]) > best.step) best = {e.path(), std::stoll(m[1])};
+  }
+  return best;
+}
+void RemoveCheckpoints(const fs::path& dir, long long keep_step) {
+  static const std::regex name(R"(checkpoint\.(\d+)\.restart)");
+  for (const auto& e : fs::directory_iterator(dir)) {
+    std::smatch m;
+    const std::string f = e.path().filename().string();
+    if (std::regex_match(f, m, name) && std::stoll(m[1]) != keep_step) fs::remove(e.path());
+  }
+}
+
+// Drops exit lines after the checkpoint (continue): the steps after it run again.
+// Returns the step of the last exit kept (0 if none).
+long long TruncateExits(const fs::path& file, double t_ckpt, double dt) {
+  if (!fs::exists(file)) return 0;
+  std::ifstream in(file);
+  std::string line, kept;
+  long long last = 0;
+  while (std::getline(in, line)) {
+    const auto t = Tokens(line);
+    if (line.empty() || line[0] == '#' || t.size() < 2) {
+      kept += line + "\n";
+      continue;
+    }
+    const double time = std::stod(t[1]);
+    if (time > t_ckpt + 0.5 * dt) continue;
+    kept += line + "\n";
+    last = std::max(last, std::llround(time / dt));
+  }
+  in.close();
+  WriteAtomically(file, kept);
+  return last;
+}
+
+// Drops frames written after the checkpoint (continue).
+void TruncateFrames(const fs::path& file, long long step_ckpt) {
+  if (!fs::exists(file)) return;
+  std::ifstream in(file);
+  std::string line, kept;
+  bool keep = true;
+  while (std::getline(in, line)) {
+    if (line == "ITEM: TIMESTEP") {
+      std::string step;
+      std::getline(in, step);
+      keep = std::stoll(step) <= step_ckpt;
+      if (keep) kept += line + "\n" + step + "\n";
+      continue;
+    }
+    if (keep) kept += line + "\n";
+  }
+  in.close();
+  WriteAtomically(file, kept);
+}
+
+struct Event {
+  double time;
+  long long body;
+  int species;
+  int outlet;
+};
+
+// Exit events from the massflow files. A body's first sphere through the counting plane
+// is its exit; in reinject mode a body passes the plane again only after a trip through
+// the bed, so crossings by the same body within `recross` are the rest of that body.
+std::vector<Event> ReadEvents(const fs::path& dir, int outlets, const std::map<long long, Sphere>& spheres,
+                              bool multisphere, double recross) {
+  std::vector<Event> events;
+  for (int k = 0; k < outlets; ++k) {
+    std::vector<fs::path> files;
+    const std::string base = "exits_" + std::to_string(k) + ".txt";
+    for (const auto& e : fs::directory_iterator(dir))  // one file per MPI rank: exits_k.txt.<rank>
+      if (e.path().filename().string().rfind(base, 0) == 0) files.push_back(e.path());
+    for (const fs::path& f : files) {
+      std::ifstream in(f);
+      std::string line;
+      while (std::getline(in, line)) {
+        if (line.empty() || line[0] == '#') continue;
+        const auto t = Tokens(line);
+        if (t.size() < 2) continue;
+        const auto it = spheres.find(std::stoll(t[0]));
+        if (it == spheres.end()) continue;
+        events.push_back({std::stod(t[1]), BodyOf(it->second, multisphere), it->second.type - 1, k});
+      }
+    }
+  }
+  std::stable_sort(events.begin(), events.end(), [](const Event& a, const Event& b) { return a.time < b.time; });
+  std::map<long long, double> last;
+  std::vector<Event> out;
+  for (const Event& e : events) {
+    auto it = last.find(e.body);
+    if (it != last.end() && e.time - it->second < recross) continue;
+    last[e.body] = e.time;
+    out.push_back(e);
+  }
+  return out;
+}
+
+// LIGGGHTS dump (id mol type x y radius vx vy omegaz) -> the run-directory frames format.
+void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const Setup& setup) {
+  std::ifstream in(in_path);
+  std::ofstream out(out_path, std::ios::trunc);
+  std::string line;
+  const double rho = spec.bodies.density;
+  char buf[512];
+  while (std::getline(in, line)) {
+    if (line != "ITEM: TIMESTEP") continue;
+    std::string step_s, n_s;
+    std::getline(in, step_s);
+    std::getline(in, line);  // ITEM: NUMBER OF ATOMS
+    std::getline(in, n_s);
+    for (int i = 0; i < 4; ++i) std::getline(in, line);  // BOX BOUNDS + 3 lines
+    std::getline(in, line);                               // ITEM: ATOMS ...
+    const long long step = std::stoll(step_s);
+    const long long n = std::stoll(n_s);
+    out << "ITEM: TIMESTEP\n" << step << "\nITEM: TIME\n" << Num(static_cast<double>(step) * spec.time_step)
+        << "\nITEM: NUMBER OF ATOMS\n" << n << "\nITEM: BOX BOUNDS ff ff pp\n" << Num(setup.x_lo) << " " << Num(setup.x_hi)
+        << "\n" << Num(setup.y_lo) << " " << Num(setup.y_hi) << "\n-0.5 0.5\n"
+        << "ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n";
+    for (long long i = 0; i < n && std::getline(in, line); ++i) {
+      const auto t = Tokens(line);
+      if (t.size() < 9) throw std::runtime_error("malformed LIGGGHTS dump line: " + line);
+      const Sphere s{std::stoll(t[0]), std::stoll(t[1]), std::stoi(t[2]), 0, 0, 0};
+      const double r = std::stod(t[5]);
+      std::snprintf(buf, sizeof buf, "%s %lld %s %s %s 0 %s %.10g %s %s 0 %s\n", t[0].c_str(), BodyOf(s, setup.multisphere),
+                    t[2].c_str(), t[3].c_str(), t[4].c_str(), t[5].c_str(), rho * std::numbers::pi * r * r, t[6].c_str(),
+                    t[7].c_str(), t[8].c_str());
+      out << buf;
+    }
+  }
+}
+
+// A prepared bed for this spec: DIR/bed.restart and DIR/bed.dump, from the cache when it
+// has one (keyed like the native bed, plus the obstacles, which the LIGGGHTS bed contains).
+struct Bed {
+  std::string file;
+  bool prepared_here = false;
+  double wall_s = 0, settle_time = 0, top = 0;
+};
+
+class FileLock {
+ public:
+  explicit FileLock(const fs::path& path) : fd_(::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644)) {
+    if (fd_ < 0 || ::flock(fd_, LOCK_EX) != 0) throw std::runtime_error("cannot lock " + path.string());
+  }
+  ~FileLock() {
+    ::flock(fd_, LOCK_UN);
+    ::close(fd_);
+  }
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+
+ private:
+  int fd_;
+};
+
+std::string CacheStem(const RunSpec& spec) {
+  json key = spec.bed_key();
+  key["liggghts_obstacles"] = spec.to_json()["silo"]["obstacles"];
+  key["liggghts_side_margin"] = !spec.silo.side_outlets.empty();  // the box width depends on it
+  key["liggghts_exit_distance"] = spec.discharge.exit_distance;   // and its bottom on this
+  const std::string text = key.dump();
+  std::uint64_t h = 1469598103934665603ULL;  // FNV-1a
+  for (unsigned char c : text) h = (h ^ c) * 1099511628211ULL;
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return std::string("liggghts-bed-") + hex;
+}
+
+Bed ObtainBed(const RunSpec& spec, const Setup& setup, const fs::path& dir, const std::string& exe,
+              const BackendOptions& options) {
+  Bed bed;
+  fs::path cache_dir;
+  if (!spec.bed.cache_file.empty()) cache_dir = fs::path(spec.bed.cache_file).parent_path();
+  const std::string stem = CacheStem(spec);
+  std::unique_ptr<FileLock> lock;
+  if (!cache_dir.empty()) {
+    fs::create_directories(cache_dir);
+    lock = std::make_unique<FileLock>(cache_dir / (stem + ".lock"));
+    if (fs::exists(cache_dir / (stem + ".restart")) && fs::exists(cache_dir / (stem + ".json"))) {
+      fs::copy_file(cache_dir / (stem + ".restart"), dir / "bed.restart", fs::copy_options::overwrite_existing);
+      fs::copy_file(cache_dir / (stem + ".dump"), dir / "bed.dump", fs::copy_options::overwrite_existing);
+      const json meta = json::parse(ReadFile(cache_dir / (stem + ".json")));
+      bed.file = (cache_dir / (stem + ".restart")).string();
+      bed.settle_time = meta.value("settle_time", 0.0);
+      bed.wall_s = 0;
+      return bed;
+    }
+  }
+  const auto t0 = Clock::now();
+  WriteAtomically(dir / "bed.in", BedScript(spec, setup));
+  long long inserted = -1;
+  double settle_t = 0;
+  const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "bed.in", "log.bed", [&](const std::string& line) {
+    const auto t = Tokens(line);
+    if (t[0] == "GRANARY_INSERTED" && t.size() > 1) inserted = std::llround(std::stod(t[1]));
+    if ((t[0] == "GRANARY_BED" || t[0] == "GRANARY_BED_DONE") && t.size() > 2) {
+      settle_t = std::stod(t[1]);
+      ReportProgress(dir, "bed", settle_t / spec.bed.max_settle_time, settle_t, spec.bed.max_settle_time, 0, Seconds(t0),
+                     options.quiet);
+    }
+  });
+  if (r.exit_code != 0 || !fs::exists(dir / "bed.restart")) Fail("LIGGGHTS failed while preparing the bed", r, dir / "log.bed");
+  const std::vector<Sphere> spheres = ReadAtomsDump(dir / "bed.dump");
+  std::set<long long> bodies;
+  for (const Sphere& s : spheres) bodies.insert(BodyOf(s, setup.multisphere));
+  if (static_cast<int>(bodies.size()) != spec.bodies.count)
+    throw LiggghtsError("LIGGGHTS inserted " + std::to_string(bodies.size()) + " of " + std::to_string(spec.bodies.count) +
+                        " bodies (insert/pack found no room for the rest; spheres after insertion: " +
+                        std::to_string(inserted) + ")\n--- last lines of log.bed ---\n" + Tail(dir / "log.bed", kLogTailLines));
+  bed.prepared_here = true;
+  bed.wall_s = Seconds(t0);
+  bed.settle_time = settle_t;
+  bed.file = (dir / "bed.restart").string();
+  if (!cache_dir.empty()) {
+    // Copy to temporary names, then rename: a reader never sees half a bed.
+    for (const char* ext : {".restart", ".dump"}) {
+      fs::copy_file(dir / (std::string("bed") + ext), cache_dir / (stem + ext + ".tmp"), fs::copy_options::overwrite_existing);
+      fs::rename(cache_dir / (stem + ext + ".tmp"), cache_dir / (stem + ext));
+    }
+    WriteAtomically(cache_dir / (stem + ".json"), json{{"settle_time", settle_t}, {"bed_wall_s", bed.wall_s}}.dump() + "\n");
+    bed.file = (cache_dir / (stem + ".restart")).string();
+  }
+  return bed;
+}
+
+std::string LiggghtsVersion(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line;
+  if (std::getline(in, line)) {
+    static const std::regex v(R"(Version\s+([^,)]+))");
+    std::smatch m;
+    if (std::regex_search(line, m, v)) return m[1];
+  }
+  return "unknown";
+}
+
+double TopOf(const std::vector<Sphere>& spheres) {
+  double top = 0;
+  for (const Sphere& s : spheres) top = std::max(top, s.y + s.radius);
+  return top;
+}
+
+RunSpec ReadSpec(const fs::path& dir) {
+  const fs::path file = dir / "run.json";
+  if (!fs::exists(file)) throw std::invalid_argument("no run.json in " + dir.string());
+  json j;
+  try {
+    j = json::parse(ReadFile(file));
+  } catch (const json::parse_error& e) {
+    throw std::invalid_argument(file.string() + ": not valid JSON: " + e.what());
+  }
+  return RunSpec::from_json(j);
+}
+
+void WriteMeshes(const fs::path& dir, const Setup& setup) {
+  for (const MeshFile& m : setup.fill_meshes) WriteAtomically(dir / m.name, Stl(m, setup.half_z - 0.1));
+  for (const MeshFile& m : setup.discharge_meshes) WriteAtomically(dir / m.name, Stl(m, setup.half_z - 0.1));
+  for (const Counter& c : setup.counters) WriteAtomically(dir / c.mesh.name, Stl(c.mesh, setup.half_z - 0.1));
+}
+
+}  // namespace
+
+std::string FindLiggghts(const std::string& preferred) {
+  std::string exe = preferred;
+  if (exe.empty()) {
+    if (const char* env = std::getenv("GRANARY_LIGGGHTS"); env && *env) exe = env;
+  }
+  if (exe.empty()) exe = bp::search_path("liggghts").string();
+  if (exe.empty() || !fs::exists(exe))
+    throw LiggghtsError("LIGGGHTS executable not found" + (exe.empty() ? std::string() : " (\"" + exe + "\")") +
+                        ": install Debian's package liggghts (scripts/setup.sh does), or set GRANARY_LIGGGHTS");
+  return exe;
+}
+
+std::vector<std::string> WriteInputs(const std::string& dir_name) {
+  const fs::path dir(dir_name);
+  const RunSpec spec = ReadSpec(dir);
+  const Setup setup = MakeSetup(spec);
+  WriteMeshes(dir, setup);
+  WriteAtomically(dir / "bed.in", BedScript(spec, setup));
+  DischargeStart start;
+  start.bed_top = setup.insert_y_hi;  // unknown before the bed exists; the real run measures it
+  WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, start));
+  std::vector<std::string> files = {"bed.in", "discharge.in"};
+  for (const MeshFile& m : setup.fill_meshes) files.push_back(m.name);
+  for (const MeshFile& m : setup.discharge_meshes) files.push_back(m.name);
+  for (const Counter& c : setup.counters) files.push_back(c.mesh.name);
+  return files;
+}
+
+BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& options) {
+  const fs::path dir = fs::absolute(dir_name);
+  const RunSpec spec = ReadSpec(dir);
+  const Setup setup = MakeSetup(spec);
+  const std::string exe = FindLiggghts(options.liggghts);
+  const auto t0 = Clock::now();
+  fs::remove(dir / "DONE");
+  WriteMeshes(dir, setup);
+
+  BackendResult result;
+  const Checkpoint ckpt = NewestCheckpoint(dir);
+  const fs::path state_file = dir / "liggghts_state.json";  // bed provenance, kept for a continue
+  json state;
+  DischargeStart start;
+  double discharge_wall_before = 0;
+  if (ckpt.step >= 0 && fs::exists(state_file)) {
+    state = json::parse(ReadFile(state_file));
+    result.continued = true;
+    start.continue_run = true;
+    start.restart_file = ckpt.file.filename().string();  // "checkpoint.<digits>.restart": no spec text
+    const double t_ckpt = static_cast<double>(ckpt.step) * spec.time_step;
+    for (std::size_t k = 0; k < setup.counters.size(); ++k)
+      start.last_exit_step =
+          std::max(start.last_exit_step, TruncateExits(dir / ("exits_" + std::to_string(k) + ".txt"), t_ckpt, spec.time_step));
+    TruncateFrames(dir / "frames.liggghts", ckpt.step);
+    RemoveCheckpoints(dir, ckpt.step);
+    discharge_wall_before = state.value("discharge_wall_s", 0.0);
+  } else {
+    for (const char* f : {"frames.liggghts", "events.csv", "frames.dump", "final.dump"}) fs::remove(dir / f);
+    for (std::size_t k = 0; k < setup.counters.size(); ++k) fs::remove(dir / ("exits_" + std::to_string(k) + ".txt"));
+    RemoveCheckpoints(dir, -1);
+    const Bed bed = ObtainBed(spec, setup, dir, exe, options);
+    start.bed_top = TopOf(ReadAtomsDump(dir / "bed.dump"));
+    state = {{"bed_file", bed.file},      {"bed_prepared_here", bed.prepared_here}, {"bed_wall_s", bed.wall_s},
+             {"settle_time", bed.settle_time}, {"bed_height", start.bed_top},        {"discharge_wall_s", 0.0}};
+    WriteAtomically(state_file, state.dump() + "\n");
+  }
+
+  // Discharge.
+  WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, start));
+  const auto t_discharge = Clock::now();
+  std::string end_reason;
+  long long last_step = 0;
+  const std::string log = result.continued ? "log.discharge." + std::to_string(ckpt.step) : "log.discharge";
+  const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "discharge.in", log, [&](const std::string& line) {
+    const auto t = Tokens(line);
+    if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
+    if (t[0] == "GRANARY_FINAL" && t.size() > 1) last_step = std::stoll(t[1]);
+    if (t[0] == "GRANARY_PROGRESS" && t.size() > 2) {
+      const double time = std::stod(t[1]) * spec.time_step;
+      ReportProgress(dir, "discharge", time / spec.discharge.max_time, time, spec.discharge.max_time,
+                     static_cast<int>(std::llround(std::stod(t[2]))), discharge_wall_before + Seconds(t_discharge),
+                     options.quiet);
+      state["discharge_wall_s"] = discharge_wall_before + Seconds(t_discharge);
+      WriteAtomically(state_file, state.dump() + "\n");
+    }
+  });
+  if (r.exit_code != 0 || end_reason.empty() || !fs::exists(dir / "final.dump"))
+    Fail("LIGGGHTS failed during the discharge", r, dir / log);
+  const double discharge_wall = discharge_wall_before + Seconds(t_discharge);
+
+  // Convert into the run-directory format.
+  std::map<long long, Sphere> spheres;
+  for (const Sphere& s : ReadAtomsDump(dir / "bed.dump")) spheres.emplace(s.id, s);
+  std::vector<engine::ShapeTemplate> templates;
+  for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
+    templates.push_back(engine::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
+  const double recross = spec.discharge.mode == DischargeMode::kRemove ? 1e300 : 1.0;
+  const std::vector<Event> events =
+      ReadEvents(dir, static_cast<int>(setup.counters.size()), spheres, setup.multisphere, recross);
+  std::string csv = "time,body,shape,mass,outlet\n";
+  std::vector<int> per_outlet(setup.counters.size(), 0);
+  char buf[256];
+  for (const Event& e : events) {
+    const engine::ShapeTemplate& tp = templates[static_cast<std::size_t>(e.species)];
+    std::snprintf(buf, sizeof buf, "%.10g,%lld,%s,%.17g,%d\n", e.time, e.body, tp.name.c_str(), tp.mass, e.outlet);
+    csv += buf;
+    ++per_outlet[static_cast<std::size_t>(e.outlet)];
+  }
+  WriteAtomically(dir / "events.csv", csv);
+  if (spec.output.frame_interval > 0 && fs::exists(dir / "frames.liggghts"))
+    ConvertFrames(dir / "frames.liggghts", dir / "frames.dump", spec, setup);
+
+  std::set<long long> remaining;
+  for (const Sphere& s : ReadAtomsDump(dir / "final.dump")) remaining.insert(BodyOf(s, setup.multisphere));
+  int spheres_total = 0;
+  for (const auto& tp : templates) (void)tp;
+  spheres_total = static_cast<int>(spheres.size());
+  result.end_reason = end_reason;
+  result.exited = static_cast<int>(events.size());
+  result.steps = last_step;
+
+  json summary;
+  summary["engine"] = "liggghts";
+  summary["engine_version"] = LiggghtsVersion(dir / "log.discharge");
+  summary["granary_version"] = GRANARY_VERSION;
+  summary["granary_commit"] = GRANARY_GIT_COMMIT;
+  summary["run_id"] = spec.run_id;
+  summary["spec"] = spec.to_json();
+  summary["end_reason"] = end_reason;
+  summary["bodies"] = spec.bodies.count;
+  summary["exited"] = result.exited;
+  summary["remaining"] = static_cast<int>(remaining.size());
+  summary["exits_per_outlet"] = per_outlet;
+  summary["t_end"] = static_cast<double>(last_step) * spec.time_step;
+  summary["steps"] = last_step;
+  summary["tangential_cap"] = "liggghts";  // LIGGGHTS caps the spring part only, whatever the spec asks
+  summary["bed"] = {{"file", state.value("bed_file", "")},
+                    {"height", state.value("bed_height", 0.0)},
+                    {"prepared_here", state.value("bed_prepared_here", false)},
+                    {"settle_time", state.value("settle_time", 0.0)}};
+  const double bed_wall = state.value("bed_wall_s", 0.0);
+  summary["timing"] = {{"wall_s", bed_wall + discharge_wall},
+                       {"bed_wall_s", bed_wall},
+                       {"discharge_wall_s", discharge_wall},
+                       {"disc_steps_per_s", discharge_wall > 0 ? spheres_total * static_cast<double>(last_step) / discharge_wall : 0.0},
+                       {"threads", options.threads}};
+  summary["continued_from_checkpoint"] = result.continued;
+  (void)t0;
+  WriteAtomically(dir / "summary.json", summary.dump(2) + "\n");
+  RemoveCheckpoints(dir, -1);
+  ReportProgress(dir, "discharge", 1.0, static_cast<double>(last_step) * spec.time_step, spec.discharge.max_time,
+                 result.exited, discharge_wall, true);
+  WriteAtomically(dir / "DONE", end_reason + "\n");
+  return result;
+}
+
+}  // namespace granary::liggghts

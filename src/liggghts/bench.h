@@ -1,0 +1,23 @@
+// The engine issue's standard benchmark on LIGGGHTS, beside the native engine (docs/benchmarks.md).
+#pragma once
+
+#include <string>
+
+namespace granary::liggghts {
+
+struct BenchOptions {
+  int bodies = 8000;
+  int steps = 2000;
+  bool native = true;     // also run `granary-engine bench` (next to this executable) and print the ratio
+  std::string bed_dir;    // where LIGGGHTS' settled bed is cached ("" = the temp directory)
+};
+
+// Prints one line per engine: sphere (disc) steps per second from LIGGGHTS' own "Loop time"
+// (setup excluded), and the native/LIGGGHTS ratio.
+void RunBench(const BenchOptions& options);
+
+// Sum over a LIGGGHTS log's "Loop time of T on P procs for S steps with A atoms" lines:
+// atoms x steps / time. 0 if there are none.
+double SphereStepsPerSecond(const std::string& log_file);
+
+}  // namespace granary::liggghts

@@ -1,0 +1,417 @@
+// LIGGGHTS 3.8 input generation (input_script.h). The set-up follows the verified
+// quasi-2-D recipe of shared/docs/liggghts-notes.md: a 3-D box, every sphere centre in the
+// plane z = 0, multisphere bodies with fflag/tflag locking out-of-plane motion, walls as
+// primitives or STL meshes, the base closed by a mesh while the bed settles.
+#include "liggghts/input_script.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <sstream>
+
+#include "engine/shapes.h"
+
+namespace granary::liggghts {
+
+using engine::ShapeTemplate;
+
+namespace {
+
+constexpr double kInsertAreaFraction = 0.25;  // dilute enough for insert/pack to place every body
+constexpr double kChunkTime = 0.5;            // simulated time between script-level checks
+
+constexpr char kModel[] = "model hertz/stiffness tangential history";
+// limitForce on clips an attractive normal force, the spec's clip_normal. Pair styles take
+// these settings after the model, wall fixes after the wall geometry.
+std::string ModelSettings(const RunSpec& spec) {
+  return std::string("tangential_damping on limitForce ") + (spec.contact.clip_normal ? "on" : "off");
+}
+
+// A matrix of per-type-pair values: `value` between body types, `wall_value` with the wall type.
+std::string PairMatrix(const std::string& fix_id, const std::string& property, int types, double value,
+                       double wall_value) {
+  std::string s = "fix " + fix_id + " all property/global " + property + " peratomtypepair " + std::to_string(types);
+  for (int i = 1; i <= types; ++i)
+    for (int j = 1; j <= types; ++j) s += " " + Num(i == types || j == types ? wall_value : value);
+  return s + "\n";
+}
+
+std::string Material(const RunSpec& spec, const Setup& setup) {
+  const Contact& c = spec.contact;
+  const int n = setup.wall_type;
+  std::string s = "# contact law (docs/liggghts.md): Hertz with tangential history, body masses in m_eff\n";
+  s += PairMatrix("m_kn", "kn", n, c.kn, c.kn);
+  s += PairMatrix("m_kt", "kt", n, c.kt, c.kt);
+  s += PairMatrix("m_gamman", "gamman", n, c.gamma_n, c.gamma_n);
+  s += PairMatrix("m_gammat", "gammat", n, c.gamma_t, c.gamma_t);
+  s += PairMatrix("m_mu", "coefficientFriction", n, c.mu, c.mu_wall);
+  s += std::string("pair_style gran ") + kModel + " " + ModelSettings(spec) + "\npair_coeff * *\n";
+  s += "fix grav all gravity " + Num(spec.gravity) + " vector 0 -1 0\n";
+  return s;
+}
+
+std::string WallFix(const RunSpec& spec, const std::string& id, const std::string& geometry) {
+  return "fix " + id + " all wall/gran " + kModel + " " + geometry + " " + ModelSettings(spec) + "\n";
+}
+
+std::string MeshWalls(const RunSpec& spec, const Setup& setup, const std::vector<MeshFile>& meshes,
+                      const std::string& walls_id) {
+  if (meshes.empty()) return "";
+  std::string s, ids;
+  for (const MeshFile& m : meshes) {
+    const std::string id = m.name.substr(0, m.name.size() - 4);  // "mesh_base_0.stl" -> "mesh_base_0"
+    s += "fix " + id + " all mesh/surface file " + m.name + " type " + std::to_string(setup.wall_type) + "\n";
+    ids += " " + id;
+  }
+  s += WallFix(spec, walls_id, "mesh n_meshes " + std::to_string(meshes.size()) + " meshes" + ids);
+  return s;
+}
+
+std::string PrimitiveWalls(const RunSpec& spec, const Setup& setup) {
+  const std::string type = "primitive type " + std::to_string(setup.wall_type);
+  std::string s;
+  if (setup.wall_lo_primitive) s += WallFix(spec, "wall_lo", type + " xplane " + Num(-setup.half_width));
+  if (setup.wall_hi_primitive) s += WallFix(spec, "wall_hi", type + " xplane " + Num(setup.half_width));
+  for (std::size_t k = 0; k < spec.silo.obstacles.size(); ++k) {
+    const Obstacle& o = spec.silo.obstacles[k];
+    s += WallFix(spec, "obstacle_" + std::to_string(k),
+                 type + " zcylinder " + Num(o.diameter / 2) + " " + Num(o.x) + " " + Num(o.y));
+  }
+  return s;
+}
+
+// Both must precede read_restart, which does not restore them (notes §4.3); `processors`
+// splits in x only, since the bed fills the bottom of a tall box (notes §3).
+constexpr char kHeader[] = "atom_modify map array\nprocessors * 1 1\n";
+
+std::string Integration(const Setup& setup) {
+  // allow_group_and_set: the discharge counts spheres above the outlets with count(all,region).
+  if (setup.multisphere) return "fix ms all multisphere allow_group_and_set yes\n";
+  // Single spheres: planeforce drops f_z, so the centres stay exactly in z = 0.
+  return "fix integrate all nve/sphere\nfix planar all planeforce 0 0 1\n";
+}
+
+long long StepsOf(double time, double dt) { return std::max<long long>(1, std::llround(time / dt)); }
+
+bool IsPrime(long long n) {
+  if (n < 2) return false;
+  for (long long d = 2; d * d <= n; ++d)
+    if (n % d == 0) return false;
+  return true;
+}
+
+}  // namespace
+
+std::string Num(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+long long PrimeSeed(std::uint64_t seed, int salt) {
+  // SplitMix64 step: well-spread, reproducible.
+  std::uint64_t z = seed + 0x9E3779B97F4A7C15ULL * static_cast<std::uint64_t>(salt + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  z ^= z >> 31;
+  long long n = 10007 + static_cast<long long>(z % 900000000ULL);
+  while (!IsPrime(n)) ++n;
+  return n;
+}
+
+std::string Stl(const MeshFile& m, double half_z) {
+  // Normal in the plane, perpendicular to the segment; two triangles.
+  const double dx = m.x1 - m.x0, dy = m.y1 - m.y0, len = std::hypot(dx, dy);
+  const double nx = -dy / len, ny = dx / len;
+  const double v[4][3] = {{m.x0, m.y0, -half_z}, {m.x1, m.y1, -half_z}, {m.x1, m.y1, half_z}, {m.x0, m.y0, half_z}};
+  const int tris[2][3] = {{0, 1, 2}, {0, 2, 3}};
+  std::string s = "solid granary\n";
+  for (const auto& t : tris) {
+    s += "  facet normal " + Num(nx) + " " + Num(ny) + " 0\n    outer loop\n";
+    for (int k : t) s += "      vertex " + Num(v[k][0]) + " " + Num(v[k][1]) + " " + Num(v[k][2]) + "\n";
+    s += "    endloop\n  endfacet\n";
+  }
+  return s + "endsolid granary\n";
+}
+
+Setup MakeSetup(const RunSpec& spec) {
+  validate(spec);
+  Setup s;
+  const Silo& silo = spec.silo;
+  const double ed = spec.discharge.exit_distance;
+  if (spec.discharge.mode == DischargeMode::kReinject && !silo.side_outlets.empty())
+    throw SpecError("/discharge/mode",
+                    "the LIGGGHTS backend reinjects through y-periodicity, which cannot return bodies that leave "
+                    "through a side outlet; use \"remove\" with side outlets (got \"reinject\")");
+
+  std::vector<ShapeTemplate> templates;
+  for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
+    templates.push_back(engine::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
+  const std::vector<int> counts = engine::SpeciesCounts(spec.bodies);
+  s.species = static_cast<int>(templates.size());
+  s.wall_type = s.species + 1;
+  double bound = 0, area = 0, mass = 0;
+  for (std::size_t k = 0; k < templates.size(); ++k) {
+    s.multisphere = s.multisphere || templates[k].r.size() > 1;
+    bound = std::max(bound, templates[k].bound_radius);
+    area += counts[k] * templates[k].area;
+    mass += counts[k] * templates[k].mass;
+  }
+  s.mean_body_mass = mass / spec.bodies.count;
+
+  s.half_width = silo.width / 2;
+  const double x_margin = silo.side_outlets.empty() ? 1.0 : ed + 3.0;
+  s.x_lo = -s.half_width - x_margin;
+  s.x_hi = s.half_width + x_margin;
+  s.half_z = std::max(2.0, bound + 1.0);  // more than the bounding radius, or nothing is inserted (notes §4.6)
+  s.y_lo = -(ed + 3.0);
+  double floor = 1.0 + bound;
+  for (const Obstacle& o : silo.obstacles) floor = std::max(floor, o.y + o.diameter / 2 + bound + 0.5);
+  s.insert_x_half = s.half_width - bound - 0.05;
+  s.insert_y_lo = floor;
+  s.insert_y_hi = floor + area / (kInsertAreaFraction * 2 * s.insert_x_half) + 2 * bound;
+  s.y_hi = s.insert_y_hi + bound + 2.0;
+  if (silo.height > 0) s.y_hi = std::max(s.y_hi, silo.height);
+
+  s.fill_meshes.push_back({"mesh_fill_base.stl", -s.half_width, 0.0, s.half_width, 0.0});
+
+  // Base pieces between the outlets, left to right.
+  std::vector<std::pair<double, double>> gaps;
+  for (const BaseOutlet& o : silo.base_outlets) gaps.emplace_back(o.center - o.width / 2, o.center + o.width / 2);
+  std::sort(gaps.begin(), gaps.end());
+  double x = -s.half_width;
+  int piece = 0;
+  for (const auto& [g0, g1] : gaps) {
+    if (g0 > x + 1e-9) s.discharge_meshes.push_back({"mesh_base_" + std::to_string(piece++) + ".stl", x, 0.0, g0, 0.0});
+    x = std::max(x, g1);
+  }
+  if (x < s.half_width - 1e-9) s.discharge_meshes.push_back({"mesh_base_" + std::to_string(piece++) + ".stl", x, 0.0, s.half_width, 0.0});
+
+  // Side walls with outlets become mesh pieces; the others stay primitive planes.
+  for (Wall wall : {Wall::kLeft, Wall::kRight}) {
+    std::vector<std::pair<double, double>> holes;
+    for (const SideOutlet& o : silo.side_outlets)
+      if (o.wall == wall) holes.emplace_back(o.bottom, o.bottom + o.width);
+    if (holes.empty()) continue;
+    (wall == Wall::kLeft ? s.wall_lo_primitive : s.wall_hi_primitive) = false;
+    std::sort(holes.begin(), holes.end());
+    const double wx = wall == Wall::kLeft ? -s.half_width : s.half_width;
+    const std::string side = wall == Wall::kLeft ? "left" : "right";
+    double y = 0.0;
+    int k = 0;
+    for (const auto& [h0, h1] : holes) {
+      if (h0 > y + 1e-9) s.discharge_meshes.push_back({"mesh_" + side + "_" + std::to_string(k++) + ".stl", wx, y, wx, h0});
+      y = std::max(y, h1);
+    }
+    s.discharge_meshes.push_back({"mesh_" + side + "_" + std::to_string(k++) + ".stl", wx, y, wx, s.y_hi});
+  }
+
+  // Counting planes: below each base outlet (a little wider, but never reaching the next
+  // outlet's plane), and outside each side outlet down to the bottom of the box.
+  for (std::size_t k = 0; k < silo.base_outlets.size(); ++k) {
+    const BaseOutlet& o = silo.base_outlets[k];
+    double lo = o.center - o.width / 2 - 1.0, hi = o.center + o.width / 2 + 1.0;
+    for (std::size_t j = 0; j < silo.base_outlets.size(); ++j) {
+      if (j == k) continue;
+      const BaseOutlet& p = silo.base_outlets[j];
+      if (p.center > o.center) hi = std::min(hi, 0.5 * (o.center + o.width / 2 + p.center - p.width / 2));
+      else lo = std::max(lo, 0.5 * (p.center + p.width / 2 + o.center - o.width / 2));
+    }
+    lo = std::max(lo, s.x_lo + 0.01);
+    hi = std::min(hi, s.x_hi - 0.01);
+    s.counters.push_back({{"mesh_exit_" + std::to_string(k) + ".stl", lo, -ed, hi, -ed}, 0.0, -1.0});
+  }
+  for (std::size_t k = 0; k < silo.side_outlets.size(); ++k) {
+    const SideOutlet& o = silo.side_outlets[k];
+    const double sign = o.wall == Wall::kLeft ? -1.0 : 1.0;
+    const double cx = sign * (s.half_width + ed);
+    s.counters.push_back({{"mesh_exit_" + std::to_string(silo.base_outlets.size() + k) + ".stl", cx, s.y_lo + 0.5, cx,
+                           o.bottom + o.width + 1.0},
+                          sign, 0.0});
+  }
+
+  // One template per species and orientation: insert/pack has no random in-plane
+  // orientation, so rotated copies are mixed (6 over 180 degrees for symmetric bodies,
+  // 12 over 360 for snowmen). Weights are mass-based in LIGGGHTS: fraction x mass.
+  int t = 0;
+  std::string dist;
+  for (std::size_t k = 0; k < templates.size(); ++k) {
+    const ShapeTemplate& tp = templates[k];
+    const Shape shape = spec.bodies.species[k].shape;
+    const int angles = tp.r.size() == 1 ? 1 : (shape == Shape::kSnowman ? 12 : 6);
+    const double span = shape == Shape::kSnowman ? 2 * std::numbers::pi : std::numbers::pi;
+    double sphere_volume = 0;
+    for (double r : tp.r) sphere_volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
+    const double density3d = tp.mass / sphere_volume;  // nominal: the mass is given explicitly
+    for (int a = 0; a < angles; ++a, ++t) {
+      const double th = span * a / angles, c = std::cos(th), sn = std::sin(th);
+      const std::string id = "tmpl_" + std::to_string(t);
+      const long long seed = PrimeSeed(spec.seed, 100 + t);
+      std::string line;
+      if (!s.multisphere) {
+        line = "fix " + id + " all particletemplate/sphere " + std::to_string(seed) + " atom_type " +
+               std::to_string(k + 1) + " density constant " + Num(density3d) + " radius constant " + Num(tp.r[0]);
+      } else {
+        double ixx = 0, iyy = 0, ixy = 0;
+        std::string spheres;
+        for (std::size_t i = 0; i < tp.r.size(); ++i) {
+          const double px = c * tp.ox[i] - sn * tp.oy[i], py = sn * tp.ox[i] + c * tp.oy[i];
+          const double own = 0.4 * tp.disc_mass[i] * tp.r[i] * tp.r[i];
+          ixx += own + tp.disc_mass[i] * py * py;
+          iyy += own + tp.disc_mass[i] * px * px;
+          ixy -= tp.disc_mass[i] * px * py;
+          spheres += " " + Num(px) + " " + Num(py) + " 0 " + Num(tp.r[i]);
+        }
+        line = "fix " + id + " all particletemplate/multisphere " + std::to_string(seed) + " atom_type " +
+               std::to_string(k + 1) + " density constant " + Num(density3d) + " nspheres " +
+               std::to_string(tp.r.size()) + " ntry 1000000 spheres" + spheres + " type " + std::to_string(t + 1) +
+               " mass " + Num(tp.mass) + " use_density inertia_tensor " + Num(ixx) + " " + Num(ixy) + " 0 " + Num(iyy) +
+               " 0 " + Num(tp.inertia) + " fflag on on off tflag off off on";
+      }
+      s.template_lines.push_back(line + "\n");
+      dist += " " + id + " " + Num(spec.bodies.species[k].fraction / angles * tp.mass);
+    }
+  }
+  s.template_count = t;
+  s.template_lines.push_back("fix bodies all particledistribution/discrete " + std::to_string(PrimeSeed(spec.seed, 1)) +
+                             " " + std::to_string(t) + dist + "\n");
+  return s;
+}
+
+std::string BedScript(const RunSpec& spec, const Setup& s) {
+  const double dt = spec.time_step;
+  const long long chunk = StepsOf(kChunkTime, dt);
+  const long long chunks = StepsOf(spec.bed.max_settle_time, dt) / chunk + 1;
+  std::ostringstream o;
+  o << "# Bed preparation, generated by granary-liggghts from run.json (docs/liggghts.md)\n"
+    << "atom_style sphere\n" << kHeader
+    << "boundary f p f\nnewton off\ncommunicate single vel yes\nunits lj\n"
+    << "region box block " << Num(s.x_lo) << " " << Num(s.x_hi) << " " << Num(s.y_lo) << " " << Num(s.y_hi) << " "
+    << Num(-s.half_z) << " " << Num(s.half_z) << " units box\n"
+    << "create_box " << s.wall_type << " box\n"
+    << "neighbor 0.2 bin\nneigh_modify delay 0\n"
+    << Material(spec, s) << MeshWalls(spec, s, s.fill_meshes, "walls_fill") << PrimitiveWalls(spec, s);
+  for (const std::string& l : s.template_lines) o << l;
+  o << "region insert_region block " << Num(-s.insert_x_half) << " " << Num(s.insert_x_half) << " " << Num(s.insert_y_lo)
+    << " " << Num(s.insert_y_hi) << " -1e-6 1e-6 units box\n"
+    << "fix insert all insert/pack seed " << PrimeSeed(spec.seed, 2)
+    << " distributiontemplate bodies insert_every once overlapcheck yes all_in no orientation constant 1 0 0 0"
+    << " vel constant 0 -1 0 region insert_region particles_in_region " << spec.bodies.count << "\n"
+    << Integration(s)
+    << "variable ke_atom atom 0.5*mass*(vx*vx+vy*vy)\n"
+    << "compute ke_body all reduce ave v_ke_atom\n"  // a body's mass sits on each of its spheres
+    << "variable ke_body equal c_ke_body\nvariable t_now equal time\nvariable atoms_now equal atoms\n"
+    << "thermo_style custom step time atoms c_ke_body cpu\nthermo " << chunk << "\n"
+    << "thermo_modify lost ignore norm no\n"
+    << "timestep " << Num(dt) << "\n"
+    << "run 1\nunfix insert\n"
+    << "print \"GRANARY_INSERTED ${atoms_now}\"\n";
+  if (!s.multisphere) o << "set group all z 0.0\n";
+  o << "variable settle_chunk loop " << chunks << "\n"
+    << "label settle\n"
+    << "run " << chunk << " post no\n"
+    << "print \"GRANARY_BED ${t_now} ${ke_body}\"\n"
+    << "if \"${ke_body} < " << Num(spec.bed.settle_ke_per_body * s.mean_body_mass * spec.gravity)
+    << "\" then \"jump SELF settled\"\n"
+    << "next settle_chunk\njump SELF settle\nlabel settled\n"
+    << "print \"GRANARY_BED_DONE ${t_now} ${ke_body}\"\n"  // before anything re-initialises the computes
+    << "write_restart bed.restart\n"
+    << "write_dump all custom bed.dump id mol type x y radius\n";
+  return o.str();
+}
+
+std::string DischargeScript(const RunSpec& spec, const Setup& s, const DischargeStart& start) {
+  const double dt = spec.time_step;
+  const long long chunk = StepsOf(std::min(kChunkTime, spec.discharge.clog_window / 4), dt);
+  const long long total = StepsOf(spec.discharge.max_time, dt);
+  const long long clog_steps = StepsOf(spec.discharge.clog_window, dt);
+  const bool remove = spec.discharge.mode == DischargeMode::kRemove;
+  std::ostringstream o;
+  o << "# Discharge, generated by granary-liggghts from run.json (docs/liggghts.md)\n"
+    << kHeader << "read_restart " << (start.continue_run ? start.restart_file : std::string("bed.restart")) << "\n"
+    << "newton off\nneighbor 0.2 bin\nneigh_modify delay 0\ncommunicate single vel yes\n";
+  if (!start.continue_run) {
+    // Reinjection is y-periodicity: the box top sits just above the bed, so a body that
+    // leaves at the bottom re-enters right above the bed surface.
+    if (!remove) o << "change_box all y final " << Num(s.y_lo) << " " << Num(start.bed_top + 2.5) << " units box\n";
+  }
+  o << Material(spec, s) << MeshWalls(spec, s, s.discharge_meshes, "walls_discharge") << PrimitiveWalls(spec, s);
+  std::string exited;
+  for (std::size_t k = 0; k < s.counters.size(); ++k) {
+    const Counter& c = s.counters[k];
+    const std::string id = "mesh_exit_" + std::to_string(k), file = "exits_" + std::to_string(k) + ".txt";
+    o << "fix " << id << " all mesh/surface file " << c.mesh.name << " type " << s.wall_type << "\n"
+      << "fix exit_" << k << " all massflow/mesh mesh " << id << " vec_side " << Num(c.side_x) << " " << Num(c.side_y)
+      << " 0 " << (remove ? "count once delete_atoms yes" : "count multiple") << " "
+      << (start.continue_run ? "append " : "file ") << file << " writeTime\n";
+    exited += (k ? "+f_exit_" : "f_exit_") + std::to_string(k) + "[2]";
+  }
+  o << Integration(s);
+  // Regions just above every outlet: a stall with nothing there means the silo has
+  // discharged all it can (the rest lies in the dead zones), otherwise it is a clog.
+  const std::size_t n_base = spec.silo.base_outlets.size();
+  std::string over;
+  for (std::size_t k = 0; k < s.counters.size(); ++k) {
+    std::ostringstream r;
+    if (k < n_base) {
+      const BaseOutlet& b = spec.silo.base_outlets[k];
+      r << Num(b.center - b.width / 2) << " " << Num(b.center + b.width / 2) << " " << Num(-spec.discharge.exit_distance)
+        << " " << Num(b.width / 2 + 2);
+    } else {
+      const SideOutlet& so = spec.silo.side_outlets[k - n_base];
+      const double w = s.half_width;
+      const double reach = so.width / 2 + 2;
+      if (so.wall == Wall::kLeft) r << Num(-w - spec.discharge.exit_distance) << " " << Num(-w + reach);
+      else r << Num(w - reach) << " " << Num(w + spec.discharge.exit_distance);
+      r << " " << Num(so.bottom) << " " << Num(so.bottom + so.width);
+    }
+    o << "region over_" << k << " block " << r.str() << " " << Num(-s.half_z) << " " << Num(s.half_z) << " units box\n";
+    over += " over_" + std::to_string(k);
+  }
+  if (s.counters.size() > 1) o << "region over union " << s.counters.size() << over << "\n";
+  const std::string over_region = s.counters.size() > 1 ? "over" : "over_0";
+  const std::string script = o.str();
+  std::ostringstream p;
+  p << "variable exited equal " << exited << "\n"
+    << "variable atoms_now equal atoms\nvariable step_now equal step\n"
+    << "variable over_outlets equal count(all," << over_region << ")\n"
+    << "variable next_stop equal step+" << chunk << "\n"
+    << "thermo_style custom step time atoms v_exited cpu\nthermo " << chunk << "\n"
+    << "thermo_modify lost ignore norm no\n"
+    << "timestep " << Num(dt) << "\n";
+  if (spec.output.frame_interval > 0) {
+    p << "dump frames all custom " << StepsOf(spec.output.frame_interval, dt)
+      << " frames.liggghts id mol type x y radius vx vy omegaz\n"
+      << "dump_modify frames format \"%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g\"\n";
+    if (start.continue_run) p << "dump_modify frames append yes\n";
+  }
+  if (spec.output.checkpoint_interval > 0)
+    p << "restart " << StepsOf(spec.output.checkpoint_interval, dt) << " checkpoint.*.restart\n";
+  // Time counts from the opening of the outlets (reset_timestep must come right before a run).
+  if (!start.continue_run) p << "reset_timestep 0\n";
+  p << "run 0 post no\n"
+    << "variable exited_last equal ${exited}\n"
+    << "variable last_exit_step equal " << start.last_exit_step << "\n"
+    << "variable chunk loop " << total / chunk + 2 << "\n"
+    << "label discharge\n"
+    << "if \"${step_now} >= " << total << "\" then \"print 'GRANARY_END time_limit'\" \"jump SELF finished\"\n"
+    << "if \"${next_stop} > " << total << "\" then \"variable next_stop equal " << total << "\"\n"
+    << "run ${next_stop} upto post no\n"
+    << "print \"GRANARY_PROGRESS ${step_now} ${exited} ${atoms_now} ${over_outlets}\"\n"
+    << "if \"${exited} > ${exited_last}\" then \"variable exited_last equal ${exited}\" "
+       "\"variable last_exit_step equal ${step_now}\"\n";
+  if (remove) p << "if \"${atoms_now} == 0\" then \"print 'GRANARY_END discharged'\" \"jump SELF finished\"\n";
+  p << "variable since_exit equal step-v_last_exit_step\n";  // `if` compares numbers, it does no arithmetic
+  const std::string stalled = "${since_exit} >= " + std::to_string(clog_steps);
+  if (remove)
+    p << "if \"" << stalled << " && ${over_outlets} == 0\" then \"print 'GRANARY_END discharged'\" \"jump SELF finished\"\n";
+  if (spec.discharge.stop_on_clog)
+    p << "if \"" << stalled << "\" then \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
+  p << "next chunk\njump SELF discharge\nlabel finished\n"
+    << "write_dump all custom final.dump id mol type x y radius\n"
+    << "print \"GRANARY_FINAL ${step_now}\"\n";
+  return script + p.str();
+}
+
+}  // namespace granary::liggghts

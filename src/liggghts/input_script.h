@@ -1,0 +1,76 @@
+// LIGGGHTS 3.8 input generation from a resolved RunSpec (docs/liggghts.md).
+//
+// Everything here is pure: a RunSpec in, text out (input scripts and STL meshes). The
+// scripts reference only fixed file names relative to the run directory, and every value
+// in them is a number formatted here, so no string from a spec ever reaches LIGGGHTS (it
+// has `shell` and `$`/`v_` substitution).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "engine/run_spec.h"
+
+namespace granary::liggghts {
+
+// A planar rectangle for an STL mesh: the segment (x0,y0)-(x1,y1) in the silo plane,
+// extruded over z in [-half_z, half_z].
+struct MeshFile {
+  std::string name;   // file name in the run directory, e.g. "mesh_base_0.stl"
+  double x0, y0, x1, y1;
+};
+
+// A counting plane behind one outlet (base outlets first, then side outlets).
+struct Counter {
+  MeshFile mesh;
+  double side_x, side_y;  // direction in which a body leaves (massflow vec_side)
+};
+
+// The quasi-2-D set-up shared by the bed and discharge scripts.
+struct Setup {
+  int species = 0;            // atom types 1..species are the bodies' spheres
+  int wall_type = 0;          // = species + 1
+  bool multisphere = false;   // any clump: every species becomes a multisphere template
+  double half_width = 0;      // side walls at +-half_width
+  double x_lo = 0, x_hi = 0;  // box
+  double y_lo = 0, y_hi = 0;  // box (periodic in y)
+  double half_z = 0;          // box z extent [-half_z, half_z]
+  double insert_y_lo = 0, insert_y_hi = 0;
+  double insert_x_half = 0;
+  double mean_body_mass = 0;
+  std::vector<MeshFile> fill_meshes;       // closed base
+  std::vector<MeshFile> discharge_meshes;  // base between outlets, side-wall pieces around side outlets
+  bool wall_lo_primitive = true, wall_hi_primitive = true;  // false when that side wall has an outlet
+  std::vector<Counter> counters;
+  std::vector<std::string> template_lines;  // particletemplate + particledistribution commands
+  int template_count = 0;
+};
+
+// Throws SpecError for what the backend cannot express (e.g. reinject with a side outlet).
+Setup MakeSetup(const RunSpec& spec);
+
+// Bed script: insert, settle until the kinetic energy per body is negligible, write
+// bed.restart and bed.dump. Prints "GRANARY_BED t=... ke=..." every chunk.
+std::string BedScript(const RunSpec& spec, const Setup& setup);
+
+// Discharge script from bed.restart (fresh) or from `restart_file` (continue, with
+// `last_exit_step` the step of the last exit before the checkpoint). Prints
+// "GRANARY_PROGRESS step exited atoms" every chunk and "GRANARY_END reason" at the end.
+struct DischargeStart {
+  bool continue_run = false;
+  std::string restart_file;  // fixed-form name chosen by the backend (checkpoint.<step>.restart)
+  long long last_exit_step = 0;
+  double bed_top = 0;        // highest sphere top in the settled bed (for the reinject box)
+};
+std::string DischargeScript(const RunSpec& spec, const Setup& setup, const DischargeStart& start);
+
+// ASCII STL of one rectangle.
+std::string Stl(const MeshFile& mesh, double half_z);
+
+// The exact numbers formatting used in scripts (17 significant digits, C locale).
+std::string Num(double v);
+
+// Smallest prime > 10000 derived from a seed and a salt (LIGGGHTS wants prime seeds > 10000).
+long long PrimeSeed(std::uint64_t seed, int salt);
+
+}  // namespace granary::liggghts
