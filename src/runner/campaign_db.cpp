@@ -42,7 +42,7 @@ PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vec
       throw SpecError("/sweep", "two sweep points resolve to the same run (point " + r.point.dump() + ", replica " +
                                     std::to_string(r.replica) + "); remove the duplicate");
     }
-    point_ids.insert(r.point_id);
+    if (!point_ids.insert(r.point_id).second) continue;  // axis values: once per point
     for (const auto& axis : spec.axes) {
       if (!r.point.contains(axis)) continue;
       auto& vals = sum.axis_values[axis];
@@ -92,8 +92,8 @@ PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vec
     auto it = existing.find(r.run_id);
     if (it == existing.end()) {
       insert.reset();
-      insert.bind(1, r.run_id).bind(2, next_seq++).bind(3, r.point_id).bind(4, r.point.dump()).bind(5, r.replica);
-      insert.bind(6, r.params.dump()).bind(7, r.engine).bind(8, GRANARY_VERSION).bind(9, GRANARY_GIT_COMMIT);
+      insert.bind(1, r.run_id).bind(2, next_seq++).bind(3, r.point_id).bind(4, r.point_json).bind(5, r.replica);
+      insert.bind(6, r.params_json).bind(7, r.engine).bind(8, GRANARY_VERSION).bind(9, GRANARY_GIT_COMMIT);
       insert.bind(10, (std::filesystem::path(runs_root) / r.run_id).string());
       insert.run();
     } else if (it->second == "retired") {

@@ -1,6 +1,7 @@
 // Campaign spec parsing and sweep expansion; see campaign_spec.h and docs/campaign-spec.md.
 #include "runner/campaign_spec.h"
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 
@@ -170,6 +171,48 @@ std::string run_id_of(const RunSpec& spec) {
   return hash_hex(j.dump());
 }
 
+DumpTemplate::DumpTemplate(json doc, const std::vector<std::string>& pointers) : doc_(std::move(doc)) {
+  for (const auto& p : pointers) pointers_.emplace_back(p);
+  // Placeholders no run spec value contains in practice; if one does, fill() dumps in full.
+  std::vector<std::string> marks;
+  for (std::size_t i = 0; i < pointers_.size(); ++i) {
+    const std::string mark = "\x01granary-field-" + std::to_string(i) + "\x01";
+    doc_[pointers_[i]] = mark;
+    marks.push_back(json(mark).dump());
+  }
+  const std::string text = doc_.dump();
+  std::vector<std::pair<std::size_t, std::size_t>> at;  // (position in text, field index)
+  for (std::size_t i = 0; i < marks.size(); ++i) {
+    const std::size_t pos = text.find(marks[i]);
+    if (pos == std::string::npos || text.find(marks[i], pos + 1) != std::string::npos) return;  // keep doc_
+    at.emplace_back(pos, i);
+  }
+  std::sort(at.begin(), at.end());
+  std::size_t from = 0;
+  for (const auto& [pos, field] : at) {
+    pieces_.push_back(text.substr(from, pos - from));
+    order_.push_back(field);
+    from = pos + marks[field].size();
+  }
+  pieces_.push_back(text.substr(from));
+}
+
+std::string DumpTemplate::fill(const std::vector<std::string>& values) const {
+  if (pieces_.empty()) {  // placeholders not unique: set the fields and dump the whole document
+    json doc = doc_;
+    for (std::size_t i = 0; i < pointers_.size(); ++i) doc[pointers_[i]] = json::parse(values.at(i));
+    return doc.dump();
+  }
+  std::size_t size = 0;
+  for (const auto& p : pieces_) size += p.size();
+  for (const auto& v : values) size += v.size();
+  std::string out;
+  out.reserve(size);
+  for (std::size_t i = 0; i < order_.size(); ++i) out.append(pieces_[i]).append(values.at(order_[i]));
+  out.append(pieces_.back());
+  return out;
+}
+
 std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cache_dir) {
   // Sweep points: grid (cartesian, first axis slowest) x zip rows x explicit points.
   std::vector<json> points = {json::object()};
@@ -211,6 +254,7 @@ std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cach
   json base = spec.base;
   base["engine"] = spec.engine;
   const json canonical = RunSpec::from_json(base).to_json();
+  const std::string no_text = json("").dump();
 
   std::vector<PlannedRun> runs;
   runs.reserve(points.size() * static_cast<std::size_t>(spec.replicas));
@@ -229,34 +273,31 @@ std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cach
     const std::uint64_t seed_source = point.contains("/seed") && params["seed"].is_number_unsigned()
                                           ? params["seed"].get<std::uint64_t>()
                                           : spec.seed;
-    // Validate the point once (replicas differ only in the seed, which cannot make a spec
-    // invalid), then derive each replica from the canonical JSON: planning 10,000 runs
-    // stays well under a second.
+    // Validate and resolve the point once: replicas differ only in the seed, which cannot
+    // make a spec invalid. The canonical JSON of every replica is then the point's dump
+    // with seed, run id and bed file filled in (no copy or dump of the whole spec per run).
     RunSpec rs;
     try {
       rs = RunSpec::from_json(params);
     } catch (const SpecError& e) {
       throw SpecError("/sweep", where + ": " + e.what());
     }
-    rs.run_id.clear();
-    rs.bed.cache_file.clear();
-    json resolved = rs.to_json();
-    resolved["seed"] = 0;
-    const std::string point_id = hash_hex(resolved.dump());
+    const DumpTemplate resolved(rs.to_json(), {"/seed", "/run_id", "/bed/cache_file"});
+    const DumpTemplate bed_key(rs.bed_key(), {"/seed"});
+    // Seed 0 stands for "any replica": replicas of one point share the point id.
+    const std::string point_id = hash_hex(resolved.fill({"0", no_text, no_text}));
+    const std::string point_text = point.dump();
     for (int r = 0; r < spec.replicas; ++r) {
-      rs.seed = replica_seed(seed_source, r);
-      resolved["seed"] = rs.seed;
-      resolved["run_id"] = "";
-      resolved["bed"]["cache_file"] = "";
+      const std::string seed = std::to_string(replica_seed(seed_source, r));
       PlannedRun run;
-      run.run_id = hash_hex(resolved.dump());  // == run_id_of(rs)
+      run.run_id = hash_hex(resolved.fill({seed, no_text, no_text}));  // == run_id_of(the replica's RunSpec)
       run.point_id = point_id;
       run.point = point;
+      run.point_json = point_text;
       run.replica = r;
-      run.params = resolved;
-      run.params["run_id"] = run.run_id;
-      run.params["bed"]["cache_file"] =
-          (std::filesystem::path(cache_dir) / (hash_hex(rs.bed_key().dump()) + ".bed")).string();
+      const std::string bed_file =
+          (std::filesystem::path(cache_dir) / (hash_hex(bed_key.fill({seed})) + ".bed")).string();
+      run.params_json = resolved.fill({seed, json(run.run_id).dump(), json(bed_file).dump()});
       run.engine = rs.engine;
       runs.push_back(std::move(run));
     }

@@ -34,10 +34,28 @@ struct CampaignSpec {
 struct PlannedRun {
   std::string run_id;
   std::string point_id;  // shared by the replicas of one sweep point
-  nlohmann::json point;  // {pointer: value} of the sweep axes
+  nlohmann::json point;    // {pointer: value} of the sweep axes
+  std::string point_json;  // point.dump()
   int replica = 0;
-  nlohmann::json params;  // canonical resolved run spec (run.json)
+  std::string params_json;  // canonical resolved run spec (run.json), as stored
   std::string engine;
+  nlohmann::json params() const { return nlohmann::json::parse(params_json); }
+};
+
+// json::dump() of a document with a few fields left open: dumped once, then filled per
+// replica by string concatenation (planning 10,000 runs: docs/benchmarks.md). fill(values)
+// equals the dump of the document with field i set to the JSON text values[i].
+class DumpTemplate {
+ public:
+  DumpTemplate(nlohmann::json doc, const std::vector<std::string>& pointers);
+  std::string fill(const std::vector<std::string>& values) const;
+  bool spliced() const { return !pieces_.empty(); }  // false: fill() sets the fields and dumps
+
+ private:
+  nlohmann::json doc_;
+  std::vector<nlohmann::json::json_pointer> pointers_;
+  std::vector<std::string> pieces_;  // text between the fields, in text order
+  std::vector<std::size_t> order_;   // field index of each gap between pieces
 };
 
 // The directory of prepared beds: $GRANARY_CACHE_DIR or ~/.cache/granary/beds.

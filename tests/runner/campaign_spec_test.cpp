@@ -48,22 +48,22 @@ TEST(CampaignSpecTest, GridZipPointsAndReplicasExpand) {
   ASSERT_EQ(runs.size(), 3u * 2u * 2u * 2u);
   // Zipped axes stay paired.
   for (const auto& r : runs) {
-    const double mu = r.params["contact"]["mu"];
-    const double mu_wall = r.params["contact"]["mu_wall"];
+    const double mu = r.params()["contact"]["mu"];
+    const double mu_wall = r.params()["contact"]["mu_wall"];
     EXPECT_EQ(mu == 0.3 ? 0.2 : 0.4, mu_wall);
   }
   std::set<std::string> ids;
   for (const auto& r : runs) ids.insert(r.run_id);
   EXPECT_EQ(ids.size(), runs.size());
   // The first grid axis is the slowest; replicas are innermost.
-  EXPECT_EQ(runs[0].params["silo"]["base_outlets"][0]["width"], 4.0);
+  EXPECT_EQ(runs[0].params()["silo"]["base_outlets"][0]["width"], 4.0);
   EXPECT_EQ(runs[0].replica, 0);
   EXPECT_EQ(runs[1].replica, 1);
   EXPECT_EQ(runs[0].point_id, runs[1].point_id);
   EXPECT_NE(runs[0].point_id, runs[2].point_id);
-  EXPECT_EQ(runs[0].params["run_id"], runs[0].run_id);
+  EXPECT_EQ(runs[0].params()["run_id"], runs[0].run_id);
   // The id is the hash of the resolved spec, whichever way it is recomputed.
-  for (const auto& r : runs) EXPECT_EQ(run_id_of(RunSpec::from_json(r.params)), r.run_id);
+  for (const auto& r : runs) EXPECT_EQ(run_id_of(RunSpec::from_json(r.params())), r.run_id);
 }
 
 TEST(CampaignSpecTest, ReplicaSeedsAndBedsSharedAcrossOutletWidths) {
@@ -71,12 +71,12 @@ TEST(CampaignSpecTest, ReplicaSeedsAndBedsSharedAcrossOutletWidths) {
     "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6]}}})");
   const auto runs = expand(CampaignSpec::from_json(j), "/cache");
   ASSERT_EQ(runs.size(), 4u);
-  EXPECT_EQ(runs[0].params["seed"], runs[2].params["seed"]);  // replica 0 of both widths
-  EXPECT_NE(runs[0].params["seed"], runs[1].params["seed"]);
-  EXPECT_EQ(runs[0].params["seed"], replica_seed(9, 0));
-  EXPECT_EQ(runs[0].params["bed"]["cache_file"], runs[2].params["bed"]["cache_file"]);
-  EXPECT_NE(runs[0].params["bed"]["cache_file"], runs[1].params["bed"]["cache_file"]);
-  EXPECT_EQ(runs[0].params["bed"]["cache_file"].get<std::string>().rfind("/cache/", 0), 0u);
+  EXPECT_EQ(runs[0].params()["seed"], runs[2].params()["seed"]);  // replica 0 of both widths
+  EXPECT_NE(runs[0].params()["seed"], runs[1].params()["seed"]);
+  EXPECT_EQ(runs[0].params()["seed"], replica_seed(9, 0));
+  EXPECT_EQ(runs[0].params()["bed"]["cache_file"], runs[2].params()["bed"]["cache_file"]);
+  EXPECT_NE(runs[0].params()["bed"]["cache_file"], runs[1].params()["bed"]["cache_file"]);
+  EXPECT_EQ(runs[0].params()["bed"]["cache_file"].get<std::string>().rfind("/cache/", 0), 0u);
 }
 
 TEST(CampaignSpecTest, IdsAreStableAndIgnoreCacheDir) {
@@ -85,6 +85,74 @@ TEST(CampaignSpecTest, IdsAreStableAndIgnoreCacheDir) {
   const auto b = expand(CampaignSpec::from_json(j), "/cache-b");
   EXPECT_EQ(a[0].run_id, b[0].run_id);
   EXPECT_EQ(a[0].run_id.size(), 16u);
+}
+
+// The straightforward expansion planning used before it was made fast: every replica
+// resolved through RunSpec::from_json and dumped in full. Ids must never change.
+struct ReferenceRun {
+  std::string run_id, point_id, params_json;
+};
+std::vector<ReferenceRun> ReferenceExpand(const CampaignSpec& spec, const std::vector<json>& points,
+                                          const std::string& cache_dir) {
+  json base = spec.base;
+  base["engine"] = spec.engine;
+  const json canonical = RunSpec::from_json(base).to_json();
+  std::vector<ReferenceRun> out;
+  for (const json& point : points) {
+    json params = canonical;
+    for (const auto& [key, value] : point.items()) params[json::json_pointer(key)] = value;
+    const std::uint64_t source = point.contains("/seed") ? params["seed"].get<std::uint64_t>() : spec.seed;
+    for (int r = 0; r < spec.replicas; ++r) {
+      RunSpec rs = RunSpec::from_json(params);
+      rs.seed = replica_seed(source, r);
+      RunSpec zero = rs;
+      zero.seed = 0;
+      ReferenceRun ref;
+      ref.run_id = run_id_of(rs);
+      ref.point_id = run_id_of(zero);
+      rs.run_id = ref.run_id;
+      rs.bed.cache_file = cache_dir + "/" + hash_hex(rs.bed_key().dump()) + ".bed";
+      ref.params_json = rs.to_json().dump();
+      out.push_back(ref);
+    }
+  }
+  return out;
+}
+
+TEST(CampaignSpecTest, FastExpansionGivesTheIdsAndParamsOfTheReferencePath) {
+  const json j = json::parse(R"({"name": "t", "seed": 77, "replicas": 3,
+    "base": {"bodies": {"count": 300, "species": [{"name": "a\"b/\u0001", "shape": "dumbbell"}]},
+             "silo": {"width": 30}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6.5], "/contact/mu": [0.3, 0.5]},
+              "points": [{"/discharge/mode": "remove"}, {"/seed": 12345, "/discharge/mode": "reinject"}]}})");
+  const CampaignSpec s = CampaignSpec::from_json(j);
+  const auto runs = expand(s, "/cache dir");
+  std::vector<json> points;
+  for (std::size_t i = 0; i < runs.size(); i += 3) points.push_back(runs[i].point);
+  ASSERT_EQ(points.size(), 8u);
+  const auto reference = ReferenceExpand(s, points, "/cache dir");
+  ASSERT_EQ(runs.size(), reference.size());
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    EXPECT_EQ(runs[i].run_id, reference[i].run_id) << i;
+    EXPECT_EQ(runs[i].point_id, reference[i].point_id) << i;
+    EXPECT_EQ(runs[i].params_json, reference[i].params_json) << i;
+    EXPECT_EQ(runs[i].point_json, runs[i].point.dump());
+  }
+}
+
+TEST(DumpTemplateTest, FillEqualsTheDumpOfTheFilledDocument) {
+  const json doc = {{"b", {{"x", 1}, {"s", "\x01granary-field-1\x01"}}}, {"a", 2}, {"c", "z"}};
+  const DumpTemplate t(doc, {"/c"});
+  EXPECT_TRUE(t.spliced());
+  json expect = doc;
+  expect["c"] = "q\"";
+  EXPECT_EQ(t.fill({json("q\"").dump()}), expect.dump());
+  // A document already holding a placeholder text cannot be spliced; fill still dumps right.
+  const DumpTemplate clash(doc, {"/a", "/c"});
+  EXPECT_FALSE(clash.spliced());
+  expect["c"] = "w";
+  expect["a"] = 3;
+  EXPECT_EQ(clash.fill({"3", json("w").dump()}), expect.dump());
 }
 
 TEST(CampaignSpecErrorTest, UnknownKeys) {
