@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -168,8 +169,29 @@ std::vector<Sphere> ReadAtomsDump(const fs::path& path) {
   return out;
 }
 
-// Body id (0-based, stable for the run) of a sphere: the multisphere body, or the sphere.
-long long BodyOf(const Sphere& s, bool multisphere) { return multisphere ? s.mol - 1 : s.id - 1; }
+// Body ids (0-based, stable for the run) from the bed: multisphere bodies in `mol` order,
+// then single spheres (mol 0) in atom-id order. Without clumps the dumps carry the atom id in
+// the `mol` column, so every sphere is its own body.
+class BodyIndex {
+ public:
+  explicit BodyIndex(const std::vector<Sphere>& bed) {
+    for (const Sphere& s : bed) index_.emplace(Key(s.id, s.mol), 0);
+    long long next = 0;
+    for (auto& [key, value] : index_) value = next++;
+  }
+  long long of(long long id, long long mol) const {
+    const auto it = index_.find(Key(id, mol));
+    return it == index_.end() ? -1 : it->second;
+  }
+  long long of(const Sphere& s) const { return of(s.id, s.mol); }
+  std::size_t size() const { return index_.size(); }
+
+ private:
+  static std::pair<long long, long long> Key(long long id, long long mol) {
+    return mol > 0 ? std::make_pair(mol, 0LL) : std::make_pair(std::numeric_limits<long long>::max(), id);
+  }
+  std::map<std::pair<long long, long long>, long long> index_;
+};
 
 struct Checkpoint {
   fs::path file;
@@ -247,14 +269,23 @@ struct Event {
 // Exit events from the massflow files. A body's first sphere through the counting plane
 // is its exit; in reinject mode a body passes the plane again only after a trip through
 // the bed, so crossings by the same body within `recross` are the rest of that body.
-std::vector<Event> ReadEvents(const fs::path& dir, int outlets, const std::map<long long, Sphere>& spheres,
-                              bool multisphere, double recross) {
+// The files a counter wrote: FILE, or FILE.<rank> with several MPI ranks.
+std::vector<fs::path> CounterFiles(const fs::path& dir, const Counter& c) {
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string f = e.path().filename().string();
+    if (f == c.file || (f.rfind(c.file + ".", 0) == 0 && f.find_first_not_of("0123456789", c.file.size() + 1) == std::string::npos))
+      files.push_back(e.path());
+  }
+  return files;
+}
+
+std::vector<Event> ReadEvents(const fs::path& dir, const std::vector<Counter>& counters,
+                              const std::map<long long, Sphere>& spheres, const BodyIndex& bodies, double recross) {
   std::vector<Event> events;
-  for (int k = 0; k < outlets; ++k) {
-    std::vector<fs::path> files;
-    const std::string base = "exits_" + std::to_string(k) + ".txt";
-    for (const auto& e : fs::directory_iterator(dir))  // one file per MPI rank: exits_k.txt.<rank>
-      if (e.path().filename().string().rfind(base, 0) == 0) files.push_back(e.path());
+  for (const Counter& c : counters) {
+    const int k = c.outlet;
+    const std::vector<fs::path> files = CounterFiles(dir, c);
     for (const fs::path& f : files) {
       std::ifstream in(f);
       std::string line;
@@ -264,7 +295,7 @@ std::vector<Event> ReadEvents(const fs::path& dir, int outlets, const std::map<l
         if (t.size() < 2) continue;
         const auto it = spheres.find(std::stoll(t[0]));
         if (it == spheres.end()) continue;
-        events.push_back({std::stod(t[1]), BodyOf(it->second, multisphere), it->second.type - 1, k});
+        events.push_back({std::stod(t[1]), bodies.of(it->second), it->second.type - 1, k});
       }
     }
   }
@@ -281,7 +312,8 @@ std::vector<Event> ReadEvents(const fs::path& dir, int outlets, const std::map<l
 }
 
 // LIGGGHTS dump (id mol type x y radius vx vy omegaz) -> the run-directory frames format.
-void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const Setup& setup) {
+void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const Setup& setup,
+                   const BodyIndex& bodies) {
   std::ifstream in(in_path);
   std::ofstream out(out_path, std::ios::trunc);
   std::string line;
@@ -304,9 +336,9 @@ void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunS
     for (long long i = 0; i < n && std::getline(in, line); ++i) {
       const auto t = Tokens(line);
       if (t.size() < 9) throw std::runtime_error("malformed LIGGGHTS dump line: " + line);
-      const Sphere s{std::stoll(t[0]), std::stoll(t[1]), std::stoi(t[2]), 0, 0, 0};
       const double r = std::stod(t[5]);
-      std::snprintf(buf, sizeof buf, "%s %lld %s %s %s 0 %s %.10g %s %s 0 %s\n", t[0].c_str(), BodyOf(s, setup.multisphere),
+      std::snprintf(buf, sizeof buf, "%s %lld %s %s %s 0 %s %.10g %s %s 0 %s\n", t[0].c_str(),
+                    bodies.of(std::stoll(t[0]), std::stoll(t[1])),
                     t[2].c_str(), t[3].c_str(), t[4].c_str(), t[5].c_str(), rho * std::numbers::pi * r * r, t[6].c_str(),
                     t[7].c_str(), t[8].c_str());
       out << buf;
@@ -386,8 +418,7 @@ Bed ObtainBed(const RunSpec& spec, const Setup& setup, const fs::path& dir, cons
   });
   if (r.exit_code != 0 || !fs::exists(dir / "bed.restart")) Fail("LIGGGHTS failed while preparing the bed", r, dir / "log.bed");
   const std::vector<Sphere> spheres = ReadAtomsDump(dir / "bed.dump");
-  std::set<long long> bodies;
-  for (const Sphere& s : spheres) bodies.insert(BodyOf(s, setup.multisphere));
+  const BodyIndex bodies(spheres);
   if (static_cast<int>(bodies.size()) != spec.bodies.count)
     throw LiggghtsError("LIGGGHTS inserted " + std::to_string(bodies.size()) + " of " + std::to_string(spec.bodies.count) +
                         " bodies (insert/pack found no room for the rest; spheres after insertion: " +
@@ -417,6 +448,20 @@ std::string LiggghtsVersion(const fs::path& log) {
     if (std::regex_search(line, m, v)) return m[1];
   }
   return "unknown";
+}
+
+// The y extent of a dump's box (third line after BOX BOUNDS... the second bounds line).
+double BoxTop(const fs::path& dump) {
+  std::ifstream in(dump);
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("ITEM: BOX BOUNDS", 0) == 0) {
+      std::getline(in, line);
+      std::getline(in, line);
+      const auto t = Tokens(line);
+      if (t.size() == 2) return std::stod(t[1]);
+    }
+  throw std::runtime_error("no box bounds in " + dump.string());
 }
 
 double TopOf(const std::vector<Sphere>& spheres) {
@@ -464,7 +509,6 @@ std::vector<std::string> WriteInputs(const std::string& dir_name) {
   WriteMeshes(dir, setup);
   WriteAtomically(dir / "bed.in", BedScript(spec, setup));
   DischargeStart start;
-  start.bed_top = setup.insert_y_hi;  // unknown before the bed exists; the real run measures it
   WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, start));
   std::vector<std::string> files = {"bed.in", "discharge.in"};
   for (const MeshFile& m : setup.fill_meshes) files.push_back(m.name);
@@ -476,11 +520,9 @@ std::vector<std::string> WriteInputs(const std::string& dir_name) {
 BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& options) {
   const fs::path dir = fs::absolute(dir_name);
   const RunSpec spec = ReadSpec(dir);
-  const Setup setup = MakeSetup(spec);
+  Setup setup = MakeSetup(spec);
   const std::string exe = FindLiggghts(options.liggghts);
-  const auto t0 = Clock::now();
   fs::remove(dir / "DONE");
-  WriteMeshes(dir, setup);
 
   BackendResult result;
   const Checkpoint ckpt = NewestCheckpoint(dir);
@@ -494,38 +536,48 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
     start.continue_run = true;
     start.restart_file = ckpt.file.filename().string();  // "checkpoint.<digits>.restart": no spec text
     const double t_ckpt = static_cast<double>(ckpt.step) * spec.time_step;
-    for (std::size_t k = 0; k < setup.counters.size(); ++k)
-      start.last_exit_step =
-          std::max(start.last_exit_step, TruncateExits(dir / ("exits_" + std::to_string(k) + ".txt"), t_ckpt, spec.time_step));
+    for (const Counter& c : setup.counters)
+      for (const fs::path& f : CounterFiles(dir, c))
+        start.last_exit_step = std::max(start.last_exit_step, TruncateExits(f, t_ckpt, spec.time_step));
     TruncateFrames(dir / "frames.liggghts", ckpt.step);
     RemoveCheckpoints(dir, ckpt.step);
     discharge_wall_before = state.value("discharge_wall_s", 0.0);
   } else {
     for (const char* f : {"frames.liggghts", "events.csv", "frames.dump", "final.dump"}) fs::remove(dir / f);
-    for (std::size_t k = 0; k < setup.counters.size(); ++k) fs::remove(dir / ("exits_" + std::to_string(k) + ".txt"));
+    for (const Counter& c : setup.counters)
+      for (const fs::path& f : CounterFiles(dir, c)) fs::remove(f);
     RemoveCheckpoints(dir, -1);
+    WriteMeshes(dir, setup);
     const Bed bed = ObtainBed(spec, setup, dir, exe, options);
-    start.bed_top = TopOf(ReadAtomsDump(dir / "bed.dump"));
-    state = {{"bed_file", bed.file},      {"bed_prepared_here", bed.prepared_here}, {"bed_wall_s", bed.wall_s},
-             {"settle_time", bed.settle_time}, {"bed_height", start.bed_top},        {"discharge_wall_s", 0.0}};
+    state = {{"bed_file", bed.file},           {"bed_prepared_here", bed.prepared_here},
+             {"bed_wall_s", bed.wall_s},       {"settle_time", bed.settle_time},
+             {"bed_height", TopOf(ReadAtomsDump(dir / "bed.dump"))}, {"discharge_wall_s", 0.0}};
     WriteAtomically(state_file, state.dump() + "\n");
   }
 
-  // Discharge.
+  // Discharge, in the bed's box.
+  setup = MakeSetup(spec, BoxTop(dir / "bed.dump"));
+  WriteMeshes(dir, setup);
   WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, start));
   const auto t_discharge = Clock::now();
   std::string end_reason;
   long long last_step = 0;
   const std::string log = result.continued ? "log.discharge." + std::to_string(ckpt.step) : "log.discharge";
+  std::map<long long, Sphere> spheres;  // every sphere of the bed, by LIGGGHTS atom id
+  const std::vector<Sphere> bed_spheres = ReadAtomsDump(dir / "bed.dump");
+  for (const Sphere& s : bed_spheres) spheres.emplace(s.id, s);
+  const BodyIndex bodies(bed_spheres);
+  const double recross = spec.discharge.mode == DischargeMode::kRemove ? 1e300 : 1.0;
   const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "discharge.in", log, [&](const std::string& line) {
     const auto t = Tokens(line);
     if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
     if (t[0] == "GRANARY_FINAL" && t.size() > 1) last_step = std::stoll(t[1]);
     if (t[0] == "GRANARY_PROGRESS" && t.size() > 2) {
       const double time = std::stod(t[1]) * spec.time_step;
-      ReportProgress(dir, "discharge", time / spec.discharge.max_time, time, spec.discharge.max_time,
-                     static_cast<int>(std::llround(std::stod(t[2]))), discharge_wall_before + Seconds(t_discharge),
-                     options.quiet);
+      // LIGGGHTS' own count weights a clump's spheres by volume; the events are exact.
+      const int exited = static_cast<int>(ReadEvents(dir, setup.counters, spheres, bodies, recross).size());
+      ReportProgress(dir, "discharge", time / spec.discharge.max_time, time, spec.discharge.max_time, exited,
+                     discharge_wall_before + Seconds(t_discharge), options.quiet);
       state["discharge_wall_s"] = discharge_wall_before + Seconds(t_discharge);
       WriteAtomically(state_file, state.dump() + "\n");
     }
@@ -535,16 +587,12 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   const double discharge_wall = discharge_wall_before + Seconds(t_discharge);
 
   // Convert into the run-directory format.
-  std::map<long long, Sphere> spheres;
-  for (const Sphere& s : ReadAtomsDump(dir / "bed.dump")) spheres.emplace(s.id, s);
   std::vector<engine::ShapeTemplate> templates;
   for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
     templates.push_back(engine::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
-  const double recross = spec.discharge.mode == DischargeMode::kRemove ? 1e300 : 1.0;
-  const std::vector<Event> events =
-      ReadEvents(dir, static_cast<int>(setup.counters.size()), spheres, setup.multisphere, recross);
+  const std::vector<Event> events = ReadEvents(dir, setup.counters, spheres, bodies, recross);
   std::string csv = "time,body,shape,mass,outlet\n";
-  std::vector<int> per_outlet(setup.counters.size(), 0);
+  std::vector<int> per_outlet(static_cast<std::size_t>(setup.outlets), 0);
   char buf[256];
   for (const Event& e : events) {
     const engine::ShapeTemplate& tp = templates[static_cast<std::size_t>(e.species)];
@@ -554,13 +602,15 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   }
   WriteAtomically(dir / "events.csv", csv);
   if (spec.output.frame_interval > 0 && fs::exists(dir / "frames.liggghts"))
-    ConvertFrames(dir / "frames.liggghts", dir / "frames.dump", spec, setup);
+    ConvertFrames(dir / "frames.liggghts", dir / "frames.dump", spec, setup, bodies);
 
   std::set<long long> remaining;
-  for (const Sphere& s : ReadAtomsDump(dir / "final.dump")) remaining.insert(BodyOf(s, setup.multisphere));
-  int spheres_total = 0;
-  for (const auto& tp : templates) (void)tp;
-  spheres_total = static_cast<int>(spheres.size());
+  for (const Sphere& s : ReadAtomsDump(dir / "final.dump")) remaining.insert(bodies.of(s));
+  // Work of this session: the bed's spheres x the steps run since the start or the checkpoint
+  // (an upper bound in remove mode, where spheres leave).
+  const double spheres_total = static_cast<double>(spheres.size());
+  const long long session_steps = last_step - (result.continued ? ckpt.step : 0);
+  const double session_wall = discharge_wall - discharge_wall_before;
   result.end_reason = end_reason;
   result.exited = static_cast<int>(events.size());
   result.steps = last_step;
@@ -588,10 +638,9 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   summary["timing"] = {{"wall_s", bed_wall + discharge_wall},
                        {"bed_wall_s", bed_wall},
                        {"discharge_wall_s", discharge_wall},
-                       {"disc_steps_per_s", discharge_wall > 0 ? spheres_total * static_cast<double>(last_step) / discharge_wall : 0.0},
+                       {"disc_steps_per_s", session_wall > 0 ? spheres_total * static_cast<double>(session_steps) / session_wall : 0.0},
                        {"threads", options.threads}};
   summary["continued_from_checkpoint"] = result.continued;
-  (void)t0;
   WriteAtomically(dir / "summary.json", summary.dump(2) + "\n");
   RemoveCheckpoints(dir, -1);
   ReportProgress(dir, "discharge", 1.0, static_cast<double>(last_step) * spec.time_step, spec.discharge.max_time,

@@ -68,11 +68,12 @@ std::string MeshWalls(const RunSpec& spec, const Setup& setup, const std::vector
   return s;
 }
 
-std::string PrimitiveWalls(const RunSpec& spec, const Setup& setup) {
+// Side walls as planes (both while the bed settles: the silo is closed then) and obstacles.
+std::string PrimitiveWalls(const RunSpec& spec, const Setup& setup, bool closed) {
   const std::string type = "primitive type " + std::to_string(setup.wall_type);
   std::string s;
-  if (setup.wall_lo_primitive) s += WallFix(spec, "wall_lo", type + " xplane " + Num(-setup.half_width));
-  if (setup.wall_hi_primitive) s += WallFix(spec, "wall_hi", type + " xplane " + Num(setup.half_width));
+  if (closed || setup.wall_lo_primitive) s += WallFix(spec, "wall_lo", type + " xplane " + Num(-setup.half_width));
+  if (closed || setup.wall_hi_primitive) s += WallFix(spec, "wall_hi", type + " xplane " + Num(setup.half_width));
   for (std::size_t k = 0; k < spec.silo.obstacles.size(); ++k) {
     const Obstacle& o = spec.silo.obstacles[k];
     s += WallFix(spec, "obstacle_" + std::to_string(k),
@@ -85,12 +86,29 @@ std::string PrimitiveWalls(const RunSpec& spec, const Setup& setup) {
 // splits in x only, since the bed fills the bottom of a tall box (notes §3).
 constexpr char kHeader[] = "atom_modify map array\nprocessors * 1 1\n";
 
-std::string Integration(const Setup& setup) {
-  // allow_group_and_set: the discharge counts spheres above the outlets with count(all,region).
-  if (setup.multisphere) return "fix ms all multisphere allow_group_and_set yes\n";
-  // Single spheres: planeforce drops f_z, so the centres stay exactly in z = 0.
-  return "fix integrate all nve/sphere\nfix planar all planeforce 0 0 1\n";
+// Clumps move with fix multisphere (fflag/tflag keep them planar); single discs with
+// nve/sphere, planeforce dropping f_z so that their centres stay in z = 0. fix multisphere
+// integrates bodies only, so with a mixture the discs are the group `singles` (by atom type),
+// made after insertion: a static group holds the atoms that exist when it is defined.
+std::string ClumpIntegration(const Setup& setup) {
+  // allow_group_and_set: the groups below and count(all,region) in the discharge.
+  return setup.multisphere ? "fix ms all multisphere allow_group_and_set yes\n" : "";
 }
+std::string SingleIntegration(const Setup& setup, bool define_group) {
+  if (setup.single_types.empty()) return "";
+  if (!setup.multisphere) return "fix integrate all nve/sphere\nfix planar all planeforce 0 0 1\n";
+  std::string s;
+  if (define_group) {
+    s = "group singles type";
+    for (int t : setup.single_types) s += " " + std::to_string(t);
+    s += "\n";
+  }
+  return s + "fix integrate singles nve/sphere\nfix planar singles planeforce 0 0 1\n";
+}
+
+// The body of a sphere in dumps: the multisphere body (`mol`; 0 for a single sphere), or,
+// without clumps, the sphere itself (`mol` is not allocated then).
+std::string BodyColumn(const Setup& setup) { return setup.multisphere ? "mol" : "id"; }
 
 long long StepsOf(double time, double dt) { return std::max<long long>(1, std::llround(time / dt)); }
 
@@ -135,7 +153,7 @@ std::string Stl(const MeshFile& m, double half_z) {
   return s + "endsolid granary\n";
 }
 
-Setup MakeSetup(const RunSpec& spec) {
+Setup MakeSetup(const RunSpec& spec, double box_top) {
   validate(spec);
   Setup s;
   const Silo& silo = spec.silo;
@@ -154,6 +172,7 @@ Setup MakeSetup(const RunSpec& spec) {
   double bound = 0, area = 0, mass = 0;
   for (std::size_t k = 0; k < templates.size(); ++k) {
     s.multisphere = s.multisphere || templates[k].r.size() > 1;
+    if (templates[k].r.size() == 1) s.single_types.push_back(static_cast<int>(k) + 1);
     bound = std::max(bound, templates[k].bound_radius);
     area += counts[k] * templates[k].area;
     mass += counts[k] * templates[k].mass;
@@ -164,6 +183,7 @@ Setup MakeSetup(const RunSpec& spec) {
   const double x_margin = silo.side_outlets.empty() ? 1.0 : ed + 3.0;
   s.x_lo = -s.half_width - x_margin;
   s.x_hi = s.half_width + x_margin;
+  s.bound_radius = bound;
   s.half_z = std::max(2.0, bound + 1.0);  // more than the bounding radius, or nothing is inserted (notes §4.6)
   s.y_lo = -(ed + 3.0);
   double floor = 1.0 + bound;
@@ -204,7 +224,8 @@ Setup MakeSetup(const RunSpec& spec) {
       if (h0 > y + 1e-9) s.discharge_meshes.push_back({"mesh_" + side + "_" + std::to_string(k++) + ".stl", wx, y, wx, h0});
       y = std::max(y, h1);
     }
-    s.discharge_meshes.push_back({"mesh_" + side + "_" + std::to_string(k++) + ".stl", wx, y, wx, s.y_hi});
+    const double top = box_top > 0 ? box_top - 0.01 : s.y_hi;
+    s.discharge_meshes.push_back({"mesh_" + side + "_" + std::to_string(k++) + ".stl", wx, y, wx, top});
   }
 
   // Counting planes: below each base outlet (a little wider, but never reaching the next
@@ -220,21 +241,27 @@ Setup MakeSetup(const RunSpec& spec) {
     }
     lo = std::max(lo, s.x_lo + 0.01);
     hi = std::min(hi, s.x_hi - 0.01);
-    s.counters.push_back({{"mesh_exit_" + std::to_string(k) + ".stl", lo, -ed, hi, -ed}, 0.0, -1.0});
+    s.counters.push_back({{"mesh_exit_" + std::to_string(k) + ".stl", lo, -ed, hi, -ed}, 0.0, -1.0, static_cast<int>(k),
+                          "exits_" + std::to_string(k) + ".txt"});
   }
   for (std::size_t k = 0; k < silo.side_outlets.size(); ++k) {
     const SideOutlet& o = silo.side_outlets[k];
     const double sign = o.wall == Wall::kLeft ? -1.0 : 1.0;
     const double cx = sign * (s.half_width + ed);
-    s.counters.push_back({{"mesh_exit_" + std::to_string(silo.base_outlets.size() + k) + ".stl", cx, s.y_lo + 0.5, cx,
-                           o.bottom + o.width + 1.0},
-                          sign, 0.0});
+    const int outlet = static_cast<int>(silo.base_outlets.size() + k);
+    const std::string name = std::to_string(outlet);
+    s.counters.push_back({{"mesh_exit_" + name + ".stl", cx, -ed, cx, o.bottom + o.width + 1.0}, sign, 0.0, outlet,
+                          "exits_" + name + ".txt"});
+    const double inner = sign * (s.half_width + 0.01), outer = sign > 0 ? s.x_hi - 0.01 : s.x_lo + 0.01;
+    s.counters.push_back({{"mesh_exit_" + name + "_below.stl", std::min(inner, outer), -ed, std::max(inner, outer), -ed},
+                          0.0, -1.0, outlet, "exits_" + name + "_below.txt"});
   }
+  s.outlets = static_cast<int>(silo.base_outlets.size() + silo.side_outlets.size());
 
   // One template per species and orientation: insert/pack has no random in-plane
   // orientation, so rotated copies are mixed (6 over 180 degrees for symmetric bodies,
   // 12 over 360 for snowmen). Weights are mass-based in LIGGGHTS: fraction x mass.
-  int t = 0;
+  int t = 0, clump_type = 0;  // clump template types must run 1, 2, ... (sphere templates have none)
   std::string dist;
   for (std::size_t k = 0; k < templates.size(); ++k) {
     const ShapeTemplate& tp = templates[k];
@@ -249,7 +276,7 @@ Setup MakeSetup(const RunSpec& spec) {
       const std::string id = "tmpl_" + std::to_string(t);
       const long long seed = PrimeSeed(spec.seed, 100 + t);
       std::string line;
-      if (!s.multisphere) {
+      if (tp.r.size() == 1) {
         line = "fix " + id + " all particletemplate/sphere " + std::to_string(seed) + " atom_type " +
                std::to_string(k + 1) + " density constant " + Num(density3d) + " radius constant " + Num(tp.r[0]);
       } else {
@@ -265,7 +292,7 @@ Setup MakeSetup(const RunSpec& spec) {
         }
         line = "fix " + id + " all particletemplate/multisphere " + std::to_string(seed) + " atom_type " +
                std::to_string(k + 1) + " density constant " + Num(density3d) + " nspheres " +
-               std::to_string(tp.r.size()) + " ntry 1000000 spheres" + spheres + " type " + std::to_string(t + 1) +
+               std::to_string(tp.r.size()) + " ntry 1000000 spheres" + spheres + " type " + std::to_string(++clump_type) +
                " mass " + Num(tp.mass) + " use_density inertia_tensor " + Num(ixx) + " " + Num(ixy) + " 0 " + Num(iyy) +
                " 0 " + Num(tp.inertia) + " fflag on on off tflag off off on";
       }
@@ -291,23 +318,26 @@ std::string BedScript(const RunSpec& spec, const Setup& s) {
     << Num(-s.half_z) << " " << Num(s.half_z) << " units box\n"
     << "create_box " << s.wall_type << " box\n"
     << "neighbor 0.2 bin\nneigh_modify delay 0\n"
-    << Material(spec, s) << MeshWalls(spec, s, s.fill_meshes, "walls_fill") << PrimitiveWalls(spec, s);
+    << Material(spec, s) << MeshWalls(spec, s, s.fill_meshes, "walls_fill") << PrimitiveWalls(spec, s, true);
   for (const std::string& l : s.template_lines) o << l;
   o << "region insert_region block " << Num(-s.insert_x_half) << " " << Num(s.insert_x_half) << " " << Num(s.insert_y_lo)
     << " " << Num(s.insert_y_hi) << " -1e-6 1e-6 units box\n"
     << "fix insert all insert/pack seed " << PrimeSeed(spec.seed, 2)
     << " distributiontemplate bodies insert_every once overlapcheck yes all_in no orientation constant 1 0 0 0"
     << " vel constant 0 -1 0 region insert_region particles_in_region " << spec.bodies.count << "\n"
-    << Integration(s)
+    << ClumpIntegration(s)
     << "variable ke_atom atom 0.5*mass*(vx*vx+vy*vy)\n"
     << "compute ke_body all reduce ave v_ke_atom\n"  // a body's mass sits on each of its spheres
-    << "variable ke_body equal c_ke_body\nvariable t_now equal time\nvariable atoms_now equal atoms\n"
-    << "thermo_style custom step time atoms c_ke_body cpu\nthermo " << chunk << "\n"
+    << "compute y_max all reduce max y\n"
+    << "variable ke_body equal c_ke_body\nvariable y_max equal c_y_max\nvariable t_now equal time\n"
+    << "variable atoms_now equal atoms\n"
+    << "thermo_style custom step time atoms c_ke_body c_y_max cpu\nthermo " << chunk << "\n"
     << "thermo_modify lost ignore norm no\n"
     << "timestep " << Num(dt) << "\n"
     << "run 1\nunfix insert\n"
-    << "print \"GRANARY_INSERTED ${atoms_now}\"\n";
-  if (!s.multisphere) o << "set group all z 0.0\n";
+    << "print \"GRANARY_INSERTED ${atoms_now}\"\n"
+    << SingleIntegration(s, true);
+  if (!s.single_types.empty()) o << "set group " << (s.multisphere ? "singles" : "all") << " z 0.0\n";
   o << "variable settle_chunk loop " << chunks << "\n"
     << "label settle\n"
     << "run " << chunk << " post no\n"
@@ -316,8 +346,12 @@ std::string BedScript(const RunSpec& spec, const Setup& s) {
     << "\" then \"jump SELF settled\"\n"
     << "next settle_chunk\njump SELF settle\nlabel settled\n"
     << "print \"GRANARY_BED_DONE ${t_now} ${ke_body}\"\n"  // before anything re-initialises the computes
+    // The box top right above the bed: in reinject mode (y-periodic) a body leaving at the
+    // bottom re-enters just above the bed surface. change_box is refused after read_restart.
+    << "variable box_top equal ${y_max}+" << Num(2 * s.bound_radius + 1.0) << "\n"
+    << "change_box all y final " << Num(s.y_lo) << " ${box_top} units box\n"
     << "write_restart bed.restart\n"
-    << "write_dump all custom bed.dump id mol type x y radius\n";
+    << "write_dump all custom bed.dump id " << BodyColumn(s) << " type x y radius\n";
   return o.str();
 }
 
@@ -331,28 +365,23 @@ std::string DischargeScript(const RunSpec& spec, const Setup& s, const Discharge
   o << "# Discharge, generated by granary-liggghts from run.json (docs/liggghts.md)\n"
     << kHeader << "read_restart " << (start.continue_run ? start.restart_file : std::string("bed.restart")) << "\n"
     << "newton off\nneighbor 0.2 bin\nneigh_modify delay 0\ncommunicate single vel yes\n";
-  if (!start.continue_run) {
-    // Reinjection is y-periodicity: the box top sits just above the bed, so a body that
-    // leaves at the bottom re-enters right above the bed surface.
-    if (!remove) o << "change_box all y final " << Num(s.y_lo) << " " << Num(start.bed_top + 2.5) << " units box\n";
-  }
-  o << Material(spec, s) << MeshWalls(spec, s, s.discharge_meshes, "walls_discharge") << PrimitiveWalls(spec, s);
+  o << Material(spec, s) << MeshWalls(spec, s, s.discharge_meshes, "walls_discharge") << PrimitiveWalls(spec, s, false);
   std::string exited;
   for (std::size_t k = 0; k < s.counters.size(); ++k) {
     const Counter& c = s.counters[k];
-    const std::string id = "mesh_exit_" + std::to_string(k), file = "exits_" + std::to_string(k) + ".txt";
+    const std::string id = "counter_" + std::to_string(k);
     o << "fix " << id << " all mesh/surface file " << c.mesh.name << " type " << s.wall_type << "\n"
       << "fix exit_" << k << " all massflow/mesh mesh " << id << " vec_side " << Num(c.side_x) << " " << Num(c.side_y)
       << " 0 " << (remove ? "count once delete_atoms yes" : "count multiple") << " "
-      << (start.continue_run ? "append " : "file ") << file << " writeTime\n";
+      << (start.continue_run ? "append " : "file ") << c.file << " writeTime\n";
     exited += (k ? "+f_exit_" : "f_exit_") + std::to_string(k) + "[2]";
   }
-  o << Integration(s);
+  o << ClumpIntegration(s) << SingleIntegration(s, false);
   // Regions just above every outlet: a stall with nothing there means the silo has
   // discharged all it can (the rest lies in the dead zones), otherwise it is a clog.
   const std::size_t n_base = spec.silo.base_outlets.size();
   std::string over;
-  for (std::size_t k = 0; k < s.counters.size(); ++k) {
+  for (std::size_t k = 0; k < static_cast<std::size_t>(s.outlets); ++k) {
     std::ostringstream r;
     if (k < n_base) {
       const BaseOutlet& b = spec.silo.base_outlets[k];
@@ -369,8 +398,8 @@ std::string DischargeScript(const RunSpec& spec, const Setup& s, const Discharge
     o << "region over_" << k << " block " << r.str() << " " << Num(-s.half_z) << " " << Num(s.half_z) << " units box\n";
     over += " over_" + std::to_string(k);
   }
-  if (s.counters.size() > 1) o << "region over union " << s.counters.size() << over << "\n";
-  const std::string over_region = s.counters.size() > 1 ? "over" : "over_0";
+  if (s.outlets > 1) o << "region over union " << s.outlets << over << "\n";
+  const std::string over_region = s.outlets > 1 ? "over" : "over_0";
   const std::string script = o.str();
   std::ostringstream p;
   p << "variable exited equal " << exited << "\n"
@@ -382,7 +411,7 @@ std::string DischargeScript(const RunSpec& spec, const Setup& s, const Discharge
     << "timestep " << Num(dt) << "\n";
   if (spec.output.frame_interval > 0) {
     p << "dump frames all custom " << StepsOf(spec.output.frame_interval, dt)
-      << " frames.liggghts id mol type x y radius vx vy omegaz\n"
+      << " frames.liggghts id " << BodyColumn(s) << " type x y radius vx vy omegaz\n"
       << "dump_modify frames format \"%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g\"\n";
     if (start.continue_run) p << "dump_modify frames append yes\n";
   }
@@ -409,7 +438,7 @@ std::string DischargeScript(const RunSpec& spec, const Setup& s, const Discharge
   if (spec.discharge.stop_on_clog)
     p << "if \"" << stalled << "\" then \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
   p << "next chunk\njump SELF discharge\nlabel finished\n"
-    << "write_dump all custom final.dump id mol type x y radius\n"
+    << "write_dump all custom final.dump id " << BodyColumn(s) << " type x y radius\n"
     << "print \"GRANARY_FINAL ${step_now}\"\n";
   return script + p.str();
 }

@@ -20,21 +20,27 @@ struct MeshFile {
   double x0, y0, x1, y1;
 };
 
-// A counting plane behind one outlet (base outlets first, then side outlets).
+// A counting plane (fix massflow/mesh) behind an outlet. Outlets are numbered base outlets
+// first, then side outlets; a side outlet has two planes: one outside the wall and one
+// below the base level, for bodies that drop down the outside of the wall.
 struct Counter {
   MeshFile mesh;
   double side_x, side_y;  // direction in which a body leaves (massflow vec_side)
+  int outlet;
+  std::string file;       // the crossings LIGGGHTS writes (per MPI rank: file.<rank>)
 };
 
 // The quasi-2-D set-up shared by the bed and discharge scripts.
 struct Setup {
   int species = 0;            // atom types 1..species are the bodies' spheres
   int wall_type = 0;          // = species + 1
-  bool multisphere = false;   // any clump: every species becomes a multisphere template
+  bool multisphere = false;   // any clump: clumps are multisphere bodies (fix multisphere)
+  std::vector<int> single_types;  // atom types of single-disc species, integrated by nve/sphere
   double half_width = 0;      // side walls at +-half_width
   double x_lo = 0, x_hi = 0;  // box
   double y_lo = 0, y_hi = 0;  // box (periodic in y)
   double half_z = 0;          // box z extent [-half_z, half_z]
+  double bound_radius = 0;    // largest body's bounding radius
   double insert_y_lo = 0, insert_y_hi = 0;
   double insert_x_half = 0;
   double mean_body_mass = 0;
@@ -42,12 +48,15 @@ struct Setup {
   std::vector<MeshFile> discharge_meshes;  // base between outlets, side-wall pieces around side outlets
   bool wall_lo_primitive = true, wall_hi_primitive = true;  // false when that side wall has an outlet
   std::vector<Counter> counters;
+  int outlets = 0;
   std::vector<std::string> template_lines;  // particletemplate + particledistribution commands
   int template_count = 0;
 };
 
 // Throws SpecError for what the backend cannot express (e.g. reinject with a side outlet).
-Setup MakeSetup(const RunSpec& spec);
+// `box_top`: the top of the settled bed's box (the bed script shrinks the box to just above
+// the bed); side-wall meshes must end inside it. 0 = before the bed exists.
+Setup MakeSetup(const RunSpec& spec, double box_top = 0.0);
 
 // Bed script: insert, settle until the kinetic energy per body is negligible, write
 // bed.restart and bed.dump. Prints "GRANARY_BED t=... ke=..." every chunk.
@@ -60,7 +69,6 @@ struct DischargeStart {
   bool continue_run = false;
   std::string restart_file;  // fixed-form name chosen by the backend (checkpoint.<step>.restart)
   long long last_exit_step = 0;
-  double bed_top = 0;        // highest sphere top in the settled bed (for the reinject box)
 };
 std::string DischargeScript(const RunSpec& spec, const Setup& setup, const DischargeStart& start);
 
