@@ -45,6 +45,41 @@ PointMetrics point_metrics(const PointRuns& p, const AnalysisOptions& options, d
   m.tg_full = mean_se_finite(t2);
   m.v_max = mean_se_finite(vmax);
   m.avalanche_size = mean_se(avalanches);
+  std::size_t outlets = 0;
+  for (const RunAnalysis* r : p.runs) outlets = std::max(outlets, r->outlets.size());
+  for (std::size_t o = 0; o < outlets; ++o) {
+    OutletMetrics om;
+    std::vector<double> oq, oqm, ophi, ot1, ot2, ovmax, oaval;
+    std::vector<ClogSeries> series;
+    for (const RunAnalysis* r : p.runs) {
+      if (o >= r->outlets.size()) continue;
+      om.label = r->outlets[o].label;
+      if (o < r->flow_per_outlet.size()) {
+        const FlowRate& f = r->flow_per_outlet[o];
+        oq.push_back(f.ok ? f.q_count : kNaN);
+        oqm.push_back(f.ok ? f.q_mass : kNaN);
+      }
+      if (o < r->region_per_outlet.size()) {
+        ophi.push_back(r->region_per_outlet[o].phi.mean);
+        ot1.push_back(r->region_per_outlet[o].tg_translational.mean);
+        ot2.push_back(r->region_per_outlet[o].tg_full.mean);
+      }
+      if (o < r->profile_per_outlet.size()) ovmax.push_back(r->profile_per_outlet[o].v_max);
+      if (o < r->series_per_outlet.size()) {
+        series.push_back(r->series_per_outlet[o]);
+        for (double s : r->series_per_outlet[o].avalanche_sizes()) oaval.push_back(s);
+      }
+    }
+    om.q_count = mean_se_finite(oq);
+    om.q_mass = mean_se_finite(oqm);
+    om.phi = mean_se_finite(ophi);
+    om.tg_translational = mean_se_finite(ot1);
+    om.tg_full = mean_se_finite(ot2);
+    om.v_max = mean_se_finite(ovmax);
+    om.avalanche_size = mean_se(oaval);
+    om.intermittency = intermittency(series);
+    m.per_outlet.push_back(std::move(om));
+  }
   if (remove_mode) {
     const bool own = stagnant_count(p.runs) >= 0.0;
     m.clogging = clogging_index(clog_runs, options.min_exits_before_clog, own ? -1.0 : stagnant_fallback);

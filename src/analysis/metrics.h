@@ -13,6 +13,19 @@
 
 namespace granary::analysis {
 
+// The same numbers for one outlet (runs with several outlets: ch. 5, 7), over replicas.
+struct OutletMetrics {
+  std::string label;                  // "base 0", "side 1 (right)"
+  MeanSe q_count;                     // through this outlet
+  MeanSe q_mass;
+  MeanSe phi;                         // region next to this outlet
+  MeanSe tg_translational;
+  MeanSe tg_full;
+  MeanSe v_max;
+  MeanSe avalanche_size;              // exits between clogs of this outlet, pooled (n = avalanches)
+  IntermittencyStats intermittency;   // t_f, t_c, N_u of this outlet, pooled over replicas
+};
+
 struct PointMetrics {
   std::string point_id;
   nlohmann::json point;               // sweep-axis values
@@ -25,6 +38,7 @@ struct PointMetrics {
   MeanSe v_max;
   ClogIndex clogging;                 // Psi (remove mode only; n = 0 otherwise)
   MeanSe avalanche_size;              // pooled over every avalanche of every replica (n = avalanches)
+  std::vector<OutletMetrics> per_outlet;  // every outlet, in event order (base, then side outlets)
 };
 
 // A point's analysed runs.

@@ -7,8 +7,10 @@
 #include <cmath>
 #include <ctime>
 #include <functional>
+#include <limits>
 #include <map>
 #include <optional>
+#include <regex>
 #include <set>
 #include <stdexcept>
 
@@ -45,8 +47,13 @@ struct Context {
   std::vector<AnalysedRun> used;
   std::vector<Point> points;
   std::string x_axis;                       // JSON pointer of the x axis ("" = none)
+  std::set<std::string> x_axes;             // the sweep axes that make x (left out of the groups)
   std::string x_label;
+  std::string x_name;                       // short name of x in CSV headers and point names
   bool x_is_width = false;
+  bool x_is_gap = false;                    // x = gap L between base outlets 0 and 1 (ch. 5b, 7)
+  int x_outlet = -1;                        // the outlet (event order) whose width is x; -1: none
+  std::size_t outlets = 1;                  // most outlets of any used run
   std::vector<std::string> notes;
 };
 
@@ -78,14 +85,24 @@ std::optional<nlohmann::json> axis_value(const std::string& axis, const nlohmann
 }
 
 std::string point_label(const Context& c, const nlohmann::json& point, const nlohmann::json& spec,
-                        const std::string& skip_axis) {
+                        const std::set<std::string>& skip_axes = {}) {
   std::string s;
   for (const auto& axis : c.campaign->axes) {
-    if (axis == skip_axis) continue;
+    if (skip_axes.count(axis)) continue;
     const auto v = axis_value(axis, point, spec);
     s += (s.empty() ? "" : ", ") + short_axis(axis) + "=" + (v ? json_text(*v) : "?");
   }
   return s;
+}
+
+// Edge-to-edge gap between base outlets 0 and 1 of a run spec (L of ch. 5b and 7; L = 0 is
+// one outlet of twice the width), or nothing if the spec has fewer than two base outlets.
+std::optional<double> base_outlet_gap(const nlohmann::json& spec) {
+  std::vector<OutletGeometry> base;
+  for (const OutletGeometry& o : outlets_of(spec))
+    if (o.base) base.push_back(o);
+  if (base.size() < 2) return std::nullopt;
+  return std::abs(base[1].center - base[0].center) - 0.5 * (base[0].width + base[1].width);
 }
 
 std::string tangential_cap_of(const nlohmann::json& spec) {
@@ -133,14 +150,38 @@ Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>
       }
     }
   }
-  // The x axis: an outlet width if swept, else the first numeric axis.
+  for (const AnalysedRun& a : c.used) c.outlets = std::max(c.outlets, a.analysis.outlets.size());
+  // The x axis: the gap between two base outlets if a base outlet's centre is swept (the
+  // thesis plots ch. 5b and 7 against L), else an outlet width if swept, else the first
+  // numeric axis.
+  const std::regex centre_axis(R"(/silo/base_outlets/\d+/center)");
+  const std::regex width_axis(R"(/silo/(base|side)_outlets/(\d+)/width)");
+  bool two_base_outlets = !runs.empty();
+  for (const RunRecord& r : runs) two_base_outlets = two_base_outlets && base_outlet_gap(r.spec).has_value();
+  for (const auto& axis : campaign.axes)
+    if (two_base_outlets && std::regex_match(axis, centre_axis)) c.x_axes.insert(axis);
+  if (!c.x_axes.empty()) {
+    c.x_is_gap = true;
+    c.x_axis = *c.x_axes.begin();
+    c.x_name = "L";
+    c.x_label = "L/d (gap between base outlets 0 and 1, edge to edge)";
+  }
   for (const auto& axis : campaign.axes) {
-    if (axis.find("outlets") != std::string::npos && axis.size() >= 6 && axis.substr(axis.size() - 6) == "/width") {
-      c.x_axis = axis;
-      c.x_is_width = true;
-      c.x_label = "W/d (outlet width " + short_axis(axis) + ")";
-      break;
+    std::smatch m;
+    if (c.x_is_gap || !std::regex_match(axis, m, width_axis)) continue;
+    c.x_axis = axis;
+    c.x_axes = {axis};
+    c.x_is_width = true;
+    c.x_name = short_axis(axis);
+    c.x_label = "W/d (outlet width " + c.x_name + ")";
+    // Outlets are numbered in event order: base outlets first, then side outlets.
+    c.x_outlet = std::stoi(m[2].str());
+    if (m[1].str() == "side" && !runs.empty()) {
+      int base = 0;
+      for (const OutletGeometry& o : outlets_of(runs.front().spec)) base += o.base ? 1 : 0;
+      c.x_outlet += base;
     }
+    break;
   }
   // Points in first-appearance order.
   std::map<std::string, std::size_t> index;
@@ -161,7 +202,8 @@ Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>
       }
       if (numeric && !runs.empty()) {
         c.x_axis = axis;
-        c.x_label = short_axis(axis);
+        c.x_axes = {axis};
+        c.x_name = c.x_label = short_axis(axis);
         break;
       }
     }
@@ -176,11 +218,13 @@ Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>
           any_spec = r.spec;
           break;
         }
-    if (!c.x_axis.empty()) {
+    if (c.x_is_gap) {
+      p.x = base_outlet_gap(any_spec).value_or(kNaN);
+    } else if (!c.x_axis.empty()) {
       const auto v = axis_value(c.x_axis, p.point, any_spec);
       if (v && v->is_number()) p.x = v->get<double>();
     }
-    p.group = point_label(c, p.point, any_spec, c.x_axis);
+    p.group = point_label(c, p.point, any_spec, c.x_axes);
     p.spec = any_spec;
   }
   // N_u for points where every run clogged: the freely discharging runs of the same group
@@ -213,7 +257,7 @@ Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>
 
 std::string point_name(const Context& c, const Point& p) {
   std::string s = p.group;
-  if (!c.x_axis.empty()) s = short_axis(c.x_axis) + "=" + format_number(p.x, 6) + (s.empty() ? "" : ", " + s);
+  if (!c.x_axis.empty()) s = c.x_name + "=" + format_number(p.x, 6) + (s.empty() ? "" : ", " + s);
   return s.empty() ? p.id : s;
 }
 
@@ -231,7 +275,7 @@ std::vector<Series> point_series(const Context& c, const std::function<MeanSe(co
   for (const auto& g : groups_of(c)) {
     Series s;
     s.label = g.empty() ? name : g;
-    s.columns = {c.x_label.empty() ? "x" : short_axis(c.x_axis), name, name + "_se", "n"};
+    s.columns = {c.x_label.empty() ? "x" : c.x_name, name, name + "_se", "n"};
     s.style = Series::Style::kErrorBars;
     s.err = 2;
     for (const Point& p : c.points) {
@@ -243,6 +287,55 @@ std::vector<Series> point_series(const Context& c, const std::function<MeanSe(co
     if (!s.rows.empty()) out.push_back(std::move(s));
   }
   return out;
+}
+
+// One series per (outlet, group) of a per-outlet metric, for runs with several outlets.
+std::vector<Series> outlet_series(const Context& c, const std::function<MeanSe(const OutletMetrics&)>& get,
+                                  const std::string& name) {
+  std::vector<Series> out;
+  for (std::size_t o = 0; o < c.outlets; ++o) {
+    for (const auto& g : groups_of(c)) {
+      Series s;
+      s.columns = {c.x_label.empty() ? "x" : c.x_name, name, name + "_se", "n"};
+      s.style = Series::Style::kErrorBars;
+      s.err = 2;
+      for (const Point& p : c.points) {
+        if (p.group != g || !std::isfinite(p.x) || o >= p.metrics.per_outlet.size()) continue;
+        const OutletMetrics& om = p.metrics.per_outlet[o];
+        s.label = om.label + (g.empty() ? "" : ", " + g);
+        const MeanSe m = get(om);
+        if (!std::isfinite(m.mean)) continue;
+        s.rows.push_back({p.x, m.mean, m.se, static_cast<double>(m.n)});
+      }
+      if (!s.rows.empty()) out.push_back(std::move(s));
+    }
+  }
+  return out;
+}
+
+// Point series of a metric: per (outlet, group) when runs have several outlets, else per group.
+std::vector<Series> metric_series(const Context& c, MeanSe PointMetrics::*total, MeanSe OutletMetrics::*outlet,
+                                  const std::string& name) {
+  if (c.outlets > 1) return outlet_series(c, [outlet](const OutletMetrics& m) { return m.*outlet; }, name);
+  return point_series(c, [total](const Point& p) { return p.metrics.*total; }, name);
+}
+
+// The flow rate the headline figure and the fits use: through the outlet whose width is the
+// x axis when runs have several outlets (ch. 7: Q of the small outlet against W1), else
+// through all outlets together.
+MeanSe headline_q(const Context& c, const Point& p) {
+  if (c.outlets > 1 && c.x_outlet >= 0 && static_cast<std::size_t>(c.x_outlet) < p.metrics.per_outlet.size())
+    return p.metrics.per_outlet[static_cast<std::size_t>(c.x_outlet)].q_count;
+  return p.metrics.q_count;
+}
+
+std::string headline_q_what(const Context& c) {
+  if (c.outlets > 1 && c.x_outlet >= 0) {
+    for (const Point& p : c.points)
+      if (static_cast<std::size_t>(c.x_outlet) < p.metrics.per_outlet.size())
+        return "through " + p.metrics.per_outlet[static_cast<std::size_t>(c.x_outlet)].label;
+  }
+  return c.outlets > 1 ? "all outlets together" : "";
 }
 
 bool has_x(const Context& c) {
@@ -265,11 +358,11 @@ std::optional<Section> runs_section(const Context& c) {
                           "than planned says so in its `n`."});
   Table t{"runs_not_used", "Runs not used, with the reason", {"run", "point", "replica", "state", "reason"}, {}};
   for (const RunRecord* r : c.missing)
-    t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state,
+    t.rows.push_back({r->run_id, point_label(c, r->point, r->spec), std::to_string(r->replica), r->state,
                       r->failure.empty() ? "not finished" : "not finished: " + state_reason(*r)});
-  for (const RunRecord* r : c.failed) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state, state_reason(*r)});
-  for (const auto& [r, why] : c.unreadable) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state, "unreadable: " + why});
-  for (const RunRecord* r : c.retired) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, ""), std::to_string(r->replica), r->state, "retired (superseded)"});
+  for (const RunRecord* r : c.failed) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec), std::to_string(r->replica), r->state, state_reason(*r)});
+  for (const auto& [r, why] : c.unreadable) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec), std::to_string(r->replica), r->state, "unreadable: " + why});
+  for (const RunRecord* r : c.retired) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec), std::to_string(r->replica), r->state, "retired (superseded)"});
   if (!t.rows.empty()) s.blocks.push_back(t);
   return s;
 }
@@ -319,6 +412,7 @@ std::optional<Section> per_run_section(const Context& c) {
           {"run", "point", "replica", "engine", "end", "bodies", "exited", "t_end", "clogs (engine/stream)", "window t",
            "Q (bodies/t)", "Q se", "Q_mass (mass/t)", "phi", "T_g ch3", "T_g ch4", "notes"},
           {}};
+  if (c.outlets > 1) t.header.insert(t.header.begin() + 13, "Q per outlet");
   for (const Point& p : c.points) {
     for (const AnalysedRun* a : p.runs) {
       const RunAnalysis& r = a->analysis;
@@ -333,6 +427,11 @@ std::optional<Section> per_run_section(const Context& c) {
                         format_number(r.flow.q_mass), r.has_region ? format_number(r.region.phi.mean) : "",
                         r.has_region ? format_number(r.region.tg_translational.mean) : "",
                         r.has_region ? format_number(r.region.tg_full.mean) : "", notes});
+      if (c.outlets > 1) {
+        std::string per_outlet;
+        for (const FlowRate& f : r.flow_per_outlet) per_outlet += (per_outlet.empty() ? "" : " / ") + format_number(f.q_count);
+        t.rows.back().insert(t.rows.back().begin() + 13, per_outlet);
+      }
     }
   }
   s.blocks.push_back(t);
@@ -377,24 +476,78 @@ std::optional<Section> per_run_section(const Context& c) {
   return s;
 }
 
+// The sweep axis that names the groups (the axes other than x) with one number per group,
+// different in every group, against which fitted parameters are drawn; "" if none. Zipped
+// axes move together (ch. 4: both species fractions), so the first of them serves.
+std::string group_axis(const Context& c) {
+  const std::vector<std::string> groups = groups_of(c);
+  if (groups.size() < 2) return "";
+  for (const auto& axis : c.campaign->axes) {
+    if (c.x_axes.count(axis)) continue;
+    std::map<std::string, double> value_of_group;
+    bool ok = true;
+    for (const Point& p : c.points) {
+      const auto v = axis_value(axis, p.point, p.spec);
+      if (!v || !v->is_number()) {
+        ok = false;
+        break;
+      }
+      const auto [it, added] = value_of_group.emplace(p.group, v->get<double>());
+      if (!added && it->second != v->get<double>()) ok = false;
+    }
+    std::set<double> distinct;
+    for (const auto& [g, v] : value_of_group) distinct.insert(v);
+    if (ok && distinct.size() == value_of_group.size()) return axis;
+  }
+  return "";
+}
+
 std::optional<Section> flow_section(const Context& c) {
   bool any = false;
   for (const Point& p : c.points) any = any || p.metrics.q_count.n > 0;
   if (!any) return std::nullopt;
   Section s{"flow", "Flow rate", {}};
+  const bool several = c.outlets > 1;
   Table t{"flow_rate", "Flow rate per sweep point: mean ± standard error (replicas)",
-          {"point", "Q (bodies/sqrt(d/g))", "Q_mass (mass/sqrt(d/g))", "V_max"}, {}};
+          {"point", several ? "Q all outlets (bodies/sqrt(d/g))" : "Q (bodies/sqrt(d/g))",
+           several ? "Q_mass all outlets (mass/sqrt(d/g))" : "Q_mass (mass/sqrt(d/g))"},
+          {}};
+  // Several outlets (ch. 5, 7): Q and V_max of every outlet in its own columns.
+  std::vector<std::string> labels;
+  for (const Point& p : c.points)
+    for (std::size_t o = labels.size(); o < p.metrics.per_outlet.size(); ++o) labels.push_back(p.metrics.per_outlet[o].label);
+  if (several)
+    for (const auto& l : labels) t.header.push_back("Q " + l);
+  t.header.push_back(several ? "V_max " + (labels.empty() ? std::string("base 0") : labels.front()) : "V_max");
+  if (several)
+    for (std::size_t o = 1; o < labels.size(); ++o) t.header.push_back("V_max " + labels[o]);
   for (const Point& p : c.points) {
     const PointMetrics& m = p.metrics;
-    t.rows.push_back({point_name(c, p), format_mean_se(m.q_count.mean, m.q_count.se, m.q_count.n),
-                      format_mean_se(m.q_mass.mean, m.q_mass.se, m.q_mass.n),
-                      format_mean_se(m.v_max.mean, m.v_max.se, m.v_max.n)});
+    std::vector<std::string> row{point_name(c, p), format_mean_se(m.q_count.mean, m.q_count.se, m.q_count.n),
+                                 format_mean_se(m.q_mass.mean, m.q_mass.se, m.q_mass.n)};
+    auto per_outlet = [&](MeanSe OutletMetrics::*field, std::size_t o) {
+      if (o >= m.per_outlet.size()) return std::string();
+      const MeanSe v = m.per_outlet[o].*field;
+      return format_mean_se(v.mean, v.se, v.n);
+    };
+    if (several) {
+      for (std::size_t o = 0; o < labels.size(); ++o) row.push_back(per_outlet(&OutletMetrics::q_count, o));
+      for (std::size_t o = 0; o < labels.size(); ++o) row.push_back(per_outlet(&OutletMetrics::v_max, o));
+    } else {
+      row.push_back(format_mean_se(m.v_max.mean, m.v_max.se, m.v_max.n));
+    }
+    t.rows.push_back(row);
   }
   s.blocks.push_back(t);
   if (!has_x(c)) return s;
-  Figure f{"flow_rate", "Flow rate Q against " + c.x_label, c.x_label, "Q (bodies per sqrt(d/g))",
-           point_series(c, [](const Point& p) { return p.metrics.q_count; }, "Q"), false, false,
-           "Error bars: standard error over replicas"};
+  const std::string q_what = headline_q_what(c);
+  Figure f{"flow_rate", "Flow rate Q" + (q_what.empty() ? "" : " " + q_what) + " against " + c.x_label, c.x_label,
+           "Q (bodies per sqrt(d/g))", point_series(c, [&c](const Point& p) { return headline_q(c, p); }, "Q"), false,
+           false, "Error bars: standard error over replicas"};
+  Figure per_outlet_figure{"flow_rate_per_outlet", "Flow rate through each outlet against " + c.x_label, c.x_label,
+                           "Q (bodies per sqrt(d/g))", outlet_series(c, [](const OutletMetrics& m) { return m.q_count; }, "Q"),
+                           false, false,
+                           "One curve per outlet (and group); error bars: standard error over replicas"};
   // Fits against W/d per group (>= 3 widths).
   Table fits{"flow_rate_fits", "Fits of Q(W/d) per group (95% confidence intervals, Student t)",
              {"group", "model", "parameter", "value", "se", "95% CI", "chi2/dof", "points", "weighted", "status"}, {}};
@@ -405,16 +558,20 @@ std::optional<Section> flow_section(const Context& c) {
   for (const auto& m : c.options->models) models.push_back(m);
   int fitted_groups = 0;
   for (std::size_t k = 0; k < f.series.size(); ++k) f.series[k].color = static_cast<int>(k);
+  double x_lo = std::numeric_limits<double>::infinity(), x_hi = -x_lo;
+  for (const Point& p : c.points)
+    if (std::isfinite(p.x) && std::isfinite(headline_q(c, p).mean)) {
+      x_lo = std::min(x_lo, p.x);
+      x_hi = std::max(x_hi, p.x);
+    }
+  constexpr int kCurveSamples = 200;
   const std::vector<Series> data_series = f.series;
   std::map<std::string, Figure> model_figures;
-  // The single other sweep axis (if any) against which fitted parameters are drawn.
-  std::string other_axis;
-  for (const auto& axis : c.campaign->axes)
-    if (axis != c.x_axis) other_axis = other_axis.empty() ? axis : "\n";  // "\n": more than one
+  const std::string other_axis = group_axis(c);
   std::map<std::string, Figure> trends;  // per model: its parameters against other_axis
   for (const auto& g : groups_of(c)) {
     double group_value = kNaN;
-    if (!other_axis.empty() && other_axis != "\n")
+    if (!other_axis.empty())
       for (const Point& p : c.points)
         if (p.group == g) {
           const auto v = axis_value(other_axis, p.point, p.spec);
@@ -424,13 +581,14 @@ std::optional<Section> flow_section(const Context& c) {
     std::vector<double> x, y, sigma;
     std::set<double> distinct;
     for (const Point& p : c.points) {
-      if (p.group != g || !std::isfinite(p.x) || !std::isfinite(p.metrics.q_count.mean)) continue;
+      const MeanSe q = headline_q(c, p);
+      if (p.group != g || !std::isfinite(p.x) || !std::isfinite(q.mean)) continue;
       x.push_back(p.x);
-      y.push_back(p.metrics.q_count.mean);
-      sigma.push_back(p.metrics.q_count.se);
+      y.push_back(q.mean);
+      sigma.push_back(q.se);
       distinct.insert(p.x);
     }
-    if (distinct.size() < 3) continue;
+    if (distinct.size() < 3 || models.empty()) continue;
     ++fitted_groups;
     for (const FitModel& model : models) {
       FitResult r;
@@ -483,9 +641,10 @@ std::optional<Section> flow_section(const Context& c) {
       curve.label = r.model_name + (g.empty() ? "" : " (" + g + ")");
       curve.columns = {"W", "Q_fit"};
       curve.style = Series::Style::kLines;
-      const double lo = *distinct.begin(), hi = *distinct.rbegin();
-      for (int i = 0; i <= 100; ++i) {
-        const double xv = lo + (hi - lo) * i / 100.0;
+      // The fitted function sampled densely over the whole plotted x range (every group's
+      // widths), not only through the measured widths.
+      for (int i = 0; i <= kCurveSamples; ++i) {
+        const double xv = x_lo + (x_hi - x_lo) * i / kCurveSamples;
         const double yv = r.evaluate(xv);
         if (std::isfinite(yv)) curve.rows.push_back({xv, yv});
       }
@@ -505,6 +664,7 @@ std::optional<Section> flow_section(const Context& c) {
     }
   }
   s.blocks.push_back(f);
+  if (several && !per_outlet_figure.series.empty()) s.blocks.push_back(per_outlet_figure);
   for (auto& [name, mf] : model_figures) s.blocks.push_back(mf);
   if (fitted_groups > 0) {
     s.blocks.push_back(Text{"Models (shared analyses.md): 2-D Beverloo `Q = C (W/d - k)^(3/2)`, free exponent "
@@ -532,21 +692,26 @@ std::optional<Section> profile_section(const Context& c) {
                     : "Normalised vertical velocity across the outlet",
             along, lateral ? "v_n / max|v_n| (v_n: velocity away from the wall)" : "v_y / max|v_y|", {}, false, false,
             "Bodies with centre within " + format_number(c.options->analysis.profile.band_low) + ".." +
-                format_number(c.options->analysis.profile.band_high) +
-                " d of outlet 0's wall (x along the outlet, v_y normal to it), averaged over the steady-window "
-                "frames and replicas"};
+                format_number(c.options->analysis.profile.band_high) + " d of " +
+                (c.outlets > 1 ? std::string("each outlet's") : std::string("the outlet's")) +
+                " wall (x along the outlet, v_y normal to it), averaged over the steady-window frames and replicas"};
   Figure fx{"velocity_profile_vx",
             lateral ? "Normalised vertical velocity across the lateral outlet"
                     : "Normalised horizontal velocity across the outlet",
             along, lateral ? "v_y / max|v_y|" : "v_x / max|v_x|", {}, false, false,
             lateral ? "Sign: positive upwards" : ""};
-  for (const Point& p : c.points) {
+  for (const Point& p : c.points)
+  for (std::size_t o = 0; o < c.outlets; ++o) {
     std::vector<const VelocityProfile*> prof;
+    std::string outlet_label;
     for (const AnalysedRun* a : p.runs)
-      if (a->analysis.has_profile) prof.push_back(&a->analysis.profile);
+      if (a->analysis.has_profile && o < a->analysis.profile_per_outlet.size()) {
+        prof.push_back(&a->analysis.profile_per_outlet[o]);
+        outlet_label = a->analysis.outlets[o].label;
+      }
     if (prof.empty()) continue;
     Series sy, sx;
-    sy.label = sx.label = point_name(c, p);
+    sy.label = sx.label = point_name(c, p) + (c.outlets > 1 ? ", " + outlet_label : "");
     sy.columns = {"x_over_W", "vy_norm", "vy_norm_se", "n"};
     sx.columns = {"x_over_W", "vx_norm", "vx_norm_se", "n"};
     sy.style = sx.style = Series::Style::kLinesPoints;
@@ -573,8 +738,8 @@ std::optional<Section> profile_section(const Context& c) {
   if (!fx.series.empty()) s.blocks.push_back(fx);
   if (has_x(c))
     s.blocks.push_back(Figure{"v_max", "V_max against " + c.x_label, c.x_label, "V_max (sqrt(g d))",
-                              point_series(c, [](const Point& p) { return p.metrics.v_max; }, "V_max"), false, false,
-                              "max |v_y| of the profile"});
+                              metric_series(c, &PointMetrics::v_max, &OutletMetrics::v_max, "V_max"), false, false,
+                              std::string("max |v_y| of the profile") + (c.outlets > 1 ? ", per outlet" : "")});
   return s;
 }
 
@@ -584,7 +749,9 @@ std::optional<Section> region_section(const Context& c) {
   if (!any) return std::nullopt;
   const RegionSize& size = c.options->analysis.region;
   Section s{"region", "Region above the outlet", {}};
-  s.blocks.push_back(Text{"Region " + size.label + ", centred on outlet 0 and reaching from its wall into the "
+  s.blocks.push_back(Text{"Region " + size.label + ", centred on " +
+                          (c.outlets > 1 ? std::string("each outlet (the first table: outlet 0)") : "the outlet") +
+                          " and reaching from its wall into the "
                           "silo (above a base outlet, beside a lateral one; pad " +
                           format_number(size.pad) + " d, height " + format_number(size.height) +
                           " d). Packing fraction: exact area of every disc inside the region (discs cut by the "
@@ -606,46 +773,40 @@ std::optional<Section> region_section(const Context& c) {
   Table per_outlet{"region_per_outlet", "Region statistics next to every outlet: mean ± se over replicas (n)",
                    {"point", "outlet", "phi", "T_g ch3 (g d)", "T_g ch4 (m g d)"}, {}};
   for (const Point& p : c.points) {
-    std::size_t outlets = 0;
-    for (const AnalysedRun* a : p.runs) outlets = std::max(outlets, a->analysis.region_per_outlet.size());
-    if (outlets < 2) continue;
-    for (std::size_t o = 0; o < outlets; ++o) {
-      std::vector<double> phi, t1, t2;
-      std::string label;
-      for (const AnalysedRun* a : p.runs) {
-        if (o >= a->analysis.region_per_outlet.size()) continue;
-        const RegionStats& r = a->analysis.region_per_outlet[o];
-        phi.push_back(r.phi.mean);
-        t1.push_back(r.tg_translational.mean);
-        t2.push_back(r.tg_full.mean);
-        label = a->analysis.outlets[o].label;
-      }
-      const MeanSe mp = mean_se_finite(phi), m1 = mean_se_finite(t1), m2 = mean_se_finite(t2);
-      per_outlet.rows.push_back({point_name(c, p), label, format_mean_se(mp.mean, mp.se, mp.n),
-                                 format_mean_se(m1.mean, m1.se, m1.n), format_mean_se(m2.mean, m2.se, m2.n)});
+    if (c.outlets < 2) continue;
+    for (const OutletMetrics& m : p.metrics.per_outlet) {
+      if (m.phi.n == 0) continue;
+      per_outlet.rows.push_back({point_name(c, p), m.label, format_mean_se(m.phi.mean, m.phi.se, m.phi.n),
+                                 format_mean_se(m.tg_translational.mean, m.tg_translational.se, m.tg_translational.n),
+                                 format_mean_se(m.tg_full.mean, m.tg_full.se, m.tg_full.n)});
     }
   }
   if (!per_outlet.rows.empty()) s.blocks.push_back(per_outlet);
   if (has_x(c)) {
-    s.blocks.push_back(Figure{"packing_fraction", "Packing fraction phi against " + c.x_label, c.x_label, "phi",
-                              point_series(c, [](const Point& p) { return p.metrics.phi; }, "phi"), false, false, ""});
-    Figure tg{"granular_temperature", "Granular temperature against " + c.x_label, c.x_label, "T_g", {}, false, false,
-              "Both definitions; error bars: se over replicas"};
-    for (auto se : point_series(c, [](const Point& p) { return p.metrics.tg_translational; }, "Tg_ch3")) {
+    const std::string where = c.outlets > 1 ? " next to each outlet" : "";
+    s.blocks.push_back(Figure{"packing_fraction", "Packing fraction phi" + where + " against " + c.x_label, c.x_label,
+                              "phi", metric_series(c, &PointMetrics::phi, &OutletMetrics::phi, "phi"), false, false,
+                              "Error bars: se over replicas"});
+    Figure tg{"granular_temperature", "Granular temperature" + where + " against " + c.x_label, c.x_label,
+              "T_g (ch. 3: g d; ch. 4-5: m g d)", {}, false, false, "Both definitions; error bars: se over replicas"};
+    for (auto se : metric_series(c, &PointMetrics::tg_translational, &OutletMetrics::tg_translational, "Tg_ch3")) {
       se.label = "ch. 3 " + se.label;
       tg.series.push_back(se);
     }
-    for (auto se : point_series(c, [](const Point& p) { return p.metrics.tg_full; }, "Tg_ch4")) {
+    for (auto se : metric_series(c, &PointMetrics::tg_full, &OutletMetrics::tg_full, "Tg_ch4")) {
       se.label = "ch. 4-5 " + se.label;
       tg.series.push_back(se);
     }
     s.blocks.push_back(tg);
   }
   // Velocity distributions, pooled over the replicas of each point.
+  const std::string pooled = std::string("Pooled over frames and replicas") +
+                             (c.outlets > 1 ? "; the region next to outlet 0" : "") +
+                             "; in outlet coordinates (x along the outlet, y from its wall into the silo)";
   Figure dx{"velocity_distribution_vx", "Distribution of v_x in the region", "v_x (sqrt(g d))", "probability density",
-            {}, false, false, "Pooled over frames and replicas"};
+            {}, false, false, pooled};
   Figure dy{"velocity_distribution_vy", "Distribution of v_y in the region", "v_y (sqrt(g d))", "probability density",
-            {}, false, false, "Pooled over frames and replicas"};
+            {}, false, false, pooled};
   for (const Point& p : c.points) {
     std::vector<double> vx, vy;
     for (const AnalysedRun* a : p.runs) {
@@ -699,9 +860,12 @@ std::optional<Section> clogging_index_section(const Context& c) {
 constexpr int kThesisAvalanches = 100;
 
 std::optional<Section> avalanche_section(const Context& c) {
-  bool any = false;
-  for (const Point& p : c.points) any = any || p.metrics.avalanche_size.n > 0;
-  if (!any) return std::nullopt;
+  bool any = false, any_per_outlet = false;
+  for (const Point& p : c.points) {
+    any = any || p.metrics.avalanche_size.n > 0;
+    for (const OutletMetrics& m : p.metrics.per_outlet) any_per_outlet = any_per_outlet || m.avalanche_size.n > 0;
+  }
+  if (!any && !(c.outlets > 1 && any_per_outlet)) return std::nullopt;
   Section s{"avalanches", "Avalanche sizes (ch. 4, 6)", {}};
   s.blocks.push_back(Text{"An avalanche is the number of bodies that leave between the opening (or an unclog) and a "
                           "clog; a clog is a gap of at least the run's clog_window in the exit stream of all outlets "
@@ -759,12 +923,33 @@ std::optional<Section> avalanche_section(const Context& c) {
     }
     ++colour;
   }
-  s.blocks.push_back(t);
-  if (has_x(c))
+  if (!t.rows.empty()) s.blocks.push_back(t);
+  if (has_x(c) && any)
     s.blocks.push_back(Figure{"avalanche_mean", "Mean avalanche size against " + c.x_label, c.x_label, "<s> (bodies)",
                               point_series(c, [](const Point& p) { return p.metrics.avalanche_size; }, "s_mean"), false,
                               false, "Error bars: standard error over avalanches"});
-  s.blocks.push_back(dist);
+  if (!dist.series.empty()) s.blocks.push_back(dist);
+  if (c.outlets > 1 && any_per_outlet) {
+    // Several outlets: the exit stream of each outlet on its own (ch. 7: the small outlet
+    // clogs and unclogs while the large one keeps the silo flowing).
+    s.blocks.push_back(Text{"Per outlet: the same rule applied to each outlet's own exit stream (gaps counted from "
+                            "the first exit through any outlet), so an outlet that clogs while another keeps flowing "
+                            "has avalanches too."});
+    Table po{"avalanches_per_outlet", "Avalanche sizes per point and outlet (pooled over replicas)",
+             {"point", "outlet", "<s> ± se (avalanches)"}, {}};
+    for (const Point& p : c.points)
+      for (const OutletMetrics& m : p.metrics.per_outlet)
+        po.rows.push_back({point_name(c, p), m.label,
+                           m.avalanche_size.n > 0
+                               ? format_mean_se(m.avalanche_size.mean, m.avalanche_size.se, m.avalanche_size.n)
+                               : "no avalanche"});
+    s.blocks.push_back(po);
+    if (has_x(c))
+      s.blocks.push_back(Figure{"avalanche_mean_per_outlet", "Mean avalanche size per outlet against " + c.x_label,
+                                c.x_label, "<s> (bodies)",
+                                outlet_series(c, [](const OutletMetrics& m) { return m.avalanche_size; }, "s_mean"),
+                                false, false, "Error bars: standard error over avalanches"});
+  }
   return s;
 }
 
@@ -817,7 +1002,7 @@ std::optional<Section> intermittency_section(const Context& c) {
                         format_number(st.unclog_rate), std::to_string(st.unclogs), format_number(st.observed_time)});
       if (!std::isfinite(p.x)) continue;
       const std::string key = label + (p.group.empty() ? "" : ", " + p.group);
-      const std::string xname = short_axis(c.x_axis);
+      const std::string xname = c.x_name;
       if (std::isfinite(st.t_flowing.mean))
         series_for(times, tf_index, "t_f " + key, {xname, "t_f", "t_f_se", "n"}, Series::Style::kErrorBars)
             .rows.push_back({p.x, st.t_flowing.mean, st.t_flowing.se, static_cast<double>(st.t_flowing.n)});

@@ -18,6 +18,7 @@
 namespace granary::analysis {
 namespace {
 
+using testing::csv_cell;
 using testing::read_file;
 using testing::TempDir;
 using testing::write_file;
@@ -108,33 +109,6 @@ Campaign make_campaign(const std::filesystem::path& root) {
   planned.run_dir = root / "W10r3";
   c.runs.push_back(planned);
   return c;
-}
-
-// The value of `column` in the first CSV row whose cells contain all of `keys`.
-std::string csv_cell(const std::string& csv, const std::vector<std::string>& keys, int column) {
-  std::istringstream in(csv);
-  std::string line;
-  while (std::getline(in, line)) {
-    bool all = true;
-    for (const auto& k : keys) all = all && line.find(k) != std::string::npos;
-    if (!all) continue;
-    std::vector<std::string> cells;
-    std::string cell;
-    bool quoted = false;
-    for (char ch : line) {
-      if (ch == '"') {
-        quoted = !quoted;
-      } else if (ch == ',' && !quoted) {
-        cells.push_back(cell);
-        cell.clear();
-      } else {
-        cell += ch;
-      }
-    }
-    cells.push_back(cell);
-    return column < static_cast<int>(cells.size()) ? cells[static_cast<std::size_t>(column)] : "";
-  }
-  return "";
 }
 
 TEST(PointMetrics, FlowRateAndRegionFromRunDirectories) {

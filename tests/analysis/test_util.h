@@ -6,7 +6,9 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
+#include <vector>
 
 namespace granary::analysis::testing {
 
@@ -41,6 +43,33 @@ inline void write_file(const std::filesystem::path& file, const std::string& tex
 inline std::string read_file(const std::filesystem::path& file) {
   std::ifstream in(file);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// The value of `column` in the first CSV row whose cells contain all of `keys`.
+inline std::string csv_cell(const std::string& csv, const std::vector<std::string>& keys, int column) {
+  std::istringstream in(csv);
+  std::string line;
+  while (std::getline(in, line)) {
+    bool all = true;
+    for (const auto& k : keys) all = all && line.find(k) != std::string::npos;
+    if (!all) continue;
+    std::vector<std::string> cells;
+    std::string cell;
+    bool quoted = false;
+    for (char ch : line) {
+      if (ch == '"') {
+        quoted = !quoted;
+      } else if (ch == ',' && !quoted) {
+        cells.push_back(cell);
+        cell.clear();
+      } else {
+        cell += ch;
+      }
+    }
+    cells.push_back(cell);
+    return column < static_cast<int>(cells.size()) ? cells[static_cast<std::size_t>(column)] : "";
+  }
+  return "";
 }
 
 }  // namespace granary::analysis::testing
