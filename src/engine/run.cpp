@@ -232,6 +232,7 @@ void Discharge::BuildWorld(const std::vector<int>& species) {
   const double wall_height = spec_.silo.height > 0 ? spec_.silo.height : kTallWall;
   WorldParams params = ParamsFromSpec(spec_);
   if (options_.parallel_min_discs >= 0) params.parallel_min_discs = options_.parallel_min_discs;
+  if (options_.force_block >= 1) params.force_block = options_.force_block;
   world_ = std::make_unique<World>(params, templates, BuildGeometry(spec_.silo, wall_height));
   double mean_mass = 0;
   for (int s : species) mean_mass += templates[static_cast<std::size_t>(s)].mass;

@@ -20,6 +20,9 @@ struct RunOptions {
   std::int64_t abort_after_steps = -1;
   // Tests: parallelise even tiny systems (WorldParams::parallel_min_discs); < 0 = default.
   int parallel_min_discs = -1;
+  // Tests: discs per force block (WorldParams::force_block), small to exercise the
+  // reactions that cross blocks; < 1 = default.
+  int force_block = 0;
 };
 
 struct RunResult {

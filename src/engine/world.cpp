@@ -9,6 +9,15 @@
 
 namespace granary::engine {
 
+// The step's kernels are compiled for x86-64-v4 (AVX-512: 32 vector registers), v3
+// (AVX2) and the baseline, and the loader picks the best the CPU has. Floating-point
+// contraction is off for the engine (CMakeLists.txt), so the three give the same bits.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(GRANARY_NO_KERNEL_CLONES)
+#define GRANARY_KERNEL __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define GRANARY_KERNEL
+#endif
+
 WorldParams ParamsFromSpec(const RunSpec& spec) {
   WorldParams p;
   p.dt = spec.time_step;
@@ -65,8 +74,7 @@ int World::AddBody(int tmpl, double x, double y, double theta) {
     doy_.push_back(t.oy[k]);
     dx_.push_back(0);
     dy_.push_back(0);
-    dvx_.push_back(0);
-    dvy_.push_back(0);
+    kin_.push_back({0.0, 0.0, 0.0, 0.0, t.r[k], 0.0});
     dfx_.push_back(0);
     dfy_.push_back(0);
     dtz_.push_back(0);
@@ -134,31 +142,30 @@ bool World::ElementActive(const WallElement& e) const {
   return true;
 }
 
-void World::UpdateDiscs(int b) {
-  const double c = bc_[b], s = bs_[b];
+double World::UpdateDiscs(int b) {
+  const double x = bx_[b], y = by_[b], c = bc_[b], s = bs_[b], vx = bvx_[b], vy = bvy_[b], w = bw_[b];
+  double worst = 0.0;
   const int d0 = disc_begin_[b], d1 = d0 + disc_n_[b];
   for (int d = d0; d < d1; ++d) {
     const double wx = c * dox_[d] - s * doy_[d];
     const double wy = s * dox_[d] + c * doy_[d];
-    dx_[d] = bx_[b] + wx;
-    dy_[d] = by_[b] + wy;
-    dvx_[d] = bvx_[b] - bw_[b] * wy;
-    dvy_[d] = bvy_[b] + bw_[b] * wx;
+    const double px = x + wx, py = y + wy;
+    dx_[d] = px;
+    dy_[d] = py;
+    DiscKin& k = kin_[d];
+    k.x = px;
+    k.y = py;
+    k.vx = vx - w * wy;
+    k.vy = vy + w * wx;
+    k.w = w;
+    const double ddx = px - refx_[d], ddy = py - refy_[d];
+    worst = std::max(worst, ddx * ddx + ddy * ddy);
   }
+  return worst;
 }
 
 void World::RefreshDiscs() {
   for (int b = 0; b < body_count(); ++b) UpdateDiscs(b);
-}
-
-double World::Displacement2(int b) const {
-  double worst = 0.0;
-  const int d0 = disc_begin_[b], d1 = d0 + disc_n_[b];
-  for (int d = d0; d < d1; ++d) {
-    const double ddx = dx_[d] - refx_[d], ddy = dy_[d] - refy_[d];
-    worst = std::max(worst, ddx * ddx + ddy * ddy);
-  }
-  return worst;
 }
 
 bool World::NeedsRebuild() const {
@@ -265,11 +272,18 @@ void World::Rebuild() {
   nl_fx_.assign(static_cast<std::size_t>(m), 0.0);
   nl_fy_.assign(static_cast<std::size_t>(m), 0.0);
   nl_c_.assign(static_cast<std::size_t>(m), 0.0);
+  nl_reff_.resize(static_cast<std::size_t>(m));
+  nl_meff_.resize(static_cast<std::size_t>(m));
 #pragma omp parallel for schedule(static) if (Parallel())
   for (int i = 0; i < n; ++i) {
     int k = nl_start_[i];
     for_neighbours(i, [&](int j) { nl_j_[k++] = j; });
     std::sort(nl_j_.begin() + nl_start_[i], nl_j_.begin() + nl_start_[i + 1]);
+    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
+      const int j = nl_j_[e];
+      nl_reff_[e] = EffectiveRadius(dr_[i], dr_[j]);
+      nl_meff_[e] = EffectiveMass(bmass_[dbody_[i]], bmass_[dbody_[j]]);
+    }
     // History transfer: both segments are sorted by j.
     int o = i < old_n ? old_start_[i] : 0;
     const int oend = i < old_n ? old_start_[i + 1] : 0;
@@ -284,14 +298,22 @@ void World::Rebuild() {
       }
     }
   }
-  // Transpose.
-  tl_start_.assign(static_cast<std::size_t>(n) + 1, 0);
-  for (int e = 0; e < m; ++e) ++tl_start_[nl_j_[e] + 1];
-  for (int i = 0; i < n; ++i) tl_start_[i + 1] += tl_start_[i];
-  tl_fill_.assign(tl_start_.begin(), tl_start_.end() - 1);
-  tl_entry_.resize(static_cast<std::size_t>(m));
-  for (int i = 0; i < n; ++i)
-    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) tl_entry_[tl_fill_[nl_j_[e]]++] = e;
+  // Transpose of the entries that cross into a later force block.
+  const int block = params_.force_block;
+  xl_start_.assign(static_cast<std::size_t>(n) + 1, 0);
+  for (int i = 0; i < n; ++i) {
+    const int block_end = (i / block + 1) * block;
+    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e)
+      if (nl_j_[e] >= block_end) ++xl_start_[nl_j_[e] + 1];
+  }
+  for (int i = 0; i < n; ++i) xl_start_[i + 1] += xl_start_[i];
+  xl_fill_.assign(xl_start_.begin(), xl_start_.end() - 1);
+  xl_entry_.resize(static_cast<std::size_t>(xl_start_[n]));
+  for (int i = 0; i < n; ++i) {
+    const int block_end = (i / block + 1) * block;
+    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e)
+      if (nl_j_[e] >= block_end) xl_entry_[xl_fill_[nl_j_[e]]++] = e;
+  }
 
   // Wall list.
   wl_start_.resize(static_cast<std::size_t>(n) + 1);
@@ -341,82 +363,80 @@ void World::Rebuild() {
   }
 }
 
-void World::ComputeForces() { Forces(rebuild_needed_ || NeedsRebuild()); }
+void World::ComputeForces() { Forces(rebuild_needed_ || NeedsRebuild(), false); }
 
-void World::Forces(bool rebuild) {
-  if (rebuild) Rebuild();
+GRANARY_KERNEL void World::PairBlock(int blk) {
   const int n = disc_count();
+  const int i0 = blk * params_.force_block, i1 = std::min(n, i0 + params_.force_block);
   const double dt = params_.dt;
-  const ContactParams& pp = params_.pair;
-  const ContactParams& wp = params_.wall;
-
-  // 1. Pair forces, once per contact, into the contact's own slot; disc i sums its own
-  // entries on the way (in list order).
-#pragma omp parallel for schedule(dynamic, 256) if (Parallel())
-  for (int i = 0; i < n; ++i) {
-    const int bi = dbody_[i];
-    const double ri = dr_[i], xi = dx_[i], yi = dy_[i];
+  const ContactParams pp = params_.pair;
+  const ContactParams wp = params_.wall;
+  const DiscKin* __restrict kin = kin_.data();
+  const int* __restrict nl_start = nl_start_.data();
+  const int* __restrict nl_j = nl_j_.data();
+  const double* __restrict nl_reff = nl_reff_.data();
+  const double* __restrict nl_meff = nl_meff_.data();
+  double* __restrict nl_sx = nl_sx_.data();
+  double* __restrict nl_sy = nl_sy_.data();
+  double* __restrict nl_fx = nl_fx_.data();
+  double* __restrict nl_fy = nl_fy_.data();
+  double* __restrict nl_c = nl_c_.data();
+  double* __restrict dfx = dfx_.data();
+  double* __restrict dfy = dfy_.data();
+  double* __restrict dtz = dtz_.data();
+  for (int i = i0; i < i1; ++i) dfx[i] = dfy[i] = dtz[i] = 0.0;
+  for (int i = i0; i < i1; ++i) {
+    const DiscKin a = kin[i];
     double sfx = 0.0, sfy = 0.0, sc = 0.0;
-    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
-      const int j = nl_j_[e];
-      const double ddx = xi - dx_[j], ddy = yi - dy_[j];
+    const int e1 = nl_start[i + 1];
+    for (int e = nl_start[i]; e < e1; ++e) {
+      const int j = nl_j[e];
+      const DiscKin& b = kin[j];
+      const double ddx = a.x - b.x, ddy = a.y - b.y;
       const double rsq = ddx * ddx + ddy * ddy;
-      const double radsum = ri + dr_[j];
+      const double radsum = a.r + b.r;
       if (rsq >= radsum * radsum) {
-        if (nl_sx_[e] != 0.0 || nl_sy_[e] != 0.0 || nl_fx_[e] != 0.0 || nl_fy_[e] != 0.0) {
-          nl_fx_[e] = nl_fy_[e] = nl_c_[e] = 0.0;
-          nl_sx_[e] = nl_sy_[e] = 0.0;  // the contact opened: history reset
-        }
+        // Not touching: no force, and the history of a contact that opened is reset
+        // (plain stores: cheaper than asking whether it was touching).
+        nl_sx[e] = nl_sy[e] = nl_fx[e] = nl_fy[e] = nl_c[e] = 0.0;
         continue;
       }
-      const int bj = dbody_[j];
       const double r = std::sqrt(rsq);
       const double inv_r = 1.0 / r;
       const double nx = ddx * inv_r, ny = ddy * inv_r;
       const double delta = radsum - r;
-      const double reff = EffectiveRadius(ri, dr_[j]);
-      const double meff = EffectiveMass(bmass_[bi], bmass_[bj]);
-      const double vrx = dvx_[i] - dvx_[j], vry = dvy_[i] - dvy_[j];
+      const double reff = nl_reff[e], meff = nl_meff[e];
+      const double vrx = a.vx - b.vx, vry = a.vy - b.vy;
       const double vn = vrx * nx + vry * ny;
-      const double wr = ri * bw_[bi] + dr_[j] * bw_[bj];
+      const double wr = a.r * a.w + b.r * b.w;
       const double vtx = vrx - vn * nx + wr * ny;
       const double vty = vry - vn * ny - wr * nx;
       const double fn = NormalForce(delta, reff, meff, vn, pp);
-      const Tangential t = TangentialForce(nl_sx_[e], nl_sy_[e], nx, ny, vtx, vty, delta, reff, meff, fn, dt, pp);
-      nl_sx_[e] = t.sx;
-      nl_sy_[e] = t.sy;
+      const Tangential t = TangentialForce(nl_sx[e], nl_sy[e], nx, ny, vtx, vty, delta, reff, meff, fn, dt, pp);
+      nl_sx[e] = t.sx;
+      nl_sy[e] = t.sy;
       const double fx = fn * nx + t.fx, fy = fn * ny + t.fy, c = nx * t.fy - ny * t.fx;
-      nl_fx_[e] = fx;
-      nl_fy_[e] = fy;
-      nl_c_[e] = c;
+      nl_fx[e] = fx;
+      nl_fy[e] = fy;
+      nl_c[e] = c;
       sfx += fx;
       sfy += fy;
       sc += c;
+      if (j < i1) {
+        dfx[j] -= fx;
+        dfy[j] -= fy;
+        dtz[j] += c;  // n x F_t is the same seen from j (both n and F_t flip)
+      }
     }
-    dfx_[i] = sfx;
-    dfy_[i] = sfy;
-    dtz_[i] = sc;
-  }
-
-  // 2. Per disc, in a fixed order: own entries, transposed entries, walls.
-#pragma omp parallel for schedule(static) if (Parallel())
-  for (int i = 0; i < n; ++i) {
-    const int bi = dbody_[i];
-    double fx = dfx_[i], fy = dfy_[i], c = dtz_[i];
-    for (int k = tl_start_[i]; k < tl_start_[i + 1]; ++k) {
-      const int e = tl_entry_[k];
-      fx -= nl_fx_[e];
-      fy -= nl_fy_[e];
-      c += nl_c_[e];
-    }
-    const double ri = dr_[i];
-    double tz = -ri * c;  // torque of tangential forces at the contact point -r n (LAMMPS)
+    // Every reaction from this block has arrived (they come from lower i).
+    double fx = dfx[i] + sfx, fy = dfy[i] + sfy;
+    double tz = -a.r * (dtz[i] + sc);  // torque of tangential forces at the contact point -r n (LAMMPS)
     for (int k = wl_start_[i]; k < wl_start_[i + 1]; ++k) {
       const WallElement& el = geometry_.elements[wl_e_[k]];
-      const Closest q = ClosestPoint(el, dx_[i], dy_[i]);
-      double ddx = dx_[i] - q.qx, ddy = dy_[i] - q.qy;
+      const Closest q = ClosestPoint(el, a.x, a.y);
+      const double ddx = a.x - q.qx, ddy = a.y - q.qy;
       const double rsq = ddx * ddx + ddy * ddy;
-      const double reach = ri + el.radius;
+      const double reach = a.r + el.radius;
       if (!q.valid || rsq >= reach * reach || rsq == 0.0) {
         wl_sx_[k] = wl_sy_[k] = wl_fx_[k] = wl_fy_[k] = 0.0;
         continue;
@@ -425,13 +445,12 @@ void World::Forces(bool rebuild) {
       const double inv_r = 1.0 / r;
       const double nx = ddx * inv_r, ny = ddy * inv_r;
       const double delta = reach - r;
-      const double reff = el.kind == ElementKind::kCircle ? EffectiveRadius(ri, el.radius) : ri;
-      const double meff = bmass_[bi];
-      const double vrx = dvx_[i], vry = dvy_[i];
-      const double vn = vrx * nx + vry * ny;
-      const double wr = ri * bw_[bi];
-      const double vtx = vrx - vn * nx + wr * ny;
-      const double vty = vry - vn * ny - wr * nx;
+      const double reff = el.kind == ElementKind::kCircle ? EffectiveRadius(a.r, el.radius) : a.r;
+      const double meff = bmass_[dbody_[i]];
+      const double vn = a.vx * nx + a.vy * ny;
+      const double wr = a.r * a.w;
+      const double vtx = a.vx - vn * nx + wr * ny;
+      const double vty = a.vy - vn * ny - wr * nx;
       const double fn = NormalForce(delta, reff, meff, vn, wp);
       const Tangential t = TangentialForce(wl_sx_[k], wl_sy_[k], nx, ny, vtx, vty, delta, reff, meff, fn, dt, wp);
       wl_sx_[k] = t.sx;
@@ -441,38 +460,79 @@ void World::Forces(bool rebuild) {
       wl_fy_[k] = wfy;
       fx += wfx;
       fy += wfy;
-      tz -= ri * (nx * t.fy - ny * t.fx);
+      tz -= a.r * (nx * t.fy - ny * t.fx);
     }
-    dfx_[i] = fx;
-    dfy_[i] = fy;
-    dtz_[i] = tz;
-  }
-
-  // 3. Per body: sum of disc forces, gravity, torque about the centre of mass.
-  const int nb = body_count();
-  const double g = params_.gravity;
-#pragma omp parallel for schedule(static) if (Parallel())
-  for (int b = 0; b < nb; ++b) {
-    if (!active_[b]) continue;
-    double fx = 0, fy = 0, tq = 0;
-    const int d0 = disc_begin_[b], d1 = d0 + disc_n_[b];
-    for (int d = d0; d < d1; ++d) {
-      fx += dfx_[d];
-      fy += dfy_[d];
-      tq += (dx_[d] - bx_[b]) * dfy_[d] - (dy_[d] - by_[b]) * dfx_[d] + dtz_[d];
-    }
-    bfx_[b] = fx;
-    bfy_[b] = fy - bmass_[b] * g;
-    btq_[b] = tq;
+    dfx[i] = fx;
+    dfy[i] = fy;
+    dtz[i] = tz;
   }
 }
 
-void World::Step() {
+GRANARY_KERNEL void World::BodyForces(int b0, int b1, bool kick) {
+  const double g = params_.gravity, half = 0.5 * params_.dt;
+  const DiscKin* __restrict kin = kin_.data();
+  const int* __restrict xl_start = xl_start_.data();
+  const int* __restrict xl_entry = xl_entry_.data();
+  const double* __restrict nl_fx = nl_fx_.data();
+  const double* __restrict nl_fy = nl_fy_.data();
+  const double* __restrict nl_c = nl_c_.data();
+  double* __restrict dfx = dfx_.data();
+  double* __restrict dfy = dfy_.data();
+  double* __restrict dtz = dtz_.data();
+  for (int b = b0; b < b1; ++b) {
+    if (!active_[b]) continue;
+    double bfx = 0, bfy = 0, btq = 0;
+    const double cx = bx_[b], cy = by_[b];
+    const int d0 = disc_begin_[b], d1 = d0 + disc_n_[b];
+    for (int i = d0; i < d1; ++i) {
+      double fx = dfx[i], fy = dfy[i], tz = dtz[i];
+      const int k1 = xl_start[i + 1];
+      if (xl_start[i] < k1) {  // reactions from earlier blocks, ascending i
+        double c = 0.0;
+        for (int k = xl_start[i]; k < k1; ++k) {
+          const int e = xl_entry[k];
+          fx -= nl_fx[e];
+          fy -= nl_fy[e];
+          c += nl_c[e];
+        }
+        tz -= kin[i].r * c;
+        dfx[i] = fx;
+        dfy[i] = fy;
+        dtz[i] = tz;
+      }
+      bfx += fx;
+      bfy += fy;
+      btq += (kin[i].x - cx) * fy - (kin[i].y - cy) * fx + tz;
+    }
+    bfx_[b] = bfx;
+    bfy_[b] = bfy - bmass_[b] * g;
+    btq_[b] = btq;
+    if (kick) {  // the second half kick of the step
+      bvx_[b] += half * bfx_[b] * binv_mass_[b];
+      bvy_[b] += half * bfy_[b] * binv_mass_[b];
+      bw_[b] += half * btq_[b] * binv_inertia_[b];
+    }
+  }
+}
+
+void World::Forces(bool rebuild, bool kick) {
+  if (rebuild) Rebuild();
+  const int nblocks = (disc_count() + params_.force_block - 1) / params_.force_block;
+  // 1. Pair and wall forces by blocks of discs; within a block the order is ascending i,
+  // whichever thread runs it.
+#pragma omp parallel for schedule(dynamic, 1) if (Parallel())
+  for (int blk = 0; blk < nblocks; ++blk) PairBlock(blk);
+  // 2. Reactions across blocks, body forces, gravity, torques (and the half kick).
   const int nb = body_count();
+  const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
+#pragma omp parallel for schedule(static) if (Parallel())
+  for (int ch = 0; ch < nchunks; ++ch) BodyForces(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk), kick);
+}
+
+GRANARY_KERNEL double World::DriftBodies(int b0, int b1) {
   const double dt = params_.dt, half = 0.5 * params_.dt;
   double worst = 0.0;
-#pragma omp parallel for schedule(static) reduction(max : worst) if (Parallel())
-  for (int b = 0; b < nb; ++b) {
+  for (int b = b0; b < b1; ++b) {
     if (!active_[b]) continue;
     bvx_[b] += half * bfx_[b] * binv_mass_[b];
     bvy_[b] += half * bfy_[b] * binv_mass_[b];
@@ -499,17 +559,18 @@ void World::Step() {
     const double f = 1.5 - 0.5 * (c * c + s * s);
     bc_[b] = c * f;
     bs_[b] = s * f;
-    UpdateDiscs(b);
-    worst = std::max(worst, Displacement2(b));
+    worst = std::max(worst, UpdateDiscs(b));
   }
-  Forces(rebuild_needed_ || worst > 0.25 * params_.skin * params_.skin);
-#pragma omp parallel for schedule(static) if (Parallel())
-  for (int b = 0; b < nb; ++b) {
-    if (!active_[b]) continue;
-    bvx_[b] += half * bfx_[b] * binv_mass_[b];
-    bvy_[b] += half * bfy_[b] * binv_mass_[b];
-    bw_[b] += half * btq_[b] * binv_inertia_[b];
-  }
+  return worst;
+}
+
+void World::Step() {
+  const int nb = body_count();
+  const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
+  double worst = 0.0;
+#pragma omp parallel for schedule(static) reduction(max : worst) if (Parallel())
+  for (int ch = 0; ch < nchunks; ++ch) worst = std::max(worst, DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk)));
+  Forces(rebuild_needed_ || worst > 0.25 * params_.skin * params_.skin, true);
 }
 
 double World::KineticEnergy() const {

@@ -2,9 +2,10 @@
 // (style.md 8.2), the wall elements, the Verlet neighbour lists with per-contact shear
 // history, and the velocity-Verlet rigid-body step (physics.md).
 //
-// Determinism: every pair force is computed once into a per-contact slot and gathered per
-// disc and per body in a fixed order, so results do not depend on the thread count. The
-// step loop allocates nothing once the vectors have reached their working size.
+// Determinism: every pair force is computed once, in a fixed block of discs (force_block),
+// and summed per disc and per body in an order fixed by the disc numbering and the block
+// size alone, so results do not depend on the thread count. The step loop allocates
+// nothing once the vectors have reached their working size.
 #pragma once
 
 #include <cstdint>
@@ -25,6 +26,11 @@ struct WorldParams {
   // Below this many discs the loops run on one thread: forking costs more than it saves
   // (results are the same either way).
   int parallel_min_discs = 2000;
+  // Discs per block of the pair-force pass: a thread takes whole blocks, and the partner
+  // forces inside a block are added at once (Newton's third law); those crossing into a
+  // later block are gathered afterwards. Results depend on this number (last bits), not on
+  // the thread count.
+  int force_block = 1024;
 };
 
 WorldParams ParamsFromSpec(const RunSpec& spec);
@@ -91,9 +97,9 @@ class World {
   std::vector<double> binv_mass_, binv_inertia_;  // 1/M and 1/I (the step multiplies)
   std::vector<int> disc_begin_;  // per body; discs [disc_begin_[b], disc_begin_[b] + n)
   std::vector<int> disc_n_;
-  // Disc state: owning body, radius, mass, body-frame offset, world position and velocity.
+  // Disc state: owning body, radius, mass, body-frame offset, world position.
   std::vector<int> dbody_;
-  std::vector<double> dr_, dmass_, dox_, doy_, dx_, dy_, dvx_, dvy_;
+  std::vector<double> dr_, dmass_, dox_, doy_, dx_, dy_;
   // Per-disc accumulated force and torque about the disc centre (last force computation).
   std::vector<double> dfx_, dfy_, dtz_;
 
@@ -107,14 +113,27 @@ class World {
   void CollectContacts(std::vector<ContactView>& out) const;
 
  private:
-  void UpdateDiscs(int b);
-  // Max squared displacement of body b's discs since the last rebuild.
-  double Displacement2(int b) const;
-  void Forces(bool rebuild);
+  // Disc positions and velocities of body b from the body state; returns the largest
+  // squared displacement of its discs since the last rebuild.
+  double UpdateDiscs(int b);
+  // Forces of the current state; with `kick`, also the second half kick of a step.
+  void Forces(bool rebuild, bool kick);
+  // The kernels of a step, each over a range that one thread owns (compiled for several
+  // instruction sets, chosen at load time; the arithmetic is the same in each).
+  void PairBlock(int blk);                       // pair and wall forces of one force block
+  void BodyForces(int b0, int b1, bool kick);    // cross-block reactions, body sums, kick
+  double DriftBodies(int b0, int b1);            // half kick, drift; returns max displacement^2
+  static constexpr int kBodyChunk = 512;         // bodies per parallel work item
   void Rebuild();
   bool NeedsRebuild() const;
   bool ElementActive(const WallElement& e) const;
   bool Parallel() const { return disc_count() >= params_.parallel_min_discs; }
+
+  // What the pair loop reads of a partner disc, in one cache line: position, velocity,
+  // radius and the body's angular velocity (written with the disc positions each step).
+  struct alignas(64) DiscKin {
+    double x, y, vx, vy, r, w;
+  };
 
   WorldParams params_;
   std::vector<ShapeTemplate> templates_;
@@ -125,11 +144,14 @@ class World {
   std::int64_t rebuilds_ = 0;
   double max_radius_ = 0.0;
 
-  // Pair list (CSR over disc i, j > i sorted), with history and per-entry force.
+  std::vector<DiscKin> kin_;
+  // Pair list (CSR over disc i, j > i sorted), with history, per-entry force and the
+  // pair's constants R_eff and m_eff (computed at the rebuild).
   std::vector<int> nl_start_, nl_j_;
-  std::vector<double> nl_sx_, nl_sy_, nl_fx_, nl_fy_, nl_c_;
-  // Transpose: for disc j, the entries where it is the second disc, in ascending i.
-  std::vector<int> tl_start_, tl_entry_, tl_fill_;
+  std::vector<double> nl_sx_, nl_sy_, nl_fx_, nl_fy_, nl_c_, nl_reff_, nl_meff_;
+  // Transpose of the entries whose disc j lies in a later force block than i: for disc j,
+  // those entries in ascending i.
+  std::vector<int> xl_start_, xl_entry_, xl_fill_;
   // Wall list (CSR over disc), with history.
   std::vector<int> wl_start_, wl_e_;
   std::vector<double> wl_sx_, wl_sy_, wl_fx_, wl_fy_;

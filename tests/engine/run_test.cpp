@@ -64,8 +64,9 @@ std::vector<double> EventTimes(const fs::path& dir) {
   return t;
 }
 
-RunResult RunQuiet(const fs::path& dir, int threads = 1, std::int64_t abort_after = -1) {
+RunResult RunQuiet(const fs::path& dir, int threads = 1, std::int64_t abort_after = -1, int force_block = 0) {
   RunOptions o;
+  o.force_block = force_block;
   o.parallel_min_discs = 0;  // exercise the parallel loops even on these small systems
   o.threads = threads;
   o.quiet = true;
@@ -144,8 +145,9 @@ TEST(Run, OneAndTwoThreadsGiveIdenticalOutput) {
   // positions and velocities of every disc after 10^4 steps of a settled bed draining
   WriteSpec(a, SmallSpec(8.0, 1.0));
   WriteSpec(b, SmallSpec(8.0, 1.0));
-  RunQuiet(a, 1);
-  RunQuiet(b, 2);
+  // blocks of 32 discs (240 discs: 8 blocks), so that pair reactions also cross blocks
+  RunQuiet(a, 1, -1, 32);
+  RunQuiet(b, 2, -1, 32);
   EXPECT_EQ(Slurp(a / "events.csv"), Slurp(b / "events.csv"));
   EXPECT_EQ(Slurp(a / "frames.dump"), Slurp(b / "frames.dump"));
 }
