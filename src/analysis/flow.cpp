@@ -122,6 +122,68 @@ FlowRate flow_rate(const FlowInput& in, const FlowWindowRule& rule) {
   return q;
 }
 
+std::vector<FlowRate> flow_rate_per_outlet(const FlowInput& input, const FlowWindowRule& rule, int outlets) {
+  std::vector<FlowRate> out(static_cast<std::size_t>(std::max(0, outlets)));
+  FlowInput all = input;
+  all.outlet = -1;
+  const FlowWindow w = flow_window(all, rule);
+  if (!w.ok) {
+    for (int k = 0; k < outlets; ++k) {
+      FlowInput one = input;
+      one.outlet = k;
+      out[static_cast<std::size_t>(k)] = flow_rate(one, rule);
+    }
+    return out;
+  }
+  // flow_window(all) keeps every event, so its indices are indices into input.events.
+  std::vector<double> t;
+  for (std::size_t i = w.first; i <= w.last; ++i) t.push_back(input.events[i].time);
+  const int n_all = static_cast<int>(t.size());
+  const int batches = std::min(10, n_all / 5);
+  const double span = t.back() - t.front();
+  for (int k = 0; k < outlets; ++k) {
+    FlowRate& q = out[static_cast<std::size_t>(k)];
+    std::vector<double> count, mass, n_rate(static_cast<std::size_t>(std::max(batches, 0)), 0.0), m_rate = n_rate;
+    double cumulative = 0.0, cumulative_mass = 0.0;
+    bool have_mass = true;
+    for (std::size_t i = 0; i <= w.last; ++i) {
+      const ExitEvent& e = input.events[i];
+      if (e.outlet == k) {
+        cumulative += 1.0;
+        cumulative_mass += e.mass;
+        if (!std::isfinite(e.mass)) have_mass = false;
+        if (i >= w.first) {
+          ++q.n_events;
+          if (batches >= 2 && span > 0.0) {
+            const double width = span / batches;
+            const auto b = std::min(n_rate.size() - 1, static_cast<std::size_t>((e.time - t.front()) / width));
+            n_rate[b] += 1.0 / width;
+            m_rate[b] += e.mass / width;
+          }
+        }
+      }
+      if (i < w.first) continue;
+      count.push_back(cumulative);
+      mass.push_back(cumulative_mass);
+    }
+    q.t_start = t.front();
+    q.t_end = t.back();
+    const LineFit fc = fit_line(t, count);
+    q.q_count = fc.slope;
+    q.q_count_se_ols = fc.slope_se;
+    q.count_intercept = fc.intercept;
+    if (have_mass) q.q_mass = fit_line(t, mass).slope;
+    if (batches >= 2 && span > 0.0) {
+      q.batches = batches;
+      q.q_count_se = mean_se(n_rate).se;
+      if (have_mass) q.q_mass_se = mean_se(m_rate).se;
+    }
+    q.ok = std::isfinite(q.q_count);
+    q.note = "over the steady window of all outlets together" + (w.note.empty() ? "" : " (" + w.note + ")");
+  }
+  return out;
+}
+
 VelocityProfileAccumulator::VelocityProfileAccumulator(double outlet_center, double outlet_width,
                                                        const ProfileOptions& options)
     : center_(outlet_center), width_(outlet_width), options_(options) {

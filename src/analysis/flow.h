@@ -58,6 +58,14 @@ struct FlowRate {
 // and se = sd(rates) / sqrt(B) (NaN when B < 2). For a Poisson stream this is ~sqrt(Q/T).
 FlowRate flow_rate(const FlowInput& input, const FlowWindowRule& rule);
 
+// Q through each of `outlets` outlets over the steady window of all outlets together: the
+// least-squares slope of the outlet's cumulative count sampled at every exit time of that
+// window. A slope is linear in the counts, so the outlets' rates add up to the total exactly,
+// and an outlet that clogs and unclogs inside the window (ch. 7) gets its mean throughput
+// rather than no rate. se by batch means over the same time slices as the total. If the
+// window of all outlets is undefined, each outlet falls back to its own window (flow_rate).
+std::vector<FlowRate> flow_rate_per_outlet(const FlowInput& input, const FlowWindowRule& rule, int outlets);
+
 // The window alone, as indices [first, last] into the events of the outlet (all outlets if -1).
 struct FlowWindow {
   bool ok = false;

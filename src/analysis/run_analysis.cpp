@@ -73,9 +73,8 @@ RunAnalysis analyse_events(const RunData& data, const AnalysisOptions& options) 
   a.flow = flow_rate(in, options.window);
   const bool ended_clogged = a.end_reason == "clogged";
   a.series = clog_series(data.events, -1, a.t_end, a.clog_gap, ended_clogged);
+  a.flow_per_outlet = flow_rate_per_outlet(in, options.window, static_cast<int>(a.outlets.size()));
   for (std::size_t o = 0; o < a.outlets.size(); ++o) {
-    in.outlet = static_cast<int>(o);
-    a.flow_per_outlet.push_back(flow_rate(in, options.window));
     // A run that stopped on a clog stopped with every outlet blocked.
     a.series_per_outlet.push_back(clog_series(data.events, static_cast<int>(o), a.t_end, a.clog_gap, ended_clogged));
   }

@@ -55,7 +55,7 @@ struct RunAnalysis {
   double clog_gap = 5.0;
   std::vector<OutletGeometry> outlets;
   FlowRate flow;                      // all outlets together
-  std::vector<FlowRate> flow_per_outlet;
+  std::vector<FlowRate> flow_per_outlet;  // over the window of `flow` (flow_rate_per_outlet): they add up to it
   ClogRun clog;                       // for Psi
   ClogSeries series;                  // all outlets together (avalanches)
   int engine_clogs = -1;              // summary.json "clogs" if the engine counted them (KE-confirmed), else -1

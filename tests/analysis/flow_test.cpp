@@ -37,6 +37,28 @@ TEST(FlowRate, RemoveModeWindowRule) {
   EXPECT_LT(q.q_count_se, 0.1);  // batches of 6.29 time units hold 62 or 63 exits
 }
 
+TEST(FlowRate, PerOutletOverTheWindowOfAllOutletsAddsUp) {
+  // Outlet 0 flows at 3 throughout; outlet 1 at 2 but is clogged from t = 10 to 20 (ch. 7).
+  // Over the common window the per-outlet rates add up to the total exactly, and outlet 1
+  // gets its mean throughput (between 1 and 2), not its rate while flowing.
+  std::vector<ExitEvent> ev = regular(120, 0.1, 1.0 / 3.0, 2.0, 0);
+  for (const auto& e : regular(20, 0.2, 0.5, 1.0, 1)) ev.push_back(e);
+  for (const auto& e : regular(40, 20.2, 0.5, 1.0, 1)) ev.push_back(e);
+  std::stable_sort(ev.begin(), ev.end(), [](const ExitEvent& a, const ExitEvent& b) { return a.time < b.time; });
+  FlowInput in{ev, false, 1000, 5.0, -1};
+  const FlowRate total = flow_rate(in, FlowWindowRule());
+  const std::vector<FlowRate> per = flow_rate_per_outlet(in, FlowWindowRule(), 2);
+  ASSERT_TRUE(total.ok && per[0].ok && per[1].ok);
+  EXPECT_NEAR(per[0].q_count + per[1].q_count, total.q_count, 1e-9);
+  EXPECT_NEAR(per[0].q_mass + per[1].q_mass, total.q_mass, 1e-9);
+  EXPECT_NEAR(per[0].q_count, 3.0, 0.05);
+  EXPECT_GT(per[1].q_count, 1.0);
+  EXPECT_LT(per[1].q_count, 1.9);
+  EXPECT_EQ(per[0].t_start, total.t_start);
+  EXPECT_EQ(per[0].n_events + per[1].n_events, total.n_events);
+  EXPECT_TRUE(std::isfinite(per[1].q_count_se));
+}
+
 TEST(FlowRate, TransientAndClogAreExcluded) {
   // Slow start (1 per unit time until t = 10), then 5 per unit time, then a clog at t = 60.
   std::vector<ExitEvent> ev;

@@ -113,17 +113,17 @@ TEST(ReportOutlets, TwoBaseOutletsAgainstTheGapWithFlowPerOutlet) {
   EXPECT_EQ(flow.substr(0, flow.find('\n')),
             "point,Q all outlets (bodies/sqrt(d/g)),Q_mass all outlets (mass/sqrt(d/g)),Q base 0,Q base 1,"
             "V_max base 0,V_max base 1");
-  EXPECT_NEAR(number_before_space(csv_cell(flow, {"L=4"}, 3)), 4.0, 1e-9);
-  EXPECT_NEAR(number_before_space(csv_cell(flow, {"L=8"}, 3)), 3.0, 1e-9);
-  EXPECT_NEAR(number_before_space(csv_cell(flow, {"L=8"}, 4)), 3.0, 1e-9);
+  EXPECT_NEAR(number_before_space(csv_cell(flow, {"L=4"}, 3)), 4.0, 1e-3);  // staircase sampled at all exits
+  EXPECT_NEAR(number_before_space(csv_cell(flow, {"L=8"}, 3)), 3.0, 1e-3);
+  EXPECT_NEAR(number_before_space(csv_cell(flow, {"L=8"}, 4)), 3.0, 1e-3);
   EXPECT_NEAR(number_before_space(csv_cell(flow, {"L=0"}, 1)), 8.0, 0.1);  // merged streams: nearly q0 + q1
   // The figure of each outlet against L (edge-to-edge gap computed from the centres).
   const std::string outlet0 = read_file(out / "flow_rate_per_outlet-1.csv");
   EXPECT_EQ(outlet0.substr(0, outlet0.find('\n')), "L,Q,Q_se,n");
-  EXPECT_NEAR(std::stod(cell_of_row(outlet0, "4", 1)), 4.0, 1e-9);
-  EXPECT_NEAR(std::stod(cell_of_row(outlet0, "4", 2)), 0.04, 1e-9);  // se of the -+1% replicas
+  EXPECT_NEAR(std::stod(cell_of_row(outlet0, "4", 1)), 4.0, 1e-3);
+  EXPECT_NEAR(std::stod(cell_of_row(outlet0, "4", 2)), 0.04, 1e-3);  // se of the -+1% replicas
   EXPECT_EQ(std::count(outlet0.begin(), outlet0.end(), '\n'), 4);
-  EXPECT_NEAR(std::stod(cell_of_row(read_file(out / "flow_rate_per_outlet-2.csv"), "8", 1)), 3.0, 1e-9);
+  EXPECT_NEAR(std::stod(cell_of_row(read_file(out / "flow_rate_per_outlet-2.csv"), "8", 1)), 3.0, 1e-3);
   const std::string md = read_file(out / "report.md");
   EXPECT_NE(md.find("against L/d (gap between base outlets 0 and 1, edge to edge)"), std::string::npos);
   EXPECT_EQ(md.find("Fits of Q(W/d)"), std::string::npos);  // x is not a width: no Beverloo fits
@@ -148,7 +148,7 @@ TEST(ReportOutlets, FitsAndHeadlineUseTheSweptOutlet) {
   EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",C,"}, 3)), kC, 1e-3);
   EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",k,"}, 3)), kK, 1e-3);
   const std::string headline = read_file(out / "flow_rate-1.csv");
-  EXPECT_NEAR(std::stod(cell_of_row(headline, "6", 1)), beverloo(6.0), 1e-9);
+  EXPECT_NEAR(std::stod(cell_of_row(headline, "6", 1)), beverloo(6.0), 1e-3);
   EXPECT_NE(read_file(out / "report.md").find("Flow rate Q through base 0 against W/d"), std::string::npos);
 }
 
