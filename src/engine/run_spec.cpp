@@ -128,7 +128,8 @@ class Reader {
   void Unsigned(const std::string& key, std::uint64_t& out) const {
     if (!Has(key)) return;
     const json& v = j_.at(key);
-    if (!v.is_number_unsigned()) {
+    // A signed integer >= 0 is fine too (JSON built in code rather than parsed from text).
+    if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<std::int64_t>() >= 0)) {
       throw SpecError(Path(key), "must be a non-negative integer (got " + Shown(v) + ")");
     }
     out = v.get<std::uint64_t>();

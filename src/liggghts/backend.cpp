@@ -143,12 +143,12 @@ std::vector<std::string> Tokens(const std::string& line) {
   return t;
 }
 
-// A LIGGGHTS text dump of one frame written by write_dump: columns id mol type x y radius.
+// A LIGGGHTS text dump of one frame written by write_dump: columns id mol type x y radius z.
 struct Sphere {
   long long id;
   long long mol;
   int type;
-  double x, y, radius;
+  double x, y, radius, z;
 };
 std::vector<Sphere> ReadAtomsDump(const fs::path& path) {
   std::ifstream in(path);
@@ -163,8 +163,9 @@ std::vector<Sphere> ReadAtomsDump(const fs::path& path) {
     }
     if (!atoms || line.empty()) continue;
     const auto t = Tokens(line);
-    if (t.size() < 6) continue;
-    out.push_back({std::stoll(t[0]), std::stoll(t[1]), std::stoi(t[2]), std::stod(t[3]), std::stod(t[4]), std::stod(t[5])});
+    if (t.size() < 7) continue;
+    out.push_back({std::stoll(t[0]), std::stoll(t[1]), std::stoi(t[2]), std::stod(t[3]), std::stod(t[4]), std::stod(t[5]),
+                   std::stod(t[6])});
   }
   return out;
 }
@@ -207,13 +208,17 @@ Checkpoint NewestCheckpoint(const fs::path& dir) {
   }
   return best;
 }
-void RemoveCheckpoints(const fs::path& dir, long long keep_step) {
+// Keeps the newest `keep` checkpoints.
+void PruneCheckpoints(const fs::path& dir, std::size_t keep) {
   static const std::regex name(R"(checkpoint\.(\d+)\.restart)");
+  std::vector<std::pair<long long, fs::path>> found;
   for (const auto& e : fs::directory_iterator(dir)) {
     std::smatch m;
     const std::string f = e.path().filename().string();
-    if (std::regex_match(f, m, name) && std::stoll(m[1]) != keep_step) fs::remove(e.path());
+    if (std::regex_match(f, m, name)) found.emplace_back(std::stoll(m[1]), e.path());
   }
+  std::sort(found.rbegin(), found.rend());
+  for (std::size_t i = keep; i < found.size(); ++i) fs::remove(found[i].second);
 }
 
 // Drops exit lines after the checkpoint (continue): the steps after it run again.
@@ -312,7 +317,7 @@ std::vector<Event> ReadEvents(const fs::path& dir, const std::vector<Counter>& c
 }
 
 // LIGGGHTS dump (id mol type x y radius vx vy omegaz) -> the run-directory frames format.
-void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const Setup& setup,
+void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const SiloSetup& setup,
                    const BodyIndex& bodies) {
   std::ifstream in(in_path);
   std::ofstream out(out_path, std::ios::trunc);
@@ -383,7 +388,7 @@ std::string CacheStem(const RunSpec& spec) {
   return std::string("liggghts-bed-") + hex;
 }
 
-Bed ObtainBed(const RunSpec& spec, const Setup& setup, const fs::path& dir, const std::string& exe,
+Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, const std::string& exe,
               const BackendOptions& options) {
   Bed bed;
   fs::path cache_dir;
@@ -482,7 +487,7 @@ RunSpec ReadSpec(const fs::path& dir) {
   return RunSpec::from_json(j);
 }
 
-void WriteMeshes(const fs::path& dir, const Setup& setup) {
+void WriteMeshes(const fs::path& dir, const SiloSetup& setup) {
   for (const MeshFile& m : setup.fill_meshes) WriteAtomically(dir / m.name, Stl(m, setup.half_z - 0.1));
   for (const MeshFile& m : setup.discharge_meshes) WriteAtomically(dir / m.name, Stl(m, setup.half_z - 0.1));
   for (const Counter& c : setup.counters) WriteAtomically(dir / c.mesh.name, Stl(c.mesh, setup.half_z - 0.1));
@@ -505,7 +510,7 @@ std::string FindLiggghts(const std::string& preferred) {
 std::vector<std::string> WriteInputs(const std::string& dir_name) {
   const fs::path dir(dir_name);
   const RunSpec spec = ReadSpec(dir);
-  const Setup setup = MakeSetup(spec);
+  const SiloSetup setup = MakeSetup(spec);
   WriteMeshes(dir, setup);
   WriteAtomically(dir / "bed.in", BedScript(spec, setup));
   DischargeStart start;
@@ -520,7 +525,7 @@ std::vector<std::string> WriteInputs(const std::string& dir_name) {
 BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& options) {
   const fs::path dir = fs::absolute(dir_name);
   const RunSpec spec = ReadSpec(dir);
-  Setup setup = MakeSetup(spec);
+  SiloSetup setup = MakeSetup(spec);
   const std::string exe = FindLiggghts(options.liggghts);
   fs::remove(dir / "DONE");
 
@@ -540,13 +545,12 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
       for (const fs::path& f : CounterFiles(dir, c))
         start.last_exit_step = std::max(start.last_exit_step, TruncateExits(f, t_ckpt, spec.time_step));
     TruncateFrames(dir / "frames.liggghts", ckpt.step);
-    RemoveCheckpoints(dir, ckpt.step);
     discharge_wall_before = state.value("discharge_wall_s", 0.0);
   } else {
     for (const char* f : {"frames.liggghts", "events.csv", "frames.dump", "final.dump"}) fs::remove(dir / f);
     for (const Counter& c : setup.counters)
       for (const fs::path& f : CounterFiles(dir, c)) fs::remove(f);
-    RemoveCheckpoints(dir, -1);
+    PruneCheckpoints(dir, 0);
     WriteMeshes(dir, setup);
     const Bed bed = ObtainBed(spec, setup, dir, exe, options);
     state = {{"bed_file", bed.file},           {"bed_prepared_here", bed.prepared_here},
@@ -568,11 +572,14 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   for (const Sphere& s : bed_spheres) spheres.emplace(s.id, s);
   const BodyIndex bodies(bed_spheres);
   const double recross = spec.discharge.mode == DischargeMode::kRemove ? 1e300 : 1.0;
+  int progress_lines = 0;
   const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "discharge.in", log, [&](const std::string& line) {
     const auto t = Tokens(line);
     if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
     if (t[0] == "GRANARY_FINAL" && t.size() > 1) last_step = std::stoll(t[1]);
     if (t[0] == "GRANARY_PROGRESS" && t.size() > 2) {
+      ++progress_lines;
+      PruneCheckpoints(dir, 2);  // those LIGGGHTS finished before this chunk ended
       const double time = std::stod(t[1]) * spec.time_step;
       // LIGGGHTS' own count weights a clump's spheres by volume; the events are exact.
       const int exited = static_cast<int>(ReadEvents(dir, setup.counters, spheres, bodies, recross).size());
@@ -582,8 +589,17 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
       WriteAtomically(state_file, state.dump() + "\n");
     }
   });
-  if (r.exit_code != 0 || end_reason.empty() || !fs::exists(dir / "final.dump"))
+  if (r.exit_code != 0 || end_reason.empty() || !fs::exists(dir / "final.dump")) {
+    // A checkpoint cut short when the run was killed makes read_restart fail at once: drop
+    // it and continue from the one before (or from the start).
+    if (result.continued && progress_lines == 0) {
+      std::fprintf(stderr, "granary-liggghts: cannot continue from %s; trying an earlier checkpoint\n",
+                   ckpt.file.filename().c_str());
+      fs::remove(ckpt.file);
+      return RunDirectory(dir_name, options);
+    }
     Fail("LIGGGHTS failed during the discharge", r, dir / log);
+  }
   const double discharge_wall = discharge_wall_before + Seconds(t_discharge);
 
   // Convert into the run-directory format.
@@ -605,7 +621,11 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
     ConvertFrames(dir / "frames.liggghts", dir / "frames.dump", spec, setup, bodies);
 
   std::set<long long> remaining;
-  for (const Sphere& s : ReadAtomsDump(dir / "final.dump")) remaining.insert(bodies.of(s));
+  double out_of_plane = 0;  // the quasi-2-D set-up must keep every centre in z = 0
+  for (const Sphere& s : ReadAtomsDump(dir / "final.dump")) {
+    remaining.insert(bodies.of(s));
+    out_of_plane = std::max(out_of_plane, std::fabs(s.z));
+  }
   // Work of this session: the bed's spheres x the steps run since the start or the checkpoint
   // (an upper bound in remove mode, where spheres leave).
   const double spheres_total = static_cast<double>(spheres.size());
@@ -629,6 +649,7 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   summary["exits_per_outlet"] = per_outlet;
   summary["t_end"] = static_cast<double>(last_step) * spec.time_step;
   summary["steps"] = last_step;
+  summary["max_out_of_plane"] = out_of_plane;
   summary["tangential_cap"] = "liggghts";  // LIGGGHTS caps the spring part only, whatever the spec asks
   summary["bed"] = {{"file", state.value("bed_file", "")},
                     {"height", state.value("bed_height", 0.0)},
@@ -642,7 +663,7 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
                        {"threads", options.threads}};
   summary["continued_from_checkpoint"] = result.continued;
   WriteAtomically(dir / "summary.json", summary.dump(2) + "\n");
-  RemoveCheckpoints(dir, -1);
+  PruneCheckpoints(dir, 0);
   ReportProgress(dir, "discharge", 1.0, static_cast<double>(last_step) * spec.time_step, spec.discharge.max_time,
                  result.exited, discharge_wall, true);
   WriteAtomically(dir / "DONE", end_reason + "\n");

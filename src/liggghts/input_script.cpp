@@ -37,7 +37,7 @@ std::string PairMatrix(const std::string& fix_id, const std::string& property, i
   return s + "\n";
 }
 
-std::string Material(const RunSpec& spec, const Setup& setup) {
+std::string Material(const RunSpec& spec, const SiloSetup& setup) {
   const Contact& c = spec.contact;
   const int n = setup.wall_type;
   std::string s = "# contact law (docs/liggghts.md): Hertz with tangential history, body masses in m_eff\n";
@@ -55,7 +55,7 @@ std::string WallFix(const RunSpec& spec, const std::string& id, const std::strin
   return "fix " + id + " all wall/gran " + kModel + " " + geometry + " " + ModelSettings(spec) + "\n";
 }
 
-std::string MeshWalls(const RunSpec& spec, const Setup& setup, const std::vector<MeshFile>& meshes,
+std::string MeshWalls(const RunSpec& spec, const SiloSetup& setup, const std::vector<MeshFile>& meshes,
                       const std::string& walls_id) {
   if (meshes.empty()) return "";
   std::string s, ids;
@@ -69,7 +69,7 @@ std::string MeshWalls(const RunSpec& spec, const Setup& setup, const std::vector
 }
 
 // Side walls as planes (both while the bed settles: the silo is closed then) and obstacles.
-std::string PrimitiveWalls(const RunSpec& spec, const Setup& setup, bool closed) {
+std::string PrimitiveWalls(const RunSpec& spec, const SiloSetup& setup, bool closed) {
   const std::string type = "primitive type " + std::to_string(setup.wall_type);
   std::string s;
   if (closed || setup.wall_lo_primitive) s += WallFix(spec, "wall_lo", type + " xplane " + Num(-setup.half_width));
@@ -90,11 +90,11 @@ constexpr char kHeader[] = "atom_modify map array\nprocessors * 1 1\n";
 // nve/sphere, planeforce dropping f_z so that their centres stay in z = 0. fix multisphere
 // integrates bodies only, so with a mixture the discs are the group `singles` (by atom type),
 // made after insertion: a static group holds the atoms that exist when it is defined.
-std::string ClumpIntegration(const Setup& setup) {
+std::string ClumpIntegration(const SiloSetup& setup) {
   // allow_group_and_set: the groups below and count(all,region) in the discharge.
   return setup.multisphere ? "fix ms all multisphere allow_group_and_set yes\n" : "";
 }
-std::string SingleIntegration(const Setup& setup, bool define_group) {
+std::string SingleIntegration(const SiloSetup& setup, bool define_group) {
   if (setup.single_types.empty()) return "";
   if (!setup.multisphere) return "fix integrate all nve/sphere\nfix planar all planeforce 0 0 1\n";
   std::string s;
@@ -108,7 +108,7 @@ std::string SingleIntegration(const Setup& setup, bool define_group) {
 
 // The body of a sphere in dumps: the multisphere body (`mol`; 0 for a single sphere), or,
 // without clumps, the sphere itself (`mol` is not allocated then).
-std::string BodyColumn(const Setup& setup) { return setup.multisphere ? "mol" : "id"; }
+std::string BodyColumn(const SiloSetup& setup) { return setup.multisphere ? "mol" : "id"; }
 
 long long StepsOf(double time, double dt) { return std::max<long long>(1, std::llround(time / dt)); }
 
@@ -153,9 +153,9 @@ std::string Stl(const MeshFile& m, double half_z) {
   return s + "endsolid granary\n";
 }
 
-Setup MakeSetup(const RunSpec& spec, double box_top) {
+SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
   validate(spec);
-  Setup s;
+  SiloSetup s;
   const Silo& silo = spec.silo;
   const double ed = spec.discharge.exit_distance;
   if (spec.discharge.mode == DischargeMode::kReinject && !silo.side_outlets.empty())
@@ -306,7 +306,7 @@ Setup MakeSetup(const RunSpec& spec, double box_top) {
   return s;
 }
 
-std::string BedScript(const RunSpec& spec, const Setup& s) {
+std::string BedScript(const RunSpec& spec, const SiloSetup& s) {
   const double dt = spec.time_step;
   const long long chunk = StepsOf(kChunkTime, dt);
   const long long chunks = StepsOf(spec.bed.max_settle_time, dt) / chunk + 1;
@@ -351,11 +351,11 @@ std::string BedScript(const RunSpec& spec, const Setup& s) {
     << "variable box_top equal ${y_max}+" << Num(2 * s.bound_radius + 1.0) << "\n"
     << "change_box all y final " << Num(s.y_lo) << " ${box_top} units box\n"
     << "write_restart bed.restart\n"
-    << "write_dump all custom bed.dump id " << BodyColumn(s) << " type x y radius\n";
+    << "write_dump all custom bed.dump id " << BodyColumn(s) << " type x y radius z\n";
   return o.str();
 }
 
-std::string DischargeScript(const RunSpec& spec, const Setup& s, const DischargeStart& start) {
+std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const DischargeStart& start) {
   const double dt = spec.time_step;
   const long long chunk = StepsOf(std::min(kChunkTime, spec.discharge.clog_window / 4), dt);
   const long long total = StepsOf(spec.discharge.max_time, dt);
@@ -438,7 +438,7 @@ std::string DischargeScript(const RunSpec& spec, const Setup& s, const Discharge
   if (spec.discharge.stop_on_clog)
     p << "if \"" << stalled << "\" then \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
   p << "next chunk\njump SELF discharge\nlabel finished\n"
-    << "write_dump all custom final.dump id " << BodyColumn(s) << " type x y radius\n"
+    << "write_dump all custom final.dump id " << BodyColumn(s) << " type x y radius z\n"
     << "print \"GRANARY_FINAL ${step_now}\"\n";
   return script + p.str();
 }

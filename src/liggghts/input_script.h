@@ -31,7 +31,7 @@ struct Counter {
 };
 
 // The quasi-2-D set-up shared by the bed and discharge scripts.
-struct Setup {
+struct SiloSetup {
   int species = 0;            // atom types 1..species are the bodies' spheres
   int wall_type = 0;          // = species + 1
   bool multisphere = false;   // any clump: clumps are multisphere bodies (fix multisphere)
@@ -56,11 +56,11 @@ struct Setup {
 // Throws SpecError for what the backend cannot express (e.g. reinject with a side outlet).
 // `box_top`: the top of the settled bed's box (the bed script shrinks the box to just above
 // the bed); side-wall meshes must end inside it. 0 = before the bed exists.
-Setup MakeSetup(const RunSpec& spec, double box_top = 0.0);
+SiloSetup MakeSetup(const RunSpec& spec, double box_top = 0.0);
 
 // Bed script: insert, settle until the kinetic energy per body is negligible, write
 // bed.restart and bed.dump. Prints "GRANARY_BED t=... ke=..." every chunk.
-std::string BedScript(const RunSpec& spec, const Setup& setup);
+std::string BedScript(const RunSpec& spec, const SiloSetup& setup);
 
 // Discharge script from bed.restart (fresh) or from `restart_file` (continue, with
 // `last_exit_step` the step of the last exit before the checkpoint). Prints
@@ -70,7 +70,7 @@ struct DischargeStart {
   std::string restart_file;  // fixed-form name chosen by the backend (checkpoint.<step>.restart)
   long long last_exit_step = 0;
 };
-std::string DischargeScript(const RunSpec& spec, const Setup& setup, const DischargeStart& start);
+std::string DischargeScript(const RunSpec& spec, const SiloSetup& setup, const DischargeStart& start);
 
 // ASCII STL of one rectangle.
 std::string Stl(const MeshFile& mesh, double half_z);
