@@ -82,10 +82,17 @@ CampaignSpec CampaignSpec::from_json(const json& j) {
   }
   if (j.contains("engine")) {
     const json& e = j["engine"];
-    if (!e.is_string() || (e != "native" && e != "liggghts")) {
-      throw SpecError("/engine", "must be one of \"native\", \"liggghts\" (got " + e.dump() + ")");
+    const auto bad = [&] {
+      return SpecError("/engine", "must be \"native\", \"liggghts\" or a list of both, e.g. [\"native\", \"liggghts\"] (got " +
+                                      e.dump() + ")");
+    };
+    s.engines.clear();
+    for (const json& one : e.is_array() ? e : json::array({e})) {
+      if (!one.is_string() || (one != "native" && one != "liggghts")) throw bad();
+      if (std::find(s.engines.begin(), s.engines.end(), one) != s.engines.end()) throw bad();
+      s.engines.push_back(one);
     }
-    s.engine = e;
+    if (s.engines.empty()) throw bad();
   }
   if (j.contains("base")) {
     if (!j["base"].is_object()) throw SpecError("/base", "must be an object (got " + std::string(j["base"].type_name()) + ")");
@@ -146,12 +153,14 @@ CampaignSpec CampaignSpec::from_json(const json& j) {
     }
   }
   // The base must be a valid run spec on its own; errors point into /base.
-  json base = s.base;
-  base["engine"] = s.engine;
-  try {
-    RunSpec::from_json(base);
-  } catch (const SpecError& e) {
-    throw SpecError("/base" + e.path(), e.message());
+  for (const auto& engine : s.engines) {
+    json base = s.base;
+    base["engine"] = engine;
+    try {
+      RunSpec::from_json(base);
+    } catch (const SpecError& e) {
+      throw SpecError("/base" + e.path(), e.message());
+    }
   }
   return s;
 }
@@ -252,12 +261,12 @@ std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cach
   }
 
   json base = spec.base;
-  base["engine"] = spec.engine;
+  base["engine"] = spec.engines.front();
   const json canonical = RunSpec::from_json(base).to_json();
   const std::string no_text = json("").dump();
 
   std::vector<PlannedRun> runs;
-  runs.reserve(points.size() * static_cast<std::size_t>(spec.replicas));
+  runs.reserve(points.size() * spec.engines.size() * static_cast<std::size_t>(spec.replicas));
   for (std::size_t pi = 0; pi < points.size(); ++pi) {
     const json& point = points[pi];
     const std::string where = "point " + std::to_string(pi) + " " + point.dump();
@@ -273,33 +282,39 @@ std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cach
     const std::uint64_t seed_source = point.contains("/seed") && params["seed"].is_number_unsigned()
                                           ? params["seed"].get<std::uint64_t>()
                                           : spec.seed;
-    // Validate and resolve the point once: replicas differ only in the seed, which cannot
-    // make a spec invalid. The canonical JSON of every replica is then the point's dump
-    // with seed, run id and bed file filled in (no copy or dump of the whole spec per run).
-    RunSpec rs;
-    try {
-      rs = RunSpec::from_json(params);
-    } catch (const SpecError& e) {
-      throw SpecError("/sweep", where + ": " + e.what());
-    }
-    const DumpTemplate resolved(rs.to_json(), {"/seed", "/run_id", "/bed/cache_file"});
-    const DumpTemplate bed_key(rs.bed_key(), {"/seed"});
-    // Seed 0 stands for "any replica": replicas of one point share the point id.
-    const std::string point_id = hash_hex(resolved.fill({"0", no_text, no_text}));
     const std::string point_text = point.dump();
-    for (int r = 0; r < spec.replicas; ++r) {
-      const std::string seed = std::to_string(replica_seed(seed_source, r));
-      PlannedRun run;
-      run.run_id = hash_hex(resolved.fill({seed, no_text, no_text}));  // == run_id_of(the replica's RunSpec)
-      run.point_id = point_id;
-      run.point = point;
-      run.point_json = point_text;
-      run.replica = r;
-      const std::string bed_file =
-          (std::filesystem::path(cache_dir) / (hash_hex(bed_key.fill({seed})) + ".bed")).string();
-      run.params_json = resolved.fill({seed, json(run.run_id).dump(), json(bed_file).dump()});
-      run.engine = rs.engine;
-      runs.push_back(std::move(run));
+    // One engine after the other at each point, with the same replica seeds. A point that
+    // sets /engine itself is planned for that engine only.
+    const std::vector<std::string> engines = point.contains("/engine") ? std::vector<std::string>{""} : spec.engines;
+    for (const auto& engine : engines) {
+      if (!engine.empty()) params["engine"] = engine;
+      // Validate and resolve the point once: replicas differ only in the seed, which cannot
+      // make a spec invalid. The canonical JSON of every replica is then the point's dump
+      // with seed, run id and bed file filled in (no copy or dump of the whole spec per run).
+      RunSpec rs;
+      try {
+        rs = RunSpec::from_json(params);
+      } catch (const SpecError& e) {
+        throw SpecError("/sweep", where + ": " + e.what());
+      }
+      const DumpTemplate resolved(rs.to_json(), {"/seed", "/run_id", "/bed/cache_file"});
+      const DumpTemplate bed_key(rs.bed_key(), {"/seed"});
+      // Seed 0 stands for "any replica": replicas of one point share the point id.
+      const std::string point_id = hash_hex(resolved.fill({"0", no_text, no_text}));
+      for (int r = 0; r < spec.replicas; ++r) {
+        const std::string seed = std::to_string(replica_seed(seed_source, r));
+        PlannedRun run;
+        run.run_id = hash_hex(resolved.fill({seed, no_text, no_text}));  // == run_id_of(the replica's RunSpec)
+        run.point_id = point_id;
+        run.point = point;
+        run.point_json = point_text;
+        run.replica = r;
+        const std::string bed_file =
+            (std::filesystem::path(cache_dir) / (hash_hex(bed_key.fill({seed})) + ".bed")).string();
+        run.params_json = resolved.fill({seed, json(run.run_id).dump(), json(bed_file).dump()});
+        run.engine = rs.engine;
+        runs.push_back(std::move(run));
+      }
     }
   }
   return runs;

@@ -18,7 +18,8 @@ struct CampaignSpec {
   std::string description;
   std::uint64_t seed = 1;
   int replicas = 1;
-  std::string engine = "native";
+  // "native" and/or "liggghts": every sweep point is planned once per engine (a comparison).
+  std::vector<std::string> engines = {"native"};
   nlohmann::json base = nlohmann::json::object();
   nlohmann::json grid = nlohmann::json::object();   // pointer -> [values]: cartesian product
   nlohmann::json zip = nlohmann::json::object();    // pointer -> [values]: paired, equal lengths

@@ -95,7 +95,7 @@ struct ReferenceRun {
 std::vector<ReferenceRun> ReferenceExpand(const CampaignSpec& spec, const std::vector<json>& points,
                                           const std::string& cache_dir) {
   json base = spec.base;
-  base["engine"] = spec.engine;
+  base["engine"] = spec.engines.front();
   const json canonical = RunSpec::from_json(base).to_json();
   std::vector<ReferenceRun> out;
   for (const json& point : points) {
@@ -140,6 +140,33 @@ TEST(CampaignSpecTest, FastExpansionGivesTheIdsAndParamsOfTheReferencePath) {
   }
 }
 
+TEST(CampaignSpecTest, EngineListPlansEveryPointOncePerEngineWithTheSameSeeds) {
+  const json j = json::parse(R"({"name": "t", "replicas": 2, "engine": ["native", "liggghts"],
+    "base": {"silo": {"width": 30}}, "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6]}}})");
+  const CampaignSpec s = CampaignSpec::from_json(j);
+  EXPECT_EQ(s.engines, (std::vector<std::string>{"native", "liggghts"}));
+  const auto runs = expand(s, "/cache");
+  ASSERT_EQ(runs.size(), 2u * 2u * 2u);
+  // Point, then engine, then replica.
+  const std::vector<std::string> engines = {"native", "native", "liggghts", "liggghts"};
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    EXPECT_EQ(runs[i].engine, engines[i % 4]);
+    EXPECT_EQ(runs[i].params()["engine"], engines[i % 4]);
+    EXPECT_EQ(run_id_of(RunSpec::from_json(runs[i].params())), runs[i].run_id);
+  }
+  EXPECT_EQ(runs[0].point, runs[2].point);
+  EXPECT_NE(runs[0].point_id, runs[2].point_id);
+  EXPECT_NE(runs[0].run_id, runs[2].run_id);
+  EXPECT_EQ(runs[0].params()["seed"], runs[2].params()["seed"]);
+  EXPECT_NE(runs[0].params()["bed"]["cache_file"], runs[2].params()["bed"]["cache_file"]);
+  // The native runs are the runs of the single-engine campaign: a comparison reuses them.
+  json single = j;
+  single["engine"] = "native";
+  const auto native = expand(CampaignSpec::from_json(single), "/cache");
+  EXPECT_EQ(native[0].run_id, runs[0].run_id);
+  EXPECT_EQ(native[2].run_id, runs[4].run_id);
+}
+
 TEST(DumpTemplateTest, FillEqualsTheDumpOfTheFilledDocument) {
   const json doc = {{"b", {{"x", 1}, {"s", "\x01granary-field-1\x01"}}}, {"a", 2}, {"c", "z"}};
   const DumpTemplate t(doc, {"/c"});
@@ -165,7 +192,11 @@ TEST(CampaignSpecErrorTest, BadTopLevelValues) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"replicas": 2})")), "/name: must be a non-empty string (got nothing)");
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "replicas": 0})")), "/replicas: must be an integer in [1, 100000] (got 0)");
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": "lammps"})")),
-            "/engine: must be one of \"native\", \"liggghts\" (got \"lammps\")");
+            "/engine: must be \"native\", \"liggghts\" or a list of both, e.g. [\"native\", \"liggghts\"] (got "
+            "\"lammps\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": ["native", "native"]})")),
+            "/engine: must be \"native\", \"liggghts\" or a list of both, e.g. [\"native\", \"liggghts\"] (got "
+            "[\"native\",\"native\"])");
 }
 
 TEST(CampaignSpecErrorTest, BaseErrorsPointIntoBase) {
