@@ -278,6 +278,19 @@ std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cach
         throw SpecError("/sweep", where + ": axis \"" + key + "\": " + e.message());
       }
     }
+    // A species named by default takes the name of its shape, also when the shape is swept
+    // (the resolved base names it after the base's shape).
+    if (params.contains("bodies") && params["bodies"].contains("species")) {
+      json& species = params["bodies"]["species"];
+      for (std::size_t i = 0; i < species.size(); ++i) {
+        const std::string name_key = "/bodies/species/" + std::to_string(i) + "/name";
+        if (point.contains(name_key) || spec.base.contains(json::json_pointer(name_key))) continue;
+        if (point.contains("/bodies/species/" + std::to_string(i) + "/shape") ||
+            point.contains("/bodies/species/" + std::to_string(i) + "/n")) {
+          species[i].erase("name");
+        }
+      }
+    }
     // A swept seed replaces the campaign seed as the source of the replica seeds.
     const std::uint64_t seed_source = point.contains("/seed") && params["seed"].is_number_unsigned()
                                           ? params["seed"].get<std::uint64_t>()

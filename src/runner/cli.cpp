@@ -185,7 +185,7 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
     json axes = json::object();
     for (const auto& [axis, values] : s.axis_values) axes[axis] = values;
     out << json{{"campaign", spec.name}, {"runs", s.total},     {"points", s.points},     {"replicas", spec.replicas},
-                {"added", s.added},      {"unchanged", s.unchanged}, {"revived", s.revived}, {"retired", s.retired},
+                {"engines", spec.engines}, {"added", s.added},      {"unchanged", s.unchanged}, {"revived", s.revived}, {"retired", s.retired},
                 {"axes", axes},          {"dry_run", a.has("dry-run")}}
                .dump(2)
         << "\n";
@@ -200,7 +200,14 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
     if (vals.size() > 8) list += ", ...";
     out << "  " << std::left << std::setw(40) << axis << "  " << vals.size() << ": " << list << "\n";
   }
-  out << "  points " << s.points << " x replicas " << spec.replicas << " = " << s.total << " runs\n";
+  if (spec.engines.size() > 1) {
+    std::string names;
+    for (const auto& e : spec.engines) names += (names.empty() ? "" : ", ") + e;
+    out << "  points " << s.points / static_cast<int>(spec.engines.size()) << " x engines " << spec.engines.size() << " ("
+        << names << ") x replicas " << spec.replicas << " = " << s.total << " runs\n";
+  } else {
+    out << "  points " << s.points << " x replicas " << spec.replicas << " = " << s.total << " runs\n";
+  }
   out << "  added " << s.added << ", unchanged " << s.unchanged << ", revived " << s.revived << ", retired "
       << s.retired << "\n";
   return 0;

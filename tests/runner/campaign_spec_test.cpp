@@ -228,5 +228,20 @@ TEST(CampaignSpecErrorTest, InvalidPointNamesThePoint) {
             "/sweep: point 0 {\"/nothing/here\":6}: axis \"/nothing/here\": \"/nothing\" does not exist in the run spec");
 }
 
+TEST(CampaignSpecTest, ASweptShapeNamesItsDefaultNamedSpecies) {
+  const json j = json::parse(R"({"name": "t", "base": {"silo": {"width": 30}},
+    "sweep": {"grid": {"/bodies/species/0/shape": ["disc", "dumbbell"]}}})");
+  const auto runs = expand(CampaignSpec::from_json(j), "/cache");
+  ASSERT_EQ(runs.size(), 2u);
+  EXPECT_EQ(runs[0].params()["bodies"]["species"][0]["name"], "disc");
+  EXPECT_EQ(runs[1].params()["bodies"]["species"][0]["name"], "dumbbell");
+  // A name the user gave stays.
+  const json named = json::parse(R"({"name": "t", "base": {"silo": {"width": 30},
+    "bodies": {"species": [{"name": "grain"}]}},
+    "sweep": {"grid": {"/bodies/species/0/shape": ["disc", "dumbbell"]}}})");
+  const auto runs2 = expand(CampaignSpec::from_json(named), "/cache");
+  EXPECT_EQ(runs2[0].params()["bodies"]["species"][0]["name"], "grain");
+}
+
 }  // namespace
 }  // namespace granary::runner
