@@ -14,6 +14,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "analysis/engine_comparison.h"
 #include "analysis/expression.h"
 #include "analysis/metrics.h"
 #include "analysis/report_document.h"
@@ -27,6 +28,7 @@ struct AnalysedRun {
   std::string engine_version;
   std::string granary_commit;
   std::string tangential_cap;
+  RunTiming timing;
 };
 
 struct Point {
@@ -37,6 +39,8 @@ struct Point {
   nlohmann::json spec;                      // a run spec of this point (for axis values)
   std::vector<const AnalysedRun*> runs;
   PointMetrics metrics;
+  std::string engine;                       // campaigns on several engines: this point's engine
+  std::string shared_group;                 // `group` without the engine (points matched across engines)
 };
 
 struct Context {
@@ -55,6 +59,8 @@ struct Context {
   int x_outlet = -1;                        // the outlet (event order) whose width is x; -1: none
   std::size_t outlets = 1;                  // most outlets of any used run
   std::vector<std::string> notes;
+  std::vector<std::string> engines;         // of the campaign's runs, in first-appearance order
+  std::optional<EngineComparison> comparison;  // when runs come from two engines
 };
 
 std::string short_axis(const std::string& pointer) {
@@ -142,7 +148,15 @@ Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>
         analyse_frames(data, options.analysis, a.analysis);
         a.engine_version = data.summary.engine_version;
         a.granary_commit = data.summary.granary_commit;
-        a.tangential_cap = tangential_cap_of(data.spec.is_null() ? r.spec : data.spec);
+        // LIGGGHTS says which cap it applied (its own, whatever the spec asks).
+        a.tangential_cap = data.summary.raw.value("tangential_cap", tangential_cap_of(data.spec.is_null() ? r.spec : data.spec));
+        if (data.summary.raw.contains("timing") && data.summary.raw.at("timing").is_object()) {
+          const nlohmann::json& t = data.summary.raw.at("timing");
+          a.timing.wall_s = t.value("wall_s", kNaN);
+          a.timing.discharge_wall_s = t.value("discharge_wall_s", kNaN);
+          a.timing.disc_steps_per_s = t.value("disc_steps_per_s", kNaN);
+          a.timing.threads = t.value("threads", 0);
+        }
         if (a.analysis.engine.empty()) a.analysis.engine = r.engine;
         c.used.push_back(std::move(a));
       } catch (const std::exception& e) {
@@ -226,6 +240,11 @@ Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>
     }
     p.group = point_label(c, p.point, any_spec, c.x_axes);
     p.spec = any_spec;
+    const auto engine = axis_value("/engine", p.point, any_spec);
+    p.engine = engine && engine->is_string() ? engine->get<std::string>() : "";
+    std::set<std::string> skip = c.x_axes;
+    skip.insert("/engine");
+    p.shared_group = point_label(c, p.point, any_spec, skip);
   }
   // N_u for points where every run clogged: the freely discharging runs of the same group
   // (same silo and mixture, other widths), else of the whole campaign.
@@ -1022,11 +1041,182 @@ std::optional<Section> intermittency_section(const Context& c) {
   return s;
 }
 
+// ---- engine comparison (campaign compare) ------------------------------------------------
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+const char* metric_title(const std::string& name) {
+  static const std::map<std::string, const char*> titles = {
+      {"q_count", "Q (bodies / sqrt(d/g))"}, {"q_mass", "Q_m (mass / sqrt(d/g))"},
+      {"phi", "packing fraction"},           {"tg_translational", "T_g translational (ch. 3)"},
+      {"tg_full", "T_g (ch. 4-5)"},          {"v_max", "V_max / sqrt(g d)"},
+      {"avalanche_size", "mean avalanche size"}, {"psi", "clogging index Psi"}};
+  const auto it = titles.find(name);
+  return it == titles.end() ? name.c_str() : it->second;
+}
+
+// The comparison of the first two engines of the campaign: native is `a` when present.
+std::optional<EngineComparison> engine_comparison_of(const Context& c) {
+  if (c.engines.size() < 2) return std::nullopt;
+  const bool has_native = std::find(c.engines.begin(), c.engines.end(), "native") != c.engines.end();
+  const std::string a = has_native ? "native" : c.engines[0];
+  std::string b;
+  for (const auto& e : c.engines)
+    if (e != a && b.empty()) b = e;
+  std::vector<PointMetrics> ma, mb;
+  for (const Point& p : c.points) {
+    if (p.engine == a) ma.push_back(p.metrics);
+    if (p.engine == b) mb.push_back(p.metrics);
+  }
+  std::vector<RunTiming> ta, tb;
+  for (const AnalysedRun& r : c.used) {
+    if (r.record->engine == a) ta.push_back(r.timing);
+    if (r.record->engine == b) tb.push_back(r.timing);
+  }
+  return compare_engines(a, ma, ta, b, mb, tb);
+}
+
+// The report's name of a compared point: the x value and the groups without the engine.
+std::string shared_point_name(const Context& c, const nlohmann::json& point, const std::string& engine) {
+  for (const Point& p : c.points) {
+    if (p.engine != engine || p.point != point) continue;
+    std::string s = p.shared_group;
+    if (!c.x_axis.empty()) s = c.x_name + "=" + format_number(p.x, 6) + (s.empty() ? "" : ", " + s);
+    return s;
+  }
+  return point.dump();
+}
+
+std::optional<Section> engine_comparison_section(const Context& c) {
+  if (!c.comparison) return std::nullopt;
+  const EngineComparison& k = *c.comparison;
+  const std::string& a = k.engine_a;
+  const std::string& b = k.engine_b;
+  Section s{"engine-comparison", "Engine comparison: " + a + " and " + b, {}};
+  std::map<std::string, std::set<std::string>> caps;
+  for (const AnalysedRun& r : c.used) caps[r.record->engine].insert(r.tangential_cap);
+  auto cap_text = [&](const std::string& e) {
+    std::string t;
+    for (const auto& x : caps[e]) t += (t.empty() ? "" : ", ") + x;
+    return t.empty() ? std::string("?") : t;
+  };
+  s.blocks.push_back(Text{
+      "The same sweep points and replica seeds on both engines (beds are prepared by each engine, so replicas are "
+      "statistically, not bodily, the same). Ratio = " + b + " / " + a + ", with the standard error of both "
+      "means propagated. **agree**: the difference is within " + format_number(kAgreementSigmas) +
+      " combined standard errors. Coulomb cap of the tangential force: " + a + " `" + cap_text(a) + "`, " + b + " `" +
+      cap_text(b) + "` (`lammps` caps spring + damping, `liggghts` the spring part only; docs/liggghts.md)."});
+  // One line per metric: how many points agree and the spread of the ratio.
+  std::map<std::string, std::vector<const MetricAgreement*>> by_metric;
+  std::vector<std::string> metric_order;
+  for (const PointAgreement& p : k.points)
+    for (const MetricAgreement& m : p.metrics) {
+      if (!by_metric.count(m.difference.name)) metric_order.push_back(m.difference.name);
+      by_metric[m.difference.name].push_back(&m);
+    }
+  Table overview{"engine_agreement", "Agreement per metric over all compared points",
+                 {"metric", "points", "agree", "ratio min", "ratio mean", "ratio max"}, {}};
+  for (const auto& name : metric_order) {
+    int agree = 0;
+    double lo = kInf, hi = -kInf, sum = 0;
+    int n = 0;
+    for (const MetricAgreement* m : by_metric[name]) {
+      agree += m->agree ? 1 : 0;
+      if (!std::isfinite(m->ratio)) continue;
+      lo = std::min(lo, m->ratio);
+      hi = std::max(hi, m->ratio);
+      sum += m->ratio;
+      ++n;
+    }
+    overview.rows.push_back({metric_title(name), std::to_string(by_metric[name].size()), std::to_string(agree),
+                             n ? format_number(lo) : "", n ? format_number(sum / n) : "", n ? format_number(hi) : ""});
+  }
+  if (k.points.empty()) {
+    s.blocks.push_back(Text{"No sweep point has finished runs on both engines yet."});
+  } else {
+    s.blocks.push_back(overview);
+    Table t{"engine_comparison", "Every metric of every point on both engines (mean ± se (n) over replicas)",
+            {"point", "metric", a, b, "ratio " + b + "/" + a, "z", "agree"}, {}};
+    for (const PointAgreement& p : k.points) {
+      const std::string name = shared_point_name(c, p.point, a);
+      for (const MetricAgreement& m : p.metrics) {
+        const MetricDifference& d = m.difference;
+        t.rows.push_back({name, metric_title(d.name), format_mean_se(d.a.mean, d.a.se, d.a.n),
+                          format_mean_se(d.b.mean, d.b.se, d.b.n), format_mean_se(m.ratio, m.ratio_se, -1),
+                          format_number(d.z, 3), m.agree ? "yes" : "no"});
+      }
+    }
+    s.blocks.push_back(t);
+  }
+  // Ratio against x, one series per (metric, group), with the 10 % band.
+  if (has_x(c) && !k.points.empty()) {
+    Figure f{"engine_ratio", "Ratio " + b + " / " + a + " against " + c.x_label, c.x_label, b + " / " + a, {}, false,
+             false, "Error bars: propagated se of both means. Dashed: 1 and the ±10 % band."};
+    double xlo = kInf, xhi = -kInf;
+    for (const char* metric : {"q_count", "phi", "tg_full", "psi", "avalanche_size"}) {
+      std::map<std::string, Series> by_group;
+      std::vector<std::string> order;
+      for (const PointAgreement& p : k.points) {
+        const Point* pa = nullptr;
+        for (const Point& q : c.points)
+          if (q.engine == a && q.point == p.point) pa = &q;
+        if (!pa || !std::isfinite(pa->x)) continue;
+        for (const MetricAgreement& m : p.metrics) {
+          if (m.difference.name != metric || !std::isfinite(m.ratio)) continue;
+          if (!by_group.count(pa->shared_group)) {
+            order.push_back(pa->shared_group);
+            Series ser;
+            ser.label = std::string(metric_title(metric)) + (pa->shared_group.empty() ? "" : ", " + pa->shared_group);
+            ser.columns = {c.x_name, "ratio", "ratio_se"};
+            ser.style = Series::Style::kErrorBars;
+            ser.err = 2;
+            by_group[pa->shared_group] = ser;
+          }
+          by_group[pa->shared_group].rows.push_back({pa->x, m.ratio, m.ratio_se});
+          xlo = std::min(xlo, pa->x);
+          xhi = std::max(xhi, pa->x);
+        }
+      }
+      for (const auto& g : order) {
+        Series& ser = by_group[g];
+        std::sort(ser.rows.begin(), ser.rows.end());
+        f.series.push_back(std::move(ser));
+      }
+    }
+    if (!f.series.empty()) {
+      for (const double level : {0.9, 1.0, 1.1}) {
+        Series line;
+        line.label = level == 1.0 ? "equal" : (level < 1 ? "-10 %" : "+10 %");
+        line.columns = {c.x_name, "ratio"};
+        line.style = Series::Style::kLines;
+        line.color = 7;
+        line.rows = {{xlo, level}, {xhi, level}};
+        f.series.push_back(std::move(line));
+      }
+      s.blocks.push_back(f);
+    }
+  }
+  Table cost{"engine_cost", "What each engine cost on this campaign (discharge throughput: disc-steps per second "
+                            "per run; one disc = one sphere of a LIGGGHTS multisphere body)",
+             {"engine", "runs", "wall time (bed + discharge)", "discharge wall time", "disc-steps/s per run",
+              "threads per run", "throughput / " + a}, {}};
+  const double base_rate = k.costs.empty() ? kNaN : k.costs.front().disc_steps_per_s.mean;
+  for (const EngineCost& e : k.costs) {
+    cost.rows.push_back({e.engine, std::to_string(e.runs), format_number(e.wall_s, 4) + " s",
+                         format_number(e.discharge_wall_s, 4) + " s",
+                         format_mean_se(e.disc_steps_per_s.mean, e.disc_steps_per_s.se, e.disc_steps_per_s.n),
+                         std::to_string(e.threads), format_number(e.disc_steps_per_s.mean / base_rate, 3)});
+  }
+  s.blocks.push_back(cost);
+  return s;
+}
+
 using SectionBuilder = std::optional<Section> (*)(const Context&);
 // The report's sections in order. A new analysis adds one function and one line here.
 constexpr SectionBuilder kSections[] = {runs_section,      provenance_section,     per_run_section,
                                         flow_section,      profile_section,        region_section,
-                                        clogging_index_section, avalanche_section, intermittency_section};
+                                        clogging_index_section, avalanche_section, intermittency_section,
+                                        engine_comparison_section};
 
 [[noreturn]] void bad_report_key(const std::string& path, const nlohmann::json& value, const std::string& allowed) {
   throw std::invalid_argument(path + ": " + allowed + " (got " + value.dump() + ")");
@@ -1145,7 +1335,18 @@ ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRe
   if (options.out_dir.empty()) throw std::invalid_argument("write_report: ReportOptions::out_dir is empty");
   ReportOptions effective = options;
   apply_report_spec(campaign.spec, effective);
-  const Context c = build_context(campaign, runs, effective);
+  // A campaign on several engines: the engine is one more axis, so every table, figure and fit
+  // keeps the engines apart, and the engines are compared point by point.
+  CampaignInfo with_engines = campaign;
+  std::vector<std::string> engines;
+  for (const RunRecord& r : runs)
+    if (r.state != "retired" && std::find(engines.begin(), engines.end(), r.engine) == engines.end())
+      engines.push_back(r.engine);
+  if (engines.size() > 1 && std::find(campaign.axes.begin(), campaign.axes.end(), "/engine") == campaign.axes.end())
+    with_engines.axes.push_back("/engine");
+  Context c = build_context(with_engines, runs, effective);
+  c.engines = engines;
+  c.comparison = engine_comparison_of(c);
   std::vector<Section> sections;
   for (SectionBuilder build : kSections)
     if (auto s = build(c)) sections.push_back(std::move(*s));
@@ -1159,6 +1360,7 @@ ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRe
   summary.runs_failed = static_cast<int>(c.failed.size() + c.unreadable.size());
   summary.markdown = r.markdown;
   summary.html = r.html;
+  if (c.comparison) summary.comparison = to_json(*c.comparison);
   return summary;
 }
 

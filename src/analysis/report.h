@@ -51,6 +51,7 @@ struct ReportSummary {
   int runs_failed = 0;
   std::filesystem::path markdown;
   std::filesystem::path html;
+  nlohmann::json comparison;      // runs on two engines: analysis::to_json(EngineComparison), else null
 };
 
 // Reads the campaign spec's optional "/report" object into `options` (models, region,

@@ -32,7 +32,7 @@ std::string format_mean_se(double mean, double se, int n, int significant) {
   if (std::isfinite(se) && std::abs(mean) < 1e-9 * se) mean = 0.0;  // rounding noise of an exact zero
   std::string s = format_number(mean, significant);
   if (std::isfinite(se)) s += " ± " + format_number(se, 2);
-  return s + " (" + std::to_string(n) + ")";
+  return n < 0 ? s : s + " (" + std::to_string(n) + ")";
 }
 
 std::string csv_escape(const std::string& f) {

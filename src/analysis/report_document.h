@@ -67,7 +67,7 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
 
 // Helpers for filling tables: numbers with a fixed number of significant digits, NaN as "".
 std::string format_number(double value, int significant = 4);
-// "mean ± se (n)" in markdown/html cells; se NaN -> "mean (n)".
+// "mean ± se (n)" in markdown/html cells; se NaN -> "mean (n)"; n < 0 -> no "(n)".
 std::string format_mean_se(double mean, double se, int n, int significant = 4);
 std::string csv_escape(const std::string& field);
 std::string html_escape(const std::string& text);

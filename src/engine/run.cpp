@@ -36,7 +36,7 @@ namespace fs = std::filesystem;
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr char kCheckpointMagic[] = "GRANARY-CHECKPOINT-1";
+constexpr char kCheckpointMagic[] = "GRANARY-CHECKPOINT-2";
 constexpr int kClogCheckEvery = 100;  // steps between clog checks once no exit for clog_window
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
@@ -195,6 +195,10 @@ class Discharge {
   void HandleExits();
   int OutletOf(int b) const;
   void Reinject(int b);
+  bool Periodic() const {
+    return spec_.discharge.mode == DischargeMode::kReinject &&
+           spec_.discharge.reinject_position == ReinjectPosition::kPeriodic;
+  }
   bool Stalled() const;
   bool AnyBodyOverOutlets() const;
   void WriteSummary(const std::string& end_reason);
@@ -214,6 +218,10 @@ class Discharge {
   std::vector<std::int64_t> exits_per_outlet_;
   int clogs_ = 0;
   bool in_clog_ = false;
+  // Periodic reinjection: bodies counted but still falling to the bottom of the box, and the
+  // box height they jump up by (checkpointed).
+  std::vector<std::uint8_t> falling_;
+  double periodic_height_ = 0;
   // Bed provenance (checkpointed).
   std::string bed_file_;
   bool bed_prepared_here_ = false;
@@ -243,6 +251,7 @@ void Discharge::BuildWorld(const std::vector<int>& species) {
     for (double r : t.r) r_max_ = std::max(r_max_, r);
   for (int s : species) world_->AddBody(s, 0, 0, 0);
   exits_per_outlet_.assign(world_->geometry().outlets.size(), 0);
+  falling_.assign(static_cast<std::size_t>(world_->body_count()), 0);
   world_->OpenOutlets();
 }
 
@@ -270,6 +279,14 @@ void Discharge::StartFresh() {
                    [](const HistoryEntry& a, const HistoryEntry& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
   w.ImportHistory(ob.bed.pair_history, walls);
   w.ComputeForces();
+  if (Periodic()) {
+    // The LIGGGHTS backend's box (input_script.cpp): bottom kPeriodicFall below the counting
+    // plane, top 2 bounding radii + kPeriodicHeadroom above the highest disc centre.
+    double top = -1e300, bound = 0;
+    for (int i = 0; i < w.disc_count(); ++i) top = std::max(top, w.dy_[i]);
+    for (const auto& t : w.templates()) bound = std::max(bound, t.bound_radius);
+    periodic_height_ = (top + 2 * bound + kPeriodicHeadroom) + (spec_.discharge.exit_distance + kPeriodicFall);
+  }
   events_ = OutFile(dir_ / "events.csv", false, 0);
   std::fprintf(events_.get(), "time,body,shape,mass,outlet\n");
   if (frame_every_ > 0) frames_ = OutFile(dir_ / "frames.dump", false, 0);
@@ -311,6 +328,8 @@ void Discharge::WriteCheckpoint() {
   o.Put(events_.Offset());
   o.Put(frames_.Offset());
   o.Put(contacts_.Offset());
+  o.PutVec(falling_);
+  o.Put(periodic_height_);
   WriteAtomically(dir_ / "checkpoint.bin", o.str());
 }
 
@@ -362,6 +381,8 @@ void Discharge::LoadCheckpoint() {
   const std::vector<HistoryEntry> walls = in.GetVec<HistoryEntry>();
   w.ImportHistory(pairs, walls);
   const long ev = in.Get<long>(), fr = in.Get<long>(), co = in.Get<long>();
+  falling_ = in.GetVec<std::uint8_t>();
+  periodic_height_ = in.Get<double>();
   events_ = OutFile(dir_ / "events.csv", true, ev);
   if (frame_every_ > 0) frames_ = OutFile(dir_ / "frames.dump", true, fr);
   if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = OutFile(dir_ / "contacts.dump", true, co);
@@ -407,6 +428,25 @@ void Discharge::HandleExits() {
   const double t = static_cast<double>(step_) * spec_.time_step;
   for (int b = 0; b < w.body_count(); ++b) {
     if (!w.active_[b]) continue;
+    if (falling_[b]) {
+      // Counted already; through the bottom of the periodic box it comes back at the top,
+      // at the same x and with its velocity.
+      if (w.by_[b] < -(spec_.discharge.exit_distance + kPeriodicFall)) {
+        // Where a heap has grown above the box top (returns pile up over the outlet), the
+        // body lands on it instead: LIGGGHTS resolves that overlap through the periodic
+        // boundary, this engine has no images across it.
+        const double x = w.bx_[b], rb = w.templates()[static_cast<std::size_t>(w.tmpl_[b])].bound_radius;
+        double y = w.by_[b] + periodic_height_;
+        for (int i = 0; i < w.disc_count(); ++i) {
+          const int ob = w.dbody_[i];
+          if (ob == b || !w.active_[ob] || falling_[ob]) continue;
+          if (std::fabs(w.dx_[i] - x) < rb + w.dr_[i]) y = std::max(y, w.dy_[i] + w.dr_[i] + rb + 0.05);
+        }
+        w.PlaceBody(b, x, y, w.bth_[b], w.bvx_[b], w.bvy_[b], w.bw_[b]);
+        falling_[b] = 0;
+      }
+      continue;
+    }
     const int k = OutletOf(b);
     if (k < 0) continue;
     const ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
@@ -414,7 +454,9 @@ void Discharge::HandleExits() {
     ++exits_per_outlet_[static_cast<std::size_t>(k)];
     last_exit_step_ = step_;
     in_clog_ = false;
-    if (spec_.discharge.mode == DischargeMode::kReinject) {
+    if (Periodic()) {
+      falling_[b] = 1;
+    } else if (spec_.discharge.mode == DischargeMode::kReinject) {
       Reinject(b);
     } else {
       w.Deactivate(b);

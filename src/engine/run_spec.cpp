@@ -177,6 +177,8 @@ constexpr std::initializer_list<std::pair<const char*, Shape>> kShapes = {
     {"disc", Shape::kDisc}, {"dumbbell", Shape::kDumbbell}, {"snowman", Shape::kSnowman}, {"rod", Shape::kRod}};
 constexpr std::initializer_list<std::pair<const char*, DischargeMode>> kModes = {
     {"remove", DischargeMode::kRemove}, {"reinject", DischargeMode::kReinject}};
+constexpr std::initializer_list<std::pair<const char*, ReinjectPosition>> kReinjectPositions = {
+    {"random", ReinjectPosition::kRandom}, {"periodic", ReinjectPosition::kPeriodic}};
 constexpr std::initializer_list<std::pair<const char*, TangentialCap>> kCaps = {
     {"lammps", TangentialCap::kLammps}, {"liggghts", TangentialCap::kLiggghts}};
 constexpr std::initializer_list<std::pair<const char*, Wall>> kWalls = {{"left", Wall::kLeft},
@@ -309,6 +311,12 @@ std::string to_string(DischargeMode mode) {
   }
   return "?";
 }
+std::string to_string(ReinjectPosition position) {
+  for (const auto& [name, value] : kReinjectPositions) {
+    if (value == position) return name;
+  }
+  return "?";
+}
 std::string to_string(TangentialCap cap) {
   for (const auto& [name, value] : kCaps) {
     if (value == cap) return name;
@@ -356,13 +364,14 @@ RunSpec RunSpec::from_json(const json& j) {
   if (r.Has("discharge")) {
     Reader d(r.At("discharge"), "/discharge",
              {"mode", "max_time", "stop_on_clog", "clog_window", "clog_ke_per_body", "reinject_speed",
-              "exit_distance"});
+              "reinject_position", "exit_distance"});
     d.Enum("mode", s.discharge.mode, kModes);
     d.Number("max_time", s.discharge.max_time);
     d.Bool("stop_on_clog", s.discharge.stop_on_clog);
     d.Number("clog_window", s.discharge.clog_window);
     d.Number("clog_ke_per_body", s.discharge.clog_ke_per_body);
     d.Number("reinject_speed", s.discharge.reinject_speed);
+    d.Enum("reinject_position", s.discharge.reinject_position, kReinjectPositions);
     d.Number("exit_distance", s.discharge.exit_distance);
   }
   if (r.Has("output")) {
@@ -517,6 +526,11 @@ void validate(const RunSpec& s) {
   NonNegative(s.discharge.clog_ke_per_body, "/discharge/clog_ke_per_body");
   NonNegative(s.discharge.reinject_speed, "/discharge/reinject_speed");
   NonNegative(s.discharge.exit_distance, "/discharge/exit_distance");
+  if (s.discharge.mode == DischargeMode::kReinject && s.discharge.reinject_position == ReinjectPosition::kPeriodic &&
+      !s.silo.side_outlets.empty())
+    throw SpecError("/discharge/reinject_position",
+                    "\"periodic\" returns bodies through the bottom of the box, which a body leaving through a side "
+                    "outlet never reaches; use \"random\" with side outlets (got \"periodic\")");
 
   NonNegative(s.output.frame_interval, "/output/frame_interval");
   NonNegative(s.output.checkpoint_interval, "/output/checkpoint_interval");
@@ -565,7 +579,7 @@ json RunSpec::to_json() const {
   }
   json obstacles = json::array();
   for (const auto& o : silo.obstacles) obstacles.push_back({{"x", o.x}, {"y", o.y}, {"diameter", o.diameter}});
-  return {{"run_id", run_id},
+  json out = {{"run_id", run_id},
           {"seed", seed},
           {"engine", engine},
           {"time_step", time_step},
@@ -591,6 +605,10 @@ json RunSpec::to_json() const {
            {{"frame_interval", output.frame_interval},
             {"contact_forces", output.contact_forces},
             {"checkpoint_interval", output.checkpoint_interval}}}};
+  // Only when not the default, so that run ids planned before this option existed stay valid.
+  if (discharge.reinject_position != ReinjectPosition::kRandom)
+    out["discharge"]["reinject_position"] = to_string(discharge.reinject_position);
+  return out;
 }
 
 json RunSpec::bed_key() const {

@@ -94,6 +94,14 @@ struct Bed {
 };
 
 enum class DischargeMode { kRemove, kReinject };
+// Where a reinjected body comes back: at a random free place on top of the bed (the thesis),
+// or through a periodic boundary in y, at the same x with its velocity (LIGGGHTS' way).
+enum class ReinjectPosition { kRandom, kPeriodic };
+// The periodic box of ReinjectPosition::kPeriodic, the same in both engines: from
+// kPeriodicFall below the counting plane up to kPeriodicHeadroom + 2 bounding radii above the
+// highest disc centre of the bed at t = 0.
+constexpr double kPeriodicFall = 3.0;
+constexpr double kPeriodicHeadroom = 1.0;
 
 struct Discharge {
   DischargeMode mode = DischargeMode::kRemove;
@@ -102,6 +110,7 @@ struct Discharge {
   double clog_window = 5.0;        // a clog: no exit through any outlet for this long ...
   double clog_ke_per_body = 1e-4;  // ... and kinetic energy per body near the outlets below this
   double reinject_speed = 0.0;     // reinject mode: speed (downwards) given to a reinjected body
+  ReinjectPosition reinject_position = ReinjectPosition::kRandom;
   double exit_distance = 2.0;      // a body has left when its centre is this far past the outlet plane
 };
 
@@ -142,6 +151,7 @@ std::size_t edit_distance(const std::string& a, const std::string& b);
 
 std::string to_string(Shape shape);
 std::string to_string(DischargeMode mode);
+std::string to_string(ReinjectPosition position);
 std::string to_string(TangentialCap cap);
 
 }  // namespace granary

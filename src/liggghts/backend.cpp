@@ -651,6 +651,8 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   summary["steps"] = last_step;
   summary["max_out_of_plane"] = out_of_plane;
   summary["tangential_cap"] = "liggghts";  // LIGGGHTS caps the spring part only, whatever the spec asks
+  // Reinjection is y-periodicity here, whatever the spec asks (docs/liggghts.md).
+  if (spec.discharge.mode == DischargeMode::kReinject) summary["reinject_position"] = "periodic";
   summary["bed"] = {{"file", state.value("bed_file", "")},
                     {"height", state.value("bed_height", 0.0)},
                     {"prepared_here", state.value("bed_prepared_here", false)},

@@ -185,7 +185,7 @@ SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
   s.x_hi = s.half_width + x_margin;
   s.bound_radius = bound;
   s.half_z = std::max(2.0, bound + 1.0);  // more than the bounding radius, or nothing is inserted (notes §4.6)
-  s.y_lo = -(ed + 3.0);
+  s.y_lo = -(ed + kPeriodicFall);  // the native engine's periodic reinjection uses the same box
   double floor = 1.0 + bound;
   for (const Obstacle& o : silo.obstacles) floor = std::max(floor, o.y + o.diameter / 2 + bound + 0.5);
   s.insert_x_half = s.half_width - bound - 0.05;
@@ -348,7 +348,7 @@ std::string BedScript(const RunSpec& spec, const SiloSetup& s) {
     << "print \"GRANARY_BED_DONE ${t_now} ${ke_body}\"\n"  // before anything re-initialises the computes
     // The box top right above the bed: in reinject mode (y-periodic) a body leaving at the
     // bottom re-enters just above the bed surface. change_box is refused after read_restart.
-    << "variable box_top equal ${y_max}+" << Num(2 * s.bound_radius + 1.0) << "\n"
+    << "variable box_top equal ${y_max}+" << Num(2 * s.bound_radius + kPeriodicHeadroom) << "\n"
     << "change_box all y final " << Num(s.y_lo) << " ${box_top} units box\n"
     << "write_restart bed.restart\n"
     << "write_dump all custom bed.dump id " << BodyColumn(s) << " type x y radius z\n";

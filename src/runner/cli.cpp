@@ -155,15 +155,17 @@ const char kPlanHelp[] =
     "  --dry-run    validate and show what would change, store nothing\n"
     "  --json       print the summary as JSON\n";
 
-int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv, {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}, "plan");
-  if (a.positional.size() != 1) throw UsageError("campaign plan: needs exactly one SPEC file (see campaign plan --help)");
-  const std::string spec_path = a.positional[0];
+json ReadSpecFile(const std::string& verb, const std::string& spec_path) {
   std::ifstream in(spec_path);
-  if (!in) throw UsageError("campaign plan: cannot read " + spec_path);
+  if (!in) throw UsageError("campaign " + verb + ": cannot read " + spec_path);
   json j = json::parse(in, nullptr, false);
   if (j.is_discarded()) throw UsageError(spec_path + ": not valid JSON");
-  CampaignSpec spec;
+  return j;
+}
+
+// Validates the campaign spec `j` (read from spec_path), expands it and stores the runs.
+PlanSummary PlanInto(const json& j, const std::string& spec_path, const std::string& db, bool dry_run,
+                     CampaignSpec& spec) {
   try {
     spec = CampaignSpec::from_json(j);
   } catch (const SpecError& e) {
@@ -178,20 +180,12 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   }
 #endif
   const std::vector<PlannedRun> runs = expand(spec, default_cache_dir());
-  const std::string db = DbPath(a);
   Store store(db);
-  const PlanSummary s = plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), a.has("dry-run"));
-  if (a.has("json")) {
-    json axes = json::object();
-    for (const auto& [axis, values] : s.axis_values) axes[axis] = values;
-    out << json{{"campaign", spec.name}, {"runs", s.total},     {"points", s.points},     {"replicas", spec.replicas},
-                {"engines", spec.engines}, {"added", s.added},      {"unchanged", s.unchanged}, {"revived", s.revived}, {"retired", s.retired},
-                {"axes", axes},          {"dry_run", a.has("dry-run")}}
-               .dump(2)
-        << "\n";
-    return 0;
-  }
-  out << "campaign " << spec.name << (a.has("dry-run") ? " (dry run: nothing stored)" : "") << "\n";
+  return plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
+}
+
+void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s, bool dry_run) {
+  out << "campaign " << spec.name << (dry_run ? " (dry run: nothing stored)" : "") << "\n";
   out << "  axis                                      values\n";
   for (const auto& axis : s.axes) {
     const auto& vals = s.axis_values.count(axis) ? s.axis_values.at(axis) : std::vector<json>{};
@@ -210,6 +204,25 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   }
   out << "  added " << s.added << ", unchanged " << s.unchanged << ", revived " << s.revived << ", retired "
       << s.retired << "\n";
+}
+
+int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}, "plan");
+  if (a.positional.size() != 1) throw UsageError("campaign plan: needs exactly one SPEC file (see campaign plan --help)");
+  const std::string spec_path = a.positional[0];
+  CampaignSpec spec;
+  const PlanSummary s = PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.has("dry-run"), spec);
+  if (a.has("json")) {
+    json axes = json::object();
+    for (const auto& [axis, values] : s.axis_values) axes[axis] = values;
+    out << json{{"campaign", spec.name}, {"runs", s.total},         {"points", s.points},   {"replicas", spec.replicas},
+                {"engines", spec.engines}, {"added", s.added},      {"unchanged", s.unchanged}, {"revived", s.revived},
+                {"retired", s.retired},  {"axes", axes},            {"dry_run", a.has("dry-run")}}
+               .dump(2)
+        << "\n";
+    return 0;
+  }
+  PrintPlan(out, spec, s, a.has("dry-run"));
   return 0;
 }
 
@@ -333,6 +346,8 @@ std::string ExeDir() {
   return ec ? "." : self.parent_path().string();
 }
 
+int RunAll(const std::string& db, const RunOptions& o, std::ostream& out);
+
 int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv,
                        {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true},
@@ -353,6 +368,11 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
   o.exe_dir = ExeDir();
   const std::string db = DbPath(a);
   if (!fs::exists(db)) throw UsageError("campaign run: no database " + db + " (run campaign plan SPEC --db " + db + " first)");
+  return RunAll(db, o, out);
+}
+
+// Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly.
+int RunAll(const std::string& db, const RunOptions& o, std::ostream& out) {
   Store store(db);
   if (!load_campaign(store)) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
 
@@ -473,11 +493,9 @@ const char kReportHelp[] =
     "Write report.md, report.html, figures and CSVs of the finished runs (default DIR:\n"
     "<db dir>/report).\n";
 
-int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv, {{"db", true}, {"out", true}, {"no-figures", false}, {"help", false}}, "report");
-  const std::string db = DbPath(a);
-  if (!fs::exists(db)) throw UsageError("campaign report: no database " + db);
 #ifdef GRANARY_HAVE_ANALYSIS
+// The report of the campaign in `db`: the database's runs handed over as plain records.
+analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out_dir, bool figures) {
   Store store(db);
   const auto campaign = load_campaign(store);
   if (!campaign) throw UsageError("campaign report: " + db + " holds no campaign");
@@ -504,20 +522,141 @@ int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     records.push_back(std::move(rec));
   }
   analysis::ReportOptions options;
-  options.out_dir = a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report";
-  options.figures = !a.has("no-figures");
+  options.out_dir = out_dir;
+  options.figures = figures;
   try {
     analysis::apply_report_spec(campaign->spec, options);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("campaign spec: ") + e.what());
   }
-  const auto summary = analysis::write_report(info, records, options);
+  return analysis::write_report(info, records, options);
+}
+#endif
+
+int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, {{"db", true}, {"out", true}, {"no-figures", false}, {"help", false}}, "report");
+  const std::string db = DbPath(a);
+  if (!fs::exists(db)) throw UsageError("campaign report: no database " + db);
+#ifdef GRANARY_HAVE_ANALYSIS
+  const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
+                                     !a.has("no-figures"));
   out << "report: " << summary.markdown.string() << "\n        " << summary.html.string() << "\n  runs used "
       << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed << "\n";
   return 0;
 #else
   (void)out;
   throw UsageError("campaign report: this build has no analysis library (granary_analysis)");
+#endif
+}
+
+// ---------------------------------------------------------------- compare
+const char kCompareHelp[] =
+    "usage: campaign compare SPEC [--db FILE] [--jobs N] [--no-run] [--out DIR] [--no-figures] [--json]\n"
+    "                        [--threads-per-run T] [--time-limit S] [--retries K]\n"
+    "Plan the campaign SPEC on both engines (native and liggghts, whatever its \"engine\" says),\n"
+    "run what is not done (finished runs are reused: native runs of an earlier single-engine plan\n"
+    "of the same spec count), write the report with its engine-comparison section, and print per\n"
+    "point and metric both values, their ratio and whether they agree within 2 combined standard\n"
+    "errors, plus wall time and disc-steps per second per engine.\n"
+    "  --db FILE     database (default granary.db)\n"
+    "  --no-run      compare what has finished, run nothing\n"
+    "  --out DIR     report folder (default <db dir>/report)\n"
+    "  --json        print the comparison as JSON (progress goes to stderr)\n"
+    "  --jobs, --threads-per-run, --time-limit, --retries: as for campaign run\n"
+    "Exit: 0 compared, 1 some runs failed or no point finished on both engines, 2 usage error,\n"
+    "130 interrupted.\n";
+
+#ifdef GRANARY_HAVE_ANALYSIS
+void PrintComparison(std::ostream& out, const json& c) {
+  const std::string a = c.at("engine_a"), b = c.at("engine_b");
+  out << "engine comparison: ratio " << b << " / " << a << "; agree = " << c.at("agreement").get<std::string>() << "\n";
+  const auto cell = [](const json& m) {
+    if (!m.at("mean").is_number()) return std::string("-");
+    std::ostringstream o;
+    o << std::setprecision(4) << m.at("mean").get<double>();
+    if (m.at("se").is_number()) o << " ± " << std::setprecision(2) << m.at("se").get<double>();
+    return o.str();
+  };
+  out << "    " << std::left << std::setw(16) << "metric" << std::setw(20) << a << std::setw(20) << b << std::setw(18)
+      << "ratio" << "agree\n";
+  for (const json& p : c.at("points")) {
+    out << "  " << CompactPoint(p.at("point")) << "\n";
+    if (p.at("metrics").empty()) out << "    (no metric defined on both engines yet)\n";
+    for (const char* metric : {"q_count", "phi", "tg_full", "psi", "avalanche_size"}) {
+      if (!p.at("metrics").contains(metric)) continue;
+      const json& m = p.at("metrics").at(metric);
+      json ratio = {{"mean", m.at("ratio")}, {"se", m.at("ratio_se")}};
+      out << "    " << std::left << std::setw(16) << metric << std::setw(20) << cell(m.at(a)) << std::setw(20)
+          << cell(m.at(b)) << std::setw(18) << cell(ratio) << (m.at("agree").get<bool>() ? "yes" : "no") << "\n";
+    }
+  }
+  double rate_a = 0;
+  for (const json& e : c.at("costs")) {
+    const json& r = e.at("disc_steps_per_s");
+    const double rate = r.at("mean").is_number() ? r.at("mean").get<double>() : 0.0;
+    if (e.at("engine") == a) rate_a = rate;
+    out << "  " << std::left << std::setw(9) << e.at("engine").get<std::string>() << " " << e.at("runs").get<int>()
+        << " runs, wall " << Duration(e.at("wall_s").get<double>()) << " (discharge "
+        << Duration(e.at("discharge_wall_s").get<double>()) << "), " << std::setprecision(3) << rate / 1e6
+        << " M disc-steps/s per run";
+    if (e.at("engine") != a && rate > 0) out << "; " << a << " is " << std::setprecision(3) << rate_a / rate << "x faster";
+    out << "\n";
+  }
+}
+#endif
+
+int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args a = Parse(argv,
+                       {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false},
+                        {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true},
+                        {"help", false}},
+                       "compare");
+  if (a.positional.size() != 1) throw UsageError("campaign compare: needs exactly one SPEC file (see campaign compare --help)");
+#ifdef GRANARY_HAVE_ANALYSIS
+  const std::string spec_path = a.positional[0];
+  json j = ReadSpecFile("compare", spec_path);
+  if (j.is_object()) j["engine"] = json::array({"native", "liggghts"});
+  RunOptions o;
+  o.jobs = a.integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
+  o.threads_per_run = a.integer("threads-per-run", 1, 1);
+  o.time_limit = a.number("time-limit", 0);
+  if (o.time_limit < 0) throw UsageError("--time-limit: must be >= 0 (got \"" + a.get("time-limit", "") + "\")");
+  o.retries = a.integer("retries", 1, 0);
+  o.exe_dir = ExeDir();
+  const std::string db = DbPath(a);
+  // With --json, stdout carries only the JSON document.
+  std::ostream& progress = a.has("json") ? err : out;
+  CampaignSpec spec;
+  const PlanSummary s = PlanInto(j, spec_path, db, false, spec);
+  PrintPlan(progress, spec, s, false);
+  int code = 0;
+  if (!a.has("no-run")) {
+    code = RunAll(db, o, progress);
+    if (code == static_cast<int>(ExitCode::kInterrupted)) return code;
+  }
+  const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
+                                     !a.has("no-figures"));
+  if (a.has("json")) {
+    out << json{{"campaign", spec.name},
+                {"report", summary.html.string()},
+                {"runs_used", summary.runs_used},
+                {"runs_missing", summary.runs_missing},
+                {"runs_failed", summary.runs_failed},
+                {"comparison", summary.comparison}}
+               .dump(2)
+        << "\n";
+  } else if (!summary.comparison.is_null()) {
+    PrintComparison(out, summary.comparison);
+  }
+  progress << "report: " << summary.html.string() << "\n  runs used " << summary.runs_used << ", missing "
+           << summary.runs_missing << ", failed " << summary.runs_failed << "\n";
+  const bool compared = !summary.comparison.is_null() && !summary.comparison.at("points").empty();
+  if (!compared) progress << "campaign compare: no sweep point has finished runs on both engines\n";
+  return code != 0 ? code : (compared ? 0 : static_cast<int>(ExitCode::kRunsFailed));
+#else
+  (void)out;
+  (void)err;
+  throw UsageError("campaign compare: this build has no analysis library (granary_analysis)");
 #endif
 }
 
@@ -535,6 +674,7 @@ const std::vector<Verb>& Verbs() {
       {"run", "run what is not done (resumable, leases, N at a time)", kRunHelp, Run},
       {"status", "counts, progress, failures, ETA", kStatusHelp, Status},
       {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report},
+      {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare},
   };
   return kVerbs;
 }

@@ -60,7 +60,7 @@ TEST_F(CliTest, HelpAndUnknownVerb) {
   auto r = Sh(testing::Campaign() + " --help");
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.output.find("verbs:"), std::string::npos);
-  for (const char* verb : {"plan", "run", "status", "report"}) {
+  for (const char* verb : {"plan", "run", "status", "report", "compare"}) {
     r = Sh(testing::Campaign() + " " + verb + " --help");
     EXPECT_EQ(r.code, 0) << verb;
     EXPECT_EQ(r.output.rfind(std::string("usage: campaign ") + verb, 0), 0u) << r.output;
@@ -289,6 +289,52 @@ TEST_F(CliTest, RealEngineEndToEnd) {
     EXPECT_EQ(fs::path(summary["bed"]["file"].get<std::string>()).parent_path(), dir_ / "beds");
   }
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_ / "beds"), fs::directory_iterator{}) >= 1, true);
+}
+
+// campaign compare on a tiny campaign: both real engines (LIGGGHTS as installed by
+// scripts/setup.sh), the comparison as JSON, the report; a second compare reuses every run.
+TEST_F(CliTest, CompareRunsBothEnginesAndReportsThem) {
+  const std::string native = testing::BinDir() + "/granary-engine";
+  const std::string liggghts = testing::BinDir() + "/granary-liggghts";
+  if (!fs::exists(native) || !fs::exists(liggghts)) GTEST_SKIP() << "engines not built";
+  const fs::path p = dir_ / "cmp.json";
+  std::ofstream(p) << R"({"name": "cmp", "seed": 4, "replicas": 2,
+    "base": {"bodies": {"count": 60, "species": [{"shape": "disc"}]}, "silo": {"width": 12},
+             "contact": {"tangential_cap": "liggghts"},
+             "discharge": {"mode": "reinject", "reinject_position": "periodic", "max_time": 4, "stop_on_clog": false},
+             "output": {"checkpoint_interval": 1, "frame_interval": 0.5}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [6]}}})";
+  // Progress goes to stderr; stdout is the JSON document.
+  const auto r = Sh("(" + Cmd("compare " + p.string() + " --json --no-figures --jobs 2") + " 2>/dev/null)");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const json out = json::parse(r.output);
+  EXPECT_EQ(out["runs_used"], 4);
+  const json& c = out["comparison"];
+  EXPECT_EQ(c["engine_a"], "native");
+  EXPECT_EQ(c["engine_b"], "liggghts");
+  ASSERT_EQ(c["points"].size(), 1u);
+  ASSERT_TRUE(c["points"][0]["metrics"].contains("q_count")) << c.dump();
+  const json& q = c["points"][0]["metrics"]["q_count"];
+  EXPECT_EQ(q["native"]["n"], 2);
+  EXPECT_EQ(q["liggghts"]["n"], 2);
+  EXPECT_GT(q["native"]["mean"].get<double>(), 0.0);
+  EXPECT_GT(q["liggghts"]["mean"].get<double>(), 0.0);
+  EXPECT_NEAR(q["ratio"].get<double>(), q["liggghts"]["mean"].get<double>() / q["native"]["mean"].get<double>(), 1e-12);
+  for (const auto& e : c["costs"]) {
+    EXPECT_EQ(e["runs"], 2);
+    EXPECT_GT(e["disc_steps_per_s"]["mean"].get<double>(), 0.0);
+  }
+  const std::string md = ReadFile(dir_ / "report" / "report.md");
+  EXPECT_NE(md.find("Engine comparison: native and liggghts"), std::string::npos);
+  std::map<std::string, int> engines;
+  const json status = Status();
+  for (const auto& run : status["runs"]) ++engines[run["engine"].get<std::string>()];
+  EXPECT_EQ(engines["native"], 2);
+  EXPECT_EQ(engines["liggghts"], 2);
+  // Again: nothing to run, the same numbers.
+  const auto again = Sh("(" + Cmd("compare " + p.string() + " --json --no-figures") + " 2>/dev/null)");
+  ASSERT_EQ(again.code, 0) << again.output;
+  EXPECT_EQ(json::parse(again.output)["comparison"]["points"], c["points"]);
 }
 
 }  // namespace

@@ -87,6 +87,21 @@ TEST(RunSpecErrorTest, BadEnum) {
             "/engine: must be one of \"native\", \"liggghts\" (got \"lammps\")");
 }
 
+TEST(RunSpecTest, ReinjectPositionIsInTheResolvedSpecOnlyWhenNotTheDefault) {
+  // Run ids planned before the option existed stay the same.
+  EXPECT_FALSE(RunSpec::from_json(json::object()).to_json()["discharge"].contains("reinject_position"));
+  const RunSpec p = RunSpec::from_json(json::parse(R"({"discharge": {"mode": "reinject", "reinject_position": "periodic"}})"));
+  EXPECT_EQ(p.discharge.reinject_position, ReinjectPosition::kPeriodic);
+  EXPECT_EQ(p.to_json()["discharge"]["reinject_position"], "periodic");
+  EXPECT_EQ(RunSpec::from_json(p.to_json()).to_json(), p.to_json());
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"reinject_position": "top"}})")),
+            "/discharge/reinject_position: must be one of \"random\", \"periodic\" (got \"top\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"mode": "reinject", "reinject_position": "periodic"},
+    "silo": {"side_outlets": [{"wall": "right", "bottom": 3, "width": 5}]}})")),
+            "/discharge/reinject_position: \"periodic\" returns bodies through the bottom of the box, which a body "
+            "leaving through a side outlet never reaches; use \"random\" with side outlets (got \"periodic\")");
+}
+
 TEST(RunSpecErrorTest, NonPositiveParameter) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"base_outlets": [{"width": -3}]}})")),
             "/silo/base_outlets/0/width: must be > 0 (got -3.0)");

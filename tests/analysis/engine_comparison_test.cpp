@@ -1,0 +1,166 @@
+// The engine comparison: agreement and ratios with known numbers, point matching, engine
+// costs, and write_report on a synthetic two-engine campaign whose flow rates differ by a
+// known factor per point.
+#include "analysis/engine_comparison.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <sstream>
+
+#include "analysis/report.h"
+#include "test_util.h"
+
+namespace granary::analysis {
+namespace {
+
+using testing::read_file;
+using testing::TempDir;
+using testing::write_file;
+
+MeanSe ms(double mean, double se, int n) { return MeanSe{mean, se, n}; }
+
+TEST(EngineComparison, AgreementRatioAndItsError) {
+  MetricDifference d{"q_count", ms(10.0, 0.3, 4), ms(11.2, 0.4, 4), -1.2, 0.5, -2.4};
+  const MetricAgreement m = agreement_of(d);
+  EXPECT_DOUBLE_EQ(m.ratio, 1.12);
+  EXPECT_NEAR(m.ratio_se, 1.12 * std::hypot(0.03, 0.4 / 11.2), 1e-12);
+  EXPECT_FALSE(m.agree);  // 2.4 combined se apart
+  d.b = ms(10.9, 0.4, 4);
+  d.difference = -0.9;
+  d.z = -1.8;
+  EXPECT_TRUE(agreement_of(d).agree);
+  // Unknown uncertainty (one replica): no claim of agreement; exact equality with se 0 agrees.
+  EXPECT_FALSE(agreement_of(MetricDifference{"phi", ms(0.8, kNaN, 1), ms(0.8, kNaN, 1), 0.0, kNaN, kNaN}).agree);
+  EXPECT_TRUE(agreement_of(MetricDifference{"psi", ms(0.0, 0.0, 3), ms(0.0, 0.0, 3), 0.0, 0.0, kNaN}).agree);
+}
+
+PointMetrics point(double w, double q, double se) {
+  PointMetrics p;
+  p.point = {{"/silo/base_outlets/0/width", w}};
+  p.point_id = "p" + std::to_string(static_cast<int>(w));
+  p.q_count = ms(q, se, 3);
+  return p;
+}
+
+TEST(EngineComparison, MatchesPointsBySweepValuesAndSumsCosts) {
+  const std::vector<PointMetrics> a = {point(10, 20, 1), point(14, 40, 1), point(18, 60, 1)};
+  const std::vector<PointMetrics> b = {point(14, 44, 1), point(10, 19, 1), point(22, 80, 1)};
+  const EngineComparison c =
+      compare_engines("native", a, {{10.0, 8.0, 2e7, 1}, {20.0, 16.0, 4e7, 1}}, "liggghts", b, {{100.0, 90.0, 5e6, 1}});
+  ASSERT_EQ(c.points.size(), 2u);  // W = 18 and 22 are on one engine only
+  EXPECT_EQ(c.points[0].point["/silo/base_outlets/0/width"], 10);
+  EXPECT_DOUBLE_EQ(c.points[0].metrics[0].ratio, 19.0 / 20.0);
+  EXPECT_TRUE(c.points[0].metrics[0].agree);
+  EXPECT_DOUBLE_EQ(c.points[1].metrics[0].ratio, 1.1);
+  EXPECT_FALSE(c.points[1].metrics[0].agree);  // 4 / sqrt(2) = 2.8 se apart
+  ASSERT_EQ(c.costs.size(), 2u);
+  EXPECT_EQ(c.costs[0].runs, 2);
+  EXPECT_DOUBLE_EQ(c.costs[0].wall_s, 30.0);
+  EXPECT_DOUBLE_EQ(c.costs[0].discharge_wall_s, 24.0);
+  EXPECT_DOUBLE_EQ(c.costs[0].disc_steps_per_s.mean, 3e7);
+  EXPECT_DOUBLE_EQ(c.costs[1].disc_steps_per_s.mean, 5e6);
+  const nlohmann::json j = to_json(c);
+  EXPECT_EQ(j["points"][1]["metrics"]["q_count"]["liggghts"]["mean"], 44.0);
+  EXPECT_EQ(j["points"][1]["metrics"]["q_count"]["agree"], false);
+  EXPECT_EQ(j["costs"][1]["engine"], "liggghts");
+}
+
+// A run of n exits at rate q through one outlet of width w, on `engine`.
+void write_run(const std::filesystem::path& dir, const std::string& engine, double w, double q, int n,
+               double rate) {
+  std::ostringstream ev;
+  ev.precision(17);
+  ev << "time,body,shape,mass,outlet\n";
+  for (int i = 1; i <= n; ++i) ev << (i / q) << "," << i % 500 << ",disc,1.0,0\n";
+  write_file(dir / "events.csv", ev.str());
+  const nlohmann::json spec = {{"engine", engine},
+                               {"silo", {{"width", 60}, {"base_outlets", {{{"center", 0.0}, {"width", w}}}}}},
+                               {"bodies", {{"count", 500}}},
+                               {"discharge", {{"mode", "reinject"}, {"stop_on_clog", false}}}};
+  nlohmann::json summary = {{"engine", engine},   {"engine_version", "x"}, {"run_id", dir.filename().string()},
+                            {"spec", spec},       {"end_reason", "time_limit"}, {"bodies", 500},
+                            {"exited", n},        {"remaining", 500},      {"exits_per_outlet", {n}},
+                            {"t_end", n / q + 0.5},
+                            {"timing", {{"wall_s", 10.0}, {"discharge_wall_s", 8.0}, {"disc_steps_per_s", rate}, {"threads", 1}}}};
+  if (engine == "liggghts") summary["tangential_cap"] = "liggghts";
+  write_file(dir / "summary.json", summary.dump());
+  write_file(dir / "run.json", spec.dump());
+  write_file(dir / "DONE", "");
+}
+
+TEST(EngineComparison, ReportOfATwoEngineCampaign) {
+  TempDir dir;
+  CampaignInfo info;
+  info.name = "two-engines";
+  info.axes = {"/silo/base_outlets/0/width"};
+  std::vector<RunRecord> runs;
+  // LIGGGHTS' flow rate is 1 % above the native one at W = 10 (agrees within the 1 %
+  // replica scatter) and 6 % above at W = 14 (does not).
+  const std::map<double, double> factor = {{10.0, 1.01}, {14.0, 1.06}};
+  for (const auto& [w, f] : factor) {
+    for (const std::string engine : {"native", "liggghts"}) {
+      for (int rep = 0; rep < 2; ++rep) {
+        RunRecord r;
+        r.engine = engine;
+        r.point_id = engine + std::to_string(static_cast<int>(w));
+        r.run_id = r.point_id + "r" + std::to_string(rep);
+        r.replica = rep;
+        r.state = "done";
+        r.point = {{"/silo/base_outlets/0/width", w}};
+        r.run_dir = dir.path() / r.run_id;
+        const double q = 10.0 * w * (engine == "native" ? 1.0 : f) * (rep == 0 ? 0.99 : 1.01);
+        write_run(r.run_dir, engine, w, q, 400, engine == "native" ? 2e7 : 4e6);
+        r.spec = nlohmann::json::parse(read_file(r.run_dir / "run.json"));
+        runs.push_back(r);
+      }
+    }
+  }
+  ReportOptions o;
+  o.out_dir = dir.path() / "report";
+  o.figures = false;
+  const ReportSummary s = write_report(info, runs, o);
+  ASSERT_FALSE(s.comparison.is_null());
+  const nlohmann::json& c = s.comparison;
+  EXPECT_EQ(c["engine_a"], "native");
+  EXPECT_EQ(c["engine_b"], "liggghts");
+  ASSERT_EQ(c["points"].size(), 2u);
+  for (const auto& p : c["points"]) {
+    const double w = p["point"]["/silo/base_outlets/0/width"];
+    const auto& q = p["metrics"]["q_count"];
+    EXPECT_NEAR(q["ratio"].get<double>(), factor.at(w), 1e-3) << "W = " << w;
+    EXPECT_EQ(q["agree"].get<bool>(), w == 10.0) << "W = " << w;
+    EXPECT_EQ(q["native"]["n"], 2);
+  }
+  EXPECT_DOUBLE_EQ(c["costs"][0]["disc_steps_per_s"]["mean"].get<double>(), 2e7);
+  EXPECT_DOUBLE_EQ(c["costs"][1]["disc_steps_per_s"]["mean"].get<double>(), 4e6);
+  const std::string md = read_file(s.markdown);
+  EXPECT_NE(md.find("Engine comparison: native and liggghts"), std::string::npos);
+  // The engine is one more axis: every table keeps the engines apart.
+  EXPECT_NE(md.find("engine=liggghts"), std::string::npos);
+  EXPECT_NE(md.find("`liggghts` the spring part only"), std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_comparison.csv"));
+  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_cost.csv"));
+  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_ratio-1.csv"));
+}
+
+TEST(EngineComparison, OneEngineMeansNoComparison) {
+  TempDir dir;
+  CampaignInfo info;
+  info.name = "one";
+  RunRecord r;
+  r.engine = "native";
+  r.point_id = "p";
+  r.run_id = "r";
+  r.state = "done";
+  r.run_dir = dir.path() / "r";
+  write_run(r.run_dir, "native", 10, 50, 100, 1e7);
+  ReportOptions o;
+  o.out_dir = dir.path() / "report";
+  o.figures = false;
+  EXPECT_TRUE(write_report(info, {r}, o).comparison.is_null());
+  EXPECT_EQ(read_file(o.out_dir / "report.md").find("Engine comparison"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace granary::analysis
