@@ -1151,7 +1151,7 @@ std::optional<Section> engine_comparison_section(const Context& c) {
   // Ratio against x, one series per (metric, group), with the 10 % band.
   if (has_x(c) && !k.points.empty()) {
     Figure f{"engine_ratio", "Ratio " + b + " / " + a + " against " + c.x_label, c.x_label, b + " / " + a, {}, false,
-             false, "Error bars: propagated se of both means. Dashed: 1 and the ±10 % band."};
+             false, "Error bars: propagated se of both means. Black lines: equal, and the ±10 % band."};
     double xlo = kInf, xhi = -kInf;
     for (const char* metric : {"q_count", "phi", "tg_full", "psi", "avalanche_size"}) {
       std::map<std::string, Series> by_group;
