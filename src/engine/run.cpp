@@ -36,7 +36,7 @@ namespace fs = std::filesystem;
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr char kCheckpointMagic[] = "GRANARY-CHECKPOINT-2";
+constexpr char kCheckpointMagic[] = "GRANARY-CHECKPOINT-3";
 constexpr int kClogCheckEvery = 100;  // steps between clog checks once no exit for clog_window
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
@@ -222,6 +222,8 @@ class Discharge {
   // box height they jump up by (checkpointed).
   std::vector<std::uint8_t> falling_;
   double periodic_height_ = 0;
+  // Bodies of the bed that an obstacle overlaps, taken out at t = 0 (checkpointed).
+  int cleared_by_obstacles_ = 0;
   // Bed provenance (checkpointed).
   std::string bed_file_;
   bool bed_prepared_here_ = false;
@@ -269,6 +271,20 @@ void Discharge::StartFresh() {
   World& w = *world_;
   for (int b = 0; b < w.body_count(); ++b)
     w.PlaceBody(b, ob.bed.x[b], ob.bed.y[b], ob.bed.theta[b], ob.bed.vx[b], ob.bed.vy[b], ob.bed.omega[b]);
+  // The bed was prepared without obstacles (it is shared by runs that differ only in their
+  // outlets or obstacles, physics.md): a body an obstacle overlaps is taken out, or the
+  // overlap would fire it off at t = 0.
+  for (int i = 0; i < w.disc_count(); ++i) {
+    const int b = w.dbody_[i];
+    if (!w.active_[b]) continue;
+    for (const Obstacle& o : spec_.silo.obstacles) {
+      if (std::hypot(w.dx_[i] - o.x, w.dy_[i] - o.y) < w.dr_[i] + o.diameter / 2) {
+        w.Deactivate(b);
+        ++cleared_by_obstacles_;
+        break;
+      }
+    }
+  }
   // The bed's wall contacts move to the segments of this silo (none over an open gap).
   std::vector<HistoryEntry> walls;
   for (const HistoryEntry& h : ob.bed.wall_history) {
@@ -277,7 +293,11 @@ void Discharge::StartFresh() {
   }
   std::stable_sort(walls.begin(), walls.end(),
                    [](const HistoryEntry& a, const HistoryEntry& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
-  w.ImportHistory(ob.bed.pair_history, walls);
+  std::vector<HistoryEntry> pairs;
+  for (const HistoryEntry& h : ob.bed.pair_history)
+    if (w.active_[w.dbody_[h.i]] && w.active_[w.dbody_[h.j]]) pairs.push_back(h);
+  std::erase_if(walls, [&](const HistoryEntry& h) { return !w.active_[w.dbody_[h.i]]; });
+  w.ImportHistory(pairs, walls);
   w.ComputeForces();
   if (Periodic()) {
     // The LIGGGHTS backend's box (input_script.cpp): bottom kPeriodicFall below the counting
@@ -330,6 +350,7 @@ void Discharge::WriteCheckpoint() {
   o.Put(contacts_.Offset());
   o.PutVec(falling_);
   o.Put(periodic_height_);
+  o.Put(cleared_by_obstacles_);
   WriteAtomically(dir_ / "checkpoint.bin", o.str());
 }
 
@@ -383,6 +404,7 @@ void Discharge::LoadCheckpoint() {
   const long ev = in.Get<long>(), fr = in.Get<long>(), co = in.Get<long>();
   falling_ = in.GetVec<std::uint8_t>();
   periodic_height_ = in.Get<double>();
+  cleared_by_obstacles_ = in.Get<int>();
   events_ = OutFile(dir_ / "events.csv", true, ev);
   if (frame_every_ > 0) frames_ = OutFile(dir_ / "frames.dump", true, fr);
   if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = OutFile(dir_ / "contacts.dump", true, co);
@@ -551,7 +573,8 @@ void Discharge::WriteSummary(const std::string& end_reason) {
   j["run_id"] = spec_.run_id;
   j["spec"] = spec_.to_json();
   j["end_reason"] = end_reason;
-  j["bodies"] = w.body_count();
+  j["bodies"] = w.body_count() - cleared_by_obstacles_;  // in the silo at t = 0
+  if (!spec_.silo.obstacles.empty()) j["cleared_by_obstacles"] = cleared_by_obstacles_;
   j["exited"] = exited;
   j["remaining"] = w.active_count();
   j["exits_per_outlet"] = exits_per_outlet_;
