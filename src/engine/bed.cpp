@@ -2,8 +2,8 @@
 // cache lock.
 #include "engine/bed.h"
 
-#include <fcntl.h>
-#include <sys/file.h>
+#include "engine/files.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -238,39 +238,6 @@ BedState ReadBedFile(const std::string& file, const RunSpec& spec) {
   return BedFromJson(j, spec, file);
 }
 
-void WriteFileAtomically(const std::string& file, const std::string& text) {
-  const std::string tmp = file + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error("cannot write " + tmp);
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error("write failed: " + tmp);
-  }
-  std::filesystem::rename(tmp, file);
-}
-
-// RAII flock on `<file>.lock`.
-class FileLock {
- public:
-  explicit FileLock(const std::string& path) {
-    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT, 0644);
-    if (fd_ < 0) throw std::runtime_error("cannot open lock file " + path);
-    if (::flock(fd_, LOCK_EX) != 0) {
-      ::close(fd_);
-      throw std::runtime_error("cannot lock " + path);
-    }
-  }
-  ~FileLock() {
-    ::flock(fd_, LOCK_UN);
-    ::close(fd_);
-  }
-  FileLock(const FileLock&) = delete;
-  FileLock& operator=(const FileLock&) = delete;
-
- private:
-  int fd_ = -1;
-};
 
 }  // namespace
 
@@ -285,7 +252,7 @@ ObtainedBed ObtainBed(const RunSpec& spec, const std::string& run_dir, const Bed
     out.bed = ReadBedFile(out.file, spec);
   } else {
     out.bed = PrepareBed(spec, progress);
-    WriteFileAtomically(out.file, BedToJson(out.bed, spec).dump() + "\n");
+    WriteAtomically(out.file, BedToJson(out.bed, spec).dump() + "\n");
     out.prepared_here = true;
   }
   out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -2,6 +2,8 @@
 // removal, clog detection, outputs and checkpoints (docs/run-directory.md).
 #include "engine/run.h"
 
+#include "engine/files.h"
+
 #include <omp.h>
 #include <unistd.h>
 
@@ -40,18 +42,6 @@ constexpr char kCheckpointMagic[] = "GRANARY-CHECKPOINT-3";
 constexpr int kClogCheckEvery = 100;  // steps between clog checks once no exit for clog_window
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
-
-void WriteAtomically(const fs::path& file, const std::string& text) {
-  const fs::path tmp = file.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error("cannot write " + tmp.string());
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error("write failed: " + tmp.string());
-  }
-  fs::rename(tmp, file);
-}
 
 // Binary (de)serialisation of the checkpoint: native doubles, so a continued run is bitwise
 // the same as an uninterrupted one on the same machine.

@@ -1,6 +1,8 @@
 // The LIGGGHTS backend (backend.h): bed, discharge and conversion into the run directory.
 #include "liggghts/backend.h"
 
+#include "engine/files.h"
+
 #include <signal.h>
 #include <fcntl.h>
 #include <sys/file.h>
@@ -44,35 +46,12 @@ constexpr int kLogTailLines = 25;
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
 
-void WriteAtomically(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    if (!out) throw std::runtime_error("cannot write " + tmp.string());
-  }
-  fs::rename(tmp, path);
-}
-
 std::string ReadFile(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error("cannot read " + path.string());
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-std::string Tail(const fs::path& path, int lines) {
-  std::ifstream in(path);
-  std::deque<std::string> last;
-  std::string line;
-  while (std::getline(in, line)) {
-    last.push_back(line);
-    if (static_cast<int>(last.size()) > lines) last.pop_front();
-  }
-  std::string out;
-  for (const std::string& l : last) out += l + "\n";
-  return out;
 }
 
 // Parent-death signal in the child: a killed backend never leaves LIGGGHTS writing into a
@@ -120,7 +99,7 @@ LiggghtsRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir
 [[noreturn]] void Fail(const std::string& what, const LiggghtsRun& r, const fs::path& log) {
   std::string msg = what + " (LIGGGHTS exit status " + std::to_string(r.exit_code) + ")";
   for (const std::string& e : r.errors) msg += "\n" + e;
-  msg += "\n--- last lines of " + log.filename().string() + " ---\n" + Tail(log, kLogTailLines);
+  msg += "\n--- last lines of " + log.filename().string() + " ---\n" + TailOfFile(log, kLogTailLines);
   throw LiggghtsError(msg);
 }
 
@@ -359,21 +338,6 @@ struct Bed {
   double wall_s = 0, settle_time = 0, top = 0;
 };
 
-class FileLock {
- public:
-  explicit FileLock(const fs::path& path) : fd_(::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644)) {
-    if (fd_ < 0 || ::flock(fd_, LOCK_EX) != 0) throw std::runtime_error("cannot lock " + path.string());
-  }
-  ~FileLock() {
-    ::flock(fd_, LOCK_UN);
-    ::close(fd_);
-  }
-  FileLock(const FileLock&) = delete;
-  FileLock& operator=(const FileLock&) = delete;
-
- private:
-  int fd_;
-};
 
 std::string CacheStem(const RunSpec& spec) {
   json key = spec.bed_key();
@@ -427,7 +391,7 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
   if (static_cast<int>(bodies.size()) != spec.bodies.count)
     throw LiggghtsError("LIGGGHTS inserted " + std::to_string(bodies.size()) + " of " + std::to_string(spec.bodies.count) +
                         " bodies (insert/pack found no room for the rest; spheres after insertion: " +
-                        std::to_string(inserted) + ")\n--- last lines of log.bed ---\n" + Tail(dir / "log.bed", kLogTailLines));
+                        std::to_string(inserted) + ")\n--- last lines of log.bed ---\n" + TailOfFile(dir / "log.bed", kLogTailLines));
   bed.prepared_here = true;
   bed.wall_s = Seconds(t0);
   bed.settle_time = settle_t;

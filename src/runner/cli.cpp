@@ -348,24 +348,30 @@ std::string ExeDir() {
 
 int RunAll(const std::string& db, const RunOptions& o, std::ostream& out);
 
+// The flags `run` and `compare` share: --jobs, --threads-per-run, --time-limit, --retries.
+RunOptions RunOptionsFrom(const Args& a) {
+  RunOptions o;
+  o.jobs = a.integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
+  o.threads_per_run = a.integer("threads-per-run", 1, 1);
+  o.time_limit = a.number("time-limit", 0);
+  if (o.time_limit < 0) throw UsageError("--time-limit: must be >= 0 (got \"" + a.get("time-limit", "") + "\")");
+  o.retries = a.integer("retries", 1, 0);
+  o.exe_dir = ExeDir();
+  return o;
+}
+
 int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv,
                        {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true},
                         {"time-limit", true}, {"retries", true}, {"help", false}},
                        "run");
   if (!a.positional.empty()) throw UsageError("campaign run: unexpected argument \"" + a.positional[0] + "\"");
-  RunOptions o;
-  o.jobs = a.integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
+  RunOptions o = RunOptionsFrom(a);
   o.engine = a.get("engine", "");
   if (!o.engine.empty() && o.engine != "native" && o.engine != "liggghts" && o.engine.find('/') == std::string::npos) {
     throw UsageError("--engine: must be native, liggghts or a path to an engine executable (got \"" + o.engine + "\")");
   }
   o.only = a.get("only", "");
-  o.threads_per_run = a.integer("threads-per-run", 1, 1);
-  o.time_limit = a.number("time-limit", 0);
-  if (o.time_limit < 0) throw UsageError("--time-limit: must be >= 0 (got \"" + a.get("time-limit", "") + "\")");
-  o.retries = a.integer("retries", 1, 0);
-  o.exe_dir = ExeDir();
   const std::string db = DbPath(a);
   if (!fs::exists(db)) throw UsageError("campaign run: no database " + db + " (run campaign plan SPEC --db " + db + " first)");
   return RunAll(db, o, out);
@@ -616,13 +622,7 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
   const std::string spec_path = a.positional[0];
   json j = ReadSpecFile("compare", spec_path);
   if (j.is_object()) j["engine"] = json::array({"native", "liggghts"});
-  RunOptions o;
-  o.jobs = a.integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
-  o.threads_per_run = a.integer("threads-per-run", 1, 1);
-  o.time_limit = a.number("time-limit", 0);
-  if (o.time_limit < 0) throw UsageError("--time-limit: must be >= 0 (got \"" + a.get("time-limit", "") + "\")");
-  o.retries = a.integer("retries", 1, 0);
-  o.exe_dir = ExeDir();
+  const RunOptions o = RunOptionsFrom(a);
   const std::string db = DbPath(a);
   // With --json, stdout carries only the JSON document.
   std::ostream& progress = a.has("json") ? err : out;

@@ -1,6 +1,8 @@
 // See scheduler.h.
 #include "runner/scheduler.h"
 
+#include "engine/files.h"
+
 #include <signal.h>
 #include <unistd.h>
 
@@ -41,19 +43,6 @@ bool matches_filter(const RunRow& row, const std::string& filter) {
   return actual.is_string() && actual.get<std::string>() == text;
 }
 
-std::string tail_of(const std::string& path, int lines) {
-  std::ifstream in(path);
-  if (!in) return "";
-  std::deque<std::string> last;
-  std::string line;
-  while (std::getline(in, line)) {
-    last.push_back(line);
-    if (static_cast<int>(last.size()) > lines) last.pop_front();
-  }
-  std::string out;
-  for (const auto& l : last) out += l + "\n";
-  return out;
-}
 
 namespace {
 
@@ -226,16 +215,16 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       const std::string log = (fs::path(slot.row.run_dir) / "engine.log").string();
       if (f.signal == 0 && f.exit_code == 0) {
         if (finish_done(slot.row, wall)) continue;
-        end_run(f.run_id, "failed", "engine exited 0 without DONE and summary.json\n" + tail_of(log, 20), wall);
+        end_run(f.run_id, "failed", "engine exited 0 without DONE and summary.json\n" + TailOfFile(log, 20), wall);
       } else if (slot.timed_out) {
         end_run(f.run_id, "failed",
-                "wall-time limit of " + json(options.time_limit).dump() + " s exceeded\n" + tail_of(log, 20),
+                "wall-time limit of " + json(options.time_limit).dump() + " s exceeded\n" + TailOfFile(log, 20),
                 wall);
       } else if (f.signal != 0) {
         // Killed from outside: it continues from its checkpoint on the next attempt.
-        end_run(f.run_id, "interrupted", "engine killed by signal " + std::to_string(f.signal) + "\n" + tail_of(log, 20), wall);
+        end_run(f.run_id, "interrupted", "engine killed by signal " + std::to_string(f.signal) + "\n" + TailOfFile(log, 20), wall);
       } else {
-        end_run(f.run_id, "failed", "engine exited with status " + std::to_string(f.exit_code) + "\n" + tail_of(log, 20), wall);
+        end_run(f.run_id, "failed", "engine exited with status " + std::to_string(f.exit_code) + "\n" + TailOfFile(log, 20), wall);
       }
     }
 

@@ -48,9 +48,6 @@ class RunObserver {
 // Does `row` pass the --only filter?
 bool matches_filter(const RunRow& row, const std::string& filter);
 
-// Last `lines` lines of a text file ("" if missing).
-std::string tail_of(const std::string& path, int lines);
-
 // Runs what is not done. `stop` is set asynchronously (signal handler) to request a clean stop.
 ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executor, RunObserver& observer,
                       const volatile std::sig_atomic_t* stop);
