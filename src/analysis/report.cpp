@@ -2,6 +2,7 @@
 // and renders the sections that the data supports. Each section is one function in the
 // kSections table below; adding an analysis to the report means adding one entry.
 #include "analysis/report.h"
+#include "engine/version.h"
 
 #include <algorithm>
 #include <cmath>
@@ -393,9 +394,7 @@ std::optional<Section> provenance_section(const Context& c) {
   std::string text = "Campaign `" + or_unknown(k.name) + "`, spec hash `" + or_unknown(k.spec_hash) +
                      "`; report written by Granary " + or_unknown(k.granary_version) + " (commit `" +
                      or_unknown(k.git_commit) + "`)";
-#ifdef GRANARY_GIT_COMMIT
-  text += std::string(", analysis library built from commit `") + GRANARY_GIT_COMMIT + "`";
-#endif
+  text += std::string(", analysis library built from commit `") + granary::GitCommit() + "`";
   {
     const std::time_t now = std::time(nullptr);
     std::tm utc{};

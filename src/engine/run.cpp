@@ -1,6 +1,7 @@
 // The discharge driver: outlets open at t = 0, exits become events, reinjection or
 // removal, clog detection, outputs and checkpoints (docs/run-directory.md).
 #include "engine/run.h"
+#include "engine/version.h"
 
 #include "engine/files.h"
 
@@ -26,12 +27,6 @@
 #include "engine/random.h"
 #include "engine/world.h"
 
-#ifndef GRANARY_VERSION
-#define GRANARY_VERSION "0.0.0"
-#endif
-#ifndef GRANARY_GIT_COMMIT
-#define GRANARY_GIT_COMMIT "unknown"
-#endif
 
 namespace granary::engine {
 namespace fs = std::filesystem;
@@ -559,7 +554,7 @@ void Discharge::WriteSummary(const std::string& end_reason) {
   nlohmann::json j;
   j["engine"] = "native";
   j["engine_version"] = GRANARY_VERSION;
-  j["granary_commit"] = GRANARY_GIT_COMMIT;
+  j["granary_commit"] = granary::GitCommit();
   j["run_id"] = spec_.run_id;
   j["spec"] = spec_.to_json();
   j["end_reason"] = end_reason;

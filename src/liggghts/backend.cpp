@@ -1,5 +1,6 @@
 // The LIGGGHTS backend (backend.h): bed, discharge and conversion into the run directory.
 #include "liggghts/backend.h"
+#include "engine/version.h"
 
 #include "engine/files.h"
 
@@ -603,7 +604,7 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   summary["engine"] = "liggghts";
   summary["engine_version"] = LiggghtsVersion(dir / "log.discharge");
   summary["granary_version"] = GRANARY_VERSION;
-  summary["granary_commit"] = GRANARY_GIT_COMMIT;
+  summary["granary_commit"] = granary::GitCommit();
   summary["run_id"] = spec.run_id;
   summary["spec"] = spec.to_json();
   summary["end_reason"] = end_reason;

@@ -1,5 +1,6 @@
 // Verbs of granary-liggghts (docs/liggghts.md, docs/run-directory.md).
 #include "liggghts/cli.h"
+#include "engine/version.h"
 
 #include <cstdio>
 #include <exception>
@@ -115,7 +116,7 @@ int LiggghtsMain(const std::vector<std::string>& args) {
     return args.empty() ? 2 : 0;
   }
   if (args[0] == "--version") {
-    std::cout << "granary-liggghts " << GRANARY_VERSION << " (" << GRANARY_GIT_COMMIT << ")\n";
+    std::cout << "granary-liggghts " << GRANARY_VERSION << " (" << granary::GitCommit() << ")\n";
     return 0;
   }
   const std::vector<std::string> rest(args.begin() + 1, args.end());

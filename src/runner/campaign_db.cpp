@@ -1,5 +1,6 @@
 // See campaign_db.h.
 #include "runner/campaign_db.h"
+#include "engine/version.h"
 
 #include <signal.h>
 #include <unistd.h>
@@ -79,7 +80,7 @@ PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vec
       "VALUES (1, ?1, ?2, ?3, ?4, ?5, ?6, ?7) ON CONFLICT (id) DO UPDATE SET name = ?1, spec = ?2, "
       "spec_hash = ?3, axes = ?4, granary_version = ?5, git_commit = ?6, planned_at = ?7");
   campaign.bind(1, spec.name).bind(2, spec.raw.dump()).bind(3, spec.spec_hash()).bind(4, json(spec.axes).dump());
-  campaign.bind(5, GRANARY_VERSION).bind(6, GRANARY_GIT_COMMIT).bind(7, now_seconds()).run();
+  campaign.bind(5, GRANARY_VERSION).bind(6, granary::GitCommit()).bind(7, now_seconds()).run();
 
   Statement insert = store.prepare(
       "INSERT INTO runs (run_id, seq, point_id, point, replica, params, state, engine, granary_version, "
@@ -93,7 +94,7 @@ PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vec
     if (it == existing.end()) {
       insert.reset();
       insert.bind(1, r.run_id).bind(2, next_seq++).bind(3, r.point_id).bind(4, r.point_json).bind(5, r.replica);
-      insert.bind(6, r.params_json).bind(7, r.engine).bind(8, GRANARY_VERSION).bind(9, GRANARY_GIT_COMMIT);
+      insert.bind(6, r.params_json).bind(7, r.engine).bind(8, GRANARY_VERSION).bind(9, granary::GitCommit());
       insert.bind(10, (std::filesystem::path(runs_root) / r.run_id).string());
       insert.run();
     } else if (it->second == "retired") {
@@ -220,7 +221,7 @@ std::optional<RunRow> claim_next(Store& store, const Holder& me, double now,
       "lease_holder = ?4, lease_host = ?2, lease_pid = ?5, lease_heartbeat = ?3, granary_version = ?6, "
       "git_commit = ?7 WHERE run_id = ?1 AND state IN ('planned', 'interrupted', 'failed')");
   u.bind(1, found->run_id).bind(2, me.host).bind(3, now).bind(4, me.id).bind(5, me.pid);
-  u.bind(6, GRANARY_VERSION).bind(7, GRANARY_GIT_COMMIT).run();
+  u.bind(6, GRANARY_VERSION).bind(7, granary::GitCommit()).run();
   if (sqlite3_changes(store.handle()) != 1) return std::nullopt;
   tx.commit();
   found->state = "running";

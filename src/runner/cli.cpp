@@ -1,5 +1,6 @@
 // See cli.h. Flags and exit codes are documented in docs/cli.md.
 #include "runner/cli.h"
+#include "engine/version.h"
 
 #include <signal.h>
 #include <unistd.h>
@@ -696,7 +697,7 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     return args.empty() ? static_cast<int>(ExitCode::kUsage) : 0;
   }
   if (args[0] == "--version") {
-    out << "campaign " << GRANARY_VERSION << " (" << GRANARY_GIT_COMMIT << ")\n";
+    out << "campaign " << GRANARY_VERSION << " (" << granary::GitCommit() << ")\n";
     return 0;
   }
   const Verb* verb = nullptr;

@@ -1,6 +1,7 @@
 // Small silo runs through the library and the real granary-engine executable: discharge,
 // clogging, checkpoint/continue, determinism across seeds and thread counts, bed cache.
 #include "engine/run.h"
+#include "engine/version.h"
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -40,7 +41,7 @@ fs::path FreshDir(const std::string& name) {
 }
 
 std::string BedCache(std::uint64_t seed) {
-  return (fs::path(GRANARY_ENGINE_TEST_TMP) / ("bed-" + std::to_string(seed) + "-" + GRANARY_GIT_COMMIT + ".json")).string();
+  return (fs::path(GRANARY_ENGINE_TEST_TMP) / ("bed-" + std::to_string(seed) + "-" + granary::GitCommit() + ".json")).string();
 }
 
 nlohmann::json SmallSpec(double outlet, double max_time, std::uint64_t seed = 7) {
