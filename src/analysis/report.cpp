@@ -29,6 +29,7 @@ struct AnalysedRun {
   std::string engine_version;
   std::string granary_commit;
   std::string tangential_cap;
+  std::string reinjection;                  // reinject mode: "random" or "periodic"; "" in remove mode
   RunTiming timing;
 };
 
@@ -151,6 +152,14 @@ Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>
         a.granary_commit = data.summary.granary_commit;
         // LIGGGHTS says which cap it applied (its own, whatever the spec asks).
         a.tangential_cap = data.summary.raw.value("tangential_cap", tangential_cap_of(data.spec.is_null() ? r.spec : data.spec));
+        {
+          // LIGGGHTS says how it reinjected (periodic, whatever the spec asks).
+          const nlohmann::json& spec = data.spec.is_null() ? r.spec : data.spec;
+          const nlohmann::json discharge = spec.is_object() ? spec.value("discharge", nlohmann::json::object())
+                                                            : nlohmann::json::object();
+          if (discharge.value("mode", std::string()) == "reinject")
+            a.reinjection = data.summary.raw.value("reinject_position", discharge.value("reinject_position", std::string("random")));
+        }
         if (data.summary.raw.contains("timing") && data.summary.raw.at("timing").is_object()) {
           const nlohmann::json& t = data.summary.raw.at("timing");
           a.timing.wall_s = t.value("wall_s", kNaN);
@@ -1092,19 +1101,30 @@ std::optional<Section> engine_comparison_section(const Context& c) {
   const std::string& a = k.engine_a;
   const std::string& b = k.engine_b;
   Section s{"engine-comparison", "Engine comparison: " + a + " and " + b, {}};
-  std::map<std::string, std::set<std::string>> caps;
-  for (const AnalysedRun& r : c.used) caps[r.record->engine].insert(r.tangential_cap);
-  auto cap_text = [&](const std::string& e) {
+  std::map<std::string, std::set<std::string>> caps, reinjections;
+  for (const AnalysedRun& r : c.used) {
+    caps[r.record->engine].insert(r.tangential_cap);
+    if (!r.reinjection.empty()) reinjections[r.record->engine].insert(r.reinjection);
+  }
+  auto list_text = [](const std::set<std::string>& values) {
     std::string t;
-    for (const auto& x : caps[e]) t += (t.empty() ? "" : ", ") + x;
+    for (const auto& x : values) t += (t.empty() ? "" : ", ") + x;
     return t.empty() ? std::string("?") : t;
   };
+  auto cap_text = [&](const std::string& e) { return list_text(caps[e]); };
+  const std::string reinjection_text =
+      reinjections.empty() ? std::string()
+                           : " Reinjection: " + a + " `" + list_text(reinjections[a]) + "`, " + b + " `" +
+                                 list_text(reinjections[b]) +
+                                 "` (`random`: a random place on top of the bed, the thesis; `periodic`: "
+                                 "through the bottom of a y-periodic box, same x and velocity, LIGGGHTS' way).";
   s.blocks.push_back(Text{
       "The same sweep points and replica seeds on both engines (beds are prepared by each engine, so replicas are "
       "statistically, not bodily, the same). Ratio = " + b + " / " + a + ", with the standard error of both "
       "means propagated. **agree**: the difference is within " + format_number(kAgreementSigmas) +
       " combined standard errors. Coulomb cap of the tangential force: " + a + " `" + cap_text(a) + "`, " + b + " `" +
-      cap_text(b) + "` (`lammps` caps spring + damping, `liggghts` the spring part only; docs/liggghts.md)."});
+      cap_text(b) + "` (`lammps` caps spring + damping, `liggghts` the spring part only; docs/liggghts.md)." +
+      reinjection_text});
   // One line per metric: how many points agree and the spread of the ratio.
   std::map<std::string, std::vector<const MetricAgreement*>> by_metric;
   std::vector<std::string> metric_order;
