@@ -76,14 +76,24 @@ TEST(InputScript, ASideOutletTurnsItsWallIntoMeshPiecesAroundTheHole) {
 }
 
 TEST(InputScript, ReinjectWithASideOutletIsASpecErrorNamingTheMode) {
-  const RunSpec spec = Spec({{"silo", {{"width", 40}, {"side_outlets", {{{"wall", "left"}, {"bottom", 3}, {"width", 8}}}}}},
-                             {"discharge", {{"mode", "reinject"}}}});
+  const json side = {{"silo", {{"width", 40}, {"side_outlets", {{{"wall", "left"}, {"bottom", 3}, {"width", 8}}}}}},
+                     {"discharge", {{"mode", "reinject"}}}};
+  // Refused when a LIGGGHTS run is planned (the run spec's validation) ...
   try {
-    MakeSetup(spec);
+    Spec(side);
     FAIL() << "expected a SpecError";
   } catch (const SpecError& e) {
     EXPECT_EQ(e.path(), "/discharge/mode");
     EXPECT_NE(e.message().find("remove"), std::string::npos);
+  }
+  // ... and by the input generator, whatever engine the spec names.
+  json native = side;
+  native["engine"] = "native";
+  try {
+    MakeSetup(Spec(native));
+    FAIL() << "expected a SpecError";
+  } catch (const SpecError& e) {
+    EXPECT_EQ(e.path(), "/discharge/mode");
   }
 }
 

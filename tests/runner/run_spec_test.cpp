@@ -102,6 +102,17 @@ TEST(RunSpecTest, ReinjectPositionIsInTheResolvedSpecOnlyWhenNotTheDefault) {
             "leaving through a side outlet never reaches; use \"random\" with side outlets (got \"periodic\")");
 }
 
+TEST(RunSpecErrorTest, WhatTheLiggghtsBackendCannotDoIsRefusedAtPlanning) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "liggghts", "output": {"contact_forces": true}})")),
+            "/output/contact_forces: the LIGGGHTS backend writes no contact-force frames; use the native engine for "
+            "them, or false (got true)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "liggghts", "discharge": {"mode": "reinject"},
+    "silo": {"side_outlets": [{"wall": "right", "bottom": 3, "width": 5}]}})")).substr(0, 40),
+            "/discharge/mode: the LIGGGHTS backend re");
+  // The same specs are fine on the native engine.
+  EXPECT_NO_THROW(RunSpec::from_json(json::parse(R"({"output": {"contact_forces": true}})")));
+}
+
 TEST(RunSpecErrorTest, NonPositiveParameter) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"base_outlets": [{"width": -3}]}})")),
             "/silo/base_outlets/0/width: must be > 0 (got -3.0)");
