@@ -684,7 +684,7 @@ std::string MainHelp() {
   std::string h =
       "usage: campaign VERB [flags]   (campaign VERB --help for its flags)\n"
       "Granary campaign manager: plan, run and report sweeps of 2-D silo discharge simulations.\n\nverbs:\n";
-  for (const auto& v : Verbs()) h += "  " + std::string(v.name) + std::string(8 - std::string(v.name).size(), ' ') + v.summary + "\n";
+  for (const auto& v : Verbs()) h += "  " + std::string(v.name) + std::string(10 - std::string(v.name).size(), ' ') + v.summary + "\n";
   h += "\nexit codes: 0 ok, 1 runs failed, 2 usage or spec error, 130 interrupted\n";
   return h;
 }
