@@ -199,6 +199,10 @@ Species ParseSpecies(const json& j, const std::string& path) {
   r.Integer("n", s.n);
   s.name = DefaultSpeciesName(s);
   r.String("name", s.name);
+  // The name is the `shape` column of events.csv.
+  if (s.name.empty() || s.name.find_first_of(",\n\r") != std::string::npos)
+    throw SpecError(path + "/name", "must be a non-empty name without commas or line breaks (it is a column of "
+                                    "events.csv) (got " + json(s.name).dump() + ")");
   return s;
 }
 

@@ -128,8 +128,10 @@ TEST(LiggghtsBackend, AHostileSpecStringRunsNothing) {
   const fs::path marker = kTmp / "pwned";
   fs::remove(marker);
   const std::string hostile = "x\nshell touch " + marker.string() + " ; $(touch " + marker.string() + ")";
+  // Species names cannot hold line breaks or commas (a spec error), but substitutions and commands can.
+  const std::string hostile_name = "x; shell touch " + marker.string() + " ; $(touch " + marker.string() + ") ${x} v_x";
   const fs::path dir = MakeRun("hostile", {{"run_id", hostile},
-                                           {"bodies", {{"species", {{{"shape", "disc"}, {"name", hostile}}}}}},
+                                           {"bodies", {{"species", {{{"shape", "disc"}, {"name", hostile_name}}}}}},
                                            {"discharge", {{"max_time", 0.5}}}});
   const Outcome o = RunBackend(dir);
   EXPECT_EQ(o.exit_code, 0) << o.output;

@@ -154,7 +154,8 @@ TEST(InputScript, DistributionWeightsAreMassBasedSoNumberFractionsComeOut) {
 }
 
 TEST(InputScript, NoStringFromTheSpecReachesTheScripts) {
-  const std::string hostile = "x\nshell touch /tmp/granary-pwned ${HOME} v_x $(id)";
+  // Line breaks are a spec error in names; substitutions and commands are not.
+  const std::string hostile = "x; shell touch /tmp/granary-pwned ${HOME} v_x $(id)";
   const RunSpec spec = Spec({{"run_id", "r$(touch /tmp/granary-pwned)"}, {"bodies", {{"species", {{{"shape", "dumbbell"}, {"name", hostile}}}}}}});
   const SiloSetup s = MakeSetup(spec);
   for (const std::string& script : {BedScript(spec, s), DischargeScript(spec, s, {})}) {

@@ -113,6 +113,14 @@ TEST(RunSpecErrorTest, WhatTheLiggghtsBackendCannotDoIsRefusedAtPlanning) {
   EXPECT_NO_THROW(RunSpec::from_json(json::parse(R"({"output": {"contact_forces": true}})")));
 }
 
+TEST(RunSpecErrorTest, SpeciesNameThatWouldBreakEventsCsv) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"name": "a,b"}]}})")),
+            "/bodies/species/0/name: must be a non-empty name without commas or line breaks (it is a column of "
+            "events.csv) (got \"a,b\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"name": ""}]}})")).substr(0, 24), "/bodies/species/0/name: ");
+  EXPECT_NO_THROW(RunSpec::from_json(json::parse(R"({"bodies": {"species": [{"name": "big disc D=1.4"}]}})")));
+}
+
 TEST(RunSpecErrorTest, NonPositiveParameter) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"base_outlets": [{"width": -3}]}})")),
             "/silo/base_outlets/0/width: must be > 0 (got -3.0)");
