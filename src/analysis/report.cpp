@@ -1084,15 +1084,20 @@ std::optional<EngineComparison> engine_comparison_of(const Context& c) {
   return compare_engines(a, ma, ta, b, mb, tb);
 }
 
+// The point of `engine` with these sweep values, or nullptr.
+const Point* engine_point(const Context& c, const nlohmann::json& point, const std::string& engine) {
+  for (const Point& p : c.points)
+    if (p.engine == engine && p.point == point) return &p;
+  return nullptr;
+}
+
 // The report's name of a compared point: the x value and the groups without the engine.
 std::string shared_point_name(const Context& c, const nlohmann::json& point, const std::string& engine) {
-  for (const Point& p : c.points) {
-    if (p.engine != engine || p.point != point) continue;
-    std::string s = p.shared_group;
-    if (!c.x_axis.empty()) s = c.x_name + "=" + format_number(p.x, 6) + (s.empty() ? "" : ", " + s);
-    return s;
-  }
-  return point.dump();
+  const Point* p = engine_point(c, point, engine);
+  if (!p) return point.dump();
+  std::string s = p->shared_group;
+  if (!c.x_axis.empty()) s = c.x_name + "=" + format_number(p->x, 6) + (s.empty() ? "" : ", " + s);
+  return s;
 }
 
 std::optional<Section> engine_comparison_section(const Context& c) {
@@ -1176,9 +1181,7 @@ std::optional<Section> engine_comparison_section(const Context& c) {
       std::map<std::string, Series> by_group;
       std::vector<std::string> order;
       for (const PointAgreement& p : k.points) {
-        const Point* pa = nullptr;
-        for (const Point& q : c.points)
-          if (q.engine == a && q.point == p.point) pa = &q;
+        const Point* pa = engine_point(c, p.point, a);
         if (!pa || !std::isfinite(pa->x)) continue;
         for (const MetricAgreement& m : p.metrics) {
           if (m.difference.name != metric || !std::isfinite(m.ratio)) continue;

@@ -10,6 +10,19 @@
 #include "engine/run.h"
 
 namespace granary::engine {
+
+int ParsePositiveInt(const std::string& flag, const std::string& value) {
+  std::size_t used = 0;
+  int v = 0;
+  try {
+    v = std::stoi(value, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != value.size() || v < 1) throw std::invalid_argument(flag + ": expected a positive integer (got \"" + value + "\")");
+  return v;
+}
+
 namespace {
 
 constexpr char kUsage[] =
@@ -30,18 +43,6 @@ constexpr char kBenchHelp[] =
     "W = 14, then times a fixed number of reinject-mode discharge steps per thread count and\n"
     "prints disc-steps per second. Bed preparation is not timed.\n";
 
-int ParseInt(const std::string& flag, const std::string& value) {
-  std::size_t used = 0;
-  int v = 0;
-  try {
-    v = std::stoi(value, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != value.size() || v < 1) throw std::invalid_argument(flag + ": expected a positive integer (got \"" + value + "\")");
-  return v;
-}
-
 int Run(const std::vector<std::string>& args) {
   RunOptions options;
   std::string dir;
@@ -51,7 +52,7 @@ int Run(const std::vector<std::string>& args) {
       std::cout << kRunHelp;
       return 0;
     } else if (a == "--threads" && i + 1 < args.size()) {
-      options.threads = ParseInt("--threads", args[++i]);
+      options.threads = ParsePositiveInt("--threads", args[++i]);
     } else if (!a.empty() && a[0] == '-') {
       throw std::invalid_argument("run: unknown option \"" + a + "\"\n" + kRunHelp);
     } else if (dir.empty()) {
@@ -75,16 +76,16 @@ int Bench(const std::vector<std::string>& args) {
       std::cout << kBenchHelp;
       return 0;
     } else if (a == "--bodies" && i + 1 < args.size()) {
-      options.bodies = ParseInt(a, args[++i]);
+      options.bodies = ParsePositiveInt(a, args[++i]);
     } else if (a == "--steps" && i + 1 < args.size()) {
-      options.steps = ParseInt(a, args[++i]);
+      options.steps = ParsePositiveInt(a, args[++i]);
     } else if (a == "--bed" && i + 1 < args.size()) {
       options.bed_file = args[++i];
     } else if (a == "--threads-list" && i + 1 < args.size()) {
       options.threads.clear();
       std::stringstream ss(args[++i]);
       std::string item;
-      while (std::getline(ss, item, ',')) options.threads.push_back(ParseInt(a, item));
+      while (std::getline(ss, item, ',')) options.threads.push_back(ParsePositiveInt(a, item));
     } else {
       throw std::invalid_argument("bench: unknown option \"" + a + "\"\n" + kBenchHelp);
     }

@@ -9,4 +9,8 @@ namespace granary::engine {
 
 int EngineMain(const std::vector<std::string>& args);
 
+// The value of a flag that must be a positive integer; std::invalid_argument naming the flag
+// otherwise. Shared with granary-liggghts' command line.
+int ParsePositiveInt(const std::string& flag, const std::string& value);
+
 }  // namespace granary::engine

@@ -180,6 +180,7 @@ class Discharge {
   void HandleExits();
   int OutletOf(int b) const;
   void Reinject(int b);
+  double LandingHeight(int b, double x) const;
   bool Periodic() const {
     return spec_.discharge.mode == DischargeMode::kReinject &&
            spec_.discharge.reinject_position == ReinjectPosition::kPeriodic;
@@ -420,14 +421,21 @@ void Discharge::Reinject(int b) {
   const double rb = tp.bound_radius;
   const double x = rng_.Uniform(-hw_ + rb, hw_ - rb);
   const double th = rng_.Uniform(0.0, 2.0 * std::numbers::pi);
-  // On top of the column below it: above every disc that could touch it.
+  w.PlaceBody(b, x, LandingHeight(b, x), th, 0.0, -spec_.discharge.reinject_speed, 0.0);
+}
+
+// Centre height at which body b, put at x, overlaps nothing below it: above every disc of
+// the column that could touch it (bodies still falling out of the silo do not count).
+double Discharge::LandingHeight(int b, double x) const {
+  const World& w = *world_;
+  const double rb = w.templates()[static_cast<std::size_t>(w.tmpl_[b])].bound_radius;
   double top = 0.0;
   for (int i = 0; i < w.disc_count(); ++i) {
     const int ob = w.dbody_[i];
-    if (ob == b || !w.active_[ob]) continue;
+    if (ob == b || !w.active_[ob] || falling_[ob]) continue;
     if (std::fabs(w.dx_[i] - x) < rb + w.dr_[i]) top = std::max(top, w.dy_[i] + w.dr_[i]);
   }
-  w.PlaceBody(b, x, top + rb + 0.05, th, 0.0, -spec_.discharge.reinject_speed, 0.0);
+  return top + rb + 0.05;
 }
 
 void Discharge::HandleExits() {
@@ -442,13 +450,8 @@ void Discharge::HandleExits() {
         // Where a heap has grown above the box top (returns pile up over the outlet), the
         // body lands on it instead: LIGGGHTS resolves that overlap through the periodic
         // boundary, this engine has no images across it.
-        const double x = w.bx_[b], rb = w.templates()[static_cast<std::size_t>(w.tmpl_[b])].bound_radius;
-        double y = w.by_[b] + periodic_height_;
-        for (int i = 0; i < w.disc_count(); ++i) {
-          const int ob = w.dbody_[i];
-          if (ob == b || !w.active_[ob] || falling_[ob]) continue;
-          if (std::fabs(w.dx_[i] - x) < rb + w.dr_[i]) y = std::max(y, w.dy_[i] + w.dr_[i] + rb + 0.05);
-        }
+        const double x = w.bx_[b];
+        const double y = std::max(w.by_[b] + periodic_height_, LandingHeight(b, x));
         w.PlaceBody(b, x, y, w.bth_[b], w.bvx_[b], w.bvy_[b], w.bw_[b]);
         falling_[b] = 0;
       }

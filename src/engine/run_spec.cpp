@@ -540,16 +540,18 @@ void validate(const RunSpec& s) {
   NonNegative(s.output.checkpoint_interval, "/output/checkpoint_interval");
 
   // What the LIGGGHTS backend cannot do is refused when the run is planned, not when it runs.
-  if (s.engine == "liggghts") {
-    if (s.output.contact_forces)
-      throw SpecError("/output/contact_forces",
-                      "the LIGGGHTS backend writes no contact-force frames; use the native engine for them, or "
-                      "false (got true)");
-    if (s.discharge.mode == DischargeMode::kReinject && !s.silo.side_outlets.empty())
-      throw SpecError("/discharge/mode",
-                      "the LIGGGHTS backend reinjects through y-periodicity, which cannot return bodies that leave "
-                      "through a side outlet; use \"remove\" with side outlets (got \"reinject\")");
-  }
+  if (s.engine == "liggghts") validate_for_liggghts(s);
+}
+
+void validate_for_liggghts(const RunSpec& s) {
+  if (s.output.contact_forces)
+    throw SpecError("/output/contact_forces",
+                    "the LIGGGHTS backend writes no contact-force frames; use the native engine for them, or "
+                    "false (got true)");
+  if (s.discharge.mode == DischargeMode::kReinject && !s.silo.side_outlets.empty())
+    throw SpecError("/discharge/mode",
+                    "the LIGGGHTS backend reinjects through y-periodicity, which cannot return bodies that leave "
+                    "through a side outlet; use \"remove\" with side outlets (got \"reinject\")");
 }
 
 namespace {

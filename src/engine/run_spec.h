@@ -145,6 +145,9 @@ struct RunSpec {
 
 // Semantic checks beyond types (geometry fits, fractions sum to 1, ...); from_json calls it.
 void validate(const RunSpec& spec);
+// What the LIGGGHTS backend cannot do (validate() applies it to specs whose engine is
+// "liggghts"; the backend applies it to whatever spec it is given).
+void validate_for_liggghts(const RunSpec& spec);
 
 // Levenshtein distance, for "did you mean" suggestions (spec keys, CLI verbs).
 std::size_t edit_distance(const std::string& a, const std::string& b);

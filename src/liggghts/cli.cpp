@@ -1,5 +1,7 @@
 // Verbs of granary-liggghts (docs/liggghts.md, docs/run-directory.md).
 #include "liggghts/cli.h"
+
+#include "engine/cli.h"
 #include "engine/version.h"
 
 #include <cstdio>
@@ -40,18 +42,6 @@ constexpr char kBenchHelp[] =
     "disc-steps per second of both and their ratio. Bed preparation is not timed; LIGGGHTS'\n"
     "settled bed is cached in --bed-dir (default: the temp directory).\n";
 
-int ParseInt(const std::string& flag, const std::string& value) {
-  std::size_t used = 0;
-  int v = 0;
-  try {
-    v = std::stoi(value, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != value.size() || v < 1) throw std::invalid_argument(flag + ": expected a positive integer (got \"" + value + "\")");
-  return v;
-}
-
 bool WantsHelp(const std::vector<std::string>& args) {
   for (const auto& a : args)
     if (a == "--help" || a == "-h") return true;
@@ -67,7 +57,7 @@ int Run(const std::vector<std::string>& args) {
   std::string dir;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
-    if (a == "--threads" && i + 1 < args.size()) options.threads = ParseInt(a, args[++i]);
+    if (a == "--threads" && i + 1 < args.size()) options.threads = engine::ParsePositiveInt(a, args[++i]);
     else if (!a.empty() && a[0] == '-') throw std::invalid_argument("run: unknown option \"" + a + "\"\n" + kRunHelp);
     else if (dir.empty()) dir = a;
     else throw std::invalid_argument("run: more than one directory (\"" + dir + "\", \"" + a + "\")");
@@ -98,8 +88,8 @@ int Bench(const std::vector<std::string>& args) {
   BenchOptions o;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
-    if (a == "--bodies" && i + 1 < args.size()) o.bodies = ParseInt(a, args[++i]);
-    else if (a == "--steps" && i + 1 < args.size()) o.steps = ParseInt(a, args[++i]);
+    if (a == "--bodies" && i + 1 < args.size()) o.bodies = engine::ParsePositiveInt(a, args[++i]);
+    else if (a == "--steps" && i + 1 < args.size()) o.steps = engine::ParsePositiveInt(a, args[++i]);
     else if (a == "--bed-dir" && i + 1 < args.size()) o.bed_dir = args[++i];
     else if (a == "--no-native") o.native = false;
     else throw std::invalid_argument("bench: unknown option \"" + a + "\"\n" + kBenchHelp);

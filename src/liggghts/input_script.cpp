@@ -155,13 +155,10 @@ std::string Stl(const MeshFile& m, double half_z) {
 
 SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
   validate(spec);
+  validate_for_liggghts(spec);
   SiloSetup s;
   const Silo& silo = spec.silo;
   const double ed = spec.discharge.exit_distance;
-  if (spec.discharge.mode == DischargeMode::kReinject && !silo.side_outlets.empty())
-    throw SpecError("/discharge/mode",
-                    "the LIGGGHTS backend reinjects through y-periodicity, which cannot return bodies that leave "
-                    "through a side outlet; use \"remove\" with side outlets (got \"reinject\")");
 
   std::vector<ShapeTemplate> templates;
   for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
