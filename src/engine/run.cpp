@@ -25,6 +25,7 @@
 
 #include "engine/bed.h"
 #include "engine/random.h"
+#include "engine/stall.h"
 #include "engine/world.h"
 
 
@@ -34,7 +35,8 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr char kCheckpointMagic[] = "GRANARY-CHECKPOINT-3";
-constexpr int kClogCheckEvery = 100;  // steps between clog checks once no exit for clog_window
+constexpr int kClogCheckEvery = 100;
+constexpr double kHangingGapInDiameters = 1.0;  // stall.h; measured margins in docs/engine.md  // steps between clog checks once no exit for clog_window
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
 
@@ -186,7 +188,7 @@ class Discharge {
            spec_.discharge.reinject_position == ReinjectPosition::kPeriodic;
   }
   bool Stalled() const;
-  bool AnyBodyOverOutlets() const;
+  bool StallIsAClog() const;
   void WriteSummary(const std::string& end_reason);
 
   RunSpec spec_;
@@ -496,19 +498,12 @@ bool Discharge::Stalled() const {
   return n == 0 || ke / n / energy_unit_ < spec_.discharge.clog_ke_per_body;
 }
 
-// A body hangs over an outlet gap (an arch): then a stall is a clog, otherwise the silo has
-// discharged what can flow out (the rest lies in the dead zones of the flat bottom).
-bool Discharge::AnyBodyOverOutlets() const {
-  const World& w = *world_;
-  for (int b = 0; b < w.body_count(); ++b) {
-    if (!w.active_[b]) continue;
-    for (const OutletFrame& o : w.geometry().outlets) {
-      const double px = w.bx_[b] - o.cx, py = w.by_[b] - o.cy;
-      const double s = px * o.ax + py * o.ay, h = px * o.nx + py * o.ny;
-      if (std::fabs(s) < 0.5 * o.width && h > -spec_.discharge.exit_distance && h < 0.5 * o.width + 2.0) return true;
-    }
-  }
-  return false;
+// A stall is a clog when an arch seals an outlet from the material above it, whether the arch
+// spans the opening or the passages beside an obstacle; otherwise the silo has discharged what
+// can flow out (stall.h).
+bool Discharge::StallIsAClog() const {
+  const std::vector<bool> sealed = SealedOutlets(*world_);
+  return std::find(sealed.begin(), sealed.end(), true) != sealed.end();
 }
 
 void Discharge::WriteFrame() {
@@ -612,7 +607,7 @@ RunResult Discharge::Run() {
     disc_steps_ += w.disc_count();
     HandleExits();
     if (step_ - last_exit_step_ >= clog_steps && step_ % kClogCheckEvery == 0 && !in_clog_ && Stalled()) {
-      if (!AnyBodyOverOutlets() && spec_.discharge.mode == DischargeMode::kRemove) {
+      if (spec_.discharge.mode == DischargeMode::kRemove && !StallIsAClog()) {
         end_reason = "discharged";
       } else {
         ++clogs_;

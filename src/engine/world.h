@@ -86,6 +86,8 @@ class World {
   const WorldParams& params() const { return params_; }
   const std::vector<ShapeTemplate>& templates() const { return templates_; }
   const SiloGeometry& geometry() const { return geometry_; }
+  // Whether a wall element takes part now (the plug before t = 0, the outlet edges after).
+  bool ElementActive(const WallElement& e) const;
 
   // Body state (public SoA for the drivers, tests and writers).
   std::vector<int> tmpl_;
@@ -126,7 +128,6 @@ class World {
   static constexpr int kBodyChunk = 512;         // bodies per parallel work item
   void Rebuild();
   bool NeedsRebuild() const;
-  bool ElementActive(const WallElement& e) const;
   bool Parallel() const { return disc_count() >= params_.parallel_min_discs; }
 
   // What the pair loop reads of a partner disc, in one cache line: position, velocity,

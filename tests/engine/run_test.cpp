@@ -114,6 +114,27 @@ TEST(Run, TooNarrowOutletClogs) {
   EXPECT_EQ(ReadJson(dir / "summary.json")["end_reason"], "clogged");
 }
 
+// Passages beside an obstacle over a narrow outlet jam with nothing over the opening itself; the
+// stall is a clog (the bodies above are sealed off), and a wide outlet under a small obstacle
+// discharges down to its dead zones (stall.h; tests/engine/stall_test.cpp has the geometry).
+TEST(Run, ArchBesideAnObstacleIsAClogAndAnOpenCraterADischarge) {
+  const fs::path narrow = FreshDir("obstacle-narrow"), wide = FreshDir("obstacle-wide");
+  nlohmann::json spec = SmallSpec(4.0, 40.0);
+  spec["silo"]["obstacles"] = {{{"x", 0.0}, {"y", 3.0}, {"diameter", 3.0}}};
+  WriteSpec(narrow, spec);
+  const RunResult jammed = RunQuiet(narrow);
+  EXPECT_EQ(jammed.end_reason, "clogged");
+  EXPECT_GT(ReadJson(narrow / "summary.json")["remaining"].get<int>(), 100);
+
+  spec = SmallSpec(12.0, 40.0);
+  spec["silo"]["obstacles"] = {{{"x", 0.0}, {"y", 6.0}, {"diameter", 2.0}}};
+  WriteSpec(wide, spec);
+  const RunResult open = RunQuiet(wide);
+  EXPECT_EQ(open.end_reason, "discharged");
+  EXPECT_LT(open.t_end, 40.0);
+  EXPECT_LT(ReadJson(wide / "summary.json")["remaining"].get<int>(), 20);
+}
+
 TEST(Run, ContinuedRunEqualsUninterruptedRun) {
   const fs::path a = FreshDir("ckpt-a"), b = FreshDir("ckpt-b");
   WriteSpec(a, SmallSpec(8.0, 4.0));
