@@ -12,21 +12,18 @@ namespace {
 // Cell (i, k) has its centre at (x0 + (i + 0.5) h, y0 + (k + 0.5) h).
 class FreeSpace {
  public:
-  FreeSpace(const World& w, double probe) : probe_(probe), h_(probe / 3) {
-    const SiloGeometry& g = w.geometry();
+  FreeSpace(const SiloGeometry& g, const std::vector<DiscAt>& discs, double probe) : probe_(probe), h_(probe / 3) {
     double top = 0;
-    for (int i = 0; i < w.disc_count(); ++i)
-      if (w.active_[w.dbody_[i]]) top = std::max(top, w.dy_[i] + w.dr_[i]);
+    for (const DiscAt& d : discs) top = std::max(top, d.y + d.r);
     for (const OutletFrame& o : g.outlets) top = std::max(top, o.cy + o.width / 2);
     x0_ = -g.half_width;
     y0_ = 0;
     nx_ = static_cast<int>(std::ceil(2 * g.half_width / h_));
     ny_ = static_cast<int>(std::ceil((top + probe + 2 * h_) / h_));  // the top row is above every disc
     free_.assign(static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_), 1);
-    for (int i = 0; i < w.disc_count(); ++i)
-      if (w.active_[w.dbody_[i]]) BlockDisc(w.dx_[i], w.dy_[i], w.dr_[i] + probe);
+    for (const DiscAt& d : discs) BlockDisc(d.x, d.y, d.r + probe);
     for (const WallElement& e : g.elements) {
-      if (!w.ElementActive(e)) continue;
+      if (e.group == WallGroup::kPlug) continue;  // outlets open
       switch (e.kind) {
         case ElementKind::kCircle: BlockDisc(e.ax, e.ay, e.radius + probe); break;
         case ElementKind::kPoint: BlockDisc(e.ax, e.ay, probe); break;
@@ -105,17 +102,23 @@ bool OpenToTheTop(const FreeSpace& space, const OutletFrame& mouth, double probe
 
 }  // namespace
 
+std::vector<bool> SealedOutlets(const SiloGeometry& geometry, const std::vector<DiscAt>& discs, double probe) {
+  std::vector<bool> sealed(geometry.outlets.size(), false);
+  if (discs.empty()) return sealed;
+  const FreeSpace space(geometry, discs, probe);
+  std::vector<std::uint8_t> seen(static_cast<std::size_t>(space.nx()) * static_cast<std::size_t>(space.ny()));
+  std::vector<int> queue;
+  for (std::size_t o = 0; o < sealed.size(); ++o) sealed[o] = !OpenToTheTop(space, geometry.outlets[o], probe, seen, queue);
+  return sealed;
+}
+
 std::vector<bool> SealedOutlets(const World& w) {
   double probe = std::numeric_limits<double>::max();
   for (double r : w.dr_) probe = std::min(probe, r);
-  std::vector<bool> sealed(w.geometry().outlets.size(), false);
-  if (w.disc_count() == 0) return sealed;
-  const FreeSpace space(w, probe);
-  std::vector<std::uint8_t> seen(static_cast<std::size_t>(space.nx()) * static_cast<std::size_t>(space.ny()));
-  std::vector<int> queue;
-  for (std::size_t o = 0; o < sealed.size(); ++o)
-    sealed[o] = !OpenToTheTop(space, w.geometry().outlets[o], probe, seen, queue);
-  return sealed;
+  std::vector<DiscAt> discs;
+  for (int i = 0; i < w.disc_count(); ++i)
+    if (w.active_[w.dbody_[i]]) discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
+  return SealedOutlets(w.geometry(), discs, probe);
 }
 
 }  // namespace granary::engine

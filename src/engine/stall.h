@@ -18,4 +18,12 @@ namespace granary::engine {
 // flood fill over a grid of a third of the probe radius.
 std::vector<bool> SealedOutlets(const World& w);
 
+// The same for any engine's discs (centre x, y and radius, one entry per disc of a body still in
+// the silo) in `geometry` with its outlets open, the probe of radius `probe` (the LIGGGHTS
+// backend classifies its stalls with this, from its final dump).
+struct DiscAt {
+  double x, y, r;
+};
+std::vector<bool> SealedOutlets(const SiloGeometry& geometry, const std::vector<DiscAt>& discs, double probe);
+
 }  // namespace granary::engine

@@ -32,6 +32,7 @@
 #include <boost/process/extend.hpp>
 
 #include "engine/shapes.h"
+#include "engine/stall.h"
 #include "liggghts/input_script.h"
 
 namespace granary::liggghts {
@@ -440,6 +441,23 @@ double TopOf(const std::vector<Sphere>& spheres) {
   return top;
 }
 
+// A stall in remove mode is a clog when an arch seals an outlet from the material above; the same
+// test as the native engine's (engine/stall.h) on LIGGGHTS' final positions.
+bool StallIsAClog(const RunSpec& spec, const std::vector<Sphere>& left) {
+  double probe = std::numeric_limits<double>::max();
+  for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
+    for (double r : engine::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)).r)
+      probe = std::min(probe, r);
+  std::vector<engine::DiscAt> discs;
+  double top = 0;
+  for (const Sphere& s : left) {
+    discs.push_back({s.x, s.y, s.radius});
+    top = std::max(top, s.y + s.radius);
+  }
+  const std::vector<bool> sealed = engine::SealedOutlets(engine::BuildGeometry(spec.silo, top + 1), discs, probe);
+  return std::find(sealed.begin(), sealed.end(), true) != sealed.end();
+}
+
 RunSpec ReadSpec(const fs::path& dir) {
   const fs::path file = dir / "run.json";
   if (!fs::exists(file)) throw std::invalid_argument("no run.json in " + dir.string());
@@ -511,6 +529,16 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
         start.last_exit_step = std::max(start.last_exit_step, TruncateExits(f, t_ckpt, spec.time_step));
     TruncateFrames(dir / "frames.liggghts", ckpt.step);
     discharge_wall_before = state.value("discharge_wall_s", 0.0);
+    // A clog counted before the checkpoint with no exit since: the next stall is the same clog.
+    const long long clog_step = state.value("clog_step", -1LL);
+    start.in_clog = clog_step >= start.last_exit_step && clog_step <= ckpt.step;
+    // Clogs counted after the checkpoint happen again.
+    if (state.contains("clog_steps")) {
+      std::vector<long long> kept;
+      for (long long c : state["clog_steps"].get<std::vector<long long>>())
+        if (c <= ckpt.step) kept.push_back(c);
+      state["clog_steps"] = kept;
+    }
   } else {
     for (const char* f : {"frames.liggghts", "events.csv", "frames.dump", "final.dump"}) fs::remove(dir / f);
     for (const Counter& c : setup.counters)
@@ -520,7 +548,8 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
     const Bed bed = ObtainBed(spec, setup, dir, exe, options);
     state = {{"bed_file", bed.file},           {"bed_prepared_here", bed.prepared_here},
              {"bed_wall_s", bed.wall_s},       {"settle_time", bed.settle_time},
-             {"bed_height", TopOf(ReadAtomsDump(dir / "bed.dump"))}, {"discharge_wall_s", 0.0}};
+             {"bed_height", TopOf(ReadAtomsDump(dir / "bed.dump"))}, {"discharge_wall_s", 0.0},
+             {"clog_steps", json::array()}};
     WriteAtomically(state_file, state.dump() + "\n");
   }
 
@@ -542,6 +571,11 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
     const auto t = Tokens(line);
     if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
     if (t[0] == "GRANARY_FINAL" && t.size() > 1) last_step = std::stoll(t[1]);
+    if (t[0] == "GRANARY_CLOG" && t.size() > 1) {
+      state["clog_steps"].push_back(std::stoll(t[1]));
+      state["clog_step"] = std::stoll(t[1]);
+      WriteAtomically(state_file, state.dump() + "\n");
+    }
     if (t[0] == "GRANARY_PROGRESS" && t.size() > 2) {
       ++progress_lines;
       PruneCheckpoints(dir, 2);  // those LIGGGHTS finished before this chunk ended
@@ -566,6 +600,21 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
     Fail("LIGGGHTS failed during the discharge", r, dir / log);
   }
   const double discharge_wall = discharge_wall_before + Seconds(t_discharge);
+  if (end_reason == "stalled") {
+    end_reason = "discharged";
+    if (StallIsAClog(spec, ReadAtomsDump(dir / "final.dump"))) {
+      state["clog_steps"].push_back(last_step);
+      state["clog_step"] = last_step;
+      if (spec.discharge.stop_on_clog) {
+        end_reason = "clogged";
+      } else {  // go on through the clog from the restart the script wrote at the stall
+        state["discharge_wall_s"] = discharge_wall;
+        state["relaunched_at_step"] = last_step;
+        WriteAtomically(state_file, state.dump() + "\n");
+        return RunDirectory(dir_name, options);
+      }
+    }
+  }
 
   // Convert into the run-directory format.
   std::vector<engine::ShapeTemplate> templates;
@@ -613,6 +662,7 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   summary["remaining"] = static_cast<int>(remaining.size());
   summary["exits_per_outlet"] = per_outlet;
   summary["t_end"] = static_cast<double>(last_step) * spec.time_step;
+  summary["clogs"] = state.value("clog_steps", json::array()).size();
   summary["steps"] = last_step;
   summary["max_out_of_plane"] = out_of_plane;
   summary["tangential_cap"] = "liggghts";  // LIGGGHTS caps the spring part only, whatever the spec asks
@@ -628,7 +678,8 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
                        {"discharge_wall_s", discharge_wall},
                        {"disc_steps_per_s", session_wall > 0 ? spheres_total * static_cast<double>(session_steps) / session_wall : 0.0},
                        {"threads", options.threads}};
-  summary["continued_from_checkpoint"] = result.continued;
+  // Going on through a clog restarts LIGGGHTS too; only a restart after an interruption counts here.
+  summary["continued_from_checkpoint"] = result.continued && ckpt.step != state.value("relaunched_at_step", -1LL);
   WriteAtomically(dir / "summary.json", summary.dump(2) + "\n");
   PruneCheckpoints(dir, 0);
   ReportProgress(dir, "discharge", 1.0, static_cast<double>(last_step) * spec.time_step, spec.discharge.max_time,

@@ -374,34 +374,10 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
     exited += (k ? "+f_exit_" : "f_exit_") + std::to_string(k) + "[2]";
   }
   o << ClumpIntegration(s) << SingleIntegration(s, false);
-  // Regions just above every outlet: a stall with nothing there means the silo has
-  // discharged all it can (the rest lies in the dead zones), otherwise it is a clog.
-  const std::size_t n_base = spec.silo.base_outlets.size();
-  std::string over;
-  for (std::size_t k = 0; k < static_cast<std::size_t>(s.outlets); ++k) {
-    std::ostringstream r;
-    if (k < n_base) {
-      const BaseOutlet& b = spec.silo.base_outlets[k];
-      r << Num(b.center - b.width / 2) << " " << Num(b.center + b.width / 2) << " " << Num(-spec.discharge.exit_distance)
-        << " " << Num(b.width / 2 + 2);
-    } else {
-      const SideOutlet& so = spec.silo.side_outlets[k - n_base];
-      const double w = s.half_width;
-      const double reach = so.width / 2 + 2;
-      if (so.wall == Wall::kLeft) r << Num(-w - spec.discharge.exit_distance) << " " << Num(-w + reach);
-      else r << Num(w - reach) << " " << Num(w + spec.discharge.exit_distance);
-      r << " " << Num(so.bottom) << " " << Num(so.bottom + so.width);
-    }
-    o << "region over_" << k << " block " << r.str() << " " << Num(-s.half_z) << " " << Num(s.half_z) << " units box\n";
-    over += " over_" + std::to_string(k);
-  }
-  if (s.outlets > 1) o << "region over union " << s.outlets << over << "\n";
-  const std::string over_region = s.outlets > 1 ? "over" : "over_0";
   const std::string script = o.str();
   std::ostringstream p;
   p << "variable exited equal " << exited << "\n"
     << "variable atoms_now equal atoms\nvariable step_now equal step\n"
-    << "variable over_outlets equal count(all," << over_region << ")\n"
     << "variable next_stop equal step+" << chunk << "\n"
     << "thermo_style custom step time atoms v_exited cpu\nthermo " << chunk << "\n"
     << "thermo_modify lost ignore norm no\n"
@@ -419,21 +395,29 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
   p << "run 0 post no\n"
     << "variable exited_last equal ${exited}\n"
     << "variable last_exit_step equal " << start.last_exit_step << "\n"
+    << "variable clog_counted equal " << (start.in_clog ? 1 : 0) << "\n"
     << "variable chunk loop " << total / chunk + 2 << "\n"
     << "label discharge\n"
     << "if \"${step_now} >= " << total << "\" then \"print 'GRANARY_END time_limit'\" \"jump SELF finished\"\n"
     << "if \"${next_stop} > " << total << "\" then \"variable next_stop equal " << total << "\"\n"
     << "run ${next_stop} upto post no\n"
-    << "print \"GRANARY_PROGRESS ${step_now} ${exited} ${atoms_now} ${over_outlets}\"\n"
+    << "print \"GRANARY_PROGRESS ${step_now} ${exited} ${atoms_now}\"\n"
     << "if \"${exited} > ${exited_last}\" then \"variable exited_last equal ${exited}\" "
-       "\"variable last_exit_step equal ${step_now}\"\n";
+       "\"variable last_exit_step equal ${step_now}\" \"variable clog_counted equal 0\"\n";
   if (remove) p << "if \"${atoms_now} == 0\" then \"print 'GRANARY_END discharged'\" \"jump SELF finished\"\n";
   p << "variable since_exit equal step-v_last_exit_step\n";  // `if` compares numbers, it does no arithmetic
-  const std::string stalled = "${since_exit} >= " + std::to_string(clog_steps);
+  // A stall: no exit for clog_window, counted once until the next exit. In remove mode the
+  // backend decides from the final dump whether an arch seals an outlet (a clog) or the silo has
+  // discharged what can flow (engine::SealedOutlets, as the native engine); the restart written
+  // here lets it go on through a clog when the spec asks for that.
+  const std::string stalled = "\"${since_exit} >= " + std::to_string(clog_steps) + " && ${clog_counted} == 0\"";
   if (remove)
-    p << "if \"" << stalled << " && ${over_outlets} == 0\" then \"print 'GRANARY_END discharged'\" \"jump SELF finished\"\n";
-  if (spec.discharge.stop_on_clog)
-    p << "if \"" << stalled << "\" then \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
+    p << "if " << stalled << " then \"write_restart checkpoint.*.restart\" \"print 'GRANARY_END stalled'\" "
+      << "\"jump SELF finished\"\n";
+  else if (spec.discharge.stop_on_clog)
+    p << "if " << stalled << " then \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
+  else
+    p << "if " << stalled << " then \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";
   p << "next chunk\njump SELF discharge\nlabel finished\n"
     << "write_dump all custom final.dump id " << BodyColumn(s) << " type x y radius z\n"
     << "print \"GRANARY_FINAL ${step_now}\"\n";

@@ -69,6 +69,7 @@ struct DischargeStart {
   bool continue_run = false;
   std::string restart_file;  // fixed-form name chosen by the backend (checkpoint.<step>.restart)
   long long last_exit_step = 0;
+  bool in_clog = false;  // a clog was counted at or after last_exit_step: wait for an exit before the next
 };
 std::string DischargeScript(const RunSpec& spec, const SiloSetup& setup, const DischargeStart& start);
 

@@ -92,6 +92,44 @@ TEST(LiggghtsBackend, DiscBedSettlesAndDischargesInRemoveMode) {
   EXPECT_GE(n, 3);  // t = 0, 1, 2 (3 if the run reached it)
 }
 
+// Stalls in remove mode are judged as the native engine judges them (engine/stall.h) on
+// LIGGGHTS' final positions: an arch over a narrow outlet is a clog (and the run goes on through
+// it when asked), a wide outlet leaves only the dead zones and the run has discharged.
+TEST(LiggghtsBackend, AStallIsAClogOrADischargeAsOnTheNativeEngine) {
+  const json narrow = {{"silo", {{"base_outlets", {{{"center", 0}, {"width", 1.6}}}}}},
+                       {"discharge", {{"max_time", 12}}}};  // clog_window 3: the first exit takes ~2
+  const fs::path clog = MakeRun("stall_clog", narrow);
+  Outcome o = RunBackend(clog);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  RunData run = read_run(clog);
+  EXPECT_EQ(run.summary.end_reason, "clogged") << o.output;
+  EXPECT_EQ(run.summary.raw.at("clogs"), 1);
+  EXPECT_LT(run.summary.t_end, 12.0);
+  EXPECT_GT(run.summary.remaining, 40);
+
+  json through = narrow;
+  through["discharge"]["stop_on_clog"] = false;
+  const fs::path intermittent = MakeRun("stall_through", through);
+  o = RunBackend(intermittent);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const RunData on = read_run(intermittent);
+  EXPECT_EQ(on.summary.end_reason, "time_limit") << o.output;
+  EXPECT_NEAR(on.summary.t_end, 12.0, 1e-9);
+  EXPECT_EQ(on.summary.raw.at("clogs"), 1) << "a clog is counted once until the next exit";
+  EXPECT_EQ(on.summary.raw.at("continued_from_checkpoint"), false);
+  EXPECT_EQ(on.events.size(), run.events.size()) << "the same arch holds on";
+
+  const fs::path wide = MakeRun("stall_discharged", {{"silo", {{"base_outlets", {{{"center", 0}, {"width", 8}}}}}},
+                                                     {"discharge", {{"max_time", 40}}}});
+  o = RunBackend(wide);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  run = read_run(wide);
+  EXPECT_EQ(run.summary.end_reason, "discharged") << o.output;
+  EXPECT_EQ(run.summary.raw.at("clogs"), 0);
+  EXPECT_LT(run.summary.t_end, 40.0);
+  EXPECT_GT(run.summary.remaining, 0) << "the dead zones of the flat bottom stay";
+}
+
 TEST(LiggghtsBackend, DumbbellBedReinjectsEveryBodyThatLeaves) {
   const fs::path dir = MakeRun("dumbbells_reinject", {{"bodies", {{"count", 50}, {"species", {{{"shape", "dumbbell"}}}}}},
                                                       {"silo", {{"width", 20}, {"base_outlets", {{{"center", 0}, {"width", 10}}}}}},
