@@ -544,10 +544,6 @@ void validate(const RunSpec& s) {
 }
 
 void validate_for_liggghts(const RunSpec& s) {
-  if (s.output.contact_forces)
-    throw SpecError("/output/contact_forces",
-                    "the LIGGGHTS backend writes no contact-force frames; use the native engine for them, or "
-                    "false (got true)");
   if (s.discharge.mode == DischargeMode::kReinject && !s.silo.side_outlets.empty())
     throw SpecError("/discharge/mode",
                     "the LIGGGHTS backend reinjects through y-periodicity, which cannot return bodies that leave "

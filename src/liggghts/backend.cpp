@@ -332,6 +332,81 @@ void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunS
   }
 }
 
+// LIGGGHTS' local dumps of pair and wall contacts into contacts.dump (docs/run-directory.md):
+// per frame, one row per pair of spheres of different bodies with the force on the first and
+// the point on its surface towards the second (as the native engine), then one row per wall
+// contact with the contact point. Pairs across the periodic boundary are unwrapped.
+void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& setup,
+                     const std::map<long long, Sphere>& spheres, const BodyIndex& bodies) {
+  struct Block {
+    long long step = 0;
+    std::vector<std::string> rows;
+  };
+  auto read_blocks = [](const fs::path& path) {
+    std::map<long long, Block> blocks;
+    std::ifstream in(path);
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line != "ITEM: TIMESTEP") continue;
+      std::string step_s, n_s;
+      std::getline(in, step_s);
+      std::getline(in, line);  // ITEM: NUMBER OF ENTRIES
+      std::getline(in, n_s);
+      for (int i = 0; i < 5; ++i) std::getline(in, line);  // BOX BOUNDS + 3 lines + ITEM: ENTRIES
+      Block& b = blocks[std::stoll(step_s)];
+      b.step = std::stoll(step_s);
+      for (long long i = 0, n = std::stoll(n_s); i < n && std::getline(in, line); ++i) b.rows.push_back(line);
+    }
+    return blocks;
+  };
+  const std::map<long long, Block> pairs = read_blocks(dir / "contacts_pairs.liggghts");
+  const std::map<long long, Block> walls = read_blocks(dir / "contacts_walls.liggghts");
+  const double box_height = setup.y_hi - setup.y_lo;
+  auto sphere = [&](const std::string& id) -> const Sphere& {
+    const auto it = spheres.find(std::stoll(id));
+    if (it == spheres.end()) throw std::runtime_error("contact dump names an unknown sphere " + id);
+    return it->second;
+  };
+  std::string out;
+  char buf[512];
+  for (const auto& [step, block] : pairs) {
+    std::string rows;
+    std::size_t n = 0;
+    for (const std::string& line : block.rows) {
+      const auto t = Tokens(line);
+      if (t.size() < 8) throw std::runtime_error("malformed LIGGGHTS contact line: " + line);
+      const Sphere& a = sphere(t[4]);
+      const Sphere& b = sphere(t[5]);
+      const long long body_a = bodies.of(a), body_b = bodies.of(b);
+      if (body_a == body_b) continue;
+      const double xi = std::stod(t[0]), yi = std::stod(t[1]), xj = std::stod(t[2]);
+      double yj = std::stod(t[3]);
+      if (yj - yi > box_height / 2) yj -= box_height;  // the periodic image next to sphere i
+      if (yi - yj > box_height / 2) yj += box_height;
+      const double dx = xj - xi, dy = yj - yi, r = std::hypot(dx, dy);
+      std::snprintf(buf, sizeof buf, "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %s %s\n", body_a, body_b, xi, yi, xj, yj,
+                    xi + a.radius * dx / r, yi + a.radius * dy / r, t[6].c_str(), t[7].c_str());
+      rows += buf;
+      ++n;
+    }
+    if (const auto w = walls.find(step); w != walls.end()) {
+      for (const std::string& line : w->second.rows) {
+        const auto t = Tokens(line);
+        if (t.size() < 7) throw std::runtime_error("malformed LIGGGHTS wall contact line: " + line);
+        std::snprintf(buf, sizeof buf, "%lld -1 %s %s %s %s %s %s %s %s\n", bodies.of(sphere(t[4])), t[2].c_str(),
+                      t[3].c_str(), t[0].c_str(), t[1].c_str(), t[0].c_str(), t[1].c_str(), t[5].c_str(), t[6].c_str());
+        rows += buf;
+        ++n;
+      }
+    }
+    out += "ITEM: TIMESTEP\n" + std::to_string(step) + "\nITEM: TIME\n" + Num(static_cast<double>(step) * spec.time_step) +
+           "\nITEM: NUMBER OF ENTRIES\n" + std::to_string(n) + "\nITEM: BOX BOUNDS ff ff pp\n" + Num(setup.x_lo) + " " +
+           Num(setup.x_hi) + "\n" + Num(setup.y_lo) + " " + Num(setup.y_hi) + "\n-0.5 0.5\n" +
+           "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n" + rows;
+  }
+  WriteAtomically(dir / "contacts.dump", out);
+}
+
 // A prepared bed for this spec: DIR/bed.restart and DIR/bed.dump, from the cache when it
 // has one (keyed like the native bed, plus the obstacles, which the LIGGGHTS bed contains).
 struct Bed {
@@ -344,6 +419,7 @@ struct Bed {
 std::string CacheStem(const RunSpec& spec) {
   json key = spec.bed_key();
   key["liggghts_obstacles"] = spec.to_json()["silo"]["obstacles"];
+  if (spec.output.contact_forces && !spec.silo.obstacles.empty()) key["liggghts_obstacles_as_meshes"] = true;
   key["liggghts_side_margin"] = !spec.silo.side_outlets.empty();  // the box width depends on it
   key["liggghts_exit_distance"] = spec.discharge.exit_distance;   // and its bottom on this
   const std::string text = key.dump();
@@ -500,7 +576,8 @@ std::vector<std::string> WriteInputs(const std::string& dir_name) {
   WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, start));
   std::vector<std::string> files = {"bed.in", "discharge.in"};
   for (const MeshFile& m : setup.fill_meshes) files.push_back(m.name);
-  for (const MeshFile& m : setup.discharge_meshes) files.push_back(m.name);
+  for (const MeshFile& m : setup.discharge_meshes)  // obstacle meshes are in both lists
+    if (std::find(files.begin(), files.end(), m.name) == files.end()) files.push_back(m.name);
   for (const Counter& c : setup.counters) files.push_back(c.mesh.name);
   return files;
 }
@@ -528,6 +605,8 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
       for (const fs::path& f : CounterFiles(dir, c))
         start.last_exit_step = std::max(start.last_exit_step, TruncateExits(f, t_ckpt, spec.time_step));
     TruncateFrames(dir / "frames.liggghts", ckpt.step);
+    TruncateFrames(dir / "contacts_pairs.liggghts", ckpt.step);
+    TruncateFrames(dir / "contacts_walls.liggghts", ckpt.step);
     discharge_wall_before = state.value("discharge_wall_s", 0.0);
     // A clog counted before the checkpoint with no exit since: the next stall is the same clog.
     const long long clog_step = state.value("clog_step", -1LL);
@@ -540,7 +619,9 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
       state["clog_steps"] = kept;
     }
   } else {
-    for (const char* f : {"frames.liggghts", "events.csv", "frames.dump", "final.dump"}) fs::remove(dir / f);
+    for (const char* f : {"frames.liggghts", "events.csv", "frames.dump", "final.dump", "contacts_pairs.liggghts",
+                          "contacts_walls.liggghts", "contacts.dump"})
+      fs::remove(dir / f);
     for (const Counter& c : setup.counters)
       for (const fs::path& f : CounterFiles(dir, c)) fs::remove(f);
     PruneCheckpoints(dir, 0);
@@ -633,6 +714,8 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   WriteAtomically(dir / "events.csv", csv);
   if (spec.output.frame_interval > 0 && fs::exists(dir / "frames.liggghts"))
     ConvertFrames(dir / "frames.liggghts", dir / "frames.dump", spec, setup, bodies);
+  if (spec.output.contact_forces && spec.output.frame_interval > 0 && fs::exists(dir / "contacts_pairs.liggghts"))
+    ConvertContacts(dir, spec, setup, spheres, bodies);
 
   std::set<long long> remaining;
   double out_of_plane = 0;  // the quasi-2-D set-up must keep every centre in z = 0

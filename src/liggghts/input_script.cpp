@@ -20,6 +20,7 @@ namespace {
 
 constexpr double kInsertAreaFraction = 0.25;  // dilute enough for insert/pack to place every body
 constexpr double kChunkTime = 0.5;            // simulated time between script-level checks
+constexpr int kObstacleFacets = 64;           // with output.contact_forces, obstacles are polygon meshes
 
 constexpr char kModel[] = "model hertz/stiffness tangential history";
 // limitForce on clips an attractive normal force, the spec's clip_normal. Pair styles take
@@ -74,7 +75,7 @@ std::string PrimitiveWalls(const RunSpec& spec, const SiloSetup& setup, bool clo
   std::string s;
   if (closed || setup.wall_lo_primitive) s += WallFix(spec, "wall_lo", type + " xplane " + Num(-setup.half_width));
   if (closed || setup.wall_hi_primitive) s += WallFix(spec, "wall_hi", type + " xplane " + Num(setup.half_width));
-  for (std::size_t k = 0; k < spec.silo.obstacles.size(); ++k) {
+  for (std::size_t k = 0; k < spec.silo.obstacles.size() && !setup.obstacles_as_meshes; ++k) {
     const Obstacle& o = spec.silo.obstacles[k];
     s += WallFix(spec, "obstacle_" + std::to_string(k),
                  type + " zcylinder " + Num(o.diameter / 2) + " " + Num(o.x) + " " + Num(o.y));
@@ -139,16 +140,22 @@ long long PrimeSeed(std::uint64_t seed, int salt) {
 }
 
 std::string Stl(const MeshFile& m, double half_z) {
-  // Normal in the plane, perpendicular to the segment; two triangles.
-  const double dx = m.x1 - m.x0, dy = m.y1 - m.y0, len = std::hypot(dx, dy);
-  const double nx = -dy / len, ny = dx / len;
-  const double v[4][3] = {{m.x0, m.y0, -half_z}, {m.x1, m.y1, -half_z}, {m.x1, m.y1, half_z}, {m.x0, m.y0, half_z}};
-  const int tris[2][3] = {{0, 1, 2}, {0, 2, 3}};
+  std::vector<std::array<double, 2>> points = {{m.x0, m.y0}, {m.x1, m.y1}};
+  points.insert(points.end(), m.then.begin(), m.then.end());
   std::string s = "solid granary\n";
-  for (const auto& t : tris) {
-    s += "  facet normal " + Num(nx) + " " + Num(ny) + " 0\n    outer loop\n";
-    for (int k : t) s += "      vertex " + Num(v[k][0]) + " " + Num(v[k][1]) + " " + Num(v[k][2]) + "\n";
-    s += "    endloop\n  endfacet\n";
+  for (std::size_t p = 0; p + 1 < points.size(); ++p) {
+    // Each segment: normal in the plane, perpendicular to it; two triangles.
+    const auto [x0, y0] = points[p];
+    const auto [x1, y1] = points[p + 1];
+    const double dx = x1 - x0, dy = y1 - y0, len = std::hypot(dx, dy);
+    const double nx = -dy / len, ny = dx / len;
+    const double v[4][3] = {{x0, y0, -half_z}, {x1, y1, -half_z}, {x1, y1, half_z}, {x0, y0, half_z}};
+    const int tris[2][3] = {{0, 1, 2}, {0, 2, 3}};
+    for (const auto& t : tris) {
+      s += "  facet normal " + Num(nx) + " " + Num(ny) + " 0\n    outer loop\n";
+      for (int k : t) s += "      vertex " + Num(v[k][0]) + " " + Num(v[k][1]) + " " + Num(v[k][2]) + "\n";
+      s += "    endloop\n  endfacet\n";
+    }
   }
   return s + "endsolid granary\n";
 }
@@ -215,14 +222,43 @@ SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
     std::sort(holes.begin(), holes.end());
     const double wx = wall == Wall::kLeft ? -s.half_width : s.half_width;
     const std::string side = wall == Wall::kLeft ? "left" : "right";
+    // A mesh must lie inside the box, which ends just above the bed: pieces above it are dropped.
+    const double top = box_top > 0 ? box_top - 0.01 : s.y_hi;
     double y = 0.0;
     int k = 0;
     for (const auto& [h0, h1] : holes) {
-      if (h0 > y + 1e-9) s.discharge_meshes.push_back({"mesh_" + side + "_" + std::to_string(k++) + ".stl", wx, y, wx, h0});
+      if (h0 > y + 1e-9 && y < top)
+        s.discharge_meshes.push_back({"mesh_" + side + "_" + std::to_string(k++) + ".stl", wx, y, wx, std::min(h0, top)});
       y = std::max(y, h1);
     }
+    if (y < top) s.discharge_meshes.push_back({"mesh_" + side + "_" + std::to_string(k++) + ".stl", wx, y, wx, top});
+  }
+
+  if (spec.output.contact_forces) {
     const double top = box_top > 0 ? box_top - 0.01 : s.y_hi;
-    s.discharge_meshes.push_back({"mesh_" + side + "_" + std::to_string(k++) + ".stl", wx, y, wx, top});
+    if (s.wall_lo_primitive) s.discharge_meshes.push_back({"mesh_left_0.stl", -s.half_width, 0.0, -s.half_width, top});
+    if (s.wall_hi_primitive) s.discharge_meshes.push_back({"mesh_right_0.stl", s.half_width, 0.0, s.half_width, top});
+    s.wall_lo_primitive = s.wall_hi_primitive = false;
+    // Obstacles: polygons whose facets touch the circle (at most 0.12 % of the radius outside it),
+    // in the bed too, which must rest on the same surfaces as the discharge.
+    for (std::size_t k = 0; k < silo.obstacles.size(); ++k) {
+      const Obstacle& o = silo.obstacles[k];
+      const double corner = o.diameter / 2 / std::cos(std::numbers::pi / kObstacleFacets);
+      MeshFile m{"mesh_obstacle_" + std::to_string(k) + ".stl", o.x + corner, o.y, 0, 0};
+      for (int f = 1; f <= kObstacleFacets; ++f) {
+        const double a = 2 * std::numbers::pi * f / kObstacleFacets;
+        const std::array<double, 2> p = {o.x + corner * std::cos(a), o.y + corner * std::sin(a)};
+        if (f == 1) {
+          m.x1 = p[0];
+          m.y1 = p[1];
+        } else {
+          m.then.push_back(p);
+        }
+      }
+      s.fill_meshes.push_back(m);
+      s.discharge_meshes.push_back(m);
+    }
+    s.obstacles_as_meshes = true;
   }
 
   // Counting planes: below each base outlet (a little wider, but never reaching the next
@@ -363,6 +399,12 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
     << kHeader << "read_restart " << (start.continue_run ? start.restart_file : std::string("bed.restart")) << "\n"
     << "newton off\nneighbor 0.2 bin\nneigh_modify delay 0\ncommunicate single vel yes\n";
   o << Material(spec, s) << MeshWalls(spec, s, s.discharge_meshes, "walls_discharge") << PrimitiveWalls(spec, s, false);
+  // Contact forces: LIGGGHTS refuses these computes after the first run unless fix data from a
+  // restart are still waiting, as they are right after read_restart (fresh and continued alike).
+  const bool contacts = spec.output.contact_forces && spec.output.frame_interval > 0;
+  if (contacts)
+    o << "compute pair_contacts all pair/gran/local pos id force\n"
+      << "compute wall_contacts all wall/gran/local pos id force\n";
   std::string exited;
   for (std::size_t k = 0; k < s.counters.size(); ++k) {
     const Counter& c = s.counters[k];
@@ -387,6 +429,18 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
       << " frames.liggghts id " << BodyColumn(s) << " type x y radius vx vy omegaz\n"
       << "dump_modify frames format \"%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g\"\n";
     if (start.continue_run) p << "dump_modify frames append yes\n";
+  }
+  if (contacts) {
+    // Pairs: x1 y1 (z1) x2 y2 (z2) id1 id2 (periodic) fx fy (fz), force on the first sphere.
+    // Walls: contact point (3), sphere centre (3), mesh id, facet, sphere id, force on the sphere.
+    const long long every = StepsOf(spec.output.frame_interval, dt);
+    p << "dump pair_contacts all local " << every << " contacts_pairs.liggghts c_pair_contacts[1] c_pair_contacts[2] "
+      << "c_pair_contacts[4] c_pair_contacts[5] c_pair_contacts[7] c_pair_contacts[8] c_pair_contacts[10] c_pair_contacts[11]\n"
+      << "dump_modify pair_contacts format \"%.10g %.10g %.10g %.10g %.0f %.0f %.10g %.10g\"\n"
+      << "dump wall_contacts all local " << every << " contacts_walls.liggghts c_wall_contacts[1] c_wall_contacts[2] "
+      << "c_wall_contacts[4] c_wall_contacts[5] c_wall_contacts[9] c_wall_contacts[10] c_wall_contacts[11]\n"
+      << "dump_modify wall_contacts format \"%.10g %.10g %.10g %.10g %.0f %.10g %.10g\"\n";
+    if (start.continue_run) p << "dump_modify pair_contacts append yes\ndump_modify wall_contacts append yes\n";
   }
   if (spec.output.checkpoint_interval > 0)
     p << "restart " << StepsOf(spec.output.checkpoint_interval, dt) << " checkpoint.*.restart\n";

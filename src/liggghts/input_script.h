@@ -6,6 +6,7 @@
 // has `shell` and `$`/`v_` substitution).
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,7 @@ namespace granary::liggghts {
 struct MeshFile {
   std::string name;   // file name in the run directory, e.g. "mesh_base_0.stl"
   double x0, y0, x1, y1;
+  std::vector<std::array<double, 2>> then = {};  // a polyline goes on through these points
 };
 
 // A counting plane (fix massflow/mesh) behind an outlet. Outlets are numbered base outlets
@@ -47,6 +49,9 @@ struct SiloSetup {
   std::vector<MeshFile> fill_meshes;       // closed base
   std::vector<MeshFile> discharge_meshes;  // base between outlets, side-wall pieces around side outlets
   bool wall_lo_primitive = true, wall_hi_primitive = true;  // false when that side wall has an outlet
+  // With output.contact_forces every wall of the discharge is a mesh of one fix, the only kind
+  // LIGGGHTS' compute wall/gran/local reports: full side walls and faceted obstacles too.
+  bool obstacles_as_meshes = false;
   std::vector<Counter> counters;
   int outlets = 0;
   std::vector<std::string> template_lines;  // particletemplate + particledistribution commands

@@ -6,9 +6,11 @@
 
 #include <boost/process.hpp>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <set>
 #include <thread>
 
@@ -130,6 +132,55 @@ TEST(LiggghtsBackend, AStallIsAClogOrADischargeAsOnTheNativeEngine) {
   EXPECT_GT(run.summary.remaining, 0) << "the dead zones of the flat bottom stay";
 }
 
+// Contact-force frames from LIGGGHTS in the common format: with the only outlet high in a side
+// wall the bed rests on the base, the side walls and an obstacle, whose reported wall forces
+// carry its weight (40 dumbbells of mass pi/2, g = 1); pairs join two different bodies and
+// their contact point lies on the first disc's surface.
+TEST(LiggghtsBackend, ContactFramesCarryTheWeightOfTheBedOnWallsAndObstacle) {
+  const fs::path dir = MakeRun("contacts", {{"bodies", {{"count", 40}, {"species", {{{"shape", "dumbbell"}}}}}},
+                                            {"silo", {{"base_outlets", json::array()},
+                                                      {"side_outlets", {{{"wall", "right"}, {"bottom", 10}, {"width", 3}}}},
+                                                      {"obstacles", {{{"x", 0}, {"y", 2}, {"diameter", 2}}}}}},
+                                            {"bed", {{"settle_ke_per_body", 1e-7}, {"max_settle_time", 40}}},
+                                            {"discharge", {{"max_time", 1}}},
+                                            {"output", {{"frame_interval", 0.05}, {"contact_forces", true}}}});
+  const Outcome o = RunBackend(dir);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const RunData run = read_run(dir);
+  ASSERT_TRUE(run.has_contacts);
+  ContactReader contacts(run.contacts_file());
+  ContactFrame f;
+  int frames = 0, on_obstacle = 0, on_base = 0, on_sides = 0, repulsive = 0, pairs = 0;
+  double wall_fy = 0;
+  while (contacts.next(f)) {
+    ++frames;
+    for (const ContactRow& c : f.contacts) {
+      ASSERT_GE(c.body_i, 0);
+      ASSERT_LT(c.body_i, 40);
+      if (c.body_j < 0) {
+        wall_fy += c.fy;
+        const double from_obstacle = std::hypot(c.cx, c.cy - 2);
+        on_obstacle += from_obstacle > 1 - 1e-6 && from_obstacle < 1.0013;
+        on_base += std::fabs(c.cy) < 1e-6;
+        on_sides += std::fabs(std::fabs(c.cx) - 8) < 1e-6;
+        continue;
+      }
+      ++pairs;
+      EXPECT_NE(c.body_i, c.body_j);
+      EXPECT_LT(c.body_j, 40);
+      EXPECT_NEAR(std::hypot(c.cx - c.xi, c.cy - c.yi), 0.5, 1e-6);
+      repulsive += c.fx * (c.xi - c.xj) + c.fy * (c.yi - c.yj) > 0;
+    }
+  }
+  EXPECT_EQ(frames, 21);  // t = 0, 0.05, ..., 1
+  EXPECT_GT(on_obstacle, 0);
+  EXPECT_GT(on_base, 0);
+  EXPECT_GT(on_sides, 0);
+  EXPECT_GT(repulsive, 0.9 * pairs);
+  const double weight = 40 * std::numbers::pi / 2;
+  EXPECT_NEAR(wall_fy / frames, weight, 0.02 * weight);
+}
+
 TEST(LiggghtsBackend, DumbbellBedReinjectsEveryBodyThatLeaves) {
   const fs::path dir = MakeRun("dumbbells_reinject", {{"bodies", {{"count", 50}, {"species", {{{"shape", "dumbbell"}}}}}},
                                                       {"silo", {{"width", 20}, {"base_outlets", {{{"center", 0}, {"width", 10}}}}}},
@@ -219,7 +270,7 @@ TEST(LiggghtsBackend, AMissingLiggghtsIsAClearError) {
 TEST(LiggghtsBackend, AKilledRunContinuesFromItsCheckpointWithTheSameEarlierEvents) {
   const json spec = {{"discharge", {{"mode", "reinject"}, {"max_time", 3}, {"stop_on_clog", false}}},
                      {"bodies", {{"count", 80}}},
-                     {"output", {{"checkpoint_interval", 1.0}}}};
+                     {"output", {{"checkpoint_interval", 1.0}, {"frame_interval", 0.5}, {"contact_forces", true}}}};
   const fs::path whole = MakeRun("whole", spec);
   ASSERT_EQ(RunBackend(whole).exit_code, 0);
   const fs::path cut = MakeRun("cut", spec);
@@ -248,6 +299,24 @@ TEST(LiggghtsBackend, AKilledRunContinuesFromItsCheckpointWithTheSameEarlierEven
   EXPECT_EQ(early_a, early_b);
   EXPECT_GT(b.events.size(), early_b.size()) << "events after the restart are recorded";
   EXPECT_EQ(b.summary.t_end, 3.0);
+  // Contact frames: one per frame time in both, the same up to the checkpoint.
+  ContactReader ca(a.contacts_file()), cb(b.contacts_file());
+  ContactFrame fa, fb;
+  int frames = 0;
+  while (ca.next(fa)) {
+    ASSERT_TRUE(cb.next(fb)) << "frame " << frames;
+    EXPECT_EQ(fa.timestep, fb.timestep);
+    if (fa.time <= 1.0) {
+      ASSERT_EQ(fa.contacts.size(), fb.contacts.size()) << "t = " << fa.time;
+      for (std::size_t k = 0; k < fa.contacts.size(); ++k) {
+        EXPECT_EQ(fa.contacts[k].body_i, fb.contacts[k].body_i);
+        EXPECT_EQ(fa.contacts[k].fy, fb.contacts[k].fy);
+      }
+    }
+    ++frames;
+  }
+  EXPECT_FALSE(cb.next(fb));
+  EXPECT_EQ(frames, 7);
 }
 
 }  // namespace

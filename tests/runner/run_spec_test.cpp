@@ -103,14 +103,12 @@ TEST(RunSpecTest, ReinjectPositionIsInTheResolvedSpecOnlyWhenNotTheDefault) {
 }
 
 TEST(RunSpecErrorTest, WhatTheLiggghtsBackendCannotDoIsRefusedAtPlanning) {
-  EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "liggghts", "output": {"contact_forces": true}})")),
-            "/output/contact_forces: the LIGGGHTS backend writes no contact-force frames; use the native engine for "
-            "them, or false (got true)");
   EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "liggghts", "discharge": {"mode": "reinject"},
     "silo": {"side_outlets": [{"wall": "right", "bottom": 3, "width": 5}]}})")).substr(0, 40),
             "/discharge/mode: the LIGGGHTS backend re");
   // The same specs are fine on the native engine.
-  EXPECT_NO_THROW(RunSpec::from_json(json::parse(R"({"output": {"contact_forces": true}})")));
+  EXPECT_NO_THROW(RunSpec::from_json(json::parse(R"({"discharge": {"mode": "reinject"},
+    "silo": {"side_outlets": [{"wall": "right", "bottom": 3, "width": 5}]}})")));
 }
 
 TEST(RunSpecErrorTest, SpeciesNameThatWouldBreakEventsCsv) {
