@@ -299,12 +299,13 @@ std::vector<Event> ReadEvents(const fs::path& dir, const std::vector<Counter>& c
 
 // LIGGGHTS dump (id mol type x y radius vx vy omegaz) -> the run-directory frames format.
 void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const SiloSetup& setup,
-                   const BodyIndex& bodies) {
+                   const BodyIndex& bodies, double box_height) {
   std::ifstream in(in_path);
   std::ofstream out(out_path, std::ios::trunc);
   std::string line;
   const double rho = spec.bodies.density;
   char buf[512];
+  std::map<long long, double> first_y;  // per body: where its first sphere is in this frame
   while (std::getline(in, line)) {
     if (line != "ITEM: TIMESTEP") continue;
     std::string step_s, n_s;
@@ -319,14 +320,22 @@ void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunS
         << "\nITEM: NUMBER OF ATOMS\n" << n << "\nITEM: BOX BOUNDS ff ff pp\n" << Num(setup.x_lo) << " " << Num(setup.x_hi)
         << "\n" << Num(setup.y_lo) << " " << Num(setup.y_hi) << "\n-0.5 0.5\n"
         << "ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n";
+    first_y.clear();
     for (long long i = 0; i < n && std::getline(in, line); ++i) {
       const auto t = Tokens(line);
       if (t.size() < 9) throw std::runtime_error("malformed LIGGGHTS dump line: " + line);
       const double r = std::stod(t[5]);
-      std::snprintf(buf, sizeof buf, "%s %lld %s %s %s 0 %s %.10g %s %s 0 %s\n", t[0].c_str(),
-                    bodies.of(std::stoll(t[0]), std::stoll(t[1])),
-                    t[2].c_str(), t[3].c_str(), t[4].c_str(), t[5].c_str(), rho * std::numbers::pi * r * r, t[6].c_str(),
-                    t[7].c_str(), t[8].c_str());
+      const long long body = bodies.of(std::stoll(t[0]), std::stoll(t[1]));
+      // LIGGGHTS wraps each sphere into the y-periodic box; a clump straddling the boundary
+      // is put back together next to its first sphere, as the analyses expect whole bodies.
+      double y = std::stod(t[4]);
+      const auto [it, first] = first_y.emplace(body, y);
+      if (!first) {
+        if (y - it->second > box_height / 2) y -= box_height;
+        if (it->second - y > box_height / 2) y += box_height;
+      }
+      std::snprintf(buf, sizeof buf, "%s %lld %s %s %.10g 0 %s %.10g %s %s 0 %s\n", t[0].c_str(), body, t[2].c_str(),
+                    t[3].c_str(), y, t[5].c_str(), rho * std::numbers::pi * r * r, t[6].c_str(), t[7].c_str(), t[8].c_str());
       out << buf;
     }
   }
@@ -337,7 +346,7 @@ void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunS
 // the point on its surface towards the second (as the native engine), then one row per wall
 // contact with the contact point. Pairs across the periodic boundary are unwrapped.
 void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& setup,
-                     const std::map<long long, Sphere>& spheres, const BodyIndex& bodies) {
+                     const std::map<long long, Sphere>& spheres, const BodyIndex& bodies, double box_height) {
   struct Block {
     long long step = 0;
     std::vector<std::string> rows;
@@ -361,7 +370,6 @@ void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& 
   };
   const std::map<long long, Block> pairs = read_blocks(dir / "contacts_pairs.liggghts");
   const std::map<long long, Block> walls = read_blocks(dir / "contacts_walls.liggghts");
-  const double box_height = setup.y_hi - setup.y_lo;
   auto sphere = [&](const std::string& id) -> const Sphere& {
     const auto it = spheres.find(std::stoll(id));
     if (it == spheres.end()) throw std::runtime_error("contact dump names an unknown sphere " + id);
@@ -648,10 +656,12 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   const BodyIndex bodies(bed_spheres);
   const double recross = spec.discharge.mode == DischargeMode::kRemove ? 1e300 : 1.0;
   int progress_lines = 0;
+  double box_height = setup.y_hi - setup.y_lo;  // to 6 digits until LIGGGHTS prints it
   const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "discharge.in", log, [&](const std::string& line) {
     const auto t = Tokens(line);
     if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
     if (t[0] == "GRANARY_FINAL" && t.size() > 1) last_step = std::stoll(t[1]);
+    if (t[0] == "GRANARY_BOX" && t.size() > 1) box_height = std::stod(t[1]);
     if (t[0] == "GRANARY_CLOG" && t.size() > 1) {
       state["clog_steps"].push_back(std::stoll(t[1]));
       state["clog_step"] = std::stoll(t[1]);
@@ -713,9 +723,9 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   }
   WriteAtomically(dir / "events.csv", csv);
   if (spec.output.frame_interval > 0 && fs::exists(dir / "frames.liggghts"))
-    ConvertFrames(dir / "frames.liggghts", dir / "frames.dump", spec, setup, bodies);
+    ConvertFrames(dir / "frames.liggghts", dir / "frames.dump", spec, setup, bodies, box_height);
   if (spec.output.contact_forces && spec.output.frame_interval > 0 && fs::exists(dir / "contacts_pairs.liggghts"))
-    ConvertContacts(dir, spec, setup, spheres, bodies);
+    ConvertContacts(dir, spec, setup, spheres, bodies, box_height);
 
   std::set<long long> remaining;
   double out_of_plane = 0;  // the quasi-2-D set-up must keep every centre in z = 0

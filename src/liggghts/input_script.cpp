@@ -418,7 +418,10 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
   o << ClumpIntegration(s) << SingleIntegration(s, false);
   const std::string script = o.str();
   std::ostringstream p;
-  p << "variable exited equal " << exited << "\n"
+  // The box height to 15 digits (dumps print it to 6): the backend puts clumps that straddle
+  // the periodic boundary back together with it.
+  p << "variable box_height equal yhi-ylo\nprint \"GRANARY_BOX ${box_height}\"\n"
+    << "variable exited equal " << exited << "\n"
     << "variable atoms_now equal atoms\nvariable step_now equal step\n"
     << "variable next_stop equal step+" << chunk << "\n"
     << "thermo_style custom step time atoms v_exited cpu\nthermo " << chunk << "\n"

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <map>
 #include <set>
 #include <thread>
 
@@ -39,6 +40,11 @@ Outcome RunBackend(const fs::path& dir, bp::environment env = boost::this_proces
   c.wait();
   o.exit_code = c.exit_code();
   return o;
+}
+
+std::string ReadText(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
 // A fresh run directory with run.json; beds are cached in one directory shared by the tests.
@@ -211,6 +217,44 @@ TEST(LiggghtsBackend, DumbbellBedReinjectsEveryBodyThatLeaves) {
   for (const Disc& d : f.discs) by_body[d.mol].push_back(&d);
   for (const auto& [id, discs] : by_body)
     EXPECT_NEAR(std::hypot(discs[0]->x - discs[1]->x, discs[0]->y - discs[1]->y), 1.0, 1e-6);
+}
+
+// granary-liggghts run --threads 2 starts two MPI ranks (mpirun); multisphere clumps cross the
+// boundary between the ranks' subdomains and stay whole, in the plane, and flow alike.
+TEST(LiggghtsBackend, TwoMpiRanksRunClumpsAsOneRankDoes) {
+  const json spec = {{"bodies", {{"count", 50}, {"species", {{{"shape", "dumbbell"}}}}}},
+                     {"silo", {{"width", 20}, {"base_outlets", {{{"center", 0}, {"width", 10}}}}}},
+                     {"discharge", {{"mode", "reinject"}, {"max_time", 4}, {"stop_on_clog", false}}},
+                     {"output", {{"frame_interval", 1.0}}}};
+  const fs::path one = MakeRun("ranks_1", spec), two = MakeRun("ranks_2", spec);
+  ASSERT_EQ(RunBackend(one).exit_code, 0);
+  bp::ipstream out;
+  bp::child c(GRANARY_LIGGGHTS_EXE, "run", two.string(), "--threads", "2", (bp::std_out & bp::std_err) > out);
+  std::string line, log;
+  while (std::getline(out, line)) log += line + "\n";
+  c.wait();
+  ASSERT_EQ(c.exit_code(), 0) << log;
+  const RunData a = read_run(one), b = read_run(two);
+  EXPECT_EQ(b.summary.raw.at("timing").at("threads"), 2);
+  EXPECT_NE(ReadText(two / "log.discharge").find("2 by 1 by 1 MPI processor grid"), std::string::npos);
+  EXPECT_EQ(b.summary.remaining, 50);
+  EXPECT_LT(b.summary.raw.at("max_out_of_plane").get<double>(), 1e-5);
+  ASSERT_GT(a.events.size(), 5u);
+  EXPECT_NEAR(static_cast<double>(b.events.size()), static_cast<double>(a.events.size()), 0.25 * static_cast<double>(a.events.size()));
+  FrameReader frames(two / "frames.dump");
+  Frame f;
+  int n = 0;
+  while (frames.next(f)) {
+    ++n;
+    std::map<std::int64_t, std::vector<const Disc*>> by_body;
+    for (const Disc& d : f.discs) by_body[d.mol].push_back(&d);
+    ASSERT_EQ(by_body.size(), 50u);
+    for (const auto& [id, discs] : by_body) {
+      ASSERT_EQ(discs.size(), 2u);
+      EXPECT_NEAR(std::hypot(discs[0]->x - discs[1]->x, discs[0]->y - discs[1]->y), 1.0, 1e-6);
+    }
+  }
+  EXPECT_EQ(n, 5);
 }
 
 TEST(LiggghtsBackend, AHostileSpecStringRunsNothing) {
