@@ -289,11 +289,11 @@ void Discharge::StartFresh() {
   w.ComputeForces();
   if (Periodic()) {
     // The LIGGGHTS backend's box (input_script.cpp): bottom kPeriodicFall below the counting
-    // plane, top 2 bounding radii + kPeriodicHeadroom above the highest disc centre.
+    // plane, top 2 bounding radii + periodic_headroom above the highest disc centre.
     double top = -1e300, bound = 0;
     for (int i = 0; i < w.disc_count(); ++i) top = std::max(top, w.dy_[i]);
     for (const auto& t : w.templates()) bound = std::max(bound, t.bound_radius);
-    periodic_height_ = (top + 2 * bound + kPeriodicHeadroom) + (spec_.discharge.exit_distance + kPeriodicFall);
+    periodic_height_ = (top + 2 * bound + spec_.discharge.periodic_headroom) + (spec_.discharge.exit_distance + kPeriodicFall);
   }
   events_ = OutFile(dir_ / "events.csv", false, 0);
   std::fprintf(events_.get(), "time,body,shape,mass,outlet\n");

@@ -368,7 +368,7 @@ RunSpec RunSpec::from_json(const json& j) {
   if (r.Has("discharge")) {
     Reader d(r.At("discharge"), "/discharge",
              {"mode", "max_time", "stop_on_clog", "clog_window", "clog_ke_per_body", "reinject_speed",
-              "reinject_position", "exit_distance"});
+              "reinject_position", "periodic_headroom", "exit_distance"});
     d.Enum("mode", s.discharge.mode, kModes);
     d.Number("max_time", s.discharge.max_time);
     d.Bool("stop_on_clog", s.discharge.stop_on_clog);
@@ -376,6 +376,7 @@ RunSpec RunSpec::from_json(const json& j) {
     d.Number("clog_ke_per_body", s.discharge.clog_ke_per_body);
     d.Number("reinject_speed", s.discharge.reinject_speed);
     d.Enum("reinject_position", s.discharge.reinject_position, kReinjectPositions);
+    d.Number("periodic_headroom", s.discharge.periodic_headroom);
     d.Number("exit_distance", s.discharge.exit_distance);
   }
   if (r.Has("output")) {
@@ -530,6 +531,7 @@ void validate(const RunSpec& s) {
   NonNegative(s.discharge.clog_ke_per_body, "/discharge/clog_ke_per_body");
   NonNegative(s.discharge.reinject_speed, "/discharge/reinject_speed");
   NonNegative(s.discharge.exit_distance, "/discharge/exit_distance");
+  NonNegative(s.discharge.periodic_headroom, "/discharge/periodic_headroom");
   if (s.discharge.mode == DischargeMode::kReinject && s.discharge.reinject_position == ReinjectPosition::kPeriodic &&
       !s.silo.side_outlets.empty())
     throw SpecError("/discharge/reinject_position",
@@ -622,6 +624,8 @@ json RunSpec::to_json() const {
   // Only when not the default, so that run ids planned before this option existed stay valid.
   if (discharge.reinject_position != ReinjectPosition::kRandom)
     out["discharge"]["reinject_position"] = to_string(discharge.reinject_position);
+  if (discharge.periodic_headroom != Discharge{}.periodic_headroom)
+    out["discharge"]["periodic_headroom"] = discharge.periodic_headroom;
   return out;
 }
 

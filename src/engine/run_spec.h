@@ -98,10 +98,9 @@ enum class DischargeMode { kRemove, kReinject };
 // or through a periodic boundary in y, at the same x with its velocity (LIGGGHTS' way).
 enum class ReinjectPosition { kRandom, kPeriodic };
 // The periodic box of ReinjectPosition::kPeriodic, the same in both engines: from
-// kPeriodicFall below the counting plane up to kPeriodicHeadroom + 2 bounding radii above the
+// kPeriodicFall below the counting plane up to `periodic_headroom` + 2 bounding radii above the
 // highest disc centre of the bed at t = 0.
 constexpr double kPeriodicFall = 3.0;
-constexpr double kPeriodicHeadroom = 1.0;
 
 struct Discharge {
   DischargeMode mode = DischargeMode::kRemove;
@@ -111,6 +110,7 @@ struct Discharge {
   double clog_ke_per_body = 1e-4;  // ... and kinetic energy per body near the outlets below this
   double reinject_speed = 0.0;     // reinject mode: speed (downwards) given to a reinjected body
   ReinjectPosition reinject_position = ReinjectPosition::kRandom;
+  double periodic_headroom = 1.0;  // periodic box: room above the bed (LIGGGHTS' reinjection)
   double exit_distance = 2.0;      // a body has left when its centre is this far past the outlet plane
 };
 

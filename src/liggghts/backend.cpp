@@ -430,6 +430,8 @@ std::string CacheStem(const RunSpec& spec) {
   if (spec.output.contact_forces && !spec.silo.obstacles.empty()) key["liggghts_obstacles_as_meshes"] = true;
   key["liggghts_side_margin"] = !spec.silo.side_outlets.empty();  // the box width depends on it
   key["liggghts_exit_distance"] = spec.discharge.exit_distance;   // and its bottom on this
+  if (spec.discharge.periodic_headroom != Discharge{}.periodic_headroom)  // and its top on this
+    key["liggghts_periodic_headroom"] = spec.discharge.periodic_headroom;
   const std::string text = key.dump();
   std::uint64_t h = 1469598103934665603ULL;  // FNV-1a
   for (unsigned char c : text) h = (h ^ c) * 1099511628211ULL;

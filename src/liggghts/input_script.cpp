@@ -381,7 +381,7 @@ std::string BedScript(const RunSpec& spec, const SiloSetup& s) {
     << "print \"GRANARY_BED_DONE ${t_now} ${ke_body}\"\n"  // before anything re-initialises the computes
     // The box top right above the bed: in reinject mode (y-periodic) a body leaving at the
     // bottom re-enters just above the bed surface. change_box is refused after read_restart.
-    << "variable box_top equal ${y_max}+" << Num(2 * s.bound_radius + kPeriodicHeadroom) << "\n"
+    << "variable box_top equal ${y_max}+" << Num(2 * s.bound_radius + spec.discharge.periodic_headroom) << "\n"
     << "change_box all y final " << Num(s.y_lo) << " ${box_top} units box\n"
     << "write_restart bed.restart\n"
     << "write_dump all custom bed.dump id " << BodyColumn(s) << " type x y radius z\n";

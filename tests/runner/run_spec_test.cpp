@@ -102,6 +102,16 @@ TEST(RunSpecTest, ReinjectPositionIsInTheResolvedSpecOnlyWhenNotTheDefault) {
             "leaving through a side outlet never reaches; use \"random\" with side outlets (got \"periodic\")");
 }
 
+TEST(RunSpecTest, PeriodicHeadroomIsInTheResolvedSpecOnlyWhenNotTheDefault) {
+  EXPECT_FALSE(RunSpec::from_json(json::object()).to_json()["discharge"].contains("periodic_headroom"));
+  const RunSpec p = RunSpec::from_json(json::parse(R"({"discharge": {"periodic_headroom": 30}})"));
+  EXPECT_EQ(p.discharge.periodic_headroom, 30.0);
+  EXPECT_EQ(p.to_json()["discharge"]["periodic_headroom"], 30.0);
+  EXPECT_EQ(RunSpec::from_json(p.to_json()).to_json(), p.to_json());
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"periodic_headroom": -1}})")).substr(0, 31),
+            "/discharge/periodic_headroom: m");
+}
+
 TEST(RunSpecErrorTest, WhatTheLiggghtsBackendCannotDoIsRefusedAtPlanning) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "liggghts", "discharge": {"mode": "reinject"},
     "silo": {"side_outlets": [{"wall": "right", "bottom": 3, "width": 5}]}})")).substr(0, 40),
