@@ -33,8 +33,13 @@ std::vector<double> ClogSeries::clogged_times() const {
   return t;
 }
 
-ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_end, double clog_gap,
-                       bool ended_clogged) {
+RunEnd run_end_of(const std::string& end_reason) {
+  if (end_reason == "clogged") return RunEnd::kClogged;
+  if (end_reason == "discharged") return RunEnd::kDischarged;
+  return RunEnd::kOther;
+}
+
+ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end) {
   ClogSeries s;
   std::vector<double> times;
   for (const auto& e : events)
@@ -57,7 +62,7 @@ ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_e
     previous = t;
   }
   current.end = previous;
-  const bool final_clog = ended_clogged || s.t_end - previous >= clog_gap;
+  const bool final_clog = end == RunEnd::kClogged || (end != RunEnd::kDischarged && s.t_end - previous >= clog_gap);
   current.complete = final_clog;
   s.flowing.push_back(current);
   if (final_clog) s.clogged.push_back({previous, s.t_end, 0, false});

@@ -19,8 +19,11 @@ namespace granary::analysis {
 // through any outlet stands in for the opening when measuring gaps, so the start-up delay
 // (bodies fall exit_distance before they count) is not a clog, while an outlet that stays
 // blocked while another flows is (from that first exit on). After the last exit the stream is clogged
-// if t_end - t_last >= clog_gap or if the run ended because it clogged (`ended_clogged`);
-// that last clog has no end (censored): it counts for the avalanche but not for <t_c>.
+// if the run ended because it clogged, or if t_end - t_last >= clog_gap unless the engine judged
+// the final stall a discharge (every outlet open to the top: the silo ran out of what can flow,
+// docs/engine.md); that last clog has no end (censored): it counts for the avalanche but not for <t_c>.
+enum class RunEnd { kOther, kClogged, kDischarged };
+RunEnd run_end_of(const std::string& end_reason);
 struct Stretch {
   double start = 0.0;
   double end = 0.0;
@@ -39,8 +42,7 @@ struct ClogSeries {
   std::vector<double> clogged_times() const;    // durations of complete clogs
 };
 
-ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_end, double clog_gap,
-                       bool ended_clogged);
+ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end);
 
 // t_f, t_c and N_u of one outlet, pooled over several runs (each run's series).
 struct IntermittencyStats {

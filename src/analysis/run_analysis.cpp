@@ -71,16 +71,17 @@ RunAnalysis analyse_events(const RunData& data, const AnalysisOptions& options) 
   }
   FlowInput in{data.events, a.remove_mode, a.bodies, a.clog_gap, -1};
   a.flow = flow_rate(in, options.window);
-  const bool ended_clogged = a.end_reason == "clogged";
-  a.series = clog_series(data.events, -1, a.t_end, a.clog_gap, ended_clogged);
+  const RunEnd end = run_end_of(a.end_reason);
+  a.series = clog_series(data.events, -1, a.t_end, a.clog_gap, end);
   a.flow_per_outlet = flow_rate_per_outlet(in, options.window, static_cast<int>(a.outlets.size()));
   for (std::size_t o = 0; o < a.outlets.size(); ++o) {
-    // A run that stopped on a clog stopped with every outlet blocked.
-    a.series_per_outlet.push_back(clog_series(data.events, static_cast<int>(o), a.t_end, a.clog_gap, ended_clogged));
+    // A run that stopped on a clog stopped with every outlet blocked; one that discharged, with
+    // every outlet open.
+    a.series_per_outlet.push_back(clog_series(data.events, static_cast<int>(o), a.t_end, a.clog_gap, end));
   }
   if (data.summary.raw.is_object() && data.summary.raw.contains("clogs") && data.summary.raw.at("clogs").is_number())
     a.engine_clogs = data.summary.raw.at("clogs").get<int>();
-  a.clog.clogged = ended_clogged;
+  a.clog.clogged = end == RunEnd::kClogged;
   a.clog.bodies = a.bodies;
   a.clog.exited = a.exited;
   a.clog.undischarged = data.has_summary ? data.summary.remaining : a.bodies - a.exited;

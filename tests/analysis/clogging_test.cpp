@@ -19,7 +19,7 @@ std::vector<ExitEvent> at(std::initializer_list<double> times, int outlet = 0) {
 TEST(ClogSeries, StretchesAvalanchesAndTimes) {
   // Flow 1..3, clog 3 -> 10, flow 10..11, clog 11 -> 20, flow 20..23, clogged until the end (30).
   const auto ev = at({1, 2, 3, 10, 11, 20, 21, 22, 23});
-  const ClogSeries s = clog_series(ev, -1, 30.0, 5.0, false);
+  const ClogSeries s = clog_series(ev, -1, 30.0, 5.0, RunEnd::kOther);
   ASSERT_EQ(s.flowing.size(), 3u);
   ASSERT_EQ(s.clogged.size(), 3u);
   EXPECT_EQ(s.avalanche_sizes(), (std::vector<double>{3, 2, 4}));
@@ -39,12 +39,22 @@ TEST(ClogSeries, StretchesAvalanchesAndTimes) {
 TEST(ClogSeries, EndsFlowingOrStoppedOnClog) {
   const auto ev = at({1, 2, 3, 4});
   // Ended while flowing: the only stretch is incomplete, no avalanche.
-  const ClogSeries flowing = clog_series(ev, -1, 6.0, 5.0, false);
+  const ClogSeries flowing = clog_series(ev, -1, 6.0, 5.0, RunEnd::kOther);
   EXPECT_TRUE(flowing.avalanche_sizes().empty());
   EXPECT_TRUE(flowing.clogged.empty());
   // The engine stopped on a clog: one avalanche of 4.
-  const ClogSeries clogged = clog_series(ev, -1, 6.0, 5.0, true);
+  const ClogSeries clogged = clog_series(ev, -1, 6.0, 5.0, RunEnd::kClogged);
   EXPECT_EQ(clogged.avalanche_sizes(), std::vector<double>{4});
+  // Stopped long after the last exit: a clog, unless the engine judged the stall a discharge
+  // (the silo ran out of what can flow): then no avalanche and no clog, but an earlier gap stays one.
+  EXPECT_EQ(clog_series(ev, -1, 20.0, 5.0, RunEnd::kOther).avalanche_sizes(), std::vector<double>{4});
+  const ClogSeries discharged = clog_series(at({1, 2, 10, 11}), -1, 20.0, 5.0, RunEnd::kDischarged);
+  EXPECT_EQ(discharged.avalanche_sizes(), std::vector<double>{2});
+  EXPECT_EQ(discharged.clogged.size(), 1u);
+  EXPECT_FALSE(discharged.flowing.back().complete);
+  EXPECT_EQ(run_end_of("discharged"), RunEnd::kDischarged);
+  EXPECT_EQ(run_end_of("clogged"), RunEnd::kClogged);
+  EXPECT_EQ(run_end_of("time_limit"), RunEnd::kOther);
 }
 
 TEST(ClogSeries, PerOutlet) {
@@ -52,21 +62,21 @@ TEST(ClogSeries, PerOutlet) {
   auto ev = at({1, 2, 12, 13});
   for (double t = 0.5; t < 15; t += 1.0) ev.push_back({t, 0, "disc", 1.0, 1});
   std::sort(ev.begin(), ev.end(), [](auto& a, auto& b) { return a.time < b.time; });
-  EXPECT_EQ(clog_series(ev, 0, 15.0, 5.0, false).clogged_times(), std::vector<double>{10});
-  EXPECT_TRUE(clog_series(ev, 1, 15.0, 5.0, false).clogged.empty());
-  EXPECT_TRUE(clog_series(ev, -1, 15.0, 5.0, false).clogged.empty());  // the silo never stops
+  EXPECT_EQ(clog_series(ev, 0, 15.0, 5.0, RunEnd::kOther).clogged_times(), std::vector<double>{10});
+  EXPECT_TRUE(clog_series(ev, 1, 15.0, 5.0, RunEnd::kOther).clogged.empty());
+  EXPECT_TRUE(clog_series(ev, -1, 15.0, 5.0, RunEnd::kOther).clogged.empty());  // the silo never stops
 }
 
 TEST(ClogSeries, StartUpDelayIsNotAClogButABlockedOutletIs) {
   // The first body needs 3 time units to leave (gap from the opening > clog_gap = 2): not a clog.
   const auto ev = at({3.0, 3.5, 4.0, 4.5});
-  const ClogSeries s = clog_series(ev, -1, 5.0, 2.0, false);
+  const ClogSeries s = clog_series(ev, -1, 5.0, 2.0, RunEnd::kOther);
   EXPECT_TRUE(s.clogged.empty());
   // Outlet 0 stays blocked until t = 10 while outlet 1 flows from t = 3: a clog from 3 to 10.
   auto two = at({10.0, 10.5}, 0);
   for (double t = 3.0; t < 12.0; t += 0.5) two.push_back({t, 0, "disc", 1.0, 1});
   std::sort(two.begin(), two.end(), [](auto& a, auto& b) { return a.time < b.time; });
-  const ClogSeries o0 = clog_series(two, 0, 12.0, 2.0, false);
+  const ClogSeries o0 = clog_series(two, 0, 12.0, 2.0, RunEnd::kOther);
   EXPECT_EQ(o0.clogged_times(), std::vector<double>{7.0});
   EXPECT_EQ(o0.avalanche_sizes(), std::vector<double>{0.0});  // clogged before its first exit
 }
