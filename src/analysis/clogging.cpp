@@ -39,7 +39,9 @@ RunEnd run_end_of(const std::string& end_reason) {
   return RunEnd::kOther;
 }
 
-ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end) {
+ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end,
+                       bool engine_stops_on_clog) {
+  const bool gaps_are_clogs = !(engine_stops_on_clog && end == RunEnd::kDischarged && outlet < 0);
   ClogSeries s;
   std::vector<double> times;
   for (const auto& e : events)
@@ -52,7 +54,7 @@ ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_e
   double previous = 0.0;
   for (const auto& e : events) previous = previous == 0.0 ? e.time : std::min(previous, e.time);
   for (double t : times) {
-    if (t - previous >= clog_gap) {
+    if (gaps_are_clogs && t - previous >= clog_gap) {
       current.end = previous;
       s.flowing.push_back(current);
       s.clogged.push_back({previous, t, 0, true});
@@ -62,7 +64,8 @@ ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_e
     previous = t;
   }
   current.end = previous;
-  const bool final_clog = end == RunEnd::kClogged || (end != RunEnd::kDischarged && s.t_end - previous >= clog_gap);
+  const bool final_clog = end == RunEnd::kClogged ||
+                          (gaps_are_clogs && end != RunEnd::kDischarged && s.t_end - previous >= clog_gap);
   current.complete = final_clog;
   s.flowing.push_back(current);
   if (final_clog) s.clogged.push_back({previous, s.t_end, 0, false});

@@ -72,7 +72,7 @@ RunAnalysis analyse_events(const RunData& data, const AnalysisOptions& options) 
   FlowInput in{data.events, a.remove_mode, a.bodies, a.clog_gap, -1};
   a.flow = flow_rate(in, options.window);
   const RunEnd end = run_end_of(a.end_reason);
-  a.series = clog_series(data.events, -1, a.t_end, a.clog_gap, end);
+  a.series = clog_series(data.events, -1, a.t_end, a.clog_gap, end, discharge.value("stop_on_clog", true));
   a.flow_per_outlet = flow_rate_per_outlet(in, options.window, static_cast<int>(a.outlets.size()));
   for (std::size_t o = 0; o < a.outlets.size(); ++o) {
     // A run that stopped on a clog stopped with every outlet blocked; one that discharged, with

@@ -55,6 +55,13 @@ TEST(ClogSeries, EndsFlowingOrStoppedOnClog) {
   EXPECT_EQ(run_end_of("discharged"), RunEnd::kDischarged);
   EXPECT_EQ(run_end_of("clogged"), RunEnd::kClogged);
   EXPECT_EQ(run_end_of("time_limit"), RunEnd::kOther);
+  // An engine that stops on the first clog it judges did not stop at the gap and found the silo
+  // discharged: not a clog for the silo as a whole, while one outlet's own stream keeps its gap.
+  const ClogSeries trickle = clog_series(at({1, 2, 10, 11}), -1, 20.0, 5.0, RunEnd::kDischarged, true);
+  EXPECT_TRUE(trickle.clogged.empty());
+  EXPECT_TRUE(trickle.avalanche_sizes().empty());
+  EXPECT_EQ(clog_series(at({1, 2, 10, 11}), -1, 20.0, 5.0, RunEnd::kClogged, true).avalanche_sizes(), (std::vector<double>{2, 2}));
+  EXPECT_EQ(clog_series(at({1, 2, 10, 11}), 0, 20.0, 5.0, RunEnd::kDischarged, true).clogged.size(), 1u);
 }
 
 TEST(ClogSeries, PerOutlet) {
