@@ -297,6 +297,24 @@ std::vector<Event> ReadEvents(const fs::path& dir, const std::vector<Counter>& c
   return out;
 }
 
+// The next block of a LIGGGHTS text dump (custom or local): its step and row count, leaving `in`
+// at its first row; false at the end of the file.
+bool NextDumpBlock(std::istream& in, long long& step, long long& rows) {
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line != "ITEM: TIMESTEP") continue;
+    std::string step_s, n_s;
+    std::getline(in, step_s);
+    std::getline(in, line);  // ITEM: NUMBER OF ATOMS / ENTRIES
+    std::getline(in, n_s);
+    for (int i = 0; i < 5; ++i) std::getline(in, line);  // BOX BOUNDS + 3 lines, ITEM: ATOMS / ENTRIES
+    step = std::stoll(step_s);
+    rows = std::stoll(n_s);
+    return true;
+  }
+  return false;
+}
+
 // LIGGGHTS dump (id mol type x y radius vx vy omegaz) -> the run-directory frames format.
 void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const SiloSetup& setup,
                    const BodyIndex& bodies, double box_height) {
@@ -306,16 +324,8 @@ void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunS
   const double rho = spec.bodies.density;
   char buf[512];
   std::map<long long, double> first_y;  // per body: where its first sphere is in this frame
-  while (std::getline(in, line)) {
-    if (line != "ITEM: TIMESTEP") continue;
-    std::string step_s, n_s;
-    std::getline(in, step_s);
-    std::getline(in, line);  // ITEM: NUMBER OF ATOMS
-    std::getline(in, n_s);
-    for (int i = 0; i < 4; ++i) std::getline(in, line);  // BOX BOUNDS + 3 lines
-    std::getline(in, line);                               // ITEM: ATOMS ...
-    const long long step = std::stoll(step_s);
-    const long long n = std::stoll(n_s);
+  long long step = 0, n = 0;
+  while (NextDumpBlock(in, step, n)) {
     out << "ITEM: TIMESTEP\n" << step << "\nITEM: TIME\n" << Num(static_cast<double>(step) * spec.time_step)
         << "\nITEM: NUMBER OF ATOMS\n" << n << "\nITEM: BOX BOUNDS ff ff pp\n" << Num(setup.x_lo) << " " << Num(setup.x_hi)
         << "\n" << Num(setup.y_lo) << " " << Num(setup.y_hi) << "\n-0.5 0.5\n"
@@ -355,16 +365,11 @@ void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& 
     std::map<long long, Block> blocks;
     std::ifstream in(path);
     std::string line;
-    while (std::getline(in, line)) {
-      if (line != "ITEM: TIMESTEP") continue;
-      std::string step_s, n_s;
-      std::getline(in, step_s);
-      std::getline(in, line);  // ITEM: NUMBER OF ENTRIES
-      std::getline(in, n_s);
-      for (int i = 0; i < 5; ++i) std::getline(in, line);  // BOX BOUNDS + 3 lines + ITEM: ENTRIES
-      Block& b = blocks[std::stoll(step_s)];
-      b.step = std::stoll(step_s);
-      for (long long i = 0, n = std::stoll(n_s); i < n && std::getline(in, line); ++i) b.rows.push_back(line);
+    long long step = 0, n = 0;
+    while (NextDumpBlock(in, step, n)) {
+      Block& b = blocks[step];
+      b.step = step;
+      for (long long i = 0; i < n && std::getline(in, line); ++i) b.rows.push_back(line);
     }
     return blocks;
   };
