@@ -267,6 +267,7 @@ void World::Rebuild() {
   for (int i = 0; i < n; ++i) nl_start_[i + 1] += nl_start_[i];
   const int m = nl_start_[n];
   nl_j_.resize(static_cast<std::size_t>(m));
+  nl_i_.resize(static_cast<std::size_t>(m));
   nl_sx_.resize(static_cast<std::size_t>(m));
   nl_sy_.resize(static_cast<std::size_t>(m));
   nl_fx_.assign(static_cast<std::size_t>(m), 0.0);
@@ -281,6 +282,7 @@ void World::Rebuild() {
     std::sort(nl_j_.begin() + nl_start_[i], nl_j_.begin() + nl_start_[i + 1]);
     for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
       const int j = nl_j_[e];
+      nl_i_[e] = i;
       nl_reff_[e] = EffectiveRadius(dr_[i], dr_[j]);
       nl_meff_[e] = EffectiveMass(bmass_[dbody_[i]], bmass_[dbody_[j]]);
     }
@@ -365,60 +367,79 @@ void World::Rebuild() {
 
 void World::ComputeForces() { Forces(rebuild_needed_ || NeedsRebuild(), false); }
 
+namespace {
+
+// Pair forces of list entries [e0, e1): new history and force (on i) and the tangential
+// couple n x F_t into the entry's slots; zeros for an entry whose discs do not touch (its
+// history resets). One straight loop over the entries, no branches: it vectorizes
+// (gathers of the two discs' records), and each lane does exactly the scalar arithmetic.
+template <bool kLiggghtsCap>
+[[gnu::always_inline]] inline void PairEntries(int e0, int e1, const int* __restrict nl_i, const int* __restrict nl_j,
+                        const double* __restrict nl_reff, const double* __restrict nl_meff,
+                        double* __restrict nl_sx, double* __restrict nl_sy, double* __restrict nl_fx,
+                        double* __restrict nl_fy, double* __restrict nl_c, const World::DiscKin* __restrict kin,
+                        const ContactParams& pp, double dt) {
+  for (int e = e0; e < e1; ++e) {
+    const World::DiscKin& a = kin[nl_i[e]];
+    const World::DiscKin& b = kin[nl_j[e]];
+    const double ddx = a.x - b.x, ddy = a.y - b.y;
+    const double rsq = ddx * ddx + ddy * ddy;
+    const double radsum = a.r + b.r;
+    const bool touch = rsq < radsum * radsum;
+    const double r = std::sqrt(rsq);
+    const double inv_r = 1.0 / r;
+    const double nx = ddx * inv_r, ny = ddy * inv_r;
+    const double delta = radsum - r;
+    const double reff = nl_reff[e], meff = nl_meff[e];
+    const double vrx = a.vx - b.vx, vry = a.vy - b.vy;
+    const double vn = vrx * nx + vry * ny;
+    const double wr = a.r * a.w + b.r * b.w;
+    const double vtx = vrx - vn * nx + wr * ny;
+    const double vty = vry - vn * ny - wr * nx;
+    const double fn = NormalForce(delta, reff, meff, vn, pp);
+    const Tangential t = TangentialForceT<kLiggghtsCap>(nl_sx[e], nl_sy[e], nx, ny, vtx, vty, delta, reff, meff, fn, dt, pp);
+    nl_sx[e] = touch ? t.sx : 0.0;
+    nl_sy[e] = touch ? t.sy : 0.0;
+    nl_fx[e] = touch ? fn * nx + t.fx : 0.0;
+    nl_fy[e] = touch ? fn * ny + t.fy : 0.0;
+    nl_c[e] = touch ? nx * t.fy - ny * t.fx : 0.0;
+  }
+}
+
+}  // namespace
+
 GRANARY_KERNEL void World::PairBlock(int blk) {
   const int n = disc_count();
   const int i0 = blk * params_.force_block, i1 = std::min(n, i0 + params_.force_block);
   const double dt = params_.dt;
   const ContactParams pp = params_.pair;
   const ContactParams wp = params_.wall;
-  const DiscKin* __restrict kin = kin_.data();
   const int* __restrict nl_start = nl_start_.data();
   const int* __restrict nl_j = nl_j_.data();
-  const double* __restrict nl_reff = nl_reff_.data();
-  const double* __restrict nl_meff = nl_meff_.data();
-  double* __restrict nl_sx = nl_sx_.data();
-  double* __restrict nl_sy = nl_sy_.data();
-  double* __restrict nl_fx = nl_fx_.data();
-  double* __restrict nl_fy = nl_fy_.data();
-  double* __restrict nl_c = nl_c_.data();
+  const double* __restrict nl_fx = nl_fx_.data();
+  const double* __restrict nl_fy = nl_fy_.data();
+  const double* __restrict nl_c = nl_c_.data();
   double* __restrict dfx = dfx_.data();
   double* __restrict dfy = dfy_.data();
   double* __restrict dtz = dtz_.data();
+  // 1. Every pair entry of the block.
+  if (pp.liggghts_cap)
+    PairEntries<true>(nl_start[i0], nl_start[i1], nl_i_.data(), nl_j, nl_reff_.data(), nl_meff_.data(), nl_sx_.data(),
+                      nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt);
+  else
+    PairEntries<false>(nl_start[i0], nl_start[i1], nl_i_.data(), nl_j, nl_reff_.data(), nl_meff_.data(), nl_sx_.data(),
+                       nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt);
+  // 2. Sums per disc in list order, reactions inside the block, wall contacts. An entry that
+  // does not touch adds +0.0, which leaves every sum as it was (they start at +0.0 and so
+  // are never -0.0).
   for (int i = i0; i < i1; ++i) dfx[i] = dfy[i] = dtz[i] = 0.0;
   for (int i = i0; i < i1; ++i) {
-    const DiscKin a = kin[i];
+    const DiscKin a = kin_[i];
     double sfx = 0.0, sfy = 0.0, sc = 0.0;
     const int e1 = nl_start[i + 1];
     for (int e = nl_start[i]; e < e1; ++e) {
       const int j = nl_j[e];
-      const DiscKin& b = kin[j];
-      const double ddx = a.x - b.x, ddy = a.y - b.y;
-      const double rsq = ddx * ddx + ddy * ddy;
-      const double radsum = a.r + b.r;
-      if (rsq >= radsum * radsum) {
-        // Not touching: no force, and the history of a contact that opened is reset
-        // (plain stores: cheaper than asking whether it was touching).
-        nl_sx[e] = nl_sy[e] = nl_fx[e] = nl_fy[e] = nl_c[e] = 0.0;
-        continue;
-      }
-      const double r = std::sqrt(rsq);
-      const double inv_r = 1.0 / r;
-      const double nx = ddx * inv_r, ny = ddy * inv_r;
-      const double delta = radsum - r;
-      const double reff = nl_reff[e], meff = nl_meff[e];
-      const double vrx = a.vx - b.vx, vry = a.vy - b.vy;
-      const double vn = vrx * nx + vry * ny;
-      const double wr = a.r * a.w + b.r * b.w;
-      const double vtx = vrx - vn * nx + wr * ny;
-      const double vty = vry - vn * ny - wr * nx;
-      const double fn = NormalForce(delta, reff, meff, vn, pp);
-      const Tangential t = TangentialForce(nl_sx[e], nl_sy[e], nx, ny, vtx, vty, delta, reff, meff, fn, dt, pp);
-      nl_sx[e] = t.sx;
-      nl_sy[e] = t.sy;
-      const double fx = fn * nx + t.fx, fy = fn * ny + t.fy, c = nx * t.fy - ny * t.fx;
-      nl_fx[e] = fx;
-      nl_fy[e] = fy;
-      nl_c[e] = c;
+      const double fx = nl_fx[e], fy = nl_fy[e], c = nl_c[e];
       sfx += fx;
       sfy += fy;
       sc += c;

@@ -44,6 +44,12 @@ struct HistoryEntry {
 
 class World {
  public:
+  // What the pair loop reads of a partner disc, in one cache line: position, velocity,
+  // radius and the body's angular velocity (written with the disc positions each step).
+  struct alignas(64) DiscKin {
+    double x, y, vx, vy, r, w;
+  };
+
   World(WorldParams params, std::vector<ShapeTemplate> templates, SiloGeometry geometry);
 
   // Adds a body of template `tmpl` at rest; returns its id. Discs of a body are contiguous.
@@ -130,12 +136,6 @@ class World {
   bool NeedsRebuild() const;
   bool Parallel() const { return disc_count() >= params_.parallel_min_discs; }
 
-  // What the pair loop reads of a partner disc, in one cache line: position, velocity,
-  // radius and the body's angular velocity (written with the disc positions each step).
-  struct alignas(64) DiscKin {
-    double x, y, vx, vy, r, w;
-  };
-
   WorldParams params_;
   std::vector<ShapeTemplate> templates_;
   SiloGeometry geometry_;
@@ -148,7 +148,7 @@ class World {
   std::vector<DiscKin> kin_;
   // Pair list (CSR over disc i, j > i sorted), with history, per-entry force and the
   // pair's constants R_eff and m_eff (computed at the rebuild).
-  std::vector<int> nl_start_, nl_j_;
+  std::vector<int> nl_start_, nl_j_, nl_i_;  // nl_i_: disc i of each entry
   std::vector<double> nl_sx_, nl_sy_, nl_fx_, nl_fy_, nl_c_, nl_reff_, nl_meff_;
   // Transpose of the entries whose disc j lies in a later force block than i: for disc j,
   // those entries in ascending i.
