@@ -142,11 +142,10 @@ bool World::ElementActive(const WallElement& e) const {
   return true;
 }
 
-double World::UpdateDiscs(int b) {
+void World::UpdateDiscs(int b) {
   const double x = bx_[b], y = by_[b], c = bc_[b], s = bs_[b], vx = bvx_[b], vy = bvy_[b], w = bw_[b];
-  double worst = 0.0;
   const int d0 = disc_begin_[b], d1 = d0 + disc_n_[b];
-  for (int d = d0; d < d1; ++d) {
+  for (int d = d0; d < d1; ++d) {  // (the step does this in DriftBodies, the same way)
     const double wx = c * dox_[d] - s * doy_[d];
     const double wy = s * dox_[d] + c * doy_[d];
     const double px = x + wx, py = y + wy;
@@ -158,10 +157,7 @@ double World::UpdateDiscs(int b) {
     k.vx = vx - w * wy;
     k.vy = vy + w * wx;
     k.w = w;
-    const double ddx = px - refx_[d], ddy = py - refy_[d];
-    worst = std::max(worst, ddx * ddx + ddy * ddy);
   }
-  return worst;
 }
 
 void World::RefreshDiscs() {
@@ -550,48 +546,118 @@ void World::Forces(bool rebuild, bool kick) {
   for (int ch = 0; ch < nchunks; ++ch) BodyForces(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk), kick);
 }
 
-GRANARY_KERNEL double World::DriftBodies(int b0, int b1) {
-  const double dt = params_.dt, half = 0.5 * params_.dt;
-  double worst = 0.0;
+namespace {
+
+// The body part of DriftBodies: half kick, drift, rotation of bodies [b0, b1), one straight
+// loop (it vectorizes); an inactive body keeps its state (selects). Rotation angles of 0.01
+// or more, which need libm, are left to the caller; returns whether there were any.
+[[gnu::always_inline]] inline bool DriftKernel(int b0, int b1, double dt, const std::uint8_t* __restrict active,
+                                               double* __restrict bx, double* __restrict by, double* __restrict bth,
+                                               double* __restrict bvx, double* __restrict bvy, double* __restrict bw,
+                                               double* __restrict bc, double* __restrict bs,
+                                               const double* __restrict bfx, const double* __restrict bfy,
+                                               const double* __restrict btq, const double* __restrict binv_mass,
+                                               const double* __restrict binv_inertia) {
+  const double half = 0.5 * dt;
+  int wide = 0;
+#pragma GCC ivdep  // each iteration reads and writes body b only
   for (int b = b0; b < b1; ++b) {
-    if (!active_[b]) continue;
-    bvx_[b] += half * bfx_[b] * binv_mass_[b];
-    bvy_[b] += half * bfy_[b] * binv_mass_[b];
-    bw_[b] += half * btq_[b] * binv_inertia_[b];
-    bx_[b] += dt * bvx_[b];
-    by_[b] += dt * bvy_[b];
-    const double a = dt * bw_[b];
-    bth_[b] += a;
+    const bool on = active[b] != 0;
+    const double vx = bvx[b] + half * bfx[b] * binv_mass[b];
+    const double vy = bvy[b] + half * bfy[b] * binv_mass[b];
+    const double w = bw[b] + half * btq[b] * binv_inertia[b];
+    const double a = dt * w;
     // Rotate (cos, sin) by a. For |a| < 0.01 the series to a^8 is exact to rounding; one
     // Newton step keeps |(c, s)| = 1 without a square root.
-    double ca, sa;
-    if (std::fabs(a) < 0.01) {
-      const double a2 = a * a;
-      // (multiplications by constant reciprocals: divisions here cost as much as the rest)
-      constexpr double k2 = 1.0 / 2, k12 = 1.0 / 12, k30 = 1.0 / 30, k56 = 1.0 / 56;
-      constexpr double k6 = 1.0 / 6, k20 = 1.0 / 20, k42 = 1.0 / 42;
-      ca = 1.0 - a2 * k2 * (1.0 - a2 * k12 * (1.0 - a2 * k30 * (1.0 - a2 * k56)));
-      sa = a * (1.0 - a2 * k6 * (1.0 - a2 * k20 * (1.0 - a2 * k42)));
-    } else {
-      ca = std::cos(a);
-      sa = std::sin(a);
-    }
-    double c = bc_[b] * ca - bs_[b] * sa, s = bs_[b] * ca + bc_[b] * sa;
+    const bool small = std::fabs(a) < 0.01;
+    const double a2 = a * a;
+    // (multiplications by constant reciprocals: divisions here cost as much as the rest)
+    constexpr double k2 = 1.0 / 2, k12 = 1.0 / 12, k30 = 1.0 / 30, k56 = 1.0 / 56;
+    constexpr double k6 = 1.0 / 6, k20 = 1.0 / 20, k42 = 1.0 / 42;
+    const double ca = 1.0 - a2 * k2 * (1.0 - a2 * k12 * (1.0 - a2 * k30 * (1.0 - a2 * k56)));
+    const double sa = a * (1.0 - a2 * k6 * (1.0 - a2 * k20 * (1.0 - a2 * k42)));
+    const double c = bc[b] * ca - bs[b] * sa, s = bs[b] * ca + bc[b] * sa;
     const double f = 1.5 - 0.5 * (c * c + s * s);
-    bc_[b] = c * f;
-    bs_[b] = s * f;
-    worst = std::max(worst, UpdateDiscs(b));
+    // (every value computed before the selects, and & not &&: no branches)
+    const double x = bx[b] + dt * vx, y = by[b] + dt * vy, th = bth[b] + a;
+    const double cn = c * f, sn = s * f;
+    bx[b] = on ? x : bx[b];
+    by[b] = on ? y : by[b];
+    bth[b] = on ? th : bth[b];
+    bvx[b] = on ? vx : bvx[b];
+    bvy[b] = on ? vy : bvy[b];
+    bw[b] = on ? w : bw[b];
+    bc[b] = on & small ? cn : bc[b];
+    bs[b] = on & small ? sn : bs[b];
+    wide |= on & !small;
   }
-  return worst;
+  return wide != 0;
+}
+
+// The disc part of DriftBodies: positions and velocities of discs [d0, d1) from their
+// bodies (as UpdateDiscs), one straight loop; returns whether a disc has moved more than
+// sqrt(limit) since the last rebuild.
+[[gnu::always_inline]] inline bool DiscKernel(int d0, int d1, double limit,
+                                              const int* __restrict dbody, const double* __restrict bx,
+                                              const double* __restrict by, const double* __restrict bvx,
+                                              const double* __restrict bvy, const double* __restrict bw,
+                                              const double* __restrict bc, const double* __restrict bs,
+                                              const double* __restrict dox, const double* __restrict doy,
+                                              const double* __restrict dr, const double* __restrict refx, const double* __restrict refy,
+                                              double* __restrict dx, double* __restrict dy,
+                                              World::DiscKin* __restrict kin) {
+  int moved = 0;
+#pragma GCC ivdep  // each iteration writes disc d only, and reads no array it writes
+  for (int d = d0; d < d1; ++d) {
+    const int b = dbody[d];
+    const double c = bc[b], s = bs[b], w = bw[b];
+    const double wx = c * dox[d] - s * doy[d];
+    const double wy = s * dox[d] + c * doy[d];
+    const double px = bx[b] + wx, py = by[b] + wy;
+    dx[d] = px;
+    dy[d] = py;
+    kin[d] = {px, py, bvx[b] - w * wy, bvy[b] + w * wx, dr[d], w};
+    const double ddx = px - refx[d], ddy = py - refy[d];
+    moved |= ddx * ddx + ddy * ddy > limit;
+  }
+  return moved != 0;
+}
+
+}  // namespace
+
+GRANARY_KERNEL bool World::DriftBodies(int b0, int b1) {
+  if (b0 >= b1) return false;
+  const double dt = params_.dt;
+  const bool wide = DriftKernel(b0, b1, dt, active_.data(), bx_.data(), by_.data(), bth_.data(), bvx_.data(),
+                                bvy_.data(), bw_.data(), bc_.data(), bs_.data(), bfx_.data(), bfy_.data(),
+                                btq_.data(), binv_mass_.data(), binv_inertia_.data());
+  if (wide) {  // the rotations the series does not cover
+    for (int b = b0; b < b1; ++b) {
+      const double a = dt * bw_[b];
+      if (!active_[b] || std::fabs(a) < 0.01) continue;
+      const double ca = std::cos(a), sa = std::sin(a);
+      const double c = bc_[b] * ca - bs_[b] * sa, s = bs_[b] * ca + bc_[b] * sa;
+      const double f = 1.5 - 0.5 * (c * c + s * s);
+      bc_[b] = c * f;
+      bs_[b] = s * f;
+    }
+  }
+  // Discs of an inactive body are recomputed from its unchanged state, which gives the
+  // values they have. They count in the displacement check, harmlessly: a body is switched
+  // off or on only with a rebuild requested, and then it does not move.
+  const int d0 = disc_begin_[b0], d1 = disc_begin_[b1 - 1] + disc_n_[b1 - 1];
+  return DiscKernel(d0, d1, 0.25 * params_.skin * params_.skin, dbody_.data(), bx_.data(),
+                    by_.data(), bvx_.data(), bvy_.data(), bw_.data(), bc_.data(), bs_.data(), dox_.data(),
+                    doy_.data(), dr_.data(), refx_.data(), refy_.data(), dx_.data(), dy_.data(), kin_.data());
 }
 
 void World::Step() {
   const int nb = body_count();
   const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
-  double worst = 0.0;
-#pragma omp parallel for schedule(static) reduction(max : worst) if (Parallel())
-  for (int ch = 0; ch < nchunks; ++ch) worst = std::max(worst, DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk)));
-  Forces(rebuild_needed_ || worst > 0.25 * params_.skin * params_.skin, true);
+  bool moved = false;
+#pragma omp parallel for schedule(static) reduction(|| : moved) if (Parallel())
+  for (int ch = 0; ch < nchunks; ++ch) moved = DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk)) || moved;
+  Forces(rebuild_needed_ || moved, true);
 }
 
 double World::KineticEnergy() const {

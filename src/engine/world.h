@@ -48,6 +48,7 @@ class World {
   // radius and the body's angular velocity (written with the disc positions each step).
   struct alignas(64) DiscKin {
     double x, y, vx, vy, r, w;
+    double pad0 = 0.0, pad1 = 0.0;  // written with the rest: the disc loop's stores fill the line
   };
 
   World(WorldParams params, std::vector<ShapeTemplate> templates, SiloGeometry geometry);
@@ -121,16 +122,15 @@ class World {
   void CollectContacts(std::vector<ContactView>& out) const;
 
  private:
-  // Disc positions and velocities of body b from the body state; returns the largest
-  // squared displacement of its discs since the last rebuild.
-  double UpdateDiscs(int b);
+  // Disc positions and velocities of body b from the body state.
+  void UpdateDiscs(int b);
   // Forces of the current state; with `kick`, also the second half kick of a step.
   void Forces(bool rebuild, bool kick);
   // The kernels of a step, each over a range that one thread owns (compiled for several
   // instruction sets, chosen at load time; the arithmetic is the same in each).
   void PairBlock(int blk);                       // pair and wall forces of one force block
   void BodyForces(int b0, int b1, bool kick);    // cross-block reactions, body sums, kick
-  double DriftBodies(int b0, int b1);            // half kick, drift; returns max displacement^2
+  bool DriftBodies(int b0, int b1);              // half kick, drift; whether a disc moved > skin/2
   static constexpr int kBodyChunk = 512;         // bodies per parallel work item
   void Rebuild();
   bool NeedsRebuild() const;
