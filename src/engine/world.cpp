@@ -66,6 +66,8 @@ int World::AddBody(int tmpl, double x, double y, double theta) {
   binv_inertia_.push_back(1.0 / t.inertia);
   disc_begin_.push_back(disc_count());
   disc_n_.push_back(static_cast<int>(t.r.size()));
+  const int n = static_cast<int>(t.r.size());
+  uniform_discs_ = id == 0 || uniform_discs_ == n ? n : -1;
   for (std::size_t k = 0; k < t.r.size(); ++k) {
     dbody_.push_back(id);
     dr_.push_back(t.r[k]);
@@ -485,9 +487,55 @@ GRANARY_KERNEL void World::PairBlock(int blk) {
   }
 }
 
+namespace {
+
+// Body sums of BodyForces for bodies [b0, b1) of kDiscs discs each, disc k of body b being
+// kDiscs b + k: a straight loop over the bodies (it vectorizes), the same arithmetic as the
+// general loop. An inactive body's discs have no contacts, so its sums are +0.0, the
+// values Deactivate left; it gets no gravity, and its velocity is kept (select).
+template <int kDiscs, bool kKick>
+[[gnu::always_inline]] inline void BodySums(int b0, int b1, double g, double half,
+                                            const std::uint8_t* __restrict active, const double* __restrict dfx,
+                                            const double* __restrict dfy, const double* __restrict dtz,
+                                            const double* __restrict dx, const double* __restrict dy,
+                                            const double* __restrict bx, const double* __restrict by,
+                                            const double* __restrict bmass, const double* __restrict binv_mass,
+                                            const double* __restrict binv_inertia, double* __restrict bfx_out,
+                                            double* __restrict bfy_out, double* __restrict btq_out,
+                                            double* __restrict bvx, double* __restrict bvy, double* __restrict bw) {
+#pragma GCC ivdep  // each iteration reads its body's discs and writes its body only
+  for (int b = b0; b < b1; ++b) {
+    const bool on = active[b] != 0;
+    double bfx = 0, bfy = 0, btq = 0;
+    const double cx = bx[b], cy = by[b];
+    const std::size_t i0 = static_cast<std::size_t>(kDiscs) * static_cast<std::size_t>(b);
+#pragma GCC unroll 8
+    for (int k = 0; k < kDiscs; ++k) {
+      const std::size_t i = i0 + static_cast<std::size_t>(k);
+      bfx += dfx[i];
+      bfy += dfy[i];
+      btq += (dx[i] - cx) * dfy[i] - (dy[i] - cy) * dfx[i] + dtz[i];
+    }
+    bfy = bfy - bmass[b] * (on ? g : 0.0);
+    bfx_out[b] = bfx;
+    bfy_out[b] = bfy;
+    btq_out[b] = btq;
+    if constexpr (kKick) {  // the second half kick of the step
+      const double vx = bvx[b] + half * bfx * binv_mass[b];
+      const double vy = bvy[b] + half * bfy * binv_mass[b];
+      const double w = bw[b] + half * btq * binv_inertia[b];
+      bvx[b] = on ? vx : bvx[b];
+      bvy[b] = on ? vy : bvy[b];
+      bw[b] = on ? w : bw[b];
+    }
+  }
+}
+
+}  // namespace
+
 GRANARY_KERNEL void World::BodyForces(int b0, int b1, bool kick) {
+  if (b0 >= b1) return;
   const double g = params_.gravity, half = 0.5 * params_.dt;
-  const DiscKin* __restrict kin = kin_.data();
   const int* __restrict xl_start = xl_start_.data();
   const int* __restrict xl_entry = xl_entry_.data();
   const double* __restrict nl_fx = nl_fx_.data();
@@ -496,30 +544,45 @@ GRANARY_KERNEL void World::BodyForces(int b0, int b1, bool kick) {
   double* __restrict dfx = dfx_.data();
   double* __restrict dfy = dfy_.data();
   double* __restrict dtz = dtz_.data();
+  // 1. Reactions of entries from earlier blocks, ascending i (few discs have any; discs of
+  // inactive bodies have no entries).
+  const int d0 = disc_begin_[b0], d1 = disc_begin_[b1 - 1] + disc_n_[b1 - 1];
+  for (int i = d0; i < d1; ++i) {
+    const int k0 = xl_start[i], k1 = xl_start[i + 1];
+    if (k0 == k1) continue;
+    double fx = dfx[i], fy = dfy[i], c = 0.0;
+    for (int k = k0; k < k1; ++k) {
+      const int e = xl_entry[k];
+      fx -= nl_fx[e];
+      fy -= nl_fy[e];
+      c += nl_c[e];
+    }
+    dfx[i] = fx;
+    dfy[i] = fy;
+    dtz[i] -= dr_[i] * c;
+  }
+  // 2. Body sums, gravity (and the half kick).
+  if (uniform_discs_ == 2) {  // dumbbells: the common case gets the vectorized loop
+    auto sums = [&]<bool kKick>() {
+      BodySums<2, kKick>(b0, b1, g, half, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(), bx_.data(),
+                         by_.data(), bmass_.data(), binv_mass_.data(), binv_inertia_.data(), bfx_.data(), bfy_.data(),
+                         btq_.data(), bvx_.data(), bvy_.data(), bw_.data());
+    };
+    if (kick)
+      sums.template operator()<true>();
+    else
+      sums.template operator()<false>();
+    return;
+  }
   for (int b = b0; b < b1; ++b) {
     if (!active_[b]) continue;
     double bfx = 0, bfy = 0, btq = 0;
     const double cx = bx_[b], cy = by_[b];
-    const int d0 = disc_begin_[b], d1 = d0 + disc_n_[b];
-    for (int i = d0; i < d1; ++i) {
-      double fx = dfx[i], fy = dfy[i], tz = dtz[i];
-      const int k1 = xl_start[i + 1];
-      if (xl_start[i] < k1) {  // reactions from earlier blocks, ascending i
-        double c = 0.0;
-        for (int k = xl_start[i]; k < k1; ++k) {
-          const int e = xl_entry[k];
-          fx -= nl_fx[e];
-          fy -= nl_fy[e];
-          c += nl_c[e];
-        }
-        tz -= kin[i].r * c;
-        dfx[i] = fx;
-        dfy[i] = fy;
-        dtz[i] = tz;
-      }
-      bfx += fx;
-      bfy += fy;
-      btq += (kin[i].x - cx) * fy - (kin[i].y - cy) * fx + tz;
+    const int e0 = disc_begin_[b], e1 = e0 + disc_n_[b];
+    for (int i = e0; i < e1; ++i) {
+      bfx += dfx[i];
+      bfy += dfy[i];
+      btq += (dx_[i] - cx) * dfy[i] - (dy_[i] - cy) * dfx[i] + dtz[i];
     }
     bfx_[b] = bfx;
     bfy_[b] = bfy - bmass_[b] * g;
@@ -534,15 +597,22 @@ GRANARY_KERNEL void World::BodyForces(int b0, int b1, bool kick) {
 
 void World::Forces(bool rebuild, bool kick) {
   if (rebuild) Rebuild();
+#pragma omp parallel if (Parallel())
+  ForcePasses(kick);
+}
+
+// Worksharing loops without a region of their own: inside Step's parallel region the threads
+// share them (one region per step: fewer forks and joins), elsewhere Forces opens one.
+void World::ForcePasses(bool kick) {
   const int nblocks = (disc_count() + params_.force_block - 1) / params_.force_block;
   // 1. Pair and wall forces by blocks of discs; within a block the order is ascending i,
   // whichever thread runs it.
-#pragma omp parallel for schedule(dynamic, 1) if (Parallel())
+#pragma omp for schedule(dynamic, 1)
   for (int blk = 0; blk < nblocks; ++blk) PairBlock(blk);
   // 2. Reactions across blocks, body forces, gravity, torques (and the half kick).
   const int nb = body_count();
   const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
-#pragma omp parallel for schedule(static) if (Parallel())
+#pragma omp for schedule(static)
   for (int ch = 0; ch < nchunks; ++ch) BodyForces(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk), kick);
 }
 
@@ -654,10 +724,17 @@ GRANARY_KERNEL bool World::DriftBodies(int b0, int b1) {
 void World::Step() {
   const int nb = body_count();
   const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
+  const bool rebuild = rebuild_needed_;
   bool moved = false;
-#pragma omp parallel for schedule(static) reduction(|| : moved) if (Parallel())
-  for (int ch = 0; ch < nchunks; ++ch) moved = DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk)) || moved;
-  Forces(rebuild_needed_ || moved, true);
+#pragma omp parallel if (Parallel())
+  {
+#pragma omp for schedule(static) reduction(|| : moved)
+    for (int ch = 0; ch < nchunks; ++ch) moved = DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk)) || moved;
+    // After the loop's barrier every thread sees the reduced flag. Without a rebuild the
+    // forces follow in the same region; a rebuild (serial parts) goes through Forces.
+    if (!(rebuild || moved)) ForcePasses(true);
+  }
+  if (rebuild || moved) Forces(true, true);
 }
 
 double World::KineticEnergy() const {

@@ -130,6 +130,7 @@ class World {
   // instruction sets, chosen at load time; the arithmetic is the same in each).
   void PairBlock(int blk);                       // pair and wall forces of one force block
   void BodyForces(int b0, int b1, bool kick);    // cross-block reactions, body sums, kick
+  void ForcePasses(bool kick);                   // PairBlock and BodyForces as omp for loops
   bool DriftBodies(int b0, int b1);              // half kick, drift; whether a disc moved > skin/2
   static constexpr int kBodyChunk = 512;         // bodies per parallel work item
   void Rebuild();
@@ -144,6 +145,7 @@ class World {
   int active_count_ = 0;
   std::int64_t rebuilds_ = 0;
   double max_radius_ = 0.0;
+  int uniform_discs_ = -1;  // discs per body if all bodies have as many, else -1
 
   std::vector<DiscKin> kin_;
   // Pair list (CSR over disc i, j > i sorted), with history, per-entry force and the
