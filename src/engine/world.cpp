@@ -693,6 +693,37 @@ namespace {
   return moved != 0;
 }
 
+// DiscKernel for bodies [b0, b1) of kDiscs discs each, disc k of body b being kDiscs b + k:
+// a loop over the bodies, so the body state is read without gathers.
+template <int kDiscs>
+[[gnu::always_inline]] inline bool DiscKernelUniform(int b0, int b1, double limit, const double* __restrict bx,
+                                                     const double* __restrict by, const double* __restrict bvx,
+                                                     const double* __restrict bvy, const double* __restrict bw,
+                                                     const double* __restrict bc, const double* __restrict bs,
+                                                     const double* __restrict dox, const double* __restrict doy,
+                                                     const double* __restrict dr, const double* __restrict refx,
+                                                     const double* __restrict refy, double* __restrict dx,
+                                                     double* __restrict dy, World::DiscKin* __restrict kin) {
+  int moved = 0;
+#pragma GCC ivdep  // each iteration writes its body's discs only, and reads no array it writes
+  for (int b = b0; b < b1; ++b) {
+    const double c = bc[b], s = bs[b], w = bw[b];
+#pragma GCC unroll 8
+    for (int k = 0; k < kDiscs; ++k) {
+      const std::size_t d = static_cast<std::size_t>(kDiscs) * static_cast<std::size_t>(b) + static_cast<std::size_t>(k);
+      const double wx = c * dox[d] - s * doy[d];
+      const double wy = s * dox[d] + c * doy[d];
+      const double px = bx[b] + wx, py = by[b] + wy;
+      dx[d] = px;
+      dy[d] = py;
+      kin[d] = {px, py, bvx[b] - w * wy, bvy[b] + w * wx, dr[d], w};
+      const double ddx = px - refx[d], ddy = py - refy[d];
+      moved |= ddx * ddx + ddy * ddy > limit;
+    }
+  }
+  return moved != 0;
+}
+
 }  // namespace
 
 GRANARY_KERNEL bool World::DriftBodies(int b0, int b1) {
@@ -715,8 +746,13 @@ GRANARY_KERNEL bool World::DriftBodies(int b0, int b1) {
   // Discs of an inactive body are recomputed from its unchanged state, which gives the
   // values they have. They count in the displacement check, harmlessly: a body is switched
   // off or on only with a rebuild requested, and then it does not move.
+  const double limit = 0.25 * params_.skin * params_.skin;
+  if (uniform_discs_ == 2)  // dumbbells
+    return DiscKernelUniform<2>(b0, b1, limit, bx_.data(), by_.data(), bvx_.data(), bvy_.data(), bw_.data(),
+                                bc_.data(), bs_.data(), dox_.data(), doy_.data(), dr_.data(), refx_.data(),
+                                refy_.data(), dx_.data(), dy_.data(), kin_.data());
   const int d0 = disc_begin_[b0], d1 = disc_begin_[b1 - 1] + disc_n_[b1 - 1];
-  return DiscKernel(d0, d1, 0.25 * params_.skin * params_.skin, dbody_.data(), bx_.data(),
+  return DiscKernel(d0, d1, limit, dbody_.data(), bx_.data(),
                     by_.data(), bvx_.data(), bvy_.data(), bw_.data(), bc_.data(), bs_.data(), dox_.data(),
                     doy_.data(), dr_.data(), refx_.data(), refy_.data(), dx_.data(), dy_.data(), kin_.data());
 }
