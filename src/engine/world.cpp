@@ -612,7 +612,8 @@ void World::ForcePasses(bool kick) {
   // 2. Reactions across blocks, body forces, gravity, torques (and the half kick).
   const int nb = body_count();
   const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
-#pragma omp for schedule(static)
+  // (nowait: both callers end their parallel region right after, which is a barrier)
+#pragma omp for schedule(static) nowait
   for (int ch = 0; ch < nchunks; ++ch) BodyForces(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk), kick);
 }
 
