@@ -621,8 +621,11 @@ namespace {
 
 // The body part of DriftBodies: half kick, drift, rotation of bodies [b0, b1), one straight
 // loop (it vectorizes); an inactive body keeps its state (selects). Rotation angles of 0.01
-// or more, which need libm, are left to the caller; returns whether there were any.
-[[gnu::always_inline]] inline bool DriftKernel(int b0, int b1, double dt, const std::uint8_t* __restrict active,
+// or more, which need libm, are left to the caller. Returns kWide if there were any, and
+// kBeyond if an active body's centre has left the box {xmin, xmax, ymin}.
+constexpr int kWide = 1, kBeyond = 2;
+[[gnu::always_inline]] inline int DriftKernel(int b0, int b1, double dt, const double box[3],
+                                              const std::uint8_t* __restrict active,
                                                double* __restrict bx, double* __restrict by, double* __restrict bth,
                                                double* __restrict bvx, double* __restrict bvy, double* __restrict bw,
                                                double* __restrict bc, double* __restrict bs,
@@ -630,7 +633,8 @@ namespace {
                                                const double* __restrict btq, const double* __restrict binv_mass,
                                                const double* __restrict binv_inertia) {
   const double half = 0.5 * dt;
-  int wide = 0;
+  const double xmin = box[0], xmax = box[1], ymin = box[2];
+  int wide = 0, beyond = 0;
 #pragma GCC ivdep  // each iteration reads and writes body b only
   for (int b = b0; b < b1; ++b) {
     const bool on = active[b] != 0;
@@ -661,8 +665,9 @@ namespace {
     bc[b] = on & small ? cn : bc[b];
     bs[b] = on & small ? sn : bs[b];
     wide |= on & !small;
+    beyond |= on & ((x < xmin) | (x > xmax) | (y < ymin));
   }
-  return wide != 0;
+  return (wide != 0 ? kWide : 0) | (beyond != 0 ? kBeyond : 0);
 }
 
 // The disc part of DriftBodies: positions and velocities of discs [d0, d1) from their
@@ -727,13 +732,13 @@ template <int kDiscs>
 
 }  // namespace
 
-GRANARY_KERNEL bool World::DriftBodies(int b0, int b1) {
-  if (b0 >= b1) return false;
+GRANARY_KERNEL int World::DriftBodies(int b0, int b1) {
+  if (b0 >= b1) return 0;
   const double dt = params_.dt;
-  const bool wide = DriftKernel(b0, b1, dt, active_.data(), bx_.data(), by_.data(), bth_.data(), bvx_.data(),
+  const int flags = DriftKernel(b0, b1, dt, exit_box_, active_.data(), bx_.data(), by_.data(), bth_.data(), bvx_.data(),
                                 bvy_.data(), bw_.data(), bc_.data(), bs_.data(), bfx_.data(), bfy_.data(),
                                 btq_.data(), binv_mass_.data(), binv_inertia_.data());
-  if (wide) {  // the rotations the series does not cover
+  if (flags & kWide) {  // the rotations the series does not cover
     for (int b = b0; b < b1; ++b) {
       const double a = dt * bw_[b];
       if (!active_[b] || std::fabs(a) < 0.01) continue;
@@ -748,30 +753,45 @@ GRANARY_KERNEL bool World::DriftBodies(int b0, int b1) {
   // values they have. They count in the displacement check, harmlessly: a body is switched
   // off or on only with a rebuild requested, and then it does not move.
   const double limit = 0.25 * params_.skin * params_.skin;
+  const int beyond = flags & kBeyond ? kDriftBeyond : 0;
   if (uniform_discs_ == 2)  // dumbbells
-    return DiscKernelUniform<2>(b0, b1, limit, bx_.data(), by_.data(), bvx_.data(), bvy_.data(), bw_.data(),
+    return beyond | (DiscKernelUniform<2>(b0, b1, limit, bx_.data(), by_.data(), bvx_.data(), bvy_.data(), bw_.data(),
                                 bc_.data(), bs_.data(), dox_.data(), doy_.data(), dr_.data(), refx_.data(),
-                                refy_.data(), dx_.data(), dy_.data(), kin_.data());
+                                refy_.data(), dx_.data(), dy_.data(), kin_.data())
+                         ? kDriftMoved
+                         : 0);
   const int d0 = disc_begin_[b0], d1 = disc_begin_[b1 - 1] + disc_n_[b1 - 1];
-  return DiscKernel(d0, d1, limit, dbody_.data(), bx_.data(),
+  return beyond | (DiscKernel(d0, d1, limit, dbody_.data(), bx_.data(),
                     by_.data(), bvx_.data(), bvy_.data(), bw_.data(), bc_.data(), bs_.data(), dox_.data(),
-                    doy_.data(), dr_.data(), refx_.data(), refy_.data(), dx_.data(), dy_.data(), kin_.data());
+                    doy_.data(), dr_.data(), refx_.data(), refy_.data(), dx_.data(), dy_.data(), kin_.data())
+                       ? kDriftMoved
+                       : 0);
 }
 
 void World::Step() {
   const int nb = body_count();
   const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
   const bool rebuild = rebuild_needed_;
+  int flags = 0;
   bool moved = false;
 #pragma omp parallel if (Parallel())
   {
-#pragma omp for schedule(static) reduction(|| : moved)
-    for (int ch = 0; ch < nchunks; ++ch) moved = DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk)) || moved;
+#pragma omp for schedule(static) reduction(| : flags)
+    for (int ch = 0; ch < nchunks; ++ch) flags |= DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk));
+    moved = (flags & kDriftMoved) != 0;
     // After the loop's barrier every thread sees the reduced flag. Without a rebuild the
     // forces follow in the same region; a rebuild (serial parts) goes through Forces.
     if (!(rebuild || moved)) ForcePasses(true);
   }
   if (rebuild || moved) Forces(true, true);
+  beyond_exit_box_ = !exit_box_set_ || (flags & kDriftBeyond) != 0;
+}
+
+void World::SetExitBox(double xmin, double xmax, double ymin) {
+  exit_box_[0] = xmin;
+  exit_box_[1] = xmax;
+  exit_box_[2] = ymin;
+  exit_box_set_ = true;
 }
 
 double World::KineticEnergy() const {

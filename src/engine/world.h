@@ -71,6 +71,11 @@ class World {
   void Step();
   // Recomputes every disc's position and velocity from the body state (after restoring it).
   void RefreshDiscs();
+  // The exit box: after each step, whether an active body's centre lies left of xmin,
+  // right of xmax or below ymin (computed in the drift, so the driver need not look at every
+  // body each step). Without a box it is always true.
+  void SetExitBox(double xmin, double xmax, double ymin);
+  bool beyond_exit_box() const { return beyond_exit_box_; }
   // Rebuild the lists at the next force computation (after adding/moving/removing bodies).
   void RequestRebuild() { rebuild_needed_ = true; }
 
@@ -131,7 +136,10 @@ class World {
   void PairBlock(int blk);                       // pair and wall forces of one force block
   void BodyForces(int b0, int b1, bool kick);    // cross-block reactions, body sums, kick
   void ForcePasses(bool kick);                   // PairBlock and BodyForces as omp for loops
-  bool DriftBodies(int b0, int b1);              // half kick, drift; whether a disc moved > skin/2
+  // Half kick and drift; flags: kDriftMoved (a disc moved > skin/2 since the rebuild),
+  // kDriftBeyond (an active body's centre is outside the exit box).
+  int DriftBodies(int b0, int b1);
+  static constexpr int kDriftMoved = 1, kDriftBeyond = 2;
   static constexpr int kBodyChunk = 512;         // bodies per parallel work item
   void Rebuild();
   bool NeedsRebuild() const;
@@ -145,6 +153,9 @@ class World {
   int active_count_ = 0;
   std::int64_t rebuilds_ = 0;
   double max_radius_ = 0.0;
+  double exit_box_[3] = {0.0, 0.0, 0.0};
+  bool exit_box_set_ = false;
+  bool beyond_exit_box_ = true;
   int uniform_discs_ = -1;  // discs per body if all bodies have as many, else -1
 
   std::vector<DiscKin> kin_;
