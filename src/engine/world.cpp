@@ -606,8 +606,10 @@ void World::Forces(bool rebuild, bool kick) {
 void World::ForcePasses(bool kick) {
   const int nblocks = (disc_count() + params_.force_block - 1) / params_.force_block;
   // 1. Pair and wall forces by blocks of discs; within a block the order is ascending i,
-  // whichever thread runs it.
-#pragma omp for schedule(dynamic, 1)
+  // whichever thread runs it. Static, like the drift and body loops: a thread keeps the
+  // same discs, bodies and list entries from loop to loop and step to step, so they stay in
+  // its core's cache (with dynamic blocks, 2 threads gave 1.2x instead of 1.7x).
+#pragma omp for schedule(static)
   for (int blk = 0; blk < nblocks; ++blk) PairBlock(blk);
   // 2. Reactions across blocks, body forces, gravity, torques (and the half kick).
   const int nb = body_count();
