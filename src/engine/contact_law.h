@@ -28,9 +28,8 @@ inline double EffectiveMass(double mi, double mj) { return mi * mj / (mi + mj); 
 // F_n = sqrt(R_eff delta) (K_n delta - m_eff gamma_n v_n), v_n = (v_i - v_j).n (physics.md).
 inline double NormalForce(double delta, double r_eff, double m_eff, double v_n, const ContactParams& p) {
   const double h = std::sqrt(r_eff * delta);
-  double fn = h * (p.kn * delta - m_eff * p.gamma_n * v_n);
-  if (p.clip_normal && fn < 0.0) fn = 0.0;
-  return fn;
+  const double fn = h * (p.kn * delta - m_eff * p.gamma_n * v_n);
+  return p.clip_normal && fn < 0.0 ? 0.0 : fn;
 }
 
 // Result of the tangential law for one 2-D contact: force on body i (world frame) and the
@@ -44,9 +43,14 @@ struct Tangential {
 // current unit normal from j to i, (vtx, vty) the tangential relative velocity at the
 // contact point, fn the normal force. Steps, in LAMMPS' order: xi += v_t dt; project xi
 // onto the tangent line; F_t = -h (K_t xi + m_eff gamma_t v_t); cap at mu |F_n|.
-inline Tangential TangentialForce(double sx, double sy, double nx, double ny, double vtx, double vty,
-                                  double delta, double r_eff, double m_eff, double fn, double dt,
-                                  const ContactParams& p) {
+//
+// Written without branches (both sides computed, then selected) so that the pair loop
+// vectorizes; a selected value is computed by the same operations as in a branch, so the
+// result is the same to the bit. Quantities of the side not taken may be inf or NaN.
+template <bool kLiggghtsCap>
+inline Tangential TangentialForceT(double sx, double sy, double nx, double ny, double vtx, double vty,
+                                   double delta, double r_eff, double m_eff, double fn, double dt,
+                                   const ContactParams& p) {
   const double h = std::sqrt(r_eff * delta);
   sx += vtx * dt;
   sy += vty * dt;
@@ -58,25 +62,19 @@ inline Tangential TangentialForce(double sx, double sy, double nx, double ny, do
   const double damp_x = m_eff * p.gamma_t * vtx;
   const double damp_y = m_eff * p.gamma_t * vty;
   Tangential t;
-  if (!p.liggghts_cap) {
-    double fx = -h * (p.kt * sx + damp_x);
-    double fy = -h * (p.kt * sy + damp_y);
+  if constexpr (!kLiggghtsCap) {
+    const double fx = -h * (p.kt * sx + damp_x);
+    const double fy = -h * (p.kt * sy + damp_y);
     const double fs2 = fx * fx + fy * fy;
-    if (fs2 > cap * cap) {
-      if (shrmag2 != 0.0) {
-        const double ratio = cap / std::sqrt(fs2);
-        // Rescale xi so that spring + damping give exactly the capped force (LAMMPS).
-        sx = ratio * (sx + damp_x / p.kt) - damp_x / p.kt;
-        sy = ratio * (sy + damp_y / p.kt) - damp_y / p.kt;
-        fx *= ratio;
-        fy *= ratio;
-      } else {
-        fx = 0.0;
-        fy = 0.0;
-      }
-    }
-    t.fx = fx;
-    t.fy = fy;
+    const bool slip = fs2 > cap * cap;
+    const bool rescale = slip && shrmag2 != 0.0;  // no history to rescale: F_t = 0
+    const double ratio = cap / std::sqrt(fs2);
+    // Rescale xi so that spring + damping give exactly the capped force (LAMMPS).
+    const double kx = damp_x / p.kt, ky = damp_y / p.kt;
+    t.sx = rescale ? ratio * (sx + kx) - kx : sx;
+    t.sy = rescale ? ratio * (sy + ky) - ky : sy;
+    t.fx = slip ? (rescale ? fx * ratio : 0.0) : fx;
+    t.fy = slip ? (rescale ? fy * ratio : 0.0) : fy;
   } else {
     // LIGGGHTS 3.8 tangential_model_history: compare only the spring part with mu|F_n|;
     // when it slips, F_t is the capped spring force without damping and xi = -F_t / k_t_eff.
@@ -85,22 +83,23 @@ inline Tangential TangentialForce(double sx, double sy, double nx, double ny, do
     const double spx = -kt_eff * sx;
     const double spy = -kt_eff * sy;
     const double spring2 = spx * spx + spy * spy;
-    if (spring2 > cap * cap) {
-      const double ratio = cap / std::sqrt(spring2);
-      t.fx = spx * ratio;
-      t.fy = spy * ratio;
-      if (kt_eff > 0.0) {
-        sx = -t.fx / kt_eff;
-        sy = -t.fy / kt_eff;
-      }
-    } else {
-      t.fx = spx - gt_eff * vtx;
-      t.fy = spy - gt_eff * vty;
-    }
+    const bool slip = spring2 > cap * cap;
+    const double ratio = cap / std::sqrt(spring2);
+    const double cfx = spx * ratio, cfy = spy * ratio;
+    t.fx = slip ? cfx : spx - gt_eff * vtx;
+    t.fy = slip ? cfy : spy - gt_eff * vty;
+    const bool reset = slip && kt_eff > 0.0;
+    t.sx = reset ? -cfx / kt_eff : sx;
+    t.sy = reset ? -cfy / kt_eff : sy;
   }
-  t.sx = sx;
-  t.sy = sy;
   return t;
+}
+
+inline Tangential TangentialForce(double sx, double sy, double nx, double ny, double vtx, double vty,
+                                  double delta, double r_eff, double m_eff, double fn, double dt,
+                                  const ContactParams& p) {
+  return p.liggghts_cap ? TangentialForceT<true>(sx, sy, nx, ny, vtx, vty, delta, r_eff, m_eff, fn, dt, p)
+                        : TangentialForceT<false>(sx, sy, nx, ny, vtx, vty, delta, r_eff, m_eff, fn, dt, p);
 }
 
 // Duration of an undamped Hertz collision F = k delta^1.5 with k = K_n sqrt(R_eff) at impact

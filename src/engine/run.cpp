@@ -242,6 +242,8 @@ void Discharge::BuildWorld(const std::vector<int>& species) {
   for (int s : species) world_->AddBody(s, 0, 0, 0);
   exits_per_outlet_.assign(world_->geometry().outlets.size(), 0);
   falling_.assign(static_cast<std::size_t>(world_->body_count()), 0);
+  const double ed = spec_.discharge.exit_distance;
+  world_->SetExitBox(-hw_ - ed, hw_ + ed, -ed);  // the exit lines of OutletOf
   world_->OpenOutlets();
 }
 
@@ -442,6 +444,18 @@ double Discharge::LandingHeight(int b, double x) const {
 
 void Discharge::HandleExits() {
   World& w = *world_;
+  // In most steps nothing exits: the step's drift has checked the exit lines (falling bodies
+  // jump back below them too), and then a straight pass (it vectorizes) with the tests of
+  // the loop below says whether any body needs it.
+  if (!w.beyond_exit_box()) return;
+  const double ed = spec_.discharge.exit_distance, fall_y = -(ed + kPeriodicFall);
+  int any = 0;
+  for (int b = 0; b < w.body_count(); ++b) {
+    const double x = w.bx_[b], y = w.by_[b];
+    const bool falling = falling_[b] != 0, beyond = (y < -ed) | (x > hw_ + ed) | (x < -hw_ - ed);
+    any |= (w.active_[b] != 0) & ((falling & (y < fall_y)) | (!falling & beyond));
+  }
+  if (!any) return;
   const double t = static_cast<double>(step_) * spec_.time_step;
   for (int b = 0; b < w.body_count(); ++b) {
     if (!w.active_[b]) continue;

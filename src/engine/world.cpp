@@ -66,6 +66,8 @@ int World::AddBody(int tmpl, double x, double y, double theta) {
   binv_inertia_.push_back(1.0 / t.inertia);
   disc_begin_.push_back(disc_count());
   disc_n_.push_back(static_cast<int>(t.r.size()));
+  const int n = static_cast<int>(t.r.size());
+  uniform_discs_ = id == 0 || uniform_discs_ == n ? n : -1;
   for (std::size_t k = 0; k < t.r.size(); ++k) {
     dbody_.push_back(id);
     dr_.push_back(t.r[k]);
@@ -142,11 +144,10 @@ bool World::ElementActive(const WallElement& e) const {
   return true;
 }
 
-double World::UpdateDiscs(int b) {
+void World::UpdateDiscs(int b) {
   const double x = bx_[b], y = by_[b], c = bc_[b], s = bs_[b], vx = bvx_[b], vy = bvy_[b], w = bw_[b];
-  double worst = 0.0;
   const int d0 = disc_begin_[b], d1 = d0 + disc_n_[b];
-  for (int d = d0; d < d1; ++d) {
+  for (int d = d0; d < d1; ++d) {  // (the step does this in DriftBodies, the same way)
     const double wx = c * dox_[d] - s * doy_[d];
     const double wy = s * dox_[d] + c * doy_[d];
     const double px = x + wx, py = y + wy;
@@ -158,10 +159,7 @@ double World::UpdateDiscs(int b) {
     k.vx = vx - w * wy;
     k.vy = vy + w * wx;
     k.w = w;
-    const double ddx = px - refx_[d], ddy = py - refy_[d];
-    worst = std::max(worst, ddx * ddx + ddy * ddy);
   }
-  return worst;
 }
 
 void World::RefreshDiscs() {
@@ -267,6 +265,7 @@ void World::Rebuild() {
   for (int i = 0; i < n; ++i) nl_start_[i + 1] += nl_start_[i];
   const int m = nl_start_[n];
   nl_j_.resize(static_cast<std::size_t>(m));
+  nl_i_.resize(static_cast<std::size_t>(m));
   nl_sx_.resize(static_cast<std::size_t>(m));
   nl_sy_.resize(static_cast<std::size_t>(m));
   nl_fx_.assign(static_cast<std::size_t>(m), 0.0);
@@ -281,6 +280,7 @@ void World::Rebuild() {
     std::sort(nl_j_.begin() + nl_start_[i], nl_j_.begin() + nl_start_[i + 1]);
     for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
       const int j = nl_j_[e];
+      nl_i_[e] = i;
       nl_reff_[e] = EffectiveRadius(dr_[i], dr_[j]);
       nl_meff_[e] = EffectiveMass(bmass_[dbody_[i]], bmass_[dbody_[j]]);
     }
@@ -365,60 +365,79 @@ void World::Rebuild() {
 
 void World::ComputeForces() { Forces(rebuild_needed_ || NeedsRebuild(), false); }
 
+namespace {
+
+// Pair forces of list entries [e0, e1): new history and force (on i) and the tangential
+// couple n x F_t into the entry's slots; zeros for an entry whose discs do not touch (its
+// history resets). One straight loop over the entries, no branches: it vectorizes
+// (gathers of the two discs' records), and each lane does exactly the scalar arithmetic.
+template <bool kLiggghtsCap>
+[[gnu::always_inline]] inline void PairEntries(int e0, int e1, const int* __restrict nl_i, const int* __restrict nl_j,
+                        const double* __restrict nl_reff, const double* __restrict nl_meff,
+                        double* __restrict nl_sx, double* __restrict nl_sy, double* __restrict nl_fx,
+                        double* __restrict nl_fy, double* __restrict nl_c, const World::DiscKin* __restrict kin,
+                        const ContactParams& pp, double dt) {
+  for (int e = e0; e < e1; ++e) {
+    const World::DiscKin& a = kin[nl_i[e]];
+    const World::DiscKin& b = kin[nl_j[e]];
+    const double ddx = a.x - b.x, ddy = a.y - b.y;
+    const double rsq = ddx * ddx + ddy * ddy;
+    const double radsum = a.r + b.r;
+    const bool touch = rsq < radsum * radsum;
+    const double r = std::sqrt(rsq);
+    const double inv_r = 1.0 / r;
+    const double nx = ddx * inv_r, ny = ddy * inv_r;
+    const double delta = radsum - r;
+    const double reff = nl_reff[e], meff = nl_meff[e];
+    const double vrx = a.vx - b.vx, vry = a.vy - b.vy;
+    const double vn = vrx * nx + vry * ny;
+    const double wr = a.r * a.w + b.r * b.w;
+    const double vtx = vrx - vn * nx + wr * ny;
+    const double vty = vry - vn * ny - wr * nx;
+    const double fn = NormalForce(delta, reff, meff, vn, pp);
+    const Tangential t = TangentialForceT<kLiggghtsCap>(nl_sx[e], nl_sy[e], nx, ny, vtx, vty, delta, reff, meff, fn, dt, pp);
+    nl_sx[e] = touch ? t.sx : 0.0;
+    nl_sy[e] = touch ? t.sy : 0.0;
+    nl_fx[e] = touch ? fn * nx + t.fx : 0.0;
+    nl_fy[e] = touch ? fn * ny + t.fy : 0.0;
+    nl_c[e] = touch ? nx * t.fy - ny * t.fx : 0.0;
+  }
+}
+
+}  // namespace
+
 GRANARY_KERNEL void World::PairBlock(int blk) {
   const int n = disc_count();
   const int i0 = blk * params_.force_block, i1 = std::min(n, i0 + params_.force_block);
   const double dt = params_.dt;
   const ContactParams pp = params_.pair;
   const ContactParams wp = params_.wall;
-  const DiscKin* __restrict kin = kin_.data();
   const int* __restrict nl_start = nl_start_.data();
   const int* __restrict nl_j = nl_j_.data();
-  const double* __restrict nl_reff = nl_reff_.data();
-  const double* __restrict nl_meff = nl_meff_.data();
-  double* __restrict nl_sx = nl_sx_.data();
-  double* __restrict nl_sy = nl_sy_.data();
-  double* __restrict nl_fx = nl_fx_.data();
-  double* __restrict nl_fy = nl_fy_.data();
-  double* __restrict nl_c = nl_c_.data();
+  const double* __restrict nl_fx = nl_fx_.data();
+  const double* __restrict nl_fy = nl_fy_.data();
+  const double* __restrict nl_c = nl_c_.data();
   double* __restrict dfx = dfx_.data();
   double* __restrict dfy = dfy_.data();
   double* __restrict dtz = dtz_.data();
+  // 1. Every pair entry of the block.
+  if (pp.liggghts_cap)
+    PairEntries<true>(nl_start[i0], nl_start[i1], nl_i_.data(), nl_j, nl_reff_.data(), nl_meff_.data(), nl_sx_.data(),
+                      nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt);
+  else
+    PairEntries<false>(nl_start[i0], nl_start[i1], nl_i_.data(), nl_j, nl_reff_.data(), nl_meff_.data(), nl_sx_.data(),
+                       nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt);
+  // 2. Sums per disc in list order, reactions inside the block, wall contacts. An entry that
+  // does not touch adds +0.0, which leaves every sum as it was (they start at +0.0 and so
+  // are never -0.0).
   for (int i = i0; i < i1; ++i) dfx[i] = dfy[i] = dtz[i] = 0.0;
   for (int i = i0; i < i1; ++i) {
-    const DiscKin a = kin[i];
+    const DiscKin a = kin_[i];
     double sfx = 0.0, sfy = 0.0, sc = 0.0;
     const int e1 = nl_start[i + 1];
     for (int e = nl_start[i]; e < e1; ++e) {
       const int j = nl_j[e];
-      const DiscKin& b = kin[j];
-      const double ddx = a.x - b.x, ddy = a.y - b.y;
-      const double rsq = ddx * ddx + ddy * ddy;
-      const double radsum = a.r + b.r;
-      if (rsq >= radsum * radsum) {
-        // Not touching: no force, and the history of a contact that opened is reset
-        // (plain stores: cheaper than asking whether it was touching).
-        nl_sx[e] = nl_sy[e] = nl_fx[e] = nl_fy[e] = nl_c[e] = 0.0;
-        continue;
-      }
-      const double r = std::sqrt(rsq);
-      const double inv_r = 1.0 / r;
-      const double nx = ddx * inv_r, ny = ddy * inv_r;
-      const double delta = radsum - r;
-      const double reff = nl_reff[e], meff = nl_meff[e];
-      const double vrx = a.vx - b.vx, vry = a.vy - b.vy;
-      const double vn = vrx * nx + vry * ny;
-      const double wr = a.r * a.w + b.r * b.w;
-      const double vtx = vrx - vn * nx + wr * ny;
-      const double vty = vry - vn * ny - wr * nx;
-      const double fn = NormalForce(delta, reff, meff, vn, pp);
-      const Tangential t = TangentialForce(nl_sx[e], nl_sy[e], nx, ny, vtx, vty, delta, reff, meff, fn, dt, pp);
-      nl_sx[e] = t.sx;
-      nl_sy[e] = t.sy;
-      const double fx = fn * nx + t.fx, fy = fn * ny + t.fy, c = nx * t.fy - ny * t.fx;
-      nl_fx[e] = fx;
-      nl_fy[e] = fy;
-      nl_c[e] = c;
+      const double fx = nl_fx[e], fy = nl_fy[e], c = nl_c[e];
       sfx += fx;
       sfy += fy;
       sc += c;
@@ -468,9 +487,55 @@ GRANARY_KERNEL void World::PairBlock(int blk) {
   }
 }
 
+namespace {
+
+// Body sums of BodyForces for bodies [b0, b1) of kDiscs discs each, disc k of body b being
+// kDiscs b + k: a straight loop over the bodies (it vectorizes), the same arithmetic as the
+// general loop. An inactive body's discs have no contacts, so its sums are +0.0, the
+// values Deactivate left; it gets no gravity, and its velocity is kept (select).
+template <int kDiscs, bool kKick>
+[[gnu::always_inline]] inline void BodySums(int b0, int b1, double g, double half,
+                                            const std::uint8_t* __restrict active, const double* __restrict dfx,
+                                            const double* __restrict dfy, const double* __restrict dtz,
+                                            const double* __restrict dx, const double* __restrict dy,
+                                            const double* __restrict bx, const double* __restrict by,
+                                            const double* __restrict bmass, const double* __restrict binv_mass,
+                                            const double* __restrict binv_inertia, double* __restrict bfx_out,
+                                            double* __restrict bfy_out, double* __restrict btq_out,
+                                            double* __restrict bvx, double* __restrict bvy, double* __restrict bw) {
+#pragma GCC ivdep  // each iteration reads its body's discs and writes its body only
+  for (int b = b0; b < b1; ++b) {
+    const bool on = active[b] != 0;
+    double bfx = 0, bfy = 0, btq = 0;
+    const double cx = bx[b], cy = by[b];
+    const std::size_t i0 = static_cast<std::size_t>(kDiscs) * static_cast<std::size_t>(b);
+#pragma GCC unroll 8
+    for (int k = 0; k < kDiscs; ++k) {
+      const std::size_t i = i0 + static_cast<std::size_t>(k);
+      bfx += dfx[i];
+      bfy += dfy[i];
+      btq += (dx[i] - cx) * dfy[i] - (dy[i] - cy) * dfx[i] + dtz[i];
+    }
+    bfy = bfy - bmass[b] * (on ? g : 0.0);
+    bfx_out[b] = bfx;
+    bfy_out[b] = bfy;
+    btq_out[b] = btq;
+    if constexpr (kKick) {  // the second half kick of the step
+      const double vx = bvx[b] + half * bfx * binv_mass[b];
+      const double vy = bvy[b] + half * bfy * binv_mass[b];
+      const double w = bw[b] + half * btq * binv_inertia[b];
+      bvx[b] = on ? vx : bvx[b];
+      bvy[b] = on ? vy : bvy[b];
+      bw[b] = on ? w : bw[b];
+    }
+  }
+}
+
+}  // namespace
+
 GRANARY_KERNEL void World::BodyForces(int b0, int b1, bool kick) {
+  if (b0 >= b1) return;
   const double g = params_.gravity, half = 0.5 * params_.dt;
-  const DiscKin* __restrict kin = kin_.data();
   const int* __restrict xl_start = xl_start_.data();
   const int* __restrict xl_entry = xl_entry_.data();
   const double* __restrict nl_fx = nl_fx_.data();
@@ -479,30 +544,45 @@ GRANARY_KERNEL void World::BodyForces(int b0, int b1, bool kick) {
   double* __restrict dfx = dfx_.data();
   double* __restrict dfy = dfy_.data();
   double* __restrict dtz = dtz_.data();
+  // 1. Reactions of entries from earlier blocks, ascending i (few discs have any; discs of
+  // inactive bodies have no entries).
+  const int d0 = disc_begin_[b0], d1 = disc_begin_[b1 - 1] + disc_n_[b1 - 1];
+  for (int i = d0; i < d1; ++i) {
+    const int k0 = xl_start[i], k1 = xl_start[i + 1];
+    if (k0 == k1) continue;
+    double fx = dfx[i], fy = dfy[i], c = 0.0;
+    for (int k = k0; k < k1; ++k) {
+      const int e = xl_entry[k];
+      fx -= nl_fx[e];
+      fy -= nl_fy[e];
+      c += nl_c[e];
+    }
+    dfx[i] = fx;
+    dfy[i] = fy;
+    dtz[i] -= dr_[i] * c;
+  }
+  // 2. Body sums, gravity (and the half kick).
+  if (uniform_discs_ == 2) {  // dumbbells: the common case gets the vectorized loop
+    auto sums = [&]<bool kKick>() {
+      BodySums<2, kKick>(b0, b1, g, half, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(), bx_.data(),
+                         by_.data(), bmass_.data(), binv_mass_.data(), binv_inertia_.data(), bfx_.data(), bfy_.data(),
+                         btq_.data(), bvx_.data(), bvy_.data(), bw_.data());
+    };
+    if (kick)
+      sums.template operator()<true>();
+    else
+      sums.template operator()<false>();
+    return;
+  }
   for (int b = b0; b < b1; ++b) {
     if (!active_[b]) continue;
     double bfx = 0, bfy = 0, btq = 0;
     const double cx = bx_[b], cy = by_[b];
-    const int d0 = disc_begin_[b], d1 = d0 + disc_n_[b];
-    for (int i = d0; i < d1; ++i) {
-      double fx = dfx[i], fy = dfy[i], tz = dtz[i];
-      const int k1 = xl_start[i + 1];
-      if (xl_start[i] < k1) {  // reactions from earlier blocks, ascending i
-        double c = 0.0;
-        for (int k = xl_start[i]; k < k1; ++k) {
-          const int e = xl_entry[k];
-          fx -= nl_fx[e];
-          fy -= nl_fy[e];
-          c += nl_c[e];
-        }
-        tz -= kin[i].r * c;
-        dfx[i] = fx;
-        dfy[i] = fy;
-        dtz[i] = tz;
-      }
-      bfx += fx;
-      bfy += fy;
-      btq += (kin[i].x - cx) * fy - (kin[i].y - cy) * fx + tz;
+    const int e0 = disc_begin_[b], e1 = e0 + disc_n_[b];
+    for (int i = e0; i < e1; ++i) {
+      bfx += dfx[i];
+      bfy += dfy[i];
+      btq += (dx_[i] - cx) * dfy[i] - (dy_[i] - cy) * dfx[i] + dtz[i];
     }
     bfx_[b] = bfx;
     bfy_[b] = bfy - bmass_[b] * g;
@@ -517,60 +597,203 @@ GRANARY_KERNEL void World::BodyForces(int b0, int b1, bool kick) {
 
 void World::Forces(bool rebuild, bool kick) {
   if (rebuild) Rebuild();
+#pragma omp parallel if (Parallel())
+  ForcePasses(kick);
+}
+
+// Worksharing loops without a region of their own: inside Step's parallel region the threads
+// share them (one region per step: fewer forks and joins), elsewhere Forces opens one.
+void World::ForcePasses(bool kick) {
   const int nblocks = (disc_count() + params_.force_block - 1) / params_.force_block;
   // 1. Pair and wall forces by blocks of discs; within a block the order is ascending i,
-  // whichever thread runs it.
-#pragma omp parallel for schedule(dynamic, 1) if (Parallel())
+  // whichever thread runs it. Static, like the drift and body loops: a thread keeps the
+  // same discs, bodies and list entries from loop to loop and step to step, so they stay in
+  // its core's cache (with dynamic blocks, 2 threads gave 1.2x instead of 1.7x).
+#pragma omp for schedule(static)
   for (int blk = 0; blk < nblocks; ++blk) PairBlock(blk);
   // 2. Reactions across blocks, body forces, gravity, torques (and the half kick).
   const int nb = body_count();
   const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
-#pragma omp parallel for schedule(static) if (Parallel())
+  // (nowait: both callers end their parallel region right after, which is a barrier)
+#pragma omp for schedule(static) nowait
   for (int ch = 0; ch < nchunks; ++ch) BodyForces(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk), kick);
 }
 
-GRANARY_KERNEL double World::DriftBodies(int b0, int b1) {
-  const double dt = params_.dt, half = 0.5 * params_.dt;
-  double worst = 0.0;
+namespace {
+
+// The body part of DriftBodies: half kick, drift, rotation of bodies [b0, b1), one straight
+// loop (it vectorizes); an inactive body keeps its state (selects). Rotation angles of 0.01
+// or more, which need libm, are left to the caller. Returns kWide if there were any, and
+// kBeyond if an active body's centre has left the box {xmin, xmax, ymin}.
+constexpr int kWide = 1, kBeyond = 2;
+[[gnu::always_inline]] inline int DriftKernel(int b0, int b1, double dt, const double box[3],
+                                              const std::uint8_t* __restrict active,
+                                               double* __restrict bx, double* __restrict by, double* __restrict bth,
+                                               double* __restrict bvx, double* __restrict bvy, double* __restrict bw,
+                                               double* __restrict bc, double* __restrict bs,
+                                               const double* __restrict bfx, const double* __restrict bfy,
+                                               const double* __restrict btq, const double* __restrict binv_mass,
+                                               const double* __restrict binv_inertia) {
+  const double half = 0.5 * dt;
+  const double xmin = box[0], xmax = box[1], ymin = box[2];
+  int wide = 0, beyond = 0;
+#pragma GCC ivdep  // each iteration reads and writes body b only
   for (int b = b0; b < b1; ++b) {
-    if (!active_[b]) continue;
-    bvx_[b] += half * bfx_[b] * binv_mass_[b];
-    bvy_[b] += half * bfy_[b] * binv_mass_[b];
-    bw_[b] += half * btq_[b] * binv_inertia_[b];
-    bx_[b] += dt * bvx_[b];
-    by_[b] += dt * bvy_[b];
-    const double a = dt * bw_[b];
-    bth_[b] += a;
+    const bool on = active[b] != 0;
+    const double vx = bvx[b] + half * bfx[b] * binv_mass[b];
+    const double vy = bvy[b] + half * bfy[b] * binv_mass[b];
+    const double w = bw[b] + half * btq[b] * binv_inertia[b];
+    const double a = dt * w;
     // Rotate (cos, sin) by a. For |a| < 0.01 the series to a^8 is exact to rounding; one
     // Newton step keeps |(c, s)| = 1 without a square root.
-    double ca, sa;
-    if (std::fabs(a) < 0.01) {
-      const double a2 = a * a;
-      // (multiplications by constant reciprocals: divisions here cost as much as the rest)
-      constexpr double k2 = 1.0 / 2, k12 = 1.0 / 12, k30 = 1.0 / 30, k56 = 1.0 / 56;
-      constexpr double k6 = 1.0 / 6, k20 = 1.0 / 20, k42 = 1.0 / 42;
-      ca = 1.0 - a2 * k2 * (1.0 - a2 * k12 * (1.0 - a2 * k30 * (1.0 - a2 * k56)));
-      sa = a * (1.0 - a2 * k6 * (1.0 - a2 * k20 * (1.0 - a2 * k42)));
-    } else {
-      ca = std::cos(a);
-      sa = std::sin(a);
-    }
-    double c = bc_[b] * ca - bs_[b] * sa, s = bs_[b] * ca + bc_[b] * sa;
+    const bool small = std::fabs(a) < 0.01;
+    const double a2 = a * a;
+    // (multiplications by constant reciprocals: divisions here cost as much as the rest)
+    constexpr double k2 = 1.0 / 2, k12 = 1.0 / 12, k30 = 1.0 / 30, k56 = 1.0 / 56;
+    constexpr double k6 = 1.0 / 6, k20 = 1.0 / 20, k42 = 1.0 / 42;
+    const double ca = 1.0 - a2 * k2 * (1.0 - a2 * k12 * (1.0 - a2 * k30 * (1.0 - a2 * k56)));
+    const double sa = a * (1.0 - a2 * k6 * (1.0 - a2 * k20 * (1.0 - a2 * k42)));
+    const double c = bc[b] * ca - bs[b] * sa, s = bs[b] * ca + bc[b] * sa;
     const double f = 1.5 - 0.5 * (c * c + s * s);
-    bc_[b] = c * f;
-    bs_[b] = s * f;
-    worst = std::max(worst, UpdateDiscs(b));
+    // (every value computed before the selects, and & not &&: no branches)
+    const double x = bx[b] + dt * vx, y = by[b] + dt * vy, th = bth[b] + a;
+    const double cn = c * f, sn = s * f;
+    bx[b] = on ? x : bx[b];
+    by[b] = on ? y : by[b];
+    bth[b] = on ? th : bth[b];
+    bvx[b] = on ? vx : bvx[b];
+    bvy[b] = on ? vy : bvy[b];
+    bw[b] = on ? w : bw[b];
+    bc[b] = on & small ? cn : bc[b];
+    bs[b] = on & small ? sn : bs[b];
+    wide |= on & !small;
+    beyond |= on & ((x < xmin) | (x > xmax) | (y < ymin));
   }
-  return worst;
+  return (wide != 0 ? kWide : 0) | (beyond != 0 ? kBeyond : 0);
+}
+
+// The disc part of DriftBodies: positions and velocities of discs [d0, d1) from their
+// bodies (as UpdateDiscs), one straight loop; returns whether a disc has moved more than
+// sqrt(limit) since the last rebuild.
+[[gnu::always_inline]] inline bool DiscKernel(int d0, int d1, double limit,
+                                              const int* __restrict dbody, const double* __restrict bx,
+                                              const double* __restrict by, const double* __restrict bvx,
+                                              const double* __restrict bvy, const double* __restrict bw,
+                                              const double* __restrict bc, const double* __restrict bs,
+                                              const double* __restrict dox, const double* __restrict doy,
+                                              const double* __restrict dr, const double* __restrict refx, const double* __restrict refy,
+                                              double* __restrict dx, double* __restrict dy,
+                                              World::DiscKin* __restrict kin) {
+  int moved = 0;
+#pragma GCC ivdep  // each iteration writes disc d only, and reads no array it writes
+  for (int d = d0; d < d1; ++d) {
+    const int b = dbody[d];
+    const double c = bc[b], s = bs[b], w = bw[b];
+    const double wx = c * dox[d] - s * doy[d];
+    const double wy = s * dox[d] + c * doy[d];
+    const double px = bx[b] + wx, py = by[b] + wy;
+    dx[d] = px;
+    dy[d] = py;
+    kin[d] = {px, py, bvx[b] - w * wy, bvy[b] + w * wx, dr[d], w};
+    const double ddx = px - refx[d], ddy = py - refy[d];
+    moved |= ddx * ddx + ddy * ddy > limit;
+  }
+  return moved != 0;
+}
+
+// DiscKernel for bodies [b0, b1) of kDiscs discs each, disc k of body b being kDiscs b + k:
+// a loop over the bodies, so the body state is read without gathers.
+template <int kDiscs>
+[[gnu::always_inline]] inline bool DiscKernelUniform(int b0, int b1, double limit, const double* __restrict bx,
+                                                     const double* __restrict by, const double* __restrict bvx,
+                                                     const double* __restrict bvy, const double* __restrict bw,
+                                                     const double* __restrict bc, const double* __restrict bs,
+                                                     const double* __restrict dox, const double* __restrict doy,
+                                                     const double* __restrict dr, const double* __restrict refx,
+                                                     const double* __restrict refy, double* __restrict dx,
+                                                     double* __restrict dy, World::DiscKin* __restrict kin) {
+  int moved = 0;
+#pragma GCC ivdep  // each iteration writes its body's discs only, and reads no array it writes
+  for (int b = b0; b < b1; ++b) {
+    const double c = bc[b], s = bs[b], w = bw[b];
+#pragma GCC unroll 8
+    for (int k = 0; k < kDiscs; ++k) {
+      const std::size_t d = static_cast<std::size_t>(kDiscs) * static_cast<std::size_t>(b) + static_cast<std::size_t>(k);
+      const double wx = c * dox[d] - s * doy[d];
+      const double wy = s * dox[d] + c * doy[d];
+      const double px = bx[b] + wx, py = by[b] + wy;
+      dx[d] = px;
+      dy[d] = py;
+      kin[d] = {px, py, bvx[b] - w * wy, bvy[b] + w * wx, dr[d], w};
+      const double ddx = px - refx[d], ddy = py - refy[d];
+      moved |= ddx * ddx + ddy * ddy > limit;
+    }
+  }
+  return moved != 0;
+}
+
+}  // namespace
+
+GRANARY_KERNEL int World::DriftBodies(int b0, int b1) {
+  if (b0 >= b1) return 0;
+  const double dt = params_.dt;
+  const int flags = DriftKernel(b0, b1, dt, exit_box_, active_.data(), bx_.data(), by_.data(), bth_.data(), bvx_.data(),
+                                bvy_.data(), bw_.data(), bc_.data(), bs_.data(), bfx_.data(), bfy_.data(),
+                                btq_.data(), binv_mass_.data(), binv_inertia_.data());
+  if (flags & kWide) {  // the rotations the series does not cover
+    for (int b = b0; b < b1; ++b) {
+      const double a = dt * bw_[b];
+      if (!active_[b] || std::fabs(a) < 0.01) continue;
+      const double ca = std::cos(a), sa = std::sin(a);
+      const double c = bc_[b] * ca - bs_[b] * sa, s = bs_[b] * ca + bc_[b] * sa;
+      const double f = 1.5 - 0.5 * (c * c + s * s);
+      bc_[b] = c * f;
+      bs_[b] = s * f;
+    }
+  }
+  // Discs of an inactive body are recomputed from its unchanged state, which gives the
+  // values they have. They count in the displacement check, harmlessly: a body is switched
+  // off or on only with a rebuild requested, and then it does not move.
+  const double limit = 0.25 * params_.skin * params_.skin;
+  const int beyond = flags & kBeyond ? kDriftBeyond : 0;
+  if (uniform_discs_ == 2)  // dumbbells
+    return beyond | (DiscKernelUniform<2>(b0, b1, limit, bx_.data(), by_.data(), bvx_.data(), bvy_.data(), bw_.data(),
+                                bc_.data(), bs_.data(), dox_.data(), doy_.data(), dr_.data(), refx_.data(),
+                                refy_.data(), dx_.data(), dy_.data(), kin_.data())
+                         ? kDriftMoved
+                         : 0);
+  const int d0 = disc_begin_[b0], d1 = disc_begin_[b1 - 1] + disc_n_[b1 - 1];
+  return beyond | (DiscKernel(d0, d1, limit, dbody_.data(), bx_.data(),
+                    by_.data(), bvx_.data(), bvy_.data(), bw_.data(), bc_.data(), bs_.data(), dox_.data(),
+                    doy_.data(), dr_.data(), refx_.data(), refy_.data(), dx_.data(), dy_.data(), kin_.data())
+                       ? kDriftMoved
+                       : 0);
 }
 
 void World::Step() {
   const int nb = body_count();
   const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
-  double worst = 0.0;
-#pragma omp parallel for schedule(static) reduction(max : worst) if (Parallel())
-  for (int ch = 0; ch < nchunks; ++ch) worst = std::max(worst, DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk)));
-  Forces(rebuild_needed_ || worst > 0.25 * params_.skin * params_.skin, true);
+  const bool rebuild = rebuild_needed_;
+  int flags = 0;
+  bool moved = false;
+#pragma omp parallel if (Parallel())
+  {
+#pragma omp for schedule(static) reduction(| : flags)
+    for (int ch = 0; ch < nchunks; ++ch) flags |= DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk));
+    moved = (flags & kDriftMoved) != 0;
+    // After the loop's barrier every thread sees the reduced flag. Without a rebuild the
+    // forces follow in the same region; a rebuild (serial parts) goes through Forces.
+    if (!(rebuild || moved)) ForcePasses(true);
+  }
+  if (rebuild || moved) Forces(true, true);
+  beyond_exit_box_ = !exit_box_set_ || (flags & kDriftBeyond) != 0;
+}
+
+void World::SetExitBox(double xmin, double xmax, double ymin) {
+  exit_box_[0] = xmin;
+  exit_box_[1] = xmax;
+  exit_box_[2] = ymin;
+  exit_box_set_ = true;
 }
 
 double World::KineticEnergy() const {

@@ -44,6 +44,13 @@ struct HistoryEntry {
 
 class World {
  public:
+  // What the pair loop reads of a partner disc, in one cache line: position, velocity,
+  // radius and the body's angular velocity (written with the disc positions each step).
+  struct alignas(64) DiscKin {
+    double x, y, vx, vy, r, w;
+    double pad0 = 0.0, pad1 = 0.0;  // written with the rest: the disc loop's stores fill the line
+  };
+
   World(WorldParams params, std::vector<ShapeTemplate> templates, SiloGeometry geometry);
 
   // Adds a body of template `tmpl` at rest; returns its id. Discs of a body are contiguous.
@@ -64,6 +71,11 @@ class World {
   void Step();
   // Recomputes every disc's position and velocity from the body state (after restoring it).
   void RefreshDiscs();
+  // The exit box: after each step, whether an active body's centre lies left of xmin,
+  // right of xmax or below ymin (computed in the drift, so the driver need not look at every
+  // body each step). Without a box it is always true.
+  void SetExitBox(double xmin, double xmax, double ymin);
+  bool beyond_exit_box() const { return beyond_exit_box_; }
   // Rebuild the lists at the next force computation (after adding/moving/removing bodies).
   void RequestRebuild() { rebuild_needed_ = true; }
 
@@ -115,26 +127,23 @@ class World {
   void CollectContacts(std::vector<ContactView>& out) const;
 
  private:
-  // Disc positions and velocities of body b from the body state; returns the largest
-  // squared displacement of its discs since the last rebuild.
-  double UpdateDiscs(int b);
+  // Disc positions and velocities of body b from the body state.
+  void UpdateDiscs(int b);
   // Forces of the current state; with `kick`, also the second half kick of a step.
   void Forces(bool rebuild, bool kick);
   // The kernels of a step, each over a range that one thread owns (compiled for several
   // instruction sets, chosen at load time; the arithmetic is the same in each).
   void PairBlock(int blk);                       // pair and wall forces of one force block
   void BodyForces(int b0, int b1, bool kick);    // cross-block reactions, body sums, kick
-  double DriftBodies(int b0, int b1);            // half kick, drift; returns max displacement^2
+  void ForcePasses(bool kick);                   // PairBlock and BodyForces as omp for loops
+  // Half kick and drift; flags: kDriftMoved (a disc moved > skin/2 since the rebuild),
+  // kDriftBeyond (an active body's centre is outside the exit box).
+  int DriftBodies(int b0, int b1);
+  static constexpr int kDriftMoved = 1, kDriftBeyond = 2;
   static constexpr int kBodyChunk = 512;         // bodies per parallel work item
   void Rebuild();
   bool NeedsRebuild() const;
   bool Parallel() const { return disc_count() >= params_.parallel_min_discs; }
-
-  // What the pair loop reads of a partner disc, in one cache line: position, velocity,
-  // radius and the body's angular velocity (written with the disc positions each step).
-  struct alignas(64) DiscKin {
-    double x, y, vx, vy, r, w;
-  };
 
   WorldParams params_;
   std::vector<ShapeTemplate> templates_;
@@ -144,11 +153,15 @@ class World {
   int active_count_ = 0;
   std::int64_t rebuilds_ = 0;
   double max_radius_ = 0.0;
+  double exit_box_[3] = {0.0, 0.0, 0.0};
+  bool exit_box_set_ = false;
+  bool beyond_exit_box_ = true;
+  int uniform_discs_ = -1;  // discs per body if all bodies have as many, else -1
 
   std::vector<DiscKin> kin_;
   // Pair list (CSR over disc i, j > i sorted), with history, per-entry force and the
   // pair's constants R_eff and m_eff (computed at the rebuild).
-  std::vector<int> nl_start_, nl_j_;
+  std::vector<int> nl_start_, nl_j_, nl_i_;  // nl_i_: disc i of each entry
   std::vector<double> nl_sx_, nl_sy_, nl_fx_, nl_fy_, nl_c_, nl_reff_, nl_meff_;
   // Transpose of the entries whose disc j lies in a later force block than i: for disc j,
   // those entries in ascending i.
