@@ -357,6 +357,9 @@ void World::Rebuild() {
   }
   wl_fx_.assign(wl_e_.size(), 0.0);
   wl_fy_.assign(wl_e_.size(), 0.0);
+  wl_i_.resize(wl_e_.size());
+  for (int i = 0; i < n; ++i)
+    for (int k = wl_start_[i]; k < wl_start_[i + 1]; ++k) wl_i_[k] = i;
   for (int i = 0; i < n; ++i) {
     refx_[i] = dx_[i];
     refy_[i] = dy_[i];
@@ -427,12 +430,12 @@ GRANARY_KERNEL void World::PairBlock(int blk) {
   else
     PairEntries<false>(nl_start[i0], nl_start[i1], nl_i_.data(), nl_j, nl_reff_.data(), nl_meff_.data(), nl_sx_.data(),
                        nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt);
-  // 2. Sums per disc in list order, reactions inside the block, wall contacts. An entry that
-  // does not touch adds +0.0, which leaves every sum as it was (they start at +0.0 and so
-  // are never -0.0).
+  // 2. Sums per disc in list order and reactions inside the block. An entry that does not
+  // touch adds +0.0, which leaves every sum as it was (they start at +0.0 and so are never
+  // -0.0).
+  const double* __restrict dr = dr_.data();
   for (int i = i0; i < i1; ++i) dfx[i] = dfy[i] = dtz[i] = 0.0;
   for (int i = i0; i < i1; ++i) {
-    const DiscKin a = kin_[i];
     double sfx = 0.0, sfy = 0.0, sc = 0.0;
     const int e1 = nl_start[i + 1];
     for (int e = nl_start[i]; e < e1; ++e) {
@@ -448,42 +451,45 @@ GRANARY_KERNEL void World::PairBlock(int blk) {
       }
     }
     // Every reaction from this block has arrived (they come from lower i).
-    double fx = dfx[i] + sfx, fy = dfy[i] + sfy;
-    double tz = -a.r * (dtz[i] + sc);  // torque of tangential forces at the contact point -r n (LAMMPS)
-    for (int k = wl_start_[i]; k < wl_start_[i + 1]; ++k) {
-      const WallElement& el = geometry_.elements[wl_e_[k]];
-      const Closest q = ClosestPoint(el, a.x, a.y);
-      const double ddx = a.x - q.qx, ddy = a.y - q.qy;
-      const double rsq = ddx * ddx + ddy * ddy;
-      const double reach = a.r + el.radius;
-      if (!q.valid || rsq >= reach * reach || rsq == 0.0) {
-        wl_sx_[k] = wl_sy_[k] = wl_fx_[k] = wl_fy_[k] = 0.0;
-        continue;
-      }
-      const double r = std::sqrt(rsq);
-      const double inv_r = 1.0 / r;
-      const double nx = ddx * inv_r, ny = ddy * inv_r;
-      const double delta = reach - r;
-      const double reff = el.kind == ElementKind::kCircle ? EffectiveRadius(a.r, el.radius) : a.r;
-      const double meff = bmass_[dbody_[i]];
-      const double vn = a.vx * nx + a.vy * ny;
-      const double wr = a.r * a.w;
-      const double vtx = a.vx - vn * nx + wr * ny;
-      const double vty = a.vy - vn * ny - wr * nx;
-      const double fn = NormalForce(delta, reff, meff, vn, wp);
-      const Tangential t = TangentialForce(wl_sx_[k], wl_sy_[k], nx, ny, vtx, vty, delta, reff, meff, fn, dt, wp);
-      wl_sx_[k] = t.sx;
-      wl_sy_[k] = t.sy;
-      const double wfx = fn * nx + t.fx, wfy = fn * ny + t.fy;
-      wl_fx_[k] = wfx;
-      wl_fy_[k] = wfy;
-      fx += wfx;
-      fy += wfy;
-      tz -= a.r * (nx * t.fy - ny * t.fx);
+    dfx[i] += sfx;
+    dfy[i] += sfy;
+    dtz[i] = -dr[i] * (dtz[i] + sc);  // torque of tangential forces at the contact point -r n (LAMMPS)
+  }
+  // 3. Wall contacts, added after each disc's pair sums as before, but in a loop of their
+  // own over the block's few wall entries: the pair-sum loop above stays small (no disc
+  // record, no wall state in registers).
+  for (int k = wl_start_[i0]; k < wl_start_[i1]; ++k) {
+    const int i = wl_i_[k];
+    const DiscKin& a = kin_[i];
+    const WallElement& el = geometry_.elements[wl_e_[k]];
+    const Closest q = ClosestPoint(el, a.x, a.y);
+    const double ddx = a.x - q.qx, ddy = a.y - q.qy;
+    const double rsq = ddx * ddx + ddy * ddy;
+    const double reach = a.r + el.radius;
+    if (!q.valid || rsq >= reach * reach || rsq == 0.0) {
+      wl_sx_[k] = wl_sy_[k] = wl_fx_[k] = wl_fy_[k] = 0.0;
+      continue;
     }
-    dfx[i] = fx;
-    dfy[i] = fy;
-    dtz[i] = tz;
+    const double r = std::sqrt(rsq);
+    const double inv_r = 1.0 / r;
+    const double nx = ddx * inv_r, ny = ddy * inv_r;
+    const double delta = reach - r;
+    const double reff = el.kind == ElementKind::kCircle ? EffectiveRadius(a.r, el.radius) : a.r;
+    const double meff = bmass_[dbody_[i]];
+    const double vn = a.vx * nx + a.vy * ny;
+    const double wr = a.r * a.w;
+    const double vtx = a.vx - vn * nx + wr * ny;
+    const double vty = a.vy - vn * ny - wr * nx;
+    const double fn = NormalForce(delta, reff, meff, vn, wp);
+    const Tangential t = TangentialForce(wl_sx_[k], wl_sy_[k], nx, ny, vtx, vty, delta, reff, meff, fn, dt, wp);
+    wl_sx_[k] = t.sx;
+    wl_sy_[k] = t.sy;
+    const double wfx = fn * nx + t.fx, wfy = fn * ny + t.fy;
+    wl_fx_[k] = wfx;
+    wl_fy_[k] = wfy;
+    dfx[i] += wfx;
+    dfy[i] += wfy;
+    dtz[i] -= a.r * (nx * t.fy - ny * t.fx);
   }
 }
 

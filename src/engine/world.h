@@ -166,8 +166,8 @@ class World {
   // Transpose of the entries whose disc j lies in a later force block than i: for disc j,
   // those entries in ascending i.
   std::vector<int> xl_start_, xl_entry_, xl_fill_;
-  // Wall list (CSR over disc), with history.
-  std::vector<int> wl_start_, wl_e_;
+  // Wall list (CSR over disc), with history; wl_i_: disc of each entry.
+  std::vector<int> wl_start_, wl_e_, wl_i_;
   std::vector<double> wl_sx_, wl_sy_, wl_fx_, wl_fy_;
   // Previous lists during a rebuild (history transfer).
   std::vector<int> old_start_, old_j_, old_wstart_, old_we_;
