@@ -678,6 +678,25 @@ constexpr int kWide = 1, kBeyond = 2;
   return (wide != 0 ? kWide : 0) | (beyond != 0 ? kBeyond : 0);
 }
 
+// One disc d of a body with centre (x, y), velocity (vx, vy), orientation (c, s) and angular
+// velocity w: its position and kinematics; returns whether it has moved more than sqrt(limit)
+// since the last rebuild. Shared by both disc loops of the drift.
+[[gnu::always_inline]] inline bool PlaceDisc(std::size_t d, double x, double y, double vx, double vy, double c,
+                                             double s, double w, double limit, const double* __restrict dox,
+                                             const double* __restrict doy, const double* __restrict dr,
+                                             const double* __restrict refx, const double* __restrict refy,
+                                             double* __restrict dx, double* __restrict dy,
+                                             World::DiscKin* __restrict kin) {
+  const double wx = c * dox[d] - s * doy[d];
+  const double wy = s * dox[d] + c * doy[d];
+  const double px = x + wx, py = y + wy;
+  dx[d] = px;
+  dy[d] = py;
+  kin[d] = {px, py, vx - w * wy, vy + w * wx, dr[d], w};
+  const double ddx = px - refx[d], ddy = py - refy[d];
+  return ddx * ddx + ddy * ddy > limit;
+}
+
 // The disc part of DriftBodies: positions and velocities of discs [d0, d1) from their
 // bodies (as UpdateDiscs), one straight loop; returns whether a disc has moved more than
 // sqrt(limit) since the last rebuild.
@@ -694,15 +713,8 @@ constexpr int kWide = 1, kBeyond = 2;
 #pragma GCC ivdep  // each iteration writes disc d only, and reads no array it writes
   for (int d = d0; d < d1; ++d) {
     const int b = dbody[d];
-    const double c = bc[b], s = bs[b], w = bw[b];
-    const double wx = c * dox[d] - s * doy[d];
-    const double wy = s * dox[d] + c * doy[d];
-    const double px = bx[b] + wx, py = by[b] + wy;
-    dx[d] = px;
-    dy[d] = py;
-    kin[d] = {px, py, bvx[b] - w * wy, bvy[b] + w * wx, dr[d], w};
-    const double ddx = px - refx[d], ddy = py - refy[d];
-    moved |= ddx * ddx + ddy * ddy > limit;
+    moved |= PlaceDisc(static_cast<std::size_t>(d), bx[b], by[b], bvx[b], bvy[b], bc[b], bs[b], bw[b], limit, dox, doy,
+                       dr, refx, refy, dx, dy, kin);
   }
   return moved != 0;
 }
@@ -725,14 +737,7 @@ template <int kDiscs>
 #pragma GCC unroll 8
     for (int k = 0; k < kDiscs; ++k) {
       const std::size_t d = static_cast<std::size_t>(kDiscs) * static_cast<std::size_t>(b) + static_cast<std::size_t>(k);
-      const double wx = c * dox[d] - s * doy[d];
-      const double wy = s * dox[d] + c * doy[d];
-      const double px = bx[b] + wx, py = by[b] + wy;
-      dx[d] = px;
-      dy[d] = py;
-      kin[d] = {px, py, bvx[b] - w * wy, bvy[b] + w * wx, dr[d], w};
-      const double ddx = px - refx[d], ddy = py - refy[d];
-      moved |= ddx * ddx + ddy * ddy > limit;
+      moved |= PlaceDisc(d, bx[b], by[b], bvx[b], bvy[b], c, s, w, limit, dox, doy, dr, refx, refy, dx, dy, kin);
     }
   }
   return moved != 0;
