@@ -297,6 +297,13 @@ std::vector<Event> ReadEvents(const fs::path& dir, const std::vector<Counter>& c
   return out;
 }
 
+// The periodic image of height y (y-periodic box of height box_height) nearest to `near`.
+double NearestImage(double y, double near, double box_height) {
+  if (y - near > box_height / 2) return y - box_height;
+  if (near - y > box_height / 2) return y + box_height;
+  return y;
+}
+
 // The next block of a LIGGGHTS text dump (custom or local): its step and row count, leaving `in`
 // at its first row; false at the end of the file.
 bool NextDumpBlock(std::istream& in, long long& step, long long& rows) {
@@ -340,10 +347,7 @@ void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunS
       // is put back together next to its first sphere, as the analyses expect whole bodies.
       double y = std::stod(t[4]);
       const auto [it, first] = first_y.emplace(body, y);
-      if (!first) {
-        if (y - it->second > box_height / 2) y -= box_height;
-        if (it->second - y > box_height / 2) y += box_height;
-      }
+      if (!first) y = NearestImage(y, it->second, box_height);
       std::snprintf(buf, sizeof buf, "%s %lld %s %s %.10g 0 %s %.10g %s %s 0 %s\n", t[0].c_str(), body, t[2].c_str(),
                     t[3].c_str(), y, t[5].c_str(), rho * std::numbers::pi * r * r, t[6].c_str(), t[7].c_str(), t[8].c_str());
       out << buf;
@@ -393,9 +397,7 @@ void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& 
       const long long body_a = bodies.of(a), body_b = bodies.of(b);
       if (body_a == body_b) continue;
       const double xi = std::stod(t[0]), yi = std::stod(t[1]), xj = std::stod(t[2]);
-      double yj = std::stod(t[3]);
-      if (yj - yi > box_height / 2) yj -= box_height;  // the periodic image next to sphere i
-      if (yi - yj > box_height / 2) yj += box_height;
+      const double yj = NearestImage(std::stod(t[3]), yi, box_height);
       const double dx = xj - xi, dy = yj - yi, r = std::hypot(dx, dy);
       std::snprintf(buf, sizeof buf, "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %s %s\n", body_a, body_b, xi, yi, xj, yj,
                     xi + a.radius * dx / r, yi + a.radius * dy / r, t[6].c_str(), t[7].c_str());
