@@ -7,6 +7,9 @@
 #include <string>
 #include <utility>
 
+#include "engine/pair_avx512.h"
+#include "engine/pair_entries.h"
+
 namespace granary::engine {
 
 // The step's kernels are compiled for x86-64-v4 (AVX-512: 32 vector registers), v3
@@ -37,7 +40,8 @@ WorldParams ParamsFromSpec(const RunSpec& spec) {
 }
 
 World::World(WorldParams params, std::vector<ShapeTemplate> templates, SiloGeometry geometry)
-    : params_(params), templates_(std::move(templates)), geometry_(std::move(geometry)) {
+    : params_(params), templates_(std::move(templates)), geometry_(std::move(geometry)),
+      use_avx512_(params_.simd_pair_kernel && PairAvx512Available()) {
   for (const ShapeTemplate& t : templates_)
     for (double r : t.r) max_radius_ = std::max(max_radius_, r);
 }
@@ -368,47 +372,6 @@ void World::Rebuild() {
 
 void World::ComputeForces() { Forces(rebuild_needed_ || NeedsRebuild(), false); }
 
-namespace {
-
-// Pair forces of list entries [e0, e1): new history and force (on i) and the tangential
-// couple n x F_t into the entry's slots; zeros for an entry whose discs do not touch (its
-// history resets). One straight loop over the entries, no branches: it vectorizes
-// (gathers of the two discs' records), and each lane does exactly the scalar arithmetic.
-template <bool kLiggghtsCap>
-[[gnu::always_inline]] inline void PairEntries(int e0, int e1, const int* __restrict nl_i, const int* __restrict nl_j,
-                        const double* __restrict nl_reff, const double* __restrict nl_meff,
-                        double* __restrict nl_sx, double* __restrict nl_sy, double* __restrict nl_fx,
-                        double* __restrict nl_fy, double* __restrict nl_c, const World::DiscKin* __restrict kin,
-                        const ContactParams& pp, double dt) {
-  for (int e = e0; e < e1; ++e) {
-    const World::DiscKin& a = kin[nl_i[e]];
-    const World::DiscKin& b = kin[nl_j[e]];
-    const double ddx = a.x - b.x, ddy = a.y - b.y;
-    const double rsq = ddx * ddx + ddy * ddy;
-    const double radsum = a.r + b.r;
-    const bool touch = rsq < radsum * radsum;
-    const double r = std::sqrt(rsq);
-    const double inv_r = 1.0 / r;
-    const double nx = ddx * inv_r, ny = ddy * inv_r;
-    const double delta = radsum - r;
-    const double reff = nl_reff[e], meff = nl_meff[e];
-    const double vrx = a.vx - b.vx, vry = a.vy - b.vy;
-    const double vn = vrx * nx + vry * ny;
-    const double wr = a.r * a.w + b.r * b.w;
-    const double vtx = vrx - vn * nx + wr * ny;
-    const double vty = vry - vn * ny - wr * nx;
-    const double fn = NormalForce(delta, reff, meff, vn, pp);
-    const Tangential t = TangentialForceT<kLiggghtsCap>(nl_sx[e], nl_sy[e], nx, ny, vtx, vty, delta, reff, meff, fn, dt, pp);
-    nl_sx[e] = touch ? t.sx : 0.0;
-    nl_sy[e] = touch ? t.sy : 0.0;
-    nl_fx[e] = touch ? fn * nx + t.fx : 0.0;
-    nl_fy[e] = touch ? fn * ny + t.fy : 0.0;
-    nl_c[e] = touch ? nx * t.fy - ny * t.fx : 0.0;
-  }
-}
-
-}  // namespace
-
 GRANARY_KERNEL void World::PairBlock(int blk) {
   const int n = disc_count();
   const int i0 = blk * params_.force_block, i1 = std::min(n, i0 + params_.force_block);
@@ -423,13 +386,24 @@ GRANARY_KERNEL void World::PairBlock(int blk) {
   double* __restrict dfx = dfx_.data();
   double* __restrict dfy = dfy_.data();
   double* __restrict dtz = dtz_.data();
-  // 1. Every pair entry of the block.
-  if (pp.liggghts_cap)
-    PairEntries<true>(nl_start[i0], nl_start[i1], nl_i_.data(), nl_j, nl_reff_.data(), nl_meff_.data(), nl_sx_.data(),
-                      nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt);
-  else
-    PairEntries<false>(nl_start[i0], nl_start[i1], nl_i_.data(), nl_j, nl_reff_.data(), nl_meff_.data(), nl_sx_.data(),
-                       nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt);
+  // 1. Every pair entry of the block: eight at a time by the AVX-512 loop where the CPU has
+  // it, the rest (or all) by the portable loop; both give the same bits.
+  const int pair0 = nl_start[i0], pair1 = nl_start[i1];
+  if (pp.liggghts_cap) {
+    const int e = use_avx512_ ? PairEntriesAvx512<true>(pair0, pair1, nl_i_.data(), nl_j, nl_reff_.data(),
+                                                        nl_meff_.data(), nl_sx_.data(), nl_sy_.data(), nl_fx_.data(),
+                                                        nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt)
+                              : pair0;
+    PairEntries<true>(e, pair1, nl_i_.data(), nl_j, nl_reff_.data(), nl_meff_.data(), nl_sx_.data(), nl_sy_.data(),
+                      nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt);
+  } else {
+    const int e = use_avx512_ ? PairEntriesAvx512<false>(pair0, pair1, nl_i_.data(), nl_j, nl_reff_.data(),
+                                                         nl_meff_.data(), nl_sx_.data(), nl_sy_.data(), nl_fx_.data(),
+                                                         nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt)
+                              : pair0;
+    PairEntries<false>(e, pair1, nl_i_.data(), nl_j, nl_reff_.data(), nl_meff_.data(), nl_sx_.data(), nl_sy_.data(),
+                       nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt);
+  }
   // 2. Sums per disc in list order and reactions inside the block. An entry that does not
   // touch adds +0.0, which leaves every sum as it was (they start at +0.0 and so are never
   // -0.0).

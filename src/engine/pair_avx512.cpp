@@ -1,0 +1,205 @@
+// AVX-512 pair-force loop (pair_avx512.h). Every line mirrors an operation of
+// PairEntries / NormalForce / TangentialForceT in the same order; with contraction off
+// (CMakeLists.txt) each is one correctly rounded IEEE operation, as in the scalar code.
+#include "engine/pair_avx512.h"
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define GRANARY_HAVE_AVX512_KERNEL 1
+// GCC 12's AVX-512 unpack intrinsics pass an undefined vector as the merge source of an
+// all-ones mask and then warn that it may be used uninitialized (GCC bug 105593).
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+
+namespace granary::engine {
+
+#ifdef GRANARY_HAVE_AVX512_KERNEL
+
+bool PairAvx512Available() {
+  static const bool available = __builtin_cpu_supports("avx512f");
+  return available;
+}
+
+namespace {
+
+#define GRANARY_AVX512 __attribute__((target("avx512f"), always_inline)) inline
+
+// The fields the pair law reads of eight disc records, one lane per record.
+struct Lanes {
+  __m512d x, y, vx, vy, r, w;
+};
+
+// Loads the records kin[idx[0..7]] (one 64-byte line each: x y vx vy r w pad pad) and
+// transposes them: unpack pairs of rows, then two rounds of 128-bit lane shuffles.
+GRANARY_AVX512 Lanes LoadLanes(const World::DiscKin* kin, const int* idx) {
+  __m512d row[8];
+  for (int k = 0; k < 8; ++k) row[k] = _mm512_load_pd(&kin[idx[k]].x);
+  // t_even: 128-bit lanes (x, vx, r, pad0) of rows 2m, 2m+1; t_odd: (y, vy, w, pad1).
+  const __m512d t0 = _mm512_unpacklo_pd(row[0], row[1]), t1 = _mm512_unpackhi_pd(row[0], row[1]);
+  const __m512d t2 = _mm512_unpacklo_pd(row[2], row[3]), t3 = _mm512_unpackhi_pd(row[2], row[3]);
+  const __m512d t4 = _mm512_unpacklo_pd(row[4], row[5]), t5 = _mm512_unpackhi_pd(row[4], row[5]);
+  const __m512d t6 = _mm512_unpacklo_pd(row[6], row[7]), t7 = _mm512_unpackhi_pd(row[6], row[7]);
+  constexpr int kLow = 0x44;   // (a.L0, a.L1, b.L0, b.L1)
+  constexpr int kHigh = 0xEE;  // (a.L2, a.L3, b.L2, b.L3)
+  constexpr int kEven = 0x88;  // (a.L0, a.L2, b.L0, b.L2)
+  constexpr int kOdd = 0xDD;   // (a.L1, a.L3, b.L1, b.L3)
+  const __m512d xv0 = _mm512_shuffle_f64x2(t0, t2, kLow), xv1 = _mm512_shuffle_f64x2(t4, t6, kLow);
+  const __m512d yv0 = _mm512_shuffle_f64x2(t1, t3, kLow), yv1 = _mm512_shuffle_f64x2(t5, t7, kLow);
+  const __m512d r0 = _mm512_shuffle_f64x2(t0, t2, kHigh), r1 = _mm512_shuffle_f64x2(t4, t6, kHigh);
+  const __m512d w0 = _mm512_shuffle_f64x2(t1, t3, kHigh), w1 = _mm512_shuffle_f64x2(t5, t7, kHigh);
+  Lanes l;
+  l.x = _mm512_shuffle_f64x2(xv0, xv1, kEven);
+  l.vx = _mm512_shuffle_f64x2(xv0, xv1, kOdd);
+  l.y = _mm512_shuffle_f64x2(yv0, yv1, kEven);
+  l.vy = _mm512_shuffle_f64x2(yv0, yv1, kOdd);
+  l.r = _mm512_shuffle_f64x2(r0, r1, kEven);
+  l.w = _mm512_shuffle_f64x2(w0, w1, kEven);
+  return l;
+}
+
+GRANARY_AVX512 __m512d Mul(__m512d a, __m512d b) { return _mm512_mul_pd(a, b); }
+GRANARY_AVX512 __m512d Add(__m512d a, __m512d b) { return _mm512_add_pd(a, b); }
+GRANARY_AVX512 __m512d Sub(__m512d a, __m512d b) { return _mm512_sub_pd(a, b); }
+GRANARY_AVX512 __m512d Neg(__m512d a) {
+  return _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(a), _mm512_set1_epi64(INT64_MIN)));
+}
+// m ? b : a
+GRANARY_AVX512 __m512d Select(__mmask8 m, __m512d b, __m512d a) { return _mm512_mask_blend_pd(m, a, b); }
+
+template <bool kLiggghtsCap>
+__attribute__((target("avx512f"))) int PairEntriesAvx512Impl(int e0, int e1, const int* __restrict nl_i,
+                                                             const int* __restrict nl_j,
+                                                             const double* __restrict nl_reff,
+                                                             const double* __restrict nl_meff, double* __restrict nl_sx,
+                                                             double* __restrict nl_sy, double* __restrict nl_fx,
+                                                             double* __restrict nl_fy, double* __restrict nl_c,
+                                                             const World::DiscKin* __restrict kin,
+                                                             const ContactParams& pp, double dt_scalar) {
+  const __m512d zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0);
+  const __m512d kn = _mm512_set1_pd(pp.kn), kt = _mm512_set1_pd(pp.kt);
+  const __m512d gamma_n = _mm512_set1_pd(pp.gamma_n), gamma_t = _mm512_set1_pd(pp.gamma_t);
+  const __m512d mu = _mm512_set1_pd(pp.mu), dt = _mm512_set1_pd(dt_scalar);
+  const bool clip = pp.clip_normal;
+  int e = e0;
+  for (; e + 8 <= e1; e += 8) {
+    const Lanes a = LoadLanes(kin, nl_i + e);
+    const Lanes b = LoadLanes(kin, nl_j + e);
+    // PairEntries: geometry and relative velocity.
+    const __m512d ddx = Sub(a.x, b.x), ddy = Sub(a.y, b.y);
+    const __m512d rsq = Add(Mul(ddx, ddx), Mul(ddy, ddy));
+    const __m512d radsum = Add(a.r, b.r);
+    const __mmask8 touch = _mm512_cmp_pd_mask(rsq, Mul(radsum, radsum), _CMP_LT_OQ);
+    if (touch == 0) {  // nothing touches: every output is zero (as the selects give)
+      _mm512_storeu_pd(nl_sx + e, zero);
+      _mm512_storeu_pd(nl_sy + e, zero);
+      _mm512_storeu_pd(nl_fx + e, zero);
+      _mm512_storeu_pd(nl_fy + e, zero);
+      _mm512_storeu_pd(nl_c + e, zero);
+      continue;
+    }
+    const __m512d r = _mm512_sqrt_pd(rsq);
+    const __m512d inv_r = _mm512_div_pd(one, r);
+    const __m512d nx = Mul(ddx, inv_r), ny = Mul(ddy, inv_r);
+    const __m512d delta = Sub(radsum, r);
+    const __m512d reff = _mm512_loadu_pd(nl_reff + e), meff = _mm512_loadu_pd(nl_meff + e);
+    const __m512d vrx = Sub(a.vx, b.vx), vry = Sub(a.vy, b.vy);
+    const __m512d vn = Add(Mul(vrx, nx), Mul(vry, ny));
+    const __m512d wr = Add(Mul(a.r, a.w), Mul(b.r, b.w));
+    const __m512d vtx = Add(Sub(vrx, Mul(vn, nx)), Mul(wr, ny));
+    const __m512d vty = Sub(Sub(vry, Mul(vn, ny)), Mul(wr, nx));
+    // NormalForce.
+    const __m512d h = _mm512_sqrt_pd(Mul(reff, delta));
+    __m512d fn = Mul(h, Sub(Mul(kn, delta), Mul(Mul(meff, gamma_n), vn)));
+    if (clip) fn = _mm512_mask_mov_pd(fn, _mm512_cmp_pd_mask(fn, zero, _CMP_LT_OQ), zero);
+    // TangentialForceT: history update and projection.
+    __m512d sx = _mm512_loadu_pd(nl_sx + e), sy = _mm512_loadu_pd(nl_sy + e);
+    sx = Add(sx, Mul(vtx, dt));
+    sy = Add(sy, Mul(vty, dt));
+    const __m512d shrmag2 = Add(Mul(sx, sx), Mul(sy, sy));
+    const __m512d rsht = Add(Mul(sx, nx), Mul(sy, ny));
+    sx = Sub(sx, Mul(rsht, nx));
+    sy = Sub(sy, Mul(rsht, ny));
+    const __m512d cap = Mul(mu, _mm512_abs_pd(fn));
+    __m512d tsx, tsy, tfx, tfy;
+    if constexpr (!kLiggghtsCap) {
+      const __m512d damp_x = Mul(Mul(meff, gamma_t), vtx);
+      const __m512d damp_y = Mul(Mul(meff, gamma_t), vty);
+      const __m512d neg_h = Neg(h);
+      const __m512d fx = Mul(neg_h, Add(Mul(kt, sx), damp_x));
+      const __m512d fy = Mul(neg_h, Add(Mul(kt, sy), damp_y));
+      const __m512d fs2 = Add(Mul(fx, fx), Mul(fy, fy));
+      const __mmask8 slip = _mm512_cmp_pd_mask(fs2, Mul(cap, cap), _CMP_GT_OQ);
+      tsx = sx;
+      tsy = sy;
+      tfx = fx;
+      tfy = fy;
+      if ((slip & touch) != 0) {  // rare: a touching lane slips
+        const __mmask8 rescale = slip & _mm512_cmp_pd_mask(shrmag2, zero, _CMP_NEQ_UQ);
+        const __m512d ratio = _mm512_div_pd(cap, _mm512_sqrt_pd(fs2));
+        const __m512d kx = _mm512_div_pd(damp_x, kt), ky = _mm512_div_pd(damp_y, kt);
+        tsx = Select(rescale, Sub(Mul(ratio, Add(sx, kx)), kx), sx);
+        tsy = Select(rescale, Sub(Mul(ratio, Add(sy, ky)), ky), sy);
+        tfx = Select(slip, Select(rescale, Mul(fx, ratio), zero), fx);
+        tfy = Select(slip, Select(rescale, Mul(fy, ratio), zero), fy);
+      }
+    } else {
+      const __m512d kt_eff = Mul(h, kt);
+      const __m512d gt_eff = Mul(Mul(h, meff), gamma_t);
+      const __m512d neg_kt_eff = Neg(kt_eff);
+      const __m512d spx = Mul(neg_kt_eff, sx), spy = Mul(neg_kt_eff, sy);
+      const __m512d spring2 = Add(Mul(spx, spx), Mul(spy, spy));
+      const __mmask8 slip = _mm512_cmp_pd_mask(spring2, Mul(cap, cap), _CMP_GT_OQ);
+      tfx = Sub(spx, Mul(gt_eff, vtx));
+      tfy = Sub(spy, Mul(gt_eff, vty));
+      tsx = sx;
+      tsy = sy;
+      if ((slip & touch) != 0) {
+        const __m512d ratio = _mm512_div_pd(cap, _mm512_sqrt_pd(spring2));
+        const __m512d cfx = Mul(spx, ratio), cfy = Mul(spy, ratio);
+        tfx = Select(slip, cfx, tfx);
+        tfy = Select(slip, cfy, tfy);
+        const __mmask8 reset = slip & _mm512_cmp_pd_mask(kt_eff, zero, _CMP_GT_OQ);
+        tsx = Select(reset, _mm512_div_pd(Neg(cfx), kt_eff), sx);
+        tsy = Select(reset, _mm512_div_pd(Neg(cfy), kt_eff), sy);
+      }
+    }
+    // PairEntries: outputs, zero where the discs do not touch.
+    _mm512_storeu_pd(nl_sx + e, _mm512_maskz_mov_pd(touch, tsx));
+    _mm512_storeu_pd(nl_sy + e, _mm512_maskz_mov_pd(touch, tsy));
+    _mm512_storeu_pd(nl_fx + e, _mm512_maskz_mov_pd(touch, Add(Mul(fn, nx), tfx)));
+    _mm512_storeu_pd(nl_fy + e, _mm512_maskz_mov_pd(touch, Add(Mul(fn, ny), tfy)));
+    _mm512_storeu_pd(nl_c + e, _mm512_maskz_mov_pd(touch, Sub(Mul(nx, tfy), Mul(ny, tfx))));
+  }
+  return e;
+}
+
+#undef GRANARY_AVX512
+
+}  // namespace
+
+template <bool kLiggghtsCap>
+int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const double* nl_reff,
+                      const double* nl_meff, double* nl_sx, double* nl_sy, double* nl_fx, double* nl_fy,
+                      double* nl_c, const World::DiscKin* kin, const ContactParams& pp, double dt) {
+  return PairEntriesAvx512Impl<kLiggghtsCap>(e0, e1, nl_i, nl_j, nl_reff, nl_meff, nl_sx, nl_sy, nl_fx, nl_fy, nl_c,
+                                             kin, pp, dt);
+}
+
+#else  // not x86-64 with GCC or Clang
+
+bool PairAvx512Available() { return false; }
+
+template <bool kLiggghtsCap>
+int PairEntriesAvx512(int e0, int, const int*, const int*, const double*, const double*, double*, double*, double*,
+                      double*, double*, const World::DiscKin*, const ContactParams&, double) {
+  return e0;
+}
+
+#endif
+
+template int PairEntriesAvx512<false>(int, int, const int*, const int*, const double*, const double*, double*, double*,
+                                      double*, double*, double*, const World::DiscKin*, const ContactParams&, double);
+template int PairEntriesAvx512<true>(int, int, const int*, const int*, const double*, const double*, double*, double*,
+                                     double*, double*, double*, const World::DiscKin*, const ContactParams&, double);
+
+}  // namespace granary::engine
