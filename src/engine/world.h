@@ -31,9 +31,9 @@ struct WorldParams {
   // later block are gathered afterwards. Results depend on this number (last bits), not on
   // the thread count.
   int force_block = 1024;
-  // The pair loop in AVX-512 intrinsics where the CPU has it (pair_avx512.h). The results
+  // The pair loop in AVX-512 intrinsics where the CPU has it (avx512_kernels.h). The results
   // are the same to the bit either way; off only to compare the two.
-  bool simd_pair_kernel = true;
+  bool avx512_kernels = true;
 };
 
 WorldParams ParamsFromSpec(const RunSpec& spec);
@@ -160,7 +160,7 @@ class World {
   bool exit_box_set_ = false;
   bool beyond_exit_box_ = true;
   int uniform_discs_ = -1;  // discs per body if all bodies have as many, else -1
-  bool use_avx512_ = false;  // params_.simd_pair_kernel and the CPU has AVX-512F
+  bool use_avx512_ = false;  // params_.avx512_kernels and the CPU has AVX-512F
 
   std::vector<DiscKin> kin_;
   // Pair list (CSR over disc i, j > i sorted), with history, per-entry force and the

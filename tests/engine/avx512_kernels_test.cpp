@@ -1,4 +1,4 @@
-// The AVX-512 pair loop (pair_avx512.h) against the portable one (pair_entries.h): the same
+// The AVX-512 pair loop (avx512_kernels.h) against the portable one (pair_entries.h): the same
 // bits for every output, over entries that touch or not, stick or slip, with and without
 // shear history, under both tangential caps and the normal clip.
 #include <cmath>
@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "engine/pair_avx512.h"
+#include "engine/avx512_kernels.h"
 #include "engine/pair_entries.h"
 
 namespace granary::engine {
@@ -113,13 +113,13 @@ void ExpectSameBits(bool clip) {
 }
 
 TEST(PairKernel, Avx512LoopGivesThePortableBitsWithTheLammpsCap) {
-  if (!PairAvx512Available()) GTEST_SKIP() << "this CPU has no AVX-512F";
+  if (!Avx512Available()) GTEST_SKIP() << "this CPU has no AVX-512F";
   ExpectSameBits<false>(false);
   ExpectSameBits<false>(true);
 }
 
 TEST(PairKernel, Avx512LoopGivesThePortableBitsWithTheLiggghtsCap) {
-  if (!PairAvx512Available()) GTEST_SKIP() << "this CPU has no AVX-512F";
+  if (!Avx512Available()) GTEST_SKIP() << "this CPU has no AVX-512F";
   ExpectSameBits<true>(false);
   ExpectSameBits<true>(true);
 }

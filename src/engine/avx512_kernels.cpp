@@ -1,7 +1,7 @@
-// AVX-512 pair-force loop (pair_avx512.h). Every line mirrors an operation of
+// AVX-512 pair-force loop (avx512_kernels.h). Every line mirrors an operation of
 // PairEntries / NormalForce / TangentialForceT in the same order; with contraction off
 // (CMakeLists.txt) each is one correctly rounded IEEE operation, as in the scalar code.
-#include "engine/pair_avx512.h"
+#include "engine/avx512_kernels.h"
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
@@ -15,7 +15,7 @@ namespace granary::engine {
 
 #ifdef GRANARY_HAVE_AVX512_KERNEL
 
-bool PairAvx512Available() {
+bool Avx512Available() {
   static const bool available = __builtin_cpu_supports("avx512f");
   return available;
 }
@@ -173,6 +173,90 @@ __attribute__((target("avx512f"))) int PairEntriesAvx512Impl(int e0, int e1, con
   return e;
 }
 
+// Stores eight records kin[first + stride m], m = 0..7, from the lanes of x y vx vy r w
+// (pads zero), the inverse of LoadLanes: unpack pairs of fields, then two rounds of
+// 128-bit lane shuffles give one 64-byte row per record.
+GRANARY_AVX512 void StoreLanes(World::DiscKin* first, int stride, const Lanes& l) {
+  const __m512d zero = _mm512_setzero_pd();
+  const __m512d t0 = _mm512_unpacklo_pd(l.x, l.y), t1 = _mm512_unpackhi_pd(l.x, l.y);
+  const __m512d t2 = _mm512_unpacklo_pd(l.vx, l.vy), t3 = _mm512_unpackhi_pd(l.vx, l.vy);
+  const __m512d t4 = _mm512_unpacklo_pd(l.r, l.w), t5 = _mm512_unpackhi_pd(l.r, l.w);
+  // t0 128-bit lane q: (x, y) of record 2q; t1: of record 2q + 1; likewise t2, t3 (vx, vy)
+  // and t4, t5 (r, w); the pads are zero.
+  constexpr int kEven = 0x88, kOdd = 0xDD;
+  const __m512d a0 = _mm512_shuffle_f64x2(t0, t2, kEven), a1 = _mm512_shuffle_f64x2(t4, zero, kEven);
+  const __m512d b0 = _mm512_shuffle_f64x2(t0, t2, kOdd), b1 = _mm512_shuffle_f64x2(t4, zero, kOdd);
+  const __m512d c0 = _mm512_shuffle_f64x2(t1, t3, kEven), c1 = _mm512_shuffle_f64x2(t5, zero, kEven);
+  const __m512d d0 = _mm512_shuffle_f64x2(t1, t3, kOdd), d1 = _mm512_shuffle_f64x2(t5, zero, kOdd);
+  // Record 0 = (a0.L0, a0.L2, a1.L0, a1.L2) and record 4 = (a0.L1, a0.L3, a1.L1, a1.L3);
+  // likewise records 2 and 6 from b0 and b1, 1 and 5 from c0 and c1, 3 and 7 from d0 and d1.
+  constexpr int kRowA = 0x88, kRowB = 0xDD;
+  World::DiscKin* base = first;
+  const std::ptrdiff_t st = stride;
+  _mm512_store_pd(&base[0 * st].x, _mm512_shuffle_f64x2(a0, a1, kRowA));
+  _mm512_store_pd(&base[4 * st].x, _mm512_shuffle_f64x2(a0, a1, kRowB));
+  _mm512_store_pd(&base[2 * st].x, _mm512_shuffle_f64x2(b0, b1, kRowA));
+  _mm512_store_pd(&base[6 * st].x, _mm512_shuffle_f64x2(b0, b1, kRowB));
+  _mm512_store_pd(&base[1 * st].x, _mm512_shuffle_f64x2(c0, c1, kRowA));
+  _mm512_store_pd(&base[5 * st].x, _mm512_shuffle_f64x2(c0, c1, kRowB));
+  _mm512_store_pd(&base[3 * st].x, _mm512_shuffle_f64x2(d0, d1, kRowA));
+  _mm512_store_pd(&base[7 * st].x, _mm512_shuffle_f64x2(d0, d1, kRowB));
+}
+
+// Lanes pick[m] of the 16 values at a: every other one (pick = even or odd indices).
+GRANARY_AVX512 __m512d Deinterleave(const double* a, __m512i pick) {
+  return _mm512_permutex2var_pd(_mm512_loadu_pd(a), pick, _mm512_loadu_pd(a + 8));
+}
+
+__attribute__((target("avx512f"))) int PlaceDumbbellDiscsImpl(
+    int b0, int b1, double limit_scalar, const double* __restrict bx, const double* __restrict by,
+    const double* __restrict bvx, const double* __restrict bvy, const double* __restrict bw,
+    const double* __restrict bc, const double* __restrict bs, const double* __restrict dox,
+    const double* __restrict doy, const double* __restrict dr, const double* __restrict refx,
+    const double* __restrict refy, double* __restrict dx, double* __restrict dy, World::DiscKin* __restrict kin,
+    bool* moved) {
+  // Disc k of the eight bodies: lanes 2 m + k of two consecutive vectors.
+  const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
+  const __m512i odd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
+  const __m512i mix_lo = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
+  const __m512i mix_hi = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
+  const __m512d limit = _mm512_set1_pd(limit_scalar);
+  __mmask8 far = 0;
+  int b = b0;
+  for (; b + 8 <= b1; b += 8) {
+    const __m512d x = _mm512_loadu_pd(bx + b), y = _mm512_loadu_pd(by + b);
+    const __m512d vx = _mm512_loadu_pd(bvx + b), vy = _mm512_loadu_pd(bvy + b);
+    const __m512d w = _mm512_loadu_pd(bw + b), c = _mm512_loadu_pd(bc + b), s = _mm512_loadu_pd(bs + b);
+    const std::ptrdiff_t d0 = 2 * static_cast<std::ptrdiff_t>(b);
+    __m512d px[2], py[2];
+    for (int k = 0; k < 2; ++k) {
+      const __m512i pick = k == 0 ? even : odd;
+      const __m512d ox = Deinterleave(dox + d0, pick), oy = Deinterleave(doy + d0, pick);
+      // PlaceDisc
+      const __m512d wx = Sub(Mul(c, ox), Mul(s, oy));
+      const __m512d wy = Add(Mul(s, ox), Mul(c, oy));
+      px[k] = Add(x, wx);
+      py[k] = Add(y, wy);
+      Lanes l;
+      l.x = px[k];
+      l.y = py[k];
+      l.vx = Sub(vx, Mul(w, wy));
+      l.vy = Add(vy, Mul(w, wx));
+      l.r = Deinterleave(dr + d0, pick);
+      l.w = w;
+      StoreLanes(kin + d0 + k, 2, l);
+      const __m512d ddx = Sub(px[k], Deinterleave(refx + d0, pick)), ddy = Sub(py[k], Deinterleave(refy + d0, pick));
+      far |= _mm512_cmp_pd_mask(Add(Mul(ddx, ddx), Mul(ddy, ddy)), limit, _CMP_GT_OQ);
+    }
+    _mm512_storeu_pd(dx + d0, _mm512_permutex2var_pd(px[0], mix_lo, px[1]));
+    _mm512_storeu_pd(dx + d0 + 8, _mm512_permutex2var_pd(px[0], mix_hi, px[1]));
+    _mm512_storeu_pd(dy + d0, _mm512_permutex2var_pd(py[0], mix_lo, py[1]));
+    _mm512_storeu_pd(dy + d0 + 8, _mm512_permutex2var_pd(py[0], mix_hi, py[1]));
+  }
+  if (far != 0) *moved = true;
+  return b;
+}
+
 #undef GRANARY_AVX512
 
 }  // namespace
@@ -185,14 +269,28 @@ int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const do
                                              kin, pp, dt);
 }
 
+int PlaceDumbbellDiscsAvx512(int b0, int b1, double limit, const double* bx, const double* by, const double* bvx,
+                             const double* bvy, const double* bw, const double* bc, const double* bs,
+                             const double* dox, const double* doy, const double* dr, const double* refx,
+                             const double* refy, double* dx, double* dy, World::DiscKin* kin, bool* moved) {
+  return PlaceDumbbellDiscsImpl(b0, b1, limit, bx, by, bvx, bvy, bw, bc, bs, dox, doy, dr, refx, refy, dx, dy, kin,
+                                moved);
+}
+
 #else  // not x86-64 with GCC or Clang
 
-bool PairAvx512Available() { return false; }
+bool Avx512Available() { return false; }
 
 template <bool kLiggghtsCap>
 int PairEntriesAvx512(int e0, int, const int*, const int*, const double*, const double*, double*, double*, double*,
                       double*, double*, const World::DiscKin*, const ContactParams&, double) {
   return e0;
+}
+
+int PlaceDumbbellDiscsAvx512(int b0, int, double, const double*, const double*, const double*, const double*,
+                             const double*, const double*, const double*, const double*, const double*,
+                             const double*, const double*, const double*, double*, double*, World::DiscKin*, bool*) {
+  return b0;
 }
 
 #endif
