@@ -372,6 +372,42 @@ void World::Rebuild() {
 
 void World::ComputeForces() { Forces(rebuild_needed_ || NeedsRebuild(), false); }
 
+namespace {
+
+// Step 2 of PairBlock: sums per disc in list order and reactions inside the block. An entry
+// that does not touch adds +0.0, which leaves every sum as it was (they start at +0.0 and
+// so are never -0.0). A function of its own, not inlined: inside PairBlock the loop kept its
+// pointers on the stack (+4 % at one thread out of it). Scalar, so no instruction-set
+// variants.
+[[gnu::noinline]] void SumBlock(int i0, int i1, const int* __restrict nl_start, const int* __restrict nl_j,
+                                const double* __restrict nl_fx, const double* __restrict nl_fy,
+                                const double* __restrict nl_c, const double* __restrict dr, double* __restrict dfx,
+                                double* __restrict dfy, double* __restrict dtz) {
+  for (int i = i0; i < i1; ++i) dfx[i] = dfy[i] = dtz[i] = 0.0;
+  for (int i = i0; i < i1; ++i) {
+    double sfx = 0.0, sfy = 0.0, sc = 0.0;
+    const int e1 = nl_start[i + 1];
+    for (int e = nl_start[i]; e < e1; ++e) {
+      const int j = nl_j[e];
+      const double fx = nl_fx[e], fy = nl_fy[e], c = nl_c[e];
+      sfx += fx;
+      sfy += fy;
+      sc += c;
+      if (j < i1) {
+        dfx[j] -= fx;
+        dfy[j] -= fy;
+        dtz[j] += c;  // n x F_t is the same seen from j (both n and F_t flip)
+      }
+    }
+    // Every reaction from this block has arrived (they come from lower i).
+    dfx[i] += sfx;
+    dfy[i] += sfy;
+    dtz[i] = -dr[i] * (dtz[i] + sc);  // torque of tangential forces at the contact point -r n (LAMMPS)
+  }
+}
+
+}  // namespace
+
 GRANARY_KERNEL void World::PairBlock(int blk) {
   const int n = disc_count();
   const int i0 = blk * params_.force_block, i1 = std::min(n, i0 + params_.force_block);
@@ -408,27 +444,7 @@ GRANARY_KERNEL void World::PairBlock(int blk) {
   // touch adds +0.0, which leaves every sum as it was (they start at +0.0 and so are never
   // -0.0).
   const double* __restrict dr = dr_.data();
-  for (int i = i0; i < i1; ++i) dfx[i] = dfy[i] = dtz[i] = 0.0;
-  for (int i = i0; i < i1; ++i) {
-    double sfx = 0.0, sfy = 0.0, sc = 0.0;
-    const int e1 = nl_start[i + 1];
-    for (int e = nl_start[i]; e < e1; ++e) {
-      const int j = nl_j[e];
-      const double fx = nl_fx[e], fy = nl_fy[e], c = nl_c[e];
-      sfx += fx;
-      sfy += fy;
-      sc += c;
-      if (j < i1) {
-        dfx[j] -= fx;
-        dfy[j] -= fy;
-        dtz[j] += c;  // n x F_t is the same seen from j (both n and F_t flip)
-      }
-    }
-    // Every reaction from this block has arrived (they come from lower i).
-    dfx[i] += sfx;
-    dfy[i] += sfy;
-    dtz[i] = -dr[i] * (dtz[i] + sc);  // torque of tangential forces at the contact point -r n (LAMMPS)
-  }
+  SumBlock(i0, i1, nl_start, nl_j, nl_fx, nl_fy, nl_c, dr, dfx, dfy, dtz);
   // 3. Wall contacts, added after each disc's pair sums as before, but in a loop of their
   // own over the block's few wall entries: the pair-sum loop above stays small (no disc
   // record, no wall state in registers).
