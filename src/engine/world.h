@@ -8,7 +8,9 @@
 // nothing once the vectors have reached their working size.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "engine/contact_law.h"
@@ -138,7 +140,7 @@ class World {
   // instruction sets, chosen at load time; the arithmetic is the same in each).
   void PairBlock(int blk);                       // pair and wall forces of one force block
   void BodyForces(int b0, int b1, bool kick);    // cross-block reactions, body sums, kick
-  void ForcePasses(bool kick);                   // PairBlock and BodyForces as omp for loops
+  void ForcePasses(bool kick, std::int64_t pass);  // PairBlock and BodyForces, shared by the threads
   // Half kick and drift; flags: kDriftMoved (a disc moved > skin/2 since the rebuild),
   // kDriftBeyond (an active body's centre is outside the exit box).
   int DriftBodies(int b0, int b1);
@@ -161,6 +163,16 @@ class World {
   bool beyond_exit_box_ = true;
   int uniform_discs_ = -1;  // discs per body if all bodies have as many, else -1
   bool use_avx512_ = false;  // params_.avx512_kernels and the CPU has AVX-512F
+  // Which force pass each force block has finished (ForcePasses): a thread's body forces wait
+  // for the blocks they read, not for every thread at a barrier. One cache line each.
+  struct alignas(64) PassStamp {
+    std::atomic<std::int64_t> pass{-1};
+  };
+  std::unique_ptr<PassStamp[]> block_done_;
+  int block_done_count_ = 0;
+  std::int64_t force_pass_ = 0;
+  // Numbers a force pass and sizes block_done_ (before the parallel region).
+  std::int64_t NextForcePass();
 
   std::vector<DiscKin> kin_;
   // Pair list (CSR over disc i, j > i sorted), with history, per-entry force and the
