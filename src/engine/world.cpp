@@ -561,16 +561,16 @@ GRANARY_KERNEL void World::BodyForces(int b0, int b1, bool kick) {
     dtz[i] -= dr_[i] * c;
   }
   // 2. Body sums, gravity (and the half kick).
-  if (uniform_discs_ == 2) {  // dumbbells: the common case gets the vectorized loop
-    auto sums = [&]<bool kKick>() {
-      BodySums<2, kKick>(b0, b1, g, half, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(), bx_.data(),
-                         by_.data(), bmass_.data(), binv_mass_.data(), binv_inertia_.data(), bfx_.data(), bfy_.data(),
-                         btq_.data(), bvx_.data(), bvy_.data(), bw_.data());
-    };
+  if (uniform_discs_ == 2) {  // dumbbells: the common case gets the vectorized loop (no lambda
+    // here: one called twice in a target_clones function is compiled for baseline x86-64 only)
     if (kick)
-      sums.template operator()<true>();
+      BodySums<2, true>(b0, b1, g, half, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(), bx_.data(), by_.data(),
+                        bmass_.data(), binv_mass_.data(), binv_inertia_.data(), bfx_.data(), bfy_.data(), btq_.data(),
+                        bvx_.data(), bvy_.data(), bw_.data());
     else
-      sums.template operator()<false>();
+      BodySums<2, false>(b0, b1, g, half, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(), bx_.data(), by_.data(),
+                         bmass_.data(), binv_mass_.data(), binv_inertia_.data(), bfx_.data(), bfy_.data(), btq_.data(),
+                         bvx_.data(), bvy_.data(), bw_.data());
     return;
   }
   for (int b = b0; b < b1; ++b) {
