@@ -411,6 +411,20 @@ namespace {
 
 }  // namespace
 
+// Eight entries at a time by the AVX-512 loop where the CPU has it, the rest (or all) by the
+// portable loop; both give the same bits. (Inlined into PairBlock's instruction-set variants.)
+template <bool kLiggghtsCap>
+[[gnu::always_inline]] inline void World::PairRange(int e0, int e1) {
+  const ContactParams& pp = params_.pair;
+  const int e = use_avx512_ ? PairEntriesAvx512<kLiggghtsCap>(e0, e1, nl_i_.data(), nl_j_.data(), nl_reff_.data(),
+                                                              nl_meff_.data(), nl_sx_.data(), nl_sy_.data(),
+                                                              nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(),
+                                                              pp, params_.dt)
+                            : e0;
+  PairEntries<kLiggghtsCap>(e, e1, nl_i_.data(), nl_j_.data(), nl_reff_.data(), nl_meff_.data(), nl_sx_.data(),
+                            nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, params_.dt);
+}
+
 GRANARY_KERNEL void World::PairBlock(int blk) {
   const int n = disc_count();
   const int i0 = blk * params_.force_block, i1 = std::min(n, i0 + params_.force_block);
@@ -425,24 +439,11 @@ GRANARY_KERNEL void World::PairBlock(int blk) {
   double* __restrict dfx = dfx_.data();
   double* __restrict dfy = dfy_.data();
   double* __restrict dtz = dtz_.data();
-  // 1. Every pair entry of the block: eight at a time by the AVX-512 loop where the CPU has
-  // it, the rest (or all) by the portable loop; both give the same bits.
-  const int pair0 = nl_start[i0], pair1 = nl_start[i1];
-  if (pp.liggghts_cap) {
-    const int e = use_avx512_ ? PairEntriesAvx512<true>(pair0, pair1, nl_i_.data(), nl_j, nl_reff_.data(),
-                                                        nl_meff_.data(), nl_sx_.data(), nl_sy_.data(), nl_fx_.data(),
-                                                        nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt)
-                              : pair0;
-    PairEntries<true>(e, pair1, nl_i_.data(), nl_j, nl_reff_.data(), nl_meff_.data(), nl_sx_.data(), nl_sy_.data(),
-                      nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt);
-  } else {
-    const int e = use_avx512_ ? PairEntriesAvx512<false>(pair0, pair1, nl_i_.data(), nl_j, nl_reff_.data(),
-                                                         nl_meff_.data(), nl_sx_.data(), nl_sy_.data(), nl_fx_.data(),
-                                                         nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt)
-                              : pair0;
-    PairEntries<false>(e, pair1, nl_i_.data(), nl_j, nl_reff_.data(), nl_meff_.data(), nl_sx_.data(), nl_sy_.data(),
-                       nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, dt);
-  }
+  // 1. Every pair entry of the block.
+  if (pp.liggghts_cap)
+    PairRange<true>(nl_start[i0], nl_start[i1]);
+  else
+    PairRange<false>(nl_start[i0], nl_start[i1]);
   // 2. Sums per disc in list order and reactions inside the block. An entry that does not
   // touch adds +0.0, which leaves every sum as it was (they start at +0.0 and so are never
   // -0.0).

@@ -139,6 +139,8 @@ class World {
   // The kernels of a step, each over a range that one thread owns (compiled for several
   // instruction sets, chosen at load time; the arithmetic is the same in each).
   void PairBlock(int blk);                       // pair and wall forces of one force block
+  template <bool kLiggghtsCap>
+  void PairRange(int e0, int e1);                // the pair loop over list entries [e0, e1)
   void BodyForces(int b0, int b1, bool kick);    // cross-block reactions, body sums, kick
   void ForcePasses(bool kick, std::int64_t pass);  // PairBlock and BodyForces, shared by the threads
   // Half kick and drift; flags: kDriftMoved (a disc moved > skin/2 since the rebuild),

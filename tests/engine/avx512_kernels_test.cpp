@@ -12,6 +12,7 @@
 #include "engine/avx512_kernels.h"
 #include "engine/pair_entries.h"
 #include "engine/shapes.h"
+#include "world_parts.h"
 
 namespace granary::engine {
 namespace {
@@ -130,27 +131,11 @@ TEST(PairKernel, Avx512LoopGivesThePortableBitsWithTheLiggghtsCap) {
 // settling between walls for 3000 steps.
 World Pile(bool avx512, bool mixed, bool liggghts_cap) {
   SiloGeometry g;
-  auto segment = [&](double ax, double ay, double bx, double by) {
-    WallElement e;
-    e.kind = ElementKind::kSegment;
-    e.ax = ax;
-    e.ay = ay;
-    e.bx = bx;
-    e.by = by;
-    g.elements.push_back(e);
-  };
-  segment(-6.5, 0, 6.5, 0);
-  segment(-6.5, 0, -6.5, 60);
-  segment(6.5, 0, 6.5, 60);
-  Species dumbbell, disc;
-  dumbbell.name = "dumbbell";
-  dumbbell.shape = Shape::kDumbbell;
-  disc.name = "disc";
-  disc.shape = Shape::kDisc;
+  g.elements = {WallSegment(-6.5, 0, 6.5, 0), WallSegment(-6.5, 0, -6.5, 60), WallSegment(6.5, 0, 6.5, 60)};
   WorldParams p;
   p.avx512_kernels = avx512;
   p.pair.liggghts_cap = p.wall.liggghts_cap = liggghts_cap;
-  World w(p, {MakeTemplate(dumbbell, 1.0, 0), MakeTemplate(disc, 1.0, 1)}, g);
+  World w(p, {MakeTemplate(DumbbellSpecies(), 1.0, 0), MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
   for (int k = 0; k < 61; ++k)
     w.AddBody(mixed && k % 3 == 2 ? 1 : 0, -4.2 + 2.1 * (k % 5), 0.6 + 1.05 * (k / 5), 0.3 * (k % 7));
   w.ComputeForces();

@@ -4,16 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include "world_parts.h"
+
 namespace granary::engine {
 namespace {
-
-Species UnitDisc() {
-  Species s;
-  s.name = "disc";
-  s.shape = Shape::kDisc;
-  s.diameter = 1.0;
-  return s;
-}
 
 // A silo of width 12 (walls at x = +-6) with the outlets and obstacles given, outlets open.
 World OpenSilo(std::vector<BaseOutlet> base, std::vector<Obstacle> obstacles = {}, std::vector<SideOutlet> side = {}) {
@@ -22,7 +16,7 @@ World OpenSilo(std::vector<BaseOutlet> base, std::vector<Obstacle> obstacles = {
   silo.base_outlets = std::move(base);
   silo.obstacles = std::move(obstacles);
   silo.side_outlets = std::move(side);
-  World w(WorldParams{}, {MakeTemplate(UnitDisc(), 1.0, 0)}, BuildGeometry(silo, 30));
+  World w(WorldParams{}, {MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, BuildGeometry(silo, 30));
   w.OpenOutlets();
   return w;
 }

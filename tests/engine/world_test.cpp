@@ -8,39 +8,15 @@
 
 #include <gtest/gtest.h>
 
+#include "world_parts.h"
+
 namespace granary::engine {
 namespace {
-
-Species Disc(double d) {
-  Species s;
-  s.name = "disc";
-  s.shape = Shape::kDisc;
-  s.diameter = d;
-  return s;
-}
-
-Species Dumbbell() {
-  Species s;
-  s.name = "dumbbell";
-  s.shape = Shape::kDumbbell;
-  s.diameter = 1.0;
-  return s;
-}
 
 WorldParams Params(double gravity) {
   WorldParams p;
   p.gravity = gravity;
   return p;
-}
-
-WallElement Segment(double ax, double ay, double bx, double by) {
-  WallElement e;
-  e.kind = ElementKind::kSegment;
-  e.ax = ax;
-  e.ay = ay;
-  e.bx = bx;
-  e.by = by;
-  return e;
 }
 
 // Independent reference: RK4 integration of the Hertz-damped normal oscillator
@@ -72,7 +48,7 @@ double RestitutionRk4(double kn, double gamma, double reff, double meff, double 
 }
 
 TEST(World, DiscDiscRestitutionMatchesIndependentOscillator) {
-  World w(Params(0.0), {MakeTemplate(Disc(1.0), 1.0, 0)}, SiloGeometry{});
+  World w(Params(0.0), {MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, SiloGeometry{});
   const int a = w.AddBody(0, -0.55, 0.0, 0.0);
   const int b = w.AddBody(0, 0.55, 0.0, 0.0);
   w.SetVelocity(a, 0.5, 0.0, 0.0);
@@ -92,8 +68,8 @@ TEST(World, DiscDiscRestitutionMatchesIndependentOscillator) {
 
 TEST(World, DiscWallRestitutionMatchesIndependentOscillator) {
   SiloGeometry g;
-  g.elements.push_back(Segment(-5, 0, 5, 0));
-  World w(Params(0.0), {MakeTemplate(Disc(1.0), 1.0, 0)}, g);
+  g.elements.push_back(WallSegment(-5, 0, 5, 0));
+  World w(Params(0.0), {MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, g);
   const int a = w.AddBody(0, 0.0, 0.6, 0.0);
   w.SetVelocity(a, 0.0, -1.0, 0.0);
   w.ComputeForces();
@@ -110,8 +86,8 @@ double SlideVelocity(double tan_angle, double t_end) {
   const double ang = std::atan(tan_angle);
   const double c = std::cos(ang), s = std::sin(ang);
   SiloGeometry g;
-  g.elements.push_back(Segment(-40 * c, -40 * s, 40 * c, 40 * s));
-  World w(Params(1.0), {MakeTemplate(Dumbbell(), 1.0, 0)}, g);
+  g.elements.push_back(WallSegment(-40 * c, -40 * s, 40 * c, 40 * s));
+  World w(Params(1.0), {MakeTemplate(DumbbellSpecies(), 1.0, 0)}, g);
   const int a = w.AddBody(0, -s * 0.5, c * 0.5, ang);
   w.ComputeForces();
   const int steps = static_cast<int>(std::lround(t_end / 1e-4));
@@ -141,11 +117,11 @@ TEST(World, EnergyConservedWithoutDampingAndFriction) {
     c->mu = 0.0;
   }
   SiloGeometry g;
-  g.elements.push_back(Segment(-3, -3, 3, -3));
-  g.elements.push_back(Segment(3, -3, 3, 3));
-  g.elements.push_back(Segment(3, 3, -3, 3));
-  g.elements.push_back(Segment(-3, 3, -3, -3));
-  World w(p, {MakeTemplate(Disc(1.0), 1.0, 0), MakeTemplate(Dumbbell(), 1.0, 1)}, g);
+  g.elements.push_back(WallSegment(-3, -3, 3, -3));
+  g.elements.push_back(WallSegment(3, -3, 3, 3));
+  g.elements.push_back(WallSegment(3, 3, -3, 3));
+  g.elements.push_back(WallSegment(-3, 3, -3, -3));
+  World w(p, {MakeTemplate(DiscSpecies(1.0), 1.0, 0), MakeTemplate(DumbbellSpecies(), 1.0, 1)}, g);
   w.AddBody(0, -1.5, 0.0, 0.0);
   w.AddBody(0, 1.5, 0.2, 0.0);
   w.AddBody(1, 0.0, -1.8, 0.3);
@@ -177,7 +153,7 @@ TEST(World, EnergyConservedWithoutDampingAndFriction) {
 }
 
 TEST(World, DumbbellRotatesFreely) {
-  World w(Params(0.0), {MakeTemplate(Dumbbell(), 1.0, 0)}, SiloGeometry{});
+  World w(Params(0.0), {MakeTemplate(DumbbellSpecies(), 1.0, 0)}, SiloGeometry{});
   const int a = w.AddBody(0, 1.0, 2.0, 0.3);
   w.SetVelocity(a, 0.1, -0.2, 2.5);
   w.ComputeForces();
@@ -202,7 +178,7 @@ double HorizontalVelocityAfterFall(double x0, bool with_obstacle) {
     e.radius = 1.0;
     g.elements.push_back(e);
   }
-  World w(Params(1.0), {MakeTemplate(Disc(1.0), 1.0, 0)}, g);
+  World w(Params(1.0), {MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, g);
   const int a = w.AddBody(0, x0, 5.0, 0.0);
   w.ComputeForces();
   for (int k = 0; k < 40000; ++k) w.Step();
@@ -218,7 +194,7 @@ TEST(World, ObstacleDeflectsAFallingDisc) {
 }
 
 TEST(World, FreeFallIsExactUnderVelocityVerlet) {
-  World w(Params(1.0), {MakeTemplate(Dumbbell(), 1.0, 0)}, SiloGeometry{});
+  World w(Params(1.0), {MakeTemplate(DumbbellSpecies(), 1.0, 0)}, SiloGeometry{});
   const int a = w.AddBody(0, 0.0, 10.0, 0.0);
   w.SetVelocity(a, 0.0, 0.3, 0.0);
   w.ComputeForces();
@@ -233,13 +209,13 @@ TEST(World, FreeFallIsExactUnderVelocityVerlet) {
 // large) and gathered across blocks (force_block 1) give the same pile to rounding.
 TEST(World, ForceBlocksChangeOnlyRounding) {
   SiloGeometry g;
-  g.elements.push_back(Segment(-3.2, 0, 3.2, 0));
-  g.elements.push_back(Segment(-3.2, 0, -3.2, 40));
-  g.elements.push_back(Segment(3.2, 0, 3.2, 40));
+  g.elements.push_back(WallSegment(-3.2, 0, 3.2, 0));
+  g.elements.push_back(WallSegment(-3.2, 0, -3.2, 40));
+  g.elements.push_back(WallSegment(3.2, 0, 3.2, 40));
   auto pile = [&](int block) {
     WorldParams p = Params(1.0);
     p.force_block = block;
-    World w(p, {MakeTemplate(Dumbbell(), 1.0, 0), MakeTemplate(Disc(1.0), 1.0, 1)}, g);
+    World w(p, {MakeTemplate(DumbbellSpecies(), 1.0, 0), MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
     for (int k = 0; k < 36; ++k) w.AddBody(k % 4 == 3 ? 1 : 0, -2.1 + 2.1 * (k % 3), 0.6 + 1.05 * (k / 3), 0.05 * (k % 5));
     w.ComputeForces();
     for (int s = 0; s < 3000; ++s) w.Step();

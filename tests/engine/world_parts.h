@@ -1,0 +1,35 @@
+// Building blocks shared by the engine tests: body species and wall segments.
+#pragma once
+
+#include "engine/geometry.h"
+#include "engine/run_spec.h"
+
+namespace granary::engine {
+
+inline Species DiscSpecies(double diameter) {
+  Species s;
+  s.name = "disc";
+  s.shape = Shape::kDisc;
+  s.diameter = diameter;
+  return s;
+}
+
+inline Species DumbbellSpecies() {
+  Species s;
+  s.name = "dumbbell";
+  s.shape = Shape::kDumbbell;
+  s.diameter = 1.0;
+  return s;
+}
+
+inline WallElement WallSegment(double ax, double ay, double bx, double by) {
+  WallElement e;
+  e.kind = ElementKind::kSegment;
+  e.ax = ax;
+  e.ay = ay;
+  e.bx = bx;
+  e.by = by;
+  return e;
+}
+
+}  // namespace granary::engine
