@@ -1,11 +1,14 @@
 // Verbs of granary-engine (docs/run-directory.md "Command line of an engine").
 #include "engine/cli.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <exception>
 #include <iostream>
+#include <map>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "engine/run.h"
 
@@ -29,7 +32,7 @@ constexpr char kUsage[] =
     "usage: granary-engine <verb> [options]\n"
     "verbs:\n"
     "  run DIR [--threads N]   run DIR/run.json (continues from DIR/checkpoint.bin if present)\n"
-    "  bench [--bodies N] [--steps N] [--threads-list 1,2] [--bed FILE]\n"
+    "  bench [--bodies N] [--steps N] [--threads-list 1,2] [--repeat N] [--bed FILE]\n"
     "                          standard benchmark: dumbbells in the chapter-3 silo, W = 14, reinject\n"
     "  help                    this text\n";
 constexpr char kRunHelp[] =
@@ -38,10 +41,12 @@ constexpr char kRunHelp[] =
     "contacts.dump, progress.json, checkpoint.bin, summary.json and DONE into DIR.\n"
     "  --threads N   OpenMP threads (default: OMP_NUM_THREADS or all cores)\n";
 constexpr char kBenchHelp[] =
-    "usage: granary-engine bench [--bodies 8000] [--steps 2000] [--threads-list 1,2] [--bed FILE]\n"
+    "usage: granary-engine bench [--bodies 8000] [--steps 2000] [--threads-list 1,2] [--repeat 1] [--bed FILE]\n"
     "Settles (or loads the cached) bed of dumbbells in a silo of width 100 with one outlet\n"
     "W = 14, then times a fixed number of reinject-mode discharge steps per thread count and\n"
-    "prints disc-steps per second. Bed preparation is not timed.\n";
+    "prints disc-steps per second. Bed preparation is not timed. With --repeat N, N rounds\n"
+    "over the thread counts, then per thread count the best and median rate and the median\n"
+    "speed-up over the first thread count (a round's runs share the machine's state).\n";
 
 int Run(const std::vector<std::string>& args) {
   RunOptions options;
@@ -79,6 +84,8 @@ int Bench(const std::vector<std::string>& args) {
       options.bodies = ParsePositiveInt(a, args[++i]);
     } else if (a == "--steps" && i + 1 < args.size()) {
       options.steps = ParsePositiveInt(a, args[++i]);
+    } else if (a == "--repeat" && i + 1 < args.size()) {
+      options.repeat = ParsePositiveInt(a, args[++i]);
     } else if (a == "--bed" && i + 1 < args.size()) {
       options.bed_file = args[++i];
     } else if (a == "--threads-list" && i + 1 < args.size()) {
@@ -91,12 +98,22 @@ int Bench(const std::vector<std::string>& args) {
     }
   }
   const auto results = RunBenchmark(options);
-  double base = 0;
-  for (const BenchResult& r : results) {
-    if (base == 0) base = r.disc_steps_per_s;
+  const std::size_t per_round = options.threads.size();
+  std::map<int, std::vector<double>> rates, speedups;
+  for (std::size_t k = 0; k < results.size(); ++k) {
+    const BenchResult& r = results[k];
+    const double base = results[k - k % per_round].disc_steps_per_s;  // the round's first thread count
+    if (options.repeat > 1) std::printf("round=%d ", r.round);
     std::printf("threads=%d disc_steps_per_s=%.4g wall_s=%.3f speedup=%.3f\n", r.threads, r.disc_steps_per_s, r.wall_s,
                 r.disc_steps_per_s / base);
+    rates[r.threads].push_back(r.disc_steps_per_s);
+    speedups[r.threads].push_back(r.disc_steps_per_s / base);
   }
+  if (options.repeat > 1)
+    for (auto& [threads, v] : rates) {
+      std::printf("summary threads=%d rounds=%zu best=%.4g median=%.4g median_speedup=%.3f\n", threads, v.size(),
+                  *std::max_element(v.begin(), v.end()), BenchMedian(v), BenchMedian(speedups[threads]));
+    }
   return 0;
 }
 

@@ -696,6 +696,13 @@ RunResult RunDirectory(const std::string& dir, const RunOptions& options) {
   return discharge.Run();
 }
 
+double BenchMedian(std::vector<double> rates) {
+  if (rates.empty()) return 0.0;
+  std::sort(rates.begin(), rates.end());
+  const std::size_t n = rates.size();
+  return n % 2 ? rates[n / 2] : 0.5 * (rates[n / 2 - 1] + rates[n / 2]);
+}
+
 std::vector<BenchResult> RunBenchmark(const BenchOptions& options) {
   const fs::path base = fs::temp_directory_path() / ("granary-bench-" + std::to_string(::getpid()));
   fs::create_directories(base);
@@ -717,6 +724,7 @@ std::vector<BenchResult> RunBenchmark(const BenchOptions& options) {
     std::fflush(stdout);
   });
   std::vector<BenchResult> results;
+  for (int round = 1; round <= options.repeat; ++round)
   for (int threads : options.threads) {
     const fs::path dir = base / ("t" + std::to_string(threads));
     fs::remove_all(dir);
@@ -729,7 +737,7 @@ std::vector<BenchResult> RunBenchmark(const BenchOptions& options) {
     std::ifstream in(dir / "summary.json");
     nlohmann::json summary;
     in >> summary;
-    results.push_back({threads, summary["timing"]["disc_steps_per_s"].get<double>(),
+    results.push_back({round, threads, summary["timing"]["disc_steps_per_s"].get<double>(),
                        summary["timing"]["discharge_wall_s"].get<double>()});
   }
   fs::remove_all(base);

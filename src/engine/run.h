@@ -41,16 +41,22 @@ struct BenchOptions {
   std::int64_t steps = 2000;
   std::vector<int> threads = {1, 2};
   std::string bed_file;         // where to cache the settled bed ("" = a file in the temp dir)
+  int repeat = 1;               // rounds over the thread counts (interleaved, for a shared machine)
 };
 
 struct BenchResult {
+  int round;  // 1..repeat
   int threads;
   double disc_steps_per_s;
   double wall_s;
 };
 
 // The standard case: dumbbells settled in the chapter-3 silo (walls at +-50 d), outlet
-// W = 14 d, reinject mode, a fixed number of steps per thread count.
+// W = 14 d, reinject mode, a fixed number of steps per thread count; `repeat` rounds over
+// the thread counts.
 std::vector<BenchResult> RunBenchmark(const BenchOptions& options);
+
+// The median of repeated bench rates (the mean of the middle two for an even count).
+double BenchMedian(std::vector<double> rates);
 
 }  // namespace granary::engine

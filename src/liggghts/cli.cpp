@@ -21,7 +21,7 @@ constexpr char kUsage[] =
     "verbs:\n"
     "  run DIR [--threads N]   run DIR/run.json on LIGGGHTS 3.8 (continues from DIR/checkpoint.*.restart)\n"
     "  inputs DIR              write the LIGGGHTS inputs for DIR/run.json (bed.in, discharge.in, meshes); run nothing\n"
-    "  bench [--bodies N] [--steps N] [--no-native]\n"
+    "  bench [--bodies N] [--steps N] [--repeat N] [--no-native]\n"
     "                          standard benchmark on LIGGGHTS and on the native engine, side by side\n"
     "  help                    this text\n"
     "  --version\n";
@@ -36,11 +36,12 @@ constexpr char kInputsHelp[] =
     "Writes the LIGGGHTS input scripts and STL meshes generated from DIR/run.json into DIR,\n"
     "without running LIGGGHTS, and lists them.\n";
 constexpr char kBenchHelp[] =
-    "usage: granary-liggghts bench [--bodies 8000] [--steps 2000] [--no-native] [--bed-dir DIR]\n"
+    "usage: granary-liggghts bench [--bodies 8000] [--steps 2000] [--repeat 1] [--no-native] [--bed-dir DIR]\n"
     "The engine issue's standard case (dumbbells in a silo of width 100, W = 14, reinject) on\n"
     "LIGGGHTS, one MPI rank, then the same case on granary-engine with 1 thread; prints\n"
     "disc-steps per second of both and their ratio. Bed preparation is not timed; LIGGGHTS'\n"
-    "settled bed is cached in --bed-dir (default: the temp directory).\n";
+    "settled bed is cached in --bed-dir (default: the temp directory). With --repeat N, N\n"
+    "rounds of both, then each engine's best and median and the ratios of those.\n";
 
 bool WantsHelp(const std::vector<std::string>& args) {
   for (const auto& a : args)
@@ -91,6 +92,7 @@ int Bench(const std::vector<std::string>& args) {
     if (a == "--bodies" && i + 1 < args.size()) o.bodies = engine::ParsePositiveInt(a, args[++i]);
     else if (a == "--steps" && i + 1 < args.size()) o.steps = engine::ParsePositiveInt(a, args[++i]);
     else if (a == "--bed-dir" && i + 1 < args.size()) o.bed_dir = args[++i];
+    else if (a == "--repeat" && i + 1 < args.size()) o.repeat = engine::ParsePositiveInt(a, args[++i]);
     else if (a == "--no-native") o.native = false;
     else throw std::invalid_argument("bench: unknown option \"" + a + "\"\n" + kBenchHelp);
   }

@@ -360,5 +360,33 @@ TEST(Run, ExecutableReportsSpecErrorsAndHelp) {
   EXPECT_NE(RunExe("frobnicate"), 0);
 }
 
+// The benchmark command with repeated rounds: one line per round and thread count, then
+// per thread count the best and median rate (a tiny bed, so it takes about a second).
+TEST(Run, BenchRepeatsRoundsAndSummarises) {
+  const fs::path dir = FreshDir("bench");
+  const std::string cmd = std::string(GRANARY_ENGINE_EXE) + " bench --bodies 200 --steps 20 --threads-list 1,2" +
+                          " --repeat 3 --bed " + (dir / "bed.json").string() + " 2>&1";
+  FILE* p = ::popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  std::vector<std::string> rounds, summaries;
+  char buf[512];
+  while (std::fgets(buf, sizeof buf, p)) {
+    const std::string line = buf;
+    if (line.rfind("round=", 0) == 0) rounds.push_back(line);
+    if (line.rfind("summary ", 0) == 0) summaries.push_back(line);
+  }
+  ASSERT_EQ(WEXITSTATUS(::pclose(p)), 0);
+  ASSERT_EQ(rounds.size(), 6u);
+  EXPECT_EQ(rounds[4].rfind("round=3 threads=1 ", 0), 0u) << rounds[4];
+  ASSERT_EQ(summaries.size(), 2u);
+  for (const std::string& line : summaries) {
+    const double best = std::stod(line.substr(line.find("best=") + 5));
+    const double median = std::stod(line.substr(line.find("median=") + 7));
+    EXPECT_GT(median, 0.0) << line;
+    EXPECT_GE(best, median) << line;
+  }
+  EXPECT_NE(summaries[0].find("median_speedup=1.000"), std::string::npos) << summaries[0];
+}
+
 }  // namespace
 }  // namespace granary::engine
