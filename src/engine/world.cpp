@@ -73,6 +73,9 @@ int World::AddBody(int tmpl, double x, double y, double theta) {
   binv_inertia_.push_back(1.0 / t.inertia);
   disc_begin_.push_back(disc_count());
   disc_n_.push_back(static_cast<int>(t.r.size()));
+  double reach = 0.0;
+  for (std::size_t k = 0; k < t.r.size(); ++k) reach = std::max(reach, std::hypot(t.ox[k], t.oy[k]));
+  bradius_.push_back(reach);
   const int n = static_cast<int>(t.r.size());
   uniform_discs_ = id == 0 || uniform_discs_ == n ? n : -1;
   for (std::size_t k = 0; k < t.r.size(); ++k) {
@@ -307,11 +310,25 @@ void World::Rebuild() {
   }
   // Transpose of the entries that cross into a later force block.
   const int block = params_.force_block;
+  const int nblocks = (n + block - 1) / block;
+  block_last_partner_.resize(static_cast<std::size_t>(nblocks));
+  block_first_source_.resize(static_cast<std::size_t>(nblocks));
+  for (int b = 0; b < nblocks; ++b) {
+    const int i1 = std::min(n, (b + 1) * block);
+    int last = i1 - 1;
+    for (int e = nl_start_[b * block]; e < nl_start_[i1]; ++e) last = std::max(last, nl_j_[e]);
+    block_last_partner_[b] = last;
+    block_first_source_[b] = b;
+  }
   xl_start_.assign(static_cast<std::size_t>(n) + 1, 0);
   for (int i = 0; i < n; ++i) {
     const int block_end = (i / block + 1) * block;
     for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e)
-      if (nl_j_[e] >= block_end) ++xl_start_[nl_j_[e] + 1];
+      if (nl_j_[e] >= block_end) {
+        ++xl_start_[nl_j_[e] + 1];
+        int& first = block_first_source_[nl_j_[e] / block];
+        first = std::min(first, i / block);
+      }
   }
   for (int i = 0; i < n; ++i) xl_start_[i + 1] += xl_start_[i];
   xl_fill_.assign(xl_start_.begin(), xl_start_.end() - 1);
@@ -493,20 +510,43 @@ namespace {
 // kDiscs b + k: a straight loop over the bodies (it vectorizes), the same arithmetic as the
 // general loop. An inactive body's discs have no contacts, so its sums are +0.0, the
 // values Deactivate left; it gets no gravity, and its velocity is kept (select).
+// Whether the next drift may take a disc of a body farther than `limit` (half the skin)
+// from its position at the last rebuild, `moved` away now: the drift moves the body by
+// dt v' and turns it by dt w', v' and w' the velocities after its half kick (computed as
+// DriftKernel does), so a disc ends within dt |v'| + |dt w'| R of where it is (R: the
+// farthest disc centre from the body centre); 1e-9 d covers the rounding.
+[[gnu::always_inline]] inline bool OutrunsSkin(double vx, double vy, double w, double fx, double fy, double tq,
+                                               double inv_mass, double inv_inertia, double radius, double moved2,
+                                               double half, double dt, double limit) {
+  const double nvx = vx + half * fx * inv_mass;
+  const double nvy = vy + half * fy * inv_mass;
+  const double nw = w + half * tq * inv_inertia;
+  const double reach = limit - (dt * std::sqrt(nvx * nvx + nvy * nvy) + std::fabs(dt * nw) * radius + 1e-9);
+  return (reach <= 0.0) | (moved2 > reach * reach);
+}
+
+// Body sums of BodyForces for bodies [b0, b1) of kDiscs discs each, disc k of body b being
+// kDiscs b + k: a straight loop over the bodies (it vectorizes), the same arithmetic as the
+// general loop. An inactive body's discs have no contacts, so its sums are +0.0, the
+// values Deactivate left; it gets no gravity, and its velocity is kept (select). Returns
+// whether an active body OutrunsSkin.
 template <int kDiscs, bool kKick>
-[[gnu::always_inline]] inline void BodySums(int b0, int b1, double g, double half,
+[[gnu::always_inline]] inline bool BodySums(int b0, int b1, double g, double half, double dt, double limit,
                                             const std::uint8_t* __restrict active, const double* __restrict dfx,
                                             const double* __restrict dfy, const double* __restrict dtz,
                                             const double* __restrict dx, const double* __restrict dy,
+                                            const double* __restrict refx, const double* __restrict refy,
                                             const double* __restrict bx, const double* __restrict by,
                                             const double* __restrict bmass, const double* __restrict binv_mass,
-                                            const double* __restrict binv_inertia, double* __restrict bfx_out,
-                                            double* __restrict bfy_out, double* __restrict btq_out,
-                                            double* __restrict bvx, double* __restrict bvy, double* __restrict bw) {
+                                            const double* __restrict binv_inertia, const double* __restrict bradius,
+                                            double* __restrict bfx_out, double* __restrict bfy_out,
+                                            double* __restrict btq_out, double* __restrict bvx,
+                                            double* __restrict bvy, double* __restrict bw) {
+  int outrun = 0;
 #pragma GCC ivdep  // each iteration reads its body's discs and writes its body only
   for (int b = b0; b < b1; ++b) {
     const bool on = active[b] != 0;
-    double bfx = 0, bfy = 0, btq = 0;
+    double bfx = 0, bfy = 0, btq = 0, moved2 = 0;
     const double cx = bx[b], cy = by[b];
     const std::size_t i0 = static_cast<std::size_t>(kDiscs) * static_cast<std::size_t>(b);
 #pragma GCC unroll 8
@@ -515,26 +555,32 @@ template <int kDiscs, bool kKick>
       bfx += dfx[i];
       bfy += dfy[i];
       btq += (dx[i] - cx) * dfy[i] - (dy[i] - cy) * dfx[i] + dtz[i];
+      const double mx = dx[i] - refx[i], my = dy[i] - refy[i];
+      moved2 = std::max(moved2, mx * mx + my * my);
     }
     bfy = bfy - bmass[b] * (on ? g : 0.0);
     bfx_out[b] = bfx;
     bfy_out[b] = bfy;
     btq_out[b] = btq;
+    double vx = bvx[b], vy = bvy[b], w = bw[b];
     if constexpr (kKick) {  // the second half kick of the step
-      const double vx = bvx[b] + half * bfx * binv_mass[b];
-      const double vy = bvy[b] + half * bfy * binv_mass[b];
-      const double w = bw[b] + half * btq * binv_inertia[b];
-      bvx[b] = on ? vx : bvx[b];
-      bvy[b] = on ? vy : bvy[b];
-      bw[b] = on ? w : bw[b];
+      vx = on ? vx + half * bfx * binv_mass[b] : vx;
+      vy = on ? vy + half * bfy * binv_mass[b] : vy;
+      w = on ? w + half * btq * binv_inertia[b] : w;
+      bvx[b] = vx;
+      bvy[b] = vy;
+      bw[b] = w;
     }
+    outrun |= on & OutrunsSkin(vx, vy, w, bfx, bfy, btq, binv_mass[b], binv_inertia[b], bradius[b], moved2, half, dt,
+                               limit);
   }
+  return outrun != 0;
 }
 
 }  // namespace
 
-GRANARY_KERNEL void World::BodyForces(int b0, int b1, bool kick) {
-  if (b0 >= b1) return;
+GRANARY_KERNEL bool World::BodyForces(int b0, int b1, bool kick) {
+  if (b0 >= b1) return false;
   const double g = params_.gravity, half = 0.5 * params_.dt;
   const int* __restrict xl_start = xl_start_.data();
   const int* __restrict xl_entry = xl_entry_.data();
@@ -562,27 +608,31 @@ GRANARY_KERNEL void World::BodyForces(int b0, int b1, bool kick) {
     dtz[i] -= dr_[i] * c;
   }
   // 2. Body sums, gravity (and the half kick).
-  if (uniform_discs_ == 2) {  // dumbbells: the common case gets the vectorized loop (no lambda
-    // here: one called twice in a target_clones function is compiled for baseline x86-64 only)
+  const double dt = params_.dt, limit = 0.5 * params_.skin;
+  if (uniform_discs_ == 2) {  // dumbbells: the common case gets the vectorized loop (no lambda:
+    // one called twice in a target_clones function is compiled for baseline x86-64 only)
     if (kick)
-      BodySums<2, true>(b0, b1, g, half, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(), bx_.data(), by_.data(),
-                        bmass_.data(), binv_mass_.data(), binv_inertia_.data(), bfx_.data(), bfy_.data(), btq_.data(),
-                        bvx_.data(), bvy_.data(), bw_.data());
-    else
-      BodySums<2, false>(b0, b1, g, half, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(), bx_.data(), by_.data(),
-                         bmass_.data(), binv_mass_.data(), binv_inertia_.data(), bfx_.data(), bfy_.data(), btq_.data(),
-                         bvx_.data(), bvy_.data(), bw_.data());
-    return;
+      return BodySums<2, true>(b0, b1, g, half, dt, limit, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(),
+                               refx_.data(), refy_.data(), bx_.data(), by_.data(), bmass_.data(), binv_mass_.data(),
+                               binv_inertia_.data(), bradius_.data(), bfx_.data(), bfy_.data(), btq_.data(),
+                               bvx_.data(), bvy_.data(), bw_.data());
+    return BodySums<2, false>(b0, b1, g, half, dt, limit, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(),
+                              refx_.data(), refy_.data(), bx_.data(), by_.data(), bmass_.data(), binv_mass_.data(),
+                              binv_inertia_.data(), bradius_.data(), bfx_.data(), bfy_.data(), btq_.data(),
+                              bvx_.data(), bvy_.data(), bw_.data());
   }
+  bool outrun = false;
   for (int b = b0; b < b1; ++b) {
     if (!active_[b]) continue;
-    double bfx = 0, bfy = 0, btq = 0;
+    double bfx = 0, bfy = 0, btq = 0, moved2 = 0;
     const double cx = bx_[b], cy = by_[b];
     const int e0 = disc_begin_[b], e1 = e0 + disc_n_[b];
     for (int i = e0; i < e1; ++i) {
       bfx += dfx[i];
       bfy += dfy[i];
       btq += (dx_[i] - cx) * dfy[i] - (dy_[i] - cy) * dfx[i] + dtz[i];
+      const double mx = dx_[i] - refx_[i], my = dy_[i] - refy_[i];
+      moved2 = std::max(moved2, mx * mx + my * my);
     }
     bfx_[b] = bfx;
     bfy_[b] = bfy - bmass_[b] * g;
@@ -592,14 +642,19 @@ GRANARY_KERNEL void World::BodyForces(int b0, int b1, bool kick) {
       bvy_[b] += half * bfy_[b] * binv_mass_[b];
       bw_[b] += half * btq_[b] * binv_inertia_[b];
     }
+    outrun = outrun || OutrunsSkin(bvx_[b], bvy_[b], bw_[b], bfx_[b], bfy_[b], btq_[b], binv_mass_[b],
+                                   binv_inertia_[b], bradius_[b], moved2, half, dt, limit);
   }
+  return outrun;
 }
 
 void World::Forces(bool rebuild, bool kick) {
   if (rebuild) Rebuild();
   const std::int64_t pass = NextForcePass();
-#pragma omp parallel if (Parallel())
-  ForcePasses(kick, pass);
+  bool outrun = false;
+#pragma omp parallel if (Parallel()) reduction(|| : outrun)
+  outrun = ForcePasses(kick, pass, false);
+  rebuild_predicted_ = outrun;
 }
 
 std::int64_t World::NextForcePass() {
@@ -607,6 +662,11 @@ std::int64_t World::NextForcePass() {
   if (nblocks != block_done_count_) {  // only when bodies are added
     block_done_ = std::make_unique<PassStamp[]>(static_cast<std::size_t>(nblocks));
     block_done_count_ = nblocks;
+  }
+  const int nchunks = (body_count() + kBodyChunk - 1) / kBodyChunk;
+  if (nchunks != chunk_done_count_) {
+    chunk_done_ = std::make_unique<PassStamp[]>(static_cast<std::size_t>(nchunks));
+    chunk_done_count_ = nchunks;
   }
   return ++force_pass_;
 }
@@ -632,32 +692,46 @@ std::pair<int, int> ShareOf(int n, int t, int nt) {
 
 // Worksharing loops without a region of their own: inside Step's parallel region the threads
 // share them (one region per step: fewer forks and joins), elsewhere Forces opens one.
-void World::ForcePasses(bool kick, std::int64_t pass) {
+bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
   const int nblocks = block_done_count_;
   const int t = omp_get_thread_num(), nt = omp_get_num_threads();
   // 1. Pair and wall forces by blocks of discs; within a block the order is ascending i,
   // whichever thread runs it. Each thread takes a contiguous share, the same from step to
   // step, like the drift and body loops: its discs, bodies and list entries stay in its
-  // core's cache (with dynamic blocks, 2 threads gave 1.2x instead of 1.7x).
+  // core's cache (with dynamic blocks, 2 threads gave 1.2x instead of 1.7x). In a step, a
+  // block first waits for the drift of the chunks holding its discs and their partners
+  // (j > i: its own discs and a few beyond), not for a barrier after the whole drift.
   const auto [blk0, blk1] = ShareOf(nblocks, t, nt);
   for (int blk = blk0; blk < blk1; ++blk) {
+    if (await_drift) {
+      const int c0 = dbody_[static_cast<std::size_t>(blk) * params_.force_block] / kBodyChunk;
+      const int c1 = dbody_[block_last_partner_[blk]] / kBodyChunk;
+      for (int c = c0; c <= c1; ++c) AwaitPass(chunk_done_[c].pass, pass);
+    }
     PairBlock(blk);
     block_done_[blk].pass.store(pass, std::memory_order_release);
   }
   // 2. Reactions across blocks, body forces, gravity, torques (and the half kick). A chunk
-  // of bodies reads the sums of its discs' blocks and the reactions of entries in earlier
-  // blocks, so it waits for the blocks up to its last disc's, not for a barrier: a thread
-  // that finished its pair blocks early goes on (both callers end their parallel region
-  // right after, which is a barrier).
+  // of bodies reads the sums of its discs' blocks and the reactions of entries from earlier
+  // blocks, so it waits for those blocks only, not for a barrier. A thread past the first
+  // takes its chunks last to first: the last read only its own blocks, and by the time it
+  // reaches the first, which read the previous thread's last block, that is done. (Both
+  // callers end their parallel region right after, which is a barrier.)
   const int nb = body_count();
   const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
   const auto [ch0, ch1] = ShareOf(nchunks, t, nt);
-  for (int ch = ch0; ch < ch1; ++ch) {
+  bool outrun = false;
+  for (int k = 0; k < ch1 - ch0; ++k) {
+    const int ch = t == 0 ? ch0 + k : ch1 - 1 - k;
     const int b0 = ch * kBodyChunk, b1 = std::min(nb, (ch + 1) * kBodyChunk);
+    const int first_block = disc_begin_[b0] / params_.force_block;
     const int last_block = (disc_begin_[b1 - 1] + disc_n_[b1 - 1] - 1) / params_.force_block;
-    for (int blk = 0; blk <= last_block; ++blk) AwaitPass(block_done_[blk].pass, pass);
-    BodyForces(b0, b1, kick);
+    int from = first_block;
+    for (int blk = first_block; blk <= last_block; ++blk) from = std::min(from, block_first_source_[blk]);
+    for (int blk = from; blk <= last_block; ++blk) AwaitPass(block_done_[blk].pass, pass);
+    outrun = BodyForces(b0, b1, kick) || outrun;
   }
+  return outrun;
 }
 
 namespace {
@@ -825,25 +899,33 @@ GRANARY_KERNEL int World::DriftBodies(int b0, int b1) {
 void World::Step() {
   const int nb = body_count();
   const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
-  const bool rebuild = rebuild_needed_;
+  // The last force pass said whether this drift may take a disc beyond half the skin
+  // (OutrunsSkin): then this step rebuilds, after a drift of its own. Otherwise drift,
+  // pair blocks and body chunks run in one region with no barrier: each waits only for the
+  // work it reads (ForcePasses).
+  const bool rebuild = rebuild_needed_ || rebuild_predicted_;
   const std::int64_t pass = NextForcePass();
   int flags = 0;
-  bool moved = false;
-#pragma omp parallel if (Parallel())
+  bool outrun = false;
+#pragma omp parallel if (Parallel()) reduction(| : flags) reduction(|| : outrun)
   {
     // (the same shares of body chunks as in ForcePasses: each thread keeps its bodies)
     const auto [ch0, ch1] = ShareOf(nchunks, omp_get_thread_num(), omp_get_num_threads());
-    int mine = 0;
-    for (int ch = ch0; ch < ch1; ++ch) mine |= DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk));
-#pragma omp atomic
-    flags |= mine;
-#pragma omp barrier
-    moved = (flags & kDriftMoved) != 0;
-    // After the barrier every thread sees every flag. Without a rebuild the forces follow
-    // in the same region; a rebuild (serial parts) goes through Forces.
-    if (!(rebuild || moved)) ForcePasses(true, pass);
+    for (int ch = ch0; ch < ch1; ++ch) {
+      flags |= DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk));
+      chunk_done_[ch].pass.store(pass, std::memory_order_release);
+    }
+    if (!rebuild) outrun = ForcePasses(true, pass, true);
   }
-  if (rebuild || moved) Forces(true, true);
+  if (rebuild) {
+    Forces(true, true);
+  } else {
+    rebuild_predicted_ = outrun;
+    // The bound makes this impossible; if it ever failed, this step's forces missed
+    // contacts, and a run must stop rather than go on wrong.
+    if (flags & kDriftMoved)
+      throw std::logic_error("engine: a disc moved more than half the Verlet skin between list rebuilds");
+  }
   beyond_exit_box_ = !exit_box_set_ || (flags & kDriftBeyond) != 0;
 }
 

@@ -141,8 +141,13 @@ class World {
   void PairBlock(int blk);                       // pair and wall forces of one force block
   template <bool kLiggghtsCap>
   void PairRange(int e0, int e1);                // the pair loop over list entries [e0, e1)
-  void BodyForces(int b0, int b1, bool kick);    // cross-block reactions, body sums, kick
-  void ForcePasses(bool kick, std::int64_t pass);  // PairBlock and BodyForces, shared by the threads
+  // Cross-block reactions, body sums, kick; returns whether the next drift may take a disc
+  // of these bodies beyond half the skin from its rebuild position (OutrunsSkin).
+  bool BodyForces(int b0, int b1, bool kick);
+  // PairBlock and BodyForces, shared by the threads; with `await_drift`, a pair block first
+  // waits for the drift of the discs it reads (DriftStep published it with `pass`).
+  // Returns BodyForces' verdict for the thread's bodies.
+  bool ForcePasses(bool kick, std::int64_t pass, bool await_drift);
   // Half kick and drift; flags: kDriftMoved (a disc moved > skin/2 since the rebuild),
   // kDriftBeyond (an active body's centre is outside the exit box).
   int DriftBodies(int b0, int b1);
@@ -172,8 +177,18 @@ class World {
   };
   std::unique_ptr<PassStamp[]> block_done_;
   int block_done_count_ = 0;
+  // Which pass each body chunk's drift has finished: a pair block waits for the chunks that
+  // hold its discs and partners (from the first disc to block_last_partner_).
+  std::unique_ptr<PassStamp[]> chunk_done_;
+  int chunk_done_count_ = 0;
+  std::vector<int> block_last_partner_;  // per force block: its highest disc or partner j
+  std::vector<int> block_first_source_;  // per force block: first block with an entry into it
+  // Set by the force pass: the next step must rebuild the lists (OutrunsSkin), so the
+  // step knows it before its drift and needs no barrier to find out.
+  bool rebuild_predicted_ = true;
+  std::vector<double> bradius_;  // per body: largest distance of a disc centre from the body's centre
   std::int64_t force_pass_ = 0;
-  // Numbers a force pass and sizes block_done_ (before the parallel region).
+  // Numbers a force pass and sizes block_done_ and chunk_done_ (before the parallel region).
   std::int64_t NextForcePass();
 
   std::vector<DiscKin> kin_;

@@ -205,6 +205,34 @@ TEST(World, FreeFallIsExactUnderVelocityVerlet) {
   EXPECT_NEAR(w.bvy_[a], 0.3 - t, 1e-12);
 }
 
+// The step decides whether to rebuild the lists before its drift, from a bound on how far
+// that drift moves each disc (no barrier after the drift); Step throws if a disc ever got
+// more than half the skin from its rebuild position. Fast, spinning dumbbells crossing a
+// pile of discs and bouncing off the walls: the lists are rebuilt often enough (no throw),
+// and the collisions happen (the fast bodies lose speed).
+TEST(World, ListsAreRebuiltBeforeFastBodiesOutrunTheSkin) {
+  SiloGeometry g;
+  g.elements = {WallSegment(-10, 0, 10, 0), WallSegment(-10, 0, -10, 30), WallSegment(10, 0, 10, 30),
+                WallSegment(-10, 30, 10, 30)};
+  WorldParams p = Params(0.0);
+  p.parallel_min_discs = 0;  // the threaded path, also on this small system
+  World w(p, {MakeTemplate(DumbbellSpecies(), 1.0, 0), MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
+  for (int k = 0; k < 60; ++k) w.AddBody(1, -7.5 + 1.5 * (k % 11), 2.0 + 1.5 * (k / 11), 0.0);
+  std::vector<int> fast;
+  for (int k = 0; k < 6; ++k) {
+    fast.push_back(w.AddBody(0, -8.0 + 3.0 * k, 25.0, 0.4 * k));
+    w.SetVelocity(fast.back(), (k % 2 ? -1.0 : 1.0) * 40.0, -60.0, 300.0 * (k % 3 - 1));
+  }
+  w.ComputeForces();
+  const std::int64_t before = w.rebuilds();
+  for (int s = 0; s < 20000; ++s) ASSERT_NO_THROW(w.Step()) << "step " << s;
+  // ~70 d/time unit over 2 time units, 0.1 d per rebuild at most: hundreds of rebuilds
+  EXPECT_GT(w.rebuilds() - before, 300);
+  double fastest = 0.0;
+  for (int b : fast) fastest = std::max(fastest, std::hypot(w.bvx_[b], w.bvy_[b]));
+  EXPECT_LT(fastest, 60.0);
+}
+
 // Force blocks change only the summation order: reactions added inside a block (force_block
 // large) and gathered across blocks (force_block 1) give the same pile to rounding.
 TEST(World, ForceBlocksChangeOnlyRounding) {
