@@ -104,6 +104,8 @@ void World::SetVelocity(int b, double vx, double vy, double omega) {
   bvy_[b] = vy;
   bw_[b] = omega;
   UpdateDiscs(b);
+  // The rebuild decision for the next step assumed the old velocity (Step).
+  rebuild_needed_ = true;
 }
 
 void World::PlaceBody(int b, double x, double y, double theta, double vx, double vy, double omega) {

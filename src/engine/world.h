@@ -60,7 +60,7 @@ class World {
 
   // Adds a body of template `tmpl` at rest; returns its id. Discs of a body are contiguous.
   int AddBody(int tmpl, double x, double y, double theta);
-  void SetVelocity(int body, double vx, double vy, double omega);
+  void SetVelocity(int body, double vx, double vy, double omega);  // (rebuilds the lists at the next step)
   // Moves a body (reinjection) and clears its contacts at the next list rebuild.
   void PlaceBody(int body, double x, double y, double theta, double vx, double vy, double omega);
   void Deactivate(int body);
