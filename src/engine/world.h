@@ -33,8 +33,9 @@ struct WorldParams {
   // later block are gathered afterwards. Results depend on this number (last bits), not on
   // the thread count.
   int force_block = 1024;
-  // The pair loop in AVX-512 intrinsics where the CPU has it (avx512_kernels.h). The results
-  // are the same to the bit either way; off only to compare the two.
+  // The pair loop and the dumbbells' disc placement in AVX-512 intrinsics where the CPU has
+  // it (avx512_kernels.h). The results are the same to the bit either way; off only to
+  // compare the two.
   bool avx512_kernels = true;
 };
 
@@ -145,7 +146,7 @@ class World {
   // of these bodies beyond half the skin from its rebuild position (OutrunsSkin).
   bool BodyForces(int b0, int b1, bool kick);
   // PairBlock and BodyForces, shared by the threads; with `await_drift`, a pair block first
-  // waits for the drift of the discs it reads (DriftStep published it with `pass`).
+  // waits for the drift of the discs it reads (Step's drift publishes it with `pass`).
   // Returns BodyForces' verdict for the thread's bodies.
   bool ForcePasses(bool kick, std::int64_t pass, bool await_drift);
   // Half kick and drift; flags: kDriftMoved (a disc moved > skin/2 since the rebuild),
