@@ -1,7 +1,11 @@
-// AVX-512 pair-force loop (avx512_kernels.h). Every line mirrors an operation of
-// PairEntries / NormalForce / TangentialForceT in the same order; with contraction off
-// (CMakeLists.txt) each is one correctly rounded IEEE operation, as in the scalar code.
+// AVX-512 loops of the step (avx512_kernels.h): the pair-force loop and the dumbbells' disc
+// placement. Every arithmetic line mirrors an operation of the portable code (PairEntries,
+// NormalForce, TangentialForceT; world.cpp's PlaceDisc) in the same order; with contraction
+// off (CMakeLists.txt) each is one correctly rounded IEEE operation, as in the scalar code.
 #include "engine/avx512_kernels.h"
+
+#include <cstddef>
+#include <cstdint>
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
