@@ -1,13 +1,13 @@
 // Forces, neighbour lists and the velocity-Verlet step of the rigid-clump DEM (physics.md).
 #include "engine/world.h"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
-#include <thread>
-
-#include <omp.h>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <utility>
 
 #include "engine/avx512_kernels.h"
@@ -450,24 +450,17 @@ GRANARY_KERNEL void World::PairBlock(int blk) {
   const double dt = params_.dt;
   const ContactParams pp = params_.pair;
   const ContactParams wp = params_.wall;
-  const int* __restrict nl_start = nl_start_.data();
-  const int* __restrict nl_j = nl_j_.data();
-  const double* __restrict nl_fx = nl_fx_.data();
-  const double* __restrict nl_fy = nl_fy_.data();
-  const double* __restrict nl_c = nl_c_.data();
   double* __restrict dfx = dfx_.data();
   double* __restrict dfy = dfy_.data();
   double* __restrict dtz = dtz_.data();
   // 1. Every pair entry of the block.
   if (pp.liggghts_cap)
-    PairRange<true>(nl_start[i0], nl_start[i1]);
+    PairRange<true>(nl_start_[i0], nl_start_[i1]);
   else
-    PairRange<false>(nl_start[i0], nl_start[i1]);
-  // 2. Sums per disc in list order and reactions inside the block. An entry that does not
-  // touch adds +0.0, which leaves every sum as it was (they start at +0.0 and so are never
-  // -0.0).
-  const double* __restrict dr = dr_.data();
-  SumBlock(i0, i1, nl_start, nl_j, nl_fx, nl_fy, nl_c, dr, dfx, dfy, dtz);
+    PairRange<false>(nl_start_[i0], nl_start_[i1]);
+  // 2. Sums per disc and reactions inside the block.
+  SumBlock(i0, i1, nl_start_.data(), nl_j_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), dr_.data(), dfx, dfy,
+           dtz);
   // 3. Wall contacts, added after each disc's pair sums as before, but in a loop of their
   // own over the block's few wall entries: the pair-sum loop above stays small (no disc
   // record, no wall state in registers).
@@ -508,10 +501,6 @@ GRANARY_KERNEL void World::PairBlock(int blk) {
 
 namespace {
 
-// Body sums of BodyForces for bodies [b0, b1) of kDiscs discs each, disc k of body b being
-// kDiscs b + k: a straight loop over the bodies (it vectorizes), the same arithmetic as the
-// general loop. An inactive body's discs have no contacts, so its sums are +0.0, the
-// values Deactivate left; it gets no gravity, and its velocity is kept (select).
 // Whether the next drift may take a disc of a body farther than `limit` (half the skin)
 // from its position at the last rebuild, `moved` away now: the drift moves the body by
 // dt v' and turns it by dt w', v' and w' the velocities after its half kick (computed as
@@ -692,8 +681,8 @@ std::pair<int, int> ShareOf(int n, int t, int nt) {
 
 }  // namespace
 
-// Worksharing loops without a region of their own: inside Step's parallel region the threads
-// share them (one region per step: fewer forks and joins), elsewhere Forces opens one.
+// Called by every thread of a parallel region, each taking its share (ShareOf): inside Step's
+// region (one region per step: fewer forks and joins), elsewhere in the one Forces opens.
 bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
   const int nblocks = block_done_count_;
   const int t = omp_get_thread_num(), nt = omp_get_num_threads();
