@@ -724,21 +724,22 @@ std::vector<BenchResult> RunBenchmark(const BenchOptions& options) {
     std::fflush(stdout);
   });
   std::vector<BenchResult> results;
-  for (int round = 1; round <= options.repeat; ++round)
-  for (int threads : options.threads) {
-    const fs::path dir = base / ("t" + std::to_string(threads));
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-    WriteAtomically(dir / "run.json", spec.dump(2));
-    RunOptions ro;
-    ro.threads = threads;
-    ro.quiet = true;
-    RunDirectory(dir.string(), ro);
-    std::ifstream in(dir / "summary.json");
-    nlohmann::json summary;
-    in >> summary;
-    results.push_back({round, threads, summary["timing"]["disc_steps_per_s"].get<double>(),
-                       summary["timing"]["discharge_wall_s"].get<double>()});
+  for (int round = 1; round <= options.repeat; ++round) {
+    for (int threads : options.threads) {
+      const fs::path dir = base / ("t" + std::to_string(threads));
+      fs::remove_all(dir);
+      fs::create_directories(dir);
+      WriteAtomically(dir / "run.json", spec.dump(2));
+      RunOptions ro;
+      ro.threads = threads;
+      ro.quiet = true;
+      RunDirectory(dir.string(), ro);
+      std::ifstream in(dir / "summary.json");
+      nlohmann::json summary;
+      in >> summary;
+      results.push_back({round, threads, summary["timing"]["disc_steps_per_s"].get<double>(),
+                         summary["timing"]["discharge_wall_s"].get<double>()});
+    }
   }
   fs::remove_all(base);
   return results;
