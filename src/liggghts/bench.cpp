@@ -1,8 +1,6 @@
 // Standard benchmark on LIGGGHTS and the native engine (bench.h).
 #include "liggghts/bench.h"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <boost/process.hpp>
 #include <cstdio>
@@ -40,11 +38,10 @@ namespace {
 
 // `granary-engine bench` (next to this executable) on the same case with one thread.
 double NativeBenchRate(const BenchOptions& o) {
-  char self[4096];
-  const ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
-  if (n <= 0) throw std::runtime_error("cannot locate granary-engine");
-  self[n] = 0;
-  const fs::path native = fs::path(self).parent_path() / "granary-engine";
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) throw std::runtime_error("cannot locate granary-engine: " + ec.message());
+  const fs::path native = self.parent_path() / "granary-engine";
   bp::ipstream out;
   bp::child c(native.string(), "bench", "--bodies", std::to_string(o.bodies), "--steps", std::to_string(o.steps),
               "--threads-list", "1", bp::std_out > out);
