@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "analysis/run_reader.h"
+#include "rundir/run_reader.h"
 #include "analysis/stats.h"
 
 namespace granary::analysis {

@@ -2,7 +2,7 @@
 // and renders the sections that the data supports. Each section is one function in the
 // kSections table below; adding an analysis to the report means adding one entry.
 #include "analysis/report.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
 #include <algorithm>
 #include <cmath>

@@ -11,7 +11,7 @@
 #include "analysis/clogging.h"
 #include "analysis/flow.h"
 #include "analysis/region.h"
-#include "analysis/run_reader.h"
+#include "rundir/run_reader.h"
 
 namespace granary::analysis {
 

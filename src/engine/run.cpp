@@ -1,9 +1,9 @@
 // The discharge driver: outlets open at t = 0, exits become events, reinjection or
 // removal, clog detection, outputs and checkpoints (docs/run-directory.md).
 #include "engine/run.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
-#include "engine/files.h"
+#include "rundir/files.h"
 
 #include <omp.h>
 #include <unistd.h>

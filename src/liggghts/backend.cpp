@@ -1,8 +1,8 @@
 // The LIGGGHTS backend (backend.h): bed, discharge and conversion into the run directory.
 #include "liggghts/backend.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
-#include "engine/files.h"
+#include "rundir/files.h"
 
 #include <signal.h>
 #include <fcntl.h>

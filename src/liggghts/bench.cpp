@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "engine/run.h"
-#include "engine/run_spec.h"
+#include "rundir/run_spec.h"
 #include "liggghts/backend.h"
 
 namespace granary::liggghts {

@@ -2,14 +2,14 @@
 #include "liggghts/cli.h"
 
 #include "engine/cli.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
 #include <cstdio>
 #include <exception>
 #include <iostream>
 #include <string>
 
-#include "engine/run_spec.h"
+#include "rundir/run_spec.h"
 #include "liggghts/backend.h"
 #include "liggghts/bench.h"
 

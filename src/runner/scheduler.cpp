@@ -1,7 +1,7 @@
 // See scheduler.h.
 #include "runner/scheduler.h"
 
-#include "engine/files.h"
+#include "rundir/files.h"
 
 #include <signal.h>
 #include <unistd.h>

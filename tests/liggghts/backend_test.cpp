@@ -15,7 +15,7 @@
 #include <set>
 #include <thread>
 
-#include "analysis/run_reader.h"
+#include "rundir/run_reader.h"
 
 namespace {
 

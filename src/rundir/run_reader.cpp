@@ -1,5 +1,5 @@
 // Implementation of run_reader.h.
-#include "analysis/run_reader.h"
+#include "rundir/run_reader.h"
 
 #include <algorithm>
 #include <charconv>

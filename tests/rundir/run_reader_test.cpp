@@ -1,5 +1,5 @@
 // Reader round trips on hand-written run files, and the errors on malformed input.
-#include "analysis/run_reader.h"
+#include "rundir/run_reader.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "engine/files.h"
+#include "rundir/files.h"
 
 #include <fcntl.h>
 #include <sys/file.h>
