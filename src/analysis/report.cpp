@@ -144,8 +144,8 @@ Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>
       try {
         AnalysedRun a;
         a.record = &r;
-        const RunData data = read_run(r.run_dir);
-        if (!data.has_summary) throw ReadError((r.run_dir / "summary.json").string() + ": missing");
+        const rundir::RunData data = rundir::ReadRun(r.run_dir);
+        if (!data.has_summary) throw rundir::ReadError((r.run_dir / rundir::kSummaryFile).string() + ": missing");
         a.analysis = analyse_events(data, options.analysis);
         analyse_frames(data, options.analysis, a.analysis);
         a.engine_version = data.summary.engine_version;
