@@ -113,4 +113,15 @@ struct DumpHeader {
 // cut short there (an engine still writing); a malformed header throws ReadError.
 bool ReadDumpHeader(DumpLines& in, const char* count_item, const char* columns_item, DumpHeader& header);
 
+// A dump reader's state: its lines and the header of the block whose rows come next.
+struct DumpState {
+  explicit DumpState(const std::filesystem::path& file) : lines(file) {}
+  DumpLines lines;
+  DumpHeader header;
+  bool rows_pending = false;
+};
+
+// Skips the rows of the block whose header was read; false if the file ends first.
+bool SkipDumpRows(DumpState& state);
+
 }  // namespace granary::rundir::detail

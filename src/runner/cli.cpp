@@ -174,8 +174,7 @@ PlanSummary PlanInto(const json& j, const std::string& spec_path, const std::str
   }
 #ifdef GRANARY_HAVE_ANALYSIS
   try {
-    analysis::ReportOptions ro;
-    analysis::apply_report_spec(j, ro);
+    analysis::check_report_spec(j);
   } catch (const std::invalid_argument& e) {
     throw UsageError(spec_path + ": " + e.what());
   }
@@ -532,7 +531,7 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
   options.out_dir = out_dir;
   options.figures = figures;
   try {
-    analysis::apply_report_spec(campaign->spec, options);
+    analysis::check_report_spec(campaign->spec);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("campaign spec: ") + e.what());
   }
@@ -589,9 +588,8 @@ void PrintComparison(std::ostream& out, const json& c) {
   for (const json& p : c.at("points")) {
     out << "  " << CompactPoint(p.at("point")) << "\n";
     if (p.at("metrics").empty()) out << "    (no metric defined on both engines yet)\n";
-    for (const char* metric : {"q_count", "phi", "tg_full", "psi", "avalanche_size"}) {
-      if (!p.at("metrics").contains(metric)) continue;
-      const json& m = p.at("metrics").at(metric);
+    for (const auto& [metric, m] : p.at("metrics").items()) {
+      if (!m.value("headline", false)) continue;
       json ratio = {{"mean", m.at("ratio")}, {"se", m.at("ratio_se")}};
       out << "    " << std::left << std::setw(16) << metric << std::setw(20) << cell(m.at(a)) << std::setw(20)
           << cell(m.at(b)) << std::setw(18) << cell(ratio) << (m.at("agree").get<bool>() ? "yes" : "no") << "\n";
