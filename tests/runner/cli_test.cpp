@@ -327,6 +327,28 @@ TEST_F(CliTest, RealEngineEndToEnd) {
   const auto report = Sh(Cmd("report --no-figures"));
   ASSERT_EQ(report.code, 0) << report.output;
   EXPECT_NE(report.output.find(" from the runs' caches, 0 computed"), std::string::npos) << report.output;
+
+  // docs/data.md: every python block runs on this campaign's export and database.
+  if (Sh("/usr/bin/python3 -c 'import pandas' 2>&1").code != 0)
+    GTEST_SKIP() << "python3-pandas is not installed (scripts/setup.sh installs it): docs/data.md not checked";
+  ASSERT_EQ(Sh(Cmd("export --out " + (dir_ / "runs.csv").string())).code, 0);
+  ASSERT_EQ(Sh(Cmd("export --level point --out " + (dir_ / "points.csv").string())).code, 0);
+  fs::copy_file(Db(), dir_ / "study.db");
+  const std::string doc = ReadFile(fs::path(GRANARY_SOURCE_DIR) / "docs" / "data.md");
+  int blocks = 0;
+  for (std::size_t at = doc.find("```python\n"); at != std::string::npos; at = doc.find("```python\n", at)) {
+    at += 10;
+    const std::size_t end = doc.find("```", at);
+    ASSERT_NE(end, std::string::npos);
+    const fs::path script = dir_ / ("doc" + std::to_string(++blocks) + ".py");
+    std::ofstream(script) << doc.substr(at, end - at);
+    const auto py = Sh("cd " + dir_.string() + " && /usr/bin/python3 " + script.string());
+    EXPECT_EQ(py.code, 0) << "docs/data.md python block " << blocks << ":\n" << py.output;
+    // The tables were printed: Q of the export, the analyses of the database.
+    EXPECT_NE(py.output.find(blocks == 1 ? "q_count_se" : "flow"), std::string::npos) << py.output;
+    at = end + 3;
+  }
+  EXPECT_EQ(blocks, 2);
 }
 
 // campaign compare on a tiny campaign: both real engines (LIGGGHTS as installed by
