@@ -96,6 +96,9 @@ struct RunView {
   // The frames of steady flow: the flow window of all outlets; without one, from
   // /report/window/start_time up to the first clog.
   TimeWindow steady;
+  // The clogged states: each clog of the exit stream of all outlets, from the last exit
+  // before it to the first after it (to the end of the run if it never ended).
+  std::vector<TimeWindow> clogged;
   const PassOptions* options = nullptr;
 };
 

@@ -108,8 +108,14 @@ nlohmann::json to_json(const EngineComparison& c) {
                      {"disc_steps_per_s", mean_se_json(e.disc_steps_per_s)},
                      {"threads", e.threads}});
   }
+  // Metric names in the analyses' order (the objects above are keyed, hence sorted).
+  nlohmann::json order = nlohmann::json::array();
+  for (const PointAgreement& p : c.points)
+    for (const MetricAgreement& m : p.metrics)
+      if (std::find(order.begin(), order.end(), m.difference.name) == order.end()) order.push_back(m.difference.name);
   return {{"engine_a", c.engine_a},
           {"engine_b", c.engine_b},
+          {"metric_order", order},
           {"ratio", c.engine_b + " / " + c.engine_a},
           {"agreement", "|z| <= " + std::to_string(static_cast<int>(kAgreementSigmas)) + " combined standard errors"},
           {"points", points},

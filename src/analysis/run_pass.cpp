@@ -255,15 +255,13 @@ RunView make_run_view(const rundir::RunData& data, const PassOptions& pass) {
   if (spec.is_object() && spec.contains("bodies")) v.density = spec.at("bodies").value("density", 1.0);
   v.outlets = outlets_of(spec);
   v.flow = flow_rate({data.events, v.remove_mode, v.bodies, v.clog_gap, -1}, pass.window);
+  const ClogSeries series = clog_series(data.events, -1, v.t_end, v.clog_gap, run_end_of(v.end_reason), v.stop_on_clog);
+  for (const Stretch& c : series.clogged) v.clogged.push_back({c.start, c.end});
   v.steady.start = pass.window.start_time;
   if (v.flow.ok) {
     v.steady = {v.flow.t_start, v.flow.t_end};
-  } else {
-    // No steady window: still only frames before the first clog.
-    const ClogSeries series =
-        clog_series(data.events, -1, v.t_end, v.clog_gap, run_end_of(v.end_reason), v.stop_on_clog);
-    if (!series.flowing.empty() && series.flowing.front().complete && series.flowing.front().exits > 0)
-      v.steady.end = series.flowing.front().end;
+  } else if (!series.flowing.empty() && series.flowing.front().complete && series.flowing.front().exits > 0) {
+    v.steady.end = series.flowing.front().end;  // no steady window: still only frames before the first clog
   }
   return v;
 }

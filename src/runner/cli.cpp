@@ -689,7 +689,10 @@ void PrintComparison(std::ostream& out, const json& c) {
   for (const json& p : c.at("points")) {
     out << "  " << CompactPoint(p.at("point")) << "\n";
     if (p.at("metrics").empty()) out << "    (no metric defined on both engines yet)\n";
-    for (const auto& [metric, m] : p.at("metrics").items()) {
+    for (const json& name : c.at("metric_order")) {
+      const std::string metric = name.get<std::string>();
+      if (!p.at("metrics").contains(metric)) continue;
+      const json& m = p.at("metrics").at(metric);
       if (!m.value("headline", false)) continue;
       json ratio = {{"mean", m.at("ratio")}, {"se", m.at("ratio_se")}};
       out << "    " << std::left << std::setw(16) << metric << std::setw(20) << cell(m.at(a)) << std::setw(20)

@@ -90,6 +90,14 @@ TEST(RunPass, WithoutAFlowWindowFramesStopAtTheFirstClog) {
   auto m = metrics_of(setup, r);
   EXPECT_TRUE(std::isnan(m["q_count"].value));
   EXPECT_EQ(m["clogs"].value, 1.0);  // in the exit stream
+  // The clogged state an analysis of arches would ask for: from the last exit to the end.
+  const rundir::RunData data = rundir::ReadRun(dir.path());
+  const RunView view = make_run_view(data, setup.pass);
+  ASSERT_EQ(view.clogged.size(), 1u);
+  EXPECT_DOUBLE_EQ(view.clogged[0].start, 2.5);
+  EXPECT_DOUBLE_EQ(view.clogged[0].end, 20.0);
+  EXPECT_DOUBLE_EQ(view.steady.start, 1.0);
+  EXPECT_DOUBLE_EQ(view.steady.end, 2.5);
   for (std::size_t k = 0; k < setup.analyses.size(); ++k) {
     if (setup.analyses[k]->key() == "region") {
       EXPECT_EQ(r.results[k]["regions"][0]["frames"], 1);
