@@ -254,22 +254,33 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
   return c;
 }
 
+namespace {
+
+// The curve of metric `name` over the points of `group`: rows (x, mean, se, n) where defined.
+Series metric_curve(const CampaignView& view, const PointMetricTable& metrics, const std::string& name,
+                    const std::string& group, const std::string& label, const std::string& column) {
+  Series s;
+  s.label = label;
+  s.columns = {view.x_label.empty() ? "x" : view.x_name, column, column + "_se", "n"};
+  s.style = Series::Style::kErrorBars;
+  s.err = 2;
+  for (std::size_t i = 0; i < view.points.size() && i < metrics.size(); ++i) {
+    const Point& p = view.points[i];
+    if (p.group != group || !std::isfinite(p.x)) continue;
+    const PointMetric* m = find_metric(metrics[i], name);
+    if (!m || !std::isfinite(m->mean)) continue;
+    s.rows.push_back({p.x, m->mean, m->se, static_cast<double>(m->n)});
+  }
+  return s;
+}
+
+}  // namespace
+
 std::vector<Series> point_series(const CampaignView& view, const PointMetricTable& metrics, const std::string& name,
                                  const std::string& column) {
   std::vector<Series> out;
   for (const auto& g : groups_of(view)) {
-    Series s;
-    s.label = g.empty() ? column : g;
-    s.columns = {view.x_label.empty() ? "x" : view.x_name, column, column + "_se", "n"};
-    s.style = Series::Style::kErrorBars;
-    s.err = 2;
-    for (std::size_t i = 0; i < view.points.size(); ++i) {
-      const Point& p = view.points[i];
-      if (p.group != g || !std::isfinite(p.x) || i >= metrics.size()) continue;
-      const PointMetric* m = find_metric(metrics[i], name);
-      if (!m || !std::isfinite(m->mean)) continue;
-      s.rows.push_back({p.x, m->mean, m->se, static_cast<double>(m->n)});
-    }
+    Series s = metric_curve(view, metrics, name, g, g.empty() ? column : g, column);
     if (!s.rows.empty()) out.push_back(std::move(s));
   }
   return out;
@@ -282,18 +293,7 @@ std::vector<Series> outlet_series(const CampaignView& view, const PointMetricTab
   for (std::size_t o = 0; o < view.outlets; ++o) {
     const std::string label = o < outlet_labels.size() ? outlet_labels[o] : "outlet " + std::to_string(o);
     for (const auto& g : groups_of(view)) {
-      Series s;
-      s.label = label + (g.empty() ? "" : ", " + g);
-      s.columns = {view.x_label.empty() ? "x" : view.x_name, column, column + "_se", "n"};
-      s.style = Series::Style::kErrorBars;
-      s.err = 2;
-      for (std::size_t i = 0; i < view.points.size(); ++i) {
-        const Point& p = view.points[i];
-        if (p.group != g || !std::isfinite(p.x) || i >= metrics.size()) continue;
-        const PointMetric* m = find_metric(metrics[i], name_of(o));
-        if (!m || !std::isfinite(m->mean)) continue;
-        s.rows.push_back({p.x, m->mean, m->se, static_cast<double>(m->n)});
-      }
+      Series s = metric_curve(view, metrics, name_of(o), g, label + (g.empty() ? "" : ", " + g), column);
       if (!s.rows.empty()) out.push_back(std::move(s));
     }
   }
