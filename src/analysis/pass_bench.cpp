@@ -2,9 +2,12 @@
 // frames and contact frames of N dumbbells (positions on a jittered lattice, contacts between
 // lattice neighbours; through the run-directory writers, so the text is the engines'), then
 // runs an analysis that asks for every frame with its contacts and touches every disc, body
-// and contact, with the pass on 1 and on 2 threads, in interleaved rounds. Prints frames per
-// second. Usage: granary-pass-bench [--bodies N] [--frames F] [--repeat R] [--dir DIR]
+// and contact (`--work K` times, standing in for an analysis' own cost), with the pass on 1
+// and on 2 threads, in interleaved rounds. Prints frames per second.
+// Usage: granary-pass-bench [--bodies N] [--frames F] [--work K] [--repeat R] [--dir DIR]
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -70,36 +73,44 @@ void WriteRun(const fs::path& dir, int bodies, int frames) {
 }
 
 // Asks for every frame with its contacts and sums something of every disc, body and contact,
-// as a coarse-graining analysis would touch them.
+// as a coarse-graining analysis would touch them, `work` times.
 class TouchAll : public Analysis {
  public:
+  explicit TouchAll(int work) : work_(work) {}
   std::string key() const override { return "touch_all"; }
   int version() const override { return 1; }
   PassUse pass_use() const override { return {false, false, true}; }
   std::unique_ptr<RunAccumulator> start(const RunView&) const override {
     class Acc : public RunAccumulator {
      public:
+      explicit Acc(int work) : work_(work) {}
       FrameRequest frames() const override { return {{{}}, true}; }
       void add_frame(const FrameView& f) override {
-        for (const auto& d : f.frame.discs) sum_ += d.vy;
-        for (const auto& b : f.bodies) sum_ += b.vy;
-        if (f.contacts)
-          for (const auto& c : f.contacts->contacts) sum_ += c.fy;
+        for (int k = 0; k < std::max(1, work_); ++k) {
+          for (const auto& d : f.frame.discs) sum_ += std::sqrt(d.vx * d.vx + d.vy * d.vy + k);
+          for (const auto& b : f.bodies) sum_ += std::sqrt(b.vx * b.vx + b.vy * b.vy + k);
+          if (f.contacts)
+            for (const auto& c : f.contacts->contacts) sum_ += std::sqrt(c.fx * c.fx + c.fy * c.fy + k);
+        }
       }
       nlohmann::json finish() override { return sum_; }
 
      private:
+      int work_;
       double sum_ = 0.0;
     };
-    return std::make_unique<Acc>();
+    return std::make_unique<Acc>(work_);
   }
   std::vector<Metric> run_metrics(const nlohmann::json&) const override { return {}; }
+
+ private:
+  int work_;
 };
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  int bodies = 15000, frames = 20, repeat = 3;
+  int bodies = 15000, frames = 20, repeat = 3, work = 1;
   fs::path dir;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -107,19 +118,20 @@ int main(int argc, char** argv) {
     if (a == "--bodies" && has_value) bodies = std::atoi(argv[++i]);
     else if (a == "--frames" && has_value) frames = std::atoi(argv[++i]);
     else if (a == "--repeat" && has_value) repeat = std::atoi(argv[++i]);
+    else if (a == "--work" && has_value) work = std::atoi(argv[++i]);
     else if (a == "--dir" && has_value) dir = argv[++i];
     else {
-      std::fprintf(stderr, "usage: granary-pass-bench [--bodies N] [--frames F] [--repeat R] [--dir DIR]\n");
+      std::fprintf(stderr, "usage: granary-pass-bench [--bodies N] [--frames F] [--work K] [--repeat R] [--dir DIR]\n");
       return a == "--help" ? 0 : 2;
     }
   }
   const bool own_dir = dir.empty();
   if (own_dir) dir = fs::temp_directory_path() / ("granary-pass-bench-" + std::to_string(::getpid()));
   if (!fs::exists(dir / "frames.dump")) WriteRun(dir, bodies, frames);
-  std::printf("pass bench: %d dumbbells (%d discs, ~%d contacts) x %d frames, %.0f MB of dumps\n", bodies, 2 * bodies,
-              2 * bodies, frames,
-              static_cast<double>(fs::file_size(dir / "frames.dump") + fs::file_size(dir / "contacts.dump")) / 1e6);
-  const TouchAll analysis;
+  std::printf("pass bench: %d dumbbells (%d discs, ~%d contacts) x %d frames, %.0f MB of dumps, work %d\n", bodies,
+              2 * bodies, 2 * bodies, frames,
+              static_cast<double>(fs::file_size(dir / "frames.dump") + fs::file_size(dir / "contacts.dump")) / 1e6, work);
+  const TouchAll analysis(work);
   granary::analysis::PassOptions pass;
   for (int round = 1; round <= repeat; ++round)
     for (int threads : {1, 2}) {
