@@ -7,6 +7,8 @@
 #include <numbers>
 #include <string_view>
 
+#include <zlib.h>
+
 namespace granary::analysis {
 namespace {
 
@@ -208,17 +210,54 @@ std::vector<Body> bodies_of(const std::vector<Disc>& discs) {
   return bodies;
 }
 
+// ---- lines, compressed or not -----------------------------------------------------------
+
+LineInput::LineInput(const std::filesystem::path& file) : plain_(file, std::ios::binary) {
+  char magic[2] = {0, 0};
+  plain_.read(magic, 2);
+  const bool gzip = plain_.gcount() == 2 && magic[0] == '\x1f' && magic[1] == '\x8b';
+  plain_.clear();
+  plain_.seekg(0);
+  if (!gzip || !plain_.is_open()) return;
+  plain_.close();
+  gz_ = gzopen(file.c_str(), "rb");
+  if (gz_) gzbuffer(static_cast<gzFile>(gz_), 1 << 17);
+}
+
+LineInput::~LineInput() {
+  if (gz_) gzclose(static_cast<gzFile>(gz_));
+}
+
+bool LineInput::getline(std::string& line) {
+  if (!gz_) return static_cast<bool>(std::getline(plain_, line));
+  line.clear();
+  if (eof_) return false;
+  char buf[4096];
+  for (;;) {
+    if (!gzgets(static_cast<gzFile>(gz_), buf, sizeof buf)) {
+      if (line.empty()) return false;
+      eof_ = true;  // a last line without '\n'
+      return true;
+    }
+    line += buf;
+    if (!line.empty() && line.back() == '\n') {
+      line.pop_back();
+      return true;
+    }
+  }
+}
+
 // ---- frames.dump ------------------------------------------------------------------------
 
 FrameReader::FrameReader(const std::filesystem::path& file, double density)
     : file_(file), in_(file), density_(density) {
-  if (!in_) throw ReadError(file.string() + ": cannot open");
+  if (!in_.is_open()) throw ReadError(file.string() + ": cannot open");
 }
 
 void FrameReader::fail(const std::string& what) const { throw ReadError(where(file_, line_no_) + ": " + what); }
 
 bool FrameReader::next_line(std::string& line) {
-  if (!std::getline(in_, line)) return false;
+  if (!in_.getline(line)) return false;
   ++line_no_;
   if (!line.empty() && line.back() == '\r') line.pop_back();
   return true;
@@ -324,7 +363,7 @@ bool FrameReader::next(Frame& frame) {
 // ---- contacts.dump ----------------------------------------------------------------------
 
 ContactReader::ContactReader(const std::filesystem::path& file) : file_(file), in_(file) {
-  if (!in_) throw ReadError(file.string() + ": cannot open");
+  if (!in_.is_open()) throw ReadError(file.string() + ": cannot open");
 }
 
 void ContactReader::fail(const std::string& what) const { throw ReadError(where(file_, line_no_) + ": " + what); }
@@ -333,7 +372,7 @@ bool ContactReader::next(ContactFrame& frame) {
   std::string line;
   std::vector<std::string_view> f;
   auto get = [&]() {
-    if (!std::getline(in_, line)) return false;
+    if (!in_.getline(line)) return false;
     ++line_no_;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     return true;
@@ -427,8 +466,9 @@ RunData read_run(const std::filesystem::path& dir) {
     r.spec = r.summary.spec;
   }
   if (fs::exists(dir / "events.csv")) r.events = read_events(dir / "events.csv");
-  r.has_frames = fs::exists(dir / "frames.dump");
-  r.has_contacts = fs::exists(dir / "contacts.dump");
+  r.compressed = !fs::exists(dir / "frames.dump") && fs::exists(dir / "frames.dump.gz");
+  r.has_frames = fs::exists(r.frames_file());
+  r.has_contacts = fs::exists(r.contacts_file());
   return r;
 }
 

@@ -25,6 +25,8 @@
 
 #include "engine/bed.h"
 #include "engine/dump_format.h"
+#include "engine/gzip.h"
+#include "engine/silo_outline.h"
 #include "engine/random.h"
 #include "engine/stall.h"
 #include "engine/world.h"
@@ -170,6 +172,10 @@ class Discharge {
   void WriteFrame();
   void WriteContacts();
   DumpBox DumpBoxOf() const;
+  std::string FramesName() const { return spec_.output.compress ? "frames.dump.gz" : "frames.dump"; }
+  std::string ContactsName() const { return spec_.output.compress ? "contacts.dump.gz" : "contacts.dump"; }
+  // A frame's text into its file, as one gzip member when the spec asks for compression.
+  void Put(OutFile& file, const std::string& text) const;
   void HandleExits();
   int OutletOf(int b) const;
   void Reinject(int b);
@@ -290,8 +296,8 @@ void Discharge::StartFresh() {
   }
   events_ = OutFile(dir_ / "events.csv", false, 0);
   std::fprintf(events_.get(), "time,body,shape,mass,outlet\n");
-  if (frame_every_ > 0) frames_ = OutFile(dir_ / "frames.dump", false, 0);
-  if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = OutFile(dir_ / "contacts.dump", false, 0);
+  if (frame_every_ > 0) frames_ = OutFile(dir_ / FramesName(), false, 0);
+  if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = OutFile(dir_ / ContactsName(), false, 0);
   if (frame_every_ > 0) {
     WriteFrame();
     if (contacts_.open()) WriteContacts();
@@ -387,8 +393,8 @@ void Discharge::LoadCheckpoint() {
   periodic_height_ = in.Get<double>();
   cleared_by_obstacles_ = in.Get<int>();
   events_ = OutFile(dir_ / "events.csv", true, ev);
-  if (frame_every_ > 0) frames_ = OutFile(dir_ / "frames.dump", true, fr);
-  if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = OutFile(dir_ / "contacts.dump", true, co);
+  if (frame_every_ > 0) frames_ = OutFile(dir_ / FramesName(), true, fr);
+  if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = OutFile(dir_ / ContactsName(), true, co);
   continued_ = true;
 }
 
@@ -518,35 +524,46 @@ DumpBox Discharge::DumpBoxOf() const {
   return NativeDumpBox(spec_, bed_height_, bound);
 }
 
+void Discharge::Put(OutFile& file, const std::string& text) const {
+  const std::string gz = spec_.output.compress ? GzipMember(text) : std::string();
+  const std::string& bytes = spec_.output.compress ? gz : text;
+  if (std::fwrite(bytes.data(), 1, bytes.size(), file.get()) != bytes.size()) throw std::runtime_error("cannot write a frame");
+}
+
 void Discharge::WriteFrame() {
   const World& w = *world_;
-  std::FILE* f = frames_.get();
   int n = 0;
   for (int i = 0; i < w.disc_count(); ++i) n += w.active_[w.dbody_[i]];
-  std::fputs(FrameHeader(step_, static_cast<double>(step_) * spec_.time_step, n, DumpBoxOf()).c_str(), f);
+  std::string text = FrameHeader(step_, static_cast<double>(step_) * spec_.time_step, n, DumpBoxOf());
+  text.reserve(text.size() + static_cast<std::size_t>(n) * 128);
+  char row[256];
   for (int i = 0; i < w.disc_count(); ++i) {
     const int b = w.dbody_[i];
     if (!w.active_[b]) continue;
     const double rx = w.dx_[i] - w.bx_[b], ry = w.dy_[i] - w.by_[b];
-    std::fprintf(f, "%d %d %d %.10g %.10g 0 %.10g %.10g %.10g %.10g 0 %.10g\n", i + 1, b, w.tmpl_[b] + 1, w.dx_[i], w.dy_[i],
-                 w.dr_[i], w.dmass_[i], w.bvx_[b] - w.bw_[b] * ry, w.bvy_[b] + w.bw_[b] * rx, w.bw_[b]);
+    const int len = std::snprintf(row, sizeof row, "%d %d %d %.10g %.10g 0 %.10g %.10g %.10g %.10g 0 %.10g\n", i + 1, b,
+                                  w.tmpl_[b] + 1, w.dx_[i], w.dy_[i], w.dr_[i], w.dmass_[i], w.bvx_[b] - w.bw_[b] * ry,
+                                  w.bvy_[b] + w.bw_[b] * rx, w.bw_[b]);
+    text.append(row, static_cast<std::size_t>(len));
   }
+  Put(frames_, text);
 }
 
 void Discharge::WriteContacts() {
   const World& w = *world_;
   w.CollectContacts(contact_buf_);
-  std::FILE* f = contacts_.get();
-  std::fputs(ContactHeader(step_, static_cast<double>(step_) * spec_.time_step, static_cast<std::int64_t>(contact_buf_.size()),
-                           DumpBoxOf())
-                 .c_str(),
-             f);
+  std::string text = ContactHeader(step_, static_cast<double>(step_) * spec_.time_step,
+                                   static_cast<std::int64_t>(contact_buf_.size()), DumpBoxOf());
+  text.reserve(text.size() + contact_buf_.size() * 128);
+  char row[256];
   for (const auto& c : contact_buf_) {
     const int bj = c.disc_j >= 0 ? w.dbody_[c.disc_j] : -1;
     const double xj = c.disc_j >= 0 ? w.dx_[c.disc_j] : c.cx, yj = c.disc_j >= 0 ? w.dy_[c.disc_j] : c.cy;
-    std::fprintf(f, "%d %d %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n", w.dbody_[c.disc_i], bj, w.dx_[c.disc_i],
-                 w.dy_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy);
+    const int len = std::snprintf(row, sizeof row, "%d %d %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n",
+                                  w.dbody_[c.disc_i], bj, w.dx_[c.disc_i], w.dy_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy);
+    text.append(row, static_cast<std::size_t>(len));
   }
+  Put(contacts_, text);
 }
 
 void Discharge::WriteSummary(const std::string& end_reason) {
@@ -594,6 +611,10 @@ RunResult Discharge::Run() {
     StartFresh();
     session_start_ = Clock::now();
   }
+  // The geometry beside the frames, walls as high as the frames' box when the spec leaves them
+  // automatic.
+  WriteAtomically(dir_ / "silo.vtk",
+                  SiloVtk(OutlineOf(spec_.silo, spec_.silo.height > 0 ? spec_.silo.height : DumpBoxOf().y_hi)));
   World& w = *world_;
   std::string end_reason;
   auto last_report = Clock::now();

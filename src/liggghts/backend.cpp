@@ -32,6 +32,8 @@
 #include <boost/process/extend.hpp>
 
 #include "engine/dump_format.h"
+#include "engine/gzip.h"
+#include "engine/silo_outline.h"
 #include "engine/shapes.h"
 #include "engine/stall.h"
 #include "liggghts/input_script.h"
@@ -331,17 +333,25 @@ engine::DumpBox FramesBox(const SiloSetup& setup) {
 }
 
 // LIGGGHTS dump (id mol type x y radius vx vy omegaz) -> the run-directory frames format.
+// A frame's text into `out`, as one gzip member when the spec asks for compression.
+void PutFrame(std::ofstream& out, const std::string& text, const RunSpec& spec) {
+  if (spec.output.compress)
+    out << engine::GzipMember(text);
+  else
+    out << text;
+}
+
 void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const SiloSetup& setup,
                    const BodyIndex& bodies, double box_height) {
   std::ifstream in(in_path);
-  std::ofstream out(out_path, std::ios::trunc);
-  std::string line;
+  std::ofstream out(out_path, std::ios::trunc | std::ios::binary);
+  std::string line, text;
   const double rho = spec.bodies.density;
   char buf[512];
   std::map<long long, double> first_y;  // per body: where its first sphere is in this frame
   long long step = 0, n = 0;
   while (NextDumpBlock(in, step, n)) {
-    out << engine::FrameHeader(step, static_cast<double>(step) * spec.time_step, n, FramesBox(setup));
+    text = engine::FrameHeader(step, static_cast<double>(step) * spec.time_step, n, FramesBox(setup));
     first_y.clear();
     for (long long i = 0; i < n && std::getline(in, line); ++i) {
       const auto t = Tokens(line);
@@ -355,9 +365,11 @@ void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunS
       if (!first) y = NearestImage(y, it->second, box_height);
       std::snprintf(buf, sizeof buf, "%s %lld %s %s %.10g 0 %s %.10g %s %s 0 %s\n", t[0].c_str(), body, t[2].c_str(),
                     t[3].c_str(), y, t[5].c_str(), rho * std::numbers::pi * r * r, t[6].c_str(), t[7].c_str(), t[8].c_str());
-      out << buf;
+      text += buf;
     }
+    PutFrame(out, text, spec);
   }
+  if (!out) throw std::runtime_error("cannot write " + out_path.string());
 }
 
 // LIGGGHTS' local dumps of pair and wall contacts into contacts.dump (docs/run-directory.md):
@@ -419,10 +431,11 @@ void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& 
         ++n;
       }
     }
-    out += engine::ContactHeader(step, static_cast<double>(step) * spec.time_step, static_cast<std::int64_t>(n), FramesBox(setup)) +
-           rows;
+    const std::string text =
+        engine::ContactHeader(step, static_cast<double>(step) * spec.time_step, static_cast<std::int64_t>(n), FramesBox(setup)) + rows;
+    out += spec.output.compress ? engine::GzipMember(text) : text;
   }
-  WriteAtomically(dir / "contacts.dump", out);
+  WriteAtomically(dir / (spec.output.compress ? "contacts.dump.gz" : "contacts.dump"), out);
 }
 
 // A prepared bed for this spec: DIR/bed.restart and DIR/bed.dump, from the cache when it
@@ -639,8 +652,8 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
       state["clog_steps"] = kept;
     }
   } else {
-    for (const char* f : {"frames.liggghts", "events.csv", "frames.dump", "final.dump", "contacts_pairs.liggghts",
-                          "contacts_walls.liggghts", "contacts.dump"})
+    for (const char* f : {"frames.liggghts", "events.csv", "frames.dump", "frames.dump.gz", "final.dump",
+                          "contacts_pairs.liggghts", "contacts_walls.liggghts", "contacts.dump", "contacts.dump.gz"})
       fs::remove(dir / f);
     for (const Counter& c : setup.counters)
       for (const fs::path& f : CounterFiles(dir, c)) fs::remove(f);
@@ -657,6 +670,10 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   // Discharge, in the bed's box.
   setup = MakeSetup(spec, BoxTop(dir / "bed.dump"));
   WriteMeshes(dir, setup);
+  // The geometry beside the frames, in the one form both engines write (LIGGGHTS' STL meshes
+  // stay too).
+  WriteAtomically(dir / "silo.vtk",
+                  engine::SiloVtk(engine::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : FramesBox(setup).y_hi)));
   WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, start));
   const auto t_discharge = Clock::now();
   std::string end_reason;
@@ -735,7 +752,8 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   }
   WriteAtomically(dir / "events.csv", csv);
   if (spec.output.frame_interval > 0 && fs::exists(dir / "frames.liggghts"))
-    ConvertFrames(dir / "frames.liggghts", dir / "frames.dump", spec, setup, bodies, box_height);
+    ConvertFrames(dir / "frames.liggghts", dir / (spec.output.compress ? "frames.dump.gz" : "frames.dump"), spec, setup,
+                  bodies, box_height);
   if (spec.output.contact_forces && spec.output.frame_interval > 0 && fs::exists(dir / "contacts_pairs.liggghts"))
     ConvertContacts(dir, spec, setup, spheres, bodies, box_height);
 
