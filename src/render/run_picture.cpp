@@ -13,8 +13,8 @@
 namespace granary::render {
 namespace fs = std::filesystem;
 namespace bp = boost::process;
-using analysis::ContactFrame;
-using analysis::Frame;
+using rundir::ContactFrame;
+using rundir::Frame;
 
 namespace {
 
@@ -25,7 +25,7 @@ double TopOf(const Frame& f) {
 }
 
 // The time of the frame to show, or NaN for the last frame.
-double PickTime(const analysis::RunData& run, const FramePick& pick) {
+double PickTime(const rundir::RunData& run, const FramePick& pick) {
   switch (pick.kind) {
     case FramePick::kFirst: return -std::numeric_limits<double>::infinity();
     case FramePick::kTime: return pick.time;
@@ -42,9 +42,9 @@ double PickTime(const analysis::RunData& run, const FramePick& pick) {
   return c.complete ? 0.5 * (c.start + c.end) : std::numeric_limits<double>::quiet_NaN();
 }
 
-std::string Caption(const Frame& f, const analysis::RunData& run) {
+std::string Caption(const Frame& f, const rundir::RunData& run) {
   char buf[160];
-  std::snprintf(buf, sizeof buf, "t = %.4g   %zu bodies", f.time, analysis::bodies_of(f.discs).size());
+  std::snprintf(buf, sizeof buf, "t = %.4g   %zu bodies", f.time, rundir::BodiesOf(f.discs).size());
   std::string s = buf;
   if (!run.summary.run_id.empty()) s += "   run " + run.summary.run_id.substr(0, 10);
   return s;
@@ -52,9 +52,9 @@ std::string Caption(const Frame& f, const analysis::RunData& run) {
 
 // The contact frame of `timestep`, or nothing.
 std::optional<ContactFrame> ContactsAt(const fs::path& file, std::int64_t timestep) {
-  analysis::ContactReader reader(file);
+  rundir::ContactReader reader(file);
   ContactFrame c;
-  while (reader.next(c))
+  while (reader.Next(c))
     if (c.timestep == timestep) return c;
   return std::nullopt;
 }
@@ -73,14 +73,14 @@ bool NeedsContacts(const PictureOptions& o) { return o.forces || o.colour == Col
 
 }  // namespace
 
-RunSetting SettingOf(const analysis::RunData& run) {
+RunSetting SettingOf(const rundir::RunData& run) {
   if (!run.has_frames)
     throw std::runtime_error("run " + run.dir.string() + " has no frames (its spec's output.frame_interval is 0)");
   if (!run.spec.is_object()) throw std::runtime_error("run " + run.dir.string() + " has no run.json");
   const RunSpec spec = RunSpec::from_json(run.spec);
-  analysis::FrameReader reader(run.frames_file(), spec.bodies.density);
+  rundir::FrameReader reader(run.frames_file(), spec.bodies.density);
   Frame first;
-  if (!reader.next(first)) throw std::runtime_error("run " + run.dir.string() + ": " + run.frames_file().string() + " has no frame");
+  if (!reader.Next(first)) throw std::runtime_error("run " + run.dir.string() + ": " + run.frames_file().string() + " has no frame");
   RunSetting s;
   const double top = TopOf(first);
   // Walls as high as the picture when the spec leaves their height automatic.
@@ -93,15 +93,15 @@ RunSetting SettingOf(const analysis::RunData& run) {
 }
 
 Scene RunScene(const fs::path& run_dir, const PictureOptions& o) {
-  const analysis::RunData run = analysis::read_run(run_dir);
+  const rundir::RunData run = rundir::ReadRun(run_dir);
   const RunSetting setting = SettingOf(run);
   if (NeedsContacts(o) && !setting.has_contacts)
     throw std::runtime_error("run " + run_dir.string() + " has no contact frames (its spec's output.contact_forces is false)");
   const double want = PickTime(run, o.pick);
-  analysis::FrameReader reader(run.frames_file(), run.spec.at("bodies").value("density", 1.0));
+  rundir::FrameReader reader(run.frames_file(), run.spec.at("bodies").value("density", 1.0));
   Frame f, best;
   bool any = false;
-  while (reader.next(f)) {
+  while (reader.Next(f)) {
     if (!any || std::isnan(want) || std::fabs(f.time - want) < std::fabs(best.time - want)) best = std::move(f);
     any = true;
     if (std::isinf(want)) break;  // the first
@@ -119,15 +119,15 @@ Scene RunScene(const fs::path& run_dir, const PictureOptions& o) {
 
 int WriteMovie(const fs::path& run_dir, const PictureOptions& o, const fs::path& out, int width_px, int fps,
                const std::function<void(int, int)>& progress) {
-  const analysis::RunData run = analysis::read_run(run_dir);
+  const rundir::RunData run = rundir::ReadRun(run_dir);
   const RunSetting setting = SettingOf(run);
   if (NeedsContacts(o) && !setting.has_contacts)
     throw std::runtime_error("run " + run_dir.string() + " has no contact frames (its spec's output.contact_forces is false)");
   const double density = run.spec.at("bodies").value("density", 1.0);
   int total = 0;
   {
-    analysis::FrameReader counter(run.frames_file(), density);
-    for (Frame f; counter.next(f);) ++total;
+    rundir::FrameReader counter(run.frames_file(), density);
+    for (Frame f; counter.Next(f);) ++total;
   }
   const std::string ffmpeg = bp::search_path("ffmpeg").string();
   if (ffmpeg.empty()) throw std::runtime_error("ffmpeg not found: install Debian's package ffmpeg (scripts/setup.sh does)");
@@ -144,17 +144,17 @@ int WriteMovie(const fs::path& run_dir, const PictureOptions& o, const fs::path&
   };
   // An ffmpeg that has died makes the next write fail instead of killing this process.
   const auto old_sigpipe = std::signal(SIGPIPE, SIG_IGN);
-  analysis::FrameReader reader(run.frames_file(), density);
-  std::optional<analysis::ContactReader> contact_reader;
+  rundir::FrameReader reader(run.frames_file(), density);
+  std::optional<rundir::ContactReader> contact_reader;
   if (NeedsContacts(o)) contact_reader.emplace(run.contacts_file());
   SceneOptions so = OptionsFor(setting, o);
   std::optional<PixelSize> size;  // the first frame's, for all (the legend's rows do not change)
   int done = 0;
   ContactFrame c;
-  for (Frame f; reader.next(f);) {
+  for (Frame f; reader.Next(f);) {
     std::optional<ContactFrame> contacts;
     if (contact_reader) {
-      while (contact_reader->next(c))
+      while (contact_reader->Next(c))
         if (c.timestep >= f.timestep) break;
       if (c.timestep == f.timestep) contacts = c;
     }

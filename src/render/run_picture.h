@@ -33,7 +33,7 @@ struct RunSetting {
   bool has_contacts = false;
 };
 // Throws std::runtime_error when the run has no frames (output.frame_interval = 0) or no spec.
-RunSetting SettingOf(const analysis::RunData& run);
+RunSetting SettingOf(const rundir::RunData& run);
 
 // The scene of the picked frame; throws std::runtime_error saying what is missing (no frames,
 // no contact frames for --forces / force colours, fewer clogs than asked for).

@@ -67,13 +67,13 @@ Window SiloWindow(const engine::SiloOutline& silo, double exit_distance, double 
   return w;
 }
 
-Scene MakeScene(const analysis::Frame& frame, const engine::SiloOutline& silo, const SceneOptions& o) {
+Scene MakeScene(const rundir::Frame& frame, const engine::SiloOutline& silo, const SceneOptions& o) {
   Scene scene;
   scene.window = o.window;
   scene.silo = silo;
   scene.caption = o.caption;
-  const std::vector<analysis::Body> bodies = analysis::bodies_of(frame.discs);
-  std::map<std::int64_t, const analysis::Body*> body_of;
+  const std::vector<rundir::Body> bodies = rundir::BodiesOf(frame.discs);
+  std::map<std::int64_t, const rundir::Body*> body_of;
   for (const auto& b : bodies) body_of[b.id] = &b;
 
   // Per-body value for the continuous colourings.

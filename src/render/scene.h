@@ -11,7 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "analysis/run_reader.h"
+#include "rundir/contacts.h"
+#include "rundir/frames.h"
+#include "rundir/run_directory.h"
 #include "engine/silo_outline.h"
 
 namespace granary::render {
@@ -55,7 +57,7 @@ Colour ColourFromName(const std::string& name);
 struct SceneOptions {
   Window window;
   Colour colour = Colour::kSpecies;
-  const analysis::ContactFrame* contacts = nullptr;  // needed by Colour::kForce and forces
+  const rundir::ContactFrame* contacts = nullptr;  // needed by Colour::kForce and forces
   bool forces = false;                               // draw the contact-force network
   std::set<std::int64_t> highlight;                  // body ids drawn outlined
   std::vector<std::string> species;                  // names by type - 1, for the legend
@@ -66,7 +68,7 @@ struct SceneOptions {
 // below the exit line up to just above `top` (the bed's top, so every frame of a run fits).
 Window SiloWindow(const engine::SiloOutline& silo, double exit_distance, double top);
 
-Scene MakeScene(const analysis::Frame& frame, const engine::SiloOutline& silo, const SceneOptions& options);
+Scene MakeScene(const rundir::Frame& frame, const engine::SiloOutline& silo, const SceneOptions& options);
 
 // Pixel size of a picture `width_px` wide: the window to scale under a strip for the caption
 // and the legend (both even, as video encoders need).

@@ -1,6 +1,6 @@
 // See cli.h. Flags and exit codes are documented in docs/cli.md.
 #include "runner/cli.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
 #include <signal.h>
 #include <unistd.h>
@@ -778,7 +778,7 @@ int Snapshot(const std::vector<std::string>& argv, std::ostream& out, std::ostre
     }
     out << "snapshot: " << file.string() << " (" << scene.caption << ")\n";
     return 0;
-  } catch (const analysis::ReadError& e) {
+  } catch (const rundir::ReadError& e) {
     throw std::runtime_error(e.what());
   }
 #else

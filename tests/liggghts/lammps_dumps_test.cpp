@@ -21,14 +21,16 @@
 #include <string>
 #include <vector>
 
-#include "analysis/run_reader.h"
+#include "rundir/contacts.h"
+#include "rundir/run_directory.h"
+#include "rundir/frames.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 namespace bp = boost::process;
 using nlohmann::json;
-using namespace granary::analysis;
+using namespace granary::rundir;
 
 const fs::path kTmp = GRANARY_LIGGGHTS_TEST_TMP;
 
@@ -157,7 +159,7 @@ void RunEngine(const std::string& exe, const fs::path& dir) {
 // The comparison; `contact_tolerance` is how closely a contact row's disc centres match the
 // frame (LIGGGHTS prints its local dumps with fewer digits than its atom dumps).
 void LammpsReadsTheRun(const fs::path& dir, double contact_tolerance) {
-  const RunData run = read_run(dir);
+  const RunData run = ReadRun(dir);
   ASSERT_TRUE(run.has_frames);
   ASSERT_TRUE(run.has_contacts);
   RerunInLammps(dir, run.frames_file().filename().string(), 2);
@@ -165,12 +167,12 @@ void LammpsReadsTheRun(const fs::path& dir, double contact_tolerance) {
   std::vector<Frame> frames;
   {
     FrameReader reader(run.frames_file());
-    for (Frame f; reader.next(f);) frames.push_back(f);
+    for (Frame f; reader.Next(f);) frames.push_back(f);
   }
   std::vector<ContactFrame> contacts;
   {
     ContactReader reader(run.contacts_file());
-    for (ContactFrame c; reader.next(c);) contacts.push_back(c);
+    for (ContactFrame c; reader.Next(c);) contacts.push_back(c);
   }
   const std::vector<Block> atoms = ReadBlocks(dir / "lammps" / "frames.dump");
   const std::vector<Block> pairs = ReadBlocks(dir / "lammps" / "contacts.dump");

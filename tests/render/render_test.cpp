@@ -20,8 +20,8 @@ namespace {
 namespace fs = std::filesystem;
 namespace bp = boost::process;
 
-analysis::Frame TestFrame() {
-  analysis::Frame f;
+rundir::Frame TestFrame() {
+  rundir::Frame f;
   // A dumbbell (body 0, species 1) lying on the base and a disc (body 1, species 2, r = 0.7).
   f.discs = {{1, 0, 1, -1.0, 0.5, 0.5, 0.785, 0, 0, 0}, {2, 0, 1, 0.0, 0.5, 0.5, 0.785, 0, 0, 0},
              {3, 1, 2, 2.0, 3.0, 0.7, 1.54, 0, -2, 0}};
@@ -79,7 +79,7 @@ TEST(Render, ForceColoursAndNetworkNeedContacts) {
   o.window = {-6, 6, -3, 7};
   o.forces = true;
   EXPECT_THROW(MakeScene(TestFrame(), TestSilo(), o), std::invalid_argument);
-  analysis::ContactFrame c;
+  rundir::ContactFrame c;
   c.contacts = {{0, 1, 0.0, 0.5, 2.0, 3.0, 0.3, 0.9, 1.0, 0.0}, {0, -1, -1.0, 0.5, -1.0, 0.0, -1.0, 0.0, 0.0, 4.0}};
   o.contacts = &c;
   o.colour = Colour::kForce;
@@ -187,8 +187,8 @@ TEST(RenderVerbs, SnapshotAndMovieOfARun) {
   // A movie of every frame: t = 0, 0.25, ..., 3 unless the run ended earlier.
   int frames = 0;
   {
-    analysis::FrameReader r(run / "frames.dump");
-    for (analysis::Frame f; r.next(f);) ++frames;
+    rundir::FrameReader r(run / "frames.dump");
+    for (rundir::Frame f; r.Next(f);) ++frames;
   }
   ASSERT_GE(frames, 5);
   o = Campaign({"movie", run.string(), "--out", (tmp / "run.mp4").string(), "--fps", "10", "--width", "320"});

@@ -1,10 +1,11 @@
-#include "engine/gzip.h"
+#include "rundir/gzip.h"
 
 #include <zlib.h>
 
+#include <cstdlib>
 #include <stdexcept>
 
-namespace granary::engine {
+namespace granary::rundir {
 
 std::string GzipMember(std::string_view text, int level) {
   z_stream z{};
@@ -23,4 +24,20 @@ std::string GzipMember(std::string_view text, int level) {
   return out;
 }
 
-}  // namespace granary::engine
+void WriteBlock(std::FILE* out, bool gzip, const std::function<void(std::FILE*)>& write) {
+  if (!gzip) {
+    write(out);
+    return;
+  }
+  char* buf = nullptr;
+  std::size_t len = 0;
+  std::FILE* mem = open_memstream(&buf, &len);
+  if (!mem) throw std::runtime_error("open_memstream failed");
+  write(mem);
+  std::fclose(mem);
+  const std::string gz = GzipMember(std::string_view(buf, len));
+  std::free(buf);
+  if (std::fwrite(gz.data(), 1, gz.size(), out) != gz.size()) throw std::runtime_error("cannot write a compressed block");
+}
+
+}  // namespace granary::rundir

@@ -4,11 +4,17 @@
 // truncates frames.dump.gz at a byte offset as it does frames.dump.
 #pragma once
 
+#include <cstdio>
+#include <functional>
 #include <string>
 #include <string_view>
 
-namespace granary::engine {
+namespace granary::rundir {
 
 std::string GzipMember(std::string_view text, int level = 6);
 
-}  // namespace granary::engine
+// Runs `write` on `out`, or, when `gzip`, on a memory stream whose text then goes to `out` as
+// one gzip member: the writers format a block once, compressed or not.
+void WriteBlock(std::FILE* out, bool gzip, const std::function<void(std::FILE*)>& write);
+
+}  // namespace granary::rundir
