@@ -86,7 +86,10 @@ RunSetting SettingOf(const rundir::RunData& run) {
   // Walls as high as the picture when the spec leaves their height automatic.
   const double wall_top = spec.silo.height > 0 ? spec.silo.height : top + 1;
   s.silo = engine::OutlineOf(spec.silo, wall_top);
-  s.window = SiloWindow(s.silo, spec.discharge.exit_distance, std::max(top, spec.silo.height));
+  // Reinjected bodies come back above the bed, and a flowing bed dilates: room up to the top
+  // of the frames' box (which holds every disc of the run) in reinject mode.
+  const double room = spec.discharge.mode == DischargeMode::kReinject ? std::max(top, first.box[1][1] - 1) : top;
+  s.window = SiloWindow(s.silo, spec.discharge.exit_distance, std::max(room, spec.silo.height));
   for (const auto& sp : spec.bodies.species) s.species.push_back(sp.name);
   s.has_contacts = run.has_contacts;
   return s;
