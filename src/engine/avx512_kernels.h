@@ -7,6 +7,8 @@
 // Here a record is one 64-byte load or store, and eight of them are transposed in registers.
 #pragma once
 
+#include <cstdint>
+
 #include "engine/contact_law.h"
 #include "engine/world.h"
 
@@ -26,13 +28,26 @@ int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const do
 // every entry, though ~5 % of contacts slip: here only for the groups of eight where a
 // touching lane slips.)
 
-// Positions and kinematics of the discs of dumbbells (two discs per body, disc k of body b
-// being 2 b + k) for bodies [b0, b0 + 8 k), the largest such k with b0 + 8 k <= b1, as
-// world.cpp's DiscKernelUniform<2>; returns b0 + 8 k, and sets *moved if a disc has moved
-// more than sqrt(limit) since the last rebuild. Call only when Avx512Available().
-int PlaceDumbbellDiscsAvx512(int b0, int b1, double limit, const double* bx, const double* by, const double* bvx,
-                             const double* bvy, const double* bw, const double* bc, const double* bs,
-                             const double* dox, const double* doy, const double* dr, const double* refx,
-                             const double* refy, double* dx, double* dy, World::DiscKin* kin, bool* moved);
+// The arrays a drift reads and writes (World's body and disc state).
+struct DriftArrays {
+  const std::uint8_t* active;
+  double *bx, *by, *bth, *bvx, *bvy, *bw, *bc, *bs;
+  const double *bfx, *bfy, *btq, *binv_mass, *binv_inertia;
+  const double *dox, *doy, *dr, *refx, *refy;
+  double *dx, *dy;
+  World::DiscKin* kin;
+};
+
+// The drift of bodies of kDiscs discs each (1: discs, 2: dumbbells; disc k of body b being
+// kDiscs b + k), eight at a time, as world.cpp's DriftKernel followed by
+// DiscKernelUniform<kDiscs>: half kick, drift and rotation of the bodies, then their discs'
+// positions and records. Stops before the first group of eight with a rotation of 0.01 rad
+// or more (the caller's portable loop, with libm, takes that group) or with fewer than
+// eight bodies left; returns where it stopped. Sets *beyond if an active body's centre left
+// the box {xmin, xmax, ymin}, *moved if a disc moved more than sqrt(limit) since the last
+// rebuild. Call only when Avx512Available().
+template <int kDiscs>
+int DriftUniformAvx512(int b0, int b1, const DriftArrays& arrays, double dt, const double box[3], double limit,
+                       bool* beyond, bool* moved);
 
 }  // namespace granary::engine

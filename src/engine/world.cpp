@@ -540,14 +540,25 @@ template <int kDiscs, bool kKick>
     double bfx = 0, bfy = 0, btq = 0, moved2 = 0;
     const double cx = bx[b], cy = by[b];
     const std::size_t i0 = static_cast<std::size_t>(kDiscs) * static_cast<std::size_t>(b);
-#pragma GCC unroll 8
-    for (int k = 0; k < kDiscs; ++k) {
-      const std::size_t i = i0 + static_cast<std::size_t>(k);
-      bfx += dfx[i];
-      bfy += dfy[i];
-      btq += (dx[i] - cx) * dfy[i] - (dy[i] - cy) * dfx[i] + dtz[i];
-      const double mx = dx[i] - refx[i], my = dy[i] - refy[i];
+    if constexpr (kDiscs == 1) {
+      // A disc body's disc sits at its centre (offset +0.0, so dx == bx exactly): the lever
+      // arms are +0.0 and the general sum below reduces to these, bit for bit (0.0 + -0.0
+      // is +0.0 either way), without reading the disc positions.
+      bfx += dfx[i0];
+      bfy += dfy[i0];
+      btq += dtz[i0];
+      const double mx = cx - refx[i0], my = cy - refy[i0];
       moved2 = std::max(moved2, mx * mx + my * my);
+    } else {
+#pragma GCC unroll 8
+      for (int k = 0; k < kDiscs; ++k) {
+        const std::size_t i = i0 + static_cast<std::size_t>(k);
+        bfx += dfx[i];
+        bfy += dfy[i];
+        btq += (dx[i] - cx) * dfy[i] - (dy[i] - cy) * dfx[i] + dtz[i];
+        const double mx = dx[i] - refx[i], my = dy[i] - refy[i];
+        moved2 = std::max(moved2, mx * mx + my * my);
+      }
     }
     bfy = bfy - bmass[b] * (on ? g : 0.0);
     bfx_out[b] = bfx;
@@ -600,18 +611,16 @@ GRANARY_KERNEL bool World::BodyForces(int b0, int b1, bool kick) {
   }
   // 2. Body sums, gravity (and the half kick).
   const double dt = params_.dt, limit = 0.5 * params_.skin;
-  if (uniform_discs_ == 2) {  // dumbbells: the common case gets the vectorized loop (no lambda:
-    // one called twice in a target_clones function is compiled for baseline x86-64 only)
-    if (kick)
-      return BodySums<2, true>(b0, b1, g, half, dt, limit, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(),
-                               refx_.data(), refy_.data(), bx_.data(), by_.data(), bmass_.data(), binv_mass_.data(),
-                               binv_inertia_.data(), bradius_.data(), bfx_.data(), bfy_.data(), btq_.data(),
-                               bvx_.data(), bvy_.data(), bw_.data());
-    return BodySums<2, false>(b0, b1, g, half, dt, limit, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(),
-                              refx_.data(), refy_.data(), bx_.data(), by_.data(), bmass_.data(), binv_mass_.data(),
-                              binv_inertia_.data(), bradius_.data(), bfx_.data(), bfy_.data(), btq_.data(),
-                              bvx_.data(), bvy_.data(), bw_.data());
-  }
+  // Discs and dumbbells get the vectorized loop (no lambda: one called twice in a
+  // target_clones function is compiled for baseline x86-64 only).
+#define GRANARY_BODY_SUMS(kDiscs, kKick)                                                                             \
+  BodySums<kDiscs, kKick>(b0, b1, g, half, dt, limit, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(),          \
+                          refx_.data(), refy_.data(), bx_.data(), by_.data(), bmass_.data(), binv_mass_.data(),      \
+                          binv_inertia_.data(), bradius_.data(), bfx_.data(), bfy_.data(), btq_.data(), bvx_.data(), \
+                          bvy_.data(), bw_.data())
+  if (uniform_discs_ == 1) return kick ? GRANARY_BODY_SUMS(1, true) : GRANARY_BODY_SUMS(1, false);
+  if (uniform_discs_ == 2) return kick ? GRANARY_BODY_SUMS(2, true) : GRANARY_BODY_SUMS(2, false);
+#undef GRANARY_BODY_SUMS
   bool outrun = false;
   for (int b = b0; b < b1; ++b) {
     if (!active_[b]) continue;
@@ -845,7 +854,7 @@ template <int kDiscs>
 
 }  // namespace
 
-GRANARY_KERNEL int World::DriftBodies(int b0, int b1) {
+GRANARY_KERNEL int World::DriftPortable(int b0, int b1) {
   if (b0 >= b1) return 0;
   const double dt = params_.dt;
   const int flags = DriftKernel(b0, b1, dt, exit_box_, active_.data(), bx_.data(), by_.data(), bth_.data(), bvx_.data(),
@@ -867,24 +876,48 @@ GRANARY_KERNEL int World::DriftBodies(int b0, int b1) {
   // off or on only with a rebuild requested, and then it does not move.
   const double limit = 0.25 * params_.skin * params_.skin;
   const int beyond = flags & kBeyond ? kDriftBeyond : 0;
-  if (uniform_discs_ == 2) {  // dumbbells: eight bodies at a time by the AVX-512 loop, the rest portably
-    bool moved = false;
-    const int b = use_avx512_ ? PlaceDumbbellDiscsAvx512(b0, b1, limit, bx_.data(), by_.data(), bvx_.data(), bvy_.data(),
-                                                         bw_.data(), bc_.data(), bs_.data(), dox_.data(), doy_.data(),
-                                                         dr_.data(), refx_.data(), refy_.data(), dx_.data(),
-                                                         dy_.data(), kin_.data(), &moved)
-                              : b0;
-    moved |= DiscKernelUniform<2>(b, b1, limit, bx_.data(), by_.data(), bvx_.data(), bvy_.data(), bw_.data(),
-                                  bc_.data(), bs_.data(), dox_.data(), doy_.data(), dr_.data(), refx_.data(),
-                                  refy_.data(), dx_.data(), dy_.data(), kin_.data());
-    return beyond | (moved ? kDriftMoved : 0);
-  }
+  // (no lambda: one called twice in a target_clones function is compiled for baseline x86-64 only)
+  if (uniform_discs_ == 1)
+    return beyond | (DiscKernelUniform<1>(b0, b1, limit, bx_.data(), by_.data(), bvx_.data(), bvy_.data(), bw_.data(),
+                                          bc_.data(), bs_.data(), dox_.data(), doy_.data(), dr_.data(), refx_.data(),
+                                          refy_.data(), dx_.data(), dy_.data(), kin_.data())
+                         ? kDriftMoved
+                         : 0);
+  if (uniform_discs_ == 2)
+    return beyond | (DiscKernelUniform<2>(b0, b1, limit, bx_.data(), by_.data(), bvx_.data(), bvy_.data(), bw_.data(),
+                                          bc_.data(), bs_.data(), dox_.data(), doy_.data(), dr_.data(), refx_.data(),
+                                          refy_.data(), dx_.data(), dy_.data(), kin_.data())
+                         ? kDriftMoved
+                         : 0);
   const int d0 = disc_begin_[b0], d1 = disc_begin_[b1 - 1] + disc_n_[b1 - 1];
   return beyond | (DiscKernel(d0, d1, limit, dbody_.data(), bx_.data(),
                     by_.data(), bvx_.data(), bvy_.data(), bw_.data(), bc_.data(), bs_.data(), dox_.data(),
                     doy_.data(), dr_.data(), refx_.data(), refy_.data(), dx_.data(), dy_.data(), kin_.data())
                        ? kDriftMoved
                        : 0);
+}
+
+int World::DriftBodies(int b0, int b1) {
+  if (b0 >= b1) return 0;
+  if (!use_avx512_ || (uniform_discs_ != 1 && uniform_discs_ != 2)) return DriftPortable(b0, b1);
+  // Discs or dumbbells on an AVX-512 CPU: eight bodies at a time in one pass; a group with a
+  // rotation that needs libm, and the last few bodies, by the portable loops.
+  const DriftArrays arrays{active_.data(), bx_.data(),   by_.data(),    bth_.data(),          bvx_.data(),
+                           bvy_.data(),    bw_.data(),   bc_.data(),    bs_.data(),           bfx_.data(),
+                           bfy_.data(),    btq_.data(),  binv_mass_.data(), binv_inertia_.data(), dox_.data(),
+                           doy_.data(),    dr_.data(),   refx_.data(),  refy_.data(),         dx_.data(),
+                           dy_.data(),     kin_.data()};
+  const double limit = 0.25 * params_.skin * params_.skin;
+  bool beyond = false, moved = false;
+  int flags = 0;
+  for (int b = b0; b < b1;) {
+    b = uniform_discs_ == 1 ? DriftUniformAvx512<1>(b, b1, arrays, params_.dt, exit_box_, limit, &beyond, &moved)
+                            : DriftUniformAvx512<2>(b, b1, arrays, params_.dt, exit_box_, limit, &beyond, &moved);
+    const int e = std::min(b1, b + 8);
+    if (b < e) flags |= DriftPortable(b, e);
+    b = e;
+  }
+  return flags | (beyond ? kDriftBeyond : 0) | (moved ? kDriftMoved : 0);
 }
 
 void World::Step() {

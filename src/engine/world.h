@@ -152,6 +152,7 @@ class World {
   // Half kick and drift; flags: kDriftMoved (a disc moved > skin/2 since the rebuild),
   // kDriftBeyond (an active body's centre is outside the exit box).
   int DriftBodies(int b0, int b1);
+  int DriftPortable(int b0, int b1);  // DriftBodies without the AVX-512 loops
   static constexpr int kDriftMoved = 1, kDriftBeyond = 2;
   static constexpr int kBodyChunk = 512;         // bodies per parallel work item
   void Rebuild();
