@@ -5,6 +5,7 @@
 #include "engine/avx512_kernels.h"
 
 #include <cstddef>
+#include <algorithm>
 #include <cstdint>
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -334,6 +335,132 @@ __attribute__((target("avx512f"))) int DriftUniformImpl(int b0, int b1, const Dr
   return b;
 }
 
+// PlaceDiscsAvx512: eight discs at a time; their bodies are at most eight consecutive ones
+// (every body has a disc), whose state is loaded and spread to the discs by permutes.
+GRANARY_AVX512 __m512d BodyLanes(const double* a, int first, __mmask8 valid, __m512i pick) {
+  return _mm512_permutexvar_pd(pick, _mm512_maskz_loadu_pd(valid, a + first));
+}
+
+__attribute__((target("avx512f"))) int PlaceDiscsImpl(int d0, int d1, double limit_scalar,
+                                                      const int* __restrict dbody, int body_end,
+                                                      const DriftArrays& arr, bool* moved) {
+  const __m512d limit = _mm512_set1_pd(limit_scalar);
+  __mmask8 far = 0;
+  int d = d0;
+  for (; d + 8 <= d1; d += 8) {
+    const int first = dbody[d];
+    // (bodies from body_end on are masked off: another thread may be writing them)
+    const int past = first + 8 - body_end;
+    const __mmask8 valid = past <= 0 ? __mmask8{0xff} : static_cast<__mmask8>(0xffu >> std::min(8, past));
+    const __m512i pick = _mm512_sub_epi64(
+        _mm512_cvtepi32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(dbody + d))), _mm512_set1_epi64(first));
+    const __m512d x = BodyLanes(arr.bx, first, valid, pick), y = BodyLanes(arr.by, first, valid, pick);
+    const __m512d vx = BodyLanes(arr.bvx, first, valid, pick), vy = BodyLanes(arr.bvy, first, valid, pick);
+    const __m512d w = BodyLanes(arr.bw, first, valid, pick);
+    const __m512d c = BodyLanes(arr.bc, first, valid, pick), s = BodyLanes(arr.bs, first, valid, pick);
+    // PlaceDisc
+    const __m512d ox = _mm512_loadu_pd(arr.dox + d), oy = _mm512_loadu_pd(arr.doy + d);
+    const __m512d wx = Sub(Mul(c, ox), Mul(s, oy));
+    const __m512d wy = Add(Mul(s, ox), Mul(c, oy));
+    const __m512d px = Add(x, wx), py = Add(y, wy);
+    _mm512_storeu_pd(arr.dx + d, px);
+    _mm512_storeu_pd(arr.dy + d, py);
+    Lanes l;
+    l.x = px;
+    l.y = py;
+    l.vx = Sub(vx, Mul(w, wy));
+    l.vy = Add(vy, Mul(w, wx));
+    l.r = _mm512_loadu_pd(arr.dr + d);
+    l.w = w;
+    StoreLanes(arr.kin + d, 1, l);
+    const __m512d ddx = Sub(px, _mm512_loadu_pd(arr.refx + d)), ddy = Sub(py, _mm512_loadu_pd(arr.refy + d));
+    far |= _mm512_cmp_pd_mask(Add(Mul(ddx, ddx), Mul(ddy, ddy)), limit, _CMP_GT_OQ);
+  }
+  if (far != 0) *moved = true;
+  return d;
+}
+
+// BodySumsUpTo2Avx512: the discs of eight consecutive bodies lie in [base, base + 16)
+// (base: the first one's first disc); a field of them is two loads, and a body's first and
+// second disc are picked from those by permutes (a body of one disc takes its first twice,
+// and the select drops the second).
+GRANARY_AVX512 void LoadPair(const double* a, std::ptrdiff_t base, __mmask8 hi_valid, __m512i first, __m512i second,
+                             __m512d* v0, __m512d* v1) {
+  const __m512d lo = _mm512_loadu_pd(a + base), hi = _mm512_maskz_loadu_pd(hi_valid, a + base + 8);
+  *v0 = _mm512_permutex2var_pd(lo, first, hi);
+  *v1 = _mm512_permutex2var_pd(lo, second, hi);
+}
+
+template <bool kKick>
+__attribute__((target("avx512f"))) int BodySumsUpTo2Impl(int b0, int b1, const BodySumArrays& arr, int disc_end,
+                                                         double g, double half_scalar, double dt_scalar,
+                                                         double limit_scalar, bool* outrun) {
+  const __m512d zero = _mm512_setzero_pd(), gv = _mm512_set1_pd(g), half = _mm512_set1_pd(half_scalar);
+  const __m512d dt = _mm512_set1_pd(dt_scalar), limit = _mm512_set1_pd(limit_scalar), eps = _mm512_set1_pd(1e-9);
+  __mmask8 out = 0;
+  int b = b0;
+  for (; b + 8 <= b1; b += 8) {
+    const int base = arr.disc_begin[b];
+    // Discs from disc_end on (another thread's, or beyond the arrays) are masked off.
+    const int beyond = base + 16 - disc_end;
+    const __mmask8 hi_valid = beyond <= 0 ? __mmask8{0xff} : static_cast<__mmask8>(0xffu >> std::min(8, beyond));
+    const __m512i begin = _mm512_cvtepi32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(arr.disc_begin + b)));
+    const __m512i count = _mm512_cvtepi32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(arr.disc_n + b)));
+    const __mmask8 two = _mm512_cmpgt_epi64_mask(count, _mm512_set1_epi64(1));
+    const __m512i first = _mm512_sub_epi64(begin, _mm512_set1_epi64(base));
+    const __m512i second = _mm512_mask_add_epi64(first, two, first, _mm512_set1_epi64(1));
+    __m512d fx0, fx1, fy0, fy1, tz0, tz1, x0, x1, y0, y1, rx0, rx1, ry0, ry1;
+    LoadPair(arr.dfx, base, hi_valid, first, second, &fx0, &fx1);
+    LoadPair(arr.dfy, base, hi_valid, first, second, &fy0, &fy1);
+    LoadPair(arr.dtz, base, hi_valid, first, second, &tz0, &tz1);
+    LoadPair(arr.dx, base, hi_valid, first, second, &x0, &x1);
+    LoadPair(arr.dy, base, hi_valid, first, second, &y0, &y1);
+    LoadPair(arr.refx, base, hi_valid, first, second, &rx0, &rx1);
+    LoadPair(arr.refy, base, hi_valid, first, second, &ry0, &ry1);
+    const __mmask8 on = _mm512_test_epi64_mask(
+        _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(arr.active + b))), _mm512_set1_epi64(0xff));
+    const __m512d cx = _mm512_loadu_pd(arr.bx + b), cy = _mm512_loadu_pd(arr.by + b);
+    // BodySumsUpTo2
+    __m512d bfx = Add(zero, fx0), bfy = Add(zero, fy0);
+    __m512d btq = Add(zero, Add(Sub(Mul(Sub(x0, cx), fy0), Mul(Sub(y0, cy), fx0)), tz0));
+    const __m512d mx = Sub(x0, rx0), my = Sub(y0, ry0);
+    __m512d moved2 = _mm512_max_pd(Add(Mul(mx, mx), Mul(my, my)), zero);
+    const __m512d tj = Add(Sub(Mul(Sub(x1, cx), fy1), Mul(Sub(y1, cy), fx1)), tz1);
+    const __m512d mxj = Sub(x1, rx1), myj = Sub(y1, ry1);
+    bfx = Select(two, Add(bfx, fx1), bfx);
+    bfy = Select(two, Add(bfy, fy1), bfy);
+    btq = Select(two, Add(btq, tj), btq);
+    moved2 = Select(two, _mm512_max_pd(Add(Mul(mxj, mxj), Mul(myj, myj)), moved2), moved2);
+    bfy = Sub(bfy, Mul(_mm512_loadu_pd(arr.bmass + b), Select(on, gv, zero)));
+    _mm512_storeu_pd(arr.bfx + b, bfx);
+    _mm512_storeu_pd(arr.bfy + b, bfy);
+    _mm512_storeu_pd(arr.btq + b, btq);
+    const __m512d inv_mass = _mm512_loadu_pd(arr.binv_mass + b), inv_inertia = _mm512_loadu_pd(arr.binv_inertia + b);
+    __m512d vx = _mm512_loadu_pd(arr.bvx + b), vy = _mm512_loadu_pd(arr.bvy + b), w = _mm512_loadu_pd(arr.bw + b);
+    if constexpr (kKick) {
+      vx = Select(on, Add(vx, Mul(Mul(half, bfx), inv_mass)), vx);
+      vy = Select(on, Add(vy, Mul(Mul(half, bfy), inv_mass)), vy);
+      w = Select(on, Add(w, Mul(Mul(half, btq), inv_inertia)), w);
+      _mm512_storeu_pd(arr.bvx + b, vx);
+      _mm512_storeu_pd(arr.bvy + b, vy);
+      _mm512_storeu_pd(arr.bw + b, w);
+    }
+    // OutrunsSkin
+    const __m512d nvx = Add(vx, Mul(Mul(half, bfx), inv_mass));
+    const __m512d nvy = Add(vy, Mul(Mul(half, bfy), inv_mass));
+    const __m512d nw = Add(w, Mul(Mul(half, btq), inv_inertia));
+    const __m512d reach =
+        Sub(limit, Add(Add(Mul(dt, _mm512_sqrt_pd(Add(Mul(nvx, nvx), Mul(nvy, nvy)))),
+                           Mul(_mm512_abs_pd(Mul(dt, nw)), _mm512_loadu_pd(arr.bradius + b))),
+                       eps));
+    const int runs = _mm512_cmp_pd_mask(reach, zero, _CMP_LE_OQ) |
+                     _mm512_cmp_pd_mask(moved2, Mul(reach, reach), _CMP_GT_OQ);
+    out = static_cast<__mmask8>(out | (on & runs));
+  }
+  if (out != 0) *outrun = true;
+  return b;
+}
+
 #undef GRANARY_AVX512
 
 }  // namespace
@@ -352,6 +479,17 @@ int DriftUniformAvx512(int b0, int b1, const DriftArrays& arrays, double dt, con
   return DriftUniformImpl<kDiscs>(b0, b1, arrays, dt, box, limit, beyond, moved);
 }
 
+int PlaceDiscsAvx512(int d0, int d1, double limit, const int* dbody, int body_end, const DriftArrays& arrays,
+                     bool* moved) {
+  return PlaceDiscsImpl(d0, d1, limit, dbody, body_end, arrays, moved);
+}
+
+template <bool kKick>
+int BodySumsUpTo2Avx512(int b0, int b1, const BodySumArrays& arrays, int disc_end, double g, double half,
+                        double dt, double limit, bool* outrun) {
+  return BodySumsUpTo2Impl<kKick>(b0, b1, arrays, disc_end, g, half, dt, limit, outrun);
+}
+
 #else  // not x86-64 with GCC or Clang
 
 bool Avx512Available() { return false; }
@@ -367,10 +505,19 @@ int DriftUniformAvx512(int b0, int, const DriftArrays&, double, const double[3],
   return b0;
 }
 
+int PlaceDiscsAvx512(int d0, int, double, const int*, int, const DriftArrays&, bool*) { return d0; }
+
+template <bool kKick>
+int BodySumsUpTo2Avx512(int b0, int, const BodySumArrays&, int, double, double, double, double, bool*) {
+  return b0;
+}
+
 #endif
 
 template int PairEntriesAvx512<false>(int, int, const int*, const int*, const double*, const double*, double*, double*,
                                       double*, double*, double*, const World::DiscKin*, const ContactParams&, double);
+template int BodySumsUpTo2Avx512<false>(int, int, const BodySumArrays&, int, double, double, double, double, bool*);
+template int BodySumsUpTo2Avx512<true>(int, int, const BodySumArrays&, int, double, double, double, double, bool*);
 template int DriftUniformAvx512<1>(int, int, const DriftArrays&, double, const double[3], double, bool*, bool*);
 template int DriftUniformAvx512<2>(int, int, const DriftArrays&, double, const double[3], double, bool*, bool*);
 template int PairEntriesAvx512<true>(int, int, const int*, const int*, const double*, const double*, double*, double*,

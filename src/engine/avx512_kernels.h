@@ -50,4 +50,31 @@ template <int kDiscs>
 int DriftUniformAvx512(int b0, int b1, const DriftArrays& arrays, double dt, const double box[3], double limit,
                        bool* beyond, bool* moved);
 
+// The disc part of a drift for discs [d0, d0 + 8 k), the largest such k with d0 + 8 k <= d1,
+// of bodies of any shape (disc d of body dbody[d], discs numbered body by body, every body
+// with at least one, all of them before body_end), as world.cpp's DiscKernel: positions and
+// records from the bodies' state after their drift. Returns d0 + 8 k; sets *moved as
+// DriftUniformAvx512. Reads no body from body_end on, and only the disc and body-state
+// arrays of `arrays`. Call only when Avx512Available().
+int PlaceDiscsAvx512(int d0, int d1, double limit, const int* dbody, int body_end, const DriftArrays& arrays,
+                     bool* moved);
+
+// The arrays the body sums read and write (World's disc and body state).
+struct BodySumArrays {
+  const std::uint8_t* active;
+  const int *disc_begin, *disc_n;
+  const double *dfx, *dfy, *dtz, *dx, *dy, *refx, *refy;
+  const double *bx, *by, *bmass, *binv_mass, *binv_inertia, *bradius;
+  double *bfx, *bfy, *btq, *bvx, *bvy, *bw;
+};
+
+// The body sums (and with kKick the second half kick) of bodies of one or two discs, for
+// bodies [b0, b0 + 8 k), the largest such k with b0 + 8 k <= b1, as world.cpp's
+// BodySumsUpTo2; reads no disc from disc_end on (the first disc after body b1 - 1). Returns
+// b0 + 8 k; sets *outrun if an active body's next drift may take a disc beyond half the
+// skin (OutrunsSkin). Call only when Avx512Available().
+template <bool kKick>
+int BodySumsUpTo2Avx512(int b0, int b1, const BodySumArrays& arrays, int disc_end, double g, double half,
+                        double dt, double limit, bool* outrun);
+
 }  // namespace granary::engine
