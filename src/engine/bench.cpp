@@ -16,9 +16,11 @@
 
 #include <omp.h>
 
-#include "engine/files.h"
 #include "engine/run.h"
 #include "engine/shapes.h"
+#include "rundir/files.h"
+#include "rundir/run_directory.h"
+#include "rundir/summary.h"
 
 extern char** environ;
 
@@ -71,17 +73,13 @@ ObtainedBed BenchBed(const BenchOptions& options, const nlohmann::json& spec, co
 // One timed native run of the bench case in `dir` (a fresh run directory).
 BenchResult NativeRound(const nlohmann::json& spec, const fs::path& dir, int round, int threads) {
   fs::remove_all(dir);
-  fs::create_directories(dir);
-  WriteAtomically(dir / "run.json", spec.dump(2));
+  rundir::WriteRunSpec(dir, spec);
   RunOptions ro;
   ro.threads = threads;
   ro.quiet = true;
   RunDirectory(dir.string(), ro);
-  std::ifstream in(dir / "summary.json");
-  nlohmann::json summary;
-  in >> summary;
-  return {round, threads, summary["timing"]["disc_steps_per_s"].get<double>(),
-          summary["timing"]["discharge_wall_s"].get<double>()};
+  const rundir::Summary summary = rundir::ReadSummary(dir / rundir::kSummaryFile);
+  return {round, threads, summary.timing->disc_steps_per_s, summary.timing->discharge_wall_s};
 }
 
 }  // namespace

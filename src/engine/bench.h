@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/bed.h"
-#include "engine/run_spec.h"
+#include "rundir/run_spec.h"
 
 namespace granary::engine {
 

@@ -1,6 +1,6 @@
 // See cli.h. Flags and exit codes are documented in docs/cli.md.
 #include "runner/cli.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
 #include <signal.h>
 #include <unistd.h>

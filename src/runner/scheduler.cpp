@@ -1,8 +1,6 @@
 // See scheduler.h.
 #include "runner/scheduler.h"
 
-#include "engine/files.h"
-
 #include <signal.h>
 #include <unistd.h>
 
@@ -15,6 +13,10 @@
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+
+#include "rundir/files.h"
+#include "rundir/progress.h"
+#include "rundir/run_directory.h"
 
 namespace granary::runner {
 
@@ -45,35 +47,6 @@ bool matches_filter(const RunRow& row, const std::string& filter) {
 
 
 namespace {
-
-json ReadJsonFile(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) return nullptr;
-  json j = json::parse(in, nullptr, false);
-  return j.is_discarded() ? json(nullptr) : j;
-}
-
-// run.json is written atomically so that an engine never reads half a file.
-void WriteRunJson(const fs::path& dir, const json& params) {
-  fs::create_directories(dir);
-  const fs::path target = dir / "run.json";
-  const std::string text = params.dump(2) + "\n";
-  {
-    std::ifstream in(target);
-    std::stringstream ss;
-    if (in) {
-      ss << in.rdbuf();
-      if (ss.str() == text) return;
-    }
-  }
-  const fs::path tmp = dir / "run.json.tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << text;
-    if (!out) throw std::runtime_error("run " + params.value("run_id", std::string()) + ": cannot write " + tmp.string());
-  }
-  fs::rename(tmp, target);
-}
 
 std::string EngineExe(const RunOptions& o, const std::string& engine) {
   if (o.engine.find('/') != std::string::npos) return o.engine;
@@ -135,24 +108,29 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
 
   auto finish_done = [&](const RunRow& row, double wall) -> bool {
     const fs::path dir = row.run_dir;
-    if (!fs::exists(dir / "DONE")) return false;
-    const json summary = ReadJsonFile(dir / "summary.json");
-    if (!summary.is_object()) return false;
-    record_done(store, row.run_id, summary, now_seconds(), wall);
+    if (!rundir::IsDone(dir)) return false;
+    rundir::Summary summary;
+    try {
+      summary = rundir::ReadSummary(dir / rundir::kSummaryFile);
+    } catch (const rundir::ReadError&) {
+      return false;
+    }
+    record_done(store, row.run_id, summary.raw, now_seconds(), wall);
     ++done;
     if (row.state == "failed") --failed;
     observer.on_event(row.run_id, "done",
-                      summary.value("end_reason", std::string("finished")) + " in " + std::to_string(static_cast<int>(wall)) + " s");
+                      (summary.end_reason.empty() ? std::string("finished") : summary.end_reason) + " in " +
+                          std::to_string(static_cast<int>(wall)) + " s");
     return true;
   };
 
   while (true) {
     if (stop && *stop && !stopping) {
       stopping = true;
-      // Forward the stop to the engines; they checkpoint or die, and continue next time.
-      executor.abort_all(SIGTERM);
-      const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-      while (executor.active() > 0 && std::chrono::steady_clock::now() < deadline) {
+      // The engines checkpoint and exit (the executor ends them by force after a grace
+      // period); they continue next time.
+      executor.stop_all(StopReason::kInterrupt);
+      while (executor.active() > 0) {
         for (const auto& f : executor.poll()) {
           const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - slots[f.run_id].started).count();
           if (!(f.signal == 0 && f.exit_code == 0 && finish_done(slots[f.run_id].row, wall))) {
@@ -162,14 +140,6 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
           slots.erase(f.run_id);
         }
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
-      }
-      executor.abort_all(SIGKILL);
-      while (executor.active() > 0) {
-        for (const auto& f : executor.poll()) {
-          record_end(store, f.run_id, "interrupted", "interrupted by the user (killed)", now_seconds(), 0);
-          slots.erase(f.run_id);
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
       }
       observer.on_end(done, failed, total);
       return ExitCode::kInterrupted;
@@ -193,11 +163,11 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
                                  " (build it, or pass --engine PATH)");
       }
       try {
-        WriteRunJson(row->run_dir, row->params);
+        rundir::WriteRunSpec(row->run_dir, row->params);
         Launch launch;
         launch.run_id = row->run_id;
         launch.argv = {exe, "run", row->run_dir, "--threads", std::to_string(options.threads_per_run)};
-        launch.log_file = (fs::path(row->run_dir) / "engine.log").string();
+        launch.log_file = (fs::path(row->run_dir) / rundir::kEngineLogFile).string();
         executor.start(launch);
       } catch (const std::exception& e) {
         end_run(row->run_id, "failed", e.what(), 0);
@@ -212,7 +182,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       Slot slot = slots[f.run_id];
       slots.erase(f.run_id);
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - slot.started).count();
-      const std::string log = (fs::path(slot.row.run_dir) / "engine.log").string();
+      const std::string log = (fs::path(slot.row.run_dir) / rundir::kEngineLogFile).string();
       if (f.signal == 0 && f.exit_code == 0) {
         if (finish_done(slot.row, wall)) continue;
         end_run(f.run_id, "failed", "engine exited 0 without DONE and summary.json\n" + TailOfFile(log, 20), wall);
@@ -233,7 +203,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       for (auto& [id, slot] : slots) {
         if (!slot.timed_out && std::chrono::duration<double>(now - slot.started).count() > options.time_limit) {
           slot.timed_out = true;
-          executor.abort(id, SIGKILL);
+          executor.stop(id, StopReason::kTimeLimit);
         }
       }
     }
@@ -247,8 +217,10 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
         a.point = slot.row.point.dump();
         a.attempt = slot.row.attempts;
         a.elapsed = std::chrono::duration<double>(now - slot.started).count();
-        a.progress = ReadJsonFile(fs::path(slot.row.run_dir) / "progress.json");
-        if (!a.progress.is_null()) progress[id] = a.progress;
+        if (const auto p = rundir::ReadProgress(slot.row.run_dir)) {
+          a.progress = p->ToJson();
+          progress[id] = a.progress;
+        }
         active.push_back(a);
       }
       observer.on_tick(active, done, failed, total);

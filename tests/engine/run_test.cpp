@@ -2,7 +2,7 @@
 // clogging, checkpoint/continue, determinism across seeds and thread counts, bed cache.
 #include "engine/bench.h"
 #include "engine/run.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
 #include <sys/wait.h>
 #include <unistd.h>
