@@ -12,12 +12,6 @@
 namespace granary::analysis {
 namespace {
 
-std::string json_text(const nlohmann::json& v) {
-  if (v.is_number()) return format_number(v.get<double>(), 6);
-  if (v.is_string()) return v.get<std::string>();
-  return v.dump();
-}
-
 std::string tangential_cap_of(const nlohmann::json& spec) {
   if (spec.is_object() && spec.contains("contact") && spec.at("contact").is_object())
     return spec.at("contact").value("tangential_cap", std::string("lammps")) + "";
@@ -58,6 +52,12 @@ std::optional<UsedRun> used_run(const RunRecord& r, std::string& why) {
 
 }  // namespace
 
+std::string value_text(const nlohmann::json& v) {
+  if (v.is_number()) return format_number(v.get<double>(), 6);
+  if (v.is_string()) return v.get<std::string>();
+  return v.dump();
+}
+
 std::string short_axis(const std::string& pointer) {
   std::string s = pointer;
   if (!s.empty() && s.front() == '/') s.erase(0, 1);
@@ -83,7 +83,7 @@ std::string point_label(const CampaignView& view, const nlohmann::json& point, c
   for (const auto& axis : view.axes) {
     if (skip_axes.count(axis)) continue;
     const auto v = axis_value(axis, point, spec);
-    s += (s.empty() ? "" : ", ") + short_axis(axis) + "=" + (v ? json_text(*v) : "?");
+    s += (s.empty() ? "" : ", ") + short_axis(axis) + "=" + (v ? value_text(*v) : "?");
   }
   return s;
 }

@@ -98,6 +98,8 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
 
 // "/silo/base_outlets/0/width" -> "base_outlets.0.width".
 std::string short_axis(const std::string& pointer);
+// A sweep value as text: numbers to 6 significant digits, strings as they are.
+std::string value_text(const nlohmann::json& value);
 // The value of a sweep axis for a point: from the point record, else from the run spec.
 std::optional<nlohmann::json> axis_value(const std::string& axis, const nlohmann::json& point, const nlohmann::json& spec);
 // "base_outlets.0.width=10, species.0.fraction=0.5" (axes in `skip` left out).

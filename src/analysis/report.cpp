@@ -10,6 +10,7 @@
 
 #include "analysis/engine_comparison.h"
 #include "analysis/report_document.h"
+#include "analysis/system.h"
 #include "rundir/version.h"
 
 namespace granary::analysis {
@@ -78,6 +79,82 @@ std::optional<Section> provenance_section(const CampaignView& c) {
   s.blocks.push_back(Text{"Tangential cap: `lammps` caps spring plus damping at mu|F_n| (LAMMPS convention, "
                           "physics.md); `liggghts` caps only the spring part (LIGGGHTS 3.8). Runs with different "
                           "caps are not the same model."});
+  return s;
+}
+
+// What was simulated: the campaign's description, its fixed parameters, the swept ones by
+// their human names, and each point's bed and end in pictures (when the runner can draw).
+std::optional<Section> system_section(const CampaignView& c, const ReportOptions& options) {
+  Section s{"system", "The system", {}};
+  const nlohmann::json& cs = c.campaign->spec;
+  s.blocks.push_back(Text{cs.is_object() && cs.contains("description") && cs.at("description").is_string()
+                              ? cs.at("description").get<std::string>()
+                              : "(The campaign spec has no \"description\".)"});
+  // A resolved run spec of the campaign: of a point's run, else of any run it has.
+  nlohmann::json spec;
+  if (!c.points.empty()) spec = c.points.front().spec;
+  for (const auto* list : {&c.missing, &c.failed, &c.retired})
+    if (spec.is_null() && !list->empty()) spec = list->front()->spec;
+  if (spec.is_null()) return s;
+  s.blocks.push_back(fixed_parameters(spec, c.campaign->axes));
+  if (!c.campaign->axes.empty()) {
+    Table t{"system-axes", "Swept parameters", {"parameter", "in the run spec", "values"}, {}, {}};
+    for (const auto& axis : c.campaign->axes) {
+      std::vector<std::string> values;
+      for (const Point& p : c.points) {
+        const auto v = axis_value(axis, p.point, p.spec);
+        const std::string text = v ? value_text(*v) : "?";
+        if (std::find(values.begin(), values.end(), text) == values.end()) values.push_back(text);
+      }
+      std::string joined;
+      for (const auto& v : values) joined += (joined.empty() ? "" : ", ") + v;
+      t.rows.push_back({axis_name(axis, spec), axis, joined.empty() ? "(no finished run yet)" : joined});
+    }
+    s.blocks.push_back(t);
+  }
+  // Each point: the bed before the outlets open and the last state of its first replica.
+  if (!options.draw_run) {
+    s.blocks.push_back(Text{"(No pictures: this report was written without the renderer.)"});
+    return s;
+  }
+  std::vector<std::string> problems;
+  for (std::size_t k = 0; k < c.points.size(); ++k) {
+    const Point& p = c.points[k];
+    const UsedRun* run = nullptr;
+    for (std::size_t u : p.runs)
+      if (!run || c.used[u].record->replica < run->record->replica) run = &c.used[u];
+    if (!run) continue;
+    const std::string stem = "pictures/point-" + std::to_string(k + 1);
+    std::filesystem::create_directories(options.out_dir / "pictures");
+    Pictures pics;
+    std::string label;
+    for (const auto& axis : c.campaign->axes) {
+      const auto v = axis_value(axis, p.point, p.spec);
+      label += (label.empty() ? "" : ", ") + axis_name(axis, p.spec) + " = " + (v ? value_text(*v) : "?");
+    }
+    pics.caption = (label.empty() ? std::string("The silo") : label) + " (replica " + std::to_string(run->record->replica) +
+                   ", run `" + run->record->run_id.substr(0, 10) + "`)";
+    const std::string& end = run->summary.end_reason;
+    const std::pair<ReportOptions::Picture, std::string> kinds[] = {
+        {ReportOptions::Picture::kBed, "the bed before the outlets open (t = 0)"},
+        {ReportOptions::Picture::kEnd, (end == "clogged" ? "clogged" : end == "discharged" ? "discharged" : "the last frame") +
+                                           std::string(" (t = ") + format_number(run->summary.t_end, 4) + ")"}};
+    for (const auto& [kind, caption] : kinds) {
+      const std::string file = stem + (kind == ReportOptions::Picture::kBed ? "-bed.png" : "-end.png");
+      const std::string problem = options.draw_run(run->record->run_dir, kind, options.out_dir / file);
+      if (problem.empty()) {
+        pics.pictures.push_back({file, caption});
+      } else if (problems.size() < 5) {
+        problems.push_back(problem);
+      }
+    }
+    if (!pics.pictures.empty()) s.blocks.push_back(pics);
+  }
+  if (!problems.empty()) {
+    std::string text = "Not drawn:";
+    for (const auto& pr : problems) text += "\n\n" + pr;
+    s.blocks.push_back(Text{text});
+  }
   return s;
 }
 
@@ -163,6 +240,7 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   if (options.out_dir.empty()) throw std::invalid_argument("write_report: ReportOptions::out_dir is empty");
   const CampaignView& c = ca.view;
   std::vector<Section> sections;
+  if (auto s = system_section(c, options)) sections.push_back(std::move(*s));
   if (auto s = runs_section(c)) sections.push_back(std::move(*s));
   if (auto s = provenance_section(c)) sections.push_back(std::move(*s));
   if (auto s = per_run_section(ca)) sections.push_back(std::move(*s));

@@ -40,7 +40,7 @@ TEST(Writers, FramesAreTheDocumentedDumpAndReadBack) {
   w.Write(TwoDiscFrame(12000));
   w.Close();
   EXPECT_EQ(read_file(file),
-            "ITEM: TIMESTEP\n12000\nITEM: TIME\n1.2\nITEM: NUMBER OF ATOMS\n2\n"
+            "ITEM: TIME\n1.2\nITEM: TIMESTEP\n12000\nITEM: NUMBER OF ATOMS\n2\n"
             "ITEM: BOX BOUNDS ff ff pp\n-11 11\n-1.25 18.5\n-0.5 0.5\n"
             "ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n"
             "1 0 1 0.25 0.5 0 0.5 0.7853981634 0.1 -0.2 0 0.3\n"
@@ -72,7 +72,7 @@ TEST(Writers, ContactsAreTheDocumentedDumpAndReadBack) {
   w.Write(c);
   w.Close();
   EXPECT_EQ(read_file(file),
-            "ITEM: TIMESTEP\n5\nITEM: TIME\n0.5\nITEM: NUMBER OF ENTRIES\n2\n"
+            "ITEM: TIME\n0.5\nITEM: TIMESTEP\n5\nITEM: NUMBER OF ENTRIES\n2\n"
             "ITEM: BOX BOUNDS ff ff pp\n-9 9\n-1 20\n-0.5 0.5\n"
             "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n"
             "3 4 0 0 1 0 0.5 0 -2 0\n4 -1 1 0.5 1 0 1 0 0 3\n");
