@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/files.h"
 #include "engine/run.h"
 
 namespace granary::engine {
@@ -130,6 +131,9 @@ int EngineMain(const std::vector<std::string>& args) {
     if (args[0] == "bench") return Bench(rest);
     std::cerr << "granary-engine: unknown verb \"" << args[0] << "\"\n" << kUsage;
     return 2;
+  } catch (const RunDirectoryBusy& e) {
+    std::cerr << "granary-engine " << args[0] << ": " << e.what() << "\n";
+    return kExitRunDirectoryBusy;
   } catch (const std::exception& e) {
     std::cerr << "granary-engine " << args[0] << ": error: " << e.what() << "\n";
     return 1;

@@ -4,6 +4,9 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <array>
+#include <cerrno>
+#include <cstring>
 #include <deque>
 #include <fstream>
 #include <stdexcept>
@@ -47,6 +50,94 @@ FileLock::FileLock(const std::filesystem::path& path) : fd_(::open(path.c_str(),
 FileLock::~FileLock() {
   ::flock(fd_, LOCK_UN);
   ::close(fd_);
+}
+
+}  // namespace granary
+
+namespace granary {
+
+namespace {
+
+constexpr char kLockFile[] = "engine.lock";
+constexpr char kHelpersLockFile[] = "engine.lock.helpers";
+
+// Whether an exclusive flock on `path` could be taken now (then it is released at once).
+bool CanLockExclusively(const std::filesystem::path& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return true;  // no lock file: nobody holds it
+  const bool free = ::flock(fd, LOCK_EX | LOCK_NB) == 0;
+  ::close(fd);
+  return free;
+}
+
+std::string HolderText(const std::filesystem::path& dir) {
+  std::ifstream in(dir / kLockFile);
+  std::string who;
+  std::getline(in, who);
+  return who.empty() ? "another engine" : who;
+}
+
+std::string ThisProcess() {
+  char host[256] = {0};
+  ::gethostname(host, sizeof host - 1);
+  return "engine pid " + std::to_string(::getpid()) + " on " + host;
+}
+
+}  // namespace
+
+RunDirectoryLock::RunDirectoryLock(const std::filesystem::path& dir) {
+  const std::filesystem::path file = dir / kLockFile;
+  // Not close-on-exec: what the engine starts (mpirun) holds the lock with it.
+  fd_ = ::open(file.c_str(), O_RDWR | O_CREAT, 0644);
+  if (fd_ < 0) throw std::runtime_error("cannot open " + file.string() + ": " + std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd_);
+    fd_ = -1;
+    throw RunDirectoryBusy("run directory " + dir.string() + " is locked by " + HolderText(dir) +
+                           " (" + file.string() + "); two engines never write one directory");
+  }
+  if (!CanLockExclusively(dir / kHelpersLockFile)) {
+    ::close(fd_);
+    fd_ = -1;
+    throw RunDirectoryBusy("run directory " + dir.string() + " still has helper processes of an earlier engine (" +
+                           (dir / kHelpersLockFile).string() + " is held, e.g. MPI ranks winding down)");
+  }
+  const std::string who = ThisProcess() + "\n";
+  if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, who.data(), who.size(), 0) != static_cast<ssize_t>(who.size())) {
+    // The lock holds without the note; only the busy message is less precise.
+  }
+}
+
+RunDirectoryLock::~RunDirectoryLock() {
+  if (fd_ >= 0) ::close(fd_);  // closing the last descriptor releases the flock
+}
+
+std::string RunDirectoryHolder(const std::filesystem::path& dir) {
+  if (!CanLockExclusively(dir / kLockFile)) return HolderText(dir);
+  if (!CanLockExclusively(dir / kHelpersLockFile)) return "helper processes of an earlier engine (MPI ranks)";
+  return "";
+}
+
+void HoldRunDirectoryAsHelper(const std::filesystem::path& dir) {
+  const std::filesystem::path file = dir / kHelpersLockFile;
+  const int fd = ::open(file.c_str(), O_RDWR | O_CREAT, 0644);  // kept across exec
+  if (fd < 0) throw std::runtime_error("cannot open " + file.string() + ": " + std::strerror(errno));
+  if (::flock(fd, LOCK_SH) != 0) throw std::runtime_error("cannot lock " + file.string() + ": " + std::strerror(errno));
+}
+
+std::uint32_t Crc32(std::string_view data, std::uint32_t crc) {
+  static const std::array<std::uint32_t, 256> kTable = [] {
+    std::array<std::uint32_t, 256> t{};
+    for (std::uint32_t n = 0; n < 256; ++n) {
+      std::uint32_t c = n;
+      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      t[n] = c;
+    }
+    return t;
+  }();
+  crc = ~crc;
+  for (const unsigned char ch : data) crc = kTable[(crc ^ ch) & 0xFFu] ^ (crc >> 8);
+  return ~crc;
 }
 
 }  // namespace granary

@@ -674,6 +674,8 @@ RunResult Discharge::Run() {
 RunResult RunDirectory(const std::string& dir, const RunOptions& options) {
   if (options.threads > 0) omp_set_num_threads(options.threads);
   const fs::path d(dir);
+  // One writer per directory: before anything in it is read or touched.
+  const RunDirectoryLock lock(d);
   const fs::path spec_file = d / "run.json";
   std::ifstream in(spec_file);
   if (!in) throw std::runtime_error("cannot read " + spec_file.string());

@@ -4,6 +4,8 @@
 #pragma once
 
 #include <csignal>
+#include <functional>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -25,7 +27,12 @@ struct RunOptions {
   int retries = 1;            // extra attempts per run within this invocation
   std::string exe_dir;        // where granary-engine / granary-liggghts live
   double poll_interval = 0.2;
-  double heartbeat_interval = 2.0;
+  double tick_interval = 0.5;       // observer ticks (progress display)
+  double heartbeat_interval = 2.0;  // lease heartbeats, and the check that the leases are still ours
+  // Tests: who claims the runs (default this_process_holder()), and the monotonic clock in
+  // seconds that time limits, ticks and heartbeats are measured with (default steady_clock).
+  std::optional<Holder> holder;
+  std::function<double()> clock;
 };
 
 struct ActiveRun {

@@ -2,7 +2,8 @@
 // (docs/run-directory.md) without physics: it counts steps with a short sleep each, writes
 // progress.json atomically and a checkpoint after every step, continues from the checkpoint
 // when restarted, and ends with summary.json then DONE. Every start and finish is appended to
-// DIR/launches.txt so tests can prove that nothing ran twice.
+// DIR/launches.txt so tests can prove that nothing ran twice. Like the engines, it holds the
+// directory's writer lock (engine/files.h) for its life.
 // Behaviour from run.json: /discharge/max_time == 13 -> fails (exit 3); == 666 -> hangs.
 // FAKE_ENGINE_STEPS (default 10) and FAKE_ENGINE_STEP_MS (default 30) set the length.
 #include <unistd.h>
@@ -12,9 +13,12 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
+
+#include "engine/files.h"
 
 namespace fs = std::filesystem;
 
@@ -39,6 +43,13 @@ int main(int argc, char** argv) {
     return 2;
   }
   const fs::path dir = argv[2];
+  std::unique_ptr<granary::RunDirectoryLock> lock;
+  try {
+    lock = std::make_unique<granary::RunDirectoryLock>(dir);
+  } catch (const granary::RunDirectoryBusy& e) {
+    std::cerr << "fake_engine: " << e.what() << "\n";
+    return granary::kExitRunDirectoryBusy;
+  }
   std::ifstream in(dir / "run.json");
   if (!in) {
     std::cerr << "fake_engine: no run.json in " << dir << "\n";
