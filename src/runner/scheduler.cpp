@@ -80,6 +80,13 @@ std::string EngineExe(const RunOptions& o, const std::string& engine) {
   return (fs::path(o.exe_dir) / (engine == "liggghts" ? "granary-liggghts" : "granary-engine")).string();
 }
 
+// 5 -> "5", 0.5 -> "0.5" (json's dump would give "5.0").
+std::string Number(double x) {
+  std::ostringstream o;
+  o << x;
+  return o.str();
+}
+
 struct Slot {
   RunRow row;
   double started = 0;
@@ -214,7 +221,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       end_run(f.run_id, "failed", "engine exited 0 without DONE and summary.json\n" + TailOfFile(log, 20), wall);
     } else if (slot.timed_out) {
       end_run(f.run_id, "failed",
-              "wall-time limit of " + json(options.time_limit).dump() + " s exceeded\n" + TailOfFile(log, 20), wall);
+              "wall-time limit of " + Number(options.time_limit) + " s exceeded\n" + TailOfFile(log, 20), wall);
     } else if (f.signal != 0) {
       // Killed from outside: it continues from its checkpoint on the next attempt.
       end_run(f.run_id, "interrupted", "engine killed by signal " + std::to_string(f.signal) + "\n" + TailOfFile(log, 20), wall);

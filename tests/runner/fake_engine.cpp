@@ -5,7 +5,9 @@
 // DIR/launches.txt so tests can prove that nothing ran twice. Like the engines, it holds the
 // directory's writer lock (engine/files.h) for its life.
 // Behaviour from run.json: /discharge/max_time == 13 -> fails (exit 3); == 666 -> hangs.
-// FAKE_ENGINE_STEPS (default 10) and FAKE_ENGINE_STEP_MS (default 30) set the length.
+// FAKE_ENGINE_STEPS (default 10) and FAKE_ENGINE_STEP_MS (default 30) set the length;
+// FAKE_ENGINE_FIRST_LAUNCH_STEP_MS the step of a run's first launch (long: it cannot finish
+// before a test kills it; the relaunch is quick).
 #include <unistd.h>
 
 #include <chrono>
@@ -56,13 +58,15 @@ int main(int argc, char** argv) {
     return 2;
   }
   const nlohmann::json spec = nlohmann::json::parse(in);
+  const bool first_launch = !fs::exists(dir / "launches.txt");
   {
     std::ofstream log(dir / "launches.txt", std::ios::app);
     log << "start " << getpid() << "\n";
   }
   const double max_time = spec["discharge"]["max_time"].get<double>();
   const int steps = EnvInt("FAKE_ENGINE_STEPS", 10);
-  const int step_ms = EnvInt("FAKE_ENGINE_STEP_MS", 30);
+  int step_ms = EnvInt("FAKE_ENGINE_STEP_MS", 30);
+  if (first_launch) step_ms = EnvInt("FAKE_ENGINE_FIRST_LAUNCH_STEP_MS", step_ms);
   int step = 0;
   if (std::ifstream ck(dir / "checkpoint.fake"); ck) {
     ck >> step;
