@@ -125,6 +125,11 @@ void HoldRunDirectoryAsHelper(const std::filesystem::path& dir) {
   if (::flock(fd, LOCK_SH) != 0) throw std::runtime_error("cannot lock " + file.string() + ": " + std::strerror(errno));
 }
 
+std::string SignalName(int signal) {
+  const char* name = ::strsignal(signal);
+  return "signal " + std::to_string(signal) + (name ? std::string(" (") + name + ")" : std::string());
+}
+
 std::uint32_t Crc32(std::string_view data, std::uint32_t crc) {
   static const std::array<std::uint32_t, 256> kTable = [] {
     std::array<std::uint32_t, 256> t{};

@@ -68,6 +68,9 @@ void HoldRunDirectoryAsHelper(const std::filesystem::path& dir);
 // was touched, try again later (EX_TEMPFAIL).
 inline constexpr int kExitRunDirectoryBusy = 75;
 
+// "signal 11 (Segmentation fault)": how messages name a signal that ended a process.
+std::string SignalName(int signal);
+
 // CRC-32 (ISO-HDLC, as zlib and PNG: reflected polynomial 0xEDB88320), continued from `crc`
 // (0 to start), for checksums of checkpoints and prepared beds.
 std::uint32_t Crc32(std::string_view data, std::uint32_t crc = 0);

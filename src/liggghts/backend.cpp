@@ -4,17 +4,22 @@
 
 #include "engine/files.h"
 
-#include <signal.h>
 #include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
 #include <sys/file.h>
 #include <sys/prctl.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <deque>
 #include <functional>
 #include <filesystem>
@@ -56,6 +61,9 @@ std::string ReadFile(const fs::path& path) {
   return s.str();
 }
 
+// A stop request (SIGTERM, SIGINT: set by the command line's handler, RequestStop).
+volatile std::sig_atomic_t g_stop_signal = 0;
+
 // Parent-death signal in the child: a killed backend never leaves LIGGGHTS writing into a
 // directory the runner will relaunch.
 struct DieWithParent : bp::extend::handler {
@@ -65,44 +73,129 @@ struct DieWithParent : bp::extend::handler {
   }
 };
 
-// Runs LIGGGHTS on `input` in `dir` (cwd), its log in `log`; calls on_line for every line
-// LIGGGHTS prints that starts with "GRANARY_". Returns the exit code.
+// granary-liggghts itself, which runs each LIGGGHTS process through `exec-helper` (it takes
+// the directory's helper lock, then execs LIGGGHTS), or "" outside granary-liggghts (the
+// bench and tests link the library into other programs: LIGGGHTS is then run directly).
+std::string HelperExe() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return !ec && self.filename() == "granary-liggghts" ? self.string() : std::string();
+}
+
+// How LIGGGHTS ended, and what it said: the "ERROR" lines and the last lines of its screen
+// output (which holds what its log does not: MPI's and the C library's messages).
 struct LiggghtsRun {
   int exit_code = 0;
-  std::vector<std::string> errors;  // lines with "ERROR" from the screen output
+  int signal = 0;              // the signal that ended it (or mpirun), or 0
+  bool stopped = false;        // it checkpointed and ended on a stop request (GRANARY_STOPPED)
+  std::string stop_reason;     // why the backend ended it: a stop request, or silence
+  std::vector<std::string> errors;
+  std::deque<std::string> screen;  // last kLogTailLines lines of its screen output
+  std::string how() const {
+    if (!stop_reason.empty()) return stop_reason;
+    if (signal != 0) return "LIGGGHTS killed by " + SignalName(signal);
+    return "LIGGGHTS exit status " + std::to_string(exit_code);
+  }
 };
+
+// Runs LIGGGHTS on `input` in `dir` (cwd), its log in `log`; calls on_line for every line
+// LIGGGHTS prints that starts with "GRANARY_". A stop request makes a LIGGGHTS that reads
+// `control` (the discharge) checkpoint and end at its next chunk; any other is ended at once.
+// So is a LIGGGHTS that prints nothing for `silence_limit` seconds (hung).
 LiggghtsRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir, const std::string& input,
-                        const std::string& log, const std::function<void(const std::string&)>& on_line) {
+                        const std::string& log, const fs::path& control, double silence_limit,
+                        const std::function<void(const std::string&)>& on_line) {
   std::vector<std::string> args;
   std::string program = exe;
+  const std::string helper = HelperExe();
+  std::vector<std::string> liggghts = {exe};
+  if (!helper.empty()) liggghts = {helper, "exec-helper", dir.string(), exe};
   if (threads > 1) {
     program = bp::search_path("mpirun").string();
     if (program.empty()) throw LiggghtsError("--threads " + std::to_string(threads) + " needs mpirun (Debian package openmpi-bin)");
     if (geteuid() == 0) args.push_back("--allow-run-as-root");
-    args.insert(args.end(), {"-np", std::to_string(threads), exe});
+    args.insert(args.end(), {"-np", std::to_string(threads)});
+    args.insert(args.end(), liggghts.begin(), liggghts.end());
+  } else {
+    program = liggghts[0];
+    args.insert(args.end(), liggghts.begin() + 1, liggghts.end());
   }
   args.insert(args.end(), {"-in", input, "-log", log, "-echo", "none"});
-  bp::ipstream out;
+  bp::pipe out;
   std::error_code ec;
   bp::child child(bp::exe = program, bp::args = args, bp::start_dir = dir.string(), bp::std_in < bp::null,
                   (bp::std_out & bp::std_err) > out, DieWithParent{}, ec);
   if (ec) throw LiggghtsError("cannot start " + program + ": " + ec.message());
   LiggghtsRun r;
-  std::string line;
-  while (std::getline(out, line)) {
+  const int fd = out.native_source();
+  std::string pending;
+  char buf[4096];
+  auto last_output = Clock::now();
+  bool stop_sent = false;
+  const auto handle = [&](const std::string& line) {
+    r.screen.push_back(line);
+    if (r.screen.size() > static_cast<std::size_t>(kLogTailLines)) r.screen.pop_front();
+    if (line.rfind("GRANARY_STOPPED", 0) == 0) r.stopped = true;
     if (line.rfind("GRANARY_", 0) == 0) on_line(line);
     else if (line.find("ERROR") != std::string::npos && r.errors.size() < 5) r.errors.push_back(line);
+  };
+  while (true) {
+    pollfd p{fd, POLLIN, 0};
+    const int ready = ::poll(&p, 1, 1000);
+    if (ready > 0) {
+      const ssize_t n = ::read(fd, buf, sizeof buf);
+      if (n == 0) break;  // LIGGGHTS (and every rank) closed its output: it has ended
+      if (n > 0) {
+        last_output = Clock::now();
+        pending.append(buf, static_cast<std::size_t>(n));
+        for (std::size_t nl; (nl = pending.find('\n')) != std::string::npos; pending.erase(0, nl + 1))
+          handle(pending.substr(0, nl));
+      } else if (errno != EINTR) {
+        break;
+      }
+    } else if (ready < 0 && errno != EINTR) {
+      break;
+    }
+    if (g_stop_signal != 0 && !stop_sent) {
+      stop_sent = true;
+      if (!control.empty()) {
+        // LIGGGHTS reads this file after every chunk (input_script.cpp).
+        WriteAtomically(control, "variable stop_requested equal 1\n");
+        std::fprintf(stderr, "granary-liggghts: stop requested (%s): LIGGGHTS checkpoints at the end of its chunk\n",
+                     SignalName(g_stop_signal).c_str());
+      } else {
+        r.stop_reason = "stopped on request (" + SignalName(g_stop_signal) + ")";
+        kill(child.id(), SIGTERM);
+      }
+    }
+    if (silence_limit > 0 && Seconds(last_output) > silence_limit && r.stop_reason.empty()) {
+      r.stop_reason = "LIGGGHTS printed nothing for " + std::to_string(static_cast<long long>(silence_limit)) +
+                      " s and was ended (hung? the limit is --silence-limit)";
+      kill(child.id(), SIGKILL);  // mpirun ends its ranks; they die with it (PR_SET_PDEATHSIG)
+    }
   }
+  if (!pending.empty()) handle(pending);
   child.wait(ec);
-  r.exit_code = child.exit_code();
+  const int status = child.native_exit_code();
+  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
+  else r.exit_code = WEXITSTATUS(status);
   return r;
 }
 
-[[noreturn]] void Fail(const std::string& what, const LiggghtsRun& r, const fs::path& log) {
-  std::string msg = what + " (LIGGGHTS exit status " + std::to_string(r.exit_code) + ")";
+// The screen output and the log tail of a LIGGGHTS run, for a failure message.
+std::string Diagnostics(const LiggghtsRun& r, const fs::path& log) {
+  std::string msg;
   for (const std::string& e : r.errors) msg += "\n" + e;
-  msg += "\n--- last lines of " + log.filename().string() + " ---\n" + TailOfFile(log, kLogTailLines);
-  throw LiggghtsError(msg);
+  msg += "\n--- LIGGGHTS screen output, last lines ---\n";
+  for (const std::string& l : r.screen) msg += l + "\n";
+  if (r.screen.empty()) msg += "(none)\n";
+  const std::string tail = TailOfFile(log, kLogTailLines);
+  msg += "--- last lines of " + log.filename().string() + " ---\n" + (tail.empty() ? "(empty or missing)\n" : tail);
+  return msg;
+}
+
+[[noreturn]] void Fail(const std::string& what, const LiggghtsRun& r, const fs::path& log) {
+  throw LiggghtsError(what + " (" + r.how() + ")" + Diagnostics(r, log));
 }
 
 void ReportProgress(const fs::path& dir, const std::string& phase, double fraction, double t, double t_end, int exited,
@@ -471,7 +564,8 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
   WriteAtomically(dir / "bed.in", BedScript(spec, setup));
   long long inserted = -1;
   double settle_t = 0;
-  const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "bed.in", "log.bed", [&](const std::string& line) {
+  const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "bed.in", "log.bed", {}, options.silence_limit,
+                                    [&](const std::string& line) {
     const auto t = Tokens(line);
     if (t[0] == "GRANARY_INSERTED" && t.size() > 1) inserted = std::llround(std::stod(t[1]));
     if ((t[0] == "GRANARY_BED" || t[0] == "GRANARY_BED_DONE") && t.size() > 2) {
@@ -480,7 +574,9 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
                      options.quiet);
     }
   });
-  if (r.exit_code != 0 || !fs::exists(dir / "bed.restart")) Fail("LIGGGHTS failed while preparing the bed", r, dir / "log.bed");
+  if (g_stop_signal != 0) throw Stopped(g_stop_signal, "stopped while preparing the bed (not checkpointed)" + Diagnostics(r, dir / "log.bed"));
+  if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty()) Fail("LIGGGHTS failed while preparing the bed", r, dir / "log.bed");
+  if (!fs::exists(dir / "bed.restart")) Fail("LIGGGHTS ended without writing bed.restart while preparing the bed", r, dir / "log.bed");
   const std::vector<Sphere> spheres = ReadAtomsDump(dir / "bed.dump");
   const BodyIndex bodies(spheres);
   if (static_cast<int>(bodies.size()) != spec.bodies.count)
@@ -591,7 +687,8 @@ std::vector<std::string> WriteInputs(const std::string& dir_name) {
   WriteAtomically(dir / "bed.in", BedScript(spec, setup));
   DischargeStart start;
   WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, start));
-  std::vector<std::string> files = {"bed.in", "discharge.in"};
+  WriteAtomically(dir / kControlFile, "variable stop_requested equal 0\n");
+  std::vector<std::string> files = {"bed.in", "discharge.in", kControlFile};
   for (const MeshFile& m : setup.fill_meshes) files.push_back(m.name);
   for (const MeshFile& m : setup.discharge_meshes)  // obstacle meshes are in both lists
     if (std::find(files.begin(), files.end(), m.name) == files.end()) files.push_back(m.name);
@@ -599,7 +696,23 @@ std::vector<std::string> WriteInputs(const std::string& dir_name) {
   return files;
 }
 
+void RequestStop(int signal) { g_stop_signal = signal; }
+
+namespace {
+BackendResult RunLocked(const std::string& dir_name, const BackendOptions& options);
+}
+
 BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& options) {
+  // One writer per directory, held until LIGGGHTS and its ranks are gone (files.h).
+  const RunDirectoryLock lock(fs::absolute(dir_name));
+  return RunLocked(dir_name, options);
+}
+
+namespace {
+
+// RunDirectory under the directory's lock (it calls itself to go on through a clog or to
+// fall back to an earlier checkpoint).
+BackendResult RunLocked(const std::string& dir_name, const BackendOptions& options) {
   const fs::path dir = fs::absolute(dir_name);
   const RunSpec spec = ReadSpec(dir);
   SiloSetup setup = MakeSetup(spec);
@@ -666,7 +779,11 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   const double recross = spec.discharge.mode == DischargeMode::kRemove ? 1e300 : 1.0;
   int progress_lines = 0;
   double box_height = setup.y_hi - setup.y_lo;  // to 6 digits until LIGGGHTS prints it
-  const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "discharge.in", log, [&](const std::string& line) {
+  // The stop switch LIGGGHTS reads after every chunk (input_script.cpp, docs/liggghts.md).
+  const fs::path control = dir / kControlFile;
+  WriteAtomically(control, "variable stop_requested equal 0\n");
+  const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "discharge.in", log, control, options.silence_limit,
+                                    [&](const std::string& line) {
     const auto t = Tokens(line);
     if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
     if (t[0] == "GRANARY_FINAL" && t.size() > 1) last_step = std::stoll(t[1]);
@@ -688,14 +805,21 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
       WriteAtomically(state_file, state.dump() + "\n");
     }
   });
-  if (r.exit_code != 0 || end_reason.empty() || !fs::exists(dir / "final.dump")) {
+  if (r.stopped) {
+    state["discharge_wall_s"] = discharge_wall_before + Seconds(t_discharge);
+    WriteAtomically(state_file, state.dump() + "\n");
+    throw Stopped(g_stop_signal != 0 ? g_stop_signal : SIGTERM,
+                  "stopped on request; checkpointed by LIGGGHTS (" + NewestCheckpoint(dir).file.filename().string() + ")");
+  }
+  if (g_stop_signal != 0) throw Stopped(g_stop_signal, "stopped on request before LIGGGHTS checkpointed" + Diagnostics(r, dir / log));
+  if (r.exit_code != 0 || r.signal != 0 || end_reason.empty() || !fs::exists(dir / "final.dump")) {
     // A checkpoint cut short when the run was killed makes read_restart fail at once: drop
     // it and continue from the one before (or from the start).
     if (result.continued && progress_lines == 0) {
       std::fprintf(stderr, "granary-liggghts: cannot continue from %s; trying an earlier checkpoint\n",
                    ckpt.file.filename().c_str());
       fs::remove(ckpt.file);
-      return RunDirectory(dir_name, options);
+      return RunLocked(dir_name, options);
     }
     Fail("LIGGGHTS failed during the discharge", r, dir / log);
   }
@@ -711,7 +835,7 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
         state["discharge_wall_s"] = discharge_wall;
         state["relaunched_at_step"] = last_step;
         WriteAtomically(state_file, state.dump() + "\n");
-        return RunDirectory(dir_name, options);
+        return RunLocked(dir_name, options);
       }
     }
   }
@@ -789,5 +913,7 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   WriteAtomically(dir / "DONE", end_reason + "\n");
   return result;
 }
+
+}  // namespace
 
 }  // namespace granary::liggghts

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstring>
 #include <deque>
 #include <filesystem>
 #include <fstream>
@@ -224,7 +225,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
               "wall-time limit of " + Number(options.time_limit) + " s exceeded\n" + TailOfFile(log, 20), wall);
     } else if (f.signal != 0) {
       // Killed from outside: it continues from its checkpoint on the next attempt.
-      end_run(f.run_id, "interrupted", "engine killed by signal " + std::to_string(f.signal) + "\n" + TailOfFile(log, 20), wall);
+      end_run(f.run_id, "interrupted", "engine killed by " + SignalName(f.signal) + "\n" + TailOfFile(log, 20), wall);
     } else {
       end_run(f.run_id, "failed", "engine exited with status " + std::to_string(f.exit_code) + "\n" + TailOfFile(log, 20), wall);
     }
