@@ -540,6 +540,32 @@ std::string CacheStem(const RunSpec& spec) {
   return std::string("liggghts-bed-") + hex;
 }
 
+// A cached bed is <stem>.restart, <stem>.dump and <stem>.json, which holds the format
+// version and the CRC-32 of the other two.
+constexpr int kCachedBedVersion = 2;  // 2: with checksums
+
+// Why the cached bed `stem` cannot be used, or "" if it can.
+std::string CachedBedProblem(const fs::path& cache_dir, const std::string& stem) {
+  json meta;
+  try {
+    meta = json::parse(ReadFile(cache_dir / (stem + ".json")));
+  } catch (const std::exception& e) {
+    return stem + ".json is unreadable: " + e.what();
+  }
+  if (!meta.is_object() || meta.value("version", 0) != kCachedBedVersion)
+    return stem + ".json has format version " + (meta.is_object() ? std::to_string(meta.value("version", 0)) : "?") +
+           "; this backend reads version " + std::to_string(kCachedBedVersion) + " (with checksums)";
+  for (const auto& [ext, key] : {std::pair{".restart", "restart_crc32"}, std::pair{".dump", "dump_crc32"}}) {
+    const fs::path f = cache_dir / (stem + ext);
+    if (!fs::exists(f)) return f.filename().string() + " is missing";
+    const std::uint32_t actual = Crc32(ReadFile(f));
+    if (meta.value(key, std::uint32_t{0}) != actual)
+      return f.filename().string() + " is corrupt (CRC-32 " + std::to_string(actual) + ", recorded " +
+             std::to_string(meta.value(key, std::uint32_t{0})) + ")";
+  }
+  return "";
+}
+
 Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, const std::string& exe,
               const BackendOptions& options) {
   Bed bed;
@@ -551,13 +577,20 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
     fs::create_directories(cache_dir);
     lock = std::make_unique<FileLock>(cache_dir / (stem + ".lock"));
     if (fs::exists(cache_dir / (stem + ".restart")) && fs::exists(cache_dir / (stem + ".json"))) {
-      fs::copy_file(cache_dir / (stem + ".restart"), dir / "bed.restart", fs::copy_options::overwrite_existing);
-      fs::copy_file(cache_dir / (stem + ".dump"), dir / "bed.dump", fs::copy_options::overwrite_existing);
-      const json meta = json::parse(ReadFile(cache_dir / (stem + ".json")));
-      bed.file = (cache_dir / (stem + ".restart")).string();
-      bed.settle_time = meta.value("settle_time", 0.0);
-      bed.wall_s = 0;
-      return bed;
+      const std::string why = CachedBedProblem(cache_dir, stem);
+      if (why.empty()) {
+        fs::copy_file(cache_dir / (stem + ".restart"), dir / "bed.restart", fs::copy_options::overwrite_existing);
+        fs::copy_file(cache_dir / (stem + ".dump"), dir / "bed.dump", fs::copy_options::overwrite_existing);
+        const json meta = json::parse(ReadFile(cache_dir / (stem + ".json")));
+        bed.file = (cache_dir / (stem + ".restart")).string();
+        bed.settle_time = meta.value("settle_time", 0.0);
+        bed.wall_s = 0;
+        return bed;
+      }
+      // A bad cached bed is never used: it is put aside and prepared again.
+      std::fprintf(stderr, "granary-liggghts: refusing the cached bed %s: %s; preparing it again\n", stem.c_str(), why.c_str());
+      for (const char* ext : {".restart", ".dump", ".json"})
+        if (fs::exists(cache_dir / (stem + ext))) fs::rename(cache_dir / (stem + ext), cache_dir / (stem + ext + ".corrupt"));
     }
   }
   const auto t0 = Clock::now();
@@ -593,7 +626,13 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
       fs::copy_file(dir / (std::string("bed") + ext), cache_dir / (stem + ext + ".tmp"), fs::copy_options::overwrite_existing);
       fs::rename(cache_dir / (stem + ext + ".tmp"), cache_dir / (stem + ext));
     }
-    WriteAtomically(cache_dir / (stem + ".json"), json{{"settle_time", settle_t}, {"bed_wall_s", bed.wall_s}}.dump() + "\n");
+    WriteAtomically(cache_dir / (stem + ".json"), json{{"format", "granary-liggghts-bed"},
+                                                        {"version", kCachedBedVersion},
+                                                        {"settle_time", settle_t},
+                                                        {"bed_wall_s", bed.wall_s},
+                                                        {"restart_crc32", Crc32(ReadFile(dir / "bed.restart"))},
+                                                        {"dump_crc32", Crc32(ReadFile(dir / "bed.dump"))}}
+                                                       .dump() + "\n");
     bed.file = (cache_dir / (stem + ".restart")).string();
   }
   return bed;

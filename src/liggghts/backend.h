@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "engine/stop.h"
+
 namespace granary::liggghts {
 
 struct BackendOptions {
@@ -31,16 +33,10 @@ class LiggghtsError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// A run ended by a stop request (RequestStop): during the discharge LIGGGHTS wrote a
-// checkpoint at the end of its chunk first; during the bed preparation nothing is kept.
-class Stopped : public std::runtime_error {
- public:
-  Stopped(int signal, const std::string& what) : std::runtime_error(what), signal_(signal) {}
-  int signal() const { return signal_; }
-
- private:
-  int signal_;
-};
+// A run ended by a stop request (RequestStop) throws granary::Stopped (engine/stop.h):
+// during the discharge LIGGGHTS wrote a checkpoint at the end of its chunk first; during the
+// bed preparation nothing is kept.
+using granary::Stopped;
 
 // For a signal handler (async-signal-safe): asks the running RunDirectory to stop.
 void RequestStop(int signal);

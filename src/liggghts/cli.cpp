@@ -61,7 +61,7 @@ bool WantsHelp(const std::vector<std::string>& args) {
   return false;
 }
 
-extern "C" void OnStopSignal(int signal) { RequestStop(signal); }
+extern "C" void LiggghtsOnStopSignal(int signal) { RequestStop(signal); }
 
 int Run(const std::vector<std::string>& args) {
   if (WantsHelp(args)) {
@@ -80,7 +80,7 @@ int Run(const std::vector<std::string>& args) {
   }
   if (dir.empty()) throw std::invalid_argument(std::string("run: missing DIR\n") + kRunHelp);
   struct sigaction sa {};
-  sa.sa_handler = OnStopSignal;
+  sa.sa_handler = LiggghtsOnStopSignal;
   sigemptyset(&sa.sa_mask);
   sigaction(SIGTERM, &sa, nullptr);
   sigaction(SIGINT, &sa, nullptr);

@@ -243,7 +243,7 @@ const char kRunHelp[] =
     "Exit: 0 all ran, 1 some runs failed, 2 usage error, 130 interrupted (Ctrl-C / SIGTERM).\n";
 
 volatile std::sig_atomic_t g_stop = 0;
-extern "C" void OnStopSignal(int) { g_stop = 1; }
+extern "C" void RunnerOnStopSignal(int) { g_stop = 1; }
 
 class ConsoleObserver : public RunObserver {
  public:
@@ -384,7 +384,7 @@ int RunAll(const std::string& db, const RunOptions& o, std::ostream& out) {
   if (!load_campaign(store)) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
 
   struct sigaction sa {};
-  sa.sa_handler = OnStopSignal;
+  sa.sa_handler = RunnerOnStopSignal;
   sigemptyset(&sa.sa_mask);
   struct sigaction old_int {}, old_term {};
   sigaction(SIGINT, &sa, &old_int);

@@ -319,8 +319,17 @@ TEST(LiggghtsBackend, ALiggghtsErrorFailsTheRunWithTheTailOfItsLog) {
     // First run prepares the bed into the cache ...
     ASSERT_EQ(RunBackend(dir).exit_code, 0);
   }
-  for (const auto& e : fs::directory_iterator(cache))
-    if (e.path().extension() == ".restart") std::ofstream(e.path(), std::ios::trunc) << "not a restart file";
+  // A restart LIGGGHTS cannot read, recorded with its checksum (as if LIGGGHTS had written it
+  // so): the cache check passes it and LIGGGHTS itself fails.
+  for (const auto& e : fs::directory_iterator(cache)) {
+    if (e.path().extension() != ".restart") continue;
+    std::ofstream(e.path(), std::ios::trunc) << "not a restart file";
+    fs::path meta = e.path();
+    meta.replace_extension(".json");
+    json j = json::parse(ReadText(meta));
+    j["restart_crc32"] = granary::Crc32("not a restart file");
+    std::ofstream(meta) << j.dump();
+  }
   fs::remove(dir / "DONE");
   const Outcome o = RunBackend(dir);
   EXPECT_EQ(o.exit_code, 1) << o.output;
@@ -509,6 +518,29 @@ TEST(LiggghtsBackend, FailuresNameTheSignalAndShowTheScreenOutputAndTheLog) {
   EXPECT_NE(o.output.find("LIGGGHTS printed nothing for 1 s and was ended (hung?"), std::string::npos) << o.output;
   EXPECT_NE(o.output.find("about to hang"), std::string::npos) << o.output;
   EXPECT_TRUE(WaitUntilFree(dir));
+}
+
+// A cached LIGGGHTS bed carries the CRC-32 of its restart and dump: a corrupt one is refused,
+// put aside and prepared again.
+TEST(LiggghtsBackend, ACorruptCachedBedIsRefusedAndPreparedAgain) {
+  const fs::path cache = kTmp / "beds-corrupt";
+  fs::remove_all(cache);
+  const json spec = {{"bed", {{"cache_file", (cache / "bed.json").string()}}}, {"discharge", {{"max_time", 0.5}}}};
+  ASSERT_EQ(RunBackend(MakeRun("bed_first", spec)).exit_code, 0);
+  fs::path restart;
+  for (const auto& e : fs::directory_iterator(cache))
+    if (e.path().extension() == ".restart") restart = e.path();
+  ASSERT_FALSE(restart.empty());
+  {
+    std::fstream f(restart, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(static_cast<std::streamoff>(fs::file_size(restart) / 2));
+    f.write("\x5a\x5a\x5a\x5a\x5a\x5a\x5a\x5a", 8);
+  }
+  const Outcome o = RunBackend(MakeRun("bed_second", spec));
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_NE(o.output.find("refusing the cached bed liggghts-bed-"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find(".restart is corrupt (CRC-32 "), std::string::npos) << o.output;
+  EXPECT_TRUE(read_run(kTmp / "bed_second").summary.raw.at("bed").at("prepared_here").get<bool>());
 }
 
 }  // namespace
