@@ -148,25 +148,38 @@ std::string Bar(double fraction, int width) {
 
 // ---------------------------------------------------------------- plan
 const char kPlanHelp[] =
-    "usage: campaign plan SPEC [--db FILE] [--dry-run] [--json]\n"
+    "usage: campaign plan SPEC [--db FILE] [--dry-run] [--json] [--max-runs N]\n"
     "Expand the campaign spec SPEC into runs and store them in the database (default granary.db).\n"
     "Planning the same spec again changes nothing; runs no longer in an edited spec are retired\n"
     "(their results are kept), new ones are added.\n"
     "  --db FILE    database (created if missing); run directories go to <db dir>/runs/<run id>/\n"
     "  --dry-run    validate and show what would change, store nothing\n"
-    "  --json       print the summary as JSON\n";
+    "  --json       print the summary as JSON\n"
+    "  --max-runs N refuse a sweep of more than N runs (default 100000), before expanding it\n";
 
 json ReadSpecFile(const std::string& verb, const std::string& spec_path) {
-  std::ifstream in(spec_path);
+  std::ifstream in(spec_path, std::ios::binary);
   if (!in) throw UsageError("campaign " + verb + ": cannot read " + spec_path);
-  json j = json::parse(in, nullptr, false);
-  if (j.is_discarded()) throw UsageError(spec_path + ": not valid JSON");
-  return j;
+  std::stringstream text;
+  text << in.rdbuf();
+  try {
+    return parse_spec_text(text.str(), spec_path);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
+}
+
+std::uint64_t MaxRuns(const Args& a) {
+  if (!a.has("max-runs")) return kDefaultMaxRuns;
+  const std::string v = a.get("max-runs", "");
+  if (v.empty() || v.size() > 18 || v.find_first_not_of("0123456789") != std::string::npos || std::stoull(v) == 0)
+    throw UsageError("--max-runs: must be a positive integer (got \"" + v + "\")");
+  return std::stoull(v);
 }
 
 // Validates the campaign spec `j` (read from spec_path), expands it and stores the runs.
 PlanSummary PlanInto(const json& j, const std::string& spec_path, const std::string& db, bool dry_run,
-                     CampaignSpec& spec) {
+                     std::uint64_t max_runs, CampaignSpec& spec) {
   try {
     spec = CampaignSpec::from_json(j);
   } catch (const SpecError& e) {
@@ -180,7 +193,12 @@ PlanSummary PlanInto(const json& j, const std::string& spec_path, const std::str
     throw UsageError(spec_path + ": " + e.what());
   }
 #endif
-  const std::vector<PlannedRun> runs = expand(spec, default_cache_dir());
+  std::vector<PlannedRun> runs;
+  try {
+    runs = expand(spec, default_cache_dir(), max_runs);
+  } catch (const SpecError& e) {
+    throw SpecError(e.path(), e.message() + " [" + spec_path + "]");
+  }
   Store store(db);
   return plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
 }
@@ -208,11 +226,13 @@ void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s
 }
 
 int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv, {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}, "plan");
+  const Args a =
+      Parse(argv, {{"db", true}, {"dry-run", false}, {"json", false}, {"max-runs", true}, {"help", false}}, "plan");
   if (a.positional.size() != 1) throw UsageError("campaign plan: needs exactly one SPEC file (see campaign plan --help)");
   const std::string spec_path = a.positional[0];
   CampaignSpec spec;
-  const PlanSummary s = PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.has("dry-run"), spec);
+  const PlanSummary s =
+      PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.has("dry-run"), MaxRuns(a), spec);
   if (a.has("json")) {
     json axes = json::object();
     for (const auto& [axis, values] : s.axis_values) axes[axis] = values;
@@ -378,10 +398,43 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
   return RunAll(db, o, out);
 }
 
+// --only must select something: a typo or a value not in the sweep is an error, not a run
+// of nothing that exits 0.
+void CheckOnlyFilter(Store& store, const CampaignRow& campaign, const std::string& filter) {
+  const std::vector<RunRow> runs = load_runs(store, true);
+  for (const auto& r : runs)
+    if (r.state != "retired" && matches_filter(r, filter)) return;
+  const auto eq = filter.find('=');
+  std::string axes;
+  for (const auto& a : campaign.axes) axes += (axes.empty() ? "" : ", ") + a;
+  if (filter[0] != '/' || eq == std::string::npos) {
+    throw UsageError("--only: no run id starts with \"" + filter + "\" (FILTER is a run-id prefix, or POINTER=VALUE" +
+                     (axes.empty() ? std::string() : " on an axis: " + axes) + ")");
+  }
+  const std::string pointer = filter.substr(0, eq);
+  if (std::find(campaign.axes.begin(), campaign.axes.end(), pointer) == campaign.axes.end()) {
+    const std::string best = nearest(pointer, campaign.axes);
+    throw UsageError("--only: \"" + pointer + "\" is not a sweep axis of campaign " + campaign.name +
+                     (best.empty() ? "" : "; did you mean \"" + best + "\"?") +
+                     (axes.empty() ? " (it has no axes)" : " (axes: " + axes + ")"));
+  }
+  std::vector<json> values;
+  const json::json_pointer ptr(pointer);
+  for (const auto& r : runs)
+    if (r.state != "retired" && r.params.contains(ptr) &&
+        std::find(values.begin(), values.end(), r.params[ptr]) == values.end())
+      values.push_back(r.params[ptr]);
+  std::string list;
+  for (const auto& v : values) list += (list.empty() ? "" : ", ") + v.dump();
+  throw UsageError("--only: no run has " + pointer + " = " + filter.substr(eq + 1) + " (its values: " + list + ")");
+}
+
 // Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly.
 int RunAll(const std::string& db, const RunOptions& o, std::ostream& out) {
   Store store(db);
-  if (!load_campaign(store)) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
+  const auto campaign = load_campaign(store);
+  if (!campaign) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
+  if (!o.only.empty()) CheckOnlyFilter(store, *campaign, o.only);
 
   struct sigaction sa {};
   sa.sa_handler = RunnerOnStopSignal;
@@ -616,19 +669,22 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
   const Args a = Parse(argv,
                        {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false},
                         {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true},
-                        {"help", false}},
+                        {"max-runs", true}, {"help", false}},
                        "compare");
   if (a.positional.size() != 1) throw UsageError("campaign compare: needs exactly one SPEC file (see campaign compare --help)");
 #ifdef GRANARY_HAVE_ANALYSIS
   const std::string spec_path = a.positional[0];
   json j = ReadSpecFile("compare", spec_path);
-  if (j.is_object()) j["engine"] = json::array({"native", "liggghts"});
+  if (j.is_object()) {
+    j["engine"] = json::array({"native", "liggghts"});
+    if (j.contains("base") && j["base"].is_object()) j["base"].erase("engine");  // both, whatever it says
+  }
   const RunOptions o = RunOptionsFrom(a);
   const std::string db = DbPath(a);
   // With --json, stdout carries only the JSON document.
   std::ostream& progress = a.has("json") ? err : out;
   CampaignSpec spec;
-  const PlanSummary s = PlanInto(j, spec_path, db, false, spec);
+  const PlanSummary s = PlanInto(j, spec_path, db, false, MaxRuns(a), spec);
   PrintPlan(progress, spec, s, false);
   int code = 0;
   if (!a.has("no-run")) {

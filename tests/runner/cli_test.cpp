@@ -99,6 +99,45 @@ TEST_F(CliTest, SpecErrorExitsTwoWithPath) {
   EXPECT_FALSE(fs::exists(Db()) && Status()["total"] != 0);
 }
 
+// issue 13: a spec nested 10^5 deep crashed `campaign plan` with SIGSEGV; a syntax error said
+// only "not valid JSON"; a huge sweep ended in std::bad_alloc.
+TEST_F(CliTest, BadSpecFilesAreUsageErrorsThatSayWhere) {
+  const fs::path deep = dir_ / "deep.json";
+  std::ofstream(deep) << "{\"name\": \"t\", \"base\": " << std::string(100000, '[') << std::string(100000, ']') << "}";
+  auto r = Sh(Cmd("plan " + deep.string()));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_EQ(r.output, "error: " + deep.string() + ":1:86: nested deeper than 64 levels (a campaign spec needs fewer than 10)\n");
+  const fs::path broken = dir_ / "broken.json";
+  std::ofstream(broken) << "{\n  \"name\": \"t\",\n  \"replicas\": 2,,\n}\n";
+  r = Sh(Cmd("plan " + broken.string()));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_EQ(r.output.rfind("error: " + broken.string() + ":3:17: not valid JSON: syntax error", 0), 0u) << r.output;
+  const fs::path big = dir_ / "big.json";
+  std::ofstream(big) << R"({"name": "t", "replicas": 1000, "base": {"silo": {"width": 30}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [3, 4, 5, 6], "/contact/mu": [0.1, 0.2, 0.3]}}})";
+  r = Sh(Cmd("plan " + big.string() + " --dry-run --max-runs 11999"));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("/sweep: expands to 12000 runs (3 x 4 x 1 engine(s) x 1000 replicas), more than the limit of 11999"),
+            std::string::npos) << r.output;
+  EXPECT_EQ(Sh(Cmd("plan " + big.string() + " --dry-run --max-runs 12000")).code, 0);
+}
+
+// issue 13: --only with a typo or a value not in the sweep ran nothing and exited 0.
+TEST_F(CliTest, OnlyMustSelectSomething) {
+  Sh(Cmd("plan " + WriteSpec("[4, 6]", 1)));
+  auto r = Sh(RunCmd("--only /silo/base_outlet/0/width=4"));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_EQ(r.output, "error: --only: \"/silo/base_outlet/0/width\" is not a sweep axis of campaign t; did you mean "
+                      "\"/silo/base_outlets/0/width\"? (axes: /silo/base_outlets/0/width)\n");
+  r = Sh(RunCmd("--only /silo/base_outlets/0/width=5"));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_EQ(r.output, "error: --only: no run has /silo/base_outlets/0/width = 5 (its values: 4.0, 6.0)\n");
+  r = Sh(RunCmd("--only zzzz"));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("error: --only: no run id starts with \"zzzz\""), std::string::npos) << r.output;
+  EXPECT_EQ(Status()["counts"]["planned"], 2);
+}
+
 TEST_F(CliTest, PlanRunStatusReport) {
   const std::string spec = WriteSpec("[4, 6]", 2);
   auto r = Sh(Cmd("plan " + spec));
