@@ -14,6 +14,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -153,10 +154,21 @@ class OutFile {
   }
   std::FILE* get() const { return f_; }
   bool open() const { return f_ != nullptr; }
+  // Flushed; throws if any write to the file has failed (a full disk must end the run, not
+  // leave a silently short output behind a checkpoint or DONE).
   long Offset() {
     if (!f_) return 0;
-    std::fflush(f_);
+    Check();
     return std::ftell(f_);
+  }
+  void Check() {
+    if (f_ && (std::fflush(f_) != 0 || std::ferror(f_)))
+      throw std::runtime_error("cannot write " + path_.string() + ": " + std::strerror(errno));
+  }
+  void Close() {
+    Check();
+    if (f_) std::fclose(f_);
+    f_ = nullptr;
   }
 
  private:
@@ -781,9 +793,9 @@ RunResult Discharge::Run() {
   g_stop_accepted = 0;  // the outputs are being finished: a stop now ends the run at once
   std::int64_t exited = 0;
   for (auto e : exits_per_outlet_) exited += e;
-  events_ = OutFile();
-  frames_ = OutFile();
-  contacts_ = OutFile();
+  events_.Close();
+  frames_.Close();
+  contacts_.Close();
   ReportProgress(dir_,
                  {"discharge", 1.0, static_cast<double>(step_) * dt, spec_.discharge.max_time,
                   discharge_wall_before_ + Seconds(session_start_), static_cast<int>(exited)},

@@ -12,6 +12,7 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <thread>
 
@@ -104,6 +105,22 @@ Args Parse(const std::vector<std::string>& argv, const std::vector<FlagSpec>& kn
 }
 
 std::string DbPath(const Args& a) { return a.get("db", "granary.db"); }
+
+// The database of an existing campaign (only `plan` creates one). A zero-length file is not
+// an empty campaign but a lost one: refused, not silently given a fresh schema.
+std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& verb) {
+  if (!fs::exists(db)) {
+    throw UsageError("campaign " + verb + ": no database " + db +
+                     (verb == "run" ? " (run campaign plan SPEC --db " + db + " first)" : std::string()));
+  }
+  std::error_code ec;
+  if (fs::file_size(db, ec) == 0 && !ec) {
+    throw StoreError(SQLITE_NOTADB, "database " + db + " is empty (0 bytes): whatever campaign it held is lost (was it "
+                                        "truncated, or copied while the disk was full?); plan a campaign into it again "
+                                        "with campaign plan SPEC --db " + db);
+  }
+  return std::make_unique<Store>(db);
+}
 fs::path DbDir(const std::string& db) {
   const fs::path p = fs::absolute(db).parent_path();
   return p;
@@ -393,9 +410,7 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
     throw UsageError("--engine: must be native, liggghts or a path to an engine executable (got \"" + o.engine + "\")");
   }
   o.only = a.get("only", "");
-  const std::string db = DbPath(a);
-  if (!fs::exists(db)) throw UsageError("campaign run: no database " + db + " (run campaign plan SPEC --db " + db + " first)");
-  return RunAll(db, o, out);
+  return RunAll(DbPath(a), o, out);
 }
 
 // --only must select something: a typo or a value not in the sweep is an error, not a run
@@ -431,7 +446,8 @@ void CheckOnlyFilter(Store& store, const CampaignRow& campaign, const std::strin
 
 // Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly.
 int RunAll(const std::string& db, const RunOptions& o, std::ostream& out) {
-  Store store(db);
+  const auto opened = OpenCampaignDb(db, "run");
+  Store& store = *opened;
   const auto campaign = load_campaign(store);
   if (!campaign) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
   if (!o.only.empty()) CheckOnlyFilter(store, *campaign, o.only);
@@ -467,8 +483,8 @@ const char kStatusHelp[] =
 int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, {{"db", true}, {"json", false}, {"help", false}}, "status");
   const std::string db = DbPath(a);
-  if (!fs::exists(db)) throw UsageError("campaign status: no database " + db);
-  Store store(db);
+  const auto opened = OpenCampaignDb(db, "status");
+  Store& store = *opened;
   const auto campaign = load_campaign(store);
   const auto runs = load_runs(store, false);
   std::map<std::string, int> counts = {{"planned", 0}, {"running", 0}, {"done", 0},
@@ -556,7 +572,8 @@ const char kReportHelp[] =
 #ifdef GRANARY_HAVE_ANALYSIS
 // The report of the campaign in `db`: the database's runs handed over as plain records.
 analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out_dir, bool figures) {
-  Store store(db);
+  const auto opened = OpenCampaignDb(db, "report");
+  Store& store = *opened;
   const auto campaign = load_campaign(store);
   if (!campaign) throw UsageError("campaign report: " + db + " holds no campaign");
   analysis::CampaignInfo info;
@@ -596,7 +613,6 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
 int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, {{"db", true}, {"out", true}, {"no-figures", false}, {"help", false}}, "report");
   const std::string db = DbPath(a);
-  if (!fs::exists(db)) throw UsageError("campaign report: no database " + db);
 #ifdef GRANARY_HAVE_ANALYSIS
   const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
                                      !a.has("no-figures"));
@@ -741,7 +757,8 @@ std::string MainHelp() {
       "usage: campaign VERB [flags]   (campaign VERB --help for its flags)\n"
       "Granary campaign manager: plan, run and report sweeps of 2-D silo discharge simulations.\n\nverbs:\n";
   for (const auto& v : Verbs()) h += "  " + std::string(v.name) + std::string(10 - std::string(v.name).size(), ' ') + v.summary + "\n";
-  h += "\nexit codes: 0 ok, 1 runs failed, 2 usage or spec error, 130 interrupted\n";
+  h += "\nexit codes: 0 ok, 1 runs failed, 2 usage or spec error, 3 storage (database or run directories),\n"
+       "130 interrupted (docs/cli.md)\n";
   return h;
 }
 
@@ -783,7 +800,7 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     return static_cast<int>(ExitCode::kUsage);
   } catch (const StoreError& e) {
     err << "error: " << e.what() << "\n";
-    return static_cast<int>(ExitCode::kUsage);
+    return static_cast<int>(ExitCode::kStorage);
   } catch (const std::invalid_argument& e) {  // e.g. an engine executable that does not exist
     err << "error: " << e.what() << "\n";
     return static_cast<int>(ExitCode::kUsage);

@@ -4,9 +4,11 @@
 #include "engine/files.h"
 
 #include <signal.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <deque>
 #include <filesystem>
@@ -88,6 +90,26 @@ std::string Number(double x) {
   return o.str();
 }
 
+// "exited with status 3", "killed by signal 9 (Killed)".
+std::string How(const Finished& f) {
+  return f.signal != 0 ? "killed by " + SignalName(f.signal) : "exited with status " + std::to_string(f.exit_code);
+}
+
+// A message if the file system holding `dir` (or its nearest existing parent) is full, or
+// "". Engines that fail on a full disk often cannot even write why into engine.log.
+std::string FullFileSystem(fs::path dir) {
+  constexpr double kFullBelowBytes = 1 << 20;
+  std::error_code ec;
+  while (!dir.empty() && !fs::exists(dir, ec)) dir = dir.parent_path();
+  struct statvfs st {};
+  if (dir.empty() || ::statvfs(dir.c_str(), &st) != 0) return "";
+  const double free_bytes = static_cast<double>(st.f_bavail) * static_cast<double>(st.f_frsize);
+  if (free_bytes >= kFullBelowBytes) return "";
+  std::ostringstream o;
+  o << "the file system of " << dir.string() << " is full (" << std::lround(free_bytes / 1024) << " KiB free)";
+  return o.str();
+}
+
 struct Slot {
   RunRow row;
   double started = 0;
@@ -129,6 +151,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   std::map<std::string, Slot> slots;      // engines started
   std::map<std::string, RunRow> waiting;  // claimed, but another engine still holds the directory
   bool any_final_failure = false;
+  std::string storage_full;  // set when runs/ is full: no new runs start, the invocation ends with kStorage
   double last_heartbeat = clock();
   double last_tick = -1e300;
 
@@ -196,7 +219,12 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       l.log_file = (fs::path(row.run_dir) / "engine.log").string();
       executor.start(l);
     } catch (const std::exception& e) {
-      end_run(row.run_id, "failed", e.what(), 0);
+      if (const std::string full = FullFileSystem(row.run_dir); !full.empty()) {
+        storage_full = full;
+        end_run(row.run_id, "interrupted", full + ": " + e.what(), 0);
+      } else {
+        end_run(row.run_id, "failed", e.what(), 0);
+      }
       return;
     }
     slots[row.run_id] = Slot{row, clock(), false, false};
@@ -218,6 +246,10 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       else waiting[f.run_id] = slot.row;
     } else if (stopping) {
       end_run(f.run_id, "interrupted", "interrupted by the user (runner stopped)", wall);
+    } else if (const std::string full = FullFileSystem(slot.row.run_dir); !full.empty()) {
+      // Not the run's fault: it continues from its checkpoint once there is room.
+      storage_full = full;
+      end_run(f.run_id, "interrupted", "engine " + How(f) + "; " + full + "\n" + TailOfFile(log, 20), wall);
     } else if (f.signal == 0 && f.exit_code == 0) {
       end_run(f.run_id, "failed", "engine exited 0 without DONE and summary.json\n" + TailOfFile(log, 20), wall);
     } else if (slot.timed_out) {
@@ -225,9 +257,9 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
               "wall-time limit of " + Number(options.time_limit) + " s exceeded\n" + TailOfFile(log, 20), wall);
     } else if (f.signal != 0) {
       // Killed from outside: it continues from its checkpoint on the next attempt.
-      end_run(f.run_id, "interrupted", "engine killed by " + SignalName(f.signal) + "\n" + TailOfFile(log, 20), wall);
+      end_run(f.run_id, "interrupted", "engine " + How(f) + "\n" + TailOfFile(log, 20), wall);
     } else {
-      end_run(f.run_id, "failed", "engine exited with status " + std::to_string(f.exit_code) + "\n" + TailOfFile(log, 20), wall);
+      end_run(f.run_id, "failed", "engine " + How(f) + "\n" + TailOfFile(log, 20), wall);
     }
   };
 
@@ -249,68 +281,108 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     }
   };
 
-  while (true) {
-    if (stop && *stop) {
-      // The engines checkpoint and exit (the executor ends them by force after a grace
-      // period); they continue next time.
-      executor.stop_all(StopReason::kInterrupt);
-      while (executor.active() > 0) {
-        for (const auto& f : executor.poll()) finished(f, true);
-        if (executor.active() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  try {
+    while (true) {
+      if (stop && *stop) {
+        // The engines checkpoint and exit (the executor ends them by force after a grace
+        // period); they continue next time.
+        executor.stop_all(StopReason::kInterrupt);
+        while (executor.active() > 0) {
+          for (const auto& f : executor.poll()) finished(f, true);
+          if (executor.active() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        }
+        for (const auto& [id, row] : waiting) end_run(id, "interrupted", "interrupted while waiting for its directory", 0);
+        observer.on_end(done, failed, total);
+        return ExitCode::kInterrupted;
       }
-      for (const auto& [id, row] : waiting) end_run(id, "interrupted", "interrupted while waiting for its directory", 0);
-      observer.on_end(done, failed, total);
-      return ExitCode::kInterrupted;
-    }
 
-    // Runs waiting for their directory first, then new claims, while there are free slots.
-    for (auto it = waiting.begin(); it != waiting.end() && executor.can_start_more();) {
-      const RunRow row = (it++)->second;
-      launch(row);
-    }
-    bool nothing_left = false;
-    while (executor.can_start_more()) {
-      auto row = claim_next(store, me, now_seconds(), accept, skip);
-      if (!row) {
-        nothing_left = true;
-        break;
+      // Runs waiting for their directory first, then new claims, while there are free slots.
+      for (auto it = waiting.begin(); it != waiting.end() && executor.can_start_more() && storage_full.empty();) {
+        const RunRow row = (it++)->second;
+        launch(row);
       }
-      launch(*row);
-    }
-    if (nothing_left && executor.active() == 0 && waiting.empty()) break;
+      bool nothing_left = !storage_full.empty();  // a full runs/ starts nothing more
+      while (!nothing_left && executor.can_start_more()) {
+        auto row = claim_next(store, me, now_seconds(), accept, skip);
+        if (!row) {
+          nothing_left = true;
+          break;
+        }
+        launch(*row);
+      }
+      if (nothing_left && executor.active() == 0 && (waiting.empty() || !storage_full.empty())) break;
 
-    for (const auto& f : executor.poll()) finished(f, false);
+      for (const auto& f : executor.poll()) finished(f, false);
 
-    const double now = clock();
-    if (options.time_limit > 0) {
-      for (auto& [id, slot] : slots) {
-        if (!slot.timed_out && !slot.lease_lost && now - slot.started > options.time_limit) {
-          slot.timed_out = true;
-          executor.stop(id, StopReason::kTimeLimit);
+      const double now = clock();
+      if (options.time_limit > 0) {
+        for (auto& [id, slot] : slots) {
+          if (!slot.timed_out && !slot.lease_lost && now - slot.started > options.time_limit) {
+            slot.timed_out = true;
+            executor.stop(id, StopReason::kTimeLimit);
+          }
         }
       }
-    }
-    if (now - last_tick >= options.tick_interval) {
-      last_tick = now;
-      std::vector<ActiveRun> active;
-      std::map<std::string, json> progress;
-      for (const auto& [id, slot] : slots) {
-        ActiveRun a;
-        a.run_id = id;
-        a.point = slot.row.point.dump();
-        a.attempt = slot.row.attempts;
-        a.elapsed = now - slot.started;
-        a.progress = ReadJsonFile(fs::path(slot.row.run_dir) / "progress.json");
-        if (!a.progress.is_null()) progress[id] = a.progress;
-        active.push_back(a);
+      if (now - last_tick >= options.tick_interval) {
+        last_tick = now;
+        std::vector<ActiveRun> active;
+        std::map<std::string, json> progress;
+        for (const auto& [id, slot] : slots) {
+          ActiveRun a;
+          a.run_id = id;
+          a.point = slot.row.point.dump();
+          a.attempt = slot.row.attempts;
+          a.elapsed = now - slot.started;
+          a.progress = ReadJsonFile(fs::path(slot.row.run_dir) / "progress.json");
+          if (!a.progress.is_null()) progress[id] = a.progress;
+          active.push_back(a);
+        }
+        observer.on_tick(active, done, failed, total);
+        if (now - last_heartbeat >= options.heartbeat_interval) {
+          last_heartbeat = now;
+          check_leases(progress);
+        }
       }
-      observer.on_tick(active, done, failed, total);
-      if (now - last_heartbeat >= options.heartbeat_interval) {
-        last_heartbeat = now;
-        check_leases(progress);
+      if (options.poll_interval > 0) std::this_thread::sleep_for(std::chrono::duration<double>(options.poll_interval));
+    }
+  } catch (const StoreError& e) {
+    // The database cannot be written (full disk, read-only, busy past the timeout): nothing
+    // more can be recorded. The engines are stopped (they checkpoint); runs that cannot be
+    // marked interrupted stay `running` under this runner's lease, which the next
+    // `campaign run` recovers (this runner is gone by then).
+    executor.stop_all(StopReason::kInterrupt);
+    while (executor.active() > 0) {
+      for (const auto& f : executor.poll()) slots.erase(f.run_id);
+      if (executor.active() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    int unrecorded = 0;
+    std::vector<std::string> held;
+    try {
+      for (const auto& id : heartbeat(store, me, now_seconds(), {})) held.push_back(id);
+    } catch (const StoreError&) {
+      held.assign(1, "?");
+    }
+    for (const auto& id : held) {
+      try {
+        if (id == "?" || !record_end(store, id, me.id, "interrupted", "the database could not be written: " +
+                                                                   std::string(e.what()), now_seconds(), 0))
+          ++unrecorded;
+      } catch (const StoreError&) {
+        ++unrecorded;
       }
     }
-    if (options.poll_interval > 0) std::this_thread::sleep_for(std::chrono::duration<double>(options.poll_interval));
+    throw StoreError(e.code(), std::string(e.what()) + "\ncampaign run stopped its engines (they continue from their checkpoints)" +
+                                   (unrecorded > 0 ? "; runs it could not mark interrupted show as running with their runner gone "
+                                                     "until the next campaign run recovers them"
+                                                   : "") +
+                                   ". Free space (or fix the database) and run campaign run again.");
+  }
+  if (!storage_full.empty()) {
+    for (const auto& [id, row] : waiting) end_run(id, "interrupted", storage_full, 0);
+    observer.on_event("", "stopped", storage_full + ": no more runs started; the interrupted ones continue from their "
+                                     "checkpoints once there is room (campaign run again)");
+    observer.on_end(done, failed, total);
+    return ExitCode::kStorage;
   }
   observer.on_end(done, failed, total);
   return any_final_failure ? ExitCode::kRunsFailed : ExitCode::kOk;

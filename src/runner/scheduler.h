@@ -16,7 +16,8 @@
 
 namespace granary::runner {
 
-enum class ExitCode : int { kOk = 0, kRunsFailed = 1, kUsage = 2, kInterrupted = 130 };
+// docs/cli.md "Exit codes".
+enum class ExitCode : int { kOk = 0, kRunsFailed = 1, kUsage = 2, kStorage = 3, kInterrupted = 130 };
 
 struct RunOptions {
   int jobs = 1;
