@@ -234,6 +234,25 @@ std::optional<RunRow> claim_next(Store& store, const Holder& me, double now,
   return found;
 }
 
+int requeue_done_runs(Store& store, const std::vector<std::string>& run_ids, const std::string& reason) {
+  Transaction tx(store);
+  Statement u = store.prepare(
+      "UPDATE runs SET state = 'planned', failure = ?2, end_reason = NULL, summary = NULL, ended_at = NULL, "
+      "wall_s = NULL WHERE run_id = ?1 AND state = 'done'");
+  Statement del = store.prepare("DELETE FROM results WHERE run_id = ?1");
+  int n = 0;
+  for (const auto& id : run_ids) {
+    u.reset();
+    u.bind(1, id).bind(2, reason).run();
+    if (sqlite3_changes(store.handle()) != 1) continue;
+    ++n;
+    del.reset();
+    del.bind(1, id).run();
+  }
+  tx.commit();
+  return n;
+}
+
 std::set<std::string> heartbeat(Store& store, const Holder& me, double now,
                                 const std::map<std::string, json>& progress_by_run) {
   Transaction tx(store);

@@ -93,6 +93,10 @@ std::optional<RunRow> claim_next(Store& store, const Holder& me, double now,
                                  const std::function<bool(const RunRow&)>& accept,
                                  const std::set<std::string>& skip);
 
+// Done runs back to `planned` (their results deleted), e.g. when their run directory was
+// deleted after they finished; `reason` is kept as the run's failure note. Returns how many.
+int requeue_done_runs(Store& store, const std::vector<std::string>& run_ids, const std::string& reason);
+
 // Refreshes the heartbeat of every run `me` holds and stores their progress. Returns the
 // runs `me` still holds: a run missing from it was taken over (its lease expired and another
 // runner recovered it) or retired by a re-plan, and its engine must stop.

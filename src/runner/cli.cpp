@@ -267,7 +267,7 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
 // ---------------------------------------------------------------- run
 const char kRunHelp[] =
     "usage: campaign run [--db FILE] [--jobs N] [--engine E] [--only FILTER] [--threads-per-run T]\n"
-    "                    [--time-limit S] [--retries K]\n"
+    "                    [--time-limit S] [--retries K] [--rerun-lost]\n"
     "Run every planned, interrupted or failed run, N at a time, each as an engine subprocess on\n"
     "its run directory. Safe to repeat after a crash or kill: done runs are kept, interrupted ones\n"
     "continue from their checkpoint, and two runners on one database never run the same run.\n"
@@ -277,7 +277,9 @@ const char kRunHelp[] =
     "  --threads-per-run T  passed to the engine as --threads (default 1)\n"
     "  --time-limit S       wall seconds per run; a run over it is killed and marked failed\n"
     "  --retries K          extra attempts per run in this invocation (default 1)\n"
-    "Exit: 0 all ran, 1 some runs failed, 2 usage error, 130 interrupted (Ctrl-C / SIGTERM).\n";
+    "  --rerun-lost         run again the done runs whose run directory was deleted\n"
+    "Exit: 0 all ran, 1 some runs failed, 2 usage error, 3 storage error (database or run\n"
+    "directories: full disk, unwritable), 130 interrupted (Ctrl-C / SIGTERM).\n";
 
 volatile std::sig_atomic_t g_stop = 0;
 extern "C" void RunnerOnStopSignal(int) { g_stop = 1; }
@@ -401,7 +403,7 @@ RunOptions RunOptionsFrom(const Args& a) {
 int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv,
                        {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true},
-                        {"time-limit", true}, {"retries", true}, {"help", false}},
+                        {"time-limit", true}, {"retries", true}, {"rerun-lost", false}, {"help", false}},
                        "run");
   if (!a.positional.empty()) throw UsageError("campaign run: unexpected argument \"" + a.positional[0] + "\"");
   RunOptions o = RunOptionsFrom(a);
@@ -410,6 +412,7 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
     throw UsageError("--engine: must be native, liggghts or a path to an engine executable (got \"" + o.engine + "\")");
   }
   o.only = a.get("only", "");
+  o.rerun_lost = a.has("rerun-lost");
   return RunAll(DbPath(a), o, out);
 }
 
@@ -492,8 +495,10 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   double first_start = 0, last_end = 0, wall_sum = 0, remaining_work = 0;
   int wall_n = 0, active = 0;
   const double now = now_seconds();
+  int lost = 0;  // done, but the run directory is gone
   for (const auto& r : runs) {
     ++counts[r.state];
+    if (r.state == "done" && !fs::exists(r.run_dir)) ++lost;
     if (r.started_at > 0 && (first_start == 0 || r.started_at < first_start)) first_start = r.started_at;
     last_end = std::max(last_end, r.ended_at);
     if (r.state == "done" && r.wall_s > 0) {
@@ -518,11 +523,13 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       if (r.state == "running") j["lease_expired"] = lease_expired(r, this_process_holder().host, now);
       if (!r.failure.empty()) j["failure"] = r.failure;
       if (!r.end_reason.empty()) j["end_reason"] = r.end_reason;
+      if (r.state == "done" && !fs::exists(r.run_dir)) j["run_dir_missing"] = true;
       list.push_back(j);
     }
     out << json{{"campaign", campaign ? campaign->name : ""},
                 {"total", runs.size() - static_cast<std::size_t>(counts["retired"])},
                 {"counts", counts},
+                {"lost", lost},
                 {"elapsed_s", elapsed},
                 {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
                 {"runs", list}}
@@ -534,6 +541,12 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       << " runs (" << db << ")\n ";
   for (const auto& [state, n] : counts) out << " " << state << " " << n;
   out << "\n  elapsed " << Duration(elapsed) << ", ETA " << (eta >= 0 ? Duration(eta) : "?") << "\n";
+  if (lost > 0) {
+    out << "lost: " << lost << " done run(s) have no run directory (deleted after they finished); their results "
+        << "are in the database only (campaign run --rerun-lost runs them again):\n";
+    for (const auto& r : runs)
+      if (r.state == "done" && !fs::exists(r.run_dir)) out << "  " << r.run_id << "  " << r.run_dir << "\n";
+  }
   bool header = false;
   for (const auto& r : runs) {
     if (r.state != "running") continue;
@@ -617,7 +630,11 @@ int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
                                      !a.has("no-figures"));
   out << "report: " << summary.markdown.string() << "\n        " << summary.html.string() << "\n  runs used "
-      << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed << "\n";
+      << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed
+      << (summary.runs_lost > 0 ? ", lost " + std::to_string(summary.runs_lost) +
+                                      " (done, run directory deleted: campaign run --rerun-lost)"
+                                : std::string())
+      << "\n";
   return 0;
 #else
   (void)out;

@@ -22,6 +22,8 @@
 namespace granary::runner {
 
 namespace fs = std::filesystem;
+
+const char kLostRunDirectory[] = "its run directory was deleted after it finished; run again (--rerun-lost)";
 using nlohmann::json;
 
 bool matches_filter(const RunRow& row, const std::string& filter) {
@@ -130,6 +132,17 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   };
   const int recovered = recover_expired_leases(store, me, now_seconds());
 
+  auto accept = [&](const RunRow& r) {
+    if ((options.engine == "native" || options.engine == "liggghts") && r.engine != options.engine) return false;
+    return matches_filter(r, options.only);
+  };
+  // Done runs whose directory was deleted: their results are in the database, but nothing
+  // can analyse them. Said at every start; run again on request.
+  std::vector<std::string> lost;
+  for (const auto& r : load_runs(store, true))
+    if (r.state == "done" && !fs::exists(r.run_dir) && accept(r)) lost.push_back(r.run_id);
+  const int requeued = options.rerun_lost ? requeue_done_runs(store, lost, kLostRunDirectory) : 0;
+
   int total = 0, done = 0, failed = 0;
   for (const auto& r : load_runs(store, false)) {
     if (r.state == "retired") continue;
@@ -141,11 +154,14 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   if (recovered > 0) {
     observer.on_event("", "interrupted", std::to_string(recovered) + " run(s) of a lost runner will continue");
   }
+  if (requeued > 0) {
+    observer.on_event("", "planned", std::to_string(requeued) + " done run(s) whose run directory was deleted will run again");
+  } else if (!lost.empty()) {
+    observer.on_event("", "lost", std::to_string(lost.size()) + " done run(s) have no run directory (deleted after they "
+                                  "finished; first " + lost.front() + "): their results are in the database only; "
+                                  "campaign run --rerun-lost runs them again");
+  }
 
-  auto accept = [&](const RunRow& r) {
-    if ((options.engine == "native" || options.engine == "liggghts") && r.engine != options.engine) return false;
-    return matches_filter(r, options.only);
-  };
   std::set<std::string> skip;             // exhausted in this invocation
   std::map<std::string, int> failures;    // failed attempts in this invocation
   std::map<std::string, Slot> slots;      // engines started

@@ -30,6 +30,7 @@ struct RunOptions {
   double poll_interval = 0.2;
   double tick_interval = 0.5;       // observer ticks (progress display)
   double heartbeat_interval = 2.0;  // lease heartbeats, and the check that the leases are still ours
+  bool rerun_lost = false;          // run again the done runs whose run directory was deleted
   // Tests: who claims the runs (default this_process_holder()), and the monotonic clock in
   // seconds that time limits, ticks and heartbeats are measured with (default steady_clock).
   std::optional<Holder> holder;
@@ -52,6 +53,9 @@ class RunObserver {
   virtual void on_tick(const std::vector<ActiveRun>& active, int done, int failed, int total) = 0;
   virtual void on_end(int done, int failed, int total) = 0;
 };
+
+// The failure note of a done run put back to planned because its directory was deleted.
+extern const char kLostRunDirectory[];
 
 // Does `row` pass the --only filter?
 bool matches_filter(const RunRow& row, const std::string& filter);

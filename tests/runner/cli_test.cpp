@@ -3,6 +3,10 @@
 // `kill -9` of the runner, and two runners on one database never running a run twice.
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/mount.h>
+
+#include <cerrno>
+#include <cstring>
 
 #include <chrono>
 #include <filesystem>
@@ -136,6 +140,47 @@ TEST_F(CliTest, OnlyMustSelectSomething) {
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("error: --only: no run id starts with \"zzzz\""), std::string::npos) << r.output;
   EXPECT_EQ(Status()["counts"]["planned"], 2);
+}
+
+// issue 13: a zero-length database was reported as an empty campaign; store errors exited 2
+// ("usage"). They exit 3 with what happened.
+TEST_F(CliTest, AZeroLengthDatabaseIsAStorageErrorNotAnEmptyCampaign) {
+  Sh(Cmd("plan " + WriteSpec("[4]", 1)));
+  fs::resize_file(Db(), 0);
+  for (const char* verb : {"status", "run", "report --no-figures"}) {
+    const auto r = Sh(Cmd(verb));
+    EXPECT_EQ(r.code, 3) << verb << ": " << r.output;
+    EXPECT_NE(r.output.find("error: database " + Db() + " is empty (0 bytes): whatever campaign it held is lost"),
+              std::string::npos) << r.output;
+  }
+  std::ofstream(Db(), std::ios::trunc) << "this is not an SQLite file, but it is long enough to be looked at as one....";
+  const auto r = Sh(Cmd("status"));
+  EXPECT_EQ(r.code, 3) << r.output;
+  EXPECT_NE(r.output.find("file is not a database"), std::string::npos) << r.output;
+}
+
+// issue 13: a finished run whose directory was deleted went unnoticed by status and run, and
+// report counted it as failed.
+TEST_F(CliTest, StatusRunAndReportSayWhichDoneRunsLostTheirDirectory) {
+  Sh(Cmd("plan " + WriteSpec("[4, 6]", 1)));
+  ASSERT_EQ(Sh(RunCmd()).code, 0);
+  json s = Status();
+  const std::string lost_id = s["runs"][0]["run_id"];
+  fs::remove_all(s["runs"][0]["run_dir"].get<std::string>());
+  s = Status();
+  EXPECT_EQ(s["lost"], 1);
+  EXPECT_EQ(s["runs"][0]["run_dir_missing"], true);
+  EXPECT_FALSE(s["runs"][1].contains("run_dir_missing"));
+  EXPECT_NE(Sh(Cmd("status")).output.find("lost: 1 done run(s) have no run directory"), std::string::npos);
+  EXPECT_NE(Sh(RunCmd()).output.find("1 done run(s) have no run directory"), std::string::npos);
+#ifdef GRANARY_HAVE_ANALYSIS
+  const auto report = Sh(Cmd("report --no-figures"));
+  ASSERT_EQ(report.code, 0) << report.output;
+  EXPECT_NE(report.output.find("failed 0, lost 1 (done, run directory deleted"), std::string::npos) << report.output;
+#endif
+  ASSERT_EQ(Sh(RunCmd("--rerun-lost")).code, 0);
+  EXPECT_EQ(Status()["lost"], 0);
+  EXPECT_EQ(Status()["counts"]["done"], 2);
 }
 
 TEST_F(CliTest, PlanRunStatusReport) {
@@ -374,6 +419,112 @@ TEST_F(CliTest, CompareRunsBothEnginesAndReportsThem) {
   const auto again = Sh("(" + Cmd("compare " + p.string() + " --json --no-figures") + " 2>/dev/null)");
   ASSERT_EQ(again.code, 0) << again.output;
   EXPECT_EQ(json::parse(again.output)["comparison"]["points"], c["points"]);
+}
+
+}  // namespace
+}  // namespace granary::runner
+
+namespace granary::runner {
+namespace {
+
+// A small tmpfs for the full-disk tests (root with CAP_SYS_ADMIN; otherwise the test skips
+// and says so). Unmounted when the object goes.
+class Tmpfs {
+ public:
+  Tmpfs(const fs::path& at, const std::string& size) : at_(at) {
+    fs::create_directories(at);
+    mounted_ = ::mount("tmpfs", at.c_str(), "tmpfs", 0, ("size=" + size).c_str()) == 0;
+    if (!mounted_) why_ = std::strerror(errno);
+  }
+  ~Tmpfs() {
+    if (mounted_) ::umount2(at_.c_str(), MNT_DETACH);
+  }
+  bool mounted() const { return mounted_; }
+  const std::string& why() const { return why_; }
+  // Writes zeros into `file` until the file system is full.
+  void Fill(const fs::path& file) const {
+    std::FILE* f = std::fopen(file.c_str(), "wb");
+    const std::string block(4096, '\0');
+    while (f && std::fwrite(block.data(), 1, block.size(), f) == block.size() && std::fflush(f) == 0) {
+    }
+    if (f) std::fclose(f);
+  }
+
+ private:
+  fs::path at_;
+  bool mounted_ = false;
+  std::string why_;
+};
+
+// issue 13: a full disk under the database aborted the runner and left runs `running`. Now
+// the runner stops its engines (they checkpoint), exits 3 saying the disk is full and what it
+// left, and the next runner (with room again) finishes every run exactly once.
+TEST_F(CliTest, AFullDiskUnderTheDatabaseStopsTheRunnerCleanly) {
+  const Tmpfs disk(dir_ / "dbfs", "2m");
+  if (!disk.mounted()) GTEST_SKIP() << "cannot mount a tmpfs to fill (needs root with CAP_SYS_ADMIN): " << disk.why();
+  const std::string db = (dir_ / "dbfs" / "g.db").string();
+  fs::create_directories(dir_ / "runs-elsewhere");
+  fs::create_directory_symlink(dir_ / "runs-elsewhere", dir_ / "dbfs" / "runs");  // only the database is full
+  setenv("FAKE_ENGINE_STEPS", "100", 1);
+  setenv("FAKE_ENGINE_STEP_MS", "0", 1);
+  setenv("FAKE_ENGINE_FIRST_LAUNCH_STEP_MS", "1000", 1);
+  ASSERT_EQ(Sh(testing::Campaign() + " plan " + WriteSpec("[4, 6]", 1) + " --db " + db).code, 0);
+  const std::string log = (dir_ / "runner.log").string();
+  const pid_t runner = Spawn({testing::Campaign(), "run", "--db", db, "--jobs", "2", "--engine", testing::FakeEngine()}, log);
+  const auto checkpointed = [&] {
+    int n = 0;
+    for (const auto& e : fs::directory_iterator(dir_ / "runs-elsewhere")) n += fs::exists(e.path() / "checkpoint.fake");
+    return n;
+  };
+  ASSERT_TRUE(testing::WaitFor([&] { return checkpointed() == 2; }, 120)) << ReadFile(log);
+  disk.Fill(dir_ / "dbfs" / "filler");
+  EXPECT_EQ(testing::WaitExit(runner), 3) << ReadFile(log);
+  const std::string out = ReadFile(log);
+  EXPECT_NE(out.find("database or disk is full"), std::string::npos) << out;
+  EXPECT_NE(out.find("campaign run stopped its engines (they continue from their checkpoints)"), std::string::npos) << out;
+  fs::remove(dir_ / "dbfs" / "filler");
+  unsetenv("FAKE_ENGINE_FIRST_LAUNCH_STEP_MS");
+  const auto r = Sh(testing::Campaign() + " run --db " + db + " --engine " + testing::FakeEngine());
+  ASSERT_EQ(r.code, 0) << r.output;
+  const json s = json::parse(Sh(testing::Campaign() + " status --json --db " + db + " 2>/dev/null").output);
+  EXPECT_EQ(s["counts"]["done"], 2) << s.dump();
+  for (const auto& run : s["runs"]) {
+    const std::string launches = ReadFile(fs::path(run["run_dir"].get<std::string>()) / "launches.txt");
+    EXPECT_EQ(CountLines(launches, "finish"), 1) << launches;
+    EXPECT_NE(ReadFile(fs::path(run["run_dir"].get<std::string>()) / "engine.log").find("continuing from checkpoint"),
+              std::string::npos);
+  }
+}
+
+// issue 13: a full disk under runs/ showed "engine exited with status 1" with no reason. The
+// real engine fills a small file system with frames: its run is interrupted (not failed)
+// with the reason, no further run starts, and the runner exits 3.
+TEST_F(CliTest, AFullDiskUnderTheRunsIsSaidAndInterruptsTheRun) {
+  const std::string engine = testing::BinDir() + "/granary-engine";
+  if (!fs::exists(engine)) GTEST_SKIP() << "granary-engine not built";
+  const Tmpfs disk(dir_ / "runs", "1m");
+  if (!disk.mounted()) GTEST_SKIP() << "cannot mount a tmpfs to fill (needs root with CAP_SYS_ADMIN): " << disk.why();
+  const fs::path p = dir_ / "frames.json";
+  std::ofstream(p) << R"({"name": "full", "seed": 2, "replicas": 2,
+    "base": {"bodies": {"count": 60}, "silo": {"width": 12}, "discharge": {"mode": "reinject", "max_time": 50,
+             "stop_on_clog": false}, "output": {"checkpoint_interval": 1, "frame_interval": 0.01}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [4]}}})";
+  ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
+  const auto r = Sh(Cmd("run --jobs 1 --retries 1"));
+  EXPECT_EQ(r.code, 3) << r.output;
+  EXPECT_NE(r.output.find("is full ("), std::string::npos) << r.output;
+  const json s = Status();
+  EXPECT_EQ(s["counts"]["interrupted"], 1) << s.dump();
+  EXPECT_EQ(s["counts"]["planned"], 1) << s.dump();  // not started on a full disk
+  EXPECT_EQ(s["counts"]["failed"], 0) << s.dump();
+  for (const auto& run : s["runs"]) {
+    if (run["state"] != "interrupted") continue;
+    const std::string failure = run["failure"];
+    EXPECT_EQ(failure.rfind("engine exited with status 1; the file system of " + (dir_ / "runs").string() + "/", 0), 0u)
+        << failure;
+    EXPECT_NE(failure.find(" is full ("), std::string::npos) << failure;
+    EXPECT_EQ(run["attempts"], 1);
+  }
 }
 
 }  // namespace

@@ -369,5 +369,49 @@ TEST_F(SchedulerTest, AnEngineThatFoundItsDirectoryBusyIsStartedAgain) {
   for (const auto& [id, row] : Rows()) EXPECT_EQ(row.state, "done");
 }
 
+// The database stops taking writes while engines run (a full disk, a read-only file): the
+// runner stops its engines (they checkpoint) and says what it could not record, instead of
+// aborting with its engines killed and its runs left `running` without a word.
+TEST_F(SchedulerTest, ADatabaseThatCannotBeWrittenStopsTheEngines) {
+  executor_.run_polls = 100;
+  executor_.on_poll = [&](int poll) {
+    if (poll == 1) store_->exec("PRAGMA query_only = ON");  // every write now fails
+  };
+  try {
+    Run();
+    FAIL() << "expected a StoreError";
+  } catch (const StoreError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("campaign run stopped its engines (they continue from their checkpoints); runs it could not mark "
+                        "interrupted show as running with their runner gone"),
+              std::string::npos)
+        << what;
+  }
+  ASSERT_EQ(executor_.stops.size(), 2u);
+  for (const auto& [id, reason] : executor_.stops) EXPECT_EQ(reason, StopReason::kInterrupt);
+  EXPECT_EQ(executor_.active(), 0u);
+  store_->exec("PRAGMA query_only = OFF");
+  for (const auto& [id, row] : Rows()) EXPECT_EQ(row.state, "running");  // as the next runner will find them
+}
+
+// issue 13: a done run whose directory was deleted went unnoticed by `run`. It is reported at
+// every start, and run again on request (--rerun-lost).
+TEST_F(SchedulerTest, DoneRunsWhoseDirectoryWasDeletedAreReportedAndRunAgainOnRequest) {
+  EXPECT_EQ(Run(), ExitCode::kOk);
+  const std::string first = Ids()[0];
+  fs::remove_all(Rows()[first].run_dir);
+  EXPECT_EQ(Run(), ExitCode::kOk);
+  EXPECT_EQ(executor_.started.size(), 2u);
+  EXPECT_EQ(observer_.count(" lost: 1 done run(s) have no run directory (deleted after they finished; first " + first), 1)
+      << observer_.all();
+  options_.rerun_lost = true;
+  EXPECT_EQ(Run(), ExitCode::kOk);
+  ASSERT_EQ(executor_.started.size(), 3u);
+  EXPECT_EQ(executor_.started.back(), first);
+  EXPECT_EQ(Rows()[first].state, "done");
+  EXPECT_EQ(Rows()[first].attempts, 2);
+  EXPECT_TRUE(fs::exists(fs::path(Rows()[first].run_dir) / "DONE"));
+}
+
 }  // namespace
 }  // namespace granary::runner
