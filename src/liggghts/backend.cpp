@@ -98,6 +98,8 @@ struct LiggghtsRun {
   }
 };
 
+std::string Diagnostics(const LiggghtsRun& r, const fs::path& log);
+
 // Runs LIGGGHTS on `input` in `dir` (cwd), its log in `log`; calls on_line for every line
 // LIGGGHTS prints that starts with "GRANARY_". A stop request makes a LIGGGHTS that reads
 // `control` (the discharge) checkpoint and end at its next chunk; any other is ended at once.
@@ -158,6 +160,11 @@ LiggghtsRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir
     }
     if (g_stop_signal != 0 && !stop_sent) {
       stop_sent = true;
+      // Said now: a LIGGGHTS that does not react (hung) is killed by the runner after its
+      // grace period, and this is what the run's failure will show.
+      std::fprintf(stderr, "granary-liggghts: %s received; LIGGGHTS so far:%s", SignalName(g_stop_signal).c_str(),
+                   Diagnostics(r, dir / log).c_str());
+      std::fflush(stderr);
       if (!control.empty()) {
         // LIGGGHTS reads this file after every chunk (input_script.cpp).
         WriteAtomically(control, "variable stop_requested equal 1\n");

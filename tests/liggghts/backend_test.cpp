@@ -513,6 +513,25 @@ TEST(LiggghtsBackend, FailuresNameTheSignalAndShowTheScreenOutputAndTheLog) {
             std::string::npos) << o.output;
   EXPECT_NE(o.output.find("garbage"), std::string::npos) << o.output;
 
+  // A hang the runner ends (its --time-limit sends SIGTERM): what LIGGGHTS said is printed at
+  // once, so the run's failure shows it even if LIGGGHTS then has to be killed.
+  {
+    bp::environment env = boost::this_process::environment();
+    env["GRANARY_LIGGGHTS"] = FakeLiggghts("hang-term", "echo 'about to hang'\ntouch started\nexec sleep 1000").string();
+    fs::remove(dir / "started");
+    bp::ipstream out;
+    bp::child c(GRANARY_LIGGGHTS_EXE, "run", dir.string(), (bp::std_out & bp::std_err) > out, env);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (!fs::exists(dir / "started") && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ::kill(c.id(), SIGTERM);
+    std::string line, text;
+    while (std::getline(out, line)) text += line + "\n";
+    c.wait();
+    EXPECT_EQ(c.native_exit_code() & 0x7f, SIGTERM) << text;
+    EXPECT_NE(text.find("granary-liggghts: signal 15 (Terminated) received; LIGGGHTS so far:"), std::string::npos) << text;
+    EXPECT_NE(text.find("about to hang"), std::string::npos) << text;
+  }
   o = RunWithLiggghts(dir, FakeLiggghts("hang", "echo 'about to hang'\nexec sleep 1000"), {"--silence-limit", "1"});
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_NE(o.output.find("LIGGGHTS printed nothing for 1 s and was ended (hung?"), std::string::npos) << o.output;
