@@ -90,6 +90,17 @@ int RunExe(const std::string& args) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+// Runs the executable; its exit status (or 128 + the signal that ended it) and its output.
+std::pair<int, std::string> RunExeOutput(const std::string& args) {
+  const std::string cmd = std::string(GRANARY_ENGINE_EXE) + " " + args + " 2>&1";
+  FILE* p = ::popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[512];
+  while (p && std::fgets(buf, sizeof buf, p)) out += buf;
+  const int status = p ? ::pclose(p) : -1;
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), out};
+}
+
 TEST(Run, SmallSiloDischargesAndItsExitCountGrows) {
   const fs::path dir = FreshDir("discharge");
   WriteSpec(dir, SmallSpec(10.0, 5.0));
@@ -355,14 +366,8 @@ TEST(Run, ExecutableReportsSpecErrorsAndHelp) {
   nlohmann::json spec = SmallSpec(8.0, 1.0);
   spec["silo"]["base_outlets"][0]["width"] = -3.0;
   WriteSpec(dir, spec);
-  const std::string cmd = std::string(GRANARY_ENGINE_EXE) + " run " + dir.string() + " 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  std::string out;
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p)) out += buf;
-  const int status = ::pclose(p);
-  EXPECT_NE(WEXITSTATUS(status), 0);
+  const auto [code, out] = RunExeOutput("run " + dir.string());
+  EXPECT_NE(code, 0);
   EXPECT_NE(out.find("/silo/base_outlets/0/width"), std::string::npos) << out;
   EXPECT_EQ(RunExe("run --help"), 0);
   EXPECT_EQ(RunExe("bench --help"), 0);
@@ -397,17 +402,6 @@ TEST(Run, BenchRepeatsRoundsAndSummarises) {
   EXPECT_NE(summaries[0].find("median_speedup=1.000"), std::string::npos) << summaries[0];
 }
 
-
-// Runs the executable; its exit status (or 128 + the signal that ended it) and its output.
-std::pair<int, std::string> RunExeOutput(const std::string& args) {
-  const std::string cmd = std::string(GRANARY_ENGINE_EXE) + " " + args + " 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[512];
-  while (p && std::fgets(buf, sizeof buf, p)) out += buf;
-  const int status = p ? ::pclose(p) : -1;
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), out};
-}
 
 // Writes 64 bytes of garbage into the middle of a file (as the hostile user did).
 void Scribble(const fs::path& file) {

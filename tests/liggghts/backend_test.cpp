@@ -32,9 +32,12 @@ struct Outcome {
   std::string output;  // stdout + stderr
 };
 
-Outcome RunBackend(const fs::path& dir, bp::environment env = boost::this_process::environment()) {
+Outcome RunBackend(const fs::path& dir, bp::environment env = boost::this_process::environment(),
+                   const std::vector<std::string>& extra = {}) {
   bp::ipstream out;
-  bp::child c(GRANARY_LIGGGHTS_EXE, "run", dir.string(), (bp::std_out & bp::std_err) > out, env);
+  std::vector<std::string> args = {"run", dir.string()};
+  args.insert(args.end(), extra.begin(), extra.end());
+  bp::child c(GRANARY_LIGGGHTS_EXE, bp::args = args, (bp::std_out & bp::std_err) > out, env);
   Outcome o;
   std::string line;
   while (std::getline(out, line)) o.output += line + "\n";
@@ -478,16 +481,7 @@ fs::path FakeLiggghts(const std::string& name, const std::string& body) {
 Outcome RunWithLiggghts(const fs::path& dir, const fs::path& liggghts, const std::vector<std::string>& extra = {}) {
   bp::environment env = boost::this_process::environment();
   env["GRANARY_LIGGGHTS"] = liggghts.string();
-  bp::ipstream out;
-  std::vector<std::string> args = {"run", dir.string()};
-  args.insert(args.end(), extra.begin(), extra.end());
-  bp::child c(GRANARY_LIGGGHTS_EXE, bp::args = args, (bp::std_out & bp::std_err) > out, env);
-  Outcome o;
-  std::string line;
-  while (std::getline(out, line)) o.output += line + "\n";
-  c.wait();
-  o.exit_code = c.exit_code();
-  return o;
+  return RunBackend(dir, env, extra);
 }
 
 // issue 13: a crash by a signal was "exit status 11", garbage output with exit 0 gave an
@@ -495,7 +489,6 @@ Outcome RunWithLiggghts(const fs::path& dir, const fs::path& liggghts, const std
 // screen output comes with its log's tail, and silence ends a hung LIGGGHTS.
 TEST(LiggghtsBackend, FailuresNameTheSignalAndShowTheScreenOutputAndTheLog) {
   const fs::path dir = MakeRun("crash", json::object());
-  fs::remove_all(kTmp / "beds-none");
   json j = json::parse(ReadText(dir / "run.json"));
   j["bed"]["cache_file"] = "";  // prepare here: the fake LIGGGHTS runs for the bed
   std::ofstream(dir / "run.json") << j.dump(2);
