@@ -1,8 +1,5 @@
 // The LIGGGHTS backend (backend.h): bed, discharge and conversion into the run directory.
 #include "liggghts/backend.h"
-#include "engine/version.h"
-
-#include "engine/files.h"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -37,8 +34,16 @@
 #include <boost/process/extend.hpp>
 
 #include "engine/shapes.h"
+#include "engine/silo_outline.h"
 #include "engine/stall.h"
 #include "liggghts/input_script.h"
+#include "rundir/contacts.h"
+#include "rundir/files.h"
+#include "rundir/frames.h"
+#include "rundir/progress.h"
+#include "rundir/run_directory.h"
+#include "rundir/summary.h"
+#include "rundir/version.h"
 
 namespace granary::liggghts {
 
@@ -52,14 +57,6 @@ namespace {
 constexpr int kLogTailLines = 25;
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot read " + path.string());
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // A stop request (SIGTERM, SIGINT: set by the command line's handler, RequestStop).
 volatile std::sig_atomic_t g_stop_signal = 0;
@@ -207,13 +204,7 @@ std::string Diagnostics(const LiggghtsRun& r, const fs::path& log) {
 
 void ReportProgress(const fs::path& dir, const std::string& phase, double fraction, double t, double t_end, int exited,
                     double wall_s, bool quiet) {
-  fraction = std::clamp(fraction, 0.0, 1.0);
-  json j = {{"phase", phase}, {"fraction", fraction}, {"t", t}, {"t_end", t_end}, {"exited", exited}, {"wall_s", wall_s}};
-  WriteAtomically(dir / "progress.json", j.dump() + "\n");
-  if (!quiet) {
-    std::printf("progress phase=%s fraction=%.3f t=%.4g exited=%d\n", phase.c_str(), fraction, t, exited);
-    std::fflush(stdout);
-  }
+  rundir::WriteProgress(dir, {phase, fraction, t, t_end, exited, wall_s}, !quiet);
 }
 
 std::vector<std::string> Tokens(const std::string& line) {
@@ -422,21 +413,33 @@ bool NextDumpBlock(std::istream& in, long long& step, long long& rows) {
   return false;
 }
 
+// The box of frames.dump and contacts.dump: LIGGGHTS' discharge box, with room in y for the
+// clumps that the conversion puts back together across the periodic boundary.
+void SetBox(const SiloSetup& setup, double (&box)[3][2]) {
+  const double b2 = 2 * setup.bound_radius;
+  box[0][0] = setup.x_lo;
+  box[0][1] = setup.x_hi;
+  box[1][0] = setup.y_lo - b2;
+  box[1][1] = setup.y_hi + b2;
+  box[2][0] = -0.5;
+  box[2][1] = 0.5;
+}
+
 // LIGGGHTS dump (id mol type x y radius vx vy omegaz) -> the run-directory frames format.
 void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const SiloSetup& setup,
                    const BodyIndex& bodies, double box_height) {
   std::ifstream in(in_path);
-  std::ofstream out(out_path, std::ios::trunc);
+  rundir::FrameWriter out = rundir::FrameWriter::Create(out_path, spec.output.compress);
   std::string line;
   const double rho = spec.bodies.density;
-  char buf[512];
   std::map<long long, double> first_y;  // per body: where its first sphere is in this frame
   long long step = 0, n = 0;
+  rundir::Frame frame;
+  SetBox(setup, frame.box);
   while (NextDumpBlock(in, step, n)) {
-    out << "ITEM: TIMESTEP\n" << step << "\nITEM: TIME\n" << Num(static_cast<double>(step) * spec.time_step)
-        << "\nITEM: NUMBER OF ATOMS\n" << n << "\nITEM: BOX BOUNDS ff ff pp\n" << Num(setup.x_lo) << " " << Num(setup.x_hi)
-        << "\n" << Num(setup.y_lo) << " " << Num(setup.y_hi) << "\n-0.5 0.5\n"
-        << "ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n";
+    frame.timestep = step;
+    frame.time = static_cast<double>(step) * spec.time_step;
+    frame.discs.clear();
     first_y.clear();
     for (long long i = 0; i < n && std::getline(in, line); ++i) {
       const auto t = Tokens(line);
@@ -448,11 +451,12 @@ void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunS
       double y = std::stod(t[4]);
       const auto [it, first] = first_y.emplace(body, y);
       if (!first) y = NearestImage(y, it->second, box_height);
-      std::snprintf(buf, sizeof buf, "%s %lld %s %s %.10g 0 %s %.10g %s %s 0 %s\n", t[0].c_str(), body, t[2].c_str(),
-                    t[3].c_str(), y, t[5].c_str(), rho * std::numbers::pi * r * r, t[6].c_str(), t[7].c_str(), t[8].c_str());
-      out << buf;
+      frame.discs.push_back({std::stoll(t[0]), body, std::stoi(t[2]), std::stod(t[3]), y, r, rho * std::numbers::pi * r * r,
+                             std::stod(t[6]), std::stod(t[7]), std::stod(t[8])});
     }
+    out.Write(frame);
   }
+  out.Close();
 }
 
 // LIGGGHTS' local dumps of pair and wall contacts into contacts.dump (docs/run-directory.md):
@@ -484,11 +488,14 @@ void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& 
     if (it == spheres.end()) throw std::runtime_error("contact dump names an unknown sphere " + id);
     return it->second;
   };
-  std::string out;
-  char buf[512];
+  rundir::ContactWriter out = rundir::ContactWriter::Create(
+      dir / (spec.output.compress ? rundir::kContactsGzFile : rundir::kContactsFile), spec.output.compress);
+  rundir::ContactFrame frame;
+  SetBox(setup, frame.box);
   for (const auto& [step, block] : pairs) {
-    std::string rows;
-    std::size_t n = 0;
+    frame.timestep = step;
+    frame.time = static_cast<double>(step) * spec.time_step;
+    frame.contacts.clear();
     for (const std::string& line : block.rows) {
       const auto t = Tokens(line);
       if (t.size() < 8) throw std::runtime_error("malformed LIGGGHTS contact line: " + line);
@@ -499,27 +506,21 @@ void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& 
       const double xi = std::stod(t[0]), yi = std::stod(t[1]), xj = std::stod(t[2]);
       const double yj = NearestImage(std::stod(t[3]), yi, box_height);
       const double dx = xj - xi, dy = yj - yi, r = std::hypot(dx, dy);
-      std::snprintf(buf, sizeof buf, "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %s %s\n", body_a, body_b, xi, yi, xj, yj,
-                    xi + a.radius * dx / r, yi + a.radius * dy / r, t[6].c_str(), t[7].c_str());
-      rows += buf;
-      ++n;
+      frame.contacts.push_back({body_a, body_b, xi, yi, xj, yj, xi + a.radius * dx / r, yi + a.radius * dy / r,
+                                std::stod(t[6]), std::stod(t[7])});
     }
     if (const auto w = walls.find(step); w != walls.end()) {
       for (const std::string& line : w->second.rows) {
         const auto t = Tokens(line);
         if (t.size() < 7) throw std::runtime_error("malformed LIGGGHTS wall contact line: " + line);
-        std::snprintf(buf, sizeof buf, "%lld -1 %s %s %s %s %s %s %s %s\n", bodies.of(sphere(t[4])), t[2].c_str(),
-                      t[3].c_str(), t[0].c_str(), t[1].c_str(), t[0].c_str(), t[1].c_str(), t[5].c_str(), t[6].c_str());
-        rows += buf;
-        ++n;
+        const double cx = std::stod(t[0]), cy = std::stod(t[1]);
+        frame.contacts.push_back(
+            {bodies.of(sphere(t[4])), -1, std::stod(t[2]), std::stod(t[3]), cx, cy, cx, cy, std::stod(t[5]), std::stod(t[6])});
       }
     }
-    out += "ITEM: TIMESTEP\n" + std::to_string(step) + "\nITEM: TIME\n" + Num(static_cast<double>(step) * spec.time_step) +
-           "\nITEM: NUMBER OF ENTRIES\n" + std::to_string(n) + "\nITEM: BOX BOUNDS ff ff pp\n" + Num(setup.x_lo) + " " +
-           Num(setup.x_hi) + "\n" + Num(setup.y_lo) + " " + Num(setup.y_hi) + "\n-0.5 0.5\n" +
-           "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n" + rows;
+    out.Write(frame);
   }
-  WriteAtomically(dir / "contacts.dump", out);
+  out.Close();
 }
 
 // A prepared bed for this spec: DIR/bed.restart and DIR/bed.dump, from the cache when it
@@ -528,6 +529,7 @@ struct Bed {
   std::string file;
   bool prepared_here = false;
   double wall_s = 0, settle_time = 0, top = 0;
+  std::string refused;  // why a cached bed was refused and prepared again, or ""
 };
 
 
@@ -555,7 +557,7 @@ constexpr int kCachedBedVersion = 2;  // 2: with checksums
 std::string CachedBedProblem(const fs::path& cache_dir, const std::string& stem) {
   json meta;
   try {
-    meta = json::parse(ReadFile(cache_dir / (stem + ".json")));
+    meta = json::parse(ReadWholeFile(cache_dir / (stem + ".json")));
   } catch (const std::exception& e) {
     return stem + ".json is unreadable: " + e.what();
   }
@@ -565,7 +567,7 @@ std::string CachedBedProblem(const fs::path& cache_dir, const std::string& stem)
   for (const auto& [ext, key] : {std::pair{".restart", "restart_crc32"}, std::pair{".dump", "dump_crc32"}}) {
     const fs::path f = cache_dir / (stem + ext);
     if (!fs::exists(f)) return f.filename().string() + " is missing";
-    const std::uint32_t actual = Crc32(ReadFile(f));
+    const std::uint32_t actual = Crc32(ReadWholeFile(f));
     if (meta.value(key, std::uint32_t{0}) != actual)
       return f.filename().string() + " is corrupt (CRC-32 " + std::to_string(actual) + ", recorded " +
              std::to_string(meta.value(key, std::uint32_t{0})) + ")";
@@ -588,7 +590,7 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
       if (why.empty()) {
         fs::copy_file(cache_dir / (stem + ".restart"), dir / "bed.restart", fs::copy_options::overwrite_existing);
         fs::copy_file(cache_dir / (stem + ".dump"), dir / "bed.dump", fs::copy_options::overwrite_existing);
-        const json meta = json::parse(ReadFile(cache_dir / (stem + ".json")));
+        const json meta = json::parse(ReadWholeFile(cache_dir / (stem + ".json")));
         bed.file = (cache_dir / (stem + ".restart")).string();
         bed.settle_time = meta.value("settle_time", 0.0);
         bed.wall_s = 0;
@@ -596,6 +598,7 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
       }
       // A bad cached bed is never used: it is put aside and prepared again.
       std::fprintf(stderr, "granary-liggghts: refusing the cached bed %s: %s; preparing it again\n", stem.c_str(), why.c_str());
+      bed.refused = why;
       for (const char* ext : {".restart", ".dump", ".json"})
         if (fs::exists(cache_dir / (stem + ext))) fs::rename(cache_dir / (stem + ext), cache_dir / (stem + ext + ".corrupt"));
     }
@@ -637,8 +640,8 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
                                                         {"version", kCachedBedVersion},
                                                         {"settle_time", settle_t},
                                                         {"bed_wall_s", bed.wall_s},
-                                                        {"restart_crc32", Crc32(ReadFile(dir / "bed.restart"))},
-                                                        {"dump_crc32", Crc32(ReadFile(dir / "bed.dump"))}}
+                                                        {"restart_crc32", Crc32(ReadWholeFile(dir / "bed.restart"))},
+                                                        {"dump_crc32", Crc32(ReadWholeFile(dir / "bed.dump"))}}
                                                        .dump() + "\n");
     bed.file = (cache_dir / (stem + ".restart")).string();
   }
@@ -693,17 +696,7 @@ bool StallIsAClog(const RunSpec& spec, const std::vector<Sphere>& left) {
   return std::find(sealed.begin(), sealed.end(), true) != sealed.end();
 }
 
-RunSpec ReadSpec(const fs::path& dir) {
-  const fs::path file = dir / "run.json";
-  if (!fs::exists(file)) throw std::invalid_argument("no run.json in " + dir.string());
-  json j;
-  try {
-    j = json::parse(ReadFile(file));
-  } catch (const json::parse_error& e) {
-    throw std::invalid_argument(file.string() + ": not valid JSON: " + e.what());
-  }
-  return RunSpec::from_json(j);
-}
+RunSpec ReadSpec(const fs::path& dir) { return rundir::ReadRunSpec(dir); }
 
 void WriteMeshes(const fs::path& dir, const SiloSetup& setup) {
   for (const MeshFile& m : setup.fill_meshes) WriteAtomically(dir / m.name, Stl(m, setup.half_z - 0.1));
@@ -763,7 +756,7 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   const RunSpec spec = ReadSpec(dir);
   SiloSetup setup = MakeSetup(spec);
   const std::string exe = FindLiggghts(options.liggghts);
-  fs::remove(dir / "DONE");
+  fs::remove(dir / rundir::kDoneFile);
 
   BackendResult result;
   const Checkpoint ckpt = NewestCheckpoint(dir);
@@ -772,7 +765,7 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   DischargeStart start;
   double discharge_wall_before = 0;
   if (ckpt.step >= 0 && fs::exists(state_file)) {
-    state = json::parse(ReadFile(state_file));
+    state = json::parse(ReadWholeFile(state_file));
     result.continued = true;
     start.continue_run = true;
     start.restart_file = ckpt.file.filename().string();  // "checkpoint.<digits>.restart": no spec text
@@ -795,8 +788,9 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
       state["clog_steps"] = kept;
     }
   } else {
-    for (const char* f : {"frames.liggghts", "events.csv", "frames.dump", "final.dump", "contacts_pairs.liggghts",
-                          "contacts_walls.liggghts", "contacts.dump"})
+    for (const char* f : {"frames.liggghts", rundir::kEventsFile, rundir::kFramesFile, rundir::kFramesGzFile, "final.dump",
+                          "contacts_pairs.liggghts", "contacts_walls.liggghts", rundir::kContactsFile,
+                          rundir::kContactsGzFile})
       fs::remove(dir / f);
     for (const Counter& c : setup.counters)
       for (const fs::path& f : CounterFiles(dir, c)) fs::remove(f);
@@ -804,7 +798,7 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
     WriteMeshes(dir, setup);
     const Bed bed = ObtainBed(spec, setup, dir, exe, options);
     state = {{"bed_file", bed.file},           {"bed_prepared_here", bed.prepared_here},
-             {"bed_wall_s", bed.wall_s},       {"settle_time", bed.settle_time},
+             {"bed_wall_s", bed.wall_s},       {"settle_time", bed.settle_time}, {"bed_refused", bed.refused},
              {"bed_height", TopOf(ReadAtomsDump(dir / "bed.dump"))}, {"discharge_wall_s", 0.0},
              {"clog_steps", json::array()}};
     WriteAtomically(state_file, state.dump() + "\n");
@@ -813,6 +807,14 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   // Discharge, in the bed's box.
   setup = MakeSetup(spec, BoxTop(dir / "bed.dump"));
   WriteMeshes(dir, setup);
+  {
+    // The geometry beside the frames, in the one form both engines write (LIGGGHTS' STL meshes
+    // stay too).
+    double box[3][2];
+    SetBox(setup, box);
+    WriteAtomically(dir / rundir::kSiloFile,
+                    engine::SiloVtk(engine::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : box[1][1])));
+  }
   WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, start));
   const auto t_discharge = Clock::now();
   std::string end_reason;
@@ -891,18 +893,17 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
     templates.push_back(engine::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
   const std::vector<Event> events = ReadEvents(dir, setup.counters, spheres, bodies, recross);
-  std::string csv = "time,body,shape,mass,outlet\n";
+  std::vector<rundir::ExitEvent> exits;
   std::vector<int> per_outlet(static_cast<std::size_t>(setup.outlets), 0);
-  char buf[256];
   for (const Event& e : events) {
     const engine::ShapeTemplate& tp = templates[static_cast<std::size_t>(e.species)];
-    std::snprintf(buf, sizeof buf, "%.10g,%lld,%s,%.17g,%d\n", e.time, e.body, tp.name.c_str(), tp.mass, e.outlet);
-    csv += buf;
+    exits.push_back({e.time, e.body, tp.name, tp.mass, e.outlet});
     ++per_outlet[static_cast<std::size_t>(e.outlet)];
   }
-  WriteAtomically(dir / "events.csv", csv);
+  rundir::WriteEvents(dir / rundir::kEventsFile, exits);
   if (spec.output.frame_interval > 0 && fs::exists(dir / "frames.liggghts"))
-    ConvertFrames(dir / "frames.liggghts", dir / "frames.dump", spec, setup, bodies, box_height);
+    ConvertFrames(dir / "frames.liggghts", dir / (spec.output.compress ? rundir::kFramesGzFile : rundir::kFramesFile), spec,
+                  setup, bodies, box_height);
   if (spec.output.contact_forces && spec.output.frame_interval > 0 && fs::exists(dir / "contacts_pairs.liggghts"))
     ConvertContacts(dir, spec, setup, spheres, bodies, box_height);
 
@@ -921,42 +922,38 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   result.exited = static_cast<int>(events.size());
   result.steps = last_step;
 
-  json summary;
-  summary["engine"] = "liggghts";
-  summary["engine_version"] = LiggghtsVersion(dir / "log.discharge");
-  summary["granary_version"] = GRANARY_VERSION;
-  summary["granary_commit"] = granary::GitCommit();
-  summary["run_id"] = spec.run_id;
-  summary["spec"] = spec.to_json();
-  summary["end_reason"] = end_reason;
-  summary["bodies"] = spec.bodies.count;
-  summary["exited"] = result.exited;
-  summary["remaining"] = static_cast<int>(remaining.size());
-  summary["exits_per_outlet"] = per_outlet;
-  summary["t_end"] = static_cast<double>(last_step) * spec.time_step;
-  summary["clogs"] = state.value("clog_steps", json::array()).size();
-  summary["steps"] = last_step;
-  summary["max_out_of_plane"] = out_of_plane;
-  summary["tangential_cap"] = "liggghts";  // LIGGGHTS caps the spring part only, whatever the spec asks
+  rundir::Summary summary;
+  summary.engine = "liggghts";
+  summary.engine_version = LiggghtsVersion(dir / "log.discharge");
+  summary.granary_version = GRANARY_VERSION;
+  summary.granary_commit = granary::GitCommit();
+  summary.run_id = spec.run_id;
+  summary.spec = spec.to_json();
+  summary.end_reason = end_reason;
+  summary.bodies = spec.bodies.count;
+  summary.exited = result.exited;
+  summary.remaining = static_cast<int>(remaining.size());
+  summary.exits_per_outlet = per_outlet;
+  summary.t_end = static_cast<double>(last_step) * spec.time_step;
+  summary.clogs = static_cast<int>(state.value("clog_steps", json::array()).size());
+  summary.steps = last_step;
+  summary.max_out_of_plane = out_of_plane;
+  summary.tangential_cap = "liggghts";  // LIGGGHTS caps the spring part only, whatever the spec asks
   // Reinjection is y-periodicity here, whatever the spec asks (docs/liggghts.md).
-  if (spec.discharge.mode == DischargeMode::kReinject) summary["reinject_position"] = "periodic";
-  summary["bed"] = {{"file", state.value("bed_file", "")},
-                    {"height", state.value("bed_height", 0.0)},
-                    {"prepared_here", state.value("bed_prepared_here", false)},
-                    {"settle_time", state.value("settle_time", 0.0)}};
+  if (spec.discharge.mode == DischargeMode::kReinject) summary.reinject_position = "periodic";
+  summary.bed = {state.value("bed_file", ""), state.value("bed_height", 0.0), state.value("bed_prepared_here", false),
+                 state.value("settle_time", 0.0), state.value("bed_refused", std::string())};
   const double bed_wall = state.value("bed_wall_s", 0.0);
-  summary["timing"] = {{"wall_s", bed_wall + discharge_wall},
-                       {"bed_wall_s", bed_wall},
-                       {"discharge_wall_s", discharge_wall},
-                       {"disc_steps_per_s", session_wall > 0 ? spheres_total * static_cast<double>(session_steps) / session_wall : 0.0},
-                       {"threads", options.threads}};
+  summary.timing = rundir::Timing{
+      bed_wall + discharge_wall, bed_wall, discharge_wall,
+      session_wall > 0 ? spheres_total * static_cast<double>(session_steps) / session_wall : 0.0, options.threads};
   // Going on through a clog restarts LIGGGHTS too; only a restart after an interruption counts here.
-  summary["continued_from_checkpoint"] = result.continued && ckpt.step != state.value("relaunched_at_step", -1LL);
-  WriteAtomically(dir / "summary.json", summary.dump(2) + "\n");
+  summary.continued_from_checkpoint = result.continued && ckpt.step != state.value("relaunched_at_step", -1LL);
+  rundir::WriteSummary(dir, summary);
   PruneCheckpoints(dir, 0);
   ReportProgress(dir, "discharge", 1.0, static_cast<double>(last_step) * spec.time_step, spec.discharge.max_time,
                  result.exited, discharge_wall, true);
-  WriteAtomically(dir / "DONE", end_reason + "\n");
+  rundir::WriteDone(dir, end_reason);
   return result;
 }
 

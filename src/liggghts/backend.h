@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/stop.h"
+#include "rundir/stop.h"
 
 namespace granary::liggghts {
 

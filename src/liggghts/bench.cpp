@@ -11,28 +11,15 @@
 #include <regex>
 #include <vector>
 
-#include "engine/run.h"
-#include "engine/run_spec.h"
+#include "engine/bench.h"
 #include "liggghts/backend.h"
+#include "rundir/run_directory.h"
+#include "rundir/run_spec.h"
 
 namespace granary::liggghts {
 
 namespace fs = std::filesystem;
 namespace bp = boost::process;
-
-double SphereStepsPerSecond(const std::string& log_file) {
-  static const std::regex loop(R"(Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps with (\d+) atoms)");
-  std::ifstream in(log_file);
-  std::string line;
-  double work = 0, seconds = 0;
-  while (std::getline(in, line)) {
-    std::smatch m;
-    if (!std::regex_search(line, m, loop)) continue;
-    seconds += std::stod(m[1]);
-    work += std::stod(m[3]) * std::stod(m[4]);
-  }
-  return seconds > 0 ? work / seconds : 0.0;
-}
 
 namespace {
 
@@ -73,7 +60,7 @@ void RunBench(const BenchOptions& o) {
                {"cache_file", (base / ("granary-liggghts-bench-bed-" + std::to_string(o.bodies) + ".json")).string()}}},
       {"discharge", {{"mode", "reinject"}, {"max_time", o.steps * 1e-4}, {"stop_on_clog", false}}},
       {"output", {{"checkpoint_interval", 0.0}}}};
-  std::ofstream(dir / "run.json") << RunSpec::from_json(spec).to_json().dump(2) << "\n";
+  rundir::WriteRunSpec(dir, RunSpec::from_json(spec).to_json());
   std::printf("bench: LIGGGHTS, %d dumbbells, %d steps (the bed is prepared once and cached; not timed)\n", o.bodies, o.steps);
   std::fflush(stdout);
   std::vector<double> lig_rates, native_rates;
@@ -81,12 +68,12 @@ void RunBench(const BenchOptions& o) {
     const std::string tag = o.repeat > 1 ? "round=" + std::to_string(round) + " " : "";
     for (const auto& e : fs::directory_iterator(dir)) {  // a fresh discharge every round
       const std::string name = e.path().filename().string();
-      if (name.rfind("checkpoint.", 0) == 0 || name.rfind("log.discharge", 0) == 0 || name == "DONE") fs::remove(e.path());
+      if (name.rfind("checkpoint.", 0) == 0 || name.rfind("log.discharge", 0) == 0 || name == rundir::kDoneFile) fs::remove(e.path());
     }
     BackendOptions bo;
     bo.quiet = true;
     RunDirectory(dir.string(), bo);
-    const double lig = SphereStepsPerSecond((dir / "log.discharge").string());
+    const double lig = engine::LoopTimeRate((dir / "log.discharge").string());
     lig_rates.push_back(lig);
     std::printf("%sengine=liggghts threads=1 disc_steps_per_s=%.4g\n", tag.c_str(), lig);
     std::fflush(stdout);

@@ -2,7 +2,7 @@
 #include "liggghts/cli.h"
 
 #include "engine/cli.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
 #include <signal.h>
 #include <sys/prctl.h>
@@ -15,10 +15,11 @@
 #include <iostream>
 #include <string>
 
-#include "engine/files.h"
-#include "engine/run_spec.h"
+#include "rundir/files.h"
 #include "liggghts/backend.h"
 #include "liggghts/bench.h"
+#include "rundir/layout.h"
+#include "rundir/run_spec.h"
 
 namespace granary::liggghts {
 namespace {
@@ -174,6 +175,9 @@ int LiggghtsMain(const std::vector<std::string>& args) {
     std::cerr << "granary-liggghts " << args[0] << ": spec error: " << e.what() << "\n";
     return 2;
   } catch (const std::invalid_argument& e) {
+    std::cerr << "granary-liggghts " << args[0] << ": error: " << e.what() << "\n";
+    return 2;
+  } catch (const rundir::ReadError& e) {  // run.json missing or not JSON
     std::cerr << "granary-liggghts " << args[0] << ": error: " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {

@@ -1,8 +1,6 @@
 // See scheduler.h.
 #include "runner/scheduler.h"
 
-#include "engine/files.h"
-
 #include <signal.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
@@ -18,6 +16,10 @@
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+
+#include "rundir/files.h"
+#include "rundir/progress.h"
+#include "rundir/run_directory.h"
 
 namespace granary::runner {
 
@@ -50,35 +52,6 @@ bool matches_filter(const RunRow& row, const std::string& filter) {
 
 
 namespace {
-
-json ReadJsonFile(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) return nullptr;
-  json j = json::parse(in, nullptr, false);
-  return j.is_discarded() ? json(nullptr) : j;
-}
-
-// run.json is written atomically so that an engine never reads half a file.
-void WriteRunJson(const fs::path& dir, const json& params) {
-  fs::create_directories(dir);
-  const fs::path target = dir / "run.json";
-  const std::string text = params.dump(2) + "\n";
-  {
-    std::ifstream in(target);
-    std::stringstream ss;
-    if (in) {
-      ss << in.rdbuf();
-      if (ss.str() == text) return;
-    }
-  }
-  const fs::path tmp = dir / "run.json.tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << text;
-    if (!out) throw std::runtime_error("run " + params.value("run_id", std::string()) + ": cannot write " + tmp.string());
-  }
-  fs::rename(tmp, target);
-}
 
 std::string EngineExe(const RunOptions& o, const std::string& engine) {
   if (o.engine.find('/') != std::string::npos) return o.engine;
@@ -196,17 +169,22 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   // A run whose directory has DONE and summary.json is ingested; false if it has not.
   auto finish_done = [&](const RunRow& row, double wall) -> bool {
     const fs::path dir = row.run_dir;
-    if (!fs::exists(dir / "DONE")) return false;
-    const json summary = ReadJsonFile(dir / "summary.json");
-    if (!summary.is_object()) return false;
-    if (!record_done(store, row.run_id, me.id, summary, now_seconds(), wall)) {
+    if (!rundir::IsDone(dir)) return false;
+    rundir::Summary summary;
+    try {
+      summary = rundir::ReadSummary(dir / rundir::kSummaryFile);
+    } catch (const rundir::ReadError&) {
+      return false;
+    }
+    if (!record_done(store, row.run_id, me.id, summary.raw, now_seconds(), wall)) {
       lease_lost(row.run_id, "its result is not recorded");
       return true;
     }
     ++done;
     if (row.state == "failed") --failed;
     observer.on_event(row.run_id, "done",
-                      summary.value("end_reason", std::string("finished")) + " in " + std::to_string(static_cast<int>(wall)) + " s");
+                      (summary.end_reason.empty() ? std::string("finished") : summary.end_reason) + " in " +
+                          std::to_string(static_cast<int>(wall)) + " s");
     return true;
   };
 
@@ -228,11 +206,11 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       throw std::invalid_argument("engine executable not found: " + exe + " (build it, or pass --engine PATH)");
     }
     try {
-      WriteRunJson(row.run_dir, row.params);
+      rundir::WriteRunSpec(row.run_dir, row.params);
       Launch l;
       l.run_id = row.run_id;
       l.argv = {exe, "run", row.run_dir, "--threads", std::to_string(options.threads_per_run)};
-      l.log_file = (fs::path(row.run_dir) / "engine.log").string();
+      l.log_file = (fs::path(row.run_dir) / rundir::kEngineLogFile).string();
       executor.start(l);
     } catch (const std::exception& e) {
       if (const std::string full = FullFileSystem(row.run_dir); !full.empty()) {
@@ -252,7 +230,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     const Slot slot = slots[f.run_id];
     slots.erase(f.run_id);
     const double wall = clock() - slot.started;
-    const std::string log = (fs::path(slot.row.run_dir) / "engine.log").string();
+    const std::string log = (fs::path(slot.row.run_dir) / rundir::kEngineLogFile).string();
     if (slot.lease_lost) {
       lease_lost(f.run_id, "its engine was stopped and nothing is recorded");
     } else if (f.signal == 0 && f.exit_code == 0 && finish_done(slot.row, wall)) {
@@ -349,8 +327,10 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
           a.point = slot.row.point.dump();
           a.attempt = slot.row.attempts;
           a.elapsed = now - slot.started;
-          a.progress = ReadJsonFile(fs::path(slot.row.run_dir) / "progress.json");
-          if (!a.progress.is_null()) progress[id] = a.progress;
+          if (const auto p = rundir::ReadProgress(slot.row.run_dir)) {
+            a.progress = p->ToJson();
+            progress[id] = a.progress;
+          }
           active.push_back(a);
         }
         observer.on_tick(active, done, failed, total);

@@ -14,7 +14,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
-#include "engine/files.h"
+#include "rundir/files.h"
 #include "runner/campaign_db.h"
 #include "runner/campaign_spec.h"
 #include "test_util.h"

@@ -2,7 +2,7 @@
 // Every error is a SpecError naming the JSON Pointer of the offending value, the value and
 // what is allowed, so a user can fix a campaign without reading code (style.md 8.3 item 8).
 // Keys, defaults and allowed values are documented in docs/run-spec.md.
-#include "engine/run_spec.h"
+#include "rundir/run_spec.h"
 
 // GCC 12 reports a false -Warray-bounds inside nlohmann::json's object construction when
 // JSON_DIAGNOSTICS is on (also seen in src/analysis); it is not a bug in this file.
@@ -429,9 +429,10 @@ RunSpec RunSpec::from_json(const json& j) {
     d.Number("exit_distance", s.discharge.exit_distance);
   }
   if (r.Has("output")) {
-    Reader o(r.At("output"), "/output", {"frame_interval", "contact_forces", "checkpoint_interval"});
+    Reader o(r.At("output"), "/output", {"frame_interval", "contact_forces", "compress", "checkpoint_interval"});
     o.Number("frame_interval", s.output.frame_interval);
     o.Bool("contact_forces", s.output.contact_forces);
+    o.Bool("compress", s.output.compress);
     o.Number("checkpoint_interval", s.output.checkpoint_interval);
   }
   validate(s);
@@ -675,6 +676,7 @@ json RunSpec::to_json() const {
     out["discharge"]["reinject_position"] = to_string(discharge.reinject_position);
   if (discharge.periodic_headroom != Discharge{}.periodic_headroom)
     out["discharge"]["periodic_headroom"] = discharge.periodic_headroom;
+  if (output.compress) out["output"]["compress"] = true;
   return out;
 }
 
