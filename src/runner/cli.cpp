@@ -672,7 +672,7 @@ const char kCompareHelp[] =
     "  --json        print the comparison as JSON (progress goes to stderr)\n"
     "  --jobs, --threads-per-run, --time-limit, --retries: as for campaign run\n"
     "Exit: 0 compared, 1 some runs failed or no point finished on both engines, 2 usage error,\n"
-    "130 interrupted.\n";
+    "3 storage error, 130 interrupted.\n";
 
 #ifdef GRANARY_HAVE_ANALYSIS
 void PrintComparison(std::ostream& out, const json& c) {
@@ -804,7 +804,8 @@ fs::path ResolveRun(const std::string& verb, const std::string& run, const Args&
   if (!fs::exists(db))
     throw UsageError("campaign " + verb + ": '" + run + "' is not a run directory, and there is no database " + db +
                      " to look it up in");
-  Store store(db);
+  const auto opened = OpenCampaignDb(db, verb);
+  Store& store = *opened;
   std::vector<RunRow> found;
   for (RunRow& r : load_runs(store, false))
     if (r.run_id.rfind(run, 0) == 0) found.push_back(std::move(r));
