@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <chrono>
 #include <filesystem>
 #include <functional>
@@ -16,6 +17,16 @@ using nlohmann::json;
 
 double now_seconds() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+double lease_stale_seconds() {
+  static const double seconds = [] {
+    const char* env = std::getenv("GRANARY_LEASE_SECONDS");
+    char* end = nullptr;
+    const double v = env ? std::strtod(env, &end) : 0.0;
+    return env && end != env && *end == '\0' && v > 0 ? v : 60.0;
+  }();
+  return seconds;
 }
 
 Holder this_process_holder() {
@@ -171,7 +182,7 @@ bool PidAlive(int pid) { return pid > 0 && (kill(pid, 0) == 0 || errno != ESRCH)
 
 bool lease_expired(const RunRow& row, const std::string& host, double now) {
   if (row.state != "running") return false;
-  return now - row.lease_heartbeat > kLeaseStaleSeconds || (row.lease_host == host && !PidAlive(row.lease_pid));
+  return now - row.lease_heartbeat > lease_stale_seconds() || (row.lease_host == host && !PidAlive(row.lease_pid));
 }
 
 std::vector<RunRow> load_runs(Store& store, bool with_params) {
@@ -190,7 +201,7 @@ int recover_expired_leases(Store& store, const Holder& me, double now) {
   while (q.step()) {
     const std::string holder = q.text(4);
     if (holder == me.id) continue;
-    const bool stale = now - q.real(3) > kLeaseStaleSeconds;
+    const bool stale = now - q.real(3) > lease_stale_seconds();
     const bool gone = q.text(1) == me.host && !PidAlive(static_cast<int>(q.integer(2)));
     if (stale || gone) expired.push_back(q.text(0));
   }

@@ -79,7 +79,9 @@ struct Holder {
 Holder this_process_holder();
 
 // A lease is expired when its heartbeat is older than this, or its pid is gone on this host.
-inline constexpr double kLeaseStaleSeconds = 60.0;
+// 60 s, or $GRANARY_LEASE_SECONDS (tests; clusters with slow shared file systems). Runners
+// heartbeat every min(2 s, a fifth of it).
+double lease_stale_seconds();
 
 // Is the lease of a running row expired (stale heartbeat, or holder pid gone on `host`)?
 bool lease_expired(const RunRow& row, const std::string& host, double now);

@@ -400,6 +400,7 @@ RunOptions RunOptionsFrom(const Args& a) {
   if (o.time_limit < 0) throw UsageError("--time-limit: must be >= 0 (got \"" + a.get("time-limit", "") + "\")");
   o.retries = a.integer("retries", 1, 0);
   o.exe_dir = ExeDir();
+  o.heartbeat_interval = std::min(o.heartbeat_interval, lease_stale_seconds() / 5);
   return o;
 }
 

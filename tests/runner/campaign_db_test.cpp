@@ -113,7 +113,7 @@ TEST(LeaseTest, DeadOrSilentHolderLosesItsLease) {
   EXPECT_EQ(recover_expired_leases(store, me, now_seconds()), 1);  // the remote one is fresh
   EXPECT_EQ(States(store)[r1->run_id], "interrupted");
   EXPECT_EQ(States(store)[r2->run_id], "running");
-  EXPECT_EQ(recover_expired_leases(store, me, now_seconds() + kLeaseStaleSeconds + 1), 1);  // stale heartbeat
+  EXPECT_EQ(recover_expired_leases(store, me, now_seconds() + lease_stale_seconds() + 1), 1);  // stale heartbeat
   EXPECT_EQ(States(store)[r2->run_id], "interrupted");
   // An interrupted run is claimed again, attempts counted.
   auto again = claim_next(store, me, now_seconds(), nullptr, {});
@@ -131,7 +131,7 @@ TEST(LeaseTest, OnlyTheHolderRecordsAnEnd) {
   auto first = claim_next(store, old_holder, 100.0, nullptr, {});
   ASSERT_TRUE(first);
   // The old holder goes silent; a new runner recovers the run and claims it.
-  EXPECT_EQ(recover_expired_leases(store, new_holder, 100.0 + kLeaseStaleSeconds + 1), 1);
+  EXPECT_EQ(recover_expired_leases(store, new_holder, 100.0 + lease_stale_seconds() + 1), 1);
   auto second = claim_next(store, new_holder, 200.0, nullptr, {});
   ASSERT_TRUE(second);
   ASSERT_EQ(second->run_id, first->run_id);

@@ -30,6 +30,7 @@ class CliTest : public ::testing::Test {
   void SetUp() override {
     dir_ = testing::MakeTempDir();
     unsetenv("FAKE_ENGINE_FIRST_LAUNCH_STEP_MS");
+    unsetenv("GRANARY_LEASE_SECONDS");
     setenv("GRANARY_CACHE_DIR", (dir_ / "beds").c_str(), 1);
     setenv("FAKE_ENGINE_STEPS", "10", 1);
     setenv("FAKE_ENGINE_STEP_MS", "20", 1);
@@ -286,6 +287,42 @@ TEST_F(CliTest, ResumesAfterKillMinusNineOfTheRunner) {
     continued += CountLines(launches, "start") == 2;
   }
   EXPECT_EQ(continued, 2);
+}
+
+// issue 13, end to end: runner A is stopped (kill -STOP, as Ctrl-Z does) while its engine
+// runs on; once A's lease is stale, runner B recovers the run but starts no engine while A's
+// engine holds the directory. When A continues (kill -CONT), its heartbeat finds the run
+// taken: it stops its engine and records nothing; B then continues the run from its
+// checkpoint. One writer at a time, the run done once (before: two engines wrote one
+// events.csv and A recorded the run done).
+TEST_F(CliTest, AStalledRunnerThatLostItsLeaseStopsItsEngineAndRecordsNothing) {
+  setenv("GRANARY_LEASE_SECONDS", "3", 1);
+  setenv("FAKE_ENGINE_STEPS", "100", 1);
+  setenv("FAKE_ENGINE_STEP_MS", "0", 1);
+  setenv("FAKE_ENGINE_FIRST_LAUNCH_STEP_MS", "1000", 1);
+  Sh(Cmd("plan " + WriteSpec("[4]", 1)));
+  const json planned = Status();
+  const fs::path run_dir = planned["runs"][0]["run_dir"].get<std::string>();
+  const std::string log_a = (dir_ / "a.log").string(), log_b = (dir_ / "b.log").string();
+  const pid_t a = Spawn({testing::Campaign(), "run", "--db", Db(), "--jobs", "1", "--engine", testing::FakeEngine()}, log_a);
+  ASSERT_TRUE(testing::WaitFor([&] { return fs::exists(run_dir / "checkpoint.fake"); }, 120)) << ReadFile(log_a);
+  kill(a, SIGSTOP);
+  ASSERT_TRUE(testing::WaitFor([&] { return Status()["runs"][0].value("lease_expired", false); }, 60));
+  const pid_t b = Spawn({testing::Campaign(), "run", "--db", Db(), "--jobs", "1", "--engine", testing::FakeEngine()}, log_b);
+  ASSERT_TRUE(testing::WaitFor([&] { return ReadFile(log_b).find("waiting") != std::string::npos; }, 60)) << ReadFile(log_b);
+  EXPECT_NE(ReadFile(log_b).find("its directory is locked by engine pid"), std::string::npos) << ReadFile(log_b);
+  EXPECT_EQ(CountLines(ReadFile(run_dir / "launches.txt"), "start"), 1);  // B started nothing
+  kill(a, SIGCONT);
+  EXPECT_EQ(testing::WaitExit(a), 0) << ReadFile(log_a);
+  EXPECT_EQ(testing::WaitExit(b), 0) << ReadFile(log_b);
+  EXPECT_NE(ReadFile(log_a).find("lease lost"), std::string::npos) << ReadFile(log_a);
+  const json s = Status();
+  EXPECT_EQ(s["counts"]["done"], 1) << s.dump();
+  EXPECT_EQ(s["runs"][0]["attempts"], 2);
+  const std::string launches = ReadFile(run_dir / "launches.txt");
+  EXPECT_EQ(CountLines(launches, "start"), 2) << launches;
+  EXPECT_EQ(CountLines(launches, "finish"), 1) << launches;
+  unsetenv("GRANARY_LEASE_SECONDS");
 }
 
 TEST_F(CliTest, EngineKilledMinusNineIsRelaunchedFromItsCheckpoint) {

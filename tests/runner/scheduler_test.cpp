@@ -245,7 +245,7 @@ TEST_F(SchedulerTest, ALeaseTakenOverStopsTheEngineAndRecordsNothing) {
   executor_.on_poll = [&](int poll) {
     if (poll == 1) {
       // Runner B: A's heartbeat is stale, B recovers the run and claims it.
-      ASSERT_EQ(recover_expired_leases(*store_, other, now_seconds() + kLeaseStaleSeconds + 1), 1);
+      ASSERT_EQ(recover_expired_leases(*store_, other, now_seconds() + lease_stale_seconds() + 1), 1);
       ASSERT_EQ(claim_next(*store_, other, now_seconds(), nullptr, {})->run_id, first);
     }
   };
@@ -269,7 +269,7 @@ TEST_F(SchedulerTest, AResultSeenAfterTheLeaseWasTakenOverIsNotRecorded) {
   executor_.run_polls = 2;
   executor_.on_poll = [&](int poll) {
     if (poll == 1) {
-      ASSERT_EQ(recover_expired_leases(*store_, other, now_seconds() + kLeaseStaleSeconds + 1), 1);
+      ASSERT_EQ(recover_expired_leases(*store_, other, now_seconds() + lease_stale_seconds() + 1), 1);
       ASSERT_TRUE(claim_next(*store_, other, now_seconds(), nullptr, {}));
     }
   };
