@@ -46,6 +46,7 @@ class ContactWriter {
 
  private:
   OutputFile file_;
+  std::string text_;  // rows being formatted (kept: its capacity)
 };
 
 // Streams a contacts.dump; columns found by name (all ten required). Malformed input throws

@@ -63,6 +63,7 @@ class FrameWriter {
 
  private:
   OutputFile file_;
+  std::string text_;  // rows being formatted (kept: its capacity)
 };
 
 // Streams a frames.dump. Required columns: id mol x y; optional: type radius mass vx vy
