@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -43,12 +44,18 @@ struct ReportOptions {
   // campaign spec /report/models (array of {name, expression, variable, initial}) adds more.
   std::vector<FitModel> models;
   std::string gnuplot = "gnuplot";  // the executable
+  // Draws a run for "The system": its first frame (the bed before the outlets open) or its last,
+  // as a PNG at `png`; returns "" or why it could not. The runner sets it (src/render); unset,
+  // the report has no pictures and says so.
+  enum class Picture { kBed, kEnd };
+  std::function<std::string(const std::filesystem::path& run_dir, Picture, const std::filesystem::path& png)> draw_run;
 };
 
 struct ReportSummary {
   int runs_used = 0;
   int runs_missing = 0;           // planned/running/interrupted
   int runs_failed = 0;
+  int runs_lost = 0;              // done, but their run directories were deleted afterwards
   std::filesystem::path markdown;
   std::filesystem::path html;
   nlohmann::json comparison;      // runs on two engines: analysis::to_json(EngineComparison), else null

@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "rundir/dump_text.h"
+#include "rundir/gzip.h"
 #include "rundir/layout.h"
 
 namespace granary::rundir {
@@ -67,40 +68,43 @@ std::vector<Body> BodiesOf(const std::vector<Disc>& discs) {
 
 // ---- writer ------------------------------------------------------------------------------
 
-FrameWriter FrameWriter::Create(const std::filesystem::path& file) {
+FrameWriter FrameWriter::Create(const std::filesystem::path& file, bool gzip) {
   FrameWriter w;
   w.file_ = OutputFile(file);
+  w.gzip_ = gzip;
   return w;
 }
 
-FrameWriter FrameWriter::ContinueAt(const std::filesystem::path& file, std::int64_t offset) {
+FrameWriter FrameWriter::ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip) {
   FrameWriter w;
   w.file_ = OutputFile(file, offset);
+  w.gzip_ = gzip;
   return w;
 }
 
 void FrameWriter::Write(const Frame& frame) {
-  std::FILE* f = file_.get();
-  detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ATOMS", frame.discs.size(), frame.box);
-  std::fputs("ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n", f);
-  // "%lld %lld %d %.10g %.10g 0 %.10g %.10g %.10g %.10g 0 %.10g\n" per disc
-  std::string& t = text_;
-  std::size_t rows = 0;
-  for (const Disc& d : frame.discs) {
-    detail::AppendInt(t, d.id);
-    t += ' ';
-    detail::AppendInt(t, d.mol);
-    t += ' ';
-    detail::AppendInt(t, d.type);
-    for (const double v : {d.x, d.y}) t += ' ', detail::AppendG10(t, v);
-    t += " 0";
-    for (const double v : {d.radius, d.mass, d.vx, d.vy}) t += ' ', detail::AppendG10(t, v);
-    t += " 0 ";
-    detail::AppendG10(t, d.omega);
-    t += '\n';
-    if (++rows % detail::kRowsPerWrite == 0) detail::Drain(t, f);
-  }
-  detail::Drain(t, f);
+  WriteBlock(file_.get(), gzip_, [&](std::FILE* f) {
+    detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ATOMS", frame.discs.size(), frame.box);
+    std::fputs("ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n", f);
+    // "%lld %lld %d %.10g %.10g 0 %.10g %.10g %.10g %.10g 0 %.10g\n" per disc
+    std::string& t = text_;
+    std::size_t rows = 0;
+    for (const Disc& d : frame.discs) {
+      detail::AppendInt(t, d.id);
+      t += ' ';
+      detail::AppendInt(t, d.mol);
+      t += ' ';
+      detail::AppendInt(t, d.type);
+      for (const double v : {d.x, d.y}) t += ' ', detail::AppendG10(t, v);
+      t += " 0";
+      for (const double v : {d.radius, d.mass, d.vx, d.vy}) t += ' ', detail::AppendG10(t, v);
+      t += " 0 ";
+      detail::AppendG10(t, d.omega);
+      t += '\n';
+      if (++rows % detail::kRowsPerWrite == 0) detail::Drain(t, f);
+    }
+    detail::Drain(t, f);
+  });
 }
 
 // ---- reader ------------------------------------------------------------------------------

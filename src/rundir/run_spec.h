@@ -120,6 +120,7 @@ struct Discharge {
 struct Output {
   double frame_interval = 0.0;     // simulated time between frames (0 = no frames)
   bool contact_forces = false;     // also write contact-force frames at frame_interval
+  bool compress = false;           // frames.dump.gz, contacts.dump.gz instead of frames.dump, contacts.dump
   double checkpoint_interval = 10.0;  // simulated time between checkpoints (0 = none)
 };
 
@@ -157,6 +158,12 @@ void validate(const RunSpec& spec);
 // What the LIGGGHTS backend cannot do (validate() applies it to specs whose engine is
 // "liggghts"; the backend applies it to whatever spec it is given).
 void validate_for_liggghts(const RunSpec& spec);
+
+// The first character of a name that a name must not hold, described ("U+2028 LINE
+// SEPARATOR", "U+0000 NUL", "a comma"), or "" if there is none: control characters (C0,
+// DEL, C1 such as U+0085), line and paragraph separators, bidirectional and zero-width
+// format characters, the byte-order mark; `extra` adds ASCII characters (",").
+std::string forbidden_character_in(const std::string& name, const std::string& extra = "");
 
 // Levenshtein distance, for "did you mean" suggestions (spec keys, CLI verbs).
 std::size_t edit_distance(const std::string& a, const std::string& b);
