@@ -4,22 +4,57 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <deque>
 #include <fstream>
 #include <stdexcept>
 
 namespace granary {
 
+namespace {
+
+// fsync of an open path; directories are opened read-only.
+void SyncPath(const std::filesystem::path& path, bool directory) {
+  const int fd = ::open(path.c_str(), (directory ? O_RDONLY | O_DIRECTORY : O_WRONLY) | O_CLOEXEC);
+  if (fd < 0) throw std::runtime_error("cannot open " + path.string() + " to sync it: " + std::strerror(errno));
+  const int rc = ::fsync(fd);
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) throw std::runtime_error("fsync failed on " + path.string() + ": " + std::strerror(err));
+}
+
+}  // namespace
+
+void ReplaceAtomically(const std::filesystem::path& tmp, const std::filesystem::path& file) {
+  SyncPath(tmp, false);
+  std::filesystem::rename(tmp, file);
+  SyncPath(file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path(), true);
+}
+
 void WriteAtomically(const std::filesystem::path& file, const std::string& text) {
   const std::filesystem::path tmp = file.string() + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error("cannot write " + tmp.string());
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error("write failed: " + tmp.string());
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw std::runtime_error("cannot write " + tmp.string() + ": " + std::strerror(errno));
+  std::size_t written = 0;
+  while (written < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = errno;
+      ::close(fd);
+      throw std::runtime_error("write failed: " + tmp.string() + ": " + std::strerror(err));
+    }
+    written += static_cast<std::size_t>(n);
   }
+  // The data reaches the disk before the rename makes it visible, and the rename itself is
+  // made durable: on a shared file system another node may read the file next.
+  const int rc = ::fsync(fd);
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) throw std::runtime_error("fsync failed on " + tmp.string() + ": " + std::strerror(err));
   std::filesystem::rename(tmp, file);
+  SyncPath(file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path(), true);
 }
 
 std::string TailOfFile(const std::filesystem::path& file, int lines) {

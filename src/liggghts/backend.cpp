@@ -495,7 +495,7 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
     // Copy to temporary names, then rename: a reader never sees half a bed.
     for (const char* ext : {".restart", ".dump"}) {
       fs::copy_file(dir / (std::string("bed") + ext), cache_dir / (stem + ext + ".tmp"), fs::copy_options::overwrite_existing);
-      fs::rename(cache_dir / (stem + ext + ".tmp"), cache_dir / (stem + ext));
+      ReplaceAtomically(cache_dir / (stem + ext + ".tmp"), cache_dir / (stem + ext));
     }
     WriteAtomically(cache_dir / (stem + ".json"), json{{"settle_time", settle_t}, {"bed_wall_s", bed.wall_s}}.dump() + "\n");
     bed.file = (cache_dir / (stem + ".restart")).string();

@@ -66,13 +66,11 @@ void WriteRunJson(const fs::path& dir, const json& params) {
       if (ss.str() == text) return;
     }
   }
-  const fs::path tmp = dir / "run.json.tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << text;
-    if (!out) throw std::runtime_error("run " + params.value("run_id", std::string()) + ": cannot write " + tmp.string());
+  try {
+    WriteAtomically(target, text);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("run " + params.value("run_id", std::string()) + ": " + e.what());
   }
-  fs::rename(tmp, target);
 }
 
 std::string EngineExe(const RunOptions& o, const std::string& engine) {
