@@ -7,7 +7,9 @@
 
 #include <boost/process.hpp>
 #include <boost/process/extend.hpp>
+#include <chrono>
 #include <map>
+#include <optional>
 #include <stdexcept>
 
 #include "runner/executor.h"
@@ -34,14 +36,16 @@ struct ChildSetup : bp::extend::handler {
   }
 };
 
+using Clock = std::chrono::steady_clock;
+
 class LocalExecutor : public Executor {
  public:
-  explicit LocalExecutor(int slots) : slots_(slots) {}
+  LocalExecutor(int slots, double grace_seconds) : slots_(slots), grace_(grace_seconds) {}
   ~LocalExecutor() override {
     for (auto& [id, child] : children_) {
-      if (child.running()) kill(child.id(), SIGKILL);
       std::error_code ec;
-      child.wait(ec);
+      if (child.process.running(ec)) KillGroup(child.process);
+      child.process.wait(ec);
     }
   }
 
@@ -60,20 +64,25 @@ class LocalExecutor : public Executor {
     if (ec) {
       throw std::runtime_error("run " + launch.run_id + ": cannot start " + launch.argv[0] + ": " + ec.message());
     }
-    children_.emplace(launch.run_id, std::move(child));
+    children_.emplace(launch.run_id, Child{std::move(child), {}});
   }
 
   std::vector<Finished> poll() override {
     std::vector<Finished> out;
+    const auto now = Clock::now();
     for (auto it = children_.begin(); it != children_.end();) {
       std::error_code ec;
-      if (it->second.running(ec)) {
+      if (it->second.process.running(ec)) {
+        if (it->second.kill_at && now >= *it->second.kill_at) {
+          KillGroup(it->second.process);
+          it->second.kill_at.reset();
+        }
         ++it;
         continue;
       }
       Finished f;
       f.run_id = it->first;
-      const int status = it->second.native_exit_code();
+      const int status = it->second.process.native_exit_code();
       if (WIFSIGNALED(status)) f.signal = WTERMSIG(status);
       else f.exit_code = WEXITSTATUS(status);
       out.push_back(f);
@@ -82,22 +91,56 @@ class LocalExecutor : public Executor {
     return out;
   }
 
-  void abort(const std::string& run_id, int signal) override {
+  void stop(const std::string& run_id, StopReason reason) override {
     auto it = children_.find(run_id);
-    if (it != children_.end()) kill(it->second.id(), signal);
+    if (it != children_.end()) Stop(it->second, reason);
   }
-  void abort_all(int signal) override {
-    for (auto& [id, child] : children_) kill(child.id(), signal);
+  void stop_all(StopReason reason) override {
+    for (auto& [id, child] : children_) Stop(child, reason);
   }
   std::size_t active() const override { return children_.size(); }
 
  private:
+  struct Child {
+    bp::child process;
+    std::optional<Clock::time_point> kill_at;  // SIGKILL to the group then (a stop's grace period)
+  };
+  // The engine's whole process group: a LIGGGHTS wrapper's mpirun and ranks too.
+  static void KillGroup(bp::child& c) {
+    kill(-c.id(), SIGKILL);
+    kill(c.id(), SIGKILL);  // also before the child has made its group (setpgid after fork)
+  }
+
+  void Stop(Child& c, StopReason reason) {
+    if (reason == StopReason::kLeaseLost) {
+      KillGroup(c.process);
+      c.kill_at.reset();
+      return;
+    }
+    // The engine alone: it checkpoints, then ends what it started itself.
+    kill(c.process.id(), SIGTERM);
+    const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(grace_));
+    if (!c.kill_at || deadline < *c.kill_at) c.kill_at = deadline;
+  }
+
   int slots_;
-  std::map<std::string, bp::child> children_;
+  double grace_;
+  std::map<std::string, Child> children_;
 };
 
 }  // namespace
 
-std::unique_ptr<Executor> make_local_executor(int slots) { return std::make_unique<LocalExecutor>(slots); }
+const char* to_string(StopReason reason) {
+  switch (reason) {
+    case StopReason::kInterrupt: return "interrupt";
+    case StopReason::kTimeLimit: return "time limit";
+    case StopReason::kLeaseLost: return "lease lost";
+  }
+  return "?";
+}
+
+std::unique_ptr<Executor> make_local_executor(int slots, double grace_seconds) {
+  return std::make_unique<LocalExecutor>(slots, grace_seconds);
+}
 
 }  // namespace granary::runner

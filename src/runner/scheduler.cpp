@@ -147,10 +147,10 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   while (true) {
     if (stop && *stop && !stopping) {
       stopping = true;
-      // Forward the stop to the engines; they checkpoint or die, and continue next time.
-      executor.abort_all(SIGTERM);
-      const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-      while (executor.active() > 0 && std::chrono::steady_clock::now() < deadline) {
+      // The engines checkpoint and exit (the executor ends them by force after a grace
+      // period); they continue next time.
+      executor.stop_all(StopReason::kInterrupt);
+      while (executor.active() > 0) {
         for (const auto& f : executor.poll()) {
           const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - slots[f.run_id].started).count();
           if (!(f.signal == 0 && f.exit_code == 0 && finish_done(slots[f.run_id].row, wall))) {
@@ -160,14 +160,6 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
           slots.erase(f.run_id);
         }
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
-      }
-      executor.abort_all(SIGKILL);
-      while (executor.active() > 0) {
-        for (const auto& f : executor.poll()) {
-          record_end(store, f.run_id, "interrupted", "interrupted by the user (killed)", now_seconds(), 0);
-          slots.erase(f.run_id);
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
       }
       observer.on_end(done, failed, total);
       return ExitCode::kInterrupted;
@@ -231,7 +223,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       for (auto& [id, slot] : slots) {
         if (!slot.timed_out && std::chrono::duration<double>(now - slot.started).count() > options.time_limit) {
           slot.timed_out = true;
-          executor.abort(id, SIGKILL);
+          executor.stop(id, StopReason::kTimeLimit);
         }
       }
     }
