@@ -132,7 +132,10 @@ constexpr char kRunColumns[] =
     "SELECT run_id, seq, point_id, point, replica, params, state, attempts, engine, COALESCE(engine_version, ''), "
     "COALESCE(host, ''), COALESCE(started_at, 0), COALESCE(ended_at, 0), COALESCE(wall_s, 0), "
     "COALESCE(end_reason, ''), run_dir, COALESCE(failure, ''), COALESCE(lease_holder, ''), progress, "
-    "COALESCE(lease_host, ''), COALESCE(lease_pid, 0), COALESCE(lease_heartbeat, 0) FROM runs ";
+    "COALESCE(lease_host, ''), COALESCE(lease_pid, 0), COALESCE(lease_heartbeat, 0), COALESCE(job_array, 0), "
+    "COALESCE(job_index, -1), COALESCE(job_arrays.job_id, ''), COALESCE(job_arrays.dir, ''), "
+    "COALESCE(job_arrays.name, ''), COALESCE(job_state, '') FROM runs "
+    "LEFT JOIN job_arrays ON job_arrays.id = runs.job_array ";
 
 RunRow ReadRow(const Statement& q, bool with_params) {
   RunRow r;
@@ -158,6 +161,12 @@ RunRow ReadRow(const Statement& q, bool with_params) {
   r.lease_host = q.text(19);
   r.lease_pid = static_cast<int>(q.integer(20));
   r.lease_heartbeat = q.real(21);
+  r.job_array = q.integer(22);
+  r.job_index = static_cast<int>(q.integer(23));
+  r.job_id = q.text(24);
+  r.job_dir = q.text(25);
+  r.job_name = q.text(26);
+  r.job_state = q.text(27);
   return r;
 }
 
@@ -181,7 +190,7 @@ int recover_expired_leases(Store& store, const Holder& me, double now) {
   Transaction tx(store);
   Statement q = store.prepare(
       "SELECT run_id, COALESCE(lease_host, ''), COALESCE(lease_pid, 0), COALESCE(lease_heartbeat, 0), "
-      "COALESCE(lease_holder, '') FROM runs WHERE state = 'running' ORDER BY seq");
+      "COALESCE(lease_holder, '') FROM runs WHERE state = 'running' AND job_array IS NULL ORDER BY seq");
   std::vector<std::string> expired;
   while (q.step()) {
     const std::string holder = q.text(4);
@@ -219,7 +228,8 @@ std::optional<RunRow> claim_next(Store& store, const Holder& me, double now,
   Statement u = store.prepare(
       "UPDATE runs SET state = 'running', attempts = attempts + 1, host = ?2, started_at = ?3, ended_at = NULL, "
       "lease_holder = ?4, lease_host = ?2, lease_pid = ?5, lease_heartbeat = ?3, granary_version = ?6, "
-      "git_commit = ?7 WHERE run_id = ?1 AND state IN ('planned', 'interrupted', 'failed')");
+      "git_commit = ?7, job_array = NULL, job_index = NULL, job_state = NULL "
+      "WHERE run_id = ?1 AND state IN ('planned', 'interrupted', 'failed')");
   u.bind(1, found->run_id).bind(2, me.host).bind(3, now).bind(4, me.id).bind(5, me.pid);
   u.bind(6, GRANARY_VERSION).bind(7, granary::GitCommit()).run();
   if (sqlite3_changes(store.handle()) != 1) return std::nullopt;
@@ -286,6 +296,77 @@ void record_end(Store& store, const std::string& run_id, const std::string& stat
       "lease_host = NULL, lease_pid = NULL, lease_heartbeat = NULL WHERE run_id = ?1");
   u.bind(1, run_id).bind(2, state).bind(3, reason).bind(4, now).bind(5, wall_s).bind(6, state).run();
   tx.commit();
+}
+
+void record_job_array(Store& store, const Holder& me, const JobArray& array, double now) {
+  Transaction tx(store);
+  Statement a = store.prepare(
+      "INSERT INTO job_arrays (dir, script, name, array, job_id, submitted_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
+  a.bind(1, array.dir).bind(2, array.script).bind(3, array.name).bind(4, array.array);
+  if (array.job_id.empty()) a.bind_null(5);
+  else a.bind(5, array.job_id);
+  a.bind(6, now).run();
+  const std::int64_t id = sqlite3_last_insert_rowid(store.handle());
+  Statement u = store.prepare(
+      "UPDATE runs SET job_array = ?2, job_index = ?3, job_state = 'PENDING' "
+      "WHERE run_id = ?1 AND state = 'running' AND lease_holder = ?4");
+  for (const auto& [run_id, index] : array.runs) {
+    u.reset();
+    u.bind(1, run_id).bind(2, id).bind(3, index).bind(4, me.id).run();
+  }
+  tx.commit();
+}
+
+void record_job_id(Store& store, const std::string& script, const std::string& job_id) {
+  Statement u = store.prepare("UPDATE job_arrays SET job_id = ?2 WHERE script = ?1");
+  u.bind(1, script).bind(2, job_id).run();
+}
+
+void record_job_states(Store& store, const std::map<std::string, std::string>& state_by_run) {
+  if (state_by_run.empty()) return;
+  Transaction tx(store);
+  Statement u = store.prepare("UPDATE runs SET job_state = ?2 WHERE run_id = ?1 AND job_array IS NOT NULL");
+  for (const auto& [run_id, state] : state_by_run) {
+    u.reset();
+    u.bind(1, run_id).bind(2, state).run();
+  }
+  tx.commit();
+}
+
+std::vector<RunRow> adopt_queued_runs(Store& store, const Holder& me, double now) {
+  Transaction tx(store);
+  std::vector<RunRow> adopted;
+  {
+    Statement q = store.prepare(
+        (std::string(kRunColumns) + "WHERE state = 'running' AND job_array IS NOT NULL ORDER BY seq").c_str());
+    while (q.step()) {
+      RunRow r = ReadRow(q, true);
+      if (r.lease_holder == me.id) continue;
+      if (!r.lease_holder.empty() && !lease_expired(r, me.host, now)) continue;  // watched by a live runner
+      adopted.push_back(std::move(r));
+    }
+  }
+  Statement u = store.prepare(
+      "UPDATE runs SET lease_holder = ?2, lease_host = ?3, lease_pid = ?4, lease_heartbeat = ?5 "
+      "WHERE run_id = ?1 AND state = 'running' AND job_array IS NOT NULL");
+  for (auto& r : adopted) {
+    u.reset();
+    u.bind(1, r.run_id).bind(2, me.id).bind(3, me.host).bind(4, me.pid).bind(5, now).run();
+    r.lease_holder = me.id;
+    r.lease_host = me.host;
+    r.lease_pid = me.pid;
+    r.lease_heartbeat = now;
+  }
+  tx.commit();
+  return adopted;
+}
+
+int release_queued_runs(Store& store, const Holder& me) {
+  Statement u = store.prepare(
+      "UPDATE runs SET lease_holder = NULL, lease_host = NULL, lease_pid = NULL, lease_heartbeat = NULL "
+      "WHERE lease_holder = ?1 AND state = 'running' AND job_array IS NOT NULL");
+  u.bind(1, me.id).run();
+  return sqlite3_changes(store.handle());
 }
 
 }  // namespace granary::runner
