@@ -134,7 +134,7 @@ constexpr char kRunColumns[] =
     "COALESCE(end_reason, ''), run_dir, COALESCE(failure, ''), COALESCE(lease_holder, ''), progress, "
     "COALESCE(lease_host, ''), COALESCE(lease_pid, 0), COALESCE(lease_heartbeat, 0), COALESCE(job_array, 0), "
     "COALESCE(job_index, -1), COALESCE(job_arrays.job_id, ''), COALESCE(job_arrays.dir, ''), "
-    "COALESCE(job_arrays.name, ''), COALESCE(job_state, '') FROM runs "
+    "COALESCE(job_arrays.name, ''), COALESCE(job_state, ''), COALESCE(job_arrays.script, '') FROM runs "
     "LEFT JOIN job_arrays ON job_arrays.id = runs.job_array ";
 
 RunRow ReadRow(const Statement& q, bool with_params) {
@@ -167,6 +167,7 @@ RunRow ReadRow(const Statement& q, bool with_params) {
   r.job_dir = q.text(25);
   r.job_name = q.text(26);
   r.job_state = q.text(27);
+  r.job_script = q.text(28);
   return r;
 }
 
@@ -266,8 +267,10 @@ std::map<std::string, json> flatten_scalars(const json& summary) {
   return out;
 }
 
-void record_done(Store& store, const std::string& run_id, const json& summary, double now, double wall_s) {
-  Transaction tx(store);
+namespace {
+
+// The scalars of summary.json as the run's results, replacing any earlier ones.
+void StoreResults(Store& store, const std::string& run_id, const json& summary) {
   Statement del = store.prepare("DELETE FROM results WHERE run_id = ?1");
   del.bind(1, run_id).run();
   Statement ins = store.prepare("INSERT INTO results (run_id, key, value, text) VALUES (?1, ?2, ?3, ?4)");
@@ -279,6 +282,13 @@ void record_done(Store& store, const std::string& run_id, const json& summary, d
     else ins.bind_null(3).bind(4, value.get<std::string>());
     ins.run();
   }
+}
+
+}  // namespace
+
+void record_done(Store& store, const std::string& run_id, const json& summary, double now, double wall_s) {
+  Transaction tx(store);
+  StoreResults(store, run_id, summary);
   Statement u = store.prepare(
       "UPDATE runs SET state = 'done', ended_at = ?2, wall_s = ?3, end_reason = ?4, engine_version = ?5, "
       "summary = ?6, failure = NULL, lease_holder = NULL, lease_host = NULL, lease_pid = NULL, "
@@ -367,6 +377,30 @@ int release_queued_runs(Store& store, const Holder& me) {
       "WHERE lease_holder = ?1 AND state = 'running' AND job_array IS NOT NULL");
   u.bind(1, me.id).run();
   return sqlite3_changes(store.handle());
+}
+
+bool settle_run(Store& store, const RunRow& seen, const std::string& state, const std::string& reason,
+                const json* summary, double wall_s, double now) {
+  Transaction tx(store);
+  Statement u = store.prepare(
+      "UPDATE runs SET state = ?2, failure = ?3, end_reason = ?4, ended_at = ?5, wall_s = ?6, "
+      "engine_version = COALESCE(?7, engine_version), summary = COALESCE(?8, summary), job_state = NULL, "
+      "lease_holder = NULL, lease_host = NULL, lease_pid = NULL, lease_heartbeat = NULL "
+      "WHERE run_id = ?1 AND state = ?9 AND COALESCE(lease_holder, '') = ?10");
+  u.bind(1, seen.run_id).bind(2, state);
+  if (summary) {
+    u.bind_null(3).bind(4, summary->value("end_reason", std::string())).bind(7, summary->value("engine_version", std::string()));
+    u.bind(8, summary->dump());
+  } else {
+    u.bind(3, reason).bind(4, state).bind_null(7).bind_null(8);
+  }
+  u.bind(5, now).bind(6, wall_s).bind(9, seen.state).bind(10, seen.lease_holder).run();
+  if (sqlite3_changes(store.handle()) != 1) return false;
+  if (summary) {
+    StoreResults(store, seen.run_id, *summary);
+  }
+  tx.commit();
+  return true;
 }
 
 }  // namespace granary::runner

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "runner/campaign_spec.h"
+#include "runner/executor.h"
 #include "runner/store.h"
 
 namespace granary::runner {
@@ -60,6 +61,7 @@ struct RunRow {
   int job_index = -1;
   std::string job_id;     // the array job id; "" until sbatch returned
   std::string job_dir;    // the submission's directory (manifest, scripts)
+  std::string job_script;
   std::string job_name;
   std::string job_state;  // the queue state last seen
   // In a batch queue now: its job, not a runner, holds it.
@@ -121,16 +123,6 @@ double now_seconds();
 
 // ---- Runs in a batch queue (Slurm job arrays; docs/slurm.md)
 
-// One sbatch call: the runs it carries, by array index.
-struct JobArray {
-  std::string dir;     // the submission's directory
-  std::string script;  // this call's batch script (unique)
-  std::string name;    // the job name
-  std::string array;   // the --array value
-  std::string job_id;  // "" until sbatch returned
-  std::vector<std::pair<std::string, int>> runs;  // run id, array index
-};
-
 // Records an array about to be submitted (before sbatch, so a runner that dies inside sbatch
 // leaves a trace to find the job by), and puts its runs that `me` holds into it, state
 // PENDING. One transaction.
@@ -142,6 +134,12 @@ void record_job_states(Store& store, const std::map<std::string, std::string>& s
 // Re-attach: the queued runs that no live runner watches (no lease, or an expired one) are
 // taken under `me` and returned.
 std::vector<RunRow> adopt_queued_runs(Store& store, const Holder& me, double now);
+// campaign scan: sets a run's state from what its directory shows (done: `summary` ingested
+// as record_done does), provided the row is still as the scan read it (same state, same
+// lease holder), so whatever a runner recorded in between wins. Returns whether it wrote.
+bool settle_run(Store& store, const RunRow& seen, const std::string& state, const std::string& reason,
+                const nlohmann::json* summary, double wall_s, double now);
+
 // Detach: `me` stops watching its queued runs; they stay `running` in their jobs, for a
 // later `campaign run` to adopt or `campaign scan` to settle. Returns how many.
 int release_queued_runs(Store& store, const Holder& me);

@@ -2,6 +2,7 @@
 #include "runner/scheduler.h"
 
 #include "engine/files.h"
+#include "runner/slurm.h"
 
 #include <signal.h>
 #include <unistd.h>
@@ -44,6 +45,22 @@ bool matches_filter(const RunRow& row, const std::string& filter) {
 }
 
 
+std::pair<std::string, std::string> end_state_of(const Finished& f, bool timed_out, double time_limit,
+                                                 const std::string& log_file) {
+  // The executor's words where it has them (a batch queue's state), else the status'.
+  const auto said = [&](const std::string& status) { return (f.how.empty() ? status : f.how) + "\n" + TailOfFile(log_file, 20); };
+  if (timed_out || f.timed_out) {
+    return {"failed", said(time_limit > 0 ? "wall-time limit of " + json(time_limit).dump() + " s exceeded"
+                                          : "wall-time limit exceeded")};
+  }
+  if (f.signal == 0 && f.exit_code == 0) {
+    return {"failed", "engine exited 0 without DONE and summary.json\n" + TailOfFile(log_file, 20)};
+  }
+  // Killed from outside: it continues from its checkpoint on the next attempt.
+  if (f.signal != 0) return {"interrupted", said("engine killed by signal " + std::to_string(f.signal))};
+  return {"failed", said("engine exited with status " + std::to_string(f.exit_code))};
+}
+
 namespace {
 
 json ReadJsonFile(const fs::path& path) {
@@ -76,6 +93,22 @@ void WriteRunJson(const fs::path& dir, const json& params) {
 std::string EngineExe(const RunOptions& o, const std::string& engine) {
   if (o.engine.find('/') != std::string::npos) return o.engine;
   return (fs::path(o.exe_dir) / (engine == "liggghts" ? "granary-liggghts" : "granary-engine")).string();
+}
+
+Launch LaunchOf(const RunRow& row, const std::string& exe, int threads) {
+  Launch l;
+  l.run_id = row.run_id;
+  l.argv = {exe, "run", row.run_dir, "--threads", std::to_string(threads)};
+  l.log_file = (fs::path(row.run_dir) / "engine.log").string();
+  l.engine = row.engine;
+  l.run_dir = row.run_dir;
+  l.place = QueuePlace{row.job_dir, row.job_script, row.job_name, row.job_index, row.job_id, row.job_state};
+  return l;
+}
+
+// Is the run's engine at work (so that its progress.json is worth reading)?
+bool EngineAtWork(const std::string& queue_state) {
+  return queue_state.empty() || fate_of(queue_state) == TaskFate::kRunning;
 }
 
 struct Slot {
@@ -113,6 +146,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   std::set<std::string> skip;             // exhausted in this invocation
   std::map<std::string, int> failures;    // failed attempts in this invocation
   std::map<std::string, Slot> slots;
+  std::map<std::string, std::string> queue_state;  // runs in a batch queue: their last state
   bool any_final_failure = false;
   bool stopping = false;
   auto last_heartbeat = std::chrono::steady_clock::now();
@@ -144,7 +178,62 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     return true;
   };
 
+  // Runs a runner before this one put into the queue are watched again, never started twice.
+  if (executor.outlives_runner()) {
+    const auto adopted = adopt_queued_runs(store, me, now_seconds());
+    for (const auto& row : adopted) {
+      const QueuePlace place = executor.attach(LaunchOf(row, EngineExe(options, row.engine), options.threads_per_run));
+      if (place.job_id != row.job_id) record_job_id(store, row.job_script, place.job_id);
+      slots[row.run_id] = Slot{row, std::chrono::steady_clock::now(), false};
+      queue_state[row.run_id] = row.job_state;
+    }
+    if (!adopted.empty()) {
+      observer.on_event("", "attached", std::to_string(adopted.size()) + " run(s) already in the queue: watching them again");
+    }
+  } else {
+    int queued = 0;
+    for (const auto& r : load_runs(store, false)) queued += r.queued();
+    if (queued > 0) {
+      observer.on_event("", "queued", std::to_string(queued) +
+                                          " run(s) are in a Slurm queue; campaign run --executor slurm watches them, "
+                                          "campaign scan settles them");
+    }
+  }
+
+  // Places the runs started since the last call in the queue: places recorded first, then
+  // submitted. An array the queue refuses leaves its runs interrupted, not retried here.
+  auto submit_started = [&] {
+    const std::vector<JobArray> placed = executor.place();
+    if (placed.empty()) return;
+    for (const auto& a : placed) record_job_array(store, me, a, now_seconds());
+    for (const auto& a : executor.submit()) {
+      if (a.error.empty()) {
+        record_job_id(store, a.script, a.job_id);
+        observer.on_event("", "submitted", "array job " + a.job_id + " (" + std::to_string(a.runs.size()) + " runs, --array=" +
+                                               a.array + "): " + a.script);
+        continue;
+      }
+      for (const auto& [id, index] : a.runs) {
+        record_end(store, id, "interrupted", a.error, now_seconds(), 0);
+        skip.insert(id);
+        slots.erase(id);
+        queue_state.erase(id);
+      }
+      any_final_failure = true;
+      observer.on_event("", "not submitted", a.error + " (" + std::to_string(a.runs.size()) + " runs left interrupted)");
+    }
+  };
+
   while (true) {
+    if (stop && *stop && executor.outlives_runner()) {
+      // The jobs keep running; a later runner adopts them.
+      const int released = release_queued_runs(store, me);
+      observer.on_event("", "detached", std::to_string(released) +
+                                            " run(s) stay in the queue; campaign run --executor slurm watches them "
+                                            "again, campaign scan settles them");
+      observer.on_end(done, failed, total);
+      return ExitCode::kInterrupted;
+    }
     if (stop && *stop && !stopping) {
       stopping = true;
       // The engines checkpoint and exit (the executor ends them by force after a grace
@@ -184,11 +273,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       }
       try {
         WriteRunJson(row->run_dir, row->params);
-        Launch launch;
-        launch.run_id = row->run_id;
-        launch.argv = {exe, "run", row->run_dir, "--threads", std::to_string(options.threads_per_run)};
-        launch.log_file = (fs::path(row->run_dir) / "engine.log").string();
-        executor.start(launch);
+        executor.start(LaunchOf(*row, exe, options.threads_per_run));
       } catch (const std::exception& e) {
         end_run(row->run_id, "failed", e.what(), 0);
         continue;
@@ -196,30 +281,36 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       slots[row->run_id] = Slot{*row, std::chrono::steady_clock::now(), false};
       observer.on_event(row->run_id, "running", "attempt " + std::to_string(row->attempts));
     }
+    submit_started();
+    if (options.detach && nothing_left) {
+      const int released = release_queued_runs(store, me);
+      observer.on_event("", "detached", std::to_string(released) +
+                                            " run(s) in the queue; campaign status shows them, campaign scan or "
+                                            "campaign run --executor slurm collects them");
+      observer.on_end(done, failed, total);
+      return any_final_failure ? ExitCode::kRunsFailed : ExitCode::kOk;
+    }
     if (nothing_left && executor.active() == 0) break;
 
     for (const auto& f : executor.poll()) {
       Slot slot = slots[f.run_id];
       slots.erase(f.run_id);
-      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - slot.started).count();
+      queue_state.erase(f.run_id);
+      const double wall = f.wall_s > 0 ? f.wall_s : std::chrono::duration<double>(std::chrono::steady_clock::now() - slot.started).count();
       const std::string log = (fs::path(slot.row.run_dir) / "engine.log").string();
-      if (f.signal == 0 && f.exit_code == 0) {
-        if (finish_done(slot.row, wall)) continue;
-        end_run(f.run_id, "failed", "engine exited 0 without DONE and summary.json\n" + TailOfFile(log, 20), wall);
-      } else if (slot.timed_out) {
-        end_run(f.run_id, "failed",
-                "wall-time limit of " + json(options.time_limit).dump() + " s exceeded\n" + TailOfFile(log, 20),
-                wall);
-      } else if (f.signal != 0) {
-        // Killed from outside: it continues from its checkpoint on the next attempt.
-        end_run(f.run_id, "interrupted", "engine killed by signal " + std::to_string(f.signal) + "\n" + TailOfFile(log, 20), wall);
-      } else {
-        end_run(f.run_id, "failed", "engine exited with status " + std::to_string(f.exit_code) + "\n" + TailOfFile(log, 20), wall);
+      if (f.signal == 0 && f.exit_code == 0 && !f.timed_out && finish_done(slot.row, wall)) continue;
+      const auto [state, reason] = end_state_of(f, slot.timed_out, options.time_limit, log);
+      end_run(f.run_id, state, reason, wall);
+    }
+    if (auto changes = executor.queue_changes(); !changes.empty()) {
+      for (const auto& [id, state] : changes) {
+        if (slots.count(id)) queue_state[id] = state;
       }
+      record_job_states(store, changes);
     }
 
     const auto now = std::chrono::steady_clock::now();
-    if (options.time_limit > 0) {
+    if (options.time_limit > 0 && !executor.limits_time()) {
       for (auto& [id, slot] : slots) {
         if (!slot.timed_out && std::chrono::duration<double>(now - slot.started).count() > options.time_limit) {
           slot.timed_out = true;
@@ -237,7 +328,9 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
         a.point = slot.row.point.dump();
         a.attempt = slot.row.attempts;
         a.elapsed = std::chrono::duration<double>(now - slot.started).count();
-        a.progress = ReadJsonFile(fs::path(slot.row.run_dir) / "progress.json");
+        if (auto q = queue_state.find(id); q != queue_state.end()) a.queue_state = q->second;
+        // A queued run's directory is not read until its task runs (a shared file system).
+        if (EngineAtWork(a.queue_state)) a.progress = ReadJsonFile(fs::path(slot.row.run_dir) / "progress.json");
         if (!a.progress.is_null()) progress[id] = a.progress;
         active.push_back(a);
       }

@@ -26,6 +26,9 @@ struct RunOptions {
   std::string exe_dir;        // where granary-engine / granary-liggghts live
   double poll_interval = 0.2;
   double heartbeat_interval = 2.0;
+  // Batch queues (executor.outlives_runner()): submit what is runnable, then exit and leave
+  // the jobs to run (campaign scan or a later campaign run collects them).
+  bool detach = false;
 };
 
 struct ActiveRun {
@@ -34,6 +37,7 @@ struct ActiveRun {
   int attempt = 0;
   double elapsed = 0;
   nlohmann::json progress;  // progress.json or null
+  std::string queue_state;  // in a batch queue: PENDING, RUNNING, ...; "" for a local engine
 };
 
 class RunObserver {
@@ -44,6 +48,13 @@ class RunObserver {
   virtual void on_tick(const std::vector<ActiveRun>& active, int done, int failed, int total) = 0;
   virtual void on_end(int done, int failed, int total) = 0;
 };
+
+// What is recorded for an engine that ended but did not finish its run (no DONE, or a failure):
+// {"failed" | "interrupted", reason with the tail of its log}. Killed from outside means
+// interrupted (it continues from its checkpoint); a time limit (the scheduler's, `timed_out`,
+// or the executor's, f.timed_out) or an exit status means failed.
+std::pair<std::string, std::string> end_state_of(const Finished& f, bool timed_out, double time_limit,
+                                                 const std::string& log_file);
 
 // Does `row` pass the --only filter?
 bool matches_filter(const RunRow& row, const std::string& filter);

@@ -130,7 +130,7 @@ TEST(QueueTest, QueuedRunsAreAdoptedNotRecoveredAndKeepTheirHandle) {
   auto r1 = claim_next(store, dead, now_seconds(), nullptr, {});
   auto r2 = claim_next(store, dead, now_seconds(), nullptr, {});
   ASSERT_TRUE(r1 && r2);
-  JobArray array{"/db/slurm/t-0001", "/db/slurm/t-0001/job-1.sh", "granary-t-0001", "0%1", "", {{r1->run_id, 0}}};
+  JobArray array{"/db/slurm/t-0001", "/db/slurm/t-0001/job-1.sh", "granary-t-0001", "0%1", "", "", {{r1->run_id, 0}}};
   record_job_array(store, dead, array, now_seconds());
   record_job_id(store, array.script, "41");
   record_job_states(store, {{r1->run_id, "RUNNING"}});
