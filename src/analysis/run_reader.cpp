@@ -230,8 +230,16 @@ bool FrameReader::next(Frame& frame) {
   do {
     if (!next_line(line)) return false;
   } while (line.find_first_not_of(" \t") == std::string::npos);
-  if (line.rfind("ITEM: TIMESTEP", 0) != 0) fail("expected 'ITEM: TIMESTEP', got '" + line + "'");
   frame = Frame();
+  // LAMMPS writes ITEM: UNITS and ITEM: TIME before ITEM: TIMESTEP; run directories written
+  // before Granary followed that order have TIME after it, which the item loop below reads.
+  while (line == "ITEM: UNITS" || line == "ITEM: TIME") {
+    const std::string item = line;
+    if (!next_line(line)) return false;
+    if (item == "ITEM: TIME" && !to_double(std::string_view(line), frame.time)) fail("time '" + line + "' is not a number");
+    if (!next_line(line)) return false;
+  }
+  if (line.rfind("ITEM: TIMESTEP", 0) != 0) fail("expected 'ITEM: TIMESTEP', got '" + line + "'");
   std::int64_t n_atoms = -1;
   std::vector<std::string_view> f;
   if (!next_line(line)) return false;  // truncated frame at the end: stop quietly
@@ -333,8 +341,14 @@ bool ContactReader::next(ContactFrame& frame) {
   do {
     if (!get()) return false;
   } while (line.find_first_not_of(" \t") == std::string::npos);
-  if (line != "ITEM: TIMESTEP") fail("expected 'ITEM: TIMESTEP', got '" + line + "'");
   frame = ContactFrame();
+  while (line == "ITEM: UNITS" || line == "ITEM: TIME") {  // as in FrameReader::next
+    const std::string item = line;
+    if (!get()) return false;
+    if (item == "ITEM: TIME" && !to_double(std::string_view(line), frame.time)) fail("time '" + line + "' is not a number");
+    if (!get()) return false;
+  }
+  if (line != "ITEM: TIMESTEP") fail("expected 'ITEM: TIMESTEP', got '" + line + "'");
   std::int64_t n = -1;
   if (!get()) return false;
   if (!to_int(std::string_view(line), frame.timestep)) fail("timestep '" + line + "' is not an integer");

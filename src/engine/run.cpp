@@ -24,6 +24,7 @@
 #include <nlohmann/json.hpp>
 
 #include "engine/bed.h"
+#include "engine/dump_format.h"
 #include "engine/random.h"
 #include "engine/stall.h"
 #include "engine/world.h"
@@ -151,17 +152,6 @@ void ReportProgress(const fs::path& dir, const Progress& p, bool quiet) {
   }
 }
 
-// Lowest and highest disc edge (and the base line), for dump box bounds.
-std::pair<double, double> VerticalExtent(const World& w) {
-  double ylo = 0, yhi = 0;
-  for (int i = 0; i < w.disc_count(); ++i)
-    if (w.active_[w.dbody_[i]]) {
-      ylo = std::min(ylo, w.dy_[i] - w.dr_[i]);
-      yhi = std::max(yhi, w.dy_[i] + w.dr_[i]);
-    }
-  return {ylo, yhi};
-}
-
 }  // namespace
 
 // The state of a discharge, everything a checkpoint must hold.
@@ -179,6 +169,7 @@ class Discharge {
   void WriteCheckpoint();
   void WriteFrame();
   void WriteContacts();
+  DumpBox DumpBoxOf() const;
   void HandleExits();
   int OutletOf(int b) const;
   void Reinject(int b);
@@ -520,17 +511,19 @@ bool Discharge::StallIsAClog() const {
   return std::find(sealed.begin(), sealed.end(), true) != sealed.end();
 }
 
+// From the bed and the spec alone, so a continued run writes the same box.
+DumpBox Discharge::DumpBoxOf() const {
+  double bound = 0;
+  for (const auto& t : world_->templates()) bound = std::max(bound, t.bound_radius);
+  return NativeDumpBox(spec_, bed_height_, bound);
+}
+
 void Discharge::WriteFrame() {
   const World& w = *world_;
   std::FILE* f = frames_.get();
   int n = 0;
   for (int i = 0; i < w.disc_count(); ++i) n += w.active_[w.dbody_[i]];
-  const auto [ylo, yhi] = VerticalExtent(w);
-  std::fprintf(f, "ITEM: TIMESTEP\n%lld\nITEM: TIME\n%.10g\nITEM: NUMBER OF ATOMS\n%d\n", static_cast<long long>(step_),
-               static_cast<double>(step_) * spec_.time_step, n);
-  std::fprintf(f, "ITEM: BOX BOUNDS ff ff pp\n%.10g %.10g\n%.10g %.10g\n-0.5 0.5\n", -hw_ - spec_.discharge.exit_distance - 1,
-               hw_ + spec_.discharge.exit_distance + 1, ylo - 1, yhi + 1);
-  std::fprintf(f, "ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n");
+  std::fputs(FrameHeader(step_, static_cast<double>(step_) * spec_.time_step, n, DumpBoxOf()).c_str(), f);
   for (int i = 0; i < w.disc_count(); ++i) {
     const int b = w.dbody_[i];
     if (!w.active_[b]) continue;
@@ -544,12 +537,10 @@ void Discharge::WriteContacts() {
   const World& w = *world_;
   w.CollectContacts(contact_buf_);
   std::FILE* f = contacts_.get();
-  std::fprintf(f, "ITEM: TIMESTEP\n%lld\nITEM: TIME\n%.10g\nITEM: NUMBER OF ENTRIES\n%zu\n", static_cast<long long>(step_),
-               static_cast<double>(step_) * spec_.time_step, contact_buf_.size());
-  const auto [ylo, yhi] = VerticalExtent(w);
-  std::fprintf(f, "ITEM: BOX BOUNDS ff ff pp\n%.10g %.10g\n%.10g %.10g\n-0.5 0.5\n", -hw_ - spec_.discharge.exit_distance - 1,
-               hw_ + spec_.discharge.exit_distance + 1, ylo - 1, yhi + 1);
-  std::fprintf(f, "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n");
+  std::fputs(ContactHeader(step_, static_cast<double>(step_) * spec_.time_step, static_cast<std::int64_t>(contact_buf_.size()),
+                           DumpBoxOf())
+                 .c_str(),
+             f);
   for (const auto& c : contact_buf_) {
     const int bj = c.disc_j >= 0 ? w.dbody_[c.disc_j] : -1;
     const double xj = c.disc_j >= 0 ? w.dx_[c.disc_j] : c.cx, yj = c.disc_j >= 0 ? w.dy_[c.disc_j] : c.cy;

@@ -31,6 +31,7 @@
 #include <boost/process.hpp>
 #include <boost/process/extend.hpp>
 
+#include "engine/dump_format.h"
 #include "engine/shapes.h"
 #include "engine/stall.h"
 #include "liggghts/input_script.h"
@@ -322,6 +323,13 @@ bool NextDumpBlock(std::istream& in, long long& step, long long& rows) {
   return false;
 }
 
+// The box of frames.dump and contacts.dump: LIGGGHTS' discharge box, with room in y for the
+// clumps that the conversion puts back together across the periodic boundary.
+engine::DumpBox FramesBox(const SiloSetup& setup) {
+  const double b2 = 2 * setup.bound_radius;
+  return {setup.x_lo, setup.x_hi, setup.y_lo - b2, setup.y_hi + b2};
+}
+
 // LIGGGHTS dump (id mol type x y radius vx vy omegaz) -> the run-directory frames format.
 void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const SiloSetup& setup,
                    const BodyIndex& bodies, double box_height) {
@@ -333,10 +341,7 @@ void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunS
   std::map<long long, double> first_y;  // per body: where its first sphere is in this frame
   long long step = 0, n = 0;
   while (NextDumpBlock(in, step, n)) {
-    out << "ITEM: TIMESTEP\n" << step << "\nITEM: TIME\n" << Num(static_cast<double>(step) * spec.time_step)
-        << "\nITEM: NUMBER OF ATOMS\n" << n << "\nITEM: BOX BOUNDS ff ff pp\n" << Num(setup.x_lo) << " " << Num(setup.x_hi)
-        << "\n" << Num(setup.y_lo) << " " << Num(setup.y_hi) << "\n-0.5 0.5\n"
-        << "ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n";
+    out << engine::FrameHeader(step, static_cast<double>(step) * spec.time_step, n, FramesBox(setup));
     first_y.clear();
     for (long long i = 0; i < n && std::getline(in, line); ++i) {
       const auto t = Tokens(line);
@@ -414,10 +419,8 @@ void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& 
         ++n;
       }
     }
-    out += "ITEM: TIMESTEP\n" + std::to_string(step) + "\nITEM: TIME\n" + Num(static_cast<double>(step) * spec.time_step) +
-           "\nITEM: NUMBER OF ENTRIES\n" + std::to_string(n) + "\nITEM: BOX BOUNDS ff ff pp\n" + Num(setup.x_lo) + " " +
-           Num(setup.x_hi) + "\n" + Num(setup.y_lo) + " " + Num(setup.y_hi) + "\n-0.5 0.5\n" +
-           "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n" + rows;
+    out += engine::ContactHeader(step, static_cast<double>(step) * spec.time_step, static_cast<std::int64_t>(n), FramesBox(setup)) +
+           rows;
   }
   WriteAtomically(dir / "contacts.dump", out);
 }

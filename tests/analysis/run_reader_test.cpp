@@ -175,6 +175,53 @@ TEST(RunReader, SummaryAndRunDirectory) {
   EXPECT_THROW(read_run(dir.path() / "missing"), ReadError);
 }
 
+// LAMMPS writes ITEM: UNITS and ITEM: TIME before ITEM: TIMESTEP (as the engines now do); run
+// directories of earlier Granary versions have TIME after TIMESTEP. Both read alike.
+std::string InLammpsOrder(std::string dump, bool units) {
+  for (std::size_t p = dump.find("ITEM: TIMESTEP\n"); p != std::string::npos; p = dump.find("ITEM: TIMESTEP\n", p + 1)) {
+    const std::size_t time = dump.find("ITEM: TIME\n", p);
+    const std::size_t end = dump.find('\n', time + 11) + 1;
+    const std::string item = dump.substr(time, end - time);
+    dump.erase(time, end - time);
+    dump.insert(p, (units ? "ITEM: UNITS\nlj\n" : "") + item);
+    p += item.size() + (units ? 15 : 0);
+  }
+  return dump;
+}
+
+TEST(RunReader, FramesInLammpsOrderReadAsInTheOldOrder) {
+  TempDir dir;
+  const std::string lammps = InLammpsOrder(kFrames, true);
+  ASSERT_EQ(lammps.rfind("ITEM: UNITS\nlj\nITEM: TIME\n0.01\nITEM: TIMESTEP\n100\nITEM: NUMBER OF ATOMS\n3\n", 0), 0u) << lammps;
+  write_file(dir.path() / "old.dump", kFrames);
+  write_file(dir.path() / "lammps.dump", lammps);
+  FrameReader old_order(dir.path() / "old.dump"), lammps_order(dir.path() / "lammps.dump");
+  Frame a, b;
+  for (int k = 0; k < 2; ++k) {
+    ASSERT_TRUE(old_order.next(a));
+    ASSERT_TRUE(lammps_order.next(b));
+    EXPECT_EQ(a.timestep, b.timestep);
+    EXPECT_EQ(a.time, b.time);
+    EXPECT_EQ(b.time, 0.01 * (k + 1));
+    ASSERT_EQ(a.discs.size(), b.discs.size());
+    for (std::size_t i = 0; i < a.discs.size(); ++i) {
+      EXPECT_EQ(a.discs[i].id, b.discs[i].id);
+      EXPECT_EQ(a.discs[i].x, b.discs[i].x);
+      EXPECT_EQ(a.discs[i].omega, b.discs[i].omega);
+    }
+  }
+  EXPECT_FALSE(lammps_order.next(b));
+  // A time that is not a number is an error wherever it stands.
+  write_file(dir.path() / "bad.dump", "ITEM: TIME\nsoon\nITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n0\nITEM: ATOMS id mol x y\n");
+  FrameReader bad(dir.path() / "bad.dump");
+  try {
+    bad.next(b);
+    ADD_FAILURE() << "no error";
+  } catch (const ReadError& e) {
+    EXPECT_EQ(std::string(e.what()), (dir.path() / "bad.dump").string() + ":2: time 'soon' is not a number");
+  }
+}
+
 TEST(RunReader, Contacts) {
   TempDir dir;
   const auto file = dir.path() / "contacts.dump";
@@ -194,6 +241,20 @@ TEST(RunReader, Contacts) {
   EXPECT_DOUBLE_EQ(f.contacts[0].fx, -2.0);
   EXPECT_DOUBLE_EQ(f.contacts[1].fy, 3.0);
   EXPECT_FALSE(reader.next(f));
+
+  // The same frame as LAMMPS' dump local writes it: TIME before TIMESTEP.
+  write_file(file,
+             "ITEM: TIME\n0.5\nITEM: TIMESTEP\n5\nITEM: NUMBER OF ENTRIES\n1\n"
+             "ITEM: BOX BOUNDS ff ff pp\n-50 50\n-5 160\n-0.5 0.5\n"
+             "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n"
+             "0 1 0 0 1 0 0.5 0 -2 0\n");
+  ContactReader lammps_order(file);
+  ASSERT_TRUE(lammps_order.next(f));
+  EXPECT_EQ(f.timestep, 5);
+  EXPECT_DOUBLE_EQ(f.time, 0.5);
+  ASSERT_EQ(f.contacts.size(), 1u);
+  EXPECT_DOUBLE_EQ(f.contacts[0].cx, 0.5);
+  EXPECT_FALSE(lammps_order.next(f));
 }
 
 }  // namespace
