@@ -40,7 +40,7 @@ struct Finished {
   int signal = 0;       // the signal that ended the engine, or 0 (as reported, e.g. by wait or Slurm)
   bool timed_out = false;  // ended at its time limit by the executor (limits_time())
   std::string how;         // what ended it, in words, where the status alone does not say
-  double wall_s = 0;       // the engine's wall time where the executor knows it better (0 = the scheduler's clock)
+  double wall_s = -1;      // the engine's wall time where the executor knows it better (< 0: the scheduler's clock)
 };
 
 // One submission to a batch queue (one sbatch call): the runs it carries, by array index.

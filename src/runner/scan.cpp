@@ -71,7 +71,7 @@ ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run) {
         const Finished f = slurm_task_end(r.run_id, r.run_dir, place, e == seen.end() ? "" : e->second.state,
                                           std::numeric_limits<double>::infinity(), "");
         std::tie(to, reason) = end_state_of(f, false, 0, (dir / "engine.log").string());
-        if (f.wall_s > 0) wall = f.wall_s;
+        if (f.wall_s >= 0) wall = f.wall_s;
       }
     } else if (r.state == "running") {
       if (lease_expired(r, me.host, now)) {

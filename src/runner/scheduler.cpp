@@ -296,7 +296,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       Slot slot = slots[f.run_id];
       slots.erase(f.run_id);
       queue_state.erase(f.run_id);
-      const double wall = f.wall_s > 0 ? f.wall_s : std::chrono::duration<double>(std::chrono::steady_clock::now() - slot.started).count();
+      const double wall = f.wall_s >= 0 ? f.wall_s : std::chrono::duration<double>(std::chrono::steady_clock::now() - slot.started).count();
       const std::string log = (fs::path(slot.row.run_dir) / "engine.log").string();
       if (f.signal == 0 && f.exit_code == 0 && !f.timed_out && finish_done(slot.row, wall)) continue;
       const auto [state, reason] = end_state_of(f, slot.timed_out, options.time_limit, log);

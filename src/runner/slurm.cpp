@@ -200,7 +200,7 @@ std::string batch_script(const BatchJob& job) {
     << "fi\n"
     << "IFS=$'\\t' read -r index run_id engine exe dir <<< \"$entry\"\n"
     << "task=\"${SLURM_ARRAY_JOB_ID}_${SLURM_ARRAY_TASK_ID}\"\n"
-    << "started=$(date +%s)\n"
+    << "started=$(date +%s.%N)\n"
     << "# DIR/slurm-task.json: this task, its node and start, then its exit status; replaced atomically.\n"
     << "record() {\n"
     << "  local tmp=\"$dir/slurm-task.json.tmp.$$\"\n"
@@ -219,7 +219,7 @@ std::string batch_script(const BatchJob& job) {
     << "if [ \"$time_limit\" != 0 ]; then cmd=(timeout --signal=TERM --kill-after=30 \"$time_limit\" \"${cmd[@]}\"); fi\n"
     << "\"${cmd[@]}\" < /dev/null >> \"$dir/engine.log\" 2>&1\n"
     << "status=$?\n"
-    << "record \", \\\"exit_code\\\": $status, \\\"ended_at\\\": $(date +%s)\"\n"
+    << "record \", \\\"exit_code\\\": $status, \\\"ended_at\\\": $(date +%s.%N)\"\n"
     << "exit $status\n";
   return s.str();
 }

@@ -118,7 +118,7 @@ void SlurmCluster::Start(const Options& options) {
   if (!mkdtemp(tmpl.data())) throw std::runtime_error("mkdtemp failed");
   dir_ = tmpl;
   chmod(dir_.c_str(), 0755);  // job scripts read their manifests from under here
-  for (const char* sub : {"munge", "state", "spool"}) fs::create_directories(dir_ / sub);
+  for (const char* sub : {"munge", "state", "spool", "tmp"}) fs::create_directories(dir_ / sub);
   chmod((dir_ / "munge").c_str(), 0700);
 
   // munged: a private key and socket.
@@ -157,6 +157,9 @@ void SlurmCluster::Start(const Options& options) {
        << "AuthType=auth/munge\nCredType=cred/munge\nAuthInfo=socket=" << sock.string() << "\n"
        << "SlurmctldPort=" << ctld_port << "\nSlurmdPort=" << slurmd_port << "\n"
        << "StateSaveLocation=" << d << "/state\nSlurmdSpoolDir=" << d << "/spool\n"
+       // PMIx (srun --mpi=pmix) keeps per-step directories under TmpFS, named by job and step
+       // id, which a second test cluster on this machine reuses.
+       << "TmpFS=" << d << "/tmp\n"
        << "SlurmctldPidFile=" << d << "/slurmctld.pid\nSlurmdPidFile=" << d << "/slurmd.pid\n"
        << "SlurmctldLogFile=" << d << "/slurmctld.log\nSlurmdLogFile=" << d << "/slurmd.log\n"
        << "ProctrackType=proctrack/linuxproc\nTaskPlugin=task/none\nJobAcctGatherType=jobacct_gather/none\n"

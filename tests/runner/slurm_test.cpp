@@ -240,6 +240,34 @@ TEST_F(SlurmCampaignTest, RunnerKilledMinusNineReattachesWithZeroDoubleExecution
   }
 }
 
+TEST_F(SlurmCampaignTest, NativeRunsUseThreadsAndLiggghtsRunsMpiRanksUnderSrun) {
+  const fs::path p = dir_ / "real.json";
+  std::ofstream(p) << json{{"name", "real"},
+                           {"seed", 2},
+                           {"engine", {"native", "liggghts"}},
+                           {"base",
+                            {{"bodies", {{"count", 20}, {"species", {{{"shape", "dumbbell"}}}}}},
+                             {"silo", {{"width", 12}, {"base_outlets", {{{"center", 0}, {"width", 6}}}}}},
+                             {"bed", {{"max_settle_time", 5}, {"settle_ke_per_body", 1e-3}}},
+                             {"discharge", {{"mode", "reinject"}, {"max_time", 1}, {"stop_on_clog", false}}}}}};
+  ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
+  const auto r = Sh(testing::Campaign() + " run --db " + Db() + " --executor slurm --cpus-per-run 2 --poll-interval 0.3");
+  ASSERT_EQ(r.code, 0) << r.output << cluster_->log_tails();
+  const json s = Status();
+  ASSERT_EQ(s["counts"]["done"], 2) << s.dump(2);
+  for (const auto& run : s["runs"]) {
+    const fs::path dir = run["run_dir"].get<std::string>();
+    const json summary = json::parse(ReadFile(dir / "summary.json"));
+    EXPECT_EQ(summary["timing"]["threads"], 2) << run["engine"];
+    if (run["engine"] == "liggghts") {
+      // Two MPI ranks started by srun inside the task.
+      EXPECT_NE(ReadFile(dir / "engine.log").find("srun --mpi=pmix --ntasks=2 "), std::string::npos)
+          << ReadFile(dir / "engine.log");
+      EXPECT_NE(ReadFile(dir / "log.discharge").find("2 by 1 by 1 MPI processor grid"), std::string::npos);
+    }
+  }
+}
+
 class SlurmSmallArraysTest : public SlurmCampaignTest {
  protected:
   void SetUp() override {
