@@ -305,8 +305,10 @@ class ConsoleObserver : public RunObserver {
       Draw();
     } else if (elapsed - last_plain_ >= 10.0) {
       last_plain_ = elapsed;
-      out_ << "progress " << done << "/" << total << " done, " << failed << " failed, " << active.size()
-           << " running, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed) << "\n";
+      const int queued = Queued(active);
+      out_ << "progress " << done << "/" << total << " done, " << failed << " failed, " << active.size() - queued
+           << " running" << (queued > 0 ? ", " + std::to_string(queued) + " queued" : "") << ", elapsed "
+           << Duration(elapsed) << ", ETA " << Eta(elapsed) << "\n";
       out_.flush();
     }
   }
@@ -330,13 +332,25 @@ class ConsoleObserver : public RunObserver {
     out_ << "\033[" << lines_ << "A\033[J";
     lines_ = 0;
   }
+  static bool IsQueued(const ActiveRun& a) {
+    return !a.queue_state.empty() && fate_of(a.queue_state) != TaskFate::kRunning;
+  }
+  static int Queued(const std::vector<ActiveRun>& active) {
+    return static_cast<int>(std::count_if(active.begin(), active.end(), IsQueued));
+  }
   void Draw() {
     if (!tty_ || total_ == 0) return;
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     out_ << Bar(static_cast<double>(done_) / total_, 30) << " " << done_ << "/" << total_ << " done, " << failed_
          << " failed, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed) << "\n";
     ++lines_;
+    // Runs waiting in a batch queue get one line for all of them.
+    if (const int queued = Queued(active_); queued > 0) {
+      out_ << "  " << queued << " queued (Slurm)\n";
+      ++lines_;
+    }
     for (const auto& a : active_) {
+      if (IsQueued(a)) continue;
       double f = 0;
       std::string phase = "starting";
       std::string eta = "?";
@@ -679,9 +693,15 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     header = true;
     double f = 0;
     std::string phase = "starting";
-    if (r.progress.is_object()) {
-      f = r.progress.value("fraction", 0.0);
-      phase = r.progress.value("phase", std::string("?"));
+    // A task nobody watches (detached) has its progress only in its directory.
+    json progress = r.progress;
+    if (progress.is_null() && r.queued()) {
+      std::ifstream in(fs::path(r.run_dir) / "progress.json");
+      progress = json::parse(in, nullptr, false);
+    }
+    if (progress.is_object()) {
+      f = progress.value("fraction", 0.0);
+      phase = progress.value("phase", std::string("?"));
     }
     out << "  " << r.run_id << " " << std::left << std::setw(9) << phase << Bar(f, 20) << " " << std::lround(f * 100)
         << "%  " << CompactPoint(r.point) << " r" << r.replica

@@ -279,7 +279,8 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
         continue;
       }
       slots[row->run_id] = Slot{*row, std::chrono::steady_clock::now(), false};
-      observer.on_event(row->run_id, "running", "attempt " + std::to_string(row->attempts));
+      observer.on_event(row->run_id, "running",
+                        "attempt " + std::to_string(row->attempts) + (executor.outlives_runner() ? ", to the queue" : ""));
     }
     submit_started();
     if (options.detach && nothing_left) {
