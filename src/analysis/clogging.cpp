@@ -39,7 +39,7 @@ RunEnd run_end_of(const std::string& end_reason) {
   return RunEnd::kOther;
 }
 
-ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end,
+ClogSeries clog_series(std::span<const rundir::ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end,
                        bool engine_stops_on_clog) {
   const bool gaps_are_clogs = !(engine_stops_on_clog && end == RunEnd::kDischarged && outlet < 0);
   ClogSeries s;

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "analysis/run_reader.h"
+#include "rundir/events.h"
 #include "analysis/stats.h"
 
 namespace granary::analysis {
@@ -46,7 +46,7 @@ struct ClogSeries {
 // engine judged every stall of the whole silo it met and stopped at the first, finding every
 // outlet open, so the stream of all outlets (`outlet` < 0) has no clog at all: its gaps were the
 // slow trickle off the dead zones at the end of a discharge, bodies still moving, not arches.
-ClogSeries clog_series(std::span<const ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end,
+ClogSeries clog_series(std::span<const rundir::ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end,
                        bool engine_stops_on_clog = false);
 
 // t_f, t_c and N_u of one outlet, pooled over several runs (each run's series).

@@ -147,7 +147,7 @@ std::vector<FlowRate> flow_rate_per_outlet(const FlowInput& input, const FlowWin
     double cumulative = 0.0, cumulative_mass = 0.0;
     bool have_mass = true;
     for (std::size_t i = 0; i <= w.last; ++i) {
-      const ExitEvent& e = input.events[i];
+      const rundir::ExitEvent& e = input.events[i];
       if (e.outlet == k) {
         cumulative += 1.0;
         cumulative_mass += e.mass;
@@ -193,10 +193,10 @@ VelocityProfileAccumulator::VelocityProfileAccumulator(double outlet_center, dou
   count_.assign(bins, 0.0);
 }
 
-void VelocityProfileAccumulator::add(std::span<const Body> bodies) {
+void VelocityProfileAccumulator::add(std::span<const rundir::Body> bodies) {
   ++frames_;
   const double bins = static_cast<double>(count_.size());
-  for (const Body& b : bodies) {
+  for (const rundir::Body& b : bodies) {
     if (b.y < options_.band_low || b.y > options_.band_high) continue;
     const double u = (b.x - center_) / width_ + 0.5;  // 0..1 across the outlet
     if (u < 0.0 || u >= 1.0) continue;

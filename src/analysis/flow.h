@@ -7,7 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "analysis/run_reader.h"
+#include "rundir/events.h"
+#include "rundir/frames.h"
 #include "analysis/stats.h"
 
 namespace granary::analysis {
@@ -32,7 +33,7 @@ struct FlowWindowRule {
 };
 
 struct FlowInput {
-  std::span<const ExitEvent> events;  // sorted by time
+  std::span<const rundir::ExitEvent> events;  // sorted by time
   bool remove_mode = true;
   int bodies = 0;                   // bodies in the bed at the opening
   double clog_gap = 5.0;            // a gap this long in the exit stream is a clog
@@ -98,7 +99,7 @@ struct VelocityProfile {
 class VelocityProfileAccumulator {
  public:
   VelocityProfileAccumulator(double outlet_center, double outlet_width, const ProfileOptions& options);
-  void add(std::span<const Body> bodies);
+  void add(std::span<const rundir::Body> bodies);
   VelocityProfile result() const;
 
  private:

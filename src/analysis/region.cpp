@@ -55,14 +55,14 @@ double disc_rect_overlap(double cx, double cy, double r, const Rect& q) {
   return std::max(0.0, area);
 }
 
-RegionFrame region_frame(std::span<const Disc> discs, std::span<const Body> bodies, const Rect& region) {
+RegionFrame region_frame(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies, const Rect& region) {
   RegionFrame f;
   double covered = 0.0;
-  for (const Disc& d : discs) covered += disc_rect_overlap(d.x, d.y, d.radius, region);
+  for (const rundir::Disc& d : discs) covered += disc_rect_overlap(d.x, d.y, d.radius, region);
   f.phi = covered / region.area();
   double mvx = 0, mvy = 0, mw = 0;
   int n = 0;
-  for (const Body& b : bodies) {
+  for (const rundir::Body& b : bodies) {
     if (!region.contains(b.x, b.y)) continue;
     mvx += b.vx;
     mvy += b.vy;
@@ -75,7 +75,7 @@ RegionFrame region_frame(std::span<const Disc> discs, std::span<const Body> bodi
   mvy /= n;
   mw /= n;
   double t1 = 0, t2 = 0;
-  for (const Body& b : bodies) {
+  for (const rundir::Body& b : bodies) {
     if (!region.contains(b.x, b.y)) continue;
     const double dv2 = (b.vx - mvx) * (b.vx - mvx) + (b.vy - mvy) * (b.vy - mvy);
     t1 += dv2;
@@ -86,13 +86,13 @@ RegionFrame region_frame(std::span<const Disc> discs, std::span<const Body> bodi
   return f;
 }
 
-void RegionAccumulator::add(std::span<const Disc> discs, std::span<const Body> bodies) {
+void RegionAccumulator::add(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies) {
   const RegionFrame f = region_frame(discs, bodies, stats_.region);
   ++stats_.frames;
   phi_.push_back(f.phi);
   tg_translational_.push_back(f.tg_translational);
   tg_full_.push_back(f.tg_full);
-  for (const Body& b : bodies) {
+  for (const rundir::Body& b : bodies) {
     if (!stats_.region.contains(b.x, b.y)) continue;
     const std::size_t i = seen_++;
     if (i < max_samples_) {

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "analysis/run_reader.h"
+#include "rundir/frames.h"
 #include "analysis/stats.h"
 
 namespace granary::analysis {
@@ -48,7 +48,7 @@ struct RegionFrame {
   double tg_full = kNaN;
   int bodies = 0;
 };
-RegionFrame region_frame(std::span<const Disc> discs, std::span<const Body> bodies, const Rect& region);
+RegionFrame region_frame(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies, const Rect& region);
 
 // Time average over frames: mean and se (over frames) of phi and the temperatures, and the
 // pooled velocities of the bodies inside for the distributions.
@@ -69,7 +69,7 @@ class RegionAccumulator {
       : max_samples_(max_samples) {
     stats_.region = region;
   }
-  void add(std::span<const Disc> discs, std::span<const Body> bodies);
+  void add(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies);
   RegionStats result() const;
 
  private:

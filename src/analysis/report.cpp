@@ -2,7 +2,7 @@
 // and renders the sections that the data supports. Each section is one function in the
 // kSections table below; adding an analysis to the report means adding one entry.
 #include "analysis/report.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
 #include <algorithm>
 #include <cmath>
@@ -144,8 +144,8 @@ Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>
       try {
         AnalysedRun a;
         a.record = &r;
-        const RunData data = read_run(r.run_dir);
-        if (!data.has_summary) throw ReadError((r.run_dir / "summary.json").string() + ": missing");
+        const rundir::RunData data = rundir::ReadRun(r.run_dir);
+        if (!data.has_summary) throw rundir::ReadError((r.run_dir / rundir::kSummaryFile).string() + ": missing");
         a.analysis = analyse_events(data, options.analysis);
         analyse_frames(data, options.analysis, a.analysis);
         a.engine_version = data.summary.engine_version;

@@ -39,7 +39,7 @@ std::vector<OutletGeometry> outlets_of(const nlohmann::json& spec) {
   return out;
 }
 
-RunAnalysis analyse_events(const RunData& data, const AnalysisOptions& options) {
+RunAnalysis analyse_events(const rundir::RunData& data, const AnalysisOptions& options) {
   RunAnalysis a;
   const nlohmann::json& spec = data.spec;
   const nlohmann::json discharge =
@@ -93,7 +93,7 @@ RunAnalysis analyse_events(const RunData& data, const AnalysisOptions& options) 
   return a;
 }
 
-void to_outlet_frame(const OutletGeometry& o, std::vector<Disc>& discs, std::vector<Body>& bodies) {
+void to_outlet_frame(const OutletGeometry& o, std::vector<rundir::Disc>& discs, std::vector<rundir::Body>& bodies) {
   // (x, y) -> (u, n): base: u = x - c, n = y. Right wall: u = y - c, n = X_w - x (a rotation).
   // Left wall: u = y - c, n = x - X_w (a reflection; omega changes sign, its squares do not).
   auto map = [&](double& x, double& y, double& vx, double& vy, double& omega) {
@@ -113,8 +113,8 @@ void to_outlet_frame(const OutletGeometry& o, std::vector<Disc>& discs, std::vec
     x = u;
     vx = vu;
   };
-  for (Disc& d : discs) map(d.x, d.y, d.vx, d.vy, d.omega);
-  for (Body& b : bodies) {
+  for (rundir::Disc& d : discs) map(d.x, d.y, d.vx, d.vy, d.omega);
+  for (rundir::Body& b : bodies) {
     map(b.x, b.y, b.vx, b.vy, b.omega);
     if (!o.base) b.theta = std::remainder(o.right_wall ? b.theta - 0.5 * std::numbers::pi
                                                         : 0.5 * std::numbers::pi - b.theta,
@@ -122,7 +122,7 @@ void to_outlet_frame(const OutletGeometry& o, std::vector<Disc>& discs, std::vec
   }
 }
 
-void analyse_frames(const RunData& data, const AnalysisOptions& options, RunAnalysis& a) {
+void analyse_frames(const rundir::RunData& data, const AnalysisOptions& options, RunAnalysis& a) {
   if (!options.read_frames || !data.has_frames || a.outlets.empty()) return;
   double t0 = options.window.start_time;
   double t1 = std::numeric_limits<double>::infinity();
@@ -134,7 +134,7 @@ void analyse_frames(const RunData& data, const AnalysisOptions& options, RunAnal
   }
   double density = 1.0;
   if (data.spec.is_object() && data.spec.contains("bodies")) density = data.spec.at("bodies").value("density", 1.0);
-  FrameReader reader(data.frames_file(), density);
+  rundir::FrameReader reader(data.frames_file(), density);
   std::vector<RegionAccumulator> regions;
   std::vector<VelocityProfileAccumulator> profiles;
   for (const OutletGeometry& o : a.outlets) {
@@ -142,16 +142,16 @@ void analyse_frames(const RunData& data, const AnalysisOptions& options, RunAnal
     regions.emplace_back(region_above_outlet(0.0, o.width, options.region));
     profiles.emplace_back(0.0, o.width, options.profile);
   }
-  Frame frame;
+  rundir::Frame frame;
   int seen = 0, used = 0;
-  while (reader.next(frame)) {
+  while (reader.Next(frame)) {
     if (frame.time > t1) break;  // frames are in time order
     if (frame.time < t0) continue;
     if (seen++ % std::max(1, options.frame_stride) != 0) continue;
-    const std::vector<Body> bodies = bodies_of(frame.discs);
+    const std::vector<rundir::Body> bodies = rundir::BodiesOf(frame.discs);
     for (std::size_t k = 0; k < a.outlets.size(); ++k) {
-      std::vector<Disc> d = frame.discs;
-      std::vector<Body> b = bodies;
+      std::vector<rundir::Disc> d = frame.discs;
+      std::vector<rundir::Body> b = bodies;
       to_outlet_frame(a.outlets[k], d, b);
       regions[k].add(d, b);
       profiles[k].add(b);
@@ -174,7 +174,7 @@ void analyse_frames(const RunData& data, const AnalysisOptions& options, RunAnal
 }
 
 RunAnalysis analyse_run(const std::filesystem::path& dir, const AnalysisOptions& options) {
-  const RunData data = read_run(dir);
+  const rundir::RunData data = rundir::ReadRun(dir);
   RunAnalysis a = analyse_events(data, options);
   analyse_frames(data, options, a);
   return a;

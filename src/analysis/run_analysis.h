@@ -11,7 +11,8 @@
 #include "analysis/clogging.h"
 #include "analysis/flow.h"
 #include "analysis/region.h"
-#include "analysis/run_reader.h"
+#include "rundir/frames.h"
+#include "rundir/run_directory.h"
 
 namespace granary::analysis {
 
@@ -42,7 +43,7 @@ std::vector<OutletGeometry> outlets_of(const nlohmann::json& spec);
 // serves base and lateral outlets (ch. 5a): x = along the outlet from its centre, y = distance
 // from the outlet's wall into the silo, v likewise (outflow has v_y < 0). The map is a rigid
 // rotation or reflection, so packing fractions and temperatures are unchanged by it.
-void to_outlet_frame(const OutletGeometry& outlet, std::vector<Disc>& discs, std::vector<Body>& bodies);
+void to_outlet_frame(const OutletGeometry& outlet, std::vector<rundir::Disc>& discs, std::vector<rundir::Body>& bodies);
 
 struct RunAnalysis {
   std::string run_id;
@@ -71,12 +72,12 @@ struct RunAnalysis {
 };
 
 // Everything that needs only summary.json, run.json and events.csv. Pure.
-RunAnalysis analyse_events(const RunData& data, const AnalysisOptions& options);
+RunAnalysis analyse_events(const rundir::RunData& data, const AnalysisOptions& options);
 // Streams frames.dump (if present and options.read_frames) and fills the region statistics
 // and velocity profiles of every outlet, from the frames of the flow window; without one,
 // from the frames after window.start_time up to the first clog.
 // Throws ReadError on a malformed dump.
-void analyse_frames(const RunData& data, const AnalysisOptions& options, RunAnalysis& analysis);
+void analyse_frames(const rundir::RunData& data, const AnalysisOptions& options, RunAnalysis& analysis);
 // read_run + analyse_events + analyse_frames.
 RunAnalysis analyse_run(const std::filesystem::path& dir, const AnalysisOptions& options);
 

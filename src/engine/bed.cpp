@@ -2,7 +2,7 @@
 // cache lock.
 #include "engine/bed.h"
 
-#include "engine/files.h"
+#include "rundir/files.h"
 
 #include <unistd.h>
 

@@ -10,7 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/run_spec.h"
+#include "rundir/run_spec.h"
 #include "engine/shapes.h"
 #include "engine/world.h"
 

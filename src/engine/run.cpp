@@ -1,9 +1,6 @@
 // The discharge driver: outlets open at t = 0, exits become events, reinjection or
 // removal, clog detection, outputs and checkpoints (docs/run-directory.md).
 #include "engine/run.h"
-#include "engine/version.h"
-
-#include "engine/files.h"
 
 #include <omp.h>
 #include <unistd.h>
@@ -28,6 +25,13 @@
 #include "engine/random.h"
 #include "engine/stall.h"
 #include "engine/world.h"
+#include "rundir/contacts.h"
+#include "rundir/files.h"
+#include "rundir/frames.h"
+#include "rundir/progress.h"
+#include "rundir/run_directory.h"
+#include "rundir/summary.h"
+#include "rundir/version.h"
 
 
 namespace granary::engine {
@@ -101,56 +105,6 @@ class In {
   std::size_t pos_ = 0;
 };
 
-// A C stdio file we can flush, measure and truncate.
-class OutFile {
- public:
-  OutFile() = default;
-  OutFile(const fs::path& path, bool continuing, long offset) : path_(path) {
-    if (continuing && fs::exists(path)) {
-      fs::resize_file(path, static_cast<std::uintmax_t>(offset));
-      f_ = std::fopen(path.c_str(), "ab");
-    } else {
-      f_ = std::fopen(path.c_str(), "wb");
-    }
-    if (!f_) throw std::runtime_error("cannot open " + path.string() + " for writing");
-  }
-  ~OutFile() {
-    if (f_) std::fclose(f_);
-  }
-  OutFile(OutFile&& o) noexcept : path_(std::move(o.path_)), f_(o.f_) { o.f_ = nullptr; }
-  OutFile& operator=(OutFile&& o) noexcept {
-    std::swap(f_, o.f_);
-    path_ = std::move(o.path_);
-    return *this;
-  }
-  std::FILE* get() const { return f_; }
-  bool open() const { return f_ != nullptr; }
-  long Offset() {
-    if (!f_) return 0;
-    std::fflush(f_);
-    return std::ftell(f_);
-  }
-
- private:
-  fs::path path_;
-  std::FILE* f_ = nullptr;
-};
-
-struct Progress {
-  std::string phase;
-  double fraction = 0, t = 0, t_end = 0, wall_s = 0;
-  int exited = 0;
-};
-
-void ReportProgress(const fs::path& dir, const Progress& p, bool quiet) {
-  nlohmann::json j = {{"phase", p.phase}, {"fraction", p.fraction}, {"t", p.t},
-                      {"t_end", p.t_end}, {"exited", p.exited},     {"wall_s", p.wall_s}};
-  WriteAtomically(dir / "progress.json", j.dump() + "\n");
-  if (!quiet) {
-    std::printf("progress phase=%s fraction=%.3f t=%.4g exited=%d\n", p.phase.c_str(), p.fraction, p.t, p.exited);
-    std::fflush(stdout);
-  }
-}
 
 }  // namespace
 
@@ -169,7 +123,6 @@ class Discharge {
   void WriteCheckpoint();
   void WriteFrame();
   void WriteContacts();
-  DumpBox DumpBoxOf() const;
   void HandleExits();
   int OutletOf(int b) const;
   void Reinject(int b);
@@ -181,6 +134,11 @@ class Discharge {
   bool Stalled() const;
   bool StallIsAClog() const;
   void WriteSummary(const std::string& end_reason);
+  void ReportProgress(const rundir::Progress& progress, bool quiet) const {
+    rundir::WriteProgress(dir_, progress, !quiet);
+  }
+  // The dump box, fixed for the whole run (dump_format.h).
+  void DumpBox(double (&box)[3][2]) const;
 
   RunSpec spec_;
   fs::path dir_;
@@ -210,9 +168,13 @@ class Discharge {
   double discharge_wall_before_ = 0;  // wall time of earlier sessions
   bool continued_ = false;
   // Outputs.
-  OutFile events_, frames_, contacts_;
+  rundir::EventWriter events_;
+  rundir::FrameWriter frames_;
+  rundir::ContactWriter contacts_;
   std::int64_t frame_every_ = 0, checkpoint_every_ = 0;
   std::vector<World::ContactView> contact_buf_;
+  rundir::Frame frame_buf_;
+  rundir::ContactFrame contact_frame_buf_;
   Clock::time_point session_start_ = Clock::now();
 };
 
@@ -241,7 +203,7 @@ void Discharge::BuildWorld(const std::vector<int>& species) {
 void Discharge::StartFresh() {
   const auto t0 = Clock::now();
   ObtainedBed ob = ObtainBed(spec_, dir_.string(), [&](double f, double t) {
-    ReportProgress(dir_, {"bed", f, t, 0, Seconds(t0), 0}, options_.quiet);
+    ReportProgress({"bed", f, t, 0, 0, Seconds(t0)}, options_.quiet);
   });
   bed_file_ = ob.file;
   bed_prepared_here_ = ob.prepared_here;
@@ -288,13 +250,12 @@ void Discharge::StartFresh() {
     for (const auto& t : w.templates()) bound = std::max(bound, t.bound_radius);
     periodic_height_ = (top + 2 * bound + spec_.discharge.periodic_headroom) + (spec_.discharge.exit_distance + kPeriodicFall);
   }
-  events_ = OutFile(dir_ / "events.csv", false, 0);
-  std::fprintf(events_.get(), "time,body,shape,mass,outlet\n");
-  if (frame_every_ > 0) frames_ = OutFile(dir_ / "frames.dump", false, 0);
-  if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = OutFile(dir_ / "contacts.dump", false, 0);
+  events_ = rundir::EventWriter::Create(dir_ / rundir::kEventsFile);
+  if (frame_every_ > 0) frames_ = rundir::FrameWriter::Create(dir_ / rundir::kFramesFile);
+  if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = rundir::ContactWriter::Create(dir_ / rundir::kContactsFile);
   if (frame_every_ > 0) {
     WriteFrame();
-    if (contacts_.open()) WriteContacts();
+    if (contacts_.is_open()) WriteContacts();
   }
 }
 
@@ -386,9 +347,10 @@ void Discharge::LoadCheckpoint() {
   falling_ = in.GetVec<std::uint8_t>();
   periodic_height_ = in.Get<double>();
   cleared_by_obstacles_ = in.Get<int>();
-  events_ = OutFile(dir_ / "events.csv", true, ev);
-  if (frame_every_ > 0) frames_ = OutFile(dir_ / "frames.dump", true, fr);
-  if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = OutFile(dir_ / "contacts.dump", true, co);
+  events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, ev);
+  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / rundir::kFramesFile, fr);
+  if (frame_every_ > 0 && spec_.output.contact_forces)
+    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / rundir::kContactsFile, co);
   continued_ = true;
 }
 
@@ -467,7 +429,7 @@ void Discharge::HandleExits() {
     const int k = OutletOf(b);
     if (k < 0) continue;
     const ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
-    std::fprintf(events_.get(), "%.10g,%d,%s,%.17g,%d\n", t, b, tp.name.c_str(), tp.mass, k);
+    events_.Write({t, b, tp.name, tp.mass, k});
     ++exits_per_outlet_[static_cast<std::size_t>(k)];
     last_exit_step_ = step_;
     in_clog_ = false;
@@ -512,41 +474,44 @@ bool Discharge::StallIsAClog() const {
 }
 
 // From the bed and the spec alone, so a continued run writes the same box.
-DumpBox Discharge::DumpBoxOf() const {
+void Discharge::DumpBox(double (&box)[3][2]) const {
   double bound = 0;
   for (const auto& t : world_->templates()) bound = std::max(bound, t.bound_radius);
-  return NativeDumpBox(spec_, bed_height_, bound);
+  NativeDumpBox(spec_, bed_height_, bound, box);
 }
 
 void Discharge::WriteFrame() {
   const World& w = *world_;
-  std::FILE* f = frames_.get();
-  int n = 0;
-  for (int i = 0; i < w.disc_count(); ++i) n += w.active_[w.dbody_[i]];
-  std::fputs(FrameHeader(step_, static_cast<double>(step_) * spec_.time_step, n, DumpBoxOf()).c_str(), f);
+  rundir::Frame& f = frame_buf_;
+  f.timestep = step_;
+  f.time = static_cast<double>(step_) * spec_.time_step;
+  DumpBox(f.box);
+  f.discs.clear();
   for (int i = 0; i < w.disc_count(); ++i) {
     const int b = w.dbody_[i];
     if (!w.active_[b]) continue;
+    // The disc centre moves with the rigid body: v + omega x r.
     const double rx = w.dx_[i] - w.bx_[b], ry = w.dy_[i] - w.by_[b];
-    std::fprintf(f, "%d %d %d %.10g %.10g 0 %.10g %.10g %.10g %.10g 0 %.10g\n", i + 1, b, w.tmpl_[b] + 1, w.dx_[i], w.dy_[i],
-                 w.dr_[i], w.dmass_[i], w.bvx_[b] - w.bw_[b] * ry, w.bvy_[b] + w.bw_[b] * rx, w.bw_[b]);
+    f.discs.push_back({i + 1, b, w.tmpl_[b] + 1, w.dx_[i], w.dy_[i], w.dr_[i], w.dmass_[i], w.bvx_[b] - w.bw_[b] * ry,
+                       w.bvy_[b] + w.bw_[b] * rx, w.bw_[b]});
   }
+  frames_.Write(f);
 }
 
 void Discharge::WriteContacts() {
   const World& w = *world_;
   w.CollectContacts(contact_buf_);
-  std::FILE* f = contacts_.get();
-  std::fputs(ContactHeader(step_, static_cast<double>(step_) * spec_.time_step, static_cast<std::int64_t>(contact_buf_.size()),
-                           DumpBoxOf())
-                 .c_str(),
-             f);
+  rundir::ContactFrame& f = contact_frame_buf_;
+  f.timestep = step_;
+  f.time = static_cast<double>(step_) * spec_.time_step;
+  DumpBox(f.box);
+  f.contacts.clear();
   for (const auto& c : contact_buf_) {
     const int bj = c.disc_j >= 0 ? w.dbody_[c.disc_j] : -1;
     const double xj = c.disc_j >= 0 ? w.dx_[c.disc_j] : c.cx, yj = c.disc_j >= 0 ? w.dy_[c.disc_j] : c.cy;
-    std::fprintf(f, "%d %d %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n", w.dbody_[c.disc_i], bj, w.dx_[c.disc_i],
-                 w.dy_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy);
+    f.contacts.push_back({w.dbody_[c.disc_i], bj, w.dx_[c.disc_i], w.dy_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy});
   }
+  contacts_.Write(f);
 }
 
 void Discharge::WriteSummary(const std::string& end_reason) {
@@ -554,30 +519,27 @@ void Discharge::WriteSummary(const std::string& end_reason) {
   std::int64_t exited = 0;
   for (auto e : exits_per_outlet_) exited += e;
   const double discharge_wall = discharge_wall_before_ + Seconds(session_start_);
-  nlohmann::json j;
-  j["engine"] = "native";
-  j["engine_version"] = GRANARY_VERSION;
-  j["granary_commit"] = granary::GitCommit();
-  j["run_id"] = spec_.run_id;
-  j["spec"] = spec_.to_json();
-  j["end_reason"] = end_reason;
-  j["bodies"] = w.body_count() - cleared_by_obstacles_;  // in the silo at t = 0
-  if (!spec_.silo.obstacles.empty()) j["cleared_by_obstacles"] = cleared_by_obstacles_;
-  j["exited"] = exited;
-  j["remaining"] = w.active_count();
-  j["exits_per_outlet"] = exits_per_outlet_;
-  j["t_end"] = static_cast<double>(step_) * spec_.time_step;
-  j["steps"] = step_;
-  j["clogs"] = clogs_;
-  j["bed"] = {{"file", bed_file_}, {"height", bed_height_}, {"prepared_here", bed_prepared_here_},
-              {"settle_time", bed_settle_time_}};
-  j["timing"] = {{"wall_s", bed_wall_s_ + discharge_wall},
-                 {"bed_wall_s", bed_wall_s_},
-                 {"discharge_wall_s", discharge_wall},
-                 {"disc_steps_per_s", discharge_wall > 0 ? static_cast<double>(disc_steps_) / discharge_wall : 0.0},
-                 {"threads", omp_get_max_threads()}};
-  j["continued_from_checkpoint"] = continued_;
-  WriteAtomically(dir_ / "summary.json", j.dump(2) + "\n");
+  rundir::Summary s;
+  s.engine = "native";
+  s.engine_version = GRANARY_VERSION;
+  s.granary_commit = granary::GitCommit();
+  s.run_id = spec_.run_id;
+  s.spec = spec_.to_json();
+  s.end_reason = end_reason;
+  s.bodies = w.body_count() - cleared_by_obstacles_;  // in the silo at t = 0
+  if (!spec_.silo.obstacles.empty()) s.cleared_by_obstacles = cleared_by_obstacles_;
+  s.exited = static_cast<int>(exited);
+  s.remaining = w.active_count();
+  for (auto e : exits_per_outlet_) s.exits_per_outlet.push_back(static_cast<int>(e));
+  s.t_end = static_cast<double>(step_) * spec_.time_step;
+  s.steps = step_;
+  s.clogs = clogs_;
+  s.bed = {bed_file_, bed_height_, bed_prepared_here_, bed_settle_time_};
+  s.timing = rundir::Timing{bed_wall_s_ + discharge_wall, bed_wall_s_, discharge_wall,
+                            discharge_wall > 0 ? static_cast<double>(disc_steps_) / discharge_wall : 0.0,
+                            omp_get_max_threads()};
+  s.continued_from_checkpoint = continued_;
+  rundir::WriteSummary(dir_, s);
 }
 
 RunResult Discharge::Run() {
@@ -622,7 +584,7 @@ RunResult Discharge::Run() {
     }
     if (frame_every_ > 0 && step_ % frame_every_ == 0) {
       WriteFrame();
-      if (contacts_.open()) WriteContacts();
+      if (contacts_.is_open()) WriteContacts();
     }
     if (checkpoint_every_ > 0 && step_ % checkpoint_every_ == 0 && end_reason.empty()) WriteCheckpoint();
     if (options_.abort_after_steps >= 0 && step_ - first_step >= options_.abort_after_steps) {
@@ -635,24 +597,22 @@ RunResult Discharge::Run() {
       last_report = Clock::now();
       std::int64_t exited = 0;
       for (auto e : exits_per_outlet_) exited += e;
-      ReportProgress(dir_,
-                     {"discharge", static_cast<double>(step_) / static_cast<double>(std::max<std::int64_t>(1, max_steps)),
-                      static_cast<double>(step_) * dt, spec_.discharge.max_time,
-                      discharge_wall_before_ + Seconds(session_start_), static_cast<int>(exited)},
+      ReportProgress({"discharge", static_cast<double>(step_) / static_cast<double>(std::max<std::int64_t>(1, max_steps)),
+                      static_cast<double>(step_) * dt, spec_.discharge.max_time, static_cast<int>(exited),
+                      discharge_wall_before_ + Seconds(session_start_)},
                      options_.quiet);
     }
   }
   std::int64_t exited = 0;
   for (auto e : exits_per_outlet_) exited += e;
-  events_ = OutFile();
-  frames_ = OutFile();
-  contacts_ = OutFile();
-  ReportProgress(dir_,
-                 {"discharge", 1.0, static_cast<double>(step_) * dt, spec_.discharge.max_time,
-                  discharge_wall_before_ + Seconds(session_start_), static_cast<int>(exited)},
+  events_.Close();
+  frames_.Close();
+  contacts_.Close();
+  ReportProgress({"discharge", 1.0, static_cast<double>(step_) * dt, spec_.discharge.max_time, static_cast<int>(exited),
+                  discharge_wall_before_ + Seconds(session_start_)},
                  true);
   WriteSummary(end_reason);
-  WriteAtomically(dir_ / "DONE", end_reason + "\n");
+  rundir::WriteDone(dir_, end_reason);
   RunResult r;
   r.end_reason = end_reason;
   r.exited = static_cast<int>(exited);
@@ -665,24 +625,10 @@ RunResult Discharge::Run() {
 RunResult RunDirectory(const std::string& dir, const RunOptions& options) {
   if (options.threads > 0) omp_set_num_threads(options.threads);
   const fs::path d(dir);
-  const fs::path spec_file = d / "run.json";
-  std::ifstream in(spec_file);
-  if (!in) throw std::runtime_error("cannot read " + spec_file.string());
-  nlohmann::json j;
-  try {
-    in >> j;
-  } catch (const std::exception& e) {
-    throw std::runtime_error(spec_file.string() + ": " + e.what());
-  }
-  RunSpec spec;
-  try {
-    spec = RunSpec::from_json(j);
-  } catch (const SpecError& e) {
-    throw std::runtime_error(spec_file.string() + ": " + e.what());
-  }
+  const RunSpec spec = rundir::ReadRunSpec(d);
   if (spec.engine != "native")
-    throw std::runtime_error(spec_file.string() + ": engine is \"" + spec.engine + "\", not \"native\"");
-  fs::remove(d / "DONE");
+    throw std::runtime_error((d / rundir::kRunSpecFile).string() + ": engine is \"" + spec.engine + "\", not \"native\"");
+  fs::remove(d / rundir::kDoneFile);
   Discharge discharge(spec, d, options);
   return discharge.Run();
 }
@@ -720,16 +666,13 @@ std::vector<BenchResult> RunBenchmark(const BenchOptions& options) {
       const fs::path dir = base / ("t" + std::to_string(threads));
       fs::remove_all(dir);
       fs::create_directories(dir);
-      WriteAtomically(dir / "run.json", spec.dump(2));
+      rundir::WriteRunSpec(dir, spec);
       RunOptions ro;
       ro.threads = threads;
       ro.quiet = true;
       RunDirectory(dir.string(), ro);
-      std::ifstream in(dir / "summary.json");
-      nlohmann::json summary;
-      in >> summary;
-      results.push_back({round, threads, summary["timing"]["disc_steps_per_s"].get<double>(),
-                         summary["timing"]["discharge_wall_s"].get<double>()});
+      const rundir::Summary summary = rundir::ReadSummary(dir / rundir::kSummaryFile);
+      results.push_back({round, threads, summary.timing->disc_steps_per_s, summary.timing->discharge_wall_s});
     }
   }
   fs::remove_all(base);

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/run_spec.h"
+#include "rundir/run_spec.h"
 
 namespace granary::engine {
 

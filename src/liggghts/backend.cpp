@@ -1,8 +1,5 @@
 // The LIGGGHTS backend (backend.h): bed, discharge and conversion into the run directory.
 #include "liggghts/backend.h"
-#include "engine/version.h"
-
-#include "engine/files.h"
 
 #include <signal.h>
 #include <fcntl.h>
@@ -31,10 +28,16 @@
 #include <boost/process.hpp>
 #include <boost/process/extend.hpp>
 
-#include "engine/dump_format.h"
 #include "engine/shapes.h"
 #include "engine/stall.h"
 #include "liggghts/input_script.h"
+#include "rundir/contacts.h"
+#include "rundir/files.h"
+#include "rundir/frames.h"
+#include "rundir/progress.h"
+#include "rundir/run_directory.h"
+#include "rundir/summary.h"
+#include "rundir/version.h"
 
 namespace granary::liggghts {
 
@@ -48,14 +51,6 @@ namespace {
 constexpr int kLogTailLines = 25;
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot read " + path.string());
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // Parent-death signal in the child: a killed backend never leaves LIGGGHTS writing into a
 // directory the runner will relaunch.
@@ -127,13 +122,7 @@ LiggghtsRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir
 
 void ReportProgress(const fs::path& dir, const std::string& phase, double fraction, double t, double t_end, int exited,
                     double wall_s, bool quiet) {
-  fraction = std::clamp(fraction, 0.0, 1.0);
-  json j = {{"phase", phase}, {"fraction", fraction}, {"t", t}, {"t_end", t_end}, {"exited", exited}, {"wall_s", wall_s}};
-  WriteAtomically(dir / "progress.json", j.dump() + "\n");
-  if (!quiet) {
-    std::printf("progress phase=%s fraction=%.3f t=%.4g exited=%d\n", phase.c_str(), fraction, t, exited);
-    std::fflush(stdout);
-  }
+  rundir::WriteProgress(dir, {phase, fraction, t, t_end, exited, wall_s}, !quiet);
 }
 
 std::vector<std::string> Tokens(const std::string& line) {
@@ -344,23 +333,31 @@ bool NextDumpBlock(std::istream& in, long long& step, long long& rows) {
 
 // The box of frames.dump and contacts.dump: LIGGGHTS' discharge box, with room in y for the
 // clumps that the conversion puts back together across the periodic boundary.
-engine::DumpBox FramesBox(const SiloSetup& setup) {
+void SetBox(const SiloSetup& setup, double (&box)[3][2]) {
   const double b2 = 2 * setup.bound_radius;
-  return {setup.x_lo, setup.x_hi, setup.y_lo - b2, setup.y_hi + b2};
+  box[0][0] = setup.x_lo;
+  box[0][1] = setup.x_hi;
+  box[1][0] = setup.y_lo - b2;
+  box[1][1] = setup.y_hi + b2;
+  box[2][0] = -0.5;
+  box[2][1] = 0.5;
 }
 
 // LIGGGHTS dump (id mol type x y radius vx vy omegaz) -> the run-directory frames format.
 void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const SiloSetup& setup,
                    const BodyIndex& bodies, double box_height) {
   std::ifstream in(in_path);
-  std::ofstream out(out_path, std::ios::trunc);
+  rundir::FrameWriter out = rundir::FrameWriter::Create(out_path);
   std::string line;
   const double rho = spec.bodies.density;
-  char buf[512];
   std::map<long long, double> first_y;  // per body: where its first sphere is in this frame
   long long step = 0, n = 0;
+  rundir::Frame frame;
+  SetBox(setup, frame.box);
   while (NextDumpBlock(in, step, n)) {
-    out << engine::FrameHeader(step, static_cast<double>(step) * spec.time_step, n, FramesBox(setup));
+    frame.timestep = step;
+    frame.time = static_cast<double>(step) * spec.time_step;
+    frame.discs.clear();
     first_y.clear();
     for (long long i = 0; i < n && std::getline(in, line); ++i) {
       const auto t = Tokens(line);
@@ -372,11 +369,12 @@ void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunS
       double y = std::stod(t[4]);
       const auto [it, first] = first_y.emplace(body, y);
       if (!first) y = NearestImage(y, it->second, box_height);
-      std::snprintf(buf, sizeof buf, "%s %lld %s %s %.10g 0 %s %.10g %s %s 0 %s\n", t[0].c_str(), body, t[2].c_str(),
-                    t[3].c_str(), y, t[5].c_str(), rho * std::numbers::pi * r * r, t[6].c_str(), t[7].c_str(), t[8].c_str());
-      out << buf;
+      frame.discs.push_back({std::stoll(t[0]), body, std::stoi(t[2]), std::stod(t[3]), y, r, rho * std::numbers::pi * r * r,
+                             std::stod(t[6]), std::stod(t[7]), std::stod(t[8])});
     }
+    out.Write(frame);
   }
+  out.Close();
 }
 
 // LIGGGHTS' local dumps of pair and wall contacts into contacts.dump (docs/run-directory.md):
@@ -408,11 +406,13 @@ void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& 
     if (it == spheres.end()) throw std::runtime_error("contact dump names an unknown sphere " + id);
     return it->second;
   };
-  std::string out;
-  char buf[512];
+  rundir::ContactWriter out = rundir::ContactWriter::Create(dir / rundir::kContactsFile);
+  rundir::ContactFrame frame;
+  SetBox(setup, frame.box);
   for (const auto& [step, block] : pairs) {
-    std::string rows;
-    std::size_t n = 0;
+    frame.timestep = step;
+    frame.time = static_cast<double>(step) * spec.time_step;
+    frame.contacts.clear();
     for (const std::string& line : block.rows) {
       const auto t = Tokens(line);
       if (t.size() < 8) throw std::runtime_error("malformed LIGGGHTS contact line: " + line);
@@ -423,25 +423,21 @@ void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& 
       const double xi = std::stod(t[0]), yi = std::stod(t[1]), xj = std::stod(t[2]);
       const double yj = NearestImage(std::stod(t[3]), yi, box_height);
       const double dx = xj - xi, dy = yj - yi, r = std::hypot(dx, dy);
-      std::snprintf(buf, sizeof buf, "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %s %s\n", body_a, body_b, xi, yi, xj, yj,
-                    xi + a.radius * dx / r, yi + a.radius * dy / r, t[6].c_str(), t[7].c_str());
-      rows += buf;
-      ++n;
+      frame.contacts.push_back({body_a, body_b, xi, yi, xj, yj, xi + a.radius * dx / r, yi + a.radius * dy / r,
+                                std::stod(t[6]), std::stod(t[7])});
     }
     if (const auto w = walls.find(step); w != walls.end()) {
       for (const std::string& line : w->second.rows) {
         const auto t = Tokens(line);
         if (t.size() < 7) throw std::runtime_error("malformed LIGGGHTS wall contact line: " + line);
-        std::snprintf(buf, sizeof buf, "%lld -1 %s %s %s %s %s %s %s %s\n", bodies.of(sphere(t[4])), t[2].c_str(),
-                      t[3].c_str(), t[0].c_str(), t[1].c_str(), t[0].c_str(), t[1].c_str(), t[5].c_str(), t[6].c_str());
-        rows += buf;
-        ++n;
+        const double cx = std::stod(t[0]), cy = std::stod(t[1]);
+        frame.contacts.push_back(
+            {bodies.of(sphere(t[4])), -1, std::stod(t[2]), std::stod(t[3]), cx, cy, cx, cy, std::stod(t[5]), std::stod(t[6])});
       }
     }
-    out += engine::ContactHeader(step, static_cast<double>(step) * spec.time_step, static_cast<std::int64_t>(n), FramesBox(setup)) +
-           rows;
+    out.Write(frame);
   }
-  WriteAtomically(dir / "contacts.dump", out);
+  out.Close();
 }
 
 // A prepared bed for this spec: DIR/bed.restart and DIR/bed.dump, from the cache when it
@@ -482,7 +478,7 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
     if (fs::exists(cache_dir / (stem + ".restart")) && fs::exists(cache_dir / (stem + ".json"))) {
       fs::copy_file(cache_dir / (stem + ".restart"), dir / "bed.restart", fs::copy_options::overwrite_existing);
       fs::copy_file(cache_dir / (stem + ".dump"), dir / "bed.dump", fs::copy_options::overwrite_existing);
-      const json meta = json::parse(ReadFile(cache_dir / (stem + ".json")));
+      const json meta = json::parse(ReadWholeFile(cache_dir / (stem + ".json")));
       bed.file = (cache_dir / (stem + ".restart")).string();
       bed.settle_time = meta.value("settle_time", 0.0);
       bed.wall_s = 0;
@@ -573,17 +569,7 @@ bool StallIsAClog(const RunSpec& spec, const std::vector<Sphere>& left) {
   return std::find(sealed.begin(), sealed.end(), true) != sealed.end();
 }
 
-RunSpec ReadSpec(const fs::path& dir) {
-  const fs::path file = dir / "run.json";
-  if (!fs::exists(file)) throw std::invalid_argument("no run.json in " + dir.string());
-  json j;
-  try {
-    j = json::parse(ReadFile(file));
-  } catch (const json::parse_error& e) {
-    throw std::invalid_argument(file.string() + ": not valid JSON: " + e.what());
-  }
-  return RunSpec::from_json(j);
-}
+RunSpec ReadSpec(const fs::path& dir) { return rundir::ReadRunSpec(dir); }
 
 void WriteMeshes(const fs::path& dir, const SiloSetup& setup) {
   for (const MeshFile& m : setup.fill_meshes) WriteAtomically(dir / m.name, Stl(m, setup.half_z - 0.1));
@@ -626,7 +612,7 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   const RunSpec spec = ReadSpec(dir);
   SiloSetup setup = MakeSetup(spec);
   const std::string exe = FindLiggghts(options.liggghts);
-  fs::remove(dir / "DONE");
+  fs::remove(dir / rundir::kDoneFile);
 
   BackendResult result;
   const Checkpoint ckpt = NewestCheckpoint(dir);
@@ -635,7 +621,7 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   DischargeStart start;
   double discharge_wall_before = 0;
   if (ckpt.step >= 0 && fs::exists(state_file)) {
-    state = json::parse(ReadFile(state_file));
+    state = json::parse(ReadWholeFile(state_file));
     result.continued = true;
     start.continue_run = true;
     start.restart_file = ckpt.file.filename().string();  // "checkpoint.<digits>.restart": no spec text
@@ -658,8 +644,8 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
       state["clog_steps"] = kept;
     }
   } else {
-    for (const char* f : {"frames.liggghts", "events.csv", "frames.dump", "final.dump", "contacts_pairs.liggghts",
-                          "contacts_walls.liggghts", "contacts.dump"})
+    for (const char* f : {"frames.liggghts", rundir::kEventsFile, rundir::kFramesFile, "final.dump", "contacts_pairs.liggghts",
+                          "contacts_walls.liggghts", rundir::kContactsFile})
       fs::remove(dir / f);
     for (const Counter& c : setup.counters)
       for (const fs::path& f : CounterFiles(dir, c)) fs::remove(f);
@@ -743,18 +729,16 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
     templates.push_back(engine::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
   const std::vector<Event> events = ReadEvents(dir, setup.counters, spheres, bodies, recross);
-  std::string csv = "time,body,shape,mass,outlet\n";
+  std::vector<rundir::ExitEvent> exits;
   std::vector<int> per_outlet(static_cast<std::size_t>(setup.outlets), 0);
-  char buf[256];
   for (const Event& e : events) {
     const engine::ShapeTemplate& tp = templates[static_cast<std::size_t>(e.species)];
-    std::snprintf(buf, sizeof buf, "%.10g,%lld,%s,%.17g,%d\n", e.time, e.body, tp.name.c_str(), tp.mass, e.outlet);
-    csv += buf;
+    exits.push_back({e.time, e.body, tp.name, tp.mass, e.outlet});
     ++per_outlet[static_cast<std::size_t>(e.outlet)];
   }
-  WriteAtomically(dir / "events.csv", csv);
+  rundir::WriteEvents(dir / rundir::kEventsFile, exits);
   if (spec.output.frame_interval > 0 && fs::exists(dir / "frames.liggghts"))
-    ConvertFrames(dir / "frames.liggghts", dir / "frames.dump", spec, setup, bodies, box_height);
+    ConvertFrames(dir / "frames.liggghts", dir / rundir::kFramesFile, spec, setup, bodies, box_height);
   if (spec.output.contact_forces && spec.output.frame_interval > 0 && fs::exists(dir / "contacts_pairs.liggghts"))
     ConvertContacts(dir, spec, setup, spheres, bodies, box_height);
 
@@ -773,42 +757,38 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   result.exited = static_cast<int>(events.size());
   result.steps = last_step;
 
-  json summary;
-  summary["engine"] = "liggghts";
-  summary["engine_version"] = LiggghtsVersion(dir / "log.discharge");
-  summary["granary_version"] = GRANARY_VERSION;
-  summary["granary_commit"] = granary::GitCommit();
-  summary["run_id"] = spec.run_id;
-  summary["spec"] = spec.to_json();
-  summary["end_reason"] = end_reason;
-  summary["bodies"] = spec.bodies.count;
-  summary["exited"] = result.exited;
-  summary["remaining"] = static_cast<int>(remaining.size());
-  summary["exits_per_outlet"] = per_outlet;
-  summary["t_end"] = static_cast<double>(last_step) * spec.time_step;
-  summary["clogs"] = state.value("clog_steps", json::array()).size();
-  summary["steps"] = last_step;
-  summary["max_out_of_plane"] = out_of_plane;
-  summary["tangential_cap"] = "liggghts";  // LIGGGHTS caps the spring part only, whatever the spec asks
+  rundir::Summary summary;
+  summary.engine = "liggghts";
+  summary.engine_version = LiggghtsVersion(dir / "log.discharge");
+  summary.granary_version = GRANARY_VERSION;
+  summary.granary_commit = granary::GitCommit();
+  summary.run_id = spec.run_id;
+  summary.spec = spec.to_json();
+  summary.end_reason = end_reason;
+  summary.bodies = spec.bodies.count;
+  summary.exited = result.exited;
+  summary.remaining = static_cast<int>(remaining.size());
+  summary.exits_per_outlet = per_outlet;
+  summary.t_end = static_cast<double>(last_step) * spec.time_step;
+  summary.clogs = static_cast<int>(state.value("clog_steps", json::array()).size());
+  summary.steps = last_step;
+  summary.max_out_of_plane = out_of_plane;
+  summary.tangential_cap = "liggghts";  // LIGGGHTS caps the spring part only, whatever the spec asks
   // Reinjection is y-periodicity here, whatever the spec asks (docs/liggghts.md).
-  if (spec.discharge.mode == DischargeMode::kReinject) summary["reinject_position"] = "periodic";
-  summary["bed"] = {{"file", state.value("bed_file", "")},
-                    {"height", state.value("bed_height", 0.0)},
-                    {"prepared_here", state.value("bed_prepared_here", false)},
-                    {"settle_time", state.value("settle_time", 0.0)}};
+  if (spec.discharge.mode == DischargeMode::kReinject) summary.reinject_position = "periodic";
+  summary.bed = {state.value("bed_file", ""), state.value("bed_height", 0.0), state.value("bed_prepared_here", false),
+                 state.value("settle_time", 0.0)};
   const double bed_wall = state.value("bed_wall_s", 0.0);
-  summary["timing"] = {{"wall_s", bed_wall + discharge_wall},
-                       {"bed_wall_s", bed_wall},
-                       {"discharge_wall_s", discharge_wall},
-                       {"disc_steps_per_s", session_wall > 0 ? spheres_total * static_cast<double>(session_steps) / session_wall : 0.0},
-                       {"threads", options.threads}};
+  summary.timing = rundir::Timing{
+      bed_wall + discharge_wall, bed_wall, discharge_wall,
+      session_wall > 0 ? spheres_total * static_cast<double>(session_steps) / session_wall : 0.0, options.threads};
   // Going on through a clog restarts LIGGGHTS too; only a restart after an interruption counts here.
-  summary["continued_from_checkpoint"] = result.continued && ckpt.step != state.value("relaunched_at_step", -1LL);
-  WriteAtomically(dir / "summary.json", summary.dump(2) + "\n");
+  summary.continued_from_checkpoint = result.continued && ckpt.step != state.value("relaunched_at_step", -1LL);
+  rundir::WriteSummary(dir, summary);
   PruneCheckpoints(dir, 0);
   ReportProgress(dir, "discharge", 1.0, static_cast<double>(last_step) * spec.time_step, spec.discharge.max_time,
                  result.exited, discharge_wall, true);
-  WriteAtomically(dir / "DONE", end_reason + "\n");
+  rundir::WriteDone(dir, end_reason);
   return result;
 }
 

@@ -12,8 +12,9 @@
 #include <vector>
 
 #include "engine/run.h"
-#include "engine/run_spec.h"
 #include "liggghts/backend.h"
+#include "rundir/run_directory.h"
+#include "rundir/run_spec.h"
 
 namespace granary::liggghts {
 
@@ -73,7 +74,7 @@ void RunBench(const BenchOptions& o) {
                {"cache_file", (base / ("granary-liggghts-bench-bed-" + std::to_string(o.bodies) + ".json")).string()}}},
       {"discharge", {{"mode", "reinject"}, {"max_time", o.steps * 1e-4}, {"stop_on_clog", false}}},
       {"output", {{"checkpoint_interval", 0.0}}}};
-  std::ofstream(dir / "run.json") << RunSpec::from_json(spec).to_json().dump(2) << "\n";
+  rundir::WriteRunSpec(dir, RunSpec::from_json(spec).to_json());
   std::printf("bench: LIGGGHTS, %d dumbbells, %d steps (the bed is prepared once and cached; not timed)\n", o.bodies, o.steps);
   std::fflush(stdout);
   std::vector<double> lig_rates, native_rates;
@@ -81,7 +82,7 @@ void RunBench(const BenchOptions& o) {
     const std::string tag = o.repeat > 1 ? "round=" + std::to_string(round) + " " : "";
     for (const auto& e : fs::directory_iterator(dir)) {  // a fresh discharge every round
       const std::string name = e.path().filename().string();
-      if (name.rfind("checkpoint.", 0) == 0 || name.rfind("log.discharge", 0) == 0 || name == "DONE") fs::remove(e.path());
+      if (name.rfind("checkpoint.", 0) == 0 || name.rfind("log.discharge", 0) == 0 || name == rundir::kDoneFile) fs::remove(e.path());
     }
     BackendOptions bo;
     bo.quiet = true;

@@ -2,16 +2,17 @@
 #include "liggghts/cli.h"
 
 #include "engine/cli.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
 #include <cstdio>
 #include <exception>
 #include <iostream>
 #include <string>
 
-#include "engine/run_spec.h"
 #include "liggghts/backend.h"
 #include "liggghts/bench.h"
+#include "rundir/layout.h"
+#include "rundir/run_spec.h"
 
 namespace granary::liggghts {
 namespace {
@@ -122,6 +123,9 @@ int LiggghtsMain(const std::vector<std::string>& args) {
     std::cerr << "granary-liggghts " << args[0] << ": spec error: " << e.what() << "\n";
     return 2;
   } catch (const std::invalid_argument& e) {
+    std::cerr << "granary-liggghts " << args[0] << ": error: " << e.what() << "\n";
+    return 2;
+  } catch (const rundir::ReadError& e) {  // run.json missing or not JSON
     std::cerr << "granary-liggghts " << args[0] << ": error: " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {

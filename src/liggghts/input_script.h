@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "engine/run_spec.h"
+#include "rundir/run_spec.h"
 
 namespace granary::liggghts {
 

@@ -1,6 +1,6 @@
 // See campaign_db.h.
 #include "runner/campaign_db.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
 #include <signal.h>
 #include <unistd.h>

@@ -1,6 +1,6 @@
 // See cli.h. Flags and exit codes are documented in docs/cli.md.
 #include "runner/cli.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
 #include <signal.h>
 #include <unistd.h>
@@ -15,6 +15,7 @@
 #include <sstream>
 #include <thread>
 
+#include "rundir/progress.h"
 #include "runner/campaign_db.h"
 #include "runner/campaign_spec.h"
 #include "runner/scan.h"
@@ -696,8 +697,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     // A task nobody watches (detached) has its progress only in its directory.
     json progress = r.progress;
     if (progress.is_null() && r.queued()) {
-      std::ifstream in(fs::path(r.run_dir) / "progress.json");
-      progress = json::parse(in, nullptr, false);
+      if (const auto p = rundir::ReadProgress(r.run_dir)) progress = p->ToJson();
     }
     if (progress.is_object()) {
       f = progress.value("fraction", 0.0);

@@ -2,11 +2,13 @@
 #include "runner/scan.h"
 
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 
-#include "engine/files.h"
+#include "rundir/files.h"
+#include "rundir/layout.h"
+#include "rundir/run_directory.h"
+#include "rundir/summary.h"
 #include "runner/campaign_db.h"
 #include "runner/scheduler.h"
 #include "runner/slurm_executor.h"
@@ -18,11 +20,14 @@ using nlohmann::json;
 
 namespace {
 
-json ReadJson(const fs::path& p) {
-  std::ifstream in(p);
-  if (!in) return nullptr;
-  json j = json::parse(in, nullptr, false);
-  return j.is_discarded() ? json(nullptr) : j;
+// The summary of a finished run (DONE and a readable summary.json), or null.
+json FinishedSummary(const fs::path& dir) {
+  if (!rundir::IsDone(dir)) return nullptr;
+  try {
+    return rundir::ReadSummary(dir / rundir::kSummaryFile).raw;
+  } catch (const rundir::ReadError&) {
+    return nullptr;
+  }
 }
 
 }  // namespace
@@ -55,7 +60,7 @@ ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run) {
     if (r.state == "retired") continue;
     ++report.runs;
     const fs::path dir = r.run_dir;
-    const json summary = fs::exists(dir / "DONE") ? ReadJson(dir / "summary.json") : json(nullptr);
+    const json summary = FinishedSummary(dir);
     std::string to = r.state, reason;
     double wall = r.wall_s;
     if (summary.is_object()) {
@@ -70,7 +75,7 @@ ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run) {
         // The time limit the task ran under is in its script; 124 from `timeout` says it was hit.
         const Finished f = slurm_task_end(r.run_id, r.run_dir, place, e == seen.end() ? "" : e->second.state,
                                           std::numeric_limits<double>::infinity(), "");
-        std::tie(to, reason) = end_state_of(f, false, 0, (dir / "engine.log").string());
+        std::tie(to, reason) = end_state_of(f, false, 0, (dir / rundir::kEngineLogFile).string());
         if (f.wall_s >= 0) wall = f.wall_s;
       }
     } else if (r.state == "running") {

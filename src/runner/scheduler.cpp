@@ -1,9 +1,6 @@
 // See scheduler.h.
 #include "runner/scheduler.h"
 
-#include "engine/files.h"
-#include "runner/slurm.h"
-
 #include <signal.h>
 #include <unistd.h>
 
@@ -16,6 +13,11 @@
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+
+#include "rundir/files.h"
+#include "rundir/progress.h"
+#include "rundir/run_directory.h"
+#include "runner/slurm.h"
 
 namespace granary::runner {
 
@@ -63,33 +65,6 @@ std::pair<std::string, std::string> end_state_of(const Finished& f, bool timed_o
 
 namespace {
 
-json ReadJsonFile(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) return nullptr;
-  json j = json::parse(in, nullptr, false);
-  return j.is_discarded() ? json(nullptr) : j;
-}
-
-// run.json is written atomically so that an engine never reads half a file.
-void WriteRunJson(const fs::path& dir, const json& params) {
-  fs::create_directories(dir);
-  const fs::path target = dir / "run.json";
-  const std::string text = params.dump(2) + "\n";
-  {
-    std::ifstream in(target);
-    std::stringstream ss;
-    if (in) {
-      ss << in.rdbuf();
-      if (ss.str() == text) return;
-    }
-  }
-  try {
-    WriteAtomically(target, text);
-  } catch (const std::exception& e) {
-    throw std::runtime_error("run " + params.value("run_id", std::string()) + ": " + e.what());
-  }
-}
-
 std::string EngineExe(const RunOptions& o, const std::string& engine) {
   if (o.engine.find('/') != std::string::npos) return o.engine;
   return (fs::path(o.exe_dir) / (engine == "liggghts" ? "granary-liggghts" : "granary-engine")).string();
@@ -99,7 +74,7 @@ Launch LaunchOf(const RunRow& row, const std::string& exe, int threads) {
   Launch l;
   l.run_id = row.run_id;
   l.argv = {exe, "run", row.run_dir, "--threads", std::to_string(threads)};
-  l.log_file = (fs::path(row.run_dir) / "engine.log").string();
+  l.log_file = (fs::path(row.run_dir) / rundir::kEngineLogFile).string();
   l.engine = row.engine;
   l.run_dir = row.run_dir;
   l.place = QueuePlace{row.job_dir, row.job_script, row.job_name, row.job_index, row.job_id, row.job_state};
@@ -167,14 +142,19 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
 
   auto finish_done = [&](const RunRow& row, double wall) -> bool {
     const fs::path dir = row.run_dir;
-    if (!fs::exists(dir / "DONE")) return false;
-    const json summary = ReadJsonFile(dir / "summary.json");
-    if (!summary.is_object()) return false;
-    record_done(store, row.run_id, summary, now_seconds(), wall);
+    if (!rundir::IsDone(dir)) return false;
+    rundir::Summary summary;
+    try {
+      summary = rundir::ReadSummary(dir / rundir::kSummaryFile);
+    } catch (const rundir::ReadError&) {
+      return false;
+    }
+    record_done(store, row.run_id, summary.raw, now_seconds(), wall);
     ++done;
     if (row.state == "failed") --failed;
     observer.on_event(row.run_id, "done",
-                      summary.value("end_reason", std::string("finished")) + " in " + std::to_string(static_cast<int>(wall)) + " s");
+                      (summary.end_reason.empty() ? std::string("finished") : summary.end_reason) + " in " +
+                          std::to_string(static_cast<int>(wall)) + " s");
     return true;
   };
 
@@ -272,7 +252,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
                                  " (build it, or pass --engine PATH)");
       }
       try {
-        WriteRunJson(row->run_dir, row->params);
+        rundir::WriteRunSpec(row->run_dir, row->params);
         executor.start(LaunchOf(*row, exe, options.threads_per_run));
       } catch (const std::exception& e) {
         end_run(row->run_id, "failed", e.what(), 0);
@@ -298,7 +278,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       slots.erase(f.run_id);
       queue_state.erase(f.run_id);
       const double wall = f.wall_s >= 0 ? f.wall_s : std::chrono::duration<double>(std::chrono::steady_clock::now() - slot.started).count();
-      const std::string log = (fs::path(slot.row.run_dir) / "engine.log").string();
+      const std::string log = (fs::path(slot.row.run_dir) / rundir::kEngineLogFile).string();
       if (f.signal == 0 && f.exit_code == 0 && !f.timed_out && finish_done(slot.row, wall)) continue;
       const auto [state, reason] = end_state_of(f, slot.timed_out, options.time_limit, log);
       end_run(f.run_id, state, reason, wall);
@@ -331,8 +311,12 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
         a.elapsed = std::chrono::duration<double>(now - slot.started).count();
         if (auto q = queue_state.find(id); q != queue_state.end()) a.queue_state = q->second;
         // A queued run's directory is not read until its task runs (a shared file system).
-        if (EngineAtWork(a.queue_state)) a.progress = ReadJsonFile(fs::path(slot.row.run_dir) / "progress.json");
-        if (!a.progress.is_null()) progress[id] = a.progress;
+        if (EngineAtWork(a.queue_state)) {
+          if (const auto p = rundir::ReadProgress(slot.row.run_dir)) {
+            a.progress = p->ToJson();
+            progress[id] = a.progress;
+          }
+        }
         active.push_back(a);
       }
       observer.on_tick(active, done, failed, total);

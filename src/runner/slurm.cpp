@@ -8,7 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "engine/run_spec.h"
+#include "rundir/layout.h"
+#include "rundir/run_spec.h"
 #include "runner/campaign_spec.h"
 
 namespace granary::runner {
@@ -201,12 +202,12 @@ std::string batch_script(const BatchJob& job) {
     << "IFS=$'\\t' read -r index run_id engine exe dir <<< \"$entry\"\n"
     << "task=\"${SLURM_ARRAY_JOB_ID}_${SLURM_ARRAY_TASK_ID}\"\n"
     << "started=$(date +%s.%N)\n"
-    << "# DIR/slurm-task.json: this task, its node and start, then its exit status; replaced atomically.\n"
+    << "# DIR/" << rundir::kSlurmTaskFile << ": this task, its node and start, then its exit status; replaced atomically.\n"
     << "record() {\n"
-    << "  local tmp=\"$dir/slurm-task.json.tmp.$$\"\n"
+    << "  local tmp=\"$dir/" << rundir::kSlurmTaskFile << ".tmp.$$\"\n"
     << "  printf '{\"job\": \"%s\", \"run_id\": \"%s\", \"node\": \"%s\", \"started_at\": %s%s}\\n' \\\n"
     << "    \"$task\" \"$run_id\" \"$(hostname -s)\" \"$started\" \"$1\" > \"$tmp\" &&\n"
-    << "    sync \"$tmp\" && mv -f \"$tmp\" \"$dir/slurm-task.json\" && sync \"$dir\"\n"
+    << "    sync \"$tmp\" && mv -f \"$tmp\" \"$dir/" << rundir::kSlurmTaskFile << "\" && sync \"$dir\"\n"
     << "}\n"
     << "record ''\n";
   if (mpi) {
@@ -217,7 +218,7 @@ std::string batch_script(const BatchJob& job) {
   }
   s << "cmd=(\"$exe\" run \"$dir\" --threads \"$threads\")\n"
     << "if [ \"$time_limit\" != 0 ]; then cmd=(timeout --signal=TERM --kill-after=30 \"$time_limit\" \"${cmd[@]}\"); fi\n"
-    << "\"${cmd[@]}\" < /dev/null >> \"$dir/engine.log\" 2>&1\n"
+    << "\"${cmd[@]}\" < /dev/null >> \"$dir/" << rundir::kEngineLogFile << "\" 2>&1\n"
     << "status=$?\n"
     << "record \", \\\"exit_code\\\": $status, \\\"ended_at\\\": $(date +%s.%N)\"\n"
     << "exit $status\n";

@@ -19,7 +19,9 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "engine/files.h"
+#include "rundir/files.h"
+#include "rundir/layout.h"
+#include "rundir/run_directory.h"
 #include "runner/campaign_db.h"
 
 namespace granary::runner {
@@ -405,12 +407,12 @@ Finished slurm_task_end(const std::string& run_id, const std::string& run_dir, c
   f.run_id = run_id;
   const fs::path dir = run_dir;
   const std::string task = place.job_id.empty() ? "of " + place.name : place.job_id + "_" + std::to_string(place.index);
-  std::optional<TaskRecord> record = parse_task_record(ReadText(dir / "slurm-task.json"));
+  std::optional<TaskRecord> record = parse_task_record(ReadText(dir / rundir::kSlurmTaskFile));
   if (record && (place.job_id.empty() || record->job != task)) record.reset();  // an earlier attempt's
   if (record && record->started_at > 0) {
     f.wall_s = std::max(0.0, (record->ended_at > 0 ? record->ended_at : now_seconds()) - record->started_at);
   }
-  if (fs::exists(dir / "DONE")) return f;  // the scheduler ingests it
+  if (rundir::IsDone(dir)) return f;  // the scheduler ingests it
   const std::string slurm_log = TailOfFile(fs::path(place.dir) / "logs" / (task + ".out"), 10);
   const std::string where = "Slurm task " + task + (state.empty() ? "" : " " + state);
   if (record && record->exit_code) {

@@ -1,7 +1,7 @@
 // See util.h.
 #include "runner/util.h"
 
-#include "engine/run_spec.h"
+#include "rundir/run_spec.h"
 
 #include <algorithm>
 #include <cstdio>

@@ -10,8 +10,8 @@
 namespace granary::analysis {
 namespace {
 
-std::vector<ExitEvent> at(std::initializer_list<double> times, int outlet = 0) {
-  std::vector<ExitEvent> ev;
+std::vector<rundir::ExitEvent> at(std::initializer_list<double> times, int outlet = 0) {
+  std::vector<rundir::ExitEvent> ev;
   for (double t : times) ev.push_back({t, 0, "dumbbell", 1.0, outlet});
   return ev;
 }

@@ -10,8 +10,8 @@
 namespace granary::analysis {
 namespace {
 
-std::vector<ExitEvent> regular(int n, double t0, double dt, double mass = 2.0, int outlet = 0) {
-  std::vector<ExitEvent> ev;
+std::vector<rundir::ExitEvent> regular(int n, double t0, double dt, double mass = 2.0, int outlet = 0) {
+  std::vector<rundir::ExitEvent> ev;
   for (int i = 0; i < n; ++i) ev.push_back({t0 + dt * i, i, "disc", mass, outlet});
   return ev;
 }
@@ -41,10 +41,10 @@ TEST(FlowRate, PerOutletOverTheWindowOfAllOutletsAddsUp) {
   // Outlet 0 flows at 3 throughout; outlet 1 at 2 but is clogged from t = 10 to 20 (ch. 7).
   // Over the common window the per-outlet rates add up to the total exactly, and outlet 1
   // gets its mean throughput (between 1 and 2), not its rate while flowing.
-  std::vector<ExitEvent> ev = regular(120, 0.1, 1.0 / 3.0, 2.0, 0);
+  std::vector<rundir::ExitEvent> ev = regular(120, 0.1, 1.0 / 3.0, 2.0, 0);
   for (const auto& e : regular(20, 0.2, 0.5, 1.0, 1)) ev.push_back(e);
   for (const auto& e : regular(40, 20.2, 0.5, 1.0, 1)) ev.push_back(e);
-  std::stable_sort(ev.begin(), ev.end(), [](const ExitEvent& a, const ExitEvent& b) { return a.time < b.time; });
+  std::stable_sort(ev.begin(), ev.end(), [](const rundir::ExitEvent& a, const rundir::ExitEvent& b) { return a.time < b.time; });
   FlowInput in{ev, false, 1000, 5.0, -1};
   const FlowRate total = flow_rate(in, FlowWindowRule());
   const std::vector<FlowRate> per = flow_rate_per_outlet(in, FlowWindowRule(), 2);
@@ -61,7 +61,7 @@ TEST(FlowRate, PerOutletOverTheWindowOfAllOutletsAddsUp) {
 
 TEST(FlowRate, TransientAndClogAreExcluded) {
   // Slow start (1 per unit time until t = 10), then 5 per unit time, then a clog at t = 60.
-  std::vector<ExitEvent> ev;
+  std::vector<rundir::ExitEvent> ev;
   for (int i = 1; i <= 10; ++i) ev.push_back({static_cast<double>(i) - 0.5, i, "disc", 1.0, 0});
   for (int i = 0; i < 250; ++i) ev.push_back({10.0 + 0.2 * i, 100 + i, "disc", 1.0, 0});
   ev.push_back({80.0, 999, "disc", 1.0, 0});  // after a 20 s gap: a clog then an unclog
@@ -80,12 +80,12 @@ TEST(FlowRate, TransientAndClogAreExcluded) {
 
 TEST(FlowRate, PerOutletAndNoisyRate) {
   // Two outlets, Poisson streams of rate 4 and 1: the estimates agree within 4 se.
-  std::vector<ExitEvent> ev;
+  std::vector<rundir::ExitEvent> ev;
   std::mt19937_64 rng(7);
   std::exponential_distribution<double> a(4.0), b(1.0);
   for (double t = a(rng); t < 500; t += a(rng)) ev.push_back({t, 0, "disc", 1.0, 0});
   for (double t = b(rng); t < 500; t += b(rng)) ev.push_back({t, 0, "disc", 1.0, 1});
-  std::sort(ev.begin(), ev.end(), [](const ExitEvent& x, const ExitEvent& y) { return x.time < y.time; });
+  std::sort(ev.begin(), ev.end(), [](const rundir::ExitEvent& x, const rundir::ExitEvent& y) { return x.time < y.time; });
   FlowWindowRule rule;
   rule.stop_at_first_clog = false;
   FlowInput in{ev, false, 0, 5.0, 0};
@@ -126,17 +126,17 @@ TEST(VelocityProfile, BinsNormalisesAndVmax) {
   opt.bins = 5;  // bins of width 2 over x in [-5, 5)
   VelocityProfileAccumulator acc(0.0, 10.0, opt);
   auto body = [](double x, double y, double vx, double vy) {
-    Body b;
+    rundir::Body b;
     b.x = x;
     b.y = y;
     b.vx = vx;
     b.vy = vy;
     return b;
   };
-  const std::vector<Body> f1 = {body(-4, 1, 0.5, -1), body(0, 1, 0, -2), body(4, 1, -0.5, -1),
+  const std::vector<rundir::Body> f1 = {body(-4, 1, 0.5, -1), body(0, 1, 0, -2), body(4, 1, -0.5, -1),
                                 body(0, 3, 0, -9),  // above the band
                                 body(6, 1, 0, -9)};  // beside the outlet
-  const std::vector<Body> f2 = {body(0.5, 0.5, 0, -4)};
+  const std::vector<rundir::Body> f2 = {body(0.5, 0.5, 0, -4)};
   acc.add(f1);
   acc.add(f2);
   const VelocityProfile p = acc.result();

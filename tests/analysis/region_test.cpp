@@ -55,7 +55,7 @@ TEST(DiscRectOverlap, MatchesQuadratureOnRandomCases) {
 TEST(RegionFrame, PackingAndBothTemperatures) {
   const Rect q{0, 10, 0, 10};
   // Discs: whole (pi), half (pi/2), quarter (pi/4), outside.
-  std::vector<Disc> discs(4);
+  std::vector<rundir::Disc> discs(4);
   discs[0].x = 5; discs[0].y = 5; discs[0].radius = 1;
   discs[1].x = 0; discs[1].y = 5; discs[1].radius = 1;
   discs[2].x = 10; discs[2].y = 10; discs[2].radius = 1;
@@ -63,11 +63,11 @@ TEST(RegionFrame, PackingAndBothTemperatures) {
   // Bodies inside with velocities (1,0), (-1,0), (0,2), (0,-2), m = 2, I = 0.5, omega 1, -1, 0, 0;
   // one outside that must be ignored.
   auto body = [](double x, double y, double vx, double vy, double w) {
-    Body b;
+    rundir::Body b;
     b.x = x; b.y = y; b.vx = vx; b.vy = vy; b.omega = w; b.mass = 2.0; b.inertia = 0.5;
     return b;
   };
-  const std::vector<Body> bodies = {body(1, 1, 1, 0, 1), body(2, 2, -1, 0, -1), body(3, 3, 0, 2, 0),
+  const std::vector<rundir::Body> bodies = {body(1, 1, 1, 0, 1), body(2, 2, -1, 0, -1), body(3, 3, 0, 2, 0),
                                     body(4, 4, 0, -2, 0), body(11, 4, 50, 50, 50)};
   const RegionFrame f = region_frame(discs, bodies, q);
   EXPECT_NEAR(f.phi, (kPi + kPi / 2 + kPi / 4) / 100.0, 1e-14);
@@ -76,7 +76,7 @@ TEST(RegionFrame, PackingAndBothTemperatures) {
   EXPECT_NEAR(f.tg_full, (2 * 1 + 0.5 + 2 * 1 + 0.5 + 2 * 4 + 2 * 4) / (3.0 * 4.0), 1e-14);  // 1.75
 
   // A uniform drift does not change the temperatures.
-  std::vector<Body> moving = bodies;
+  std::vector<rundir::Body> moving = bodies;
   for (auto& b : moving) { b.vx += 3.0; b.vy -= 7.0; b.omega += 2.0; }
   const RegionFrame g = region_frame(discs, moving, q);
   EXPECT_NEAR(g.tg_translational, 1.25, 1e-13);
@@ -96,7 +96,7 @@ TEST(RegionAccumulator, VelocitySamplesAreCappedUniformly) {
   // 200 frames x 500 bodies with v_x = body index: a reservoir of 1000 keeps a uniform subset
   // (mean ~ 249.5, sd of the mean of 1000 uniform draws ~ 4.6).
   const Rect q{0, 100, 0, 100};
-  std::vector<Body> bodies(500);
+  std::vector<rundir::Body> bodies(500);
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     bodies[i].x = 1.0 + 0.1 * static_cast<double>(i);
     bodies[i].y = 1.0;

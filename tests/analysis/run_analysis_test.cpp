@@ -41,16 +41,16 @@ TEST(Outlets, FromSpecInEventOrder) {
 
 TEST(Outlets, OutletFrameOfLateralOutlets) {
   const auto o = outlets_of(kSpec);
-  Body b;
+  rundir::Body b;
   b.x = 48;
   b.y = 20;
   b.vx = 2;  // leaving through the right wall
   b.vy = -1;
   b.omega = 0.5;
-  std::vector<Disc> discs(1);
+  std::vector<rundir::Disc> discs(1);
   discs[0].x = 48;
   discs[0].y = 20;
-  std::vector<Body> bodies = {b};
+  std::vector<rundir::Body> bodies = {b};
   to_outlet_frame(o[1], discs, bodies);
   EXPECT_DOUBLE_EQ(bodies[0].x, 4.0);   // 20 - 16 along the outlet
   EXPECT_DOUBLE_EQ(bodies[0].y, 2.0);   // 2 from the wall

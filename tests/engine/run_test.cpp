@@ -1,7 +1,7 @@
 // Small silo runs through the library and the real granary-engine executable: discharge,
 // clogging, checkpoint/continue, determinism across seeds and thread counts, bed cache.
 #include "engine/run.h"
-#include "engine/version.h"
+#include "rundir/version.h"
 
 #include <sys/wait.h>
 #include <unistd.h>

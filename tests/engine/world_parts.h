@@ -2,7 +2,7 @@
 #pragma once
 
 #include "engine/geometry.h"
-#include "engine/run_spec.h"
+#include "rundir/run_spec.h"
 
 namespace granary::engine {
 

@@ -15,14 +15,17 @@
 #include <set>
 #include <thread>
 
-#include "analysis/run_reader.h"
+#include "rundir/contacts.h"
+#include "rundir/frames.h"
+#include "rundir/run_directory.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 namespace bp = boost::process;
 using nlohmann::json;
-using namespace granary::analysis;
+namespace rundir = granary::rundir;
+using namespace granary::rundir;
 
 const fs::path kTmp = GRANARY_LIGGGHTS_TEST_TMP;
 
@@ -69,12 +72,12 @@ TEST(LiggghtsBackend, DiscBedSettlesAndDischargesInRemoveMode) {
   const fs::path dir = MakeRun("discs_remove", {{"output", {{"frame_interval", 1.0}}}});
   const Outcome o = RunBackend(dir);
   ASSERT_EQ(o.exit_code, 0) << o.output;
-  const RunData run = read_run(dir);
+  const RunData run = ReadRun(dir);
   EXPECT_EQ(run.summary.engine, "liggghts");
   EXPECT_NE(run.summary.engine_version.find("3.8"), std::string::npos);
   ASSERT_GT(run.events.size(), 5u) << "a 5 d outlet lets discs out";
   std::set<std::int64_t> bodies;
-  for (const ExitEvent& e : run.events) {
+  for (const rundir::ExitEvent& e : run.events) {
     EXPECT_EQ(e.shape, "disc");
     EXPECT_EQ(e.outlet, 0);
     EXPECT_NEAR(e.mass, std::numbers::pi / 4, 1e-12);
@@ -93,9 +96,9 @@ TEST(LiggghtsBackend, DiscBedSettlesAndDischargesInRemoveMode) {
   FrameReader frames(dir / "frames.dump");
   Frame f;
   int n = 0;
-  while (frames.next(f)) {
+  while (frames.Next(f)) {
     ++n;
-    for (const Disc& d : f.discs) EXPECT_NEAR(d.mass, std::numbers::pi * d.radius * d.radius, 1e-9);
+    for (const rundir::Disc& d : f.discs) EXPECT_NEAR(d.mass, std::numbers::pi * d.radius * d.radius, 1e-9);
   }
   EXPECT_GE(n, 3);  // t = 0, 1, 2 (3 if the run reached it)
 }
@@ -109,7 +112,7 @@ TEST(LiggghtsBackend, AStallIsAClogOrADischargeAsOnTheNativeEngine) {
   const fs::path clog = MakeRun("stall_clog", narrow);
   Outcome o = RunBackend(clog);
   ASSERT_EQ(o.exit_code, 0) << o.output;
-  RunData run = read_run(clog);
+  RunData run = ReadRun(clog);
   EXPECT_EQ(run.summary.end_reason, "clogged") << o.output;
   EXPECT_EQ(run.summary.raw.at("clogs"), 1);
   EXPECT_LT(run.summary.t_end, 12.0);
@@ -120,7 +123,7 @@ TEST(LiggghtsBackend, AStallIsAClogOrADischargeAsOnTheNativeEngine) {
   const fs::path intermittent = MakeRun("stall_through", through);
   o = RunBackend(intermittent);
   ASSERT_EQ(o.exit_code, 0) << o.output;
-  const RunData on = read_run(intermittent);
+  const RunData on = ReadRun(intermittent);
   EXPECT_EQ(on.summary.end_reason, "time_limit") << o.output;
   EXPECT_NEAR(on.summary.t_end, 12.0, 1e-9);
   EXPECT_EQ(on.summary.raw.at("clogs"), 1) << "a clog is counted once until the next exit";
@@ -131,7 +134,7 @@ TEST(LiggghtsBackend, AStallIsAClogOrADischargeAsOnTheNativeEngine) {
                                                      {"discharge", {{"max_time", 40}}}});
   o = RunBackend(wide);
   ASSERT_EQ(o.exit_code, 0) << o.output;
-  run = read_run(wide);
+  run = ReadRun(wide);
   EXPECT_EQ(run.summary.end_reason, "discharged") << o.output;
   EXPECT_EQ(run.summary.raw.at("clogs"), 0);
   EXPECT_LT(run.summary.t_end, 40.0);
@@ -152,13 +155,13 @@ TEST(LiggghtsBackend, ContactFramesCarryTheWeightOfTheBedOnWallsAndObstacle) {
                                             {"output", {{"frame_interval", 0.05}, {"contact_forces", true}}}});
   const Outcome o = RunBackend(dir);
   ASSERT_EQ(o.exit_code, 0) << o.output;
-  const RunData run = read_run(dir);
+  const RunData run = ReadRun(dir);
   ASSERT_TRUE(run.has_contacts);
   ContactReader contacts(run.contacts_file());
   ContactFrame f;
   int frames = 0, on_obstacle = 0, on_base = 0, on_sides = 0, repulsive = 0, pairs = 0;
   double wall_fy = 0;
-  while (contacts.next(f)) {
+  while (contacts.Next(f)) {
     ++frames;
     for (const ContactRow& c : f.contacts) {
       ASSERT_GE(c.body_i, 0);
@@ -194,9 +197,9 @@ TEST(LiggghtsBackend, DumbbellBedReinjectsEveryBodyThatLeaves) {
                                                       {"output", {{"frame_interval", 2.0}}}});
   const Outcome o = RunBackend(dir);
   ASSERT_EQ(o.exit_code, 0) << o.output;
-  const RunData run = read_run(dir);
+  const RunData run = ReadRun(dir);
   ASSERT_GT(run.events.size(), 2u) << o.output;
-  for (const ExitEvent& e : run.events) {
+  for (const rundir::ExitEvent& e : run.events) {
     EXPECT_EQ(e.shape, "dumbbell");
     EXPECT_NEAR(e.mass, std::numbers::pi / 2, 1e-12);
   }
@@ -205,16 +208,16 @@ TEST(LiggghtsBackend, DumbbellBedReinjectsEveryBodyThatLeaves) {
   EXPECT_LT(run.summary.raw.at("max_out_of_plane").get<double>(), 1e-5);
   FrameReader frames(dir / "frames.dump");
   Frame f;
-  ASSERT_TRUE(frames.next(f));
-  const std::vector<Body> bodies = bodies_of(f.discs);
+  ASSERT_TRUE(frames.Next(f));
+  const std::vector<rundir::Body> bodies = rundir::BodiesOf(f.discs);
   ASSERT_EQ(bodies.size(), 50u);
-  for (const Body& b : bodies) {
+  for (const rundir::Body& b : bodies) {
     EXPECT_EQ(b.n_discs, 2);
     EXPECT_NEAR(b.mass, std::numbers::pi / 2, 1e-9);
   }
   // The two discs of a dumbbell stay one diameter apart: the clump is rigid.
-  std::map<std::int64_t, std::vector<const Disc*>> by_body;
-  for (const Disc& d : f.discs) by_body[d.mol].push_back(&d);
+  std::map<std::int64_t, std::vector<const rundir::Disc*>> by_body;
+  for (const rundir::Disc& d : f.discs) by_body[d.mol].push_back(&d);
   for (const auto& [id, discs] : by_body)
     EXPECT_NEAR(std::hypot(discs[0]->x - discs[1]->x, discs[0]->y - discs[1]->y), 1.0, 1e-6);
 }
@@ -234,7 +237,7 @@ TEST(LiggghtsBackend, TwoMpiRanksRunClumpsAsOneRankDoes) {
   while (std::getline(out, line)) log += line + "\n";
   c.wait();
   ASSERT_EQ(c.exit_code(), 0) << log;
-  const RunData a = read_run(one), b = read_run(two);
+  const RunData a = ReadRun(one), b = ReadRun(two);
   EXPECT_EQ(b.summary.raw.at("timing").at("threads"), 2);
   EXPECT_NE(ReadText(two / "log.discharge").find("2 by 1 by 1 MPI processor grid"), std::string::npos);
   EXPECT_EQ(b.summary.remaining, 50);
@@ -244,10 +247,10 @@ TEST(LiggghtsBackend, TwoMpiRanksRunClumpsAsOneRankDoes) {
   FrameReader frames(two / "frames.dump");
   Frame f;
   int n = 0;
-  while (frames.next(f)) {
+  while (frames.Next(f)) {
     ++n;
-    std::map<std::int64_t, std::vector<const Disc*>> by_body;
-    for (const Disc& d : f.discs) by_body[d.mol].push_back(&d);
+    std::map<std::int64_t, std::vector<const rundir::Disc*>> by_body;
+    for (const rundir::Disc& d : f.discs) by_body[d.mol].push_back(&d);
     ASSERT_EQ(by_body.size(), 50u);
     for (const auto& [id, discs] : by_body) {
       ASSERT_EQ(discs.size(), 2u);
@@ -331,14 +334,14 @@ TEST(LiggghtsBackend, AKilledRunContinuesFromItsCheckpointWithTheSameEarlierEven
   ASSERT_FALSE(fs::exists(cut / "DONE"));
   const Outcome o = RunBackend(cut);
   ASSERT_EQ(o.exit_code, 0) << o.output;
-  const RunData a = read_run(whole), b = read_run(cut);
+  const RunData a = ReadRun(whole), b = ReadRun(cut);
   EXPECT_TRUE(b.summary.raw.at("continued_from_checkpoint").get<bool>());
   // Up to the checkpoint the runs are the same computation; after it LIGGGHTS rebuilds its
   // neighbour lists, so later events agree only statistically (docs/liggghts.md).
   std::vector<std::pair<double, std::int64_t>> early_a, early_b;
-  for (const ExitEvent& e : a.events)
+  for (const rundir::ExitEvent& e : a.events)
     if (e.time <= 1.0) early_a.emplace_back(e.time, e.body);
-  for (const ExitEvent& e : b.events)
+  for (const rundir::ExitEvent& e : b.events)
     if (e.time <= 1.0) early_b.emplace_back(e.time, e.body);
   EXPECT_EQ(early_a, early_b);
   EXPECT_GT(b.events.size(), early_b.size()) << "events after the restart are recorded";
@@ -347,8 +350,8 @@ TEST(LiggghtsBackend, AKilledRunContinuesFromItsCheckpointWithTheSameEarlierEven
   ContactReader ca(a.contacts_file()), cb(b.contacts_file());
   ContactFrame fa, fb;
   int frames = 0;
-  while (ca.next(fa)) {
-    ASSERT_TRUE(cb.next(fb)) << "frame " << frames;
+  while (ca.Next(fa)) {
+    ASSERT_TRUE(cb.Next(fb)) << "frame " << frames;
     EXPECT_EQ(fa.timestep, fb.timestep);
     if (fa.time <= 1.0) {
       ASSERT_EQ(fa.contacts.size(), fb.contacts.size()) << "t = " << fa.time;
@@ -359,7 +362,7 @@ TEST(LiggghtsBackend, AKilledRunContinuesFromItsCheckpointWithTheSameEarlierEven
     }
     ++frames;
   }
-  EXPECT_FALSE(cb.next(fb));
+  EXPECT_FALSE(cb.Next(fb));
   EXPECT_EQ(frames, 7);
 }
 

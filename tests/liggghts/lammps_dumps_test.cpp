@@ -21,14 +21,15 @@
 #include <string>
 #include <vector>
 
-#include "analysis/run_reader.h"
+#include "rundir/contacts.h"
+#include "rundir/frames.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 namespace bp = boost::process;
 using nlohmann::json;
-using namespace granary::analysis;
+using namespace granary::rundir;
 
 const fs::path kTmp = GRANARY_LIGGGHTS_TEST_TMP;
 
@@ -162,12 +163,12 @@ void LammpsReadsTheRun(const fs::path& dir, double contact_tolerance) {
   std::vector<Frame> frames;
   {
     FrameReader reader(dir / "frames.dump");
-    for (Frame f; reader.next(f);) frames.push_back(f);
+    for (Frame f; reader.Next(f);) frames.push_back(f);
   }
   std::vector<ContactFrame> contacts;
   {
     ContactReader reader(dir / "contacts.dump");
-    for (ContactFrame c; reader.next(c);) contacts.push_back(c);
+    for (ContactFrame c; reader.Next(c);) contacts.push_back(c);
   }
   const std::vector<Block> atoms = ReadBlocks(dir / "lammps" / "frames.dump");
   const std::vector<Block> pairs = ReadBlocks(dir / "lammps" / "contacts.dump");

@@ -1,6 +1,6 @@
 // A fake engine for the runner tests, obeying the run-directory contract
-// (docs/run-directory.md) without physics: it counts steps with a short sleep each, writes
-// progress.json atomically and a checkpoint after every step, continues from the checkpoint
+// (docs/run-directory.md) without physics, through the run-directory library's writers: it
+// counts steps with a short sleep each, writes progress.json and a checkpoint after every step, continues from the checkpoint
 // when restarted, and ends with summary.json then DONE. Every start and finish is appended to
 // DIR/launches.txt so tests can prove that nothing ran twice.
 // Behaviour from run.json: /discharge/max_time == 13 -> fails (exit 3); == 666 -> hangs.
@@ -18,20 +18,17 @@
 #include <string>
 #include <thread>
 
+#include "rundir/files.h"
+#include "rundir/progress.h"
+#include "rundir/run_directory.h"
+#include "rundir/summary.h"
+
 namespace fs = std::filesystem;
 
 namespace {
 int EnvInt(const char* name, int def) {
   const char* v = std::getenv(name);
   return v && *v ? std::atoi(v) : def;
-}
-void WriteAtomically(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << text;
-  }
-  fs::rename(tmp, path);
 }
 }  // namespace
 
@@ -41,12 +38,13 @@ int main(int argc, char** argv) {
     return 2;
   }
   const fs::path dir = argv[2];
-  std::ifstream in(dir / "run.json");
-  if (!in) {
-    std::cerr << "fake_engine: no run.json in " << dir << "\n";
+  nlohmann::json spec;
+  try {
+    spec = granary::rundir::ReadRunSpecJson(dir);
+  } catch (const granary::rundir::ReadError& e) {
+    std::cerr << "fake_engine: " << e.what() << "\n";
     return 2;
   }
-  const nlohmann::json spec = nlohmann::json::parse(in);
   {
     std::ofstream log(dir / "launches.txt", std::ios::app);
     log << "start " << getpid() << "\n";
@@ -69,29 +67,26 @@ int main(int argc, char** argv) {
       return 3;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(max_time == 666 ? 100000 : step_ms));
-    WriteAtomically(dir / "checkpoint.fake", std::to_string(step + 1));
+    granary::WriteAtomically(dir / "checkpoint.fake", std::to_string(step + 1));
     const double f = static_cast<double>(step + 1) / steps;
-    WriteAtomically(dir / "progress.json",
-                    nlohmann::json{{"phase", "discharge"}, {"fraction", f}, {"t", step + 1}, {"t_end", steps},
-                                   {"exited", step + 1}, {"wall_s", 0.0}}
-                        .dump());
-    std::cout << "progress phase=discharge fraction=" << f << " t=" << step + 1 << " exited=" << step + 1 << std::endl;
+    granary::rundir::WriteProgress(dir, {"discharge", f, step + 1.0, static_cast<double>(steps), step + 1, 0.0}, true);
   }
-  nlohmann::json summary = {{"engine", "fake"},
-                            {"engine_version", "0.0"},
-                            {"run_id", spec["run_id"]},
-                            {"spec", spec},
-                            {"end_reason", "discharged"},
-                            {"bodies", spec["bodies"]["count"]},
-                            {"exited", steps},
-                            {"remaining", 0},
-                            {"t_end", static_cast<double>(steps)},
-                            {"timing", {{"wall_s", steps * step_ms / 1000.0}, {"threads", 1}}}};
-  WriteAtomically(dir / "summary.json", summary.dump(2));
+  granary::rundir::Summary summary;
+  summary.engine = "fake";
+  summary.engine_version = "0.0";
+  summary.run_id = spec["run_id"];
+  summary.spec = spec;
+  summary.end_reason = "discharged";
+  summary.bodies = spec["bodies"]["count"];
+  summary.exited = steps;
+  summary.remaining = 0;
+  summary.t_end = static_cast<double>(steps);
+  summary.timing = granary::rundir::Timing{steps * step_ms / 1000.0, 0.0, steps * step_ms / 1000.0, 0.0, 1};
+  granary::rundir::WriteSummary(dir, summary);
   {
     std::ofstream log(dir / "launches.txt", std::ios::app);
     log << "finish " << getpid() << "\n";
   }
-  WriteAtomically(dir / "DONE", "");
+  granary::rundir::WriteDone(dir, summary.end_reason);
   return 0;
 }

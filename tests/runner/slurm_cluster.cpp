@@ -16,7 +16,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "engine/files.h"
+#include "rundir/files.h"
 #include "test_util.h"
 
 namespace granary::runner::testing {

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "engine/run_spec.h"
+#include "rundir/run_spec.h"
 #include "runner/campaign_spec.h"
 #include "runner/slurm.h"
 #include "test_util.h"

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "rundir/progress.h"
 #include "runner/slurm.h"
 #include "slurm_cluster.h"
 #include "test_util.h"
@@ -175,7 +176,12 @@ TEST_F(SlurmCampaignTest, CancelledTaskIsResubmittedAndContinuesFromItsCheckpoin
   const std::string victim = jobs.begin()->first;
   const fs::path victim_dir = runs.at(victim)["run_dir"].get<std::string>();
   // Mid-run: held after its fifth step's checkpoint.
-  ASSERT_TRUE(WaitFor([&] { return ReadFile(victim_dir / "engine.log").find("fraction=0.5 ") != std::string::npos; }, 60))
+  ASSERT_TRUE(WaitFor(
+      [&] {
+        const auto p = rundir::ReadProgress(victim_dir);
+        return p && p->fraction >= 0.5;
+      },
+      60))
       << cluster_->log_tails();
   const std::string task = jobs.at(victim);
   ASSERT_EQ(Sh("scancel " + task).code, 0);

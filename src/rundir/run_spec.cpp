@@ -2,7 +2,7 @@
 // Every error is a SpecError naming the JSON Pointer of the offending value, the value and
 // what is allowed, so a user can fix a campaign without reading code (style.md 8.3 item 8).
 // Keys, defaults and allowed values are documented in docs/run-spec.md.
-#include "engine/run_spec.h"
+#include "rundir/run_spec.h"
 
 // GCC 12 reports a false -Warray-bounds inside nlohmann::json's object construction when
 // JSON_DIAGNOSTICS is on (also seen in src/analysis); it is not a bug in this file.

@@ -1,5 +1,9 @@
-// Reader round trips on hand-written run files, and the errors on malformed input.
-#include "analysis/run_reader.h"
+// The readers on hand-written run files (other writers' output: extra columns, missing
+// optional columns, rows out of order), and their errors on malformed input.
+#include "rundir/contacts.h"
+#include "rundir/events.h"
+#include "rundir/frames.h"
+#include "rundir/run_directory.h"
 
 #include <gtest/gtest.h>
 
@@ -8,11 +12,11 @@
 
 #include "test_util.h"
 
-namespace granary::analysis {
+namespace granary::rundir {
 namespace {
 
-using testing::TempDir;
-using testing::write_file;
+using analysis::testing::TempDir;
+using analysis::testing::write_file;
 
 constexpr double kPi = std::numbers::pi;
 
@@ -33,17 +37,17 @@ const char* kFrames =
     "2 0 2.0 5.0 0.5 0.0 1.0 2.0\n"
     "1 0 1.0 5.0 0.5 0.0 -1.0 2.0\n";
 
-TEST(RunReader, FramesRoundTripAndBodies) {
+TEST(Readers, FramesRoundTripAndBodies) {
   TempDir dir;
   write_file(dir.path() / "frames.dump", kFrames);
   FrameReader reader(dir.path() / "frames.dump");
   Frame f;
-  ASSERT_TRUE(reader.next(f));
+  ASSERT_TRUE(reader.Next(f));
   EXPECT_EQ(f.timestep, 100);
   EXPECT_DOUBLE_EQ(f.time, 0.01);
   EXPECT_DOUBLE_EQ(f.box[1][1], 160.0);
   ASSERT_EQ(f.discs.size(), 3u);
-  std::vector<Body> b = bodies_of(f.discs);
+  std::vector<Body> b = BodiesOf(f.discs);
   ASSERT_EQ(b.size(), 2u);
   EXPECT_EQ(b[0].id, 0);
   EXPECT_EQ(b[0].n_discs, 2);
@@ -61,29 +65,29 @@ TEST(RunReader, FramesRoundTripAndBodies) {
   EXPECT_NEAR(b[1].inertia, 0.4 * kPi * 0.49 * 0.49, 1e-14);
 
   // Second frame: no type or mass column, discs out of order.
-  ASSERT_TRUE(reader.next(f));
+  ASSERT_TRUE(reader.Next(f));
   EXPECT_EQ(f.timestep, 200);
-  b = bodies_of(f.discs);
+  b = BodiesOf(f.discs);
   ASSERT_EQ(b.size(), 1u);
   EXPECT_NEAR(b[0].mass, kPi / 2.0, 1e-14);  // density 1: pi r^2 per disc
   EXPECT_NEAR(b[0].vy, 0.0, 1e-14);
   EXPECT_NEAR(b[0].omega, 2.0, 1e-14);
   EXPECT_NEAR(b[0].theta, 0.0, 1e-14);  // from disc 1 to disc 2
-  EXPECT_FALSE(reader.next(f));
+  EXPECT_FALSE(reader.Next(f));
 }
 
-TEST(RunReader, TruncatedLastFrameEndsQuietly) {
+TEST(Readers, TruncatedLastFrameEndsQuietly) {
   TempDir dir;
   std::string text = kFrames;
   text.resize(text.size() - 20);  // cut the last row
   write_file(dir.path() / "frames.dump", text);
   FrameReader reader(dir.path() / "frames.dump");
   Frame f;
-  EXPECT_TRUE(reader.next(f));
-  EXPECT_FALSE(reader.next(f));
+  EXPECT_TRUE(reader.Next(f));
+  EXPECT_FALSE(reader.Next(f));
 }
 
-TEST(RunReader, MalformedFrameNamesFileAndLine) {
+TEST(Readers, MalformedFrameNamesFileAndLine) {
   TempDir dir;
   const auto file = dir.path() / "frames.dump";
   write_file(file,
@@ -92,7 +96,7 @@ TEST(RunReader, MalformedFrameNamesFileAndLine) {
   FrameReader reader(file);
   Frame f;
   try {
-    reader.next(f);
+    reader.Next(f);
     FAIL() << "no error";
   } catch (const ReadError& e) {
     EXPECT_EQ(std::string(e.what()), file.string() + ":6: x 'abc' is not a number");
@@ -100,24 +104,24 @@ TEST(RunReader, MalformedFrameNamesFileAndLine) {
   write_file(file, "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id x y\n1 1 2\n");
   FrameReader r2(file);
   try {
-    r2.next(f);
+    r2.Next(f);
     FAIL() << "no error";
   } catch (const ReadError& e) {
     EXPECT_EQ(std::string(e.what()), file.string() + ":5: atoms header has no 'mol' column ('ITEM: ATOMS id x y')");
   }
   write_file(file, "garbage\n");
   FrameReader r3(file);
-  EXPECT_THROW(r3.next(f), ReadError);
+  EXPECT_THROW(r3.Next(f), ReadError);
 }
 
-TEST(RunReader, EventsWithExtraColumnsAndOrder) {
+TEST(Readers, EventsWithExtraColumnsAndOrder) {
   TempDir dir;
   const auto file = dir.path() / "events.csv";
   write_file(file,
              "time,body,shape,mass,outlet,speed\n"
              "1.5,7,dumbbell,1.5707963267948966,1,0.3\n"
              "0.5,3,disc,1.5707963267948966,0,0.2\r\n");
-  const auto ev = read_events(file);
+  const auto ev = ReadEvents(file);
   ASSERT_EQ(ev.size(), 2u);
   EXPECT_DOUBLE_EQ(ev[0].time, 0.5);
   EXPECT_EQ(ev[0].body, 3);
@@ -127,28 +131,28 @@ TEST(RunReader, EventsWithExtraColumnsAndOrder) {
   EXPECT_NEAR(ev[1].mass, kPi / 2.0, 1e-15);
 }
 
-TEST(RunReader, MalformedEventsNameFileAndLine) {
+TEST(Readers, MalformedEventsNameFileAndLine) {
   TempDir dir;
   const auto file = dir.path() / "events.csv";
   write_file(file, "time,body,shape,mass,outlet\n1.0,1,disc,1.0,0\n2.0,2,disc\n");
   try {
-    read_events(file);
+    ReadEvents(file);
     FAIL() << "no error";
   } catch (const ReadError& e) {
     EXPECT_EQ(std::string(e.what()), file.string() + ":3: expected 5 fields, got 3 ('2.0,2,disc')");
   }
   write_file(file, "time,body,shape,mass,outlet\nx,1,disc,1.0,0\n");
   try {
-    read_events(file);
+    ReadEvents(file);
     FAIL() << "no error";
   } catch (const ReadError& e) {
     EXPECT_EQ(std::string(e.what()), file.string() + ":2: time 'x' is not a number");
   }
   write_file(file, "body,outlet\n1,0\n");
-  EXPECT_THROW(read_events(file), ReadError);
+  EXPECT_THROW(ReadEvents(file), ReadError);
 }
 
-TEST(RunReader, SummaryAndRunDirectory) {
+TEST(Readers, SummaryAndRunDirectory) {
   TempDir dir;
   write_file(dir.path() / "summary.json",
              R"({"engine":"native","engine_version":"0.1.0","granary_commit":"abc","run_id":"r1",
@@ -156,7 +160,7 @@ TEST(RunReader, SummaryAndRunDirectory) {
                  "exited":40,"remaining":60,"exits_per_outlet":[40],"t_end":12.5,"new_key":[1,2]})");
   write_file(dir.path() / "events.csv", "time,body,shape,mass,outlet\n0.1,1,disc,1,0\n");
   write_file(dir.path() / "DONE", "");
-  const RunData r = read_run(dir.path());
+  const RunData r = ReadRun(dir.path());
   EXPECT_TRUE(r.done);
   EXPECT_TRUE(r.has_summary);
   EXPECT_FALSE(r.has_frames);
@@ -169,10 +173,10 @@ TEST(RunReader, SummaryAndRunDirectory) {
   EXPECT_EQ(r.summary.raw["new_key"].size(), 2u);
 
   write_file(dir.path() / "summary.json", "{\"bodies\": \"many\"}");
-  EXPECT_THROW(read_run(dir.path()), ReadError);
+  EXPECT_THROW(ReadRun(dir.path()), ReadError);
   write_file(dir.path() / "summary.json", "{not json");
-  EXPECT_THROW(read_run(dir.path()), ReadError);
-  EXPECT_THROW(read_run(dir.path() / "missing"), ReadError);
+  EXPECT_THROW(ReadRun(dir.path()), ReadError);
+  EXPECT_THROW(ReadRun(dir.path() / "missing"), ReadError);
 }
 
 // LAMMPS writes ITEM: UNITS and ITEM: TIME before ITEM: TIMESTEP (as the engines now do); run
@@ -189,7 +193,7 @@ std::string InLammpsOrder(std::string dump, bool units) {
   return dump;
 }
 
-TEST(RunReader, FramesInLammpsOrderReadAsInTheOldOrder) {
+TEST(Readers, FramesInLammpsOrderReadAsInTheOldOrder) {
   TempDir dir;
   const std::string lammps = InLammpsOrder(kFrames, true);
   ASSERT_EQ(lammps.rfind("ITEM: UNITS\nlj\nITEM: TIME\n0.01\nITEM: TIMESTEP\n100\nITEM: NUMBER OF ATOMS\n3\n", 0), 0u) << lammps;
@@ -198,8 +202,8 @@ TEST(RunReader, FramesInLammpsOrderReadAsInTheOldOrder) {
   FrameReader old_order(dir.path() / "old.dump"), lammps_order(dir.path() / "lammps.dump");
   Frame a, b;
   for (int k = 0; k < 2; ++k) {
-    ASSERT_TRUE(old_order.next(a));
-    ASSERT_TRUE(lammps_order.next(b));
+    ASSERT_TRUE(old_order.Next(a));
+    ASSERT_TRUE(lammps_order.Next(b));
     EXPECT_EQ(a.timestep, b.timestep);
     EXPECT_EQ(a.time, b.time);
     EXPECT_EQ(b.time, 0.01 * (k + 1));
@@ -210,19 +214,19 @@ TEST(RunReader, FramesInLammpsOrderReadAsInTheOldOrder) {
       EXPECT_EQ(a.discs[i].omega, b.discs[i].omega);
     }
   }
-  EXPECT_FALSE(lammps_order.next(b));
+  EXPECT_FALSE(lammps_order.Next(b));
   // A time that is not a number is an error wherever it stands.
   write_file(dir.path() / "bad.dump", "ITEM: TIME\nsoon\nITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n0\nITEM: ATOMS id mol x y\n");
   FrameReader bad(dir.path() / "bad.dump");
   try {
-    bad.next(b);
+    bad.Next(b);
     ADD_FAILURE() << "no error";
   } catch (const ReadError& e) {
     EXPECT_EQ(std::string(e.what()), (dir.path() / "bad.dump").string() + ":2: time 'soon' is not a number");
   }
 }
 
-TEST(RunReader, Contacts) {
+TEST(Readers, Contacts) {
   TempDir dir;
   const auto file = dir.path() / "contacts.dump";
   write_file(file,
@@ -233,14 +237,14 @@ TEST(RunReader, Contacts) {
              "1 -1 1 0.5 1 0 1 0 0 3\n");
   ContactReader reader(file);
   ContactFrame f;
-  ASSERT_TRUE(reader.next(f));
+  ASSERT_TRUE(reader.Next(f));
   EXPECT_EQ(f.timestep, 5);
   EXPECT_DOUBLE_EQ(f.time, 0.5);
   ASSERT_EQ(f.contacts.size(), 2u);
   EXPECT_EQ(f.contacts[1].body_j, -1);
   EXPECT_DOUBLE_EQ(f.contacts[0].fx, -2.0);
   EXPECT_DOUBLE_EQ(f.contacts[1].fy, 3.0);
-  EXPECT_FALSE(reader.next(f));
+  EXPECT_FALSE(reader.Next(f));
 
   // The same frame as LAMMPS' dump local writes it: TIME before TIMESTEP.
   write_file(file,
@@ -249,13 +253,13 @@ TEST(RunReader, Contacts) {
              "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n"
              "0 1 0 0 1 0 0.5 0 -2 0\n");
   ContactReader lammps_order(file);
-  ASSERT_TRUE(lammps_order.next(f));
+  ASSERT_TRUE(lammps_order.Next(f));
   EXPECT_EQ(f.timestep, 5);
   EXPECT_DOUBLE_EQ(f.time, 0.5);
   ASSERT_EQ(f.contacts.size(), 1u);
   EXPECT_DOUBLE_EQ(f.contacts[0].cx, 0.5);
-  EXPECT_FALSE(lammps_order.next(f));
+  EXPECT_FALSE(lammps_order.Next(f));
 }
 
 }  // namespace
-}  // namespace granary::analysis
+}  // namespace granary::rundir

@@ -1,4 +1,4 @@
-#include "engine/files.h"
+#include "rundir/files.h"
 
 #include <fcntl.h>
 #include <sys/file.h>
@@ -8,7 +8,9 @@
 #include <cstring>
 #include <deque>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace granary {
 
@@ -24,12 +26,16 @@ void SyncPath(const std::filesystem::path& path, bool directory) {
   if (rc != 0) throw std::runtime_error("fsync failed on " + path.string() + ": " + std::strerror(err));
 }
 
+std::filesystem::path DirectoryOf(const std::filesystem::path& file) {
+  return file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path();
+}
+
 }  // namespace
 
 void ReplaceAtomically(const std::filesystem::path& tmp, const std::filesystem::path& file) {
   SyncPath(tmp, false);
   std::filesystem::rename(tmp, file);
-  SyncPath(file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path(), true);
+  SyncPath(DirectoryOf(file), true);
 }
 
 void WriteAtomically(const std::filesystem::path& file, const std::string& text) {
@@ -54,7 +60,56 @@ void WriteAtomically(const std::filesystem::path& file, const std::string& text)
   ::close(fd);
   if (rc != 0) throw std::runtime_error("fsync failed on " + tmp.string() + ": " + std::strerror(err));
   std::filesystem::rename(tmp, file);
-  SyncPath(file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path(), true);
+  SyncPath(DirectoryOf(file), true);
+}
+
+OutputFile::OutputFile(const std::filesystem::path& path) : path_(path), file_(std::fopen(path.c_str(), "wb")) {
+  if (!file_) throw std::runtime_error("cannot open " + path.string() + " for writing");
+}
+
+OutputFile::OutputFile(const std::filesystem::path& path, std::int64_t offset) : path_(path) {
+  if (std::filesystem::exists(path)) {
+    std::filesystem::resize_file(path, static_cast<std::uintmax_t>(offset));
+    file_ = std::fopen(path.c_str(), "ab");
+  } else {
+    file_ = std::fopen(path.c_str(), "wb");
+  }
+  if (!file_) throw std::runtime_error("cannot open " + path.string() + " for writing");
+}
+
+OutputFile::~OutputFile() {
+  if (file_) std::fclose(file_);
+}
+
+OutputFile::OutputFile(OutputFile&& other) noexcept
+    : path_(std::move(other.path_)), file_(std::exchange(other.file_, nullptr)) {}
+
+OutputFile& OutputFile::operator=(OutputFile&& other) noexcept {
+  std::swap(file_, other.file_);
+  std::swap(path_, other.path_);
+  return *this;
+}
+
+std::int64_t OutputFile::Offset() {
+  if (!file_) return 0;
+  std::fflush(file_);
+  return std::ftell(file_);
+}
+
+void OutputFile::Close() {
+  if (!file_) return;
+  const bool failed = std::ferror(file_) != 0;
+  const bool close_failed = std::fclose(file_) != 0;
+  file_ = nullptr;
+  if (failed || close_failed) throw std::runtime_error("write failed: " + path_.string());
+}
+
+std::string ReadWholeFile(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot read " + file.string());
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
 }
 
 std::string TailOfFile(const std::filesystem::path& file, int lines) {

@@ -1,0 +1,92 @@
+// See contacts.h.
+#include "rundir/contacts.h"
+
+#include <algorithm>
+#include <string_view>
+
+#include "rundir/dump_text.h"
+#include "rundir/layout.h"
+
+namespace granary::rundir {
+
+using detail::Column;
+using detail::Split;
+using detail::ToDouble;
+using detail::ToInt;
+
+ContactWriter ContactWriter::Create(const std::filesystem::path& file) {
+  ContactWriter w;
+  w.file_ = OutputFile(file);
+  return w;
+}
+
+ContactWriter ContactWriter::ContinueAt(const std::filesystem::path& file, std::int64_t offset) {
+  ContactWriter w;
+  w.file_ = OutputFile(file, offset);
+  return w;
+}
+
+void ContactWriter::Write(const ContactFrame& frame) {
+  std::FILE* f = file_.get();
+  detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ENTRIES", frame.contacts.size(), frame.box);
+  std::fputs("ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n", f);
+  for (const ContactRow& c : frame.contacts)
+    std::fprintf(f, "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n", static_cast<long long>(c.body_i),
+                 static_cast<long long>(c.body_j), c.xi, c.yi, c.xj, c.yj, c.cx, c.cy, c.fx, c.fy);
+}
+
+ContactReader::ContactReader(const std::filesystem::path& file)
+    : file_(file), lines_(std::make_unique<detail::DumpLines>(file)) {}
+
+ContactReader::~ContactReader() = default;
+ContactReader::ContactReader(ContactReader&&) noexcept = default;
+ContactReader& ContactReader::operator=(ContactReader&&) noexcept = default;
+
+bool ContactReader::Next(ContactFrame& frame) {
+  detail::DumpLines& in = *lines_;
+  detail::DumpHeader h;
+  frame.contacts.clear();
+  if (!detail::ReadDumpHeader(in, "NUMBER OF ENTRIES", "ITEM: ENTRIES", h)) return false;
+  frame.timestep = h.timestep;
+  frame.time = h.time;
+  std::copy(&h.box[0][0], &h.box[0][0] + 6, &frame.box[0][0]);
+  static const char* kColumns[] = {"body_i", "body_j", "xi", "yi", "xj", "yj", "cx", "cy", "fx", "fy"};
+  int cols[10];
+  std::size_t need = 0;
+  for (int k = 0; k < 10; ++k) {
+    cols[k] = Column(h.columns, kColumns[k]);
+    if (cols[k] < 0) {
+      std::string header = "ITEM: ENTRIES";
+      for (const auto& n : h.columns) header += " " + n;
+      in.Fail(std::string("entries header has no '") + kColumns[k] + "' column ('" + header + "')");
+    }
+    need = std::max(need, static_cast<std::size_t>(cols[k] + 1));
+  }
+  frame.contacts.reserve(static_cast<std::size_t>(h.count));
+  std::string line;
+  std::vector<std::string_view> f;
+  for (std::int64_t r = 0; r < h.count; ++r) {
+    if (!in.Next(line)) {
+      frame.contacts.clear();
+      return false;
+    }
+    Split(line, ' ', f);
+    if (f.size() < need && in.at_end()) {
+      frame.contacts.clear();
+      return false;
+    }
+    if (f.size() < need)
+      in.Fail("contact row has " + std::to_string(f.size()) + " fields, expected " + std::to_string(h.columns.size()));
+    ContactRow c;
+    auto field = [&](int k) { return f[static_cast<std::size_t>(cols[k])]; };
+    if (!ToInt(field(0), c.body_i) || !ToInt(field(1), c.body_j)) in.Fail("body ids in '" + line + "' are not integers");
+    double* out[8] = {&c.xi, &c.yi, &c.xj, &c.yj, &c.cx, &c.cy, &c.fx, &c.fy};
+    for (int k = 0; k < 8; ++k)
+      if (!ToDouble(field(k + 2), *out[k]))
+        in.Fail(std::string(kColumns[k + 2]) + " '" + std::string(field(k + 2)) + "' is not a number");
+    frame.contacts.push_back(c);
+  }
+  return true;
+}
+
+}  // namespace granary::rundir

@@ -1,0 +1,66 @@
+// contacts.dump: contact-force frames in LAMMPS local dump format (docs/run-directory.md),
+// written at the frame times when the spec asks for them. One struct, one writer, one
+// streaming reader.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rundir/files.h"
+
+namespace granary::rundir {
+namespace detail {
+class DumpLines;
+}
+
+struct ContactRow {
+  std::int64_t body_i = 0, body_j = -1;  // body_j = -1: wall or obstacle
+  double xi = 0, yi = 0;                 // centre of the touching disc of body i
+  double xj = 0, yj = 0;                 // centre of the touching disc of body j (a wall: the contact point)
+  double cx = 0, cy = 0;                 // contact point
+  double fx = 0, fy = 0;                 // force on body i
+};
+
+struct ContactFrame {
+  std::int64_t timestep = 0;
+  double time = 0.0;
+  double box[3][2] = {{0, 0}, {0, 0}, {-0.5, 0.5}};
+  std::vector<ContactRow> contacts;
+};
+
+class ContactWriter {
+ public:
+  ContactWriter() = default;
+  static ContactWriter Create(const std::filesystem::path& file);
+  // The file of an interrupted run cut back to `offset` bytes (what its checkpoint recorded).
+  static ContactWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset);
+
+  // Appends one frame; NUMBER OF ENTRIES is frame.contacts.size().
+  void Write(const ContactFrame& frame);
+  bool is_open() const { return file_.is_open(); }
+  std::int64_t Offset() { return file_.Offset(); }
+  void Close() { file_.Close(); }
+
+ private:
+  OutputFile file_;
+};
+
+// Streams a contacts.dump; columns found by name (all ten required). Malformed input throws
+// ReadError with file:line; a frame cut short at the end of the file ends the stream.
+class ContactReader {
+ public:
+  explicit ContactReader(const std::filesystem::path& file);
+  ~ContactReader();
+  ContactReader(ContactReader&&) noexcept;
+  ContactReader& operator=(ContactReader&&) noexcept;
+  bool Next(ContactFrame& frame);
+
+ private:
+  std::filesystem::path file_;
+  std::unique_ptr<detail::DumpLines> lines_;
+};
+
+}  // namespace granary::rundir

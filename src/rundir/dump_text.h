@@ -1,0 +1,118 @@
+// Text shared by the run-directory writers and readers (not part of the API): the LAMMPS dump
+// header lines, fields split without copies, numbers by std::from_chars (no locale, no
+// allocation).
+#pragma once
+
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <vector>
+
+namespace granary::rundir::detail {
+
+// Fields of `s`: separated by runs of blanks when `sep` is ' ', else by `sep` with the
+// blanks around each field trimmed.
+inline void Split(std::string_view s, char sep, std::vector<std::string_view>& out) {
+  out.clear();
+  if (sep == ' ') {
+    std::size_t i = 0;
+    while (i < s.size()) {
+      while (i < s.size() && (s[i] == ' ' || s[i] == '\t' || s[i] == '\r')) ++i;
+      const std::size_t start = i;
+      while (i < s.size() && s[i] != ' ' && s[i] != '\t' && s[i] != '\r') ++i;
+      if (i > start) out.push_back(s.substr(start, i - start));
+    }
+    return;
+  }
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t end = s.find(sep, start);
+    std::string_view field = s.substr(start, end == std::string_view::npos ? std::string_view::npos : end - start);
+    while (!field.empty() && (field.back() == '\r' || field.back() == ' ')) field.remove_suffix(1);
+    while (!field.empty() && field.front() == ' ') field.remove_prefix(1);
+    out.push_back(field);
+    if (end == std::string_view::npos) break;
+    start = end + 1;
+  }
+}
+
+inline bool ToDouble(std::string_view s, double& v) {
+  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+  const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  return ec == std::errc() && ptr == s.data() + s.size();
+}
+
+inline bool ToInt(std::string_view s, std::int64_t& v) {
+  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+  const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (ec == std::errc() && ptr == s.data() + s.size()) return true;
+  // Some writers print integers as "12.0".
+  double d = 0.0;
+  if (ToDouble(s, d) && std::floor(d) == d && std::abs(d) < 9e15) {
+    v = static_cast<std::int64_t>(d);
+    return true;
+  }
+  return false;
+}
+
+// Index of `name` in `names`, or -1.
+inline int Column(const std::vector<std::string>& names, const std::string& name) {
+  for (std::size_t i = 0; i < names.size(); ++i)
+    if (names[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+// The header of one dump block up to (not including) its column line, as LAMMPS writes it
+// (dump custom / dump local with `dump_modify time yes`): TIME, TIMESTEP, the count under
+// `count_item` ("NUMBER OF ATOMS" or "NUMBER OF ENTRIES"), BOX BOUNDS. LAMMPS' read_dump
+// expects this order (reader_native.cpp skips UNITS and TIME, then requires TIMESTEP).
+inline void WriteDumpHeader(std::FILE* out, std::int64_t timestep, double time, const char* count_item,
+                            std::size_t count, const double (&box)[3][2]) {
+  std::fprintf(out, "ITEM: TIME\n%.16g\nITEM: TIMESTEP\n%lld\nITEM: %s\n%zu\n", time, static_cast<long long>(timestep),
+               count_item, count);
+  std::fprintf(out, "ITEM: BOX BOUNDS ff ff pp\n%.16g %.16g\n%.16g %.16g\n%.16g %.16g\n", box[0][0], box[0][1], box[1][0],
+               box[1][1], box[2][0], box[2][1]);
+}
+
+inline std::string Where(const std::filesystem::path& file, std::int64_t line) {
+  return file.string() + ":" + std::to_string(line);
+}
+
+// The lines of a dump with their numbers, for errors that name file:line.
+class DumpLines {
+ public:
+  explicit DumpLines(const std::filesystem::path& file);
+  // The next line without its '\r'; false at the end of the file.
+  bool Next(std::string& line);
+  // Throws ReadError "file:line: what".
+  [[noreturn]] void Fail(const std::string& what) const;
+  bool at_end() const { return in_.eof(); }
+
+ private:
+  std::filesystem::path file_;
+  std::ifstream in_;
+  std::int64_t line_no_ = 0;
+};
+
+// The header of one dump block. `columns` are the names after "ITEM: ATOMS" / "ITEM: ENTRIES".
+struct DumpHeader {
+  std::int64_t timestep = 0;
+  double time = 0.0;
+  std::int64_t count = -1;
+  double box[3][2] = {{0, 0}, {0, 0}, {-0.5, 0.5}};
+  std::vector<std::string> columns;
+};
+
+// Reads the header of the next block up to and including its column line `columns_item`
+// ("ITEM: ATOMS" or "ITEM: ENTRIES"), with the count under "ITEM: " + count_item; unknown
+// items (one value line) are skipped. False at the end of the file, or when the header is
+// cut short there (an engine still writing); a malformed header throws ReadError.
+bool ReadDumpHeader(DumpLines& in, const char* count_item, const char* columns_item, DumpHeader& header);
+
+}  // namespace granary::rundir::detail

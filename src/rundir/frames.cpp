@@ -1,0 +1,163 @@
+// See frames.h.
+#include "rundir/frames.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string_view>
+
+#include "rundir/dump_text.h"
+#include "rundir/layout.h"
+
+namespace granary::rundir {
+
+using detail::Column;
+using detail::Split;
+using detail::ToDouble;
+using detail::ToInt;
+
+// ---- bodies ------------------------------------------------------------------------------
+
+std::vector<Body> BodiesOf(const std::vector<Disc>& discs) {
+  std::vector<std::size_t> order(discs.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return discs[a].mol != discs[b].mol ? discs[a].mol < discs[b].mol : discs[a].id < discs[b].id;
+  });
+  std::vector<Body> bodies;
+  std::size_t i = 0;
+  while (i < order.size()) {
+    std::size_t j = i;
+    while (j < order.size() && discs[order[j]].mol == discs[order[i]].mol) ++j;
+    Body b;
+    b.id = discs[order[i]].mol;
+    b.type = discs[order[i]].type;
+    b.n_discs = static_cast<int>(j - i);
+    for (std::size_t k = i; k < j; ++k) {
+      const Disc& d = discs[order[k]];
+      b.mass += d.mass;
+      b.x += d.mass * d.x;
+      b.y += d.mass * d.y;
+      b.vx += d.mass * d.vx;
+      b.vy += d.mass * d.vy;
+      b.area += std::numbers::pi * d.radius * d.radius;
+    }
+    if (b.mass > 0.0) {
+      b.x /= b.mass;
+      b.y /= b.mass;
+      b.vx /= b.mass;
+      b.vy /= b.mass;
+    }
+    for (std::size_t k = i; k < j; ++k) {
+      const Disc& d = discs[order[k]];
+      const double dx = d.x - b.x, dy = d.y - b.y;
+      b.inertia += d.mass * (dx * dx + dy * dy) + 0.4 * d.mass * d.radius * d.radius;
+    }
+    b.omega = discs[order[i]].omega;
+    if (j - i >= 2) {
+      const Disc& first = discs[order[i]];
+      const Disc& last = discs[order[j - 1]];
+      b.theta = std::atan2(last.y - first.y, last.x - first.x);
+    }
+    bodies.push_back(b);
+    i = j;
+  }
+  return bodies;
+}
+
+// ---- writer ------------------------------------------------------------------------------
+
+FrameWriter FrameWriter::Create(const std::filesystem::path& file) {
+  FrameWriter w;
+  w.file_ = OutputFile(file);
+  return w;
+}
+
+FrameWriter FrameWriter::ContinueAt(const std::filesystem::path& file, std::int64_t offset) {
+  FrameWriter w;
+  w.file_ = OutputFile(file, offset);
+  return w;
+}
+
+void FrameWriter::Write(const Frame& frame) {
+  std::FILE* f = file_.get();
+  detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ATOMS", frame.discs.size(), frame.box);
+  std::fputs("ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n", f);
+  for (const Disc& d : frame.discs)
+    std::fprintf(f, "%lld %lld %d %.10g %.10g 0 %.10g %.10g %.10g %.10g 0 %.10g\n", static_cast<long long>(d.id),
+                 static_cast<long long>(d.mol), d.type, d.x, d.y, d.radius, d.mass, d.vx, d.vy, d.omega);
+}
+
+// ---- reader ------------------------------------------------------------------------------
+
+FrameReader::FrameReader(const std::filesystem::path& file, double density)
+    : file_(file), lines_(std::make_unique<detail::DumpLines>(file)), density_(density) {}
+
+FrameReader::~FrameReader() = default;
+FrameReader::FrameReader(FrameReader&&) noexcept = default;
+FrameReader& FrameReader::operator=(FrameReader&&) noexcept = default;
+
+bool FrameReader::Next(Frame& frame) {
+  detail::DumpLines& in = *lines_;
+  detail::DumpHeader h;
+  frame.discs.clear();
+  if (!detail::ReadDumpHeader(in, "NUMBER OF ATOMS", "ITEM: ATOMS", h)) return false;
+  frame.timestep = h.timestep;
+  frame.time = h.time;
+  std::copy(&h.box[0][0], &h.box[0][0] + 6, &frame.box[0][0]);
+  const std::vector<std::string>& names = h.columns;
+  const int c_id = Column(names, "id"), c_mol = Column(names, "mol"), c_type = Column(names, "type");
+  const int c_x = Column(names, "x"), c_y = Column(names, "y"), c_r = Column(names, "radius");
+  const int c_m = Column(names, "mass"), c_vx = Column(names, "vx"), c_vy = Column(names, "vy");
+  const int c_w = Column(names, "omegaz");
+  for (const char* req : {"id", "mol", "x", "y"}) {
+    if (Column(names, req) >= 0) continue;
+    std::string header = "ITEM: ATOMS";
+    for (const auto& n : names) header += " " + n;
+    in.Fail(std::string("atoms header has no '") + req + "' column ('" + header + "')");
+  }
+  std::size_t need = 0;
+  for (int c : {c_id, c_mol, c_type, c_x, c_y, c_r, c_m, c_vx, c_vy, c_w})
+    need = std::max(need, static_cast<std::size_t>(c + 1));
+  frame.discs.reserve(static_cast<std::size_t>(h.count));
+  std::string line;
+  std::vector<std::string_view> f;
+  auto field = [&](int c) { return f[static_cast<std::size_t>(c)]; };
+  for (std::int64_t a = 0; a < h.count; ++a) {
+    if (!in.Next(line)) {
+      frame.discs.clear();
+      return false;  // truncated at the end of the file
+    }
+    Split(line, ' ', f);
+    if (f.size() < need && in.at_end()) {
+      frame.discs.clear();
+      return false;  // last line cut short: an engine still writing
+    }
+    if (f.size() < need)
+      in.Fail("atom row has " + std::to_string(f.size()) + " fields, the header names " + std::to_string(names.size()));
+    Disc d;
+    std::int64_t iv = 0;
+    auto num = [&](int c, double& out, const char* what) {
+      if (c < 0) return;
+      if (!ToDouble(field(c), out)) in.Fail(std::string(what) + " '" + std::string(field(c)) + "' is not a number");
+    };
+    if (!ToInt(field(c_id), d.id)) in.Fail("id '" + std::string(field(c_id)) + "' is not an integer");
+    if (!ToInt(field(c_mol), d.mol)) in.Fail("mol '" + std::string(field(c_mol)) + "' is not an integer");
+    if (c_type >= 0) {
+      if (!ToInt(field(c_type), iv)) in.Fail("type '" + std::string(field(c_type)) + "' is not an integer");
+      d.type = static_cast<int>(iv);
+    }
+    num(c_x, d.x, "x");
+    num(c_y, d.y, "y");
+    num(c_r, d.radius, "radius");
+    d.mass = density_ * std::numbers::pi * d.radius * d.radius;
+    num(c_m, d.mass, "mass");
+    num(c_vx, d.vx, "vx");
+    num(c_vy, d.vy, "vy");
+    num(c_w, d.omega, "omegaz");
+    frame.discs.push_back(d);
+  }
+  return true;
+}
+
+}  // namespace granary::rundir

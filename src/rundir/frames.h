@@ -1,0 +1,88 @@
+// frames.dump: per-disc frames in LAMMPS text dump format (docs/run-directory.md). One
+// struct, one writer, one streaming reader; bodies are rebuilt from their discs.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rundir/files.h"
+
+namespace granary::rundir {
+namespace detail {
+class DumpLines;
+}
+
+struct Disc {
+  std::int64_t id = 0;             // disc id (1-based)
+  std::int64_t mol = 0;            // body id (0-based, as in events)
+  int type = 1;                    // species index + 1
+  double x = 0.0, y = 0.0, radius = 0.5, mass = 0.0;
+  double vx = 0.0, vy = 0.0;       // velocity of the disc centre
+  double omega = 0.0;              // the body's angular velocity
+};
+
+struct Frame {
+  std::int64_t timestep = 0;       // steps since the outlets opened
+  double time = 0.0;               // since the outlets opened
+  double box[3][2] = {{0, 0}, {0, 0}, {-0.5, 0.5}};
+  std::vector<Disc> discs;
+};
+
+// A rigid body reconstructed from its discs (physics.md "Particles").
+struct Body {
+  std::int64_t id = 0;
+  int type = 1;
+  int n_discs = 0;
+  double mass = 0.0;               // sum of disc masses
+  double x = 0.0, y = 0.0;         // centre of mass
+  double vx = 0.0, vy = 0.0;       // centre-of-mass velocity (mass-weighted disc velocities: exact for a rigid body)
+  double omega = 0.0;
+  double inertia = 0.0;            // sum m_i |r_i - R|^2 + (2/5) m_i r_i^2 (physics.md)
+  double theta = 0.0;              // angle of the axis from the lowest-id disc to the highest-id disc, (-pi, pi]; 0 for one disc
+  double area = 0.0;               // sum pi r_i^2
+};
+
+// Bodies of a frame, ordered by body id.
+std::vector<Body> BodiesOf(const std::vector<Disc>& discs);
+
+class FrameWriter {
+ public:
+  FrameWriter() = default;
+  static FrameWriter Create(const std::filesystem::path& file);
+  // The file of an interrupted run cut back to `offset` bytes (what its checkpoint recorded).
+  static FrameWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset);
+
+  // Appends one frame; NUMBER OF ATOMS is frame.discs.size().
+  void Write(const Frame& frame);
+  bool is_open() const { return file_.is_open(); }
+  std::int64_t Offset() { return file_.Offset(); }
+  void Close() { file_.Close(); }
+
+ private:
+  OutputFile file_;
+};
+
+// Streams a frames.dump. Required columns: id mol x y; optional: type radius mass vx vy
+// omegaz (missing radius = 0.5, missing mass = density pi r^2, missing velocities = 0).
+// Malformed input throws ReadError with file:line.
+class FrameReader {
+ public:
+  explicit FrameReader(const std::filesystem::path& file, double density = 1.0);
+  ~FrameReader();
+  FrameReader(FrameReader&&) noexcept;
+  FrameReader& operator=(FrameReader&&) noexcept;
+  // Reads the next frame into `frame`; false at the end of the file. A frame cut short at the
+  // end of the file (an engine still writing) ends the stream without an error.
+  bool Next(Frame& frame);
+  const std::filesystem::path& file() const { return file_; }
+
+ private:
+  std::filesystem::path file_;
+  std::unique_ptr<detail::DumpLines> lines_;
+  double density_;
+};
+
+}  // namespace granary::rundir

@@ -1,0 +1,26 @@
+// The names of the files of a run directory (docs/run-directory.md) and the error every
+// reader of them throws. Nothing else in Granary spells these names.
+#pragma once
+
+#include <stdexcept>
+
+namespace granary::rundir {
+
+inline constexpr char kRunSpecFile[] = "run.json";        // runner: the resolved run spec
+inline constexpr char kEngineLogFile[] = "engine.log";    // runner: the engine's stdout and stderr
+inline constexpr char kProgressFile[] = "progress.json";  // engine, replaced atomically
+inline constexpr char kEventsFile[] = "events.csv";       // engine: one row per exit
+inline constexpr char kFramesFile[] = "frames.dump";      // engine: per-disc frames
+inline constexpr char kContactsFile[] = "contacts.dump";  // engine: contact-force frames
+inline constexpr char kSummaryFile[] = "summary.json";    // engine: what happened
+inline constexpr char kDoneFile[] = "DONE";               // engine, last: every other file is complete
+inline constexpr char kSlurmTaskFile[] = "slurm-task.json";  // Slurm batch script: its task, start, exit status
+
+// A run-directory file that is missing, malformed or truncated where it must not be; the
+// message names the file (and the line, for text files).
+class ReadError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+}  // namespace granary::rundir

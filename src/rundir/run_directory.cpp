@@ -1,0 +1,69 @@
+// See run_directory.h.
+#include "rundir/run_directory.h"
+
+#include <fstream>
+
+#include "rundir/files.h"
+
+namespace granary::rundir {
+namespace fs = std::filesystem;
+
+void WriteRunSpec(const fs::path& dir, const nlohmann::json& spec) {
+  fs::create_directories(dir);
+  const fs::path file = dir / kRunSpecFile;
+  const std::string text = spec.dump(2) + "\n";
+  if (fs::exists(file)) {
+    try {
+      if (ReadWholeFile(file) == text) return;
+    } catch (const std::exception&) {
+      // unreadable: replace it
+    }
+  }
+  WriteAtomically(file, text);
+}
+
+nlohmann::json ReadRunSpecJson(const fs::path& dir) {
+  const fs::path file = dir / kRunSpecFile;
+  std::ifstream in(file);
+  if (!in) throw ReadError(file.string() + ": cannot open");
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw ReadError(file.string() + ": not valid JSON: " + e.what());
+  }
+}
+
+RunSpec ReadRunSpec(const fs::path& dir) {
+  const nlohmann::json j = ReadRunSpecJson(dir);
+  try {
+    return RunSpec::from_json(j);
+  } catch (const SpecError& e) {
+    throw SpecError(e.path(), e.message() + " [" + (dir / kRunSpecFile).string() + "]");
+  }
+}
+
+void WriteDone(const fs::path& dir, const std::string& end_reason) { WriteAtomically(dir / kDoneFile, end_reason + "\n"); }
+
+bool IsDone(const fs::path& dir) { return fs::exists(dir / kDoneFile); }
+
+RunData ReadRun(const fs::path& dir) {
+  if (!fs::is_directory(dir)) throw ReadError(dir.string() + ": run directory does not exist");
+  RunData r;
+  r.dir = dir;
+  r.done = IsDone(dir);
+  if (fs::exists(dir / kSummaryFile)) {
+    r.summary = ReadSummary(dir / kSummaryFile);
+    r.has_summary = true;
+  }
+  if (fs::exists(dir / kRunSpecFile)) {
+    r.spec = ReadRunSpecJson(dir);
+  } else if (r.has_summary) {
+    r.spec = r.summary.spec;
+  }
+  if (fs::exists(dir / kEventsFile)) r.events = ReadEvents(dir / kEventsFile);
+  r.has_frames = fs::exists(dir / kFramesFile);
+  r.has_contacts = fs::exists(dir / kContactsFile);
+  return r;
+}
+
+}  // namespace granary::rundir

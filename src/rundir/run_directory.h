@@ -1,0 +1,47 @@
+// A run directory as a whole (docs/run-directory.md): run.json, the completion marker DONE,
+// and what an analysis needs to start (everything except the large dumps, which are streamed
+// by FrameReader and ContactReader).
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "rundir/events.h"
+#include "rundir/layout.h"
+#include "rundir/run_spec.h"
+#include "rundir/summary.h"
+
+namespace granary::rundir {
+
+// Writes DIR/run.json atomically (creating DIR); an identical file is left untouched, so an
+// engine reading it never sees it change under it.
+void WriteRunSpec(const std::filesystem::path& dir, const nlohmann::json& spec);
+// DIR/run.json as JSON, not validated (analyses read specs of any age); throws ReadError.
+nlohmann::json ReadRunSpecJson(const std::filesystem::path& dir);
+// DIR/run.json parsed and validated: throws ReadError (missing, not JSON) or SpecError whose
+// message ends with the file's name.
+RunSpec ReadRunSpec(const std::filesystem::path& dir);
+
+// The engine's last act: DIR/DONE holding the end reason.
+void WriteDone(const std::filesystem::path& dir, const std::string& end_reason);
+bool IsDone(const std::filesystem::path& dir);
+
+// What a run directory holds, read eagerly except the dumps.
+struct RunData {
+  std::filesystem::path dir;
+  bool done = false;               // DONE exists
+  bool has_summary = false;
+  Summary summary;
+  nlohmann::json spec;             // run.json if present, else summary.spec
+  std::vector<ExitEvent> events;
+  bool has_frames = false;
+  bool has_contacts = false;
+  std::filesystem::path frames_file() const { return dir / kFramesFile; }
+  std::filesystem::path contacts_file() const { return dir / kContactsFile; }
+};
+// Throws ReadError if the directory does not exist or a present file is malformed.
+RunData ReadRun(const std::filesystem::path& dir);
+
+}  // namespace granary::rundir

@@ -1,0 +1,216 @@
+// Every run-directory writer against the documented text (docs/run-directory.md) and read
+// back by its reader; a continued run's files cut back to a checkpoint's offsets.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "rundir/contacts.h"
+#include "rundir/events.h"
+#include "rundir/frames.h"
+#include "rundir/progress.h"
+#include "rundir/run_directory.h"
+#include "rundir/summary.h"
+#include "test_util.h"
+
+namespace granary::rundir {
+namespace {
+
+using analysis::testing::read_file;
+using analysis::testing::TempDir;
+using analysis::testing::write_file;
+
+Frame TwoDiscFrame(std::int64_t step) {
+  Frame f;
+  f.timestep = step;
+  f.time = static_cast<double>(step) * 1e-4;
+  f.box[0][0] = -11;
+  f.box[0][1] = 11;
+  f.box[1][0] = -1.25;
+  f.box[1][1] = 18.5;
+  f.discs = {{1, 0, 1, 0.25, 0.5, 0.5, 0.7853981633974483, 0.1, -0.2, 0.3},
+             {2, 0, 1, 1.25, 0.5, 0.5, 0.7853981633974483, 0.1, 0.1, 0.3}};
+  return f;
+}
+
+TEST(Writers, FramesAreTheDocumentedDumpAndReadBack) {
+  TempDir dir;
+  const auto file = dir.path() / kFramesFile;
+  FrameWriter w = FrameWriter::Create(file);
+  w.Write(TwoDiscFrame(12000));
+  w.Close();
+  EXPECT_EQ(read_file(file),
+            "ITEM: TIME\n1.2\nITEM: TIMESTEP\n12000\nITEM: NUMBER OF ATOMS\n2\n"
+            "ITEM: BOX BOUNDS ff ff pp\n-11 11\n-1.25 18.5\n-0.5 0.5\n"
+            "ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n"
+            "1 0 1 0.25 0.5 0 0.5 0.7853981634 0.1 -0.2 0 0.3\n"
+            "2 0 1 1.25 0.5 0 0.5 0.7853981634 0.1 0.1 0 0.3\n");
+  FrameReader r(file);
+  Frame f;
+  ASSERT_TRUE(r.Next(f));
+  EXPECT_EQ(f.timestep, 12000);
+  EXPECT_DOUBLE_EQ(f.box[1][1], 18.5);
+  ASSERT_EQ(f.discs.size(), 2u);
+  EXPECT_EQ(f.discs[1].id, 2);
+  EXPECT_DOUBLE_EQ(f.discs[0].vy, -0.2);
+  EXPECT_DOUBLE_EQ(f.discs[1].omega, 0.3);
+  EXPECT_FALSE(r.Next(f));
+}
+
+TEST(Writers, ContactsAreTheDocumentedDumpAndReadBack) {
+  TempDir dir;
+  const auto file = dir.path() / kContactsFile;
+  ContactFrame c;
+  c.timestep = 5;
+  c.time = 0.5;
+  c.box[0][0] = -9;
+  c.box[0][1] = 9;
+  c.box[1][0] = -1;
+  c.box[1][1] = 20;
+  c.contacts = {{3, 4, 0, 0, 1, 0, 0.5, 0, -2, 0}, {4, -1, 1, 0.5, 1, 0, 1, 0, 0, 3}};
+  ContactWriter w = ContactWriter::Create(file);
+  w.Write(c);
+  w.Close();
+  EXPECT_EQ(read_file(file),
+            "ITEM: TIME\n0.5\nITEM: TIMESTEP\n5\nITEM: NUMBER OF ENTRIES\n2\n"
+            "ITEM: BOX BOUNDS ff ff pp\n-9 9\n-1 20\n-0.5 0.5\n"
+            "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n"
+            "3 4 0 0 1 0 0.5 0 -2 0\n4 -1 1 0.5 1 0 1 0 0 3\n");
+  ContactReader r(file);
+  ContactFrame f;
+  ASSERT_TRUE(r.Next(f));
+  EXPECT_DOUBLE_EQ(f.box[1][1], 20.0);
+  ASSERT_EQ(f.contacts.size(), 2u);
+  EXPECT_EQ(f.contacts[1].body_j, -1);
+  EXPECT_DOUBLE_EQ(f.contacts[1].fy, 3.0);
+}
+
+TEST(Writers, EventsStreamedAndWholeAreTheSameFile) {
+  TempDir dir;
+  const std::vector<ExitEvent> events = {{1.6123, 4711, "dumbbell", 1.5707963267948966, 0},
+                                         {2.0000000000000004, 12, "disc", 0.7853981633974483, 1}};
+  EventWriter w = EventWriter::Create(dir.path() / "streamed.csv");
+  for (const ExitEvent& e : events) w.Write(e);
+  w.Close();
+  WriteEvents(dir.path() / "whole.csv", events);
+  const std::string text = read_file(dir.path() / "whole.csv");
+  EXPECT_EQ(text,
+            "time,body,shape,mass,outlet\n1.6123,4711,dumbbell,1.5707963267948966,0\n"
+            "2,12,disc,0.78539816339744828,1\n");
+  EXPECT_EQ(read_file(dir.path() / "streamed.csv"), text);
+  const std::vector<ExitEvent> back = ReadEvents(dir.path() / "whole.csv");
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[0].body, 4711);
+  EXPECT_EQ(back[0].mass, events[0].mass);  // full precision
+  EXPECT_EQ(back[1].shape, "disc");
+  EXPECT_EQ(back[1].outlet, 1);
+}
+
+TEST(Writers, ContinuingCutsEveryDumpBackToTheCheckpoint) {
+  TempDir dir;
+  const auto events = dir.path() / kEventsFile, frames = dir.path() / kFramesFile;
+  EventWriter ew = EventWriter::Create(events);
+  FrameWriter fw = FrameWriter::Create(frames);
+  ew.Write({0.5, 1, "disc", 1.0, 0});
+  fw.Write(TwoDiscFrame(100));
+  const std::int64_t event_offset = ew.Offset(), frame_offset = fw.Offset();  // a checkpoint here
+  ew.Write({0.7, 2, "disc", 1.0, 0});
+  fw.Write(TwoDiscFrame(200));
+  ew.Close();
+  fw.Close();
+  const std::string events_at_checkpoint = read_file(events).substr(0, static_cast<std::size_t>(event_offset));
+  ew = EventWriter::ContinueAt(events, event_offset);
+  fw = FrameWriter::ContinueAt(frames, frame_offset);
+  EXPECT_EQ(ew.Offset(), event_offset);
+  ew.Write({0.7, 2, "disc", 1.0, 0});
+  fw.Write(TwoDiscFrame(300));
+  ew.Close();
+  fw.Close();
+  EXPECT_EQ(read_file(events), events_at_checkpoint + "0.7,2,disc,1,0\n");
+  FrameReader r(frames);
+  Frame f;
+  std::vector<std::int64_t> steps;
+  while (r.Next(f)) steps.push_back(f.timestep);
+  EXPECT_EQ(steps, (std::vector<std::int64_t>{100, 300}));
+}
+
+TEST(Writers, SummaryRoundTripsAndWritesOnlyTheKeysItHas) {
+  TempDir dir;
+  Summary s;
+  s.engine = "native";
+  s.engine_version = "0.1.0";
+  s.granary_commit = "abc";
+  s.run_id = "r1";
+  s.spec = {{"seed", 3}};
+  s.end_reason = "clogged";
+  s.bodies = 100;
+  s.exited = 40;
+  s.remaining = 60;
+  s.exits_per_outlet = {30, 10};
+  s.t_end = 12.5;
+  s.steps = 125000;
+  s.clogs = 1;
+  s.bed = {"bed.json", 20.5, true, 9.5};
+  s.timing = Timing{3.0, 1.0, 2.0, 5e7, 2};
+  WriteSummary(dir.path(), s);
+  const nlohmann::json j = nlohmann::json::parse(read_file(dir.path() / kSummaryFile));
+  for (const char* absent : {"granary_version", "cleared_by_obstacles", "max_out_of_plane", "tangential_cap",
+                             "reinject_position"})
+    EXPECT_FALSE(j.contains(absent)) << absent;
+  EXPECT_EQ(j["timing"]["threads"], 2);
+  const Summary back = ReadSummary(dir.path() / kSummaryFile);
+  EXPECT_EQ(back.ToJson(), s.ToJson());
+  EXPECT_EQ(back.exits_per_outlet, (std::vector<int>{30, 10}));
+  ASSERT_TRUE(back.clogs.has_value());
+  EXPECT_EQ(*back.clogs, 1);
+  EXPECT_DOUBLE_EQ(back.timing->disc_steps_per_s, 5e7);
+
+  s.engine = "liggghts";
+  s.granary_version = "0.1.0";
+  s.tangential_cap = "liggghts";
+  s.reinject_position = "periodic";
+  s.max_out_of_plane = 0.0;
+  s.cleared_by_obstacles = 2;
+  WriteSummary(dir.path(), s);
+  EXPECT_EQ(ReadSummary(dir.path() / kSummaryFile).ToJson(), s.ToJson());
+}
+
+TEST(Writers, ProgressIsReplacedWholeAndClamped) {
+  TempDir dir;
+  EXPECT_FALSE(ReadProgress(dir.path()).has_value());
+  WriteProgress(dir.path(), {"discharge", 1.2, 4.2, 10.0, 130, 2.5}, false);
+  EXPECT_EQ(read_file(dir.path() / kProgressFile),
+            "{\"exited\":130,\"fraction\":1.0,\"phase\":\"discharge\",\"t\":4.2,\"t_end\":10.0,\"wall_s\":2.5}\n");
+  const auto p = ReadProgress(dir.path());
+  ASSERT_TRUE(p.has_value());
+  EXPECT_EQ(p->phase, "discharge");
+  EXPECT_EQ(p->exited, 130);
+  EXPECT_EQ((Progress{"discharge", 0.42, 4.2, 10.0, 130, 2.5}.Line()),
+            "progress phase=discharge fraction=0.420 t=4.2 exited=130");
+  write_file(dir.path() / kProgressFile, "{\"phase\": ");  // torn by a foreign writer
+  EXPECT_FALSE(ReadProgress(dir.path()).has_value());
+}
+
+TEST(Writers, RunSpecAndDone) {
+  TempDir dir;
+  const nlohmann::json spec = {{"run_id", "r1"}, {"silo", {{"width", -1.0}}}};
+  WriteRunSpec(dir.path() / "run", spec);
+  EXPECT_EQ(read_file(dir.path() / "run" / kRunSpecFile), spec.dump(2) + "\n");
+  EXPECT_EQ(ReadRunSpecJson(dir.path() / "run"), spec);
+  try {
+    ReadRunSpec(dir.path() / "run");
+    FAIL() << "no error";
+  } catch (const SpecError& e) {
+    EXPECT_EQ(e.path(), "/silo/width");
+    EXPECT_NE(std::string(e.what()).find("[" + (dir.path() / "run" / kRunSpecFile).string() + "]"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(ReadRunSpec(dir.path() / "missing"), ReadError);
+  EXPECT_FALSE(IsDone(dir.path()));
+  WriteDone(dir.path(), "clogged");
+  EXPECT_TRUE(IsDone(dir.path()));
+  EXPECT_EQ(read_file(dir.path() / kDoneFile), "clogged\n");
+}
+
+}  // namespace
+}  // namespace granary::rundir
