@@ -16,6 +16,9 @@
 #include <set>
 
 #include "rundir/progress.h"
+#include "rundir/run_directory.h"
+#include "runner/campaign_db.h"
+#include "runner/slurm_executor.h"
 #include "runner/slurm.h"
 #include "slurm_cluster.h"
 #include "test_util.h"
@@ -271,6 +274,50 @@ TEST_F(SlurmCampaignTest, NativeRunsUseThreadsAndLiggghtsRunsMpiRanksUnderSrun) 
           << ReadFile(dir / "engine.log");
       EXPECT_NE(ReadFile(dir / "log.discharge").find("2 by 1 by 1 MPI processor grid"), std::string::npos);
     }
+  }
+}
+
+// A runner killed inside sbatch: the places of its runs are recorded, the job id is not. The
+// next runner finds a submitted job by its name and script and watches it; an array that was
+// never submitted is submitted again. Either way each run runs once.
+TEST_F(SlurmCampaignTest, RunnerDeadInsideSbatchLeavesNothingToRunTwice) {
+  Plan({4, 6}, 1);
+  {
+    Store store(Db());
+    const Holder me = this_process_holder();
+    const Holder dead{me.host + ":999999999:0", me.host, 999999999};  // a pid that does not exist
+    SlurmSettings settings;
+    settings.root = (dir_ / "slurm").string();
+    settings.campaign = "t";
+    auto executor = make_slurm_executor(settings);
+    for (int i = 0; i < 2; ++i) {
+      auto row = claim_next(store, dead, now_seconds(), nullptr, {});
+      ASSERT_TRUE(row);
+      rundir::WriteRunSpec(row->run_dir, row->params);
+      Launch l;
+      l.run_id = row->run_id;
+      l.argv = {testing::FakeEngine(), "run", row->run_dir, "--threads", "1"};
+      l.engine = row->engine;
+      l.run_dir = row->run_dir;
+      executor->start(l);
+      // The first run goes into an array that is submitted, the second into one that is not.
+      const auto placed = executor->place();
+      ASSERT_EQ(placed.size(), 1u);
+      record_job_array(store, dead, placed[0], now_seconds());
+      if (i == 0) {
+        const auto submitted = executor->submit();
+        ASSERT_EQ(submitted.size(), 1u);
+        ASSERT_TRUE(submitted[0].error.empty()) << submitted[0].error;
+      }
+    }
+  }
+  const auto r = Sh(RunCmd());
+  ASSERT_EQ(r.code, 0) << r.output << cluster_->log_tails();
+  EXPECT_NE(r.output.find("2 run(s) already in the queue: watching them again"), std::string::npos) << r.output;
+  EXPECT_EQ(testing::CountLines(r.output, "submitted"), 1) << r.output;  // only the one that never was
+  for (const auto& [id, run] : RunsById()) {
+    EXPECT_EQ(run["state"], "done") << run.dump(2);
+    EXPECT_EQ(testing::CountLines(Launches(run), "start"), 1) << Launches(run);
   }
 }
 
