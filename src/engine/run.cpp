@@ -23,6 +23,7 @@
 #include "engine/bed.h"
 #include "engine/dump_format.h"
 #include "engine/random.h"
+#include "engine/silo_outline.h"
 #include "engine/stall.h"
 #include "engine/world.h"
 #include "rundir/contacts.h"
@@ -251,8 +252,10 @@ void Discharge::StartFresh() {
     periodic_height_ = (top + 2 * bound + spec_.discharge.periodic_headroom) + (spec_.discharge.exit_distance + kPeriodicFall);
   }
   events_ = rundir::EventWriter::Create(dir_ / rundir::kEventsFile);
-  if (frame_every_ > 0) frames_ = rundir::FrameWriter::Create(dir_ / rundir::kFramesFile);
-  if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = rundir::ContactWriter::Create(dir_ / rundir::kContactsFile);
+  const bool gz = spec_.output.compress;
+  if (frame_every_ > 0) frames_ = rundir::FrameWriter::Create(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), gz);
+  if (frame_every_ > 0 && spec_.output.contact_forces)
+    contacts_ = rundir::ContactWriter::Create(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), gz);
   if (frame_every_ > 0) {
     WriteFrame();
     if (contacts_.is_open()) WriteContacts();
@@ -348,9 +351,10 @@ void Discharge::LoadCheckpoint() {
   periodic_height_ = in.Get<double>();
   cleared_by_obstacles_ = in.Get<int>();
   events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, ev);
-  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / rundir::kFramesFile, fr);
+  const bool gz = spec_.output.compress;
+  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), fr, gz);
   if (frame_every_ > 0 && spec_.output.contact_forces)
-    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / rundir::kContactsFile, co);
+    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), co, gz);
   continued_ = true;
 }
 
@@ -555,6 +559,14 @@ RunResult Discharge::Run() {
   } else {
     StartFresh();
     session_start_ = Clock::now();
+  }
+  {
+    // The geometry beside the frames, walls as high as the frames' box when the spec leaves them
+    // automatic.
+    double box[3][2];
+    DumpBox(box);
+    WriteAtomically(dir_ / rundir::kSiloFile,
+                    SiloVtk(OutlineOf(spec_.silo, spec_.silo.height > 0 ? spec_.silo.height : box[1][1])));
   }
   World& w = *world_;
   std::string end_reason;
