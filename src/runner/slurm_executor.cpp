@@ -73,6 +73,14 @@ std::string Trim(std::string s) {
   return s;
 }
 
+// The last line a command printed on failure: Slurm's clients end with the one that matters
+// ("fatal: Could not establish a configuration source").
+std::string LastLine(const CommandResult& r) {
+  const std::string text = Trim(r.err.empty() ? r.out : r.err);
+  const auto nl = text.rfind('\n');
+  return nl == std::string::npos ? text : text.substr(nl + 1);
+}
+
 // Campaign names become part of directory and job names: letters, digits, '-', '_', '.'.
 std::string SafeName(const std::string& campaign) {
   std::string out;
@@ -267,7 +275,7 @@ class SlurmExecutor : public Executor {
       const CommandResult r = RunCommand(argv, p.array.dir);
       const std::string id = Trim(r.out).substr(0, Trim(r.out).find(';'));
       if (r.code != 0 || id.empty() || id.find_first_not_of("0123456789") != std::string::npos) {
-        p.array.error = "sbatch refused " + p.array.script + ": " + Trim(r.err.empty() ? r.out : r.err);
+        p.array.error = "sbatch refused " + p.array.script + ": " + LastLine(r);
         for (const auto& [run_id, index] : p.array.runs) runs_.erase(run_id);
       } else {
         p.array.job_id = id;
@@ -460,7 +468,7 @@ std::optional<std::vector<QueueEntry>> query_queue(const std::set<std::string>& 
       {"squeue", "--noheader", "--array", "--states=all", "--jobs=" + list, std::string("--format=") + kSqueueFormat});
   // squeue fails when it knows none of the jobs any more: they all left the queue.
   if (r.code != 0 && r.err.find("Invalid job id") == std::string::npos) {
-    if (error) *error = Trim(r.err.empty() ? r.out : r.err);
+    if (error) *error = LastLine(r);
     return std::nullopt;
   }
   return parse_squeue(r.code == 0 ? r.out : "");
@@ -468,7 +476,7 @@ std::optional<std::vector<QueueEntry>> query_queue(const std::set<std::string>& 
 
 int query_max_array_size() {
   const CommandResult r = RunCommand({"scontrol", "show", "config"});
-  if (r.code != 0) throw std::runtime_error("scontrol show config failed: " + Trim(r.err.empty() ? r.out : r.err));
+  if (r.code != 0) throw std::runtime_error("scontrol show config failed: " + LastLine(r));
   return parse_max_array_size(r.out);
 }
 

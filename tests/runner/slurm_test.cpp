@@ -321,6 +321,22 @@ TEST_F(SlurmCampaignTest, RunnerDeadInsideSbatchLeavesNothingToRunTwice) {
   }
 }
 
+TEST_F(SlurmCampaignTest, ArrayRefusedBySbatchLeavesItsRunsInterruptedWithSbatchsWords) {
+  Plan({4, 6}, 1);
+  const auto refused = Sh(RunCmd("--partition nosuchpartition"));
+  EXPECT_EQ(refused.code, 1) << refused.output;
+  EXPECT_NE(refused.output.find("not submitted"), std::string::npos) << refused.output;
+  for (const auto& [id, run] : RunsById()) {
+    EXPECT_EQ(run["state"], "interrupted");
+    EXPECT_NE(run["failure"].get<std::string>().find("Invalid partition name specified"), std::string::npos) << run.dump(2);
+    EXPECT_FALSE(fs::exists(fs::path(run["run_dir"].get<std::string>()) / "launches.txt"));
+  }
+  // Nothing is lost: with a partition that exists, they run.
+  const auto r = Sh(RunCmd());
+  ASSERT_EQ(r.code, 0) << r.output;
+  for (const auto& [id, run] : RunsById()) EXPECT_EQ(run["state"], "done");
+}
+
 class SlurmSmallArraysTest : public SlurmCampaignTest {
  protected:
   void SetUp() override {
