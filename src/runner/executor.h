@@ -93,8 +93,8 @@ class Executor {
   // The executor ends a run at its time limit, counted from the run's own start
   // (Finished::timed_out); the scheduler does not time it.
   virtual bool limits_time() const { return false; }
-  // Queue states that changed since the last call, run id -> state (PENDING, RUNNING, ...).
-  virtual std::map<std::string, std::string> queue_changes() { return {}; }
+  // Places whose queue state (PENDING, RUNNING, ...) or job id changed since the last call.
+  virtual std::map<std::string, QueuePlace> queue_changes() { return {}; }
 };
 
 // Runs up to `slots` engines at once as child processes, each in its own process group.

@@ -189,6 +189,9 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     for (const auto& a : executor.submit()) {
       if (a.error.empty()) {
         record_job_id(store, a.script, a.job_id);
+        for (const auto& [id, index] : a.runs) {
+          if (auto slot = slots.find(id); slot != slots.end()) slot->second.row.job_id = a.job_id;
+        }
         observer.on_event("", "submitted", "array job " + a.job_id + " (" + std::to_string(a.runs.size()) + " runs, --array=" +
                                                a.array + "): " + a.script);
         continue;
@@ -284,10 +287,18 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       end_run(f.run_id, state, reason, wall);
     }
     if (auto changes = executor.queue_changes(); !changes.empty()) {
-      for (const auto& [id, state] : changes) {
-        if (slots.count(id)) queue_state[id] = state;
+      std::map<std::string, std::string> states;
+      for (const auto& [id, place] : changes) {
+        auto slot = slots.find(id);
+        if (slot == slots.end()) continue;
+        queue_state[id] = states[id] = place.state;
+        // A job found by its name after a runner died inside sbatch.
+        if (place.job_id != slot->second.row.job_id) {
+          record_job_id(store, place.script, place.job_id);
+          slot->second.row.job_id = place.job_id;
+        }
       }
-      record_job_states(store, changes);
+      record_job_states(store, states);
     }
 
     const auto now = std::chrono::steady_clock::now();

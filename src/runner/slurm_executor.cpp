@@ -292,16 +292,8 @@ class SlurmExecutor : public Executor {
 
   QueuePlace attach(const Launch& launch) override {
     QueuePlace place = launch.place;
-    if (place.job_id.empty() && !place.name.empty()) {
-      // The runner that submitted it died inside sbatch: find the job by its name and script.
-      const CommandResult r = RunCommand({"squeue", "--noheader", "--states=all", "--name=" + place.name, "--format=%F|%o"});
-      std::istringstream lines(r.out);
-      std::string line;
-      while (std::getline(lines, line)) {
-        const auto bar = line.find('|');
-        if (bar != std::string::npos && line.substr(bar + 1) == place.script) place.job_id = line.substr(0, bar);
-      }
-    }
+    // The runner that submitted it died inside sbatch: find the job by its name and script.
+    if (place.job_id.empty() && !FindJob(place)) unfound_.insert(launch.run_id);
     runs_[launch.run_id] = Tracked{launch, place};
     next_poll_ = Clock::now();
     return place;
@@ -312,6 +304,17 @@ class SlurmExecutor : public Executor {
     ready_.clear();
     const auto now = Clock::now();
     if (runs_.empty() || now < next_poll_) return out;
+    // A job the last look by name could not settle (squeue did not answer) is looked for
+    // again; until squeue has answered, nothing is concluded about its run.
+    for (auto it = unfound_.begin(); it != unfound_.end();) {
+      auto t = runs_.find(*it);
+      if (t == runs_.end() || FindJob(t->second.place)) {
+        if (t != runs_.end() && !t->second.place.job_id.empty()) changes_[t->first] = t->second.place;
+        it = unfound_.erase(it);
+      } else {
+        ++it;
+      }
+    }
     std::set<std::string> ids;
     for (const auto& [id, t] : runs_) {
       if (!t.place.job_id.empty()) ids.insert(t.place.job_id);
@@ -330,13 +333,17 @@ class SlurmExecutor : public Executor {
     bool changed = false;
     for (auto it = runs_.begin(); it != runs_.end();) {
       Tracked& t = it->second;
+      if (unfound_.count(it->first)) {
+        ++it;
+        continue;
+      }
       auto e = seen.find({t.place.job_id, t.place.index});
       std::string state;
       if (e != seen.end()) {
         state = e->second.state;
         if (state != t.place.state) {
           t.place.state = state;
-          changes_[it->first] = state;
+          changes_[it->first] = t.place;
           changed = true;
         }
         if (is_queued_or_running(fate_of(state))) {
@@ -379,8 +386,8 @@ class SlurmExecutor : public Executor {
   std::size_t active() const override { return started_.size() + runs_.size(); }
   bool outlives_runner() const override { return true; }
   bool limits_time() const override { return true; }
-  std::map<std::string, std::string> queue_changes() override {
-    std::map<std::string, std::string> c;
+  std::map<std::string, QueuePlace> queue_changes() override {
+    std::map<std::string, QueuePlace> c;
     c.swap(changes_);
     return c;
   }
@@ -390,6 +397,22 @@ class SlurmExecutor : public Executor {
     Launch launch;
     QueuePlace place;
   };
+
+  // Looks for the array job of `place` by its job name and script (squeue --name). True once
+  // squeue has answered: place.job_id is then the job's id, or "" if there is no such job
+  // (never submitted, or ended long ago: its run directory decides).
+  static bool FindJob(QueuePlace& place) {
+    if (place.name.empty()) return true;
+    const CommandResult r = RunCommand({"squeue", "--noheader", "--states=all", "--name=" + place.name, "--format=%F|%o"});
+    if (r.code != 0) return false;
+    std::istringstream lines(r.out);
+    std::string line;
+    while (std::getline(lines, line)) {
+      const auto bar = line.find('|');
+      if (bar != std::string::npos && line.substr(bar + 1) == place.script) place.job_id = line.substr(0, bar);
+    }
+    return true;
+  }
 
   // Every squeue that changes nothing doubles the wait, up to 12 times the first.
   void Backoff(bool changed) {
@@ -402,7 +425,8 @@ class SlurmExecutor : public Executor {
   std::vector<Prepared> prepared_;
   std::map<std::string, Tracked> runs_;  // placed: about to be submitted, queued or running
   std::vector<Finished> ready_;          // ended without the queue's word (lease lost)
-  std::map<std::string, std::string> changes_;
+  std::map<std::string, QueuePlace> changes_;
+  std::set<std::string> unfound_;  // attached runs whose job id is still to be found by name
   double interval_;
   Clock::time_point next_poll_{};
 };

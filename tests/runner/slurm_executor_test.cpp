@@ -1,0 +1,120 @@
+// The Slurm executor's watching logic against a stand-in `squeue` on PATH (a shell script
+// whose answers the test sets): a squeue that does not answer proves nothing, a job whose id
+// a dead runner never recorded is found by its name and script, and only a job squeue no
+// longer knows is decided from the run directory. The real thing is in slurm_test.cpp.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "runner/slurm_executor.h"
+#include "slurm_cluster.h"  // WaitFor
+#include "test_util.h"
+
+namespace granary::runner {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::WaitFor;
+
+class FakeSqueueTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = testing::MakeTempDir();
+    fs::create_directories(dir_ / "bin");
+    fs::create_directories(dir_ / "run");
+    // Answers from DIR/answer: "fail" (controller unreachable), "gone" (no such job), or
+    // "running" (job 77 task 0 runs, found by name with script DIR/job-1.sh).
+    std::ofstream(dir_ / "bin" / "squeue") << "#!/bin/bash\n"
+                                           << "answer=$(cat " << (dir_ / "answer").string() << ")\n"
+                                           << "echo \"$*\" >> " << (dir_ / "calls").string() << "\n"
+                                           << "case $answer in\n"
+                                           << "  fail) echo 'slurm_load_jobs error: Unable to contact slurm controller' >&2; exit 1;;\n"
+                                           << "  gone) case \"$*\" in *--name=*) exit 0;; esac\n"
+                                           << "        echo 'slurm_load_jobs error: Invalid job id specified' >&2; exit 1;;\n"
+                                           << "  running) case \"$*\" in *--name=*) echo '77|" << (dir_ / "job-1.sh").string()
+                                           << "'; exit 0;; esac\n"
+                                           << "        echo '77|0|RUNNING|1795468828|granary-t-0001-1|None'; exit 0;;\n"
+                                           << "esac\n";
+    fs::permissions(dir_ / "bin" / "squeue", fs::perms::owner_all);
+    old_path_ = std::getenv("PATH");
+    setenv("PATH", ((dir_ / "bin").string() + ":" + old_path_).c_str(), 1);
+  }
+  void TearDown() override {
+    setenv("PATH", old_path_.c_str(), 1);
+    fs::remove_all(dir_);
+  }
+  void Answer(const std::string& a) { std::ofstream(dir_ / "answer") << a; }
+  int Calls() const { return testing::CountLines(testing::ReadFile(dir_ / "calls"), ""); }
+  std::unique_ptr<Executor> Make() {
+    SlurmSettings s;
+    s.root = (dir_ / "slurm").string();
+    s.campaign = std::string(1, 't');
+    s.max_array_size = 10;
+    s.options.poll_interval = 0.01;
+    return make_slurm_executor(s);
+  }
+  Launch Adopted(const std::string& job_id) {
+    Launch l;
+    l.run_id = "r1";
+    l.argv = {"/bin/true"};
+    l.engine = "native";
+    l.run_dir = (dir_ / "run").string();
+    l.place = QueuePlace{dir_.string(), (dir_ / "job-1.sh").string(), "granary-t-0001-1", 0, job_id, "PENDING"};
+    return l;
+  }
+  fs::path dir_;
+  std::string old_path_;
+};
+
+TEST_F(FakeSqueueTest, AQueueThatDoesNotAnswerProvesNothing) {
+  Answer("fail");
+  auto executor = Make();
+  executor->attach(Adopted("77"));
+  // Many polls, squeue failing each time: the run is neither ended nor forgotten.
+  ASSERT_TRUE(WaitFor([&] {
+    EXPECT_TRUE(executor->poll().empty());
+    return Calls() >= 5;
+  }, 30));
+  EXPECT_EQ(executor->active(), 1u);
+  // Once squeue says the job is gone, the run directory decides: no task record, so its task
+  // never started, and the run continues elsewhere.
+  Answer("gone");
+  std::vector<Finished> ended;
+  ASSERT_TRUE(WaitFor([&] {
+    ended = executor->poll();
+    return !ended.empty();
+  }, 30));
+  ASSERT_EQ(ended.size(), 1u);
+  EXPECT_NE(ended[0].signal, 0);
+  EXPECT_EQ(ended[0].how, "Slurm task 77_0 left the queue before its engine started; it continues from its checkpoint");
+  EXPECT_EQ(executor->active(), 0u);
+}
+
+TEST_F(FakeSqueueTest, AJobWhoseIdWasNeverRecordedIsFoundByItsNameOnceSqueueAnswers) {
+  Answer("fail");
+  auto executor = Make();
+  EXPECT_EQ(executor->attach(Adopted("")).job_id, "");  // not found yet: squeue did not answer
+  ASSERT_TRUE(WaitFor([&] {
+    EXPECT_TRUE(executor->poll().empty());
+    return Calls() >= 3;
+  }, 30));
+  EXPECT_TRUE(executor->queue_changes().empty());
+  Answer("running");
+  ASSERT_TRUE(WaitFor([&] {
+    executor->poll();
+    const auto changes = executor->queue_changes();
+    return changes.count("r1") && changes.at("r1").job_id == "77";
+  }, 30));
+  // RUNNING: watched, not ended.
+  const int calls = Calls();
+  ASSERT_TRUE(WaitFor([&] {
+    EXPECT_TRUE(executor->poll().empty());
+    return Calls() >= calls + 3;
+  }, 30));
+  EXPECT_EQ(executor->active(), 1u);
+}
+
+}  // namespace
+}  // namespace granary::runner
