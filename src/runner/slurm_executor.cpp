@@ -447,6 +447,20 @@ Finished slurm_task_end(const std::string& run_id, const std::string& run_dir, c
   if (rundir::IsDone(dir)) return f;  // the scheduler ingests it
   const std::string slurm_log = TailOfFile(fs::path(place.dir) / "logs" / (task + ".out"), 10);
   const std::string where = "Slurm task " + task + (state.empty() ? "" : " " + state);
+  const std::string log_note = slurm_log.empty() ? "" : "\n--- Slurm's log of the task ---\n" + slurm_log;
+  // Slurm's own verdicts first: an engine it killed for memory or time records only a signal.
+  if (state == "OUT_OF_MEMORY") {
+    f.exit_code = 1;
+    f.how = where + ": the engine ran out of memory (ask for more, e.g. --sbatch-arg=--mem-per-cpu=4G)" + log_note;
+    return f;
+  }
+  if (!state.empty() && fate_of(state) == TaskFate::kTimedOut) {
+    f.timed_out = true;
+    f.exit_code = 1;
+    f.how = where + ": Slurm's time limit for the task ran out" + (slurm_time.empty() ? "" : " (--time " + slurm_time + ")") +
+            "; with --retries it continues from its checkpoint" + log_note;
+    return f;
+  }
   if (record && record->exit_code) {
     f.exit_code = *record->exit_code;
     if (ended_by_time_limit(*record, time_limit)) {
@@ -461,16 +475,9 @@ Finished slurm_task_end(const std::string& run_id, const std::string& run_dir, c
     return f;
   }
   const TaskFate fate = state.empty() ? TaskFate::kLost : fate_of(state);
-  const std::string log_note = slurm_log.empty() ? "" : "\n--- Slurm's log of the task ---\n" + slurm_log;
   switch (fate) {
     case TaskFate::kCompleted:
       return f;  // exit 0 without DONE: the scheduler says so
-    case TaskFate::kTimedOut:
-      f.timed_out = true;
-      f.exit_code = 1;
-      f.how = where + ": Slurm's time limit for the task ran out" +
-              (slurm_time.empty() ? "" : " (--time " + slurm_time + ")") + log_note;
-      return f;
     case TaskFate::kFailed:
       f.exit_code = 1;
       f.how = where + (record ? " while its engine ran" : " before its engine started") + log_note;

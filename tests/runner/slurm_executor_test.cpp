@@ -4,10 +4,12 @@
 // longer knows is decided from the run directory. The real thing is in slurm_test.cpp.
 #include <gtest/gtest.h>
 
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
+#include "rundir/layout.h"
 #include "runner/slurm_executor.h"
 #include "slurm_cluster.h"  // WaitFor
 #include "test_util.h"
@@ -114,6 +116,52 @@ TEST_F(FakeSqueueTest, AJobWhoseIdWasNeverRecordedIsFoundByItsNameOnceSqueueAnsw
     return Calls() >= calls + 3;
   }, 30));
   EXPECT_EQ(executor->active(), 1u);
+}
+
+// How a task that left the queue ended, from its state and its run directory.
+TEST(SlurmTaskEnd, EveryVerdictFromTheStateAndTheRunDirectory) {
+  const fs::path dir = testing::MakeTempDir();
+  const QueuePlace place{dir.string(), (dir / "job-1.sh").string(), "granary-t-0001-1", 2, "7", "RUNNING"};
+  const auto record = [&](const std::string& job, const std::string& end) {
+    std::ofstream(dir / rundir::kSlurmTaskFile) << R"({"job": ")" << job << R"(", "node": "n1", "started_at": 100)" << end << "}";
+  };
+  const auto end = [&](const std::string& state, double time_limit = 0) {
+    return slurm_task_end("r", dir.string(), place, state, time_limit, "1:00:00");
+  };
+  record("7_2", R"(, "exit_code": 3, "ended_at": 110)");
+  Finished f = end("FAILED");
+  EXPECT_EQ(f.exit_code, 3);
+  EXPECT_EQ(f.how, "Slurm task 7_2 FAILED: engine exited with status 3");
+  EXPECT_EQ(f.wall_s, 10);
+  record("7_2", R"(, "exit_code": 124, "ended_at": 160)");
+  f = end("FAILED", 60);
+  EXPECT_TRUE(f.timed_out);
+  EXPECT_EQ(f.how, "");  // the scheduler says "wall-time limit of 60 s exceeded"
+  record("7_2", R"(, "exit_code": 137, "ended_at": 110)");
+  f = end("");
+  EXPECT_EQ(f.signal, 9);  // killed from outside before any limit: continues from its checkpoint
+  f = end("OUT_OF_MEMORY");
+  EXPECT_EQ(f.signal, 0);
+  EXPECT_EQ(f.exit_code, 1);
+  EXPECT_EQ(f.how.rfind("Slurm task 7_2 OUT_OF_MEMORY: the engine ran out of memory", 0), 0u) << f.how;
+  record("7_2", "");
+  f = end("TIMEOUT");
+  EXPECT_TRUE(f.timed_out);
+  EXPECT_EQ(f.how.rfind("Slurm task 7_2 TIMEOUT: Slurm's time limit for the task ran out (--time 1:00:00)", 0), 0u) << f.how;
+  f = end("CANCELLED");
+  EXPECT_EQ(f.signal, SIGTERM);
+  EXPECT_EQ(f.how, "Slurm task 7_2 CANCELLED while its engine ran; it continues from its checkpoint");
+  f = end("");
+  EXPECT_EQ(f.how, "Slurm task 7_2 left the queue while its engine ran; it continues from its checkpoint");
+  record("5_2", R"(, "exit_code": 3, "ended_at": 110)");  // an earlier attempt's record
+  f = end("PREEMPTED");
+  EXPECT_EQ(f.how, "Slurm task 7_2 PREEMPTED before its engine started; it continues from its checkpoint");
+  std::ofstream(dir / rundir::kDoneFile) << "discharged\n";
+  f = end("FAILED");  // DONE decides
+  EXPECT_EQ(f.exit_code, 0);
+  EXPECT_EQ(f.signal, 0);
+  EXPECT_FALSE(f.timed_out);
+  fs::remove_all(dir);
 }
 
 }  // namespace
