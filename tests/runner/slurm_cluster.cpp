@@ -152,7 +152,8 @@ void SlurmCluster::Start(const Options& options) {
   std::ostringstream text;
   const std::string d = dir_.string();
   text << "ClusterName=granarytest\n"
-       << "SlurmctldHost=" << ShortHostname() << "\n"
+       // Addresses given, so nothing depends on the host name resolving.
+       << "SlurmctldHost=" << ShortHostname() << "(127.0.0.1)\n"
        << "SlurmUser=" << user << "\nSlurmdUser=" << user << "\n"
        << "AuthType=auth/munge\nCredType=cred/munge\nAuthInfo=socket=" << sock.string() << "\n"
        << "SlurmctldPort=" << ctld_port << "\nSlurmdPort=" << slurmd_port << "\n"
@@ -170,7 +171,7 @@ void SlurmCluster::Start(const Options& options) {
        // A cancelled task gets SIGKILL 2 s after SIGTERM (default 30 s).
        << "KillWait=2\n"
        << "MaxArraySize=" << options.max_array_size << "\nMinJobAge=" << options.min_job_age << "\n"
-       << node_line << "\n"
+       << node_line << " NodeAddr=127.0.0.1\n"
        << "PartitionName=debug Nodes=ALL Default=YES MaxTime=INFINITE State=UP\n";
   std::ofstream(dir_ / "slurm.conf") << text.str();
   setenv("SLURM_CONF", conf().c_str(), 1);
