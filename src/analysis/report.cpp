@@ -50,6 +50,7 @@ struct Context {
   const CampaignInfo* campaign = nullptr;
   const ReportOptions* options = nullptr;
   std::vector<const RunRecord*> missing, failed, retired;
+  std::vector<const RunRecord*> lost;  // done, but the run directory was deleted afterwards
   std::vector<std::pair<const RunRecord*, std::string>> unreadable;
   std::vector<AnalysedRun> used;
   std::vector<Point> points;
@@ -141,6 +142,8 @@ Context build_context(const CampaignInfo& campaign, const std::vector<RunRecord>
       c.retired.push_back(&r);
     } else if (r.state != "done") {
       c.missing.push_back(&r);
+    } else if (!std::filesystem::exists(r.run_dir)) {
+      c.lost.push_back(&r);
     } else {
       try {
         AnalysedRun a;
@@ -379,11 +382,14 @@ bool has_x(const Context& c) {
 std::optional<Section> runs_section(const Context& c) {
   Section s{"runs", "Runs", {}};
   const int total = static_cast<int>(c.used.size() + c.missing.size() + c.failed.size() + c.unreadable.size() +
-                                     c.retired.size());
+                                     c.lost.size() + c.retired.size());
   s.blocks.push_back(Text{std::to_string(total) + " runs in the campaign: **" + std::to_string(c.used.size()) +
                           " used**, " + std::to_string(c.missing.size()) + " missing (not finished), " +
                           std::to_string(c.failed.size()) + " failed, " + std::to_string(c.unreadable.size()) +
-                          " finished but unreadable, " + std::to_string(c.retired.size()) + " retired. " +
+                          " finished but unreadable, " +
+                          (c.lost.empty() ? std::string()
+                                          : std::to_string(c.lost.size()) + " finished but their run directory was deleted, ") +
+                          std::to_string(c.retired.size()) + " retired. " +
                           "Every number below is computed from the used runs only; a point with fewer replicas "
                           "than planned says so in its `n`."});
   Table t{"runs_not_used", "Runs not used, with the reason", {"run", "point", "replica", "state", "reason"}, {}};
@@ -392,6 +398,9 @@ std::optional<Section> runs_section(const Context& c) {
                       r->failure.empty() ? "not finished" : "not finished: " + state_reason(*r)});
   for (const RunRecord* r : c.failed) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec), std::to_string(r->replica), r->state, state_reason(*r)});
   for (const auto& [r, why] : c.unreadable) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec), std::to_string(r->replica), r->state, "unreadable: " + why});
+  for (const RunRecord* r : c.lost)
+    t.rows.push_back({r->run_id, point_label(c, r->point, r->spec), std::to_string(r->replica), r->state,
+                      "run directory deleted after it finished (campaign run --rerun-lost runs it again)"});
   for (const RunRecord* r : c.retired) t.rows.push_back({r->run_id, point_label(c, r->point, r->spec), std::to_string(r->replica), r->state, "retired (superseded)"});
   if (!t.rows.empty()) s.blocks.push_back(t);
   return s;
@@ -1461,6 +1470,7 @@ ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRe
   summary.runs_used = static_cast<int>(c.used.size());
   summary.runs_missing = static_cast<int>(c.missing.size());
   summary.runs_failed = static_cast<int>(c.failed.size() + c.unreadable.size());
+  summary.runs_lost = static_cast<int>(c.lost.size());
   summary.markdown = r.markdown;
   summary.html = r.html;
   if (c.comparison) summary.comparison = to_json(*c.comparison);

@@ -55,6 +55,7 @@ struct ReportSummary {
   int runs_used = 0;
   int runs_missing = 0;           // planned/running/interrupted
   int runs_failed = 0;
+  int runs_lost = 0;              // done, but their run directories were deleted afterwards
   std::filesystem::path markdown;
   std::filesystem::path html;
   nlohmann::json comparison;      // runs on two engines: analysis::to_json(EngineComparison), else null

@@ -83,6 +83,9 @@ ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run) {
         to = "interrupted";
         reason = "runner lost (lease expired); continues from its checkpoint";
       }
+    } else if (r.state == "done" && !fs::exists(dir)) {
+      // Its results are in the database; only --rerun-lost runs it again (docs/cli.md).
+      report.lost.push_back(r.run_id);
     } else if (r.state == "done") {
       to = "interrupted";
       reason = "done in the database, but " + dir.string() + " has no DONE and summary.json (moved or deleted?)";

@@ -2,7 +2,8 @@
 // queue from one squeue call, at any time, also while jobs run (docs/cli.md). A run whose
 // directory has DONE and summary.json is done (and ingested); a queued run whose task left
 // the queue ended as its directory and the queue say (slurm_task_end); a run the database
-// calls done whose directory lost DONE is not. Rows held by a live runner are reported, not
+// calls done whose directory lost DONE is not (one whose directory is gone stays done: its
+// results are in the database; campaign run --rerun-lost runs it again). Rows held by a live runner are reported, not
 // written: that runner records them.
 #pragma once
 
@@ -32,6 +33,7 @@ struct ScanReport {
   std::vector<ScanChange> changes;
   bool queue_asked = false;           // some runs were in a queue
   std::string queue_error;            // squeue could not answer: queued runs were left as they were
+  std::vector<std::string> lost;      // done runs whose directory was deleted: left done (campaign run --rerun-lost)
 };
 
 // The queue's answer for these array jobs (query_queue), or nullopt with a reason.

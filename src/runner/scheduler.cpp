@@ -2,9 +2,12 @@
 #include "runner/scheduler.h"
 
 #include <signal.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
+#include <cstring>
 #include <deque>
 #include <filesystem>
 #include <fstream>
@@ -22,6 +25,8 @@
 namespace granary::runner {
 
 namespace fs = std::filesystem;
+
+const char kLostRunDirectory[] = "its run directory was deleted after it finished; run again (--rerun-lost)";
 using nlohmann::json;
 
 bool matches_filter(const RunRow& row, const std::string& filter) {
@@ -47,20 +52,40 @@ bool matches_filter(const RunRow& row, const std::string& filter) {
 }
 
 
+namespace {
+
+// 5 -> "5", 0.5 -> "0.5" (json's dump would give "5.0").
+std::string Number(double x) {
+  std::ostringstream o;
+  o << x;
+  return o.str();
+}
+
+// "exited with status 3", "killed by signal 9 (Killed)".
+std::string How(const Finished& f) {
+  return f.signal != 0 ? "killed by " + SignalName(f.signal) : "exited with status " + std::to_string(f.exit_code);
+}
+
+}  // namespace
+
 std::pair<std::string, std::string> end_state_of(const Finished& f, bool timed_out, double time_limit,
                                                  const std::string& log_file) {
   // The executor's words where it has them (a batch queue's state), else the status'.
   const auto said = [&](const std::string& status) { return (f.how.empty() ? status : f.how) + "\n" + TailOfFile(log_file, 20); };
   if (timed_out || f.timed_out) {
-    return {"failed", said(time_limit > 0 ? "wall-time limit of " + json(time_limit).dump() + " s exceeded"
+    return {"failed", said(time_limit > 0 ? "wall-time limit of " + Number(time_limit) + " s exceeded"
                                           : "wall-time limit exceeded")};
   }
   if (f.signal == 0 && f.exit_code == 0) {
     return {"failed", "engine exited 0 without DONE and summary.json\n" + TailOfFile(log_file, 20)};
   }
+  if (f.signal == 0 && f.exit_code == kExitRunDirectoryBusy) {
+    // Another engine held the directory: nothing was touched; it runs again later.
+    return {"interrupted", said("engine " + How(f) + ": its run directory was locked by another engine")};
+  }
   // Killed from outside: it continues from its checkpoint on the next attempt.
-  if (f.signal != 0) return {"interrupted", said("engine killed by signal " + std::to_string(f.signal))};
-  return {"failed", said("engine exited with status " + std::to_string(f.exit_code))};
+  if (f.signal != 0) return {"interrupted", said("engine " + How(f))};
+  return {"failed", said("engine " + How(f))};
 }
 
 namespace {
@@ -86,10 +111,26 @@ bool EngineAtWork(const std::string& queue_state) {
   return queue_state.empty() || fate_of(queue_state) == TaskFate::kRunning;
 }
 
+// A message if the file system holding `dir` (or its nearest existing parent) is full, or
+// "". Engines that fail on a full disk often cannot even write why into engine.log.
+std::string FullFileSystem(fs::path dir) {
+  constexpr double kFullBelowBytes = 1 << 20;
+  std::error_code ec;
+  while (!dir.empty() && !fs::exists(dir, ec)) dir = dir.parent_path();
+  struct statvfs st {};
+  if (dir.empty() || ::statvfs(dir.c_str(), &st) != 0) return "";
+  const double free_bytes = static_cast<double>(st.f_bavail) * static_cast<double>(st.f_frsize);
+  if (free_bytes >= kFullBelowBytes) return "";
+  std::ostringstream o;
+  o << "the file system of " << dir.string() << " is full (" << std::lround(free_bytes / 1024) << " KiB free)";
+  return o.str();
+}
+
 struct Slot {
   RunRow row;
-  std::chrono::steady_clock::time_point started;
+  double started = 0;
   bool timed_out = false;
+  bool lease_lost = false;  // stopped because another runner holds the run: record nothing
 };
 
 }  // namespace
@@ -99,8 +140,22 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   if (options.engine.find('/') != std::string::npos && !fs::exists(options.engine)) {
     throw std::invalid_argument("engine executable not found: " + options.engine);
   }
-  const Holder me = this_process_holder();
+  const Holder me = options.holder ? *options.holder : this_process_holder();
+  const std::function<double()> clock = options.clock ? options.clock : [] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+  };
   const int recovered = recover_expired_leases(store, me, now_seconds());
+
+  auto accept = [&](const RunRow& r) {
+    if ((options.engine == "native" || options.engine == "liggghts") && r.engine != options.engine) return false;
+    return matches_filter(r, options.only);
+  };
+  // Done runs whose directory was deleted: their results are in the database, but nothing
+  // can analyse them. Said at every start; run again on request.
+  std::vector<std::string> lost;
+  for (const auto& r : load_runs(store, true))
+    if (r.state == "done" && !fs::exists(r.run_dir) && accept(r)) lost.push_back(r.run_id);
+  const int requeued = options.rerun_lost ? requeue_done_runs(store, lost, kLostRunDirectory) : 0;
 
   int total = 0, done = 0, failed = 0;
   for (const auto& r : load_runs(store, false)) {
@@ -113,22 +168,35 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   if (recovered > 0) {
     observer.on_event("", "interrupted", std::to_string(recovered) + " run(s) of a lost runner will continue");
   }
+  if (requeued > 0) {
+    observer.on_event("", "planned", std::to_string(requeued) + " done run(s) whose run directory was deleted will run again");
+  } else if (!lost.empty()) {
+    observer.on_event("", "lost", std::to_string(lost.size()) + " done run(s) have no run directory (deleted after they "
+                                  "finished; first " + lost.front() + "): their results are in the database only; "
+                                  "campaign run --rerun-lost runs them again");
+  }
 
-  auto accept = [&](const RunRow& r) {
-    if ((options.engine == "native" || options.engine == "liggghts") && r.engine != options.engine) return false;
-    return matches_filter(r, options.only);
-  };
   std::set<std::string> skip;             // exhausted in this invocation
   std::map<std::string, int> failures;    // failed attempts in this invocation
-  std::map<std::string, Slot> slots;
+  std::map<std::string, Slot> slots;      // engines started
+  std::map<std::string, RunRow> waiting;  // claimed, but another engine still holds the directory
   std::map<std::string, std::string> queue_state;  // runs in a batch queue: their last state
   bool any_final_failure = false;
-  bool stopping = false;
-  auto last_heartbeat = std::chrono::steady_clock::now();
-  auto last_tick = std::chrono::steady_clock::time_point{};
+  std::string storage_full;  // set when runs/ is full: no new runs start, the invocation ends with kStorage
+  double last_heartbeat = clock();
+  double last_tick = -1e300;
 
+  auto lease_lost = [&](const std::string& id, const std::string& what) {
+    observer.on_event(id, "lease lost",
+                      "another runner holds this run now (this runner's lease expired, or a re-plan retired it); " + what);
+  };
+
+  // Records an end state under our lease; false (and nothing recorded) if it is not ours.
   auto end_run = [&](const std::string& id, const std::string& state, const std::string& reason, double wall) {
-    record_end(store, id, state, reason, now_seconds(), wall);
+    if (!record_end(store, id, me.id, state, reason, now_seconds(), wall)) {
+      lease_lost(id, "its end (" + state + ") is not recorded");
+      return;
+    }
     if (state == "failed") ++failed;
     ++failures[id];
     if (failures[id] > options.retries) {
@@ -140,6 +208,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     observer.on_event(id, state, reason);
   };
 
+  // A run whose directory has DONE and summary.json is ingested; false if it has not.
   auto finish_done = [&](const RunRow& row, double wall) -> bool {
     const fs::path dir = row.run_dir;
     if (!rundir::IsDone(dir)) return false;
@@ -149,7 +218,10 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     } catch (const rundir::ReadError&) {
       return false;
     }
-    record_done(store, row.run_id, summary.raw, now_seconds(), wall);
+    if (!record_done(store, row.run_id, me.id, summary.raw, now_seconds(), wall)) {
+      lease_lost(row.run_id, "its result is not recorded");
+      return true;
+    }
     ++done;
     if (row.state == "failed") --failed;
     observer.on_event(row.run_id, "done",
@@ -158,13 +230,74 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     return true;
   };
 
+  // Starts the engine of a claimed run, or parks it while another engine holds its directory.
+  auto launch = [&](const RunRow& row) {
+    const std::string holder = RunDirectoryHolder(row.run_dir);
+    if (!holder.empty()) {
+      if (!waiting.count(row.run_id)) observer.on_event(row.run_id, "waiting", "its directory is locked by " + holder);
+      waiting[row.run_id] = row;
+      return;
+    }
+    waiting.erase(row.run_id);
+    // A run whose engine finished but was never ingested (runner killed in between) is
+    // ingested now instead of being run twice.
+    if (finish_done(row, row.wall_s)) return;
+    const std::string exe = EngineExe(options, row.engine);
+    if (!fs::exists(exe)) {
+      record_end(store, row.run_id, me.id, "interrupted", "engine executable not found: " + exe, now_seconds(), 0);
+      throw std::invalid_argument("engine executable not found: " + exe + " (build it, or pass --engine PATH)");
+    }
+    try {
+      rundir::WriteRunSpec(row.run_dir, row.params);
+      executor.start(LaunchOf(row, exe, options.threads_per_run));
+    } catch (const std::exception& e) {
+      if (const std::string full = FullFileSystem(row.run_dir); !full.empty()) {
+        storage_full = full;
+        end_run(row.run_id, "interrupted", full + ": " + e.what(), 0);
+      } else {
+        end_run(row.run_id, "failed", e.what(), 0);
+      }
+      return;
+    }
+    slots[row.run_id] = Slot{row, clock(), false, false};
+    observer.on_event(row.run_id, "running",
+                      "attempt " + std::to_string(row.attempts) + (executor.outlives_runner() ? ", to the queue" : ""));
+  };
+
+  // One ended engine: its end state, under our lease.
+  auto finished = [&](const Finished& f, bool stopping) {
+    const Slot slot = slots[f.run_id];
+    slots.erase(f.run_id);
+    queue_state.erase(f.run_id);
+    // A batch queue knows the engine's own wall time; the runner's clock counts the wait too.
+    const double wall = f.wall_s >= 0 ? f.wall_s : clock() - slot.started;
+    const std::string log = (fs::path(slot.row.run_dir) / rundir::kEngineLogFile).string();
+    if (slot.lease_lost) {
+      lease_lost(f.run_id, "its engine was stopped and nothing is recorded");
+    } else if (f.signal == 0 && f.exit_code == 0 && !f.timed_out && finish_done(slot.row, wall)) {
+    } else if (f.signal == 0 && f.exit_code == kExitRunDirectoryBusy) {
+      // Another engine took the directory between our look and the engine's lock.
+      if (stopping) end_run(f.run_id, "interrupted", "interrupted while waiting for its directory", wall);
+      else waiting[f.run_id] = slot.row;
+    } else if (stopping) {
+      end_run(f.run_id, "interrupted", "interrupted by the user (runner stopped)", wall);
+    } else if (const std::string full = FullFileSystem(slot.row.run_dir); !full.empty()) {
+      // Not the run's fault: it continues from its checkpoint once there is room.
+      storage_full = full;
+      end_run(f.run_id, "interrupted", "engine " + How(f) + "; " + full + "\n" + TailOfFile(log, 20), wall);
+    } else {
+      const auto [state, reason] = end_state_of(f, slot.timed_out, options.time_limit, log);
+      end_run(f.run_id, state, reason, wall);
+    }
+  };
+
   // Runs a runner before this one put into the queue are watched again, never started twice.
   if (executor.outlives_runner()) {
     const auto adopted = adopt_queued_runs(store, me, now_seconds());
     for (const auto& row : adopted) {
       const QueuePlace place = executor.attach(LaunchOf(row, EngineExe(options, row.engine), options.threads_per_run));
       if (place.job_id != row.job_id) record_job_id(store, row.job_script, place.job_id);
-      slots[row.run_id] = Slot{row, std::chrono::steady_clock::now(), false};
+      slots[row.run_id] = Slot{row, clock(), false, false};
       queue_state[row.run_id] = row.job_state;
     }
     if (!adopted.empty()) {
@@ -197,7 +330,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
         continue;
       }
       for (const auto& [id, index] : a.runs) {
-        record_end(store, id, "interrupted", a.error, now_seconds(), 0);
+        if (!record_end(store, id, me.id, "interrupted", a.error, now_seconds(), 0)) lease_lost(id, "its end is not recorded");
         skip.insert(id);
         slots.erase(id);
         queue_state.erase(id);
@@ -207,136 +340,176 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     }
   };
 
-  while (true) {
-    if (stop && *stop && executor.outlives_runner()) {
-      // The jobs keep running; a later runner adopts them.
-      const int released = release_queued_runs(store, me);
-      observer.on_event("", "detached", std::to_string(released) +
-                                            " run(s) stay in the queue; campaign run --executor slurm watches them "
-                                            "again, campaign scan settles them");
-      observer.on_end(done, failed, total);
-      return ExitCode::kInterrupted;
-    }
-    if (stop && *stop && !stopping) {
-      stopping = true;
-      // The engines checkpoint and exit (the executor ends them by force after a grace
-      // period); they continue next time.
-      executor.stop_all(StopReason::kInterrupt);
-      while (executor.active() > 0) {
-        for (const auto& f : executor.poll()) {
-          const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - slots[f.run_id].started).count();
-          if (!(f.signal == 0 && f.exit_code == 0 && finish_done(slots[f.run_id].row, wall))) {
-            record_end(store, f.run_id, "interrupted", "interrupted by the user (runner stopped)", now_seconds(), wall);
-            observer.on_event(f.run_id, "interrupted", "stopped");
-          }
-          slots.erase(f.run_id);
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(50));
-      }
-      observer.on_end(done, failed, total);
-      return ExitCode::kInterrupted;
-    }
+  // Leaves the queued runs to their jobs (a later runner or campaign scan collects them);
+  // runs still waiting for their directory were never queued: they are interrupted.
+  auto detach = [&](const std::string& what) {
+    for (const auto& [id, row] : waiting) end_run(id, "interrupted", "waiting for its directory when the runner detached", 0);
+    waiting.clear();
+    const int released = release_queued_runs(store, me);
+    observer.on_event("", "detached", std::to_string(released) + what);
+    observer.on_end(done, failed, total);
+  };
 
-    // Start as many runs as there are free slots.
-    bool nothing_left = false;
-    while (executor.can_start_more()) {
-      auto row = claim_next(store, me, now_seconds(), accept, skip);
-      if (!row) {
-        nothing_left = true;
-        break;
-      }
-      // A run whose engine finished but was never ingested (runner killed in between) is
-      // ingested now instead of being run twice.
-      if (finish_done(*row, row->wall_s)) continue;
-      const std::string exe = EngineExe(options, row->engine);
-      if (!fs::exists(exe)) {
-        record_end(store, row->run_id, "interrupted", "engine executable not found: " + exe, now_seconds(), 0);
-        throw std::invalid_argument("engine executable not found: " + exe +
-                                 " (build it, or pass --engine PATH)");
-      }
-      try {
-        rundir::WriteRunSpec(row->run_dir, row->params);
-        executor.start(LaunchOf(*row, exe, options.threads_per_run));
-      } catch (const std::exception& e) {
-        end_run(row->run_id, "failed", e.what(), 0);
+  // Heartbeat; engines of runs that are no longer ours are stopped at once (a batch queue's
+  // job is left to the runner that holds its run now).
+  auto check_leases = [&](const std::map<std::string, json>& progress) {
+    const std::set<std::string> held = heartbeat(store, me, now_seconds(), progress);
+    for (auto& [id, slot] : slots) {
+      if (slot.lease_lost || held.count(id)) continue;
+      slot.lease_lost = true;
+      executor.stop(id, StopReason::kLeaseLost);
+    }
+    for (auto it = waiting.begin(); it != waiting.end();) {
+      if (held.count(it->first)) {
+        ++it;
         continue;
       }
-      slots[row->run_id] = Slot{*row, std::chrono::steady_clock::now(), false};
-      observer.on_event(row->run_id, "running",
-                        "attempt " + std::to_string(row->attempts) + (executor.outlives_runner() ? ", to the queue" : ""));
+      lease_lost(it->first, "it is no longer waiting for its directory");
+      it = waiting.erase(it);
     }
-    submit_started();
-    if (options.detach && nothing_left) {
-      const int released = release_queued_runs(store, me);
-      observer.on_event("", "detached", std::to_string(released) +
-                                            " run(s) in the queue; campaign status shows them, campaign scan or "
-                                            "campaign run --executor slurm collects them");
-      observer.on_end(done, failed, total);
-      return any_final_failure ? ExitCode::kRunsFailed : ExitCode::kOk;
-    }
-    if (nothing_left && executor.active() == 0) break;
+  };
 
-    for (const auto& f : executor.poll()) {
-      Slot slot = slots[f.run_id];
-      slots.erase(f.run_id);
-      queue_state.erase(f.run_id);
-      const double wall = f.wall_s >= 0 ? f.wall_s : std::chrono::duration<double>(std::chrono::steady_clock::now() - slot.started).count();
-      const std::string log = (fs::path(slot.row.run_dir) / rundir::kEngineLogFile).string();
-      if (f.signal == 0 && f.exit_code == 0 && !f.timed_out && finish_done(slot.row, wall)) continue;
-      const auto [state, reason] = end_state_of(f, slot.timed_out, options.time_limit, log);
-      end_run(f.run_id, state, reason, wall);
-    }
-    if (auto changes = executor.queue_changes(); !changes.empty()) {
-      std::map<std::string, std::string> states;
-      for (const auto& [id, place] : changes) {
-        auto slot = slots.find(id);
-        if (slot == slots.end()) continue;
-        queue_state[id] = states[id] = place.state;
-        // A job found by its name after a runner died inside sbatch.
-        if (place.job_id != slot->second.row.job_id) {
-          record_job_id(store, place.script, place.job_id);
-          slot->second.row.job_id = place.job_id;
-        }
+  try {
+    while (true) {
+      if (stop && *stop && executor.outlives_runner()) {
+        // The jobs keep running; a later runner adopts them.
+        detach(" run(s) stay in the queue; campaign run --executor slurm watches them again, campaign scan settles them");
+        return ExitCode::kInterrupted;
       }
-      record_job_states(store, states);
-    }
+      if (stop && *stop) {
+        // The engines checkpoint and exit (the executor ends them by force after a grace
+        // period); they continue next time.
+        executor.stop_all(StopReason::kInterrupt);
+        while (executor.active() > 0) {
+          for (const auto& f : executor.poll()) finished(f, true);
+          if (executor.active() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        }
+        for (const auto& [id, row] : waiting) end_run(id, "interrupted", "interrupted while waiting for its directory", 0);
+        observer.on_end(done, failed, total);
+        return ExitCode::kInterrupted;
+      }
 
-    const auto now = std::chrono::steady_clock::now();
-    if (options.time_limit > 0 && !executor.limits_time()) {
-      for (auto& [id, slot] : slots) {
-        if (!slot.timed_out && std::chrono::duration<double>(now - slot.started).count() > options.time_limit) {
-          slot.timed_out = true;
-          executor.stop(id, StopReason::kTimeLimit);
-        }
+      // Runs waiting for their directory first, then new claims, while there are free slots.
+      for (auto it = waiting.begin(); it != waiting.end() && executor.can_start_more() && storage_full.empty();) {
+        const RunRow row = (it++)->second;
+        launch(row);
       }
-    }
-    if (std::chrono::duration<double>(now - last_tick).count() >= 0.5) {
-      last_tick = now;
-      std::vector<ActiveRun> active;
-      std::map<std::string, json> progress;
-      for (const auto& [id, slot] : slots) {
-        ActiveRun a;
-        a.run_id = id;
-        a.point = slot.row.point.dump();
-        a.attempt = slot.row.attempts;
-        a.elapsed = std::chrono::duration<double>(now - slot.started).count();
-        if (auto q = queue_state.find(id); q != queue_state.end()) a.queue_state = q->second;
-        // A queued run's directory is not read until its task runs (a shared file system).
-        if (EngineAtWork(a.queue_state)) {
-          if (const auto p = rundir::ReadProgress(slot.row.run_dir)) {
-            a.progress = p->ToJson();
-            progress[id] = a.progress;
+      bool nothing_left = !storage_full.empty();  // a full runs/ starts nothing more
+      while (!nothing_left && executor.can_start_more()) {
+        auto row = claim_next(store, me, now_seconds(), accept, skip);
+        if (!row) {
+          nothing_left = true;
+          break;
+        }
+        launch(*row);
+      }
+      submit_started();
+      if (options.detach && nothing_left && executor.outlives_runner()) {
+        detach(" run(s) in the queue; campaign status shows them, campaign scan or campaign run --executor slurm "
+               "collects them");
+        if (!storage_full.empty()) return ExitCode::kStorage;
+        return any_final_failure ? ExitCode::kRunsFailed : ExitCode::kOk;
+      }
+      if (nothing_left && executor.active() == 0 && (waiting.empty() || !storage_full.empty())) break;
+
+      for (const auto& f : executor.poll()) finished(f, false);
+      if (auto changes = executor.queue_changes(); !changes.empty()) {
+        std::map<std::string, std::string> states;
+        for (const auto& [id, place] : changes) {
+          auto slot = slots.find(id);
+          if (slot == slots.end() || slot->second.lease_lost) continue;
+          queue_state[id] = states[id] = place.state;
+          // A job found by its name after a runner died inside sbatch.
+          if (place.job_id != slot->second.row.job_id) {
+            record_job_id(store, place.script, place.job_id);
+            slot->second.row.job_id = place.job_id;
           }
         }
-        active.push_back(a);
+        record_job_states(store, states);
       }
-      observer.on_tick(active, done, failed, total);
-      if (std::chrono::duration<double>(now - last_heartbeat).count() >= options.heartbeat_interval) {
-        last_heartbeat = now;
-        heartbeat(store, me, now_seconds(), progress);
+
+      const double now = clock();
+      if (options.time_limit > 0 && !executor.limits_time()) {
+        for (auto& [id, slot] : slots) {
+          if (!slot.timed_out && !slot.lease_lost && now - slot.started > options.time_limit) {
+            slot.timed_out = true;
+            executor.stop(id, StopReason::kTimeLimit);
+          }
+        }
+      }
+      if (now - last_tick >= options.tick_interval) {
+        last_tick = now;
+        std::vector<ActiveRun> active;
+        std::map<std::string, json> progress;
+        for (const auto& [id, slot] : slots) {
+          ActiveRun a;
+          a.run_id = id;
+          a.point = slot.row.point.dump();
+          a.attempt = slot.row.attempts;
+          a.elapsed = now - slot.started;
+          if (auto q = queue_state.find(id); q != queue_state.end()) a.queue_state = q->second;
+          // A queued run's directory is not read until its task runs (a shared file system).
+          if (EngineAtWork(a.queue_state)) {
+            if (const auto p = rundir::ReadProgress(slot.row.run_dir)) {
+              a.progress = p->ToJson();
+              progress[id] = a.progress;
+            }
+          }
+          active.push_back(a);
+        }
+        observer.on_tick(active, done, failed, total);
+        if (now - last_heartbeat >= options.heartbeat_interval) {
+          last_heartbeat = now;
+          check_leases(progress);
+        }
+      }
+      if (options.poll_interval > 0) std::this_thread::sleep_for(std::chrono::duration<double>(options.poll_interval));
+    }
+  } catch (const StoreError& e) {
+    // The database cannot be written (full disk, read-only, busy past the timeout): nothing
+    // more can be recorded. The engines are stopped (they checkpoint); runs that cannot be
+    // marked interrupted stay `running` under this runner's lease, which the next
+    // `campaign run` recovers (this runner is gone by then). Jobs in a batch queue keep
+    // running: their runs stay queued under this runner's lease, and the next runner adopts
+    // them once it has expired.
+    if (executor.outlives_runner()) {
+      throw StoreError(e.code(), std::string(e.what()) + "\ncampaign run stopped watching its Slurm jobs (they keep running; "
+                                                         "the next campaign run or campaign scan collects them). Free space "
+                                                         "(or fix the database) and run campaign run again.");
+    }
+    executor.stop_all(StopReason::kInterrupt);
+    while (executor.active() > 0) {
+      for (const auto& f : executor.poll()) slots.erase(f.run_id);
+      if (executor.active() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    int unrecorded = 0;
+    std::vector<std::string> held;
+    try {
+      for (const auto& id : heartbeat(store, me, now_seconds(), {})) held.push_back(id);
+    } catch (const StoreError&) {
+      held.assign(1, "?");
+    }
+    for (const auto& id : held) {
+      try {
+        if (id == "?" || !record_end(store, id, me.id, "interrupted", "the database could not be written: " +
+                                                                   std::string(e.what()), now_seconds(), 0))
+          ++unrecorded;
+      } catch (const StoreError&) {
+        ++unrecorded;
       }
     }
-    std::this_thread::sleep_for(std::chrono::duration<double>(options.poll_interval));
+    throw StoreError(e.code(), std::string(e.what()) + "\ncampaign run stopped its engines (they continue from their checkpoints)" +
+                                   (unrecorded > 0 ? "; runs it could not mark interrupted show as running with their runner gone "
+                                                     "until the next campaign run recovers them"
+                                                   : "") +
+                                   ". Free space (or fix the database) and run campaign run again.");
+  }
+  if (!storage_full.empty()) {
+    for (const auto& [id, row] : waiting) end_run(id, "interrupted", storage_full, 0);
+    observer.on_event("", "stopped", storage_full + ": no more runs started; the interrupted ones continue from their "
+                                     "checkpoints once there is room (campaign run again)");
+    observer.on_end(done, failed, total);
+    return ExitCode::kStorage;
   }
   observer.on_end(done, failed, total);
   return any_final_failure ? ExitCode::kRunsFailed : ExitCode::kOk;

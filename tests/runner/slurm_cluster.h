@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "test_util.h"  // WaitFor
+
 namespace granary::runner::testing {
 
 class SlurmCluster {
@@ -43,21 +45,5 @@ class SlurmCluster {
   std::vector<pid_t> daemons_;  // munged, slurmctld, slurmd: stopped in reverse order
 };
 
-// Polls `condition` every 50 ms until it holds or `seconds` have passed; returns whether it held.
-template <class Condition>
-bool WaitFor(Condition condition, double seconds);
-
 }  // namespace granary::runner::testing
 
-#include <chrono>
-#include <thread>
-
-template <class Condition>
-bool granary::runner::testing::WaitFor(Condition condition, double seconds) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  while (true) {
-    if (condition()) return true;
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-}

@@ -11,7 +11,6 @@
 
 #include "rundir/layout.h"
 #include "runner/slurm_executor.h"
-#include "slurm_cluster.h"  // WaitFor
 #include "test_util.h"
 
 namespace granary::runner {
