@@ -4,11 +4,14 @@
 // to a runner that adopts them without starting anything, and --detach submits and returns.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <csignal>
+#include <memory>
 #include <filesystem>
 #include <map>
 #include <set>
 
+#include "rundir/files.h"
 #include "rundir/run_directory.h"
 #include "rundir/summary.h"
 #include "runner/campaign_db.h"
@@ -35,6 +38,8 @@ class NullObserver : public RunObserver {
 class FakeQueue : public Executor {
  public:
   std::function<void()> before_submit;  // runs inside submit(), before any job "exists"
+  std::function<void()> on_poll;        // runs at the start of every poll()
+  std::map<std::string, int> exit_once;  // runs whose next job ends with this engine exit status
   std::set<std::string> finish;         // runs whose jobs end at the next poll, done
   std::vector<std::string> started, attached;
   int submissions = 0;
@@ -76,8 +81,19 @@ class FakeQueue : public Executor {
     return l.place;
   }
   std::vector<Finished> poll() override {
-    std::vector<Finished> out;
+    if (on_poll) on_poll();
+    std::vector<Finished> out = std::move(ready_);
+    ready_.clear();
     for (auto it = queued_.begin(); it != queued_.end();) {
+      if (auto e = exit_once.find(it->first); e != exit_once.end()) {
+        Finished f;
+        f.run_id = it->first;
+        f.exit_code = e->second;
+        out.push_back(f);
+        exit_once.erase(e);
+        it = queued_.erase(it);
+        continue;
+      }
       if (!finish.count(it->first)) {
         ++it;
         continue;
@@ -95,9 +111,18 @@ class FakeQueue : public Executor {
     }
     return out;
   }
-  void stop(const std::string&, StopReason) override {}
+  // As the Slurm executor: a run another runner watches now is let go (its job runs on).
+  void stop(const std::string& id, StopReason reason) override {
+    if (reason != StopReason::kLeaseLost || !queued_.erase(id)) return;
+    let_go.push_back(id);
+    Finished f;
+    f.run_id = id;
+    f.signal = 15;
+    ready_.push_back(f);
+  }
   void stop_all(StopReason) override {}
-  std::size_t active() const override { return pending_.size() + queued_.size(); }
+  std::size_t active() const override { return pending_.size() + queued_.size() + ready_.size(); }
+  std::vector<std::string> let_go;
   bool outlives_runner() const override { return true; }
   bool limits_time() const override { return true; }
 
@@ -105,6 +130,7 @@ class FakeQueue : public Executor {
   std::vector<Launch> pending_;
   std::vector<JobArray> placed_;
   std::map<std::string, Launch> queued_;
+  std::vector<Finished> ready_;
   int arrays_ = 0;
 };
 
@@ -177,6 +203,95 @@ TEST_F(BatchSchedulerTest, AnInterruptedRunnerDetachesAndTheNextOneAdoptsWithout
   for (const auto& [id, r] : Rows()) {
     EXPECT_EQ(r.state, "done");
     EXPECT_EQ(r.attempts, 1);
+  }
+}
+
+// Issue 13's guarantee with a batch queue: a runner stalled past its lease, whose queued runs
+// another runner adopted, lets their jobs go and records nothing, not even the results its
+// jobs left; the adopter records them.
+TEST_F(BatchSchedulerTest, ARunnerThatLostItsLeaseLetsTheJobsGoAndRecordsNothing) {
+  const Holder stalled{"elsewhere:5:0", "elsewhere", 5};
+  const Holder me = this_process_holder();
+  const Holder adopter{me.host + ":999999999:0", me.host, 999999999};  // dead by the time we look
+  options_.holder = stalled;
+  options_.tick_interval = 0;
+  options_.heartbeat_interval = 0;
+  FakeQueue queue;
+  bool taken = false;
+  queue.on_poll = [&] {
+    if (taken || Rows().begin()->second.job_id.empty()) return;
+    taken = true;
+    // The stalled runner's lease has expired: the adopter takes its queued runs, and the
+    // jobs finish (DONE and summary.json in their directories).
+    ASSERT_EQ(adopt_queued_runs(*store_, adopter, now_seconds() + lease_stale_seconds() + 1).size(), 3u);
+    for (const auto& [id, r] : Rows()) {
+      fs::create_directories(r.run_dir);
+      rundir::Summary summary;
+      summary.engine = "fake";
+      summary.run_id = id;
+      summary.end_reason = "discharged";
+      rundir::WriteSummary(r.run_dir, summary);
+      rundir::WriteDone(r.run_dir, "discharged");
+    }
+  };
+  // At its next heartbeat the stalled runner finds that it holds nothing.
+  EXPECT_EQ(run_campaign(*store_, options_, queue, observer_, nullptr), ExitCode::kOk);
+  EXPECT_TRUE(taken);
+  EXPECT_EQ(queue.let_go.size(), 3u);  // let go, not cancelled: the adopter watches the jobs
+  for (const auto& [id, r] : Rows()) {
+    EXPECT_EQ(r.state, "running") << id;  // nothing recorded by the stalled runner
+    EXPECT_EQ(r.lease_holder, adopter.id);
+    EXPECT_TRUE(r.queued());
+  }
+  EXPECT_EQ(std::count(observer_.events.begin(), observer_.events.end(), "lease lost"), 3);
+  // A later runner (the adopter is gone) attaches and ingests, starting nothing.
+  options_.holder.reset();
+  FakeQueue next;
+  for (const auto& [id, r] : Rows()) next.finish.insert(id);
+  EXPECT_EQ(run_campaign(*store_, options_, next, observer_, nullptr), ExitCode::kOk);
+  EXPECT_TRUE(next.started.empty());
+  for (const auto& [id, r] : Rows()) {
+    EXPECT_EQ(r.state, "done") << id;
+    EXPECT_EQ(r.attempts, 1);
+  }
+}
+
+// A task whose engine found its run directory locked by another engine (engine.lock; exit
+// 75) touched nothing: the run waits while the lock is held and is queued again once it is
+// free, never marked failed.
+TEST_F(BatchSchedulerTest, ATaskThatFoundItsDirectoryLockedIsQueuedAgainOnceFree) {
+  const std::string busy_run = Rows().begin()->first;
+  const fs::path busy_dir = Rows().begin()->second.run_dir;
+  fs::create_directories(busy_dir);
+  std::unique_ptr<RunDirectoryLock> lock;
+  FakeQueue queue;
+  // Another engine (a stray task of an earlier attempt) takes the directory once the run is
+  // queued: the run's own task finds it locked.
+  queue.before_submit = [&] {
+    if (queue.submissions == 0) lock = std::make_unique<RunDirectoryLock>(busy_dir);
+  };
+  queue.exit_once[busy_run] = kExitRunDirectoryBusy;
+  int polls_while_waiting = 0;
+  queue.on_poll = [&] {
+    for (const auto& [id, r] : Rows()) {
+      if (id != busy_run) queue.finish.insert(id);
+    }
+    if (!queue.exit_once.empty() || !lock) return;
+    // Its task has ended busy: while the lock is held, it is not queued again.
+    EXPECT_EQ(std::count(queue.started.begin(), queue.started.end(), busy_run), 1);
+    EXPECT_EQ(Rows()[busy_run].state, "running");  // claimed, waiting; not failed
+    if (++polls_while_waiting == 3) {
+      lock.reset();  // the other engine ends
+      queue.finish.insert(busy_run);
+    }
+  };
+  EXPECT_EQ(run_campaign(*store_, options_, queue, observer_, nullptr), ExitCode::kOk);
+  EXPECT_EQ(polls_while_waiting, 3);
+  EXPECT_EQ(std::count(queue.started.begin(), queue.started.end(), busy_run), 2);  // queued again once the lock was free
+  EXPECT_EQ(queue.started.size(), 4u);
+  for (const auto& [id, r] : Rows()) {
+    EXPECT_EQ(r.state, "done") << id;
+    EXPECT_EQ(r.attempts, 1) << id;
   }
 }
 

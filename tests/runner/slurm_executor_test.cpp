@@ -9,7 +9,9 @@
 #include <filesystem>
 #include <fstream>
 
+#include "rundir/files.h"
 #include "rundir/layout.h"
+#include "runner/scheduler.h"
 #include "runner/slurm_executor.h"
 #include "test_util.h"
 
@@ -132,6 +134,13 @@ TEST(SlurmTaskEnd, EveryVerdictFromTheStateAndTheRunDirectory) {
   EXPECT_EQ(f.exit_code, 3);
   EXPECT_EQ(f.how, "Slurm task 7_2 FAILED: engine exited with status 3");
   EXPECT_EQ(f.wall_s, 10);
+  // Its engine found the directory locked by another engine (engine.lock): it touched
+  // nothing, and the run is queued again once the lock is free, not failed.
+  record("7_2", R"(, "exit_code": 75, "ended_at": 101)");
+  f = end("FAILED");
+  EXPECT_EQ(f.exit_code, kExitRunDirectoryBusy);
+  EXPECT_EQ(f.signal, 0);
+  EXPECT_EQ(end_state_of(f, false, 0, (dir / "engine.log").string()).first, "interrupted");
   record("7_2", R"(, "exit_code": 124, "ended_at": 160)");
   f = end("FAILED", 60);
   EXPECT_TRUE(f.timed_out);
