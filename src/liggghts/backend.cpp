@@ -110,16 +110,34 @@ LiggghtsRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir
   std::vector<std::string> liggghts = {exe};
   if (!helper.empty()) liggghts = {helper, "exec-helper", dir.string(), exe};
   if (threads > 1) {
-    program = bp::search_path("mpirun").string();
-    if (program.empty()) throw LiggghtsError("--threads " + std::to_string(threads) + " needs mpirun (Debian package openmpi-bin)");
-    if (geteuid() == 0) args.push_back("--allow-run-as-root");
-    args.insert(args.end(), {"-np", std::to_string(threads)});
+    // $GRANARY_MPI_LAUNCHER (e.g. "srun --mpi=pmix" inside a Slurm task), else mpirun.
+    std::vector<std::string> launcher;
+    std::istringstream words(std::getenv("GRANARY_MPI_LAUNCHER") ? std::getenv("GRANARY_MPI_LAUNCHER") : "");
+    for (std::string w; words >> w;) launcher.push_back(w);
+    if (launcher.empty()) launcher = {"mpirun"};
+    program = bp::search_path(launcher[0]).string();
+    if (program.empty()) {
+      throw LiggghtsError("--threads " + std::to_string(threads) + " needs " + launcher[0] +
+                          (launcher[0] == "mpirun" ? " (Debian package openmpi-bin)" : " (from GRANARY_MPI_LAUNCHER)"));
+    }
+    args.assign(launcher.begin() + 1, launcher.end());
+    if (fs::path(program).filename() == "srun") {
+      args.push_back("--ntasks=" + std::to_string(threads));
+    } else {
+      if (geteuid() == 0 && fs::path(program).filename() == "mpirun") args.push_back("--allow-run-as-root");
+      args.insert(args.end(), {"-np", std::to_string(threads)});
+    }
     args.insert(args.end(), liggghts.begin(), liggghts.end());
   } else {
     program = liggghts[0];
     args.insert(args.end(), liggghts.begin() + 1, liggghts.end());
   }
   args.insert(args.end(), {"-in", input, "-log", log, "-echo", "none"});
+  if (threads > 1) {
+    std::string line = program;
+    for (const auto& a : args) line += " " + a;
+    std::cout << "granary-liggghts: " << line << std::endl;
+  }
   bp::pipe out;
   std::error_code ec;
   bp::child child(bp::exe = program, bp::args = args, bp::start_dir = dir.string(), bp::std_in < bp::null,
@@ -634,7 +652,7 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
     // Copy to temporary names, then rename: a reader never sees half a bed.
     for (const char* ext : {".restart", ".dump"}) {
       fs::copy_file(dir / (std::string("bed") + ext), cache_dir / (stem + ext + ".tmp"), fs::copy_options::overwrite_existing);
-      fs::rename(cache_dir / (stem + ext + ".tmp"), cache_dir / (stem + ext));
+      ReplaceAtomically(cache_dir / (stem + ext + ".tmp"), cache_dir / (stem + ext));
     }
     WriteAtomically(cache_dir / (stem + ".json"), json{{"format", "granary-liggghts-bed"},
                                                         {"version", kCachedBedVersion},

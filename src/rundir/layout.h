@@ -17,6 +17,7 @@ inline constexpr char kContactsGzFile[] = "contacts.dump.gz";  // the same, gzip
 inline constexpr char kSiloFile[] = "silo.vtk";               // engine: walls, outlets, obstacles (OVITO)
 inline constexpr char kSummaryFile[] = "summary.json";    // engine: what happened
 inline constexpr char kDoneFile[] = "DONE";               // engine, last: every other file is complete
+inline constexpr char kSlurmTaskFile[] = "slurm-task.json";  // Slurm batch script: its task, start, exit status
 
 // A run-directory file that is missing, malformed or truncated where it must not be; the
 // message names the file (and the line, for text files).

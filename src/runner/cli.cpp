@@ -16,9 +16,13 @@
 #include <sstream>
 #include <thread>
 
+#include "rundir/progress.h"
 #include "runner/campaign_db.h"
 #include "runner/campaign_spec.h"
+#include "runner/scan.h"
 #include "runner/scheduler.h"
+#include "runner/slurm.h"
+#include "runner/slurm_executor.h"
 #include "runner/util.h"
 #ifdef GRANARY_HAVE_ANALYSIS
 #include "analysis/export.h"
@@ -45,7 +49,8 @@ class UsageError : public std::runtime_error {
 // Parsed flags of one verb: --name value, --name=value, or --name for booleans.
 struct Args {
   std::vector<std::string> positional;
-  std::map<std::string, std::string> flags;
+  std::map<std::string, std::string> flags;              // the last value of each flag
+  std::map<std::string, std::vector<std::string>> all;   // every value of a repeated flag
   bool has(const std::string& f) const { return flags.count(f) > 0; }
   std::string get(const std::string& f, const std::string& def) const {
     auto it = flags.find(f);
@@ -106,6 +111,7 @@ Args Parse(const std::vector<std::string>& argv, const std::vector<FlagSpec>& kn
       value = argv[++i];
     }
     a.flags[name] = value;
+    a.all[name].push_back(value);
   }
   return a;
 }
@@ -273,6 +279,8 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
 const char kRunHelp[] =
     "usage: campaign run [--db FILE] [--jobs N] [--engine E] [--only FILTER] [--threads-per-run T]\n"
     "                    [--time-limit S] [--retries K] [--rerun-lost]\n"
+    "       campaign run --executor slurm [--partition P] [--time T] [--cpus-per-run C] [--array-max K]\n"
+    "                    [--account A] [--sbatch-arg ARG]... [--poll-interval S] [--dry-run] [--detach] ...\n"
     "Run every planned, interrupted or failed run, N at a time, each as an engine subprocess on\n"
     "its run directory. Safe to repeat after a crash or kill: done runs are kept, interrupted ones\n"
     "continue from their checkpoint, and two runners on one database never run the same run.\n"
@@ -280,11 +288,23 @@ const char kRunHelp[] =
     "  --engine E           native | liggghts: only runs of that engine; a path: use that executable\n"
     "  --only FILTER        a run-id prefix, or POINTER=VALUE, e.g. /silo/base_outlets/0/width=10\n"
     "  --threads-per-run T  passed to the engine as --threads (default 1)\n"
-    "  --time-limit S       wall seconds per run; a run over it is killed and marked failed\n"
+    "  --time-limit S       wall seconds per run; a run over it is stopped and marked failed\n"
     "  --retries K          extra attempts per run in this invocation (default 1)\n"
     "  --rerun-lost         run again the done runs whose run directory was deleted\n"
-    "Exit: 0 all ran, 1 some runs failed, 2 usage error, 3 storage error (database or run\n"
-    "directories: full disk, unwritable), 130 interrupted (Ctrl-C / SIGTERM).\n";
+    "Slurm (docs/slurm.md; defaults from the spec's \"executor\" block):\n"
+    "  --executor E         local (default) or slurm: submit the runs as job arrays and watch them\n"
+    "  --partition P, --account A, --time T   sbatch's (T in Slurm's format, e.g. 4:00:00; default\n"
+    "                       from --time-limit, which counts from each task's start)\n"
+    "  --cpus-per-run C     cores per run: native threads, or LIGGGHTS MPI ranks (srun) (default 1)\n"
+    "  --array-max K        at most K tasks of the campaign at once (%K; default: no limit)\n"
+    "  --sbatch-arg ARG     one more sbatch option, e.g. --sbatch-arg=--qos=long (repeatable)\n"
+    "  --poll-interval S    seconds between squeue calls at first, backing off to 12 S (default 5)\n"
+    "  --dry-run            print the manifests and batch scripts; submit nothing\n"
+    "  --detach             submit and exit; campaign status, campaign scan and a later campaign run\n"
+    "                       --executor slurm follow the jobs\n"
+    "Exit: 0 all ran (or submitted, with --detach), 1 some runs failed, 2 usage error, 3 storage\n"
+    "error (database or run directories: full disk, unwritable), 130 interrupted (Ctrl-C / SIGTERM;\n"
+    "Slurm jobs keep running).\n";
 
 volatile std::sig_atomic_t g_stop = 0;
 extern "C" void RunnerOnStopSignal(int) { g_stop = 1; }
@@ -330,8 +350,10 @@ class ConsoleObserver : public RunObserver {
       Draw();
     } else if (elapsed - last_plain_ >= 10.0) {
       last_plain_ = elapsed;
-      out_ << "progress " << done << "/" << total << " done, " << failed << " failed, " << active.size()
-           << " running, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed) << "\n";
+      const int queued = Queued(active);
+      out_ << "progress " << done << "/" << total << " done, " << failed << " failed, " << active.size() - queued
+           << " running" << (queued > 0 ? ", " + std::to_string(queued) + " queued" : "") << ", elapsed "
+           << Duration(elapsed) << ", ETA " << Eta(elapsed) << "\n";
       out_.flush();
     }
   }
@@ -355,13 +377,25 @@ class ConsoleObserver : public RunObserver {
     out_ << "\033[" << lines_ << "A\033[J";
     lines_ = 0;
   }
+  static bool IsQueued(const ActiveRun& a) {
+    return !a.queue_state.empty() && fate_of(a.queue_state) != TaskFate::kRunning;
+  }
+  static int Queued(const std::vector<ActiveRun>& active) {
+    return static_cast<int>(std::count_if(active.begin(), active.end(), IsQueued));
+  }
   void Draw() {
     if (!tty_ || total_ == 0) return;
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
     out_ << Bar(static_cast<double>(done_) / total_, 30) << " " << done_ << "/" << total_ << " done, " << failed_
          << " failed, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed) << "\n";
     ++lines_;
+    // Runs waiting in a batch queue get one line for all of them.
+    if (const int queued = Queued(active_); queued > 0) {
+      out_ << "  " << queued << " queued (Slurm)\n";
+      ++lines_;
+    }
     for (const auto& a : active_) {
+      if (IsQueued(a)) continue;
       double f = 0;
       std::string phase = "starting";
       std::string eta = "?";
@@ -391,7 +425,7 @@ std::string ExeDir() {
   return ec ? "." : self.parent_path().string();
 }
 
-int RunAll(const std::string& db, const RunOptions& o, std::ostream& out);
+int RunAll(const std::string& db, const RunOptions& o, std::ostream& out, const SlurmSettings* slurm = nullptr);
 
 // The flags `run` and `compare` share: --jobs, --threads-per-run, --time-limit, --retries.
 RunOptions RunOptionsFrom(const Args& a) {
@@ -406,10 +440,67 @@ RunOptions RunOptionsFrom(const Args& a) {
   return o;
 }
 
+// The executor `campaign run` uses: --executor, else the spec's "executor" block, else local;
+// Slurm's options from the block, then the flags.
+struct ExecutorChoice {
+  bool slurm = false;
+  SlurmSettings settings;
+};
+
+ExecutorChoice ChooseExecutor(const Args& a, const json& spec, const std::string& db, const RunOptions& o) {
+  ExecutorChoice c;
+  std::string type = "local";
+  if (spec.is_object() && spec.contains("executor")) type = parse_executor_block(spec["executor"], "/executor", c.settings.options);
+  if (a.has("executor")) {
+    type = a.get("executor", "");
+    if (type != "local" && type != "slurm") throw UsageError("--executor: must be local or slurm (got \"" + type + "\")");
+  }
+  c.slurm = type == "slurm";
+  const std::vector<std::string> slurm_only = {"partition", "time", "cpus-per-run", "array-max", "account", "sbatch-arg",
+                                               "poll-interval", "dry-run", "detach"};
+  if (!c.slurm) {
+    for (const auto& f : slurm_only) {
+      if (a.has(f)) throw UsageError("--" + f + ": only with --executor slurm (or a spec whose executor is slurm)");
+    }
+    return c;
+  }
+  if (a.has("jobs")) throw UsageError("--jobs: not with --executor slurm (the queue runs them; --array-max K throttles)");
+  if (a.has("threads-per-run")) throw UsageError("--threads-per-run: not with --executor slurm (use --cpus-per-run)");
+  SlurmOptions& so = c.settings.options;
+  if (a.has("partition")) so.partition = a.get("partition", "");
+  if (a.has("account")) so.account = a.get("account", "");
+  if (a.has("time")) {
+    so.time = a.get("time", "");
+    if (!is_slurm_time(so.time)) {
+      throw UsageError("--time: must be a Slurm time such as 30, 4:00:00 or 1-12:00:00 (got \"" + so.time + "\")");
+    }
+  }
+  so.cpus_per_run = a.integer("cpus-per-run", so.cpus_per_run, 1);
+  so.array_max = a.integer("array-max", so.array_max, 0);
+  so.poll_interval = a.number("poll-interval", so.poll_interval);
+  if (!(so.poll_interval > 0)) throw UsageError("--poll-interval: must be > 0 (got \"" + a.get("poll-interval", "") + "\")");
+  if (a.all.count("sbatch-arg")) {
+    so.sbatch_args.clear();
+    for (const auto& arg : a.all.at("sbatch-arg")) {
+      if (arg.rfind("-", 0) != 0 || arg.find_first_of("\n\r") != std::string::npos) {
+        throw UsageError("--sbatch-arg: must be one sbatch option such as --sbatch-arg=--qos=long (got \"" + arg + "\")");
+      }
+      so.sbatch_args.push_back(arg);
+    }
+  }
+  c.settings.root = (DbDir(db) / "slurm").string();
+  c.settings.time_limit = o.time_limit;
+  return c;
+}
+
+int DryRun(const std::string& db, const RunOptions& o, ExecutorChoice& c, std::ostream& out);
+
 int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv,
                        {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true},
-                        {"time-limit", true}, {"retries", true}, {"rerun-lost", false}, {"help", false}},
+                        {"time-limit", true}, {"retries", true}, {"rerun-lost", false}, {"executor", true}, {"partition", true}, {"time", true},
+                        {"cpus-per-run", true}, {"array-max", true}, {"account", true}, {"sbatch-arg", true},
+                        {"poll-interval", true}, {"dry-run", false}, {"detach", false}, {"help", false}},
                        "run");
   if (!a.positional.empty()) throw UsageError("campaign run: unexpected argument \"" + a.positional[0] + "\"");
   RunOptions o = RunOptionsFrom(a);
@@ -418,8 +509,23 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
     throw UsageError("--engine: must be native, liggghts or a path to an engine executable (got \"" + o.engine + "\")");
   }
   o.only = a.get("only", "");
+  const std::string db = DbPath(a);
+  json spec;
+  std::string name;
+  {
+    const auto opened = OpenCampaignDb(db, "run");
+    const auto campaign = load_campaign(*opened);
+    if (!campaign) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
+    spec = campaign->spec;
+    name = campaign->name;
+  }
+  ExecutorChoice c = ChooseExecutor(a, spec, db, o);
+  c.settings.campaign = name;
+  if (c.slurm) o.threads_per_run = c.settings.options.cpus_per_run;
+  o.detach = a.has("detach");
   o.rerun_lost = a.has("rerun-lost");
-  return RunAll(DbPath(a), o, out);
+  if (a.has("dry-run")) return DryRun(db, o, c, out);
+  return RunAll(db, o, out, c.slurm ? &c.settings : nullptr);
 }
 
 // --only must select something: a typo or a value not in the sweep is an error, not a run
@@ -453,8 +559,58 @@ void CheckOnlyFilter(Store& store, const CampaignRow& campaign, const std::strin
   throw UsageError("--only: no run has " + pointer + " = " + filter.substr(eq + 1) + " (its values: " + list + ")");
 }
 
-// Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly.
-int RunAll(const std::string& db, const RunOptions& o, std::ostream& out) {
+// The arrays and scripts `campaign run --executor slurm` would submit; nothing is written.
+int DryRun(const std::string& db, const RunOptions& o, ExecutorChoice& c, std::ostream& out) {
+  const auto opened = OpenCampaignDb(db, "run");
+  Store& store = *opened;
+  if (const auto campaign = load_campaign(store); campaign && !o.only.empty()) CheckOnlyFilter(store, *campaign, o.only);
+  std::string size_note;
+  try {
+    c.settings.max_array_size = query_max_array_size();
+  } catch (const std::exception& e) {
+    c.settings.max_array_size = 1001;
+    size_note = " (Slurm's default; " + std::string(e.what()) + ")";
+  }
+  std::vector<Launch> launches;
+  for (const auto& r : load_runs(store, true)) {
+    if (r.state != "planned" && r.state != "interrupted" && r.state != "failed") continue;
+    if ((o.engine == "native" || o.engine == "liggghts") && r.engine != o.engine) continue;
+    if (!matches_filter(r, o.only)) continue;
+    Launch l;
+    l.run_id = r.run_id;
+    l.argv = {o.engine.find('/') != std::string::npos
+                  ? o.engine
+                  : (fs::path(o.exe_dir) / (r.engine == "liggghts" ? "granary-liggghts" : "granary-engine")).string()};
+    l.engine = r.engine;
+    l.run_dir = r.run_dir;
+    l.place = QueuePlace{r.job_dir, r.job_script, r.job_name, r.job_index, r.job_id, r.job_state};
+    launches.push_back(l);
+  }
+  const auto arrays = plan_slurm_arrays(launches, c.settings);
+  out << "campaign run --executor slurm --dry-run: " << launches.size() << " runs in " << arrays.size()
+      << " array(s); MaxArraySize " << c.settings.max_array_size << size_note << "; nothing is submitted\n";
+  for (const auto& p : arrays) {
+    out << "\n== " << p.sbatch << "\n";
+    if (p.manifest.empty()) {
+      out << "-- resubmits indices " << p.array.array << " of " << (fs::path(p.array.dir) / "manifest.tsv").string() << "\n";
+    } else {
+      out << "-- " << (fs::path(p.array.dir) / "manifest.tsv").string() << " (" << p.array.runs.size() << " runs)\n";
+      std::istringstream lines(p.manifest);
+      std::string line;
+      int shown = 0;
+      while (std::getline(lines, line)) {
+        if (++shown <= 11) out << line << "\n";
+      }
+      if (shown > 11) out << "... (" << shown - 11 << " more)\n";
+    }
+    out << "-- " << p.array.script << "\n" << p.script;
+  }
+  return 0;
+}
+
+// Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly. With
+// `slurm`, the runs go to Slurm.
+int RunAll(const std::string& db, const RunOptions& o, std::ostream& out, const SlurmSettings* slurm) {
   const auto opened = OpenCampaignDb(db, "run");
   Store& store = *opened;
   const auto campaign = load_campaign(store);
@@ -468,7 +624,7 @@ int RunAll(const std::string& db, const RunOptions& o, std::ostream& out) {
   sigaction(SIGINT, &sa, &old_int);
   sigaction(SIGTERM, &sa, &old_term);
   g_stop = 0;
-  auto executor = make_local_executor(o.jobs);
+  auto executor = slurm ? make_slurm_executor(*slurm) : make_local_executor(o.jobs);
   ConsoleObserver observer(out, &out == &std::cout && isatty(STDOUT_FILENO));
   ExitCode code;
   try {
@@ -488,7 +644,52 @@ const char kStatusHelp[] =
     "usage: campaign status [--db FILE] [--json]\n"
     "Counts by state, progress of running runs, failures with the tail of their log, elapsed\n"
     "time and ETA; how many finished runs have their metrics in the database (with --json,\n"
-    "every stored metric of every run).\n";
+    "every stored metric of every run). Runs in a Slurm queue: pending and running per array,\n"
+    "asked from squeue (one call), or as last seen when squeue cannot answer.\n";
+
+// Runs in a batch queue, per array job: their queue states, live from squeue when it answers.
+struct QueueView {
+  bool any = false;
+  bool live = false;
+  std::string error;
+  std::map<std::string, std::string> state_by_run;  // live or last seen; "" = left the queue
+  struct Array {
+    std::string job_id, name, script;
+    std::map<std::string, int> states;
+  };
+  std::vector<Array> arrays;
+};
+
+QueueView ViewQueue(const std::vector<RunRow>& runs) {
+  QueueView v;
+  std::set<std::string> ids;
+  for (const auto& r : runs) {
+    if (!r.queued()) continue;
+    v.any = true;
+    v.state_by_run[r.run_id] = r.job_state;
+    if (!r.job_id.empty()) ids.insert(r.job_id);
+  }
+  if (!v.any) return v;
+  if (const auto entries = query_queue(ids, &v.error)) {
+    v.live = true;
+    std::map<std::pair<std::string, int>, std::string> live;
+    for (const auto& e : *entries) live[{e.job_id, e.task}] = e.state;
+    for (const auto& r : runs) {
+      if (!r.queued()) continue;
+      const auto it = live.find({r.job_id, r.job_index});
+      v.state_by_run[r.run_id] = it == live.end() ? "" : it->second;
+    }
+  }
+  std::map<std::string, std::size_t> index;  // script -> position in arrays
+  for (const auto& r : runs) {
+    if (!r.queued()) continue;
+    auto [it, fresh] = index.emplace(r.job_script, v.arrays.size());
+    if (fresh) v.arrays.push_back({r.job_id, r.job_name, r.job_script, {}});
+    const std::string& state = v.state_by_run[r.run_id];
+    ++v.arrays[it->second].states[state.empty() ? "left the queue" : state];
+  }
+  return v;
+}
 
 int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, {{"db", true}, {"json", false}, {"help", false}}, "status");
@@ -498,6 +699,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   const auto campaign = load_campaign(store);
   const auto runs = load_runs(store, false);
   const auto metrics = load_metrics(store);
+  const QueueView queue = ViewQueue(runs);
   std::map<std::string, int> counts = {{"planned", 0}, {"running", 0}, {"done", 0},
                                        {"failed", 0},  {"interrupted", 0}, {"retired", 0}};
   double first_start = 0, last_end = 0, wall_sum = 0, remaining_work = 0;
@@ -542,23 +744,44 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
         j["metrics"] = m;
       }
       if (r.state == "done" && !fs::exists(r.run_dir)) j["run_dir_missing"] = true;
+      if (r.job_array != 0) j["job"] = r.job_id.empty() ? json(nullptr) : json(r.job_id + "_" + std::to_string(r.job_index));
+      if (r.queued()) j["queue_state"] = queue.state_by_run.at(r.run_id);
       list.push_back(j);
     }
-    out << json{{"campaign", campaign ? campaign->name : ""},
+    json doc = {{"campaign", campaign ? campaign->name : ""},
                 {"total", runs.size() - static_cast<std::size_t>(counts["retired"])},
                 {"counts", counts},
                 {"lost", lost},
                 {"elapsed_s", elapsed},
                 {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
-                {"runs", list}}
-               .dump(2)
-        << "\n";
+                {"runs", list}};
+    if (queue.any) {
+      json arrays = json::array();
+      for (const auto& q : queue.arrays) {
+        arrays.push_back({{"job_id", q.job_id}, {"name", q.name}, {"script", q.script}, {"states", q.states}});
+      }
+      doc["queue"] = {{"live", queue.live}, {"arrays", arrays}};
+      if (!queue.live) doc["queue"]["error"] = queue.error;
+    }
+    out << doc.dump(2) << "\n";
     return 0;
   }
   out << "campaign " << (campaign ? campaign->name : "?") << ": " << runs.size() - static_cast<std::size_t>(counts["retired"])
       << " runs (" << db << ")\n ";
   for (const auto& [state, n] : counts) out << " " << state << " " << n;
   out << "\n  elapsed " << Duration(elapsed) << ", ETA " << (eta >= 0 ? Duration(eta) : "?") << "\n";
+  if (queue.any) {
+    out << "Slurm queue (" << (queue.live ? "live" : "as last seen; squeue: " + queue.error) << "):\n";
+    for (const auto& q : queue.arrays) {
+      out << "  array " << (q.job_id.empty() ? "?" : q.job_id) << " " << q.name << ":";
+      std::string sep = " ";
+      for (const auto& [state, n] : q.states) {
+        out << sep << n << " " << state;
+        sep = ", ";
+      }
+      out << "\n";
+    }
+  }
   if (lost > 0) {
     out << "lost: " << lost << " done run(s) have no run directory (deleted after they finished); their results "
         << "are in the database only (campaign run --rerun-lost runs them again):\n";
@@ -573,17 +796,29 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   bool header = false;
   for (const auto& r : runs) {
     if (r.state != "running") continue;
+    // Queued runs not yet at work are counted per array above, not listed one by one.
+    if (r.queued() && fate_of(queue.state_by_run.at(r.run_id)) != TaskFate::kRunning) continue;
     if (!header) out << "running:\n";
     header = true;
     double f = 0;
     std::string phase = "starting";
-    if (r.progress.is_object()) {
-      f = r.progress.value("fraction", 0.0);
-      phase = r.progress.value("phase", std::string("?"));
+    // A task nobody watches (detached) has its progress only in its directory.
+    json progress = r.progress;
+    if (progress.is_null() && r.queued()) {
+      if (const auto p = rundir::ReadProgress(r.run_dir)) progress = p->ToJson();
+    }
+    if (progress.is_object()) {
+      f = progress.value("fraction", 0.0);
+      phase = progress.value("phase", std::string("?"));
     }
     out << "  " << r.run_id << " " << std::left << std::setw(9) << phase << Bar(f, 20) << " " << std::lround(f * 100)
         << "%  " << CompactPoint(r.point) << " r" << r.replica
-        << (lease_expired(r, this_process_holder().host, now) ? "  (runner gone: resumes on the next campaign run)" : "")
+        << (r.queued() ? "  Slurm " + r.job_id + "_" + std::to_string(r.job_index) +
+                             (r.lease_holder.empty() || lease_expired(r, this_process_holder().host, now)
+                                  ? " (no runner watching: campaign scan or campaign run --executor slurm)"
+                                  : "")
+                       : lease_expired(r, this_process_holder().host, now) ? "  (runner gone: resumes on the next campaign run)"
+                                                                            : "")
         << "\n";
   }
   header = false;
@@ -595,6 +830,54 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     std::istringstream lines(r.failure);
     std::string line;
     while (std::getline(lines, line)) out << "    | " << line << "\n";
+  }
+  return 0;
+}
+
+// ---------------------------------------------------------------- scan
+const char kScanHelp[] =
+    "usage: campaign scan [--db FILE] [--dry-run] [--json]\n"
+    "Rebuild every run's state from its run directory (DONE and summary.json: done, ingested), and\n"
+    "for runs in a Slurm queue from one squeue call (a task that left the queue ended as its\n"
+    "directory says). Safe at any time, also while jobs run; runs a live runner holds are\n"
+    "reported, not written. The way to collect a campaign submitted with --detach.\n"
+    "  --dry-run    show what would change, write nothing\n"
+    "  --json       {\"runs\", \"counts\", \"agrees\", \"changes\": [{\"run_id\", \"from\", \"to\", \"reason\", \"written\"}],\n"
+    "               \"lost\": [run ids of done runs whose directory was deleted]}\n"
+    "Exit: 0 (also when states changed), 2 usage error, 3 storage error (database unreadable or\n"
+    "unwritable).\n";
+
+int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}, "scan");
+  if (!a.positional.empty()) throw UsageError("campaign scan: unexpected argument \"" + a.positional[0] + "\"");
+  const std::string db = DbPath(a);
+  const auto opened = OpenCampaignDb(db, "scan");
+  Store& store = *opened;
+  if (!load_campaign(store)) throw UsageError("campaign scan: " + db + " holds no campaign");
+  const ScanReport r = scan_campaign(
+      store, [](const std::set<std::string>& ids, std::string* error) { return query_queue(ids, error); }, a.has("dry-run"));
+  if (a.has("json")) {
+    json changes = json::array();
+    for (const auto& c : r.changes) {
+      changes.push_back({{"run_id", c.run_id}, {"from", c.from}, {"to", c.to}, {"reason", c.reason}, {"written", c.written}});
+    }
+    json doc = {{"runs", r.runs}, {"counts", r.counts}, {"agrees", r.changes.empty()}, {"changes", changes}, {"lost", r.lost}};
+    if (!r.queue_error.empty()) doc["queue_error"] = r.queue_error;
+    out << doc.dump(2) << "\n";
+    return 0;
+  }
+  out << "campaign scan: " << r.runs << " runs;";
+  for (const auto& [state, n] : r.counts) out << " " << state << " " << n;
+  out << "\n";
+  if (!r.queue_error.empty()) out << "  squeue did not answer (" << r.queue_error << "): queued runs left as they were\n";
+  if (r.changes.empty()) out << "  the database agrees with the run directories\n";
+  if (!r.lost.empty()) {
+    out << "  " << r.lost.size() << " done run(s) have no run directory (first " << r.lost.front()
+        << "): left done, their results are in the database only (campaign run --rerun-lost runs them again)\n";
+  }
+  for (const auto& c : r.changes) {
+    out << "  " << c.run_id << "  " << c.from << " -> " << c.to << (c.written ? "" : a.has("dry-run") ? " (dry run)" : " (not written)")
+        << (c.reason.empty() ? "" : ": " + c.reason.substr(0, c.reason.find('\n'))) << "\n";
   }
   return 0;
 }
@@ -1032,6 +1315,7 @@ const std::vector<Verb>& Verbs() {
       {"plan", "expand a campaign spec into runs in the database", kPlanHelp, Plan},
       {"run", "run what is not done (resumable, leases, N at a time)", kRunHelp, Run},
       {"status", "counts, progress, failures, ETA", kStatusHelp, Status},
+      {"scan", "rebuild run states from the run directories (and the Slurm queue)", kScanHelp, Scan},
       {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report},
       {"export", "write every run's (or point's) metrics as one CSV or JSON table", kExportHelp, Export},
       {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare},
