@@ -108,6 +108,15 @@ std::pair<int, std::string> RunExeOutput(const std::string& args) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), out};
 }
 
+// The lines of `text` that start with `prefix`.
+std::vector<std::string> LinesStartingWith(const std::string& text, const std::string& prefix) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind(prefix, 0) == 0) lines.push_back(line);
+  return lines;
+}
+
 TEST(Run, SmallSiloDischargesAndItsExitCountGrows) {
   const fs::path dir = FreshDir("discharge");
   WriteSpec(dir, SmallSpec(10.0, 5.0));
@@ -428,18 +437,10 @@ TEST(Run, ExecutableReportsSpecErrorsAndHelp) {
 // per thread count the best and median rate (a tiny bed, so it takes about a second).
 TEST(Run, BenchRepeatsRoundsAndSummarises) {
   const fs::path dir = FreshDir("bench");
-  const std::string cmd = std::string(GRANARY_ENGINE_EXE) + " bench --bodies 200 --steps 20 --threads-list 1,2" +
-                          " --repeat 3 --bed " + (dir / "bed.json").string() + " 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  std::vector<std::string> rounds, summaries;
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p)) {
-    const std::string line = buf;
-    if (line.rfind("round=", 0) == 0) rounds.push_back(line);
-    if (line.rfind("summary ", 0) == 0) summaries.push_back(line);
-  }
-  ASSERT_EQ(WEXITSTATUS(::pclose(p)), 0);
+  const auto [status, out] =
+      RunExeOutput("bench --bodies 200 --steps 20 --threads-list 1,2 --repeat 3 --bed " + (dir / "bed.json").string());
+  ASSERT_EQ(status, 0) << out;
+  const std::vector<std::string> rounds = LinesStartingWith(out, "round="), summaries = LinesStartingWith(out, "summary ");
   ASSERT_EQ(rounds.size(), 6u);
   EXPECT_EQ(rounds[4].rfind("round=3 threads=1 ", 0), 0u) << rounds[4];
   ASSERT_EQ(summaries.size(), 2u);
@@ -455,18 +456,9 @@ TEST(Run, BenchRepeatsRoundsAndSummarises) {
 // bench --bed-prep: per replica a line at each bed time step, then per step a summary over
 // the replicas and the speed-up line (a bed of 60 discs, about a second).
 TEST(Run, BenchBedPrepComparesBothStepsPerReplica) {
-  const std::string cmd = std::string(GRANARY_ENGINE_EXE) +
-                          " bench --bed-prep --shape disc --bodies 60 --repeat 2 --threads-list 1 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  std::vector<std::string> rows, summaries;
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p)) {
-    const std::string line = buf;
-    if (line.rfind("seed=", 0) == 0) rows.push_back(line);
-    if (line.rfind("summary ", 0) == 0) summaries.push_back(line);
-  }
-  ASSERT_EQ(WEXITSTATUS(::pclose(p)), 0);
+  const auto [status, out] = RunExeOutput("bench --bed-prep --shape disc --bodies 60 --repeat 2 --threads-list 1");
+  ASSERT_EQ(status, 0) << out;
+  const std::vector<std::string> rows = LinesStartingWith(out, "seed="), summaries = LinesStartingWith(out, "summary ");
   ASSERT_EQ(rows.size(), 4u);
   EXPECT_EQ(rows[0].rfind("seed=1 step_factor=1 ", 0), 0u) << rows[0];
   EXPECT_EQ(rows[3].rfind("seed=2 step_factor=5 ", 0), 0u) << rows[3];
