@@ -108,6 +108,15 @@ std::pair<int, std::string> RunExeOutput(const std::string& args) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), out};
 }
 
+// The lines of `text` that start with `prefix`.
+std::vector<std::string> LinesStartingWith(const std::string& text, const std::string& prefix) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind(prefix, 0) == 0) lines.push_back(line);
+  return lines;
+}
+
 TEST(Run, SmallSiloDischargesAndItsExitCountGrows) {
   const fs::path dir = FreshDir("discharge");
   WriteSpec(dir, SmallSpec(10.0, 5.0));
@@ -428,18 +437,10 @@ TEST(Run, ExecutableReportsSpecErrorsAndHelp) {
 // per thread count the best and median rate (a tiny bed, so it takes about a second).
 TEST(Run, BenchRepeatsRoundsAndSummarises) {
   const fs::path dir = FreshDir("bench");
-  const std::string cmd = std::string(GRANARY_ENGINE_EXE) + " bench --bodies 200 --steps 20 --threads-list 1,2" +
-                          " --repeat 3 --bed " + (dir / "bed.json").string() + " 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  std::vector<std::string> rounds, summaries;
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p)) {
-    const std::string line = buf;
-    if (line.rfind("round=", 0) == 0) rounds.push_back(line);
-    if (line.rfind("summary ", 0) == 0) summaries.push_back(line);
-  }
-  ASSERT_EQ(WEXITSTATUS(::pclose(p)), 0);
+  const auto [status, out] =
+      RunExeOutput("bench --bodies 200 --steps 20 --threads-list 1,2 --repeat 3 --bed " + (dir / "bed.json").string());
+  ASSERT_EQ(status, 0) << out;
+  const std::vector<std::string> rounds = LinesStartingWith(out, "round="), summaries = LinesStartingWith(out, "summary ");
   ASSERT_EQ(rounds.size(), 6u);
   EXPECT_EQ(rounds[4].rfind("round=3 threads=1 ", 0), 0u) << rounds[4];
   ASSERT_EQ(summaries.size(), 2u);
@@ -450,6 +451,55 @@ TEST(Run, BenchRepeatsRoundsAndSummarises) {
     EXPECT_GE(best, median) << line;
   }
   EXPECT_NE(summaries[0].find("median_speedup=1.000"), std::string::npos) << summaries[0];
+}
+
+// bench --bed-prep: per replica a line at each bed time step, then per step a summary over
+// the replicas and the speed-up line (a bed of 60 discs, about a second).
+TEST(Run, BenchBedPrepComparesBothStepsPerReplica) {
+  const auto [status, out] = RunExeOutput("bench --bed-prep --shape disc --bodies 60 --repeat 2 --threads-list 1");
+  ASSERT_EQ(status, 0) << out;
+  const std::vector<std::string> rows = LinesStartingWith(out, "seed="), summaries = LinesStartingWith(out, "summary ");
+  ASSERT_EQ(rows.size(), 4u);
+  EXPECT_EQ(rows[0].rfind("seed=1 step_factor=1 ", 0), 0u) << rows[0];
+  EXPECT_EQ(rows[3].rfind("seed=2 step_factor=5 ", 0), 0u) << rows[3];
+  for (const std::string& line : rows) {
+    EXPECT_GT(std::stod(line.substr(line.find("wall_s=") + 7)), 0.0) << line;
+    EXPECT_GT(std::stod(line.substr(line.find("top=") + 4)), 0.5) << line;  // above the base
+  }
+  ASSERT_EQ(summaries.size(), 3u);
+  EXPECT_EQ(summaries[0].rfind("summary step_factor=1 replicas=2 ", 0), 0u) << summaries[0];
+  EXPECT_NE(summaries[2].find("speedup of the median wall time"), std::string::npos) << summaries[2];
+}
+
+// The bed measure of `bench --bed-prep` on a constructed bed: a square lattice of d = 1 discs
+// filling the 100 d silo, rows at y = 0, 1, ..., 20. Top and surface 20.5; the band [5, 15.5]
+// holds half of row 5 and rows 6..15 whole, so its packing fraction is that of the lattice,
+// pi / 4, only if the discs cut by the band count with their part inside.
+TEST(Run, BedMeasureOfASquareLattice) {
+  BenchOptions options;
+  options.shape = "disc";
+  options.bodies = 2100;
+  const RunSpec spec = RunSpec::from_json(BenchSpec(options));
+  BedState bed;
+  for (int row = 0; row <= 20; ++row)
+    for (int col = 0; col < 100; ++col) {
+      bed.species.push_back(0);
+      bed.x.push_back(-49.5 + col);
+      bed.y.push_back(row);
+      bed.theta.push_back(0.1 * col);
+    }
+  const BedShape shape = MeasureBed(bed, spec);
+  EXPECT_DOUBLE_EQ(shape.top, 20.5);
+  EXPECT_NEAR(shape.surface, 20.5, 1e-12);
+  EXPECT_NEAR(shape.phi, std::numbers::pi / 4, 1e-12);
+  // One disc on top raises the top, and the surface by 1/96 of its height (one column of 96).
+  bed.species.push_back(0);
+  bed.x.push_back(0.2);
+  bed.y.push_back(30.0);
+  bed.theta.push_back(0.0);
+  const BedShape raised = MeasureBed(bed, spec);
+  EXPECT_DOUBLE_EQ(raised.top, 30.5);
+  EXPECT_NEAR(raised.surface, 20.5 + 10.0 / 96, 1e-12);
 }
 
 
