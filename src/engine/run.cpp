@@ -25,6 +25,7 @@
 #include "engine/random.h"
 #include "engine/stall.h"
 #include "engine/world.h"
+#include "rundir/clogs.h"
 #include "rundir/contacts.h"
 #include "rundir/files.h"
 #include "rundir/frames.h"
@@ -121,8 +122,11 @@ class Discharge {
   void StartFresh();
   void LoadCheckpoint();
   void WriteCheckpoint();
+  void FillFrame(rundir::Frame& f) const;
+  void FillContacts(rundir::ContactFrame& f);
   void WriteFrame();
   void WriteContacts();
+  void WriteClog();
   void HandleExits();
   int OutletOf(int b) const;
   void Reinject(int b);
@@ -171,6 +175,9 @@ class Discharge {
   rundir::EventWriter events_;
   rundir::FrameWriter frames_;
   rundir::ContactWriter contacts_;
+  // The configuration and contact forces at every clog; a continued run cuts them back to
+  // its checkpoint's step (clogs.h), so the checkpoint carries nothing for them.
+  rundir::ClogWriter clogs_out_;
   std::int64_t frame_every_ = 0, checkpoint_every_ = 0;
   std::vector<World::ContactView> contact_buf_;
   rundir::Frame frame_buf_;
@@ -251,6 +258,7 @@ void Discharge::StartFresh() {
     periodic_height_ = (top + 2 * bound + spec_.discharge.periodic_headroom) + (spec_.discharge.exit_distance + kPeriodicFall);
   }
   events_ = rundir::EventWriter::Create(dir_ / rundir::kEventsFile);
+  clogs_out_ = rundir::ClogWriter::Create(dir_);
   if (frame_every_ > 0) frames_ = rundir::FrameWriter::Create(dir_ / rundir::kFramesFile);
   if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = rundir::ContactWriter::Create(dir_ / rundir::kContactsFile);
   if (frame_every_ > 0) {
@@ -348,6 +356,7 @@ void Discharge::LoadCheckpoint() {
   periodic_height_ = in.Get<double>();
   cleared_by_obstacles_ = in.Get<int>();
   events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, ev);
+  clogs_out_ = rundir::ClogWriter::ContinueAfter(dir_, step_);
   if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / rundir::kFramesFile, fr);
   if (frame_every_ > 0 && spec_.output.contact_forces)
     contacts_ = rundir::ContactWriter::ContinueAt(dir_ / rundir::kContactsFile, co);
@@ -480,9 +489,8 @@ void Discharge::DumpBox(double (&box)[3][2]) const {
   NativeDumpBox(spec_, bed_height_, bound, box);
 }
 
-void Discharge::WriteFrame() {
+void Discharge::FillFrame(rundir::Frame& f) const {
   const World& w = *world_;
-  rundir::Frame& f = frame_buf_;
   f.timestep = step_;
   f.time = static_cast<double>(step_) * spec_.time_step;
   DumpBox(f.box);
@@ -495,13 +503,16 @@ void Discharge::WriteFrame() {
     f.discs.push_back({i + 1, b, w.tmpl_[b] + 1, w.dx_[i], w.dy_[i], w.dr_[i], w.dmass_[i], w.bvx_[b] - w.bw_[b] * ry,
                        w.bvy_[b] + w.bw_[b] * rx, w.bw_[b]});
   }
-  frames_.Write(f);
 }
 
-void Discharge::WriteContacts() {
+void Discharge::WriteFrame() {
+  FillFrame(frame_buf_);
+  frames_.Write(frame_buf_);
+}
+
+void Discharge::FillContacts(rundir::ContactFrame& f) {
   const World& w = *world_;
   w.CollectContacts(contact_buf_);
-  rundir::ContactFrame& f = contact_frame_buf_;
   f.timestep = step_;
   f.time = static_cast<double>(step_) * spec_.time_step;
   DumpBox(f.box);
@@ -511,7 +522,18 @@ void Discharge::WriteContacts() {
     const double xj = c.disc_j >= 0 ? w.dx_[c.disc_j] : c.cx, yj = c.disc_j >= 0 ? w.dy_[c.disc_j] : c.cy;
     f.contacts.push_back({w.dbody_[c.disc_i], bj, w.dx_[c.disc_i], w.dy_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy});
   }
-  contacts_.Write(f);
+}
+
+void Discharge::WriteContacts() {
+  FillContacts(contact_frame_buf_);
+  contacts_.Write(contact_frame_buf_);
+}
+
+void Discharge::WriteClog() {
+  rundir::ClogState clog;
+  FillFrame(clog.frame);
+  FillContacts(clog.contacts);
+  clogs_out_.Write(clog);
 }
 
 void Discharge::WriteSummary(const std::string& end_reason) {
@@ -579,6 +601,7 @@ RunResult Discharge::Run() {
       } else {
         ++clogs_;
         in_clog_ = true;  // counted once until the next exit
+        WriteClog();
         if (spec_.discharge.stop_on_clog) end_reason = "clogged";
       }
     }
@@ -608,6 +631,7 @@ RunResult Discharge::Run() {
   events_.Close();
   frames_.Close();
   contacts_.Close();
+  clogs_out_.Close();
   ReportProgress({"discharge", 1.0, static_cast<double>(step_) * dt, spec_.discharge.max_time, static_cast<int>(exited),
                   discharge_wall_before_ + Seconds(session_start_)},
                  true);

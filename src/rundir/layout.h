@@ -12,6 +12,8 @@ inline constexpr char kProgressFile[] = "progress.json";  // engine, replaced at
 inline constexpr char kEventsFile[] = "events.csv";       // engine: one row per exit
 inline constexpr char kFramesFile[] = "frames.dump";      // engine: per-disc frames
 inline constexpr char kContactsFile[] = "contacts.dump";  // engine: contact-force frames
+inline constexpr char kClogFramesFile[] = "clog_frames.dump";      // engine: the configuration at every clog
+inline constexpr char kClogContactsFile[] = "clog_contacts.dump";  // engine: its contact forces
 inline constexpr char kSummaryFile[] = "summary.json";    // engine: what happened
 inline constexpr char kDoneFile[] = "DONE";               // engine, last: every other file is complete
 
