@@ -29,6 +29,7 @@
 #include <boost/process/extend.hpp>
 
 #include "engine/shapes.h"
+#include "engine/silo_outline.h"
 #include "engine/stall.h"
 #include "liggghts/input_script.h"
 #include "rundir/clogs.h"
@@ -355,7 +356,7 @@ void ReadFrameBlock(std::istream& in, long long n, long long step, const RunSpec
 void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const SiloSetup& setup,
                    const BodyIndex& bodies, double box_height) {
   std::ifstream in(in_path);
-  rundir::FrameWriter out = rundir::FrameWriter::Create(out_path);
+  rundir::FrameWriter out = rundir::FrameWriter::Create(out_path, spec.output.compress);
   long long step = 0, n = 0;
   rundir::Frame frame;
   while (NextDumpBlock(in, step, n)) {
@@ -422,7 +423,8 @@ void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& 
                      const std::map<long long, Sphere>& spheres, const BodyIndex& bodies, double box_height) {
   const auto pairs = ReadLocalBlocks(dir / "contacts_pairs.liggghts");
   const auto walls = ReadLocalBlocks(dir / "contacts_walls.liggghts");
-  rundir::ContactWriter out = rundir::ContactWriter::Create(dir / rundir::kContactsFile);
+  rundir::ContactWriter out = rundir::ContactWriter::Create(
+      dir / (spec.output.compress ? rundir::kContactsGzFile : rundir::kContactsFile), spec.output.compress);
   rundir::ContactFrame frame;
   for (const auto& [step, rows] : pairs) {
     const auto w = walls.find(step);
@@ -681,9 +683,9 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
     }
     RemoveClogFilesAfter(dir, ckpt.step);
   } else {
-    for (const char* f : {"frames.liggghts", rundir::kEventsFile, rundir::kFramesFile, "final.dump", "contacts_pairs.liggghts",
-                          "contacts_walls.liggghts", rundir::kContactsFile, rundir::kClogFramesFile,
-                          rundir::kClogContactsFile})
+    for (const char* f : {"frames.liggghts", rundir::kEventsFile, rundir::kFramesFile, rundir::kFramesGzFile, "final.dump",
+                          "contacts_pairs.liggghts", "contacts_walls.liggghts", rundir::kContactsFile,
+                          rundir::kContactsGzFile, rundir::kClogFramesFile, rundir::kClogContactsFile})
       fs::remove(dir / f);
     RemoveClogFilesAfter(dir, -1);
     for (const Counter& c : setup.counters)
@@ -701,6 +703,14 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   // Discharge, in the bed's box.
   setup = MakeSetup(spec, BoxTop(dir / "bed.dump"));
   WriteMeshes(dir, setup);
+  {
+    // The geometry beside the frames, in the one form both engines write (LIGGGHTS' STL meshes
+    // stay too).
+    double box[3][2];
+    SetBox(setup, box);
+    WriteAtomically(dir / rundir::kSiloFile,
+                    engine::SiloVtk(engine::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : box[1][1])));
+  }
   WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, start));
   const auto t_discharge = Clock::now();
   std::string end_reason;
@@ -782,7 +792,8 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   }
   rundir::WriteEvents(dir / rundir::kEventsFile, exits);
   if (spec.output.frame_interval > 0 && fs::exists(dir / "frames.liggghts"))
-    ConvertFrames(dir / "frames.liggghts", dir / rundir::kFramesFile, spec, setup, bodies, box_height);
+    ConvertFrames(dir / "frames.liggghts", dir / (spec.output.compress ? rundir::kFramesGzFile : rundir::kFramesFile), spec,
+                  setup, bodies, box_height);
   if (spec.output.contact_forces && spec.output.frame_interval > 0 && fs::exists(dir / "contacts_pairs.liggghts"))
     ConvertContacts(dir, spec, setup, spheres, bodies, box_height);
   ConvertClogs(dir, state.value("clog_steps", json::array()).get<std::vector<long long>>(), spec, setup, spheres, bodies,

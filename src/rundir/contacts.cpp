@@ -5,6 +5,7 @@
 #include <string_view>
 
 #include "rundir/dump_text.h"
+#include "rundir/gzip.h"
 #include "rundir/layout.h"
 
 namespace granary::rundir {
@@ -14,25 +15,28 @@ using detail::Split;
 using detail::ToDouble;
 using detail::ToInt;
 
-ContactWriter ContactWriter::Create(const std::filesystem::path& file) {
+ContactWriter ContactWriter::Create(const std::filesystem::path& file, bool gzip) {
   ContactWriter w;
   w.file_ = OutputFile(file);
+  w.gzip_ = gzip;
   return w;
 }
 
-ContactWriter ContactWriter::ContinueAt(const std::filesystem::path& file, std::int64_t offset) {
+ContactWriter ContactWriter::ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip) {
   ContactWriter w;
   w.file_ = OutputFile(file, offset);
+  w.gzip_ = gzip;
   return w;
 }
 
 void ContactWriter::Write(const ContactFrame& frame) {
-  std::FILE* f = file_.get();
-  detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ENTRIES", frame.contacts.size(), frame.box);
-  std::fputs("ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n", f);
-  for (const ContactRow& c : frame.contacts)
-    std::fprintf(f, "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n", static_cast<long long>(c.body_i),
-                 static_cast<long long>(c.body_j), c.xi, c.yi, c.xj, c.yj, c.cx, c.cy, c.fx, c.fy);
+  WriteBlock(file_.get(), gzip_, [&](std::FILE* f) {
+    detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ENTRIES", frame.contacts.size(), frame.box);
+    std::fputs("ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n", f);
+    for (const ContactRow& c : frame.contacts)
+      std::fprintf(f, "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n", static_cast<long long>(c.body_i),
+                   static_cast<long long>(c.body_j), c.xi, c.yi, c.xj, c.yj, c.cx, c.cy, c.fx, c.fy);
+  });
 }
 
 ContactReader::ContactReader(const std::filesystem::path& file)

@@ -34,9 +34,10 @@ struct ContactFrame {
 class ContactWriter {
  public:
   ContactWriter() = default;
-  static ContactWriter Create(const std::filesystem::path& file);
+  // `gzip`: each frame one gzip member (contacts.dump.gz; gzip.h).
+  static ContactWriter Create(const std::filesystem::path& file, bool gzip = false);
   // The file of an interrupted run cut back to `offset` bytes (what its checkpoint recorded).
-  static ContactWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset);
+  static ContactWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip = false);
 
   // Appends one frame; NUMBER OF ENTRIES is frame.contacts.size().
   void Write(const ContactFrame& frame);
@@ -46,6 +47,7 @@ class ContactWriter {
 
  private:
   OutputFile file_;
+  bool gzip_ = false;
 };
 
 // Streams a contacts.dump; columns found by name (all ten required). Malformed input throws

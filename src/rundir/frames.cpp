@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "rundir/dump_text.h"
+#include "rundir/gzip.h"
 #include "rundir/layout.h"
 
 namespace granary::rundir {
@@ -67,25 +68,28 @@ std::vector<Body> BodiesOf(const std::vector<Disc>& discs) {
 
 // ---- writer ------------------------------------------------------------------------------
 
-FrameWriter FrameWriter::Create(const std::filesystem::path& file) {
+FrameWriter FrameWriter::Create(const std::filesystem::path& file, bool gzip) {
   FrameWriter w;
   w.file_ = OutputFile(file);
+  w.gzip_ = gzip;
   return w;
 }
 
-FrameWriter FrameWriter::ContinueAt(const std::filesystem::path& file, std::int64_t offset) {
+FrameWriter FrameWriter::ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip) {
   FrameWriter w;
   w.file_ = OutputFile(file, offset);
+  w.gzip_ = gzip;
   return w;
 }
 
 void FrameWriter::Write(const Frame& frame) {
-  std::FILE* f = file_.get();
-  detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ATOMS", frame.discs.size(), frame.box);
-  std::fputs("ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n", f);
-  for (const Disc& d : frame.discs)
-    std::fprintf(f, "%lld %lld %d %.10g %.10g 0 %.10g %.10g %.10g %.10g 0 %.10g\n", static_cast<long long>(d.id),
-                 static_cast<long long>(d.mol), d.type, d.x, d.y, d.radius, d.mass, d.vx, d.vy, d.omega);
+  WriteBlock(file_.get(), gzip_, [&](std::FILE* f) {
+    detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ATOMS", frame.discs.size(), frame.box);
+    std::fputs("ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n", f);
+    for (const Disc& d : frame.discs)
+      std::fprintf(f, "%lld %lld %d %.10g %.10g 0 %.10g %.10g %.10g %.10g 0 %.10g\n", static_cast<long long>(d.id),
+                   static_cast<long long>(d.mol), d.type, d.x, d.y, d.radius, d.mass, d.vx, d.vy, d.omega);
+  });
 }
 
 // ---- reader ------------------------------------------------------------------------------

@@ -51,9 +51,10 @@ std::vector<Body> BodiesOf(const std::vector<Disc>& discs);
 class FrameWriter {
  public:
   FrameWriter() = default;
-  static FrameWriter Create(const std::filesystem::path& file);
+  // `gzip`: each frame one gzip member (frames.dump.gz; gzip.h).
+  static FrameWriter Create(const std::filesystem::path& file, bool gzip = false);
   // The file of an interrupted run cut back to `offset` bytes (what its checkpoint recorded).
-  static FrameWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset);
+  static FrameWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip = false);
 
   // Appends one frame; NUMBER OF ATOMS is frame.discs.size().
   void Write(const Frame& frame);
@@ -63,9 +64,10 @@ class FrameWriter {
 
  private:
   OutputFile file_;
+  bool gzip_ = false;
 };
 
-// Streams a frames.dump. Required columns: id mol x y; optional: type radius mass vx vy
+// Streams a frames.dump (or a frames.dump.gz, told by its magic bytes). Required columns: id mol x y; optional: type radius mass vx vy
 // omegaz (missing radius = 0.5, missing mass = density pi r^2, missing velocities = 0).
 // Malformed input throws ReadError with file:line.
 class FrameReader {

@@ -22,6 +22,9 @@
 #ifdef GRANARY_HAVE_ANALYSIS
 #include "analysis/report.h"
 #endif
+#ifdef GRANARY_HAVE_RENDER
+#include "render/run_picture.h"
+#endif
 
 namespace granary::runner {
 
@@ -661,6 +664,157 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
 #endif
 }
 
+// ---------------------------------------------------------------- snapshot, movie
+const char kSnapshotHelp[] =
+    "usage: campaign snapshot RUN [--time T | --clog K | --first | --last] [--color C] [--forces]\n"
+    "                         [--highlight ID,ID,...] [--width PX] --out FILE.png|FILE.svg [--db FILE]\n"
+    "A picture of one frame of a run: every disc to scale, walls (grey), outlets (red), obstacles,\n"
+    "optionally the contact-force network.\n"
+    "  RUN          a run directory, or a run id (or the start of one) in the database\n"
+    "  --time T     the frame nearest simulated time T (since the outlets opened)\n"
+    "  --clog K     the K-th clog (1 = first): the middle of the clogged stretch, or the last frame\n"
+    "               if the run ended in it (a clog is a gap of the run's clog_window in the exits)\n"
+    "  --first      the first frame (t = 0, the bed before the outlets open)\n"
+    "  --last       the last frame (default)\n"
+    "  --color C    species (default), speed, rotation (angular velocity) or force (summed contact\n"
+    "               force on each body; needs output.contact_forces)\n"
+    "  --forces     draw the contact-force network (line width ~ force; needs output.contact_forces)\n"
+    "  --highlight  body ids to outline\n"
+    "  --width PX   picture width in pixels (default 1000; the height follows the silo)\n"
+    "  --out FILE   .png (cairo) or .svg\n"
+    "  --db FILE    database to look RUN up in (default granary.db)\n"
+    "Exit: 0 written, 1 the run cannot be drawn (no frames, no contact frames, no such clog),\n"
+    "2 usage error.\n";
+
+const char kMovieHelp[] =
+    "usage: campaign movie RUN --out FILE.mp4 [--fps N] [--color C] [--forces] [--width PX] [--db FILE]\n"
+    "Every frame of a run drawn as by campaign snapshot and encoded by ffmpeg (H.264, yuv420p),\n"
+    "with a progress bar on stderr.\n"
+    "  --fps N      frames per second of the movie (default 20)\n"
+    "  --width PX   movie width in pixels (default 800)\n"
+    "  RUN, --color, --forces, --db: as for campaign snapshot\n"
+    "Exit: 0 written, 1 the run cannot be drawn or ffmpeg failed, 2 usage error.\n";
+
+#ifdef GRANARY_HAVE_RENDER
+// RUN: a run directory, or a run id (a unique prefix will do) of the database.
+fs::path ResolveRun(const std::string& verb, const std::string& run, const Args& a) {
+  if (fs::is_directory(run)) return run;
+  const std::string db = DbPath(a);
+  if (!fs::exists(db))
+    throw UsageError("campaign " + verb + ": '" + run + "' is not a run directory, and there is no database " + db +
+                     " to look it up in");
+  Store store(db);
+  std::vector<RunRow> found;
+  for (RunRow& r : load_runs(store, false))
+    if (r.run_id.rfind(run, 0) == 0) found.push_back(std::move(r));
+  if (found.empty()) throw UsageError("campaign " + verb + ": no run directory or run id '" + run + "' in " + db);
+  if (found.size() > 1)
+    throw UsageError("campaign " + verb + ": '" + run + "' starts " + std::to_string(found.size()) + " run ids in " + db +
+                     " (" + found[0].run_id + ", " + found[1].run_id + ", ...); give more of it");
+  return found[0].run_dir;
+}
+
+render::PictureOptions PictureOptionsFrom(const std::string& verb, const Args& a) {
+  render::PictureOptions o;
+  int picks = 0;
+  for (const char* f : {"time", "clog", "first", "last"}) picks += a.has(f);
+  if (picks > 1) throw UsageError("campaign " + verb + ": give one of --time, --clog, --first, --last");
+  if (a.has("time")) {
+    o.pick.kind = render::FramePick::kTime;
+    o.pick.time = a.number("time", 0);
+  } else if (a.has("clog")) {
+    o.pick.kind = render::FramePick::kClog;
+    o.pick.clog = a.integer("clog", 1, 1);
+  } else if (a.has("first")) {
+    o.pick.kind = render::FramePick::kFirst;
+  }
+  try {
+    o.colour = render::ColourFromName(a.get("color", "species"));
+  } catch (const std::invalid_argument& e) {
+    throw UsageError("campaign " + verb + ": --color: " + e.what());
+  }
+  o.forces = a.has("forces");
+  if (a.has("highlight")) {
+    std::stringstream ids(a.get("highlight", ""));
+    for (std::string id; std::getline(ids, id, ',');) {
+      std::size_t used = 0;
+      long long v = -1;
+      try {
+        v = std::stoll(id, &used);
+      } catch (const std::exception&) {
+      }
+      if (v < 0 || used != id.size())
+        throw UsageError("campaign " + verb + ": --highlight: body ids are integers >= 0 separated by commas (got \"" + id + "\")");
+      o.highlight.insert(v);
+    }
+  }
+  return o;
+}
+#endif
+
+int Snapshot(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv,
+                       {{"time", true}, {"clog", true}, {"first", false}, {"last", false}, {"color", true},
+                        {"forces", false}, {"highlight", true}, {"width", true}, {"out", true}, {"db", true},
+                        {"help", false}},
+                       "snapshot");
+  if (a.positional.size() != 1) throw UsageError("campaign snapshot: needs exactly one RUN (see campaign snapshot --help)");
+  if (!a.has("out")) throw UsageError("campaign snapshot: --out FILE.png or FILE.svg is required");
+  const fs::path file = a.get("out", "");
+  const std::string ext = file.extension().string();
+  if (ext != ".png" && ext != ".svg") throw UsageError("campaign snapshot: --out must end in .png or .svg, not '" + ext + "'");
+#ifdef GRANARY_HAVE_RENDER
+  const render::PictureOptions o = PictureOptionsFrom("snapshot", a);
+  const fs::path run = ResolveRun("snapshot", a.positional[0], a);
+  const int width = a.integer("width", 1000, 16);
+  try {
+    const render::Scene scene = render::RunScene(run, o);
+    if (ext == ".svg") {
+      std::ofstream f(file);
+      f << render::Svg(scene, width);
+      if (!f) throw std::runtime_error("cannot write " + file.string());
+    } else {
+      render::WritePng(scene, width, file);
+    }
+    out << "snapshot: " << file.string() << " (" << scene.caption << ")\n";
+    return 0;
+  } catch (const rundir::ReadError& e) {
+    throw std::runtime_error(e.what());
+  }
+#else
+  (void)out;
+  throw UsageError("campaign snapshot: this build has no renderer (granary_render)");
+#endif
+}
+
+int Movie(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args a = Parse(argv, {{"out", true}, {"fps", true}, {"color", true}, {"forces", false}, {"width", true},
+                              {"db", true}, {"help", false}},
+                       "movie");
+  if (a.positional.size() != 1) throw UsageError("campaign movie: needs exactly one RUN (see campaign movie --help)");
+  if (!a.has("out")) throw UsageError("campaign movie: --out FILE.mp4 is required");
+  const fs::path file = a.get("out", "");
+  if (file.extension() != ".mp4") throw UsageError("campaign movie: --out must end in .mp4");
+#ifdef GRANARY_HAVE_RENDER
+  const render::PictureOptions o = PictureOptionsFrom("movie", a);
+  const fs::path run = ResolveRun("movie", a.positional[0], a);
+  const int width = a.integer("width", 800, 16);
+  const int fps = a.integer("fps", 20, 1);
+  const bool tty = isatty(STDERR_FILENO);
+  const int frames = render::WriteMovie(run, o, file, width, fps, [&](int done, int total) {
+    if (!tty && done != total) return;
+    err << "\rmovie " << Bar(total > 0 ? static_cast<double>(done) / total : 1.0, 30) << " " << done << "/" << total
+        << " frames" << (done == total ? "\n" : "") << std::flush;
+  });
+  out << "movie: " << file.string() << " (" << frames << " frames at " << fps << " fps)\n";
+  return 0;
+#else
+  (void)out;
+  (void)err;
+  throw UsageError("campaign movie: this build has no renderer (granary_render)");
+#endif
+}
+
 // ---------------------------------------------------------------- table
 struct Verb {
   const char* name;
@@ -676,6 +830,8 @@ const std::vector<Verb>& Verbs() {
       {"status", "counts, progress, failures, ETA", kStatusHelp, Status},
       {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report},
       {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare},
+      {"snapshot", "a picture of one frame of a run (PNG or SVG)", kSnapshotHelp, Snapshot},
+      {"movie", "a movie of a run's frames (MP4, ffmpeg)", kMovieHelp, Movie},
   };
   return kVerbs;
 }
