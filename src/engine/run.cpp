@@ -24,7 +24,7 @@
 #include "engine/dump_format.h"
 #include "engine/random.h"
 #include "engine/silo_outline.h"
-#include "engine/stall.h"
+#include "engine/stall_world.h"
 #include "engine/world.h"
 #include "rundir/clogs.h"
 #include "rundir/contacts.h"
