@@ -19,6 +19,7 @@
 #include "analysis/expression.h"
 #include "analysis/metrics.h"
 #include "analysis/report_document.h"
+#include "analysis/system.h"
 
 namespace granary::analysis {
 namespace {
@@ -1233,9 +1234,89 @@ std::optional<Section> engine_comparison_section(const Context& c) {
   return s;
 }
 
+// ---- the system: what was simulated -------------------------------------------------------
+
+std::optional<Section> system_section(const Context& c) {
+  Section s{"system", "The system", {}};
+  const nlohmann::json& cs = c.campaign->spec;
+  std::string intro = cs.is_object() && cs.contains("description") && cs.at("description").is_string()
+                          ? cs.at("description").get<std::string>()
+                          : "(The campaign spec has no \"description\".)";
+  s.blocks.push_back(Text{intro});
+  // A resolved run spec of the campaign: of a point's run, else of any run it has.
+  nlohmann::json spec;
+  if (!c.points.empty()) spec = c.points.front().spec;
+  for (const auto* list : {&c.missing, &c.failed, &c.retired})
+    if (spec.is_null() && !list->empty()) spec = list->front()->spec;
+  if (spec.is_null()) return s;
+  s.blocks.push_back(fixed_parameters(spec, c.campaign->axes));
+  if (!c.campaign->axes.empty()) {
+    Table t;
+    t.name = "system-axes";
+    t.caption = "Swept parameters";
+    t.header = {"parameter", "in the run spec", "values"};
+    for (const auto& axis : c.campaign->axes) {
+      std::vector<std::string> values;
+      for (const auto& p : c.points) {
+        const auto v = axis_value(axis, p.point, p.spec);
+        const std::string text = v ? json_text(*v) : "?";
+        if (std::find(values.begin(), values.end(), text) == values.end()) values.push_back(text);
+      }
+      std::string joined;
+      for (const auto& v : values) joined += (joined.empty() ? "" : ", ") + v;
+      t.rows.push_back({axis_name(axis, spec), axis, joined.empty() ? "(no finished run yet)" : joined});
+    }
+    s.blocks.push_back(t);
+  }
+  // Each point: the bed before the outlets open and the last state of its first replica.
+  if (!c.options->draw_run) {
+    s.blocks.push_back(Text{"(No pictures: this report was written without the renderer.)"});
+    return s;
+  }
+  std::vector<std::string> problems;
+  for (std::size_t k = 0; k < c.points.size(); ++k) {
+    const Point& p = c.points[k];
+    const AnalysedRun* run = nullptr;
+    for (const AnalysedRun* r : p.runs)
+      if (!run || r->record->replica < run->record->replica) run = r;
+    if (!run) continue;
+    const std::string stem = "pictures/point-" + std::to_string(k + 1);
+    std::filesystem::create_directories(c.options->out_dir / "pictures");
+    Pictures pics;
+    std::string label;
+    for (const auto& axis : c.campaign->axes) {
+      const auto v = axis_value(axis, p.point, p.spec);
+      label += (label.empty() ? "" : ", ") + axis_name(axis, p.spec) + " = " + (v ? json_text(*v) : "?");
+    }
+    pics.caption = (label.empty() ? std::string("The silo") : label) + " (replica " + std::to_string(run->record->replica) +
+                   ", run `" + run->record->run_id.substr(0, 10) + "`)";
+    const std::string end = run->analysis.end_reason;
+    const std::pair<ReportOptions::Picture, std::string> kinds[] = {
+        {ReportOptions::Picture::kBed, "the bed before the outlets open (t = 0)"},
+        {ReportOptions::Picture::kEnd, (end == "clogged" ? "clogged" : end == "discharged" ? "discharged" : "the last frame") +
+                                           std::string(" (t = ") + format_number(run->analysis.t_end, 4) + ")"}};
+    for (const auto& [kind, caption] : kinds) {
+      const std::string file = stem + (kind == ReportOptions::Picture::kBed ? "-bed.png" : "-end.png");
+      const std::string problem = c.options->draw_run(run->record->run_dir, kind, c.options->out_dir / file);
+      if (problem.empty()) {
+        pics.pictures.push_back({file, caption});
+      } else if (problems.size() < 5) {
+        problems.push_back(problem);
+      }
+    }
+    if (!pics.pictures.empty()) s.blocks.push_back(pics);
+  }
+  if (!problems.empty()) {
+    std::string text = "Not drawn:";
+    for (const auto& pr : problems) text += "\n\n" + pr;
+    s.blocks.push_back(Text{text});
+  }
+  return s;
+}
+
 using SectionBuilder = std::optional<Section> (*)(const Context&);
 // The report's sections in order. A new analysis adds one function and one line here.
-constexpr SectionBuilder kSections[] = {runs_section,      provenance_section,     per_run_section,
+constexpr SectionBuilder kSections[] = {system_section,    runs_section,      provenance_section,     per_run_section,
                                         flow_section,      profile_section,        region_section,
                                         clogging_index_section, avalanche_section, intermittency_section,
                                         engine_comparison_section};

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -43,6 +44,11 @@ struct ReportOptions {
   // campaign spec /report/models (array of {name, expression, variable, initial}) adds more.
   std::vector<FitModel> models;
   std::string gnuplot = "gnuplot";  // the executable
+  // Draws a run for "The system": its first frame (the bed before the outlets open) or its last,
+  // as a PNG at `png`; returns "" or why it could not. The runner sets it (src/render); unset,
+  // the report has no pictures and says so.
+  enum class Picture { kBed, kEnd };
+  std::function<std::string(const std::filesystem::path& run_dir, Picture, const std::filesystem::path& png)> draw_run;
 };
 
 struct ReportSummary {

@@ -256,7 +256,29 @@ const char* kCss =
     "td.t{text-align:left;white-space:normal;min-width:9em;max-width:32em}"
     "caption{text-align:left;font-weight:bold;padding:4px 0}"
     "figure{margin:1em 0}figcaption{font-size:0.9em;color:#444}code{background:#f4f4f8;padding:0 3px}"
-    ".csv{font-size:0.8em;color:#666}nav a{margin-right:1em}svg{max-width:100%;height:auto}";
+    ".csv{font-size:0.8em;color:#666}nav a{margin-right:1em}svg{max-width:100%;height:auto}"
+    ".pics{display:flex;flex-wrap:wrap;gap:1em;align-items:flex-end}.pics figure{margin:0}.pics img{width:320px;border:1px solid #ddd}";
+
+// RFC 4648 base64, for the pictures' data URIs.
+std::string base64(const std::string& bytes) {
+  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  std::size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const unsigned v = static_cast<unsigned char>(bytes[i]) << 16 | static_cast<unsigned char>(bytes[i + 1]) << 8 |
+                       static_cast<unsigned char>(bytes[i + 2]);
+    out += {k[v >> 18], k[(v >> 12) & 63], k[(v >> 6) & 63], k[v & 63]};
+  }
+  if (i + 1 == bytes.size()) {
+    const unsigned v = static_cast<unsigned char>(bytes[i]) << 16;
+    out += {k[v >> 18], k[(v >> 12) & 63], '=', '='};
+  } else if (i + 2 == bytes.size()) {
+    const unsigned v = static_cast<unsigned char>(bytes[i]) << 16 | static_cast<unsigned char>(bytes[i + 1]) << 8;
+    out += {k[v >> 18], k[(v >> 12) & 63], k[(v >> 6) & 63], '='};
+  }
+  return out;
+}
 
 }  // namespace
 
@@ -326,6 +348,16 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
           html_body << "</tr>\n";
         }
         html_body << "</table>\n";
+      } else if (const auto* pics = std::get_if<Pictures>(&block)) {
+        html_body << "<figure><div class=\"pics\">";
+        for (const auto& p : pics->pictures) {
+          md_body << "![" << p.caption << "](" << p.file << ") ";
+          const std::string png = read_text(out_dir / p.file);
+          html_body << "<figure><img alt=\"" << html_escape(p.caption) << "\" src=\"data:image/png;base64," << base64(png)
+                    << "\"><figcaption>" << html_inline(p.caption) << "</figcaption></figure>";
+        }
+        md_body << "\n\n*" << pics->caption << "*\n\n";
+        html_body << "</div><figcaption>" << html_inline(pics->caption) << "</figcaption></figure>\n";
       } else if (const auto* f = std::get_if<Figure>(&block)) {
         ++figure_no;
         std::string csvs, csv_links;

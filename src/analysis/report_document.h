@@ -42,7 +42,18 @@ struct Text {
   std::string markdown;                      // plain text with `code` and **bold**; paragraphs by blank lines
 };
 
-using Block = std::variant<Text, Table, Figure>;
+// Pictures already drawn (PNG files in the report folder), side by side: in report.html as
+// data URIs, so it stays self-contained.
+struct Picture {
+  std::string file;                          // relative to the report folder
+  std::string caption;
+};
+struct Pictures {
+  std::string caption;
+  std::vector<Picture> pictures;
+};
+
+using Block = std::variant<Text, Table, Figure, Pictures>;
 
 struct Section {
   std::string id;                            // html anchor

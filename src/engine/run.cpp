@@ -182,6 +182,7 @@ class Discharge {
   std::int64_t frame_every_ = 0, checkpoint_every_ = 0;
   std::vector<World::ContactView> contact_buf_;
   rundir::Frame frame_buf_;
+  bool warned_outside_box_ = false;
   rundir::ContactFrame contact_frame_buf_;
   Clock::time_point session_start_ = Clock::now();
 };
@@ -506,6 +507,15 @@ void Discharge::FillFrame(rundir::Frame& f) const {
     const double rx = w.dx_[i] - w.bx_[b], ry = w.dy_[i] - w.by_[b];
     f.discs.push_back({i + 1, b, w.tmpl_[b] + 1, w.dx_[i], w.dy_[i], w.dr_[i], w.dmass_[i], w.bvx_[b] - w.bw_[b] * ry,
                        w.bvy_[b] + w.bw_[b] * rx, w.bw_[b]});
+    // LAMMPS drops an atom outside a fixed box: never silently.
+    const bool outside = w.dx_[i] < f.box[0][0] || w.dx_[i] > f.box[0][1] || w.dy_[i] < f.box[1][0] || w.dy_[i] > f.box[1][1];
+    if (outside && !warned_outside_box_) {
+      std::fprintf(stderr,
+                   "warning: the frame at t = %.6g has disc %d at (%.6g, %.6g), outside the dump box "
+                   "[%.6g, %.6g] x [%.6g, %.6g]; LAMMPS drops such atoms\n",
+                   f.time, i + 1, w.dx_[i], w.dy_[i], f.box[0][0], f.box[0][1], f.box[1][0], f.box[1][1]);
+      warned_outside_box_ = true;
+    }
   }
 }
 

@@ -86,6 +86,8 @@ RunSetting SettingOf(const rundir::RunData& run) {
   // Walls as high as the picture when the spec leaves their height automatic.
   const double wall_top = spec.silo.height > 0 ? spec.silo.height : top + 1;
   s.silo = engine::OutlineOf(spec.silo, wall_top);
+  // Up to the bed's top; RunScene and WriteMovie raise it to the frames they draw (reinjected
+  // bodies come back above the bed).
   s.window = SiloWindow(s.silo, spec.discharge.exit_distance, std::max(top, spec.silo.height));
   for (const auto& sp : spec.bodies.species) s.species.push_back(sp.name);
   s.has_contacts = run.has_contacts;
@@ -112,6 +114,7 @@ Scene RunScene(const fs::path& run_dir, const PictureOptions& o) {
     if (!contacts) throw std::runtime_error("run " + run_dir.string() + " has no contact frame at step " + std::to_string(best.timestep));
   }
   SceneOptions so = OptionsFor(setting, o);
+  so.window.y_hi = std::max(so.window.y_hi, TopOf(best) + 1);
   so.contacts = contacts ? &*contacts : nullptr;
   so.caption = Caption(best, run);
   return MakeScene(best, setting.silo, so);
@@ -125,9 +128,13 @@ int WriteMovie(const fs::path& run_dir, const PictureOptions& o, const fs::path&
     throw std::runtime_error("run " + run_dir.string() + " has no contact frames (its spec's output.contact_forces is false)");
   const double density = run.spec.at("bodies").value("density", 1.0);
   int total = 0;
+  double top = 0;  // of every frame: one window for the whole movie
   {
     rundir::FrameReader counter(run.frames_file(), density);
-    for (Frame f; counter.Next(f);) ++total;
+    for (Frame f; counter.Next(f);) {
+      ++total;
+      top = std::max(top, TopOf(f));
+    }
   }
   const std::string ffmpeg = bp::search_path("ffmpeg").string();
   if (ffmpeg.empty()) throw std::runtime_error("ffmpeg not found: install Debian's package ffmpeg (scripts/setup.sh does)");
@@ -148,6 +155,7 @@ int WriteMovie(const fs::path& run_dir, const PictureOptions& o, const fs::path&
   std::optional<rundir::ContactReader> contact_reader;
   if (NeedsContacts(o)) contact_reader.emplace(run.contacts_file());
   SceneOptions so = OptionsFor(setting, o);
+  so.window.y_hi = std::max(so.window.y_hi, top + 1);
   std::optional<PixelSize> size;  // the first frame's, for all (the legend's rows do not change)
   int done = 0;
   ContactFrame c;

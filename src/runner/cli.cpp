@@ -534,6 +534,18 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
   analysis::ReportOptions options;
   options.out_dir = out_dir;
   options.figures = figures;
+#ifdef GRANARY_HAVE_RENDER
+  options.draw_run = [](const fs::path& run_dir, analysis::ReportOptions::Picture kind, const fs::path& png) {
+    render::PictureOptions o;
+    o.pick.kind = kind == analysis::ReportOptions::Picture::kBed ? render::FramePick::kFirst : render::FramePick::kLast;
+    try {
+      render::WritePng(render::RunScene(run_dir, o), 640, png);
+      return std::string();
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+  };
+#endif
   try {
     analysis::apply_report_spec(campaign->spec, options);
   } catch (const std::invalid_argument& e) {
