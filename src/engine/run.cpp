@@ -123,7 +123,7 @@ class Discharge {
   void StartFresh();
   void LoadCheckpoint();
   void WriteCheckpoint();
-  void FillFrame(rundir::Frame& f) const;
+  void FillFrame(rundir::Frame& f);
   void FillContacts(rundir::ContactFrame& f);
   void WriteFrame();
   void WriteContacts();
@@ -494,7 +494,7 @@ void Discharge::DumpBox(double (&box)[3][2]) const {
   NativeDumpBox(spec_, bed_height_, bound, box);
 }
 
-void Discharge::FillFrame(rundir::Frame& f) const {
+void Discharge::FillFrame(rundir::Frame& f) {
   const World& w = *world_;
   f.timestep = step_;
   f.time = static_cast<double>(step_) * spec_.time_step;
