@@ -396,3 +396,157 @@ ClogArches analyse_clog(const rundir::ClogState& clog, const nlohmann::json& spe
 }
 
 }  // namespace granary::analysis
+
+namespace granary::analysis {
+
+namespace {
+nlohmann::json Num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+double NumAt(const nlohmann::json& j, const char* key) {
+  const auto it = j.find(key);
+  return it == j.end() || !it->is_number() ? kNaN : it->get<double>();
+}
+}  // namespace
+
+nlohmann::json to_json(const ClogArches& clog) {
+  nlohmann::json arches = nlohmann::json::array();
+  for (const Arch& a : clog.arches) {
+    nlohmann::json bodies = nlohmann::json::array();
+    for (const ArchBody& b : a.bodies)
+      bodies.push_back({{"id", b.id}, {"type", b.type}, {"discs", b.discs}, {"x", Num(b.x)}, {"y", Num(b.y)}, {"s", Num(b.s)},
+                        {"h", Num(b.h)}, {"theta", Num(b.theta)}, {"axis", Num(b.axis)}, {"pressure", Num(b.pressure)}});
+    arches.push_back({{"outlet", a.outlet}, {"obstacle", a.obstacle}, {"obstacles", a.obstacles}, {"bodies", bodies},
+                      {"dead_ends", a.dead_ends}, {"gaps", a.gaps}, {"supported", a.supported}, {"n", a.n},
+                      {"width", Num(a.width)}, {"height", Num(a.height)}, {"perimeter", Num(a.perimeter)},
+                      {"arc", Num(a.arc)}, {"c_over_p", Num(a.c_over_p)}, {"elongated_fraction", Num(a.elongated_fraction)},
+                      {"per_type", a.per_type}, {"mean_pressure", Num(a.mean_pressure)}, {"max_angle", Num(a.max_angle)},
+                      {"concave", a.concave}});
+  }
+  const ContactTypes& t = clog.contact_types;
+  return {{"timestep", clog.timestep},
+          {"time", Num(clog.time)},
+          {"bodies", clog.bodies},
+          {"sealed_outlets", clog.sealed_outlets},
+          {"contact_types", {{"small_small", t.small_small}, {"large_small", t.large_small}, {"large_large", t.large_large}, {"other", t.other}}},
+          {"arches", arches}};
+}
+
+ClogArches clog_arches_from_json(const nlohmann::json& j) {
+  ClogArches c;
+  c.timestep = j.value("timestep", std::int64_t{0});
+  c.time = NumAt(j, "time");
+  c.bodies = j.value("bodies", 0);
+  c.sealed_outlets = j.value("sealed_outlets", std::vector<int>{});
+  if (const auto t = j.find("contact_types"); t != j.end()) {
+    c.contact_types.small_small = t->value("small_small", 0);
+    c.contact_types.large_small = t->value("large_small", 0);
+    c.contact_types.large_large = t->value("large_large", 0);
+    c.contact_types.other = t->value("other", 0);
+  }
+  for (const nlohmann::json& a : j.value("arches", nlohmann::json::array())) {
+    Arch arch;
+    arch.outlet = a.value("outlet", 0);
+    arch.obstacle = a.value("obstacle", false);
+    arch.obstacles = a.value("obstacles", std::vector<int>{});
+    for (const nlohmann::json& b : a.value("bodies", nlohmann::json::array()))
+      arch.bodies.push_back({b.value("id", std::int64_t{-1}), b.value("type", 1), b.value("discs", 1), NumAt(b, "x"), NumAt(b, "y"),
+                             NumAt(b, "s"), NumAt(b, "h"), NumAt(b, "theta"), NumAt(b, "axis"), NumAt(b, "pressure")});
+    arch.dead_ends = a.value("dead_ends", std::vector<std::int64_t>{});
+    arch.gaps = a.value("gaps", 0);
+    arch.supported = a.value("supported", true);
+    arch.n = a.value("n", 0);
+    arch.width = NumAt(a, "width");
+    arch.height = NumAt(a, "height");
+    arch.perimeter = NumAt(a, "perimeter");
+    arch.arc = NumAt(a, "arc");
+    arch.c_over_p = NumAt(a, "c_over_p");
+    arch.elongated_fraction = NumAt(a, "elongated_fraction");
+    arch.per_type = a.value("per_type", std::vector<int>{});
+    arch.mean_pressure = NumAt(a, "mean_pressure");
+    arch.max_angle = NumAt(a, "max_angle");
+    arch.concave = a.value("concave", 0);
+    c.arches.push_back(std::move(arch));
+  }
+  return c;
+}
+
+ArchSummary summarize_arches(const std::vector<const ClogArches*>& clogs, const ArchSummaryOptions& o) {
+  ArchSummary s;
+  std::vector<double> n, width, height, perimeter, cp, elongated, pressure, angle, concave, dead;
+  std::vector<double> ss, ls, ll, other;
+  const int tb = std::max(1, o.theta_bins), ab = std::max(1, o.axis_bins);
+  std::vector<std::vector<double>> theta_pressure(static_cast<std::size_t>(tb));
+  std::vector<std::vector<int>> theta_axes(static_cast<std::size_t>(tb), std::vector<int>(static_cast<std::size_t>(ab), 0));
+  std::map<int, std::vector<double>> by_n;
+  for (const ClogArches* c : clogs) {
+    ++s.clogs;
+    s.sealed += static_cast<int>(c->sealed_outlets.size());
+    const ContactTypes& t = c->contact_types;
+    if (t.total() > 0) {
+      const double total = t.total();
+      ss.push_back(t.small_small / total);
+      ls.push_back(t.large_small / total);
+      ll.push_back(t.large_large / total);
+      other.push_back(t.other / total);
+    }
+    for (const Arch& a : c->arches) {
+      ++s.arches;
+      (a.obstacle ? s.obstacle_arches : s.particle_arches) += 1;
+      s.with_gaps += a.gaps > 0;
+      s.with_defects += !a.dead_ends.empty() || a.concave > 0;
+      s.unsupported += !a.supported;
+      if (a.obstacle && !o.obstacle_arches) continue;
+      n.push_back(a.n);
+      width.push_back(a.width);
+      height.push_back(a.height);
+      perimeter.push_back(a.perimeter);
+      cp.push_back(a.c_over_p);
+      elongated.push_back(a.elongated_fraction);
+      pressure.push_back(a.mean_pressure);
+      angle.push_back(a.max_angle);
+      concave.push_back(a.concave);
+      dead.push_back(static_cast<double>(a.dead_ends.size()));
+      if (std::isfinite(a.mean_pressure)) by_n[a.n].push_back(a.mean_pressure);
+      for (const ArchBody& b : a.bodies) {
+        if (!std::isfinite(b.theta)) continue;
+        const int k = std::clamp(static_cast<int>(b.theta / kPi * tb), 0, tb - 1);
+        if (std::isfinite(b.pressure)) theta_pressure[static_cast<std::size_t>(k)].push_back(b.pressure);
+        if (std::isfinite(b.axis)) {
+          const int m = std::clamp(static_cast<int>(b.axis / kPi * ab), 0, ab - 1);
+          ++theta_axes[static_cast<std::size_t>(k)][static_cast<std::size_t>(m)];
+        }
+      }
+    }
+  }
+  s.n = mean_se_finite(n);
+  s.width = mean_se_finite(width);
+  s.height = mean_se_finite(height);
+  s.perimeter = mean_se_finite(perimeter);
+  s.c_over_p = mean_se_finite(cp);
+  s.elongated_fraction = mean_se_finite(elongated);
+  s.mean_pressure = mean_se_finite(pressure);
+  s.max_angle = mean_se_finite(angle);
+  s.concave = mean_se_finite(concave);
+  s.dead_ends = mean_se_finite(dead);
+  auto sd = [](const MeanSe& m) { return m.n >= 2 ? m.se * std::sqrt(static_cast<double>(m.n)) : kNaN; };
+  s.width_sd = sd(s.width);
+  s.height_sd = sd(s.height);
+  s.n_values = n;
+  for (int k = 0; k < tb; ++k) {
+    ThetaBin bin;
+    bin.theta = (k + 0.5) * kPi / tb;
+    bin.pressure = mean_se_finite(theta_pressure[static_cast<std::size_t>(k)]);
+    const std::vector<int>& axes = theta_axes[static_cast<std::size_t>(k)];
+    const auto most = std::max_element(axes.begin(), axes.end());
+    for (int c : axes) bin.elongated += c;
+    if (bin.elongated > 0) bin.axis_mode = (static_cast<double>(most - axes.begin()) + 0.5) * kPi / ab;
+    s.theta.push_back(bin);
+  }
+  for (const auto& [size, p] : by_n) s.pressure_by_n.push_back({size, mean_se(p)});
+  s.small_small = mean_se(ss);
+  s.large_small = mean_se(ls);
+  s.large_large = mean_se(ll);
+  s.other = mean_se(other);
+  return s;
+}
+
+}  // namespace granary::analysis

@@ -95,4 +95,42 @@ ContactTypes contact_types(const rundir::Frame& frame, const rundir::ContactFram
 ClogArches analyse_clog(const rundir::ClogState& clog, const engine::SiloGeometry& silo);
 ClogArches analyse_clog(const rundir::ClogState& clog, const nlohmann::json& spec);
 
+// The clogs of a run as JSON (what an analysis caches per run) and back: every number, the
+// arch bodies with their id, type, discs, s, h, theta, axis and pressure (positions x, y too).
+nlohmann::json to_json(const ClogArches& clog);
+ClogArches clog_arches_from_json(const nlohmann::json& j);
+
+// Arches pooled over clogs (a run's, or every replica's of a sweep point): the thesis averages
+// over clogged states (ch. 4: at least 100, ch. 6: 100), so means are over arches, n = arches.
+struct ArchSummaryOptions {
+  int theta_bins = 9;                   // angular positions [0, pi] (figs. 6.6, 6.7)
+  int axis_bins = 12;                   // axis angles [0, pi) for the mode (fig. 6.6)
+  bool obstacle_arches = true;          // include obstacle arches in the means (both types are counted apart)
+};
+struct ThetaBin {
+  double theta = kNaN;                  // bin centre
+  MeanSe pressure;                      // of the arch bodies whose angular position falls in it
+  double axis_mode = kNaN;              // the most frequent axis angle there (elongated bodies), bin centre
+  int elongated = 0;                    // how many axes the mode is of
+};
+struct ArchSummary {
+  int clogs = 0;                        // clogged configurations
+  int sealed = 0;                       // outlets they seal
+  int arches = 0, particle_arches = 0, obstacle_arches = 0;
+  int with_gaps = 0, with_defects = 0, unsupported = 0;
+  MeanSe n, width, height, perimeter, c_over_p, elongated_fraction, mean_pressure, max_angle;
+  double width_sd = kNaN, height_sd = kNaN;   // table 3.1's sigma_w, sigma_h
+  MeanSe concave, dead_ends;            // per arch
+  std::vector<double> n_values;         // N_t of every arch (its distribution)
+  std::vector<ThetaBin> theta;          // figs. 6.6, 6.7
+  struct ByN {
+    int n = 0;
+    MeanSe pressure;                    // mean arch pressure of the arches of N_t = n (fig. 6.9)
+  };
+  std::vector<ByN> pressure_by_n;
+  // Contact types over the clogged systems (fig. 6.8): each clog's fractions, mean +- se over clogs.
+  MeanSe small_small, large_small, large_large, other;
+};
+ArchSummary summarize_arches(const std::vector<const ClogArches*>& clogs, const ArchSummaryOptions& options = {});
+
 }  // namespace granary::analysis

@@ -283,5 +283,73 @@ TEST(Arches, ContactTypesBySizeOfTheTouchingDiscs) {
   EXPECT_EQ(t.total(), 5);
 }
 
+// Pooled over clogs: means over arches (n = arches), table 3.1's standard deviations, pressure
+// and axis mode per angular position, pressure per N_t, contact fractions per clog; and the
+// per-run JSON keeps everything.
+TEST(Arches, ArchesPooledOverClogs) {
+  auto body = [](double theta, double axis, double pressure) {
+    ArchBody b;
+    b.theta = theta;
+    b.axis = axis;
+    b.pressure = pressure;
+    b.discs = 2;
+    return b;
+  };
+  auto arch = [&](int n, double w, double h, double p, std::vector<ArchBody> bodies, bool obstacle = false) {
+    Arch a;
+    a.n = n;
+    a.width = w;
+    a.height = h;
+    a.perimeter = p;
+    a.c_over_p = 1.0;
+    a.elongated_fraction = 1.0;
+    a.bodies = std::move(bodies);
+    double sum = 0;
+    for (const ArchBody& b : a.bodies) sum += b.pressure;
+    a.mean_pressure = sum / static_cast<double>(a.bodies.size());
+    a.obstacle = obstacle;
+    return a;
+  };
+  ClogArches one, two;
+  one.sealed_outlets = {0};
+  one.arches = {arch(3, 10, 6, 12, {body(0.1, 0.1, 1.0), body(1.6, 1.5, 3.0), body(3.0, 3.0, 5.0)})};
+  one.contact_types = {1, 2, 1, 0};
+  two.sealed_outlets = {0};
+  two.arches = {arch(5, 12, 8, 16, {body(0.2, 0.15, 2.0), body(1.5, 1.55, 4.0), body(1.7, 1.6, 6.0), body(2.9, 2.9, 2.0),
+                                    body(3.1, 3.0, 1.0)}, true)};
+  two.contact_types = {2, 2, 0, 0};
+  const ArchSummary s = summarize_arches({&one, &two}, {3, 6, true});
+  EXPECT_EQ(s.clogs, 2);
+  EXPECT_EQ(s.arches, 2);
+  EXPECT_EQ(s.obstacle_arches, 1);
+  EXPECT_EQ(s.particle_arches, 1);
+  EXPECT_DOUBLE_EQ(s.n.mean, 4.0);
+  EXPECT_EQ(s.n.n, 2);
+  EXPECT_DOUBLE_EQ(s.width.mean, 11.0);
+  EXPECT_NEAR(s.width_sd, std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(s.height_sd, std::sqrt(2.0), 1e-12);
+  EXPECT_DOUBLE_EQ(s.perimeter.mean, 14.0);
+  ASSERT_EQ(s.theta.size(), 3u);
+  EXPECT_NEAR(s.theta[0].pressure.mean, 1.5, 1e-12);  // 1 and 2 at theta < pi/3
+  EXPECT_NEAR(s.theta[1].pressure.mean, 13.0 / 3, 1e-12);
+  EXPECT_NEAR(s.theta[2].pressure.mean, 8.0 / 3, 1e-12);
+  // Axes in bins of pi/6: the middle third's axes (1.5, 1.55, 1.6) all fall in [pi/3, pi/2).
+  EXPECT_NEAR(s.theta[1].axis_mode, 2.5 * kPi / 6, 1e-12);
+  EXPECT_EQ(s.theta[1].elongated, 3);
+  ASSERT_EQ(s.pressure_by_n.size(), 2u);
+  EXPECT_EQ(s.pressure_by_n[0].n, 3);
+  EXPECT_NEAR(s.pressure_by_n[0].pressure.mean, 3.0, 1e-12);
+  EXPECT_NEAR(s.small_small.mean, (0.25 + 0.5) / 2, 1e-12);
+  EXPECT_NEAR(s.large_large.mean, 0.125, 1e-12);
+  // Only particle arches.
+  EXPECT_EQ(summarize_arches({&one, &two}, {3, 6, false}).n.n, 1);
+
+  const ClogArches back = clog_arches_from_json(to_json(two));
+  ASSERT_EQ(back.arches.size(), 1u);
+  EXPECT_EQ(to_json(back), to_json(two));
+  EXPECT_TRUE(back.arches[0].obstacle);
+  EXPECT_DOUBLE_EQ(back.arches[0].bodies[2].pressure, 6.0);
+}
+
 }  // namespace
 }  // namespace granary::analysis
