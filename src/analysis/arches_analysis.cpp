@@ -132,7 +132,7 @@ std::optional<Section> ArchesAnalysis::section(const SectionInput& in) const {
   const bool obstacles = std::any_of(sums.begin(), sums.end(), [](const ArchSummary& a) { return a.obstacle_arches > 0; });
   Table t{"arches", "Arches per point (pooled over replicas)", {}, {}, {}};
   t.header = {"point", "clogs", "arches", "particle / obstacle", "N_t", "w (d)", "sigma_w", "h (d)", "sigma_h", "p (d)",
-              "c/p", "X^arch elongated", "<P> (rho g d)", "with defects", "with gaps", "note"};
+              "c/p", "X^arch elongated", "<P> (rho g d)", "with defects (dead ends, concavities)", "with gaps", "note"};
   t.keys = {"point", "clogs", "arches", "particle_obstacle", "arch_n", "arch_width", "arch_width_sd", "arch_height",
             "arch_height_sd", "arch_perimeter", "arch_c_over_p", "arch_elongated_fraction", "arch_pressure",
             "with_defects", "with_gaps", "note"};
@@ -248,7 +248,7 @@ void ArchesAnalysis::add_pictures(const SectionInput& in, const std::vector<Arch
                      [](const Candidate& a, const Candidate& b) { return a.distance < b.distance; });
     Pictures pics;
     pics.caption = point_name(v, v.points[k]) + ": clogs with the median arch size (N_t = " + format_number(median_n, 3) +
-                   "), arch bodies outlined in red";
+                   "), arch bodies outlined";
     for (std::size_t i = 0; i < candidates.size() && static_cast<int>(pics.pictures.size()) < o_.pictures; ++i) {
       const Candidate& c = candidates[i];
       ClogPicture pic;

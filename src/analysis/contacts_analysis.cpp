@@ -16,7 +16,8 @@ constexpr const char* kTitles[kKinds] = {"small-small contacts in the clogged sy
                                          "large-large contacts in the clogged system",
                                          "contacts of single discs or rods in the clogged system"};
 
-// Per clog with contacts: the four fractions.
+// Per clog with contacts: the four fractions of all its contacts; a clog without a contact
+// between two-disc bodies (only lone discs) has no size classes: NaN for those three.
 void add_fractions(const nlohmann::json& result, std::vector<double> (&out)[kKinds]) {
   if (!result.is_object() || !result.contains("clogs")) return;
   for (const nlohmann::json& c : result.at("clogs")) {
@@ -24,7 +25,8 @@ void add_fractions(const nlohmann::json& result, std::vector<double> (&out)[kKin
                               c.value("other", 0.0)};
     const double total = v[0] + v[1] + v[2] + v[3];
     if (total <= 0) continue;
-    for (int k = 0; k < kKinds; ++k) out[k].push_back(v[k] / total);
+    const bool classified = v[0] + v[1] + v[2] > 0;
+    for (int k = 0; k < kKinds; ++k) out[k].push_back(classified || k == 3 ? v[k] / total : kNaN);
   }
 }
 
@@ -51,7 +53,7 @@ class ContactsAnalysis : public Analysis {
     if (f[0].empty()) return {};
     std::vector<Metric> m;
     for (int k = 0; k < kKinds; ++k) {
-      const MeanSe x = mean_se(f[k]);
+      const MeanSe x = mean_se_finite(f[k]);
       m.push_back({kNames[k], "1", x.mean, x.se, kTitles[k], false});
     }
     return m;
@@ -63,7 +65,7 @@ class ContactsAnalysis : public Analysis {
     if (f[0].empty()) return {};
     std::vector<PointMetric> m;
     for (int k = 0; k < kKinds; ++k) {
-      const MeanSe x = mean_se(f[k]);
+      const MeanSe x = mean_se_finite(f[k]);
       m.push_back({kNames[k], "1", x.mean, x.se, x.n, kTitles[k], false, ""});
     }
     return m;
@@ -79,7 +81,8 @@ class ContactsAnalysis : public Analysis {
         "Fig. 6.8: every contact between discs of different bodies in a clogged configuration, by the size of the two "
         "discs: in a body of two discs the smaller one is small and the larger large (two equal discs: the one with the "
         "lower id is small, the thesis' random choice made repeatable, so symmetric dumbbells give about 1/4, 1/2, "
-        "1/4); a contact of a single disc or a rod's disc is `other`. Fractions per clog, mean ± se over clogs."});
+        "1/4); a contact of a single disc or a rod's disc is `other`. Fractions of all contacts per clog, mean ± se over "
+        "clogs; a system of lone discs has no size classes (blank)."});
     Table t{"contacts", "Contact types in the clogged systems (fractions)",
             {"point", "small-small", "large-small", "large-large", "other"}, {},
             {"point", "contact_ss", "contact_ls", "contact_ll", "contact_other"}};
