@@ -15,6 +15,7 @@
 #include <set>
 #include <thread>
 
+#include "analysis/arches.h"
 #include "rundir/clogs.h"
 #include "rundir/contacts.h"
 #include "rundir/files.h"
@@ -161,6 +162,18 @@ TEST(LiggghtsBackend, AStallIsAClogOrADischargeAsOnTheNativeEngine) {
     EXPECT_GE(c.body_j, 0);
     EXPECT_NE(c.body_i, c.body_j);
   }
+  // The arches analysis reads LIGGGHTS' clog as the native engine's: one arch over the outlet,
+  // its bodies touching one another (pair rows), its ends on the base (from the geometry, as
+  // LIGGGHTS reports no wall rows for primitive walls), wider than the outlet.
+  const granary::analysis::ClogArches arches = granary::analysis::analyse_clog(clogs[0], run.spec);
+  ASSERT_EQ(arches.arches.size(), 1u);
+  const granary::analysis::Arch& arch = arches.arches[0];
+  EXPECT_EQ(arch.outlet, 0);
+  EXPECT_GE(arch.n, 2);
+  EXPECT_EQ(arch.gaps, 0);
+  EXPECT_TRUE(arch.supported);
+  EXPECT_GT(arch.width, 1.6 - 1.0) << "end bodies' centres at least one diameter less than the outlet apart";
+  EXPECT_GT(arches.contact_types.total(), 40);
 
   json through = narrow;
   through["discharge"]["stop_on_clog"] = false;
