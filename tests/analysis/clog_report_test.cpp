@@ -10,6 +10,7 @@
 #include "analysis/options.h"
 #include "analysis/registry.h"
 #include "analysis/arches_analysis.h"
+#include "analysis/contacts_analysis.h"
 #include "analysis/orientation_analysis.h"
 #include "analysis/report.h"
 #include "clog_builder.h"
@@ -209,6 +210,23 @@ TEST(ClogReport, OptionErrorsNameTheirJsonPath) {
   ASSERT_EQ(o.where.regions.size(), 1u);
   EXPECT_EQ(o.where.regions[0].name, "bulk");
   EXPECT_NEAR(o.where.regions[0].director, std::numbers::pi / 2, 1e-12);
+}
+
+// Fractions of all contacts per clog; a clog of lone discs has no size classes, so it counts
+// for `other` only (not as a zero of small-small etc.).
+TEST(ClogReport, ContactFractionsPerClogWithoutSizeClassesForLoneDiscs) {
+  const auto contacts = make_contacts_analysis(nullptr, "/report/contacts");
+  const nlohmann::json result = {
+      {"present", true},
+      {"clogs",
+       {{{"small_small", 0}, {"large_small", 0}, {"large_large", 0}, {"other", 10}},
+        {{"small_small", 1}, {"large_small", 2}, {"large_large", 1}, {"other", 4}}}}};
+  const std::vector<Metric> m = contacts->run_metrics(result);
+  ASSERT_NE(find_metric(m, "contact_ss"), nullptr);
+  EXPECT_DOUBLE_EQ(find_metric(m, "contact_ss")->value, 1.0 / 8);
+  EXPECT_DOUBLE_EQ(find_metric(m, "contact_ls")->value, 2.0 / 8);
+  EXPECT_DOUBLE_EQ(find_metric(m, "contact_other")->value, (1.0 + 0.5) / 2);
+  EXPECT_TRUE(contacts->run_metrics({{"present", false}, {"clogs", nlohmann::json::array()}}).empty());
 }
 
 }  // namespace
