@@ -4,11 +4,14 @@
 #include <algorithm>
 #include <mutex>
 
+#include "analysis/arches_analysis.h"
 #include "analysis/avalanche_analysis.h"
 #include "analysis/clogging_index_analysis.h"
+#include "analysis/contacts_analysis.h"
 #include "analysis/flow_analysis.h"
 #include "analysis/intermittency_analysis.h"
 #include "analysis/options.h"
+#include "analysis/orientation_analysis.h"
 #include "analysis/profile_analysis.h"
 #include "analysis/region_analysis.h"
 
@@ -53,6 +56,9 @@ const std::vector<AnalysisEntry>& builtin_analyses() {
       {"clogging_index", make_clogging_index_analysis},
       {"avalanches", make_avalanche_analysis},
       {"intermittency", make_intermittency_analysis},
+      {"arches", make_arches_analysis},
+      {"contacts", make_contacts_analysis},
+      {"orientation", make_orientation_analysis},
   };
   return kTable;
 }

@@ -974,6 +974,17 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
       return std::string(e.what());
     }
   };
+  options.draw_clog = [](const fs::path& run_dir, const analysis::ClogPicture& picture, const fs::path& png) {
+    render::PictureOptions o;
+    o.highlight = picture.highlight;
+    try {
+      const render::Window window{picture.x_lo, picture.x_hi, picture.y_lo, picture.y_hi};
+      render::WritePng(render::ClogScene(run_dir, picture.clog, o, window), 480, png);
+      return std::string();
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+  };
 #endif
   return analysis::write_report(*c->analysis, options);
 }

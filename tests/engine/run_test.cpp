@@ -2,7 +2,9 @@
 // clogging, checkpoint/continue, determinism across seeds and thread counts, bed cache.
 #include "engine/bench.h"
 #include "engine/run.h"
+#include "rundir/clogs.h"
 #include "rundir/files.h"
+#include "rundir/frames.h"
 #include "rundir/stop.h"
 #include "rundir/version.h"
 
@@ -148,6 +150,56 @@ TEST(Run, TooNarrowOutletClogs) {
   EXPECT_LT(r.t_end, 40.0);
   EXPECT_LT(r.exited, 60);
   EXPECT_EQ(ReadJson(dir / "summary.json")["end_reason"], "clogged");
+  // The clogged configuration is kept: every disc in the silo and its contact forces, at the
+  // step the engine judged the clog (its last).
+  const std::vector<rundir::ClogState> clogs = rundir::ReadClogs(dir);
+  ASSERT_EQ(clogs.size(), 1u);
+  EXPECT_EQ(clogs[0].frame.timestep, r.steps);
+  EXPECT_EQ(static_cast<int>(rundir::BodiesOf(clogs[0].frame.discs).size()), ReadJson(dir / "summary.json")["remaining"].get<int>());
+  EXPECT_EQ(clogs[0].contacts.timestep, r.steps);
+  int pairs = 0, walls = 0;
+  for (const auto& c : clogs[0].contacts.contacts) (c.body_j >= 0 ? pairs : walls) += 1;
+  EXPECT_GT(pairs, 100);  // a settled bed of 120 dumbbells
+  EXPECT_GT(walls, 10);
+}
+
+// Going on through a clog (stop_on_clog false), the clog is kept once, with the same bits at 1
+// and 2 threads and after a kill and continue, whether the checkpoint before the kill was taken
+// after the clog (the clog stays) or before it (the continued run judges it again).
+TEST(Run, ClogsAreKeptOnceAtAnyThreadCountAndAcrossAContinue) {
+  nlohmann::json spec = SmallSpec(2.0, 1.3);
+  spec["discharge"]["stop_on_clog"] = false;
+  spec["discharge"]["clog_window"] = 1.0;
+  spec["output"]["checkpoint_interval"] = 0.3;
+  const fs::path one = FreshDir("clogs-1"), two = FreshDir("clogs-2"), after = FreshDir("clogs-after"),
+                 before = FreshDir("clogs-before");
+  for (const fs::path& d : {one, two, after, before}) WriteSpec(d, spec);
+  // Force blocks of 32 discs (8 blocks). One thread runs the serial loops (fast on 240 discs);
+  // two threads the parallel ones (forcing them costs a fork per step, slow beside other tests).
+  auto run = [](const fs::path& d, int threads, std::int64_t abort_after) {
+    RunOptions o;
+    o.threads = threads;
+    o.quiet = true;
+    o.abort_after_steps = abort_after;
+    o.force_block = 32;
+    if (threads > 1) o.parallel_min_discs = 0;
+    return RunDirectory(d.string(), o);
+  };
+  EXPECT_EQ(run(one, 1, -1).end_reason, "time_limit");
+  const std::vector<rundir::ClogState> clogs = rundir::ReadClogs(one);
+  ASSERT_EQ(clogs.size(), 1u);
+  // Nothing passes 2 d: the clog is judged after clog_window, at step 10000; checkpoints every 3000 steps.
+  ASSERT_EQ(clogs[0].frame.timestep, 10000);
+  run(two, 2, -1);
+  EXPECT_EQ(run(after, 1, 12500).end_reason, "aborted");   // its checkpoint at 12000 holds the clog
+  EXPECT_EQ(run(before, 1, 11000).end_reason, "aborted");  // its checkpoint at 9000 does not
+  for (const fs::path& d : {after, before}) EXPECT_TRUE(run(d, 1, -1).continued);
+  for (const fs::path& d : {two, after, before}) {
+    SCOPED_TRACE(d.filename().string());
+    EXPECT_TRUE(Slurp(one / "clog_frames.dump") == Slurp(d / "clog_frames.dump"));
+    EXPECT_TRUE(Slurp(one / "clog_contacts.dump") == Slurp(d / "clog_contacts.dump"));
+    EXPECT_TRUE(Slurp(one / "events.csv") == Slurp(d / "events.csv"));
+  }
 }
 
 // Passages beside an obstacle over a narrow outlet jam with nothing over the opening itself; the
