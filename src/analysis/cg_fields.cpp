@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdio>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -286,6 +287,21 @@ std::vector<double> CgMaps::values(CgField f) const {
   std::vector<double> v(grid().size());
   for (std::size_t n = 0; n < v.size(); ++n) v[n] = value(f, n);
   return v;
+}
+
+std::string cg_map_csv(const CgMaps& maps, CgField field) {
+  std::string out = std::string("x,y,") + cg_field_info(field).name + ",n_frames\n";
+  const CgGrid& g = maps.grid();
+  char line[128];
+  for (int j = 0; j < g.ny; ++j)
+    for (int i = 0; i < g.nx; ++i) {
+      const std::size_t n = static_cast<std::size_t>(j) * g.nx + i;
+      const double v = maps.value(field, n);
+      const int len = std::isnan(v) ? std::snprintf(line, sizeof line, "%.10g,%.10g,nan,%d\n", g.x(i), g.y(j), maps.n_frames(field, n))
+                                    : std::snprintf(line, sizeof line, "%.10g,%.10g,%.10g,%d\n", g.x(i), g.y(j), v, maps.n_frames(field, n));
+      out.append(line, static_cast<std::size_t>(len));
+    }
+  return out;
 }
 
 CgRegionMean cg_region_mean(const CgMaps& maps, CgField field, const Rect& region) {

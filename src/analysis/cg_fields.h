@@ -121,6 +121,10 @@ class CgMaps {
   CgSums sums_;
 };
 
+// The map as CSV: a header "x,y,<name>,n_frames" and one row per node (rows in y, then x);
+// an undefined value is "nan".
+std::string cg_map_csv(const CgMaps& maps, CgField field);
+
 // Mean of a field over the window nodes inside `region` (NaN where none is defined). The
 // friction fields are the ratio of the region means of |tau| and P (thesis fig. 5.3: shear
 // stress and pressure from the time-averaged fields), not the mean of the ratio.

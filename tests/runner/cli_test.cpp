@@ -291,6 +291,57 @@ TEST_F(CliTest, RealEngineEndToEnd) {
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_ / "beds"), fs::directory_iterator{}) >= 1, true);
 }
 
+// campaign fields on a real engine's run directory: CSV maps with n_frames, the JSON summary,
+// a misspelt field, stress fields of a run without contacts, and the bench's output.
+TEST_F(CliTest, FieldsWritesCsvMapsOfARun) {
+  const std::string engine = testing::BinDir() + "/granary-engine";
+  if (!fs::exists(engine)) GTEST_SKIP() << "granary-engine not built";
+  auto make_run = [&](const std::string& name, bool contacts) {
+    const fs::path run = dir_ / name;
+    fs::create_directories(run);
+    std::ofstream(run / "run.json") << json{
+        {"seed", 2},
+        {"bodies", {{"count", 60}}},
+        {"silo", {{"width", 12}, {"base_outlets", {{{"center", 0}, {"width", 4}}}}}},
+        {"discharge", {{"mode", "reinject"}, {"max_time", 1.0}}},
+        {"output", {{"frame_interval", 0.25}, {"contact_forces", contacts}, {"checkpoint_interval", 0}}}};
+    const auto r = Sh(engine + " run " + run.string() + " --threads 1");
+    EXPECT_EQ(r.code, 0) << r.output;
+    return run;
+  };
+  const fs::path run = make_run("with-contacts", true);
+  const fs::path out = dir_ / "maps";
+  auto r = Sh(testing::Campaign() + " fields " + run.string() + " --fields phi,pressure --from 0.5 --out " +
+              out.string() + " --json");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const json j = json::parse(r.output);
+  EXPECT_EQ(j["frames"], 3);  // t = 0.5, 0.75, 1
+  EXPECT_EQ(j["contact_frames"], 3);
+  EXPECT_EQ(j["files"].size(), 2u);
+  const std::string csv = ReadFile(out / "pressure.csv");
+  EXPECT_EQ(csv.substr(0, csv.find('\n')), "x,y,pressure,n_frames");
+  EXPECT_EQ(CountLines(csv, ""), 1 + j["nodes"].get<int>());
+  EXPECT_NE(csv.find(",3\n"), std::string::npos);
+
+  r = Sh(testing::Campaign() + " fields " + run.string() + " --fields presure");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("unknown field \"presure\"; did you mean \"pressure\"?"), std::string::npos) << r.output;
+
+  const fs::path bare = make_run("without-contacts", false);
+  r = Sh(testing::Campaign() + " fields " + bare.string() + " --fields pressure");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("pressure needs contacts.dump"), std::string::npos) << r.output;
+  r = Sh(testing::Campaign() + " fields " + bare.string());  // every field its data supports
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(bare / "fields" / "tg.csv"));
+  EXPECT_FALSE(fs::exists(bare / "fields" / "pressure.csv"));
+
+  r = Sh(testing::Campaign() + " fields " + run.string() + " --bench --repeat 1 --threads-list 1,2 --max-frames 2");
+  ASSERT_EQ(r.code, 0) << r.output;
+  for (const char* line : {"round 1  read", "round 1  fields, 1 thread", "round 1  fields, 2 threads", "median"})
+    EXPECT_NE(r.output.find(line), std::string::npos) << line << "\n" << r.output;
+}
+
 // campaign compare on a tiny campaign: both real engines (LIGGGHTS as installed by
 // scripts/setup.sh), the comparison as JSON, the report; a second compare reuses every run.
 TEST_F(CliTest, CompareRunsBothEnginesAndReportsThem) {
