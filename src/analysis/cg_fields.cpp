@@ -502,10 +502,20 @@ void CgAccumulator::Impl::build_segments(const rundir::ContactFrame& contacts) {
   for (const rundir::ContactRow& c : contacts.contacts) {
     double ix, iy;
     centre(c.body_i, c.xi, c.yi, c.cx, c.cy, ix, iy);
-    add(c.cx, c.cy, ix, iy, c.fx, c.fy);
-    if (c.body_j >= 0) {
-      double jx, jy;
-      centre(c.body_j, c.xj, c.yj, c.cx, c.cy, jx, jy);
+    if (c.body_j < 0) {  // a wall or an obstacle: the body's half of the branch
+      add(c.cx, c.cy, ix, iy, c.fx, c.fy);
+      continue;
+    }
+    double jx, jy;
+    centre(c.body_j, c.xj, c.yj, c.cx, c.cy, jx, jy);
+    // Centres on either side of the contact point on one line (two round bodies): the two
+    // halves are one segment from J to I, with half the quadrature work.
+    const double ax = ix - c.cx, ay = iy - c.cy, bx = jx - c.cx, by = jy - c.cy;
+    const double cross = ax * by - ay * bx, dot = ax * bx + ay * by;
+    if (dot < 0.0 && std::abs(cross) <= 1e-12 * (ax * ax + ay * ay + bx * bx + by * by)) {
+      add(jx, jy, ix, iy, c.fx, c.fy);
+    } else {
+      add(c.cx, c.cy, ix, iy, c.fx, c.fy);
       add(c.cx, c.cy, jx, jy, -c.fx, -c.fy);
     }
   }

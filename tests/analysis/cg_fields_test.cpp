@@ -264,6 +264,45 @@ TEST(CgFields, StackedPileCarriesItsWeight) {
   }
 }
 
+// The same with rigid two-disc bodies lying flat (horizontal dumbbells), one on another:
+// each disc rests on the disc below it with half the load, and the branch vectors run from
+// the contact points to the bodies' centres (not through the discs' centres), so the
+// stress balances the bodies' weights however their discs are loaded.
+TEST(CgFields, PileOfDumbbellsCarriesItsWeight) {
+  const int columns = 10, rows = 40;
+  const double r = 0.5, m = std::numbers::pi * r * r;  // per disc
+  std::vector<Disc> discs;
+  ContactFrame contacts;
+  for (int k = 0; k < rows; ++k)
+    for (int c = 0; c < columns; ++c) {
+      const std::int64_t body = k * columns + c;
+      for (int side = 0; side < 2; ++side) {
+        Disc d;
+        d.mol = body;
+        d.id = 2 * body + side + 1;
+        d.x = -2.0 * columns / 2 + 2.0 * c + 0.5 + side;
+        d.y = 0.5 + k;
+        d.radius = r;
+        d.mass = m;
+        discs.push_back(d);
+        const double load = (rows - k) * m;  // this disc's half of the body's load (g = 1)
+        if (k == 0)
+          contacts.contacts.push_back({body, -1, d.x, d.y, d.x, 0.0, d.x, 0.0, 0.0, load});
+        else
+          contacts.contacts.push_back({body, body - columns, d.x, d.y, d.x, d.y - 1.0, d.x, d.y - 0.5, 0.0, load});
+      }
+    }
+  CgOptions o = options_over({-20.0, 20.0, 8.0, 32.0}, 5.0, 0.5);
+  CgAccumulator acc(o);
+  acc.add_frame(0.0, discs, &contacts);
+  const CgMaps maps = acc.maps();
+  const double weight_per_row = columns * 2 * m;
+  for (int j = 0; j < maps.grid().ny; ++j) {
+    const double weight_above = weight_per_row * (rows - maps.grid().y(j));
+    EXPECT_NEAR(integrated_syy(maps, j), -weight_above, 1e-9 * weight_above) << "y = " << maps.grid().y(j);
+  }
+}
+
 TEST(CgFields, StreamingSumsAverageFramesAndAddAcrossRuns) {
   const auto still = lattice(-20.0, 20.0, -20.0, 20.0, 1.0, 0.5, [](double, double, Disc&) {});
   const auto moving = lattice(-20.0, 20.0, -20.0, 20.0, 1.0, 0.5, [](double, double, Disc& d) { d.vy = -2.0; });
