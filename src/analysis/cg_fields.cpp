@@ -15,9 +15,11 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <span>
 #include <stdexcept>
 #include <string>
 
@@ -31,46 +33,50 @@ constexpr double kMaxBranch = 10.0;     // a body centre further than this from 
 // Gauss-Legendre nodes and weights on [0, 1] for n points (weights sum to 1).
 struct Quadrature {
   int n = 0;
-  std::array<double, 16> s{}, c{};
+  std::array<double, kMaxQuadrature> s{}, c{};
 };
 
-const Quadrature& gauss_legendre(int points) {
-  static const std::array<Quadrature, kMaxQuadrature + 1> table = [] {
-    std::array<Quadrature, kMaxQuadrature + 1> t{};
-    for (int n = 1; n <= static_cast<int>(kMaxQuadrature); ++n) {
-      Quadrature& q = t[static_cast<std::size_t>(n)];
-      q.n = n;
-      for (int i = 1; i <= n; ++i) {
-        double x = std::cos(std::numbers::pi * (i - 0.25) / (n + 0.5));
-        double dp = 1.0;
-        for (int it = 0; it < 100; ++it) {
-          double p0 = 1.0, p1 = x;
-          for (int k = 2; k <= n; ++k) {
-            const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
-            p0 = p1;
-            p1 = p2;
-          }
-          dp = n * (x * p1 - p0) / (x * x - 1.0);
-          const double step = p1 / dp;
-          x -= step;
-          if (std::abs(step) < 1e-16) break;
+const std::array<Quadrature, kMaxQuadrature + 1> kGaussLegendre = [] {
+  std::array<Quadrature, kMaxQuadrature + 1> t{};
+  for (int n = 1; n <= static_cast<int>(kMaxQuadrature); ++n) {
+    Quadrature& q = t[static_cast<std::size_t>(n)];
+    q.n = n;
+    for (int i = 1; i <= n; ++i) {
+      double x = std::cos(std::numbers::pi * (i - 0.25) / (n + 0.5));
+      double dp = 1.0;
+      for (int it = 0; it < 100; ++it) {
+        double p0 = 1.0, p1 = x;
+        for (int k = 2; k <= n; ++k) {
+          const double p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
+          p0 = p1;
+          p1 = p2;
         }
-        q.s[static_cast<std::size_t>(i - 1)] = 0.5 * (x + 1.0);
-        q.c[static_cast<std::size_t>(i - 1)] = 1.0 / ((1.0 - x * x) * dp * dp);  // 2/((1-x^2)p'^2) on [-1,1], halved
+        dp = n * (x * p1 - p0) / (x * x - 1.0);
+        const double step = p1 / dp;
+        x -= step;
+        if (std::abs(step) < 1e-16) break;
       }
+      q.s[static_cast<std::size_t>(i - 1)] = 0.5 * (x + 1.0);
+      q.c[static_cast<std::size_t>(i - 1)] = 1.0 / ((1.0 - x * x) * dp * dp);  // 2/((1-x^2)p'^2) on [-1,1], halved
     }
-    return t;
-  }();
-  return table[static_cast<std::size_t>(std::clamp(points, 1, static_cast<int>(kMaxQuadrature)))];
+  }
+  return t;
+}();
+
+const Quadrature& gauss_legendre(int points) {
+  return kGaussLegendre[static_cast<std::size_t>(std::clamp(points, 1, static_cast<int>(kMaxQuadrature)))];
 }
 
 // Points for a segment of length L: the rule's error on exp(-(t - sL)^2/w^2) stays below
-// 3e-8 of the peak up to these L/w (measured against the erf closed form) -- branches up to
-// 6 w, more than any body's centre-to-contact distance.
-int quadrature_points(double length_over_w) {
-  static constexpr double kLimit[] = {0.28, 0.65, 1.11, 1.62, 2.15, 2.69, 3.25, 3.80, 4.36, 4.92, 5.47, 6.0};
+// `tolerance` of the peak up to these L/w (measured against the erf closed form), for branches
+// up to 6 w -- more than any body's centre-to-contact distance. The tolerance is kept well
+// below the kernel's own cut, exp(-cutoff^2) of the peak (1.2e-4 at 3 w): 1e-6 for cutoffs up
+// to 3.2 w, 3e-8 beyond.
+int quadrature_points(double length_over_w, double cutoff) {
+  static constexpr double kLimit6[] = {0.508, 1.022, 1.603, 2.214, 2.839, 3.47, 4.1, 4.7, 5.3, 6.0};  // 1e-6, from 3 points
+  static constexpr double kLimit8[] = {0.28, 0.65, 1.11, 1.62, 2.15, 2.69, 3.25, 3.80, 4.36, 4.92, 5.47, 6.0};  // 3e-8
   int n = 3;
-  for (double limit : kLimit) {
+  for (double limit : cutoff <= 3.2 ? std::span<const double>(kLimit6) : std::span<const double>(kLimit8)) {
     if (length_over_w <= limit) return n;
     ++n;
   }
@@ -105,9 +111,28 @@ inline void axis_factors(double first_node, double h, double p, int n, double in
   }
 }
 
-struct Segment {
-  double ax, ay, bx, by;       // from the contact point a to a body centre b
-  double txx, txy, tyx, tyy;   // -F (x) (b - a), F the force on that body
+// Four doubles in a vector register (GCC's vector extension: AVX in the avx2 clones of the
+// kernels, two SSE2 registers otherwise). Each lane is one node: the same additions in the same
+// order as the scalar loop, so the same bits in either clone.
+// (-Wpsabi: passing 32-byte vectors by value differs with and without AVX; these never cross a
+// compiled call, they are always inlined.)
+#pragma GCC diagnostic ignored "-Wpsabi"
+typedef double Lanes __attribute__((vector_size(32)));
+constexpr int kLanes = 4;
+[[gnu::always_inline]] inline Lanes load_lanes(const double* p) {
+  Lanes v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+[[gnu::always_inline]] inline void store_lanes(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
+
+// A contact's branch: one or two segments from a common start a -- the contact point to each
+// body's centre, or from one round body's centre through the contact point to the other's.
+struct Branch {
+  double ax, ay;
+  int halves;                          // 1 or 2
+  double bx[2], by[2];                 // the segments' ends
+  double t[2][4];                      // -F (x) (b - a), F the force on the body at b: xx, xy, yx, yy
 };
 
 }  // namespace
@@ -334,13 +359,18 @@ CgRegionMean cg_region_mean(const CgMaps& maps, CgField field, const Rect& regio
 
 double cg_line_integral(double rx, double ry, double ax, double ay, double bx, double by, const CgOptions& options) {
   const Kernel k(options);
-  const double ux = bx - ax, uy = by - ay;
-  const Quadrature& q = gauss_legendre(quadrature_points(std::hypot(ux, uy) / options.width));
+  const double ux = bx - ax, uy = by - ay, length2 = ux * ux + uy * uy;
+  // Zero beyond the cutoff from the segment's line or beyond its ends (as MercuryCG cuts its
+  // line integrals).
+  const double length = std::sqrt(length2);
+  if (!(length > 0.0)) return 0.0;
+  const double along = ((rx - ax) * ux + (ry - ay) * uy) / length, perp = ((rx - ax) * uy - (ry - ay) * ux) / length;
+  if (!(along > -k.rc && along < length + k.rc && perp * perp < k.rc2)) return 0.0;
+  const Quadrature& q = gauss_legendre(quadrature_points(std::sqrt(length2) / options.width, options.cutoff));
   double sum = 0.0;
   for (int p = 0; p < q.n; ++p) {
     const double dx = rx - ax - q.s[p] * ux, dy = ry - ay - q.s[p] * uy;
-    const double r2 = dx * dx + dy * dy;
-    if (r2 < k.rc2) sum += q.c[p] * std::exp(-r2 * k.inv_w2);
+    sum += q.c[p] * std::exp(-(dx * dx + dy * dy) * k.inv_w2);
   }
   return sum * k.norm;
 }
@@ -364,7 +394,7 @@ struct CgAccumulator::Impl {
   // The frame's discs that reach the extended grid.
   std::vector<double> dx, dy, da, dm, dvx, dvy, dom;
   std::vector<unsigned char> near_window;              // within the cutoff of a window node: pass 2
-  std::vector<Segment> segments;
+  std::vector<Branch> segments;
   std::vector<std::vector<std::int32_t>> band_discs, band_segments;
   std::vector<double> body_m, body_x, body_y;          // centres of mass by body id
 
@@ -479,23 +509,38 @@ void CgAccumulator::Impl::build_segments(const rundir::ContactFrame& contacts) {
     y = disc_y;
     if (body < 0 || static_cast<std::size_t>(body) >= body_m.size() || !(body_m[static_cast<std::size_t>(body)] > 0.0)) return;
     const double bx = body_x[static_cast<std::size_t>(body)], by = body_y[static_cast<std::size_t>(body)];
-    if (std::hypot(bx - cx, by - cy) <= kMaxBranch) {
+    if ((bx - cx) * (bx - cx) + (by - cy) * (by - cy) <= kMaxBranch * kMaxBranch) {
       x = bx;
       y = by;
     }
   };
-  auto add = [&](double ax, double ay, double bx, double by, double fx, double fy) {
-    if (std::max(ax, bx) < wx0 || std::min(ax, bx) > wx1 || std::max(ay, by) < wy0 || std::min(ay, by) > wy1) return;
-    if (!(std::isfinite(ax) && std::isfinite(ay) && std::isfinite(bx) && std::isfinite(by) && std::isfinite(fx) &&
-          std::isfinite(fy)))
-      return;
-    const double ux = bx - ax, uy = by - ay;
-    if (ux == 0.0 && uy == 0.0) return;
+  // One branch from a through the ends b[k] (k < halves) with forces f[k] on those bodies.
+  auto add = [&](double ax, double ay, int halves, const double* bx, const double* by, const double* fx,
+                 const double* fy) {
+    Branch br{ax, ay, 0, {0, 0}, {0, 0}, {}};
+    double lo_x = ax, hi_x = ax, lo_y = ay, hi_y = ay;
+    for (int k = 0; k < halves; ++k) {
+      const double ux = bx[k] - ax, uy = by[k] - ay;
+      if (!(std::isfinite(ux) && std::isfinite(uy) && std::isfinite(fx[k]) && std::isfinite(fy[k]))) continue;
+      if (ux == 0.0 && uy == 0.0) continue;
+      const int h2 = br.halves++;
+      br.bx[h2] = bx[k];
+      br.by[h2] = by[k];
+      br.t[h2][0] = -fx[k] * ux;
+      br.t[h2][1] = -fx[k] * uy;
+      br.t[h2][2] = -fy[k] * ux;
+      br.t[h2][3] = -fy[k] * uy;
+      lo_x = std::min(lo_x, bx[k]);
+      hi_x = std::max(hi_x, bx[k]);
+      lo_y = std::min(lo_y, by[k]);
+      hi_y = std::max(hi_y, by[k]);
+    }
+    if (br.halves == 0 || !std::isfinite(ax) || !std::isfinite(ay)) return;
+    if (hi_x < wx0 || lo_x > wx1 || hi_y < wy0 || lo_y > wy1) return;
     const auto k = static_cast<std::int32_t>(segments.size());
-    segments.push_back({ax, ay, bx, by, -fx * ux, -fx * uy, -fy * ux, -fy * uy});
-    const double lo = std::min(ay, by) - rc, hi = std::max(ay, by) + rc;
-    const int j_lo = std::max(margin, static_cast<int>(std::ceil((lo - ext.y0) / h)));
-    const int j_hi = std::min(margin + grid.ny - 1, static_cast<int>(std::floor((hi - ext.y0) / h)));
+    segments.push_back(br);
+    const int j_lo = std::max(margin, static_cast<int>(std::ceil((lo_y - rc - ext.y0) / h)));
+    const int j_hi = std::min(margin + grid.ny - 1, static_cast<int>(std::floor((hi_y + rc - ext.y0) / h)));
     for (int b = j_lo / kBandRows; b <= j_hi / kBandRows && j_lo <= j_hi; ++b)
       band_segments[static_cast<std::size_t>(b)].push_back(k);
   };
@@ -503,25 +548,26 @@ void CgAccumulator::Impl::build_segments(const rundir::ContactFrame& contacts) {
     double ix, iy;
     centre(c.body_i, c.xi, c.yi, c.cx, c.cy, ix, iy);
     if (c.body_j < 0) {  // a wall or an obstacle: the body's half of the branch
-      add(c.cx, c.cy, ix, iy, c.fx, c.fy);
+      add(c.cx, c.cy, 1, &ix, &iy, &c.fx, &c.fy);
       continue;
     }
     double jx, jy;
     centre(c.body_j, c.xj, c.yj, c.cx, c.cy, jx, jy);
-    // Centres on either side of the contact point on one line (two round bodies): the two
-    // halves are one segment from J to I, with half the quadrature work.
+    // Centres on either side of the contact point on one line (two round bodies; the dump's 10
+    // digits leave them 1e-8 d off it): the two halves are one segment from J to I, with half
+    // the quadrature work.
     const double ax = ix - c.cx, ay = iy - c.cy, bx = jx - c.cx, by = jy - c.cy;
     const double cross = ax * by - ay * bx, dot = ax * bx + ay * by;
-    if (dot < 0.0 && std::abs(cross) <= 1e-12 * (ax * ax + ay * ay + bx * bx + by * by)) {
-      add(jx, jy, ix, iy, c.fx, c.fy);
+    if (dot < 0.0 && std::abs(cross) <= 1e-8 * (ax * ax + ay * ay + bx * bx + by * by)) {
+      add(jx, jy, 1, &ix, &iy, &c.fx, &c.fy);
     } else {
-      add(c.cx, c.cy, ix, iy, c.fx, c.fy);
-      add(c.cx, c.cy, jx, jy, -c.fx, -c.fy);
+      const double ends_x[2] = {ix, jx}, ends_y[2] = {iy, jy}, fx[2] = {c.fx, -c.fx}, fy[2] = {c.fy, -c.fy};
+      add(c.cx, c.cy, 2, ends_x, ends_y, fx, fy);
     }
   }
 }
 
-void CgAccumulator::Impl::pass1_band(int band, bool with_contacts) {
+__attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass1_band(int band, bool with_contacts) {
   const int j0 = band * kBandRows, j1 = std::min(ext.ny, j0 + kBandRows);  // rows [j0, j1)
   const std::size_t n0 = static_cast<std::size_t>(j0) * ext.nx, n1 = static_cast<std::size_t>(j1) * ext.nx;
   for (auto* v : {&phi, &px, &py, &om, &om2, &v2, &ta, &kxx, &kxy, &kyy, &sxx, &sxy, &syx, &syy})
@@ -530,15 +576,13 @@ void CgAccumulator::Impl::pass1_band(int band, bool with_contacts) {
   // Row and column ranges are clamped to the grid, so its dimensions bound the scratch.
   const std::size_t cols = static_cast<std::size_t>(ext.nx), rows = static_cast<std::size_t>(ext.ny);
   thread_local std::vector<double> scratch;
-  scratch.resize(3 * cols + 2 * rows + kMaxQuadrature * 2 * (cols + rows) + cols);
+  scratch.resize(2 * cols + 2 * rows + 2 * kMaxQuadrature * (cols + rows));
   double* const ex = scratch.data();
   double* const dx2 = ex + cols;
-  double* const wrow = dx2 + cols;
-  double* const ey = wrow + cols;
+  double* const ey = dx2 + cols;
   double* const dy2 = ey + rows;
-  double* const qx = dy2 + rows;              // kMaxQuadrature blocks of (e, d2) per column
-  double* const qy = qx + kMaxQuadrature * 2 * cols;
-  double* const li = qy + kMaxQuadrature * 2 * rows;
+  double* const qx = dy2 + rows;              // the quadrature points' factors: per half, kMaxQuadrature rows of cols
+  double* const qy = qx + 2 * kMaxQuadrature * cols;
   for (const std::int32_t k : band_discs[static_cast<std::size_t>(band)]) {
     const double x = dx[k], y = dy[k];
     const int i_lo = std::max(0, static_cast<int>(std::ceil((x - rc - ext.x0) / h)));
@@ -552,23 +596,23 @@ void CgAccumulator::Impl::pass1_band(int band, bool with_contacts) {
     const double a = da[k], avx = a * dvx[k], avy = a * dvy[k], aom = a * dom[k], aom2 = aom * dom[k];
     const double av2 = a * (dvx[k] * dvx[k] + dvy[k] * dvy[k]);
     for (int r = 0; r < nj; ++r) {
-      const double eyr = norm * ey[r], dyr = dy2[r];
-      for (int i = 0; i < ni; ++i) wrow[i] = dx2[i] + dyr < rc2 ? eyr * ex[i] : 0.0;
+      const double room = rc2 - dy2[r], c = norm * ey[r];
       const std::size_t base = static_cast<std::size_t>(r_lo + r) * ext.nx + i_lo;
-      double* __restrict p_phi = phi.data() + base;
-      double* __restrict p_px = px.data() + base;
-      double* __restrict p_py = py.data() + base;
-      double* __restrict p_om = om.data() + base;
-      double* __restrict p_om2 = om2.data() + base;
-      double* __restrict p_v2 = v2.data() + base;
+      double* __restrict o_phi = phi.data() + base;
+      double* __restrict o_px = px.data() + base;
+      double* __restrict o_py = py.data() + base;
+      double* __restrict o_om = om.data() + base;
+      double* __restrict o_om2 = om2.data() + base;
+      double* __restrict o_v2 = v2.data() + base;
+#pragma omp simd
       for (int i = 0; i < ni; ++i) {
-        const double w = wrow[i];
-        p_phi[i] += a * w;
-        p_px[i] += avx * w;
-        p_py[i] += avy * w;
-        p_om[i] += aom * w;
-        p_om2[i] += aom2 * w;
-        p_v2[i] += av2 * w;
+        const double w = dx2[i] < room ? c * ex[i] : 0.0;
+        o_phi[i] += a * w;
+        o_px[i] += avx * w;
+        o_py[i] += avy * w;
+        o_om[i] += aom * w;
+        o_om2[i] += aom2 * w;
+        o_v2[i] += av2 * w;
       }
     }
   }
@@ -578,46 +622,83 @@ void CgAccumulator::Impl::pass1_band(int band, bool with_contacts) {
   const int wj0 = std::max(j0, margin), wj1 = std::min(j1 - 1, margin + grid.ny - 1);
   if (wj0 > wj1) return;
   for (const std::int32_t k : band_segments[static_cast<std::size_t>(band)]) {
-    const Segment& s = segments[static_cast<std::size_t>(k)];
-    const double ux = s.bx - s.ax, uy = s.by - s.ay;
-    const int i_lo = std::max(wi0, static_cast<int>(std::ceil((std::min(s.ax, s.bx) - rc - ext.x0) / h)));
-    const int i_hi = std::min(wi1, static_cast<int>(std::floor((std::max(s.ax, s.bx) + rc - ext.x0) / h)));
-    const int r_lo = std::max(wj0, static_cast<int>(std::ceil((std::min(s.ay, s.by) - rc - ext.y0) / h)));
-    const int r_hi = std::min(wj1, static_cast<int>(std::floor((std::max(s.ay, s.by) + rc - ext.y0) / h)));
-    const int ni = i_hi - i_lo + 1, nj = r_hi - r_lo + 1;
-    if (ni <= 0 || nj <= 0) continue;
-    const Quadrature& q = gauss_legendre(quadrature_points(std::hypot(ux, uy) / opt.width));
-    for (int p = 0; p < q.n; ++p) {
-      double* const exp_x = qx + 2 * p * cols;
-      double* const exp_y = qy + 2 * p * rows;
-      axis_factors(ext.x(i_lo), h, s.ax + q.s[p] * ux, ni, inv_w2, q2, exp_x, exp_x + cols);
-      axis_factors(ext.y(r_lo), h, s.ay + q.s[p] * uy, nj, inv_w2, q2, exp_y, exp_y + rows);
+    const Branch& br = segments[static_cast<std::size_t>(k)];
+    double lo_x = br.ax, hi_x = br.ax, lo_y = br.ay, hi_y = br.ay;
+    for (int half = 0; half < br.halves; ++half) {
+      lo_x = std::min(lo_x, br.bx[half]);
+      hi_x = std::max(hi_x, br.bx[half]);
+      lo_y = std::min(lo_y, br.by[half]);
+      hi_y = std::max(hi_y, br.by[half]);
     }
-    for (int r = 0; r < nj; ++r) {
-      for (int i = 0; i < ni; ++i) li[i] = 0.0;
-      for (int p = 0; p < q.n; ++p) {
-        const double* const exp_y = qy + 2 * p * rows;
-        const double cy = norm * q.c[p] * exp_y[r], dyr = exp_y[rows + r];
-        const double* __restrict e = qx + 2 * p * cols;
-        const double* __restrict d2 = e + cols;
-        for (int i = 0; i < ni; ++i) li[i] += d2[i] + dyr < rc2 ? cy * e[i] : 0.0;
+    const int i_first = std::max(wi0, static_cast<int>(std::ceil((lo_x - rc - ext.x0) / h)));
+    const int i_last = std::min(wi1, static_cast<int>(std::floor((hi_x + rc - ext.x0) / h)));
+    const int r_lo = std::max(wj0, static_cast<int>(std::ceil((lo_y - rc - ext.y0) / h)));
+    const int r_hi = std::min(wj1, static_cast<int>(std::floor((hi_y + rc - ext.y0) / h)));
+    const int nj = r_hi - r_lo + 1;
+    if (i_last < i_first || nj <= 0) continue;
+    // Whole vectors of columns: the range grows to a multiple of kLanes (left if the row ends),
+    // and the columns outside [i_first, i_last] get nothing.
+    const int ni = (i_last - i_first + kLanes) / kLanes * kLanes;
+    const int i_lo = std::max(0, std::min(i_first, ext.nx - ni));
+    if (i_lo + ni > ext.nx) continue;  // a grid narrower than one vector of columns: never at spacing <= rc/2
+    const double col_lo = i_first - i_lo - 0.5, col_hi = i_last - i_lo + 0.5;
+    // Per half: the quadrature points' axis factors and the cut -- nodes within the cutoff of
+    // the segment's line and no further than the cutoff beyond its ends (MercuryCG's cut of
+    // its line integrals), with along = (r - a).e and perp = (r - a) x e.
+    int nq[2] = {0, 0};
+    const Quadrature* rule[2] = {nullptr, nullptr};
+    double e_x[2] = {0, 0}, e_y[2] = {0, 0}, along_hi[2] = {0, 0};
+    for (int half = 0; half < br.halves; ++half) {
+      const double ux = br.bx[half] - br.ax, uy = br.by[half] - br.ay, length = std::sqrt(ux * ux + uy * uy);
+      rule[half] = &gauss_legendre(quadrature_points(length / opt.width, opt.cutoff));
+      nq[half] = rule[half]->n;
+      e_x[half] = ux / length;
+      e_y[half] = uy / length;
+      along_hi[half] = length + rc;
+      for (int p = 0; p < nq[half]; ++p) {
+        const std::size_t block = static_cast<std::size_t>(half) * kMaxQuadrature + static_cast<std::size_t>(p);
+        axis_factors(ext.x(i_lo), h, br.ax + rule[half]->s[p] * ux, ni, inv_w2, q2, qx + block * cols, dx2);
+        axis_factors(ext.y(r_lo), h, br.ay + rule[half]->s[p] * uy, nj, inv_w2, q2, qy + block * rows, dy2);
       }
+    }
+    const double x_first = ext.x(i_lo) - br.ax;
+    const int halves = br.halves;
+    for (int r = 0; r < nj; ++r) {
+      const double ry = ext.y(r_lo + r) - br.ay;
+      double cq[2][kMaxQuadrature];
+      for (int half = 0; half < halves; ++half) {
+        const double* const fy = qy + static_cast<std::size_t>(half) * kMaxQuadrature * rows + r;
+        for (int p = 0; p < nq[half]; ++p)
+          cq[half][p] = norm * rule[half]->c[p] * fy[static_cast<std::size_t>(p) * rows];
+      }
+      double* const out[4] = {sxx.data(), sxy.data(), syx.data(), syy.data()};
       const std::size_t base = static_cast<std::size_t>(r_lo + r) * ext.nx + i_lo;
-      double* __restrict p_xx = sxx.data() + base;
-      double* __restrict p_xy = sxy.data() + base;
-      double* __restrict p_yx = syx.data() + base;
-      double* __restrict p_yy = syy.data() + base;
-      for (int i = 0; i < ni; ++i) {
-        p_xx[i] += s.txx * li[i];
-        p_xy[i] += s.txy * li[i];
-        p_yx[i] += s.tyx * li[i];
-        p_yy[i] += s.tyy * li[i];
+      for (int i0 = 0; i0 < ni; i0 += kLanes) {
+        const Lanes col = Lanes{0, 1, 2, 3} + i0;
+        const Lanes rx = x_first + col * h;
+        Lanes acc[4] = {};
+        for (int half = 0; half < halves; ++half) {
+          // The kernel's line integral: the quadrature points' Gaussians, at nodes within the
+          // cut (and inside the branch's columns).
+          const double* const fx = qx + static_cast<std::size_t>(half) * kMaxQuadrature * cols + i0;
+          Lanes line = {};
+          for (int p = 0; p < nq[half]; ++p) line += cq[half][p] * load_lanes(fx + static_cast<std::size_t>(p) * cols);
+          const Lanes along = rx * e_x[half] + ry * e_y[half], perp = rx * e_y[half] - ry * e_x[half];
+          const auto inside = (along > -rc) & (along < along_hi[half]) & (perp * perp < rc2) & (col > col_lo) &
+                              (col < col_hi);
+          line = inside ? line : Lanes{};
+          for (int c = 0; c < 4; ++c) acc[c] += br.t[half][c] * line;
+        }
+        for (int c = 0; c < 4; ++c) {
+          double* const o = out[c] + base + i0;
+          store_lanes(o, load_lanes(o) + acc[c]);
+        }
       }
     }
   }
 }
 
-void CgAccumulator::Impl::pass2_band(int band) {
+__attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass2_band(int band) {
   // Rows of this band inside the window.
   const int j0 = std::max(band * kBandRows, margin);
   const int j1 = std::min(std::min(ext.ny, band * kBandRows + kBandRows), margin + grid.ny);  // [j0, j1)
@@ -626,11 +707,10 @@ void CgAccumulator::Impl::pass2_band(int band) {
   const double h = opt.spacing, rc = kernel.rc, rc2 = kernel.rc2, inv_w2 = kernel.inv_w2, norm = kernel.norm;
   const std::size_t cols = static_cast<std::size_t>(ext.nx), rows = static_cast<std::size_t>(ext.ny);
   thread_local std::vector<double> scratch;
-  scratch.resize(3 * cols + 2 * rows);
+  scratch.resize(2 * cols + 2 * rows);
   double* const ex = scratch.data();
   double* const dx2 = ex + cols;
-  double* const wrow = dx2 + cols;
-  double* const ey = wrow + cols;
+  double* const ey = dx2 + cols;
   double* const dy2 = ey + rows;
   for (const std::int32_t k : band_discs[static_cast<std::size_t>(band)]) {
     if (!near_window[static_cast<std::size_t>(k)]) continue;
@@ -659,19 +739,19 @@ void CgAccumulator::Impl::pass2_band(int band) {
     axis_factors(ext.x(i_lo), h, x, ni, inv_w2, q2, ex, dx2);
     axis_factors(ext.y(r_lo), h, y, nj, inv_w2, q2, ey, dy2);
     for (int r = 0; r < nj; ++r) {
-      const double eyr = norm * ey[r], dyr = dy2[r];
-      for (int i = 0; i < ni; ++i) wrow[i] = dx2[i] + dyr < rc2 ? eyr * ex[i] : 0.0;
+      const double room = rc2 - dy2[r], c = norm * ey[r];
       const std::size_t base = static_cast<std::size_t>(r_lo + r) * ext.nx + i_lo;
-      double* __restrict p_ta = ta.data() + base;
-      double* __restrict p_xx = kxx.data() + base;
-      double* __restrict p_xy = kxy.data() + base;
-      double* __restrict p_yy = kyy.data() + base;
+      double* __restrict o_ta = ta.data() + base;
+      double* __restrict o_xx = kxx.data() + base;
+      double* __restrict o_xy = kxy.data() + base;
+      double* __restrict o_yy = kyy.data() + base;
+#pragma omp simd
       for (int i = 0; i < ni; ++i) {
-        const double w = wrow[i];
-        p_ta[i] += qa * w;
-        p_xx[i] += qxx * w;
-        p_xy[i] += qxy * w;
-        p_yy[i] += qyy * w;
+        const double w = dx2[i] < room ? c * ex[i] : 0.0;
+        o_ta[i] += qa * w;
+        o_xx[i] += qxx * w;
+        o_xy[i] += qxy * w;
+        o_yy[i] += qyy * w;
       }
     }
   }

@@ -172,9 +172,10 @@ class CgAccumulator {
   std::unique_ptr<Impl> impl_;
 };
 
-// The line integral of the kernel along a segment, int_0^1 W(r - a - s (b - a)) ds, by
-// Gauss-Legendre quadrature with enough points for an error below 3e-8 of W's peak
-// (what add_frame uses; exposed for tests).
+// The line integral of the kernel along a segment, int_0^1 W(r - a - s (b - a)) ds, at a node
+// within the cutoff of the segment's line and of its ends (zero elsewhere, as MercuryCG cuts
+// it), by Gauss-Legendre quadrature with enough points for an error below 1e-6 of W's peak
+// (cutoff <= 3.2 w) or 3e-8 (larger cutoffs) -- what add_frame uses; exposed for tests.
 double cg_line_integral(double rx, double ry, double ax, double ay, double bx, double by, const CgOptions& options);
 
 }  // namespace granary::analysis

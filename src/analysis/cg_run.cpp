@@ -11,6 +11,28 @@
 
 namespace granary::analysis {
 
+const rundir::ContactFrame* ContactFrameMatcher::at(std::int64_t timestep) {
+  while (!done_) {
+    if (!pending_) {
+      if (!reader_.Next(frame_)) {
+        done_ = true;
+        break;
+      }
+      pending_ = true;
+    }
+    if (frame_.timestep < timestep) {
+      pending_ = false;
+      continue;
+    }
+    if (frame_.timestep == timestep) {
+      pending_ = false;
+      return &frame_;
+    }
+    break;
+  }
+  return nullptr;
+}
+
 Rect cg_run_window(const rundir::RunData& data) {
   double width = 100.0;
   if (data.spec.is_object() && data.spec.contains("silo") && data.spec.at("silo").is_object())
@@ -42,39 +64,17 @@ CgRunResult cg_fields_of_run(const rundir::RunData& data, const CgRunOptions& op
   if (data.spec.is_object() && data.spec.contains("bodies") && data.spec.at("bodies").is_object())
     density = data.spec.at("bodies").value("density", 1.0);
   rundir::FrameReader frames(data.frames_file(), density);
-  std::optional<rundir::ContactReader> contacts;
+  std::optional<ContactFrameMatcher> contacts;
   if (options.contacts && data.has_contacts) contacts.emplace(data.contacts_file());
   result.has_contacts = contacts.has_value();
   rundir::Frame frame;
-  rundir::ContactFrame contact_frame;
-  bool contact_pending = false, contacts_done = !contacts;
   int in_range = 0, used = 0;
   while (frames.Next(frame)) {
     ++result.frames_read;
     if (frame.time > options.t_end) break;  // frames are in time order
     if (frame.time < options.t_start) continue;
     if (in_range++ % std::max(1, options.frame_stride) != 0) continue;
-    // The contact frame of this timestep: contact frames are in the same order, a subset or
-    // all of the frames' timesteps.
-    const rundir::ContactFrame* c = nullptr;
-    while (!contacts_done) {
-      if (!contact_pending) {
-        if (!contacts->Next(contact_frame)) {
-          contacts_done = true;
-          break;
-        }
-        contact_pending = true;
-      }
-      if (contact_frame.timestep < frame.timestep) {
-        contact_pending = false;
-        continue;
-      }
-      if (contact_frame.timestep == frame.timestep) {
-        c = &contact_frame;
-        contact_pending = false;
-      }
-      break;
-    }
+    const rundir::ContactFrame* c = contacts ? contacts->at(frame.timestep) : nullptr;
     const int part = options.route ? options.route(frame.time) : 0;
     if (part < 0) continue;
     if (part >= parts) throw std::invalid_argument("cg_fields_of_run: route gave part " + std::to_string(part));

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "analysis/cg_fields.h"
+#include "rundir/contacts.h"
 #include "rundir/run_directory.h"
 
 namespace granary::analysis {
@@ -36,6 +37,20 @@ struct CgRunResult {
   bool has_contacts = false;     // contacts.dump read
   int frames_without_contacts = 0;  // frames used whose timestep had no contact frame
   double first_time = kNaN, last_time = kNaN;  // of the frames used
+};
+
+// The contact frame of each frame's timestep, from a contacts.dump read alongside frames.dump
+// (contact frames are in the same order: all or some of the frames' timesteps).
+class ContactFrameMatcher {
+ public:
+  explicit ContactFrameMatcher(const std::filesystem::path& contacts_file) : reader_(contacts_file) {}
+  // The contact frame of `timestep`, or nullptr; timesteps must not decrease between calls.
+  const rundir::ContactFrame* at(std::int64_t timestep);
+
+ private:
+  rundir::ContactReader reader_;
+  rundir::ContactFrame frame_;
+  bool pending_ = false, done_ = false;
 };
 
 // The silo's default window: `/silo/width` of the spec and the bed's height from summary.json

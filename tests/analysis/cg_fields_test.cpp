@@ -257,10 +257,11 @@ TEST(CgFields, StackedPileCarriesItsWeight) {
       const double weight_above = pile.weight_per_row * (rows - y);  // rows are 1 d tall, the top at y = rows
       worst = std::max(worst, std::abs(integrated_syy(maps, j) + weight_above) / weight_above);
     }
-    // Stated discretisation error (docs/analyses.md): 5e-5 of the load at the thesis' 3w on a
-    // 1 d grid (measured 1.1e-5: the cut kernel's edge); at 5w the quadrature along the
+    // Stated discretisation error (docs/analyses.md): 2e-4 of the load at the thesis' 3w on a
+    // 1 d grid (measured 8.5e-5: the cut kernel's edge, each branch's line integral cut at 3w
+    // from its segment, exp(-9) = 1.2e-4 of the peak); at 5w the quadrature along the
     // branches is all that is left (measured 8e-13).
-    EXPECT_LT(worst, cutoff == 5.0 ? 1e-10 : 5e-5) << "cutoff " << cutoff;
+    EXPECT_LT(worst, cutoff == 5.0 ? 1e-10 : 2e-4) << "cutoff " << cutoff;
   }
 }
 
