@@ -1,10 +1,11 @@
-// AVX-512 loops of the step (avx512_kernels.h): the pair-force loop and the dumbbells' disc
-// placement. Every arithmetic line mirrors an operation of the portable code (PairEntries,
+// AVX-512 loops of the step (avx512_kernels.h): the pair-force loop and the drift of bodies
+// of one or two discs. Every arithmetic line mirrors an operation of the portable code (PairEntries,
 // NormalForce, TangentialForceT; world.cpp's PlaceDisc) in the same order; with contraction
 // off (CMakeLists.txt) each is one correctly rounded IEEE operation, as in the scalar code.
 #include "engine/avx512_kernels.h"
 
 #include <cstddef>
+#include <algorithm>
 #include <cstdint>
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -212,31 +213,97 @@ GRANARY_AVX512 __m512d Deinterleave(const double* a, __m512i pick) {
   return _mm512_permutex2var_pd(_mm512_loadu_pd(a), pick, _mm512_loadu_pd(a + 8));
 }
 
-__attribute__((target("avx512f"))) int PlaceDumbbellDiscsImpl(
-    int b0, int b1, double limit_scalar, const double* __restrict bx, const double* __restrict by,
-    const double* __restrict bvx, const double* __restrict bvy, const double* __restrict bw,
-    const double* __restrict bc, const double* __restrict bs, const double* __restrict dox,
-    const double* __restrict doy, const double* __restrict dr, const double* __restrict refx,
-    const double* __restrict refy, double* __restrict dx, double* __restrict dy, World::DiscKin* __restrict kin,
-    bool* moved) {
-  // Disc k of the eight bodies: lanes 2 m + k of two consecutive vectors.
+// Disc k of eight bodies of kDiscs discs each from the disc array at a (dumbbells: every
+// other value of 16, even or odd).
+template <int kDiscs>
+GRANARY_AVX512 __m512d DiscLanes(const double* a, int k, __m512i even, __m512i odd) {
+  if constexpr (kDiscs == 1) return _mm512_loadu_pd(a);
+  return Deinterleave(a, k == 0 ? even : odd);
+}
+
+// DriftUniformAvx512: groups of eight bodies, the body part of world.cpp's DriftKernel and
+// the disc part of its DiscKernelUniform<kDiscs> in one pass (the body state stays in
+// registers).
+template <int kDiscs>
+__attribute__((target("avx512f"))) int DriftUniformImpl(int b0, int b1, const DriftArrays& arr, double dt_scalar,
+                                                        const double box[3], double limit_scalar, bool* beyond,
+                                                        bool* moved) {
+  static_assert(kDiscs == 1 || kDiscs == 2);
+  const std::uint8_t* __restrict active = arr.active;
+  double* __restrict bx = arr.bx;
+  double* __restrict by = arr.by;
+  double* __restrict bth = arr.bth;
+  double* __restrict bvx = arr.bvx;
+  double* __restrict bvy = arr.bvy;
+  double* __restrict bw = arr.bw;
+  double* __restrict bc = arr.bc;
+  double* __restrict bs = arr.bs;
+  const double* __restrict dox = arr.dox;
+  const double* __restrict doy = arr.doy;
+  const double* __restrict dr = arr.dr;
+  const double* __restrict refx = arr.refx;
+  const double* __restrict refy = arr.refy;
+  double* __restrict dx = arr.dx;
+  double* __restrict dy = arr.dy;
+  World::DiscKin* __restrict kin = arr.kin;
+  // Dumbbells: disc k of the eight bodies is lanes 2 m + k of two consecutive vectors.
   const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
   const __m512i odd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
   const __m512i mix_lo = _mm512_setr_epi64(0, 8, 1, 9, 2, 10, 3, 11);
   const __m512i mix_hi = _mm512_setr_epi64(4, 12, 5, 13, 6, 14, 7, 15);
+  const __m512d dt = _mm512_set1_pd(dt_scalar), half = _mm512_set1_pd(0.5 * dt_scalar);
   const __m512d limit = _mm512_set1_pd(limit_scalar);
-  __mmask8 far = 0;
+  const __m512d xmin = _mm512_set1_pd(box[0]), xmax = _mm512_set1_pd(box[1]), ymin = _mm512_set1_pd(box[2]);
+  const __m512d one = _mm512_set1_pd(1.0), small_angle = _mm512_set1_pd(0.01);
+  const __m512d k2 = _mm512_set1_pd(1.0 / 2), k12 = _mm512_set1_pd(1.0 / 12), k30 = _mm512_set1_pd(1.0 / 30);
+  const __m512d k56 = _mm512_set1_pd(1.0 / 56), k6 = _mm512_set1_pd(1.0 / 6), k20 = _mm512_set1_pd(1.0 / 20);
+  const __m512d k42 = _mm512_set1_pd(1.0 / 42), k1_5 = _mm512_set1_pd(1.5), k0_5 = _mm512_set1_pd(0.5);
+  __mmask8 far = 0, out = 0;
   int b = b0;
   for (; b + 8 <= b1; b += 8) {
-    const __m512d x = _mm512_loadu_pd(bx + b), y = _mm512_loadu_pd(by + b);
-    const __m512d vx = _mm512_loadu_pd(bvx + b), vy = _mm512_loadu_pd(bvy + b);
-    const __m512d w = _mm512_loadu_pd(bw + b), c = _mm512_loadu_pd(bc + b), s = _mm512_loadu_pd(bs + b);
-    const std::ptrdiff_t d0 = 2 * static_cast<std::ptrdiff_t>(b);
-    __m512d px[2], py[2];
-    for (int k = 0; k < 2; ++k) {
-      const __m512i pick = k == 0 ? even : odd;
-      const __m512d ox = Deinterleave(dox + d0, pick), oy = Deinterleave(doy + d0, pick);
-      // PlaceDisc
+    // DriftKernel
+    const __mmask8 on = _mm512_test_epi64_mask(
+        _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(active + b))), _mm512_set1_epi64(0xff));
+    const __m512d vx = Add(_mm512_loadu_pd(bvx + b), Mul(Mul(half, _mm512_loadu_pd(arr.bfx + b)),
+                                                        _mm512_loadu_pd(arr.binv_mass + b)));
+    const __m512d vy = Add(_mm512_loadu_pd(bvy + b), Mul(Mul(half, _mm512_loadu_pd(arr.bfy + b)),
+                                                        _mm512_loadu_pd(arr.binv_mass + b)));
+    const __m512d w = Add(_mm512_loadu_pd(bw + b), Mul(Mul(half, _mm512_loadu_pd(arr.btq + b)),
+                                                      _mm512_loadu_pd(arr.binv_inertia + b)));
+    const __m512d a = Mul(dt, w);
+    const __mmask8 small = _mm512_cmp_pd_mask(_mm512_abs_pd(a), small_angle, _CMP_LT_OQ);
+    if ((on & ~small) != 0) break;  // a rotation that needs libm: the caller takes this group
+    const __m512d a2 = Mul(a, a);
+    const __m512d ca = Sub(one, Mul(Mul(a2, k2), Sub(one, Mul(Mul(a2, k12), Sub(one, Mul(Mul(a2, k30),
+                                                                                          Sub(one, Mul(a2, k56))))))));
+    const __m512d sa = Mul(a, Sub(one, Mul(Mul(a2, k6), Sub(one, Mul(Mul(a2, k20), Sub(one, Mul(a2, k42)))))));
+    const __m512d c0 = _mm512_loadu_pd(bc + b), s0 = _mm512_loadu_pd(bs + b);
+    const __m512d c1 = Sub(Mul(c0, ca), Mul(s0, sa)), s1 = Add(Mul(s0, ca), Mul(c0, sa));
+    const __m512d f = Sub(k1_5, Mul(k0_5, Add(Mul(c1, c1), Mul(s1, s1))));
+    const __m512d x0 = _mm512_loadu_pd(bx + b), y0 = _mm512_loadu_pd(by + b);
+    const __m512d xn = Add(x0, Mul(dt, vx)), yn = Add(y0, Mul(dt, vy));
+    const __m512d th = Add(_mm512_loadu_pd(bth + b), a);
+    // The state of the eight bodies after the drift (an inactive body keeps its own).
+    const __m512d x = Select(on, xn, x0), y = Select(on, yn, y0);
+    const __m512d c = Select(on, Mul(c1, f), c0), s = Select(on, Mul(s1, f), s0);
+    const __m512d vxs = Select(on, vx, _mm512_loadu_pd(bvx + b)), vys = Select(on, vy, _mm512_loadu_pd(bvy + b));
+    const __m512d ws = Select(on, w, _mm512_loadu_pd(bw + b));
+    _mm512_storeu_pd(bx + b, x);
+    _mm512_storeu_pd(by + b, y);
+    _mm512_mask_storeu_pd(bth + b, on, th);
+    _mm512_storeu_pd(bvx + b, vxs);
+    _mm512_storeu_pd(bvy + b, vys);
+    _mm512_storeu_pd(bw + b, ws);
+    _mm512_storeu_pd(bc + b, c);
+    _mm512_storeu_pd(bs + b, s);
+    const int outside = _mm512_cmp_pd_mask(xn, xmin, _CMP_LT_OQ) | _mm512_cmp_pd_mask(xn, xmax, _CMP_GT_OQ) |
+                        _mm512_cmp_pd_mask(yn, ymin, _CMP_LT_OQ);
+    out = static_cast<__mmask8>(out | (on & outside));
+    // DiscKernelUniform (PlaceDisc)
+    const std::ptrdiff_t d0 = kDiscs * static_cast<std::ptrdiff_t>(b);
+    __m512d px[kDiscs], py[kDiscs];
+    for (int k = 0; k < kDiscs; ++k) {
+      const __m512d ox = DiscLanes<kDiscs>(dox + d0, k, even, odd), oy = DiscLanes<kDiscs>(doy + d0, k, even, odd);
       const __m512d wx = Sub(Mul(c, ox), Mul(s, oy));
       const __m512d wy = Add(Mul(s, ox), Mul(c, oy));
       px[k] = Add(x, wx);
@@ -244,20 +311,153 @@ __attribute__((target("avx512f"))) int PlaceDumbbellDiscsImpl(
       Lanes l;
       l.x = px[k];
       l.y = py[k];
-      l.vx = Sub(vx, Mul(w, wy));
-      l.vy = Add(vy, Mul(w, wx));
-      l.r = Deinterleave(dr + d0, pick);
-      l.w = w;
-      StoreLanes(kin + d0 + k, 2, l);
-      const __m512d ddx = Sub(px[k], Deinterleave(refx + d0, pick)), ddy = Sub(py[k], Deinterleave(refy + d0, pick));
+      l.vx = Sub(vxs, Mul(ws, wy));
+      l.vy = Add(vys, Mul(ws, wx));
+      l.r = DiscLanes<kDiscs>(dr + d0, k, even, odd);
+      l.w = ws;
+      StoreLanes(kin + d0 + k, kDiscs, l);
+      const __m512d ddx = Sub(px[k], DiscLanes<kDiscs>(refx + d0, k, even, odd));
+      const __m512d ddy = Sub(py[k], DiscLanes<kDiscs>(refy + d0, k, even, odd));
       far |= _mm512_cmp_pd_mask(Add(Mul(ddx, ddx), Mul(ddy, ddy)), limit, _CMP_GT_OQ);
     }
-    _mm512_storeu_pd(dx + d0, _mm512_permutex2var_pd(px[0], mix_lo, px[1]));
-    _mm512_storeu_pd(dx + d0 + 8, _mm512_permutex2var_pd(px[0], mix_hi, px[1]));
-    _mm512_storeu_pd(dy + d0, _mm512_permutex2var_pd(py[0], mix_lo, py[1]));
-    _mm512_storeu_pd(dy + d0 + 8, _mm512_permutex2var_pd(py[0], mix_hi, py[1]));
+    if constexpr (kDiscs == 1) {
+      _mm512_storeu_pd(dx + d0, px[0]);
+      _mm512_storeu_pd(dy + d0, py[0]);
+    } else {
+      _mm512_storeu_pd(dx + d0, _mm512_permutex2var_pd(px[0], mix_lo, px[1]));
+      _mm512_storeu_pd(dx + d0 + 8, _mm512_permutex2var_pd(px[0], mix_hi, px[1]));
+      _mm512_storeu_pd(dy + d0, _mm512_permutex2var_pd(py[0], mix_lo, py[1]));
+      _mm512_storeu_pd(dy + d0 + 8, _mm512_permutex2var_pd(py[0], mix_hi, py[1]));
+    }
   }
   if (far != 0) *moved = true;
+  if (out != 0) *beyond = true;
+  return b;
+}
+
+// PlaceDiscsAvx512: eight discs at a time; their bodies are at most eight consecutive ones
+// (every body has a disc), whose state is loaded and spread to the discs by permutes.
+GRANARY_AVX512 __m512d BodyLanes(const double* a, int first, __mmask8 valid, __m512i pick) {
+  return _mm512_permutexvar_pd(pick, _mm512_maskz_loadu_pd(valid, a + first));
+}
+
+__attribute__((target("avx512f"))) int PlaceDiscsImpl(int d0, int d1, double limit_scalar,
+                                                      const int* __restrict dbody, int body_end,
+                                                      const DriftArrays& arr, bool* moved) {
+  const __m512d limit = _mm512_set1_pd(limit_scalar);
+  __mmask8 far = 0;
+  int d = d0;
+  for (; d + 8 <= d1; d += 8) {
+    const int first = dbody[d];
+    // (bodies from body_end on are masked off: another thread may be writing them)
+    const int past = first + 8 - body_end;
+    const __mmask8 valid = past <= 0 ? __mmask8{0xff} : static_cast<__mmask8>(0xffu >> std::min(8, past));
+    const __m512i pick = _mm512_sub_epi64(
+        _mm512_cvtepi32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(dbody + d))), _mm512_set1_epi64(first));
+    const __m512d x = BodyLanes(arr.bx, first, valid, pick), y = BodyLanes(arr.by, first, valid, pick);
+    const __m512d vx = BodyLanes(arr.bvx, first, valid, pick), vy = BodyLanes(arr.bvy, first, valid, pick);
+    const __m512d w = BodyLanes(arr.bw, first, valid, pick);
+    const __m512d c = BodyLanes(arr.bc, first, valid, pick), s = BodyLanes(arr.bs, first, valid, pick);
+    // PlaceDisc
+    const __m512d ox = _mm512_loadu_pd(arr.dox + d), oy = _mm512_loadu_pd(arr.doy + d);
+    const __m512d wx = Sub(Mul(c, ox), Mul(s, oy));
+    const __m512d wy = Add(Mul(s, ox), Mul(c, oy));
+    const __m512d px = Add(x, wx), py = Add(y, wy);
+    _mm512_storeu_pd(arr.dx + d, px);
+    _mm512_storeu_pd(arr.dy + d, py);
+    Lanes l;
+    l.x = px;
+    l.y = py;
+    l.vx = Sub(vx, Mul(w, wy));
+    l.vy = Add(vy, Mul(w, wx));
+    l.r = _mm512_loadu_pd(arr.dr + d);
+    l.w = w;
+    StoreLanes(arr.kin + d, 1, l);
+    const __m512d ddx = Sub(px, _mm512_loadu_pd(arr.refx + d)), ddy = Sub(py, _mm512_loadu_pd(arr.refy + d));
+    far |= _mm512_cmp_pd_mask(Add(Mul(ddx, ddx), Mul(ddy, ddy)), limit, _CMP_GT_OQ);
+  }
+  if (far != 0) *moved = true;
+  return d;
+}
+
+// BodySumsUpTo2Avx512: the discs of eight consecutive bodies lie in [base, base + 16)
+// (base: the first one's first disc); a field of them is two loads, and a body's first and
+// second disc are picked from those by permutes (a body of one disc takes its first twice,
+// and the select drops the second).
+GRANARY_AVX512 void LoadPair(const double* a, std::ptrdiff_t base, __mmask8 hi_valid, __m512i first, __m512i second,
+                             __m512d* v0, __m512d* v1) {
+  const __m512d lo = _mm512_loadu_pd(a + base), hi = _mm512_maskz_loadu_pd(hi_valid, a + base + 8);
+  *v0 = _mm512_permutex2var_pd(lo, first, hi);
+  *v1 = _mm512_permutex2var_pd(lo, second, hi);
+}
+
+template <bool kKick>
+__attribute__((target("avx512f"))) int BodySumsUpTo2Impl(int b0, int b1, const BodySumArrays& arr, int disc_end,
+                                                         double g, double half_scalar, double dt_scalar,
+                                                         double limit_scalar, bool* outrun) {
+  const __m512d zero = _mm512_setzero_pd(), gv = _mm512_set1_pd(g), half = _mm512_set1_pd(half_scalar);
+  const __m512d dt = _mm512_set1_pd(dt_scalar), limit = _mm512_set1_pd(limit_scalar), eps = _mm512_set1_pd(1e-9);
+  __mmask8 out = 0;
+  int b = b0;
+  for (; b + 8 <= b1; b += 8) {
+    const int base = arr.disc_begin[b];
+    // Discs from disc_end on (another thread's, or beyond the arrays) are masked off.
+    const int beyond = base + 16 - disc_end;
+    const __mmask8 hi_valid = beyond <= 0 ? __mmask8{0xff} : static_cast<__mmask8>(0xffu >> std::min(8, beyond));
+    const __m512i begin = _mm512_cvtepi32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(arr.disc_begin + b)));
+    const __m512i count = _mm512_cvtepi32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(arr.disc_n + b)));
+    const __mmask8 two = _mm512_cmpgt_epi64_mask(count, _mm512_set1_epi64(1));
+    const __m512i first = _mm512_sub_epi64(begin, _mm512_set1_epi64(base));
+    const __m512i second = _mm512_mask_add_epi64(first, two, first, _mm512_set1_epi64(1));
+    __m512d fx0, fx1, fy0, fy1, tz0, tz1, x0, x1, y0, y1, rx0, rx1, ry0, ry1;
+    LoadPair(arr.dfx, base, hi_valid, first, second, &fx0, &fx1);
+    LoadPair(arr.dfy, base, hi_valid, first, second, &fy0, &fy1);
+    LoadPair(arr.dtz, base, hi_valid, first, second, &tz0, &tz1);
+    LoadPair(arr.dx, base, hi_valid, first, second, &x0, &x1);
+    LoadPair(arr.dy, base, hi_valid, first, second, &y0, &y1);
+    LoadPair(arr.refx, base, hi_valid, first, second, &rx0, &rx1);
+    LoadPair(arr.refy, base, hi_valid, first, second, &ry0, &ry1);
+    const __mmask8 on = _mm512_test_epi64_mask(
+        _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(arr.active + b))), _mm512_set1_epi64(0xff));
+    const __m512d cx = _mm512_loadu_pd(arr.bx + b), cy = _mm512_loadu_pd(arr.by + b);
+    // BodySumsUpTo2
+    __m512d bfx = Add(zero, fx0), bfy = Add(zero, fy0);
+    __m512d btq = Add(zero, Add(Sub(Mul(Sub(x0, cx), fy0), Mul(Sub(y0, cy), fx0)), tz0));
+    const __m512d mx = Sub(x0, rx0), my = Sub(y0, ry0);
+    __m512d moved2 = _mm512_max_pd(Add(Mul(mx, mx), Mul(my, my)), zero);
+    const __m512d tj = Add(Sub(Mul(Sub(x1, cx), fy1), Mul(Sub(y1, cy), fx1)), tz1);
+    const __m512d mxj = Sub(x1, rx1), myj = Sub(y1, ry1);
+    bfx = Select(two, Add(bfx, fx1), bfx);
+    bfy = Select(two, Add(bfy, fy1), bfy);
+    btq = Select(two, Add(btq, tj), btq);
+    moved2 = Select(two, _mm512_max_pd(Add(Mul(mxj, mxj), Mul(myj, myj)), moved2), moved2);
+    bfy = Sub(bfy, Mul(_mm512_loadu_pd(arr.bmass + b), Select(on, gv, zero)));
+    _mm512_storeu_pd(arr.bfx + b, bfx);
+    _mm512_storeu_pd(arr.bfy + b, bfy);
+    _mm512_storeu_pd(arr.btq + b, btq);
+    const __m512d inv_mass = _mm512_loadu_pd(arr.binv_mass + b), inv_inertia = _mm512_loadu_pd(arr.binv_inertia + b);
+    __m512d vx = _mm512_loadu_pd(arr.bvx + b), vy = _mm512_loadu_pd(arr.bvy + b), w = _mm512_loadu_pd(arr.bw + b);
+    if constexpr (kKick) {
+      vx = Select(on, Add(vx, Mul(Mul(half, bfx), inv_mass)), vx);
+      vy = Select(on, Add(vy, Mul(Mul(half, bfy), inv_mass)), vy);
+      w = Select(on, Add(w, Mul(Mul(half, btq), inv_inertia)), w);
+      _mm512_storeu_pd(arr.bvx + b, vx);
+      _mm512_storeu_pd(arr.bvy + b, vy);
+      _mm512_storeu_pd(arr.bw + b, w);
+    }
+    // OutrunsSkin
+    const __m512d nvx = Add(vx, Mul(Mul(half, bfx), inv_mass));
+    const __m512d nvy = Add(vy, Mul(Mul(half, bfy), inv_mass));
+    const __m512d nw = Add(w, Mul(Mul(half, btq), inv_inertia));
+    const __m512d reach =
+        Sub(limit, Add(Add(Mul(dt, _mm512_sqrt_pd(Add(Mul(nvx, nvx), Mul(nvy, nvy)))),
+                           Mul(_mm512_abs_pd(Mul(dt, nw)), _mm512_loadu_pd(arr.bradius + b))),
+                       eps));
+    const int runs = _mm512_cmp_pd_mask(reach, zero, _CMP_LE_OQ) |
+                     _mm512_cmp_pd_mask(moved2, Mul(reach, reach), _CMP_GT_OQ);
+    out = static_cast<__mmask8>(out | (on & runs));
+  }
+  if (out != 0) *outrun = true;
   return b;
 }
 
@@ -273,12 +473,21 @@ int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const do
                                              kin, pp, dt);
 }
 
-int PlaceDumbbellDiscsAvx512(int b0, int b1, double limit, const double* bx, const double* by, const double* bvx,
-                             const double* bvy, const double* bw, const double* bc, const double* bs,
-                             const double* dox, const double* doy, const double* dr, const double* refx,
-                             const double* refy, double* dx, double* dy, World::DiscKin* kin, bool* moved) {
-  return PlaceDumbbellDiscsImpl(b0, b1, limit, bx, by, bvx, bvy, bw, bc, bs, dox, doy, dr, refx, refy, dx, dy, kin,
-                                moved);
+template <int kDiscs>
+int DriftUniformAvx512(int b0, int b1, const DriftArrays& arrays, double dt, const double box[3], double limit,
+                       bool* beyond, bool* moved) {
+  return DriftUniformImpl<kDiscs>(b0, b1, arrays, dt, box, limit, beyond, moved);
+}
+
+int PlaceDiscsAvx512(int d0, int d1, double limit, const int* dbody, int body_end, const DriftArrays& arrays,
+                     bool* moved) {
+  return PlaceDiscsImpl(d0, d1, limit, dbody, body_end, arrays, moved);
+}
+
+template <bool kKick>
+int BodySumsUpTo2Avx512(int b0, int b1, const BodySumArrays& arrays, int disc_end, double g, double half,
+                        double dt, double limit, bool* outrun) {
+  return BodySumsUpTo2Impl<kKick>(b0, b1, arrays, disc_end, g, half, dt, limit, outrun);
 }
 
 #else  // not x86-64 with GCC or Clang
@@ -291,9 +500,15 @@ int PairEntriesAvx512(int e0, int, const int*, const int*, const double*, const 
   return e0;
 }
 
-int PlaceDumbbellDiscsAvx512(int b0, int, double, const double*, const double*, const double*, const double*,
-                             const double*, const double*, const double*, const double*, const double*,
-                             const double*, const double*, const double*, double*, double*, World::DiscKin*, bool*) {
+template <int kDiscs>
+int DriftUniformAvx512(int b0, int, const DriftArrays&, double, const double[3], double, bool*, bool*) {
+  return b0;
+}
+
+int PlaceDiscsAvx512(int d0, int, double, const int*, int, const DriftArrays&, bool*) { return d0; }
+
+template <bool kKick>
+int BodySumsUpTo2Avx512(int b0, int, const BodySumArrays&, int, double, double, double, double, bool*) {
   return b0;
 }
 
@@ -301,6 +516,10 @@ int PlaceDumbbellDiscsAvx512(int b0, int, double, const double*, const double*, 
 
 template int PairEntriesAvx512<false>(int, int, const int*, const int*, const double*, const double*, double*, double*,
                                       double*, double*, double*, const World::DiscKin*, const ContactParams&, double);
+template int BodySumsUpTo2Avx512<false>(int, int, const BodySumArrays&, int, double, double, double, double, bool*);
+template int BodySumsUpTo2Avx512<true>(int, int, const BodySumArrays&, int, double, double, double, double, bool*);
+template int DriftUniformAvx512<1>(int, int, const DriftArrays&, double, const double[3], double, bool*, bool*);
+template int DriftUniformAvx512<2>(int, int, const DriftArrays&, double, const double[3], double, bool*, bool*);
 template int PairEntriesAvx512<true>(int, int, const int*, const int*, const double*, const double*, double*, double*,
                                      double*, double*, double*, const World::DiscKin*, const ContactParams&, double);
 

@@ -7,6 +7,8 @@
 // Here a record is one 64-byte load or store, and eight of them are transposed in registers.
 #pragma once
 
+#include <cstdint>
+
 #include "engine/contact_law.h"
 #include "engine/world.h"
 
@@ -26,13 +28,53 @@ int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const do
 // every entry, though ~5 % of contacts slip: here only for the groups of eight where a
 // touching lane slips.)
 
-// Positions and kinematics of the discs of dumbbells (two discs per body, disc k of body b
-// being 2 b + k) for bodies [b0, b0 + 8 k), the largest such k with b0 + 8 k <= b1, as
-// world.cpp's DiscKernelUniform<2>; returns b0 + 8 k, and sets *moved if a disc has moved
-// more than sqrt(limit) since the last rebuild. Call only when Avx512Available().
-int PlaceDumbbellDiscsAvx512(int b0, int b1, double limit, const double* bx, const double* by, const double* bvx,
-                             const double* bvy, const double* bw, const double* bc, const double* bs,
-                             const double* dox, const double* doy, const double* dr, const double* refx,
-                             const double* refy, double* dx, double* dy, World::DiscKin* kin, bool* moved);
+// The arrays a drift reads and writes (World's body and disc state).
+struct DriftArrays {
+  const std::uint8_t* active;
+  double *bx, *by, *bth, *bvx, *bvy, *bw, *bc, *bs;
+  const double *bfx, *bfy, *btq, *binv_mass, *binv_inertia;
+  const double *dox, *doy, *dr, *refx, *refy;
+  double *dx, *dy;
+  World::DiscKin* kin;
+};
+
+// The drift of bodies of kDiscs discs each (1: discs, 2: dumbbells; disc k of body b being
+// kDiscs b + k), eight at a time, as world.cpp's DriftKernel followed by
+// DiscKernelUniform<kDiscs>: half kick, drift and rotation of the bodies, then their discs'
+// positions and records. Stops before the first group of eight with a rotation of 0.01 rad
+// or more (the caller's portable loop, with libm, takes that group) or with fewer than
+// eight bodies left; returns where it stopped. Sets *beyond if an active body's centre left
+// the box {xmin, xmax, ymin}, *moved if a disc moved more than sqrt(limit) since the last
+// rebuild. Call only when Avx512Available().
+template <int kDiscs>
+int DriftUniformAvx512(int b0, int b1, const DriftArrays& arrays, double dt, const double box[3], double limit,
+                       bool* beyond, bool* moved);
+
+// The disc part of a drift for discs [d0, d0 + 8 k), the largest such k with d0 + 8 k <= d1,
+// of bodies of any shape (disc d of body dbody[d], discs numbered body by body, every body
+// with at least one, all of them before body_end), as world.cpp's DiscKernel: positions and
+// records from the bodies' state after their drift. Returns d0 + 8 k; sets *moved as
+// DriftUniformAvx512. Reads no body from body_end on, and only the disc and body-state
+// arrays of `arrays`. Call only when Avx512Available().
+int PlaceDiscsAvx512(int d0, int d1, double limit, const int* dbody, int body_end, const DriftArrays& arrays,
+                     bool* moved);
+
+// The arrays the body sums read and write (World's disc and body state).
+struct BodySumArrays {
+  const std::uint8_t* active;
+  const int *disc_begin, *disc_n;
+  const double *dfx, *dfy, *dtz, *dx, *dy, *refx, *refy;
+  const double *bx, *by, *bmass, *binv_mass, *binv_inertia, *bradius;
+  double *bfx, *bfy, *btq, *bvx, *bvy, *bw;
+};
+
+// The body sums (and with kKick the second half kick) of bodies of one or two discs, for
+// bodies [b0, b0 + 8 k), the largest such k with b0 + 8 k <= b1, as world.cpp's
+// BodySumsUpTo2; reads no disc from disc_end on (the first disc after body b1 - 1). Returns
+// b0 + 8 k; sets *outrun if an active body's next drift may take a disc beyond half the
+// skin (OutrunsSkin). Call only when Avx512Available().
+template <bool kKick>
+int BodySumsUpTo2Avx512(int b0, int b1, const BodySumArrays& arrays, int disc_end, double g, double half,
+                        double dt, double limit, bool* outrun);
 
 }  // namespace granary::engine

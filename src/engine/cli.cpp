@@ -4,12 +4,14 @@
 #include <algorithm>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <iostream>
 #include <map>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "engine/bench.h"
 #include "engine/run.h"
 
 namespace granary::engine {
@@ -32,8 +34,10 @@ constexpr char kUsage[] =
     "usage: granary-engine <verb> [options]\n"
     "verbs:\n"
     "  run DIR [--threads N]   run DIR/run.json (continues from DIR/checkpoint.bin if present)\n"
-    "  bench [--bodies N] [--steps N] [--threads-list 1,2] [--repeat N] [--bed FILE]\n"
-    "                          standard benchmark: dumbbells in the chapter-3 silo, W = 14, reinject\n"
+    "  bench [--shape S] [--bodies N] [--steps N] [--threads-list 1,2] [--repeat N] [--bed FILE]\n"
+    "        [--versus lammps [--lammps-dir DIR]]\n"
+    "                          standard benchmark: discs, dumbbells or the ch. 4 mixture in the\n"
+    "                          chapter-3 silo, W = 14, reinject; the disc case also on LAMMPS\n"
     "  help                    this text\n";
 constexpr char kRunHelp[] =
     "usage: granary-engine run DIR [--threads N]\n"
@@ -41,12 +45,24 @@ constexpr char kRunHelp[] =
     "contacts.dump, progress.json, checkpoint.bin, summary.json and DONE into DIR.\n"
     "  --threads N   OpenMP threads (default: OMP_NUM_THREADS or all cores)\n";
 constexpr char kBenchHelp[] =
-    "usage: granary-engine bench [--bodies 8000] [--steps 2000] [--threads-list 1,2] [--repeat 1] [--bed FILE]\n"
-    "Settles (or loads the cached) bed of dumbbells in a silo of width 100 with one outlet\n"
-    "W = 14, then times a fixed number of reinject-mode discharge steps per thread count and\n"
-    "prints disc-steps per second. Bed preparation is not timed. With --repeat N, N rounds\n"
-    "over the thread counts, then per thread count the best and median rate and the median\n"
-    "speed-up over the first thread count (a round's runs share the machine's state).\n";
+    "usage: granary-engine bench [--shape dumbbell] [--bodies 8000] [--steps 2000] [--threads-list 1,2]\n"
+    "                            [--repeat 1] [--bed FILE] [--versus lammps [--lammps-dir DIR]]\n"
+    "Settles (or loads the cached) bed in a silo of width 100 with one outlet W = 14, then\n"
+    "times a fixed number of reinject-mode discharge steps per thread count and prints\n"
+    "disc-steps per second. Bed preparation is not timed. With --repeat N, N rounds over the\n"
+    "thread counts, then per thread count the best and median rate and the median speed-up\n"
+    "over the first thread count (a round's runs share the machine's state).\n"
+    "  --shape S     disc (d = 1), dumbbell, or mixture (ch. 4: half dumbbells, half discs of\n"
+    "                diameter sqrt(2) d, by number)\n"
+    "  --bed FILE    where the settled bed is cached (default: granary-bench-bed-S-N.json in\n"
+    "                the temp directory)\n"
+    "  --versus lammps  the same case on LAMMPS (`lmp`; with --shape disc only): its input is\n"
+    "                written from the same settled bed (pair_style gran/hertz/history, true\n"
+    "                2-D); each round runs LAMMPS, then the engine, per thread count (LAMMPS:\n"
+    "                as many MPI ranks), and prints both rates and native/LAMMPS; with\n"
+    "                --repeat N also the best and median of each and the ratios of those\n"
+    "  --lammps-dir DIR  where the LAMMPS input, data file and log are written (default:\n"
+    "                granary-bench-lammps-N in the temp directory); kept after the run\n";
 
 int Run(const std::vector<std::string>& args) {
   RunOptions options;
@@ -73,13 +89,44 @@ int Run(const std::vector<std::string>& args) {
   return 0;
 }
 
+// Per-round lines of both engines and their ratio; with several rounds, the best and median
+// of each engine per thread count and the ratios of the bests and of the medians.
+int BenchVersusLammps(const BenchOptions& options, const std::string& dir) {
+  if (options.shape != "disc") throw std::invalid_argument("bench --versus lammps: only --shape disc is set up on LAMMPS");
+  std::printf("bench: %d discs, %lld steps, LAMMPS and native side by side; LAMMPS input in %s\n", options.bodies,
+              static_cast<long long>(options.steps), dir.c_str());
+  std::fflush(stdout);
+  const std::vector<VersusResult> results = RunBenchVersusLammps(options, dir);
+  std::map<int, std::vector<double>> native, lammps;
+  for (const VersusResult& r : results) {
+    const std::string tag = options.repeat > 1 ? "round=" + std::to_string(r.round) + " " : "";
+    std::printf("%sthreads=%d lammps_disc_steps_per_s=%.4g native_disc_steps_per_s=%.4g native/lammps=%.2f\n",
+                tag.c_str(), r.threads, r.lammps, r.native, r.native / r.lammps);
+    native[r.threads].push_back(r.native);
+    lammps[r.threads].push_back(r.lammps);
+  }
+  if (options.repeat > 1)
+    for (auto& [threads, v] : native) {
+      const std::vector<double>& l = lammps[threads];
+      const double nb = *std::max_element(v.begin(), v.end()), lb = *std::max_element(l.begin(), l.end());
+      std::printf("summary threads=%d rounds=%zu lammps best=%.4g median=%.4g native best=%.4g median=%.4g "
+                  "native/lammps of the bests %.2f, of the medians %.2f\n",
+                  threads, v.size(), lb, BenchMedian(l), nb, BenchMedian(v), nb / lb, BenchMedian(v) / BenchMedian(l));
+    }
+  return 0;
+}
+
 int Bench(const std::vector<std::string>& args) {
   BenchOptions options;
+  std::string versus, lammps_dir;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "--help" || a == "-h") {
       std::cout << kBenchHelp;
       return 0;
+    } else if (a == "--shape" && i + 1 < args.size()) {
+      options.shape = args[++i];
+      BenchSpecies(options.shape);  // an unknown shape fails here, before any work
     } else if (a == "--bodies" && i + 1 < args.size()) {
       options.bodies = ParsePositiveInt(a, args[++i]);
     } else if (a == "--steps" && i + 1 < args.size()) {
@@ -88,6 +135,11 @@ int Bench(const std::vector<std::string>& args) {
       options.repeat = ParsePositiveInt(a, args[++i]);
     } else if (a == "--bed" && i + 1 < args.size()) {
       options.bed_file = args[++i];
+    } else if (a == "--versus" && i + 1 < args.size()) {
+      versus = args[++i];
+      if (versus != "lammps") throw std::invalid_argument("bench: --versus takes \"lammps\" (got \"" + versus + "\")");
+    } else if (a == "--lammps-dir" && i + 1 < args.size()) {
+      lammps_dir = args[++i];
     } else if (a == "--threads-list" && i + 1 < args.size()) {
       options.threads.clear();
       std::stringstream ss(args[++i]);
@@ -96,6 +148,11 @@ int Bench(const std::vector<std::string>& args) {
     } else {
       throw std::invalid_argument("bench: unknown option \"" + a + "\"\n" + kBenchHelp);
     }
+  }
+  if (!versus.empty()) {
+    if (lammps_dir.empty())
+      lammps_dir = (std::filesystem::temp_directory_path() / ("granary-bench-lammps-" + std::to_string(options.bodies))).string();
+    return BenchVersusLammps(options, lammps_dir);
   }
   const auto results = RunBenchmark(options);
   const std::size_t per_round = options.threads.size();

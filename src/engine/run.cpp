@@ -23,6 +23,7 @@
 #include "engine/bed.h"
 #include "engine/dump_format.h"
 #include "engine/random.h"
+#include "engine/silo_outline.h"
 #include "engine/stall.h"
 #include "engine/world.h"
 #include "rundir/contacts.h"
@@ -174,6 +175,7 @@ class Discharge {
   std::int64_t frame_every_ = 0, checkpoint_every_ = 0;
   std::vector<World::ContactView> contact_buf_;
   rundir::Frame frame_buf_;
+  bool warned_outside_box_ = false;
   rundir::ContactFrame contact_frame_buf_;
   Clock::time_point session_start_ = Clock::now();
 };
@@ -251,8 +253,10 @@ void Discharge::StartFresh() {
     periodic_height_ = (top + 2 * bound + spec_.discharge.periodic_headroom) + (spec_.discharge.exit_distance + kPeriodicFall);
   }
   events_ = rundir::EventWriter::Create(dir_ / rundir::kEventsFile);
-  if (frame_every_ > 0) frames_ = rundir::FrameWriter::Create(dir_ / rundir::kFramesFile);
-  if (frame_every_ > 0 && spec_.output.contact_forces) contacts_ = rundir::ContactWriter::Create(dir_ / rundir::kContactsFile);
+  const bool gz = spec_.output.compress;
+  if (frame_every_ > 0) frames_ = rundir::FrameWriter::Create(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), gz);
+  if (frame_every_ > 0 && spec_.output.contact_forces)
+    contacts_ = rundir::ContactWriter::Create(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), gz);
   if (frame_every_ > 0) {
     WriteFrame();
     if (contacts_.is_open()) WriteContacts();
@@ -348,9 +352,10 @@ void Discharge::LoadCheckpoint() {
   periodic_height_ = in.Get<double>();
   cleared_by_obstacles_ = in.Get<int>();
   events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, ev);
-  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / rundir::kFramesFile, fr);
+  const bool gz = spec_.output.compress;
+  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), fr, gz);
   if (frame_every_ > 0 && spec_.output.contact_forces)
-    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / rundir::kContactsFile, co);
+    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), co, gz);
   continued_ = true;
 }
 
@@ -494,6 +499,15 @@ void Discharge::WriteFrame() {
     const double rx = w.dx_[i] - w.bx_[b], ry = w.dy_[i] - w.by_[b];
     f.discs.push_back({i + 1, b, w.tmpl_[b] + 1, w.dx_[i], w.dy_[i], w.dr_[i], w.dmass_[i], w.bvx_[b] - w.bw_[b] * ry,
                        w.bvy_[b] + w.bw_[b] * rx, w.bw_[b]});
+    // LAMMPS drops an atom outside a fixed box: never silently.
+    const bool outside = w.dx_[i] < f.box[0][0] || w.dx_[i] > f.box[0][1] || w.dy_[i] < f.box[1][0] || w.dy_[i] > f.box[1][1];
+    if (outside && !warned_outside_box_) {
+      std::fprintf(stderr,
+                   "warning: the frame at t = %.6g has disc %d at (%.6g, %.6g), outside the dump box "
+                   "[%.6g, %.6g] x [%.6g, %.6g]; LAMMPS drops such atoms\n",
+                   f.time, i + 1, w.dx_[i], w.dy_[i], f.box[0][0], f.box[0][1], f.box[1][0], f.box[1][1]);
+      warned_outside_box_ = true;
+    }
   }
   frames_.Write(f);
 }
@@ -555,6 +569,14 @@ RunResult Discharge::Run() {
   } else {
     StartFresh();
     session_start_ = Clock::now();
+  }
+  {
+    // The geometry beside the frames, walls as high as the frames' box when the spec leaves them
+    // automatic.
+    double box[3][2];
+    DumpBox(box);
+    WriteAtomically(dir_ / rundir::kSiloFile,
+                    SiloVtk(OutlineOf(spec_.silo, spec_.silo.height > 0 ? spec_.silo.height : box[1][1])));
   }
   World& w = *world_;
   std::string end_reason;
@@ -631,52 +653,6 @@ RunResult RunDirectory(const std::string& dir, const RunOptions& options) {
   fs::remove(d / rundir::kDoneFile);
   Discharge discharge(spec, d, options);
   return discharge.Run();
-}
-
-double BenchMedian(std::vector<double> rates) {
-  if (rates.empty()) return 0.0;
-  std::sort(rates.begin(), rates.end());
-  const std::size_t n = rates.size();
-  return n % 2 ? rates[n / 2] : 0.5 * (rates[n / 2 - 1] + rates[n / 2]);
-}
-
-std::vector<BenchResult> RunBenchmark(const BenchOptions& options) {
-  const fs::path base = fs::temp_directory_path() / ("granary-bench-" + std::to_string(::getpid()));
-  fs::create_directories(base);
-  nlohmann::json spec = {
-      {"run_id", "bench"},
-      {"seed", std::uint64_t{1}},
-      {"silo", {{"width", 100.0}, {"base_outlets", {{{"center", 0.0}, {"width", 14.0}}}}}},
-      {"bodies", {{"count", options.bodies}}},
-      {"discharge", {{"mode", "reinject"}, {"max_time", static_cast<double>(options.steps) * 1e-4}, {"stop_on_clog", false}}},
-      {"output", {{"checkpoint_interval", 0.0}, {"frame_interval", 0.0}}},
-      {"bed", {{"batch_size", 2000}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 30.0},
-               {"cache_file", options.bed_file.empty()
-                                  ? (fs::temp_directory_path() / ("granary-bench-bed-" + std::to_string(options.bodies) + ".json")).string()
-                                  : options.bed_file}}}};
-  // Prepare (or load) the bed once with every thread; it is not timed.
-  omp_set_num_threads(*std::max_element(options.threads.begin(), options.threads.end()));
-  ObtainBed(RunSpec::from_json(spec), base.string(), [](double f, double t) {
-    std::printf("bench: preparing bed fraction=%.3f t=%.4g\n", f, t);
-    std::fflush(stdout);
-  });
-  std::vector<BenchResult> results;
-  for (int round = 1; round <= options.repeat; ++round) {
-    for (int threads : options.threads) {
-      const fs::path dir = base / ("t" + std::to_string(threads));
-      fs::remove_all(dir);
-      fs::create_directories(dir);
-      rundir::WriteRunSpec(dir, spec);
-      RunOptions ro;
-      ro.threads = threads;
-      ro.quiet = true;
-      RunDirectory(dir.string(), ro);
-      const rundir::Summary summary = rundir::ReadSummary(dir / rundir::kSummaryFile);
-      results.push_back({round, threads, summary.timing->disc_steps_per_s, summary.timing->discharge_wall_s});
-    }
-  }
-  fs::remove_all(base);
-  return results;
 }
 
 }  // namespace granary::engine

@@ -1,6 +1,6 @@
 // One engine run on a run directory (docs/run-directory.md): obtain the bed, open the
 // outlets, discharge in remove or reinject mode, write events, frames, contacts, progress,
-// checkpoints, summary.json and DONE. Also the standard benchmark.
+// checkpoints, summary.json and DONE.
 #pragma once
 
 #include <cstdint>
@@ -35,28 +35,5 @@ struct RunResult {
 
 // Runs DIR/run.json; continues from DIR/checkpoint.bin if present. Throws on errors.
 RunResult RunDirectory(const std::string& dir, const RunOptions& options);
-
-struct BenchOptions {
-  int bodies = 8000;
-  std::int64_t steps = 2000;
-  std::vector<int> threads = {1, 2};
-  std::string bed_file;         // where to cache the settled bed ("" = a file in the temp dir)
-  int repeat = 1;               // rounds over the thread counts (interleaved, for a shared machine)
-};
-
-struct BenchResult {
-  int round;  // 1..repeat
-  int threads;
-  double disc_steps_per_s;
-  double wall_s;
-};
-
-// The standard case: dumbbells settled in the chapter-3 silo (walls at +-50 d), outlet
-// W = 14 d, reinject mode, a fixed number of steps per thread count; `repeat` rounds over
-// the thread counts.
-std::vector<BenchResult> RunBenchmark(const BenchOptions& options);
-
-// The median of repeated bench rates (the mean of the middle two for an even count).
-double BenchMedian(std::vector<double> rates);
 
 }  // namespace granary::engine

@@ -78,6 +78,7 @@ int World::AddBody(int tmpl, double x, double y, double theta) {
   bradius_.push_back(reach);
   const int n = static_cast<int>(t.r.size());
   uniform_discs_ = id == 0 || uniform_discs_ == n ? n : -1;
+  max_discs_ = std::max(max_discs_, n);
   for (std::size_t k = 0; k < t.r.size(); ++k) {
     dbody_.push_back(id);
     dr_.push_back(t.r[k]);
@@ -540,15 +541,82 @@ template <int kDiscs, bool kKick>
     double bfx = 0, bfy = 0, btq = 0, moved2 = 0;
     const double cx = bx[b], cy = by[b];
     const std::size_t i0 = static_cast<std::size_t>(kDiscs) * static_cast<std::size_t>(b);
-#pragma GCC unroll 8
-    for (int k = 0; k < kDiscs; ++k) {
-      const std::size_t i = i0 + static_cast<std::size_t>(k);
-      bfx += dfx[i];
-      bfy += dfy[i];
-      btq += (dx[i] - cx) * dfy[i] - (dy[i] - cy) * dfx[i] + dtz[i];
-      const double mx = dx[i] - refx[i], my = dy[i] - refy[i];
+    if constexpr (kDiscs == 1) {
+      // A disc body's disc sits at its centre (offset +0.0, so dx == bx exactly): the lever
+      // arms are +0.0 and the general sum below reduces to these, bit for bit (0.0 + -0.0
+      // is +0.0 either way), without reading the disc positions.
+      bfx += dfx[i0];
+      bfy += dfy[i0];
+      btq += dtz[i0];
+      const double mx = cx - refx[i0], my = cy - refy[i0];
       moved2 = std::max(moved2, mx * mx + my * my);
+    } else {
+#pragma GCC unroll 8
+      for (int k = 0; k < kDiscs; ++k) {
+        const std::size_t i = i0 + static_cast<std::size_t>(k);
+        bfx += dfx[i];
+        bfy += dfy[i];
+        btq += (dx[i] - cx) * dfy[i] - (dy[i] - cy) * dfx[i] + dtz[i];
+        const double mx = dx[i] - refx[i], my = dy[i] - refy[i];
+        moved2 = std::max(moved2, mx * mx + my * my);
+      }
     }
+    bfy = bfy - bmass[b] * (on ? g : 0.0);
+    bfx_out[b] = bfx;
+    bfy_out[b] = bfy;
+    btq_out[b] = btq;
+    double vx = bvx[b], vy = bvy[b], w = bw[b];
+    if constexpr (kKick) {  // the second half kick of the step
+      vx = on ? vx + half * bfx * binv_mass[b] : vx;
+      vy = on ? vy + half * bfy * binv_mass[b] : vy;
+      w = on ? w + half * btq * binv_inertia[b] : w;
+      bvx[b] = vx;
+      bvy[b] = vy;
+      bw[b] = w;
+    }
+    outrun |= on & OutrunsSkin(vx, vy, w, bfx, bfy, btq, binv_mass[b], binv_inertia[b], bradius[b], moved2, half, dt,
+                               limit);
+  }
+  return outrun != 0;
+}
+
+// BodySums for bodies of one or two discs (mixtures of discs and dumbbells): a body's
+// second disc is read at its first disc's index + 1, or again at its first when it has
+// none, and added only if it exists (a select: 0.0 + x is not always x), so the loop has no
+// branches and vectorizes (gathers); the same arithmetic as the general loop.
+template <bool kKick>
+[[gnu::always_inline]] inline bool BodySumsUpTo2(int b0, int b1, double g, double half, double dt, double limit,
+                                                 const std::uint8_t* __restrict active,
+                                                 const int* __restrict disc_begin, const int* __restrict disc_n,
+                                                 const double* __restrict dfx, const double* __restrict dfy,
+                                                 const double* __restrict dtz, const double* __restrict dx,
+                                                 const double* __restrict dy, const double* __restrict refx,
+                                                 const double* __restrict refy, const double* __restrict bx,
+                                                 const double* __restrict by, const double* __restrict bmass,
+                                                 const double* __restrict binv_mass,
+                                                 const double* __restrict binv_inertia,
+                                                 const double* __restrict bradius, double* __restrict bfx_out,
+                                                 double* __restrict bfy_out, double* __restrict btq_out,
+                                                 double* __restrict bvx, double* __restrict bvy,
+                                                 double* __restrict bw) {
+  int outrun = 0;
+#pragma GCC ivdep  // each iteration reads its body's discs and writes its body only
+  for (int b = b0; b < b1; ++b) {
+    const bool on = active[b] != 0;
+    const double cx = bx[b], cy = by[b];
+    const int i = disc_begin[b];
+    const bool two = disc_n[b] > 1;
+    const int j = two ? i + 1 : i;
+    double bfx = 0.0 + dfx[i], bfy = 0.0 + dfy[i];
+    double btq = 0.0 + ((dx[i] - cx) * dfy[i] - (dy[i] - cy) * dfx[i] + dtz[i]);
+    const double mx = dx[i] - refx[i], my = dy[i] - refy[i];
+    double moved2 = std::max(0.0, mx * mx + my * my);
+    const double tj = (dx[j] - cx) * dfy[j] - (dy[j] - cy) * dfx[j] + dtz[j];
+    const double mxj = dx[j] - refx[j], myj = dy[j] - refy[j];
+    bfx = two ? bfx + dfx[j] : bfx;
+    bfy = two ? bfy + dfy[j] : bfy;
+    btq = two ? btq + tj : btq;
+    moved2 = two ? std::max(moved2, mxj * mxj + myj * myj) : moved2;
     bfy = bfy - bmass[b] * (on ? g : 0.0);
     bfx_out[b] = bfx;
     bfy_out[b] = bfy;
@@ -600,18 +668,34 @@ GRANARY_KERNEL bool World::BodyForces(int b0, int b1, bool kick) {
   }
   // 2. Body sums, gravity (and the half kick).
   const double dt = params_.dt, limit = 0.5 * params_.skin;
-  if (uniform_discs_ == 2) {  // dumbbells: the common case gets the vectorized loop (no lambda:
-    // one called twice in a target_clones function is compiled for baseline x86-64 only)
-    if (kick)
-      return BodySums<2, true>(b0, b1, g, half, dt, limit, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(),
-                               refx_.data(), refy_.data(), bx_.data(), by_.data(), bmass_.data(), binv_mass_.data(),
-                               binv_inertia_.data(), bradius_.data(), bfx_.data(), bfy_.data(), btq_.data(),
-                               bvx_.data(), bvy_.data(), bw_.data());
-    return BodySums<2, false>(b0, b1, g, half, dt, limit, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(),
-                              refx_.data(), refy_.data(), bx_.data(), by_.data(), bmass_.data(), binv_mass_.data(),
-                              binv_inertia_.data(), bradius_.data(), bfx_.data(), bfy_.data(), btq_.data(),
-                              bvx_.data(), bvy_.data(), bw_.data());
+  // Discs and dumbbells get the vectorized loop (no lambda: one called twice in a
+  // target_clones function is compiled for baseline x86-64 only).
+#define GRANARY_BODY_SUMS(kDiscs, kKick)                                                                             \
+  BodySums<kDiscs, kKick>(b0, b1, g, half, dt, limit, active_.data(), dfx, dfy, dtz, dx_.data(), dy_.data(),          \
+                          refx_.data(), refy_.data(), bx_.data(), by_.data(), bmass_.data(), binv_mass_.data(),      \
+                          binv_inertia_.data(), bradius_.data(), bfx_.data(), bfy_.data(), btq_.data(), bvx_.data(), \
+                          bvy_.data(), bw_.data())
+  if (uniform_discs_ == 1) return kick ? GRANARY_BODY_SUMS(1, true) : GRANARY_BODY_SUMS(1, false);
+  if (uniform_discs_ == 2) return kick ? GRANARY_BODY_SUMS(2, true) : GRANARY_BODY_SUMS(2, false);
+#undef GRANARY_BODY_SUMS
+#define GRANARY_BODY_SUMS_UP_TO_2(kKick)                                                                              \
+  BodySumsUpTo2<kKick>(b0, b1, g, half, dt, limit, active_.data(), disc_begin_.data(), disc_n_.data(), dfx, dfy, dtz, \
+                       dx_.data(), dy_.data(), refx_.data(), refy_.data(), bx_.data(), by_.data(), bmass_.data(),      \
+                       binv_mass_.data(), binv_inertia_.data(), bradius_.data(), bfx_.data(), bfy_.data(),            \
+                       btq_.data(), bvx_.data(), bvy_.data(), bw_.data())
+  if (max_discs_ <= 2) {  // a mixture of discs and dumbbells: eight bodies at a time by the AVX-512 loop
+    bool outrun = false;
+    if (use_avx512_) {
+      const BodySumArrays arrays{active_.data(), disc_begin_.data(), disc_n_.data(), dfx, dfy, dtz, dx_.data(),
+                                 dy_.data(), refx_.data(), refy_.data(), bx_.data(), by_.data(), bmass_.data(),
+                                 binv_mass_.data(), binv_inertia_.data(), bradius_.data(), bfx_.data(), bfy_.data(),
+                                 btq_.data(), bvx_.data(), bvy_.data(), bw_.data()};
+      b0 = kick ? BodySumsUpTo2Avx512<true>(b0, b1, arrays, d1, g, half, dt, limit, &outrun)
+                : BodySumsUpTo2Avx512<false>(b0, b1, arrays, d1, g, half, dt, limit, &outrun);
+    }
+    return (kick ? GRANARY_BODY_SUMS_UP_TO_2(true) : GRANARY_BODY_SUMS_UP_TO_2(false)) || outrun;
   }
+#undef GRANARY_BODY_SUMS_UP_TO_2
   bool outrun = false;
   for (int b = b0; b < b1; ++b) {
     if (!active_[b]) continue;
@@ -845,8 +929,7 @@ template <int kDiscs>
 
 }  // namespace
 
-GRANARY_KERNEL int World::DriftBodies(int b0, int b1) {
-  if (b0 >= b1) return 0;
+GRANARY_KERNEL int World::DriftBodyKernel(int b0, int b1) {
   const double dt = params_.dt;
   const int flags = DriftKernel(b0, b1, dt, exit_box_, active_.data(), bx_.data(), by_.data(), bth_.data(), bvx_.data(),
                                 bvy_.data(), bw_.data(), bc_.data(), bs_.data(), bfx_.data(), bfy_.data(),
@@ -862,29 +945,70 @@ GRANARY_KERNEL int World::DriftBodies(int b0, int b1) {
       bs_[b] = s * f;
     }
   }
+  return flags & kBeyond;
+}
+
+GRANARY_KERNEL int World::DriftPortable(int b0, int b1) {
+  if (b0 >= b1) return 0;
+  const int flags = DriftBodyKernel(b0, b1);
   // Discs of an inactive body are recomputed from its unchanged state, which gives the
   // values they have. They count in the displacement check, harmlessly: a body is switched
   // off or on only with a rebuild requested, and then it does not move.
   const double limit = 0.25 * params_.skin * params_.skin;
   const int beyond = flags & kBeyond ? kDriftBeyond : 0;
-  if (uniform_discs_ == 2) {  // dumbbells: eight bodies at a time by the AVX-512 loop, the rest portably
-    bool moved = false;
-    const int b = use_avx512_ ? PlaceDumbbellDiscsAvx512(b0, b1, limit, bx_.data(), by_.data(), bvx_.data(), bvy_.data(),
-                                                         bw_.data(), bc_.data(), bs_.data(), dox_.data(), doy_.data(),
-                                                         dr_.data(), refx_.data(), refy_.data(), dx_.data(),
-                                                         dy_.data(), kin_.data(), &moved)
-                              : b0;
-    moved |= DiscKernelUniform<2>(b, b1, limit, bx_.data(), by_.data(), bvx_.data(), bvy_.data(), bw_.data(),
-                                  bc_.data(), bs_.data(), dox_.data(), doy_.data(), dr_.data(), refx_.data(),
-                                  refy_.data(), dx_.data(), dy_.data(), kin_.data());
-    return beyond | (moved ? kDriftMoved : 0);
-  }
+  // (no lambda: one called twice in a target_clones function is compiled for baseline x86-64 only)
+  if (uniform_discs_ == 1)
+    return beyond | (DiscKernelUniform<1>(b0, b1, limit, bx_.data(), by_.data(), bvx_.data(), bvy_.data(), bw_.data(),
+                                          bc_.data(), bs_.data(), dox_.data(), doy_.data(), dr_.data(), refx_.data(),
+                                          refy_.data(), dx_.data(), dy_.data(), kin_.data())
+                         ? kDriftMoved
+                         : 0);
+  if (uniform_discs_ == 2)
+    return beyond | (DiscKernelUniform<2>(b0, b1, limit, bx_.data(), by_.data(), bvx_.data(), bvy_.data(), bw_.data(),
+                                          bc_.data(), bs_.data(), dox_.data(), doy_.data(), dr_.data(), refx_.data(),
+                                          refy_.data(), dx_.data(), dy_.data(), kin_.data())
+                         ? kDriftMoved
+                         : 0);
   const int d0 = disc_begin_[b0], d1 = disc_begin_[b1 - 1] + disc_n_[b1 - 1];
   return beyond | (DiscKernel(d0, d1, limit, dbody_.data(), bx_.data(),
                     by_.data(), bvx_.data(), bvy_.data(), bw_.data(), bc_.data(), bs_.data(), dox_.data(),
                     doy_.data(), dr_.data(), refx_.data(), refy_.data(), dx_.data(), dy_.data(), kin_.data())
                        ? kDriftMoved
                        : 0);
+}
+
+int World::DriftBodies(int b0, int b1) {
+  if (b0 >= b1) return 0;
+  if (!use_avx512_) return DriftPortable(b0, b1);
+  const DriftArrays arrays{active_.data(), bx_.data(),   by_.data(),    bth_.data(),          bvx_.data(),
+                           bvy_.data(),    bw_.data(),   bc_.data(),    bs_.data(),           bfx_.data(),
+                           bfy_.data(),    btq_.data(),  binv_mass_.data(), binv_inertia_.data(), dox_.data(),
+                           doy_.data(),    dr_.data(),   refx_.data(),  refy_.data(),         dx_.data(),
+                           dy_.data(),     kin_.data()};
+  const double limit = 0.25 * params_.skin * params_.skin;
+  bool beyond = false, moved = false;
+  if (uniform_discs_ != 1 && uniform_discs_ != 2) {
+    // Bodies of several shapes on an AVX-512 CPU: the portable body loop, then the discs
+    // eight at a time (their bodies' state gathered), the last few portably.
+    const int flags = DriftBodyKernel(b0, b1);
+    const int d0 = disc_begin_[b0], d1 = disc_begin_[b1 - 1] + disc_n_[b1 - 1];
+    const int d = PlaceDiscsAvx512(d0, d1, limit, dbody_.data(), b1, arrays, &moved);
+    moved |= DiscKernel(d, d1, limit, dbody_.data(), bx_.data(), by_.data(), bvx_.data(), bvy_.data(), bw_.data(),
+                        bc_.data(), bs_.data(), dox_.data(), doy_.data(), dr_.data(), refx_.data(), refy_.data(),
+                        dx_.data(), dy_.data(), kin_.data());
+    return (flags & kBeyond ? kDriftBeyond : 0) | (moved ? kDriftMoved : 0);
+  }
+  // Discs or dumbbells on an AVX-512 CPU: eight bodies at a time in one pass; a group with a
+  // rotation that needs libm, and the last few bodies, by the portable loops.
+  int flags = 0;
+  for (int b = b0; b < b1;) {
+    b = uniform_discs_ == 1 ? DriftUniformAvx512<1>(b, b1, arrays, params_.dt, exit_box_, limit, &beyond, &moved)
+                            : DriftUniformAvx512<2>(b, b1, arrays, params_.dt, exit_box_, limit, &beyond, &moved);
+    const int e = std::min(b1, b + 8);
+    if (b < e) flags |= DriftPortable(b, e);
+    b = e;
+  }
+  return flags | (beyond ? kDriftBeyond : 0) | (moved ? kDriftMoved : 0);
 }
 
 void World::Step() {

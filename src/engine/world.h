@@ -152,6 +152,8 @@ class World {
   // Half kick and drift; flags: kDriftMoved (a disc moved > skin/2 since the rebuild),
   // kDriftBeyond (an active body's centre is outside the exit box).
   int DriftBodies(int b0, int b1);
+  int DriftPortable(int b0, int b1);  // DriftBodies without the AVX-512 loops
+  int DriftBodyKernel(int b0, int b1);  // its body part: returns kBeyond (world.cpp)
   static constexpr int kDriftMoved = 1, kDriftBeyond = 2;
   static constexpr int kBodyChunk = 512;         // bodies per parallel work item
   void Rebuild();
@@ -170,6 +172,7 @@ class World {
   bool exit_box_set_ = false;
   bool beyond_exit_box_ = true;
   int uniform_discs_ = -1;  // discs per body if all bodies have as many, else -1
+  int max_discs_ = 0;       // the most discs of any body
   bool use_avx512_ = false;  // params_.avx512_kernels and the CPU has AVX-512F
   // Which force pass each force block has finished (ForcePasses): a thread's body forces wait
   // for the blocks they read, not for every thread at a barrier. One cache line each.

@@ -29,6 +29,7 @@
 #include <boost/process/extend.hpp>
 
 #include "engine/shapes.h"
+#include "engine/silo_outline.h"
 #include "engine/stall.h"
 #include "liggghts/input_script.h"
 #include "rundir/contacts.h"
@@ -328,7 +329,7 @@ void SetBox(const SiloSetup& setup, double (&box)[3][2]) {
 void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const SiloSetup& setup,
                    const BodyIndex& bodies, double box_height) {
   std::ifstream in(in_path);
-  rundir::FrameWriter out = rundir::FrameWriter::Create(out_path);
+  rundir::FrameWriter out = rundir::FrameWriter::Create(out_path, spec.output.compress);
   std::string line;
   const double rho = spec.bodies.density;
   std::map<long long, double> first_y;  // per body: where its first sphere is in this frame
@@ -387,7 +388,8 @@ void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& 
     if (it == spheres.end()) throw std::runtime_error("contact dump names an unknown sphere " + id);
     return it->second;
   };
-  rundir::ContactWriter out = rundir::ContactWriter::Create(dir / rundir::kContactsFile);
+  rundir::ContactWriter out = rundir::ContactWriter::Create(
+      dir / (spec.output.compress ? rundir::kContactsGzFile : rundir::kContactsFile), spec.output.compress);
   rundir::ContactFrame frame;
   SetBox(setup, frame.box);
   for (const auto& [step, block] : pairs) {
@@ -625,8 +627,9 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
       state["clog_steps"] = kept;
     }
   } else {
-    for (const char* f : {"frames.liggghts", rundir::kEventsFile, rundir::kFramesFile, "final.dump", "contacts_pairs.liggghts",
-                          "contacts_walls.liggghts", rundir::kContactsFile})
+    for (const char* f : {"frames.liggghts", rundir::kEventsFile, rundir::kFramesFile, rundir::kFramesGzFile, "final.dump",
+                          "contacts_pairs.liggghts", "contacts_walls.liggghts", rundir::kContactsFile,
+                          rundir::kContactsGzFile})
       fs::remove(dir / f);
     for (const Counter& c : setup.counters)
       for (const fs::path& f : CounterFiles(dir, c)) fs::remove(f);
@@ -643,6 +646,14 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   // Discharge, in the bed's box.
   setup = MakeSetup(spec, BoxTop(dir / "bed.dump"));
   WriteMeshes(dir, setup);
+  {
+    // The geometry beside the frames, in the one form both engines write (LIGGGHTS' STL meshes
+    // stay too).
+    double box[3][2];
+    SetBox(setup, box);
+    WriteAtomically(dir / rundir::kSiloFile,
+                    engine::SiloVtk(engine::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : box[1][1])));
+  }
   WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, start));
   const auto t_discharge = Clock::now();
   std::string end_reason;
@@ -719,7 +730,8 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   }
   rundir::WriteEvents(dir / rundir::kEventsFile, exits);
   if (spec.output.frame_interval > 0 && fs::exists(dir / "frames.liggghts"))
-    ConvertFrames(dir / "frames.liggghts", dir / rundir::kFramesFile, spec, setup, bodies, box_height);
+    ConvertFrames(dir / "frames.liggghts", dir / (spec.output.compress ? rundir::kFramesGzFile : rundir::kFramesFile), spec,
+                  setup, bodies, box_height);
   if (spec.output.contact_forces && spec.output.frame_interval > 0 && fs::exists(dir / "contacts_pairs.liggghts"))
     ConvertContacts(dir, spec, setup, spheres, bodies, box_height);
 

@@ -11,7 +11,7 @@
 #include <regex>
 #include <vector>
 
-#include "engine/run.h"
+#include "engine/bench.h"
 #include "liggghts/backend.h"
 #include "rundir/run_directory.h"
 #include "rundir/run_spec.h"
@@ -20,20 +20,6 @@ namespace granary::liggghts {
 
 namespace fs = std::filesystem;
 namespace bp = boost::process;
-
-double SphereStepsPerSecond(const std::string& log_file) {
-  static const std::regex loop(R"(Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps with (\d+) atoms)");
-  std::ifstream in(log_file);
-  std::string line;
-  double work = 0, seconds = 0;
-  while (std::getline(in, line)) {
-    std::smatch m;
-    if (!std::regex_search(line, m, loop)) continue;
-    seconds += std::stod(m[1]);
-    work += std::stod(m[3]) * std::stod(m[4]);
-  }
-  return seconds > 0 ? work / seconds : 0.0;
-}
 
 namespace {
 
@@ -87,7 +73,7 @@ void RunBench(const BenchOptions& o) {
     BackendOptions bo;
     bo.quiet = true;
     RunDirectory(dir.string(), bo);
-    const double lig = SphereStepsPerSecond((dir / "log.discharge").string());
+    const double lig = engine::LoopTimeRate((dir / "log.discharge").string());
     lig_rates.push_back(lig);
     std::printf("%sengine=liggghts threads=1 disc_steps_per_s=%.4g\n", tag.c_str(), lig);
     std::fflush(stdout);

@@ -18,8 +18,4 @@ struct BenchOptions {
 // the best and median of each engine and the ratios of the bests and of the medians.
 void RunBench(const BenchOptions& options);
 
-// Sum over a LIGGGHTS log's "Loop time of T on P procs for S steps with A atoms" lines:
-// atoms x steps / time. 0 if there are none.
-double SphereStepsPerSecond(const std::string& log_file);
-
 }  // namespace granary::liggghts

@@ -13,7 +13,7 @@
 
 namespace granary::rundir {
 namespace detail {
-class DumpLines;
+struct DumpState;
 }
 
 struct ContactRow {
@@ -34,9 +34,10 @@ struct ContactFrame {
 class ContactWriter {
  public:
   ContactWriter() = default;
-  static ContactWriter Create(const std::filesystem::path& file);
+  // `gzip`: each frame one gzip member (contacts.dump.gz; gzip.h).
+  static ContactWriter Create(const std::filesystem::path& file, bool gzip = false);
   // The file of an interrupted run cut back to `offset` bytes (what its checkpoint recorded).
-  static ContactWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset);
+  static ContactWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip = false);
 
   // Appends one frame; NUMBER OF ENTRIES is frame.contacts.size().
   void Write(const ContactFrame& frame);
@@ -46,6 +47,7 @@ class ContactWriter {
 
  private:
   OutputFile file_;
+  bool gzip_ = false;
 };
 
 // Streams a contacts.dump; columns found by name (all ten required). Malformed input throws
@@ -56,11 +58,15 @@ class ContactReader {
   ~ContactReader();
   ContactReader(ContactReader&&) noexcept;
   ContactReader& operator=(ContactReader&&) noexcept;
-  bool Next(ContactFrame& frame);
+  bool Next(ContactFrame& frame) { return NextHeader(frame) && ReadContacts(frame); }
+  // In two steps (see FrameReader): the header, then the rows read or skipped.
+  bool NextHeader(ContactFrame& frame);
+  bool ReadContacts(ContactFrame& frame);
+  bool SkipContacts();
 
  private:
   std::filesystem::path file_;
-  std::unique_ptr<detail::DumpLines> lines_;
+  std::unique_ptr<detail::DumpState> state_;
 };
 
 }  // namespace granary::rundir

@@ -1,18 +1,52 @@
 // See dump_text.h.
 #include "rundir/dump_text.h"
 
+#include <zlib.h>
+
 #include <cctype>
 
 #include "rundir/layout.h"
 
 namespace granary::rundir::detail {
 
-DumpLines::DumpLines(const std::filesystem::path& file) : file_(file), in_(file) {
+DumpLines::DumpLines(const std::filesystem::path& file) : file_(file), in_(file, std::ios::binary) {
   if (!in_) throw ReadError(file.string() + ": cannot open");
+  char magic[2] = {0, 0};
+  in_.read(magic, 2);
+  const bool gzip = in_.gcount() == 2 && magic[0] == '\x1f' && magic[1] == '\x8b';
+  in_.clear();
+  in_.seekg(0);
+  if (!gzip) return;
+  in_.close();
+  gz_ = gzopen(file.c_str(), "rb");
+  if (!gz_) throw ReadError(file.string() + ": cannot open");
+  gzbuffer(static_cast<gzFile>(gz_), 1 << 17);
+}
+
+DumpLines::~DumpLines() {
+  if (gz_) gzclose(static_cast<gzFile>(gz_));
+}
+
+bool DumpLines::GzLine(std::string& line) {
+  line.clear();
+  if (gz_eof_) return false;
+  char buf[4096];
+  for (;;) {
+    if (!gzgets(static_cast<gzFile>(gz_), buf, sizeof buf)) {
+      if (line.empty()) return false;
+      gz_eof_ = true;  // a last line without '\n', as std::getline reports it
+      return true;
+    }
+    line += buf;
+    if (line.back() == '\n') {
+      line.pop_back();
+      return true;
+    }
+  }
 }
 
 bool DumpLines::Next(std::string& line) {
-  if (!std::getline(in_, line)) return false;
+  if (!(gz_ ? GzLine(line) : static_cast<bool>(std::getline(in_, line)))) return false;
   ++line_no_;
   if (!line.empty() && line.back() == '\r') line.pop_back();
   return true;
@@ -70,6 +104,14 @@ bool ReadDumpHeader(DumpLines& in, const char* count_item, const char* columns_i
   if (h.count < 0) in.Fail("frame has no '" + count_line + "'");
   Split(std::string_view(line).substr(columns_prefix.size()), ' ', f);
   for (auto name : f) h.columns.emplace_back(name);
+  return true;
+}
+
+bool SkipDumpRows(DumpState& state) {
+  state.rows_pending = false;
+  std::string line;
+  for (std::int64_t r = 0; r < state.header.count; ++r)
+    if (!state.lines.Next(line)) return false;
   return true;
 }
 

@@ -12,7 +12,7 @@
 
 namespace granary::rundir {
 namespace detail {
-class DumpLines;
+struct DumpState;
 }
 
 struct Disc {
@@ -51,9 +51,10 @@ std::vector<Body> BodiesOf(const std::vector<Disc>& discs);
 class FrameWriter {
  public:
   FrameWriter() = default;
-  static FrameWriter Create(const std::filesystem::path& file);
+  // `gzip`: each frame one gzip member (frames.dump.gz; gzip.h).
+  static FrameWriter Create(const std::filesystem::path& file, bool gzip = false);
   // The file of an interrupted run cut back to `offset` bytes (what its checkpoint recorded).
-  static FrameWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset);
+  static FrameWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip = false);
 
   // Appends one frame; NUMBER OF ATOMS is frame.discs.size().
   void Write(const Frame& frame);
@@ -63,9 +64,10 @@ class FrameWriter {
 
  private:
   OutputFile file_;
+  bool gzip_ = false;
 };
 
-// Streams a frames.dump. Required columns: id mol x y; optional: type radius mass vx vy
+// Streams a frames.dump (or a frames.dump.gz, told by its magic bytes). Required columns: id mol x y; optional: type radius mass vx vy
 // omegaz (missing radius = 0.5, missing mass = density pi r^2, missing velocities = 0).
 // Malformed input throws ReadError with file:line.
 class FrameReader {
@@ -76,12 +78,17 @@ class FrameReader {
   FrameReader& operator=(FrameReader&&) noexcept;
   // Reads the next frame into `frame`; false at the end of the file. A frame cut short at the
   // end of the file (an engine still writing) ends the stream without an error.
-  bool Next(Frame& frame);
+  bool Next(Frame& frame) { return NextHeader(frame) && ReadDiscs(frame); }
+  // The same in two steps, so that a frame nobody wants is skipped without parsing its rows:
+  // NextHeader fills timestep, time and box (discs cleared); then ReadDiscs or SkipDiscs.
+  bool NextHeader(Frame& frame);
+  bool ReadDiscs(Frame& frame);
+  bool SkipDiscs();
   const std::filesystem::path& file() const { return file_; }
 
  private:
   std::filesystem::path file_;
-  std::unique_ptr<detail::DumpLines> lines_;
+  std::unique_ptr<detail::DumpState> state_;
   double density_;
 };
 

@@ -61,8 +61,9 @@ RunData ReadRun(const fs::path& dir) {
     r.spec = r.summary.spec;
   }
   if (fs::exists(dir / kEventsFile)) r.events = ReadEvents(dir / kEventsFile);
-  r.has_frames = fs::exists(dir / kFramesFile);
-  r.has_contacts = fs::exists(dir / kContactsFile);
+  r.compressed = !fs::exists(dir / kFramesFile) && fs::exists(dir / kFramesGzFile);
+  r.has_frames = fs::exists(r.frames_file());
+  r.has_contacts = fs::exists(r.contacts_file());
   return r;
 }
 

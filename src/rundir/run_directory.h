@@ -38,8 +38,9 @@ struct RunData {
   std::vector<ExitEvent> events;
   bool has_frames = false;
   bool has_contacts = false;
-  std::filesystem::path frames_file() const { return dir / kFramesFile; }
-  std::filesystem::path contacts_file() const { return dir / kContactsFile; }
+  bool compressed = false;         // frames.dump.gz / contacts.dump.gz (output.compress)
+  std::filesystem::path frames_file() const { return dir / (compressed ? kFramesGzFile : kFramesFile); }
+  std::filesystem::path contacts_file() const { return dir / (compressed ? kContactsGzFile : kContactsFile); }
 };
 // Throws ReadError if the directory does not exist or a present file is malformed.
 RunData ReadRun(const std::filesystem::path& dir);

@@ -380,9 +380,10 @@ RunSpec RunSpec::from_json(const json& j) {
     d.Number("exit_distance", s.discharge.exit_distance);
   }
   if (r.Has("output")) {
-    Reader o(r.At("output"), "/output", {"frame_interval", "contact_forces", "checkpoint_interval"});
+    Reader o(r.At("output"), "/output", {"frame_interval", "contact_forces", "compress", "checkpoint_interval"});
     o.Number("frame_interval", s.output.frame_interval);
     o.Bool("contact_forces", s.output.contact_forces);
+    o.Bool("compress", s.output.compress);
     o.Number("checkpoint_interval", s.output.checkpoint_interval);
   }
   validate(s);
@@ -626,6 +627,7 @@ json RunSpec::to_json() const {
     out["discharge"]["reinject_position"] = to_string(discharge.reinject_position);
   if (discharge.periodic_headroom != Discharge{}.periodic_headroom)
     out["discharge"]["periodic_headroom"] = discharge.periodic_headroom;
+  if (output.compress) out["output"]["compress"] = true;
   return out;
 }
 

@@ -117,6 +117,7 @@ struct Discharge {
 struct Output {
   double frame_interval = 0.0;     // simulated time between frames (0 = no frames)
   bool contact_forces = false;     // also write contact-force frames at frame_interval
+  bool compress = false;           // frames.dump.gz, contacts.dump.gz instead of frames.dump, contacts.dump
   double checkpoint_interval = 10.0;  // simulated time between checkpoints (0 = none)
 };
 

@@ -23,9 +23,15 @@
 #include "runner/util.h"
 #ifdef GRANARY_HAVE_ANALYSIS
 #include "analysis/cg_run.h"
+#include "analysis/export.h"
+#include "analysis/registry.h"
 #include "analysis/report.h"
 #include "rundir/contacts.h"
 #include "rundir/frames.h"
+#endif
+#include "rundir/files.h"
+#ifdef GRANARY_HAVE_RENDER
+#include "render/run_picture.h"
 #endif
 
 namespace granary::runner {
@@ -179,8 +185,7 @@ PlanSummary PlanInto(const json& j, const std::string& spec_path, const std::str
   }
 #ifdef GRANARY_HAVE_ANALYSIS
   try {
-    analysis::ReportOptions ro;
-    analysis::apply_report_spec(j, ro);
+    analysis::check_report_spec(j);
   } catch (const std::invalid_argument& e) {
     throw UsageError(spec_path + ": " + e.what());
   }
@@ -414,7 +419,8 @@ int RunAll(const std::string& db, const RunOptions& o, std::ostream& out) {
 const char kStatusHelp[] =
     "usage: campaign status [--db FILE] [--json]\n"
     "Counts by state, progress of running runs, failures with the tail of their log, elapsed\n"
-    "time and ETA.\n";
+    "time and ETA; how many finished runs have their metrics in the database (with --json,\n"
+    "every stored metric of every run).\n";
 
 int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, {{"db", true}, {"json", false}, {"help", false}}, "status");
@@ -423,6 +429,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   Store store(db);
   const auto campaign = load_campaign(store);
   const auto runs = load_runs(store, false);
+  const auto metrics = load_metrics(store);
   std::map<std::string, int> counts = {{"planned", 0}, {"running", 0}, {"done", 0},
                                        {"failed", 0},  {"interrupted", 0}, {"retired", 0}};
   double first_start = 0, last_end = 0, wall_sum = 0, remaining_work = 0;
@@ -454,6 +461,16 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       if (r.state == "running") j["lease_expired"] = lease_expired(r, this_process_holder().host, now);
       if (!r.failure.empty()) j["failure"] = r.failure;
       if (!r.end_reason.empty()) j["end_reason"] = r.end_reason;
+      if (const auto it = metrics.find(r.run_id); it != metrics.end()) {
+        json m = json::object();
+        for (const RunMetrics& rm : it->second)
+          for (const MetricRow& x : rm.metrics)
+            m[x.name] = {{"value", std::isfinite(x.value) ? json(x.value) : json(nullptr)},
+                         {"se", std::isfinite(x.se) ? json(x.se) : json(nullptr)},
+                         {"unit", x.unit},
+                         {"analysis", rm.analysis}};
+        j["metrics"] = m;
+      }
       list.push_back(j);
     }
     out << json{{"campaign", campaign ? campaign->name : ""},
@@ -470,6 +487,11 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       << " runs (" << db << ")\n ";
   for (const auto& [state, n] : counts) out << " " << state << " " << n;
   out << "\n  elapsed " << Duration(elapsed) << ", ETA " << (eta >= 0 ? Duration(eta) : "?") << "\n";
+  int analysed = 0;
+  for (const auto& r : runs) analysed += r.state == "done" && metrics.count(r.run_id) ? 1 : 0;
+  if (counts["done"] > 0)
+    out << "  metrics in the database for " << analysed << " of " << counts["done"] << " done runs"
+        << (analysed < counts["done"] ? " (campaign report or export analyses the others)" : "") << "\n";
   bool header = false;
   for (const auto& r : runs) {
     if (r.state != "running") continue;
@@ -506,19 +528,37 @@ const char kReportHelp[] =
     "<db dir>/report).\n";
 
 #ifdef GRANARY_HAVE_ANALYSIS
-// The report of the campaign in `db`: the database's runs handed over as plain records.
-analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out_dir, bool figures) {
+// A campaign loaded from its database and analysed: what report, export and compare share.
+// The analysis points into `info` and `records`, so the whole lives together.
+struct AnalysedCampaign {
+  analysis::CampaignInfo info;
+  std::vector<analysis::RunRecord> records;
+  analysis::AnalysisSetup setup;
+  std::unique_ptr<analysis::CampaignAnalysis> analysis;
+};
+
+// "analysing runs [#####.....] 42/100" on a terminal; nothing otherwise.
+std::function<void(int, int)> AnalysisProgress(std::ostream& err) {
+  if (&err != &std::cerr || !isatty(STDERR_FILENO)) return nullptr;
+  return [&err](int done, int total) {
+    err << "\ranalysing runs " << Bar(static_cast<double>(done) / std::max(1, total), 30) << " " << done << "/" << total
+        << (done == total ? "\n" : "") << std::flush;
+  };
+}
+
+// Loads the campaign in `db`, analyses its finished runs (each run's cache first, runs in
+// parallel) and stores their per-run metrics in the database (table metrics).
+std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const std::string& verb, std::ostream& err) {
   Store store(db);
   const auto campaign = load_campaign(store);
-  if (!campaign) throw UsageError("campaign report: " + db + " holds no campaign");
-  analysis::CampaignInfo info;
-  info.name = campaign->name;
-  info.spec_hash = campaign->spec_hash;
-  info.spec = campaign->spec;
-  info.axes = campaign->axes;
-  info.granary_version = campaign->granary_version;
-  info.git_commit = campaign->git_commit;
-  std::vector<analysis::RunRecord> records;
+  if (!campaign) throw UsageError("campaign " + verb + ": " + db + " holds no campaign");
+  auto c = std::make_unique<AnalysedCampaign>();
+  c->info.name = campaign->name;
+  c->info.spec_hash = campaign->spec_hash;
+  c->info.spec = campaign->spec;
+  c->info.axes = campaign->axes;
+  c->info.granary_version = campaign->granary_version;
+  c->info.git_commit = campaign->git_commit;
   for (const auto& r : load_runs(store, true)) {
     if (r.state == "retired") continue;
     analysis::RunRecord rec;
@@ -531,33 +571,108 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
     rec.spec = r.params;
     rec.run_dir = fs::absolute(r.run_dir);
     rec.failure = r.failure;
-    records.push_back(std::move(rec));
+    c->records.push_back(std::move(rec));
   }
-  analysis::ReportOptions options;
-  options.out_dir = out_dir;
-  options.figures = figures;
   try {
-    analysis::apply_report_spec(campaign->spec, options);
+    c->setup = analysis::setup_analyses(campaign->spec);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("campaign spec: ") + e.what());
   }
-  return analysis::write_report(info, records, options);
+  analysis::CampaignAnalysisOptions options;
+  options.progress = AnalysisProgress(err);
+  c->analysis = analysis::analyse_campaign(c->info, c->records, c->setup, options);
+  std::vector<RunMetrics> rows;
+  const analysis::CampaignAnalysis& a = *c->analysis;
+  for (std::size_t u = 0; u < a.view.used.size(); ++u)
+    for (std::size_t k = 0; k < c->setup.analyses.size(); ++k) {
+      if (a.results[k].runs[u].is_null()) continue;
+      const analysis::Analysis& an = *c->setup.analyses[k];
+      RunMetrics rm{a.view.used[u].record->run_id, an.key(), an.version(), an.run_options(), {}};
+      for (const analysis::Metric& m : a.run_metrics(k, u)) rm.metrics.push_back({m.name, m.unit, m.value, m.se});
+      rows.push_back(std::move(rm));
+    }
+  store_metrics(store, rows, now_seconds());
+  return c;
+}
+
+// The report of the campaign in `db`.
+analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out_dir, bool figures, std::ostream& err) {
+  const auto c = AnalyseCampaignIn(db, "report", err);
+  analysis::ReportOptions options;
+  options.out_dir = out_dir;
+  options.figures = figures;
+#ifdef GRANARY_HAVE_RENDER
+  options.draw_run = [](const fs::path& run_dir, analysis::ReportOptions::Picture kind, const fs::path& png) {
+    render::PictureOptions o;
+    o.pick.kind = kind == analysis::ReportOptions::Picture::kBed ? render::FramePick::kFirst : render::FramePick::kLast;
+    try {
+      render::WritePng(render::RunScene(run_dir, o), 640, png);
+      return std::string();
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+  };
+#endif
+  return analysis::write_report(*c->analysis, options);
 }
 #endif
 
-int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args a = Parse(argv, {{"db", true}, {"out", true}, {"no-figures", false}, {"help", false}}, "report");
   const std::string db = DbPath(a);
   if (!fs::exists(db)) throw UsageError("campaign report: no database " + db);
 #ifdef GRANARY_HAVE_ANALYSIS
   const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
-                                     !a.has("no-figures"));
+                                     !a.has("no-figures"), err);
   out << "report: " << summary.markdown.string() << "\n        " << summary.html.string() << "\n  runs used "
-      << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed << "\n";
+      << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed << "\n"
+      << "  analysis results: " << summary.results_from_cache << " from the runs' caches, " << summary.results_computed
+      << " computed\n";
   return 0;
 #else
   (void)out;
   throw UsageError("campaign report: this build has no analysis library (granary_analysis)");
+#endif
+}
+
+// ---------------------------------------------------------------- export
+const char kExportHelp[] =
+    "usage: campaign export [--db FILE] [--format csv|json] [--level run|point] [--out FILE]\n"
+    "Analyse the finished runs (each run's cached results are reused) and write their metrics as\n"
+    "one tidy table: one row per run, or per sweep point; each swept parameter a column named by\n"
+    "its short path (base_outlets.0.width), each metric and its se (per point also n) numeric\n"
+    "columns. The per-run metrics are stored in the database too (table metrics, view\n"
+    "run_metrics; docs/data.md shows both read with pandas).\n"
+    "  --db FILE         database (default granary.db)\n"
+    "  --format F        csv (default) or json (an array of objects)\n"
+    "  --level L         run (default) or point\n"
+    "  --out FILE        write there (default: standard output)\n";
+
+int Export(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args a = Parse(argv, {{"db", true}, {"format", true}, {"level", true}, {"out", true}, {"help", false}}, "export");
+  if (!a.positional.empty()) throw UsageError("campaign export: unexpected argument \"" + a.positional[0] + "\"");
+  const std::string format = a.get("format", "csv"), level = a.get("level", "run");
+  if (format != "csv" && format != "json") throw UsageError("--format: must be csv or json (got \"" + format + "\")");
+  if (level != "run" && level != "point") throw UsageError("--level: must be run or point (got \"" + level + "\")");
+  const std::string db = DbPath(a);
+  if (!fs::exists(db)) throw UsageError("campaign export: no database " + db);
+#ifdef GRANARY_HAVE_ANALYSIS
+  const auto c = AnalyseCampaignIn(db, "export", err);
+  const analysis::ExportTable table =
+      analysis::export_table(*c->analysis, level == "run" ? analysis::ExportLevel::kRun : analysis::ExportLevel::kPoint);
+  const std::string text = format == "csv" ? analysis::to_csv(table) : analysis::to_json(table).dump(2) + "\n";
+  if (a.has("out")) {
+    WriteAtomically(a.get("out", ""), text);
+    err << "export: " << table.rows.size() << " " << level << (table.rows.size() == 1 ? "" : "s") << " to "
+        << a.get("out", "") << "\n";
+  } else {
+    out << text;
+  }
+  return 0;
+#else
+  (void)out;
+  (void)err;
+  throw UsageError("campaign export: this build has no analysis library (granary_analysis)");
 #endif
 }
 
@@ -594,9 +709,11 @@ void PrintComparison(std::ostream& out, const json& c) {
   for (const json& p : c.at("points")) {
     out << "  " << CompactPoint(p.at("point")) << "\n";
     if (p.at("metrics").empty()) out << "    (no metric defined on both engines yet)\n";
-    for (const char* metric : {"q_count", "phi", "tg_full", "psi", "avalanche_size"}) {
+    for (const json& name : c.at("metric_order")) {
+      const std::string metric = name.get<std::string>();
       if (!p.at("metrics").contains(metric)) continue;
       const json& m = p.at("metrics").at(metric);
+      if (!m.value("headline", false)) continue;
       json ratio = {{"mean", m.at("ratio")}, {"se", m.at("ratio_se")}};
       out << "    " << std::left << std::setw(16) << metric << std::setw(20) << cell(m.at(a)) << std::setw(20)
           << cell(m.at(b)) << std::setw(18) << cell(ratio) << (m.at("agree").get<bool>() ? "yes" : "no") << "\n";
@@ -641,7 +758,7 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
     if (code == static_cast<int>(ExitCode::kInterrupted)) return code;
   }
   const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
-                                     !a.has("no-figures"));
+                                     !a.has("no-figures"), err);
   if (a.has("json")) {
     out << json{{"campaign", spec.name},
                 {"report", summary.html.string()},
@@ -878,6 +995,157 @@ int Fields(const std::vector<std::string>& argv, std::ostream& out, std::ostream
 #endif
 }
 
+// ---------------------------------------------------------------- snapshot, movie
+const char kSnapshotHelp[] =
+    "usage: campaign snapshot RUN [--time T | --clog K | --first | --last] [--color C] [--forces]\n"
+    "                         [--highlight ID,ID,...] [--width PX] --out FILE.png|FILE.svg [--db FILE]\n"
+    "A picture of one frame of a run: every disc to scale, walls (grey), outlets (red), obstacles,\n"
+    "optionally the contact-force network.\n"
+    "  RUN          a run directory, or a run id (or the start of one) in the database\n"
+    "  --time T     the frame nearest simulated time T (since the outlets opened)\n"
+    "  --clog K     the K-th clog (1 = first): the middle of the clogged stretch, or the last frame\n"
+    "               if the run ended in it (a clog is a gap of the run's clog_window in the exits)\n"
+    "  --first      the first frame (t = 0, the bed before the outlets open)\n"
+    "  --last       the last frame (default)\n"
+    "  --color C    species (default), speed, rotation (angular velocity) or force (summed contact\n"
+    "               force on each body; needs output.contact_forces)\n"
+    "  --forces     draw the contact-force network (line width ~ force; needs output.contact_forces)\n"
+    "  --highlight  body ids to outline\n"
+    "  --width PX   picture width in pixels (default 1000; the height follows the silo)\n"
+    "  --out FILE   .png (cairo) or .svg\n"
+    "  --db FILE    database to look RUN up in (default granary.db)\n"
+    "Exit: 0 written, 1 the run cannot be drawn (no frames, no contact frames, no such clog),\n"
+    "2 usage error.\n";
+
+const char kMovieHelp[] =
+    "usage: campaign movie RUN --out FILE.mp4 [--fps N] [--color C] [--forces] [--width PX] [--db FILE]\n"
+    "Every frame of a run drawn as by campaign snapshot and encoded by ffmpeg (H.264, yuv420p),\n"
+    "with a progress bar on stderr.\n"
+    "  --fps N      frames per second of the movie (default 20)\n"
+    "  --width PX   movie width in pixels (default 800)\n"
+    "  RUN, --color, --forces, --db: as for campaign snapshot\n"
+    "Exit: 0 written, 1 the run cannot be drawn or ffmpeg failed, 2 usage error.\n";
+
+#ifdef GRANARY_HAVE_RENDER
+// RUN: a run directory, or a run id (a unique prefix will do) of the database.
+fs::path ResolveRun(const std::string& verb, const std::string& run, const Args& a) {
+  if (fs::is_directory(run)) return run;
+  const std::string db = DbPath(a);
+  if (!fs::exists(db))
+    throw UsageError("campaign " + verb + ": '" + run + "' is not a run directory, and there is no database " + db +
+                     " to look it up in");
+  Store store(db);
+  std::vector<RunRow> found;
+  for (RunRow& r : load_runs(store, false))
+    if (r.run_id.rfind(run, 0) == 0) found.push_back(std::move(r));
+  if (found.empty()) throw UsageError("campaign " + verb + ": no run directory or run id '" + run + "' in " + db);
+  if (found.size() > 1)
+    throw UsageError("campaign " + verb + ": '" + run + "' starts " + std::to_string(found.size()) + " run ids in " + db +
+                     " (" + found[0].run_id + ", " + found[1].run_id + ", ...); give more of it");
+  return found[0].run_dir;
+}
+
+render::PictureOptions PictureOptionsFrom(const std::string& verb, const Args& a) {
+  render::PictureOptions o;
+  int picks = 0;
+  for (const char* f : {"time", "clog", "first", "last"}) picks += a.has(f);
+  if (picks > 1) throw UsageError("campaign " + verb + ": give one of --time, --clog, --first, --last");
+  if (a.has("time")) {
+    o.pick.kind = render::FramePick::kTime;
+    o.pick.time = a.number("time", 0);
+  } else if (a.has("clog")) {
+    o.pick.kind = render::FramePick::kClog;
+    o.pick.clog = a.integer("clog", 1, 1);
+  } else if (a.has("first")) {
+    o.pick.kind = render::FramePick::kFirst;
+  }
+  try {
+    o.colour = render::ColourFromName(a.get("color", "species"));
+  } catch (const std::invalid_argument& e) {
+    throw UsageError("campaign " + verb + ": --color: " + e.what());
+  }
+  o.forces = a.has("forces");
+  if (a.has("highlight")) {
+    std::stringstream ids(a.get("highlight", ""));
+    for (std::string id; std::getline(ids, id, ',');) {
+      std::size_t used = 0;
+      long long v = -1;
+      try {
+        v = std::stoll(id, &used);
+      } catch (const std::exception&) {
+      }
+      if (v < 0 || used != id.size())
+        throw UsageError("campaign " + verb + ": --highlight: body ids are integers >= 0 separated by commas (got \"" + id + "\")");
+      o.highlight.insert(v);
+    }
+  }
+  return o;
+}
+#endif
+
+int Snapshot(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv,
+                       {{"time", true}, {"clog", true}, {"first", false}, {"last", false}, {"color", true},
+                        {"forces", false}, {"highlight", true}, {"width", true}, {"out", true}, {"db", true},
+                        {"help", false}},
+                       "snapshot");
+  if (a.positional.size() != 1) throw UsageError("campaign snapshot: needs exactly one RUN (see campaign snapshot --help)");
+  if (!a.has("out")) throw UsageError("campaign snapshot: --out FILE.png or FILE.svg is required");
+  const fs::path file = a.get("out", "");
+  const std::string ext = file.extension().string();
+  if (ext != ".png" && ext != ".svg") throw UsageError("campaign snapshot: --out must end in .png or .svg, not '" + ext + "'");
+#ifdef GRANARY_HAVE_RENDER
+  const render::PictureOptions o = PictureOptionsFrom("snapshot", a);
+  const fs::path run = ResolveRun("snapshot", a.positional[0], a);
+  const int width = a.integer("width", 1000, 16);
+  try {
+    const render::Scene scene = render::RunScene(run, o);
+    if (ext == ".svg") {
+      std::ofstream f(file);
+      f << render::Svg(scene, width);
+      if (!f) throw std::runtime_error("cannot write " + file.string());
+    } else {
+      render::WritePng(scene, width, file);
+    }
+    out << "snapshot: " << file.string() << " (" << scene.caption << ")\n";
+    return 0;
+  } catch (const rundir::ReadError& e) {
+    throw std::runtime_error(e.what());
+  }
+#else
+  (void)out;
+  throw UsageError("campaign snapshot: this build has no renderer (granary_render)");
+#endif
+}
+
+int Movie(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args a = Parse(argv, {{"out", true}, {"fps", true}, {"color", true}, {"forces", false}, {"width", true},
+                              {"db", true}, {"help", false}},
+                       "movie");
+  if (a.positional.size() != 1) throw UsageError("campaign movie: needs exactly one RUN (see campaign movie --help)");
+  if (!a.has("out")) throw UsageError("campaign movie: --out FILE.mp4 is required");
+  const fs::path file = a.get("out", "");
+  if (file.extension() != ".mp4") throw UsageError("campaign movie: --out must end in .mp4");
+#ifdef GRANARY_HAVE_RENDER
+  const render::PictureOptions o = PictureOptionsFrom("movie", a);
+  const fs::path run = ResolveRun("movie", a.positional[0], a);
+  const int width = a.integer("width", 800, 16);
+  const int fps = a.integer("fps", 20, 1);
+  const bool tty = isatty(STDERR_FILENO);
+  const int frames = render::WriteMovie(run, o, file, width, fps, [&](int done, int total) {
+    if (!tty && done != total) return;
+    err << "\rmovie " << Bar(total > 0 ? static_cast<double>(done) / total : 1.0, 30) << " " << done << "/" << total
+        << " frames" << (done == total ? "\n" : "") << std::flush;
+  });
+  out << "movie: " << file.string() << " (" << frames << " frames at " << fps << " fps)\n";
+  return 0;
+#else
+  (void)out;
+  (void)err;
+  throw UsageError("campaign movie: this build has no renderer (granary_render)");
+#endif
+}
+
 // ---------------------------------------------------------------- table
 struct Verb {
   const char* name;
@@ -892,8 +1160,11 @@ const std::vector<Verb>& Verbs() {
       {"run", "run what is not done (resumable, leases, N at a time)", kRunHelp, Run},
       {"status", "counts, progress, failures, ETA", kStatusHelp, Status},
       {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report},
+      {"export", "write every run's (or point's) metrics as one CSV or JSON table", kExportHelp, Export},
       {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare},
       {"fields", "coarse-grained fields of one run directory as CSV maps; --bench", kFieldsHelp, Fields},
+      {"snapshot", "a picture of one frame of a run (PNG or SVG)", kSnapshotHelp, Snapshot},
+      {"movie", "a movie of a run's frames (MP4, ffmpeg)", kMovieHelp, Movie},
   };
   return kVerbs;
 }

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "rundir/contacts.h"
+#include "rundir/run_directory.h"
 #include "rundir/frames.h"
 
 namespace {
@@ -98,8 +99,8 @@ std::string Lammps() {
   return env && *env ? env : bp::search_path("lmp").string();
 }
 
-// Reruns DIR/frames.dump in LAMMPS; its dumps go to DIR/lammps/.
-void RerunInLammps(const fs::path& dir, int types) {
+// Reruns DIR/frames.dump[.gz] in LAMMPS; its dumps go to DIR/lammps/.
+void RerunInLammps(const fs::path& dir, const std::string& frames, int types) {
   const fs::path work = dir / "lammps";
   fs::create_directories(work);
   const std::string lmp = Lammps();
@@ -110,7 +111,7 @@ void RerunInLammps(const fs::path& dir, int types) {
          // Discs of diameter 1 (atom_style sphere's default); the pair style only makes LAMMPS
          // build the neighbour lists that compute pair/local reports. Its cutoff comes from
          // the radii of the atoms present at the first run, so the first frame is read first.
-         "read_dump ../frames.dump 0 x y z box yes add keep\n"
+         "read_dump ../" << frames << " 0 x y z box yes add keep\n"
          "pair_style gran/hooke 1.0 NULL 0.0 NULL 0.0 0\npair_coeff * *\ncomm_modify vel yes\n"
          "neighbor 0.3 bin\nthermo_modify lost ignore\n"
          "compute touching all property/local patom1 patom2\ncompute distance all pair/local dist\n"
@@ -118,7 +119,7 @@ void RerunInLammps(const fs::path& dir, int types) {
          "dump_modify atoms time yes sort id format float %.17g\n"
          "dump contacts all local 1 contacts.dump c_touching[1] c_touching[2] c_distance\n"
          "dump_modify contacts time yes format float %.17g\n"
-         "rerun ../frames.dump dump x y z vx vy vz box yes purge yes replace no add keep\n";
+         "rerun ../" << frames << " dump x y z vx vy vz box yes purge yes replace no add keep\n";
   bp::ipstream out;
   bp::child c(lmp, "-in", "rerun.in", "-log", "log.lammps", (bp::std_out & bp::std_err) > out, bp::start_dir(work.string()));
   std::string all, line;
@@ -127,7 +128,7 @@ void RerunInLammps(const fs::path& dir, int types) {
   ASSERT_EQ(c.exit_code(), 0) << all;
 }
 
-fs::path MakeRun(const std::string& engine, const std::string& name) {
+fs::path MakeRun(const std::string& engine, const std::string& name, bool compress = false) {
   const fs::path dir = kTmp / name;
   fs::remove_all(dir);
   fs::create_directories(dir);
@@ -141,7 +142,7 @@ fs::path MakeRun(const std::string& engine, const std::string& name) {
                     {"species", {{{"shape", "disc"}, {"fraction", 0.5}}, {{"shape", "dumbbell"}, {"fraction", 0.5}}}}}},
                   {"bed", {{"settle_ke_per_body", 1e-5}, {"max_settle_time", 20}, {"cache_file", (kTmp / "beds_lammps" / "bed.json").string()}}},
                   {"discharge", {{"mode", "remove"}, {"max_time", 4}, {"clog_window", 3}}},
-                  {"output", {{"checkpoint_interval", 0}, {"frame_interval", 0.5}, {"contact_forces", true}}}};
+                  {"output", {{"checkpoint_interval", 0}, {"frame_interval", 0.5}, {"contact_forces", true}, {"compress", compress}}}};
   std::ofstream(dir / "run.json") << j.dump(2);
   return dir;
 }
@@ -158,16 +159,19 @@ void RunEngine(const std::string& exe, const fs::path& dir) {
 // The comparison; `contact_tolerance` is how closely a contact row's disc centres match the
 // frame (LIGGGHTS prints its local dumps with fewer digits than its atom dumps).
 void LammpsReadsTheRun(const fs::path& dir, double contact_tolerance) {
-  RerunInLammps(dir, 2);
+  const RunData run = ReadRun(dir);
+  ASSERT_TRUE(run.has_frames);
+  ASSERT_TRUE(run.has_contacts);
+  RerunInLammps(dir, run.frames_file().filename().string(), 2);
   if (::testing::Test::HasFatalFailure()) return;
   std::vector<Frame> frames;
   {
-    FrameReader reader(dir / "frames.dump");
+    FrameReader reader(run.frames_file());
     for (Frame f; reader.Next(f);) frames.push_back(f);
   }
   std::vector<ContactFrame> contacts;
   {
-    ContactReader reader(dir / "contacts.dump");
+    ContactReader reader(run.contacts_file());
     for (ContactFrame c; reader.Next(c);) contacts.push_back(c);
   }
   const std::vector<Block> atoms = ReadBlocks(dir / "lammps" / "frames.dump");
@@ -179,9 +183,11 @@ void LammpsReadsTheRun(const fs::path& dir, double contact_tolerance) {
   EXPECT_LT(frames.back().discs.size(), frames.front().discs.size()) << "bodies left: frames of different sizes";
 
   // The header items in LAMMPS' order (TIME before TIMESTEP), for atoms and for entries.
-  EXPECT_EQ(Items(dir / "frames.dump", 2), Items(dir / "lammps" / "frames.dump", 2));
-  EXPECT_EQ(Items(dir / "contacts.dump", 2), Items(dir / "lammps" / "contacts.dump", 2));
-  EXPECT_EQ(Items(dir / "frames.dump", 1).front(), "ITEM: TIME");
+  if (!run.compressed) {
+    EXPECT_EQ(Items(dir / "frames.dump", 2), Items(dir / "lammps" / "frames.dump", 2));
+    EXPECT_EQ(Items(dir / "contacts.dump", 2), Items(dir / "lammps" / "contacts.dump", 2));
+    EXPECT_EQ(Items(dir / "frames.dump", 1).front(), "ITEM: TIME");
+  }
 
   int touching_pairs = 0;
   for (std::size_t k = 0; k < frames.size(); ++k) {
@@ -252,6 +258,23 @@ TEST(LammpsReadsTheDumps, OfTheNativeEngine) {
   RunEngine(GRANARY_ENGINE_EXE, dir);
   if (::testing::Test::HasFatalFailure()) return;
   LammpsReadsTheRun(dir, 1e-9);
+}
+
+// output.compress: LAMMPS reruns frames.dump.gz, the analyses read it through the same reader.
+TEST(LammpsReadsTheDumps, OfTheNativeEngineCompressed) {
+  const fs::path dir = MakeRun("native", "lammps_native_gz", true);
+  RunEngine(GRANARY_ENGINE_EXE, dir);
+  if (::testing::Test::HasFatalFailure()) return;
+  ASSERT_TRUE(fs::exists(dir / "frames.dump.gz"));
+  LammpsReadsTheRun(dir, 1e-9);
+}
+
+TEST(LammpsReadsTheDumps, OfLiggghtsCompressed) {
+  const fs::path dir = MakeRun("liggghts", "lammps_liggghts_gz", true);
+  RunEngine(GRANARY_LIGGGHTS_EXE, dir);
+  if (::testing::Test::HasFatalFailure()) return;
+  ASSERT_TRUE(fs::exists(dir / "contacts.dump.gz"));
+  LammpsReadsTheRun(dir, 1e-4);
 }
 
 TEST(LammpsReadsTheDumps, OfLiggghts) {

@@ -1,0 +1,23 @@
+// What was simulated, in words a researcher uses: human names for sweep axes ("outlet width W",
+// "dumbbell fraction X_db" rather than /silo/base_outlets/0/width) and the table of a campaign's
+// fixed parameters (silo, bodies, contact law, time step, mode, stop conditions). Pure: run
+// spec JSON in, text out. The report's first section, "The system", is made of them.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "analysis/report_document.h"
+
+namespace granary::analysis {
+
+// The name of a sweep axis (a JSON pointer into the run spec) for a reader; `run_spec` gives the
+// species' names and how many outlets there are. Unknown pointers come back as they are.
+std::string axis_name(const std::string& pointer, const nlohmann::json& run_spec);
+
+// Rows {group, parameter, value} of everything a run of the campaign shares, from one resolved
+// run spec; a parameter under one of the sweep `axes` reads "swept (below)".
+Table fixed_parameters(const nlohmann::json& run_spec, const std::vector<std::string>& axes);
+
+}  // namespace granary::analysis

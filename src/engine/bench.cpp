@@ -1,0 +1,238 @@
+// The standard benchmark, and the disc case on LAMMPS beside it (bench.h).
+#include "engine/bench.h"
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <regex>
+#include <sstream>
+#include <stdexcept>
+
+#include <omp.h>
+
+#include "engine/run.h"
+#include "engine/shapes.h"
+#include "rundir/files.h"
+#include "rundir/run_directory.h"
+#include "rundir/summary.h"
+
+extern char** environ;
+
+namespace granary::engine {
+namespace fs = std::filesystem;
+
+double BenchMedian(std::vector<double> rates) {
+  if (rates.empty()) return 0.0;
+  std::sort(rates.begin(), rates.end());
+  const std::size_t n = rates.size();
+  return n % 2 ? rates[n / 2] : 0.5 * (rates[n / 2 - 1] + rates[n / 2]);
+}
+
+nlohmann::json BenchSpecies(const std::string& shape) {
+  if (shape == "disc") return {{{"shape", "disc"}}};
+  if (shape == "dumbbell") return {{{"shape", "dumbbell"}}};
+  if (shape == "mixture")
+    return {{{"shape", "dumbbell"}, {"fraction", 0.5}},
+            {{"shape", "disc"}, {"diameter", std::numbers::sqrt2}, {"fraction", 0.5}}};
+  throw std::invalid_argument("bench: --shape must be disc, dumbbell or mixture (got \"" + shape + "\")");
+}
+
+nlohmann::json BenchSpec(const BenchOptions& options) {
+  const std::string bed_file =
+      options.bed_file.empty() ? (fs::temp_directory_path() /
+                                  ("granary-bench-bed-" + options.shape + "-" + std::to_string(options.bodies) + ".json"))
+                                     .string()
+                               : options.bed_file;
+  return {{"run_id", "bench"},
+          {"seed", std::uint64_t{1}},
+          {"silo", {{"width", 100.0}, {"base_outlets", {{{"center", 0.0}, {"width", 14.0}}}}}},
+          {"bodies", {{"count", options.bodies}, {"species", BenchSpecies(options.shape)}}},
+          {"discharge",
+           {{"mode", "reinject"}, {"max_time", static_cast<double>(options.steps) * 1e-4}, {"stop_on_clog", false}}},
+          {"output", {{"checkpoint_interval", 0.0}, {"frame_interval", 0.0}}},
+          {"bed", {{"batch_size", 2000}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 30.0}, {"cache_file", bed_file}}}};
+}
+
+namespace {
+
+// Prepares (or loads) the bench bed once with every thread of the list; not timed.
+ObtainedBed BenchBed(const BenchOptions& options, const nlohmann::json& spec, const fs::path& dir) {
+  omp_set_num_threads(*std::max_element(options.threads.begin(), options.threads.end()));
+  return ObtainBed(RunSpec::from_json(spec), dir.string(), [](double f, double t) {
+    std::printf("bench: preparing bed fraction=%.3f t=%.4g\n", f, t);
+    std::fflush(stdout);
+  });
+}
+
+// One timed native run of the bench case in `dir` (a fresh run directory).
+BenchResult NativeRound(const nlohmann::json& spec, const fs::path& dir, int round, int threads) {
+  fs::remove_all(dir);
+  rundir::WriteRunSpec(dir, spec);
+  RunOptions ro;
+  ro.threads = threads;
+  ro.quiet = true;
+  RunDirectory(dir.string(), ro);
+  const rundir::Summary summary = rundir::ReadSummary(dir / rundir::kSummaryFile);
+  return {round, threads, summary.timing->disc_steps_per_s, summary.timing->discharge_wall_s};
+}
+
+}  // namespace
+
+std::vector<BenchResult> RunBenchmark(const BenchOptions& options) {
+  const fs::path base = fs::temp_directory_path() / ("granary-bench-" + std::to_string(::getpid()));
+  fs::create_directories(base);
+  const nlohmann::json spec = BenchSpec(options);
+  BenchBed(options, spec, base);
+  std::vector<BenchResult> results;
+  for (int round = 1; round <= options.repeat; ++round) {
+    for (int threads : options.threads)
+      results.push_back(NativeRound(spec, base / ("t" + std::to_string(threads)), round, threads));
+  }
+  fs::remove_all(base);
+  return results;
+}
+
+double LoopTimeRate(const std::string& log_file) {
+  static const std::regex loop(R"(Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps with (\d+) atoms)");
+  std::ifstream in(log_file);
+  std::string line;
+  double work = 0, seconds = 0;
+  while (std::getline(in, line)) {
+    std::smatch m;
+    if (!std::regex_search(line, m, loop)) continue;
+    seconds += std::stod(m[1]);
+    work += std::stod(m[3]) * std::stod(m[4]);
+  }
+  return seconds > 0 ? work / seconds : 0.0;
+}
+
+LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std::string& data_file,
+                             std::int64_t steps) {
+  const std::vector<ShapeTemplate> templates = MakeTemplates(spec);
+  for (const ShapeTemplate& t : templates)
+    if (t.r.size() != 1)
+      throw std::invalid_argument("LAMMPS side by side: every body must be a disc (species \"" + t.name + "\" is not)");
+  if (spec.silo.base_outlets.size() != 1 || !spec.silo.side_outlets.empty() || !spec.silo.obstacles.empty())
+    throw std::invalid_argument("LAMMPS side by side: the silo must have exactly one base outlet and nothing else");
+  const double hw = spec.silo.width / 2;
+  const BaseOutlet& outlet = spec.silo.base_outlets[0];
+  double top = 0.0, r_max = 0.0;
+  for (std::size_t b = 0; b < bed.x.size(); ++b) top = std::max(top, bed.y[b]);
+  for (const ShapeTemplate& t : templates) r_max = std::max(r_max, t.r[0]);
+  const double ylo = -(spec.discharge.exit_distance + kPeriodicFall), yhi = top + 2 * r_max + 1.0;
+
+  std::ostringstream data;
+  data.precision(17);
+  data << "LAMMPS data file: Granary bench bed, " << bed.x.size() << " discs\n\n"
+       << bed.x.size() << " atoms\n" << templates.size() << " atom types\n\n"
+       << -hw - 1 << " " << hw + 1 << " xlo xhi\n" << ylo << " " << yhi << " ylo yhi\n-0.5 0.5 zlo zhi\n\n"
+       << "Atoms # sphere\n\n";
+  for (std::size_t b = 0; b < bed.x.size(); ++b) {
+    const ShapeTemplate& t = templates[static_cast<std::size_t>(bed.species[b])];
+    data << b + 1 << " " << bed.species[b] + 1 << " " << 2 * t.r[0] << " " << spec.bodies.density << " " << bed.x[b]
+         << " " << bed.y[b] << " 0\n";
+  }
+  data << "\nVelocities\n\n";
+  for (std::size_t b = 0; b < bed.x.size(); ++b)
+    data << b + 1 << " " << bed.vx[b] << " " << bed.vy[b] << " 0 0 0 " << bed.omega[b] << "\n";
+
+  const Contact& c = spec.contact;
+  auto law = [&](double mu) {
+    std::ostringstream o;
+    o.precision(17);
+    o << "hertz/history " << c.kn << " " << c.kt << " " << c.gamma_n << " " << c.gamma_t << " " << mu << " 1";
+    return o.str();
+  };
+  const std::string pair_law = law(c.mu), wall_law = law(c.mu_wall);
+  std::ostringstream in;
+  in.precision(17);
+  in << "# Granary's bench case on LAMMPS (granary-engine bench --versus lammps, docs/benchmarks.md):\n"
+     << "# a settled bed of discs, the outlet open at t = 0, gran/hertz/history, true 2-D.\n"
+     << "units lj\ndimension 2\natom_style sphere\natom_modify map array\nboundary f p p\n"
+     << "processors * 1 1   # ranks side by side in x\n"
+     << "comm_modify vel yes\n"
+     << "read_data " << data_file << "\n"
+     << "set group all density/disc " << spec.bodies.density << "   # disc mass rho pi r^2 (physics.md)\n"
+     << "pair_style gran/" << pair_law << "\npair_coeff * *\n"
+     << "neighbor 0.2 bin\nneigh_modify delay 0 every 1 check yes\n"
+     << "timestep " << spec.time_step << "\n"
+     << "fix integrate all nve/sphere   # sphere inertia 0.4 m r^2, as the engine\n"
+     << "fix gravity all gravity " << spec.gravity << " vector 0 -1 0\n"
+     << "fix plane all enforce2d\n"
+     << "fix side_walls all wall/gran " << wall_law << " xplane " << -hw << " " << hw << "\n"
+     // The base left and right of the outlet: blocks below y = 0 whose outside the discs
+     // touch, on their top faces or (at the outlet) their corners.
+     << "region base_left block " << -hw - 10 << " " << outlet.center - outlet.width / 2 << " " << ylo - 10
+     << " 0 -1 1 side out\n"
+     << "region base_right block " << outlet.center + outlet.width / 2 << " " << hw + 10 << " " << ylo - 10
+     << " 0 -1 1 side out\n"
+     << "fix base_left all wall/gran/region " << wall_law << " region base_left\n"
+     << "fix base_right all wall/gran/region " << wall_law << " region base_right\n"
+     << "thermo " << steps << "\n"
+     << "run " << steps << "\n";
+  return {data.str(), in.str()};
+}
+
+namespace {
+
+// Runs argv (searched in PATH) and waits; returns its exit status (-1 if it did not exit).
+int RunProgram(const std::vector<std::string>& argv) {
+  std::vector<char*> args;
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawnp(&pid, args[0], nullptr, nullptr, args.data(), environ) != 0)
+    throw std::runtime_error("cannot start " + argv[0]);
+  int status = 0;
+  if (waitpid(pid, &status, 0) < 0) throw std::runtime_error("waitpid failed for " + argv[0]);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+double LammpsRound(const fs::path& dir, int processes) {
+  const fs::path log = dir / "log.lammps";
+  fs::remove(log);
+  std::vector<std::string> argv;
+  if (processes > 1) {
+    argv = {"mpirun"};
+    if (::geteuid() == 0) argv.push_back("--allow-run-as-root");
+    argv.insert(argv.end(), {"-np", std::to_string(processes)});
+  }
+  argv.insert(argv.end(), {"lmp", "-in", (dir / "in.bench").string(), "-log", log.string(), "-screen", "none"});
+  const int status = RunProgram(argv);
+  const double rate = LoopTimeRate(log.string());
+  if (status != 0 || rate <= 0)
+    throw std::runtime_error("LAMMPS failed (exit status " + std::to_string(status) + "); last lines of " +
+                             log.string() + ":\n" + TailOfFile(log, 15));
+  return rate;
+}
+
+}  // namespace
+
+std::vector<VersusResult> RunBenchVersusLammps(const BenchOptions& options, const std::string& dir_name) {
+  const fs::path dir = fs::absolute(dir_name);
+  fs::create_directories(dir);
+  const nlohmann::json spec_json = BenchSpec(options);
+  const RunSpec spec = RunSpec::from_json(spec_json);
+  const ObtainedBed bed = BenchBed(options, spec_json, dir);
+  const LammpsInput input = LammpsBenchInput(spec, bed.bed, (dir / "bed.data").string(), options.steps);
+  WriteAtomically(dir / "bed.data", input.data);
+  WriteAtomically(dir / "in.bench", input.script);
+  std::vector<VersusResult> results;
+  for (int round = 1; round <= options.repeat; ++round) {
+    for (int threads : options.threads) {
+      const double lammps = LammpsRound(dir, threads);
+      const BenchResult native = NativeRound(spec_json, dir / "native", round, threads);
+      results.push_back({round, threads, native.disc_steps_per_s, lammps});
+    }
+  }
+  fs::remove_all(dir / "native");
+  return results;
+}
+
+}  // namespace granary::engine

@@ -1,0 +1,140 @@
+// "The system": human names of sweep axes, the fixed-parameter table, and the report section
+// that opens the report (description, both tables, a bed and an end picture per point).
+#include "analysis/system.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "analysis/report.h"
+#include "test_util.h"
+
+namespace granary::analysis {
+namespace {
+
+using nlohmann::json;
+using testing::read_file;
+using testing::TempDir;
+using testing::write_file;
+
+json MixtureSpec() {
+  return {{"engine", "native"},
+          {"time_step", 1e-4},
+          {"gravity", 1.0},
+          {"silo",
+           {{"width", 100},
+            {"height", 0},
+            {"base_outlets", {{{"center", -20}, {"width", 8}}, {{"center", 20}, {"width", 10}}}},
+            {"side_outlets", json::array()},
+            {"obstacles", {{{"x", 0}, {"y", 10}, {"diameter", 6}}}}}},
+          {"bodies",
+           {{"count", 15000},
+            {"density", 1.0},
+            {"species",
+             {{{"name", "dumbbell"}, {"shape", "dumbbell"}, {"fraction", 0.5}, {"diameter", 1.0}},
+              {{"name", "disc"}, {"shape", "disc"}, {"fraction", 0.5}, {"diameter", 1.414214}}}}}},
+          {"contact", {{"kn", 2e6}, {"kt", 2.45e6}, {"gamma_n", 1000}, {"gamma_t", 1000}, {"mu", 0.5}, {"mu_wall", 0.5},
+                       {"tangential_cap", "lammps"}, {"clip_normal", false}}},
+          {"discharge", {{"mode", "reinject"}, {"max_time", 200}, {"stop_on_clog", false}, {"clog_window", 5},
+                         {"clog_ke_per_body", 1e-4}, {"exit_distance", 2}}},
+          {"output", {{"frame_interval", 0.5}}}};
+}
+
+TEST(System, AxisNamesAreTheThesisNames) {
+  const json two_outlets = MixtureSpec();
+  json one_outlet = MixtureSpec();
+  one_outlet["silo"]["base_outlets"] = {{{"center", 0}, {"width", 8}}};
+  EXPECT_EQ(axis_name("/silo/base_outlets/0/width", one_outlet), "outlet width W");
+  EXPECT_EQ(axis_name("/silo/base_outlets/1/width", two_outlets), "width W_2 of outlet 2");
+  EXPECT_EQ(axis_name("/silo/base_outlets/0/center", two_outlets), "position x_1 of outlet 1");
+  EXPECT_EQ(axis_name("/bodies/species/0/fraction", two_outlets), "dumbbell fraction X_db");
+  EXPECT_EQ(axis_name("/bodies/species/1/fraction", two_outlets), "disc fraction X_d");
+  EXPECT_EQ(axis_name("/silo/obstacles/0/y", two_outlets), "obstacle height h");
+  EXPECT_EQ(axis_name("/bodies/species/0/big_diameter", two_outlets), "dumbbell big-disc diameter D_b");
+  EXPECT_EQ(axis_name("engine", two_outlets), "engine");
+  EXPECT_EQ(axis_name("/bed/batch_size", two_outlets), "/bed/batch_size") << "unknown: the pointer itself";
+}
+
+TEST(System, FixedParametersSayWhatIsSweptAndDescribeTheBodies) {
+  const Table t = fixed_parameters(MixtureSpec(), {"/silo/base_outlets/0/width", "/bodies/species/0/fraction"});
+  std::map<std::string, std::string> value;
+  for (const auto& row : t.rows) {
+    ASSERT_EQ(row.size(), 3u);
+    value[row[1].shown()] = row[2].shown();
+  }
+  EXPECT_EQ(value.at("width L"), "100");
+  EXPECT_EQ(value.at("height"), "as tall as the bed needs");
+  EXPECT_EQ(value.at("base outlet 1: width W"), "swept (below)");
+  EXPECT_EQ(value.at("base outlet 2: width W"), "10");
+  EXPECT_EQ(value.at("obstacle: diameter D_o"), "6");
+  EXPECT_EQ(value.at("species 1 \"dumbbell\""), "dumbbell: two touching discs of diameter 1");
+  EXPECT_EQ(value.at("species 2 \"disc\""), "disc of diameter 1.414214");
+  EXPECT_EQ(value.at("species 1 number fraction X_db"), "swept (below)");
+  EXPECT_EQ(value.at("species 2 number fraction X_d"), "0.5");
+  EXPECT_EQ(value.at("number N"), "15000");
+  EXPECT_EQ(value.at("stiffness K_n, K_t"), "2000000, 2450000");
+  EXPECT_EQ(value.at("time step dt"), "0.0001");
+  EXPECT_NE(value.at("mode").find("reinject"), std::string::npos);
+  EXPECT_EQ(value.at("on a clog"), "runs on (intermittent flow)");
+  EXPECT_EQ(value.at("stops at time"), "200");
+}
+
+// The report opens with the system: description, the tables, and per point the pictures the
+// draw_run hook made (a fake here; the real one is the renderer, tested in tests/render).
+TEST(System, TheReportOpensWithTheSystem) {
+  TempDir dir;
+  CampaignInfo info;
+  info.name = "mixtures";
+  info.axes = {"/silo/base_outlets/0/width"};
+  info.spec = {{"description", "Dumbbells and discs through two outlets."}};
+  std::vector<RunRecord> runs;
+  for (double w : {8.0, 12.0}) {
+    RunRecord r;
+    r.run_id = "run" + std::to_string(static_cast<int>(w));
+    r.point_id = "W" + std::to_string(static_cast<int>(w));
+    r.state = "done";
+    r.engine = "native";
+    r.point = {{"/silo/base_outlets/0/width", w}};
+    r.spec = MixtureSpec();
+    r.spec["silo"]["base_outlets"][0]["width"] = w;
+    r.run_dir = dir.path() / r.run_id;
+    write_file(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n1.0,3,disc,1.57,0\n");
+    write_file(r.run_dir / "summary.json", json{{"engine", "native"}, {"run_id", r.run_id}, {"end_reason", "clogged"},
+                                                {"bodies", 15000}, {"exited", 1}, {"remaining", 14999}, {"t_end", 7.5}}
+                                                   .dump());
+    write_file(r.run_dir / "run.json", r.spec.dump());
+    runs.push_back(r);
+  }
+  ReportOptions opt;
+  opt.out_dir = dir.path() / "report";
+  opt.figures = false;
+  std::vector<std::string> drawn;
+  opt.draw_run = [&](const std::filesystem::path& run_dir, ReportOptions::Picture kind, const std::filesystem::path& png) {
+    drawn.push_back(run_dir.filename().string() + (kind == ReportOptions::Picture::kBed ? ":bed" : ":end"));
+    std::ofstream(png) << "\x89PNG fake " << drawn.back();
+    return std::string();
+  };
+  const ReportSummary s = write_report(info, runs, opt);
+  EXPECT_EQ(drawn, (std::vector<std::string>{"run8:bed", "run8:end", "run12:bed", "run12:end"}));
+  const std::string md = read_file(s.markdown), html = read_file(s.html);
+  const auto system = md.find("## The system"), first_other = md.find("## ", system + 5);
+  ASSERT_NE(system, std::string::npos);
+  EXPECT_LT(system, md.find("## Runs")) << "the report opens with the system";
+  EXPECT_NE(md.find("Dumbbells and discs through two outlets."), std::string::npos);
+  EXPECT_NE(md.find("| width W_1 of outlet 1 |"), std::string::npos) << "swept axes by their human names";
+  EXPECT_NE(md.find("| /silo/base_outlets/0/width | 8, 12 |"), std::string::npos);
+  EXPECT_NE(md.find("*width W_1 of outlet 1 = 8 (replica 0"), std::string::npos) << "pictures named by the human axis names";
+  EXPECT_NE(md.find("![the bed before the outlets open (t = 0)](pictures/point-1-bed.png)"), std::string::npos);
+  EXPECT_LT(md.find("clogged (t = 7.5)"), first_other);
+  EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos) << "pictures inside the self-contained html";
+  EXPECT_NE(html.find("alt=\"clogged (t = 7.5)\""), std::string::npos);
+
+  // Without the renderer: no pictures, and the section says so.
+  opt.draw_run = nullptr;
+  write_report(info, runs, opt);
+  EXPECT_NE(read_file(s.markdown).find("(No pictures"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace granary::analysis

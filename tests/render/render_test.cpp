@@ -1,0 +1,219 @@
+// The renderer against scenes with known answers (SVG circles where the discs are, at their
+// scale; PNG pixels of the body colours at disc centres and of the background elsewhere), and
+// the verbs end to end on a real native run: snapshot PNG/SVG, the K-th clog, a movie whose
+// frame count ffprobe confirms.
+#include <cairo.h>
+#include <gtest/gtest.h>
+
+#include <boost/process.hpp>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+
+#include "render/scene.h"
+
+namespace granary::render {
+namespace {
+namespace fs = std::filesystem;
+namespace bp = boost::process;
+
+rundir::Frame TestFrame() {
+  rundir::Frame f;
+  // A dumbbell (body 0, species 1) lying on the base and a disc (body 1, species 2, r = 0.7).
+  f.discs = {{1, 0, 1, -1.0, 0.5, 0.5, 0.785, 0, 0, 0}, {2, 0, 1, 0.0, 0.5, 0.5, 0.785, 0, 0, 0},
+             {3, 1, 2, 2.0, 3.0, 0.7, 1.54, 0, -2, 0}};
+  return f;
+}
+
+engine::SiloOutline TestSilo() {
+  Silo silo;
+  silo.width = 10;
+  silo.base_outlets = {{3.0, 2.0}};
+  silo.obstacles = {{-2.0, 4.0, 1.0}};
+  return engine::OutlineOf(silo, 6.0);
+}
+
+std::vector<std::array<double, 3>> Circles(const std::string& svg, const std::string& cls) {
+  std::vector<std::array<double, 3>> out;
+  const std::regex re("<circle class=\"" + cls + "\" cx=\"([-0-9.]+)\" cy=\"([-0-9.]+)\" r=\"([-0-9.]+)\"");
+  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), re); it != std::sregex_iterator(); ++it)
+    out.push_back({std::stod((*it)[1]), std::stod((*it)[2]), std::stod((*it)[3])});
+  return out;
+}
+
+TEST(Render, SvgHasOneCircleAtEachDiscToScale) {
+  SceneOptions o;
+  o.window = {-6, 6, -3, 7};  // 12 d wide
+  o.highlight = {1};
+  o.species = {"dumbbell", "disc"};
+  const Scene scene = MakeScene(TestFrame(), TestSilo(), o);
+  const std::string svg = Svg(scene, 1200);  // 100 px per d
+  const auto discs = Circles(svg, "disc"), outlined = Circles(svg, "disc highlight");
+  ASSERT_EQ(discs.size(), 2u);
+  ASSERT_EQ(outlined.size(), 1u) << "body 1 highlighted";
+  EXPECT_NEAR(discs[0][0], (-1 + 6) * 100, 0.01);
+  EXPECT_NEAR(discs[1][0], (0 + 6) * 100, 0.01);
+  EXPECT_NEAR(discs[0][2], 50, 0.01);
+  EXPECT_NEAR(outlined[0][0], (2 + 6) * 100, 0.01);
+  EXPECT_NEAR(outlined[0][2], 70, 0.01);
+  EXPECT_NEAR(discs[0][1] - outlined[0][1], (3.0 - 0.5) * 100, 0.01) << "y up";
+  const auto obstacles = Circles(svg, "obstacle");
+  ASSERT_EQ(obstacles.size(), 1u);
+  EXPECT_NEAR(obstacles[0][0], (-2 + 6) * 100, 0.01);
+  EXPECT_NEAR(obstacles[0][2], 50, 0.01);
+  EXPECT_NEAR(obstacles[0][1] - outlined[0][1], -(4.0 - 3.0) * 100, 0.01);
+  // Base left and right of the outlet, two side walls; one outlet band.
+  std::size_t walls = 0, outlets = 0;
+  for (std::size_t p = 0; (p = svg.find("class=\"wall\"", p)) != std::string::npos; ++p) ++walls;
+  for (std::size_t p = 0; (p = svg.find("class=\"outlet\"", p)) != std::string::npos; ++p) ++outlets;
+  EXPECT_EQ(walls, 4u);
+  EXPECT_EQ(outlets, 1u);
+  EXPECT_NE(svg.find(">dumbbell</text>"), std::string::npos) << "legend names the species";
+}
+
+TEST(Render, ForceColoursAndNetworkNeedContacts) {
+  SceneOptions o;
+  o.window = {-6, 6, -3, 7};
+  o.forces = true;
+  EXPECT_THROW(MakeScene(TestFrame(), TestSilo(), o), std::invalid_argument);
+  rundir::ContactFrame c;
+  c.contacts = {{0, 1, 0.0, 0.5, 2.0, 3.0, 0.3, 0.9, 1.0, 0.0}, {0, -1, -1.0, 0.5, -1.0, 0.0, -1.0, 0.0, 0.0, 4.0}};
+  o.contacts = &c;
+  o.colour = Colour::kForce;
+  const Scene s = MakeScene(TestFrame(), TestSilo(), o);
+  ASSERT_EQ(s.forces.size(), 2u);
+  EXPECT_NEAR(s.forces[1].width / s.forces[0].width, 4.0, 1e-12) << "width proportional to |f|";
+  EXPECT_DOUBLE_EQ(s.forces[1].y2, 0.0) << "a wall contact ends at the contact point";
+  // Body 0 carries 1 + 4, body 1 carries 1: body 0 darker on the heat scale.
+  EXPECT_LT(s.discs[0].fill.g, s.discs[2].fill.g);
+}
+
+TEST(Render, PngHasTheSizeAndTheBodiesWhereTheyAre) {
+  SceneOptions o;
+  o.window = {-6, 6, -3, 7};
+  const Scene scene = MakeScene(TestFrame(), TestSilo(), o);
+  const fs::path file = fs::path(GRANARY_RENDER_TEST_TMP) / "scene.png";
+  fs::create_directories(file.parent_path());
+  WritePng(scene, 600, file);  // 50 px per d
+  cairo_surface_t* png = cairo_image_surface_create_from_png(file.c_str());
+  ASSERT_EQ(cairo_surface_status(png), CAIRO_STATUS_SUCCESS);
+  const PixelSize size = SizeFor(scene, 600);
+  EXPECT_EQ(cairo_image_surface_get_width(png), size.width);
+  EXPECT_EQ(cairo_image_surface_get_height(png), size.height);
+  const int header = size.height - 10 * 50;  // the window is 10 d high
+  const unsigned char* px = cairo_image_surface_get_data(png);
+  const int stride = cairo_image_surface_get_stride(png);
+  const auto at = [&](double x, double y) {  // silo coordinates -> (r, g, b)
+    const int col = static_cast<int>((x + 6) * 50), row = header + static_cast<int>((7 - y) * 50);
+    const unsigned char* p = px + row * stride + col * 4;  // B G R A
+    return std::array<int, 3>{p[2], p[1], p[0]};
+  };
+  const std::array<int, 3> white{255, 255, 255};
+  EXPECT_NE(at(-1, 0.5), white) << "dumbbell disc";
+  EXPECT_NE(at(2, 3), white) << "single disc";
+  EXPECT_NE(at(at(-1, 0.5) == at(2, 3) ? 100 : 2, 3), at(-1, 0.5)) << "species differ in colour";
+  EXPECT_EQ(at(0, 5), white) << "empty silo";
+  for (int c : at(-2, 4)) EXPECT_NEAR(c, 0.3 * 255, 1) << "dark grey obstacle";
+  const auto base = at(-4, -0.25);
+  EXPECT_EQ(base[0], base[1]) << "grey wall below the base";
+  const auto outlet = at(3, -0.25);
+  EXPECT_GT(outlet[0], 150) << "red outlet band";
+  EXPECT_LT(outlet[1], 100);
+  cairo_surface_destroy(png);
+}
+
+// ---- the verbs on a real run -------------------------------------------------------------
+
+struct Outcome {
+  int code;
+  std::string output;
+};
+Outcome Campaign(const std::vector<std::string>& args) {
+  bp::ipstream out;
+  bp::child c(GRANARY_CAMPAIGN_EXE, args, (bp::std_out & bp::std_err) > out);
+  Outcome o{0, ""};
+  for (std::string line; std::getline(out, line);) o.output += line + "\n";
+  c.wait();
+  o.code = c.exit_code();
+  return o;
+}
+
+fs::path EngineRun(const std::string& name, double outlet) {
+  const fs::path dir = fs::path(GRANARY_RENDER_TEST_TMP) / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const nlohmann::json spec = {
+      {"run_id", name},
+      {"seed", 3},
+      {"silo", {{"width", 10}, {"base_outlets", {{{"center", 0}, {"width", outlet}}}}}},
+      {"bodies", {{"count", 50}, {"species", {{{"shape", "dumbbell"}}}}}},
+      {"bed", {{"settle_ke_per_body", 1e-4}, {"max_settle_time", 10}, {"cache_file", (dir.parent_path() / "bed.json").string()}}},
+      {"discharge", {{"mode", "remove"}, {"max_time", 3}, {"clog_window", 1}}},
+      {"output", {{"frame_interval", 0.25}, {"contact_forces", true}, {"checkpoint_interval", 0}}}};
+  std::ofstream(dir / "run.json") << spec.dump(2);
+  bp::ipstream out;
+  bp::child c(GRANARY_ENGINE_EXE, "run", dir.string(), (bp::std_out & bp::std_err) > out);
+  for (std::string line; std::getline(out, line);) {
+  }
+  c.wait();
+  EXPECT_EQ(c.exit_code(), 0);
+  return dir;
+}
+
+TEST(RenderVerbs, SnapshotAndMovieOfARun) {
+  const fs::path run = EngineRun("flowing", 4);
+  const fs::path tmp = run.parent_path();
+  Outcome o = Campaign({"snapshot", run.string(), "--first", "--out", (tmp / "first.png").string()});
+  ASSERT_EQ(o.code, 0) << o.output;
+  EXPECT_NE(o.output.find("t = 0 "), std::string::npos) << o.output;
+  o = Campaign({"snapshot", run.string(), "--time", "1.1", "--color", "force", "--forces", "--out", (tmp / "t1.svg").string()});
+  ASSERT_EQ(o.code, 0) << o.output;
+  EXPECT_NE(o.output.find("t = 1 "), std::string::npos) << "nearest frame to 1.1: " << o.output;
+  std::ifstream in(tmp / "t1.svg");
+  const std::string svg((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_GT(Circles(svg, "disc").size(), 50u);
+  EXPECT_NE(svg.find("class=\"force\""), std::string::npos);
+  // Usage and what the run cannot give.
+  EXPECT_EQ(Campaign({"snapshot", run.string(), "--out", (tmp / "x.jpg").string()}).code, 2);
+  EXPECT_EQ(Campaign({"snapshot", run.string(), "--time", "1", "--last", "--out", (tmp / "x.png").string()}).code, 2);
+  EXPECT_EQ(Campaign({"snapshot", run.string(), "--color", "mood", "--out", (tmp / "x.png").string()}).code, 2);
+  o = Campaign({"snapshot", run.string(), "--clog", "9", "--out", (tmp / "x.png").string()});
+  EXPECT_EQ(o.code, 1);
+  EXPECT_NE(o.output.find("not a clog 9"), std::string::npos) << o.output;
+
+  // A movie of every frame: t = 0, 0.25, ..., 3 unless the run ended earlier.
+  int frames = 0;
+  {
+    rundir::FrameReader r(run / "frames.dump");
+    for (rundir::Frame f; r.Next(f);) ++frames;
+  }
+  ASSERT_GE(frames, 5);
+  o = Campaign({"movie", run.string(), "--out", (tmp / "run.mp4").string(), "--fps", "10", "--width", "320"});
+  ASSERT_EQ(o.code, 0) << o.output;
+  bp::ipstream probe;
+  bp::child c(bp::search_path("ffprobe"), "-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries",
+              "stream=nb_read_frames,width", "-of", "default=noprint_wrappers=1", (tmp / "run.mp4").string(),
+              bp::std_out > probe);
+  std::string all;
+  for (std::string line; std::getline(probe, line);) all += line + "\n";
+  c.wait();
+  EXPECT_NE(all.find("nb_read_frames=" + std::to_string(frames) + "\n"), std::string::npos) << all;
+  EXPECT_NE(all.find("width=320\n"), std::string::npos) << all;
+}
+
+TEST(RenderVerbs, TheClogOfARunThatClogged) {
+  const fs::path run = EngineRun("clogged", 1.5);
+  const nlohmann::json summary = nlohmann::json::parse(std::ifstream(run / "summary.json"));
+  ASSERT_EQ(summary["end_reason"], "clogged");
+  const Outcome o = Campaign({"snapshot", run.string(), "--clog", "1", "--out", (run.parent_path() / "clog.png").string()});
+  ASSERT_EQ(o.code, 0) << o.output;
+  char t[32];
+  std::snprintf(t, sizeof t, "t = %.4g ", summary["t_end"].get<double>());
+  EXPECT_NE(o.output.find(t), std::string::npos) << "the last frame of a run that ended clogged: " << o.output;
+}
+
+}  // namespace
+}  // namespace granary::render
