@@ -24,6 +24,7 @@
 #ifdef GRANARY_HAVE_ANALYSIS
 #include "analysis/cg_run.h"
 #include "analysis/export.h"
+#include "analysis/fields_analysis.h"
 #include "analysis/registry.h"
 #include "analysis/report.h"
 #include "rundir/contacts.h"
@@ -176,8 +177,17 @@ json ReadSpecFile(const std::string& verb, const std::string& spec_path) {
 }
 
 // Validates the campaign spec `j` (read from spec_path), expands it and stores the runs.
-PlanSummary PlanInto(const json& j, const std::string& spec_path, const std::string& db, bool dry_run,
+PlanSummary PlanInto(const json& given, const std::string& spec_path, const std::string& db, bool dry_run,
                      CampaignSpec& spec) {
+  json j = given;
+#ifdef GRANARY_HAVE_ANALYSIS
+  // Coarse-grained stress fields need contact frames: the runs write them.
+  try {
+    j = analysis::with_fields_output(given);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(spec_path + ": " + e.what());
+  }
+#endif
   try {
     spec = CampaignSpec::from_json(j);
   } catch (const SpecError& e) {
