@@ -534,6 +534,18 @@ std::optional<Section> FieldsAnalysis::section(const SectionInput& in) const {
     panel.circles = silo.circles;
     return panel;
   };
+  // Panel titles: the point's sweep values (the axes' names once, in the caption).
+  std::string axes_text;
+  for (const std::string& axis : v.axes) axes_text += (axes_text.empty() ? "" : ", ") + short_axis(axis);
+  auto values_of = [&](std::size_t p) {
+    std::string text;
+    for (const std::string& axis : v.axes) {
+      const auto value = axis_value(axis, v.points[p].point, v.points[p].spec);
+      text += (text.empty() ? "" : ", ") + (value ? value_text(*value) : std::string("?"));
+    }
+    return text.empty() ? point_name(v, v.points[p]) : text;
+  };
+  const std::string panels_text = axes_text.empty() ? "" : "Panels: " + axes_text + "; ";
   const std::size_t n_parts = part_names.size();
   for (CgField field : o_.maps) {
     const CgFieldInfo& info = cg_field_info(field);
@@ -557,9 +569,9 @@ std::optional<Section> FieldsAnalysis::section(const SectionInput& in) const {
         if (k >= points[p].parts.size() || points[p].parts[k].frames() == 0) continue;
         const CgMaps& maps = points[p].parts[k];
         if (!maps.has(field)) continue;
-        MapPanel panel = panel_of(p, point_name(v, v.points[p]) + " (" + std::to_string(points[p].runs[k]) + " runs, " +
+        MapPanel panel = panel_of(p, values_of(p) + ": " + std::to_string(points[p].runs[k]) + " runs, " +
                                          std::to_string(info.needs_contacts ? maps.contact_frames() : maps.frames()) +
-                                         " frames)");
+                                         " frames");
         const CgGrid& g = maps.grid();
         panel.grid.reserve(g.size());
         for (int j = 0; j < g.ny; ++j)
@@ -580,7 +592,9 @@ std::optional<Section> FieldsAnalysis::section(const SectionInput& in) const {
         f.panels.push_back(std::move(panel));
       }
       if (f.panels.empty()) continue;
-      f.caption = std::string(info.needs_contacts ? "Contact frames" : "Frames") + " per panel in its title; walls black" +
+      f.value_key = info.name;
+      f.caption = panels_text + "runs and " + (info.needs_contacts ? "contact frames" : "frames") +
+                  " behind each panel in its title; walls black" +
                   (field == CgField::kSpeed ? "; arrows: the velocity field, the longest " +
                                                   format_number(0.9 * step * spacing) + " d for " +
                                                   format_number(max_speed) + " sqrt(g d)"
@@ -595,14 +609,15 @@ std::optional<Section> FieldsAnalysis::section(const SectionInput& in) const {
     if (!points[p].chain_run) continue;
     const nlohmann::json& part = points[p].chain_run->at("parts").at(points[p].chain_part);
     const nlohmann::json& chain = part.at("force_chain");
-    MapPanel panel = panel_of(p, point_name(v, v.points[p]) + ", " + part.value("name", std::string()) + " frame t = " +
+    MapPanel panel = panel_of(p, values_of(p) + ": " + part.value("name", std::string()) + ", t = " +
                                      format_number(number_at(chain, "time")));
     for (const auto& seg : chain.at("segments"))
       panel.segments.push_back({number_of(seg[0]), number_of(seg[1]), number_of(seg[2]), number_of(seg[3]), number_of(seg[4])});
     chains.panels.push_back(std::move(panel));
   }
   if (!chains.panels.empty()) {
-    chains.caption = "The strong network: contacts carrying more than the frame's mean force, drawn from disc centre "
+    chains.value_key = "force";
+    chains.caption = panels_text + "the strong network: contacts carrying more than the frame's mean force, drawn from disc centre "
                      "to disc centre (a wall contact to its contact point) with width in proportion to |F| (thesis fig. "
                      "4.16); the first replica of each point, its first clogged frame if it has one, else its first "
                      "frame of the fields' window";

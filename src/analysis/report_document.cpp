@@ -395,37 +395,50 @@ std::pair<double, double> map_range(const MapFigure& f) {
 }
 
 // Writes the CSV layers of every panel; returns the gnuplot script.
+// A tic step of about a quarter of `range`: 1, 2 or 5 times a power of ten.
+double tic_step(double range) {
+  const double raw = std::max(1e-9, range / 4.0), decade = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double m : {1.0, 2.0, 5.0})
+    if (m * decade >= raw) return m * decade;
+  return 10.0 * decade;
+}
+
 std::string map_script(const MapFigure& f, const fs::path& dir) {
+  // Panels in rows of up to four (three for 5, 6 or 9 panels), each about 330 px wide; the
+  // colour bar, the same for every panel, beside the last panel of each row.
   const std::size_t n = std::max<std::size_t>(1, f.panels.size());
-  const std::size_t cols = std::min<std::size_t>(n, 5), rows = (n + cols - 1) / cols;
+  const std::size_t cols = n <= 4 ? n : (n % 3 == 0 && n <= 9) || n == 5 ? 3 : 4, rows = (n + cols - 1) / cols;
   const double aspect = (f.y_hi - f.y_lo) / std::max(1e-9, f.x_hi - f.x_lo);
-  const int width = cols >= 3 ? 1100 : static_cast<int>(460 * cols);
-  const int panel_w = width / static_cast<int>(cols);
-  const int panel_h = std::clamp(static_cast<int>((panel_w - 120) * aspect) + 90, 160, 1000);
+  const int panel_w = cols == 1 ? 520 : 330;
+  const int width = static_cast<int>(cols) * panel_w + 90;
+  const int panel_h = std::clamp(static_cast<int>((panel_w - 90) * aspect) + 80, 160, 1100);
   const int height = static_cast<int>(rows) * panel_h + 40;
   const auto [lo, hi] = map_range(f);
   double max_weight = 0.0;
   for (const MapPanel& p : f.panels)
     for (const auto& s : p.segments) max_weight = std::max(max_weight, s[4]);
   std::ostringstream s;
-  s << "set terminal svg size " << width << "," << height << " font 'Helvetica,11' background rgb 'white'\n"
+  s << "set terminal svg size " << width << "," << height << " font 'Helvetica,10' background rgb 'white'\n"
     << "set output " << gp_quote(f.name + ".svg") << "\n"
     << "set datafile separator ','\n"
-    << "set multiplot layout " << rows << "," << cols << " title " << gp_quote(f.title) << " noenhanced\n"
+    << "set multiplot title " << gp_quote(f.title) << " noenhanced\n"
     << "set size ratio -1\nset xrange [" << csv_number(f.x_lo) << ":" << csv_number(f.x_hi) << "]\n"
     << "set yrange [" << csv_number(f.y_lo) << ":" << csv_number(f.y_hi) << "]\n"
-    << "set xlabel 'x/d'\nset ylabel 'y/d'\nset tics out nomirror\n"
+    << "set xtics " << csv_number(tic_step(f.x_hi - f.x_lo)) << "\nset ytics " << csv_number(tic_step(f.y_hi - f.y_lo))
+    << "\nset format cb '%g'\nset xlabel 'x/d'\nset ylabel 'y/d'\nset tics out nomirror\n"
     << "set cbrange [" << csv_number(lo) << ":" << csv_number(hi) << "]\n"
     << "set cblabel " << gp_quote(f.value_name) << " noenhanced\n";
   if (f.diverging)
     s << "set palette defined (0 '#2166ac', 0.25 '#67a9cf', 0.5 '#f7f7f7', 0.75 '#ef8a62', 1 '#b2182b')\n";
   else
     s << "set palette defined (0 '#440154', 0.25 '#3b528b', 0.5 '#21918c', 0.75 '#5ec962', 1 '#fde725')\n";
+  // Placement in screen fractions: each panel's cell, the last of a row wider by the bar.
+  const double cell_w = static_cast<double>(panel_w) / width, cell_h = (1.0 - 40.0 / height) / static_cast<double>(rows);
   for (std::size_t k = 0; k < f.panels.size(); ++k) {
     const MapPanel& p = f.panels[k];
     {
       std::ostringstream csv;
-      csv << "x,y," << csv_escape(f.value_name) << ",n_frames\n";
+      csv << "x,y," << csv_escape(f.value_key) << ",n_frames\n";
       for (const auto& r : p.grid)
         csv << csv_number(r[0]) << "," << csv_number(r[1]) << "," << csv_number(r[2]) << "," << csv_number(r[3]) << "\n";
       write_text(dir / panel_file(f, k, ""), csv.str());
@@ -447,7 +460,7 @@ std::string map_script(const MapFigure& f, const fs::path& dir) {
         const double a = max_weight * (c - 1) / kClasses, b = c == kClasses ? 2.0 * max_weight : max_weight * c / kClasses;
         layers.push_back(gp_quote(panel_file(f, k, "segments")) + " skip 1 using 1:2:(($5 >= " + csv_number(a) +
                          " && $5 < " + csv_number(b) + ") ? $3 - $1 : 1/0):($4 - $2) with vectors nohead lw " +
-                         csv_number(0.35 * c) + " lc rgb '#202020' notitle");
+                         csv_number(0.5 * c) + " lc rgb '#202020' notitle");
       }
     }
     if (!p.arrows.empty()) {
@@ -477,6 +490,11 @@ std::string map_script(const MapFigure& f, const fs::path& dir) {
       layers.push_back(gp_quote(panel_file(f, k, "obstacles")) +
                        " skip 1 using 1:2:3 with circles fill solid 1.0 lc rgb '#808080' notitle");
     }
+    const double row = static_cast<double>(k / cols), col = static_cast<double>(k % cols);
+    const bool last_in_row = k % cols + 1 == cols || k + 1 == f.panels.size();
+    s << "set origin " << csv_number(col * cell_w) << "," << csv_number(1.0 - 40.0 / height - (row + 1) * cell_h) << "\n"
+      << "set size ratio -1 " << csv_number(last_in_row ? cell_w + 90.0 / width : cell_w) << "," << csv_number(cell_h) << "\n"
+      << (last_in_row ? "set colorbox\n" : "unset colorbox\n");
     s << "set title " << gp_quote(p.title) << " noenhanced\n";
     if (layers.empty()) {
       s << "set label 1 'no data' at graph 0.5, graph 0.5 center\nplot 1/0 notitle\nunset label 1\n";

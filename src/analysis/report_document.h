@@ -86,7 +86,7 @@ struct Pictures {
 // sweep point), one colour scale across the panels, the silo's walls and outlets as lines and
 // its obstacles as circles drawn over it, axes in d; optionally arrows (a vector field) and
 // segments drawn with widths in proportion to a weight (a contact-force network). Each panel's
-// grid is its CSV <name>-<k>.csv: columns x, y, <value_name>, n_frames.
+// grid is its CSV <name>-<k>.csv: columns x, y, <value_key>, n_frames.
 struct MapPanel {
   std::string title;
   std::vector<std::array<double, 4>> grid;         // x, y, value (NaN: none), n_frames; empty: no colour map
@@ -99,7 +99,8 @@ struct MapPanel {
 struct MapFigure {
   std::string name;                                // file stem
   std::string title;
-  std::string value_name;                          // CSV column and colour-bar label, e.g. "P (rho g d^2)"
+  std::string value_name;                          // colour-bar label, e.g. "pressure P (contact) (m g / d)"
+  std::string value_key = "value";                 // its CSV column, e.g. "pressure"
   std::vector<MapPanel> panels;
   double x_lo = 0, x_hi = 1, y_lo = 0, y_hi = 1;   // the view, in d
   double c_lo = std::numeric_limits<double>::quiet_NaN();  // colour scale; NaN: the panels' finite range

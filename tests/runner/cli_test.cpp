@@ -445,7 +445,7 @@ TEST_F(CliTest, FieldsInTheReport) {
   // One CSV per map and point: x, y, value, n_frames over the window's nodes.
   for (int k = 1; k <= 2; ++k) {
     const std::string csv = ReadFile(report / ("field_phi_flowing-" + std::to_string(k) + ".csv"));
-    EXPECT_EQ(csv.substr(0, csv.find('\n')), "x,y,area fraction phi,n_frames");
+    EXPECT_EQ(csv.substr(0, csv.find('\n')), "x,y,phi,n_frames");
     EXPECT_GT(CountLines(csv, ""), 50);
   }
   EXPECT_TRUE(fs::exists(report / "field_pressure_flowing.svg"));
