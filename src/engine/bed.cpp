@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
@@ -174,10 +175,24 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
   return bed;
 }
 
+namespace {
+
+constexpr int kBedVersion = 3;  // 2: with contact history; 3: with a checksum
+
+// "crc32:" and the CRC-32 of the document's dump without its "checksum" key.
+std::string BedChecksum(nlohmann::json j) {
+  j.erase("checksum");
+  char hex[16];
+  std::snprintf(hex, sizeof hex, "%08x", Crc32(j.dump()));
+  return std::string("crc32:") + hex;
+}
+
+}  // namespace
+
 nlohmann::json BedToJson(const BedState& bed, const RunSpec& spec) {
   nlohmann::json j;
   j["format"] = "granary-bed";
-  j["version"] = 2;  // 2: with contact history
+  j["version"] = kBedVersion;
   j["key"] = spec.bed_key();
   j["height"] = bed.height;
   j["settle_time"] = bed.settle_time;
@@ -190,12 +205,20 @@ nlohmann::json BedToJson(const BedState& bed, const RunSpec& spec) {
     for (const HistoryEntry& e : *h) hist.push_back({e.i, e.j, e.sx, e.sy});
     j[h == &bed.pair_history ? "pair_history" : "wall_history"] = std::move(hist);
   }
+  j["checksum"] = BedChecksum(j);
   return j;
 }
 
 BedState BedFromJson(const nlohmann::json& j, const RunSpec& spec, const std::string& file) {
-  if (j.value("format", "") != "granary-bed")
-    throw std::runtime_error("bed file " + file + ": not a granary bed (format " + j.value("format", "?") + ")");
+  if (!j.is_object() || j.value("format", "") != "granary-bed")
+    throw BedFileError("bed file " + file + ": not a granary bed (format " +
+                       (j.is_object() ? j.value("format", "?") : std::string("?")) + ")");
+  if (j.value("version", 0) != kBedVersion)
+    throw BedFileError("bed file " + file + " has format version " + std::to_string(j.value("version", 0)) +
+                       "; this engine reads version " + std::to_string(kBedVersion) + " (with a checksum)");
+  if (const std::string actual = BedChecksum(j); j.value("checksum", "") != actual)
+    throw BedFileError("bed file " + file + " is corrupt: its checksum is " + j.value("checksum", "missing") +
+                       ", its content gives " + actual);
   if (j.at("key") != spec.bed_key())
     throw std::runtime_error("bed file " + file + " was prepared for another bed key (bodies, width, seed, ...): " +
                              j.at("key").dump());
@@ -228,12 +251,12 @@ namespace {
 
 BedState ReadBedFile(const std::string& file, const RunSpec& spec) {
   std::ifstream in(file);
-  if (!in) throw std::runtime_error("cannot read bed file " + file);
+  if (!in) throw BedFileError("cannot read bed file " + file);
   nlohmann::json j;
   try {
     in >> j;
   } catch (const std::exception& e) {
-    throw std::runtime_error("bed file " + file + ": " + e.what());
+    throw BedFileError("bed file " + file + " is not valid JSON (torn or corrupt): " + e.what());
   }
   return BedFromJson(j, spec, file);
 }
@@ -248,9 +271,19 @@ ObtainedBed ObtainBed(const RunSpec& spec, const std::string& run_dir, const Bed
   const std::filesystem::path parent = std::filesystem::path(out.file).parent_path();
   if (!parent.empty()) std::filesystem::create_directories(parent);
   FileLock lock(out.file + ".lock");
+  bool have = false;
   if (std::filesystem::exists(out.file)) {
-    out.bed = ReadBedFile(out.file, spec);
-  } else {
+    try {
+      out.bed = ReadBedFile(out.file, spec);
+      have = true;
+    } catch (const BedFileError& e) {
+      // A bad cached bed is never used: it is put aside and prepared again.
+      std::fprintf(stderr, "granary-engine: refusing the prepared bed: %s; preparing it again\n", e.what());
+      std::filesystem::rename(out.file, out.file + ".corrupt");
+      out.refused = e.what();
+    }
+  }
+  if (!have) {
     out.bed = PrepareBed(spec, progress);
     WriteAtomically(out.file, BedToJson(out.bed, spec).dump() + "\n");
     out.prepared_here = true;

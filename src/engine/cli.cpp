@@ -2,6 +2,7 @@
 #include "engine/cli.h"
 
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -12,7 +13,9 @@
 #include <vector>
 
 #include "engine/bench.h"
+#include "rundir/files.h"
 #include "engine/run.h"
+#include "rundir/stop.h"
 
 namespace granary::engine {
 
@@ -43,6 +46,8 @@ constexpr char kRunHelp[] =
     "usage: granary-engine run DIR [--threads N]\n"
     "Runs the native DEM engine on DIR/run.json and writes events.csv, frames.dump,\n"
     "contacts.dump, progress.json, checkpoint.bin, summary.json and DONE into DIR.\n"
+    "SIGTERM / SIGINT during the discharge: a checkpoint, then the engine ends by that signal.\n"
+    "Exit 75: another engine holds DIR (DIR/engine.lock).\n"
     "  --threads N   OpenMP threads (default: OMP_NUM_THREADS or all cores)\n";
 constexpr char kBenchHelp[] =
     "usage: granary-engine bench [--shape dumbbell] [--bodies 8000] [--steps 2000] [--threads-list 1,2]\n"
@@ -83,7 +88,18 @@ int Run(const std::vector<std::string>& args) {
     }
   }
   if (dir.empty()) throw std::invalid_argument(std::string("run: missing DIR\n") + kRunHelp);
-  const RunResult r = RunDirectory(dir, options);
+  InstallStopHandlers();
+  RunResult r;
+  try {
+    r = RunDirectory(dir, options);
+  } catch (const Stopped& e) {
+    // Ended as the signal would have ended it: the runner sees an interruption.
+    std::cerr << "granary-engine run: " << e.what() << "\n";
+    std::cerr.flush();
+    std::signal(e.signal(), SIG_DFL);
+    std::raise(e.signal());
+    return 128 + e.signal();
+  }
   std::cout << "done end_reason=" << r.end_reason << " exited=" << r.exited << " t_end=" << r.t_end
             << " steps=" << r.steps << (r.continued ? " (continued from checkpoint)" : "") << "\n";
   return 0;
@@ -187,6 +203,9 @@ int EngineMain(const std::vector<std::string>& args) {
     if (args[0] == "bench") return Bench(rest);
     std::cerr << "granary-engine: unknown verb \"" << args[0] << "\"\n" << kUsage;
     return 2;
+  } catch (const RunDirectoryBusy& e) {
+    std::cerr << "granary-engine " << args[0] << ": " << e.what() << "\n";
+    return kExitRunDirectoryBusy;
   } catch (const std::exception& e) {
     std::cerr << "granary-engine " << args[0] << ": error: " << e.what() << "\n";
     return 1;

@@ -1109,6 +1109,61 @@ void World::ImportHistory(const std::vector<HistoryEntry>& pairs, const std::vec
   Rebuild();
 }
 
+WorldSnapshot World::Snapshot() {
+  // Both this world and one restored from the snapshot rebuild their lists here.
+  RebuildNow();
+  WorldSnapshot s;
+  s.tmpl = tmpl_;
+  s.active = active_;
+  s.x = bx_;
+  s.y = by_;
+  s.theta = bth_;
+  s.c = bc_;
+  s.s = bs_;
+  s.vx = bvx_;
+  s.vy = bvy_;
+  s.w = bw_;
+  s.fx = bfx_;
+  s.fy = bfy_;
+  s.torque = btq_;
+  ExportHistory(s.pairs, s.walls);
+  s.outlets_open = outlets_open_;
+  s.rebuild_predicted = rebuild_predicted_;
+  return s;
+}
+
+void World::Restore(const WorldSnapshot& s) {
+  if (body_count() != 0) throw std::invalid_argument("World::Restore: the world already has bodies");
+  const std::size_t n = s.tmpl.size();
+  for (const auto* v : {&s.x, &s.y, &s.theta, &s.c, &s.s, &s.vx, &s.vy, &s.w, &s.fx, &s.fy, &s.torque})
+    if (v->size() != n) throw std::invalid_argument("World::Restore: body arrays of different lengths");
+  if (s.active.size() != n) throw std::invalid_argument("World::Restore: body arrays of different lengths");
+  for (std::size_t b = 0; b < n; ++b) AddBody(s.tmpl[b], 0, 0, 0);  // (throws for an unknown template)
+  for (const HistoryEntry& h : s.pairs)
+    if (h.j < 0 || h.j >= disc_count() || h.j <= h.i)
+      throw std::invalid_argument("World::Restore: pair history entry (" + std::to_string(h.i) + ", " + std::to_string(h.j) +
+                                  ") is not a pair of discs i < j");
+  for (const HistoryEntry& h : s.walls)
+    if (h.j < 0 || h.j >= static_cast<int>(geometry_.elements.size()))
+      throw std::invalid_argument("World::Restore: wall history names element " + std::to_string(h.j) + " of " +
+                                  std::to_string(geometry_.elements.size()));
+  for (int b = 0; b < body_count(); ++b) {
+    PlaceBody(b, s.x[b], s.y[b], s.theta[b], s.vx[b], s.vy[b], s.w[b]);
+    if (!s.active[b]) Deactivate(b);
+  }
+  // The forces of the step the snapshot was taken at, and the integrated orientation (not
+  // cos and sin of theta).
+  bfx_ = s.fx;
+  bfy_ = s.fy;
+  btq_ = s.torque;
+  bc_ = s.c;
+  bs_ = s.s;
+  RefreshDiscs();
+  outlets_open_ = s.outlets_open;
+  ImportHistory(s.pairs, s.walls);  // rebuilds the lists
+  rebuild_predicted_ = s.rebuild_predicted;
+}
+
 void World::CollectContacts(std::vector<ContactView>& out) const {
   out.clear();
   const int n = static_cast<int>(nl_start_.empty() ? 0 : nl_start_.size() - 1);

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <initializer_list>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -27,6 +28,53 @@ SpecError::SpecError(std::string path, std::string message)
     : std::runtime_error(path + ": " + message), path_(std::move(path)), message_(std::move(message)) {}
 
 // Levenshtein distance for "did you mean" suggestions.
+std::string forbidden_character_in(const std::string& name, const std::string& extra) {
+  char buf[64];
+  for (std::size_t i = 0; i < name.size();) {
+    const auto c = static_cast<unsigned char>(name[i]);
+    // Decode one UTF-8 sequence (the JSON parser has checked it is valid UTF-8).
+    std::uint32_t cp = c;
+    std::size_t n = 1;
+    if (c >= 0xF0) {
+      n = 4;
+      cp = c & 0x07u;
+    } else if (c >= 0xE0) {
+      n = 3;
+      cp = c & 0x0Fu;
+    } else if (c >= 0xC0) {
+      n = 2;
+      cp = c & 0x1Fu;
+    }
+    if (i + n > name.size()) return "an incomplete UTF-8 sequence";
+    for (std::size_t k = 1; k < n; ++k) cp = (cp << 6) | (static_cast<unsigned char>(name[i + k]) & 0x3Fu);
+    i += n;
+    if (cp < 0x80 && extra.find(static_cast<char>(cp)) != std::string::npos) {
+      std::snprintf(buf, sizeof buf, "'%c'", static_cast<char>(cp));
+      return buf;
+    }
+    const char* what = nullptr;
+    if (cp == 0x00) what = "NUL";
+    else if (cp == 0x0A) what = "LINE FEED";
+    else if (cp == 0x0D) what = "CARRIAGE RETURN";
+    else if (cp == 0x09) what = "TAB";
+    else if (cp == 0x0B) what = "LINE TABULATION (\\v)";
+    else if (cp == 0x0C) what = "FORM FEED (\\f)";
+    else if (cp < 0x20 || cp == 0x7F) what = "a control character";
+    else if (cp == 0x85) what = "NEXT LINE";
+    else if (cp >= 0x80 && cp <= 0x9F) what = "a control character";
+    else if (cp == 0x2028) what = "LINE SEPARATOR";
+    else if (cp == 0x2029) what = "PARAGRAPH SEPARATOR";
+    else if ((cp >= 0x200B && cp <= 0x200F) || (cp >= 0x202A && cp <= 0x202E) || (cp >= 0x2066 && cp <= 0x2069) ||
+             cp == 0xFEFF)
+      what = "an invisible format character";
+    if (what) {
+      std::snprintf(buf, sizeof buf, "U+%04X (%s)", cp, what);
+      return buf;
+    }
+  }
+  return "";
+}
+
 std::size_t edit_distance(const std::string& a, const std::string& b) {
   std::vector<std::size_t> row(b.size() + 1);
   for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
@@ -199,10 +247,11 @@ Species ParseSpecies(const json& j, const std::string& path) {
   r.Integer("n", s.n);
   s.name = DefaultSpeciesName(s);
   r.String("name", s.name);
-  // The name is the `shape` column of events.csv.
-  if (s.name.empty() || s.name.find_first_of(",\n\r") != std::string::npos)
-    throw SpecError(path + "/name", "must be a non-empty name without commas or line breaks (it is a column of "
-                                    "events.csv) (got " + json(s.name).dump() + ")");
+  // The name is the `shape` column of events.csv and a label in dumps and reports.
+  if (const std::string bad = forbidden_character_in(s.name, ","); s.name.empty() || !bad.empty())
+    throw SpecError(path + "/name", "must be a non-empty name without commas, control characters or line breaks "
+                                    "(it is a column of events.csv) (got " + json(s.name).dump() +
+                                    (bad.empty() ? "" : ", which holds " + bad) + ")");
   return s;
 }
 

@@ -150,6 +150,12 @@ void validate(const RunSpec& spec);
 // "liggghts"; the backend applies it to whatever spec it is given).
 void validate_for_liggghts(const RunSpec& spec);
 
+// The first character of a name that a name must not hold, described ("U+2028 LINE
+// SEPARATOR", "U+0000 NUL", "a comma"), or "" if there is none: control characters (C0,
+// DEL, C1 such as U+0085), line and paragraph separators, bidirectional and zero-width
+// format characters, the byte-order mark; `extra` adds ASCII characters (",").
+std::string forbidden_character_in(const std::string& name, const std::string& extra = "");
+
 // Levenshtein distance, for "did you mean" suggestions (spec keys, CLI verbs).
 std::size_t edit_distance(const std::string& a, const std::string& b);
 

@@ -14,6 +14,7 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <thread>
 
@@ -116,6 +117,22 @@ Args Parse(const std::vector<std::string>& argv, const std::vector<FlagSpec>& kn
 }
 
 std::string DbPath(const Args& a) { return a.get("db", "granary.db"); }
+
+// The database of an existing campaign (only `plan` creates one). A zero-length file is not
+// an empty campaign but a lost one: refused, not silently given a fresh schema.
+std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& verb) {
+  if (!fs::exists(db)) {
+    throw UsageError("campaign " + verb + ": no database " + db +
+                     (verb == "run" ? " (run campaign plan SPEC --db " + db + " first)" : std::string()));
+  }
+  std::error_code ec;
+  if (fs::file_size(db, ec) == 0 && !ec) {
+    throw StoreError(SQLITE_NOTADB, "database " + db + " is empty (0 bytes): whatever campaign it held is lost (was it "
+                                        "truncated, or copied while the disk was full?); plan a campaign into it again "
+                                        "with campaign plan SPEC --db " + db);
+  }
+  return std::make_unique<Store>(db);
+}
 fs::path DbDir(const std::string& db) {
   const fs::path p = fs::absolute(db).parent_path();
   return p;
@@ -160,25 +177,38 @@ std::string Bar(double fraction, int width) {
 
 // ---------------------------------------------------------------- plan
 const char kPlanHelp[] =
-    "usage: campaign plan SPEC [--db FILE] [--dry-run] [--json]\n"
+    "usage: campaign plan SPEC [--db FILE] [--dry-run] [--json] [--max-runs N]\n"
     "Expand the campaign spec SPEC into runs and store them in the database (default granary.db).\n"
     "Planning the same spec again changes nothing; runs no longer in an edited spec are retired\n"
     "(their results are kept), new ones are added.\n"
     "  --db FILE    database (created if missing); run directories go to <db dir>/runs/<run id>/\n"
     "  --dry-run    validate and show what would change, store nothing\n"
-    "  --json       print the summary as JSON\n";
+    "  --json       print the summary as JSON\n"
+    "  --max-runs N refuse a sweep of more than N runs (default 100000), before expanding it\n";
 
 json ReadSpecFile(const std::string& verb, const std::string& spec_path) {
-  std::ifstream in(spec_path);
+  std::ifstream in(spec_path, std::ios::binary);
   if (!in) throw UsageError("campaign " + verb + ": cannot read " + spec_path);
-  json j = json::parse(in, nullptr, false);
-  if (j.is_discarded()) throw UsageError(spec_path + ": not valid JSON");
-  return j;
+  std::stringstream text;
+  text << in.rdbuf();
+  try {
+    return parse_spec_text(text.str(), spec_path);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
+}
+
+std::uint64_t MaxRuns(const Args& a) {
+  if (!a.has("max-runs")) return kDefaultMaxRuns;
+  const std::string v = a.get("max-runs", "");
+  if (v.empty() || v.size() > 18 || v.find_first_not_of("0123456789") != std::string::npos || std::stoull(v) == 0)
+    throw UsageError("--max-runs: must be a positive integer (got \"" + v + "\")");
+  return std::stoull(v);
 }
 
 // Validates the campaign spec `j` (read from spec_path), expands it and stores the runs.
 PlanSummary PlanInto(const json& given, const std::string& spec_path, const std::string& db, bool dry_run,
-                     CampaignSpec& spec) {
+                     std::uint64_t max_runs, CampaignSpec& spec) {
   json j = given;
 #ifdef GRANARY_HAVE_ANALYSIS
   // Coarse-grained stress fields need contact frames: the runs write them.
@@ -200,7 +230,12 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
     throw UsageError(spec_path + ": " + e.what());
   }
 #endif
-  const std::vector<PlannedRun> runs = expand(spec, default_cache_dir());
+  std::vector<PlannedRun> runs;
+  try {
+    runs = expand(spec, default_cache_dir(), max_runs);
+  } catch (const SpecError& e) {
+    throw SpecError(e.path(), e.message() + " [" + spec_path + "]");
+  }
   Store store(db);
   return plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
 }
@@ -228,11 +263,13 @@ void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s
 }
 
 int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv, {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}, "plan");
+  const Args a =
+      Parse(argv, {{"db", true}, {"dry-run", false}, {"json", false}, {"max-runs", true}, {"help", false}}, "plan");
   if (a.positional.size() != 1) throw UsageError("campaign plan: needs exactly one SPEC file (see campaign plan --help)");
   const std::string spec_path = a.positional[0];
   CampaignSpec spec;
-  const PlanSummary s = PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.has("dry-run"), spec);
+  const PlanSummary s =
+      PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.has("dry-run"), MaxRuns(a), spec);
   if (a.has("json")) {
     json axes = json::object();
     for (const auto& [axis, values] : s.axis_values) axes[axis] = values;
@@ -250,7 +287,7 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
 // ---------------------------------------------------------------- run
 const char kRunHelp[] =
     "usage: campaign run [--db FILE] [--jobs N] [--engine E] [--only FILTER] [--threads-per-run T]\n"
-    "                    [--time-limit S] [--retries K]\n"
+    "                    [--time-limit S] [--retries K] [--rerun-lost]\n"
     "Run every planned, interrupted or failed run, N at a time, each as an engine subprocess on\n"
     "its run directory. Safe to repeat after a crash or kill: done runs are kept, interrupted ones\n"
     "continue from their checkpoint, and two runners on one database never run the same run.\n"
@@ -260,10 +297,12 @@ const char kRunHelp[] =
     "  --threads-per-run T  passed to the engine as --threads (default 1)\n"
     "  --time-limit S       wall seconds per run; a run over it is killed and marked failed\n"
     "  --retries K          extra attempts per run in this invocation (default 1)\n"
-    "Exit: 0 all ran, 1 some runs failed, 2 usage error, 130 interrupted (Ctrl-C / SIGTERM).\n";
+    "  --rerun-lost         run again the done runs whose run directory was deleted\n"
+    "Exit: 0 all ran, 1 some runs failed, 2 usage error, 3 storage error (database or run\n"
+    "directories: full disk, unwritable), 130 interrupted (Ctrl-C / SIGTERM).\n";
 
 volatile std::sig_atomic_t g_stop = 0;
-extern "C" void OnStopSignal(int) { g_stop = 1; }
+extern "C" void RunnerOnStopSignal(int) { g_stop = 1; }
 
 class ConsoleObserver : public RunObserver {
  public:
@@ -378,13 +417,14 @@ RunOptions RunOptionsFrom(const Args& a) {
   if (o.time_limit < 0) throw UsageError("--time-limit: must be >= 0 (got \"" + a.get("time-limit", "") + "\")");
   o.retries = a.integer("retries", 1, 0);
   o.exe_dir = ExeDir();
+  o.heartbeat_interval = std::min(o.heartbeat_interval, lease_stale_seconds() / 5);
   return o;
 }
 
 int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv,
                        {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true},
-                        {"time-limit", true}, {"retries", true}, {"help", false}},
+                        {"time-limit", true}, {"retries", true}, {"rerun-lost", false}, {"help", false}},
                        "run");
   if (!a.positional.empty()) throw UsageError("campaign run: unexpected argument \"" + a.positional[0] + "\"");
   RunOptions o = RunOptionsFrom(a);
@@ -393,18 +433,51 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
     throw UsageError("--engine: must be native, liggghts or a path to an engine executable (got \"" + o.engine + "\")");
   }
   o.only = a.get("only", "");
-  const std::string db = DbPath(a);
-  if (!fs::exists(db)) throw UsageError("campaign run: no database " + db + " (run campaign plan SPEC --db " + db + " first)");
-  return RunAll(db, o, out);
+  o.rerun_lost = a.has("rerun-lost");
+  return RunAll(DbPath(a), o, out);
+}
+
+// --only must select something: a typo or a value not in the sweep is an error, not a run
+// of nothing that exits 0.
+void CheckOnlyFilter(Store& store, const CampaignRow& campaign, const std::string& filter) {
+  const std::vector<RunRow> runs = load_runs(store, true);
+  for (const auto& r : runs)
+    if (r.state != "retired" && matches_filter(r, filter)) return;
+  const auto eq = filter.find('=');
+  std::string axes;
+  for (const auto& a : campaign.axes) axes += (axes.empty() ? "" : ", ") + a;
+  if (filter[0] != '/' || eq == std::string::npos) {
+    throw UsageError("--only: no run id starts with \"" + filter + "\" (FILTER is a run-id prefix, or POINTER=VALUE" +
+                     (axes.empty() ? std::string() : " on an axis: " + axes) + ")");
+  }
+  const std::string pointer = filter.substr(0, eq);
+  if (std::find(campaign.axes.begin(), campaign.axes.end(), pointer) == campaign.axes.end()) {
+    const std::string best = nearest(pointer, campaign.axes);
+    throw UsageError("--only: \"" + pointer + "\" is not a sweep axis of campaign " + campaign.name +
+                     (best.empty() ? "" : "; did you mean \"" + best + "\"?") +
+                     (axes.empty() ? " (it has no axes)" : " (axes: " + axes + ")"));
+  }
+  std::vector<json> values;
+  const json::json_pointer ptr(pointer);
+  for (const auto& r : runs)
+    if (r.state != "retired" && r.params.contains(ptr) &&
+        std::find(values.begin(), values.end(), r.params[ptr]) == values.end())
+      values.push_back(r.params[ptr]);
+  std::string list;
+  for (const auto& v : values) list += (list.empty() ? "" : ", ") + v.dump();
+  throw UsageError("--only: no run has " + pointer + " = " + filter.substr(eq + 1) + " (its values: " + list + ")");
 }
 
 // Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly.
 int RunAll(const std::string& db, const RunOptions& o, std::ostream& out) {
-  Store store(db);
-  if (!load_campaign(store)) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
+  const auto opened = OpenCampaignDb(db, "run");
+  Store& store = *opened;
+  const auto campaign = load_campaign(store);
+  if (!campaign) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
+  if (!o.only.empty()) CheckOnlyFilter(store, *campaign, o.only);
 
   struct sigaction sa {};
-  sa.sa_handler = OnStopSignal;
+  sa.sa_handler = RunnerOnStopSignal;
   sigemptyset(&sa.sa_mask);
   struct sigaction old_int {}, old_term {};
   sigaction(SIGINT, &sa, &old_int);
@@ -435,8 +508,8 @@ const char kStatusHelp[] =
 int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, {{"db", true}, {"json", false}, {"help", false}}, "status");
   const std::string db = DbPath(a);
-  if (!fs::exists(db)) throw UsageError("campaign status: no database " + db);
-  Store store(db);
+  const auto opened = OpenCampaignDb(db, "status");
+  Store& store = *opened;
   const auto campaign = load_campaign(store);
   const auto runs = load_runs(store, false);
   const auto metrics = load_metrics(store);
@@ -445,8 +518,10 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   double first_start = 0, last_end = 0, wall_sum = 0, remaining_work = 0;
   int wall_n = 0, active = 0;
   const double now = now_seconds();
+  int lost = 0;  // done, but the run directory is gone
   for (const auto& r : runs) {
     ++counts[r.state];
+    if (r.state == "done" && !fs::exists(r.run_dir)) ++lost;
     if (r.started_at > 0 && (first_start == 0 || r.started_at < first_start)) first_start = r.started_at;
     last_end = std::max(last_end, r.ended_at);
     if (r.state == "done" && r.wall_s > 0) {
@@ -481,11 +556,13 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                          {"analysis", rm.analysis}};
         j["metrics"] = m;
       }
+      if (r.state == "done" && !fs::exists(r.run_dir)) j["run_dir_missing"] = true;
       list.push_back(j);
     }
     out << json{{"campaign", campaign ? campaign->name : ""},
                 {"total", runs.size() - static_cast<std::size_t>(counts["retired"])},
                 {"counts", counts},
+                {"lost", lost},
                 {"elapsed_s", elapsed},
                 {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
                 {"runs", list}}
@@ -497,6 +574,12 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       << " runs (" << db << ")\n ";
   for (const auto& [state, n] : counts) out << " " << state << " " << n;
   out << "\n  elapsed " << Duration(elapsed) << ", ETA " << (eta >= 0 ? Duration(eta) : "?") << "\n";
+  if (lost > 0) {
+    out << "lost: " << lost << " done run(s) have no run directory (deleted after they finished); their results "
+        << "are in the database only (campaign run --rerun-lost runs them again):\n";
+    for (const auto& r : runs)
+      if (r.state == "done" && !fs::exists(r.run_dir)) out << "  " << r.run_id << "  " << r.run_dir << "\n";
+  }
   int analysed = 0;
   for (const auto& r : runs) analysed += r.state == "done" && metrics.count(r.run_id) ? 1 : 0;
   if (counts["done"] > 0)
@@ -559,7 +642,8 @@ std::function<void(int, int)> AnalysisProgress(std::ostream& err) {
 // Loads the campaign in `db`, analyses its finished runs (each run's cache first, runs in
 // parallel) and stores their per-run metrics in the database (table metrics).
 std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const std::string& verb, std::ostream& err) {
-  Store store(db);
+  const auto opened = OpenCampaignDb(db, verb);
+  Store& store = *opened;
   const auto campaign = load_campaign(store);
   if (!campaign) throw UsageError("campaign " + verb + ": " + db + " holds no campaign");
   auto c = std::make_unique<AnalysedCampaign>();
@@ -630,12 +714,15 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
 int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args a = Parse(argv, {{"db", true}, {"out", true}, {"no-figures", false}, {"help", false}}, "report");
   const std::string db = DbPath(a);
-  if (!fs::exists(db)) throw UsageError("campaign report: no database " + db);
 #ifdef GRANARY_HAVE_ANALYSIS
   const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
                                      !a.has("no-figures"), err);
   out << "report: " << summary.markdown.string() << "\n        " << summary.html.string() << "\n  runs used "
-      << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed << "\n"
+      << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed
+      << (summary.runs_lost > 0 ? ", lost " + std::to_string(summary.runs_lost) +
+                                      " (done, run directory deleted: campaign run --rerun-lost)"
+                                : std::string())
+      << "\n"
       << "  analysis results: " << summary.results_from_cache << " from the runs' caches, " << summary.results_computed
       << " computed\n";
   return 0;
@@ -665,7 +752,6 @@ int Export(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   if (format != "csv" && format != "json") throw UsageError("--format: must be csv or json (got \"" + format + "\")");
   if (level != "run" && level != "point") throw UsageError("--level: must be run or point (got \"" + level + "\")");
   const std::string db = DbPath(a);
-  if (!fs::exists(db)) throw UsageError("campaign export: no database " + db);
 #ifdef GRANARY_HAVE_ANALYSIS
   const auto c = AnalyseCampaignIn(db, "export", err);
   const analysis::ExportTable table =
@@ -701,7 +787,7 @@ const char kCompareHelp[] =
     "  --json        print the comparison as JSON (progress goes to stderr)\n"
     "  --jobs, --threads-per-run, --time-limit, --retries: as for campaign run\n"
     "Exit: 0 compared, 1 some runs failed or no point finished on both engines, 2 usage error,\n"
-    "130 interrupted.\n";
+    "3 storage error, 130 interrupted.\n";
 
 #ifdef GRANARY_HAVE_ANALYSIS
 void PrintComparison(std::ostream& out, const json& c) {
@@ -748,19 +834,22 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
   const Args a = Parse(argv,
                        {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false},
                         {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true},
-                        {"help", false}},
+                        {"max-runs", true}, {"help", false}},
                        "compare");
   if (a.positional.size() != 1) throw UsageError("campaign compare: needs exactly one SPEC file (see campaign compare --help)");
 #ifdef GRANARY_HAVE_ANALYSIS
   const std::string spec_path = a.positional[0];
   json j = ReadSpecFile("compare", spec_path);
-  if (j.is_object()) j["engine"] = json::array({"native", "liggghts"});
+  if (j.is_object()) {
+    j["engine"] = json::array({"native", "liggghts"});
+    if (j.contains("base") && j["base"].is_object()) j["base"].erase("engine");  // both, whatever it says
+  }
   const RunOptions o = RunOptionsFrom(a);
   const std::string db = DbPath(a);
   // With --json, stdout carries only the JSON document.
   std::ostream& progress = a.has("json") ? err : out;
   CampaignSpec spec;
-  const PlanSummary s = PlanInto(j, spec_path, db, false, spec);
+  const PlanSummary s = PlanInto(j, spec_path, db, false, MaxRuns(a), spec);
   PrintPlan(progress, spec, s, false);
   int code = 0;
   if (!a.has("no-run")) {
@@ -1044,7 +1133,8 @@ fs::path ResolveRun(const std::string& verb, const std::string& run, const Args&
   if (!fs::exists(db))
     throw UsageError("campaign " + verb + ": '" + run + "' is not a run directory, and there is no database " + db +
                      " to look it up in");
-  Store store(db);
+  const auto opened = OpenCampaignDb(db, verb);
+  Store& store = *opened;
   std::vector<RunRow> found;
   for (RunRow& r : load_runs(store, false))
     if (r.run_id.rfind(run, 0) == 0) found.push_back(std::move(r));
@@ -1184,7 +1274,8 @@ std::string MainHelp() {
       "usage: campaign VERB [flags]   (campaign VERB --help for its flags)\n"
       "Granary campaign manager: plan, run and report sweeps of 2-D silo discharge simulations.\n\nverbs:\n";
   for (const auto& v : Verbs()) h += "  " + std::string(v.name) + std::string(10 - std::string(v.name).size(), ' ') + v.summary + "\n";
-  h += "\nexit codes: 0 ok, 1 runs failed, 2 usage or spec error, 130 interrupted\n";
+  h += "\nexit codes: 0 ok, 1 runs failed, 2 usage or spec error, 3 storage (database or run directories),\n"
+       "130 interrupted (docs/cli.md)\n";
   return h;
 }
 
@@ -1226,7 +1317,7 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     return static_cast<int>(ExitCode::kUsage);
   } catch (const StoreError& e) {
     err << "error: " << e.what() << "\n";
-    return static_cast<int>(ExitCode::kUsage);
+    return static_cast<int>(ExitCode::kStorage);
   } catch (const std::invalid_argument& e) {  // e.g. an engine executable that does not exist
     err << "error: " << e.what() << "\n";
     return static_cast<int>(ExitCode::kUsage);
