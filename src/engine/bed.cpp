@@ -22,7 +22,8 @@ namespace granary::engine {
 namespace {
 
 constexpr double kInsertPackingFraction = 0.3;  // area fraction of a batch's insertion region
-constexpr int kSettleCheckEvery = 200;          // steps between kinetic-energy checks
+constexpr double kSettleCheckInterval = 0.02;   // simulated time between kinetic-energy checks
+constexpr long kProgressEvery = 2000;           // steps between progress reports
 
 bool Overlaps(const ShapeTemplate& a, double ax, double ay, double ath, const ShapeTemplate& b, double bx,
               double by, double bth) {
@@ -56,7 +57,11 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
   // segment per side, so element index = Side.
   Silo closed;
   closed.width = spec.silo.width;
-  World world(ParamsFromSpec(spec), templates, BuildGeometry(closed, kTallWall));
+  // The bed is prepared at its own, longer time step (bed_time_step(), docs/run-spec.md):
+  // a settled bed does not depend on it, and most of the preparation is free fall.
+  WorldParams params = ParamsFromSpec(spec);
+  params.dt = spec.bed_time_step();
+  World world(params, templates, BuildGeometry(closed, kTallWall));
   Rng rng(spec.seed);
 
   // Bodies in random order so that every batch is a mixture.
@@ -72,7 +77,8 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
   mean_mass /= static_cast<double>(order.size());
   const double energy_unit = mean_mass * spec.gravity * 1.0;  // m g d with d = 1
   const double hw = spec.silo.width / 2;
-  const double dt = spec.time_step;
+  const double dt = params.dt;
+  const long settle_check_every = std::max(1L, std::lround(kSettleCheckInterval / dt));
   double t = 0.0;
   std::size_t inserted = 0;
   const std::size_t total = order.size();
@@ -113,22 +119,23 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
     for (long s = 0; s < steps; ++s) {
       world.Step();
       t += dt;
-      if (progress && s % 10000 == 0)
+      if (progress && s % kProgressEvery == 0)
         progress(0.5 * static_cast<double>(inserted) / static_cast<double>(total), t);
     }
   }
   // Settle until the kinetic energy per body is negligible (or give up at max_settle_time).
   const double t_settle0 = t;
+  double ke = 1.0;
   for (long s = 1;; ++s) {
     world.Step();
     t += dt;
-    if (s % kSettleCheckEvery == 0) {
-      const double ke = world.KineticEnergy() / static_cast<double>(world.active_count()) / energy_unit;
+    if (s % settle_check_every == 0) {
+      ke = world.KineticEnergy() / static_cast<double>(world.active_count()) / energy_unit;
       if (ke < spec.bed.settle_ke_per_body || t - t_settle0 >= spec.bed.max_settle_time) break;
-      if (progress && s % 10000 == 0) {
-        const double f = std::clamp(std::log(ke) / std::log(spec.bed.settle_ke_per_body), 0.0, 1.0);
-        progress(0.5 + 0.5 * std::max(f, (t - t_settle0) / spec.bed.max_settle_time), t);
-      }
+    }
+    if (progress && s % kProgressEvery == 0) {
+      const double f = std::clamp(std::log(ke) / std::log(spec.bed.settle_ke_per_body), 0.0, 1.0);
+      progress(0.5 + 0.5 * std::max(f, (t - t_settle0) / spec.bed.max_settle_time), t);
     }
   }
   // Body ids in spatial order (bands of height 2 d, serpentine in x), so that touching

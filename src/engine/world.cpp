@@ -268,46 +268,59 @@ void World::Rebuild() {
       }
   };
   nl_start_.resize(static_cast<std::size_t>(n) + 1);
-#pragma omp parallel for schedule(static) if (Parallel())
-  for (int i = 0; i < n; ++i) {
-    int count = 0;
-    for_neighbours(i, [&](int) { ++count; });
-    nl_start_[i + 1] = count;
-  }
-  nl_start_[0] = 0;
-  for (int i = 0; i < n; ++i) nl_start_[i + 1] += nl_start_[i];
-  const int m = nl_start_[n];
-  nl_j_.resize(static_cast<std::size_t>(m));
-  nl_i_.resize(static_cast<std::size_t>(m));
-  nl_sx_.resize(static_cast<std::size_t>(m));
-  nl_sy_.resize(static_cast<std::size_t>(m));
-  nl_fx_.assign(static_cast<std::size_t>(m), 0.0);
-  nl_fy_.assign(static_cast<std::size_t>(m), 0.0);
-  nl_c_.assign(static_cast<std::size_t>(m), 0.0);
-  nl_reff_.resize(static_cast<std::size_t>(m));
-  nl_meff_.resize(static_cast<std::size_t>(m));
-#pragma omp parallel for schedule(static) if (Parallel())
-  for (int i = 0; i < n; ++i) {
-    int k = nl_start_[i];
-    for_neighbours(i, [&](int j) { nl_j_[k++] = j; });
-    std::sort(nl_j_.begin() + nl_start_[i], nl_j_.begin() + nl_start_[i + 1]);
-    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
-      const int j = nl_j_[e];
-      nl_i_[e] = i;
-      nl_reff_[e] = EffectiveRadius(dr_[i], dr_[j]);
-      nl_meff_[e] = EffectiveMass(bmass_[dbody_[i]], bmass_[dbody_[j]]);
+  // One cell search per disc: each thread keeps the partners of its discs in a buffer of its
+  // own and copies them into place once the offsets are known (both loops are static over
+  // the same range, so a thread meets its discs in the same order twice).
+  if (rebuild_partners_.size() < static_cast<std::size_t>(omp_get_max_threads()))
+    rebuild_partners_.resize(static_cast<std::size_t>(omp_get_max_threads()));
+#pragma omp parallel if (Parallel())
+  {
+    std::vector<int>& found = rebuild_partners_[static_cast<std::size_t>(omp_get_thread_num())];
+    found.clear();
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      const std::size_t before = found.size();
+      for_neighbours(i, [&](int j) { found.push_back(j); });
+      nl_start_[i + 1] = static_cast<int>(found.size() - before);
     }
-    // History transfer: both segments are sorted by j.
-    int o = i < old_n ? old_start_[i] : 0;
-    const int oend = i < old_n ? old_start_[i + 1] : 0;
-    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
-      while (o < oend && old_j_[o] < nl_j_[e]) ++o;
-      if (o < oend && old_j_[o] == nl_j_[e]) {
-        nl_sx_[e] = old_sx_[o];
-        nl_sy_[e] = old_sy_[o];
-      } else {
-        nl_sx_[e] = 0.0;
-        nl_sy_[e] = 0.0;
+#pragma omp single
+    {
+      nl_start_[0] = 0;
+      for (int i = 0; i < n; ++i) nl_start_[i + 1] += nl_start_[i];
+      const std::size_t m = static_cast<std::size_t>(nl_start_[n]);
+      nl_j_.resize(m);
+      nl_i_.resize(m);
+      nl_sx_.resize(m);
+      nl_sy_.resize(m);
+      nl_fx_.assign(m, 0.0);
+      nl_fy_.assign(m, 0.0);
+      nl_c_.assign(m, 0.0);
+      nl_reff_.resize(m);
+      nl_meff_.resize(m);
+    }
+    std::size_t next = 0;  // in `found`
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) nl_j_[e] = found[next++];
+      std::sort(nl_j_.begin() + nl_start_[i], nl_j_.begin() + nl_start_[i + 1]);
+      for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
+        const int j = nl_j_[e];
+        nl_i_[e] = i;
+        nl_reff_[e] = EffectiveRadius(dr_[i], dr_[j]);
+        nl_meff_[e] = EffectiveMass(bmass_[dbody_[i]], bmass_[dbody_[j]]);
+      }
+      // History transfer: both segments are sorted by j.
+      int o = i < old_n ? old_start_[i] : 0;
+      const int oend = i < old_n ? old_start_[i + 1] : 0;
+      for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
+        while (o < oend && old_j_[o] < nl_j_[e]) ++o;
+        if (o < oend && old_j_[o] == nl_j_[e]) {
+          nl_sx_[e] = old_sx_[o];
+          nl_sy_[e] = old_sy_[o];
+        } else {
+          nl_sx_[e] = 0.0;
+          nl_sy_[e] = 0.0;
+        }
       }
     }
   }

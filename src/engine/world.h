@@ -233,7 +233,7 @@ class World {
   std::vector<double> refx_, refy_;
   // Cell grid.
   std::vector<int> cell_start_, cell_disc_, disc_cell_, cell_count_;
-  std::vector<int> cand_;
+  std::vector<std::vector<int>> rebuild_partners_;  // per thread: partners found in a rebuild
 };
 
 }  // namespace granary::engine

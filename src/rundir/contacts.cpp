@@ -33,27 +33,49 @@ void ContactWriter::Write(const ContactFrame& frame) {
   WriteBlock(file_.get(), gzip_, [&](std::FILE* f) {
     detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ENTRIES", frame.contacts.size(), frame.box);
     std::fputs("ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n", f);
-    for (const ContactRow& c : frame.contacts)
-      std::fprintf(f, "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n", static_cast<long long>(c.body_i),
-                   static_cast<long long>(c.body_j), c.xi, c.yi, c.xj, c.yj, c.cx, c.cy, c.fx, c.fy);
+    // "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n" per contact
+    std::string& t = text_;
+    std::size_t rows = 0;
+    for (const ContactRow& c : frame.contacts) {
+      detail::AppendInt(t, c.body_i);
+      t += ' ';
+      detail::AppendInt(t, c.body_j);
+      for (const double v : {c.xi, c.yi, c.xj, c.yj, c.cx, c.cy, c.fx, c.fy}) t += ' ', detail::AppendG10(t, v);
+      t += '\n';
+      if (++rows % detail::kRowsPerWrite == 0) detail::Drain(t, f);
+    }
+    detail::Drain(t, f);
   });
 }
 
 ContactReader::ContactReader(const std::filesystem::path& file)
-    : file_(file), lines_(std::make_unique<detail::DumpLines>(file)) {}
+    : file_(file), state_(std::make_unique<detail::DumpState>(file)) {}
 
 ContactReader::~ContactReader() = default;
 ContactReader::ContactReader(ContactReader&&) noexcept = default;
 ContactReader& ContactReader::operator=(ContactReader&&) noexcept = default;
 
-bool ContactReader::Next(ContactFrame& frame) {
-  detail::DumpLines& in = *lines_;
-  detail::DumpHeader h;
+bool ContactReader::NextHeader(ContactFrame& frame) {
+  detail::DumpState& st = *state_;
   frame.contacts.clear();
-  if (!detail::ReadDumpHeader(in, "NUMBER OF ENTRIES", "ITEM: ENTRIES", h)) return false;
-  frame.timestep = h.timestep;
-  frame.time = h.time;
-  std::copy(&h.box[0][0], &h.box[0][0] + 6, &frame.box[0][0]);
+  if (st.rows_pending && !detail::SkipDumpRows(st)) return false;
+  if (!detail::ReadDumpHeader(st.lines, "NUMBER OF ENTRIES", "ITEM: ENTRIES", st.header)) return false;
+  st.rows_pending = true;
+  frame.timestep = st.header.timestep;
+  frame.time = st.header.time;
+  std::copy(&st.header.box[0][0], &st.header.box[0][0] + 6, &frame.box[0][0]);
+  return true;
+}
+
+bool ContactReader::SkipContacts() { return detail::SkipDumpRows(*state_); }
+
+bool ContactReader::ReadContacts(ContactFrame& frame) {
+  detail::DumpState& st = *state_;
+  detail::DumpLines& in = st.lines;
+  const detail::DumpHeader& h = st.header;
+  frame.contacts.clear();
+  if (!st.rows_pending) return false;
+  st.rows_pending = false;
   static const char* kColumns[] = {"body_i", "body_j", "xi", "yi", "xj", "yj", "cx", "cy", "fx", "fy"};
   int cols[10];
   std::size_t need = 0;

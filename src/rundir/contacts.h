@@ -13,7 +13,7 @@
 
 namespace granary::rundir {
 namespace detail {
-class DumpLines;
+struct DumpState;
 }
 
 struct ContactRow {
@@ -47,6 +47,7 @@ class ContactWriter {
 
  private:
   OutputFile file_;
+  std::string text_;  // rows being formatted (kept: its capacity)
   bool gzip_ = false;
 };
 
@@ -58,11 +59,15 @@ class ContactReader {
   ~ContactReader();
   ContactReader(ContactReader&&) noexcept;
   ContactReader& operator=(ContactReader&&) noexcept;
-  bool Next(ContactFrame& frame);
+  bool Next(ContactFrame& frame) { return NextHeader(frame) && ReadContacts(frame); }
+  // In two steps (see FrameReader): the header, then the rows read or skipped.
+  bool NextHeader(ContactFrame& frame);
+  bool ReadContacts(ContactFrame& frame);
+  bool SkipContacts();
 
  private:
   std::filesystem::path file_;
-  std::unique_ptr<detail::DumpLines> lines_;
+  std::unique_ptr<detail::DumpState> state_;
 };
 
 }  // namespace granary::rundir

@@ -408,10 +408,11 @@ RunSpec RunSpec::from_json(const json& j) {
     c.Bool("clip_normal", s.contact.clip_normal);
   }
   if (r.Has("bed")) {
-    Reader b(r.At("bed"), "/bed", {"batch_size", "settle_ke_per_body", "max_settle_time", "cache_file"});
+    Reader b(r.At("bed"), "/bed", {"batch_size", "settle_ke_per_body", "max_settle_time", "time_step", "cache_file"});
     b.Integer("batch_size", s.bed.batch_size);
     b.Number("settle_ke_per_body", s.bed.settle_ke_per_body);
     b.Number("max_settle_time", s.bed.max_settle_time);
+    b.Number("time_step", s.bed.time_step);
     b.String("cache_file", s.bed.cache_file);
   }
   if (r.Has("discharge")) {
@@ -575,6 +576,7 @@ void validate(const RunSpec& s) {
   }
   Positive(s.bed.settle_ke_per_body, "/bed/settle_ke_per_body");
   Positive(s.bed.max_settle_time, "/bed/max_settle_time");
+  NonNegative(s.bed.time_step, "/bed/time_step");
 
   Positive(s.discharge.max_time, "/discharge/max_time");
   Positive(s.discharge.clog_window, "/discharge/clog_window");
@@ -596,6 +598,9 @@ void validate(const RunSpec& s) {
 }
 
 void validate_for_liggghts(const RunSpec& s) {
+  if (s.bed.time_step != Bed{}.time_step)
+    throw SpecError("/bed/time_step", "the LIGGGHTS backend prepares its bed at time_step; bed/time_step is the "
+                                      "native engine's (got " + Shown(s.bed.time_step) + ", allowed: 0)");
   if (s.discharge.mode == DischargeMode::kReinject && !s.silo.side_outlets.empty())
     throw SpecError("/discharge/mode",
                     "the LIGGGHTS backend reinjects through y-periodicity, which cannot return bodies that leave "
@@ -631,6 +636,8 @@ json BedJson(const Bed& b, bool with_cache_file) {
             {"settle_ke_per_body", b.settle_ke_per_body},
             {"max_settle_time", b.max_settle_time}};
   if (with_cache_file) j["cache_file"] = b.cache_file;
+  // Only when not the default, so that run ids planned before this option existed stay valid.
+  if (b.time_step != Bed{}.time_step) j["time_step"] = b.time_step;
   return j;
 }
 
@@ -683,7 +690,7 @@ json RunSpec::to_json() const {
 json RunSpec::bed_key() const {
   // Everything the bed preparation (physics.md, procedure step 1) depends on, and nothing
   // about outlets or obstacles, so runs differing only in those share one prepared bed.
-  return {{"engine", engine},
+  json key = {{"engine", engine},
           {"seed", seed},
           {"time_step", time_step},
           {"gravity", gravity},
@@ -692,6 +699,10 @@ json RunSpec::bed_key() const {
           {"bodies", BodiesJson(bodies)},
           {"contact", ContactJson(contact)},
           {"bed", BedJson(bed, false)}};
+  // The native engine's bed depends on the step it is prepared at (the resolved value: a bed
+  // prepared before bed/time_step existed, at time_step, is not taken for one at 5 x).
+  if (engine == "native") key["bed"]["resolved_time_step"] = bed_time_step();
+  return key;
 }
 
 }  // namespace granary

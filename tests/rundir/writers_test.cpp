@@ -2,10 +2,18 @@
 // back by its reader; a continued run's files cut back to a checkpoint's offsets.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
 #include <nlohmann/json.hpp>
+#include <random>
+#include <string>
+#include <vector>
 
 #include "rundir/contacts.h"
+#include "rundir/dump_text.h"
 #include "rundir/events.h"
 #include "rundir/frames.h"
 #include "rundir/progress.h"
@@ -83,6 +91,36 @@ TEST(Writers, ContactsAreTheDocumentedDumpAndReadBack) {
   ASSERT_EQ(f.contacts.size(), 2u);
   EXPECT_EQ(f.contacts[1].body_j, -1);
   EXPECT_DOUBLE_EQ(f.contacts[1].fy, 3.0);
+}
+
+// The dump writers format numbers with std::to_chars (dump_text.h), which must write what
+// printf's "%.10g" writes: whole numbers, tiny and huge magnitudes, values that round up to
+// another exponent, negative zero, infinities and NaN, and a million random bit patterns.
+TEST(Writers, DumpNumbersAreThoseOfPrintf) {
+  std::vector<double> values = {0.0, -0.0, 1.0, -1.0, 0.5, 1e-4, 9.9999999995e-5, 9.99999999949e9, 1e10, 123456789012.0,
+                                1e-300, 5e-324, 1.7976931348623157e308, 0.1, 2.0 / 3.0, -49.99999999999, 1e15, 1e16,
+                                std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+                                std::numeric_limits<double>::quiet_NaN()};
+  std::mt19937_64 rng(19);
+  for (int k = 0; k < 1000000; ++k) {
+    const std::uint64_t bits = rng();
+    double v;
+    std::memcpy(&v, &bits, sizeof v);
+    values.push_back(k % 2 ? v : std::ldexp(static_cast<double>(bits >> 11), -40 - static_cast<int>(bits % 40)));
+  }
+  std::string ours;
+  char theirs[64];
+  for (const double v : values) {
+    ours.clear();
+    detail::AppendG10(ours, v);
+    std::snprintf(theirs, sizeof theirs, "%.10g", v);
+    ASSERT_EQ(ours, theirs) << "bits " << std::hex << std::bit_cast<std::uint64_t>(v);
+  }
+  for (const std::int64_t i : {std::int64_t{0}, std::int64_t{-1}, std::int64_t{7999}, INT64_MIN, INT64_MAX}) {
+    ours.clear();
+    detail::AppendInt(ours, i);
+    EXPECT_EQ(ours, std::to_string(i));
+  }
 }
 
 TEST(Writers, EventsStreamedAndWholeAreTheSameFile) {
