@@ -5,7 +5,9 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
+#include <optional>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -25,9 +27,13 @@
 #include "runner/slurm_executor.h"
 #include "runner/util.h"
 #ifdef GRANARY_HAVE_ANALYSIS
+#include "analysis/cg_run.h"
 #include "analysis/export.h"
+#include "analysis/fields_analysis.h"
 #include "analysis/registry.h"
 #include "analysis/report.h"
+#include "rundir/contacts.h"
+#include "rundir/frames.h"
 #endif
 #include "rundir/files.h"
 #ifdef GRANARY_HAVE_RENDER
@@ -207,8 +213,17 @@ std::uint64_t MaxRuns(const Args& a) {
 }
 
 // Validates the campaign spec `j` (read from spec_path), expands it and stores the runs.
-PlanSummary PlanInto(const json& j, const std::string& spec_path, const std::string& db, bool dry_run,
+PlanSummary PlanInto(const json& given, const std::string& spec_path, const std::string& db, bool dry_run,
                      std::uint64_t max_runs, CampaignSpec& spec) {
+  json j = given;
+#ifdef GRANARY_HAVE_ANALYSIS
+  // Coarse-grained stress fields need contact frames: the runs write them.
+  try {
+    j = analysis::with_fields_output(given);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(spec_path + ": " + e.what());
+  }
+#endif
   try {
     spec = CampaignSpec::from_json(j);
   } catch (const SpecError& e) {
@@ -698,8 +713,8 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   Store& store = *opened;
   const auto campaign = load_campaign(store);
   const auto runs = load_runs(store, false);
-  const QueueView queue = ViewQueue(runs);
   const auto metrics = load_metrics(store);
+  const QueueView queue = ViewQueue(runs);
   std::map<std::string, int> counts = {{"planned", 0}, {"running", 0}, {"done", 0},
                                        {"failed", 0},  {"interrupted", 0}, {"retired", 0}};
   double first_start = 0, last_end = 0, wall_sum = 0, remaining_work = 0;
@@ -974,6 +989,17 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
       return std::string(e.what());
     }
   };
+  options.draw_clog = [](const fs::path& run_dir, const analysis::ClogPicture& picture, const fs::path& png) {
+    render::PictureOptions o;
+    o.highlight = picture.highlight;
+    try {
+      const render::Window window{picture.x_lo, picture.x_hi, picture.y_lo, picture.y_hi};
+      render::WritePng(render::ClogScene(run_dir, picture.clog, o, window), 480, png);
+      return std::string();
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+  };
 #endif
   return analysis::write_report(*c->analysis, options);
 }
@@ -1150,6 +1176,218 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
 #endif
 }
 
+// ---------------------------------------------------------------- fields
+const char kFieldsHelp[] =
+    "usage: campaign fields RUN_DIR [--out DIR] [--fields NAMES] [--from T] [--to T] [--stride N]\n"
+    "                       [--max-frames N] [--width W] [--cutoff C] [--spacing H]\n"
+    "                       [--window X0,X1,Y0,Y1] [--min-phi F] [--threads N] [--json]\n"
+    "       campaign fields RUN_DIR --bench [--repeat N] [--threads-list 1,2] [--max-frames N]\n"
+    "Coarse-grained fields of one run directory (docs/analyses.md), time-averaged over its frames\n"
+    "from T to T: one CSV per field in DIR (default RUN_DIR/fields) with columns x, y, value,\n"
+    "n_frames (the frames behind the value). Stress fields need the run's contacts.dump\n"
+    "(output.contact_forces).\n"
+    "  --fields NAMES    comma-separated (default: all the run's data supports): phi vx vy speed\n"
+    "                    omega omega_fl2 tg tg_eq46 sigma_xx sigma_xy sigma_yy pressure shear\n"
+    "                    friction kinetic_pressure kinetic_shear total_pressure total_shear\n"
+    "                    total_friction\n"
+    "  --width W         kernel width w in d (default 1.414); --cutoff C in w (default 3)\n"
+    "  --spacing H       grid spacing in d (default 1)\n"
+    "  --window ...      the mapped rectangle (default: 1.5 d inside the walls, from 1.5 d above\n"
+    "                    the base to min(148.5 d, the bed's height))\n"
+    "  --min-phi F       velocity, Omega and T_g of a frame need phi >= F at a node (default 0.05)\n"
+    "  --threads N       threads (default: all cores; any count gives the same bits)\n"
+    "  --json            print the run's summary as JSON\n"
+    "  --bench           frames per second over the run's frames, reading the dumps included:\n"
+    "                    reading alone, then the fields at each thread count of --threads-list,\n"
+    "                    in --repeat interleaved rounds (best and median); run it under\n"
+    "                    `cpu bench` on a shared machine\n"
+    "Exit: 0 done, 1 unreadable run directory, 2 usage error.\n";
+
+#ifdef GRANARY_HAVE_ANALYSIS
+std::vector<double> NumberList(const std::string& flag, const std::string& text) {
+  std::vector<double> out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    try {
+      std::size_t used = 0;
+      const double x = std::stod(item, &used);
+      if (used != item.size() || !std::isfinite(x)) throw std::invalid_argument(item);
+      out.push_back(x);
+    } catch (const std::exception&) {
+      throw UsageError("--" + flag + ": \"" + item + "\" is not a number (got \"" + text + "\")");
+    }
+  }
+  return out;
+}
+
+analysis::CgRunOptions FieldOptions(const Args& a) {
+  analysis::CgRunOptions o;
+  o.cg.width = a.number("width", o.cg.width);
+  o.cg.cutoff = a.number("cutoff", o.cg.cutoff);
+  o.cg.spacing = a.number("spacing", o.cg.spacing);
+  o.cg.min_phi = a.number("min-phi", o.cg.min_phi);
+  o.cg.threads = a.integer("threads", 0, 0);
+  if (a.has("window")) {
+    const auto w = NumberList("window", a.get("window", ""));
+    if (w.size() != 4 || !(w[1] > w[0]) || !(w[3] >= w[2]))
+      throw UsageError("--window: needs X0,X1,Y0,Y1 with X0 < X1 and Y0 <= Y1 (got \"" + a.get("window", "") + "\")");
+    o.cg.window = {w[0], w[1], w[2], w[3]};
+  }
+  o.t_start = a.number("from", o.t_start);
+  o.t_end = a.number("to", o.t_end);
+  o.frame_stride = a.integer("stride", 1, 1);
+  o.max_frames = a.integer("max-frames", 0, 0);
+  return o;
+}
+
+// `campaign fields --bench`: frames per second, reading alone and the fields per thread count.
+int FieldsBench(const rundir::RunData& data, const Args& a, std::ostream& out) {
+  analysis::CgRunOptions o = FieldOptions(a);
+  const int repeat = a.integer("repeat", 3, 1);
+  std::vector<int> threads;
+  for (double t : NumberList("threads-list", a.get("threads-list", "1,2"))) {
+    if (t < 1 || t != std::floor(t)) throw UsageError("--threads-list: thread counts are integers >= 1");
+    threads.push_back(static_cast<int>(t));
+  }
+  const int limit = o.max_frames;
+  auto read_only = [&]() {
+    rundir::FrameReader frames(data.frames_file());
+    std::optional<rundir::ContactReader> contacts;
+    if (data.has_contacts) contacts.emplace(data.contacts_file());
+    rundir::Frame f;
+    rundir::ContactFrame c;
+    int n = 0;
+    while ((limit == 0 || n < limit) && frames.Next(f)) {
+      if (contacts) contacts->Next(c);
+      ++n;
+    }
+    return n;
+  };
+  std::map<std::string, std::vector<double>> rates;
+  std::vector<std::string> order = {"read"};
+  for (int t : threads) order.push_back("fields, " + std::to_string(t) + (t == 1 ? " thread" : " threads"));
+  int frames = 0;
+  std::size_t nodes = 0, contacts_per_frame = 0, discs_per_frame = 0;
+  {
+    rundir::FrameReader fr(data.frames_file());
+    rundir::Frame f;
+    if (fr.Next(f)) discs_per_frame = f.discs.size();
+    if (data.has_contacts) {
+      rundir::ContactReader cr(data.contacts_file());
+      rundir::ContactFrame c;
+      if (cr.Next(c)) contacts_per_frame = c.contacts.size();
+    }
+  }
+  for (int round = 1; round <= repeat; ++round) {
+    for (const std::string& what : order) {
+      const auto t0 = std::chrono::steady_clock::now();
+      if (what == "read") {
+        frames = read_only();
+      } else {
+        o.cg.threads = threads[static_cast<std::size_t>(&what - &order[1])];
+        const analysis::CgRunResult r = analysis::cg_fields_of_run(data, o);
+        frames = r.parts.front().frames;
+        nodes = r.parts.front().grid.size();
+      }
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      rates[what].push_back(frames / s);
+      out << "round " << round << "  " << std::left << std::setw(20) << what << std::right << std::fixed
+          << std::setprecision(1) << std::setw(8) << frames / s << " frames/s  (" << frames << " frames in "
+          << std::setprecision(2) << s << " s)\n"
+          << std::defaultfloat;
+    }
+  }
+  out << "run " << data.dir.string() << ": " << discs_per_frame << " discs and " << contacts_per_frame
+      << " contacts in its first frame; grid of " << nodes << " nodes\n";
+  for (const std::string& what : order) {
+    std::vector<double> v = rates[what];
+    std::sort(v.begin(), v.end());
+    out << std::left << std::setw(20) << what << std::right << std::fixed << std::setprecision(1) << " best "
+        << v.back() << "  median " << v[v.size() / 2] << " frames/s\n"
+        << std::defaultfloat;
+  }
+  return 0;
+}
+#endif
+
+int Fields(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv,
+                       {{"out", true}, {"fields", true}, {"from", true}, {"to", true}, {"stride", true},
+                        {"max-frames", true}, {"width", true}, {"cutoff", true}, {"spacing", true},
+                        {"window", true}, {"min-phi", true}, {"threads", true}, {"json", false}, {"bench", false},
+                        {"repeat", true}, {"threads-list", true}, {"help", false}},
+                       "fields");
+  if (a.positional.size() != 1) throw UsageError("campaign fields: needs exactly one RUN_DIR (see campaign fields --help)");
+#ifdef GRANARY_HAVE_ANALYSIS
+  const fs::path dir = a.positional[0];
+  if (!fs::is_directory(dir)) throw UsageError("campaign fields: no run directory " + dir.string());
+  const rundir::RunData data = rundir::ReadRun(dir);
+  if (!data.has_frames) throw UsageError("campaign fields: " + dir.string() + " has no frames.dump (output.frame_interval = 0)");
+  if (a.has("bench")) return FieldsBench(data, a, out);
+  const analysis::CgRunOptions o = FieldOptions(a);
+  std::vector<analysis::CgField> fields;
+  if (a.has("fields")) {
+    std::stringstream in(a.get("fields", ""));
+    std::string name;
+    while (std::getline(in, name, ',')) {
+      analysis::CgField f;
+      if (!analysis::cg_field_by_name(name, f)) {
+        std::vector<std::string> names;
+        for (const auto& info : analysis::cg_field_table()) names.push_back(info.name);
+        const std::string best = nearest(name, names);
+        throw UsageError("--fields: unknown field \"" + name + "\"" + (best.empty() ? "" : "; did you mean \"" + best + "\"?"));
+      }
+      fields.push_back(f);
+    }
+  }
+  analysis::CgRunResult r;
+  try {
+    r = analysis::cg_fields_of_run(data, o);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("campaign fields: ") + e.what());
+  }
+  const analysis::CgMaps maps(r.parts.front());
+  if (fields.empty())
+    for (const auto& info : analysis::cg_field_table())
+      if (maps.has(info.field)) fields.push_back(info.field);
+  const fs::path out_dir = a.has("out") ? fs::path(a.get("out", "")) : dir / "fields";
+  fs::create_directories(out_dir);
+  json files = json::array();
+  for (analysis::CgField f : fields) {
+    const auto& info = analysis::cg_field_info(f);
+    if (!maps.has(f)) throw UsageError(std::string("campaign fields: ") + info.name + " needs contacts.dump, which " +
+                                       dir.string() + " does not have (output.contact_forces)");
+    const fs::path file = out_dir / (std::string(info.name) + ".csv");
+    std::ofstream csv(file);
+    csv << analysis::cg_map_csv(maps, f);
+    if (!csv) throw std::runtime_error("cannot write " + file.string());
+    files.push_back(file.string());
+  }
+  if (a.has("json")) {
+    out << json{{"run_dir", dir.string()},
+                {"frames", maps.frames()},
+                {"contact_frames", maps.contact_frames()},
+                {"first_time", r.first_time},
+                {"last_time", r.last_time},
+                {"window", {r.window.x0, r.window.x1, r.window.y0, r.window.y1}},
+                {"nodes", maps.grid().size()},
+                {"files", files}}
+               .dump(2)
+        << "\n";
+  } else {
+    out << "fields of " << dir.string() << ": " << maps.frames() << " frames (t = " << r.first_time << " .. "
+        << r.last_time << "), " << maps.contact_frames() << " with contacts; window x " << r.window.x0 << " .. "
+        << r.window.x1 << ", y " << r.window.y0 << " .. " << r.window.y1 << ", " << maps.grid().nx << " x "
+        << maps.grid().ny << " nodes\n  " << files.size() << " CSV files in " << out_dir.string() << "\n";
+  }
+  return 0;
+#else
+  (void)out;
+  throw UsageError("campaign fields: this build has no analysis library (granary_analysis)");
+#endif
+}
+
 // ---------------------------------------------------------------- snapshot, movie
 const char kSnapshotHelp[] =
     "usage: campaign snapshot RUN [--time T | --clog K | --first | --last] [--color C] [--forces]\n"
@@ -1319,6 +1557,7 @@ const std::vector<Verb>& Verbs() {
       {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report},
       {"export", "write every run's (or point's) metrics as one CSV or JSON table", kExportHelp, Export},
       {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare},
+      {"fields", "coarse-grained fields of one run directory as CSV maps; --bench", kFieldsHelp, Fields},
       {"snapshot", "a picture of one frame of a run (PNG or SVG)", kSnapshotHelp, Snapshot},
       {"movie", "a movie of a run's frames (MP4, ffmpeg)", kMovieHelp, Movie},
   };
