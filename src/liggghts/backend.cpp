@@ -183,7 +183,7 @@ LiggghtsRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir
       std::fflush(stderr);
       if (!control.empty()) {
         // LIGGGHTS reads this file after every chunk (input_script.cpp).
-        WriteAtomically(control, "variable stop_requested equal 1\n");
+        WriteAtomically(control, "variable stop_requested equal 1\n", Durability::kVisible);
         std::fprintf(stderr, "granary-liggghts: stop requested (%s): LIGGGHTS checkpoints at the end of its chunk\n",
                      SignalName(g_stop_signal).c_str());
       } else {
@@ -925,7 +925,8 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
       ReportProgress(dir, "discharge", time / spec.discharge.max_time, time, spec.discharge.max_time, exited,
                      discharge_wall_before + Seconds(t_discharge), options.quiet);
       state["discharge_wall_s"] = discharge_wall_before + Seconds(t_discharge);
-      WriteAtomically(state_file, state.dump() + "\n");
+      // Every chunk: only the wall-time count would be older after a crash.
+      WriteAtomically(state_file, state.dump() + "\n", Durability::kVisible);
     }
   });
   if (r.stopped) {

@@ -39,7 +39,7 @@ void ReplaceAtomically(const std::filesystem::path& tmp, const std::filesystem::
   SyncPath(DirectoryOf(file), true);
 }
 
-void WriteAtomically(const std::filesystem::path& file, const std::string& text) {
+void WriteAtomically(const std::filesystem::path& file, const std::string& text, Durability durability) {
   const std::filesystem::path tmp = file.string() + ".tmp." + std::to_string(::getpid());
   // POSIX calls, so that a failure says why (ENOSPC: "No space left on device").
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
@@ -58,14 +58,14 @@ void WriteAtomically(const std::filesystem::path& file, const std::string& text)
   }
   // The data reaches the disk before the rename makes it visible, and the rename itself is
   // made durable: on a shared file system another node may read the file next.
-  if (::fsync(fd) != 0) fail(errno);
+  if (durability == Durability::kDurable && ::fsync(fd) != 0) fail(errno);
   if (::close(fd) != 0) {
     const int err = errno;
     ::unlink(tmp.c_str());
     throw std::runtime_error("cannot write " + file.string() + ": " + std::strerror(err));
   }
   std::filesystem::rename(tmp, file);
-  SyncPath(DirectoryOf(file), true);
+  if (durability == Durability::kDurable) SyncPath(DirectoryOf(file), true);
 }
 
 OutputFile::OutputFile(const std::filesystem::path& path) : path_(path), file_(std::fopen(path.c_str(), "wb")) {

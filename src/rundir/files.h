@@ -13,11 +13,18 @@
 
 namespace granary {
 
+// How far an atomic write goes: kDurable fsyncs the file before the rename and the directory
+// after, so that a crash of the node (or of a shared file system's server) never leaves a
+// name without its whole content; kVisible only renames, for files rewritten many times a
+// second that lose nothing when an old version reappears (progress.json, the stop request
+// to LIGGGHTS) — an fsync on a busy disk can take longer than the work between two writes.
+enum class Durability { kDurable, kVisible };
+
 // Writes `text` to a temporary file beside `file` (named with this process' pid, so two
 // processes never share it) and renames it over `file`: readers see the old or the new
-// content, never a torn one. File and directory are fsynced (a shared file system may show
-// the file to another node next). Throws std::runtime_error naming the file.
-void WriteAtomically(const std::filesystem::path& file, const std::string& text);
+// content, never a torn one. Throws std::runtime_error naming the file.
+void WriteAtomically(const std::filesystem::path& file, const std::string& text,
+                     Durability durability = Durability::kDurable);
 
 // The same for a file already written at `tmp` (beside `file`): fsync, rename, fsync the
 // directory.

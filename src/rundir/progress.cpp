@@ -23,7 +23,8 @@ std::string Progress::Line() const {
 void WriteProgress(const std::filesystem::path& dir, const Progress& progress, bool print) {
   Progress p = progress;
   p.fraction = std::clamp(p.fraction, 0.0, 1.0);
-  WriteAtomically(dir / kProgressFile, p.ToJson().dump() + "\n");
+  // Rewritten at every progress step and only ever read for display: visible, not durable.
+  WriteAtomically(dir / kProgressFile, p.ToJson().dump() + "\n", Durability::kVisible);
   if (print) {
     std::printf("%s\n", p.Line().c_str());
     std::fflush(stdout);

@@ -178,6 +178,15 @@ TEST_F(CliTest, StatusRunAndReportSayWhichDoneRunsLostTheirDirectory) {
   EXPECT_FALSE(s["runs"][1].contains("run_dir_missing"));
   EXPECT_NE(Sh(Cmd("status")).output.find("lost: 1 done run(s) have no run directory"), std::string::npos);
   EXPECT_NE(Sh(RunCmd()).output.find("1 done run(s) have no run directory"), std::string::npos);
+  // campaign scan agrees: the lost run stays done (its results are in the database), listed as lost.
+  const auto scan = Sh(Cmd("scan --json"));
+  ASSERT_EQ(scan.code, 0) << scan.output;
+  const json scanned = json::parse(scan.output);
+  EXPECT_EQ(scanned["agrees"], true) << scan.output;
+  EXPECT_EQ(scanned["lost"], json::array({lost_id}));
+  EXPECT_EQ(Status()["counts"]["done"], 2);
+  EXPECT_NE(Sh(Cmd("scan")).output.find("1 done run(s) have no run directory (first " + lost_id + "): left done"),
+            std::string::npos);
 #ifdef GRANARY_HAVE_ANALYSIS
   const auto report = Sh(Cmd("report --no-figures"));
   ASSERT_EQ(report.code, 0) << report.output;

@@ -1,8 +1,8 @@
 // Tests against a real one-node Slurm (slurm_cluster.h): the cluster itself, then campaigns
 // submitted as job arrays by `campaign run --executor slurm` with the fake engine: to done,
 // a cancelled task resubmitted from its checkpoint, the runner killed -9 and re-attached,
-// arrays split at MaxArraySize, a failing engine, the time limit from the task's start, and
-// `campaign scan`. Waits are bounded polls on conditions (WaitFor), never timed sleeps; the
+// arrays split at MaxArraySize, a failing engine, the time limit from the task's start,
+// `campaign scan`, and a runner stalled past its lease. Waits are bounded polls on conditions (WaitFor), never timed sleeps; the
 // fake engine's FAKE_ENGINE_HOLD keeps runs mid-way until a test lets them go.
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -62,6 +62,7 @@ class SlurmCampaignTest : public ::testing::Test {
     setenv("FAKE_ENGINE_STEPS", "10", 1);
     setenv("FAKE_ENGINE_STEP_MS", "20", 1);
     unsetenv("FAKE_ENGINE_HOLD");
+    unsetenv("GRANARY_LEASE_SECONDS");
   }
   void TearDown() override {
     cluster_.reset();  // cancels what is left before the directories go
@@ -246,6 +247,57 @@ TEST_F(SlurmCampaignTest, RunnerKilledMinusNineReattachesWithZeroDoubleExecution
     EXPECT_EQ(run["job"], jobs.at(id));
     EXPECT_EQ(testing::CountLines(Launches(run), "start"), 1);
     EXPECT_EQ(testing::CountLines(Launches(run), "finish"), 1);
+  }
+}
+
+// Issue 13's guarantee on Slurm: a runner stopped past its lease (kill -STOP) while its jobs
+// run; a second runner adopts them and collects them; the first, continued, lets them go —
+// it records nothing and cancels nothing. Every run ran once.
+TEST_F(SlurmCampaignTest, AStalledRunnerThatLostItsLeaseRecordsNothingAndCancelsNothing) {
+  setenv("GRANARY_LEASE_SECONDS", "3", 1);
+  const fs::path hold = dir_ / "go";
+  setenv("FAKE_ENGINE_HOLD", hold.c_str(), 1);
+  Plan({4, 6}, 1);
+  const pid_t stalled = testing::Spawn(RunArgv({}), (dir_ / "stalled.log").string());
+  // Whatever happens below, the stalled runner is continued and reaped.
+  struct Reap {
+    pid_t pid;
+    bool reaped = false;
+    ~Reap() {
+      if (reaped) return;
+      kill(pid, SIGCONT);
+      kill(pid, SIGKILL);
+      testing::WaitExit(pid);
+    }
+  } reap{stalled};
+  const auto jobs = JobsOnceSubmitted();
+  ASSERT_EQ(jobs.size(), 2u);
+  ASSERT_TRUE(WaitFor([&] { return Sh("squeue -h -t running -o %i").output.size() > 0; }, 60)) << cluster_->log_tails();
+  kill(stalled, SIGSTOP);
+  ASSERT_TRUE(WaitFor(
+      [&] {
+        for (const auto& [id, run] : RunsById())
+          if (!run.value("lease_expired", false)) return false;
+        return true;
+      },
+      60));
+  const pid_t adopter = testing::Spawn(RunArgv({}), (dir_ / "adopter.log").string());
+  ASSERT_TRUE(WaitFor([&] { return Log("adopter.log").find("watching them again") != std::string::npos; }, 60))
+      << Log("adopter.log");
+  std::ofstream(hold) << "";
+  EXPECT_EQ(testing::WaitExit(adopter), 0) << Log("adopter.log");
+  kill(stalled, SIGCONT);
+  EXPECT_EQ(testing::WaitExit(stalled), 0) << Log("stalled.log");
+  reap.reaped = true;
+  EXPECT_NE(Log("stalled.log").find("lease lost"), std::string::npos) << Log("stalled.log");
+  EXPECT_EQ(testing::CountLines(Log("adopter.log"), "submitted"), 0) << Log("adopter.log");
+  for (const auto& [id, run] : RunsById()) {
+    EXPECT_EQ(run["state"], "done") << run.dump(2);
+    EXPECT_EQ(run["attempts"], 1);
+    EXPECT_EQ(testing::CountLines(Launches(run), "start"), 1);
+    EXPECT_EQ(testing::CountLines(Launches(run), "finish"), 1);
+    // Not cancelled by the runner that lost it.
+    EXPECT_EQ(Sh("squeue -h -t all -j " + jobs.at(id) + " -o %T").output, "COMPLETED\n");
   }
 }
 
