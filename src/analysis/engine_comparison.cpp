@@ -13,10 +13,17 @@ MetricAgreement agreement_of(const MetricDifference& d) {
     const double ra = d.a.se / d.a.mean, rb = d.b.mean != 0.0 ? d.b.se / d.b.mean : kNaN;
     m.ratio_se = std::fabs(m.ratio) * std::hypot(ra, rb);
   }
-  m.agree = std::isfinite(d.z) && std::fabs(d.z) <= kAgreementSigmas;
-  // Equal values with zero uncertainty (e.g. Psi = 0 on both) agree too.
-  if (!std::isfinite(d.z) && d.se == 0.0 && d.difference == 0.0) m.agree = true;
+  if (std::isfinite(d.z)) m.agree = std::fabs(d.z) <= kAgreementSigmas;
+  // Zero uncertainty on both sides (every replica alike, e.g. Psi = 0): equal values agree,
+  // different ones do not.
+  else if (d.se == 0.0 && std::isfinite(d.difference)) m.agree = d.difference == 0.0;
+  // Otherwise an se is unknown (one replica): nothing can be said.
   return m;
+}
+
+std::string agreement_text(const std::optional<bool>& agree) {
+  if (!agree) return "n/a";
+  return *agree ? "yes" : "no";
 }
 
 EngineCost engine_cost(const std::string& engine, const std::vector<RunTiming>& runs) {
@@ -67,7 +74,7 @@ nlohmann::json to_json(const EngineComparison& c) {
                                     {"ratio", number(m.ratio)},
                                     {"ratio_se", number(m.ratio_se)},
                                     {"z", number(m.difference.z)},
-                                    {"agree", m.agree}};
+                                    {"agree", m.agree ? nlohmann::json(*m.agree) : nlohmann::json(nullptr)}};
     }
     points.push_back({{"point", p.point}, {"metrics", metrics}});
   }

@@ -1139,14 +1139,16 @@ std::optional<Section> engine_comparison_section(const Context& c) {
       if (!by_metric.count(m.difference.name)) metric_order.push_back(m.difference.name);
       by_metric[m.difference.name].push_back(&m);
     }
-  Table overview{"engine_agreement", "Agreement per metric over all compared points",
-                 {"metric", "points", "agree", "ratio min", "ratio mean", "ratio max"}, {}};
+  Table overview{"engine_agreement",
+                 "Agreement per metric over all compared points (n/a: no standard error on one side, e.g. one "
+                 "replica, so agreement cannot be judged)",
+                 {"metric", "points", "agree", "disagree", "n/a", "ratio min", "ratio mean", "ratio max"}, {}};
   for (const auto& name : metric_order) {
-    int agree = 0;
+    int agree = 0, disagree = 0, unknown = 0;
     double lo = kInf, hi = -kInf, sum = 0;
     int n = 0;
     for (const MetricAgreement* m : by_metric[name]) {
-      agree += m->agree ? 1 : 0;
+      (m->agree ? (*m->agree ? agree : disagree) : unknown) += 1;
       if (!std::isfinite(m->ratio)) continue;
       lo = std::min(lo, m->ratio);
       hi = std::max(hi, m->ratio);
@@ -1154,7 +1156,7 @@ std::optional<Section> engine_comparison_section(const Context& c) {
       ++n;
     }
     overview.rows.push_back({metric_title(name), std::to_string(by_metric[name].size()), std::to_string(agree),
-                             n ? format_number(lo) : "", n ? format_number(sum / n) : "", n ? format_number(hi) : ""});
+                             std::to_string(disagree), std::to_string(unknown), n ? format_number(lo) : "", n ? format_number(sum / n) : "", n ? format_number(hi) : ""});
   }
   if (k.points.empty()) {
     s.blocks.push_back(Text{"No sweep point has finished runs on both engines yet."});
@@ -1168,7 +1170,7 @@ std::optional<Section> engine_comparison_section(const Context& c) {
         const MetricDifference& d = m.difference;
         t.rows.push_back({name, metric_title(d.name), format_mean_se(d.a.mean, d.a.se, d.a.n),
                           format_mean_se(d.b.mean, d.b.se, d.b.n), format_mean_se(m.ratio, m.ratio_se, -1),
-                          format_number(d.z, 3), m.agree ? "yes" : "no"});
+                          format_number(d.z, 3), agreement_text(m.agree)});
       }
     }
     s.blocks.push_back(t);

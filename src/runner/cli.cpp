@@ -601,17 +601,22 @@ void PrintComparison(std::ostream& out, const json& c) {
   };
   out << "    " << std::left << std::setw(16) << "metric" << std::setw(20) << a << std::setw(20) << b << std::setw(18)
       << "ratio" << "agree\n";
+  bool unknown = false;
   for (const json& p : c.at("points")) {
     out << "  " << CompactPoint(p.at("point")) << "\n";
     if (p.at("metrics").empty()) out << "    (no metric defined on both engines yet)\n";
     for (const char* metric : {"q_count", "phi", "tg_full", "psi", "avalanche_size"}) {
       if (!p.at("metrics").contains(metric)) continue;
       const json& m = p.at("metrics").at(metric);
+      unknown = unknown || !m.at("agree").is_boolean();
       json ratio = {{"mean", m.at("ratio")}, {"se", m.at("ratio_se")}};
       out << "    " << std::left << std::setw(16) << metric << std::setw(20) << cell(m.at(a)) << std::setw(20)
-          << cell(m.at(b)) << std::setw(18) << cell(ratio) << (m.at("agree").get<bool>() ? "yes" : "no") << "\n";
+          << cell(m.at(b)) << std::setw(18) << cell(ratio)
+          << (m.at("agree").is_boolean() ? (m.at("agree").get<bool>() ? "yes" : "no") : "n/a (no se)") << "\n";
     }
   }
+  if (unknown)
+    out << "  n/a: a value without a standard error (one replica) cannot be judged; plan more replicas\n";
   double rate_a = 0;
   for (const json& e : c.at("costs")) {
     const json& r = e.at("disc_steps_per_s");
