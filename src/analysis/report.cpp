@@ -577,8 +577,11 @@ std::optional<Section> flow_section(const Context& c) {
                            false, false,
                            "One curve per outlet (and group); error bars: standard error over replicas"};
   // Fits against W/d per group (>= 3 widths).
-  Table fits{"flow_rate_fits", "Fits of Q(W/d) per group (95% confidence intervals, Student t)",
-             {"group", "model", "parameter", "value", "se", "95% CI", "chi2/dof", "points", "weighted", "status"}, {}};
+  Table fits{"flow_rate_fits",
+             "Fits of Q(W/d) per group (95% confidence intervals, Student t). Fit quality: good, ill-determined (a "
+             "parameter without a standard error or whose interval holds 0), failed or not fitted; only converged "
+             "fits show values",
+             {"group", "model", "parameter", "value", "se", "95% CI", "chi2/dof", "points", "weighted", "fit quality"}, {}};
   Table residuals{"flow_rate_fit_residuals", "Fit residuals (Q - fit)",
                   {"group", "model", "W/d", "Q", "fit", "residual"}, {}};
   std::vector<FitModel> models;
@@ -633,9 +636,8 @@ std::optional<Section> flow_section(const Context& c) {
                              std::isfinite(par.ci_low) ? std::string("[") + format_number(par.ci_low) + ", " +
                                                              format_number(par.ci_high) + "]"
                                                        : std::string(),
-                             r.dof > 0 ? format_number(r.chi2 / r.dof, 3) : "", std::to_string(x.size()), weighted,
-                             r.status + (r.ok() ? " (" + r.convergence + ", " + std::to_string(r.iterations) + " it.)" : "") +
-                                 (r.warning.empty() ? "" : "; " + r.warning)});
+                             r.ok() && r.dof > 0 ? format_number(r.chi2 / r.dof, 3) : "", std::to_string(x.size()),
+                             weighted, r.verdict()});
       for (std::size_t i = 0; i < r.x.size(); ++i)
         residuals.rows.push_back({g, r.model_name, format_number(r.x[i], 6), format_number(r.y[i]),
                                   format_number(r.fitted[i]), format_number(r.residuals[i], 3)});
@@ -647,9 +649,11 @@ std::optional<Section> flow_section(const Context& c) {
           tf.title = "Fitted parameters of " + r.model_name + " (" + r.expression + ") against " + short_axis(other_axis);
           tf.xlabel = short_axis(other_axis);
           tf.ylabel = "parameter value";
-          tf.caption = "Error bars: standard errors of the fit";
+          tf.caption = "Error bars: standard errors of the fit. Parameters not determined by the data or whose 95% "
+                       "interval holds 0 are left out (fit table above)";
         }
         for (const auto& par : r.parameters) {
+          if (!par.determined() || par.ci_spans_zero()) continue;
           auto it = std::find_if(tf.series.begin(), tf.series.end(), [&](const Series& se) { return se.label == par.name; });
           if (it == tf.series.end()) {
             Series se;
@@ -666,7 +670,8 @@ std::optional<Section> flow_section(const Context& c) {
       Series curve;
       for (std::size_t k = 0; k < data_series.size(); ++k)
         if (data_series[k].label == (g.empty() ? std::string("Q") : g)) curve.color = static_cast<int>(k);
-      curve.label = r.model_name + (g.empty() ? "" : " (" + g + ")");
+      curve.label = r.model_name + (g.empty() ? "" : " (" + g + ")") +
+                    (r.quality == FitQuality::kGood ? "" : ", " + to_string(r.quality));
       curve.columns = {"W", "Q_fit"};
       curve.style = Series::Style::kLines;
       // The fitted function sampled densely over the whole plotted x range (every group's
@@ -703,7 +708,8 @@ std::optional<Section> flow_section(const Context& c) {
                             "or chi2/dof (unweighted)."});
     s.blocks.push_back(fits);
     for (auto& [model, tf] : trends)
-      if (!tf.series.empty() && tf.series.front().rows.size() >= 2) s.blocks.push_back(tf);
+      if (std::any_of(tf.series.begin(), tf.series.end(), [](const Series& se) { return se.rows.size() >= 2; }))
+        s.blocks.push_back(tf);
     s.blocks.push_back(residuals);
   } else if (c.x_is_width) {
     s.blocks.push_back(Text{"Beverloo fits need at least 3 outlet widths in a group; this campaign has fewer so far."});
@@ -722,12 +728,13 @@ std::optional<Section> profile_section(const Context& c) {
             "Bodies with centre within " + format_number(c.options->analysis.profile.band_low) + ".." +
                 format_number(c.options->analysis.profile.band_high) + " d of " +
                 (c.outlets > 1 ? std::string("each outlet's") : std::string("the outlet's")) +
-                " wall (x along the outlet, v_y normal to it), averaged over the steady-window frames and replicas"};
+                " wall (x along the outlet, v_y normal to it), averaged over the steady-window frames and replicas; "
+                "error bars: standard error over replicas (none with one replica)"};
   Figure fx{"velocity_profile_vx",
             lateral ? "Normalised vertical velocity across the lateral outlet"
                     : "Normalised horizontal velocity across the outlet",
             along, lateral ? "v_y / max|v_y|" : "v_x / max|v_x|", {}, false, false,
-            lateral ? "Sign: positive upwards" : ""};
+            std::string(lateral ? "Sign: positive upwards. " : "") + "Error bars: standard error over replicas"};
   for (const Point& p : c.points)
   for (std::size_t o = 0; o < c.outlets; ++o) {
     std::vector<const VelocityProfile*> prof;
@@ -743,6 +750,7 @@ std::optional<Section> profile_section(const Context& c) {
     sy.columns = {"x_over_W", "vy_norm", "vy_norm_se", "n"};
     sx.columns = {"x_over_W", "vx_norm", "vx_norm_se", "n"};
     sy.style = sx.style = Series::Style::kLinesPoints;
+    sy.err = sx.err = 2;  // standard error over replicas
     for (std::size_t i = 0; i < prof.front()->x_over_w.size(); ++i) {
       std::vector<double> vy, vx;
       for (const auto* q : prof) {

@@ -118,6 +118,8 @@ std::string gp_quote(const std::string& s) {
   return out + "'";
 }
 
+}  // namespace
+
 std::string gnuplot_script(const Figure& f) {
   std::ostringstream s;
   // The key sits below the plot (two columns when the labels are short, else one); the
@@ -166,7 +168,14 @@ std::string gnuplot_script(const Figure& f) {
         break;
       }
       case Series::Style::kLines: s << " with lines lw 2"; break;
-      case Series::Style::kLinesPoints: s << " with linespoints pt 7 ps 0.6"; break;
+      case Series::Style::kLinesPoints:
+        if (se.err >= 0) {  // a curve of means with their standard errors
+          const std::string e = std::string("$").append(std::to_string(se.err + 1));
+          s << ":(" << e << " == " << e << " ? " << e << " : 0) with yerrorlines pt 7 ps 0.6";
+        } else {
+          s << " with linespoints pt 7 ps 0.6";
+        }
+        break;
       case Series::Style::kSteps: s << " with histeps lw 2"; break;
       case Series::Style::kPoints: s << " with points pt 7 ps 0.7"; break;
     }
@@ -176,6 +185,8 @@ std::string gnuplot_script(const Figure& f) {
   s << "\n";
   return s.str();
 }
+
+namespace {
 
 // SVG for inlining: no XML prolog, ids made unique per figure so several SVGs share a page.
 std::string inline_svg(const std::string& svg, const std::string& prefix) {

@@ -24,7 +24,8 @@ struct Series {
   std::vector<std::string> columns;          // names, e.g. {"W", "Q", "Q_se"}
   std::vector<std::vector<double>> rows;
   enum class Style { kPoints, kErrorBars, kLines, kLinesPoints, kSteps } style = Style::kPoints;
-  // Columns plotted (0-based); err < 0: none (kErrorBars needs it).
+  // Columns plotted (0-based); err < 0: none (kErrorBars needs it; kLinesPoints draws error
+  // bars when it is set).
   int x = 0, y = 1, err = -1;
   int color = -1;                            // gnuplot line type (0-based); -1: next in turn
 };
@@ -71,6 +72,9 @@ struct RenderResult {
   int figures_drawn = 0;
   std::vector<std::string> problems;         // e.g. "gnuplot not found: figures omitted"
 };
+
+// The gnuplot script that draws `figure` from its series' CSV files (in the report folder).
+std::string gnuplot_script(const Figure& figure);
 
 // Writes report.md, report.html, every CSV and (with figures) every SVG into out_dir.
 RenderResult render_report(const std::string& title, const std::vector<Section>& sections,

@@ -56,6 +56,23 @@ TEST(RenderReport, TablesFiguresAndCsv) {
   }
 }
 
+// A curve of means with standard errors draws its error bars; without an se column it is a
+// plain line with points.
+TEST(GnuplotScript, LinesWithErrorBars) {
+  Series se;
+  se.label = "profile";
+  se.columns = {"x", "v", "v_se"};
+  se.rows = {{-0.5, -0.2, 0.05}, {0.0, -1.0, 0.1}, {0.5, -0.2, std::nan("")}};
+  se.style = Series::Style::kLinesPoints;
+  se.err = 2;
+  Figure f{"prof", "Profile", "x/W", "v", {se}, false, false, ""};
+  EXPECT_NE(gnuplot_script(f).find("using ($1):($2):($3 == $3 ? $3 : 0) with yerrorlines"), std::string::npos)
+      << gnuplot_script(f);
+  f.series[0].err = -1;
+  EXPECT_EQ(gnuplot_script(f).find("yerror"), std::string::npos);
+  EXPECT_NE(gnuplot_script(f).find("with linespoints"), std::string::npos);
+}
+
 TEST(RenderReport, MissingGnuplotIsReported) {
   TempDir dir;
   Series se;

@@ -142,6 +142,7 @@ TEST(WriteReport, SyntheticCampaign) {
   opt.out_dir = dir.path() / "report";
   opt.figures = std::system("command -v gnuplot > /dev/null 2>&1") == 0;
   opt.models.push_back({"power_law", "a * x^b", "x", {{"a", 1.0}, {"b", 1.5}}});
+  opt.models.push_back({"four", "a * x^b + c + e * x", "x", {{"a", 1.0}, {"b", 1.5}}});  // 4 widths: not fitted
   const ReportSummary s = write_report(c.info, c.runs, opt);
   EXPECT_EQ(s.runs_used, 8);
   EXPECT_EQ(s.runs_missing, 1);
@@ -167,7 +168,11 @@ TEST(WriteReport, SyntheticCampaign) {
   EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",C,"}, 3)), kC, 1e-3);
   EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",k,"}, 3)), kK, 1e-3);
   EXPECT_NE(csv_cell(fits, {"power_law", ",b,"}, 3), "");
-  EXPECT_NE(csv_cell(fits, {"beverloo_2d", ",C,"}, 9).find("success"), std::string::npos);
+  EXPECT_EQ(csv_cell(fits, {"beverloo_2d", ",C,"}, 9), "good");
+  // A model with as many parameters as points: not fitted, and its start values (b = 1.5) are
+  // not shown as results.
+  EXPECT_EQ(csv_cell(fits, {"four", ",b,"}, 3), "");
+  EXPECT_EQ(csv_cell(fits, {"four", ",b,"}, 9), "not fitted: 4 points for 4 parameters (needs at least 5)");
 
   // Provenance: engine version, commit and tangential cap.
   const std::string prov = read_file(opt.out_dir / "provenance.csv");
@@ -186,6 +191,8 @@ TEST(WriteReport, SyntheticCampaign) {
   EXPECT_EQ(html.find("<script"), std::string::npos);
   if (opt.figures) {
     EXPECT_TRUE(std::filesystem::exists(opt.out_dir / "flow_rate.svg"));
+    // Velocity profiles carry their replica standard errors as error bars.
+    EXPECT_NE(read_file(opt.out_dir / "velocity_profile_vy.gp").find("yerrorlines"), std::string::npos);
     EXPECT_NE(html.find("<svg"), std::string::npos);
   }
   if (const char* keep = std::getenv("GRANARY_REPORT_DEMO_DIR")) {
