@@ -3,6 +3,7 @@
 #include "rundir/version.h"
 
 #include <signal.h>
+#include <sys/ioctl.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -12,11 +13,13 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <thread>
 
 #include "runner/campaign_db.h"
 #include "runner/campaign_spec.h"
+#include "runner/run_filter.h"
 #include "runner/scheduler.h"
 #include "runner/util.h"
 #ifdef GRANARY_HAVE_ANALYSIS
@@ -38,18 +41,23 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Parsed flags of one verb: --name value, --name=value, or --name for booleans.
+// Parsed flags of one verb: --name value, --name=value, or --name for booleans. A flag given
+// twice keeps both values (--only); get() gives the last.
 struct Args {
   std::vector<std::string> positional;
-  std::map<std::string, std::string> flags;
+  std::map<std::string, std::vector<std::string>> flags;
   bool has(const std::string& f) const { return flags.count(f) > 0; }
   std::string get(const std::string& f, const std::string& def) const {
     auto it = flags.find(f);
-    return it == flags.end() ? def : it->second;
+    return it == flags.end() ? def : it->second.back();
+  }
+  std::vector<std::string> all(const std::string& f) const {
+    auto it = flags.find(f);
+    return it == flags.end() ? std::vector<std::string>{} : it->second;
   }
   double number(const std::string& f, double def) const {
     if (!has(f)) return def;
-    const std::string& v = flags.at(f);
+    const std::string& v = flags.at(f).back();
     try {
       std::size_t used = 0;
       const double x = std::stod(v, &used);
@@ -101,10 +109,14 @@ Args Parse(const std::vector<std::string>& argv, const std::vector<FlagSpec>& kn
       if (i + 1 >= argv.size()) throw UsageError("--" + name + ": needs a value");
       value = argv[++i];
     }
-    a.flags[name] = value;
+    a.flags[name].push_back(value);
   }
   return a;
 }
+
+// The flags of a verb, from the verb table at the end of this file.
+const std::vector<FlagSpec>& FlagsOf(const std::string& verb);
+Args Parse(const std::vector<std::string>& argv, const std::string& verb) { return Parse(argv, FlagsOf(verb), verb); }
 
 std::string DbPath(const Args& a) { return a.get("db", "granary.db"); }
 fs::path DbDir(const std::string& db) {
@@ -149,6 +161,58 @@ std::string Bar(double fraction, int width) {
   return bar;
 }
 
+// The database of an existing campaign (only `plan` and `compare` create one): a missing file,
+// a directory, an empty file or a file that is not a campaign database is said plainly.
+std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& verb) {
+  if (!fs::exists(db)) {
+    throw UsageError("campaign " + verb + ": no database " + db + " (campaign plan SPEC --db " + db + " makes one)");
+  }
+  std::error_code ec;
+  if (!fs::is_directory(db) && fs::file_size(db, ec) == 0 && !ec) {
+    throw StoreError(SQLITE_NOTADB, "database " + db + " is empty (0 bytes): whatever campaign it held is lost; plan a "
+                                        "campaign into it again with campaign plan SPEC --db " + db);
+  }
+  try {
+    return std::make_unique<Store>(db);
+  } catch (const StoreError& e) {
+    // Not a campaign database at all (a directory, another file): the user gave the wrong path.
+    if (e.code() == SQLITE_NOTADB || fs::is_directory(db)) throw UsageError("campaign " + verb + ": " + e.what());
+    throw;
+  }
+}
+
+// The --only filters of a verb, resolved and checked against the campaign's runs.
+RunFilter ResolveOnly(const Args& a, const CampaignRow& campaign, const std::vector<RunRow>& runs) {
+  try {
+    return resolve_filters(a.all("only"), campaign, runs);
+  } catch (const FilterError& e) {
+    throw UsageError(e.what());
+  }
+}
+
+// A run's progress.json as one short line: phase, bar, percent, simulated time, exits, ETA
+// (from `elapsed` wall seconds; none when elapsed <= 0).
+std::string ProgressText(const json& progress, double elapsed) {
+  double f = 0;
+  std::string phase = "starting";
+  std::ostringstream o;
+  if (progress.is_object()) {
+    f = std::clamp(progress.value("fraction", 0.0), 0.0, 1.0);
+    phase = progress.value("phase", std::string("?"));
+  }
+  o << std::left << std::setw(9) << phase << " " << Bar(f, 20) << " " << std::right << std::setw(3) << std::lround(f * 100)
+    << "%";
+  if (progress.is_object() && progress.contains("t") && progress.contains("t_end") && progress.at("t").is_number()) {
+    o << "  t " << std::fixed << std::setprecision(1) << progress.at("t").get<double>() << "/"
+      << progress.at("t_end").get<double>();
+    o.unsetf(std::ios::fixed);
+  }
+  if (progress.is_object() && progress.contains("exited") && progress.at("exited").is_number())
+    o << "  " << progress.at("exited").get<long long>() << " exits";
+  if (elapsed > 0) o << "  ETA " << (f > 0.01 ? Duration(elapsed * (1 - f) / f) : std::string("?"));
+  return o.str();
+}
+
 // ---------------------------------------------------------------- plan
 const char kPlanHelp[] =
     "usage: campaign plan SPEC [--db FILE] [--dry-run] [--json]\n"
@@ -184,7 +248,9 @@ PlanSummary PlanInto(const json& j, const std::string& spec_path, const std::str
   }
 #endif
   const std::vector<PlannedRun> runs = expand(spec, default_cache_dir());
-  Store store(db);
+  // A dry run against a database that does not exist compares with an empty one in memory:
+  // it creates no file.
+  Store store(dry_run && !fs::exists(db) ? std::string(":memory:") : db);
   return plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
 }
 
@@ -211,7 +277,7 @@ void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s
 }
 
 int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv, {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}, "plan");
+  const Args a = Parse(argv, "plan");
   if (a.positional.size() != 1) throw UsageError("campaign plan: needs exactly one SPEC file (see campaign plan --help)");
   const std::string spec_path = a.positional[0];
   CampaignSpec spec;
@@ -240,6 +306,8 @@ const char kRunHelp[] =
     "  --jobs N             concurrent runs (default: number of cores)\n"
     "  --engine E           native | liggghts: only runs of that engine; a path: use that executable\n"
     "  --only FILTER        a run-id prefix, or POINTER=VALUE, e.g. /silo/base_outlets/0/width=10\n"
+    "                       (a short name that ends one sweep axis will do: width=10); repeat it:\n"
+    "                       values of one parameter are alternatives, different parameters all hold\n"
     "  --threads-per-run T  passed to the engine as --threads (default 1)\n"
     "  --time-limit S       wall seconds per run; a run over it is killed and marked failed\n"
     "  --retries K          extra attempts per run in this invocation (default 1)\n"
@@ -247,6 +315,25 @@ const char kRunHelp[] =
 
 volatile std::sig_atomic_t g_stop = 0;
 extern "C" void OnStopSignal(int) { g_stop = 1; }
+
+// Columns of the terminal on stdout (80 when it cannot be asked).
+int TerminalColumns() {
+  struct winsize w {};
+  if (ioctl(STDOUT_FILENO, TIOCGWINSZ, &w) == 0 && w.ws_col > 0) return w.ws_col;
+  return 80;
+}
+
+// `line` cut to `columns` - 1 characters (UTF-8 aware), so that a drawn line never wraps: the
+// display clears itself by moving up one row per line, which a wrapped line would defeat.
+std::string FitColumns(const std::string& line, int columns) {
+  const int max = std::max(8, columns - 1);
+  int shown = 0;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    if ((static_cast<unsigned char>(line[i]) & 0xC0) == 0x80) continue;  // UTF-8 continuation byte
+    if (++shown > max) return line.substr(0, i);
+  }
+  return line;
+}
 
 class ConsoleObserver : public RunObserver {
  public:
@@ -264,7 +351,9 @@ class ConsoleObserver : public RunObserver {
       if (state == "done") ++done_;
     }
     std::string first = message.substr(0, message.find('\n'));
-    out_ << std::left << std::setw(12) << state << " " << (run_id.empty() ? "" : run_id + "  ") << first << "\n";
+    std::string where;
+    if (const auto it = points_.find(run_id); it != points_.end()) where = it->second + ": ";
+    out_ << std::left << std::setw(12) << state << " " << (run_id.empty() ? "" : run_id + "  ") << where << first << "\n";
     if (state == "failed" || state == "interrupted") {
       const auto nl = message.find('\n');
       if (nl != std::string::npos) {
@@ -280,6 +369,8 @@ class ConsoleObserver : public RunObserver {
   }
   void on_tick(const std::vector<ActiveRun>& active, int done, int failed, int total) override {
     active_ = active;
+    for (const ActiveRun& a : active_)
+      points_[a.run_id] = CompactPoint(json::parse(a.point, nullptr, false)) + " r" + std::to_string(a.replica);
     done_ = done;
     failed_ = failed;
     total_ = total;
@@ -309,39 +400,40 @@ class ConsoleObserver : public RunObserver {
     if (finished_here <= 0) return "?";
     return Duration(elapsed / finished_here * std::max(0, total_ - done_ - failed_));
   }
+  // Erases what Draw drew: the cursor goes up one row per drawn line (none wraps) and the
+  // screen is cleared from there down, so the next text starts on a clean line.
   void Clear() {
     if (!tty_ || lines_ == 0) return;
-    out_ << "\033[" << lines_ << "A\033[J";
+    out_ << "\r\033[" << lines_ << "A\033[J";
     lines_ = 0;
+  }
+  void Line(const std::string& text) {
+    out_ << FitColumns(text, columns_) << "\n";
+    ++lines_;
   }
   void Draw() {
     if (!tty_ || total_ == 0) return;
+    columns_ = TerminalColumns();
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    out_ << Bar(static_cast<double>(done_) / total_, 30) << " " << done_ << "/" << total_ << " done, " << failed_
-         << " failed, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed) << "\n";
-    ++lines_;
+    std::ostringstream head;
+    head << Bar(static_cast<double>(done_) / total_, 30) << " " << done_ << "/" << total_ << " done, " << failed_
+         << " failed, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed);
+    Line(head.str());
     for (const auto& a : active_) {
-      double f = 0;
-      std::string phase = "starting";
-      std::string eta = "?";
-      if (a.progress.is_object()) {
-        f = a.progress.value("fraction", 0.0);
-        phase = a.progress.value("phase", std::string("?"));
-        if (f > 0.01) eta = Duration(a.elapsed * (1 - f) / f);
-      }
-      out_ << "  " << a.run_id.substr(0, 10) << " " << std::left << std::setw(10) << phase << Bar(f, 20) << " "
-           << std::setw(3) << std::lround(f * 100) << "% ETA " << std::setw(6) << eta << " " << CompactPoint(json::parse(a.point))
-           << "\n";
-      ++lines_;
+      const auto it = points_.find(a.run_id);
+      Line("  " + a.run_id.substr(0, 10) + " " + (it == points_.end() ? std::string() : it->second) + "  " +
+           ProgressText(a.progress, a.elapsed));
     }
     out_.flush();
   }
   std::ostream& out_;
   bool tty_;
+  int columns_ = 80;
   std::chrono::steady_clock::time_point start_;
   int done_at_start_ = 0, done_ = 0, failed_ = 0, total_ = 0, lines_ = 0;
   double last_plain_ = 0;
   std::vector<ActiveRun> active_;
+  std::map<std::string, std::string> points_;  // run id -> "W=9 r0", from the ticks
 };
 
 std::string ExeDir() {
@@ -365,26 +457,31 @@ RunOptions RunOptionsFrom(const Args& a) {
 }
 
 int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv,
-                       {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true},
-                        {"time-limit", true}, {"retries", true}, {"help", false}},
-                       "run");
+  const Args a = Parse(argv, "run");
   if (!a.positional.empty()) throw UsageError("campaign run: unexpected argument \"" + a.positional[0] + "\"");
   RunOptions o = RunOptionsFrom(a);
   o.engine = a.get("engine", "");
   if (!o.engine.empty() && o.engine != "native" && o.engine != "liggghts" && o.engine.find('/') == std::string::npos) {
     throw UsageError("--engine: must be native, liggghts or a path to an engine executable (got \"" + o.engine + "\")");
   }
-  o.only = a.get("only", "");
-  const std::string db = DbPath(a);
-  if (!fs::exists(db)) throw UsageError("campaign run: no database " + db + " (run campaign plan SPEC --db " + db + " first)");
-  return RunAll(db, o, out);
+  o.only = a.all("only");
+  return RunAll(DbPath(a), o, out);
 }
 
 // Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly.
-int RunAll(const std::string& db, const RunOptions& o, std::ostream& out) {
-  Store store(db);
-  if (!load_campaign(store)) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
+int RunAll(const std::string& db, const RunOptions& options, std::ostream& out) {
+  const auto opened = OpenCampaignDb(db, "run");
+  Store& store = *opened;
+  const auto campaign = load_campaign(store);
+  if (!campaign) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
+  RunOptions o = options;
+  if (!o.only.empty()) {
+    try {
+      o.only = resolve_filters(o.only, *campaign, load_runs(store, true)).texts();
+    } catch (const FilterError& e) {
+      throw UsageError(e.what());
+    }
+  }
 
   struct sigaction sa {};
   sa.sa_handler = OnStopSignal;
@@ -410,23 +507,44 @@ int RunAll(const std::string& db, const RunOptions& o, std::ostream& out) {
 
 // ---------------------------------------------------------------- status
 const char kStatusHelp[] =
-    "usage: campaign status [--db FILE] [--json]\n"
-    "Counts by state, progress of running runs, failures with the tail of their log, elapsed\n"
-    "time and ETA.\n";
+    "usage: campaign status [--db FILE] [--only FILTER]... [--json]\n"
+    "Counts by state (they add up to the runs of the campaign; retired runs, no longer in the\n"
+    "spec, are counted apart), progress of running runs, failures with the tail of their log,\n"
+    "elapsed time and ETA.\n"
+    "  --only FILTER  only these runs: a run-id prefix, or POINTER=VALUE (a short name that ends\n"
+    "                 one sweep axis will do: width=9); repeat for several (docs/cli.md)\n"
+    "  --json         the same as JSON\n";
+
+// The states a campaign's runs are in, in the order status shows them (retired apart).
+const char* const kLiveStates[] = {"planned", "running", "done", "failed", "interrupted"};
 
 int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv, {{"db", true}, {"json", false}, {"help", false}}, "status");
+  const Args a = Parse(argv, "status");
+  if (!a.positional.empty()) throw UsageError("campaign status: unexpected argument \"" + a.positional[0] + "\"");
   const std::string db = DbPath(a);
-  if (!fs::exists(db)) throw UsageError("campaign status: no database " + db);
-  Store store(db);
+  const auto opened = OpenCampaignDb(db, "status");
+  Store& store = *opened;
   const auto campaign = load_campaign(store);
-  const auto runs = load_runs(store, false);
-  std::map<std::string, int> counts = {{"planned", 0}, {"running", 0}, {"done", 0},
-                                       {"failed", 0},  {"interrupted", 0}, {"retired", 0}};
+  std::vector<RunRow> all = load_runs(store, a.has("only"));
+  std::vector<std::string> filters;
+  if (a.has("only") && campaign) {
+    const RunFilter filter = ResolveOnly(a, *campaign, all);
+    std::erase_if(all, [&](const RunRow& r) { return !filter.matches(r); });
+    filters = filter.texts();
+  }
+  const std::vector<RunRow>& runs = all;
+  std::map<std::string, int> counts;
+  for (const char* state : kLiveStates) counts[state] = 0;
+  int retired = 0, total = 0;
   double first_start = 0, last_end = 0, wall_sum = 0, remaining_work = 0;
   int wall_n = 0, active = 0;
   const double now = now_seconds();
   for (const auto& r : runs) {
+    if (r.state == "retired") {
+      ++retired;
+      continue;
+    }
+    ++total;
     ++counts[r.state];
     if (r.started_at > 0 && (first_start == 0 || r.started_at < first_start)) first_start = r.started_at;
     last_end = std::max(last_end, r.ended_at);
@@ -434,7 +552,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       wall_sum += r.wall_s;
       ++wall_n;
     }
-    if (r.state == "planned" || r.state == "interrupted") remaining_work += 1;
+    if (r.state == "planned" || r.state == "interrupted" || r.state == "failed") remaining_work += 1;
     if (r.state == "running") {
       ++active;
       const double f = r.progress.is_object() ? r.progress.value("fraction", 0.0) : 0.0;
@@ -448,15 +566,20 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     for (const auto& r : runs) {
       json j = {{"run_id", r.run_id}, {"state", r.state},       {"point", r.point},      {"replica", r.replica},
                 {"attempts", r.attempts}, {"engine", r.engine}, {"wall_s", r.wall_s},    {"run_dir", r.run_dir}};
-      if (!r.progress.is_null()) j["progress"] = r.progress;
-      if (r.state == "running") j["lease_expired"] = lease_expired(r, this_process_holder().host, now);
+      // Progress belongs to running runs only: a finished run's last progress.json is history.
+      if (r.state == "running") {
+        if (!r.progress.is_null()) j["progress"] = r.progress;
+        j["lease_expired"] = lease_expired(r, this_process_holder().host, now);
+      }
       if (!r.failure.empty()) j["failure"] = r.failure;
       if (!r.end_reason.empty()) j["end_reason"] = r.end_reason;
       list.push_back(j);
     }
     out << json{{"campaign", campaign ? campaign->name : ""},
-                {"total", runs.size() - static_cast<std::size_t>(counts["retired"])},
+                {"total", total},
                 {"counts", counts},
+                {"retired", retired},
+                {"only", filters},
                 {"elapsed_s", elapsed},
                 {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
                 {"runs", list}}
@@ -464,23 +587,20 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
         << "\n";
     return 0;
   }
-  out << "campaign " << (campaign ? campaign->name : "?") << ": " << runs.size() - static_cast<std::size_t>(counts["retired"])
-      << " runs (" << db << ")\n ";
-  for (const auto& [state, n] : counts) out << " " << state << " " << n;
-  out << "\n  elapsed " << Duration(elapsed) << ", ETA " << (eta >= 0 ? Duration(eta) : "?") << "\n";
+  std::string only;
+  for (const auto& f : filters) only += (only.empty() ? "" : ", ") + f;
+  out << "campaign " << (campaign ? campaign->name : "?") << ": " << total << " runs" << (only.empty() ? "" : " with " + only)
+      << " (" << db << ")\n ";
+  for (const char* state : kLiveStates) out << (std::string(state) == "planned" ? " " : ", ") << state << " " << counts[state];
+  if (retired > 0) out << "  (and " << retired << " retired: no longer in the spec, not counted)";
+  out << "\n  elapsed " << Duration(elapsed) << ", ETA "
+      << (total - counts["done"] == 0 ? std::string("-") : eta >= 0 ? Duration(eta) : "?") << "\n";
   bool header = false;
   for (const auto& r : runs) {
     if (r.state != "running") continue;
     if (!header) out << "running:\n";
     header = true;
-    double f = 0;
-    std::string phase = "starting";
-    if (r.progress.is_object()) {
-      f = r.progress.value("fraction", 0.0);
-      phase = r.progress.value("phase", std::string("?"));
-    }
-    out << "  " << r.run_id << " " << std::left << std::setw(9) << phase << Bar(f, 20) << " " << std::lround(f * 100)
-        << "%  " << CompactPoint(r.point) << " r" << r.replica
+    out << "  " << r.run_id << " " << ProgressText(r.progress, 0) << "  " << CompactPoint(r.point) << " r" << r.replica
         << (lease_expired(r, this_process_holder().host, now) ? "  (runner gone: resumes on the next campaign run)" : "")
         << "\n";
   }
@@ -499,16 +619,28 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
 
 // ---------------------------------------------------------------- report
 const char kReportHelp[] =
-    "usage: campaign report [--db FILE] [--out DIR] [--no-figures]\n"
+    "usage: campaign report [--db FILE] [--out DIR] [--only FILTER]... [--no-figures]\n"
     "Write report.md, report.html, figures and CSVs of the finished runs (default DIR:\n"
-    "<db dir>/report).\n";
+    "<db dir>/report).\n"
+    "  --only FILTER  report only these runs (as for campaign run; repeat for several)\n";
 
 #ifdef GRANARY_HAVE_ANALYSIS
 // The report of the campaign in `db`: the database's runs handed over as plain records.
-analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out_dir, bool figures) {
-  Store store(db);
+analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out_dir, bool figures,
+                                      const std::vector<std::string>& only = {}) {
+  const auto opened = OpenCampaignDb(db, "report");
+  Store& store = *opened;
   const auto campaign = load_campaign(store);
   if (!campaign) throw UsageError("campaign report: " + db + " holds no campaign");
+  std::vector<RunRow> rows = load_runs(store, true);
+  if (!only.empty()) {
+    try {
+      const RunFilter filter = resolve_filters(only, *campaign, rows);
+      std::erase_if(rows, [&](const RunRow& r) { return !filter.matches(r); });
+    } catch (const FilterError& e) {
+      throw UsageError(e.what());
+    }
+  }
   analysis::CampaignInfo info;
   info.name = campaign->name;
   info.spec_hash = campaign->spec_hash;
@@ -517,7 +649,7 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
   info.granary_version = campaign->granary_version;
   info.git_commit = campaign->git_commit;
   std::vector<analysis::RunRecord> records;
-  for (const auto& r : load_runs(store, true)) {
+  for (const auto& r : rows) {
     if (r.state == "retired") continue;
     analysis::RunRecord rec;
     rec.run_id = r.run_id;
@@ -556,12 +688,12 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
 #endif
 
 int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv, {{"db", true}, {"out", true}, {"no-figures", false}, {"help", false}}, "report");
+  const Args a = Parse(argv, "report");
+  if (!a.positional.empty()) throw UsageError("campaign report: unexpected argument \"" + a.positional[0] + "\"");
   const std::string db = DbPath(a);
-  if (!fs::exists(db)) throw UsageError("campaign report: no database " + db);
 #ifdef GRANARY_HAVE_ANALYSIS
   const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
-                                     !a.has("no-figures"));
+                                     !a.has("no-figures"), a.all("only"));
   out << "report: " << summary.markdown.string() << "\n        " << summary.html.string() << "\n  runs used "
       << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed << "\n";
   return 0;
@@ -633,11 +765,7 @@ void PrintComparison(std::ostream& out, const json& c) {
 #endif
 
 int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args a = Parse(argv,
-                       {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false},
-                        {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true},
-                        {"help", false}},
-                       "compare");
+  const Args a = Parse(argv, "compare");
   if (a.positional.size() != 1) throw UsageError("campaign compare: needs exactly one SPEC file (see campaign compare --help)");
 #ifdef GRANARY_HAVE_ANALYSIS
   const std::string spec_path = a.positional[0];
@@ -770,11 +898,7 @@ render::PictureOptions PictureOptionsFrom(const std::string& verb, const Args& a
 #endif
 
 int Snapshot(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv,
-                       {{"time", true}, {"clog", true}, {"first", false}, {"last", false}, {"color", true},
-                        {"forces", false}, {"highlight", true}, {"width", true}, {"out", true}, {"db", true},
-                        {"help", false}},
-                       "snapshot");
+  const Args a = Parse(argv, "snapshot");
   if (a.positional.size() != 1) throw UsageError("campaign snapshot: needs exactly one RUN (see campaign snapshot --help)");
   if (!a.has("out")) throw UsageError("campaign snapshot: --out FILE.png or FILE.svg is required");
   const fs::path file = a.get("out", "");
@@ -805,9 +929,7 @@ int Snapshot(const std::vector<std::string>& argv, std::ostream& out, std::ostre
 }
 
 int Movie(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args a = Parse(argv, {{"out", true}, {"fps", true}, {"color", true}, {"forces", false}, {"width", true},
-                              {"db", true}, {"help", false}},
-                       "movie");
+  const Args a = Parse(argv, "movie");
   if (a.positional.size() != 1) throw UsageError("campaign movie: needs exactly one RUN (see campaign movie --help)");
   if (!a.has("out")) throw UsageError("campaign movie: --out FILE.mp4 is required");
   const fs::path file = a.get("out", "");
@@ -838,19 +960,33 @@ struct Verb {
   const char* summary;
   const char* help;
   std::function<int(const std::vector<std::string>&, std::ostream&, std::ostream&)> run;
+  std::vector<FlagSpec> flags;  // what Parse accepts and bash completion offers
 };
 
 const std::vector<Verb>& Verbs() {
   static const std::vector<Verb> kVerbs = {
-      {"plan", "expand a campaign spec into runs in the database", kPlanHelp, Plan},
-      {"run", "run what is not done (resumable, leases, N at a time)", kRunHelp, Run},
-      {"status", "counts, progress, failures, ETA", kStatusHelp, Status},
-      {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report},
-      {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare},
-      {"snapshot", "a picture of one frame of a run (PNG or SVG)", kSnapshotHelp, Snapshot},
-      {"movie", "a movie of a run's frames (MP4, ffmpeg)", kMovieHelp, Movie},
+      {"plan", "expand a campaign spec into runs in the database", kPlanHelp, Plan,
+       {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}},
+      {"run", "run what is not done (resumable, leases, N at a time)", kRunHelp, Run,
+       {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"help", false}}},
+      {"status", "counts, progress, failures, ETA", kStatusHelp, Status,
+       {{"db", true}, {"only", true}, {"json", false}, {"help", false}}},
+      {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report,
+       {{"db", true}, {"out", true}, {"only", true}, {"no-figures", false}, {"help", false}}},
+      {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare,
+       {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false}, {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"help", false}}},
+      {"snapshot", "a picture of one frame of a run (PNG or SVG)", kSnapshotHelp, Snapshot,
+       {{"time", true}, {"clog", true}, {"first", false}, {"last", false}, {"color", true}, {"forces", false}, {"highlight", true}, {"width", true}, {"out", true}, {"db", true}, {"help", false}}},
+      {"movie", "a movie of a run's frames (MP4, ffmpeg)", kMovieHelp, Movie,
+       {{"out", true}, {"fps", true}, {"color", true}, {"forces", false}, {"width", true}, {"db", true}, {"help", false}}},
   };
   return kVerbs;
+}
+
+const std::vector<FlagSpec>& FlagsOf(const std::string& verb) {
+  for (const Verb& v : Verbs())
+    if (verb == v.name) return v.flags;
+  throw std::logic_error("no verb " + verb);
 }
 
 std::string MainHelp() {
