@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "rundir/spec_table.h"
+
 namespace granary {
 
 // A spec error names the JSON path (JSON Pointer, e.g. "/silo/base_outlets/0/width"),
@@ -149,6 +151,10 @@ void validate(const RunSpec& spec);
 // What the LIGGGHTS backend cannot do (validate() applies it to specs whose engine is
 // "liggghts"; the backend applies it to whatever spec it is given).
 void validate_for_liggghts(const RunSpec& spec);
+
+// Every key of a run spec with its type, default, range and meaning: what from_json accepts
+// and checks, and what `campaign schema` tells editors (spec_table.h).
+const SpecTable& run_spec_table();
 
 // Levenshtein distance, for "did you mean" suggestions (spec keys, CLI verbs).
 std::size_t edit_distance(const std::string& a, const std::string& b);

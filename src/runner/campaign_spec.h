@@ -59,6 +59,12 @@ class DumpTemplate {
   std::vector<std::size_t> order_;   // field index of each gap between pieces
 };
 
+// The campaign spec's own keys (the run spec under /base has run_spec_table()).
+const SpecTable& campaign_spec_table();
+// The JSON Schema (draft-07) of campaign specs, from campaign_spec_table() and
+// run_spec_table(): what `campaign schema` prints for editors.
+nlohmann::json campaign_spec_schema();
+
 // The directory of prepared beds: $GRANARY_CACHE_DIR or ~/.cache/granary/beds.
 std::string default_cache_dir();
 

@@ -7,18 +7,21 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <set>
 #include <memory>
 #include <sstream>
 #include <thread>
 
 #include "runner/campaign_db.h"
 #include "runner/campaign_spec.h"
+#include "runner/inspect.h"
 #include "runner/run_filter.h"
 #include "runner/scheduler.h"
 #include "runner/util.h"
@@ -809,6 +812,280 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
 #endif
 }
 
+// ---------------------------------------------------------------- show, clean
+const char kShowHelp[] =
+    "usage: campaign show RUN [--db FILE] [--log N] [--json]\n"
+    "Everything about one run: sweep point and replica, state, attempts, engine, host, start,\n"
+    "end and wall time, how it ended (or why it failed), its results, its parameters (the\n"
+    "resolved run spec; swept ones marked *), the files of its directory and the tail of its\n"
+    "engine log.\n"
+    "  RUN        a run id (a unique start of one will do) or a run directory\n"
+    "  --log N    lines of engine.log to show (default 20)\n"
+    "  --json     the same as JSON\n";
+
+// RUN of `show`: a run id (a unique prefix will do) of the database, or a run directory of it.
+RunRow FindRun(const std::string& verb, const std::string& run, Store& store, const std::string& db) {
+  std::vector<RunRow> found;
+  if (fs::is_directory(run)) {
+    const fs::path dir = fs::weakly_canonical(run);
+    for (RunRow& r : load_runs(store, true))
+      if (fs::weakly_canonical(r.run_dir) == dir) found.push_back(std::move(r));
+    if (found.empty()) throw UsageError("campaign " + verb + ": " + run + " is not a run directory of " + db);
+    return found.front();
+  }
+  found = find_runs(store, run);
+  if (found.empty()) {
+    std::vector<std::string> ids;
+    for (const RunRow& r : load_runs(store, false)) ids.push_back(r.run_id);
+    const std::string best = nearest(run, ids);
+    throw UsageError("campaign " + verb + ": no run id starts with \"" + run + "\" in " + db +
+                     (best.empty() ? "" : "; did you mean " + best + "?") + " (campaign status lists them)");
+  }
+  if (found.size() > 1)
+    throw UsageError("campaign " + verb + ": \"" + run + "\" starts " + std::to_string(found.size()) + " run ids (" +
+                     found[0].run_id + ", " + found[1].run_id + (found.size() > 2 ? ", ..." : "") + "); give more of it");
+  return found.front();
+}
+
+std::string LocalTime(double unix_seconds) {
+  if (!(unix_seconds > 0)) return "-";
+  const std::time_t t = static_cast<std::time_t>(unix_seconds);
+  std::tm tm{};
+  localtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M:%S", &tm);
+  return buf;
+}
+
+// Every leaf of a JSON document as (pointer, value), in document order.
+void Leaves(const json& j, const std::string& at, std::vector<std::pair<std::string, json>>& out) {
+  if (j.is_object() && !j.empty()) {
+    for (const auto& [k, v] : j.items()) Leaves(v, at + "/" + escape_pointer_token(k), out);
+  } else if (j.is_array() && !j.empty()) {
+    for (std::size_t i = 0; i < j.size(); ++i) Leaves(j[i], at + "/" + std::to_string(i), out);
+  } else {
+    out.emplace_back(at, j);
+  }
+}
+
+// A result or parameter as text: integers without ".0", others to 6 significant digits.
+std::string ValueText(const json& v) {
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_number_float()) {
+    const double x = v.get<double>();
+    std::ostringstream o;
+    if (std::isfinite(x) && x == std::floor(x) && std::fabs(x) < 1e15) o << static_cast<long long>(x);
+    else o << std::setprecision(6) << x;
+    return o.str();
+  }
+  return v.dump();
+}
+
+int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "show");
+  if (a.positional.size() != 1) throw UsageError("campaign show: needs exactly one RUN (see campaign show --help)");
+  const std::string db = DbPath(a);
+  const auto opened = OpenCampaignDb(db, "show");
+  Store& store = *opened;
+  const RunRow run = FindRun("show", a.positional[0], store, db);
+  const json d = run_details(store, run, a.integer("log", 20, 0));
+  if (a.has("json")) {
+    out << d.dump(2) << "\n";
+    return 0;
+  }
+  const auto campaign = load_campaign(store);
+  std::size_t key_width = 10;
+  for (const auto& [key, value] : d["results"].items()) key_width = std::max(key_width, key.size() + 1);
+  auto row = [&](const std::string& label, const std::string& value) {
+    out << "  " << std::left << std::setw(static_cast<int>(key_width)) << label << " " << value << "\n";
+  };
+  out << "run " << run.run_id << (campaign ? " of campaign " + campaign->name : std::string()) << " (" << db << ")\n";
+  std::string point = CompactPoint(run.point) + ", replica " + std::to_string(run.replica);
+  if (run.params.contains("seed")) point += ", seed " + run.params["seed"].dump();
+  row("point", point);
+  std::string state = run.state;
+  if (!run.end_reason.empty()) state += ": " + run.end_reason;
+  const json& results = d["results"];
+  if (results.contains("exited") && results.contains("bodies"))
+    state += ", " + ValueText(results["exited"]) + " exits of " + ValueText(results["bodies"]) + " bodies";
+  if (results.contains("t_end")) state += ", t_end " + ValueText(results["t_end"]);
+  row("state", state);
+  if (run.state == "running") row("progress", ProgressText(run.progress, 0));
+  row("attempts", std::to_string(run.attempts));
+  row("engine", run.engine + (run.engine_version.empty() ? "" : " " + run.engine_version));
+  if (!run.host.empty()) row("host", run.host);
+  std::string when = "started " + LocalTime(run.started_at);
+  if (run.ended_at > 0) when += ", ended " + LocalTime(run.ended_at);
+  if (run.wall_s > 0) when += ", wall " + Duration(run.wall_s);
+  if (results.contains("timing/bed_wall_s") && results.contains("timing/discharge_wall_s"))
+    when += " (bed " + Duration(results["timing/bed_wall_s"].get<double>()) + ", discharge " +
+            Duration(results["timing/discharge_wall_s"].get<double>()) + ")";
+  row("time", when);
+  row("directory", run.run_dir + (d["run_dir_exists"].get<bool>() ? "" : "  (missing)"));
+  if (!run.failure.empty()) {
+    out << "failure:\n";
+    std::istringstream lines(run.failure);
+    for (std::string line; std::getline(lines, line);) out << "  | " << line << "\n";
+  }
+  if (!results.empty()) {
+    out << "results (summary.json):\n";
+    for (const auto& [key, value] : results.items()) row(key, ValueText(value));
+  }
+  out << "parameters (resolved run spec; * swept):\n";
+  std::vector<std::pair<std::string, json>> leaves;
+  Leaves(run.params, "", leaves);
+  std::size_t width = 0;
+  for (const auto& [p, v] : leaves) width = std::max(width, p.size());
+  for (const auto& [p, v] : leaves) {
+    const bool swept = std::any_of(run.point.items().begin(), run.point.items().end(),
+                                   [&](const auto& kv) { return p == kv.key() || p.rfind(kv.key() + "/", 0) == 0; });
+    out << (swept ? " *" : "  ") << std::left << std::setw(static_cast<int>(width) + 2) << p.substr(1)
+        << (v.is_string() ? v.dump() : ValueText(v)) << "\n";
+  }
+  out << "files:\n";
+  if (d["files"].empty()) out << "  (none" << (d["run_dir_exists"].get<bool>() ? "" : ": no directory") << ")\n";
+  for (const auto& f : d["files"])
+    out << "  " << std::left << std::setw(24) << f["name"].get<std::string>() << std::right << std::setw(10)
+        << human_bytes(f["bytes"].get<std::uintmax_t>()) << "\n";
+  if (!d["log_tail"].empty()) {
+    out << "engine.log (last " << d["log_tail"].size() << " lines):\n";
+    for (const auto& line : d["log_tail"]) out << "  | " << line.get<std::string>() << "\n";
+  }
+  return 0;
+}
+
+const char kCleanHelp[] =
+    "usage: campaign clean [--retired] [--failed] [--beds] [--locks] [--dry-run] [--db FILE] [--json]\n"
+    "Give disk space back: remove the directories of retired runs (no longer in the spec), lock\n"
+    "files nobody holds and, when asked, failed runs' directories and cached beds. Says what it\n"
+    "removed and how much space that freed. Without a choice: --retired --locks.\n"
+    "  --retired  directories of retired runs; if a later plan brings one back, it runs again\n"
+    "  --failed   directories of failed runs (they start afresh on the next campaign run)\n"
+    "  --beds     cached beds that only this campaign's done or retired runs use (other campaigns'\n"
+    "             beds are never touched; a bed needed again is prepared again)\n"
+    "  --locks    lock files (bed cache, run directories of runs not running) that nobody holds\n"
+    "  --dry-run  say what would be removed and how much it would free; remove nothing\n"
+    "Never touches done, planned, running or interrupted runs' directories.\n";
+
+int Clean(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "clean");
+  if (!a.positional.empty()) throw UsageError("campaign clean: unexpected argument \"" + a.positional[0] + "\"");
+  const std::string db = DbPath(a);
+  const auto opened = OpenCampaignDb(db, "clean");
+  Store& store = *opened;
+  CleanOptions o;
+  const bool chosen = a.has("retired") || a.has("failed") || a.has("beds") || a.has("locks");
+  o.retired = !chosen || a.has("retired");
+  o.locks = !chosen || a.has("locks");
+  o.failed = a.has("failed");
+  o.beds = a.has("beds");
+  o.cache_dir = default_cache_dir();
+  // A running runner may be writing into failed runs' directories (retries).
+  if (o.failed)
+    for (const RunRow& r : load_runs(store, false))
+      if (r.state == "running" && !lease_expired(r, this_process_holder().host, now_seconds()))
+        throw UsageError("campaign clean --failed: a campaign run is running on " + db +
+                         " (it retries failed runs); clean when it has finished");
+  const std::vector<CleanItem> items = plan_clean(store, o);
+  const bool dry = a.has("dry-run");
+  std::map<std::string, std::pair<int, std::uintmax_t>> by_kind;
+  std::uintmax_t total = 0;
+  for (const CleanItem& it : items) {
+    by_kind[it.kind].first += 1;
+    by_kind[it.kind].second += it.bytes;
+    total += it.bytes;
+  }
+  const std::uintmax_t freed = dry ? 0 : execute_clean(store, items);
+  if (a.has("json")) {
+    json list = json::array();
+    for (const CleanItem& it : items)
+      list.push_back({{"kind", it.kind}, {"path", it.path.string()}, {"run_id", it.run_id}, {"bytes", it.bytes}});
+    out << json{{"dry_run", dry}, {"items", list}, {"bytes", total}, {"freed_bytes", freed}}.dump(2) << "\n";
+    return 0;
+  }
+  out << "campaign clean" << (dry ? " (dry run: nothing removed)" : "") << "\n";
+  const std::pair<const char*, const char*> kinds[] = {{"retired", "retired runs' directories"},
+                                                       {"failed", "failed runs' directories"},
+                                                       {"bed", "cached beds"},
+                                                       {"lock", "lock files nobody holds"}};
+  for (const auto& [kind, label] : kinds) {
+    const bool asked = (std::string(kind) == "retired" && o.retired) || (std::string(kind) == "failed" && o.failed) ||
+                       (std::string(kind) == "bed" && o.beds) || (std::string(kind) == "lock" && o.locks);
+    if (!asked) continue;
+    const auto& [n, bytes] = by_kind[kind];
+    out << "  " << std::left << std::setw(28) << label << std::right << std::setw(5) << n << "  " << std::setw(10)
+        << human_bytes(bytes) << "\n";
+  }
+  if (dry) {
+    out << "would free " << human_bytes(total) << "\n";
+  } else {
+    out << "freed " << human_bytes(freed) << "\n";
+  }
+  return 0;
+}
+
+// ---------------------------------------------------------------- schema, completion
+const char kSchemaHelp[] =
+    "usage: campaign schema [--out FILE]\n"
+    "Print the JSON Schema of campaign specs: every key, its type, default, range and meaning,\n"
+    "generated from the tables the validator reads (docs/campaign-spec.md). An editor that\n"
+    "knows it checks a spec as it is typed and completes its keys (VS Code: docs/campaign-spec.md,\n"
+    "\"Editing specs\"). The repository keeps a copy in docs/campaign.schema.json.\n"
+    "  --out FILE   write it to FILE instead of stdout\n";
+
+int Schema(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "schema");
+  if (!a.positional.empty()) throw UsageError("campaign schema: unexpected argument \"" + a.positional[0] + "\"");
+  const std::string text = campaign_spec_schema().dump(2) + "\n";
+  if (!a.has("out")) {
+    out << text;
+    return 0;
+  }
+  const std::string file = a.get("out", "");
+  std::ofstream f(file);
+  f << text;
+  if (!f) throw std::runtime_error("campaign schema: cannot write " + file);
+  out << "schema: " << file << "\n";
+  return 0;
+}
+
+const char kCompletionHelp[] =
+    "usage: campaign completion bash\n"
+    "Print the bash completion of campaign: verbs, each verb's flags, run ids and --only filters\n"
+    "from the database (--db, or granary.db here), engines and colours. To use it now:\n"
+    "  source <(campaign completion bash)\n"
+    "and for every shell, put that line into ~/.bashrc (or the output into\n"
+    "/etc/bash_completion.d/campaign).\n";
+
+// The script: bash asks the binary (`campaign __complete CWORD WORDS...`), so completion knows
+// exactly the verbs and flags that the parser accepts and the run ids in the database.
+const char kBashCompletion[] = R"(# bash completion for campaign (Granary): source <(campaign completion bash)
+_campaign() {
+  local IFS=$'\n'
+  local words
+  words=$("${COMP_WORDS[0]}" __complete "$COMP_CWORD" "${COMP_WORDS[@]}" 2>/dev/null) || return
+  if [[ "$words" == "__files__" ]]; then
+    COMPREPLY=($(compgen -f -- "${COMP_WORDS[COMP_CWORD]}"))
+    compopt -o filenames 2>/dev/null
+    return
+  fi
+  COMPREPLY=($(compgen -W "$words" -- "${COMP_WORDS[COMP_CWORD]}"))
+}
+complete -F _campaign campaign
+)";
+
+int Completion(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "completion");
+  if (a.positional.size() != 1 || a.positional[0] != "bash")
+    throw UsageError("campaign completion: give the shell: campaign completion bash");
+  out << kBashCompletion;
+  return 0;
+}
+
+// Candidates for the word at `cword` of `words` (words[0] is the program), one per line;
+// "__files__" asks the shell for file names. Never fails: completion must stay quiet.
+void Complete(int cword, const std::vector<std::string>& words, std::ostream& out);
+
 // ---------------------------------------------------------------- snapshot, movie
 const char kSnapshotHelp[] =
     "usage: campaign snapshot RUN [--time T | --clog K | --first | --last] [--color C] [--forces]\n"
@@ -975,6 +1252,13 @@ const std::vector<Verb>& Verbs() {
        {{"db", true}, {"out", true}, {"only", true}, {"no-figures", false}, {"help", false}}},
       {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare,
        {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false}, {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"help", false}}},
+      {"show", "everything about one run: state, timings, results, parameters, files, log", kShowHelp, Show,
+       {{"db", true}, {"log", true}, {"json", false}, {"help", false}}},
+      {"clean", "remove retired (and failed) runs' directories, unused beds, stale locks", kCleanHelp, Clean,
+       {{"db", true}, {"retired", false}, {"failed", false}, {"beds", false}, {"locks", false}, {"dry-run", false},
+        {"json", false}, {"help", false}}},
+      {"schema", "the JSON Schema of campaign specs (for editors)", kSchemaHelp, Schema, {{"out", true}, {"help", false}}},
+      {"completion", "bash completion of verbs, flags and run ids", kCompletionHelp, Completion, {{"help", false}}},
       {"snapshot", "a picture of one frame of a run (PNG or SVG)", kSnapshotHelp, Snapshot,
        {{"time", true}, {"clog", true}, {"first", false}, {"last", false}, {"color", true}, {"forces", false}, {"highlight", true}, {"width", true}, {"out", true}, {"db", true}, {"help", false}}},
       {"movie", "a movie of a run's frames (MP4, ffmpeg)", kMovieHelp, Movie,
@@ -989,11 +1273,78 @@ const std::vector<FlagSpec>& FlagsOf(const std::string& verb) {
   throw std::logic_error("no verb " + verb);
 }
 
+void Complete(int cword, const std::vector<std::string>& words, std::ostream& out) {
+  auto say = [&](const std::string& w) { out << w << "\n"; };
+  if (cword <= 1 || words.size() < 2) {
+    for (const Verb& v : Verbs()) say(v.name);
+    say("--help");
+    say("--version");
+    return;
+  }
+  const Verb* verb = nullptr;
+  for (const Verb& v : Verbs())
+    if (words[1] == v.name) verb = &v;
+  if (!verb) return;
+  const std::string cur = static_cast<std::size_t>(cword) < words.size() ? words[static_cast<std::size_t>(cword)] : "";
+  const std::string prev = words[static_cast<std::size_t>(cword) - 1];
+  // The database the command line names, for run ids and filters.
+  std::string db = "granary.db";
+  for (std::size_t i = 2; i + 1 < words.size(); ++i)
+    if (words[i] == "--db") db = words[i + 1];
+  auto runs_of_db = [&](bool with_params) {
+    std::vector<RunRow> runs;
+    try {
+      if (fs::is_regular_file(db)) {
+        Store store(db, Store::ReadOnly{});
+        runs = load_runs(store, with_params);
+      }
+    } catch (const std::exception&) {
+    }
+    return runs;
+  };
+  const auto flag = std::find_if(verb->flags.begin(), verb->flags.end(),
+                                 [&](const FlagSpec& f) { return prev == "--" + f.name; });
+  if (flag != verb->flags.end() && flag->takes_value) {
+    const std::string name = flag->name;
+    if (name == "engine") {
+      say("native");
+      say("liggghts");
+    } else if (name == "color") {
+      for (const char* c : {"species", "speed", "rotation", "force"}) say(c);
+    } else if (name == "only") {
+      std::set<std::string> seen;
+      for (const RunRow& r : runs_of_db(false)) {
+        seen.insert(r.run_id);
+        for (const auto& [axis, value] : r.point.items()) seen.insert(axis + "=" + value.dump());
+      }
+      for (const auto& w : seen) say(w);
+    } else if (name == "db" || name == "out") {
+      say("__files__");
+    }
+    return;
+  }
+  if (cur.rfind("-", 0) == 0) {
+    for (const FlagSpec& f : verb->flags) say("--" + f.name);
+    return;
+  }
+  const std::string v = verb->name;
+  if (v == "show" || v == "snapshot" || v == "movie") {
+    for (const RunRow& r : runs_of_db(false)) say(r.run_id);
+  } else if (v == "plan" || v == "compare") {
+    say("__files__");
+  } else if (v == "completion") {
+    say("bash");
+  }
+}
+
 std::string MainHelp() {
   std::string h =
       "usage: campaign VERB [flags]   (campaign VERB --help for its flags)\n"
       "Granary campaign manager: plan, run and report sweeps of 2-D silo discharge simulations.\n\nverbs:\n";
-  for (const auto& v : Verbs()) h += "  " + std::string(v.name) + std::string(10 - std::string(v.name).size(), ' ') + v.summary + "\n";
+  std::size_t width = 0;
+  for (const auto& v : Verbs()) width = std::max(width, std::string(v.name).size());
+  for (const auto& v : Verbs())
+    h += "  " + std::string(v.name) + std::string(width + 2 - std::string(v.name).size(), ' ') + v.summary + "\n";
   h += "\nexit codes: 0 ok, 1 runs failed, 2 usage or spec error, 130 interrupted\n";
   return h;
 }
@@ -1004,6 +1355,11 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
     (args.empty() ? err : out) << MainHelp();
     return args.empty() ? static_cast<int>(ExitCode::kUsage) : 0;
+  }
+  if (args[0] == "__complete") {  // asked by the bash completion script; not a verb of its own
+    const int cword = args.size() > 1 ? std::atoi(args[1].c_str()) : 0;
+    Complete(cword, std::vector<std::string>(args.begin() + std::min<std::size_t>(2, args.size()), args.end()), out);
+    return 0;
   }
   if (args[0] == "--version") {
     out << "campaign " << GRANARY_VERSION << " (" << granary::GitCommit() << ")\n";

@@ -123,6 +123,16 @@ Store::Store(const std::string& path, int upto_version) : path_(path) {
   tx.commit();
 }
 
+Store::Store(const std::string& path, ReadOnly) : path_(path) {
+  sqlite3* raw = nullptr;
+  const int rc = sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READONLY, nullptr);
+  db_.reset(raw);
+  if (rc != SQLITE_OK) Fail(raw, rc, "opening database " + path);
+  sqlite3_busy_timeout(db_.get(), 1000);
+  if (schema_version() > static_cast<int>(migrations().size()))
+    throw StoreError(SQLITE_ERROR, "database " + path + " is newer than this granary");
+}
+
 void Store::exec(const std::string& sql) {
   char* err = nullptr;
   const int rc = sqlite3_exec(db_.get(), sql.c_str(), nullptr, nullptr, &err);
