@@ -1,6 +1,7 @@
-// `campaign compare`: the same sweep points on two engines, metric by metric, and what each
-// engine cost. Pure functions over already-aggregated point metrics and per-run timings; the
-// report renders the result and the CLI prints it (text or JSON).
+// `campaign compare`: the same sweep points on two engines, every point metric of every
+// registered analysis, and what each engine cost. Pure functions over already-aggregated
+// point metrics and per-run timings; its report section is here too, and the CLI prints the
+// result (text or JSON).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -8,9 +9,40 @@
 #include <string>
 #include <vector>
 
-#include "analysis/metrics.h"
+#include "analysis/analysis.h"
+#include "analysis/campaign_view.h"
+#include "analysis/report_document.h"
 
 namespace granary::analysis {
+
+// One metric of one sweep point in two campaigns (e.g. the native engine against LIGGGHTS):
+// difference a - b, its standard error sqrt(se_a^2 + se_b^2) and z = difference / se
+// (NaN when an se is unknown).
+struct MetricDifference {
+  std::string name;                   // "q_count", "phi", ...
+  MeanSe a, b;
+  double difference = kNaN;
+  double se = kNaN;
+  double z = kNaN;
+  std::string title{};
+  bool headline = false;
+};
+
+// The point metrics of one point of one engine.
+struct EnginePoint {
+  nlohmann::json point;               // sweep values (without the engine)
+  std::string point_id;
+  std::vector<PointMetric> metrics;
+};
+
+struct PointComparison {
+  nlohmann::json point;               // the sweep values both campaigns share
+  std::string point_id_a, point_id_b;
+  std::vector<MetricDifference> metrics;  // only metrics defined in both
+};
+// Pure. Points are matched by their sweep values (`point`), not by id; points present in
+// only one list are left out. Metrics that are not to be compared (PointMetric::compare) are too.
+std::vector<PointComparison> compare_points(const std::vector<EnginePoint>& a, const std::vector<EnginePoint>& b);
 
 // One metric of one point on both engines: b / a with its standard error (first-order
 // propagation of both se), and agreement within the combined uncertainty.
@@ -33,12 +65,6 @@ struct PointAgreement {
 
 // What one engine cost over the compared runs: wall time and throughput of the discharge
 // (disc-steps per second, disc = one sphere of a LIGGGHTS multisphere body).
-struct RunTiming {
-  double wall_s = kNaN;               // bed + discharge
-  double discharge_wall_s = kNaN;
-  double disc_steps_per_s = kNaN;
-  int threads = 0;
-};
 struct EngineCost {
   std::string engine;
   int runs = 0;
@@ -61,11 +87,18 @@ constexpr double kAgreementSigmas = 2.0;
 MetricAgreement agreement_of(const MetricDifference& d);
 EngineCost engine_cost(const std::string& engine, const std::vector<RunTiming>& runs);
 // Points are matched by their sweep values; points on only one engine are left out.
-EngineComparison compare_engines(const std::string& engine_a, const std::vector<PointMetrics>& a,
+EngineComparison compare_engines(const std::string& engine_a, const std::vector<EnginePoint>& a,
                                  const std::vector<RunTiming>& timings_a, const std::string& engine_b,
-                                 const std::vector<PointMetrics>& b, const std::vector<RunTiming>& timings_b);
+                                 const std::vector<EnginePoint>& b, const std::vector<RunTiming>& timings_b);
 
 // JSON of the comparison; an unknown agreement is null (not false), as are NaN numbers.
 nlohmann::json to_json(const EngineComparison& c);
+
+// The comparison of the first two engines of a campaign (native is `a` when present), from
+// every analysis' point metrics per point (CampaignView::points order); nothing with one engine.
+std::optional<EngineComparison> engine_comparison_of(const CampaignView& view,
+                                                     const std::vector<std::vector<PointMetric>>& metrics);
+// Its report section.
+std::optional<Section> engine_comparison_section(const CampaignView& view, const EngineComparison& comparison);
 
 }  // namespace granary::analysis

@@ -94,17 +94,8 @@ void RegionAccumulator::add(std::span<const rundir::Disc> discs, std::span<const
   tg_full_.push_back(f.tg_full);
   for (const rundir::Body& b : bodies) {
     if (!stats_.region.contains(b.x, b.y)) continue;
-    const std::size_t i = seen_++;
-    if (i < max_samples_) {
-      stats_.vx.push_back(b.vx);
-      stats_.vy.push_back(b.vy);
-    } else {
-      const std::size_t j = std::uniform_int_distribution<std::size_t>(0, i)(rng_);
-      if (j < max_samples_) {
-        stats_.vx[j] = b.vx;
-        stats_.vy[j] = b.vy;
-      }
-    }
+    stats_.vx.add(b.vx);
+    stats_.vy.add(b.vy);
   }
 }
 

@@ -5,7 +5,6 @@
 
 #include <cstddef>
 #include <numbers>
-#include <random>
 #include <span>
 #include <string>
 #include <vector>
@@ -51,23 +50,20 @@ struct RegionFrame {
 RegionFrame region_frame(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies, const Rect& region);
 
 // Time average over frames: mean and se (over frames) of phi and the temperatures, and the
-// pooled velocities of the bodies inside for the distributions.
+// distributions of the velocities of the bodies inside, over every frame.
 struct RegionStats {
   Rect region;
   MeanSe phi, tg_translational, tg_full;
-  std::vector<double> vx, vy;       // samples of the bodies in the region (see RegionAccumulator)
+  GridHistogram vx, vy;             // counts of body velocities on a fixed grid (merge over replicas)
   int frames = 0;
 };
 
-// The velocity samples are a uniform random subset (reservoir sampling, fixed seed, so
-// reports are reproducible) of at most `max_samples` per run: long runs with many frames
-// would otherwise hold millions of samples per run for a histogram.
 class RegionAccumulator {
  public:
-  static constexpr std::size_t kDefaultMaxSamples = 20000;
-  explicit RegionAccumulator(const Rect& region, std::size_t max_samples = kDefaultMaxSamples)
-      : max_samples_(max_samples) {
+  // `velocity_bin`: the grid width of the velocity histograms (sqrt(g d)).
+  explicit RegionAccumulator(const Rect& region, double velocity_bin = 0.05) {
     stats_.region = region;
+    stats_.vx.width = stats_.vy.width = velocity_bin;
   }
   void add(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies);
   RegionStats result() const;
@@ -75,9 +71,6 @@ class RegionAccumulator {
  private:
   RegionStats stats_;
   std::vector<double> phi_, tg_translational_, tg_full_;
-  std::size_t max_samples_;
-  std::size_t seen_ = 0;
-  std::mt19937_64 rng_{20261122};
 };
 
 }  // namespace granary::analysis

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -35,6 +36,67 @@ std::string format_mean_se(double mean, double se, int n, int significant) {
   return n < 0 ? s : s + " (" + std::to_string(n) + ")";
 }
 
+Cell Cell::number(double value, int digits) {
+  Cell c;
+  c.kind = Kind::kNumber;
+  c.value = value;
+  c.digits = digits;
+  return c;
+}
+
+Cell Cell::count(long long value) { return number(static_cast<double>(value)); }
+
+Cell Cell::estimate(double mean, double se, int n, int digits) {
+  Cell c;
+  c.kind = Kind::kEstimate;
+  c.value = mean;
+  c.se = se;
+  c.n = n;
+  c.digits = digits;
+  return c;
+}
+
+std::string Cell::shown() const {
+  switch (kind) {
+    case Kind::kNumber: return format_number(value, digits);
+    case Kind::kEstimate: return format_mean_se(value, se, n, digits);
+    case Kind::kText: break;
+  }
+  return text;
+}
+
+std::string csv_number(double v) {
+  if (std::isnan(v)) return "nan";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  char buf[64];
+  const auto [end, ec] = std::to_chars(buf, buf + sizeof buf, v);
+  return ec == std::errc() ? std::string(buf, end) : std::string("nan");
+}
+
+std::vector<std::string> series_files(const Figure& f) {
+  std::vector<std::string> names;
+  for (std::size_t k = 0; k < f.series.size(); ++k) {
+    // The label as a file name: letters, digits, '.', '-' and '_' kept, runs of others -> '_'.
+    std::string slug;
+    for (char ch : f.series[k].label) {
+      const bool keep = std::isalnum(static_cast<unsigned char>(ch)) || ch == '.' || ch == '-' || ch == '_';
+      if (keep) {
+        slug += ch;
+      } else if (!slug.empty() && slug.back() != '_') {
+        slug += '_';
+      }
+    }
+    while (!slug.empty() && slug.back() == '_') slug.pop_back();
+    if (slug.size() > 80) slug.resize(80);
+    if (slug.empty()) slug = "curve" + std::to_string(k + 1);
+    std::string name = f.name + "--" + slug;
+    for (int i = 2; std::find(names.begin(), names.end(), name + ".csv") != names.end(); ++i)
+      name = f.name + "--" + slug + "-" + std::to_string(i);
+    names.push_back(name + ".csv");
+  }
+  return names;
+}
+
 std::string csv_escape(const std::string& f) {
   if (f.find_first_of(",\"\n") == std::string::npos) return f;
   std::string out = "\"";
@@ -63,28 +125,46 @@ namespace {
 
 constexpr double kNaNValue = std::numeric_limits<double>::quiet_NaN();
 
-// For CSV files: full precision so the numbers can be re-analysed. Missing values are "nan"
-// (read as NaN by gnuplot, numpy and pandas; an empty field would make gnuplot drop the row).
-std::string csv_number(double v) {
-  if (std::isnan(v)) return "nan";
-  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.10g", v);
-  return buf;
-}
-
 void write_text(const fs::path& file, const std::string& text) {
   std::ofstream out(file);
   out << text;
   if (!out) throw std::runtime_error(file.string() + ": cannot write");
 }
 
+// Numbers to full precision and missing ones as "nan" (read as NaN by numpy and pandas), so
+// that the numbers can be re-analysed; an estimate column becomes <key>, <key>_se, <key>_n.
 void write_table_csv(const fs::path& file, const Table& t) {
+  const std::size_t columns = t.header.size();
+  std::vector<bool> estimate(columns, false), with_n(columns, false);
+  for (const auto& row : t.rows)
+    for (std::size_t i = 0; i < row.size() && i < columns; ++i)
+      if (row[i].kind == Cell::Kind::kEstimate) {
+        estimate[i] = true;
+        with_n[i] = with_n[i] || row[i].n >= 0;
+      }
   std::ostringstream s;
-  for (std::size_t i = 0; i < t.header.size(); ++i) s << (i ? "," : "") << csv_escape(t.header[i]);
+  for (std::size_t i = 0; i < columns; ++i) {
+    const std::string key = i < t.keys.size() ? t.keys[i] : t.header[i];
+    s << (i ? "," : "") << csv_escape(key);
+    if (estimate[i]) s << "," << csv_escape(key + "_se") << (with_n[i] ? "," + csv_escape(key + "_n") : "");
+  }
   s << "\n";
   for (const auto& row : t.rows) {
-    for (std::size_t i = 0; i < row.size(); ++i) s << (i ? "," : "") << csv_escape(row[i]);
+    for (std::size_t i = 0; i < columns; ++i) {
+      if (i) s << ",";
+      const Cell empty;
+      const Cell& c = i < row.size() ? row[i] : empty;
+      if (estimate[i]) {
+        const bool is_estimate = c.kind == Cell::Kind::kEstimate;
+        s << (c.kind == Cell::Kind::kText ? csv_escape(c.text) : csv_number(c.value)) << ","
+          << csv_number(is_estimate ? c.se : kNaNValue);
+        if (with_n[i]) s << "," << (is_estimate && c.n >= 0 ? std::to_string(c.n) : std::string("nan"));
+      } else if (c.kind == Cell::Kind::kText) {
+        s << csv_escape(c.text);
+      } else {
+        s << csv_number(c.value);
+      }
+    }
     s << "\n";
   }
   write_text(file, s.str());
@@ -110,8 +190,6 @@ bool has_finite_point(const Figure& f) {
   return false;
 }
 
-std::string series_file(const Figure& f, std::size_t k) { return f.name + "-" + std::to_string(k + 1) + ".csv"; }
-
 std::string gp_quote(const std::string& s) {
   std::string out = "'";
   for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
@@ -122,6 +200,7 @@ std::string gp_quote(const std::string& s) {
 
 std::string gnuplot_script(const Figure& f) {
   std::ostringstream s;
+  const std::vector<std::string> files = series_files(f);
   // The key sits below the plot (two columns when the labels are short, else one); the
   // canvas grows with it so that it is never cut.
   std::size_t longest = 0;
@@ -159,7 +238,7 @@ std::string gnuplot_script(const Figure& f) {
     const Series& se = f.series[k];
     const std::string x = "($" + std::to_string(se.x + 1) + ")";
     const std::string y = "($" + std::to_string(se.y + 1) + ")";
-    s << (k ? ", \\\n     " : "") << gp_quote(series_file(f, k)) << " skip 1 using " << x << ":" << y;
+    s << (k ? ", \\\n     " : "") << gp_quote(files[k]) << " skip 1 using " << x << ":" << y;
     switch (se.style) {
       case Series::Style::kErrorBars:
         {
@@ -247,7 +326,9 @@ std::string local_link(const std::string& file) {
 }
 
 // Numbers (and "mean ± se (n)") align right, words left.
-bool looks_numeric(const std::string& c) {
+bool looks_numeric(const Cell& cell) {
+  if (cell.kind != Cell::Kind::kText) return true;
+  const std::string& c = cell.text;
   if (c.empty()) return true;
   const char first = c.front();
   return std::isdigit(static_cast<unsigned char>(first)) || ((first == '-' || first == '.' || first == '[') && c.size() > 1);
@@ -345,7 +426,7 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         md_body << "\n";
         for (const auto& row : tb->rows) {
           md_body << "|";
-          for (const auto& c : row) md_body << " " << md_cell(c) << " |";
+          for (const auto& c : row) md_body << " " << md_cell(c.shown()) << " |";
           md_body << "\n";
         }
         md_body << "\n";
@@ -355,7 +436,8 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         html_body << "</tr>\n";
         for (const auto& row : tb->rows) {
           html_body << "<tr>";
-          for (const auto& c : row) html_body << (looks_numeric(c) ? "<td>" : "<td class=\"t\">") << html_escape(c) << "</td>";
+          for (const auto& c : row)
+            html_body << (looks_numeric(c) ? "<td>" : "<td class=\"t\">") << html_escape(c.shown()) << "</td>";
           html_body << "</tr>\n";
         }
         html_body << "</table>\n";
@@ -372,14 +454,15 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
       } else if (const auto* f = std::get_if<Figure>(&block)) {
         ++figure_no;
         std::string csvs, csv_links;
+        const std::vector<std::string> files = series_files(*f);
         for (std::size_t k = 0; k < f->series.size(); ++k) {
-          write_series_csv(out_dir / series_file(*f, k), f->series[k]);
+          write_series_csv(out_dir / files[k], f->series[k]);
           if (k > 0) {
             csvs += ", ";
             csv_links += ", ";
           }
-          csvs += series_file(*f, k);
-          csv_links += local_link(series_file(*f, k));
+          csvs += files[k];
+          csv_links += local_link(files[k]);
         }
         std::string svg;
         if (figures && has_finite_point(*f)) {

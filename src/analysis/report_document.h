@@ -9,16 +9,43 @@
 #include <variant>
 #include <vector>
 
+#include "analysis/stats.h"
+
 namespace granary::analysis {
+
+// A table cell: text, a number, or an estimate "mean ± se (n)". Markdown and HTML show
+// numbers to a few significant digits; the CSV has them to full precision, an estimate in
+// three columns (<key>, <key>_se, <key>_n; no _n column when no cell of it has an n).
+struct Cell {
+  enum class Kind { kText, kNumber, kEstimate };
+  Kind kind = Kind::kText;
+  std::string text;
+  double value = kNaN;
+  double se = kNaN;
+  int n = -1;                                // estimates: < 0 = no n
+  int digits = 4;                            // significant digits shown
+
+  Cell() = default;
+  Cell(std::string t) : text(std::move(t)) {}  // NOLINT: text cells read naturally in row lists
+  Cell(const char* t) : text(t) {}             // NOLINT
+  static Cell number(double value, int digits = 4);
+  static Cell count(long long value);
+  static Cell estimate(double mean, double se, int n, int digits = 4);
+  static Cell estimate(const MeanSe& m, int digits = 4) { return estimate(m.mean, m.se, m.n, digits); }
+  // What markdown and HTML show.
+  std::string shown() const;
+};
 
 struct Table {
   std::string name;                          // file stem of its CSV (unique in the report)
   std::string caption;
-  std::vector<std::string> header;
-  std::vector<std::vector<std::string>> rows;
+  std::vector<std::string> header;           // what markdown and HTML show
+  std::vector<std::vector<Cell>> rows;
+  std::vector<std::string> keys;             // CSV column names (empty: the header)
 };
 
-// One curve of a figure: columns of numbers (NaN = missing), its CSV is <figure>-<k>.csv.
+// One curve of a figure: columns of numbers (NaN = missing). Its CSV is named after the
+// figure and the curve's label: <figure>--<label as a file name>.csv.
 struct Series {
   std::string label;
   std::vector<std::string> columns;          // names, e.g. {"W", "Q", "Q_se"}
@@ -31,7 +58,7 @@ struct Series {
 };
 
 struct Figure {
-  std::string name;                          // file stem: <name>.svg, <name>-<k>.csv
+  std::string name;                          // file stem: <name>.svg, <name>--<curve>.csv
   std::string title;
   std::string xlabel, ylabel;                // with units
   std::vector<Series> series;
@@ -84,6 +111,10 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
 std::string format_number(double value, int significant = 4);
 // "mean ± se (n)" in markdown/html cells; se NaN -> "mean (n)"; n < 0 -> no "(n)".
 std::string format_mean_se(double mean, double se, int n, int significant = 4);
+// Full precision (the shortest text that reads back as the same double); NaN as "nan".
+std::string csv_number(double value);
+// The CSV files of a figure's curves, in series order: <figure>--<label>.csv, unique.
+std::vector<std::string> series_files(const Figure& figure);
 std::string csv_escape(const std::string& field);
 std::string html_escape(const std::string& text);
 

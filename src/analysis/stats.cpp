@@ -146,4 +146,52 @@ double median(std::vector<double> values) {
   return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
+void GridHistogram::add(double value) {
+  if (!std::isfinite(value)) return;
+  const long long k = std::llround(value / width);
+  if (counts.empty()) {
+    first = k;
+    counts.assign(1, 0.0);
+  } else if (k < first) {
+    counts.insert(counts.begin(), static_cast<std::size_t>(first - k), 0.0);
+    first = k;
+  } else if (k >= first + static_cast<long long>(counts.size())) {
+    counts.resize(static_cast<std::size_t>(k - first + 1), 0.0);
+  }
+  counts[static_cast<std::size_t>(k - first)] += 1.0;
+}
+
+void GridHistogram::merge(const GridHistogram& other) {
+  if (other.counts.empty()) return;
+  if (counts.empty()) {
+    *this = other;
+    return;
+  }
+  const long long lo = std::min(first, other.first);
+  const long long hi = std::max(first + static_cast<long long>(counts.size()), other.first + static_cast<long long>(other.counts.size()));
+  std::vector<double> merged(static_cast<std::size_t>(hi - lo), 0.0);
+  for (std::size_t i = 0; i < counts.size(); ++i) merged[static_cast<std::size_t>(first - lo) + i] += counts[i];
+  for (std::size_t i = 0; i < other.counts.size(); ++i) merged[static_cast<std::size_t>(other.first - lo) + i] += other.counts[i];
+  counts = std::move(merged);
+  first = lo;
+}
+
+double GridHistogram::total() const {
+  double t = 0.0;
+  for (double c : counts) t += c;
+  return t;
+}
+
+Histogram GridHistogram::coarse(int max_bins) const {
+  Histogram h;
+  if (counts.empty() || max_bins < 1) return h;
+  const std::size_t factor = (counts.size() + static_cast<std::size_t>(max_bins) - 1) / static_cast<std::size_t>(max_bins);
+  h.lo = (static_cast<double>(first) - 0.5) * width;
+  const std::size_t bins = (counts.size() + factor - 1) / factor;
+  h.hi = h.lo + static_cast<double>(bins * factor) * width;
+  h.counts.assign(bins, 0.0);
+  for (std::size_t i = 0; i < counts.size(); ++i) h.counts[i / factor] += counts[i];
+  return h;
+}
+
 }  // namespace granary::analysis

@@ -51,6 +51,20 @@ Histogram make_histogram(std::span<const double> values, int bins, double lo, do
 // Range from the data (min..max, widened a little so the maximum falls inside).
 Histogram make_histogram(std::span<const double> values, int bins);
 
+// Counts on a fixed grid (bin k = [(k - 1/2) width, (k + 1/2) width)), kept from the first to
+// the last occupied bin: histograms of different runs merge exactly, so a run's histogram can
+// be cached and the replicas' pooled afterwards.
+struct GridHistogram {
+  double width = 0.05;
+  long long first = 0;              // grid index of counts[0]
+  std::vector<double> counts;
+  void add(double value);
+  void merge(const GridHistogram& other);  // same width
+  double total() const;
+  // As a Histogram of at most `max_bins` bins (adjacent grid bins merged by a whole factor).
+  Histogram coarse(int max_bins) const;
+};
+
 // Exponential tail of a distribution of integer sizes s (avalanche sizes, ch. 4 and 6):
 // P(s) ~ q^s for s >= s_min, i.e. exp(-s / s_decay), s_decay = -1/ln q. Maximum likelihood
 // for the geometric distribution of s - s_min: q = m / (1 + m), m = <s - s_min> over the tail.

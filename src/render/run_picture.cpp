@@ -8,7 +8,8 @@
 #include <limits>
 #include <stdexcept>
 
-#include "analysis/run_analysis.h"
+#include "analysis/clogging.h"
+#include "analysis/run_pass.h"
 
 namespace granary::render {
 namespace fs = std::filesystem;
@@ -32,8 +33,12 @@ double PickTime(const rundir::RunData& run, const FramePick& pick) {
     case FramePick::kLast: return std::numeric_limits<double>::quiet_NaN();
     case FramePick::kClog: break;
   }
-  const analysis::RunAnalysis a = analysis::analyse_events(run, {});
-  const auto& clogs = a.series.clogged;
+  // The analyses' rule of a clog (clogging.h), with the run's own clog_window.
+  const analysis::PassOptions pass;
+  const analysis::RunView v = analysis::make_run_view(run, pass);
+  const analysis::ClogSeries series =
+      analysis::clog_series(run.events, -1, v.t_end, v.clog_gap, analysis::run_end_of(v.end_reason), v.stop_on_clog);
+  const auto& clogs = series.clogged;
   if (pick.clog < 1 || pick.clog > static_cast<int>(clogs.size()))
     throw std::runtime_error("run " + run.dir.string() + " has " + std::to_string(clogs.size()) + " clog" +
                              (clogs.size() == 1 ? "" : "s") + ", not a clog " + std::to_string(pick.clog));

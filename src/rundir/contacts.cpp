@@ -40,20 +40,33 @@ void ContactWriter::Write(const ContactFrame& frame) {
 }
 
 ContactReader::ContactReader(const std::filesystem::path& file)
-    : file_(file), lines_(std::make_unique<detail::DumpLines>(file)) {}
+    : file_(file), state_(std::make_unique<detail::DumpState>(file)) {}
 
 ContactReader::~ContactReader() = default;
 ContactReader::ContactReader(ContactReader&&) noexcept = default;
 ContactReader& ContactReader::operator=(ContactReader&&) noexcept = default;
 
-bool ContactReader::Next(ContactFrame& frame) {
-  detail::DumpLines& in = *lines_;
-  detail::DumpHeader h;
+bool ContactReader::NextHeader(ContactFrame& frame) {
+  detail::DumpState& st = *state_;
   frame.contacts.clear();
-  if (!detail::ReadDumpHeader(in, "NUMBER OF ENTRIES", "ITEM: ENTRIES", h)) return false;
-  frame.timestep = h.timestep;
-  frame.time = h.time;
-  std::copy(&h.box[0][0], &h.box[0][0] + 6, &frame.box[0][0]);
+  if (st.rows_pending && !detail::SkipDumpRows(st)) return false;
+  if (!detail::ReadDumpHeader(st.lines, "NUMBER OF ENTRIES", "ITEM: ENTRIES", st.header)) return false;
+  st.rows_pending = true;
+  frame.timestep = st.header.timestep;
+  frame.time = st.header.time;
+  std::copy(&st.header.box[0][0], &st.header.box[0][0] + 6, &frame.box[0][0]);
+  return true;
+}
+
+bool ContactReader::SkipContacts() { return detail::SkipDumpRows(*state_); }
+
+bool ContactReader::ReadContacts(ContactFrame& frame) {
+  detail::DumpState& st = *state_;
+  detail::DumpLines& in = st.lines;
+  const detail::DumpHeader& h = st.header;
+  frame.contacts.clear();
+  if (!st.rows_pending) return false;
+  st.rows_pending = false;
   static const char* kColumns[] = {"body_i", "body_j", "xi", "yi", "xj", "yj", "cx", "cy", "fx", "fy"};
   int cols[10];
   std::size_t need = 0;

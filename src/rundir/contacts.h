@@ -13,7 +13,7 @@
 
 namespace granary::rundir {
 namespace detail {
-class DumpLines;
+struct DumpState;
 }
 
 struct ContactRow {
@@ -58,11 +58,15 @@ class ContactReader {
   ~ContactReader();
   ContactReader(ContactReader&&) noexcept;
   ContactReader& operator=(ContactReader&&) noexcept;
-  bool Next(ContactFrame& frame);
+  bool Next(ContactFrame& frame) { return NextHeader(frame) && ReadContacts(frame); }
+  // In two steps (see FrameReader): the header, then the rows read or skipped.
+  bool NextHeader(ContactFrame& frame);
+  bool ReadContacts(ContactFrame& frame);
+  bool SkipContacts();
 
  private:
   std::filesystem::path file_;
-  std::unique_ptr<detail::DumpLines> lines_;
+  std::unique_ptr<detail::DumpState> state_;
 };
 
 }  // namespace granary::rundir

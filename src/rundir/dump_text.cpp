@@ -107,4 +107,12 @@ bool ReadDumpHeader(DumpLines& in, const char* count_item, const char* columns_i
   return true;
 }
 
+bool SkipDumpRows(DumpState& state) {
+  state.rows_pending = false;
+  std::string line;
+  for (std::int64_t r = 0; r < state.header.count; ++r)
+    if (!state.lines.Next(line)) return false;
+  return true;
+}
+
 }  // namespace granary::rundir::detail

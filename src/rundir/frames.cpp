@@ -22,9 +22,11 @@ using detail::ToInt;
 std::vector<Body> BodiesOf(const std::vector<Disc>& discs) {
   std::vector<std::size_t> order(discs.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+  auto before = [&](std::size_t a, std::size_t b) {
     return discs[a].mol != discs[b].mol ? discs[a].mol < discs[b].mol : discs[a].id < discs[b].id;
-  });
+  };
+  // Engines write the discs of a body together and bodies in order: usually nothing to sort.
+  if (!std::is_sorted(order.begin(), order.end(), before)) std::sort(order.begin(), order.end(), before);
   std::vector<Body> bodies;
   std::size_t i = 0;
   while (i < order.size()) {
@@ -95,20 +97,33 @@ void FrameWriter::Write(const Frame& frame) {
 // ---- reader ------------------------------------------------------------------------------
 
 FrameReader::FrameReader(const std::filesystem::path& file, double density)
-    : file_(file), lines_(std::make_unique<detail::DumpLines>(file)), density_(density) {}
+    : file_(file), state_(std::make_unique<detail::DumpState>(file)), density_(density) {}
 
 FrameReader::~FrameReader() = default;
 FrameReader::FrameReader(FrameReader&&) noexcept = default;
 FrameReader& FrameReader::operator=(FrameReader&&) noexcept = default;
 
-bool FrameReader::Next(Frame& frame) {
-  detail::DumpLines& in = *lines_;
-  detail::DumpHeader h;
+bool FrameReader::NextHeader(Frame& frame) {
+  detail::DumpState& st = *state_;
   frame.discs.clear();
-  if (!detail::ReadDumpHeader(in, "NUMBER OF ATOMS", "ITEM: ATOMS", h)) return false;
-  frame.timestep = h.timestep;
-  frame.time = h.time;
-  std::copy(&h.box[0][0], &h.box[0][0] + 6, &frame.box[0][0]);
+  if (st.rows_pending && !detail::SkipDumpRows(st)) return false;
+  if (!detail::ReadDumpHeader(st.lines, "NUMBER OF ATOMS", "ITEM: ATOMS", st.header)) return false;
+  st.rows_pending = true;
+  frame.timestep = st.header.timestep;
+  frame.time = st.header.time;
+  std::copy(&st.header.box[0][0], &st.header.box[0][0] + 6, &frame.box[0][0]);
+  return true;
+}
+
+bool FrameReader::SkipDiscs() { return detail::SkipDumpRows(*state_); }
+
+bool FrameReader::ReadDiscs(Frame& frame) {
+  detail::DumpState& st = *state_;
+  detail::DumpLines& in = st.lines;
+  const detail::DumpHeader& h = st.header;
+  frame.discs.clear();
+  if (!st.rows_pending) return false;
+  st.rows_pending = false;
   const std::vector<std::string>& names = h.columns;
   const int c_id = Column(names, "id"), c_mol = Column(names, "mol"), c_type = Column(names, "type");
   const int c_x = Column(names, "x"), c_y = Column(names, "y"), c_r = Column(names, "radius");

@@ -12,7 +12,7 @@
 
 namespace granary::rundir {
 namespace detail {
-class DumpLines;
+struct DumpState;
 }
 
 struct Disc {
@@ -78,12 +78,17 @@ class FrameReader {
   FrameReader& operator=(FrameReader&&) noexcept;
   // Reads the next frame into `frame`; false at the end of the file. A frame cut short at the
   // end of the file (an engine still writing) ends the stream without an error.
-  bool Next(Frame& frame);
+  bool Next(Frame& frame) { return NextHeader(frame) && ReadDiscs(frame); }
+  // The same in two steps, so that a frame nobody wants is skipped without parsing its rows:
+  // NextHeader fills timestep, time and box (discs cleared); then ReadDiscs or SkipDiscs.
+  bool NextHeader(Frame& frame);
+  bool ReadDiscs(Frame& frame);
+  bool SkipDiscs();
   const std::filesystem::path& file() const { return file_; }
 
  private:
   std::filesystem::path file_;
-  std::unique_ptr<detail::DumpLines> lines_;
+  std::unique_ptr<detail::DumpState> state_;
   double density_;
 };
 

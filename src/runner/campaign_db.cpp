@@ -1,5 +1,8 @@
 // See campaign_db.h.
 #include "runner/campaign_db.h"
+
+#include <cmath>
+#include <limits>
 #include "rundir/version.h"
 
 #include <signal.h>
@@ -314,6 +317,46 @@ void record_end(Store& store, const std::string& run_id, const std::string& stat
       "lease_host = NULL, lease_pid = NULL, lease_heartbeat = NULL WHERE run_id = ?1");
   u.bind(1, run_id).bind(2, state).bind(3, reason).bind(4, now).bind(5, wall_s).bind(6, state).run();
   tx.commit();
+}
+
+void store_metrics(Store& store, const std::vector<RunMetrics>& runs, double now) {
+  static constexpr char kDelete[] = "DELETE FROM metrics WHERE run_id = ?1 AND analysis = ?2";
+  static constexpr char kInsert[] =
+      "INSERT INTO metrics (run_id, analysis, metric, value, se, unit) VALUES (?1, ?2, ?3, ?4, ?5, ?6)";
+  static constexpr char kAnalysis[] =
+      "INSERT OR REPLACE INTO analyses (run_id, analysis, version, options, analysed_at) VALUES (?1, ?2, ?3, ?4, ?5)";
+  Transaction tx(store);
+  Statement del = store.prepare(kDelete), ins = store.prepare(kInsert), ana = store.prepare(kAnalysis);
+  for (const RunMetrics& r : runs) {
+    del.reset();
+    del.bind(1, r.run_id).bind(2, r.analysis).run();
+    for (const MetricRow& m : r.metrics) {
+      ins.reset();
+      ins.bind(1, r.run_id).bind(2, r.analysis).bind(3, m.name).bind(6, m.unit);
+      if (std::isfinite(m.value)) ins.bind(4, m.value); else ins.bind_null(4);
+      if (std::isfinite(m.se)) ins.bind(5, m.se); else ins.bind_null(5);
+      ins.run();
+    }
+    ana.reset();
+    ana.bind(1, r.run_id).bind(2, r.analysis).bind(3, r.version).bind(4, r.options.dump()).bind(5, now).run();
+  }
+  tx.commit();
+}
+
+std::map<std::string, std::vector<RunMetrics>> load_metrics(Store& store) {
+  static constexpr char kSelect[] =
+      "SELECT m.run_id, m.analysis, a.version, m.metric, m.value, m.se, m.unit FROM metrics m "
+      "JOIN analyses a ON a.run_id = m.run_id AND a.analysis = m.analysis ORDER BY m.run_id, m.analysis, m.rowid";
+  std::map<std::string, std::vector<RunMetrics>> out;
+  Statement q = store.prepare(kSelect);
+  while (q.step()) {
+    std::vector<RunMetrics>& list = out[q.text(0)];
+    if (list.empty() || list.back().analysis != q.text(1))
+      list.push_back({q.text(0), q.text(1), static_cast<int>(q.integer(2)), nullptr, {}});
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    list.back().metrics.push_back({q.text(3), q.text(6), q.is_null(4) ? nan : q.real(4), q.is_null(5) ? nan : q.real(5)});
+  }
+  return out;
 }
 
 }  // namespace granary::runner

@@ -113,6 +113,26 @@ void record_done(Store& store, const std::string& run_id, const nlohmann::json& 
 void record_end(Store& store, const std::string& run_id, const std::string& state, const std::string& reason,
                 double now, double wall_s);
 
+// One run's metrics from one analysis (db/003_metrics.sql): what campaign report, export and
+// compare store after analysing, so that the database answers queries without a report.
+struct MetricRow {
+  std::string name;
+  std::string unit;
+  double value = 0.0;             // NaN is stored as NULL
+  double se = 0.0;
+};
+struct RunMetrics {
+  std::string run_id;
+  std::string analysis;
+  int version = 0;
+  nlohmann::json options;         // the analysis' run options
+  std::vector<MetricRow> metrics;
+};
+// Replaces the stored metrics of each (run, analysis) given; one transaction.
+void store_metrics(Store& store, const std::vector<RunMetrics>& runs, double now);
+// The stored metrics of every run, by run id (analysis and version filled, options not).
+std::map<std::string, std::vector<RunMetrics>> load_metrics(Store& store);
+
 // Flattens scalar values of summary.json ("timing/wall_s" -> 812.3), skipping "spec".
 std::map<std::string, nlohmann::json> flatten_scalars(const nlohmann::json& summary);
 

@@ -26,8 +26,11 @@
 #include "runner/scheduler.h"
 #include "runner/util.h"
 #ifdef GRANARY_HAVE_ANALYSIS
+#include "analysis/export.h"
+#include "analysis/registry.h"
 #include "analysis/report.h"
 #endif
+#include "rundir/files.h"
 #ifdef GRANARY_HAVE_RENDER
 #include "render/run_picture.h"
 #endif
@@ -244,8 +247,7 @@ PlanSummary PlanInto(const json& j, const std::string& spec_path, const std::str
   }
 #ifdef GRANARY_HAVE_ANALYSIS
   try {
-    analysis::ReportOptions ro;
-    analysis::apply_report_spec(j, ro);
+    analysis::check_report_spec(j);
   } catch (const std::invalid_argument& e) {
     throw UsageError(spec_path + ": " + e.what());
   }
@@ -513,7 +515,8 @@ const char kStatusHelp[] =
     "usage: campaign status [--db FILE] [--only FILTER]... [--json]\n"
     "Counts by state (they add up to the runs of the campaign; retired runs, no longer in the\n"
     "spec, are counted apart), progress of running runs, failures with the tail of their log,\n"
-    "elapsed time and ETA.\n"
+    "elapsed time and ETA; how many finished runs have their metrics in the database (with\n"
+    "--json, every stored metric of every run).\n"
     "  --only FILTER  only these runs: a run-id prefix, or POINTER=VALUE (a short name that ends\n"
     "                 one sweep axis will do: width=9); repeat for several (docs/cli.md)\n"
     "  --json         the same as JSON\n";
@@ -536,6 +539,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     filters = filter.texts();
   }
   const std::vector<RunRow>& runs = all;
+  const auto metrics = load_metrics(store);
   std::map<std::string, int> counts;
   for (const char* state : kLiveStates) counts[state] = 0;
   int retired = 0, total = 0;
@@ -576,6 +580,16 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       }
       if (!r.failure.empty()) j["failure"] = r.failure;
       if (!r.end_reason.empty()) j["end_reason"] = r.end_reason;
+      if (const auto it = metrics.find(r.run_id); it != metrics.end()) {
+        json m = json::object();
+        for (const RunMetrics& rm : it->second)
+          for (const MetricRow& x : rm.metrics)
+            m[x.name] = {{"value", std::isfinite(x.value) ? json(x.value) : json(nullptr)},
+                         {"se", std::isfinite(x.se) ? json(x.se) : json(nullptr)},
+                         {"unit", x.unit},
+                         {"analysis", rm.analysis}};
+        j["metrics"] = m;
+      }
       list.push_back(j);
     }
     out << json{{"campaign", campaign ? campaign->name : ""},
@@ -598,6 +612,11 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   if (retired > 0) out << "  (and " << retired << " retired: no longer in the spec, not counted)";
   out << "\n  elapsed " << Duration(elapsed) << ", ETA "
       << (total - counts["done"] == 0 ? std::string("-") : eta >= 0 ? Duration(eta) : "?") << "\n";
+  int analysed = 0;
+  for (const auto& r : runs) analysed += r.state == "done" && metrics.count(r.run_id) ? 1 : 0;
+  if (counts["done"] > 0)
+    out << "  metrics in the database for " << analysed << " of " << counts["done"] << " done runs"
+        << (analysed < counts["done"] ? " (campaign report or export analyses the others)" : "") << "\n";
   bool header = false;
   for (const auto& r : runs) {
     if (r.state != "running") continue;
@@ -628,31 +647,50 @@ const char kReportHelp[] =
     "  --only FILTER  report only these runs (as for campaign run; repeat for several)\n";
 
 #ifdef GRANARY_HAVE_ANALYSIS
-// The report of the campaign in `db`: the database's runs handed over as plain records.
-analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out_dir, bool figures,
-                                      const std::vector<std::string>& only = {}) {
-  const auto opened = OpenCampaignDb(db, "report");
+// A campaign loaded from its database and analysed: what report, export and compare share.
+// The analysis points into `info` and `records`, so the whole lives together.
+struct AnalysedCampaign {
+  analysis::CampaignInfo info;
+  std::vector<analysis::RunRecord> records;
+  analysis::AnalysisSetup setup;
+  std::unique_ptr<analysis::CampaignAnalysis> analysis;
+};
+
+// "analysing runs [#####.....] 42/100" on a terminal; nothing otherwise.
+std::function<void(int, int)> AnalysisProgress(std::ostream& err) {
+  if (&err != &std::cerr || !isatty(STDERR_FILENO)) return nullptr;
+  return [&err](int done, int total) {
+    err << "\ranalysing runs " << Bar(static_cast<double>(done) / std::max(1, total), 30) << " " << done << "/" << total
+        << (done == total ? "\n" : "") << std::flush;
+  };
+}
+
+// Loads the campaign in `db`, analyses its finished runs (each run's cache first, runs in
+// parallel) and stores their per-run metrics in the database (table metrics).
+// With `only` (--only filters), the selected runs alone.
+std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const std::string& verb, std::ostream& err,
+                                                    const std::vector<std::string>& only = {}) {
+  const auto opened = OpenCampaignDb(db, verb);
   Store& store = *opened;
   const auto campaign = load_campaign(store);
-  if (!campaign) throw UsageError("campaign report: " + db + " holds no campaign");
-  std::vector<RunRow> rows = load_runs(store, true);
+  if (!campaign) throw UsageError("campaign " + verb + ": " + db + " holds no campaign");
+  std::vector<RunRow> runs = load_runs(store, true);
   if (!only.empty()) {
     try {
-      const RunFilter filter = resolve_filters(only, *campaign, rows);
-      std::erase_if(rows, [&](const RunRow& r) { return !filter.matches(r); });
+      const RunFilter filter = resolve_filters(only, *campaign, runs);
+      std::erase_if(runs, [&](const RunRow& r) { return !filter.matches(r); });
     } catch (const FilterError& e) {
       throw UsageError(e.what());
     }
   }
-  analysis::CampaignInfo info;
-  info.name = campaign->name;
-  info.spec_hash = campaign->spec_hash;
-  info.spec = campaign->spec;
-  info.axes = campaign->axes;
-  info.granary_version = campaign->granary_version;
-  info.git_commit = campaign->git_commit;
-  std::vector<analysis::RunRecord> records;
-  for (const auto& r : rows) {
+  auto c = std::make_unique<AnalysedCampaign>();
+  c->info.name = campaign->name;
+  c->info.spec_hash = campaign->spec_hash;
+  c->info.spec = campaign->spec;
+  c->info.axes = campaign->axes;
+  c->info.granary_version = campaign->granary_version;
+  c->info.git_commit = campaign->git_commit;
+  for (const auto& r : runs) {
     if (r.state == "retired") continue;
     analysis::RunRecord rec;
     rec.run_id = r.run_id;
@@ -664,8 +702,34 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
     rec.spec = r.params;
     rec.run_dir = fs::absolute(r.run_dir);
     rec.failure = r.failure;
-    records.push_back(std::move(rec));
+    c->records.push_back(std::move(rec));
   }
+  try {
+    c->setup = analysis::setup_analyses(campaign->spec);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("campaign spec: ") + e.what());
+  }
+  analysis::CampaignAnalysisOptions options;
+  options.progress = AnalysisProgress(err);
+  c->analysis = analysis::analyse_campaign(c->info, c->records, c->setup, options);
+  std::vector<RunMetrics> rows;
+  const analysis::CampaignAnalysis& a = *c->analysis;
+  for (std::size_t u = 0; u < a.view.used.size(); ++u)
+    for (std::size_t k = 0; k < c->setup.analyses.size(); ++k) {
+      if (a.results[k].runs[u].is_null()) continue;
+      const analysis::Analysis& an = *c->setup.analyses[k];
+      RunMetrics rm{a.view.used[u].record->run_id, an.key(), an.version(), an.run_options(), {}};
+      for (const analysis::Metric& m : a.run_metrics(k, u)) rm.metrics.push_back({m.name, m.unit, m.value, m.se});
+      rows.push_back(std::move(rm));
+    }
+  store_metrics(store, rows, now_seconds());
+  return c;
+}
+
+// The report of the campaign in `db`.
+analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out_dir, bool figures, std::ostream& err,
+                                      const std::vector<std::string>& only = {}) {
+  const auto c = AnalyseCampaignIn(db, "report", err, only);
   analysis::ReportOptions options;
   options.out_dir = out_dir;
   options.figures = figures;
@@ -681,28 +745,66 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
     }
   };
 #endif
-  try {
-    analysis::apply_report_spec(campaign->spec, options);
-  } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("campaign spec: ") + e.what());
-  }
-  return analysis::write_report(info, records, options);
+  return analysis::write_report(*c->analysis, options);
 }
 #endif
 
-int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args a = Parse(argv, "report");
   if (!a.positional.empty()) throw UsageError("campaign report: unexpected argument \"" + a.positional[0] + "\"");
   const std::string db = DbPath(a);
 #ifdef GRANARY_HAVE_ANALYSIS
   const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
-                                     !a.has("no-figures"), a.all("only"));
+                                     !a.has("no-figures"), err, a.all("only"));
   out << "report: " << summary.markdown.string() << "\n        " << summary.html.string() << "\n  runs used "
-      << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed << "\n";
+      << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed << "\n"
+      << "  analysis results: " << summary.results_from_cache << " from the runs' caches, " << summary.results_computed
+      << " computed\n";
   return 0;
 #else
   (void)out;
   throw UsageError("campaign report: this build has no analysis library (granary_analysis)");
+#endif
+}
+
+// ---------------------------------------------------------------- export
+const char kExportHelp[] =
+    "usage: campaign export [--db FILE] [--format csv|json] [--level run|point] [--out FILE] [--only FILTER]...\n"
+    "Analyse the finished runs (each run's cached results are reused) and write their metrics as\n"
+    "one tidy table: one row per run, or per sweep point; each swept parameter a column named by\n"
+    "its short path (base_outlets.0.width), each metric and its se (per point also n) numeric\n"
+    "columns. The per-run metrics are stored in the database too (table metrics, view\n"
+    "run_metrics; docs/data.md shows both read with pandas).\n"
+    "  --db FILE         database (default granary.db)\n"
+    "  --format F        csv (default) or json (an array of objects)\n"
+    "  --level L         run (default) or point\n"
+    "  --out FILE        write there (default: standard output)\n"
+    "  --only FILTER     only these runs (as for campaign run; repeat for several)\n";
+
+int Export(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args a = Parse(argv, "export");
+  if (!a.positional.empty()) throw UsageError("campaign export: unexpected argument \"" + a.positional[0] + "\"");
+  const std::string format = a.get("format", "csv"), level = a.get("level", "run");
+  if (format != "csv" && format != "json") throw UsageError("--format: must be csv or json (got \"" + format + "\")");
+  if (level != "run" && level != "point") throw UsageError("--level: must be run or point (got \"" + level + "\")");
+  const std::string db = DbPath(a);
+#ifdef GRANARY_HAVE_ANALYSIS
+  const auto c = AnalyseCampaignIn(db, "export", err, a.all("only"));
+  const analysis::ExportTable table =
+      analysis::export_table(*c->analysis, level == "run" ? analysis::ExportLevel::kRun : analysis::ExportLevel::kPoint);
+  const std::string text = format == "csv" ? analysis::to_csv(table) : analysis::to_json(table).dump(2) + "\n";
+  if (a.has("out")) {
+    WriteAtomically(a.get("out", ""), text);
+    err << "export: " << table.rows.size() << " " << level << (table.rows.size() == 1 ? "" : "s") << " to "
+        << a.get("out", "") << "\n";
+  } else {
+    out << text;
+  }
+  return 0;
+#else
+  (void)out;
+  (void)err;
+  throw UsageError("campaign export: this build has no analysis library (granary_analysis)");
 #endif
 }
 
@@ -740,9 +842,11 @@ void PrintComparison(std::ostream& out, const json& c) {
   for (const json& p : c.at("points")) {
     out << "  " << CompactPoint(p.at("point")) << "\n";
     if (p.at("metrics").empty()) out << "    (no metric defined on both engines yet)\n";
-    for (const char* metric : {"q_count", "phi", "tg_full", "psi", "avalanche_size"}) {
+    for (const json& name : c.at("metric_order")) {
+      const std::string metric = name.get<std::string>();
       if (!p.at("metrics").contains(metric)) continue;
       const json& m = p.at("metrics").at(metric);
+      if (!m.value("headline", false)) continue;
       unknown = unknown || !m.at("agree").is_boolean();
       json ratio = {{"mean", m.at("ratio")}, {"se", m.at("ratio_se")}};
       out << "    " << std::left << std::setw(16) << metric << std::setw(20) << cell(m.at(a)) << std::setw(20)
@@ -787,7 +891,7 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
     if (code == static_cast<int>(ExitCode::kInterrupted)) return code;
   }
   const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
-                                     !a.has("no-figures"));
+                                     !a.has("no-figures"), err);
   if (a.has("json")) {
     out << json{{"campaign", spec.name},
                 {"report", summary.html.string()},
@@ -1250,6 +1354,8 @@ const std::vector<Verb>& Verbs() {
        {{"db", true}, {"only", true}, {"json", false}, {"help", false}}},
       {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report,
        {{"db", true}, {"out", true}, {"only", true}, {"no-figures", false}, {"help", false}}},
+      {"export", "write every run's (or point's) metrics as one CSV or JSON table", kExportHelp, Export,
+       {{"db", true}, {"format", true}, {"level", true}, {"out", true}, {"only", true}, {"help", false}}},
       {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare,
        {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false}, {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"help", false}}},
       {"show", "everything about one run: state, timings, results, parameters, files, log", kShowHelp, Show,

@@ -6,12 +6,13 @@
 #include <string>
 #include <vector>
 
+#include "rundir/hash.h"
+
 namespace granary::runner {
 
 // FNV-1a 64-bit: stable across platforms and builds (run ids must never change).
-std::uint64_t fnv1a64(const std::string& data);
-// 16 lower-case hex digits of fnv1a64.
-std::string hash_hex(const std::string& data);
+using granary::fnv1a64;
+using granary::hash_hex;
 
 // The candidate nearest to `word` by edit distance, or "" if none is close enough.
 std::string nearest(const std::string& word, const std::vector<std::string>& candidates);

@@ -45,17 +45,43 @@ TEST(EngineComparison, AgreementRatioAndItsError) {
   EXPECT_EQ(agreement_text(false), "no");
 }
 
-PointMetrics point(double w, double q, double se) {
-  PointMetrics p;
+EnginePoint point(double w, double q, double se) {
+  EnginePoint p;
   p.point = {{"/silo/base_outlets/0/width", w}};
   p.point_id = "p" + std::to_string(static_cast<int>(w));
-  p.q_count = ms(q, se, 3);
+  p.metrics = {{"q_count", "bodies/sqrt(d/g)", q, se, 3, "Q", true, ""}};
   return p;
 }
 
+TEST(ComparePoints, MatchedBySweepValuesWithZScores) {
+  EnginePoint a1, a2, b1;
+  a1.point_id = "native-1";
+  a1.point = {{"/silo/base_outlets/0/width", 10}};
+  a1.metrics = {{"q_count", "", 20.0, 0.3, 4, "", true, ""},
+                {"phi", "", 0.8, 0.01, 4, "", true, ""},
+                {"clogged_runs", "", 1.0, kNaN, 4, "", false, "", false},  // not compared
+                {"v_max", "", kNaN, kNaN, 0, "", false, ""}};               // undefined
+  a2.point = {{"/silo/base_outlets/0/width", 12}};                          // no partner
+  b1.point_id = "liggghts-7";
+  b1.point = {{"/silo/base_outlets/0/width", 10}};
+  b1.metrics = {{"phi", "", 0.8, kNaN, 1, "", true, ""},
+                {"q_count", "", 19.0, 0.4, 5, "", true, ""},
+                {"clogged_runs", "", 2.0, kNaN, 5, "", false, "", false},
+                {"v_max", "", 3.0, 0.1, 5, "", false, ""}};
+  const auto c = compare_points({a1, a2}, {b1});
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_EQ(c[0].point_id_b, "liggghts-7");
+  ASSERT_EQ(c[0].metrics.size(), 2u);  // q_count and phi
+  EXPECT_EQ(c[0].metrics[0].name, "q_count");
+  EXPECT_DOUBLE_EQ(c[0].metrics[0].difference, 1.0);
+  EXPECT_DOUBLE_EQ(c[0].metrics[0].se, 0.5);
+  EXPECT_DOUBLE_EQ(c[0].metrics[0].z, 2.0);
+  EXPECT_TRUE(std::isnan(c[0].metrics[1].z));  // se unknown on one side
+}
+
 TEST(EngineComparison, MatchesPointsBySweepValuesAndSumsCosts) {
-  const std::vector<PointMetrics> a = {point(10, 20, 1), point(14, 40, 1), point(18, 60, 1)};
-  const std::vector<PointMetrics> b = {point(14, 44, 1), point(10, 19, 1), point(22, 80, 1)};
+  const std::vector<EnginePoint> a = {point(10, 20, 1), point(14, 40, 1), point(18, 60, 1)};
+  const std::vector<EnginePoint> b = {point(14, 44, 1), point(10, 19, 1), point(22, 80, 1)};
   const EngineComparison c =
       compare_engines("native", a, {{10.0, 8.0, 2e7, 1}, {20.0, 16.0, 4e7, 1}}, "liggghts", b, {{100.0, 90.0, 5e6, 1}});
   ASSERT_EQ(c.points.size(), 2u);  // W = 18 and 22 are on one engine only
@@ -157,7 +183,7 @@ TEST(EngineComparison, ReportOfATwoEngineCampaign) {
   EXPECT_NE(md.find("Reinjection: native `random`, liggghts `periodic`"), std::string::npos);
   EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_comparison.csv"));
   EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_cost.csv"));
-  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_ratio-1.csv"));
+  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_ratio--Q_bodies_sqrt_d_g.csv"));
 }
 
 // One replica per point and engine: no standard error, so agreement cannot be judged. The

@@ -89,25 +89,36 @@ TEST(RegionFrame, PackingAndBothTemperatures) {
   EXPECT_EQ(s.frames, 2);
   EXPECT_NEAR(s.phi.mean, f.phi, 1e-14);
   EXPECT_NEAR(s.tg_full.mean, 1.75, 1e-13);
-  EXPECT_EQ(s.vx.size(), 8u);
+  EXPECT_EQ(s.vx.total(), 8.0);  // 4 bodies inside, 2 frames
 }
 
-TEST(RegionAccumulator, VelocitySamplesAreCappedUniformly) {
-  // 200 frames x 500 bodies with v_x = body index: a reservoir of 1000 keeps a uniform subset
-  // (mean ~ 249.5, sd of the mean of 1000 uniform draws ~ 4.6).
+TEST(RegionAccumulator, VelocityHistogramsOnAFixedGridMergeExactly) {
+  // v_x = 0.01 i for bodies i = 0..499 in two frames: bins of 0.05 hold 5 bodies each (the
+  // first and last bins, centred on 0 and 5, half of that).
   const Rect q{0, 100, 0, 100};
   std::vector<rundir::Body> bodies(500);
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     bodies[i].x = 1.0 + 0.1 * static_cast<double>(i);
     bodies[i].y = 1.0;
-    bodies[i].vx = static_cast<double>(i);
+    bodies[i].vx = 0.01 * static_cast<double>(i) + 1e-9;
   }
-  RegionAccumulator acc(q, 1000);
-  for (int f = 0; f < 200; ++f) acc.add({}, bodies);
-  const RegionStats s = acc.result();
-  ASSERT_EQ(s.vx.size(), 1000u);
-  EXPECT_NEAR(mean_se(s.vx).mean, 249.5, 20.0);
-  EXPECT_EQ(s.frames, 200);
+  RegionAccumulator a(q), b(q);
+  a.add({}, bodies);
+  b.add({}, bodies);
+  RegionStats s = a.result();
+  EXPECT_EQ(s.vx.total(), 500.0);
+  EXPECT_EQ(s.vx.first, 0);
+  ASSERT_EQ(s.vx.counts.size(), 101u);  // 0 .. 4.99 -> bins 0 .. 100
+  EXPECT_EQ(s.vx.counts[0], 3.0);       // 0, 0.01, 0.02
+  EXPECT_EQ(s.vx.counts[1], 5.0);
+  s.vx.merge(b.result().vx);
+  EXPECT_EQ(s.vx.total(), 1000.0);
+  EXPECT_EQ(s.vx.counts[1], 10.0);
+  const Histogram h = s.vx.coarse(30);  // 101 grid bins -> factor 4 -> 26 bins of 0.2
+  EXPECT_EQ(h.counts.size(), 26u);
+  EXPECT_NEAR(h.bin_width(), 0.2, 1e-12);
+  EXPECT_EQ(h.total(), 1000.0);
+  EXPECT_NEAR(h.lo, -0.025, 1e-12);
 }
 
 TEST(Region, ThesisSizes) {

@@ -29,7 +29,14 @@ TEST(RenderReport, TablesFiguresAndCsv) {
   TempDir dir;
   Section s{"sec", "A section", {}};
   s.blocks.push_back(Text{"Some **bold** and `code` <tag>."});
-  s.blocks.push_back(Table{"tab", "A table", {"name", "value"}, {{"x|y", "1,5"}}});
+  s.blocks.push_back(Table{"tab", "A table", {"name", "value"}, {{"x|y", "1,5"}}, {}});
+  // Numbers to full precision in the CSV, an estimate in three columns named by the keys.
+  s.blocks.push_back(Table{"numbers",
+                           "Numbers",
+                           {"point", "Q (bodies/t)", "count"},
+                           {{"a", Cell::estimate(2.0 / 3.0, 0.125, 4), Cell::count(7)},
+                            {"b", Cell::estimate(1.5, std::nan(""), 1), Cell::number(std::nan(""))}},
+                           {"point", "q", "count"}});
   Series se;
   se.label = "data";
   se.columns = {"x", "y", "y_se"};
@@ -44,7 +51,11 @@ TEST(RenderReport, TablesFiguresAndCsv) {
   const std::string md = read_file(r.markdown);
   EXPECT_NE(md.find("| x\\|y | 1,5 |"), std::string::npos) << md;
   EXPECT_EQ(read_file(out / "tab.csv"), "name,value\nx|y,\"1,5\"\n");
-  EXPECT_EQ(read_file(out / "fig-1.csv"), "x,y,y_se\n1,2,0.1\n2,4,nan\n3,6,0.3\n");
+  EXPECT_EQ(read_file(out / "numbers.csv"),
+            "point,q,q_se,q_n,count\na,0.6666666666666666,0.125,4,7\nb,1.5,nan,1,nan\n");
+  EXPECT_NE(md.find("| a | 0.6667 ± 0.12 (4) | 7 |"), std::string::npos) << md;
+  // A figure's data files are named after what they hold.
+  EXPECT_EQ(read_file(out / "fig--data.csv"), "x,y,y_se\n1,2,0.1\n2,4,nan\n3,6,0.3\n");
   const std::string html = read_file(r.html);
   EXPECT_NE(html.find("<b>bold</b>"), std::string::npos);
   EXPECT_NE(html.find("<code>code</code>"), std::string::npos);
@@ -73,6 +84,17 @@ TEST(GnuplotScript, LinesWithErrorBars) {
   EXPECT_NE(gnuplot_script(f).find("with linespoints"), std::string::npos);
 }
 
+TEST(RenderReport, CurveFilesAreNamedAfterTheirLabelsAndUnique) {
+  Figure f{"flow_rate", "", "", "", {}, false, false, ""};
+  for (const char* label : {"Q", "species.0.fraction=0.5, W/d", "Q", "", "a/b"}) {
+    Series se;
+    se.label = label;
+    f.series.push_back(se);
+  }
+  EXPECT_EQ(series_files(f), (std::vector<std::string>{"flow_rate--Q.csv", "flow_rate--species.0.fraction_0.5_W_d.csv",
+                                                       "flow_rate--Q-2.csv", "flow_rate--curve4.csv", "flow_rate--a_b.csv"}));
+}
+
 TEST(RenderReport, MissingGnuplotIsReported) {
   TempDir dir;
   Series se;
@@ -85,7 +107,7 @@ TEST(RenderReport, MissingGnuplotIsReported) {
   EXPECT_EQ(r.figures_drawn, 0);
   ASSERT_FALSE(r.problems.empty());
   EXPECT_NE(read_file(r.markdown).find("gnuplot ('no-such-gnuplot-binary') was not found"), std::string::npos);
-  EXPECT_TRUE(std::filesystem::exists(dir.path() / "fig-1.csv"));
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "fig--curve1.csv"));  // no label: numbered
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-// write_report and compute_point_metrics on a synthetic campaign: hand-written run
+// write_report and the campaign analysis on a synthetic campaign: hand-written run
 // directories whose exit streams have known flow rates Q(W) = 0.8 (W - 1.5)^(3/2), one
 // frame file with a known packing fraction and temperature, a failed and a planned run.
 #include "analysis/report.h"
@@ -11,7 +11,8 @@
 #include <numbers>
 #include <sstream>
 
-#include "analysis/metrics.h"
+#include "analysis/options.h"
+#include "analysis/registry.h"
 #include "analysis/report_document.h"
 #include "test_util.h"
 
@@ -111,28 +112,78 @@ Campaign make_campaign(const std::filesystem::path& root) {
   return c;
 }
 
-TEST(PointMetrics, FlowRateAndRegionFromRunDirectories) {
+TEST(CampaignAnalysis, FlowRateAndRegionFromRunDirectories) {
   TempDir dir;
   const Campaign c = make_campaign(dir.path());
-  const std::vector<PointMetrics> m = compute_point_metrics(c.runs, AnalysisOptions());
-  ASSERT_EQ(m.size(), 4u);
-  EXPECT_EQ(m[0].point_id, "W10");
-  EXPECT_EQ(m[0].runs, 2);  // the failed and planned runs are not analysed
-  EXPECT_EQ(m[0].q_count.n, 2);
-  EXPECT_NEAR(m[0].q_count.mean, q_of(10), 1e-9 * q_of(10));
-  EXPECT_NEAR(m[0].q_count.se, 0.01 * q_of(10), 1e-9 * q_of(10));
-  EXPECT_NEAR(m[3].q_mass.mean, 2.0 * q_of(22), 1e-9 * q_of(22));
+  const AnalysisSetup setup = setup_analyses(c.info.spec);
+  const auto a = analyse_campaign(c.info, c.runs, setup);
+  ASSERT_EQ(a->view.points.size(), 4u);
+  EXPECT_EQ(a->view.points[0].id, "W10");
+  EXPECT_EQ(a->view.points[0].runs.size(), 2u);  // the failed and planned runs are not analysed
+  auto m = [&](std::size_t p, const std::string& name) {
+    const std::vector<PointMetric> all = a->all_point_metrics(p);
+    const PointMetric* x = find_metric(all, name);
+    return x ? *x : PointMetric{};
+  };
+  EXPECT_EQ(m(0, "q_count").n, 2);
+  EXPECT_NEAR(m(0, "q_count").mean, q_of(10), 1e-9 * q_of(10));
+  EXPECT_NEAR(m(0, "q_count").se, 0.01 * q_of(10), 1e-9 * q_of(10));
+  EXPECT_NEAR(m(3, "q_mass").mean, 2.0 * q_of(22), 1e-9 * q_of(22));
   // Region: three discs of radius 0.5 inside (W + 2 sqrt2) x 5 sqrt2.
   const double area = (10.0 + 2.0 * std::numbers::sqrt2) * 5.0 * std::numbers::sqrt2;
-  EXPECT_EQ(m[0].phi.n, 1);
-  EXPECT_NEAR(m[0].phi.mean, 3.0 * std::numbers::pi * 0.25 / area, 1e-12);
-  EXPECT_NEAR(m[0].tg_translational.mean, 0.5, 1e-12);  // v_y = -1, -3 about -2
-  EXPECT_EQ(m[1].phi.n, 0);
-  EXPECT_NEAR(m[0].v_max.mean, 3.0, 1e-12);  // both bodies within 2 d of the base
+  EXPECT_EQ(m(0, "phi").n, 1);
+  EXPECT_NEAR(m(0, "phi").mean, 3.0 * std::numbers::pi * 0.25 / area, 1e-12);
+  EXPECT_NEAR(m(0, "tg_translational").mean, 0.5, 1e-12);  // v_y = -1, -3 about -2
+  EXPECT_EQ(m(1, "phi").n, 0);
+  EXPECT_NEAR(m(0, "v_max").mean, 3.0, 1e-12);  // both bodies within 2 d of the base
   // No clogs: Psi over the 2 runs is 0 with N_u = the remaining 1000.
-  EXPECT_EQ(m[0].clogging.clogged, 0);
-  EXPECT_NEAR(m[0].clogging.psi.mean, 0.0, 1e-12);
-  EXPECT_EQ(m[0].avalanche_size.n, 0);
+  EXPECT_EQ(m(0, "clogged_runs").mean, 0.0);
+  EXPECT_NEAR(m(0, "psi").mean, 0.0, 1e-12);
+  EXPECT_EQ(m(0, "avalanche_size").n, 0);
+  // The per-run metrics of a run.
+  const std::vector<Metric> run0 = a->run_metrics(0, a->view.points[0].runs[0]);
+  ASSERT_NE(find_metric(run0, "q_count"), nullptr);
+  EXPECT_EQ(find_metric(run0, "q_count")->unit, "bodies/sqrt(d/g)");
+}
+
+// The stagnant count N_u of a point where every run clogged comes from the freely
+// discharging runs of its group (the same silo at other widths), else of the campaign.
+TEST(CampaignAnalysis, StagnantCountOfAPointWhereEveryRunClogged) {
+  TempDir dir;
+  CampaignInfo info;
+  info.name = "nu";
+  info.axes = {"/silo/base_outlets/0/width", "/silo/width"};
+  std::vector<RunRecord> runs;
+  auto add = [&](const std::string& id, double w, double silo, bool clogged, int left) {
+    RunRecord r;
+    r.run_id = id;
+    r.point_id = "W" + format_number(w) + "S" + format_number(silo);
+    r.state = "done";
+    r.point = {{"/silo/base_outlets/0/width", w}, {"/silo/width", silo}};
+    r.spec = spec_for(w);
+    r.spec["silo"]["width"] = silo;
+    r.run_dir = dir.path() / id;
+    write_file(r.run_dir / "run.json", r.spec.dump());
+    write_file(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n");
+    write_file(r.run_dir / "summary.json",
+               nlohmann::json{{"bodies", 1000}, {"exited", 1000 - left}, {"remaining", left},
+                              {"end_reason", clogged ? "clogged" : "discharged"}, {"t_end", 10.0}}
+                   .dump());
+    runs.push_back(r);
+  };
+  add("free-100", 20, 100, false, 40);  // silo 100: N_u = 40
+  add("free-200", 20, 200, false, 80);  // silo 200: N_u = 80
+  add("narrow-100-a", 4, 100, true, 540);
+  add("narrow-100-b", 4, 100, true, 240);
+  const AnalysisSetup setup = setup_analyses({{"report", {{"clogging_index", {{"min_exits_before_clog", 0}}}}}});
+  const auto a = analyse_campaign(info, runs, setup);
+  for (std::size_t p = 0; p < a->view.points.size(); ++p) {
+    if (a->view.points[p].id != "W4S100") continue;
+    const std::vector<PointMetric> m = a->all_point_metrics(p);
+    EXPECT_DOUBLE_EQ(find_metric(m, "n_stagnant")->mean, 40.0);  // the group silo=100, not the campaign (60)
+    EXPECT_NEAR(find_metric(m, "psi")->mean, (500.0 / 960.0 + 200.0 / 960.0) / 2.0, 1e-14);
+    EXPECT_EQ(find_metric(m, "psi")->note, "every run clogged: N_u from the freely discharging runs of width=100");
+  }
 }
 
 TEST(WriteReport, SyntheticCampaign) {
@@ -141,9 +192,13 @@ TEST(WriteReport, SyntheticCampaign) {
   ReportOptions opt;
   opt.out_dir = dir.path() / "report";
   opt.figures = std::system("command -v gnuplot > /dev/null 2>&1") == 0;
-  opt.models.push_back({"power_law", "a * x^b", "x", {{"a", 1.0}, {"b", 1.5}}});
-  opt.models.push_back({"four", "a * x^b + c + e * x", "x", {{"a", 1.0}, {"b", 1.5}}});  // 4 widths: not fitted
-  const ReportSummary s = write_report(c.info, c.runs, opt);
+  Campaign with_model = c;
+  with_model.info.spec = {{"report", {{"flow", {{"models", {{{"name", "power_law"}, {"expression", "a * x^b"},
+                                                              {"variable", "x"}, {"initial", {{"a", 1.0}, {"b", 1.5}}}},
+                                                             // 4 widths for 4 parameters: not fitted
+                                                             {{"name", "four"}, {"expression", "a * x^b + c + e * x"},
+                                                              {"variable", "x"}, {"initial", {{"a", 1.0}, {"b", 1.5}}}}}}}}}}};
+  const ReportSummary s = write_report(with_model.info, c.runs, opt);
   EXPECT_EQ(s.runs_used, 8);
   EXPECT_EQ(s.runs_missing, 1);
   EXPECT_EQ(s.runs_failed, 1);
@@ -157,22 +212,24 @@ TEST(WriteReport, SyntheticCampaign) {
   EXPECT_EQ(md.find("Clogging index"), std::string::npos);  // no clogs: no section
   EXPECT_EQ(md.find("Avalanche"), std::string::npos);
 
-  // Flow-rate table: mean ± se (n) at W = 14.
+  // Flow-rate table: mean, se and n in columns of their own, to full precision.
   const std::string flow = read_file(opt.out_dir / "flow_rate.csv");
-  const std::string q14 = csv_cell(flow, {"width=14"}, 1);
-  EXPECT_EQ(q14.substr(0, q14.find(' ')), format_number(q_of(14)));
-  EXPECT_NE(q14.find("(2)"), std::string::npos);
+  EXPECT_EQ(flow.substr(0, flow.find('\n')), "point,q_count,q_count_se,q_count_n,q_mass,q_mass_se,q_mass_n");
+  EXPECT_NEAR(std::stod(csv_cell(flow, {"width=14"}, 1)), q_of(14), 1e-12 * q_of(14));
+  EXPECT_NEAR(std::stod(csv_cell(flow, {"width=14"}, 2)), 0.01 * q_of(14), 1e-9 * q_of(14));
+  EXPECT_EQ(csv_cell(flow, {"width=14"}, 3), "2");
+  EXPECT_NE(md.find(format_mean_se(q_of(14), 0.01 * q_of(14), 2)), std::string::npos);
 
   // Beverloo 2-D recovers the generating C and k (the replica means lie on the curve).
   const std::string fits = read_file(opt.out_dir / "flow_rate_fits.csv");
   EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",C,"}, 3)), kC, 1e-3);
   EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",k,"}, 3)), kK, 1e-3);
   EXPECT_NE(csv_cell(fits, {"power_law", ",b,"}, 3), "");
-  EXPECT_EQ(csv_cell(fits, {"beverloo_2d", ",C,"}, 9), "good");
+  EXPECT_EQ(csv_cell(fits, {"beverloo_2d", ",C,"}, 10), "good");
   // A model with as many parameters as points: not fitted, and its start values (b = 1.5) are
   // not shown as results.
   EXPECT_EQ(csv_cell(fits, {"four", ",b,"}, 3), "");
-  EXPECT_EQ(csv_cell(fits, {"four", ",b,"}, 9), "not fitted: 4 points for 4 parameters (needs at least 5)");
+  EXPECT_EQ(csv_cell(fits, {"four", ",b,"}, 10), "not fitted: 4 points for 4 parameters (needs at least 5)");
 
   // Provenance: engine version, commit and tangential cap.
   const std::string prov = read_file(opt.out_dir / "provenance.csv");
@@ -182,7 +239,7 @@ TEST(WriteReport, SyntheticCampaign) {
   EXPECT_TRUE(std::filesystem::exists(opt.out_dir / "region.csv"));
   EXPECT_NE(md.find("Velocity profiles"), std::string::npos);
   // The figure data is there even without gnuplot.
-  const std::string series = read_file(opt.out_dir / "flow_rate-1.csv");
+  const std::string series = read_file(opt.out_dir / "flow_rate--Q.csv");
   EXPECT_EQ(series.substr(0, series.find('\n')), "base_outlets.0.width,Q,Q_se,n");
 
   const std::string html = read_file(s.html);
@@ -266,20 +323,26 @@ TEST(WriteReport, ClogSectionsWithKnownNumbers) {
   EXPECT_NE(md.find("Flowing and clogged times"), std::string::npos);
 
   const std::string psi = read_file(opt.out_dir / "clogging_index.csv");
-  EXPECT_EQ(csv_cell(psi, {"width=6"}, 1), format_mean_se(660.0 / 960.0 / 2.0, 660.0 / 960.0 / 2.0, 2));
-  EXPECT_EQ(csv_cell(psi, {"width=6"}, 3), "1");   // discarded
-  EXPECT_EQ(csv_cell(psi, {"width=6"}, 4), "40");  // N_u
+  EXPECT_EQ(psi.substr(0, psi.find('\n')), "point,psi,psi_se,psi_n,clogged_runs,discarded_runs,n_stagnant,note");
+  EXPECT_NEAR(std::stod(csv_cell(psi, {"width=6"}, 1)), 660.0 / 960.0 / 2.0, 1e-15);
+  EXPECT_NEAR(std::stod(csv_cell(psi, {"width=6"}, 2)), 660.0 / 960.0 / 2.0, 1e-15);
+  EXPECT_EQ(csv_cell(psi, {"width=6"}, 3), "2");
+  EXPECT_EQ(csv_cell(psi, {"width=6"}, 5), "1");   // discarded
+  EXPECT_EQ(csv_cell(psi, {"width=6"}, 6), "40");  // N_u
 
   const std::string av = read_file(opt.out_dir / "avalanches.csv");
-  EXPECT_EQ(csv_cell(av, {"width=6"}, 1), format_mean_se(175.0, 125.0, 2));
-  EXPECT_EQ(csv_cell(av, {"width=8"}, 1), "20 (1)");
+  EXPECT_EQ(csv_cell(av, {"width=6"}, 1), "175");
+  EXPECT_EQ(csv_cell(av, {"width=6"}, 2), "125");
+  EXPECT_EQ(csv_cell(av, {"width=8"}, 1), "20");
+  EXPECT_EQ(csv_cell(av, {"width=8"}, 2), "nan");  // one avalanche: no se
+  EXPECT_EQ(csv_cell(av, {"width=8"}, 3), "1");
 
   const std::string inter = read_file(opt.out_dir / "intermittency.csv");
-  EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 2), "10 (1)");   // t_f: 0 -> 10
-  EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 3), "10 (1)");   // t_c: 10 -> 20
-  EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 4), format_number(1.0 / 26.0));
+  EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 2), "10");   // t_f: 0 -> 10
+  EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 5), "10");   // t_c: 10 -> 20
+  EXPECT_DOUBLE_EQ(std::stod(csv_cell(inter, {"width=8", "base 0"}, 8)), 1.0 / 26.0);
   // The figure data: t_f of outlet 0 at W = 8 (W = 6 runs stopped on clogs: no complete t_c).
-  const std::string tf = read_file(opt.out_dir / "intermittency_times-1.csv");
+  const std::string tf = read_file(opt.out_dir / "intermittency_times--t_f_base_0.csv");
   EXPECT_EQ(tf.substr(0, tf.find('\n')), "base_outlets.0.width,t_f,t_f_se,n");
   EXPECT_NE(tf.find("\n8,10,nan,1\n"), std::string::npos) << tf;
 
@@ -315,7 +378,7 @@ TEST(WriteReport, FitsPerGroupOfAnotherAxis) {
   EXPECT_NEAR(std::stod(csv_cell(fits, {"fraction=0.5", "beverloo_2d", ",C,"}, 3)), 0.64, 1e-3);
   EXPECT_NEAR(std::stod(csv_cell(fits, {"fraction=1", "beverloo_2d", ",k,"}, 3)), kK, 1e-3);
   // The parameter trend against the other axis: C(X) for X = 0, 0.5, 1.
-  const std::string trend = read_file(opt.out_dir / "fit_parameters_beverloo_2d-1.csv");
+  const std::string trend = read_file(opt.out_dir / "fit_parameters_beverloo_2d--C.csv");
   EXPECT_EQ(trend.substr(0, trend.find('\n')), "species.0.fraction,C,C_se,ci_low,ci_high");
   EXPECT_NEAR(std::stod(csv_cell(trend, {"0.5,"}, 1)), 0.64, 1e-3);
   EXPECT_EQ(std::count(trend.begin(), trend.end(), '\n'), 4);
@@ -326,43 +389,48 @@ TEST(WriteReport, FitsPerGroupOfAnotherAxis) {
   }
 }
 
+// The message of the OptionError that reading `report` throws, or "".
+std::string error_of(const nlohmann::json& report) {
+  try {
+    setup_analyses({{"report", report}});
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
 TEST(ReportSpec, OptionsFromCampaignSpec) {
-  ReportOptions opt;
-  apply_report_spec({{"report", {{"region", "ch3"}, {"clog_gap", 2.5}, {"window", {{"start_time", 4}}},
-                                 {"profile", {{"bins", 8}}}}}},
-                    opt);
-  EXPECT_DOUBLE_EQ(opt.analysis.region.pad, 2.0);
-  EXPECT_DOUBLE_EQ(opt.analysis.region.height, 10.0);
-  EXPECT_DOUBLE_EQ(opt.analysis.clog_gap, 2.5);
-  EXPECT_DOUBLE_EQ(opt.analysis.window.start_time, 4.0);
-  EXPECT_EQ(opt.analysis.profile.bins, 8);
-  try {
-    apply_report_spec({{"report", {{"window", {{"start_fraction", 1.5}}}}}}, opt);
-    FAIL() << "no error";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_STREQ(e.what(), "/report/window/start_fraction: must be in [0, 1] (got 1.5)");
+  const AnalysisSetup setup = setup_analyses({{"report", {{"region", "ch3"}, {"clog_gap", 2.5}, {"window", {{"start_time", 4}}},
+                                                          {"profile", {{"bins", 8}}}, {"frame_stride", 2}}}});
+  EXPECT_DOUBLE_EQ(setup.pass.clog_gap, 2.5);
+  EXPECT_DOUBLE_EQ(setup.pass.window.start_time, 4.0);
+  EXPECT_EQ(setup.pass.frame_stride, 2);
+  for (const auto& a : setup.analyses) {
+    if (a->key() == "region") {
+      EXPECT_EQ(a->run_options(), (nlohmann::json{{"pad", 2.0}, {"height", 10.0}}));
+    }
+    if (a->key() == "profile") {
+      EXPECT_EQ(a->run_options()["bins"], 8);
+    }
   }
-  apply_report_spec({{"report", {{"models", {{{"name", "collapse"}, {"expression", "a * W^b"}, {"variable", "W"},
-                                              {"initial", {{"b", 1.7}}}}}}}}},
-                    opt);
-  ASSERT_EQ(opt.models.size(), 1u);
-  apply_report_spec({{"report", {{"models", {{{"name", "collapse"}, {"expression", "a * W^b"}, {"variable", "W"}}}}}}},
-                    opt);
-  ASSERT_EQ(opt.models.size(), 1u);  // the same model is not added twice
-  EXPECT_EQ(opt.models[0].variable, "W");
-  EXPECT_DOUBLE_EQ(opt.models[0].initial.at("b"), 1.7);
-  try {
-    apply_report_spec({{"report", {{"models", {{{"expression", "a * (W"}, {"variable", "W"}}}}}}}, opt);
-    FAIL() << "no error";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_STREQ(e.what(), "/report/models/0/expression: model 'a * (W': position 7: expected ')'");
-  }
-  try {
-    apply_report_spec({{"report", {{"regoin", "ch3"}}}}, opt);
-    FAIL() << "no error";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("/report/regoin: unknown key"), std::string::npos) << e.what();
-  }
+  EXPECT_EQ(error_of({{"window", {{"start_fraction", 1.5}}}}), "/report/window/start_fraction: must be in [0, 1] (got 1.5)");
+  EXPECT_EQ(error_of({{"flow", {{"models", {{{"expression", "a * (W"}, {"variable", "W"}}}}}}}),
+            "/report/flow/models/0/expression: model 'a * (W': position 7: expected ')'");
+  EXPECT_EQ(error_of({{"flow", {{"model", 1}}}}), "/report/flow/model: unknown key (known: models) (got 1)");
+  EXPECT_EQ(error_of({{"profile", {{"bins", 0}}}}), "/report/profile/bins: must be in [1, 1e+06] (got 0)");
+  EXPECT_EQ(error_of({{"clogging_index", {{"min_exits_before_clog", 2.5}}}}),
+            "/report/clogging_index/min_exits_before_clog: must be an integer (got 2.5)");
+  EXPECT_EQ(error_of({{"region", "ch5"}}), "/report/region: must be \"ch3\", \"ch4\" or {\"pad\": .., \"height\": ..} (got \"ch5\")");
+  // Keys that moved to their analysis say where to.
+  EXPECT_EQ(error_of({{"models", nlohmann::json::array()}}),
+            "/report/models: fit models are options of the flow analysis now: /report/flow/models (got [])");
+  EXPECT_EQ(error_of({{"min_exits_before_clog", 5}}),
+            "/report/min_exits_before_clog: moved to /report/clogging_index/min_exits_before_clog (got 5)");
+  const std::string unknown = error_of({{"regoin", "ch3"}});
+  EXPECT_NE(unknown.find("/report/regoin: unknown key (known: window, clog_gap, frame_stride, max_frames, flow, profile, "
+                         "region, clogging_index, avalanches, intermittency)"),
+            std::string::npos)
+      << unknown;
 }
 
 TEST(WriteReport, EmptyCampaignStillWritesReport) {

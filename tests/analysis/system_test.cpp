@@ -61,7 +61,7 @@ TEST(System, FixedParametersSayWhatIsSweptAndDescribeTheBodies) {
   std::map<std::string, std::string> value;
   for (const auto& row : t.rows) {
     ASSERT_EQ(row.size(), 3u);
-    value[row[1]] = row[2];
+    value[row[1].shown()] = row[2].shown();
   }
   EXPECT_EQ(value.at("width L"), "100");
   EXPECT_EQ(value.at("height"), "as tall as the bed needs");

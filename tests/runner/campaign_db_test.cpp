@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 namespace granary::runner {
 namespace {
 
@@ -129,6 +131,39 @@ TEST(IngestTest, FlattensScalarsSkippingSpec) {
   EXPECT_EQ(m.at("timing/wall_s"), 2.5);
   EXPECT_EQ(m.at("end_reason"), "clogged");
   EXPECT_EQ(m.count("spec/seed"), 0u);
+}
+
+TEST(MetricsTest, StoredPerRunAndAnalysisReplacedOnTheNextStore) {
+  Store store(":memory:");
+  Plan(store, "[10]");
+  const std::vector<RunRow> runs = load_runs(store, false);
+  ASSERT_EQ(runs.size(), 2u);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  store_metrics(store,
+                {{runs[0].run_id, "flow", 1, {{"x", 1}}, {{"q_count", "bodies/sqrt(d/g)", 12.5, 0.5}, {"q_mass", "m", nan, nan}}},
+                 {runs[1].run_id, "flow", 1, nullptr, {{"q_count", "bodies/sqrt(d/g)", 11.5, nan}}}},
+                100.0);
+  // The query the database is for: Q of each run with its width.
+  Statement q = store.prepare(
+      "SELECT json_extract(r.params, '$.silo.base_outlets[0].width'), m.value, m.se FROM metrics m "
+      "JOIN runs r USING (run_id) WHERE m.metric = 'q_count' ORDER BY m.value");
+  ASSERT_TRUE(q.step());
+  EXPECT_EQ(q.real(0), 10.0);
+  EXPECT_EQ(q.real(1), 11.5);
+  EXPECT_TRUE(q.is_null(2));  // NaN is NULL
+  ASSERT_TRUE(q.step());
+  EXPECT_EQ(q.real(2), 0.5);
+  // A second analysis replaces the run's rows of that analysis only.
+  store_metrics(store, {{runs[0].run_id, "flow", 2, nullptr, {{"q_count", "bodies/sqrt(d/g)", 13.0, 0.4}}}}, 200.0);
+  const auto all = load_metrics(store);
+  ASSERT_EQ(all.at(runs[0].run_id).size(), 1u);
+  EXPECT_EQ(all.at(runs[0].run_id)[0].version, 2);
+  ASSERT_EQ(all.at(runs[0].run_id)[0].metrics.size(), 1u);  // q_mass gone with version 1
+  EXPECT_EQ(all.at(runs[0].run_id)[0].metrics[0].value, 13.0);
+  EXPECT_EQ(all.at(runs[1].run_id)[0].metrics[0].value, 11.5);
+  Statement view = store.prepare("SELECT COUNT(*) FROM run_metrics");  // runs not done: not in the view
+  ASSERT_TRUE(view.step());
+  EXPECT_EQ(view.integer(0), 0);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <thread>
 
+#include "runner/store.h"
 #include "test_util.h"
 
 namespace granary::runner {
@@ -60,7 +61,7 @@ TEST_F(CliTest, HelpAndUnknownVerb) {
   auto r = Sh(testing::Campaign() + " --help");
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.output.find("verbs:"), std::string::npos);
-  for (const char* verb : {"plan", "run", "status", "report", "compare"}) {
+  for (const char* verb : {"plan", "run", "status", "report", "export", "compare"}) {
     r = Sh(testing::Campaign() + " " + verb + " --help");
     EXPECT_EQ(r.code, 0) << verb;
     EXPECT_EQ(r.output.rfind(std::string("usage: campaign ") + verb, 0), 0u) << r.output;
@@ -289,6 +290,65 @@ TEST_F(CliTest, RealEngineEndToEnd) {
     EXPECT_EQ(fs::path(summary["bed"]["file"].get<std::string>()).parent_path(), dir_ / "beds");
   }
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_ / "beds"), fs::directory_iterator{}) >= 1, true);
+
+  // The metrics as one table, one row per run: the swept width a numeric column, each metric
+  // and its se numeric columns; and stored in the database.
+  const auto csv = Sh(Cmd("export") + " 2>/dev/null");
+  ASSERT_EQ(csv.code, 0) << csv.output;
+  std::istringstream lines(csv.output);
+  std::string header, row;
+  std::getline(lines, header);
+  EXPECT_EQ(header.rfind("run_id,point_id,replica,engine,end_reason,base_outlets.0.width,q_count,q_count_se,", 0), 0u)
+      << header;
+  int rows = 0;
+  while (std::getline(lines, row)) ++rows;
+  EXPECT_EQ(rows, 2);
+  const auto points = Sh(Cmd("export --level point --format json --out " + (dir_ / "points.json").string()));
+  ASSERT_EQ(points.code, 0) << points.output;
+  const json p_json = json::parse(ReadFile(dir_ / "points.json"));
+  ASSERT_EQ(p_json.size(), 2u);
+  EXPECT_TRUE(p_json[0]["base_outlets.0.width"].is_number());
+  EXPECT_EQ(p_json[0]["runs"], 1);
+  EXPECT_TRUE(p_json[0].contains("q_count_n"));
+  {
+    Store store(Db());
+    Statement q = store.prepare(
+        "SELECT json_extract(r.params, '$.silo.base_outlets[0].width'), m.unit FROM metrics m JOIN runs r USING (run_id) "
+        "WHERE m.analysis = 'flow' AND m.metric = 'q_count' ORDER BY 1");
+    std::vector<double> widths;
+    while (q.step()) {
+      widths.push_back(q.real(0));
+      EXPECT_EQ(q.text(1), "bodies/sqrt(d/g)");
+    }
+    EXPECT_EQ(widths, (std::vector<double>{3, 4}));
+  }
+  for (const auto& run : Status()["runs"]) EXPECT_TRUE(run["metrics"].contains("q_count")) << run.dump();
+  // A report after the export reads every result from the runs' caches.
+  const auto report = Sh(Cmd("report --no-figures"));
+  ASSERT_EQ(report.code, 0) << report.output;
+  EXPECT_NE(report.output.find(" from the runs' caches, 0 computed"), std::string::npos) << report.output;
+
+  // docs/data.md: every python block runs on this campaign's export and database.
+  if (Sh("/usr/bin/python3 -c 'import pandas' 2>&1").code != 0)
+    GTEST_SKIP() << "python3-pandas is not installed (scripts/setup.sh installs it): docs/data.md not checked";
+  ASSERT_EQ(Sh(Cmd("export --out " + (dir_ / "runs.csv").string())).code, 0);
+  ASSERT_EQ(Sh(Cmd("export --level point --out " + (dir_ / "points.csv").string())).code, 0);
+  fs::copy_file(Db(), dir_ / "study.db");
+  const std::string doc = ReadFile(fs::path(GRANARY_SOURCE_DIR) / "docs" / "data.md");
+  int blocks = 0;
+  for (std::size_t at = doc.find("```python\n"); at != std::string::npos; at = doc.find("```python\n", at)) {
+    at += 10;
+    const std::size_t end = doc.find("```", at);
+    ASSERT_NE(end, std::string::npos);
+    const fs::path script = dir_ / ("doc" + std::to_string(++blocks) + ".py");
+    std::ofstream(script) << doc.substr(at, end - at);
+    const auto py = Sh("cd " + dir_.string() + " && /usr/bin/python3 " + script.string());
+    EXPECT_EQ(py.code, 0) << "docs/data.md python block " << blocks << ":\n" << py.output;
+    // The tables were printed: Q of the export, the analyses of the database.
+    EXPECT_NE(py.output.find(blocks == 1 ? "q_count_se" : "flow"), std::string::npos) << py.output;
+    at = end + 3;
+  }
+  EXPECT_EQ(blocks, 2);
 }
 
 // campaign compare on a tiny campaign: both real engines (LIGGGHTS as installed by

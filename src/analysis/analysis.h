@@ -1,0 +1,186 @@
+// What a registered analysis is (docs/architecture.md, "Adding an analysis"): a key and a
+// version, options read from the campaign spec's /report/<key>, an accumulator that one pass
+// over a run directory feeds (events up front, then the frames and contact frames of the time
+// windows it asks for), a per-run result as JSON (cached in the run directory), the per-run
+// metrics derived from that result, their aggregation per sweep point, and a report section.
+// Analyses are pure: everything they see comes through these types; the pass, the cache, the
+// report, the export and the database are the framework's.
+#pragma once
+
+#include <cstddef>
+#include <limits>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/flow.h"
+#include "analysis/outlets.h"
+#include "analysis/report_document.h"
+#include "analysis/stats.h"
+#include "rundir/contacts.h"
+#include "rundir/frames.h"
+#include "rundir/run_directory.h"
+
+namespace granary::analysis {
+
+struct CampaignView;
+
+// One number of one run. `name` is a column of the export and a key of the database
+// ([a-z0-9_]); per-outlet variants end in outlet_suffix(k).
+struct Metric {
+  std::string name;
+  std::string unit;                   // reduced units of physics.md: "bodies/sqrt(d/g)", "1", ...
+  double value = kNaN;                // NaN: not defined for this run
+  double se = kNaN;                   // NaN: no error estimate
+  std::string title;                  // for tables and print-outs
+  bool headline = false;              // shown in the per-run table, `campaign compare`, the engine-ratio figure
+};
+
+// One number of one sweep point: over its replicas, or pooled over what they contain (the
+// analysis says which, and `n` counts it).
+struct PointMetric {
+  std::string name;
+  std::string unit;
+  double mean = kNaN;
+  double se = kNaN;
+  int n = 0;
+  std::string title;
+  bool headline = false;
+  std::string note;
+  bool compare = true;                // compared across engines (counts of runs are not)
+  MeanSe estimate() const { return {mean, se, n}; }
+};
+
+// Options of the pass that several analyses share (/report/window, clog_gap, frame_stride,
+// max_frames): what a steady window and a clog are, and how densely frames are sampled.
+struct PassOptions {
+  FlowWindowRule window;
+  double clog_gap = -1.0;             // < 0: each run's /discharge/clog_window
+  int frame_stride = 1;               // every n-th frame of an analysis' windows
+  int max_frames = 0;                 // 0: all of them
+};
+
+// Which of the pass options an analysis' per-run results depend on (its cache key holds them).
+struct PassUse {
+  bool window = false;
+  bool clog_gap = false;
+  bool frames = false;                // frame_stride, max_frames
+};
+
+// A closed interval [start, end] of simulated time since the opening; end may be +inf.
+struct TimeWindow {
+  double start = -std::numeric_limits<double>::infinity();
+  double end = std::numeric_limits<double>::infinity();
+  bool contains(double t) const { return t >= start && t <= end; }
+};
+
+// What the pass knows of a run before any analysis starts: the run directory's summary, spec
+// and exit events, plus facts several analyses share.
+struct RunView {
+  const rundir::RunData* data = nullptr;
+  std::string run_id;
+  std::string engine;
+  std::string end_reason;
+  bool remove_mode = true;
+  bool stop_on_clog = true;           // the spec's /discharge/stop_on_clog
+  int bodies = 0;                     // in the silo at the opening
+  int exited = 0;
+  int undischarged = 0;               // left in the silo at the end
+  double t_end = 0.0;
+  double clog_gap = 5.0;              // the effective one (PassOptions or the run's clog_window)
+  double density = 1.0;               // areal density of the bodies
+  std::vector<OutletGeometry> outlets;
+  FlowRate flow;                      // all outlets together over the steady window
+  // The frames of steady flow: the flow window of all outlets; without one, from
+  // /report/window/start_time up to the first clog.
+  TimeWindow steady;
+  // The clogged states: each clog of the exit stream of all outlets, from the last exit
+  // before it to the first after it (to the end of the run if it never ended).
+  std::vector<TimeWindow> clogged;
+  const PassOptions* options = nullptr;
+};
+
+// One frame as the pass hands it to every analysis that asked for it: parsed once, its bodies
+// rebuilt once, and its contact frame when asked for and written at the same time step.
+struct FrameView {
+  const rundir::Frame& frame;
+  const std::vector<rundir::Body>& bodies;
+  const rundir::ContactFrame* contacts = nullptr;
+};
+
+struct FrameRequest {
+  std::vector<TimeWindow> windows;    // frames whose time lies in any of these (none: no frames)
+  bool contacts = false;              // also the contact frame at each selected frame
+};
+
+// One analysis on one run: made by Analysis::start, fed by the pass, finished once.
+class RunAccumulator {
+ public:
+  virtual ~RunAccumulator() = default;
+  // Asked once, before the first frame. The pass applies frame_stride and max_frames per
+  // accumulator, counting the frames inside its windows.
+  virtual FrameRequest frames() const { return {}; }
+  virtual void add_frame(const FrameView& frame) { (void)frame; }
+  // The per-run result. A key "notes" (array of strings) is shown beside the run in the report.
+  virtual nlohmann::json finish() = 0;
+};
+
+// One analysis' per-run results over the used runs of a campaign (CampaignView::used order;
+// null where the run had no result).
+struct AnalysisResults {
+  const CampaignView* view = nullptr;
+  std::vector<nlohmann::json> runs;
+  // The results of the used runs of point p (CampaignView::points order).
+  std::vector<const nlohmann::json*> of_point(std::size_t p) const;
+};
+
+// What an analysis' report section is made from.
+struct SectionInput {
+  const CampaignView& view;
+  const AnalysisResults& results;
+  const std::vector<std::vector<PointMetric>>& points;  // this analysis' point metrics, per point
+  const PassOptions& pass;
+};
+
+class Analysis {
+ public:
+  virtual ~Analysis() = default;
+  virtual std::string key() const = 0;
+  // Bump when the per-run results of the same inputs change: cached results become stale.
+  virtual int version() const = 0;
+  // The options the per-run results depend on (canonical JSON); part of the cache key. Options
+  // that only change aggregation or the section (fit models, discard rules) stay out of it.
+  virtual nlohmann::json run_options() const { return nullptr; }
+  virtual PassUse pass_use() const { return {}; }
+  virtual std::unique_ptr<RunAccumulator> start(const RunView& run) const = 0;
+  virtual std::vector<Metric> run_metrics(const nlohmann::json& result) const = 0;
+  // Default: every per-run metric as mean ± standard error over the point's runs where it is
+  // finite (n = those runs).
+  virtual std::vector<PointMetric> point_metrics(const AnalysisResults& results, std::size_t point) const;
+  virtual std::optional<Section> section(const SectionInput& input) const {
+    (void)input;
+    return std::nullopt;
+  }
+};
+
+// Mean ± se over runs of each metric name, in first-appearance order (the default aggregation).
+std::vector<PointMetric> mean_over_runs(const Analysis& analysis, const std::vector<const nlohmann::json*>& runs);
+
+// The metric called `name` of a list, or nullptr.
+const Metric* find_metric(const std::vector<Metric>& metrics, const std::string& name);
+const PointMetric* find_metric(const std::vector<PointMetric>& metrics, const std::string& name);
+
+// JSON numbers with NaN as null (JSON has no NaN), and back.
+nlohmann::json json_number(double value);
+double number_of(const nlohmann::json& value);
+double number_at(const nlohmann::json& object, const char* key);
+nlohmann::json to_json(const MeanSe& m);
+MeanSe mean_se_of(const nlohmann::json& j);
+std::vector<double> numbers_of(const nlohmann::json& array);
+nlohmann::json json_numbers(const std::vector<double>& values);
+// The k-th string of a JSON array, or "" (outlet labels of a result).
+std::string string_at(const nlohmann::json& array, std::size_t k);
+
+}  // namespace granary::analysis

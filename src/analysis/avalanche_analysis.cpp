@@ -1,0 +1,210 @@
+// See avalanche_analysis.h; clog series and the tail fit are clogging.h and stats.h.
+#include "analysis/avalanche_analysis.h"
+
+#include <cmath>
+#include <set>
+
+#include "analysis/campaign_view.h"
+#include "analysis/clogging.h"
+#include "analysis/options.h"
+
+namespace granary::analysis {
+namespace {
+
+// Ch. 4 and 6 average <s> over at least this many avalanches per point.
+constexpr int kThesisAvalanches = 100;
+
+class AvalancheAccumulator : public RunAccumulator {
+ public:
+  explicit AvalancheAccumulator(const RunView& run) {
+    const std::vector<rundir::ExitEvent>& events = run.data->events;
+    const RunEnd end = run_end_of(run.end_reason);
+    const ClogSeries all = clog_series(events, -1, run.t_end, run.clog_gap, end, run.stop_on_clog);
+    nlohmann::json per_outlet = nlohmann::json::array(), labels = nlohmann::json::array();
+    for (std::size_t o = 0; o < run.outlets.size(); ++o) {
+      // A run that stopped on a clog stopped with every outlet blocked; one that discharged,
+      // with every outlet open.
+      per_outlet.push_back(json_numbers(clog_series(events, static_cast<int>(o), run.t_end, run.clog_gap, end).avalanche_sizes()));
+      labels.push_back(run.outlets[o].label);
+    }
+    result_ = {{"sizes", json_numbers(all.avalanche_sizes())},
+               {"clogs", all.clogged.size()},
+               {"per_outlet", per_outlet},
+               {"outlets", labels}};
+  }
+  nlohmann::json finish() override { return result_; }
+
+ private:
+  nlohmann::json result_;
+};
+
+std::string size_name(std::size_t k) { return "avalanche_size" + outlet_suffix(k); }
+
+class AvalancheAnalysis : public Analysis {
+ public:
+  std::string key() const override { return "avalanches"; }
+  int version() const override { return 1; }
+  PassUse pass_use() const override { return {false, true, false}; }
+  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+    return std::make_unique<AvalancheAccumulator>(run);
+  }
+  std::vector<Metric> run_metrics(const nlohmann::json& result) const override {
+    const std::vector<double> sizes = numbers_of(result.at("sizes"));
+    const MeanSe s = mean_se(sizes);
+    std::vector<Metric> m = {{"avalanche_size", "bodies", s.mean, s.se, "mean avalanche size", true},
+                             {"avalanches", "avalanches", static_cast<double>(sizes.size()), kNaN, "avalanches", false},
+                             {"clogs", "clogs", number_at(result, "clogs"), kNaN, "clogs in the exit stream", true}};
+    const nlohmann::json& per_outlet = result.at("per_outlet");
+    if (per_outlet.size() > 1)
+      for (std::size_t k = 0; k < per_outlet.size(); ++k) {
+        const std::vector<double> so = numbers_of(per_outlet[k]);
+        const MeanSe x = mean_se(so);
+        const std::string where = result.at("outlets").at(k).get<std::string>();
+        m.push_back({size_name(k), "bodies", x.mean, x.se, "mean avalanche size at " + where, false});
+        m.push_back({"avalanches" + outlet_suffix(k), "avalanches", static_cast<double>(so.size()), kNaN, "avalanches at " + where,
+                     false});
+      }
+    return m;
+  }
+  // Sizes pooled over every avalanche of every replica (n = avalanches), per outlet too.
+  std::vector<PointMetric> point_metrics(const AnalysisResults& results, std::size_t point) const override {
+    const std::vector<const nlohmann::json*> runs = results.of_point(point);
+    if (runs.empty()) return {};
+    std::vector<double> all;
+    std::vector<std::vector<double>> per_outlet;
+    std::vector<std::string> labels;
+    std::vector<double> clogs;
+    for (const nlohmann::json* r : runs) {
+      for (double s : numbers_of(r->at("sizes"))) all.push_back(s);
+      clogs.push_back(number_at(*r, "clogs"));
+      const nlohmann::json& po = r->at("per_outlet");
+      for (std::size_t k = 0; k < po.size(); ++k) {
+        if (per_outlet.size() <= k) {
+          per_outlet.emplace_back();
+          labels.push_back(r->at("outlets").at(k).get<std::string>());
+        }
+        for (double s : numbers_of(po[k])) per_outlet[k].push_back(s);
+      }
+    }
+    const MeanSe s = mean_se(all), c = mean_se_finite(clogs);
+    std::vector<PointMetric> m = {{"avalanche_size", "bodies", s.mean, s.se, s.n, "mean avalanche size", true, ""},
+                                  {"clogs", "clogs", c.mean, c.se, c.n, "clogs in the exit stream per run", true, ""}};
+    if (per_outlet.size() > 1)
+      for (std::size_t k = 0; k < per_outlet.size(); ++k) {
+        const MeanSe x = mean_se(per_outlet[k]);
+        m.push_back({size_name(k), "bodies", x.mean, x.se, x.n, "mean avalanche size at " + labels[k], false, ""});
+      }
+    return m;
+  }
+  std::optional<Section> section(const SectionInput& in) const override;
+};
+
+std::optional<Section> AvalancheAnalysis::section(const SectionInput& in) const {
+  const CampaignView& v = in.view;
+  auto metric = [&](std::size_t p, const std::string& name) {
+    const PointMetric* m = find_metric(in.points[p], name);
+    return m ? m->estimate() : MeanSe{};
+  };
+  bool any = false, any_per_outlet = false;
+  for (std::size_t p = 0; p < v.points.size(); ++p) {
+    any = any || metric(p, "avalanche_size").n > 0;
+    for (std::size_t k = 0; k < v.outlets; ++k) any_per_outlet = any_per_outlet || metric(p, size_name(k)).n > 0;
+  }
+  if (!any && !(v.outlets > 1 && any_per_outlet)) return std::nullopt;
+  Section s{"avalanches", "Avalanche sizes (ch. 4, 6)", {}};
+  s.blocks.push_back(Text{"An avalanche is the number of bodies that leave between the opening (or an unclog) and a "
+                          "clog; a clog is a gap of at least the run's clog_window in the exit stream of all outlets "
+                          "together, or the engine's own stop on a clog. A stretch still flowing when a run ended is "
+                          "not an avalanche. The tail fit is the maximum-likelihood geometric law P(s) ~ "
+                          "exp(-s/s_decay) for s above the median."});
+  Table t{"avalanches", "Avalanche statistics per point (pooled over replicas)",
+          {"point", "<s> ± se (avalanches)", "tail from s", "s_decay", "s_decay se", "tail n", "note"},
+          {},
+          {"point", "avalanche_size", "tail_from", "s_decay", "s_decay_se", "tail_n", "note"}};
+  Figure dist{"avalanche_distribution", "Avalanche size distribution", "s (bodies)", "probability density", {}, false,
+              true, "Pooled over replicas; at most 6 points drawn (all in the table and CSVs)"};
+  int colour = 0;
+  // The distribution figure shows at most 6 points, spread over the list, to stay legible;
+  // the table and the CSVs have them all.
+  std::vector<std::size_t> with_avalanches;
+  for (std::size_t p = 0; p < v.points.size(); ++p)
+    if (metric(p, "avalanche_size").n > 0) with_avalanches.push_back(p);
+  std::set<std::size_t> drawn;
+  constexpr std::size_t kMaxDrawn = 6;
+  for (std::size_t k = 0; k < std::min(kMaxDrawn, with_avalanches.size()); ++k)
+    drawn.insert(with_avalanches[k * with_avalanches.size() / std::min(kMaxDrawn, with_avalanches.size())]);
+  for (std::size_t p = 0; p < v.points.size(); ++p) {
+    std::vector<double> sizes;
+    for (const nlohmann::json* r : in.results.of_point(p))
+      for (double x : numbers_of(r->at("sizes"))) sizes.push_back(x);
+    if (sizes.empty()) continue;
+    const AvalancheStats st = avalanche_stats(sizes);
+    const std::string name = point_name(v, v.points[p]);
+    t.rows.push_back({name, Cell::estimate(st.size), Cell::number(st.tail.s_min), Cell::number(st.tail.s_decay),
+                      Cell::number(st.tail.s_decay_se, 2), Cell::count(st.tail.n_tail),
+                      st.size.n < kThesisAvalanches
+                          ? "fewer than " + std::to_string(kThesisAvalanches) + " avalanches (the thesis averages >= 100)"
+                          : ""});
+    if (!drawn.count(p)) continue;
+    Series se;
+    se.label = name;
+    se.columns = {"s", "density", "count"};
+    se.style = Series::Style::kPoints;
+    for (std::size_t i = 0; i < st.histogram.counts.size(); ++i)
+      if (st.histogram.counts[i] > 0) se.rows.push_back({st.histogram.center(i), st.histogram.density(i), st.histogram.counts[i]});
+    se.color = colour;
+    dist.series.push_back(se);
+    // The fitted tail drawn on the same density scale: (n_tail / n) (1 - q) q^(s - s_min).
+    if (std::isfinite(st.tail.q) && st.size.n > 0) {
+      Series tail;
+      tail.label = "tail fit, " + name;
+      tail.columns = {"s", "density_fit"};
+      tail.style = Series::Style::kLines;
+      tail.color = colour;
+      const double norm = static_cast<double>(st.tail.n_tail) / st.size.n * (1.0 - st.tail.q);
+      for (std::size_t i = 0; i < st.histogram.counts.size(); ++i) {
+        const double sv = st.histogram.center(i);
+        if (sv >= st.tail.s_min) tail.rows.push_back({sv, norm * std::pow(st.tail.q, sv - st.tail.s_min)});
+      }
+      if (!tail.rows.empty()) dist.series.push_back(tail);
+    }
+    ++colour;
+  }
+  if (!t.rows.empty()) s.blocks.push_back(t);
+  if (has_x(v) && any)
+    s.blocks.push_back(Figure{"avalanche_mean", "Mean avalanche size against " + v.x_label, v.x_label, "<s> (bodies)",
+                              point_series(v, in.points, "avalanche_size", "s_mean"), false, false,
+                              "Error bars: standard error over avalanches"});
+  if (!dist.series.empty()) s.blocks.push_back(dist);
+  if (v.outlets > 1 && any_per_outlet) {
+    // Several outlets: the exit stream of each outlet on its own (ch. 7: the small outlet
+    // clogs and unclogs while the large one keeps the silo flowing).
+    s.blocks.push_back(Text{"Per outlet: the same rule applied to each outlet's own exit stream (gaps counted from "
+                            "the first exit through any outlet), so an outlet that clogs while another keeps flowing "
+                            "has avalanches too."});
+    Table po{"avalanches_per_outlet", "Avalanche sizes per point and outlet (pooled over replicas)",
+             {"point", "outlet", "<s> ± se (avalanches)"}, {}, {"point", "outlet", "avalanche_size"}};
+    for (std::size_t p = 0; p < v.points.size(); ++p)
+      for (std::size_t k = 0; k < v.outlets; ++k) {
+        if (!find_metric(in.points[p], size_name(k))) continue;
+        const MeanSe m = metric(p, size_name(k));
+        po.rows.push_back({point_name(v, v.points[p]), k < v.outlet_labels.size() ? v.outlet_labels[k] : "",
+                           m.n > 0 ? Cell::estimate(m) : Cell("no avalanche")});
+      }
+    s.blocks.push_back(po);
+    if (has_x(v))
+      s.blocks.push_back(Figure{"avalanche_mean_per_outlet", "Mean avalanche size per outlet against " + v.x_label,
+                                v.x_label, "<s> (bodies)", outlet_series(v, in.points, size_name, v.outlet_labels, "s_mean"),
+                                false, false, "Error bars: standard error over avalanches"});
+  }
+  return s;
+}
+
+}  // namespace
+
+std::unique_ptr<Analysis> make_avalanche_analysis(const nlohmann::json& options, const std::string& path) {
+  if (!options.is_null()) option_object(options, path, {});
+  return std::make_unique<AvalancheAnalysis>();
+}
+
+}  // namespace granary::analysis

@@ -1,0 +1,463 @@
+// See flow_analysis.h; the numbers come from flow.h (flow_rate, flow_rate_per_outlet) and
+// fit.h, and the rules are in docs/analyses.md "Flow rate".
+#include "analysis/flow_analysis.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+
+#include "analysis/campaign_view.h"
+#include "analysis/expression.h"
+#include "analysis/fit.h"
+#include "analysis/options.h"
+
+namespace granary::analysis {
+namespace {
+
+constexpr char kQUnit[] = "bodies/sqrt(d/g)";
+constexpr char kQMassUnit[] = "rho d^2/sqrt(d/g)";
+
+nlohmann::json flow_json(const FlowRate& f) {
+  return {{"ok", f.ok},
+          {"note", f.note},
+          {"t_start", json_number(f.t_start)},
+          {"t_end", json_number(f.t_end)},
+          {"n_events", f.n_events},
+          {"q_count", json_number(f.q_count)},
+          {"q_count_se", json_number(f.q_count_se)},
+          {"q_mass", json_number(f.q_mass)},
+          {"q_mass_se", json_number(f.q_mass_se)},
+          {"q_count_se_ols", json_number(f.q_count_se_ols)},
+          {"count_intercept", json_number(f.count_intercept)},
+          {"batches", f.batches}};
+}
+
+FlowRate flow_of(const nlohmann::json& j) {
+  FlowRate f;
+  if (!j.is_object()) return f;
+  f.ok = j.value("ok", false);
+  f.note = j.value("note", "");
+  f.t_start = number_at(j, "t_start");
+  f.t_end = number_at(j, "t_end");
+  f.n_events = j.value("n_events", 0);
+  f.q_count = number_at(j, "q_count");
+  f.q_count_se = number_at(j, "q_count_se");
+  f.q_mass = number_at(j, "q_mass");
+  f.q_mass_se = number_at(j, "q_mass_se");
+  f.q_count_se_ols = number_at(j, "q_count_se_ols");
+  f.count_intercept = number_at(j, "count_intercept");
+  f.batches = j.value("batches", 0);
+  return f;
+}
+
+// One run's flow: everything from the exit events, so no frames are asked for.
+class FlowAccumulator : public RunAccumulator {
+ public:
+  explicit FlowAccumulator(const RunView& run) {
+    const std::vector<rundir::ExitEvent>& events = run.data->events;
+    const FlowInput in{events, run.remove_mode, run.bodies, run.clog_gap, -1};
+    const std::vector<FlowRate> per_outlet =
+        flow_rate_per_outlet(in, run.options->window, static_cast<int>(run.outlets.size()));
+    nlohmann::json outlets = nlohmann::json::array(), rates = nlohmann::json::array();
+    for (const OutletGeometry& o : run.outlets) outlets.push_back(o.label);
+    for (const FlowRate& f : per_outlet) rates.push_back(flow_json(f));
+    // The cumulative exit count, thinned to <= 201 samples, for the diagnostic figure.
+    std::vector<double> t, n;
+    const std::size_t count = events.size(), stride = std::max<std::size_t>(1, count / 200);
+    for (std::size_t i = 0; i < count; i += stride) {
+      t.push_back(events[i].time);
+      n.push_back(static_cast<double>(i + 1));
+    }
+    if (count > 0 && (count - 1) % stride != 0) {
+      t.push_back(events.back().time);
+      n.push_back(static_cast<double>(count));
+    }
+    nlohmann::json notes = nlohmann::json::array();
+    if (!run.flow.ok) notes.push_back("flow rate: " + run.flow.note);
+    // The two records of the discharge must agree; a mismatch means a truncated or foreign file.
+    if (run.data->has_summary && run.data->summary.exited != static_cast<int>(count))
+      notes.push_back("events.csv has " + std::to_string(count) + " exits but summary.json says " +
+                      std::to_string(run.data->summary.exited));
+    result_ = {{"total", flow_json(run.flow)},
+               {"per_outlet", rates},
+               {"outlets", outlets},
+               {"cumulative", {{"t", json_numbers(t)}, {"n", json_numbers(n)}}},
+               {"notes", notes}};
+  }
+  nlohmann::json finish() override { return result_; }
+
+ private:
+  nlohmann::json result_;
+};
+
+std::vector<FlowRate> per_outlet_of(const nlohmann::json& result) {
+  std::vector<FlowRate> out;
+  if (result.contains("per_outlet"))
+    for (const auto& j : result.at("per_outlet")) out.push_back(flow_of(j));
+  return out;
+}
+
+std::vector<std::string> labels_of(const nlohmann::json& result) {
+  std::vector<std::string> out;
+  if (result.contains("outlets"))
+    for (const auto& j : result.at("outlets")) out.push_back(j.get<std::string>());
+  return out;
+}
+
+std::string q_name(std::size_t k) { return "q_count" + outlet_suffix(k); }
+
+class FlowAnalysis : public Analysis {
+ public:
+  explicit FlowAnalysis(std::vector<FitModel> models) : models_(std::move(models)) {}
+  std::string key() const override { return "flow"; }
+  int version() const override { return 1; }
+  PassUse pass_use() const override { return {true, true, false}; }
+  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+    return std::make_unique<FlowAccumulator>(run);
+  }
+
+  std::vector<Metric> run_metrics(const nlohmann::json& result) const override {
+    const FlowRate total = flow_of(result.value("total", nlohmann::json()));
+    std::vector<Metric> m;
+    m.push_back({"q_count", kQUnit, total.ok ? total.q_count : kNaN, total.ok ? total.q_count_se : kNaN,
+                 "Q (bodies/sqrt(d/g))", true});
+    m.push_back({"q_mass", kQMassUnit, total.ok ? total.q_mass : kNaN, total.ok ? total.q_mass_se : kNaN,
+                 "Q_m (mass/sqrt(d/g))", false});
+    const std::vector<FlowRate> per_outlet = per_outlet_of(result);
+    const std::vector<std::string> labels = labels_of(result);
+    if (per_outlet.size() > 1)
+      for (std::size_t k = 0; k < per_outlet.size(); ++k) {
+        const FlowRate& f = per_outlet[k];
+        const std::string where = k < labels.size() ? labels[k] : "outlet " + std::to_string(k);
+        m.push_back({q_name(k), kQUnit, f.ok ? f.q_count : kNaN, f.ok ? f.q_count_se : kNaN, "Q through " + where, false});
+        m.push_back({"q_mass" + outlet_suffix(k), kQMassUnit, f.ok ? f.q_mass : kNaN, f.ok ? f.q_mass_se : kNaN,
+                     "Q_m through " + where, false});
+      }
+    return m;
+  }
+
+  std::optional<Section> section(const SectionInput& in) const override;
+
+ private:
+  std::vector<FitModel> models_;  // from /report/flow/models
+};
+
+// The Q the figure and the fits use: through the outlet whose width is the x axis when runs
+// have several outlets (ch. 7: Q of the small outlet against W1), else all outlets together.
+std::string headline_q(const CampaignView& v) {
+  if (v.outlets > 1 && v.x_outlet >= 0 && static_cast<std::size_t>(v.x_outlet) < v.outlets)
+    return q_name(static_cast<std::size_t>(v.x_outlet));
+  return "q_count";
+}
+
+std::string headline_q_what(const CampaignView& v) {
+  if (v.outlets > 1 && v.x_outlet >= 0 && static_cast<std::size_t>(v.x_outlet) < v.outlet_labels.size())
+    return "through " + v.outlet_labels[static_cast<std::size_t>(v.x_outlet)];
+  return v.outlets > 1 ? "all outlets together" : "";
+}
+
+// The steady windows, the rates and the exit streams of every run.
+void add_per_run(const SectionInput& in, Section& s) {
+  const CampaignView& v = in.view;
+  const bool several = v.outlets > 1;
+  Table t{"flow_rate_per_run",
+          "Every used run: Q by least squares over its steady window; se by batch means",
+          {"run", "point", "replica", "window from", "window to", "exits in window", "Q (bodies/sqrt(d/g))",
+           "Q_mass (mass/sqrt(d/g))"},
+          {},
+          {"run", "point", "replica", "window_start", "window_end", "n_events", "q_count", "q_mass"}};
+  if (several)
+    for (std::size_t k = 0; k < v.outlets; ++k) {
+      t.header.push_back("Q " + (k < v.outlet_labels.size() ? v.outlet_labels[k] : std::to_string(k)));
+      t.keys.push_back(q_name(k));
+    }
+  Figure cum{"cumulative_exits", "Cumulative exits against time", "t (sqrt(d/g))", "exits (all outlets)", {}, false,
+             false,
+             "Curves: the exit streams; dots: the least-squares line over each run's steady window. First replica of "
+             "up to 8 points"};
+  int shown = 0;
+  for (std::size_t p = 0; p < v.points.size(); ++p) {
+    const Point& point = v.points[p];
+    bool first = true;
+    for (std::size_t i : point.runs) {
+      const nlohmann::json& r = in.results.runs[i];
+      if (r.is_null()) continue;
+      const FlowRate f = flow_of(r.value("total", nlohmann::json()));
+      std::vector<Cell> row{v.used[i].record->run_id, point_name(v, point), Cell::count(v.used[i].record->replica),
+                            Cell::number(f.ok ? f.t_start : kNaN), Cell::number(f.ok ? f.t_end : kNaN),
+                            Cell::count(f.n_events), Cell::estimate(f.q_count, f.q_count_se, -1),
+                            Cell::estimate(f.q_mass, f.q_mass_se, -1)};
+      if (several) {
+        const std::vector<FlowRate> per_outlet = per_outlet_of(r);
+        for (std::size_t k = 0; k < v.outlets; ++k)
+          row.push_back(k < per_outlet.size() ? Cell::estimate(per_outlet[k].q_count, per_outlet[k].q_count_se, -1)
+                                              : Cell::number(kNaN));
+      }
+      t.rows.push_back(row);
+      if (!first || shown >= 8) continue;
+      first = false;
+      const std::vector<double> ct = numbers_of(r.at("cumulative").at("t")), cn = numbers_of(r.at("cumulative").at("n"));
+      if (ct.empty()) continue;
+      Series data;
+      data.label = point_name(v, point);
+      data.columns = {"t", "exits"};
+      data.style = Series::Style::kLines;
+      data.color = shown;
+      for (std::size_t k = 0; k < ct.size(); ++k) data.rows.push_back({ct[k], cn[k]});
+      cum.series.push_back(data);
+      if (f.ok) {
+        Series line;
+        line.label = "fit, " + data.label;
+        line.columns = {"t", "exits_fit"};
+        line.style = Series::Style::kPoints;
+        line.color = shown;
+        for (int k = 0; k <= 10; ++k) {
+          const double tv = f.t_start + (f.t_end - f.t_start) * k / 10.0;
+          line.rows.push_back({tv, f.count_intercept + f.q_count * tv});
+        }
+        cum.series.push_back(line);
+      }
+      ++shown;
+    }
+  }
+  if (t.rows.empty()) return;
+  s.blocks.push_back(t);
+  if (!cum.series.empty()) s.blocks.push_back(cum);
+  const FlowWindowRule& w = in.pass.window;
+  s.blocks.push_back(Text{
+      "Steady window: exits before t = " + format_number(w.start_time) + " and the first " +
+      format_number(100 * w.start_fraction) + "% of the exits are dropped; the window ends at the first clog (a gap of "
+      "clog_window in the exit stream)" + std::string(w.stop_at_first_clog ? "" : " [off]") +
+      " and, in remove mode, when " + format_number(100 * w.shallow_fraction) + "% of the bodies remain."});
+}
+
+std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
+  const CampaignView& v = in.view;
+  bool any = false;
+  for (const auto& metrics : in.points)
+    if (const PointMetric* q = find_metric(metrics, "q_count")) any = any || q->n > 0;
+  Section s{"flow", "Flow rate", {}};
+  if (!any) {
+    add_per_run(in, s);
+    if (s.blocks.empty()) return std::nullopt;
+    return s;
+  }
+  const bool several = v.outlets > 1;
+  auto metric = [&](std::size_t p, const std::string& name) {
+    const PointMetric* m = find_metric(in.points[p], name);
+    return m ? m->estimate() : MeanSe{};
+  };
+  Table t{"flow_rate", "Flow rate per sweep point: mean ± standard error (replicas)",
+          {"point", several ? "Q all outlets (bodies/sqrt(d/g))" : "Q (bodies/sqrt(d/g))",
+           several ? "Q_mass all outlets (mass/sqrt(d/g))" : "Q_mass (mass/sqrt(d/g))"},
+          {},
+          {"point", "q_count", "q_mass"}};
+  if (several)
+    for (std::size_t k = 0; k < v.outlets; ++k) {
+      t.header.push_back("Q " + (k < v.outlet_labels.size() ? v.outlet_labels[k] : std::to_string(k)));
+      t.keys.push_back(q_name(k));
+    }
+  for (std::size_t p = 0; p < v.points.size(); ++p) {
+    std::vector<Cell> row{point_name(v, v.points[p]), Cell::estimate(metric(p, "q_count")),
+                          Cell::estimate(metric(p, "q_mass"))};
+    if (several)
+      for (std::size_t k = 0; k < v.outlets; ++k) row.push_back(Cell::estimate(metric(p, q_name(k))));
+    t.rows.push_back(row);
+  }
+  s.blocks.push_back(t);
+  if (has_x(v)) {
+    const std::string q_what = headline_q_what(v), headline = headline_q(v);
+    Figure f{"flow_rate", "Flow rate Q" + (q_what.empty() ? "" : " " + q_what) + " against " + v.x_label, v.x_label,
+             "Q (bodies/sqrt(d/g))", point_series(v, in.points, headline, "Q"), false, false,
+             "Error bars: standard error over replicas"};
+    Figure per_outlet_figure{"flow_rate_per_outlet", "Flow rate through each outlet against " + v.x_label, v.x_label,
+                             "Q (bodies/sqrt(d/g))", outlet_series(v, in.points, q_name, v.outlet_labels, "Q"),
+                             false, false, "One curve per outlet (and group); error bars: standard error over replicas"};
+    // Fits against W/d per group (>= 3 widths).
+    Table fits{"flow_rate_fits",
+               "Fits of Q(W/d) per group (95% confidence intervals, Student t). Fit quality: good, ill-determined (a "
+               "parameter without a standard error or whose interval holds 0), failed or not fitted; only converged "
+               "fits show values",
+               {"group", "model", "parameter", "value", "se", "95% CI low", "95% CI high", "chi2/dof", "points",
+                "weighted", "fit quality"},
+               {},
+               {"group", "model", "parameter", "value", "se", "ci_low", "ci_high", "chi2_per_dof", "points", "weighted",
+                "fit_quality"}};
+    Table residuals{"flow_rate_fit_residuals", "Fit residuals (Q - fit)",
+                    {"group", "model", "W/d", "Q", "fit", "residual"}, {}, {"group", "model", "x", "q", "fit", "residual"}};
+    std::vector<FitModel> models;
+    if (v.x_is_width) models = {beverloo_2d(), beverloo_free(), mankoc()};
+    for (const auto& m : models_) models.push_back(m);
+    int fitted_groups = 0;
+    for (std::size_t k = 0; k < f.series.size(); ++k) f.series[k].color = static_cast<int>(k);
+    double x_lo = std::numeric_limits<double>::infinity(), x_hi = -x_lo;
+    for (std::size_t p = 0; p < v.points.size(); ++p)
+      if (std::isfinite(v.points[p].x) && std::isfinite(metric(p, headline).mean)) {
+        x_lo = std::min(x_lo, v.points[p].x);
+        x_hi = std::max(x_hi, v.points[p].x);
+      }
+    constexpr int kCurveSamples = 200;
+    const std::vector<Series> data_series = f.series;
+    std::map<std::string, Figure> model_figures;
+    const std::string other_axis = group_axis(v);
+    std::map<std::string, Figure> trends;  // per model: its parameters against other_axis
+    for (const auto& g : groups_of(v)) {
+      double group_value = kNaN;
+      if (!other_axis.empty())
+        for (const Point& p : v.points)
+          if (p.group == g) {
+            const auto gv = axis_value(other_axis, p.point, p.spec);
+            if (gv && gv->is_number()) group_value = gv->get<double>();
+            break;
+          }
+      std::vector<double> x, y, sigma;
+      std::set<double> distinct;
+      for (std::size_t p = 0; p < v.points.size(); ++p) {
+        const MeanSe q = metric(p, headline);
+        if (v.points[p].group != g || !std::isfinite(v.points[p].x) || !std::isfinite(q.mean)) continue;
+        x.push_back(v.points[p].x);
+        y.push_back(q.mean);
+        sigma.push_back(q.se);
+        distinct.insert(v.points[p].x);
+      }
+      if (distinct.size() < 3 || models.empty()) continue;
+      ++fitted_groups;
+      for (const FitModel& model : models) {
+        FitResult r;
+        try {
+          r = fit_model(with_data_guess(model, x, y), x, y, sigma);
+        } catch (const std::exception& e) {
+          fits.rows.push_back({g, model.name, "", Cell::number(kNaN), Cell::number(kNaN), Cell::number(kNaN),
+                               Cell::number(kNaN), Cell::number(kNaN), Cell::count(static_cast<long long>(x.size())), "",
+                               e.what()});
+          continue;
+        }
+        const std::string weighted = r.sigma.empty() ? "no" : "1/se^2";
+        for (const auto& par : r.parameters)
+          fits.rows.push_back({g, r.model_name + ": " + r.expression, par.name, Cell::number(par.value),
+                               Cell::number(par.se, 2), Cell::number(par.ci_low), Cell::number(par.ci_high),
+                               Cell::number(r.ok() && r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
+                               Cell::count(static_cast<long long>(x.size())), weighted, r.verdict()});
+        for (std::size_t i = 0; i < r.x.size(); ++i)
+          residuals.rows.push_back({g, r.model_name, Cell::number(r.x[i], 6), Cell::number(r.y[i]),
+                                    Cell::number(r.fitted[i]), Cell::number(r.residuals[i], 3)});
+        if (!r.ok()) continue;
+        if (std::isfinite(group_value)) {
+          Figure& tf = trends[r.model_name];
+          if (tf.name.empty()) {
+            tf.name = "fit_parameters_" + r.model_name;
+            tf.title = "Fitted parameters of " + r.model_name + " (" + r.expression + ") against " + short_axis(other_axis);
+            tf.xlabel = short_axis(other_axis);
+            tf.ylabel = "parameter value";
+            tf.caption = "Error bars: standard errors of the fit. Parameters not determined by the data or whose 95% "
+                         "interval holds 0 are left out (fit table above)";
+          }
+          for (const auto& par : r.parameters) {
+            if (!par.determined() || par.ci_spans_zero()) continue;
+            auto it = std::find_if(tf.series.begin(), tf.series.end(), [&](const Series& se) { return se.label == par.name; });
+            if (it == tf.series.end()) {
+              Series se;
+              se.label = par.name;
+              se.columns = {short_axis(other_axis), par.name, par.name + "_se", "ci_low", "ci_high"};
+              se.style = Series::Style::kErrorBars;
+              se.err = 2;
+              tf.series.push_back(se);
+              it = tf.series.end() - 1;
+            }
+            it->rows.push_back({group_value, par.value, par.se, par.ci_low, par.ci_high});
+          }
+        }
+        Series curve;
+        for (std::size_t k = 0; k < data_series.size(); ++k)
+          if (data_series[k].label == (g.empty() ? std::string("Q") : g)) curve.color = static_cast<int>(k);
+        curve.label = r.model_name + (g.empty() ? "" : " (" + g + ")") +
+                      (r.quality == FitQuality::kGood ? "" : ", " + to_string(r.quality));
+        curve.columns = {"W", "Q_fit"};
+        curve.style = Series::Style::kLines;
+        // The fitted function sampled densely over the whole plotted x range (every group's
+        // widths), not only through the measured widths.
+        for (int i = 0; i <= kCurveSamples; ++i) {
+          const double xv = x_lo + (x_hi - x_lo) * i / kCurveSamples;
+          const double yv = r.evaluate(xv);
+          if (std::isfinite(yv)) curve.rows.push_back({xv, yv});
+        }
+        if (curve.rows.empty()) continue;
+        // The first model's curves go on the main figure; every other model gets its own
+        // figure (data + its curves) so that legends stay readable.
+        if (&model == &models.front()) {
+          f.series.push_back(std::move(curve));
+        } else {
+          Figure& mf = model_figures[model.name];
+          if (mf.name.empty())
+            mf = Figure{"flow_rate_fit_" + model.name, "Flow rate with the " + model.name + " fit (" + r.expression + ")",
+                        v.x_label, "Q (bodies/sqrt(d/g))", data_series, false, false, "Error bars: se over replicas"};
+          mf.series.push_back(std::move(curve));
+        }
+      }
+    }
+    s.blocks.push_back(f);
+    if (several && !per_outlet_figure.series.empty()) s.blocks.push_back(per_outlet_figure);
+    for (auto& [name, mf] : model_figures) s.blocks.push_back(mf);
+    if (fitted_groups > 0) {
+      s.blocks.push_back(Text{"Models (shared analyses.md): 2-D Beverloo `Q = C (W/d - k)^(3/2)`, free exponent "
+                              "`Q = C (W/d - k)^b`, Mankoc `Q = C (1 - exp(-b (W/d - 1))/2) (W/d - 1)^(3/2)`, plus "
+                              "any model given in the campaign spec `/report/flow/models`. GSL trust-region "
+                              "Levenberg-Marquardt with a finite-difference Jacobian; weights 1/se^2 when every "
+                              "point has a replica standard error, covariance scaled by max(1, chi2/dof) (weighted) "
+                              "or chi2/dof (unweighted)."});
+      s.blocks.push_back(fits);
+      for (auto& [model, tf] : trends)
+        if (std::any_of(tf.series.begin(), tf.series.end(), [](const Series& se) { return se.rows.size() >= 2; }))
+          s.blocks.push_back(tf);
+      s.blocks.push_back(residuals);
+    } else if (v.x_is_width) {
+      s.blocks.push_back(Text{"Beverloo fits need at least 3 outlet widths in a group; this campaign has fewer so far."});
+    }
+  }
+  add_per_run(in, s);
+  return s;
+}
+
+std::vector<FitModel> read_models(const nlohmann::json& v, const std::string& path) {
+  if (!v.is_array()) throw OptionError(path, v, "must be an array of {name, expression, variable, initial}");
+  std::vector<FitModel> models;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const nlohmann::json& m = v[i];
+    const std::string mp = path + "/" + std::to_string(i);
+    if (!m.is_object() || !m.contains("expression") || !m.at("expression").is_string())
+      throw OptionError(mp, m, "must be {\"name\": .., \"expression\": \"C * x^b\", \"variable\": \"x\", \"initial\": {..}}");
+    FitModel f;
+    f.name = m.contains("name") && m.at("name").is_string() ? m.at("name").get<std::string>() : "model_" + std::to_string(i);
+    f.expression = m.at("expression").get<std::string>();
+    if (m.contains("variable")) {
+      if (!m.at("variable").is_string()) throw OptionError(mp + "/variable", m.at("variable"), "must be a name");
+      f.variable = m.at("variable").get<std::string>();
+    }
+    if (m.contains("initial")) {
+      if (!m.at("initial").is_object()) throw OptionError(mp + "/initial", m.at("initial"), "must be {parameter: value}");
+      for (const auto& [k, iv] : m.at("initial").items()) f.initial[k] = option_number(iv, mp + "/initial/" + k, -1e300, 1e300);
+    }
+    try {
+      Expression::parse(f.expression, {f.variable});
+    } catch (const ExpressionError& e) {
+      throw std::invalid_argument(mp + "/expression: " + e.what());
+    }
+    models.push_back(f);
+  }
+  return models;
+}
+
+}  // namespace
+
+std::unique_ptr<Analysis> make_flow_analysis(const nlohmann::json& options, const std::string& path) {
+  std::vector<FitModel> models;
+  if (!options.is_null()) {
+    option_object(options, path, {"models"});
+    if (options.contains("models")) models = read_models(options.at("models"), path + "/models");
+  }
+  return std::make_unique<FlowAnalysis>(std::move(models));
+}
+
+}  // namespace granary::analysis

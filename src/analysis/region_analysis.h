@@ -1,0 +1,16 @@
+// The region analysis (key "region", ch. 3-6): packing fraction, both granular temperatures
+// and the velocity distributions in a rectangle next to each outlet, over the frames of the
+// steady window. Options, /report/region: "ch3", "ch4" (default) or {"pad": .., "height": ..}.
+#pragma once
+
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "analysis/analysis.h"
+
+namespace granary::analysis {
+
+std::unique_ptr<Analysis> make_region_analysis(const nlohmann::json& options, const std::string& path);
+
+}  // namespace granary::analysis

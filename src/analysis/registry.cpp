@@ -1,0 +1,117 @@
+// The analyses' table (registry.h) and the reading of /report.
+#include "analysis/registry.h"
+
+#include <algorithm>
+#include <mutex>
+
+#include "analysis/avalanche_analysis.h"
+#include "analysis/clogging_index_analysis.h"
+#include "analysis/flow_analysis.h"
+#include "analysis/intermittency_analysis.h"
+#include "analysis/options.h"
+#include "analysis/profile_analysis.h"
+#include "analysis/region_analysis.h"
+
+namespace granary::analysis {
+namespace {
+
+std::mutex& extra_mutex() {
+  static std::mutex m;
+  return m;
+}
+std::vector<AnalysisEntry>& extra_rows() {
+  static std::vector<AnalysisEntry> rows;
+  return rows;
+}
+
+// Keys of /report read by the pass itself, shared by the analyses.
+constexpr const char* kPassKeys[] = {"window", "clog_gap", "frame_stride", "max_frames"};
+
+FlowWindowRule read_window(const nlohmann::json& v, const std::string& path) {
+  FlowWindowRule w;
+  option_object(v, path, {"start_time", "start_fraction", "shallow_fraction", "min_events", "stop_at_first_clog"});
+  constexpr double kBig = 1e300;
+  for (const auto& [k, x] : v.items()) {
+    const std::string p = path + "/" + k;
+    if (k == "start_time") w.start_time = option_number(x, p, 0.0, kBig);
+    if (k == "start_fraction") w.start_fraction = option_number(x, p, 0.0, 1.0);
+    if (k == "shallow_fraction") w.shallow_fraction = option_number(x, p, 0.0, 1.0);
+    if (k == "min_events") w.min_events = option_integer(x, p, 2, 1000000000);
+    if (k == "stop_at_first_clog") w.stop_at_first_clog = option_bool(x, p);
+  }
+  return w;
+}
+
+}  // namespace
+
+const std::vector<AnalysisEntry>& builtin_analyses() {
+  // Report order. One row per analysis.
+  static const std::vector<AnalysisEntry> kTable = {
+      {"flow", make_flow_analysis},
+      {"profile", make_profile_analysis},
+      {"region", make_region_analysis},
+      {"clogging_index", make_clogging_index_analysis},
+      {"avalanches", make_avalanche_analysis},
+      {"intermittency", make_intermittency_analysis},
+  };
+  return kTable;
+}
+
+std::vector<AnalysisEntry> registered_analyses() {
+  std::vector<AnalysisEntry> rows = builtin_analyses();
+  std::lock_guard<std::mutex> lock(extra_mutex());
+  rows.insert(rows.end(), extra_rows().begin(), extra_rows().end());
+  return rows;
+}
+
+ScopedAnalysis::ScopedAnalysis(AnalysisEntry entry) : key_(entry.key) {
+  std::lock_guard<std::mutex> lock(extra_mutex());
+  extra_rows().push_back(std::move(entry));
+}
+
+ScopedAnalysis::~ScopedAnalysis() {
+  std::lock_guard<std::mutex> lock(extra_mutex());
+  std::erase_if(extra_rows(), [&](const AnalysisEntry& e) { return e.key == key_; });
+}
+
+std::vector<const Analysis*> AnalysisSetup::list() const {
+  std::vector<const Analysis*> out;
+  for (const auto& a : analyses) out.push_back(a.get());
+  return out;
+}
+
+AnalysisSetup setup_analyses(const nlohmann::json& campaign_spec) {
+  const std::vector<AnalysisEntry> rows = registered_analyses();
+  nlohmann::json report = nlohmann::json::object();
+  if (campaign_spec.is_object() && campaign_spec.contains("report")) {
+    report = campaign_spec.at("report");
+    if (!report.is_object()) throw OptionError("/report", report, "must be an object");
+  }
+  AnalysisSetup setup;
+  std::string known;
+  for (const char* k : kPassKeys) known += (known.empty() ? "" : ", ") + std::string(k);
+  for (const AnalysisEntry& e : rows) known += ", " + e.key;
+  for (const auto& [key, v] : report.items()) {
+    const std::string path = "/report/" + key;
+    if (key == "window") {
+      setup.pass.window = read_window(v, path);
+    } else if (key == "clog_gap") {
+      setup.pass.clog_gap = option_number(v, path, 0.0, 1e300);
+    } else if (key == "frame_stride") {
+      setup.pass.frame_stride = option_integer(v, path, 1, 1000000000);
+    } else if (key == "max_frames") {
+      setup.pass.max_frames = option_integer(v, path, 0, 1000000000);
+    } else if (key == "models") {
+      throw OptionError(path, v, "fit models are options of the flow analysis now: /report/flow/models");
+    } else if (key == "min_exits_before_clog") {
+      throw OptionError(path, v, "moved to /report/clogging_index/min_exits_before_clog");
+    } else if (std::none_of(rows.begin(), rows.end(), [&](const AnalysisEntry& e) { return e.key == key; })) {
+      throw OptionError(path, v, "unknown key (known: " + known + ")");
+    }
+  }
+  for (const AnalysisEntry& e : rows)
+    setup.analyses.push_back(e.make(report.contains(e.key) ? report.at(e.key) : nlohmann::json(), "/report/" + e.key));
+  return setup;
+}
+
+}  // namespace granary::analysis

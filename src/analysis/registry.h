@@ -1,0 +1,50 @@
+// The table of analyses: one row per analysis, in the order their sections appear in the
+// report. Adding an analysis = its file pair plus one row here (docs/architecture.md).
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "analysis/analysis.h"
+
+namespace granary::analysis {
+
+struct AnalysisEntry {
+  std::string key;                 // also the analysis' options key: /report/<key>
+  // Makes the analysis from its options (null when /report/<key> is absent); throws
+  // OptionError naming `path` and below.
+  std::function<std::unique_ptr<Analysis>(const nlohmann::json& options, const std::string& path)> make;
+};
+
+// The built-in table.
+const std::vector<AnalysisEntry>& builtin_analyses();
+// The table in use: the built-in rows, then rows added by ScopedAnalysis.
+std::vector<AnalysisEntry> registered_analyses();
+
+// Adds a row for the lifetime of the object (tests register an analysis of their own).
+class ScopedAnalysis {
+ public:
+  explicit ScopedAnalysis(AnalysisEntry entry);
+  ~ScopedAnalysis();
+  ScopedAnalysis(const ScopedAnalysis&) = delete;
+  ScopedAnalysis& operator=(const ScopedAnalysis&) = delete;
+
+ private:
+  std::string key_;
+};
+
+// The analyses of a campaign, configured from its spec's /report object: the shared pass
+// options (window, clog_gap, frame_stride, max_frames) and one Analysis per table row.
+struct AnalysisSetup {
+  PassOptions pass;
+  std::vector<std::unique_ptr<Analysis>> analyses;
+  std::vector<const Analysis*> list() const;
+};
+
+// Throws OptionError naming the JSON path (unknown keys list the known ones).
+AnalysisSetup setup_analyses(const nlohmann::json& campaign_spec);
+
+}  // namespace granary::analysis

@@ -1,0 +1,321 @@
+// See run_pass.h.
+#include "analysis/run_pass.h"
+
+#include <algorithm>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+#include "analysis/clogging.h"
+#include "rundir/analysis_cache.h"
+#include "rundir/files.h"
+#include "rundir/hash.h"
+
+namespace granary::analysis {
+namespace {
+
+// Which frames one accumulator gets: those inside its windows, every frame_stride-th of them,
+// at most max_frames. Frames come in time order, so past its last window it is done.
+class FrameSelector {
+ public:
+  FrameSelector(FrameRequest request, const PassOptions& pass)
+      : request_(std::move(request)), stride_(std::max(1, pass.frame_stride)), max_(pass.max_frames) {
+    done_ = request_.windows.empty();
+    for (const TimeWindow& w : request_.windows) last_end_ = std::max(last_end_, w.end);
+  }
+  bool done() const { return done_; }
+  bool contacts() const { return request_.contacts; }
+  bool wants(double t) {
+    if (done_) return false;
+    if (t > last_end_) {
+      done_ = true;
+      return false;
+    }
+    const bool inside = std::any_of(request_.windows.begin(), request_.windows.end(),
+                                    [t](const TimeWindow& w) { return w.contains(t); });
+    if (!inside || seen_++ % stride_ != 0) return false;
+    if (max_ > 0 && ++used_ >= max_) done_ = true;
+    return true;
+  }
+
+ private:
+  FrameRequest request_;
+  int stride_;
+  int max_;
+  int seen_ = 0, used_ = 0;
+  double last_end_ = -std::numeric_limits<double>::infinity();
+  bool done_ = false;
+};
+
+// One selected frame with everything the accumulators get.
+struct FrameItem {
+  rundir::Frame frame;
+  std::vector<rundir::Body> bodies;
+  rundir::ContactFrame contacts;
+  bool has_contacts = false;
+  std::vector<char> wanted;  // per accumulator
+};
+
+// Reads the frames of a run in order and prepares the ones some selector wants.
+class FrameSource {
+ public:
+  FrameSource(const rundir::RunData& data, double density, std::vector<FrameSelector>& selectors)
+      : frames_(data.frames_file(), density), selectors_(selectors) {
+    bool contacts = false;
+    for (const FrameSelector& s : selectors_) contacts = contacts || (s.contacts() && !s.done());
+    if (contacts && data.has_contacts) contact_reader_.emplace(data.contacts_file());
+  }
+
+  // Fills `item` with the next wanted frame; false when no selector wants any more.
+  bool Next(FrameItem& item) {
+    for (;;) {
+      if (std::all_of(selectors_.begin(), selectors_.end(), [](const FrameSelector& s) { return s.done(); }))
+        return false;
+      if (!frames_.NextHeader(item.frame)) return false;
+      item.wanted.assign(selectors_.size(), 0);
+      bool any = false, contacts = false;
+      for (std::size_t k = 0; k < selectors_.size(); ++k) {
+        if (!selectors_[k].wants(item.frame.time)) continue;
+        item.wanted[k] = 1;
+        any = true;
+        contacts = contacts || selectors_[k].contacts();
+      }
+      if (!any) {
+        if (!frames_.SkipDiscs()) return false;
+        continue;
+      }
+      if (!frames_.ReadDiscs(item.frame)) return false;  // cut short at the end: an engine still writing
+      ++parsed_;
+      item.bodies = rundir::BodiesOf(item.frame.discs);
+      item.has_contacts = contacts && ContactsAt(item.frame.timestep, item.contacts);
+      return true;
+    }
+  }
+  int parsed() const { return parsed_; }
+
+ private:
+  // The contact frame written at `timestep`, if there is one (contact frames come in the
+  // same order; those before it are skipped). A header read ahead waits in `pending_`.
+  bool ContactsAt(std::int64_t timestep, rundir::ContactFrame& out) {
+    if (!contact_reader_) return false;
+    for (;;) {
+      if (!contact_pending_) {
+        if (!contact_reader_->NextHeader(pending_)) {
+          contact_reader_.reset();
+          return false;
+        }
+        contact_pending_ = true;
+      }
+      if (pending_.timestep > timestep) return false;  // none at this step; kept for a later frame
+      contact_pending_ = false;
+      if (pending_.timestep == timestep) {
+        const bool read = contact_reader_->ReadContacts(pending_);
+        std::swap(out, pending_);
+        return read;
+      }
+      if (!contact_reader_->SkipContacts()) {
+        contact_reader_.reset();
+        return false;
+      }
+    }
+  }
+
+  rundir::FrameReader frames_;
+  std::vector<FrameSelector>& selectors_;
+  std::optional<rundir::ContactReader> contact_reader_;
+  rundir::ContactFrame pending_;
+  bool contact_pending_ = false;
+  int parsed_ = 0;
+};
+
+void Deliver(const FrameItem& item, const std::vector<RunAccumulator*>& accumulators) {
+  const FrameView view{item.frame, item.bodies, item.has_contacts ? &item.contacts : nullptr};
+  for (std::size_t k = 0; k < accumulators.size(); ++k)
+    if (item.wanted[k]) accumulators[k]->add_frame(view);
+}
+
+// Reading and parsing on a second thread, a few frames ahead of the analyses: the reader
+// fills free items, the analyses empty full ones, in order.
+int StreamWithReadAhead(FrameSource& source, const std::vector<RunAccumulator*>& accumulators) {
+  constexpr std::size_t kItems = 3;
+  std::vector<FrameItem> items(kItems);
+  std::deque<FrameItem*> free_items, full_items;
+  for (FrameItem& it : items) free_items.push_back(&it);
+  std::mutex mutex;
+  std::condition_variable changed;
+  bool finished = false, stop = false;
+  std::exception_ptr reader_error;
+  std::thread reader([&] {
+    try {
+      for (;;) {
+        FrameItem* item = nullptr;
+        {
+          std::unique_lock<std::mutex> lock(mutex);
+          changed.wait(lock, [&] { return stop || !free_items.empty(); });
+          if (stop) break;
+          item = free_items.front();
+          free_items.pop_front();
+        }
+        const bool more = source.Next(*item);
+        std::lock_guard<std::mutex> lock(mutex);
+        if (!more) {
+          free_items.push_back(item);
+          break;
+        }
+        full_items.push_back(item);
+        changed.notify_all();
+      }
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(mutex);
+      reader_error = std::current_exception();
+    }
+    std::lock_guard<std::mutex> lock(mutex);
+    finished = true;
+    changed.notify_all();
+  });
+  auto stop_reader = [&] {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      stop = true;
+      changed.notify_all();
+    }
+    reader.join();
+  };
+  try {
+    for (;;) {
+      FrameItem* item = nullptr;
+      {
+        std::unique_lock<std::mutex> lock(mutex);
+        changed.wait(lock, [&] { return finished || !full_items.empty(); });
+        if (full_items.empty()) break;
+        item = full_items.front();
+        full_items.pop_front();
+      }
+      Deliver(*item, accumulators);
+      std::lock_guard<std::mutex> lock(mutex);
+      free_items.push_back(item);
+      changed.notify_all();
+    }
+  } catch (...) {
+    stop_reader();
+    throw;
+  }
+  stop_reader();
+  if (reader_error) std::rethrow_exception(reader_error);
+  return source.parsed();
+}
+
+int Stream(FrameSource& source, const std::vector<RunAccumulator*>& accumulators) {
+  FrameItem item;
+  while (source.Next(item)) Deliver(item, accumulators);
+  return source.parsed();
+}
+
+nlohmann::json PassJson(const PassOptions& p, const PassUse& use) {
+  nlohmann::json j = nlohmann::json::object();
+  if (use.window)
+    j["window"] = {{"start_time", p.window.start_time},
+                   {"start_fraction", p.window.start_fraction},
+                   {"shallow_fraction", p.window.shallow_fraction},
+                   {"stop_at_first_clog", p.window.stop_at_first_clog},
+                   {"min_events", p.window.min_events}};
+  if (use.clog_gap) j["clog_gap"] = p.clog_gap;
+  if (use.frames) j["frames"] = {{"stride", p.frame_stride}, {"max", p.max_frames}};
+  return j;
+}
+
+}  // namespace
+
+nlohmann::json cache_key(const Analysis& a, const PassOptions& pass) {
+  return {{"analysis", a.key()}, {"version", a.version()}, {"options", a.run_options()}, {"pass", PassJson(pass, a.pass_use())}};
+}
+
+RunView make_run_view(const rundir::RunData& data, const PassOptions& pass) {
+  RunView v;
+  v.data = &data;
+  v.options = &pass;
+  const nlohmann::json& spec = data.spec;
+  const nlohmann::json none = nlohmann::json::object();
+  const nlohmann::json discharge = spec.is_object() ? spec.value("discharge", none) : none;
+  v.run_id = data.summary.run_id.empty() && spec.is_object() ? spec.value("run_id", std::string()) : data.summary.run_id;
+  v.engine = !data.summary.engine.empty() ? data.summary.engine
+                                          : (spec.is_object() ? spec.value("engine", std::string("native")) : "native");
+  v.end_reason = data.summary.end_reason;
+  v.remove_mode = discharge.value("mode", std::string("remove")) == "remove";
+  v.stop_on_clog = discharge.value("stop_on_clog", true);
+  v.bodies = data.summary.bodies;
+  if (v.bodies == 0 && spec.is_object() && spec.contains("bodies")) v.bodies = spec.at("bodies").value("count", 0);
+  v.exited = data.has_summary ? data.summary.exited : static_cast<int>(data.events.size());
+  v.undischarged = data.has_summary ? data.summary.remaining : v.bodies - v.exited;
+  v.t_end = data.summary.t_end;
+  if (!data.events.empty()) v.t_end = std::max(v.t_end, data.events.back().time);
+  v.clog_gap = pass.clog_gap >= 0.0 ? pass.clog_gap : discharge.value("clog_window", 5.0);
+  if (spec.is_object() && spec.contains("bodies")) v.density = spec.at("bodies").value("density", 1.0);
+  v.outlets = outlets_of(spec);
+  v.flow = flow_rate({data.events, v.remove_mode, v.bodies, v.clog_gap, -1}, pass.window);
+  const ClogSeries series = clog_series(data.events, -1, v.t_end, v.clog_gap, run_end_of(v.end_reason), v.stop_on_clog);
+  for (const Stretch& c : series.clogged) v.clogged.push_back({c.start, c.end});
+  v.steady.start = pass.window.start_time;
+  if (v.flow.ok) {
+    v.steady = {v.flow.t_start, v.flow.t_end};
+  } else if (!series.flowing.empty() && series.flowing.front().complete && series.flowing.front().exits > 0) {
+    v.steady.end = series.flowing.front().end;  // no steady window: still only frames before the first clog
+  }
+  return v;
+}
+
+RunPassResult analyse_run(const std::filesystem::path& dir, const std::vector<const Analysis*>& analyses,
+                          const PassOptions& pass, const RunPassOptions& options) {
+  RunPassResult out;
+  out.results.assign(analyses.size(), nullptr);
+  // A cached result belongs to this summary.json: a run run again is analysed again.
+  std::string summary_hash;
+  if (std::filesystem::exists(dir / rundir::kSummaryFile)) summary_hash = hash_hex(ReadWholeFile(dir / rundir::kSummaryFile));
+  std::vector<nlohmann::json> keys;
+  std::vector<std::size_t> missing;
+  for (std::size_t k = 0; k < analyses.size(); ++k) {
+    keys.push_back(cache_key(*analyses[k], pass));
+    if (options.read_cache && !summary_hash.empty()) {
+      const auto cached = rundir::ReadCachedResult(dir, analyses[k]->key());
+      if (cached && cached->key == keys[k] && cached->summary_hash == summary_hash) {
+        out.results[k] = cached->result;
+        ++out.from_cache;
+        continue;
+      }
+    }
+    missing.push_back(k);
+  }
+  if (missing.empty()) return out;
+
+  const rundir::RunData data = rundir::ReadRun(dir);
+  const RunView view = make_run_view(data, pass);
+  std::vector<std::unique_ptr<RunAccumulator>> accumulators;
+  std::vector<RunAccumulator*> raw;
+  std::vector<FrameSelector> selectors;
+  for (std::size_t k : missing) {
+    accumulators.push_back(analyses[k]->start(view));
+    raw.push_back(accumulators.back().get());
+    selectors.emplace_back(raw.back()->frames(), pass);
+  }
+  const bool frames = data.has_frames &&
+                      std::any_of(selectors.begin(), selectors.end(), [](const FrameSelector& s) { return !s.done(); });
+  if (frames) {
+    FrameSource source(data, view.density, selectors);
+    out.frames_parsed = options.threads >= 2 ? StreamWithReadAhead(source, raw) : Stream(source, raw);
+  }
+  for (std::size_t i = 0; i < missing.size(); ++i) {
+    const std::size_t k = missing[i];
+    out.results[k] = raw[i]->finish();
+    if (!options.write_cache || summary_hash.empty()) continue;
+    try {
+      rundir::WriteCachedResult(dir, {analyses[k]->key(), keys[k], summary_hash, out.results[k]});
+    } catch (const std::exception&) {
+      // A run directory we may not write (shared, read-only): the result is used, not kept.
+    }
+  }
+  return out;
+}
+
+}  // namespace granary::analysis

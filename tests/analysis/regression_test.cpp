@@ -1,0 +1,167 @@
+// Regression of every registered analysis on stored run directories (tests/data/regression:
+// three small native-engine campaigns — remove mode through clogs and discharges, a small
+// outlet beside a large one, a lateral outlet — with frames and contact forces): every per-run
+// metric (value, se) and every point metric (mean, se, n) against expected_metrics.json.
+//
+// Tolerance: relative 1e-9 (plus 1e-12 absolute for values near zero). The analyses are
+// deterministic, so the same build reproduces the bits; the tolerance only absorbs a compiler
+// or libm that rounds differently. A change of the numbers is a change of an analysis: bump
+// its version, then regenerate the references deliberately with
+//   build/bin/granary_analysis_regression --update-references
+// and say why in the commit. The expected file of the first version was checked against the
+// numbers of the analyses before they became registered units (commit message of that change).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "analysis/campaign_analysis.h"
+#include "analysis/registry.h"
+#include "test_util.h"
+
+namespace granary::analysis {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool g_update_references = false;
+
+constexpr double kRelativeTolerance = 1e-9;
+constexpr double kAbsoluteTolerance = 1e-12;
+constexpr const char* kCampaigns[] = {"remove", "two-outlets", "lateral"};
+
+fs::path data_dir() { return fs::path(GRANARY_SOURCE_DIR) / "tests" / "data" / "regression"; }
+
+struct StoredCampaign {
+  CampaignInfo info;
+  std::vector<RunRecord> runs;
+};
+
+// campaign.json: the campaign as its database held it; the runs under runs/<id>/.
+StoredCampaign load(const fs::path& dir) {
+  std::ifstream in(dir / "campaign.json");
+  const nlohmann::json c = nlohmann::json::parse(in);
+  StoredCampaign s;
+  s.info.name = c.at("name");
+  s.info.spec = c.at("spec");
+  s.info.axes = c.at("axes").get<std::vector<std::string>>();
+  for (const auto& r : c.at("runs")) {
+    RunRecord rec;
+    rec.run_id = r.at("run_id");
+    rec.point_id = r.at("point_id");
+    rec.point = r.at("point");
+    rec.replica = r.at("replica");
+    rec.engine = r.at("engine");
+    rec.state = r.at("state");
+    rec.run_dir = dir / "runs" / rec.run_id;
+    std::ifstream spec(rec.run_dir / "run.json");
+    rec.spec = nlohmann::json::parse(spec);
+    s.runs.push_back(rec);
+  }
+  return s;
+}
+
+nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+
+// {"runs": {id: {metric: [value, se]}}, "points": {id: {metric: [mean, se, n]}}}
+nlohmann::json metrics_of(const CampaignAnalysis& a) {
+  nlohmann::json runs = nlohmann::json::object(), points = nlohmann::json::object();
+  for (std::size_t u = 0; u < a.view.used.size(); ++u) {
+    nlohmann::json m = nlohmann::json::object();
+    for (std::size_t k = 0; k < a.results.size(); ++k)
+      for (const Metric& x : a.run_metrics(k, u)) m[x.name] = {number(x.value), number(x.se)};
+    runs[a.view.used[u].record->run_id] = m;
+  }
+  for (std::size_t p = 0; p < a.view.points.size(); ++p) {
+    nlohmann::json m = nlohmann::json::object();
+    for (const PointMetric& x : a.all_point_metrics(p)) m[x.name] = {number(x.mean), number(x.se), x.n};
+    points[a.view.points[p].id] = m;
+  }
+  return {{"runs", runs}, {"points", points}};
+}
+
+nlohmann::json analyse(const std::string& name, bool cache, const fs::path& copy_to = {}) {
+  fs::path dir = data_dir() / name;
+  if (!copy_to.empty()) {
+    fs::copy(dir, copy_to, fs::copy_options::recursive);
+    dir = copy_to;
+  }
+  const StoredCampaign c = load(dir);
+  const AnalysisSetup setup = setup_analyses(c.info.spec);
+  CampaignAnalysisOptions options;
+  options.read_cache = options.write_cache = cache;  // never write into the source tree
+  const auto a = analyse_campaign(c.info, c.runs, setup, options);
+  EXPECT_EQ(a->view.unreadable.size(), 0u) << (a->view.unreadable.empty() ? "" : a->view.unreadable.front().second);
+  return metrics_of(*a);
+}
+
+bool close(const nlohmann::json& a, const nlohmann::json& b) {
+  if (a.is_null() || b.is_null()) return a.is_null() && b.is_null();
+  const double x = a.get<double>(), y = b.get<double>();
+  return std::abs(x - y) <= kRelativeTolerance * std::max(std::abs(x), std::abs(y)) + kAbsoluteTolerance;
+}
+
+// Every number of `expected` in `actual` and nothing more; failures name the place.
+void expect_same(const nlohmann::json& expected, const nlohmann::json& actual, const std::string& where) {
+  ASSERT_EQ(expected.size(), actual.size()) << where << ": expected " << expected.dump() << "\n got " << actual.dump();
+  for (const auto& [key, e] : expected.items()) {
+    ASSERT_TRUE(actual.contains(key)) << where << "/" << key << " is missing";
+    const nlohmann::json& a = actual.at(key);
+    if (e.is_object()) {
+      expect_same(e, a, where + "/" + key);
+      continue;
+    }
+    ASSERT_EQ(e.size(), a.size()) << where << "/" << key;
+    for (std::size_t i = 0; i < e.size(); ++i)
+      EXPECT_TRUE(close(e[i], a[i])) << where << "/" << key << "[" << i << "]: expected " << e[i] << ", got " << a[i];
+  }
+}
+
+TEST(Regression, StoredRunsGiveTheExpectedMetrics) {
+  const fs::path file = data_dir() / "expected_metrics.json";
+  nlohmann::json actual = nlohmann::json::object();
+  for (const char* name : kCampaigns) actual[name] = analyse(name, false);
+  if (g_update_references) {
+    std::ofstream(file) << actual.dump(1) << "\n";
+    std::cout << "wrote " << file << "\n";
+    return;
+  }
+  std::ifstream in(file);
+  ASSERT_TRUE(in) << file << " is missing: run granary_analysis_regression --update-references";
+  const nlohmann::json expected = nlohmann::json::parse(in);
+  expect_same(expected, actual, "");
+}
+
+TEST(Regression, CachedResultsAreTheSameNumbers) {
+  // A copy, so that the caches are written beside the runs and read back.
+  testing::TempDir tmp;
+  const nlohmann::json cold = analyse("two-outlets", true, tmp.path() / "c");
+  const StoredCampaign c = load(tmp.path() / "c");
+  const AnalysisSetup setup = setup_analyses(c.info.spec);
+  const auto warm = analyse_campaign(c.info, c.runs, setup);
+  EXPECT_EQ(warm->results_computed, 0);
+  EXPECT_EQ(warm->results_from_cache, static_cast<int>(c.runs.size() * setup.analyses.size()));
+  EXPECT_EQ(metrics_of(*warm), cold);
+}
+
+}  // namespace
+}  // namespace granary::analysis
+
+int main(int argc, char** argv) {
+  std::vector<char*> args;
+  for (int i = 0; i < argc; ++i) {
+    if (std::string(argv[i]) == "--update-references") {
+      granary::analysis::g_update_references = true;
+      continue;
+    }
+    args.push_back(argv[i]);
+  }
+  int n = static_cast<int>(args.size());
+  ::testing::InitGoogleTest(&n, args.data());
+  return RUN_ALL_TESTS();
+}

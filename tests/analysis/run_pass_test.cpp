@@ -1,0 +1,226 @@
+// The single pass over a run directory with every registered analysis: region and profiles
+// beside a side outlet, the frame window without a steady flow, notes, frames parsed once and
+// handed to every analysis that asked, read-ahead on a second thread with the same results,
+// and the cache (a changed option re-analyses only its analysis; a run run again, all).
+#include "analysis/run_pass.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <numbers>
+
+#include "analysis/registry.h"
+#include "rundir/analysis_cache.h"
+#include "test_util.h"
+
+namespace granary::analysis {
+namespace {
+
+using testing::TempDir;
+using testing::write_file;
+
+const nlohmann::json kSpec = {
+    {"silo",
+     {{"width", 100},
+      {"base_outlets", {{{"center", -20.0}, {"width", 8.0}}}},
+      {"side_outlets", {{{"wall", "right"}, {"bottom", 3.5}, {"width", 25.0}}, {{"wall", "left"}, {"bottom", 0.0}, {"width", 10.0}}}}}},
+    {"discharge", {{"mode", "reinject"}, {"clog_window", 3.0}}},
+    {"bodies", {{"count", 10}}}};
+
+// Every metric of every analysis of one pass, by name.
+std::map<std::string, Metric> metrics_of(const AnalysisSetup& setup, const RunPassResult& pass) {
+  std::map<std::string, Metric> out;
+  for (std::size_t k = 0; k < setup.analyses.size(); ++k)
+    for (const Metric& m : setup.analyses[k]->run_metrics(pass.results[k])) out[m.name] = m;
+  return out;
+}
+
+RunPassOptions no_cache() {
+  RunPassOptions o;
+  o.read_cache = o.write_cache = false;
+  return o;
+}
+
+TEST(RunPass, RegionBesideASideOutlet) {
+  TempDir dir;
+  write_file(dir.path() / "run.json", kSpec.dump());
+  write_file(dir.path() / "summary.json", R"({"engine":"native","bodies":10,"exited":0,"remaining":10,"t_end":10})");
+  write_file(dir.path() / "events.csv", "time,body,shape,mass,outlet\n");
+  // One disc (r = 1) against the right wall next to the side outlet, one next to the base
+  // outlet, moving out of each.
+  write_file(dir.path() / "frames.dump",
+             "ITEM: TIMESTEP\n30000\nITEM: TIME\n3.0\nITEM: NUMBER OF ATOMS\n2\n"
+             "ITEM: ATOMS id mol x y radius vx vy omegaz\n"
+             "1 0 48.5 16 1 3 0 0\n"
+             "2 1 -20 1.5 1 0 -4 0\n");
+  const AnalysisSetup setup = setup_analyses(nlohmann::json::object());
+  const RunPassResult r = analyse_run(dir.path(), setup.list(), setup.pass, no_cache());
+  EXPECT_EQ(r.frames_parsed, 1);
+  auto m = metrics_of(setup, r);
+  // ch. 4 region of W = 25 beside the right wall: (25 + 2 sqrt2) x 5 sqrt2, holds the whole disc.
+  const double area_side = (25.0 + 2.0 * std::numbers::sqrt2) * 5.0 * std::numbers::sqrt2;
+  EXPECT_NEAR(m["phi_outlet1"].value, std::numbers::pi / area_side, 1e-12);
+  const double area_base = (8.0 + 2.0 * std::numbers::sqrt2) * 5.0 * std::numbers::sqrt2;
+  EXPECT_NEAR(m["phi"].value, std::numbers::pi / area_base, 1e-12);
+  EXPECT_NEAR(m["phi_outlet2"].value, 0.0, 1e-15);
+  EXPECT_DOUBLE_EQ(m["v_max_outlet1"].value, 3.0);  // |v_n| of the disc leaving sideways
+  EXPECT_DOUBLE_EQ(m["v_max"].value, 4.0);
+  EXPECT_TRUE(std::isnan(m["q_count"].value));  // no exits: no flow rate
+  EXPECT_EQ(m.count("clogged"), 0u);             // reinject mode: no clogging index
+}
+
+TEST(RunPass, WithoutAFlowWindowFramesStopAtTheFirstClog) {
+  // 5 exits (too few for a flow rate), then a clog from t = 2.5 on; frames at t = 2.2
+  // (flowing) and t = 15 (clogged): only the first may enter the region statistics, and the
+  // pass stops reading after it.
+  TempDir dir;
+  write_file(dir.path() / "run.json", kSpec.dump());
+  write_file(dir.path() / "summary.json", R"({"bodies":10,"exited":5,"remaining":10,"t_end":20,"end_reason":"time_limit","clogs":1})");
+  write_file(dir.path() / "events.csv",
+             "time,body,shape,mass,outlet\n2.1,0,disc,1,0\n2.2,1,disc,1,0\n2.3,2,disc,1,0\n2.4,3,disc,1,0\n2.5,4,disc,1,0\n");
+  std::string frames;
+  for (double t : {2.2, 15.0})
+    frames += "ITEM: TIMESTEP\n1\nITEM: TIME\n" + std::to_string(t) +
+              "\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id mol x y radius vx vy omegaz\n1 0 -20 1 0.5 0 -1 0\n";
+  write_file(dir.path() / "frames.dump", frames);
+  const AnalysisSetup setup = setup_analyses({{"report", {{"window", {{"start_time", 1.0}}}}}});
+  const RunPassResult r = analyse_run(dir.path(), setup.list(), setup.pass, no_cache());
+  EXPECT_EQ(r.frames_parsed, 1);
+  auto m = metrics_of(setup, r);
+  EXPECT_TRUE(std::isnan(m["q_count"].value));
+  EXPECT_EQ(m["clogs"].value, 1.0);  // in the exit stream
+  // The clogged state an analysis of arches would ask for: from the last exit to the end.
+  const rundir::RunData data = rundir::ReadRun(dir.path());
+  const RunView view = make_run_view(data, setup.pass);
+  ASSERT_EQ(view.clogged.size(), 1u);
+  EXPECT_DOUBLE_EQ(view.clogged[0].start, 2.5);
+  EXPECT_DOUBLE_EQ(view.clogged[0].end, 20.0);
+  EXPECT_DOUBLE_EQ(view.steady.start, 1.0);
+  EXPECT_DOUBLE_EQ(view.steady.end, 2.5);
+  for (std::size_t k = 0; k < setup.analyses.size(); ++k) {
+    if (setup.analyses[k]->key() == "region") {
+      EXPECT_EQ(r.results[k]["regions"][0]["frames"], 1);
+    }
+  }
+}
+
+TEST(RunPass, SummaryAndEventsDisagree) {
+  TempDir dir;
+  write_file(dir.path() / "summary.json", R"({"bodies":10,"exited":5,"remaining":5,"t_end":3,"end_reason":"time_limit"})");
+  write_file(dir.path() / "events.csv", "time,body,shape,mass,outlet\n1,0,disc,1,0\n2,1,disc,1,0\n2.5,2,disc,1,0\n");
+  const AnalysisSetup setup = setup_analyses(nlohmann::json::object());
+  const RunPassResult r = analyse_run(dir.path(), setup.list(), setup.pass, no_cache());
+  const nlohmann::json& flow = r.results[0];
+  ASSERT_EQ(setup.analyses[0]->key(), "flow");
+  bool found = false;
+  for (const auto& n : flow["notes"]) found = found || n == "events.csv has 3 exits but summary.json says 5";
+  EXPECT_TRUE(found) << flow["notes"].dump();
+  EXPECT_EQ(flow["cumulative"]["n"], (nlohmann::json{1, 2, 3}));
+  auto m = metrics_of(setup, r);
+  EXPECT_EQ(m["clogged"].value, 0.0);  // remove mode (the run-spec default without run.json)
+  EXPECT_EQ(m["undischarged"].value, 5.0);
+}
+
+// A run of `frames` frames of one disc at t = 1, 2, ..., with contact frames at every other step.
+void write_frame_run(const std::filesystem::path& dir, int frames) {
+  write_file(dir / "run.json", R"({"discharge":{"mode":"reinject"},"bodies":{"count":1}})");
+  write_file(dir / "summary.json", R"({"bodies":1,"exited":0,"remaining":1,"t_end":100,"end_reason":"time_limit"})");
+  write_file(dir / "events.csv", "time,body,shape,mass,outlet\n");
+  std::string f, c;
+  for (int k = 1; k <= frames; ++k) {
+    const std::string step = std::to_string(1000 * k);
+    f += "ITEM: TIMESTEP\n" + step + "\nITEM: TIME\n" + std::to_string(k) + "\nITEM: NUMBER OF ATOMS\n1\n" +
+         "ITEM: ATOMS id mol x y radius vx vy omegaz\n1 0 0 " + std::to_string(k) + " 0.5 0 -1 0\n";
+    if (k % 2 == 0)
+      c += "ITEM: TIMESTEP\n" + step + "\nITEM: TIME\n" + std::to_string(k) + "\nITEM: NUMBER OF ENTRIES\n1\n" +
+           "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n0 -1 0 0 0 0 0 0 0 " + std::to_string(k) + "\n";
+  }
+  write_file(dir / "frames.dump", f);
+  write_file(dir / "contacts.dump", c);
+}
+
+// An analysis that records the frames (time, y of the disc, contact force) it is handed.
+class Recorder : public Analysis {
+ public:
+  Recorder(std::string key, std::vector<TimeWindow> windows, bool contacts)
+      : key_(std::move(key)), windows_(std::move(windows)), contacts_(contacts) {}
+  std::string key() const override { return key_; }
+  int version() const override { return 1; }
+  PassUse pass_use() const override { return {false, false, true}; }
+  std::unique_ptr<RunAccumulator> start(const RunView&) const override {
+    class Acc : public RunAccumulator {
+     public:
+      Acc(const Recorder& r) : r_(r) {}
+      FrameRequest frames() const override { return {r_.windows_, r_.contacts_}; }
+      void add_frame(const FrameView& f) override {
+        ASSERT_EQ(f.bodies.size(), 1u);
+        seen_.push_back({f.frame.time, f.frame.discs.at(0).y, f.contacts ? f.contacts->contacts.at(0).fy : -1.0});
+      }
+      nlohmann::json finish() override { return seen_; }
+
+     private:
+      const Recorder& r_;
+      nlohmann::json seen_ = nlohmann::json::array();
+    };
+    return std::make_unique<Acc>(*this);
+  }
+  std::vector<Metric> run_metrics(const nlohmann::json& r) const override {
+    return {{"frames_seen", "1", static_cast<double>(r.size()), kNaN, "", false}};
+  }
+
+ private:
+  std::string key_;
+  std::vector<TimeWindow> windows_;
+  bool contacts_;
+};
+
+TEST(RunPass, EachAnalysisGetsItsWindowsFromOneReadingAtAnyThreadCount) {
+  TempDir dir;
+  write_frame_run(dir.path(), 12);
+  const Recorder early("early", {{0.0, 3.5}}, false), late("late", {{6.0, 9.0}, {11.0, 11.0}}, true);
+  PassOptions pass;
+  for (int threads : {1, 2}) {
+    RunPassOptions o = no_cache();
+    o.threads = threads;
+    const RunPassResult r = analyse_run(dir.path(), {&early, &late}, pass, o);
+    EXPECT_EQ(r.results[0], (nlohmann::json{{1.0, 1.0, -1.0}, {2.0, 2.0, -1.0}, {3.0, 3.0, -1.0}})) << threads;
+    // Contact frames exist at even steps only; the late one stops after t = 11.
+    EXPECT_EQ(r.results[1], (nlohmann::json{{6.0, 6.0, 6.0}, {7.0, 7.0, -1.0}, {8.0, 8.0, 8.0}, {9.0, 9.0, -1.0},
+                                            {11.0, 11.0, -1.0}}))
+        << threads;
+    EXPECT_EQ(r.frames_parsed, 8) << threads;  // frames 1-3, 6-9 and 11; 4, 5, 10 and 12 skipped unparsed
+  }
+  pass.frame_stride = 2;
+  pass.max_frames = 2;
+  const RunPassResult r = analyse_run(dir.path(), {&early, &late}, pass, no_cache());
+  EXPECT_EQ(r.results[0], (nlohmann::json{{1.0, 1.0, -1.0}, {3.0, 3.0, -1.0}}));
+  EXPECT_EQ(r.results[1], (nlohmann::json{{6.0, 6.0, 6.0}, {8.0, 8.0, 8.0}}));
+}
+
+TEST(RunPass, ResultsAreCachedAndAChangedOptionReanalysesOnlyItsAnalysis) {
+  TempDir dir;
+  write_frame_run(dir.path(), 6);
+  AnalysisSetup setup = setup_analyses(nlohmann::json::object());
+  const RunPassResult cold = analyse_run(dir.path(), setup.list(), setup.pass);
+  EXPECT_EQ(cold.from_cache, 0);
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "analyses" / "flow.json"));
+  const RunPassResult warm = analyse_run(dir.path(), setup.list(), setup.pass);
+  EXPECT_EQ(warm.from_cache, static_cast<int>(setup.analyses.size()));
+  EXPECT_EQ(warm.frames_parsed, 0);
+  EXPECT_EQ(warm.results, cold.results);
+  // Another region size: only the region analysis runs again (and reads the frames).
+  setup = setup_analyses({{"report", {{"region", "ch3"}}}});
+  const RunPassResult region = analyse_run(dir.path(), setup.list(), setup.pass);
+  EXPECT_EQ(region.from_cache, static_cast<int>(setup.analyses.size()) - 1);
+  // A window option changes the steady window: every analysis that uses it runs again.
+  setup = setup_analyses({{"report", {{"window", {{"start_time", 0.5}}}}}});
+  const RunPassResult window = analyse_run(dir.path(), setup.list(), setup.pass);
+  EXPECT_EQ(window.from_cache, 3);  // the clogging index, avalanches and intermittency do not use it
+  // The run run again (a new summary.json): nothing of the cache is used.
+  write_file(dir.path() / "summary.json", R"({"bodies":1,"exited":0,"remaining":1,"t_end":101,"end_reason":"time_limit"})");
+  EXPECT_EQ(analyse_run(dir.path(), setup.list(), setup.pass).from_cache, 0);
+}
+
+}  // namespace
+}  // namespace granary::analysis
