@@ -2,6 +2,7 @@
 #include "analysis/campaign_analysis.h"
 
 #include <atomic>
+#include <filesystem>
 #include <mutex>
 #include <thread>
 
@@ -28,7 +29,7 @@ std::unique_ptr<CampaignAnalysis> analyse_campaign(const CampaignInfo& info, con
   const std::vector<const Analysis*> analyses = setup.list();
   std::vector<const RunRecord*> done;
   for (const RunRecord& r : runs)
-    if (r.state == "done") done.push_back(&r);
+    if (r.state == "done" && std::filesystem::exists(r.run_dir)) done.push_back(&r);  // else lost
 
   // One pass per finished run. Many runs: one run per thread; few: each pass reads ahead on a
   // second thread. Either way every result is the same bits.

@@ -149,6 +149,8 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
       c.retired.push_back(&r);
     } else if (r.state != "done") {
       c.missing.push_back(&r);
+    } else if (!std::filesystem::exists(r.run_dir)) {
+      c.lost.push_back(&r);
     } else if (const auto it = unreadable.find(r.run_id); it != unreadable.end()) {
       c.unreadable.emplace_back(&r, it->second);
     } else {

@@ -1,5 +1,5 @@
 // The campaign as the report, the export and the comparison see it: its runs sorted into
-// used / missing / failed / unreadable / retired, its sweep points in order with their x value
+// used / missing / failed / unreadable / lost / retired, its sweep points in order with their x value
 // on the report's x axis and their group (the other axes' values), and the helpers that turn
 // point metrics into figure series. Knows nothing of any particular analysis.
 #pragma once
@@ -78,6 +78,7 @@ struct CampaignView {
   std::vector<std::string> engines;  // in first-appearance order
   std::vector<UsedRun> used;
   std::vector<const RunRecord*> missing, failed, retired;
+  std::vector<const RunRecord*> lost;  // done, but the run directory was deleted afterwards
   std::vector<std::pair<const RunRecord*, std::string>> unreadable;
   std::vector<Point> points;      // sorted by group, then x
   std::string x_axis;             // JSON pointer of the x axis ("" = none)

@@ -27,11 +27,14 @@ std::string state_reason(const RunRecord& r) {
 std::optional<Section> runs_section(const CampaignView& c) {
   Section s{"runs", "Runs", {}};
   const int total = static_cast<int>(c.used.size() + c.missing.size() + c.failed.size() + c.unreadable.size() +
-                                     c.retired.size());
+                                     c.lost.size() + c.retired.size());
   s.blocks.push_back(Text{std::to_string(total) + " runs in the campaign: **" + std::to_string(c.used.size()) +
                           " used**, " + std::to_string(c.missing.size()) + " missing (not finished), " +
                           std::to_string(c.failed.size()) + " failed, " + std::to_string(c.unreadable.size()) +
-                          " finished but unreadable, " + std::to_string(c.retired.size()) + " retired. " +
+                          " finished but unreadable, " +
+                          (c.lost.empty() ? std::string()
+                                          : std::to_string(c.lost.size()) + " finished but their run directory was deleted, ") +
+                          std::to_string(c.retired.size()) + " retired. " +
                           "Every number below is computed from the used runs only; a point with fewer replicas "
                           "than planned says so in its `n`."});
   Table t{"runs_not_used", "Runs not used, with the reason", {"run", "point", "replica", "state", "reason"}, {}, {}};
@@ -41,6 +44,8 @@ std::optional<Section> runs_section(const CampaignView& c) {
   for (const RunRecord* r : c.missing) row(r, r->failure.empty() ? "not finished" : "not finished: " + state_reason(*r));
   for (const RunRecord* r : c.failed) row(r, state_reason(*r));
   for (const auto& [r, why] : c.unreadable) row(r, "unreadable: " + why);
+  for (const RunRecord* r : c.lost)
+    row(r, "run directory deleted after it finished (campaign run --rerun-lost runs it again)");
   for (const RunRecord* r : c.retired) row(r, "retired (superseded)");
   if (!t.rows.empty()) s.blocks.push_back(t);
   return s;
@@ -263,6 +268,7 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   summary.runs_failed = static_cast<int>(c.failed.size() + c.unreadable.size());
   summary.results_from_cache = ca.results_from_cache;
   summary.results_computed = ca.results_computed;
+  summary.runs_lost = static_cast<int>(c.lost.size());
   summary.markdown = r.markdown;
   summary.html = r.html;
   if (comparison) summary.comparison = to_json(*comparison);

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
@@ -21,7 +22,8 @@ namespace granary::engine {
 namespace {
 
 constexpr double kInsertPackingFraction = 0.3;  // area fraction of a batch's insertion region
-constexpr int kSettleCheckEvery = 200;          // steps between kinetic-energy checks
+constexpr double kSettleCheckInterval = 0.02;   // simulated time between kinetic-energy checks
+constexpr long kProgressEvery = 2000;           // steps between progress reports
 
 bool Overlaps(const ShapeTemplate& a, double ax, double ay, double ath, const ShapeTemplate& b, double bx,
               double by, double bth) {
@@ -55,7 +57,11 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
   // segment per side, so element index = Side.
   Silo closed;
   closed.width = spec.silo.width;
-  World world(ParamsFromSpec(spec), templates, BuildGeometry(closed, kTallWall));
+  // The bed is prepared at its own, longer time step (bed_time_step(), docs/run-spec.md):
+  // a settled bed does not depend on it, and most of the preparation is free fall.
+  WorldParams params = ParamsFromSpec(spec);
+  params.dt = spec.bed_time_step();
+  World world(params, templates, BuildGeometry(closed, kTallWall));
   Rng rng(spec.seed);
 
   // Bodies in random order so that every batch is a mixture.
@@ -71,7 +77,8 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
   mean_mass /= static_cast<double>(order.size());
   const double energy_unit = mean_mass * spec.gravity * 1.0;  // m g d with d = 1
   const double hw = spec.silo.width / 2;
-  const double dt = spec.time_step;
+  const double dt = params.dt;
+  const long settle_check_every = std::max(1L, std::lround(kSettleCheckInterval / dt));
   double t = 0.0;
   std::size_t inserted = 0;
   const std::size_t total = order.size();
@@ -112,22 +119,23 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
     for (long s = 0; s < steps; ++s) {
       world.Step();
       t += dt;
-      if (progress && s % 10000 == 0)
+      if (progress && s % kProgressEvery == 0)
         progress(0.5 * static_cast<double>(inserted) / static_cast<double>(total), t);
     }
   }
   // Settle until the kinetic energy per body is negligible (or give up at max_settle_time).
   const double t_settle0 = t;
+  double ke = 1.0;
   for (long s = 1;; ++s) {
     world.Step();
     t += dt;
-    if (s % kSettleCheckEvery == 0) {
-      const double ke = world.KineticEnergy() / static_cast<double>(world.active_count()) / energy_unit;
+    if (s % settle_check_every == 0) {
+      ke = world.KineticEnergy() / static_cast<double>(world.active_count()) / energy_unit;
       if (ke < spec.bed.settle_ke_per_body || t - t_settle0 >= spec.bed.max_settle_time) break;
-      if (progress && s % 10000 == 0) {
-        const double f = std::clamp(std::log(ke) / std::log(spec.bed.settle_ke_per_body), 0.0, 1.0);
-        progress(0.5 + 0.5 * std::max(f, (t - t_settle0) / spec.bed.max_settle_time), t);
-      }
+    }
+    if (progress && s % kProgressEvery == 0) {
+      const double f = std::clamp(std::log(ke) / std::log(spec.bed.settle_ke_per_body), 0.0, 1.0);
+      progress(0.5 + 0.5 * std::max(f, (t - t_settle0) / spec.bed.max_settle_time), t);
     }
   }
   // Body ids in spatial order (bands of height 2 d, serpentine in x), so that touching
@@ -174,10 +182,24 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
   return bed;
 }
 
+namespace {
+
+constexpr int kBedVersion = 3;  // 2: with contact history; 3: with a checksum
+
+// "crc32:" and the CRC-32 of the document's dump without its "checksum" key.
+std::string BedChecksum(nlohmann::json j) {
+  j.erase("checksum");
+  char hex[16];
+  std::snprintf(hex, sizeof hex, "%08x", Crc32(j.dump()));
+  return std::string("crc32:") + hex;
+}
+
+}  // namespace
+
 nlohmann::json BedToJson(const BedState& bed, const RunSpec& spec) {
   nlohmann::json j;
   j["format"] = "granary-bed";
-  j["version"] = 2;  // 2: with contact history
+  j["version"] = kBedVersion;
   j["key"] = spec.bed_key();
   j["height"] = bed.height;
   j["settle_time"] = bed.settle_time;
@@ -190,12 +212,20 @@ nlohmann::json BedToJson(const BedState& bed, const RunSpec& spec) {
     for (const HistoryEntry& e : *h) hist.push_back({e.i, e.j, e.sx, e.sy});
     j[h == &bed.pair_history ? "pair_history" : "wall_history"] = std::move(hist);
   }
+  j["checksum"] = BedChecksum(j);
   return j;
 }
 
 BedState BedFromJson(const nlohmann::json& j, const RunSpec& spec, const std::string& file) {
-  if (j.value("format", "") != "granary-bed")
-    throw std::runtime_error("bed file " + file + ": not a granary bed (format " + j.value("format", "?") + ")");
+  if (!j.is_object() || j.value("format", "") != "granary-bed")
+    throw BedFileError("bed file " + file + ": not a granary bed (format " +
+                       (j.is_object() ? j.value("format", "?") : std::string("?")) + ")");
+  if (j.value("version", 0) != kBedVersion)
+    throw BedFileError("bed file " + file + " has format version " + std::to_string(j.value("version", 0)) +
+                       "; this engine reads version " + std::to_string(kBedVersion) + " (with a checksum)");
+  if (const std::string actual = BedChecksum(j); j.value("checksum", "") != actual)
+    throw BedFileError("bed file " + file + " is corrupt: its checksum is " + j.value("checksum", "missing") +
+                       ", its content gives " + actual);
   if (j.at("key") != spec.bed_key())
     throw std::runtime_error("bed file " + file + " was prepared for another bed key (bodies, width, seed, ...): " +
                              j.at("key").dump());
@@ -228,12 +258,12 @@ namespace {
 
 BedState ReadBedFile(const std::string& file, const RunSpec& spec) {
   std::ifstream in(file);
-  if (!in) throw std::runtime_error("cannot read bed file " + file);
+  if (!in) throw BedFileError("cannot read bed file " + file);
   nlohmann::json j;
   try {
     in >> j;
   } catch (const std::exception& e) {
-    throw std::runtime_error("bed file " + file + ": " + e.what());
+    throw BedFileError("bed file " + file + " is not valid JSON (torn or corrupt): " + e.what());
   }
   return BedFromJson(j, spec, file);
 }
@@ -248,9 +278,19 @@ ObtainedBed ObtainBed(const RunSpec& spec, const std::string& run_dir, const Bed
   const std::filesystem::path parent = std::filesystem::path(out.file).parent_path();
   if (!parent.empty()) std::filesystem::create_directories(parent);
   FileLock lock(out.file + ".lock");
+  bool have = false;
   if (std::filesystem::exists(out.file)) {
-    out.bed = ReadBedFile(out.file, spec);
-  } else {
+    try {
+      out.bed = ReadBedFile(out.file, spec);
+      have = true;
+    } catch (const BedFileError& e) {
+      // A bad cached bed is never used: it is put aside and prepared again.
+      std::fprintf(stderr, "granary-engine: refusing the prepared bed: %s; preparing it again\n", e.what());
+      std::filesystem::rename(out.file, out.file + ".corrupt");
+      out.refused = e.what();
+    }
+  }
+  if (!have) {
     out.bed = PrepareBed(spec, progress);
     WriteAtomically(out.file, BedToJson(out.bed, spec).dump() + "\n");
     out.prepared_here = true;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -38,8 +39,18 @@ std::vector<ShapeTemplate> MakeTemplates(const RunSpec& spec);
 // Prepares a bed from scratch (deterministic in spec.seed).
 BedState PrepareBed(const RunSpec& spec, const BedProgress& progress);
 
+// A bed file that cannot be used: not a bed, another format version, or its checksum does
+// not match (corrupt, torn). ObtainBed puts it aside and prepares the bed again.
+class BedFileError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// The bed file: JSON with `format`, `version` 3, `key` and the bodies, and `checksum`, the
+// CRC-32 of the document's dump without it.
 nlohmann::json BedToJson(const BedState& bed, const RunSpec& spec);
-// Reads a bed written by BedToJson; throws if it was prepared for another bed key.
+// Reads a bed written by BedToJson; throws BedFileError for a bad file, std::runtime_error
+// if it was prepared for another bed key.
 BedState BedFromJson(const nlohmann::json& j, const RunSpec& spec, const std::string& file);
 
 struct ObtainedBed {
@@ -47,6 +58,7 @@ struct ObtainedBed {
   std::string file;
   bool prepared_here = false;
   double wall_s = 0.0;
+  std::string refused;  // why a cached bed file was refused (then prepared again), or ""
 };
 
 // Loads the bed from spec.bed.cache_file (or DIR/bed.json when it is empty) if it exists;

@@ -19,6 +19,7 @@
 #include "engine/run.h"
 #include "engine/shapes.h"
 #include "rundir/files.h"
+#include "rundir/layout.h"
 #include "rundir/run_directory.h"
 #include "rundir/summary.h"
 
@@ -93,6 +94,39 @@ std::vector<BenchResult> RunBenchmark(const BenchOptions& options) {
   for (int round = 1; round <= options.repeat; ++round) {
     for (int threads : options.threads)
       results.push_back(NativeRound(spec, base / ("t" + std::to_string(threads)), round, threads));
+  }
+  fs::remove_all(base);
+  return results;
+}
+
+std::vector<OutputCostResult> RunOutputCost(const BenchOptions& options, double interval) {
+  const fs::path base = fs::temp_directory_path() / ("granary-bench-" + std::to_string(::getpid()));
+  fs::create_directories(base);
+  const nlohmann::json quiet = BenchSpec(options);
+  nlohmann::json loud = quiet;
+  loud["output"]["frame_interval"] = interval;
+  loud["output"]["contact_forces"] = true;
+  BenchBed(options, quiet, base);
+  std::vector<OutputCostResult> results;
+  for (int round = 1; round <= options.repeat; ++round) {
+    for (int threads : options.threads) {
+      const BenchResult without = NativeRound(quiet, base / "none", round, threads);
+      const fs::path dir = base / "frames";
+      const BenchResult with = NativeRound(loud, dir, round, threads);
+      // Bytes written in the timed steps: all but the first block (t = 0) of each dump.
+      double bytes = 0.0;
+      for (const char* name : {rundir::kFramesFile, rundir::kContactsFile}) {
+        std::ifstream in(dir / name, std::ios::binary);
+        std::string line, all;
+        std::int64_t first_block = -1, offset = 0, blocks = 0;
+        while (std::getline(in, line)) {
+          if (line == "ITEM: TIME" && ++blocks == 2) first_block = offset;
+          offset += static_cast<std::int64_t>(line.size()) + 1;
+        }
+        if (first_block >= 0) bytes += static_cast<double>(offset - first_block);
+      }
+      results.push_back({round, threads, without.disc_steps_per_s, with.disc_steps_per_s, bytes});
+    }
   }
   fs::remove_all(base);
   return results;

@@ -24,6 +24,19 @@ struct BenchOptions {
   int repeat = 1;               // rounds over the thread counts (interleaved, for a shared machine)
 };
 
+struct OutputCostResult {
+  int round;                   // 1..repeat
+  int threads;
+  double without;              // disc-steps per second without output
+  double with;                 // ... with frames and contact frames every interval
+  double bytes;                // bytes of frames.dump and contacts.dump written in the timed steps
+};
+
+// What output costs: `repeat` rounds, each over the thread counts, each the bench case run
+// without output and then with frames and contact frames every `interval` (the frame at
+// t = 0 is written before the timing starts).
+std::vector<OutputCostResult> RunOutputCost(const BenchOptions& options, double interval);
+
 struct BenchResult {
   int round;  // 1..repeat
   int threads;

@@ -2,6 +2,8 @@
 #include "engine/cli.h"
 
 #include <algorithm>
+#include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -12,7 +14,9 @@
 #include <vector>
 
 #include "engine/bench.h"
+#include "rundir/files.h"
 #include "engine/run.h"
+#include "rundir/stop.h"
 
 namespace granary::engine {
 
@@ -28,6 +32,19 @@ int ParsePositiveInt(const std::string& flag, const std::string& value) {
   return v;
 }
 
+double ParsePositiveNumber(const std::string& flag, const std::string& value) {
+  std::size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(value, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != value.size() || !std::isfinite(v) || v <= 0.0)
+    throw std::invalid_argument(flag + ": expected a positive number (got \"" + value + "\")");
+  return v;
+}
+
 namespace {
 
 constexpr char kUsage[] =
@@ -35,7 +52,7 @@ constexpr char kUsage[] =
     "verbs:\n"
     "  run DIR [--threads N]   run DIR/run.json (continues from DIR/checkpoint.bin if present)\n"
     "  bench [--shape S] [--bodies N] [--steps N] [--threads-list 1,2] [--repeat N] [--bed FILE]\n"
-    "        [--versus lammps [--lammps-dir DIR]]\n"
+    "        [--versus lammps [--lammps-dir DIR]] [--output-cost T]\n"
     "                          standard benchmark: discs, dumbbells or the ch. 4 mixture in the\n"
     "                          chapter-3 silo, W = 14, reinject; the disc case also on LAMMPS\n"
     "  help                    this text\n";
@@ -43,10 +60,13 @@ constexpr char kRunHelp[] =
     "usage: granary-engine run DIR [--threads N]\n"
     "Runs the native DEM engine on DIR/run.json and writes events.csv, frames.dump,\n"
     "contacts.dump, progress.json, checkpoint.bin, summary.json and DONE into DIR.\n"
+    "SIGTERM / SIGINT during the discharge: a checkpoint, then the engine ends by that signal.\n"
+    "Exit 75: another engine holds DIR (DIR/engine.lock).\n"
     "  --threads N   OpenMP threads (default: OMP_NUM_THREADS or all cores)\n";
 constexpr char kBenchHelp[] =
     "usage: granary-engine bench [--shape dumbbell] [--bodies 8000] [--steps 2000] [--threads-list 1,2]\n"
     "                            [--repeat 1] [--bed FILE] [--versus lammps [--lammps-dir DIR]]\n"
+    "                            [--output-cost T]\n"
     "Settles (or loads the cached) bed in a silo of width 100 with one outlet W = 14, then\n"
     "times a fixed number of reinject-mode discharge steps per thread count and prints\n"
     "disc-steps per second. Bed preparation is not timed. With --repeat N, N rounds over the\n"
@@ -62,7 +82,9 @@ constexpr char kBenchHelp[] =
     "                as many MPI ranks), and prints both rates and native/LAMMPS; with\n"
     "                --repeat N also the best and median of each and the ratios of those\n"
     "  --lammps-dir DIR  where the LAMMPS input, data file and log are written (default:\n"
-    "                granary-bench-lammps-N in the temp directory); kept after the run\n";
+    "                granary-bench-lammps-N in the temp directory); kept after the run\n"
+    "  --output-cost T  what output costs: each round runs the case without output and with\n"
+    "                frames and contact frames every T time units, and prints both rates\n";
 
 int Run(const std::vector<std::string>& args) {
   RunOptions options;
@@ -83,7 +105,18 @@ int Run(const std::vector<std::string>& args) {
     }
   }
   if (dir.empty()) throw std::invalid_argument(std::string("run: missing DIR\n") + kRunHelp);
-  const RunResult r = RunDirectory(dir, options);
+  InstallStopHandlers();
+  RunResult r;
+  try {
+    r = RunDirectory(dir, options);
+  } catch (const Stopped& e) {
+    // Ended as the signal would have ended it: the runner sees an interruption.
+    std::cerr << "granary-engine run: " << e.what() << "\n";
+    std::cerr.flush();
+    std::signal(e.signal(), SIG_DFL);
+    std::raise(e.signal());
+    return 128 + e.signal();
+  }
   std::cout << "done end_reason=" << r.end_reason << " exited=" << r.exited << " t_end=" << r.t_end
             << " steps=" << r.steps << (r.continued ? " (continued from checkpoint)" : "") << "\n";
   return 0;
@@ -116,9 +149,29 @@ int BenchVersusLammps(const BenchOptions& options, const std::string& dir) {
   return 0;
 }
 
+// Per round and thread count the rate without and with output and what it costs; with
+// several rounds the median cost per thread count.
+int BenchOutputCost(const BenchOptions& options, double interval) {
+  std::printf("bench: output cost, frames and contact frames every %g time units\n", interval);
+  std::fflush(stdout);
+  std::map<int, std::vector<double>> costs;
+  for (const OutputCostResult& r : RunOutputCost(options, interval)) {
+    const double cost = 1.0 - r.with / r.without;
+    if (options.repeat > 1) std::printf("round=%d ", r.round);
+    std::printf("threads=%d without_output=%.4g with_output=%.4g output_cost=%.1f%% bytes=%.4g\n", r.threads, r.without,
+                r.with, 100.0 * cost, r.bytes);
+    costs[r.threads].push_back(cost);
+  }
+  if (options.repeat > 1)
+    for (auto& [threads, v] : costs)
+      std::printf("summary threads=%d rounds=%zu median_output_cost=%.1f%%\n", threads, v.size(), 100.0 * BenchMedian(v));
+  return 0;
+}
+
 int Bench(const std::vector<std::string>& args) {
   BenchOptions options;
   std::string versus, lammps_dir;
+  double output_cost = 0.0;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "--help" || a == "-h") {
@@ -135,6 +188,8 @@ int Bench(const std::vector<std::string>& args) {
       options.repeat = ParsePositiveInt(a, args[++i]);
     } else if (a == "--bed" && i + 1 < args.size()) {
       options.bed_file = args[++i];
+    } else if (a == "--output-cost" && i + 1 < args.size()) {
+      output_cost = ParsePositiveNumber(a, args[++i]);
     } else if (a == "--versus" && i + 1 < args.size()) {
       versus = args[++i];
       if (versus != "lammps") throw std::invalid_argument("bench: --versus takes \"lammps\" (got \"" + versus + "\")");
@@ -149,6 +204,7 @@ int Bench(const std::vector<std::string>& args) {
       throw std::invalid_argument("bench: unknown option \"" + a + "\"\n" + kBenchHelp);
     }
   }
+  if (output_cost > 0) return BenchOutputCost(options, output_cost);
   if (!versus.empty()) {
     if (lammps_dir.empty())
       lammps_dir = (std::filesystem::temp_directory_path() / ("granary-bench-lammps-" + std::to_string(options.bodies))).string();
@@ -187,6 +243,9 @@ int EngineMain(const std::vector<std::string>& args) {
     if (args[0] == "bench") return Bench(rest);
     std::cerr << "granary-engine: unknown verb \"" << args[0] << "\"\n" << kUsage;
     return 2;
+  } catch (const RunDirectoryBusy& e) {
+    std::cerr << "granary-engine " << args[0] << ": " << e.what() << "\n";
+    return kExitRunDirectoryBusy;
   } catch (const std::exception& e) {
     std::cerr << "granary-engine " << args[0] << ": error: " << e.what() << "\n";
     return 1;

@@ -3,12 +3,15 @@
 #include "engine/run.h"
 
 #include <omp.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
+#include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -24,6 +27,7 @@
 #include "engine/dump_format.h"
 #include "engine/random.h"
 #include "engine/silo_outline.h"
+#include "rundir/stop.h"
 #include "engine/stall.h"
 #include "engine/world.h"
 #include "rundir/contacts.h"
@@ -40,7 +44,32 @@ namespace fs = std::filesystem;
 namespace {
 
 using Clock = std::chrono::steady_clock;
-constexpr char kCheckpointMagic[] = "GRANARY-CHECKPOINT-3";
+// checkpoint.bin: kCheckpointMagic, the format version, the payload's size and CRC-32, then
+// the payload (docs/engine.md "Checkpoints and continuing").
+constexpr char kCheckpointMagic[] = "GRANARY-CHECKPOINT";
+constexpr std::uint32_t kCheckpointVersion = 4;  // 4: versioned header with a checksum; World snapshot
+constexpr char kCheckpointFile[] = "checkpoint.bin";
+constexpr char kPreviousCheckpointFile[] = "checkpoint.prev.bin";
+
+// A checkpoint that cannot be used (corrupt, truncated, another format): the run falls back
+// to the previous one or starts over.
+class CheckpointError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Stop requests (stop.h): the signal, and whether the discharge loop is there to honour it.
+volatile std::sig_atomic_t g_stop_signal = 0;
+volatile std::sig_atomic_t g_stop_accepted = 0;
+
+extern "C" void EngineOnStopSignal(int signal) {
+  if (g_stop_accepted) {
+    g_stop_signal = signal;
+  } else {  // nothing to checkpoint yet (bed preparation): the signal's own action, now
+    std::signal(signal, SIG_DFL);
+    std::raise(signal);
+  }
+}
 constexpr int kClogCheckEvery = 100;
 constexpr double kHangingGapInDiameters = 1.0;  // stall.h; measured margins in docs/engine.md  // steps between clog checks once no exit for clog_window
 
@@ -96,10 +125,11 @@ class In {
     pos_ += n;
     return s;
   }
+  std::string Rest() const { return buf_.substr(pos_); }
 
  private:
   void Need(std::size_t n) const {
-    if (pos_ + n > buf_.size()) throw std::runtime_error("checkpoint " + name_ + " is truncated");
+    if (pos_ + n > buf_.size()) throw CheckpointError("checkpoint " + name_ + " is truncated");
   }
   std::string buf_;
   std::string name_;
@@ -118,9 +148,11 @@ class Discharge {
   RunResult Run();
 
  private:
-  void BuildWorld(const std::vector<int>& species);
+  // Bodies of `species` at rest, outlets open; or the bodies of `snapshot`.
+  void BuildWorld(const std::vector<int>& species, const WorldSnapshot* snapshot = nullptr);
   void StartFresh();
-  void LoadCheckpoint();
+  void LoadCheckpoint(const fs::path& file);
+  bool ContinueFromACheckpoint();
   void WriteCheckpoint();
   void WriteFrame();
   void WriteContacts();
@@ -166,8 +198,10 @@ class Discharge {
   std::string bed_file_;
   bool bed_prepared_here_ = false;
   double bed_height_ = 0, bed_settle_time_ = 0, bed_wall_s_ = 0;
+  std::string bed_refused_;  // a bad cached bed file refused (and prepared again) in this session
   double discharge_wall_before_ = 0;  // wall time of earlier sessions
   bool continued_ = false;
+  std::vector<std::string> refused_checkpoints_;  // why, for summary.json
   // Outputs.
   rundir::EventWriter events_;
   rundir::FrameWriter frames_;
@@ -180,7 +214,7 @@ class Discharge {
   Clock::time_point session_start_ = Clock::now();
 };
 
-void Discharge::BuildWorld(const std::vector<int>& species) {
+void Discharge::BuildWorld(const std::vector<int>& species, const WorldSnapshot* snapshot) {
   std::vector<ShapeTemplate> templates = MakeTemplates(spec_);
   const double wall_height = spec_.silo.height > 0 ? spec_.silo.height : kTallWall;
   WorldParams params = ParamsFromSpec(spec_);
@@ -194,15 +228,22 @@ void Discharge::BuildWorld(const std::vector<int>& species) {
   hw_ = spec_.silo.width / 2;
   for (const auto& t : templates)
     for (double r : t.r) r_max_ = std::max(r_max_, r);
-  for (int s : species) world_->AddBody(s, 0, 0, 0);
+  if (snapshot) {
+    world_->Restore(*snapshot);
+  } else {
+    for (int s : species) world_->AddBody(s, 0, 0, 0);
+  }
   exits_per_outlet_.assign(world_->geometry().outlets.size(), 0);
   falling_.assign(static_cast<std::size_t>(world_->body_count()), 0);
   const double ed = spec_.discharge.exit_distance;
   world_->SetExitBox(-hw_ - ed, hw_ + ed, -ed);  // the exit lines of OutletOf
-  world_->OpenOutlets();
+  if (!snapshot) world_->OpenOutlets();
 }
 
 void Discharge::StartFresh() {
+  // A checkpoint of an earlier attempt must never be continued from after this start.
+  fs::remove(dir_ / kCheckpointFile);
+  fs::remove(dir_ / kPreviousCheckpointFile);
   const auto t0 = Clock::now();
   ObtainedBed ob = ObtainBed(spec_, dir_.string(), [&](double f, double t) {
     ReportProgress({"bed", f, t, 0, 0, Seconds(t0)}, options_.quiet);
@@ -212,6 +253,7 @@ void Discharge::StartFresh() {
   bed_height_ = ob.bed.height;
   bed_settle_time_ = ob.bed.settle_time;
   bed_wall_s_ = ob.wall_s;
+  bed_refused_ = ob.refused;
   BuildWorld(ob.bed.species);
   World& w = *world_;
   for (int b = 0; b < w.body_count(); ++b)
@@ -264,13 +306,9 @@ void Discharge::StartFresh() {
 }
 
 void Discharge::WriteCheckpoint() {
-  World& w = *world_;
   // Both this run and a run continued from this checkpoint rebuild the lists here.
-  w.RebuildNow();
-  std::vector<HistoryEntry> pairs, walls;
-  w.ExportHistory(pairs, walls);
+  const WorldSnapshot w = world_->Snapshot();
   Out o;
-  o.PutStr(kCheckpointMagic);
   o.PutStr(spec_.to_json().dump());
   o.Put(step_);
   o.Put(last_exit_step_);
@@ -285,78 +323,152 @@ void Discharge::WriteCheckpoint() {
   o.Put(bed_wall_s_);
   o.Put(discharge_wall_before_ + Seconds(session_start_));
   o.PutStr(rng_.Save());
-  o.PutVec(w.tmpl_);
-  o.PutVec(w.active_);
-  for (const auto* v : {&w.bx_, &w.by_, &w.bth_, &w.bc_, &w.bs_, &w.bvx_, &w.bvy_, &w.bw_, &w.bfx_, &w.bfy_, &w.btq_})
-    o.PutVec(*v);
-  o.PutVec(pairs);
-  o.PutVec(walls);
+  o.PutVec(w.tmpl);
+  o.PutVec(w.active);
+  for (const auto* v : {&w.x, &w.y, &w.theta, &w.c, &w.s, &w.vx, &w.vy, &w.w, &w.fx, &w.fy, &w.torque}) o.PutVec(*v);
+  o.PutVec(w.pairs);
+  o.PutVec(w.walls);
+  o.Put(static_cast<std::uint8_t>(w.outlets_open));
+  o.Put(static_cast<std::uint8_t>(w.rebuild_predicted));
   o.Put(events_.Offset());
   o.Put(frames_.Offset());
   o.Put(contacts_.Offset());
   o.PutVec(falling_);
   o.Put(periodic_height_);
   o.Put(cleared_by_obstacles_);
-  WriteAtomically(dir_ / "checkpoint.bin", o.str());
+  Out file;
+  file.PutStr(kCheckpointMagic);
+  file.Put(kCheckpointVersion);
+  file.Put<std::uint64_t>(o.str().size());
+  file.Put(Crc32(o.str()));
+  // The last two are kept: a checkpoint found corrupt falls back to the one before.
+  if (fs::exists(dir_ / kCheckpointFile)) fs::rename(dir_ / kCheckpointFile, dir_ / kPreviousCheckpointFile);
+  WriteAtomically(dir_ / kCheckpointFile, file.str() + o.str());
 }
 
-void Discharge::LoadCheckpoint() {
-  const fs::path file = dir_ / "checkpoint.bin";
+// Reads `file` completely before it changes anything: a CheckpointError leaves the run as
+// it was, to fall back to another checkpoint or start over.
+void Discharge::LoadCheckpoint(const fs::path& file) {
   std::ifstream f(file, std::ios::binary);
+  if (!f) throw CheckpointError("cannot read checkpoint " + file.string());
   std::stringstream ss;
   ss << f.rdbuf();
-  In in(ss.str(), file.string());
-  if (in.GetStr() != kCheckpointMagic) throw std::runtime_error("checkpoint " + file.string() + ": not a granary checkpoint");
+  const std::string name = file.filename().string();
+  In header(ss.str(), name);
+  std::string magic;
+  try {
+    magic = header.GetStr();
+  } catch (const CheckpointError&) {
+  }
+  if (magic != kCheckpointMagic) {
+    if (magic.rfind(kCheckpointMagic, 0) == 0)
+      throw CheckpointError(name + " is format " + magic + ", an older engine's; this engine reads version " +
+                            std::to_string(kCheckpointVersion));
+    throw CheckpointError(name + " is not a granary checkpoint");
+  }
+  const auto version = header.Get<std::uint32_t>();
+  if (version != kCheckpointVersion)
+    throw CheckpointError(name + " has format version " + std::to_string(version) + "; this engine reads version " +
+                          std::to_string(kCheckpointVersion));
+  const auto size = header.Get<std::uint64_t>();
+  const auto crc = header.Get<std::uint32_t>();
+  const std::string payload = header.Rest();
+  if (payload.size() != size)
+    throw CheckpointError(name + " is truncated or padded: " + std::to_string(payload.size()) + " bytes of payload, the header says " +
+                          std::to_string(size));
+  if (const std::uint32_t actual = Crc32(payload); actual != crc) {
+    char msg[128];
+    std::snprintf(msg, sizeof msg, " is corrupt: CRC-32 of its payload is %08x, its header says %08x", actual, crc);
+    throw CheckpointError(name + msg);
+  }
+  In in(payload, name);
   if (in.GetStr() != spec_.to_json().dump())
     throw std::runtime_error("checkpoint " + file.string() + " belongs to a different run.json; remove it to start over");
-  step_ = in.Get<std::int64_t>();
-  last_exit_step_ = in.Get<std::int64_t>();
-  disc_steps_ = in.Get<std::int64_t>();
-  exits_per_outlet_ = in.GetVec<std::int64_t>();
-  clogs_ = in.Get<int>();
-  in_clog_ = in.Get<std::uint8_t>() != 0;
-  bed_file_ = in.GetStr();
-  bed_prepared_here_ = in.Get<std::uint8_t>() != 0;
-  bed_height_ = in.Get<double>();
-  bed_settle_time_ = in.Get<double>();
-  bed_wall_s_ = in.Get<double>();
-  discharge_wall_before_ = in.Get<double>();
-  rng_.Load(in.GetStr());
-  const std::vector<int> tmpl = in.GetVec<int>();
-  const std::vector<std::uint8_t> active = in.GetVec<std::uint8_t>();
-  const auto saved_exits = exits_per_outlet_;
-  BuildWorld(tmpl);
-  exits_per_outlet_ = saved_exits;
-  World& w = *world_;
-  for (auto* v : {&w.bx_, &w.by_, &w.bth_, &w.bc_, &w.bs_, &w.bvx_, &w.bvy_, &w.bw_, &w.bfx_, &w.bfy_, &w.btq_}) {
-    std::vector<double> x = in.GetVec<double>();
-    if (x.size() != v->size()) throw std::runtime_error("checkpoint " + file.string() + ": body count mismatch");
-    *v = std::move(x);
-  }
-  const std::vector<double> fx = w.bfx_, fy = w.bfy_, tq = w.btq_, c = w.bc_, sn = w.bs_;
-  for (int b = 0; b < w.body_count(); ++b) {
-    w.PlaceBody(b, w.bx_[b], w.by_[b], w.bth_[b], w.bvx_[b], w.bvy_[b], w.bw_[b]);
-    if (!active[b]) w.Deactivate(b);
-  }
-  w.bfx_ = fx;  // the forces of the step the checkpoint was taken at
-  w.bfy_ = fy;
-  w.btq_ = tq;
-  w.bc_ = c;  // the integrated orientation, not cos/sin of theta
-  w.bs_ = sn;
-  w.RefreshDiscs();
-  const std::vector<HistoryEntry> pairs = in.GetVec<HistoryEntry>();
-  const std::vector<HistoryEntry> walls = in.GetVec<HistoryEntry>();
-  w.ImportHistory(pairs, walls);
-  const long ev = in.Get<long>(), fr = in.Get<long>(), co = in.Get<long>();
-  falling_ = in.GetVec<std::uint8_t>();
-  periodic_height_ = in.Get<double>();
-  cleared_by_obstacles_ = in.Get<int>();
-  events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, ev);
+  const auto step = in.Get<std::int64_t>();
+  const auto last_exit_step = in.Get<std::int64_t>();
+  const auto disc_steps = in.Get<std::int64_t>();
+  const auto exits_per_outlet = in.GetVec<std::int64_t>();
+  const int clogs = in.Get<int>();
+  const bool in_clog = in.Get<std::uint8_t>() != 0;
+  const std::string bed_file = in.GetStr();
+  const bool bed_prepared_here = in.Get<std::uint8_t>() != 0;
+  const double bed_height = in.Get<double>(), bed_settle_time = in.Get<double>(), bed_wall_s = in.Get<double>();
+  const double discharge_wall_before = in.Get<double>();
+  const std::string rng = in.GetStr();
+  WorldSnapshot w;
+  w.tmpl = in.GetVec<int>();
+  w.active = in.GetVec<std::uint8_t>();
+  for (auto* v : {&w.x, &w.y, &w.theta, &w.c, &w.s, &w.vx, &w.vy, &w.w, &w.fx, &w.fy, &w.torque}) *v = in.GetVec<double>();
+  w.pairs = in.GetVec<HistoryEntry>();
+  w.walls = in.GetVec<HistoryEntry>();
+  w.outlets_open = in.Get<std::uint8_t>() != 0;
+  w.rebuild_predicted = in.Get<std::uint8_t>() != 0;
+  const long offsets[3] = {in.Get<long>(), in.Get<long>(), in.Get<long>()};
+  const auto falling = in.GetVec<std::uint8_t>();
+  const double periodic_height = in.Get<double>();
+  const int cleared_by_obstacles = in.Get<int>();
+  // The outputs must still hold what the checkpoint saw (truncating a shorter file would pad it).
   const bool gz = spec_.output.compress;
-  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), fr, gz);
+  const char* outputs[3] = {rundir::kEventsFile, gz ? rundir::kFramesGzFile : rundir::kFramesFile,
+                            gz ? rundir::kContactsGzFile : rundir::kContactsFile};
+  for (int k = 0; k < 3; ++k) {
+    const fs::path out = dir_ / outputs[k];
+    std::error_code ec;
+    const auto have = fs::exists(out) ? fs::file_size(out, ec) : 0;
+    if (offsets[k] > 0 && (ec || have < static_cast<std::uintmax_t>(offsets[k])))
+      throw CheckpointError(name + " expects " + std::to_string(offsets[k]) + " bytes of " + outputs[k] + ", the file has " +
+                            std::to_string(have));
+  }
+  try {
+    BuildWorld(w.tmpl, &w);
+  } catch (const std::invalid_argument& e) {
+    throw CheckpointError(name + ": " + e.what());
+  }
+  if (exits_per_outlet.size() != exits_per_outlet_.size() || falling.size() != falling_.size())
+    throw CheckpointError(name + ": outlet or body count does not match the run");
+  step_ = step;
+  last_exit_step_ = last_exit_step;
+  disc_steps_ = disc_steps;
+  exits_per_outlet_ = exits_per_outlet;
+  clogs_ = clogs;
+  in_clog_ = in_clog;
+  bed_file_ = bed_file;
+  bed_prepared_here_ = bed_prepared_here;
+  bed_height_ = bed_height;
+  bed_settle_time_ = bed_settle_time;
+  bed_wall_s_ = bed_wall_s;
+  discharge_wall_before_ = discharge_wall_before;
+  rng_.Load(rng);
+  falling_ = falling;
+  periodic_height_ = periodic_height;
+  cleared_by_obstacles_ = cleared_by_obstacles;
+  events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, offsets[0]);
+  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), offsets[1], gz);
   if (frame_every_ > 0 && spec_.output.contact_forces)
-    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), co, gz);
+    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), offsets[2], gz);
   continued_ = true;
+}
+
+// The newest usable checkpoint, else the one before; a refused one is kept aside as
+// <name>.corrupt and named in stderr and summary.json. False: start over.
+bool Discharge::ContinueFromACheckpoint() {
+  for (const char* name : {kCheckpointFile, kPreviousCheckpointFile}) {
+    const fs::path file = dir_ / name;
+    if (!fs::exists(file)) continue;
+    try {
+      LoadCheckpoint(file);
+      if (!refused_checkpoints_.empty())
+        std::fprintf(stderr, "granary-engine: continuing from the previous checkpoint (%s)\n", name);
+      return true;
+    } catch (const CheckpointError& e) {
+      refused_checkpoints_.push_back(e.what());
+      std::fprintf(stderr, "granary-engine: refusing checkpoint: %s\n", e.what());
+      fs::rename(file, file.string() + ".corrupt");
+      world_.reset();
+    }
+  }
+  if (!refused_checkpoints_.empty()) std::fprintf(stderr, "granary-engine: no usable checkpoint; starting the run over\n");
+  return false;
 }
 
 int Discharge::OutletOf(int b) const {
@@ -548,11 +660,12 @@ void Discharge::WriteSummary(const std::string& end_reason) {
   s.t_end = static_cast<double>(step_) * spec_.time_step;
   s.steps = step_;
   s.clogs = clogs_;
-  s.bed = {bed_file_, bed_height_, bed_prepared_here_, bed_settle_time_};
+  s.bed = {bed_file_, bed_height_, bed_prepared_here_, bed_settle_time_, bed_refused_};
   s.timing = rundir::Timing{bed_wall_s_ + discharge_wall, bed_wall_s_, discharge_wall,
                             discharge_wall > 0 ? static_cast<double>(disc_steps_) / discharge_wall : 0.0,
                             omp_get_max_threads()};
   s.continued_from_checkpoint = continued_;
+  s.refused_checkpoints = refused_checkpoints_;
   rundir::WriteSummary(dir_, s);
 }
 
@@ -564,9 +677,7 @@ RunResult Discharge::Run() {
       spec_.output.checkpoint_interval > 0 ? std::max<std::int64_t>(1, std::llround(spec_.output.checkpoint_interval / dt)) : 0;
   const std::int64_t max_steps = std::llround(spec_.discharge.max_time / dt);
   const std::int64_t clog_steps = std::llround(spec_.discharge.clog_window / dt);
-  if (fs::exists(dir_ / "checkpoint.bin")) {
-    LoadCheckpoint();
-  } else {
+  if (!ContinueFromACheckpoint()) {
     StartFresh();
     session_start_ = Clock::now();
   }
@@ -582,6 +693,10 @@ RunResult Discharge::Run() {
   std::string end_reason;
   auto last_report = Clock::now();
   const std::int64_t first_step = step_;
+  g_stop_accepted = 1;  // from here a stop request is honoured with a checkpoint
+  struct Unaccept {
+    ~Unaccept() { g_stop_accepted = 0; }
+  } unaccept;
   while (end_reason.empty()) {
     if (step_ >= max_steps) {
       end_reason = "time_limit";
@@ -609,10 +724,23 @@ RunResult Discharge::Run() {
       if (contacts_.is_open()) WriteContacts();
     }
     if (checkpoint_every_ > 0 && step_ % checkpoint_every_ == 0 && end_reason.empty()) WriteCheckpoint();
+    if (options_.stop_after_steps >= 0 && step_ - first_step >= options_.stop_after_steps) g_stop_signal = SIGTERM;
+    if (g_stop_signal != 0 && end_reason.empty()) {
+      // Stopped on request: checkpoint here, then end (a continued run gives the same bits).
+      WriteCheckpoint();
+      g_stop_accepted = 0;
+      const int signal = g_stop_signal;
+      g_stop_signal = 0;
+      char at[96];
+      std::snprintf(at, sizeof at, " at t = %.6g (step %lld); checkpoint written", static_cast<double>(step_) * dt,
+                    static_cast<long long>(step_));
+      throw Stopped(signal, "stopped by " + SignalName(signal) + at);
+    }
     if (options_.abort_after_steps >= 0 && step_ - first_step >= options_.abort_after_steps) {
       RunResult r;
       r.end_reason = "aborted";
       r.steps = step_;
+      r.continued = continued_;
       return r;
     }
     if (step_ % 200 == 0 && Seconds(last_report) >= options_.progress_every_s) {
@@ -625,6 +753,7 @@ RunResult Discharge::Run() {
                      options_.quiet);
     }
   }
+  g_stop_accepted = 0;  // the outputs are being finished: a stop now ends the run at once
   std::int64_t exited = 0;
   for (auto e : exits_per_outlet_) exited += e;
   events_.Close();
@@ -647,12 +776,22 @@ RunResult Discharge::Run() {
 RunResult RunDirectory(const std::string& dir, const RunOptions& options) {
   if (options.threads > 0) omp_set_num_threads(options.threads);
   const fs::path d(dir);
+  // One writer per directory: before anything in it is read or touched.
+  const RunDirectoryLock lock(d);
   const RunSpec spec = rundir::ReadRunSpec(d);
   if (spec.engine != "native")
     throw std::runtime_error((d / rundir::kRunSpecFile).string() + ": engine is \"" + spec.engine + "\", not \"native\"");
   fs::remove(d / rundir::kDoneFile);
   Discharge discharge(spec, d, options);
   return discharge.Run();
+}
+
+void InstallStopHandlers() {
+  struct sigaction sa {};
+  sa.sa_handler = EngineOnStopSignal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGTERM, &sa, nullptr);
+  sigaction(SIGINT, &sa, nullptr);
 }
 
 }  // namespace granary::engine

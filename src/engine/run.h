@@ -18,6 +18,9 @@ struct RunOptions {
   // Tests: stop (as if killed) after this many discharge steps, leaving the checkpoint
   // behind; < 0 = never.
   std::int64_t abort_after_steps = -1;
+  // Tests: a stop request (as SIGTERM) after this many discharge steps: the engine writes a
+  // checkpoint and RunDirectory throws Stopped; < 0 = never.
+  std::int64_t stop_after_steps = -1;
   // Tests: parallelise even tiny systems (WorldParams::parallel_min_discs); < 0 = default.
   int parallel_min_discs = -1;
   // Tests: discs per force block (WorldParams::force_block), small to exercise the
@@ -33,7 +36,14 @@ struct RunResult {
   bool continued = false;
 };
 
-// Runs DIR/run.json; continues from DIR/checkpoint.bin if present. Throws on errors.
+// Runs DIR/run.json under the directory's lock (files.h; throws RunDirectoryBusy);
+// continues from DIR/checkpoint.bin, or checkpoint.prev.bin when that one is refused, if
+// present. Throws on errors, and granary::Stopped (stop.h) after a stop request.
 RunResult RunDirectory(const std::string& dir, const RunOptions& options);
+
+// SIGTERM and SIGINT become stop requests: during the discharge the engine writes a
+// checkpoint at the end of the current step and RunDirectory throws Stopped; before it (bed
+// preparation, which is not checkpointed) and after it the signal ends the process at once.
+void InstallStopHandlers();
 
 }  // namespace granary::engine

@@ -268,46 +268,59 @@ void World::Rebuild() {
       }
   };
   nl_start_.resize(static_cast<std::size_t>(n) + 1);
-#pragma omp parallel for schedule(static) if (Parallel())
-  for (int i = 0; i < n; ++i) {
-    int count = 0;
-    for_neighbours(i, [&](int) { ++count; });
-    nl_start_[i + 1] = count;
-  }
-  nl_start_[0] = 0;
-  for (int i = 0; i < n; ++i) nl_start_[i + 1] += nl_start_[i];
-  const int m = nl_start_[n];
-  nl_j_.resize(static_cast<std::size_t>(m));
-  nl_i_.resize(static_cast<std::size_t>(m));
-  nl_sx_.resize(static_cast<std::size_t>(m));
-  nl_sy_.resize(static_cast<std::size_t>(m));
-  nl_fx_.assign(static_cast<std::size_t>(m), 0.0);
-  nl_fy_.assign(static_cast<std::size_t>(m), 0.0);
-  nl_c_.assign(static_cast<std::size_t>(m), 0.0);
-  nl_reff_.resize(static_cast<std::size_t>(m));
-  nl_meff_.resize(static_cast<std::size_t>(m));
-#pragma omp parallel for schedule(static) if (Parallel())
-  for (int i = 0; i < n; ++i) {
-    int k = nl_start_[i];
-    for_neighbours(i, [&](int j) { nl_j_[k++] = j; });
-    std::sort(nl_j_.begin() + nl_start_[i], nl_j_.begin() + nl_start_[i + 1]);
-    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
-      const int j = nl_j_[e];
-      nl_i_[e] = i;
-      nl_reff_[e] = EffectiveRadius(dr_[i], dr_[j]);
-      nl_meff_[e] = EffectiveMass(bmass_[dbody_[i]], bmass_[dbody_[j]]);
+  // One cell search per disc: each thread keeps the partners of its discs in a buffer of its
+  // own and copies them into place once the offsets are known (both loops are static over
+  // the same range, so a thread meets its discs in the same order twice).
+  if (rebuild_partners_.size() < static_cast<std::size_t>(omp_get_max_threads()))
+    rebuild_partners_.resize(static_cast<std::size_t>(omp_get_max_threads()));
+#pragma omp parallel if (Parallel())
+  {
+    std::vector<int>& found = rebuild_partners_[static_cast<std::size_t>(omp_get_thread_num())];
+    found.clear();
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      const std::size_t before = found.size();
+      for_neighbours(i, [&](int j) { found.push_back(j); });
+      nl_start_[i + 1] = static_cast<int>(found.size() - before);
     }
-    // History transfer: both segments are sorted by j.
-    int o = i < old_n ? old_start_[i] : 0;
-    const int oend = i < old_n ? old_start_[i + 1] : 0;
-    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
-      while (o < oend && old_j_[o] < nl_j_[e]) ++o;
-      if (o < oend && old_j_[o] == nl_j_[e]) {
-        nl_sx_[e] = old_sx_[o];
-        nl_sy_[e] = old_sy_[o];
-      } else {
-        nl_sx_[e] = 0.0;
-        nl_sy_[e] = 0.0;
+#pragma omp single
+    {
+      nl_start_[0] = 0;
+      for (int i = 0; i < n; ++i) nl_start_[i + 1] += nl_start_[i];
+      const std::size_t m = static_cast<std::size_t>(nl_start_[n]);
+      nl_j_.resize(m);
+      nl_i_.resize(m);
+      nl_sx_.resize(m);
+      nl_sy_.resize(m);
+      nl_fx_.assign(m, 0.0);
+      nl_fy_.assign(m, 0.0);
+      nl_c_.assign(m, 0.0);
+      nl_reff_.resize(m);
+      nl_meff_.resize(m);
+    }
+    std::size_t next = 0;  // in `found`
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) nl_j_[e] = found[next++];
+      std::sort(nl_j_.begin() + nl_start_[i], nl_j_.begin() + nl_start_[i + 1]);
+      for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
+        const int j = nl_j_[e];
+        nl_i_[e] = i;
+        nl_reff_[e] = EffectiveRadius(dr_[i], dr_[j]);
+        nl_meff_[e] = EffectiveMass(bmass_[dbody_[i]], bmass_[dbody_[j]]);
+      }
+      // History transfer: both segments are sorted by j.
+      int o = i < old_n ? old_start_[i] : 0;
+      const int oend = i < old_n ? old_start_[i + 1] : 0;
+      for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
+        while (o < oend && old_j_[o] < nl_j_[e]) ++o;
+        if (o < oend && old_j_[o] == nl_j_[e]) {
+          nl_sx_[e] = old_sx_[o];
+          nl_sy_[e] = old_sy_[o];
+        } else {
+          nl_sx_[e] = 0.0;
+          nl_sy_[e] = 0.0;
+        }
       }
     }
   }
@@ -1107,6 +1120,61 @@ void World::ImportHistory(const std::vector<HistoryEntry>& pairs, const std::vec
   HistoryToCsr(pairs, disc_count(), "pair", nl_start_, nl_j_, nl_sx_, nl_sy_);
   HistoryToCsr(walls, disc_count(), "wall", wl_start_, wl_e_, wl_sx_, wl_sy_);
   Rebuild();
+}
+
+WorldSnapshot World::Snapshot() {
+  // Both this world and one restored from the snapshot rebuild their lists here.
+  RebuildNow();
+  WorldSnapshot s;
+  s.tmpl = tmpl_;
+  s.active = active_;
+  s.x = bx_;
+  s.y = by_;
+  s.theta = bth_;
+  s.c = bc_;
+  s.s = bs_;
+  s.vx = bvx_;
+  s.vy = bvy_;
+  s.w = bw_;
+  s.fx = bfx_;
+  s.fy = bfy_;
+  s.torque = btq_;
+  ExportHistory(s.pairs, s.walls);
+  s.outlets_open = outlets_open_;
+  s.rebuild_predicted = rebuild_predicted_;
+  return s;
+}
+
+void World::Restore(const WorldSnapshot& s) {
+  if (body_count() != 0) throw std::invalid_argument("World::Restore: the world already has bodies");
+  const std::size_t n = s.tmpl.size();
+  for (const auto* v : {&s.x, &s.y, &s.theta, &s.c, &s.s, &s.vx, &s.vy, &s.w, &s.fx, &s.fy, &s.torque})
+    if (v->size() != n) throw std::invalid_argument("World::Restore: body arrays of different lengths");
+  if (s.active.size() != n) throw std::invalid_argument("World::Restore: body arrays of different lengths");
+  for (std::size_t b = 0; b < n; ++b) AddBody(s.tmpl[b], 0, 0, 0);  // (throws for an unknown template)
+  for (const HistoryEntry& h : s.pairs)
+    if (h.j < 0 || h.j >= disc_count() || h.j <= h.i)
+      throw std::invalid_argument("World::Restore: pair history entry (" + std::to_string(h.i) + ", " + std::to_string(h.j) +
+                                  ") is not a pair of discs i < j");
+  for (const HistoryEntry& h : s.walls)
+    if (h.j < 0 || h.j >= static_cast<int>(geometry_.elements.size()))
+      throw std::invalid_argument("World::Restore: wall history names element " + std::to_string(h.j) + " of " +
+                                  std::to_string(geometry_.elements.size()));
+  for (int b = 0; b < body_count(); ++b) {
+    PlaceBody(b, s.x[b], s.y[b], s.theta[b], s.vx[b], s.vy[b], s.w[b]);
+    if (!s.active[b]) Deactivate(b);
+  }
+  // The forces of the step the snapshot was taken at, and the integrated orientation (not
+  // cos and sin of theta).
+  bfx_ = s.fx;
+  bfy_ = s.fy;
+  btq_ = s.torque;
+  bc_ = s.c;
+  bs_ = s.s;
+  RefreshDiscs();
+  outlets_open_ = s.outlets_open;
+  ImportHistory(s.pairs, s.walls);  // rebuilds the lists
+  rebuild_predicted_ = s.rebuild_predicted;
 }
 
 void World::CollectContacts(std::vector<ContactView>& out) const {

@@ -48,6 +48,21 @@ struct HistoryEntry {
   double sx, sy;
 };
 
+// Everything of a world's state that a run continues from (checkpoints): per body its
+// template, activity and state, including the last forces and the integrated orientation
+// (cos, sin); the nonzero contact histories; the outlets; and the last force pass's verdict on
+// the next rebuild. Taking a snapshot rebuilds the lists and restoring one rebuilds them at
+// the same state, so a world continued from a snapshot steps to the same bits as the world
+// it was taken from (Run.ContinuedRunEqualsUninterruptedRun and others).
+struct WorldSnapshot {
+  std::vector<int> tmpl;
+  std::vector<std::uint8_t> active;
+  std::vector<double> x, y, theta, c, s, vx, vy, w, fx, fy, torque;
+  std::vector<HistoryEntry> pairs, walls;
+  bool outlets_open = false;
+  bool rebuild_predicted = true;
+};
+
 class World {
  public:
   // What the pair loop reads of a partner disc, in one cache line: position, velocity,
@@ -100,6 +115,11 @@ class World {
   void ImportHistory(const std::vector<HistoryEntry>& pairs, const std::vector<HistoryEntry>& walls);
   // Force the list rebuild now (keeps the history of continuing contacts).
   void RebuildNow();
+  // The state to continue from (rebuilds the lists first: see WorldSnapshot).
+  WorldSnapshot Snapshot();
+  // Restores a snapshot into a world that has no bodies yet and was built with the same
+  // parameters, templates and geometry. Throws std::invalid_argument if it does not fit.
+  void Restore(const WorldSnapshot& snapshot);
 
   const WorldParams& params() const { return params_; }
   const std::vector<ShapeTemplate>& templates() const { return templates_; }
@@ -213,7 +233,7 @@ class World {
   std::vector<double> refx_, refy_;
   // Cell grid.
   std::vector<int> cell_start_, cell_disc_, disc_cell_, cell_count_;
-  std::vector<int> cand_;
+  std::vector<std::vector<int>> rebuild_partners_;  // per thread: partners found in a rebuild
 };
 
 }  // namespace granary::engine

@@ -1,17 +1,22 @@
 // The LIGGGHTS backend (backend.h): bed, discharge and conversion into the run directory.
 #include "liggghts/backend.h"
 
-#include <signal.h>
 #include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
 #include <sys/file.h>
 #include <sys/prctl.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <deque>
 #include <functional>
 #include <filesystem>
@@ -53,6 +58,9 @@ constexpr int kLogTailLines = 25;
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
 
+// A stop request (SIGTERM, SIGINT: set by the command line's handler, RequestStop).
+volatile std::sig_atomic_t g_stop_signal = 0;
+
 // Parent-death signal in the child: a killed backend never leaves LIGGGHTS writing into a
 // directory the runner will relaunch.
 struct DieWithParent : bp::extend::handler {
@@ -62,44 +70,136 @@ struct DieWithParent : bp::extend::handler {
   }
 };
 
-// Runs LIGGGHTS on `input` in `dir` (cwd), its log in `log`; calls on_line for every line
-// LIGGGHTS prints that starts with "GRANARY_". Returns the exit code.
+// granary-liggghts itself, which runs each LIGGGHTS process through `exec-helper` (it takes
+// the directory's helper lock, then execs LIGGGHTS), or "" outside granary-liggghts (the
+// bench and tests link the library into other programs: LIGGGHTS is then run directly).
+std::string HelperExe() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return !ec && self.filename() == "granary-liggghts" ? self.string() : std::string();
+}
+
+// How LIGGGHTS ended, and what it said: the "ERROR" lines and the last lines of its screen
+// output (which holds what its log does not: MPI's and the C library's messages).
 struct LiggghtsRun {
   int exit_code = 0;
-  std::vector<std::string> errors;  // lines with "ERROR" from the screen output
+  int signal = 0;              // the signal that ended it (or mpirun), or 0
+  bool stopped = false;        // it checkpointed and ended on a stop request (GRANARY_STOPPED)
+  std::string stop_reason;     // why the backend ended it: a stop request, or silence
+  std::vector<std::string> errors;
+  std::deque<std::string> screen;  // last kLogTailLines lines of its screen output
+  std::string how() const {
+    if (!stop_reason.empty()) return stop_reason;
+    if (signal != 0) return "LIGGGHTS killed by " + SignalName(signal);
+    return "LIGGGHTS exit status " + std::to_string(exit_code);
+  }
 };
+
+std::string Diagnostics(const LiggghtsRun& r, const fs::path& log);
+
+// Runs LIGGGHTS on `input` in `dir` (cwd), its log in `log`; calls on_line for every line
+// LIGGGHTS prints that starts with "GRANARY_". A stop request makes a LIGGGHTS that reads
+// `control` (the discharge) checkpoint and end at its next chunk; any other is ended at once.
+// So is a LIGGGHTS that prints nothing for `silence_limit` seconds (hung).
 LiggghtsRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir, const std::string& input,
-                        const std::string& log, const std::function<void(const std::string&)>& on_line) {
+                        const std::string& log, const fs::path& control, double silence_limit,
+                        const std::function<void(const std::string&)>& on_line) {
   std::vector<std::string> args;
   std::string program = exe;
+  const std::string helper = HelperExe();
+  std::vector<std::string> liggghts = {exe};
+  if (!helper.empty()) liggghts = {helper, "exec-helper", dir.string(), exe};
   if (threads > 1) {
     program = bp::search_path("mpirun").string();
     if (program.empty()) throw LiggghtsError("--threads " + std::to_string(threads) + " needs mpirun (Debian package openmpi-bin)");
     if (geteuid() == 0) args.push_back("--allow-run-as-root");
-    args.insert(args.end(), {"-np", std::to_string(threads), exe});
+    args.insert(args.end(), {"-np", std::to_string(threads)});
+    args.insert(args.end(), liggghts.begin(), liggghts.end());
+  } else {
+    program = liggghts[0];
+    args.insert(args.end(), liggghts.begin() + 1, liggghts.end());
   }
   args.insert(args.end(), {"-in", input, "-log", log, "-echo", "none"});
-  bp::ipstream out;
+  bp::pipe out;
   std::error_code ec;
   bp::child child(bp::exe = program, bp::args = args, bp::start_dir = dir.string(), bp::std_in < bp::null,
                   (bp::std_out & bp::std_err) > out, DieWithParent{}, ec);
   if (ec) throw LiggghtsError("cannot start " + program + ": " + ec.message());
   LiggghtsRun r;
-  std::string line;
-  while (std::getline(out, line)) {
+  const int fd = out.native_source();
+  std::string pending;
+  char buf[4096];
+  auto last_output = Clock::now();
+  bool stop_sent = false;
+  const auto handle = [&](const std::string& line) {
+    r.screen.push_back(line);
+    if (r.screen.size() > static_cast<std::size_t>(kLogTailLines)) r.screen.pop_front();
+    if (line.rfind("GRANARY_STOPPED", 0) == 0) r.stopped = true;
     if (line.rfind("GRANARY_", 0) == 0) on_line(line);
     else if (line.find("ERROR") != std::string::npos && r.errors.size() < 5) r.errors.push_back(line);
+  };
+  while (true) {
+    pollfd p{fd, POLLIN, 0};
+    const int ready = ::poll(&p, 1, 1000);
+    if (ready > 0) {
+      const ssize_t n = ::read(fd, buf, sizeof buf);
+      if (n == 0) break;  // LIGGGHTS (and every rank) closed its output: it has ended
+      if (n > 0) {
+        last_output = Clock::now();
+        pending.append(buf, static_cast<std::size_t>(n));
+        for (std::size_t nl; (nl = pending.find('\n')) != std::string::npos; pending.erase(0, nl + 1))
+          handle(pending.substr(0, nl));
+      } else if (errno != EINTR) {
+        break;
+      }
+    } else if (ready < 0 && errno != EINTR) {
+      break;
+    }
+    if (g_stop_signal != 0 && !stop_sent) {
+      stop_sent = true;
+      // Said now: a LIGGGHTS that does not react (hung) is killed by the runner after its
+      // grace period, and this is what the run's failure will show.
+      std::fprintf(stderr, "granary-liggghts: %s received; LIGGGHTS so far:%s", SignalName(g_stop_signal).c_str(),
+                   Diagnostics(r, dir / log).c_str());
+      std::fflush(stderr);
+      if (!control.empty()) {
+        // LIGGGHTS reads this file after every chunk (input_script.cpp).
+        WriteAtomically(control, "variable stop_requested equal 1\n");
+        std::fprintf(stderr, "granary-liggghts: stop requested (%s): LIGGGHTS checkpoints at the end of its chunk\n",
+                     SignalName(g_stop_signal).c_str());
+      } else {
+        r.stop_reason = "stopped on request (" + SignalName(g_stop_signal) + ")";
+        kill(child.id(), SIGTERM);
+      }
+    }
+    if (silence_limit > 0 && Seconds(last_output) > silence_limit && r.stop_reason.empty()) {
+      r.stop_reason = "LIGGGHTS printed nothing for " + std::to_string(static_cast<long long>(silence_limit)) +
+                      " s and was ended (hung? the limit is --silence-limit)";
+      kill(child.id(), SIGKILL);  // mpirun ends its ranks; they die with it (PR_SET_PDEATHSIG)
+    }
   }
+  if (!pending.empty()) handle(pending);
   child.wait(ec);
-  r.exit_code = child.exit_code();
+  const int status = child.native_exit_code();
+  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
+  else r.exit_code = WEXITSTATUS(status);
   return r;
 }
 
-[[noreturn]] void Fail(const std::string& what, const LiggghtsRun& r, const fs::path& log) {
-  std::string msg = what + " (LIGGGHTS exit status " + std::to_string(r.exit_code) + ")";
+// The screen output and the log tail of a LIGGGHTS run, for a failure message.
+std::string Diagnostics(const LiggghtsRun& r, const fs::path& log) {
+  std::string msg;
   for (const std::string& e : r.errors) msg += "\n" + e;
-  msg += "\n--- last lines of " + log.filename().string() + " ---\n" + TailOfFile(log, kLogTailLines);
-  throw LiggghtsError(msg);
+  msg += "\n--- LIGGGHTS screen output, last lines ---\n";
+  for (const std::string& l : r.screen) msg += l + "\n";
+  if (r.screen.empty()) msg += "(none)\n";
+  const std::string tail = TailOfFile(log, kLogTailLines);
+  msg += "--- last lines of " + log.filename().string() + " ---\n" + (tail.empty() ? "(empty or missing)\n" : tail);
+  return msg;
+}
+
+[[noreturn]] void Fail(const std::string& what, const LiggghtsRun& r, const fs::path& log) {
+  throw LiggghtsError(what + " (" + r.how() + ")" + Diagnostics(r, log));
 }
 
 void ReportProgress(const fs::path& dir, const std::string& phase, double fraction, double t, double t_end, int exited,
@@ -429,6 +529,7 @@ struct Bed {
   std::string file;
   bool prepared_here = false;
   double wall_s = 0, settle_time = 0, top = 0;
+  std::string refused;  // why a cached bed was refused and prepared again, or ""
 };
 
 
@@ -448,6 +549,32 @@ std::string CacheStem(const RunSpec& spec) {
   return std::string("liggghts-bed-") + hex;
 }
 
+// A cached bed is <stem>.restart, <stem>.dump and <stem>.json, which holds the format
+// version and the CRC-32 of the other two.
+constexpr int kCachedBedVersion = 2;  // 2: with checksums
+
+// Why the cached bed `stem` cannot be used, or "" if it can.
+std::string CachedBedProblem(const fs::path& cache_dir, const std::string& stem) {
+  json meta;
+  try {
+    meta = json::parse(ReadWholeFile(cache_dir / (stem + ".json")));
+  } catch (const std::exception& e) {
+    return stem + ".json is unreadable: " + e.what();
+  }
+  if (!meta.is_object() || meta.value("version", 0) != kCachedBedVersion)
+    return stem + ".json has format version " + (meta.is_object() ? std::to_string(meta.value("version", 0)) : "?") +
+           "; this backend reads version " + std::to_string(kCachedBedVersion) + " (with checksums)";
+  for (const auto& [ext, key] : {std::pair{".restart", "restart_crc32"}, std::pair{".dump", "dump_crc32"}}) {
+    const fs::path f = cache_dir / (stem + ext);
+    if (!fs::exists(f)) return f.filename().string() + " is missing";
+    const std::uint32_t actual = Crc32(ReadWholeFile(f));
+    if (meta.value(key, std::uint32_t{0}) != actual)
+      return f.filename().string() + " is corrupt (CRC-32 " + std::to_string(actual) + ", recorded " +
+             std::to_string(meta.value(key, std::uint32_t{0})) + ")";
+  }
+  return "";
+}
+
 Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, const std::string& exe,
               const BackendOptions& options) {
   Bed bed;
@@ -459,20 +586,29 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
     fs::create_directories(cache_dir);
     lock = std::make_unique<FileLock>(cache_dir / (stem + ".lock"));
     if (fs::exists(cache_dir / (stem + ".restart")) && fs::exists(cache_dir / (stem + ".json"))) {
-      fs::copy_file(cache_dir / (stem + ".restart"), dir / "bed.restart", fs::copy_options::overwrite_existing);
-      fs::copy_file(cache_dir / (stem + ".dump"), dir / "bed.dump", fs::copy_options::overwrite_existing);
-      const json meta = json::parse(ReadWholeFile(cache_dir / (stem + ".json")));
-      bed.file = (cache_dir / (stem + ".restart")).string();
-      bed.settle_time = meta.value("settle_time", 0.0);
-      bed.wall_s = 0;
-      return bed;
+      const std::string why = CachedBedProblem(cache_dir, stem);
+      if (why.empty()) {
+        fs::copy_file(cache_dir / (stem + ".restart"), dir / "bed.restart", fs::copy_options::overwrite_existing);
+        fs::copy_file(cache_dir / (stem + ".dump"), dir / "bed.dump", fs::copy_options::overwrite_existing);
+        const json meta = json::parse(ReadWholeFile(cache_dir / (stem + ".json")));
+        bed.file = (cache_dir / (stem + ".restart")).string();
+        bed.settle_time = meta.value("settle_time", 0.0);
+        bed.wall_s = 0;
+        return bed;
+      }
+      // A bad cached bed is never used: it is put aside and prepared again.
+      std::fprintf(stderr, "granary-liggghts: refusing the cached bed %s: %s; preparing it again\n", stem.c_str(), why.c_str());
+      bed.refused = why;
+      for (const char* ext : {".restart", ".dump", ".json"})
+        if (fs::exists(cache_dir / (stem + ext))) fs::rename(cache_dir / (stem + ext), cache_dir / (stem + ext + ".corrupt"));
     }
   }
   const auto t0 = Clock::now();
   WriteAtomically(dir / "bed.in", BedScript(spec, setup));
   long long inserted = -1;
   double settle_t = 0;
-  const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "bed.in", "log.bed", [&](const std::string& line) {
+  const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "bed.in", "log.bed", {}, options.silence_limit,
+                                    [&](const std::string& line) {
     const auto t = Tokens(line);
     if (t[0] == "GRANARY_INSERTED" && t.size() > 1) inserted = std::llround(std::stod(t[1]));
     if ((t[0] == "GRANARY_BED" || t[0] == "GRANARY_BED_DONE") && t.size() > 2) {
@@ -481,7 +617,9 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
                      options.quiet);
     }
   });
-  if (r.exit_code != 0 || !fs::exists(dir / "bed.restart")) Fail("LIGGGHTS failed while preparing the bed", r, dir / "log.bed");
+  if (g_stop_signal != 0) throw Stopped(g_stop_signal, "stopped while preparing the bed (not checkpointed)" + Diagnostics(r, dir / "log.bed"));
+  if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty()) Fail("LIGGGHTS failed while preparing the bed", r, dir / "log.bed");
+  if (!fs::exists(dir / "bed.restart")) Fail("LIGGGHTS ended without writing bed.restart while preparing the bed", r, dir / "log.bed");
   const std::vector<Sphere> spheres = ReadAtomsDump(dir / "bed.dump");
   const BodyIndex bodies(spheres);
   if (static_cast<int>(bodies.size()) != spec.bodies.count)
@@ -498,7 +636,13 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
       fs::copy_file(dir / (std::string("bed") + ext), cache_dir / (stem + ext + ".tmp"), fs::copy_options::overwrite_existing);
       fs::rename(cache_dir / (stem + ext + ".tmp"), cache_dir / (stem + ext));
     }
-    WriteAtomically(cache_dir / (stem + ".json"), json{{"settle_time", settle_t}, {"bed_wall_s", bed.wall_s}}.dump() + "\n");
+    WriteAtomically(cache_dir / (stem + ".json"), json{{"format", "granary-liggghts-bed"},
+                                                        {"version", kCachedBedVersion},
+                                                        {"settle_time", settle_t},
+                                                        {"bed_wall_s", bed.wall_s},
+                                                        {"restart_crc32", Crc32(ReadWholeFile(dir / "bed.restart"))},
+                                                        {"dump_crc32", Crc32(ReadWholeFile(dir / "bed.dump"))}}
+                                                       .dump() + "\n");
     bed.file = (cache_dir / (stem + ".restart")).string();
   }
   return bed;
@@ -582,7 +726,8 @@ std::vector<std::string> WriteInputs(const std::string& dir_name) {
   WriteAtomically(dir / "bed.in", BedScript(spec, setup));
   DischargeStart start;
   WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, start));
-  std::vector<std::string> files = {"bed.in", "discharge.in"};
+  WriteAtomically(dir / kControlFile, "variable stop_requested equal 0\n");
+  std::vector<std::string> files = {"bed.in", "discharge.in", kControlFile};
   for (const MeshFile& m : setup.fill_meshes) files.push_back(m.name);
   for (const MeshFile& m : setup.discharge_meshes)  // obstacle meshes are in both lists
     if (std::find(files.begin(), files.end(), m.name) == files.end()) files.push_back(m.name);
@@ -590,7 +735,23 @@ std::vector<std::string> WriteInputs(const std::string& dir_name) {
   return files;
 }
 
+void RequestStop(int signal) { g_stop_signal = signal; }
+
+namespace {
+BackendResult RunLocked(const std::string& dir_name, const BackendOptions& options);
+}
+
 BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& options) {
+  // One writer per directory, held until LIGGGHTS and its ranks are gone (files.h).
+  const RunDirectoryLock lock(fs::absolute(dir_name));
+  return RunLocked(dir_name, options);
+}
+
+namespace {
+
+// RunDirectory under the directory's lock (it calls itself to go on through a clog or to
+// fall back to an earlier checkpoint).
+BackendResult RunLocked(const std::string& dir_name, const BackendOptions& options) {
   const fs::path dir = fs::absolute(dir_name);
   const RunSpec spec = ReadSpec(dir);
   SiloSetup setup = MakeSetup(spec);
@@ -637,7 +798,7 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
     WriteMeshes(dir, setup);
     const Bed bed = ObtainBed(spec, setup, dir, exe, options);
     state = {{"bed_file", bed.file},           {"bed_prepared_here", bed.prepared_here},
-             {"bed_wall_s", bed.wall_s},       {"settle_time", bed.settle_time},
+             {"bed_wall_s", bed.wall_s},       {"settle_time", bed.settle_time}, {"bed_refused", bed.refused},
              {"bed_height", TopOf(ReadAtomsDump(dir / "bed.dump"))}, {"discharge_wall_s", 0.0},
              {"clog_steps", json::array()}};
     WriteAtomically(state_file, state.dump() + "\n");
@@ -666,7 +827,11 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   const double recross = spec.discharge.mode == DischargeMode::kRemove ? 1e300 : 1.0;
   int progress_lines = 0;
   double box_height = setup.y_hi - setup.y_lo;  // to 6 digits until LIGGGHTS prints it
-  const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "discharge.in", log, [&](const std::string& line) {
+  // The stop switch LIGGGHTS reads after every chunk (input_script.cpp, docs/liggghts.md).
+  const fs::path control = dir / kControlFile;
+  WriteAtomically(control, "variable stop_requested equal 0\n");
+  const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "discharge.in", log, control, options.silence_limit,
+                                    [&](const std::string& line) {
     const auto t = Tokens(line);
     if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
     if (t[0] == "GRANARY_FINAL" && t.size() > 1) last_step = std::stoll(t[1]);
@@ -688,14 +853,21 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
       WriteAtomically(state_file, state.dump() + "\n");
     }
   });
-  if (r.exit_code != 0 || end_reason.empty() || !fs::exists(dir / "final.dump")) {
+  if (r.stopped) {
+    state["discharge_wall_s"] = discharge_wall_before + Seconds(t_discharge);
+    WriteAtomically(state_file, state.dump() + "\n");
+    throw Stopped(g_stop_signal != 0 ? g_stop_signal : SIGTERM,
+                  "stopped on request; checkpointed by LIGGGHTS (" + NewestCheckpoint(dir).file.filename().string() + ")");
+  }
+  if (g_stop_signal != 0) throw Stopped(g_stop_signal, "stopped on request before LIGGGHTS checkpointed" + Diagnostics(r, dir / log));
+  if (r.exit_code != 0 || r.signal != 0 || end_reason.empty() || !fs::exists(dir / "final.dump")) {
     // A checkpoint cut short when the run was killed makes read_restart fail at once: drop
     // it and continue from the one before (or from the start).
     if (result.continued && progress_lines == 0) {
       std::fprintf(stderr, "granary-liggghts: cannot continue from %s; trying an earlier checkpoint\n",
                    ckpt.file.filename().c_str());
       fs::remove(ckpt.file);
-      return RunDirectory(dir_name, options);
+      return RunLocked(dir_name, options);
     }
     Fail("LIGGGHTS failed during the discharge", r, dir / log);
   }
@@ -711,7 +883,7 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
         state["discharge_wall_s"] = discharge_wall;
         state["relaunched_at_step"] = last_step;
         WriteAtomically(state_file, state.dump() + "\n");
-        return RunDirectory(dir_name, options);
+        return RunLocked(dir_name, options);
       }
     }
   }
@@ -770,7 +942,7 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   // Reinjection is y-periodicity here, whatever the spec asks (docs/liggghts.md).
   if (spec.discharge.mode == DischargeMode::kReinject) summary.reinject_position = "periodic";
   summary.bed = {state.value("bed_file", ""), state.value("bed_height", 0.0), state.value("bed_prepared_here", false),
-                 state.value("settle_time", 0.0)};
+                 state.value("settle_time", 0.0), state.value("bed_refused", std::string())};
   const double bed_wall = state.value("bed_wall_s", 0.0);
   summary.timing = rundir::Timing{
       bed_wall + discharge_wall, bed_wall, discharge_wall,
@@ -784,5 +956,7 @@ BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& op
   rundir::WriteDone(dir, end_reason);
   return result;
 }
+
+}  // namespace
 
 }  // namespace granary::liggghts

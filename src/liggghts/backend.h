@@ -7,12 +7,17 @@
 #include <string>
 #include <vector>
 
+#include "rundir/stop.h"
+
 namespace granary::liggghts {
 
 struct BackendOptions {
   int threads = 1;              // > 1: mpirun -np N liggghts
   bool quiet = false;
   std::string liggghts;         // executable; "" = $GRANARY_LIGGGHTS or `liggghts` on PATH
+  // LIGGGHTS printing nothing for this long (seconds) is hung: it is ended and the run fails
+  // with its screen output and log tail. Its progress lines come every 0.5 time units.
+  double silence_limit = 1800;
 };
 
 struct BackendResult {
@@ -28,7 +33,16 @@ class LiggghtsError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Runs DIR/run.json; continues from the newest DIR/checkpoint.<step>.restart if present.
+// A run ended by a stop request (RequestStop) throws granary::Stopped (engine/stop.h):
+// during the discharge LIGGGHTS wrote a checkpoint at the end of its chunk first; during the
+// bed preparation nothing is kept.
+using granary::Stopped;
+
+// For a signal handler (async-signal-safe): asks the running RunDirectory to stop.
+void RequestStop(int signal);
+
+// Runs DIR/run.json under the directory's lock (engine/files.h; throws RunDirectoryBusy);
+// continues from the newest DIR/checkpoint.<step>.restart if present.
 BackendResult RunDirectory(const std::string& dir, const BackendOptions& options);
 
 // Writes the inputs (bed.in, discharge.in, meshes) into DIR without running anything.

@@ -4,11 +4,18 @@
 #include "engine/cli.h"
 #include "rundir/version.h"
 
+#include <signal.h>
+#include <sys/prctl.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <iostream>
 #include <string>
 
+#include "rundir/files.h"
 #include "liggghts/backend.h"
 #include "liggghts/bench.h"
 #include "rundir/layout.h"
@@ -27,11 +34,16 @@ constexpr char kUsage[] =
     "  help                    this text\n"
     "  --version\n";
 constexpr char kRunHelp[] =
-    "usage: granary-liggghts run DIR [--threads N]\n"
+    "usage: granary-liggghts run DIR [--threads N] [--silence-limit S]\n"
     "Runs DIR/run.json on LIGGGHTS 3.8 (the `liggghts` executable on PATH, or $GRANARY_LIGGGHTS)\n"
     "and writes events.csv, frames.dump, progress.json, summary.json and DONE into DIR, like\n"
     "granary-engine. Its own logs: DIR/log.bed, DIR/log.discharge*.\n"
-    "  --threads N   MPI ranks (mpirun -np N); default 1\n";
+    "  --threads N          MPI ranks (mpirun -np N); default 1\n"
+    "  --silence-limit S    LIGGGHTS printing nothing for S seconds is hung: end it, fail the run\n"
+    "                       (default 1800)\n"
+    "SIGTERM / SIGINT: during the discharge LIGGGHTS writes a checkpoint at the end of its chunk\n"
+    "(0.5 time units) and the run ends by that signal; during the bed preparation it ends at once.\n"
+    "Exit 75: another engine holds DIR (DIR/engine.lock).\n";
 constexpr char kInputsHelp[] =
     "usage: granary-liggghts inputs DIR\n"
     "Writes the LIGGGHTS input scripts and STL meshes generated from DIR/run.json into DIR,\n"
@@ -50,6 +62,8 @@ bool WantsHelp(const std::vector<std::string>& args) {
   return false;
 }
 
+extern "C" void LiggghtsOnStopSignal(int signal) { RequestStop(signal); }
+
 int Run(const std::vector<std::string>& args) {
   if (WantsHelp(args)) {
     std::cout << kRunHelp;
@@ -60,15 +74,49 @@ int Run(const std::vector<std::string>& args) {
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "--threads" && i + 1 < args.size()) options.threads = engine::ParsePositiveInt(a, args[++i]);
+    else if (a == "--silence-limit" && i + 1 < args.size()) options.silence_limit = engine::ParsePositiveInt(a, args[++i]);
     else if (!a.empty() && a[0] == '-') throw std::invalid_argument("run: unknown option \"" + a + "\"\n" + kRunHelp);
     else if (dir.empty()) dir = a;
     else throw std::invalid_argument("run: more than one directory (\"" + dir + "\", \"" + a + "\")");
   }
   if (dir.empty()) throw std::invalid_argument(std::string("run: missing DIR\n") + kRunHelp);
-  const BackendResult r = RunDirectory(dir, options);
+  struct sigaction sa {};
+  sa.sa_handler = LiggghtsOnStopSignal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGTERM, &sa, nullptr);
+  sigaction(SIGINT, &sa, nullptr);
+  BackendResult r;
+  try {
+    r = RunDirectory(dir, options);
+  } catch (const Stopped& e) {
+    // Ended as the signal would have ended it, so the runner sees an interruption.
+    std::cerr << "granary-liggghts run: " << e.what() << "\n";
+    std::cerr.flush();
+    signal(e.signal(), SIG_DFL);
+    raise(e.signal());
+    return 128 + e.signal();
+  }
   std::cout << "done end_reason=" << r.end_reason << " exited=" << r.exited << " steps=" << r.steps
             << (r.continued ? " (continued from checkpoint)" : "") << "\n";
   return 0;
+}
+
+// `exec-helper DIR PROGRAM ARGS...`: how the backend starts each LIGGGHTS process (directly
+// or as an MPI rank): it holds DIR's helper lock (engine/files.h), dies with its parent
+// (mpirun), and becomes PROGRAM. Open MPI closes inherited descriptors in its ranks, so this
+// is what keeps the directory locked until every rank is gone.
+int ExecHelper(const std::vector<std::string>& args) {
+  if (args.size() < 2) throw std::invalid_argument("exec-helper: expected DIR PROGRAM [ARGS...]");
+  HoldRunDirectoryAsHelper(args[0]);
+  const pid_t parent = getppid();
+  prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (getppid() != parent) return 1;  // the parent died before the line above
+  std::vector<char*> argv;
+  for (std::size_t i = 1; i < args.size(); ++i) argv.push_back(const_cast<char*>(args[i].c_str()));
+  argv.push_back(nullptr);
+  execv(argv[0], argv.data());
+  std::cerr << "granary-liggghts exec-helper: cannot run " << args[1] << ": " << std::strerror(errno) << "\n";
+  return 127;
 }
 
 int Inputs(const std::vector<std::string>& args) {
@@ -115,10 +163,14 @@ int LiggghtsMain(const std::vector<std::string>& args) {
   const std::vector<std::string> rest(args.begin() + 1, args.end());
   try {
     if (args[0] == "run") return Run(rest);
+    if (args[0] == "exec-helper") return ExecHelper(rest);
     if (args[0] == "inputs") return Inputs(rest);
     if (args[0] == "bench") return Bench(rest);
     std::cerr << "granary-liggghts: unknown verb \"" << args[0] << "\"\n" << kUsage;
     return 2;
+  } catch (const RunDirectoryBusy& e) {
+    std::cerr << "granary-liggghts " << args[0] << ": " << e.what() << "\n";
+    return kExitRunDirectoryBusy;
   } catch (const SpecError& e) {
     std::cerr << "granary-liggghts " << args[0] << ": spec error: " << e.what() << "\n";
     return 2;

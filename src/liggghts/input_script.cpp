@@ -459,6 +459,10 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
     << "if \"${next_stop} > " << total << "\" then \"variable next_stop equal " << total << "\"\n"
     << "run ${next_stop} upto post no\n"
     << "print \"GRANARY_PROGRESS ${step_now} ${exited} ${atoms_now}\"\n"
+    // A stop request (the backend got SIGTERM): checkpoint here and end (docs/liggghts.md).
+    << "include " << kControlFile << "\n"
+    << "if \"${stop_requested} == 1\" then \"write_restart checkpoint.*.restart\" "
+       "\"print 'GRANARY_STOPPED ${step_now}'\" \"jump SELF stopped\"\n"
     << "if \"${exited} > ${exited_last}\" then \"variable exited_last equal ${exited}\" "
        "\"variable last_exit_step equal ${step_now}\" \"variable clog_counted equal 0\"\n";
   if (remove) p << "if \"${atoms_now} == 0\" then \"print 'GRANARY_END discharged'\" \"jump SELF finished\"\n";
@@ -477,7 +481,8 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
     p << "if " << stalled << " then \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";
   p << "next chunk\njump SELF discharge\nlabel finished\n"
     << "write_dump all custom final.dump id " << BodyColumn(s) << " type x y radius z\n"
-    << "print \"GRANARY_FINAL ${step_now}\"\n";
+    << "print \"GRANARY_FINAL ${step_now}\"\n"
+    << "label stopped\n";
   return script + p.str();
 }
 

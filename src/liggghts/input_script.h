@@ -14,6 +14,11 @@
 
 namespace granary::liggghts {
 
+// The file the discharge script includes after every chunk: the backend writes
+// "variable stop_requested equal 0" into it before LIGGGHTS starts, and "... 1" on a stop
+// request, which makes LIGGGHTS write a checkpoint and end.
+inline constexpr char kControlFile[] = "granary_control.in";
+
 // A planar rectangle for an STL mesh: the segment (x0,y0)-(x1,y1) in the silo plane,
 // extruded over z in [-half_z, half_z].
 struct MeshFile {

@@ -33,9 +33,18 @@ void ContactWriter::Write(const ContactFrame& frame) {
   WriteBlock(file_.get(), gzip_, [&](std::FILE* f) {
     detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ENTRIES", frame.contacts.size(), frame.box);
     std::fputs("ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n", f);
-    for (const ContactRow& c : frame.contacts)
-      std::fprintf(f, "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n", static_cast<long long>(c.body_i),
-                   static_cast<long long>(c.body_j), c.xi, c.yi, c.xj, c.yj, c.cx, c.cy, c.fx, c.fy);
+    // "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n" per contact
+    std::string& t = text_;
+    std::size_t rows = 0;
+    for (const ContactRow& c : frame.contacts) {
+      detail::AppendInt(t, c.body_i);
+      t += ' ';
+      detail::AppendInt(t, c.body_j);
+      for (const double v : {c.xi, c.yi, c.xj, c.yj, c.cx, c.cy, c.fx, c.fy}) t += ' ', detail::AppendG10(t, v);
+      t += '\n';
+      if (++rows % detail::kRowsPerWrite == 0) detail::Drain(t, f);
+    }
+    detail::Drain(t, f);
   });
 }
 

@@ -47,6 +47,7 @@ class ContactWriter {
 
  private:
   OutputFile file_;
+  std::string text_;  // rows being formatted (kept: its capacity)
   bool gzip_ = false;
 };
 

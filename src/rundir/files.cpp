@@ -4,6 +4,9 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <array>
+#include <cerrno>
+#include <cstring>
 #include <deque>
 #include <fstream>
 #include <sstream>
@@ -14,12 +17,25 @@ namespace granary {
 
 void WriteAtomically(const std::filesystem::path& file, const std::string& text) {
   const std::filesystem::path tmp = file.string() + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error("cannot write " + tmp.string());
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error("write failed: " + tmp.string());
+  // POSIX calls, so that a failure says why (ENOSPC: "No space left on device").
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw std::runtime_error("cannot write " + tmp.string() + ": " + std::strerror(errno));
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = n < 0 ? errno : ENOSPC;
+      ::close(fd);
+      ::unlink(tmp.c_str());
+      throw std::runtime_error("cannot write " + file.string() + ": " + std::strerror(err));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  if (::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    throw std::runtime_error("cannot write " + file.string() + ": " + std::strerror(err));
   }
   std::filesystem::rename(tmp, file);
 }
@@ -53,16 +69,20 @@ OutputFile& OutputFile::operator=(OutputFile&& other) noexcept {
 
 std::int64_t OutputFile::Offset() {
   if (!file_) return 0;
-  std::fflush(file_);
+  // A failed write must end the run, not leave a silently short file behind a checkpoint.
+  if (std::fflush(file_) != 0 || std::ferror(file_))
+    throw std::runtime_error("cannot write " + path_.string() + ": " + std::strerror(errno));
   return std::ftell(file_);
 }
 
 void OutputFile::Close() {
   if (!file_) return;
-  const bool failed = std::ferror(file_) != 0;
+  const bool failed = std::fflush(file_) != 0 || std::ferror(file_) != 0;
+  const int error = errno;
   const bool close_failed = std::fclose(file_) != 0;
   file_ = nullptr;
-  if (failed || close_failed) throw std::runtime_error("write failed: " + path_.string());
+  if (failed || close_failed)
+    throw std::runtime_error("cannot write " + path_.string() + ": " + std::strerror(failed ? error : errno));
 }
 
 std::string ReadWholeFile(const std::filesystem::path& file) {
@@ -98,6 +118,99 @@ FileLock::FileLock(const std::filesystem::path& path) : fd_(::open(path.c_str(),
 FileLock::~FileLock() {
   ::flock(fd_, LOCK_UN);
   ::close(fd_);
+}
+
+}  // namespace granary
+
+namespace granary {
+
+namespace {
+
+constexpr char kLockFile[] = "engine.lock";
+constexpr char kHelpersLockFile[] = "engine.lock.helpers";
+
+// Whether an exclusive flock on `path` could be taken now (then it is released at once).
+bool CanLockExclusively(const std::filesystem::path& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return true;  // no lock file: nobody holds it
+  const bool free = ::flock(fd, LOCK_EX | LOCK_NB) == 0;
+  ::close(fd);
+  return free;
+}
+
+std::string HolderText(const std::filesystem::path& dir) {
+  std::ifstream in(dir / kLockFile);
+  std::string who;
+  std::getline(in, who);
+  return who.empty() ? "another engine" : who;
+}
+
+std::string ThisProcess() {
+  char host[256] = {0};
+  ::gethostname(host, sizeof host - 1);
+  return "engine pid " + std::to_string(::getpid()) + " on " + host;
+}
+
+}  // namespace
+
+RunDirectoryLock::RunDirectoryLock(const std::filesystem::path& dir) {
+  const std::filesystem::path file = dir / kLockFile;
+  // Not close-on-exec: what the engine starts (mpirun) holds the lock with it.
+  fd_ = ::open(file.c_str(), O_RDWR | O_CREAT, 0644);
+  if (fd_ < 0) throw std::runtime_error("cannot open " + file.string() + ": " + std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd_);
+    fd_ = -1;
+    throw RunDirectoryBusy("run directory " + dir.string() + " is locked by " + HolderText(dir) +
+                           " (" + file.string() + "); two engines never write one directory");
+  }
+  if (!CanLockExclusively(dir / kHelpersLockFile)) {
+    ::close(fd_);
+    fd_ = -1;
+    throw RunDirectoryBusy("run directory " + dir.string() + " still has helper processes of an earlier engine (" +
+                           (dir / kHelpersLockFile).string() + " is held, e.g. MPI ranks winding down)");
+  }
+  const std::string who = ThisProcess() + "\n";
+  if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, who.data(), who.size(), 0) != static_cast<ssize_t>(who.size())) {
+    // The lock holds without the note; only the busy message is less precise.
+  }
+}
+
+RunDirectoryLock::~RunDirectoryLock() {
+  if (fd_ >= 0) ::close(fd_);  // closing the last descriptor releases the flock
+}
+
+std::string RunDirectoryHolder(const std::filesystem::path& dir) {
+  if (!CanLockExclusively(dir / kLockFile)) return HolderText(dir);
+  if (!CanLockExclusively(dir / kHelpersLockFile)) return "helper processes of an earlier engine (MPI ranks)";
+  return "";
+}
+
+void HoldRunDirectoryAsHelper(const std::filesystem::path& dir) {
+  const std::filesystem::path file = dir / kHelpersLockFile;
+  const int fd = ::open(file.c_str(), O_RDWR | O_CREAT, 0644);  // kept across exec
+  if (fd < 0) throw std::runtime_error("cannot open " + file.string() + ": " + std::strerror(errno));
+  if (::flock(fd, LOCK_SH) != 0) throw std::runtime_error("cannot lock " + file.string() + ": " + std::strerror(errno));
+}
+
+std::string SignalName(int signal) {
+  const char* name = ::strsignal(signal);
+  return "signal " + std::to_string(signal) + (name ? std::string(" (") + name + ")" : std::string());
+}
+
+std::uint32_t Crc32(std::string_view data, std::uint32_t crc) {
+  static const std::array<std::uint32_t, 256> kTable = [] {
+    std::array<std::uint32_t, 256> t{};
+    for (std::uint32_t n = 0; n < 256; ++n) {
+      std::uint32_t c = n;
+      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      t[n] = c;
+    }
+    return t;
+  }();
+  crc = ~crc;
+  for (const unsigned char ch : data) crc = kTable[(crc ^ ch) & 0xFFu] ^ (crc >> 8);
+  return ~crc;
 }
 
 }  // namespace granary

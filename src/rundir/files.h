@@ -1,12 +1,15 @@
 // Small file helpers shared by the engines, the runner and the run-directory writers: atomic
-// replacement, an output file that a continued run cuts back to its checkpoint, a
-// cross-process lock, the tail of a log, a whole file as a string.
+// replacement, an output file that a continued run cuts back to its checkpoint,
+// cross-process locks (a cached bed's, a run directory's writer lock), the tail of a log, a
+// whole file as a string, CRC-32, signal names.
 #pragma once
 
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace granary {
 
@@ -62,5 +65,49 @@ class FileLock {
  private:
   int fd_ = -1;
 };
+
+// The writer lock of a run directory (docs/run-directory.md "One writer"): an exclusive flock
+// on DIR/engine.lock, taken by an engine before it touches anything and held for its life.
+// The descriptor is inherited by the processes the engine starts (mpirun), and helper
+// processes that do not inherit it (LIGGGHTS' MPI ranks: Open MPI closes descriptors) hold a
+// shared flock on DIR/engine.lock.helpers (HoldRunDirectoryAsHelper). The directory is
+// free only when neither is held, so two engines never write one directory, also while the
+// ranks of a killed engine are still winding down.
+class RunDirectoryBusy : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class RunDirectoryLock {
+ public:
+  // Takes the lock or throws RunDirectoryBusy saying who holds it.
+  explicit RunDirectoryLock(const std::filesystem::path& dir);
+  ~RunDirectoryLock();
+  RunDirectoryLock(const RunDirectoryLock&) = delete;
+  RunDirectoryLock& operator=(const RunDirectoryLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+// "" when no engine (and no helper of one) holds DIR's lock, else who does, e.g.
+// "engine pid 4711 on node1". A runner asks before it starts an engine; only the engine's
+// own lock is the guarantee.
+std::string RunDirectoryHolder(const std::filesystem::path& dir);
+
+// For a helper process about to exec: a shared lock on DIR/engine.lock.helpers on a
+// descriptor that survives exec, released when the process (and what it execs) ends.
+void HoldRunDirectoryAsHelper(const std::filesystem::path& dir);
+
+// Exit status of an engine that found its run directory locked by another engine: nothing
+// was touched, try again later (EX_TEMPFAIL).
+inline constexpr int kExitRunDirectoryBusy = 75;
+
+// "signal 11 (Segmentation fault)": how messages name a signal that ended a process.
+std::string SignalName(int signal);
+
+// CRC-32 (ISO-HDLC, as zlib and PNG: reflected polynomial 0xEDB88320), continued from `crc`
+// (0 to start), for checksums of checkpoints and prepared beds.
+std::uint32_t Crc32(std::string_view data, std::uint32_t crc = 0);
 
 }  // namespace granary

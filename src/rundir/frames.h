@@ -64,6 +64,7 @@ class FrameWriter {
 
  private:
   OutputFile file_;
+  std::string text_;  // rows being formatted (kept: its capacity)
   bool gzip_ = false;
 };
 

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <initializer_list>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -27,6 +28,53 @@ SpecError::SpecError(std::string path, std::string message)
     : std::runtime_error(path + ": " + message), path_(std::move(path)), message_(std::move(message)) {}
 
 // Levenshtein distance for "did you mean" suggestions.
+std::string forbidden_character_in(const std::string& name, const std::string& extra) {
+  char buf[64];
+  for (std::size_t i = 0; i < name.size();) {
+    const auto c = static_cast<unsigned char>(name[i]);
+    // Decode one UTF-8 sequence (the JSON parser has checked it is valid UTF-8).
+    std::uint32_t cp = c;
+    std::size_t n = 1;
+    if (c >= 0xF0) {
+      n = 4;
+      cp = c & 0x07u;
+    } else if (c >= 0xE0) {
+      n = 3;
+      cp = c & 0x0Fu;
+    } else if (c >= 0xC0) {
+      n = 2;
+      cp = c & 0x1Fu;
+    }
+    if (i + n > name.size()) return "an incomplete UTF-8 sequence";
+    for (std::size_t k = 1; k < n; ++k) cp = (cp << 6) | (static_cast<unsigned char>(name[i + k]) & 0x3Fu);
+    i += n;
+    if (cp < 0x80 && extra.find(static_cast<char>(cp)) != std::string::npos) {
+      std::snprintf(buf, sizeof buf, "'%c'", static_cast<char>(cp));
+      return buf;
+    }
+    const char* what = nullptr;
+    if (cp == 0x00) what = "NUL";
+    else if (cp == 0x0A) what = "LINE FEED";
+    else if (cp == 0x0D) what = "CARRIAGE RETURN";
+    else if (cp == 0x09) what = "TAB";
+    else if (cp == 0x0B) what = "LINE TABULATION (\\v)";
+    else if (cp == 0x0C) what = "FORM FEED (\\f)";
+    else if (cp < 0x20 || cp == 0x7F) what = "a control character";
+    else if (cp == 0x85) what = "NEXT LINE";
+    else if (cp >= 0x80 && cp <= 0x9F) what = "a control character";
+    else if (cp == 0x2028) what = "LINE SEPARATOR";
+    else if (cp == 0x2029) what = "PARAGRAPH SEPARATOR";
+    else if ((cp >= 0x200B && cp <= 0x200F) || (cp >= 0x202A && cp <= 0x202E) || (cp >= 0x2066 && cp <= 0x2069) ||
+             cp == 0xFEFF)
+      what = "an invisible format character";
+    if (what) {
+      std::snprintf(buf, sizeof buf, "U+%04X (%s)", cp, what);
+      return buf;
+    }
+  }
+  return "";
+}
+
 std::size_t edit_distance(const std::string& a, const std::string& b) {
   std::vector<std::size_t> row(b.size() + 1);
   for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
@@ -281,6 +329,8 @@ SpecTable MakeRunSpecTable() {
       integer("/bed/batch_size", 500, 1, "bodies inserted per batch"),
       number("/bed/settle_ke_per_body", 1e-6, positive, "settled when the kinetic energy per body is below this (m g d)"),
       number("/bed/max_settle_time", 200.0, positive, "give up settling after this long"),
+      number("/bed/time_step", 0.0, non_negative,
+             "native engine: the bed-preparation time step; 0 = 5 x time_step (docs/run-spec.md)"),
       plain("/bed/cache_file", T::kString, "", "set by the runner: where the prepared bed is kept"),
       plain("/discharge", T::kObject, nullptr, "the discharge after the outlets open"),
       enumeration("/discharge/mode", "remove", names(kModes),
@@ -338,10 +388,11 @@ Species ParseSpecies(const json& j, const std::string& path) {
   r.Integer("n", s.n);
   s.name = DefaultSpeciesName(s);
   r.String("name", s.name);
-  // The name is the `shape` column of events.csv.
-  if (s.name.empty() || s.name.find_first_of(",\n\r") != std::string::npos)
-    throw SpecError(path + "/name", "must be a non-empty name without commas or line breaks (it is a column of "
-                                    "events.csv) (got " + json(s.name).dump() + ")");
+  // The name is the `shape` column of events.csv and a label in dumps and reports.
+  if (const std::string bad = forbidden_character_in(s.name, ","); s.name.empty() || !bad.empty())
+    throw SpecError(path + "/name", "must be a non-empty name without commas, control characters or line breaks "
+                                    "(it is a column of events.csv) (got " + json(s.name).dump() +
+                                    (bad.empty() ? "" : ", which holds " + bad) + ")");
   return s;
 }
 
@@ -493,6 +544,7 @@ RunSpec RunSpec::from_json(const json& j) {
     b.Integer("batch_size", s.bed.batch_size);
     b.Number("settle_ke_per_body", s.bed.settle_ke_per_body);
     b.Number("max_settle_time", s.bed.max_settle_time);
+    b.Number("time_step", s.bed.time_step);
     b.String("cache_file", s.bed.cache_file);
   }
   if (r.Has("discharge")) {
@@ -648,6 +700,7 @@ void validate(const RunSpec& s) {
   CheckBounds("/bed/batch_size", s.bed.batch_size);
   CheckBounds("/bed/settle_ke_per_body", s.bed.settle_ke_per_body);
   CheckBounds("/bed/max_settle_time", s.bed.max_settle_time);
+  CheckBounds("/bed/time_step", s.bed.time_step);
 
   CheckBounds("/discharge/max_time", s.discharge.max_time);
   CheckBounds("/discharge/clog_window", s.discharge.clog_window);
@@ -669,6 +722,9 @@ void validate(const RunSpec& s) {
 }
 
 void validate_for_liggghts(const RunSpec& s) {
+  if (s.bed.time_step != Bed{}.time_step)
+    throw SpecError("/bed/time_step", "the LIGGGHTS backend prepares its bed at time_step; bed/time_step is the "
+                                      "native engine's (got " + Shown(s.bed.time_step) + ", allowed: 0)");
   if (s.discharge.mode == DischargeMode::kReinject && !s.silo.side_outlets.empty())
     throw SpecError("/discharge/mode",
                     "the LIGGGHTS backend reinjects through y-periodicity, which cannot return bodies that leave "
@@ -704,6 +760,8 @@ json BedJson(const Bed& b, bool with_cache_file) {
             {"settle_ke_per_body", b.settle_ke_per_body},
             {"max_settle_time", b.max_settle_time}};
   if (with_cache_file) j["cache_file"] = b.cache_file;
+  // Only when not the default, so that run ids planned before this option existed stay valid.
+  if (b.time_step != Bed{}.time_step) j["time_step"] = b.time_step;
   return j;
 }
 
@@ -756,7 +814,7 @@ json RunSpec::to_json() const {
 json RunSpec::bed_key() const {
   // Everything the bed preparation (physics.md, procedure step 1) depends on, and nothing
   // about outlets or obstacles, so runs differing only in those share one prepared bed.
-  return {{"engine", engine},
+  json key = {{"engine", engine},
           {"seed", seed},
           {"time_step", time_step},
           {"gravity", gravity},
@@ -765,6 +823,10 @@ json RunSpec::bed_key() const {
           {"bodies", BodiesJson(bodies)},
           {"contact", ContactJson(contact)},
           {"bed", BedJson(bed, false)}};
+  // The native engine's bed depends on the step it is prepared at (the resolved value: a bed
+  // prepared before bed/time_step existed, at time_step, is not taken for one at 5 x).
+  if (engine == "native") key["bed"]["resolved_time_step"] = bed_time_step();
+  return key;
 }
 
 }  // namespace granary

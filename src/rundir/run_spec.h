@@ -91,6 +91,9 @@ struct Bed {
   int batch_size = 500;            // bodies inserted per batch
   double settle_ke_per_body = 1e-6;  // settled when kinetic energy per body (units m g d) is below this
   double max_settle_time = 200.0;  // give up settling after this much simulated time
+  // Time step of the native engine's bed preparation; 0 = kBedTimeStepFactor x time_step
+  // (bed_time_step()). A bed at rest does not depend on it; docs/run-spec.md says why 5x is safe.
+  double time_step = 0.0;
   std::string cache_file;          // resolved by the runner: where the prepared bed is (or is to be) stored;
                                    // empty = prepare inside the run directory (bed.json)
 };
@@ -123,6 +126,9 @@ struct Output {
   double checkpoint_interval = 10.0;  // simulated time between checkpoints (0 = none)
 };
 
+// The native bed preparation's default step, in run time steps (Bed::time_step = 0).
+inline constexpr double kBedTimeStepFactor = 5.0;
+
 struct RunSpec {
   std::string run_id;              // stable id set by the runner (hash of the resolved parameters)
   std::uint64_t seed = 1;          // bed and reinjection randomness
@@ -144,6 +150,9 @@ struct RunSpec {
   // The JSON of everything that determines the prepared bed (bodies, silo width, bed procedure,
   // contact, time step, gravity, seed) but not the outlets or obstacles; hash it to name a cached bed.
   nlohmann::json bed_key() const;
+  // The native engine's bed-preparation time step: bed.time_step, or kBedTimeStepFactor x
+  // time_step when that is 0.
+  double bed_time_step() const { return bed.time_step > 0 ? bed.time_step : kBedTimeStepFactor * time_step; }
 };
 
 // Semantic checks beyond types (geometry fits, fractions sum to 1, ...); from_json calls it.
@@ -155,6 +164,12 @@ void validate_for_liggghts(const RunSpec& spec);
 // Every key of a run spec with its type, default, range and meaning: what from_json accepts
 // and checks, and what `campaign schema` tells editors (spec_table.h).
 const SpecTable& run_spec_table();
+
+// The first character of a name that a name must not hold, described ("U+2028 LINE
+// SEPARATOR", "U+0000 NUL", "a comma"), or "" if there is none: control characters (C0,
+// DEL, C1 such as U+0085), line and paragraph separators, bidirectional and zero-width
+// format characters, the byte-order mark; `extra` adds ASCII characters (",").
+std::string forbidden_character_in(const std::string& name, const std::string& extra = "");
 
 // Levenshtein distance, for "did you mean" suggestions (spec keys, CLI verbs).
 std::size_t edit_distance(const std::string& a, const std::string& b);

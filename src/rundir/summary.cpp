@@ -27,6 +27,7 @@ nlohmann::json Summary::ToJson() const {
   if (clogs) j["clogs"] = *clogs;
   j["bed"] = {{"file", bed.file}, {"height", bed.height}, {"prepared_here", bed.prepared_here},
               {"settle_time", bed.settle_time}};
+  if (!bed.refused.empty()) j["bed"]["refused"] = bed.refused;
   if (timing)
     j["timing"] = {{"wall_s", timing->wall_s},
                    {"bed_wall_s", timing->bed_wall_s},
@@ -34,6 +35,7 @@ nlohmann::json Summary::ToJson() const {
                    {"disc_steps_per_s", timing->disc_steps_per_s},
                    {"threads", timing->threads}};
   j["continued_from_checkpoint"] = continued_from_checkpoint;
+  if (!refused_checkpoints.empty()) j["refused_checkpoints"] = refused_checkpoints;
   if (max_out_of_plane) j["max_out_of_plane"] = *max_out_of_plane;
   if (!tangential_cap.empty()) j["tangential_cap"] = tangential_cap;
   if (!reinject_position.empty()) j["reinject_position"] = reinject_position;
@@ -66,6 +68,7 @@ Summary Summary::FromJson(const nlohmann::json& j, const std::string& where) {
       s.bed.height = b.value("height", 0.0);
       s.bed.prepared_here = b.value("prepared_here", false);
       s.bed.settle_time = b.value("settle_time", 0.0);
+      s.bed.refused = b.value("refused", std::string());
     }
     if (j.contains("timing") && j.at("timing").is_object()) {
       const nlohmann::json& t = j.at("timing");
@@ -78,6 +81,7 @@ Summary Summary::FromJson(const nlohmann::json& j, const std::string& where) {
       s.timing = timing;
     }
     s.continued_from_checkpoint = j.value("continued_from_checkpoint", false);
+    s.refused_checkpoints = j.value("refused_checkpoints", std::vector<std::string>{});
     if (j.contains("max_out_of_plane")) s.max_out_of_plane = j.at("max_out_of_plane").get<double>();
     s.tangential_cap = j.value("tangential_cap", "");
     s.reinject_position = j.value("reinject_position", "");

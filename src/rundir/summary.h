@@ -17,6 +17,7 @@ struct BedInfo {
   double height = 0.0;
   bool prepared_here = false;     // false: taken from the cache
   double settle_time = 0.0;
+  std::string refused;            // a cached bed file refused (corrupt, old format) and prepared again, or ""
 };
 
 struct Timing {
@@ -46,6 +47,7 @@ struct Summary {
   BedInfo bed;
   std::optional<Timing> timing;
   bool continued_from_checkpoint = false;
+  std::vector<std::string> refused_checkpoints;  // why checkpoints were refused (corrupt, ...), if any
   // LIGGGHTS only (docs/liggghts.md): the conventions it applied whatever the spec asked.
   std::optional<double> max_out_of_plane;
   std::string tangential_cap;     // "" = not written

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <chrono>
 #include <filesystem>
 #include <functional>
@@ -19,6 +20,16 @@ using nlohmann::json;
 
 double now_seconds() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+double lease_stale_seconds() {
+  static const double seconds = [] {
+    const char* env = std::getenv("GRANARY_LEASE_SECONDS");
+    char* end = nullptr;
+    const double v = env ? std::strtod(env, &end) : 0.0;
+    return env && end != env && *end == '\0' && v > 0 ? v : 60.0;
+  }();
+  return seconds;
 }
 
 Holder this_process_holder() {
@@ -90,8 +101,12 @@ PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vec
       "git_commit, run_dir) VALUES (?1, ?2, ?3, ?4, ?5, ?6, 'planned', ?7, ?8, ?9, ?10)");
   Statement revive = store.prepare(
       "UPDATE runs SET state = COALESCE(retired_from, 'planned'), retired_from = NULL WHERE run_id = ?1");
+  // A running run is retired with its lease: its runner stops the engine and records nothing,
+  // and if the run comes back it continues from its checkpoint.
   Statement retire = store.prepare(
-      "UPDATE runs SET retired_from = state, state = 'retired' WHERE run_id = ?1 AND state != 'retired'");
+      "UPDATE runs SET retired_from = CASE state WHEN 'running' THEN 'interrupted' ELSE state END, "
+      "state = 'retired', lease_holder = NULL, lease_host = NULL, lease_pid = NULL, lease_heartbeat = NULL "
+      "WHERE run_id = ?1 AND state != 'retired'");
   for (const auto& r : runs) {
     auto it = existing.find(r.run_id);
     if (it == existing.end()) {
@@ -198,7 +213,7 @@ void forget_retired_results(Store& store, const std::string& run_id) {
 
 bool lease_expired(const RunRow& row, const std::string& host, double now) {
   if (row.state != "running") return false;
-  return now - row.lease_heartbeat > kLeaseStaleSeconds || (row.lease_host == host && !PidAlive(row.lease_pid));
+  return now - row.lease_heartbeat > lease_stale_seconds() || (row.lease_host == host && !PidAlive(row.lease_pid));
 }
 
 std::vector<RunRow> load_runs(Store& store, bool with_params) {
@@ -217,7 +232,7 @@ int recover_expired_leases(Store& store, const Holder& me, double now) {
   while (q.step()) {
     const std::string holder = q.text(4);
     if (holder == me.id) continue;
-    const bool stale = now - q.real(3) > kLeaseStaleSeconds;
+    const bool stale = now - q.real(3) > lease_stale_seconds();
     const bool gone = q.text(1) == me.host && !PidAlive(static_cast<int>(q.integer(2)));
     if (stale || gone) expired.push_back(q.text(0));
   }
@@ -261,16 +276,41 @@ std::optional<RunRow> claim_next(Store& store, const Holder& me, double now,
   return found;
 }
 
-void heartbeat(Store& store, const Holder& me, double now, const std::map<std::string, json>& progress_by_run) {
+int requeue_done_runs(Store& store, const std::vector<std::string>& run_ids, const std::string& reason) {
+  Transaction tx(store);
+  Statement u = store.prepare(
+      "UPDATE runs SET state = 'planned', failure = ?2, end_reason = NULL, summary = NULL, ended_at = NULL, "
+      "wall_s = NULL WHERE run_id = ?1 AND state = 'done'");
+  Statement del = store.prepare("DELETE FROM results WHERE run_id = ?1");
+  int n = 0;
+  for (const auto& id : run_ids) {
+    u.reset();
+    u.bind(1, id).bind(2, reason).run();
+    if (sqlite3_changes(store.handle()) != 1) continue;
+    ++n;
+    del.reset();
+    del.bind(1, id).run();
+  }
+  tx.commit();
+  return n;
+}
+
+std::set<std::string> heartbeat(Store& store, const Holder& me, double now,
+                                const std::map<std::string, json>& progress_by_run) {
   Transaction tx(store);
   Statement u = store.prepare("UPDATE runs SET lease_heartbeat = ?2 WHERE lease_holder = ?1 AND state = 'running'");
   u.bind(1, me.id).bind(2, now).run();
-  Statement p = store.prepare("UPDATE runs SET progress = ?2 WHERE run_id = ?1 AND lease_holder = ?3");
+  Statement p = store.prepare("UPDATE runs SET progress = ?2 WHERE run_id = ?1 AND lease_holder = ?3 AND state = 'running'");
   for (const auto& [id, prog] : progress_by_run) {
     p.reset();
     p.bind(1, id).bind(2, prog.dump()).bind(3, me.id).run();
   }
+  std::set<std::string> held;
+  Statement q = store.prepare("SELECT run_id FROM runs WHERE lease_holder = ?1 AND state = 'running'");
+  q.bind(1, me.id);
+  while (q.step()) held.insert(q.text(0));
   tx.commit();
+  return held;
 }
 
 std::map<std::string, json> flatten_scalars(const json& summary) {
@@ -287,8 +327,16 @@ std::map<std::string, json> flatten_scalars(const json& summary) {
   return out;
 }
 
-void record_done(Store& store, const std::string& run_id, const json& summary, double now, double wall_s) {
+bool record_done(Store& store, const std::string& run_id, const std::string& holder, const json& summary, double now,
+                 double wall_s) {
   Transaction tx(store);
+  Statement u = store.prepare(
+      "UPDATE runs SET state = 'done', ended_at = ?2, wall_s = ?3, end_reason = ?4, engine_version = ?5, "
+      "summary = ?6, failure = NULL, lease_holder = NULL, lease_host = NULL, lease_pid = NULL, "
+      "lease_heartbeat = NULL WHERE run_id = ?1 AND state = 'running' AND lease_holder = ?7");
+  u.bind(1, run_id).bind(2, now).bind(3, wall_s).bind(4, summary.value("end_reason", std::string()));
+  u.bind(5, summary.value("engine_version", std::string())).bind(6, summary.dump()).bind(7, holder).run();
+  if (sqlite3_changes(store.handle()) != 1) return false;  // rolled back: not ours any more
   Statement del = store.prepare("DELETE FROM results WHERE run_id = ?1");
   del.bind(1, run_id).run();
   Statement ins = store.prepare("INSERT INTO results (run_id, key, value, text) VALUES (?1, ?2, ?3, ?4)");
@@ -300,23 +348,21 @@ void record_done(Store& store, const std::string& run_id, const json& summary, d
     else ins.bind_null(3).bind(4, value.get<std::string>());
     ins.run();
   }
-  Statement u = store.prepare(
-      "UPDATE runs SET state = 'done', ended_at = ?2, wall_s = ?3, end_reason = ?4, engine_version = ?5, "
-      "summary = ?6, failure = NULL, lease_holder = NULL, lease_host = NULL, lease_pid = NULL, "
-      "lease_heartbeat = NULL WHERE run_id = ?1");
-  u.bind(1, run_id).bind(2, now).bind(3, wall_s).bind(4, summary.value("end_reason", std::string()));
-  u.bind(5, summary.value("engine_version", std::string())).bind(6, summary.dump()).run();
   tx.commit();
+  return true;
 }
 
-void record_end(Store& store, const std::string& run_id, const std::string& state, const std::string& reason,
-                double now, double wall_s) {
+bool record_end(Store& store, const std::string& run_id, const std::string& holder, const std::string& state,
+                const std::string& reason, double now, double wall_s) {
   Transaction tx(store);
   Statement u = store.prepare(
       "UPDATE runs SET state = ?2, failure = ?3, ended_at = ?4, wall_s = ?5, end_reason = ?6, lease_holder = NULL, "
-      "lease_host = NULL, lease_pid = NULL, lease_heartbeat = NULL WHERE run_id = ?1");
-  u.bind(1, run_id).bind(2, state).bind(3, reason).bind(4, now).bind(5, wall_s).bind(6, state).run();
+      "lease_host = NULL, lease_pid = NULL, lease_heartbeat = NULL "
+      "WHERE run_id = ?1 AND state = 'running' AND lease_holder = ?7");
+  u.bind(1, run_id).bind(2, state).bind(3, reason).bind(4, now).bind(5, wall_s).bind(6, state).bind(7, holder).run();
+  if (sqlite3_changes(store.handle()) != 1) return false;
   tx.commit();
+  return true;
 }
 
 void store_metrics(Store& store, const std::vector<RunMetrics>& runs, double now) {

@@ -89,7 +89,9 @@ struct Holder {
 Holder this_process_holder();
 
 // A lease is expired when its heartbeat is older than this, or its pid is gone on this host.
-inline constexpr double kLeaseStaleSeconds = 60.0;
+// 60 s, or $GRANARY_LEASE_SECONDS (tests; clusters with slow shared file systems). Runners
+// heartbeat every min(2 s, a fifth of it).
+double lease_stale_seconds();
 
 // Is the lease of a running row expired (stale heartbeat, or holder pid gone on `host`)?
 bool lease_expired(const RunRow& row, const std::string& host, double now);
@@ -103,15 +105,25 @@ std::optional<RunRow> claim_next(Store& store, const Holder& me, double now,
                                  const std::function<bool(const RunRow&)>& accept,
                                  const std::set<std::string>& skip);
 
-void heartbeat(Store& store, const Holder& me, double now,
-               const std::map<std::string, nlohmann::json>& progress_by_run);
+// Done runs back to `planned` (their results deleted), e.g. when their run directory was
+// deleted after they finished; `reason` is kept as the run's failure note. Returns how many.
+int requeue_done_runs(Store& store, const std::vector<std::string>& run_ids, const std::string& reason);
 
+// Refreshes the heartbeat of every run `me` holds and stores their progress. Returns the
+// runs `me` still holds: a run missing from it was taken over (its lease expired and another
+// runner recovered it) or retired by a re-plan, and its engine must stop.
+std::set<std::string> heartbeat(Store& store, const Holder& me, double now,
+                                const std::map<std::string, nlohmann::json>& progress_by_run);
+
+// End states are written only by the lease holder: each is one compare-and-set on
+// (state 'running', lease_holder = holder) and returns false, changing nothing, when `holder`
+// no longer holds the run.
 // Ingests summary.json scalars into results, state done, lease cleared; one transaction.
-void record_done(Store& store, const std::string& run_id, const nlohmann::json& summary, double now,
-                 double wall_s);
+bool record_done(Store& store, const std::string& run_id, const std::string& holder, const nlohmann::json& summary,
+                 double now, double wall_s);
 // state failed or interrupted with the reason (and log tail); lease cleared.
-void record_end(Store& store, const std::string& run_id, const std::string& state, const std::string& reason,
-                double now, double wall_s);
+bool record_end(Store& store, const std::string& run_id, const std::string& holder, const std::string& state,
+                const std::string& reason, double now, double wall_s);
 
 // One run's metrics from one analysis (db/003_metrics.sql): what campaign report, export and
 // compare store after analysing, so that the database answers queries without a report.

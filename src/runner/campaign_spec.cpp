@@ -82,6 +82,73 @@ SpecTable MakeCampaignSpecTable() {
   });
 }
 
+// Line and column (1-based) of byte `offset` of `text`.
+std::pair<std::size_t, std::size_t> LineColumn(const std::string& text, std::size_t offset) {
+  std::size_t line = 1, column = 1;
+  for (std::size_t i = 0; i < offset && i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      column = 1;
+    } else {
+      ++column;
+    }
+  }
+  return {line, column};
+}
+
+std::vector<std::string> Tokens(const std::string& pointer) {
+  json::json_pointer p(pointer);  // (throws for a malformed pointer)
+  std::vector<std::string> out;
+  for (; !p.empty(); p.pop_back()) out.push_back(p.back());
+  std::reverse(out.begin(), out.end());
+  return out;
+}
+
+// Whether `a` is `b` or addresses a part of it (a JSON Pointer prefix at a token boundary).
+bool Within(const std::string& a, const std::string& b) {
+  return a == b || (a.size() > b.size() && a.compare(0, b.size(), b) == 0 && a[b.size()] == '/');
+}
+
+// The axis `pointer` must address a place in the resolved run spec: every parent an object
+// that has the key, or an array with the index; the last token may add a key to an object or
+// an element at the end of an array. `where` is the axis' path in the campaign spec.
+void CheckAxisResolves(const json& params, const std::string& pointer, const std::string& where) {
+  std::vector<std::string> tokens;
+  try {
+    tokens = Tokens(pointer);
+  } catch (const json::exception&) {
+    throw SpecError(where, "not a valid JSON Pointer (got \"" + pointer + "\")");
+  }
+  const json* at = &params;
+  std::string walked;
+  for (std::size_t k = 0; k < tokens.size(); ++k) {
+    const std::string& t = tokens[k];
+    const bool last = k + 1 == tokens.size();
+    const std::string here = walked.empty() ? "the run spec" : "\"" + walked + "\"";
+    if (at->is_object()) {
+      if (!at->contains(t)) {
+        if (last) return;  // a new key: the run spec's own validation judges it
+        throw SpecError(where, "axis \"" + pointer + "\" does not resolve: " + here + " has no key \"" + t + "\"");
+      }
+      at = &(*at)[t];
+    } else if (at->is_array()) {
+      const bool digits = !t.empty() && t.size() <= 9 && t.find_first_not_of("0123456789") == std::string::npos &&
+                          (t == "0" || t[0] != '0');
+      const std::size_t n = at->size();
+      if (!digits || std::stoul(t) > n || (std::stoul(t) == n && !last))
+        throw SpecError(where, "axis \"" + pointer + "\" does not resolve: " + here + " is an array of " +
+                                   std::to_string(n) + " element" + (n == 1 ? "" : "s") + " (indices 0 to " +
+                                   std::to_string(n) + "), not \"" + t + "\"");
+      if (std::stoul(t) == n) return;
+      at = &(*at)[std::stoul(t)];
+    } else {
+      throw SpecError(where, "axis \"" + pointer + "\" does not resolve: " + here + " is a " +
+                                 std::string(at->is_number() ? "number" : at->type_name()) + ", not an object or array");
+    }
+    walked += "/" + escape_pointer_token(t);
+  }
+}
+
 }  // namespace
 
 const SpecTable& campaign_spec_table() {
@@ -104,6 +171,41 @@ json campaign_spec_schema() {
   return s;
 }
 
+json parse_spec_text(const std::string& text, const std::string& source) {
+  // Nesting first: a parse and every later walk of the document recurse as deep as it is.
+  int depth = 0;
+  bool in_string = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxSpecDepth) {
+        const auto [line, column] = LineColumn(text, i);
+        throw std::invalid_argument(source + ":" + std::to_string(line) + ":" + std::to_string(column) +
+                                    ": nested deeper than " + std::to_string(kMaxSpecDepth) +
+                                    " levels (a campaign spec needs fewer than 10)");
+      }
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  try {
+    return json::parse(text);
+  } catch (const json::parse_error& e) {
+    const auto [line, column] = LineColumn(text, e.byte > 0 ? e.byte - 1 : 0);
+    std::string what = e.what();
+    // "[json.exception.parse_error.101] parse error at line 3, column 17: syntax error ..."
+    if (const auto colon = what.find(": "); what.rfind("[json.exception", 0) == 0 && colon != std::string::npos)
+      what = what.substr(colon + 2);
+    throw std::invalid_argument(source + ":" + std::to_string(line) + ":" + std::to_string(column) +
+                                ": not valid JSON: " + what);
+  }
+}
+
 CampaignSpec CampaignSpec::from_json(const json& j) {
   CheckKeys(j, "", campaign_spec_table().keys(""));
   CampaignSpec s;
@@ -114,6 +216,9 @@ CampaignSpec CampaignSpec::from_json(const json& j) {
   s.name = j["name"];
   if (j.contains("$schema") && !j["$schema"].is_string())
     throw SpecError("/$schema", "must be a string (got " + j["$schema"].dump() + ")");
+  if (const std::string bad = forbidden_character_in(s.name); !bad.empty())
+    throw SpecError("/name", "must not hold control characters or line breaks (got " + j["name"].dump() + ", which holds " +
+                                 bad + ")");
   if (j.contains("description")) {
     if (!j["description"].is_string()) throw SpecError("/description", "must be a string (got " + j["description"].dump() + ")");
     s.description = j["description"];
@@ -148,6 +253,18 @@ CampaignSpec CampaignSpec::from_json(const json& j) {
   if (j.contains("base")) {
     if (!j["base"].is_object()) throw SpecError("/base", "must be an object (got " + std::string(j["base"].type_name()) + ")");
     s.base = j["base"];
+  }
+  // The engine is set in one place: the campaign's "engine", or else /base/engine.
+  if (s.base.contains("engine")) {
+    const json& e = s.base["engine"];
+    if (!e.is_string() || (e != "native" && e != "liggghts"))
+      throw SpecError("/base/engine", "must be \"native\" or \"liggghts\" (got " + e.dump() + ")");
+    if (!j.contains("engine")) {
+      s.engines = {e.get<std::string>()};
+    } else if (s.engines != std::vector<std::string>{e.get<std::string>()}) {
+      throw SpecError("/base/engine", e.dump() + " conflicts with the campaign's \"engine\" " + j["engine"].dump() +
+                                          "; set the engine in one place (the campaign's \"engine\")");
+    }
   }
   if (j.contains("report") && !j["report"].is_object()) {
     throw SpecError("/report", "must be an object (got " + std::string(j["report"].type_name()) + ")");
@@ -204,13 +321,30 @@ CampaignSpec CampaignSpec::from_json(const json& j) {
     }
   }
   // The base must be a valid run spec on its own; errors point into /base.
+  json canonical;
   for (const auto& engine : s.engines) {
     json base = s.base;
     base["engine"] = engine;
     try {
-      RunSpec::from_json(base);
+      canonical = RunSpec::from_json(base).to_json();
     } catch (const SpecError& e) {
       throw SpecError("/base" + e.path(), e.message());
+    }
+  }
+  // Every axis addresses a place in the resolved run spec, and no axis sets part of another.
+  std::vector<std::pair<std::string, std::string>> where;  // axis, its path in the spec
+  for (const char* kind : {"grid", "zip"})
+    for (const auto& [key, values] : (std::string(kind) == "grid" ? s.grid : s.zip).items())
+      where.emplace_back(key, "/sweep/" + std::string(kind) + "/" + escape_pointer_token(key));
+  for (std::size_t i = 0; i < s.points.size(); ++i)
+    for (const auto& [key, value] : s.points[i].items())
+      where.emplace_back(key, "/sweep/points/" + std::to_string(i) + "/" + escape_pointer_token(key));
+  for (const auto& [axis, path] : where) {
+    CheckAxisResolves(canonical, axis, path);
+    for (const auto& [other, other_path] : where) {
+      if (axis != other && Within(axis, other))
+        throw SpecError(path, "axis \"" + axis + "\" sets part of the axis \"" + other + "\" (" + other_path +
+                                  "); sweep each value in one place");
     }
   }
   return s;
@@ -273,7 +407,31 @@ std::string DumpTemplate::fill(const std::vector<std::string>& values) const {
   return out;
 }
 
-std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cache_dir) {
+std::uint64_t planned_run_count(const CampaignSpec& spec) {
+  constexpr std::uint64_t kCap = std::uint64_t{1} << 63;
+  std::uint64_t n = 1;
+  const auto times = [&](std::uint64_t k) { n = (k != 0 && n > kCap / k) ? kCap : n * k; };
+  for (const auto& [key, values] : spec.grid.items()) times(values.size());
+  if (!spec.zip.empty()) times(spec.zip.begin()->size());
+  if (!spec.points.empty()) times(spec.points.size());
+  times(spec.engines.size());
+  times(static_cast<std::uint64_t>(spec.replicas));
+  return n;
+}
+
+std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cache_dir, std::uint64_t max_runs) {
+  // Counted before anything is allocated: a typo of a few zeros must not end in bad_alloc.
+  if (const std::uint64_t n = planned_run_count(spec); n > max_runs) {
+    std::string factors;
+    for (const auto& [key, values] : spec.grid.items()) factors += (factors.empty() ? "" : " x ") + std::to_string(values.size());
+    if (!spec.zip.empty()) factors += (factors.empty() ? "" : " x ") + std::to_string(spec.zip.begin()->size()) + " zip rows";
+    if (!spec.points.empty()) factors += (factors.empty() ? "" : " x ") + std::to_string(spec.points.size()) + " points";
+    if (factors.empty()) factors = "1 point";
+    throw SpecError("/sweep", "expands to " + std::to_string(n) + " runs (" + factors + " x " +
+                                  std::to_string(spec.engines.size()) + " engine(s) x " + std::to_string(spec.replicas) +
+                                  " replicas), more than the limit of " + std::to_string(max_runs) +
+                                  "; narrow the sweep, or raise the limit with --max-runs");
+  }
   // Sweep points: grid (cartesian, first axis slowest) x zip rows x explicit points.
   std::vector<json> points = {json::object()};
   for (const auto& [key, values] : spec.grid.items()) {

@@ -65,12 +65,28 @@ const SpecTable& campaign_spec_table();
 // run_spec_table(): what `campaign schema` prints for editors.
 nlohmann::json campaign_spec_schema();
 
+// A campaign spec's text as JSON. Throws std::invalid_argument naming `source`, the line and
+// the column: for a syntax error, and for nesting deeper than kMaxSpecDepth (checked before
+// parsing; a campaign spec needs fewer than 10 levels).
+inline constexpr int kMaxSpecDepth = 64;
+nlohmann::json parse_spec_text(const std::string& text, const std::string& source);
+
+// How many runs the sweep expands to (points x engines x replicas), computed without
+// expanding it; saturates at 2^63.
+std::uint64_t planned_run_count(const CampaignSpec& spec);
+
+// The default limit of expand(): a larger sweep is refused before anything is allocated
+// (`campaign plan --max-runs N` raises it).
+inline constexpr std::uint64_t kDefaultMaxRuns = 100000;
+
 // The directory of prepared beds: $GRANARY_CACHE_DIR or ~/.cache/granary/beds.
 std::string default_cache_dir();
 
 // Expands the sweep into runs (points in order, replicas within a point). Every run is
 // validated; an error names the sweep point. bed.cache_file = <cache_dir>/<hash of bed_key>.bed.
-std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cache_dir);
+// Throws SpecError at /sweep when the sweep has more than max_runs runs, before allocating.
+std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cache_dir,
+                               std::uint64_t max_runs = kDefaultMaxRuns);
 
 // Run id of a resolved run spec: hash of its canonical JSON without run_id and cache_file.
 std::string run_id_of(const RunSpec& spec);

@@ -125,6 +125,7 @@ const std::vector<FlagSpec>& FlagsOf(const std::string& verb);
 Args Parse(const std::vector<std::string>& argv, const std::string& verb) { return Parse(argv, FlagsOf(verb), verb); }
 
 std::string DbPath(const Args& a) { return a.get("db", "granary.db"); }
+
 fs::path DbDir(const std::string& db) {
   const fs::path p = fs::absolute(db).parent_path();
   return p;
@@ -175,8 +176,9 @@ std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& 
   }
   std::error_code ec;
   if (!fs::is_directory(db) && fs::file_size(db, ec) == 0 && !ec) {
-    throw StoreError(SQLITE_NOTADB, "database " + db + " is empty (0 bytes): whatever campaign it held is lost; plan a "
-                                        "campaign into it again with campaign plan SPEC --db " + db);
+    throw StoreError(SQLITE_NOTADB, "database " + db + " is empty (0 bytes): whatever campaign it held is lost (was it "
+                                        "truncated, or copied while the disk was full?); plan a campaign into it again "
+                                        "with campaign plan SPEC --db " + db);
   }
   try {
     return std::make_unique<Store>(db);
@@ -221,25 +223,38 @@ std::string ProgressText(const json& progress, double elapsed) {
 
 // ---------------------------------------------------------------- plan
 const char kPlanHelp[] =
-    "usage: campaign plan SPEC [--db FILE] [--dry-run] [--json]\n"
+    "usage: campaign plan SPEC [--db FILE] [--dry-run] [--json] [--max-runs N]\n"
     "Expand the campaign spec SPEC into runs and store them in the database (default granary.db).\n"
     "Planning the same spec again changes nothing; runs no longer in an edited spec are retired\n"
     "(their results are kept), new ones are added.\n"
     "  --db FILE    database (created if missing); run directories go to <db dir>/runs/<run id>/\n"
     "  --dry-run    validate and show what would change, store nothing\n"
-    "  --json       print the summary as JSON\n";
+    "  --json       print the summary as JSON\n"
+    "  --max-runs N refuse a sweep of more than N runs (default 100000), before expanding it\n";
 
 json ReadSpecFile(const std::string& verb, const std::string& spec_path) {
-  std::ifstream in(spec_path);
+  std::ifstream in(spec_path, std::ios::binary);
   if (!in) throw UsageError("campaign " + verb + ": cannot read " + spec_path);
-  json j = json::parse(in, nullptr, false);
-  if (j.is_discarded()) throw UsageError(spec_path + ": not valid JSON");
-  return j;
+  std::stringstream text;
+  text << in.rdbuf();
+  try {
+    return parse_spec_text(text.str(), spec_path);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(e.what());
+  }
+}
+
+std::uint64_t MaxRuns(const Args& a) {
+  if (!a.has("max-runs")) return kDefaultMaxRuns;
+  const std::string v = a.get("max-runs", "");
+  if (v.empty() || v.size() > 18 || v.find_first_not_of("0123456789") != std::string::npos || std::stoull(v) == 0)
+    throw UsageError("--max-runs: must be a positive integer (got \"" + v + "\")");
+  return std::stoull(v);
 }
 
 // Validates the campaign spec `j` (read from spec_path), expands it and stores the runs.
 PlanSummary PlanInto(const json& j, const std::string& spec_path, const std::string& db, bool dry_run,
-                     CampaignSpec& spec) {
+                     std::uint64_t max_runs, CampaignSpec& spec) {
   try {
     spec = CampaignSpec::from_json(j);
   } catch (const SpecError& e) {
@@ -252,7 +267,12 @@ PlanSummary PlanInto(const json& j, const std::string& spec_path, const std::str
     throw UsageError(spec_path + ": " + e.what());
   }
 #endif
-  const std::vector<PlannedRun> runs = expand(spec, default_cache_dir());
+  std::vector<PlannedRun> runs;
+  try {
+    runs = expand(spec, default_cache_dir(), max_runs);
+  } catch (const SpecError& e) {
+    throw SpecError(e.path(), e.message() + " [" + spec_path + "]");
+  }
   // A dry run against a database that does not exist compares with an empty one in memory:
   // it creates no file.
   Store store(dry_run && !fs::exists(db) ? std::string(":memory:") : db);
@@ -286,7 +306,8 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   if (a.positional.size() != 1) throw UsageError("campaign plan: needs exactly one SPEC file (see campaign plan --help)");
   const std::string spec_path = a.positional[0];
   CampaignSpec spec;
-  const PlanSummary s = PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.has("dry-run"), spec);
+  const PlanSummary s =
+      PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.has("dry-run"), MaxRuns(a), spec);
   if (a.has("json")) {
     json axes = json::object();
     for (const auto& [axis, values] : s.axis_values) axes[axis] = values;
@@ -304,7 +325,7 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
 // ---------------------------------------------------------------- run
 const char kRunHelp[] =
     "usage: campaign run [--db FILE] [--jobs N] [--engine E] [--only FILTER] [--threads-per-run T]\n"
-    "                    [--time-limit S] [--retries K]\n"
+    "                    [--time-limit S] [--retries K] [--rerun-lost]\n"
     "Run every planned, interrupted or failed run, N at a time, each as an engine subprocess on\n"
     "its run directory. Safe to repeat after a crash or kill: done runs are kept, interrupted ones\n"
     "continue from their checkpoint, and two runners on one database never run the same run.\n"
@@ -316,10 +337,12 @@ const char kRunHelp[] =
     "  --threads-per-run T  passed to the engine as --threads (default 1)\n"
     "  --time-limit S       wall seconds per run; a run over it is killed and marked failed\n"
     "  --retries K          extra attempts per run in this invocation (default 1)\n"
-    "Exit: 0 all ran, 1 some runs failed, 2 usage error, 130 interrupted (Ctrl-C / SIGTERM).\n";
+    "  --rerun-lost         run again the done runs whose run directory was deleted\n"
+    "Exit: 0 all ran, 1 some runs failed, 2 usage error, 3 storage error (database or run\n"
+    "directories: full disk, unwritable), 130 interrupted (Ctrl-C / SIGTERM).\n";
 
 volatile std::sig_atomic_t g_stop = 0;
-extern "C" void OnStopSignal(int) { g_stop = 1; }
+extern "C" void RunnerOnStopSignal(int) { g_stop = 1; }
 
 // Columns of the terminal on stdout (80 when it cannot be asked).
 int TerminalColumns() {
@@ -458,6 +481,7 @@ RunOptions RunOptionsFrom(const Args& a) {
   if (o.time_limit < 0) throw UsageError("--time-limit: must be >= 0 (got \"" + a.get("time-limit", "") + "\")");
   o.retries = a.integer("retries", 1, 0);
   o.exe_dir = ExeDir();
+  o.heartbeat_interval = std::min(o.heartbeat_interval, lease_stale_seconds() / 5);
   return o;
 }
 
@@ -470,6 +494,7 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
     throw UsageError("--engine: must be native, liggghts or a path to an engine executable (got \"" + o.engine + "\")");
   }
   o.only = a.all("only");
+  o.rerun_lost = a.has("rerun-lost");
   return RunAll(DbPath(a), o, out);
 }
 
@@ -489,7 +514,7 @@ int RunAll(const std::string& db, const RunOptions& options, std::ostream& out) 
   }
 
   struct sigaction sa {};
-  sa.sa_handler = OnStopSignal;
+  sa.sa_handler = RunnerOnStopSignal;
   sigemptyset(&sa.sa_mask);
   struct sigaction old_int {}, old_term {};
   sigaction(SIGINT, &sa, &old_int);
@@ -546,6 +571,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   double first_start = 0, last_end = 0, wall_sum = 0, remaining_work = 0;
   int wall_n = 0, active = 0;
   const double now = now_seconds();
+  int lost = 0;  // done, but the run directory is gone
   for (const auto& r : runs) {
     if (r.state == "retired") {
       ++retired;
@@ -553,6 +579,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     }
     ++total;
     ++counts[r.state];
+    if (r.state == "done" && !fs::exists(r.run_dir)) ++lost;
     if (r.started_at > 0 && (first_start == 0 || r.started_at < first_start)) first_start = r.started_at;
     last_end = std::max(last_end, r.ended_at);
     if (r.state == "done" && r.wall_s > 0) {
@@ -590,6 +617,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                          {"analysis", rm.analysis}};
         j["metrics"] = m;
       }
+      if (r.state == "done" && !fs::exists(r.run_dir)) j["run_dir_missing"] = true;
       list.push_back(j);
     }
     out << json{{"campaign", campaign ? campaign->name : ""},
@@ -597,6 +625,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                 {"counts", counts},
                 {"retired", retired},
                 {"only", filters},
+                {"lost", lost},
                 {"elapsed_s", elapsed},
                 {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
                 {"runs", list}}
@@ -612,6 +641,12 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   if (retired > 0) out << "  (and " << retired << " retired: no longer in the spec, not counted)";
   out << "\n  elapsed " << Duration(elapsed) << ", ETA "
       << (total - counts["done"] == 0 ? std::string("-") : eta >= 0 ? Duration(eta) : "?") << "\n";
+  if (lost > 0) {
+    out << "lost: " << lost << " done run(s) have no run directory (deleted after they finished); their results "
+        << "are in the database only (campaign run --rerun-lost runs them again):\n";
+    for (const auto& r : runs)
+      if (r.state == "done" && !fs::exists(r.run_dir)) out << "  " << r.run_id << "  " << r.run_dir << "\n";
+  }
   int analysed = 0;
   for (const auto& r : runs) analysed += r.state == "done" && metrics.count(r.run_id) ? 1 : 0;
   if (counts["done"] > 0)
@@ -757,7 +792,11 @@ int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
                                      !a.has("no-figures"), err, a.all("only"));
   out << "report: " << summary.markdown.string() << "\n        " << summary.html.string() << "\n  runs used "
-      << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed << "\n"
+      << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed
+      << (summary.runs_lost > 0 ? ", lost " + std::to_string(summary.runs_lost) +
+                                      " (done, run directory deleted: campaign run --rerun-lost)"
+                                : std::string())
+      << "\n"
       << "  analysis results: " << summary.results_from_cache << " from the runs' caches, " << summary.results_computed
       << " computed\n";
   return 0;
@@ -823,7 +862,7 @@ const char kCompareHelp[] =
     "  --json        print the comparison as JSON (progress goes to stderr)\n"
     "  --jobs, --threads-per-run, --time-limit, --retries: as for campaign run\n"
     "Exit: 0 compared, 1 some runs failed or no point finished on both engines, 2 usage error,\n"
-    "130 interrupted.\n";
+    "3 storage error, 130 interrupted.\n";
 
 #ifdef GRANARY_HAVE_ANALYSIS
 void PrintComparison(std::ostream& out, const json& c) {
@@ -877,13 +916,16 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
 #ifdef GRANARY_HAVE_ANALYSIS
   const std::string spec_path = a.positional[0];
   json j = ReadSpecFile("compare", spec_path);
-  if (j.is_object()) j["engine"] = json::array({"native", "liggghts"});
+  if (j.is_object()) {
+    j["engine"] = json::array({"native", "liggghts"});
+    if (j.contains("base") && j["base"].is_object()) j["base"].erase("engine");  // both, whatever it says
+  }
   const RunOptions o = RunOptionsFrom(a);
   const std::string db = DbPath(a);
   // With --json, stdout carries only the JSON document.
   std::ostream& progress = a.has("json") ? err : out;
   CampaignSpec spec;
-  const PlanSummary s = PlanInto(j, spec_path, db, false, spec);
+  const PlanSummary s = PlanInto(j, spec_path, db, false, MaxRuns(a), spec);
   PrintPlan(progress, spec, s, false);
   int code = 0;
   if (!a.has("no-run")) {
@@ -1229,7 +1271,8 @@ fs::path ResolveRun(const std::string& verb, const std::string& run, const Args&
   if (!fs::exists(db))
     throw UsageError("campaign " + verb + ": '" + run + "' is not a run directory, and there is no database " + db +
                      " to look it up in");
-  Store store(db);
+  const auto opened = OpenCampaignDb(db, verb);
+  Store& store = *opened;
   std::vector<RunRow> found;
   for (RunRow& r : load_runs(store, false))
     if (r.run_id.rfind(run, 0) == 0) found.push_back(std::move(r));
@@ -1347,9 +1390,9 @@ struct Verb {
 const std::vector<Verb>& Verbs() {
   static const std::vector<Verb> kVerbs = {
       {"plan", "expand a campaign spec into runs in the database", kPlanHelp, Plan,
-       {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}},
+       {{"db", true}, {"dry-run", false}, {"json", false}, {"max-runs", true}, {"help", false}}},
       {"run", "run what is not done (resumable, leases, N at a time)", kRunHelp, Run,
-       {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"help", false}}},
+       {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"rerun-lost", false}, {"help", false}}},
       {"status", "counts, progress, failures, ETA", kStatusHelp, Status,
        {{"db", true}, {"only", true}, {"json", false}, {"help", false}}},
       {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report,
@@ -1357,7 +1400,7 @@ const std::vector<Verb>& Verbs() {
       {"export", "write every run's (or point's) metrics as one CSV or JSON table", kExportHelp, Export,
        {{"db", true}, {"format", true}, {"level", true}, {"out", true}, {"only", true}, {"help", false}}},
       {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare,
-       {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false}, {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"help", false}}},
+       {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false}, {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"max-runs", true}, {"help", false}}},
       {"show", "everything about one run: state, timings, results, parameters, files, log", kShowHelp, Show,
        {{"db", true}, {"log", true}, {"json", false}, {"help", false}}},
       {"clean", "remove retired (and failed) runs' directories, unused beds, stale locks", kCleanHelp, Clean,
@@ -1451,7 +1494,8 @@ std::string MainHelp() {
   for (const auto& v : Verbs()) width = std::max(width, std::string(v.name).size());
   for (const auto& v : Verbs())
     h += "  " + std::string(v.name) + std::string(width + 2 - std::string(v.name).size(), ' ') + v.summary + "\n";
-  h += "\nexit codes: 0 ok, 1 runs failed, 2 usage or spec error, 130 interrupted\n";
+  h += "\nexit codes: 0 ok, 1 runs failed, 2 usage or spec error, 3 storage (database or run directories),\n"
+       "130 interrupted (docs/cli.md)\n";
   return h;
 }
 
@@ -1498,7 +1542,7 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     return static_cast<int>(ExitCode::kUsage);
   } catch (const StoreError& e) {
     err << "error: " << e.what() << "\n";
-    return static_cast<int>(ExitCode::kUsage);
+    return static_cast<int>(ExitCode::kStorage);
   } catch (const std::invalid_argument& e) {  // e.g. an engine executable that does not exist
     err << "error: " << e.what() << "\n";
     return static_cast<int>(ExitCode::kUsage);

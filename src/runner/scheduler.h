@@ -4,6 +4,8 @@
 #pragma once
 
 #include <csignal>
+#include <functional>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -14,7 +16,8 @@
 
 namespace granary::runner {
 
-enum class ExitCode : int { kOk = 0, kRunsFailed = 1, kUsage = 2, kInterrupted = 130 };
+// docs/cli.md "Exit codes".
+enum class ExitCode : int { kOk = 0, kRunsFailed = 1, kUsage = 2, kStorage = 3, kInterrupted = 130 };
 
 struct RunOptions {
   int jobs = 1;
@@ -25,7 +28,13 @@ struct RunOptions {
   int retries = 1;            // extra attempts per run within this invocation
   std::string exe_dir;        // where granary-engine / granary-liggghts live
   double poll_interval = 0.2;
-  double heartbeat_interval = 2.0;
+  double tick_interval = 0.5;       // observer ticks (progress display)
+  double heartbeat_interval = 2.0;  // lease heartbeats, and the check that the leases are still ours
+  bool rerun_lost = false;          // run again the done runs whose run directory was deleted
+  // Tests: who claims the runs (default this_process_holder()), and the monotonic clock in
+  // seconds that time limits, ticks and heartbeats are measured with (default steady_clock).
+  std::optional<Holder> holder;
+  std::function<double()> clock;
 };
 
 struct ActiveRun {
@@ -45,6 +54,9 @@ class RunObserver {
   virtual void on_tick(const std::vector<ActiveRun>& active, int done, int failed, int total) = 0;
   virtual void on_end(int done, int failed, int total) = 0;
 };
+
+// The failure note of a done run put back to planned because its directory was deleted.
+extern const char kLostRunDirectory[];
 
 // Does `row` pass the --only filter (one filter; RunFilter for several)?
 bool matches_filter(const RunRow& row, const std::string& filter);

@@ -5,6 +5,9 @@
 #include "engine/bed.h"
 
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -70,6 +73,43 @@ TEST(Bed, FileOfAnotherBedKeyIsRefused) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("beds/x.json was prepared for another bed key"), std::string::npos) << e.what();
   }
+}
+
+
+// Prepared beds carry a format version and a checksum: a cached bed with one number changed
+// (or of an older format) is refused with a message, put aside and prepared again, so the
+// run still starts from the bed its spec and seed give.
+TEST(Bed, ACorruptOrOldCachedBedIsRefusedAndPreparedAgain) {
+  namespace fs = std::filesystem;
+  std::string tmpl = (fs::temp_directory_path() / "granary-bed-test-XXXXXX").string();
+  ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
+  const fs::path dir = tmpl;
+  RunSpec spec = SmallBedSpec();
+  spec.bed.cache_file = (dir / "bed.json").string();
+  const ObtainedBed first = ObtainBed(spec, dir.string(), nullptr);
+  ASSERT_TRUE(first.prepared_here);
+  EXPECT_TRUE(ObtainBed(spec, dir.string(), nullptr).refused.empty());
+
+  // One coordinate changed in the file: still valid JSON, still a bed of the right key.
+  nlohmann::json j = nlohmann::json::parse(std::ifstream(spec.bed.cache_file));
+  EXPECT_EQ(j["version"], 3);
+  EXPECT_EQ(j["checksum"].get<std::string>().rfind("crc32:", 0), 0u);
+  j["bodies"][7][1] = j["bodies"][7][1].get<double>() + 1e-9;
+  std::ofstream(spec.bed.cache_file) << j.dump();
+  const ObtainedBed again = ObtainBed(spec, dir.string(), nullptr);
+  EXPECT_TRUE(again.prepared_here);
+  EXPECT_NE(again.refused.find("bed.json is corrupt: its checksum is crc32:"), std::string::npos) << again.refused;
+  EXPECT_TRUE(fs::exists(spec.bed.cache_file + ".corrupt"));
+  EXPECT_EQ(again.bed.x, first.bed.x);
+
+  // An older format (no checksum) is not trusted either.
+  j = nlohmann::json::parse(std::ifstream(spec.bed.cache_file));
+  j["version"] = 2;
+  j.erase("checksum");
+  std::ofstream(spec.bed.cache_file) << j.dump();
+  EXPECT_NE(ObtainBed(spec, dir.string(), nullptr).refused.find("has format version 2; this engine reads version 3"),
+            std::string::npos);
+  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -2,12 +2,19 @@
 // clogging, checkpoint/continue, determinism across seeds and thread counts, bed cache.
 #include "engine/bench.h"
 #include "engine/run.h"
+#include "rundir/files.h"
+#include "rundir/stop.h"
 #include "rundir/version.h"
+
+#include <signal.h>
 
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdlib>
+#include <chrono>
+#include <thread>
+#include <fcntl.h>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -73,8 +80,10 @@ std::vector<double> EventTimes(const fs::path& dir) {
   return t;
 }
 
-RunResult RunQuiet(const fs::path& dir, int threads = 1, std::int64_t abort_after = -1, int force_block = 0) {
+RunResult RunQuiet(const fs::path& dir, int threads = 1, std::int64_t abort_after = -1, int force_block = 0,
+                   std::int64_t stop_after = -1) {
   RunOptions o;
+  o.stop_after_steps = stop_after;
   o.force_block = force_block;
   o.parallel_min_discs = 0;  // exercise the parallel loops even on these small systems
   o.threads = threads;
@@ -86,6 +95,17 @@ RunResult RunQuiet(const fs::path& dir, int threads = 1, std::int64_t abort_afte
 int RunExe(const std::string& args) {
   const int status = std::system((std::string(GRANARY_ENGINE_EXE) + " " + args + " > /dev/null 2>&1").c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// Runs the executable; its exit status (or 128 + the signal that ended it) and its output.
+std::pair<int, std::string> RunExeOutput(const std::string& args) {
+  const std::string cmd = std::string(GRANARY_ENGINE_EXE) + " " + args + " 2>&1";
+  FILE* p = ::popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[512];
+  while (p && std::fgets(buf, sizeof buf, p)) out += buf;
+  const int status = p ? ::pclose(p) : -1;
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), out};
 }
 
 TEST(Run, SmallSiloDischargesAndItsExitCountGrows) {
@@ -396,14 +416,8 @@ TEST(Run, ExecutableReportsSpecErrorsAndHelp) {
   nlohmann::json spec = SmallSpec(8.0, 1.0);
   spec["silo"]["base_outlets"][0]["width"] = -3.0;
   WriteSpec(dir, spec);
-  const std::string cmd = std::string(GRANARY_ENGINE_EXE) + " run " + dir.string() + " 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  std::string out;
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p)) out += buf;
-  const int status = ::pclose(p);
-  EXPECT_NE(WEXITSTATUS(status), 0);
+  const auto [code, out] = RunExeOutput("run " + dir.string());
+  EXPECT_NE(code, 0);
   EXPECT_NE(out.find("/silo/base_outlets/0/width"), std::string::npos) << out;
   EXPECT_EQ(RunExe("run --help"), 0);
   EXPECT_EQ(RunExe("bench --help"), 0);
@@ -436,6 +450,151 @@ TEST(Run, BenchRepeatsRoundsAndSummarises) {
     EXPECT_GE(best, median) << line;
   }
   EXPECT_NE(summaries[0].find("median_speedup=1.000"), std::string::npos) << summaries[0];
+}
+
+
+// Writes 64 bytes of garbage into the middle of a file (as the issue's hostile user did).
+void Scribble(const fs::path& file) {
+  std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+  f.seekp(static_cast<std::streamoff>(fs::file_size(file) / 2));
+  const std::string junk(64, '\x5a');
+  f.write(junk.data(), static_cast<std::streamsize>(junk.size()));
+}
+
+// A stop request (SIGTERM) during the discharge writes a checkpoint at that step, wherever it
+// falls (not on the checkpoint interval), and the continued run gives the same bits. Also
+// with checkpoint_interval 0 (before: everything since the last periodic checkpoint, or the
+// whole run, was lost).
+TEST(Run, AStopRequestCheckpointsAndTheContinuedRunIsTheSame) {
+  for (const double interval : {1.0, 0.0}) {
+    const fs::path a = FreshDir("stop-a"), b = FreshDir("stop-b");
+    nlohmann::json spec = SmallSpec(8.0, 4.0);
+    spec["output"]["checkpoint_interval"] = interval;
+    WriteSpec(a, spec);
+    WriteSpec(b, spec);
+    RunQuiet(a);
+    try {
+      RunQuiet(b, 1, -1, 0, 23457);
+      FAIL() << "expected a stop";
+    } catch (const Stopped& e) {
+      EXPECT_EQ(e.signal(), SIGTERM);
+      EXPECT_NE(std::string(e.what()).find("(step 23457); checkpoint written"), std::string::npos) << e.what();
+    }
+    EXPECT_TRUE(fs::exists(b / "checkpoint.bin"));
+    EXPECT_FALSE(fs::exists(b / "DONE"));
+    ASSERT_EQ(RunExe("run " + b.string() + " --threads 1"), 0);
+    EXPECT_TRUE(ReadJson(b / "summary.json")["continued_from_checkpoint"].get<bool>());
+    EXPECT_EQ(Slurp(a / "events.csv"), Slurp(b / "events.csv")) << "interval " << interval;
+    EXPECT_EQ(Slurp(a / "frames.dump"), Slurp(b / "frames.dump")) << "interval " << interval;
+  }
+}
+
+// The same through the executable and a real SIGTERM: the engine checkpoints and ends by the
+// signal (the runner sees an interruption), and the checkpoint continues.
+TEST(Run, SigtermMakesTheExecutableCheckpointAndEndByTheSignal) {
+  const fs::path dir = FreshDir("sigterm");
+  nlohmann::json spec = SmallSpec(8.0, 1000.0);
+  spec["discharge"]["mode"] = "reinject";
+  spec["discharge"]["stop_on_clog"] = false;
+  spec["output"]["checkpoint_interval"] = 0.0;
+  spec["output"]["frame_interval"] = 0.0;
+  WriteSpec(dir, spec);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1);
+    ::execl(GRANARY_ENGINE_EXE, GRANARY_ENGINE_EXE, "run", dir.c_str(), "--threads", "1", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  // Once the discharge is under way (its first progress.json), not before.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (Slurp(dir / "progress.json").find("\"discharge\"") == std::string::npos && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << status;
+  EXPECT_EQ(WTERMSIG(status), SIGTERM);
+  ASSERT_TRUE(fs::exists(dir / "checkpoint.bin"));
+  EXPECT_EQ(granary::RunDirectoryHolder(dir), "");
+  EXPECT_TRUE(RunQuiet(dir, 1, 10).continued);
+}
+
+// issue 13: 64 bytes overwritten in the middle of checkpoint.bin were accepted, and the run
+// ended `done` with a different number of exits. Now the checksum refuses it, the run
+// continues from the previous checkpoint, says so, and gives the uninterrupted run's bits.
+TEST(Run, ACorruptCheckpointIsRefusedAndThePreviousOneUsed) {
+  const fs::path a = FreshDir("corrupt-a"), b = FreshDir("corrupt-b");
+  WriteSpec(a, SmallSpec(8.0, 4.0));
+  WriteSpec(b, SmallSpec(8.0, 4.0));
+  RunQuiet(a);
+  EXPECT_EQ(RunQuiet(b, 1, 27000).end_reason, "aborted");  // checkpoints at t = 1 (prev) and 2
+  ASSERT_TRUE(fs::exists(b / "checkpoint.prev.bin"));
+  Scribble(b / "checkpoint.bin");
+  const auto [code, out] = RunExeOutput("run " + b.string() + " --threads 1");
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("refusing checkpoint: checkpoint.bin is corrupt: CRC-32 of its payload is "), std::string::npos) << out;
+  EXPECT_NE(out.find("continuing from the previous checkpoint (checkpoint.prev.bin)"), std::string::npos) << out;
+  const nlohmann::json summary = ReadJson(b / "summary.json");
+  EXPECT_TRUE(summary["continued_from_checkpoint"].get<bool>());
+  ASSERT_EQ(summary["refused_checkpoints"].size(), 1u);
+  EXPECT_TRUE(fs::exists(b / "checkpoint.bin.corrupt"));
+  EXPECT_EQ(Slurp(a / "events.csv"), Slurp(b / "events.csv"));
+  EXPECT_EQ(Slurp(a / "frames.dump"), Slurp(b / "frames.dump"));
+}
+
+// Both checkpoints bad (one corrupt, one truncated): the run starts over, and says why.
+TEST(Run, WithNoUsableCheckpointTheRunStartsOver) {
+  const fs::path a = FreshDir("nockpt-a"), b = FreshDir("nockpt-b");
+  WriteSpec(a, SmallSpec(8.0, 3.0));
+  WriteSpec(b, SmallSpec(8.0, 3.0));
+  RunQuiet(a);
+  EXPECT_EQ(RunQuiet(b, 1, 27000).end_reason, "aborted");
+  Scribble(b / "checkpoint.bin");
+  fs::resize_file(b / "checkpoint.prev.bin", fs::file_size(b / "checkpoint.prev.bin") - 100);
+  const auto [code, out] = RunExeOutput("run " + b.string() + " --threads 1");
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("checkpoint.prev.bin is truncated or padded"), std::string::npos) << out;
+  EXPECT_NE(out.find("no usable checkpoint; starting the run over"), std::string::npos) << out;
+  const nlohmann::json summary = ReadJson(b / "summary.json");
+  EXPECT_FALSE(summary["continued_from_checkpoint"].get<bool>());
+  EXPECT_EQ(summary["refused_checkpoints"].size(), 2u);
+  EXPECT_EQ(Slurp(a / "events.csv"), Slurp(b / "events.csv"));
+}
+
+// A checkpoint whose outputs were cut shorter than it recorded, or of an older format, is
+// refused too (truncating a shorter events.csv to its offset would pad it with zeros).
+TEST(Run, ACheckpointThatDoesNotMatchItsOutputsOrFormatIsRefused) {
+  const fs::path b = FreshDir("mismatch");
+  WriteSpec(b, SmallSpec(8.0, 3.0));
+  EXPECT_EQ(RunQuiet(b, 1, 27000).end_reason, "aborted");
+  fs::resize_file(b / "events.csv", 10);
+  {
+    std::string old = Slurp(b / "checkpoint.prev.bin");
+    std::ofstream(b / "checkpoint.prev.bin", std::ios::binary) << std::string("\x14\0\0\0\0\0\0\0", 8) << "GRANARY-CHECKPOINT-3" << old;
+  }
+  const auto [code, out] = RunExeOutput("run " + b.string() + " --threads 1");
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("checkpoint.bin expects "), std::string::npos) << out;
+  EXPECT_NE(out.find("bytes of events.csv, the file has 10"), std::string::npos) << out;
+  EXPECT_NE(out.find("checkpoint.prev.bin is format GRANARY-CHECKPOINT-3, an older engine's"), std::string::npos) << out;
+}
+
+// Two engines never write one directory: the executable refuses a directory whose lock is
+// held (exit 75), naming the holder, and touches nothing in it.
+TEST(Run, TheExecutableRefusesADirectoryAnotherEngineHolds) {
+  const fs::path dir = FreshDir("locked");
+  WriteSpec(dir, SmallSpec(8.0, 0.2));
+  std::ofstream(dir / "DONE") << "earlier\n";
+  {
+    const granary::RunDirectoryLock held(dir);
+    const auto [code, out] = RunExeOutput("run " + dir.string() + " --threads 1");
+    EXPECT_EQ(code, granary::kExitRunDirectoryBusy) << out;
+    EXPECT_NE(out.find("is locked by engine pid " + std::to_string(::getpid())), std::string::npos) << out;
+    EXPECT_EQ(Slurp(dir / "DONE"), "earlier\n");
+    EXPECT_FALSE(fs::exists(dir / "events.csv"));
+  }
+  EXPECT_EQ(RunExe("run " + dir.string() + " --threads 1"), 0);  // free again
 }
 
 }  // namespace

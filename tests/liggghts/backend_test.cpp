@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "rundir/contacts.h"
+#include "rundir/files.h"
 #include "rundir/frames.h"
 #include "rundir/run_directory.h"
 
@@ -34,15 +35,47 @@ struct Outcome {
   std::string output;  // stdout + stderr
 };
 
-Outcome RunBackend(const fs::path& dir, bp::environment env = boost::this_process::environment()) {
+Outcome RunBackend(const fs::path& dir, bp::environment env = boost::this_process::environment(),
+                   const std::vector<std::string>& extra = {}) {
   bp::ipstream out;
-  bp::child c(GRANARY_LIGGGHTS_EXE, "run", dir.string(), (bp::std_out & bp::std_err) > out, env);
+  std::vector<std::string> args = {"run", dir.string()};
+  args.insert(args.end(), extra.begin(), extra.end());
+  bp::child c(GRANARY_LIGGGHTS_EXE, bp::args = args, (bp::std_out & bp::std_err) > out, env);
   Outcome o;
   std::string line;
   while (std::getline(out, line)) o.output += line + "\n";
   c.wait();
   o.exit_code = c.exit_code();
   return o;
+}
+
+// Processes whose working directory is `dir` (LIGGGHTS and its ranks run there).
+std::vector<int> ProcessesIn(const fs::path& dir) {
+  std::vector<int> pids;
+  const fs::path want = fs::canonical(dir);
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string name = e.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::error_code ec;
+    const fs::path cwd = fs::read_symlink(e.path() / "cwd", ec);
+    if (!ec && cwd == want) pids.push_back(std::stoi(name));
+  }
+  return pids;
+}
+
+// Waits until nothing holds DIR's lock; every time the lock is seen free, no LIGGGHTS
+// process may still be running in DIR (the lock outlives the ranks, never the reverse).
+::testing::AssertionResult WaitUntilFree(const fs::path& dir) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (granary::RunDirectoryHolder(dir).empty()) {
+      const std::vector<int> left = ProcessesIn(dir);
+      if (!left.empty()) return ::testing::AssertionFailure() << "lock free while " << left.size() << " processes still run in " << dir;
+      return ::testing::AssertionSuccess();
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return ::testing::AssertionFailure() << dir << " still locked after 60 s";
 }
 
 std::string ReadText(const fs::path& p) {
@@ -292,8 +325,17 @@ TEST(LiggghtsBackend, ALiggghtsErrorFailsTheRunWithTheTailOfItsLog) {
     // First run prepares the bed into the cache ...
     ASSERT_EQ(RunBackend(dir).exit_code, 0);
   }
-  for (const auto& e : fs::directory_iterator(cache))
-    if (e.path().extension() == ".restart") std::ofstream(e.path(), std::ios::trunc) << "not a restart file";
+  // A restart LIGGGHTS cannot read, recorded with its checksum (as if LIGGGHTS had written it
+  // so): the cache check passes it and LIGGGHTS itself fails.
+  for (const auto& e : fs::directory_iterator(cache)) {
+    if (e.path().extension() != ".restart") continue;
+    std::ofstream(e.path(), std::ios::trunc) << "not a restart file";
+    fs::path meta = e.path();
+    meta.replace_extension(".json");
+    json j = json::parse(ReadText(meta));
+    j["restart_crc32"] = granary::Crc32("not a restart file");
+    std::ofstream(meta) << j.dump();
+  }
   fs::remove(dir / "DONE");
   const Outcome o = RunBackend(dir);
   EXPECT_EQ(o.exit_code, 1) << o.output;
@@ -331,6 +373,9 @@ TEST(LiggghtsBackend, AKilledRunContinuesFromItsCheckpointWithTheSameEarlierEven
     ::kill(c.id(), SIGKILL);
     c.wait();
   }
+  // LIGGGHTS dies with the backend (PR_SET_PDEATHSIG), a moment later: until then the
+  // directory stays locked and a second backend would refuse it.
+  ASSERT_TRUE(WaitUntilFree(cut));
   ASSERT_FALSE(fs::exists(cut / "DONE"));
   const Outcome o = RunBackend(cut);
   ASSERT_EQ(o.exit_code, 0) << o.output;
@@ -364,6 +409,153 @@ TEST(LiggghtsBackend, AKilledRunContinuesFromItsCheckpointWithTheSameEarlierEven
   }
   EXPECT_FALSE(cb.Next(fb));
   EXPECT_EQ(frames, 7);
+}
+
+// issue 13: with two MPI ranks, the ranks outlived a kill -9 of the backend by up to a second
+// and kept writing the directory while a new runner could start. Now each rank holds the
+// directory's helper lock (exec-helper) and dies with mpirun: the directory is never free
+// while one of them runs, and a second backend refuses it until then (exit 75).
+TEST(LiggghtsBackend, TheDirectoryStaysLockedUntilEveryRankOfAKilledRunIsGone) {
+  const json spec = {{"discharge", {{"mode", "reinject"}, {"max_time", 20}, {"stop_on_clog", false}}},
+                     {"bodies", {{"count", 60}}}};
+  const fs::path dir = MakeRun("ranks_killed", spec);
+  bp::child c(GRANARY_LIGGGHTS_EXE, "run", dir.string(), "--threads", "2", bp::std_out > bp::null, bp::std_err > bp::null);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (c.running() && ReadText(dir / "progress.json").find("discharge") == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(c.running()) << "the run ended before it could be killed";
+  EXPECT_GE(ProcessesIn(dir).size(), 2u);  // mpirun and its ranks
+  ::kill(c.id(), SIGKILL);
+  c.wait();
+  const Outcome refused = RunBackend(dir);
+  if (refused.exit_code == granary::kExitRunDirectoryBusy) {
+    EXPECT_NE(refused.output.find("two engines never write one directory"), std::string::npos) << refused.output;
+  }
+  ASSERT_TRUE(WaitUntilFree(dir));
+  EXPECT_TRUE(ProcessesIn(dir).empty());
+}
+
+// SIGTERM during the discharge: LIGGGHTS writes a checkpoint at the end of its chunk, the
+// backend ends by SIGTERM (the runner marks the run interrupted), and the next start continues
+// from that checkpoint (with checkpoint_interval 0 it is the only one).
+TEST(LiggghtsBackend, SigtermCheckpointsTheDischargeBeforeTheBackendEnds) {
+  const json spec = {{"discharge", {{"mode", "reinject"}, {"max_time", 6}, {"stop_on_clog", false}}},
+                     {"bodies", {{"count", 60}}},
+                     {"output", {{"checkpoint_interval", 0}}}};
+  const fs::path dir = MakeRun("sigterm", spec);
+  bp::ipstream out;
+  bp::child c(GRANARY_LIGGGHTS_EXE, "run", dir.string(), (bp::std_out & bp::std_err) > out);
+  std::string line, log;
+  bool sent = false;
+  while (std::getline(out, line)) {
+    log += line + "\n";
+    // Once the discharge is under way (its first progress line), not before.
+    if (!sent && line.find("phase=discharge") != std::string::npos) {
+      ::kill(c.id(), SIGTERM);
+      sent = true;
+    }
+  }
+  c.wait();
+  ASSERT_TRUE(sent) << log;
+  EXPECT_EQ(c.native_exit_code() & 0x7f, SIGTERM) << log;  // ended by the signal
+  EXPECT_NE(log.find("stop requested"), std::string::npos) << log;
+  EXPECT_NE(log.find("checkpointed by LIGGGHTS (checkpoint."), std::string::npos) << log;
+  EXPECT_FALSE(fs::exists(dir / "DONE"));
+  int checkpoints = 0;
+  for (const auto& e : fs::directory_iterator(dir)) checkpoints += e.path().filename().string().rfind("checkpoint.", 0) == 0;
+  EXPECT_EQ(checkpoints, 1);
+  EXPECT_TRUE(WaitUntilFree(dir));
+  const Outcome o = RunBackend(dir);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const RunData r = ReadRun(dir);
+  EXPECT_TRUE(r.summary.raw.at("continued_from_checkpoint").get<bool>());
+  EXPECT_EQ(r.summary.t_end, 6.0);
+}
+
+// A stand-in LIGGGHTS (a shell script) that fails the way a real one can.
+fs::path FakeLiggghts(const std::string& name, const std::string& body) {
+  const fs::path p = kTmp / ("fake-liggghts-" + name);
+  std::ofstream(p) << "#!/bin/sh\n" << body << "\n";
+  fs::permissions(p, fs::perms::owner_all);
+  return p;
+}
+
+Outcome RunWithLiggghts(const fs::path& dir, const fs::path& liggghts, const std::vector<std::string>& extra = {}) {
+  bp::environment env = boost::this_process::environment();
+  env["GRANARY_LIGGGHTS"] = liggghts.string();
+  return RunBackend(dir, env, extra);
+}
+
+// issue 13: a crash by a signal was "exit status 11", garbage output with exit 0 gave an
+// empty tail, a hang only "wall-time limit exceeded". Now signals are named, LIGGGHTS' own
+// screen output comes with its log's tail, and silence ends a hung LIGGGHTS.
+TEST(LiggghtsBackend, FailuresNameTheSignalAndShowTheScreenOutputAndTheLog) {
+  const fs::path dir = MakeRun("crash", json::object());
+  json j = json::parse(ReadText(dir / "run.json"));
+  j["bed"]["cache_file"] = "";  // prepare here: the fake LIGGGHTS runs for the bed
+  std::ofstream(dir / "run.json") << j.dump(2);
+
+  Outcome o = RunWithLiggghts(dir, FakeLiggghts("segv", "echo 'LIGGGHTS (Version fake)'\necho 'reading bed.in' > log.bed\nkill -SEGV $$"));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_NE(o.output.find("LIGGGHTS failed while preparing the bed (LIGGGHTS killed by signal 11 (Segmentation fault))"),
+            std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("--- LIGGGHTS screen output, last lines ---\nLIGGGHTS (Version fake)\n"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("--- last lines of log.bed ---\nreading bed.in\n"), std::string::npos) << o.output;
+
+  o = RunWithLiggghts(dir, FakeLiggghts("garbage", "echo 'n\\xfd#@ garbage'\nexit 0"));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_NE(o.output.find("LIGGGHTS ended without writing bed.restart while preparing the bed (LIGGGHTS exit status 0)"),
+            std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("garbage"), std::string::npos) << o.output;
+
+  // A hang the runner ends (its --time-limit sends SIGTERM): what LIGGGHTS said is printed at
+  // once, so the run's failure shows it even if LIGGGHTS then has to be killed.
+  {
+    bp::environment env = boost::this_process::environment();
+    env["GRANARY_LIGGGHTS"] = FakeLiggghts("hang-term", "echo 'about to hang'\ntouch started\nexec sleep 1000").string();
+    fs::remove(dir / "started");
+    bp::ipstream out;
+    bp::child c(GRANARY_LIGGGHTS_EXE, "run", dir.string(), (bp::std_out & bp::std_err) > out, env);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (!fs::exists(dir / "started") && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ::kill(c.id(), SIGTERM);
+    std::string line, text;
+    while (std::getline(out, line)) text += line + "\n";
+    c.wait();
+    EXPECT_EQ(c.native_exit_code() & 0x7f, SIGTERM) << text;
+    EXPECT_NE(text.find("granary-liggghts: signal 15 (Terminated) received; LIGGGHTS so far:"), std::string::npos) << text;
+    EXPECT_NE(text.find("about to hang"), std::string::npos) << text;
+  }
+  o = RunWithLiggghts(dir, FakeLiggghts("hang", "echo 'about to hang'\nexec sleep 1000"), {"--silence-limit", "1"});
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_NE(o.output.find("LIGGGHTS printed nothing for 1 s and was ended (hung?"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("about to hang"), std::string::npos) << o.output;
+  EXPECT_TRUE(WaitUntilFree(dir));
+}
+
+// A cached LIGGGHTS bed carries the CRC-32 of its restart and dump: a corrupt one is refused,
+// put aside and prepared again.
+TEST(LiggghtsBackend, ACorruptCachedBedIsRefusedAndPreparedAgain) {
+  const fs::path cache = kTmp / "beds-corrupt";
+  fs::remove_all(cache);
+  const json spec = {{"bed", {{"cache_file", (cache / "bed.json").string()}}}, {"discharge", {{"max_time", 0.5}}}};
+  ASSERT_EQ(RunBackend(MakeRun("bed_first", spec)).exit_code, 0);
+  fs::path restart;
+  for (const auto& e : fs::directory_iterator(cache))
+    if (e.path().extension() == ".restart") restart = e.path();
+  ASSERT_FALSE(restart.empty());
+  {
+    std::fstream f(restart, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(static_cast<std::streamoff>(fs::file_size(restart) / 2));
+    f.write("\x5a\x5a\x5a\x5a\x5a\x5a\x5a\x5a", 8);
+  }
+  const Outcome o = RunBackend(MakeRun("bed_second", spec));
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_NE(o.output.find("refusing the cached bed liggghts-bed-"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find(".restart is corrupt (CRC-32 "), std::string::npos) << o.output;
+  EXPECT_TRUE(ReadRun(kTmp / "bed_second").summary.raw.at("bed").at("prepared_here").get<bool>());
 }
 
 }  // namespace

@@ -124,8 +124,11 @@ TEST(RunSpecErrorTest, WhatTheLiggghtsBackendCannotDoIsRefusedAtPlanning) {
 
 TEST(RunSpecErrorTest, SpeciesNameThatWouldBreakEventsCsv) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"name": "a,b"}]}})")),
-            "/bodies/species/0/name: must be a non-empty name without commas or line breaks (it is a column of "
-            "events.csv) (got \"a,b\")");
+            "/bodies/species/0/name: must be a non-empty name without commas, control characters or line breaks (it is "
+            "a column of events.csv) (got \"a,b\", which holds ',')");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"name": "a\u0000b"}]}})")),
+            "/bodies/species/0/name: must be a non-empty name without commas, control characters or line breaks (it is "
+            "a column of events.csv) (got \"a\\u0000b\", which holds U+0000 (NUL))");
   EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"name": ""}]}})")).substr(0, 24), "/bodies/species/0/name: ");
   EXPECT_NO_THROW(RunSpec::from_json(json::parse(R"({"bodies": {"species": [{"name": "big disc D=1.4"}]}})")));
 }
@@ -240,7 +243,7 @@ TEST(RunSpecTable, CoversTheCanonicalSpecAndItsDefaults) {
     ++checked;
   }
   EXPECT_GT(checked, 40);
-  EXPECT_EQ(left_out, 3);  // reinject_position, periodic_headroom, compress
+  EXPECT_EQ(left_out, 4);  // reinject_position, periodic_headroom, compress, bed/time_step
 }
 
 TEST(RunSpecTable, EveryRowsTypeAndRangeIsEnforced) {

@@ -2,10 +2,18 @@
 // back by its reader; a continued run's files cut back to a checkpoint's offsets.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
 #include <nlohmann/json.hpp>
+#include <random>
+#include <string>
+#include <vector>
 
 #include "rundir/contacts.h"
+#include "rundir/dump_text.h"
 #include "rundir/events.h"
 #include "rundir/frames.h"
 #include "rundir/progress.h"
@@ -85,6 +93,36 @@ TEST(Writers, ContactsAreTheDocumentedDumpAndReadBack) {
   EXPECT_DOUBLE_EQ(f.contacts[1].fy, 3.0);
 }
 
+// The dump writers format numbers with std::to_chars (dump_text.h), which must write what
+// printf's "%.10g" writes: whole numbers, tiny and huge magnitudes, values that round up to
+// another exponent, negative zero, infinities and NaN, and a million random bit patterns.
+TEST(Writers, DumpNumbersAreThoseOfPrintf) {
+  std::vector<double> values = {0.0, -0.0, 1.0, -1.0, 0.5, 1e-4, 9.9999999995e-5, 9.99999999949e9, 1e10, 123456789012.0,
+                                1e-300, 5e-324, 1.7976931348623157e308, 0.1, 2.0 / 3.0, -49.99999999999, 1e15, 1e16,
+                                std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+                                std::numeric_limits<double>::quiet_NaN()};
+  std::mt19937_64 rng(19);
+  for (int k = 0; k < 1000000; ++k) {
+    const std::uint64_t bits = rng();
+    double v;
+    std::memcpy(&v, &bits, sizeof v);
+    values.push_back(k % 2 ? v : std::ldexp(static_cast<double>(bits >> 11), -40 - static_cast<int>(bits % 40)));
+  }
+  std::string ours;
+  char theirs[64];
+  for (const double v : values) {
+    ours.clear();
+    detail::AppendG10(ours, v);
+    std::snprintf(theirs, sizeof theirs, "%.10g", v);
+    ASSERT_EQ(ours, theirs) << "bits " << std::hex << std::bit_cast<std::uint64_t>(v);
+  }
+  for (const std::int64_t i : {std::int64_t{0}, std::int64_t{-1}, std::int64_t{7999}, INT64_MIN, INT64_MAX}) {
+    ours.clear();
+    detail::AppendInt(ours, i);
+    EXPECT_EQ(ours, std::to_string(i));
+  }
+}
+
 TEST(Writers, EventsStreamedAndWholeAreTheSameFile) {
   TempDir dir;
   const std::vector<ExitEvent> events = {{1.6123, 4711, "dumbbell", 1.5707963267948966, 0},
@@ -150,7 +188,7 @@ TEST(Writers, SummaryRoundTripsAndWritesOnlyTheKeysItHas) {
   s.t_end = 12.5;
   s.steps = 125000;
   s.clogs = 1;
-  s.bed = {"bed.json", 20.5, true, 9.5};
+  s.bed = {"bed.json", 20.5, true, 9.5, ""};
   s.timing = Timing{3.0, 1.0, 2.0, 5e7, 2};
   WriteSummary(dir.path(), s);
   const nlohmann::json j = nlohmann::json::parse(read_file(dir.path() / kSummaryFile));

@@ -64,7 +64,7 @@ TEST(PlanTest, EditRetiresAndAddsButKeepsResults) {
   auto row = claim_next(store, me, 100.0, nullptr, {});
   ASSERT_TRUE(row);
   ASSERT_EQ(row->params["silo"]["base_outlets"][0]["width"], 4.0);
-  record_done(store, row->run_id, json{{"end_reason", "discharged"}, {"exited", 77}}, 110.0, 10.0);
+  ASSERT_TRUE(record_done(store, row->run_id, me.id, json{{"end_reason", "discharged"}, {"exited", 77}}, 110.0, 10.0));
 
   const PlanSummary edit = Plan(store, "[6, 8]");
   EXPECT_EQ(edit.added, 2);
@@ -115,13 +115,64 @@ TEST(LeaseTest, DeadOrSilentHolderLosesItsLease) {
   EXPECT_EQ(recover_expired_leases(store, me, now_seconds()), 1);  // the remote one is fresh
   EXPECT_EQ(States(store)[r1->run_id], "interrupted");
   EXPECT_EQ(States(store)[r2->run_id], "running");
-  EXPECT_EQ(recover_expired_leases(store, me, now_seconds() + kLeaseStaleSeconds + 1), 1);  // stale heartbeat
+  EXPECT_EQ(recover_expired_leases(store, me, now_seconds() + lease_stale_seconds() + 1), 1);  // stale heartbeat
   EXPECT_EQ(States(store)[r2->run_id], "interrupted");
   // An interrupted run is claimed again, attempts counted.
   auto again = claim_next(store, me, now_seconds(), nullptr, {});
   ASSERT_TRUE(again);
   EXPECT_EQ(again->run_id, r1->run_id);
   EXPECT_EQ(again->attempts, 2);
+}
+
+// The fault of issue 13: a runner whose lease was taken over (it was stopped past the lease
+// time) wrote its run's end by run id alone, over the new holder's claim.
+TEST(LeaseTest, OnlyTheHolderRecordsAnEnd) {
+  Store store(":memory:");
+  Plan(store, "[4]");
+  const Holder old_holder{"elsewhere:5:0", "elsewhere", 5}, new_holder{"h:2:0", "h", 2};
+  auto first = claim_next(store, old_holder, 100.0, nullptr, {});
+  ASSERT_TRUE(first);
+  // The old holder goes silent; a new runner recovers the run and claims it.
+  EXPECT_EQ(recover_expired_leases(store, new_holder, 100.0 + lease_stale_seconds() + 1), 1);
+  auto second = claim_next(store, new_holder, 200.0, nullptr, {});
+  ASSERT_TRUE(second);
+  ASSERT_EQ(second->run_id, first->run_id);
+  // The old holder comes back: its heartbeat says it holds nothing, and neither its result
+  // nor a failure is recorded.
+  EXPECT_TRUE(heartbeat(store, old_holder, 201.0, {{first->run_id, json{{"fraction", 0.9}}}}).empty());
+  EXPECT_FALSE(record_done(store, first->run_id, old_holder.id, json{{"end_reason", "discharged"}, {"exited", 3}}, 202.0, 1.0));
+  EXPECT_FALSE(record_end(store, first->run_id, old_holder.id, "failed", "late", 202.0, 1.0));
+  const RunRow now_row = load_runs(store, false)[0];  // plan order: the claimed run first
+  ASSERT_EQ(now_row.run_id, first->run_id);
+  EXPECT_EQ(now_row.state, "running");
+  EXPECT_EQ(now_row.lease_holder, new_holder.id);
+  EXPECT_TRUE(now_row.progress.is_null());
+  {
+    Statement q = store.prepare("SELECT COUNT(*) FROM results");
+    q.step();
+    EXPECT_EQ(q.integer(0), 0);
+  }
+  // The holder's own end is recorded.
+  EXPECT_EQ(heartbeat(store, new_holder, 203.0, {}), std::set<std::string>{first->run_id});
+  EXPECT_TRUE(record_done(store, first->run_id, new_holder.id, json{{"end_reason", "discharged"}, {"exited", 3}}, 204.0, 1.0));
+  EXPECT_EQ(load_runs(store, false)[0].state, "done");
+}
+
+// A re-plan that retires a running run takes its lease with it: the runner learns it at its
+// next heartbeat and cannot record the run done; revived, the run continues, it is not done.
+TEST(LeaseTest, RetiringARunningRunTakesItsLease) {
+  Store store(":memory:");
+  Plan(store, "[4]");
+  const Holder me{"h:1:0", "h", 1};
+  auto row = claim_next(store, me, 100.0, nullptr, {});
+  ASSERT_TRUE(row);
+  Plan(store, "[6]");
+  EXPECT_EQ(States(store)[row->run_id], "retired");
+  EXPECT_TRUE(heartbeat(store, me, 101.0, {}).empty());
+  EXPECT_FALSE(record_done(store, row->run_id, me.id, json{{"end_reason", "discharged"}}, 102.0, 2.0));
+  EXPECT_EQ(States(store)[row->run_id], "retired");
+  Plan(store, "[4]");
+  EXPECT_EQ(States(store)[row->run_id], "interrupted");
 }
 
 TEST(IngestTest, FlattensScalarsSkippingSpec) {

@@ -121,7 +121,7 @@ std::vector<ReferenceRun> ReferenceExpand(const CampaignSpec& spec, const std::v
 
 TEST(CampaignSpecTest, FastExpansionGivesTheIdsAndParamsOfTheReferencePath) {
   const json j = json::parse(R"({"name": "t", "seed": 77, "replicas": 3,
-    "base": {"bodies": {"count": 300, "species": [{"name": "a\"b/\u0001", "shape": "dumbbell"}]},
+    "base": {"bodies": {"count": 300, "species": [{"name": "a\"b/\\\u00e9", "shape": "dumbbell"}]},
              "silo": {"width": 30}},
     "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6.5], "/contact/mu": [0.3, 0.5]},
               "points": [{"/discharge/mode": "remove"}, {"/seed": 12345, "/discharge/mode": "reinject"}]}})");
@@ -225,7 +225,7 @@ TEST(CampaignSpecErrorTest, InvalidPointNamesThePoint) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/widht": [6]}}})")),
             "/sweep: point 0 {\"/silo/widht\":6}: /silo/widht: unknown key; did you mean \"width\"?");
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/nothing/here": [6]}}})")),
-            "/sweep: point 0 {\"/nothing/here\":6}: axis \"/nothing/here\": \"/nothing\" does not exist in the run spec");
+            "/sweep/grid/~1nothing~1here: axis \"/nothing/here\" does not resolve: the run spec has no key \"nothing\"");
 }
 
 TEST(CampaignSpecTest, ASweptShapeNamesItsDefaultNamedSpecies) {
@@ -241,6 +241,111 @@ TEST(CampaignSpecTest, ASweptShapeNamesItsDefaultNamedSpecies) {
     "sweep": {"grid": {"/bodies/species/0/shape": ["disc", "dumbbell"]}}})");
   const auto runs2 = expand(CampaignSpec::from_json(named), "/cache");
   EXPECT_EQ(runs2[0].params()["bodies"]["species"][0]["name"], "grain");
+}
+
+// issue 13: sweep pointers that do not resolve gave raw library errors without a /sweep path.
+TEST(CampaignSpecErrorTest, SweepPointersThatDoNotResolveNameTheAxis) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/width/x": [1]}}})")),
+            "/sweep/grid/~1silo~1width~1x: axis \"/silo/width/x\" does not resolve: \"/silo/width\" is a number, not an "
+            "object or array");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/base_outlets/99999999999999999999/width": [1]}}})")),
+            "/sweep/grid/~1silo~1base_outlets~199999999999999999999~1width: axis "
+            "\"/silo/base_outlets/99999999999999999999/width\" does not resolve: \"/silo/base_outlets\" is an array of 1 "
+            "element (indices 0 to 1), not \"99999999999999999999\"");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"points": [{"/silo/base_outlets/-/width": 3}]}})")),
+            "/sweep/points/0/~1silo~1base_outlets~1-~1width: axis \"/silo/base_outlets/-/width\" does not resolve: "
+            "\"/silo/base_outlets\" is an array of 1 element (indices 0 to 1), not \"-\"");
+  // A zip and a grid addressing the same value (one inside the other).
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "base": {"silo": {"width": 30}}, "sweep": {
+                "grid": {"/silo/base_outlets/0": [{"center": 0, "width": 5}]},
+                "zip": {"/silo/base_outlets/0/width": [4, 6]}}})")),
+            "/sweep/zip/~1silo~1base_outlets~10~1width: axis \"/silo/base_outlets/0/width\" sets part of the axis "
+            "\"/silo/base_outlets/0\" (/sweep/grid/~1silo~1base_outlets~10); sweep each value in one place");
+  // A second outlet may be added at the end of the array.
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "base": {"silo": {"width": 30}},
+                "sweep": {"grid": {"/silo/base_outlets/1": [{"center": 8, "width": 4}]}}})")),
+            "(no error)");
+}
+
+// issue 13: a 300 x 100 grid x 1000 replicas ended in std::bad_alloc. The count is checked
+// before anything is expanded (this test would take minutes and gigabytes otherwise).
+TEST(CampaignSpecErrorTest, ASweepOverTheRunLimitIsRefusedBeforeExpanding) {
+  json widths = json::array(), mus = json::array();
+  for (int i = 0; i < 300; ++i) widths.push_back(3.0 + i * 0.01);
+  for (int i = 0; i < 100; ++i) mus.push_back(0.1 + i * 0.001);
+  const json j = {{"name", "t"},
+                  {"replicas", 1000},
+                  {"base", {{"silo", {{"width", 30}}}}},
+                  {"sweep", {{"grid", {{"/silo/base_outlets/0/width", widths}, {"/contact/mu", mus}}}}}};
+  const CampaignSpec s = CampaignSpec::from_json(j);
+  EXPECT_EQ(planned_run_count(s), 30000000u);
+  try {
+    expand(s, "/cache");
+    FAIL() << "expected a refusal";
+  } catch (const SpecError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "/sweep: expands to 30000000 runs (100 x 300 x 1 engine(s) x 1000 replicas), more than the limit of 100000; "
+              "narrow the sweep, or raise the limit with --max-runs");
+  }
+  json small = j;
+  small["replicas"] = 2;
+  small["sweep"]["grid"]["/contact/mu"] = json::array({0.1, 0.2, 0.3, 0.4, 0.5});
+  EXPECT_EQ(expand(CampaignSpec::from_json(small), "/cache", 3000).size(), 3000u);  // at the limit
+}
+
+// issue 13: /base/engine was silently overridden by the campaign's engine, and an unknown
+// engine name there was accepted.
+TEST(CampaignSpecErrorTest, TheEngineIsSetInOnePlace) {
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "base": {"engine": "lammps"}})")),
+            "/base/engine: must be \"native\" or \"liggghts\" (got \"lammps\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": "native", "base": {"engine": "liggghts"}})")),
+            "/base/engine: \"liggghts\" conflicts with the campaign's \"engine\" \"native\"; set the engine in one place "
+            "(the campaign's \"engine\")");
+  const CampaignSpec s = CampaignSpec::from_json(json::parse(R"({"name": "t", "base": {"engine": "liggghts"}})"));
+  EXPECT_EQ(s.engines, std::vector<std::string>{"liggghts"});
+  EXPECT_EQ(expand(s, "/cache").at(0).engine, "liggghts");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": ["liggghts"], "base": {"engine": "liggghts"}})")), "(no error)");
+}
+
+// issue 13: a NUL in a species name was accepted and cut the events.csv shape column; line
+// separators, \v and \f were accepted too.
+TEST(CampaignSpecErrorTest, NamesRefuseControlCharactersAndLineBreaks) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"a\\u0000b", "U+0000 (NUL)"},           {"a\\u2028b", "U+2028 (LINE SEPARATOR)"},
+      {"a\\u0085b", "U+0085 (NEXT LINE)"},     {"a\\u000bb", "U+000B (LINE TABULATION (\\v))"},
+      {"a\\u000cb", "U+000C (FORM FEED (\\f))"}, {"a\\u2029b", "U+2029 (PARAGRAPH SEPARATOR)"},
+      {"a\\u202eb", "U+202E (an invisible format character)"}, {"a,b", "','"}};
+  for (const auto& [name, what] : cases) {
+    const json j = json::parse(R"({"name": "t", "base": {"bodies": {"species": [{"name": ")" + name + R"("}]}}})");
+    const std::string error = ErrorOf(j);
+    EXPECT_EQ(error.rfind("/base/bodies/species/0/name: must be a non-empty name without commas, control characters", 0), 0u)
+        << error;
+    EXPECT_NE(error.find("which holds " + what + ")"), std::string::npos) << error;
+  }
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "a\u2028b"})")),
+            "/name: must not hold control characters or line breaks (got \"a\u2028b\", which holds U+2028 (LINE SEPARATOR))");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "base": {"bodies": {"species": [{"name": "grès-é"}]}}})")), "(no error)");
+}
+
+// issue 13: a syntax error said only "not valid JSON"; a spec nested 10^5 deep crashed
+// `campaign plan` with SIGSEGV while formatting the error.
+TEST(CampaignSpecErrorTest, SyntaxErrorsAndDeepNestingSayWhere) {
+  try {
+    parse_spec_text("{\n  \"name\": \"t\",\n  \"replicas\": 2,,\n}\n", "c.json");
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("c.json:3:17: not valid JSON: syntax error while parsing object key", 0), 0u)
+        << e.what();
+  }
+  const std::string deep = "{\"name\": \"t\", \"base\": " + std::string(100000, '[') + std::string(100000, ']') + "}";
+  try {
+    parse_spec_text(deep, "deep.json");
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()), "deep.json:1:86: nested deeper than 64 levels (a campaign spec needs fewer than 10)");
+  }
+  // Brackets inside strings do not count.
+  EXPECT_EQ(parse_spec_text(R"({"name": "[[[[{{{{\"[["})", "s.json")["name"], "[[[[{{{{\"[[");
 }
 
 }  // namespace

@@ -2,9 +2,12 @@
 // (docs/run-directory.md) without physics, through the run-directory library's writers: it
 // counts steps with a short sleep each, writes progress.json and a checkpoint after every step, continues from the checkpoint
 // when restarted, and ends with summary.json then DONE. Every start and finish is appended to
-// DIR/launches.txt so tests can prove that nothing ran twice.
+// DIR/launches.txt so tests can prove that nothing ran twice. Like the engines, it holds the
+// directory's writer lock (engine/files.h) for its life.
 // Behaviour from run.json: /discharge/max_time == 13 -> fails (exit 3); == 666 -> hangs.
-// FAKE_ENGINE_STEPS (default 10) and FAKE_ENGINE_STEP_MS (default 30) set the length.
+// FAKE_ENGINE_STEPS (default 10) and FAKE_ENGINE_STEP_MS (default 30) set the length;
+// FAKE_ENGINE_FIRST_LAUNCH_STEP_MS the step of a run's first launch (long: it cannot finish
+// before a test kills it; the relaunch is quick).
 #include <unistd.h>
 
 #include <chrono>
@@ -12,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
@@ -36,6 +40,13 @@ int main(int argc, char** argv) {
     return 2;
   }
   const fs::path dir = argv[2];
+  std::unique_ptr<granary::RunDirectoryLock> lock;
+  try {
+    lock = std::make_unique<granary::RunDirectoryLock>(dir);
+  } catch (const granary::RunDirectoryBusy& e) {
+    std::cerr << "fake_engine: " << e.what() << "\n";
+    return granary::kExitRunDirectoryBusy;
+  }
   nlohmann::json spec;
   try {
     spec = granary::rundir::ReadRunSpecJson(dir);
@@ -43,13 +54,15 @@ int main(int argc, char** argv) {
     std::cerr << "fake_engine: " << e.what() << "\n";
     return 2;
   }
+  const bool first_launch = !fs::exists(dir / "launches.txt");
   {
     std::ofstream log(dir / "launches.txt", std::ios::app);
     log << "start " << getpid() << "\n";
   }
   const double max_time = spec["discharge"]["max_time"].get<double>();
   const int steps = EnvInt("FAKE_ENGINE_STEPS", 10);
-  const int step_ms = EnvInt("FAKE_ENGINE_STEP_MS", 30);
+  int step_ms = EnvInt("FAKE_ENGINE_STEP_MS", 30);
+  if (first_launch) step_ms = EnvInt("FAKE_ENGINE_FIRST_LAUNCH_STEP_MS", step_ms);
   int step = 0;
   if (std::ifstream ck(dir / "checkpoint.fake"); ck) {
     ck >> step;
