@@ -264,7 +264,8 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
   // Ratio against x, one series per (metric, group), with the 10 % band.
   if (has_x(c) && !k.points.empty()) {
     Figure f{"engine_ratio", "Ratio " + b + " / " + a + " against " + c.x_label, c.x_label, b + " / " + a, {}, false,
-             false, "Error bars: propagated se of both means. Black lines: equal, and the ±10 % band."};
+             false, "Error bars: propagated se of both means. Reference lines: equal (solid black), -10 % (dashed grey) "
+             "and +10 % (dotted grey)"};
     double xlo = kInf, xhi = -kInf;
     for (const std::string& metric : headline) {
       std::map<std::string, Series> by_group;
@@ -295,12 +296,12 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
       }
     }
     if (!f.series.empty()) {
-      for (const double level : {0.9, 1.0, 1.1}) {
+      for (const double level : {1.0, 0.9, 1.1}) {  // equal first: the solid black line
         Series line;
         line.label = level == 1.0 ? "equal" : (level < 1 ? "-10 %" : "+10 %");
         line.columns = {c.x_name, "ratio"};
         line.style = Series::Style::kLines;
-        line.color = 7;
+        line.role = Series::Role::kReference;
         line.rows = {{xlo, level}, {xhi, level}};
         f.series.push_back(std::move(line));
       }

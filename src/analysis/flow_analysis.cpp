@@ -175,8 +175,7 @@ void add_per_run(const SectionInput& in, Section& s) {
     }
   Figure cum{"cumulative_exits", "Cumulative exits against time", "t (sqrt(d/g))", "exits (all outlets)", {}, false,
              false,
-             "Curves: the exit streams; dots: the least-squares line over each run's steady window. First replica of "
-             "up to 8 points"};
+             ""};
   int shown = 0;
   for (std::size_t p = 0; p < v.points.size(); ++p) {
     const Point& point = v.points[p];
@@ -211,7 +210,8 @@ void add_per_run(const SectionInput& in, Section& s) {
         Series line;
         line.label = "fit, " + data.label;
         line.columns = {"t", "exits_fit"};
-        line.style = Series::Style::kPoints;
+        line.style = Series::Style::kLines;
+        line.role = Series::Role::kFit;
         line.color = shown;
         for (int k = 0; k <= 10; ++k) {
           const double tv = f.t_start + (f.t_end - f.t_start) * k / 10.0;
@@ -224,7 +224,17 @@ void add_per_run(const SectionInput& in, Section& s) {
   }
   if (t.rows.empty()) return;
   s.blocks.push_back(t);
-  if (!cum.series.empty()) s.blocks.push_back(cum);
+  if (!cum.series.empty()) {
+    const std::size_t with_runs = static_cast<std::size_t>(
+        std::count_if(v.points.begin(), v.points.end(), [](const Point& p) { return !p.runs.empty(); }));
+    cum.caption = "Solid: the exit stream of the first finished replica at " +
+                  (static_cast<std::size_t>(shown) < with_runs
+                       ? "each of the first " + std::to_string(shown) + " of the " + std::to_string(with_runs) +
+                             " sweep points"
+                       : std::string("each sweep point")) +
+                  "; dashed: the straight line fitted over its steady window, whose slope is Q";
+    s.blocks.push_back(cum);
+  }
   const FlowWindowRule& w = in.pass.window;
   s.blocks.push_back(Text{
       "Steady window: exits before t = " + format_number(w.start_time) + " and the first " +
@@ -376,6 +386,7 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
                       (r.quality == FitQuality::kGood ? "" : ", " + to_string(r.quality));
         curve.columns = {"W", "Q_fit"};
         curve.style = Series::Style::kLines;
+        curve.role = Series::Role::kFit;
         // The fitted function sampled densely over the whole plotted x range (every group's
         // widths), not only through the measured widths.
         for (int i = 0; i <= kCurveSamples; ++i) {

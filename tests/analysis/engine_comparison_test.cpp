@@ -181,9 +181,9 @@ TEST(EngineComparison, ReportOfATwoEngineCampaign) {
   EXPECT_NE(md.find("`liggghts` the spring part only"), std::string::npos);
   // The synthetic native runs reinject at random, the LIGGGHTS ones say "periodic".
   EXPECT_NE(md.find("Reinjection: native `random`, liggghts `periodic`"), std::string::npos);
-  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_comparison.csv"));
-  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_cost.csv"));
-  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_ratio--Q_bodies_sqrt_d_g.csv"));
+  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "data" / "engine_comparison.csv"));
+  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "data" / "engine_cost.csv"));
+  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "data" / "engine_ratio--Q_bodies_sqrt_d_g.csv"));
 }
 
 // One replica per point and engine: no standard error, so agreement cannot be judged. The
@@ -220,7 +220,7 @@ TEST(EngineComparison, OneReplicaIsNotJudged) {
       ++metrics;
     }
   EXPECT_GT(metrics, 2) << read_file(s.markdown);
-  const std::string table = read_file(o.out_dir / "engine_comparison.csv");
+  const std::string table = read_file(o.out_dir / "data" / "engine_comparison.csv");
   EXPECT_NE(table.find("n/a"), std::string::npos);
   EXPECT_EQ(table.find(",no"), std::string::npos) << table;
   EXPECT_EQ(table.find(",yes"), std::string::npos) << table;
