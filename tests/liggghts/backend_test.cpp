@@ -429,8 +429,12 @@ TEST(LiggghtsBackend, TheDirectoryStaysLockedUntilEveryRankOfAKilledRunIsGone) {
   ::kill(c.id(), SIGKILL);
   c.wait();
   const Outcome refused = RunBackend(dir);
+  // Refused by whichever lock is still held: the backend's own (mpirun not yet reaped) or
+  // the ranks' helper lock (mpirun gone, a rank winding down). Which one is a race.
   if (refused.exit_code == granary::kExitRunDirectoryBusy) {
-    EXPECT_NE(refused.output.find("two engines never write one directory"), std::string::npos) << refused.output;
+    EXPECT_TRUE(refused.output.find("two engines never write one directory") != std::string::npos ||
+                refused.output.find("still has helper processes of an earlier engine") != std::string::npos)
+        << refused.output;
   }
   ASSERT_TRUE(WaitUntilFree(dir));
   EXPECT_TRUE(ProcessesIn(dir).empty());

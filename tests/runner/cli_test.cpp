@@ -182,6 +182,14 @@ TEST_F(CliTest, StatusRunAndReportSayWhichDoneRunsLostTheirDirectory) {
   const auto report = Sh(Cmd("report --no-figures"));
   ASSERT_EQ(report.code, 0) << report.output;
   EXPECT_NE(report.output.find("failed 0, lost 1 (done, run directory deleted"), std::string::npos) << report.output;
+  const std::string md = ReadFile(dir_ / "report" / "report.md");
+  EXPECT_NE(md.find("1 finished but their run directory was deleted"), std::string::npos) << md;
+  EXPECT_NE(md.find("campaign run --rerun-lost runs it again"), std::string::npos) << md;
+  // The export leaves the lost run out like an unfinished one.
+  ASSERT_EQ(Sh(Cmd("export --format json --out " + (dir_ / "runs.json").string())).code, 0);
+  const json rows = json::parse(ReadFile(dir_ / "runs.json"));
+  ASSERT_EQ(rows.size(), 1u) << rows.dump();
+  EXPECT_NE(rows[0]["run_id"], lost_id);
 #endif
   ASSERT_EQ(Sh(RunCmd("--rerun-lost")).code, 0);
   EXPECT_EQ(Status()["lost"], 0);
