@@ -8,10 +8,14 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -136,12 +140,26 @@ struct AnalysisResults {
   std::vector<const nlohmann::json*> of_point(std::size_t p) const;
 };
 
+// A clog an engine kept (clog_frames.dump) drawn to scale around its outlet, the bodies in
+// `highlight` outlined: what a section asks the renderer for (the runner sets it from
+// src/render; analyses never draw).
+struct ClogPicture {
+  int clog = 1;                                    // 1-based, in the run's clog files
+  std::set<std::int64_t> highlight;
+  double x_lo = 0, x_hi = 0, y_lo = 0, y_hi = 0;   // the part of the silo shown
+};
+// Draws `picture` of the run into `png`; returns "" or why it could not.
+using DrawClog = std::function<std::string(const std::filesystem::path& run_dir, const ClogPicture& picture,
+                                           const std::filesystem::path& png)>;
+
 // What an analysis' report section is made from.
 struct SectionInput {
   const CampaignView& view;
   const AnalysisResults& results;
   const std::vector<std::vector<PointMetric>>& points;  // this analysis' point metrics, per point
   const PassOptions& pass;
+  std::filesystem::path out_dir = {};              // the report folder (pictures go below it)
+  DrawClog draw_clog = {};                         // unset: no pictures (the section says so)
 };
 
 class Analysis {

@@ -288,6 +288,17 @@ std::vector<Series> point_series(const CampaignView& view, const PointMetricTabl
   return out;
 }
 
+std::vector<std::size_t> spread_points(const CampaignView& view, const std::function<bool(std::size_t)>& has,
+                                       std::size_t most) {
+  std::vector<std::size_t> with;
+  for (std::size_t k = 0; k < view.points.size(); ++k)
+    if (has(k)) with.push_back(k);
+  if (with.size() <= most) return with;
+  std::vector<std::size_t> out;
+  for (std::size_t k = 0; k < most; ++k) out.push_back(with[k * with.size() / most]);
+  return out;
+}
+
 std::vector<Series> outlet_series(const CampaignView& view, const PointMetricTable& metrics,
                                   const std::function<std::string(std::size_t)>& name_of,
                                   const std::vector<std::string>& outlet_labels, const std::string& column) {

@@ -115,6 +115,11 @@ bool has_x(const CampaignView& view);
 // (fitted parameters are drawn against it); "" if none.
 std::string group_axis(const CampaignView& view);
 
+// Up to `most` indices of points for which `has` holds, spread evenly over them (figures that
+// draw one curve per point; every point is in the CSVs).
+std::vector<std::size_t> spread_points(const CampaignView& view, const std::function<bool(std::size_t)>& has,
+                                       std::size_t most = 6);
+
 // Point metrics of one analysis, per point in CampaignView::points order.
 using PointMetricTable = std::vector<std::vector<PointMetric>>;
 // One series per group of (x, mean, se, n) of the point metric `name`.

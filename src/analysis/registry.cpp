@@ -4,11 +4,15 @@
 #include <algorithm>
 #include <mutex>
 
+#include "analysis/arches_analysis.h"
 #include "analysis/avalanche_analysis.h"
 #include "analysis/clogging_index_analysis.h"
+#include "analysis/contacts_analysis.h"
+#include "analysis/fields_analysis.h"
 #include "analysis/flow_analysis.h"
 #include "analysis/intermittency_analysis.h"
 #include "analysis/options.h"
+#include "analysis/orientation_analysis.h"
 #include "analysis/profile_analysis.h"
 #include "analysis/region_analysis.h"
 
@@ -53,6 +57,10 @@ const std::vector<AnalysisEntry>& builtin_analyses() {
       {"clogging_index", make_clogging_index_analysis},
       {"avalanches", make_avalanche_analysis},
       {"intermittency", make_intermittency_analysis},
+      {"arches", make_arches_analysis},
+      {"contacts", make_contacts_analysis},
+      {"orientation", make_orientation_analysis},
+      {"fields", make_fields_analysis},
   };
   return kTable;
 }
@@ -109,8 +117,10 @@ AnalysisSetup setup_analyses(const nlohmann::json& campaign_spec) {
       throw OptionError(path, v, "unknown key (known: " + known + ")");
     }
   }
+  // An analysis that is off unless asked for (fields) makes nothing without its options.
   for (const AnalysisEntry& e : rows)
-    setup.analyses.push_back(e.make(report.contains(e.key) ? report.at(e.key) : nlohmann::json(), "/report/" + e.key));
+    if (auto a = e.make(report.contains(e.key) ? report.at(e.key) : nlohmann::json(), "/report/" + e.key))
+      setup.analyses.push_back(std::move(a));
   return setup;
 }
 

@@ -250,7 +250,7 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   if (auto s = provenance_section(c)) sections.push_back(std::move(*s));
   if (auto s = per_run_section(ca)) sections.push_back(std::move(*s));
   for (std::size_t a = 0; a < ca.setup->analyses.size(); ++a) {
-    const SectionInput input{c, ca.results[a], ca.point_metrics[a], ca.setup->pass};
+    const SectionInput input{c, ca.results[a], ca.point_metrics[a], ca.setup->pass, options.out_dir, options.draw_clog};
     if (auto s = ca.setup->analyses[a]->section(input)) sections.push_back(std::move(*s));
   }
   std::vector<std::vector<PointMetric>> all;

@@ -26,6 +26,8 @@ struct ReportOptions {
   // the report has no pictures and says so.
   enum class Picture { kBed, kEnd };
   std::function<std::string(const std::filesystem::path& run_dir, Picture, const std::filesystem::path& png)> draw_run;
+  // Draws a kept clog with its arch outlined (the arches section); set by the runner like draw_run.
+  DrawClog draw_clog;
 };
 
 struct ReportSummary {

@@ -484,6 +484,153 @@ std::string base64(const std::string& bytes) {
   return out;
 }
 
+std::string panel_file(const MapFigure& f, std::size_t k, const char* layer) {
+  std::string file = f.name + "-" + std::to_string(k + 1);
+  if (layer[0] != '\0') file.append("-").append(layer);
+  return file.append(".csv");
+}
+
+// The colour range of a map: the figure's, or the panels' finite range (symmetric about 0
+// for a diverging field), widened when flat.
+std::pair<double, double> map_range(const MapFigure& f) {
+  double lo = f.c_lo, hi = f.c_hi;
+  if (!std::isfinite(lo) || !std::isfinite(hi)) {
+    lo = std::numeric_limits<double>::infinity();
+    hi = -lo;
+    for (const MapPanel& p : f.panels)
+      for (const auto& row : p.grid)
+        if (std::isfinite(row[2])) {
+          lo = std::min(lo, row[2]);
+          hi = std::max(hi, row[2]);
+        }
+    if (!std::isfinite(lo)) return {0.0, 1.0};
+    if (f.diverging) {
+      hi = std::max(std::abs(lo), std::abs(hi));
+      lo = -hi;
+    }
+  }
+  if (hi - lo <= 1e-12 * std::max(1.0, std::abs(lo))) {
+    const double pad = lo != 0.0 ? 0.1 * std::abs(lo) : 1.0;
+    lo -= pad;
+    hi += pad;
+  }
+  return {lo, hi};
+}
+
+// Writes the CSV layers of every panel; returns the gnuplot script.
+// A tic step of about a quarter of `range`: 1, 2 or 5 times a power of ten.
+double tic_step(double range) {
+  const double raw = std::max(1e-9, range / 4.0), decade = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double m : {1.0, 2.0, 5.0})
+    if (m * decade >= raw) return m * decade;
+  return 10.0 * decade;
+}
+
+std::string map_script(const MapFigure& f, const fs::path& dir) {
+  // Panels in rows of up to four (three for 5, 6 or 9 panels), each about 330 px wide; the
+  // colour bar, the same for every panel, beside the last panel of each row.
+  const std::size_t n = std::max<std::size_t>(1, f.panels.size());
+  const std::size_t cols = n <= 4 ? n : (n % 3 == 0 && n <= 9) || n == 5 ? 3 : 4, rows = (n + cols - 1) / cols;
+  const double aspect = (f.y_hi - f.y_lo) / std::max(1e-9, f.x_hi - f.x_lo);
+  const int panel_w = cols == 1 ? 520 : 330;
+  const int width = static_cast<int>(cols) * panel_w + 90;
+  const int panel_h = std::clamp(static_cast<int>((panel_w - 90) * aspect) + 80, 160, 1100);
+  const int height = static_cast<int>(rows) * panel_h + 40;
+  const auto [lo, hi] = map_range(f);
+  double max_weight = 0.0;
+  for (const MapPanel& p : f.panels)
+    for (const auto& s : p.segments) max_weight = std::max(max_weight, s[4]);
+  std::ostringstream s;
+  s << "set terminal svg size " << width << "," << height << " font 'Helvetica,10' background rgb 'white'\n"
+    << "set output " << gp_quote(f.name + ".svg") << "\n"
+    << "set datafile separator ','\n"
+    << "set multiplot title " << gp_quote(f.title) << " noenhanced\n"
+    << "set size ratio -1\nset xrange [" << csv_number(f.x_lo) << ":" << csv_number(f.x_hi) << "]\n"
+    << "set yrange [" << csv_number(f.y_lo) << ":" << csv_number(f.y_hi) << "]\n"
+    << "set xtics " << csv_number(tic_step(f.x_hi - f.x_lo)) << "\nset ytics " << csv_number(tic_step(f.y_hi - f.y_lo))
+    << "\nset format cb '%g'\nset xlabel 'x/d'\nset ylabel 'y/d'\nset tics out nomirror\n"
+    << "set cbrange [" << csv_number(lo) << ":" << csv_number(hi) << "]\n"
+    << "set cblabel " << gp_quote(f.value_name) << " noenhanced\n";
+  if (f.diverging)
+    s << "set palette defined (0 '#2166ac', 0.25 '#67a9cf', 0.5 '#f7f7f7', 0.75 '#ef8a62', 1 '#b2182b')\n";
+  else
+    s << "set palette defined (0 '#440154', 0.25 '#3b528b', 0.5 '#21918c', 0.75 '#5ec962', 1 '#fde725')\n";
+  // Placement in screen fractions: each panel's cell, the last of a row wider by the bar.
+  const double cell_w = static_cast<double>(panel_w) / width, cell_h = (1.0 - 40.0 / height) / static_cast<double>(rows);
+  for (std::size_t k = 0; k < f.panels.size(); ++k) {
+    const MapPanel& p = f.panels[k];
+    {
+      std::ostringstream csv;
+      csv << "x,y," << csv_escape(f.value_key) << ",n_frames\n";
+      for (const auto& r : p.grid)
+        csv << csv_number(r[0]) << "," << csv_number(r[1]) << "," << csv_number(r[2]) << "," << csv_number(r[3]) << "\n";
+      write_text(dir / panel_file(f, k, ""), csv.str());
+    }
+    std::vector<std::string> layers;
+    bool any_value = false;
+    for (const auto& r : p.grid) any_value = any_value || std::isfinite(r[2]);
+    if (any_value) layers.push_back(gp_quote(panel_file(f, k, "")) + " skip 1 using 1:2:3 with image notitle");
+    if (!p.segments.empty() && max_weight > 0.0) {
+      std::ostringstream csv;
+      csv << "x1,y1,x2,y2,weight\n";
+      for (const auto& g : p.segments)
+        csv << csv_number(g[0]) << "," << csv_number(g[1]) << "," << csv_number(g[2]) << "," << csv_number(g[3]) << ","
+            << csv_number(g[4]) << "\n";
+      write_text(dir / panel_file(f, k, "segments"), csv.str());
+      // gnuplot 5.4 has no variable width for vectors: six classes of width.
+      constexpr int kClasses = 6;
+      for (int c = 1; c <= kClasses; ++c) {
+        const double a = max_weight * (c - 1) / kClasses, b = c == kClasses ? 2.0 * max_weight : max_weight * c / kClasses;
+        layers.push_back(gp_quote(panel_file(f, k, "segments")) + " skip 1 using 1:2:(($5 >= " + csv_number(a) +
+                         " && $5 < " + csv_number(b) + ") ? $3 - $1 : 1/0):($4 - $2) with vectors nohead lw " +
+                         csv_number(0.5 * c) + " lc rgb '#202020' notitle");
+      }
+    }
+    if (!p.arrows.empty()) {
+      std::ostringstream csv;
+      csv << "x,y,dx,dy\n";
+      for (const auto& g : p.arrows)
+        csv << csv_number(g[0]) << "," << csv_number(g[1]) << "," << csv_number(g[2]) << "," << csv_number(g[3]) << "\n";
+      write_text(dir / panel_file(f, k, "arrows"), csv.str());
+      layers.push_back(gp_quote(panel_file(f, k, "arrows")) +
+                       " skip 1 using 1:2:3:4 with vectors head size screen 0.006,20 filled lw 1 lc rgb '#101010' notitle");
+    }
+    if (!p.lines.empty()) {
+      std::ostringstream csv;
+      csv << "x,y\n";
+      for (const auto& line : p.lines) {
+        for (const auto& pt : line) csv << csv_number(pt[0]) << "," << csv_number(pt[1]) << "\n";
+        csv << "\n";
+      }
+      write_text(dir / panel_file(f, k, "walls"), csv.str());
+      layers.push_back(gp_quote(panel_file(f, k, "walls")) + " skip 1 using 1:2 with lines lw 2.5 lc rgb 'black' notitle");
+    }
+    if (!p.circles.empty()) {
+      std::ostringstream csv;
+      csv << "x,y,r\n";
+      for (const auto& c : p.circles) csv << csv_number(c[0]) << "," << csv_number(c[1]) << "," << csv_number(c[2]) << "\n";
+      write_text(dir / panel_file(f, k, "obstacles"), csv.str());
+      layers.push_back(gp_quote(panel_file(f, k, "obstacles")) +
+                       " skip 1 using 1:2:3 with circles fill solid 1.0 lc rgb '#808080' notitle");
+    }
+    const double row = static_cast<double>(k / cols), col = static_cast<double>(k % cols);
+    const bool last_in_row = k % cols + 1 == cols || k + 1 == f.panels.size();
+    s << "set origin " << csv_number(col * cell_w) << "," << csv_number(1.0 - 40.0 / height - (row + 1) * cell_h) << "\n"
+      << "set size ratio -1 " << csv_number(last_in_row ? cell_w + 90.0 / width : cell_w) << "," << csv_number(cell_h) << "\n"
+      << (last_in_row ? "set colorbox\n" : "unset colorbox\n");
+    s << "set title " << gp_quote(p.title) << " noenhanced\n";
+    if (layers.empty()) {
+      s << "set label 1 'no data' at graph 0.5, graph 0.5 center\nplot 1/0 notitle\nunset label 1\n";
+      continue;
+    }
+    s << "plot ";
+    for (std::size_t i = 0; i < layers.size(); ++i) s << (i ? ", \\\n     " : "") << layers[i];
+    s << "\n";
+  }
+  s << "unset multiplot\n";
+  return s.str();
+}
+
 }  // namespace
 
 RenderResult render_report(const std::string& title, const std::vector<Section>& sections, const fs::path& out_dir,
@@ -594,6 +741,38 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         const std::string caption = "Figure " + std::to_string(figure_no) + ": " + f->title +
                                     (f->caption.empty() ? "" : ". " + f->caption);
         if (!svg.empty()) md_body << "![" << f->title << "](" << kFiguresDir << "/" << f->name << ".svg)\n\n";
+        md_body << "*" << caption << "* Data: " << csvs << "\n\n";
+        html_body << "<figure>";
+        if (!svg.empty()) html_body << inline_svg(svg, std::string("f").append(std::to_string(figure_no)).append("_"));
+        html_body << "<figcaption>" << html_inline(caption) << " <span class=\"csv\">Data: " << csv_links
+                  << "</span></figcaption></figure>\n";
+      } else if (const auto* m = std::get_if<MapFigure>(&block)) {
+        ++figure_no;
+        std::string svg;
+        const std::string script_text = map_script(*m, out_dir);  // writes the panels' CSVs
+        if (figures && !m->panels.empty()) {
+          const std::string script = m->name + ".gp";
+          write_text(out_dir / script, script_text);
+          const std::string problem = run_gnuplot(options.gnuplot, out_dir, script);
+          if (problem.empty() && fs::exists(out_dir / (m->name + ".svg"))) {
+            svg = read_text(out_dir / (m->name + ".svg"));
+            ++result.figures_drawn;
+          } else {
+            result.problems.push_back(problem.empty() ? m->name + ".svg was not written" : problem);
+          }
+        }
+        std::string csvs, csv_links;
+        for (std::size_t k = 0; k < m->panels.size(); ++k) {
+          if (k > 0) {
+            csvs += ", ";
+            csv_links += ", ";
+          }
+          csvs += panel_file(*m, k, "");
+          csv_links += local_link(panel_file(*m, k, ""));
+        }
+        const std::string caption = "Figure " + std::to_string(figure_no) + ": " + m->title +
+                                    (m->caption.empty() ? "" : ". " + m->caption);
+        if (!svg.empty()) md_body << "![" << m->title << "](" << m->name << ".svg)\n\n";
         md_body << "*" << caption << "* Data: " << csvs << "\n\n";
         html_body << "<figure>";
         if (!svg.empty()) html_body << inline_svg(svg, std::string("f").append(std::to_string(figure_no)).append("_"));

@@ -4,7 +4,9 @@
 // format; they fill Tables and Figures, and this layer renders them.
 #pragma once
 
+#include <array>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <variant>
 #include <vector>
@@ -95,7 +97,34 @@ struct Pictures {
   std::vector<Picture> pictures;
 };
 
-using Block = std::variant<Text, Table, Figure, Pictures>;
+// A map over the silo (gnuplot SVG): a field on a regular grid in panels side by side (one per
+// sweep point), one colour scale across the panels, the silo's walls and outlets as lines and
+// its obstacles as circles drawn over it, axes in d; optionally arrows (a vector field) and
+// segments drawn with widths in proportion to a weight (a contact-force network). Each panel's
+// grid is its CSV <name>-<k>.csv: columns x, y, <value_key>, n_frames.
+struct MapPanel {
+  std::string title;
+  std::vector<std::array<double, 4>> grid;         // x, y, value (NaN: none), n_frames; empty: no colour map
+  std::vector<std::vector<std::array<double, 2>>> lines;  // polylines (walls)
+  std::vector<std::array<double, 3>> circles;      // x, y, radius (obstacles)
+  std::vector<std::array<double, 4>> arrows;       // x, y, dx, dy (in d, already scaled)
+  std::vector<std::array<double, 5>> segments;     // x1, y1, x2, y2, weight (width in proportion)
+};
+
+struct MapFigure {
+  std::string name;                                // file stem
+  std::string title;
+  std::string value_name;                          // colour-bar label, e.g. "pressure P (contact) (m g / d)"
+  std::string value_key = "value";                 // its CSV column, e.g. "pressure"
+  std::vector<MapPanel> panels;
+  double x_lo = 0, x_hi = 1, y_lo = 0, y_hi = 1;   // the view, in d
+  double c_lo = std::numeric_limits<double>::quiet_NaN();  // colour scale; NaN: the panels' finite range
+  double c_hi = std::numeric_limits<double>::quiet_NaN();
+  bool diverging = false;                          // a signed field: range symmetric about 0, blue-white-red
+  std::string caption;
+};
+
+using Block = std::variant<Text, Table, Figure, Pictures, MapFigure>;
 
 struct Section {
   std::string id;                            // html anchor

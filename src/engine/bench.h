@@ -90,6 +90,31 @@ struct VersusResult {
   double lammps;              // atom-steps per second (LoopTimeRate)
 };
 
+// What a settled bed looks like, for comparing preparation procedures: its top (the highest
+// disc's, BedState::height), its surface (the mean over 1 d wide columns, 2 d from the walls,
+// of the highest disc top in the column) and the packing fraction of the full-width band
+// from 5 d above the base to 5 d below the surface (discs cut by the band count with the part
+// inside).
+struct BedShape {
+  double top = 0.0;
+  double surface = 0.0;
+  double phi = 0.0;
+};
+BedShape MeasureBed(const BedState& bed, const RunSpec& spec);
+
+struct BedPrepResult {
+  int seed;                // replica: the spec's seed
+  double step_factor;      // bed time step / time step
+  double wall_s;           // wall time of PrepareBed
+  double settle_time;      // simulated preparation time
+  BedShape shape;
+};
+
+// Bed preparation side by side: `repeat` replicas (seeds 1..repeat), each prepared from
+// scratch once per bed time step `factor` x time_step (interleaved), on the largest thread
+// count of the list; nothing cached.
+std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::vector<double>& factors);
+
 // The disc case on LAMMPS and the native engine, side by side: the bed settled (or loaded)
 // once, the LAMMPS input written into `dir`, then `repeat` rounds, each over the thread
 // counts, each count LAMMPS (`lmp`, under `mpirun -np N` for N > 1) then the native

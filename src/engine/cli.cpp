@@ -52,7 +52,7 @@ constexpr char kUsage[] =
     "verbs:\n"
     "  run DIR [--threads N]   run DIR/run.json (continues from DIR/checkpoint.bin if present)\n"
     "  bench [--shape S] [--bodies N] [--steps N] [--threads-list 1,2] [--repeat N] [--bed FILE]\n"
-    "        [--versus lammps [--lammps-dir DIR]] [--output-cost T]\n"
+    "        [--versus lammps [--lammps-dir DIR]] [--output-cost T] [--bed-prep]\n"
     "                          standard benchmark: discs, dumbbells or the ch. 4 mixture in the\n"
     "                          chapter-3 silo, W = 14, reinject; the disc case also on LAMMPS\n"
     "  help                    this text\n";
@@ -66,7 +66,7 @@ constexpr char kRunHelp[] =
 constexpr char kBenchHelp[] =
     "usage: granary-engine bench [--shape dumbbell] [--bodies 8000] [--steps 2000] [--threads-list 1,2]\n"
     "                            [--repeat 1] [--bed FILE] [--versus lammps [--lammps-dir DIR]]\n"
-    "                            [--output-cost T]\n"
+    "                            [--output-cost T] [--bed-prep]\n"
     "Settles (or loads the cached) bed in a silo of width 100 with one outlet W = 14, then\n"
     "times a fixed number of reinject-mode discharge steps per thread count and prints\n"
     "disc-steps per second. Bed preparation is not timed. With --repeat N, N rounds over the\n"
@@ -84,7 +84,12 @@ constexpr char kBenchHelp[] =
     "  --lammps-dir DIR  where the LAMMPS input, data file and log are written (default:\n"
     "                granary-bench-lammps-N in the temp directory); kept after the run\n"
     "  --output-cost T  what output costs: each round runs the case without output and with\n"
-    "                frames and contact frames every T time units, and prints both rates\n";
+    "                frames and contact frames every T time units, and prints both rates\n"
+    "  --bed-prep    bed preparation instead of discharge: --repeat N replicas (seeds 1..N),\n"
+    "                each prepared from scratch at bed/time_step = time_step (the beds of\n"
+    "                before) and at the default 5 x, interleaved, on the largest thread count;\n"
+    "                prints wall time, simulated time, top, surface and packing fraction, and\n"
+    "                per step their mean and spread over the replicas\n";
 
 int Run(const std::vector<std::string>& args) {
   RunOptions options;
@@ -168,10 +173,54 @@ int BenchOutputCost(const BenchOptions& options, double interval) {
   return 0;
 }
 
+// Per replica and bed time step the wall time and the bed's shape; then per step the median
+// wall time and the mean and standard deviation of the shape over the replicas.
+int BenchBedPrep(const BenchOptions& options) {
+  const std::vector<double> factors = {1.0, kBedTimeStepFactor};
+  std::printf("bench: preparing %d %s beds of %d bodies at bed/time_step = 1 x and %g x time_step\n", options.repeat,
+              options.shape.c_str(), options.bodies, kBedTimeStepFactor);
+  std::fflush(stdout);
+  std::map<double, std::vector<BedPrepResult>> by_factor;
+  for (const BedPrepResult& r : RunBedPrep(options, factors)) {
+    std::printf("seed=%d step_factor=%g wall_s=%.2f settle_time=%.2f top=%.3f surface=%.3f phi=%.4f\n", r.seed,
+                r.step_factor, r.wall_s, r.settle_time, r.shape.top, r.shape.surface, r.shape.phi);
+    std::fflush(stdout);
+    by_factor[r.step_factor].push_back(r);
+  }
+  auto mean_sd = [](const std::vector<double>& v) {
+    double m = 0, q = 0;
+    for (double x : v) m += x / static_cast<double>(v.size());
+    for (double x : v) q += (x - m) * (x - m);
+    return std::pair{m, v.size() > 1 ? std::sqrt(q / static_cast<double>(v.size() - 1)) : 0.0};
+  };
+  std::map<double, double> median_wall;
+  for (auto& [factor, rs] : by_factor) {
+    std::vector<double> wall, settle, top, surface, phi;
+    for (const BedPrepResult& r : rs) {
+      wall.push_back(r.wall_s);
+      settle.push_back(r.settle_time);
+      top.push_back(r.shape.top);
+      surface.push_back(r.shape.surface);
+      phi.push_back(r.shape.phi);
+    }
+    median_wall[factor] = BenchMedian(wall);
+    const auto [tm, ts] = mean_sd(top);
+    const auto [sm, ss] = mean_sd(surface);
+    const auto [pm, ps] = mean_sd(phi);
+    std::printf("summary step_factor=%g replicas=%zu wall_s median=%.2f best=%.2f settle_time median=%.2f "
+                "top=%.3f+-%.3f surface=%.3f+-%.3f phi=%.4f+-%.4f (mean+-sd)\n",
+                factor, rs.size(), median_wall[factor], *std::min_element(wall.begin(), wall.end()), BenchMedian(settle),
+                tm, ts, sm, ss, pm, ps);
+  }
+  std::printf("summary speedup of the median wall time: %.2f\n", median_wall[factors[0]] / median_wall[factors[1]]);
+  return 0;
+}
+
 int Bench(const std::vector<std::string>& args) {
   BenchOptions options;
   std::string versus, lammps_dir;
   double output_cost = 0.0;
+  bool bed_prep = false;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a == "--help" || a == "-h") {
@@ -190,6 +239,8 @@ int Bench(const std::vector<std::string>& args) {
       options.bed_file = args[++i];
     } else if (a == "--output-cost" && i + 1 < args.size()) {
       output_cost = ParsePositiveNumber(a, args[++i]);
+    } else if (a == "--bed-prep") {
+      bed_prep = true;
     } else if (a == "--versus" && i + 1 < args.size()) {
       versus = args[++i];
       if (versus != "lammps") throw std::invalid_argument("bench: --versus takes \"lammps\" (got \"" + versus + "\")");
@@ -204,6 +255,7 @@ int Bench(const std::vector<std::string>& args) {
       throw std::invalid_argument("bench: unknown option \"" + a + "\"\n" + kBenchHelp);
     }
   }
+  if (bed_prep) return BenchBedPrep(options);
   if (output_cost > 0) return BenchOutputCost(options, output_cost);
   if (!versus.empty()) {
     if (lammps_dir.empty())

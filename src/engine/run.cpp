@@ -27,9 +27,10 @@
 #include "engine/dump_format.h"
 #include "engine/random.h"
 #include "engine/silo_outline.h"
+#include "engine/stall_world.h"
 #include "rundir/stop.h"
-#include "engine/stall.h"
 #include "engine/world.h"
+#include "rundir/clogs.h"
 #include "rundir/contacts.h"
 #include "rundir/files.h"
 #include "rundir/frames.h"
@@ -154,8 +155,11 @@ class Discharge {
   void LoadCheckpoint(const fs::path& file);
   bool ContinueFromACheckpoint();
   void WriteCheckpoint();
+  void FillFrame(rundir::Frame& f);
+  void FillContacts(rundir::ContactFrame& f);
   void WriteFrame();
   void WriteContacts();
+  void WriteClog();
   void HandleExits();
   int OutletOf(int b) const;
   void Reinject(int b);
@@ -206,6 +210,9 @@ class Discharge {
   rundir::EventWriter events_;
   rundir::FrameWriter frames_;
   rundir::ContactWriter contacts_;
+  // The configuration and contact forces at every clog; a continued run cuts them back to
+  // its checkpoint's step (clogs.h), so the checkpoint carries nothing for them.
+  rundir::ClogWriter clogs_out_;
   std::int64_t frame_every_ = 0, checkpoint_every_ = 0;
   std::vector<World::ContactView> contact_buf_;
   rundir::Frame frame_buf_;
@@ -295,6 +302,7 @@ void Discharge::StartFresh() {
     periodic_height_ = (top + 2 * bound + spec_.discharge.periodic_headroom) + (spec_.discharge.exit_distance + kPeriodicFall);
   }
   events_ = rundir::EventWriter::Create(dir_ / rundir::kEventsFile);
+  clogs_out_ = rundir::ClogWriter::Create(dir_);
   const bool gz = spec_.output.compress;
   if (frame_every_ > 0) frames_ = rundir::FrameWriter::Create(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), gz);
   if (frame_every_ > 0 && spec_.output.contact_forces)
@@ -443,6 +451,7 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   periodic_height_ = periodic_height;
   cleared_by_obstacles_ = cleared_by_obstacles;
   events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, offsets[0]);
+  clogs_out_ = rundir::ClogWriter::ContinueAfter(dir_, step_);
   if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), offsets[1], gz);
   if (frame_every_ > 0 && spec_.output.contact_forces)
     contacts_ = rundir::ContactWriter::ContinueAt(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), offsets[2], gz);
@@ -597,9 +606,8 @@ void Discharge::DumpBox(double (&box)[3][2]) const {
   NativeDumpBox(spec_, bed_height_, bound, box);
 }
 
-void Discharge::WriteFrame() {
+void Discharge::FillFrame(rundir::Frame& f) {
   const World& w = *world_;
-  rundir::Frame& f = frame_buf_;
   f.timestep = step_;
   f.time = static_cast<double>(step_) * spec_.time_step;
   DumpBox(f.box);
@@ -621,13 +629,16 @@ void Discharge::WriteFrame() {
       warned_outside_box_ = true;
     }
   }
-  frames_.Write(f);
 }
 
-void Discharge::WriteContacts() {
+void Discharge::WriteFrame() {
+  FillFrame(frame_buf_);
+  frames_.Write(frame_buf_);
+}
+
+void Discharge::FillContacts(rundir::ContactFrame& f) {
   const World& w = *world_;
   w.CollectContacts(contact_buf_);
-  rundir::ContactFrame& f = contact_frame_buf_;
   f.timestep = step_;
   f.time = static_cast<double>(step_) * spec_.time_step;
   DumpBox(f.box);
@@ -637,7 +648,18 @@ void Discharge::WriteContacts() {
     const double xj = c.disc_j >= 0 ? w.dx_[c.disc_j] : c.cx, yj = c.disc_j >= 0 ? w.dy_[c.disc_j] : c.cy;
     f.contacts.push_back({w.dbody_[c.disc_i], bj, w.dx_[c.disc_i], w.dy_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy});
   }
-  contacts_.Write(f);
+}
+
+void Discharge::WriteContacts() {
+  FillContacts(contact_frame_buf_);
+  contacts_.Write(contact_frame_buf_);
+}
+
+void Discharge::WriteClog() {
+  rundir::ClogState clog;
+  FillFrame(clog.frame);
+  FillContacts(clog.contacts);
+  clogs_out_.Write(clog);
 }
 
 void Discharge::WriteSummary(const std::string& end_reason) {
@@ -716,6 +738,7 @@ RunResult Discharge::Run() {
       } else {
         ++clogs_;
         in_clog_ = true;  // counted once until the next exit
+        WriteClog();
         if (spec_.discharge.stop_on_clog) end_reason = "clogged";
       }
     }
@@ -759,6 +782,7 @@ RunResult Discharge::Run() {
   events_.Close();
   frames_.Close();
   contacts_.Close();
+  clogs_out_.Close();
   ReportProgress({"discharge", 1.0, static_cast<double>(step_) * dt, spec_.discharge.max_time, static_cast<int>(exited),
                   discharge_wall_before_ + Seconds(session_start_)},
                  true);

@@ -37,6 +37,7 @@
 #include "engine/silo_outline.h"
 #include "engine/stall.h"
 #include "liggghts/input_script.h"
+#include "rundir/clogs.h"
 #include "rundir/contacts.h"
 #include "rundir/files.h"
 #include "rundir/frames.h"
@@ -110,16 +111,34 @@ LiggghtsRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir
   std::vector<std::string> liggghts = {exe};
   if (!helper.empty()) liggghts = {helper, "exec-helper", dir.string(), exe};
   if (threads > 1) {
-    program = bp::search_path("mpirun").string();
-    if (program.empty()) throw LiggghtsError("--threads " + std::to_string(threads) + " needs mpirun (Debian package openmpi-bin)");
-    if (geteuid() == 0) args.push_back("--allow-run-as-root");
-    args.insert(args.end(), {"-np", std::to_string(threads)});
+    // $GRANARY_MPI_LAUNCHER (e.g. "srun --mpi=pmix" inside a Slurm task), else mpirun.
+    std::vector<std::string> launcher;
+    std::istringstream words(std::getenv("GRANARY_MPI_LAUNCHER") ? std::getenv("GRANARY_MPI_LAUNCHER") : "");
+    for (std::string w; words >> w;) launcher.push_back(w);
+    if (launcher.empty()) launcher = {"mpirun"};
+    program = bp::search_path(launcher[0]).string();
+    if (program.empty()) {
+      throw LiggghtsError("--threads " + std::to_string(threads) + " needs " + launcher[0] +
+                          (launcher[0] == "mpirun" ? " (Debian package openmpi-bin)" : " (from GRANARY_MPI_LAUNCHER)"));
+    }
+    args.assign(launcher.begin() + 1, launcher.end());
+    if (fs::path(program).filename() == "srun") {
+      args.push_back("--ntasks=" + std::to_string(threads));
+    } else {
+      if (geteuid() == 0 && fs::path(program).filename() == "mpirun") args.push_back("--allow-run-as-root");
+      args.insert(args.end(), {"-np", std::to_string(threads)});
+    }
     args.insert(args.end(), liggghts.begin(), liggghts.end());
   } else {
     program = liggghts[0];
     args.insert(args.end(), liggghts.begin() + 1, liggghts.end());
   }
   args.insert(args.end(), {"-in", input, "-log", log, "-echo", "none"});
+  if (threads > 1) {
+    std::string line = program;
+    for (const auto& a : args) line += " " + a;
+    std::cout << "granary-liggghts: " << line << std::endl;
+  }
   bp::pipe out;
   std::error_code ec;
   bp::child child(bp::exe = program, bp::args = args, bp::start_dir = dir.string(), bp::std_in < bp::null,
@@ -425,100 +444,154 @@ void SetBox(const SiloSetup& setup, double (&box)[3][2]) {
   box[2][1] = 0.5;
 }
 
+// One block of a LIGGGHTS custom dump (id mol type x y radius vx vy omegaz), `n` rows read from
+// `in`, as a run-directory frame at `step`.
+void ReadFrameBlock(std::istream& in, long long n, long long step, const RunSpec& spec, const SiloSetup& setup,
+                    const BodyIndex& bodies, double box_height, rundir::Frame& frame) {
+  std::string line;
+  const double rho = spec.bodies.density;
+  std::map<long long, double> first_y;  // per body: where its first sphere is in this frame
+  SetBox(setup, frame.box);
+  frame.timestep = step;
+  frame.time = static_cast<double>(step) * spec.time_step;
+  frame.discs.clear();
+  for (long long i = 0; i < n && std::getline(in, line); ++i) {
+    const auto t = Tokens(line);
+    if (t.size() < 9) throw std::runtime_error("malformed LIGGGHTS dump line: " + line);
+    const double r = std::stod(t[5]);
+    const long long body = bodies.of(std::stoll(t[0]), std::stoll(t[1]));
+    // LIGGGHTS wraps each sphere into the y-periodic box; a clump straddling the boundary
+    // is put back together next to its first sphere, as the analyses expect whole bodies.
+    double y = std::stod(t[4]);
+    const auto [it, first] = first_y.emplace(body, y);
+    if (!first) y = NearestImage(y, it->second, box_height);
+    frame.discs.push_back({std::stoll(t[0]), body, std::stoi(t[2]), std::stod(t[3]), y, r, rho * std::numbers::pi * r * r,
+                           std::stod(t[6]), std::stod(t[7]), std::stod(t[8])});
+  }
+}
+
 // LIGGGHTS dump (id mol type x y radius vx vy omegaz) -> the run-directory frames format.
 void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const SiloSetup& setup,
                    const BodyIndex& bodies, double box_height) {
   std::ifstream in(in_path);
   rundir::FrameWriter out = rundir::FrameWriter::Create(out_path, spec.output.compress);
-  std::string line;
-  const double rho = spec.bodies.density;
-  std::map<long long, double> first_y;  // per body: where its first sphere is in this frame
   long long step = 0, n = 0;
   rundir::Frame frame;
-  SetBox(setup, frame.box);
   while (NextDumpBlock(in, step, n)) {
-    frame.timestep = step;
-    frame.time = static_cast<double>(step) * spec.time_step;
-    frame.discs.clear();
-    first_y.clear();
-    for (long long i = 0; i < n && std::getline(in, line); ++i) {
-      const auto t = Tokens(line);
-      if (t.size() < 9) throw std::runtime_error("malformed LIGGGHTS dump line: " + line);
-      const double r = std::stod(t[5]);
-      const long long body = bodies.of(std::stoll(t[0]), std::stoll(t[1]));
-      // LIGGGHTS wraps each sphere into the y-periodic box; a clump straddling the boundary
-      // is put back together next to its first sphere, as the analyses expect whole bodies.
-      double y = std::stod(t[4]);
-      const auto [it, first] = first_y.emplace(body, y);
-      if (!first) y = NearestImage(y, it->second, box_height);
-      frame.discs.push_back({std::stoll(t[0]), body, std::stoi(t[2]), std::stod(t[3]), y, r, rho * std::numbers::pi * r * r,
-                             std::stod(t[6]), std::stod(t[7]), std::stod(t[8])});
-    }
+    ReadFrameBlock(in, n, step, spec, setup, bodies, box_height, frame);
     out.Write(frame);
   }
   out.Close();
 }
 
-// LIGGGHTS' local dumps of pair and wall contacts into contacts.dump (docs/run-directory.md):
-// per frame, one row per pair of spheres of different bodies with the force on the first and
-// the point on its surface towards the second (as the native engine), then one row per wall
-// contact with the contact point. Pairs across the periodic boundary are unwrapped.
-void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& setup,
-                     const std::map<long long, Sphere>& spheres, const BodyIndex& bodies, double box_height) {
-  struct Block {
-    long long step = 0;
-    std::vector<std::string> rows;
-  };
-  auto read_blocks = [](const fs::path& path) {
-    std::map<long long, Block> blocks;
-    std::ifstream in(path);
-    std::string line;
-    long long step = 0, n = 0;
-    while (NextDumpBlock(in, step, n)) {
-      Block& b = blocks[step];
-      b.step = step;
-      for (long long i = 0; i < n && std::getline(in, line); ++i) b.rows.push_back(line);
-    }
-    return blocks;
-  };
-  const std::map<long long, Block> pairs = read_blocks(dir / "contacts_pairs.liggghts");
-  const std::map<long long, Block> walls = read_blocks(dir / "contacts_walls.liggghts");
+// The rows of every block of a LIGGGHTS local dump, by step.
+std::map<long long, std::vector<std::string>> ReadLocalBlocks(const fs::path& path) {
+  std::map<long long, std::vector<std::string>> blocks;
+  std::ifstream in(path);
+  std::string line;
+  long long step = 0, n = 0;
+  while (NextDumpBlock(in, step, n)) {
+    std::vector<std::string>& rows = blocks[step];
+    for (long long i = 0; i < n && std::getline(in, line); ++i) rows.push_back(line);
+  }
+  return blocks;
+}
+
+// One frame of LIGGGHTS' pair and wall contact rows as a run-directory contact frame: one row
+// per pair of spheres of different bodies with the force on the first and the point on its
+// surface towards the second (as the native engine), then one row per wall contact with the
+// contact point. Pairs across the periodic boundary are unwrapped.
+void ContactFrameOf(long long step, const std::vector<std::string>& pairs, const std::vector<std::string>* walls,
+                    const RunSpec& spec, const SiloSetup& setup, const std::map<long long, Sphere>& spheres,
+                    const BodyIndex& bodies, double box_height, rundir::ContactFrame& frame) {
   auto sphere = [&](const std::string& id) -> const Sphere& {
     const auto it = spheres.find(std::stoll(id));
     if (it == spheres.end()) throw std::runtime_error("contact dump names an unknown sphere " + id);
     return it->second;
   };
+  SetBox(setup, frame.box);
+  frame.timestep = step;
+  frame.time = static_cast<double>(step) * spec.time_step;
+  frame.contacts.clear();
+  for (const std::string& line : pairs) {
+    const auto t = Tokens(line);
+    if (t.size() < 8) throw std::runtime_error("malformed LIGGGHTS contact line: " + line);
+    const Sphere& a = sphere(t[4]);
+    const Sphere& b = sphere(t[5]);
+    const long long body_a = bodies.of(a), body_b = bodies.of(b);
+    if (body_a == body_b) continue;
+    const double xi = std::stod(t[0]), yi = std::stod(t[1]), xj = std::stod(t[2]);
+    const double yj = NearestImage(std::stod(t[3]), yi, box_height);
+    const double dx = xj - xi, dy = yj - yi, r = std::hypot(dx, dy);
+    frame.contacts.push_back({body_a, body_b, xi, yi, xj, yj, xi + a.radius * dx / r, yi + a.radius * dy / r,
+                              std::stod(t[6]), std::stod(t[7])});
+  }
+  if (!walls) return;
+  for (const std::string& line : *walls) {
+    const auto t = Tokens(line);
+    if (t.size() < 7) throw std::runtime_error("malformed LIGGGHTS wall contact line: " + line);
+    const double cx = std::stod(t[0]), cy = std::stod(t[1]);
+    frame.contacts.push_back(
+        {bodies.of(sphere(t[4])), -1, std::stod(t[2]), std::stod(t[3]), cx, cy, cx, cy, std::stod(t[5]), std::stod(t[6])});
+  }
+}
+
+// LIGGGHTS' local dumps of pair and wall contacts into contacts.dump (docs/run-directory.md).
+void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& setup,
+                     const std::map<long long, Sphere>& spheres, const BodyIndex& bodies, double box_height) {
+  const auto pairs = ReadLocalBlocks(dir / "contacts_pairs.liggghts");
+  const auto walls = ReadLocalBlocks(dir / "contacts_walls.liggghts");
   rundir::ContactWriter out = rundir::ContactWriter::Create(
       dir / (spec.output.compress ? rundir::kContactsGzFile : rundir::kContactsFile), spec.output.compress);
   rundir::ContactFrame frame;
-  SetBox(setup, frame.box);
-  for (const auto& [step, block] : pairs) {
-    frame.timestep = step;
-    frame.time = static_cast<double>(step) * spec.time_step;
-    frame.contacts.clear();
-    for (const std::string& line : block.rows) {
-      const auto t = Tokens(line);
-      if (t.size() < 8) throw std::runtime_error("malformed LIGGGHTS contact line: " + line);
-      const Sphere& a = sphere(t[4]);
-      const Sphere& b = sphere(t[5]);
-      const long long body_a = bodies.of(a), body_b = bodies.of(b);
-      if (body_a == body_b) continue;
-      const double xi = std::stod(t[0]), yi = std::stod(t[1]), xj = std::stod(t[2]);
-      const double yj = NearestImage(std::stod(t[3]), yi, box_height);
-      const double dx = xj - xi, dy = yj - yi, r = std::hypot(dx, dy);
-      frame.contacts.push_back({body_a, body_b, xi, yi, xj, yj, xi + a.radius * dx / r, yi + a.radius * dy / r,
-                                std::stod(t[6]), std::stod(t[7])});
-    }
-    if (const auto w = walls.find(step); w != walls.end()) {
-      for (const std::string& line : w->second.rows) {
-        const auto t = Tokens(line);
-        if (t.size() < 7) throw std::runtime_error("malformed LIGGGHTS wall contact line: " + line);
-        const double cx = std::stod(t[0]), cy = std::stod(t[1]);
-        frame.contacts.push_back(
-            {bodies.of(sphere(t[4])), -1, std::stod(t[2]), std::stod(t[3]), cx, cy, cx, cy, std::stod(t[5]), std::stod(t[6])});
-      }
-    }
+  for (const auto& [step, rows] : pairs) {
+    const auto w = walls.find(step);
+    ContactFrameOf(step, rows, w == walls.end() ? nullptr : &w->second, spec, setup, spheres, bodies, box_height, frame);
     out.Write(frame);
+  }
+  out.Close();
+}
+
+// The files the discharge script keeps at a stall (input_script.h kClogFilePrefix).
+fs::path ClogFile(const fs::path& dir, long long step, const char* ext) {
+  return dir / (std::string(kClogFilePrefix) + std::to_string(step) + ext);
+}
+void RemoveClogFiles(const fs::path& dir, long long step) {
+  for (const char* ext : {".atoms", ".pairs", ".walls"}) fs::remove(ClogFile(dir, step, ext));
+}
+// Every clog.<step>.* file (continuing: `after` = the checkpoint's step, the later ones go).
+void RemoveClogFilesAfter(const fs::path& dir, long long after) {
+  static const std::regex name(R"(clog\.(\d+)\.(atoms|pairs|walls))");
+  std::vector<fs::path> doomed;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    std::smatch m;
+    const std::string f = e.path().filename().string();
+    if (std::regex_match(f, m, name) && std::stoll(m[1]) > after) doomed.push_back(e.path());
+  }
+  for (const fs::path& f : doomed) fs::remove(f);
+}
+
+// The configurations and contact forces kept at the clogs (steps in order) into the run
+// directory's clog files (rundir/clogs.h).
+void ConvertClogs(const fs::path& dir, const std::vector<long long>& steps, const RunSpec& spec, const SiloSetup& setup,
+                  const std::map<long long, Sphere>& spheres, const BodyIndex& bodies, double box_height) {
+  rundir::ClogWriter out = rundir::ClogWriter::Create(dir);
+  rundir::ClogState clog;
+  for (long long step : steps) {
+    std::ifstream atoms(ClogFile(dir, step, ".atoms"));
+    long long dumped = 0, n = 0;
+    if (!atoms || !NextDumpBlock(atoms, dumped, n))
+      throw std::runtime_error("the configuration of the clog at step " + std::to_string(step) + " is missing (" +
+                               ClogFile(dir, step, ".atoms").string() + ")");
+    ReadFrameBlock(atoms, n, step, spec, setup, bodies, box_height, clog.frame);
+    const auto pairs = ReadLocalBlocks(ClogFile(dir, step, ".pairs"));
+    const auto walls = ReadLocalBlocks(ClogFile(dir, step, ".walls"));
+    static const std::vector<std::string> kNone;
+    const auto p = pairs.find(dumped);
+    const auto w = walls.find(dumped);
+    ContactFrameOf(step, p == pairs.end() ? kNone : p->second, w == walls.end() ? nullptr : &w->second, spec, setup,
+                   spheres, bodies, box_height, clog.contacts);
+    out.Write(clog);
   }
   out.Close();
 }
@@ -634,7 +707,7 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
     // Copy to temporary names, then rename: a reader never sees half a bed.
     for (const char* ext : {".restart", ".dump"}) {
       fs::copy_file(dir / (std::string("bed") + ext), cache_dir / (stem + ext + ".tmp"), fs::copy_options::overwrite_existing);
-      fs::rename(cache_dir / (stem + ext + ".tmp"), cache_dir / (stem + ext));
+      ReplaceAtomically(cache_dir / (stem + ext + ".tmp"), cache_dir / (stem + ext));
     }
     WriteAtomically(cache_dir / (stem + ".json"), json{{"format", "granary-liggghts-bed"},
                                                         {"version", kCachedBedVersion},
@@ -787,11 +860,13 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
         if (c <= ckpt.step) kept.push_back(c);
       state["clog_steps"] = kept;
     }
+    RemoveClogFilesAfter(dir, ckpt.step);
   } else {
     for (const char* f : {"frames.liggghts", rundir::kEventsFile, rundir::kFramesFile, rundir::kFramesGzFile, "final.dump",
                           "contacts_pairs.liggghts", "contacts_walls.liggghts", rundir::kContactsFile,
-                          rundir::kContactsGzFile})
+                          rundir::kContactsGzFile, rundir::kClogFramesFile, rundir::kClogContactsFile})
       fs::remove(dir / f);
+    RemoveClogFilesAfter(dir, -1);
     for (const Counter& c : setup.counters)
       for (const fs::path& f : CounterFiles(dir, c)) fs::remove(f);
     PruneCheckpoints(dir, 0);
@@ -885,7 +960,12 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
         WriteAtomically(state_file, state.dump() + "\n");
         return RunLocked(dir_name, options);
       }
+    } else {
+      RemoveClogFiles(dir, last_step);  // what the script kept of a stall that was no clog
     }
+  } else if (end_reason == "clogged") {
+    state["clog_steps"].push_back(last_step);  // reinject mode: the script stopped at the clog
+    state["clog_step"] = last_step;
   }
 
   // Convert into the run-directory format.
@@ -906,6 +986,8 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
                   setup, bodies, box_height);
   if (spec.output.contact_forces && spec.output.frame_interval > 0 && fs::exists(dir / "contacts_pairs.liggghts"))
     ConvertContacts(dir, spec, setup, spheres, bodies, box_height);
+  ConvertClogs(dir, state.value("clog_steps", json::array()).get<std::vector<long long>>(), spec, setup, spheres, bodies,
+               box_height);
 
   std::set<long long> remaining;
   double out_of_plane = 0;  // the quasi-2-D set-up must keep every centre in z = 0

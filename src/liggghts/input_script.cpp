@@ -388,6 +388,22 @@ std::string BedScript(const RunSpec& spec, const SiloSetup& s) {
   return o.str();
 }
 
+// The commands (each quoted, for an `if ... then`) that keep the configuration at a stall and
+// its contact forces in clog.<step>.atoms, clog.<step>.pairs and, with mesh walls,
+// clog.<step>.walls (the backend converts them into the run directory's clog files).
+std::string ClogDumps(const SiloSetup& s, bool wall_contacts) {
+  std::string c = " \"write_dump all custom " + std::string(kClogFilePrefix) + "${step_now}.atoms id " + BodyColumn(s) +
+                  " type x y radius vx vy omegaz modify format '%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g'\"" +
+                  " \"write_dump all local " + kClogFilePrefix + "${step_now}.pairs c_pair_contacts[1] c_pair_contacts[2] "
+                  "c_pair_contacts[4] c_pair_contacts[5] c_pair_contacts[7] c_pair_contacts[8] c_pair_contacts[10] "
+                  "c_pair_contacts[11] modify format '%.10g %.10g %.10g %.10g %.0f %.0f %.10g %.10g'\"";
+  if (wall_contacts)
+    c += " \"write_dump all local " + std::string(kClogFilePrefix) + "${step_now}.walls c_wall_contacts[1] c_wall_contacts[2] "
+         "c_wall_contacts[4] c_wall_contacts[5] c_wall_contacts[9] c_wall_contacts[10] c_wall_contacts[11] "
+         "modify format '%.10g %.10g %.10g %.10g %.0f %.10g %.10g'\"";
+  return c;
+}
+
 std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const DischargeStart& start) {
   const double dt = spec.time_step;
   const long long chunk = StepsOf(std::min(kChunkTime, spec.discharge.clog_window / 4), dt);
@@ -401,10 +417,12 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
   o << Material(spec, s) << MeshWalls(spec, s, s.discharge_meshes, "walls_discharge") << PrimitiveWalls(spec, s, false);
   // Contact forces: LIGGGHTS refuses these computes after the first run unless fix data from a
   // restart are still waiting, as they are right after read_restart (fresh and continued alike).
+  // Pair contacts always (every clog keeps its contact forces); wall contacts only where every
+  // wall is a mesh (output.contact_forces), the only walls LIGGGHTS reports.
   const bool contacts = spec.output.contact_forces && spec.output.frame_interval > 0;
-  if (contacts)
-    o << "compute pair_contacts all pair/gran/local pos id force\n"
-      << "compute wall_contacts all wall/gran/local pos id force\n";
+  const bool wall_contacts = spec.output.contact_forces;
+  o << "compute pair_contacts all pair/gran/local pos id force\n";
+  if (wall_contacts) o << "compute wall_contacts all wall/gran/local pos id force\n";
   std::string exited;
   for (std::size_t k = 0; k < s.counters.size(); ++k) {
     const Counter& c = s.counters[k];
@@ -471,14 +489,17 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
   // backend decides from the final dump whether an arch seals an outlet (a clog) or the silo has
   // discharged what can flow (engine::SealedOutlets, as the native engine); the restart written
   // here lets it go on through a clog when the spec asks for that.
+  // Every stall also keeps its configuration and contact forces (ClogDumps): a clog's, or in
+  // remove mode one the backend may judge a discharge and drop.
   const std::string stalled = "\"${since_exit} >= " + std::to_string(clog_steps) + " && ${clog_counted} == 0\"";
+  const std::string keep = ClogDumps(s, wall_contacts);
   if (remove)
-    p << "if " << stalled << " then \"write_restart checkpoint.*.restart\" \"print 'GRANARY_END stalled'\" "
+    p << "if " << stalled << " then \"write_restart checkpoint.*.restart\"" << keep << " \"print 'GRANARY_END stalled'\" "
       << "\"jump SELF finished\"\n";
   else if (spec.discharge.stop_on_clog)
-    p << "if " << stalled << " then \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
+    p << "if " << stalled << " then" << keep << " \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
   else
-    p << "if " << stalled << " then \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";
+    p << "if " << stalled << " then" << keep << " \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";
   p << "next chunk\njump SELF discharge\nlabel finished\n"
     << "write_dump all custom final.dump id " << BodyColumn(s) << " type x y radius z\n"
     << "print \"GRANARY_FINAL ${step_now}\"\n"

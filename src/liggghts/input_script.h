@@ -83,6 +83,12 @@ struct DischargeStart {
 };
 std::string DischargeScript(const RunSpec& spec, const SiloSetup& setup, const DischargeStart& start);
 
+// The discharge script keeps each stall's configuration and contact forces in
+// <prefix><step>.atoms (custom dump: id mol-or-id type x y radius vx vy omegaz),
+// <prefix><step>.pairs (as contacts_pairs.liggghts) and, with output.contact_forces,
+// <prefix><step>.walls (as contacts_walls.liggghts).
+inline constexpr char kClogFilePrefix[] = "clog.";
+
 // ASCII STL of one rectangle.
 std::string Stl(const MeshFile& mesh, double half_z);
 

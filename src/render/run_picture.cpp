@@ -10,6 +10,7 @@
 
 #include "analysis/clogging.h"
 #include "analysis/run_pass.h"
+#include "rundir/clogs.h"
 
 namespace granary::render {
 namespace fs = std::filesystem;
@@ -99,7 +100,28 @@ RunSetting SettingOf(const rundir::RunData& run) {
   return s;
 }
 
+Scene ClogScene(const fs::path& run_dir, int clog, const PictureOptions& o, const std::optional<Window>& window) {
+  const rundir::RunData run = rundir::ReadRun(run_dir);
+  if (!run.spec.is_object()) throw std::runtime_error("run " + run_dir.string() + " has no run.json");
+  const std::vector<rundir::ClogState> clogs = rundir::ReadClogs(run_dir);
+  if (clog < 1 || clog > static_cast<int>(clogs.size()))
+    throw std::runtime_error("run " + run_dir.string() + " kept " + std::to_string(clogs.size()) + " clog" +
+                             (clogs.size() == 1 ? "" : "s") + ", not a clog " + std::to_string(clog));
+  const rundir::ClogState& c = clogs[static_cast<std::size_t>(clog - 1)];
+  const RunSpec spec = RunSpec::from_json(run.spec);
+  const double top = TopOf(c.frame);
+  RunSetting setting;
+  setting.silo = engine::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : top + 1);
+  setting.window = window ? *window : SiloWindow(setting.silo, spec.discharge.exit_distance, std::max(top, spec.silo.height));
+  for (const auto& sp : spec.bodies.species) setting.species.push_back(sp.name);
+  SceneOptions so = OptionsFor(setting, o);
+  so.contacts = &c.contacts;
+  so.caption = Caption(c.frame, run) + "   clog " + std::to_string(clog);
+  return MakeScene(c.frame, setting.silo, so);
+}
+
 Scene RunScene(const fs::path& run_dir, const PictureOptions& o) {
+  if (o.pick.kind == FramePick::kClog && rundir::ClogReader(run_dir).present()) return ClogScene(run_dir, o.pick.clog, o);
   const rundir::RunData run = rundir::ReadRun(run_dir);
   const RunSetting setting = SettingOf(run);
   if (NeedsContacts(o) && !setting.has_contacts)

@@ -36,8 +36,15 @@ struct RunSetting {
 RunSetting SettingOf(const rundir::RunData& run);
 
 // The scene of the picked frame; throws std::runtime_error saying what is missing (no frames,
-// no contact frames for --forces / force colours, fewer clogs than asked for).
+// no contact frames for --forces / force colours, fewer clogs than asked for). The K-th clog is
+// the K-th the engine kept (ClogScene) when the run has clog files, else the K-th of the exit
+// stream.
 Scene RunScene(const std::filesystem::path& run_dir, const PictureOptions& options);
+
+// The K-th (1-based) clogged configuration the engine kept (clog_frames.dump, with its contact
+// forces from clog_contacts.dump), in `window` or else the silo's; needs no frames.dump.
+Scene ClogScene(const std::filesystem::path& run_dir, int clog, const PictureOptions& options,
+                const std::optional<Window>& window = std::nullopt);
 
 // Every frame through ffmpeg into an H.264 MP4 (`fps` frames per second, `width_px` wide);
 // `progress(done, total)` after each frame. Returns the number of frames written; throws

@@ -15,29 +15,57 @@
 
 namespace granary {
 
+namespace {
+
+// fsync of an open path; directories are opened read-only.
+void SyncPath(const std::filesystem::path& path, bool directory) {
+  const int fd = ::open(path.c_str(), (directory ? O_RDONLY | O_DIRECTORY : O_WRONLY) | O_CLOEXEC);
+  if (fd < 0) throw std::runtime_error("cannot open " + path.string() + " to sync it: " + std::strerror(errno));
+  const int rc = ::fsync(fd);
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) throw std::runtime_error("fsync failed on " + path.string() + ": " + std::strerror(err));
+}
+
+std::filesystem::path DirectoryOf(const std::filesystem::path& file) {
+  return file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path();
+}
+
+}  // namespace
+
+void ReplaceAtomically(const std::filesystem::path& tmp, const std::filesystem::path& file) {
+  SyncPath(tmp, false);
+  std::filesystem::rename(tmp, file);
+  SyncPath(DirectoryOf(file), true);
+}
+
 void WriteAtomically(const std::filesystem::path& file, const std::string& text) {
   const std::filesystem::path tmp = file.string() + ".tmp." + std::to_string(::getpid());
   // POSIX calls, so that a failure says why (ENOSPC: "No space left on device").
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) throw std::runtime_error("cannot write " + tmp.string() + ": " + std::strerror(errno));
+  const auto fail = [&](int err) {
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    throw std::runtime_error("cannot write " + file.string() + ": " + std::strerror(err));
+  };
   std::size_t done = 0;
   while (done < text.size()) {
     const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
     if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int err = n < 0 ? errno : ENOSPC;
-      ::close(fd);
-      ::unlink(tmp.c_str());
-      throw std::runtime_error("cannot write " + file.string() + ": " + std::strerror(err));
-    }
+    if (n <= 0) fail(n < 0 ? errno : ENOSPC);
     done += static_cast<std::size_t>(n);
   }
+  // The data reaches the disk before the rename makes it visible, and the rename itself is
+  // made durable: on a shared file system another node may read the file next.
+  if (::fsync(fd) != 0) fail(errno);
   if (::close(fd) != 0) {
     const int err = errno;
     ::unlink(tmp.c_str());
     throw std::runtime_error("cannot write " + file.string() + ": " + std::strerror(err));
   }
   std::filesystem::rename(tmp, file);
+  SyncPath(DirectoryOf(file), true);
 }
 
 OutputFile::OutputFile(const std::filesystem::path& path) : path_(path), file_(std::fopen(path.c_str(), "wb")) {

@@ -15,8 +15,13 @@ namespace granary {
 
 // Writes `text` to a temporary file beside `file` (named with this process' pid, so two
 // processes never share it) and renames it over `file`: readers see the old or the new
-// content, never a torn one. Throws std::runtime_error naming the file.
+// content, never a torn one. File and directory are fsynced (a shared file system may show
+// the file to another node next). Throws std::runtime_error naming the file.
 void WriteAtomically(const std::filesystem::path& file, const std::string& text);
+
+// The same for a file already written at `tmp` (beside `file`): fsync, rename, fsync the
+// directory.
+void ReplaceAtomically(const std::filesystem::path& tmp, const std::filesystem::path& file);
 
 // A file written front to back with C stdio (fast formatted output), that a run continued
 // from a checkpoint reopens cut back to the offset the checkpoint recorded.

@@ -150,7 +150,10 @@ constexpr char kRunColumns[] =
     "SELECT run_id, seq, point_id, point, replica, params, state, attempts, engine, COALESCE(engine_version, ''), "
     "COALESCE(host, ''), COALESCE(started_at, 0), COALESCE(ended_at, 0), COALESCE(wall_s, 0), "
     "COALESCE(end_reason, ''), run_dir, COALESCE(failure, ''), COALESCE(lease_holder, ''), progress, "
-    "COALESCE(lease_host, ''), COALESCE(lease_pid, 0), COALESCE(lease_heartbeat, 0) FROM runs ";
+    "COALESCE(lease_host, ''), COALESCE(lease_pid, 0), COALESCE(lease_heartbeat, 0), COALESCE(job_array, 0), "
+    "COALESCE(job_index, -1), COALESCE(job_arrays.job_id, ''), COALESCE(job_arrays.dir, ''), "
+    "COALESCE(job_arrays.name, ''), COALESCE(job_state, ''), COALESCE(job_arrays.script, '') FROM runs "
+    "LEFT JOIN job_arrays ON job_arrays.id = runs.job_array ";
 
 RunRow ReadRow(const Statement& q, bool with_params) {
   RunRow r;
@@ -176,6 +179,13 @@ RunRow ReadRow(const Statement& q, bool with_params) {
   r.lease_host = q.text(19);
   r.lease_pid = static_cast<int>(q.integer(20));
   r.lease_heartbeat = q.real(21);
+  r.job_array = q.integer(22);
+  r.job_index = static_cast<int>(q.integer(23));
+  r.job_id = q.text(24);
+  r.job_dir = q.text(25);
+  r.job_name = q.text(26);
+  r.job_state = q.text(27);
+  r.job_script = q.text(28);
   return r;
 }
 
@@ -227,7 +237,7 @@ int recover_expired_leases(Store& store, const Holder& me, double now) {
   Transaction tx(store);
   Statement q = store.prepare(
       "SELECT run_id, COALESCE(lease_host, ''), COALESCE(lease_pid, 0), COALESCE(lease_heartbeat, 0), "
-      "COALESCE(lease_holder, '') FROM runs WHERE state = 'running' ORDER BY seq");
+      "COALESCE(lease_holder, '') FROM runs WHERE state = 'running' AND job_array IS NULL ORDER BY seq");
   std::vector<std::string> expired;
   while (q.step()) {
     const std::string holder = q.text(4);
@@ -265,7 +275,8 @@ std::optional<RunRow> claim_next(Store& store, const Holder& me, double now,
   Statement u = store.prepare(
       "UPDATE runs SET state = 'running', attempts = attempts + 1, host = ?2, started_at = ?3, ended_at = NULL, "
       "lease_holder = ?4, lease_host = ?2, lease_pid = ?5, lease_heartbeat = ?3, granary_version = ?6, "
-      "git_commit = ?7 WHERE run_id = ?1 AND state IN ('planned', 'interrupted', 'failed')");
+      "git_commit = ?7, job_array = NULL, job_index = NULL, job_state = NULL "
+      "WHERE run_id = ?1 AND state IN ('planned', 'interrupted', 'failed')");
   u.bind(1, found->run_id).bind(2, me.host).bind(3, now).bind(4, me.id).bind(5, me.pid);
   u.bind(6, GRANARY_VERSION).bind(7, granary::GitCommit()).run();
   if (sqlite3_changes(store.handle()) != 1) return std::nullopt;
@@ -327,16 +338,10 @@ std::map<std::string, json> flatten_scalars(const json& summary) {
   return out;
 }
 
-bool record_done(Store& store, const std::string& run_id, const std::string& holder, const json& summary, double now,
-                 double wall_s) {
-  Transaction tx(store);
-  Statement u = store.prepare(
-      "UPDATE runs SET state = 'done', ended_at = ?2, wall_s = ?3, end_reason = ?4, engine_version = ?5, "
-      "summary = ?6, failure = NULL, lease_holder = NULL, lease_host = NULL, lease_pid = NULL, "
-      "lease_heartbeat = NULL WHERE run_id = ?1 AND state = 'running' AND lease_holder = ?7");
-  u.bind(1, run_id).bind(2, now).bind(3, wall_s).bind(4, summary.value("end_reason", std::string()));
-  u.bind(5, summary.value("engine_version", std::string())).bind(6, summary.dump()).bind(7, holder).run();
-  if (sqlite3_changes(store.handle()) != 1) return false;  // rolled back: not ours any more
+namespace {
+
+// The scalars of summary.json as the run's results, replacing any earlier ones.
+void StoreResults(Store& store, const std::string& run_id, const json& summary) {
   Statement del = store.prepare("DELETE FROM results WHERE run_id = ?1");
   del.bind(1, run_id).run();
   Statement ins = store.prepare("INSERT INTO results (run_id, key, value, text) VALUES (?1, ?2, ?3, ?4)");
@@ -348,6 +353,21 @@ bool record_done(Store& store, const std::string& run_id, const std::string& hol
     else ins.bind_null(3).bind(4, value.get<std::string>());
     ins.run();
   }
+}
+
+}  // namespace
+
+bool record_done(Store& store, const std::string& run_id, const std::string& holder, const json& summary, double now,
+                 double wall_s) {
+  Transaction tx(store);
+  Statement u = store.prepare(
+      "UPDATE runs SET state = 'done', ended_at = ?2, wall_s = ?3, end_reason = ?4, engine_version = ?5, "
+      "summary = ?6, failure = NULL, lease_holder = NULL, lease_host = NULL, lease_pid = NULL, "
+      "lease_heartbeat = NULL WHERE run_id = ?1 AND state = 'running' AND lease_holder = ?7");
+  u.bind(1, run_id).bind(2, now).bind(3, wall_s).bind(4, summary.value("end_reason", std::string()));
+  u.bind(5, summary.value("engine_version", std::string())).bind(6, summary.dump()).bind(7, holder).run();
+  if (sqlite3_changes(store.handle()) != 1) return false;  // rolled back: not ours any more
+  StoreResults(store, run_id, summary);
   tx.commit();
   return true;
 }
@@ -385,6 +405,25 @@ void store_metrics(Store& store, const std::vector<RunMetrics>& runs, double now
     }
     ana.reset();
     ana.bind(1, r.run_id).bind(2, r.analysis).bind(3, r.version).bind(4, r.options.dump()).bind(5, now).run();
+    }
+  tx.commit();
+}
+
+void record_job_array(Store& store, const Holder& me, const JobArray& array, double now) {
+  Transaction tx(store);
+  Statement a = store.prepare(
+      "INSERT INTO job_arrays (dir, script, name, array, job_id, submitted_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
+  a.bind(1, array.dir).bind(2, array.script).bind(3, array.name).bind(4, array.array);
+  if (array.job_id.empty()) a.bind_null(5);
+  else a.bind(5, array.job_id);
+  a.bind(6, now).run();
+  const std::int64_t id = sqlite3_last_insert_rowid(store.handle());
+  Statement u = store.prepare(
+      "UPDATE runs SET job_array = ?2, job_index = ?3, job_state = 'PENDING' "
+      "WHERE run_id = ?1 AND state = 'running' AND lease_holder = ?4");
+  for (const auto& [run_id, index] : array.runs) {
+    u.reset();
+    u.bind(1, run_id).bind(2, id).bind(3, index).bind(4, me.id).run();
   }
   tx.commit();
 }
@@ -403,6 +442,82 @@ std::map<std::string, std::vector<RunMetrics>> load_metrics(Store& store) {
     list.back().metrics.push_back({q.text(3), q.text(6), q.is_null(4) ? nan : q.real(4), q.is_null(5) ? nan : q.real(5)});
   }
   return out;
+}
+
+void record_job_id(Store& store, const std::string& script, const std::string& job_id) {
+  Statement u = store.prepare("UPDATE job_arrays SET job_id = ?2 WHERE script = ?1");
+  u.bind(1, script).bind(2, job_id).run();
+}
+
+void record_job_states(Store& store, const std::map<std::string, std::string>& state_by_run) {
+  if (state_by_run.empty()) return;
+  Transaction tx(store);
+  Statement u = store.prepare("UPDATE runs SET job_state = ?2 WHERE run_id = ?1 AND job_array IS NOT NULL");
+  for (const auto& [run_id, state] : state_by_run) {
+    u.reset();
+    u.bind(1, run_id).bind(2, state).run();
+  }
+  tx.commit();
+}
+
+std::vector<RunRow> adopt_queued_runs(Store& store, const Holder& me, double now) {
+  Transaction tx(store);
+  std::vector<RunRow> adopted;
+  {
+    Statement q = store.prepare(
+        (std::string(kRunColumns) + "WHERE state = 'running' AND job_array IS NOT NULL ORDER BY seq").c_str());
+    while (q.step()) {
+      RunRow r = ReadRow(q, true);
+      if (r.lease_holder == me.id) continue;
+      if (!r.lease_holder.empty() && !lease_expired(r, me.host, now)) continue;  // watched by a live runner
+      adopted.push_back(std::move(r));
+    }
+  }
+  Statement u = store.prepare(
+      "UPDATE runs SET lease_holder = ?2, lease_host = ?3, lease_pid = ?4, lease_heartbeat = ?5 "
+      "WHERE run_id = ?1 AND state = 'running' AND job_array IS NOT NULL");
+  for (auto& r : adopted) {
+    u.reset();
+    u.bind(1, r.run_id).bind(2, me.id).bind(3, me.host).bind(4, me.pid).bind(5, now).run();
+    r.lease_holder = me.id;
+    r.lease_host = me.host;
+    r.lease_pid = me.pid;
+    r.lease_heartbeat = now;
+  }
+  tx.commit();
+  return adopted;
+}
+
+int release_queued_runs(Store& store, const Holder& me) {
+  Statement u = store.prepare(
+      "UPDATE runs SET lease_holder = NULL, lease_host = NULL, lease_pid = NULL, lease_heartbeat = NULL "
+      "WHERE lease_holder = ?1 AND state = 'running' AND job_array IS NOT NULL");
+  u.bind(1, me.id).run();
+  return sqlite3_changes(store.handle());
+}
+
+bool settle_run(Store& store, const RunRow& seen, const std::string& state, const std::string& reason,
+                const json* summary, double wall_s, double now) {
+  Transaction tx(store);
+  Statement u = store.prepare(
+      "UPDATE runs SET state = ?2, failure = ?3, end_reason = ?4, ended_at = ?5, wall_s = ?6, "
+      "engine_version = COALESCE(?7, engine_version), summary = COALESCE(?8, summary), job_state = NULL, "
+      "lease_holder = NULL, lease_host = NULL, lease_pid = NULL, lease_heartbeat = NULL "
+      "WHERE run_id = ?1 AND state = ?9 AND COALESCE(lease_holder, '') = ?10");
+  u.bind(1, seen.run_id).bind(2, state);
+  if (summary) {
+    u.bind_null(3).bind(4, summary->value("end_reason", std::string())).bind(7, summary->value("engine_version", std::string()));
+    u.bind(8, summary->dump());
+  } else {
+    u.bind(3, reason).bind(4, state).bind_null(7).bind_null(8);
+  }
+  u.bind(5, now).bind(6, wall_s).bind(9, seen.state).bind(10, seen.lease_holder).run();
+  if (sqlite3_changes(store.handle()) != 1) return false;
+  if (summary) {
+    StoreResults(store, seen.run_id, *summary);
+  }
+  tx.commit();
+  return true;
 }
 
 }  // namespace granary::runner

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "runner/campaign_spec.h"
+#include "runner/executor.h"
 #include "runner/store.h"
 
 namespace granary::runner {
@@ -55,6 +56,16 @@ struct RunRow {
   int lease_pid = 0;
   double lease_heartbeat = 0;
   nlohmann::json progress;  // last progress.json seen, or null
+  // Its place in a batch queue (docs/slurm.md) from its last submission; 0 = never queued.
+  std::int64_t job_array = 0;
+  int job_index = -1;
+  std::string job_id;     // the array job id; "" until sbatch returned
+  std::string job_dir;    // the submission's directory (manifest, scripts)
+  std::string job_script;
+  std::string job_name;
+  std::string job_state;  // the queue state last seen
+  // In a batch queue now: its job, not a runner, holds it.
+  bool queued() const { return state == "running" && job_array != 0; }
 };
 
 struct CampaignRow {
@@ -96,11 +107,13 @@ double lease_stale_seconds();
 // Is the lease of a running row expired (stale heartbeat, or holder pid gone on `host`)?
 bool lease_expired(const RunRow& row, const std::string& host, double now);
 
-// Runs left `running` under an expired lease become `interrupted`. Returns how many.
+// Runs left `running` under an expired lease become `interrupted`. Returns how many. Runs in
+// a batch queue are not: their jobs hold them (adopt_queued_runs).
 int recover_expired_leases(Store& store, const Holder& me, double now);
 
 // Claims the first runnable run (planned, interrupted or failed; in plan order) that passes
-// `accept` and is not in `skip`. Marks it running under `me`, attempts + 1.
+// `accept` and is not in `skip`. Marks it running under `me`, attempts + 1, out of any queue
+// (the row returned still names its last submission, which a resubmission reuses).
 std::optional<RunRow> claim_next(Store& store, const Holder& me, double now,
                                  const std::function<bool(const RunRow&)>& accept,
                                  const std::set<std::string>& skip);
@@ -149,5 +162,28 @@ std::map<std::string, std::vector<RunMetrics>> load_metrics(Store& store);
 std::map<std::string, nlohmann::json> flatten_scalars(const nlohmann::json& summary);
 
 double now_seconds();
+
+// ---- Runs in a batch queue (Slurm job arrays; docs/slurm.md)
+
+// Records an array about to be submitted (before sbatch, so a runner that dies inside sbatch
+// leaves a trace to find the job by), and puts its runs that `me` holds into it, state
+// PENDING. One transaction.
+void record_job_array(Store& store, const Holder& me, const JobArray& array, double now);
+// The array job id sbatch printed.
+void record_job_id(Store& store, const std::string& script, const std::string& job_id);
+// Queue states seen in one poll, run id -> state; one transaction.
+void record_job_states(Store& store, const std::map<std::string, std::string>& state_by_run);
+// Re-attach: the queued runs that no live runner watches (no lease, or an expired one) are
+// taken under `me` and returned.
+std::vector<RunRow> adopt_queued_runs(Store& store, const Holder& me, double now);
+// campaign scan: sets a run's state from what its directory shows (done: `summary` ingested
+// as record_done does), provided the row is still as the scan read it (same state, same
+// lease holder), so whatever a runner recorded in between wins. Returns whether it wrote.
+bool settle_run(Store& store, const RunRow& seen, const std::string& state, const std::string& reason,
+                const nlohmann::json* summary, double wall_s, double now);
+
+// Detach: `me` stops watching its queued runs; they stay `running` in their jobs, for a
+// later `campaign run` to adopt or `campaign scan` to settle. Returns how many.
+int release_queued_runs(Store& store, const Holder& me);
 
 }  // namespace granary::runner

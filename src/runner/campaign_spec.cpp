@@ -5,15 +5,14 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "runner/slurm.h"
 #include "runner/util.h"
 
 namespace granary::runner {
 
 using nlohmann::json;
 
-namespace {
-
-void CheckKeys(const json& j, const std::string& path, const std::vector<std::string>& allowed) {
+void check_keys(const json& j, const std::string& path, const std::vector<std::string>& allowed) {
   if (!j.is_object()) throw SpecError(path.empty() ? "/" : path, "must be an object (got " + std::string(j.type_name()) + ")");
   for (const auto& [key, value] : j.items()) {
     if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
@@ -28,6 +27,8 @@ void CheckKeys(const json& j, const std::string& path, const std::vector<std::st
     throw SpecError(path + "/" + escape_pointer_token(key), msg);
   }
 }
+
+namespace {
 
 void CheckPointer(const std::string& key, const std::string& path) {
   if (key.empty() || key[0] != '/') {
@@ -79,6 +80,9 @@ SpecTable MakeCampaignSpecTable() {
       {"/sweep/zip", T::kAxisValues, "{axis: [values]}: paired lists of equal length"},
       {"/sweep/points", T::kAxisPoints, "[{axis: value, ...}]: explicit points"},
       {"/report", T::kOpenObject, "report options, checked by the analysis library (docs/analyses.md)"},
+      {"/executor", T::kOpenObject,
+       "where runs go: {\"type\": \"local\"} or {\"type\": \"slurm\", ...} with the options of campaign run "
+       "--executor slurm (docs/slurm.md); command-line flags win"},
   });
 }
 
@@ -207,7 +211,7 @@ json parse_spec_text(const std::string& text, const std::string& source) {
 }
 
 CampaignSpec CampaignSpec::from_json(const json& j) {
-  CheckKeys(j, "", campaign_spec_table().keys(""));
+  check_keys(j, "", campaign_spec_table().keys(""));
   CampaignSpec s;
   s.raw = j;
   if (!j.contains("name") || !j["name"].is_string() || j["name"].get<std::string>().empty()) {
@@ -266,12 +270,17 @@ CampaignSpec CampaignSpec::from_json(const json& j) {
                                           "; set the engine in one place (the campaign's \"engine\")");
     }
   }
+  if (j.contains("executor")) {
+    SlurmOptions unused;
+    parse_executor_block(j["executor"], "/executor", unused);
+    s.executor = j["executor"];
+  }
   if (j.contains("report") && !j["report"].is_object()) {
     throw SpecError("/report", "must be an object (got " + std::string(j["report"].type_name()) + ")");
   }
   if (j.contains("sweep")) {
     const json& sw = j["sweep"];
-    CheckKeys(sw, "/sweep", campaign_spec_table().keys("/sweep"));
+    check_keys(sw, "/sweep", campaign_spec_table().keys("/sweep"));
     if (sw.contains("grid")) {
       if (!sw["grid"].is_object()) throw SpecError("/sweep/grid", "must be an object of axis -> values");
       for (const auto& [key, values] : sw["grid"].items()) {

@@ -24,6 +24,7 @@ struct CampaignSpec {
   nlohmann::json grid = nlohmann::json::object();   // pointer -> [values]: cartesian product
   nlohmann::json zip = nlohmann::json::object();    // pointer -> [values]: paired, equal lengths
   nlohmann::json points = nlohmann::json::array();  // [{pointer: value, ...}]: explicit points
+  nlohmann::json executor;                          // the "executor" block (validated), or null
   nlohmann::json raw;                               // the spec as given
   std::vector<std::string> axes;                    // grid, then zip, then point keys, in order
 
@@ -31,6 +32,10 @@ struct CampaignSpec {
   static CampaignSpec from_json(const nlohmann::json& j);
   std::string spec_hash() const;
 };
+
+// Throws SpecError at `path`/KEY for a key of the object `j` not in `allowed` (with the
+// nearest allowed key as a suggestion), or at `path` when `j` is not an object.
+void check_keys(const nlohmann::json& j, const std::string& path, const std::vector<std::string>& allowed);
 
 struct PlannedRun {
   std::string run_id;

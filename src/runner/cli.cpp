@@ -6,8 +6,10 @@
 #include <sys/ioctl.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <ctime>
+#include <optional>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -19,16 +21,24 @@
 #include <sstream>
 #include <thread>
 
+#include "rundir/progress.h"
 #include "runner/campaign_db.h"
 #include "runner/campaign_spec.h"
 #include "runner/inspect.h"
 #include "runner/run_filter.h"
+#include "runner/scan.h"
 #include "runner/scheduler.h"
+#include "runner/slurm.h"
+#include "runner/slurm_executor.h"
 #include "runner/util.h"
 #ifdef GRANARY_HAVE_ANALYSIS
+#include "analysis/cg_run.h"
 #include "analysis/export.h"
+#include "analysis/fields_analysis.h"
 #include "analysis/registry.h"
 #include "analysis/report.h"
+#include "rundir/contacts.h"
+#include "rundir/frames.h"
 #endif
 #include "rundir/files.h"
 #ifdef GRANARY_HAVE_RENDER
@@ -253,8 +263,17 @@ std::uint64_t MaxRuns(const Args& a) {
 }
 
 // Validates the campaign spec `j` (read from spec_path), expands it and stores the runs.
-PlanSummary PlanInto(const json& j, const std::string& spec_path, const std::string& db, bool dry_run,
+PlanSummary PlanInto(const json& given, const std::string& spec_path, const std::string& db, bool dry_run,
                      std::uint64_t max_runs, CampaignSpec& spec) {
+  json j = given;
+#ifdef GRANARY_HAVE_ANALYSIS
+  // Coarse-grained stress fields need contact frames: the runs write them.
+  try {
+    j = analysis::with_fields_output(given);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(spec_path + ": " + e.what());
+  }
+#endif
   try {
     spec = CampaignSpec::from_json(j);
   } catch (const SpecError& e) {
@@ -326,6 +345,8 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
 const char kRunHelp[] =
     "usage: campaign run [--db FILE] [--jobs N] [--engine E] [--only FILTER] [--threads-per-run T]\n"
     "                    [--time-limit S] [--retries K] [--rerun-lost]\n"
+    "       campaign run --executor slurm [--partition P] [--time T] [--cpus-per-run C] [--array-max K]\n"
+    "                    [--account A] [--sbatch-arg ARG]... [--poll-interval S] [--dry-run] [--detach] ...\n"
     "Run every planned, interrupted or failed run, N at a time, each as an engine subprocess on\n"
     "its run directory. Safe to repeat after a crash or kill: done runs are kept, interrupted ones\n"
     "continue from their checkpoint, and two runners on one database never run the same run.\n"
@@ -335,11 +356,23 @@ const char kRunHelp[] =
     "                       (a short name that ends one sweep axis will do: width=10); repeat it:\n"
     "                       values of one parameter are alternatives, different parameters all hold\n"
     "  --threads-per-run T  passed to the engine as --threads (default 1)\n"
-    "  --time-limit S       wall seconds per run; a run over it is killed and marked failed\n"
+    "  --time-limit S       wall seconds per run; a run over it is stopped and marked failed\n"
     "  --retries K          extra attempts per run in this invocation (default 1)\n"
     "  --rerun-lost         run again the done runs whose run directory was deleted\n"
-    "Exit: 0 all ran, 1 some runs failed, 2 usage error, 3 storage error (database or run\n"
-    "directories: full disk, unwritable), 130 interrupted (Ctrl-C / SIGTERM).\n";
+    "Slurm (docs/slurm.md; defaults from the spec's \"executor\" block):\n"
+    "  --executor E         local (default) or slurm: submit the runs as job arrays and watch them\n"
+    "  --partition P, --account A, --time T   sbatch's (T in Slurm's format, e.g. 4:00:00; default\n"
+    "                       from --time-limit, which counts from each task's start)\n"
+    "  --cpus-per-run C     cores per run: native threads, or LIGGGHTS MPI ranks (srun) (default 1)\n"
+    "  --array-max K        at most K tasks of the campaign at once (%K; default: no limit)\n"
+    "  --sbatch-arg ARG     one more sbatch option, e.g. --sbatch-arg=--qos=long (repeatable)\n"
+    "  --poll-interval S    seconds between squeue calls at first, backing off to 12 S (default 5)\n"
+    "  --dry-run            print the manifests and batch scripts; submit nothing\n"
+    "  --detach             submit and exit; campaign status, campaign scan and a later campaign run\n"
+    "                       --executor slurm follow the jobs\n"
+    "Exit: 0 all ran (or submitted, with --detach), 1 some runs failed, 2 usage error, 3 storage\n"
+    "error (database or run directories: full disk, unwritable), 130 interrupted (Ctrl-C / SIGTERM;\n"
+    "Slurm jobs keep running).\n";
 
 volatile std::sig_atomic_t g_stop = 0;
 extern "C" void RunnerOnStopSignal(int) { g_stop = 1; }
@@ -408,8 +441,10 @@ class ConsoleObserver : public RunObserver {
       Draw();
     } else if (elapsed - last_plain_ >= 10.0) {
       last_plain_ = elapsed;
-      out_ << "progress " << done << "/" << total << " done, " << failed << " failed, " << active.size()
-           << " running, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed) << "\n";
+      const int queued = Queued(active);
+      out_ << "progress " << done << "/" << total << " done, " << failed << " failed, " << active.size() - queued
+           << " running" << (queued > 0 ? ", " + std::to_string(queued) + " queued" : "") << ", elapsed "
+           << Duration(elapsed) << ", ETA " << Eta(elapsed) << "\n";
       out_.flush();
     }
   }
@@ -439,6 +474,12 @@ class ConsoleObserver : public RunObserver {
     out_ << FitColumns(text, columns_) << "\n";
     ++lines_;
   }
+  static bool IsQueued(const ActiveRun& a) {
+    return !a.queue_state.empty() && fate_of(a.queue_state) != TaskFate::kRunning;
+  }
+  static int Queued(const std::vector<ActiveRun>& active) {
+    return static_cast<int>(std::count_if(active.begin(), active.end(), IsQueued));
+  }
   void Draw() {
     if (!tty_ || total_ == 0) return;
     columns_ = TerminalColumns();
@@ -447,7 +488,10 @@ class ConsoleObserver : public RunObserver {
     head << Bar(static_cast<double>(done_) / total_, 30) << " " << done_ << "/" << total_ << " done, " << failed_
          << " failed, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed);
     Line(head.str());
+    // Runs waiting in a batch queue get one line for all of them.
+    if (const int queued = Queued(active_); queued > 0) Line("  " + std::to_string(queued) + " queued (Slurm)");
     for (const auto& a : active_) {
+      if (IsQueued(a)) continue;
       const auto it = points_.find(a.run_id);
       Line("  " + a.run_id.substr(0, 10) + " " + (it == points_.end() ? std::string() : it->second) + "  " +
            ProgressText(a.progress, a.elapsed));
@@ -470,7 +514,7 @@ std::string ExeDir() {
   return ec ? "." : self.parent_path().string();
 }
 
-int RunAll(const std::string& db, const RunOptions& o, std::ostream& out);
+int RunAll(const std::string& db, const RunOptions& o, std::ostream& out, const SlurmSettings* slurm = nullptr);
 
 // The flags `run` and `compare` share: --jobs, --threads-per-run, --time-limit, --retries.
 RunOptions RunOptionsFrom(const Args& a) {
@@ -485,6 +529,61 @@ RunOptions RunOptionsFrom(const Args& a) {
   return o;
 }
 
+// The executor `campaign run` uses: --executor, else the spec's "executor" block, else local;
+// Slurm's options from the block, then the flags.
+struct ExecutorChoice {
+  bool slurm = false;
+  SlurmSettings settings;
+};
+
+ExecutorChoice ChooseExecutor(const Args& a, const json& spec, const std::string& db, const RunOptions& o) {
+  ExecutorChoice c;
+  std::string type = "local";
+  if (spec.is_object() && spec.contains("executor")) type = parse_executor_block(spec["executor"], "/executor", c.settings.options);
+  if (a.has("executor")) {
+    type = a.get("executor", "");
+    if (type != "local" && type != "slurm") throw UsageError("--executor: must be local or slurm (got \"" + type + "\")");
+  }
+  c.slurm = type == "slurm";
+  const std::vector<std::string> slurm_only = {"partition", "time", "cpus-per-run", "array-max", "account", "sbatch-arg",
+                                               "poll-interval", "dry-run", "detach"};
+  if (!c.slurm) {
+    for (const auto& f : slurm_only) {
+      if (a.has(f)) throw UsageError("--" + f + ": only with --executor slurm (or a spec whose executor is slurm)");
+    }
+    return c;
+  }
+  if (a.has("jobs")) throw UsageError("--jobs: not with --executor slurm (the queue runs them; --array-max K throttles)");
+  if (a.has("threads-per-run")) throw UsageError("--threads-per-run: not with --executor slurm (use --cpus-per-run)");
+  SlurmOptions& so = c.settings.options;
+  if (a.has("partition")) so.partition = a.get("partition", "");
+  if (a.has("account")) so.account = a.get("account", "");
+  if (a.has("time")) {
+    so.time = a.get("time", "");
+    if (!is_slurm_time(so.time)) {
+      throw UsageError("--time: must be a Slurm time such as 30, 4:00:00 or 1-12:00:00 (got \"" + so.time + "\")");
+    }
+  }
+  so.cpus_per_run = a.integer("cpus-per-run", so.cpus_per_run, 1);
+  so.array_max = a.integer("array-max", so.array_max, 0);
+  so.poll_interval = a.number("poll-interval", so.poll_interval);
+  if (!(so.poll_interval > 0)) throw UsageError("--poll-interval: must be > 0 (got \"" + a.get("poll-interval", "") + "\")");
+  if (a.has("sbatch-arg")) {
+    so.sbatch_args.clear();
+    for (const auto& arg : a.all("sbatch-arg")) {
+      if (arg.rfind("-", 0) != 0 || arg.find_first_of("\n\r") != std::string::npos) {
+        throw UsageError("--sbatch-arg: must be one sbatch option such as --sbatch-arg=--qos=long (got \"" + arg + "\")");
+      }
+      so.sbatch_args.push_back(arg);
+    }
+  }
+  c.settings.root = (DbDir(db) / "slurm").string();
+  c.settings.time_limit = o.time_limit;
+  return c;
+}
+
+int DryRun(const std::string& db, const RunOptions& o, ExecutorChoice& c, std::ostream& out);
+
 int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, "run");
   if (!a.positional.empty()) throw UsageError("campaign run: unexpected argument \"" + a.positional[0] + "\"");
@@ -494,12 +593,84 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
     throw UsageError("--engine: must be native, liggghts or a path to an engine executable (got \"" + o.engine + "\")");
   }
   o.only = a.all("only");
+  const std::string db = DbPath(a);
+  json spec;
+  std::string name;
+  {
+    const auto opened = OpenCampaignDb(db, "run");
+    const auto campaign = load_campaign(*opened);
+    if (!campaign) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
+    spec = campaign->spec;
+    name = campaign->name;
+  }
+  ExecutorChoice c = ChooseExecutor(a, spec, db, o);
+  c.settings.campaign = name;
+  if (c.slurm) o.threads_per_run = c.settings.options.cpus_per_run;
+  o.detach = a.has("detach");
   o.rerun_lost = a.has("rerun-lost");
-  return RunAll(DbPath(a), o, out);
+  if (a.has("dry-run")) return DryRun(db, o, c, out);
+  return RunAll(db, o, out, c.slurm ? &c.settings : nullptr);
 }
 
-// Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly.
-int RunAll(const std::string& db, const RunOptions& options, std::ostream& out) {
+// The arrays and scripts `campaign run --executor slurm` would submit; nothing is written.
+int DryRun(const std::string& db, const RunOptions& o, ExecutorChoice& c, std::ostream& out) {
+  const auto opened = OpenCampaignDb(db, "run");
+  Store& store = *opened;
+  RunFilter filter;
+  if (const auto campaign = load_campaign(store); campaign && !o.only.empty()) {
+    try {
+      filter = resolve_filters(o.only, *campaign, load_runs(store, true));
+    } catch (const FilterError& e) {
+      throw UsageError(e.what());
+    }
+  }
+  std::string size_note;
+  try {
+    c.settings.max_array_size = query_max_array_size();
+  } catch (const std::exception& e) {
+    c.settings.max_array_size = 1001;
+    size_note = " (Slurm's default; " + std::string(e.what()) + ")";
+  }
+  std::vector<Launch> launches;
+  for (const auto& r : load_runs(store, true)) {
+    if (r.state != "planned" && r.state != "interrupted" && r.state != "failed") continue;
+    if ((o.engine == "native" || o.engine == "liggghts") && r.engine != o.engine) continue;
+    if (!filter.matches(r)) continue;
+    Launch l;
+    l.run_id = r.run_id;
+    l.argv = {o.engine.find('/') != std::string::npos
+                  ? o.engine
+                  : (fs::path(o.exe_dir) / (r.engine == "liggghts" ? "granary-liggghts" : "granary-engine")).string()};
+    l.engine = r.engine;
+    l.run_dir = r.run_dir;
+    l.place = QueuePlace{r.job_dir, r.job_script, r.job_name, r.job_index, r.job_id, r.job_state};
+    launches.push_back(l);
+  }
+  const auto arrays = plan_slurm_arrays(launches, c.settings);
+  out << "campaign run --executor slurm --dry-run: " << launches.size() << " runs in " << arrays.size()
+      << " array(s); MaxArraySize " << c.settings.max_array_size << size_note << "; nothing is submitted\n";
+  for (const auto& p : arrays) {
+    out << "\n== " << p.sbatch << "\n";
+    if (p.manifest.empty()) {
+      out << "-- resubmits indices " << p.array.array << " of " << (fs::path(p.array.dir) / "manifest.tsv").string() << "\n";
+    } else {
+      out << "-- " << (fs::path(p.array.dir) / "manifest.tsv").string() << " (" << p.array.runs.size() << " runs)\n";
+      std::istringstream lines(p.manifest);
+      std::string line;
+      int shown = 0;
+      while (std::getline(lines, line)) {
+        if (++shown <= 11) out << line << "\n";
+      }
+      if (shown > 11) out << "... (" << shown - 11 << " more)\n";
+    }
+    out << "-- " << p.array.script << "\n" << p.script;
+  }
+  return 0;
+}
+
+// Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly. With
+// `slurm`, the runs go to Slurm.
+int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, const SlurmSettings* slurm) {
   const auto opened = OpenCampaignDb(db, "run");
   Store& store = *opened;
   const auto campaign = load_campaign(store);
@@ -520,7 +691,7 @@ int RunAll(const std::string& db, const RunOptions& options, std::ostream& out) 
   sigaction(SIGINT, &sa, &old_int);
   sigaction(SIGTERM, &sa, &old_term);
   g_stop = 0;
-  auto executor = make_local_executor(o.jobs);
+  auto executor = slurm ? make_slurm_executor(*slurm) : make_local_executor(o.jobs);
   ConsoleObserver observer(out, &out == &std::cout && isatty(STDOUT_FILENO));
   ExitCode code;
   try {
@@ -541,13 +712,58 @@ const char kStatusHelp[] =
     "Counts by state (they add up to the runs of the campaign; retired runs, no longer in the\n"
     "spec, are counted apart), progress of running runs, failures with the tail of their log,\n"
     "elapsed time and ETA; how many finished runs have their metrics in the database (with\n"
-    "--json, every stored metric of every run).\n"
+    "--json, every stored metric of every run). Runs in a Slurm queue: pending and running per\n"
+    "array, asked from squeue (one call), or as last seen when squeue cannot answer.\n"
     "  --only FILTER  only these runs: a run-id prefix, or POINTER=VALUE (a short name that ends\n"
     "                 one sweep axis will do: width=9); repeat for several (docs/cli.md)\n"
     "  --json         the same as JSON\n";
 
 // The states a campaign's runs are in, in the order status shows them (retired apart).
 const char* const kLiveStates[] = {"planned", "running", "done", "failed", "interrupted"};
+
+// Runs in a batch queue, per array job: their queue states, live from squeue when it answers.
+struct QueueView {
+  bool any = false;
+  bool live = false;
+  std::string error;
+  std::map<std::string, std::string> state_by_run;  // live or last seen; "" = left the queue
+  struct Array {
+    std::string job_id, name, script;
+    std::map<std::string, int> states;
+  };
+  std::vector<Array> arrays;
+};
+
+QueueView ViewQueue(const std::vector<RunRow>& runs) {
+  QueueView v;
+  std::set<std::string> ids;
+  for (const auto& r : runs) {
+    if (!r.queued()) continue;
+    v.any = true;
+    v.state_by_run[r.run_id] = r.job_state;
+    if (!r.job_id.empty()) ids.insert(r.job_id);
+  }
+  if (!v.any) return v;
+  if (const auto entries = query_queue(ids, &v.error)) {
+    v.live = true;
+    std::map<std::pair<std::string, int>, std::string> live;
+    for (const auto& e : *entries) live[{e.job_id, e.task}] = e.state;
+    for (const auto& r : runs) {
+      if (!r.queued()) continue;
+      const auto it = live.find({r.job_id, r.job_index});
+      v.state_by_run[r.run_id] = it == live.end() ? "" : it->second;
+    }
+  }
+  std::map<std::string, std::size_t> index;  // script -> position in arrays
+  for (const auto& r : runs) {
+    if (!r.queued()) continue;
+    auto [it, fresh] = index.emplace(r.job_script, v.arrays.size());
+    if (fresh) v.arrays.push_back({r.job_id, r.job_name, r.job_script, {}});
+    const std::string& state = v.state_by_run[r.run_id];
+    ++v.arrays[it->second].states[state.empty() ? "left the queue" : state];
+  }
+  return v;
+}
 
 int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, "status");
@@ -565,6 +781,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   }
   const std::vector<RunRow>& runs = all;
   const auto metrics = load_metrics(store);
+  const QueueView queue = ViewQueue(runs);
   std::map<std::string, int> counts;
   for (const char* state : kLiveStates) counts[state] = 0;
   int retired = 0, total = 0;
@@ -618,9 +835,11 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
         j["metrics"] = m;
       }
       if (r.state == "done" && !fs::exists(r.run_dir)) j["run_dir_missing"] = true;
+      if (r.job_array != 0) j["job"] = r.job_id.empty() ? json(nullptr) : json(r.job_id + "_" + std::to_string(r.job_index));
+      if (r.queued()) j["queue_state"] = queue.state_by_run.at(r.run_id);
       list.push_back(j);
     }
-    out << json{{"campaign", campaign ? campaign->name : ""},
+    json doc = {{"campaign", campaign ? campaign->name : ""},
                 {"total", total},
                 {"counts", counts},
                 {"retired", retired},
@@ -628,9 +847,16 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                 {"lost", lost},
                 {"elapsed_s", elapsed},
                 {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
-                {"runs", list}}
-               .dump(2)
-        << "\n";
+                {"runs", list}};
+    if (queue.any) {
+      json arrays = json::array();
+      for (const auto& q : queue.arrays) {
+        arrays.push_back({{"job_id", q.job_id}, {"name", q.name}, {"script", q.script}, {"states", q.states}});
+      }
+      doc["queue"] = {{"live", queue.live}, {"arrays", arrays}};
+      if (!queue.live) doc["queue"]["error"] = queue.error;
+    }
+    out << doc.dump(2) << "\n";
     return 0;
   }
   std::string only;
@@ -641,6 +867,18 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   if (retired > 0) out << "  (and " << retired << " retired: no longer in the spec, not counted)";
   out << "\n  elapsed " << Duration(elapsed) << ", ETA "
       << (total - counts["done"] == 0 ? std::string("-") : eta >= 0 ? Duration(eta) : "?") << "\n";
+  if (queue.any) {
+    out << "Slurm queue (" << (queue.live ? "live" : "as last seen; squeue: " + queue.error) << "):\n";
+    for (const auto& q : queue.arrays) {
+      out << "  array " << (q.job_id.empty() ? "?" : q.job_id) << " " << q.name << ":";
+      std::string sep = " ";
+      for (const auto& [state, n] : q.states) {
+        out << sep << n << " " << state;
+        sep = ", ";
+      }
+      out << "\n";
+    }
+  }
   if (lost > 0) {
     out << "lost: " << lost << " done run(s) have no run directory (deleted after they finished); their results "
         << "are in the database only (campaign run --rerun-lost runs them again):\n";
@@ -655,10 +893,22 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   bool header = false;
   for (const auto& r : runs) {
     if (r.state != "running") continue;
+    // Queued runs not yet at work are counted per array above, not listed one by one.
+    if (r.queued() && fate_of(queue.state_by_run.at(r.run_id)) != TaskFate::kRunning) continue;
     if (!header) out << "running:\n";
     header = true;
-    out << "  " << r.run_id << " " << ProgressText(r.progress, 0) << "  " << CompactPoint(r.point) << " r" << r.replica
-        << (lease_expired(r, this_process_holder().host, now) ? "  (runner gone: resumes on the next campaign run)" : "")
+    // A task nobody watches (detached) has its progress only in its directory.
+    json progress = r.progress;
+    if (progress.is_null() && r.queued()) {
+      if (const auto p = rundir::ReadProgress(r.run_dir)) progress = p->ToJson();
+    }
+    out << "  " << r.run_id << " " << ProgressText(progress, 0) << "  " << CompactPoint(r.point) << " r" << r.replica
+        << (r.queued() ? "  Slurm " + r.job_id + "_" + std::to_string(r.job_index) +
+                             (r.lease_holder.empty() || lease_expired(r, this_process_holder().host, now)
+                                  ? " (no runner watching: campaign scan or campaign run --executor slurm)"
+                                  : "")
+                       : lease_expired(r, this_process_holder().host, now) ? "  (runner gone: resumes on the next campaign run)"
+                                                                            : "")
         << "\n";
   }
   header = false;
@@ -670,6 +920,54 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     std::istringstream lines(r.failure);
     std::string line;
     while (std::getline(lines, line)) out << "    | " << line << "\n";
+  }
+  return 0;
+}
+
+// ---------------------------------------------------------------- scan
+const char kScanHelp[] =
+    "usage: campaign scan [--db FILE] [--dry-run] [--json]\n"
+    "Rebuild every run's state from its run directory (DONE and summary.json: done, ingested), and\n"
+    "for runs in a Slurm queue from one squeue call (a task that left the queue ended as its\n"
+    "directory says). Safe at any time, also while jobs run; runs a live runner holds are\n"
+    "reported, not written. The way to collect a campaign submitted with --detach.\n"
+    "  --dry-run    show what would change, write nothing\n"
+    "  --json       {\"runs\", \"counts\", \"agrees\", \"changes\": [{\"run_id\", \"from\", \"to\", \"reason\", \"written\"}],\n"
+    "               \"lost\": [run ids of done runs whose directory was deleted]}\n"
+    "Exit: 0 (also when states changed), 2 usage error, 3 storage error (database unreadable or\n"
+    "unwritable).\n";
+
+int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "scan");
+  if (!a.positional.empty()) throw UsageError("campaign scan: unexpected argument \"" + a.positional[0] + "\"");
+  const std::string db = DbPath(a);
+  const auto opened = OpenCampaignDb(db, "scan");
+  Store& store = *opened;
+  if (!load_campaign(store)) throw UsageError("campaign scan: " + db + " holds no campaign");
+  const ScanReport r = scan_campaign(
+      store, [](const std::set<std::string>& ids, std::string* error) { return query_queue(ids, error); }, a.has("dry-run"));
+  if (a.has("json")) {
+    json changes = json::array();
+    for (const auto& c : r.changes) {
+      changes.push_back({{"run_id", c.run_id}, {"from", c.from}, {"to", c.to}, {"reason", c.reason}, {"written", c.written}});
+    }
+    json doc = {{"runs", r.runs}, {"counts", r.counts}, {"agrees", r.changes.empty()}, {"changes", changes}, {"lost", r.lost}};
+    if (!r.queue_error.empty()) doc["queue_error"] = r.queue_error;
+    out << doc.dump(2) << "\n";
+    return 0;
+  }
+  out << "campaign scan: " << r.runs << " runs;";
+  for (const auto& [state, n] : r.counts) out << " " << state << " " << n;
+  out << "\n";
+  if (!r.queue_error.empty()) out << "  squeue did not answer (" << r.queue_error << "): queued runs left as they were\n";
+  if (r.changes.empty()) out << "  the database agrees with the run directories\n";
+  if (!r.lost.empty()) {
+    out << "  " << r.lost.size() << " done run(s) have no run directory (first " << r.lost.front()
+        << "): left done, their results are in the database only (campaign run --rerun-lost runs them again)\n";
+  }
+  for (const auto& c : r.changes) {
+    out << "  " << c.run_id << "  " << c.from << " -> " << c.to << (c.written ? "" : a.has("dry-run") ? " (dry run)" : " (not written)")
+        << (c.reason.empty() ? "" : ": " + c.reason.substr(0, c.reason.find('\n'))) << "\n";
   }
   return 0;
 }
@@ -774,6 +1072,17 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
     o.pick.kind = kind == analysis::ReportOptions::Picture::kBed ? render::FramePick::kFirst : render::FramePick::kLast;
     try {
       render::WritePng(render::RunScene(run_dir, o), 640, png);
+      return std::string();
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+  };
+  options.draw_clog = [](const fs::path& run_dir, const analysis::ClogPicture& picture, const fs::path& png) {
+    render::PictureOptions o;
+    o.highlight = picture.highlight;
+    try {
+      const render::Window window{picture.x_lo, picture.x_hi, picture.y_lo, picture.y_hi};
+      render::WritePng(render::ClogScene(run_dir, picture.clog, o, window), 480, png);
       return std::string();
     } catch (const std::exception& e) {
       return std::string(e.what());
@@ -1232,6 +1541,214 @@ int Completion(const std::vector<std::string>& argv, std::ostream& out, std::ost
 // "__files__" asks the shell for file names. Never fails: completion must stay quiet.
 void Complete(int cword, const std::vector<std::string>& words, std::ostream& out);
 
+
+// ---------------------------------------------------------------- fields
+const char kFieldsHelp[] =
+    "usage: campaign fields RUN_DIR [--out DIR] [--fields NAMES] [--from T] [--to T] [--stride N]\n"
+    "                       [--max-frames N] [--width W] [--cutoff C] [--spacing H]\n"
+    "                       [--window X0,X1,Y0,Y1] [--min-phi F] [--threads N] [--json]\n"
+    "       campaign fields RUN_DIR --bench [--repeat N] [--threads-list 1,2] [--max-frames N]\n"
+    "Coarse-grained fields of one run directory (docs/analyses.md), time-averaged over its frames\n"
+    "from T to T: one CSV per field in DIR (default RUN_DIR/fields) with columns x, y, value,\n"
+    "n_frames (the frames behind the value). Stress fields need the run's contacts.dump\n"
+    "(output.contact_forces).\n"
+    "  --fields NAMES    comma-separated (default: all the run's data supports): phi vx vy speed\n"
+    "                    omega omega_fl2 tg tg_eq46 sigma_xx sigma_xy sigma_yy pressure shear\n"
+    "                    friction kinetic_pressure kinetic_shear total_pressure total_shear\n"
+    "                    total_friction\n"
+    "  --width W         kernel width w in d (default 1.414); --cutoff C in w (default 3)\n"
+    "  --spacing H       grid spacing in d (default 1)\n"
+    "  --window ...      the mapped rectangle (default: 1.5 d inside the walls, from 1.5 d above\n"
+    "                    the base to min(148.5 d, the bed's height))\n"
+    "  --min-phi F       velocity, Omega and T_g of a frame need phi >= F at a node (default 0.05)\n"
+    "  --threads N       threads (default: all cores; any count gives the same bits)\n"
+    "  --json            print the run's summary as JSON\n"
+    "  --bench           frames per second over the run's frames, reading the dumps included:\n"
+    "                    reading alone, then the fields at each thread count of --threads-list,\n"
+    "                    in --repeat interleaved rounds (best and median); run it under\n"
+    "                    `cpu bench` on a shared machine\n"
+    "Exit: 0 done, 1 unreadable run directory, 2 usage error.\n";
+
+#ifdef GRANARY_HAVE_ANALYSIS
+std::vector<double> NumberList(const std::string& flag, const std::string& text) {
+  std::vector<double> out;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    try {
+      std::size_t used = 0;
+      const double x = std::stod(item, &used);
+      if (used != item.size() || !std::isfinite(x)) throw std::invalid_argument(item);
+      out.push_back(x);
+    } catch (const std::exception&) {
+      throw UsageError("--" + flag + ": \"" + item + "\" is not a number (got \"" + text + "\")");
+    }
+  }
+  return out;
+}
+
+analysis::CgRunOptions FieldOptions(const Args& a) {
+  analysis::CgRunOptions o;
+  o.cg.width = a.number("width", o.cg.width);
+  o.cg.cutoff = a.number("cutoff", o.cg.cutoff);
+  o.cg.spacing = a.number("spacing", o.cg.spacing);
+  o.cg.min_phi = a.number("min-phi", o.cg.min_phi);
+  o.cg.threads = a.integer("threads", 0, 0);
+  if (a.has("window")) {
+    const auto w = NumberList("window", a.get("window", ""));
+    if (w.size() != 4 || !(w[1] > w[0]) || !(w[3] >= w[2]))
+      throw UsageError("--window: needs X0,X1,Y0,Y1 with X0 < X1 and Y0 <= Y1 (got \"" + a.get("window", "") + "\")");
+    o.cg.window = {w[0], w[1], w[2], w[3]};
+  }
+  o.t_start = a.number("from", o.t_start);
+  o.t_end = a.number("to", o.t_end);
+  o.frame_stride = a.integer("stride", 1, 1);
+  o.max_frames = a.integer("max-frames", 0, 0);
+  return o;
+}
+
+// `campaign fields --bench`: frames per second, reading alone and the fields per thread count.
+int FieldsBench(const rundir::RunData& data, const Args& a, std::ostream& out) {
+  analysis::CgRunOptions o = FieldOptions(a);
+  const int repeat = a.integer("repeat", 3, 1);
+  std::vector<int> threads;
+  for (double t : NumberList("threads-list", a.get("threads-list", "1,2"))) {
+    if (t < 1 || t != std::floor(t)) throw UsageError("--threads-list: thread counts are integers >= 1");
+    threads.push_back(static_cast<int>(t));
+  }
+  const int limit = o.max_frames;
+  auto read_only = [&]() {
+    rundir::FrameReader frames(data.frames_file());
+    std::optional<rundir::ContactReader> contacts;
+    if (data.has_contacts) contacts.emplace(data.contacts_file());
+    rundir::Frame f;
+    rundir::ContactFrame c;
+    int n = 0;
+    while ((limit == 0 || n < limit) && frames.Next(f)) {
+      if (contacts) contacts->Next(c);
+      ++n;
+    }
+    return n;
+  };
+  std::map<std::string, std::vector<double>> rates;
+  std::vector<std::string> order = {"read"};
+  for (int t : threads) order.push_back("fields, " + std::to_string(t) + (t == 1 ? " thread" : " threads"));
+  int frames = 0;
+  std::size_t nodes = 0, contacts_per_frame = 0, discs_per_frame = 0;
+  {
+    rundir::FrameReader fr(data.frames_file());
+    rundir::Frame f;
+    if (fr.Next(f)) discs_per_frame = f.discs.size();
+    if (data.has_contacts) {
+      rundir::ContactReader cr(data.contacts_file());
+      rundir::ContactFrame c;
+      if (cr.Next(c)) contacts_per_frame = c.contacts.size();
+    }
+  }
+  for (int round = 1; round <= repeat; ++round) {
+    for (const std::string& what : order) {
+      const auto t0 = std::chrono::steady_clock::now();
+      if (what == "read") {
+        frames = read_only();
+      } else {
+        o.cg.threads = threads[static_cast<std::size_t>(&what - &order[1])];
+        const analysis::CgRunResult r = analysis::cg_fields_of_run(data, o);
+        frames = r.parts.front().frames;
+        nodes = r.parts.front().grid.size();
+      }
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      rates[what].push_back(frames / s);
+      out << "round " << round << "  " << std::left << std::setw(20) << what << std::right << std::fixed
+          << std::setprecision(1) << std::setw(8) << frames / s << " frames/s  (" << frames << " frames in "
+          << std::setprecision(2) << s << " s)\n"
+          << std::defaultfloat;
+    }
+  }
+  out << "run " << data.dir.string() << ": " << discs_per_frame << " discs and " << contacts_per_frame
+      << " contacts in its first frame; grid of " << nodes << " nodes\n";
+  for (const std::string& what : order) {
+    std::vector<double> v = rates[what];
+    std::sort(v.begin(), v.end());
+    out << std::left << std::setw(20) << what << std::right << std::fixed << std::setprecision(1) << " best "
+        << v.back() << "  median " << v[v.size() / 2] << " frames/s\n"
+        << std::defaultfloat;
+  }
+  return 0;
+}
+#endif
+
+int Fields(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "fields");
+  if (a.positional.size() != 1) throw UsageError("campaign fields: needs exactly one RUN_DIR (see campaign fields --help)");
+#ifdef GRANARY_HAVE_ANALYSIS
+  const fs::path dir = a.positional[0];
+  if (!fs::is_directory(dir)) throw UsageError("campaign fields: no run directory " + dir.string());
+  const rundir::RunData data = rundir::ReadRun(dir);
+  if (!data.has_frames) throw UsageError("campaign fields: " + dir.string() + " has no frames.dump (output.frame_interval = 0)");
+  if (a.has("bench")) return FieldsBench(data, a, out);
+  const analysis::CgRunOptions o = FieldOptions(a);
+  std::vector<analysis::CgField> fields;
+  if (a.has("fields")) {
+    std::stringstream in(a.get("fields", ""));
+    std::string name;
+    while (std::getline(in, name, ',')) {
+      analysis::CgField f;
+      if (!analysis::cg_field_by_name(name, f)) {
+        std::vector<std::string> names;
+        for (const auto& info : analysis::cg_field_table()) names.push_back(info.name);
+        const std::string best = nearest(name, names);
+        throw UsageError("--fields: unknown field \"" + name + "\"" + (best.empty() ? "" : "; did you mean \"" + best + "\"?"));
+      }
+      fields.push_back(f);
+    }
+  }
+  analysis::CgRunResult r;
+  try {
+    r = analysis::cg_fields_of_run(data, o);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("campaign fields: ") + e.what());
+  }
+  const analysis::CgMaps maps(r.parts.front());
+  if (fields.empty())
+    for (const auto& info : analysis::cg_field_table())
+      if (maps.has(info.field)) fields.push_back(info.field);
+  const fs::path out_dir = a.has("out") ? fs::path(a.get("out", "")) : dir / "fields";
+  fs::create_directories(out_dir);
+  json files = json::array();
+  for (analysis::CgField f : fields) {
+    const auto& info = analysis::cg_field_info(f);
+    if (!maps.has(f)) throw UsageError(std::string("campaign fields: ") + info.name + " needs contacts.dump, which " +
+                                       dir.string() + " does not have (output.contact_forces)");
+    const fs::path file = out_dir / (std::string(info.name) + ".csv");
+    std::ofstream csv(file);
+    csv << analysis::cg_map_csv(maps, f);
+    if (!csv) throw std::runtime_error("cannot write " + file.string());
+    files.push_back(file.string());
+  }
+  if (a.has("json")) {
+    out << json{{"run_dir", dir.string()},
+                {"frames", maps.frames()},
+                {"contact_frames", maps.contact_frames()},
+                {"first_time", r.first_time},
+                {"last_time", r.last_time},
+                {"window", {r.window.x0, r.window.x1, r.window.y0, r.window.y1}},
+                {"nodes", maps.grid().size()},
+                {"files", files}}
+               .dump(2)
+        << "\n";
+  } else {
+    out << "fields of " << dir.string() << ": " << maps.frames() << " frames (t = " << r.first_time << " .. "
+        << r.last_time << "), " << maps.contact_frames() << " with contacts; window x " << r.window.x0 << " .. "
+        << r.window.x1 << ", y " << r.window.y0 << " .. " << r.window.y1 << ", " << maps.grid().nx << " x "
+        << maps.grid().ny << " nodes\n  " << files.size() << " CSV files in " << out_dir.string() << "\n";
+  }
+  return 0;
+#else
+  (void)out;
+  throw UsageError("campaign fields: this build has no analysis library (granary_analysis)");
+#endif
+}
+
 // ---------------------------------------------------------------- snapshot, movie
 const char kSnapshotHelp[] =
     "usage: campaign snapshot RUN [--time T | --clog K | --first | --last] [--color C] [--forces]\n"
@@ -1392,15 +1909,24 @@ const std::vector<Verb>& Verbs() {
       {"plan", "expand a campaign spec into runs in the database", kPlanHelp, Plan,
        {{"db", true}, {"dry-run", false}, {"json", false}, {"max-runs", true}, {"help", false}}},
       {"run", "run what is not done (resumable, leases, N at a time)", kRunHelp, Run,
-       {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"rerun-lost", false}, {"help", false}}},
+       {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"rerun-lost", false},
+        {"executor", true}, {"partition", true}, {"time", true}, {"cpus-per-run", true}, {"array-max", true},
+        {"account", true}, {"sbatch-arg", true}, {"poll-interval", true}, {"dry-run", false}, {"detach", false},
+        {"help", false}}},
       {"status", "counts, progress, failures, ETA", kStatusHelp, Status,
        {{"db", true}, {"only", true}, {"json", false}, {"help", false}}},
+      {"scan", "rebuild run states from the run directories (and the Slurm queue)", kScanHelp, Scan,
+       {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}},
       {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report,
        {{"db", true}, {"out", true}, {"only", true}, {"no-figures", false}, {"help", false}}},
       {"export", "write every run's (or point's) metrics as one CSV or JSON table", kExportHelp, Export,
        {{"db", true}, {"format", true}, {"level", true}, {"out", true}, {"only", true}, {"help", false}}},
       {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare,
        {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false}, {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"max-runs", true}, {"help", false}}},
+      {"fields", "coarse-grained fields of one run directory as CSV maps; --bench", kFieldsHelp, Fields,
+       {{"out", true}, {"fields", true}, {"from", true}, {"to", true}, {"stride", true}, {"max-frames", true},
+        {"width", true}, {"cutoff", true}, {"spacing", true}, {"window", true}, {"min-phi", true}, {"threads", true},
+        {"json", false}, {"bench", false}, {"repeat", true}, {"threads-list", true}, {"help", false}}},
       {"show", "everything about one run: state, timings, results, parameters, files, log", kShowHelp, Show,
        {{"db", true}, {"log", true}, {"json", false}, {"help", false}}},
       {"clean", "remove retired (and failed) runs' directories, unused beds, stale locks", kCleanHelp, Clean,

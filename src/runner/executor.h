@@ -1,27 +1,57 @@
 // Executors start engine processes on run directories and report when they end. Runs
 // report only through their run directories (progress.json, summary.json, DONE), so an
-// executor needs nothing but a command line: the local Boost.Process pool here, a Slurm
-// executor next (style.md 8.3 item 12, after ninja's CommandRunner). The interface says
-// what the scheduler wants (start, stop and why), never how: no signals, no pids, no job
-// ids, so every executor serves the same scheduler.
+// executor needs nothing but a command line: the local Boost.Process pool, or Slurm job
+// arrays (slurm_executor.h) (style.md 8.3 item 12, after ninja's CommandRunner). The
+// interface says what the scheduler wants (start, stop and why), never how: no signals, no
+// pids, so every executor serves the same scheduler. A batch queue adds a place for each run
+// (array, index, job id) that the scheduler records, so a restarted runner finds its jobs.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace granary::runner {
+
+// A run's place in a batch queue: which submission (manifest) and array index, and the job.
+struct QueuePlace {
+  std::string dir;     // the submission's directory; "" = never queued
+  std::string script;  // the batch script of the sbatch call that carries it
+  std::string name;    // that call's job name
+  int index = -1;      // the run's array index in the submission's manifest
+  std::string job_id;  // the array job id; "" = unknown (the runner died inside sbatch)
+  std::string state;   // the queue state last seen
+};
 
 struct Launch {
   std::string run_id;
   std::vector<std::string> argv;  // argv[0] = executable path
   std::string log_file;           // stdout and stderr are appended here
+  std::string engine;             // "native" or "liggghts"
+  std::string run_dir;
+  QueuePlace place;               // where an earlier attempt was queued (a resubmission reuses it)
 };
 
 struct Finished {
   std::string run_id;
   int exit_code = 0;    // valid when signal == 0
   int signal = 0;       // the signal that ended the engine, or 0 (as reported, e.g. by wait or Slurm)
+  bool timed_out = false;  // ended at its time limit by the executor (limits_time())
+  std::string how;         // what ended it, in words, where the status alone does not say
+  double wall_s = -1;      // the engine's wall time where the executor knows it better (< 0: the scheduler's clock)
+};
+
+// One submission to a batch queue (one sbatch call): the runs it carries, by array index.
+struct JobArray {
+  std::string dir;     // the submission's directory
+  std::string script;  // this call's batch script (unique)
+  std::string name;    // the job name
+  std::string array;   // the --array value
+  std::string job_id;  // "" until submitted
+  std::string error;   // why the queue refused it (submit())
+  std::vector<std::pair<std::string, int>> runs;  // run id, array index
 };
 
 // Why the scheduler stops a run. The executor chooses the means.
@@ -46,6 +76,25 @@ class Executor {
   virtual void stop(const std::string& run_id, StopReason reason) = 0;
   virtual void stop_all(StopReason reason) = 0;
   virtual std::size_t active() const = 0;
+
+  // Batch queues only (a local executor starts its engines in start()).
+  // place(): gives the runs started since the last call their places in job arrays and
+  // writes what the queue needs, submitting nothing, so that the scheduler records the
+  // places before the jobs exist. submit(): submits them; each comes back with its job id
+  // or an error (its runs are then reported by neither poll() nor active()).
+  virtual std::vector<JobArray> place() { return {}; }
+  virtual std::vector<JobArray> submit() { return {}; }
+  // A restarted runner takes over a run already in the queue (launch.place set). Returns its
+  // place, with the job id found if it was unknown.
+  virtual QueuePlace attach(const Launch& launch) { return launch.place; }
+  // Runs keep going after the runner exits: an interrupted runner detaches instead of
+  // stopping them.
+  virtual bool outlives_runner() const { return false; }
+  // The executor ends a run at its time limit, counted from the run's own start
+  // (Finished::timed_out); the scheduler does not time it.
+  virtual bool limits_time() const { return false; }
+  // Places whose queue state (PENDING, RUNNING, ...) or job id changed since the last call.
+  virtual std::map<std::string, QueuePlace> queue_changes() { return {}; }
 };
 
 // Runs up to `slots` engines at once as child processes, each in its own process group.

@@ -20,6 +20,7 @@
 #include "rundir/files.h"
 #include "rundir/progress.h"
 #include "rundir/run_directory.h"
+#include "runner/slurm.h"
 #include "runner/run_filter.h"
 
 namespace granary::runner {
@@ -36,11 +37,6 @@ bool matches_filter(const RunRow& row, const std::string& filter) {
 
 namespace {
 
-std::string EngineExe(const RunOptions& o, const std::string& engine) {
-  if (o.engine.find('/') != std::string::npos) return o.engine;
-  return (fs::path(o.exe_dir) / (engine == "liggghts" ? "granary-liggghts" : "granary-engine")).string();
-}
-
 // 5 -> "5", 0.5 -> "0.5" (json's dump would give "5.0").
 std::string Number(double x) {
   std::ostringstream o;
@@ -51,6 +47,51 @@ std::string Number(double x) {
 // "exited with status 3", "killed by signal 9 (Killed)".
 std::string How(const Finished& f) {
   return f.signal != 0 ? "killed by " + SignalName(f.signal) : "exited with status " + std::to_string(f.exit_code);
+}
+
+}  // namespace
+
+std::pair<std::string, std::string> end_state_of(const Finished& f, bool timed_out, double time_limit,
+                                                 const std::string& log_file) {
+  // The executor's words where it has them (a batch queue's state), else the status'.
+  const auto said = [&](const std::string& status) { return (f.how.empty() ? status : f.how) + "\n" + TailOfFile(log_file, 20); };
+  if (timed_out || f.timed_out) {
+    return {"failed", said(time_limit > 0 ? "wall-time limit of " + Number(time_limit) + " s exceeded"
+                                          : "wall-time limit exceeded")};
+  }
+  if (f.signal == 0 && f.exit_code == 0) {
+    return {"failed", "engine exited 0 without DONE and summary.json\n" + TailOfFile(log_file, 20)};
+  }
+  if (f.signal == 0 && f.exit_code == kExitRunDirectoryBusy) {
+    // Another engine held the directory: nothing was touched; it runs again later.
+    return {"interrupted", said("engine " + How(f) + ": its run directory was locked by another engine")};
+  }
+  // Killed from outside: it continues from its checkpoint on the next attempt.
+  if (f.signal != 0) return {"interrupted", said("engine " + How(f))};
+  return {"failed", said("engine " + How(f))};
+}
+
+namespace {
+
+std::string EngineExe(const RunOptions& o, const std::string& engine) {
+  if (o.engine.find('/') != std::string::npos) return o.engine;
+  return (fs::path(o.exe_dir) / (engine == "liggghts" ? "granary-liggghts" : "granary-engine")).string();
+}
+
+Launch LaunchOf(const RunRow& row, const std::string& exe, int threads) {
+  Launch l;
+  l.run_id = row.run_id;
+  l.argv = {exe, "run", row.run_dir, "--threads", std::to_string(threads)};
+  l.log_file = (fs::path(row.run_dir) / rundir::kEngineLogFile).string();
+  l.engine = row.engine;
+  l.run_dir = row.run_dir;
+  l.place = QueuePlace{row.job_dir, row.job_script, row.job_name, row.job_index, row.job_id, row.job_state};
+  return l;
+}
+
+// Is the run's engine at work (so that its progress.json is worth reading)?
+bool EngineAtWork(const std::string& queue_state) {
+  return queue_state.empty() || fate_of(queue_state) == TaskFate::kRunning;
 }
 
 // A message if the file system holding `dir` (or its nearest existing parent) is full, or
@@ -123,6 +164,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   std::map<std::string, int> failures;    // failed attempts in this invocation
   std::map<std::string, Slot> slots;      // engines started
   std::map<std::string, RunRow> waiting;  // claimed, but another engine still holds the directory
+  std::map<std::string, std::string> queue_state;  // runs in a batch queue: their last state
   bool any_final_failure = false;
   std::string storage_full;  // set when runs/ is full: no new runs start, the invocation ends with kStorage
   double last_heartbeat = clock();
@@ -192,11 +234,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     }
     try {
       rundir::WriteRunSpec(row.run_dir, row.params);
-      Launch l;
-      l.run_id = row.run_id;
-      l.argv = {exe, "run", row.run_dir, "--threads", std::to_string(options.threads_per_run)};
-      l.log_file = (fs::path(row.run_dir) / rundir::kEngineLogFile).string();
-      executor.start(l);
+      executor.start(LaunchOf(row, exe, options.threads_per_run));
     } catch (const std::exception& e) {
       if (const std::string full = FullFileSystem(row.run_dir); !full.empty()) {
         storage_full = full;
@@ -207,18 +245,21 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       return;
     }
     slots[row.run_id] = Slot{row, clock(), false, false};
-    observer.on_event(row.run_id, "running", "attempt " + std::to_string(row.attempts));
+    observer.on_event(row.run_id, "running",
+                      "attempt " + std::to_string(row.attempts) + (executor.outlives_runner() ? ", to the queue" : ""));
   };
 
   // One ended engine: its end state, under our lease.
   auto finished = [&](const Finished& f, bool stopping) {
     const Slot slot = slots[f.run_id];
     slots.erase(f.run_id);
-    const double wall = clock() - slot.started;
+    queue_state.erase(f.run_id);
+    // A batch queue knows the engine's own wall time; the runner's clock counts the wait too.
+    const double wall = f.wall_s >= 0 ? f.wall_s : clock() - slot.started;
     const std::string log = (fs::path(slot.row.run_dir) / rundir::kEngineLogFile).string();
     if (slot.lease_lost) {
       lease_lost(f.run_id, "its engine was stopped and nothing is recorded");
-    } else if (f.signal == 0 && f.exit_code == 0 && finish_done(slot.row, wall)) {
+    } else if (f.signal == 0 && f.exit_code == 0 && !f.timed_out && finish_done(slot.row, wall)) {
     } else if (f.signal == 0 && f.exit_code == kExitRunDirectoryBusy) {
       // Another engine took the directory between our look and the engine's lock.
       if (stopping) end_run(f.run_id, "interrupted", "interrupted while waiting for its directory", wall);
@@ -229,20 +270,73 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       // Not the run's fault: it continues from its checkpoint once there is room.
       storage_full = full;
       end_run(f.run_id, "interrupted", "engine " + How(f) + "; " + full + "\n" + TailOfFile(log, 20), wall);
-    } else if (f.signal == 0 && f.exit_code == 0) {
-      end_run(f.run_id, "failed", "engine exited 0 without DONE and summary.json\n" + TailOfFile(log, 20), wall);
-    } else if (slot.timed_out) {
-      end_run(f.run_id, "failed",
-              "wall-time limit of " + Number(options.time_limit) + " s exceeded\n" + TailOfFile(log, 20), wall);
-    } else if (f.signal != 0) {
-      // Killed from outside: it continues from its checkpoint on the next attempt.
-      end_run(f.run_id, "interrupted", "engine " + How(f) + "\n" + TailOfFile(log, 20), wall);
     } else {
-      end_run(f.run_id, "failed", "engine " + How(f) + "\n" + TailOfFile(log, 20), wall);
+      const auto [state, reason] = end_state_of(f, slot.timed_out, options.time_limit, log);
+      end_run(f.run_id, state, reason, wall);
     }
   };
 
-  // Heartbeat; engines of runs that are no longer ours are stopped at once.
+  // Runs a runner before this one put into the queue are watched again, never started twice.
+  if (executor.outlives_runner()) {
+    const auto adopted = adopt_queued_runs(store, me, now_seconds());
+    for (const auto& row : adopted) {
+      const QueuePlace place = executor.attach(LaunchOf(row, EngineExe(options, row.engine), options.threads_per_run));
+      if (place.job_id != row.job_id) record_job_id(store, row.job_script, place.job_id);
+      slots[row.run_id] = Slot{row, clock(), false, false};
+      queue_state[row.run_id] = row.job_state;
+    }
+    if (!adopted.empty()) {
+      observer.on_event("", "attached", std::to_string(adopted.size()) + " run(s) already in the queue: watching them again");
+    }
+  } else {
+    int queued = 0;
+    for (const auto& r : load_runs(store, false)) queued += r.queued();
+    if (queued > 0) {
+      observer.on_event("", "queued", std::to_string(queued) +
+                                          " run(s) are in a Slurm queue; campaign run --executor slurm watches them, "
+                                          "campaign scan settles them");
+    }
+  }
+
+  // Places the runs started since the last call in the queue: places recorded first, then
+  // submitted. An array the queue refuses leaves its runs interrupted, not retried here.
+  auto submit_started = [&] {
+    const std::vector<JobArray> placed = executor.place();
+    if (placed.empty()) return;
+    for (const auto& a : placed) record_job_array(store, me, a, now_seconds());
+    for (const auto& a : executor.submit()) {
+      if (a.error.empty()) {
+        record_job_id(store, a.script, a.job_id);
+        for (const auto& [id, index] : a.runs) {
+          if (auto slot = slots.find(id); slot != slots.end()) slot->second.row.job_id = a.job_id;
+        }
+        observer.on_event("", "submitted", "array job " + a.job_id + " (" + std::to_string(a.runs.size()) + " runs, --array=" +
+                                               a.array + "): " + a.script);
+        continue;
+      }
+      for (const auto& [id, index] : a.runs) {
+        if (!record_end(store, id, me.id, "interrupted", a.error, now_seconds(), 0)) lease_lost(id, "its end is not recorded");
+        skip.insert(id);
+        slots.erase(id);
+        queue_state.erase(id);
+      }
+      any_final_failure = true;
+      observer.on_event("", "not submitted", a.error + " (" + std::to_string(a.runs.size()) + " runs left interrupted)");
+    }
+  };
+
+  // Leaves the queued runs to their jobs (a later runner or campaign scan collects them);
+  // runs still waiting for their directory were never queued: they are interrupted.
+  auto detach = [&](const std::string& what) {
+    for (const auto& [id, row] : waiting) end_run(id, "interrupted", "waiting for its directory when the runner detached", 0);
+    waiting.clear();
+    const int released = release_queued_runs(store, me);
+    observer.on_event("", "detached", std::to_string(released) + what);
+    observer.on_end(done, failed, total);
+  };
+
+  // Heartbeat; engines of runs that are no longer ours are stopped at once (a batch queue's
+  // job is left to the runner that holds its run now).
   auto check_leases = [&](const std::map<std::string, json>& progress) {
     const std::set<std::string> held = heartbeat(store, me, now_seconds(), progress);
     for (auto& [id, slot] : slots) {
@@ -262,6 +356,11 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
 
   try {
     while (true) {
+      if (stop && *stop && executor.outlives_runner()) {
+        // The jobs keep running; a later runner adopts them.
+        detach(" run(s) stay in the queue; campaign run --executor slurm watches them again, campaign scan settles them");
+        return ExitCode::kInterrupted;
+      }
       if (stop && *stop) {
         // The engines checkpoint and exit (the executor ends them by force after a grace
         // period); they continue next time.
@@ -289,12 +388,33 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
         }
         launch(*row);
       }
+      submit_started();
+      if (options.detach && nothing_left && executor.outlives_runner()) {
+        detach(" run(s) in the queue; campaign status shows them, campaign scan or campaign run --executor slurm "
+               "collects them");
+        if (!storage_full.empty()) return ExitCode::kStorage;
+        return any_final_failure ? ExitCode::kRunsFailed : ExitCode::kOk;
+      }
       if (nothing_left && executor.active() == 0 && (waiting.empty() || !storage_full.empty())) break;
 
       for (const auto& f : executor.poll()) finished(f, false);
+      if (auto changes = executor.queue_changes(); !changes.empty()) {
+        std::map<std::string, std::string> states;
+        for (const auto& [id, place] : changes) {
+          auto slot = slots.find(id);
+          if (slot == slots.end() || slot->second.lease_lost) continue;
+          queue_state[id] = states[id] = place.state;
+          // A job found by its name after a runner died inside sbatch.
+          if (place.job_id != slot->second.row.job_id) {
+            record_job_id(store, place.script, place.job_id);
+            slot->second.row.job_id = place.job_id;
+          }
+        }
+        record_job_states(store, states);
+      }
 
       const double now = clock();
-      if (options.time_limit > 0) {
+      if (options.time_limit > 0 && !executor.limits_time()) {
         for (auto& [id, slot] : slots) {
           if (!slot.timed_out && !slot.lease_lost && now - slot.started > options.time_limit) {
             slot.timed_out = true;
@@ -313,9 +433,13 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
           a.replica = slot.row.replica;
           a.attempt = slot.row.attempts;
           a.elapsed = now - slot.started;
-          if (const auto p = rundir::ReadProgress(slot.row.run_dir)) {
-            a.progress = p->ToJson();
-            progress[id] = a.progress;
+          if (auto q = queue_state.find(id); q != queue_state.end()) a.queue_state = q->second;
+          // A queued run's directory is not read until its task runs (a shared file system).
+          if (EngineAtWork(a.queue_state)) {
+            if (const auto p = rundir::ReadProgress(slot.row.run_dir)) {
+              a.progress = p->ToJson();
+              progress[id] = a.progress;
+            }
           }
           active.push_back(a);
         }
@@ -331,7 +455,14 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     // The database cannot be written (full disk, read-only, busy past the timeout): nothing
     // more can be recorded. The engines are stopped (they checkpoint); runs that cannot be
     // marked interrupted stay `running` under this runner's lease, which the next
-    // `campaign run` recovers (this runner is gone by then).
+    // `campaign run` recovers (this runner is gone by then). Jobs in a batch queue keep
+    // running: their runs stay queued under this runner's lease, and the next runner adopts
+    // them once it has expired.
+    if (executor.outlives_runner()) {
+      throw StoreError(e.code(), std::string(e.what()) + "\ncampaign run stopped watching its Slurm jobs (they keep running; "
+                                                         "the next campaign run or campaign scan collects them). Free space "
+                                                         "(or fix the database) and run campaign run again.");
+    }
     executor.stop_all(StopReason::kInterrupt);
     while (executor.active() > 0) {
       for (const auto& f : executor.poll()) slots.erase(f.run_id);

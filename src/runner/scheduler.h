@@ -31,6 +31,9 @@ struct RunOptions {
   double tick_interval = 0.5;       // observer ticks (progress display)
   double heartbeat_interval = 2.0;  // lease heartbeats, and the check that the leases are still ours
   bool rerun_lost = false;          // run again the done runs whose run directory was deleted
+  // Batch queues (executor.outlives_runner()): submit what is runnable, then exit and leave
+  // the jobs to run (campaign scan or a later campaign run collects them).
+  bool detach = false;
   // Tests: who claims the runs (default this_process_holder()), and the monotonic clock in
   // seconds that time limits, ticks and heartbeats are measured with (default steady_clock).
   std::optional<Holder> holder;
@@ -44,6 +47,7 @@ struct ActiveRun {
   int attempt = 0;
   double elapsed = 0;
   nlohmann::json progress;  // progress.json or null
+  std::string queue_state;  // in a batch queue: PENDING, RUNNING, ...; "" for a local engine
 };
 
 class RunObserver {
@@ -54,6 +58,13 @@ class RunObserver {
   virtual void on_tick(const std::vector<ActiveRun>& active, int done, int failed, int total) = 0;
   virtual void on_end(int done, int failed, int total) = 0;
 };
+
+// What is recorded for an engine that ended but did not finish its run (no DONE, or a failure):
+// {"failed" | "interrupted", reason with the tail of its log}. Killed from outside means
+// interrupted (it continues from its checkpoint); a time limit (the scheduler's, `timed_out`,
+// or the executor's, f.timed_out) or an exit status means failed.
+std::pair<std::string, std::string> end_state_of(const Finished& f, bool timed_out, double time_limit,
+                                                 const std::string& log_file);
 
 // The failure note of a done run put back to planned because its directory was deleted.
 extern const char kLostRunDirectory[];

@@ -2,7 +2,9 @@
 // clogging, checkpoint/continue, determinism across seeds and thread counts, bed cache.
 #include "engine/bench.h"
 #include "engine/run.h"
+#include "rundir/clogs.h"
 #include "rundir/files.h"
+#include "rundir/frames.h"
 #include "rundir/stop.h"
 #include "rundir/version.h"
 
@@ -108,6 +110,15 @@ std::pair<int, std::string> RunExeOutput(const std::string& args) {
   return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), out};
 }
 
+// The lines of `text` that start with `prefix`.
+std::vector<std::string> LinesStartingWith(const std::string& text, const std::string& prefix) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind(prefix, 0) == 0) lines.push_back(line);
+  return lines;
+}
+
 TEST(Run, SmallSiloDischargesAndItsExitCountGrows) {
   const fs::path dir = FreshDir("discharge");
   WriteSpec(dir, SmallSpec(10.0, 5.0));
@@ -139,6 +150,56 @@ TEST(Run, TooNarrowOutletClogs) {
   EXPECT_LT(r.t_end, 40.0);
   EXPECT_LT(r.exited, 60);
   EXPECT_EQ(ReadJson(dir / "summary.json")["end_reason"], "clogged");
+  // The clogged configuration is kept: every disc in the silo and its contact forces, at the
+  // step the engine judged the clog (its last).
+  const std::vector<rundir::ClogState> clogs = rundir::ReadClogs(dir);
+  ASSERT_EQ(clogs.size(), 1u);
+  EXPECT_EQ(clogs[0].frame.timestep, r.steps);
+  EXPECT_EQ(static_cast<int>(rundir::BodiesOf(clogs[0].frame.discs).size()), ReadJson(dir / "summary.json")["remaining"].get<int>());
+  EXPECT_EQ(clogs[0].contacts.timestep, r.steps);
+  int pairs = 0, walls = 0;
+  for (const auto& c : clogs[0].contacts.contacts) (c.body_j >= 0 ? pairs : walls) += 1;
+  EXPECT_GT(pairs, 100);  // a settled bed of 120 dumbbells
+  EXPECT_GT(walls, 10);
+}
+
+// Going on through a clog (stop_on_clog false), the clog is kept once, with the same bits at 1
+// and 2 threads and after a kill and continue, whether the checkpoint before the kill was taken
+// after the clog (the clog stays) or before it (the continued run judges it again).
+TEST(Run, ClogsAreKeptOnceAtAnyThreadCountAndAcrossAContinue) {
+  nlohmann::json spec = SmallSpec(2.0, 1.3);
+  spec["discharge"]["stop_on_clog"] = false;
+  spec["discharge"]["clog_window"] = 1.0;
+  spec["output"]["checkpoint_interval"] = 0.3;
+  const fs::path one = FreshDir("clogs-1"), two = FreshDir("clogs-2"), after = FreshDir("clogs-after"),
+                 before = FreshDir("clogs-before");
+  for (const fs::path& d : {one, two, after, before}) WriteSpec(d, spec);
+  // Force blocks of 32 discs (8 blocks). One thread runs the serial loops (fast on 240 discs);
+  // two threads the parallel ones (forcing them costs a fork per step, slow beside other tests).
+  auto run = [](const fs::path& d, int threads, std::int64_t abort_after) {
+    RunOptions o;
+    o.threads = threads;
+    o.quiet = true;
+    o.abort_after_steps = abort_after;
+    o.force_block = 32;
+    if (threads > 1) o.parallel_min_discs = 0;
+    return RunDirectory(d.string(), o);
+  };
+  EXPECT_EQ(run(one, 1, -1).end_reason, "time_limit");
+  const std::vector<rundir::ClogState> clogs = rundir::ReadClogs(one);
+  ASSERT_EQ(clogs.size(), 1u);
+  // Nothing passes 2 d: the clog is judged after clog_window, at step 10000; checkpoints every 3000 steps.
+  ASSERT_EQ(clogs[0].frame.timestep, 10000);
+  run(two, 2, -1);
+  EXPECT_EQ(run(after, 1, 12500).end_reason, "aborted");   // its checkpoint at 12000 holds the clog
+  EXPECT_EQ(run(before, 1, 11000).end_reason, "aborted");  // its checkpoint at 9000 does not
+  for (const fs::path& d : {after, before}) EXPECT_TRUE(run(d, 1, -1).continued);
+  for (const fs::path& d : {two, after, before}) {
+    SCOPED_TRACE(d.filename().string());
+    EXPECT_TRUE(Slurp(one / "clog_frames.dump") == Slurp(d / "clog_frames.dump"));
+    EXPECT_TRUE(Slurp(one / "clog_contacts.dump") == Slurp(d / "clog_contacts.dump"));
+    EXPECT_TRUE(Slurp(one / "events.csv") == Slurp(d / "events.csv"));
+  }
 }
 
 // Passages beside an obstacle over a narrow outlet jam with nothing over the opening itself; the
@@ -428,18 +489,10 @@ TEST(Run, ExecutableReportsSpecErrorsAndHelp) {
 // per thread count the best and median rate (a tiny bed, so it takes about a second).
 TEST(Run, BenchRepeatsRoundsAndSummarises) {
   const fs::path dir = FreshDir("bench");
-  const std::string cmd = std::string(GRANARY_ENGINE_EXE) + " bench --bodies 200 --steps 20 --threads-list 1,2" +
-                          " --repeat 3 --bed " + (dir / "bed.json").string() + " 2>&1";
-  FILE* p = ::popen(cmd.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  std::vector<std::string> rounds, summaries;
-  char buf[512];
-  while (std::fgets(buf, sizeof buf, p)) {
-    const std::string line = buf;
-    if (line.rfind("round=", 0) == 0) rounds.push_back(line);
-    if (line.rfind("summary ", 0) == 0) summaries.push_back(line);
-  }
-  ASSERT_EQ(WEXITSTATUS(::pclose(p)), 0);
+  const auto [status, out] =
+      RunExeOutput("bench --bodies 200 --steps 20 --threads-list 1,2 --repeat 3 --bed " + (dir / "bed.json").string());
+  ASSERT_EQ(status, 0) << out;
+  const std::vector<std::string> rounds = LinesStartingWith(out, "round="), summaries = LinesStartingWith(out, "summary ");
   ASSERT_EQ(rounds.size(), 6u);
   EXPECT_EQ(rounds[4].rfind("round=3 threads=1 ", 0), 0u) << rounds[4];
   ASSERT_EQ(summaries.size(), 2u);
@@ -450,6 +503,55 @@ TEST(Run, BenchRepeatsRoundsAndSummarises) {
     EXPECT_GE(best, median) << line;
   }
   EXPECT_NE(summaries[0].find("median_speedup=1.000"), std::string::npos) << summaries[0];
+}
+
+// bench --bed-prep: per replica a line at each bed time step, then per step a summary over
+// the replicas and the speed-up line (a bed of 60 discs, about a second).
+TEST(Run, BenchBedPrepComparesBothStepsPerReplica) {
+  const auto [status, out] = RunExeOutput("bench --bed-prep --shape disc --bodies 60 --repeat 2 --threads-list 1");
+  ASSERT_EQ(status, 0) << out;
+  const std::vector<std::string> rows = LinesStartingWith(out, "seed="), summaries = LinesStartingWith(out, "summary ");
+  ASSERT_EQ(rows.size(), 4u);
+  EXPECT_EQ(rows[0].rfind("seed=1 step_factor=1 ", 0), 0u) << rows[0];
+  EXPECT_EQ(rows[3].rfind("seed=2 step_factor=5 ", 0), 0u) << rows[3];
+  for (const std::string& line : rows) {
+    EXPECT_GT(std::stod(line.substr(line.find("wall_s=") + 7)), 0.0) << line;
+    EXPECT_GT(std::stod(line.substr(line.find("top=") + 4)), 0.5) << line;  // above the base
+  }
+  ASSERT_EQ(summaries.size(), 3u);
+  EXPECT_EQ(summaries[0].rfind("summary step_factor=1 replicas=2 ", 0), 0u) << summaries[0];
+  EXPECT_NE(summaries[2].find("speedup of the median wall time"), std::string::npos) << summaries[2];
+}
+
+// The bed measure of `bench --bed-prep` on a constructed bed: a square lattice of d = 1 discs
+// filling the 100 d silo, rows at y = 0, 1, ..., 20. Top and surface 20.5; the band [5, 15.5]
+// holds half of row 5 and rows 6..15 whole, so its packing fraction is that of the lattice,
+// pi / 4, only if the discs cut by the band count with their part inside.
+TEST(Run, BedMeasureOfASquareLattice) {
+  BenchOptions options;
+  options.shape = "disc";
+  options.bodies = 2100;
+  const RunSpec spec = RunSpec::from_json(BenchSpec(options));
+  BedState bed;
+  for (int row = 0; row <= 20; ++row)
+    for (int col = 0; col < 100; ++col) {
+      bed.species.push_back(0);
+      bed.x.push_back(-49.5 + col);
+      bed.y.push_back(row);
+      bed.theta.push_back(0.1 * col);
+    }
+  const BedShape shape = MeasureBed(bed, spec);
+  EXPECT_DOUBLE_EQ(shape.top, 20.5);
+  EXPECT_NEAR(shape.surface, 20.5, 1e-12);
+  EXPECT_NEAR(shape.phi, std::numbers::pi / 4, 1e-12);
+  // One disc on top raises the top, and the surface by 1/96 of its height (one column of 96).
+  bed.species.push_back(0);
+  bed.x.push_back(0.2);
+  bed.y.push_back(30.0);
+  bed.theta.push_back(0.0);
+  const BedShape raised = MeasureBed(bed, spec);
+  EXPECT_DOUBLE_EQ(raised.top, 30.5);
+  EXPECT_NEAR(raised.surface, 20.5 + 10.0 / 96, 1e-12);
 }
 
 

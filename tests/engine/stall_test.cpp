@@ -1,8 +1,11 @@
 // A stalled silo is clogged when an arch seals an outlet from the material above, discharged when
 // the crater stays open to the top (stall.h), on hand-placed configurations with known answers.
-#include "engine/stall.h"
+#include "engine/stall_world.h"
 
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
 
 #include "world_parts.h"
 
@@ -90,6 +93,83 @@ TEST(Stall, EachOutletIsJudgedOnItsOwn) {
   Row(w, -4.5, -1.5, 0.6);  // an arch over the left outlet, up to the centre
   Row(w, -5.5, -1.5, 1.6);
   EXPECT_EQ(SealedOutlets(w), (std::vector<bool>{true, false}));
+}
+
+// The discs of a world as any engine's discs (stall.h), with the probe of stall_world.h.
+std::vector<DiscAt> DiscsOf(const World& w) {
+  std::vector<DiscAt> discs;
+  for (int i = 0; i < w.disc_count(); ++i) discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
+  return discs;
+}
+
+// What bounds the cavity of a sealed outlet, in order from its s < 0 end to its s > 0 end: the
+// base and edge left of the opening, the arch's discs from left to right, the base on the right.
+TEST(Stall, TheCavityUnderAnArchIsBoundedByTheArchFromLeftToRight) {
+  // Discs 0..7, touching, on a half circle over the gap from the base left of it to the base
+  // right of it (radius 0.5 / sin(pi / 14): neighbours one diameter apart).
+  World w = OpenSilo({{0.0, 4.0}});
+  const double radius = 0.5 / std::sin(std::numbers::pi / 14);
+  for (int k = 0; k < 8; ++k) {
+    const double a = std::numbers::pi * (7 - k) / 7;
+    w.AddBody(0, radius * std::cos(a), 0.5 + radius * std::sin(a), 0);
+  }
+  Row(w, -5.5, 5.5, 4.0);  // material above
+  const OutletCavity c = CavityUnder(w.geometry(), DiscsOf(w), 0.5, 0);
+  ASSERT_TRUE(c.sealed);
+  std::vector<int> discs;
+  for (const CavityBound& b : c.edge) {
+    if (b.kind == CavityBound::Kind::kDisc) discs.push_back(b.index);
+    EXPECT_NE(b.kind, CavityBound::Kind::kOpen);
+  }
+  EXPECT_EQ(discs, (std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7}));
+  ASSERT_GE(c.edge.size(), 10u);
+  EXPECT_EQ(c.edge.front().kind, CavityBound::Kind::kElement);  // the left edge of the gap
+  EXPECT_LT(c.edge.front().s, -1.5);
+  EXPECT_EQ(c.edge.back().kind, CavityBound::Kind::kElement);
+  EXPECT_GT(c.edge.back().s, 1.5);
+
+  // A flat arch sitting in the gap itself: the cavity is the passage below it.
+  World flat = OpenSilo({{0.0, 4.0}});
+  Row(flat, -2.5, 2.5, 0.45);  // discs 1..4 over the gap, 0 and 5 beside it
+  Row(flat, -5.5, 5.5, 1.5);
+  const OutletCavity passage = CavityUnder(flat.geometry(), DiscsOf(flat), 0.5, 0);
+  ASSERT_TRUE(passage.sealed);
+  discs.clear();
+  for (const CavityBound& b : passage.edge)
+    if (b.kind == CavityBound::Kind::kDisc) discs.push_back(b.index);
+  EXPECT_EQ(discs, (std::vector<int>{1, 2, 3, 4}));
+
+  // Open to the top: no cavity, no edge.
+  World crater = OpenSilo({{0.0, 4.0}});
+  DeadZones(crater, 2.0);
+  const OutletCavity open = CavityUnder(crater.geometry(), DiscsOf(crater), 0.5, 0);
+  EXPECT_FALSE(open.sealed);
+  EXPECT_TRUE(open.edge.empty());
+}
+
+// A side outlet's cavity runs from below the opening (s < 0) to above it, whichever wall.
+TEST(Stall, TheCavityOfASideOutletRunsFromBelowToAbove) {
+  for (const Wall wall : {Wall::kRight, Wall::kLeft}) {
+    const double x = wall == Wall::kRight ? 5.5 : -5.5, inner = wall == Wall::kRight ? 4.5 : -4.5;
+    World w = OpenSilo({}, {}, {{wall, 2.0, 3.0}});
+    w.AddBody(0, x, 0.5, 0);      // disc 0: under the opening
+    w.AddBody(0, x, 1.5, 0);      // disc 1: at its lower edge
+    w.AddBody(0, inner, 2.5, 0);  // disc 2: in front of it, in the silo
+    w.AddBody(0, inner, 3.5, 0);  // disc 3
+    w.AddBody(0, x, 5.5, 0);      // disc 4: at its upper edge (5)
+    w.AddBody(0, inner, 4.5, 0);  // disc 5
+    Row(w, -5.5, 5.5, 6.5);
+    const OutletCavity c = CavityUnder(w.geometry(), DiscsOf(w), 0.5, 0);
+    ASSERT_TRUE(c.sealed);
+    std::vector<int> discs;
+    for (const CavityBound& b : c.edge)
+      if (b.kind == CavityBound::Kind::kDisc) discs.push_back(b.index);
+    SCOPED_TRACE(wall == Wall::kRight ? "right" : "left");
+    ASSERT_FALSE(discs.empty());
+    EXPECT_EQ(discs.front(), 1);
+    EXPECT_EQ(discs.back(), 4);
+    EXPECT_LT(c.edge.front().s, c.edge.back().s);
+  }
 }
 
 }  // namespace

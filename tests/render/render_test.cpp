@@ -13,7 +13,10 @@
 #include <regex>
 #include <sstream>
 
+#include "analysis/arches.h"
+#include "render/run_picture.h"
 #include "render/scene.h"
+#include "rundir/clogs.h"
 
 namespace granary::render {
 namespace {
@@ -213,6 +216,33 @@ TEST(RenderVerbs, TheClogOfARunThatClogged) {
   char t[32];
   std::snprintf(t, sizeof t, "t = %.4g ", summary["t_end"].get<double>());
   EXPECT_NE(o.output.find(t), std::string::npos) << "the last frame of a run that ended clogged: " << o.output;
+}
+
+// What the report's arches section asks for: the clog the engine kept, in a window around its
+// arch, the arch's bodies outlined and nothing else; no frames.dump needed.
+TEST(RenderVerbs, AKeptClogInAWindowWithItsArchOutlined) {
+  const fs::path run = EngineRun("arch", 1.5);
+  const std::vector<rundir::ClogState> clogs = rundir::ReadClogs(run);
+  ASSERT_GE(clogs.size(), 1u);
+  const nlohmann::json spec = nlohmann::json::parse(std::ifstream(run / "run.json"));
+  const analysis::ClogArches arches = analysis::analyse_clog(clogs[0], spec);
+  ASSERT_EQ(arches.arches.size(), 1u);
+  PictureOptions o;
+  std::size_t arch_discs = 0;
+  for (const analysis::ArchBody& b : arches.arches[0].bodies) {
+    o.highlight.insert(b.id);
+    arch_discs += static_cast<std::size_t>(b.discs);
+  }
+  fs::remove(run / "frames.dump");
+  const Scene scene = ClogScene(run, 1, o, Window{-4, 4, -1, 6});
+  EXPECT_EQ(scene.window.x_lo, -4);
+  EXPECT_EQ(scene.window.y_hi, 6);
+  EXPECT_NE(scene.caption.find("clog 1"), std::string::npos) << scene.caption;
+  std::size_t outlined = 0;
+  for (const DiscShape& d : scene.discs) outlined += d.highlight;
+  EXPECT_EQ(outlined, arch_discs);
+  EXPECT_EQ(scene.discs.size(), clogs[0].frame.discs.size());
+  EXPECT_THROW(ClogScene(run, 2, o), std::runtime_error);
 }
 
 }  // namespace

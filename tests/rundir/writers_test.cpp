@@ -6,12 +6,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "rundir/clogs.h"
 #include "rundir/contacts.h"
 #include "rundir/dump_text.h"
 #include "rundir/events.h"
@@ -170,6 +172,81 @@ TEST(Writers, ContinuingCutsEveryDumpBackToTheCheckpoint) {
   std::vector<std::int64_t> steps;
   while (r.Next(f)) steps.push_back(f.timestep);
   EXPECT_EQ(steps, (std::vector<std::int64_t>{100, 300}));
+}
+
+ClogState ClogAt(std::int64_t step) {
+  ClogState c;
+  c.frame = TwoDiscFrame(step);
+  c.contacts.timestep = step;
+  c.contacts.time = c.frame.time;
+  c.contacts.contacts = {{0, -1, 0.25, 0.5, 0.25, 0, 0.25, 0, 0, 1.5}, {0, -1, 1.25, 0.5, 1.25, 0, 1.25, 0, 0, 1.5}};
+  return c;
+}
+
+// Each clog is a block of the frames format and one of the contacts format, read back in
+// pairs; a continued run keeps the clogs up to its checkpoint's step, whatever the offsets.
+TEST(Writers, ClogsAreFrameAndContactBlocksKeptUpToTheCheckpointOnContinue) {
+  TempDir dir;
+  ClogWriter w = ClogWriter::Create(dir.path());
+  w.Write(ClogAt(100));
+  // Flushed at once: a checkpoint taken now finds the clog on disk.
+  const std::string one_frame = read_file(dir.path() / kClogFramesFile);
+  EXPECT_EQ(one_frame.rfind("ITEM: TIME\n0.01\nITEM: TIMESTEP\n100\n", 0), 0u);
+  EXPECT_NE(read_file(dir.path() / kClogContactsFile).find("ITEM: ENTRIES body_i body_j"), std::string::npos);
+  w.Write(ClogAt(250));
+  const std::size_t two_clogs = read_file(dir.path() / kClogFramesFile).size();
+  w.Write(ClogAt(400));
+  w.Close();
+  const std::size_t three_clogs = read_file(dir.path() / kClogFramesFile).size();
+  std::vector<ClogState> clogs = ReadClogs(dir.path());
+  ASSERT_EQ(clogs.size(), 3u);
+  EXPECT_EQ(clogs[1].frame.timestep, 250);
+  EXPECT_EQ(clogs[1].contacts.timestep, 250);
+  ASSERT_EQ(clogs[2].contacts.contacts.size(), 2u);
+  EXPECT_DOUBLE_EQ(clogs[2].contacts.contacts[1].fy, 1.5);
+  EXPECT_EQ(clogs[0].frame.discs.size(), 2u);
+
+  // Killed while writing a fourth clog (half a block), continued from a checkpoint at step 250.
+  {
+    std::ofstream(dir.path() / kClogFramesFile, std::ios::app) << "ITEM: TIME\n0.05\nITEM: TIMESTEP\n500\nITEM: NUMB";
+  }
+  EXPECT_EQ(DumpOffsetAfter(dir.path() / kClogFramesFile, 400), static_cast<std::int64_t>(three_clogs));
+  w = ClogWriter::ContinueAfter(dir.path(), 250);
+  EXPECT_EQ(read_file(dir.path() / kClogFramesFile).size(), two_clogs);
+  w.Write(ClogAt(420));
+  w.Close();
+  clogs = ReadClogs(dir.path());
+  ASSERT_EQ(clogs.size(), 3u);
+  EXPECT_EQ(clogs[0].frame.timestep, 100);
+  EXPECT_EQ(clogs[1].frame.timestep, 250);
+  EXPECT_EQ(clogs[2].frame.timestep, 420);
+  EXPECT_EQ(clogs[2].contacts.timestep, 420);
+
+  // A checkpoint before any clog keeps none.
+  w = ClogWriter::ContinueAfter(dir.path(), 99);
+  w.Close();
+  EXPECT_TRUE(read_file(dir.path() / kClogFramesFile).empty());
+  EXPECT_TRUE(read_file(dir.path() / kClogContactsFile).empty());
+  EXPECT_TRUE(ReadClogs(dir.path()).empty());
+}
+
+TEST(Readers, ClogFilesMustAgreeAndMayBeAbsent) {
+  TempDir dir;
+  ClogReader none(dir.path());
+  EXPECT_FALSE(none.present());
+  ClogWriter w = ClogWriter::Create(dir.path());
+  ClogState odd = ClogAt(100);
+  odd.contacts.timestep = 101;
+  w.Write(odd);
+  w.Close();
+  try {
+    ReadClogs(dir.path());
+    FAIL() << "expected a ReadError";
+  } catch (const ReadError& e) {
+    EXPECT_NE(std::string(e.what()).find("timestep 101 beside the configuration at timestep 100"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove(dir.path() / kClogContactsFile);
+  EXPECT_THROW(ClogReader{dir.path()}, ReadError);
 }
 
 TEST(Writers, SummaryRoundTripsAndWritesOnlyTheKeysItHas) {

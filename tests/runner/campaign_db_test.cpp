@@ -175,6 +175,50 @@ TEST(LeaseTest, RetiringARunningRunTakesItsLease) {
   EXPECT_EQ(States(store)[row->run_id], "interrupted");
 }
 
+TEST(QueueTest, QueuedRunsAreAdoptedNotRecoveredAndKeepTheirHandle) {
+  Store store(":memory:");
+  Plan(store, "[4]");  // two runs
+  const Holder me = this_process_holder();
+  const Holder dead{me.host + ":999999999:0", me.host, 999999999};
+  auto r1 = claim_next(store, dead, now_seconds(), nullptr, {});
+  auto r2 = claim_next(store, dead, now_seconds(), nullptr, {});
+  ASSERT_TRUE(r1 && r2);
+  JobArray array{"/db/slurm/t-0001", "/db/slurm/t-0001/job-1.sh", "granary-t-0001", "0%1", "", "", {{r1->run_id, 0}}};
+  record_job_array(store, dead, array, now_seconds());
+  record_job_id(store, array.script, "41");
+  record_job_states(store, {{r1->run_id, "RUNNING"}});
+  // The dead runner's local run is recovered; its queued run is not: its job holds it.
+  EXPECT_EQ(recover_expired_leases(store, me, now_seconds()), 1);
+  EXPECT_EQ(States(store)[r2->run_id], "interrupted");
+  const auto adopted = adopt_queued_runs(store, me, now_seconds());
+  ASSERT_EQ(adopted.size(), 1u);
+  EXPECT_EQ(adopted[0].run_id, r1->run_id);
+  EXPECT_TRUE(adopted[0].queued());
+  EXPECT_EQ(adopted[0].job_id, "41");
+  EXPECT_EQ(adopted[0].job_index, 0);
+  EXPECT_EQ(adopted[0].job_dir, "/db/slurm/t-0001");
+  EXPECT_EQ(adopted[0].job_name, "granary-t-0001");
+  EXPECT_EQ(adopted[0].job_state, "RUNNING");
+  EXPECT_EQ(adopted[0].lease_holder, me.id);
+  // A live watcher keeps it; released, it is free to adopt again.
+  const Holder other{"elsewhere:5:0", "elsewhere", 5};
+  EXPECT_TRUE(adopt_queued_runs(store, other, now_seconds()).empty());
+  EXPECT_EQ(release_queued_runs(store, me), 1);
+  EXPECT_EQ(States(store)[r1->run_id], "running");
+  EXPECT_EQ(adopt_queued_runs(store, other, now_seconds()).size(), 1u);
+  // Ended and claimed again, it leaves the queue but the claim still names its last place.
+  EXPECT_TRUE(record_end(store, r1->run_id, other.id, "interrupted", "Slurm task 41_0 CANCELLED", now_seconds(), 1));
+  auto again = claim_next(store, me, now_seconds(), [&](const RunRow& r) { return r.run_id == r1->run_id; }, {});
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->job_id, "41");
+  EXPECT_EQ(again->job_index, 0);
+  for (const auto& r : load_runs(store, false)) {
+    if (r.run_id == r1->run_id) {
+      EXPECT_FALSE(r.queued());
+    }
+  }
+}
+
 TEST(IngestTest, FlattensScalarsSkippingSpec) {
   const auto m = flatten_scalars(json::parse(
       R"({"spec": {"seed": 1}, "exited": 5, "end_reason": "clogged", "timing": {"wall_s": 2.5}, "exits_per_outlet": [5]})"));

@@ -8,7 +8,9 @@
 #include <cerrno>
 #include <cstring>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -483,6 +485,112 @@ TEST_F(CliTest, RealEngineEndToEnd) {
   EXPECT_EQ(blocks, 2);
 }
 
+// campaign fields on a real engine's run directory: CSV maps with n_frames, the JSON summary,
+// a misspelt field, stress fields of a run without contacts, and the bench's output.
+TEST_F(CliTest, FieldsWritesCsvMapsOfARun) {
+  const std::string engine = testing::BinDir() + "/granary-engine";
+  if (!fs::exists(engine)) GTEST_SKIP() << "granary-engine not built";
+  auto make_run = [&](const std::string& name, bool contacts) {
+    const fs::path run = dir_ / name;
+    fs::create_directories(run);
+    std::ofstream(run / "run.json") << json{
+        {"seed", 2},
+        {"bodies", {{"count", 60}}},
+        {"silo", {{"width", 12}, {"base_outlets", {{{"center", 0}, {"width", 4}}}}}},
+        {"discharge", {{"mode", "reinject"}, {"max_time", 1.0}}},
+        {"output", {{"frame_interval", 0.25}, {"contact_forces", contacts}, {"checkpoint_interval", 0}}}};
+    const auto r = Sh(engine + " run " + run.string() + " --threads 1");
+    EXPECT_EQ(r.code, 0) << r.output;
+    return run;
+  };
+  const fs::path run = make_run("with-contacts", true);
+  const fs::path out = dir_ / "maps";
+  auto r = Sh(testing::Campaign() + " fields " + run.string() + " --fields phi,pressure --from 0.5 --out " +
+              out.string() + " --json");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const json j = json::parse(r.output);
+  EXPECT_EQ(j["frames"], 3);  // t = 0.5, 0.75, 1
+  EXPECT_EQ(j["contact_frames"], 3);
+  EXPECT_EQ(j["files"].size(), 2u);
+  const std::string csv = ReadFile(out / "pressure.csv");
+  EXPECT_EQ(csv.substr(0, csv.find('\n')), "x,y,pressure,n_frames");
+  EXPECT_EQ(CountLines(csv, ""), 1 + j["nodes"].get<int>());
+  EXPECT_NE(csv.find(",3\n"), std::string::npos);
+
+  r = Sh(testing::Campaign() + " fields " + run.string() + " --fields presure");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("unknown field \"presure\"; did you mean \"pressure\"?"), std::string::npos) << r.output;
+
+  const fs::path bare = make_run("without-contacts", false);
+  r = Sh(testing::Campaign() + " fields " + bare.string() + " --fields pressure");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("pressure needs contacts.dump"), std::string::npos) << r.output;
+  r = Sh(testing::Campaign() + " fields " + bare.string());  // every field its data supports
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(bare / "fields" / "tg.csv"));
+  EXPECT_FALSE(fs::exists(bare / "fields" / "pressure.csv"));
+
+  r = Sh(testing::Campaign() + " fields " + run.string() + " --bench --repeat 1 --threads-list 1,2 --max-frames 2");
+  ASSERT_EQ(r.code, 0) << r.output;
+  for (const char* line : {"round 1  read", "round 1  fields, 1 thread", "round 1  fields, 2 threads", "median"})
+    EXPECT_NE(r.output.find(line), std::string::npos) << line << "\n" << r.output;
+}
+
+// A campaign that asks for coarse-grained fields: the plan turns contact output on (or names
+// the path that turns it off), and the report has one map per field with a panel per point,
+// its grids as CSV, the region table and the force chains.
+TEST_F(CliTest, FieldsInTheReport) {
+  const std::string engine = testing::BinDir() + "/granary-engine";
+  if (!fs::exists(engine)) GTEST_SKIP() << "granary-engine not built";
+  json spec = json::parse(R"({"name": "fields", "seed": 3, "replicas": 2,
+    "base": {"bodies": {"count": 80}, "silo": {"width": 12},
+             "discharge": {"mode": "reinject", "max_time": 3, "stop_on_clog": false},
+             "output": {"frame_interval": 0.25, "contact_forces": false}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6]}},
+    "report": {"window": {"start_time": 0.5, "min_events": 3},
+               "fields": {"maps": ["phi", "speed", "pressure", "friction"], "frames": "split"}}})");
+  const fs::path p = dir_ / "fields.json";
+  std::ofstream(p) << spec.dump();
+  auto r = Sh(Cmd("plan " + p.string()));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("/base/output/contact_forces"), std::string::npos) << r.output;
+  spec["base"]["output"].erase("contact_forces");
+  std::ofstream(p) << spec.dump();
+  ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
+  r = Sh(Cmd("run --jobs 2"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const json s = Status();
+  ASSERT_EQ(s["runs"].size(), 4u);
+  for (const auto& run : s["runs"]) {
+    const fs::path dir = run["run_dir"].get<std::string>();
+    EXPECT_EQ(json::parse(ReadFile(dir / "run.json"))["output"]["contact_forces"], true);
+    EXPECT_TRUE(fs::exists(dir / "contacts.dump"));
+  }
+  r = Sh(Cmd("report"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const fs::path report = dir_ / "report";
+  const std::string md = ReadFile(report / "report.md");
+  EXPECT_NE(md.find("## Coarse-grained fields"), std::string::npos);
+  for (const char* map : {"field_phi_flowing", "field_speed_flowing", "field_pressure_flowing", "field_friction_flowing",
+                          "force_chains"})
+    EXPECT_NE(md.find(std::string("](") + map + ".svg)"), std::string::npos) << map;
+  // One CSV per map and point: x, y, value, n_frames over the window's nodes.
+  for (int k = 1; k <= 2; ++k) {
+    const std::string csv = ReadFile(report / ("field_phi_flowing-" + std::to_string(k) + ".csv"));
+    EXPECT_EQ(csv.substr(0, csv.find('\n')), "x,y,phi,n_frames");
+    EXPECT_GT(CountLines(csv, ""), 50);
+  }
+  EXPECT_TRUE(fs::exists(report / "field_pressure_flowing.svg"));
+  EXPECT_TRUE(fs::exists(report / "force_chains-1-segments.csv"));
+  EXPECT_TRUE(fs::exists(report / "field_speed_flowing-1-arrows.csv"));
+  EXPECT_TRUE(fs::exists(report / "fields_region.csv"));
+  // The region means are metrics of the export.
+  const auto csv = Sh(Cmd("export") + " 2>/dev/null");
+  ASSERT_EQ(csv.code, 0);
+  EXPECT_NE(csv.output.find(",cg_phi,"), std::string::npos);
+  EXPECT_NE(csv.output.find(",cg_pressure_clogged"), std::string::npos);
+}
+
 // campaign compare on a tiny campaign: both real engines (LIGGGHTS as installed by
 // scripts/setup.sh), the comparison as JSON, the report; a second compare reuses every run.
 TEST_F(CliTest, CompareRunsBothEnginesAndReportsThem) {
@@ -495,7 +603,8 @@ TEST_F(CliTest, CompareRunsBothEnginesAndReportsThem) {
              "contact": {"tangential_cap": "liggghts"},
              "discharge": {"mode": "reinject", "reinject_position": "periodic", "max_time": 4, "stop_on_clog": false},
              "output": {"checkpoint_interval": 1, "frame_interval": 0.5}},
-    "sweep": {"grid": {"/silo/base_outlets/0/width": [6]}}})";
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [6]}},
+    "report": {"fields": {"maps": ["phi", "speed", "pressure"], "force_chains": false}}})";
   // Progress goes to stderr; stdout is the JSON document.
   const auto r = Sh("(" + Cmd("compare " + p.string() + " --json --no-figures --jobs 2") + " 2>/dev/null)");
   ASSERT_EQ(r.code, 0) << r.output;
@@ -515,6 +624,18 @@ TEST_F(CliTest, CompareRunsBothEnginesAndReportsThem) {
   for (const auto& e : c["costs"]) {
     EXPECT_EQ(e["runs"], 2);
     EXPECT_GT(e["disc_steps_per_s"]["mean"].get<double>(), 0.0);
+  }
+  // The coarse-grained fields of both engines' output (contacts.dump of each) agree within
+  // their statistical error: the region means above the outlet, 2 replicas each.
+  for (const char* name : {"cg_phi", "cg_speed", "cg_pressure"}) {
+    ASSERT_TRUE(c["points"][0]["metrics"].contains(name)) << name << c.dump();
+    const json& m = c["points"][0]["metrics"][name];
+    ASSERT_EQ(m["native"]["n"], 2) << name;
+    ASSERT_EQ(m["liggghts"]["n"], 2) << name;
+    const double a = m["native"]["mean"].get<double>(), b = m["liggghts"]["mean"].get<double>();
+    const double se = std::hypot(m["native"]["se"].get<double>(), m["liggghts"]["se"].get<double>());
+    EXPECT_GT(a, 0.0) << name;
+    EXPECT_LT(std::abs(a - b), std::max(4.0 * se, 0.1 * a)) << name << ": native " << a << ", liggghts " << b << ", se " << se;
   }
   const std::string md = ReadFile(dir_ / "report" / "report.md");
   EXPECT_NE(md.find("Engine comparison: native and liggghts"), std::string::npos);

@@ -8,6 +8,8 @@
 // FAKE_ENGINE_STEPS (default 10) and FAKE_ENGINE_STEP_MS (default 30) set the length;
 // FAKE_ENGINE_FIRST_LAUNCH_STEP_MS the step of a run's first launch (long: it cannot finish
 // before a test kills it; the relaunch is quick).
+// FAKE_ENGINE_HOLD=PATH: at the middle step (after its checkpoint) wait until PATH exists, so
+// a test can act on a run known to be mid-way without timing it.
 #include <unistd.h>
 
 #include <chrono>
@@ -68,7 +70,11 @@ int main(int argc, char** argv) {
     ck >> step;
     std::cout << "continuing from checkpoint at step " << step << std::endl;
   }
+  const char* hold = std::getenv("FAKE_ENGINE_HOLD");
   for (; step < steps; ++step) {
+    if (hold && *hold && step == steps / 2) {
+      while (!fs::exists(hold)) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
     if (max_time == 13 && step == steps / 2) {
       std::cerr << "fake_engine: deliberate failure at step " << step << std::endl;
       return 3;

@@ -32,11 +32,12 @@ TEST(StoreTest, MigratesAnOldDatabaseKeepingRows) {
   }
   Store v2(path);
   EXPECT_EQ(v2.schema_version(), static_cast<int>(migrations().size()));
-  Statement q = v2.prepare("SELECT run_id, state, summary FROM runs");
+  Statement q = v2.prepare("SELECT run_id, state, summary, job_array FROM runs");
   ASSERT_TRUE(q.step());
   EXPECT_EQ(q.text(0), "r1");
   EXPECT_EQ(q.text(1), "done");
   EXPECT_TRUE(q.is_null(2));
+  EXPECT_TRUE(q.is_null(3));  // never queued
   std::filesystem::remove_all(dir);
 }
 
@@ -52,7 +53,8 @@ TEST(StoreTest, RefusesTooNewDatabase) {
     FAIL() << "opened a too-new database";
   } catch (const StoreError& e) {
     EXPECT_EQ(std::string(e.what()), "database " + path +
-                                         " has schema version 99, newer than this granary supports (" + std::to_string(migrations().size()) + "); use a newer "
+                                         " has schema version 99, newer than this granary supports (" +
+                                         std::to_string(migrations().size()) + "); use a newer "
                                          "campaign binary");
   }
   std::filesystem::remove_all(dir);

@@ -1,0 +1,112 @@
+// See cg_run.h.
+#include "analysis/cg_run.h"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <stdexcept>
+
+#include "rundir/contacts.h"
+#include "rundir/frames.h"
+
+namespace granary::analysis {
+
+const rundir::ContactFrame* ContactFrameMatcher::at(std::int64_t timestep) {
+  while (!done_) {
+    if (!pending_) {
+      if (!reader_.Next(frame_)) {
+        done_ = true;
+        break;
+      }
+      pending_ = true;
+    }
+    if (frame_.timestep < timestep) {
+      pending_ = false;
+      continue;
+    }
+    if (frame_.timestep == timestep) {
+      pending_ = false;
+      return &frame_;
+    }
+    break;
+  }
+  return nullptr;
+}
+
+Rect cg_run_window(const rundir::RunData& data) {
+  double width = 100.0;
+  if (data.spec.is_object() && data.spec.contains("silo") && data.spec.at("silo").is_object())
+    width = data.spec.at("silo").value("width", 100.0);
+  double top = data.has_summary ? data.summary.bed.height : 0.0;
+  if (!(top > 0.0) && data.has_frames) {
+    rundir::FrameReader reader(data.frames_file());
+    rundir::Frame frame;
+    if (reader.Next(frame))
+      for (const rundir::Disc& d : frame.discs) top = std::max(top, d.y + d.radius);
+  }
+  if (!(top > 0.0)) top = 148.5;
+  return cg_default_window(width, top);
+}
+
+CgRunResult cg_fields_of_run(const rundir::RunData& data, const CgRunOptions& options) {
+  CgRunResult result;
+  CgOptions cg = options.cg;
+  if (!(cg.window.x1 > cg.window.x0)) cg.window = cg_run_window(data);
+  result.window = cg.window;
+  const int parts = options.route ? std::max(1, options.parts) : 1;
+  std::vector<CgAccumulator> acc;
+  for (int p = 0; p < parts; ++p) acc.emplace_back(cg, options.series);
+  if (!data.has_frames) {
+    for (auto& a : acc) result.parts.push_back(a.sums());
+    return result;
+  }
+  double density = 1.0;
+  if (data.spec.is_object() && data.spec.contains("bodies") && data.spec.at("bodies").is_object())
+    density = data.spec.at("bodies").value("density", 1.0);
+  rundir::FrameReader frames(data.frames_file(), density);
+  std::optional<ContactFrameMatcher> contacts;
+  if (options.contacts && data.has_contacts) contacts.emplace(data.contacts_file());
+  result.has_contacts = contacts.has_value();
+  rundir::Frame frame;
+  int in_range = 0, used = 0;
+  while (frames.Next(frame)) {
+    ++result.frames_read;
+    if (frame.time > options.t_end) break;  // frames are in time order
+    if (frame.time < options.t_start) continue;
+    if (in_range++ % std::max(1, options.frame_stride) != 0) continue;
+    const rundir::ContactFrame* c = contacts ? contacts->at(frame.timestep) : nullptr;
+    const int part = options.route ? options.route(frame.time) : 0;
+    if (part < 0) continue;
+    if (part >= parts) throw std::invalid_argument("cg_fields_of_run: route gave part " + std::to_string(part));
+    acc[static_cast<std::size_t>(part)].add_frame(frame.time, frame.discs, c);
+    if (c == nullptr) ++result.frames_without_contacts;
+    if (used++ == 0) result.first_time = frame.time;
+    result.last_time = frame.time;
+    if (options.max_frames > 0 && used >= options.max_frames) break;
+  }
+  for (auto& a : acc) result.parts.push_back(a.sums());
+  // Each part has the series of its frames; together they are the series of every frame used.
+  result.series = acc.front().series();
+  for (std::size_t p = 1; p < acc.size(); ++p)
+    for (std::size_t k = 0; k < result.series.size(); ++k) {
+      const CgSeries& s = acc[p].series()[k];
+      CgSeries& out = result.series[k];
+      out.time.insert(out.time.end(), s.time.begin(), s.time.end());
+      out.value.insert(out.value.end(), s.value.begin(), s.value.end());
+    }
+  for (CgSeries& s : result.series) {
+    std::vector<std::size_t> order(s.time.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return s.time[a] < s.time[b]; });
+    std::vector<double> t, v;
+    for (std::size_t i : order) {
+      t.push_back(s.time[i]);
+      v.push_back(s.value[i]);
+    }
+    s.time = std::move(t);
+    s.value = std::move(v);
+  }
+  return result;
+}
+
+}  // namespace granary::analysis

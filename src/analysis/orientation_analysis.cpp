@@ -1,0 +1,363 @@
+// See orientation_analysis.h; the geometry of axes is orientation.h, the arches arches.h.
+#include "analysis/orientation_analysis.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <numbers>
+
+#include "analysis/arches.h"
+#include "analysis/campaign_view.h"
+#include "analysis/options.h"
+#include "rundir/clogs.h"
+
+namespace granary::analysis {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+double Degrees(double radians) { return radians * 180 / kPi; }
+double Radians(double degrees) { return degrees * kPi / 180; }
+
+std::vector<double> Numbers(const nlohmann::json& v, const std::string& path, double lo, double hi) {
+  if (!v.is_array() || v.empty()) throw OptionError(path, v, "must be a non-empty array of numbers");
+  std::vector<double> out;
+  for (std::size_t k = 0; k < v.size(); ++k) out.push_back(option_number(v[k], path + "/" + std::to_string(k), lo, hi));
+  return out;
+}
+
+std::vector<std::vector<double>> Matrix(const nlohmann::json& j) {
+  std::vector<std::vector<double>> m;
+  if (!j.is_array()) return m;
+  for (const auto& row : j) {
+    m.emplace_back();
+    for (const auto& v : row) m.back().push_back(v.is_number() ? v.get<double>() : kNaN);
+  }
+  return m;
+}
+std::vector<double> Vector(const nlohmann::json& j) {
+  std::vector<double> v;
+  if (!j.is_array()) return v;
+  for (const auto& x : j) v.push_back(x.is_number() ? x.get<double>() : kNaN);
+  return v;
+}
+
+bool any_elongated(const std::vector<rundir::Disc>& discs) {
+  for (const BodyAxis& a : body_axes(discs))
+    if (a.elongated) return true;
+  return false;
+}
+
+// The bed before the opening (the frames at t <= 0, the first of them), steady flow (the
+// steady window's frames), then the arch bodies of the kept clogs in the window.
+class OrientationAccumulator : public RunAccumulator {
+ public:
+  OrientationAccumulator(const RunView& run, const OrientationAnalysisOptions& o) : data_(run.data), steady_(run.steady), o_(o) {
+    try {
+      silo_ = silo_of(data_->spec, 1e3);
+      if (o.outlet >= static_cast<int>(silo_.outlets.size())) {
+        notes_.push_back("orientation: the run has no outlet " + std::to_string(o.outlet));
+      } else {
+        outlet_ = &silo_.outlets[static_cast<std::size_t>(o.outlet)];
+      }
+    } catch (const std::exception& e) {
+      notes_.push_back(std::string("orientation: ") + e.what());
+    }
+  }
+  FrameRequest frames() const override {
+    if (!outlet_) return {};
+    return {{TimeWindow{-std::numeric_limits<double>::infinity(), 0.0}, steady_}, false};
+  }
+  void add_frame(const FrameView& f) override {
+    const std::vector<rundir::Disc>& discs = f.frame.discs;
+    if (!elongated_) elongated_ = any_elongated(discs);
+    if (f.frame.time <= 0.0 && bed_.frames == 0) add_orientation_frame(discs, *outlet_, silo_.half_width, o_.where, bed_);
+    if (steady_.contains(f.frame.time)) add_orientation_frame(discs, *outlet_, silo_.half_width, o_.where, flow_);
+  }
+  nlohmann::json finish() override {
+    nlohmann::json result = {{"elongated", false}};
+    std::vector<double> arch_window(static_cast<std::size_t>(std::max(1, o_.where.axis_bins)), 0.0);
+    if (outlet_) {
+      try {
+        rundir::ClogReader reader(data_->dir);
+        rundir::ClogState clog;
+        while (reader.Next(clog)) {
+          if (!elongated_) elongated_ = any_elongated(clog.frame.discs);
+          for (const Arch& a : analyse_clog(clog, silo_).arches) {
+            if (a.outlet != o_.outlet) continue;
+            for (const ArchBody& b : a.bodies) {
+              if (!std::isfinite(b.axis) || std::fabs(b.theta - o_.where.window_theta) > o_.where.window_dtheta / 2) continue;
+              const int bins = static_cast<int>(arch_window.size());
+              arch_window[static_cast<std::size_t>(std::clamp(static_cast<int>(b.axis / kPi * bins), 0, bins - 1))] += 1;
+            }
+          }
+        }
+      } catch (const std::exception& e) {
+        notes_.push_back(std::string("orientation (arches): ") + e.what());
+      }
+      std::vector<std::string> names;
+      for (const auto& r : orientation_regions(o_.where, *outlet_)) names.push_back(r.name);
+      result["regions"] = names;
+    }
+    result["elongated"] = elongated_;
+    result["bed"] = to_json(bed_);
+    result["flow"] = to_json(flow_);
+    result["arch_window"] = arch_window;
+    if (!notes_.empty()) result["notes"] = notes_;
+    return result;
+  }
+
+ private:
+  const rundir::RunData* data_;
+  TimeWindow steady_;
+  OrientationAnalysisOptions o_;
+  engine::SiloGeometry silo_;
+  const engine::OutletFrame* outlet_ = nullptr;
+  OrientationSums bed_, flow_;
+  bool elongated_ = false;
+  std::vector<std::string> notes_;
+};
+
+class OrientationAnalysis : public Analysis {
+ public:
+  OrientationAnalysis(OrientationAnalysisOptions o, nlohmann::json raw) : o_(std::move(o)), raw_(std::move(raw)) {}
+  std::string key() const override { return "orientation"; }
+  int version() const override { return 1; }
+  nlohmann::json run_options() const override { return raw_; }
+  PassUse pass_use() const override { return {true, true, true}; }
+  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+    return std::make_unique<OrientationAccumulator>(run, o_);
+  }
+  // flow_frames, order_parameter_<k> for each region k over the run's steady frames.
+  std::vector<Metric> run_metrics(const nlohmann::json& result) const override {
+    std::vector<Metric> m;
+    if (!result.value("elongated", false)) return m;
+    const OrientationSums flow = orientation_sums_from_json(result.value("flow", nlohmann::json::object()));
+    m.push_back({"flow_frames", "frames", static_cast<double>(flow.frames), kNaN, "frames of steady flow", false});
+    const std::vector<double> s = order_parameters(flow, o_.where);
+    const std::vector<std::string> names = result.value("regions", std::vector<std::string>{});
+    for (std::size_t k = 0; k < s.size(); ++k)
+      m.push_back({"order_parameter_" + std::to_string(k), "1", s[k], kNaN,
+                   "order parameter S" + (k < names.size() ? " in " + names[k] : std::string()), false});
+    return m;
+  }
+  std::optional<Section> section(const SectionInput& in) const override;
+
+ private:
+  OrientationAnalysisOptions o_;
+  nlohmann::json raw_;
+};
+
+std::optional<Section> OrientationAnalysis::section(const SectionInput& in) const {
+  const OrientationAnalysisOptions& o = o_;
+  const CampaignView& v = in.view;
+  // Per point: the runs' sums added up; S per region as mean +- se over runs.
+  struct PointSums {
+    bool elongated = false;
+    OrientationSums bed, flow;
+    std::vector<double> arch_window;
+    std::vector<std::string> regions;
+  };
+  std::vector<PointSums> ps(v.points.size());
+  bool any = false;
+  for (std::size_t k = 0; k < v.points.size(); ++k) {
+    for (const nlohmann::json* r : in.results.of_point(k)) {
+      if (!r->value("elongated", false)) continue;
+      PointSums& p = ps[k];
+      p.elongated = true;
+      p.bed.add(orientation_sums_from_json(r->value("bed", nlohmann::json::object())));
+      const OrientationSums flow = orientation_sums_from_json(r->value("flow", nlohmann::json::object()));
+      p.flow.add(flow);
+      const std::vector<double> aw = Vector(r->value("arch_window", nlohmann::json::array()));
+      if (p.arch_window.empty()) p.arch_window.assign(aw.size(), 0.0);
+      for (std::size_t i = 0; i < aw.size() && i < p.arch_window.size(); ++i) p.arch_window[i] += aw[i];
+      if (p.regions.empty()) p.regions = r->value("regions", std::vector<std::string>{});
+    }
+    any = any || ps[k].elongated;
+  }
+  if (!any) return std::nullopt;
+  Section s{"orientation", "Orientation of elongated bodies (ch. 4, 5, 6)", {}};
+  s.blocks.push_back(Text{
+      "The long axis of a body is the line through the centres of its two discs furthest apart; psi is its angle with "
+      "the horizontal in [0, 180) degrees. Positions are taken from outlet " + std::to_string(o.outlet) +
+      ": s along it from its centre, h into the silo, theta = atan2(h, s) (90 = above its centre). The mean "
+      "orientation averages the acute angle with the horizontal (90 = vertical, whichever way a body leans; fig. 4.3) "
+      "over the frames of steady flow; S = 2 <cos^2(psi - director)> - 1 (fig. 5.5) is 1 along the director, -1 across "
+      "it, 0 for no order. Distributions of psi in the window at theta = " + format_number(Degrees(o.where.window_theta), 3) +
+      " ± " + format_number(Degrees(o.where.window_dtheta / 2), 3) + " degrees and r = " + format_number(o.where.window_radius, 3) +
+      " ± " + format_number(o.where.window_dr / 2, 3) + " d: in the bed before the opening (t = 0), during flow, and of the "
+      "arch bodies at that angular position (any radius; fig. 6.5)."});
+  const std::vector<std::size_t> drawn = spread_points(v, [&](std::size_t k) { return ps[k].elongated; });
+  // Fig. 4.3a and b: a figure per height and per radius.
+  for (std::size_t h = 0; h < o.where.heights.size(); ++h) {
+    Figure f{"orientation_s_" + std::to_string(h + 1),
+             "Mean orientation against s at h = " + format_number(o.where.heights[h], 3) + " d", "s (d)",
+             "mean acute angle with the horizontal (degrees)", {}, false, false,
+             "Fig. 4.3a: steady flow, band h ± " + format_number(o.where.band / 2, 3) + " d"};
+    for (std::size_t k : drawn) {
+      const OrientationProfile prof = orientation_against_s(ps[k].flow, o.where);
+      if (h >= prof.mean.size()) continue;
+      Series se{point_name(v, v.points[k]), {"s", "angle_deg", "count"}, {}, Series::Style::kLinesPoints};
+      for (std::size_t b = 0; b < prof.centre.size(); ++b)
+        if (std::isfinite(prof.mean[h][b])) se.rows.push_back({prof.centre[b], Degrees(prof.mean[h][b]), prof.count[h][b]});
+      if (!se.rows.empty()) f.series.push_back(se);
+    }
+    if (!f.series.empty()) s.blocks.push_back(f);
+  }
+  for (std::size_t r = 0; r < o.where.radii.size(); ++r) {
+    Figure f{"orientation_theta_" + std::to_string(r + 1),
+             "Mean orientation against the angular position at r = " + format_number(o.where.radii[r], 3) + " d",
+             "theta (degrees)", "mean acute angle with the horizontal (degrees)", {}, false, false,
+             "Fig. 4.3b: steady flow, ring r ± " + format_number(o.where.ring / 2, 3) + " d"};
+    for (std::size_t k : drawn) {
+      const OrientationProfile prof = orientation_against_theta(ps[k].flow, o.where);
+      if (r >= prof.mean.size()) continue;
+      Series se{point_name(v, v.points[k]), {"theta_deg", "angle_deg", "count"}, {}, Series::Style::kLinesPoints};
+      for (std::size_t b = 0; b < prof.centre.size(); ++b)
+        if (std::isfinite(prof.mean[r][b])) se.rows.push_back({Degrees(prof.centre[b]), Degrees(prof.mean[r][b]), prof.count[r][b]});
+      if (!se.rows.empty()) f.series.push_back(se);
+    }
+    if (!f.series.empty()) s.blocks.push_back(f);
+  }
+  // Fig. 5.5: S per region.
+  std::vector<std::string> regions;
+  for (const PointSums& p : ps)
+    if (regions.size() < p.regions.size()) regions = p.regions;
+  Table t{"orientation_order", "Order parameter S during steady flow (mean ± se over runs)", {"point", "frames"}, {},
+          {"point", "flow_frames"}};
+  for (std::size_t r = 0; r < regions.size(); ++r) {
+    t.header.push_back("S, " + regions[r]);
+    t.keys.push_back("order_parameter_" + std::to_string(r));
+  }
+  for (std::size_t k = 0; k < v.points.size(); ++k) {
+    if (!ps[k].elongated) continue;
+    std::vector<Cell> row = {point_name(v, v.points[k]), Cell::count(ps[k].flow.frames)};
+    for (std::size_t r = 0; r < regions.size(); ++r) {
+      const PointMetric* m = find_metric(in.points[k], "order_parameter_" + std::to_string(r));
+      row.push_back(m ? Cell::estimate(m->estimate()) : Cell());
+    }
+    t.rows.push_back(row);
+  }
+  s.blocks.push_back(t);
+  if (has_x(v) && !regions.empty()) {
+    Figure f{"orientation_order", "Order parameter against " + v.x_label, v.x_label, "S", {}, false, false,
+             "Fig. 5.5: error bars, standard error over runs"};
+    for (std::size_t r = 0; r < regions.size(); ++r)
+      for (Series se : point_series(v, in.points, "order_parameter_" + std::to_string(r), "S")) {
+        se.label = regions[r] + (se.label == "S" ? "" : ", " + se.label);
+        f.series.push_back(se);
+      }
+    if (!f.series.empty()) s.blocks.push_back(f);
+  }
+  // Fig. 6.5: the window's distributions.
+  const std::pair<std::string, std::function<std::vector<double>(std::size_t)>> scenes[] = {
+      {"bed", [&](std::size_t k) { return ps[k].bed.window_axes; }},
+      {"flow", [&](std::size_t k) { return ps[k].flow.window_axes; }},
+      {"arches", [&](std::size_t k) { return ps[k].arch_window; }}};
+  const char* titles[] = {"in the bed before the opening", "during steady flow", "of arch bodies"};
+  for (std::size_t sc = 0; sc < std::size(scenes); ++sc) {
+    Figure f{"orientation_window_" + scenes[sc].first, "Axis angles " + std::string(titles[sc]) + " in the window",
+             "psi (degrees)", "probability density (1/rad)", {}, false, false, "Fig. 6.5"};
+    for (std::size_t k : drawn) {
+      const std::vector<double> counts = scenes[sc].second(k);
+      const std::vector<double> d = axis_density(counts);
+      double total = 0;
+      for (double c : counts) total += c;
+      if (total <= 0) continue;
+      Series se{point_name(v, v.points[k]) + " (" + format_number(total, 6) + " axes)", {"psi_deg", "density", "count"}, {}, Series::Style::kSteps};
+      for (std::size_t b = 0; b < d.size(); ++b)
+        se.rows.push_back({Degrees((static_cast<double>(b) + 0.5) * kPi / static_cast<double>(d.size())), d[b], counts[b]});
+      f.series.push_back(se);
+    }
+    if (!f.series.empty()) s.blocks.push_back(f);
+  }
+  return s;
+}
+
+
+}  // namespace
+
+nlohmann::json to_json(const OrientationSums& s) {
+  return {{"frames", s.frames},       {"s_sum", s.s_sum},         {"s_count", s.s_count},
+          {"theta_sum", s.theta_sum}, {"theta_count", s.theta_count}, {"cos2_sum", s.cos2_sum},
+          {"region_count", s.region_count}, {"window_axes", s.window_axes}, {"s_range", s.s_range}};
+}
+
+OrientationSums orientation_sums_from_json(const nlohmann::json& j) {
+  OrientationSums s;
+  if (!j.is_object()) return s;
+  s.frames = j.value("frames", 0);
+  s.s_sum = Matrix(j.value("s_sum", nlohmann::json::array()));
+  s.s_count = Matrix(j.value("s_count", nlohmann::json::array()));
+  s.theta_sum = Matrix(j.value("theta_sum", nlohmann::json::array()));
+  s.theta_count = Matrix(j.value("theta_count", nlohmann::json::array()));
+  s.cos2_sum = Vector(j.value("cos2_sum", nlohmann::json::array()));
+  s.region_count = Vector(j.value("region_count", nlohmann::json::array()));
+  s.window_axes = Vector(j.value("window_axes", nlohmann::json::array()));
+  s.s_range = j.value("s_range", 0.0);
+  return s;
+}
+
+OrientationAnalysisOptions read_orientation_options(const nlohmann::json& options, const std::string& path) {
+  OrientationAnalysisOptions o;
+  o.where.heights = {5, 10};
+  o.where.radii = {5, 10};
+  if (options.is_null()) return o;
+  option_object(options, path,
+                {"outlet", "heights", "band", "s_range", "s_bins", "radii", "ring", "theta_bins", "regions", "window",
+                 "axis_bins"});
+  constexpr double kBig = 1e6;
+  OrientationOptions& w = o.where;
+  for (const auto& [k, v] : options.items()) {
+    const std::string p = path + "/" + k;
+    if (k == "outlet") o.outlet = option_integer(v, p, 0, 1000);
+    if (k == "heights") w.heights = Numbers(v, p, -kBig, kBig);
+    if (k == "band") w.band = option_number(v, p, 1e-6, kBig);
+    if (k == "s_range") w.s_range = option_number(v, p, 0.0, kBig);
+    if (k == "s_bins") w.s_bins = option_integer(v, p, 1, 1000);
+    if (k == "radii") w.radii = Numbers(v, p, 0.0, kBig);
+    if (k == "ring") w.ring = option_number(v, p, 1e-6, kBig);
+    if (k == "theta_bins") w.theta_bins = option_integer(v, p, 1, 360);
+    if (k == "axis_bins") w.axis_bins = option_integer(v, p, 1, 360);
+    if (k == "window") {
+      option_object(v, p, {"theta", "dtheta", "radius", "dr"});
+      for (const auto& [wk, wv] : v.items()) {
+        const std::string wp = p + "/" + wk;
+        if (wk == "theta") w.window_theta = Radians(option_number(wv, wp, 0.0, 180.0));
+        if (wk == "dtheta") w.window_dtheta = Radians(option_number(wv, wp, 1e-6, 180.0));
+        if (wk == "radius") w.window_radius = option_number(wv, wp, 0.0, kBig);
+        if (wk == "dr") w.window_dr = option_number(wv, wp, 1e-6, kBig);
+      }
+    }
+    if (k == "regions") {
+      if (!v.is_array()) throw OptionError(p, v, "must be an array of {name, x: [lo, hi], y: [lo, hi], director}");
+      w.regions.clear();
+      for (std::size_t i = 0; i < v.size(); ++i) {
+        const std::string rp = p + "/" + std::to_string(i);
+        option_object(v[i], rp, {"name", "x", "y", "director"});
+        OrientationOptions::Region r;
+        r.name = "region " + std::to_string(i + 1);
+        if (v[i].contains("name")) {
+          if (!v[i].at("name").is_string()) throw OptionError(rp + "/name", v[i].at("name"), "must be a string");
+          r.name = v[i].at("name").get<std::string>();
+        }
+        for (const char* axis : {"x", "y"}) {
+          if (!v[i].contains(axis)) throw OptionError(rp, v[i], std::string("must have \"") + axis + "\": [lo, hi]");
+          const std::vector<double> range = Numbers(v[i].at(axis), rp + "/" + axis, -kBig, kBig);
+          if (range.size() != 2 || !(range[0] < range[1]))
+            throw OptionError(rp + "/" + axis, v[i].at(axis), "must be [lo, hi] with lo < hi");
+          (axis[0] == 'x' ? r.x0 : r.y0) = range[0];
+          (axis[0] == 'x' ? r.x1 : r.y1) = range[1];
+        }
+        if (v[i].contains("director")) r.director = Radians(option_number(v[i].at("director"), rp + "/director", -360.0, 360.0));
+        w.regions.push_back(r);
+      }
+    }
+  }
+  return o;
+}
+
+std::unique_ptr<Analysis> make_orientation_analysis(const nlohmann::json& options, const std::string& path) {
+  return std::make_unique<OrientationAnalysis>(read_orientation_options(options, path), options);
+}
+
+}  // namespace granary::analysis

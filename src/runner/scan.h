@@ -1,0 +1,44 @@
+// `campaign scan`: every run's state rebuilt from its run directory, and for runs in a batch
+// queue from one squeue call, at any time, also while jobs run (docs/cli.md). A run whose
+// directory has DONE and summary.json is done (and ingested); a queued run whose task left
+// the queue ended as its directory and the queue say (slurm_task_end); a run the database
+// calls done whose directory lost DONE is not (one whose directory is gone stays done: its
+// results are in the database; campaign run --rerun-lost runs it again). Rows held by a live runner are reported, not
+// written: that runner records them.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "runner/slurm.h"
+#include "runner/store.h"
+
+namespace granary::runner {
+
+struct ScanChange {
+  std::string run_id;
+  std::string from;    // state in the database
+  std::string to;      // state the directory (and queue) shows
+  std::string reason;
+  bool written = false;  // false: dry run, or a live runner holds the row
+};
+
+struct ScanReport {
+  int runs = 0;                       // not retired
+  std::map<std::string, int> counts;  // by state, after the scan
+  std::vector<ScanChange> changes;
+  bool queue_asked = false;           // some runs were in a queue
+  std::string queue_error;            // squeue could not answer: queued runs were left as they were
+  std::vector<std::string> lost;      // done runs whose directory was deleted: left done (campaign run --rerun-lost)
+};
+
+// The queue's answer for these array jobs (query_queue), or nullopt with a reason.
+using QueueQuery = std::function<std::optional<std::vector<QueueEntry>>(const std::set<std::string>&, std::string*)>;
+
+ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run);
+
+}  // namespace granary::runner

@@ -1,0 +1,110 @@
+// The Slurm executor's pure parts (docs/slurm.md): its options (flags of `campaign run
+// --executor slurm` or the spec's "executor" block), the manifest that maps array indices to
+// runs, the batch script of an array, the --array value, and reading what Slurm prints
+// (`squeue`, `scontrol show config`) with what each job state means for a run. Nothing here
+// runs a command; slurm_executor.cpp does.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace granary::runner {
+
+struct SlurmOptions {
+  std::string partition;                 // sbatch --partition; "" = the cluster's default
+  std::string time;                      // sbatch --time in Slurm's format; "" = from the time limit
+  std::string account;                   // sbatch --account
+  int cpus_per_run = 1;                  // native: --cpus-per-task and threads; LIGGGHTS: MPI ranks
+  int array_max = 0;                     // the %K throttle: tasks of the campaign running at once; 0 = none
+  std::vector<std::string> sbatch_args;  // passed to sbatch as they are
+  double poll_interval = 5;              // seconds between squeue calls at first; backs off to 12x
+};
+
+// The spec's "executor" block: {"type": "slurm" | "local", "partition", "time", "account",
+// "cpus_per_run", "array_max", "sbatch_args": [...], "poll_interval"}. Returns the type;
+// errors (SpecError) name the JSON path under `path`.
+std::string parse_executor_block(const nlohmann::json& block, const std::string& path, SlurmOptions& options);
+
+// Is `text` a Slurm time ("MM", "MM:SS", "HH:MM:SS", "D-HH", "D-HH:MM", "D-HH:MM:SS")?
+bool is_slurm_time(const std::string& text);
+// Seconds as a Slurm --time value, rounded up to whole minutes ("D-HH:MM:00").
+std::string slurm_time(double seconds);
+
+// One line of the manifest: which run an array index stands for.
+struct ManifestEntry {
+  int index = 0;
+  std::string run_id;
+  std::string engine;      // "native" or "liggghts"
+  std::string executable;  // absolute path of granary-engine / granary-liggghts (or --engine PATH)
+  std::string run_dir;     // absolute
+};
+// Tab-separated, one run a line after a comment line; throws std::invalid_argument when a
+// field holds a tab or a newline.
+std::string manifest_text(const std::vector<ManifestEntry>& entries);
+std::vector<ManifestEntry> parse_manifest(const std::string& text);
+
+// The --array value of `indices` (sorted, distinct): ranges where they are consecutive,
+// e.g. {0,1,2,5,7,8} -> "0-2,5,7-8"; with throttle > 0, "%K" appended.
+std::string array_spec(const std::vector<int>& indices, int throttle);
+
+// Everything one sbatch call needs.
+struct BatchJob {
+  std::string job_name;
+  std::string array;       // --array value
+  std::string manifest;    // absolute path
+  std::string log_dir;     // Slurm's own output of the script: LOG_DIR/%A_%a.out
+  std::string engine;      // every run of one array uses one engine (threads or MPI ranks)
+  std::string dependency;  // e.g. "afterany:123", or ""
+  double time_limit = 0;   // per run, seconds from the task's start; 0 = none
+  SlurmOptions options;
+};
+// The batch script: #SBATCH lines, then look up the task's run in the manifest, record the
+// task in DIR/slurm-task.json, run the engine (under `timeout` when there is a time limit),
+// record its exit status.
+std::string batch_script(const BatchJob& job);
+
+// `squeue --noheader --array --states=all --format=kSqueueFormat` with SLURM_TIME_FORMAT=%s.
+inline constexpr char kSqueueFormat[] = "%F|%K|%T|%S|%j|%r";
+struct QueueEntry {
+  std::string job_id;  // the array job id
+  int task = -1;       // the array index; -1 for a job that is not an array
+  std::string state;   // PENDING, RUNNING, COMPLETED, ...
+  double started_at = 0;  // unix seconds; 0 = not started
+  std::string name;
+  std::string reason;
+};
+std::vector<QueueEntry> parse_squeue(const std::string& text);
+
+// MaxArraySize from `scontrol show config` (Slurm's default 1001 when absent).
+int parse_max_array_size(const std::string& show_config);
+
+// What a job state means for the run it carries.
+enum class TaskFate {
+  kQueued,     // PENDING, REQUEUED, ...: waiting for a node
+  kRunning,    // RUNNING, COMPLETING, SUSPENDED, ...
+  kCompleted,  // COMPLETED: done if its run directory says so
+  kFailed,     // FAILED, OUT_OF_MEMORY: the run failed
+  kTimedOut,   // TIMEOUT: Slurm's --time ran out (the run continues from its checkpoint if retried)
+  kLost,       // CANCELLED, PREEMPTED, NODE_FAIL, BOOT_FAIL, DEADLINE: resubmitted, continues from its checkpoint
+};
+TaskFate fate_of(const std::string& state);
+bool is_queued_or_running(TaskFate fate);
+
+// DIR/slurm-task.json, written by the batch script: which task ran the run, when it started,
+// and (once the engine ended) its exit status.
+struct TaskRecord {
+  std::string job;  // "ARRAYJOB_INDEX"
+  std::string node;
+  double started_at = 0;
+  std::optional<int> exit_code;
+  double ended_at = 0;
+};
+std::optional<TaskRecord> parse_task_record(const std::string& text);
+
+// Did the task's `timeout` end the engine at `time_limit`? Exit status 124 (stopped), or
+// 128 + 9 (killed after the grace period) once the limit had passed.
+bool ended_by_time_limit(const TaskRecord& record, double time_limit);
+
+}  // namespace granary::runner

@@ -1,0 +1,56 @@
+// The Slurm executor (docs/slurm.md): runs go to Slurm as job arrays, one task per run, each
+// task running the engine on its run directory (nothing on a compute node touches SQLite).
+// place() writes a submission directory <root>/<campaign>-NNNN/ with manifest.tsv (array
+// index -> run), the batch script job-K.sh and logs/; submit() calls sbatch; poll() calls
+// squeue once for every job, backing off while nothing changes, and reports a task as ended
+// when Slurm does, with what its run directory says (DONE, DIR/slurm-task.json). Dead tasks
+// are resubmitted by the scheduler through start() again: runs that were in one submission go
+// back into it as an index list. Jobs outlive the runner; a new runner attach()es to them.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "runner/executor.h"
+#include "runner/slurm.h"
+
+namespace granary::runner {
+
+struct SlurmSettings {
+  SlurmOptions options;
+  std::string root;         // where submission directories go (<db dir>/slurm)
+  std::string campaign;     // in directory and job names
+  double time_limit = 0;    // per run, seconds from its task's start; 0 = none
+  int max_array_size = 0;   // 0 = the cluster's, from `scontrol show config`
+};
+
+// MaxArraySize from `scontrol show config`; throws std::runtime_error with scontrol's message.
+int query_max_array_size();
+
+// The arrays `launches` would be submitted as, with their manifests and scripts; nothing is
+// written (campaign run --executor slurm --dry-run).
+struct PlannedArray {
+  JobArray array;
+  std::string manifest;  // manifest.tsv as it would be written ("" = an existing one is reused)
+  std::string script;
+  std::string sbatch;    // the sbatch command line
+};
+std::vector<PlannedArray> plan_slurm_arrays(const std::vector<Launch>& launches, const SlurmSettings& settings);
+
+std::unique_ptr<Executor> make_slurm_executor(const SlurmSettings& settings);
+
+// One squeue call for these array jobs (every task, every state). nullopt when squeue could
+// not answer (not installed, controller unreachable); `error` then says why. A job squeue no
+// longer knows is simply absent.
+std::optional<std::vector<QueueEntry>> query_queue(const std::set<std::string>& job_ids, std::string* error = nullptr);
+
+// How a task that left the queue's live states ended (`state`, or "" when squeue no longer
+// knows its job), from what its run directory says: DONE, then DIR/slurm-task.json if it is
+// this task's, then the state. `time_limit` as given to the batch script.
+Finished slurm_task_end(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
+                        const std::string& state, double time_limit, const std::string& slurm_time);
+
+}  // namespace granary::runner

@@ -1,0 +1,119 @@
+// cg_fields_of_run on a run directory written through the run-directory writers: frames
+// paired with the contact frames of the same timestep, the time range, the stride, routing
+// frames into parts (flowing / clogged) and the default window of the silo.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "analysis/cg_run.h"
+#include "rundir/contacts.h"
+#include "rundir/frames.h"
+#include "rundir/run_directory.h"
+#include "test_util.h"
+
+namespace granary::analysis {
+namespace {
+
+using testing::TempDir;
+
+// A square lattice of discs (spacing 1, radius 0.5) filling x in [-12, 12], y in [0.5, 20.5],
+// falling at speed `t` at time t; contact frames (vertical chains carrying weight 1 per disc
+// above) only at the timesteps listed.
+void write_run(const std::filesystem::path& dir, const std::vector<double>& frame_times,
+               const std::vector<double>& contact_times) {
+  rundir::WriteRunSpec(dir, {{"silo", {{"width", 25.0}}}, {"bodies", {{"density", 1.0}}}});
+  auto frames = rundir::FrameWriter::Create(dir / rundir::kFramesFile);
+  auto contacts = rundir::ContactWriter::Create(dir / rundir::kContactsFile);
+  for (double t : frame_times) {
+    rundir::Frame f;
+    f.time = t;
+    f.timestep = std::llround(t * 1e4);
+    rundir::ContactFrame c;
+    c.time = t;
+    c.timestep = f.timestep;
+    std::int64_t id = 0;
+    for (int row = 0; row <= 20; ++row)
+      for (int col = 0; col <= 24; ++col) {
+        rundir::Disc d;
+        d.id = id + 1;
+        d.mol = id;
+        d.x = -12.0 + col;
+        d.y = 0.5 + row;
+        d.radius = 0.5;
+        d.mass = std::numbers::pi * 0.25;
+        d.vy = -t;
+        f.discs.push_back(d);
+        if (row > 0) c.contacts.push_back({id, id - 25, d.x, d.y, d.x, d.y - 1.0, d.x, d.y - 0.5, 0.0, 21.0 - row});
+        ++id;
+      }
+    frames.Write(f);
+    if (std::find(contact_times.begin(), contact_times.end(), t) != contact_times.end()) contacts.Write(c);
+  }
+  frames.Close();
+  contacts.Close();
+}
+
+TEST(CgRun, PairsFramesWithTheirContactFramesOverTheTimeRange) {
+  TempDir tmp;
+  write_run(tmp.path(), {0.0, 1.0, 2.0, 3.0}, {0.0, 2.0, 3.0});
+  const rundir::RunData data = rundir::ReadRun(tmp.path());
+  CgRunOptions o;
+  o.cg.window = {-5.0, 5.0, 5.0, 15.0};
+  o.t_start = 0.5;
+  const CgRunResult r = cg_fields_of_run(data, o);
+  ASSERT_EQ(r.parts.size(), 1u);
+  const CgMaps maps(r.parts[0]);
+  EXPECT_EQ(maps.frames(), 3);           // t = 1, 2, 3
+  EXPECT_EQ(maps.contact_frames(), 2);   // t = 2, 3
+  EXPECT_EQ(r.frames_without_contacts, 1);
+  EXPECT_TRUE(r.has_contacts);
+  EXPECT_EQ(r.first_time, 1.0);
+  EXPECT_EQ(r.last_time, 3.0);
+  const std::size_t centre = maps.grid().size() / 2;
+  EXPECT_NEAR(maps.value(CgField::kVy, centre), -2.0, 1e-12);  // mean of -1, -2, -3
+  // The column above y carries (20.5 - y) discs' "weight" of 1 each: sigma_yy = -(20.5 - y) per
+  // unit width (one chain per 1 d), to the cut kernel's error (2e-4 of the load, measured 1.1e-4).
+  const double y = maps.grid().y(static_cast<int>(centre / maps.grid().nx));
+  EXPECT_NEAR(maps.value(CgField::kSigmaYY, centre), -(21.0 - y), 2e-4 * (21.0 - y));
+}
+
+TEST(CgRun, StrideMaxFramesAndRouting) {
+  TempDir tmp;
+  write_run(tmp.path(), {0.0, 1.0, 2.0, 3.0, 4.0, 5.0}, {});
+  const rundir::RunData data = rundir::ReadRun(tmp.path());
+  CgRunOptions o;
+  o.cg.window = {-5.0, 5.0, 5.0, 15.0};
+  o.frame_stride = 2;  // t = 0, 2, 4
+  o.route = [](double t) { return t < 1.0 ? -1 : (t < 3.0 ? 0 : 1); };
+  o.parts = 2;
+  o.series = {{"vy", {-1.0, 1.0, 9.0, 11.0}, CgField::kVy}};
+  const CgRunResult r = cg_fields_of_run(data, o);
+  ASSERT_EQ(r.parts.size(), 2u);
+  EXPECT_EQ(r.parts[0].frames, 1);       // t = 2
+  EXPECT_EQ(r.parts[1].frames, 1);       // t = 4
+  EXPECT_EQ(r.parts[0].contact_frames, 0);
+  ASSERT_EQ(r.series.size(), 1u);
+  ASSERT_EQ(r.series[0].time, (std::vector<double>{2.0, 4.0}));
+  EXPECT_NEAR(r.series[0].value[0], -2.0, 1e-12);
+  EXPECT_NEAR(r.series[0].value[1], -4.0, 1e-12);
+  o.route = nullptr;
+  o.max_frames = 2;
+  EXPECT_EQ(cg_fields_of_run(data, o).parts[0].frames, 2);
+}
+
+TEST(CgRun, DefaultWindowIsTheSiloUpToTheBed) {
+  TempDir tmp;
+  write_run(tmp.path(), {0.0}, {0.0});
+  const rundir::RunData data = rundir::ReadRun(tmp.path());
+  const Rect w = cg_run_window(data);  // no summary: the top of the first frame's discs
+  EXPECT_EQ(w.x0, -11.0);
+  EXPECT_EQ(w.x1, 11.0);
+  EXPECT_EQ(w.y0, 1.5);
+  EXPECT_EQ(w.y1, 21.0);
+  const CgRunResult r = cg_fields_of_run(data, CgRunOptions());
+  EXPECT_EQ(r.parts[0].grid, grid_over(w, 1.0));
+}
+
+}  // namespace
+}  // namespace granary::analysis

@@ -1,0 +1,255 @@
+// The fields analysis in the registry: its options (errors with the JSON path), the campaign
+// spec it turns contact output on in, the per-run sums as JSON and their merging over
+// replicas, and one pass over a constructed run (a lattice falling rigidly while the exit
+// stream flows, then at rest while it is clogged): steady and split windows, region means,
+// the series above the outlet, the force chains.
+#include "analysis/fields_analysis.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <numbers>
+
+#include "analysis/options.h"
+#include "analysis/registry.h"
+#include "analysis/run_pass.h"
+#include "rundir/contacts.h"
+#include "rundir/frames.h"
+#include "rundir/run_directory.h"
+#include "test_util.h"
+
+namespace granary::analysis {
+namespace {
+
+using testing::TempDir;
+using testing::write_file;
+
+std::string error_of(const nlohmann::json& fields) {
+  try {
+    setup_analyses({{"report", {{"fields", fields}}}});
+  } catch (const OptionError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+bool has_fields(const AnalysisSetup& s) {
+  for (const auto& a : s.analyses)
+    if (a->key() == "fields") return true;
+  return false;
+}
+
+TEST(FieldsAnalysis, OffUnlessAskedFor) {
+  EXPECT_FALSE(has_fields(setup_analyses(nlohmann::json::object())));
+  EXPECT_FALSE(has_fields(setup_analyses({{"report", {{"fields", false}}}})));
+  EXPECT_TRUE(has_fields(setup_analyses({{"report", {{"fields", true}}}})));
+  EXPECT_TRUE(has_fields(setup_analyses({{"report", {{"fields", nlohmann::json::object()}}}})));
+}
+
+TEST(FieldsAnalysis, OptionErrorsNameTheJsonPathTheValueAndWhatIsAllowed) {
+  EXPECT_NE(error_of({{"maps", {"phi", "presure"}}}).find("/report/fields/maps/1"), std::string::npos);
+  EXPECT_NE(error_of({{"maps", {"phi", "presure"}}}).find("pressure"), std::string::npos);  // the allowed names
+  EXPECT_NE(error_of({{"colour", 1}}).find("/report/fields/colour"), std::string::npos);
+  EXPECT_NE(error_of({{"spacing", 5.0}}).find("/report/fields/spacing"), std::string::npos);
+  EXPECT_NE(error_of({{"frames", "sometimes"}}).find("/report/fields/frames"), std::string::npos);
+  EXPECT_NE(error_of({{"frames", {{"from", 5.0}, {"to", 2.0}}}}).find("/report/fields/frames/to"), std::string::npos);
+  EXPECT_NE(error_of({{"window", {1, 0, 0, 1}}}).find("/report/fields/window"), std::string::npos);
+  EXPECT_NE(error_of({{"cutoff", 0.5}}).find("(got 0.5)"), std::string::npos);
+  EXPECT_NE(error_of(3).find("/report/fields"), std::string::npos);
+  EXPECT_EQ(error_of({{"maps", {"phi", "kinetic_pressure"}}, {"frames", "split"}, {"spacing", 0.5}}), "");
+}
+
+TEST(FieldsAnalysis, StressMapsTurnContactOutputOnOrThePlanSaysWhy) {
+  const nlohmann::json campaign = {{"base", {{"output", {{"frame_interval", 0.5}}}}}, {"report", {{"fields", true}}}};
+  EXPECT_EQ(with_fields_output(campaign)["base"]["output"]["contact_forces"], true);
+  // Maps without stress and no force chains: the output stays as it was.
+  nlohmann::json kinematic = campaign;
+  kinematic["report"]["fields"] = {{"maps", {"phi", "speed"}}, {"force_chains", false}};
+  EXPECT_FALSE(with_fields_output(kinematic)["base"]["output"].contains("contact_forces"));
+  // Turned off in the spec: an error at that path.
+  nlohmann::json off = campaign;
+  off["base"]["output"]["contact_forces"] = false;
+  try {
+    with_fields_output(off);
+    ADD_FAILURE() << "no error";
+  } catch (const OptionError& e) {
+    EXPECT_EQ(e.path(), "/base/output/contact_forces");
+  }
+  // No frames at all.
+  nlohmann::json no_frames = campaign;
+  no_frames["base"].erase("output");
+  try {
+    with_fields_output(no_frames);
+    ADD_FAILURE() << "no error";
+  } catch (const OptionError& e) {
+    EXPECT_EQ(e.path(), "/base/output/frame_interval");
+  }
+  // Without /report/fields nothing changes.
+  EXPECT_EQ(with_fields_output({{"base", nlohmann::json::object()}}), nlohmann::json({{"base", nlohmann::json::object()}}));
+}
+
+CgSums filled_sums(int ny, double value) {
+  CgSums s;
+  s.resize({-2.0, 1.5, 1.0, 5, ny});
+  s.frames = 2;
+  s.contact_frames = 1;
+  for (std::size_t n = 0; n < s.phi.size(); ++n) {
+    s.phi[n] = value * static_cast<double>(n);
+    s.syy[n] = -value;
+    s.n_defined[n] = 2;
+  }
+  return s;
+}
+
+TEST(FieldsAnalysis, SumsRoundTripAndMergeOverTheRowsReplicasShare) {
+  const CgSums a = filled_sums(4, 0.25);
+  const CgSums back = sums_from_json(nlohmann::json::parse(sums_to_json(a).dump()));
+  EXPECT_EQ(back.grid, a.grid);
+  EXPECT_EQ(back.phi, a.phi);
+  EXPECT_EQ(back.syy, a.syy);
+  EXPECT_EQ(back.n_defined, a.n_defined);
+  EXPECT_EQ(back.contact_frames, 1);
+  // A replica whose bed stood lower has fewer rows: the merge keeps the rows both have.
+  CgSums merged = a;
+  ASSERT_TRUE(add_common_rows(merged, filled_sums(3, 1.0)));
+  EXPECT_EQ(merged.grid.ny, 3);
+  ASSERT_EQ(merged.phi.size(), 15u);
+  for (std::size_t n = 0; n < 15; ++n) EXPECT_EQ(merged.phi[n], 1.25 * static_cast<double>(n));
+  EXPECT_EQ(merged.frames, 4);
+  // Different columns (another silo width): not mergeable.
+  CgSums other = filled_sums(3, 1.0);
+  other.grid.x0 = -3.0;
+  EXPECT_FALSE(add_common_rows(merged, other));
+}
+
+// A run: a lattice of discs (unit spacing, radius 0.5) over x in [-12, 12], y in [0.5, 20.5],
+// falling rigidly at speed 1 while the exits flow (frames at t = 2.2, 2.3), at rest once
+// clogged (t = 15), every frame with vertical chains carrying the weight above.
+void write_run(const std::filesystem::path& dir) {
+  rundir::WriteRunSpec(dir, {{"silo", {{"width", 25.0}, {"base_outlets", {{{"center", 0.0}, {"width", 4.0}}}}}},
+                             {"bodies", {{"density", 1.0}, {"count", 525}}},
+                             {"discharge", {{"mode", "reinject"}, {"clog_window", 3.0}}}});
+  write_file(dir / "summary.json",
+             R"({"bodies":525,"exited":12,"remaining":525,"t_end":20,"end_reason":"time_limit","clogs":1})");
+  std::string events = "time,body,shape,mass,outlet\n";
+  for (int k = 0; k < 12; ++k) events += std::to_string(2.0 + 0.05 * k) + "," + std::to_string(k) + ",disc,1,0\n";
+  write_file(dir / "events.csv", events);
+  auto frames = rundir::FrameWriter::Create(dir / rundir::kFramesFile);
+  auto contacts = rundir::ContactWriter::Create(dir / rundir::kContactsFile);
+  for (double t : {2.2, 2.3, 15.0}) {
+    const double v = t < 10.0 ? -1.0 : 0.0;
+    rundir::Frame f;
+    f.time = t;
+    f.timestep = std::llround(t * 1e4);
+    rundir::ContactFrame c;
+    c.time = t;
+    c.timestep = f.timestep;
+    std::int64_t id = 0;
+    for (int row = 0; row <= 20; ++row)
+      for (int col = 0; col <= 24; ++col) {
+        rundir::Disc d;
+        d.id = id + 1;
+        d.mol = id;
+        d.x = -12.0 + col;
+        d.y = 0.5 + row;
+        d.radius = 0.5;
+        d.mass = std::numbers::pi * 0.25;
+        d.vy = v;
+        f.discs.push_back(d);
+        if (row > 0) c.contacts.push_back({id, id - 25, d.x, d.y, d.x, d.y - 1.0, d.x, d.y - 0.5, 0.0, 21.0 - row});
+        ++id;
+      }
+    frames.Write(f);
+    contacts.Write(c);
+  }
+  frames.Close();
+  contacts.Close();
+}
+
+struct Pass {
+  AnalysisSetup setup;
+  nlohmann::json result;
+  std::map<std::string, double> metrics;
+};
+
+Pass pass_with(const std::filesystem::path& dir, const nlohmann::json& fields) {
+  Pass p;
+  p.setup = setup_analyses({{"report", {{"window", {{"start_time", 1.0}, {"min_events", 5}}}, {"fields", fields}}}});
+  RunPassOptions o;
+  o.read_cache = o.write_cache = false;
+  const RunPassResult r = analyse_run(dir, p.setup.list(), p.setup.pass, o);
+  for (std::size_t k = 0; k < p.setup.analyses.size(); ++k)
+    if (p.setup.analyses[k]->key() == "fields") {
+      p.result = r.results[k];
+      for (const Metric& m : p.setup.analyses[k]->run_metrics(p.result)) p.metrics[m.name] = m.value;
+    }
+  return p;
+}
+
+TEST(FieldsAnalysis, SteadyWindowOfTheFlowAnalysis) {
+  TempDir dir;
+  write_run(dir.path());
+  const Pass p = pass_with(dir.path(), true);
+  ASSERT_EQ(p.result["parts"].size(), 1u);
+  const nlohmann::json& part = p.result["parts"][0];
+  EXPECT_EQ(part["name"], "steady");
+  EXPECT_EQ(part["frames"], 2);          // 2.2 and 2.3: the flow window ends at the last exit, 2.55
+  EXPECT_EQ(part["contact_frames"], 2);
+  // A rigid translation: v of that translation wherever defined, so its region mean too.
+  const CgMaps maps(sums_from_json(part["sums"]));
+  for (std::size_t n = 0; n < maps.grid().size(); ++n)
+    if (std::isfinite(maps.value(CgField::kVy, n))) {
+      EXPECT_NEAR(maps.value(CgField::kVy, n), -1.0, 1e-12);
+      EXPECT_NEAR(maps.value(CgField::kTg, n), 0.0, 1e-12);
+    }
+  EXPECT_NEAR(p.metrics.at("cg_speed"), 1.0, 1e-12);
+  EXPECT_TRUE(p.metrics.count("cg_pressure"));
+  EXPECT_GT(p.metrics.at("cg_pressure"), 0.0);
+  // The series above the outlet: one value per frame, the speed 1.
+  ASSERT_EQ(p.result["series"].size(), 1u);
+  EXPECT_EQ(numbers_of(p.result["series"][0]["time"]), (std::vector<double>{2.2, 2.3}));
+  for (double s : numbers_of(p.result["series"][0]["speed"])) EXPECT_NEAR(s, 1.0, 1e-12);
+  // The force chain of the first frame: the strong half of the chains (load above the mean).
+  ASSERT_TRUE(part.contains("force_chain"));
+  EXPECT_EQ(part["force_chain"]["time"], 2.2);
+  for (const auto& seg : part["force_chain"]["segments"]) EXPECT_GT(seg[4].get<double>(), 10.0);
+}
+
+TEST(FieldsAnalysis, SplitIntoFlowingAndClogged) {
+  TempDir dir;
+  write_run(dir.path());
+  const Pass p = pass_with(dir.path(), {{"frames", "split"}, {"maps", {"speed", "pressure"}}});
+  ASSERT_EQ(p.result["parts"].size(), 2u);
+  EXPECT_EQ(p.result["parts"][0]["name"], "flowing");
+  EXPECT_EQ(p.result["parts"][0]["frames"], 2);
+  EXPECT_EQ(p.result["parts"][1]["name"], "clogged");
+  EXPECT_EQ(p.result["parts"][1]["frames"], 1);  // t = 15, inside the clog from the last exit on
+  EXPECT_NEAR(p.metrics.at("cg_speed"), 1.0, 1e-12);
+  EXPECT_NEAR(p.metrics.at("cg_speed_clogged"), 0.0, 1e-12);
+  // The same load in both states: the same pressure above the outlet.
+  EXPECT_NEAR(p.metrics.at("cg_pressure_clogged"), p.metrics.at("cg_pressure"), 1e-9);
+  EXPECT_EQ(numbers_of(p.result["series"][0]["time"]), (std::vector<double>{2.2, 2.3, 15.0}));
+  // A time range instead.
+  const Pass r = pass_with(dir.path(), {{"frames", {{"from", 2.25}, {"to", 20.0}}}});
+  EXPECT_EQ(r.result["parts"][0]["frames"], 2);  // 2.3 and 15
+  EXPECT_NEAR(r.metrics.at("cg_speed"), 0.5, 1e-12);
+}
+
+TEST(FieldsAnalysis, SiloDrawingLeavesTheOutletsOpen) {
+  const SiloDrawing d = silo_drawing({{"silo",
+                                       {{"width", 20.0},
+                                        {"base_outlets", {{{"center", 2.0}, {"width", 4.0}}}},
+                                        {"obstacles", {{{"x", 0.0}, {"y", 8.0}, {"diameter", 3.0}}}}}}},
+                                     30.0);
+  // Base: -10 .. 0 and 4 .. 10; the side walls 0 .. 30.
+  ASSERT_EQ(d.lines.size(), 4u);
+  EXPECT_EQ(d.lines[0], (std::vector<std::array<double, 2>>{{-10.0, 0.0}, {0.0, 0.0}}));
+  EXPECT_EQ(d.lines[1], (std::vector<std::array<double, 2>>{{4.0, 0.0}, {10.0, 0.0}}));
+  EXPECT_EQ(d.lines[3], (std::vector<std::array<double, 2>>{{10.0, 0.0}, {10.0, 30.0}}));
+  ASSERT_EQ(d.circles.size(), 1u);
+  EXPECT_EQ(d.circles[0], (std::array<double, 3>{0.0, 8.0, 1.5}));
+}
+
+}  // namespace
+}  // namespace granary::analysis
