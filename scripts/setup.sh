@@ -8,7 +8,8 @@ build="${GRANARY_BUILD_DIR:-$here/build}"
 packages=(build-essential cmake pkg-config git libsqlite3-dev sqlite3 nlohmann-json3-dev
           libboost-dev libboost-filesystem-dev libgsl-dev libgtest-dev googletest
           liggghts openmpi-bin gnuplot-nox lammps zlib1g-dev
-          libcairo2-dev ffmpeg python3-pandas slurmctld slurmd slurm-client munge libpmix-dev)
+          libcairo2-dev ffmpeg python3-pandas python3-jsonschema slurmctld slurmd slurm-client munge
+          libpmix-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -160,6 +160,7 @@ std::optional<Section> AvalancheAnalysis::section(const SectionInput& in) const 
       tail.label = "tail fit, " + name;
       tail.columns = {"s", "density_fit"};
       tail.style = Series::Style::kLines;
+      tail.role = Series::Role::kFit;
       tail.color = colour;
       const double norm = static_cast<double>(st.tail.n_tail) / st.size.n * (1.0 - st.tail.q);
       for (std::size_t i = 0; i < st.histogram.counts.size(); ++i) {

@@ -39,10 +39,17 @@ MetricAgreement agreement_of(const MetricDifference& d) {
     const double ra = d.a.se / d.a.mean, rb = d.b.mean != 0.0 ? d.b.se / d.b.mean : kNaN;
     m.ratio_se = std::fabs(m.ratio) * std::hypot(ra, rb);
   }
-  m.agree = std::isfinite(d.z) && std::fabs(d.z) <= kAgreementSigmas;
-  // Equal values with zero uncertainty (e.g. Psi = 0 on both) agree too.
-  if (!std::isfinite(d.z) && d.se == 0.0 && d.difference == 0.0) m.agree = true;
+  if (std::isfinite(d.z)) m.agree = std::fabs(d.z) <= kAgreementSigmas;
+  // Zero uncertainty on both sides (every replica alike, e.g. Psi = 0): equal values agree,
+  // different ones do not.
+  else if (d.se == 0.0 && std::isfinite(d.difference)) m.agree = d.difference == 0.0;
+  // Otherwise an se is unknown (one replica): nothing can be said.
   return m;
+}
+
+std::string agreement_text(const std::optional<bool>& agree) {
+  if (!agree) return "n/a";
+  return *agree ? "yes" : "no";
 }
 
 EngineCost engine_cost(const std::string& engine, const std::vector<RunTiming>& runs) {
@@ -93,7 +100,7 @@ nlohmann::json to_json(const EngineComparison& c) {
                                     {"ratio", number(m.ratio)},
                                     {"ratio_se", number(m.ratio_se)},
                                     {"z", number(m.difference.z)},
-                                    {"agree", m.agree},
+                                    {"agree", m.agree ? nlohmann::json(*m.agree) : nlohmann::json(nullptr)},
                                     {"title", m.difference.title},
                                     {"headline", m.difference.headline}};
     }
@@ -216,15 +223,17 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
       if (!by_metric.count(m.difference.name)) metric_order.push_back(m.difference.name);
       by_metric[m.difference.name].push_back(&m);
     }
-  Table overview{"engine_agreement", "Agreement per metric over all compared points",
-                 {"metric", "points", "agree", "ratio min", "ratio mean", "ratio max"}, {},
-                 {"metric", "points", "agree", "ratio_min", "ratio_mean", "ratio_max"}};
+  Table overview{"engine_agreement",
+                 "Agreement per metric over all compared points (n/a: no standard error on one side, e.g. one "
+                 "replica, so agreement cannot be judged)",
+                 {"metric", "points", "agree", "disagree", "n/a", "ratio min", "ratio mean", "ratio max"}, {},
+                 {"metric", "points", "agree", "disagree", "unknown", "ratio_min", "ratio_mean", "ratio_max"}};
   for (const auto& name : metric_order) {
-    int agree = 0;
+    int agree = 0, disagree = 0, unknown = 0;
     double lo = kInf, hi = -kInf, sum = 0;
     int n = 0;
     for (const MetricAgreement* m : by_metric[name]) {
-      agree += m->agree ? 1 : 0;
+      (m->agree ? (*m->agree ? agree : disagree) : unknown) += 1;
       if (!std::isfinite(m->ratio)) continue;
       lo = std::min(lo, m->ratio);
       hi = std::max(hi, m->ratio);
@@ -232,6 +241,7 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
       ++n;
     }
     overview.rows.push_back({name, Cell::count(static_cast<long long>(by_metric[name].size())), Cell::count(agree),
+                             Cell::count(disagree), Cell::count(unknown),
                              Cell::number(n ? lo : kNaN), Cell::number(n ? sum / n : kNaN), Cell::number(n ? hi : kNaN)});
   }
   if (k.points.empty()) {
@@ -246,7 +256,7 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
       for (const MetricAgreement& m : p.metrics) {
         const MetricDifference& d = m.difference;
         t.rows.push_back({name, d.name, metric_title(d.name), Cell::estimate(d.a), Cell::estimate(d.b),
-                          Cell::estimate(m.ratio, m.ratio_se, -1), Cell::number(d.z, 3), m.agree ? "yes" : "no"});
+                          Cell::estimate(m.ratio, m.ratio_se, -1), Cell::number(d.z, 3), agreement_text(m.agree)});
       }
     }
     s.blocks.push_back(t);
@@ -254,7 +264,8 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
   // Ratio against x, one series per (metric, group), with the 10 % band.
   if (has_x(c) && !k.points.empty()) {
     Figure f{"engine_ratio", "Ratio " + b + " / " + a + " against " + c.x_label, c.x_label, b + " / " + a, {}, false,
-             false, "Error bars: propagated se of both means. Black lines: equal, and the ±10 % band."};
+             false, "Error bars: propagated se of both means. Reference lines: equal (solid black), -10 % (dashed grey) "
+             "and +10 % (dotted grey)"};
     double xlo = kInf, xhi = -kInf;
     for (const std::string& metric : headline) {
       std::map<std::string, Series> by_group;
@@ -285,12 +296,12 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
       }
     }
     if (!f.series.empty()) {
-      for (const double level : {0.9, 1.0, 1.1}) {
+      for (const double level : {1.0, 0.9, 1.1}) {  // equal first: the solid black line
         Series line;
         line.label = level == 1.0 ? "equal" : (level < 1 ? "-10 %" : "+10 %");
         line.columns = {c.x_name, "ratio"};
         line.style = Series::Style::kLines;
-        line.color = 7;
+        line.role = Series::Role::kReference;
         line.rows = {{xlo, level}, {xhi, level}};
         f.series.push_back(std::move(line));
       }

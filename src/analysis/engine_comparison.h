@@ -50,8 +50,13 @@ struct MetricAgreement {
   MetricDifference difference;        // a - b, its se and z
   double ratio = kNaN;                // b / a
   double ratio_se = kNaN;
-  bool agree = false;                 // |z| <= kAgreementSigmas (false when z is unknown)
+  // |z| <= kAgreementSigmas; nullopt when it cannot be judged (no standard error on one side:
+  // a single replica), which is neither agreement nor disagreement.
+  std::optional<bool> agree;
 };
+
+// "yes", "no" or "n/a" (agreement unknown), as tables and the CLI show it.
+std::string agreement_text(const std::optional<bool>& agree);
 
 struct PointAgreement {
   nlohmann::json point;               // sweep values shared by both engines
@@ -86,6 +91,7 @@ EngineComparison compare_engines(const std::string& engine_a, const std::vector<
                                  const std::vector<RunTiming>& timings_a, const std::string& engine_b,
                                  const std::vector<EnginePoint>& b, const std::vector<RunTiming>& timings_b);
 
+// JSON of the comparison; an unknown agreement is null (not false), as are NaN numbers.
 nlohmann::json to_json(const EngineComparison& c);
 
 // The comparison of the first two engines of a campaign (native is `a` when present), from

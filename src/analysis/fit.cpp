@@ -39,6 +39,43 @@ FitModel with_data_guess(FitModel model, std::span<const double> x, std::span<co
   return model;
 }
 
+bool FitParameter::determined() const { return std::isfinite(value) && std::isfinite(se); }
+
+bool FitParameter::ci_spans_zero() const {
+  return std::isfinite(ci_low) && std::isfinite(ci_high) && ci_low <= 0.0 && ci_high >= 0.0;
+}
+
+std::string to_string(FitQuality quality) {
+  switch (quality) {
+    case FitQuality::kNotFitted: return "not fitted";
+    case FitQuality::kFailed: return "failed";
+    case FitQuality::kIllDetermined: return "ill-determined";
+    case FitQuality::kGood: return "good";
+  }
+  return "?";
+}
+
+std::string FitResult::verdict() const {
+  switch (quality) {
+    case FitQuality::kNotFitted: return status;
+    case FitQuality::kFailed: return "failed: " + status + " (" + convergence + ", " + std::to_string(iterations) + " it.)";
+    case FitQuality::kIllDetermined:
+    case FitQuality::kGood: break;
+  }
+  std::string undetermined, spans;
+  for (const FitParameter& p : parameters) {
+    if (!p.determined()) undetermined += (undetermined.empty() ? "" : ", ") + p.name;
+    else if (p.ci_spans_zero()) spans += (spans.empty() ? "" : ", ") + p.name;
+  }
+  std::string v = to_string(quality);
+  if (!undetermined.empty()) v += ": " + undetermined + " not determined by the data";
+  if (!spans.empty()) v += std::string(undetermined.empty() ? ": " : "; ") + "95% CI of " + spans + " include" +
+                           (spans.find(',') == std::string::npos ? "s" : "") + " 0";
+  if (dof == 1) v += std::string(v.find(':') == std::string::npos ? ": " : "; ") + "1 degree of freedom";
+  if (!status.empty() && status.rfind("covariance", 0) == 0) v += "; " + status;
+  return v;
+}
+
 const FitParameter* FitResult::parameter(const std::string& name) const {
   for (const auto& p : parameters)
     if (p.name == name) return &p;
@@ -125,13 +162,14 @@ FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<
     FitParameter fp;
     fp.name = name;
     auto it = model.initial.find(name);
-    fp.value = it == model.initial.end() ? 1.0 : it->second;
+    fp.initial = it == model.initial.end() ? 1.0 : it->second;
     r.parameters.push_back(fp);
   }
   r.fitted.assign(n, kNaN);
   r.residuals.assign(n, kNaN);
   if (p == 0 || n <= p) {
-    r.status = "not fitted: " + std::to_string(n) + " point(s) for " + std::to_string(p) + " parameter(s)";
+    r.status = "not fitted: " + std::to_string(n) + (n == 1 ? " point" : " points") + " for " + std::to_string(p) +
+               (p == 1 ? " parameter" : " parameters") + " (needs at least " + std::to_string(p + 1) + ")";
     return r;
   }
 
@@ -148,7 +186,7 @@ FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<
   std::unique_ptr<gsl_multifit_nlinear_workspace, WorkspaceDeleter> w(
       gsl_multifit_nlinear_alloc(gsl_multifit_nlinear_trust, &fit_params, n, p));
   std::unique_ptr<gsl_vector, VectorDeleter> p0(gsl_vector_alloc(p));
-  for (std::size_t i = 0; i < p; ++i) gsl_vector_set(p0.get(), i, r.parameters[i].value);
+  for (std::size_t i = 0; i < p; ++i) gsl_vector_set(p0.get(), i, r.parameters[i].initial);
 
   // GSL's default handler aborts the program; errors must come back as status codes.
   gsl_error_handler_t* old_handler = gsl_set_error_handler_off();
@@ -177,18 +215,21 @@ FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<
   constexpr double kCovarEpsRel = 1e-10;
   const int cov_status = gsl_multifit_nlinear_covar(gsl_multifit_nlinear_jac(w.get()), kCovarEpsRel, covar.get());
   gsl_set_error_handler(old_handler);
-  if (r.gsl_status == GSL_SUCCESS && cov_status != GSL_SUCCESS) {
-    r.gsl_status = cov_status;
-    r.status = std::string("covariance: ") + gsl_strerror(cov_status);
+  if (r.gsl_status != GSL_SUCCESS) {
+    // The solver's last step is not an estimate: values stay NaN.
+    r.quality = FitQuality::kFailed;
+    return r;
   }
+  // Without a covariance the estimates stand, but none of them has an error.
+  if (cov_status != GSL_SUCCESS) r.status = std::string("covariance: ") + gsl_strerror(cov_status);
   const double reduced = chi2 / r.dof;
   const double scale = weighted ? std::max(1.0, reduced) : reduced;
   const double t = gsl_cdf_tdist_Pinv(0.975, static_cast<double>(r.dof));
   for (std::size_t i = 0; i < p; ++i) {
     auto& fp = r.parameters[i];
     fp.value = gsl_vector_get(best, i);
-    const double variance = gsl_matrix_get(covar.get(), i, i);
-    if (!(variance > 0.0)) {
+    const double variance = cov_status == GSL_SUCCESS ? gsl_matrix_get(covar.get(), i, i) : kNaN;
+    if (!(variance > 0.0) || !std::isfinite(variance)) {
       r.warning += (r.warning.empty() ? "" : "; ") + fp.name + " not determined by the data";
       continue;  // se and the interval stay NaN
     }
@@ -200,6 +241,9 @@ FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<
     r.fitted[i] = model_value(e, x[i], best);
     r.residuals[i] = y[i] - r.fitted[i];
   }
+  const bool all_good = std::all_of(r.parameters.begin(), r.parameters.end(),
+                                    [](const FitParameter& q) { return q.determined() && !q.ci_spans_zero(); });
+  r.quality = all_good ? FitQuality::kGood : FitQuality::kIllDetermined;
   return r;
 }
 

@@ -28,11 +28,23 @@ FitModel mankoc();           // Q = C (1 - exp(-b (x - 1)) / 2) (x - 1)^(3/2)
 
 struct FitParameter {
   std::string name;
-  double value = kNaN;
-  double se = kNaN;
+  double initial = kNaN;  // the start value the solver was given (never a result)
+  double value = kNaN;    // the estimate; NaN when the fit was not made or failed
+  double se = kNaN;       // NaN: not determined by the data (singular covariance)
   double ci_low = kNaN;   // 95% confidence interval, Student t with dof = n - p
   double ci_high = kNaN;
+  bool determined() const;   // an estimate with a finite standard error
+  bool ci_spans_zero() const;  // the 95% interval holds 0: the sign is not even known
 };
+
+// How far a fit can be trusted, worst first.
+enum class FitQuality {
+  kNotFitted,      // too few points for the parameters (or no data): nothing to show
+  kFailed,         // the solver did not converge: its last step is not an estimate
+  kIllDetermined,  // converged, but a parameter has no standard error or a 95% interval holding 0
+  kGood,           // converged, every parameter determined, no interval holds 0
+};
+std::string to_string(FitQuality quality);  // "not fitted", "failed", "ill-determined", "good"
 
 struct FitResult {
   std::string model_name;
@@ -48,7 +60,12 @@ struct FitResult {
   std::string status;                   // gsl_strerror(gsl_status) or why the fit was not tried
   std::string convergence;              // "small step", "small gradient", ... (GSL info)
   std::string warning;                  // e.g. "b not determined by the data" (se = NaN)
+  FitQuality quality = FitQuality::kNotFitted;
+  // The solver converged: parameters hold estimates (perhaps ill-determined ones).
   bool ok() const { return gsl_status == 0; }
+  // One line for a table: "good", "ill-determined: 95% CI of C, k include 0", "not fitted:
+  // 3 point(s) for 3 parameter(s)", "failed: ..."; with the GSL details where they help.
+  std::string verdict() const;
   const FitParameter* parameter(const std::string& name) const;
   double evaluate(double x_value) const;  // the fitted model at x (NaN if it cannot be evaluated)
 };
@@ -56,7 +73,8 @@ struct FitResult {
 // Fits `model` to (x, y). With sigma (same size, all > 0) the residuals are weighted by
 // 1/sigma; the parameter covariance is then scaled by max(1, chi2/dof) (GSL's convention),
 // unweighted by chi2/dof. Needs n > number of parameters; otherwise returns a result with
-// status "not fitted: ..." and gsl_status -1. Throws ExpressionError for a bad model text.
+// status "not fitted: ..." and gsl_status -1. Parameter values are NaN unless the solver
+// converged (the start values stay in `initial`). Throws ExpressionError for a bad model text.
 FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<const double> y,
                     std::span<const double> sigma = {});
 

@@ -175,8 +175,7 @@ void add_per_run(const SectionInput& in, Section& s) {
     }
   Figure cum{"cumulative_exits", "Cumulative exits against time", "t (sqrt(d/g))", "exits (all outlets)", {}, false,
              false,
-             "Curves: the exit streams; dots: the least-squares line over each run's steady window. First replica of "
-             "up to 8 points"};
+             ""};
   int shown = 0;
   for (std::size_t p = 0; p < v.points.size(); ++p) {
     const Point& point = v.points[p];
@@ -211,7 +210,8 @@ void add_per_run(const SectionInput& in, Section& s) {
         Series line;
         line.label = "fit, " + data.label;
         line.columns = {"t", "exits_fit"};
-        line.style = Series::Style::kPoints;
+        line.style = Series::Style::kLines;
+        line.role = Series::Role::kFit;
         line.color = shown;
         for (int k = 0; k <= 10; ++k) {
           const double tv = f.t_start + (f.t_end - f.t_start) * k / 10.0;
@@ -224,7 +224,17 @@ void add_per_run(const SectionInput& in, Section& s) {
   }
   if (t.rows.empty()) return;
   s.blocks.push_back(t);
-  if (!cum.series.empty()) s.blocks.push_back(cum);
+  if (!cum.series.empty()) {
+    const std::size_t with_runs = static_cast<std::size_t>(
+        std::count_if(v.points.begin(), v.points.end(), [](const Point& p) { return !p.runs.empty(); }));
+    cum.caption = "Solid: the exit stream of the first finished replica at " +
+                  (static_cast<std::size_t>(shown) < with_runs
+                       ? "each of the first " + std::to_string(shown) + " of the " + std::to_string(with_runs) +
+                             " sweep points"
+                       : std::string("each sweep point")) +
+                  "; dashed: the straight line fitted over its steady window, whose slope is Q";
+    s.blocks.push_back(cum);
+  }
   const FlowWindowRule& w = in.pass.window;
   s.blocks.push_back(Text{
       "Steady window: exits before t = " + format_number(w.start_time) + " and the first " +
@@ -270,18 +280,21 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
   if (has_x(v)) {
     const std::string q_what = headline_q_what(v), headline = headline_q(v);
     Figure f{"flow_rate", "Flow rate Q" + (q_what.empty() ? "" : " " + q_what) + " against " + v.x_label, v.x_label,
-             "Q (bodies per sqrt(d/g))", point_series(v, in.points, headline, "Q"), false, false,
+             "Q (bodies/sqrt(d/g))", point_series(v, in.points, headline, "Q"), false, false,
              "Error bars: standard error over replicas"};
     Figure per_outlet_figure{"flow_rate_per_outlet", "Flow rate through each outlet against " + v.x_label, v.x_label,
-                             "Q (bodies per sqrt(d/g))", outlet_series(v, in.points, q_name, v.outlet_labels, "Q"),
+                             "Q (bodies/sqrt(d/g))", outlet_series(v, in.points, q_name, v.outlet_labels, "Q"),
                              false, false, "One curve per outlet (and group); error bars: standard error over replicas"};
     // Fits against W/d per group (>= 3 widths).
-    Table fits{"flow_rate_fits", "Fits of Q(W/d) per group (95% confidence intervals, Student t)",
+    Table fits{"flow_rate_fits",
+               "Fits of Q(W/d) per group (95% confidence intervals, Student t). Fit quality: good, ill-determined (a "
+               "parameter without a standard error or whose interval holds 0), failed or not fitted; only converged "
+               "fits show values",
                {"group", "model", "parameter", "value", "se", "95% CI low", "95% CI high", "chi2/dof", "points",
-                "weighted", "status"},
+                "weighted", "fit quality"},
                {},
                {"group", "model", "parameter", "value", "se", "ci_low", "ci_high", "chi2_per_dof", "points", "weighted",
-                "status"}};
+                "fit_quality"}};
     Table residuals{"flow_rate_fit_residuals", "Fit residuals (Q - fit)",
                     {"group", "model", "W/d", "Q", "fit", "residual"}, {}, {"group", "model", "x", "q", "fit", "residual"}};
     std::vector<FitModel> models;
@@ -335,10 +348,8 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
         for (const auto& par : r.parameters)
           fits.rows.push_back({g, r.model_name + ": " + r.expression, par.name, Cell::number(par.value),
                                Cell::number(par.se, 2), Cell::number(par.ci_low), Cell::number(par.ci_high),
-                               Cell::number(r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
-                               Cell::count(static_cast<long long>(x.size())), weighted,
-                               r.status + (r.ok() ? " (" + r.convergence + ", " + std::to_string(r.iterations) + " it.)" : "") +
-                                   (r.warning.empty() ? "" : "; " + r.warning)});
+                               Cell::number(r.ok() && r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
+                               Cell::count(static_cast<long long>(x.size())), weighted, r.verdict()});
         for (std::size_t i = 0; i < r.x.size(); ++i)
           residuals.rows.push_back({g, r.model_name, Cell::number(r.x[i], 6), Cell::number(r.y[i]),
                                     Cell::number(r.fitted[i]), Cell::number(r.residuals[i], 3)});
@@ -350,9 +361,11 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
             tf.title = "Fitted parameters of " + r.model_name + " (" + r.expression + ") against " + short_axis(other_axis);
             tf.xlabel = short_axis(other_axis);
             tf.ylabel = "parameter value";
-            tf.caption = "Error bars: standard errors of the fit";
+            tf.caption = "Error bars: standard errors of the fit. Parameters not determined by the data or whose 95% "
+                         "interval holds 0 are left out (fit table above)";
           }
           for (const auto& par : r.parameters) {
+            if (!par.determined() || par.ci_spans_zero()) continue;
             auto it = std::find_if(tf.series.begin(), tf.series.end(), [&](const Series& se) { return se.label == par.name; });
             if (it == tf.series.end()) {
               Series se;
@@ -369,9 +382,11 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
         Series curve;
         for (std::size_t k = 0; k < data_series.size(); ++k)
           if (data_series[k].label == (g.empty() ? std::string("Q") : g)) curve.color = static_cast<int>(k);
-        curve.label = r.model_name + (g.empty() ? "" : " (" + g + ")");
+        curve.label = r.model_name + (g.empty() ? "" : " (" + g + ")") +
+                      (r.quality == FitQuality::kGood ? "" : ", " + to_string(r.quality));
         curve.columns = {"W", "Q_fit"};
         curve.style = Series::Style::kLines;
+        curve.role = Series::Role::kFit;
         // The fitted function sampled densely over the whole plotted x range (every group's
         // widths), not only through the measured widths.
         for (int i = 0; i <= kCurveSamples; ++i) {
@@ -388,7 +403,7 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
           Figure& mf = model_figures[model.name];
           if (mf.name.empty())
             mf = Figure{"flow_rate_fit_" + model.name, "Flow rate with the " + model.name + " fit (" + r.expression + ")",
-                        v.x_label, "Q (bodies per sqrt(d/g))", data_series, false, false, "Error bars: se over replicas"};
+                        v.x_label, "Q (bodies/sqrt(d/g))", data_series, false, false, "Error bars: se over replicas"};
           mf.series.push_back(std::move(curve));
         }
       }
@@ -405,7 +420,8 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
                               "or chi2/dof (unweighted)."});
       s.blocks.push_back(fits);
       for (auto& [model, tf] : trends)
-        if (!tf.series.empty() && tf.series.front().rows.size() >= 2) s.blocks.push_back(tf);
+        if (std::any_of(tf.series.begin(), tf.series.end(), [](const Series& se) { return se.rows.size() >= 2; }))
+          s.blocks.push_back(tf);
       s.blocks.push_back(residuals);
     } else if (v.x_is_width) {
       s.blocks.push_back(Text{"Beverloo fits need at least 3 outlet widths in a group; this campaign has fewer so far."});

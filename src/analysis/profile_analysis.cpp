@@ -119,10 +119,12 @@ std::optional<Section> ProfileAnalysis::section(const SectionInput& in) const {
             along, lateral ? "v_n / max|v_n| (v_n: velocity away from the wall)" : "v_y / max|v_y|", {}, false, false,
             "Bodies with centre within " + format_number(options_.band_low) + ".." + format_number(options_.band_high) +
                 " d of " + (v.outlets > 1 ? std::string("each outlet's") : std::string("the outlet's")) +
-                " wall (x along the outlet, v_y normal to it), averaged over the steady-window frames and replicas"};
+                " wall (x along the outlet, v_y normal to it), averaged over the steady-window frames and replicas; "
+                "error bars: standard error over replicas (none with one replica)"};
   Figure fx{"velocity_profile_vx",
             lateral ? "Normalised vertical velocity across the lateral outlet" : "Normalised horizontal velocity across the outlet",
-            along, lateral ? "v_y / max|v_y|" : "v_x / max|v_x|", {}, false, false, lateral ? "Sign: positive upwards" : ""};
+            along, lateral ? "v_y / max|v_y|" : "v_x / max|v_x|", {}, false, false,
+            std::string(lateral ? "Sign: positive upwards. " : "") + "Error bars: standard error over replicas"};
   for (std::size_t pi = 0; pi < v.points.size(); ++pi) {
     const std::vector<const nlohmann::json*> runs = in.results.of_point(pi);
     for (std::size_t o = 0; o < v.outlets; ++o) {
@@ -140,6 +142,7 @@ std::optional<Section> ProfileAnalysis::section(const SectionInput& in) const {
       sy.columns = {"x_over_W", "vy_norm", "vy_norm_se", "n"};
       sx.columns = {"x_over_W", "vx_norm", "vx_norm_se", "n"};
       sy.style = sx.style = Series::Style::kLinesPoints;
+      sy.err = sx.err = 2;  // standard error over replicas
       for (std::size_t i = 0; i < prof.front().x_over_w.size(); ++i) {
         std::vector<double> vy, vx;
         for (const VelocityProfile& q : prof) {

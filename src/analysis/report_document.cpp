@@ -9,7 +9,9 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <regex>
+#include <set>
 #include <sstream>
 
 namespace granary::analysis {
@@ -196,6 +198,96 @@ std::string gp_quote(const std::string& s) {
   return out + "'";
 }
 
+}  // namespace
+
+const char* const kPalette[kPaletteSize] = {"#0072b2", "#d55e00", "#009e73", "#cc79a7", "#e69f00", "#56b4e9",
+                                            "#9467bd", "#8c564b", "#bcbd22", "#2f4f4f", "#e41a1c", "#1b1b8f"};
+
+namespace {
+
+// Point shapes of gnuplot's svg terminal, in turn: filled circle, square, up triangle, diamond,
+// down triangle, pentagon.
+constexpr int kPointTypes[] = {7, 5, 9, 13, 11, 15};
+
+struct Range {
+  double lo = std::numeric_limits<double>::infinity(), hi = -std::numeric_limits<double>::infinity();
+  double lowest_value = std::numeric_limits<double>::infinity();  // of the values alone (no error bars)
+  void add(double v, double err, bool log) {
+    if (!std::isfinite(v) || (log && v <= 0)) return;
+    lowest_value = std::min(lowest_value, v);
+    const double e = std::isfinite(err) ? std::abs(err) : 0.0;
+    lo = std::min(lo, log && v - e <= 0 ? v : v - e);
+    hi = std::max(hi, v + e);
+  }
+  bool empty() const { return !(lo <= hi); }
+};
+
+// "[lo:hi]" that holds the range with a margin; a quantity whose values are all >= 0 does not
+// get a negative axis for its error bars' sake. Log axes get a factor as margin.
+std::string range_text(const Range& r, bool log) {
+  double lo = r.lo, hi = r.hi;
+  if (log) {
+    const double f = hi > lo ? std::pow(hi / lo, 0.05) : 2.0;
+    lo /= f;
+    hi *= f;
+  } else {
+    const double span = hi - lo;
+    const double pad = span > 1e-12 * std::max(1.0, std::abs(lo)) ? 0.05 * span : (lo != 0.0 ? 0.1 * std::abs(lo) : 1.0);
+    lo = r.lowest_value >= 0 ? std::max(0.0, lo - pad) : lo - pad;
+    hi += pad;
+  }
+  return "[" + csv_number(lo) + ":" + csv_number(hi) + "]";
+}
+
+bool draws_points(const Series& se) {
+  return se.style == Series::Style::kPoints || se.style == Series::Style::kErrorBars ||
+         se.style == Series::Style::kLinesPoints;
+}
+
+double cell(const std::vector<double>& row, int col) {
+  return col >= 0 && col < static_cast<int>(row.size()) ? row[static_cast<std::size_t>(col)] : kNaNValue;
+}
+
+// Horizontal offsets (in x units, or factors on a log axis) of the data curves that draw
+// points, so that points of several curves at one x sit side by side instead of on top of
+// each other: spread over a quarter of the smallest gap between x values. Zero for curves
+// that share no x with another.
+std::vector<double> point_offsets(const Figure& f) {
+  std::vector<double> offsets(f.series.size(), f.logx ? 1.0 : 0.0);
+  std::map<double, int> curves_at;  // x -> number of point-drawing data curves there
+  std::vector<std::size_t> spread;
+  for (std::size_t k = 0; k < f.series.size(); ++k) {
+    const Series& se = f.series[k];
+    if (se.role != Series::Role::kData || !draws_points(se)) continue;
+    std::set<double> xs;
+    for (const auto& row : se.rows)
+      if (std::isfinite(cell(row, se.x)) && std::isfinite(cell(row, se.y))) xs.insert(cell(row, se.x));
+    for (double x : xs) ++curves_at[x];
+    spread.push_back(k);
+  }
+  const bool shared = std::any_of(curves_at.begin(), curves_at.end(), [](const auto& c) { return c.second > 1; });
+  if (!shared || spread.size() < 2) return offsets;
+  double gap = std::numeric_limits<double>::infinity(), prev = kNaNValue;
+  for (const auto& [x, n] : curves_at) {
+    const double v = f.logx ? std::log(x) : x;
+    if (std::isfinite(prev)) gap = std::min(gap, v - prev);
+    prev = v;
+  }
+  if (!std::isfinite(gap) || gap <= 0) {  // one x value: a width relative to it
+    const double x = curves_at.begin()->first;
+    gap = f.logx ? 0.2 : (x != 0.0 ? 0.2 * std::abs(x) : 1.0);
+  }
+  const double width = 0.25 * gap;
+  const double step = width / static_cast<double>(spread.size() - 1);
+  for (std::size_t i = 0; i < spread.size(); ++i) {
+    const double d = (static_cast<double>(i) - 0.5 * static_cast<double>(spread.size() - 1)) * step;
+    offsets[spread[i]] = f.logx ? std::exp(d) : d;
+  }
+  return offsets;
+}
+
+}  // namespace
+
 std::string gnuplot_script(const Figure& f) {
   std::ostringstream s;
   const std::vector<std::string> files = series_files(f);
@@ -206,55 +298,81 @@ std::string gnuplot_script(const Figure& f) {
   const std::size_t key_rows = longest <= 30 ? (f.series.size() + 1) / 2 : f.series.size();
   const int height = 440 + 20 * static_cast<int>(key_rows);
   s << "set terminal svg size 800," << height << " font 'Helvetica,13' background rgb 'white'\n"
-    << "set output " << gp_quote(f.name + ".svg") << "\n"
+    << "set output " << gp_quote(std::string(kFiguresDir) + "/" + f.name + ".svg") << "\n"
     << "set datafile separator ','\n"
     << "set title " << gp_quote(f.title) << " noenhanced\n"
     << "set xlabel " << gp_quote(f.xlabel) << " noenhanced\n"
     << "set ylabel " << gp_quote(f.ylabel) << " noenhanced\n"
-    << "set grid\nset key below maxcols 2 noenhanced\nset offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n";
+    << "set grid\nset key below maxcols 2 noenhanced\n";
+  for (int k = 0; k < 2 * kPaletteSize; ++k)
+    s << "set linetype " << k + 1 << " lc rgb '" << kPalette[k % kPaletteSize] << "' lw 1.5 pt "
+      << kPointTypes[k % std::size(kPointTypes)] << " dt " << (k < kPaletteSize ? 1 : 2) << "\n";
   if (f.logx) s << "set logscale x\n";
   if (f.logy) s << "set logscale y\nset format y '%g'\n";
-  // gnuplot refuses a degenerate range (one x or one y value): widen it explicitly.
-  for (const int axis : {0, 1}) {
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    for (const Series& se : f.series)
-      for (const auto& row : se.rows) {
-        const int col = axis == 0 ? se.x : se.y;
-        const double v = col < static_cast<int>(row.size()) ? row[static_cast<std::size_t>(col)] : kNaNValue;
-        if (!std::isfinite(v)) continue;
-        lo = std::min(lo, v);
-        hi = std::max(hi, v);
-      }
-    if (std::isfinite(lo) && hi - lo <= 1e-12 * std::max(1.0, std::abs(lo))) {
-      const double pad = lo != 0.0 ? 0.1 * std::abs(lo) : 1.0;
-      s << "set " << (axis == 0 ? "x" : "y") << "range [" << csv_number(lo - pad) << ":" << csv_number(hi + pad)
-        << "]\n";
+  // Axes fitted to the data (and reference lines), not stretched by fitted curves or tics.
+  Range xr, yr;
+  for (const Series& se : f.series) {
+    if (se.role == Series::Role::kFit) continue;
+    for (const auto& row : se.rows) {
+      if (!std::isfinite(cell(row, se.x)) || !std::isfinite(cell(row, se.y))) continue;
+      xr.add(cell(row, se.x), kNaNValue, f.logx);
+      const bool bars = se.err >= 0 && (se.style == Series::Style::kErrorBars || se.style == Series::Style::kLinesPoints);
+      yr.add(cell(row, se.y), bars ? cell(row, se.err) : kNaNValue, f.logy);
     }
   }
+  if (!xr.empty()) s << "set xrange " << range_text(xr, f.logx) << "\n";
+  if (!yr.empty()) s << "set yrange " << range_text(yr, f.logy) << "\n";
+  const std::vector<double> offsets = point_offsets(f);
   s << "plot ";
+  int next_colour = 0, reference = 0;
   for (std::size_t k = 0; k < f.series.size(); ++k) {
     const Series& se = f.series[k];
-    const std::string x = "($" + std::to_string(se.x + 1) + ")";
+    std::string x = "($" + std::to_string(se.x + 1) + ")";
+    if (f.logx ? offsets[k] != 1.0 : offsets[k] != 0.0)
+      x = "($" + std::to_string(se.x + 1) + (f.logx ? "*" : "+") + csv_number(offsets[k]) + ")";
     const std::string y = "($" + std::to_string(se.y + 1) + ")";
-    s << (k ? ", \\\n     " : "") << gp_quote(files[k]) << " skip 1 using " << x << ":" << y;
+    s << (k ? ", \\\n     " : "") << gp_quote(std::string(kDataDir) + "/" + files[k]) << " skip 1 using " << x << ":"
+      << y;
+    // An unknown se (nan in the CSV) is no bar: gnuplot reads "nan" as an invalid column,
+    // which `$n == $n` alone does not catch (it drew the bar's caps at the axis).
+    const std::string e = std::string("$").append(std::to_string(se.err + 1));
+    const std::string err = ":(valid(" + std::to_string(se.err + 1) + ") && " + e + " == " + e + " ? " + e + " : 0)";
     switch (se.style) {
-      case Series::Style::kErrorBars:
-        {
-        const std::string e = std::string("$").append(std::to_string(se.err + 1));
-        s << ":(" << e << " == " << e << " ? " << e << " : 0) with yerrorbars pt 7 ps 0.7";  // unknown se: no bar
+      case Series::Style::kErrorBars: s << err << " with yerrorbars ps 0.7"; break;
+      case Series::Style::kLines: s << " with lines"; break;
+      case Series::Style::kLinesPoints:
+        if (se.err >= 0) s << err << " with yerrorlines ps 0.6";  // a curve of means with their standard errors
+        else s << " with linespoints ps 0.6";
         break;
-      }
-      case Series::Style::kLines: s << " with lines lw 2"; break;
-      case Series::Style::kLinesPoints: s << " with linespoints pt 7 ps 0.6"; break;
-      case Series::Style::kSteps: s << " with histeps lw 2"; break;
-      case Series::Style::kPoints: s << " with points pt 7 ps 0.7"; break;
+      case Series::Style::kSteps: s << " with histeps"; break;
+      case Series::Style::kPoints: s << " with points ps 0.7"; break;
     }
-    if (se.color >= 0) s << " lc " << se.color + 1;
+    if (se.role == Series::Role::kReference) {
+      // Black (grey after the first), each its own dash pattern: told apart in the key.
+      s << " lc rgb '" << (reference == 0 ? "#000000" : "#555555") << "' dt " << 1 + reference % 5;
+      ++reference;
+    } else {
+      const int colour = se.color >= 0 ? se.color : next_colour++;
+      s << " lt " << colour % (2 * kPaletteSize) + 1;
+      if (se.role == Series::Role::kFit) s << " dt 2";  // dashed: a model, not data
+    }
+    const bool line = se.style == Series::Style::kLines || se.style == Series::Style::kSteps;
+    s << " lw " << (se.role == Series::Role::kReference ? "1.5" : line ? "2" : "1.5");
     s << " title " << gp_quote(se.label);
+    // The end of a measured curve gets a point of its colour, so that a short curve hidden
+    // under longer ones (a stream that clogged at once) is still seen, and where it ends.
+    if (se.role == Series::Role::kData && line && !se.rows.empty() && se.style == Series::Style::kLines) {
+      const std::size_t last = se.rows.size() - 1;
+      s << ", \\\n     " << gp_quote(std::string(kDataDir) + "/" + files[k]) << " skip 1 every ::" << last << "::" << last
+        << " using " << x << ":" << y << " with points ps 0.8 lt " << (se.color >= 0 ? se.color : next_colour - 1) % (2 * kPaletteSize) + 1
+        << " notitle";
+    }
   }
   s << "\n";
   return s.str();
 }
+
+namespace {
 
 // SVG for inlining: no XML prolog, ids made unique per figure so several SVGs share a page.
 std::string inline_svg(const std::string& svg, const std::string& prefix) {
@@ -286,7 +404,10 @@ std::string run_gnuplot(const std::string& exe, const fs::path& dir, const std::
   const std::string cmd = "cd " + shell_quote(dir.string()) + " && " + shell_quote(exe) + " " + shell_quote(script) +
                           " > " + shell_quote(script + ".log") + " 2>&1";
   const int rc = std::system(cmd.c_str());
-  if (rc != 0) {
+  if (rc == 0) {
+    std::error_code ec;
+    fs::remove(dir / (script + ".log"), ec);  // nothing to keep: the figure is there
+  } else {
     std::ifstream in(dir / (script + ".log"));
     std::string log((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (log.size() > 400) log = log.substr(log.size() - 400);
@@ -330,11 +451,13 @@ std::string md_cell(const std::string& s) {
 }
 
 const char* kCss =
-    "body{font-family:Helvetica,Arial,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}"
+    "body{font-family:Helvetica,Arial,sans-serif;max-width:1300px;margin:2em auto;padding:0 1em;color:#222}"
     "h1{border-bottom:2px solid #446}h2{border-bottom:1px solid #ccd;margin-top:2em}"
-    "table{border-collapse:collapse;margin:1em 0;font-size:0.9em;display:block;overflow-x:auto;max-width:100%}"
-    "th,td{border:1px solid #ccd;padding:3px 8px;text-align:right;white-space:nowrap}th{background:#eef}"
-    "td.t{text-align:left;white-space:normal;min-width:9em;max-width:32em}"
+    // Tables fit the page: headers and text wrap, numbers stay whole; no sideways scrolling.
+    "table{border-collapse:collapse;margin:1em 0;font-size:0.85em;max-width:100%}"
+    "th,td{border:1px solid #ccd;padding:3px 6px;text-align:right}th{background:#eef;white-space:normal}"
+    "td{white-space:nowrap}td.t{text-align:left;white-space:normal;max-width:24em}"
+    "table.wide{font-size:0.75em}table.wide th,table.wide td{padding:2px 4px}"
     "caption{text-align:left;font-weight:bold;padding:4px 0}"
     "figure{margin:1em 0}figcaption{font-size:0.9em;color:#444}code{background:#f4f4f8;padding:0 3px}"
     ".csv{font-size:0.8em;color:#666}nav a{margin-right:1em}svg{max-width:100%;height:auto}"
@@ -512,7 +635,7 @@ std::string map_script(const MapFigure& f, const fs::path& dir) {
 
 RenderResult render_report(const std::string& title, const std::vector<Section>& sections, const fs::path& out_dir,
                            const RenderOptions& options) {
-  fs::create_directories(out_dir);
+  fs::create_directories(out_dir / kDataDir);
   RenderResult result;
   bool figures = options.figures;
   if (figures && !have_gnuplot(options.gnuplot)) {
@@ -552,7 +675,7 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         }
         flush();
       } else if (const auto* tb = std::get_if<Table>(&block)) {
-        const std::string csv = tb->name + ".csv";
+        const std::string csv = std::string(kDataDir) + "/" + tb->name + ".csv";
         write_table_csv(out_dir / csv, *tb);
         if (!tb->caption.empty()) md_body << "**" << tb->caption << "** ([" << csv << "](" << csv << "))\n\n";
         md_body << "|";
@@ -566,7 +689,7 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
           md_body << "\n";
         }
         md_body << "\n";
-        html_body << "<table><caption>" << html_escape(tb->caption) << " <span class=\"csv\">(" << local_link(csv)
+        html_body << (tb->header.size() > 10 ? "<table class=\"wide\"><caption>" : "<table><caption>") << html_escape(tb->caption) << " <span class=\"csv\">(" << local_link(csv)
                   << ")</span></caption>\n<tr>";
         for (const auto& h : tb->header) html_body << "<th>" << html_escape(h) << "</th>";
         html_body << "</tr>\n";
@@ -592,29 +715,32 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         std::string csvs, csv_links;
         const std::vector<std::string> files = series_files(*f);
         for (std::size_t k = 0; k < f->series.size(); ++k) {
-          write_series_csv(out_dir / files[k], f->series[k]);
+          const std::string file = std::string(kDataDir) + "/" + files[k];
+          write_series_csv(out_dir / file, f->series[k]);
           if (k > 0) {
             csvs += ", ";
             csv_links += ", ";
           }
-          csvs += files[k];
-          csv_links += local_link(files[k]);
+          csvs += file;
+          csv_links += local_link(file);
         }
         std::string svg;
         if (figures && has_finite_point(*f)) {
-          const std::string script = f->name + ".gp";
+          fs::create_directories(out_dir / kFiguresDir);
+          const std::string script = std::string(kFiguresDir) + "/" + f->name + ".gp";
+          const std::string svg_file = std::string(kFiguresDir) + "/" + f->name + ".svg";
           write_text(out_dir / script, gnuplot_script(*f));
           const std::string problem = run_gnuplot(options.gnuplot, out_dir, script);
-          if (problem.empty() && fs::exists(out_dir / (f->name + ".svg"))) {
-            svg = read_text(out_dir / (f->name + ".svg"));
+          if (problem.empty() && fs::exists(out_dir / svg_file)) {
+            svg = read_text(out_dir / svg_file);
             ++result.figures_drawn;
           } else {
-            result.problems.push_back(problem.empty() ? f->name + ".svg was not written" : problem);
+            result.problems.push_back(problem.empty() ? svg_file + " was not written" : problem);
           }
         }
         const std::string caption = "Figure " + std::to_string(figure_no) + ": " + f->title +
                                     (f->caption.empty() ? "" : ". " + f->caption);
-        if (!svg.empty()) md_body << "![" << f->title << "](" << f->name << ".svg)\n\n";
+        if (!svg.empty()) md_body << "![" << f->title << "](" << kFiguresDir << "/" << f->name << ".svg)\n\n";
         md_body << "*" << caption << "* Data: " << csvs << "\n\n";
         html_body << "<figure>";
         if (!svg.empty()) html_body << inline_svg(svg, std::string("f").append(std::to_string(figure_no)).append("_"));

@@ -53,10 +53,25 @@ struct Series {
   std::vector<std::string> columns;          // names, e.g. {"W", "Q", "Q_se"}
   std::vector<std::vector<double>> rows;
   enum class Style { kPoints, kErrorBars, kLines, kLinesPoints, kSteps } style = Style::kPoints;
-  // Columns plotted (0-based); err < 0: none (kErrorBars needs it).
+  // Columns plotted (0-based); err < 0: none (kErrorBars needs it; kLinesPoints draws error
+  // bars when it is set).
   int x = 0, y = 1, err = -1;
-  int color = -1;                            // gnuplot line type (0-based); -1: next in turn
+  int color = -1;                            // palette index (0-based); -1: next in turn
+  // kData: measured values; the axes are fitted to them, and points of several curves at the
+  // same x are drawn side by side. kFit: a model curve over the data (its data's colour; the
+  // axes do not stretch for it). kReference: a reference line (black, its own dash pattern).
+  enum class Role { kData, kFit, kReference } role = Role::kData;
 };
+
+// The report's palette: 12 colours that stay apart (and from the black of reference lines);
+// curve k takes colour k mod 12 and point shape k mod 6, so 24 curves differ in something.
+inline constexpr int kPaletteSize = 12;
+extern const char* const kPalette[kPaletteSize];
+
+// Report folder layout: tables' and curves' CSVs in data/, SVGs and their gnuplot scripts in
+// figures/, next to report.md and report.html.
+inline constexpr char kDataDir[] = "data";
+inline constexpr char kFiguresDir[] = "figures";
 
 struct Figure {
   std::string name;                          // file stem: <name>.svg, <name>--<curve>.csv
@@ -128,7 +143,12 @@ struct RenderResult {
   std::vector<std::string> problems;         // e.g. "gnuplot not found: figures omitted"
 };
 
-// Writes report.md, report.html, every CSV and (with figures) every SVG into out_dir.
+// The gnuplot script that draws `figure` from its series' CSV files; run in the report folder,
+// it reads data/<curve files> and writes figures/<name>.svg.
+std::string gnuplot_script(const Figure& figure);
+
+// Writes report.md and report.html into out_dir, every CSV into out_dir/data and (with
+// figures) every SVG into out_dir/figures.
 RenderResult render_report(const std::string& title, const std::vector<Section>& sections,
                            const std::filesystem::path& out_dir, const RenderOptions& options);
 

@@ -137,15 +137,16 @@ std::string UnknownKeyMessage(const std::string& key, const std::vector<std::str
   return "unknown key; allowed: " + Quoted(allowed);
 }
 
-// A JSON object being read: checks for unknown keys up front and hands out typed values
-// with their JSON Pointer for error messages.
+// A JSON object being read: checks for unknown keys up front (the keys of run_spec_table()
+// at this place) and hands out typed values with their JSON Pointer for error messages; the
+// type each key must have is the table's too.
 class Reader {
  public:
-  Reader(const json& j, std::string path, std::vector<std::string> keys)
-      : j_(j), path_(std::move(path)) {
+  Reader(const json& j, std::string path) : j_(j), path_(std::move(path)) {
     if (!j.is_object()) {
       throw SpecError(path_.empty() ? "/" : path_, "must be an object (got " + TypeName(j) + ")");
     }
+    const std::vector<std::string> keys = run_spec_table().keys(spec_pattern(path_));
     for (const auto& [key, value] : j.items()) {
       if (std::find(keys.begin(), keys.end(), key) == keys.end()) {
         throw SpecError(Path(key), UnknownKeyMessage(key, keys));
@@ -158,6 +159,7 @@ class Reader {
   const json& At(const std::string& key) const { return j_.at(key); }
 
   void Number(const std::string& key, double& out) const {
+    Expect(key, SpecType::kNumber);
     if (!Has(key)) return;
     const json& v = j_.at(key);
     if (!v.is_number()) throw SpecError(Path(key), "must be a number (got " + Shown(v) + ")");
@@ -165,6 +167,7 @@ class Reader {
     if (!std::isfinite(out)) throw SpecError(Path(key), "must be finite (got " + Shown(v) + ")");
   }
   void Integer(const std::string& key, int& out) const {
+    Expect(key, SpecType::kInteger);
     if (!Has(key)) return;
     const json& v = j_.at(key);
     if (!v.is_number_integer() || v.get<std::int64_t>() > std::numeric_limits<int>::max() ||
@@ -174,6 +177,7 @@ class Reader {
     out = v.get<int>();
   }
   void Unsigned(const std::string& key, std::uint64_t& out) const {
+    Expect(key, SpecType::kUnsigned);
     if (!Has(key)) return;
     const json& v = j_.at(key);
     // A signed integer >= 0 is fine too (JSON built in code rather than parsed from text).
@@ -183,12 +187,14 @@ class Reader {
     out = v.get<std::uint64_t>();
   }
   void Bool(const std::string& key, bool& out) const {
+    Expect(key, SpecType::kBoolean);
     if (!Has(key)) return;
     const json& v = j_.at(key);
     if (!v.is_boolean()) throw SpecError(Path(key), "must be true or false (got " + Shown(v) + ")");
     out = v.get<bool>();
   }
   void String(const std::string& key, std::string& out) const {
+    Expect(key, SpecType::kString);
     if (!Has(key)) return;
     const json& v = j_.at(key);
     if (!v.is_string()) throw SpecError(Path(key), "must be a string (got " + Shown(v) + ")");
@@ -196,6 +202,7 @@ class Reader {
   }
   template <typename E>
   void Enum(const std::string& key, E& out, std::initializer_list<std::pair<const char*, E>> table) const {
+    Expect(key, SpecType::kEnum);
     if (!Has(key)) return;
     const json& v = j_.at(key);
     std::vector<std::string> names;
@@ -211,12 +218,18 @@ class Reader {
     throw SpecError(Path(key), "must be one of " + Quoted(names) + " (got " + Shown(v) + ")");
   }
   const json& Array(const std::string& key) const {
+    Expect(key, SpecType::kArray);
     const json& v = j_.at(key);
     if (!v.is_array()) throw SpecError(Path(key), "must be an array (got " + TypeName(v) + ")");
     return v;
   }
 
  private:
+  // The code reads each key as the type the table gives it (a mismatch is a bug here).
+  void Expect(const std::string& key, SpecType type) const {
+    if (run_spec_table().at(spec_pattern(Path(key))).type != type)
+      throw std::logic_error("run spec table: " + Path(key) + " is read with another type than the table's");
+  }
   const json& j_;
   std::string path_;
 };
@@ -232,13 +245,141 @@ constexpr std::initializer_list<std::pair<const char*, TangentialCap>> kCaps = {
 constexpr std::initializer_list<std::pair<const char*, Wall>> kWalls = {{"left", Wall::kLeft},
                                                                         {"right", Wall::kRight}};
 
+// The run spec's keys (docs/run-spec.md). Types and ranges here are all the validator knows of
+// single values; validate() adds the checks that relate several values.
+SpecTable MakeRunSpecTable() {
+  using T = SpecType;
+  const SpecBound positive{0.0, true}, non_negative{0.0, false};
+  auto names = [](const auto& table) {
+    std::vector<std::string> v;
+    for (const auto& [name, value] : table) v.push_back(name);
+    return v;
+  };
+  auto number = [](std::string p, json def, std::optional<SpecBound> min, std::string what) {
+    SpecField f{std::move(p), T::kNumber, std::move(what), std::move(def)};
+    f.minimum = min;
+    return f;
+  };
+  auto integer = [](std::string p, json def, double min, std::string what) {
+    SpecField f{std::move(p), T::kInteger, std::move(what), std::move(def)};
+    f.minimum = SpecBound{min, false};
+    return f;
+  };
+  auto enumeration = [](std::string p, json def, std::vector<std::string> values, std::string what) {
+    SpecField f{std::move(p), T::kEnum, std::move(what), std::move(def)};
+    f.values = std::move(values);
+    return f;
+  };
+  auto plain = [](std::string p, T type, json def, std::string what) {
+    return SpecField{std::move(p), type, std::move(what), std::move(def)};
+  };
+  SpecField species{"/bodies/species", T::kArray, "the kinds of body in the bed (number fractions sum to 1)",
+                    json::array({{{"name", "dumbbell"}, {"shape", "dumbbell"}, {"fraction", 1.0}, {"diameter", 1.0},
+                                  {"big_diameter", 1.0}, {"n", 2}}})};
+  species.min_items = 1;
+  SpecField fraction = number("/bodies/species/*/fraction", 1.0, non_negative, "number fraction among all bodies");
+  fraction.maximum = SpecBound{1.0, false};
+  return SpecTable({
+      plain("/run_id", T::kString, "", "set by the runner: the hash of the resolved parameters"),
+      plain("/seed", T::kUnsigned, 1, "bed and reinjection randomness (the runner sets it per replica)"),
+      enumeration("/engine", "native", {"native", "liggghts"}, "the engine that runs it"),
+      number("/time_step", 1e-4, positive, "integration time step, in sqrt(d/g)"),
+      number("/gravity", 1.0, positive, "g"),
+      plain("/silo", T::kObject, nullptr, "the silo: side walls at x = +-width/2, base at y = 0"),
+      number("/silo/width", 100.0, positive, "distance between the side walls, in d (larger than the longest body)"),
+      number("/silo/height", 0.0, non_negative, "side-wall height in d; 0 = tall enough for the bed"),
+      plain("/silo/base_outlets", T::kArray, json::array({{{"center", 0.0}, {"width", 10.0}}}),
+            "outlets in the base ([] only with side outlets)"),
+      plain("/silo/base_outlets/*", T::kObject, nullptr, "an outlet in the base"),
+      number("/silo/base_outlets/*/center", 0.0, std::nullopt, "x of its centre, in d; it must lie inside the base"),
+      number("/silo/base_outlets/*/width", 10.0, positive, "W, in d; less than the silo width, no overlaps"),
+      plain("/silo/side_outlets", T::kArray, json::array(), "outlets in the side walls"),
+      plain("/silo/side_outlets/*", T::kObject, nullptr, "an outlet in a side wall"),
+      enumeration("/silo/side_outlets/*/wall", "right", names(kWalls), "which wall"),
+      number("/silo/side_outlets/*/bottom", 3.5, non_negative, "height of its lower edge above the base, in d"),
+      number("/silo/side_outlets/*/width", 25.0, positive, "its height, in d; the top below silo/height when set"),
+      plain("/silo/obstacles", T::kArray, json::array(), "circular obstacles"),
+      plain("/silo/obstacles/*", T::kObject, nullptr, "a circular obstacle; it must not cross a wall or the base"),
+      number("/silo/obstacles/*/x", 0.0, std::nullopt, "x of its centre, in d"),
+      number("/silo/obstacles/*/y", 10.0, std::nullopt, "height of its centre above the base, in d"),
+      number("/silo/obstacles/*/diameter", 6.0, positive, "in d"),
+      plain("/bodies", T::kObject, nullptr, "the bed"),
+      integer("/bodies/count", 1000, 1, "number of bodies"),
+      number("/bodies/density", 1.0, positive, "areal density: disc mass = rho pi r^2"),
+      species,
+      plain("/bodies/species/*", T::kObject, nullptr, "one kind of body"),
+      plain("/bodies/species/*/name", T::kString, nullptr,
+            "label in events.csv and the report: unique, no commas or line breaks (default: the shape, rod<n> for rods)"),
+      enumeration("/bodies/species/*/shape", "dumbbell", names(kShapes), "disc, dumbbell, snowman or rod of discs"),
+      fraction,
+      number("/bodies/species/*/diameter", 1.0, positive, "disc: D; dumbbell: d; snowman: D_s; rod: each disc"),
+      number("/bodies/species/*/big_diameter", 1.0, positive, "snowman only: D_b, with D_b/D_s in [1, 2]"),
+      integer("/bodies/species/*/n", 2, 2, "rod only: number of discs in a line"),
+      plain("/contact", T::kObject, nullptr, "the contact law (physics.md)"),
+      number("/contact/kn", 2.0e6, positive, "normal stiffness"),
+      number("/contact/kt", 2.45e6, positive, "tangential stiffness"),
+      number("/contact/gamma_n", 1000.0, non_negative, "normal damping"),
+      number("/contact/gamma_t", 1000.0, non_negative, "tangential damping"),
+      number("/contact/mu", 0.5, non_negative, "friction between bodies"),
+      number("/contact/mu_wall", nullptr, non_negative, "friction with walls and obstacles (default: mu)"),
+      enumeration("/contact/tangential_cap", "lammps", names(kCaps),
+                  "lammps: the Coulomb cap on spring + damping; liggghts: on the spring part only"),
+      plain("/contact/clip_normal", T::kBoolean, false, "clip an attractive normal force to zero"),
+      plain("/bed", T::kObject, nullptr, "how the bed is prepared"),
+      integer("/bed/batch_size", 500, 1, "bodies inserted per batch"),
+      number("/bed/settle_ke_per_body", 1e-6, positive, "settled when the kinetic energy per body is below this (m g d)"),
+      number("/bed/max_settle_time", 200.0, positive, "give up settling after this long"),
+      number("/bed/time_step", 0.0, non_negative,
+             "native engine: the bed-preparation time step; 0 = 5 x time_step (docs/run-spec.md)"),
+      plain("/bed/cache_file", T::kString, "", "set by the runner: where the prepared bed is kept"),
+      plain("/discharge", T::kObject, nullptr, "the discharge after the outlets open"),
+      enumeration("/discharge/mode", "remove", names(kModes),
+                  "remove: bodies that leave are gone; reinject: they come back on top"),
+      number("/discharge/max_time", 100.0, positive, "stop at this time after the opening"),
+      plain("/discharge/stop_on_clog", T::kBoolean, true, "stop at the first clog (false: intermittent flow)"),
+      number("/discharge/clog_window", 5.0, positive, "a clog: no exit for this long ..."),
+      number("/discharge/clog_ke_per_body", 1e-4, non_negative,
+             "... and kinetic energy per body near the outlets below this (m g d)"),
+      number("/discharge/reinject_speed", 0.0, non_negative, "reinject: downward speed of a returned body"),
+      enumeration("/discharge/reinject_position", "random", names(kReinjectPositions),
+                  "random: a free place on top of the bed (the thesis); periodic: through the bottom of a y-periodic "
+                  "box, as LIGGGHTS does (not with side outlets)"),
+      number("/discharge/periodic_headroom", 1.0, non_negative, "room above the bed in the periodic box, in d"),
+      number("/discharge/exit_distance", 2.0, non_negative, "a body has left when its centre is this far past the outlet"),
+      plain("/output", T::kObject, nullptr, "what the engine writes"),
+      number("/output/frame_interval", 0.0, non_negative, "time between frames (0 = no frames)"),
+      plain("/output/contact_forces", T::kBoolean, false, "also contact-force frames"),
+      plain("/output/compress", T::kBoolean, false, "gzip the frames"),
+      number("/output/checkpoint_interval", 10.0, non_negative, "time between checkpoints (0 = none)"),
+  });
+}
+
+}  // namespace
+
+const SpecTable& run_spec_table() {
+  static const SpecTable table = MakeRunSpecTable();
+  return table;
+}
+
+namespace {
+
+// The table's range for the value at `pointer` (a concrete JSON Pointer).
+void CheckBounds(const std::string& pointer, double v) {
+  const std::string problem = spec_bound_error(run_spec_table().at(spec_pattern(pointer)), v);
+  if (!problem.empty()) throw SpecError(pointer, problem + " (got " + Shown(v) + ")");
+}
+void CheckBounds(const std::string& pointer, int v) {
+  const std::string problem = spec_bound_error(run_spec_table().at(spec_pattern(pointer)), v);
+  if (!problem.empty()) throw SpecError(pointer, problem + " (got " + std::to_string(v) + ")");
+}
+
 std::string DefaultSpeciesName(const Species& s) {
   if (s.shape == Shape::kRod) return "rod" + std::to_string(s.n);
   return to_string(s.shape);
 }
 
 Species ParseSpecies(const json& j, const std::string& path) {
-  Reader r(j, path, {"name", "shape", "fraction", "diameter", "big_diameter", "n"});
+  Reader r(j, path);
   Species s;
   r.Enum("shape", s.shape, kShapes);
   r.Number("fraction", s.fraction);
@@ -262,7 +403,7 @@ void ParseBodies(const Reader& parent, Bodies& b) {
     return;
   }
   const std::string path = parent.Path("bodies");
-  Reader r(parent.At("bodies"), path, {"count", "species", "density"});
+  Reader r(parent.At("bodies"), path);
   r.Integer("count", b.count);
   r.Number("density", b.density);
   if (r.Has("species")) {
@@ -279,15 +420,14 @@ void ParseBodies(const Reader& parent, Bodies& b) {
 void ParseSilo(const Reader& parent, Silo& s) {
   bool outlets_given = false;
   if (parent.Has("silo")) {
-    Reader r(parent.At("silo"), parent.Path("silo"),
-             {"width", "height", "base_outlets", "side_outlets", "obstacles"});
+    Reader r(parent.At("silo"), parent.Path("silo"));
     r.Number("width", s.width);
     r.Number("height", s.height);
     if (r.Has("base_outlets")) {
       outlets_given = true;
       const json& arr = r.Array("base_outlets");
       for (std::size_t i = 0; i < arr.size(); ++i) {
-        Reader o(arr[i], r.Path("base_outlets") + "/" + std::to_string(i), {"center", "width"});
+        Reader o(arr[i], r.Path("base_outlets") + "/" + std::to_string(i));
         BaseOutlet out;
         o.Number("center", out.center);
         o.Number("width", out.width);
@@ -297,7 +437,7 @@ void ParseSilo(const Reader& parent, Silo& s) {
     if (r.Has("side_outlets")) {
       const json& arr = r.Array("side_outlets");
       for (std::size_t i = 0; i < arr.size(); ++i) {
-        Reader o(arr[i], r.Path("side_outlets") + "/" + std::to_string(i), {"wall", "bottom", "width"});
+        Reader o(arr[i], r.Path("side_outlets") + "/" + std::to_string(i));
         SideOutlet out;
         o.Enum("wall", out.wall, kWalls);
         o.Number("bottom", out.bottom);
@@ -308,7 +448,7 @@ void ParseSilo(const Reader& parent, Silo& s) {
     if (r.Has("obstacles")) {
       const json& arr = r.Array("obstacles");
       for (std::size_t i = 0; i < arr.size(); ++i) {
-        Reader o(arr[i], r.Path("obstacles") + "/" + std::to_string(i), {"x", "y", "diameter"});
+        Reader o(arr[i], r.Path("obstacles") + "/" + std::to_string(i));
         Obstacle ob;
         o.Number("x", ob.x);
         o.Number("y", ob.y);
@@ -343,12 +483,6 @@ double BodyArea(const Species& s) {
   return a;
 }
 
-void Positive(double v, const std::string& path) {
-  if (!(v > 0)) throw SpecError(path, "must be > 0 (got " + Shown(v) + ")");
-}
-void NonNegative(double v, const std::string& path) {
-  if (!(v >= 0)) throw SpecError(path, "must be >= 0 (got " + Shown(v) + ")");
-}
 
 }  // namespace
 
@@ -378,8 +512,7 @@ std::string to_string(TangentialCap cap) {
 }
 
 RunSpec RunSpec::from_json(const json& j) {
-  Reader r(j, "", {"run_id", "seed", "engine", "time_step", "gravity", "silo", "bodies", "contact", "bed",
-                   "discharge", "output"});
+  Reader r(j, "");
   RunSpec s;
   r.String("run_id", s.run_id);
   r.Unsigned("seed", s.seed);
@@ -395,8 +528,7 @@ RunSpec RunSpec::from_json(const json& j) {
   ParseSilo(r, s.silo);
   ParseBodies(r, s.bodies);
   if (r.Has("contact")) {
-    Reader c(r.At("contact"), "/contact",
-             {"kn", "kt", "gamma_n", "gamma_t", "mu", "mu_wall", "tangential_cap", "clip_normal"});
+    Reader c(r.At("contact"), "/contact");
     c.Number("kn", s.contact.kn);
     c.Number("kt", s.contact.kt);
     c.Number("gamma_n", s.contact.gamma_n);
@@ -408,7 +540,7 @@ RunSpec RunSpec::from_json(const json& j) {
     c.Bool("clip_normal", s.contact.clip_normal);
   }
   if (r.Has("bed")) {
-    Reader b(r.At("bed"), "/bed", {"batch_size", "settle_ke_per_body", "max_settle_time", "time_step", "cache_file"});
+    Reader b(r.At("bed"), "/bed");
     b.Integer("batch_size", s.bed.batch_size);
     b.Number("settle_ke_per_body", s.bed.settle_ke_per_body);
     b.Number("max_settle_time", s.bed.max_settle_time);
@@ -416,9 +548,7 @@ RunSpec RunSpec::from_json(const json& j) {
     b.String("cache_file", s.bed.cache_file);
   }
   if (r.Has("discharge")) {
-    Reader d(r.At("discharge"), "/discharge",
-             {"mode", "max_time", "stop_on_clog", "clog_window", "clog_ke_per_body", "reinject_speed",
-              "reinject_position", "periodic_headroom", "exit_distance"});
+    Reader d(r.At("discharge"), "/discharge");
     d.Enum("mode", s.discharge.mode, kModes);
     d.Number("max_time", s.discharge.max_time);
     d.Bool("stop_on_clog", s.discharge.stop_on_clog);
@@ -430,7 +560,7 @@ RunSpec RunSpec::from_json(const json& j) {
     d.Number("exit_distance", s.discharge.exit_distance);
   }
   if (r.Has("output")) {
-    Reader o(r.At("output"), "/output", {"frame_interval", "contact_forces", "compress", "checkpoint_interval"});
+    Reader o(r.At("output"), "/output");
     o.Number("frame_interval", s.output.frame_interval);
     o.Bool("contact_forces", s.output.contact_forces);
     o.Bool("compress", s.output.compress);
@@ -441,21 +571,21 @@ RunSpec RunSpec::from_json(const json& j) {
 }
 
 void validate(const RunSpec& s) {
-  Positive(s.time_step, "/time_step");
-  Positive(s.gravity, "/gravity");
+  CheckBounds("/time_step", s.time_step);
+  CheckBounds("/gravity", s.gravity);
 
   // Contact parameters (physics.md, contact law): stiffnesses positive, damping and friction >= 0.
-  Positive(s.contact.kn, "/contact/kn");
-  Positive(s.contact.kt, "/contact/kt");
-  NonNegative(s.contact.gamma_n, "/contact/gamma_n");
-  NonNegative(s.contact.gamma_t, "/contact/gamma_t");
-  NonNegative(s.contact.mu, "/contact/mu");
-  NonNegative(s.contact.mu_wall, "/contact/mu_wall");
+  CheckBounds("/contact/kn", s.contact.kn);
+  CheckBounds("/contact/kt", s.contact.kt);
+  CheckBounds("/contact/gamma_n", s.contact.gamma_n);
+  CheckBounds("/contact/gamma_t", s.contact.gamma_t);
+  CheckBounds("/contact/mu", s.contact.mu);
+  CheckBounds("/contact/mu_wall", s.contact.mu_wall);
 
   // Bodies.
   const Bodies& b = s.bodies;
-  if (b.count < 1) throw SpecError("/bodies/count", "must be >= 1 (got " + std::to_string(b.count) + ")");
-  Positive(b.density, "/bodies/density");
+  CheckBounds("/bodies/count", b.count);
+  CheckBounds("/bodies/density", b.density);
   if (b.species.empty()) throw SpecError("/bodies/species", "must list at least one species (got [])");
   double fraction_sum = 0.0;
   double max_length = 0.0;
@@ -463,12 +593,10 @@ void validate(const RunSpec& s) {
   for (std::size_t i = 0; i < b.species.size(); ++i) {
     const Species& sp = b.species[i];
     const std::string p = "/bodies/species/" + std::to_string(i);
-    if (!(sp.fraction >= 0 && sp.fraction <= 1)) {
-      throw SpecError(p + "/fraction", "must be in [0, 1] (got " + Shown(sp.fraction) + ")");
-    }
-    Positive(sp.diameter, p + "/diameter");
+    CheckBounds(p + "/fraction", sp.fraction);
+    CheckBounds(p + "/diameter", sp.diameter);
+    CheckBounds(p + "/big_diameter", sp.big_diameter);
     if (sp.shape == Shape::kSnowman) {
-      Positive(sp.big_diameter, p + "/big_diameter");
       const double ratio = sp.big_diameter / sp.diameter;
       if (ratio < 1.0 || ratio > 2.0) {
         throw SpecError(p + "/big_diameter",
@@ -476,9 +604,7 @@ void validate(const RunSpec& s) {
                             " = " + Shown(ratio) + ")");
       }
     }
-    if (sp.shape == Shape::kRod && sp.n < 2) {
-      throw SpecError(p + "/n", "a rod needs n >= 2 discs (got " + std::to_string(sp.n) + ")");
-    }
+    CheckBounds(p + "/n", sp.n);
     if (sp.name.empty()) throw SpecError(p + "/name", "must not be empty (got \"\")");
     for (std::size_t k = 0; k < i; ++k) {
       if (b.species[k].name == sp.name) {
@@ -496,8 +622,8 @@ void validate(const RunSpec& s) {
 
   // Silo geometry: walls at x = +-width/2, base at y = 0 (physics.md, geometry).
   const Silo& silo = s.silo;
-  Positive(silo.width, "/silo/width");
-  NonNegative(silo.height, "/silo/height");
+  CheckBounds("/silo/width", silo.width);
+  CheckBounds("/silo/height", silo.height);
   const double half = silo.width / 2.0;
   if (max_length >= silo.width) {
     throw SpecError("/silo/width", "bodies of length " + Shown(max_length) + " cannot fit in a silo of width " +
@@ -519,7 +645,7 @@ void validate(const RunSpec& s) {
   for (std::size_t i = 0; i < silo.base_outlets.size(); ++i) {
     const BaseOutlet& o = silo.base_outlets[i];
     const std::string p = "/silo/base_outlets/" + std::to_string(i);
-    Positive(o.width, p + "/width");
+    CheckBounds(p + "/width", o.width);
     if (o.width >= silo.width) {
       throw SpecError(p + "/width", "must be < the silo width " + Shown(silo.width) + " (got " + Shown(o.width) + ")");
     }
@@ -541,8 +667,8 @@ void validate(const RunSpec& s) {
   for (std::size_t i = 0; i < silo.side_outlets.size(); ++i) {
     const SideOutlet& o = silo.side_outlets[i];
     const std::string p = "/silo/side_outlets/" + std::to_string(i);
-    NonNegative(o.bottom, p + "/bottom");
-    Positive(o.width, p + "/width");
+    CheckBounds(p + "/bottom", o.bottom);
+    CheckBounds(p + "/width", o.width);
     if (silo.height > 0 && o.bottom + o.width > silo.height) {
       throw SpecError(p, "top " + Shown(o.bottom + o.width) + " is above the wall height " + Shown(silo.height));
     }
@@ -556,7 +682,7 @@ void validate(const RunSpec& s) {
   for (std::size_t i = 0; i < silo.obstacles.size(); ++i) {
     const Obstacle& o = silo.obstacles[i];
     const std::string p = "/silo/obstacles/" + std::to_string(i);
-    Positive(o.diameter, p + "/diameter");
+    CheckBounds(p + "/diameter", o.diameter);
     const double r = o.diameter / 2.0;
     if (std::abs(o.x) + r > half) {
       throw SpecError(p, "obstacle at x = " + Shown(o.x) + " of diameter " + Shown(o.diameter) +
@@ -571,27 +697,25 @@ void validate(const RunSpec& s) {
     }
   }
 
-  if (s.bed.batch_size < 1) {
-    throw SpecError("/bed/batch_size", "must be >= 1 (got " + std::to_string(s.bed.batch_size) + ")");
-  }
-  Positive(s.bed.settle_ke_per_body, "/bed/settle_ke_per_body");
-  Positive(s.bed.max_settle_time, "/bed/max_settle_time");
-  NonNegative(s.bed.time_step, "/bed/time_step");
+  CheckBounds("/bed/batch_size", s.bed.batch_size);
+  CheckBounds("/bed/settle_ke_per_body", s.bed.settle_ke_per_body);
+  CheckBounds("/bed/max_settle_time", s.bed.max_settle_time);
+  CheckBounds("/bed/time_step", s.bed.time_step);
 
-  Positive(s.discharge.max_time, "/discharge/max_time");
-  Positive(s.discharge.clog_window, "/discharge/clog_window");
-  NonNegative(s.discharge.clog_ke_per_body, "/discharge/clog_ke_per_body");
-  NonNegative(s.discharge.reinject_speed, "/discharge/reinject_speed");
-  NonNegative(s.discharge.exit_distance, "/discharge/exit_distance");
-  NonNegative(s.discharge.periodic_headroom, "/discharge/periodic_headroom");
+  CheckBounds("/discharge/max_time", s.discharge.max_time);
+  CheckBounds("/discharge/clog_window", s.discharge.clog_window);
+  CheckBounds("/discharge/clog_ke_per_body", s.discharge.clog_ke_per_body);
+  CheckBounds("/discharge/reinject_speed", s.discharge.reinject_speed);
+  CheckBounds("/discharge/exit_distance", s.discharge.exit_distance);
+  CheckBounds("/discharge/periodic_headroom", s.discharge.periodic_headroom);
   if (s.discharge.mode == DischargeMode::kReinject && s.discharge.reinject_position == ReinjectPosition::kPeriodic &&
       !s.silo.side_outlets.empty())
     throw SpecError("/discharge/reinject_position",
                     "\"periodic\" returns bodies through the bottom of the box, which a body leaving through a side "
                     "outlet never reaches; use \"random\" with side outlets (got \"periodic\")");
 
-  NonNegative(s.output.frame_interval, "/output/frame_interval");
-  NonNegative(s.output.checkpoint_interval, "/output/checkpoint_interval");
+  CheckBounds("/output/frame_interval", s.output.frame_interval);
+  CheckBounds("/output/checkpoint_interval", s.output.checkpoint_interval);
 
   // What the LIGGGHTS backend cannot do is refused when the run is planned, not when it runs.
   if (s.engine == "liggghts") validate_for_liggghts(s);

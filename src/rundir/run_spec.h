@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "rundir/spec_table.h"
+
 namespace granary {
 
 // A spec error names the JSON path (JSON Pointer, e.g. "/silo/base_outlets/0/width"),
@@ -158,6 +160,10 @@ void validate(const RunSpec& spec);
 // What the LIGGGHTS backend cannot do (validate() applies it to specs whose engine is
 // "liggghts"; the backend applies it to whatever spec it is given).
 void validate_for_liggghts(const RunSpec& spec);
+
+// Every key of a run spec with its type, default, range and meaning: what from_json accepts
+// and checks, and what `campaign schema` tells editors (spec_table.h).
+const SpecTable& run_spec_table();
 
 // The first character of a name that a name must not hold, described ("U+2028 LINE
 // SEPARATOR", "U+0000 NUL", "a comma"), or "" if there is none: control characters (C0,

@@ -193,6 +193,34 @@ bool PidAlive(int pid) { return pid > 0 && (kill(pid, 0) == 0 || errno != ESRCH)
 
 }  // namespace
 
+std::map<std::string, json> load_results(Store& store, const std::string& run_id) {
+  Statement q = store.prepare("SELECT key, value, text FROM results WHERE run_id = ?1 ORDER BY key");
+  q.bind(1, run_id);
+  std::map<std::string, json> out;
+  while (q.step()) out[q.text(0)] = q.is_null(1) ? json(q.text(2)) : json(q.real(1));
+  return out;
+}
+
+std::vector<RunRow> find_runs(Store& store, const std::string& prefix, bool with_params) {
+  // Ids are lower-case hex: a prefix range on the primary key, no LIKE escaping needed.
+  Statement q = store.prepare((std::string(kRunColumns) + "WHERE substr(run_id, 1, length(?1)) = ?1 ORDER BY seq").c_str());
+  q.bind(1, prefix);
+  std::vector<RunRow> rows;
+  while (q.step()) rows.push_back(ReadRow(q, with_params));
+  return rows;
+}
+
+void forget_retired_results(Store& store, const std::string& run_id) {
+  Transaction tx(store);
+  Statement u = store.prepare(
+      "UPDATE runs SET retired_from = 'planned', attempts = 0, started_at = NULL, ended_at = NULL, wall_s = NULL, "
+      "end_reason = NULL, failure = NULL, progress = NULL, summary = NULL WHERE run_id = ?1 AND state = 'retired'");
+  u.bind(1, run_id).run();
+  Statement d = store.prepare("DELETE FROM results WHERE run_id = ?1");
+  d.bind(1, run_id).run();
+  tx.commit();
+}
+
 bool lease_expired(const RunRow& row, const std::string& host, double now) {
   if (row.state != "running") return false;
   return now - row.lease_heartbeat > lease_stale_seconds() || (row.lease_host == host && !PidAlive(row.lease_pid));

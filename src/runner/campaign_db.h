@@ -81,6 +81,16 @@ std::optional<CampaignRow> load_campaign(Store& store);
 // with_params = false skips parsing the resolved parameters (fast status on big campaigns).
 std::vector<RunRow> load_runs(Store& store, bool with_params = true);
 
+// The scalar results of one run (summary.json ingested by record_done): key -> number or text.
+std::map<std::string, nlohmann::json> load_results(Store& store, const std::string& run_id);
+
+// The runs whose id starts with `prefix` (all of them for "").
+std::vector<RunRow> find_runs(Store& store, const std::string& prefix, bool with_params = true);
+
+// A retired run whose directory was deleted (campaign clean) comes back as planned if a later
+// plan brings it back, not as the done run it was.
+void forget_retired_results(Store& store, const std::string& run_id);
+
 // Who holds a lease: host, pid and start time make it unique.
 struct Holder {
   std::string id;  // "host:pid:start"

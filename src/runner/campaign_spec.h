@@ -64,6 +64,12 @@ class DumpTemplate {
   std::vector<std::size_t> order_;   // field index of each gap between pieces
 };
 
+// The campaign spec's own keys (the run spec under /base has run_spec_table()).
+const SpecTable& campaign_spec_table();
+// The JSON Schema (draft-07) of campaign specs, from campaign_spec_table() and
+// run_spec_table(): what `campaign schema` prints for editors.
+nlohmann::json campaign_spec_schema();
+
 // A campaign spec's text as JSON. Throws std::invalid_argument naming `source`, the line and
 // the column: for a syntax error, and for nesting deeper than kMaxSpecDepth (checked before
 // parsing; a campaign spec needs fewer than 10 levels).

@@ -3,10 +3,12 @@
 #include "rundir/version.h"
 
 #include <signal.h>
+#include <sys/ioctl.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <optional>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +16,7 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <set>
 #include <memory>
 #include <sstream>
 #include <thread>
@@ -21,6 +24,8 @@
 #include "rundir/progress.h"
 #include "runner/campaign_db.h"
 #include "runner/campaign_spec.h"
+#include "runner/inspect.h"
+#include "runner/run_filter.h"
 #include "runner/scan.h"
 #include "runner/scheduler.h"
 #include "runner/slurm.h"
@@ -52,19 +57,23 @@ class UsageError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Parsed flags of one verb: --name value, --name=value, or --name for booleans.
+// Parsed flags of one verb: --name value, --name=value, or --name for booleans. A flag given
+// twice keeps both values (--only); get() gives the last.
 struct Args {
   std::vector<std::string> positional;
-  std::map<std::string, std::string> flags;              // the last value of each flag
-  std::map<std::string, std::vector<std::string>> all;   // every value of a repeated flag
+  std::map<std::string, std::vector<std::string>> flags;
   bool has(const std::string& f) const { return flags.count(f) > 0; }
   std::string get(const std::string& f, const std::string& def) const {
     auto it = flags.find(f);
-    return it == flags.end() ? def : it->second;
+    return it == flags.end() ? def : it->second.back();
+  }
+  std::vector<std::string> all(const std::string& f) const {
+    auto it = flags.find(f);
+    return it == flags.end() ? std::vector<std::string>{} : it->second;
   }
   double number(const std::string& f, double def) const {
     if (!has(f)) return def;
-    const std::string& v = flags.at(f);
+    const std::string& v = flags.at(f).back();
     try {
       std::size_t used = 0;
       const double x = std::stod(v, &used);
@@ -116,29 +125,17 @@ Args Parse(const std::vector<std::string>& argv, const std::vector<FlagSpec>& kn
       if (i + 1 >= argv.size()) throw UsageError("--" + name + ": needs a value");
       value = argv[++i];
     }
-    a.flags[name] = value;
-    a.all[name].push_back(value);
+    a.flags[name].push_back(value);
   }
   return a;
 }
 
+// The flags of a verb, from the verb table at the end of this file.
+const std::vector<FlagSpec>& FlagsOf(const std::string& verb);
+Args Parse(const std::vector<std::string>& argv, const std::string& verb) { return Parse(argv, FlagsOf(verb), verb); }
+
 std::string DbPath(const Args& a) { return a.get("db", "granary.db"); }
 
-// The database of an existing campaign (only `plan` creates one). A zero-length file is not
-// an empty campaign but a lost one: refused, not silently given a fresh schema.
-std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& verb) {
-  if (!fs::exists(db)) {
-    throw UsageError("campaign " + verb + ": no database " + db +
-                     (verb == "run" ? " (run campaign plan SPEC --db " + db + " first)" : std::string()));
-  }
-  std::error_code ec;
-  if (fs::file_size(db, ec) == 0 && !ec) {
-    throw StoreError(SQLITE_NOTADB, "database " + db + " is empty (0 bytes): whatever campaign it held is lost (was it "
-                                        "truncated, or copied while the disk was full?); plan a campaign into it again "
-                                        "with campaign plan SPEC --db " + db);
-  }
-  return std::make_unique<Store>(db);
-}
 fs::path DbDir(const std::string& db) {
   const fs::path p = fs::absolute(db).parent_path();
   return p;
@@ -179,6 +176,59 @@ std::string Bar(double fraction, int width) {
   bar.back() = ']';
   for (int i = 0; i < filled; ++i) bar[static_cast<std::size_t>(i) + 1] = '#';
   return bar;
+}
+
+// The database of an existing campaign (only `plan` and `compare` create one): a missing file,
+// a directory, an empty file or a file that is not a campaign database is said plainly.
+std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& verb) {
+  if (!fs::exists(db)) {
+    throw UsageError("campaign " + verb + ": no database " + db + " (campaign plan SPEC --db " + db + " makes one)");
+  }
+  std::error_code ec;
+  if (!fs::is_directory(db) && fs::file_size(db, ec) == 0 && !ec) {
+    throw StoreError(SQLITE_NOTADB, "database " + db + " is empty (0 bytes): whatever campaign it held is lost (was it "
+                                        "truncated, or copied while the disk was full?); plan a campaign into it again "
+                                        "with campaign plan SPEC --db " + db);
+  }
+  try {
+    return std::make_unique<Store>(db);
+  } catch (const StoreError& e) {
+    // Not a campaign database at all (a directory, another file): the user gave the wrong path.
+    if (e.code() == SQLITE_NOTADB || fs::is_directory(db)) throw UsageError("campaign " + verb + ": " + e.what());
+    throw;
+  }
+}
+
+// The --only filters of a verb, resolved and checked against the campaign's runs.
+RunFilter ResolveOnly(const Args& a, const CampaignRow& campaign, const std::vector<RunRow>& runs) {
+  try {
+    return resolve_filters(a.all("only"), campaign, runs);
+  } catch (const FilterError& e) {
+    throw UsageError(e.what());
+  }
+}
+
+// A run's progress.json as one short line: phase, bar, percent, simulated time, exits, ETA
+// (from `elapsed` wall seconds; none when elapsed <= 0).
+std::string ProgressText(const json& progress, double elapsed) {
+  double f = 0;
+  std::string phase = "starting";
+  std::ostringstream o;
+  if (progress.is_object()) {
+    f = std::clamp(progress.value("fraction", 0.0), 0.0, 1.0);
+    phase = progress.value("phase", std::string("?"));
+  }
+  o << std::left << std::setw(9) << phase << " " << Bar(f, 20) << " " << std::right << std::setw(3) << std::lround(f * 100)
+    << "%";
+  if (progress.is_object() && progress.contains("t") && progress.contains("t_end") && progress.at("t").is_number()) {
+    o << "  t " << std::fixed << std::setprecision(1) << progress.at("t").get<double>() << "/"
+      << progress.at("t_end").get<double>();
+    o.unsetf(std::ios::fixed);
+  }
+  if (progress.is_object() && progress.contains("exited") && progress.at("exited").is_number())
+    o << "  " << progress.at("exited").get<long long>() << " exits";
+  if (elapsed > 0) o << "  ETA " << (f > 0.01 ? Duration(elapsed * (1 - f) / f) : std::string("?"));
+  return o.str();
 }
 
 // ---------------------------------------------------------------- plan
@@ -242,7 +292,9 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
   } catch (const SpecError& e) {
     throw SpecError(e.path(), e.message() + " [" + spec_path + "]");
   }
-  Store store(db);
+  // A dry run against a database that does not exist compares with an empty one in memory:
+  // it creates no file.
+  Store store(dry_run && !fs::exists(db) ? std::string(":memory:") : db);
   return plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
 }
 
@@ -269,8 +321,7 @@ void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s
 }
 
 int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a =
-      Parse(argv, {{"db", true}, {"dry-run", false}, {"json", false}, {"max-runs", true}, {"help", false}}, "plan");
+  const Args a = Parse(argv, "plan");
   if (a.positional.size() != 1) throw UsageError("campaign plan: needs exactly one SPEC file (see campaign plan --help)");
   const std::string spec_path = a.positional[0];
   CampaignSpec spec;
@@ -302,6 +353,8 @@ const char kRunHelp[] =
     "  --jobs N             concurrent runs (default: number of cores)\n"
     "  --engine E           native | liggghts: only runs of that engine; a path: use that executable\n"
     "  --only FILTER        a run-id prefix, or POINTER=VALUE, e.g. /silo/base_outlets/0/width=10\n"
+    "                       (a short name that ends one sweep axis will do: width=10); repeat it:\n"
+    "                       values of one parameter are alternatives, different parameters all hold\n"
     "  --threads-per-run T  passed to the engine as --threads (default 1)\n"
     "  --time-limit S       wall seconds per run; a run over it is stopped and marked failed\n"
     "  --retries K          extra attempts per run in this invocation (default 1)\n"
@@ -324,6 +377,25 @@ const char kRunHelp[] =
 volatile std::sig_atomic_t g_stop = 0;
 extern "C" void RunnerOnStopSignal(int) { g_stop = 1; }
 
+// Columns of the terminal on stdout (80 when it cannot be asked).
+int TerminalColumns() {
+  struct winsize w {};
+  if (ioctl(STDOUT_FILENO, TIOCGWINSZ, &w) == 0 && w.ws_col > 0) return w.ws_col;
+  return 80;
+}
+
+// `line` cut to `columns` - 1 characters (UTF-8 aware), so that a drawn line never wraps: the
+// display clears itself by moving up one row per line, which a wrapped line would defeat.
+std::string FitColumns(const std::string& line, int columns) {
+  const int max = std::max(8, columns - 1);
+  int shown = 0;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    if ((static_cast<unsigned char>(line[i]) & 0xC0) == 0x80) continue;  // UTF-8 continuation byte
+    if (++shown > max) return line.substr(0, i);
+  }
+  return line;
+}
+
 class ConsoleObserver : public RunObserver {
  public:
   ConsoleObserver(std::ostream& out, bool tty) : out_(out), tty_(tty) {}
@@ -340,7 +412,9 @@ class ConsoleObserver : public RunObserver {
       if (state == "done") ++done_;
     }
     std::string first = message.substr(0, message.find('\n'));
-    out_ << std::left << std::setw(12) << state << " " << (run_id.empty() ? "" : run_id + "  ") << first << "\n";
+    std::string where;
+    if (const auto it = points_.find(run_id); it != points_.end()) where = it->second + ": ";
+    out_ << std::left << std::setw(12) << state << " " << (run_id.empty() ? "" : run_id + "  ") << where << first << "\n";
     if (state == "failed" || state == "interrupted") {
       const auto nl = message.find('\n');
       if (nl != std::string::npos) {
@@ -356,6 +430,8 @@ class ConsoleObserver : public RunObserver {
   }
   void on_tick(const std::vector<ActiveRun>& active, int done, int failed, int total) override {
     active_ = active;
+    for (const ActiveRun& a : active_)
+      points_[a.run_id] = CompactPoint(json::parse(a.point, nullptr, false)) + " r" + std::to_string(a.replica);
     done_ = done;
     failed_ = failed;
     total_ = total;
@@ -387,10 +463,16 @@ class ConsoleObserver : public RunObserver {
     if (finished_here <= 0) return "?";
     return Duration(elapsed / finished_here * std::max(0, total_ - done_ - failed_));
   }
+  // Erases what Draw drew: the cursor goes up one row per drawn line (none wraps) and the
+  // screen is cleared from there down, so the next text starts on a clean line.
   void Clear() {
     if (!tty_ || lines_ == 0) return;
-    out_ << "\033[" << lines_ << "A\033[J";
+    out_ << "\r\033[" << lines_ << "A\033[J";
     lines_ = 0;
+  }
+  void Line(const std::string& text) {
+    out_ << FitColumns(text, columns_) << "\n";
+    ++lines_;
   }
   static bool IsQueued(const ActiveRun& a) {
     return !a.queue_state.empty() && fate_of(a.queue_state) != TaskFate::kRunning;
@@ -400,38 +482,30 @@ class ConsoleObserver : public RunObserver {
   }
   void Draw() {
     if (!tty_ || total_ == 0) return;
+    columns_ = TerminalColumns();
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    out_ << Bar(static_cast<double>(done_) / total_, 30) << " " << done_ << "/" << total_ << " done, " << failed_
-         << " failed, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed) << "\n";
-    ++lines_;
+    std::ostringstream head;
+    head << Bar(static_cast<double>(done_) / total_, 30) << " " << done_ << "/" << total_ << " done, " << failed_
+         << " failed, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed);
+    Line(head.str());
     // Runs waiting in a batch queue get one line for all of them.
-    if (const int queued = Queued(active_); queued > 0) {
-      out_ << "  " << queued << " queued (Slurm)\n";
-      ++lines_;
-    }
+    if (const int queued = Queued(active_); queued > 0) Line("  " + std::to_string(queued) + " queued (Slurm)");
     for (const auto& a : active_) {
       if (IsQueued(a)) continue;
-      double f = 0;
-      std::string phase = "starting";
-      std::string eta = "?";
-      if (a.progress.is_object()) {
-        f = a.progress.value("fraction", 0.0);
-        phase = a.progress.value("phase", std::string("?"));
-        if (f > 0.01) eta = Duration(a.elapsed * (1 - f) / f);
-      }
-      out_ << "  " << a.run_id.substr(0, 10) << " " << std::left << std::setw(10) << phase << Bar(f, 20) << " "
-           << std::setw(3) << std::lround(f * 100) << "% ETA " << std::setw(6) << eta << " " << CompactPoint(json::parse(a.point))
-           << "\n";
-      ++lines_;
+      const auto it = points_.find(a.run_id);
+      Line("  " + a.run_id.substr(0, 10) + " " + (it == points_.end() ? std::string() : it->second) + "  " +
+           ProgressText(a.progress, a.elapsed));
     }
     out_.flush();
   }
   std::ostream& out_;
   bool tty_;
+  int columns_ = 80;
   std::chrono::steady_clock::time_point start_;
   int done_at_start_ = 0, done_ = 0, failed_ = 0, total_ = 0, lines_ = 0;
   double last_plain_ = 0;
   std::vector<ActiveRun> active_;
+  std::map<std::string, std::string> points_;  // run id -> "W=9 r0", from the ticks
 };
 
 std::string ExeDir() {
@@ -494,9 +568,9 @@ ExecutorChoice ChooseExecutor(const Args& a, const json& spec, const std::string
   so.array_max = a.integer("array-max", so.array_max, 0);
   so.poll_interval = a.number("poll-interval", so.poll_interval);
   if (!(so.poll_interval > 0)) throw UsageError("--poll-interval: must be > 0 (got \"" + a.get("poll-interval", "") + "\")");
-  if (a.all.count("sbatch-arg")) {
+  if (a.has("sbatch-arg")) {
     so.sbatch_args.clear();
-    for (const auto& arg : a.all.at("sbatch-arg")) {
+    for (const auto& arg : a.all("sbatch-arg")) {
       if (arg.rfind("-", 0) != 0 || arg.find_first_of("\n\r") != std::string::npos) {
         throw UsageError("--sbatch-arg: must be one sbatch option such as --sbatch-arg=--qos=long (got \"" + arg + "\")");
       }
@@ -511,19 +585,14 @@ ExecutorChoice ChooseExecutor(const Args& a, const json& spec, const std::string
 int DryRun(const std::string& db, const RunOptions& o, ExecutorChoice& c, std::ostream& out);
 
 int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv,
-                       {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true},
-                        {"time-limit", true}, {"retries", true}, {"rerun-lost", false}, {"executor", true}, {"partition", true}, {"time", true},
-                        {"cpus-per-run", true}, {"array-max", true}, {"account", true}, {"sbatch-arg", true},
-                        {"poll-interval", true}, {"dry-run", false}, {"detach", false}, {"help", false}},
-                       "run");
+  const Args a = Parse(argv, "run");
   if (!a.positional.empty()) throw UsageError("campaign run: unexpected argument \"" + a.positional[0] + "\"");
   RunOptions o = RunOptionsFrom(a);
   o.engine = a.get("engine", "");
   if (!o.engine.empty() && o.engine != "native" && o.engine != "liggghts" && o.engine.find('/') == std::string::npos) {
     throw UsageError("--engine: must be native, liggghts or a path to an engine executable (got \"" + o.engine + "\")");
   }
-  o.only = a.get("only", "");
+  o.only = a.all("only");
   const std::string db = DbPath(a);
   json spec;
   std::string name;
@@ -543,42 +612,18 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
   return RunAll(db, o, out, c.slurm ? &c.settings : nullptr);
 }
 
-// --only must select something: a typo or a value not in the sweep is an error, not a run
-// of nothing that exits 0.
-void CheckOnlyFilter(Store& store, const CampaignRow& campaign, const std::string& filter) {
-  const std::vector<RunRow> runs = load_runs(store, true);
-  for (const auto& r : runs)
-    if (r.state != "retired" && matches_filter(r, filter)) return;
-  const auto eq = filter.find('=');
-  std::string axes;
-  for (const auto& a : campaign.axes) axes += (axes.empty() ? "" : ", ") + a;
-  if (filter[0] != '/' || eq == std::string::npos) {
-    throw UsageError("--only: no run id starts with \"" + filter + "\" (FILTER is a run-id prefix, or POINTER=VALUE" +
-                     (axes.empty() ? std::string() : " on an axis: " + axes) + ")");
-  }
-  const std::string pointer = filter.substr(0, eq);
-  if (std::find(campaign.axes.begin(), campaign.axes.end(), pointer) == campaign.axes.end()) {
-    const std::string best = nearest(pointer, campaign.axes);
-    throw UsageError("--only: \"" + pointer + "\" is not a sweep axis of campaign " + campaign.name +
-                     (best.empty() ? "" : "; did you mean \"" + best + "\"?") +
-                     (axes.empty() ? " (it has no axes)" : " (axes: " + axes + ")"));
-  }
-  std::vector<json> values;
-  const json::json_pointer ptr(pointer);
-  for (const auto& r : runs)
-    if (r.state != "retired" && r.params.contains(ptr) &&
-        std::find(values.begin(), values.end(), r.params[ptr]) == values.end())
-      values.push_back(r.params[ptr]);
-  std::string list;
-  for (const auto& v : values) list += (list.empty() ? "" : ", ") + v.dump();
-  throw UsageError("--only: no run has " + pointer + " = " + filter.substr(eq + 1) + " (its values: " + list + ")");
-}
-
 // The arrays and scripts `campaign run --executor slurm` would submit; nothing is written.
 int DryRun(const std::string& db, const RunOptions& o, ExecutorChoice& c, std::ostream& out) {
   const auto opened = OpenCampaignDb(db, "run");
   Store& store = *opened;
-  if (const auto campaign = load_campaign(store); campaign && !o.only.empty()) CheckOnlyFilter(store, *campaign, o.only);
+  RunFilter filter;
+  if (const auto campaign = load_campaign(store); campaign && !o.only.empty()) {
+    try {
+      filter = resolve_filters(o.only, *campaign, load_runs(store, true));
+    } catch (const FilterError& e) {
+      throw UsageError(e.what());
+    }
+  }
   std::string size_note;
   try {
     c.settings.max_array_size = query_max_array_size();
@@ -590,7 +635,7 @@ int DryRun(const std::string& db, const RunOptions& o, ExecutorChoice& c, std::o
   for (const auto& r : load_runs(store, true)) {
     if (r.state != "planned" && r.state != "interrupted" && r.state != "failed") continue;
     if ((o.engine == "native" || o.engine == "liggghts") && r.engine != o.engine) continue;
-    if (!matches_filter(r, o.only)) continue;
+    if (!filter.matches(r)) continue;
     Launch l;
     l.run_id = r.run_id;
     l.argv = {o.engine.find('/') != std::string::npos
@@ -625,12 +670,19 @@ int DryRun(const std::string& db, const RunOptions& o, ExecutorChoice& c, std::o
 
 // Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly. With
 // `slurm`, the runs go to Slurm.
-int RunAll(const std::string& db, const RunOptions& o, std::ostream& out, const SlurmSettings* slurm) {
+int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, const SlurmSettings* slurm) {
   const auto opened = OpenCampaignDb(db, "run");
   Store& store = *opened;
   const auto campaign = load_campaign(store);
   if (!campaign) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
-  if (!o.only.empty()) CheckOnlyFilter(store, *campaign, o.only);
+  RunOptions o = options;
+  if (!o.only.empty()) {
+    try {
+      o.only = resolve_filters(o.only, *campaign, load_runs(store, true)).texts();
+    } catch (const FilterError& e) {
+      throw UsageError(e.what());
+    }
+  }
 
   struct sigaction sa {};
   sa.sa_handler = RunnerOnStopSignal;
@@ -656,11 +708,18 @@ int RunAll(const std::string& db, const RunOptions& o, std::ostream& out, const 
 
 // ---------------------------------------------------------------- status
 const char kStatusHelp[] =
-    "usage: campaign status [--db FILE] [--json]\n"
-    "Counts by state, progress of running runs, failures with the tail of their log, elapsed\n"
-    "time and ETA; how many finished runs have their metrics in the database (with --json,\n"
-    "every stored metric of every run). Runs in a Slurm queue: pending and running per array,\n"
-    "asked from squeue (one call), or as last seen when squeue cannot answer.\n";
+    "usage: campaign status [--db FILE] [--only FILTER]... [--json]\n"
+    "Counts by state (they add up to the runs of the campaign; retired runs, no longer in the\n"
+    "spec, are counted apart), progress of running runs, failures with the tail of their log,\n"
+    "elapsed time and ETA; how many finished runs have their metrics in the database (with\n"
+    "--json, every stored metric of every run). Runs in a Slurm queue: pending and running per\n"
+    "array, asked from squeue (one call), or as last seen when squeue cannot answer.\n"
+    "  --only FILTER  only these runs: a run-id prefix, or POINTER=VALUE (a short name that ends\n"
+    "                 one sweep axis will do: width=9); repeat for several (docs/cli.md)\n"
+    "  --json         the same as JSON\n";
+
+// The states a campaign's runs are in, in the order status shows them (retired apart).
+const char* const kLiveStates[] = {"planned", "running", "done", "failed", "interrupted"};
 
 // Runs in a batch queue, per array job: their queue states, live from squeue when it answers.
 struct QueueView {
@@ -707,21 +766,35 @@ QueueView ViewQueue(const std::vector<RunRow>& runs) {
 }
 
 int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv, {{"db", true}, {"json", false}, {"help", false}}, "status");
+  const Args a = Parse(argv, "status");
+  if (!a.positional.empty()) throw UsageError("campaign status: unexpected argument \"" + a.positional[0] + "\"");
   const std::string db = DbPath(a);
   const auto opened = OpenCampaignDb(db, "status");
   Store& store = *opened;
   const auto campaign = load_campaign(store);
-  const auto runs = load_runs(store, false);
+  std::vector<RunRow> all = load_runs(store, a.has("only"));
+  std::vector<std::string> filters;
+  if (a.has("only") && campaign) {
+    const RunFilter filter = ResolveOnly(a, *campaign, all);
+    std::erase_if(all, [&](const RunRow& r) { return !filter.matches(r); });
+    filters = filter.texts();
+  }
+  const std::vector<RunRow>& runs = all;
   const auto metrics = load_metrics(store);
   const QueueView queue = ViewQueue(runs);
-  std::map<std::string, int> counts = {{"planned", 0}, {"running", 0}, {"done", 0},
-                                       {"failed", 0},  {"interrupted", 0}, {"retired", 0}};
+  std::map<std::string, int> counts;
+  for (const char* state : kLiveStates) counts[state] = 0;
+  int retired = 0, total = 0;
   double first_start = 0, last_end = 0, wall_sum = 0, remaining_work = 0;
   int wall_n = 0, active = 0;
   const double now = now_seconds();
   int lost = 0;  // done, but the run directory is gone
   for (const auto& r : runs) {
+    if (r.state == "retired") {
+      ++retired;
+      continue;
+    }
+    ++total;
     ++counts[r.state];
     if (r.state == "done" && !fs::exists(r.run_dir)) ++lost;
     if (r.started_at > 0 && (first_start == 0 || r.started_at < first_start)) first_start = r.started_at;
@@ -730,7 +803,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       wall_sum += r.wall_s;
       ++wall_n;
     }
-    if (r.state == "planned" || r.state == "interrupted") remaining_work += 1;
+    if (r.state == "planned" || r.state == "interrupted" || r.state == "failed") remaining_work += 1;
     if (r.state == "running") {
       ++active;
       const double f = r.progress.is_object() ? r.progress.value("fraction", 0.0) : 0.0;
@@ -744,8 +817,11 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     for (const auto& r : runs) {
       json j = {{"run_id", r.run_id}, {"state", r.state},       {"point", r.point},      {"replica", r.replica},
                 {"attempts", r.attempts}, {"engine", r.engine}, {"wall_s", r.wall_s},    {"run_dir", r.run_dir}};
-      if (!r.progress.is_null()) j["progress"] = r.progress;
-      if (r.state == "running") j["lease_expired"] = lease_expired(r, this_process_holder().host, now);
+      // Progress belongs to running runs only: a finished run's last progress.json is history.
+      if (r.state == "running") {
+        if (!r.progress.is_null()) j["progress"] = r.progress;
+        j["lease_expired"] = lease_expired(r, this_process_holder().host, now);
+      }
       if (!r.failure.empty()) j["failure"] = r.failure;
       if (!r.end_reason.empty()) j["end_reason"] = r.end_reason;
       if (const auto it = metrics.find(r.run_id); it != metrics.end()) {
@@ -764,8 +840,10 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       list.push_back(j);
     }
     json doc = {{"campaign", campaign ? campaign->name : ""},
-                {"total", runs.size() - static_cast<std::size_t>(counts["retired"])},
+                {"total", total},
                 {"counts", counts},
+                {"retired", retired},
+                {"only", filters},
                 {"lost", lost},
                 {"elapsed_s", elapsed},
                 {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
@@ -781,10 +859,14 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     out << doc.dump(2) << "\n";
     return 0;
   }
-  out << "campaign " << (campaign ? campaign->name : "?") << ": " << runs.size() - static_cast<std::size_t>(counts["retired"])
-      << " runs (" << db << ")\n ";
-  for (const auto& [state, n] : counts) out << " " << state << " " << n;
-  out << "\n  elapsed " << Duration(elapsed) << ", ETA " << (eta >= 0 ? Duration(eta) : "?") << "\n";
+  std::string only;
+  for (const auto& f : filters) only += (only.empty() ? "" : ", ") + f;
+  out << "campaign " << (campaign ? campaign->name : "?") << ": " << total << " runs" << (only.empty() ? "" : " with " + only)
+      << " (" << db << ")\n ";
+  for (const char* state : kLiveStates) out << (std::string(state) == "planned" ? " " : ", ") << state << " " << counts[state];
+  if (retired > 0) out << "  (and " << retired << " retired: no longer in the spec, not counted)";
+  out << "\n  elapsed " << Duration(elapsed) << ", ETA "
+      << (total - counts["done"] == 0 ? std::string("-") : eta >= 0 ? Duration(eta) : "?") << "\n";
   if (queue.any) {
     out << "Slurm queue (" << (queue.live ? "live" : "as last seen; squeue: " + queue.error) << "):\n";
     for (const auto& q : queue.arrays) {
@@ -815,19 +897,12 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     if (r.queued() && fate_of(queue.state_by_run.at(r.run_id)) != TaskFate::kRunning) continue;
     if (!header) out << "running:\n";
     header = true;
-    double f = 0;
-    std::string phase = "starting";
     // A task nobody watches (detached) has its progress only in its directory.
     json progress = r.progress;
     if (progress.is_null() && r.queued()) {
       if (const auto p = rundir::ReadProgress(r.run_dir)) progress = p->ToJson();
     }
-    if (progress.is_object()) {
-      f = progress.value("fraction", 0.0);
-      phase = progress.value("phase", std::string("?"));
-    }
-    out << "  " << r.run_id << " " << std::left << std::setw(9) << phase << Bar(f, 20) << " " << std::lround(f * 100)
-        << "%  " << CompactPoint(r.point) << " r" << r.replica
+    out << "  " << r.run_id << " " << ProgressText(progress, 0) << "  " << CompactPoint(r.point) << " r" << r.replica
         << (r.queued() ? "  Slurm " + r.job_id + "_" + std::to_string(r.job_index) +
                              (r.lease_holder.empty() || lease_expired(r, this_process_holder().host, now)
                                   ? " (no runner watching: campaign scan or campaign run --executor slurm)"
@@ -863,7 +938,7 @@ const char kScanHelp[] =
     "unwritable).\n";
 
 int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv, {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}, "scan");
+  const Args a = Parse(argv, "scan");
   if (!a.positional.empty()) throw UsageError("campaign scan: unexpected argument \"" + a.positional[0] + "\"");
   const std::string db = DbPath(a);
   const auto opened = OpenCampaignDb(db, "scan");
@@ -899,9 +974,10 @@ int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
 
 // ---------------------------------------------------------------- report
 const char kReportHelp[] =
-    "usage: campaign report [--db FILE] [--out DIR] [--no-figures]\n"
+    "usage: campaign report [--db FILE] [--out DIR] [--only FILTER]... [--no-figures]\n"
     "Write report.md, report.html, figures and CSVs of the finished runs (default DIR:\n"
-    "<db dir>/report).\n";
+    "<db dir>/report).\n"
+    "  --only FILTER  report only these runs (as for campaign run; repeat for several)\n";
 
 #ifdef GRANARY_HAVE_ANALYSIS
 // A campaign loaded from its database and analysed: what report, export and compare share.
@@ -924,11 +1000,22 @@ std::function<void(int, int)> AnalysisProgress(std::ostream& err) {
 
 // Loads the campaign in `db`, analyses its finished runs (each run's cache first, runs in
 // parallel) and stores their per-run metrics in the database (table metrics).
-std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const std::string& verb, std::ostream& err) {
+// With `only` (--only filters), the selected runs alone.
+std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const std::string& verb, std::ostream& err,
+                                                    const std::vector<std::string>& only = {}) {
   const auto opened = OpenCampaignDb(db, verb);
   Store& store = *opened;
   const auto campaign = load_campaign(store);
   if (!campaign) throw UsageError("campaign " + verb + ": " + db + " holds no campaign");
+  std::vector<RunRow> runs = load_runs(store, true);
+  if (!only.empty()) {
+    try {
+      const RunFilter filter = resolve_filters(only, *campaign, runs);
+      std::erase_if(runs, [&](const RunRow& r) { return !filter.matches(r); });
+    } catch (const FilterError& e) {
+      throw UsageError(e.what());
+    }
+  }
   auto c = std::make_unique<AnalysedCampaign>();
   c->info.name = campaign->name;
   c->info.spec_hash = campaign->spec_hash;
@@ -936,7 +1023,7 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
   c->info.axes = campaign->axes;
   c->info.granary_version = campaign->granary_version;
   c->info.git_commit = campaign->git_commit;
-  for (const auto& r : load_runs(store, true)) {
+  for (const auto& r : runs) {
     if (r.state == "retired") continue;
     analysis::RunRecord rec;
     rec.run_id = r.run_id;
@@ -973,8 +1060,9 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
 }
 
 // The report of the campaign in `db`.
-analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out_dir, bool figures, std::ostream& err) {
-  const auto c = AnalyseCampaignIn(db, "report", err);
+analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out_dir, bool figures, std::ostream& err,
+                                      const std::vector<std::string>& only = {}) {
+  const auto c = AnalyseCampaignIn(db, "report", err, only);
   analysis::ReportOptions options;
   options.out_dir = out_dir;
   options.figures = figures;
@@ -1006,11 +1094,12 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
 #endif
 
 int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args a = Parse(argv, {{"db", true}, {"out", true}, {"no-figures", false}, {"help", false}}, "report");
+  const Args a = Parse(argv, "report");
+  if (!a.positional.empty()) throw UsageError("campaign report: unexpected argument \"" + a.positional[0] + "\"");
   const std::string db = DbPath(a);
 #ifdef GRANARY_HAVE_ANALYSIS
   const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
-                                     !a.has("no-figures"), err);
+                                     !a.has("no-figures"), err, a.all("only"));
   out << "report: " << summary.markdown.string() << "\n        " << summary.html.string() << "\n  runs used "
       << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed
       << (summary.runs_lost > 0 ? ", lost " + std::to_string(summary.runs_lost) +
@@ -1028,7 +1117,7 @@ int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream
 
 // ---------------------------------------------------------------- export
 const char kExportHelp[] =
-    "usage: campaign export [--db FILE] [--format csv|json] [--level run|point] [--out FILE]\n"
+    "usage: campaign export [--db FILE] [--format csv|json] [--level run|point] [--out FILE] [--only FILTER]...\n"
     "Analyse the finished runs (each run's cached results are reused) and write their metrics as\n"
     "one tidy table: one row per run, or per sweep point; each swept parameter a column named by\n"
     "its short path (base_outlets.0.width), each metric and its se (per point also n) numeric\n"
@@ -1037,17 +1126,18 @@ const char kExportHelp[] =
     "  --db FILE         database (default granary.db)\n"
     "  --format F        csv (default) or json (an array of objects)\n"
     "  --level L         run (default) or point\n"
-    "  --out FILE        write there (default: standard output)\n";
+    "  --out FILE        write there (default: standard output)\n"
+    "  --only FILTER     only these runs (as for campaign run; repeat for several)\n";
 
 int Export(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args a = Parse(argv, {{"db", true}, {"format", true}, {"level", true}, {"out", true}, {"help", false}}, "export");
+  const Args a = Parse(argv, "export");
   if (!a.positional.empty()) throw UsageError("campaign export: unexpected argument \"" + a.positional[0] + "\"");
   const std::string format = a.get("format", "csv"), level = a.get("level", "run");
   if (format != "csv" && format != "json") throw UsageError("--format: must be csv or json (got \"" + format + "\")");
   if (level != "run" && level != "point") throw UsageError("--level: must be run or point (got \"" + level + "\")");
   const std::string db = DbPath(a);
 #ifdef GRANARY_HAVE_ANALYSIS
-  const auto c = AnalyseCampaignIn(db, "export", err);
+  const auto c = AnalyseCampaignIn(db, "export", err, a.all("only"));
   const analysis::ExportTable table =
       analysis::export_table(*c->analysis, level == "run" ? analysis::ExportLevel::kRun : analysis::ExportLevel::kPoint);
   const std::string text = format == "csv" ? analysis::to_csv(table) : analysis::to_json(table).dump(2) + "\n";
@@ -1096,6 +1186,7 @@ void PrintComparison(std::ostream& out, const json& c) {
   };
   out << "    " << std::left << std::setw(16) << "metric" << std::setw(20) << a << std::setw(20) << b << std::setw(18)
       << "ratio" << "agree\n";
+  bool unknown = false;
   for (const json& p : c.at("points")) {
     out << "  " << CompactPoint(p.at("point")) << "\n";
     if (p.at("metrics").empty()) out << "    (no metric defined on both engines yet)\n";
@@ -1104,11 +1195,15 @@ void PrintComparison(std::ostream& out, const json& c) {
       if (!p.at("metrics").contains(metric)) continue;
       const json& m = p.at("metrics").at(metric);
       if (!m.value("headline", false)) continue;
+      unknown = unknown || !m.at("agree").is_boolean();
       json ratio = {{"mean", m.at("ratio")}, {"se", m.at("ratio_se")}};
       out << "    " << std::left << std::setw(16) << metric << std::setw(20) << cell(m.at(a)) << std::setw(20)
-          << cell(m.at(b)) << std::setw(18) << cell(ratio) << (m.at("agree").get<bool>() ? "yes" : "no") << "\n";
+          << cell(m.at(b)) << std::setw(18) << cell(ratio)
+          << (m.at("agree").is_boolean() ? (m.at("agree").get<bool>() ? "yes" : "no") : "n/a (no se)") << "\n";
     }
   }
+  if (unknown)
+    out << "  n/a: a value without a standard error (one replica) cannot be judged; plan more replicas\n";
   double rate_a = 0;
   for (const json& e : c.at("costs")) {
     const json& r = e.at("disc_steps_per_s");
@@ -1125,11 +1220,7 @@ void PrintComparison(std::ostream& out, const json& c) {
 #endif
 
 int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args a = Parse(argv,
-                       {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false},
-                        {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true},
-                        {"max-runs", true}, {"help", false}},
-                       "compare");
+  const Args a = Parse(argv, "compare");
   if (a.positional.size() != 1) throw UsageError("campaign compare: needs exactly one SPEC file (see campaign compare --help)");
 #ifdef GRANARY_HAVE_ANALYSIS
   const std::string spec_path = a.positional[0];
@@ -1175,6 +1266,281 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
   throw UsageError("campaign compare: this build has no analysis library (granary_analysis)");
 #endif
 }
+
+// ---------------------------------------------------------------- show, clean
+const char kShowHelp[] =
+    "usage: campaign show RUN [--db FILE] [--log N] [--json]\n"
+    "Everything about one run: sweep point and replica, state, attempts, engine, host, start,\n"
+    "end and wall time, how it ended (or why it failed), its results, its parameters (the\n"
+    "resolved run spec; swept ones marked *), the files of its directory and the tail of its\n"
+    "engine log.\n"
+    "  RUN        a run id (a unique start of one will do) or a run directory\n"
+    "  --log N    lines of engine.log to show (default 20)\n"
+    "  --json     the same as JSON\n";
+
+// RUN of `show`: a run id (a unique prefix will do) of the database, or a run directory of it.
+RunRow FindRun(const std::string& verb, const std::string& run, Store& store, const std::string& db) {
+  std::vector<RunRow> found;
+  if (fs::is_directory(run)) {
+    const fs::path dir = fs::weakly_canonical(run);
+    for (RunRow& r : load_runs(store, true))
+      if (fs::weakly_canonical(r.run_dir) == dir) found.push_back(std::move(r));
+    if (found.empty()) throw UsageError("campaign " + verb + ": " + run + " is not a run directory of " + db);
+    return found.front();
+  }
+  found = find_runs(store, run);
+  if (found.empty()) {
+    std::vector<std::string> ids;
+    for (const RunRow& r : load_runs(store, false)) ids.push_back(r.run_id);
+    const std::string best = nearest(run, ids);
+    throw UsageError("campaign " + verb + ": no run id starts with \"" + run + "\" in " + db +
+                     (best.empty() ? "" : "; did you mean " + best + "?") + " (campaign status lists them)");
+  }
+  if (found.size() > 1)
+    throw UsageError("campaign " + verb + ": \"" + run + "\" starts " + std::to_string(found.size()) + " run ids (" +
+                     found[0].run_id + ", " + found[1].run_id + (found.size() > 2 ? ", ..." : "") + "); give more of it");
+  return found.front();
+}
+
+std::string LocalTime(double unix_seconds) {
+  if (!(unix_seconds > 0)) return "-";
+  const std::time_t t = static_cast<std::time_t>(unix_seconds);
+  std::tm tm{};
+  localtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%d %H:%M:%S", &tm);
+  return buf;
+}
+
+// Every leaf of a JSON document as (pointer, value), in document order.
+void Leaves(const json& j, const std::string& at, std::vector<std::pair<std::string, json>>& out) {
+  if (j.is_object() && !j.empty()) {
+    for (const auto& [k, v] : j.items()) Leaves(v, at + "/" + escape_pointer_token(k), out);
+  } else if (j.is_array() && !j.empty()) {
+    for (std::size_t i = 0; i < j.size(); ++i) Leaves(j[i], at + "/" + std::to_string(i), out);
+  } else {
+    out.emplace_back(at, j);
+  }
+}
+
+// A result or parameter as text: integers without ".0", others to 6 significant digits.
+std::string ValueText(const json& v) {
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_number_float()) {
+    const double x = v.get<double>();
+    std::ostringstream o;
+    if (std::isfinite(x) && x == std::floor(x) && std::fabs(x) < 1e15) o << static_cast<long long>(x);
+    else o << std::setprecision(6) << x;
+    return o.str();
+  }
+  return v.dump();
+}
+
+int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "show");
+  if (a.positional.size() != 1) throw UsageError("campaign show: needs exactly one RUN (see campaign show --help)");
+  const std::string db = DbPath(a);
+  const auto opened = OpenCampaignDb(db, "show");
+  Store& store = *opened;
+  const RunRow run = FindRun("show", a.positional[0], store, db);
+  const json d = run_details(store, run, a.integer("log", 20, 0));
+  if (a.has("json")) {
+    out << d.dump(2) << "\n";
+    return 0;
+  }
+  const auto campaign = load_campaign(store);
+  std::size_t key_width = 10;
+  for (const auto& [key, value] : d["results"].items()) key_width = std::max(key_width, key.size() + 1);
+  auto row = [&](const std::string& label, const std::string& value) {
+    out << "  " << std::left << std::setw(static_cast<int>(key_width)) << label << " " << value << "\n";
+  };
+  out << "run " << run.run_id << (campaign ? " of campaign " + campaign->name : std::string()) << " (" << db << ")\n";
+  std::string point = CompactPoint(run.point) + ", replica " + std::to_string(run.replica);
+  if (run.params.contains("seed")) point += ", seed " + run.params["seed"].dump();
+  row("point", point);
+  std::string state = run.state;
+  if (!run.end_reason.empty()) state += ": " + run.end_reason;
+  const json& results = d["results"];
+  if (results.contains("exited") && results.contains("bodies"))
+    state += ", " + ValueText(results["exited"]) + " exits of " + ValueText(results["bodies"]) + " bodies";
+  if (results.contains("t_end")) state += ", t_end " + ValueText(results["t_end"]);
+  row("state", state);
+  if (run.state == "running") row("progress", ProgressText(run.progress, 0));
+  row("attempts", std::to_string(run.attempts));
+  row("engine", run.engine + (run.engine_version.empty() ? "" : " " + run.engine_version));
+  if (!run.host.empty()) row("host", run.host);
+  std::string when = "started " + LocalTime(run.started_at);
+  if (run.ended_at > 0) when += ", ended " + LocalTime(run.ended_at);
+  if (run.wall_s > 0) when += ", wall " + Duration(run.wall_s);
+  if (results.contains("timing/bed_wall_s") && results.contains("timing/discharge_wall_s"))
+    when += " (bed " + Duration(results["timing/bed_wall_s"].get<double>()) + ", discharge " +
+            Duration(results["timing/discharge_wall_s"].get<double>()) + ")";
+  row("time", when);
+  row("directory", run.run_dir + (d["run_dir_exists"].get<bool>() ? "" : "  (missing)"));
+  if (!run.failure.empty()) {
+    out << "failure:\n";
+    std::istringstream lines(run.failure);
+    for (std::string line; std::getline(lines, line);) out << "  | " << line << "\n";
+  }
+  if (!results.empty()) {
+    out << "results (summary.json):\n";
+    for (const auto& [key, value] : results.items()) row(key, ValueText(value));
+  }
+  out << "parameters (resolved run spec; * swept):\n";
+  std::vector<std::pair<std::string, json>> leaves;
+  Leaves(run.params, "", leaves);
+  std::size_t width = 0;
+  for (const auto& [p, v] : leaves) width = std::max(width, p.size());
+  for (const auto& [p, v] : leaves) {
+    const bool swept = std::any_of(run.point.items().begin(), run.point.items().end(),
+                                   [&](const auto& kv) { return p == kv.key() || p.rfind(kv.key() + "/", 0) == 0; });
+    out << (swept ? " *" : "  ") << std::left << std::setw(static_cast<int>(width) + 2) << p.substr(1)
+        << (v.is_string() ? v.dump() : ValueText(v)) << "\n";
+  }
+  out << "files:\n";
+  if (d["files"].empty()) out << "  (none" << (d["run_dir_exists"].get<bool>() ? "" : ": no directory") << ")\n";
+  for (const auto& f : d["files"])
+    out << "  " << std::left << std::setw(24) << f["name"].get<std::string>() << std::right << std::setw(10)
+        << human_bytes(f["bytes"].get<std::uintmax_t>()) << "\n";
+  if (!d["log_tail"].empty()) {
+    out << "engine.log (last " << d["log_tail"].size() << " lines):\n";
+    for (const auto& line : d["log_tail"]) out << "  | " << line.get<std::string>() << "\n";
+  }
+  return 0;
+}
+
+const char kCleanHelp[] =
+    "usage: campaign clean [--retired] [--failed] [--beds] [--locks] [--dry-run] [--db FILE] [--json]\n"
+    "Give disk space back: remove the directories of retired runs (no longer in the spec), lock\n"
+    "files nobody holds and, when asked, failed runs' directories and cached beds. Says what it\n"
+    "removed and how much space that freed. Without a choice: --retired --locks.\n"
+    "  --retired  directories of retired runs; if a later plan brings one back, it runs again\n"
+    "  --failed   directories of failed runs (they start afresh on the next campaign run)\n"
+    "  --beds     cached beds that only this campaign's done or retired runs use (other campaigns'\n"
+    "             beds are never touched; a bed needed again is prepared again)\n"
+    "  --locks    lock files (bed cache, run directories of runs not running) that nobody holds\n"
+    "  --dry-run  say what would be removed and how much it would free; remove nothing\n"
+    "Never touches done, planned, running or interrupted runs' directories.\n";
+
+int Clean(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "clean");
+  if (!a.positional.empty()) throw UsageError("campaign clean: unexpected argument \"" + a.positional[0] + "\"");
+  const std::string db = DbPath(a);
+  const auto opened = OpenCampaignDb(db, "clean");
+  Store& store = *opened;
+  CleanOptions o;
+  const bool chosen = a.has("retired") || a.has("failed") || a.has("beds") || a.has("locks");
+  o.retired = !chosen || a.has("retired");
+  o.locks = !chosen || a.has("locks");
+  o.failed = a.has("failed");
+  o.beds = a.has("beds");
+  o.cache_dir = default_cache_dir();
+  // A running runner may be writing into failed runs' directories (retries).
+  if (o.failed)
+    for (const RunRow& r : load_runs(store, false))
+      if (r.state == "running" && !lease_expired(r, this_process_holder().host, now_seconds()))
+        throw UsageError("campaign clean --failed: a campaign run is running on " + db +
+                         " (it retries failed runs); clean when it has finished");
+  const std::vector<CleanItem> items = plan_clean(store, o);
+  const bool dry = a.has("dry-run");
+  std::map<std::string, std::pair<int, std::uintmax_t>> by_kind;
+  std::uintmax_t total = 0;
+  for (const CleanItem& it : items) {
+    by_kind[it.kind].first += 1;
+    by_kind[it.kind].second += it.bytes;
+    total += it.bytes;
+  }
+  const std::uintmax_t freed = dry ? 0 : execute_clean(store, items);
+  if (a.has("json")) {
+    json list = json::array();
+    for (const CleanItem& it : items)
+      list.push_back({{"kind", it.kind}, {"path", it.path.string()}, {"run_id", it.run_id}, {"bytes", it.bytes}});
+    out << json{{"dry_run", dry}, {"items", list}, {"bytes", total}, {"freed_bytes", freed}}.dump(2) << "\n";
+    return 0;
+  }
+  out << "campaign clean" << (dry ? " (dry run: nothing removed)" : "") << "\n";
+  const std::pair<const char*, const char*> kinds[] = {{"retired", "retired runs' directories"},
+                                                       {"failed", "failed runs' directories"},
+                                                       {"bed", "cached beds"},
+                                                       {"lock", "lock files nobody holds"}};
+  for (const auto& [kind, label] : kinds) {
+    const bool asked = (std::string(kind) == "retired" && o.retired) || (std::string(kind) == "failed" && o.failed) ||
+                       (std::string(kind) == "bed" && o.beds) || (std::string(kind) == "lock" && o.locks);
+    if (!asked) continue;
+    const auto& [n, bytes] = by_kind[kind];
+    out << "  " << std::left << std::setw(28) << label << std::right << std::setw(5) << n << "  " << std::setw(10)
+        << human_bytes(bytes) << "\n";
+  }
+  if (dry) {
+    out << "would free " << human_bytes(total) << "\n";
+  } else {
+    out << "freed " << human_bytes(freed) << "\n";
+  }
+  return 0;
+}
+
+// ---------------------------------------------------------------- schema, completion
+const char kSchemaHelp[] =
+    "usage: campaign schema [--out FILE]\n"
+    "Print the JSON Schema of campaign specs: every key, its type, default, range and meaning,\n"
+    "generated from the tables the validator reads (docs/campaign-spec.md). An editor that\n"
+    "knows it checks a spec as it is typed and completes its keys (VS Code: docs/campaign-spec.md,\n"
+    "\"Editing specs\"). The repository keeps a copy in docs/campaign.schema.json.\n"
+    "  --out FILE   write it to FILE instead of stdout\n";
+
+int Schema(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "schema");
+  if (!a.positional.empty()) throw UsageError("campaign schema: unexpected argument \"" + a.positional[0] + "\"");
+  const std::string text = campaign_spec_schema().dump(2) + "\n";
+  if (!a.has("out")) {
+    out << text;
+    return 0;
+  }
+  const std::string file = a.get("out", "");
+  std::ofstream f(file);
+  f << text;
+  if (!f) throw std::runtime_error("campaign schema: cannot write " + file);
+  out << "schema: " << file << "\n";
+  return 0;
+}
+
+const char kCompletionHelp[] =
+    "usage: campaign completion bash\n"
+    "Print the bash completion of campaign: verbs, each verb's flags, run ids and --only filters\n"
+    "from the database (--db, or granary.db here), engines and colours. To use it now:\n"
+    "  source <(campaign completion bash)\n"
+    "and for every shell, put that line into ~/.bashrc (or the output into\n"
+    "/etc/bash_completion.d/campaign).\n";
+
+// The script: bash asks the binary (`campaign __complete CWORD WORDS...`), so completion knows
+// exactly the verbs and flags that the parser accepts and the run ids in the database.
+const char kBashCompletion[] = R"(# bash completion for campaign (Granary): source <(campaign completion bash)
+_campaign() {
+  local IFS=$'\n'
+  local words
+  words=$("${COMP_WORDS[0]}" __complete "$COMP_CWORD" "${COMP_WORDS[@]}" 2>/dev/null) || return
+  if [[ "$words" == "__files__" ]]; then
+    COMPREPLY=($(compgen -f -- "${COMP_WORDS[COMP_CWORD]}"))
+    compopt -o filenames 2>/dev/null
+    return
+  fi
+  COMPREPLY=($(compgen -W "$words" -- "${COMP_WORDS[COMP_CWORD]}"))
+}
+complete -F _campaign campaign
+)";
+
+int Completion(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "completion");
+  if (a.positional.size() != 1 || a.positional[0] != "bash")
+    throw UsageError("campaign completion: give the shell: campaign completion bash");
+  out << kBashCompletion;
+  return 0;
+}
+
+// Candidates for the word at `cword` of `words` (words[0] is the program), one per line;
+// "__files__" asks the shell for file names. Never fails: completion must stay quiet.
+void Complete(int cword, const std::vector<std::string>& words, std::ostream& out);
+
 
 // ---------------------------------------------------------------- fields
 const char kFieldsHelp[] =
@@ -1312,12 +1678,7 @@ int FieldsBench(const rundir::RunData& data, const Args& a, std::ostream& out) {
 #endif
 
 int Fields(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv,
-                       {{"out", true}, {"fields", true}, {"from", true}, {"to", true}, {"stride", true},
-                        {"max-frames", true}, {"width", true}, {"cutoff", true}, {"spacing", true},
-                        {"window", true}, {"min-phi", true}, {"threads", true}, {"json", false}, {"bench", false},
-                        {"repeat", true}, {"threads-list", true}, {"help", false}},
-                       "fields");
+  const Args a = Parse(argv, "fields");
   if (a.positional.size() != 1) throw UsageError("campaign fields: needs exactly one RUN_DIR (see campaign fields --help)");
 #ifdef GRANARY_HAVE_ANALYSIS
   const fs::path dir = a.positional[0];
@@ -1478,11 +1839,7 @@ render::PictureOptions PictureOptionsFrom(const std::string& verb, const Args& a
 #endif
 
 int Snapshot(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
-  const Args a = Parse(argv,
-                       {{"time", true}, {"clog", true}, {"first", false}, {"last", false}, {"color", true},
-                        {"forces", false}, {"highlight", true}, {"width", true}, {"out", true}, {"db", true},
-                        {"help", false}},
-                       "snapshot");
+  const Args a = Parse(argv, "snapshot");
   if (a.positional.size() != 1) throw UsageError("campaign snapshot: needs exactly one RUN (see campaign snapshot --help)");
   if (!a.has("out")) throw UsageError("campaign snapshot: --out FILE.png or FILE.svg is required");
   const fs::path file = a.get("out", "");
@@ -1513,9 +1870,7 @@ int Snapshot(const std::vector<std::string>& argv, std::ostream& out, std::ostre
 }
 
 int Movie(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args a = Parse(argv, {{"out", true}, {"fps", true}, {"color", true}, {"forces", false}, {"width", true},
-                              {"db", true}, {"help", false}},
-                       "movie");
+  const Args a = Parse(argv, "movie");
   if (a.positional.size() != 1) throw UsageError("campaign movie: needs exactly one RUN (see campaign movie --help)");
   if (!a.has("out")) throw UsageError("campaign movie: --out FILE.mp4 is required");
   const fs::path file = a.get("out", "");
@@ -1546,29 +1901,125 @@ struct Verb {
   const char* summary;
   const char* help;
   std::function<int(const std::vector<std::string>&, std::ostream&, std::ostream&)> run;
+  std::vector<FlagSpec> flags;  // what Parse accepts and bash completion offers
 };
 
 const std::vector<Verb>& Verbs() {
   static const std::vector<Verb> kVerbs = {
-      {"plan", "expand a campaign spec into runs in the database", kPlanHelp, Plan},
-      {"run", "run what is not done (resumable, leases, N at a time)", kRunHelp, Run},
-      {"status", "counts, progress, failures, ETA", kStatusHelp, Status},
-      {"scan", "rebuild run states from the run directories (and the Slurm queue)", kScanHelp, Scan},
-      {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report},
-      {"export", "write every run's (or point's) metrics as one CSV or JSON table", kExportHelp, Export},
-      {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare},
-      {"fields", "coarse-grained fields of one run directory as CSV maps; --bench", kFieldsHelp, Fields},
-      {"snapshot", "a picture of one frame of a run (PNG or SVG)", kSnapshotHelp, Snapshot},
-      {"movie", "a movie of a run's frames (MP4, ffmpeg)", kMovieHelp, Movie},
+      {"plan", "expand a campaign spec into runs in the database", kPlanHelp, Plan,
+       {{"db", true}, {"dry-run", false}, {"json", false}, {"max-runs", true}, {"help", false}}},
+      {"run", "run what is not done (resumable, leases, N at a time)", kRunHelp, Run,
+       {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"rerun-lost", false},
+        {"executor", true}, {"partition", true}, {"time", true}, {"cpus-per-run", true}, {"array-max", true},
+        {"account", true}, {"sbatch-arg", true}, {"poll-interval", true}, {"dry-run", false}, {"detach", false},
+        {"help", false}}},
+      {"status", "counts, progress, failures, ETA", kStatusHelp, Status,
+       {{"db", true}, {"only", true}, {"json", false}, {"help", false}}},
+      {"scan", "rebuild run states from the run directories (and the Slurm queue)", kScanHelp, Scan,
+       {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}},
+      {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report,
+       {{"db", true}, {"out", true}, {"only", true}, {"no-figures", false}, {"help", false}}},
+      {"export", "write every run's (or point's) metrics as one CSV or JSON table", kExportHelp, Export,
+       {{"db", true}, {"format", true}, {"level", true}, {"out", true}, {"only", true}, {"help", false}}},
+      {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare,
+       {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false}, {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"max-runs", true}, {"help", false}}},
+      {"fields", "coarse-grained fields of one run directory as CSV maps; --bench", kFieldsHelp, Fields,
+       {{"out", true}, {"fields", true}, {"from", true}, {"to", true}, {"stride", true}, {"max-frames", true},
+        {"width", true}, {"cutoff", true}, {"spacing", true}, {"window", true}, {"min-phi", true}, {"threads", true},
+        {"json", false}, {"bench", false}, {"repeat", true}, {"threads-list", true}, {"help", false}}},
+      {"show", "everything about one run: state, timings, results, parameters, files, log", kShowHelp, Show,
+       {{"db", true}, {"log", true}, {"json", false}, {"help", false}}},
+      {"clean", "remove retired (and failed) runs' directories, unused beds, stale locks", kCleanHelp, Clean,
+       {{"db", true}, {"retired", false}, {"failed", false}, {"beds", false}, {"locks", false}, {"dry-run", false},
+        {"json", false}, {"help", false}}},
+      {"schema", "the JSON Schema of campaign specs (for editors)", kSchemaHelp, Schema, {{"out", true}, {"help", false}}},
+      {"completion", "bash completion of verbs, flags and run ids", kCompletionHelp, Completion, {{"help", false}}},
+      {"snapshot", "a picture of one frame of a run (PNG or SVG)", kSnapshotHelp, Snapshot,
+       {{"time", true}, {"clog", true}, {"first", false}, {"last", false}, {"color", true}, {"forces", false}, {"highlight", true}, {"width", true}, {"out", true}, {"db", true}, {"help", false}}},
+      {"movie", "a movie of a run's frames (MP4, ffmpeg)", kMovieHelp, Movie,
+       {{"out", true}, {"fps", true}, {"color", true}, {"forces", false}, {"width", true}, {"db", true}, {"help", false}}},
   };
   return kVerbs;
+}
+
+const std::vector<FlagSpec>& FlagsOf(const std::string& verb) {
+  for (const Verb& v : Verbs())
+    if (verb == v.name) return v.flags;
+  throw std::logic_error("no verb " + verb);
+}
+
+void Complete(int cword, const std::vector<std::string>& words, std::ostream& out) {
+  auto say = [&](const std::string& w) { out << w << "\n"; };
+  if (cword <= 1 || words.size() < 2) {
+    for (const Verb& v : Verbs()) say(v.name);
+    say("--help");
+    say("--version");
+    return;
+  }
+  const Verb* verb = nullptr;
+  for (const Verb& v : Verbs())
+    if (words[1] == v.name) verb = &v;
+  if (!verb) return;
+  const std::string cur = static_cast<std::size_t>(cword) < words.size() ? words[static_cast<std::size_t>(cword)] : "";
+  const std::string prev = words[static_cast<std::size_t>(cword) - 1];
+  // The database the command line names, for run ids and filters.
+  std::string db = "granary.db";
+  for (std::size_t i = 2; i + 1 < words.size(); ++i)
+    if (words[i] == "--db") db = words[i + 1];
+  auto runs_of_db = [&](bool with_params) {
+    std::vector<RunRow> runs;
+    try {
+      if (fs::is_regular_file(db)) {
+        Store store(db, Store::ReadOnly{});
+        runs = load_runs(store, with_params);
+      }
+    } catch (const std::exception&) {
+    }
+    return runs;
+  };
+  const auto flag = std::find_if(verb->flags.begin(), verb->flags.end(),
+                                 [&](const FlagSpec& f) { return prev == "--" + f.name; });
+  if (flag != verb->flags.end() && flag->takes_value) {
+    const std::string name = flag->name;
+    if (name == "engine") {
+      say("native");
+      say("liggghts");
+    } else if (name == "color") {
+      for (const char* c : {"species", "speed", "rotation", "force"}) say(c);
+    } else if (name == "only") {
+      std::set<std::string> seen;
+      for (const RunRow& r : runs_of_db(false)) {
+        seen.insert(r.run_id);
+        for (const auto& [axis, value] : r.point.items()) seen.insert(axis + "=" + value.dump());
+      }
+      for (const auto& w : seen) say(w);
+    } else if (name == "db" || name == "out") {
+      say("__files__");
+    }
+    return;
+  }
+  if (cur.rfind("-", 0) == 0) {
+    for (const FlagSpec& f : verb->flags) say("--" + f.name);
+    return;
+  }
+  const std::string v = verb->name;
+  if (v == "show" || v == "snapshot" || v == "movie") {
+    for (const RunRow& r : runs_of_db(false)) say(r.run_id);
+  } else if (v == "plan" || v == "compare") {
+    say("__files__");
+  } else if (v == "completion") {
+    say("bash");
+  }
 }
 
 std::string MainHelp() {
   std::string h =
       "usage: campaign VERB [flags]   (campaign VERB --help for its flags)\n"
       "Granary campaign manager: plan, run and report sweeps of 2-D silo discharge simulations.\n\nverbs:\n";
-  for (const auto& v : Verbs()) h += "  " + std::string(v.name) + std::string(10 - std::string(v.name).size(), ' ') + v.summary + "\n";
+  std::size_t width = 0;
+  for (const auto& v : Verbs()) width = std::max(width, std::string(v.name).size());
+  for (const auto& v : Verbs())
+    h += "  " + std::string(v.name) + std::string(width + 2 - std::string(v.name).size(), ' ') + v.summary + "\n";
   h += "\nexit codes: 0 ok, 1 runs failed, 2 usage or spec error, 3 storage (database or run directories),\n"
        "130 interrupted (docs/cli.md)\n";
   return h;
@@ -1580,6 +2031,11 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
     (args.empty() ? err : out) << MainHelp();
     return args.empty() ? static_cast<int>(ExitCode::kUsage) : 0;
+  }
+  if (args[0] == "__complete") {  // asked by the bash completion script; not a verb of its own
+    const int cword = args.size() > 1 ? std::atoi(args[1].c_str()) : 0;
+    Complete(cword, std::vector<std::string>(args.begin() + std::min<std::size_t>(2, args.size()), args.end()), out);
+    return 0;
   }
   if (args[0] == "--version") {
     out << "campaign " << GRANARY_VERSION << " (" << granary::GitCommit() << ")\n";

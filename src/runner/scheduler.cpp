@@ -21,6 +21,7 @@
 #include "rundir/progress.h"
 #include "rundir/run_directory.h"
 #include "runner/slurm.h"
+#include "runner/run_filter.h"
 
 namespace granary::runner {
 
@@ -30,25 +31,7 @@ const char kLostRunDirectory[] = "its run directory was deleted after it finishe
 using nlohmann::json;
 
 bool matches_filter(const RunRow& row, const std::string& filter) {
-  if (filter.empty()) return true;
-  const auto eq = filter.find('=');
-  if (eq == std::string::npos || filter[0] != '/') return row.run_id.rfind(filter, 0) == 0;
-  const std::string pointer = filter.substr(0, eq);
-  const std::string text = filter.substr(eq + 1);
-  json::json_pointer ptr;
-  try {
-    ptr = json::json_pointer(pointer);
-  } catch (const json::exception&) {
-    return false;
-  }
-  if (!row.params.contains(ptr)) return false;
-  const json value = json::parse(text, nullptr, false);
-  const json& actual = row.params[ptr];
-  if (!value.is_discarded()) {
-    if (value.is_number() && actual.is_number()) return value.get<double>() == actual.get<double>();
-    if (value == actual) return true;
-  }
-  return actual.is_string() && actual.get<std::string>() == text;
+  return filter.empty() || RunFilter(std::vector<std::string>{filter}).matches(row);
 }
 
 
@@ -146,9 +129,10 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   };
   const int recovered = recover_expired_leases(store, me, now_seconds());
 
+  const RunFilter filter(options.only);
   auto accept = [&](const RunRow& r) {
     if ((options.engine == "native" || options.engine == "liggghts") && r.engine != options.engine) return false;
-    return matches_filter(r, options.only);
+    return filter.matches(r);
   };
   // Done runs whose directory was deleted: their results are in the database, but nothing
   // can analyse them. Said at every start; run again on request.
@@ -158,8 +142,8 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   const int requeued = options.rerun_lost ? requeue_done_runs(store, lost, kLostRunDirectory) : 0;
 
   int total = 0, done = 0, failed = 0;
-  for (const auto& r : load_runs(store, false)) {
-    if (r.state == "retired") continue;
+  for (const auto& r : load_runs(store, !filter.empty())) {
+    if (r.state == "retired" || !filter.matches(r)) continue;
     ++total;
     if (r.state == "done") ++done;
     if (r.state == "failed") ++failed;
@@ -224,9 +208,10 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     }
     ++done;
     if (row.state == "failed") --failed;
-    observer.on_event(row.run_id, "done",
-                      (summary.end_reason.empty() ? std::string("finished") : summary.end_reason) + " in " +
-                          std::to_string(static_cast<int>(wall)) + " s");
+    std::ostringstream what;
+    what << (summary.end_reason.empty() ? std::string("finished") : summary.end_reason) << " at t = " << summary.t_end
+         << ", " << summary.exited << " exits, " << static_cast<int>(wall) << " s";
+    observer.on_event(row.run_id, "done", what.str());
     return true;
   };
 
@@ -445,6 +430,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
           ActiveRun a;
           a.run_id = id;
           a.point = slot.row.point.dump();
+          a.replica = slot.row.replica;
           a.attempt = slot.row.attempts;
           a.elapsed = now - slot.started;
           if (auto q = queue_state.find(id); q != queue_state.end()) a.queue_state = q->second;

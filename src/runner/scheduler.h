@@ -22,7 +22,7 @@ enum class ExitCode : int { kOk = 0, kRunsFailed = 1, kUsage = 2, kStorage = 3, 
 struct RunOptions {
   int jobs = 1;
   std::string engine;         // "" = each run's own; "native"/"liggghts" = only those; a path = that executable
-  std::string only;           // run-id prefix, or POINTER=VALUE on the resolved parameters
+  std::vector<std::string> only;  // --only filters with full pointers (run_filter.h); none = every run
   int threads_per_run = 1;
   double time_limit = 0;      // seconds of wall time per run; 0 = none
   int retries = 1;            // extra attempts per run within this invocation
@@ -42,7 +42,8 @@ struct RunOptions {
 
 struct ActiveRun {
   std::string run_id;
-  std::string point;  // compact sweep point
+  std::string point;  // the sweep point's JSON
+  int replica = 0;
   int attempt = 0;
   double elapsed = 0;
   nlohmann::json progress;  // progress.json or null
@@ -68,7 +69,7 @@ std::pair<std::string, std::string> end_state_of(const Finished& f, bool timed_o
 // The failure note of a done run put back to planned because its directory was deleted.
 extern const char kLostRunDirectory[];
 
-// Does `row` pass the --only filter?
+// Does `row` pass the --only filter (one filter; RunFilter for several)?
 bool matches_filter(const RunRow& row, const std::string& filter);
 
 // Runs what is not done. `stop` is set asynchronously (signal handler) to request a clean stop.

@@ -1,6 +1,8 @@
 // SQLite ownership and migrations; see store.h.
 #include "runner/store.h"
 
+#include <filesystem>
+
 #include "runner/migrations_sql.h"
 
 namespace granary::runner {
@@ -75,12 +77,29 @@ double Statement::real(int col) const { return sqlite3_column_double(stmt_.get()
 std::int64_t Statement::integer(int col) const { return sqlite3_column_int64(stmt_.get(), col); }
 
 Store::Store(const std::string& path, int upto_version) : path_(path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw StoreError(SQLITE_CANTOPEN, path + " is a directory, not a campaign database (give the file, e.g. " +
+                                          (std::filesystem::path(path) / "granary.db").string() + ")");
   sqlite3* raw = nullptr;
   const int rc = sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
   db_.reset(raw);
   if (rc != SQLITE_OK) Fail(raw, rc, "opening database " + path);
   // Several runners may share one database: wait for locks instead of failing at once.
   sqlite3_busy_timeout(db_.get(), 30000);
+  // The first read of the file: anything but an SQLite database fails here. Say so plainly.
+  if (sqlite3_exec(db_.get(), "PRAGMA schema_version", nullptr, nullptr, nullptr) == SQLITE_NOTADB)
+    throw StoreError(SQLITE_NOTADB, path + " is not a campaign database (not an SQLite file; campaign plan SPEC --db "
+                                           "FILE makes one)");
+  if (schema_version() == 0) {
+    // An SQLite file of something else: never add our tables to it.
+    Statement t = prepare("SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name");
+    std::string tables;
+    while (t.step()) tables += (tables.empty() ? "" : ", ") + t.text(0);
+    if (!tables.empty())
+      throw StoreError(SQLITE_NOTADB, path + " is an SQLite database but not a campaign database (it has the tables " +
+                                          tables + "); give another --db");
+  }
   exec("PRAGMA journal_mode = WAL");
   exec("PRAGMA synchronous = NORMAL");
   exec("PRAGMA foreign_keys = ON");
@@ -102,6 +121,16 @@ Store::Store(const std::string& path, int upto_version) : path_(path) {
     exec("PRAGMA user_version = " + std::to_string(version));
   }
   tx.commit();
+}
+
+Store::Store(const std::string& path, ReadOnly) : path_(path) {
+  sqlite3* raw = nullptr;
+  const int rc = sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READONLY, nullptr);
+  db_.reset(raw);
+  if (rc != SQLITE_OK) Fail(raw, rc, "opening database " + path);
+  sqlite3_busy_timeout(db_.get(), 1000);
+  if (schema_version() > static_cast<int>(migrations().size()))
+    throw StoreError(SQLITE_ERROR, "database " + path + " is newer than this granary");
 }
 
 void Store::exec(const std::string& sql) {

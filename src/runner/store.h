@@ -63,6 +63,10 @@ class Store {
   // Opens (creating if missing) and migrates to the newest schema. `upto_version` stops the
   // migrations early (tests build an old database with it).
   explicit Store(const std::string& path, int upto_version = -1);
+  // An existing database opened read-only, as it is: no migration, no journal change (shell
+  // completion reads run ids while a runner writes). Throws StoreError if it cannot be read.
+  struct ReadOnly {};
+  Store(const std::string& path, ReadOnly);
   Store(const Store&) = delete;
   Store& operator=(const Store&) = delete;
 

@@ -25,14 +25,24 @@ TEST(EngineComparison, AgreementRatioAndItsError) {
   const MetricAgreement m = agreement_of(d);
   EXPECT_DOUBLE_EQ(m.ratio, 1.12);
   EXPECT_NEAR(m.ratio_se, 1.12 * std::hypot(0.03, 0.4 / 11.2), 1e-12);
-  EXPECT_FALSE(m.agree);  // 2.4 combined se apart
+  EXPECT_EQ(m.agree, std::optional<bool>(false));  // 2.4 combined se apart
   d.b = ms(10.9, 0.4, 4);
   d.difference = -0.9;
   d.z = -1.8;
-  EXPECT_TRUE(agreement_of(d).agree);
-  // Unknown uncertainty (one replica): no claim of agreement; exact equality with se 0 agrees.
-  EXPECT_FALSE(agreement_of(MetricDifference{"phi", ms(0.8, kNaN, 1), ms(0.8, kNaN, 1), 0.0, kNaN, kNaN}).agree);
-  EXPECT_TRUE(agreement_of(MetricDifference{"psi", ms(0.0, 0.0, 3), ms(0.0, 0.0, 3), 0.0, 0.0, kNaN}).agree);
+  EXPECT_EQ(agreement_of(d).agree, std::optional<bool>(true));
+  // Unknown uncertainty (one replica): neither agreement nor disagreement, even for equal
+  // values; exact equality with se 0 agrees, a difference with se 0 does not.
+  EXPECT_EQ(agreement_of(MetricDifference{"phi", ms(0.8, kNaN, 1), ms(0.8, kNaN, 1), 0.0, kNaN, kNaN}).agree,
+            std::nullopt);
+  EXPECT_EQ(agreement_of(MetricDifference{"phi", ms(0.8, 0.01, 3), ms(0.5, kNaN, 1), 0.3, kNaN, kNaN}).agree,
+            std::nullopt);
+  EXPECT_EQ(agreement_of(MetricDifference{"psi", ms(0.0, 0.0, 3), ms(0.0, 0.0, 3), 0.0, 0.0, kNaN}).agree,
+            std::optional<bool>(true));
+  EXPECT_EQ(agreement_of(MetricDifference{"psi", ms(0.0, 0.0, 3), ms(0.1, 0.0, 3), -0.1, 0.0, kNaN}).agree,
+            std::optional<bool>(false));
+  EXPECT_EQ(agreement_text(std::nullopt), "n/a");
+  EXPECT_EQ(agreement_text(true), "yes");
+  EXPECT_EQ(agreement_text(false), "no");
 }
 
 EnginePoint point(double w, double q, double se) {
@@ -77,9 +87,9 @@ TEST(EngineComparison, MatchesPointsBySweepValuesAndSumsCosts) {
   ASSERT_EQ(c.points.size(), 2u);  // W = 18 and 22 are on one engine only
   EXPECT_EQ(c.points[0].point["/silo/base_outlets/0/width"], 10);
   EXPECT_DOUBLE_EQ(c.points[0].metrics[0].ratio, 19.0 / 20.0);
-  EXPECT_TRUE(c.points[0].metrics[0].agree);
+  EXPECT_EQ(c.points[0].metrics[0].agree, std::optional<bool>(true));
   EXPECT_DOUBLE_EQ(c.points[1].metrics[0].ratio, 1.1);
-  EXPECT_FALSE(c.points[1].metrics[0].agree);  // 4 / sqrt(2) = 2.8 se apart
+  EXPECT_EQ(c.points[1].metrics[0].agree, std::optional<bool>(false));  // 4 / sqrt(2) = 2.8 se apart
   ASSERT_EQ(c.costs.size(), 2u);
   EXPECT_EQ(c.costs[0].runs, 2);
   EXPECT_DOUBLE_EQ(c.costs[0].wall_s, 30.0);
@@ -158,6 +168,7 @@ TEST(EngineComparison, ReportOfATwoEngineCampaign) {
     const double w = p["point"]["/silo/base_outlets/0/width"];
     const auto& q = p["metrics"]["q_count"];
     EXPECT_NEAR(q["ratio"].get<double>(), factor.at(w), 1e-3) << "W = " << w;
+    ASSERT_TRUE(q["agree"].is_boolean()) << "W = " << w;
     EXPECT_EQ(q["agree"].get<bool>(), w == 10.0) << "W = " << w;
     EXPECT_EQ(q["native"]["n"], 2);
   }
@@ -170,9 +181,49 @@ TEST(EngineComparison, ReportOfATwoEngineCampaign) {
   EXPECT_NE(md.find("`liggghts` the spring part only"), std::string::npos);
   // The synthetic native runs reinject at random, the LIGGGHTS ones say "periodic".
   EXPECT_NE(md.find("Reinjection: native `random`, liggghts `periodic`"), std::string::npos);
-  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_comparison.csv"));
-  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_cost.csv"));
-  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "engine_ratio--Q_bodies_sqrt_d_g.csv"));
+  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "data" / "engine_comparison.csv"));
+  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "data" / "engine_cost.csv"));
+  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "data" / "engine_ratio--Q_bodies_sqrt_d_g.csv"));
+}
+
+// One replica per point and engine: no standard error, so agreement cannot be judged. The
+// report and its JSON say "n/a" / null for every metric, never "no" / false.
+TEST(EngineComparison, OneReplicaIsNotJudged) {
+  TempDir dir;
+  CampaignInfo info;
+  info.name = "one-replica";
+  info.axes = {"/silo/base_outlets/0/width"};
+  std::vector<RunRecord> runs;
+  for (const double w : {10.0, 14.0})
+    for (const std::string engine : {"native", "liggghts"}) {
+      RunRecord r;
+      r.engine = engine;
+      r.point_id = engine + std::to_string(static_cast<int>(w));
+      r.run_id = r.point_id + "r0";
+      r.state = "done";
+      r.point = {{"/silo/base_outlets/0/width", w}};
+      r.run_dir = dir.path() / r.run_id;
+      write_run(r.run_dir, engine, w, w * (engine == "native" ? 1.0 : 1.5), 300, 1e7);
+      r.spec = nlohmann::json::parse(read_file(r.run_dir / "run.json"));
+      runs.push_back(r);
+    }
+  ReportOptions o;
+  o.out_dir = dir.path() / "report";
+  o.figures = false;
+  const ReportSummary s = write_report(info, runs, o);
+  ASSERT_EQ(s.comparison["points"].size(), 2u);
+  int metrics = 0;
+  for (const auto& p : s.comparison["points"])
+    for (const auto& [name, m] : p["metrics"].items()) {
+      EXPECT_TRUE(m["agree"].is_null()) << name << ": " << m.dump();
+      EXPECT_TRUE(m["z"].is_null()) << name;
+      ++metrics;
+    }
+  EXPECT_GT(metrics, 2) << read_file(s.markdown);
+  const std::string table = read_file(o.out_dir / "data" / "engine_comparison.csv");
+  EXPECT_NE(table.find("n/a"), std::string::npos);
+  EXPECT_EQ(table.find(",no"), std::string::npos) << table;
+  EXPECT_EQ(table.find(",yes"), std::string::npos) << table;
 }
 
 TEST(EngineComparison, OneEngineMeansNoComparison) {

@@ -113,9 +113,9 @@ TEST(ExtraAnalysis, RegisteredInATestAppearsInReportExportAndComparison) {
     const ReportSummary s = write_report(*a, o);
     const std::string md = read_file(s.markdown);
     EXPECT_NE(md.find("## Exit rate (registered by a test)"), std::string::npos);
-    EXPECT_NE(read_file(o.out_dir / "per_run.csv").find(",exit_rate,"), std::string::npos);  // a headline metric
+    EXPECT_NE(read_file(o.out_dir / "data" / "per_run.csv").find(",exit_rate,"), std::string::npos);  // a headline metric
     // 200 exits in 200/q: rate q, scaled by 2 from the options.
-    const std::string table = read_file(o.out_dir / "exit_rate.csv");
+    const std::string table = read_file(o.out_dir / "data" / "exit_rate.csv");
     EXPECT_EQ(table.substr(0, table.find('\n')), "point,exit_rate,exit_rate_se,exit_rate_n");
     EXPECT_NE(table.find("\"base_outlets.0.width=9, engine=native\",18,0,2"), std::string::npos) << table;
 

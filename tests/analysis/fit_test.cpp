@@ -99,6 +99,8 @@ TEST(Fit, UndeterminedParameterHasNoError) {
   EXPECT_GT(r.parameter("a")->se, 0.0);
   EXPECT_TRUE(std::isnan(r.parameter("b")->se));
   EXPECT_EQ(r.warning, "b not determined by the data");
+  EXPECT_EQ(r.quality, FitQuality::kIllDetermined);
+  EXPECT_EQ(r.verdict(), "ill-determined: b not determined by the data");
 }
 
 TEST(Fit, ConfidenceIntervalsCoverTheTruth) {
@@ -123,11 +125,54 @@ TEST(Fit, ConfidenceIntervalsCoverTheTruth) {
 }
 
 TEST(Fit, TooFewPointsIsReportedNotFitted) {
-  const std::vector<double> x = {10, 12};
-  const std::vector<double> y = {20, 30};
-  const FitResult r = fit_model(beverloo_2d(), x, y);
+  const std::vector<double> x = {10, 12, 14};
+  const std::vector<double> y = {20, 30, 41};
+  // Three widths, three parameters: nothing to fit. The start values are not results.
+  const FitResult r = fit_model(with_data_guess(beverloo_free(), x, y), x, y);
   EXPECT_FALSE(r.ok());
-  EXPECT_EQ(r.status, "not fitted: 2 point(s) for 2 parameter(s)");
+  EXPECT_EQ(r.quality, FitQuality::kNotFitted);
+  EXPECT_EQ(r.verdict(), "not fitted: 3 points for 3 parameters (needs at least 4)");
+  for (const FitParameter& p : r.parameters) {
+    EXPECT_TRUE(std::isnan(p.value)) << p.name << " = " << p.value;
+    EXPECT_TRUE(std::isfinite(p.initial)) << p.name;
+  }
+  EXPECT_EQ(r.parameter("b")->initial, 1.5);
+}
+
+TEST(Fit, GoodFitSaysGood) {
+  const Data d = make_data([](double w) { return 0.8 * std::pow(w - 1.5, 1.5); }, 0.5, 1);
+  const FitResult r = fit_model(with_data_guess(beverloo_2d(), d.x, d.y), d.x, d.y, d.sigma);
+  EXPECT_EQ(r.quality, FitQuality::kGood);
+  EXPECT_EQ(r.verdict(), "good");
+}
+
+// The demo's four widths (W = 5, 7, 9, 12) under the free-exponent law: GSL converges, but
+// C, k and b each have a 95% interval holding 0 (C in [-20, 22]): ill-determined, not good.
+TEST(Fit, FreeExponentFromFourPointsIsIllDetermined) {
+  const std::vector<double> x = {5, 7, 9, 12};
+  const std::vector<double> y = {1.695, 2.834, 6.472, 9.55};
+  const FitResult r = fit_model(with_data_guess(beverloo_free(), x, y), x, y);
+  ASSERT_TRUE(r.ok()) << r.status;
+  EXPECT_EQ(r.quality, FitQuality::kIllDetermined);
+  for (const FitParameter& p : r.parameters) EXPECT_TRUE(p.ci_spans_zero()) << p.name;
+  EXPECT_EQ(r.verdict(), "ill-determined: 95% CI of C, k, b include 0; 1 degree of freedom");
+  // The 2-parameter law on the same points determines C but not k's sign.
+  const FitResult two = fit_model(with_data_guess(beverloo_2d(), x, y), x, y);
+  EXPECT_EQ(two.quality, FitQuality::kIllDetermined);
+  EXPECT_FALSE(two.parameter("C")->ci_spans_zero());
+  EXPECT_EQ(two.verdict(), "ill-determined: 95% CI of k includes 0");
+}
+
+TEST(Fit, SolverFailureShowsNoValues) {
+  // No parameter step reduces the residuals (the model overflows for every a near the
+  // start), so the solver stops without converging: its last step is not an estimate.
+  const std::vector<double> x = {1, 2, 3, 4, 5};
+  const std::vector<double> y = {1, 2, 3, 4, 5};
+  const FitResult r = fit_model({"overflow", "exp(exp(a * x))", "x", {{"a", 10.0}}}, x, y);
+  EXPECT_FALSE(r.ok()) << r.verdict();
+  EXPECT_EQ(r.quality, FitQuality::kFailed);
+  EXPECT_TRUE(std::isnan(r.parameter("a")->value));
+  EXPECT_EQ(r.verdict().rfind("failed: ", 0), 0u) << r.verdict();
 }
 
 TEST(Fit, BadModelTextThrows) { EXPECT_THROW(fit_model({"bad", "C*(x", "x", {}}, {}, {}), ExpressionError); }

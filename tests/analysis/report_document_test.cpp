@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+
 #include <cmath>
 #include <cstdlib>
 
@@ -50,12 +52,12 @@ TEST(RenderReport, TablesFiguresAndCsv) {
   const RenderResult r = render_report("Title", {s}, out, opt);
   const std::string md = read_file(r.markdown);
   EXPECT_NE(md.find("| x\\|y | 1,5 |"), std::string::npos) << md;
-  EXPECT_EQ(read_file(out / "tab.csv"), "name,value\nx|y,\"1,5\"\n");
-  EXPECT_EQ(read_file(out / "numbers.csv"),
+  EXPECT_EQ(read_file(out / "data" / "tab.csv"), "name,value\nx|y,\"1,5\"\n");
+  EXPECT_EQ(read_file(out / "data" / "numbers.csv"),
             "point,q,q_se,q_n,count\na,0.6666666666666666,0.125,4,7\nb,1.5,nan,1,nan\n");
   EXPECT_NE(md.find("| a | 0.6667 ± 0.12 (4) | 7 |"), std::string::npos) << md;
   // A figure's data files are named after what they hold.
-  EXPECT_EQ(read_file(out / "fig--data.csv"), "x,y,y_se\n1,2,0.1\n2,4,nan\n3,6,0.3\n");
+  EXPECT_EQ(read_file(out / "data" / "fig--data.csv"), "x,y,y_se\n1,2,0.1\n2,4,nan\n3,6,0.3\n");
   const std::string html = read_file(r.html);
   EXPECT_NE(html.find("<b>bold</b>"), std::string::npos);
   EXPECT_NE(html.find("<code>code</code>"), std::string::npos);
@@ -65,6 +67,23 @@ TEST(RenderReport, TablesFiguresAndCsv) {
     EXPECT_NE(html.find("<svg"), std::string::npos);
     EXPECT_EQ(html.find("<?xml"), std::string::npos);
   }
+}
+
+// A curve of means with standard errors draws its error bars; without an se column it is a
+// plain line with points.
+TEST(GnuplotScript, LinesWithErrorBars) {
+  Series se;
+  se.label = "profile";
+  se.columns = {"x", "v", "v_se"};
+  se.rows = {{-0.5, -0.2, 0.05}, {0.0, -1.0, 0.1}, {0.5, -0.2, std::nan("")}};
+  se.style = Series::Style::kLinesPoints;
+  se.err = 2;
+  Figure f{"prof", "Profile", "x/W", "v", {se}, false, false, ""};
+  EXPECT_NE(gnuplot_script(f).find("using ($1):($2):(valid(3) && $3 == $3 ? $3 : 0) with yerrorlines"), std::string::npos)
+      << gnuplot_script(f);
+  f.series[0].err = -1;
+  EXPECT_EQ(gnuplot_script(f).find("yerror"), std::string::npos);
+  EXPECT_NE(gnuplot_script(f).find("with linespoints"), std::string::npos);
 }
 
 TEST(RenderReport, CurveFilesAreNamedAfterTheirLabelsAndUnique) {
@@ -90,8 +109,101 @@ TEST(RenderReport, MissingGnuplotIsReported) {
   EXPECT_EQ(r.figures_drawn, 0);
   ASSERT_FALSE(r.problems.empty());
   EXPECT_NE(read_file(r.markdown).find("gnuplot ('no-such-gnuplot-binary') was not found"), std::string::npos);
-  EXPECT_TRUE(std::filesystem::exists(dir.path() / "fig--curve1.csv"));  // no label: numbered
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "data" / "fig--curve1.csv"));  // no label: numbered
 }
 
 }  // namespace
+
+// issue 18: figures a referee can read.
+Series points_at(const std::string& label, std::vector<std::vector<double>> rows,
+                 Series::Style style = Series::Style::kErrorBars) {
+  Series se;
+  se.label = label;
+  se.columns = {"x", "y", "y_se"};
+  se.rows = std::move(rows);
+  se.style = style;
+  se.err = style == Series::Style::kErrorBars ? 2 : -1;
+  return se;
+}
+
+TEST(GnuplotScript, TwelveCurvesTakeTwelveDistinctColours) {
+  Figure f{"many", "Many", "x", "y", {}, false, false, ""};
+  for (int k = 0; k < 12; ++k) f.series.push_back(points_at("c" + std::to_string(k), {{k + 1.0, 1.0, 0.1}}));
+  const std::string gp = gnuplot_script(f);
+  for (int k = 1; k <= 12; ++k)
+    EXPECT_NE(gp.find(" lt " + std::to_string(k) + " lw 1.5 title 'c" + std::to_string(k - 1) + "'"), std::string::npos) << gp;
+  // Every pair of palette colours is far apart in RGB (and none is near the black of the
+  // reference lines).
+  auto rgb = [](const char* hex) {
+    const unsigned v = static_cast<unsigned>(std::stoul(std::string(hex + 1), nullptr, 16));
+    return std::array<double, 3>{double(v >> 16), double((v >> 8) & 255), double(v & 255)};
+  };
+  auto distance = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
+    return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+  };
+  for (int i = 0; i < kPaletteSize; ++i) {
+    EXPECT_GT(distance(rgb(kPalette[i]), {0, 0, 0}), 60) << kPalette[i];
+    for (int j = i + 1; j < kPaletteSize; ++j)
+      EXPECT_GT(distance(rgb(kPalette[i]), rgb(kPalette[j])), 60) << kPalette[i] << " " << kPalette[j];
+    EXPECT_NE(gp.find(std::string("lc rgb '") + kPalette[i] + "'"), std::string::npos);
+  }
+}
+
+TEST(GnuplotScript, AxesFitTheDataNotTheFittedCurves) {
+  // Non-negative values whose error bars reach below 0, and a fitted line down to -20.
+  Series fit = points_at("fit", {{0.0, -20.0}, {10.0, 12.0}}, Series::Style::kLines);
+  fit.role = Series::Role::kFit;
+  Figure f{"axes", "Axes", "x", "y", {points_at("data", {{2.0, 0.5, 1.0}, {8.0, 10.0, 0.5}}), fit}, false, false, ""};
+  const std::string gp = gnuplot_script(f);
+  EXPECT_NE(gp.find("set yrange [0:"), std::string::npos) << gp;        // no negative axis for >= 0 values
+  EXPECT_NE(gp.find("set xrange [1.7:8.3]"), std::string::npos) << gp;  // the data's x, 5 % margin
+  EXPECT_EQ(gp.find("-20"), std::string::npos) << gp;
+  EXPECT_NE(gp.find("dt 2"), std::string::npos) << gp;                  // the fit: dashed
+  // Values below 0 keep their negative axis.
+  f.series[0].rows[0][1] = -3.0;
+  EXPECT_NE(gnuplot_script(f).find("set yrange [-"), std::string::npos);
+}
+
+TEST(GnuplotScript, PointsOfSeveralCurvesAtOneXAreDrawnSideBySide) {
+  Figure f{"side", "Side", "x", "y",
+           {points_at("a", {{1.0, 1.0, 0.1}, {2.0, 2.0, 0.1}}), points_at("b", {{1.0, 1.0, 0.1}, {2.0, 2.0, 0.1}})},
+           false, false, ""};
+  std::string gp = gnuplot_script(f);
+  // A quarter of the gap between x values, split between the two curves.
+  EXPECT_NE(gp.find("using ($1+-0.125):($2)"), std::string::npos) << gp;
+  EXPECT_NE(gp.find("using ($1+0.125):($2)"), std::string::npos) << gp;
+  f.series.pop_back();  // one curve: drawn where it is
+  gp = gnuplot_script(f);
+  EXPECT_NE(gp.find("using ($1):($2)"), std::string::npos) << gp;
+}
+
+TEST(GnuplotScript, ReferenceLinesCanBeToldApart) {
+  Figure f{"ref", "Ref", "x", "ratio", {points_at("r", {{1.0, 1.0, 0.1}, {2.0, 1.05, 0.1}})}, false, false, ""};
+  for (const char* label : {"equal", "-10 %", "+10 %"}) {
+    Series line = points_at(label, {{1.0, 1.0}, {2.0, 1.0}}, Series::Style::kLines);
+    line.role = Series::Role::kReference;
+    f.series.push_back(line);
+  }
+  const std::string gp = gnuplot_script(f);
+  EXPECT_NE(gp.find("lc rgb '#000000' dt 1 lw 1.5 title 'equal'"), std::string::npos) << gp;
+  EXPECT_NE(gp.find("dt 2 lw 1.5 title '-10 %'"), std::string::npos) << gp;
+  EXPECT_NE(gp.find("dt 3 lw 1.5 title '+10 %'"), std::string::npos) << gp;
+}
+
+TEST(RenderReport, FilesAreGroupedIntoDataAndFigures) {
+  TempDir dir;
+  Figure f{"g", "G", "x", "y", {points_at("a", {{1.0, 1.0, 0.1}})}, false, false, ""};
+  Table t{"tab", "T", {"a"}, {{Cell("1")}}, {}};
+  const RenderResult r = render_report("grouped", {Section{"s", "S", {t, f}}}, dir.path(), RenderOptions{});
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "data" / "tab.csv"));
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "data" / "g--a.csv"));
+  for (const auto& e : std::filesystem::directory_iterator(dir.path()))
+    EXPECT_TRUE(e.is_directory() || e.path().extension() == ".md" || e.path().extension() == ".html") << e.path();
+  if (r.figures_drawn > 0) {
+    EXPECT_TRUE(std::filesystem::exists(dir.path() / "figures" / "g.svg"));
+    EXPECT_FALSE(std::filesystem::exists(dir.path() / "figures" / "g.gp.log"));  // kept only when gnuplot fails
+  }
+  EXPECT_NE(read_file(dir.path() / "report.html").find("href=\"data/tab.csv\""), std::string::npos);
+}
+
 }  // namespace granary::analysis

@@ -108,7 +108,7 @@ TEST(ReportOutlets, TwoBaseOutletsAgainstTheGapWithFlowPerOutlet) {
       c.add("L" + format_number(l), point, spec, {stream(f * (5.0 - l / 4.0), 0.5, 60.0), stream(f * 3.0, 0.7, 60.0)}, 60.0);
   }
   const auto out = c.report(dir.path() / "report");
-  const std::string flow = read_file(out / "flow_rate.csv");
+  const std::string flow = read_file(out / "data" / "flow_rate.csv");
   EXPECT_EQ(flow.substr(0, flow.find('\n')),
             "point,q_count,q_count_se,q_count_n,q_mass,q_mass_se,q_mass_n,q_count_outlet0,q_count_outlet0_se,"
             "q_count_outlet0_n,q_count_outlet1,q_count_outlet1_se,q_count_outlet1_n");
@@ -117,12 +117,12 @@ TEST(ReportOutlets, TwoBaseOutletsAgainstTheGapWithFlowPerOutlet) {
   EXPECT_NEAR(std::stod(csv_cell(flow, {"L=8"}, 10)), 3.0, 1e-3);
   EXPECT_NEAR(std::stod(csv_cell(flow, {"L=0"}, 1)), 8.0, 0.1);  // merged streams: nearly q0 + q1
   // The figure of each outlet against L (edge-to-edge gap computed from the centres).
-  const std::string outlet0 = read_file(out / "flow_rate_per_outlet--base_0.csv");
+  const std::string outlet0 = read_file(out / "data" / "flow_rate_per_outlet--base_0.csv");
   EXPECT_EQ(outlet0.substr(0, outlet0.find('\n')), "L,Q,Q_se,n");
   EXPECT_NEAR(std::stod(cell_of_row(outlet0, "4", 1)), 4.0, 1e-3);
   EXPECT_NEAR(std::stod(cell_of_row(outlet0, "4", 2)), 0.04, 1e-3);  // se of the -+1% replicas
   EXPECT_EQ(std::count(outlet0.begin(), outlet0.end(), '\n'), 4);
-  EXPECT_NEAR(std::stod(cell_of_row(read_file(out / "flow_rate_per_outlet--base_1.csv"), "8", 1)), 3.0, 1e-3);
+  EXPECT_NEAR(std::stod(cell_of_row(read_file(out / "data" / "flow_rate_per_outlet--base_1.csv"), "8", 1)), 3.0, 1e-3);
   const std::string md = read_file(out / "report.md");
   EXPECT_NE(md.find("against L/d (gap between base outlets 0 and 1, edge to edge)"), std::string::npos);
   EXPECT_EQ(md.find("Fits of Q(W/d)"), std::string::npos);  // x is not a width: no Beverloo fits
@@ -143,10 +143,10 @@ TEST(ReportOutlets, FitsAndHeadlineUseTheSweptOutlet) {
             {stream(f * beverloo(w), 0.5, 60.0), stream(10.0, 0.6, 60.0)}, 60.0);
   }
   const auto out = c.report(dir.path() / "report");
-  const std::string fits = read_file(out / "flow_rate_fits.csv");
+  const std::string fits = read_file(out / "data" / "flow_rate_fits.csv");
   EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",C,"}, 3)), kC, 1e-3);
   EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",k,"}, 3)), kK, 1e-3);
-  const std::string headline = read_file(out / "flow_rate--Q.csv");
+  const std::string headline = read_file(out / "data" / "flow_rate--Q.csv");
   EXPECT_NEAR(std::stod(cell_of_row(headline, "6", 1)), beverloo(6.0), 1e-3);
   EXPECT_NE(read_file(out / "report.md").find("Flow rate Q through base 0 against W/d"), std::string::npos);
 }
@@ -167,7 +167,7 @@ TEST(ReportOutlets, SideOutletWidthCountsAfterTheBaseOutlets) {
             {stream(5.0, 0.5, 60.0), stream(f * beverloo(w), 0.6, 60.0)}, 60.0);
   }
   const auto out = c.report(dir.path() / "report");
-  EXPECT_NEAR(std::stod(csv_cell(read_file(out / "flow_rate_fits.csv"), {"beverloo_2d", ",k,"}, 3)), kK, 1e-3);
+  EXPECT_NEAR(std::stod(csv_cell(read_file(out / "data" / "flow_rate_fits.csv"), {"beverloo_2d", ",k,"}, 3)), kK, 1e-3);
   EXPECT_NE(read_file(out / "report.md").find("Q side 1 (right)"), std::string::npos);
 }
 
@@ -184,12 +184,12 @@ TEST(ReportOutlets, AvalanchesAndIntermittencyOfOneOutletWhileTheOtherFlows) {
   small.insert(small.end(), late.begin(), late.end());
   c.add("W4", {{"/silo/base_outlets/0/width", 4}}, spec, {small, stream(4.0, 0.25, 30.0)}, 30.0);
   const auto out = c.report(dir.path() / "report");
-  const std::string av = read_file(out / "avalanches_per_outlet.csv");
+  const std::string av = read_file(out / "data" / "avalanches_per_outlet.csv");
   EXPECT_EQ(csv_cell(av, {"width=4", "base 0"}, 2), "20");
   EXPECT_EQ(csv_cell(av, {"width=4", "base 0"}, 4), "1");  // n
   EXPECT_EQ(csv_cell(av, {"width=4", "base 1"}, 2), "no avalanche");
-  EXPECT_FALSE(std::filesystem::exists(out / "avalanches.csv"));  // the merged stream never stopped
-  const std::string inter = read_file(out / "intermittency.csv");
+  EXPECT_FALSE(std::filesystem::exists(out / "data" / "avalanches.csv"));  // the merged stream never stopped
+  const std::string inter = read_file(out / "data" / "intermittency.csv");
   EXPECT_EQ(csv_cell(inter, {"width=4", "base 0"}, 5), "10");  // t_c: 10 -> 20
   EXPECT_EQ(csv_cell(inter, {"width=4", "base 0"}, 7), "1");
   EXPECT_DOUBLE_EQ(std::stod(csv_cell(inter, {"width=4", "base 0"}, 8)), 1.0 / 30.0);
@@ -215,12 +215,12 @@ TEST(ReportOutlets, FitsPerGroupOfZippedAxesAndSmoothCurves) {
     }
   }
   const auto out = c.report(dir.path() / "report");
-  const std::string trend = read_file(out / "fit_parameters_beverloo_2d--C.csv");
+  const std::string trend = read_file(out / "data" / "fit_parameters_beverloo_2d--C.csv");
   EXPECT_EQ(trend.substr(0, trend.find('\n')), "species.0.fraction,C,C_se,ci_low,ci_high");
   EXPECT_NEAR(std::stod(cell_of_row(trend, "0.5", 1)), 0.64, 1e-3);
   EXPECT_EQ(std::count(trend.begin(), trend.end(), '\n'), 4);
   // The data of the three groups, then the Beverloo curve of each.
-  const std::string curve = read_file(out / "flow_rate--beverloo_2d_species.0.fraction_0_species.1.fraction_1.csv");
+  const std::string curve = read_file(out / "data" / "flow_rate--beverloo_2d_species.0.fraction_0_species.1.fraction_1.csv");
   ASSERT_EQ(curve.substr(0, curve.find('\n')), "W,Q_fit");
   EXPECT_EQ(std::count(curve.begin(), curve.end(), '\n'), 202);  // header + 201 samples
   EXPECT_EQ(cell_of_row(curve, "8", 0), "8");

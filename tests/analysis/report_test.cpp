@@ -194,6 +194,9 @@ TEST(WriteReport, SyntheticCampaign) {
   opt.figures = std::system("command -v gnuplot > /dev/null 2>&1") == 0;
   Campaign with_model = c;
   with_model.info.spec = {{"report", {{"flow", {{"models", {{{"name", "power_law"}, {"expression", "a * x^b"},
+                                                              {"variable", "x"}, {"initial", {{"a", 1.0}, {"b", 1.5}}}},
+                                                             // 4 widths for 4 parameters: not fitted
+                                                             {{"name", "four"}, {"expression", "a * x^b + c + e * x"},
                                                               {"variable", "x"}, {"initial", {{"a", 1.0}, {"b", 1.5}}}}}}}}}}};
   const ReportSummary s = write_report(with_model.info, c.runs, opt);
   EXPECT_EQ(s.runs_used, 8);
@@ -210,7 +213,7 @@ TEST(WriteReport, SyntheticCampaign) {
   EXPECT_EQ(md.find("Avalanche"), std::string::npos);
 
   // Flow-rate table: mean, se and n in columns of their own, to full precision.
-  const std::string flow = read_file(opt.out_dir / "flow_rate.csv");
+  const std::string flow = read_file(opt.out_dir / "data" / "flow_rate.csv");
   EXPECT_EQ(flow.substr(0, flow.find('\n')), "point,q_count,q_count_se,q_count_n,q_mass,q_mass_se,q_mass_n");
   EXPECT_NEAR(std::stod(csv_cell(flow, {"width=14"}, 1)), q_of(14), 1e-12 * q_of(14));
   EXPECT_NEAR(std::stod(csv_cell(flow, {"width=14"}, 2)), 0.01 * q_of(14), 1e-9 * q_of(14));
@@ -218,21 +221,25 @@ TEST(WriteReport, SyntheticCampaign) {
   EXPECT_NE(md.find(format_mean_se(q_of(14), 0.01 * q_of(14), 2)), std::string::npos);
 
   // Beverloo 2-D recovers the generating C and k (the replica means lie on the curve).
-  const std::string fits = read_file(opt.out_dir / "flow_rate_fits.csv");
+  const std::string fits = read_file(opt.out_dir / "data" / "flow_rate_fits.csv");
   EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",C,"}, 3)), kC, 1e-3);
   EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",k,"}, 3)), kK, 1e-3);
   EXPECT_NE(csv_cell(fits, {"power_law", ",b,"}, 3), "");
-  EXPECT_NE(csv_cell(fits, {"beverloo_2d", ",C,"}, 10).find("success"), std::string::npos);
+  EXPECT_EQ(csv_cell(fits, {"beverloo_2d", ",C,"}, 10), "good");
+  // A model with as many parameters as points: not fitted, and its start values (b = 1.5) are
+  // not shown as results.
+  EXPECT_EQ(csv_cell(fits, {"four", ",b,"}, 3), "nan");  // numeric CSV: missing is nan
+  EXPECT_EQ(csv_cell(fits, {"four", ",b,"}, 10), "not fitted: 4 points for 4 parameters (needs at least 5)");
 
   // Provenance: engine version, commit and tangential cap.
-  const std::string prov = read_file(opt.out_dir / "provenance.csv");
+  const std::string prov = read_file(opt.out_dir / "data" / "provenance.csv");
   EXPECT_NE(prov.find("native,0.1.0,abc123,lammps,8"), std::string::npos) << prov;
 
   // Region statistics of the run with frames; velocity profile section exists.
-  EXPECT_TRUE(std::filesystem::exists(opt.out_dir / "region.csv"));
+  EXPECT_TRUE(std::filesystem::exists(opt.out_dir / "data" / "region.csv"));
   EXPECT_NE(md.find("Velocity profiles"), std::string::npos);
   // The figure data is there even without gnuplot.
-  const std::string series = read_file(opt.out_dir / "flow_rate--Q.csv");
+  const std::string series = read_file(opt.out_dir / "data" / "flow_rate--Q.csv");
   EXPECT_EQ(series.substr(0, series.find('\n')), "base_outlets.0.width,Q,Q_se,n");
 
   const std::string html = read_file(s.html);
@@ -240,7 +247,9 @@ TEST(WriteReport, SyntheticCampaign) {
   EXPECT_EQ(html.find("<link"), std::string::npos);
   EXPECT_EQ(html.find("<script"), std::string::npos);
   if (opt.figures) {
-    EXPECT_TRUE(std::filesystem::exists(opt.out_dir / "flow_rate.svg"));
+    EXPECT_TRUE(std::filesystem::exists(opt.out_dir / "figures" / "flow_rate.svg"));
+    // Velocity profiles carry their replica standard errors as error bars.
+    EXPECT_NE(read_file(opt.out_dir / "figures" / "velocity_profile_vy.gp").find("yerrorlines"), std::string::npos);
     EXPECT_NE(html.find("<svg"), std::string::npos);
   }
   if (const char* keep = std::getenv("GRANARY_REPORT_DEMO_DIR")) {
@@ -313,7 +322,7 @@ TEST(WriteReport, ClogSectionsWithKnownNumbers) {
   EXPECT_NE(md.find("Avalanche sizes"), std::string::npos);
   EXPECT_NE(md.find("Flowing and clogged times"), std::string::npos);
 
-  const std::string psi = read_file(opt.out_dir / "clogging_index.csv");
+  const std::string psi = read_file(opt.out_dir / "data" / "clogging_index.csv");
   EXPECT_EQ(psi.substr(0, psi.find('\n')), "point,psi,psi_se,psi_n,clogged_runs,discarded_runs,n_stagnant,note");
   EXPECT_NEAR(std::stod(csv_cell(psi, {"width=6"}, 1)), 660.0 / 960.0 / 2.0, 1e-15);
   EXPECT_NEAR(std::stod(csv_cell(psi, {"width=6"}, 2)), 660.0 / 960.0 / 2.0, 1e-15);
@@ -321,23 +330,23 @@ TEST(WriteReport, ClogSectionsWithKnownNumbers) {
   EXPECT_EQ(csv_cell(psi, {"width=6"}, 5), "1");   // discarded
   EXPECT_EQ(csv_cell(psi, {"width=6"}, 6), "40");  // N_u
 
-  const std::string av = read_file(opt.out_dir / "avalanches.csv");
+  const std::string av = read_file(opt.out_dir / "data" / "avalanches.csv");
   EXPECT_EQ(csv_cell(av, {"width=6"}, 1), "175");
   EXPECT_EQ(csv_cell(av, {"width=6"}, 2), "125");
   EXPECT_EQ(csv_cell(av, {"width=8"}, 1), "20");
   EXPECT_EQ(csv_cell(av, {"width=8"}, 2), "nan");  // one avalanche: no se
   EXPECT_EQ(csv_cell(av, {"width=8"}, 3), "1");
 
-  const std::string inter = read_file(opt.out_dir / "intermittency.csv");
+  const std::string inter = read_file(opt.out_dir / "data" / "intermittency.csv");
   EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 2), "10");   // t_f: 0 -> 10
   EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 5), "10");   // t_c: 10 -> 20
   EXPECT_DOUBLE_EQ(std::stod(csv_cell(inter, {"width=8", "base 0"}, 8)), 1.0 / 26.0);
   // The figure data: t_f of outlet 0 at W = 8 (W = 6 runs stopped on clogs: no complete t_c).
-  const std::string tf = read_file(opt.out_dir / "intermittency_times--t_f_base_0.csv");
+  const std::string tf = read_file(opt.out_dir / "data" / "intermittency_times--t_f_base_0.csv");
   EXPECT_EQ(tf.substr(0, tf.find('\n')), "base_outlets.0.width,t_f,t_f_se,n");
   EXPECT_NE(tf.find("\n8,10,nan,1\n"), std::string::npos) << tf;
 
-  const std::string prov = read_file(opt.out_dir / "provenance.csv");
+  const std::string prov = read_file(opt.out_dir / "data" / "provenance.csv");
   EXPECT_NE(prov.find("liggghts,3.8.0,def456,liggghts,4"), std::string::npos) << prov;
 }
 
@@ -365,11 +374,11 @@ TEST(WriteReport, FitsPerGroupOfAnotherAxis) {
   opt.out_dir = dir.path() / "report";
   opt.figures = false;
   write_report(info, runs, opt);
-  const std::string fits = read_file(opt.out_dir / "flow_rate_fits.csv");
+  const std::string fits = read_file(opt.out_dir / "data" / "flow_rate_fits.csv");
   EXPECT_NEAR(std::stod(csv_cell(fits, {"fraction=0.5", "beverloo_2d", ",C,"}, 3)), 0.64, 1e-3);
   EXPECT_NEAR(std::stod(csv_cell(fits, {"fraction=1", "beverloo_2d", ",k,"}, 3)), kK, 1e-3);
   // The parameter trend against the other axis: C(X) for X = 0, 0.5, 1.
-  const std::string trend = read_file(opt.out_dir / "fit_parameters_beverloo_2d--C.csv");
+  const std::string trend = read_file(opt.out_dir / "data" / "fit_parameters_beverloo_2d--C.csv");
   EXPECT_EQ(trend.substr(0, trend.find('\n')), "species.0.fraction,C,C_se,ci_low,ci_high");
   EXPECT_NEAR(std::stod(csv_cell(trend, {"0.5,"}, 1)), 0.64, 1e-3);
   EXPECT_EQ(std::count(trend.begin(), trend.end(), '\n'), 4);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
+#include <regex>
 
 namespace granary {
 namespace {
@@ -187,12 +188,107 @@ TEST(RunSpecErrorTest, SnowmanRatio) {
 
 TEST(RunSpecErrorTest, RodNeedsTwoDiscs) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"shape": "rod", "n": 1}]}})")),
-            "/bodies/species/0/n: a rod needs n >= 2 discs (got 1)");
+            "/bodies/species/0/n: must be an integer >= 2 (got 1)");
 }
 
 TEST(RunSpecErrorTest, NoOutlet) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"base_outlets": []}})")),
             "/silo/base_outlets: the silo needs at least one outlet (got none)");
+}
+
+
+// The table is what the validator knows: every key it writes has a row, every default in the
+// table is the parser's default, and every row's type and range is enforced (a value just
+// outside the range, or of another type, at that place is refused naming the place).
+std::string Concrete(const std::string& pattern) { return std::regex_replace(pattern, std::regex("\\*"), "0"); }
+
+TEST(RunSpecTable, CoversTheCanonicalSpecAndItsDefaults) {
+  const json canonical = RunSpec::from_json(json::object()).to_json();
+  std::vector<std::pair<std::string, const json*>> stack = {{"", &canonical}};
+  int checked = 0, left_out = 0;
+  while (!stack.empty()) {
+    const auto [at, v] = stack.back();
+    stack.pop_back();
+    if (!at.empty()) {
+      EXPECT_NE(run_spec_table().find(spec_pattern(at)), nullptr) << at << " has no row";
+    }
+    if (v->is_object())
+      for (const auto& [k, child] : v->items()) stack.emplace_back(at + "/" + k, &child);
+    if (v->is_array())
+      for (std::size_t i = 0; i < v->size(); ++i) stack.emplace_back(at + "/" + std::to_string(i), &(*v)[i]);
+  }
+  for (const SpecField& f : run_spec_table().fields()) {
+    if (f.default_value.is_null() || f.pattern.find('*') != std::string::npos) continue;
+    const json::json_pointer p(f.pattern);
+    if (!canonical.contains(p)) {
+      // Written only when not the default, so that older run ids stay valid.
+      ++left_out;
+      continue;
+    }
+    if (f.default_value.is_number()) {
+      EXPECT_EQ(canonical[p].get<double>(), f.default_value.get<double>()) << f.pattern;
+    } else {
+      EXPECT_EQ(canonical[p], f.default_value) << f.pattern;
+    }
+    ++checked;
+  }
+  // Rows inside arrays: the defaults of an element the spec gives empty.
+  const json element = RunSpec::from_json(json::parse(R"({"silo": {"side_outlets": [{}], "obstacles": [{}],
+      "base_outlets": [{}]}, "bodies": {"species": [{}]}})")).to_json();
+  for (const SpecField& f : run_spec_table().fields()) {
+    if (f.default_value.is_null() || f.pattern.find('*') == std::string::npos || f.type == SpecType::kObject) continue;
+    const json::json_pointer p(Concrete(f.pattern));
+    ASSERT_TRUE(element.contains(p)) << f.pattern;
+    EXPECT_EQ(element[p], f.default_value) << f.pattern;
+    ++checked;
+  }
+  EXPECT_GT(checked, 40);
+  EXPECT_EQ(left_out, 4);  // reinject_position, periodic_headroom, compress, bed/time_step
+}
+
+TEST(RunSpecTable, EveryRowsTypeAndRangeIsEnforced) {
+  int checked = 0;
+  for (const SpecField& f : run_spec_table().fields()) {
+    if (f.pattern == "/engine") continue;  // the engine has its own message (below)
+    const std::string place = Concrete(f.pattern);
+    const json::json_pointer p(place);
+    auto refused = [&](const json& value, const std::string& what) {
+      json spec = json::object();
+      spec[p] = value;
+      const std::string e = ErrorOf(spec);
+      EXPECT_EQ(e.rfind(place + ": " + what, 0), 0u) << f.pattern << " = " << value.dump() << ": " << e;
+      ++checked;
+    };
+    switch (f.type) {
+      case SpecType::kNumber: refused("x", "must be a number"); break;
+      case SpecType::kInteger: refused(2.5, "must be an integer"); break;
+      case SpecType::kUnsigned: refused(-1, "must be a non-negative integer"); break;
+      case SpecType::kBoolean: refused(1, "must be true or false"); break;
+      case SpecType::kString: refused(7, "must be a string"); break;
+      case SpecType::kEnum: refused("nonsense", "must be one of"); break;
+      case SpecType::kObject: refused(json::array(), "must be an object"); break;
+      case SpecType::kArray: refused(json::object(), "must be an array"); break;
+      default: break;
+    }
+    if (f.minimum) refused(f.minimum->exclusive ? f.minimum->value : f.minimum->value - 1, "must be");
+    if (f.maximum) refused(f.maximum->exclusive ? f.maximum->value : f.maximum->value + 1, "must be");
+  }
+  EXPECT_GT(checked, 80);
+  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"base_outlets": [{"width": 0}]}})")),
+            "/silo/base_outlets/0/width: must be > 0 (got 0.0)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"fraction": 1.5}]}})")),
+            "/bodies/species/0/fraction: must be in [0, 1] (got 1.5)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"count": 0}})")), "/bodies/count: must be an integer >= 1 (got 0)");
+}
+
+TEST(RunSpecTable, UnknownKeysAreTheTablesComplement) {
+  for (const SpecField& f : run_spec_table().fields()) {
+    if (f.type != SpecType::kObject) continue;
+    json spec = json::object();
+    const std::string place = Concrete(f.pattern);
+    spec[json::json_pointer(place + "/no_such_key")] = 1;
+    EXPECT_EQ(ErrorOf(spec).rfind(place + "/no_such_key: unknown key", 0), 0u) << ErrorOf(spec);
+  }
 }
 
 }  // namespace

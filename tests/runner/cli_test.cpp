@@ -136,14 +136,15 @@ TEST_F(CliTest, OnlyMustSelectSomething) {
   Sh(Cmd("plan " + WriteSpec("[4, 6]", 1)));
   auto r = Sh(RunCmd("--only /silo/base_outlet/0/width=4"));
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_EQ(r.output, "error: --only: \"/silo/base_outlet/0/width\" is not a sweep axis of campaign t; did you mean "
-                      "\"/silo/base_outlets/0/width\"? (axes: /silo/base_outlets/0/width)\n");
+  EXPECT_EQ(r.output, "error: --only /silo/base_outlet/0/width=4: \"/silo/base_outlet/0/width\" is not a parameter of "
+                      "the runs; did you mean \"/silo/base_outlets/0/width\"? (axes: /silo/base_outlets/0/width)\n");
   r = Sh(RunCmd("--only /silo/base_outlets/0/width=5"));
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_EQ(r.output, "error: --only: no run has /silo/base_outlets/0/width = 5 (its values: 4.0, 6.0)\n");
+  EXPECT_EQ(r.output, "error: --only /silo/base_outlets/0/width=5: no run has /silo/base_outlets/0/width = 5 (its values: "
+                      "4.0, 6.0)\n");
   r = Sh(RunCmd("--only zzzz"));
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_NE(r.output.find("error: --only: no run id starts with \"zzzz\""), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("error: --only zzzz: no run id starts with \"zzzz\""), std::string::npos) << r.output;
   EXPECT_EQ(Status()["counts"]["planned"], 2);
 }
 
@@ -159,9 +160,10 @@ TEST_F(CliTest, AZeroLengthDatabaseIsAStorageErrorNotAnEmptyCampaign) {
               std::string::npos) << r.output;
   }
   std::ofstream(Db(), std::ios::trunc) << "this is not an SQLite file, but it is long enough to be looked at as one....";
+  // A file that is not SQLite is the wrong --db, said without SQLite's words (issue 18).
   const auto r = Sh(Cmd("status"));
-  EXPECT_EQ(r.code, 3) << r.output;
-  EXPECT_NE(r.output.find("file is not a database"), std::string::npos) << r.output;
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("is not a campaign database (not an SQLite file"), std::string::npos) << r.output;
 }
 
 // issue 13: a finished run whose directory was deleted went unnoticed by status and run, and

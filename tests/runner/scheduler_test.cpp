@@ -249,7 +249,7 @@ TEST_F(SchedulerTest, ALeaseTakenOverStopsTheEngineAndRecordsNothing) {
       ASSERT_EQ(claim_next(*store_, other, now_seconds(), nullptr, {})->run_id, first);
     }
   };
-  options_.only = first;
+  options_.only = {first};
   EXPECT_EQ(Run(), ExitCode::kOk);
   ASSERT_EQ(executor_.stops.size(), 1u);
   EXPECT_EQ(executor_.stops[0], std::make_pair(first, StopReason::kLeaseLost));
@@ -264,7 +264,7 @@ TEST_F(SchedulerTest, ALeaseTakenOverStopsTheEngineAndRecordsNothing) {
 TEST_F(SchedulerTest, AResultSeenAfterTheLeaseWasTakenOverIsNotRecorded) {
   const std::string first = Ids()[0];
   const Holder other{"other:2:0", "elsewhere", 2};
-  options_.only = first;
+  options_.only = {first};
   options_.heartbeat_interval = 1000;  // the engine ends before the next heartbeat
   executor_.run_polls = 2;
   executor_.on_poll = [&](int poll) {

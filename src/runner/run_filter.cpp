@@ -1,0 +1,141 @@
+// See run_filter.h.
+#include "runner/run_filter.h"
+
+#include <algorithm>
+
+#include "runner/util.h"
+
+namespace granary::runner {
+
+using nlohmann::json;
+
+namespace {
+
+bool IsPointerFilter(const std::string& filter) { return filter.find('=') != std::string::npos; }
+
+std::string List(const std::vector<std::string>& items, std::size_t max = 12) {
+  std::string out;
+  for (std::size_t i = 0; i < items.size() && i < max; ++i) out += (i ? ", " : "") + items[i];
+  if (items.size() > max) out += ", ... (" + std::to_string(items.size()) + " in all)";
+  return out;
+}
+
+// The sweep axes whose pointer ends in "/<name>" ("width", "0/width", "fraction").
+std::vector<std::string> AxesEndingIn(const std::vector<std::string>& axes, const std::string& name) {
+  std::vector<std::string> found;
+  for (const auto& a : axes)
+    if (a.size() > name.size() && a.compare(a.size() - name.size(), name.size(), name) == 0 &&
+        a[a.size() - name.size() - 1] == '/')
+      found.push_back(a);
+  return found;
+}
+
+}  // namespace
+
+bool parameter_matches(const RunRow& row, const std::string& pointer, const std::string& text) {
+  json::json_pointer ptr;
+  try {
+    ptr = json::json_pointer(pointer);
+  } catch (const json::exception&) {
+    return false;
+  }
+  if (!row.params.contains(ptr)) return false;
+  const json& actual = row.params[ptr];
+  const json value = json::parse(text, nullptr, false);
+  if (!value.is_discarded()) {
+    if (value.is_number() && actual.is_number()) return value.get<double>() == actual.get<double>();
+    if (value == actual) return true;
+  }
+  return actual.is_string() && actual.get<std::string>() == text;
+}
+
+RunFilter::RunFilter(const std::vector<std::string>& filters) : texts_(filters) {
+  for (const auto& f : filters) {
+    if (f.empty()) continue;
+    if (!IsPointerFilter(f)) {
+      prefixes_.push_back(f);
+      continue;
+    }
+    const auto eq = f.find('=');
+    const std::string pointer = f.substr(0, eq);
+    try {
+      json::json_pointer p(pointer);
+    } catch (const json::exception&) {
+      throw FilterError("--only " + f + ": \"" + pointer + "\" is not a JSON Pointer such as /silo/width");
+    }
+    values_[pointer].push_back(f.substr(eq + 1));
+  }
+}
+
+bool RunFilter::matches(const RunRow& row) const {
+  if (!prefixes_.empty() &&
+      std::none_of(prefixes_.begin(), prefixes_.end(), [&](const std::string& p) { return row.run_id.rfind(p, 0) == 0; }))
+    return false;
+  for (const auto& [pointer, texts] : values_)
+    if (std::none_of(texts.begin(), texts.end(), [&](const std::string& t) { return parameter_matches(row, pointer, t); }))
+      return false;
+  return true;
+}
+
+RunFilter resolve_filters(const std::vector<std::string>& filters, const CampaignRow& campaign,
+                          const std::vector<RunRow>& runs) {
+  std::vector<const RunRow*> live;
+  for (const auto& r : runs)
+    if (r.state != "retired") live.push_back(&r);
+  const std::string axes = campaign.axes.empty() ? std::string("it has no sweep axes") : "axes: " + List(campaign.axes);
+  std::vector<std::string> resolved;
+  for (const std::string& f : filters) {
+    if (f.empty()) throw FilterError("--only: an empty filter (give a run-id prefix or POINTER=VALUE)");
+    if (!IsPointerFilter(f)) {
+      if (std::none_of(live.begin(), live.end(), [&](const RunRow* r) { return r->run_id.rfind(f, 0) == 0; }))
+        throw FilterError("--only " + f + ": no run id starts with \"" + f +
+                          "\" (a filter is a run-id prefix, or POINTER=VALUE on a parameter; " + axes + ")");
+      resolved.push_back(f);
+      continue;
+    }
+    const auto eq = f.find('=');
+    std::string pointer = f.substr(0, eq);
+    const std::string value = f.substr(eq + 1);
+    if (pointer.empty() || pointer[0] != '/') {
+      // A short name: the one sweep axis that ends in it.
+      const std::vector<std::string> found = AxesEndingIn(campaign.axes, pointer);
+      if (found.size() != 1) {
+        const std::string best = nearest(pointer, campaign.axes);
+        throw FilterError("--only " + f + ": \"" + pointer + "\" " +
+                          (found.empty() ? "ends no sweep axis" : "ends several sweep axes (" + List(found) + ")") +
+                          "; give the JSON Pointer" + (best.empty() ? "" : ", e.g. " + best + "=" + value) + " (" +
+                          axes + ")");
+      }
+      pointer = found.front();
+    }
+    json::json_pointer ptr;
+    try {
+      ptr = json::json_pointer(pointer);
+    } catch (const json::exception&) {
+      throw FilterError("--only " + f + ": \"" + pointer + "\" is not a JSON Pointer such as /silo/width");
+    }
+    if (std::none_of(live.begin(), live.end(), [&](const RunRow* r) { return r->params.contains(ptr); })) {
+      const std::string best = nearest(pointer, campaign.axes);
+      throw FilterError("--only " + f + ": \"" + pointer + "\" is not a parameter of the runs" +
+                        (best.empty() ? "" : "; did you mean \"" + best + "\"?") + " (" + axes + ")");
+    }
+    if (std::none_of(live.begin(), live.end(), [&](const RunRow* r) { return parameter_matches(*r, pointer, value); })) {
+      std::vector<std::string> values;
+      for (const RunRow* r : live) {
+        if (!r->params.contains(ptr)) continue;
+        const std::string v = r->params[ptr].dump();
+        if (std::find(values.begin(), values.end(), v) == values.end()) values.push_back(v);
+      }
+      throw FilterError("--only " + f + ": no run has " + pointer + " = " + value + " (its values: " + List(values) +
+                        ")");
+    }
+    resolved.push_back(pointer + "=" + value);
+  }
+  RunFilter filter(resolved);
+  if (!filters.empty() &&
+      std::none_of(live.begin(), live.end(), [&](const RunRow* r) { return filter.matches(*r); }))
+    throw FilterError("--only " + List(filters) + ": each filter selects runs, but no run passes all of them");
+  return filter;
+}
+
+}  // namespace granary::runner
