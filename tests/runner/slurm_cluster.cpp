@@ -161,6 +161,9 @@ void SlurmCluster::Start(const Options& options) {
        // PMIx (srun --mpi=pmix) keeps per-step directories under TmpFS, named by job and step
        // id, which a second test cluster on this machine reuses.
        << "TmpFS=" << d << "/tmp\n"
+       // Open MPI and PMIx name their session files by job id: two test clusters both at job 1
+       // left LIGGGHTS' ranks spinning in MPI_Init. Each cluster numbers its jobs apart.
+       << "FirstJobId=" << 1000 * (1 + getpid() % 60000) << "\n"
        << "SlurmctldPidFile=" << d << "/slurmctld.pid\nSlurmdPidFile=" << d << "/slurmd.pid\n"
        << "SlurmctldLogFile=" << d << "/slurmctld.log\nSlurmdLogFile=" << d << "/slurmd.log\n"
        << "ProctrackType=proctrack/linuxproc\nTaskPlugin=task/none\nJobAcctGatherType=jobacct_gather/none\n"
