@@ -485,7 +485,7 @@ std::string base64(const std::string& bytes) {
 }
 
 std::string panel_file(const MapFigure& f, std::size_t k, const char* layer) {
-  std::string file = f.name + "-" + std::to_string(k + 1);
+  std::string file = std::string(kDataDir) + "/" + f.name + "-" + std::to_string(k + 1);
   if (layer[0] != '\0') file.append("-").append(layer);
   return file.append(".csv");
 }
@@ -542,7 +542,7 @@ std::string map_script(const MapFigure& f, const fs::path& dir) {
     for (const auto& s : p.segments) max_weight = std::max(max_weight, s[4]);
   std::ostringstream s;
   s << "set terminal svg size " << width << "," << height << " font 'Helvetica,10' background rgb 'white'\n"
-    << "set output " << gp_quote(f.name + ".svg") << "\n"
+    << "set output " << gp_quote(std::string(kFiguresDir) + "/" + f.name + ".svg") << "\n"
     << "set datafile separator ','\n"
     << "set multiplot title " << gp_quote(f.title) << " noenhanced\n"
     << "set size ratio -1\nset xrange [" << csv_number(f.x_lo) << ":" << csv_number(f.x_hi) << "]\n"
@@ -751,11 +751,13 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         std::string svg;
         const std::string script_text = map_script(*m, out_dir);  // writes the panels' CSVs
         if (figures && !m->panels.empty()) {
-          const std::string script = m->name + ".gp";
+          fs::create_directories(out_dir / kFiguresDir);
+          const std::string script = std::string(kFiguresDir) + "/" + m->name + ".gp";
+          const std::string svg_file = std::string(kFiguresDir) + "/" + m->name + ".svg";
           write_text(out_dir / script, script_text);
           const std::string problem = run_gnuplot(options.gnuplot, out_dir, script);
-          if (problem.empty() && fs::exists(out_dir / (m->name + ".svg"))) {
-            svg = read_text(out_dir / (m->name + ".svg"));
+          if (problem.empty() && fs::exists(out_dir / svg_file)) {
+            svg = read_text(out_dir / svg_file);
             ++result.figures_drawn;
           } else {
             result.problems.push_back(problem.empty() ? m->name + ".svg was not written" : problem);
@@ -772,7 +774,7 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         }
         const std::string caption = "Figure " + std::to_string(figure_no) + ": " + m->title +
                                     (m->caption.empty() ? "" : ". " + m->caption);
-        if (!svg.empty()) md_body << "![" << m->title << "](" << m->name << ".svg)\n\n";
+        if (!svg.empty()) md_body << "![" << m->title << "](" << kFiguresDir << "/" << m->name << ".svg)\n\n";
         md_body << "*" << caption << "* Data: " << csvs << "\n\n";
         html_body << "<figure>";
         if (!svg.empty()) html_body << inline_svg(svg, std::string("f").append(std::to_string(figure_no)).append("_"));

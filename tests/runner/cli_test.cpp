@@ -582,17 +582,17 @@ TEST_F(CliTest, FieldsInTheReport) {
   EXPECT_NE(md.find("## Coarse-grained fields"), std::string::npos);
   for (const char* map : {"field_phi_flowing", "field_speed_flowing", "field_pressure_flowing", "field_friction_flowing",
                           "force_chains"})
-    EXPECT_NE(md.find(std::string("](") + map + ".svg)"), std::string::npos) << map;
+    EXPECT_NE(md.find(std::string("](figures/") + map + ".svg)"), std::string::npos) << map;
   // One CSV per map and point: x, y, value, n_frames over the window's nodes.
   for (int k = 1; k <= 2; ++k) {
-    const std::string csv = ReadFile(report / ("field_phi_flowing-" + std::to_string(k) + ".csv"));
+    const std::string csv = ReadFile(report / "data" / ("field_phi_flowing-" + std::to_string(k) + ".csv"));
     EXPECT_EQ(csv.substr(0, csv.find('\n')), "x,y,phi,n_frames");
     EXPECT_GT(CountLines(csv, ""), 50);
   }
-  EXPECT_TRUE(fs::exists(report / "field_pressure_flowing.svg"));
-  EXPECT_TRUE(fs::exists(report / "force_chains-1-segments.csv"));
-  EXPECT_TRUE(fs::exists(report / "field_speed_flowing-1-arrows.csv"));
-  EXPECT_TRUE(fs::exists(report / "fields_region.csv"));
+  EXPECT_TRUE(fs::exists(report / "figures" / "field_pressure_flowing.svg"));
+  EXPECT_TRUE(fs::exists(report / "data" / "force_chains-1-segments.csv"));
+  EXPECT_TRUE(fs::exists(report / "data" / "field_speed_flowing-1-arrows.csv"));
+  EXPECT_TRUE(fs::exists(report / "data" / "fields_region.csv"));
   // The region means are metrics of the export.
   const auto csv = Sh(Cmd("export") + " 2>/dev/null");
   ASSERT_EQ(csv.code, 0);

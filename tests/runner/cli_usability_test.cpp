@@ -370,7 +370,7 @@ TEST_F(CliUsability, BashCompletesVerbsFlagsRunIdsAndFilters) {
     EXPECT_EQ(r.code, 0) << r.output;
     return r.output;
   };
-  EXPECT_EQ(complete("s"), "status\nshow\nschema\nsnapshot\n");
+  EXPECT_EQ(complete("s"), "status\nscan\nshow\nschema\nsnapshot\n");
   EXPECT_EQ(complete("clean --d"), "--db\n--dry-run\n");
   const json runs = Status()["runs"];
   const std::string id = runs[0]["run_id"];
