@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <bit>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -329,3 +330,36 @@ TEST(Writers, RunSpecAndDone) {
 
 }  // namespace
 }  // namespace granary::rundir
+
+// ToDouble's fast path must give std::from_chars' bits for every number a writer prints
+// ("%.10g", shortest round trip) and hand everything else to from_chars unchanged.
+TEST(DumpText, ToDoubleHasTheBitsOfFromChars) {
+  std::mt19937_64 rng(14);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::uniform_int_distribution<int> power(-30, 30);
+  std::vector<std::string> texts = {"0",      "-0",     "+1.5",   "1.",      ".5",      "-.5",   "1e22",
+                                    "1e23",   "1e-22",  "1e-23",  "9007199254740993",      "12345678901234567890",
+                                    "0.1e+3", "2E-3",   "1e+",    "1e",      "-",       ".",     "",
+                                    "1e5x",   "inf",    "nan",    "1e00001", "0.000000000000000000001"};
+  for (int i = 0; i < 200000; ++i) {
+    const double x = unit(rng) * std::pow(10.0, power(rng));
+    char buf[64];
+    for (int precision : {6, 10, 17}) {
+      texts.emplace_back(buf, std::to_chars(buf, buf + sizeof buf, x, std::chars_format::general, precision).ptr);
+    }
+    texts.emplace_back(buf, std::to_chars(buf, buf + sizeof buf, x).ptr);
+    texts.emplace_back(buf, std::to_chars(buf, buf + sizeof buf, x, std::chars_format::fixed, 12).ptr);
+  }
+  for (const std::string& text : texts) {
+    std::string_view s(text);
+    if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+    double expected = 0.0;
+    const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), expected);
+    const bool expected_ok = ec == std::errc() && ptr == s.data() + s.size();
+    double got = 0.0;
+    ASSERT_EQ(granary::rundir::detail::ToDouble(text, got), expected_ok) << text;
+    if (expected_ok) {
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(got), std::bit_cast<std::uint64_t>(expected)) << text;
+    }
+  }
+}
