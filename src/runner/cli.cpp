@@ -294,6 +294,12 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
   }
   // A dry run against a database that does not exist compares with an empty one in memory:
   // it creates no file.
+  if (!dry_run) {
+    // plan makes the database, and its runs/ beside it, where it is told: like mkdir -p.
+    std::error_code ec;
+    fs::create_directories(DbDir(db), ec);
+    if (ec) throw UsageError("campaign plan: cannot make the directory " + DbDir(db).string() + " for --db " + db + ": " + ec.message());
+  }
   Store store(dry_run && !fs::exists(db) ? std::string(":memory:") : db);
   return plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
 }

@@ -156,6 +156,20 @@ TEST_F(CliUsability, ADbThatIsNoCampaignDatabaseIsSaidPlainly) {
   sqlite3_close(db);
 }
 
+// plan --db in a directory that does not exist yet makes it (the runs go beside the database);
+// one that cannot be made is said plainly, without SQLite's "unable to open database file".
+TEST_F(CliUsability, PlanMakesTheDatabaseDirectory) {
+  const fs::path nested = dir_ / "new" / "study" / "g.db";
+  auto r = Sh(testing::Campaign() + " plan " + WriteSpec("[4]", "[0.5]", 1) + " --db " + nested.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(nested));
+  std::ofstream(dir_ / "afile") << "x";
+  r = Sh(testing::Campaign() + " plan " + WriteSpec("[4]", "[0.5]", 1) + " --db " + (dir_ / "afile" / "g.db").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("cannot make the directory"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("unable to open database file"), std::string::npos) << r.output;
+}
+
 TEST_F(CliUsability, DryRunCreatesNoFile) {
   const auto r = Sh(Cmd("plan --dry-run " + WriteSpec("[4, 6]", "[0.5]", 1)));
   ASSERT_EQ(r.code, 0) << r.output;
