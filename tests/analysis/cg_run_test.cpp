@@ -10,6 +10,7 @@
 #include "rundir/contacts.h"
 #include "rundir/frames.h"
 #include "rundir/run_directory.h"
+#include "lattice_frame.h"
 #include "test_util.h"
 
 namespace granary::analysis {
@@ -26,27 +27,7 @@ void write_run(const std::filesystem::path& dir, const std::vector<double>& fram
   auto frames = rundir::FrameWriter::Create(dir / rundir::kFramesFile);
   auto contacts = rundir::ContactWriter::Create(dir / rundir::kContactsFile);
   for (double t : frame_times) {
-    rundir::Frame f;
-    f.time = t;
-    f.timestep = std::llround(t * 1e4);
-    rundir::ContactFrame c;
-    c.time = t;
-    c.timestep = f.timestep;
-    std::int64_t id = 0;
-    for (int row = 0; row <= 20; ++row)
-      for (int col = 0; col <= 24; ++col) {
-        rundir::Disc d;
-        d.id = id + 1;
-        d.mol = id;
-        d.x = -12.0 + col;
-        d.y = 0.5 + row;
-        d.radius = 0.5;
-        d.mass = std::numbers::pi * 0.25;
-        d.vy = -t;
-        f.discs.push_back(d);
-        if (row > 0) c.contacts.push_back({id, id - 25, d.x, d.y, d.x, d.y - 1.0, d.x, d.y - 0.5, 0.0, 21.0 - row});
-        ++id;
-      }
+    const auto [f, c] = testing::LatticeFrame(t, -t);
     frames.Write(f);
     if (std::find(contact_times.begin(), contact_times.end(), t) != contact_times.end()) contacts.Write(c);
   }
