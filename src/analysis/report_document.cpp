@@ -288,22 +288,34 @@ std::vector<double> point_offsets(const Figure& f) {
 
 }  // namespace
 
+KeyLayout key_layout(const Figure& f) {
+  // Gnuplot's svg terminal sizes a key entry as its title's characters at 0.7 font sizes each
+  // plus the sample line: at 13 pt, 9.1 px a character and about 8 characters more (measured:
+  // titles of 30 characters go in two columns on 800 px, of 36 in one).
+  constexpr double kCharPx = 9.1;
+  constexpr int kMargin = 40;
+  std::size_t longest = 0;
+  for (const Series& se : f.series) longest = std::max(longest, se.label.size());
+  KeyLayout k;
+  const int entry = static_cast<int>(std::ceil((static_cast<double>(longest) + 8) * kCharPx));
+  k.width = std::max(k.width, entry + kMargin);
+  k.columns = 2 * entry + kMargin <= k.width ? 2 : 1;
+  const int rows = static_cast<int>((f.series.size() + static_cast<std::size_t>(k.columns) - 1) / static_cast<std::size_t>(k.columns));
+  k.height = 440 + 20 * rows;
+  return k;
+}
+
 std::string gnuplot_script(const Figure& f) {
   std::ostringstream s;
   const std::vector<std::string> files = series_files(f);
-  // The key sits below the plot (two columns when the labels are short, else one); the
-  // canvas grows with it so that it is never cut.
-  std::size_t longest = 0;
-  for (const Series& se : f.series) longest = std::max(longest, se.label.size());
-  const std::size_t key_rows = longest <= 30 ? (f.series.size() + 1) / 2 : f.series.size();
-  const int height = 440 + 20 * static_cast<int>(key_rows);
-  s << "set terminal svg size 800," << height << " font 'Helvetica,13' background rgb 'white'\n"
+  const KeyLayout key = key_layout(f);
+  s << "set terminal svg size " << key.width << "," << key.height << " font 'Helvetica,13' background rgb 'white'\n"
     << "set output " << gp_quote(std::string(kFiguresDir) + "/" + f.name + ".svg") << "\n"
     << "set datafile separator ','\n"
     << "set title " << gp_quote(f.title) << " noenhanced\n"
     << "set xlabel " << gp_quote(f.xlabel) << " noenhanced\n"
     << "set ylabel " << gp_quote(f.ylabel) << " noenhanced\n"
-    << "set grid\nset key below maxcols 2 noenhanced\n";
+    << "set grid\nset key below maxcols " << key.columns << " noenhanced\n";
   for (int k = 0; k < 2 * kPaletteSize; ++k)
     s << "set linetype " << k + 1 << " lc rgb '" << kPalette[k % kPaletteSize] << "' lw 1.5 pt "
       << kPointTypes[k % std::size(kPointTypes)] << " dt " << (k < kPaletteSize ? 1 : 2) << "\n";

@@ -158,6 +158,15 @@ std::string format_number(double value, int significant = 4);
 std::string format_mean_se(double mean, double se, int n, int significant = 4);
 // Full precision (the shortest text that reads back as the same double); NaN as "nan".
 std::string csv_number(double value);
+// A figure's canvas and its key below the plot: two columns when two of the longest title fit
+// across, else one; a title wider than 800 px widens the canvas (report.html scales the SVG to
+// the page), so the key is never cut or wrapped past the plot's edge.
+struct KeyLayout {
+  int width = 800, height = 440;               // SVG size, px
+  int columns = 2;                             // of the key
+};
+KeyLayout key_layout(const Figure& figure);
+
 // The CSV files of a figure's curves, in series order: <figure>--<label>.csv, unique.
 std::vector<std::string> series_files(const Figure& figure);
 std::string csv_escape(const std::string& field);

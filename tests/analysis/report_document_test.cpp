@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <regex>
 
 #include "test_util.h"
 
@@ -206,4 +207,53 @@ TEST(RenderReport, FilesAreGroupedIntoDataAndFigures) {
   EXPECT_NE(read_file(dir.path() / "report.html").find("href=\"data/tab.csv\""), std::string::npos);
 }
 
+}  // namespace granary::analysis
+
+namespace granary::analysis {
+namespace {
+
+// The compare report's flow-rate figure: 4 groups x (data + fit), titles of 55-95 characters.
+// Drawn by gnuplot, every key entry lies inside the canvas (its right-aligned title's anchor
+// and the title's width at most 7.5 px a character), below the plot and above the bottom.
+TEST(GnuplotScript, AKeyOfLongTitlesFitsInsideTheCanvas) {
+  TempDir dir;
+  Figure f{"flow_rate", "Flow rate", "W/d (outlet width W)", "Q (bodies/sqrt(d/g))", {}, false, false, ""};
+  for (const char* shape : {"disc", "dumbbell"})
+    for (const char* engine : {"native", "liggghts"}) {
+      const std::string group = std::string("body shape = ") + shape + ", number of bodies N = 1000, engine = " + engine;
+      f.series.push_back(points_at(group, {{15, 40, 1}, {25, 90, 2}}));
+      Series fit = points_at("beverloo_2d (" + group + "), ill-determined", {{15, 41}, {25, 89}}, Series::Style::kLines);
+      fit.role = Series::Role::kFit;
+      f.series.push_back(fit);
+    }
+  const KeyLayout key = key_layout(f);
+  EXPECT_EQ(key.columns, 1) << "two 95-character titles do not fit across 800 px";
+  EXPECT_GT(key.width, 800) << "nor does one";
+  RenderOptions opt;
+  const RenderResult r = render_report("T", {Section{"s", "S", {f}}}, dir.path(), opt);
+  ASSERT_EQ(r.figures_drawn, 1) << (r.problems.empty() ? "" : r.problems.front());
+  const std::string svg = read_file(dir.path() / "figures" / "flow_rate.svg");
+  const std::regex size_re(R"re(<svg[^>]*width="(\d+)"[^>]*height="(\d+)")re");
+  std::smatch size;
+  ASSERT_TRUE(std::regex_search(svg, size, size_re));
+  const double width = std::stod(size[1]), height = std::stod(size[2]);
+  EXPECT_EQ(width, key.width);
+  int titles = 0;
+  for (const Series& se : f.series) {
+    const std::string text = "<text>" + se.label + "</text>";
+    const auto at = svg.find(text);
+    ASSERT_NE(at, std::string::npos) << se.label;
+    const auto translate = svg.rfind("translate(", at);
+    ASSERT_NE(translate, std::string::npos);
+    const double x = std::stod(svg.substr(translate + 10)), y = std::stod(svg.substr(svg.find(',', translate) + 1));
+    EXPECT_LE(x + 40, width) << se.label << ": the sample line right of the title is cut";
+    EXPECT_GE(x - 7.5 * static_cast<double>(se.label.size()), 0) << se.label << ": the title runs off the left edge";
+    EXPECT_GT(y, 440 - 60) << se.label << ": the key is below the plot";
+    EXPECT_LT(y, height) << se.label;
+    ++titles;
+  }
+  EXPECT_EQ(titles, 8);
+}
+
+}  // namespace
 }  // namespace granary::analysis
