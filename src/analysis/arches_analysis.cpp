@@ -247,7 +247,7 @@ void ArchesAnalysis::add_pictures(const SectionInput& in, const std::vector<Arch
     std::stable_sort(candidates.begin(), candidates.end(),
                      [](const Candidate& a, const Candidate& b) { return a.distance < b.distance; });
     Pictures pics;
-    pics.caption = point_name(v, v.points[k]) + ": clogs with the median arch size (N_t = " + format_number(median_n, 3) +
+    pics.caption = point_title(v, v.points[k]) + ": clogs with the median arch size (N_t = " + format_number(median_n, 3) +
                    "), arch bodies outlined";
     for (std::size_t i = 0; i < candidates.size() && static_cast<int>(pics.pictures.size()) < o_.pictures; ++i) {
       const Candidate& c = candidates[i];

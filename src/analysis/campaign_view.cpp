@@ -7,6 +7,7 @@
 
 #include "analysis/analysis.h"
 #include "analysis/outlets.h"
+#include "analysis/system.h"
 #include "rundir/layout.h"
 
 namespace granary::analysis {
@@ -77,20 +78,37 @@ std::optional<nlohmann::json> axis_value(const std::string& axis, const nlohmann
   return std::nullopt;
 }
 
+std::string axis_text(const CampaignView& view, const std::string& axis, const nlohmann::json& spec, NameForm form) {
+  if (form == NameForm::kShort)
+    if (const auto it = view.axis_symbols.find(axis); it != view.axis_symbols.end()) return it->second;
+  return axis_name(axis, spec);
+}
+
 std::string point_label(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec,
-                        const std::set<std::string>& skip_axes) {
+                        NameForm form, const std::set<std::string>& skip_axes) {
   std::string s;
   for (const auto& axis : view.axes) {
     if (skip_axes.count(axis)) continue;
     const auto v = axis_value(axis, point, spec);
-    s += (s.empty() ? "" : ", ") + short_axis(axis) + "=" + (v ? value_text(*v) : "?");
+    s += (s.empty() ? "" : ", ") + axis_text(view, axis, spec, form) + " = " + (v ? value_text(*v) : "?");
   }
   return s;
 }
 
+std::string x_text(const CampaignView& view, double x, NameForm form) {
+  if (view.x_axis.empty()) return "";
+  return (form == NameForm::kShort ? view.x_symbol : view.x_title) + " = " + format_number(x, 6);
+}
+
 std::string point_name(const CampaignView& view, const Point& p) {
   std::string s = p.group;
-  if (!view.x_axis.empty()) s = view.x_name + "=" + format_number(p.x, 6) + (s.empty() ? "" : ", " + s);
+  if (!view.x_axis.empty()) s = x_text(view, p.x, NameForm::kShort) + (s.empty() ? "" : ", " + s);
+  return s.empty() ? p.id : s;
+}
+
+std::string point_title(const CampaignView& view, const Point& p) {
+  std::string s = p.group_title;
+  if (!view.x_axis.empty()) s = x_text(view, p.x, NameForm::kLong) + (s.empty() ? "" : ", " + s);
   return s.empty() ? p.id : s;
 }
 
@@ -169,6 +187,17 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
     c.outlets = std::max<std::size_t>(1, most->outlets);
     for (const OutletGeometry& o : outlets_of(most->spec)) c.outlet_labels.push_back(o.label);
   }
+  // Each axis' symbol for the short point names; two axes with one symbol (two species' "d")
+  // keep their long names, so that no two points read alike.
+  {
+    const nlohmann::json& spec = runs.empty() ? nlohmann::json() : runs.front().spec;
+    std::map<std::string, int> uses;
+    for (const auto& axis : c.axes) ++uses[axis_names(axis, spec).symbol];
+    for (const auto& axis : c.axes) {
+      const AxisNames n = axis_names(axis, spec);
+      c.axis_symbols[axis] = uses[n.symbol] > 1 ? n.name : n.symbol;
+    }
+  }
   // The x axis: the gap between two base outlets if a base outlet's centre is swept (the
   // thesis plots ch. 5b and 7 against L), else an outlet width if swept, else the first
   // numeric axis.
@@ -181,7 +210,8 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
   if (!c.x_axes.empty()) {
     c.x_is_gap = true;
     c.x_axis = *c.x_axes.begin();
-    c.x_name = "L";
+    c.x_name = c.x_symbol = "L";
+    c.x_title = "gap L";
     c.x_label = "L/d (gap between base outlets 0 and 1, edge to edge)";
   }
   for (const auto& axis : c.axes) {
@@ -191,7 +221,9 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
     c.x_axes = {axis};
     c.x_is_width = true;
     c.x_name = short_axis(axis);
-    c.x_label = "W/d (outlet width " + c.x_name + ")";
+    c.x_title = axis_name(axis, runs.empty() ? nlohmann::json() : runs.front().spec);
+    c.x_symbol = c.axis_symbols[axis];
+    c.x_label = "W/d (" + c.x_title + ")";
     // Outlets are numbered in event order: base outlets first, then side outlets.
     c.x_outlet = std::stoi(m[2].str());
     if (m[1].str() == "side" && !runs.empty()) {
@@ -221,7 +253,9 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
       if (numeric && !runs.empty()) {
         c.x_axis = axis;
         c.x_axes = {axis};
-        c.x_name = c.x_label = short_axis(axis);
+        c.x_name = short_axis(axis);
+        c.x_label = c.x_title = axis_name(axis, runs.front().spec);
+        c.x_symbol = c.axis_symbols[axis];
         break;
       }
     }
@@ -241,13 +275,14 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
       const auto v = axis_value(c.x_axis, p.point, spec);
       if (v && v->is_number()) p.x = v->get<double>();
     }
-    p.group = point_label(c, p.point, spec, c.x_axes);
+    p.group = point_label(c, p.point, spec, NameForm::kShort, c.x_axes);
+    p.group_title = point_label(c, p.point, spec, NameForm::kLong, c.x_axes);
     p.spec = spec;
     const auto engine = axis_value("/engine", p.point, spec);
     p.engine = engine && engine->is_string() ? engine->get<std::string>() : "";
     std::set<std::string> skip = c.x_axes;
     skip.insert("/engine");
-    p.shared_group = point_label(c, p.point, spec, skip);
+    p.shared_group = point_label(c, p.point, spec, NameForm::kShort, skip);
   }
   std::stable_sort(c.points.begin(), c.points.end(), [](const Point& a, const Point& b) {
     if (a.group != b.group) return a.group < b.group;

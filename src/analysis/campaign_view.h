@@ -65,7 +65,8 @@ struct Point {
   std::string id;
   nlohmann::json point;           // sweep-axis values
   double x = kNaN;                // value on the report's x axis
-  std::string group;              // the other axes' values, e.g. "species.0.fraction=0.5"
+  std::string group;              // the other axes' values, short: "X_db = 0.5" (groups points; keys)
+  std::string group_title;        // the same in words: "dumbbell fraction X_db = 0.5" (captions)
   std::string shared_group;       // `group` without the engine (points matched across engines)
   std::string engine;             // campaigns on several engines: this point's engine
   nlohmann::json spec;            // a run spec of this point (for axis values)
@@ -84,7 +85,10 @@ struct CampaignView {
   std::string x_axis;             // JSON pointer of the x axis ("" = none)
   std::set<std::string> x_axes;   // the sweep axes that make x (left out of the groups)
   std::string x_label;
-  std::string x_name;             // short name of x in CSV headers and point names
+  std::string x_name;             // short name of x in CSV headers
+  std::string x_title;            // x in words, as "The system" names it ("outlet width W"), for point titles
+  std::string x_symbol;           // x's symbol ("W"), for point names
+  std::map<std::string, std::string> axis_symbols;  // axis -> its short name in point names (axis_names)
   bool x_is_width = false;
   bool x_is_gap = false;          // x = gap L between base outlets 0 and 1 (ch. 5b, 7)
   int x_outlet = -1;              // the outlet (event order) whose width is x; -1: none
@@ -103,11 +107,21 @@ std::string short_axis(const std::string& pointer);
 std::string value_text(const nlohmann::json& value);
 // The value of a sweep axis for a point: from the point record, else from the run spec.
 std::optional<nlohmann::json> axis_value(const std::string& axis, const nlohmann::json& point, const nlohmann::json& spec);
-// "base_outlets.0.width=10, species.0.fraction=0.5" (axes in `skip` left out).
+// Point names come in two forms: short, the symbols alone ("W = 10, X_db = 0.5"), in tables'
+// point columns, figure keys and the data/ file names made from them; long, in words ("outlet
+// width W = 10, dumbbell fraction X_db = 0.5"), in captions (The system explains the symbols).
+enum class NameForm { kShort, kLong };
+// An axis' name in that form (CampaignView::axis_symbols; axis_name for the long one).
+std::string axis_text(const CampaignView& view, const std::string& axis, const nlohmann::json& spec, NameForm form);
+// "W = 10, X_db = 0.5" or "outlet width W = 10, dumbbell fraction X_db = 0.5" (axes in `skip` left out).
 std::string point_label(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec,
-                        const std::set<std::string>& skip_axes = {});
-// The report's name of a point: x first, then its group; the id if it has neither.
+                        NameForm form, const std::set<std::string>& skip_axes = {});
+// "W = 10" or "outlet width W = 10": x and its value; "" if the view has no x.
+std::string x_text(const CampaignView& view, double x, NameForm form);
+// The report's name of a point (short form): x first, then its group; the id if it has neither.
 std::string point_name(const CampaignView& view, const Point& point);
+// The same in the long form, for captions.
+std::string point_title(const CampaignView& view, const Point& point);
 std::vector<std::string> groups_of(const CampaignView& view);
 // At least two points have an x value: figures against x make sense.
 bool has_x(const CampaignView& view);

@@ -104,7 +104,9 @@ nlohmann::json to_json(const EngineComparison& c) {
                                     {"title", m.difference.title},
                                     {"headline", m.difference.headline}};
     }
-    points.push_back({{"point", p.point}, {"metrics", metrics}});
+    nlohmann::json point = {{"point", p.point}, {"metrics", metrics}};
+    if (!p.name.empty()) point["name"] = p.name;
+    points.push_back(point);
   }
   nlohmann::json costs = nlohmann::json::array();
   for (const EngineCost& e : c.costs) {
@@ -135,6 +137,26 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 }  // namespace
 
+namespace {
+
+// The point of `engine` with these sweep values, or nullptr.
+const Point* engine_point(const CampaignView& c, const nlohmann::json& point, const std::string& engine) {
+  for (const Point& p : c.points)
+    if (p.engine == engine && p.point == point) return &p;
+  return nullptr;
+}
+
+// The report's name of a compared point: the x value and the groups without the engine.
+std::string shared_point_name(const CampaignView& c, const nlohmann::json& point, const std::string& engine) {
+  const Point* p = engine_point(c, point, engine);
+  if (!p) return point.dump();
+  std::string s = p->shared_group;
+  if (!c.x_axis.empty()) s = x_text(c, p->x, NameForm::kShort) + (s.empty() ? "" : ", " + s);
+  return s;
+}
+
+}  // namespace
+
 std::optional<EngineComparison> engine_comparison_of(const CampaignView& c,
                                                      const std::vector<std::vector<PointMetric>>& metrics) {
   if (c.engines.size() < 2) return std::nullopt;
@@ -155,28 +177,11 @@ std::optional<EngineComparison> engine_comparison_of(const CampaignView& c,
     if (r.record->engine == a) ta.push_back(r.timing);
     if (r.record->engine == b) tb.push_back(r.timing);
   }
-  return compare_engines(a, ma, ta, b, mb, tb);
+  EngineComparison k = compare_engines(a, ma, ta, b, mb, tb);
+  for (PointAgreement& p : k.points) p.name = shared_point_name(c, p.point, a);
+  return k;
 }
 
-namespace {
-
-// The point of `engine` with these sweep values, or nullptr.
-const Point* engine_point(const CampaignView& c, const nlohmann::json& point, const std::string& engine) {
-  for (const Point& p : c.points)
-    if (p.engine == engine && p.point == point) return &p;
-  return nullptr;
-}
-
-// The report's name of a compared point: the x value and the groups without the engine.
-std::string shared_point_name(const CampaignView& c, const nlohmann::json& point, const std::string& engine) {
-  const Point* p = engine_point(c, point, engine);
-  if (!p) return point.dump();
-  std::string s = p->shared_group;
-  if (!c.x_axis.empty()) s = c.x_name + "=" + format_number(p->x, 6) + (s.empty() ? "" : ", " + s);
-  return s;
-}
-
-}  // namespace
 
 std::optional<Section> engine_comparison_section(const CampaignView& c, const EngineComparison& k) {
   const std::string& a = k.engine_a;
@@ -252,7 +257,7 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
             {"point", "metric", "", a, b, "ratio " + b + "/" + a, "z", "agree"}, {},
             {"point", "metric", "title", a, b, "ratio", "z", "agree"}};
     for (const PointAgreement& p : k.points) {
-      const std::string name = shared_point_name(c, p.point, a);
+      const std::string name = p.name.empty() ? shared_point_name(c, p.point, a) : p.name;
       for (const MetricAgreement& m : p.metrics) {
         const MetricDifference& d = m.difference;
         t.rows.push_back({name, d.name, metric_title(d.name), Cell::estimate(d.a), Cell::estimate(d.b),

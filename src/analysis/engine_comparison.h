@@ -60,6 +60,7 @@ std::string agreement_text(const std::optional<bool>& agree);
 
 struct PointAgreement {
   nlohmann::json point;               // sweep values shared by both engines
+  std::string name{};                 // as the report names it ("W = 15, shape = disc"); "" unknown
   std::vector<MetricAgreement> metrics;
 };
 

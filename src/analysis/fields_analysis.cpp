@@ -536,7 +536,9 @@ std::optional<Section> FieldsAnalysis::section(const SectionInput& in) const {
   };
   // Panel titles: the point's sweep values (the axes' names once, in the caption).
   std::string axes_text;
-  for (const std::string& axis : v.axes) axes_text += (axes_text.empty() ? "" : ", ") + short_axis(axis);
+  for (const std::string& axis : v.axes)
+    axes_text += (axes_text.empty() ? "" : ", ") +
+                 axis_text(v, axis, v.points.empty() ? nlohmann::json() : v.points.front().spec, NameForm::kLong);
   auto values_of = [&](std::size_t p) {
     std::string text;
     for (const std::string& axis : v.axes) {

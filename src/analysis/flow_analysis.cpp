@@ -312,6 +312,8 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
     const std::vector<Series> data_series = f.series;
     std::map<std::string, Figure> model_figures;
     const std::string other_axis = group_axis(v);
+    const std::string other_axis_name =
+        other_axis.empty() ? "" : axis_text(v, other_axis, v.points.front().spec, NameForm::kLong);
     std::map<std::string, Figure> trends;  // per model: its parameters against other_axis
     for (const auto& g : groups_of(v)) {
       double group_value = kNaN;
@@ -358,8 +360,8 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
           Figure& tf = trends[r.model_name];
           if (tf.name.empty()) {
             tf.name = "fit_parameters_" + r.model_name;
-            tf.title = "Fitted parameters of " + r.model_name + " (" + r.expression + ") against " + short_axis(other_axis);
-            tf.xlabel = short_axis(other_axis);
+            tf.title = "Fitted parameters of " + r.model_name + " (" + r.expression + ") against " + other_axis_name;
+            tf.xlabel = other_axis_name;
             tf.ylabel = "parameter value";
             tf.caption = "Error bars: standard errors of the fit. Parameters not determined by the data or whose 95% "
                          "interval holds 0 are left out (fit table above)";

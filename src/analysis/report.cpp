@@ -39,7 +39,7 @@ std::optional<Section> runs_section(const CampaignView& c) {
                           "than planned says so in its `n`."});
   Table t{"runs_not_used", "Runs not used, with the reason", {"run", "point", "replica", "state", "reason"}, {}, {}};
   auto row = [&](const RunRecord* r, const std::string& reason) {
-    t.rows.push_back({r->run_id, point_label(c, r->point, r->spec), Cell::count(r->replica), r->state, reason});
+    t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, NameForm::kShort), Cell::count(r->replica), r->state, reason});
   };
   for (const RunRecord* r : c.missing) row(r, r->failure.empty() ? "not finished" : "not finished: " + state_reason(*r));
   for (const RunRecord* r : c.failed) row(r, state_reason(*r));
@@ -103,7 +103,8 @@ std::optional<Section> system_section(const CampaignView& c, const ReportOptions
   if (spec.is_null()) return s;
   s.blocks.push_back(fixed_parameters(spec, c.campaign->axes));
   if (!c.campaign->axes.empty()) {
-    Table t{"system-axes", "Swept parameters", {"parameter", "in the run spec", "values"}, {}, {}};
+    Table t{"system-axes", "Swept parameters (short: as tables and figure keys name them)",
+            {"parameter", "short", "in the run spec", "values"}, {}, {}};
     for (const auto& axis : c.campaign->axes) {
       std::vector<std::string> values;
       for (const Point& p : c.points) {
@@ -113,7 +114,8 @@ std::optional<Section> system_section(const CampaignView& c, const ReportOptions
       }
       std::string joined;
       for (const auto& v : values) joined += (joined.empty() ? "" : ", ") + v;
-      t.rows.push_back({axis_name(axis, spec), axis, joined.empty() ? "(no finished run yet)" : joined});
+      t.rows.push_back({axis_name(axis, spec), axis_text(c, axis, spec, NameForm::kShort), axis,
+                        joined.empty() ? "(no finished run yet)" : joined});
     }
     s.blocks.push_back(t);
   }
@@ -132,11 +134,8 @@ std::optional<Section> system_section(const CampaignView& c, const ReportOptions
     const std::string stem = "pictures/point-" + std::to_string(k + 1);
     std::filesystem::create_directories(options.out_dir / "pictures");
     Pictures pics;
-    std::string label;
-    for (const auto& axis : c.campaign->axes) {
-      const auto v = axis_value(axis, p.point, p.spec);
-      label += (label.empty() ? "" : ", ") + axis_name(axis, p.spec) + " = " + (v ? value_text(*v) : "?");
-    }
+    // In words, engine included (a campaign on two engines shows each point twice).
+    const std::string label = c.axes.empty() ? std::string() : point_title(c, p);
     pics.caption = (label.empty() ? std::string("The silo") : label) + " (replica " + std::to_string(run->record->replica) +
                    ", run `" + run->record->run_id.substr(0, 10) + "`)";
     const std::string& end = run->summary.end_reason;

@@ -27,14 +27,16 @@ std::string SpeciesName(const json& spec, std::size_t k) {
   return "species " + std::to_string(k);
 }
 
-// "X_db" for dumbbells, "X_d" for discs, "X_<name>" otherwise (the thesis' symbols).
+// "X_db" for dumbbells, "X_d" for discs, "X_<name>" otherwise (the thesis' symbols), "X_<k>"
+// for a species without a name.
 std::string FractionSymbol(const json& spec, std::size_t k) {
   const json& species = At(At(spec, "bodies"), "species");
   const std::string shape = species.is_array() && k < species.size() ? species[k].value("shape", "") : "";
   if (shape == "dumbbell") return "X_db";
   if (shape == "disc") return "X_d";
   if (shape == "snowman") return "X_sm";
-  return "X_" + SpeciesName(spec, k);
+  const bool named = species.is_array() && k < species.size() && species[k].contains("name");
+  return "X_" + (named ? SpeciesName(spec, k) : std::to_string(k));
 }
 
 std::size_t Count(const json& spec, const char* group, const char* list) {
@@ -64,8 +66,8 @@ bool Swept(const std::string& pointer, const std::vector<std::string>& axes) {
 
 }  // namespace
 
-std::string axis_name(const std::string& pointer, const json& spec) {
-  if (pointer == "engine" || pointer == "/engine") return "engine";
+AxisNames axis_names(const std::string& pointer, const json& spec) {
+  if (pointer == "engine" || pointer == "/engine") return {"engine", "engine"};
   const std::vector<std::string> p = Split(pointer);
   const auto is = [&](std::initializer_list<const char*> want) {
     if (p.size() != want.size()) return false;
@@ -80,42 +82,50 @@ std::string axis_name(const std::string& pointer, const json& spec) {
   const auto nth = [&](const char* what, std::size_t k, const char* group, const char* list) {
     return Count(spec, group, list) > 1 ? std::string(what) + " " + std::to_string(k + 1) : std::string(what);
   };
+  // {words with the symbol, the symbol}
+  const auto named = [](std::string words, const std::string& symbol) { return AxisNames{words + " " + symbol, symbol}; };
   if (is({"silo", "base_outlets", "#", "width"})) {
-    const std::size_t k = index(2);
-    return Count(spec, "silo", "base_outlets") > 1 ? "width W_" + std::to_string(k + 1) + " of outlet " + std::to_string(k + 1)
-                                                   : "outlet width W";
+    const std::string k = std::to_string(index(2) + 1);
+    return Count(spec, "silo", "base_outlets") > 1 ? AxisNames{"width W_" + k + " of outlet " + k, "W_" + k}
+                                                   : named("outlet width", "W");
   }
-  if (is({"silo", "base_outlets", "#", "center"}))
-    return "position x_" + std::to_string(index(2) + 1) + " of " + nth("outlet", index(2), "silo", "base_outlets");
-  if (is({"silo", "side_outlets", "#", "width"})) return nth("side outlet", index(2), "silo", "side_outlets") + " width W_s";
+  if (is({"silo", "base_outlets", "#", "center"})) {
+    const std::string k = std::to_string(index(2) + 1);
+    return {"position x_" + k + " of " + nth("outlet", index(2), "silo", "base_outlets"), "x_" + k};
+  }
+  if (is({"silo", "side_outlets", "#", "width"})) return named(nth("side outlet", index(2), "silo", "side_outlets") + " width", "W_s");
   if (is({"silo", "side_outlets", "#", "bottom"}))
-    return nth("side outlet", index(2), "silo", "side_outlets") + " height above the base h_s";
-  if (is({"silo", "obstacles", "#", "y"})) return nth("obstacle", index(2), "silo", "obstacles") + " height h";
-  if (is({"silo", "obstacles", "#", "x"})) return nth("obstacle", index(2), "silo", "obstacles") + " position x_o";
-  if (is({"silo", "obstacles", "#", "diameter"})) return nth("obstacle", index(2), "silo", "obstacles") + " diameter D_o";
-  if (is({"silo", "width"})) return "silo width L";
-  if (is({"silo", "height"})) return "silo height";
-  if (is({"bodies", "count"})) return "number of bodies N";
-  if (is({"bodies", "density"})) return "areal density rho";
+    return named(nth("side outlet", index(2), "silo", "side_outlets") + " height above the base", "h_s");
+  if (is({"silo", "obstacles", "#", "y"})) return named(nth("obstacle", index(2), "silo", "obstacles") + " height", "h");
+  if (is({"silo", "obstacles", "#", "x"})) return named(nth("obstacle", index(2), "silo", "obstacles") + " position", "x_o");
+  if (is({"silo", "obstacles", "#", "diameter"})) return named(nth("obstacle", index(2), "silo", "obstacles") + " diameter", "D_o");
+  if (is({"silo", "width"})) return named("silo width", "L");
+  if (is({"silo", "height"})) return {"silo height", "silo height"};
+  if (is({"bodies", "count"})) return named("number of bodies", "N");
+  if (is({"bodies", "density"})) return named("areal density", "rho");
   if (is({"bodies", "species", "#", "fraction"}))
-    return SpeciesName(spec, index(2)) + " fraction " + FractionSymbol(spec, index(2));
-  if (is({"bodies", "species", "#", "diameter"})) return SpeciesName(spec, index(2)) + " disc diameter d";
-  if (is({"bodies", "species", "#", "big_diameter"})) return SpeciesName(spec, index(2)) + " big-disc diameter D_b";
-  if (is({"bodies", "species", "#", "n"})) return SpeciesName(spec, index(2)) + " discs per rod n";
-  if (is({"contact", "mu"})) return "friction mu";
-  if (is({"contact", "mu_wall"})) return "wall friction mu_w";
-  if (is({"contact", "kn"})) return "normal stiffness K_n";
-  if (is({"contact", "kt"})) return "tangential stiffness K_t";
-  if (is({"contact", "gamma_n"})) return "normal damping gamma_n";
-  if (is({"contact", "gamma_t"})) return "tangential damping gamma_t";
-  if (is({"time_step"})) return "time step dt";
-  if (is({"gravity"})) return "gravity g";
-  if (is({"discharge", "mode"})) return "discharge mode";
-  if (is({"discharge", "reinject_speed"})) return "reinjection speed";
-  if (is({"discharge", "max_time"})) return "maximum time";
-  if (is({"seed"})) return "seed";
-  return pointer;
+    return named(SpeciesName(spec, index(2)) + " fraction", FractionSymbol(spec, index(2)));
+  if (is({"bodies", "species", "#", "shape"}))
+    return {Count(spec, "bodies", "species") > 1 ? "shape of " + SpeciesName(spec, index(2)) : std::string("body shape"), "shape"};
+  if (is({"bodies", "species", "#", "diameter"})) return named(SpeciesName(spec, index(2)) + " disc diameter", "d");
+  if (is({"bodies", "species", "#", "big_diameter"})) return named(SpeciesName(spec, index(2)) + " big-disc diameter", "D_b");
+  if (is({"bodies", "species", "#", "n"})) return named(SpeciesName(spec, index(2)) + " discs per rod", "n");
+  if (is({"contact", "mu"})) return named("friction", "mu");
+  if (is({"contact", "mu_wall"})) return named("wall friction", "mu_w");
+  if (is({"contact", "kn"})) return named("normal stiffness", "K_n");
+  if (is({"contact", "kt"})) return named("tangential stiffness", "K_t");
+  if (is({"contact", "gamma_n"})) return named("normal damping", "gamma_n");
+  if (is({"contact", "gamma_t"})) return named("tangential damping", "gamma_t");
+  if (is({"time_step"})) return named("time step", "dt");
+  if (is({"gravity"})) return named("gravity", "g");
+  if (is({"discharge", "mode"})) return {"discharge mode", "mode"};
+  if (is({"discharge", "reinject_speed"})) return {"reinjection speed", "reinjection speed"};
+  if (is({"discharge", "max_time"})) return {"maximum time", "t_max"};
+  if (is({"seed"})) return {"seed", "seed"};
+  return {pointer, pointer};
 }
+
+std::string axis_name(const std::string& pointer, const json& spec) { return axis_names(pointer, spec).name; }
 
 Table fixed_parameters(const json& spec, const std::vector<std::string>& axes) {
   Table t;

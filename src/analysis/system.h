@@ -16,6 +16,15 @@ namespace granary::analysis {
 // species' names and how many outlets there are. Unknown pointers come back as they are.
 std::string axis_name(const std::string& pointer, const nlohmann::json& run_spec);
 
+// An axis' long name and its short form for narrow table columns and figure keys: the thesis'
+// symbol ("W", "X_db", "N"), or a word where the quantity has none ("shape", "mode", "engine").
+// Unknown pointers: the pointer itself in both.
+struct AxisNames {
+  std::string name;    // "outlet width W"
+  std::string symbol;  // "W"
+};
+AxisNames axis_names(const std::string& pointer, const nlohmann::json& run_spec);
+
 // Rows {group, parameter, value} of everything a run of the campaign shares, from one resolved
 // run spec; a parameter under one of the sweep `axes` reads "swept (below)".
 Table fixed_parameters(const nlohmann::json& run_spec, const std::vector<std::string>& axes);

@@ -1194,7 +1194,7 @@ void PrintComparison(std::ostream& out, const json& c) {
       << "ratio" << "agree\n";
   bool unknown = false;
   for (const json& p : c.at("points")) {
-    out << "  " << CompactPoint(p.at("point")) << "\n";
+    out << "  " << (p.contains("name") ? p.at("name").get<std::string>() : CompactPoint(p.at("point"))) << "\n";
     if (p.at("metrics").empty()) out << "    (no metric defined on both engines yet)\n";
     for (const json& name : c.at("metric_order")) {
       const std::string metric = name.get<std::string>();

@@ -137,12 +137,12 @@ TEST(ClogReport, ArchesContactsAndOrientationSectionsWithPictures) {
   EXPECT_NE(md.find("## Orientation of elongated bodies (ch. 4, 5, 6)"), std::string::npos);
   // Per point: 2 clogs, 2 arches of N_t = 4, w = 4.8, elongated fraction 1.
   const std::string arches = read_file(opt.out_dir / "data" / "arches.csv");
-  EXPECT_EQ(cell(arches, "width=3", "clogs"), "2") << arches;
-  EXPECT_EQ(cell(arches, "width=3", "arches"), "2");
-  EXPECT_EQ(cell(arches, "width=4", "arch_n"), "4");
-  EXPECT_EQ(cell(arches, "width=4", "arch_n_n"), "2");
-  EXPECT_NEAR(std::stod(cell(arches, "width=4", "arch_width")), 4.8, 1e-9);
-  EXPECT_EQ(cell(arches, "width=4", "arch_elongated_fraction"), "1");
+  EXPECT_EQ(cell(arches, "W = 3", "clogs"), "2") << arches;
+  EXPECT_EQ(cell(arches, "W = 3", "arches"), "2");
+  EXPECT_EQ(cell(arches, "W = 4", "arch_n"), "4");
+  EXPECT_EQ(cell(arches, "W = 4", "arch_n_n"), "2");
+  EXPECT_NEAR(std::stod(cell(arches, "W = 4", "arch_width")), 4.8, 1e-9);
+  EXPECT_EQ(cell(arches, "W = 4", "arch_elongated_fraction"), "1");
   // Figures against W are there (as CSVs without gnuplot).
   EXPECT_NE(curve_csv(opt.out_dir / "data", "arch_n"), "");
   EXPECT_NE(curve_csv(opt.out_dir / "data", "arch_pressure_theta"), "");
@@ -157,14 +157,14 @@ TEST(ClogReport, ArchesContactsAndOrientationSectionsWithPictures) {
   // Contacts: the arch's dumbbells touch with a second disc against a first one (large-small by
   // disc order), everything else involves a lone disc (3 of 14 contacts).
   const std::string contacts = read_file(opt.out_dir / "data" / "contacts.csv");
-  EXPECT_EQ(cell(contacts, "width=3", "contact_ss_n"), "2") << contacts;
-  EXPECT_NEAR(std::stod(cell(contacts, "width=3", "contact_ls")), 3.0 / 14, 1e-12);
-  EXPECT_EQ(cell(contacts, "width=3", "contact_ls_se"), "0");
+  EXPECT_EQ(cell(contacts, "W = 3", "contact_ss_n"), "2") << contacts;
+  EXPECT_NEAR(std::stod(cell(contacts, "W = 3", "contact_ls")), 3.0 / 14, 1e-12);
+  EXPECT_EQ(cell(contacts, "W = 3", "contact_ls_se"), "0");
   // Orientation: above the outlet two vertical and two lying dumbbells make S = 0 against the
   // vertical; the band at h = 1.5 holds all four; the arch window one lying axis.
   const std::string order = read_file(opt.out_dir / "data" / "orientation_order.csv");
-  EXPECT_NEAR(std::stod(cell(order, "width=3", "order_parameter_0")), 0.0, 1e-12) << order;
-  EXPECT_EQ(cell(order, "width=3", "order_parameter_0_n"), "2");
+  EXPECT_NEAR(std::stod(cell(order, "W = 3", "order_parameter_0")), 0.0, 1e-12) << order;
+  EXPECT_EQ(cell(order, "W = 3", "order_parameter_0_n"), "2");
   EXPECT_NE(curve_csv(opt.out_dir / "data", "orientation_s_1"), "");
   const std::string window = curve_csv(opt.out_dir / "data", "orientation_window_arches");
   // Both runs' lying dumbbell, psi in [0, 10) degrees: density 2 / (2 x 10 degrees in radians).

@@ -171,13 +171,15 @@ TEST(EngineComparison, ReportOfATwoEngineCampaign) {
     ASSERT_TRUE(q["agree"].is_boolean()) << "W = " << w;
     EXPECT_EQ(q["agree"].get<bool>(), w == 10.0) << "W = " << w;
     EXPECT_EQ(q["native"]["n"], 2);
+    EXPECT_EQ(p["name"], "W = " + format_number(w)) << "the JSON keeps the sweep values and adds the name";
   }
   EXPECT_DOUBLE_EQ(c["costs"][0]["disc_steps_per_s"]["mean"].get<double>(), 2e7);
   EXPECT_DOUBLE_EQ(c["costs"][1]["disc_steps_per_s"]["mean"].get<double>(), 4e6);
   const std::string md = read_file(s.markdown);
   EXPECT_NE(md.find("Engine comparison: native and liggghts"), std::string::npos);
   // The engine is one more axis: every table keeps the engines apart.
-  EXPECT_NE(md.find("engine=liggghts"), std::string::npos);
+  EXPECT_NE(md.find("| W = 10, engine = liggghts |"), std::string::npos) << "short point names in tables";
+  EXPECT_EQ(md.find("base_outlets.0.width="), std::string::npos) << "no JSON paths as point names";
   EXPECT_NE(md.find("`liggghts` the spring part only"), std::string::npos);
   // The synthetic native runs reinject at random, the LIGGGHTS ones say "periodic".
   EXPECT_NE(md.find("Reinjection: native `random`, liggghts `periodic`"), std::string::npos);

@@ -117,7 +117,7 @@ TEST(ExtraAnalysis, RegisteredInATestAppearsInReportExportAndComparison) {
     // 200 exits in 200/q: rate q, scaled by 2 from the options.
     const std::string table = read_file(o.out_dir / "data" / "exit_rate.csv");
     EXPECT_EQ(table.substr(0, table.find('\n')), "point,exit_rate,exit_rate_se,exit_rate_n");
-    EXPECT_NE(table.find("\"base_outlets.0.width=9, engine=native\",18,0,2"), std::string::npos) << table;
+    EXPECT_NE(table.find("\"W = 9, engine = native\",18,0,2"), std::string::npos) << table;
 
     const ExportTable runs_table = export_table(*a, ExportLevel::kRun), points_table = export_table(*a, ExportLevel::kPoint);
     for (const char* column : {"exit_rate", "exit_rate_se"})

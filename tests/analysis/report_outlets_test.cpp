@@ -73,10 +73,10 @@ struct Campaign {
     runs.push_back(r);
   }
 
-  std::filesystem::path report(const std::filesystem::path& out) const {
+  std::filesystem::path report(const std::filesystem::path& out, bool figures = false) const {
     ReportOptions opt;
     opt.out_dir = out;
-    opt.figures = false;
+    opt.figures = figures;
     write_report(info, runs, opt);
     return out;
   }
@@ -112,10 +112,10 @@ TEST(ReportOutlets, TwoBaseOutletsAgainstTheGapWithFlowPerOutlet) {
   EXPECT_EQ(flow.substr(0, flow.find('\n')),
             "point,q_count,q_count_se,q_count_n,q_mass,q_mass_se,q_mass_n,q_count_outlet0,q_count_outlet0_se,"
             "q_count_outlet0_n,q_count_outlet1,q_count_outlet1_se,q_count_outlet1_n");
-  EXPECT_NEAR(std::stod(csv_cell(flow, {"L=4"}, 7)), 4.0, 1e-3);  // staircase sampled at all exits
-  EXPECT_NEAR(std::stod(csv_cell(flow, {"L=8"}, 7)), 3.0, 1e-3);
-  EXPECT_NEAR(std::stod(csv_cell(flow, {"L=8"}, 10)), 3.0, 1e-3);
-  EXPECT_NEAR(std::stod(csv_cell(flow, {"L=0"}, 1)), 8.0, 0.1);  // merged streams: nearly q0 + q1
+  EXPECT_NEAR(std::stod(csv_cell(flow, {"L = 4,"}, 7)), 4.0, 1e-3);  // staircase sampled at all exits
+  EXPECT_NEAR(std::stod(csv_cell(flow, {"L = 8,"}, 7)), 3.0, 1e-3);
+  EXPECT_NEAR(std::stod(csv_cell(flow, {"L = 8,"}, 10)), 3.0, 1e-3);
+  EXPECT_NEAR(std::stod(csv_cell(flow, {"L = 0,"}, 1)), 8.0, 0.1);  // merged streams: nearly q0 + q1
   // The figure of each outlet against L (edge-to-edge gap computed from the centres).
   const std::string outlet0 = read_file(out / "data" / "flow_rate_per_outlet--base_0.csv");
   EXPECT_EQ(outlet0.substr(0, outlet0.find('\n')), "L,Q,Q_se,n");
@@ -185,15 +185,15 @@ TEST(ReportOutlets, AvalanchesAndIntermittencyOfOneOutletWhileTheOtherFlows) {
   c.add("W4", {{"/silo/base_outlets/0/width", 4}}, spec, {small, stream(4.0, 0.25, 30.0)}, 30.0);
   const auto out = c.report(dir.path() / "report");
   const std::string av = read_file(out / "data" / "avalanches_per_outlet.csv");
-  EXPECT_EQ(csv_cell(av, {"width=4", "base 0"}, 2), "20");
-  EXPECT_EQ(csv_cell(av, {"width=4", "base 0"}, 4), "1");  // n
-  EXPECT_EQ(csv_cell(av, {"width=4", "base 1"}, 2), "no avalanche");
+  EXPECT_EQ(csv_cell(av, {"W_1 = 4", "base 0"}, 2), "20");
+  EXPECT_EQ(csv_cell(av, {"W_1 = 4", "base 0"}, 4), "1");  // n
+  EXPECT_EQ(csv_cell(av, {"W_1 = 4", "base 1"}, 2), "no avalanche");
   EXPECT_FALSE(std::filesystem::exists(out / "data" / "avalanches.csv"));  // the merged stream never stopped
   const std::string inter = read_file(out / "data" / "intermittency.csv");
-  EXPECT_EQ(csv_cell(inter, {"width=4", "base 0"}, 5), "10");  // t_c: 10 -> 20
-  EXPECT_EQ(csv_cell(inter, {"width=4", "base 0"}, 7), "1");
-  EXPECT_DOUBLE_EQ(std::stod(csv_cell(inter, {"width=4", "base 0"}, 8)), 1.0 / 30.0);
-  EXPECT_EQ(csv_cell(inter, {"width=4", "base 1"}, 9), "0");  // unclogs
+  EXPECT_EQ(csv_cell(inter, {"W_1 = 4", "base 0"}, 5), "10");  // t_c: 10 -> 20
+  EXPECT_EQ(csv_cell(inter, {"W_1 = 4", "base 0"}, 7), "1");
+  EXPECT_DOUBLE_EQ(std::stod(csv_cell(inter, {"W_1 = 4", "base 0"}, 8)), 1.0 / 30.0);
+  EXPECT_EQ(csv_cell(inter, {"W_1 = 4", "base 1"}, 9), "0");  // unclogs
 }
 
 TEST(ReportOutlets, FitsPerGroupOfZippedAxesAndSmoothCurves) {
@@ -208,19 +208,31 @@ TEST(ReportOutlets, FitsPerGroupOfZippedAxesAndSmoothCurves) {
   for (double x : {0.0, 0.5, 1.0}) {
     for (double w : {8.0, 12.0, 16.0, 20.0}) {
       const double lo_w = x == 1.0 ? w + 4.0 : w;  // the X = 1 group is measured at 12..24
-      const nlohmann::json spec = silo_spec({{{"center", 0}, {"width", lo_w}}});
+      nlohmann::json spec = silo_spec({{{"center", 0}, {"width", lo_w}}});
+      spec["bodies"]["species"] = {{{"name", "dumbbell"}, {"shape", "dumbbell"}, {"fraction", x}},
+                                   {{"name", "disc"}, {"shape", "disc"}, {"fraction", 1 - x}}};
       c.add("W" + format_number(lo_w) + "X" + format_number(x),
             {{"/silo/base_outlets/0/width", lo_w}, {"/bodies/species/0/fraction", x}, {"/bodies/species/1/fraction", 1 - x}},
             spec, {stream(kC / (1.0 + x / 2.0) * std::pow(lo_w - kK, 1.5), 0.5, 40.0)}, 40.0);
     }
   }
-  const auto out = c.report(dir.path() / "report");
+  const auto out = c.report(dir.path() / "report", true);
   const std::string trend = read_file(out / "data" / "fit_parameters_beverloo_2d--C.csv");
   EXPECT_EQ(trend.substr(0, trend.find('\n')), "species.0.fraction,C,C_se,ci_low,ci_high");
   EXPECT_NEAR(std::stod(cell_of_row(trend, "0.5", 1)), 0.64, 1e-3);
   EXPECT_EQ(std::count(trend.begin(), trend.end(), '\n'), 4);
+  // The parameters are drawn against the group axis by its name, not its JSON path.
+  const std::string trend_gp = read_file(out / "figures" / "fit_parameters_beverloo_2d.gp");
+  EXPECT_NE(trend_gp.find("set xlabel 'dumbbell fraction X_db'"), std::string::npos) << trend_gp;
+  // Tables and keys name the points by the thesis' symbols, the W axis in words; the curves'
+  // files are named after their keys, short ASCII.
+  EXPECT_NE(csv_cell(read_file(out / "data" / "flow_rate.csv"), {"W = 8, X_db = 0.5, X_d = 0.5"}, 1), "");
+  const std::string flow_gp = read_file(out / "figures" / "flow_rate.gp");
+  EXPECT_NE(flow_gp.find("set xlabel 'W/d (outlet width W)'"), std::string::npos) << flow_gp;
+  EXPECT_NE(flow_gp.find("title 'X_db = 0.5, X_d = 0.5'"), std::string::npos) << flow_gp;
+  EXPECT_EQ(flow_gp.find("species.0"), std::string::npos) << flow_gp;
   // The data of the three groups, then the Beverloo curve of each.
-  const std::string curve = read_file(out / "data" / "flow_rate--beverloo_2d_species.0.fraction_0_species.1.fraction_1.csv");
+  const std::string curve = read_file(out / "data" / "flow_rate--beverloo_2d_X_db_0_X_d_1.csv");
   ASSERT_EQ(curve.substr(0, curve.find('\n')), "W,Q_fit");
   EXPECT_EQ(std::count(curve.begin(), curve.end(), '\n'), 202);  // header + 201 samples
   EXPECT_EQ(cell_of_row(curve, "8", 0), "8");

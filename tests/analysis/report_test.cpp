@@ -182,7 +182,7 @@ TEST(CampaignAnalysis, StagnantCountOfAPointWhereEveryRunClogged) {
     const std::vector<PointMetric> m = a->all_point_metrics(p);
     EXPECT_DOUBLE_EQ(find_metric(m, "n_stagnant")->mean, 40.0);  // the group silo=100, not the campaign (60)
     EXPECT_NEAR(find_metric(m, "psi")->mean, (500.0 / 960.0 + 200.0 / 960.0) / 2.0, 1e-14);
-    EXPECT_EQ(find_metric(m, "psi")->note, "every run clogged: N_u from the freely discharging runs of width=100");
+    EXPECT_EQ(find_metric(m, "psi")->note, "every run clogged: N_u from the freely discharging runs of L = 100");
   }
 }
 
@@ -215,9 +215,9 @@ TEST(WriteReport, SyntheticCampaign) {
   // Flow-rate table: mean, se and n in columns of their own, to full precision.
   const std::string flow = read_file(opt.out_dir / "data" / "flow_rate.csv");
   EXPECT_EQ(flow.substr(0, flow.find('\n')), "point,q_count,q_count_se,q_count_n,q_mass,q_mass_se,q_mass_n");
-  EXPECT_NEAR(std::stod(csv_cell(flow, {"width=14"}, 1)), q_of(14), 1e-12 * q_of(14));
-  EXPECT_NEAR(std::stod(csv_cell(flow, {"width=14"}, 2)), 0.01 * q_of(14), 1e-9 * q_of(14));
-  EXPECT_EQ(csv_cell(flow, {"width=14"}, 3), "2");
+  EXPECT_NEAR(std::stod(csv_cell(flow, {"W = 14"}, 1)), q_of(14), 1e-12 * q_of(14));
+  EXPECT_NEAR(std::stod(csv_cell(flow, {"W = 14"}, 2)), 0.01 * q_of(14), 1e-9 * q_of(14));
+  EXPECT_EQ(csv_cell(flow, {"W = 14"}, 3), "2");
   EXPECT_NE(md.find(format_mean_se(q_of(14), 0.01 * q_of(14), 2)), std::string::npos);
 
   // Beverloo 2-D recovers the generating C and k (the replica means lie on the curve).
@@ -324,23 +324,23 @@ TEST(WriteReport, ClogSectionsWithKnownNumbers) {
 
   const std::string psi = read_file(opt.out_dir / "data" / "clogging_index.csv");
   EXPECT_EQ(psi.substr(0, psi.find('\n')), "point,psi,psi_se,psi_n,clogged_runs,discarded_runs,n_stagnant,note");
-  EXPECT_NEAR(std::stod(csv_cell(psi, {"width=6"}, 1)), 660.0 / 960.0 / 2.0, 1e-15);
-  EXPECT_NEAR(std::stod(csv_cell(psi, {"width=6"}, 2)), 660.0 / 960.0 / 2.0, 1e-15);
-  EXPECT_EQ(csv_cell(psi, {"width=6"}, 3), "2");
-  EXPECT_EQ(csv_cell(psi, {"width=6"}, 5), "1");   // discarded
-  EXPECT_EQ(csv_cell(psi, {"width=6"}, 6), "40");  // N_u
+  EXPECT_NEAR(std::stod(csv_cell(psi, {"W = 6"}, 1)), 660.0 / 960.0 / 2.0, 1e-15);
+  EXPECT_NEAR(std::stod(csv_cell(psi, {"W = 6"}, 2)), 660.0 / 960.0 / 2.0, 1e-15);
+  EXPECT_EQ(csv_cell(psi, {"W = 6"}, 3), "2");
+  EXPECT_EQ(csv_cell(psi, {"W = 6"}, 5), "1");   // discarded
+  EXPECT_EQ(csv_cell(psi, {"W = 6"}, 6), "40");  // N_u
 
   const std::string av = read_file(opt.out_dir / "data" / "avalanches.csv");
-  EXPECT_EQ(csv_cell(av, {"width=6"}, 1), "175");
-  EXPECT_EQ(csv_cell(av, {"width=6"}, 2), "125");
-  EXPECT_EQ(csv_cell(av, {"width=8"}, 1), "20");
-  EXPECT_EQ(csv_cell(av, {"width=8"}, 2), "nan");  // one avalanche: no se
-  EXPECT_EQ(csv_cell(av, {"width=8"}, 3), "1");
+  EXPECT_EQ(csv_cell(av, {"W = 6"}, 1), "175");
+  EXPECT_EQ(csv_cell(av, {"W = 6"}, 2), "125");
+  EXPECT_EQ(csv_cell(av, {"W = 8"}, 1), "20");
+  EXPECT_EQ(csv_cell(av, {"W = 8"}, 2), "nan");  // one avalanche: no se
+  EXPECT_EQ(csv_cell(av, {"W = 8"}, 3), "1");
 
   const std::string inter = read_file(opt.out_dir / "data" / "intermittency.csv");
-  EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 2), "10");   // t_f: 0 -> 10
-  EXPECT_EQ(csv_cell(inter, {"width=8", "base 0"}, 5), "10");   // t_c: 10 -> 20
-  EXPECT_DOUBLE_EQ(std::stod(csv_cell(inter, {"width=8", "base 0"}, 8)), 1.0 / 26.0);
+  EXPECT_EQ(csv_cell(inter, {"W = 8", "base 0"}, 2), "10");   // t_f: 0 -> 10
+  EXPECT_EQ(csv_cell(inter, {"W = 8", "base 0"}, 5), "10");   // t_c: 10 -> 20
+  EXPECT_DOUBLE_EQ(std::stod(csv_cell(inter, {"W = 8", "base 0"}, 8)), 1.0 / 26.0);
   // The figure data: t_f of outlet 0 at W = 8 (W = 6 runs stopped on clogs: no complete t_c).
   const std::string tf = read_file(opt.out_dir / "data" / "intermittency_times--t_f_base_0.csv");
   EXPECT_EQ(tf.substr(0, tf.find('\n')), "base_outlets.0.width,t_f,t_f_se,n");
@@ -375,8 +375,8 @@ TEST(WriteReport, FitsPerGroupOfAnotherAxis) {
   opt.figures = false;
   write_report(info, runs, opt);
   const std::string fits = read_file(opt.out_dir / "data" / "flow_rate_fits.csv");
-  EXPECT_NEAR(std::stod(csv_cell(fits, {"fraction=0.5", "beverloo_2d", ",C,"}, 3)), 0.64, 1e-3);
-  EXPECT_NEAR(std::stod(csv_cell(fits, {"fraction=1", "beverloo_2d", ",k,"}, 3)), kK, 1e-3);
+  EXPECT_NEAR(std::stod(csv_cell(fits, {"X_0 = 0.5", "beverloo_2d", ",C,"}, 3)), 0.64, 1e-3);
+  EXPECT_NEAR(std::stod(csv_cell(fits, {"X_0 = 1", "beverloo_2d", ",k,"}, 3)), kK, 1e-3);
   // The parameter trend against the other axis: C(X) for X = 0, 0.5, 1.
   const std::string trend = read_file(opt.out_dir / "data" / "fit_parameters_beverloo_2d--C.csv");
   EXPECT_EQ(trend.substr(0, trend.find('\n')), "species.0.fraction,C,C_se,ci_low,ci_high");

@@ -56,6 +56,30 @@ TEST(System, AxisNamesAreTheThesisNames) {
   EXPECT_EQ(axis_name("/bed/batch_size", two_outlets), "/bed/batch_size") << "unknown: the pointer itself";
 }
 
+TEST(System, AxesHaveShortNamesForTablesAndKeys) {
+  const json two_outlets = MixtureSpec();
+  json one_species = MixtureSpec();
+  one_species["bodies"]["species"] = {{{"shape", "disc"}, {"fraction", 1.0}}};
+  const auto symbol = [](const std::string& pointer, const json& spec) { return axis_names(pointer, spec).symbol; };
+  EXPECT_EQ(symbol("/silo/base_outlets/1/width", two_outlets), "W_2");
+  EXPECT_EQ(symbol("/bodies/species/0/fraction", two_outlets), "X_db");
+  EXPECT_EQ(symbol("/bodies/species/1/fraction", two_outlets), "X_d");
+  EXPECT_EQ(symbol("/bodies/count", two_outlets), "N");
+  EXPECT_EQ(symbol("/contact/mu", two_outlets), "mu");
+  EXPECT_EQ(symbol("engine", two_outlets), "engine");
+  EXPECT_EQ(axis_names("/contact/mu", two_outlets).name, "friction mu") << "the long name ends in the symbol";
+  // The shape: of the body when there is one species, of a named species otherwise; its
+  // values (disc, dumbbell, ...) are words, so the short name is a word too.
+  EXPECT_EQ(axis_name("/bodies/species/0/shape", one_species), "body shape");
+  EXPECT_EQ(axis_name("/bodies/species/1/shape", two_outlets), "shape of disc");
+  EXPECT_EQ(symbol("/bodies/species/0/shape", one_species), "shape");
+  // A species without a name: numbered, not "X_species 0".
+  json unnamed = one_species;
+  unnamed["bodies"]["species"][0].erase("shape");
+  EXPECT_EQ(axis_name("/bodies/species/0/fraction", unnamed), "species 0 fraction X_0");
+  EXPECT_EQ(symbol("/bodies/species/0/fraction", unnamed), "X_0");
+}
+
 TEST(System, FixedParametersSayWhatIsSweptAndDescribeTheBodies) {
   const Table t = fixed_parameters(MixtureSpec(), {"/silo/base_outlets/0/width", "/bodies/species/0/fraction"});
   std::map<std::string, std::string> value;
@@ -122,8 +146,8 @@ TEST(System, TheReportOpensWithTheSystem) {
   ASSERT_NE(system, std::string::npos);
   EXPECT_LT(system, md.find("## Runs")) << "the report opens with the system";
   EXPECT_NE(md.find("Dumbbells and discs through two outlets."), std::string::npos);
-  EXPECT_NE(md.find("| width W_1 of outlet 1 |"), std::string::npos) << "swept axes by their human names";
-  EXPECT_NE(md.find("| /silo/base_outlets/0/width | 8, 12 |"), std::string::npos);
+  EXPECT_NE(md.find("| width W_1 of outlet 1 | W_1 | /silo/base_outlets/0/width | 8, 12 |"), std::string::npos)
+      << "swept axes by their human names and the short ones tables use";
   EXPECT_NE(md.find("*width W_1 of outlet 1 = 8 (replica 0"), std::string::npos) << "pictures named by the human axis names";
   EXPECT_NE(md.find("![the bed before the outlets open (t = 0)](pictures/point-1-bed.png)"), std::string::npos);
   EXPECT_LT(md.find("clogged (t = 7.5)"), first_other);
@@ -134,6 +158,46 @@ TEST(System, TheReportOpensWithTheSystem) {
   opt.draw_run = nullptr;
   write_report(info, runs, opt);
   EXPECT_NE(read_file(s.markdown).find("(No pictures"), std::string::npos);
+}
+
+// A campaign on two engines shows each point twice in "The system": each caption names its
+// engine, so the native and the LIGGGHTS pictures are told apart.
+TEST(System, PicturesOfATwoEngineCampaignNameTheEngine) {
+  TempDir dir;
+  CampaignInfo info;
+  info.name = "both";
+  info.axes = {"/bodies/species/0/shape"};
+  std::vector<RunRecord> runs;
+  for (const std::string engine : {"native", "liggghts"}) {
+    RunRecord r;
+    r.run_id = "run-" + engine;
+    r.point_id = "P-" + engine;
+    r.state = "done";
+    r.engine = engine;
+    r.point = {{"/bodies/species/0/shape", "disc"}, {"/engine", engine}};
+    r.spec = MixtureSpec();
+    r.spec["engine"] = engine;
+    r.spec["bodies"]["species"] = {{{"shape", "disc"}, {"fraction", 1.0}}};
+    r.run_dir = dir.path() / r.run_id;
+    write_file(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n1.0,3,disc,1.57,0\n");
+    write_file(r.run_dir / "summary.json", json{{"engine", engine}, {"run_id", r.run_id}, {"end_reason", "clogged"},
+                                                {"bodies", 15000}, {"exited", 1}, {"remaining", 14999}, {"t_end", 7.5}}
+                                                   .dump());
+    write_file(r.run_dir / "run.json", r.spec.dump());
+    runs.push_back(r);
+  }
+  ReportOptions opt;
+  opt.out_dir = dir.path() / "report";
+  opt.figures = false;
+  opt.draw_run = [&](const std::filesystem::path&, ReportOptions::Picture, const std::filesystem::path& png) {
+    std::ofstream(png) << "\x89PNG fake";
+    return std::string();
+  };
+  const std::string md = read_file(write_report(info, runs, opt).markdown);
+  EXPECT_NE(md.find("*body shape = disc, engine = native (replica 0"), std::string::npos) << md;
+  EXPECT_NE(md.find("*body shape = disc, engine = liggghts (replica 0"), std::string::npos) << md;
+  EXPECT_EQ(md.find("/bodies/species/0/shape ="), std::string::npos) << "the shape axis has a name";
+  EXPECT_NE(md.find("| body shape | shape | /bodies/species/0/shape | disc |"), std::string::npos) << md;
 }
 
 }  // namespace

@@ -657,6 +657,15 @@ TEST_F(CliTest, CompareRunsBothEnginesAndReportsThem) {
   const auto again = Sh("(" + Cmd("compare " + p.string() + " --json --no-figures") + " 2>/dev/null)");
   ASSERT_EQ(again.code, 0) << again.output;
   EXPECT_EQ(json::parse(again.output)["comparison"]["points"], c["points"]);
+  // The point by its sweep values (JSON paths, for scripts) and by the name the report gives it.
+  EXPECT_TRUE(c["points"][0]["point"].contains("/silo/base_outlets/0/width")) << c["points"][0].dump();
+  EXPECT_EQ(c["points"][0]["name"], "W = 6");
+  // The printed table names it so too.
+  const auto text = Sh("(" + Cmd("compare " + p.string() + " --no-run --no-figures") + " 2>/dev/null)");
+  ASSERT_EQ(text.code, 0) << text.output;
+  const std::string table = text.output.substr(std::min(text.output.size(), text.output.find("engine comparison:")));
+  EXPECT_NE(table.find("\n  W = 6\n"), std::string::npos) << text.output;
+  EXPECT_EQ(table.find("base_outlets"), std::string::npos) << text.output;
 }
 
 }  // namespace
