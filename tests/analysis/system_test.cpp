@@ -104,6 +104,25 @@ TEST(System, FixedParametersSayWhatIsSweptAndDescribeTheBodies) {
   EXPECT_EQ(value.at("stops at time"), "200");
 }
 
+// A finished run that clogged at t = 7.5 after one exit, written into `dir`.
+RunRecord ClogRun(const std::filesystem::path& dir, const std::string& run_id, const std::string& point_id,
+                  const std::string& engine, const json& point, const json& spec) {
+  RunRecord r;
+  r.run_id = run_id;
+  r.point_id = point_id;
+  r.state = "done";
+  r.engine = engine;
+  r.point = point;
+  r.spec = spec;
+  r.run_dir = dir / r.run_id;
+  write_file(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n1.0,3,disc,1.57,0\n");
+  write_file(r.run_dir / "summary.json", json{{"engine", engine}, {"run_id", r.run_id}, {"end_reason", "clogged"},
+                                              {"bodies", 15000}, {"exited", 1}, {"remaining", 14999}, {"t_end", 7.5}}
+                                                 .dump());
+  write_file(r.run_dir / "run.json", r.spec.dump());
+  return r;
+}
+
 // The report opens with the system: description, the tables, and per point the pictures the
 // draw_run hook made (a fake here; the real one is the renderer, tested in tests/render).
 TEST(System, TheReportOpensWithTheSystem) {
@@ -114,21 +133,10 @@ TEST(System, TheReportOpensWithTheSystem) {
   info.spec = {{"description", "Dumbbells and discs through two outlets."}};
   std::vector<RunRecord> runs;
   for (double w : {8.0, 12.0}) {
-    RunRecord r;
-    r.run_id = "run" + std::to_string(static_cast<int>(w));
-    r.point_id = "W" + std::to_string(static_cast<int>(w));
-    r.state = "done";
-    r.engine = "native";
-    r.point = {{"/silo/base_outlets/0/width", w}};
-    r.spec = MixtureSpec();
-    r.spec["silo"]["base_outlets"][0]["width"] = w;
-    r.run_dir = dir.path() / r.run_id;
-    write_file(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n1.0,3,disc,1.57,0\n");
-    write_file(r.run_dir / "summary.json", json{{"engine", "native"}, {"run_id", r.run_id}, {"end_reason", "clogged"},
-                                                {"bodies", 15000}, {"exited", 1}, {"remaining", 14999}, {"t_end", 7.5}}
-                                                   .dump());
-    write_file(r.run_dir / "run.json", r.spec.dump());
-    runs.push_back(r);
+    json spec = MixtureSpec();
+    spec["silo"]["base_outlets"][0]["width"] = w;
+    const std::string n = std::to_string(static_cast<int>(w));
+    runs.push_back(ClogRun(dir.path(), "run" + n, "W" + n, "native", {{"/silo/base_outlets/0/width", w}}, spec));
   }
   ReportOptions opt;
   opt.out_dir = dir.path() / "report";
@@ -169,22 +177,11 @@ TEST(System, PicturesOfATwoEngineCampaignNameTheEngine) {
   info.axes = {"/bodies/species/0/shape"};
   std::vector<RunRecord> runs;
   for (const std::string engine : {"native", "liggghts"}) {
-    RunRecord r;
-    r.run_id = "run-" + engine;
-    r.point_id = "P-" + engine;
-    r.state = "done";
-    r.engine = engine;
-    r.point = {{"/bodies/species/0/shape", "disc"}, {"/engine", engine}};
-    r.spec = MixtureSpec();
-    r.spec["engine"] = engine;
-    r.spec["bodies"]["species"] = {{{"shape", "disc"}, {"fraction", 1.0}}};
-    r.run_dir = dir.path() / r.run_id;
-    write_file(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n1.0,3,disc,1.57,0\n");
-    write_file(r.run_dir / "summary.json", json{{"engine", engine}, {"run_id", r.run_id}, {"end_reason", "clogged"},
-                                                {"bodies", 15000}, {"exited", 1}, {"remaining", 14999}, {"t_end", 7.5}}
-                                                   .dump());
-    write_file(r.run_dir / "run.json", r.spec.dump());
-    runs.push_back(r);
+    json spec = MixtureSpec();
+    spec["engine"] = engine;
+    spec["bodies"]["species"] = {{{"shape", "disc"}, {"fraction", 1.0}}};
+    runs.push_back(ClogRun(dir.path(), "run-" + engine, "P-" + engine, engine,
+                           {{"/bodies/species/0/shape", "disc"}, {"/engine", engine}}, spec));
   }
   ReportOptions opt;
   opt.out_dir = dir.path() / "report";
