@@ -101,11 +101,11 @@ std::optional<Section> system_section(const CampaignView& c, const ReportOptions
   for (const auto* list : {&c.missing, &c.failed, &c.retired})
     if (spec.is_null() && !list->empty()) spec = list->front()->spec;
   if (spec.is_null()) return s;
-  s.blocks.push_back(fixed_parameters(spec, c.campaign->axes));
-  if (!c.campaign->axes.empty()) {
+  s.blocks.push_back(fixed_parameters(spec, c.axes));
+  if (!c.axes.empty()) {
     Table t{"system-axes", "Swept parameters (short: as tables and figure keys name them)",
             {"parameter", "short", "in the run spec", "values"}, {}, {}};
-    for (const auto& axis : c.campaign->axes) {
+    for (const auto& axis : c.axes) {
       std::vector<std::string> values;
       for (const Point& p : c.points) {
         const auto v = axis_value(axis, p.point, p.spec);

@@ -195,6 +195,9 @@ TEST(System, PicturesOfATwoEngineCampaignNameTheEngine) {
   EXPECT_NE(md.find("*body shape = disc, engine = liggghts (replica 0"), std::string::npos) << md;
   EXPECT_EQ(md.find("/bodies/species/0/shape ="), std::string::npos) << "the shape axis has a name";
   EXPECT_NE(md.find("| body shape | shape | /bodies/species/0/shape | disc |"), std::string::npos) << md;
+  // Nor does the fixed-parameter table say "engine: native" for a campaign on both.
+  EXPECT_NE(md.find("| integration | engine | swept (below) |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| engine | engine | /engine | liggghts, native |"), std::string::npos) << md;
 }
 
 }  // namespace
