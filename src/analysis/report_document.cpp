@@ -496,6 +496,15 @@ std::string base64(const std::string& bytes) {
   return out;
 }
 
+// A table cell in HTML: escaped, and a "name = value" pair (a point name's "W = 12") held on
+// one line with no-break spaces, so a narrow column breaks only between the pairs.
+std::string html_cell_text(const std::string& text) {
+  std::string out = html_escape(text);
+  for (std::size_t at = out.find(" = "); at != std::string::npos; at = out.find(" = ", at))
+    out.replace(at, 3, "&#160;=&#160;");
+  return out;
+}
+
 std::string panel_file(const MapFigure& f, std::size_t k, const char* layer) {
   std::string file = std::string(kDataDir) + "/" + f.name + "-" + std::to_string(k + 1);
   if (layer[0] != '\0') file.append("-").append(layer);
@@ -708,7 +717,7 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         for (const auto& row : tb->rows) {
           html_body << "<tr>";
           for (const auto& c : row)
-            html_body << (looks_numeric(c) ? "<td>" : "<td class=\"t\">") << html_escape(c.shown()) << "</td>";
+            html_body << (looks_numeric(c) ? "<td>" : "<td class=\"t\">") << html_cell_text(c.shown()) << "</td>";
           html_body << "</tr>\n";
         }
         html_body << "</table>\n";

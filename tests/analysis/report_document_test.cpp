@@ -255,5 +255,15 @@ TEST(GnuplotScript, AKeyOfLongTitlesFitsInsideTheCanvas) {
   EXPECT_EQ(titles, 8);
 }
 
+// A point name in a narrow table column breaks between its "name = value" pairs, never
+// inside one ("W =" on one line, "12" on the next); the CSV keeps plain spaces.
+TEST(RenderReport, PointNamesBreakOnlyBetweenTheirPairs) {
+  TempDir dir;
+  Table t{"points", "Points", {"point", "Q"}, {{"W = 12, X_db = 0.5", Cell::number(3)}}, {}};
+  const RenderResult r = render_report("T", {Section{"s", "S", {t}}}, dir.path(), RenderOptions{});
+  EXPECT_NE(read_file(r.html).find(">W&#160;=&#160;12, X_db&#160;=&#160;0.5</td>"), std::string::npos) << read_file(r.html);
+  EXPECT_EQ(read_file(dir.path() / "data" / "points.csv"), "point,Q\n\"W = 12, X_db = 0.5\",3\n");
+}
+
 }  // namespace
 }  // namespace granary::analysis
