@@ -384,8 +384,8 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
         Series curve;
         for (std::size_t k = 0; k < data_series.size(); ++k)
           if (data_series[k].label == (g.empty() ? std::string("Q") : g)) curve.color = static_cast<int>(k);
-        curve.label = r.model_name + (g.empty() ? "" : " (" + g + ")") +
-                      (r.quality == FitQuality::kGood ? "" : ", " + to_string(r.quality));
+        curve.file_label = r.model_name + (g.empty() ? "" : " (" + g + ")");
+        curve.label = curve.file_label + (r.quality == FitQuality::kGood ? "" : ", " + to_string(r.quality));
         curve.columns = {"W", "Q_fit"};
         curve.style = Series::Style::kLines;
         curve.role = Series::Role::kFit;

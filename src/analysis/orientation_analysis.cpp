@@ -264,6 +264,7 @@ std::optional<Section> OrientationAnalysis::section(const SectionInput& in) cons
       for (double c : counts) total += c;
       if (total <= 0) continue;
       Series se{point_name(v, v.points[k]) + " (" + format_number(total, 6) + " axes)", {"psi_deg", "density", "count"}, {}, Series::Style::kSteps};
+      se.file_label = point_name(v, v.points[k]);
       for (std::size_t b = 0; b < d.size(); ++b)
         se.rows.push_back({Degrees((static_cast<double>(b) + 0.5) * kPi / static_cast<double>(d.size())), d[b], counts[b]});
       f.series.push_back(se);

@@ -80,7 +80,8 @@ std::vector<std::string> series_files(const Figure& f) {
   for (std::size_t k = 0; k < f.series.size(); ++k) {
     // The label as a file name: letters, digits, '.', '-' and '_' kept, runs of others -> '_'.
     std::string slug;
-    for (char ch : f.series[k].label) {
+    const Series& se = f.series[k];
+    for (char ch : se.file_label.empty() ? se.label : se.file_label) {
       const bool keep = std::isalnum(static_cast<unsigned char>(ch)) || ch == '.' || ch == '-' || ch == '_';
       if (keep) {
         slug += ch;

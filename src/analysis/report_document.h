@@ -47,7 +47,7 @@ struct Table {
 };
 
 // One curve of a figure: columns of numbers (NaN = missing). Its CSV is named after the
-// figure and the curve's label: <figure>--<label as a file name>.csv.
+// figure and the curve's label (or file_label): <figure>--<label as a file name>.csv.
 struct Series {
   std::string label;
   std::vector<std::string> columns;          // names, e.g. {"W", "Q", "Q_se"}
@@ -61,6 +61,9 @@ struct Series {
   // same x are drawn side by side. kFit: a model curve over the data (its data's colour; the
   // axes do not stretch for it). kReference: a reference line (black, its own dash pattern).
   enum class Role { kData, kFit, kReference } role = Role::kData;
+  // Names the CSV instead of `label` when set: what may change from one report to the next (a
+  // fit's quality, a count) goes in the key, not in the file name scripts read.
+  std::string file_label{};
 };
 
 // The report's palette: 12 colours that stay apart (and from the black of reference lines);

@@ -96,6 +96,12 @@ TEST(RenderReport, CurveFilesAreNamedAfterTheirLabelsAndUnique) {
   }
   EXPECT_EQ(series_files(f), (std::vector<std::string>{"flow_rate--Q.csv", "flow_rate--species.0.fraction_0.5_W_d.csv",
                                                        "flow_rate--Q-2.csv", "flow_rate--curve4.csv", "flow_rate--a_b.csv"}));
+  // A fit whose quality is in its key keeps one file name whatever the quality.
+  Series fit;
+  fit.label = "beverloo_2d (X_db = 0.5), ill-determined";
+  fit.file_label = "beverloo_2d (X_db = 0.5)";
+  f.series = {fit};
+  EXPECT_EQ(series_files(f), std::vector<std::string>{"flow_rate--beverloo_2d_X_db_0.5.csv"});
 }
 
 TEST(RenderReport, MissingGnuplotIsReported) {
