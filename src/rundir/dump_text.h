@@ -48,13 +48,12 @@ inline void Split(std::string_view s, char sep, std::vector<std::string_view>& o
 // Clinger's fast path: a decimal of at most 19 digits whose digits m (as an integer) are at
 // most 2^53 and whose exponent e has |e| <= 22 is m * 10^e or m / 10^-e, one correctly rounded
 // IEEE operation on two exact doubles, so it has the bits std::from_chars gives. The dumps'
-// "%.10g" numbers all take it (twice as fast as from_chars); anything else goes to from_chars.
-inline bool ToDouble(std::string_view s, double& v) {
+// "%.10g" numbers all take it (twice as fast as from_chars). Reads the number at `p` (no '+')
+// and leaves `p` after it; false when the fast path does not apply (the caller then asks
+// from_chars, and `p` is wherever the scan stopped).
+inline bool FastDecimal(const char*& p, const char* const end, double& v) {
   static constexpr double kPow10[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
                                         1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
-  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
-  const char* p = s.data();
-  const char* const end = p + s.size();
   const bool negative = p != end && *p == '-';
   if (negative) ++p;
   auto digit = [](char c) { return static_cast<unsigned>(c - '0') < 10u; };
@@ -80,12 +79,19 @@ inline bool ToDouble(std::string_view s, double& v) {
     fast = p != exp_start;
     exponent += exp_negative ? -e : e;
   }
-  if (fast && p == end && m <= (std::uint64_t{1} << 53) && exponent >= -22 && exponent <= 22) {
-    double d = static_cast<double>(m);
-    d = exponent < 0 ? d / kPow10[-exponent] : d * kPow10[exponent];
-    v = negative ? -d : d;
-    return true;
-  }
+  if (!fast || m > (std::uint64_t{1} << 53) || exponent < -22 || exponent > 22) return false;
+  double d = static_cast<double>(m);
+  d = exponent < 0 ? d / kPow10[-exponent] : d * kPow10[exponent];
+  v = negative ? -d : d;
+  return true;
+}
+
+// `s` as a double with std::from_chars' bits (a leading '+' allowed); false if it is not one.
+inline bool ToDouble(std::string_view s, double& v) {
+  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+  const char* p = s.data();
+  const char* const end = p + s.size();
+  if (FastDecimal(p, end, v) && p == end) return true;
   const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
   return ec == std::errc() && ptr == s.data() + s.size();
 }
@@ -101,6 +107,43 @@ inline bool ToInt(std::string_view s, std::int64_t& v) {
     return true;
   }
   return false;
+}
+
+// Rows read in place: the next blank-separated field of [p, end) (see Split) parsed straight
+// from the line, with no field vector and no second pass over the characters. Each leaves `p`
+// after the field and returns false if there is no field or it is not a number; the caller
+// then re-reads the row the slow way (Split, ToDouble) for its error message.
+inline bool SkipBlanks(const char*& p, const char* end) {
+  while (p < end && static_cast<unsigned char>(*p) <= ' ') ++p;
+  return p != end;
+}
+inline std::string_view NextField(const char*& p, const char* end) {
+  if (!SkipBlanks(p, end)) return {};
+  const char* const start = p;
+  while (p < end && static_cast<unsigned char>(*p) > ' ') ++p;
+  return {start, static_cast<std::size_t>(p - start)};
+}
+inline bool NextDouble(const char*& p, const char* end, double& v) {
+  if (!SkipBlanks(p, end)) return false;
+  const char* const start = p;
+  if (FastDecimal(p, end, v) && (p == end || static_cast<unsigned char>(*p) <= ' ')) return true;
+  p = start;
+  return ToDouble(NextField(p, end), v);
+}
+inline bool NextInt(const char*& p, const char* end, std::int64_t& v) {
+  if (!SkipBlanks(p, end)) return false;
+  const char* const start = p;
+  const bool negative = *p == '-';
+  if (negative) ++p;
+  std::int64_t m = 0;
+  const char* const digits = p;
+  while (p != end && static_cast<unsigned>(*p - '0') < 10u && p - digits < 18) m = m * 10 + (*p++ - '0');
+  if (p != digits && (p == end || static_cast<unsigned char>(*p) <= ' ')) {
+    v = negative ? -m : m;
+    return true;
+  }
+  p = start;
+  return ToInt(NextField(p, end), v);
 }
 
 // Index of `name` in `names`, or -1.
@@ -146,27 +189,32 @@ inline std::string Where(const std::filesystem::path& file, std::int64_t line) {
 }
 
 // The lines of a dump, plain or gzip-compressed, with their numbers, for errors that name
-// file:line.
+// file:line. The file is read in large blocks and a line is a view into the block (no copy,
+// no allocation per line).
 class DumpLines {
  public:
   explicit DumpLines(const std::filesystem::path& file);
-  // The next line without its '\r'; false at the end of the file.
-  bool Next(std::string& line);
+  // The next line without its '\n' and '\r'; false at the end of the file. The view is valid
+  // until the next call.
+  bool Next(std::string_view& line);
+  bool Next(std::string& line);  // the same, copied
   // Throws ReadError "file:line: what".
   [[noreturn]] void Fail(const std::string& what) const;
-  bool at_end() const { return gz_ ? gz_eof_ : in_.eof(); }
+  // The last line read ended at the end of the file without its '\n' (a writer may be in it).
+  bool at_end() const { return unterminated_; }
   ~DumpLines();
   DumpLines(const DumpLines&) = delete;
   DumpLines& operator=(const DumpLines&) = delete;
 
  private:
-  bool GzLine(std::string& line);
+  // Moves the unread tail to the front and reads after it; false if nothing more came.
+  bool Refill();
   std::filesystem::path file_;
-  // Plain files through std::ifstream; gzip (told by the magic bytes) through zlib, whose
-  // pass-through read plain files 15 % slower.
-  std::ifstream in_;
-  void* gz_ = nullptr;  // gzFile
-  bool gz_eof_ = false;
+  std::FILE* plain_ = nullptr;
+  void* gz_ = nullptr;  // gzFile (told by the magic bytes); zlib's pass-through read plain files 15 % slower
+  std::vector<char> buffer_;
+  std::size_t begin_ = 0, end_ = 0;  // the unread bytes of buffer_
+  bool eof_ = false, unterminated_ = false;
   std::int64_t line_no_ = 0;
 };
 
