@@ -156,9 +156,11 @@ inline std::string_view NextField(const char*& p, const char* end) {
 }
 inline bool NextDouble(const char*& p, const char* end, double& v) {
   if (!SkipBlanks(p, end)) return false;
-  const char* const start = p;
-  if (FastDecimal(p, end, v) && (p == end || static_cast<unsigned char>(*p) <= ' ')) return true;
-  p = start;
+  const char* q = p;  // a local cursor: no store through p per digit
+  if (FastDecimal(q, end, v) && (q == end || static_cast<unsigned char>(*q) <= ' ')) {
+    p = q;
+    return true;
+  }
   return ToDouble(NextField(p, end), v);
 }
 inline bool NextInt(const char*& p, const char* end, std::int64_t& v) {

@@ -167,21 +167,18 @@ bool FrameReader::ReadDiscs(Frame& frame) {
     const char* p = row.data();
     const char* const end = p + row.size();
     std::int64_t type = d.type;
+    std::int64_t* const ints[] = {nullptr, &d.id, &d.mol, &type};
+    double* const doubles[] = {&d.x, &d.y, &d.radius, &d.mass, &d.vx, &d.vy, &d.omega};  // kX ... kW
     bool mass_given = false;
     for (const Role role : roles) {
-      bool ok = true;
-      switch (role) {
-        case kSkip: ok = !detail::NextField(p, end).empty(); break;
-        case kId: ok = detail::NextInt(p, end, d.id); break;
-        case kMol: ok = detail::NextInt(p, end, d.mol); break;
-        case kType: ok = detail::NextInt(p, end, type); break;
-        case kX: ok = detail::NextDouble(p, end, d.x); break;
-        case kY: ok = detail::NextDouble(p, end, d.y); break;
-        case kR: ok = detail::NextDouble(p, end, d.radius); break;
-        case kM: ok = detail::NextDouble(p, end, d.mass), mass_given = true; break;
-        case kVx: ok = detail::NextDouble(p, end, d.vx); break;
-        case kVy: ok = detail::NextDouble(p, end, d.vy); break;
-        case kW: ok = detail::NextDouble(p, end, d.omega); break;
+      bool ok;
+      if (role >= kX) {
+        ok = detail::NextDouble(p, end, *doubles[role - kX]);
+        mass_given |= role == kM;
+      } else if (role != kSkip) {
+        ok = detail::NextInt(p, end, *ints[role]);
+      } else {
+        ok = !detail::NextField(p, end).empty();
       }
       if (!ok) return false;
     }
