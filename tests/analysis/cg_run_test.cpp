@@ -35,13 +35,19 @@ void write_run(const std::filesystem::path& dir, const std::vector<double>& fram
   contacts.Close();
 }
 
-TEST(CgRun, PairsFramesWithTheirContactFramesOverTheTimeRange) {
-  TempDir tmp;
-  write_run(tmp.path(), {0.0, 1.0, 2.0, 3.0}, {0.0, 2.0, 3.0});
-  const rundir::RunData data = rundir::ReadRun(tmp.path());
+// Four frames with contact frames at t = 0, 2 and 3, mapped inside the lattice from t = 0.5.
+CgRunOptions write_paired_run(const std::filesystem::path& dir) {
+  write_run(dir, {0.0, 1.0, 2.0, 3.0}, {0.0, 2.0, 3.0});
   CgRunOptions o;
   o.cg.window = {-5.0, 5.0, 5.0, 15.0};
   o.t_start = 0.5;
+  return o;
+}
+
+TEST(CgRun, PairsFramesWithTheirContactFramesOverTheTimeRange) {
+  TempDir tmp;
+  const CgRunOptions o = write_paired_run(tmp.path());
+  const rundir::RunData data = rundir::ReadRun(tmp.path());
   const CgRunResult r = cg_fields_of_run(data, o);
   ASSERT_EQ(r.parts.size(), 1u);
   const CgMaps maps(r.parts[0]);
@@ -64,11 +70,8 @@ TEST(CgRun, PairsFramesWithTheirContactFramesOverTheTimeRange) {
 // still comes out as its ReadError.
 TEST(CgRun, TwoReadersGiveTheSameSumsAndTheirErrors) {
   TempDir tmp;
-  write_run(tmp.path(), {0.0, 1.0, 2.0, 3.0}, {0.0, 2.0, 3.0});
+  CgRunOptions o = write_paired_run(tmp.path());
   const rundir::RunData data = rundir::ReadRun(tmp.path());
-  CgRunOptions o;
-  o.cg.window = {-5.0, 5.0, 5.0, 15.0};
-  o.t_start = 0.5;
   o.cg.threads = 1;
   const CgSums one = cg_fields_of_run(data, o).parts[0];
   o.cg.threads = 2;
