@@ -24,6 +24,10 @@ namespace {
 constexpr double kInsertPackingFraction = 0.3;  // area fraction of a batch's insertion region
 constexpr double kSettleCheckInterval = 0.02;   // simulated time between kinetic-energy checks
 constexpr long kProgressEvery = 2000;           // steps between progress reports
+// A batch has landed (NextBatch::kLanded) when its fastest body, having fallen faster than
+// this, is again slower (units sqrt(g d)): it rests on the pile, and the next batch placed
+// above its top falls onto a pile, as after the fixed wait.
+constexpr double kBatchLandedSpeed = 0.5;
 
 bool Overlaps(const ShapeTemplate& a, double ax, double ay, double ath, const ShapeTemplate& b, double bx,
               double by, double bth) {
@@ -116,11 +120,19 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
     // Let the batch fall through its region before the next one is placed above it.
     const double fall = std::sqrt(2.0 * height / spec.gravity) + 1.0;
     const long steps = inserted < total ? std::lround(fall / dt) : 0;
+    const double landed_speed2 = kBatchLandedSpeed * kBatchLandedSpeed * spec.gravity;
+    bool fell = false;
     for (long s = 0; s < steps; ++s) {
       world.Step();
       t += dt;
       if (progress && s % kProgressEvery == 0)
         progress(0.5 * static_cast<double>(inserted) / static_cast<double>(total), t);
+      if (spec.bed.next_batch == NextBatch::kLanded && (s + 1) % settle_check_every == 0) {
+        double v2 = 0.0;
+        for (int b : placed) v2 = std::max(v2, world.bvx_[b] * world.bvx_[b] + world.bvy_[b] * world.bvy_[b]);
+        if (v2 > landed_speed2) fell = true;
+        else if (fell) break;
+      }
     }
   }
   // Settle until the kinetic energy per body is negligible (or give up at max_settle_time).

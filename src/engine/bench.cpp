@@ -170,19 +170,20 @@ BedShape MeasureBed(const BedState& bed, const RunSpec& spec) {
   return shape;
 }
 
-std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::vector<double>& factors) {
+std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::vector<BedProcedure>& procedures) {
   omp_set_num_threads(*std::max_element(options.threads.begin(), options.threads.end()));
   std::vector<BedPrepResult> results;
   for (int seed = 1; seed <= options.repeat; ++seed) {
-    for (double factor : factors) {
+    for (const BedProcedure& procedure : procedures) {
       nlohmann::json j = BenchSpec(options);
       j["seed"] = seed;
-      j["bed"]["time_step"] = factor * RunSpec::from_json(j).time_step;
+      j["bed"]["time_step"] = procedure.step_factor * RunSpec::from_json(j).time_step;
+      j["bed"]["next_batch"] = to_string(procedure.next_batch);
       const RunSpec spec = RunSpec::from_json(j);
       const auto start = std::chrono::steady_clock::now();
       const BedState bed = PrepareBed(spec, nullptr);
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      results.push_back({seed, factor, wall, bed.settle_time, MeasureBed(bed, spec)});
+      results.push_back({seed, procedure, wall, bed.settle_time, MeasureBed(bed, spec)});
     }
   }
   return results;

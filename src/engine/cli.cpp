@@ -173,19 +173,24 @@ int BenchOutputCost(const BenchOptions& options, double interval) {
   return 0;
 }
 
-// Per replica and bed time step the wall time and the bed's shape; then per step the median
-// wall time and the mean and standard deviation of the shape over the replicas.
+// Per replica and procedure the wall time and the bed's shape; then per procedure the median
+// wall time and the mean and standard deviation of the shape over the replicas. "old" is the
+// preparation of before issue 19 (bed step = time step, fixed wait per batch), "new" the default.
 int BenchBedPrep(const BenchOptions& options) {
-  const std::vector<double> factors = {1.0, kBedTimeStepFactor};
-  std::printf("bench: preparing %d %s beds of %d bodies at bed/time_step = 1 x and %g x time_step\n", options.repeat,
-              options.shape.c_str(), options.bodies, kBedTimeStepFactor);
+  const std::vector<BedProcedure> procedures = {{"old", 1.0, NextBatch::kFixed},
+                                                {"new", kBedTimeStepFactor, NextBatch::kLanded}};
+  std::printf("bench: preparing %d %s beds of %d bodies, old (bed step 1 x time_step, fixed wait per batch) "
+              "and new (%g x, next batch once the last has landed)\n",
+              options.repeat, options.shape.c_str(), options.bodies, kBedTimeStepFactor);
   std::fflush(stdout);
-  std::map<double, std::vector<BedPrepResult>> by_factor;
-  for (const BedPrepResult& r : RunBedPrep(options, factors)) {
-    std::printf("seed=%d step_factor=%g wall_s=%.2f settle_time=%.2f top=%.3f surface=%.3f phi=%.4f\n", r.seed,
-                r.step_factor, r.wall_s, r.settle_time, r.shape.top, r.shape.surface, r.shape.phi);
+  std::map<std::string, std::vector<BedPrepResult>> by_name;
+  for (const BedPrepResult& r : RunBedPrep(options, procedures)) {
+    std::printf("seed=%d procedure=%s step_factor=%g next_batch=%s wall_s=%.2f settle_time=%.2f top=%.3f "
+                "surface=%.3f phi=%.4f\n",
+                r.seed, r.procedure.name.c_str(), r.procedure.step_factor, to_string(r.procedure.next_batch).c_str(),
+                r.wall_s, r.settle_time, r.shape.top, r.shape.surface, r.shape.phi);
     std::fflush(stdout);
-    by_factor[r.step_factor].push_back(r);
+    by_name[r.procedure.name].push_back(r);
   }
   auto mean_sd = [](const std::vector<double>& v) {
     double m = 0, q = 0;
@@ -193,8 +198,9 @@ int BenchBedPrep(const BenchOptions& options) {
     for (double x : v) q += (x - m) * (x - m);
     return std::pair{m, v.size() > 1 ? std::sqrt(q / static_cast<double>(v.size() - 1)) : 0.0};
   };
-  std::map<double, double> median_wall;
-  for (auto& [factor, rs] : by_factor) {
+  std::map<std::string, double> median_wall;
+  for (const BedProcedure& p : procedures) {
+    const std::vector<BedPrepResult>& rs = by_name[p.name];
     std::vector<double> wall, settle, top, surface, phi;
     for (const BedPrepResult& r : rs) {
       wall.push_back(r.wall_s);
@@ -203,16 +209,16 @@ int BenchBedPrep(const BenchOptions& options) {
       surface.push_back(r.shape.surface);
       phi.push_back(r.shape.phi);
     }
-    median_wall[factor] = BenchMedian(wall);
+    median_wall[p.name] = BenchMedian(wall);
     const auto [tm, ts] = mean_sd(top);
     const auto [sm, ss] = mean_sd(surface);
     const auto [pm, ps] = mean_sd(phi);
-    std::printf("summary step_factor=%g replicas=%zu wall_s median=%.2f best=%.2f settle_time median=%.2f "
-                "top=%.3f+-%.3f surface=%.3f+-%.3f phi=%.4f+-%.4f (mean+-sd)\n",
-                factor, rs.size(), median_wall[factor], *std::min_element(wall.begin(), wall.end()), BenchMedian(settle),
-                tm, ts, sm, ss, pm, ps);
+    std::printf("summary procedure=%s step_factor=%g next_batch=%s replicas=%zu wall_s median=%.2f best=%.2f "
+                "settle_time median=%.2f top=%.3f+-%.3f surface=%.3f+-%.3f phi=%.4f+-%.4f (mean+-sd)\n",
+                p.name.c_str(), p.step_factor, to_string(p.next_batch).c_str(), rs.size(), median_wall[p.name],
+                *std::min_element(wall.begin(), wall.end()), BenchMedian(settle), tm, ts, sm, ss, pm, ps);
   }
-  std::printf("summary speedup of the median wall time: %.2f\n", median_wall[factors[0]] / median_wall[factors[1]]);
+  std::printf("summary speedup of the median wall time (old / new): %.2f\n", median_wall["old"] / median_wall["new"]);
   return 0;
 }
 

@@ -87,6 +87,11 @@ struct Contact {
   bool clip_normal = false;    // clip attractive F_n to zero (off: LAMMPS default)
 };
 
+// When the native bed preparation places the next batch: once the previous one has landed
+// (its bodies' fastest speed has risen above and fallen back below kBatchLandedSpeed, at most
+// the fixed wait), or after the fixed wait sqrt(2 h / g) + 1 for a batch region of height h.
+enum class NextBatch { kLanded, kFixed };
+
 struct Bed {
   int batch_size = 500;            // bodies inserted per batch
   double settle_ke_per_body = 1e-6;  // settled when kinetic energy per body (units m g d) is below this
@@ -94,6 +99,7 @@ struct Bed {
   // Time step of the native engine's bed preparation; 0 = kBedTimeStepFactor x time_step
   // (bed_time_step()). A bed at rest does not depend on it; docs/run-spec.md says why 5x is safe.
   double time_step = 0.0;
+  NextBatch next_batch = NextBatch::kLanded;  // native engine only
   std::string cache_file;          // resolved by the runner: where the prepared bed is (or is to be) stored;
                                    // empty = prepare inside the run directory (bed.json)
 };
@@ -178,5 +184,6 @@ std::string to_string(Shape shape);
 std::string to_string(DischargeMode mode);
 std::string to_string(ReinjectPosition position);
 std::string to_string(TangentialCap cap);
+std::string to_string(NextBatch next);
 
 }  // namespace granary

@@ -243,7 +243,7 @@ TEST(RunSpecTable, CoversTheCanonicalSpecAndItsDefaults) {
     ++checked;
   }
   EXPECT_GT(checked, 40);
-  EXPECT_EQ(left_out, 4);  // reinject_position, periodic_headroom, compress, bed/time_step
+  EXPECT_EQ(left_out, 5);  // reinject_position, periodic_headroom, compress, bed/time_step, bed/next_batch
 }
 
 TEST(RunSpecTable, EveryRowsTypeAndRangeIsEnforced) {
