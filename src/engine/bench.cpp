@@ -181,7 +181,7 @@ std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::ve
       j["bed"]["next_batch"] = to_string(procedure.next_batch);
       const RunSpec spec = RunSpec::from_json(j);
       const auto start = std::chrono::steady_clock::now();
-      const BedState bed = PrepareBed(spec, nullptr);
+      const BedState bed = PrepareBed(spec, nullptr, procedure.skin);
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       results.push_back({seed, procedure, wall, bed.settle_time, MeasureBed(bed, spec)});
     }

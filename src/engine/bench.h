@@ -107,6 +107,7 @@ struct BedProcedure {
   std::string name;        // "old", "new"
   double step_factor;      // bed time step / time step
   NextBatch next_batch;
+  double skin;             // Verlet skin (speed only: the bed does not depend on it)
 };
 
 struct BedPrepResult {

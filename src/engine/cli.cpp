@@ -86,10 +86,12 @@ constexpr char kBenchHelp[] =
     "  --output-cost T  what output costs: each round runs the case without output and with\n"
     "                frames and contact frames every T time units, and prints both rates\n"
     "  --bed-prep    bed preparation instead of discharge: --repeat N replicas (seeds 1..N),\n"
-    "                each prepared from scratch at bed/time_step = time_step (the beds of\n"
-    "                before) and at the default 5 x, interleaved, on the largest thread count;\n"
-    "                prints wall time, simulated time, top, surface and packing fraction, and\n"
-    "                per step their mean and spread over the replicas\n";
+    "                each prepared from scratch by the old procedure (bed step = time_step,\n"
+    "                fixed wait per batch, skin 0.2: the beds before issue 19) and by the\n"
+    "                default one (8 x time_step, next batch once the last has landed, skin\n"
+    "                0.4), interleaved, on the largest thread count; prints wall time,\n"
+    "                simulated time, top, surface and packing fraction, and per procedure\n"
+    "                their mean and spread over the replicas\n";
 
 int Run(const std::vector<std::string>& args) {
   RunOptions options;
@@ -177,11 +179,11 @@ int BenchOutputCost(const BenchOptions& options, double interval) {
 // wall time and the mean and standard deviation of the shape over the replicas. "old" is the
 // preparation of before issue 19 (bed step = time step, fixed wait per batch), "new" the default.
 int BenchBedPrep(const BenchOptions& options) {
-  const std::vector<BedProcedure> procedures = {{"old", 1.0, NextBatch::kFixed},
-                                                {"new", kBedTimeStepFactor, NextBatch::kLanded}};
-  std::printf("bench: preparing %d %s beds of %d bodies, old (bed step 1 x time_step, fixed wait per batch) "
-              "and new (%g x, next batch once the last has landed)\n",
-              options.repeat, options.shape.c_str(), options.bodies, kBedTimeStepFactor);
+  const std::vector<BedProcedure> procedures = {{"old", 1.0, NextBatch::kFixed, WorldParams{}.skin},
+                                                {"new", kBedTimeStepFactor, NextBatch::kLanded, kBedSkin}};
+  std::printf("bench: preparing %d %s beds of %d bodies, old (bed step 1 x time_step, fixed wait per batch, skin %g) "
+              "and new (%g x, next batch once the last has landed, skin %g)\n",
+              options.repeat, options.shape.c_str(), options.bodies, WorldParams{}.skin, kBedTimeStepFactor, kBedSkin);
   std::fflush(stdout);
   std::map<std::string, std::vector<BedPrepResult>> by_name;
   for (const BedPrepResult& r : RunBedPrep(options, procedures)) {

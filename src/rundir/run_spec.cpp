@@ -332,7 +332,7 @@ SpecTable MakeRunSpecTable() {
       number("/bed/settle_ke_per_body", 1e-6, positive, "settled when the kinetic energy per body is below this (m g d)"),
       number("/bed/max_settle_time", 200.0, positive, "give up settling after this long"),
       number("/bed/time_step", 0.0, non_negative,
-             "native engine: the bed-preparation time step; 0 = 5 x time_step (docs/run-spec.md)"),
+             "native engine: the bed-preparation time step; 0 = 8 x time_step (docs/run-spec.md)"),
       enumeration("/bed/next_batch", "landed", names(kNextBatches),
                   "native engine: the next batch once the previous has landed, or after the fixed wait sqrt(2 h/g) + 1"),
       plain("/bed/cache_file", T::kString, "", "set by the runner: where the prepared bed is kept"),
@@ -839,11 +839,13 @@ json RunSpec::bed_key() const {
           {"contact", ContactJson(contact)},
           {"bed", BedJson(bed, false)}};
   // The native engine's bed depends on the step it is prepared at (the resolved value: a bed
-  // prepared before bed/time_step existed, at time_step, is not taken for one at 5 x).
+  // prepared before bed/time_step existed, at time_step, is not taken for one at 8 x).
   if (engine == "native") {
     key["bed"]["resolved_time_step"] = bed_time_step();
-    // Beds of before (fixed wait) are not taken for beds whose batches follow on landing.
+    // Beds of before (fixed wait) are not taken for beds whose batches follow on landing, nor
+    // beds landed by another criterion for these.
     key["bed"]["next_batch"] = to_string(bed.next_batch);
+    if (bed.next_batch == NextBatch::kLanded) key["bed"]["landed_ke_per_body"] = kBedLandedKePerBody;
   }
   return key;
 }

@@ -506,7 +506,7 @@ TEST(Run, BenchRepeatsRoundsAndSummarises) {
 }
 
 // bench --bed-prep: per replica a line for the old procedure (1 x step, fixed wait) and the new
-// one (5 x, next batch on landing), then per procedure a summary over the replicas and the
+// one (8 x, next batch on landing), then per procedure a summary over the replicas and the
 // speed-up line (a bed of 60 discs, about a second).
 TEST(Run, BenchBedPrepComparesOldAndNewProcedurePerReplica) {
   const auto [status, out] = RunExeOutput("bench --bed-prep --shape disc --bodies 60 --repeat 2 --threads-list 1");
@@ -514,7 +514,7 @@ TEST(Run, BenchBedPrepComparesOldAndNewProcedurePerReplica) {
   const std::vector<std::string> rows = LinesStartingWith(out, "seed="), summaries = LinesStartingWith(out, "summary ");
   ASSERT_EQ(rows.size(), 4u);
   EXPECT_EQ(rows[0].rfind("seed=1 procedure=old step_factor=1 next_batch=fixed ", 0), 0u) << rows[0];
-  EXPECT_EQ(rows[3].rfind("seed=2 procedure=new step_factor=5 next_batch=landed ", 0), 0u) << rows[3];
+  EXPECT_EQ(rows[3].rfind("seed=2 procedure=new step_factor=8 next_batch=landed ", 0), 0u) << rows[3];
   for (const std::string& line : rows) {
     EXPECT_GT(std::stod(line.substr(line.find("wall_s=") + 7)), 0.0) << line;
     EXPECT_GT(std::stod(line.substr(line.find("top=") + 4)), 0.5) << line;  // above the base
@@ -522,7 +522,7 @@ TEST(Run, BenchBedPrepComparesOldAndNewProcedurePerReplica) {
   ASSERT_EQ(summaries.size(), 3u);
   EXPECT_EQ(summaries[0].rfind("summary procedure=old step_factor=1 next_batch=fixed replicas=2 ", 0), 0u)
       << summaries[0];
-  EXPECT_EQ(summaries[1].rfind("summary procedure=new step_factor=5 next_batch=landed replicas=2 ", 0), 0u)
+  EXPECT_EQ(summaries[1].rfind("summary procedure=new step_factor=8 next_batch=landed replicas=2 ", 0), 0u)
       << summaries[1];
   EXPECT_NE(summaries[2].find("speedup of the median wall time (old / new)"), std::string::npos) << summaries[2];
 }
