@@ -21,6 +21,7 @@
 #include "engine/run.h"
 #include "engine/shapes.h"
 #include "rundir/files.h"
+#include "rundir/hash.h"
 #include "rundir/layout.h"
 #include "rundir/run_directory.h"
 #include "rundir/summary.h"
@@ -47,19 +48,23 @@ nlohmann::json BenchSpecies(const std::string& shape) {
 }
 
 nlohmann::json BenchSpec(const BenchOptions& options) {
-  const std::string bed_file =
-      options.bed_file.empty() ? (fs::temp_directory_path() /
-                                  ("granary-bench-bed-" + options.shape + "-" + std::to_string(options.bodies) + ".json"))
-                                     .string()
-                               : options.bed_file;
-  return {{"run_id", "bench"},
+  nlohmann::json spec = {{"run_id", "bench"},
           {"seed", std::uint64_t{1}},
           {"silo", {{"width", 100.0}, {"base_outlets", {{{"center", 0.0}, {"width", 14.0}}}}}},
           {"bodies", {{"count", options.bodies}, {"species", BenchSpecies(options.shape)}}},
           {"discharge",
            {{"mode", "reinject"}, {"max_time", static_cast<double>(options.steps) * 1e-4}, {"stop_on_clog", false}}},
           {"output", {{"checkpoint_interval", 0.0}, {"frame_interval", 0.0}}},
-          {"bed", {{"batch_size", 2000}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 30.0}, {"cache_file", bed_file}}}};
+          {"bed", {{"batch_size", 2000}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 30.0}}}};
+  // The default cache file is named by the bed key (as the runner's), so that a bed cached by
+  // an engine with another bed procedure is not read for this one.
+  spec["bed"]["cache_file"] =
+      options.bed_file.empty()
+          ? (fs::temp_directory_path() / ("granary-bench-bed-" + options.shape + "-" + std::to_string(options.bodies) +
+                                          "-" + hash_hex(RunSpec::from_json(spec).bed_key().dump()) + ".json"))
+                .string()
+          : options.bed_file;
+  return spec;
 }
 
 namespace {

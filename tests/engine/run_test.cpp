@@ -5,6 +5,7 @@
 #include "rundir/clogs.h"
 #include "rundir/files.h"
 #include "rundir/frames.h"
+#include "rundir/hash.h"
 #include "rundir/stop.h"
 #include "rundir/version.h"
 
@@ -525,6 +526,26 @@ TEST(Run, BenchBedPrepComparesOldAndNewProcedurePerReplica) {
   EXPECT_EQ(summaries[1].rfind("summary procedure=new step_factor=8 next_batch=landed replicas=2 ", 0), 0u)
       << summaries[1];
   EXPECT_NE(summaries[2].find("speedup of the median wall time (old / new)"), std::string::npos) << summaries[2];
+}
+
+// The bench's default bed cache is named by the bed key: a bed prepared by another procedure
+// (here the fixed wait) is another file, never read for the default one (it would be refused
+// for its key, and the bench would stop).
+TEST(Run, BenchBedFileIsNamedByTheBedKey) {
+  BenchOptions options;
+  options.shape = "disc";
+  options.bodies = 8000;
+  const nlohmann::json spec = BenchSpec(options);
+  const std::string file = spec["bed"]["cache_file"];
+  EXPECT_NE(file.find("granary-bench-bed-disc-8000-" + hash_hex(RunSpec::from_json(spec).bed_key().dump()) + ".json"),
+            std::string::npos)
+      << file;
+  nlohmann::json fixed = spec;
+  fixed["bed"].erase("cache_file");
+  fixed["bed"]["next_batch"] = "fixed";
+  EXPECT_NE(RunSpec::from_json(fixed).bed_key(), RunSpec::from_json(spec).bed_key());
+  options.bed_file = "/somewhere/bed.json";
+  EXPECT_EQ(BenchSpec(options)["bed"]["cache_file"], "/somewhere/bed.json");
 }
 
 // The bed measure of `bench --bed-prep` on a constructed bed: a square lattice of d = 1 discs
