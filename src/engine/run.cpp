@@ -163,7 +163,11 @@ class Discharge {
   void HandleExits();
   int OutletOf(int b) const;
   void Reinject(int b);
-  double LandingHeight(int b, double x) const;
+  struct Landing {
+    double y = 0, vy = 0;
+    int on_body = -1;
+  };
+  Landing LandingOn(int b, double x) const;
   bool Periodic() const {
     return spec_.discharge.mode == DischargeMode::kReinject &&
            spec_.discharge.reinject_position == ReinjectPosition::kPeriodic;
@@ -217,6 +221,7 @@ class Discharge {
   std::vector<World::ContactView> contact_buf_;
   rundir::Frame frame_buf_;
   bool warned_outside_box_ = false;
+  std::vector<std::uint8_t> in_contact_;  // Reinject's scratch
   rundir::ContactFrame contact_frame_buf_;
   Clock::time_point session_start_ = Clock::now();
 };
@@ -502,23 +507,45 @@ void Discharge::Reinject(int b) {
   World& w = *world_;
   const ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
   const double rb = tp.bound_radius;
-  const double x = rng_.Uniform(-hw_ + rb, hw_ - rb);
+  // On top of the bed: a column whose top is a return still falling (no contact, or faster
+  // than a body that has fallen its own size) is drawn again, up to kReinjectDraws times. Put on such a body, it would be followed by the next
+  // return in its column before it lands, and the returns stack up into a rain several times
+  // the bed's height while the bed drains (W = 12 in the demo: 90 % of the bodies below 18 d
+  // at t = 0, below 69 d at t = 25).
+  constexpr int kReinjectDraws = 16;
+  w.MarkBodiesInContact(in_contact_);
+  const double falling_speed = std::sqrt(2 * spec_.gravity * 2 * rb);
+  double x = 0;
+  Landing at{};
+  for (int draw = 0; draw < kReinjectDraws; ++draw) {
+    x = rng_.Uniform(-hw_ + rb, hw_ - rb);
+    at = LandingOn(b, x);
+    if (at.on_body < 0 || (in_contact_[static_cast<std::size_t>(at.on_body)] && at.vy > -falling_speed)) break;
+  }
   const double th = rng_.Uniform(0.0, 2.0 * std::numbers::pi);
-  w.PlaceBody(b, x, LandingHeight(b, x), th, 0.0, -spec_.discharge.reinject_speed, 0.0);
+  // It moves down at least as fast as what it lands on, so it does not fall behind a sinking
+  // surface either.
+  w.PlaceBody(b, x, at.y, th, 0.0, std::min(-spec_.discharge.reinject_speed, at.vy), 0.0);
 }
 
-// Centre height at which body b, put at x, overlaps nothing below it: above every disc of
-// the column that could touch it (bodies still falling out of the silo do not count).
-double Discharge::LandingHeight(int b, double x) const {
+// Where body b, put at x, overlaps nothing below it: above every disc of the column that
+// could touch it (bodies still falling out of the silo do not count), the body that disc
+// belongs to and its vertical velocity (-1 and 0 on an empty column).
+Discharge::Landing Discharge::LandingOn(int b, double x) const {
   const World& w = *world_;
   const double rb = w.templates()[static_cast<std::size_t>(w.tmpl_[b])].bound_radius;
-  double top = 0.0;
+  double top = 0.0, vy = 0.0;
+  int on = -1;
   for (int i = 0; i < w.disc_count(); ++i) {
     const int ob = w.dbody_[i];
     if (ob == b || !w.active_[ob] || falling_[ob]) continue;
-    if (std::fabs(w.dx_[i] - x) < rb + w.dr_[i]) top = std::max(top, w.dy_[i] + w.dr_[i]);
+    if (std::fabs(w.dx_[i] - x) < rb + w.dr_[i] && w.dy_[i] + w.dr_[i] > top) {
+      top = w.dy_[i] + w.dr_[i];
+      vy = w.bvy_[ob];
+      on = ob;
+    }
   }
-  return top + rb + 0.05;
+  return {top + rb + 0.05, vy, on};
 }
 
 void Discharge::HandleExits() {
@@ -546,7 +573,7 @@ void Discharge::HandleExits() {
         // body lands on it instead: LIGGGHTS resolves that overlap through the periodic
         // boundary, this engine has no images across it.
         const double x = w.bx_[b];
-        const double y = std::max(w.by_[b] + periodic_height_, LandingHeight(b, x));
+        const double y = std::max(w.by_[b] + periodic_height_, LandingOn(b, x).y);
         w.PlaceBody(b, x, y, w.bth_[b], w.bvx_[b], w.bvy_[b], w.bw_[b]);
         falling_[b] = 0;
       }

@@ -1204,4 +1204,18 @@ void World::CollectContacts(std::vector<ContactView>& out) const {
   }
 }
 
+void World::MarkBodiesInContact(std::vector<std::uint8_t>& out) const {
+  out.assign(bx_.size(), 0);
+  const int n = static_cast<int>(nl_start_.empty() ? 0 : nl_start_.size() - 1);
+  for (int i = 0; i < n; ++i) {
+    for (int e = nl_start_[i]; e < nl_start_[i + 1]; ++e) {
+      if (nl_fx_[e] == 0.0 && nl_fy_[e] == 0.0) continue;
+      out[static_cast<std::size_t>(dbody_[i])] = 1;
+      out[static_cast<std::size_t>(dbody_[nl_j_[e]])] = 1;
+    }
+    for (int k = wl_start_[i]; k < wl_start_[i + 1]; ++k)
+      if (wl_fx_[k] != 0.0 || wl_fy_[k] != 0.0) out[static_cast<std::size_t>(dbody_[i])] = 1;
+  }
+}
+
 }  // namespace granary::engine

@@ -151,6 +151,9 @@ class World {
     double cx, cy, fx, fy;
   };
   void CollectContacts(std::vector<ContactView>& out) const;
+  // out[b] = 1 where body b had a contact force (with a body or a wall) in the last force
+  // computation, else 0 (a body in free flight).
+  void MarkBodiesInContact(std::vector<std::uint8_t>& out) const;
 
  private:
   // Disc positions and velocities of body b from the body state.

@@ -344,7 +344,7 @@ SpecTable MakeRunSpecTable() {
       number("/discharge/clog_window", 5.0, positive, "a clog: no exit for this long ..."),
       number("/discharge/clog_ke_per_body", 1e-4, non_negative,
              "... and kinetic energy per body near the outlets below this (m g d)"),
-      number("/discharge/reinject_speed", 0.0, non_negative, "reinject: downward speed of a returned body"),
+      number("/discharge/reinject_speed", 0.0, non_negative, "reinject: least downward speed of a returned body (it sinks with the body it is put on when that is faster)"),
       enumeration("/discharge/reinject_position", "random", names(kReinjectPositions),
                   "random: a free place on top of the bed (the thesis); periodic: through the bottom of a y-periodic "
                   "box, as LIGGGHTS does (not with side outlets)"),
