@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include <gtest/gtest.h>
+#include <omp.h>
 #include <nlohmann/json.hpp>
 
 namespace granary::engine {
@@ -103,6 +104,27 @@ TEST(Bed, TheSkinDoesNotChangeTheBed) {
     EXPECT_EQ(a.pair_history[k].sx, b.pair_history[k].sx);
     EXPECT_EQ(a.pair_history[k].sy, b.pair_history[k].sy);
   }
+}
+
+// Same bits on one and two threads: 1200 dumbbells (2400 discs, above the engine's
+// parallel_min_discs, so the threaded loops run) in three batches that follow on landing.
+TEST(Bed, OneAndTwoThreadsPrepareTheSameBed) {
+  RunSpec spec = SmallBedSpec();
+  spec.silo.width = 40.0;
+  spec.bodies.count = 1200;
+  spec.bed.batch_size = 400;
+  spec.bed.settle_ke_per_body = 1e-4;
+  ASSERT_GE(2 * spec.bodies.count, WorldParams{}.parallel_min_discs);
+  omp_set_num_threads(1);
+  const BedState one = PrepareBed(spec, nullptr);
+  omp_set_num_threads(2);
+  const BedState two = PrepareBed(spec, nullptr);
+  EXPECT_EQ(one.x, two.x);
+  EXPECT_EQ(one.y, two.y);
+  EXPECT_EQ(one.theta, two.theta);
+  EXPECT_EQ(one.vy, two.vy);
+  EXPECT_EQ(one.settle_time, two.settle_time);
+  EXPECT_LT(one.settle_time, 3 * 10.0 + spec.bed.max_settle_time);  // settled
 }
 
 TEST(Bed, FileOfAnotherBedKeyIsRefused) {
