@@ -5,9 +5,12 @@
 // line integral along each half of the branch (with pass 1). The Gaussian is separable, so a
 // disc needs two exp() per axis: the factors along a row follow by a recurrence.
 //
-// Threads share the grid by bands of rows; a band takes the discs and contacts that reach it
-// in input order, so every node sums its terms in the same order whatever the number of
-// threads or the band height: the same bits at any thread count.
+// Threads share the grid by bands of rows at least as tall as a disc's reach: a band takes the
+// discs and contacts whose first row is in it, in input order, and adds them to all their
+// rows, which lie in it and the band above. The even bands go first, then (after a barrier)
+// the odd ones, then on one thread the rare contacts that reach further than a band. So every
+// node sums its terms in the same order whatever the number of threads, and each disc and
+// contact computes its kernel factors once: the same bits at any thread count.
 #include "analysis/cg_fields.h"
 
 #include <omp.h>
@@ -26,8 +29,8 @@
 namespace granary::analysis {
 namespace {
 
-constexpr int kBandRows = 8;
-constexpr std::size_t kMaxQuadrature = 16;            // rows per band (any value gives the same bits)
+constexpr int kMinBandRows = 8;
+constexpr std::size_t kMaxQuadrature = 16;
 constexpr double kMaxBranch = 10.0;     // a body centre further than this from its contact point is not that contact's (a periodic image): the disc centre is used
 
 // Gauss-Legendre nodes and weights on [0, 1] for n points (weights sum to 1).
@@ -105,6 +108,18 @@ inline void axis_factors(double first_node, double h, double p, int n, double in
   for (int k = 0; k < n; ++k) {
     const double d = d0 + k * h;
     d2[k] = d * d;
+    e[k] = ek;
+    ek *= rk;
+    rk *= q2;
+  }
+}
+
+// The same factors without the squared distances (the contacts' quadrature points).
+inline void axis_exp(double first_node, double h, double p, int n, double inv_w2, double q2, double* e) {
+  const double d0 = first_node - p;
+  double ek = std::exp(-d0 * d0 * inv_w2);
+  double rk = std::exp(-(2.0 * d0 * h + h * h) * inv_w2);
+  for (int k = 0; k < n; ++k) {
     e[k] = ek;
     ek *= rk;
     rk *= q2;
@@ -395,19 +410,22 @@ struct CgAccumulator::Impl {
   std::vector<double> dx, dy, da, dm, dvx, dvy, dom;
   std::vector<unsigned char> near_window;              // within the cutoff of a window node: pass 2
   std::vector<Branch> segments;
-  std::vector<std::vector<std::int32_t>> band_discs, band_segments;
+  int band_rows = kMinBandRows;                        // >= the rows a disc reaches
+  std::vector<std::vector<std::int32_t>> band_discs, band_segments;  // by the band of their first row
+  std::vector<std::int32_t> tall_segments;             // contacts reaching more rows than a band has
   std::vector<double> body_m, body_x, body_y;          // centres of mass by body id
 
   explicit Impl(const CgOptions& o) : opt(o), kernel(o) {}
 
-  int bands() const { return (ext.ny + kBandRows - 1) / kBandRows; }
+  int bands() const { return (ext.ny + band_rows - 1) / band_rows; }
   int threads() const { return opt.threads > 0 ? opt.threads : omp_get_max_threads(); }
 
   void select(std::span<const rundir::Disc> discs);
   void body_centres(std::span<const rundir::Disc> discs);
   void build_segments(const rundir::ContactFrame& contacts);
-  void pass1_band(int band, bool with_contacts);
-  void pass2_band(int band);
+  void clear_band(int band);
+  void pass1(std::span<const std::int32_t> discs, std::span<const std::int32_t> contacts);
+  void pass2(std::span<const std::int32_t> discs);
   void finish_frame(double time, bool with_contacts);
   double frame_value(CgField f, std::size_t n_ext) const;
 };
@@ -433,6 +451,8 @@ CgAccumulator::CgAccumulator(const CgOptions& options, std::vector<CgSeriesReque
   m.ext.nx += 2 * m.margin;
   m.ext.ny += 2 * m.margin;
   m.q2 = std::exp(-2.0 * o.spacing * o.spacing * m.kernel.inv_w2);
+  // A disc reaches the rows within rc of it: at most floor(2 rc / h) + 1.
+  m.band_rows = std::max(kMinBandRows, static_cast<int>(std::floor(2.0 * m.kernel.rc / o.spacing)) + 1);
   m.sums.resize(m.grid);
   for (auto* v : {&m.phi, &m.px, &m.py, &m.om, &m.om2, &m.v2, &m.ta, &m.kxx, &m.kxy, &m.kyy, &m.sxx, &m.sxy, &m.syx, &m.syy})
     v->assign(m.ext.size(), 0.0);
@@ -470,7 +490,7 @@ void CgAccumulator::Impl::select(std::span<const rundir::Disc> discs) {
     near_window.push_back(d.x > wx0 && d.x < wx1 && d.y > wy0 && d.y < wy1);
     const int j_lo = std::max(0, static_cast<int>(std::ceil((d.y - rc - ext.y0) / h)));
     const int j_hi = std::min(ext.ny - 1, static_cast<int>(std::floor((d.y + rc - ext.y0) / h)));
-    for (int b = j_lo / kBandRows; b <= j_hi / kBandRows && j_lo <= j_hi; ++b) band_discs[static_cast<std::size_t>(b)].push_back(k);
+    if (j_lo <= j_hi) band_discs[static_cast<std::size_t>(j_lo / band_rows)].push_back(k);
   }
 }
 
@@ -502,6 +522,7 @@ void CgAccumulator::Impl::body_centres(std::span<const rundir::Disc> discs) {
 void CgAccumulator::Impl::build_segments(const rundir::ContactFrame& contacts) {
   segments.clear();
   for (auto& b : band_segments) b.clear();
+  tall_segments.clear();
   const double rc = kernel.rc, h = opt.spacing;
   const double wx0 = grid.x0 - rc, wx1 = grid.x(grid.nx - 1) + rc, wy0 = grid.y0 - rc, wy1 = grid.y(grid.ny - 1) + rc;
   auto centre = [&](std::int64_t body, double disc_x, double disc_y, double cx, double cy, double& x, double& y) {
@@ -541,8 +562,11 @@ void CgAccumulator::Impl::build_segments(const rundir::ContactFrame& contacts) {
     segments.push_back(br);
     const int j_lo = std::max(margin, static_cast<int>(std::ceil((lo_y - rc - ext.y0) / h)));
     const int j_hi = std::min(margin + grid.ny - 1, static_cast<int>(std::floor((hi_y + rc - ext.y0) / h)));
-    for (int b = j_lo / kBandRows; b <= j_hi / kBandRows && j_lo <= j_hi; ++b)
-      band_segments[static_cast<std::size_t>(b)].push_back(k);
+    if (j_lo > j_hi) return;
+    if (j_hi - j_lo < band_rows)
+      band_segments[static_cast<std::size_t>(j_lo / band_rows)].push_back(k);
+    else
+      tall_segments.push_back(k);
   };
   for (const rundir::ContactRow& c : contacts.contacts) {
     double ix, iy;
@@ -567,11 +591,16 @@ void CgAccumulator::Impl::build_segments(const rundir::ContactFrame& contacts) {
   }
 }
 
-__attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass1_band(int band, bool with_contacts) {
-  const int j0 = band * kBandRows, j1 = std::min(ext.ny, j0 + kBandRows);  // rows [j0, j1)
+void CgAccumulator::Impl::clear_band(int band) {
+  const int j0 = band * band_rows, j1 = std::min(ext.ny, j0 + band_rows);  // rows [j0, j1)
   const std::size_t n0 = static_cast<std::size_t>(j0) * ext.nx, n1 = static_cast<std::size_t>(j1) * ext.nx;
   for (auto* v : {&phi, &px, &py, &om, &om2, &v2, &ta, &kxx, &kxy, &kyy, &sxx, &sxy, &syx, &syy})
     std::fill(v->begin() + static_cast<std::ptrdiff_t>(n0), v->begin() + static_cast<std::ptrdiff_t>(n1), 0.0);
+}
+
+// Discs and contacts onto all the rows they reach (the caller keeps threads apart).
+__attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass1(
+    std::span<const std::int32_t> disc_list, std::span<const std::int32_t> contact_list) {
   const double h = opt.spacing, rc = kernel.rc, rc2 = kernel.rc2, inv_w2 = kernel.inv_w2, norm = kernel.norm;
   // Row and column ranges are clamped to the grid, so its dimensions bound the scratch.
   const std::size_t cols = static_cast<std::size_t>(ext.nx), rows = static_cast<std::size_t>(ext.ny);
@@ -583,12 +612,12 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass
   double* const dy2 = ey + rows;
   double* const qx = dy2 + rows;              // the quadrature points' factors: per half, kMaxQuadrature rows of cols
   double* const qy = qx + 2 * kMaxQuadrature * cols;
-  for (const std::int32_t k : band_discs[static_cast<std::size_t>(band)]) {
+  for (const std::int32_t k : disc_list) {
     const double x = dx[k], y = dy[k];
     const int i_lo = std::max(0, static_cast<int>(std::ceil((x - rc - ext.x0) / h)));
     const int i_hi = std::min(ext.nx - 1, static_cast<int>(std::floor((x + rc - ext.x0) / h)));
-    const int r_lo = std::max(j0, static_cast<int>(std::ceil((y - rc - ext.y0) / h)));
-    const int r_hi = std::min(j1 - 1, static_cast<int>(std::floor((y + rc - ext.y0) / h)));
+    const int r_lo = std::max(0, static_cast<int>(std::ceil((y - rc - ext.y0) / h)));
+    const int r_hi = std::min(ext.ny - 1, static_cast<int>(std::floor((y + rc - ext.y0) / h)));
     const int ni = i_hi - i_lo + 1, nj = r_hi - r_lo + 1;
     if (ni <= 0 || nj <= 0) continue;
     axis_factors(ext.x(i_lo), h, x, ni, inv_w2, q2, ex, dx2);
@@ -616,12 +645,10 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass
       }
     }
   }
-  if (!with_contacts) return;
   // Contacts, on the window's nodes only.
   const int wi0 = margin, wi1 = margin + grid.nx - 1;
-  const int wj0 = std::max(j0, margin), wj1 = std::min(j1 - 1, margin + grid.ny - 1);
-  if (wj0 > wj1) return;
-  for (const std::int32_t k : band_segments[static_cast<std::size_t>(band)]) {
+  const int wj0 = margin, wj1 = margin + grid.ny - 1;
+  for (const std::int32_t k : contact_list) {
     const Branch& br = segments[static_cast<std::size_t>(k)];
     double lo_x = br.ax, hi_x = br.ax, lo_y = br.ay, hi_y = br.ay;
     for (int half = 0; half < br.halves; ++half) {
@@ -657,8 +684,8 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass
       along_hi[half] = length + rc;
       for (int p = 0; p < nq[half]; ++p) {
         const std::size_t block = static_cast<std::size_t>(half) * kMaxQuadrature + static_cast<std::size_t>(p);
-        axis_factors(ext.x(i_lo), h, br.ax + rule[half]->s[p] * ux, ni, inv_w2, q2, qx + block * cols, dx2);
-        axis_factors(ext.y(r_lo), h, br.ay + rule[half]->s[p] * uy, nj, inv_w2, q2, qy + block * rows, dy2);
+        axis_exp(ext.x(i_lo), h, br.ax + rule[half]->s[p] * ux, ni, inv_w2, q2, qx + block * cols);
+        axis_exp(ext.y(r_lo), h, br.ay + rule[half]->s[p] * uy, nj, inv_w2, q2, qy + block * rows);
       }
     }
     const double x_first = ext.x(i_lo) - br.ax;
@@ -698,11 +725,9 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass
   }
 }
 
-__attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass2_band(int band) {
-  // Rows of this band inside the window.
-  const int j0 = std::max(band * kBandRows, margin);
-  const int j1 = std::min(std::min(ext.ny, band * kBandRows + kBandRows), margin + grid.ny);  // [j0, j1)
-  if (j0 >= j1) return;
+// The discs' velocity fluctuations onto the window's rows they reach.
+__attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass2(std::span<const std::int32_t> disc_list) {
+  const int j0 = margin, j1 = margin + grid.ny;  // the window's rows [j0, j1)
   const int wi0 = margin, wi1 = margin + grid.nx - 1;
   const double h = opt.spacing, rc = kernel.rc, rc2 = kernel.rc2, inv_w2 = kernel.inv_w2, norm = kernel.norm;
   const std::size_t cols = static_cast<std::size_t>(ext.nx), rows = static_cast<std::size_t>(ext.ny);
@@ -712,7 +737,7 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass
   double* const dx2 = ex + cols;
   double* const ey = dx2 + cols;
   double* const dy2 = ey + rows;
-  for (const std::int32_t k : band_discs[static_cast<std::size_t>(band)]) {
+  for (const std::int32_t k : disc_list) {
     if (!near_window[static_cast<std::size_t>(k)]) continue;
     const double x = dx[k], y = dy[k];
     const int i_lo = std::max(wi0, static_cast<int>(std::ceil((x - rc - ext.x0) / h)));
@@ -856,13 +881,26 @@ void CgAccumulator::add_frame(double time, std::span<const rundir::Disc> discs, 
     m.build_segments(*contacts);
   }
   const int nb = m.bands(), nt = m.threads();
+  const std::span<const std::int32_t> none;
+  auto contacts_of = [&](int b) {
+    return with_contacts ? std::span<const std::int32_t>(m.band_segments[static_cast<std::size_t>(b)]) : none;
+  };
+  // Each omp for ends in a barrier: a band writes its own rows and the band above's, so the
+  // even bands go first, then the odd ones; pass 2 reads pass 1's velocity field.
 #pragma omp parallel num_threads(nt)
   {
+#pragma omp for schedule(static)
+    for (int b = 0; b < nb; ++b) m.clear_band(b);
+    for (int parity = 0; parity < 2; ++parity) {
 #pragma omp for schedule(dynamic, 1)
-    for (int b = 0; b < nb; ++b) m.pass1_band(b, with_contacts);
-    // implicit barrier: pass 2 reads the velocity field of neighbouring bands
+      for (int b = parity; b < nb; b += 2) m.pass1(m.band_discs[static_cast<std::size_t>(b)], contacts_of(b));
+    }
+#pragma omp single
+    if (with_contacts) m.pass1(none, m.tall_segments);
+    for (int parity = 0; parity < 2; ++parity) {
 #pragma omp for schedule(dynamic, 1)
-    for (int b = 0; b < nb; ++b) m.pass2_band(b);
+      for (int b = parity; b < nb; b += 2) m.pass2(m.band_discs[static_cast<std::size_t>(b)]);
+    }
   }
   m.finish_frame(time, with_contacts);
 }

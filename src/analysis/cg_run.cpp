@@ -1,7 +1,10 @@
 // See cg_run.h.
 #include "analysis/cg_run.h"
 
+#include <omp.h>
+
 #include <algorithm>
+#include <exception>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -14,19 +17,21 @@ namespace granary::analysis {
 const rundir::ContactFrame* ContactFrameMatcher::at(std::int64_t timestep) {
   while (!done_) {
     if (!pending_) {
-      if (!reader_.Next(frame_)) {
+      if (!reader_.NextHeader(frame_)) {
         done_ = true;
         break;
       }
       pending_ = true;
     }
-    if (frame_.timestep < timestep) {
+    if (frame_.timestep < timestep) {  // its rows are skipped, not parsed
       pending_ = false;
       continue;
     }
     if (frame_.timestep == timestep) {
       pending_ = false;
-      return &frame_;
+      if (reader_.ReadContacts(frame_)) return &frame_;
+      done_ = true;  // cut short at the end of the file
+      break;
     }
     break;
   }
@@ -69,15 +74,39 @@ CgRunResult cg_fields_of_run(const rundir::RunData& data, const CgRunOptions& op
   result.has_contacts = contacts.has_value();
   rundir::Frame frame;
   int in_range = 0, used = 0;
-  while (frames.Next(frame)) {
+  const bool two_readers = contacts && (cg.threads > 0 ? cg.threads : omp_get_max_threads()) >= 2;
+  // Frames nobody wants are skipped on their header (their rows are not parsed).
+  while (frames.NextHeader(frame)) {
     ++result.frames_read;
     if (frame.time > options.t_end) break;  // frames are in time order
     if (frame.time < options.t_start) continue;
     if (in_range++ % std::max(1, options.frame_stride) != 0) continue;
-    const rundir::ContactFrame* c = contacts ? contacts->at(frame.timestep) : nullptr;
     const int part = options.route ? options.route(frame.time) : 0;
     if (part < 0) continue;
     if (part >= parts) throw std::invalid_argument("cg_fields_of_run: route gave part " + std::to_string(part));
+    // The discs and the contact frame of the same step, on two threads when there are two
+    // (the two files are independent; reading is otherwise the serial part).
+    bool discs_read = false;
+    const rundir::ContactFrame* c = nullptr;
+    std::exception_ptr errors[2];
+#pragma omp parallel sections num_threads(2) if (two_readers)
+    {
+#pragma omp section
+      try {
+        discs_read = frames.ReadDiscs(frame);
+      } catch (...) {
+        errors[0] = std::current_exception();
+      }
+#pragma omp section
+      try {
+        if (contacts) c = contacts->at(frame.timestep);
+      } catch (...) {
+        errors[1] = std::current_exception();
+      }
+    }
+    for (const std::exception_ptr& e : errors)
+      if (e) std::rethrow_exception(e);
+    if (!discs_read) break;  // cut short at the end of the file (an engine still writing)
     acc[static_cast<std::size_t>(part)].add_frame(frame.time, frame.discs, c);
     if (c == nullptr) ++result.frames_without_contacts;
     if (used++ == 0) result.first_time = frame.time;

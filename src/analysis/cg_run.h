@@ -1,7 +1,9 @@
 // Coarse-grained fields of one run directory: streams frames.dump with the contact frame of
 // the same timestep from contacts.dump (when the run wrote one) through a CgAccumulator. The
 // window defaults to the silo's (cg_default_window: the spec's width, the bed's height), the
-// frames to a time range the caller picks (the flow analysis' steady window, say).
+// frames to a time range the caller picks (the flow analysis' steady window, say). Frames
+// outside it are skipped without parsing their rows; with two threads or more the two dumps
+// of a frame are parsed side by side.
 #pragma once
 
 #include <functional>

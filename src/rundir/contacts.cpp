@@ -89,13 +89,32 @@ bool ContactReader::ReadContacts(ContactFrame& frame) {
     need = std::max(need, static_cast<std::size_t>(cols[k] + 1));
   }
   frame.contacts.reserve(static_cast<std::size_t>(h.count));
-  std::string line;
+  // Which of the ten each of the first `need` columns is (-1: none), for rows read in place.
+  std::vector<int> slot(need, -1);
+  for (int k = 0; k < 10; ++k) slot[static_cast<std::size_t>(cols[k])] = k;
+  // A well-formed row, parsed straight from the line; false sends it to the checks below.
+  auto fast_row = [&](std::string_view row, ContactRow& c) {
+    const char* p = row.data();
+    const char* const end = p + row.size();
+    double* const out[8] = {&c.xi, &c.yi, &c.xj, &c.yj, &c.cx, &c.cy, &c.fx, &c.fy};
+    for (const int k : slot) {
+      const bool ok = k < 0    ? !detail::NextField(p, end).empty()
+                      : k == 0 ? detail::NextInt(p, end, c.body_i)
+                      : k == 1 ? detail::NextInt(p, end, c.body_j)
+                               : detail::NextDouble(p, end, *out[k - 2]);
+      if (!ok) return false;
+    }
+    return true;
+  };
+  std::string_view line;
   std::vector<std::string_view> f;
   for (std::int64_t r = 0; r < h.count; ++r) {
     if (!in.Next(line)) {
       frame.contacts.clear();
       return false;
     }
+    if (fast_row(line, frame.contacts.emplace_back())) continue;
+    frame.contacts.pop_back();
     Split(line, ' ', f);
     if (f.size() < need && in.at_end()) {
       frame.contacts.clear();
@@ -105,7 +124,7 @@ bool ContactReader::ReadContacts(ContactFrame& frame) {
       in.Fail("contact row has " + std::to_string(f.size()) + " fields, expected " + std::to_string(h.columns.size()));
     ContactRow c;
     auto field = [&](int k) { return f[static_cast<std::size_t>(cols[k])]; };
-    if (!ToInt(field(0), c.body_i) || !ToInt(field(1), c.body_j)) in.Fail("body ids in '" + line + "' are not integers");
+    if (!ToInt(field(0), c.body_i) || !ToInt(field(1), c.body_j)) in.Fail("body ids in '" + std::string(line) + "' are not integers");
     double* out[8] = {&c.xi, &c.yi, &c.xj, &c.yj, &c.cx, &c.cy, &c.fx, &c.fy};
     for (int k = 0; k < 8; ++k)
       if (!ToDouble(field(k + 2), *out[k]))

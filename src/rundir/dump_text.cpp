@@ -4,51 +4,89 @@
 #include <zlib.h>
 
 #include <cctype>
+#include <cstring>
 
 #include "rundir/layout.h"
 
 namespace granary::rundir::detail {
 
-DumpLines::DumpLines(const std::filesystem::path& file) : file_(file), in_(file, std::ios::binary) {
-  if (!in_) throw ReadError(file.string() + ": cannot open");
-  char magic[2] = {0, 0};
-  in_.read(magic, 2);
-  const bool gzip = in_.gcount() == 2 && magic[0] == '\x1f' && magic[1] == '\x8b';
-  in_.clear();
-  in_.seekg(0);
-  if (!gzip) return;
-  in_.close();
-  gz_ = gzopen(file.c_str(), "rb");
-  if (!gz_) throw ReadError(file.string() + ": cannot open");
-  gzbuffer(static_cast<gzFile>(gz_), 1 << 17);
+namespace {
+constexpr std::size_t kBlock = std::size_t{1} << 20;  // bytes per read
+}  // namespace
+
+DumpLines::DumpLines(const std::filesystem::path& file) : file_(file) {
+  plain_ = std::fopen(file.c_str(), "rb");
+  if (!plain_) throw ReadError(file.string() + ": cannot open");
+  unsigned char magic[2] = {0, 0};
+  const bool gzip = std::fread(magic, 1, 2, plain_) == 2 && magic[0] == 0x1f && magic[1] == 0x8b;
+  if (gzip) {
+    std::fclose(plain_);
+    plain_ = nullptr;
+    gz_ = gzopen(file.c_str(), "rb");
+    if (!gz_) throw ReadError(file.string() + ": cannot open");
+    gzbuffer(static_cast<gzFile>(gz_), 1 << 17);
+  } else {
+    std::rewind(plain_);
+    std::setvbuf(plain_, nullptr, _IONBF, 0);  // whole blocks go straight into buffer_
+  }
+  buffer_.resize(kBlock);
 }
 
 DumpLines::~DumpLines() {
   if (gz_) gzclose(static_cast<gzFile>(gz_));
+  if (plain_) std::fclose(plain_);
 }
 
-bool DumpLines::GzLine(std::string& line) {
-  line.clear();
-  if (gz_eof_) return false;
-  char buf[4096];
-  for (;;) {
-    if (!gzgets(static_cast<gzFile>(gz_), buf, sizeof buf)) {
-      if (line.empty()) return false;
-      gz_eof_ = true;  // a last line without '\n', as std::getline reports it
-      return true;
-    }
-    line += buf;
-    if (line.back() == '\n') {
-      line.pop_back();
-      return true;
-    }
+bool DumpLines::Refill() {
+  if (eof_) return false;
+  if (begin_ > 0) {
+    std::memmove(buffer_.data(), buffer_.data() + begin_, end_ - begin_);
+    end_ -= begin_;
+    begin_ = 0;
   }
+  if (buffer_.size() - end_ < kBlock / 2) buffer_.resize(buffer_.size() + kBlock);  // a line longer than a block
+  const std::size_t room = buffer_.size() - end_;
+  std::size_t got = 0;
+  if (gz_) {
+    const int n = gzread(static_cast<gzFile>(gz_), buffer_.data() + end_, static_cast<unsigned>(room));
+    if (n < 0) Fail("cannot read (gzip: corrupt or cut short)");
+    got = static_cast<std::size_t>(n);
+  } else {
+    got = std::fread(buffer_.data() + end_, 1, room, plain_);
+    if (got == 0 && std::ferror(plain_)) Fail("cannot read");
+  }
+  end_ += got;
+  if (got == 0) eof_ = true;
+  return got > 0;
+}
+
+bool DumpLines::Next(std::string_view& line) {
+  for (;;) {
+    const char* const start = buffer_.data() + begin_;
+    const void* const nl = std::memchr(start, '\n', end_ - begin_);
+    if (nl) {
+      const char* const stop = static_cast<const char*>(nl);
+      line = std::string_view(start, static_cast<std::size_t>(stop - start));
+      begin_ += line.size() + 1;
+      break;
+    }
+    if (Refill()) continue;
+    if (begin_ == end_) return false;
+    // A last line without '\n', as std::getline reports it.
+    line = std::string_view(buffer_.data() + begin_, end_ - begin_);
+    begin_ = end_;
+    unterminated_ = true;
+    break;
+  }
+  ++line_no_;
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  return true;
 }
 
 bool DumpLines::Next(std::string& line) {
-  if (!(gz_ ? GzLine(line) : static_cast<bool>(std::getline(in_, line)))) return false;
-  ++line_no_;
-  if (!line.empty() && line.back() == '\r') line.pop_back();
+  std::string_view view;
+  if (!Next(view)) return false;
+  line.assign(view);
   return true;
 }
 
@@ -109,7 +147,7 @@ bool ReadDumpHeader(DumpLines& in, const char* count_item, const char* columns_i
 
 bool SkipDumpRows(DumpState& state) {
   state.rows_pending = false;
-  std::string line;
+  std::string_view line;
   for (std::int64_t r = 0; r < state.header.count; ++r)
     if (!state.lines.Next(line)) return false;
   return true;

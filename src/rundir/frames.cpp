@@ -154,7 +154,39 @@ bool FrameReader::ReadDiscs(Frame& frame) {
   for (int c : {c_id, c_mol, c_type, c_x, c_y, c_r, c_m, c_vx, c_vy, c_w})
     need = std::max(need, static_cast<std::size_t>(c + 1));
   frame.discs.reserve(static_cast<std::size_t>(h.count));
-  std::string line;
+  // What each of the first `need` columns holds, for rows read in place.
+  enum Role : std::uint8_t { kSkip, kId, kMol, kType, kX, kY, kR, kM, kVx, kVy, kW };
+  std::vector<Role> roles(need, kSkip);
+  const std::pair<int, Role> role_of[] = {{c_id, kId}, {c_mol, kMol}, {c_type, kType}, {c_x, kX},   {c_y, kY},
+                                          {c_r, kR},   {c_m, kM},     {c_vx, kVx},     {c_vy, kVy}, {c_w, kW}};
+  for (const auto& [c, role] : role_of)
+    if (c >= 0) roles[static_cast<std::size_t>(c)] = role;
+  const double density_pi = density_ * std::numbers::pi;
+  // A well-formed row, parsed straight from the line; false sends it to the checks below.
+  auto fast_row = [&](std::string_view row, Disc& d) {
+    const char* p = row.data();
+    const char* const end = p + row.size();
+    std::int64_t type = d.type;
+    std::int64_t* const ints[] = {nullptr, &d.id, &d.mol, &type};
+    double* const doubles[] = {&d.x, &d.y, &d.radius, &d.mass, &d.vx, &d.vy, &d.omega};  // kX ... kW
+    bool mass_given = false;
+    for (const Role role : roles) {
+      bool ok;
+      if (role >= kX) {
+        ok = detail::NextDouble(p, end, *doubles[role - kX]);
+        mass_given |= role == kM;
+      } else if (role != kSkip) {
+        ok = detail::NextInt(p, end, *ints[role]);
+      } else {
+        ok = !detail::NextField(p, end).empty();
+      }
+      if (!ok) return false;
+    }
+    d.type = static_cast<int>(type);
+    if (!mass_given) d.mass = density_pi * d.radius * d.radius;
+    return true;
+  };
+  std::string_view line;
   std::vector<std::string_view> f;
   auto field = [&](int c) { return f[static_cast<std::size_t>(c)]; };
   for (std::int64_t a = 0; a < h.count; ++a) {
@@ -162,6 +194,8 @@ bool FrameReader::ReadDiscs(Frame& frame) {
       frame.discs.clear();
       return false;  // truncated at the end of the file
     }
+    if (Disc& d = frame.discs.emplace_back(); fast_row(line, d)) continue;
+    frame.discs.pop_back();
     Split(line, ' ', f);
     if (f.size() < need && in.at_end()) {
       frame.discs.clear();

@@ -35,13 +35,19 @@ void write_run(const std::filesystem::path& dir, const std::vector<double>& fram
   contacts.Close();
 }
 
-TEST(CgRun, PairsFramesWithTheirContactFramesOverTheTimeRange) {
-  TempDir tmp;
-  write_run(tmp.path(), {0.0, 1.0, 2.0, 3.0}, {0.0, 2.0, 3.0});
-  const rundir::RunData data = rundir::ReadRun(tmp.path());
+// Four frames with contact frames at t = 0, 2 and 3, mapped inside the lattice from t = 0.5.
+CgRunOptions write_paired_run(const std::filesystem::path& dir) {
+  write_run(dir, {0.0, 1.0, 2.0, 3.0}, {0.0, 2.0, 3.0});
   CgRunOptions o;
   o.cg.window = {-5.0, 5.0, 5.0, 15.0};
   o.t_start = 0.5;
+  return o;
+}
+
+TEST(CgRun, PairsFramesWithTheirContactFramesOverTheTimeRange) {
+  TempDir tmp;
+  const CgRunOptions o = write_paired_run(tmp.path());
+  const rundir::RunData data = rundir::ReadRun(tmp.path());
   const CgRunResult r = cg_fields_of_run(data, o);
   ASSERT_EQ(r.parts.size(), 1u);
   const CgMaps maps(r.parts[0]);
@@ -57,6 +63,30 @@ TEST(CgRun, PairsFramesWithTheirContactFramesOverTheTimeRange) {
   // unit width (one chain per 1 d), to the cut kernel's error (2e-4 of the load, measured 1.1e-4).
   const double y = maps.grid().y(static_cast<int>(centre / maps.grid().nx));
   EXPECT_NEAR(maps.value(CgField::kSigmaYY, centre), -(21.0 - y), 2e-4 * (21.0 - y));
+}
+
+// With two threads a frame's discs and its contact frame are parsed side by side: the same
+// sums as on one thread, and a malformed contact row (of the frame at t = 1, step 10000)
+// still comes out as its ReadError.
+TEST(CgRun, TwoReadersGiveTheSameSumsAndTheirErrors) {
+  TempDir tmp;
+  CgRunOptions o = write_paired_run(tmp.path());
+  const rundir::RunData data = rundir::ReadRun(tmp.path());
+  o.cg.threads = 1;
+  const CgSums one = cg_fields_of_run(data, o).parts[0];
+  o.cg.threads = 2;
+  const CgSums two = cg_fields_of_run(data, o).parts[0];
+  EXPECT_EQ(two.contact_frames, 2);
+  EXPECT_EQ(one.phi, two.phi);
+  EXPECT_EQ(one.vy, two.vy);
+  EXPECT_EQ(one.sxx, two.sxx);
+  EXPECT_EQ(one.syy, two.syy);
+  EXPECT_EQ(one.kyy, two.kyy);
+  testing::write_file(tmp.path() / rundir::kContactsFile,
+                      "ITEM: TIMESTEP\n10000\nITEM: TIME\n1\nITEM: NUMBER OF ENTRIES\n1\n"
+                      "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n0 1 0 0 1 0 0.5 0 abc 0\n");
+  const rundir::RunData bad = rundir::ReadRun(tmp.path());
+  EXPECT_THROW(cg_fields_of_run(bad, o), rundir::ReadError);
 }
 
 TEST(CgRun, StrideMaxFramesAndRouting) {

@@ -6,6 +6,7 @@
 #include "rundir/run_directory.h"
 
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <cmath>
 #include <numbers>
@@ -85,6 +86,44 @@ TEST(Readers, TruncatedLastFrameEndsQuietly) {
   Frame f;
   EXPECT_TRUE(reader.Next(f));
   EXPECT_FALSE(reader.Next(f));
+}
+
+// The reader takes the file in blocks of 1 MiB: a line longer than a block (here a header
+// and rows with 300,000 extra columns, 2.4 MB each), rows across block ends, and the same
+// text gzip-compressed read alike.
+TEST(Readers, LinesLongerThanABlockAndGzip) {
+  TempDir dir;
+  std::string extra_names, extra_values;
+  for (int k = 0; k < 300000; ++k) extra_names += " e" + std::to_string(k % 10), extra_values += " 1.5e-3";
+  std::string text = "ITEM: TIMESTEP\n7\nITEM: NUMBER OF ATOMS\n2\nITEM: ATOMS x extra" + extra_names + " id mol y\n";
+  text += "1.25 0" + extra_values + " 1 0 -2.5\n";
+  text += "3.5 0" + extra_values + " 2 0 4e1\r\n";
+  for (int f = 0; f < 40000; ++f)  // frames enough to cross many block ends
+    text += "ITEM: TIMESTEP\n" + std::to_string(8 + f) + "\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id mol x y\n3 1 " +
+            std::to_string(f) + ".125 -0.5\n";
+  write_file(dir.path() / "frames.dump", text);
+  gzFile gz = gzopen((dir.path() / "frames.dump.gz").c_str(), "wb");
+  ASSERT_NE(gz, nullptr);
+  ASSERT_EQ(gzwrite(gz, text.data(), static_cast<unsigned>(text.size())), static_cast<int>(text.size()));
+  gzclose(gz);
+  for (const char* name : {"frames.dump", "frames.dump.gz"}) {
+    FrameReader reader(dir.path() / name);
+    Frame f;
+    ASSERT_TRUE(reader.Next(f)) << name;
+    EXPECT_EQ(f.timestep, 7);
+    ASSERT_EQ(f.discs.size(), 2u);
+    EXPECT_EQ(f.discs[0].x, 1.25);
+    EXPECT_EQ(f.discs[0].y, -2.5);
+    EXPECT_EQ(f.discs[1].id, 2);
+    EXPECT_EQ(f.discs[1].y, 40.0);
+    int frames = 0;
+    while (reader.Next(f)) {
+      ASSERT_EQ(f.discs.size(), 1u);
+      ASSERT_EQ(f.discs[0].x, frames + 0.125) << name << " frame " << frames;
+      ++frames;
+    }
+    EXPECT_EQ(frames, 40000) << name;
+  }
 }
 
 TEST(Readers, MalformedFrameNamesFileAndLine) {

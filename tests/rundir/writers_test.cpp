@@ -361,5 +361,32 @@ TEST(DumpText, ToDoubleHasTheBitsOfFromChars) {
     if (expected_ok) {
       ASSERT_EQ(std::bit_cast<std::uint64_t>(got), std::bit_cast<std::uint64_t>(expected)) << text;
     }
+    // The same number read in place from a row (NextDouble), between blanks.
+    if (text.empty()) continue;
+    const std::string row = " \t" + text + " 7";
+    const char* p = row.data();
+    const char* const end = p + row.size();
+    double in_row = 0.0, next = 0.0;
+    ASSERT_EQ(granary::rundir::detail::NextDouble(p, end, in_row), expected_ok) << text;
+    if (!expected_ok) continue;
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(in_row), std::bit_cast<std::uint64_t>(expected)) << text;
+    ASSERT_TRUE(granary::rundir::detail::NextDouble(p, end, next)) << text;
+    ASSERT_EQ(next, 7.0);
+    ASSERT_FALSE(granary::rundir::detail::NextDouble(p, end, next));
+  }
+}
+
+// Integers read in place (NextInt) as ToInt reads them: signs, "12.0", too many digits.
+TEST(DumpText, NextIntIsToInt) {
+  for (const std::string text : {"0", "-0", "+3", "12", "-7", "12.0", "1.5", "x", "-", "123456789012345678",
+                                 "1234567890123456789", "99999999999999999999", "3e2"}) {
+    std::int64_t expected = 0, got = 0;
+    const bool ok = granary::rundir::detail::ToInt(text, expected);
+    const std::string row = text + "  4";
+    const char* p = row.data();
+    ASSERT_EQ(granary::rundir::detail::NextInt(p, row.data() + row.size(), got), ok) << text;
+    if (ok) {
+      EXPECT_EQ(got, expected) << text;
+    }
   }
 }
