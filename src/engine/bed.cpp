@@ -51,7 +51,7 @@ std::vector<ShapeTemplate> MakeTemplates(const RunSpec& spec) {
   return t;
 }
 
-BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
+BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double skin) {
   std::vector<ShapeTemplate> templates = MakeTemplates(spec);
   // The bed never sees outlets or obstacles (bed_key): a closed silo whose walls are one
   // segment per side, so element index = Side.
@@ -61,6 +61,7 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
   // a settled bed does not depend on it, and most of the preparation is free fall.
   WorldParams params = ParamsFromSpec(spec);
   params.dt = spec.bed_time_step();
+  params.skin = skin;
   World world(params, templates, BuildGeometry(closed, kTallWall));
   Rng rng(spec.seed);
 
@@ -116,11 +117,20 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress) {
     // Let the batch fall through its region before the next one is placed above it.
     const double fall = std::sqrt(2.0 * height / spec.gravity) + 1.0;
     const long steps = inserted < total ? std::lround(fall / dt) : 0;
+    bool fell = false;
     for (long s = 0; s < steps; ++s) {
       world.Step();
       t += dt;
       if (progress && s % kProgressEvery == 0)
         progress(0.5 * static_cast<double>(inserted) / static_cast<double>(total), t);
+      if (spec.bed.next_batch == NextBatch::kLanded && (s + 1) % settle_check_every == 0) {
+        // Serially over the batch in placement order: the same sum at any thread count.
+        double ke = 0.0;
+        for (int b : placed) ke += world.bmass_[b] * (world.bvx_[b] * world.bvx_[b] + world.bvy_[b] * world.bvy_[b]);
+        ke *= 0.5 / (static_cast<double>(placed.size()) * energy_unit);
+        if (ke > kBedLandedKePerBody) fell = true;
+        else if (fell) break;
+      }
     }
   }
   // Settle until the kinetic energy per body is negligible (or give up at max_settle_time).

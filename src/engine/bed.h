@@ -36,8 +36,13 @@ using BedProgress = std::function<void(double fraction, double t)>;
 
 std::vector<ShapeTemplate> MakeTemplates(const RunSpec& spec);
 
-// Prepares a bed from scratch (deterministic in spec.seed).
-BedState PrepareBed(const RunSpec& spec, const BedProgress& progress);
+// Verlet skin while preparing a bed (the run's is 0.2): the falling batches outrun a 0.2 skin
+// every ~50 steps at the bed step; 0.4 halves the rebuilds (~20 % less wall time on two
+// threads) and gives the same bed to the bit (Bed.TheSkinDoesNotChangeTheBed).
+inline constexpr double kBedSkin = 0.4;
+
+// Prepares a bed from scratch (deterministic in spec.seed; `skin` only changes the speed).
+BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double skin = kBedSkin);
 
 // A bed file that cannot be used: not a bed, another format version, or its checksum does
 // not match (corrupt, torn). ObtainBed puts it aside and prepares the bed again.

@@ -21,6 +21,7 @@
 #include "engine/run.h"
 #include "engine/shapes.h"
 #include "rundir/files.h"
+#include "rundir/hash.h"
 #include "rundir/layout.h"
 #include "rundir/run_directory.h"
 #include "rundir/summary.h"
@@ -47,19 +48,23 @@ nlohmann::json BenchSpecies(const std::string& shape) {
 }
 
 nlohmann::json BenchSpec(const BenchOptions& options) {
-  const std::string bed_file =
-      options.bed_file.empty() ? (fs::temp_directory_path() /
-                                  ("granary-bench-bed-" + options.shape + "-" + std::to_string(options.bodies) + ".json"))
-                                     .string()
-                               : options.bed_file;
-  return {{"run_id", "bench"},
+  nlohmann::json spec = {{"run_id", "bench"},
           {"seed", std::uint64_t{1}},
           {"silo", {{"width", 100.0}, {"base_outlets", {{{"center", 0.0}, {"width", 14.0}}}}}},
           {"bodies", {{"count", options.bodies}, {"species", BenchSpecies(options.shape)}}},
           {"discharge",
            {{"mode", "reinject"}, {"max_time", static_cast<double>(options.steps) * 1e-4}, {"stop_on_clog", false}}},
           {"output", {{"checkpoint_interval", 0.0}, {"frame_interval", 0.0}}},
-          {"bed", {{"batch_size", 2000}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 30.0}, {"cache_file", bed_file}}}};
+          {"bed", {{"batch_size", 2000}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 30.0}}}};
+  // The default cache file is named by the bed key (as the runner's), so that a bed cached by
+  // an engine with another bed procedure is not read for this one.
+  spec["bed"]["cache_file"] =
+      options.bed_file.empty()
+          ? (fs::temp_directory_path() / ("granary-bench-bed-" + options.shape + "-" + std::to_string(options.bodies) +
+                                          "-" + hash_hex(RunSpec::from_json(spec).bed_key().dump()) + ".json"))
+                .string()
+          : options.bed_file;
+  return spec;
 }
 
 namespace {
@@ -170,19 +175,20 @@ BedShape MeasureBed(const BedState& bed, const RunSpec& spec) {
   return shape;
 }
 
-std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::vector<double>& factors) {
+std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::vector<BedProcedure>& procedures) {
   omp_set_num_threads(*std::max_element(options.threads.begin(), options.threads.end()));
   std::vector<BedPrepResult> results;
   for (int seed = 1; seed <= options.repeat; ++seed) {
-    for (double factor : factors) {
+    for (const BedProcedure& procedure : procedures) {
       nlohmann::json j = BenchSpec(options);
       j["seed"] = seed;
-      j["bed"]["time_step"] = factor * RunSpec::from_json(j).time_step;
+      j["bed"]["time_step"] = procedure.step_factor * RunSpec::from_json(j).time_step;
+      j["bed"]["next_batch"] = to_string(procedure.next_batch);
       const RunSpec spec = RunSpec::from_json(j);
       const auto start = std::chrono::steady_clock::now();
-      const BedState bed = PrepareBed(spec, nullptr);
+      const BedState bed = PrepareBed(spec, nullptr, procedure.skin);
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      results.push_back({seed, factor, wall, bed.settle_time, MeasureBed(bed, spec)});
+      results.push_back({seed, procedure, wall, bed.settle_time, MeasureBed(bed, spec)});
     }
   }
   return results;

@@ -102,18 +102,26 @@ struct BedShape {
 };
 BedShape MeasureBed(const BedState& bed, const RunSpec& spec);
 
+// One way of preparing the bed: its time step (in time steps) and when the next batch goes in.
+struct BedProcedure {
+  std::string name;        // "old", "new"
+  double step_factor;      // bed time step / time step
+  NextBatch next_batch;
+  double skin;             // Verlet skin (speed only: the bed does not depend on it)
+};
+
 struct BedPrepResult {
   int seed;                // replica: the spec's seed
-  double step_factor;      // bed time step / time step
+  BedProcedure procedure;
   double wall_s;           // wall time of PrepareBed
   double settle_time;      // simulated preparation time
   BedShape shape;
 };
 
 // Bed preparation side by side: `repeat` replicas (seeds 1..repeat), each prepared from
-// scratch once per bed time step `factor` x time_step (interleaved), on the largest thread
-// count of the list; nothing cached.
-std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::vector<double>& factors);
+// scratch once per procedure (interleaved), on the largest thread count of the list; nothing
+// cached.
+std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::vector<BedProcedure>& procedures);
 
 // The disc case on LAMMPS and the native engine, side by side: the bed settled (or loaded)
 // once, the LAMMPS input written into `dir`, then `repeat` rounds, each over the thread

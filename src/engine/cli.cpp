@@ -74,8 +74,8 @@ constexpr char kBenchHelp[] =
     "over the first thread count (a round's runs share the machine's state).\n"
     "  --shape S     disc (d = 1), dumbbell, or mixture (ch. 4: half dumbbells, half discs of\n"
     "                diameter sqrt(2) d, by number)\n"
-    "  --bed FILE    where the settled bed is cached (default: granary-bench-bed-S-N.json in\n"
-    "                the temp directory)\n"
+    "  --bed FILE    where the settled bed is cached (default: granary-bench-bed-S-N-KEY.json\n"
+    "                in the temp directory, KEY the hash of the bed key)\n"
     "  --versus lammps  the same case on LAMMPS (`lmp`; with --shape disc only): its input is\n"
     "                written from the same settled bed (pair_style gran/hertz/history, true\n"
     "                2-D); each round runs LAMMPS, then the engine, per thread count (LAMMPS:\n"
@@ -86,10 +86,12 @@ constexpr char kBenchHelp[] =
     "  --output-cost T  what output costs: each round runs the case without output and with\n"
     "                frames and contact frames every T time units, and prints both rates\n"
     "  --bed-prep    bed preparation instead of discharge: --repeat N replicas (seeds 1..N),\n"
-    "                each prepared from scratch at bed/time_step = time_step (the beds of\n"
-    "                before) and at the default 5 x, interleaved, on the largest thread count;\n"
-    "                prints wall time, simulated time, top, surface and packing fraction, and\n"
-    "                per step their mean and spread over the replicas\n";
+    "                each prepared from scratch by the old procedure (bed step = time_step,\n"
+    "                fixed wait per batch, skin 0.2: the beds before issue 19) and by the\n"
+    "                default one (8 x time_step, next batch once the last has landed, skin\n"
+    "                0.4), interleaved, on the largest thread count; prints wall time,\n"
+    "                simulated time, top, surface and packing fraction, and per procedure\n"
+    "                their mean and spread over the replicas\n";
 
 int Run(const std::vector<std::string>& args) {
   RunOptions options;
@@ -173,19 +175,24 @@ int BenchOutputCost(const BenchOptions& options, double interval) {
   return 0;
 }
 
-// Per replica and bed time step the wall time and the bed's shape; then per step the median
-// wall time and the mean and standard deviation of the shape over the replicas.
+// Per replica and procedure the wall time and the bed's shape; then per procedure the median
+// wall time and the mean and standard deviation of the shape over the replicas. "old" is the
+// preparation of before issue 19 (bed step = time step, fixed wait per batch), "new" the default.
 int BenchBedPrep(const BenchOptions& options) {
-  const std::vector<double> factors = {1.0, kBedTimeStepFactor};
-  std::printf("bench: preparing %d %s beds of %d bodies at bed/time_step = 1 x and %g x time_step\n", options.repeat,
-              options.shape.c_str(), options.bodies, kBedTimeStepFactor);
+  const std::vector<BedProcedure> procedures = {{"old", 1.0, NextBatch::kFixed, WorldParams{}.skin},
+                                                {"new", kBedTimeStepFactor, NextBatch::kLanded, kBedSkin}};
+  std::printf("bench: preparing %d %s beds of %d bodies, old (bed step 1 x time_step, fixed wait per batch, skin %g) "
+              "and new (%g x, next batch once the last has landed, skin %g)\n",
+              options.repeat, options.shape.c_str(), options.bodies, WorldParams{}.skin, kBedTimeStepFactor, kBedSkin);
   std::fflush(stdout);
-  std::map<double, std::vector<BedPrepResult>> by_factor;
-  for (const BedPrepResult& r : RunBedPrep(options, factors)) {
-    std::printf("seed=%d step_factor=%g wall_s=%.2f settle_time=%.2f top=%.3f surface=%.3f phi=%.4f\n", r.seed,
-                r.step_factor, r.wall_s, r.settle_time, r.shape.top, r.shape.surface, r.shape.phi);
+  std::map<std::string, std::vector<BedPrepResult>> by_name;
+  for (const BedPrepResult& r : RunBedPrep(options, procedures)) {
+    std::printf("seed=%d procedure=%s step_factor=%g next_batch=%s wall_s=%.2f settle_time=%.2f top=%.3f "
+                "surface=%.3f phi=%.4f\n",
+                r.seed, r.procedure.name.c_str(), r.procedure.step_factor, to_string(r.procedure.next_batch).c_str(),
+                r.wall_s, r.settle_time, r.shape.top, r.shape.surface, r.shape.phi);
     std::fflush(stdout);
-    by_factor[r.step_factor].push_back(r);
+    by_name[r.procedure.name].push_back(r);
   }
   auto mean_sd = [](const std::vector<double>& v) {
     double m = 0, q = 0;
@@ -193,8 +200,9 @@ int BenchBedPrep(const BenchOptions& options) {
     for (double x : v) q += (x - m) * (x - m);
     return std::pair{m, v.size() > 1 ? std::sqrt(q / static_cast<double>(v.size() - 1)) : 0.0};
   };
-  std::map<double, double> median_wall;
-  for (auto& [factor, rs] : by_factor) {
+  std::map<std::string, double> median_wall;
+  for (const BedProcedure& p : procedures) {
+    const std::vector<BedPrepResult>& rs = by_name[p.name];
     std::vector<double> wall, settle, top, surface, phi;
     for (const BedPrepResult& r : rs) {
       wall.push_back(r.wall_s);
@@ -203,16 +211,16 @@ int BenchBedPrep(const BenchOptions& options) {
       surface.push_back(r.shape.surface);
       phi.push_back(r.shape.phi);
     }
-    median_wall[factor] = BenchMedian(wall);
+    median_wall[p.name] = BenchMedian(wall);
     const auto [tm, ts] = mean_sd(top);
     const auto [sm, ss] = mean_sd(surface);
     const auto [pm, ps] = mean_sd(phi);
-    std::printf("summary step_factor=%g replicas=%zu wall_s median=%.2f best=%.2f settle_time median=%.2f "
-                "top=%.3f+-%.3f surface=%.3f+-%.3f phi=%.4f+-%.4f (mean+-sd)\n",
-                factor, rs.size(), median_wall[factor], *std::min_element(wall.begin(), wall.end()), BenchMedian(settle),
-                tm, ts, sm, ss, pm, ps);
+    std::printf("summary procedure=%s step_factor=%g next_batch=%s replicas=%zu wall_s median=%.2f best=%.2f "
+                "settle_time median=%.2f top=%.3f+-%.3f surface=%.3f+-%.3f phi=%.4f+-%.4f (mean+-sd)\n",
+                p.name.c_str(), p.step_factor, to_string(p.next_batch).c_str(), rs.size(), median_wall[p.name],
+                *std::min_element(wall.begin(), wall.end()), BenchMedian(settle), tm, ts, sm, ss, pm, ps);
   }
-  std::printf("summary speedup of the median wall time: %.2f\n", median_wall[factors[0]] / median_wall[factors[1]]);
+  std::printf("summary speedup of the median wall time (old / new): %.2f\n", median_wall["old"] / median_wall["new"]);
   return 0;
 }
 

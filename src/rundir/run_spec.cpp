@@ -240,6 +240,8 @@ constexpr std::initializer_list<std::pair<const char*, DischargeMode>> kModes = 
     {"remove", DischargeMode::kRemove}, {"reinject", DischargeMode::kReinject}};
 constexpr std::initializer_list<std::pair<const char*, ReinjectPosition>> kReinjectPositions = {
     {"random", ReinjectPosition::kRandom}, {"periodic", ReinjectPosition::kPeriodic}};
+constexpr std::initializer_list<std::pair<const char*, NextBatch>> kNextBatches = {
+    {"landed", NextBatch::kLanded}, {"fixed", NextBatch::kFixed}};
 constexpr std::initializer_list<std::pair<const char*, TangentialCap>> kCaps = {
     {"lammps", TangentialCap::kLammps}, {"liggghts", TangentialCap::kLiggghts}};
 constexpr std::initializer_list<std::pair<const char*, Wall>> kWalls = {{"left", Wall::kLeft},
@@ -330,7 +332,9 @@ SpecTable MakeRunSpecTable() {
       number("/bed/settle_ke_per_body", 1e-6, positive, "settled when the kinetic energy per body is below this (m g d)"),
       number("/bed/max_settle_time", 200.0, positive, "give up settling after this long"),
       number("/bed/time_step", 0.0, non_negative,
-             "native engine: the bed-preparation time step; 0 = 5 x time_step (docs/run-spec.md)"),
+             "native engine: the bed-preparation time step; 0 = 8 x time_step (docs/run-spec.md)"),
+      enumeration("/bed/next_batch", "landed", names(kNextBatches),
+                  "native engine: the next batch once the previous has landed, or after the fixed wait sqrt(2 h/g) + 1"),
       plain("/bed/cache_file", T::kString, "", "set by the runner: where the prepared bed is kept"),
       plain("/discharge", T::kObject, nullptr, "the discharge after the outlets open"),
       enumeration("/discharge/mode", "remove", names(kModes),
@@ -504,6 +508,12 @@ std::string to_string(ReinjectPosition position) {
   }
   return "?";
 }
+std::string to_string(NextBatch next) {
+  for (const auto& [name, value] : kNextBatches) {
+    if (value == next) return name;
+  }
+  return "?";
+}
 std::string to_string(TangentialCap cap) {
   for (const auto& [name, value] : kCaps) {
     if (value == cap) return name;
@@ -545,6 +555,7 @@ RunSpec RunSpec::from_json(const json& j) {
     b.Number("settle_ke_per_body", s.bed.settle_ke_per_body);
     b.Number("max_settle_time", s.bed.max_settle_time);
     b.Number("time_step", s.bed.time_step);
+    b.Enum("next_batch", s.bed.next_batch, kNextBatches);
     b.String("cache_file", s.bed.cache_file);
   }
   if (r.Has("discharge")) {
@@ -722,6 +733,9 @@ void validate(const RunSpec& s) {
 }
 
 void validate_for_liggghts(const RunSpec& s) {
+  if (s.bed.next_batch != Bed{}.next_batch)
+    throw SpecError("/bed/next_batch", "bed/next_batch is the native engine's (got \"" + to_string(s.bed.next_batch) +
+                                           "\", allowed: the default)");
   if (s.bed.time_step != Bed{}.time_step)
     throw SpecError("/bed/time_step", "the LIGGGHTS backend prepares its bed at time_step; bed/time_step is the "
                                       "native engine's (got " + Shown(s.bed.time_step) + ", allowed: 0)");
@@ -762,6 +776,7 @@ json BedJson(const Bed& b, bool with_cache_file) {
   if (with_cache_file) j["cache_file"] = b.cache_file;
   // Only when not the default, so that run ids planned before this option existed stay valid.
   if (b.time_step != Bed{}.time_step) j["time_step"] = b.time_step;
+  if (b.next_batch != Bed{}.next_batch) j["next_batch"] = to_string(b.next_batch);
   return j;
 }
 
@@ -824,8 +839,14 @@ json RunSpec::bed_key() const {
           {"contact", ContactJson(contact)},
           {"bed", BedJson(bed, false)}};
   // The native engine's bed depends on the step it is prepared at (the resolved value: a bed
-  // prepared before bed/time_step existed, at time_step, is not taken for one at 5 x).
-  if (engine == "native") key["bed"]["resolved_time_step"] = bed_time_step();
+  // prepared before bed/time_step existed, at time_step, is not taken for one at 8 x).
+  if (engine == "native") {
+    key["bed"]["resolved_time_step"] = bed_time_step();
+    // Beds of before (fixed wait) are not taken for beds whose batches follow on landing, nor
+    // beds landed by another criterion for these.
+    key["bed"]["next_batch"] = to_string(bed.next_batch);
+    if (bed.next_batch == NextBatch::kLanded) key["bed"]["landed_ke_per_body"] = kBedLandedKePerBody;
+  }
   return key;
 }
 

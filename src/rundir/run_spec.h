@@ -87,13 +87,19 @@ struct Contact {
   bool clip_normal = false;    // clip attractive F_n to zero (off: LAMMPS default)
 };
 
+// When the native bed preparation places the next batch: once the previous one has landed
+// (its kinetic energy per body has risen above and fallen back below kBedLandedKePerBody, at
+// most the fixed wait), or after the fixed wait sqrt(2 h / g) + 1 for a batch region of height h.
+enum class NextBatch { kLanded, kFixed };
+
 struct Bed {
   int batch_size = 500;            // bodies inserted per batch
   double settle_ke_per_body = 1e-6;  // settled when kinetic energy per body (units m g d) is below this
   double max_settle_time = 200.0;  // give up settling after this much simulated time
   // Time step of the native engine's bed preparation; 0 = kBedTimeStepFactor x time_step
-  // (bed_time_step()). A bed at rest does not depend on it; docs/run-spec.md says why 5x is safe.
+  // (bed_time_step()). A bed at rest does not depend on it; docs/engine.md says why 8x is safe.
   double time_step = 0.0;
+  NextBatch next_batch = NextBatch::kLanded;  // native engine only
   std::string cache_file;          // resolved by the runner: where the prepared bed is (or is to be) stored;
                                    // empty = prepare inside the run directory (bed.json)
 };
@@ -127,7 +133,11 @@ struct Output {
 };
 
 // The native bed preparation's default step, in run time steps (Bed::time_step = 0).
-inline constexpr double kBedTimeStepFactor = 5.0;
+inline constexpr double kBedTimeStepFactor = 8.0;
+// NextBatch::kLanded: a batch has landed when its kinetic energy per body, having risen above
+// this, is again below it (units: the mean body's m g d). Falling, a batch of the bench bed
+// carries 4-9 m g d per body; landed, below 0.1 (the few bodies its impact throws up).
+inline constexpr double kBedLandedKePerBody = 0.25;
 
 struct RunSpec {
   std::string run_id;              // stable id set by the runner (hash of the resolved parameters)
@@ -178,5 +188,6 @@ std::string to_string(Shape shape);
 std::string to_string(DischargeMode mode);
 std::string to_string(ReinjectPosition position);
 std::string to_string(TangentialCap cap);
+std::string to_string(NextBatch next);
 
 }  // namespace granary

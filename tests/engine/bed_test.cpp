@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include <gtest/gtest.h>
+#include <omp.h>
 #include <nlohmann/json.hpp>
 
 namespace granary::engine {
@@ -58,6 +59,72 @@ TEST(Bed, LoadedBedWithItsHistoryIsInEquilibrium) {
   // the bed lies on the base, below the height of 60 dumbbells packed in a width of 12
   EXPECT_GT(bed.height, 60 * 1.5708 / 12 * 0.9);
   EXPECT_LT(bed.height, 60 * 1.5708 / 12 / 0.6);
+}
+
+// bed/next_batch = landed places a batch once the last one rests on the pile (its kinetic
+// energy per body back below kBedLandedKePerBody): the same bed (settled, the same height
+// within a few per cent) in less simulated time than the fixed wait sqrt(2 h / g) + 1 per
+// batch. 120 discs in three batches.
+TEST(Bed, NextBatchOnLandingSavesTimeAndGivesTheSameBed) {
+  RunSpec spec = SmallBedSpec();
+  spec.bodies.count = 120;
+  spec.bed.batch_size = 40;
+  spec.bed.next_batch = NextBatch::kFixed;
+  const BedState fixed = PrepareBed(spec, nullptr);
+  spec.bed.next_batch = NextBatch::kLanded;
+  const BedState landed = PrepareBed(spec, nullptr);
+  EXPECT_NE(fixed.x, landed.x);  // the option is not ignored
+  // the fixed waits alone: 2 x (sqrt(2 h / g) + 1) with h = 40 (pi/4) / (12 x 0.3) at least
+  const double waits = 2 * (std::sqrt(2 * 40 * 0.7854 / (12 * 0.3)) + 1);
+  EXPECT_GT(fixed.settle_time, waits);
+  EXPECT_LT(landed.settle_time, fixed.settle_time - 0.25 * waits) << fixed.settle_time;
+  EXPECT_LT(landed.settle_time, spec.bed.max_settle_time);  // settled, not given up
+  EXPECT_NEAR(landed.height, fixed.height, 0.05 * fixed.height);
+}
+
+// The bed's Verlet skin (kBedSkin) only changes when the lists are rebuilt, never which
+// pairs touch or in what order their forces are summed: the same bed to the bit at the run's
+// skin and at the bed's. 240 discs in four batches, so that the lists are rebuilt at
+// different steps.
+TEST(Bed, TheSkinDoesNotChangeTheBed) {
+  RunSpec spec = SmallBedSpec();
+  spec.bodies.count = 240;
+  spec.bed.batch_size = 60;
+  const BedState a = PrepareBed(spec, nullptr, WorldParams{}.skin);
+  const BedState b = PrepareBed(spec, nullptr, kBedSkin);
+  ASSERT_NE(WorldParams{}.skin, kBedSkin);
+  EXPECT_EQ(a.x, b.x);
+  EXPECT_EQ(a.y, b.y);
+  EXPECT_EQ(a.theta, b.theta);
+  EXPECT_EQ(a.vx, b.vx);
+  EXPECT_EQ(a.omega, b.omega);
+  EXPECT_EQ(a.settle_time, b.settle_time);
+  ASSERT_EQ(a.pair_history.size(), b.pair_history.size());
+  for (std::size_t k = 0; k < a.pair_history.size(); ++k) {
+    EXPECT_EQ(a.pair_history[k].sx, b.pair_history[k].sx);
+    EXPECT_EQ(a.pair_history[k].sy, b.pair_history[k].sy);
+  }
+}
+
+// Same bits on one and two threads: 1200 dumbbells (2400 discs, above the engine's
+// parallel_min_discs, so the threaded loops run) in three batches that follow on landing.
+TEST(Bed, OneAndTwoThreadsPrepareTheSameBed) {
+  RunSpec spec = SmallBedSpec();
+  spec.silo.width = 40.0;
+  spec.bodies.count = 1200;
+  spec.bed.batch_size = 400;
+  spec.bed.settle_ke_per_body = 1e-4;
+  ASSERT_GE(2 * spec.bodies.count, WorldParams{}.parallel_min_discs);
+  omp_set_num_threads(1);
+  const BedState one = PrepareBed(spec, nullptr);
+  omp_set_num_threads(2);
+  const BedState two = PrepareBed(spec, nullptr);
+  EXPECT_EQ(one.x, two.x);
+  EXPECT_EQ(one.y, two.y);
+  EXPECT_EQ(one.theta, two.theta);
+  EXPECT_EQ(one.vy, two.vy);
+  EXPECT_EQ(one.settle_time, two.settle_time);
+  EXPECT_LT(one.settle_time, 3 * 10.0 + spec.bed.max_settle_time);  // settled
 }
 
 TEST(Bed, FileOfAnotherBedKeyIsRefused) {

@@ -5,6 +5,7 @@
 #include "rundir/clogs.h"
 #include "rundir/files.h"
 #include "rundir/frames.h"
+#include "rundir/hash.h"
 #include "rundir/layout.h"
 #include "rundir/stop.h"
 #include "rundir/version.h"
@@ -361,9 +362,12 @@ TEST(Run, ReturnedBodiesLandOnTheBedAndTheBedKeepsItsHeight) {
       continue;
     }
     ++frames_seen;
+    // The few returns in the air at a time: over seeds 7-10 and the beds of main's 5 x and the
+    // landed 8 x procedure, up to 12 bodies more than 5 d above the bed's top at t = 0 and the
+    // highest 15.1 d above it (the 90th percentile up to 3.4 d; the rain: 23 d at t = 15).
     EXPECT_LT(p90, p90_at_0 + 3.0) << "t = " << f.time << ": the 90th percentile of the bodies' heights";
-    EXPECT_LT(top, top_at_0 + 12.0) << "t = " << f.time << ": the highest body";
-    EXPECT_LE(std::count_if(y.begin(), y.end(), [&](double v) { return v > top_at_0 + 5.0; }), 5) << "t = " << f.time;
+    EXPECT_LT(top, top_at_0 + 20.0) << "t = " << f.time << ": the highest body";
+    EXPECT_LE(std::count_if(y.begin(), y.end(), [&](double v) { return v > top_at_0 + 5.0; }), 15) << "t = " << f.time;
   }
   EXPECT_EQ(frames_seen, 30);
   // The draws and velocities of the returns are the same bits on two threads and after a
@@ -553,22 +557,46 @@ TEST(Run, BenchRepeatsRoundsAndSummarises) {
   EXPECT_NE(summaries[0].find("median_speedup=1.000"), std::string::npos) << summaries[0];
 }
 
-// bench --bed-prep: per replica a line at each bed time step, then per step a summary over
-// the replicas and the speed-up line (a bed of 60 discs, about a second).
-TEST(Run, BenchBedPrepComparesBothStepsPerReplica) {
+// bench --bed-prep: per replica a line for the old procedure (1 x step, fixed wait) and the new
+// one (8 x, next batch on landing), then per procedure a summary over the replicas and the
+// speed-up line (a bed of 60 discs, about a second).
+TEST(Run, BenchBedPrepComparesOldAndNewProcedurePerReplica) {
   const auto [status, out] = RunExeOutput("bench --bed-prep --shape disc --bodies 60 --repeat 2 --threads-list 1");
   ASSERT_EQ(status, 0) << out;
   const std::vector<std::string> rows = LinesStartingWith(out, "seed="), summaries = LinesStartingWith(out, "summary ");
   ASSERT_EQ(rows.size(), 4u);
-  EXPECT_EQ(rows[0].rfind("seed=1 step_factor=1 ", 0), 0u) << rows[0];
-  EXPECT_EQ(rows[3].rfind("seed=2 step_factor=5 ", 0), 0u) << rows[3];
+  EXPECT_EQ(rows[0].rfind("seed=1 procedure=old step_factor=1 next_batch=fixed ", 0), 0u) << rows[0];
+  EXPECT_EQ(rows[3].rfind("seed=2 procedure=new step_factor=8 next_batch=landed ", 0), 0u) << rows[3];
   for (const std::string& line : rows) {
     EXPECT_GT(std::stod(line.substr(line.find("wall_s=") + 7)), 0.0) << line;
     EXPECT_GT(std::stod(line.substr(line.find("top=") + 4)), 0.5) << line;  // above the base
   }
   ASSERT_EQ(summaries.size(), 3u);
-  EXPECT_EQ(summaries[0].rfind("summary step_factor=1 replicas=2 ", 0), 0u) << summaries[0];
-  EXPECT_NE(summaries[2].find("speedup of the median wall time"), std::string::npos) << summaries[2];
+  EXPECT_EQ(summaries[0].rfind("summary procedure=old step_factor=1 next_batch=fixed replicas=2 ", 0), 0u)
+      << summaries[0];
+  EXPECT_EQ(summaries[1].rfind("summary procedure=new step_factor=8 next_batch=landed replicas=2 ", 0), 0u)
+      << summaries[1];
+  EXPECT_NE(summaries[2].find("speedup of the median wall time (old / new)"), std::string::npos) << summaries[2];
+}
+
+// The bench's default bed cache is named by the bed key: a bed prepared by another procedure
+// (here the fixed wait) is another file, never read for the default one (it would be refused
+// for its key, and the bench would stop).
+TEST(Run, BenchBedFileIsNamedByTheBedKey) {
+  BenchOptions options;
+  options.shape = "disc";
+  options.bodies = 8000;
+  const nlohmann::json spec = BenchSpec(options);
+  const std::string file = spec["bed"]["cache_file"];
+  EXPECT_NE(file.find("granary-bench-bed-disc-8000-" + hash_hex(RunSpec::from_json(spec).bed_key().dump()) + ".json"),
+            std::string::npos)
+      << file;
+  nlohmann::json fixed = spec;
+  fixed["bed"].erase("cache_file");
+  fixed["bed"]["next_batch"] = "fixed";
+  EXPECT_NE(RunSpec::from_json(fixed).bed_key(), RunSpec::from_json(spec).bed_key());
+  options.bed_file = "/somewhere/bed.json";
+  EXPECT_EQ(BenchSpec(options)["bed"]["cache_file"], "/somewhere/bed.json");
 }
 
 // The bed measure of `bench --bed-prep` on a constructed bed: a square lattice of d = 1 discs

@@ -64,6 +64,16 @@ TEST(RunSpecTest, BedKeyIgnoresOutletsAndObstacles) {
   EXPECT_EQ(a.bed_key(), b.bed_key());
   const RunSpec c = RunSpec::from_json(json::parse(R"({"seed": 2})"));
   EXPECT_NE(a.bed_key(), c.bed_key());
+  // The native bed procedure is in the key: a bed poured with the fixed wait (or at another
+  // step) is not taken for one poured on landing at the default step.
+  const RunSpec fixed = RunSpec::from_json(json::parse(R"({"bed": {"next_batch": "fixed"}})"));
+  EXPECT_NE(a.bed_key(), fixed.bed_key());
+  EXPECT_EQ(a.bed_key()["bed"]["next_batch"], "landed");
+  EXPECT_EQ(a.bed_key()["bed"]["landed_ke_per_body"], kBedLandedKePerBody);
+  EXPECT_EQ(a.bed_key()["bed"]["resolved_time_step"], kBedTimeStepFactor * a.time_step);
+  EXPECT_FALSE(fixed.bed_key()["bed"].contains("landed_ke_per_body"));
+  const RunSpec step = RunSpec::from_json(json::parse(R"({"bed": {"time_step": 1e-4}})"));
+  EXPECT_NE(a.bed_key(), step.bed_key());
 }
 
 TEST(RunSpecErrorTest, UnknownKeySuggestsNearest) {
@@ -243,7 +253,7 @@ TEST(RunSpecTable, CoversTheCanonicalSpecAndItsDefaults) {
     ++checked;
   }
   EXPECT_GT(checked, 40);
-  EXPECT_EQ(left_out, 4);  // reinject_position, periodic_headroom, compress, bed/time_step
+  EXPECT_EQ(left_out, 5);  // reinject_position, periodic_headroom, compress, bed/time_step, bed/next_batch
 }
 
 TEST(RunSpecTable, EveryRowsTypeAndRangeIsEnforced) {
