@@ -410,9 +410,9 @@ void World::ComputeForces() { Forces(rebuild_needed_ || NeedsRebuild(), false); 
 
 namespace {
 
-// Step 2 of PairBlock: sums per disc in list order and reactions inside the block. An entry
+// Step 2 of SumBlockForces: sums per disc in list order and reactions inside the block. An entry
 // that does not touch adds +0.0, which leaves every sum as it was (they start at +0.0 and
-// so are never -0.0). A function of its own, not inlined: inside PairBlock the loop kept its
+// so are never -0.0). A function of its own, not inlined: inside the block's function the loop kept its
 // pointers on the stack (+4 % at one thread out of it). Scalar, so no instruction-set
 // variants.
 [[gnu::noinline]] void SumBlock(int i0, int i1, const int* __restrict nl_start, const int* __restrict nl_j,
@@ -445,7 +445,7 @@ namespace {
 }  // namespace
 
 // Eight entries at a time by the AVX-512 loop where the CPU has it, the rest (or all) by the
-// portable loop; both give the same bits. (Inlined into PairBlock's instruction-set variants.)
+// portable loop; both give the same bits. (Inlined into PairEntriesOf's instruction-set variants.)
 template <bool kLiggghtsCap>
 [[gnu::always_inline]] inline void World::PairRange(int e0, int e1) {
   const ContactParams& pp = params_.pair;
@@ -458,20 +458,21 @@ template <bool kLiggghtsCap>
                             nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, params_.dt);
 }
 
-GRANARY_KERNEL void World::PairBlock(int blk) {
+GRANARY_KERNEL void World::PairEntriesOf(int i0, int i1) {
+  if (params_.pair.liggghts_cap)
+    PairRange<true>(nl_start_[i0], nl_start_[i1]);
+  else
+    PairRange<false>(nl_start_[i0], nl_start_[i1]);
+}
+
+GRANARY_KERNEL void World::SumBlockForces(int blk) {
   const int n = disc_count();
   const int i0 = blk * params_.force_block, i1 = std::min(n, i0 + params_.force_block);
   const double dt = params_.dt;
-  const ContactParams pp = params_.pair;
   const ContactParams wp = params_.wall;
   double* __restrict dfx = dfx_.data();
   double* __restrict dfy = dfy_.data();
   double* __restrict dtz = dtz_.data();
-  // 1. Every pair entry of the block.
-  if (pp.liggghts_cap)
-    PairRange<true>(nl_start_[i0], nl_start_[i1]);
-  else
-    PairRange<false>(nl_start_[i0], nl_start_[i1]);
   // 2. Sums per disc and reactions inside the block.
   SumBlock(i0, i1, nl_start_.data(), nl_j_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), dr_.data(), dfx, dfy,
            dtz);
@@ -756,6 +757,11 @@ std::int64_t World::NextForcePass() {
     chunk_done_ = std::make_unique<PassStamp[]>(static_cast<std::size_t>(nchunks));
     chunk_done_count_ = nchunks;
   }
+  const int threads = omp_get_max_threads();
+  if (threads > share_done_count_) {
+    share_done_ = std::make_unique<PassStamp[]>(static_cast<std::size_t>(threads));
+    share_done_count_ = threads;
+  }
   return ++force_pass_;
 }
 
@@ -771,17 +777,41 @@ void AwaitPass(const std::atomic<std::int64_t>& stamp, std::int64_t pass) {
   }
 }
 
-// [first, last) of n items for thread t of nt: contiguous, as even as possible.
-std::pair<int, int> ShareOf(int n, int t, int nt) {
-  return {static_cast<int>(static_cast<long>(n) * t / nt), static_cast<int>(static_cast<long>(n) * (t + 1) / nt)};
-}
-
 }  // namespace
 
-// Called by every thread of a parallel region, each taking its share (ShareOf): inside Step's
+int World::PairShareStart(int t, int nt) const {
+  const int n = disc_count();
+  if (t <= 0) return 0;
+  if (t >= nt) return n;
+  if (nl_start_.size() != static_cast<std::size_t>(n) + 1)  // no lists yet (bodies added since)
+    return static_cast<int>(static_cast<long>(n) * t / nt);
+  // A disc costs about as much as a list entry (its drift and body sums against an entry's
+  // force and sums: measured), so the work before disc i is about nl_start_[i] + i.
+  const long target = (static_cast<long>(nl_start_[n]) + n) * t / nt;
+  int lo = 0, hi = n;  // the first i with nl_start_[i] + i >= target
+  while (lo < hi) {
+    const int mid = lo + (hi - lo) / 2;
+    if (static_cast<long>(nl_start_[mid]) + mid < target)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo;
+}
+
+int World::ChunkShareStart(int t, int nt) const {
+  const int nchunks = (body_count() + kBodyChunk - 1) / kBodyChunk;
+  if (t <= 0) return 0;
+  if (t >= nt) return nchunks;
+  const int m = PairShareStart(t, nt);
+  // From the chunk holding the share's first disc: the pair share then waits for no other
+  // thread's drift of its first discs.
+  return m >= disc_count() ? nchunks : dbody_[m] / kBodyChunk;
+}
+
+// Called by every thread of a parallel region, each taking its share (PairShareStart): inside Step's
 // region (one region per step: fewer forks and joins), elsewhere in the one Forces opens.
 bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
-  const int nblocks = block_done_count_;
   const int t = omp_get_thread_num(), nt = omp_get_num_threads();
   // 1. Pair and wall forces by blocks of discs; within a block the order is ascending i,
   // whichever thread runs it. Each thread takes a contiguous share, the same from step to
@@ -789,15 +819,35 @@ bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
   // core's cache (with dynamic blocks, 2 threads gave 1.2x instead of 1.7x). In a step, a
   // block first waits for the drift of the chunks holding its discs and their partners
   // (j > i: its own discs and a few beyond), not for a barrier after the whole drift.
-  const auto [blk0, blk1] = ShareOf(nblocks, t, nt);
-  for (int blk = blk0; blk < blk1; ++blk) {
-    if (await_drift) {
-      const int c0 = dbody_[static_cast<std::size_t>(blk) * params_.force_block] / kBodyChunk;
-      const int c1 = dbody_[block_last_partner_[blk]] / kBodyChunk;
-      for (int c = c0; c <= c1; ++c) AwaitPass(chunk_done_[c].pass, pass);
-    }
-    PairBlock(blk);
+  //
+  // The shares are balanced in work (PairShareStart), so they split blocks: the pair entries
+  // of a block's discs in a thread's share are computed by that thread; the block's sums by
+  // the thread whose share holds its first disc, once the later threads have computed theirs
+  // (share_done_; they do that part first). The sums run in one order whoever computed the
+  // entries: the same bits.
+  const int n = disc_count(), block = params_.force_block;
+  const int m0 = PairShareStart(t, nt), m1 = PairShareStart(t + 1, nt);
+  auto await_drift_of = [&](int i, int blk) {
+    if (!await_drift) return;
+    const int c1 = dbody_[block_last_partner_[blk]] / kBodyChunk;
+    for (int c = dbody_[i] / kBodyChunk; c <= c1; ++c) AwaitPass(chunk_done_[c].pass, pass);
+  };
+  int i = m0;
+  if (i < m1 && i % block != 0) {  // the rest of a block an earlier thread sums
+    const int blk = i / block, end = std::min({m1, n, (blk + 1) * block});
+    await_drift_of(i, blk);
+    PairEntriesOf(i, end);
+    i = end;
+  }
+  share_done_[t].pass.store(pass, std::memory_order_release);
+  while (i < m1) {  // blocks that start in the share
+    const int blk = i / block, i1 = std::min(n, i + block), end = std::min(i1, m1);
+    await_drift_of(i, blk);
+    PairEntriesOf(i, end);
+    for (int u = t + 1; u < nt && PairShareStart(u, nt) < i1; ++u) AwaitPass(share_done_[u].pass, pass);
+    SumBlockForces(blk);
     block_done_[blk].pass.store(pass, std::memory_order_release);
+    i = i1;
   }
   // 2. Reactions across blocks, body forces, gravity, torques (and the half kick). A chunk
   // of bodies reads the sums of its discs' blocks and the reactions of entries from earlier
@@ -806,12 +856,12 @@ bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
   // reaches the first, which read the previous thread's last block, that is done. (Both
   // callers end their parallel region right after, which is a barrier.)
   const int nb = body_count();
-  const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
-  const auto [ch0, ch1] = ShareOf(nchunks, t, nt);
+  const int ch0 = ChunkShareStart(t, nt), ch1 = ChunkShareStart(t + 1, nt);
   bool outrun = false;
-  for (int k = 0; k < ch1 - ch0; ++k) {
-    const int ch = t == 0 ? ch0 + k : ch1 - 1 - k;
-    const int b0 = ch * kBodyChunk, b1 = std::min(nb, (ch + 1) * kBodyChunk);
+  for (int k = 0; k < ch1 - ch0; k += kChunksPerCall) {
+    const int first = t == 0 ? ch0 + k : std::max(ch0, ch1 - k - kChunksPerCall);
+    const int last = t == 0 ? std::min(ch1, first + kChunksPerCall) : ch1 - k;  // [first, last)
+    const int b0 = first * kBodyChunk, b1 = std::min(nb, last * kBodyChunk);
     const int first_block = disc_begin_[b0] / params_.force_block;
     const int last_block = (disc_begin_[b1 - 1] + disc_n_[b1 - 1] - 1) / params_.force_block;
     int from = first_block;
@@ -1026,7 +1076,6 @@ int World::DriftBodies(int b0, int b1) {
 
 void World::Step() {
   const int nb = body_count();
-  const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
   // The last force pass said whether this drift may take a disc beyond half the skin
   // (OutrunsSkin): then this step rebuilds, after a drift of its own. Otherwise drift,
   // pair blocks and body chunks run in one region with no barrier: each waits only for the
@@ -1038,10 +1087,12 @@ void World::Step() {
 #pragma omp parallel if (Parallel()) reduction(| : flags) reduction(|| : outrun)
   {
     // (the same shares of body chunks as in ForcePasses: each thread keeps its bodies)
-    const auto [ch0, ch1] = ShareOf(nchunks, omp_get_thread_num(), omp_get_num_threads());
-    for (int ch = ch0; ch < ch1; ++ch) {
-      flags |= DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk));
-      chunk_done_[ch].pass.store(pass, std::memory_order_release);
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    const int ch0 = ChunkShareStart(t, nt), ch1 = ChunkShareStart(t + 1, nt);
+    for (int ch = ch0; ch < ch1; ch += kChunksPerCall) {
+      const int end = std::min(ch1, ch + kChunksPerCall);
+      flags |= DriftBodies(ch * kBodyChunk, std::min(nb, end * kBodyChunk));
+      for (int c = ch; c < end; ++c) chunk_done_[c].pass.store(pass, std::memory_order_release);
     }
     if (!rebuild) outrun = ForcePasses(true, pass, true);
   }
