@@ -225,7 +225,7 @@ void ArchesAnalysis::add_pictures(const SectionInput& in, const std::vector<Arch
     return;
   }
   const CampaignView& v = in.view;
-  std::vector<std::string> problems;
+  NotDrawn not_drawn;
   std::filesystem::create_directories(in.out_dir / "pictures");
   for (std::size_t k = 0; k < v.points.size(); ++k) {
     if (sums[k].arches == 0) continue;
@@ -270,17 +270,13 @@ void ArchesAnalysis::add_pictures(const SectionInput& in, const std::vector<Arch
                                            ": N_t = " + std::to_string(c.arch.n) + ", w = " + format_number(c.arch.width, 3) +
                                            " d, h = " + format_number(c.arch.height, 3) + " d" +
                                            (c.arch.obstacle ? ", through the obstacle" : "")});
-      } else if (problems.size() < 5) {
-        problems.push_back(problem);
+      } else {
+        not_drawn.add(problem);
       }
     }
     if (!pics.pictures.empty()) s.blocks.push_back(pics);
   }
-  if (!problems.empty()) {
-    std::string text = "Not drawn:";
-    for (const auto& pr : problems) text += "\n\n" + pr;
-    s.blocks.push_back(Text{text});
-  }
+  not_drawn.append_to(s);
 }
 
 }  // namespace

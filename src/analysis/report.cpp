@@ -124,7 +124,7 @@ std::optional<Section> system_section(const CampaignView& c, const ReportOptions
     s.blocks.push_back(Text{"(No pictures: this report was written without the renderer.)"});
     return s;
   }
-  std::vector<std::string> problems;
+  NotDrawn not_drawn;
   for (std::size_t k = 0; k < c.points.size(); ++k) {
     const Point& p = c.points[k];
     const UsedRun* run = nullptr;
@@ -148,17 +148,13 @@ std::optional<Section> system_section(const CampaignView& c, const ReportOptions
       const std::string problem = options.draw_run(run->record->run_dir, kind, options.out_dir / file);
       if (problem.empty()) {
         pics.pictures.push_back({file, caption});
-      } else if (problems.size() < 5) {
-        problems.push_back(problem);
+      } else {
+        not_drawn.add(problem);
       }
     }
     if (!pics.pictures.empty()) s.blocks.push_back(pics);
   }
-  if (!problems.empty()) {
-    std::string text = "Not drawn:";
-    for (const auto& pr : problems) text += "\n\n" + pr;
-    s.blocks.push_back(Text{text});
-  }
+  not_drawn.append_to(s);
   return s;
 }
 

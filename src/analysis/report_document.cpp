@@ -824,4 +824,11 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
   return result;
 }
 
+void NotDrawn::append_to(Section& s) const {
+  if (problems_.empty()) return;
+  std::string text = "Not drawn:";
+  for (const auto& problem : problems_) text += "\n\n" + problem;
+  s.blocks.push_back(Text{text});
+}
+
 }  // namespace granary::analysis

@@ -135,6 +135,20 @@ struct Section {
   std::vector<Block> blocks;
 };
 
+// Why pictures of a section could not be drawn (no renderer, a run directory gone): the first
+// few reasons, said once at the end of the section as "Not drawn: ...".
+class NotDrawn {
+ public:
+  void add(std::string problem) {
+    if (problems_.size() < kKept) problems_.push_back(std::move(problem));
+  }
+  void append_to(Section& s) const;
+
+ private:
+  static constexpr std::size_t kKept = 5;
+  std::vector<std::string> problems_;
+};
+
 struct RenderOptions {
   bool figures = true;
   std::string gnuplot = "gnuplot";
