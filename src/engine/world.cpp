@@ -410,16 +410,26 @@ void World::ComputeForces() { Forces(rebuild_needed_ || NeedsRebuild(), false); 
 
 namespace {
 
-// Step 2 of PairBlock: sums per disc in list order and reactions inside the block. An entry
-// that does not touch adds +0.0, which leaves every sum as it was (they start at +0.0 and
-// so are never -0.0). A function of its own, not inlined: inside PairBlock the loop kept its
-// pointers on the stack (+4 % at one thread out of it). Scalar, so no instruction-set
-// variants.
-[[gnu::noinline]] void SumBlock(int i0, int i1, const int* __restrict nl_start, const int* __restrict nl_j,
+// Step 2 of SumPartForces: sums per disc in list order and reactions inside the block, for
+// the block's discs [i0, i1). A part of a block after its start first takes the reactions
+// of the entries from the block's earlier discs into it (`earlier`, ascending: the order in
+// which the whole block's loop adds them), then continues as that loop, so a block summed
+// in parts gives the bits of a block summed at once. An entry that does not touch adds
+// +0.0, which leaves every sum as it was (they start at +0.0 and so are never -0.0). A
+// function of its own, not inlined: inside the block's function the loop kept its pointers
+// on the stack (+4 % at one thread out of it). Scalar, so no instruction-set variants.
+[[gnu::noinline]] void SumBlock(int i0, int i1, const int* __restrict earlier, int n_earlier,
+                                const int* __restrict nl_start, const int* __restrict nl_j,
                                 const double* __restrict nl_fx, const double* __restrict nl_fy,
                                 const double* __restrict nl_c, const double* __restrict dr, double* __restrict dfx,
                                 double* __restrict dfy, double* __restrict dtz) {
   for (int i = i0; i < i1; ++i) dfx[i] = dfy[i] = dtz[i] = 0.0;
+  for (int k = 0; k < n_earlier; ++k) {
+    const int e = earlier[k], j = nl_j[e];
+    dfx[j] -= nl_fx[e];
+    dfy[j] -= nl_fy[e];
+    dtz[j] += nl_c[e];
+  }
   for (int i = i0; i < i1; ++i) {
     double sfx = 0.0, sfy = 0.0, sc = 0.0;
     const int e1 = nl_start[i + 1];
@@ -445,7 +455,7 @@ namespace {
 }  // namespace
 
 // Eight entries at a time by the AVX-512 loop where the CPU has it, the rest (or all) by the
-// portable loop; both give the same bits. (Inlined into PairBlock's instruction-set variants.)
+// portable loop; both give the same bits. (Inlined into PairEntriesOf's instruction-set variants.)
 template <bool kLiggghtsCap>
 [[gnu::always_inline]] inline void World::PairRange(int e0, int e1) {
   const ContactParams& pp = params_.pair;
@@ -458,23 +468,22 @@ template <bool kLiggghtsCap>
                             nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, params_.dt);
 }
 
-GRANARY_KERNEL void World::PairBlock(int blk) {
-  const int n = disc_count();
-  const int i0 = blk * params_.force_block, i1 = std::min(n, i0 + params_.force_block);
+GRANARY_KERNEL void World::PairEntriesOf(int i0, int i1) {
+  if (params_.pair.liggghts_cap)
+    PairRange<true>(nl_start_[i0], nl_start_[i1]);
+  else
+    PairRange<false>(nl_start_[i0], nl_start_[i1]);
+}
+
+GRANARY_KERNEL void World::SumPartForces(int i0, int i1, const std::vector<int>& earlier) {
   const double dt = params_.dt;
-  const ContactParams pp = params_.pair;
   const ContactParams wp = params_.wall;
   double* __restrict dfx = dfx_.data();
   double* __restrict dfy = dfy_.data();
   double* __restrict dtz = dtz_.data();
-  // 1. Every pair entry of the block.
-  if (pp.liggghts_cap)
-    PairRange<true>(nl_start_[i0], nl_start_[i1]);
-  else
-    PairRange<false>(nl_start_[i0], nl_start_[i1]);
   // 2. Sums per disc and reactions inside the block.
-  SumBlock(i0, i1, nl_start_.data(), nl_j_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), dr_.data(), dfx, dfy,
-           dtz);
+  SumBlock(i0, i1, earlier.data(), static_cast<int>(earlier.size()), nl_start_.data(), nl_j_.data(), nl_fx_.data(),
+           nl_fy_.data(), nl_c_.data(), dr_.data(), dfx, dfy, dtz);
   // 3. Wall contacts, added after each disc's pair sums as before, but in a loop of their
   // own over the block's few wall entries: the pair-sum loop above stays small (no disc
   // record, no wall state in registers).
@@ -756,6 +765,12 @@ std::int64_t World::NextForcePass() {
     chunk_done_ = std::make_unique<PassStamp[]>(static_cast<std::size_t>(nchunks));
     chunk_done_count_ = nchunks;
   }
+  const int threads = omp_get_max_threads();
+  if (threads > share_done_count_) {
+    share_done_ = std::make_unique<PassStamp[]>(static_cast<std::size_t>(threads));
+    share_done_count_ = threads;
+    lead_sources_.resize(static_cast<std::size_t>(threads));
+  }
   return ++force_pass_;
 }
 
@@ -771,17 +786,50 @@ void AwaitPass(const std::atomic<std::int64_t>& stamp, std::int64_t pass) {
   }
 }
 
-// [first, last) of n items for thread t of nt: contiguous, as even as possible.
-std::pair<int, int> ShareOf(int n, int t, int nt) {
-  return {static_cast<int>(static_cast<long>(n) * t / nt), static_cast<int>(static_cast<long>(n) * (t + 1) / nt)};
-}
-
 }  // namespace
 
-// Called by every thread of a parallel region, each taking its share (ShareOf): inside Step's
+int World::ChunkShareStart(int t, int nt) const {
+  const int n = disc_count(), nchunks = (body_count() + kBodyChunk - 1) / kBodyChunk;
+  if (t <= 0) return 0;
+  if (t >= nt) return nchunks;
+  if (nl_start_.size() != static_cast<std::size_t>(n) + 1)  // no lists yet (bodies added since)
+    return static_cast<int>(static_cast<long>(nchunks) * t / nt);
+  // A disc costs about as much as a list entry (its drift and body sums against an entry's
+  // force and sums: measured), so the work before disc i is about nl_start_[i] + i.
+  const long target = (static_cast<long>(nl_start_[n]) + n) * t / nt;
+  int lo = 0, hi = n;  // the first i with nl_start_[i] + i >= target
+  while (lo < hi) {
+    const int mid = lo + (hi - lo) / 2;
+    if (static_cast<long>(nl_start_[mid]) + mid < target)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo >= n ? nchunks : std::min(nchunks, (dbody_[lo] + kBodyChunk / 2) / kBodyChunk);
+}
+
+int World::PairShareStart(int t, int nt) const {
+  const int b = ChunkShareStart(t, nt) * kBodyChunk;
+  return b >= body_count() ? disc_count() : disc_begin_[b];
+}
+
+const std::vector<int>& World::LeadSources(int t, int i0, int i1) {
+  LeadSourceCache& c = lead_sources_[static_cast<std::size_t>(t)];
+  if (c.rebuild != rebuilds_ || c.i0 != i0 || c.i1 != i1) {  // the shares move with the lists only
+    c.rebuild = rebuilds_;
+    c.i0 = i0;
+    c.i1 = i1;
+    c.entries.clear();
+    const int first = i0 / params_.force_block * params_.force_block;
+    for (int e = nl_start_[first]; e < nl_start_[i0]; ++e)
+      if (nl_j_[e] >= i0 && nl_j_[e] < i1) c.entries.push_back(e);
+  }
+  return c.entries;
+}
+
+// Called by every thread of a parallel region, each taking its share (PairShareStart): inside Step's
 // region (one region per step: fewer forks and joins), elsewhere in the one Forces opens.
 bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
-  const int nblocks = block_done_count_;
   const int t = omp_get_thread_num(), nt = omp_get_num_threads();
   // 1. Pair and wall forces by blocks of discs; within a block the order is ascending i,
   // whichever thread runs it. Each thread takes a contiguous share, the same from step to
@@ -789,15 +837,40 @@ bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
   // core's cache (with dynamic blocks, 2 threads gave 1.2x instead of 1.7x). In a step, a
   // block first waits for the drift of the chunks holding its discs and their partners
   // (j > i: its own discs and a few beyond), not for a barrier after the whole drift.
-  const auto [blk0, blk1] = ShareOf(nblocks, t, nt);
-  for (int blk = blk0; blk < blk1; ++blk) {
-    if (await_drift) {
-      const int c0 = dbody_[static_cast<std::size_t>(blk) * params_.force_block] / kBodyChunk;
-      const int c1 = dbody_[block_last_partner_[blk]] / kBodyChunk;
-      for (int c = c0; c <= c1; ++c) AwaitPass(chunk_done_[c].pass, pass);
-    }
-    PairBlock(blk);
+  //
+  // The shares are even in work (ChunkShareStart), so they split blocks: each thread computes
+  // the entries and the sums of the discs in its share (SumPartForces: a block summed in
+  // parts gives the bits of the block summed at once), so the sums of a disc are made where
+  // its body's forces are. A block's stamp says that all its entries are computed and the
+  // sums of the part in the share of its first disc: a later thread computes its part of
+  // that block's entries first (share_done_), and its sums last (they need the earlier
+  // parts' entries: LeadSources).
+  const int n = disc_count(), block = params_.force_block;
+  const int m0 = PairShareStart(t, nt), m1 = PairShareStart(t + 1, nt);
+  auto await_drift_of = [&](int i, int blk) {
+    if (!await_drift) return;
+    const int c1 = dbody_[block_last_partner_[blk]] / kBodyChunk;
+    for (int c = dbody_[i] / kBodyChunk; c <= c1; ++c) AwaitPass(chunk_done_[c].pass, pass);
+  };
+  int i = m0;
+  int lead_end = m0;  // [m0, lead_end): the part of a block that starts in an earlier share
+  if (i < m1 && i % block != 0) {
+    const int blk = i / block;
+    lead_end = std::min({m1, n, (blk + 1) * block});
+    await_drift_of(i, blk);
+    PairEntriesOf(i, lead_end);
+    i = lead_end;
+  }
+  share_done_[t].pass.store(pass, std::memory_order_release);
+  static const std::vector<int> kNone;
+  while (i < m1) {  // blocks that start in the share
+    const int blk = i / block, i1 = std::min(n, i + block), end = std::min(i1, m1);
+    await_drift_of(i, blk);
+    PairEntriesOf(i, end);
+    SumPartForces(i, end, kNone);
+    for (int u = t + 1; u < nt && PairShareStart(u, nt) < i1; ++u) AwaitPass(share_done_[u].pass, pass);
     block_done_[blk].pass.store(pass, std::memory_order_release);
+    i = i1;
   }
   // 2. Reactions across blocks, body forces, gravity, torques (and the half kick). A chunk
   // of bodies reads the sums of its discs' blocks and the reactions of entries from earlier
@@ -806,17 +879,21 @@ bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
   // reaches the first, which read the previous thread's last block, that is done. (Both
   // callers end their parallel region right after, which is a barrier.)
   const int nb = body_count();
-  const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
-  const auto [ch0, ch1] = ShareOf(nchunks, t, nt);
+  const int ch0 = ChunkShareStart(t, nt), ch1 = ChunkShareStart(t + 1, nt);
   bool outrun = false;
-  for (int k = 0; k < ch1 - ch0; ++k) {
-    const int ch = t == 0 ? ch0 + k : ch1 - 1 - k;
-    const int b0 = ch * kBodyChunk, b1 = std::min(nb, (ch + 1) * kBodyChunk);
+  for (int k = 0; k < ch1 - ch0; k += kChunksPerCall) {
+    const int first = t == 0 ? ch0 + k : std::max(ch0, ch1 - k - kChunksPerCall);
+    const int last = t == 0 ? std::min(ch1, first + kChunksPerCall) : ch1 - k;  // [first, last)
+    const int b0 = first * kBodyChunk, b1 = std::min(nb, last * kBodyChunk);
     const int first_block = disc_begin_[b0] / params_.force_block;
     const int last_block = (disc_begin_[b1 - 1] + disc_n_[b1 - 1] - 1) / params_.force_block;
     int from = first_block;
     for (int blk = first_block; blk <= last_block; ++blk) from = std::min(from, block_first_source_[blk]);
     for (int blk = from; blk <= last_block; ++blk) AwaitPass(block_done_[blk].pass, pass);
+    if (lead_end > m0 && disc_begin_[b0] < lead_end) {  // (its block's stamp is awaited above)
+      SumPartForces(m0, lead_end, LeadSources(t, m0, lead_end));
+      lead_end = m0;
+    }
     outrun = BodyForces(b0, b1, kick) || outrun;
   }
   return outrun;
@@ -1026,7 +1103,6 @@ int World::DriftBodies(int b0, int b1) {
 
 void World::Step() {
   const int nb = body_count();
-  const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
   // The last force pass said whether this drift may take a disc beyond half the skin
   // (OutrunsSkin): then this step rebuilds, after a drift of its own. Otherwise drift,
   // pair blocks and body chunks run in one region with no barrier: each waits only for the
@@ -1038,10 +1114,12 @@ void World::Step() {
 #pragma omp parallel if (Parallel()) reduction(| : flags) reduction(|| : outrun)
   {
     // (the same shares of body chunks as in ForcePasses: each thread keeps its bodies)
-    const auto [ch0, ch1] = ShareOf(nchunks, omp_get_thread_num(), omp_get_num_threads());
-    for (int ch = ch0; ch < ch1; ++ch) {
-      flags |= DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk));
-      chunk_done_[ch].pass.store(pass, std::memory_order_release);
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    const int ch0 = ChunkShareStart(t, nt), ch1 = ChunkShareStart(t + 1, nt);
+    for (int ch = ch0; ch < ch1; ch += kChunksPerCall) {
+      const int end = std::min(ch1, ch + kChunksPerCall);
+      flags |= DriftBodies(ch * kBodyChunk, std::min(nb, end * kBodyChunk));
+      for (int c = ch; c < end; ++c) chunk_done_[c].pass.store(pass, std::memory_order_release);
     }
     if (!rebuild) outrun = ForcePasses(true, pass, true);
   }

@@ -162,23 +162,35 @@ class World {
   void Forces(bool rebuild, bool kick);
   // The kernels of a step, each over a range that one thread owns (compiled for several
   // instruction sets, chosen at load time; the arithmetic is the same in each).
-  void PairBlock(int blk);                       // pair and wall forces of one force block
+  void PairEntriesOf(int i0, int i1);            // the pair entries of discs [i0, i1)
+  // Sums and wall forces of discs [i0, i1) of one force block; `earlier`: the entries from
+  // the block's discs before i0 into them (LeadSources).
+  void SumPartForces(int i0, int i1, const std::vector<int>& earlier);
   template <bool kLiggghtsCap>
   void PairRange(int e0, int e1);                // the pair loop over list entries [e0, e1)
   // Cross-block reactions, body sums, kick; returns whether the next drift may take a disc
   // of these bodies beyond half the skin from its rebuild position (OutrunsSkin).
   bool BodyForces(int b0, int b1, bool kick);
-  // PairBlock and BodyForces, shared by the threads; with `await_drift`, a pair block first
-  // waits for the drift of the discs it reads (Step's drift publishes it with `pass`).
-  // Returns BodyForces' verdict for the thread's bodies.
+  // The pair entries, block sums and BodyForces, shared by the threads; with `await_drift`,
+  // pair entries first wait for the drift of the discs they read (Step's drift publishes it
+  // with `pass`). Returns BodyForces' verdict for the thread's bodies.
   bool ForcePasses(bool kick, std::int64_t pass, bool await_drift);
+  // Thread t's of nt shares, contiguous and about even in work: body chunks
+  // [ChunkShareStart(t), ChunkShareStart(t + 1)) for the drift and the body sums, and their
+  // discs [PairShareStart(t), PairShareStart(t + 1)) for the pair entries and sums.
+  int ChunkShareStart(int t, int nt) const;
+  int PairShareStart(int t, int nt) const;
+  // The entries from the discs of i0's force block before i0 into discs [i0, i1), ascending
+  // (thread t's, kept until the lists or the bounds change).
+  const std::vector<int>& LeadSources(int t, int i0, int i1);
   // Half kick and drift; flags: kDriftMoved (a disc moved > skin/2 since the rebuild),
   // kDriftBeyond (an active body's centre is outside the exit box).
   int DriftBodies(int b0, int b1);
   int DriftPortable(int b0, int b1);  // DriftBodies without the AVX-512 loops
   int DriftBodyKernel(int b0, int b1);  // its body part: returns kBeyond (world.cpp)
   static constexpr int kDriftMoved = 1, kDriftBeyond = 2;
-  static constexpr int kBodyChunk = 512;         // bodies per parallel work item
+  static constexpr int kBodyChunk = 64;          // bodies per parallel work item (small: even shares)
+  static constexpr int kChunksPerCall = 8;       // chunks per call of the drift and body loops (fewer calls)
   void Rebuild();
   bool NeedsRebuild() const;
   bool Parallel() const { return disc_count() >= params_.parallel_min_discs; }
@@ -208,6 +220,16 @@ class World {
   // hold its discs and partners (from the first disc to block_last_partner_).
   std::unique_ptr<PassStamp[]> chunk_done_;
   int chunk_done_count_ = 0;
+  // Per thread: the pass whose pair entries it has computed in the block an earlier thread
+  // sums (ForcePasses).
+  std::unique_ptr<PassStamp[]> share_done_;
+  int share_done_count_ = 0;
+  struct alignas(64) LeadSourceCache {
+    std::int64_t rebuild = -1;
+    int i0 = -1, i1 = -1;
+    std::vector<int> entries;
+  };
+  std::vector<LeadSourceCache> lead_sources_;  // per thread (LeadSources)
   std::vector<int> block_last_partner_;  // per force block: its highest disc or partner j
   std::vector<int> block_first_source_;  // per force block: first block with an entry into it
   // Set by the force pass: the next step must rebuild the lists (OutrunsSkin), so the
