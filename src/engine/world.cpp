@@ -770,15 +770,18 @@ std::int64_t World::NextForcePass() {
     share_done_ = std::make_unique<PassStamp[]>(static_cast<std::size_t>(threads));
     share_done_count_ = threads;
     lead_sources_.resize(static_cast<std::size_t>(threads));
+    step_done_ = std::make_unique<StepDone[]>(static_cast<std::size_t>(threads));
+    step_done_count_ = threads;
   }
   return ++force_pass_;
 }
 
 namespace {
 
-// Waits until `stamp` holds `pass` (another thread publishes it when its work is done).
+// Waits until `stamp` holds `pass` or a later one (another thread publishes it when its work
+// is done; passes only grow).
 void AwaitPass(const std::atomic<std::int64_t>& stamp, std::int64_t pass) {
-  for (int spins = 0; stamp.load(std::memory_order_acquire) != pass; ++spins) {
+  for (int spins = 0; stamp.load(std::memory_order_acquire) < pass; ++spins) {
 #if defined(__x86_64__)
     __builtin_ia32_pause();
 #endif
@@ -1101,8 +1104,19 @@ int World::DriftBodies(int b0, int b1) {
   return flags | (beyond ? kDriftBeyond : 0) | (moved ? kDriftMoved : 0);
 }
 
-void World::Step() {
+int World::DriftShare(int t, int nt, std::int64_t pass) {
   const int nb = body_count();
+  const int ch0 = ChunkShareStart(t, nt), ch1 = ChunkShareStart(t + 1, nt);
+  int flags = 0;
+  for (int ch = ch0; ch < ch1; ch += kChunksPerCall) {
+    const int end = std::min(ch1, ch + kChunksPerCall);
+    flags |= DriftBodies(ch * kBodyChunk, std::min(nb, end * kBodyChunk));
+    for (int c = ch; c < end; ++c) chunk_done_[c].pass.store(pass, std::memory_order_release);
+  }
+  return flags;
+}
+
+void World::Step() {
   // The last force pass said whether this drift may take a disc beyond half the skin
   // (OutrunsSkin): then this step rebuilds, after a drift of its own. Otherwise drift,
   // pair blocks and body chunks run in one region with no barrier: each waits only for the
@@ -1114,13 +1128,7 @@ void World::Step() {
 #pragma omp parallel if (Parallel()) reduction(| : flags) reduction(|| : outrun)
   {
     // (the same shares of body chunks as in ForcePasses: each thread keeps its bodies)
-    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
-    const int ch0 = ChunkShareStart(t, nt), ch1 = ChunkShareStart(t + 1, nt);
-    for (int ch = ch0; ch < ch1; ch += kChunksPerCall) {
-      const int end = std::min(ch1, ch + kChunksPerCall);
-      flags |= DriftBodies(ch * kBodyChunk, std::min(nb, end * kBodyChunk));
-      for (int c = ch; c < end; ++c) chunk_done_[c].pass.store(pass, std::memory_order_release);
-    }
+    flags |= DriftShare(omp_get_thread_num(), omp_get_num_threads(), pass);
     if (!rebuild) outrun = ForcePasses(true, pass, true);
   }
   if (rebuild) {
@@ -1133,6 +1141,62 @@ void World::Step() {
       throw std::logic_error("engine: a disc moved more than half the Verlet skin between list rebuilds");
   }
   beyond_exit_box_ = !exit_box_set_ || (flags & kDriftBeyond) != 0;
+}
+
+int World::Steps(int max_steps) {
+  int taken = 0;
+  while (taken < max_steps) {
+    // A step that rebuilds the lists has serial parts and parallel loops of its own (Step);
+    // without an exit box every step is "beyond" it, so steps go one by one.
+    if (rebuild_needed_ || rebuild_predicted_ || !exit_box_set_ || !Parallel() || max_steps - taken == 1) {
+      Step();
+      ++taken;
+    } else {
+      taken += StepsInOneRegion(max_steps - taken);
+    }
+    if (beyond_exit_box_) break;
+  }
+  return taken;
+}
+
+// Each step as in Step without a rebuild; then every thread publishes its flags and waits for
+// everyone's (the barrier between steps: the next drift moves discs that the other threads'
+// pair blocks of this step read). All threads see the same flags, so all stop after the same
+// step: one that leaves a body beyond the exit box, predicts a rebuild, or is the last.
+int World::StepsInOneRegion(int max_steps) {
+  const std::int64_t first = NextForcePass();
+  int taken = 0, flags = 0;
+#pragma omp parallel
+  {
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    for (int k = 0;; ++k) {
+      const std::int64_t pass = first + k;
+      int mine = DriftShare(t, nt, pass);
+      if (ForcePasses(true, pass, true)) mine |= kStepOutrun;
+      StepDone& own = step_done_[t];
+      own.flags[static_cast<std::size_t>(pass & 1)] = mine;
+      own.pass.store(pass, std::memory_order_release);
+      int all = 0;
+      for (int u = 0; u < nt; ++u) {
+        AwaitPass(step_done_[u].pass, pass);
+        all |= step_done_[u].flags[static_cast<std::size_t>(pass & 1)];
+      }
+      if (all != 0 || k + 1 == max_steps) {
+        if (t == 0) {
+          taken = k + 1;
+          flags = all;
+        }
+        break;
+      }
+    }
+  }
+  force_pass_ = first + taken - 1;
+  rebuild_predicted_ = (flags & kStepOutrun) != 0;
+  // (as in Step: the bound makes this impossible)
+  if (flags & kDriftMoved)
+    throw std::logic_error("engine: a disc moved more than half the Verlet skin between list rebuilds");
+  beyond_exit_box_ = (flags & kDriftBeyond) != 0;
+  return taken;
 }
 
 void World::SetExitBox(double xmin, double xmax, double ymin) {

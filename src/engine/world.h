@@ -90,6 +90,12 @@ class World {
   void ComputeForces();
   // One velocity-Verlet step of dt.
   void Step();
+  // Up to `max_steps` steps, the same bits as as many Step() calls; returns how many were
+  // taken. Returns early after a step that leaves a body beyond the exit box (then
+  // beyond_exit_box() is true), so the driver handles exits at the step it would have. Steps
+  // that do not rebuild the lists share one parallel region: the threads meet at a
+  // light barrier between steps instead of a region's fork and join each step.
+  int Steps(int max_steps);
   // Recomputes every disc's position and velocity from the body state (after restoring it).
   void RefreshDiscs();
   // The exit box: after each step, whether an active body's centre lies left of xmin,
@@ -230,6 +236,20 @@ class World {
     std::vector<int> entries;
   };
   std::vector<LeadSourceCache> lead_sources_;  // per thread (LeadSources)
+  // Per thread, in a region of several steps (StepsInOneRegion): the last step it has
+  // finished and its drift and force flags, in a slot by the step's parity (a thread is at
+  // most one step ahead of another when it reads them).
+  struct alignas(64) StepDone {
+    std::atomic<std::int64_t> pass{-1};
+    int flags[2] = {0, 0};
+  };
+  std::unique_ptr<StepDone[]> step_done_;
+  int step_done_count_ = 0;
+  // Steps without a rebuild in one parallel region (Steps); returns how many were taken.
+  int StepsInOneRegion(int max_steps);
+  // Thread t's of nt share of the drift (body chunks), publishing each chunk with `pass`.
+  int DriftShare(int t, int nt, std::int64_t pass);
+  static constexpr int kStepOutrun = 4;  // (with kDriftMoved and kDriftBeyond in a step's flags)
   std::vector<int> block_last_partner_;  // per force block: its highest disc or partner j
   std::vector<int> block_first_source_;  // per force block: first block with an entry into it
   // Set by the force pass: the next step must rebuild the lists (OutrunsSkin), so the
