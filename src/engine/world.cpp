@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -772,6 +773,8 @@ std::int64_t World::NextForcePass() {
     lead_sources_.resize(static_cast<std::size_t>(threads));
     step_done_ = std::make_unique<StepDone[]>(static_cast<std::size_t>(threads));
     step_done_count_ = threads;
+    thread_busy_ = std::make_unique<ThreadClock[]>(static_cast<std::size_t>(threads));
+    balance_team_ = 0;
   }
   return ++force_pass_;
 }
@@ -780,13 +783,17 @@ namespace {
 
 // Waits until `stamp` holds `pass` or a later one (another thread publishes it when its work
 // is done; passes only grow).
-void AwaitPass(const std::atomic<std::int64_t>& stamp, std::int64_t pass) {
+// Adds the seconds waited to *waited, if given.
+void AwaitPass(const std::atomic<std::int64_t>& stamp, std::int64_t pass, double* waited = nullptr) {
+  if (stamp.load(std::memory_order_acquire) >= pass) return;
+  const auto start = std::chrono::steady_clock::now();
   for (int spins = 0; stamp.load(std::memory_order_acquire) < pass; ++spins) {
 #if defined(__x86_64__)
     __builtin_ia32_pause();
 #endif
     if (spins > 4096) std::this_thread::yield();  // the other thread may not be running now
   }
+  if (waited) *waited += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace
@@ -798,8 +805,10 @@ int World::ChunkShareStart(int t, int nt) const {
   if (nl_start_.size() != static_cast<std::size_t>(n) + 1)  // no lists yet (bodies added since)
     return static_cast<int>(static_cast<long>(nchunks) * t / nt);
   // A disc costs about as much as a list entry (its drift and body sums against an entry's
-  // force and sums: measured), so the work before disc i is about nl_start_[i] + i.
-  const long target = (static_cast<long>(nl_start_[n]) + n) * t / nt;
+  // force and sums: measured), so the work before disc i is about nl_start_[i] + i; the
+  // measured shift (Rebalance) moves the target by what the threads' times say.
+  const double shift = balance_team_ == nt ? share_shift_[static_cast<std::size_t>(t)] : 0.0;
+  const long target = std::lround((static_cast<double>(nl_start_[n]) + n) * (static_cast<double>(t) / nt + shift));
   int lo = 0, hi = n;  // the first i with nl_start_[i] + i >= target
   while (lo < hi) {
     const int mid = lo + (hi - lo) / 2;
@@ -809,6 +818,31 @@ int World::ChunkShareStart(int t, int nt) const {
       hi = mid;
   }
   return lo >= n ? nchunks : std::min(nchunks, (dbody_[lo] + kBodyChunk / 2) / kBodyChunk);
+}
+
+void World::Rebalance(int nt, int steps) {
+  if (nt != balance_team_) {  // a new team: start from the split even in work
+    share_shift_.assign(static_cast<std::size_t>(nt), 0.0);
+    for (int t = 0; t < nt; ++t) thread_busy_[t].busy = 0.0;
+    balance_team_ = nt;
+    balance_steps_ = 0;
+    return;
+  }
+  balance_steps_ += steps;
+  if (balance_steps_ < kBalanceEvery) return;
+  balance_steps_ = 0;
+  double total = 0.0;
+  for (int t = 0; t < nt; ++t) total += thread_busy_[t].busy;
+  double before = 0.0;  // busy seconds of the threads before boundary t
+  for (int t = 1; t < nt && total > 0.0; ++t) {
+    before += thread_busy_[t - 1].busy;
+    // Threads before the boundary that worked more than their part give work to those after
+    // (half the difference at a time, so that noise in the times does not swing the split).
+    const double limit = 0.25 / nt;
+    const std::size_t k = static_cast<std::size_t>(t);
+    share_shift_[k] = std::clamp(share_shift_[k] + 0.5 * (static_cast<double>(t) / nt - before / total), -limit, limit);
+  }
+  for (int t = 0; t < nt; ++t) thread_busy_[t].busy = 0.0;
 }
 
 int World::PairShareStart(int t, int nt) const {
@@ -832,7 +866,7 @@ const std::vector<int>& World::LeadSources(int t, int i0, int i1) {
 
 // Called by every thread of a parallel region, each taking its share (PairShareStart): inside Step's
 // region (one region per step: fewer forks and joins), elsewhere in the one Forces opens.
-bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
+bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift, double* waited) {
   const int t = omp_get_thread_num(), nt = omp_get_num_threads();
   // 1. Pair and wall forces by blocks of discs; within a block the order is ascending i,
   // whichever thread runs it. Each thread takes a contiguous share, the same from step to
@@ -853,7 +887,7 @@ bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
   auto await_drift_of = [&](int i, int blk) {
     if (!await_drift) return;
     const int c1 = dbody_[block_last_partner_[blk]] / kBodyChunk;
-    for (int c = dbody_[i] / kBodyChunk; c <= c1; ++c) AwaitPass(chunk_done_[c].pass, pass);
+    for (int c = dbody_[i] / kBodyChunk; c <= c1; ++c) AwaitPass(chunk_done_[c].pass, pass, waited);
   };
   int i = m0;
   int lead_end = m0;  // [m0, lead_end): the part of a block that starts in an earlier share
@@ -871,7 +905,7 @@ bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
     await_drift_of(i, blk);
     PairEntriesOf(i, end);
     SumPartForces(i, end, kNone);
-    for (int u = t + 1; u < nt && PairShareStart(u, nt) < i1; ++u) AwaitPass(share_done_[u].pass, pass);
+    for (int u = t + 1; u < nt && PairShareStart(u, nt) < i1; ++u) AwaitPass(share_done_[u].pass, pass, waited);
     block_done_[blk].pass.store(pass, std::memory_order_release);
     i = i1;
   }
@@ -892,7 +926,7 @@ bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
     const int last_block = (disc_begin_[b1 - 1] + disc_n_[b1 - 1] - 1) / params_.force_block;
     int from = first_block;
     for (int blk = first_block; blk <= last_block; ++blk) from = std::min(from, block_first_source_[blk]);
-    for (int blk = from; blk <= last_block; ++blk) AwaitPass(block_done_[blk].pass, pass);
+    for (int blk = from; blk <= last_block; ++blk) AwaitPass(block_done_[blk].pass, pass, waited);
     if (lead_end > m0 && disc_begin_[b0] < lead_end) {  // (its block's stamp is awaited above)
       SumPartForces(m0, lead_end, LeadSources(t, m0, lead_end));
       lead_end = m0;
@@ -1165,14 +1199,18 @@ int World::Steps(int max_steps) {
 // step: one that leaves a body beyond the exit box, predicts a rebuild, or is the last.
 int World::StepsInOneRegion(int max_steps) {
   const std::int64_t first = NextForcePass();
-  int taken = 0, flags = 0;
+  int taken = 0, flags = 0, team = 1;
 #pragma omp parallel
   {
     const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    if (t == 0) team = nt;
     for (int k = 0;; ++k) {
       const std::int64_t pass = first + k;
+      const auto start = std::chrono::steady_clock::now();
+      double waited = 0.0;
       int mine = DriftShare(t, nt, pass);
-      if (ForcePasses(true, pass, true)) mine |= kStepOutrun;
+      if (ForcePasses(true, pass, true, &waited)) mine |= kStepOutrun;
+      thread_busy_[t].busy += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() - waited;
       StepDone& own = step_done_[t];
       own.flags[static_cast<std::size_t>(pass & 1)] = mine;
       own.pass.store(pass, std::memory_order_release);
@@ -1191,6 +1229,7 @@ int World::StepsInOneRegion(int max_steps) {
     }
   }
   force_pass_ = first + taken - 1;
+  if (team > 1) Rebalance(team, taken);
   rebuild_predicted_ = (flags & kStepOutrun) != 0;
   // (as in Step: the bound makes this impossible)
   if (flags & kDriftMoved)

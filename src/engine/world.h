@@ -180,10 +180,13 @@ class World {
   // The pair entries, block sums and BodyForces, shared by the threads; with `await_drift`,
   // pair entries first wait for the drift of the discs they read (Step's drift publishes it
   // with `pass`). Returns BodyForces' verdict for the thread's bodies.
-  bool ForcePasses(bool kick, std::int64_t pass, bool await_drift);
+  // Adds the seconds the thread waited for others to *waited, if given.
+  bool ForcePasses(bool kick, std::int64_t pass, bool await_drift, double* waited = nullptr);
   // Thread t's of nt shares, contiguous and about even in work: body chunks
   // [ChunkShareStart(t), ChunkShareStart(t + 1)) for the drift and the body sums, and their
   // discs [PairShareStart(t), PairShareStart(t + 1)) for the pair entries and sums.
+  // The shares start even in list entries + discs; Rebalance moves them towards even
+  // measured times.
   int ChunkShareStart(int t, int nt) const;
   int PairShareStart(int t, int nt) const;
   // The entries from the discs of i0's force block before i0 into discs [i0, i1), ascending
@@ -250,6 +253,19 @@ class World {
   // Thread t's of nt share of the drift (body chunks), publishing each chunk with `pass`.
   int DriftShare(int t, int nt, std::int64_t pass);
   static constexpr int kStepOutrun = 4;  // (with kDriftMoved and kDriftBeyond in a step's flags)
+  // Every kBalanceEvery steps in regions of a team of nt threads, moves the share boundaries
+  // towards even measured work times (thread_busy_, waits excluded): a disc or an entry does
+  // not cost the same in every part of the bed, nor next to another core's share (its data
+  // cross between the cores). Which thread computes what changes no bit.
+  void Rebalance(int nt, int steps);
+  static constexpr int kBalanceEvery = 100;
+  struct alignas(64) ThreadClock {
+    double busy = 0.0;  // seconds worked, not waited, since the last Rebalance
+  };
+  std::unique_ptr<ThreadClock[]> thread_busy_;
+  std::vector<double> share_shift_;  // per share boundary t: shift of its work target (a fraction of all work)
+  int balance_team_ = 0;             // the team share_shift_ is for (0: none yet)
+  int balance_steps_ = 0;
   std::vector<int> block_last_partner_;  // per force block: its highest disc or partner j
   std::vector<int> block_first_source_;  // per force block: first block with an entry into it
   // Set by the force pass: the next step must rebuild the lists (OutrunsSkin), so the
