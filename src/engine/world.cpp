@@ -356,54 +356,72 @@ void World::Rebuild() {
       if (nl_j_[e] >= block_end) xl_entry_[xl_fill_[nl_j_[e]]++] = e;
   }
 
-  // Wall list.
-  wl_start_.resize(static_cast<std::size_t>(n) + 1);
-  wl_start_[0] = 0;
-  wl_e_.clear();
-  wl_sx_.clear();
-  wl_sy_.clear();
+  // Wall list: the elements within reach of each disc, counted per disc and then written in
+  // place (both loops static over the same range, as the pair list), with the history of the
+  // continuing contacts.
   const int ne = static_cast<int>(geometry_.elements.size());
-  for (int i = 0; i < n; ++i) {
-    if (active_[dbody_[i]]) {
+  auto for_walls = [&](int i, auto&& visit) {
+    if (!active_[dbody_[i]]) return;
+    for (int e = 0; e < ne; ++e) {
+      const WallElement& el = geometry_.elements[e];
+      if (!ElementActive(el)) continue;
+      double reach = dr_[i] + skin;
+      double qx, qy;
+      if (el.kind == ElementKind::kSegment) {
+        // Keep segments whose line is within reach, even if the foot is just outside the
+        // segment now: the disc may slide onto it before the next rebuild.
+        const double sx = el.bx - el.ax, sy = el.by - el.ay;
+        const double len2 = sx * sx + sy * sy;
+        const double t = std::clamp(((dx_[i] - el.ax) * sx + (dy_[i] - el.ay) * sy) / len2, 0.0, 1.0);
+        qx = el.ax + t * sx;
+        qy = el.ay + t * sy;
+      } else {
+        qx = el.ax;
+        qy = el.ay;
+        reach += el.radius;
+      }
+      const double ddx = dx_[i] - qx, ddy = dy_[i] - qy;
+      if (ddx * ddx + ddy * ddy < reach * reach) visit(e);
+    }
+  };
+  wl_start_.resize(static_cast<std::size_t>(n) + 1);
+#pragma omp parallel if (Parallel())
+  {
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      int count = 0;
+      for_walls(i, [&](int) { ++count; });
+      wl_start_[i + 1] = count;
+      refx_[i] = dx_[i];
+      refy_[i] = dy_[i];
+    }
+#pragma omp single
+    {
+      wl_start_[0] = 0;
+      for (int i = 0; i < n; ++i) wl_start_[i + 1] += wl_start_[i];
+      const std::size_t m = static_cast<std::size_t>(wl_start_[n]);
+      wl_e_.resize(m);
+      wl_i_.resize(m);
+      wl_sx_.resize(m);
+      wl_sy_.resize(m);
+      wl_fx_.assign(m, 0.0);
+      wl_fy_.assign(m, 0.0);
+    }
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      int k = wl_start_[i];
       int o = i < old_wn ? old_wstart_[i] : 0;
       const int oend = i < old_wn ? old_wstart_[i + 1] : 0;
-      for (int e = 0; e < ne; ++e) {
-        const WallElement& el = geometry_.elements[e];
-        if (!ElementActive(el)) continue;
-        double reach = dr_[i] + skin;
-        double qx, qy;
-        if (el.kind == ElementKind::kSegment) {
-          // Keep segments whose line is within reach, even if the foot is just outside the
-          // segment now: the disc may slide onto it before the next rebuild.
-          const double sx = el.bx - el.ax, sy = el.by - el.ay;
-          const double len2 = sx * sx + sy * sy;
-          const double t = std::clamp(((dx_[i] - el.ax) * sx + (dy_[i] - el.ay) * sy) / len2, 0.0, 1.0);
-          qx = el.ax + t * sx;
-          qy = el.ay + t * sy;
-        } else {
-          qx = el.ax;
-          qy = el.ay;
-          reach += el.radius;
-        }
-        const double ddx = dx_[i] - qx, ddy = dy_[i] - qy;
-        if (ddx * ddx + ddy * ddy >= reach * reach) continue;
+      for_walls(i, [&](int e) {
         while (o < oend && old_we_[o] < e) ++o;
         const bool had = o < oend && old_we_[o] == e;
-        wl_e_.push_back(e);
-        wl_sx_.push_back(had ? old_wsx_[o] : 0.0);
-        wl_sy_.push_back(had ? old_wsy_[o] : 0.0);
-      }
+        wl_e_[k] = e;
+        wl_i_[k] = i;
+        wl_sx_[k] = had ? old_wsx_[o] : 0.0;
+        wl_sy_[k] = had ? old_wsy_[o] : 0.0;
+        ++k;
+      });
     }
-    wl_start_[i + 1] = static_cast<int>(wl_e_.size());
-  }
-  wl_fx_.assign(wl_e_.size(), 0.0);
-  wl_fy_.assign(wl_e_.size(), 0.0);
-  wl_i_.resize(wl_e_.size());
-  for (int i = 0; i < n; ++i)
-    for (int k = wl_start_[i]; k < wl_start_[i + 1]; ++k) wl_i_[k] = i;
-  for (int i = 0; i < n; ++i) {
-    refx_[i] = dx_[i];
-    refy_[i] = dy_[i];
   }
 }
 
@@ -807,7 +825,7 @@ int World::ChunkShareStart(int t, int nt) const {
   // A disc costs about as much as a list entry (its drift and body sums against an entry's
   // force and sums: measured), so the work before disc i is about nl_start_[i] + i; the
   // measured shift (Rebalance) moves the target by what the threads' times say.
-  const double shift = balance_team_ == nt ? share_shift_[static_cast<std::size_t>(t)] : 0.0;
+  const double shift = balance_team_ == nt ? share_shift_[static_cast<std::size_t>(t)] : params_.share_shift;
   const long target = std::lround((static_cast<double>(nl_start_[n]) + n) * (static_cast<double>(t) / nt + shift));
   int lo = 0, hi = n;  // the first i with nl_start_[i] + i >= target
   while (lo < hi) {
@@ -822,14 +840,14 @@ int World::ChunkShareStart(int t, int nt) const {
 
 void World::Rebalance(int nt, int steps) {
   if (nt != balance_team_) {  // a new team: start from the split even in work
-    share_shift_.assign(static_cast<std::size_t>(nt), 0.0);
+    share_shift_.assign(static_cast<std::size_t>(nt), params_.share_shift);
     for (int t = 0; t < nt; ++t) thread_busy_[t].busy = 0.0;
     balance_team_ = nt;
     balance_steps_ = 0;
     return;
   }
   balance_steps_ += steps;
-  if (balance_steps_ < kBalanceEvery) return;
+  if (balance_steps_ < kBalanceEvery || !params_.rebalance_shares) return;
   balance_steps_ = 0;
   double total = 0.0;
   for (int t = 0; t < nt; ++t) total += thread_busy_[t].busy;

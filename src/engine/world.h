@@ -37,6 +37,12 @@ struct WorldParams {
   // it (avx512_kernels.h). The results are the same to the bit either way; off only to
   // compare the two.
   bool avx512_kernels = true;
+  // With two threads or more, the share boundaries start where list entries + discs split
+  // evenly, shifted by `share_shift` (a fraction of all that work), and then move towards
+  // even measured work times (World::Rebalance). Which thread computes what changes no bit;
+  // these are here to test that.
+  bool rebalance_shares = true;
+  double share_shift = 0.0;
 };
 
 WorldParams ParamsFromSpec(const RunSpec& spec);
