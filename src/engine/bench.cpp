@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -15,6 +16,7 @@
 #include <regex>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 
 #include <omp.h>
 
@@ -92,15 +94,53 @@ BenchResult NativeRound(const nlohmann::json& spec, const fs::path& dir, int rou
 
 }  // namespace
 
+double CoreRoundTripNs() {
+  struct alignas(64) Line {
+    std::atomic<std::int64_t> value{0};
+  };
+  Line ping, pong;  // one cache line each
+  using Clock = std::chrono::steady_clock;
+  std::thread echo([&] {
+    for (std::int64_t seen = 0;;) {
+      const std::int64_t v = ping.value.load(std::memory_order_acquire);
+      if (v < 0) return;
+      if (v != seen) pong.value.store(seen = v, std::memory_order_release);
+    }
+  });
+  // 2000 round trips to start, then as many as fit in 50 ms (1 s at most if the echo is slow).
+  const auto start = Clock::now();
+  auto timed_from = start;
+  std::int64_t n = 0, timed = 0;
+  bool stalled = false;
+  while (!stalled && (n < 2000 || Clock::now() - timed_from < std::chrono::milliseconds(50))) {
+    ping.value.store(++n, std::memory_order_release);
+    for (int spins = 0; pong.value.load(std::memory_order_acquire) != n;)
+      if (++spins % 4096 == 0 && Clock::now() - start > std::chrono::seconds(1)) {
+        stalled = true;
+        break;
+      }
+    if (n == 2000) timed_from = Clock::now();
+    if (n > 2000) ++timed;
+  }
+  const double seconds = std::chrono::duration<double>(Clock::now() - timed_from).count();
+  ping.value.store(-1, std::memory_order_release);
+  echo.join();
+  return stalled || timed == 0 ? 0.0 : seconds / static_cast<double>(timed) * 1e9;
+}
+
 std::vector<BenchResult> RunBenchmark(const BenchOptions& options) {
   const fs::path base = fs::temp_directory_path() / ("granary-bench-" + std::to_string(::getpid()));
   fs::create_directories(base);
   const nlohmann::json spec = BenchSpec(options);
   BenchBed(options, spec, base);
   std::vector<BenchResult> results;
+  const bool several = *std::max_element(options.threads.begin(), options.threads.end()) > 1;
   for (int round = 1; round <= options.repeat; ++round) {
-    for (int threads : options.threads)
+    const double round_trip = several ? CoreRoundTripNs() : 0.0;
+    for (int threads : options.threads) {
       results.push_back(NativeRound(spec, base / ("t" + std::to_string(threads)), round, threads));
+      if (threads > 1) results.back().core_round_trip_ns = round_trip;
+    }
   }
   fs::remove_all(base);
   return results;

@@ -42,7 +42,15 @@ struct BenchResult {
   int threads;
   double disc_steps_per_s;
   double wall_s;
+  double core_round_trip_ns = 0.0;  // measured before the round when it has two threads or more
 };
+
+// What a cache line costs between two cores now: two threads hand a counter back and forth
+// (as the engine's threads hand stamps and the discs next to the other share), for about
+// 50 ms; the mean round trip in ns, 0 if the second thread never ran (one free core). On a
+// virtual machine this moves when the host moves the virtual CPUs (docs/benchmarks.md:
+// 100 ns or 500 ns on the CI machine), and so do two-thread rates.
+double CoreRoundTripNs();
 
 // The bodies of the bench for `shape`: "disc" (discs of d = 1), "dumbbell", or "mixture"
 // (the thesis' ch. 4: half dumbbells, half discs of diameter sqrt(2) d, by number); throws

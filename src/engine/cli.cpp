@@ -71,7 +71,11 @@ constexpr char kBenchHelp[] =
     "times a fixed number of reinject-mode discharge steps per thread count and prints\n"
     "disc-steps per second. Bed preparation is not timed. With --repeat N, N rounds over the\n"
     "thread counts, then per thread count the best and median rate and the median speed-up\n"
-    "over the first thread count (a round's runs share the machine's state).\n"
+    "over the first thread count (a round's runs share the machine's state). Before a round\n"
+    "with two threads or more, two threads hand a cache line back and forth: its round trip\n"
+    "(core_round_trip_ns, 0 if the second got no core) is what every line crossing between\n"
+    "the threads' shares costs, and on a virtual machine it moves when the host moves the\n"
+    "virtual CPUs (100 or 500 ns on the CI machine), and two-thread rates with it.\n"
     "  --shape S     disc (d = 1), dumbbell, or mixture (ch. 4: half dumbbells, half discs of\n"
     "                diameter sqrt(2) d, by number)\n"
     "  --bed FILE    where the settled bed is cached (default: granary-bench-bed-S-N-KEY.json\n"
@@ -272,20 +276,25 @@ int Bench(const std::vector<std::string>& args) {
   }
   const auto results = RunBenchmark(options);
   const std::size_t per_round = options.threads.size();
-  std::map<int, std::vector<double>> rates, speedups;
+  std::map<int, std::vector<double>> rates, speedups, round_trips;
   for (std::size_t k = 0; k < results.size(); ++k) {
     const BenchResult& r = results[k];
     const double base = results[k - k % per_round].disc_steps_per_s;  // the round's first thread count
     if (options.repeat > 1) std::printf("round=%d ", r.round);
-    std::printf("threads=%d disc_steps_per_s=%.4g wall_s=%.3f speedup=%.3f\n", r.threads, r.disc_steps_per_s, r.wall_s,
+    std::printf("threads=%d disc_steps_per_s=%.4g wall_s=%.3f speedup=%.3f", r.threads, r.disc_steps_per_s, r.wall_s,
                 r.disc_steps_per_s / base);
+    if (r.threads > 1) std::printf(" core_round_trip_ns=%.0f", r.core_round_trip_ns);
+    std::printf("\n");
     rates[r.threads].push_back(r.disc_steps_per_s);
     speedups[r.threads].push_back(r.disc_steps_per_s / base);
+    if (r.threads > 1) round_trips[r.threads].push_back(r.core_round_trip_ns);
   }
   if (options.repeat > 1)
     for (auto& [threads, v] : rates) {
-      std::printf("summary threads=%d rounds=%zu best=%.4g median=%.4g median_speedup=%.3f\n", threads, v.size(),
+      std::printf("summary threads=%d rounds=%zu best=%.4g median=%.4g median_speedup=%.3f", threads, v.size(),
                   *std::max_element(v.begin(), v.end()), BenchMedian(v), BenchMedian(speedups[threads]));
+      if (threads > 1) std::printf(" median_core_round_trip_ns=%.0f", BenchMedian(round_trips[threads]));
+      std::printf("\n");
     }
   return 0;
 }

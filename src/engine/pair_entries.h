@@ -1,4 +1,4 @@
-// The portable pair-force loop of a force block (world.cpp PairBlock); avx512_kernels.h has
+// The portable pair-force loop of a force block (world.cpp PairEntriesOf); avx512_kernels.h has
 // the same loop in AVX-512 intrinsics, which must give the same bits.
 #pragma once
 

@@ -757,9 +757,17 @@ RunResult Discharge::Run() {
       end_reason = "discharged";
       break;
     }
-    w.Step();
-    ++step_;
-    disc_steps_ += w.disc_count();
+    // Up to the next step at which the checks below may act (clog checks and progress every
+    // kClogCheckEvery steps, frames, checkpoints, limits); Steps returns early at a step
+    // where a body leaves, so each check sees the step it saw with one step at a time.
+    std::int64_t n = std::min(max_steps - step_, kClogCheckEvery - step_ % kClogCheckEvery);
+    for (const std::int64_t every : {frame_every_, checkpoint_every_})
+      if (every > 0) n = std::min(n, every - step_ % every);
+    for (const std::int64_t after : {options_.stop_after_steps, options_.abort_after_steps})
+      if (after >= 0) n = std::min(n, std::max<std::int64_t>(1, first_step + after - step_));
+    const int taken = w.Steps(static_cast<int>(n));
+    step_ += taken;
+    disc_steps_ += static_cast<std::int64_t>(taken) * w.disc_count();
     HandleExits();
     if (step_ - last_exit_step_ >= clog_steps && step_ % kClogCheckEvery == 0 && !in_clog_ && Stalled()) {
       if (spec_.discharge.mode == DischargeMode::kRemove && !StallIsAClog()) {

@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -355,54 +356,72 @@ void World::Rebuild() {
       if (nl_j_[e] >= block_end) xl_entry_[xl_fill_[nl_j_[e]]++] = e;
   }
 
-  // Wall list.
-  wl_start_.resize(static_cast<std::size_t>(n) + 1);
-  wl_start_[0] = 0;
-  wl_e_.clear();
-  wl_sx_.clear();
-  wl_sy_.clear();
+  // Wall list: the elements within reach of each disc, counted per disc and then written in
+  // place (both loops static over the same range, as the pair list), with the history of the
+  // continuing contacts.
   const int ne = static_cast<int>(geometry_.elements.size());
-  for (int i = 0; i < n; ++i) {
-    if (active_[dbody_[i]]) {
+  auto for_walls = [&](int i, auto&& visit) {
+    if (!active_[dbody_[i]]) return;
+    for (int e = 0; e < ne; ++e) {
+      const WallElement& el = geometry_.elements[e];
+      if (!ElementActive(el)) continue;
+      double reach = dr_[i] + skin;
+      double qx, qy;
+      if (el.kind == ElementKind::kSegment) {
+        // Keep segments whose line is within reach, even if the foot is just outside the
+        // segment now: the disc may slide onto it before the next rebuild.
+        const double sx = el.bx - el.ax, sy = el.by - el.ay;
+        const double len2 = sx * sx + sy * sy;
+        const double t = std::clamp(((dx_[i] - el.ax) * sx + (dy_[i] - el.ay) * sy) / len2, 0.0, 1.0);
+        qx = el.ax + t * sx;
+        qy = el.ay + t * sy;
+      } else {
+        qx = el.ax;
+        qy = el.ay;
+        reach += el.radius;
+      }
+      const double ddx = dx_[i] - qx, ddy = dy_[i] - qy;
+      if (ddx * ddx + ddy * ddy < reach * reach) visit(e);
+    }
+  };
+  wl_start_.resize(static_cast<std::size_t>(n) + 1);
+#pragma omp parallel if (Parallel())
+  {
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      int count = 0;
+      for_walls(i, [&](int) { ++count; });
+      wl_start_[i + 1] = count;
+      refx_[i] = dx_[i];
+      refy_[i] = dy_[i];
+    }
+#pragma omp single
+    {
+      wl_start_[0] = 0;
+      for (int i = 0; i < n; ++i) wl_start_[i + 1] += wl_start_[i];
+      const std::size_t m = static_cast<std::size_t>(wl_start_[n]);
+      wl_e_.resize(m);
+      wl_i_.resize(m);
+      wl_sx_.resize(m);
+      wl_sy_.resize(m);
+      wl_fx_.assign(m, 0.0);
+      wl_fy_.assign(m, 0.0);
+    }
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      int k = wl_start_[i];
       int o = i < old_wn ? old_wstart_[i] : 0;
       const int oend = i < old_wn ? old_wstart_[i + 1] : 0;
-      for (int e = 0; e < ne; ++e) {
-        const WallElement& el = geometry_.elements[e];
-        if (!ElementActive(el)) continue;
-        double reach = dr_[i] + skin;
-        double qx, qy;
-        if (el.kind == ElementKind::kSegment) {
-          // Keep segments whose line is within reach, even if the foot is just outside the
-          // segment now: the disc may slide onto it before the next rebuild.
-          const double sx = el.bx - el.ax, sy = el.by - el.ay;
-          const double len2 = sx * sx + sy * sy;
-          const double t = std::clamp(((dx_[i] - el.ax) * sx + (dy_[i] - el.ay) * sy) / len2, 0.0, 1.0);
-          qx = el.ax + t * sx;
-          qy = el.ay + t * sy;
-        } else {
-          qx = el.ax;
-          qy = el.ay;
-          reach += el.radius;
-        }
-        const double ddx = dx_[i] - qx, ddy = dy_[i] - qy;
-        if (ddx * ddx + ddy * ddy >= reach * reach) continue;
+      for_walls(i, [&](int e) {
         while (o < oend && old_we_[o] < e) ++o;
         const bool had = o < oend && old_we_[o] == e;
-        wl_e_.push_back(e);
-        wl_sx_.push_back(had ? old_wsx_[o] : 0.0);
-        wl_sy_.push_back(had ? old_wsy_[o] : 0.0);
-      }
+        wl_e_[k] = e;
+        wl_i_[k] = i;
+        wl_sx_[k] = had ? old_wsx_[o] : 0.0;
+        wl_sy_[k] = had ? old_wsy_[o] : 0.0;
+        ++k;
+      });
     }
-    wl_start_[i + 1] = static_cast<int>(wl_e_.size());
-  }
-  wl_fx_.assign(wl_e_.size(), 0.0);
-  wl_fy_.assign(wl_e_.size(), 0.0);
-  wl_i_.resize(wl_e_.size());
-  for (int i = 0; i < n; ++i)
-    for (int k = wl_start_[i]; k < wl_start_[i + 1]; ++k) wl_i_[k] = i;
-  for (int i = 0; i < n; ++i) {
-    refx_[i] = dx_[i];
-    refy_[i] = dy_[i];
   }
 }
 
@@ -410,16 +429,26 @@ void World::ComputeForces() { Forces(rebuild_needed_ || NeedsRebuild(), false); 
 
 namespace {
 
-// Step 2 of PairBlock: sums per disc in list order and reactions inside the block. An entry
-// that does not touch adds +0.0, which leaves every sum as it was (they start at +0.0 and
-// so are never -0.0). A function of its own, not inlined: inside PairBlock the loop kept its
-// pointers on the stack (+4 % at one thread out of it). Scalar, so no instruction-set
-// variants.
-[[gnu::noinline]] void SumBlock(int i0, int i1, const int* __restrict nl_start, const int* __restrict nl_j,
+// Step 2 of SumPartForces: sums per disc in list order and reactions inside the block, for
+// the block's discs [i0, i1). A part of a block after its start first takes the reactions
+// of the entries from the block's earlier discs into it (`earlier`, ascending: the order in
+// which the whole block's loop adds them), then continues as that loop, so a block summed
+// in parts gives the bits of a block summed at once. An entry that does not touch adds
+// +0.0, which leaves every sum as it was (they start at +0.0 and so are never -0.0). A
+// function of its own, not inlined: inside the block's function the loop kept its pointers
+// on the stack (+4 % at one thread out of it). Scalar, so no instruction-set variants.
+[[gnu::noinline]] void SumBlock(int i0, int i1, const int* __restrict earlier, int n_earlier,
+                                const int* __restrict nl_start, const int* __restrict nl_j,
                                 const double* __restrict nl_fx, const double* __restrict nl_fy,
                                 const double* __restrict nl_c, const double* __restrict dr, double* __restrict dfx,
                                 double* __restrict dfy, double* __restrict dtz) {
   for (int i = i0; i < i1; ++i) dfx[i] = dfy[i] = dtz[i] = 0.0;
+  for (int k = 0; k < n_earlier; ++k) {
+    const int e = earlier[k], j = nl_j[e];
+    dfx[j] -= nl_fx[e];
+    dfy[j] -= nl_fy[e];
+    dtz[j] += nl_c[e];
+  }
   for (int i = i0; i < i1; ++i) {
     double sfx = 0.0, sfy = 0.0, sc = 0.0;
     const int e1 = nl_start[i + 1];
@@ -445,7 +474,7 @@ namespace {
 }  // namespace
 
 // Eight entries at a time by the AVX-512 loop where the CPU has it, the rest (or all) by the
-// portable loop; both give the same bits. (Inlined into PairBlock's instruction-set variants.)
+// portable loop; both give the same bits. (Inlined into PairEntriesOf's instruction-set variants.)
 template <bool kLiggghtsCap>
 [[gnu::always_inline]] inline void World::PairRange(int e0, int e1) {
   const ContactParams& pp = params_.pair;
@@ -458,23 +487,22 @@ template <bool kLiggghtsCap>
                             nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, params_.dt);
 }
 
-GRANARY_KERNEL void World::PairBlock(int blk) {
-  const int n = disc_count();
-  const int i0 = blk * params_.force_block, i1 = std::min(n, i0 + params_.force_block);
+GRANARY_KERNEL void World::PairEntriesOf(int i0, int i1) {
+  if (params_.pair.liggghts_cap)
+    PairRange<true>(nl_start_[i0], nl_start_[i1]);
+  else
+    PairRange<false>(nl_start_[i0], nl_start_[i1]);
+}
+
+GRANARY_KERNEL void World::SumPartForces(int i0, int i1, const std::vector<int>& earlier) {
   const double dt = params_.dt;
-  const ContactParams pp = params_.pair;
   const ContactParams wp = params_.wall;
   double* __restrict dfx = dfx_.data();
   double* __restrict dfy = dfy_.data();
   double* __restrict dtz = dtz_.data();
-  // 1. Every pair entry of the block.
-  if (pp.liggghts_cap)
-    PairRange<true>(nl_start_[i0], nl_start_[i1]);
-  else
-    PairRange<false>(nl_start_[i0], nl_start_[i1]);
   // 2. Sums per disc and reactions inside the block.
-  SumBlock(i0, i1, nl_start_.data(), nl_j_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), dr_.data(), dfx, dfy,
-           dtz);
+  SumBlock(i0, i1, earlier.data(), static_cast<int>(earlier.size()), nl_start_.data(), nl_j_.data(), nl_fx_.data(),
+           nl_fy_.data(), nl_c_.data(), dr_.data(), dfx, dfy, dtz);
   // 3. Wall contacts, added after each disc's pair sums as before, but in a loop of their
   // own over the block's few wall entries: the pair-sum loop above stays small (no disc
   // record, no wall state in registers).
@@ -756,32 +784,107 @@ std::int64_t World::NextForcePass() {
     chunk_done_ = std::make_unique<PassStamp[]>(static_cast<std::size_t>(nchunks));
     chunk_done_count_ = nchunks;
   }
+  const int threads = omp_get_max_threads();
+  if (threads > share_done_count_) {
+    share_done_ = std::make_unique<PassStamp[]>(static_cast<std::size_t>(threads));
+    share_done_count_ = threads;
+    lead_sources_.resize(static_cast<std::size_t>(threads));
+    step_done_ = std::make_unique<StepDone[]>(static_cast<std::size_t>(threads));
+    step_done_count_ = threads;
+    thread_busy_ = std::make_unique<ThreadClock[]>(static_cast<std::size_t>(threads));
+    balance_team_ = 0;
+  }
   return ++force_pass_;
 }
 
 namespace {
 
-// Waits until `stamp` holds `pass` (another thread publishes it when its work is done).
-void AwaitPass(const std::atomic<std::int64_t>& stamp, std::int64_t pass) {
-  for (int spins = 0; stamp.load(std::memory_order_acquire) != pass; ++spins) {
+// Waits until `stamp` holds `pass` or a later one (another thread publishes it when its work
+// is done; passes only grow).
+// Adds the seconds waited to *waited, if given.
+void AwaitPass(const std::atomic<std::int64_t>& stamp, std::int64_t pass, double* waited = nullptr) {
+  if (stamp.load(std::memory_order_acquire) >= pass) return;
+  const auto start = std::chrono::steady_clock::now();
+  for (int spins = 0; stamp.load(std::memory_order_acquire) < pass; ++spins) {
 #if defined(__x86_64__)
     __builtin_ia32_pause();
 #endif
     if (spins > 4096) std::this_thread::yield();  // the other thread may not be running now
   }
-}
-
-// [first, last) of n items for thread t of nt: contiguous, as even as possible.
-std::pair<int, int> ShareOf(int n, int t, int nt) {
-  return {static_cast<int>(static_cast<long>(n) * t / nt), static_cast<int>(static_cast<long>(n) * (t + 1) / nt)};
+  if (waited) *waited += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 }  // namespace
 
-// Called by every thread of a parallel region, each taking its share (ShareOf): inside Step's
+int World::ChunkShareStart(int t, int nt) const {
+  const int n = disc_count(), nchunks = (body_count() + kBodyChunk - 1) / kBodyChunk;
+  if (t <= 0) return 0;
+  if (t >= nt) return nchunks;
+  if (nl_start_.size() != static_cast<std::size_t>(n) + 1)  // no lists yet (bodies added since)
+    return static_cast<int>(static_cast<long>(nchunks) * t / nt);
+  // A disc costs about as much as a list entry (its drift and body sums against an entry's
+  // force and sums: measured), so the work before disc i is about nl_start_[i] + i; the
+  // measured shift (Rebalance) moves the target by what the threads' times say.
+  const double shift = balance_team_ == nt ? share_shift_[static_cast<std::size_t>(t)] : params_.share_shift;
+  const long target = std::lround((static_cast<double>(nl_start_[n]) + n) * (static_cast<double>(t) / nt + shift));
+  int lo = 0, hi = n;  // the first i with nl_start_[i] + i >= target
+  while (lo < hi) {
+    const int mid = lo + (hi - lo) / 2;
+    if (static_cast<long>(nl_start_[mid]) + mid < target)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  return lo >= n ? nchunks : std::min(nchunks, (dbody_[lo] + kBodyChunk / 2) / kBodyChunk);
+}
+
+void World::Rebalance(int nt, int steps) {
+  if (nt != balance_team_) {  // a new team: start from the split even in work
+    share_shift_.assign(static_cast<std::size_t>(nt), params_.share_shift);
+    for (int t = 0; t < nt; ++t) thread_busy_[t].busy = 0.0;
+    balance_team_ = nt;
+    balance_steps_ = 0;
+    return;
+  }
+  balance_steps_ += steps;
+  if (balance_steps_ < kBalanceEvery || !params_.rebalance_shares) return;
+  balance_steps_ = 0;
+  double total = 0.0;
+  for (int t = 0; t < nt; ++t) total += thread_busy_[t].busy;
+  double before = 0.0;  // busy seconds of the threads before boundary t
+  for (int t = 1; t < nt && total > 0.0; ++t) {
+    before += thread_busy_[t - 1].busy;
+    // Threads before the boundary that worked more than their part give work to those after
+    // (half the difference at a time, so that noise in the times does not swing the split).
+    const double limit = 0.25 / nt;
+    const std::size_t k = static_cast<std::size_t>(t);
+    share_shift_[k] = std::clamp(share_shift_[k] + 0.5 * (static_cast<double>(t) / nt - before / total), -limit, limit);
+  }
+  for (int t = 0; t < nt; ++t) thread_busy_[t].busy = 0.0;
+}
+
+int World::PairShareStart(int t, int nt) const {
+  const int b = ChunkShareStart(t, nt) * kBodyChunk;
+  return b >= body_count() ? disc_count() : disc_begin_[b];
+}
+
+const std::vector<int>& World::LeadSources(int t, int i0, int i1) {
+  LeadSourceCache& c = lead_sources_[static_cast<std::size_t>(t)];
+  if (c.rebuild != rebuilds_ || c.i0 != i0 || c.i1 != i1) {  // the shares move with the lists only
+    c.rebuild = rebuilds_;
+    c.i0 = i0;
+    c.i1 = i1;
+    c.entries.clear();
+    const int first = i0 / params_.force_block * params_.force_block;
+    for (int e = nl_start_[first]; e < nl_start_[i0]; ++e)
+      if (nl_j_[e] >= i0 && nl_j_[e] < i1) c.entries.push_back(e);
+  }
+  return c.entries;
+}
+
+// Called by every thread of a parallel region, each taking its share (PairShareStart): inside Step's
 // region (one region per step: fewer forks and joins), elsewhere in the one Forces opens.
-bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
-  const int nblocks = block_done_count_;
+bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift, double* waited) {
   const int t = omp_get_thread_num(), nt = omp_get_num_threads();
   // 1. Pair and wall forces by blocks of discs; within a block the order is ascending i,
   // whichever thread runs it. Each thread takes a contiguous share, the same from step to
@@ -789,15 +892,40 @@ bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
   // core's cache (with dynamic blocks, 2 threads gave 1.2x instead of 1.7x). In a step, a
   // block first waits for the drift of the chunks holding its discs and their partners
   // (j > i: its own discs and a few beyond), not for a barrier after the whole drift.
-  const auto [blk0, blk1] = ShareOf(nblocks, t, nt);
-  for (int blk = blk0; blk < blk1; ++blk) {
-    if (await_drift) {
-      const int c0 = dbody_[static_cast<std::size_t>(blk) * params_.force_block] / kBodyChunk;
-      const int c1 = dbody_[block_last_partner_[blk]] / kBodyChunk;
-      for (int c = c0; c <= c1; ++c) AwaitPass(chunk_done_[c].pass, pass);
-    }
-    PairBlock(blk);
+  //
+  // The shares are even in work (ChunkShareStart), so they split blocks: each thread computes
+  // the entries and the sums of the discs in its share (SumPartForces: a block summed in
+  // parts gives the bits of the block summed at once), so the sums of a disc are made where
+  // its body's forces are. A block's stamp says that all its entries are computed and the
+  // sums of the part in the share of its first disc: a later thread computes its part of
+  // that block's entries first (share_done_), and its sums last (they need the earlier
+  // parts' entries: LeadSources).
+  const int n = disc_count(), block = params_.force_block;
+  const int m0 = PairShareStart(t, nt), m1 = PairShareStart(t + 1, nt);
+  auto await_drift_of = [&](int i, int blk) {
+    if (!await_drift) return;
+    const int c1 = dbody_[block_last_partner_[blk]] / kBodyChunk;
+    for (int c = dbody_[i] / kBodyChunk; c <= c1; ++c) AwaitPass(chunk_done_[c].pass, pass, waited);
+  };
+  int i = m0;
+  int lead_end = m0;  // [m0, lead_end): the part of a block that starts in an earlier share
+  if (i < m1 && i % block != 0) {
+    const int blk = i / block;
+    lead_end = std::min({m1, n, (blk + 1) * block});
+    await_drift_of(i, blk);
+    PairEntriesOf(i, lead_end);
+    i = lead_end;
+  }
+  share_done_[t].pass.store(pass, std::memory_order_release);
+  static const std::vector<int> kNone;
+  while (i < m1) {  // blocks that start in the share
+    const int blk = i / block, i1 = std::min(n, i + block), end = std::min(i1, m1);
+    await_drift_of(i, blk);
+    PairEntriesOf(i, end);
+    SumPartForces(i, end, kNone);
+    for (int u = t + 1; u < nt && PairShareStart(u, nt) < i1; ++u) AwaitPass(share_done_[u].pass, pass, waited);
     block_done_[blk].pass.store(pass, std::memory_order_release);
+    i = i1;
   }
   // 2. Reactions across blocks, body forces, gravity, torques (and the half kick). A chunk
   // of bodies reads the sums of its discs' blocks and the reactions of entries from earlier
@@ -806,17 +934,21 @@ bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift) {
   // reaches the first, which read the previous thread's last block, that is done. (Both
   // callers end their parallel region right after, which is a barrier.)
   const int nb = body_count();
-  const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
-  const auto [ch0, ch1] = ShareOf(nchunks, t, nt);
+  const int ch0 = ChunkShareStart(t, nt), ch1 = ChunkShareStart(t + 1, nt);
   bool outrun = false;
-  for (int k = 0; k < ch1 - ch0; ++k) {
-    const int ch = t == 0 ? ch0 + k : ch1 - 1 - k;
-    const int b0 = ch * kBodyChunk, b1 = std::min(nb, (ch + 1) * kBodyChunk);
+  for (int k = 0; k < ch1 - ch0; k += kChunksPerCall) {
+    const int first = t == 0 ? ch0 + k : std::max(ch0, ch1 - k - kChunksPerCall);
+    const int last = t == 0 ? std::min(ch1, first + kChunksPerCall) : ch1 - k;  // [first, last)
+    const int b0 = first * kBodyChunk, b1 = std::min(nb, last * kBodyChunk);
     const int first_block = disc_begin_[b0] / params_.force_block;
     const int last_block = (disc_begin_[b1 - 1] + disc_n_[b1 - 1] - 1) / params_.force_block;
     int from = first_block;
     for (int blk = first_block; blk <= last_block; ++blk) from = std::min(from, block_first_source_[blk]);
-    for (int blk = from; blk <= last_block; ++blk) AwaitPass(block_done_[blk].pass, pass);
+    for (int blk = from; blk <= last_block; ++blk) AwaitPass(block_done_[blk].pass, pass, waited);
+    if (lead_end > m0 && disc_begin_[b0] < lead_end) {  // (its block's stamp is awaited above)
+      SumPartForces(m0, lead_end, LeadSources(t, m0, lead_end));
+      lead_end = m0;
+    }
     outrun = BodyForces(b0, b1, kick) || outrun;
   }
   return outrun;
@@ -1024,9 +1156,19 @@ int World::DriftBodies(int b0, int b1) {
   return flags | (beyond ? kDriftBeyond : 0) | (moved ? kDriftMoved : 0);
 }
 
-void World::Step() {
+int World::DriftShare(int t, int nt, std::int64_t pass) {
   const int nb = body_count();
-  const int nchunks = (nb + kBodyChunk - 1) / kBodyChunk;
+  const int ch0 = ChunkShareStart(t, nt), ch1 = ChunkShareStart(t + 1, nt);
+  int flags = 0;
+  for (int ch = ch0; ch < ch1; ch += kChunksPerCall) {
+    const int end = std::min(ch1, ch + kChunksPerCall);
+    flags |= DriftBodies(ch * kBodyChunk, std::min(nb, end * kBodyChunk));
+    for (int c = ch; c < end; ++c) chunk_done_[c].pass.store(pass, std::memory_order_release);
+  }
+  return flags;
+}
+
+void World::Step() {
   // The last force pass said whether this drift may take a disc beyond half the skin
   // (OutrunsSkin): then this step rebuilds, after a drift of its own. Otherwise drift,
   // pair blocks and body chunks run in one region with no barrier: each waits only for the
@@ -1038,11 +1180,7 @@ void World::Step() {
 #pragma omp parallel if (Parallel()) reduction(| : flags) reduction(|| : outrun)
   {
     // (the same shares of body chunks as in ForcePasses: each thread keeps its bodies)
-    const auto [ch0, ch1] = ShareOf(nchunks, omp_get_thread_num(), omp_get_num_threads());
-    for (int ch = ch0; ch < ch1; ++ch) {
-      flags |= DriftBodies(ch * kBodyChunk, std::min(nb, (ch + 1) * kBodyChunk));
-      chunk_done_[ch].pass.store(pass, std::memory_order_release);
-    }
+    flags |= DriftShare(omp_get_thread_num(), omp_get_num_threads(), pass);
     if (!rebuild) outrun = ForcePasses(true, pass, true);
   }
   if (rebuild) {
@@ -1055,6 +1193,67 @@ void World::Step() {
       throw std::logic_error("engine: a disc moved more than half the Verlet skin between list rebuilds");
   }
   beyond_exit_box_ = !exit_box_set_ || (flags & kDriftBeyond) != 0;
+}
+
+int World::Steps(int max_steps) {
+  int taken = 0;
+  while (taken < max_steps) {
+    // A step that rebuilds the lists has serial parts and parallel loops of its own (Step);
+    // without an exit box every step is "beyond" it, so steps go one by one.
+    if (rebuild_needed_ || rebuild_predicted_ || !exit_box_set_ || !Parallel() || max_steps - taken == 1) {
+      Step();
+      ++taken;
+    } else {
+      taken += StepsInOneRegion(max_steps - taken);
+    }
+    if (beyond_exit_box_) break;
+  }
+  return taken;
+}
+
+// Each step as in Step without a rebuild; then every thread publishes its flags and waits for
+// everyone's (the barrier between steps: the next drift moves discs that the other threads'
+// pair blocks of this step read). All threads see the same flags, so all stop after the same
+// step: one that leaves a body beyond the exit box, predicts a rebuild, or is the last.
+int World::StepsInOneRegion(int max_steps) {
+  const std::int64_t first = NextForcePass();
+  int taken = 0, flags = 0, team = 1;
+#pragma omp parallel
+  {
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    if (t == 0) team = nt;
+    for (int k = 0;; ++k) {
+      const std::int64_t pass = first + k;
+      const auto start = std::chrono::steady_clock::now();
+      double waited = 0.0;
+      int mine = DriftShare(t, nt, pass);
+      if (ForcePasses(true, pass, true, &waited)) mine |= kStepOutrun;
+      thread_busy_[t].busy += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() - waited;
+      StepDone& own = step_done_[t];
+      own.flags[static_cast<std::size_t>(pass & 1)] = mine;
+      own.pass.store(pass, std::memory_order_release);
+      int all = 0;
+      for (int u = 0; u < nt; ++u) {
+        AwaitPass(step_done_[u].pass, pass);
+        all |= step_done_[u].flags[static_cast<std::size_t>(pass & 1)];
+      }
+      if (all != 0 || k + 1 == max_steps) {
+        if (t == 0) {
+          taken = k + 1;
+          flags = all;
+        }
+        break;
+      }
+    }
+  }
+  force_pass_ = first + taken - 1;
+  if (team > 1) Rebalance(team, taken);
+  rebuild_predicted_ = (flags & kStepOutrun) != 0;
+  // (as in Step: the bound makes this impossible)
+  if (flags & kDriftMoved)
+    throw std::logic_error("engine: a disc moved more than half the Verlet skin between list rebuilds");
+  beyond_exit_box_ = (flags & kDriftBeyond) != 0;
+  return taken;
 }
 
 void World::SetExitBox(double xmin, double xmax, double ymin) {

@@ -37,6 +37,12 @@ struct WorldParams {
   // it (avx512_kernels.h). The results are the same to the bit either way; off only to
   // compare the two.
   bool avx512_kernels = true;
+  // With two threads or more, the share boundaries start where list entries + discs split
+  // evenly, shifted by `share_shift` (a fraction of all that work), and then move towards
+  // even measured work times (World::Rebalance). Which thread computes what changes no bit;
+  // these are here to test that.
+  bool rebalance_shares = true;
+  double share_shift = 0.0;
 };
 
 WorldParams ParamsFromSpec(const RunSpec& spec);
@@ -90,6 +96,12 @@ class World {
   void ComputeForces();
   // One velocity-Verlet step of dt.
   void Step();
+  // Up to `max_steps` steps, the same bits as as many Step() calls; returns how many were
+  // taken. Returns early after a step that leaves a body beyond the exit box (then
+  // beyond_exit_box() is true), so the driver handles exits at the step it would have. Steps
+  // that do not rebuild the lists share one parallel region: the threads meet at a
+  // light barrier between steps instead of a region's fork and join each step.
+  int Steps(int max_steps);
   // Recomputes every disc's position and velocity from the body state (after restoring it).
   void RefreshDiscs();
   // The exit box: after each step, whether an active body's centre lies left of xmin,
@@ -162,23 +174,38 @@ class World {
   void Forces(bool rebuild, bool kick);
   // The kernels of a step, each over a range that one thread owns (compiled for several
   // instruction sets, chosen at load time; the arithmetic is the same in each).
-  void PairBlock(int blk);                       // pair and wall forces of one force block
+  void PairEntriesOf(int i0, int i1);            // the pair entries of discs [i0, i1)
+  // Sums and wall forces of discs [i0, i1) of one force block; `earlier`: the entries from
+  // the block's discs before i0 into them (LeadSources).
+  void SumPartForces(int i0, int i1, const std::vector<int>& earlier);
   template <bool kLiggghtsCap>
   void PairRange(int e0, int e1);                // the pair loop over list entries [e0, e1)
   // Cross-block reactions, body sums, kick; returns whether the next drift may take a disc
   // of these bodies beyond half the skin from its rebuild position (OutrunsSkin).
   bool BodyForces(int b0, int b1, bool kick);
-  // PairBlock and BodyForces, shared by the threads; with `await_drift`, a pair block first
-  // waits for the drift of the discs it reads (Step's drift publishes it with `pass`).
-  // Returns BodyForces' verdict for the thread's bodies.
-  bool ForcePasses(bool kick, std::int64_t pass, bool await_drift);
+  // The pair entries, block sums and BodyForces, shared by the threads; with `await_drift`,
+  // pair entries first wait for the drift of the discs they read (Step's drift publishes it
+  // with `pass`). Returns BodyForces' verdict for the thread's bodies.
+  // Adds the seconds the thread waited for others to *waited, if given.
+  bool ForcePasses(bool kick, std::int64_t pass, bool await_drift, double* waited = nullptr);
+  // Thread t's of nt shares, contiguous and about even in work: body chunks
+  // [ChunkShareStart(t), ChunkShareStart(t + 1)) for the drift and the body sums, and their
+  // discs [PairShareStart(t), PairShareStart(t + 1)) for the pair entries and sums.
+  // The shares start even in list entries + discs; Rebalance moves them towards even
+  // measured times.
+  int ChunkShareStart(int t, int nt) const;
+  int PairShareStart(int t, int nt) const;
+  // The entries from the discs of i0's force block before i0 into discs [i0, i1), ascending
+  // (thread t's, kept until the lists or the bounds change).
+  const std::vector<int>& LeadSources(int t, int i0, int i1);
   // Half kick and drift; flags: kDriftMoved (a disc moved > skin/2 since the rebuild),
   // kDriftBeyond (an active body's centre is outside the exit box).
   int DriftBodies(int b0, int b1);
   int DriftPortable(int b0, int b1);  // DriftBodies without the AVX-512 loops
   int DriftBodyKernel(int b0, int b1);  // its body part: returns kBeyond (world.cpp)
   static constexpr int kDriftMoved = 1, kDriftBeyond = 2;
-  static constexpr int kBodyChunk = 512;         // bodies per parallel work item
+  static constexpr int kBodyChunk = 64;          // bodies per parallel work item (small: even shares)
+  static constexpr int kChunksPerCall = 8;       // chunks per call of the drift and body loops (fewer calls)
   void Rebuild();
   bool NeedsRebuild() const;
   bool Parallel() const { return disc_count() >= params_.parallel_min_discs; }
@@ -208,6 +235,43 @@ class World {
   // hold its discs and partners (from the first disc to block_last_partner_).
   std::unique_ptr<PassStamp[]> chunk_done_;
   int chunk_done_count_ = 0;
+  // Per thread: the pass whose pair entries it has computed in the block an earlier thread
+  // sums (ForcePasses).
+  std::unique_ptr<PassStamp[]> share_done_;
+  int share_done_count_ = 0;
+  struct alignas(64) LeadSourceCache {
+    std::int64_t rebuild = -1;
+    int i0 = -1, i1 = -1;
+    std::vector<int> entries;
+  };
+  std::vector<LeadSourceCache> lead_sources_;  // per thread (LeadSources)
+  // Per thread, in a region of several steps (StepsInOneRegion): the last step it has
+  // finished and its drift and force flags, in a slot by the step's parity (a thread is at
+  // most one step ahead of another when it reads them).
+  struct alignas(64) StepDone {
+    std::atomic<std::int64_t> pass{-1};
+    int flags[2] = {0, 0};
+  };
+  std::unique_ptr<StepDone[]> step_done_;
+  int step_done_count_ = 0;
+  // Steps without a rebuild in one parallel region (Steps); returns how many were taken.
+  int StepsInOneRegion(int max_steps);
+  // Thread t's of nt share of the drift (body chunks), publishing each chunk with `pass`.
+  int DriftShare(int t, int nt, std::int64_t pass);
+  static constexpr int kStepOutrun = 4;  // (with kDriftMoved and kDriftBeyond in a step's flags)
+  // Every kBalanceEvery steps in regions of a team of nt threads, moves the share boundaries
+  // towards even measured work times (thread_busy_, waits excluded): a disc or an entry does
+  // not cost the same in every part of the bed, nor next to another core's share (its data
+  // cross between the cores). Which thread computes what changes no bit.
+  void Rebalance(int nt, int steps);
+  static constexpr int kBalanceEvery = 100;
+  struct alignas(64) ThreadClock {
+    double busy = 0.0;  // seconds worked, not waited, since the last Rebalance
+  };
+  std::unique_ptr<ThreadClock[]> thread_busy_;
+  std::vector<double> share_shift_;  // per share boundary t: shift of its work target (a fraction of all work)
+  int balance_team_ = 0;             // the team share_shift_ is for (0: none yet)
+  int balance_steps_ = 0;
   std::vector<int> block_last_partner_;  // per force block: its highest disc or partner j
   std::vector<int> block_first_source_;  // per force block: first block with an entry into it
   // Set by the force pass: the next step must rebuild the lists (OutrunsSkin), so the

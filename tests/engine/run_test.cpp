@@ -555,6 +555,14 @@ TEST(Run, BenchRepeatsRoundsAndSummarises) {
     EXPECT_GE(best, median) << line;
   }
   EXPECT_NE(summaries[0].find("median_speedup=1.000"), std::string::npos) << summaries[0];
+  // two-thread lines say what a cache line cost between the cores in that round (0 where the
+  // second thread got no core of its own: the suite runs beside other tests)
+  EXPECT_EQ(rounds[4].find("core_round_trip_ns"), std::string::npos) << rounds[4];
+  for (const std::string& line : {rounds[5], summaries[1]}) {
+    const std::size_t at = line.find("round_trip_ns=");
+    ASSERT_NE(at, std::string::npos) << line;
+    EXPECT_GE(std::stod(line.substr(at + 14)), 0.0) << line;
+  }
 }
 
 // bench --bed-prep: per replica a line for the old procedure (1 x step, fixed wait) and the new

@@ -3,7 +3,10 @@
 // conservation, free rotation, obstacle deflection, free fall (physics.md; style.md 8.7).
 #include "engine/world.h"
 
+#include <omp.h>
+
 #include <cmath>
+#include <cstring>
 #include <numbers>
 
 #include <gtest/gtest.h>
@@ -260,6 +263,101 @@ TEST(World, ForceBlocksChangeOnlyRounding) {
     }
   }
   EXPECT_GT(moved, 0.01);  // the bodies fell and pushed each other
+}
+
+// About 600 discs and dumbbells in a hexagonal pack of touching discs (a dumbbell takes two
+// neighbouring places of a row) settling on a floor under its weight, so that contacts cross
+// every share and block boundary, beside a disc thrown down past the exit line; force
+// blocks of 64 discs, on the threaded path.
+World SettlingPack(const WorldParams& params) {
+  SiloGeometry g;
+  g.elements = {WallSegment(-12, 0, 12, 0), WallSegment(-12, 0, -12, 60), WallSegment(12, 0, 12, 60)};
+  World w(params, {MakeTemplate(DumbbellSpecies(), 1.0, 0), MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
+  for (int row = 0; w.body_count() < 600; ++row) {
+    const double offset = 0.5 * (row % 2), y = 0.5 + 0.866 * row;
+    const int places = 24 - row % 2;
+    for (int c = 0; c < places; ++c) {
+      const double x = -11.5 + offset + c;
+      if (c % 5 == 1 && c + 1 < places) {
+        w.AddBody(0, x + 0.5, y, 0.0);
+        ++c;
+      } else {
+        w.AddBody(1, x, y, 0.0);
+      }
+    }
+  }
+  const int probe = w.AddBody(1, 40.0, 0.0, 0.0);
+  w.SetVelocity(probe, 0.0, -5.0, 0.0);
+  w.SetExitBox(-50.0, 50.0, -1.0);
+  w.ComputeForces();
+  return w;
+}
+
+WorldParams ThreadedParams() {
+  WorldParams p;
+  p.parallel_min_discs = 0;
+  p.force_block = 64;
+  return p;
+}
+
+bool SameState(const World& a, const World& b) {
+  auto same = [](const std::vector<double>& x, const std::vector<double>& y) {
+    return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0;
+  };
+  return same(a.bx_, b.bx_) && same(a.by_, b.by_) && same(a.bth_, b.bth_) && same(a.bvx_, b.bvx_) &&
+         same(a.bvy_, b.bvy_) && same(a.bw_, b.bw_) && same(a.bfx_, b.bfx_) && same(a.btq_, b.btq_);
+}
+
+struct ThreadCount {
+  explicit ThreadCount(int n) : before(omp_get_max_threads()) { omp_set_num_threads(n); }
+  ~ThreadCount() { omp_set_num_threads(before); }
+  int before;
+};
+
+// World::Steps runs steps without a rebuild in one parallel region and returns at the first
+// step that leaves a body beyond the exit box: the same bits, the same rebuilds and the same
+// step for the exit as one Step at a time.
+TEST(World, StepsInOneRegionGiveTheBitsOfSingleSteps) {
+  constexpr int kSteps = 2500;
+  ThreadCount two(2);
+  World single = SettlingPack(ThreadedParams());
+  int single_exit = -1;
+  for (int s = 1; s <= kSteps; ++s) {
+    single.Step();
+    if (single.beyond_exit_box() && single_exit < 0) single_exit = s;
+  }
+  World many = SettlingPack(ThreadedParams());
+  int many_exit = -1, done = 0, calls = 0;
+  while (done < kSteps) {
+    done += many.Steps(std::min(400, kSteps - done));
+    ++calls;
+    if (many.beyond_exit_box() && many_exit < 0) many_exit = done;
+  }
+  EXPECT_EQ(done, kSteps);
+  EXPECT_GT(single_exit, 1000);  // the probe falls 1 d at 5 d per time unit: about step 2000
+  EXPECT_EQ(many_exit, single_exit);
+  EXPECT_LT(calls, kSteps - single_exit + 50);  // steps before the exit went several at a time
+  EXPECT_GT(single.rebuilds(), 5);
+  EXPECT_EQ(many.rebuilds(), single.rebuilds());
+  EXPECT_TRUE(SameState(single, many));
+}
+
+// The threads' shares of the work may start anywhere (the measured rebalancing moves them):
+// shifted either way, two threads give the bits of one.
+TEST(World, ShareSplitsChangeNoBit) {
+  auto run = [](int threads, double shift) {
+    ThreadCount count(threads);
+    WorldParams p = ThreadedParams();
+    p.rebalance_shares = false;
+    p.share_shift = shift;
+    World w = SettlingPack(p);
+    for (int done = 0; done < 1500;) done += w.Steps(1500 - done);
+    return w;
+  };
+  const World one = run(1, 0.0);
+  EXPECT_GT(one.rebuilds(), 3);
+  for (const double shift : {-0.2, -0.05, 0.0, 0.07, 0.2})
+    EXPECT_TRUE(SameState(one, run(2, shift))) << "shift " << shift;
 }
 
 }  // namespace
