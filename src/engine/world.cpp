@@ -790,10 +790,13 @@ std::int64_t World::NextForcePass() {
     share_done_count_ = threads;
     lead_sources_.resize(static_cast<std::size_t>(threads));
     step_done_ = std::make_unique<StepDone[]>(static_cast<std::size_t>(threads));
-    step_done_count_ = threads;
     thread_busy_ = std::make_unique<ThreadClock[]>(static_cast<std::size_t>(threads));
     balance_team_ = 0;
   }
+  share_team_ = 0;  // (so that the old table does not answer below)
+  share_starts_.resize(static_cast<std::size_t>(threads) + 1);
+  for (int t = 0; t <= threads; ++t) share_starts_[static_cast<std::size_t>(t)] = FindShareStart(t, threads);
+  share_team_ = threads;
   return ++force_pass_;
 }
 
@@ -817,6 +820,10 @@ void AwaitPass(const std::atomic<std::int64_t>& stamp, std::int64_t pass, double
 }  // namespace
 
 int World::ChunkShareStart(int t, int nt) const {
+  return nt == share_team_ ? share_starts_[static_cast<std::size_t>(t)] : FindShareStart(t, nt);
+}
+
+int World::FindShareStart(int t, int nt) const {
   const int n = disc_count(), nchunks = (body_count() + kBodyChunk - 1) / kBodyChunk;
   if (t <= 0) return 0;
   if (t >= nt) return nchunks;

@@ -193,8 +193,13 @@ class World {
   // discs [PairShareStart(t), PairShareStart(t + 1)) for the pair entries and sums.
   // The shares start even in list entries + discs; Rebalance moves them towards even
   // measured times.
+  // (NextForcePass works them out once per region, for omp_get_max_threads() threads;
+  // FindShareStart finds one.)
   int ChunkShareStart(int t, int nt) const;
   int PairShareStart(int t, int nt) const;
+  int FindShareStart(int t, int nt) const;
+  std::vector<int> share_starts_;  // ChunkShareStart(t, share_team_) for t = 0..share_team_
+  int share_team_ = 0;
   // The entries from the discs of i0's force block before i0 into discs [i0, i1), ascending
   // (thread t's, kept until the lists or the bounds change).
   const std::vector<int>& LeadSources(int t, int i0, int i1);
@@ -253,7 +258,6 @@ class World {
     int flags[2] = {0, 0};
   };
   std::unique_ptr<StepDone[]> step_done_;
-  int step_done_count_ = 0;
   // Steps without a rebuild in one parallel region (Steps); returns how many were taken.
   int StepsInOneRegion(int max_steps);
   // Thread t's of nt share of the drift (body chunks), publishing each chunk with `pass`.
@@ -279,7 +283,8 @@ class World {
   bool rebuild_predicted_ = true;
   std::vector<double> bradius_;  // per body: largest distance of a disc centre from the body's centre
   std::int64_t force_pass_ = 0;
-  // Numbers a force pass and sizes block_done_ and chunk_done_ (before the parallel region).
+  // Numbers a force pass, sizes the stamps and works out the shares (before the parallel
+  // region: lists and shares do not change inside one).
   std::int64_t NextForcePass();
 
   std::vector<DiscKin> kin_;
