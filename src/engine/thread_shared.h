@@ -37,4 +37,10 @@ struct PairAlignedAllocator {
 template <class T>
 using SharedTable = std::vector<T, PairAlignedAllocator<T>>;
 
+// An array the threads write in shares (per body, disc or list entry): aligned, so that a
+// share boundary at a whole body chunk (64 bodies, 512 bytes of doubles) is a boundary of
+// pairs too, and in whole pairs, so that no other data shares its first or last pair.
+template <class T>
+using StepArray = std::vector<T, PairAlignedAllocator<T>>;
+
 }  // namespace granary::engine

@@ -1301,8 +1301,9 @@ void World::ExportHistory(std::vector<HistoryEntry>& pairs, std::vector<HistoryE
 namespace {
 
 // Lays out history entries (sorted by i, then j) as a CSR list over n discs.
+template <class Doubles>
 void HistoryToCsr(const std::vector<HistoryEntry>& entries, int n, const char* what, std::vector<int>& start,
-                  std::vector<int>& other, std::vector<double>& sx, std::vector<double>& sy) {
+                  std::vector<int>& other, Doubles& sx, Doubles& sy) {
   start.assign(static_cast<std::size_t>(n) + 1, 0);
   other.clear();
   sx.clear();
@@ -1334,17 +1335,17 @@ WorldSnapshot World::Snapshot() {
   WorldSnapshot s;
   s.tmpl = tmpl_;
   s.active = active_;
-  s.x = bx_;
-  s.y = by_;
-  s.theta = bth_;
-  s.c = bc_;
-  s.s = bs_;
-  s.vx = bvx_;
-  s.vy = bvy_;
-  s.w = bw_;
-  s.fx = bfx_;
-  s.fy = bfy_;
-  s.torque = btq_;
+  s.x.assign(bx_.begin(), bx_.end());
+  s.y.assign(by_.begin(), by_.end());
+  s.theta.assign(bth_.begin(), bth_.end());
+  s.c.assign(bc_.begin(), bc_.end());
+  s.s.assign(bs_.begin(), bs_.end());
+  s.vx.assign(bvx_.begin(), bvx_.end());
+  s.vy.assign(bvy_.begin(), bvy_.end());
+  s.w.assign(bw_.begin(), bw_.end());
+  s.fx.assign(bfx_.begin(), bfx_.end());
+  s.fy.assign(bfy_.begin(), bfy_.end());
+  s.torque.assign(btq_.begin(), btq_.end());
   ExportHistory(s.pairs, s.walls);
   s.outlets_open = outlets_open_;
   s.rebuild_predicted = rebuild_predicted_;
@@ -1372,11 +1373,11 @@ void World::Restore(const WorldSnapshot& s) {
   }
   // The forces of the step the snapshot was taken at, and the integrated orientation (not
   // cos and sin of theta).
-  bfx_ = s.fx;
-  bfy_ = s.fy;
-  btq_ = s.torque;
-  bc_ = s.c;
-  bs_ = s.s;
+  bfx_.assign(s.fx.begin(), s.fx.end());
+  bfy_.assign(s.fy.begin(), s.fy.end());
+  btq_.assign(s.torque.begin(), s.torque.end());
+  bc_.assign(s.c.begin(), s.c.end());
+  bs_.assign(s.s.begin(), s.s.end());
   RefreshDiscs();
   outlets_open_ = s.outlets_open;
   ImportHistory(s.pairs, s.walls);  // rebuilds the lists

@@ -143,18 +143,18 @@ class World {
   // Body state (public SoA for the drivers, tests and writers).
   std::vector<int> tmpl_;
   std::vector<std::uint8_t> active_;
-  std::vector<double> bx_, by_, bth_, bvx_, bvy_, bw_, bfx_, bfy_, btq_, bmass_, binertia_;
+  StepArray<double> bx_, by_, bth_, bvx_, bvy_, bw_, bfx_, bfy_, btq_, bmass_, binertia_;
   // Orientation as (cos, sin), rotated by omega dt each step (no libm call per body and
   // step); theta is integrated alongside for reference. Checkpoints store both.
-  std::vector<double> bc_, bs_;
-  std::vector<double> binv_mass_, binv_inertia_;  // 1/M and 1/I (the step multiplies)
+  StepArray<double> bc_, bs_;
+  StepArray<double> binv_mass_, binv_inertia_;  // 1/M and 1/I (the step multiplies)
   std::vector<int> disc_begin_;  // per body; discs [disc_begin_[b], disc_begin_[b] + n)
   std::vector<int> disc_n_;
   // Disc state: owning body, radius, mass, body-frame offset, world position.
   std::vector<int> dbody_;
-  std::vector<double> dr_, dmass_, dox_, doy_, dx_, dy_;
+  StepArray<double> dr_, dmass_, dox_, doy_, dx_, dy_;
   // Per-disc accumulated force and torque about the disc centre (last force computation).
-  std::vector<double> dfx_, dfy_, dtz_;
+  StepArray<double> dfx_, dfy_, dtz_;
 
   // Contact forces of the last computation, for contact dumps: pair entries (i, j, force on i)
   // and wall entries.
@@ -289,22 +289,22 @@ class World {
   // region: lists and shares do not change inside one).
   std::int64_t NextForcePass();
 
-  std::vector<DiscKin> kin_;
+  StepArray<DiscKin> kin_;
   // Pair list (CSR over disc i, j > i sorted), with history, per-entry force and the
   // pair's constants R_eff and m_eff (computed at the rebuild).
   std::vector<int> nl_start_, nl_j_, nl_i_;  // nl_i_: disc i of each entry
-  std::vector<double> nl_sx_, nl_sy_, nl_fx_, nl_fy_, nl_c_, nl_reff_, nl_meff_;
+  StepArray<double> nl_sx_, nl_sy_, nl_fx_, nl_fy_, nl_c_, nl_reff_, nl_meff_;
   // Transpose of the entries whose disc j lies in a later force block than i: for disc j,
   // those entries in ascending i.
   std::vector<int> xl_start_, xl_entry_, xl_fill_;
   // Wall list (CSR over disc), with history; wl_i_: disc of each entry.
   std::vector<int> wl_start_, wl_e_, wl_i_;
-  std::vector<double> wl_sx_, wl_sy_, wl_fx_, wl_fy_;
+  StepArray<double> wl_sx_, wl_sy_, wl_fx_, wl_fy_;
   // Previous lists during a rebuild (history transfer).
   std::vector<int> old_start_, old_j_, old_wstart_, old_we_;
-  std::vector<double> old_sx_, old_sy_, old_wsx_, old_wsy_;
+  StepArray<double> old_sx_, old_sy_, old_wsx_, old_wsy_;
   // Reference positions of the last rebuild.
-  std::vector<double> refx_, refy_;
+  StepArray<double> refx_, refy_;
   // Cell grid.
   std::vector<int> cell_start_, cell_disc_, disc_cell_, cell_count_;
   std::vector<std::vector<int>> rebuild_partners_;  // per thread: partners found in a rebuild

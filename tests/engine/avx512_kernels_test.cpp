@@ -74,7 +74,8 @@ void Simd(Entries& s, const ContactParams& p, double dt) {
                     s.fx.data(), s.fy.data(), s.c.data(), s.kin.data(), p, dt);
 }
 
-bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
+template <class A, class B>
+bool SameBits(const A& a, const B& b) {  // (std::vector<double> or the world's StepArray<double>)
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
 }
 

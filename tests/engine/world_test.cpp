@@ -301,7 +301,7 @@ WorldParams ThreadedParams() {
 }
 
 bool SameState(const World& a, const World& b) {
-  auto same = [](const std::vector<double>& x, const std::vector<double>& y) {
+  auto same = [](const auto& x, const auto& y) {
     return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0;
   };
   return same(a.bx_, b.bx_) && same(a.by_, b.by_) && same(a.bth_, b.bth_) && same(a.bvx_, b.bvx_) &&
