@@ -16,6 +16,7 @@
 #include "engine/contact_law.h"
 #include "engine/geometry.h"
 #include "engine/shapes.h"
+#include "engine/thread_shared.h"
 
 namespace granary::engine {
 
@@ -198,7 +199,7 @@ class World {
   int ChunkShareStart(int t, int nt) const;
   int PairShareStart(int t, int nt) const;
   int FindShareStart(int t, int nt) const;
-  std::vector<int> share_starts_;  // ChunkShareStart(t, share_team_) for t = 0..share_team_
+  SharedTable<int> share_starts_;  // ChunkShareStart(t, share_team_) for t = 0..share_team_
   int share_team_ = 0;
   // The entries from the discs of i0's force block before i0 into discs [i0, i1), ascending
   // (thread t's, kept until the lists or the bounds change).
@@ -230,8 +231,9 @@ class World {
   int max_discs_ = 0;       // the most discs of any body
   bool use_avx512_ = false;  // params_.avx512_kernels and the CPU has AVX-512F
   // Which force pass each force block has finished (ForcePasses): a thread's body forces wait
-  // for the blocks they read, not for every thread at a barrier. One cache line each.
-  struct alignas(64) PassStamp {
+  // for the blocks they read, not for every thread at a barrier. A pair of cache lines each
+  // (thread_shared.h).
+  struct alignas(kThreadSharedAlign) PassStamp {
     std::atomic<std::int64_t> pass{-1};
   };
   std::unique_ptr<PassStamp[]> block_done_;
@@ -244,7 +246,7 @@ class World {
   // sums (ForcePasses).
   std::unique_ptr<PassStamp[]> share_done_;
   int share_done_count_ = 0;
-  struct alignas(64) LeadSourceCache {
+  struct alignas(kThreadSharedAlign) LeadSourceCache {
     std::int64_t rebuild = -1;
     int i0 = -1, i1 = -1;
     std::vector<int> entries;
@@ -253,7 +255,7 @@ class World {
   // Per thread, in a region of several steps (StepsInOneRegion): the last step it has
   // finished and its drift and force flags, in a slot by the step's parity (a thread is at
   // most one step ahead of another when it reads them).
-  struct alignas(64) StepDone {
+  struct alignas(kThreadSharedAlign) StepDone {
     std::atomic<std::int64_t> pass{-1};
     int flags[2] = {0, 0};
   };
@@ -269,15 +271,15 @@ class World {
   // cross between the cores). Which thread computes what changes no bit.
   void Rebalance(int nt, int steps);
   static constexpr int kBalanceEvery = 100;
-  struct alignas(64) ThreadClock {
+  struct alignas(kThreadSharedAlign) ThreadClock {
     double busy = 0.0;  // seconds worked, not waited, since the last Rebalance
   };
   std::unique_ptr<ThreadClock[]> thread_busy_;
   std::vector<double> share_shift_;  // per share boundary t: shift of its work target (a fraction of all work)
   int balance_team_ = 0;             // the team share_shift_ is for (0: none yet)
   int balance_steps_ = 0;
-  std::vector<int> block_last_partner_;  // per force block: its highest disc or partner j
-  std::vector<int> block_first_source_;  // per force block: first block with an entry into it
+  SharedTable<int> block_last_partner_;  // per force block: its highest disc or partner j
+  SharedTable<int> block_first_source_;  // per force block: first block with an entry into it
   // Set by the force pass: the next step must rebuild the lists (OutrunsSkin), so the
   // step knows it before its drift and needs no barrier to find out.
   bool rebuild_predicted_ = true;
