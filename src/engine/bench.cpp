@@ -71,9 +71,14 @@ nlohmann::json BenchSpec(const BenchOptions& options) {
 
 namespace {
 
+// The largest thread count of the runs (a round with two or more first measures the core round trip).
+int MostThreads(const BenchOptions& options) {
+  return *std::max_element(options.threads.begin(), options.threads.end());
+}
+
 // Prepares (or loads) the bench bed once with every thread of the list; not timed.
 ObtainedBed BenchBed(const BenchOptions& options, const nlohmann::json& spec, const fs::path& dir) {
-  omp_set_num_threads(*std::max_element(options.threads.begin(), options.threads.end()));
+  omp_set_num_threads(MostThreads(options));
   return ObtainBed(RunSpec::from_json(spec), dir.string(), [](double f, double t) {
     std::printf("bench: preparing bed fraction=%.3f t=%.4g\n", f, t);
     std::fflush(stdout);
@@ -135,9 +140,8 @@ std::vector<BenchResult> RunBenchmark(const BenchOptions& options) {
   const nlohmann::json spec = BenchSpec(options);
   BenchBed(options, spec, base);
   std::vector<BenchResult> results;
-  const bool several = *std::max_element(options.threads.begin(), options.threads.end()) > 1;
   for (int round = 1; round <= options.repeat; ++round) {
-    const double round_trip = several ? CoreRoundTripNs() : 0.0;
+    const double round_trip = MostThreads(options) > 1 ? CoreRoundTripNs() : 0.0;
     for (int threads : options.threads) {
       results.push_back(NativeRound(spec, base / ("t" + std::to_string(threads)), round, threads));
       if (threads > 1) results.back().core_round_trip_ns = round_trip;
@@ -157,6 +161,7 @@ std::vector<OutputCostResult> RunOutputCost(const BenchOptions& options, double 
   BenchBed(options, quiet, base);
   std::vector<OutputCostResult> results;
   for (int round = 1; round <= options.repeat; ++round) {
+    const double round_trip = MostThreads(options) > 1 ? CoreRoundTripNs() : 0.0;
     for (int threads : options.threads) {
       const BenchResult without = NativeRound(quiet, base / "none", round, threads);
       const fs::path dir = base / "frames";
@@ -173,7 +178,8 @@ std::vector<OutputCostResult> RunOutputCost(const BenchOptions& options, double 
         }
         if (first_block >= 0) bytes += static_cast<double>(offset - first_block);
       }
-      results.push_back({round, threads, without.disc_steps_per_s, with.disc_steps_per_s, bytes});
+      results.push_back({round, threads, without.disc_steps_per_s, with.disc_steps_per_s, bytes,
+                         threads > 1 ? round_trip : 0.0});
     }
   }
   fs::remove_all(base);
@@ -217,7 +223,7 @@ BedShape MeasureBed(const BedState& bed, const RunSpec& spec) {
 }
 
 std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::vector<BedProcedure>& procedures) {
-  omp_set_num_threads(*std::max_element(options.threads.begin(), options.threads.end()));
+  omp_set_num_threads(MostThreads(options));
   std::vector<BedPrepResult> results;
   for (int seed = 1; seed <= options.repeat; ++seed) {
     for (const BedProcedure& procedure : procedures) {
@@ -362,10 +368,11 @@ std::vector<VersusResult> RunBenchVersusLammps(const BenchOptions& options, cons
   WriteAtomically(dir / "in.bench", input.script);
   std::vector<VersusResult> results;
   for (int round = 1; round <= options.repeat; ++round) {
+    const double round_trip = MostThreads(options) > 1 ? CoreRoundTripNs() : 0.0;
     for (int threads : options.threads) {
       const double lammps = LammpsRound(dir, threads);
       const BenchResult native = NativeRound(spec_json, dir / "native", round, threads);
-      results.push_back({round, threads, native.disc_steps_per_s, lammps});
+      results.push_back({round, threads, native.disc_steps_per_s, lammps, threads > 1 ? round_trip : 0.0});
     }
   }
   fs::remove_all(dir / "native");

@@ -30,6 +30,7 @@ struct OutputCostResult {
   double without;              // disc-steps per second without output
   double with;                 // ... with frames and contact frames every interval
   double bytes;                // bytes of frames.dump and contacts.dump written in the timed steps
+  double core_round_trip_ns = 0.0;  // measured before the round when it has two threads or more (CoreRoundTripNs)
 };
 
 // What output costs: `repeat` rounds, each over the thread counts, each the bench case run
@@ -96,6 +97,7 @@ struct VersusResult {
   int threads;                // native threads and LAMMPS MPI ranks
   double native;              // disc-steps per second
   double lammps;              // atom-steps per second (LoopTimeRate)
+  double core_round_trip_ns = 0.0;  // measured before the round when it has two threads or more (CoreRoundTripNs)
 };
 
 // What a settled bed looks like, for comparing preparation procedures: its top (the highest

@@ -72,10 +72,11 @@ constexpr char kBenchHelp[] =
     "disc-steps per second. Bed preparation is not timed. With --repeat N, N rounds over the\n"
     "thread counts, then per thread count the best and median rate and the median speed-up\n"
     "over the first thread count (a round's runs share the machine's state). Before a round\n"
-    "with two threads or more, two threads hand a cache line back and forth: its round trip\n"
-    "(core_round_trip_ns, 0 if the second got no core) is what every line crossing between\n"
-    "the threads' shares costs, and on a virtual machine it moves when the host moves the\n"
-    "virtual CPUs (100 or 500 ns on the CI machine), and two-thread rates with it.\n"
+    "with two threads or more (in every mode), two threads hand a cache line back and forth:\n"
+    "its round trip (core_round_trip_ns on the two-thread lines, 0 if the second thread got\n"
+    "no core) is what every line crossing between the threads' shares costs, and on a\n"
+    "virtual machine it moves when the host moves the virtual CPUs (100 or 500 ns on the\n"
+    "CI machine), and two-thread rates with it.\n"
     "  --shape S     disc (d = 1), dumbbell, or mixture (ch. 4: half dumbbells, half discs of\n"
     "                diameter sqrt(2) d, by number)\n"
     "  --bed FILE    where the settled bed is cached (default: granary-bench-bed-S-N-KEY.json\n"
@@ -144,8 +145,10 @@ int BenchVersusLammps(const BenchOptions& options, const std::string& dir) {
   std::map<int, std::vector<double>> native, lammps;
   for (const VersusResult& r : results) {
     const std::string tag = options.repeat > 1 ? "round=" + std::to_string(r.round) + " " : "";
-    std::printf("%sthreads=%d lammps_disc_steps_per_s=%.4g native_disc_steps_per_s=%.4g native/lammps=%.2f\n",
+    std::printf("%sthreads=%d lammps_disc_steps_per_s=%.4g native_disc_steps_per_s=%.4g native/lammps=%.2f",
                 tag.c_str(), r.threads, r.lammps, r.native, r.native / r.lammps);
+    if (r.threads > 1) std::printf(" core_round_trip_ns=%.0f", r.core_round_trip_ns);
+    std::printf("\n");
     native[r.threads].push_back(r.native);
     lammps[r.threads].push_back(r.lammps);
   }
@@ -169,8 +172,10 @@ int BenchOutputCost(const BenchOptions& options, double interval) {
   for (const OutputCostResult& r : RunOutputCost(options, interval)) {
     const double cost = 1.0 - r.with / r.without;
     if (options.repeat > 1) std::printf("round=%d ", r.round);
-    std::printf("threads=%d without_output=%.4g with_output=%.4g output_cost=%.1f%% bytes=%.4g\n", r.threads, r.without,
+    std::printf("threads=%d without_output=%.4g with_output=%.4g output_cost=%.1f%% bytes=%.4g", r.threads, r.without,
                 r.with, 100.0 * cost, r.bytes);
+    if (r.threads > 1) std::printf(" core_round_trip_ns=%.0f", r.core_round_trip_ns);
+    std::printf("\n");
     costs[r.threads].push_back(cost);
   }
   if (options.repeat > 1)

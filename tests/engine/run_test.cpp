@@ -565,6 +565,60 @@ TEST(Run, BenchRepeatsRoundsAndSummarises) {
   }
 }
 
+// The number after `key=` in `line` (the bench's key=value output).
+double ValueAfter(const std::string& line, const std::string& key) {
+  const std::size_t at = line.find(key + "=");
+  if (at == std::string::npos) ADD_FAILURE() << "no " << key << " in: " << line;
+  return at == std::string::npos ? -1.0 : std::stod(line.substr(at + key.size() + 1));
+}
+
+// bench --output-cost: per round and thread count the rate without and with frames and contact
+// frames, what that costs and the bytes written; then the median cost per thread count.
+TEST(Run, BenchOutputCostRunsTheCaseWithoutAndWithOutput) {
+  const fs::path dir = FreshDir("bench-output");
+  const auto [status, out] = RunExeOutput("bench --shape disc --bodies 200 --steps 200 --output-cost 0.005 "
+                                          "--threads-list 1,2 --repeat 2 --bed " + (dir / "bed.json").string());
+  ASSERT_EQ(status, 0) << out;
+  const std::vector<std::string> rounds = LinesStartingWith(out, "round="), summaries = LinesStartingWith(out, "summary ");
+  ASSERT_EQ(rounds.size(), 4u) << out;
+  for (const std::string& line : rounds) {
+    EXPECT_GT(ValueAfter(line, "without_output"), 0.0) << line;
+    EXPECT_GT(ValueAfter(line, "with_output"), 0.0) << line;
+    // 200 steps of 1e-4 with frames every 0.005: four frames and four contact frames after t = 0
+    EXPECT_GT(ValueAfter(line, "bytes"), 8 * 200 * 10.0) << line;
+    const double cost = 1.0 - ValueAfter(line, "with_output") / ValueAfter(line, "without_output");
+    EXPECT_NEAR(ValueAfter(line, "output_cost"), 100.0 * cost, 0.06) << line;
+  }
+  EXPECT_EQ(rounds[2].find("core_round_trip_ns"), std::string::npos) << rounds[2];
+  EXPECT_GE(ValueAfter(rounds[3], "core_round_trip_ns"), 0.0);
+  ASSERT_EQ(summaries.size(), 2u) << out;
+  EXPECT_EQ(summaries[1].rfind("summary threads=2 rounds=2 median_output_cost=", 0), 0u) << summaries[1];
+}
+
+// bench --versus lammps: the same settled bed on Debian's LAMMPS (one rank, then two under
+// mpirun) and on the engine (one thread, then two), with the input LAMMPS ran kept.
+TEST(Run, BenchVersusLammpsRunsBothEnginesOnTheSameBed) {
+  const fs::path dir = FreshDir("bench-versus");
+  const auto [status, out] = RunExeOutput("bench --shape disc --bodies 200 --steps 100 --versus lammps "
+                                          "--threads-list 1,2 --bed " + (dir / "bed.json").string() +
+                                          " --lammps-dir " + (dir / "lammps").string());
+  ASSERT_EQ(status, 0) << out;
+  const std::vector<std::string> rows = LinesStartingWith(out, "threads=");
+  ASSERT_EQ(rows.size(), 2u) << out;
+  for (const std::string& line : rows) {
+    const double lammps = ValueAfter(line, "lammps_disc_steps_per_s"), native = ValueAfter(line, "native_disc_steps_per_s");
+    EXPECT_GT(lammps, 0.0) << line;
+    EXPECT_GT(native, 0.0) << line;
+    EXPECT_NEAR(ValueAfter(line, "native/lammps"), native / lammps, 0.01 * native / lammps + 0.006) << line;
+  }
+  EXPECT_GE(ValueAfter(rows[1], "core_round_trip_ns"), 0.0);
+  // LAMMPS read the bed's 200 discs and ran the steps asked for
+  const std::string log = Slurp(dir / "lammps" / "log.lammps");
+  EXPECT_NE(log.find("200 atoms"), std::string::npos) << log.substr(0, 2000);
+  EXPECT_NE(log.find("for 100 steps with 200 atoms"), std::string::npos) << log.substr(0, 2000);
+  EXPECT_TRUE(fs::exists(dir / "lammps" / "in.bench"));
+}
+
 // bench --bed-prep: per replica a line for the old procedure (1 x step, fixed wait) and the new
 // one (8 x, next batch on landing), then per procedure a summary over the replicas and the
 // speed-up line (a bed of 60 discs, about a second).
