@@ -586,8 +586,9 @@ TEST(Run, BenchOutputCostRunsTheCaseWithoutAndWithOutput) {
     EXPECT_GT(ValueAfter(line, "with_output"), 0.0) << line;
     // 200 steps of 1e-4 with frames every 0.005: four frames and four contact frames after t = 0
     EXPECT_GT(ValueAfter(line, "bytes"), 8 * 200 * 10.0) << line;
+    // (the rates are printed to 4 digits: each off by up to 5e-4 of itself)
     const double cost = 1.0 - ValueAfter(line, "with_output") / ValueAfter(line, "without_output");
-    EXPECT_NEAR(ValueAfter(line, "output_cost"), 100.0 * cost, 0.06) << line;
+    EXPECT_NEAR(ValueAfter(line, "output_cost"), 100.0 * cost, 0.06 + 0.11 * (1.0 - cost)) << line;
   }
   EXPECT_EQ(rounds[2].find("core_round_trip_ns"), std::string::npos) << rounds[2];
   EXPECT_GE(ValueAfter(rounds[3], "core_round_trip_ns"), 0.0);
