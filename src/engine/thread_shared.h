@@ -1,9 +1,7 @@
-// Storage that the threads of a step share, each piece alone in an aligned pair of cache
-// lines. x86 CPUs move lines between cores in aligned 128-byte pairs as well as alone (the
-// spatial prefetcher), so a table that both threads read all the time must not share a pair
-// with data that one of them writes every step: the share-start table, 12 bytes on the
-// general heap next to the threads' step stamps, cost the dumbbells 6 % at two threads
-// (docs/benchmarks.md, 2026-11-24).
+// Storage that the threads of a step share, in aligned pairs of cache lines of its own. x86
+// CPUs move lines between cores in aligned 128-byte pairs as well as alone (the spatial
+// prefetcher), so data that one thread writes in a step must not share a pair with data that
+// another thread reads or writes (measured: docs/benchmarks.md, 2026-11-24).
 #pragma once
 
 #include <cstddef>
@@ -33,14 +31,10 @@ struct PairAlignedAllocator {
   }
 };
 
-// A table the threads read in every step (written between parallel regions).
+// A vector the threads share in a step: a table they all read (written between parallel
+// regions), or an array they write in shares (per body, disc or list entry). Aligned, a share
+// boundary at a whole body chunk (64 bodies, 512 bytes of doubles) is a boundary of pairs too.
 template <class T>
-using SharedTable = std::vector<T, PairAlignedAllocator<T>>;
-
-// An array the threads write in shares (per body, disc or list entry): aligned, so that a
-// share boundary at a whole body chunk (64 bodies, 512 bytes of doubles) is a boundary of
-// pairs too, and in whole pairs, so that no other data shares its first or last pair.
-template <class T>
-using StepArray = std::vector<T, PairAlignedAllocator<T>>;
+using SharedVector = std::vector<T, PairAlignedAllocator<T>>;
 
 }  // namespace granary::engine

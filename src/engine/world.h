@@ -143,18 +143,18 @@ class World {
   // Body state (public SoA for the drivers, tests and writers).
   std::vector<int> tmpl_;
   std::vector<std::uint8_t> active_;
-  StepArray<double> bx_, by_, bth_, bvx_, bvy_, bw_, bfx_, bfy_, btq_, bmass_, binertia_;
+  SharedVector<double> bx_, by_, bth_, bvx_, bvy_, bw_, bfx_, bfy_, btq_, bmass_, binertia_;
   // Orientation as (cos, sin), rotated by omega dt each step (no libm call per body and
   // step); theta is integrated alongside for reference. Checkpoints store both.
-  StepArray<double> bc_, bs_;
-  StepArray<double> binv_mass_, binv_inertia_;  // 1/M and 1/I (the step multiplies)
+  SharedVector<double> bc_, bs_;
+  SharedVector<double> binv_mass_, binv_inertia_;  // 1/M and 1/I (the step multiplies)
   std::vector<int> disc_begin_;  // per body; discs [disc_begin_[b], disc_begin_[b] + n)
   std::vector<int> disc_n_;
   // Disc state: owning body, radius, mass, body-frame offset, world position.
   std::vector<int> dbody_;
-  StepArray<double> dr_, dmass_, dox_, doy_, dx_, dy_;
+  SharedVector<double> dr_, dmass_, dox_, doy_, dx_, dy_;
   // Per-disc accumulated force and torque about the disc centre (last force computation).
-  StepArray<double> dfx_, dfy_, dtz_;
+  SharedVector<double> dfx_, dfy_, dtz_;
 
   // Contact forces of the last computation, for contact dumps: pair entries (i, j, force on i)
   // and wall entries.
@@ -199,7 +199,7 @@ class World {
   int ChunkShareStart(int t, int nt) const;
   int PairShareStart(int t, int nt) const;
   int FindShareStart(int t, int nt) const;
-  SharedTable<int> share_starts_;  // ChunkShareStart(t, share_team_) for t = 0..share_team_
+  SharedVector<int> share_starts_;  // ChunkShareStart(t, share_team_) for t = 0..share_team_
   int share_team_ = 0;
   // The entries from the discs of i0's force block before i0 into discs [i0, i1), ascending
   // (thread t's, kept until the lists or the bounds change).
@@ -278,8 +278,8 @@ class World {
   std::vector<double> share_shift_;  // per share boundary t: shift of its work target (a fraction of all work)
   int balance_team_ = 0;             // the team share_shift_ is for (0: none yet)
   int balance_steps_ = 0;
-  SharedTable<int> block_last_partner_;  // per force block: its highest disc or partner j
-  SharedTable<int> block_first_source_;  // per force block: first block with an entry into it
+  SharedVector<int> block_last_partner_;  // per force block: its highest disc or partner j
+  SharedVector<int> block_first_source_;  // per force block: first block with an entry into it
   // Set by the force pass: the next step must rebuild the lists (OutrunsSkin), so the
   // step knows it before its drift and needs no barrier to find out.
   bool rebuild_predicted_ = true;
@@ -289,22 +289,22 @@ class World {
   // region: lists and shares do not change inside one).
   std::int64_t NextForcePass();
 
-  StepArray<DiscKin> kin_;
+  SharedVector<DiscKin> kin_;
   // Pair list (CSR over disc i, j > i sorted), with history, per-entry force and the
   // pair's constants R_eff and m_eff (computed at the rebuild).
   std::vector<int> nl_start_, nl_j_, nl_i_;  // nl_i_: disc i of each entry
-  StepArray<double> nl_sx_, nl_sy_, nl_fx_, nl_fy_, nl_c_, nl_reff_, nl_meff_;
+  SharedVector<double> nl_sx_, nl_sy_, nl_fx_, nl_fy_, nl_c_, nl_reff_, nl_meff_;
   // Transpose of the entries whose disc j lies in a later force block than i: for disc j,
   // those entries in ascending i.
   std::vector<int> xl_start_, xl_entry_, xl_fill_;
   // Wall list (CSR over disc), with history; wl_i_: disc of each entry.
   std::vector<int> wl_start_, wl_e_, wl_i_;
-  StepArray<double> wl_sx_, wl_sy_, wl_fx_, wl_fy_;
+  SharedVector<double> wl_sx_, wl_sy_, wl_fx_, wl_fy_;
   // Previous lists during a rebuild (history transfer).
   std::vector<int> old_start_, old_j_, old_wstart_, old_we_;
-  StepArray<double> old_sx_, old_sy_, old_wsx_, old_wsy_;
+  SharedVector<double> old_sx_, old_sy_, old_wsx_, old_wsy_;
   // Reference positions of the last rebuild.
-  StepArray<double> refx_, refy_;
+  SharedVector<double> refx_, refy_;
   // Cell grid.
   std::vector<int> cell_start_, cell_disc_, disc_cell_, cell_count_;
   std::vector<std::vector<int>> rebuild_partners_;  // per thread: partners found in a rebuild

@@ -75,7 +75,7 @@ void Simd(Entries& s, const ContactParams& p, double dt) {
 }
 
 template <class A, class B>
-bool SameBits(const A& a, const B& b) {  // (std::vector<double> or the world's StepArray<double>)
+bool SameBits(const A& a, const B& b) {  // (std::vector<double> or the world's SharedVector<double>)
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
 }
 
