@@ -360,5 +360,20 @@ TEST(World, ShareSplitsChangeNoBit) {
     EXPECT_TRUE(SameState(one, run(2, shift))) << "shift " << shift;
 }
 
+// What the threads write in shares starts on an aligned pair of cache lines (thread_shared.h),
+// so that a share boundary at a whole body chunk shares no pair between two threads: a layout
+// the bench measures (docs/benchmarks.md), kept by this check.
+TEST(World, ArraysTheThreadsShareStartOnPairsOfCacheLines) {
+  auto on_pair = [](const void* p) { return reinterpret_cast<std::uintptr_t>(p) % kThreadSharedAlign == 0; };
+  for (const std::size_t n : {1u, 3u, 17u, 1000u}) {
+    const SharedVector<int> a(n), b(n);
+    EXPECT_TRUE(on_pair(a.data()) && on_pair(b.data())) << n;
+  }
+  const World w = SettlingPack(ThreadedParams());
+  for (const auto* v : {&w.bx_, &w.by_, &w.bth_, &w.bvx_, &w.bvy_, &w.bw_, &w.bc_, &w.bs_, &w.bfx_, &w.bfy_, &w.btq_,
+                        &w.dx_, &w.dy_, &w.dfx_, &w.dfy_, &w.dtz_})
+    EXPECT_TRUE(on_pair(v->data()));
+}
+
 }  // namespace
 }  // namespace granary::engine
