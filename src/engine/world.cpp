@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -287,7 +288,7 @@ void World::Rebuild() {
 #pragma omp single
     {
       nl_start_[0] = 0;
-      for (int i = 0; i < n; ++i) nl_start_[i + 1] += nl_start_[i];
+      std::partial_sum(nl_start_.begin(), nl_start_.end(), nl_start_.begin());  // counts to offsets
       const std::size_t m = static_cast<std::size_t>(nl_start_[n]);
       nl_j_.resize(m);
       nl_i_.resize(m);
@@ -347,7 +348,7 @@ void World::Rebuild() {
         first = std::min(first, i / block);
       }
   }
-  for (int i = 0; i < n; ++i) xl_start_[i + 1] += xl_start_[i];
+  std::partial_sum(xl_start_.begin(), xl_start_.end(), xl_start_.begin());
   xl_fill_.assign(xl_start_.begin(), xl_start_.end() - 1);
   xl_entry_.resize(static_cast<std::size_t>(xl_start_[n]));
   for (int i = 0; i < n; ++i) {
@@ -398,7 +399,7 @@ void World::Rebuild() {
 #pragma omp single
     {
       wl_start_[0] = 0;
-      for (int i = 0; i < n; ++i) wl_start_[i + 1] += wl_start_[i];
+      std::partial_sum(wl_start_.begin(), wl_start_.end(), wl_start_.begin());
       const std::size_t m = static_cast<std::size_t>(wl_start_[n]);
       wl_e_.resize(m);
       wl_i_.resize(m);
@@ -793,7 +794,6 @@ std::int64_t World::NextForcePass() {
     thread_busy_ = std::make_unique<ThreadClock[]>(static_cast<std::size_t>(threads));
     balance_team_ = 0;
   }
-  share_team_ = 0;  // (so that the old table does not answer below)
   share_starts_.resize(static_cast<std::size_t>(threads) + 1);
   for (int t = 0; t <= threads; ++t) share_starts_[static_cast<std::size_t>(t)] = FindShareStart(t, threads);
   share_team_ = threads;
@@ -1317,7 +1317,7 @@ void HistoryToCsr(const std::vector<HistoryEntry>& entries, int n, const char* w
     sx.push_back(h.sx);
     sy.push_back(h.sy);
   }
-  for (int i = 0; i < n; ++i) start[i + 1] += start[i];
+  std::partial_sum(start.begin(), start.end(), start.begin());
 }
 
 }  // namespace
