@@ -89,6 +89,7 @@ struct RunView {
   std::string end_reason;
   bool remove_mode = true;
   bool stop_on_clog = true;           // the spec's /discharge/stop_on_clog
+  std::string on_clog = "stop";       // the spec's /discharge/on_clog: "stop", "wait" or "unclog"
   int bodies = 0;                     // in the silo at the opening
   int exited = 0;
   int undischarged = 0;               // left in the silo at the end

@@ -34,7 +34,7 @@ std::vector<double> ClogSeries::clogged_times() const {
 }
 
 RunEnd run_end_of(const std::string& end_reason) {
-  if (end_reason == "clogged") return RunEnd::kClogged;
+  if (end_reason == "clogged" || end_reason == "max_clogs") return RunEnd::kClogged;
   if (end_reason == "discharged") return RunEnd::kDischarged;
   return RunEnd::kOther;
 }
@@ -72,6 +72,18 @@ ClogSeries clog_series(std::span<const rundir::ExitEvent> events, int outlet, do
   return s;
 }
 
+std::vector<double> avalanches_between_unclogs(std::span<const rundir::ExitEvent> events, int outlet,
+                                               std::span<const double> unclog_times, RunEnd end) {
+  std::vector<double> sizes(unclog_times.size() + 1, 0.0);
+  for (const auto& e : events) {
+    if (outlet >= 0 && e.outlet != outlet) continue;
+    const auto k = std::upper_bound(unclog_times.begin(), unclog_times.end(), e.time) - unclog_times.begin();
+    sizes[static_cast<std::size_t>(k)] += 1.0;
+  }
+  if (end != RunEnd::kClogged) sizes.pop_back();
+  return sizes;
+}
+
 IntermittencyStats intermittency(std::span<const ClogSeries> runs) {
   IntermittencyStats st;
   std::vector<double> tf, tc;
@@ -102,35 +114,52 @@ AvalancheStats avalanche_stats(std::span<const double> sizes, int bins, double t
 
 ClogIndex clogging_index(std::span<const ClogRun> runs, int min_exits, double stagnant) {
   ClogIndex ci;
-  std::vector<const ClogRun*> kept;
+  std::vector<const ClogRun*> used, unfinished;
   std::vector<double> free_remaining;
   for (const auto& r : runs) {
-    if (r.clogged && r.exited < min_exits) {
+    if (r.end == RunEnd::kOther) {
+      unfinished.push_back(&r);
+    } else if (r.end == RunEnd::kClogged && r.exited < min_exits) {
       ++ci.discarded;
-      continue;
-    }
-    kept.push_back(&r);
-    if (r.clogged) {
+    } else if (r.end == RunEnd::kClogged) {
+      used.push_back(&r);
       ++ci.clogged;
     } else {
+      used.push_back(&r);
+      ++ci.discharged;
       free_remaining.push_back(r.undischarged);
     }
   }
+  ci.unfinished = static_cast<int>(unfinished.size());
   if (stagnant >= 0.0) {
     ci.n_stagnant = stagnant;
   } else if (!free_remaining.empty()) {
     ci.n_stagnant = mean_se(free_remaining).mean;
   } else {
-    ci.n_stagnant = 0.0;
-    ci.note = "no run discharged freely: N_u = 0 assumed";
+    ci.note = "N_u missing: no run discharged, so Psi is not defined";
+    return ci;
   }
+  auto term = [&](const ClogRun& r) {
+    const double denominator = r.bodies - ci.n_stagnant;
+    return denominator > 0.0 ? (r.undischarged - ci.n_stagnant) / denominator : kNaN;
+  };
   std::vector<double> psi;
-  for (const ClogRun* r : kept) {
-    const double denominator = r->bodies - ci.n_stagnant;
-    if (denominator <= 0.0) continue;
-    psi.push_back((r->undischarged - ci.n_stagnant) / denominator);
-  }
+  for (const ClogRun* r : used)
+    if (const double x = term(*r); std::isfinite(x)) psi.push_back(x);
   ci.psi = mean_se(psi);
+  if (!unfinished.empty()) {
+    std::vector<double> low = psi, high = psi;
+    for (const ClogRun* r : unfinished) {
+      if (const double x = term(*r); std::isfinite(x)) {
+        low.push_back(0.0);
+        high.push_back(std::max(0.0, x));
+      }
+    }
+    if (!low.empty()) {
+      ci.psi_low = mean_se(low).mean;
+      ci.psi_high = mean_se(high).mean;
+    }
+  }
   return ci;
 }
 

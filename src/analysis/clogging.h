@@ -49,6 +49,14 @@ struct ClogSeries {
 ClogSeries clog_series(std::span<const rundir::ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end,
                        bool engine_stops_on_clog = false);
 
+// Avalanche sizes of a run whose engine broke its clogs (discharge/on_clog "unclog"): the exits
+// (of outlet `outlet`, or all when < 0) between one unclog and the next, cut at `unclog_times`
+// (the first attempt on each clog, in time order), the first from the opening. The stretch
+// after the last unclog is an avalanche when the run ended in a clog (`end` kClogged: its last
+// clog, max_clogs, or one the protocol could not break), else it was cut short and is not.
+std::vector<double> avalanches_between_unclogs(std::span<const rundir::ExitEvent> events, int outlet,
+                                               std::span<const double> unclog_times, RunEnd end);
+
 // t_f, t_c and N_u of one outlet, pooled over several runs (each run's series).
 struct IntermittencyStats {
   MeanSe t_flowing;                 // <t_f> over complete flowing stretches
@@ -68,23 +76,35 @@ struct AvalancheStats {
 // tail_from < 0: the tail starts at the median size.
 AvalancheStats avalanche_stats(std::span<const double> sizes, int bins = 20, double tail_from = -1.0);
 
-// One run's numbers for eq. 3.1.
+// One run's numbers for eq. 3.1. `end` is how the run ended for the index: kClogged (an
+// arch sealed an outlet for good), kDischarged (the silo ran out of what can flow: what is left
+// is the stagnant zones), or kOther: neither (it reached its time limit while flowing, or was
+// cut short), which says nothing of either count and is left out.
 struct ClogRun {
-  bool clogged = false;             // the run ended because it clogged
+  RunEnd end = RunEnd::kOther;
   int bodies = 0;                   // N_total
   int undischarged = 0;             // N_undis (remaining)
   int exited = 0;
 };
 
-// Psi = (1/n) sum_i (N_undis,i - N_u) / (N_total - N_u), N_u = mean N_undis of the runs
-// that did not clog (`stagnant` if given, i.e. >= 0; else from `runs`). Runs that clogged
-// with fewer than `min_exits` exits are discarded (ch. 3). If no run is non-clogged and no
-// `stagnant` is given, N_u = 0 and the note says so.
+// Psi = (1/n) sum_i (N_undis,i - N_u) / (N_total - N_u) over the runs that clogged or
+// discharged, N_u the mean N_undis of the runs that discharged (`stagnant` if given, i.e.
+// >= 0; else from `runs`). Runs that clogged with fewer than `min_exits` exits are discarded
+// (ch. 3). Runs that did neither are left out: their N_undis is only an upper bound of what
+// they would have left. Without a discharged run and without `stagnant`, N_u is missing and so
+// is Psi (the note says so; N_u = 0 would make every clogged run count as if the stagnant
+// zones had flowed out).
 struct ClogIndex {
-  MeanSe psi;                       // over the kept runs; se is the replica standard error
-  double n_stagnant = kNaN;         // N_u used
-  int discarded = 0;
-  int clogged = 0;
+  MeanSe psi;                       // over the used runs; se is the replica standard error; NaN without N_u
+  double n_stagnant = kNaN;         // N_u used; NaN: missing
+  int clogged = 0;                  // clogged runs used
+  int discharged = 0;               // discharged runs used
+  int discarded = 0;                // clogged before min_exits
+  int unfinished = 0;               // neither clogged nor discharged: left out
+  // With the left-out runs counted too, each between having discharged afterwards (0) and
+  // having clogged at its end (its N_undis now): the range Psi could take had they finished.
+  double psi_low = kNaN;
+  double psi_high = kNaN;
   std::string note;
 };
 ClogIndex clogging_index(std::span<const ClogRun> runs, int min_exits = 100, double stagnant = -1.0);

@@ -245,6 +245,7 @@ RunView make_run_view(const rundir::RunData& data, const PassOptions& pass) {
   v.end_reason = data.summary.end_reason;
   v.remove_mode = discharge.value("mode", std::string("remove")) == "remove";
   v.stop_on_clog = discharge.value("stop_on_clog", true);
+  v.on_clog = discharge.value("on_clog", std::string(v.stop_on_clog ? "stop" : "wait"));
   v.bodies = data.summary.bodies;
   if (v.bodies == 0 && spec.is_object() && spec.contains("bodies")) v.bodies = spec.at("bodies").value("count", 0);
   v.exited = data.has_summary ? data.summary.exited : static_cast<int>(data.events.size());

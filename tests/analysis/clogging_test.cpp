@@ -109,25 +109,80 @@ TEST(Avalanches, MeanHistogramAndTail) {
 }
 
 TEST(ClogIndex, Equation31WithDiscardRule) {
+  constexpr RunEnd kC = RunEnd::kClogged, kD = RunEnd::kDischarged;
   const std::vector<ClogRun> runs = {
-      {false, 1000, 50, 950},   // free: stagnant 50
-      {false, 1000, 70, 930},   // free: stagnant 70 -> N_u = 60
-      {true, 1000, 560, 440},
-      {true, 1000, 950, 50},    // clogged before 100 left: discarded
-      {true, 1000, 300, 700},
+      {kD, 1000, 50, 950},   // free: stagnant 50
+      {kD, 1000, 70, 930},   // free: stagnant 70 -> N_u = 60
+      {kC, 1000, 560, 440},
+      {kC, 1000, 950, 50},    // clogged before 100 left: discarded
+      {kC, 1000, 300, 700},
   };
   const ClogIndex ci = clogging_index(runs, 100);
   EXPECT_DOUBLE_EQ(ci.n_stagnant, 60.0);
   EXPECT_EQ(ci.discarded, 1);
   EXPECT_EQ(ci.clogged, 2);
+  EXPECT_EQ(ci.discharged, 2);
+  EXPECT_EQ(ci.unfinished, 0);
   EXPECT_EQ(ci.psi.n, 4);
   EXPECT_NEAR(ci.psi.mean, (500.0 - 10.0 + 10.0 + 240.0) / 940.0 / 4.0, 1e-14);
-  // All clogged and no stagnant count known: N_u = 0 and said so.
-  const std::vector<ClogRun> all_clogged = {{true, 100, 50, 50}, {true, 100, 30, 70}};
+  EXPECT_TRUE(std::isnan(ci.psi_low));
+  // All clogged and no stagnant count known: N_u and Psi are missing, and said so.
+  const std::vector<ClogRun> all_clogged = {{kC, 100, 50, 50}, {kC, 100, 30, 70}};
   const ClogIndex c2 = clogging_index(all_clogged, 10);
-  EXPECT_DOUBLE_EQ(c2.psi.mean, 0.4);
-  EXPECT_FALSE(c2.note.empty());
+  EXPECT_TRUE(std::isnan(c2.psi.mean));
+  EXPECT_EQ(c2.psi.n, 0);
+  EXPECT_TRUE(std::isnan(c2.n_stagnant));
+  EXPECT_NE(c2.note.find("N_u missing"), std::string::npos);
   EXPECT_DOUBLE_EQ(clogging_index(all_clogged, 10, 20.0).psi.mean, (30.0 / 80.0 + 10.0 / 80.0) / 2.0);
+}
+
+// Issue 29's case: 8000 dumbbells, W = 11 with max_time 150. Two runs clogged (7000 and 7286
+// left), one reached the time limit still flowing with 6080 inside; N_u = 860 from a full
+// discharge at W = 14. The time-limited run is neither clogged nor discharged: it is left out
+// and its 6080 is not N_u. Psi = ((7000 - 860) + (7286 - 860)) / 2 / 7140 = 0.88.
+TEST(ClogIndex, ARunThatReachedItsTimeLimitIsNeither) {
+  const std::vector<ClogRun> w11 = {
+      {RunEnd::kClogged, 8000, 7000, 1000}, {RunEnd::kClogged, 8000, 7286, 714}, {RunEnd::kOther, 8000, 6080, 1920}};
+  // Without a stagnant count the time-limited run must not stand in for one.
+  const ClogIndex alone = clogging_index(w11, 100);
+  EXPECT_TRUE(std::isnan(alone.n_stagnant));
+  EXPECT_TRUE(std::isnan(alone.psi.mean));
+  const ClogIndex ci = clogging_index(w11, 100, 860.0);
+  EXPECT_EQ(ci.clogged, 2);
+  EXPECT_EQ(ci.discharged, 0);
+  EXPECT_EQ(ci.unfinished, 1);
+  EXPECT_EQ(ci.psi.n, 2);
+  EXPECT_NEAR(ci.psi.mean, 0.88, 1e-3);
+  EXPECT_NEAR(ci.psi.mean, (6140.0 + 6426.0) / 2.0 / 7140.0, 1e-14);
+  // The range had the left-out run finished: discharged afterwards (0) or clogged now.
+  EXPECT_NEAR(ci.psi_low, (6140.0 + 6426.0) / 3.0 / 7140.0, 1e-14);
+  EXPECT_NEAR(ci.psi_high, (6140.0 + 6426.0 + 5220.0) / 3.0 / 7140.0, 1e-14);
+  // W = 13: every run reached the time limit: Psi over no run, not 0.
+  const std::vector<ClogRun> w13 = {{RunEnd::kOther, 8000, 6080, 1920}, {RunEnd::kOther, 8000, 6100, 1900}};
+  const ClogIndex c13 = clogging_index(w13, 100, 860.0);
+  EXPECT_EQ(c13.psi.n, 0);
+  EXPECT_TRUE(std::isnan(c13.psi.mean));
+  EXPECT_EQ(c13.unfinished, 2);
+  EXPECT_DOUBLE_EQ(c13.psi_low, 0.0);
+  EXPECT_NEAR(c13.psi_high, (5220.0 + 5240.0) / 2.0 / 7140.0, 1e-14);
+}
+
+}  // namespace
+}  // namespace granary::analysis
+
+namespace granary::analysis {
+namespace {
+
+// Avalanches of a run whose engine broke its clogs: the exits between unclogs, whatever gaps
+// the stream has; the stretch after the last unclog counts only when the run ended clogged.
+TEST(Avalanches, BetweenUnclogs) {
+  std::vector<rundir::ExitEvent> events;
+  for (double t : {1.0, 2.0, 3.0, 20.0, 21.0, 40.0, 41.0, 42.0, 43.0}) events.push_back({t, 0, "disc", 1.0, t < 30 ? 0 : 1});
+  const std::vector<double> unclogs = {10.0, 35.0};  // the gap 3 -> 20 and 21 -> 40 were clogs
+  EXPECT_EQ(avalanches_between_unclogs(events, -1, unclogs, RunEnd::kClogged), (std::vector<double>{3, 2, 4}));
+  EXPECT_EQ(avalanches_between_unclogs(events, -1, unclogs, RunEnd::kOther), (std::vector<double>{3, 2}));
+  EXPECT_EQ(avalanches_between_unclogs(events, 1, unclogs, RunEnd::kClogged), (std::vector<double>{0, 0, 4}));
+  EXPECT_EQ(run_end_of("max_clogs"), RunEnd::kClogged);
 }
 
 }  // namespace

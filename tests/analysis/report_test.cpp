@@ -136,9 +136,13 @@ TEST(CampaignAnalysis, FlowRateAndRegionFromRunDirectories) {
   EXPECT_NEAR(m(0, "tg_translational").mean, 0.5, 1e-12);  // v_y = -1, -3 about -2
   EXPECT_EQ(m(1, "phi").n, 0);
   EXPECT_NEAR(m(0, "v_max").mean, 3.0, 1e-12);  // both bodies within 2 d of the base
-  // No clogs: Psi over the 2 runs is 0 with N_u = the remaining 1000.
+  // The runs reached their time limit flowing: neither clogged nor discharged, so no Psi
+  // (the remaining 1000 are not a stagnant count), and the note says why.
   EXPECT_EQ(m(0, "clogged_runs").mean, 0.0);
-  EXPECT_NEAR(m(0, "psi").mean, 0.0, 1e-12);
+  EXPECT_EQ(m(0, "unfinished_runs").mean, 2.0);
+  EXPECT_EQ(m(0, "psi").n, 0);
+  EXPECT_TRUE(std::isnan(m(0, "psi").mean));
+  EXPECT_NE(m(0, "psi").note.find("left out replicas 0, 1: neither clogged nor discharged"), std::string::npos);
   EXPECT_EQ(m(0, "avalanche_size").n, 0);
   // The per-run metrics of a run.
   const std::vector<Metric> run0 = a->run_metrics(0, a->view.points[0].runs[0]);
@@ -182,8 +186,64 @@ TEST(CampaignAnalysis, StagnantCountOfAPointWhereEveryRunClogged) {
     const std::vector<PointMetric> m = a->all_point_metrics(p);
     EXPECT_DOUBLE_EQ(find_metric(m, "n_stagnant")->mean, 40.0);  // the group silo=100, not the campaign (60)
     EXPECT_NEAR(find_metric(m, "psi")->mean, (500.0 / 960.0 + 200.0 / 960.0) / 2.0, 1e-14);
-    EXPECT_EQ(find_metric(m, "psi")->note, "every run clogged: N_u from the freely discharging runs of L = 100");
+    EXPECT_EQ(find_metric(m, "psi")->note, "used 2 clogged and 0 discharged runs; N_u from the 1 discharged run of L = 100");
   }
+}
+
+// Issue 29: 8000 dumbbells, remove mode, W = 11 and 13 with a time limit, W = 14 to full
+// discharge (860 left in the stagnant zones). At W = 11 two runs clogged (7000, 7286 left)
+// and one reached the limit flowing (6080 inside): Psi = 0.88 with N_u = 860, not the 6080 of
+// the time-limited run. At W = 13 every run reached the limit: no Psi (not 0).
+TEST(CampaignAnalysis, ClogIndexLeavesOutRunsThatReachedTheirTimeLimit) {
+  TempDir dir;
+  CampaignInfo info;
+  info.name = "psi";
+  info.axes = {"/silo/base_outlets/0/width"};
+  std::vector<RunRecord> runs;
+  auto add = [&](const std::string& id, double w, int replica, const std::string& end, int left, double t_end) {
+    RunRecord r;
+    r.run_id = id;
+    r.point_id = "W" + format_number(w);
+    r.replica = replica;
+    r.state = "done";
+    r.point = {{"/silo/base_outlets/0/width", w}};
+    r.spec = spec_for(w);
+    r.run_dir = dir.path() / id;
+    write_file(r.run_dir / "run.json", r.spec.dump());
+    write_file(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n");
+    write_file(r.run_dir / "summary.json", nlohmann::json{{"bodies", 8000}, {"exited", 8000 - left}, {"remaining", left},
+                                                          {"end_reason", end}, {"t_end", t_end}}
+                                               .dump());
+    runs.push_back(r);
+  };
+  add("w11-a", 11, 0, "clogged", 7000, 40.0);
+  add("w11-b", 11, 1, "time_limit", 6080, 150.0);
+  add("w11-c", 11, 2, "clogged", 7286, 30.0);
+  add("w13-a", 13, 0, "time_limit", 6080, 150.0);
+  add("w13-b", 13, 1, "time_limit", 6100, 150.0);
+  add("w14-a", 14, 0, "discharged", 860, 900.0);
+  const auto a = analyse_campaign(info, runs, setup_analyses({}));
+  auto metric = [&](const std::string& point, const std::string& name) {
+    for (std::size_t p = 0; p < a->view.points.size(); ++p)
+      if (a->view.points[p].id == point) {
+        const std::vector<PointMetric> all = a->all_point_metrics(p);
+        if (const PointMetric* m = find_metric(all, name)) return *m;
+      }
+    return PointMetric{};
+  };
+  EXPECT_DOUBLE_EQ(metric("W11", "n_stagnant").mean, 860.0);
+  EXPECT_NEAR(metric("W11", "psi").mean, 0.88, 1e-3);
+  EXPECT_EQ(metric("W11", "psi").n, 2);
+  EXPECT_EQ(metric("W11", "unfinished_runs").mean, 1.0);
+  EXPECT_EQ(metric("W11", "psi").note,
+            "used 2 clogged and 0 discharged runs; left out replica 1: neither clogged nor discharged (time limit); "
+            "N_u from the 1 discharged run of the campaign");
+  EXPECT_EQ(metric("W13", "psi").n, 0);
+  EXPECT_TRUE(std::isnan(metric("W13", "psi").mean));
+  EXPECT_DOUBLE_EQ(metric("W13", "psi_low").mean, 0.0);
+  EXPECT_NEAR(metric("W13", "psi_high").mean, (5220.0 + 5240.0) / 2.0 / 7140.0, 1e-12);
+  EXPECT_NEAR(metric("W14", "psi").mean, 0.0, 1e-15);
+  EXPECT_EQ(metric("W14", "discharged_runs").mean, 1.0);
 }
 
 TEST(WriteReport, SyntheticCampaign) {
@@ -323,12 +383,15 @@ TEST(WriteReport, ClogSectionsWithKnownNumbers) {
   EXPECT_NE(md.find("Flowing and clogged times"), std::string::npos);
 
   const std::string psi = read_file(opt.out_dir / "data" / "clogging_index.csv");
-  EXPECT_EQ(psi.substr(0, psi.find('\n')), "point,psi,psi_se,psi_n,clogged_runs,discarded_runs,n_stagnant,note");
+  EXPECT_EQ(psi.substr(0, psi.find('\n')),
+            "point,psi,psi_se,psi_n,clogged_runs,discharged_runs,discarded_runs,unfinished_runs,n_stagnant,psi_range,note");
   EXPECT_NEAR(std::stod(csv_cell(psi, {"W = 6"}, 1)), 660.0 / 960.0 / 2.0, 1e-15);
   EXPECT_NEAR(std::stod(csv_cell(psi, {"W = 6"}, 2)), 660.0 / 960.0 / 2.0, 1e-15);
   EXPECT_EQ(csv_cell(psi, {"W = 6"}, 3), "2");
-  EXPECT_EQ(csv_cell(psi, {"W = 6"}, 5), "1");   // discarded
-  EXPECT_EQ(csv_cell(psi, {"W = 6"}, 6), "40");  // N_u
+  EXPECT_EQ(csv_cell(psi, {"W = 6"}, 4), "1");   // clogged
+  EXPECT_EQ(csv_cell(psi, {"W = 6"}, 5), "1");   // discharged
+  EXPECT_EQ(csv_cell(psi, {"W = 6"}, 6), "1");   // discarded
+  EXPECT_EQ(csv_cell(psi, {"W = 6"}, 8), "40");  // N_u
 
   const std::string av = read_file(opt.out_dir / "data" / "avalanches.csv");
   EXPECT_EQ(csv_cell(av, {"W = 6"}, 1), "175");
