@@ -19,8 +19,27 @@ class AvalancheAccumulator : public RunAccumulator {
   explicit AvalancheAccumulator(const RunView& run) {
     const std::vector<rundir::ExitEvent>& events = run.data->events;
     const RunEnd end = run_end_of(run.end_reason);
-    const ClogSeries all = clog_series(events, -1, run.t_end, run.clog_gap, end, run.stop_on_clog);
     nlohmann::json per_outlet = nlohmann::json::array(), labels = nlohmann::json::array();
+    if (run.on_clog == "unclog") {
+      // The engine broke each clog: an avalanche is what left between two unclogs, whatever
+      // gaps the stream has (the clogs are the engine's, each with its frame in clog_frames.dump).
+      std::vector<double> cuts;
+      int last_clog = 0;
+      for (const rundir::UnclogEvent& u : run.data->unclogs)
+        if (u.clog != last_clog) cuts.push_back(u.time), last_clog = u.clog;
+      const std::vector<double> sizes = avalanches_between_unclogs(events, -1, cuts, end);
+      for (std::size_t o = 0; o < run.outlets.size(); ++o) {
+        per_outlet.push_back(json_numbers(avalanches_between_unclogs(events, static_cast<int>(o), cuts, end)));
+        labels.push_back(run.outlets[o].label);
+      }
+      result_ = {{"sizes", json_numbers(sizes)},
+                 {"clogs", cuts.size() + (end == RunEnd::kClogged ? 1 : 0)},
+                 {"unclogs", cuts.size()},
+                 {"per_outlet", per_outlet},
+                 {"outlets", labels}};
+      return;
+    }
+    const ClogSeries all = clog_series(events, -1, run.t_end, run.clog_gap, end, run.stop_on_clog);
     for (std::size_t o = 0; o < run.outlets.size(); ++o) {
       // A run that stopped on a clog stopped with every outlet blocked; one that discharged,
       // with every outlet open.
@@ -43,7 +62,7 @@ std::string size_name(std::size_t k) { return "avalanche_size" + outlet_suffix(k
 class AvalancheAnalysis : public Analysis {
  public:
   std::string key() const override { return "avalanches"; }
-  int version() const override { return 1; }
+  int version() const override { return 2; }
   PassUse pass_use() const override { return {false, true, false}; }
   std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
     return std::make_unique<AvalancheAccumulator>(run);

@@ -202,8 +202,19 @@ Table fixed_parameters(const json& spec, const std::vector<std::string>& axes) {
   add("discharge", "a body has left", "/discharge/exit_distance",
       "its centre " + Num(At(d, "exit_distance")) + " past the outlet");
   add("discharge", "stops at time", "/discharge/max_time", Num(At(d, "max_time")));
-  add("discharge", "on a clog", "/discharge/stop_on_clog",
-      At(d, "stop_on_clog") == false ? "runs on (intermittent flow)" : "stops");
+  if (At(d, "on_clog") == "unclog") {
+    const json& u = At(d, "unclog");
+    const std::string how = At(u, "method") == "kick"
+                                ? "kicks the bodies within " + (At(u, "kick_radius") == 0.0 ? std::string("W") : Num(At(u, "kick_radius"))) +
+                                      " of the outlet upwards at " + Num(At(u, "kick_speed"))
+                                : std::string("takes out the arch's bodies");
+    add("discharge", "on a clog", "/discharge/on_clog",
+        "unclogs: " + how + " (up to " + Num(At(u, "max_attempts")) + " attempts) and goes on; ends at clog " +
+            Num(At(u, "max_clogs")));
+  } else {
+    add("discharge", "on a clog", "/discharge/stop_on_clog",
+        At(d, "stop_on_clog") == false ? "runs on (intermittent flow)" : "stops");
+  }
   add("discharge", "a clog", "/discharge/clog_window",
       "no exit for " + Num(At(d, "clog_window")) + " and kinetic energy per body near the outlets below " +
           Num(At(d, "clog_ke_per_body")) + " m g d");

@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <sstream>
@@ -23,6 +24,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "analysis/arches.h"
 #include "engine/bed.h"
 #include "engine/dump_format.h"
 #include "engine/random.h"
@@ -37,6 +39,7 @@
 #include "rundir/progress.h"
 #include "rundir/run_directory.h"
 #include "rundir/summary.h"
+#include "rundir/unclogs.h"
 #include "rundir/version.h"
 
 
@@ -127,6 +130,7 @@ class In {
     return s;
   }
   std::string Rest() const { return buf_.substr(pos_); }
+  bool AtEnd() const { return pos_ >= buf_.size(); }
 
  private:
   void Need(std::size_t n) const {
@@ -144,7 +148,11 @@ class In {
 class Discharge {
  public:
   Discharge(const RunSpec& spec, fs::path dir, RunOptions options)
-      : spec_(spec), dir_(std::move(dir)), options_(options), rng_(spec.seed ^ 0x9e3779b97f4a7c15ULL) {}
+      : spec_(spec),
+        dir_(std::move(dir)),
+        options_(options),
+        rng_(spec.seed ^ 0x9e3779b97f4a7c15ULL),
+        unclog_rng_(spec.seed ^ 0xc2b2ae3d27d4eb4fULL) {}
 
   RunResult Run();
 
@@ -174,6 +182,11 @@ class Discharge {
   }
   bool Stalled() const;
   bool StallIsAClog() const;
+  bool Unclogging() const { return spec_.discharge.on_clog == OnClog::kUnclog; }
+  // One attempt at breaking the current clog (on_clog "unclog"), written to unclogs.csv.
+  void Unclog();
+  // The bodies of the arches sealing the outlets, as the arch analysis finds them.
+  std::vector<std::int64_t> ArchBodies();
   void WriteSummary(const std::string& end_reason);
   void ReportProgress(const rundir::Progress& progress, bool quiet) const {
     rundir::WriteProgress(dir_, progress, !quiet);
@@ -196,6 +209,14 @@ class Discharge {
   std::vector<std::int64_t> exits_per_outlet_;
   int clogs_ = 0;
   bool in_clog_ = false;
+  // The unclog protocol (checkpointed): attempts on the current clog, clogs broken, the step
+  // of the last attempt (-1: none), arch bodies taken out in remove mode, its own random
+  // numbers (kicks), so that reinjection draws the same numbers whether a run unclogs or not.
+  int unclog_attempts_ = 0;
+  int unclogged_ = 0;
+  std::int64_t last_unclog_step_ = -1;
+  int unclog_removed_ = 0;
+  Rng unclog_rng_;
   // Periodic reinjection: bodies counted but still falling to the bottom of the box, and the
   // box height they jump up by (checkpointed).
   std::vector<std::uint8_t> falling_;
@@ -217,6 +238,7 @@ class Discharge {
   // The configuration and contact forces at every clog; a continued run cuts them back to
   // its checkpoint's step (clogs.h), so the checkpoint carries nothing for them.
   rundir::ClogWriter clogs_out_;
+  rundir::UnclogWriter unclogs_out_;
   std::int64_t frame_every_ = 0, checkpoint_every_ = 0;
   std::vector<World::ContactView> contact_buf_;
   rundir::Frame frame_buf_;
@@ -308,6 +330,7 @@ void Discharge::StartFresh() {
   }
   events_ = rundir::EventWriter::Create(dir_ / rundir::kEventsFile);
   clogs_out_ = rundir::ClogWriter::Create(dir_);
+  if (Unclogging()) unclogs_out_ = rundir::UnclogWriter::Create(dir_ / rundir::kUnclogsFile);
   const bool gz = spec_.output.compress;
   if (frame_every_ > 0) frames_ = rundir::FrameWriter::Create(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), gz);
   if (frame_every_ > 0 && spec_.output.contact_forces)
@@ -349,6 +372,13 @@ void Discharge::WriteCheckpoint() {
   o.PutVec(falling_);
   o.Put(periodic_height_);
   o.Put(cleared_by_obstacles_);
+  // The unclog state last: a checkpoint of an engine from before it reads without it.
+  o.Put(unclog_attempts_);
+  o.Put(unclogged_);
+  o.Put(last_unclog_step_);
+  o.Put(unclog_removed_);
+  o.PutStr(unclog_rng_.Save());
+  o.Put(unclogs_out_.Offset());
   Out file;
   file.PutStr(kCheckpointMagic);
   file.Put(kCheckpointVersion);
@@ -420,6 +450,27 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   const auto falling = in.GetVec<std::uint8_t>();
   const double periodic_height = in.Get<double>();
   const int cleared_by_obstacles = in.Get<int>();
+  int unclog_attempts = 0, unclogged = 0, unclog_removed = 0;
+  std::int64_t last_unclog_step = -1, unclogs_offset = 0;
+  std::string unclog_rng;
+  if (!in.AtEnd()) {
+    unclog_attempts = in.Get<int>();
+    unclogged = in.Get<int>();
+    last_unclog_step = in.Get<std::int64_t>();
+    unclog_removed = in.Get<int>();
+    unclog_rng = in.GetStr();
+    unclogs_offset = in.Get<std::int64_t>();
+  }
+  if (Unclogging() && unclog_rng.empty())
+    throw CheckpointError(name + " was written without the unclog protocol's state");
+  if (Unclogging()) {
+    std::error_code ec;
+    const fs::path out = dir_ / rundir::kUnclogsFile;
+    const auto have = fs::exists(out) ? fs::file_size(out, ec) : 0;
+    if (unclogs_offset > 0 && (ec || have < static_cast<std::uintmax_t>(unclogs_offset)))
+      throw CheckpointError(name + " expects " + std::to_string(unclogs_offset) + " bytes of " + rundir::kUnclogsFile +
+                            ", the file has " + std::to_string(have));
+  }
   // The outputs must still hold what the checkpoint saw (truncating a shorter file would pad it).
   const bool gz = spec_.output.compress;
   const char* outputs[3] = {rundir::kEventsFile, gz ? rundir::kFramesGzFile : rundir::kFramesFile,
@@ -455,6 +506,14 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   falling_ = falling;
   periodic_height_ = periodic_height;
   cleared_by_obstacles_ = cleared_by_obstacles;
+  unclog_attempts_ = unclog_attempts;
+  unclogged_ = unclogged;
+  last_unclog_step_ = last_unclog_step;
+  unclog_removed_ = unclog_removed;
+  if (Unclogging()) {
+    unclog_rng_.Load(unclog_rng);
+    unclogs_out_ = rundir::UnclogWriter::ContinueAt(dir_ / rundir::kUnclogsFile, unclogs_offset);
+  }
   events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, offsets[0]);
   clogs_out_ = rundir::ClogWriter::ContinueAfter(dir_, step_);
   if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), offsets[1], gz);
@@ -584,6 +643,8 @@ void Discharge::HandleExits() {
     events_.Write({t, b, tp.name, tp.mass, k});
     ++exits_per_outlet_[static_cast<std::size_t>(k)];
     last_exit_step_ = step_;
+    if (in_clog_ && unclog_attempts_ > 0) ++unclogged_;  // the flow resumed after an attempt
+    unclog_attempts_ = 0;
     in_clog_ = false;
     if (Periodic()) {
       falling_[b] = 1;
@@ -626,6 +687,75 @@ bool Discharge::Stalled() const {
 bool Discharge::StallIsAClog() const {
   const std::vector<bool> sealed = SealedOutlets(*world_);
   return std::find(sealed.begin(), sealed.end(), true) != sealed.end();
+}
+
+std::vector<std::int64_t> Discharge::ArchBodies() {
+  const World& w = *world_;
+  rundir::ClogState clog;
+  FillFrame(clog.frame);
+  FillContacts(clog.contacts);
+  std::vector<std::int64_t> ids;
+  for (const analysis::Arch& arch : analysis::analyse_clog(clog, w.geometry()).arches)
+    for (const analysis::ArchBody& b : arch.bodies) ids.push_back(b.id);
+  if (ids.empty()) {
+    // Sealed, but no chain of bodies from support to support (an arch resting on bodies the
+    // probe does not reach): the bodies along the edge of the free space under the outlets.
+    double probe = std::numeric_limits<double>::max();
+    std::vector<DiscAt> discs;
+    std::vector<int> body_of;
+    for (int i = 0; i < w.disc_count(); ++i) {
+      probe = std::min(probe, w.dr_[i]);
+      if (!w.active_[w.dbody_[i]]) continue;
+      discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
+      body_of.push_back(w.dbody_[i]);
+    }
+    for (int o = 0; o < static_cast<int>(w.geometry().outlets.size()); ++o)
+      for (const CavityBound& e : CavityUnder(w.geometry(), discs, probe, o).edge)
+        if (e.kind == CavityBound::Kind::kDisc) ids.push_back(body_of[static_cast<std::size_t>(e.index)]);
+  }
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  return ids;
+}
+
+// remove_arch: the arch's bodies go back on top (reinject mode) or out of the silo (remove
+// mode; they are not exits). kick: every body whose centre is within kick_radius of an
+// outlet's centre gets kick_speed in a direction drawn uniformly within 45 degrees of the
+// upward vertical, in body order (the same numbers at any thread count).
+void Discharge::Unclog() {
+  World& w = *world_;
+  const granary::Unclog& u = spec_.discharge.unclog;
+  ++unclog_attempts_;
+  last_unclog_step_ = step_;
+  rundir::UnclogEvent e;
+  e.time = static_cast<double>(step_) * spec_.time_step;
+  e.step = step_;
+  e.clog = clogs_;
+  e.attempt = unclog_attempts_;
+  e.method = to_string(u.method);
+  if (u.method == UnclogMethod::kRemoveArch) {
+    e.bodies = ArchBodies();
+    if (spec_.discharge.mode == DischargeMode::kReinject) {
+      w.MarkBodiesInContact(in_contact_);
+      for (std::int64_t b : e.bodies) Reinject(static_cast<int>(b));
+    } else {
+      for (std::int64_t b : e.bodies) w.Deactivate(static_cast<int>(b));
+      unclog_removed_ += static_cast<int>(e.bodies.size());
+    }
+  } else {
+    for (int b = 0; b < w.body_count(); ++b) {
+      if (!w.active_[b]) continue;
+      for (const OutletFrame& o : w.geometry().outlets) {
+        const double radius = u.kick_radius > 0 ? u.kick_radius : o.width;
+        if (std::hypot(w.bx_[b] - o.cx, w.by_[b] - o.cy) > radius) continue;
+        const double angle = unclog_rng_.Uniform(-0.25 * std::numbers::pi, 0.25 * std::numbers::pi);
+        w.SetVelocity(b, u.kick_speed * std::sin(angle), u.kick_speed * std::cos(angle), w.bw_[b]);
+        e.bodies.push_back(b);
+        break;
+      }
+    }
+  }
+  unclogs_out_.Write(e);
 }
 
 // From the bed and the spec alone, so a continued run writes the same box.
@@ -711,6 +841,10 @@ void Discharge::WriteSummary(const std::string& end_reason) {
   s.t_end = static_cast<double>(step_) * spec_.time_step;
   s.steps = step_;
   s.clogs = clogs_;
+  if (Unclogging()) {
+    s.unclogs = unclogged_;
+    if (spec_.discharge.mode == DischargeMode::kRemove) s.unclog_removed = unclog_removed_;
+  }
   s.bed = {bed_file_, bed_height_, bed_prepared_here_, bed_settle_time_, bed_refused_};
   s.timing = rundir::Timing{bed_wall_s_ + discharge_wall, bed_wall_s_, discharge_wall,
                             discharge_wall > 0 ? static_cast<double>(disc_steps_) / discharge_wall : 0.0,
@@ -769,14 +903,29 @@ RunResult Discharge::Run() {
     step_ += taken;
     disc_steps_ += static_cast<std::int64_t>(taken) * w.disc_count();
     HandleExits();
-    if (step_ - last_exit_step_ >= clog_steps && step_ % kClogCheckEvery == 0 && !in_clog_ && Stalled()) {
+    // A clog is a stall after an exit; after an unclog attempt that no body has left since,
+    // a stall is that clog again: another attempt, not another clog.
+    const std::int64_t quiet_from = std::max(last_exit_step_, last_unclog_step_);
+    if (step_ - quiet_from >= clog_steps && step_ % kClogCheckEvery == 0 && (!in_clog_ || unclog_attempts_ > 0) &&
+        Stalled()) {
       if (spec_.discharge.mode == DischargeMode::kRemove && !StallIsAClog()) {
         end_reason = "discharged";
-      } else {
+      } else if (!in_clog_) {
         ++clogs_;
         in_clog_ = true;  // counted once until the next exit
         WriteClog();
-        if (spec_.discharge.stop_on_clog) end_reason = "clogged";
+        if (spec_.discharge.on_clog == OnClog::kStop) end_reason = "clogged";
+        if (Unclogging()) {
+          if (clogs_ >= spec_.discharge.unclog.max_clogs) {
+            end_reason = "max_clogs";
+          } else {
+            Unclog();
+          }
+        }
+      } else if (unclog_attempts_ >= spec_.discharge.unclog.max_attempts) {
+        end_reason = "clogged";  // the protocol could not break it
+      } else {
+        Unclog();
       }
     }
     if (frame_every_ > 0 && step_ % frame_every_ == 0) {
@@ -820,6 +969,7 @@ RunResult Discharge::Run() {
   frames_.Close();
   contacts_.Close();
   clogs_out_.Close();
+  unclogs_out_.Close();
   ReportProgress({"discharge", 1.0, static_cast<double>(step_) * dt, spec_.discharge.max_time, static_cast<int>(exited),
                   discharge_wall_before_ + Seconds(session_start_)},
                  true);

@@ -953,7 +953,7 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
     if (StallIsAClog(spec, ReadAtomsDump(dir / "final.dump"))) {
       state["clog_steps"].push_back(last_step);
       state["clog_step"] = last_step;
-      if (spec.discharge.stop_on_clog) {
+      if (spec.discharge.stop_on_clog()) {
         end_reason = "clogged";
       } else {  // go on through the clog from the restart the script wrote at the stall
         state["discharge_wall_s"] = discharge_wall;

@@ -496,7 +496,7 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
   if (remove)
     p << "if " << stalled << " then \"write_restart checkpoint.*.restart\"" << keep << " \"print 'GRANARY_END stalled'\" "
       << "\"jump SELF finished\"\n";
-  else if (spec.discharge.stop_on_clog)
+  else if (spec.discharge.stop_on_clog())
     p << "if " << stalled << " then" << keep << " \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
   else
     p << "if " << stalled << " then" << keep << " \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";

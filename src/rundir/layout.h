@@ -14,6 +14,7 @@ inline constexpr char kFramesFile[] = "frames.dump";      // engine: per-disc fr
 inline constexpr char kContactsFile[] = "contacts.dump";  // engine: contact-force frames
 inline constexpr char kClogFramesFile[] = "clog_frames.dump";      // engine: the configuration at every clog
 inline constexpr char kClogContactsFile[] = "clog_contacts.dump";  // engine: its contact forces
+inline constexpr char kUnclogsFile[] = "unclogs.csv";     // native engine, on_clog "unclog": how each clog was broken
 inline constexpr char kFramesGzFile[] = "frames.dump.gz";      // the same, gzip (output.compress)
 inline constexpr char kContactsGzFile[] = "contacts.dump.gz";  // the same, gzip (output.compress)
 inline constexpr char kSiloFile[] = "silo.vtk";               // engine: walls, outlets, obstacles (OVITO)

@@ -61,6 +61,7 @@ RunData ReadRun(const fs::path& dir) {
     r.spec = r.summary.spec;
   }
   if (fs::exists(dir / kEventsFile)) r.events = ReadEvents(dir / kEventsFile);
+  r.unclogs = ReadUnclogs(dir / kUnclogsFile);
   r.compressed = !fs::exists(dir / kFramesFile) && fs::exists(dir / kFramesGzFile);
   r.has_frames = fs::exists(r.frames_file());
   r.has_contacts = fs::exists(r.contacts_file());

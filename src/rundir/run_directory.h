@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "rundir/events.h"
+#include "rundir/unclogs.h"
 #include "rundir/layout.h"
 #include "rundir/run_spec.h"
 #include "rundir/summary.h"
@@ -36,6 +37,7 @@ struct RunData {
   Summary summary;
   nlohmann::json spec;             // run.json if present, else summary.spec
   std::vector<ExitEvent> events;
+  std::vector<UnclogEvent> unclogs;  // unclogs.csv (on_clog "unclog"); none without the file
   bool has_frames = false;
   bool has_contacts = false;
   bool compressed = false;         // frames.dump.gz / contacts.dump.gz (output.compress)

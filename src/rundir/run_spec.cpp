@@ -240,6 +240,10 @@ constexpr std::initializer_list<std::pair<const char*, DischargeMode>> kModes = 
     {"remove", DischargeMode::kRemove}, {"reinject", DischargeMode::kReinject}};
 constexpr std::initializer_list<std::pair<const char*, ReinjectPosition>> kReinjectPositions = {
     {"random", ReinjectPosition::kRandom}, {"periodic", ReinjectPosition::kPeriodic}};
+constexpr std::initializer_list<std::pair<const char*, OnClog>> kOnClogs = {
+    {"stop", OnClog::kStop}, {"wait", OnClog::kWait}, {"unclog", OnClog::kUnclog}};
+constexpr std::initializer_list<std::pair<const char*, UnclogMethod>> kUnclogMethods = {
+    {"remove_arch", UnclogMethod::kRemoveArch}, {"kick", UnclogMethod::kKick}};
 constexpr std::initializer_list<std::pair<const char*, NextBatch>> kNextBatches = {
     {"landed", NextBatch::kLanded}, {"fixed", NextBatch::kFixed}};
 constexpr std::initializer_list<std::pair<const char*, TangentialCap>> kCaps = {
@@ -340,7 +344,20 @@ SpecTable MakeRunSpecTable() {
       enumeration("/discharge/mode", "remove", names(kModes),
                   "remove: bodies that leave are gone; reinject: they come back on top"),
       number("/discharge/max_time", 100.0, positive, "stop at this time after the opening"),
-      plain("/discharge/stop_on_clog", T::kBoolean, true, "stop at the first clog (false: intermittent flow)"),
+      plain("/discharge/stop_on_clog", T::kBoolean, true,
+            "stop at the first clog (false: wait for the flow to resume); the older spelling of on_clog stop/wait"),
+      enumeration("/discharge/on_clog", "stop", names(kOnClogs),
+                  "at a clog: stop the run; wait for the flow to resume by itself; or unclog (break the arch, go on)"),
+      plain("/discharge/unclog", T::kObject, nullptr, "on_clog \"unclog\": how a clog is broken and when the run ends"),
+      enumeration("/discharge/unclog/method", "remove_arch", names(kUnclogMethods),
+                  "remove_arch: take out the bodies of the arch that seals the outlet; kick: give the bodies near the "
+                  "outlet a random upward velocity, again until the flow resumes"),
+      integer("/discharge/unclog/max_clogs", 100, 1, "the run ends at this clog (it is not broken)"),
+      integer("/discharge/unclog/max_attempts", 10, 1,
+              "attempts on one clog (kicks, or arch removals that re-clog before a body leaves) before the run ends clogged"),
+      number("/discharge/unclog/kick_speed", 1.0, positive, "kick: the speed each body gets, in sqrt(g d)"),
+      number("/discharge/unclog/kick_radius", 0.0, non_negative,
+             "kick: bodies whose centre is within this of an outlet's centre, in d; 0 = the outlet's width"),
       number("/discharge/clog_window", 5.0, positive, "a clog: no exit for this long ..."),
       number("/discharge/clog_ke_per_body", 1e-4, non_negative,
              "... and kinetic energy per body near the outlets below this (m g d)"),
@@ -375,6 +392,13 @@ void CheckBounds(const std::string& pointer, double v) {
 void CheckBounds(const std::string& pointer, int v) {
   const std::string problem = spec_bound_error(run_spec_table().at(spec_pattern(pointer)), v);
   if (!problem.empty()) throw SpecError(pointer, problem + " (got " + std::to_string(v) + ")");
+}
+
+void CheckUnclogBounds(const Unclog& u) {
+  CheckBounds("/discharge/unclog/max_clogs", u.max_clogs);
+  CheckBounds("/discharge/unclog/max_attempts", u.max_attempts);
+  CheckBounds("/discharge/unclog/kick_speed", u.kick_speed);
+  CheckBounds("/discharge/unclog/kick_radius", u.kick_radius);
 }
 
 std::string DefaultSpeciesName(const Species& s) {
@@ -514,6 +538,18 @@ std::string to_string(NextBatch next) {
   }
   return "?";
 }
+std::string to_string(OnClog on_clog) {
+  for (const auto& [name, value] : kOnClogs) {
+    if (value == on_clog) return name;
+  }
+  return "?";
+}
+std::string to_string(UnclogMethod method) {
+  for (const auto& [name, value] : kUnclogMethods) {
+    if (value == method) return name;
+  }
+  return "?";
+}
 std::string to_string(TangentialCap cap) {
   for (const auto& [name, value] : kCaps) {
     if (value == cap) return name;
@@ -562,7 +598,29 @@ RunSpec RunSpec::from_json(const json& j) {
     Reader d(r.At("discharge"), "/discharge");
     d.Enum("mode", s.discharge.mode, kModes);
     d.Number("max_time", s.discharge.max_time);
-    d.Bool("stop_on_clog", s.discharge.stop_on_clog);
+    bool stop_on_clog = true;
+    d.Bool("stop_on_clog", stop_on_clog);
+    s.discharge.on_clog = stop_on_clog ? OnClog::kStop : OnClog::kWait;
+    if (d.Has("on_clog")) {
+      d.Enum("on_clog", s.discharge.on_clog, kOnClogs);
+      // Both spellings given: they must say the same.
+      if (d.Has("stop_on_clog") && stop_on_clog != (s.discharge.on_clog == OnClog::kStop))
+        throw SpecError("/discharge/stop_on_clog", "contradicts /discharge/on_clog \"" + to_string(s.discharge.on_clog) +
+                                                       "\"; give only on_clog (got " + Shown(d.At("stop_on_clog")) + ")");
+    }
+    if (d.Has("unclog")) {
+      Reader u(d.At("unclog"), "/discharge/unclog");
+      u.Enum("method", s.discharge.unclog.method, kUnclogMethods);
+      u.Integer("max_clogs", s.discharge.unclog.max_clogs);
+      u.Integer("max_attempts", s.discharge.unclog.max_attempts);
+      u.Number("kick_speed", s.discharge.unclog.kick_speed);
+      u.Number("kick_radius", s.discharge.unclog.kick_radius);
+      CheckUnclogBounds(s.discharge.unclog);
+      // Said, but not used: never silently.
+      if (s.discharge.on_clog != OnClog::kUnclog)
+        throw SpecError("/discharge/unclog", "applies only with /discharge/on_clog \"unclog\" (on_clog is \"" +
+                                                 to_string(s.discharge.on_clog) + "\")");
+    }
     d.Number("clog_window", s.discharge.clog_window);
     d.Number("clog_ke_per_body", s.discharge.clog_ke_per_body);
     d.Number("reinject_speed", s.discharge.reinject_speed);
@@ -719,11 +777,18 @@ void validate(const RunSpec& s) {
   CheckBounds("/discharge/reinject_speed", s.discharge.reinject_speed);
   CheckBounds("/discharge/exit_distance", s.discharge.exit_distance);
   CheckBounds("/discharge/periodic_headroom", s.discharge.periodic_headroom);
+  CheckUnclogBounds(s.discharge.unclog);
   if (s.discharge.mode == DischargeMode::kReinject && s.discharge.reinject_position == ReinjectPosition::kPeriodic &&
       !s.silo.side_outlets.empty())
     throw SpecError("/discharge/reinject_position",
                     "\"periodic\" returns bodies through the bottom of the box, which a body leaving through a side "
                     "outlet never reaches; use \"random\" with side outlets (got \"periodic\")");
+  if (s.discharge.on_clog == OnClog::kUnclog && s.discharge.mode == DischargeMode::kReinject &&
+      s.discharge.reinject_position == ReinjectPosition::kPeriodic &&
+      s.discharge.unclog.method == UnclogMethod::kRemoveArch)
+    throw SpecError("/discharge/unclog/method",
+                    "remove_arch returns the arch's bodies on top of the bed, which the periodic box has no place for; "
+                    "use reinject_position \"random\" or the method \"kick\" (got \"remove_arch\")");
 
   CheckBounds("/output/frame_interval", s.output.frame_interval);
   CheckBounds("/output/checkpoint_interval", s.output.checkpoint_interval);
@@ -733,6 +798,11 @@ void validate(const RunSpec& s) {
 }
 
 void validate_for_liggghts(const RunSpec& s) {
+  if (s.discharge.on_clog == OnClog::kUnclog)
+    throw SpecError("/discharge/on_clog",
+                    "the LIGGGHTS backend cannot break a clog: it runs LIGGGHTS' input script to the end, with no "
+                    "step at which to take out an arch or kick the bodies over the outlet; use the native engine, or "
+                    "\"stop\" or \"wait\" (got \"unclog\")");
   if (s.bed.next_batch != Bed{}.next_batch)
     throw SpecError("/bed/next_batch", "bed/next_batch is the native engine's (got \"" + to_string(s.bed.next_batch) +
                                            "\", allowed: the default)");
@@ -808,7 +878,7 @@ json RunSpec::to_json() const {
           {"discharge",
            {{"mode", to_string(discharge.mode)},
             {"max_time", discharge.max_time},
-            {"stop_on_clog", discharge.stop_on_clog},
+            {"stop_on_clog", discharge.stop_on_clog()},
             {"clog_window", discharge.clog_window},
             {"clog_ke_per_body", discharge.clog_ke_per_body},
             {"reinject_speed", discharge.reinject_speed},
@@ -823,6 +893,16 @@ json RunSpec::to_json() const {
   if (discharge.periodic_headroom != Discharge{}.periodic_headroom)
     out["discharge"]["periodic_headroom"] = discharge.periodic_headroom;
   if (output.compress) out["output"]["compress"] = true;
+  // The unclog protocol only when chosen (stop and wait are stop_on_clog true and false), so
+  // run ids planned before it existed stay valid.
+  if (discharge.on_clog == OnClog::kUnclog) {
+    out["discharge"]["on_clog"] = to_string(discharge.on_clog);
+    out["discharge"]["unclog"] = {{"method", to_string(discharge.unclog.method)},
+                                  {"max_clogs", discharge.unclog.max_clogs},
+                                  {"max_attempts", discharge.unclog.max_attempts},
+                                  {"kick_speed", discharge.unclog.kick_speed},
+                                  {"kick_radius", discharge.unclog.kick_radius}};
+  }
   return out;
 }
 

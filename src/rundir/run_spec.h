@@ -113,10 +113,27 @@ enum class ReinjectPosition { kRandom, kPeriodic };
 // highest disc centre of the bed at t = 0.
 constexpr double kPeriodicFall = 3.0;
 
+// What the engine does at a clog (docs/run-spec.md): stop the run; wait for the flow to
+// resume by itself until max_time; or break the arch (Unclog) and go on.
+enum class OnClog { kStop, kWait, kUnclog };
+// How a clog is broken: the bodies of the arch that seals the outlet are taken out (the arch
+// analysis' judgement), or the bodies near the outlet get a random upward velocity (a blow).
+enum class UnclogMethod { kRemoveArch, kKick };
+
+struct Unclog {
+  UnclogMethod method = UnclogMethod::kRemoveArch;
+  int max_clogs = 100;             // the run ends at this clog, which it does not break
+  int max_attempts = 10;           // attempts on one clog before the run ends clogged
+  double kick_speed = 1.0;         // kick: speed given to each body, in sqrt(g d)
+  double kick_radius = 0.0;        // kick: bodies whose centre is within this of an outlet's centre; 0 = its width
+};
+
 struct Discharge {
   DischargeMode mode = DischargeMode::kRemove;
   double max_time = 100.0;         // stop at this simulated time after opening
-  bool stop_on_clog = true;        // false = intermittent: run through clogs and unclogs until max_time
+  OnClog on_clog = OnClog::kStop;  // the JSON's stop_on_clog true/false is kStop/kWait
+  Unclog unclog;                   // OnClog::kUnclog only
+  bool stop_on_clog() const { return on_clog == OnClog::kStop; }
   double clog_window = 5.0;        // a clog: no exit through any outlet for this long ...
   double clog_ke_per_body = 1e-4;  // ... and kinetic energy per body near the outlets below this
   double reinject_speed = 0.0;     // reinject mode: speed (downwards) given to a reinjected body
@@ -189,5 +206,7 @@ std::string to_string(DischargeMode mode);
 std::string to_string(ReinjectPosition position);
 std::string to_string(TangentialCap cap);
 std::string to_string(NextBatch next);
+std::string to_string(OnClog on_clog);
+std::string to_string(UnclogMethod method);
 
 }  // namespace granary

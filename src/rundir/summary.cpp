@@ -25,6 +25,8 @@ nlohmann::json Summary::ToJson() const {
   j["t_end"] = t_end;
   j["steps"] = steps;
   if (clogs) j["clogs"] = *clogs;
+  if (unclogs) j["unclogs"] = *unclogs;
+  if (unclog_removed) j["unclog_removed"] = *unclog_removed;
   j["bed"] = {{"file", bed.file}, {"height", bed.height}, {"prepared_here", bed.prepared_here},
               {"settle_time", bed.settle_time}};
   if (!bed.refused.empty()) j["bed"]["refused"] = bed.refused;
@@ -62,6 +64,8 @@ Summary Summary::FromJson(const nlohmann::json& j, const std::string& where) {
     s.t_end = j.value("t_end", 0.0);
     s.steps = j.value("steps", std::int64_t{0});
     if (j.contains("clogs") && j.at("clogs").is_number()) s.clogs = j.at("clogs").get<int>();
+    if (j.contains("unclogs")) s.unclogs = j.at("unclogs").get<int>();
+    if (j.contains("unclog_removed")) s.unclog_removed = j.at("unclog_removed").get<int>();
     if (j.contains("bed") && j.at("bed").is_object()) {
       const nlohmann::json& b = j.at("bed");
       s.bed.file = b.value("file", "");

@@ -44,6 +44,8 @@ struct Summary {
   double t_end = 0.0;
   std::int64_t steps = 0;
   std::optional<int> clogs;       // clogs the engine counted (kinetic-energy confirmed)
+  std::optional<int> unclogs;     // on_clog "unclog": clogs it broke (unclogs.csv has every attempt)
+  std::optional<int> unclog_removed;  // remove_arch in remove mode: arch bodies taken out (not exits)
   BedInfo bed;
   std::optional<Timing> timing;
   bool continued_from_checkpoint = false;

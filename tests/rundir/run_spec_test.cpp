@@ -113,6 +113,46 @@ TEST(RunSpecTest, ReinjectPositionIsInTheResolvedSpecOnlyWhenNotTheDefault) {
             "leaving through a side outlet never reaches; use \"random\" with side outlets (got \"periodic\")");
 }
 
+// on_clog: "stop" and "wait" are the older stop_on_clog true and false (same resolved spec,
+// same run ids); "unclog" with its protocol is written only when chosen.
+TEST(RunSpecTest, OnClogAndTheUnclogProtocol) {
+  const json stop = RunSpec::from_json(json::object()).to_json();
+  EXPECT_EQ(RunSpec::from_json(json::parse(R"({"discharge": {"on_clog": "stop"}})")).to_json(), stop);
+  EXPECT_FALSE(stop["discharge"].contains("on_clog"));
+  const json wait = RunSpec::from_json(json::parse(R"({"discharge": {"on_clog": "wait"}})")).to_json();
+  EXPECT_EQ(wait, RunSpec::from_json(json::parse(R"({"discharge": {"stop_on_clog": false}})")).to_json());
+  EXPECT_EQ(wait["discharge"]["stop_on_clog"], false);
+  const RunSpec u = RunSpec::from_json(json::parse(
+      R"({"discharge": {"on_clog": "unclog", "unclog": {"method": "kick", "max_clogs": 200, "kick_speed": 2}}})"));
+  EXPECT_EQ(u.discharge.on_clog, OnClog::kUnclog);
+  EXPECT_FALSE(u.discharge.stop_on_clog());
+  EXPECT_EQ(u.discharge.unclog.method, UnclogMethod::kKick);
+  EXPECT_EQ(u.discharge.unclog.max_clogs, 200);
+  EXPECT_EQ(u.discharge.unclog.max_attempts, 10);
+  EXPECT_EQ(u.to_json()["discharge"]["on_clog"], "unclog");
+  EXPECT_EQ(u.to_json()["discharge"]["unclog"]["kick_speed"], 2.0);
+  EXPECT_EQ(RunSpec::from_json(u.to_json()).to_json(), u.to_json());
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"on_clog": "blow"}})")),
+            "/discharge/on_clog: must be one of \"stop\", \"wait\", \"unclog\" (got \"blow\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"on_clog": "unclog", "stop_on_clog": true}})")),
+            "/discharge/stop_on_clog: contradicts /discharge/on_clog \"unclog\"; give only on_clog (got true)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"unclog": {"method": "kick"}}})")),
+            "/discharge/unclog: applies only with /discharge/on_clog \"unclog\" (on_clog is \"stop\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"on_clog": "unclog", "unclog": {"max_clogs": 0}}})")),
+            "/discharge/unclog/max_clogs: must be an integer >= 1 (got 0)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"on_clog": "unclog", "unclog": {"mehtod": "kick"}}})")),
+            "/discharge/unclog/mehtod: unknown key; did you mean \"method\"?");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"mode": "reinject", "reinject_position": "periodic",
+                                                  "on_clog": "unclog"}})")),
+            "/discharge/unclog/method: remove_arch returns the arch's bodies on top of the bed, which the periodic box "
+            "has no place for; use reinject_position \"random\" or the method \"kick\" (got \"remove_arch\")");
+  // The LIGGGHTS backend refuses it when the run is planned.
+  EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "liggghts", "discharge": {"on_clog": "unclog"}})")),
+            "/discharge/on_clog: the LIGGGHTS backend cannot break a clog: it runs LIGGGHTS' input script to the end, "
+            "with no step at which to take out an arch or kick the bodies over the outlet; use the native engine, or "
+            "\"stop\" or \"wait\" (got \"unclog\")");
+}
+
 TEST(RunSpecTest, PeriodicHeadroomIsInTheResolvedSpecOnlyWhenNotTheDefault) {
   EXPECT_FALSE(RunSpec::from_json(json::object()).to_json()["discharge"].contains("periodic_headroom"));
   const RunSpec p = RunSpec::from_json(json::parse(R"({"discharge": {"periodic_headroom": 30}})"));
@@ -253,7 +293,9 @@ TEST(RunSpecTable, CoversTheCanonicalSpecAndItsDefaults) {
     ++checked;
   }
   EXPECT_GT(checked, 40);
-  EXPECT_EQ(left_out, 5);  // reinject_position, periodic_headroom, compress, bed/time_step, bed/next_batch
+  // reinject_position, periodic_headroom, compress, bed/time_step, bed/next_batch, on_clog and
+  // the five keys of discharge/unclog
+  EXPECT_EQ(left_out, 11);
 }
 
 TEST(RunSpecTable, EveryRowsTypeAndRangeIsEnforced) {

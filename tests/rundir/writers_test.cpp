@@ -22,6 +22,7 @@
 #include "rundir/progress.h"
 #include "rundir/run_directory.h"
 #include "rundir/summary.h"
+#include "rundir/unclogs.h"
 #include "test_util.h"
 
 namespace granary::rundir {
@@ -145,6 +146,40 @@ TEST(Writers, EventsStreamedAndWholeAreTheSameFile) {
   EXPECT_EQ(back[0].mass, events[0].mass);  // full precision
   EXPECT_EQ(back[1].shape, "disc");
   EXPECT_EQ(back[1].outlet, 1);
+}
+
+// unclogs.csv: the documented rows, read back; a continue cuts it back to its checkpoint's
+// offset; a missing file is no unclogs; a bad row names file:line.
+TEST(Writers, UnclogsAreTheDocumentedRowsAndContinueAtTheCheckpoint) {
+  TempDir dir;
+  const std::filesystem::path file = dir.path() / "unclogs.csv";
+  EXPECT_TRUE(ReadUnclogs(file).empty());
+  UnclogWriter w = UnclogWriter::Create(file);
+  w.Write({41.23, 412300, 1, 1, "remove_arch", {17, 52, 88, 130}});
+  const std::int64_t offset = w.Offset();
+  w.Write({60.5, 605000, 2, 1, "kick", {3}});
+  w.Close();
+  EXPECT_EQ(read_file(file), "time,step,clog,attempt,method,bodies\n41.23,412300,1,1,remove_arch,17 52 88 130\n"
+                             "60.5,605000,2,1,kick,3\n");
+  std::vector<UnclogEvent> back = ReadUnclogs(file);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[0].bodies, (std::vector<std::int64_t>{17, 52, 88, 130}));
+  EXPECT_EQ(back[1].method, "kick");
+  EXPECT_EQ(back[1].step, 605000);
+  w = UnclogWriter::ContinueAt(file, offset);
+  w.Write({61.0, 610000, 2, 1, "kick", {}});
+  w.Close();
+  back = ReadUnclogs(file);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[1].time, 61.0);
+  EXPECT_TRUE(back[1].bodies.empty());
+  write_file(file, "time,step,clog,attempt,method,bodies\n1,10,0,1,kick,3\n");
+  try {
+    ReadUnclogs(file);
+    ADD_FAILURE() << "no error";
+  } catch (const ReadError& e) {
+    EXPECT_EQ(std::string(e.what()), file.string() + ":2: clog '0' is not a clog number (1, 2, ...)");
+  }
 }
 
 TEST(Writers, ContinuingCutsEveryDumpBackToTheCheckpoint) {
