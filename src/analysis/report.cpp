@@ -27,11 +27,15 @@ std::string state_reason(const RunRecord& r) {
 std::optional<Section> runs_section(const CampaignView& c) {
   Section s{"runs", "Runs", {}};
   const int total = static_cast<int>(c.used.size() + c.missing.size() + c.failed.size() + c.unreadable.size() +
-                                     c.lost.size() + c.retired.size());
+                                     c.damaged.size() + c.lost.size() + c.retired.size());
   s.blocks.push_back(Text{std::to_string(total) + " runs in the campaign: **" + std::to_string(c.used.size()) +
                           " used**, " + std::to_string(c.missing.size()) + " missing (not finished), " +
                           std::to_string(c.failed.size()) + " failed, " + std::to_string(c.unreadable.size()) +
                           " finished but unreadable, " +
+                          (c.damaged.empty() ? std::string()
+                                             : "**" + std::to_string(c.damaged.size()) +
+                                                   " finished but damaged** (a file differs from what the engine "
+                                                   "recorded; below), ") +
                           (c.lost.empty() ? std::string()
                                           : std::to_string(c.lost.size()) + " finished but their run directory was deleted, ") +
                           std::to_string(c.retired.size()) + " retired. " +
@@ -44,10 +48,29 @@ std::optional<Section> runs_section(const CampaignView& c) {
   for (const RunRecord* r : c.missing) row(r, r->failure.empty() ? "not finished" : "not finished: " + state_reason(*r));
   for (const RunRecord* r : c.failed) row(r, state_reason(*r));
   for (const auto& [r, why] : c.unreadable) row(r, "unreadable: " + why);
+  for (const auto& [r, problems] : c.damaged) row(r, "damaged: " + rundir::Verification{rundir::Integrity::kDamaged, problems, 0}.text());
   for (const RunRecord* r : c.lost)
     row(r, "run directory deleted after it finished (campaign run --rerun-lost runs it again)");
   for (const RunRecord* r : c.retired) row(r, "retired (superseded)");
   if (!t.rows.empty()) s.blocks.push_back(t);
+  if (!c.damaged.empty()) {
+    s.blocks.push_back(Text{"**Damaged runs.** These runs finished, but their files no longer are what the engine "
+                            "recorded when it finished (`manifest.json`: sizes, checksums, counts of frames, events "
+                            "and clogs): cut short, changed or missing. They are kept out of every number of this "
+                            "report, of `campaign export` and of `campaign status`. Restore the files, or delete a "
+                            "run's directory and `campaign run --rerun-lost` runs it again."});
+    Table d{"damaged_runs", "Damaged runs: each file that differs and how", {"run", "point", "replica", "file", "what differs"},
+            {}, {}};
+    for (const auto& [r, problems] : c.damaged)
+      for (const rundir::FileProblem& p : problems)
+        d.rows.push_back({r->run_id, point_label(c, r->point, r->spec, NameForm::kShort), Cell::count(r->replica), p.file, p.what});
+    s.blocks.push_back(d);
+  }
+  if (!c.unverifiable.empty())
+    s.blocks.push_back(Text{std::to_string(c.unverifiable.size()) + " of the used runs are **not verifiable**: they were "
+                            "written before engines recorded a manifest of their files, so a file cut or changed "
+                            "since cannot be told from a whole one (only `events.csv` against `summary.json` is "
+                            "checked). First of them: `" + c.unverifiable.front()->run_id + "`."});
   return s;
 }
 
@@ -264,6 +287,8 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   summary.results_from_cache = ca.results_from_cache;
   summary.results_computed = ca.results_computed;
   summary.runs_lost = static_cast<int>(c.lost.size());
+  summary.runs_damaged = static_cast<int>(c.damaged.size());
+  summary.runs_unverifiable = static_cast<int>(c.unverifiable.size());
   summary.markdown = r.markdown;
   summary.html = r.html;
   if (comparison) summary.comparison = to_json(*comparison);

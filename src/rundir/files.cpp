@@ -165,6 +165,17 @@ FileLock::FileLock(const std::filesystem::path& path) : fd_(::open(path.c_str(),
   }
 }
 
+FileLock::FileLock(const std::filesystem::path& path, const std::function<void()>& on_wait)
+    : fd_(::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644)) {
+  if (fd_ < 0) throw std::runtime_error("cannot open lock file " + path.string() + ": " + std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) return;
+  if (on_wait) on_wait();
+  if (::flock(fd_, LOCK_EX) != 0) {
+    ::close(fd_);
+    throw std::runtime_error("cannot lock " + path.string());
+  }
+}
+
 FileLock::~FileLock() {
   ::flock(fd_, LOCK_UN);
   ::close(fd_);

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -77,6 +78,9 @@ std::string TailOfFile(const std::filesystem::path& file, int lines);
 class FileLock {
  public:
   explicit FileLock(const std::filesystem::path& path);
+  // The same; when another process holds the lock, `on_wait` is called once before waiting
+  // for it (to say so).
+  FileLock(const std::filesystem::path& path, const std::function<void()>& on_wait);
   ~FileLock();
   FileLock(const FileLock&) = delete;
   FileLock& operator=(const FileLock&) = delete;

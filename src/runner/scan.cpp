@@ -108,4 +108,32 @@ ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run) {
   return report;
 }
 
+std::map<std::string, rundir::Verification> check_done_runs(const std::vector<RunRow>& runs, rundir::VerifyLevel level,
+                                                            const std::function<void(int, int)>& progress) {
+  std::vector<const RunRow*> done;
+  for (const RunRow& r : runs)
+    if (r.state == "done" && fs::is_directory(r.run_dir)) done.push_back(&r);
+  std::map<std::string, rundir::Verification> out;
+  int n = 0;
+  for (const RunRow* r : done) {
+    try {
+      out[r->run_id] = rundir::VerifyRun(r->run_dir, {level, true});
+    } catch (const rundir::ReadError&) {
+      // the directory went away under us: lost, said elsewhere
+    }
+    if (progress) progress(++n, static_cast<int>(done.size()));
+  }
+  return out;
+}
+
+IntegrityCounts count_integrity(const std::map<std::string, rundir::Verification>& checks) {
+  IntegrityCounts c;
+  for (const auto& [id, v] : checks) {
+    if (v.integrity == rundir::Integrity::kWhole) ++c.whole;
+    if (v.integrity == rundir::Integrity::kDamaged) ++c.damaged;
+    if (v.integrity == rundir::Integrity::kNotVerifiable) ++c.not_verifiable;
+  }
+  return c;
+}
+
 }  // namespace granary::runner

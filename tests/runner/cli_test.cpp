@@ -121,6 +121,13 @@ TEST_F(CliTest, BadSpecFilesAreUsageErrorsThatSayWhere) {
   r = Sh(Cmd("plan " + broken.string()));
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_EQ(r.output.rfind("error: " + broken.string() + ":3:17: not valid JSON: syntax error", 0), 0u) << r.output;
+  // issue 27: a number out of range exited 1 with nlohmann's out_of_range.406 text.
+  const fs::path huge = dir_ / "huge.json";
+  std::ofstream(huge) << "{\"name\": \"t\",\n \"seed\": 1e400}\n";
+  r = Sh(Cmd("plan " + huge.string()));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_EQ(r.output, "error: " + huge.string() + ":2:10: the number 1e400 is out of range (a JSON number must fit a "
+                      "double, magnitude below 1.8e308)\n");
   const fs::path big = dir_ / "big.json";
   std::ofstream(big) << R"({"name": "t", "replicas": 1000, "base": {"silo": {"width": 30}},
     "sweep": {"grid": {"/silo/base_outlets/0/width": [3, 4, 5, 6], "/contact/mu": [0.1, 0.2, 0.3]}}})";
@@ -728,6 +735,8 @@ TEST_F(CliTest, AFullDiskUnderTheDatabaseStopsTheRunnerCleanly) {
   EXPECT_EQ(testing::WaitExit(runner), 3) << ReadFile(log);
   const std::string out = ReadFile(log);
   EXPECT_NE(out.find("database or disk is full"), std::string::npos) << out;
+  // issue 27: and where the full disk is.
+  EXPECT_NE(out.find("the file system of " + (dir_ / "dbfs").string() + " is full ("), std::string::npos) << out;
   EXPECT_NE(out.find("campaign run stopped its engines (they continue from their checkpoints)"), std::string::npos) << out;
   fs::remove(dir_ / "dbfs" / "filler");
   unsetenv("FAKE_ENGINE_FIRST_LAUNCH_STEP_MS");
@@ -772,6 +781,76 @@ TEST_F(CliTest, AFullDiskUnderTheRunsIsSaidAndInterruptsTheRun) {
     EXPECT_NE(failure.find(" is full ("), std::string::npos) << failure;
     EXPECT_EQ(run["attempts"], 1);
   }
+}
+
+// issue 27: a database in a read-only directory failed even `status` with "unable to open
+// database file (SQLite code 14)". status, show, report and export now read it read-only;
+// a verb that must write says the directory is read-only.
+TEST_F(CliTest, AReadOnlyDatabaseDirectoryIsReadAndSaidSo) {
+  ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 6]", 1))).code, 0);
+  ASSERT_EQ(Sh(RunCmd()).code, 0);
+  const Tmpfs disk(dir_ / "ro", "8m");
+  if (!disk.mounted()) GTEST_SKIP() << "cannot mount a tmpfs (needs root with CAP_SYS_ADMIN): " << disk.why();
+  fs::copy_file(Db(), dir_ / "ro" / "g.db");
+  fs::create_directory_symlink(dir_ / "runs", dir_ / "ro" / "runs");
+  ASSERT_EQ(::mount("tmpfs", (dir_ / "ro").c_str(), "tmpfs", MS_REMOUNT | MS_RDONLY, nullptr), 0) << std::strerror(errno);
+  const std::string db = (dir_ / "ro" / "g.db").string();
+  const auto status = Sh(testing::Campaign() + " status --db " + db);
+  EXPECT_EQ(status.code, 0) << status.output;
+  EXPECT_NE(status.output.find("done 2"), std::string::npos) << status.output;
+  const auto report = Sh(testing::Campaign() + " report --no-figures --out " + (dir_ / "rep").string() + " --db " + db);
+  EXPECT_EQ(report.code, 0) << report.output;
+  EXPECT_NE(report.output.find("cannot be written here (read-only): the metrics are not stored in it"), std::string::npos)
+      << report.output;
+  EXPECT_TRUE(fs::exists(dir_ / "rep" / "report.md"));
+  const auto exported = Sh(testing::Campaign() + " export --db " + db + " 2>/dev/null");
+  EXPECT_EQ(exported.code, 0) << exported.output;
+  EXPECT_EQ(CountLines(exported.output, "") , 3) << exported.output;  // header and 2 runs
+  const auto run = Sh(testing::Campaign() + " run --engine " + testing::FakeEngine() + " --db " + db);
+  EXPECT_EQ(run.code, 3) << run.output;
+  EXPECT_NE(run.output.find((dir_ / "ro").string() + " is read-only ("), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("campaign status, show, report and export work read-only"), std::string::npos) << run.output;
+}
+
+// issue 27: campaign report with nothing finished exited 0 without a word.
+TEST_F(CliTest, AReportWithNothingFinishedSaysSoAndExitsFive) {
+  ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 6]", 1))).code, 0);
+  const auto report = Sh(Cmd("report --no-figures --out " + (dir_ / "rep").string()));
+  EXPECT_EQ(report.code, 5) << report.output;
+  EXPECT_NE(report.output.find("report: no finished run to analyse"), std::string::npos) << report.output;
+  const auto exported = Sh(Cmd("export"));
+  EXPECT_EQ(exported.code, 5) << exported.output;
+  EXPECT_NE(exported.output.find("export: no finished run to analyse"), std::string::npos) << exported.output;
+}
+
+// issue 27: a run directory deleted while its engine ran failed with only "engine exited with
+// status 1" (engine.log went with the directory). The runner keeps the log open and tells
+// what the engine last said.
+TEST_F(CliTest, ARunDirectoryDeletedMidRunSaysWhatTheEngineLastSaid) {
+  const std::string engine = testing::BinDir() + "/granary-engine";
+  if (!fs::exists(engine)) GTEST_SKIP() << "granary-engine not built";
+  const fs::path p = dir_ / "long.json";
+  std::ofstream(p) << R"({"name": "gone", "seed": 2, "replicas": 1,
+    "base": {"bodies": {"count": 60}, "silo": {"width": 12}, "discharge": {"mode": "reinject", "max_time": 100000,
+             "stop_on_clog": false}, "output": {"checkpoint_interval": 0.5, "frame_interval": 0.5}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [4]}}})";
+  ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
+  const fs::path run_dir = fs::path(Status()["runs"][0]["run_dir"].get<std::string>());
+  const std::string log = (dir_ / "runner.log").string();
+  const pid_t runner = Spawn({testing::Campaign(), "run", "--db", Db(), "--retries", "0"}, log);
+  // Deleted once the engine is in its discharge (it has written a checkpoint there).
+  ASSERT_TRUE(testing::WaitFor([&] { return fs::exists(run_dir / "checkpoint.bin"); }, 300)) << ReadFile(log);
+  fs::remove_all(run_dir);
+  EXPECT_EQ(testing::WaitExit(runner), 1) << ReadFile(log);
+  const json s = Status();
+  ASSERT_EQ(s["counts"]["failed"], 1) << s.dump();
+  const std::string failure = s["runs"][0]["failure"];
+  EXPECT_EQ(failure.rfind("engine exited with status 1; its run directory " + run_dir.string() +
+                              " was deleted while it ran; it last said:\n",
+                          0),
+            0u)
+      << failure;
+  EXPECT_NE(failure.find("No such file or directory"), std::string::npos) << failure;
 }
 
 }  // namespace
