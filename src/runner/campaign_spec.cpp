@@ -133,20 +133,20 @@ void CheckAxisResolves(const json& params, const std::string& pointer, const std
       if (!at->contains(t)) {
         if (last) return;  // a new key: the run spec's own validation judges it
         // The closest key there, as the whole corrected axis.
-        std::string best;
-        std::size_t best_d = 3;
-        for (const auto& [key, value] : at->items()) {
-          const std::size_t d = edit_distance(t, key);
-          if (d < best_d) {
-            best_d = d;
-            best = key;
-          }
-        }
+        std::vector<std::string> keys;
+        for (const auto& [key, value] : at->items()) keys.push_back(key);
+        const std::string best = nearest(t, keys);
         std::string hint;
         if (!best.empty()) {
-          std::string fixed = walked + "/" + escape_pointer_token(best);
-          for (std::size_t j = k + 1; j < tokens.size(); ++j) fixed += "/" + escape_pointer_token(tokens[j]);
-          hint = "; did you mean \"" + fixed + "\"?";
+          // (appended piece by piece: GCC 12 reports a false -Wrestrict on a + "/" + b, bug 105329)
+          std::string fixed = walked;
+          for (std::size_t j = k; j < tokens.size(); ++j) {
+            fixed += '/';
+            fixed += escape_pointer_token(j == k ? best : tokens[j]);
+          }
+          hint = "; did you mean \"";
+          hint += fixed;
+          hint += "\"?";
         }
         throw SpecError(where, "axis \"" + pointer + "\" does not resolve: " + here + " has no key \"" + t + "\"" + hint);
       }

@@ -86,6 +86,10 @@ ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run) {
     } else if (r.state == "done" && !fs::exists(dir)) {
       // Its results are in the database; only --rerun-lost runs it again (docs/cli.md).
       report.lost.push_back(r.run_id);
+    } else if (r.state == "done" && rundir::IsDone(dir)) {
+      // DONE is there but summary.json cannot be read: the run finished and was damaged
+      // since; it stays done and is reported damaged (scan --verify, report, status), not run
+      // again over what is left.
     } else if (r.state == "done") {
       to = "interrupted";
       reason = "done in the database, but " + dir.string() + " has no DONE and summary.json (moved or deleted?)";

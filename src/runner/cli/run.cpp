@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "runner/campaign_db.h"
+#include <cstdlib>
 #include "runner/cli/console_observer.h"
 #include "runner/slurm.h"
 
@@ -214,6 +215,21 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
     if (!campaign) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
     spec = campaign->spec;
     name = campaign->name;
+    // The bed cache is part of each planned run (bed/cache_file in run.json): a
+    // GRANARY_CACHE_DIR set now that differs is not used, and saying so beats beds appearing
+    // elsewhere without a word.
+    if (const char* env = std::getenv("GRANARY_CACHE_DIR"); env && *env) {
+      for (const RunRow& r : load_runs(*opened, true)) {
+        if (r.state == "done" || r.state == "retired") continue;
+        const json* file = r.params.contains("bed") ? &r.params["bed"] : nullptr;
+        if (!file || !file->contains("cache_file") || !(*file)["cache_file"].is_string()) continue;
+        const fs::path planned = fs::path((*file)["cache_file"].get<std::string>()).parent_path();
+        if (fs::weakly_canonical(planned) != fs::weakly_canonical(env))
+          out << "note: GRANARY_CACHE_DIR=" << env << " is not used: the plan fixed the prepared beds' directory at "
+              << planned.string() << " (bed/cache_file of each planned run; campaign plan stores it)\n";
+        break;
+      }
+    }
   }
   ExecutorChoice c = ChooseExecutor(a, spec, db, o);
   c.settings.campaign = name;
