@@ -803,9 +803,11 @@ TEST_F(CliTest, AReadOnlyDatabaseDirectoryIsReadAndSaidSo) {
   EXPECT_NE(report.output.find("cannot be written here (read-only): the metrics are not stored in it"), std::string::npos)
       << report.output;
   EXPECT_TRUE(fs::exists(dir_ / "rep" / "report.md"));
-  const auto exported = Sh(testing::Campaign() + " export --db " + db + " 2>/dev/null");
+  const auto exported = Sh(testing::Campaign() + " export --out " + (dir_ / "runs.csv").string() + " --db " + db);
   EXPECT_EQ(exported.code, 0) << exported.output;
-  EXPECT_EQ(CountLines(exported.output, "") , 3) << exported.output;  // header and 2 runs
+  EXPECT_NE(exported.output.find("export: the database " + db + " cannot be written here (read-only)"), std::string::npos)
+      << exported.output;
+  EXPECT_EQ(CountLines(ReadFile(dir_ / "runs.csv"), ""), 3);  // header and 2 runs
   const auto run = Sh(testing::Campaign() + " run --engine " + testing::FakeEngine() + " --db " + db);
   EXPECT_EQ(run.code, 3) << run.output;
   EXPECT_NE(run.output.find((dir_ / "ro").string() + " is read-only ("), std::string::npos) << run.output;
