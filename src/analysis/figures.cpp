@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <regex>
 #include <set>
 
 #include "analysis/options.h"
@@ -124,23 +123,12 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
       throw OptionError(fp + "/model", fj.at("model"), err.what());
     }
     if (!fj.contains("over")) {
-      for (const auto& v : e.variables())
-        if (fit.model.find(v) != std::string::npos) {
-          // Only the names the model uses: parse again with each candidate alone.
-          const Expression one = Expression::parse(fit.model, {v});
-          if (std::find(one.parameters().begin(), one.parameters().end(), v) == one.parameters().end())
-            fit.over.push_back(v);
-        }
+      // The axes the model names (without variables, every name it uses is a "parameter").
+      const std::vector<std::string> named = Expression::parse(fit.model, {}).parameters();
+      for (const auto& v : named)  // in the order the model names them
+        if (std::find(usable.begin(), usable.end(), v) != usable.end()) fit.over.push_back(v);
       if (fit.over.empty())
         throw OptionError(fp + "/model", fj.at("model"), "uses no axis; its variables must be axes (" + joined(usable) + ")");
-      // In the order the model names them.
-      auto first = [&](const std::string& v) {
-        std::smatch m;
-        return std::regex_search(fit.model, m, std::regex("(^|[^A-Za-z0-9_])" + v + "($|[^A-Za-z0-9_])"))
-                   ? m.position(0)
-                   : static_cast<std::ptrdiff_t>(fit.model.size());
-      };
-      std::stable_sort(fit.over.begin(), fit.over.end(), [&](const std::string& a, const std::string& b) { return first(a) < first(b); });
     }
     if (e.parameters().empty()) throw OptionError(fp + "/model", fj.at("model"), "has no parameter to fit");
     if (fj.contains("initial")) {

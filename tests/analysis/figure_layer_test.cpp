@@ -16,6 +16,7 @@
 #include "analysis/options.h"
 #include "analysis/registry.h"
 #include "analysis/report.h"
+#include "stored_campaign.h"
 #include "test_util.h"
 
 namespace granary::analysis {
@@ -371,29 +372,12 @@ TEST(ReportFigures, EveryDataPointLiesInsideItsFigureRanges) {
 TEST(ReportFigures, EveryDataPointOfTheStoredEngineCampaignsLiesInsideItsRanges) {
   for (const char* name : {"remove", "two-outlets", "lateral"}) {
     const fs::path dir = fs::path(GRANARY_SOURCE_DIR) / "tests" / "data" / "regression" / name;
-    const nlohmann::json c = nlohmann::json::parse(read_file(dir / "campaign.json"));
-    CampaignInfo info;
-    info.name = c.at("name");
-    info.spec = c.at("spec");
-    info.axes = c.at("axes").get<std::vector<std::string>>();
-    std::vector<RunRecord> runs;
-    for (const auto& r : c.at("runs")) {
-      RunRecord rec;
-      rec.run_id = r.at("run_id");
-      rec.point_id = r.at("point_id");
-      rec.point = r.at("point");
-      rec.replica = r.at("replica");
-      rec.engine = r.at("engine");
-      rec.state = r.at("state");
-      rec.run_dir = dir / "runs" / rec.run_id;
-      rec.spec = nlohmann::json::parse(read_file(rec.run_dir / "run.json"));
-      runs.push_back(rec);
-    }
+    const testing::StoredCampaign stored = testing::load(dir);
     TempDir out;
     ReportOptions o;
     o.out_dir = out.path();
     o.analysis.write_cache = false;  // the stored runs stay as they are
-    write_report(info, runs, o);
+    write_report(stored.info, stored.runs, o);
     int scripts = 0;
     for (const auto& e : fs::directory_iterator(out.path() / "figures")) scripts += e.path().extension() == ".gp";
     EXPECT_GE(scripts, 3) << name;
