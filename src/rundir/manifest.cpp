@@ -279,9 +279,13 @@ Verification VerifyRun(const fs::path& dir, const VerifyOptions& options) {
     } else if (summary && summary->exited > 0 && !(manifest && manifest->files.count(kEventsFile))) {
       problem(kEventsFile, "missing, summary.json says " + std::to_string(summary->exited) + " bodies exited");
     }
+  }
 
-    // Checksums and counts: of the files whose size or mtime changed since they were last
-    // found whole (all of them for kChecksums), and of the cut ones to say how much is left.
+  // Checksums and counts: of the files whose size or mtime changed since they were last found
+  // whole (all of them for kChecksums), and of the cut ones to say how much is left. kSizes
+  // hashes only a file found whole before whose mtime changed since (changed in place after a
+  // report verified it); a file never verified is left to the first report.
+  {
     if (manifest) {
       nlohmann::json verified = ReadVerified(dir);
       const std::string manifest_hash = FileXxh3(dir / kManifestFile);
@@ -292,9 +296,18 @@ Verification VerifyRun(const fs::path& dir, const VerifyOptions& options) {
         const Stat& st = stats[name];
         if (!st.exists) continue;
         nlohmann::json& known = verified["files"][name];
-        const bool cached = known.is_object() && known.value("size", std::uint64_t{0}) == st.size &&
-                            known.value("mtime_ns", std::int64_t{0}) == st.mtime_ns;
-        if (size_ok[name] && cached && options.level == VerifyLevel::kCached) continue;
+        // The last check's answer for this very file (same size and mtime): whole, or damaged
+        // with what differed.
+        const bool recorded = known.is_object() && known.value("size", std::uint64_t{0}) == st.size &&
+                              known.value("mtime_ns", std::int64_t{0}) == st.mtime_ns;
+        const bool recorded_damaged = recorded && known.contains("damaged");
+        if (options.level != VerifyLevel::kChecksums && size_ok[name] && recorded) {
+          if (recorded_damaged)
+            for (const auto& what : known.at("damaged")) problem(name, what.get<std::string>());
+          continue;
+        }
+        if (options.level == VerifyLevel::kSizes && (!size_ok[name] || !known.is_object())) continue;
+        const std::size_t first_problem = v.problems.size();
         bool whole = size_ok[name];
         if (size_ok[name]) {
           std::string sum;
@@ -322,10 +335,11 @@ Verification VerifyRun(const fs::path& dir, const VerifyOptions& options) {
             whole = false;
           }
         }
-        if (whole) {
-          known = {{"size", st.size}, {"mtime_ns", st.mtime_ns}};
-        } else {
-          verified["files"].erase(name);
+        known = {{"size", st.size}, {"mtime_ns", st.mtime_ns}};
+        if (!whole) {
+          nlohmann::json found = nlohmann::json::array();
+          for (std::size_t k = first_problem; k < v.problems.size(); ++k) found.push_back(v.problems[k].what);
+          known["damaged"] = found;
         }
         changed = true;
       }

@@ -78,7 +78,8 @@ struct Verification {
 };
 
 enum class VerifyLevel {
-  kSizes,      // manifest present, sizes, summary.json readable: stat and one small file (status)
+  kSizes,      // manifest present, sizes, summary.json readable: stat and one small file; and the
+               //   checksum of a file found whole before whose mtime changed since (status)
   kCached,     // + events.csv rows against the manifest and summary.json; checksums and counts of
                //   the files whose size or mtime changed since they were last verified (the pass)
   kChecksums,  // + every checksum and count, whatever was verified before (scan --verify)

@@ -168,6 +168,47 @@ TEST(Manifest, AByteChangedInPlaceIsFoundAfterTheRunWasVerified) {
   EXPECT_NE(v.text().find("(changed in place)"), std::string::npos) << v.text();
 }
 
+TEST(Manifest, TheCheapCheckHashesOnlyWhatChangedSinceItWasFoundWhole) {
+  TempDir t;
+  MakeRun(t.path());
+  const auto change = [&] {
+    std::fstream f(t.path() / kFramesFile, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-3, std::ios::end);
+    f.put('7');
+  };
+  // Never verified: the sizes alone (no file is hashed), so an in-place change is not seen yet.
+  change();
+  Verification v = VerifyRun(t.path(), {VerifyLevel::kSizes, true});
+  EXPECT_EQ(v.integrity, Integrity::kWhole);
+  EXPECT_EQ(v.files_hashed, 0);
+  // Verified whole (as a report does), then changed in place: the cheap check hashes that file.
+  MakeRun(t.path());
+  ASSERT_EQ(VerifyRun(t.path()).integrity, Integrity::kWhole);
+  EXPECT_EQ(VerifyRun(t.path(), {VerifyLevel::kSizes, true}).files_hashed, 0);
+  change();
+  v = VerifyRun(t.path(), {VerifyLevel::kSizes, true});
+  EXPECT_EQ(v.integrity, Integrity::kDamaged);
+  EXPECT_EQ(v.files_hashed, 1);
+  EXPECT_NE(v.text().find("frames.dump: checksum"), std::string::npos) << v.text();
+  // What a check found damaged is remembered with the file's size and mtime: the next cheap
+  // check says it again without hashing, also when nothing was verified before the damage.
+  v = VerifyRun(t.path(), {VerifyLevel::kSizes, true});
+  EXPECT_EQ(v.integrity, Integrity::kDamaged);
+  EXPECT_EQ(v.files_hashed, 0);
+  MakeRun(t.path());
+  std::filesystem::remove_all(t.path() / "analyses");
+  change();
+  ASSERT_EQ(VerifyRun(t.path()).integrity, Integrity::kDamaged);  // a report's check
+  v = VerifyRun(t.path(), {VerifyLevel::kSizes, true});
+  EXPECT_EQ(v.integrity, Integrity::kDamaged);
+  EXPECT_EQ(v.files_hashed, 0);
+  EXPECT_NE(v.text().find("(changed in place)"), std::string::npos) << v.text();
+  // Restored: whole again.
+  MakeRun(t.path());
+  EXPECT_EQ(VerifyRun(t.path()).integrity, Integrity::kWhole);
+  EXPECT_EQ(VerifyRun(t.path(), {VerifyLevel::kSizes, true}).integrity, Integrity::kWhole);
+}
+
 TEST(Manifest, EventsCutHeaderOnlyOrEmptyDisagreeWithTheSummary) {
   for (const std::string what : {"half", "header", "empty", "missing"}) {
     TempDir t;
