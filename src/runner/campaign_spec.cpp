@@ -231,6 +231,18 @@ json parse_spec_text(const std::string& text, const std::string& source) {
   }
 }
 
+void resolve_spec_paths(json& spec, const std::string& spec_file) {
+  if (!spec.is_object() || !spec.contains("report") || !spec["report"].is_object()) return;
+  json& report = spec["report"];
+  if (!report.contains("python") || !report["python"].is_array()) return;
+  const std::filesystem::path folder = std::filesystem::absolute(spec_file).parent_path();
+  for (json& entry : report["python"]) {
+    if (!entry.is_object() || !entry.contains("script") || !entry["script"].is_string()) continue;
+    const std::filesystem::path script = entry["script"].get<std::string>();
+    if (script.is_relative()) entry["script"] = (folder / script).lexically_normal().string();
+  }
+}
+
 CampaignSpec CampaignSpec::from_json(const json& j) {
   check_keys(j, "", campaign_spec_table().keys(""));
   CampaignSpec s;

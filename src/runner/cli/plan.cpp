@@ -44,7 +44,9 @@ json ReadSpecFile(const std::string& verb, const std::string& spec_path) {
   std::stringstream text;
   text << in.rdbuf();
   try {
-    return parse_spec_text(text.str(), spec_path);
+    json spec = parse_spec_text(text.str(), spec_path);
+    resolve_spec_paths(spec, spec_path);
+    return spec;
   } catch (const std::invalid_argument& e) {
     throw UsageError(e.what());
   }

@@ -369,6 +369,11 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
     std::istringstream lines(run.failure);
     for (std::string line; std::getline(lines, line);) out << "  | " << line << "\n";
   }
+  for (const auto& f : d["analysis_failures"]) {
+    out << "analysis " << f["analysis"].get<std::string>() << " failed (campaign report: Python analysis):\n";
+    std::istringstream lines(f["error"].get<std::string>());
+    for (std::string line; std::getline(lines, line);) out << "  | " << line << "\n";
+  }
   if (!results.empty()) {
     out << "results (summary.json):\n";
     for (const auto& [key, value] : results.items()) row(key, ValueText(value));
