@@ -100,6 +100,7 @@ AnalysisSetup setup_analyses(const nlohmann::json& campaign_spec) {
   AnalysisSetup setup;
   std::string known;
   for (const char* k : kPassKeys) known += (known.empty() ? "" : ", ") + std::string(k);
+  known += ", figures";
   for (const AnalysisEntry& e : rows) known += ", " + e.key;
   for (const auto& [key, v] : report.items()) {
     const std::string path = "/report/" + key;
@@ -111,6 +112,8 @@ AnalysisSetup setup_analyses(const nlohmann::json& campaign_spec) {
       setup.pass.frame_stride = option_integer(v, path, 1, 1000000000);
     } else if (key == "max_frames") {
       setup.pass.max_frames = option_integer(v, path, 0, 1000000000);
+    } else if (key == "figures") {
+      continue;  // the figure layer (figures.h) reads it
     } else if (key == "models") {
       throw OptionError(path, v, "fit models are options of the flow analysis now: /report/flow/models");
     } else if (key == "min_exits_before_clog") {
