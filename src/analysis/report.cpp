@@ -183,6 +183,40 @@ std::optional<Section> system_section(const CampaignView& c) {
 
 // Each point: the bed before the outlets open and the last state of its first replica; last in
 // the report, so that the results come first.
+// Pictures of point k's lowest replica (`kinds`: its bed, its end, or both) as `stem`-bed.png and
+// `stem`-end.png; empty when it has no used run or nothing could be drawn (why: not_drawn).
+Pictures point_pictures(const CampaignView& c, std::size_t k, const ReportOptions& options, bool bed, bool end_picture,
+                        const std::string& stem, NotDrawn& not_drawn) {
+  Pictures pics;
+  const Point& p = c.points[k];
+  const UsedRun* run = nullptr;
+  for (std::size_t u : p.runs)
+    if (!run || c.used[u].record->replica < run->record->replica) run = &c.used[u];
+  if (!run) return pics;
+  std::filesystem::create_directories(options.out_dir / "pictures");
+  // In words, engine included (a campaign on two engines shows each point twice).
+  const std::string label = c.axes.empty() ? std::string() : point_title(c, p);
+  pics.caption = (label.empty() ? std::string("The silo") : label) + " (replica " + std::to_string(run->record->replica) +
+                 ", run `" + run->record->run_id.substr(0, 10) + "`)";
+  const std::string& end = run->summary.end_reason;
+  const std::pair<ReportOptions::Picture, std::string> kinds[] = {
+      {ReportOptions::Picture::kBed, "the bed before the outlets open (t = 0)"},
+      {ReportOptions::Picture::kEnd, (end == "clogged" ? "clogged" : end == "discharged" ? "discharged" : "the last frame") +
+                                         std::string(" (t = ") + format_number(run->summary.t_end, 4) + ")"}};
+  for (const auto& [kind, caption] : kinds) {
+    const bool is_bed = kind == ReportOptions::Picture::kBed;
+    if ((is_bed && !bed) || (!is_bed && !end_picture)) continue;
+    const std::string file = stem + (is_bed ? "-bed.png" : "-end.png");
+    const std::string problem = options.draw_run(run->record->run_dir, kind, options.out_dir / file);
+    if (problem.empty()) {
+      pics.pictures.push_back({file, caption});
+    } else {
+      not_drawn.add(problem);
+    }
+  }
+  return pics;
+}
+
 std::optional<Section> gallery_section(const CampaignView& c, const ReportOptions& options) {
   Section s{"gallery", "Gallery: every point", {}};
   if (!options.draw_run) {
@@ -191,36 +225,34 @@ std::optional<Section> gallery_section(const CampaignView& c, const ReportOption
   }
   NotDrawn not_drawn;
   for (std::size_t k = 0; k < c.points.size(); ++k) {
-    const Point& p = c.points[k];
-    const UsedRun* run = nullptr;
-    for (std::size_t u : p.runs)
-      if (!run || c.used[u].record->replica < run->record->replica) run = &c.used[u];
-    if (!run) continue;
-    const std::string stem = "pictures/point-" + std::to_string(k + 1);
-    std::filesystem::create_directories(options.out_dir / "pictures");
-    Pictures pics;
-    // In words, engine included (a campaign on two engines shows each point twice).
-    const std::string label = c.axes.empty() ? std::string() : point_title(c, p);
-    pics.caption = (label.empty() ? std::string("The silo") : label) + " (replica " + std::to_string(run->record->replica) +
-                   ", run `" + run->record->run_id.substr(0, 10) + "`)";
-    const std::string& end = run->summary.end_reason;
-    const std::pair<ReportOptions::Picture, std::string> kinds[] = {
-        {ReportOptions::Picture::kBed, "the bed before the outlets open (t = 0)"},
-        {ReportOptions::Picture::kEnd, (end == "clogged" ? "clogged" : end == "discharged" ? "discharged" : "the last frame") +
-                                           std::string(" (t = ") + format_number(run->summary.t_end, 4) + ")"}};
-    for (const auto& [kind, caption] : kinds) {
-      const std::string file = stem + (kind == ReportOptions::Picture::kBed ? "-bed.png" : "-end.png");
-      const std::string problem = options.draw_run(run->record->run_dir, kind, options.out_dir / file);
-      if (problem.empty()) {
-        pics.pictures.push_back({file, caption});
-      } else {
-        not_drawn.add(problem);
-      }
-    }
+    Pictures pics = point_pictures(c, k, options, true, true, "pictures/point-" + std::to_string(k + 1), not_drawn);
     if (!pics.pictures.empty()) s.blocks.push_back(pics);
   }
   not_drawn.append_to(s);
   return s;
+}
+
+// A figure of kind "pictures": the chosen points' pictures, side by side, under its caption.
+void add_figure_pictures(const CampaignView& c, FigureOutcome& f, const ReportOptions& options) {
+  const FigureSpec& spec = *f.spec;
+  if (!options.draw_run) {
+    f.blocks.push_back(Text{"(Figure " + spec.name + ": no pictures, this report was written without the renderer.)"});
+    return;
+  }
+  Pictures all;
+  all.caption = (spec.title.empty() ? spec.name : spec.title) + (spec.caption.empty() ? "" : ". " + spec.caption) +
+                (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
+  NotDrawn not_drawn;
+  for (const FigureDatum& d : f.data)
+    for (std::size_t k : d.points) {
+      const Pictures one = point_pictures(c, k, options, spec.picture == "bed", spec.picture == "end",
+                                          "pictures/figure-" + spec.name + "-" + std::to_string(k + 1), not_drawn);
+      for (const Picture& p : one.pictures) all.pictures.push_back({p.file, one.caption + ": " + p.caption});
+    }
+  if (!all.pictures.empty()) f.blocks.push_back(all);
+  Section notes{"", "", {}};
+  not_drawn.append_to(notes);
+  for (Block& b : notes.blocks) f.blocks.push_back(std::move(b));
 }
 
 // Every used run with its headline metrics (every analysis' metrics are in the export).
@@ -312,6 +344,8 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   // engine comparison; then what was simulated, the runs, provenance, per-run tables and the
   // gallery of every point.
   const std::unique_ptr<Reproduction> reproduction = reproduce(ca);
+  for (FigureOutcome& f : reproduction->figures)
+    if (f.spec->kind == "pictures") add_figure_pictures(c, f, options);
   std::vector<Section> sections;
   if (auto s = key_results_section(reproduction->results)) sections.push_back(std::move(*s));
   if (auto s = figures_section(reproduction->figures)) sections.push_back(std::move(*s));

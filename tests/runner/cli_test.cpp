@@ -418,6 +418,52 @@ TEST_F(CliTest, OnlyFilterSelectsRuns) {
 namespace granary::runner {
 namespace {
 
+// Issue 28 end to end on the real engine: a derived axis in --only and the export, and the
+// reproduction table in export --expectations, status and report.
+TEST_F(CliTest, RealEngineDerivedAxesAndExpectations) {
+  const std::string engine = testing::BinDir() + "/granary-engine";
+  if (!fs::exists(engine)) GTEST_SKIP() << "granary-engine not built";
+  const fs::path p = dir_ / "expect.json";
+  std::ofstream(p) << R"({"name": "expect", "seed": 2, "replicas": 1,
+    "base": {"bodies": {"count": 60}, "silo": {"width": 12}, "discharge": {"mode": "remove", "max_time": 2}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [3, 4]}},
+    "axes": {"W2": "2 * W"},
+    "expect": [
+      {"metric": "n_stagnant", "at": {"W2": 8}, "value": 60, "tolerance": 60, "min_runs": 1, "source": "0 to 120 bodies"},
+      {"metric": "n_stagnant", "at": {"W": 4}, "value": -1000, "tolerance": 1, "min_runs": 1, "source": "no count is negative"},
+      {"metric": "n_stagnant", "at": {"W": 3}, "value": 60, "source": "two runs needed"}]})";
+  ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
+  ASSERT_EQ(Sh(Cmd("run --jobs 2")).code, 0);
+  const auto table = Sh(Cmd("export --expectations --format json") + " 2>/dev/null");
+  ASSERT_EQ(table.code, 0) << table.output;
+  const json t = json::parse(table.output);
+  ASSERT_EQ(t.size(), 3u) << table.output;
+  EXPECT_EQ(t[0]["verdict"], "agrees") << t.dump();
+  EXPECT_EQ(t[0]["quantity"], "n_stagnant at W2 = 8");
+  EXPECT_EQ(t[1]["verdict"], "disagrees") << t.dump();
+  EXPECT_EQ(t[2]["verdict"], "not enough runs") << t.dump();
+  EXPECT_EQ(t[2]["runs"], 1);
+  const auto status = Sh(Cmd("status") + " 2>/dev/null");
+  EXPECT_NE(status.output.find("expectations: 1 agree, 1 disagrees, 1 not yet"), std::string::npos) << status.output;
+  EXPECT_EQ(Status()["expectations"], "1 agree, 1 disagrees, 1 not yet");
+  // The derived axis: a column of the export, and a filter.
+  const auto only = Sh(Cmd("export --level point --format json --only W2=6") + " 2>/dev/null");
+  ASSERT_EQ(only.code, 0) << only.output;
+  const json rows = json::parse(only.output);
+  ASSERT_EQ(rows.size(), 1u) << only.output;
+  EXPECT_EQ(rows[0]["W"], 3);
+  EXPECT_EQ(rows[0]["W2"], 6);
+  const auto bad = Sh(Cmd("export --only W2=7") + " 2>&1");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.output.find("no run has W2 = 7 (its values: 6, 8)"), std::string::npos) << bad.output;
+  const auto report = Sh(Cmd("report --no-figures") + " 2>/dev/null");
+  ASSERT_EQ(report.code, 0) << report.output;
+  EXPECT_NE(report.output.find("expectations: 1 agree, 1 disagrees, 1 not yet"), std::string::npos) << report.output;
+  EXPECT_NE(ReadFile(dir_ / "report" / "report.md").find("## Key results"), std::string::npos);
+  // Without /expect, --expectations is a usage error.
+  EXPECT_EQ(Sh(Cmd("export --expectations --level run") + " 2>&1").code, 2);
+}
+
 // The real native engine on a tiny campaign: results are ingested from summary.json.
 TEST_F(CliTest, RealEngineEndToEnd) {
   const std::string engine = testing::BinDir() + "/granary-engine";
@@ -448,7 +494,7 @@ TEST_F(CliTest, RealEngineEndToEnd) {
   std::istringstream lines(csv.output);
   std::string header, row;
   std::getline(lines, header);
-  EXPECT_EQ(header.rfind("run_id,point_id,replica,engine,end_reason,base_outlets.0.width,q_count,q_count_se,", 0), 0u)
+  EXPECT_EQ(header.rfind("run_id,point_id,replica,engine,end_reason,W,q_count,q_count_se,", 0), 0u)
       << header;
   int rows = 0;
   while (std::getline(lines, row)) ++rows;
@@ -457,7 +503,7 @@ TEST_F(CliTest, RealEngineEndToEnd) {
   ASSERT_EQ(points.code, 0) << points.output;
   const json p_json = json::parse(ReadFile(dir_ / "points.json"));
   ASSERT_EQ(p_json.size(), 2u);
-  EXPECT_TRUE(p_json[0]["base_outlets.0.width"].is_number());
+  EXPECT_TRUE(p_json[0]["W"].is_number());
   EXPECT_EQ(p_json[0]["runs"], 1);
   EXPECT_TRUE(p_json[0].contains("q_count_n"));
   {

@@ -16,6 +16,7 @@
 #include "rundir/progress.h"
 #include "runner/campaign_db.h"
 #include "runner/cli/common.h"
+#include "runner/cli/report.h"
 #include "runner/inspect.h"
 #include "runner/scan.h"
 #include "runner/slurm.h"
@@ -34,10 +35,12 @@ const char kStatusHelp[] =
     "Counts by state (they add up to the runs of the campaign; retired runs, no longer in the\n"
     "spec, are counted apart), progress of running runs, failures with the tail of their log,\n"
     "elapsed time and ETA; how many finished runs have their metrics in the database (with\n"
-    "--json, every stored metric of every run). Runs in a Slurm queue: pending and running per\n"
+    "--json, every stored metric of every run); when the spec states expected values (/expect),\n"
+    "how many agree, disagree and are not yet judged (the finished runs analysed, caches first). Runs in a Slurm queue: pending and running per\n"
     "array, asked from squeue (one call), or as last seen when squeue cannot answer.\n"
-    "  --only FILTER  only these runs: a run-id prefix, or POINTER=VALUE (a short name that ends\n"
-    "                 one sweep axis will do: width=9); repeat for several (docs/cli.md)\n"
+    "  --only FILTER  only these runs: a run-id prefix, or POINTER=VALUE (an axis' short name as\n"
+    "                 the report prints it, D_b=1.5, or a derived axis of /axes, or a short name\n"
+    "                 that ends one sweep axis: width=9); repeat for several (docs/cli.md)\n"
     "  --json         the same as JSON\n"
     "Done runs whose files differ from their engine's manifest (a stat per file) are listed as\n"
     "damaged; their stored metrics are not shown.\n"
@@ -90,7 +93,7 @@ QueueView ViewQueue(const std::vector<RunRow>& runs) {
   return v;
 }
 
-int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args a = Parse(argv, "status");
   if (!a.positional.empty()) throw UsageError("campaign status: unexpected argument \"" + a.positional[0] + "\"");
   const std::string db = DbPath(a);
@@ -193,6 +196,9 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                 {"elapsed_s", elapsed},
                 {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
                 {"runs", list}};
+#ifdef GRANARY_HAVE_ANALYSIS
+    if (const auto e = ExpectationCounts(db, err, a.all("only"))) doc["expectations"] = *e;
+#endif
     if (queue.any) {
       json arrays = json::array();
       for (const auto& q : queue.arrays) {
@@ -249,6 +255,10 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   if (counts["done"] > 0)
     out << "  metrics in the database for " << analysed << " of " << counts["done"] << " done runs"
         << (analysed < counts["done"] ? " (campaign report or export analyses the others)" : "") << "\n";
+#ifdef GRANARY_HAVE_ANALYSIS
+  if (const auto e = ExpectationCounts(db, err, a.all("only")))
+    out << "  expectations: " << *e << " (campaign export --expectations, or the report's Key results)\n";
+#endif
   bool header = false;
   for (const auto& r : runs) {
     if (r.state != "running") continue;
