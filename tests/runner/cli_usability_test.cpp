@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "test_util.h"
@@ -395,6 +396,90 @@ TEST_F(CliUsability, BashCompletesVerbsFlagsRunIdsAndFilters) {
   // Unknown verbs and a missing database complete to nothing rather than to an error.
   EXPECT_EQ(complete("frobnicate --"), "\n");
   EXPECT_EQ(complete("show --db /nonexistent/g.db "), "\n");
+}
+
+// Every verb of the table (cli/verbs.cpp) is listed by `campaign --help`, completed as a verb,
+// has its own help and completes its flags; its operand completes as its row says.
+TEST_F(CliUsability, EveryVerbOfTheTableHasHelpFlagsAndCompletion) {
+  const auto help = Sh(testing::Campaign() + " --help");
+  ASSERT_EQ(help.code, 0);
+  std::vector<std::string> verbs;
+  std::istringstream lines(help.output.substr(help.output.find("verbs:\n") + 7));
+  for (std::string line; std::getline(lines, line) && !line.empty();) verbs.push_back(line.substr(2, line.find(' ', 2) - 2));
+  ASSERT_EQ(verbs.size(), 14u) << help.output;
+  std::string all;
+  for (const auto& v : verbs) all += v + "\n";
+  EXPECT_EQ(Sh(testing::Campaign() + " __complete 1 campaign").output, all + "--help\n--version\n");
+  for (const auto& v : verbs) {
+    const auto h = Sh(testing::Campaign() + " " + v + " --help");
+    EXPECT_EQ(h.code, 0) << v;
+    EXPECT_EQ(h.output.rfind("usage: campaign " + v, 0), 0u) << h.output;
+    const auto flags = Sh(testing::Campaign() + " __complete 2 campaign " + v + " --").output;
+    EXPECT_NE(flags.find("--help\n"), std::string::npos) << v << ": " << flags;
+    // Every flag that completion offers is one the parser knows (its help names it).
+    std::istringstream offered(flags);
+    for (std::string flag; std::getline(offered, flag);) {
+      if (flag == "--help") continue;
+      EXPECT_NE(h.output.find(flag.substr(2)), std::string::npos) << v << " " << flag;
+    }
+  }
+  ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4]", "[0.5]", 1))).code, 0);
+  const std::string id = Status()["runs"][0]["run_id"];
+  const std::map<std::string, std::string> operand = {
+      {"plan", "__files__\n"}, {"compare", "__files__\n"}, {"completion", "bash\n"}, {"show", id + "\n"},
+      {"snapshot", id + "\n"}, {"movie", id + "\n"},         {"status", ""},           {"run", ""}};
+  for (const auto& [v, expected] : operand)
+    EXPECT_EQ(Sh(testing::Campaign() + " __complete 4 campaign " + v + " --db " + Db() + " ''").output, expected) << v;
+}
+
+// issue 27: several --help texts left out the exit codes.
+TEST_F(CliUsability, EveryVerbsHelpSaysItsExitCodes) {
+  const auto help = Sh(testing::Campaign() + " --help");
+  ASSERT_EQ(help.code, 0) << help.output;
+  int verbs = 0;
+  std::istringstream lines(help.output.substr(help.output.find("verbs:\n") + 7));
+  for (std::string line; std::getline(lines, line) && !line.empty();) {
+    const std::string verb = line.substr(2, line.find(' ', 2) - 2);
+    ++verbs;
+    const auto r = Sh(testing::Campaign() + " " + verb + " --help");
+    EXPECT_EQ(r.code, 0) << verb << ": " << r.output;
+    EXPECT_NE(r.output.find("Exit: 0"), std::string::npos) << verb << ":\n" << r.output;
+  }
+  EXPECT_GE(verbs, 10) << help.output;
+}
+
+// issue 27: the run-time progress line's ETA counted up between two progress reports, the
+// bed phase showed "t 33.6/0.0", and status showed an ETA with no runner alive.
+TEST_F(CliUsability, StatusHasNoEtaWithoutARunnerAtWork) {
+  ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 6]", "[0.5]", 1))).code, 0);
+  const auto status = Sh(Cmd("status"));
+  EXPECT_EQ(status.code, 0) << status.output;
+  EXPECT_NE(status.output.find("ETA - (no runner at work: campaign run continues)"), std::string::npos) << status.output;
+  EXPECT_TRUE(Status()["eta_s"].is_null());
+  // A run left running in its bed phase by a runner that is gone: its simulated time alone
+  // (the bed has no end time), and still no ETA.
+  ASSERT_EQ(Sh("sqlite3 " + Db() + " \"UPDATE runs SET state = 'running', progress = "
+               "'{\\\"phase\\\": \\\"bed\\\", \\\"fraction\\\": 0.3, \\\"t\\\": 33.6, \\\"t_end\\\": 0.0, "
+               "\\\"exited\\\": 0, \\\"wall_s\\\": 2.0}' WHERE rowid = 1\"").code, 0);
+  const auto bed = Sh(Cmd("status"));
+  EXPECT_NE(bed.output.find("t 33.6  0 exits"), std::string::npos) << bed.output;
+  EXPECT_EQ(bed.output.find("33.6/"), std::string::npos) << bed.output;
+  EXPECT_NE(bed.output.find("(runner gone: resumes on the next campaign run)"), std::string::npos) << bed.output;
+  EXPECT_NE(bed.output.find("ETA - (no runner at work"), std::string::npos) << bed.output;
+}
+
+// issue 27: GRANARY_CACHE_DIR set at run time was ignored without a word (the plan fixes it).
+TEST_F(CliUsability, ACacheDirectorySetAtRunTimeIsSaidToBeFixedByThePlan) {
+  ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4]", "[0.5]", 1))).code, 0);
+  const auto r = Sh("GRANARY_CACHE_DIR=" + (dir_ / "elsewhere").string() + " " + RunCmd());
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("note: GRANARY_CACHE_DIR=" + (dir_ / "elsewhere").string() +
+                          " is not used: the plan fixed the prepared beds' directory at " + (dir_ / "beds").string()),
+            std::string::npos)
+      << r.output;
+  // The same directory as planned: no note.
+  ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 5]", "[0.5]", 1))).code, 0);
+  EXPECT_EQ(Sh(RunCmd()).output.find("note: GRANARY_CACHE_DIR"), std::string::npos);
 }
 
 }  // namespace
