@@ -284,7 +284,7 @@ SpecTable MakeRunSpecTable() {
   return SpecTable({
       plain("/run_id", T::kString, "", "set by the runner: the hash of the resolved parameters"),
       plain("/seed", T::kUnsigned, 1, "bed and reinjection randomness (the runner sets it per replica)"),
-      enumeration("/engine", "native", {"native", "liggghts"}, "the engine that runs it"),
+      enumeration("/engine", "native", {"native", "liggghts", "lammps"}, "the engine that runs it"),
       number("/time_step", 1e-4, positive, "integration time step, in sqrt(d/g)"),
       number("/gravity", 1.0, positive, "g"),
       plain("/silo", T::kObject, nullptr, "the silo: side walls at x = +-width/2, base at y = 0"),
@@ -528,8 +528,8 @@ RunSpec RunSpec::from_json(const json& j) {
   r.Unsigned("seed", s.seed);
   if (r.Has("engine")) {
     const json& v = r.At("engine");
-    if (!v.is_string() || (v != "native" && v != "liggghts")) {
-      throw SpecError("/engine", "must be one of \"native\", \"liggghts\" (got " + Shown(v) + ")");
+    if (!v.is_string() || (v != "native" && v != "liggghts" && v != "lammps")) {
+      throw SpecError("/engine", "must be one of \"native\", \"liggghts\", \"lammps\" (got " + Shown(v) + ")");
     }
     s.engine = v.get<std::string>();
   }
@@ -730,6 +730,17 @@ void validate(const RunSpec& s) {
 
   // What the LIGGGHTS backend cannot do is refused when the run is planned, not when it runs.
   if (s.engine == "liggghts") validate_for_liggghts(s);
+  if (s.engine == "lammps") validate_for_lammps(s);
+}
+
+void validate_for_lammps(const RunSpec& s) {
+  if (s.contact.clip_normal)
+    throw SpecError("/contact/clip_normal", "LAMMPS' pair gran/hertz/history has no clipping of an attractive normal "
+                                            "force (got true, allowed: false)");
+  if (s.discharge.mode == DischargeMode::kReinject && !s.silo.side_outlets.empty())
+    throw SpecError("/discharge/mode",
+                    "the LAMMPS backend reinjects through y-periodicity, which cannot return bodies that leave "
+                    "through a side outlet; use \"remove\" with side outlets (got \"reinject\")");
 }
 
 void validate_for_liggghts(const RunSpec& s) {
