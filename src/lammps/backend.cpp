@@ -61,10 +61,13 @@ double Seconds(Clock::time_point since) { return std::chrono::duration<double>(C
 
 volatile std::sig_atomic_t g_stop_signal = 0;
 
-// A killed backend never leaves LAMMPS writing into a directory the runner will relaunch.
+// A killed backend never leaves LAMMPS writing into a directory the runner will relaunch; and
+// the child leads its own process group, so that ending it ends what it started too (a
+// `shell` command of LAMMPS, MPI ranks).
 struct DieWithParent : bp::extend::handler {
   template <class Executor>
   void on_exec_setup(Executor&) const {
+    setpgid(0, 0);
     prctl(PR_SET_PDEATHSIG, SIGKILL);
   }
 };
@@ -154,14 +157,16 @@ Child RunChild(const std::string& program, const std::vector<std::string>& args,
                      SignalName(g_stop_signal).c_str());
       } else {
         r.stop_reason = "stopped on request (" + SignalName(g_stop_signal) + ")";
-        kill(child.id(), SIGTERM);
+        kill(-child.id(), SIGTERM);
       }
     }
     if (silence_limit > 0 && Seconds(last_output) > silence_limit && r.stop_reason.empty()) {
       r.stop_reason = what + " printed nothing for " + std::to_string(static_cast<long long>(silence_limit)) +
                       " s and was ended (hung? the limit is --silence-limit)";
-      kill(child.id(), SIGKILL);
+      kill(-child.id(), SIGKILL);
     }
+    // Ended, though something it started still holds its output open.
+    if (ready == 0 && !child.running()) break;
   }
   if (!pending.empty()) handle(pending);
   child.wait(ec);
@@ -175,9 +180,12 @@ Child RunChild(const std::string& program, const std::vector<std::string>& args,
 Child RunLammps(const std::string& exe, int threads, const fs::path& dir, const std::string& input,
                 const std::string& log, const fs::path& control, double silence_limit,
                 const std::function<void(const std::string&)>& on_line) {
+  // LAMMPS writes its screen through stdio, fully buffered into a pipe: line-buffered, its
+  // progress lines come when printed and none is lost when it is killed.
   std::vector<std::string> lmp = {exe};
+  if (const std::string stdbuf = bp::search_path("stdbuf").string(); !stdbuf.empty()) lmp = {stdbuf, "-oL", exe};
   const std::string helper = HelperExe();
-  if (!helper.empty()) lmp = {helper, "exec-helper", dir.string(), exe};
+  if (!helper.empty()) lmp.insert(lmp.begin(), {helper, "exec-helper", dir.string()});
   std::string program;
   std::vector<std::string> args;
   if (threads > 1) {
@@ -652,7 +660,7 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
     throw Stopped(g_stop_signal, "stopped on request before LAMMPS checkpointed" + Diagnostics(r, dir / log));
   if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty() || end_reason.empty() || !fs::exists(dir / kFinalDump)) {
     // A checkpoint cut short by a kill fails at read_restart: drop it, go on from the one before.
-    if (result.continued && progress_lines == 0 && r.stop_reason.empty()) {
+    if (result.continued && progress_lines == 0 && r.stop_reason.empty() && r.signal == 0) {
       std::fprintf(stderr, "granary-lammps: cannot continue from %s; trying an earlier checkpoint\n",
                    ckpt.file.filename().c_str());
       fs::rename(ckpt.file, fs::path(ckpt.file.string() + ".corrupt"));
@@ -699,8 +707,10 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
   const std::vector<long long> clog_steps = state.value("clog_steps", std::vector<long long>{});
   ConvertClogs(dir, clog_steps, spec, setup);
 
+  // Bodies in the silo at the end: not yet deleted, and not past an exit line either.
   std::set<long long> remaining;
-  for (const Disc& d : ReadFinal(dir / kFinalDump)) remaining.insert(d.mol);
+  for (const Disc& d : ReadFinal(dir / kFinalDump)) remaining.insert(d.mol - 1);
+  for (const rundir::ExitEvent& e : exits) remaining.erase(e.body);
   const long long session_steps = last_step - (result.continued ? ckpt.step : 0);
   const double session_wall = discharge_wall - wall_before;
   result.end_reason = end_reason;

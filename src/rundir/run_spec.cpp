@@ -840,7 +840,9 @@ json RunSpec::to_json() const {
 json RunSpec::bed_key() const {
   // Everything the bed preparation (physics.md, procedure step 1) depends on, and nothing
   // about outlets or obstacles, so runs differing only in those share one prepared bed.
-  json key = {{"engine", engine},
+  // A LAMMPS run discharges the native engine's bed (docs/lammps.md): the same key, one bed.
+  const std::string bed_engine = engine == "lammps" ? "native" : engine;
+  json key = {{"engine", bed_engine},
           {"seed", seed},
           {"time_step", time_step},
           {"gravity", gravity},
@@ -851,7 +853,7 @@ json RunSpec::bed_key() const {
           {"bed", BedJson(bed, false)}};
   // The native engine's bed depends on the step it is prepared at (the resolved value: a bed
   // prepared before bed/time_step existed, at time_step, is not taken for one at 8 x).
-  if (engine == "native") {
+  if (bed_engine == "native") {
     key["bed"]["resolved_time_step"] = bed_time_step();
     // Beds of before (fixed wait) are not taken for beds whose batches follow on landing, nor
     // beds landed by another criterion for these.

@@ -357,7 +357,7 @@ const char kRunHelp[] =
     "its run directory. Safe to repeat after a crash or kill: done runs are kept, interrupted ones\n"
     "continue from their checkpoint, and two runners on one database never run the same run.\n"
     "  --jobs N             concurrent runs (default: number of cores)\n"
-    "  --engine E           native | liggghts: only runs of that engine; a path: use that executable\n"
+    "  --engine E           native | liggghts | lammps: only runs of that engine; a path: use that executable\n"
     "  --only FILTER        a run-id prefix, or POINTER=VALUE, e.g. /silo/base_outlets/0/width=10\n"
     "                       (a short name that ends one sweep axis will do: width=10); repeat it:\n"
     "                       values of one parameter are alternatives, different parameters all hold\n"
@@ -595,8 +595,10 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
   if (!a.positional.empty()) throw UsageError("campaign run: unexpected argument \"" + a.positional[0] + "\"");
   RunOptions o = RunOptionsFrom(a);
   o.engine = a.get("engine", "");
-  if (!o.engine.empty() && o.engine != "native" && o.engine != "liggghts" && o.engine.find('/') == std::string::npos) {
-    throw UsageError("--engine: must be native, liggghts or a path to an engine executable (got \"" + o.engine + "\")");
+  if (!o.engine.empty() && o.engine != "native" && o.engine != "liggghts" && o.engine != "lammps" &&
+      o.engine.find('/') == std::string::npos) {
+    throw UsageError("--engine: must be native, liggghts, lammps or a path to an engine executable (got \"" + o.engine +
+                     "\")");
   }
   o.only = a.all("only");
   const std::string db = DbPath(a);
@@ -640,13 +642,13 @@ int DryRun(const std::string& db, const RunOptions& o, ExecutorChoice& c, std::o
   std::vector<Launch> launches;
   for (const auto& r : load_runs(store, true)) {
     if (r.state != "planned" && r.state != "interrupted" && r.state != "failed") continue;
-    if ((o.engine == "native" || o.engine == "liggghts") && r.engine != o.engine) continue;
+    if ((o.engine == "native" || o.engine == "liggghts" || o.engine == "lammps") && r.engine != o.engine) continue;
     if (!filter.matches(r)) continue;
     Launch l;
     l.run_id = r.run_id;
     l.argv = {o.engine.find('/') != std::string::npos
                   ? o.engine
-                  : (fs::path(o.exe_dir) / (r.engine == "liggghts" ? "granary-liggghts" : "granary-engine")).string()};
+                  : (fs::path(o.exe_dir) / engine_program(r.engine)).string()};
     l.engine = r.engine;
     l.run_dir = r.run_dir;
     l.place = QueuePlace{r.job_dir, r.job_script, r.job_name, r.job_index, r.job_id, r.job_state};
@@ -1166,7 +1168,9 @@ int Export(const std::vector<std::string>& argv, std::ostream& out, std::ostream
 const char kCompareHelp[] =
     "usage: campaign compare SPEC [--db FILE] [--jobs N] [--no-run] [--out DIR] [--no-figures] [--json]\n"
     "                        [--threads-per-run T] [--time-limit S] [--retries K]\n"
-    "Plan the campaign SPEC on both engines (native and liggghts, whatever its \"engine\" says),\n"
+    "Plan the campaign SPEC on two or three engines: those its \"engine\" lists when it lists two or\n"
+    "three (e.g. [\"native\", \"lammps\"]), otherwise native and liggghts; the comparison is of\n"
+    "native (or the first engine) with the next one,\n"
     "run what is not done (finished runs are reused: native runs of an earlier single-engine plan\n"
     "of the same spec count), write the report with its engine-comparison section, and print per\n"
     "point and metric both values, their ratio and whether they agree within 2 combined standard\n"
@@ -1231,7 +1235,7 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
 #ifdef GRANARY_HAVE_ANALYSIS
   const std::string spec_path = a.positional[0];
   json j = ReadSpecFile("compare", spec_path);
-  if (j.is_object()) {
+  if (j.is_object() && !(j.contains("engine") && j["engine"].is_array() && j["engine"].size() >= 2)) {
     j["engine"] = json::array({"native", "liggghts"});
     if (j.contains("base") && j["base"].is_object()) j["base"].erase("engine");  // both, whatever it says
   }
@@ -1990,6 +1994,7 @@ void Complete(int cword, const std::vector<std::string>& words, std::ostream& ou
     if (name == "engine") {
       say("native");
       say("liggghts");
+      say("lammps");
     } else if (name == "color") {
       for (const char* c : {"species", "speed", "rotation", "force"}) say(c);
     } else if (name == "only") {
