@@ -340,6 +340,11 @@ TEST(LammpsBackend, WhatLammpsCannotDoIsRefusedWithItsPath) {
   const Outcome o = RunLammps(dir);
   EXPECT_EQ(o.exit_code, 2) << o.output;
   EXPECT_NE(o.output.find("/contact/clip_normal"), std::string::npos) << o.output;
+  const fs::path contacts = MakeRun("refused_contacts", {{"output", {{"frame_interval", 1}, {"contact_forces", true}}}});
+  const Outcome c = RunLammps(contacts);
+  EXPECT_EQ(c.exit_code, 2) << c.output;
+  EXPECT_NE(c.output.find("/output/contact_forces"), std::string::npos) << c.output;
+  EXPECT_FALSE(fs::exists(contacts / "start.dump")) << "refused before anything runs";
 }
 
 TEST(LammpsCampaign, CompareRunsNativeAndLammpsOnTheSameBeds) {
