@@ -34,7 +34,9 @@ const char kPlanHelp[] =
     "  --db FILE    database (created if missing); run directories go to <db dir>/runs/<run id>/\n"
     "  --dry-run    validate and show what would change, store nothing\n"
     "  --json       print the summary as JSON\n"
-    "  --max-runs N refuse a sweep of more than N runs (default 100000), before expanding it\n";
+    "  --max-runs N refuse a sweep of more than N runs (default 100000), before expanding it\n"
+    "Exit: 0 planned (or the dry run shown), 2 spec or usage error (the message names the JSON\n"
+    "path, or FILE:LINE:COLUMN), 3 storage error.\n";
 
 }  // namespace
 
