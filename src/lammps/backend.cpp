@@ -739,11 +739,20 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
   summary.bed = {bed.value("bed_file", ""), bed.value("height", 0.0), bed.value("prepared_here", false),
                  bed.value("settle_time", 0.0), bed.value("refused", std::string())};
   const double bed_wall = state.value("bed_wall_s", 0.0);
+  // Disc-steps of this session: the bed's discs at every step, less those of bodies gone (remove
+  // mode: from each exit to the end).
+  const double bed_disc_steps = static_cast<double>(start_frame.discs.size()) * static_cast<double>(session_steps);
+  double disc_steps = bed_disc_steps;
+  if (spec.discharge.mode == DischargeMode::kRemove) {
+    std::map<long long, int> discs_of;
+    for (const rundir::Disc& d : start_frame.discs) ++discs_of[d.mol];
+    const long long from = result.continued ? ckpt.step : 0;
+    for (const Event& e : events)
+      if (e.step <= last_step) disc_steps -= discs_of[e.body] * static_cast<double>(last_step - std::max(e.step, from));
+  }
   summary.timing = rundir::Timing{bed_wall + discharge_wall, bed_wall, discharge_wall,
-                                  session_wall > 0 ? static_cast<double>(start_frame.discs.size()) *
-                                                         static_cast<double>(session_steps) / session_wall
-                                                   : 0.0,
-                                  options.threads};
+                                  session_wall > 0 ? disc_steps / session_wall : 0.0, options.threads,
+                                  session_wall > 0 ? bed_disc_steps / session_wall : 0.0};
   summary.continued_from_checkpoint = result.continued && ckpt.step != state.value("relaunched_at_step", -1LL);
   for (const auto& why : state.value("refused_checkpoints", json::array())) summary.refused_checkpoints.push_back(why);
   rundir::WriteSummary(dir, summary);
