@@ -204,9 +204,14 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
                                  list_text(reinjections[b]) +
                                  "` (`random`: a random place on top of the bed, the thesis; `periodic`: "
                                  "through the bottom of a y-periodic box, same x and velocity, LIGGGHTS' way).";
+  // LAMMPS discharges the bed the native engine prepared (docs/lammps.md); LIGGGHTS prepares its own.
+  const bool same_beds = (a == "native" || a == "lammps") && (b == "native" || b == "lammps");
   s.blocks.push_back(Text{
-      "The same sweep points and replica seeds on both engines (beds are prepared by each engine, so replicas are "
-      "statistically, not bodily, the same). Ratio = " + b + " / " + a + ", with the standard error of both "
+      "The same sweep points and replica seeds on both engines (" +
+      std::string(same_beds ? "both discharge the bed the native engine prepared for each seed, so replicas start "
+                              "from the same configurations"
+                            : "beds are prepared by each engine, so replicas are statistically, not bodily, the same") +
+      "). Ratio = " + b + " / " + a + ", with the standard error of both "
       "means propagated. **agree**: the difference is within " + format_number(kAgreementSigmas) +
       " combined standard errors. Coulomb cap of the tangential force: " + a + " `" + cap_text(a) + "`, " + b + " `" +
       cap_text(b) + "` (`lammps` caps spring + damping, `liggghts` the spring part only; docs/liggghts.md)." +

@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "engine/bench.h"
 #include "rundir/files.h"
 #include "engine/run.h"
@@ -55,7 +57,17 @@ constexpr char kUsage[] =
     "        [--versus lammps [--lammps-dir DIR]] [--output-cost T] [--bed-prep]\n"
     "                          standard benchmark: discs, dumbbells or the ch. 4 mixture in the\n"
     "                          chapter-3 silo, W = 14, reinject; the disc case also on LAMMPS\n"
+    "  start-frame DIR FILE [--threads N]\n"
+    "                          the bed DIR/run.json starts from, as one frame, for another engine\n"
     "  help                    this text\n";
+constexpr char kStartFrameHelp[] =
+    "usage: granary-engine start-frame DIR FILE [--threads N]\n"
+    "Obtains the bed of DIR/run.json as `run` does (from bed.cache_file, or prepared and cached),\n"
+    "places it with the outlets open and the bodies an obstacle overlaps taken out, and writes it\n"
+    "into FILE as one frame at t = 0 in the frames.dump format (docs/run-directory.md), whatever\n"
+    "engine the spec names: the LAMMPS backend starts from it (docs/lammps.md). Prints one JSON\n"
+    "line with the bed's provenance. Writes bed progress into DIR/progress.json; takes no lock.\n"
+    "  --threads N   OpenMP threads for the bed preparation\n";
 constexpr char kRunHelp[] =
     "usage: granary-engine run DIR [--threads N]\n"
     "Runs the native DEM engine on DIR/run.json and writes events.csv, frames.dump,\n"
@@ -306,6 +318,37 @@ int Bench(const std::vector<std::string>& args) {
 
 }  // namespace
 
+namespace {
+
+int StartFrame(const std::vector<std::string>& args) {
+  RunOptions options;
+  options.quiet = true;
+  std::vector<std::string> positional;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--help" || a == "-h") {
+      std::cout << kStartFrameHelp;
+      return 0;
+    } else if (a == "--threads" && i + 1 < args.size()) {
+      options.threads = ParsePositiveInt("--threads", args[++i]);
+    } else if (!a.empty() && a[0] == '-') {
+      throw std::invalid_argument("start-frame: unknown option \"" + a + "\"\n" + kStartFrameHelp);
+    } else {
+      positional.push_back(a);
+    }
+  }
+  if (positional.size() != 2) throw std::invalid_argument(std::string("start-frame: expected DIR FILE\n") + kStartFrameHelp);
+  const StartState s = WriteStartFrame(positional[0], positional[1], options);
+  const nlohmann::json j = {{"bed_file", s.bed_file},       {"prepared_here", s.bed_prepared_here},
+                            {"height", s.bed_height},       {"settle_time", s.settle_time},
+                            {"bed_wall_s", s.bed_wall_s},   {"refused", s.bed_refused},
+                            {"cleared_by_obstacles", s.cleared_by_obstacles}};
+  std::cout << j.dump() << "\n";
+  return 0;
+}
+
+}  // namespace
+
 int EngineMain(const std::vector<std::string>& args) {
   if (args.empty() || args[0] == "help" || args[0] == "--help" || args[0] == "-h") {
     std::cout << kUsage;
@@ -315,6 +358,7 @@ int EngineMain(const std::vector<std::string>& args) {
   try {
     if (args[0] == "run") return Run(rest);
     if (args[0] == "bench") return Bench(rest);
+    if (args[0] == "start-frame") return StartFrame(rest);
     std::cerr << "granary-engine: unknown verb \"" << args[0] << "\"\n" << kUsage;
     return 2;
   } catch (const RunDirectoryBusy& e) {

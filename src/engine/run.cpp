@@ -155,11 +155,14 @@ class Discharge {
         unclog_rng_(spec.seed ^ 0xc2b2ae3d27d4eb4fULL) {}
 
   RunResult Run();
+  // The bed placed as the discharge starts from it (obstacles cleared), as one frame at t = 0.
+  StartState WriteStartFrame(const fs::path& file);
 
  private:
   // Bodies of `species` at rest, outlets open; or the bodies of `snapshot`.
   void BuildWorld(const std::vector<int>& species, const WorldSnapshot* snapshot = nullptr);
   void StartFresh();
+  void PlaceBed();  // the bed obtained and placed, outlets open, obstacles cleared (step 0)
   void LoadCheckpoint(const fs::path& file);
   bool ContinueFromACheckpoint();
   void WriteCheckpoint();
@@ -278,6 +281,21 @@ void Discharge::StartFresh() {
   // A checkpoint of an earlier attempt must never be continued from after this start.
   fs::remove(dir_ / kCheckpointFile);
   fs::remove(dir_ / kPreviousCheckpointFile);
+  PlaceBed();
+  events_ = rundir::EventWriter::Create(dir_ / rundir::kEventsFile);
+  clogs_out_ = rundir::ClogWriter::Create(dir_);
+  if (Unclogging()) unclogs_out_ = rundir::UnclogWriter::Create(dir_ / rundir::kUnclogsFile);
+  const bool gz = spec_.output.compress;
+  if (frame_every_ > 0) frames_ = rundir::FrameWriter::Create(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), gz);
+  if (frame_every_ > 0 && spec_.output.contact_forces)
+    contacts_ = rundir::ContactWriter::Create(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), gz);
+  if (frame_every_ > 0) {
+    WriteFrame();
+    if (contacts_.is_open()) WriteContacts();
+  }
+}
+
+void Discharge::PlaceBed() {
   const auto t0 = Clock::now();
   ObtainedBed ob = ObtainBed(spec_, dir_.string(), [&](double f, double t) {
     ReportProgress({"bed", f, t, 0, 0, Seconds(t0)}, options_.quiet);
@@ -328,17 +346,15 @@ void Discharge::StartFresh() {
     for (const auto& t : w.templates()) bound = std::max(bound, t.bound_radius);
     periodic_height_ = (top + 2 * bound + spec_.discharge.periodic_headroom) + (spec_.discharge.exit_distance + kPeriodicFall);
   }
-  events_ = rundir::EventWriter::Create(dir_ / rundir::kEventsFile);
-  clogs_out_ = rundir::ClogWriter::Create(dir_);
-  if (Unclogging()) unclogs_out_ = rundir::UnclogWriter::Create(dir_ / rundir::kUnclogsFile);
-  const bool gz = spec_.output.compress;
-  if (frame_every_ > 0) frames_ = rundir::FrameWriter::Create(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), gz);
-  if (frame_every_ > 0 && spec_.output.contact_forces)
-    contacts_ = rundir::ContactWriter::Create(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), gz);
-  if (frame_every_ > 0) {
-    WriteFrame();
-    if (contacts_.is_open()) WriteContacts();
-  }
+}
+
+StartState Discharge::WriteStartFrame(const fs::path& file) {
+  PlaceBed();
+  rundir::FrameWriter out = rundir::FrameWriter::Create(file);
+  FillFrame(frame_buf_);
+  out.Write(frame_buf_);
+  out.Close();
+  return {bed_file_, bed_prepared_here_, bed_height_, bed_settle_time_, bed_wall_s_, bed_refused_, cleared_by_obstacles_};
 }
 
 void Discharge::WriteCheckpoint() {
@@ -999,6 +1015,13 @@ RunResult RunDirectory(const std::string& dir, const RunOptions& options) {
   fs::remove(d / rundir::kDoneFile);
   Discharge discharge(spec, d, options);
   return discharge.Run();
+}
+
+StartState WriteStartFrame(const std::string& dir, const std::string& file, const RunOptions& options) {
+  if (options.threads > 0) omp_set_num_threads(options.threads);
+  const RunSpec spec = rundir::ReadRunSpec(fs::path(dir));
+  Discharge discharge(spec, fs::path(dir), options);
+  return discharge.WriteStartFrame(file);
 }
 
 void InstallStopHandlers() {

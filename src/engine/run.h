@@ -41,6 +41,20 @@ struct RunResult {
 // present. Throws on errors, and granary::Stopped (stop.h) after a stop request.
 RunResult RunDirectory(const std::string& dir, const RunOptions& options);
 
+// How another engine starts from the native engine's bed (the LAMMPS backend, docs/lammps.md):
+// the bed of DIR/run.json, obtained as `run` obtains it (bed.cache_file, or DIR/bed.json),
+// placed with the outlets open and the bodies an obstacle overlaps taken out, written into
+// `file` as one frame at t = 0 (frames.dump format: disc ids, body ids, positions, radii,
+// masses, velocities). Whatever the spec's engine. The bed's contact history is not in it.
+struct StartState {
+  std::string bed_file;
+  bool bed_prepared_here = false;
+  double bed_height = 0, settle_time = 0, bed_wall_s = 0;
+  std::string bed_refused;
+  int cleared_by_obstacles = 0;
+};
+StartState WriteStartFrame(const std::string& dir, const std::string& file, const RunOptions& options);
+
 // SIGTERM and SIGINT become stop requests: during the discharge the engine writes a
 // checkpoint at the end of the current step and RunDirectory throws Stopped; before it (bed
 // preparation, which is not checkpointed) and after it the signal ends the process at once.

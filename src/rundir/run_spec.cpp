@@ -288,7 +288,7 @@ SpecTable MakeRunSpecTable() {
   return SpecTable({
       plain("/run_id", T::kString, "", "set by the runner: the hash of the resolved parameters"),
       plain("/seed", T::kUnsigned, 1, "bed and reinjection randomness (the runner sets it per replica)"),
-      enumeration("/engine", "native", {"native", "liggghts"}, "the engine that runs it"),
+      enumeration("/engine", "native", {"native", "liggghts", "lammps"}, "the engine that runs it"),
       number("/time_step", 1e-4, positive, "integration time step, in sqrt(d/g)"),
       number("/gravity", 1.0, positive, "g"),
       plain("/silo", T::kObject, nullptr, "the silo: side walls at x = +-width/2, base at y = 0"),
@@ -564,8 +564,8 @@ RunSpec RunSpec::from_json(const json& j) {
   r.Unsigned("seed", s.seed);
   if (r.Has("engine")) {
     const json& v = r.At("engine");
-    if (!v.is_string() || (v != "native" && v != "liggghts")) {
-      throw SpecError("/engine", "must be one of \"native\", \"liggghts\" (got " + Shown(v) + ")");
+    if (!v.is_string() || (v != "native" && v != "liggghts" && v != "lammps")) {
+      throw SpecError("/engine", "must be one of \"native\", \"liggghts\", \"lammps\" (got " + Shown(v) + ")");
     }
     s.engine = v.get<std::string>();
   }
@@ -795,6 +795,21 @@ void validate(const RunSpec& s) {
 
   // What the LIGGGHTS backend cannot do is refused when the run is planned, not when it runs.
   if (s.engine == "liggghts") validate_for_liggghts(s);
+  if (s.engine == "lammps") validate_for_lammps(s);
+}
+
+void validate_for_lammps(const RunSpec& s) {
+  if (s.contact.clip_normal)
+    throw SpecError("/contact/clip_normal", "LAMMPS' pair gran/hertz/history has no clipping of an attractive normal "
+                                            "force (got true, allowed: false)");
+  if (s.output.contact_forces)
+    throw SpecError("/output/contact_forces", "the LAMMPS backend does not write contact frames yet (pair and wall "
+                                              "forces from compute pair/local are not converted; got true, allowed: "
+                                              "false)");
+  if (s.discharge.mode == DischargeMode::kReinject && !s.silo.side_outlets.empty())
+    throw SpecError("/discharge/mode",
+                    "the LAMMPS backend reinjects through y-periodicity, which cannot return bodies that leave "
+                    "through a side outlet; use \"remove\" with side outlets (got \"reinject\")");
 }
 
 void validate_for_liggghts(const RunSpec& s) {
@@ -909,7 +924,9 @@ json RunSpec::to_json() const {
 json RunSpec::bed_key() const {
   // Everything the bed preparation (physics.md, procedure step 1) depends on, and nothing
   // about outlets or obstacles, so runs differing only in those share one prepared bed.
-  json key = {{"engine", engine},
+  // A LAMMPS run discharges the native engine's bed (docs/lammps.md): the same key, one bed.
+  const std::string bed_engine = engine == "lammps" ? "native" : engine;
+  json key = {{"engine", bed_engine},
           {"seed", seed},
           {"time_step", time_step},
           {"gravity", gravity},
@@ -920,7 +937,7 @@ json RunSpec::bed_key() const {
           {"bed", BedJson(bed, false)}};
   // The native engine's bed depends on the step it is prepared at (the resolved value: a bed
   // prepared before bed/time_step existed, at time_step, is not taken for one at 8 x).
-  if (engine == "native") {
+  if (bed_engine == "native") {
     key["bed"]["resolved_time_step"] = bed_time_step();
     // Beds of before (fixed wait) are not taken for beds whose batches follow on landing, nor
     // beds landed by another criterion for these.

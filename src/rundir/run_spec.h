@@ -159,7 +159,7 @@ inline constexpr double kBedLandedKePerBody = 0.25;
 struct RunSpec {
   std::string run_id;              // stable id set by the runner (hash of the resolved parameters)
   std::uint64_t seed = 1;          // bed and reinjection randomness
-  std::string engine = "native";   // "native" or "liggghts"
+  std::string engine = "native";   // "native", "liggghts" or "lammps"
   double time_step = 1e-4;
   double gravity = 1.0;
   Silo silo;
@@ -187,6 +187,8 @@ void validate(const RunSpec& spec);
 // What the LIGGGHTS backend cannot do (validate() applies it to specs whose engine is
 // "liggghts"; the backend applies it to whatever spec it is given).
 void validate_for_liggghts(const RunSpec& spec);
+// What the LAMMPS backend cannot do (applied like validate_for_liggghts, docs/lammps.md).
+void validate_for_lammps(const RunSpec& spec);
 
 // Every key of a run spec with its type, default, range and meaning: what from_json accepts
 // and checks, and what `campaign schema` tells editors (spec_table.h).

@@ -68,8 +68,9 @@ SpecTable MakeCampaignSpecTable() {
   replicas.minimum = SpecBound{1, false};
   replicas.maximum = SpecBound{100000, false};
   SpecField engine{"/engine", T::kEnumOrList,
-                   "native, liggghts, or both as a list: every sweep point is then planned once per engine", "native"};
-  engine.values = {"native", "liggghts"};
+                   "native, liggghts, lammps, or several as a list: every sweep point is then planned once per engine",
+                   "native"};
+  engine.values = {"native", "liggghts", "lammps"};
   return SpecTable({
       {"/$schema", T::kString, "the JSON Schema an editor checks this file with (campaign schema); ignored by Granary"},
       name,
@@ -316,7 +317,7 @@ CampaignSpec CampaignSpec::from_json(const json& j) {
   if (j.contains("engine")) {
     const json& e = j["engine"];
     const auto bad = [&] {
-      return SpecError("/engine", "must be \"native\", \"liggghts\" or a list of both, e.g. [\"native\", \"liggghts\"] (got " +
+      return SpecError("/engine", "must be \"native\", \"liggghts\", \"lammps\" or a list of them, e.g. [\"native\", \"lammps\"] (got " +
                                       e.dump() + ")");
     };
     s.engines.clear();
@@ -335,8 +336,8 @@ CampaignSpec CampaignSpec::from_json(const json& j) {
   // The engine is set in one place: the campaign's "engine", or else /base/engine.
   if (s.base.contains("engine")) {
     const json& e = s.base["engine"];
-    if (!e.is_string() || (e != "native" && e != "liggghts"))
-      throw SpecError("/base/engine", "must be \"native\" or \"liggghts\" (got " + e.dump() + ")");
+    if (!e.is_string() || (e != "native" && e != "liggghts" && e != "lammps"))
+      throw SpecError("/base/engine", "must be \"native\", \"liggghts\" or \"lammps\" (got " + e.dump() + ")");
     if (!j.contains("engine")) {
       s.engines = {e.get<std::string>()};
     } else if (s.engines != std::vector<std::string>{e.get<std::string>()}) {
@@ -623,6 +624,12 @@ std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cach
     }
   }
   return runs;
+}
+
+std::string engine_program(const std::string& engine) {
+  if (engine == "liggghts") return "granary-liggghts";
+  if (engine == "lammps") return "granary-lammps";
+  return "granary-engine";
 }
 
 }  // namespace granary::runner

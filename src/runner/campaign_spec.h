@@ -100,4 +100,8 @@ std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cach
 // Run id of a resolved run spec: hash of its canonical JSON without run_id and cache_file.
 std::string run_id_of(const RunSpec& spec);
 
+// The program that runs a run of `engine` (found beside `campaign`): granary-engine,
+// granary-liggghts or granary-lammps, all with the command line of docs/run-directory.md.
+std::string engine_program(const std::string& engine);
+
 }  // namespace granary::runner

@@ -1,6 +1,8 @@
 // See scheduler.h.
 #include "runner/scheduler.h"
 
+#include "runner/campaign_spec.h"
+
 #include <signal.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
@@ -75,7 +77,7 @@ namespace {
 
 std::string EngineExe(const RunOptions& o, const std::string& engine) {
   if (o.engine.find('/') != std::string::npos) return o.engine;
-  return (fs::path(o.exe_dir) / (engine == "liggghts" ? "granary-liggghts" : "granary-engine")).string();
+  return (fs::path(o.exe_dir) / engine_program(engine)).string();
 }
 
 Launch LaunchOf(const RunRow& row, const std::string& exe, int threads) {
@@ -131,7 +133,9 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
 
   const RunFilter filter(options.only);
   auto accept = [&](const RunRow& r) {
-    if ((options.engine == "native" || options.engine == "liggghts") && r.engine != options.engine) return false;
+    if ((options.engine == "native" || options.engine == "liggghts" || options.engine == "lammps") &&
+        r.engine != options.engine)
+      return false;
     return filter.matches(r);
   };
   // Done runs whose directory was deleted: their results are in the database, but nothing

@@ -173,14 +173,14 @@ std::string array_spec(const std::vector<int>& indices, int throttle) {
 
 std::string batch_script(const BatchJob& job) {
   const SlurmOptions& o = job.options;
-  const bool mpi = job.engine == "liggghts";
+  const bool mpi = job.engine == "liggghts" || job.engine == "lammps";
   std::ostringstream s;
   s << "#!/bin/bash\n"
     << "# Granary: each task of this array runs one run of the campaign; " << job.manifest << "\n"
     << "# maps the array index to the run. Written by campaign run --executor slurm (docs/slurm.md).\n"
     << "#SBATCH --job-name=" << job.job_name << "\n"
     << "#SBATCH --array=" << job.array << "\n";
-  // LIGGGHTS uses MPI ranks (srun inside the task); the native engine uses threads.
+  // LIGGGHTS and LAMMPS use MPI ranks (srun inside the task); the native engine uses threads.
   if (mpi) s << "#SBATCH --ntasks=" << o.cpus_per_run << "\n#SBATCH --cpus-per-task=1\n";
   else s << "#SBATCH --ntasks=1\n#SBATCH --cpus-per-task=" << o.cpus_per_run << "\n";
   s << "#SBATCH --output=" << job.log_dir << "/%A_%a.out\n";

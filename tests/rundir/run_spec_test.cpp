@@ -94,8 +94,8 @@ TEST(RunSpecErrorTest, BadEnum) {
             "/bodies/species/0/shape: must be one of \"disc\", \"dumbbell\", \"snowman\", \"rod\" (got \"cube\")");
   EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"mode": "drain"}})")),
             "/discharge/mode: must be one of \"remove\", \"reinject\" (got \"drain\")");
-  EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "lammps"})")),
-            "/engine: must be one of \"native\", \"liggghts\" (got \"lammps\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "gromacs"})")),
+            "/engine: must be one of \"native\", \"liggghts\", \"lammps\" (got \"gromacs\")");
 }
 
 TEST(RunSpecTest, ReinjectPositionIsInTheResolvedSpecOnlyWhenNotTheDefault) {

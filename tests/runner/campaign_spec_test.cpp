@@ -191,12 +191,12 @@ TEST(CampaignSpecErrorTest, UnknownKeys) {
 TEST(CampaignSpecErrorTest, BadTopLevelValues) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"replicas": 2})")), "/name: must be a non-empty string (got nothing)");
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "replicas": 0})")), "/replicas: must be an integer in [1, 100000] (got 0)");
-  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": "lammps"})")),
-            "/engine: must be \"native\", \"liggghts\" or a list of both, e.g. [\"native\", \"liggghts\"] (got "
-            "\"lammps\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": "gromacs"})")),
+            "/engine: must be \"native\", \"liggghts\", \"lammps\" or a list of them, e.g. [\"native\", \"lammps\"] "
+            "(got \"gromacs\")");
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": ["native", "native"]})")),
-            "/engine: must be \"native\", \"liggghts\" or a list of both, e.g. [\"native\", \"liggghts\"] (got "
-            "[\"native\",\"native\"])");
+            "/engine: must be \"native\", \"liggghts\", \"lammps\" or a list of them, e.g. [\"native\", \"lammps\"] "
+            "(got [\"native\",\"native\"])");
 }
 
 TEST(CampaignSpecErrorTest, BaseErrorsPointIntoBase) {
@@ -300,8 +300,8 @@ TEST(CampaignSpecErrorTest, ASweepOverTheRunLimitIsRefusedBeforeExpanding) {
 // issue 13: /base/engine was silently overridden by the campaign's engine, and an unknown
 // engine name there was accepted.
 TEST(CampaignSpecErrorTest, TheEngineIsSetInOnePlace) {
-  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "base": {"engine": "lammps"}})")),
-            "/base/engine: must be \"native\" or \"liggghts\" (got \"lammps\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "base": {"engine": "gromacs"}})")),
+            "/base/engine: must be \"native\", \"liggghts\" or \"lammps\" (got \"gromacs\")");
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": "native", "base": {"engine": "liggghts"}})")),
             "/base/engine: \"liggghts\" conflicts with the campaign's \"engine\" \"native\"; set the engine in one place "
             "(the campaign's \"engine\")");

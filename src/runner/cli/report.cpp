@@ -322,7 +322,9 @@ int Export(const std::vector<std::string>& argv, std::ostream& out, std::ostream
 const char kCompareHelp[] =
     "usage: campaign compare SPEC [--db FILE] [--jobs N] [--no-run] [--out DIR] [--no-figures] [--json]\n"
     "                        [--threads-per-run T] [--time-limit S] [--retries K] [--max-runs N]\n"
-    "Plan the campaign SPEC on both engines (native and liggghts, whatever its \"engine\" says),\n"
+    "Plan the campaign SPEC on two or three engines: those its \"engine\" lists when it lists two or\n"
+    "three (e.g. [\"native\", \"lammps\"]), otherwise native and liggghts; the comparison is of\n"
+    "native (or the first engine) with the next one,\n"
     "run what is not done (finished runs are reused: native runs of an earlier single-engine plan\n"
     "of the same spec count), write the report with its engine-comparison section, and print per\n"
     "point and metric both values, their ratio and whether they agree within 2 combined standard\n"
@@ -388,7 +390,7 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
 #ifdef GRANARY_HAVE_ANALYSIS
   const std::string spec_path = a.positional[0];
   json j = ReadSpecFile("compare", spec_path);
-  if (j.is_object()) {
+  if (j.is_object() && !(j.contains("engine") && j["engine"].is_array() && j["engine"].size() >= 2)) {
     j["engine"] = json::array({"native", "liggghts"});
     if (j.contains("base") && j["base"].is_object()) j["base"].erase("engine");  // both, whatever it says
   }

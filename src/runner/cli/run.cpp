@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "runner/campaign_spec.h"
 #include "runner/campaign_db.h"
 #include <cstdlib>
 #include "runner/cli/console_observer.h"
@@ -39,7 +40,7 @@ const char kRunHelp[] =
     "its run directory. Safe to repeat after a crash or kill: done runs are kept, interrupted ones\n"
     "continue from their checkpoint, and two runners on one database never run the same run.\n"
     "  --jobs N             concurrent runs (default: number of cores)\n"
-    "  --engine E           native | liggghts: only runs of that engine; a path: use that executable\n"
+    "  --engine E           native | liggghts | lammps: only runs of that engine; a path: use that executable\n"
     "  --only FILTER        a run-id prefix, or POINTER=VALUE, e.g. /silo/base_outlets/0/width=10\n"
     "                       (an axis' short name as the report prints it will do: W=10, D_b=1.5;\n"
     "                       so will a derived axis of the spec's /axes, or a short name that ends\n"
@@ -165,13 +166,13 @@ int DryRun(const std::string& db, const RunOptions& o, ExecutorChoice& c, std::o
   std::vector<Launch> launches;
   for (const auto& r : load_runs(store, true)) {
     if (r.state != "planned" && r.state != "interrupted" && r.state != "failed") continue;
-    if ((o.engine == "native" || o.engine == "liggghts") && r.engine != o.engine) continue;
+    if ((o.engine == "native" || o.engine == "liggghts" || o.engine == "lammps") && r.engine != o.engine) continue;
     if (!filter.matches(r)) continue;
     Launch l;
     l.run_id = r.run_id;
     l.argv = {o.engine.find('/') != std::string::npos
                   ? o.engine
-                  : (fs::path(o.exe_dir) / (r.engine == "liggghts" ? "granary-liggghts" : "granary-engine")).string()};
+                  : (fs::path(o.exe_dir) / engine_program(r.engine)).string()};
     l.engine = r.engine;
     l.run_dir = r.run_dir;
     l.place = QueuePlace{r.job_dir, r.job_script, r.job_name, r.job_index, r.job_id, r.job_state};
@@ -204,8 +205,10 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
   if (!a.positional.empty()) throw UsageError("campaign run: unexpected argument \"" + a.positional[0] + "\"");
   RunOptions o = RunOptionsFrom(a);
   o.engine = a.get("engine", "");
-  if (!o.engine.empty() && o.engine != "native" && o.engine != "liggghts" && o.engine.find('/') == std::string::npos) {
-    throw UsageError("--engine: must be native, liggghts or a path to an engine executable (got \"" + o.engine + "\")");
+  if (!o.engine.empty() && o.engine != "native" && o.engine != "liggghts" && o.engine != "lammps" &&
+      o.engine.find('/') == std::string::npos) {
+    throw UsageError("--engine: must be native, liggghts, lammps or a path to an engine executable (got \"" + o.engine +
+                     "\")");
   }
   o.only = a.all("only");
   const std::string db = DbPath(a);

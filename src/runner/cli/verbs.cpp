@@ -97,6 +97,7 @@ void Complete(int cword, const std::vector<std::string>& words, std::ostream& ou
     if (name == "engine") {
       say("native");
       say("liggghts");
+      say("lammps");
     } else if (name == "color") {
       for (const char* c : {"species", "speed", "rotation", "force"}) say(c);
     } else if (name == "only") {

@@ -1,0 +1,769 @@
+// The LAMMPS backend (backend.h): the native bed, the discharge on LAMMPS, conversion into the
+// run directory.
+#include "lammps/backend.h"
+
+#include <poll.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <regex>
+#include <set>
+#include <sstream>
+
+#include <boost/process.hpp>
+#include <boost/process/extend.hpp>
+
+#include "engine/geometry.h"
+#include "engine/silo_outline.h"
+#include "engine/stall.h"
+#include "lammps/input_script.h"
+#include "rundir/clogs.h"
+#include "rundir/events.h"
+#include "rundir/files.h"
+#include "rundir/frames.h"
+#include "rundir/layout.h"
+#include "rundir/progress.h"
+#include "rundir/run_directory.h"
+#include "rundir/summary.h"
+#include "rundir/version.h"
+
+namespace granary::lammps {
+
+namespace fs = std::filesystem;
+namespace bp = boost::process;
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr int kLogTailLines = 25;
+constexpr char kStartFrame[] = "start.dump";           // the native bed as the discharge starts from it
+constexpr char kStateFile[] = "lammps_state.json";     // bed provenance, clogs, wall time across sessions
+
+double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
+
+volatile std::sig_atomic_t g_stop_signal = 0;
+
+// A killed backend never leaves LAMMPS writing into a directory the runner will relaunch; and
+// the child leads its own process group, so that ending it ends what it started too (a
+// `shell` command of LAMMPS, MPI ranks).
+struct DieWithParent : bp::extend::handler {
+  template <class Executor>
+  void on_exec_setup(Executor&) const {
+    setpgid(0, 0);
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+  }
+};
+
+// granary-lammps itself (it runs each LAMMPS process through `exec-helper`, which holds the
+// directory's helper lock), or "" when the library runs inside another program.
+std::string HelperExe() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return !ec && self.filename() == "granary-lammps" ? self.string() : std::string();
+}
+
+// How a subprocess ended and what it said.
+struct Child {
+  int exit_code = 0;
+  int signal = 0;
+  bool stopped = false;         // LAMMPS checkpointed and ended on a stop request
+  std::string stop_reason;      // why the backend ended it
+  std::vector<std::string> errors;
+  std::deque<std::string> screen;
+  std::string how(const std::string& what) const {
+    if (!stop_reason.empty()) return stop_reason;
+    if (signal != 0) return what + " killed by " + SignalName(signal);
+    return what + " exit status " + std::to_string(exit_code);
+  }
+};
+
+std::string Diagnostics(const Child& r, const fs::path& log) {
+  std::string msg;
+  for (const std::string& e : r.errors) msg += "\n" + e;
+  msg += "\n--- screen output, last lines ---\n";
+  for (const std::string& l : r.screen) msg += l + "\n";
+  if (r.screen.empty()) msg += "(none)\n";
+  if (!log.empty()) {
+    const std::string tail = TailOfFile(log, kLogTailLines);
+    msg += "--- last lines of " + log.filename().string() + " ---\n" + (tail.empty() ? "(empty or missing)\n" : tail);
+  }
+  return msg;
+}
+
+// Runs `program args` in `dir`, its stdout and stderr read line by line (on_line for each). A
+// stop request writes `control` (LAMMPS checkpoints and ends at its next chunk) or, without one,
+// ends the child at once; so does silence for `silence_limit` seconds (hung).
+Child RunChild(const std::string& program, const std::vector<std::string>& args, const fs::path& dir,
+               const fs::path& control, double silence_limit, const std::string& what,
+               const std::function<void(const std::string&)>& on_line) {
+  bp::pipe out;
+  std::error_code ec;
+  bp::child child(bp::exe = program, bp::args = args, bp::start_dir = dir.string(), bp::std_in < bp::null,
+                  (bp::std_out & bp::std_err) > out, DieWithParent{}, ec);
+  if (ec) throw LammpsError("cannot start " + program + ": " + ec.message());
+  Child r;
+  const int fd = out.native_source();
+  std::string pending;
+  char buf[4096];
+  auto last_output = Clock::now();
+  bool stop_sent = false;
+  const auto handle = [&](const std::string& line) {
+    r.screen.push_back(line);
+    if (r.screen.size() > static_cast<std::size_t>(kLogTailLines)) r.screen.pop_front();
+    if (line.rfind("GRANARY_STOPPED", 0) == 0) r.stopped = true;
+    if (line.find("ERROR") != std::string::npos && r.errors.size() < 5) r.errors.push_back(line);
+    on_line(line);
+  };
+  while (true) {
+    pollfd p{fd, POLLIN, 0};
+    const int ready = ::poll(&p, 1, 1000);
+    if (ready > 0) {
+      const ssize_t n = ::read(fd, buf, sizeof buf);
+      if (n == 0) break;
+      if (n > 0) {
+        last_output = Clock::now();
+        pending.append(buf, static_cast<std::size_t>(n));
+        for (std::size_t nl; (nl = pending.find('\n')) != std::string::npos; pending.erase(0, nl + 1))
+          handle(pending.substr(0, nl));
+      } else if (errno != EINTR) {
+        break;
+      }
+    } else if (ready < 0 && errno != EINTR) {
+      break;
+    }
+    if (g_stop_signal != 0 && !stop_sent) {
+      stop_sent = true;
+      if (!control.empty()) {
+        WriteAtomically(control, "variable stop_requested equal 1\n", Durability::kVisible);
+        std::fprintf(stderr, "granary-lammps: stop requested (%s): LAMMPS checkpoints at the end of its chunk\n",
+                     SignalName(g_stop_signal).c_str());
+      } else {
+        r.stop_reason = "stopped on request (" + SignalName(g_stop_signal) + ")";
+        kill(-child.id(), SIGTERM);
+      }
+    }
+    if (silence_limit > 0 && Seconds(last_output) > silence_limit && r.stop_reason.empty()) {
+      r.stop_reason = what + " printed nothing for " + std::to_string(static_cast<long long>(silence_limit)) +
+                      " s and was ended (hung? the limit is --silence-limit)";
+      kill(-child.id(), SIGKILL);
+    }
+    // Ended, though something it started still holds its output open.
+    if (ready == 0 && !child.running()) break;
+  }
+  if (!pending.empty()) handle(pending);
+  child.wait(ec);
+  const int status = child.native_exit_code();
+  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
+  else r.exit_code = WEXITSTATUS(status);
+  return r;
+}
+
+// LAMMPS on `input` in `dir`, one process or `threads` MPI ranks, each through exec-helper.
+Child RunLammps(const std::string& exe, int threads, const fs::path& dir, const std::string& input,
+                const std::string& log, const fs::path& control, double silence_limit,
+                const std::function<void(const std::string&)>& on_line) {
+  // LAMMPS writes its screen through stdio, fully buffered into a pipe: line-buffered, its
+  // progress lines come when printed and none is lost when it is killed.
+  std::vector<std::string> lmp = {exe};
+  if (const std::string stdbuf = bp::search_path("stdbuf").string(); !stdbuf.empty()) lmp = {stdbuf, "-oL", exe};
+  const std::string helper = HelperExe();
+  if (!helper.empty()) lmp.insert(lmp.begin(), {helper, "exec-helper", dir.string()});
+  std::string program;
+  std::vector<std::string> args;
+  if (threads > 1) {
+    std::vector<std::string> launcher;
+    std::istringstream words(std::getenv("GRANARY_MPI_LAUNCHER") ? std::getenv("GRANARY_MPI_LAUNCHER") : "");
+    for (std::string w; words >> w;) launcher.push_back(w);
+    if (launcher.empty()) launcher = {"mpirun"};
+    program = bp::search_path(launcher[0]).string();
+    if (program.empty())
+      throw LammpsError("--threads " + std::to_string(threads) + " needs " + launcher[0] +
+                        (launcher[0] == "mpirun" ? " (Debian package openmpi-bin)" : " (from GRANARY_MPI_LAUNCHER)"));
+    args.assign(launcher.begin() + 1, launcher.end());
+    if (fs::path(program).filename() == "srun") {
+      args.push_back("--ntasks=" + std::to_string(threads));
+    } else {
+      if (geteuid() == 0 && fs::path(program).filename() == "mpirun") args.push_back("--allow-run-as-root");
+      args.insert(args.end(), {"-np", std::to_string(threads)});
+    }
+    args.insert(args.end(), lmp.begin(), lmp.end());
+  } else {
+    program = lmp[0];
+    args.assign(lmp.begin() + 1, lmp.end());
+  }
+  args.insert(args.end(), {"-in", input, "-log", log, "-echo", "none", "-nocite"});
+  return RunChild(program, args, dir, control, silence_limit, "LAMMPS", on_line);
+}
+
+[[noreturn]] void Fail(const std::string& what, const Child& r, const fs::path& log) {
+  throw LammpsError(what + " (" + r.how("LAMMPS") + ")" + Diagnostics(r, log));
+}
+
+std::vector<std::string> Tokens(const std::string& line) {
+  std::istringstream in(line);
+  std::vector<std::string> t;
+  for (std::string w; in >> w;) t.push_back(w);
+  return t;
+}
+
+// granary-engine, which prepares (or finds in its cache) the native bed.
+std::string FindEngine(const std::string& preferred) {
+  std::string exe = preferred;
+  if (exe.empty()) {
+    std::error_code ec;
+    const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+    if (!ec && fs::exists(self.parent_path() / "granary-engine")) exe = (self.parent_path() / "granary-engine").string();
+  }
+  if (exe.empty())
+    if (const char* env = std::getenv("GRANARY_ENGINE"); env && *env) exe = env;
+  if (exe.empty()) exe = bp::search_path("granary-engine").string();
+  if (exe.empty() || !fs::exists(exe))
+    throw LammpsError("granary-engine not found" + (exe.empty() ? std::string() : " (\"" + exe + "\")") +
+                      ": the LAMMPS backend starts from the native engine's bed; build it beside granary-lammps or "
+                      "set GRANARY_ENGINE");
+  return exe;
+}
+
+// The native bed of DIR/run.json as one frame (granary-engine start-frame), with its provenance.
+json ObtainStart(const fs::path& dir, const BackendOptions& options) {
+  const std::string engine = FindEngine(options.engine);
+  json provenance;
+  const Child r = RunChild(engine, {"start-frame", dir.string(), (dir / kStartFrame).string()}, dir, {},
+                           options.silence_limit, "granary-engine", [&](const std::string& line) {
+                             if (!line.empty() && line[0] == '{') provenance = json::parse(line, nullptr, false);
+                           });
+  if (g_stop_signal != 0) throw Stopped(g_stop_signal, "stopped while the native engine prepared the bed");
+  if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty() || !provenance.is_object() ||
+      !fs::exists(dir / kStartFrame))
+    throw LammpsError("the native engine could not provide the bed (" + r.how("granary-engine") + ")" +
+                      Diagnostics(r, {}));
+  return provenance;
+}
+
+rundir::Frame ReadStart(const fs::path& dir, const RunSpec& spec) {
+  rundir::FrameReader in(dir / kStartFrame, spec.bodies.density);
+  rundir::Frame f;
+  if (!in.Next(f) || f.discs.empty()) throw LammpsError("the start frame " + (dir / kStartFrame).string() + " is empty");
+  return f;
+}
+
+struct Checkpoint {
+  fs::path file;
+  long long step = -1;
+};
+std::vector<std::pair<long long, fs::path>> Checkpoints(const fs::path& dir) {
+  static const std::regex name(R"(checkpoint\.(\d+)\.restart)");
+  std::vector<std::pair<long long, fs::path>> found;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    std::smatch m;
+    const std::string f = e.path().filename().string();
+    if (std::regex_match(f, m, name)) found.emplace_back(std::stoll(m[1]), e.path());
+  }
+  std::sort(found.rbegin(), found.rend());
+  return found;
+}
+Checkpoint NewestCheckpoint(const fs::path& dir) {
+  const auto found = Checkpoints(dir);
+  return found.empty() ? Checkpoint{} : Checkpoint{found[0].second, found[0].first};
+}
+void PruneCheckpoints(const fs::path& dir, std::size_t keep) {
+  const auto found = Checkpoints(dir);
+  for (std::size_t i = keep; i < found.size(); ++i) fs::remove(found[i].second);
+}
+
+// The next block of a LAMMPS text dump: its step and row count, leaving `in` at its first row.
+bool NextDumpBlock(std::istream& in, long long& step, long long& rows) {
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line != "ITEM: TIMESTEP") continue;
+    std::string step_s, n_s;
+    std::getline(in, step_s);
+    std::getline(in, line);  // ITEM: NUMBER OF ATOMS
+    std::getline(in, n_s);
+    for (int i = 0; i < 5; ++i) std::getline(in, line);  // BOX BOUNDS + 3 lines, ITEM: ATOMS
+    step = std::stoll(step_s);
+    rows = std::stoll(n_s);
+    return true;
+  }
+  return false;
+}
+
+// Cuts a dump back to the blocks at or before `step` (a continue runs the later ones again).
+void TruncateDump(const fs::path& file, long long step) {
+  if (!fs::exists(file)) return;
+  std::ifstream in(file);
+  std::string line, kept;
+  bool keep = true;
+  while (std::getline(in, line)) {
+    if (line == "ITEM: TIMESTEP") {
+      std::string s;
+      std::getline(in, s);
+      keep = std::stoll(s) <= step;
+      if (keep) kept += line + "\n" + s + "\n";
+      continue;
+    }
+    if (keep) kept += line + "\n";
+  }
+  in.close();
+  WriteAtomically(file, kept);
+}
+
+struct Event {
+  long long step;
+  long long body;
+  int species;
+  int outlet;
+};
+
+// Exits from the exit-line dump: a body is counted at the first look that finds its centre of
+// mass past an exit line (remove), or at each look that finds it one more box height below
+// the line than before (reinject: its unwrapped centre of mass). Outlet: the nearest outlet
+// centre, as the native engine.
+std::vector<Event> ReadEvents(const fs::path& file, const RunSpec& spec, const Setup& setup,
+                              const std::map<long long, int>& species_of) {
+  std::vector<Event> events;
+  if (!fs::exists(file)) return events;
+  const engine::SiloGeometry g = engine::BuildGeometry(spec.silo, setup.y_hi + 10);
+  const double ed = spec.discharge.exit_distance, ly = setup.y_hi - setup.y_lo;
+  std::map<long long, long long> passes;
+  std::ifstream in(file);
+  long long step = 0, n = 0;
+  std::string line;
+  while (NextDumpBlock(in, step, n)) {
+    std::set<long long> seen;
+    for (long long i = 0; i < n && std::getline(in, line); ++i) {
+      const auto t = Tokens(line);
+      if (t.size() < 4) throw std::runtime_error("malformed line in " + file.string() + ": " + line);
+      const long long body = std::stoll(t[1]) - 1;
+      if (!seen.insert(body).second) continue;
+      const double x = std::stod(t[2]);
+      double y = std::stod(t[3]);
+      long long k = 1;
+      if (setup.periodic) {
+        k = static_cast<long long>(std::floor((-ed - y) / ly)) + 1;
+        y -= ly * std::floor((y - setup.y_lo) / ly);
+      }
+      long long& done = passes[body];
+      for (; done < k; ++done) {
+        int best = 0;
+        double best_d = std::numeric_limits<double>::max();
+        for (std::size_t o = 0; o < g.outlets.size(); ++o) {
+          const double d = std::hypot(x - g.outlets[o].cx, y - g.outlets[o].cy);
+          if (d < best_d) {
+            best_d = d;
+            best = static_cast<int>(o);
+          }
+        }
+        const auto sp = species_of.find(body);
+        events.push_back({step, body, sp == species_of.end() ? 0 : sp->second, best});
+      }
+    }
+  }
+  return events;
+}
+
+// The periodic image of y nearest to `near`.
+double NearestImage(double y, double near, double height) {
+  if (y - near > height / 2) return y - height;
+  if (near - y > height / 2) return y + height;
+  return y;
+}
+
+// The frames' box: LAMMPS' box, with room in y for clumps put back together across the
+// periodic boundary.
+void SetBox(const Setup& s, double (&box)[3][2]) {
+  const double b2 = s.periodic ? 2 * s.bound_radius : 0.0;
+  box[0][0] = s.x_lo;
+  box[0][1] = s.x_hi;
+  box[1][0] = s.y_lo - b2;
+  box[1][1] = s.y_hi + b2;
+  box[2][0] = -0.5;
+  box[2][1] = 0.5;
+}
+
+// One block of a custom dump (id mol type x y radius vx vy omegaz) as a run-directory frame.
+void ReadFrameBlock(std::istream& in, long long n, long long step, const RunSpec& spec, const Setup& setup,
+                    rundir::Frame& frame) {
+  std::string line;
+  const double rho = spec.bodies.density, ly = setup.y_hi - setup.y_lo;
+  std::map<long long, double> first_y;
+  SetBox(setup, frame.box);
+  frame.timestep = step;
+  frame.time = static_cast<double>(step) * spec.time_step;
+  frame.discs.clear();
+  for (long long i = 0; i < n && std::getline(in, line); ++i) {
+    const auto t = Tokens(line);
+    if (t.size() < 9) throw std::runtime_error("malformed LAMMPS dump line: " + line);
+    const double r = std::stod(t[5]);
+    const long long body = std::stoll(t[1]) - 1;
+    double y = std::stod(t[4]);
+    if (setup.periodic) {
+      const auto [it, first] = first_y.emplace(body, y);
+      if (!first) y = NearestImage(y, it->second, ly);
+    }
+    frame.discs.push_back({std::stoll(t[0]), body, std::stoi(t[2]), std::stod(t[3]), y, r,
+                           rho * std::numbers::pi * r * r, std::stod(t[6]), std::stod(t[7]), std::stod(t[8])});
+  }
+  std::sort(frame.discs.begin(), frame.discs.end(), [](const rundir::Disc& a, const rundir::Disc& b) { return a.id < b.id; });
+}
+
+void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const Setup& setup) {
+  std::ifstream in(in_path);
+  rundir::FrameWriter out = rundir::FrameWriter::Create(out_path, spec.output.compress);
+  long long step = 0, n = 0;
+  rundir::Frame frame;
+  while (NextDumpBlock(in, step, n)) {
+    ReadFrameBlock(in, n, step, spec, setup, frame);
+    out.Write(frame);
+  }
+  out.Close();
+}
+
+fs::path ClogFile(const fs::path& dir, long long step) {
+  return dir / (std::string(kClogFilePrefix) + std::to_string(step) + ".atoms");
+}
+void RemoveClogFilesAfter(const fs::path& dir, long long after) {
+  static const std::regex name(R"(clog\.(\d+)\.atoms)");
+  std::vector<fs::path> doomed;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    std::smatch m;
+    const std::string f = e.path().filename().string();
+    if (std::regex_match(f, m, name) && std::stoll(m[1]) > after) doomed.push_back(e.path());
+  }
+  for (const fs::path& f : doomed) fs::remove(f);
+}
+
+// The configurations kept at the clogs into the run directory's clog files (no contact rows:
+// docs/lammps.md).
+void ConvertClogs(const fs::path& dir, const std::vector<long long>& steps, const RunSpec& spec, const Setup& setup) {
+  rundir::ClogWriter out = rundir::ClogWriter::Create(dir);
+  rundir::ClogState clog;
+  for (long long step : steps) {
+    std::ifstream atoms(ClogFile(dir, step));
+    long long dumped = 0, n = 0;
+    if (!atoms || !NextDumpBlock(atoms, dumped, n))
+      throw std::runtime_error("the configuration of the clog at step " + std::to_string(step) + " is missing (" +
+                               ClogFile(dir, step).string() + ")");
+    ReadFrameBlock(atoms, n, step, spec, setup, clog.frame);
+    clog.contacts.timestep = step;
+    clog.contacts.time = clog.frame.time;
+    std::copy(&clog.frame.box[0][0], &clog.frame.box[0][0] + 6, &clog.contacts.box[0][0]);
+    clog.contacts.contacts.clear();
+    out.Write(clog);
+  }
+  out.Close();
+}
+
+struct Disc {
+  long long id, mol;
+  int type;
+  double x, y, r;
+};
+std::vector<Disc> ReadFinal(const fs::path& file) {
+  std::ifstream in(file);
+  std::vector<Disc> out;
+  long long step = 0, n = 0;
+  if (!in || !NextDumpBlock(in, step, n)) throw std::runtime_error("missing or empty " + file.string());
+  std::string line;
+  for (long long i = 0; i < n && std::getline(in, line); ++i) {
+    const auto t = Tokens(line);
+    if (t.size() < 6) throw std::runtime_error("malformed line in " + file.string() + ": " + line);
+    out.push_back({std::stoll(t[0]), std::stoll(t[1]), std::stoi(t[2]), std::stod(t[3]), std::stod(t[4]), std::stod(t[5])});
+  }
+  return out;
+}
+
+// A stall in remove mode is a clog when an arch seals an outlet from the material above: the
+// native engine's judgement (engine/stall.h) on LAMMPS' final positions.
+bool StallIsAClog(const RunSpec& spec, const std::vector<Disc>& left, double probe) {
+  std::vector<engine::DiscAt> discs;
+  double top = 0;
+  for (const Disc& d : left) {
+    discs.push_back({d.x, d.y, d.r});
+    top = std::max(top, d.y + d.r);
+  }
+  const std::vector<bool> sealed = engine::SealedOutlets(engine::BuildGeometry(spec.silo, top + 1), discs, probe);
+  return std::find(sealed.begin(), sealed.end(), true) != sealed.end();
+}
+
+std::string LammpsVersion(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line;
+  if (std::getline(in, line)) {
+    static const std::regex v(R"(LAMMPS \(([^)]+)\))");
+    std::smatch m;
+    if (std::regex_search(line, m, v)) return m[1];
+  }
+  return "unknown";
+}
+
+void WriteInputsInto(const fs::path& dir, const RunSpec& spec, const Setup& setup, const rundir::Frame& start,
+                     const DischargeStart& ds) {
+  if (!ds.continue_run) WriteAtomically(dir / kDataFile, DataFile(setup, start));
+  WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, ds));
+  WriteAtomically(dir / kControlFile, "variable stop_requested equal 0\n");
+}
+
+BackendResult RunLocked(const fs::path& dir, const BackendOptions& options);
+
+}  // namespace
+
+std::string FindLammps(const std::string& preferred) {
+  std::string exe = preferred;
+  if (exe.empty())
+    if (const char* env = std::getenv("GRANARY_LAMMPS"); env && *env) exe = env;
+  if (exe.empty()) exe = bp::search_path("lmp").string();
+  if (exe.empty() || !fs::exists(exe))
+    throw LammpsError("LAMMPS executable not found" + (exe.empty() ? std::string() : " (\"" + exe + "\")") +
+                      ": install Debian's package lammps (scripts/setup.sh does), or set GRANARY_LAMMPS");
+  return exe;
+}
+
+std::vector<std::string> WriteInputs(const std::string& dir_name, const BackendOptions& options) {
+  const fs::path dir = fs::absolute(dir_name);
+  const RunSpec spec = rundir::ReadRunSpec(dir);
+  validate_for_lammps(spec);
+  ObtainStart(dir, options);
+  const rundir::Frame start = ReadStart(dir, spec);
+  WriteInputsInto(dir, spec, MakeSetup(spec, start), start, DischargeStart{});
+  return {kStartFrame, kDataFile, "discharge.in", kControlFile};
+}
+
+void RequestStop(int signal) { g_stop_signal = signal; }
+
+BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& options) {
+  const RunDirectoryLock lock(fs::absolute(dir_name));
+  return RunLocked(fs::absolute(dir_name), options);
+}
+
+namespace {
+
+BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
+  const RunSpec spec = rundir::ReadRunSpec(dir);
+  validate_for_lammps(spec);
+  const std::string exe = FindLammps(options.lammps);
+  fs::remove(dir / rundir::kDoneFile);
+
+  BackendResult result;
+  const Checkpoint ckpt = NewestCheckpoint(dir);
+  const fs::path state_file = dir / kStateFile;
+  json state;
+  DischargeStart start;
+  double wall_before = 0;
+  const auto t_session = Clock::now();
+  if (ckpt.step >= 0 && fs::exists(state_file) && fs::exists(dir / kStartFrame)) {
+    state = json::parse(ReadWholeFile(state_file));
+    result.continued = true;
+    start.continue_run = true;
+    start.restart_file = ckpt.file.filename().string();  // "checkpoint.<digits>.restart": no spec text
+    TruncateDump(dir / kExitsDump, ckpt.step);
+    TruncateDump(dir / kFramesDump, ckpt.step);
+    wall_before = state.value("discharge_wall_s", 0.0);
+    std::vector<long long> kept;
+    for (long long c : state.value("clog_steps", std::vector<long long>{}))
+      if (c <= ckpt.step) kept.push_back(c);
+    state["clog_steps"] = kept;
+    RemoveClogFilesAfter(dir, ckpt.step);
+  } else {
+    for (const fs::path& f : {fs::path(kExitsDump), fs::path(kFramesDump), fs::path(kFinalDump), fs::path(rundir::kEventsFile),
+                             fs::path(rundir::kFramesFile), fs::path(rundir::kFramesGzFile), fs::path(rundir::kClogFramesFile),
+                             fs::path(rundir::kClogContactsFile), fs::path(kStartFrame)})
+      fs::remove(dir / f);
+    RemoveClogFilesAfter(dir, -1);
+    PruneCheckpoints(dir, 0);
+    const auto t0 = Clock::now();
+    rundir::WriteProgress(dir, {"bed", 0.0, 0.0, 0.0, 0, 0.0}, !options.quiet);
+    const json bed = ObtainStart(dir, options);
+    state = {{"bed", bed}, {"bed_wall_s", Seconds(t0)}, {"discharge_wall_s", 0.0}, {"clog_steps", json::array()}};
+    WriteAtomically(state_file, state.dump() + "\n");
+  }
+  const rundir::Frame start_frame = ReadStart(dir, spec);
+  const Setup setup = MakeSetup(spec, start_frame);
+  std::map<long long, int> species_of;
+  std::map<int, double> body_mass;
+  double probe = std::numeric_limits<double>::max();
+  for (const rundir::Disc& d : start_frame.discs) {
+    species_of[d.mol] = d.type - 1;
+    probe = std::min(probe, d.radius);
+  }
+  {
+    std::map<long long, double> mass;
+    for (const rundir::Disc& d : start_frame.discs) mass[d.mol] += d.mass;
+    for (const auto& [mol, m] : mass) body_mass.emplace(species_of[mol], m);
+  }
+  if (start.continue_run) {
+    // The step of the last exit before the checkpoint, as the script counts it (at the end of
+    // the chunk that saw it), and whether a clog was counted since.
+    const std::vector<Event> before = ReadEvents(dir / kExitsDump, spec, setup, species_of);
+    const long long chunk = std::max<long long>(
+        1, std::llround(std::min(0.5, spec.discharge.clog_window / 4) / spec.time_step));
+    if (!before.empty()) start.last_exit_step = std::min(ckpt.step, (before.back().step + chunk - 1) / chunk * chunk);
+    for (long long c : state["clog_steps"].get<std::vector<long long>>())
+      if (c >= start.last_exit_step) start.in_clog = true;
+  }
+  WriteAtomically(dir / rundir::kSiloFile,
+                  engine::SiloVtk(engine::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : setup.y_hi)));
+  WriteInputsInto(dir, spec, setup, start_frame, start);
+
+  const auto t_discharge = Clock::now();
+  std::string end_reason;
+  long long last_step = 0;
+  int progress_lines = 0;
+  const std::string log = result.continued ? "log.discharge." + std::to_string(ckpt.step) : "log.discharge";
+  const fs::path control = dir / kControlFile;
+  const Child r = RunLammps(exe, options.threads, dir, "discharge.in", log, control, options.silence_limit,
+                            [&](const std::string& line) {
+    if (line.rfind("GRANARY_", 0) != 0) return;
+    const auto t = Tokens(line);
+    if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
+    if (t[0] == "GRANARY_FINAL" && t.size() > 1) last_step = std::stoll(t[1]);
+    if (t[0] == "GRANARY_CLOG" && t.size() > 1) {
+      state["clog_steps"].push_back(std::stoll(t[1]));
+      WriteAtomically(state_file, state.dump() + "\n");
+    }
+    if (t[0] == "GRANARY_PROGRESS" && t.size() > 2) {
+      ++progress_lines;
+      PruneCheckpoints(dir, 2);
+      const double time = std::stod(t[1]) * spec.time_step;
+      rundir::WriteProgress(dir, {"discharge", time / spec.discharge.max_time, time, spec.discharge.max_time,
+                                  static_cast<int>(std::stoll(t[2])), wall_before + Seconds(t_discharge)},
+                            !options.quiet);
+      state["discharge_wall_s"] = wall_before + Seconds(t_discharge);
+      WriteAtomically(state_file, state.dump() + "\n", Durability::kVisible);
+    }
+  });
+  if (r.stopped) {
+    state["discharge_wall_s"] = wall_before + Seconds(t_discharge);
+    WriteAtomically(state_file, state.dump() + "\n");
+    throw Stopped(g_stop_signal != 0 ? g_stop_signal : SIGTERM,
+                  "stopped on request; checkpointed by LAMMPS (" + NewestCheckpoint(dir).file.filename().string() + ")");
+  }
+  if (g_stop_signal != 0)
+    throw Stopped(g_stop_signal, "stopped on request before LAMMPS checkpointed" + Diagnostics(r, dir / log));
+  if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty() || end_reason.empty() || !fs::exists(dir / kFinalDump)) {
+    // A checkpoint cut short by a kill fails at read_restart: drop it, go on from the one before.
+    if (result.continued && progress_lines == 0 && r.stop_reason.empty() && r.signal == 0) {
+      std::fprintf(stderr, "granary-lammps: cannot continue from %s; trying an earlier checkpoint\n",
+                   ckpt.file.filename().c_str());
+      fs::rename(ckpt.file, fs::path(ckpt.file.string() + ".corrupt"));
+      state["refused_checkpoints"].push_back(ckpt.file.filename().string() + ": LAMMPS could not continue from it");
+      WriteAtomically(state_file, state.dump() + "\n");
+      return RunLocked(dir, options);
+    }
+    Fail("LAMMPS failed during the discharge", r, dir / log);
+  }
+  const double discharge_wall = wall_before + Seconds(t_discharge);
+  if (end_reason == "stalled") {
+    end_reason = "discharged";
+    if (StallIsAClog(spec, ReadFinal(dir / kFinalDump), probe)) {
+      state["clog_steps"].push_back(last_step);
+      if (spec.discharge.stop_on_clog) {
+        end_reason = "clogged";
+      } else {  // go on through the clog from the restart the script wrote at the stall
+        state["discharge_wall_s"] = discharge_wall;
+        state["relaunched_at_step"] = last_step;
+        WriteAtomically(state_file, state.dump() + "\n");
+        return RunLocked(dir, options);
+      }
+    } else {
+      fs::remove(ClogFile(dir, last_step));
+    }
+  } else if (end_reason == "clogged") {
+    state["clog_steps"].push_back(last_step);
+  }
+
+  // Convert into the run-directory format.
+  const std::vector<Event> events = ReadEvents(dir / kExitsDump, spec, setup, species_of);
+  std::vector<rundir::ExitEvent> exits;
+  std::vector<int> per_outlet(spec.silo.base_outlets.size() + spec.silo.side_outlets.size(), 0);
+  for (const Event& e : events) {
+    if (e.step > last_step) continue;
+    exits.push_back({static_cast<double>(e.step) * spec.time_step, e.body,
+                     spec.bodies.species[static_cast<std::size_t>(e.species)].name, body_mass[e.species], e.outlet});
+    ++per_outlet[static_cast<std::size_t>(e.outlet)];
+  }
+  rundir::WriteEvents(dir / rundir::kEventsFile, exits);
+  if (spec.output.frame_interval > 0 && fs::exists(dir / kFramesDump))
+    ConvertFrames(dir / kFramesDump, dir / (spec.output.compress ? rundir::kFramesGzFile : rundir::kFramesFile), spec,
+                  setup);
+  const std::vector<long long> clog_steps = state.value("clog_steps", std::vector<long long>{});
+  ConvertClogs(dir, clog_steps, spec, setup);
+
+  // Bodies in the silo at the end: not yet deleted, and not past an exit line either.
+  std::set<long long> remaining;
+  for (const Disc& d : ReadFinal(dir / kFinalDump)) remaining.insert(d.mol - 1);
+  for (const rundir::ExitEvent& e : exits) remaining.erase(e.body);
+  const long long session_steps = last_step - (result.continued ? ckpt.step : 0);
+  const double session_wall = discharge_wall - wall_before;
+  result.end_reason = end_reason;
+  result.exited = static_cast<int>(exits.size());
+  result.steps = last_step;
+
+  rundir::Summary summary;
+  summary.engine = "lammps";
+  summary.engine_version = LammpsVersion(dir / "log.discharge");
+  summary.granary_version = GRANARY_VERSION;
+  summary.granary_commit = granary::GitCommit();
+  summary.run_id = spec.run_id;
+  summary.spec = spec.to_json();
+  summary.end_reason = end_reason;
+  summary.bodies = setup.bodies;
+  const json bed = state.value("bed", json::object());
+  if (!spec.silo.obstacles.empty()) summary.cleared_by_obstacles = bed.value("cleared_by_obstacles", 0);
+  summary.exited = result.exited;
+  summary.remaining = spec.discharge.mode == DischargeMode::kRemove ? static_cast<int>(remaining.size()) : setup.bodies;
+  summary.exits_per_outlet = per_outlet;
+  summary.t_end = static_cast<double>(last_step) * spec.time_step;
+  summary.clogs = static_cast<int>(clog_steps.size());
+  summary.steps = last_step;
+  summary.tangential_cap = "lammps";  // LAMMPS caps spring + damping, whatever the spec asks
+  if (spec.discharge.mode == DischargeMode::kReinject) summary.reinject_position = "periodic";
+  summary.bed = {bed.value("bed_file", ""), bed.value("height", 0.0), bed.value("prepared_here", false),
+                 bed.value("settle_time", 0.0), bed.value("refused", std::string())};
+  const double bed_wall = state.value("bed_wall_s", 0.0);
+  // Disc-steps of this session: the bed's discs at every step, less those of bodies gone (remove
+  // mode: from each exit to the end).
+  const double bed_disc_steps = static_cast<double>(start_frame.discs.size()) * static_cast<double>(session_steps);
+  double disc_steps = bed_disc_steps;
+  if (spec.discharge.mode == DischargeMode::kRemove) {
+    std::map<long long, int> discs_of;
+    for (const rundir::Disc& d : start_frame.discs) ++discs_of[d.mol];
+    const long long from = result.continued ? ckpt.step : 0;
+    for (const Event& e : events)
+      if (e.step <= last_step) disc_steps -= discs_of[e.body] * static_cast<double>(last_step - std::max(e.step, from));
+  }
+  summary.timing = rundir::Timing{bed_wall + discharge_wall, bed_wall, discharge_wall,
+                                  session_wall > 0 ? disc_steps / session_wall : 0.0, options.threads,
+                                  session_wall > 0 ? bed_disc_steps / session_wall : 0.0};
+  summary.continued_from_checkpoint = result.continued && ckpt.step != state.value("relaunched_at_step", -1LL);
+  for (const auto& why : state.value("refused_checkpoints", json::array())) summary.refused_checkpoints.push_back(why);
+  rundir::WriteSummary(dir, summary);
+  PruneCheckpoints(dir, 0);
+  rundir::WriteProgress(dir, {"discharge", 1.0, summary.t_end, spec.discharge.max_time, result.exited, discharge_wall},
+                        false);
+  (void)t_session;
+  rundir::WriteDone(dir, end_reason);
+  return result;
+}
+
+}  // namespace
+
+}  // namespace granary::lammps

@@ -1,0 +1,289 @@
+// LAMMPS input generation (input_script.h). True 2-D (dimension 2, enforce2d), discs as
+// spheres of areal mass rho pi r^2 and inertia 0.4 m r^2 (as the native engine), clumps as
+// rigid bodies (fix rigid/small over molecule ids), walls as wall/gran planes and regions.
+#include "lammps/input_script.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <sstream>
+
+namespace granary::lammps {
+
+namespace {
+
+constexpr double kChunkTime = 0.5;        // simulated time between script-level checks
+constexpr double kEventInterval = 0.01;   // simulated time between looks at the exit lines
+constexpr double kBaseThickness = 0.1;    // base and wall pieces: thin blocks, as the native segments
+
+long long StepsOf(double time, double dt) { return std::max<long long>(1, std::llround(time / dt)); }
+
+// pair_style / wall arguments: gran/hertz/history Kn Kt gamma_n gamma_t mu dampflag 1.
+std::string Law(const Contact& c, double mu) {
+  return "hertz/history " + Num(c.kn) + " " + Num(c.kt) + " " + Num(c.gamma_n) + " " + Num(c.gamma_t) + " " + Num(mu) +
+         " 1";
+}
+
+std::string Types(const std::vector<int>& types) {
+  std::string s;
+  for (int t : types) s += " " + std::to_string(t);
+  return s;
+}
+
+}  // namespace
+
+std::string Num(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+Setup MakeSetup(const RunSpec& spec, const rundir::Frame& start) {
+  validate(spec);
+  validate_for_lammps(spec);
+  Setup s;
+  s.species = static_cast<int>(spec.bodies.species.size());
+  // Which species are clumps, and the bounding radius of every body, from the bed itself.
+  std::map<std::int64_t, std::vector<const rundir::Disc*>> bodies;
+  for (const rundir::Disc& d : start.discs) {
+    if (d.type < 1 || d.type > s.species)
+      throw std::runtime_error("the start frame has a disc of type " + std::to_string(d.type) + " for " +
+                               std::to_string(s.species) + " species");
+    bodies[d.mol].push_back(&d);
+  }
+  std::vector<int> discs_of(static_cast<std::size_t>(s.species), 0);
+  for (const auto& [mol, discs] : bodies) {
+    double m = 0, x = 0, y = 0;
+    for (const rundir::Disc* d : discs) {
+      m += d->mass;
+      x += d->mass * d->x;
+      y += d->mass * d->y;
+    }
+    x /= m;
+    y /= m;
+    for (const rundir::Disc* d : discs)
+      s.bound_radius = std::max(s.bound_radius, std::hypot(d->x - x, d->y - y) + d->radius);
+    discs_of[static_cast<std::size_t>(discs.front()->type - 1)] = static_cast<int>(discs.size());
+  }
+  for (std::size_t k = 0; k < spec.bodies.species.size(); ++k) {
+    const bool clump = spec.bodies.species[k].shape != Shape::kDisc;
+    (clump ? s.clump_types : s.disc_types).push_back(static_cast<int>(k) + 1);
+  }
+  s.bodies = static_cast<int>(bodies.size());
+  const double ed = spec.discharge.exit_distance, b = s.bound_radius;
+  s.half_width = spec.silo.width / 2;
+  const double x_margin = spec.silo.side_outlets.empty() ? 1.0 : ed + 2 * b + 2.0;
+  s.x_lo = -s.half_width - x_margin;
+  s.x_hi = s.half_width + x_margin;
+  double top = 0, bed_top = 0;
+  for (const rundir::Disc& d : start.discs) {
+    top = std::max(top, d.y);
+    bed_top = std::max(bed_top, d.y + d.radius);
+  }
+  s.periodic = spec.discharge.mode == DischargeMode::kReinject;
+  if (s.periodic) {
+    // The native engine's periodic box (run_spec.h kPeriodicFall): a body passing its bottom
+    // comes back at its top, at the same x with its velocity.
+    s.y_lo = -(ed + kPeriodicFall);
+    s.y_hi = top + 2 * b + spec.discharge.periodic_headroom;
+  } else {
+    // Bodies are deleted b + 1 past the exit line; the top leaves room for the bed to dilate
+    // (a disc leaving the box stops LAMMPS with "Lost atoms": never silently).
+    s.y_lo = -(ed + 2 * b + 3.0);
+    s.y_hi = std::max(1.5 * bed_top + 2 * b + 2.0, spec.silo.height);
+  }
+  s.event_every = StepsOf(kEventInterval, spec.time_step);
+  return s;
+}
+
+std::string DataFile(const Setup& s, const rundir::Frame& start) {
+  std::ostringstream o;
+  o << "LAMMPS data file: a Granary bed (granary-lammps, docs/lammps.md), " << start.discs.size() << " discs\n\n"
+    << start.discs.size() << " atoms\n" << s.species << " atom types\n\n"
+    << Num(s.x_lo) << " " << Num(s.x_hi) << " xlo xhi\n" << Num(s.y_lo) << " " << Num(s.y_hi) << " ylo yhi\n"
+    << "-0.5 0.5 zlo zhi\n\nAtoms # sphere\n\n";
+  // atom-ID atom-type diameter density x y z: the density is set again by `set density/disc`.
+  for (const rundir::Disc& d : start.discs)
+    o << d.id << " " << d.type << " " << Num(2 * d.radius) << " 1 " << Num(d.x) << " " << Num(d.y) << " 0\n";
+  o << "\nVelocities\n\n";
+  for (const rundir::Disc& d : start.discs)
+    o << d.id << " " << Num(d.vx) << " " << Num(d.vy) << " 0 0 0 " << Num(d.omega) << "\n";
+  o << "\nMolecules\n\n";
+  for (const rundir::Disc& d : start.discs) o << d.id << " " << d.mol + 1 << "\n";
+  return o.str();
+}
+
+std::string DischargeScript(const RunSpec& spec, const Setup& s, const DischargeStart& start) {
+  const double dt = spec.time_step;
+  const Contact& c = spec.contact;
+  const Silo& silo = spec.silo;
+  const double hw = s.half_width, ed = spec.discharge.exit_distance, b = s.bound_radius;
+  const long long chunk = StepsOf(std::min(kChunkTime, spec.discharge.clog_window / 4), dt);
+  const long long total = StepsOf(spec.discharge.max_time, dt);
+  const long long clog_steps = StepsOf(spec.discharge.clog_window, dt);
+  const bool remove = spec.discharge.mode == DischargeMode::kRemove;
+  const bool clumps = !s.clump_types.empty();
+  const std::string wall = "wall/gran " + Law(c, c.mu_wall);
+  const std::string wall_region = "wall/gran/region " + Law(c, c.mu_wall);
+  std::ostringstream o;
+  o << "# Discharge, generated by granary-lammps from run.json (docs/lammps.md)\n"
+    << "units lj\ndimension 2\natom_style sphere\natom_modify map array\n"
+    << "boundary f " << (s.periodic ? "p" : "f") << " p\n"
+    << "processors * 1 1\n"
+    // Ghost atoms far enough for rigid bodies split between ranks.
+    << "comm_modify vel yes cutoff " << Num(2 * b + 1.0) << "\n";
+  if (start.continue_run) {
+    o << "read_restart " << start.restart_file << "\n"
+      << "fix mol all property/atom mol ghost yes\n";  // restores the molecule ids kept in the restart
+  } else {
+    o << "fix mol all property/atom mol ghost yes\n"
+      << "read_data " << kDataFile << " fix mol NULL Molecules\n"
+      << "set group all density/disc " << Num(spec.bodies.density) << "   # disc mass rho pi r^2\n";
+  }
+  if (!s.disc_types.empty()) o << "group discs type" << Types(s.disc_types) << "\n";
+  if (clumps) o << "group clumps type" << Types(s.clump_types) << "\n";
+  o << "# contact law: gran/hertz/history with body masses in m_eff, as the native engine (docs/lammps.md)\n"
+    << "pair_style gran/" << Law(c, c.mu) << "\npair_coeff * *\n"
+    << "neighbor 0.2 bin\nneigh_modify delay 0 every 1 check yes"
+    << (clumps ? " exclude molecule/intra clumps" : "") << "\n"
+    << "timestep " << Num(dt) << "\n";
+  if (!s.disc_types.empty()) o << "fix integrate_discs discs nve/sphere   # sphere inertia 0.4 m r^2, as the engine\n";
+  if (clumps) o << "fix integrate_clumps clumps rigid/small molecule\n";
+  o << "fix gravity all gravity " << Num(spec.gravity) << " vector 0 -1 0\n"
+    << "fix plane all enforce2d\n";
+  // Walls. Side walls without an outlet are planes; the base between outlets and side walls
+  // with outlets are thin blocks (their corners are the outlet edges).
+  bool left_open = false, right_open = false;
+  for (const SideOutlet& so : silo.side_outlets) (so.wall == Wall::kLeft ? left_open : right_open) = true;
+  if (!left_open && !right_open) {
+    o << "fix side_walls all " << wall << " xplane " << Num(-hw) << " " << Num(hw) << "\n";
+  } else {
+    if (!left_open) o << "fix left_wall all " << wall << " xplane " << Num(-hw) << " NULL\n";
+    if (!right_open) o << "fix right_wall all " << wall << " xplane NULL " << Num(hw) << "\n";
+  }
+  int piece = 0;
+  auto block = [&](double x0, double x1, double y0, double y1) {
+    const std::string id = "wall_piece_" + std::to_string(piece++);
+    o << "region " << id << " block " << Num(x0) << " " << Num(x1) << " " << Num(y0) << " " << Num(y1)
+      << " -0.5 0.5 side out units box\n"
+      << "fix " << id << " all " << wall_region << " region " << id << "\n";
+  };
+  std::vector<std::pair<double, double>> gaps;
+  for (const BaseOutlet& bo : silo.base_outlets) gaps.emplace_back(bo.center - bo.width / 2, bo.center + bo.width / 2);
+  std::sort(gaps.begin(), gaps.end());
+  // The base reaches under the side walls' blocks, so no gap opens at the corners.
+  double x = -hw - kBaseThickness;
+  for (const auto& [g0, g1] : gaps) {
+    if (g0 > x + 1e-9) block(x, g0, -kBaseThickness, 0.0);
+    x = std::max(x, g1);
+  }
+  if (x < hw + kBaseThickness - 1e-9) block(x, hw + kBaseThickness, -kBaseThickness, 0.0);
+  const double wall_top = s.y_hi + 10;
+  for (Wall side : {Wall::kLeft, Wall::kRight}) {
+    if (!(side == Wall::kLeft ? left_open : right_open)) continue;
+    std::vector<std::pair<double, double>> holes;
+    for (const SideOutlet& so : silo.side_outlets)
+      if (so.wall == side) holes.emplace_back(so.bottom, so.bottom + so.width);
+    std::sort(holes.begin(), holes.end());
+    const double x0 = side == Wall::kLeft ? -hw - kBaseThickness : hw, x1 = x0 + kBaseThickness;
+    double y = -kBaseThickness;
+    for (const auto& [h0, h1] : holes) {
+      if (h0 > y + 1e-9) block(x0, x1, y, h0);
+      y = std::max(y, h1);
+    }
+    block(x0, x1, y, wall_top);
+  }
+  for (std::size_t k = 0; k < silo.obstacles.size(); ++k) {
+    const Obstacle& ob = silo.obstacles[k];
+    const std::string id = "obstacle_" + std::to_string(k);
+    o << "region " << id << " cylinder z " << Num(ob.x) << " " << Num(ob.y) << " " << Num(ob.diameter / 2)
+      << " -0.5 0.5 side out units box\n"
+      << "fix " << id << " all " << wall_region << " region " << id << "\n";
+  }
+
+  // Each body's centre of mass on each of its discs (unwrapped: in the periodic box its y
+  // keeps falling by the box height at every pass), and 1 / its disc count.
+  const double ly = s.y_hi - s.y_lo;
+  o << "compute body all chunk/atom molecule compress no\n"
+    << "compute body_com all com/chunk body\n"
+    << "compute com all chunk/spread/atom body c_body_com[*]\n"
+    << "compute body_discs all property/chunk body count\n"
+    << "compute discs_of all chunk/spread/atom body c_body_discs\n"
+    << "variable per_body atom 1.0/c_discs_of\n"
+    << "compute bodies_now all reduce sum v_per_body\n";
+  if (remove) {
+    // A body has left when its centre of mass is exit_distance past an outlet's plane (the
+    // native engine's exit lines); it is deleted once it is b + 0.5 further.
+    o << "variable past atom (c_com[2]<" << Num(-ed) << ")||(abs(c_com[1])>" << Num(hw + ed) << ")\n"
+      << "variable past_body atom v_past*v_per_body\n"
+      << "compute past_now all reduce sum v_past_body\n"
+      << "variable exited equal round(" << s.bodies << "-c_bodies_now+c_past_now)\n"
+      << "region gone_below block INF INF INF " << Num(-(ed + b + 0.5)) << " INF INF units box\n"
+      << "fix delete_below all evaporate " << s.event_every << " 1000000000 gone_below " << 4201
+      << " molecule yes\n";
+    if (!silo.side_outlets.empty())
+      o << "region gone_left block INF " << Num(-(hw + ed + b + 0.5)) << " INF INF INF INF units box\n"
+        << "region gone_right block " << Num(hw + ed + b + 0.5) << " INF INF INF INF INF units box\n"
+        << "fix delete_left all evaporate " << s.event_every << " 1000000000 gone_left 4203 molecule yes\n"
+        << "fix delete_right all evaporate " << s.event_every << " 1000000000 gone_right 4205 molecule yes\n";
+  } else {
+    // Passes through the exit line: the unwrapped centre of mass below -ed - k Ly is k + 1 of them.
+    o << "variable passes atom (c_com[2]<" << Num(-ed) << ")*(floor((" << Num(-ed) << "-c_com[2])/" << Num(ly)
+      << ")+1)*v_per_body\n"
+      << "compute passes_now all reduce sum v_passes\n"
+      << "variable exited equal round(c_passes_now)\n"
+      << "variable wrapped_y atom c_com[2]-" << Num(ly) << "*floor((c_com[2]-(" << Num(s.y_lo) << "))/" << Num(ly)
+      << ")\n"
+      << "variable past atom v_wrapped_y<" << Num(-ed) << "\n";
+  }
+  o << "dump exits all custom " << s.event_every << " " << kExitsDump << " id mol c_com[1] c_com[2]\n"
+    << "dump_modify exits thresh v_past == 1 format line \"%d %d %.10g %.10g\""
+    << (start.continue_run ? " append yes" : "") << "\n";
+  if (spec.output.frame_interval > 0) {
+    o << "dump frames all custom " << StepsOf(spec.output.frame_interval, dt) << " " << kFramesDump
+      << " id mol type x y radius vx vy omegaz\n"
+      << "dump_modify frames format line \"%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g\""
+      << (start.continue_run ? " append yes" : "") << "\n";
+  }
+  if (spec.output.checkpoint_interval > 0)
+    o << "restart " << StepsOf(spec.output.checkpoint_interval, dt) << " checkpoint.*.restart\n";
+  o << "variable step_now equal step\nvariable atoms_now equal atoms\n"
+    << "variable next_stop equal step+" << chunk << "\n"
+    << "thermo_style custom step time atoms v_exited cpu\nthermo " << chunk << "\n"
+    << "thermo_modify norm no\n"
+    << "run 0 post no\n"
+    << "variable exited_last equal ${exited}\n"
+    << "variable last_exit_step equal " << start.last_exit_step << "\n"
+    << "variable clog_counted equal " << (start.in_clog ? 1 : 0) << "\n"
+    << "label discharge\n"
+    << "if \"${step_now} >= " << total << "\" then \"print 'GRANARY_END time_limit'\" \"jump SELF finished\"\n"
+    << "if \"${next_stop} > " << total << "\" then \"variable next_stop equal " << total << "\"\n"
+    << "run ${next_stop} upto post no\n"
+    << "print \"GRANARY_PROGRESS ${step_now} ${exited}\"\n"
+    << "include " << kControlFile << "\n"
+    << "if \"${stop_requested} == 1\" then \"write_restart checkpoint.*.restart\" "
+       "\"print 'GRANARY_STOPPED ${step_now}'\" \"jump SELF stopped\"\n"
+    << "if \"${exited} > ${exited_last}\" then \"variable exited_last equal ${exited}\" "
+       "\"variable last_exit_step equal ${step_now}\" \"variable clog_counted equal 0\"\n";
+  if (remove) o << "if \"${atoms_now} == 0\" then \"print 'GRANARY_END discharged'\" \"jump SELF finished\"\n";
+  o << "variable since_exit equal step-v_last_exit_step\n";
+  const std::string stalled = "\"${since_exit} >= " + std::to_string(clog_steps) + " && ${clog_counted} == 0\"";
+  const std::string keep = std::string(" \"write_dump all custom ") + kClogFilePrefix +
+                           "${step_now}.atoms id mol type x y radius vx vy omegaz modify format line "
+                           "'%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g'\"";
+  if (remove)
+    o << "if " << stalled << " then \"write_restart checkpoint.*.restart\"" << keep
+      << " \"print 'GRANARY_END stalled'\" \"jump SELF finished\"\n";
+  else if (spec.discharge.stop_on_clog)
+    o << "if " << stalled << " then" << keep << " \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
+  else
+    o << "if " << stalled << " then" << keep << " \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";
+  o << "jump SELF discharge\nlabel finished\n"
+    << "write_dump all custom " << kFinalDump << " id mol type x y radius modify format line '%d %d %d %.10g %.10g %.10g'\n"
+    << "print \"GRANARY_FINAL ${step_now}\"\n"
+    << "label stopped\n";
+  return o.str();
+}
+
+}  // namespace granary::lammps

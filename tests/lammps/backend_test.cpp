@@ -1,0 +1,377 @@
+// Real LAMMPS runs of tiny silos through granary-lammps (a real subprocess, Debian's `lmp`),
+// starting from the native engine's bed: the same bodies leave at the same times as on the
+// native engine, every shape and geometry runs, a killed backend or a killed `lmp` continues
+// from its checkpoint, and LAMMPS' errors, a missing `lmp` and a hung one fail the run with
+// the log tail.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <boost/process.hpp>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <thread>
+
+#include "rundir/files.h"
+#include "rundir/frames.h"
+#include "rundir/run_directory.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+namespace bp = boost::process;
+using nlohmann::json;
+using namespace granary::rundir;
+
+const fs::path kTmp = GRANARY_LAMMPS_TEST_TMP;
+
+struct Outcome {
+  int exit_code = -1;
+  std::string output;
+};
+
+Outcome RunProgram(const std::string& exe, const std::vector<std::string>& args,
+            bp::environment env = boost::this_process::environment()) {
+  bp::ipstream out;
+  bp::child c(exe, bp::args = args, (bp::std_out & bp::std_err) > out, env);
+  Outcome o;
+  for (std::string line; std::getline(out, line);) o.output += line + "\n";
+  c.wait();
+  o.exit_code = c.exit_code();
+  return o;
+}
+Outcome RunLammps(const fs::path& dir, bp::environment env = boost::this_process::environment(),
+                  const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> args = {"run", dir.string()};
+  args.insert(args.end(), extra.begin(), extra.end());
+  return RunProgram(GRANARY_LAMMPS_EXE, args, env);
+}
+
+// A fresh run directory with run.json; native beds are cached in one directory.
+fs::path MakeRun(const std::string& name, const json& overrides, const std::string& engine = "lammps") {
+  const fs::path dir = kTmp / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  json j = {{"run_id", name},
+            {"seed", 3},
+            {"engine", engine},
+            {"silo", {{"width", 16}, {"base_outlets", {{{"center", 0}, {"width", 5}}}}}},
+            {"bodies", {{"count", 80}, {"species", {{{"shape", "disc"}}}}}},
+            {"bed", {{"max_settle_time", 40}, {"cache_file", (kTmp / "beds" / (name + ".json")).string()}}},
+            {"discharge", {{"mode", "remove"}, {"max_time", 4}, {"clog_window", 3}}},
+            {"output", {{"checkpoint_interval", 0}}}};
+  if (overrides.is_object()) j.merge_patch(overrides);
+  std::ofstream(dir / "run.json") << j.dump(2);
+  return dir;
+}
+
+// The same spec run by the native engine, in DIR-native (same bed cache file).
+fs::path NativeTwin(const fs::path& dir) {
+  const fs::path twin = dir.string() + "-native";
+  fs::remove_all(twin);
+  fs::create_directories(twin);
+  json j = json::parse(std::ifstream(dir / "run.json"));
+  j["engine"] = "native";
+  std::ofstream(twin / "run.json") << j.dump(2);
+  const Outcome o = RunProgram(GRANARY_ENGINE_EXE, {"run", twin.string(), "--threads", "1"});
+  EXPECT_EQ(o.exit_code, 0) << o.output;
+  return twin;
+}
+
+std::vector<int> ProcessesIn(const fs::path& dir, const std::string& comm = "") {
+  std::vector<int> pids;
+  const fs::path want = fs::canonical(dir);
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string name = e.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::error_code ec;
+    const fs::path cwd = fs::read_symlink(e.path() / "cwd", ec);
+    if (ec || cwd != want) continue;
+    if (!comm.empty()) {
+      std::string c;
+      std::getline(std::ifstream(e.path() / "comm"), c);
+      if (c != comm) continue;
+    }
+    pids.push_back(std::stoi(name));
+  }
+  return pids;
+}
+
+::testing::AssertionResult WaitUntilFree(const fs::path& dir) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (granary::RunDirectoryHolder(dir).empty()) return ::testing::AssertionSuccess();
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return ::testing::AssertionFailure() << dir << " still locked after 60 s";
+}
+
+std::vector<Frame> ReadFrames(const fs::path& file) {
+  std::vector<Frame> frames;
+  FrameReader in(file);
+  for (Frame f; in.Next(f);) frames.push_back(f);
+  return frames;
+}
+
+// Every body's discs keep their distances (rigid) and stay whole in every frame.
+void ExpectRigid(const std::vector<Frame>& frames) {
+  std::map<std::pair<std::int64_t, std::int64_t>, double> first;
+  for (const Frame& f : frames) {
+    std::map<std::int64_t, std::vector<const Disc*>> bodies;
+    for (const Disc& d : f.discs) bodies[d.mol].push_back(&d);
+    for (const auto& [mol, discs] : bodies)
+      for (std::size_t i = 1; i < discs.size(); ++i) {
+        const double dist = std::hypot(discs[i]->x - discs[0]->x, discs[i]->y - discs[0]->y);
+        const auto [it, fresh] = first.emplace(std::make_pair(discs[0]->id, discs[i]->id), dist);
+        if (!fresh) {
+          ASSERT_NEAR(dist, it->second, 1e-6) << "body " << mol << " at t = " << f.time;
+        }
+      }
+  }
+}
+
+TEST(LammpsBackend, DiscsLeaveAsOnTheNativeEngineFromTheSameBed) {
+  const fs::path dir = MakeRun("discs_remove", {{"output", {{"frame_interval", 1.0}}}});
+  const Outcome o = RunLammps(dir);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const RunData run = ReadRun(dir);
+  EXPECT_EQ(run.summary.engine, "lammps");
+  EXPECT_NE(run.summary.engine_version.find("2021"), std::string::npos) << run.summary.engine_version;
+  EXPECT_EQ(run.summary.tangential_cap, "lammps");
+  EXPECT_EQ(run.summary.bodies, 80);
+  EXPECT_EQ(run.summary.exited + run.summary.remaining, 80);
+  ASSERT_GT(run.events.size(), 10u) << "a 5 d outlet lets discs out";
+  const fs::path twin = NativeTwin(dir);
+  const RunData native = ReadRun(twin);
+  // The same bed, the same contact law: the first bodies out are the same ones, at the same
+  // times: to the 0.01 at which the backend looks at the exit line, and the bed's contact
+  // history, which LAMMPS does not get (docs/lammps.md).
+  ASSERT_GE(native.events.size(), 5u);
+  for (std::size_t i = 0; i < 5; ++i) {
+    EXPECT_EQ(run.events[i].body, native.events[i].body) << "exit " << i;
+    EXPECT_NEAR(run.events[i].time, native.events[i].time, 0.03) << "exit " << i;
+    EXPECT_NEAR(run.events[i].mass, native.events[i].mass, 1e-9);
+    EXPECT_EQ(run.events[i].shape, "disc");
+  }
+  EXPECT_NEAR(static_cast<double>(run.events.size()), static_cast<double>(native.events.size()),
+              0.15 * static_cast<double>(native.events.size()) + 2);
+  // Frames: every frame of the native engine's times, the bed at t = 0 as the native one.
+  const std::vector<Frame> frames = ReadFrames(dir / kFramesFile), nframes = ReadFrames(twin / kFramesFile);
+  ASSERT_EQ(frames.size(), 5u);
+  ASSERT_EQ(frames[0].discs.size(), nframes[0].discs.size());
+  for (std::size_t i = 0; i < frames[0].discs.size(); ++i) {
+    EXPECT_EQ(frames[0].discs[i].id, nframes[0].discs[i].id);
+    EXPECT_EQ(frames[0].discs[i].mol, nframes[0].discs[i].mol);
+    EXPECT_NEAR(frames[0].discs[i].x, nframes[0].discs[i].x, 1e-8);
+    EXPECT_NEAR(frames[0].discs[i].mass, nframes[0].discs[i].mass, 1e-12);
+  }
+}
+
+TEST(LammpsBackend, DumbbellsReinjectThroughThePeriodicBoxAndStayRigid) {
+  const fs::path dir = MakeRun("dumbbells_reinject", {{"bodies", {{"count", 60}, {"species", {{{"shape", "dumbbell"}}}}}},
+                                                      {"silo", {{"base_outlets", {{{"center", 0}, {"width", 8}}}}}},
+                                                      {"discharge", {{"mode", "reinject"}, {"max_time", 8}, {"clog_window", 3}}},
+                                                      {"output", {{"frame_interval", 0.5}}}});
+  const Outcome o = RunLammps(dir);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const RunData run = ReadRun(dir);
+  EXPECT_EQ(run.summary.reinject_position, "periodic");
+  ASSERT_GT(run.events.size(), 15u) << o.output;
+  std::map<std::int64_t, int> exits;
+  for (const auto& e : run.events) {
+    EXPECT_EQ(e.shape, "dumbbell");
+    EXPECT_NEAR(e.mass, 2 * std::numbers::pi / 4, 1e-9);
+    ++exits[e.body];
+  }
+  int again = 0;
+  for (const auto& [body, n] : exits) again += n > 1;
+  if (run.summary.end_reason == "time_limit") {
+    EXPECT_GT(again, 0) << "reinjected bodies leave again";
+  }
+  const std::vector<Frame> frames = ReadFrames(dir / kFramesFile);
+  ASSERT_GE(frames.size(), 5u);
+  for (const Frame& f : frames) EXPECT_EQ(f.discs.size(), 120u) << "nothing is lost at t = " << f.time;
+  ExpectRigid(frames);
+}
+
+TEST(LammpsBackend, EveryShapeWithASideOutletAndAnObstacleRuns) {
+  const fs::path dir =
+      MakeRun("shapes_side_obstacle",
+              {{"silo", {{"width", 20}, {"base_outlets", {{{"center", -3}, {"width", 5}}}},
+                         {"side_outlets", {{{"wall", "right"}, {"bottom", 1}, {"width", 5}}}},
+                         {"obstacles", {{{"x", -3}, {"y", 4}, {"diameter", 2}}}}}},
+               {"bodies", {{"count", 80},
+                           {"species", {{{"shape", "disc"}, {"fraction", 0.25}, {"diameter", 1.2}},
+                                        {{"shape", "dumbbell"}, {"fraction", 0.25}},
+                                        {{"shape", "snowman"}, {"fraction", 0.25}, {"big_diameter", 1.5}},
+                                        {{"shape", "rod"}, {"fraction", 0.25}, {"n", 3}}}}}},
+               {"discharge", {{"max_time", 5}}},
+               {"output", {{"frame_interval", 1.0}}}});
+  const Outcome o = RunLammps(dir);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const RunData run = ReadRun(dir);
+  ASSERT_EQ(run.summary.exits_per_outlet.size(), 2u);
+  EXPECT_GT(run.summary.exits_per_outlet[0], 0) << o.output;
+  EXPECT_GT(run.summary.exits_per_outlet[1], 0) << "bodies leave through the side outlet";
+  std::set<std::string> shapes;
+  for (const auto& e : run.events) shapes.insert(e.shape);
+  EXPECT_GE(shapes.size(), 3u);
+  const std::vector<Frame> frames = ReadFrames(dir / kFramesFile);
+  ExpectRigid(frames);
+  for (const Frame& f : frames)
+    for (const Disc& d : f.discs)
+      ASSERT_GT(std::hypot(d.x + 3, d.y - 4), 1.0 + d.radius - 0.05) << "a disc inside the obstacle at t = " << f.time;
+}
+
+TEST(LammpsBackend, AKilledBackendAndAKilledLmpContinueFromTheCheckpoint) {
+  const fs::path dir = MakeRun("killed", {{"bodies", {{"count", 60}, {"species", {{{"shape", "dumbbell"}}}}}},
+                                          {"silo", {{"base_outlets", {{{"center", 0}, {"width", 6}}}}}},
+                                          {"discharge", {{"mode", "reinject"}, {"max_time", 5}, {"clog_window", 3}}},
+                                          {"output", {{"checkpoint_interval", 1.0}}}});
+  const fs::path twin = kTmp / "killed-whole";
+  fs::remove_all(twin);
+  fs::create_directories(twin);
+  fs::copy_file(dir / "run.json", twin / "run.json");
+  ASSERT_EQ(RunLammps(twin).exit_code, 0);
+  const std::vector<ExitEvent> whole = ReadRun(twin).events;
+
+  // kill -9 of the backend once a checkpoint exists: LAMMPS dies with it.
+  {
+    bp::child c(GRANARY_LAMMPS_EXE, bp::args = {"run", dir.string()}, bp::std_out > bp::null, bp::std_err > bp::null);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+    while (!fs::exists(dir / "checkpoint.20000.restart") && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ASSERT_TRUE(fs::exists(dir / "checkpoint.20000.restart"));
+    ::kill(c.id(), SIGKILL);
+    c.wait();
+  }
+  ASSERT_TRUE(WaitUntilFree(dir));
+  EXPECT_FALSE(fs::exists(dir / kDoneFile));
+  // Continue, and kill -9 `lmp` itself once it has gone past the next checkpoint: the run fails
+  // with the signal named, and the next start continues again.
+  {
+    bp::ipstream out;
+    bp::child c(GRANARY_LAMMPS_EXE, bp::args = {"run", dir.string()}, (bp::std_out & bp::std_err) > out);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+    while (!fs::exists(dir / "checkpoint.30000.restart") && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    ASSERT_TRUE(fs::exists(dir / "checkpoint.30000.restart"));
+    for (int pid : ProcessesIn(dir, "lmp")) ::kill(pid, SIGKILL);
+    std::string text;
+    for (std::string line; std::getline(out, line);) text += line + "\n";
+    c.wait();
+    EXPECT_EQ(c.exit_code(), 1) << text;
+    EXPECT_NE(text.find("LAMMPS killed by signal 9"), std::string::npos) << text;
+  }
+  ASSERT_TRUE(WaitUntilFree(dir));
+  const Outcome o = RunLammps(dir);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const RunData run = ReadRun(dir);
+  EXPECT_TRUE(run.summary.continued_from_checkpoint);
+  // Up to the first checkpoint the events are those of the uninterrupted run.
+  std::vector<ExitEvent> a, b;
+  for (const auto& e : whole)
+    if (e.time <= 2.0) a.push_back(e);
+  for (const auto& e : run.events)
+    if (e.time <= 2.0) b.push_back(e);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].body, b[i].body);
+    EXPECT_DOUBLE_EQ(a[i].time, b[i].time);
+  }
+  EXPECT_NEAR(static_cast<double>(run.events.size()), static_cast<double>(whole.size()), 0.2 * static_cast<double>(whole.size()) + 3);
+}
+
+// A wrapper around the real `lmp` that changes its input: `line` goes in before the first run.
+fs::path LmpWrapper(const std::string& name, const std::string& line) {
+  const fs::path w = kTmp / name;
+  fs::create_directories(kTmp);
+  std::ofstream(w) << "#!/bin/sh\n"
+                   << "awk -v line=\"" << line << "\" '/^run 0 post no$/ { print line } { print }' discharge.in"
+                   << " > discharge.changed.in\n"
+                   << "exec lmp -in discharge.changed.in -log log.discharge -echo none -nocite\n";
+  fs::permissions(w, fs::perms::owner_all);
+  return w;
+}
+
+TEST(LammpsBackend, ALammpsErrorLineFailsTheRunWithTheLogTail) {
+  const fs::path dir = MakeRun("lammps_error", {});
+  bp::environment env = boost::this_process::environment();
+  env["GRANARY_LAMMPS"] = LmpWrapper("lmp-error.sh", "fix broken all no_such_style").string();
+  const Outcome o = RunLammps(dir, env);
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_NE(o.output.find("LAMMPS failed during the discharge"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("ERROR: Unrecognized fix style"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("last lines of log.discharge"), std::string::npos) << o.output;
+  EXPECT_FALSE(fs::exists(dir / kDoneFile));
+}
+
+TEST(LammpsBackend, AMissingLmpIsAClearError) {
+  const fs::path dir = MakeRun("missing_lmp", {});
+  bp::environment env = boost::this_process::environment();
+  env["GRANARY_LAMMPS"] = (kTmp / "no-such-lmp").string();
+  const Outcome o = RunLammps(dir, env);
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_NE(o.output.find("LAMMPS executable not found"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("Debian's package lammps"), std::string::npos) << o.output;
+  EXPECT_FALSE(fs::exists(dir / kDoneFile));
+}
+
+TEST(LammpsBackend, AHungLmpIsEndedAndFailsTheRun) {
+  const fs::path dir = MakeRun("hung_lmp", {});
+  bp::environment env = boost::this_process::environment();
+  env["GRANARY_LAMMPS"] = LmpWrapper("lmp-hung.sh", "print 'about to hang'\\nshell sleep 600").string();
+  const auto t0 = std::chrono::steady_clock::now();
+  const Outcome o = RunLammps(dir, env, {"--silence-limit", "3"});
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(60));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_NE(o.output.find("LAMMPS printed nothing for 3 s"), std::string::npos) << o.output;
+  EXPECT_NE(o.output.find("about to hang"), std::string::npos) << o.output;
+  EXPECT_FALSE(fs::exists(dir / kDoneFile));
+  ASSERT_TRUE(WaitUntilFree(dir));
+}
+
+TEST(LammpsBackend, WhatLammpsCannotDoIsRefusedWithItsPath) {
+  const fs::path dir = MakeRun("refused", {{"contact", {{"clip_normal", true}}}});
+  const Outcome o = RunLammps(dir);
+  EXPECT_EQ(o.exit_code, 2) << o.output;
+  EXPECT_NE(o.output.find("/contact/clip_normal"), std::string::npos) << o.output;
+  const fs::path contacts = MakeRun("refused_contacts", {{"output", {{"frame_interval", 1}, {"contact_forces", true}}}});
+  const Outcome c = RunLammps(contacts);
+  EXPECT_EQ(c.exit_code, 2) << c.output;
+  EXPECT_NE(c.output.find("/output/contact_forces"), std::string::npos) << c.output;
+  EXPECT_FALSE(fs::exists(contacts / "start.dump")) << "refused before anything runs";
+}
+
+TEST(LammpsCampaign, CompareRunsNativeAndLammpsOnTheSameBeds) {
+  const fs::path dir = kTmp / "campaign";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const json spec = {{"name", "lammps-tiny"},
+                     {"engine", {"native", "lammps"}},
+                     {"replicas", 2},
+                     {"base", {{"silo", {{"width", 16}}},
+                               {"bodies", {{"count", 60}, {"species", {{{"shape", "disc"}}}}}},
+                               {"bed", {{"max_settle_time", 40}}},
+                               {"discharge", {{"mode", "reinject"}, {"max_time", 3}, {"reinject_position", "periodic"}}},
+                               {"output", {{"checkpoint_interval", 0}}}}},
+                     {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {5}}}}}}};
+  std::ofstream(dir / "spec.json") << spec.dump(2);
+  const Outcome o = RunProgram(GRANARY_CAMPAIGN_EXE, {"compare", (dir / "spec.json").string(), "--db", (dir / "c.db").string(),
+                                               "--jobs", "2", "--json", "--no-figures"});
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const std::size_t from = o.output.find("{\n"), to = o.output.find("\n}\n", from);
+  ASSERT_NE(to, std::string::npos) << o.output;
+  const json out = json::parse(o.output.substr(from, to + 3 - from));
+  EXPECT_EQ(out["runs_used"], 4) << o.output;
+  const json& c = out["comparison"];
+  EXPECT_EQ(c["engine_a"], "native");
+  EXPECT_EQ(c["engine_b"], "lammps");
+  ASSERT_EQ(c["points"].size(), 1u);
+}
+
+}  // namespace
