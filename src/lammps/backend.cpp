@@ -675,7 +675,7 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
     end_reason = "discharged";
     if (StallIsAClog(spec, ReadFinal(dir / kFinalDump), probe)) {
       state["clog_steps"].push_back(last_step);
-      if (spec.discharge.stop_on_clog) {
+      if (spec.discharge.stop_on_clog()) {
         end_reason = "clogged";
       } else {  // go on through the clog from the restart the script wrote at the stall
         state["discharge_wall_s"] = discharge_wall;

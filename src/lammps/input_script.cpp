@@ -275,7 +275,7 @@ std::string DischargeScript(const RunSpec& spec, const Setup& s, const Discharge
   if (remove)
     o << "if " << stalled << " then \"write_restart checkpoint.*.restart\"" << keep
       << " \"print 'GRANARY_END stalled'\" \"jump SELF finished\"\n";
-  else if (spec.discharge.stop_on_clog)
+  else if (spec.discharge.stop_on_clog())
     o << "if " << stalled << " then" << keep << " \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
   else
     o << "if " << stalled << " then" << keep << " \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";

@@ -799,6 +799,11 @@ void validate(const RunSpec& s) {
 }
 
 void validate_for_lammps(const RunSpec& s) {
+  if (s.discharge.on_clog == OnClog::kUnclog)
+    throw SpecError("/discharge/on_clog",
+                    "the LAMMPS backend cannot break a clog yet: it runs one LAMMPS input to the end, with no step "
+                    "at which to take out an arch or kick the bodies over the outlet; use the native engine, or "
+                    "\"stop\" or \"wait\" (got \"unclog\")");
   if (s.contact.clip_normal)
     throw SpecError("/contact/clip_normal", "LAMMPS' pair gran/hertz/history has no clipping of an attractive normal "
                                             "force (got true, allowed: false)");

@@ -151,6 +151,11 @@ TEST(RunSpecTest, OnClogAndTheUnclogProtocol) {
             "/discharge/on_clog: the LIGGGHTS backend cannot break a clog: it runs LIGGGHTS' input script to the end, "
             "with no step at which to take out an arch or kick the bodies over the outlet; use the native engine, or "
             "\"stop\" or \"wait\" (got \"unclog\")");
+  // So does the LAMMPS backend.
+  EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "lammps", "discharge": {"on_clog": "unclog"}})")),
+            "/discharge/on_clog: the LAMMPS backend cannot break a clog yet: it runs one LAMMPS input to the end, "
+            "with no step at which to take out an arch or kick the bodies over the outlet; use the native engine, or "
+            "\"stop\" or \"wait\" (got \"unclog\")");
 }
 
 TEST(RunSpecTest, PeriodicHeadroomIsInTheResolvedSpecOnlyWhenNotTheDefault) {
