@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <sstream>
@@ -48,7 +49,9 @@ using Clock = std::chrono::steady_clock;
 // checkpoint.bin: kCheckpointMagic, the format version, the payload's size and CRC-32, then
 // the payload (docs/engine.md "Checkpoints and continuing").
 constexpr char kCheckpointMagic[] = "GRANARY-CHECKPOINT";
-constexpr std::uint32_t kCheckpointVersion = 4;  // 4: versioned header with a checksum; World snapshot
+// 5: the bed's packing fraction and surface after its height; 4 (without them) still read.
+constexpr std::uint32_t kCheckpointVersion = 5;
+constexpr std::uint32_t kOldestCheckpointVersion = 4;
 constexpr char kCheckpointFile[] = "checkpoint.bin";
 constexpr char kPreviousCheckpointFile[] = "checkpoint.prev.bin";
 
@@ -206,9 +209,12 @@ class Discharge {
   std::string bed_file_;
   bool bed_prepared_here_ = false;
   double bed_height_ = 0, bed_settle_time_ = 0, bed_wall_s_ = 0;
+  double bed_phi_ = std::numeric_limits<double>::quiet_NaN();  // NaN: continued from a checkpoint without them
+  double bed_surface_ = std::numeric_limits<double>::quiet_NaN();
   std::string bed_refused_;  // a bad cached bed file refused (and prepared again) in this session
   double discharge_wall_before_ = 0;  // wall time of earlier sessions
   bool continued_ = false;
+  std::string extended_from_;  // the run id whose checkpoint this run continued with a larger limit
   std::vector<std::string> refused_checkpoints_;  // why, for summary.json
   // Outputs.
   rundir::EventWriter events_;
@@ -266,6 +272,9 @@ void Discharge::StartFresh() {
   bed_settle_time_ = ob.bed.settle_time;
   bed_wall_s_ = ob.wall_s;
   bed_refused_ = ob.refused;
+  const BedShape shape = MeasureBed(ob.bed, spec_);
+  bed_phi_ = shape.phi;
+  bed_surface_ = shape.surface;
   BuildWorld(ob.bed.species);
   World& w = *world_;
   for (int b = 0; b < w.body_count(); ++b)
@@ -334,6 +343,8 @@ void Discharge::WriteCheckpoint() {
   o.Put(bed_height_);
   o.Put(bed_settle_time_);
   o.Put(bed_wall_s_);
+  o.Put(bed_phi_);
+  o.Put(bed_surface_);
   o.Put(discharge_wall_before_ + Seconds(session_start_));
   o.PutStr(rng_.Save());
   o.PutVec(w.tmpl);
@@ -380,9 +391,9 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
     throw CheckpointError(name + " is not a granary checkpoint");
   }
   const auto version = header.Get<std::uint32_t>();
-  if (version != kCheckpointVersion)
-    throw CheckpointError(name + " has format version " + std::to_string(version) + "; this engine reads version " +
-                          std::to_string(kCheckpointVersion));
+  if (version < kOldestCheckpointVersion || version > kCheckpointVersion)
+    throw CheckpointError(name + " has format version " + std::to_string(version) + "; this engine reads versions " +
+                          std::to_string(kOldestCheckpointVersion) + " to " + std::to_string(kCheckpointVersion));
   const auto size = header.Get<std::uint64_t>();
   const auto crc = header.Get<std::uint32_t>();
   const std::string payload = header.Rest();
@@ -395,8 +406,15 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
     throw CheckpointError(name + msg);
   }
   In in(payload, name);
-  if (in.GetStr() != spec_.to_json().dump())
-    throw std::runtime_error("checkpoint " + file.string() + " belongs to a different run.json; remove it to start over");
+  const std::string saved_spec = in.GetStr();
+  std::string extended_from;
+  if (saved_spec != spec_.to_json().dump()) {
+    // A finished run planned again with a larger limit (granary::extends) continues from here.
+    const nlohmann::json saved = nlohmann::json::parse(saved_spec, nullptr, false);
+    if (!granary::extends(saved, spec_.to_json()))
+      throw std::runtime_error("checkpoint " + file.string() + " belongs to a different run.json; remove it to start over");
+    extended_from = saved.value("run_id", std::string("?"));
+  }
   const auto step = in.Get<std::int64_t>();
   const auto last_exit_step = in.Get<std::int64_t>();
   const auto disc_steps = in.Get<std::int64_t>();
@@ -406,6 +424,8 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   const std::string bed_file = in.GetStr();
   const bool bed_prepared_here = in.Get<std::uint8_t>() != 0;
   const double bed_height = in.Get<double>(), bed_settle_time = in.Get<double>(), bed_wall_s = in.Get<double>();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double bed_phi = version >= 5 ? in.Get<double>() : nan, bed_surface = version >= 5 ? in.Get<double>() : nan;
   const double discharge_wall_before = in.Get<double>();
   const std::string rng = in.GetStr();
   WorldSnapshot w;
@@ -420,6 +440,8 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   const auto falling = in.GetVec<std::uint8_t>();
   const double periodic_height = in.Get<double>();
   const int cleared_by_obstacles = in.Get<int>();
+  if (step > std::llround(spec_.discharge.max_time / spec_.time_step))
+    throw CheckpointError(name + " is at step " + std::to_string(step) + ", past this run's max_time");
   // The outputs must still hold what the checkpoint saw (truncating a shorter file would pad it).
   const bool gz = spec_.output.compress;
   const char* outputs[3] = {rundir::kEventsFile, gz ? rundir::kFramesGzFile : rundir::kFramesFile,
@@ -450,6 +472,8 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   bed_height_ = bed_height;
   bed_settle_time_ = bed_settle_time;
   bed_wall_s_ = bed_wall_s;
+  bed_phi_ = bed_phi;
+  bed_surface_ = bed_surface;
   discharge_wall_before_ = discharge_wall_before;
   rng_.Load(rng);
   falling_ = falling;
@@ -461,6 +485,7 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   if (frame_every_ > 0 && spec_.output.contact_forces)
     contacts_ = rundir::ContactWriter::ContinueAt(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), offsets[2], gz);
   continued_ = true;
+  extended_from_ = extended_from;
 }
 
 // The newest usable checkpoint, else the one before; a refused one is kept aside as
@@ -711,11 +736,14 @@ void Discharge::WriteSummary(const std::string& end_reason) {
   s.t_end = static_cast<double>(step_) * spec_.time_step;
   s.steps = step_;
   s.clogs = clogs_;
-  s.bed = {bed_file_, bed_height_, bed_prepared_here_, bed_settle_time_, bed_refused_};
+  s.bed = {bed_file_, bed_height_, bed_prepared_here_, bed_settle_time_, bed_refused_, {}, {}};
+  if (std::isfinite(bed_phi_)) s.bed.packing_fraction = bed_phi_;
+  if (std::isfinite(bed_surface_)) s.bed.surface = bed_surface_;
   s.timing = rundir::Timing{bed_wall_s_ + discharge_wall, bed_wall_s_, discharge_wall,
                             discharge_wall > 0 ? static_cast<double>(disc_steps_) / discharge_wall : 0.0,
                             omp_get_max_threads()};
   s.continued_from_checkpoint = continued_;
+  s.extended_from = extended_from_;
   s.refused_checkpoints = refused_checkpoints_;
   rundir::WriteSummary(dir_, s);
 }

@@ -22,6 +22,7 @@
 #include <thread>
 
 #include "rundir/progress.h"
+#include "runner/calibration.h"
 #include "runner/campaign_db.h"
 #include "runner/campaign_spec.h"
 #include "runner/inspect.h"
@@ -231,16 +232,24 @@ std::string ProgressText(const json& progress, double elapsed) {
   return o.str();
 }
 
+std::string ExeDir();
+
 // ---------------------------------------------------------------- plan
 const char kPlanHelp[] =
-    "usage: campaign plan SPEC [--db FILE] [--dry-run] [--json] [--max-runs N]\n"
+    "usage: campaign plan SPEC [--db FILE] [--dry-run] [--json] [--max-runs N] [--jobs N]\n"
     "Expand the campaign spec SPEC into runs and store them in the database (default granary.db).\n"
     "Planning the same spec again changes nothing; runs no longer in an edited spec are retired\n"
-    "(their results are kept), new ones are added.\n"
+    "(their results are kept), new ones are added. A raised /discharge/max_time extends the\n"
+    "campaign's runs: each new run takes over its old run's directory and continues from its\n"
+    "last checkpoint (the plan lists them).\n"
     "  --db FILE    database (created if missing); run directories go to <db dir>/runs/<run id>/\n"
     "  --dry-run    validate and show what would change, store nothing\n"
     "  --json       print the summary as JSON\n"
-    "  --max-runs N refuse a sweep of more than N runs (default 100000), before expanding it\n";
+    "  --max-runs N refuse a sweep of more than N runs (default 100000), before expanding it\n"
+    "  --jobs N     concurrent runs the wall-time estimate assumes (default: number of cores)\n"
+    "Prints the estimated core-hours, wall time on --jobs and disk, per point and in total, and\n"
+    "how they were estimated (docs/cli.md \"The estimate\"); the first plan on a machine and build\n"
+    "measures the engine's speed with granary-engine bench (seconds; cached).\n";
 
 json ReadSpecFile(const std::string& verb, const std::string& spec_path) {
   std::ifstream in(spec_path, std::ios::binary);
@@ -264,7 +273,8 @@ std::uint64_t MaxRuns(const Args& a) {
 
 // Validates the campaign spec `j` (read from spec_path), expands it and stores the runs.
 PlanSummary PlanInto(const json& given, const std::string& spec_path, const std::string& db, bool dry_run,
-                     std::uint64_t max_runs, CampaignSpec& spec) {
+                     std::uint64_t max_runs, CampaignSpec& spec, std::vector<PlannedRun>* planned = nullptr,
+                     std::optional<CampaignEstimate>* estimate = nullptr, int jobs = 1) {
   json j = given;
 #ifdef GRANARY_HAVE_ANALYSIS
   // Coarse-grained stress fields need contact frames: the runs write them.
@@ -273,6 +283,9 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
   } catch (const std::invalid_argument& e) {
     throw UsageError(spec_path + ": " + e.what());
   }
+  if (j != given && estimate)
+    std::cerr << spec_path << ": /report/fields asks for stress maps or force chains: the runs also write contact "
+              << "frames (/base/output/contact_forces: true; the disk estimate counts them)\n";
 #endif
   try {
     spec = CampaignSpec::from_json(j);
@@ -301,7 +314,38 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
     if (ec) throw UsageError("campaign plan: cannot make the directory " + DbDir(db).string() + " for --db " + db + ": " + ec.message());
   }
   Store store(dry_run && !fs::exists(db) ? std::string(":memory:") : db);
-  return plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
+  PlanSummary s = plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
+  if (estimate) {
+    *estimate = estimate_runs(runs, &store, ExeDir(), jobs, true, [](const std::string& line) {
+      std::cerr << line << std::endl;
+    });
+  }
+  if (planned) *planned = std::move(runs);
+  return s;
+}
+
+// The estimate under the plan: totals, then one line per point.
+void PrintEstimate(std::ostream& out, const CampaignEstimate& e) {
+  const bool timed = e.calibration.valid();
+  out << "estimate: " << (timed ? core_hours_text(e.core_s_low, e.core_s_high) : std::string("core-hours unknown"));
+  if (timed) {
+    out << ", wall " << Duration(e.wall_s_low);
+    if (e.wall_s_high > 1.05 * e.wall_s_low) out << "-" << Duration(e.wall_s_high);
+    out << " on " << e.jobs << (e.jobs == 1 ? " job" : " jobs");
+  }
+  out << ", disk " << bytes_text(e.bytes_low, e.bytes_high) << "\n";
+  out << "  how: " << e.method << "\n";
+  out << "  " << std::left << std::setw(44) << "point" << std::right << std::setw(6) << "runs" << "  " << std::left
+      << std::setw(24) << "core-hours" << "disk\n";
+  for (const PointEstimate& p : e.points) {
+    std::string label = CompactPoint(p.point);
+    if (label.empty()) label = "(base)";
+    if (e.points.size() > 1 && p.engine != "native") label += " [" + p.engine + "]";
+    out << "  " << std::left << std::setw(44) << label << std::right << std::setw(6) << p.runs << "  " << std::left
+        << std::setw(24) << (timed ? core_hours_text(p.core_s_low, p.core_s_high) : std::string("?"))
+        << bytes_text(p.bytes_low, p.bytes_high) << (p.open_end ? "  (ends at a clog or discharge: range)" : "") << "\n";
+  }
+  out << std::right;
 }
 
 void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s, bool dry_run) {
@@ -324,6 +368,19 @@ void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s
   }
   out << "  added " << s.added << ", unchanged " << s.unchanged << ", revived " << s.revived << ", retired "
       << s.retired << "\n";
+  if (!s.extended.empty()) {
+    out << "  " << (dry_run ? "would extend " : "extended ") << s.extended.size()
+        << " run(s): each new run continues the old one from its last checkpoint (old -> new):\n";
+    for (const auto& e : s.extended) out << "    " << e.from << " -> " << e.to << "\n";
+  }
+  for (const auto& [e, why] : s.not_extended)
+    out << "  not extended: " << e.to << " runs from the start instead of continuing " << e.from << ": " << why << "\n";
+}
+
+json Extensions(const std::vector<PlanSummary::Extension>& list) {
+  json out = json::array();
+  for (const auto& e : list) out.push_back({{"from", e.from}, {"to", e.to}});
+  return out;
 }
 
 int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
@@ -331,19 +388,23 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   if (a.positional.size() != 1) throw UsageError("campaign plan: needs exactly one SPEC file (see campaign plan --help)");
   const std::string spec_path = a.positional[0];
   CampaignSpec spec;
-  const PlanSummary s =
-      PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.has("dry-run"), MaxRuns(a), spec);
+  std::optional<CampaignEstimate> estimate;
+  const int jobs = a.integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
+  const PlanSummary s = PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.has("dry-run"), MaxRuns(a), spec,
+                                 nullptr, &estimate, jobs);
   if (a.has("json")) {
     json axes = json::object();
     for (const auto& [axis, values] : s.axis_values) axes[axis] = values;
     out << json{{"campaign", spec.name}, {"runs", s.total},         {"points", s.points},   {"replicas", spec.replicas},
                 {"engines", spec.engines}, {"added", s.added},      {"unchanged", s.unchanged}, {"revived", s.revived},
-                {"retired", s.retired},  {"axes", axes},            {"dry_run", a.has("dry-run")}}
+                {"retired", s.retired},  {"axes", axes},            {"dry_run", a.has("dry-run")},
+                {"extended", Extensions(s.extended)}, {"estimate", to_json(*estimate)}}
                .dump(2)
         << "\n";
     return 0;
   }
   PrintPlan(out, spec, s, a.has("dry-run"));
+  PrintEstimate(out, *estimate);
   return 0;
 }
 
@@ -612,6 +673,14 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
   ExecutorChoice c = ChooseExecutor(a, spec, db, o);
   c.settings.campaign = name;
   if (c.slurm) o.threads_per_run = c.settings.options.cpus_per_run;
+  if (c.slurm && c.settings.options.time.empty() && c.settings.time_limit <= 0) {
+    // Each array's --time from the estimate of its longest run, with a margin.
+    const auto opened = OpenCampaignDb(db, "run");
+    const CampaignEstimate e = estimate_runs(runs_left(*opened), opened.get(), ExeDir(), 1, true,
+                                             [&](const std::string& line) { out << line << std::endl; });
+    if (e.calibration.valid())
+      for (const auto& [id, run] : e.runs) c.settings.estimate_s[id] = run.core_s_high;
+  }
   o.detach = a.has("detach");
   o.rerun_lost = a.has("rerun-lost");
   if (a.has("dry-run")) return DryRun(db, o, c, out);
@@ -778,7 +847,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   const auto opened = OpenCampaignDb(db, "status");
   Store& store = *opened;
   const auto campaign = load_campaign(store);
-  std::vector<RunRow> all = load_runs(store, a.has("only"));
+  std::vector<RunRow> all = load_runs(store, true);  // the parameters: for --only and the estimate
   std::vector<std::string> filters;
   if (a.has("only") && campaign) {
     const RunFilter filter = ResolveOnly(a, *campaign, all);
@@ -817,7 +886,38 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     }
   }
   const double elapsed = first_start > 0 ? (active > 0 ? now : std::max(last_end, first_start)) - first_start : 0;
-  const double eta = wall_n > 0 ? remaining_work * (wall_sum / wall_n) / std::max(1, active) : -1;
+  double eta = wall_n > 0 ? remaining_work * (wall_sum / wall_n) / std::max(1, active) : -1;
+  // The estimate of what remains (estimate.h), its rates scaled by what the done runs took:
+  // running runs for the part they have left, the rest after them, on the runs at work now.
+  double remaining_core_s = -1;
+  {
+    std::vector<PlannedRun> left;
+    std::vector<double> fraction_left;
+    for (const auto& r : runs) {
+      if (r.state == "done" || r.state == "retired") continue;
+      PlannedRun p;
+      p.run_id = r.run_id;
+      p.point_id = r.point_id;
+      p.point = r.point;
+      p.engine = r.engine;
+      p.params_json = r.params.dump();
+      left.push_back(std::move(p));
+      const double f = r.state == "running" && r.progress.is_object() ? r.progress.value("fraction", 0.0) : 0.0;
+      fraction_left.push_back(1 - std::clamp(f, 0.0, 1.0));
+    }
+    const CampaignEstimate e = estimate_runs(left, &store, ExeDir(), std::max(1, active), false, nullptr);
+    if (e.calibration.valid() && !left.empty()) {
+      std::vector<double> durations;
+      remaining_core_s = 0;
+      for (std::size_t k = 0; k < left.size(); ++k) {
+        durations.push_back(e.runs.at(left[k].run_id).core_s_high * fraction_left[k]);
+        remaining_core_s += durations.back();
+      }
+      if (active > 0) eta = makespan(durations, active);
+    } else if (left.empty()) {
+      remaining_core_s = 0;
+    }
+  }
   if (a.has("json")) {
     json list = json::array();
     for (const auto& r : runs) {
@@ -853,6 +953,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                 {"lost", lost},
                 {"elapsed_s", elapsed},
                 {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
+                {"remaining_core_hours", remaining_core_s >= 0 ? json(remaining_core_s / 3600) : json(nullptr)},
                 {"runs", list}};
     if (queue.any) {
       json arrays = json::array();
@@ -872,7 +973,11 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   for (const char* state : kLiveStates) out << (std::string(state) == "planned" ? " " : ", ") << state << " " << counts[state];
   if (retired > 0) out << "  (and " << retired << " retired: no longer in the spec, not counted)";
   out << "\n  elapsed " << Duration(elapsed) << ", ETA "
-      << (total - counts["done"] == 0 ? std::string("-") : eta >= 0 ? Duration(eta) : "?") << "\n";
+      << (total - counts["done"] == 0 ? std::string("-") : eta >= 0 ? Duration(eta) : "?");
+  if (remaining_core_s > 0)
+    out << " (" << core_hours_text(remaining_core_s, remaining_core_s) << " left"
+        << (active > 0 ? ", on the " + std::to_string(active) + " run(s) at work now" : "") << ")";
+  out << "\n";
   if (queue.any) {
     out << "Slurm queue (" << (queue.live ? "live" : "as last seen; squeue: " + queue.error) << "):\n";
     for (const auto& q : queue.arrays) {
@@ -1382,6 +1487,16 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
     when += " (bed " + Duration(results["timing/bed_wall_s"].get<double>()) + ", discharge " +
             Duration(results["timing/discharge_wall_s"].get<double>()) + ")";
   row("time", when);
+  if (results.contains("bed/height")) {
+    std::string bed;
+    if (results.contains("bed/packing_fraction")) bed += "packing fraction " + ValueText(results["bed/packing_fraction"]) + ", ";
+    bed += "top " + ValueText(results["bed/height"]);
+    if (results.contains("bed/surface")) bed += ", surface " + ValueText(results["bed/surface"]);
+    if (results.contains("bed/settle_time")) bed += ", settled in " + ValueText(results["bed/settle_time"]) + " time units";
+    if (results.contains("bed/prepared_here"))
+      bed += results["bed/prepared_here"].get<double>() != 0 ? " (prepared by this run)" : " (from the bed cache)";
+    row("bed", bed);
+  }
   row("directory", run.run_dir + (d["run_dir_exists"].get<bool>() ? "" : "  (missing)"));
   if (!run.failure.empty()) {
     out << "failure:\n";
@@ -1913,7 +2028,7 @@ struct Verb {
 const std::vector<Verb>& Verbs() {
   static const std::vector<Verb> kVerbs = {
       {"plan", "expand a campaign spec into runs in the database", kPlanHelp, Plan,
-       {{"db", true}, {"dry-run", false}, {"json", false}, {"max-runs", true}, {"help", false}}},
+       {{"db", true}, {"dry-run", false}, {"json", false}, {"max-runs", true}, {"jobs", true}, {"help", false}}},
       {"run", "run what is not done (resumable, leases, N at a time)", kRunHelp, Run,
        {{"db", true}, {"jobs", true}, {"engine", true}, {"only", true}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"rerun-lost", false},
         {"executor", true}, {"partition", true}, {"time", true}, {"cpus-per-run", true}, {"array-max", true},
