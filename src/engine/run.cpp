@@ -272,8 +272,9 @@ void Discharge::StartFresh() {
   bed_settle_time_ = ob.bed.settle_time;
   bed_wall_s_ = ob.wall_s;
   bed_refused_ = ob.refused;
+  // A bed lower than 10 d has no band to measure its packing fraction in (MeasureBed).
   const BedShape shape = MeasureBed(ob.bed, spec_);
-  bed_phi_ = shape.phi;
+  if (shape.phi > 0) bed_phi_ = shape.phi;
   bed_surface_ = shape.surface;
   BuildWorld(ob.bed.species);
   World& w = *world_;

@@ -108,7 +108,8 @@ PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vec
       std::error_code ec;
       if (!fs::is_directory(q.text(2), ec)) continue;  // nothing to continue from (an earlier extension moved it)
       json params = json::parse(q.text(1));
-      candidates[without_limits(params)] = {q.text(0), {{"params", std::move(params)}, {"dir", q.text(2)}}};
+      std::string key = without_limits(params);
+      candidates[std::move(key)] = {q.text(0), {{"params", std::move(params)}, {"dir", q.text(2)}}};
     }
     for (const auto& r : runs) {
       if (existing.count(r.run_id) || r.engine != "native" || candidates.empty()) continue;

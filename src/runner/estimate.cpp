@@ -67,6 +67,41 @@ struct RowBytes {
   double row = 0.0;
 };
 
+// A sample of discs shaped like the run's: bodies of its species in turn (a clump's discs
+// share the body id and omega, as in the engine's frames, which gzip finds), ids as large as
+// the run's, positions in its silo, velocities over the decades a flow has.
+std::vector<rundir::Disc> SampleDiscs(const RunSpec& spec, double discs, double bodies) {
+  Lcg rng;
+  const double h = std::max(10.0, discs / spec.silo.width);
+  const int n = static_cast<int>(std::min<double>(kSampleRows, std::max(1.0, discs)));
+  auto id = static_cast<std::int64_t>(std::max(1.0, discs - n + 1));
+  auto mol = static_cast<std::int64_t>(std::max(0.0, bodies - n));
+  std::vector<rundir::Disc> out;
+  for (std::size_t k = 0; static_cast<int>(out.size()) < n; ++k, ++mol) {
+    const Species& s = spec.bodies.species[k % spec.bodies.species.size()];
+    const int parts = s.shape == Shape::kDisc ? 1 : s.shape == Shape::kRod ? s.n : 2;
+    const double x = (rng.next() - 0.5) * spec.silo.width, y = rng.next() * h, th = rng.next() * 6.283185307179586;
+    const double vx = rng.signed_log(1e-4, 1.0), vy = rng.signed_log(1e-4, 1.0), w = rng.signed_log(1e-4, 1.0);
+    for (int q = 0; q < parts && static_cast<int>(out.size()) < n; ++q) {
+      const double r = (s.shape == Shape::kSnowman && q == 1 ? s.big_diameter : s.diameter) / 2;
+      const double off = (q - 0.5 * (parts - 1)) * s.diameter;
+      rundir::Disc d;
+      d.id = id++;
+      d.mol = mol;
+      d.type = static_cast<int>(k % spec.bodies.species.size()) + 1;
+      d.x = x + off * std::cos(th);
+      d.y = y + off * std::sin(th);
+      d.radius = r;
+      d.mass = spec.bodies.density * std::numbers::pi * r * r;
+      d.vx = vx - w * off * std::sin(th);
+      d.vy = vy + w * off * std::cos(th);
+      d.omega = w;
+      out.push_back(d);
+    }
+  }
+  return out;
+}
+
 RowBytes FrameRowBytes(const RunSpec& spec, double discs, double bodies, bool gzip) {
   rundir::Frame f;
   const double h = std::max(10.0, discs / spec.silo.width);
@@ -74,51 +109,40 @@ RowBytes FrameRowBytes(const RunSpec& spec, double discs, double bodies, bool gz
   f.box[0][1] = spec.silo.width / 2 + 4;
   f.box[1][0] = -7;
   f.box[1][1] = 1.2 * h + 4;
-  const RowBytes out{static_cast<double>(rundir::FrameBytes(f, gzip)), 0.0};
-  Lcg rng;
-  const int n = static_cast<int>(std::min<double>(kSampleRows, std::max(1.0, discs)));
-  const auto first_id = static_cast<std::int64_t>(std::max(1.0, discs - n + 1));
-  const auto first_body = static_cast<std::int64_t>(std::max(0.0, bodies - n / 2.0));
-  for (int i = 0; i < n; ++i) {
-    const Species& s = spec.bodies.species[static_cast<std::size_t>(i) % spec.bodies.species.size()];
-    const double r = s.diameter / 2;
-    rundir::Disc d;
-    d.id = first_id + i;
-    d.mol = first_body + i / 2;
-    d.type = static_cast<int>(static_cast<std::size_t>(i) % spec.bodies.species.size()) + 1;
-    d.x = (rng.next() - 0.5) * spec.silo.width;
-    d.y = rng.next() * h;
-    d.radius = r;
-    d.mass = spec.bodies.density * std::numbers::pi * r * r;
-    d.vx = rng.signed_log(1e-4, 1.0);
-    d.vy = rng.signed_log(1e-4, 1.0);
-    d.omega = rng.signed_log(1e-4, 1.0);
-    f.discs.push_back(d);
-  }
-  return {out.header, (static_cast<double>(rundir::FrameBytes(f, gzip)) - out.header) / n};
+  const double header = static_cast<double>(rundir::FrameBytes(f, gzip));
+  f.discs = SampleDiscs(spec, discs, bodies);
+  return {header, (static_cast<double>(rundir::FrameBytes(f, gzip)) - header) / static_cast<double>(f.discs.size())};
 }
 
-RowBytes ContactRowBytes(const RunSpec& spec, double discs, double bodies, bool gzip) {
+// Per contact row: the engine lists a disc's contacts one after another (its centre repeated
+// on each row), `per_disc` of them per disc on average.
+RowBytes ContactRowBytes(const RunSpec& spec, double discs, double bodies, double per_disc, bool gzip) {
   rundir::ContactFrame f;
-  const double h = std::max(10.0, discs / spec.silo.width);
-  const RowBytes out{static_cast<double>(rundir::ContactBytes(f, gzip)), 0.0};
+  const double header = static_cast<double>(rundir::ContactBytes(f, gzip));
   Lcg rng;
-  const int n = static_cast<int>(std::min<double>(kSampleRows, std::max(1.0, discs)));
-  for (int i = 0; i < n; ++i) {
-    rundir::ContactRow c;
-    c.body_i = static_cast<std::int64_t>(rng.next() * bodies);
-    c.body_j = rng.next() < 0.05 ? -1 : static_cast<std::int64_t>(rng.next() * bodies);
-    c.xi = (rng.next() - 0.5) * spec.silo.width;
-    c.yi = rng.next() * h;
-    c.xj = c.xi + rng.signed_log(0.1, 1.0);
-    c.yj = c.yi + rng.signed_log(0.1, 1.0);
-    c.cx = 0.5 * (c.xi + c.xj);
-    c.cy = 0.5 * (c.yi + c.yj);
-    c.fx = rng.signed_log(1e-3, 10.0);
-    c.fy = rng.signed_log(1e-3, 10.0);
-    f.contacts.push_back(c);
+  const std::vector<rundir::Disc> sample = SampleDiscs(spec, discs, bodies);
+  double owed = 0.0;
+  for (const rundir::Disc& d : sample) {
+    owed += per_disc;
+    for (; owed >= 1.0; owed -= 1.0) {
+      const rundir::Disc& o = sample[static_cast<std::size_t>(rng.next() * static_cast<double>(sample.size()))];
+      rundir::ContactRow c;
+      c.body_i = d.mol;
+      const bool wall = rng.next() < 0.05;
+      c.body_j = wall ? -1 : o.mol;
+      c.xi = d.x;
+      c.yi = d.y;
+      c.xj = wall ? d.x - d.radius : d.x + rng.signed_log(0.1, 1.0);
+      c.yj = wall ? d.y : d.y + rng.signed_log(0.1, 1.0);
+      c.cx = 0.5 * (c.xi + c.xj);
+      c.cy = 0.5 * (c.yi + c.yj);
+      c.fx = rng.signed_log(1e-3, 10.0);
+      c.fy = rng.signed_log(1e-3, 10.0);
+      f.contacts.push_back(c);
+    }
   }
-  return {out.header, (static_cast<double>(rundir::ContactBytes(f, gzip)) - out.header) / n};
+  if (f.contacts.empty()) return {header, 0.0};
+  return {header, (static_cast<double>(rundir::ContactBytes(f, gzip)) - header) / static_cast<double>(f.contacts.size())};
 }
 
 }  // namespace
@@ -212,8 +236,9 @@ RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepa
     const double settle = std::min(spec.bed.max_settle_time, m.bed_final_settle);
     e.bed_disc_steps = e.discs * (0.5 * insert + settle) / spec.bed_time_step();
   }
-  e.core_s_low = (e.bed_disc_steps + e.disc_steps_low) * sec_per_disc_step;
-  e.core_s_high = (e.bed_disc_steps + e.disc_steps_high) * sec_per_disc_step;
+  const double overhead = sec_per_disc_step > 0 ? m.run_overhead_s : 0.0;
+  e.core_s_low = (e.bed_disc_steps + e.disc_steps_low) * sec_per_disc_step + overhead;
+  e.core_s_high = (e.bed_disc_steps + e.disc_steps_high) * sec_per_disc_step + overhead;
 
   // Disk: frames (and contact frames), two checkpoints, events, and the small files.
   const Output& o = spec.output;
@@ -221,18 +246,20 @@ RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepa
   // Formatting (and compressing) a sample frame takes milliseconds: once per kind of run.
   thread_local std::map<std::string, std::pair<RowBytes, RowBytes>> memo;
   const bool contacts = o.frame_interval > 0 && o.contact_forces;
+  const double contacts_per_disc =
+      e.discs > 0 ? (lone_discs * m.contacts_per_lone_disc + clump_discs * m.contacts_per_clump_disc) / e.discs : 0.0;
   const std::string memo_key = json{{"bodies", spec.to_json()["bodies"]}, {"width", spec.silo.width}, {"gz", o.compress},
                                     {"contacts", contacts}}.dump();
   auto found = memo.find(memo_key);
   if (found == memo.end() && o.frame_interval > 0) {
     found = memo.emplace(memo_key, std::pair{FrameRowBytes(spec, e.discs, e.bodies, o.compress),
-                                             contacts ? ContactRowBytes(spec, e.discs, e.bodies, o.compress) : RowBytes{}})
+                                             contacts ? ContactRowBytes(spec, e.discs, e.bodies, contacts_per_disc, o.compress) : RowBytes{}})
                 .first;
   }
   const RowBytes fr = o.frame_interval > 0 ? found->second.first : RowBytes{};
   const RowBytes cr = contacts ? found->second.second : RowBytes{};
   auto frame_bytes = [&](double discs) {
-    return fr.header + fr.row * discs + (contacts ? cr.header + cr.row * m.contacts_per_disc * discs : 0.0);
+    return fr.header + fr.row * discs + (contacts ? cr.header + cr.row * contacts_per_disc * discs : 0.0);
   };
   e.frame_bytes = o.frame_interval > 0 ? frame_bytes(e.discs) : 0.0;
   // Checkpoint: per body its template, state and 11 doubles; per disc about 1.5 history

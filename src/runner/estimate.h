@@ -54,9 +54,14 @@ struct EstimateModel {
   double beverloo_c = 0.67;         // 2-D Beverloo Q = C n sqrt(g) (W - k b)^1.5 (bodies per time)
   double beverloo_k = 1.5;          // k, in units of the body's largest disc diameter
   double packing_fraction = 0.8;    // area fraction of a bed (physics.md: 0.78-0.85)
-  double contacts_per_disc = 1.1;   // contact rows per disc in a frame (docs/run-directory.md)
+  // Contact rows per disc in a frame of a flowing silo (measured: 1.1 in the ch. 4 mixture and
+  // in docs/run-directory.md's dumbbell bed; 0.91 in a tiny dumbbell silo, whose two discs of a
+  // body touch each other without a row).
+  double contacts_per_lone_disc = 1.1;
+  double contacts_per_clump_disc = 0.91;
   double bed_insert_fraction = 0.3; // area fraction of a batch's insertion region (bed.cpp)
   double bed_final_settle = 10.0;   // simulated settling after the last batch
+  double run_overhead_s = 0.5;      // per run: engine start, bed file, silo.vtk, the runner's polls
 };
 
 // bed_prepared: this run prepares its bed (the first run of its bed key); otherwise the bed

@@ -51,7 +51,7 @@ TEST(Estimate, AReinjectRunWithoutClogStopIsDiscsTimesStepsAtTheRate) {
   EXPECT_DOUBLE_EQ(e.discs, 800);
   EXPECT_DOUBLE_EQ(e.bed_disc_steps, 0);
   EXPECT_NEAR(e.disc_steps_high, 800 * 2.0 / 1e-4, 1e-6);
-  EXPECT_NEAR(e.core_s_high, 800 * 20000 / 5e6, 1e-9);
+  EXPECT_NEAR(e.core_s_high, 800 * 20000 / 5e6 + EstimateModel{}.run_overhead_s, 1e-9);
   EXPECT_DOUBLE_EQ(e.core_s_low, e.core_s_high);
   // Preparing the bed adds to it.
   EXPECT_GT(estimate_run(spec, Rates(1e7, 5e6), true).core_s_high, e.core_s_high);
@@ -63,7 +63,7 @@ TEST(Estimate, AMixturePaysEachKindForItsShareOfTheDiscs) {
   const RunEstimate e = estimate_run(spec, Rates(2e7, 5e6), false);
   EXPECT_DOUBLE_EQ(e.discs, 600);  // 200 dumbbells, 200 discs
   const double steps = 1.0 / 1e-4;
-  EXPECT_NEAR(e.core_s_high, steps * (200 / 2e7 + 400 / 5e6), 1e-9);
+  EXPECT_NEAR(e.core_s_high, steps * (200 / 2e7 + 400 / 5e6) + EstimateModel{}.run_overhead_s, 1e-9);
 }
 
 TEST(Estimate, ARemoveRunEndsSomewhereInARange) {
@@ -134,8 +134,9 @@ TEST(Estimate, ACampaignPreparesEachBedOnceAndNotThoseInTheCache) {
 
 TEST(Estimate, FinishedRunsScaleTheRatesByWhatTheyTook) {
   const json spec = RunSpec::from_json(Reinject(json::array({{{"shape", "disc"}}}), 300, 1.0)).to_json();
-  // 300 discs x 10000 steps at 1e7/s = 0.3 s predicted; they took 0.6 s.
-  const json summary = {{"t_end", 1.0}, {"bed", {{"prepared_here", false}}}, {"timing", {{"wall_s", 0.6}, {"threads", 1}}}};
+  // 300 discs x 10000 steps at 1e7/s + the start of a run = 0.8 s predicted; they took 1.6 s.
+  const double predicted = 0.3 + EstimateModel{}.run_overhead_s;
+  const json summary = {{"t_end", 1.0}, {"bed", {{"prepared_here", false}}}, {"timing", {{"wall_s", 2 * predicted}, {"threads", 1}}}};
   Calibration cal = Rates(1e7, 1e7);
   scale_from_finished(cal, {{spec, summary}, {spec, summary}});
   EXPECT_NEAR(cal.scale, 2.0, 1e-9);
