@@ -44,6 +44,9 @@ struct BenchResult {
   double disc_steps_per_s;
   double wall_s;
   double core_round_trip_ns = 0.0;  // measured before the round when it has two threads or more
+  // Disc-steps per second of the process' CPU time (all its threads): what a core-hour buys,
+  // also when other work shares the machine (the runner's estimate calibrates with it).
+  double cpu_disc_steps_per_s = 0.0;
 };
 
 // What a cache line costs between two cores now: two threads hand a counter back and forth

@@ -71,7 +71,8 @@ double Bench(const std::string& exe, const std::string& shape, std::string& erro
   const std::string text = out.get();
   const std::string errors = err.get();
   std::smatch m;
-  static const std::regex rate(R"(threads=1 disc_steps_per_s=([0-9.eE+-]+))");
+  // Per CPU second: a core-hour's worth, whatever else the machine runs meanwhile.
+  static const std::regex rate(R"(threads=1 disc_steps_per_s=[0-9.eE+-]+ .*cpu_disc_steps_per_s=([0-9.eE+-]+))");
   if (child.exit_code() != 0 || !std::regex_search(text, m, rate)) {
     error = exe + " bench --shape " + shape + " failed (exit " + std::to_string(child.exit_code()) + "): " +
             (errors.empty() ? text.substr(0, 200) : errors.substr(0, 200));
