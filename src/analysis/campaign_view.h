@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/axes.h"
 #include "analysis/report_document.h"
 #include "analysis/stats.h"
 #include "rundir/summary.h"
@@ -88,7 +89,8 @@ struct CampaignView {
   std::string x_name;             // short name of x in CSV headers
   std::string x_title;            // x in words, as "The system" names it ("outlet width W"), for point titles
   std::string x_symbol;           // x's symbol ("W"), for point names
-  std::map<std::string, std::string> axis_symbols;  // axis -> its short name in point names (axis_names)
+  std::map<std::string, std::string> axis_symbols;  // axis -> its one short name (axes.h), everywhere
+  CampaignAxes named;             // the axes by name, with the campaign's derived axes (/axes)
   bool x_is_width = false;
   bool x_is_gap = false;          // x = gap L between base outlets 0 and 1 (ch. 5b, 7)
   int x_outlet = -1;              // the outlet (event order) whose width is x; -1: none

@@ -1,14 +1,19 @@
-// `write_report`: the campaign view's sections, then each analysis' section (registry order),
-// then the engine comparison; rendered by report_document.h.
+// `write_report`: key results and the spec's figures, each analysis' section (registry order),
+// the engine comparison, then the campaign view's sections and the gallery; rendered by
+// report_document.h.
 #include "analysis/report.h"
 
+#include <array>
 #include <algorithm>
 #include <cmath>
 #include <ctime>
 #include <map>
 #include <optional>
+#include <unistd.h>
 
 #include "analysis/engine_comparison.h"
+#include "analysis/expectations.h"
+#include "analysis/figures.h"
 #include "analysis/stats.h"
 #include "analysis/report_document.h"
 #include "analysis/system.h"
@@ -68,6 +73,10 @@ std::optional<Section> provenance_section(const CampaignView& c) {
     std::strftime(stamp, sizeof stamp, "%Y-%m-%d %H:%M UTC", &utc);
     text += ", on " + std::string(stamp);
   }
+  {
+    char host[256] = {};
+    if (gethostname(host, sizeof host - 1) == 0 && host[0] != '\0') text += " on host `" + std::string(host) + "`";
+  }
   text += ". Sweep axes: ";
   for (std::size_t i = 0; i < k.axes.size(); ++i) text += (i ? ", " : "") + std::string("`") + k.axes[i] + "`";
   if (k.axes.empty()) text += "none";
@@ -82,15 +91,34 @@ std::optional<Section> provenance_section(const CampaignView& c) {
           {"engine", "engine_version", "granary_commit", "tangential_cap", "runs"}};
   for (const auto& [key, n] : rows) t.rows.push_back({key[0], key[1], key[2], key[3], Cell::count(n)});
   s.blocks.push_back(t);
+  // What the runs cost, per engine: wall time and core-hours (wall time x threads).
+  std::map<std::string, std::array<double, 3>> cost;  // engine -> runs, wall s, core s
+  for (const UsedRun& a : c.used) {
+    auto& e = cost[a.summary.engine];
+    e[0] += 1;
+    if (std::isfinite(a.timing.wall_s)) {
+      e[1] += a.timing.wall_s;
+      e[2] += a.timing.wall_s * std::max(1, a.timing.threads);
+    }
+  }
+  Table ct{"provenance_cost", "What the used runs cost (summary.json timing; core-hours = wall time x threads)",
+           {"engine", "runs", "wall time (h)", "core-hours"}, {}, {"engine", "runs", "wall_h", "core_hours"}};
+  for (const auto& [engine, e] : cost)
+    ct.rows.push_back({engine, Cell::count(static_cast<long long>(e[0])), Cell::number(e[1] / 3600.0, 3), Cell::number(e[2] / 3600.0, 3)});
+  if (!ct.rows.empty()) s.blocks.push_back(ct);
   s.blocks.push_back(Text{"Tangential cap: `lammps` caps spring plus damping at mu|F_n| (LAMMPS convention, "
                           "physics.md); `liggghts` caps only the spring part (LIGGGHTS 3.8). Runs with different "
                           "caps are not the same model."});
+  if (k.spec.is_object()) {
+    s.blocks.push_back(Text{"The campaign spec as planned:"});
+    s.blocks.push_back(Code{k.spec.dump(2)});
+  }
   return s;
 }
 
-// What was simulated: the campaign's description, its fixed parameters, the swept ones by
-// their human names, and each point's bed and end in pictures (when the runner can draw).
-std::optional<Section> system_section(const CampaignView& c, const ReportOptions& options) {
+// What was simulated: the campaign's description, the units, its fixed parameters, the swept
+// ones by their human names and the derived axes (the pictures are in the gallery).
+std::optional<Section> system_section(const CampaignView& c) {
   Section s{"system", "The system", {}};
   const nlohmann::json& cs = c.campaign->spec;
   s.blocks.push_back(Text{cs.is_object() && cs.contains("description") && cs.at("description").is_string()
@@ -102,7 +130,14 @@ std::optional<Section> system_section(const CampaignView& c, const ReportOptions
   for (const auto* list : {&c.missing, &c.failed, &c.retired})
     if (spec.is_null() && !list->empty()) spec = list->front()->spec;
   if (spec.is_null()) return s;
+  s.blocks.push_back(Text{std::string("Units (every table, figure and export): ") + kUnitsText + "."});
   s.blocks.push_back(fixed_parameters(spec, c.axes));
+  if (!c.named.derived().empty()) {
+    Table d{"system-derived-axes", "Derived axes (campaign spec /axes): usable in --only, the export and figures",
+            {"name", "expression"}, {}, {}};
+    for (const DerivedAxis& a : c.named.derived()) d.rows.push_back({a.name, a.expression.text()});
+    s.blocks.push_back(d);
+  }
   if (!c.axes.empty()) {
     Table t{"system-axes", "Swept parameters (short: as tables and figure keys name them)",
             {"parameter", "short", "in the run spec", "values"}, {}, {}};
@@ -145,7 +180,14 @@ std::optional<Section> system_section(const CampaignView& c, const ReportOptions
     }
     if (!t.rows.empty() && any) s.blocks.push_back(t);
   }
-  // Each point: the bed before the outlets open and the last state of its first replica.
+  s.blocks.push_back(Text{"Pictures of every point (its bed and its end) are in the [gallery](#gallery) at the end."});
+  return s;
+}
+
+// Each point: the bed before the outlets open and the last state of its first replica; last in
+// the report, so that the results come first.
+std::optional<Section> gallery_section(const CampaignView& c, const ReportOptions& options) {
+  Section s{"gallery", "Gallery: every point", {}};
   if (!options.draw_run) {
     s.blocks.push_back(Text{"(No pictures: this report was written without the renderer.)"});
     return s;
@@ -252,7 +294,11 @@ std::optional<Section> per_run_section(const CampaignAnalysis& ca) {
 
 }  // namespace
 
-void check_report_spec(const nlohmann::json& campaign_spec) { setup_analyses(campaign_spec); }
+void check_report_spec(const nlohmann::json& campaign_spec) {
+  CampaignAxes::of_campaign_spec(campaign_spec);
+  setup_analyses(campaign_spec);
+  read_expectations(campaign_spec, read_figure_specs(campaign_spec));
+}
 
 ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
                            const ReportOptions& options) {
@@ -265,11 +311,13 @@ ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRe
 ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& options) {
   if (options.out_dir.empty()) throw std::invalid_argument("write_report: ReportOptions::out_dir is empty");
   const CampaignView& c = ca.view;
+  // Key results (the reproduction table), the spec's figures, each analysis' section, the
+  // engine comparison; then what was simulated, the runs, provenance, per-run tables and the
+  // gallery of every point.
+  const std::unique_ptr<Reproduction> reproduction = reproduce(ca);
   std::vector<Section> sections;
-  if (auto s = system_section(c, options)) sections.push_back(std::move(*s));
-  if (auto s = runs_section(c)) sections.push_back(std::move(*s));
-  if (auto s = provenance_section(c)) sections.push_back(std::move(*s));
-  if (auto s = per_run_section(ca)) sections.push_back(std::move(*s));
+  if (auto s = key_results_section(reproduction->results)) sections.push_back(std::move(*s));
+  if (auto s = figures_section(reproduction->figures)) sections.push_back(std::move(*s));
   for (std::size_t a = 0; a < ca.setup->analyses.size(); ++a) {
     const SectionInput input{c, ca.results[a], ca.point_metrics[a], ca.setup->pass, options.out_dir, options.draw_clog};
     if (auto s = ca.setup->analyses[a]->section(input)) sections.push_back(std::move(*s));
@@ -279,6 +327,11 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   const std::optional<EngineComparison> comparison = engine_comparison_of(c, all);
   if (comparison)
     if (auto s = engine_comparison_section(c, *comparison)) sections.push_back(std::move(*s));
+  if (auto s = system_section(c)) sections.push_back(std::move(*s));
+  if (auto s = runs_section(c)) sections.push_back(std::move(*s));
+  if (auto s = provenance_section(c)) sections.push_back(std::move(*s));
+  if (auto s = per_run_section(ca)) sections.push_back(std::move(*s));
+  if (auto s = gallery_section(c, options)) sections.push_back(std::move(*s));
   RenderOptions render;
   render.figures = options.figures;
   render.gnuplot = options.gnuplot;
@@ -293,6 +346,7 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   summary.markdown = r.markdown;
   summary.html = r.html;
   if (comparison) summary.comparison = to_json(*comparison);
+  if (!reproduction->results.empty()) summary.expectations = to_string(count(reproduction->results));
   return summary;
 }
 

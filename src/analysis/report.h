@@ -1,8 +1,10 @@
 // `campaign report`: report.md, report.html, figures and numeric CSVs of a campaign's finished
 // runs. The runner queries its database and hands the runs over as plain records; this layer
-// never touches SQLite. The report is the campaign view's own sections (runs, provenance,
-// per-run results), then each registered analysis' section in table order (registry.h), then
-// the engine comparison when the runs come from two engines.
+// never touches SQLite. The report opens with the reproduction table (Key results, the spec's
+// /expect) and the spec's figures (/report/figures), then each registered analysis' section in
+// table order (registry.h), the engine comparison when the runs come from two engines, the
+// campaign view's own sections (the system, runs, provenance, per-run results) and a gallery
+// of every point.
 #pragma once
 
 #include <filesystem>
@@ -40,6 +42,7 @@ struct ReportSummary {
   std::filesystem::path markdown;
   std::filesystem::path html;
   nlohmann::json comparison;      // runs on two engines: analysis::to_json(EngineComparison), else null
+  std::string expectations;       // the spec has /expect: "7 agree, 1 disagrees, 3 not yet"; else ""
 };
 
 // Checks the campaign spec's /report object (throws OptionError naming the JSON path).

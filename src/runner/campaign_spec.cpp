@@ -7,6 +7,9 @@
 
 #include "runner/slurm.h"
 #include "runner/util.h"
+#ifdef GRANARY_HAVE_ANALYSIS
+#include "analysis/expectations.h"
+#endif
 
 namespace granary::runner {
 
@@ -79,7 +82,16 @@ SpecTable MakeCampaignSpecTable() {
       {"/sweep/grid", T::kAxisValues, "{axis: [values]}: the cartesian product, first axis slowest"},
       {"/sweep/zip", T::kAxisValues, "{axis: [values]}: paired lists of equal length"},
       {"/sweep/points", T::kAxisPoints, "[{axis: value, ...}]: explicit points"},
+      {"/axes", T::kOpenObject,
+       "derived axes {name: expression over the sweep axes' short names}, e.g. {\"D_eq\": \"sqrt(1 + D_b^2)\"}: usable "
+       "in --only, the export and /report/figures (docs/campaign-spec.md)"},
       {"/report", T::kOpenObject, "report options, checked by the analysis library (docs/analyses.md)"},
+      {"/expect", T::kArray,
+       "expected values with their source, judged in the report's Key results and campaign export --expectations "
+       "(docs/analyses.md)"},
+      {"/expect/*", T::kOpenObject,
+       "{\"metric\", \"at\": {axis: value}, \"value\", \"tolerance\", \"source\"} or {\"fit\": figure, \"parameter\", "
+       "\"value\", ...}"},
       {"/executor", T::kOpenObject,
        "where runs go: {\"type\": \"local\"} or {\"type\": \"slurm\", ...} with the options of campaign run "
        "--executor slurm (docs/slurm.md); command-line flags win"},
@@ -172,6 +184,15 @@ json campaign_spec_schema() {
   json run_spec = run_spec_table().json_schema("", axes);
   run_spec["description"] = "a run spec (docs/run-spec.md): every key optional";
   s["definitions"] = {{"run_spec", run_spec}};
+#ifdef GRANARY_HAVE_ANALYSIS
+  // The blocks the analysis library reads, in detail.
+  if (s.contains("properties")) {
+    json& p = s["properties"];
+    if (p.contains("axes")) p["axes"] = analysis::axes_json_schema();
+    if (p.contains("expect")) p["expect"] = analysis::expect_json_schema();
+    if (p.contains("report")) p["report"]["properties"]["figures"] = analysis::figures_json_schema();
+  }
+#endif
   return s;
 }
 
@@ -207,6 +228,18 @@ json parse_spec_text(const std::string& text, const std::string& source) {
       what = what.substr(colon + 2);
     throw std::invalid_argument(source + ":" + std::to_string(line) + ":" + std::to_string(column) +
                                 ": not valid JSON: " + what);
+  }
+}
+
+void resolve_spec_paths(json& spec, const std::string& spec_file) {
+  if (!spec.is_object() || !spec.contains("report") || !spec["report"].is_object()) return;
+  json& report = spec["report"];
+  if (!report.contains("python") || !report["python"].is_array()) return;
+  const std::filesystem::path folder = std::filesystem::absolute(spec_file).parent_path();
+  for (json& entry : report["python"]) {
+    if (!entry.is_object() || !entry.contains("script") || !entry["script"].is_string()) continue;
+    const std::filesystem::path script = entry["script"].get<std::string>();
+    if (script.is_relative()) entry["script"] = (folder / script).lexically_normal().string();
   }
 }
 

@@ -12,6 +12,8 @@
 #include <set>
 #include <sstream>
 
+#include "analysis/python_analysis.h"
+#include "rundir/analysis_cache.h"
 #include "rundir/files.h"
 #include "rundir/layout.h"
 
@@ -81,6 +83,20 @@ json run_details(Store& store, const RunRow& r, int log_lines) {
             {"results", results},
             {"files", files}};
   if (r.state == "running") j["progress"] = r.progress;
+  // Analyses that failed on this run (a Python analysis' script that raised), from the caches
+  // the last report, export or compare wrote.
+  json failed = json::array();
+  if (fs::is_directory(fs::path(r.run_dir) / rundir::kAnalysesDir, ec)) {
+    std::vector<std::string> keys;
+    for (const auto& e : fs::directory_iterator(fs::path(r.run_dir) / rundir::kAnalysesDir, ec))
+      if (e.path().extension() == ".json") keys.push_back(e.path().stem().string());
+    std::sort(keys.begin(), keys.end());
+    for (const auto& key : keys)
+      if (const auto cached = rundir::ReadCachedResult(r.run_dir, key))
+        if (const std::string why = analysis::python_failure(cached->result); !why.empty())
+          failed.push_back({{"analysis", key}, {"error", why}});
+  }
+  j["analysis_failures"] = failed;
   const std::string tail = TailOfFile(fs::path(r.run_dir) / rundir::kEngineLogFile, log_lines);
   json lines = json::array();
   std::istringstream in(tail);

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "test_util.h"
@@ -395,6 +396,40 @@ TEST_F(CliUsability, BashCompletesVerbsFlagsRunIdsAndFilters) {
   // Unknown verbs and a missing database complete to nothing rather than to an error.
   EXPECT_EQ(complete("frobnicate --"), "\n");
   EXPECT_EQ(complete("show --db /nonexistent/g.db "), "\n");
+}
+
+// Every verb of the table (cli/verbs.cpp) is listed by `campaign --help`, completed as a verb,
+// has its own help and completes its flags; its operand completes as its row says.
+TEST_F(CliUsability, EveryVerbOfTheTableHasHelpFlagsAndCompletion) {
+  const auto help = Sh(testing::Campaign() + " --help");
+  ASSERT_EQ(help.code, 0);
+  std::vector<std::string> verbs;
+  std::istringstream lines(help.output.substr(help.output.find("verbs:\n") + 7));
+  for (std::string line; std::getline(lines, line) && !line.empty();) verbs.push_back(line.substr(2, line.find(' ', 2) - 2));
+  ASSERT_EQ(verbs.size(), 14u) << help.output;
+  std::string all;
+  for (const auto& v : verbs) all += v + "\n";
+  EXPECT_EQ(Sh(testing::Campaign() + " __complete 1 campaign").output, all + "--help\n--version\n");
+  for (const auto& v : verbs) {
+    const auto h = Sh(testing::Campaign() + " " + v + " --help");
+    EXPECT_EQ(h.code, 0) << v;
+    EXPECT_EQ(h.output.rfind("usage: campaign " + v, 0), 0u) << h.output;
+    const auto flags = Sh(testing::Campaign() + " __complete 2 campaign " + v + " --").output;
+    EXPECT_NE(flags.find("--help\n"), std::string::npos) << v << ": " << flags;
+    // Every flag that completion offers is one the parser knows (its help names it).
+    std::istringstream offered(flags);
+    for (std::string flag; std::getline(offered, flag);) {
+      if (flag == "--help") continue;
+      EXPECT_NE(h.output.find(flag.substr(2)), std::string::npos) << v << " " << flag;
+    }
+  }
+  ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4]", "[0.5]", 1))).code, 0);
+  const std::string id = Status()["runs"][0]["run_id"];
+  const std::map<std::string, std::string> operand = {
+      {"plan", "__files__\n"}, {"compare", "__files__\n"}, {"completion", "bash\n"}, {"show", id + "\n"},
+      {"snapshot", id + "\n"}, {"movie", id + "\n"},         {"status", ""},           {"run", ""}};
+  for (const auto& [v, expected] : operand)
+    EXPECT_EQ(Sh(testing::Campaign() + " __complete 4 campaign " + v + " --db " + Db() + " ''").output, expected) << v;
 }
 
 }  // namespace

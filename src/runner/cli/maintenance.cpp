@@ -1,0 +1,228 @@
+// `campaign scan`, `clean`, `schema` and `completion`: keeping a campaign and its tools in order.
+// Flags in docs/cli.md.
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "runner/campaign_db.h"
+#include "runner/campaign_spec.h"
+#include "runner/cli/common.h"
+#include "runner/inspect.h"
+#include "runner/scan.h"
+#include "runner/slurm.h"
+#include "runner/slurm_executor.h"
+#include "runner/util.h"
+
+namespace granary::runner::cli {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+const char kScanHelp[] =
+    "usage: campaign scan [--db FILE] [--dry-run] [--json]\n"
+    "Rebuild every run's state from its run directory (DONE and summary.json: done, ingested), and\n"
+    "for runs in a Slurm queue from one squeue call (a task that left the queue ended as its\n"
+    "directory says). Safe at any time, also while jobs run; runs a live runner holds are\n"
+    "reported, not written. The way to collect a campaign submitted with --detach.\n"
+    "  --dry-run    show what would change, write nothing\n"
+    "  --json       {\"runs\", \"counts\", \"agrees\", \"changes\": [{\"run_id\", \"from\", \"to\", \"reason\", \"written\"}],\n"
+    "               \"lost\": [run ids of done runs whose directory was deleted]}\n"
+    "Exit: 0 (also when states changed), 2 usage error, 3 storage error (database unreadable or\n"
+    "unwritable).\n";
+
+int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "scan");
+  if (!a.positional.empty()) throw UsageError("campaign scan: unexpected argument \"" + a.positional[0] + "\"");
+  const std::string db = DbPath(a);
+  const auto opened = OpenCampaignDb(db, "scan");
+  Store& store = *opened;
+  if (!load_campaign(store)) throw UsageError("campaign scan: " + db + " holds no campaign");
+  const ScanReport r = scan_campaign(
+      store, [](const std::set<std::string>& ids, std::string* error) { return query_queue(ids, error); }, a.has("dry-run"));
+  if (a.has("json")) {
+    json changes = json::array();
+    for (const auto& c : r.changes) {
+      changes.push_back({{"run_id", c.run_id}, {"from", c.from}, {"to", c.to}, {"reason", c.reason}, {"written", c.written}});
+    }
+    json doc = {{"runs", r.runs}, {"counts", r.counts}, {"agrees", r.changes.empty()}, {"changes", changes}, {"lost", r.lost}};
+    if (!r.queue_error.empty()) doc["queue_error"] = r.queue_error;
+    out << doc.dump(2) << "\n";
+    return 0;
+  }
+  out << "campaign scan: " << r.runs << " runs;";
+  for (const auto& [state, n] : r.counts) out << " " << state << " " << n;
+  out << "\n";
+  if (!r.queue_error.empty()) out << "  squeue did not answer (" << r.queue_error << "): queued runs left as they were\n";
+  if (r.changes.empty()) out << "  the database agrees with the run directories\n";
+  if (!r.lost.empty()) {
+    out << "  " << r.lost.size() << " done run(s) have no run directory (first " << r.lost.front()
+        << "): left done, their results are in the database only (campaign run --rerun-lost runs them again)\n";
+  }
+  for (const auto& c : r.changes) {
+    out << "  " << c.run_id << "  " << c.from << " -> " << c.to << (c.written ? "" : a.has("dry-run") ? " (dry run)" : " (not written)")
+        << (c.reason.empty() ? "" : ": " + c.reason.substr(0, c.reason.find('\n'))) << "\n";
+  }
+  return 0;
+}
+
+const char kCleanHelp[] =
+    "usage: campaign clean [--retired] [--failed] [--beds] [--locks] [--dry-run] [--db FILE] [--json]\n"
+    "Give disk space back: remove the directories of retired runs (no longer in the spec), lock\n"
+    "files nobody holds and, when asked, failed runs' directories and cached beds. Says what it\n"
+    "removed and how much space that freed. Without a choice: --retired --locks.\n"
+    "  --retired  directories of retired runs; if a later plan brings one back, it runs again\n"
+    "  --failed   directories of failed runs (they start afresh on the next campaign run)\n"
+    "  --beds     cached beds that only this campaign's done or retired runs use (other campaigns'\n"
+    "             beds are never touched; a bed needed again is prepared again)\n"
+    "  --locks    lock files (bed cache, run directories of runs not running) that nobody holds\n"
+    "  --dry-run  say what would be removed and how much it would free; remove nothing\n"
+    "Never touches done, planned, running or interrupted runs' directories.\n";
+
+int Clean(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "clean");
+  if (!a.positional.empty()) throw UsageError("campaign clean: unexpected argument \"" + a.positional[0] + "\"");
+  const std::string db = DbPath(a);
+  const auto opened = OpenCampaignDb(db, "clean");
+  Store& store = *opened;
+  CleanOptions o;
+  const bool chosen = a.has("retired") || a.has("failed") || a.has("beds") || a.has("locks");
+  o.retired = !chosen || a.has("retired");
+  o.locks = !chosen || a.has("locks");
+  o.failed = a.has("failed");
+  o.beds = a.has("beds");
+  o.cache_dir = default_cache_dir();
+  // A running runner may be writing into failed runs' directories (retries).
+  if (o.failed)
+    for (const RunRow& r : load_runs(store, false))
+      if (r.state == "running" && !lease_expired(r, this_process_holder().host, now_seconds()))
+        throw UsageError("campaign clean --failed: a campaign run is running on " + db +
+                         " (it retries failed runs); clean when it has finished");
+  const std::vector<CleanItem> items = plan_clean(store, o);
+  const bool dry = a.has("dry-run");
+  std::map<std::string, std::pair<int, std::uintmax_t>> by_kind;
+  std::uintmax_t total = 0;
+  for (const CleanItem& it : items) {
+    by_kind[it.kind].first += 1;
+    by_kind[it.kind].second += it.bytes;
+    total += it.bytes;
+  }
+  const std::uintmax_t freed = dry ? 0 : execute_clean(store, items);
+  if (a.has("json")) {
+    json list = json::array();
+    for (const CleanItem& it : items)
+      list.push_back({{"kind", it.kind}, {"path", it.path.string()}, {"run_id", it.run_id}, {"bytes", it.bytes}});
+    out << json{{"dry_run", dry}, {"items", list}, {"bytes", total}, {"freed_bytes", freed}}.dump(2) << "\n";
+    return 0;
+  }
+  out << "campaign clean" << (dry ? " (dry run: nothing removed)" : "") << "\n";
+  const std::pair<const char*, const char*> kinds[] = {{"retired", "retired runs' directories"},
+                                                       {"failed", "failed runs' directories"},
+                                                       {"bed", "cached beds"},
+                                                       {"lock", "lock files nobody holds"}};
+  for (const auto& [kind, label] : kinds) {
+    const bool asked = (std::string(kind) == "retired" && o.retired) || (std::string(kind) == "failed" && o.failed) ||
+                       (std::string(kind) == "bed" && o.beds) || (std::string(kind) == "lock" && o.locks);
+    if (!asked) continue;
+    const auto& [n, bytes] = by_kind[kind];
+    out << "  " << std::left << std::setw(28) << label << std::right << std::setw(5) << n << "  " << std::setw(10)
+        << human_bytes(bytes) << "\n";
+  }
+  if (dry) {
+    out << "would free " << human_bytes(total) << "\n";
+  } else {
+    out << "freed " << human_bytes(freed) << "\n";
+  }
+  return 0;
+}
+
+// ---------------------------------------------------------------- schema, completion
+const char kSchemaHelp[] =
+    "usage: campaign schema [--out FILE]\n"
+    "Print the JSON Schema of campaign specs: every key, its type, default, range and meaning,\n"
+    "generated from the tables the validator reads (docs/campaign-spec.md). An editor that\n"
+    "knows it checks a spec as it is typed and completes its keys (VS Code: docs/campaign-spec.md,\n"
+    "\"Editing specs\"). The repository keeps a copy in docs/campaign.schema.json.\n"
+    "  --out FILE   write it to FILE instead of stdout\n";
+
+int Schema(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "schema");
+  if (!a.positional.empty()) throw UsageError("campaign schema: unexpected argument \"" + a.positional[0] + "\"");
+  const std::string text = campaign_spec_schema().dump(2) + "\n";
+  if (!a.has("out")) {
+    out << text;
+    return 0;
+  }
+  const std::string file = a.get("out", "");
+  std::ofstream f(file);
+  f << text;
+  if (!f) throw std::runtime_error("campaign schema: cannot write " + file);
+  out << "schema: " << file << "\n";
+  return 0;
+}
+
+const char kCompletionHelp[] =
+    "usage: campaign completion bash\n"
+    "Print the bash completion of campaign: verbs, each verb's flags, run ids and --only filters\n"
+    "from the database (--db, or granary.db here), engines and colours. To use it now:\n"
+    "  source <(campaign completion bash)\n"
+    "and for every shell, put that line into ~/.bashrc (or the output into\n"
+    "/etc/bash_completion.d/campaign).\n";
+
+// The script: bash asks the binary (`campaign __complete CWORD WORDS...`), so completion knows
+// exactly the verbs and flags that the parser accepts and the run ids in the database.
+const char kBashCompletion[] = R"(# bash completion for campaign (Granary): source <(campaign completion bash)
+_campaign() {
+  local IFS=$'\n'
+  local words
+  words=$("${COMP_WORDS[0]}" __complete "$COMP_CWORD" "${COMP_WORDS[@]}" 2>/dev/null) || return
+  if [[ "$words" == "__files__" ]]; then
+    COMPREPLY=($(compgen -f -- "${COMP_WORDS[COMP_CWORD]}"))
+    compopt -o filenames 2>/dev/null
+    return
+  fi
+  COMPREPLY=($(compgen -W "$words" -- "${COMP_WORDS[COMP_CWORD]}"))
+}
+complete -F _campaign campaign
+)";
+
+int Completion(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+  const Args a = Parse(argv, "completion");
+  if (a.positional.size() != 1 || a.positional[0] != "bash")
+    throw UsageError("campaign completion: give the shell: campaign completion bash");
+  out << kBashCompletion;
+  return 0;
+}
+
+}  // namespace
+
+Verb ScanVerb() {
+  return {"scan", "rebuild run states from the run directories (and the Slurm queue)", kScanHelp, Scan,
+          {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}};
+}
+
+Verb CleanVerb() {
+  return {"clean", "remove retired (and failed) runs' directories, unused beds, stale locks", kCleanHelp, Clean,
+          {{"db", true}, {"retired", false}, {"failed", false}, {"beds", false}, {"locks", false}, {"dry-run", false},
+           {"json", false}, {"help", false}}};
+}
+
+Verb SchemaVerb() {
+  return {"schema", "the JSON Schema of campaign specs (for editors)", kSchemaHelp, Schema, {{"out", true}, {"help", false}}};
+}
+
+Verb CompletionVerb() {
+  return {"completion", "bash completion of verbs, flags and run ids", kCompletionHelp, Completion, {{"help", false}}, Operand::kShell};
+}
+
+}  // namespace granary::runner::cli
