@@ -7,7 +7,7 @@ build="${GRANARY_BUILD_DIR:-$here/build}"
 
 packages=(build-essential cmake pkg-config git libsqlite3-dev sqlite3 nlohmann-json3-dev
           libboost-dev libboost-filesystem-dev libgsl-dev libgtest-dev googletest
-          liggghts openmpi-bin gnuplot-nox lammps zlib1g-dev
+          liggghts openmpi-bin gnuplot-nox lammps zlib1g-dev libxxhash-dev
           libcairo2-dev ffmpeg python3-numpy python3-pandas python3-pytest python3-jsonschema slurmctld slurmd slurm-client munge
           libpmix-dev)
 missing=()

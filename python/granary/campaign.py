@@ -12,17 +12,7 @@ import pandas as pd
 from .errors import MissingFileError
 from .run import Run
 
-_AXIS_PREFIXES = ("silo/", "bodies/", "contact/", "discharge/", "output/", "bed/")
-
-
-def short_axis(pointer):
-    """The short name of a sweep axis, as the export's columns have it:
-    /silo/base_outlets/0/width -> base_outlets.0.width."""
-    s = pointer[1:] if pointer.startswith("/") else pointer
-    for prefix in _AXIS_PREFIXES:
-        if s.startswith(prefix):
-            s = s[len(prefix):]
-    return s.replace("/", ".")
+from .axes import axis_short_names, short_axis  # noqa: F401 (short_axis: part of the API)
 
 
 def _pointer_get(obj, pointer):
@@ -145,8 +135,10 @@ class Campaign:
             runs["run_dir"] = [self._run_dir(p) for p in runs["run_dir"]]
             points = [json.loads(p) for p in runs.pop("point")]
             self._params = {rid: json.loads(p) for rid, p in zip(runs["run_id"], runs.pop("params"))}
+            first = next(iter(self._params.values()), {})
+            self.axis_names = axis_short_names(self.axes, first)
             for axis in self.axes:
-                runs[short_axis(axis)] = [p.get(axis, np.nan) for p in points]
+                runs[self.axis_names[axis]] = [p.get(axis, np.nan) for p in points]
             metrics = pd.read_sql_query("SELECT run_id, metric, value, se FROM metrics", self._con)
             if len(metrics):
                 wide = metrics.pivot_table(index="run_id", columns="metric", values=["value", "se"],
@@ -167,7 +159,7 @@ class Campaign:
         (avalanches, Psi) have their own point metrics in `campaign export --level point`."""
         runs = self.runs
         done = runs[runs["state"] == "done"]
-        axes = [short_axis(a) for a in self.axes]
+        axes = [self.axis_names[a] for a in self.axes]
         metric_cols = [c for c in runs.columns[9 + len(axes):] if not c.endswith("_se")]
         rows = []
         for (point_id, engine), group in runs.groupby(["point_id", "engine"], sort=False):
@@ -225,7 +217,10 @@ class Campaign:
                 prefixes.append(f)
                 continue
             pointer, value = f.split("=", 1)
-            if not pointer.startswith("/"):
+            by_name = {name: axis for axis, name in self.axis_names.items()}
+            if pointer in by_name:
+                pointer = by_name[pointer]
+            elif not pointer.startswith("/"):
                 found = [a for a in self.axes if a.endswith("/" + pointer)]
                 if len(found) != 1:
                     raise FilterError(f"{f}: \"{pointer}\" " + ("ends no sweep axis" if not found else

@@ -122,6 +122,10 @@ def test_a_python_analysis_reaches_the_report_the_export_and_the_database(campai
     assert r.returncode == 0, r.stdout + r.stderr
     rows = list(csv.DictReader(open(d / "runs.csv")))
     assert {"mean_height", "mean_height_se", "frames_seen"} <= set(rows[0])
+    # The axes carry the export's names (the symbol W here), in granary.open's tables too.
+    header = open(d / "runs.csv").readline().strip().split(",")
+    assert header[5] == "W" and "W" in granary.open(d / "study.db").runs.columns
+    assert [r.id for r in granary.open(d / "study.db").runs(W=5)] == [r.id for r in study.runs(width=5)]
     for row in rows:
         mean, se, n = expected[row["run_id"]]
         assert float(row["mean_height"]) == pytest.approx(mean, rel=1e-12)

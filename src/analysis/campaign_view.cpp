@@ -149,7 +149,7 @@ std::string group_axis(const CampaignView& view) {
 }
 
 CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
-                                const std::map<std::string, std::string>& unreadable) {
+                                const std::map<std::string, std::string>& unreadable, const RunChecks& checks) {
   CampaignView c;
   c.campaign = &campaign;
   c.axes = campaign.axes;
@@ -169,11 +169,16 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
       c.missing.push_back(&r);
     } else if (!std::filesystem::exists(r.run_dir)) {
       c.lost.push_back(&r);
+    } else if (const auto check = checks.find(r.run_id);
+               check != checks.end() && check->second.integrity == rundir::Integrity::kDamaged) {
+      c.damaged.emplace_back(&r, check->second.problems);
     } else if (const auto it = unreadable.find(r.run_id); it != unreadable.end()) {
       c.unreadable.emplace_back(&r, it->second);
     } else {
       std::string why;
       if (auto u = used_run(r, why)) {
+        if (check != checks.end() && check->second.integrity == rundir::Integrity::kNotVerifiable)
+          c.unverifiable.push_back(&r);
         c.used.push_back(std::move(*u));
       } else {
         c.unreadable.emplace_back(&r, why);

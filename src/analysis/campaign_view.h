@@ -16,6 +16,7 @@
 #include "analysis/axes.h"
 #include "analysis/report_document.h"
 #include "analysis/stats.h"
+#include "rundir/manifest.h"
 #include "rundir/summary.h"
 
 namespace granary::analysis {
@@ -82,6 +83,10 @@ struct CampaignView {
   std::vector<const RunRecord*> missing, failed, retired;
   std::vector<const RunRecord*> lost;  // done, but the run directory was deleted afterwards
   std::vector<std::pair<const RunRecord*, std::string>> unreadable;
+  // done, but a file differs from what the engine recorded (rundir/manifest.h): kept out of
+  // every number, listed with what differs
+  std::vector<std::pair<const RunRecord*, std::vector<rundir::FileProblem>>> damaged;
+  std::vector<const RunRecord*> unverifiable;  // used, but written before manifests: not verifiable
   std::vector<Point> points;      // sorted by group, then x
   std::string x_axis;             // JSON pointer of the x axis ("" = none)
   std::set<std::string> x_axes;   // the sweep axes that make x (left out of the groups)
@@ -98,10 +103,16 @@ struct CampaignView {
   std::vector<std::string> outlet_labels;  // of a used run with that many ("base 0", "side 1 (right)")
 };
 
+// The check of each done run against its manifest (rundir::VerifyRun), by run id; a run
+// not in it counts as not checked (whole).
+using RunChecks = std::map<std::string, rundir::Verification>;
+
 // Sorts `runs` (which must outlive the view): a done run is used unless its summary.json
-// cannot be read or `unreadable` names it (run id -> reason, e.g. from the analysis pass).
+// cannot be read, `unreadable` names it (run id -> reason, e.g. from the analysis pass) or
+// `checks` found it damaged.
 CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
-                                const std::map<std::string, std::string>& unreadable = {});
+                                const std::map<std::string, std::string>& unreadable = {},
+                                const RunChecks& checks = {});
 
 // "/silo/base_outlets/0/width" -> "base_outlets.0.width".
 std::string short_axis(const std::string& pointer);

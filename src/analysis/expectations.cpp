@@ -262,10 +262,11 @@ nlohmann::json figures_json_schema() {
   nlohmann::json figure = {
       {"type", "object"},
       {"additionalProperties", false},
-      {"required", {"name", "y"}},
+      {"required", {"name"}},
       {"properties",
        {{"name", {{"type", "string"}, {"pattern", "^[A-Za-z0-9._-]+$"}}},
-        {"kind", {{"enum", {"points"}}}},
+        {"kind", {{"enum", {"points", "pictures"}}}},
+        {"picture", {{"enum", {"end", "bed"}}, {"description", "pictures: the last frame (default) or the bed at t = 0"}}},
         {"y", {{"type", "string"}, {"description", "a metric, or an expression over metrics and axes"}}},
         {"ylabel", {{"type", "string"}}},
         {"x", {{"type", "string"}, {"description", "a sweep axis (short name) or a derived axis; default the report's x"}}},

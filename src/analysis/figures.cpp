@@ -11,7 +11,7 @@
 namespace granary::analysis {
 namespace {
 
-constexpr const char* kFigureKeys[] = {"name", "kind", "y", "ylabel", "x", "group", "pool", "only", "fit",
+constexpr const char* kFigureKeys[] = {"name", "kind", "picture", "y", "ylabel", "x", "group", "pool", "only", "fit",
                                        "title", "caption", "reference", "logx", "logy"};
 constexpr const char* kFitKeys[] = {"model", "over", "initial", "collapse"};
 
@@ -55,6 +55,24 @@ std::vector<std::string> axis_list_at(const nlohmann::json& v, const std::string
   return out;
 }
 
+std::vector<std::pair<std::string, std::vector<nlohmann::json>>> read_only(const nlohmann::json& o, const std::string& path,
+                                                                          const CampaignAxes& axes) {
+  if (!o.is_object()) throw OptionError(path + "/only", o, "must be an object {axis: value or [values]}, e.g. {\"W\": [15, 25]}");
+  std::vector<std::pair<std::string, std::vector<nlohmann::json>>> out;
+  for (const auto& [k, v] : o.items()) {
+    const std::string name = axis_name_at(nlohmann::json(k), path + "/only/" + k, axes);
+    std::vector<nlohmann::json> values;
+    for (const auto& one : v.is_array() ? v : nlohmann::json::array({v})) {
+      if (!one.is_number() && !one.is_string())
+        throw OptionError(path + "/only/" + k, v, "must be a number, a string or a list of them");
+      values.push_back(one);
+    }
+    if (values.empty()) throw OptionError(path + "/only/" + k, v, "must list at least one value");
+    out.emplace_back(name, values);
+  }
+  return out;
+}
+
 FigureSpec read_one(const nlohmann::json& f, const std::string& path, const CampaignAxes& axes,
                     const std::set<std::string>& names_before) {
   if (!f.is_object())
@@ -70,7 +88,27 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
   if (names_before.count(s.name)) throw OptionError(path + "/name", f.at("name"), "another figure has this name");
   if (f.contains("kind")) {
     s.kind = text_at(f, "kind", path);
-    if (s.kind != "points") throw OptionError(path + "/kind", f.at("kind"), "must be \"points\" (points with error bars)");
+    if (s.kind != "points" && s.kind != "pictures")
+      throw OptionError(path + "/kind", f.at("kind"),
+                        "must be \"points\" (points with error bars) or \"pictures\" (of the points `only` chooses)");
+  }
+  if (s.kind == "pictures") {
+    for (const char* key : {"y", "x", "group", "pool", "fit", "ylabel", "logx", "logy"})
+      if (f.contains(key))
+        throw OptionError(path + "/" + key, f.at(key),
+                          "a figure of pictures takes name, only, picture, title, caption and reference");
+    s.picture = f.contains("picture") ? text_at(f, "picture", path) : "end";
+    if (s.picture != "end" && s.picture != "bed")
+      throw OptionError(path + "/picture", f.at("picture"), "must be \"end\" (the last frame) or \"bed\" (t = 0)");
+  } else if (f.contains("picture")) {
+    throw OptionError(path + "/picture", f.at("picture"), "only a figure of kind \"pictures\" takes it");
+  }
+  s.title = text_at(f, "title", path);
+  s.caption = text_at(f, "caption", path);
+  s.reference = text_at(f, "reference", path);
+  if (s.kind == "pictures") {
+    if (f.contains("only")) s.only = read_only(f.at("only"), path, axes);
+    return s;
   }
   s.y = text_at(f, "y", path);
   if (s.y.empty()) throw OptionError(path + "/y", f.value("y", nlohmann::json()), "must be a metric name or an expression over metrics and axes");
@@ -86,21 +124,7 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
     s.group_given = true;
   }
   if (f.contains("pool")) s.pool = axis_list_at(f.at("pool"), path + "/pool", axes);
-  if (f.contains("only")) {
-    const nlohmann::json& o = f.at("only");
-    if (!o.is_object()) throw OptionError(path + "/only", o, "must be an object {axis: value or [values]}, e.g. {\"W\": [15, 25]}");
-    for (const auto& [k, v] : o.items()) {
-      const std::string name = axis_name_at(nlohmann::json(k), path + "/only/" + k, axes);
-      std::vector<nlohmann::json> values;
-      for (const auto& one : v.is_array() ? v : nlohmann::json::array({v})) {
-        if (!one.is_number() && !one.is_string())
-          throw OptionError(path + "/only/" + k, v, "must be a number, a string or a list of them");
-        values.push_back(one);
-      }
-      if (values.empty()) throw OptionError(path + "/only/" + k, v, "must list at least one value");
-      s.only.emplace_back(name, values);
-    }
-  }
+  if (f.contains("only")) s.only = read_only(f.at("only"), path, axes);
   if (f.contains("fit")) {
     const nlohmann::json& fj = f.at("fit");
     const std::string fp = path + "/fit";
@@ -138,9 +162,6 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
     if (fj.contains("collapse")) fit.collapse = option_bool(fj.at("collapse"), fp + "/collapse");
     s.fit = fit;
   }
-  s.title = text_at(f, "title", path);
-  s.caption = text_at(f, "caption", path);
-  s.reference = text_at(f, "reference", path);
   if (f.contains("logx")) s.logx = option_bool(f.at("logx"), path + "/logx");
   if (f.contains("logy")) s.logy = option_bool(f.at("logy"), path + "/logy");
   return s;
@@ -314,6 +335,12 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
       out.data.push_back(d);
     }
     out.data[it->second].points.push_back(p);
+  }
+  // Pictures: the chosen points are the figure; the report draws them (it has the renderer).
+  if (spec.kind == "pictures") {
+    if (out.data.empty())
+      out.blocks.push_back(Text{"**Not drawn:** " + spec.path + " (\"" + spec.name + "\"): no finished run passes its `only`."});
+    return out;
   }
   std::string problem;
   for (FigureDatum& d : out.data) {

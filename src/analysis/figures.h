@@ -31,7 +31,8 @@ struct FigureFitSpec {
 struct FigureSpec {
   std::string path;                        // "/report/figures/3", for messages
   std::string name;                        // file stem, and what expectations name ("fit": name)
-  std::string kind = "points";             // points with error bars
+  std::string kind = "points";             // points with error bars, or "pictures" of the chosen points
+  std::string picture = "end";             // pictures: "end" (the last frame: clogged, discharged) or "bed"
   std::string y;                           // a metric name or an expression over metrics and axes
   std::string ylabel;                      // default: y
   std::string x;                           // an axis name; "" = the report's x axis

@@ -33,11 +33,15 @@ std::string state_reason(const RunRecord& r) {
 std::optional<Section> runs_section(const CampaignView& c) {
   Section s{"runs", "Runs", {}};
   const int total = static_cast<int>(c.used.size() + c.missing.size() + c.failed.size() + c.unreadable.size() +
-                                     c.lost.size() + c.retired.size());
+                                     c.damaged.size() + c.lost.size() + c.retired.size());
   s.blocks.push_back(Text{std::to_string(total) + " runs in the campaign: **" + std::to_string(c.used.size()) +
                           " used**, " + std::to_string(c.missing.size()) + " missing (not finished), " +
                           std::to_string(c.failed.size()) + " failed, " + std::to_string(c.unreadable.size()) +
                           " finished but unreadable, " +
+                          (c.damaged.empty() ? std::string()
+                                             : "**" + std::to_string(c.damaged.size()) +
+                                                   " finished but damaged** (a file differs from what the engine "
+                                                   "recorded; below), ") +
                           (c.lost.empty() ? std::string()
                                           : std::to_string(c.lost.size()) + " finished but their run directory was deleted, ") +
                           std::to_string(c.retired.size()) + " retired. " +
@@ -50,10 +54,29 @@ std::optional<Section> runs_section(const CampaignView& c) {
   for (const RunRecord* r : c.missing) row(r, r->failure.empty() ? "not finished" : "not finished: " + state_reason(*r));
   for (const RunRecord* r : c.failed) row(r, state_reason(*r));
   for (const auto& [r, why] : c.unreadable) row(r, "unreadable: " + why);
+  for (const auto& [r, problems] : c.damaged) row(r, "damaged: " + rundir::Verification{rundir::Integrity::kDamaged, problems, 0}.text());
   for (const RunRecord* r : c.lost)
     row(r, "run directory deleted after it finished (campaign run --rerun-lost runs it again)");
   for (const RunRecord* r : c.retired) row(r, "retired (superseded)");
   if (!t.rows.empty()) s.blocks.push_back(t);
+  if (!c.damaged.empty()) {
+    s.blocks.push_back(Text{"**Damaged runs.** These runs finished, but their files no longer are what the engine "
+                            "recorded when it finished (`manifest.json`: sizes, checksums, counts of frames, events "
+                            "and clogs): cut short, changed or missing. They are kept out of every number of this "
+                            "report, of `campaign export` and of `campaign status`. Restore the files, or delete a "
+                            "run's directory and `campaign run --rerun-lost` runs it again."});
+    Table d{"damaged_runs", "Damaged runs: each file that differs and how", {"run", "point", "replica", "file", "what differs"},
+            {}, {}};
+    for (const auto& [r, problems] : c.damaged)
+      for (const rundir::FileProblem& p : problems)
+        d.rows.push_back({r->run_id, point_label(c, r->point, r->spec, NameForm::kShort), Cell::count(r->replica), p.file, p.what});
+    s.blocks.push_back(d);
+  }
+  if (!c.unverifiable.empty())
+    s.blocks.push_back(Text{std::to_string(c.unverifiable.size()) + " of the used runs are **not verifiable**: they were "
+                            "written before engines recorded a manifest of their files, so a file cut or changed "
+                            "since cannot be told from a whole one (only `events.csv` against `summary.json` is "
+                            "checked). First of them: `" + c.unverifiable.front()->run_id + "`."});
   return s;
 }
 
@@ -186,6 +209,40 @@ std::optional<Section> system_section(const CampaignView& c) {
 
 // Each point: the bed before the outlets open and the last state of its first replica; last in
 // the report, so that the results come first.
+// Pictures of point k's lowest replica (`kinds`: its bed, its end, or both) as `stem`-bed.png and
+// `stem`-end.png; empty when it has no used run or nothing could be drawn (why: not_drawn).
+Pictures point_pictures(const CampaignView& c, std::size_t k, const ReportOptions& options, bool bed, bool end_picture,
+                        const std::string& stem, NotDrawn& not_drawn) {
+  Pictures pics;
+  const Point& p = c.points[k];
+  const UsedRun* run = nullptr;
+  for (std::size_t u : p.runs)
+    if (!run || c.used[u].record->replica < run->record->replica) run = &c.used[u];
+  if (!run) return pics;
+  std::filesystem::create_directories(options.out_dir / "pictures");
+  // In words, engine included (a campaign on two engines shows each point twice).
+  const std::string label = c.axes.empty() ? std::string() : point_title(c, p);
+  pics.caption = (label.empty() ? std::string("The silo") : label) + " (replica " + std::to_string(run->record->replica) +
+                 ", run `" + run->record->run_id.substr(0, 10) + "`)";
+  const std::string& end = run->summary.end_reason;
+  const std::pair<ReportOptions::Picture, std::string> kinds[] = {
+      {ReportOptions::Picture::kBed, "the bed before the outlets open (t = 0)"},
+      {ReportOptions::Picture::kEnd, (end == "clogged" ? "clogged" : end == "discharged" ? "discharged" : "the last frame") +
+                                         std::string(" (t = ") + format_number(run->summary.t_end, 4) + ")"}};
+  for (const auto& [kind, caption] : kinds) {
+    const bool is_bed = kind == ReportOptions::Picture::kBed;
+    if ((is_bed && !bed) || (!is_bed && !end_picture)) continue;
+    const std::string file = stem + (is_bed ? "-bed.png" : "-end.png");
+    const std::string problem = options.draw_run(run->record->run_dir, kind, options.out_dir / file);
+    if (problem.empty()) {
+      pics.pictures.push_back({file, caption});
+    } else {
+      not_drawn.add(problem);
+    }
+  }
+  return pics;
+}
+
 std::optional<Section> gallery_section(const CampaignView& c, const ReportOptions& options) {
   Section s{"gallery", "Gallery: every point", {}};
   if (!options.draw_run) {
@@ -194,36 +251,34 @@ std::optional<Section> gallery_section(const CampaignView& c, const ReportOption
   }
   NotDrawn not_drawn;
   for (std::size_t k = 0; k < c.points.size(); ++k) {
-    const Point& p = c.points[k];
-    const UsedRun* run = nullptr;
-    for (std::size_t u : p.runs)
-      if (!run || c.used[u].record->replica < run->record->replica) run = &c.used[u];
-    if (!run) continue;
-    const std::string stem = "pictures/point-" + std::to_string(k + 1);
-    std::filesystem::create_directories(options.out_dir / "pictures");
-    Pictures pics;
-    // In words, engine included (a campaign on two engines shows each point twice).
-    const std::string label = c.axes.empty() ? std::string() : point_title(c, p);
-    pics.caption = (label.empty() ? std::string("The silo") : label) + " (replica " + std::to_string(run->record->replica) +
-                   ", run `" + run->record->run_id.substr(0, 10) + "`)";
-    const std::string& end = run->summary.end_reason;
-    const std::pair<ReportOptions::Picture, std::string> kinds[] = {
-        {ReportOptions::Picture::kBed, "the bed before the outlets open (t = 0)"},
-        {ReportOptions::Picture::kEnd, (end == "clogged" ? "clogged" : end == "discharged" ? "discharged" : "the last frame") +
-                                           std::string(" (t = ") + format_number(run->summary.t_end, 4) + ")"}};
-    for (const auto& [kind, caption] : kinds) {
-      const std::string file = stem + (kind == ReportOptions::Picture::kBed ? "-bed.png" : "-end.png");
-      const std::string problem = options.draw_run(run->record->run_dir, kind, options.out_dir / file);
-      if (problem.empty()) {
-        pics.pictures.push_back({file, caption});
-      } else {
-        not_drawn.add(problem);
-      }
-    }
+    Pictures pics = point_pictures(c, k, options, true, true, "pictures/point-" + std::to_string(k + 1), not_drawn);
     if (!pics.pictures.empty()) s.blocks.push_back(pics);
   }
   not_drawn.append_to(s);
   return s;
+}
+
+// A figure of kind "pictures": the chosen points' pictures, side by side, under its caption.
+void add_figure_pictures(const CampaignView& c, FigureOutcome& f, const ReportOptions& options) {
+  const FigureSpec& spec = *f.spec;
+  if (!options.draw_run) {
+    f.blocks.push_back(Text{"(Figure " + spec.name + ": no pictures, this report was written without the renderer.)"});
+    return;
+  }
+  Pictures all;
+  all.caption = (spec.title.empty() ? spec.name : spec.title) + (spec.caption.empty() ? "" : ". " + spec.caption) +
+                (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
+  NotDrawn not_drawn;
+  for (const FigureDatum& d : f.data)
+    for (std::size_t k : d.points) {
+      const Pictures one = point_pictures(c, k, options, spec.picture == "bed", spec.picture == "end",
+                                          "pictures/figure-" + spec.name + "-" + std::to_string(k + 1), not_drawn);
+      for (const Picture& p : one.pictures) all.pictures.push_back({p.file, one.caption + ": " + p.caption});
+    }
+  if (!all.pictures.empty()) f.blocks.push_back(all);
+  Section notes{"", "", {}};
+  not_drawn.append_to(notes);
+  for (Block& b : notes.blocks) f.blocks.push_back(std::move(b));
 }
 
 // Every used run with its headline metrics (every analysis' metrics are in the export).
@@ -315,6 +370,8 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   // engine comparison; then what was simulated, the runs, provenance, per-run tables and the
   // gallery of every point.
   const std::unique_ptr<Reproduction> reproduction = reproduce(ca);
+  for (FigureOutcome& f : reproduction->figures)
+    if (f.spec->kind == "pictures") add_figure_pictures(c, f, options);
   std::vector<Section> sections;
   if (auto s = key_results_section(reproduction->results)) sections.push_back(std::move(*s));
   if (auto s = figures_section(reproduction->figures)) sections.push_back(std::move(*s));
@@ -343,6 +400,8 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   summary.results_from_cache = ca.results_from_cache;
   summary.results_computed = ca.results_computed;
   summary.runs_lost = static_cast<int>(c.lost.size());
+  summary.runs_damaged = static_cast<int>(c.damaged.size());
+  summary.runs_unverifiable = static_cast<int>(c.unverifiable.size());
   summary.markdown = r.markdown;
   summary.html = r.html;
   if (comparison) summary.comparison = to_json(*comparison);

@@ -37,6 +37,8 @@ struct ReportSummary {
   int runs_missing = 0;           // planned/running/interrupted
   int runs_failed = 0;            // failed, or finished but unreadable
   int runs_lost = 0;              // done, but their run directories were deleted afterwards
+  int runs_damaged = 0;           // done, but a file differs from the engine's manifest: not used
+  int runs_unverifiable = 0;      // used, but written before manifests (not verifiable)
   int results_from_cache = 0;     // run x analysis results read from the run directories' caches
   int results_computed = 0;
   std::filesystem::path markdown;

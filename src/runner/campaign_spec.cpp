@@ -144,7 +144,23 @@ void CheckAxisResolves(const json& params, const std::string& pointer, const std
     if (at->is_object()) {
       if (!at->contains(t)) {
         if (last) return;  // a new key: the run spec's own validation judges it
-        throw SpecError(where, "axis \"" + pointer + "\" does not resolve: " + here + " has no key \"" + t + "\"");
+        // The closest key there, as the whole corrected axis.
+        std::vector<std::string> keys;
+        for (const auto& [key, value] : at->items()) keys.push_back(key);
+        const std::string best = nearest(t, keys);
+        std::string hint;
+        if (!best.empty()) {
+          // (appended piece by piece: GCC 12 reports a false -Wrestrict on a + "/" + b, bug 105329)
+          std::string fixed = walked;
+          for (std::size_t j = k; j < tokens.size(); ++j) {
+            fixed += '/';
+            fixed += escape_pointer_token(j == k ? best : tokens[j]);
+          }
+          hint = "; did you mean \"";
+          hint += fixed;
+          hint += "\"?";
+        }
+        throw SpecError(where, "axis \"" + pointer + "\" does not resolve: " + here + " has no key \"" + t + "\"" + hint);
       }
       at = &(*at)[t];
     } else if (at->is_array()) {
@@ -228,6 +244,31 @@ json parse_spec_text(const std::string& text, const std::string& source) {
       what = what.substr(colon + 2);
     throw std::invalid_argument(source + ":" + std::to_string(line) + ":" + std::to_string(column) +
                                 ": not valid JSON: " + what);
+  } catch (const json::out_of_range& e) {
+    // "[json.exception.out_of_range.406] number overflow parsing '1e400'": nlohmann gives no
+    // position, so the number is found in the text (its first occurrence outside a string).
+    const std::string what = e.what();
+    const std::size_t open = what.find("parsing '");
+    const std::size_t close = open == std::string::npos ? open : what.find('\'', open + 9);
+    std::string number = close == std::string::npos ? std::string() : what.substr(open + 9, close - open - 9);
+    std::size_t at = 0;
+    bool quoted = false;
+    for (std::size_t i = 0; !number.empty() && i < text.size(); ++i) {
+      const char c = text[i];
+      if (quoted) {
+        if (c == '\\') ++i;
+        else if (c == '"') quoted = false;
+      } else if (c == '"') {
+        quoted = true;
+      } else if (text.compare(i, number.size(), number) == 0) {
+        at = i;
+        break;
+      }
+    }
+    const auto [line, column] = LineColumn(text, at);
+    throw std::invalid_argument(source + ":" + std::to_string(line) + ":" + std::to_string(column) + ": the number " +
+                                (number.empty() ? std::string("here") : number) +
+                                " is out of range (a JSON number must fit a double, magnitude below 1.8e308)");
   }
 }
 

@@ -16,6 +16,7 @@
 #include "rundir/analysis_cache.h"
 #include "rundir/files.h"
 #include "rundir/layout.h"
+#include "rundir/manifest.h"
 
 namespace granary::runner {
 
@@ -83,6 +84,14 @@ json run_details(Store& store, const RunRow& r, int log_lines) {
             {"results", results},
             {"files", files}};
   if (r.state == "running") j["progress"] = r.progress;
+  if (r.state == "done" && fs::is_directory(r.run_dir, ec)) {
+    // Checksums only of what changed since the run was last found whole (manifest.h).
+    const rundir::Verification v = rundir::VerifyRun(r.run_dir);
+    j["integrity"] = rundir::IntegrityName(v.integrity);
+    json problems = json::array();
+    for (const auto& p : v.problems) problems.push_back({{"file", p.file}, {"what", p.what}});
+    if (!problems.empty()) j["problems"] = problems;
+  }
   // Analyses that failed on this run (a Python analysis' script that raised), from the caches
   // the last report, export or compare wrote.
   json failed = json::array();

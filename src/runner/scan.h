@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "rundir/manifest.h"
+#include "runner/campaign_db.h"
 #include "runner/slurm.h"
 #include "runner/store.h"
 
@@ -40,5 +42,17 @@ struct ScanReport {
 using QueueQuery = std::function<std::optional<std::vector<QueueEntry>>(const std::set<std::string>&, std::string*)>;
 
 ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run);
+
+// The done runs among `runs` (directory present) checked against their manifests
+// (rundir::VerifyRun at `level`), by run id; `progress(done, total)` after each, when set.
+// kSizes for status and show (a stat per file), kChecksums for scan --verify (every byte).
+std::map<std::string, rundir::Verification> check_done_runs(const std::vector<RunRow>& runs, rundir::VerifyLevel level,
+                                                            const std::function<void(int, int)>& progress = {});
+
+// What a check of a campaign found, for the CLI's lines and --json.
+struct IntegrityCounts {
+  int whole = 0, damaged = 0, not_verifiable = 0;
+};
+IntegrityCounts count_integrity(const std::map<std::string, rundir::Verification>& checks);
 
 }  // namespace granary::runner

@@ -304,6 +304,37 @@ TEST(FigureLayer, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
             "");
 }
 
+TEST(FigureLayer, PicturesOfTheChosenPoints) {
+  TempDir dir;
+  const nlohmann::json extra = {
+      {"report", {{"figures", {{{"name", "arches"}, {"kind", "pictures"}, {"only", {{"W", {10, 22}}, {"mu", 0.5}}},
+                                {"reference", "thesis fig. 3.4"}}}}}}};
+  const Campaign c = make_campaign(dir.path() / "runs", extra);
+  ReportOptions o;
+  o.out_dir = dir.path() / "report";
+  o.figures = false;
+  o.analysis.read_cache = o.analysis.write_cache = false;
+  std::vector<std::string> drawn;
+  o.draw_run = [&](const fs::path& run_dir, ReportOptions::Picture kind, const fs::path& png) {
+    drawn.push_back(run_dir.filename().string() + (kind == ReportOptions::Picture::kBed ? ":bed" : ":end") + ":" +
+                    png.filename().string());
+    write_file(png, "\x89PNG fake");
+    return std::string();
+  };
+  const ReportSummary s = write_report(c.info, c.runs, o);
+  // The figure's two points (their first replica's end), then the gallery's bed and end of all 13.
+  ASSERT_GE(drawn.size(), 2u);
+  EXPECT_EQ(drawn[0], "W10mu0.5r0:end:figure-arches-6-end.png");
+  EXPECT_EQ(drawn[1], "W22mu0.5r0:end:figure-arches-9-end.png");
+  EXPECT_EQ(drawn.size(), 2u + 2 * 13);
+  const std::string md = read_file(s.markdown);
+  EXPECT_LT(md.find("figure-arches-6-end.png"), md.find("## Gallery"));
+  EXPECT_NE(md.find("Reference: thesis fig. 3.4"), std::string::npos);
+  nlohmann::json bad = c.info.spec;
+  bad["report"]["figures"][0]["y"] = "q_count";
+  EXPECT_THROW(read_figure_specs(bad), OptionError);
+}
+
 TEST(Expectations, AgreeDisagreeAndTooFewRuns) {
   TempDir dir;
   const double q14 = q_of(14, 0), q26 = q_of(26, 0);

@@ -428,7 +428,7 @@ TEST(ReportSpec, OptionsFromCampaignSpec) {
             "/report/min_exits_before_clog: moved to /report/clogging_index/min_exits_before_clog (got 5)");
   const std::string unknown = error_of({{"regoin", "ch3"}});
   EXPECT_NE(unknown.find("/report/regoin: unknown key (known: window, clog_gap, frame_stride, max_frames, figures, flow, profile, "
-                         "region, clogging_index, avalanches, intermittency, arches, contacts, orientation, fields)"),
+                         "region, clogging_index, avalanches, intermittency, arches, contacts, orientation, fields, python)"),
             std::string::npos)
       << unknown;
 }

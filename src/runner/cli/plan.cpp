@@ -43,7 +43,9 @@ const char kPlanHelp[] =
     "  --jobs N     concurrent runs the wall-time estimate assumes (default: number of cores)\n"
     "Prints the estimated core-hours, wall time on --jobs and disk, per point and in total, and\n"
     "how they were estimated (docs/cli.md \"The estimate\"); the first plan on a machine and build\n"
-    "measures the engine's speed with granary-engine bench (seconds; cached).\n";
+    "measures the engine's speed with granary-engine bench (seconds; cached).\n"
+    "Exit: 0 planned (or the dry run shown), 2 spec or usage error (the message names the JSON\n"
+    "path, or FILE:LINE:COLUMN), 3 storage error.\n";
 
 }  // namespace
 
