@@ -14,6 +14,7 @@
 #include "analysis/engine_comparison.h"
 #include "analysis/expectations.h"
 #include "analysis/figures.h"
+#include "analysis/stats.h"
 #include "analysis/report_document.h"
 #include "analysis/system.h"
 #include "rundir/version.h"
@@ -176,6 +177,31 @@ std::optional<Section> system_section(const CampaignView& c) {
                         joined.empty() ? "(no finished run yet)" : joined});
     }
     s.blocks.push_back(t);
+  }
+  // The beds the runs started from, as the engine measured them (summary.json "bed").
+  {
+    Table t{"system-beds",
+            "The prepared beds, as the engine measured them before the outlets opened: packing fraction phi of the "
+            "full-width band from 5 d above the base to 5 d below the surface, the highest disc's top, the surface "
+            "(mean top of 1 d columns) and the simulated settling time; mean +- se over the point's runs (runs "
+            "written before engines measured phi have none)",
+            {"point", "runs", "phi", "top", "surface", "settle time"}, {}, {"point", "runs", "phi", "top", "surface", "settle_time"}};
+    bool any = false;
+    for (const Point& p : c.points) {
+      std::vector<double> phi, top, surface, settle;
+      for (const std::size_t i : p.runs) {
+        const rundir::BedInfo& b = c.used[i].summary.bed;
+        phi.push_back(b.packing_fraction.value_or(kNaN));
+        surface.push_back(b.surface.value_or(kNaN));
+        top.push_back(b.height > 0 ? b.height : kNaN);
+        settle.push_back(b.settle_time > 0 ? b.settle_time : kNaN);
+        any = any || b.packing_fraction.has_value();
+      }
+      t.rows.push_back({point_name(c, p), Cell::count(static_cast<long long>(p.runs.size())),
+                        Cell::estimate(mean_se_finite(phi), 3), Cell::estimate(mean_se_finite(top), 4),
+                        Cell::estimate(mean_se_finite(surface), 4), Cell::estimate(mean_se_finite(settle), 3)});
+    }
+    if (!t.rows.empty() && any) s.blocks.push_back(t);
   }
   s.blocks.push_back(Text{"Pictures of every point (its bed and its end) are in the [gallery](#gallery) at the end."});
   return s;

@@ -309,4 +309,40 @@ ObtainedBed ObtainBed(const RunSpec& spec, const std::string& run_dir, const Bed
   return out;
 }
 
+BedShape MeasureBed(const BedState& bed, const RunSpec& spec) {
+  const std::vector<ShapeTemplate> templates = MakeTemplates(spec);
+  const double hw = spec.silo.width / 2;
+  std::vector<double> dx, dy, dr;  // the discs
+  for (std::size_t b = 0; b < bed.x.size(); ++b) {
+    const ShapeTemplate& t = templates[static_cast<std::size_t>(bed.species[b])];
+    const double c = std::cos(bed.theta[b]), s = std::sin(bed.theta[b]);
+    for (std::size_t k = 0; k < t.r.size(); ++k) {
+      dx.push_back(bed.x[b] + c * t.ox[k] - s * t.oy[k]);
+      dy.push_back(bed.y[b] + s * t.ox[k] + c * t.oy[k]);
+      dr.push_back(t.r[k]);
+    }
+  }
+  BedShape shape;
+  const int columns = std::max(1, static_cast<int>(std::floor(spec.silo.width - 4.0)));
+  std::vector<double> column_top(static_cast<std::size_t>(columns), 0.0);
+  for (std::size_t i = 0; i < dx.size(); ++i) {
+    shape.top = std::max(shape.top, dy[i] + dr[i]);
+    const int col = static_cast<int>(std::floor(dx[i] - (-hw + 2.0)));
+    if (col >= 0 && col < columns) column_top[col] = std::max(column_top[col], dy[i] + dr[i]);
+  }
+  for (double top : column_top) shape.surface += top / columns;
+  // Area of a disc between the lines y0 < y1: the disc minus its circular segments beyond them.
+  auto segment = [](double r, double h) {  // the part of a disc of radius r beyond a chord h from its centre
+    if (h >= r) return 0.0;
+    if (h <= -r) return std::numbers::pi * r * r;
+    return r * r * std::acos(h / r) - h * std::sqrt(r * r - h * h);
+  };
+  const double y0 = 5.0, y1 = shape.surface - 5.0;
+  double area = 0.0;
+  for (std::size_t i = 0; i < dx.size(); ++i)
+    area += std::numbers::pi * dr[i] * dr[i] - segment(dr[i], dy[i] - y0) - segment(dr[i], y1 - dy[i]);
+  shape.phi = y1 > y0 ? area / (spec.silo.width * (y1 - y0)) : 0.0;
+  return shape;
+}
+
 }  // namespace granary::engine

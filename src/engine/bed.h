@@ -70,4 +70,16 @@ struct ObtainedBed {
 // otherwise prepares it and writes it atomically, holding an flock on `<file>.lock`.
 ObtainedBed ObtainBed(const RunSpec& spec, const std::string& run_dir, const BedProgress& progress);
 
+// What a settled bed looks like (summary.json's bed, and for comparing preparation procedures): its top (the highest
+// disc's, BedState::height), its surface (the mean over 1 d wide columns, 2 d from the walls,
+// of the highest disc top in the column) and the packing fraction of the full-width band
+// from 5 d above the base to 5 d below the surface (discs cut by the band count with the part
+// inside).
+struct BedShape {
+  double top = 0.0;
+  double surface = 0.0;
+  double phi = 0.0;
+};
+BedShape MeasureBed(const BedState& bed, const RunSpec& spec);
+
 }  // namespace granary::engine

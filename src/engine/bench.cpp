@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
@@ -86,15 +87,26 @@ ObtainedBed BenchBed(const BenchOptions& options, const nlohmann::json& spec, co
 }
 
 // One timed native run of the bench case in `dir` (a fresh run directory).
+double ProcessCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
 BenchResult NativeRound(const nlohmann::json& spec, const fs::path& dir, int round, int threads) {
   fs::remove_all(dir);
   rundir::WriteRunSpec(dir, spec);
   RunOptions ro;
   ro.threads = threads;
   ro.quiet = true;
+  const double cpu0 = ProcessCpuSeconds();
   RunDirectory(dir.string(), ro);
+  const double cpu = ProcessCpuSeconds() - cpu0;
   const rundir::Summary summary = rundir::ReadSummary(dir / rundir::kSummaryFile);
-  return {round, threads, summary.timing->disc_steps_per_s, summary.timing->discharge_wall_s};
+  BenchResult r{round, threads, summary.timing->disc_steps_per_s, summary.timing->discharge_wall_s};
+  // The round's disc-steps over the CPU time of the whole round (loading the bed included).
+  if (cpu > 0) r.cpu_disc_steps_per_s = summary.timing->disc_steps_per_s * summary.timing->discharge_wall_s / cpu;
+  return r;
 }
 
 }  // namespace
@@ -184,42 +196,6 @@ std::vector<OutputCostResult> RunOutputCost(const BenchOptions& options, double 
   }
   fs::remove_all(base);
   return results;
-}
-
-BedShape MeasureBed(const BedState& bed, const RunSpec& spec) {
-  const std::vector<ShapeTemplate> templates = MakeTemplates(spec);
-  const double hw = spec.silo.width / 2;
-  std::vector<double> dx, dy, dr;  // the discs
-  for (std::size_t b = 0; b < bed.x.size(); ++b) {
-    const ShapeTemplate& t = templates[static_cast<std::size_t>(bed.species[b])];
-    const double c = std::cos(bed.theta[b]), s = std::sin(bed.theta[b]);
-    for (std::size_t k = 0; k < t.r.size(); ++k) {
-      dx.push_back(bed.x[b] + c * t.ox[k] - s * t.oy[k]);
-      dy.push_back(bed.y[b] + s * t.ox[k] + c * t.oy[k]);
-      dr.push_back(t.r[k]);
-    }
-  }
-  BedShape shape;
-  const int columns = static_cast<int>(std::floor(spec.silo.width - 4.0));
-  std::vector<double> column_top(static_cast<std::size_t>(columns), 0.0);
-  for (std::size_t i = 0; i < dx.size(); ++i) {
-    shape.top = std::max(shape.top, dy[i] + dr[i]);
-    const int col = static_cast<int>(std::floor(dx[i] - (-hw + 2.0)));
-    if (col >= 0 && col < columns) column_top[col] = std::max(column_top[col], dy[i] + dr[i]);
-  }
-  for (double top : column_top) shape.surface += top / columns;
-  // Area of a disc between the lines y0 < y1: the disc minus its circular segments beyond them.
-  auto segment = [](double r, double h) {  // the part of a disc of radius r beyond a chord h from its centre
-    if (h >= r) return 0.0;
-    if (h <= -r) return std::numbers::pi * r * r;
-    return r * r * std::acos(h / r) - h * std::sqrt(r * r - h * h);
-  };
-  const double y0 = 5.0, y1 = shape.surface - 5.0;
-  double area = 0.0;
-  for (std::size_t i = 0; i < dx.size(); ++i)
-    area += std::numbers::pi * dr[i] * dr[i] - segment(dr[i], dy[i] - y0) - segment(dr[i], y1 - dy[i]);
-  shape.phi = y1 > y0 ? area / (spec.silo.width * (y1 - y0)) : 0.0;
-  return shape;
 }
 
 std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::vector<BedProcedure>& procedures) {

@@ -44,6 +44,9 @@ struct BenchResult {
   double disc_steps_per_s;
   double wall_s;
   double core_round_trip_ns = 0.0;  // measured before the round when it has two threads or more
+  // Disc-steps per second of the process' CPU time (all its threads): what a core-hour buys,
+  // also when other work shares the machine (the runner's estimate calibrates with it).
+  double cpu_disc_steps_per_s = 0.0;
 };
 
 // What a cache line costs between two cores now: two threads hand a counter back and forth
@@ -99,18 +102,6 @@ struct VersusResult {
   double lammps;              // atom-steps per second (LoopTimeRate)
   double core_round_trip_ns = 0.0;  // measured before the round when it has two threads or more (CoreRoundTripNs)
 };
-
-// What a settled bed looks like, for comparing preparation procedures: its top (the highest
-// disc's, BedState::height), its surface (the mean over 1 d wide columns, 2 d from the walls,
-// of the highest disc top in the column) and the packing fraction of the full-width band
-// from 5 d above the base to 5 d below the surface (discs cut by the band count with the part
-// inside).
-struct BedShape {
-  double top = 0.0;
-  double surface = 0.0;
-  double phi = 0.0;
-};
-BedShape MeasureBed(const BedState& bed, const RunSpec& spec);
 
 // One way of preparing the bed: its time step (in time steps) and when the next batch goes in.
 struct BedProcedure {

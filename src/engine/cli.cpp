@@ -301,7 +301,7 @@ int Bench(const std::vector<std::string>& args) {
     std::printf("threads=%d disc_steps_per_s=%.4g wall_s=%.3f speedup=%.3f", r.threads, r.disc_steps_per_s, r.wall_s,
                 r.disc_steps_per_s / base);
     if (r.threads > 1) std::printf(" core_round_trip_ns=%.0f", r.core_round_trip_ns);
-    std::printf("\n");
+    std::printf(" cpu_disc_steps_per_s=%.4g\n", r.cpu_disc_steps_per_s);
     rates[r.threads].push_back(r.disc_steps_per_s);
     speedups[r.threads].push_back(r.disc_steps_per_s / base);
     if (r.threads > 1) round_trips[r.threads].push_back(r.core_round_trip_ns);

@@ -51,7 +51,9 @@ using Clock = std::chrono::steady_clock;
 // checkpoint.bin: kCheckpointMagic, the format version, the payload's size and CRC-32, then
 // the payload (docs/engine.md "Checkpoints and continuing").
 constexpr char kCheckpointMagic[] = "GRANARY-CHECKPOINT";
-constexpr std::uint32_t kCheckpointVersion = 4;  // 4: versioned header with a checksum; World snapshot
+// 5: the bed's packing fraction and surface after its height; 4 (without them) still read.
+constexpr std::uint32_t kCheckpointVersion = 5;
+constexpr std::uint32_t kOldestCheckpointVersion = 4;
 constexpr char kCheckpointFile[] = "checkpoint.bin";
 constexpr char kPreviousCheckpointFile[] = "checkpoint.prev.bin";
 
@@ -230,9 +232,12 @@ class Discharge {
   std::string bed_file_;
   bool bed_prepared_here_ = false;
   double bed_height_ = 0, bed_settle_time_ = 0, bed_wall_s_ = 0;
+  double bed_phi_ = std::numeric_limits<double>::quiet_NaN();  // NaN: continued from a checkpoint without them
+  double bed_surface_ = std::numeric_limits<double>::quiet_NaN();
   std::string bed_refused_;  // a bad cached bed file refused (and prepared again) in this session
   double discharge_wall_before_ = 0;  // wall time of earlier sessions
   bool continued_ = false;
+  std::string extended_from_;  // the run id whose checkpoint this run continued with a larger limit
   std::vector<std::string> refused_checkpoints_;  // why, for summary.json
   // Outputs.
   rundir::EventWriter events_;
@@ -306,6 +311,10 @@ void Discharge::PlaceBed() {
   bed_settle_time_ = ob.bed.settle_time;
   bed_wall_s_ = ob.wall_s;
   bed_refused_ = ob.refused;
+  // A bed lower than 10 d has no band to measure its packing fraction in (MeasureBed).
+  const BedShape shape = MeasureBed(ob.bed, spec_);
+  if (shape.phi > 0) bed_phi_ = shape.phi;
+  bed_surface_ = shape.surface;
   BuildWorld(ob.bed.species);
   World& w = *world_;
   for (int b = 0; b < w.body_count(); ++b)
@@ -373,6 +382,8 @@ void Discharge::WriteCheckpoint() {
   o.Put(bed_height_);
   o.Put(bed_settle_time_);
   o.Put(bed_wall_s_);
+  o.Put(bed_phi_);
+  o.Put(bed_surface_);
   o.Put(discharge_wall_before_ + Seconds(session_start_));
   o.PutStr(rng_.Save());
   o.PutVec(w.tmpl);
@@ -426,9 +437,9 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
     throw CheckpointError(name + " is not a granary checkpoint");
   }
   const auto version = header.Get<std::uint32_t>();
-  if (version != kCheckpointVersion)
-    throw CheckpointError(name + " has format version " + std::to_string(version) + "; this engine reads version " +
-                          std::to_string(kCheckpointVersion));
+  if (version < kOldestCheckpointVersion || version > kCheckpointVersion)
+    throw CheckpointError(name + " has format version " + std::to_string(version) + "; this engine reads versions " +
+                          std::to_string(kOldestCheckpointVersion) + " to " + std::to_string(kCheckpointVersion));
   const auto size = header.Get<std::uint64_t>();
   const auto crc = header.Get<std::uint32_t>();
   const std::string payload = header.Rest();
@@ -441,8 +452,15 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
     throw CheckpointError(name + msg);
   }
   In in(payload, name);
-  if (in.GetStr() != spec_.to_json().dump())
-    throw std::runtime_error("checkpoint " + file.string() + " belongs to a different run.json; remove it to start over");
+  const std::string saved_spec = in.GetStr();
+  std::string extended_from;
+  if (saved_spec != spec_.to_json().dump()) {
+    // A finished run planned again with a larger limit (granary::extends) continues from here.
+    const nlohmann::json saved = nlohmann::json::parse(saved_spec, nullptr, false);
+    if (!granary::extends(saved, spec_.to_json()))
+      throw std::runtime_error("checkpoint " + file.string() + " belongs to a different run.json; remove it to start over");
+    extended_from = saved.value("run_id", std::string("?"));
+  }
   const auto step = in.Get<std::int64_t>();
   const auto last_exit_step = in.Get<std::int64_t>();
   const auto disc_steps = in.Get<std::int64_t>();
@@ -452,6 +470,8 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   const std::string bed_file = in.GetStr();
   const bool bed_prepared_here = in.Get<std::uint8_t>() != 0;
   const double bed_height = in.Get<double>(), bed_settle_time = in.Get<double>(), bed_wall_s = in.Get<double>();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double bed_phi = version >= 5 ? in.Get<double>() : nan, bed_surface = version >= 5 ? in.Get<double>() : nan;
   const double discharge_wall_before = in.Get<double>();
   const std::string rng = in.GetStr();
   WorldSnapshot w;
@@ -487,6 +507,8 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
       throw CheckpointError(name + " expects " + std::to_string(unclogs_offset) + " bytes of " + rundir::kUnclogsFile +
                             ", the file has " + std::to_string(have));
   }
+  if (step > std::llround(spec_.discharge.max_time / spec_.time_step))
+    throw CheckpointError(name + " is at step " + std::to_string(step) + ", past this run's max_time");
   // The outputs must still hold what the checkpoint saw (truncating a shorter file would pad it).
   const bool gz = spec_.output.compress;
   const char* outputs[3] = {rundir::kEventsFile, gz ? rundir::kFramesGzFile : rundir::kFramesFile,
@@ -517,6 +539,8 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   bed_height_ = bed_height;
   bed_settle_time_ = bed_settle_time;
   bed_wall_s_ = bed_wall_s;
+  bed_phi_ = bed_phi;
+  bed_surface_ = bed_surface;
   discharge_wall_before_ = discharge_wall_before;
   rng_.Load(rng);
   falling_ = falling;
@@ -536,6 +560,7 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   if (frame_every_ > 0 && spec_.output.contact_forces)
     contacts_ = rundir::ContactWriter::ContinueAt(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), offsets[2], gz);
   continued_ = true;
+  extended_from_ = extended_from;
 }
 
 // The newest usable checkpoint, else the one before; a refused one is kept aside as
@@ -861,13 +886,16 @@ void Discharge::WriteSummary(const std::string& end_reason) {
     s.unclogs = unclogged_;
     if (spec_.discharge.mode == DischargeMode::kRemove) s.unclog_removed = unclog_removed_;
   }
-  s.bed = {bed_file_, bed_height_, bed_prepared_here_, bed_settle_time_, bed_refused_};
+  s.bed = {bed_file_, bed_height_, bed_prepared_here_, bed_settle_time_, bed_refused_, {}, {}};
+  if (std::isfinite(bed_phi_)) s.bed.packing_fraction = bed_phi_;
+  if (std::isfinite(bed_surface_)) s.bed.surface = bed_surface_;
   s.timing = rundir::Timing{bed_wall_s_ + discharge_wall, bed_wall_s_, discharge_wall,
                             discharge_wall > 0 ? static_cast<double>(disc_steps_) / discharge_wall : 0.0,
                             omp_get_max_threads(),
                             discharge_wall > 0 ? static_cast<double>(w.disc_count()) * static_cast<double>(step_) / discharge_wall
                                                : 0.0};
   s.continued_from_checkpoint = continued_;
+  s.extended_from = extended_from_;
   s.refused_checkpoints = refused_checkpoints_;
   rundir::WriteSummary(dir_, s);
 }

@@ -1034,7 +1034,7 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   // Reinjection is y-periodicity here, whatever the spec asks (docs/liggghts.md).
   if (spec.discharge.mode == DischargeMode::kReinject) summary.reinject_position = "periodic";
   summary.bed = {state.value("bed_file", ""), state.value("bed_height", 0.0), state.value("bed_prepared_here", false),
-                 state.value("settle_time", 0.0), state.value("bed_refused", std::string())};
+                 state.value("settle_time", 0.0), state.value("bed_refused", std::string()), {}, {}};
   const double bed_wall = state.value("bed_wall_s", 0.0);
   summary.timing = rundir::Timing{
       bed_wall + discharge_wall, bed_wall, discharge_wall,

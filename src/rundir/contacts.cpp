@@ -29,23 +29,34 @@ ContactWriter ContactWriter::ContinueAt(const std::filesystem::path& file, std::
   return w;
 }
 
+namespace {
+
+// The block of one contact frame, as ContactWriter::Write writes it and ContactBytes counts it.
+void WriteContactBlock(std::FILE* f, const ContactFrame& frame, std::string& t) {
+  detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ENTRIES", frame.contacts.size(), frame.box);
+  std::fputs("ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n", f);
+  // "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n" per contact
+  std::size_t rows = 0;
+  for (const ContactRow& c : frame.contacts) {
+    detail::AppendInt(t, c.body_i);
+    t += ' ';
+    detail::AppendInt(t, c.body_j);
+    for (const double v : {c.xi, c.yi, c.xj, c.yj, c.cx, c.cy, c.fx, c.fy}) t += ' ', detail::AppendG10(t, v);
+    t += '\n';
+    if (++rows % detail::kRowsPerWrite == 0) detail::Drain(t, f);
+  }
+  detail::Drain(t, f);
+}
+
+}  // namespace
+
 void ContactWriter::Write(const ContactFrame& frame) {
-  WriteBlock(file_.get(), gzip_, [&](std::FILE* f) {
-    detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ENTRIES", frame.contacts.size(), frame.box);
-    std::fputs("ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n", f);
-    // "%lld %lld %.10g %.10g %.10g %.10g %.10g %.10g %.10g %.10g\n" per contact
-    std::string& t = text_;
-    std::size_t rows = 0;
-    for (const ContactRow& c : frame.contacts) {
-      detail::AppendInt(t, c.body_i);
-      t += ' ';
-      detail::AppendInt(t, c.body_j);
-      for (const double v : {c.xi, c.yi, c.xj, c.yj, c.cx, c.cy, c.fx, c.fy}) t += ' ', detail::AppendG10(t, v);
-      t += '\n';
-      if (++rows % detail::kRowsPerWrite == 0) detail::Drain(t, f);
-    }
-    detail::Drain(t, f);
-  });
+  WriteBlock(file_.get(), gzip_, [&](std::FILE* f) { WriteContactBlock(f, frame, text_); });
+}
+
+std::int64_t ContactBytes(const ContactFrame& frame, bool gzip) {
+  std::string text;
+  return BlockBytes(gzip, [&](std::FILE* f) { WriteContactBlock(f, frame, text); });
 }
 
 ContactReader::ContactReader(const std::filesystem::path& file)

@@ -51,6 +51,9 @@ class ContactWriter {
   bool gzip_ = false;
 };
 
+// The bytes ContactWriter::Write adds to the file for `frame` (gzipped or not); nothing is written.
+std::int64_t ContactBytes(const ContactFrame& frame, bool gzip);
+
 // Streams a contacts.dump; columns found by name (all ten required). Malformed input throws
 // ReadError with file:line; a frame cut short at the end of the file ends the stream.
 class ContactReader {

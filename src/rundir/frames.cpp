@@ -84,29 +84,40 @@ FrameWriter FrameWriter::ContinueAt(const std::filesystem::path& file, std::int6
   return w;
 }
 
+namespace {
+
+// The block of one frame, as FrameWriter::Write writes it and FrameBytes counts it.
+void WriteFrameBlock(std::FILE* f, const Frame& frame, std::string& t) {
+  detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ATOMS", frame.discs.size(), frame.box);
+  std::fputs("ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n", f);
+  // "%lld %lld %d %.10g %.10g 0 %.10g %.10g %.10g %.10g 0 %.10g\n" per disc
+  std::size_t rows = 0;
+  for (const Disc& d : frame.discs) {
+    detail::AppendInt(t, d.id);
+    t += ' ';
+    detail::AppendInt(t, d.mol);
+    t += ' ';
+    detail::AppendInt(t, d.type);
+    for (const double v : {d.x, d.y}) t += ' ', detail::AppendG10(t, v);
+    t += " 0";
+    for (const double v : {d.radius, d.mass, d.vx, d.vy}) t += ' ', detail::AppendG10(t, v);
+    t += " 0 ";
+    detail::AppendG10(t, d.omega);
+    t += '\n';
+    if (++rows % detail::kRowsPerWrite == 0) detail::Drain(t, f);
+  }
+  detail::Drain(t, f);
+}
+
+}  // namespace
+
 void FrameWriter::Write(const Frame& frame) {
-  WriteBlock(file_.get(), gzip_, [&](std::FILE* f) {
-    detail::WriteDumpHeader(f, frame.timestep, frame.time, "NUMBER OF ATOMS", frame.discs.size(), frame.box);
-    std::fputs("ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n", f);
-    // "%lld %lld %d %.10g %.10g 0 %.10g %.10g %.10g %.10g 0 %.10g\n" per disc
-    std::string& t = text_;
-    std::size_t rows = 0;
-    for (const Disc& d : frame.discs) {
-      detail::AppendInt(t, d.id);
-      t += ' ';
-      detail::AppendInt(t, d.mol);
-      t += ' ';
-      detail::AppendInt(t, d.type);
-      for (const double v : {d.x, d.y}) t += ' ', detail::AppendG10(t, v);
-      t += " 0";
-      for (const double v : {d.radius, d.mass, d.vx, d.vy}) t += ' ', detail::AppendG10(t, v);
-      t += " 0 ";
-      detail::AppendG10(t, d.omega);
-      t += '\n';
-      if (++rows % detail::kRowsPerWrite == 0) detail::Drain(t, f);
-    }
-    detail::Drain(t, f);
-  });
+  WriteBlock(file_.get(), gzip_, [&](std::FILE* f) { WriteFrameBlock(f, frame, text_); });
+}
+
+std::int64_t FrameBytes(const Frame& frame, bool gzip) {
+  std::string text;
+  return BlockBytes(gzip, [&](std::FILE* f) { WriteFrameBlock(f, frame, text); });
 }
 
 // ---- reader ------------------------------------------------------------------------------

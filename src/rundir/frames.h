@@ -68,6 +68,9 @@ class FrameWriter {
   bool gzip_ = false;
 };
 
+// The bytes FrameWriter::Write adds to the file for `frame` (gzipped or not); nothing is written.
+std::int64_t FrameBytes(const Frame& frame, bool gzip);
+
 // Streams a frames.dump (or a frames.dump.gz, told by its magic bytes). Required columns: id mol x y; optional: type radius mass vx vy
 // omegaz (missing radius = 0.5, missing mass = density pi r^2, missing velocities = 0).
 // Malformed input throws ReadError with file:line.

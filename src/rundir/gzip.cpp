@@ -40,4 +40,17 @@ void WriteBlock(std::FILE* out, bool gzip, const std::function<void(std::FILE*)>
   if (std::fwrite(gz.data(), 1, gz.size(), out) != gz.size()) throw std::runtime_error("cannot write a compressed block");
 }
 
+std::int64_t BlockBytes(bool gzip, const std::function<void(std::FILE*)>& write) {
+  char* buf = nullptr;
+  std::size_t len = 0;
+  std::FILE* mem = open_memstream(&buf, &len);
+  if (!mem) throw std::runtime_error("open_memstream failed");
+  write(mem);
+  std::fclose(mem);
+  const std::int64_t bytes =
+      gzip ? static_cast<std::int64_t>(GzipMember(std::string_view(buf, len)).size()) : static_cast<std::int64_t>(len);
+  std::free(buf);
+  return bytes;
+}
+
 }  // namespace granary::rundir

@@ -4,6 +4,7 @@
 // truncates frames.dump.gz at a byte offset as it does frames.dump.
 #pragma once
 
+#include <cstdint>
 #include <cstdio>
 #include <functional>
 #include <string>
@@ -16,5 +17,9 @@ std::string GzipMember(std::string_view text, int level = 6);
 // Runs `write` on `out`, or, when `gzip`, on a memory stream whose text then goes to `out` as
 // one gzip member: the writers format a block once, compressed or not.
 void WriteBlock(std::FILE* out, bool gzip, const std::function<void(std::FILE*)>& write);
+
+// The bytes WriteBlock would write for `write` (nothing is written anywhere): what a frame
+// costs on disk, for the runner's estimate of a campaign's disk.
+std::int64_t BlockBytes(bool gzip, const std::function<void(std::FILE*)>& write);
 
 }  // namespace granary::rundir

@@ -952,4 +952,28 @@ json RunSpec::bed_key() const {
   return key;
 }
 
+const std::vector<std::string>& extendable_keys() {
+  static const std::vector<std::string> keys = {"/discharge/max_time"};
+  return keys;
+}
+
+bool extends(const nlohmann::json& from, const nlohmann::json& to) {
+  if (!from.is_object() || !to.is_object()) return false;
+  nlohmann::json a = from, b = to;
+  bool raised = false;
+  for (const std::string& key : extendable_keys()) {
+    const nlohmann::json::json_pointer p(key);
+    if (!a.contains(p) || !b.contains(p) || !a.at(p).is_number() || !b.at(p).is_number()) return false;
+    const double old_value = a.at(p).get<double>(), new_value = b.at(p).get<double>();
+    if (new_value < old_value) return false;
+    raised = raised || new_value > old_value;
+    b[p] = a.at(p);
+  }
+  for (nlohmann::json* j : {&a, &b}) {
+    j->erase("run_id");
+    if (j->contains("bed") && (*j)["bed"].is_object()) (*j)["bed"].erase("cache_file");
+  }
+  return raised && a == b;
+}
+
 }  // namespace granary

@@ -192,6 +192,18 @@ void validate_for_lammps(const RunSpec& spec);
 
 // Every key of a run spec with its type, default, range and meaning: what from_json accepts
 // and checks, and what `campaign schema` tells editors (spec_table.h).
+// The keys a finished run can be extended in (docs/run-spec.md "Extending a run"): a run
+// planned with a larger value is the same run continued further, so the native engine
+// continues it from the old run's last checkpoint to the new limit, with the same bits as a
+// run planned with the new limit from the start. Each is a limit a run ends at; one entry here
+// is all a new limit needs.
+const std::vector<std::string>& extendable_keys();
+
+// Is the run spec `to` the run spec `from` continued further: equal except their run ids, bed
+// cache files and the extendable keys, each of which `to` has at least as large (and one
+// larger)? Both are resolved run specs (RunSpec::to_json()).
+bool extends(const nlohmann::json& from, const nlohmann::json& to);
+
 const SpecTable& run_spec_table();
 
 // The first character of a name that a name must not hold, described ("U+2028 LINE

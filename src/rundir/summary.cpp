@@ -30,6 +30,8 @@ nlohmann::json Summary::ToJson() const {
   j["bed"] = {{"file", bed.file}, {"height", bed.height}, {"prepared_here", bed.prepared_here},
               {"settle_time", bed.settle_time}};
   if (!bed.refused.empty()) j["bed"]["refused"] = bed.refused;
+  if (bed.packing_fraction) j["bed"]["packing_fraction"] = *bed.packing_fraction;
+  if (bed.surface) j["bed"]["surface"] = *bed.surface;
   if (timing)
     j["timing"] = {{"wall_s", timing->wall_s},
                    {"bed_wall_s", timing->bed_wall_s},
@@ -38,6 +40,7 @@ nlohmann::json Summary::ToJson() const {
                    {"threads", timing->threads}};
   if (timing && timing->bed_disc_steps_per_s > 0) j["timing"]["bed_disc_steps_per_s"] = timing->bed_disc_steps_per_s;
   j["continued_from_checkpoint"] = continued_from_checkpoint;
+  if (!extended_from.empty()) j["extended_from"] = extended_from;
   if (!refused_checkpoints.empty()) j["refused_checkpoints"] = refused_checkpoints;
   if (max_out_of_plane) j["max_out_of_plane"] = *max_out_of_plane;
   if (!tangential_cap.empty()) j["tangential_cap"] = tangential_cap;
@@ -74,6 +77,9 @@ Summary Summary::FromJson(const nlohmann::json& j, const std::string& where) {
       s.bed.prepared_here = b.value("prepared_here", false);
       s.bed.settle_time = b.value("settle_time", 0.0);
       s.bed.refused = b.value("refused", std::string());
+      if (b.contains("packing_fraction") && b.at("packing_fraction").is_number())
+        s.bed.packing_fraction = b.at("packing_fraction").get<double>();
+      if (b.contains("surface") && b.at("surface").is_number()) s.bed.surface = b.at("surface").get<double>();
     }
     if (j.contains("timing") && j.at("timing").is_object()) {
       const nlohmann::json& t = j.at("timing");
@@ -87,6 +93,7 @@ Summary Summary::FromJson(const nlohmann::json& j, const std::string& where) {
       s.timing = timing;
     }
     s.continued_from_checkpoint = j.value("continued_from_checkpoint", false);
+    s.extended_from = j.value("extended_from", std::string());
     s.refused_checkpoints = j.value("refused_checkpoints", std::vector<std::string>{});
     if (j.contains("max_out_of_plane")) s.max_out_of_plane = j.at("max_out_of_plane").get<double>();
     s.tangential_cap = j.value("tangential_cap", "");

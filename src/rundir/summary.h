@@ -18,6 +18,10 @@ struct BedInfo {
   bool prepared_here = false;     // false: taken from the cache
   double settle_time = 0.0;
   std::string refused;            // a cached bed file refused (corrupt, old format) and prepared again, or ""
+  // The settled bed's packing fraction (the full-width band from 5 d above the base to 5 d
+  // below the surface) and surface (mean top of 1 d columns); absent in older runs.
+  std::optional<double> packing_fraction;
+  std::optional<double> surface;
 };
 
 struct Timing {
@@ -56,6 +60,8 @@ struct Summary {
   BedInfo bed;
   std::optional<Timing> timing;
   bool continued_from_checkpoint = false;
+  // The run whose checkpoint this one continued to a larger limit (granary::extends), or "".
+  std::string extended_from;
   std::vector<std::string> refused_checkpoints;  // why checkpoints were refused (corrupt, ...), if any
   // LIGGGHTS only (docs/liggghts.md): the conventions it applied whatever the spec asked.
   std::optional<double> max_out_of_plane;

@@ -3,6 +3,8 @@
 
 #include <cmath>
 #include <limits>
+#include "rundir/files.h"
+#include "rundir/layout.h"
 #include "rundir/version.h"
 
 #include <signal.h>
@@ -16,6 +18,7 @@
 
 namespace granary::runner {
 
+namespace fs = std::filesystem;
 using nlohmann::json;
 
 double now_seconds() {
@@ -87,6 +90,42 @@ PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vec
   for (const auto& [id, state] : existing) {
     if (!ids.count(id) && state != "retired") ++sum.retired;
   }
+  // Extensions: an old native run, not running, whose spec the new one extends.
+  {
+    std::map<std::string, std::pair<std::string, json>> candidates;  // spec without the limits -> (id, dir)
+    auto without_limits = [](json j) {
+      j.erase("run_id");
+      if (j.contains("bed") && j["bed"].is_object()) j["bed"].erase("cache_file");
+      for (const std::string& key : extendable_keys()) {
+        const json::json_pointer p(key);
+        if (j.contains(p)) j[p] = nullptr;
+      }
+      return j.dump();
+    };
+    Statement q = store.prepare("SELECT run_id, params, run_dir, state FROM runs WHERE engine = 'native' ORDER BY seq");
+    while (q.step()) {
+      if (ids.count(q.text(0)) || q.text(3) == "running") continue;
+      std::error_code ec;
+      if (!fs::is_directory(q.text(2), ec)) continue;  // nothing to continue from (an earlier extension moved it)
+      json params = json::parse(q.text(1));
+      std::string key = without_limits(params);
+      candidates[std::move(key)] = {q.text(0), {{"params", std::move(params)}, {"dir", q.text(2)}}};
+    }
+    for (const auto& r : runs) {
+      if (existing.count(r.run_id) || r.engine != "native" || candidates.empty()) continue;
+      const json params = r.params();
+      const auto it = candidates.find(without_limits(params));
+      if (it == candidates.end() || !extends(it->second.second["params"], params)) continue;
+      const PlanSummary::Extension e{it->second.first, r.run_id};
+      const std::string old_dir = it->second.second["dir"].get<std::string>();
+      if (const std::string holder = RunDirectoryHolder(old_dir); !holder.empty()) {
+        sum.not_extended.push_back({e, "its directory is locked by " + holder});
+      } else {
+        sum.extended.push_back(e);
+      }
+      candidates.erase(it);
+    }
+  }
   if (dry_run) return sum;  // the transaction rolls back
 
   Statement campaign = store.prepare(
@@ -127,7 +166,46 @@ PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vec
       retire.bind(1, id).run();
     }
   }
-  tx.commit();
+  // An extended run's directory moves to the run that continues it; the old run, left without
+  // one, would start over if a later plan brought it back.
+  Statement forget = store.prepare(
+      "UPDATE runs SET retired_from = 'planned', attempts = 0, started_at = NULL, ended_at = NULL, wall_s = NULL, "
+      "end_reason = NULL, failure = NULL, progress = NULL, summary = NULL WHERE run_id = ?1 AND state = 'retired'");
+  Statement forget_results = store.prepare("DELETE FROM results WHERE run_id = ?1");
+  std::vector<std::pair<fs::path, fs::path>> moved;
+  try {
+    for (auto it = sum.extended.begin(); it != sum.extended.end();) {
+      const fs::path to = fs::path(runs_root) / it->to;
+      Statement dir = store.prepare("SELECT run_dir FROM runs WHERE run_id = ?1");
+      dir.bind(1, it->from);
+      const fs::path old_dir = dir.step() ? fs::path(dir.text(0)) : fs::path(runs_root) / it->from;
+      std::error_code ec;
+      if (fs::exists(to, ec)) {
+        sum.not_extended.push_back({*it, "the new run's directory " + to.string() + " exists already"});
+        it = sum.extended.erase(it);
+        continue;
+      }
+      fs::rename(old_dir, to, ec);
+      if (ec) {
+        sum.not_extended.push_back({*it, "cannot move " + old_dir.string() + ": " + ec.message()});
+        it = sum.extended.erase(it);
+        continue;
+      }
+      moved.emplace_back(old_dir, to);
+      // Not complete for the new spec: the runner must run it, not ingest the old summary.
+      fs::remove(to / rundir::kDoneFile, ec);
+      forget.reset();
+      forget.bind(1, it->from).run();
+      forget_results.reset();
+      forget_results.bind(1, it->from).run();
+      ++it;
+    }
+    tx.commit();
+  } catch (...) {
+    std::error_code ec;
+    for (auto m = moved.rbegin(); m != moved.rend(); ++m) fs::rename(m->second, m->first, ec);
+    throw;
+  }
   return sum;
 }
 
@@ -198,6 +276,16 @@ std::map<std::string, json> load_results(Store& store, const std::string& run_id
   q.bind(1, run_id);
   std::map<std::string, json> out;
   while (q.step()) out[q.text(0)] = q.is_null(1) ? json(q.text(2)) : json(q.real(1));
+  return out;
+}
+
+std::vector<std::pair<json, json>> load_finished(Store& store) {
+  Statement q = store.prepare("SELECT params, summary FROM runs WHERE summary IS NOT NULL AND end_reason IS NOT NULL ORDER BY seq");
+  std::vector<std::pair<json, json>> out;
+  while (q.step()) {
+    json summary = json::parse(q.text(1), nullptr, false);
+    if (summary.is_object() && summary.contains("timing")) out.emplace_back(json::parse(q.text(0)), std::move(summary));
+  }
   return out;
 }
 

@@ -26,10 +26,21 @@ struct PlanSummary {
   int points = 0;
   std::vector<std::string> axes;
   std::map<std::string, std::vector<nlohmann::json>> axis_values;  // distinct values per axis, in order
+  // New runs that continue an old one (extends(): only an extendable key raised): the old
+  // run's directory becomes the new run's, and its engine continues from the checkpoint.
+  struct Extension {
+    std::string from;  // the old run (retired)
+    std::string to;    // the new run (planned, in the old run's directory)
+  };
+  std::vector<Extension> extended;
+  // Extensions found but not made: the old directory is locked by an engine, or missing.
+  std::vector<std::pair<Extension, std::string>> not_extended;
 };
 
 // Stores the campaign and its runs. `runs_root` is where run directories go. With
-// dry_run, computes the summary and changes nothing.
+// dry_run, computes the summary and changes nothing. A new run that extends a native run of
+// the campaign that is not running (its directory there, unlocked) takes over that run's
+// directory, without its DONE, and the old run is retired to start over if it ever comes back.
 PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vector<PlannedRun>& runs,
                           const std::string& runs_root, bool dry_run);
 
@@ -83,6 +94,10 @@ std::vector<RunRow> load_runs(Store& store, bool with_params = true);
 
 // The scalar results of one run (summary.json ingested by record_done): key -> number or text.
 std::map<std::string, nlohmann::json> load_results(Store& store, const std::string& run_id);
+
+// (resolved run spec, summary.json) of every done run with a summary, retired ones too: what
+// the estimate learns the machine's speed from.
+std::vector<std::pair<nlohmann::json, nlohmann::json>> load_finished(Store& store);
 
 // The runs whose id starts with `prefix` (all of them for "").
 std::vector<RunRow> find_runs(Store& store, const std::string& prefix, bool with_params = true);

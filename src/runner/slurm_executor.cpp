@@ -179,6 +179,12 @@ std::vector<Prepared> PlanArrays(const std::vector<Launch>& launches, const Slur
     job.engine = engine;
     job.time_limit = s.time_limit;
     job.options = o;
+    if (o.time.empty() && s.time_limit <= 0) {
+      double longest = 0;
+      for (const auto& [run_id, index] : p.array.runs)
+        if (const auto it = s.estimate_s.find(run_id); it != s.estimate_s.end()) longest = std::max(longest, it->second);
+      if (longest > 0) job.options.time = slurm_time(with_time_margin(longest));
+    }
     p.script = batch_script(job);
   };
   for (auto& [dir, runs] : again) {

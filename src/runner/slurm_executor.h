@@ -8,6 +8,7 @@
 // back into it as an index list. Jobs outlive the runner; a new runner attach()es to them.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -25,7 +26,14 @@ struct SlurmSettings {
   std::string campaign;     // in directory and job names
   double time_limit = 0;    // per run, seconds from its task's start; 0 = none
   int max_array_size = 0;   // 0 = the cluster's, from `scontrol show config`
+  // Estimated wall seconds of each run on its task (estimate.h). Without options.time and
+  // time_limit, an array's --time is its longest run's estimate with kTimeMargin.
+  std::map<std::string, double> estimate_s;
 };
+
+// --time from an estimate: twice the estimate (estimates aim at a factor of 2) plus ten
+// minutes for a slow start, a shared file system, the checkpoint at the end.
+inline double with_time_margin(double estimate_s) { return 2.0 * estimate_s + 600.0; }
 
 // MaxArraySize from `scontrol show config`; throws std::runtime_error with scontrol's message.
 int query_max_array_size();

@@ -11,8 +11,11 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "runner/calibration.h"
+#include "runner/cli/run.h"
 #include "runner/store.h"
 #ifdef GRANARY_HAVE_ANALYSIS
 #include "analysis/fields_analysis.h"
@@ -27,14 +30,20 @@ using nlohmann::json;
 namespace {
 
 const char kPlanHelp[] =
-    "usage: campaign plan SPEC [--db FILE] [--dry-run] [--json] [--max-runs N]\n"
+    "usage: campaign plan SPEC [--db FILE] [--dry-run] [--json] [--max-runs N] [--jobs N]\n"
     "Expand the campaign spec SPEC into runs and store them in the database (default granary.db).\n"
     "Planning the same spec again changes nothing; runs no longer in an edited spec are retired\n"
-    "(their results are kept), new ones are added.\n"
+    "(their results are kept), new ones are added. A raised /discharge/max_time extends the\n"
+    "campaign's runs: each new run takes over its old run's directory and continues from its\n"
+    "last checkpoint (the plan lists them).\n"
     "  --db FILE    database (created if missing); run directories go to <db dir>/runs/<run id>/\n"
     "  --dry-run    validate and show what would change, store nothing\n"
     "  --json       print the summary as JSON\n"
     "  --max-runs N refuse a sweep of more than N runs (default 100000), before expanding it\n"
+    "  --jobs N     concurrent runs the wall-time estimate assumes (default: number of cores)\n"
+    "Prints the estimated core-hours, wall time on --jobs and disk, per point and in total, and\n"
+    "how they were estimated (docs/cli.md \"The estimate\"); the first plan on a machine and build\n"
+    "measures the engine's speed with granary-engine bench (seconds; cached).\n"
     "Exit: 0 planned (or the dry run shown), 2 spec or usage error (the message names the JSON\n"
     "path, or FILE:LINE:COLUMN), 3 storage error.\n";
 
@@ -62,7 +71,7 @@ std::uint64_t MaxRuns(const Args& a) {
   return std::stoull(v);
 }
 PlanSummary PlanInto(const json& given, const std::string& spec_path, const std::string& db, bool dry_run,
-                     std::uint64_t max_runs, CampaignSpec& spec) {
+                     std::uint64_t max_runs, CampaignSpec& spec, std::optional<CampaignEstimate>* estimate, int jobs) {
   json j = given;
 #ifdef GRANARY_HAVE_ANALYSIS
   // Coarse-grained stress fields need contact frames: the runs write them.
@@ -71,6 +80,9 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
   } catch (const std::invalid_argument& e) {
     throw UsageError(spec_path + ": " + e.what());
   }
+  if (j != given && estimate)
+    std::cerr << spec_path << ": /report/fields asks for stress maps or force chains: the runs also write contact "
+              << "frames (/base/output/contact_forces: true; the disk estimate counts them)\n";
 #endif
   try {
     spec = CampaignSpec::from_json(j);
@@ -99,8 +111,48 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
     if (ec) throw UsageError("campaign plan: cannot make the directory " + DbDir(db).string() + " for --db " + db + ": " + ec.message());
   }
   Store store(dry_run && !fs::exists(db) ? std::string(":memory:") : db);
-  return plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
+  PlanSummary s = plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
+  if (estimate) {
+    *estimate = estimate_runs(runs, &store, ExeDir(), jobs, true, [](const std::string& line) {
+      std::cerr << line << std::endl;
+    });
+  }
+  return s;
 }
+
+namespace {
+
+// The estimate under the plan: totals, then one line per point.
+void PrintEstimate(std::ostream& out, const CampaignEstimate& e) {
+  const bool timed = e.calibration.valid();
+  out << "estimate: " << (timed ? core_hours_text(e.core_s_low, e.core_s_high) : std::string("core-hours unknown"));
+  if (timed) {
+    out << ", wall " << Duration(e.wall_s_low);
+    if (e.wall_s_high > 1.05 * e.wall_s_low) out << "-" << Duration(e.wall_s_high);
+    out << " on " << e.jobs << (e.jobs == 1 ? " job" : " jobs");
+  }
+  out << ", disk " << bytes_text(e.bytes_low, e.bytes_high) << "\n";
+  out << "  how: " << e.method << "\n";
+  out << "  " << std::left << std::setw(44) << "point" << std::right << std::setw(6) << "runs" << "  " << std::left
+      << std::setw(24) << "core-hours" << "disk\n";
+  for (const PointEstimate& p : e.points) {
+    std::string label = CompactPoint(p.point);
+    if (label.empty()) label = "(base)";
+    if (e.points.size() > 1 && p.engine != "native") label += " [" + p.engine + "]";
+    out << "  " << std::left << std::setw(44) << label << std::right << std::setw(6) << p.runs << "  " << std::left
+        << std::setw(24) << (timed ? core_hours_text(p.core_s_low, p.core_s_high) : std::string("?"))
+        << bytes_text(p.bytes_low, p.bytes_high) << (p.open_end ? "  (ends at a clog or discharge: range)" : "") << "\n";
+  }
+  out << std::right;
+}
+
+json Extensions(const std::vector<PlanSummary::Extension>& list) {
+  json out = json::array();
+  for (const auto& e : list) out.push_back({{"from", e.from}, {"to", e.to}});
+  return out;
+}
+
+}  // namespace
 
 void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s, bool dry_run) {
   out << "campaign " << spec.name << (dry_run ? " (dry run: nothing stored)" : "") << "\n";
@@ -122,6 +174,13 @@ void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s
   }
   out << "  added " << s.added << ", unchanged " << s.unchanged << ", revived " << s.revived << ", retired "
       << s.retired << "\n";
+  if (!s.extended.empty()) {
+    out << "  " << (dry_run ? "would extend " : "extended ") << s.extended.size()
+        << " run(s): each new run continues the old one from its last checkpoint (old -> new):\n";
+    for (const auto& e : s.extended) out << "    " << e.from << " -> " << e.to << "\n";
+  }
+  for (const auto& [e, why] : s.not_extended)
+    out << "  not extended: " << e.to << " runs from the start instead of continuing " << e.from << ": " << why << "\n";
 }
 
 namespace {
@@ -131,19 +190,23 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   if (a.positional.size() != 1) throw UsageError("campaign plan: needs exactly one SPEC file (see campaign plan --help)");
   const std::string spec_path = a.positional[0];
   CampaignSpec spec;
-  const PlanSummary s =
-      PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.has("dry-run"), MaxRuns(a), spec);
+  std::optional<CampaignEstimate> estimate;
+  const int jobs = a.integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
+  const PlanSummary s = PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.has("dry-run"), MaxRuns(a), spec,
+                                 &estimate, jobs);
   if (a.has("json")) {
     json axes = json::object();
     for (const auto& [axis, values] : s.axis_values) axes[axis] = values;
     out << json{{"campaign", spec.name}, {"runs", s.total},         {"points", s.points},   {"replicas", spec.replicas},
                 {"engines", spec.engines}, {"added", s.added},      {"unchanged", s.unchanged}, {"revived", s.revived},
-                {"retired", s.retired},  {"axes", axes},            {"dry_run", a.has("dry-run")}}
+                {"retired", s.retired},  {"axes", axes},            {"dry_run", a.has("dry-run")},
+                {"extended", Extensions(s.extended)}, {"estimate", to_json(*estimate)}}
                .dump(2)
         << "\n";
     return 0;
   }
   PrintPlan(out, spec, s, a.has("dry-run"));
+  PrintEstimate(out, *estimate);
   return 0;
 }
 
@@ -151,7 +214,7 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
 
 Verb PlanVerb() {
   return {"plan", "expand a campaign spec into runs in the database", kPlanHelp, Plan,
-          {{"db", true}, {"dry-run", false}, {"json", false}, {"max-runs", true}, {"help", false}},
+          {{"db", true}, {"dry-run", false}, {"json", false}, {"max-runs", true}, {"jobs", true}, {"help", false}},
           Operand::kFile};
 }
 

@@ -1,6 +1,8 @@
 // `campaign run`: see run.h; flags in docs/cli.md, Slurm in docs/slurm.md.
 #include "runner/cli/run.h"
 
+#include "runner/calibration.h"
+
 #include <signal.h>
 #include <unistd.h>
 
@@ -68,13 +70,13 @@ const char kRunHelp[] =
 volatile std::sig_atomic_t g_stop = 0;
 extern "C" void RunnerOnStopSignal(int) { g_stop = 1; }
 
+}  // namespace
+
 std::string ExeDir() {
   std::error_code ec;
   const fs::path self = fs::read_symlink("/proc/self/exe", ec);
   return ec ? "." : self.parent_path().string();
 }
-
-}  // namespace
 
 // The flags `run` and `compare` share: --jobs, --threads-per-run, --time-limit, --retries.
 RunOptions RunOptionsFrom(const Args& a) {
@@ -239,6 +241,14 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
   ExecutorChoice c = ChooseExecutor(a, spec, db, o);
   c.settings.campaign = name;
   if (c.slurm) o.threads_per_run = c.settings.options.cpus_per_run;
+  if (c.slurm && c.settings.options.time.empty() && c.settings.time_limit <= 0) {
+    // Each array's --time from the estimate of its longest run, with a margin.
+    const auto opened = OpenCampaignDb(db, "run");
+    const CampaignEstimate e = estimate_runs(runs_left(*opened), opened.get(), ExeDir(), 1, true,
+                                             [&](const std::string& line) { out << line << std::endl; });
+    if (e.calibration.valid())
+      for (const auto& [id, run] : e.runs) c.settings.estimate_s[id] = run.core_s_high;
+  }
   o.detach = a.has("detach");
   o.rerun_lost = a.has("rerun-lost");
   if (a.has("dry-run")) return DryRun(db, o, c, out);

@@ -10,6 +10,9 @@
 
 namespace granary::runner::cli {
 
+// The directory of this executable, where granary-engine and granary-liggghts are built.
+std::string ExeDir();
+
 // The flags `run` and `compare` share: --jobs, --threads-per-run, --time-limit, --retries.
 RunOptions RunOptionsFrom(const Args& a);
 

@@ -14,8 +14,10 @@
 #include <vector>
 
 #include "rundir/progress.h"
+#include "runner/calibration.h"
 #include "runner/campaign_db.h"
 #include "runner/cli/common.h"
+#include "runner/cli/run.h"
 #include "runner/cli/report.h"
 #include "runner/inspect.h"
 #include "runner/scan.h"
@@ -100,7 +102,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   const auto opened = OpenCampaignDb(db, "status", true);
   Store& store = *opened;
   const auto campaign = load_campaign(store);
-  std::vector<RunRow> all = load_runs(store, a.has("only"));
+  std::vector<RunRow> all = load_runs(store, true);  // the parameters: for --only and the estimate
   std::vector<std::string> filters;
   if (a.has("only") && campaign) {
     const RunFilter filter = ResolveOnly(a, *campaign, all);
@@ -150,7 +152,38 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   }
   const double elapsed = first_start > 0 ? (active > 0 ? now : std::max(last_end, first_start)) - first_start : 0;
   // An ETA only while something runs: with no live runner nothing will finish by itself.
-  const double eta = wall_n > 0 && active > 0 ? remaining_work * (wall_sum / wall_n) / active : -1;
+  double eta = wall_n > 0 && active > 0 ? remaining_work * (wall_sum / wall_n) / active : -1;
+  // The estimate of what remains (estimate.h), its rates scaled by what the done runs took:
+  // running runs for the part they have left, the rest after them, on the runs at work now.
+  double remaining_core_s = -1;
+  {
+    std::vector<PlannedRun> left;
+    std::vector<double> fraction_left;
+    for (const auto& r : runs) {
+      if (r.state == "done" || r.state == "retired") continue;
+      PlannedRun p;
+      p.run_id = r.run_id;
+      p.point_id = r.point_id;
+      p.point = r.point;
+      p.engine = r.engine;
+      p.params_json = r.params.dump();
+      left.push_back(std::move(p));
+      const double f = r.state == "running" && r.progress.is_object() ? r.progress.value("fraction", 0.0) : 0.0;
+      fraction_left.push_back(1 - std::clamp(f, 0.0, 1.0));
+    }
+    const CampaignEstimate e = estimate_runs(left, &store, ExeDir(), std::max(1, active), false, nullptr);
+    if (e.calibration.valid() && !left.empty()) {
+      std::vector<double> durations;
+      remaining_core_s = 0;
+      for (std::size_t k = 0; k < left.size(); ++k) {
+        durations.push_back(e.runs.at(left[k].run_id).core_s_high * fraction_left[k]);
+        remaining_core_s += durations.back();
+      }
+      if (active > 0) eta = makespan(durations, active);
+    } else if (left.empty()) {
+      remaining_core_s = 0;
+    }
+  }
   if (a.has("json")) {
     json list = json::array();
     for (const auto& r : runs) {
@@ -195,6 +228,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                 {"damaged", count_integrity(checks).damaged},
                 {"elapsed_s", elapsed},
                 {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
+                {"remaining_core_hours", remaining_core_s >= 0 ? json(remaining_core_s / 3600) : json(nullptr)},
                 {"runs", list}};
 #ifdef GRANARY_HAVE_ANALYSIS
     if (const auto e = ExpectationCounts(db, err, a.all("only"))) doc["expectations"] = *e;
@@ -220,8 +254,11 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       << (total - counts["done"] == 0 ? std::string("-")
           : active == 0               ? std::string("- (no runner at work: campaign run continues)")
           : eta >= 0                  ? Duration(eta)
-                                      : "?")
-      << "\n";
+                                      : "?");
+  if (remaining_core_s > 0)
+    out << " (" << core_hours_text(remaining_core_s, remaining_core_s) << " left"
+        << (active > 0 ? ", on the " + std::to_string(active) + " run(s) at work now" : "") << ")";
+  out << "\n";
   if (queue.any) {
     out << "Slurm queue (" << (queue.live ? "live" : "as last seen; squeue: " + queue.error) << "):\n";
     for (const auto& q : queue.arrays) {
@@ -412,6 +449,16 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
             Duration(results["timing/discharge_wall_s"].get<double>()) + ")";
   if (engine_wall && run.attempts > 1 && run.wall_s >= 0) when += "; last attempt " + Duration(run.wall_s);
   row("time", when);
+  if (results.contains("bed/height")) {
+    std::string bed;
+    if (results.contains("bed/packing_fraction")) bed += "packing fraction " + ValueText(results["bed/packing_fraction"]) + ", ";
+    bed += "top " + ValueText(results["bed/height"]);
+    if (results.contains("bed/surface")) bed += ", surface " + ValueText(results["bed/surface"]);
+    if (results.contains("bed/settle_time")) bed += ", settled in " + ValueText(results["bed/settle_time"]) + " time units";
+    if (results.contains("bed/prepared_here"))
+      bed += results["bed/prepared_here"].get<double>() != 0 ? " (prepared by this run)" : " (from the bed cache)";
+    row("bed", bed);
+  }
   row("directory", run.run_dir + (d["run_dir_exists"].get<bool>() ? "" : "  (missing)"));
   if (d.contains("integrity")) {
     std::string text = d["integrity"].get<std::string>();
