@@ -737,7 +737,7 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
   summary.tangential_cap = "lammps";  // LAMMPS caps spring + damping, whatever the spec asks
   if (spec.discharge.mode == DischargeMode::kReinject) summary.reinject_position = "periodic";
   summary.bed = {bed.value("bed_file", ""), bed.value("height", 0.0), bed.value("prepared_here", false),
-                 bed.value("settle_time", 0.0), bed.value("refused", std::string())};
+                 bed.value("settle_time", 0.0), bed.value("refused", std::string()), {}, {}};
   const double bed_wall = state.value("bed_wall_s", 0.0);
   // Disc-steps of this session: the bed's discs at every step, less those of bodies gone (remove
   // mode: from each exit to the end).

@@ -208,11 +208,11 @@ RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepa
     e.open_end = true;
     const double t_empty = q > 0 ? e.bodies / q : d.max_time;
     // Without stop_on_clog a clogged silo stays full until max_time: the upper bound.
-    e.sim_high = d.stop_on_clog ? std::min(d.max_time, t_empty + d.clog_window) : d.max_time;
-    high = d.stop_on_clog ? span(e.sim_high, true) : Span{e.discs * d.max_time / dt, e.discs};
-    e.sim_low = d.stop_on_clog ? std::min(d.max_time, d.clog_window) : std::min(d.max_time, t_empty + d.clog_window);
-    low = d.stop_on_clog ? Span{e.discs * e.sim_low / dt, e.discs} : span(e.sim_low, true);
-  } else if (d.stop_on_clog) {
+    e.sim_high = d.stop_on_clog() ? std::min(d.max_time, t_empty + d.clog_window) : d.max_time;
+    high = d.stop_on_clog() ? span(e.sim_high, true) : Span{e.discs * d.max_time / dt, e.discs};
+    e.sim_low = d.stop_on_clog() ? std::min(d.max_time, d.clog_window) : std::min(d.max_time, t_empty + d.clog_window);
+    low = d.stop_on_clog() ? Span{e.discs * e.sim_low / dt, e.discs} : span(e.sim_low, true);
+  } else if (d.stop_on_clog()) {
     e.open_end = true;
     e.sim_high = d.max_time;
     e.sim_low = std::min(d.max_time, d.clog_window);
@@ -364,7 +364,7 @@ void scale_from_finished(Calibration& cal, const std::vector<std::pair<json, jso
     // averaged with those at the start in remove mode).
     const double t_end = summary.value("t_end", spec.discharge.max_time);
     spec.discharge.max_time = std::max(t_end, spec.time_step);
-    spec.discharge.stop_on_clog = false;
+    spec.discharge.on_clog = OnClog::kWait;
     const DischargeMode mode = spec.discharge.mode;
     spec.discharge.mode = DischargeMode::kReinject;
     const bool bed_here = summary.value("bed", json::object()).value("prepared_here", false);

@@ -301,7 +301,7 @@ TEST(Writers, SummaryRoundTripsAndWritesOnlyTheKeysItHas) {
   s.t_end = 12.5;
   s.steps = 125000;
   s.clogs = 1;
-  s.bed = {"bed.json", 20.5, true, 9.5, ""};
+  s.bed = {"bed.json", 20.5, true, 9.5, "", {}, {}};
   s.timing = Timing{3.0, 1.0, 2.0, 5e7, 2};
   WriteSummary(dir.path(), s);
   const nlohmann::json j = nlohmann::json::parse(read_file(dir.path() / kSummaryFile));
