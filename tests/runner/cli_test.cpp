@@ -429,9 +429,9 @@ TEST_F(CliTest, RealEngineDerivedAxesAndExpectations) {
     "sweep": {"grid": {"/silo/base_outlets/0/width": [3, 4]}},
     "axes": {"W2": "2 * W"},
     "expect": [
-      {"metric": "n_stagnant", "at": {"W2": 8}, "value": 60, "tolerance": 60, "min_runs": 1, "source": "0 to 120 bodies"},
-      {"metric": "n_stagnant", "at": {"W": 4}, "value": -1000, "tolerance": 1, "min_runs": 1, "source": "no count is negative"},
-      {"metric": "n_stagnant", "at": {"W": 3}, "value": 60, "source": "two runs needed"}]})";
+      {"metric": "clogs", "at": {"W2": 8}, "value": 60, "tolerance": 60, "min_runs": 1, "source": "0 to 120 clogs"},
+      {"metric": "clogs", "at": {"W": 4}, "value": -1000, "tolerance": 1, "min_runs": 1, "source": "no count is negative"},
+      {"metric": "clogs", "at": {"W": 3}, "value": 60, "source": "two runs needed"}]})";
   ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
   ASSERT_EQ(Sh(Cmd("run --jobs 2")).code, 0);
   const auto table = Sh(Cmd("export --expectations --format json") + " 2>/dev/null");
@@ -439,7 +439,7 @@ TEST_F(CliTest, RealEngineDerivedAxesAndExpectations) {
   const json t = json::parse(table.output);
   ASSERT_EQ(t.size(), 3u) << table.output;
   EXPECT_EQ(t[0]["verdict"], "agrees") << t.dump();
-  EXPECT_EQ(t[0]["quantity"], "n_stagnant at W2 = 8");
+  EXPECT_EQ(t[0]["quantity"], "clogs at W2 = 8");
   EXPECT_EQ(t[1]["verdict"], "disagrees") << t.dump();
   EXPECT_EQ(t[2]["verdict"], "not enough runs") << t.dump();
   EXPECT_EQ(t[2]["runs"], 1);

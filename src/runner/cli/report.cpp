@@ -166,7 +166,7 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
 
 std::optional<std::string> ExpectationCounts(const std::string& db, std::ostream& err, const std::vector<std::string>& only) {
   {
-    const auto opened = OpenCampaignDb(db, "status");
+    const auto opened = OpenCampaignDb(db, "status", true);
     const auto campaign = load_campaign(*opened);
     if (!campaign || !campaign->spec.is_object() || !campaign->spec.contains("expect")) return std::nullopt;
   }
