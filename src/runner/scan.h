@@ -7,22 +7,22 @@
 // written: that runner records them.
 #pragma once
 
-#include <functional>
 #include <map>
 #include <optional>
 #include <set>
 #include <string>
 #include <vector>
 
-#include "runner/slurm.h"
+#include "runner/run_state.h"
+#include "runner/executor.h"
 #include "runner/store.h"
 
 namespace granary::runner {
 
 struct ScanChange {
   std::string run_id;
-  std::string from;    // state in the database
-  std::string to;      // state the directory (and queue) shows
+  RunState from;       // state in the database
+  RunState to;         // state the directory (and queue) shows
   std::string reason;
   bool written = false;  // false: dry run, or a live runner holds the row
 };
@@ -36,9 +36,6 @@ struct ScanReport {
   std::vector<std::string> lost;      // done runs whose directory was deleted: left done (campaign run --rerun-lost)
 };
 
-// The queue's answer for these array jobs (query_queue), or nullopt with a reason.
-using QueueQuery = std::function<std::optional<std::vector<QueueEntry>>(const std::set<std::string>&, std::string*)>;
-
-ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run);
+ScanReport scan_campaign(Store& store, const BatchQueue& queue, bool dry_run);
 
 }  // namespace granary::runner

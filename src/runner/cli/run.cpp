@@ -161,7 +161,7 @@ int DryRun(const std::string& db, const RunOptions& o, ExecutorChoice& c, std::o
   }
   std::vector<Launch> launches;
   for (const auto& r : load_runs(store, true)) {
-    if (r.state != "planned" && r.state != "interrupted" && r.state != "failed") continue;
+    if (!runnable(r.state)) continue;
     if ((o.engine == "native" || o.engine == "liggghts") && r.engine != o.engine) continue;
     if (!filter.matches(r)) continue;
     Launch l;

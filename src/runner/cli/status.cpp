@@ -17,8 +17,7 @@
 #include "runner/campaign_db.h"
 #include "runner/cli/common.h"
 #include "runner/inspect.h"
-#include "runner/slurm.h"
-#include "runner/slurm_executor.h"
+#include "runner/executor.h"
 #include "runner/util.h"
 
 namespace granary::runner::cli {
@@ -39,10 +38,7 @@ const char kStatusHelp[] =
     "                 one sweep axis will do: width=9); repeat for several (docs/cli.md)\n"
     "  --json         the same as JSON\n";
 
-// The states a campaign's runs are in, in the order status shows them (retired apart).
-const char* const kLiveStates[] = {"planned", "running", "done", "failed", "interrupted"};
-
-// Runs in a batch queue, per array job: their queue states, live from squeue when it answers.
+// Runs in a batch queue, per array job: their queue states, live from the queue when it answers.
 struct QueueView {
   bool any = false;
   bool live = false;
@@ -65,7 +61,7 @@ QueueView ViewQueue(const std::vector<RunRow>& runs) {
     if (!r.job_id.empty()) ids.insert(r.job_id);
   }
   if (!v.any) return v;
-  if (const auto entries = query_queue(ids, &v.error)) {
+  if (const auto entries = batch_queue().query(ids, &v.error)) {
     v.live = true;
     std::map<std::pair<std::string, int>, std::string> live;
     for (const auto& e : *entries) live[{e.job_id, e.task}] = e.state;
@@ -104,28 +100,28 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   const auto metrics = load_metrics(store);
   const QueueView queue = ViewQueue(runs);
   std::map<std::string, int> counts;
-  for (const char* state : kLiveStates) counts[state] = 0;
+  for (const RunState state : kLiveRunStates) counts[to_string(state)] = 0;
   int retired = 0, total = 0;
   double first_start = 0, last_end = 0, wall_sum = 0, remaining_work = 0;
   int wall_n = 0, active = 0;
   const double now = now_seconds();
   int lost = 0;  // done, but the run directory is gone
   for (const auto& r : runs) {
-    if (r.state == "retired") {
+    if (r.state == RunState::kRetired) {
       ++retired;
       continue;
     }
     ++total;
-    ++counts[r.state];
-    if (r.state == "done" && !fs::exists(r.run_dir)) ++lost;
+    ++counts[to_string(r.state)];
+    if (r.state == RunState::kDone && !fs::exists(r.run_dir)) ++lost;
     if (r.started_at > 0 && (first_start == 0 || r.started_at < first_start)) first_start = r.started_at;
     last_end = std::max(last_end, r.ended_at);
-    if (r.state == "done" && r.wall_s > 0) {
+    if (r.state == RunState::kDone && r.wall_s > 0) {
       wall_sum += r.wall_s;
       ++wall_n;
     }
-    if (r.state == "planned" || r.state == "interrupted" || r.state == "failed") remaining_work += 1;
-    if (r.state == "running") {
+    if (runnable(r.state)) remaining_work += 1;
+    if (r.state == RunState::kRunning) {
       ++active;
       const double f = r.progress.is_object() ? r.progress.value("fraction", 0.0) : 0.0;
       remaining_work += 1 - std::clamp(f, 0.0, 1.0);
@@ -136,10 +132,10 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   if (a.has("json")) {
     json list = json::array();
     for (const auto& r : runs) {
-      json j = {{"run_id", r.run_id}, {"state", r.state},       {"point", r.point},      {"replica", r.replica},
+      json j = {{"run_id", r.run_id}, {"state", to_string(r.state)},       {"point", r.point},      {"replica", r.replica},
                 {"attempts", r.attempts}, {"engine", r.engine}, {"wall_s", r.wall_s},    {"run_dir", r.run_dir}};
       // Progress belongs to running runs only: a finished run's last progress.json is history.
-      if (r.state == "running") {
+      if (r.state == RunState::kRunning) {
         if (!r.progress.is_null()) j["progress"] = r.progress;
         j["lease_expired"] = lease_expired(r, this_process_holder().host, now);
       }
@@ -155,7 +151,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                          {"analysis", rm.analysis}};
         j["metrics"] = m;
       }
-      if (r.state == "done" && !fs::exists(r.run_dir)) j["run_dir_missing"] = true;
+      if (r.state == RunState::kDone && !fs::exists(r.run_dir)) j["run_dir_missing"] = true;
       if (r.job_array != 0) j["job"] = r.job_id.empty() ? json(nullptr) : json(r.job_id + "_" + std::to_string(r.job_index));
       if (r.queued()) j["queue_state"] = queue.state_by_run.at(r.run_id);
       list.push_back(j);
@@ -184,12 +180,16 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   for (const auto& f : filters) only += (only.empty() ? "" : ", ") + f;
   out << "campaign " << (campaign ? campaign->name : "?") << ": " << total << " runs" << (only.empty() ? "" : " with " + only)
       << " (" << db << ")\n ";
-  for (const char* state : kLiveStates) out << (std::string(state) == "planned" ? " " : ", ") << state << " " << counts[state];
+  for (const RunState state : kLiveRunStates)
+    out << (state == RunState::kPlanned ? " " : ", ") << state << " " << counts[to_string(state)];
   if (retired > 0) out << "  (and " << retired << " retired: no longer in the spec, not counted)";
   out << "\n  elapsed " << Duration(elapsed) << ", ETA "
-      << (total - counts["done"] == 0 ? std::string("-") : eta >= 0 ? Duration(eta) : "?") << "\n";
+      << (total - counts[to_string(RunState::kDone)] == 0 ? std::string("-") : eta >= 0 ? Duration(eta) : "?") << "\n";
   if (queue.any) {
-    out << "Slurm queue (" << (queue.live ? "live" : "as last seen; squeue: " + queue.error) << "):\n";
+    const BatchQueue& batch = batch_queue();
+    out << batch.name() << " queue ("
+        << (queue.live ? std::string("live") : "as last seen; " + std::string(batch.query_tool()) + ": " + queue.error)
+        << "):\n";
     for (const auto& q : queue.arrays) {
       out << "  array " << (q.job_id.empty() ? "?" : q.job_id) << " " << q.name << ":";
       std::string sep = " ";
@@ -204,18 +204,18 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     out << "lost: " << lost << " done run(s) have no run directory (deleted after they finished); their results "
         << "are in the database only (campaign run --rerun-lost runs them again):\n";
     for (const auto& r : runs)
-      if (r.state == "done" && !fs::exists(r.run_dir)) out << "  " << r.run_id << "  " << r.run_dir << "\n";
+      if (r.state == RunState::kDone && !fs::exists(r.run_dir)) out << "  " << r.run_id << "  " << r.run_dir << "\n";
   }
   int analysed = 0;
-  for (const auto& r : runs) analysed += r.state == "done" && metrics.count(r.run_id) ? 1 : 0;
-  if (counts["done"] > 0)
-    out << "  metrics in the database for " << analysed << " of " << counts["done"] << " done runs"
-        << (analysed < counts["done"] ? " (campaign report or export analyses the others)" : "") << "\n";
+  for (const auto& r : runs) analysed += r.state == RunState::kDone && metrics.count(r.run_id) ? 1 : 0;
+  if (counts[to_string(RunState::kDone)] > 0)
+    out << "  metrics in the database for " << analysed << " of " << counts[to_string(RunState::kDone)] << " done runs"
+        << (analysed < counts[to_string(RunState::kDone)] ? " (campaign report or export analyses the others)" : "") << "\n";
   bool header = false;
   for (const auto& r : runs) {
-    if (r.state != "running") continue;
+    if (r.state != RunState::kRunning) continue;
     // Queued runs not yet at work are counted per array above, not listed one by one.
-    if (r.queued() && fate_of(queue.state_by_run.at(r.run_id)) != TaskFate::kRunning) continue;
+    if (r.queued() && batch_queue().fate_of(queue.state_by_run.at(r.run_id)) != TaskFate::kRunning) continue;
     if (!header) out << "running:\n";
     header = true;
     // A task nobody watches (detached) has its progress only in its directory.
@@ -224,7 +224,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       if (const auto p = rundir::ReadProgress(r.run_dir)) progress = p->ToJson();
     }
     out << "  " << r.run_id << " " << ProgressText(progress, 0) << "  " << CompactPoint(r.point) << " r" << r.replica
-        << (r.queued() ? "  Slurm " + r.job_id + "_" + std::to_string(r.job_index) +
+        << (r.queued() ? "  " + std::string(batch_queue().name()) + " " + r.job_id + "_" + std::to_string(r.job_index) +
                              (r.lease_holder.empty() || lease_expired(r, this_process_holder().host, now)
                                   ? " (no runner watching: campaign scan or campaign run --executor slurm)"
                                   : "")
@@ -234,7 +234,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   }
   header = false;
   for (const auto& r : runs) {
-    if (r.state != "failed") continue;
+    if (r.state != RunState::kFailed) continue;
     if (!header) out << "failed:\n";
     header = true;
     out << "  " << r.run_id << "  " << CompactPoint(r.point) << " r" << r.replica << " (attempts " << r.attempts << ")\n";
@@ -335,14 +335,14 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   std::string point = CompactPoint(run.point) + ", replica " + std::to_string(run.replica);
   if (run.params.contains("seed")) point += ", seed " + run.params["seed"].dump();
   row("point", point);
-  std::string state = run.state;
+  std::string state = to_string(run.state);
   if (!run.end_reason.empty()) state += ": " + run.end_reason;
   const json& results = d["results"];
   if (results.contains("exited") && results.contains("bodies"))
     state += ", " + ValueText(results["exited"]) + " exits of " + ValueText(results["bodies"]) + " bodies";
   if (results.contains("t_end")) state += ", t_end " + ValueText(results["t_end"]);
   row("state", state);
-  if (run.state == "running") row("progress", ProgressText(run.progress, 0));
+  if (run.state == RunState::kRunning) row("progress", ProgressText(run.progress, 0));
   row("attempts", std::to_string(run.attempts));
   row("engine", run.engine + (run.engine_version.empty() ? "" : " " + run.engine_version));
   if (!run.host.empty()) row("host", run.host);
