@@ -7,8 +7,8 @@ build="${GRANARY_BUILD_DIR:-$here/build}"
 
 packages=(build-essential cmake pkg-config git libsqlite3-dev sqlite3 nlohmann-json3-dev
           libboost-dev libboost-filesystem-dev libgsl-dev libgtest-dev googletest
-          liggghts openmpi-bin gnuplot-nox lammps zlib1g-dev
-          libcairo2-dev ffmpeg python3-pandas python3-jsonschema slurmctld slurmd slurm-client munge
+          liggghts openmpi-bin gnuplot-nox lammps zlib1g-dev libxxhash-dev
+          libcairo2-dev ffmpeg python3-numpy python3-pandas python3-pytest python3-jsonschema slurmctld slurmd slurm-client munge
           libpmix-dev)
 missing=()
 for p in "${packages[@]}"; do
@@ -22,5 +22,18 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+# python/granary on the path of Debian's python3 (the one with numpy and pandas; a python3 earlier
+# on PATH, e.g. pyenv's, has neither): a .pth file naming this checkout's python/ folder, which
+# works offline (pip install -e would want setuptools from the network for its build).
+python=/usr/bin/python3
+site_dir="$("$python" -c 'import site; print(site.getsitepackages()[0])')"
+if [ "$(cat "$site_dir/granary.pth" 2>/dev/null)" != "$here/python" ]; then
+  sudo_cmd=""
+  [ "$(id -u)" = 0 ] || [ -w "$site_dir" ] || sudo_cmd="sudo"
+  $sudo_cmd mkdir -p "$site_dir"
+  echo "$here/python" | $sudo_cmd tee "$site_dir/granary.pth" >/dev/null
+  echo "setup: $python imports granary from $here/python ($site_dir/granary.pth)"
+fi
+
+cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release -DGRANARY_PYTHON="$python" >/dev/null
 cmake --build "$build" -j "$(nproc)"

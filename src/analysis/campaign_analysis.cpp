@@ -41,19 +41,26 @@ std::unique_ptr<CampaignAnalysis> analyse_campaign(const CampaignInfo& info, con
   pass_options.write_cache = options.write_cache;
   std::vector<RunPassResult> passes(done.size());
   std::map<std::string, std::string> unreadable;
+  RunChecks checks;
   std::mutex mutex;
   std::atomic<std::size_t> next{0};
   int finished = 0;
   auto work = [&] {
     for (std::size_t i = next++; i < done.size(); i = next++) {
       std::string error;
+      rundir::Verification check;
       try {
-        passes[i] = analyse_run(done[i]->run_dir, analyses, setup.pass, pass_options);
+        // Before any cached result is used: a run damaged after it was analysed is not
+        // analysed again, and its cached results are not used (rundir/manifest.h).
+        check = rundir::VerifyRun(done[i]->run_dir, {rundir::VerifyLevel::kCached, options.write_cache});
+        if (check.integrity != rundir::Integrity::kDamaged)
+          passes[i] = analyse_run(done[i]->run_dir, analyses, setup.pass, pass_options);
       } catch (const std::exception& e) {
         error = e.what();
       }
       std::lock_guard<std::mutex> lock(mutex);
       if (!error.empty()) unreadable[done[i]->run_id] = error;
+      checks[done[i]->run_id] = std::move(check);
       ++finished;
       if (options.progress) options.progress(finished, static_cast<int>(done.size()));
     }
@@ -66,7 +73,7 @@ std::unique_ptr<CampaignAnalysis> analyse_campaign(const CampaignInfo& info, con
     for (std::thread& t : threads) t.join();
   }
 
-  out->view = make_campaign_view(info, runs, unreadable);
+  out->view = make_campaign_view(info, runs, unreadable, checks);
   std::map<const RunRecord*, const RunPassResult*> by_record;
   for (std::size_t i = 0; i < done.size(); ++i) by_record[done[i]] = &passes[i];
   out->results.assign(analyses.size(), AnalysisResults{&out->view, {}});

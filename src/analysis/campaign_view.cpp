@@ -149,7 +149,7 @@ std::string group_axis(const CampaignView& view) {
 }
 
 CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
-                                const std::map<std::string, std::string>& unreadable) {
+                                const std::map<std::string, std::string>& unreadable, const RunChecks& checks) {
   CampaignView c;
   c.campaign = &campaign;
   c.axes = campaign.axes;
@@ -169,11 +169,16 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
       c.missing.push_back(&r);
     } else if (!std::filesystem::exists(r.run_dir)) {
       c.lost.push_back(&r);
+    } else if (const auto check = checks.find(r.run_id);
+               check != checks.end() && check->second.integrity == rundir::Integrity::kDamaged) {
+      c.damaged.emplace_back(&r, check->second.problems);
     } else if (const auto it = unreadable.find(r.run_id); it != unreadable.end()) {
       c.unreadable.emplace_back(&r, it->second);
     } else {
       std::string why;
       if (auto u = used_run(r, why)) {
+        if (check != checks.end() && check->second.integrity == rundir::Integrity::kNotVerifiable)
+          c.unverifiable.push_back(&r);
         c.used.push_back(std::move(*u));
       } else {
         c.unreadable.emplace_back(&r, why);
@@ -187,16 +192,13 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
     c.outlets = std::max<std::size_t>(1, most->outlets);
     for (const OutletGeometry& o : outlets_of(most->spec)) c.outlet_labels.push_back(o.label);
   }
-  // Each axis' symbol for the short point names; two axes with one symbol (two species' "d")
-  // keep their long names, so that no two points read alike.
+  // Each axis' one short name (its symbol; two axes with one symbol, such as two species' "d",
+  // their short paths), and the derived axes of the campaign spec's /axes.
   {
     const nlohmann::json& spec = runs.empty() ? nlohmann::json() : runs.front().spec;
-    std::map<std::string, int> uses;
-    for (const auto& axis : c.axes) ++uses[axis_names(axis, spec).symbol];
-    for (const auto& axis : c.axes) {
-      const AxisNames n = axis_names(axis, spec);
-      c.axis_symbols[axis] = uses[n.symbol] > 1 ? n.name : n.symbol;
-    }
+    const nlohmann::json& cs = campaign.spec;
+    c.named = CampaignAxes(c.axes, spec, cs.is_object() && cs.contains("axes") ? cs.at("axes") : nlohmann::json());
+    for (const auto& axis : c.axes) c.axis_symbols[axis] = c.named.short_name(axis);
   }
   // The x axis: the gap between two base outlets if a base outlet's centre is swept (the
   // thesis plots ch. 5b and 7 against L), else an outlet width if swept, else the first
@@ -220,7 +222,7 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
     c.x_axis = axis;
     c.x_axes = {axis};
     c.x_is_width = true;
-    c.x_name = short_axis(axis);
+    c.x_name = c.axis_symbols[axis];
     c.x_title = axis_name(axis, runs.empty() ? nlohmann::json() : runs.front().spec);
     c.x_symbol = c.axis_symbols[axis];
     c.x_label = "W/d (" + c.x_title + ")";
@@ -253,7 +255,7 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
       if (numeric && !runs.empty()) {
         c.x_axis = axis;
         c.x_axes = {axis};
-        c.x_name = short_axis(axis);
+        c.x_name = c.axis_symbols[axis];
         c.x_label = c.x_title = axis_name(axis, runs.front().spec);
         c.x_symbol = c.axis_symbols[axis];
         break;

@@ -13,8 +13,10 @@
 #include <string>
 #include <vector>
 
+#include "analysis/axes.h"
 #include "analysis/report_document.h"
 #include "analysis/stats.h"
+#include "rundir/manifest.h"
 #include "rundir/summary.h"
 
 namespace granary::analysis {
@@ -81,6 +83,10 @@ struct CampaignView {
   std::vector<const RunRecord*> missing, failed, retired;
   std::vector<const RunRecord*> lost;  // done, but the run directory was deleted afterwards
   std::vector<std::pair<const RunRecord*, std::string>> unreadable;
+  // done, but a file differs from what the engine recorded (rundir/manifest.h): kept out of
+  // every number, listed with what differs
+  std::vector<std::pair<const RunRecord*, std::vector<rundir::FileProblem>>> damaged;
+  std::vector<const RunRecord*> unverifiable;  // used, but written before manifests: not verifiable
   std::vector<Point> points;      // sorted by group, then x
   std::string x_axis;             // JSON pointer of the x axis ("" = none)
   std::set<std::string> x_axes;   // the sweep axes that make x (left out of the groups)
@@ -88,7 +94,8 @@ struct CampaignView {
   std::string x_name;             // short name of x in CSV headers
   std::string x_title;            // x in words, as "The system" names it ("outlet width W"), for point titles
   std::string x_symbol;           // x's symbol ("W"), for point names
-  std::map<std::string, std::string> axis_symbols;  // axis -> its short name in point names (axis_names)
+  std::map<std::string, std::string> axis_symbols;  // axis -> its one short name (axes.h), everywhere
+  CampaignAxes named;             // the axes by name, with the campaign's derived axes (/axes)
   bool x_is_width = false;
   bool x_is_gap = false;          // x = gap L between base outlets 0 and 1 (ch. 5b, 7)
   int x_outlet = -1;              // the outlet (event order) whose width is x; -1: none
@@ -96,10 +103,16 @@ struct CampaignView {
   std::vector<std::string> outlet_labels;  // of a used run with that many ("base 0", "side 1 (right)")
 };
 
+// The check of each done run against its manifest (rundir::VerifyRun), by run id; a run
+// not in it counts as not checked (whole).
+using RunChecks = std::map<std::string, rundir::Verification>;
+
 // Sorts `runs` (which must outlive the view): a done run is used unless its summary.json
-// cannot be read or `unreadable` names it (run id -> reason, e.g. from the analysis pass).
+// cannot be read, `unreadable` names it (run id -> reason, e.g. from the analysis pass) or
+// `checks` found it damaged.
 CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
-                                const std::map<std::string, std::string>& unreadable = {});
+                                const std::map<std::string, std::string>& unreadable = {},
+                                const RunChecks& checks = {});
 
 // "/silo/base_outlets/0/width" -> "base_outlets.0.width".
 std::string short_axis(const std::string& pointer);

@@ -27,6 +27,13 @@ nlohmann::json axis_cell(const std::string& axis, const nlohmann::json& point, c
 
 nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
+// The campaign's derived axes (/axes) as columns after the sweep axes.
+void add_derived(const CampaignView& v, const nlohmann::json& point, const nlohmann::json& spec, std::vector<nlohmann::json>& head) {
+  if (v.named.derived().empty()) return;
+  const std::map<std::string, double> values = v.named.values(point, spec);
+  for (const DerivedAxis& d : v.named.derived()) head.push_back(number(values.at(d.name)));
+}
+
 // Metric columns in analysis order, then first appearance.
 class Columns {
  public:
@@ -61,6 +68,7 @@ ExportTable export_table(const CampaignAnalysis& a, ExportLevel level) {
         std::vector<nlohmann::json> head = {r.record->run_id, r.record->point_id, r.record->replica, r.record->engine,
                                             r.summary.end_reason};
         for (const auto& axis : axes) head.push_back(axis_cell(axis, r.record->point, r.record->spec));
+        add_derived(v, r.record->point, r.record->spec, head);
         heads.push_back(head);
         values.emplace_back();
         for (std::size_t k = 0; k < a.results.size(); ++k)
@@ -74,13 +82,15 @@ ExportTable export_table(const CampaignAnalysis& a, ExportLevel level) {
       std::vector<nlohmann::json> head = {point.id, point.engine.empty() && !v.engines.empty() ? v.engines.front() : point.engine,
                                           point.runs.size()};
       for (const auto& axis : axes) head.push_back(axis_cell(axis, point.point, point.spec));
+      add_derived(v, point.point, point.spec, head);
       heads.push_back(head);
       values.emplace_back();
       for (const PointMetric& m : a.all_point_metrics(p))
         values.back()[metrics.index(m.name)] = {number(m.mean), number(m.se), m.n};
     }
   }
-  for (const auto& axis : axes) t.columns.push_back(short_axis(axis));
+  for (const auto& axis : axes) t.columns.push_back(v.named.short_name(axis));
+  for (const DerivedAxis& d : v.named.derived()) t.columns.push_back(d.name);
   for (const auto& name : metrics.names()) {
     t.columns.push_back(name);
     t.columns.push_back(name + "_se");

@@ -1,6 +1,6 @@
 // `campaign export`: a campaign's metrics as one tidy table, one row per used run or per sweep
-// point: the run's (point's) identity, each swept parameter as a column named by its short
-// path (base_outlets.0.width; numbers stay numbers), then every metric of every registered
+// point: the run's (point's) identity, each swept parameter as a column named by its one short
+// name (axes.h: "W", "D_b"; numbers stay numbers), each derived axis of /axes, then every metric of every registered
 // analysis with its standard error (and, per point, n). Pure: from an analysed campaign.
 #pragma once
 

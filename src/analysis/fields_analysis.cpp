@@ -539,12 +539,9 @@ std::optional<Section> FieldsAnalysis::section(const SectionInput& in) const {
   for (const std::string& axis : v.axes)
     axes_text += (axes_text.empty() ? "" : ", ") +
                  axis_text(v, axis, v.points.empty() ? nlohmann::json() : v.points.front().spec, NameForm::kLong);
+  // "W = 6, X_db = 0.5": a value without its name reads as nothing once there are two axes.
   auto values_of = [&](std::size_t p) {
-    std::string text;
-    for (const std::string& axis : v.axes) {
-      const auto value = axis_value(axis, v.points[p].point, v.points[p].spec);
-      text += (text.empty() ? "" : ", ") + (value ? value_text(*value) : std::string("?"));
-    }
+    const std::string text = point_label(v, v.points[p].point, v.points[p].spec, NameForm::kShort);
     return text.empty() ? point_name(v, v.points[p]) : text;
   };
   const std::string panels_text = axes_text.empty() ? "" : "Panels: " + axes_text + "; ";
@@ -606,7 +603,7 @@ std::optional<Section> FieldsAnalysis::section(const SectionInput& in) const {
     }
   }
   // Force chains of one frame per point.
-  MapFigure chains = base_figure("force_chains", "Force chains of one frame", "|F| (m g)");
+  MapFigure chains = base_figure("force_chains", "Force chains of one frame", "|F| (rho g d^2)");
   for (std::size_t p = 0; p < v.points.size(); ++p) {
     if (!points[p].chain_run) continue;
     const nlohmann::json& part = points[p].chain_run->at("parts").at(points[p].chain_part);
@@ -630,7 +627,7 @@ std::optional<Section> FieldsAnalysis::section(const SectionInput& in) const {
   Table t{"fields_region",
           "Coarse-grained fields averaged over the region next to each outlet (" + o_.region.label +
               "): mean ± se over replicas (n); mu = mean |tau| / mean P of the region",
-          {"point", "outlet", "phi", "|v| (sqrt(g d))", "T_g", "P", "|tau|", "mu"},
+          {"point", "outlet", "phi", "|v| (sqrt(g d))", "T_g (g d)", "P (rho g d)", "|tau| (rho g d)", "mu"},
           {},
           {"point", "outlet", "phi", "speed", "tg", "pressure", "shear", "friction"}};
   for (std::size_t p = 0; p < v.points.size(); ++p)

@@ -15,12 +15,12 @@
 
 namespace granary::analysis {
 
-FitModel beverloo_2d() { return {"beverloo_2d", "C * (x - k)^1.5", "x", {{"C", 1.0}, {"k", 0.0}}}; }
+FitModel beverloo_2d() { return {"beverloo_2d", "C * (x - k)^1.5", "x", {{"C", 1.0}, {"k", 0.0}}, "2-D Beverloo"}; }
 FitModel beverloo_free() {
-  return {"beverloo_free", "C * (x - k)^b", "x", {{"C", 1.0}, {"k", 0.0}, {"b", 1.5}}};
+  return {"beverloo_free", "C * (x - k)^b", "x", {{"C", 1.0}, {"k", 0.0}, {"b", 1.5}}, "Beverloo, free exponent"};
 }
 FitModel mankoc() {
-  return {"mankoc", "C * (1 - exp(-b * (x - 1)) / 2) * (x - 1)^1.5", "x", {{"C", 1.0}, {"b", 1.0}}};
+  return {"mankoc", "C * (1 - exp(-b * (x - 1)) / 2) * (x - 1)^1.5", "x", {{"C", 1.0}, {"b", 1.0}}, "Mankoc"};
 }
 
 FitModel with_data_guess(FitModel model, std::span<const double> x, std::span<const double> y) {
@@ -84,16 +84,17 @@ const FitParameter* FitResult::parameter(const std::string& name) const {
 
 namespace {
 
+// The data: n points of `nv` variables each, row-major in `x`.
 struct FitData {
   const Expression* expression;
   std::span<const double> x, y, sigma;
+  std::size_t nv = 1;
 };
 
-double model_value(const Expression& e, double x, const gsl_vector* p) {
+double model_value(const Expression& e, std::span<const double> vars, const gsl_vector* p) {
   std::vector<double> pars(p->size);
   for (std::size_t i = 0; i < p->size; ++i) pars[i] = gsl_vector_get(p, i);
-  const double xv[1] = {x};
-  return e.evaluate(xv, pars);
+  return e.evaluate(vars, pars);
 }
 
 // Residual vector. A parameter step into a region where the model is undefined (e.g. a
@@ -101,8 +102,8 @@ double model_value(const Expression& e, double x, const gsl_vector* p) {
 // trust-region method rejects the step and shrinks the radius rather than aborting.
 int residuals_f(const gsl_vector* p, void* params, gsl_vector* f) {
   const auto* d = static_cast<const FitData*>(params);
-  for (std::size_t i = 0; i < d->x.size(); ++i) {
-    double r = d->y[i] - model_value(*d->expression, d->x[i], p);
+  for (std::size_t i = 0; i < d->y.size(); ++i) {
+    double r = d->y[i] - model_value(*d->expression, d->x.subspan(i * d->nv, d->nv), p);
     if (!d->sigma.empty()) r /= d->sigma[i];
     if (!std::isfinite(r)) r = 1e150;
     gsl_vector_set(f, i, r);
@@ -123,46 +124,52 @@ struct MatrixDeleter {
 }  // namespace
 
 double FitResult::evaluate(double x_value) const {
+  const double xv[1] = {x_value};
+  return evaluate_at(xv);
+}
+
+double FitResult::evaluate_at(std::span<const double> values) const {
   if (parameters.empty()) return kNaN;
   try {
-    const Expression e = Expression::parse(expression, {variable});
+    const Expression e = Expression::parse(expression, variables.empty() ? std::vector<std::string>{variable} : variables);
+    if (values.size() != e.variables().size()) return kNaN;
     std::vector<double> pars;
     for (const auto& name : e.parameters()) {
       const FitParameter* p = parameter(name);
       pars.push_back(p ? p->value : kNaN);
     }
-    const double xv[1] = {x_value};
-    return e.evaluate(xv, pars);
+    return e.evaluate(values, pars);
   } catch (const ExpressionError&) {
     return kNaN;
   }
 }
 
-FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<const double> y,
-                    std::span<const double> sigma) {
-  const Expression e = Expression::parse(model.expression, {model.variable});
+namespace {
+
+// The fit of `e` to n = y.size() points of nv = e.variables().size() variables (`x`, row-major).
+FitResult fit_core(const std::string& name, const Expression& e, std::span<const double> x, std::span<const double> y,
+                   std::span<const double> sigma, const std::map<std::string, double>& initial) {
+  const std::size_t nv = e.variables().size();
   FitResult r;
-  r.model_name = model.name;
-  r.expression = model.expression;
-  r.variable = model.variable;
-  if (x.size() != y.size() || (!sigma.empty() && sigma.size() != x.size()))
-    throw std::invalid_argument("fit '" + model.name + "': x, y and sigma sizes differ (" +
-                                std::to_string(x.size()) + ", " + std::to_string(y.size()) + ", " +
-                                std::to_string(sigma.size()) + ")");
-  r.x.assign(x.begin(), x.end());
+  r.model_name = name;
+  r.expression = e.text();
+  if (x.size() != y.size() * nv || (!sigma.empty() && sigma.size() != y.size()))
+    throw std::invalid_argument("fit '" + name + "': x, y and sigma sizes differ (" + std::to_string(x.size() / std::max<std::size_t>(1, nv)) +
+                                ", " + std::to_string(y.size()) + ", " + std::to_string(sigma.size()) + ")");
+  for (std::size_t i = 0; i < y.size(); ++i) r.x.push_back(x[i * nv]);
   r.y.assign(y.begin(), y.end());
   bool weighted = !sigma.empty();
   for (double s : sigma)
     if (!(s > 0.0) || !std::isfinite(s)) weighted = false;
   if (weighted) r.sigma.assign(sigma.begin(), sigma.end());
 
-  const std::size_t n = x.size();
+  const std::size_t n = y.size();
   const std::size_t p = e.parameters().size();
-  for (const auto& name : e.parameters()) {
+  for (const auto& par : e.parameters()) {
     FitParameter fp;
-    fp.name = name;
-    auto it = model.initial.find(name);
-    fp.initial = it == model.initial.end() ? 1.0 : it->second;
+    fp.name = par;
+    auto it = initial.find(par);
+    fp.initial = it == initial.end() ? 1.0 : it->second;
     r.parameters.push_back(fp);
   }
   r.fitted.assign(n, kNaN);
@@ -173,7 +180,7 @@ FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<
     return r;
   }
 
-  FitData data{&e, x, y, weighted ? std::span<const double>(r.sigma) : std::span<const double>()};
+  FitData data{&e, x, y, weighted ? std::span<const double>(r.sigma) : std::span<const double>(), nv};
   gsl_multifit_nlinear_fdf fdf;
   fdf.f = residuals_f;
   fdf.df = nullptr;  // finite-difference Jacobian
@@ -238,12 +245,45 @@ FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<
     fp.ci_high = fp.value + t * fp.se;
   }
   for (std::size_t i = 0; i < n; ++i) {
-    r.fitted[i] = model_value(e, x[i], best);
+    r.fitted[i] = model_value(e, x.subspan(i * nv, nv), best);
     r.residuals[i] = y[i] - r.fitted[i];
   }
   const bool all_good = std::all_of(r.parameters.begin(), r.parameters.end(),
                                     [](const FitParameter& q) { return q.determined() && !q.ci_spans_zero(); });
   r.quality = all_good ? FitQuality::kGood : FitQuality::kIllDetermined;
+  return r;
+}
+
+}  // namespace
+
+FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<const double> y,
+                    std::span<const double> sigma) {
+  const Expression e = Expression::parse(model.expression, {model.variable});
+  FitResult r = fit_core(model.name, e, x, y, sigma, model.initial);
+  r.model_title = model.shown();
+  r.variable = model.variable;
+  return r;
+}
+
+FitResult fit_model_multi(const std::string& name, const std::string& expression, const std::vector<std::string>& variables,
+                          const std::vector<std::vector<double>>& points, std::span<const double> y,
+                          std::span<const double> sigma, const std::map<std::string, double>& initial) {
+  const Expression e = Expression::parse(expression, variables);
+  std::vector<double> flat;
+  for (const auto& pt : points) {
+    if (pt.size() != variables.size())
+      throw std::invalid_argument("fit '" + name + "': a data point has " + std::to_string(pt.size()) + " values for " +
+                                  std::to_string(variables.size()) + " variables");
+    flat.insert(flat.end(), pt.begin(), pt.end());
+  }
+  if (points.size() != y.size())
+    throw std::invalid_argument("fit '" + name + "': " + std::to_string(points.size()) + " points for " +
+                                std::to_string(y.size()) + " values");
+  FitResult r = fit_core(name, e, flat, y, sigma, initial);
+  r.model_title = name;
+  r.variable = variables.empty() ? std::string() : variables.front();
+  r.variables = variables;
+  r.points = points;
   return r;
 }
 

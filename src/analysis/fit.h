@@ -19,6 +19,8 @@ struct FitModel {
   std::string expression;               // e.g. "C * (x - k)^1.5"
   std::string variable = "x";           // the name of the independent variable in `expression`
   std::map<std::string, double> initial;  // starting values; missing parameters start at 1
+  std::string title{};                  // in figure keys and captions ("2-D Beverloo"); "" = name
+  const std::string& shown() const { return title.empty() ? name : title; }
 };
 
 // The three forms of shared analyses.md; x = W/d.
@@ -48,8 +50,13 @@ std::string to_string(FitQuality quality);  // "not fitted", "failed", "ill-dete
 
 struct FitResult {
   std::string model_name;
+  std::string model_title;              // FitModel::shown()
   std::string expression;
   std::string variable = "x";
+  // Fits over several variables (fit_model_multi): their names and each data point's values
+  // (points[i][j] = variable j of point i); `x` then holds the first variable's values.
+  std::vector<std::string> variables;
+  std::vector<std::vector<double>> points;
   std::vector<FitParameter> parameters;
   std::vector<double> x, y, sigma;      // the data used (sigma empty = unweighted)
   std::vector<double> fitted, residuals;  // residual = y - fitted
@@ -68,6 +75,8 @@ struct FitResult {
   std::string verdict() const;
   const FitParameter* parameter(const std::string& name) const;
   double evaluate(double x_value) const;  // the fitted model at x (NaN if it cannot be evaluated)
+  // The fitted model at values of `variables` (in that order); NaN if it cannot be evaluated.
+  double evaluate_at(std::span<const double> values) const;
 };
 
 // Fits `model` to (x, y). With sigma (same size, all > 0) the residuals are weighted by
@@ -77,6 +86,13 @@ struct FitResult {
 // converged (the start values stay in `initial`). Throws ExpressionError for a bad model text.
 FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<const double> y,
                     std::span<const double> sigma = {});
+
+// The same over several variables: `points[i]` holds the values of `variables` (in order) at
+// data point i, so a thesis law such as "a * W^(1.5 + X/2) / (1.43 + 17 X^2)" is fitted
+// across every point of a figure at once. Every other name in `expression` is a parameter.
+FitResult fit_model_multi(const std::string& name, const std::string& expression, const std::vector<std::string>& variables,
+                          const std::vector<std::vector<double>>& points, std::span<const double> y,
+                          std::span<const double> sigma = {}, const std::map<std::string, double>& initial = {});
 
 // Starting values for the built-in forms from the data (C from the largest point, k = 0,
 // b = 1.5 or 1): keeps the solver away from (x - k) < 0.

@@ -315,6 +315,7 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
     const std::string other_axis_name =
         other_axis.empty() ? "" : axis_text(v, other_axis, v.points.front().spec, NameForm::kLong);
     std::map<std::string, Figure> trends;  // per model: its parameters against other_axis
+    std::vector<std::string> not_drawn;    // fits without a curve, and why
     for (const auto& g : groups_of(v)) {
       double group_value = kNaN;
       if (!other_axis.empty())
@@ -360,7 +361,7 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
           Figure& tf = trends[r.model_name];
           if (tf.name.empty()) {
             tf.name = "fit_parameters_" + r.model_name;
-            tf.title = "Fitted parameters of " + r.model_name + " (" + r.expression + ") against " + other_axis_name;
+            tf.title = "Fitted parameters of " + model.shown() + " (" + r.expression + ") against " + other_axis_name;
             tf.xlabel = other_axis_name;
             tf.ylabel = "parameter value";
             tf.caption = "Error bars: standard errors of the fit. Parameters not determined by the data or whose 95% "
@@ -381,11 +382,17 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
             it->rows.push_back({group_value, par.value, par.se, par.ci_low, par.ci_high});
           }
         }
+        // A curve only for a fit whose every parameter is determined: an interval holding 0
+        // (Mankoc's C in [-83, 84]) makes the curve one of many the data allow.
+        if (r.quality != FitQuality::kGood) {
+          not_drawn.push_back(r.model_title + (g.empty() ? "" : " (" + g + ")") + ": " + r.verdict());
+          continue;
+        }
         Series curve;
         for (std::size_t k = 0; k < data_series.size(); ++k)
           if (data_series[k].label == (g.empty() ? std::string("Q") : g)) curve.color = static_cast<int>(k);
         curve.file_label = r.model_name + (g.empty() ? "" : " (" + g + ")");
-        curve.label = curve.file_label + (r.quality == FitQuality::kGood ? "" : ", " + to_string(r.quality));
+        curve.label = r.model_title + (g.empty() ? "" : " (" + g + ")");
         curve.columns = {"W", "Q_fit"};
         curve.style = Series::Style::kLines;
         curve.role = Series::Role::kFit;
@@ -404,11 +411,17 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
         } else {
           Figure& mf = model_figures[model.name];
           if (mf.name.empty())
-            mf = Figure{"flow_rate_fit_" + model.name, "Flow rate with the " + model.name + " fit (" + r.expression + ")",
+            mf = Figure{"flow_rate_fit_" + model.name, "Flow rate with the " + model.shown() + " fit (" + r.expression + ")",
                         v.x_label, "Q (bodies/sqrt(d/g))", data_series, false, false, "Error bars: se over replicas"};
           mf.series.push_back(std::move(curve));
         }
       }
+    }
+    if (!not_drawn.empty()) {
+      std::string text = "Dashed: fits whose every parameter the data determine. Not drawn (a parameter without a "
+                         "standard error or with a 95% interval holding 0, so the curve is one of many the data allow): ";
+      for (std::size_t i = 0; i < not_drawn.size(); ++i) text += (i ? "; " : "") + not_drawn[i];
+      f.caption += ". " + text;
     }
     s.blocks.push_back(f);
     if (several && !per_outlet_figure.series.empty()) s.blocks.push_back(per_outlet_figure);

@@ -102,7 +102,7 @@ class RegionAnalysis : public Analysis {
       const MeanSe t4 = mean_se_of(regions[k].at("tg_full"));
       m.push_back({"phi" + s, "1", phi.mean, phi.se, "packing fraction" + where, k == 0});
       m.push_back({"tg_translational" + s, "g d", t3.mean, t3.se, "T_g translational (ch. 3)" + where, false});
-      m.push_back({"tg_full" + s, "rho d^2 g d", t4.mean, t4.se, "T_g (ch. 4-5)" + where, k == 0});
+      m.push_back({"tg_full" + s, "rho g d^3", t4.mean, t4.se, "T_g (ch. 4-5)" + where, k == 0});
     }
     return m;
   }
@@ -132,7 +132,7 @@ std::optional<Section> RegionAnalysis::section(const SectionInput& in) const {
                           "`T_g = 1/2 <(v_x - <v_x>)^2 + (v_y - <v_y>)^2>` and ch. 4-5 "
                           "`T_g = 1/3 <m |v - <v>|^2 + I (Omega - <Omega>)^2>`."});
   Table t{"region", "Region statistics per point: mean ± se over replicas (n)",
-          {"point", "phi", "T_g ch3 (g d)", "T_g ch4 (m g d)"}, {}, {"point", "phi", "tg_translational", "tg_full"}};
+          {"point", "phi", "T_g ch3 (g d)", "T_g ch4 (rho g d^3)"}, {}, {"point", "phi", "tg_translational", "tg_full"}};
   for (std::size_t p = 0; p < v.points.size(); ++p) {
     if (metric(p, "phi").n == 0) continue;
     t.rows.push_back({point_name(v, v.points[p]), Cell::estimate(metric(p, "phi")),
@@ -141,7 +141,7 @@ std::optional<Section> RegionAnalysis::section(const SectionInput& in) const {
   s.blocks.push_back(t);
   // Several outlets: the same statistics next to each of them.
   Table per_outlet{"region_per_outlet", "Region statistics next to every outlet: mean ± se over replicas (n)",
-                   {"point", "outlet", "phi", "T_g ch3 (g d)", "T_g ch4 (m g d)"},
+                   {"point", "outlet", "phi", "T_g ch3 (g d)", "T_g ch4 (rho g d^3)"},
                    {},
                    {"point", "outlet", "phi", "tg_translational", "tg_full"}};
   if (v.outlets > 1)
@@ -164,7 +164,7 @@ std::optional<Section> RegionAnalysis::section(const SectionInput& in) const {
     s.blocks.push_back(Figure{"packing_fraction", "Packing fraction phi" + where + " against " + v.x_label, v.x_label,
                               "phi", series("phi", "phi"), false, false, "Error bars: se over replicas"});
     Figure tg{"granular_temperature", "Granular temperature" + where + " against " + v.x_label, v.x_label,
-              "T_g (ch. 3: g d; ch. 4-5: m g d)", {}, false, false, "Both definitions; error bars: se over replicas"};
+              "T_g (ch. 3: g d; ch. 4-5: rho g d^3)", {}, false, false, "Both definitions; error bars: se over replicas"};
     for (auto se : series("tg_translational", "Tg_ch3")) {
       se.label = "ch. 3 " + se.label;
       tg.series.push_back(se);

@@ -14,6 +14,7 @@
 #include "analysis/options.h"
 #include "analysis/orientation_analysis.h"
 #include "analysis/profile_analysis.h"
+#include "analysis/python_analysis.h"
 #include "analysis/region_analysis.h"
 
 namespace granary::analysis {
@@ -61,6 +62,7 @@ const std::vector<AnalysisEntry>& builtin_analyses() {
       {"contacts", make_contacts_analysis},
       {"orientation", make_orientation_analysis},
       {"fields", make_fields_analysis},
+      {"python", nullptr, make_python_analyses},
   };
   return kTable;
 }
@@ -98,6 +100,7 @@ AnalysisSetup setup_analyses(const nlohmann::json& campaign_spec) {
   AnalysisSetup setup;
   std::string known;
   for (const char* k : kPassKeys) known += (known.empty() ? "" : ", ") + std::string(k);
+  known += ", figures";
   for (const AnalysisEntry& e : rows) known += ", " + e.key;
   for (const auto& [key, v] : report.items()) {
     const std::string path = "/report/" + key;
@@ -109,6 +112,8 @@ AnalysisSetup setup_analyses(const nlohmann::json& campaign_spec) {
       setup.pass.frame_stride = option_integer(v, path, 1, 1000000000);
     } else if (key == "max_frames") {
       setup.pass.max_frames = option_integer(v, path, 0, 1000000000);
+    } else if (key == "figures") {
+      continue;  // the figure layer (figures.h) reads it
     } else if (key == "models") {
       throw OptionError(path, v, "fit models are options of the flow analysis now: /report/flow/models");
     } else if (key == "min_exits_before_clog") {
@@ -118,9 +123,20 @@ AnalysisSetup setup_analyses(const nlohmann::json& campaign_spec) {
     }
   }
   // An analysis that is off unless asked for (fields) makes nothing without its options.
-  for (const AnalysisEntry& e : rows)
-    if (auto a = e.make(report.contains(e.key) ? report.at(e.key) : nlohmann::json(), "/report/" + e.key))
+  for (const AnalysisEntry& e : rows) {
+    const nlohmann::json options = report.contains(e.key) ? report.at(e.key) : nlohmann::json();
+    if (e.make_all) {
+      for (auto& a : e.make_all(options, "/report/" + e.key)) {
+        // One key, one cache file and one set of metric columns per analysis.
+        for (const auto& other : setup.analyses)
+          if (other->key() == a->key())
+            throw OptionError("/report/" + e.key, a->key(), "keys that no other analysis has (" + a->key() + " is taken)");
+        setup.analyses.push_back(std::move(a));
+      }
+    } else if (auto a = e.make(options, "/report/" + e.key)) {
       setup.analyses.push_back(std::move(a));
+    }
+  }
   return setup;
 }
 

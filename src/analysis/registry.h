@@ -18,6 +18,10 @@ struct AnalysisEntry {
   // nullptr for an analysis that is off (one that runs only when asked for, like "fields").
   // Throws OptionError naming `path` and below.
   std::function<std::unique_ptr<Analysis>(const nlohmann::json& options, const std::string& path)> make;
+  // Instead of `make`, for a row whose options name several analyses, each with its own key
+  // (/report/python: one analysis per script, python_analysis.h).
+  std::function<std::vector<std::unique_ptr<Analysis>>(const nlohmann::json& options, const std::string& path)>
+      make_all = {};
 };
 
 // The built-in table.

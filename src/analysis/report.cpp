@@ -1,14 +1,19 @@
-// `write_report`: the campaign view's sections, then each analysis' section (registry order),
-// then the engine comparison; rendered by report_document.h.
+// `write_report`: key results and the spec's figures, each analysis' section (registry order),
+// the engine comparison, then the campaign view's sections and the gallery; rendered by
+// report_document.h.
 #include "analysis/report.h"
 
+#include <array>
 #include <algorithm>
 #include <cmath>
 #include <ctime>
 #include <map>
 #include <optional>
+#include <unistd.h>
 
 #include "analysis/engine_comparison.h"
+#include "analysis/expectations.h"
+#include "analysis/figures.h"
 #include "analysis/report_document.h"
 #include "analysis/system.h"
 #include "rundir/version.h"
@@ -27,11 +32,15 @@ std::string state_reason(const RunRecord& r) {
 std::optional<Section> runs_section(const CampaignView& c) {
   Section s{"runs", "Runs", {}};
   const int total = static_cast<int>(c.used.size() + c.missing.size() + c.failed.size() + c.unreadable.size() +
-                                     c.lost.size() + c.retired.size());
+                                     c.damaged.size() + c.lost.size() + c.retired.size());
   s.blocks.push_back(Text{std::to_string(total) + " runs in the campaign: **" + std::to_string(c.used.size()) +
                           " used**, " + std::to_string(c.missing.size()) + " missing (not finished), " +
                           std::to_string(c.failed.size()) + " failed, " + std::to_string(c.unreadable.size()) +
                           " finished but unreadable, " +
+                          (c.damaged.empty() ? std::string()
+                                             : "**" + std::to_string(c.damaged.size()) +
+                                                   " finished but damaged** (a file differs from what the engine "
+                                                   "recorded; below), ") +
                           (c.lost.empty() ? std::string()
                                           : std::to_string(c.lost.size()) + " finished but their run directory was deleted, ") +
                           std::to_string(c.retired.size()) + " retired. " +
@@ -44,10 +53,29 @@ std::optional<Section> runs_section(const CampaignView& c) {
   for (const RunRecord* r : c.missing) row(r, r->failure.empty() ? "not finished" : "not finished: " + state_reason(*r));
   for (const RunRecord* r : c.failed) row(r, state_reason(*r));
   for (const auto& [r, why] : c.unreadable) row(r, "unreadable: " + why);
+  for (const auto& [r, problems] : c.damaged) row(r, "damaged: " + rundir::Verification{rundir::Integrity::kDamaged, problems, 0}.text());
   for (const RunRecord* r : c.lost)
     row(r, "run directory deleted after it finished (campaign run --rerun-lost runs it again)");
   for (const RunRecord* r : c.retired) row(r, "retired (superseded)");
   if (!t.rows.empty()) s.blocks.push_back(t);
+  if (!c.damaged.empty()) {
+    s.blocks.push_back(Text{"**Damaged runs.** These runs finished, but their files no longer are what the engine "
+                            "recorded when it finished (`manifest.json`: sizes, checksums, counts of frames, events "
+                            "and clogs): cut short, changed or missing. They are kept out of every number of this "
+                            "report, of `campaign export` and of `campaign status`. Restore the files, or delete a "
+                            "run's directory and `campaign run --rerun-lost` runs it again."});
+    Table d{"damaged_runs", "Damaged runs: each file that differs and how", {"run", "point", "replica", "file", "what differs"},
+            {}, {}};
+    for (const auto& [r, problems] : c.damaged)
+      for (const rundir::FileProblem& p : problems)
+        d.rows.push_back({r->run_id, point_label(c, r->point, r->spec, NameForm::kShort), Cell::count(r->replica), p.file, p.what});
+    s.blocks.push_back(d);
+  }
+  if (!c.unverifiable.empty())
+    s.blocks.push_back(Text{std::to_string(c.unverifiable.size()) + " of the used runs are **not verifiable**: they were "
+                            "written before engines recorded a manifest of their files, so a file cut or changed "
+                            "since cannot be told from a whole one (only `events.csv` against `summary.json` is "
+                            "checked). First of them: `" + c.unverifiable.front()->run_id + "`."});
   return s;
 }
 
@@ -67,6 +95,10 @@ std::optional<Section> provenance_section(const CampaignView& c) {
     std::strftime(stamp, sizeof stamp, "%Y-%m-%d %H:%M UTC", &utc);
     text += ", on " + std::string(stamp);
   }
+  {
+    char host[256] = {};
+    if (gethostname(host, sizeof host - 1) == 0 && host[0] != '\0') text += " on host `" + std::string(host) + "`";
+  }
   text += ". Sweep axes: ";
   for (std::size_t i = 0; i < k.axes.size(); ++i) text += (i ? ", " : "") + std::string("`") + k.axes[i] + "`";
   if (k.axes.empty()) text += "none";
@@ -81,15 +113,34 @@ std::optional<Section> provenance_section(const CampaignView& c) {
           {"engine", "engine_version", "granary_commit", "tangential_cap", "runs"}};
   for (const auto& [key, n] : rows) t.rows.push_back({key[0], key[1], key[2], key[3], Cell::count(n)});
   s.blocks.push_back(t);
+  // What the runs cost, per engine: wall time and core-hours (wall time x threads).
+  std::map<std::string, std::array<double, 3>> cost;  // engine -> runs, wall s, core s
+  for (const UsedRun& a : c.used) {
+    auto& e = cost[a.summary.engine];
+    e[0] += 1;
+    if (std::isfinite(a.timing.wall_s)) {
+      e[1] += a.timing.wall_s;
+      e[2] += a.timing.wall_s * std::max(1, a.timing.threads);
+    }
+  }
+  Table ct{"provenance_cost", "What the used runs cost (summary.json timing; core-hours = wall time x threads)",
+           {"engine", "runs", "wall time (h)", "core-hours"}, {}, {"engine", "runs", "wall_h", "core_hours"}};
+  for (const auto& [engine, e] : cost)
+    ct.rows.push_back({engine, Cell::count(static_cast<long long>(e[0])), Cell::number(e[1] / 3600.0, 3), Cell::number(e[2] / 3600.0, 3)});
+  if (!ct.rows.empty()) s.blocks.push_back(ct);
   s.blocks.push_back(Text{"Tangential cap: `lammps` caps spring plus damping at mu|F_n| (LAMMPS convention, "
                           "physics.md); `liggghts` caps only the spring part (LIGGGHTS 3.8). Runs with different "
                           "caps are not the same model."});
+  if (k.spec.is_object()) {
+    s.blocks.push_back(Text{"The campaign spec as planned:"});
+    s.blocks.push_back(Code{k.spec.dump(2)});
+  }
   return s;
 }
 
-// What was simulated: the campaign's description, its fixed parameters, the swept ones by
-// their human names, and each point's bed and end in pictures (when the runner can draw).
-std::optional<Section> system_section(const CampaignView& c, const ReportOptions& options) {
+// What was simulated: the campaign's description, the units, its fixed parameters, the swept
+// ones by their human names and the derived axes (the pictures are in the gallery).
+std::optional<Section> system_section(const CampaignView& c) {
   Section s{"system", "The system", {}};
   const nlohmann::json& cs = c.campaign->spec;
   s.blocks.push_back(Text{cs.is_object() && cs.contains("description") && cs.at("description").is_string()
@@ -101,7 +152,14 @@ std::optional<Section> system_section(const CampaignView& c, const ReportOptions
   for (const auto* list : {&c.missing, &c.failed, &c.retired})
     if (spec.is_null() && !list->empty()) spec = list->front()->spec;
   if (spec.is_null()) return s;
+  s.blocks.push_back(Text{std::string("Units (every table, figure and export): ") + kUnitsText + "."});
   s.blocks.push_back(fixed_parameters(spec, c.axes));
+  if (!c.named.derived().empty()) {
+    Table d{"system-derived-axes", "Derived axes (campaign spec /axes): usable in --only, the export and figures",
+            {"name", "expression"}, {}, {}};
+    for (const DerivedAxis& a : c.named.derived()) d.rows.push_back({a.name, a.expression.text()});
+    s.blocks.push_back(d);
+  }
   if (!c.axes.empty()) {
     Table t{"system-axes", "Swept parameters (short: as tables and figure keys name them)",
             {"parameter", "short", "in the run spec", "values"}, {}, {}};
@@ -119,43 +177,82 @@ std::optional<Section> system_section(const CampaignView& c, const ReportOptions
     }
     s.blocks.push_back(t);
   }
-  // Each point: the bed before the outlets open and the last state of its first replica.
+  s.blocks.push_back(Text{"Pictures of every point (its bed and its end) are in the [gallery](#gallery) at the end."});
+  return s;
+}
+
+// Each point: the bed before the outlets open and the last state of its first replica; last in
+// the report, so that the results come first.
+// Pictures of point k's lowest replica (`kinds`: its bed, its end, or both) as `stem`-bed.png and
+// `stem`-end.png; empty when it has no used run or nothing could be drawn (why: not_drawn).
+Pictures point_pictures(const CampaignView& c, std::size_t k, const ReportOptions& options, bool bed, bool end_picture,
+                        const std::string& stem, NotDrawn& not_drawn) {
+  Pictures pics;
+  const Point& p = c.points[k];
+  const UsedRun* run = nullptr;
+  for (std::size_t u : p.runs)
+    if (!run || c.used[u].record->replica < run->record->replica) run = &c.used[u];
+  if (!run) return pics;
+  std::filesystem::create_directories(options.out_dir / "pictures");
+  // In words, engine included (a campaign on two engines shows each point twice).
+  const std::string label = c.axes.empty() ? std::string() : point_title(c, p);
+  pics.caption = (label.empty() ? std::string("The silo") : label) + " (replica " + std::to_string(run->record->replica) +
+                 ", run `" + run->record->run_id.substr(0, 10) + "`)";
+  const std::string& end = run->summary.end_reason;
+  const std::pair<ReportOptions::Picture, std::string> kinds[] = {
+      {ReportOptions::Picture::kBed, "the bed before the outlets open (t = 0)"},
+      {ReportOptions::Picture::kEnd, (end == "clogged" ? "clogged" : end == "discharged" ? "discharged" : "the last frame") +
+                                         std::string(" (t = ") + format_number(run->summary.t_end, 4) + ")"}};
+  for (const auto& [kind, caption] : kinds) {
+    const bool is_bed = kind == ReportOptions::Picture::kBed;
+    if ((is_bed && !bed) || (!is_bed && !end_picture)) continue;
+    const std::string file = stem + (is_bed ? "-bed.png" : "-end.png");
+    const std::string problem = options.draw_run(run->record->run_dir, kind, options.out_dir / file);
+    if (problem.empty()) {
+      pics.pictures.push_back({file, caption});
+    } else {
+      not_drawn.add(problem);
+    }
+  }
+  return pics;
+}
+
+std::optional<Section> gallery_section(const CampaignView& c, const ReportOptions& options) {
+  Section s{"gallery", "Gallery: every point", {}};
   if (!options.draw_run) {
     s.blocks.push_back(Text{"(No pictures: this report was written without the renderer.)"});
     return s;
   }
   NotDrawn not_drawn;
   for (std::size_t k = 0; k < c.points.size(); ++k) {
-    const Point& p = c.points[k];
-    const UsedRun* run = nullptr;
-    for (std::size_t u : p.runs)
-      if (!run || c.used[u].record->replica < run->record->replica) run = &c.used[u];
-    if (!run) continue;
-    const std::string stem = "pictures/point-" + std::to_string(k + 1);
-    std::filesystem::create_directories(options.out_dir / "pictures");
-    Pictures pics;
-    // In words, engine included (a campaign on two engines shows each point twice).
-    const std::string label = c.axes.empty() ? std::string() : point_title(c, p);
-    pics.caption = (label.empty() ? std::string("The silo") : label) + " (replica " + std::to_string(run->record->replica) +
-                   ", run `" + run->record->run_id.substr(0, 10) + "`)";
-    const std::string& end = run->summary.end_reason;
-    const std::pair<ReportOptions::Picture, std::string> kinds[] = {
-        {ReportOptions::Picture::kBed, "the bed before the outlets open (t = 0)"},
-        {ReportOptions::Picture::kEnd, (end == "clogged" ? "clogged" : end == "discharged" ? "discharged" : "the last frame") +
-                                           std::string(" (t = ") + format_number(run->summary.t_end, 4) + ")"}};
-    for (const auto& [kind, caption] : kinds) {
-      const std::string file = stem + (kind == ReportOptions::Picture::kBed ? "-bed.png" : "-end.png");
-      const std::string problem = options.draw_run(run->record->run_dir, kind, options.out_dir / file);
-      if (problem.empty()) {
-        pics.pictures.push_back({file, caption});
-      } else {
-        not_drawn.add(problem);
-      }
-    }
+    Pictures pics = point_pictures(c, k, options, true, true, "pictures/point-" + std::to_string(k + 1), not_drawn);
     if (!pics.pictures.empty()) s.blocks.push_back(pics);
   }
   not_drawn.append_to(s);
   return s;
+}
+
+// A figure of kind "pictures": the chosen points' pictures, side by side, under its caption.
+void add_figure_pictures(const CampaignView& c, FigureOutcome& f, const ReportOptions& options) {
+  const FigureSpec& spec = *f.spec;
+  if (!options.draw_run) {
+    f.blocks.push_back(Text{"(Figure " + spec.name + ": no pictures, this report was written without the renderer.)"});
+    return;
+  }
+  Pictures all;
+  all.caption = (spec.title.empty() ? spec.name : spec.title) + (spec.caption.empty() ? "" : ". " + spec.caption) +
+                (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
+  NotDrawn not_drawn;
+  for (const FigureDatum& d : f.data)
+    for (std::size_t k : d.points) {
+      const Pictures one = point_pictures(c, k, options, spec.picture == "bed", spec.picture == "end",
+                                          "pictures/figure-" + spec.name + "-" + std::to_string(k + 1), not_drawn);
+      for (const Picture& p : one.pictures) all.pictures.push_back({p.file, one.caption + ": " + p.caption});
+    }
+  if (!all.pictures.empty()) f.blocks.push_back(all);
+  Section notes{"", "", {}};
+  not_drawn.append_to(notes);
+  for (Block& b : notes.blocks) f.blocks.push_back(std::move(b));
 }
 
 // Every used run with its headline metrics (every analysis' metrics are in the export).
@@ -226,7 +323,11 @@ std::optional<Section> per_run_section(const CampaignAnalysis& ca) {
 
 }  // namespace
 
-void check_report_spec(const nlohmann::json& campaign_spec) { setup_analyses(campaign_spec); }
+void check_report_spec(const nlohmann::json& campaign_spec) {
+  CampaignAxes::of_campaign_spec(campaign_spec);
+  setup_analyses(campaign_spec);
+  read_expectations(campaign_spec, read_figure_specs(campaign_spec));
+}
 
 ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
                            const ReportOptions& options) {
@@ -239,11 +340,15 @@ ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRe
 ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& options) {
   if (options.out_dir.empty()) throw std::invalid_argument("write_report: ReportOptions::out_dir is empty");
   const CampaignView& c = ca.view;
+  // Key results (the reproduction table), the spec's figures, each analysis' section, the
+  // engine comparison; then what was simulated, the runs, provenance, per-run tables and the
+  // gallery of every point.
+  const std::unique_ptr<Reproduction> reproduction = reproduce(ca);
+  for (FigureOutcome& f : reproduction->figures)
+    if (f.spec->kind == "pictures") add_figure_pictures(c, f, options);
   std::vector<Section> sections;
-  if (auto s = system_section(c, options)) sections.push_back(std::move(*s));
-  if (auto s = runs_section(c)) sections.push_back(std::move(*s));
-  if (auto s = provenance_section(c)) sections.push_back(std::move(*s));
-  if (auto s = per_run_section(ca)) sections.push_back(std::move(*s));
+  if (auto s = key_results_section(reproduction->results)) sections.push_back(std::move(*s));
+  if (auto s = figures_section(reproduction->figures)) sections.push_back(std::move(*s));
   for (std::size_t a = 0; a < ca.setup->analyses.size(); ++a) {
     const SectionInput input{c, ca.results[a], ca.point_metrics[a], ca.setup->pass, options.out_dir, options.draw_clog};
     if (auto s = ca.setup->analyses[a]->section(input)) sections.push_back(std::move(*s));
@@ -253,6 +358,11 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   const std::optional<EngineComparison> comparison = engine_comparison_of(c, all);
   if (comparison)
     if (auto s = engine_comparison_section(c, *comparison)) sections.push_back(std::move(*s));
+  if (auto s = system_section(c)) sections.push_back(std::move(*s));
+  if (auto s = runs_section(c)) sections.push_back(std::move(*s));
+  if (auto s = provenance_section(c)) sections.push_back(std::move(*s));
+  if (auto s = per_run_section(ca)) sections.push_back(std::move(*s));
+  if (auto s = gallery_section(c, options)) sections.push_back(std::move(*s));
   RenderOptions render;
   render.figures = options.figures;
   render.gnuplot = options.gnuplot;
@@ -264,9 +374,12 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   summary.results_from_cache = ca.results_from_cache;
   summary.results_computed = ca.results_computed;
   summary.runs_lost = static_cast<int>(c.lost.size());
+  summary.runs_damaged = static_cast<int>(c.damaged.size());
+  summary.runs_unverifiable = static_cast<int>(c.unverifiable.size());
   summary.markdown = r.markdown;
   summary.html = r.html;
   if (comparison) summary.comparison = to_json(*comparison);
+  if (!reproduction->results.empty()) summary.expectations = to_string(count(reproduction->results));
   return summary;
 }
 

@@ -1,8 +1,10 @@
 // `campaign report`: report.md, report.html, figures and numeric CSVs of a campaign's finished
 // runs. The runner queries its database and hands the runs over as plain records; this layer
-// never touches SQLite. The report is the campaign view's own sections (runs, provenance,
-// per-run results), then each registered analysis' section in table order (registry.h), then
-// the engine comparison when the runs come from two engines.
+// never touches SQLite. The report opens with the reproduction table (Key results, the spec's
+// /expect) and the spec's figures (/report/figures), then each registered analysis' section in
+// table order (registry.h), the engine comparison when the runs come from two engines, the
+// campaign view's own sections (the system, runs, provenance, per-run results) and a gallery
+// of every point.
 #pragma once
 
 #include <filesystem>
@@ -35,11 +37,14 @@ struct ReportSummary {
   int runs_missing = 0;           // planned/running/interrupted
   int runs_failed = 0;            // failed, or finished but unreadable
   int runs_lost = 0;              // done, but their run directories were deleted afterwards
+  int runs_damaged = 0;           // done, but a file differs from the engine's manifest: not used
+  int runs_unverifiable = 0;      // used, but written before manifests (not verifiable)
   int results_from_cache = 0;     // run x analysis results read from the run directories' caches
   int results_computed = 0;
   std::filesystem::path markdown;
   std::filesystem::path html;
   nlohmann::json comparison;      // runs on two engines: analysis::to_json(EngineComparison), else null
+  std::string expectations;       // the spec has /expect: "7 agree, 1 disagrees, 3 not yet"; else ""
 };
 
 // Checks the campaign spec's /report object (throws OptionError naming the JSON path).

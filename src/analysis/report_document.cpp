@@ -240,51 +240,8 @@ std::string range_text(const Range& r, bool log) {
   return "[" + csv_number(lo) + ":" + csv_number(hi) + "]";
 }
 
-bool draws_points(const Series& se) {
-  return se.style == Series::Style::kPoints || se.style == Series::Style::kErrorBars ||
-         se.style == Series::Style::kLinesPoints;
-}
-
 double cell(const std::vector<double>& row, int col) {
   return col >= 0 && col < static_cast<int>(row.size()) ? row[static_cast<std::size_t>(col)] : kNaNValue;
-}
-
-// Horizontal offsets (in x units, or factors on a log axis) of the data curves that draw
-// points, so that points of several curves at one x sit side by side instead of on top of
-// each other: spread over a quarter of the smallest gap between x values. Zero for curves
-// that share no x with another.
-std::vector<double> point_offsets(const Figure& f) {
-  std::vector<double> offsets(f.series.size(), f.logx ? 1.0 : 0.0);
-  std::map<double, int> curves_at;  // x -> number of point-drawing data curves there
-  std::vector<std::size_t> spread;
-  for (std::size_t k = 0; k < f.series.size(); ++k) {
-    const Series& se = f.series[k];
-    if (se.role != Series::Role::kData || !draws_points(se)) continue;
-    std::set<double> xs;
-    for (const auto& row : se.rows)
-      if (std::isfinite(cell(row, se.x)) && std::isfinite(cell(row, se.y))) xs.insert(cell(row, se.x));
-    for (double x : xs) ++curves_at[x];
-    spread.push_back(k);
-  }
-  const bool shared = std::any_of(curves_at.begin(), curves_at.end(), [](const auto& c) { return c.second > 1; });
-  if (!shared || spread.size() < 2) return offsets;
-  double gap = std::numeric_limits<double>::infinity(), prev = kNaNValue;
-  for (const auto& [x, n] : curves_at) {
-    const double v = f.logx ? std::log(x) : x;
-    if (std::isfinite(prev)) gap = std::min(gap, v - prev);
-    prev = v;
-  }
-  if (!std::isfinite(gap) || gap <= 0) {  // one x value: a width relative to it
-    const double x = curves_at.begin()->first;
-    gap = f.logx ? 0.2 : (x != 0.0 ? 0.2 * std::abs(x) : 1.0);
-  }
-  const double width = 0.25 * gap;
-  const double step = width / static_cast<double>(spread.size() - 1);
-  for (std::size_t i = 0; i < spread.size(); ++i) {
-    const double d = (static_cast<double>(i) - 0.5 * static_cast<double>(spread.size() - 1)) * step;
-    offsets[spread[i]] = f.logx ? std::exp(d) : d;
-  }
-  return offsets;
 }
 
 }  // namespace
@@ -335,14 +292,14 @@ std::string gnuplot_script(const Figure& f) {
   }
   if (!xr.empty()) s << "set xrange " << range_text(xr, f.logx) << "\n";
   if (!yr.empty()) s << "set yrange " << range_text(yr, f.logy) << "\n";
-  const std::vector<double> offsets = point_offsets(f);
+  // Every point at its true x: curves that share an x tell apart by colour and marker shape,
+  // never by a shifted coordinate (a shift reads as another x and left the outermost points
+  // outside the range).
   s << "plot ";
   int next_colour = 0, reference = 0;
   for (std::size_t k = 0; k < f.series.size(); ++k) {
     const Series& se = f.series[k];
-    std::string x = "($" + std::to_string(se.x + 1) + ")";
-    if (f.logx ? offsets[k] != 1.0 : offsets[k] != 0.0)
-      x = "($" + std::to_string(se.x + 1) + (f.logx ? "*" : "+") + csv_number(offsets[k]) + ")";
+    const std::string x = "($" + std::to_string(se.x + 1) + ")";
     const std::string y = "($" + std::to_string(se.y + 1) + ")";
     s << (k ? ", \\\n     " : "") << gp_quote(std::string(kDataDir) + "/" + files[k]) << " skip 1 using " << x << ":"
       << y;
@@ -472,7 +429,7 @@ const char* kCss =
     "td{white-space:nowrap}td.t{text-align:left;white-space:normal;max-width:24em}"
     "table.wide{font-size:0.75em}table.wide th,table.wide td{padding:2px 4px}"
     "caption{text-align:left;font-weight:bold;padding:4px 0}"
-    "figure{margin:1em 0}figcaption{font-size:0.9em;color:#444}code{background:#f4f4f8;padding:0 3px}"
+    "figure{margin:1em 0}figcaption{font-size:0.9em;color:#444}code{background:#f4f4f8;padding:0 3px}pre{background:#f4f4f8;padding:0.5em;font-size:0.8em;max-height:30em;overflow:auto}"
     ".csv{font-size:0.8em;color:#666}nav a{margin-right:1em}svg{max-width:100%;height:auto}"
     ".pics{display:flex;flex-wrap:wrap;gap:1em;align-items:flex-end}.pics figure{margin:0}.pics img{width:320px;border:1px solid #ddd}";
 
@@ -696,6 +653,9 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
           }
         }
         flush();
+      } else if (const auto* code = std::get_if<Code>(&block)) {
+        md_body << "```\n" << code->text << "\n```\n\n";
+        html_body << "<pre>" << html_escape(code->text) << "</pre>\n";
       } else if (const auto* tb = std::get_if<Table>(&block)) {
         const std::string csv = std::string(kDataDir) + "/" + tb->name + ".csv";
         write_table_csv(out_dir / csv, *tb);

@@ -127,7 +127,12 @@ struct MapFigure {
   std::string caption;
 };
 
-using Block = std::variant<Text, Table, Figure, Pictures, MapFigure>;
+// Text shown as it is, in a monospaced block (the campaign spec in the provenance).
+struct Code {
+  std::string text;
+};
+
+using Block = std::variant<Text, Table, Figure, Pictures, MapFigure, Code>;
 
 struct Section {
   std::string id;                            // html anchor

@@ -270,6 +270,12 @@ RunPassResult analyse_run(const std::filesystem::path& dir, const std::vector<co
                           const PassOptions& pass, const RunPassOptions& options) {
   RunPassResult out;
   out.results.assign(analyses.size(), nullptr);
+  // What a killed writer left: analyses/*.json.tmp.PID (a killed pass), progress.json.tmp.PID
+  // (a killed engine).
+  if (options.write_cache) {
+    RemoveStaleTemporaries(dir);
+    RemoveStaleTemporaries(dir / rundir::kAnalysesDir);
+  }
   // A cached result belongs to this summary.json: a run run again is analysed again.
   std::string summary_hash;
   if (std::filesystem::exists(dir / rundir::kSummaryFile)) summary_hash = hash_hex(ReadWholeFile(dir / rundir::kSummaryFile));

@@ -130,10 +130,14 @@ std::string axis_name(const std::string& pointer, const json& spec) { return axi
 Table fixed_parameters(const json& spec, const std::vector<std::string>& axes) {
   Table t;
   t.name = "system-parameters";
-  t.caption = "Fixed parameters (units: disc diameter d, mass of a disc of diameter d, g)";
+  t.caption = "Fixed parameters (" + std::string(kUnitsText) + ")";
   t.header = {"", "parameter", "value"};
+  // pointer "": a row of several parameters, each of which says itself whether it is swept (V).
   const auto add = [&](const std::string& group, const std::string& name, const std::string& pointer, const std::string& value) {
-    t.rows.push_back({group, name, Swept(pointer, axes) ? "swept (below)" : value});
+    t.rows.push_back({group, name, !pointer.empty() && Swept(pointer, axes) ? "swept (below)" : value});
+  };
+  const auto V = [&](const std::string& pointer, const json& value) {
+    return Swept(pointer, axes) ? axis_names(pointer, spec).symbol + " (swept, below)" : Num(value);
   };
   const json& silo = At(spec, "silo");
   add("silo", "width L", "/silo/width", Num(At(silo, "width")));
@@ -161,7 +165,7 @@ Table fixed_parameters(const json& spec, const std::vector<std::string>& axes) {
   for (std::size_t k = 0; obstacles.is_array() && k < obstacles.size(); ++k) {
     const std::string name = "obstacle" + (obstacles.size() > 1 ? " " + std::to_string(k + 1) : std::string());
     const std::string ptr = "/silo/obstacles/" + std::to_string(k);
-    add("silo", name + ": centre (x, y)", ptr, "(" + Num(At(obstacles[k], "x")) + ", " + Num(At(obstacles[k], "y")) + ")");
+    add("silo", name + ": centre (x, y)", "", "(" + V(ptr + "/x", At(obstacles[k], "x")) + ", " + V(ptr + "/y", At(obstacles[k], "y")) + ")");
     add("silo", name + ": diameter D_o", ptr + "/diameter", Num(At(obstacles[k], "diameter")));
   }
   const json& bodies = At(spec, "bodies");
@@ -172,12 +176,13 @@ Table fixed_parameters(const json& spec, const std::vector<std::string>& axes) {
     const json& s = species[k];
     const std::string shape = s.value("shape", "");
     std::string form = shape;
-    if (shape == "disc") form = "disc of diameter " + Num(At(s, "diameter"));
-    if (shape == "dumbbell") form = "dumbbell: two touching discs of diameter " + Num(At(s, "diameter"));
-    if (shape == "snowman")
-      form = "snowman: discs of diameter " + Num(At(s, "diameter")) + " and " + Num(At(s, "big_diameter")) + ", touching";
-    if (shape == "rod") form = "rod: " + Num(At(s, "n")) + " touching discs of diameter " + Num(At(s, "diameter")) + " in a line";
     const std::string ptr = "/bodies/species/" + std::to_string(k);
+    const std::string diameter = V(ptr + "/diameter", At(s, "diameter"));
+    if (shape == "disc") form = "disc of diameter " + diameter;
+    if (shape == "dumbbell") form = "dumbbell: two touching discs of diameter " + diameter;
+    if (shape == "snowman")
+      form = "snowman: discs of diameter " + diameter + " and " + V(ptr + "/big_diameter", At(s, "big_diameter")) + ", touching";
+    if (shape == "rod") form = "rod: " + V(ptr + "/n", At(s, "n")) + " touching discs of diameter " + diameter + " in a line";
     add("bodies", "species " + std::to_string(k + 1) + " \"" + s.value("name", "") + "\"", ptr + "/shape", form);
     add("bodies", "species " + std::to_string(k + 1) + " number fraction " + FractionSymbol(spec, k), ptr + "/fraction",
         Num(At(s, "fraction")));
@@ -187,10 +192,11 @@ Table fixed_parameters(const json& spec, const std::vector<std::string>& axes) {
       "Hertz with tangential history; Coulomb cap on " +
           std::string(At(contact, "tangential_cap") == "liggghts" ? "the spring part (LIGGGHTS)" : "spring + damping (LAMMPS)") +
           (At(contact, "clip_normal") == true ? "; attractive normal force clipped" : ""));
-  add("contact law", "stiffness K_n, K_t", "/contact/kn", Num(At(contact, "kn")) + ", " + Num(At(contact, "kt")));
-  add("contact law", "damping gamma_n, gamma_t", "/contact/gamma_n",
-      Num(At(contact, "gamma_n")) + ", " + Num(At(contact, "gamma_t")));
-  add("contact law", "friction mu (bodies), mu_w (walls)", "/contact/mu", Num(At(contact, "mu")) + ", " + Num(At(contact, "mu_wall")));
+  add("contact law", "stiffness K_n, K_t", "", V("/contact/kn", At(contact, "kn")) + ", " + V("/contact/kt", At(contact, "kt")));
+  add("contact law", "damping gamma_n, gamma_t", "",
+      V("/contact/gamma_n", At(contact, "gamma_n")) + ", " + V("/contact/gamma_t", At(contact, "gamma_t")));
+  add("contact law", "friction mu (bodies), mu_w (walls)", "",
+      V("/contact/mu", At(contact, "mu")) + ", " + V("/contact/mu_wall", At(contact, "mu_wall")));
   add("integration", "time step dt", "/time_step", Num(At(spec, "time_step")));
   add("integration", "gravity g", "/gravity", Num(At(spec, "gravity")));
   add("integration", "engine", "/engine", Num(At(spec, "engine")));

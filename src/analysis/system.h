@@ -25,6 +25,13 @@ struct AxisNames {
 };
 AxisNames axis_names(const std::string& pointer, const nlohmann::json& run_spec);
 
+// The report's units, said once ("The system"): every quantity of every table, figure and
+// export is in these reduced units.
+inline constexpr char kUnitsText[] =
+    "units: lengths in d (the disc diameter), times in sqrt(d/g), masses in rho d^2 (rho the areal density); so "
+    "velocities in sqrt(g d), flow rates in bodies/sqrt(d/g), forces in rho g d^2, 2-D stresses (force per length) in "
+    "rho g d, energies in rho g d^3, T_g per unit mass (ch. 3) in g d";
+
 // Rows {group, parameter, value} of everything a run of the campaign shares, from one resolved
 // run spec; a parameter under one of the sweep `axes` reads "swept (below)".
 Table fixed_parameters(const nlohmann::json& run_spec, const std::vector<std::string>& axes);

@@ -714,7 +714,9 @@ void Discharge::WriteSummary(const std::string& end_reason) {
   s.bed = {bed_file_, bed_height_, bed_prepared_here_, bed_settle_time_, bed_refused_};
   s.timing = rundir::Timing{bed_wall_s_ + discharge_wall, bed_wall_s_, discharge_wall,
                             discharge_wall > 0 ? static_cast<double>(disc_steps_) / discharge_wall : 0.0,
-                            omp_get_max_threads()};
+                            omp_get_max_threads(),
+                            discharge_wall > 0 ? static_cast<double>(w.disc_count()) * static_cast<double>(step_) / discharge_wall
+                                               : 0.0};
   s.continued_from_checkpoint = continued_;
   s.refused_checkpoints = refused_checkpoints_;
   rundir::WriteSummary(dir_, s);
@@ -765,9 +767,11 @@ RunResult Discharge::Run() {
       if (every > 0) n = std::min(n, every - step_ % every);
     for (const std::int64_t after : {options_.stop_after_steps, options_.abort_after_steps})
       if (after >= 0) n = std::min(n, std::max<std::int64_t>(1, first_step + after - step_));
+    // The discs these steps compute: bodies leave only at the last of them (Steps returns there).
+    const int discs = w.active_disc_count();
     const int taken = w.Steps(static_cast<int>(n));
     step_ += taken;
-    disc_steps_ += static_cast<std::int64_t>(taken) * w.disc_count();
+    disc_steps_ += static_cast<std::int64_t>(taken) * discs;
     HandleExits();
     if (step_ - last_exit_step_ >= clog_steps && step_ % kClogCheckEvery == 0 && !in_clog_ && Stalled()) {
       if (spec_.discharge.mode == DischargeMode::kRemove && !StallIsAClog()) {

@@ -132,6 +132,13 @@ void World::PlaceBody(int b, double x, double y, double theta, double vx, double
   rebuild_needed_ = true;
 }
 
+int World::active_disc_count() const {
+  int n = 0;
+  for (std::size_t b = 0; b < active_.size(); ++b)
+    if (active_[b]) n += disc_n_[b];
+  return n;
+}
+
 void World::Deactivate(int b) {
   if (!active_[b]) return;
   active_[b] = 0;

@@ -119,6 +119,8 @@ class World {
   int active_count() const { return active_count_; }
   int body_count() const { return static_cast<int>(bx_.size()); }
   int disc_count() const { return static_cast<int>(dr_.size()); }
+  // Discs of the active bodies: the discs a step computes (a loop over the bodies).
+  int active_disc_count() const;
   std::int64_t rebuilds() const { return rebuilds_; }
 
   // Contact history for checkpoints: the nonzero entries, and restoring them (the lists are

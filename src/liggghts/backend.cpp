@@ -996,11 +996,20 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
     remaining.insert(bodies.of(s));
     out_of_plane = std::max(out_of_plane, std::fabs(s.z));
   }
-  // Work of this session: the bed's spheres x the steps run since the start or the checkpoint
-  // (an upper bound in remove mode, where spheres leave).
+  // Work of this session: the spheres x the steps run since the start or the checkpoint.
   const double spheres_total = static_cast<double>(spheres.size());
-  const long long session_steps = last_step - (result.continued ? ckpt.step : 0);
+  const long long session_start = result.continued ? ckpt.step : 0;
+  const long long session_steps = last_step - session_start;
   const double session_wall = discharge_wall - discharge_wall_before;
+  // The spheres in the silo at each step of the session: in remove mode a body's spheres stop
+  // counting at the step it left.
+  double sphere_steps = spheres_total * static_cast<double>(session_steps);
+  if (spec.discharge.mode == DischargeMode::kRemove)
+    for (const Event& e : events) {
+      const double left = std::clamp(e.time / spec.time_step, static_cast<double>(session_start), static_cast<double>(last_step));
+      sphere_steps -= static_cast<double>(templates[static_cast<std::size_t>(e.species)].r.size()) *
+                      (static_cast<double>(last_step) - left);
+    }
   result.end_reason = end_reason;
   result.exited = static_cast<int>(events.size());
   result.steps = last_step;
@@ -1029,7 +1038,8 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   const double bed_wall = state.value("bed_wall_s", 0.0);
   summary.timing = rundir::Timing{
       bed_wall + discharge_wall, bed_wall, discharge_wall,
-      session_wall > 0 ? spheres_total * static_cast<double>(session_steps) / session_wall : 0.0, options.threads};
+      session_wall > 0 ? sphere_steps / session_wall : 0.0, options.threads,
+      session_wall > 0 ? spheres_total * static_cast<double>(session_steps) / session_wall : 0.0};
   // Going on through a clog restarts LIGGGHTS too; only a restart after an interruption counts here.
   summary.continued_from_checkpoint = result.continued && ckpt.step != state.value("relaunched_at_step", -1LL);
   rundir::WriteSummary(dir, summary);

@@ -1,10 +1,12 @@
 #include "rundir/files.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/file.h>
 #include <unistd.h>
 
 #include <array>
+#include <chrono>
 #include <cerrno>
 #include <cstring>
 #include <deque>
@@ -37,6 +39,26 @@ void ReplaceAtomically(const std::filesystem::path& tmp, const std::filesystem::
   SyncPath(tmp, false);
   std::filesystem::rename(tmp, file);
   SyncPath(DirectoryOf(file), true);
+}
+
+int RemoveStaleTemporaries(const std::filesystem::path& dir, double min_age_s) {
+  int removed = 0;
+  std::error_code ec;
+  const auto now = std::filesystem::file_time_type::clock::now();
+  for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    const std::size_t at = name.rfind(".tmp.");
+    if (at == std::string::npos || at + 5 >= name.size()) continue;
+    const std::string digits = name.substr(at + 5);
+    if (digits.find_first_not_of("0123456789") != std::string::npos || digits.size() > 9) continue;
+    const pid_t pid = static_cast<pid_t>(std::stol(digits));
+    if (pid <= 0 || pid == ::getpid() || ::kill(pid, 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to ask)
+    std::error_code stat_error;
+    const auto mtime = std::filesystem::last_write_time(it->path(), stat_error);
+    if (stat_error || std::chrono::duration<double>(now - mtime).count() < min_age_s) continue;
+    if (std::filesystem::remove(it->path(), stat_error)) ++removed;
+  }
+  return removed;
 }
 
 void WriteAtomically(const std::filesystem::path& file, const std::string& text, Durability durability) {
@@ -143,6 +165,17 @@ FileLock::FileLock(const std::filesystem::path& path) : fd_(::open(path.c_str(),
   }
 }
 
+FileLock::FileLock(const std::filesystem::path& path, const std::function<void()>& on_wait)
+    : fd_(::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644)) {
+  if (fd_ < 0) throw std::runtime_error("cannot open lock file " + path.string() + ": " + std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) return;
+  if (on_wait) on_wait();
+  if (::flock(fd_, LOCK_EX) != 0) {
+    ::close(fd_);
+    throw std::runtime_error("cannot lock " + path.string());
+  }
+}
+
 FileLock::~FileLock() {
   ::flock(fd_, LOCK_UN);
   ::close(fd_);
@@ -198,6 +231,8 @@ RunDirectoryLock::RunDirectoryLock(const std::filesystem::path& dir) {
     throw RunDirectoryBusy("run directory " + dir.string() + " still has helper processes of an earlier engine (" +
                            (dir / kHelpersLockFile).string() + " is held, e.g. MPI ranks winding down)");
   }
+  // This engine writes here now: what a killed one left half-written goes.
+  RemoveStaleTemporaries(dir);
   const std::string who = ThisProcess() + "\n";
   if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, who.data(), who.size(), 0) != static_cast<ssize_t>(who.size())) {
     // The lock holds without the note; only the busy message is less precise.

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -19,6 +20,13 @@ namespace granary {
 // second that lose nothing when an old version reappears (progress.json, the stop request
 // to LIGGGHTS) — an fsync on a busy disk can take longer than the work between two writes.
 enum class Durability { kDurable, kVisible };
+
+// Removes the temporary files that WriteAtomically left in `dir` when its process was killed
+// between the write and the rename (`NAME.tmp.PID`): those whose PID is not a live process
+// here and that are older than `min_age_s` (a writer on another node of a shared file system
+// has a PID this node does not know: the age keeps its file, written a moment ago). Returns
+// how many it removed; never throws.
+int RemoveStaleTemporaries(const std::filesystem::path& dir, double min_age_s = 300.0);
 
 // Writes `text` to a temporary file beside `file` (named with this process' pid, so two
 // processes never share it) and renames it over `file`: readers see the old or the new
@@ -70,6 +78,9 @@ std::string TailOfFile(const std::filesystem::path& file, int lines);
 class FileLock {
  public:
   explicit FileLock(const std::filesystem::path& path);
+  // The same; when another process holds the lock, `on_wait` is called once before waiting
+  // for it (to say so).
+  FileLock(const std::filesystem::path& path, const std::function<void()>& on_wait);
   ~FileLock();
   FileLock(const FileLock&) = delete;
   FileLock& operator=(const FileLock&) = delete;

@@ -4,6 +4,7 @@
 #include <fstream>
 
 #include "rundir/files.h"
+#include "rundir/manifest.h"
 
 namespace granary::rundir {
 namespace fs = std::filesystem;
@@ -42,7 +43,10 @@ RunSpec ReadRunSpec(const fs::path& dir) {
   }
 }
 
-void WriteDone(const fs::path& dir, const std::string& end_reason) { WriteAtomically(dir / kDoneFile, end_reason + "\n"); }
+void WriteDone(const fs::path& dir, const std::string& end_reason) {
+  WriteManifest(dir);
+  WriteAtomically(dir / kDoneFile, end_reason + "\n");
+}
 
 bool IsDone(const fs::path& dir) { return fs::exists(dir / kDoneFile); }
 

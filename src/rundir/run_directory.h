@@ -24,7 +24,9 @@ nlohmann::json ReadRunSpecJson(const std::filesystem::path& dir);
 // message ends with the file's name.
 RunSpec ReadRunSpec(const std::filesystem::path& dir);
 
-// The engine's last act: DIR/DONE holding the end reason.
+// The engine's last act, and the one call a backend needs to end a run: records what the run
+// directory holds in DIR/manifest.json (WriteManifest, manifest.h: sizes, checksums, counts)
+// and then writes DIR/DONE holding the end reason. Call it after every output is closed.
 void WriteDone(const std::filesystem::path& dir, const std::string& end_reason);
 bool IsDone(const std::filesystem::path& dir);
 

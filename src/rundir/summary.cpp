@@ -34,6 +34,7 @@ nlohmann::json Summary::ToJson() const {
                    {"discharge_wall_s", timing->discharge_wall_s},
                    {"disc_steps_per_s", timing->disc_steps_per_s},
                    {"threads", timing->threads}};
+  if (timing && timing->bed_disc_steps_per_s > 0) j["timing"]["bed_disc_steps_per_s"] = timing->bed_disc_steps_per_s;
   j["continued_from_checkpoint"] = continued_from_checkpoint;
   if (!refused_checkpoints.empty()) j["refused_checkpoints"] = refused_checkpoints;
   if (max_out_of_plane) j["max_out_of_plane"] = *max_out_of_plane;
@@ -78,6 +79,7 @@ Summary Summary::FromJson(const nlohmann::json& j, const std::string& where) {
       timing.discharge_wall_s = t.value("discharge_wall_s", 0.0);
       timing.disc_steps_per_s = t.value("disc_steps_per_s", 0.0);
       timing.threads = t.value("threads", 0);
+      timing.bed_disc_steps_per_s = t.value("bed_disc_steps_per_s", 0.0);
       s.timing = timing;
     }
     s.continued_from_checkpoint = j.value("continued_from_checkpoint", false);

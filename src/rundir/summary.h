@@ -24,8 +24,15 @@ struct Timing {
   double wall_s = 0.0;            // bed + discharge
   double bed_wall_s = 0.0;
   double discharge_wall_s = 0.0;
-  double disc_steps_per_s = 0.0;  // discharge throughput (disc = one sphere of a LIGGGHTS clump)
+  // Discharge throughput: the discs in the silo at each step (those that left no longer
+  // count), summed over the steps, per second of discharge wall time (disc = one sphere of a
+  // LIGGGHTS clump).
+  double disc_steps_per_s = 0.0;
   int threads = 0;
+  // The bed's discs times the steps, per second: what disc_steps_per_s was before it counted
+  // only the discs still in the silo (twice the true rate for a full remove-mode discharge).
+  // 0 = not written (older runs, where disc_steps_per_s is this figure).
+  double bed_disc_steps_per_s = 0.0;
 };
 
 struct Summary {

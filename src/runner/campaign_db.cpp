@@ -410,6 +410,20 @@ void store_metrics(Store& store, const std::vector<RunMetrics>& runs, double now
   tx.commit();
 }
 
+void forget_metrics(Store& store, const std::vector<std::string>& run_ids) {
+  if (run_ids.empty()) return;
+  Transaction tx(store);
+  Statement metrics = store.prepare("DELETE FROM metrics WHERE run_id = ?1");
+  Statement analyses = store.prepare("DELETE FROM analyses WHERE run_id = ?1");
+  for (const std::string& id : run_ids) {
+    metrics.reset();
+    metrics.bind(1, id).run();
+    analyses.reset();
+    analyses.bind(1, id).run();
+  }
+  tx.commit();
+}
+
 void record_job_array(Store& store, const Holder& me, const JobArray& array, double now) {
   Transaction tx(store);
   Statement a = store.prepare(

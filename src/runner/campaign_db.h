@@ -156,6 +156,8 @@ struct RunMetrics {
 };
 // Replaces the stored metrics of each (run, analysis) given; one transaction.
 void store_metrics(Store& store, const std::vector<RunMetrics>& runs, double now);
+// Removes every stored metric of the given runs (damaged runs: kept out of every number).
+void forget_metrics(Store& store, const std::vector<std::string>& run_ids);
 // The stored metrics of every run, by run id (analysis and version filled, options not).
 std::map<std::string, std::vector<RunMetrics>> load_metrics(Store& store);
 

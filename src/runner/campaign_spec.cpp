@@ -7,6 +7,9 @@
 
 #include "runner/slurm.h"
 #include "runner/util.h"
+#ifdef GRANARY_HAVE_ANALYSIS
+#include "analysis/expectations.h"
+#endif
 
 namespace granary::runner {
 
@@ -79,7 +82,16 @@ SpecTable MakeCampaignSpecTable() {
       {"/sweep/grid", T::kAxisValues, "{axis: [values]}: the cartesian product, first axis slowest"},
       {"/sweep/zip", T::kAxisValues, "{axis: [values]}: paired lists of equal length"},
       {"/sweep/points", T::kAxisPoints, "[{axis: value, ...}]: explicit points"},
+      {"/axes", T::kOpenObject,
+       "derived axes {name: expression over the sweep axes' short names}, e.g. {\"D_eq\": \"sqrt(1 + D_b^2)\"}: usable "
+       "in --only, the export and /report/figures (docs/campaign-spec.md)"},
       {"/report", T::kOpenObject, "report options, checked by the analysis library (docs/analyses.md)"},
+      {"/expect", T::kArray,
+       "expected values with their source, judged in the report's Key results and campaign export --expectations "
+       "(docs/analyses.md)"},
+      {"/expect/*", T::kOpenObject,
+       "{\"metric\", \"at\": {axis: value}, \"value\", \"tolerance\", \"source\"} or {\"fit\": figure, \"parameter\", "
+       "\"value\", ...}"},
       {"/executor", T::kOpenObject,
        "where runs go: {\"type\": \"local\"} or {\"type\": \"slurm\", ...} with the options of campaign run "
        "--executor slurm (docs/slurm.md); command-line flags win"},
@@ -132,7 +144,23 @@ void CheckAxisResolves(const json& params, const std::string& pointer, const std
     if (at->is_object()) {
       if (!at->contains(t)) {
         if (last) return;  // a new key: the run spec's own validation judges it
-        throw SpecError(where, "axis \"" + pointer + "\" does not resolve: " + here + " has no key \"" + t + "\"");
+        // The closest key there, as the whole corrected axis.
+        std::vector<std::string> keys;
+        for (const auto& [key, value] : at->items()) keys.push_back(key);
+        const std::string best = nearest(t, keys);
+        std::string hint;
+        if (!best.empty()) {
+          // (appended piece by piece: GCC 12 reports a false -Wrestrict on a + "/" + b, bug 105329)
+          std::string fixed = walked;
+          for (std::size_t j = k; j < tokens.size(); ++j) {
+            fixed += '/';
+            fixed += escape_pointer_token(j == k ? best : tokens[j]);
+          }
+          hint = "; did you mean \"";
+          hint += fixed;
+          hint += "\"?";
+        }
+        throw SpecError(where, "axis \"" + pointer + "\" does not resolve: " + here + " has no key \"" + t + "\"" + hint);
       }
       at = &(*at)[t];
     } else if (at->is_array()) {
@@ -172,6 +200,15 @@ json campaign_spec_schema() {
   json run_spec = run_spec_table().json_schema("", axes);
   run_spec["description"] = "a run spec (docs/run-spec.md): every key optional";
   s["definitions"] = {{"run_spec", run_spec}};
+#ifdef GRANARY_HAVE_ANALYSIS
+  // The blocks the analysis library reads, in detail.
+  if (s.contains("properties")) {
+    json& p = s["properties"];
+    if (p.contains("axes")) p["axes"] = analysis::axes_json_schema();
+    if (p.contains("expect")) p["expect"] = analysis::expect_json_schema();
+    if (p.contains("report")) p["report"]["properties"]["figures"] = analysis::figures_json_schema();
+  }
+#endif
   return s;
 }
 
@@ -207,6 +244,43 @@ json parse_spec_text(const std::string& text, const std::string& source) {
       what = what.substr(colon + 2);
     throw std::invalid_argument(source + ":" + std::to_string(line) + ":" + std::to_string(column) +
                                 ": not valid JSON: " + what);
+  } catch (const json::out_of_range& e) {
+    // "[json.exception.out_of_range.406] number overflow parsing '1e400'": nlohmann gives no
+    // position, so the number is found in the text (its first occurrence outside a string).
+    const std::string what = e.what();
+    const std::size_t open = what.find("parsing '");
+    const std::size_t close = open == std::string::npos ? open : what.find('\'', open + 9);
+    std::string number = close == std::string::npos ? std::string() : what.substr(open + 9, close - open - 9);
+    std::size_t at = 0;
+    bool quoted = false;
+    for (std::size_t i = 0; !number.empty() && i < text.size(); ++i) {
+      const char c = text[i];
+      if (quoted) {
+        if (c == '\\') ++i;
+        else if (c == '"') quoted = false;
+      } else if (c == '"') {
+        quoted = true;
+      } else if (text.compare(i, number.size(), number) == 0) {
+        at = i;
+        break;
+      }
+    }
+    const auto [line, column] = LineColumn(text, at);
+    throw std::invalid_argument(source + ":" + std::to_string(line) + ":" + std::to_string(column) + ": the number " +
+                                (number.empty() ? std::string("here") : number) +
+                                " is out of range (a JSON number must fit a double, magnitude below 1.8e308)");
+  }
+}
+
+void resolve_spec_paths(json& spec, const std::string& spec_file) {
+  if (!spec.is_object() || !spec.contains("report") || !spec["report"].is_object()) return;
+  json& report = spec["report"];
+  if (!report.contains("python") || !report["python"].is_array()) return;
+  const std::filesystem::path folder = std::filesystem::absolute(spec_file).parent_path();
+  for (json& entry : report["python"]) {
+    if (!entry.is_object() || !entry.contains("script") || !entry["script"].is_string()) continue;
+    const std::filesystem::path script = entry["script"].get<std::string>();
+    if (script.is_relative()) entry["script"] = (folder / script).lexically_normal().string();
   }
 }
 

@@ -76,6 +76,10 @@ nlohmann::json campaign_spec_schema();
 inline constexpr int kMaxSpecDepth = 64;
 nlohmann::json parse_spec_text(const std::string& text, const std::string& source);
 
+// The script paths of /report/python (docs/python.md) made absolute, relative to the folder of
+// the spec file they were read from, so a report finds them from any working directory.
+void resolve_spec_paths(nlohmann::json& spec, const std::string& spec_file);
+
 // How many runs the sweep expands to (points x engines x replicas), computed without
 // expanding it; saturates at 2^63.
 std::uint64_t planned_run_count(const CampaignSpec& spec);

@@ -12,8 +12,11 @@
 #include <set>
 #include <sstream>
 
+#include "analysis/python_analysis.h"
+#include "rundir/analysis_cache.h"
 #include "rundir/files.h"
 #include "rundir/layout.h"
+#include "rundir/manifest.h"
 
 namespace granary::runner {
 
@@ -81,6 +84,28 @@ json run_details(Store& store, const RunRow& r, int log_lines) {
             {"results", results},
             {"files", files}};
   if (r.state == RunState::kRunning) j["progress"] = r.progress;
+  if (r.state == RunState::kDone && fs::is_directory(r.run_dir, ec)) {
+    // Checksums only of what changed since the run was last found whole (manifest.h).
+    const rundir::Verification v = rundir::VerifyRun(r.run_dir);
+    j["integrity"] = rundir::IntegrityName(v.integrity);
+    json problems = json::array();
+    for (const auto& p : v.problems) problems.push_back({{"file", p.file}, {"what", p.what}});
+    if (!problems.empty()) j["problems"] = problems;
+  }
+  // Analyses that failed on this run (a Python analysis' script that raised), from the caches
+  // the last report, export or compare wrote.
+  json failed = json::array();
+  if (fs::is_directory(fs::path(r.run_dir) / rundir::kAnalysesDir, ec)) {
+    std::vector<std::string> keys;
+    for (const auto& e : fs::directory_iterator(fs::path(r.run_dir) / rundir::kAnalysesDir, ec))
+      if (e.path().extension() == ".json") keys.push_back(e.path().stem().string());
+    std::sort(keys.begin(), keys.end());
+    for (const auto& key : keys)
+      if (const auto cached = rundir::ReadCachedResult(r.run_dir, key))
+        if (const std::string why = analysis::python_failure(cached->result); !why.empty())
+          failed.push_back({{"analysis", key}, {"error", why}});
+  }
+  j["analysis_failures"] = failed;
   const std::string tail = TailOfFile(fs::path(r.run_dir) / rundir::kEngineLogFile, log_lines);
   json lines = json::array();
   std::istringstream in(tail);

@@ -2,16 +2,19 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <boost/process.hpp>
 #include <boost/process/extend.hpp>
 #include <chrono>
+#include <filesystem>
 #include <map>
 #include <optional>
 #include <stdexcept>
 
+#include "rundir/files.h"
 #include "runner/executor.h"
 
 namespace granary::runner {
@@ -37,6 +40,43 @@ struct ChildSetup : bp::extend::handler {
 };
 
 using Clock = std::chrono::steady_clock;
+
+// The engine's log, open for reading from its start: if its run directory is deleted while
+// it runs, the log's name is gone but not its content, and the engine's last words (the
+// error it died of) can still be told.
+class KeptLog {
+ public:
+  KeptLog() = default;
+  KeptLog(const std::string& file) : file_(file), fd_(open(file.c_str(), O_RDONLY | O_CLOEXEC)) {}  // NOLINT
+  KeptLog(KeptLog&& o) noexcept : file_(std::move(o.file_)), fd_(std::exchange(o.fd_, -1)) {}
+  KeptLog& operator=(KeptLog&& o) noexcept {
+    std::swap(file_, o.file_);
+    std::swap(fd_, o.fd_);
+    return *this;
+  }
+  ~KeptLog() {
+    if (fd_ >= 0) close(fd_);
+  }
+  // "" while the log is where it was; else its last lines, read through the kept descriptor.
+  std::string TailIfDeleted(int lines) const {
+    std::error_code ec;
+    if (fd_ < 0 || std::filesystem::exists(file_, ec)) return "";
+    struct stat st {};
+    if (fstat(fd_, &st) != 0) return "";
+    constexpr off_t kMaxBytes = 16384;
+    const off_t from = st.st_size > kMaxBytes ? st.st_size - kMaxBytes : 0;
+    std::string text(static_cast<std::size_t>(st.st_size - from), '\0');
+    const ssize_t n = pread(fd_, text.data(), text.size(), from);
+    text.resize(n > 0 ? static_cast<std::size_t>(n) : 0);
+    std::size_t at = text.size();
+    for (int k = 0; k <= lines && at != std::string::npos && at > 0; ++k) at = text.rfind('\n', at - 1);
+    return at == std::string::npos || at == 0 ? text : text.substr(at + 1);
+  }
+
+ private:
+  std::string file_;
+  int fd_ = -1;
+};
 
 class LocalExecutor : public Executor {
  public:
@@ -64,7 +104,7 @@ class LocalExecutor : public Executor {
     if (ec) {
       throw std::runtime_error("run " + launch.run_id + ": cannot start " + launch.argv[0] + ": " + ec.message());
     }
-    children_.emplace(launch.run_id, Child{std::move(child), {}});
+    children_.emplace(launch.run_id, Child{std::move(child), {}, KeptLog(launch.log_file), launch.run_dir});
   }
 
   std::vector<Finished> poll() override {
@@ -85,6 +125,10 @@ class LocalExecutor : public Executor {
       const int status = it->second.process.native_exit_code();
       if (WIFSIGNALED(status)) f.signal = WTERMSIG(status);
       else f.exit_code = WEXITSTATUS(status);
+      if (const std::string said = it->second.log.TailIfDeleted(20); !said.empty() || !std::filesystem::exists(it->second.run_dir, ec))
+        f.how = std::string(f.signal != 0 ? "engine killed by " + SignalName(f.signal) : "engine exited with status " + std::to_string(f.exit_code)) +
+                "; its run directory " + it->second.run_dir + " was deleted while it ran" +
+                (said.empty() ? std::string(" (its log is gone with it)") : "; it last said:\n" + said);
       out.push_back(f);
       it = children_.erase(it);
     }
@@ -104,6 +148,8 @@ class LocalExecutor : public Executor {
   struct Child {
     bp::child process;
     std::optional<Clock::time_point> kill_at;  // SIGKILL to the group then (a stop's grace period)
+    KeptLog log;
+    std::string run_dir;
   };
   // The engine's whole process group: a LIGGGHTS wrapper's mpirun and ranks too.
   static void KillGroup(bp::child& c) {

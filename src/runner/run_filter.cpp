@@ -2,7 +2,14 @@
 #include "runner/run_filter.h"
 
 #include <algorithm>
+#include <cmath>
+#include <optional>
+#include <set>
 
+#ifdef GRANARY_HAVE_ANALYSIS
+#include "analysis/axes.h"
+#include "analysis/report_document.h"
+#endif
 #include "runner/util.h"
 
 namespace granary::runner {
@@ -29,6 +36,29 @@ std::vector<std::string> AxesEndingIn(const std::vector<std::string>& axes, cons
       found.push_back(a);
   return found;
 }
+
+#ifdef GRANARY_HAVE_ANALYSIS
+// The campaign's axes by name (short names, derived axes of /axes), or none if its spec has a
+// derived axis that no longer parses (plan refuses such a spec; an old database may hold one).
+std::optional<analysis::CampaignAxes> NamedAxes(const CampaignRow& campaign, const std::vector<const RunRow*>& live) {
+  try {
+    const json& spec = live.empty() ? json() : live.front()->params;
+    const json& cs = campaign.spec;
+    return analysis::CampaignAxes(campaign.axes, spec, cs.is_object() && cs.contains("axes") ? cs.at("axes") : json());
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+// A derived axis' value equals VALUE: as numbers, or to the 6 significant digits the report prints.
+bool DerivedMatches(double actual, const std::string& text) {
+  const json value = json::parse(text, nullptr, false);
+  if (value.is_discarded() || !value.is_number() || !std::isfinite(actual)) return false;
+  const double want = value.get<double>();
+  return actual == want || std::abs(actual - want) <= 1e-9 * std::max(std::abs(actual), std::abs(want)) ||
+         analysis::format_number(actual, 6) == analysis::format_number(want, 6);
+}
+#endif
 
 }  // namespace
 
@@ -84,6 +114,18 @@ RunFilter resolve_filters(const std::vector<std::string>& filters, const Campaig
     if (r.state != RunState::kRetired) live.push_back(&r);
   const std::string axes = campaign.axes.empty() ? std::string("it has no sweep axes") : "axes: " + List(campaign.axes);
   std::vector<std::string> resolved;
+#ifdef GRANARY_HAVE_ANALYSIS
+  const std::optional<analysis::CampaignAxes> named = NamedAxes(campaign, live);
+  // Derived-axis filters: axis -> the runs that pass one of its values.
+  std::map<std::string, std::set<std::string>> derived;
+#endif
+  std::string names_text;
+#ifdef GRANARY_HAVE_ANALYSIS
+  if (named) {
+    for (const auto& n : named->names()) names_text += (names_text.empty() ? "" : ", ") + n;
+    names_text = "; names: " + names_text;
+  }
+#endif
   for (const std::string& f : filters) {
     if (f.empty()) throw FilterError("--only: an empty filter (give a run-id prefix or POINTER=VALUE)");
     if (!IsPointerFilter(f)) {
@@ -96,6 +138,29 @@ RunFilter resolve_filters(const std::vector<std::string>& filters, const Campaig
     const auto eq = f.find('=');
     std::string pointer = f.substr(0, eq);
     const std::string value = f.substr(eq + 1);
+#ifdef GRANARY_HAVE_ANALYSIS
+    if (named && !pointer.empty() && pointer[0] != '/') {
+      if (const auto p = named->pointer_of(pointer)) {
+        pointer = *p;  // the axis' short name, as the report and the export name it ("D_b")
+      } else if (named->find_derived(pointer)) {
+        std::set<std::string>& pass = derived[pointer];
+        std::vector<std::string> values;
+        bool any = false;
+        for (const RunRow* r : live) {
+          const double actual = named->values(r->point, r->params).at(pointer);
+          const std::string text = analysis::format_number(actual, 6);
+          if (std::find(values.begin(), values.end(), text) == values.end()) values.push_back(text);
+          if (DerivedMatches(actual, value)) {
+            pass.insert(r->run_id);
+            any = true;
+          }
+        }
+        if (!any)
+          throw FilterError("--only " + f + ": no run has " + pointer + " = " + value + " (its values: " + List(values) + ")");
+        continue;
+      }
+    }
+#endif
     if (pointer.empty() || pointer[0] != '/') {
       // A short name: the one sweep axis that ends in it.
       const std::vector<std::string> found = AxesEndingIn(campaign.axes, pointer);
@@ -104,7 +169,7 @@ RunFilter resolve_filters(const std::vector<std::string>& filters, const Campaig
         throw FilterError("--only " + f + ": \"" + pointer + "\" " +
                           (found.empty() ? "ends no sweep axis" : "ends several sweep axes (" + List(found) + ")") +
                           "; give the JSON Pointer" + (best.empty() ? "" : ", e.g. " + best + "=" + value) + " (" +
-                          axes + ")");
+                          axes + names_text + ")");
       }
       pointer = found.front();
     }
@@ -131,6 +196,28 @@ RunFilter resolve_filters(const std::vector<std::string>& filters, const Campaig
     }
     resolved.push_back(pointer + "=" + value);
   }
+#ifdef GRANARY_HAVE_ANALYSIS
+  // Derived axes are not parameters of a run: their filters become the ids of the runs that
+  // pass all of them (and any run-id prefix given), so that the filter reads the same later.
+  if (!derived.empty()) {
+    std::vector<std::string> prefixes, kept;
+    for (const auto& r : resolved)
+      if (!IsPointerFilter(r)) prefixes.push_back(r);
+    for (const RunRow* r : live) {
+      bool pass = prefixes.empty() ||
+                  std::any_of(prefixes.begin(), prefixes.end(), [&](const std::string& p) { return r->run_id.rfind(p, 0) == 0; });
+      for (const auto& [name, ids] : derived) pass = pass && ids.count(r->run_id) > 0;
+      if (pass) kept.push_back(r->run_id);
+    }
+    if (kept.empty())
+      throw FilterError("--only " + List(filters) + ": each filter selects runs, but no run passes all of them");
+    std::vector<std::string> out;
+    for (const auto& r : resolved)
+      if (IsPointerFilter(r)) out.push_back(r);
+    out.insert(out.end(), kept.begin(), kept.end());
+    resolved = out;
+  }
+#endif
   RunFilter filter(resolved);
   if (!filters.empty() &&
       std::none_of(live.begin(), live.end(), [&](const RunRow* r) { return filter.matches(*r); }))

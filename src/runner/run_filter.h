@@ -1,6 +1,8 @@
 // The --only filters of `campaign run`, `status`, `report` and `export` (docs/cli.md): each
-// is a run-id prefix, or POINTER=VALUE on the resolved parameters, where a short name that
-// ends exactly one sweep axis stands for it ("width=9" for /silo/base_outlets/0/width=9).
+// is a run-id prefix, or POINTER=VALUE on the resolved parameters, where an axis' short name as
+// the report prints it ("D_b=1.5", analysis/axes.h) or a short name that ends exactly one sweep
+// axis ("width=9" for /silo/base_outlets/0/width=9) stands for it, or NAME=VALUE on a derived
+// axis of the campaign spec's /axes ("D_eq=1.80278"; resolved into the ids of the runs it selects).
 // Several filters: values of one parameter are alternatives (--only width=5 --only width=7),
 // different parameters must all hold, and run-id prefixes are alternatives among themselves.
 #pragma once

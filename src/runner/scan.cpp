@@ -83,6 +83,10 @@ ScanReport scan_campaign(Store& store, const BatchQueue& queue, bool dry_run) {
     } else if (r.state == RunState::kDone && !fs::exists(dir)) {
       // Its results are in the database; only --rerun-lost runs it again (docs/cli.md).
       report.lost.push_back(r.run_id);
+    } else if (r.state == RunState::kDone && rundir::IsDone(dir)) {
+      // DONE is there but summary.json cannot be read: the run finished and was damaged
+      // since; it stays done and is reported damaged (scan --verify, report, status), not run
+      // again over what is left.
     } else if (r.state == RunState::kDone) {
       to = RunState::kInterrupted;
       reason = "done in the database, but " + dir.string() + " has no DONE and summary.json (moved or deleted?)";
@@ -103,6 +107,34 @@ ScanReport scan_campaign(Store& store, const BatchQueue& queue, bool dry_run) {
   }
   if (!dry_run) record_job_states(store, queue_states);
   return report;
+}
+
+std::map<std::string, rundir::Verification> check_done_runs(const std::vector<RunRow>& runs, rundir::VerifyLevel level,
+                                                            const std::function<void(int, int)>& progress) {
+  std::vector<const RunRow*> done;
+  for (const RunRow& r : runs)
+    if (r.state == RunState::kDone && fs::is_directory(r.run_dir)) done.push_back(&r);
+  std::map<std::string, rundir::Verification> out;
+  int n = 0;
+  for (const RunRow* r : done) {
+    try {
+      out[r->run_id] = rundir::VerifyRun(r->run_dir, {level, true});
+    } catch (const rundir::ReadError&) {
+      // the directory went away under us: lost, said elsewhere
+    }
+    if (progress) progress(++n, static_cast<int>(done.size()));
+  }
+  return out;
+}
+
+IntegrityCounts count_integrity(const std::map<std::string, rundir::Verification>& checks) {
+  IntegrityCounts c;
+  for (const auto& [id, v] : checks) {
+    if (v.integrity == rundir::Integrity::kWhole) ++c.whole;
+    if (v.integrity == rundir::Integrity::kDamaged) ++c.damaged;
+    if (v.integrity == rundir::Integrity::kNotVerifiable) ++c.not_verifiable;
+  }
+  return c;
 }
 
 }  // namespace granary::runner

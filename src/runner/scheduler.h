@@ -18,6 +18,11 @@ namespace granary::runner {
 
 // docs/cli.md "Exit codes".
 enum class ExitCode : int { kOk = 0, kRunsFailed = 1, kUsage = 2, kStorage = 3, kInterrupted = 130 };
+// report, export, scan --verify: finished runs are damaged (a file differs from the engine's
+// manifest; the output was written without them).
+inline constexpr int kExitDamagedRuns = 4;
+// report, export: no finished run to analyse.
+inline constexpr int kExitNothingToAnalyse = 5;
 
 struct RunOptions {
   int jobs = 1;

@@ -1,6 +1,11 @@
 // SQLite ownership and migrations; see store.h.
 #include "runner/store.h"
 
+#include <sys/statvfs.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 
 #include "runner/migrations_sql.h"
@@ -9,9 +14,31 @@ namespace granary::runner {
 
 namespace {
 
-[[noreturn]] void Fail(sqlite3* db, int code, const std::string& what) {
+// What SQLite's words leave out of a storage fault: a full file system ("disk I/O error" is
+// also what a write into a full WAL says) and where it is, or a read-only one.
+std::string StorageNote(sqlite3* db, int code, const std::string& fallback_path) {
+  const int primary = code & 0xff;
+  if (primary != SQLITE_IOERR && primary != SQLITE_FULL && primary != SQLITE_CANTOPEN && primary != SQLITE_READONLY)
+    return "";
+  const char* file = db ? sqlite3_db_filename(db, "main") : nullptr;
+  std::filesystem::path path = file && *file ? std::filesystem::path(file) : std::filesystem::path(fallback_path);
+  std::filesystem::path dir = path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
+  struct statvfs st {};
+  if (::statvfs(dir.c_str(), &st) == 0) {
+    const double free_bytes = static_cast<double>(st.f_bavail) * static_cast<double>(st.f_frsize);
+    if ((primary == SQLITE_IOERR || primary == SQLITE_FULL) && free_bytes < (1 << 20))
+      return "; the file system of " + dir.string() + " is full (" + std::to_string(static_cast<long long>(free_bytes / 1024)) +
+             " KiB free)";
+  }
+  if (::access(dir.c_str(), W_OK) != 0 && (errno == EROFS || errno == EACCES))
+    return "; " + dir.string() + " is read-only (" + std::strerror(errno) +
+           "): SQLite writes its journal beside the database; campaign status, show, report and export work read-only";
+  return "";
+}
+
+[[noreturn]] void Fail(sqlite3* db, int code, const std::string& what, const std::string& path = "") {
   throw StoreError(code, what + ": " + (db ? sqlite3_errmsg(db) : sqlite3_errstr(code)) + " (SQLite code " +
-                             std::to_string(code) + ")");
+                             std::to_string(code) + ")" + StorageNote(db, code, path));
 }
 
 }  // namespace
@@ -84,7 +111,7 @@ Store::Store(const std::string& path, int upto_version) : path_(path) {
   sqlite3* raw = nullptr;
   const int rc = sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
   db_.reset(raw);
-  if (rc != SQLITE_OK) Fail(raw, rc, "opening database " + path);
+  if (rc != SQLITE_OK) Fail(raw, rc, "opening database " + path, path);
   // Several runners may share one database: wait for locks instead of failing at once.
   sqlite3_busy_timeout(db_.get(), 30000);
   // The first read of the file: anything but an SQLite database fails here. Say so plainly.
@@ -123,12 +150,23 @@ Store::Store(const std::string& path, int upto_version) : path_(path) {
   tx.commit();
 }
 
-Store::Store(const std::string& path, ReadOnly) : path_(path) {
+Store::Store(const std::string& path, ReadOnly) : path_(path), read_only_(true) {
   sqlite3* raw = nullptr;
-  const int rc = sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READONLY, nullptr);
+  int rc = sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READONLY, nullptr);
   db_.reset(raw);
-  if (rc != SQLITE_OK) Fail(raw, rc, "opening database " + path);
+  if (rc != SQLITE_OK) Fail(raw, rc, "opening database " + path, path);
   sqlite3_busy_timeout(db_.get(), 1000);
+  // A database in WAL mode in a directory nobody may write (a read-only mount, a shared
+  // archive): SQLite cannot make the shared-memory file it reads through, so the file is read
+  // as it is, unlocked (immutable); whatever a -wal file beside it holds is not seen.
+  if (sqlite3_exec(db_.get(), "PRAGMA schema_version", nullptr, nullptr, nullptr) == SQLITE_CANTOPEN) {
+    db_.reset();
+    raw = nullptr;
+    const std::string uri = "file:" + std::filesystem::absolute(path).string() + "?immutable=1";
+    rc = sqlite3_open_v2(uri.c_str(), &raw, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, nullptr);
+    db_.reset(raw);
+    if (rc != SQLITE_OK) Fail(raw, rc, "opening database " + path + " read-only", path);
+  }
   if (schema_version() > static_cast<int>(migrations().size()))
     throw StoreError(SQLITE_ERROR, "database " + path + " is newer than this granary");
 }
@@ -139,7 +177,8 @@ void Store::exec(const std::string& sql) {
   if (rc != SQLITE_OK) {
     const std::string msg = err ? err : sqlite3_errstr(rc);
     sqlite3_free(err);
-    throw StoreError(rc, "executing \"" + sql.substr(0, 60) + "\": " + msg + " (SQLite code " + std::to_string(rc) + ")");
+    throw StoreError(rc, "executing \"" + sql.substr(0, 60) + "\": " + msg + " (SQLite code " + std::to_string(rc) + ")" +
+                             StorageNote(db_.get(), rc, path_));
   }
 }
 

@@ -75,12 +75,14 @@ class Store {
   int schema_version();
   sqlite3* handle() { return db_.get(); }
   const std::string& path() const { return path_; }
+  bool read_only() const { return read_only_; }
 
  private:
   struct Closer {
     void operator()(sqlite3* db) const { sqlite3_close(db); }
   };
   std::string path_;
+  bool read_only_ = false;
   std::unique_ptr<sqlite3, Closer> db_;
 };
 

@@ -55,8 +55,8 @@ TEST(Export, RunsAndPointsAsTidyTables) {
   const ExportTable t = export_table(*a, ExportLevel::kRun);
   ASSERT_GE(t.columns.size(), 9u);
   EXPECT_EQ(std::vector<std::string>(t.columns.begin(), t.columns.begin() + 9),
-            (std::vector<std::string>{"run_id", "point_id", "replica", "engine", "end_reason", "base_outlets.0.width",
-                                      "species.0.shape", "q_count", "q_count_se"}));
+            (std::vector<std::string>{"run_id", "point_id", "replica", "engine", "end_reason", "W",
+                                      "shape", "q_count", "q_count_se"}));
   ASSERT_EQ(t.rows.size(), 3u);  // the failed run is not in it
   EXPECT_EQ(t.rows[0][0], "W6r0");
   EXPECT_EQ(t.rows[0][5], 6.0);     // a number, not text
@@ -65,7 +65,7 @@ TEST(Export, RunsAndPointsAsTidyTables) {
 
   const ExportTable p = export_table(*a, ExportLevel::kPoint);
   EXPECT_EQ(std::vector<std::string>(p.columns.begin(), p.columns.begin() + 8),
-            (std::vector<std::string>{"point_id", "engine", "runs", "base_outlets.0.width", "species.0.shape", "q_count",
+            (std::vector<std::string>{"point_id", "engine", "runs", "W", "shape", "q_count",
                                       "q_count_se", "q_count_n"}));
   ASSERT_EQ(p.rows.size(), 2u);
   EXPECT_EQ(p.rows[0][2], 2);
@@ -82,7 +82,7 @@ TEST(Export, RunsAndPointsAsTidyTables) {
   std::getline(lines, header);
   std::getline(lines, first);
   std::getline(lines, second);
-  EXPECT_EQ(header.rfind("point_id,engine,runs,base_outlets.0.width,species.0.shape,q_count,q_count_se,q_count_n,", 0), 0u);
+  EXPECT_EQ(header.rfind("point_id,engine,runs,W,shape,q_count,q_count_se,q_count_n,", 0), 0u);
   EXPECT_EQ(second.rfind("W8,native,1,8,disc,", 0), 0u) << second;
   EXPECT_NE(second.find(",,1,"), std::string::npos) << second;  // q_count_se empty, q_count_n 1
   const nlohmann::ordered_json j = to_json(p);

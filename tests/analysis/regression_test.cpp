@@ -22,12 +22,15 @@
 
 #include "analysis/campaign_analysis.h"
 #include "analysis/registry.h"
+#include "stored_campaign.h"
 #include "test_util.h"
 
 namespace granary::analysis {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::load;
+using testing::StoredCampaign;
 
 bool g_update_references = false;
 
@@ -36,35 +39,6 @@ constexpr double kAbsoluteTolerance = 1e-12;
 constexpr const char* kCampaigns[] = {"remove", "two-outlets", "lateral"};
 
 fs::path data_dir() { return fs::path(GRANARY_SOURCE_DIR) / "tests" / "data" / "regression"; }
-
-struct StoredCampaign {
-  CampaignInfo info;
-  std::vector<RunRecord> runs;
-};
-
-// campaign.json: the campaign as its database held it; the runs under runs/<id>/.
-StoredCampaign load(const fs::path& dir) {
-  std::ifstream in(dir / "campaign.json");
-  const nlohmann::json c = nlohmann::json::parse(in);
-  StoredCampaign s;
-  s.info.name = c.at("name");
-  s.info.spec = c.at("spec");
-  s.info.axes = c.at("axes").get<std::vector<std::string>>();
-  for (const auto& r : c.at("runs")) {
-    RunRecord rec;
-    rec.run_id = r.at("run_id");
-    rec.point_id = r.at("point_id");
-    rec.point = r.at("point");
-    rec.replica = r.at("replica");
-    rec.engine = r.at("engine");
-    rec.state = r.at("state");
-    rec.run_dir = dir / "runs" / rec.run_id;
-    std::ifstream spec(rec.run_dir / "run.json");
-    rec.spec = nlohmann::json::parse(spec);
-    s.runs.push_back(rec);
-  }
-  return s;
-}
 
 nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 

@@ -171,17 +171,21 @@ TEST(GnuplotScript, AxesFitTheDataNotTheFittedCurves) {
   EXPECT_NE(gnuplot_script(f).find("set yrange [-"), std::string::npos);
 }
 
-TEST(GnuplotScript, PointsOfSeveralCurvesAtOneXAreDrawnSideBySide) {
+// Issue 28: curves offset along x by +-0.25 read as W = 6.25 and put the outermost points
+// outside the x range; every point is drawn at its true x, told apart by colour and shape.
+TEST(GnuplotScript, PointsOfSeveralCurvesAtOneXAreDrawnAtTheirTrueX) {
   Figure f{"side", "Side", "x", "y",
-           {points_at("a", {{1.0, 1.0, 0.1}, {2.0, 2.0, 0.1}}), points_at("b", {{1.0, 1.0, 0.1}, {2.0, 2.0, 0.1}})},
+           {points_at("a", {{6.0, 1.0, 0.1}, {10.0, 2.0, 0.1}}), points_at("b", {{6.0, 1.0, 0.1}, {10.0, 2.0, 0.1}})},
            false, false, ""};
-  std::string gp = gnuplot_script(f);
-  // A quarter of the gap between x values, split between the two curves.
-  EXPECT_NE(gp.find("using ($1+-0.125):($2)"), std::string::npos) << gp;
-  EXPECT_NE(gp.find("using ($1+0.125):($2)"), std::string::npos) << gp;
-  f.series.pop_back();  // one curve: drawn where it is
-  gp = gnuplot_script(f);
-  EXPECT_NE(gp.find("using ($1):($2)"), std::string::npos) << gp;
+  const std::string gp = gnuplot_script(f);
+  EXPECT_EQ(gp.find("($1+"), std::string::npos) << gp;
+  EXPECT_EQ(gp.find("($1*"), std::string::npos) << gp;
+  std::size_t uses = 0;
+  for (std::size_t at = gp.find("using ($1):($2)"); at != std::string::npos; at = gp.find("using ($1):($2)", at + 1)) ++uses;
+  EXPECT_EQ(uses, 2u) << gp;
+  EXPECT_NE(gp.find("set xrange [5.8:10.2]"), std::string::npos) << gp;  // holds 6 and 10
+  EXPECT_NE(gp.find(" lt 1 "), std::string::npos) << gp;                // two colours (and point shapes)
+  EXPECT_NE(gp.find(" lt 2 "), std::string::npos) << gp;
 }
 
 TEST(GnuplotScript, ReferenceLinesCanBeToldApart) {

@@ -240,7 +240,7 @@ TEST(WriteReport, SyntheticCampaign) {
   EXPECT_NE(md.find("Velocity profiles"), std::string::npos);
   // The figure data is there even without gnuplot.
   const std::string series = read_file(opt.out_dir / "data" / "flow_rate--Q.csv");
-  EXPECT_EQ(series.substr(0, series.find('\n')), "base_outlets.0.width,Q,Q_se,n");
+  EXPECT_EQ(series.substr(0, series.find('\n')), "W,Q,Q_se,n");
 
   const std::string html = read_file(s.html);
   EXPECT_EQ(html.find("src=\"http"), std::string::npos);
@@ -343,7 +343,7 @@ TEST(WriteReport, ClogSectionsWithKnownNumbers) {
   EXPECT_DOUBLE_EQ(std::stod(csv_cell(inter, {"W = 8", "base 0"}, 8)), 1.0 / 26.0);
   // The figure data: t_f of outlet 0 at W = 8 (W = 6 runs stopped on clogs: no complete t_c).
   const std::string tf = read_file(opt.out_dir / "data" / "intermittency_times--t_f_base_0.csv");
-  EXPECT_EQ(tf.substr(0, tf.find('\n')), "base_outlets.0.width,t_f,t_f_se,n");
+  EXPECT_EQ(tf.substr(0, tf.find('\n')), "W,t_f,t_f_se,n");
   EXPECT_NE(tf.find("\n8,10,nan,1\n"), std::string::npos) << tf;
 
   const std::string prov = read_file(opt.out_dir / "data" / "provenance.csv");
@@ -427,8 +427,8 @@ TEST(ReportSpec, OptionsFromCampaignSpec) {
   EXPECT_EQ(error_of({{"min_exits_before_clog", 5}}),
             "/report/min_exits_before_clog: moved to /report/clogging_index/min_exits_before_clog (got 5)");
   const std::string unknown = error_of({{"regoin", "ch3"}});
-  EXPECT_NE(unknown.find("/report/regoin: unknown key (known: window, clog_gap, frame_stride, max_frames, flow, profile, "
-                         "region, clogging_index, avalanches, intermittency, arches, contacts, orientation, fields)"),
+  EXPECT_NE(unknown.find("/report/regoin: unknown key (known: window, clog_gap, frame_stride, max_frames, figures, flow, profile, "
+                         "region, clogging_index, avalanches, intermittency, arches, contacts, orientation, fields, python)"),
             std::string::npos)
       << unknown;
 }

@@ -125,7 +125,7 @@ RunRecord ClogRun(const std::filesystem::path& dir, const std::string& run_id, c
 
 // The report opens with the system: description, the tables, and per point the pictures the
 // draw_run hook made (a fake here; the real one is the renderer, tested in tests/render).
-TEST(System, TheReportOpensWithTheSystem) {
+TEST(System, ResultsComeFirstThenTheSystemAndTheGalleryLast) {
   TempDir dir;
   CampaignInfo info;
   info.name = "mixtures";
@@ -150,9 +150,11 @@ TEST(System, TheReportOpensWithTheSystem) {
   const ReportSummary s = write_report(info, runs, opt);
   EXPECT_EQ(drawn, (std::vector<std::string>{"run8:bed", "run8:end", "run12:bed", "run12:end"}));
   const std::string md = read_file(s.markdown), html = read_file(s.html);
-  const auto system = md.find("## The system"), first_other = md.find("## ", system + 5);
+  const auto system = md.find("## The system"), gallery = md.find("## Gallery"), first_other = md.find("## ", gallery + 5);
   ASSERT_NE(system, std::string::npos);
-  EXPECT_LT(system, md.find("## Runs")) << "the report opens with the system";
+  EXPECT_LT(system, md.find("## Runs")) << "the system, then the runs";
+  EXPECT_LT(md.find("## Flow rate"), system) << "results before the system";
+  EXPECT_LT(md.find("## Per-run results"), gallery) << "the gallery of every point last";
   EXPECT_NE(md.find("Dumbbells and discs through two outlets."), std::string::npos);
   EXPECT_NE(md.find("| width W_1 of outlet 1 | W_1 | /silo/base_outlets/0/width | 8, 12 |"), std::string::npos)
       << "swept axes by their human names and the short ones tables use";

@@ -20,6 +20,7 @@
 #include "rundir/contacts.h"
 #include "rundir/files.h"
 #include "rundir/frames.h"
+#include "rundir/manifest.h"
 #include "rundir/run_directory.h"
 
 namespace {
@@ -136,6 +137,15 @@ TEST(LiggghtsBackend, DiscBedSettlesAndDischargesInRemoveMode) {
     for (const rundir::Disc& d : f.discs) EXPECT_NEAR(d.mass, std::numbers::pi * d.radius * d.radius, 1e-9);
   }
   EXPECT_GE(n, 3);  // t = 0, 1, 2 (3 if the run reached it)
+  // issue 27: the backend records what it wrote, through the same call as the native engine.
+  const auto manifest = rundir::ReadManifest(dir);
+  ASSERT_TRUE(manifest.has_value());
+  EXPECT_EQ(manifest->counts.at("frames"), n);
+  EXPECT_EQ(manifest->counts.at("events"), static_cast<std::int64_t>(run.events.size()));
+  EXPECT_EQ(rundir::VerifyRun(dir, {rundir::VerifyLevel::kChecksums, false}).integrity, rundir::Integrity::kWhole);
+  // The rate counts the spheres still in the silo: below the bed's figure once discs left.
+  const nlohmann::json& timing = run.summary.raw.at("timing");
+  EXPECT_LT(timing.at("disc_steps_per_s").get<double>(), timing.at("bed_disc_steps_per_s").get<double>());
 }
 
 // Stalls in remove mode are judged as the native engine judges them (engine/stall.h) on

@@ -252,6 +252,10 @@ TEST(CampaignSpecErrorTest, SweepPointersThatDoNotResolveNameTheAxis) {
             "/sweep/grid/~1silo~1base_outlets~199999999999999999999~1width: axis "
             "\"/silo/base_outlets/99999999999999999999/width\" does not resolve: \"/silo/base_outlets\" is an array of 1 "
             "element (indices 0 to 1), not \"99999999999999999999\"");
+  // issue 27: a misspelt key inside the pointer gets the corrected axis.
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/base_outlet/0/width": [4]}}})")),
+            "/sweep/grid/~1silo~1base_outlet~10~1width: axis \"/silo/base_outlet/0/width\" does not resolve: \"/silo\" "
+            "has no key \"base_outlet\"; did you mean \"/silo/base_outlets/0/width\"?");
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"points": [{"/silo/base_outlets/-/width": 3}]}})")),
             "/sweep/points/0/~1silo~1base_outlets~1-~1width: axis \"/silo/base_outlets/-/width\" does not resolve: "
             "\"/silo/base_outlets\" is an array of 1 element (indices 0 to 1), not \"-\"");
@@ -346,6 +350,23 @@ TEST(CampaignSpecErrorTest, SyntaxErrorsAndDeepNestingSayWhere) {
   }
   // Brackets inside strings do not count.
   EXPECT_EQ(parse_spec_text(R"({"name": "[[[[{{{{\"[["})", "s.json")["name"], "[[[[{{{{\"[[");
+}
+
+// issue 27: a number out of a double's range gave nlohmann's raw out_of_range.406 text, no place.
+TEST(CampaignSpecErrorTest, ANumberOutOfRangeSaysWhere) {
+  try {
+    parse_spec_text("{\n  \"name\": \"1e400\",\n  \"seed\": 1e400\n}\n", "c.json");
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "c.json:3:11: the number 1e400 is out of range (a JSON number must fit a double, magnitude below 1.8e308)");
+  }
+  try {
+    parse_spec_text(R"({"name": "t", "base": {"silo": {"width": -2E+999}}})", "d.json");
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("d.json:1:42: the number -2E+999 is out of range", 0), 0u) << e.what();
+  }
 }
 
 }  // namespace

@@ -121,6 +121,13 @@ TEST_F(CliTest, BadSpecFilesAreUsageErrorsThatSayWhere) {
   r = Sh(Cmd("plan " + broken.string()));
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_EQ(r.output.rfind("error: " + broken.string() + ":3:17: not valid JSON: syntax error", 0), 0u) << r.output;
+  // issue 27: a number out of range exited 1 with nlohmann's out_of_range.406 text.
+  const fs::path huge = dir_ / "huge.json";
+  std::ofstream(huge) << "{\"name\": \"t\",\n \"seed\": 1e400}\n";
+  r = Sh(Cmd("plan " + huge.string()));
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_EQ(r.output, "error: " + huge.string() + ":2:10: the number 1e400 is out of range (a JSON number must fit a "
+                      "double, magnitude below 1.8e308)\n");
   const fs::path big = dir_ / "big.json";
   std::ofstream(big) << R"({"name": "t", "replicas": 1000, "base": {"silo": {"width": 30}},
     "sweep": {"grid": {"/silo/base_outlets/0/width": [3, 4, 5, 6], "/contact/mu": [0.1, 0.2, 0.3]}}})";
@@ -411,6 +418,52 @@ TEST_F(CliTest, OnlyFilterSelectsRuns) {
 namespace granary::runner {
 namespace {
 
+// Issue 28 end to end on the real engine: a derived axis in --only and the export, and the
+// reproduction table in export --expectations, status and report.
+TEST_F(CliTest, RealEngineDerivedAxesAndExpectations) {
+  const std::string engine = testing::BinDir() + "/granary-engine";
+  if (!fs::exists(engine)) GTEST_SKIP() << "granary-engine not built";
+  const fs::path p = dir_ / "expect.json";
+  std::ofstream(p) << R"({"name": "expect", "seed": 2, "replicas": 1,
+    "base": {"bodies": {"count": 60}, "silo": {"width": 12}, "discharge": {"mode": "remove", "max_time": 2}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [3, 4]}},
+    "axes": {"W2": "2 * W"},
+    "expect": [
+      {"metric": "n_stagnant", "at": {"W2": 8}, "value": 60, "tolerance": 60, "min_runs": 1, "source": "0 to 120 bodies"},
+      {"metric": "n_stagnant", "at": {"W": 4}, "value": -1000, "tolerance": 1, "min_runs": 1, "source": "no count is negative"},
+      {"metric": "n_stagnant", "at": {"W": 3}, "value": 60, "source": "two runs needed"}]})";
+  ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
+  ASSERT_EQ(Sh(Cmd("run --jobs 2")).code, 0);
+  const auto table = Sh(Cmd("export --expectations --format json") + " 2>/dev/null");
+  ASSERT_EQ(table.code, 0) << table.output;
+  const json t = json::parse(table.output);
+  ASSERT_EQ(t.size(), 3u) << table.output;
+  EXPECT_EQ(t[0]["verdict"], "agrees") << t.dump();
+  EXPECT_EQ(t[0]["quantity"], "n_stagnant at W2 = 8");
+  EXPECT_EQ(t[1]["verdict"], "disagrees") << t.dump();
+  EXPECT_EQ(t[2]["verdict"], "not enough runs") << t.dump();
+  EXPECT_EQ(t[2]["runs"], 1);
+  const auto status = Sh(Cmd("status") + " 2>/dev/null");
+  EXPECT_NE(status.output.find("expectations: 1 agree, 1 disagrees, 1 not yet"), std::string::npos) << status.output;
+  EXPECT_EQ(Status()["expectations"], "1 agree, 1 disagrees, 1 not yet");
+  // The derived axis: a column of the export, and a filter.
+  const auto only = Sh(Cmd("export --level point --format json --only W2=6") + " 2>/dev/null");
+  ASSERT_EQ(only.code, 0) << only.output;
+  const json rows = json::parse(only.output);
+  ASSERT_EQ(rows.size(), 1u) << only.output;
+  EXPECT_EQ(rows[0]["W"], 3);
+  EXPECT_EQ(rows[0]["W2"], 6);
+  const auto bad = Sh(Cmd("export --only W2=7") + " 2>&1");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.output.find("no run has W2 = 7 (its values: 6, 8)"), std::string::npos) << bad.output;
+  const auto report = Sh(Cmd("report --no-figures") + " 2>/dev/null");
+  ASSERT_EQ(report.code, 0) << report.output;
+  EXPECT_NE(report.output.find("expectations: 1 agree, 1 disagrees, 1 not yet"), std::string::npos) << report.output;
+  EXPECT_NE(ReadFile(dir_ / "report" / "report.md").find("## Key results"), std::string::npos);
+  // Without /expect, --expectations is a usage error.
+  EXPECT_EQ(Sh(Cmd("export --expectations --level run") + " 2>&1").code, 2);
+}
+
 // The real native engine on a tiny campaign: results are ingested from summary.json.
 TEST_F(CliTest, RealEngineEndToEnd) {
   const std::string engine = testing::BinDir() + "/granary-engine";
@@ -441,7 +494,7 @@ TEST_F(CliTest, RealEngineEndToEnd) {
   std::istringstream lines(csv.output);
   std::string header, row;
   std::getline(lines, header);
-  EXPECT_EQ(header.rfind("run_id,point_id,replica,engine,end_reason,base_outlets.0.width,q_count,q_count_se,", 0), 0u)
+  EXPECT_EQ(header.rfind("run_id,point_id,replica,engine,end_reason,W,q_count,q_count_se,", 0), 0u)
       << header;
   int rows = 0;
   while (std::getline(lines, row)) ++rows;
@@ -450,7 +503,7 @@ TEST_F(CliTest, RealEngineEndToEnd) {
   ASSERT_EQ(points.code, 0) << points.output;
   const json p_json = json::parse(ReadFile(dir_ / "points.json"));
   ASSERT_EQ(p_json.size(), 2u);
-  EXPECT_TRUE(p_json[0]["base_outlets.0.width"].is_number());
+  EXPECT_TRUE(p_json[0]["W"].is_number());
   EXPECT_EQ(p_json[0]["runs"], 1);
   EXPECT_TRUE(p_json[0].contains("q_count_n"));
   {
@@ -728,6 +781,8 @@ TEST_F(CliTest, AFullDiskUnderTheDatabaseStopsTheRunnerCleanly) {
   EXPECT_EQ(testing::WaitExit(runner), 3) << ReadFile(log);
   const std::string out = ReadFile(log);
   EXPECT_NE(out.find("database or disk is full"), std::string::npos) << out;
+  // issue 27: and where the full disk is.
+  EXPECT_NE(out.find("the file system of " + (dir_ / "dbfs").string() + " is full ("), std::string::npos) << out;
   EXPECT_NE(out.find("campaign run stopped its engines (they continue from their checkpoints)"), std::string::npos) << out;
   fs::remove(dir_ / "dbfs" / "filler");
   unsetenv("FAKE_ENGINE_FIRST_LAUNCH_STEP_MS");
@@ -772,6 +827,78 @@ TEST_F(CliTest, AFullDiskUnderTheRunsIsSaidAndInterruptsTheRun) {
     EXPECT_NE(failure.find(" is full ("), std::string::npos) << failure;
     EXPECT_EQ(run["attempts"], 1);
   }
+}
+
+// issue 27: a database in a read-only directory failed even `status` with "unable to open
+// database file (SQLite code 14)". status, show, report and export now read it read-only;
+// a verb that must write says the directory is read-only.
+TEST_F(CliTest, AReadOnlyDatabaseDirectoryIsReadAndSaidSo) {
+  ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 6]", 1))).code, 0);
+  ASSERT_EQ(Sh(RunCmd()).code, 0);
+  const Tmpfs disk(dir_ / "ro", "8m");
+  if (!disk.mounted()) GTEST_SKIP() << "cannot mount a tmpfs (needs root with CAP_SYS_ADMIN): " << disk.why();
+  fs::copy_file(Db(), dir_ / "ro" / "g.db");
+  fs::create_directory_symlink(dir_ / "runs", dir_ / "ro" / "runs");
+  ASSERT_EQ(::mount("tmpfs", (dir_ / "ro").c_str(), "tmpfs", MS_REMOUNT | MS_RDONLY, nullptr), 0) << std::strerror(errno);
+  const std::string db = (dir_ / "ro" / "g.db").string();
+  const auto status = Sh(testing::Campaign() + " status --db " + db);
+  EXPECT_EQ(status.code, 0) << status.output;
+  EXPECT_NE(status.output.find("done 2"), std::string::npos) << status.output;
+  const auto report = Sh(testing::Campaign() + " report --no-figures --out " + (dir_ / "rep").string() + " --db " + db);
+  EXPECT_EQ(report.code, 0) << report.output;
+  EXPECT_NE(report.output.find("cannot be written here (read-only): the metrics are not stored in it"), std::string::npos)
+      << report.output;
+  EXPECT_TRUE(fs::exists(dir_ / "rep" / "report.md"));
+  const auto exported = Sh(testing::Campaign() + " export --out " + (dir_ / "runs.csv").string() + " --db " + db);
+  EXPECT_EQ(exported.code, 0) << exported.output;
+  EXPECT_NE(exported.output.find("export: the database " + db + " cannot be written here (read-only)"), std::string::npos)
+      << exported.output;
+  EXPECT_EQ(CountLines(ReadFile(dir_ / "runs.csv"), ""), 3);  // header and 2 runs
+  const auto run = Sh(testing::Campaign() + " run --engine " + testing::FakeEngine() + " --db " + db);
+  EXPECT_EQ(run.code, 3) << run.output;
+  EXPECT_NE(run.output.find((dir_ / "ro").string() + " is read-only ("), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("campaign status, show, report and export work read-only"), std::string::npos) << run.output;
+}
+
+// issue 27: campaign report with nothing finished exited 0 without a word.
+TEST_F(CliTest, AReportWithNothingFinishedSaysSoAndExitsFive) {
+  ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 6]", 1))).code, 0);
+  const auto report = Sh(Cmd("report --no-figures --out " + (dir_ / "rep").string()));
+  EXPECT_EQ(report.code, 5) << report.output;
+  EXPECT_NE(report.output.find("report: no finished run to analyse"), std::string::npos) << report.output;
+  const auto exported = Sh(Cmd("export"));
+  EXPECT_EQ(exported.code, 5) << exported.output;
+  EXPECT_NE(exported.output.find("export: no finished run to analyse"), std::string::npos) << exported.output;
+}
+
+// issue 27: a run directory deleted while its engine ran failed with only "engine exited with
+// status 1" (engine.log went with the directory). The runner keeps the log open and tells
+// what the engine last said.
+TEST_F(CliTest, ARunDirectoryDeletedMidRunSaysWhatTheEngineLastSaid) {
+  const std::string engine = testing::BinDir() + "/granary-engine";
+  if (!fs::exists(engine)) GTEST_SKIP() << "granary-engine not built";
+  const fs::path p = dir_ / "long.json";
+  std::ofstream(p) << R"({"name": "gone", "seed": 2, "replicas": 1,
+    "base": {"bodies": {"count": 60}, "silo": {"width": 12}, "discharge": {"mode": "reinject", "max_time": 100000,
+             "stop_on_clog": false}, "output": {"checkpoint_interval": 0.5, "frame_interval": 0.5}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [4]}}})";
+  ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
+  const fs::path run_dir = fs::path(Status()["runs"][0]["run_dir"].get<std::string>());
+  const std::string log = (dir_ / "runner.log").string();
+  const pid_t runner = Spawn({testing::Campaign(), "run", "--db", Db(), "--retries", "0"}, log);
+  // Deleted once the engine is in its discharge (it has written a checkpoint there).
+  ASSERT_TRUE(testing::WaitFor([&] { return fs::exists(run_dir / "checkpoint.bin"); }, 300)) << ReadFile(log);
+  fs::remove_all(run_dir);
+  EXPECT_EQ(testing::WaitExit(runner), 1) << ReadFile(log);
+  const json s = Status();
+  ASSERT_EQ(s["counts"]["failed"], 1) << s.dump();
+  const std::string failure = s["runs"][0]["failure"];
+  EXPECT_EQ(failure.rfind("engine exited with status 1; its run directory " + run_dir.string() +
+                              " was deleted while it ran; it last said:\n",
+                          0),
+            0u)
+      << failure;
+  EXPECT_NE(failure.find("No such file or directory"), std::string::npos) << failure;
 }
 
 }  // namespace

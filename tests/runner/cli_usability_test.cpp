@@ -432,5 +432,55 @@ TEST_F(CliUsability, EveryVerbOfTheTableHasHelpFlagsAndCompletion) {
     EXPECT_EQ(Sh(testing::Campaign() + " __complete 4 campaign " + v + " --db " + Db() + " ''").output, expected) << v;
 }
 
+// issue 27: several --help texts left out the exit codes.
+TEST_F(CliUsability, EveryVerbsHelpSaysItsExitCodes) {
+  const auto help = Sh(testing::Campaign() + " --help");
+  ASSERT_EQ(help.code, 0) << help.output;
+  int verbs = 0;
+  std::istringstream lines(help.output.substr(help.output.find("verbs:\n") + 7));
+  for (std::string line; std::getline(lines, line) && !line.empty();) {
+    const std::string verb = line.substr(2, line.find(' ', 2) - 2);
+    ++verbs;
+    const auto r = Sh(testing::Campaign() + " " + verb + " --help");
+    EXPECT_EQ(r.code, 0) << verb << ": " << r.output;
+    EXPECT_NE(r.output.find("Exit: 0"), std::string::npos) << verb << ":\n" << r.output;
+  }
+  EXPECT_GE(verbs, 10) << help.output;
+}
+
+// issue 27: the run-time progress line's ETA counted up between two progress reports, the
+// bed phase showed "t 33.6/0.0", and status showed an ETA with no runner alive.
+TEST_F(CliUsability, StatusHasNoEtaWithoutARunnerAtWork) {
+  ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 6]", "[0.5]", 1))).code, 0);
+  const auto status = Sh(Cmd("status"));
+  EXPECT_EQ(status.code, 0) << status.output;
+  EXPECT_NE(status.output.find("ETA - (no runner at work: campaign run continues)"), std::string::npos) << status.output;
+  EXPECT_TRUE(Status()["eta_s"].is_null());
+  // A run left running in its bed phase by a runner that is gone: its simulated time alone
+  // (the bed has no end time), and still no ETA.
+  ASSERT_EQ(Sh("sqlite3 " + Db() + " \"UPDATE runs SET state = 'running', progress = "
+               "'{\\\"phase\\\": \\\"bed\\\", \\\"fraction\\\": 0.3, \\\"t\\\": 33.6, \\\"t_end\\\": 0.0, "
+               "\\\"exited\\\": 0, \\\"wall_s\\\": 2.0}' WHERE rowid = 1\"").code, 0);
+  const auto bed = Sh(Cmd("status"));
+  EXPECT_NE(bed.output.find("t 33.6  0 exits"), std::string::npos) << bed.output;
+  EXPECT_EQ(bed.output.find("33.6/"), std::string::npos) << bed.output;
+  EXPECT_NE(bed.output.find("(runner gone: resumes on the next campaign run)"), std::string::npos) << bed.output;
+  EXPECT_NE(bed.output.find("ETA - (no runner at work"), std::string::npos) << bed.output;
+}
+
+// issue 27: GRANARY_CACHE_DIR set at run time was ignored without a word (the plan fixes it).
+TEST_F(CliUsability, ACacheDirectorySetAtRunTimeIsSaidToBeFixedByThePlan) {
+  ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4]", "[0.5]", 1))).code, 0);
+  const auto r = Sh("GRANARY_CACHE_DIR=" + (dir_ / "elsewhere").string() + " " + RunCmd());
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("note: GRANARY_CACHE_DIR=" + (dir_ / "elsewhere").string() +
+                          " is not used: the plan fixed the prepared beds' directory at " + (dir_ / "beds").string()),
+            std::string::npos)
+      << r.output;
+  // The same directory as planned: no note.
+  ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 5]", "[0.5]", 1))).code, 0);
+  EXPECT_EQ(Sh(RunCmd()).output.find("note: GRANARY_CACHE_DIR"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace granary::runner

@@ -1,6 +1,8 @@
 // See common.h.
 #include "runner/cli/common.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -99,7 +101,7 @@ std::string Bar(double fraction, int width) {
   return bar;
 }
 
-std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& verb) {
+std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& verb, bool read_only_ok) {
   if (!fs::exists(db)) {
     throw UsageError("campaign " + verb + ": no database " + db + " (campaign plan SPEC --db " + db + " makes one)");
   }
@@ -109,6 +111,9 @@ std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& 
                                         "truncated, or copied while the disk was full?); plan a campaign into it again "
                                         "with campaign plan SPEC --db " + db);
   }
+  const fs::path dir = fs::path(db).parent_path().empty() ? fs::path(".") : fs::path(db).parent_path();
+  if (read_only_ok && !fs::is_directory(db) && (::access(db.c_str(), W_OK) != 0 || ::access(dir.c_str(), W_OK) != 0))
+    return std::make_unique<Store>(db, Store::ReadOnly{});
   try {
     return std::make_unique<Store>(db);
   } catch (const StoreError& e) {
@@ -126,7 +131,7 @@ RunFilter ResolveOnly(const Args& a, const CampaignRow& campaign, const std::vec
   }
 }
 
-std::string ProgressText(const json& progress, double elapsed) {
+std::string ProgressText(const json& progress, bool eta) {
   double f = 0;
   std::string phase = "starting";
   std::ostringstream o;
@@ -136,14 +141,19 @@ std::string ProgressText(const json& progress, double elapsed) {
   }
   o << std::left << std::setw(9) << phase << " " << Bar(f, 20) << " " << std::right << std::setw(3) << std::lround(f * 100)
     << "%";
-  if (progress.is_object() && progress.contains("t") && progress.contains("t_end") && progress.at("t").is_number()) {
-    o << "  t " << std::fixed << std::setprecision(1) << progress.at("t").get<double>() << "/"
-      << progress.at("t_end").get<double>();
+  if (progress.is_object() && progress.contains("t") && progress.at("t").is_number()) {
+    // The bed phase has no end time (t_end 0): its simulated time alone.
+    const double t_end = progress.contains("t_end") && progress.at("t_end").is_number() ? progress.at("t_end").get<double>() : 0.0;
+    o << "  t " << std::fixed << std::setprecision(1) << progress.at("t").get<double>();
+    if (t_end > 0) o << "/" << t_end;
     o.unsetf(std::ios::fixed);
   }
   if (progress.is_object() && progress.contains("exited") && progress.at("exited").is_number())
     o << "  " << progress.at("exited").get<long long>() << " exits";
-  if (elapsed > 0) o << "  ETA " << (f > 0.01 ? Duration(elapsed * (1 - f) / f) : std::string("?"));
+  if (eta && phase == "discharge") {
+    const double wall = progress.value("wall_s", 0.0);
+    o << "  ETA " << (f > 0.01 && wall > 0 ? Duration(wall * (1 - f) / f) : std::string("?"));
+  }
   return o.str();
 }
 

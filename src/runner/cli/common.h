@@ -94,13 +94,17 @@ std::string Bar(double fraction, int width);
 
 // The database of an existing campaign (only `plan` and `compare` create one): a missing file,
 // a directory, an empty file or a file that is not a campaign database is said plainly.
-std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& verb);
+// `read_only_ok`: the verb only reads (status, show, report, export), so a database nobody may
+// write here (a read-only directory or mount) is opened read-only instead of failing.
+std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& verb, bool read_only_ok = false);
 
 // The --only filters of a verb, resolved and checked against the campaign's runs.
 RunFilter ResolveOnly(const Args& a, const CampaignRow& campaign, const std::vector<RunRow>& runs);
 
-// A run's progress.json as one short line: phase, bar, percent, simulated time, exits, ETA
-// (from `elapsed` wall seconds; none when elapsed <= 0).
-std::string ProgressText(const nlohmann::json& progress, double elapsed);
+// A run's progress.json as one short line: phase, bar, percent, simulated time, exits, and
+// with `eta` the discharge's ETA from the engine's own wall time at the fraction it reported
+// (steady between two reports: a clock that ran on while the fraction stood still made it
+// count up); none in the bed phase, whose length is not known ahead.
+std::string ProgressText(const nlohmann::json& progress, bool eta);
 
 }  // namespace granary::runner::cli

@@ -144,7 +144,7 @@ class ConsoleObserver : public RunObserver {
       if (IsQueued(a)) continue;
       const auto it = points_.find(a.run_id);
       Line("  " + a.run_id.substr(0, 10) + " " + (it == points_.end() ? std::string() : it->second) + "  " +
-           ProgressText(a.progress, a.elapsed));
+           ProgressText(a.progress, true));
     }
     out_.flush();
   }

@@ -1,6 +1,8 @@
 // `campaign scan`, `clean`, `schema` and `completion`: keeping a campaign and its tools in order.
 // Flags in docs/cli.md.
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -18,6 +20,8 @@
 #include "runner/cli/common.h"
 #include "runner/inspect.h"
 #include "runner/scan.h"
+#include "runner/scheduler.h"
+#include "runner/executor.h"
 #include "runner/util.h"
 
 namespace granary::runner::cli {
@@ -28,7 +32,7 @@ using nlohmann::json;
 namespace {
 
 const char kScanHelp[] =
-    "usage: campaign scan [--db FILE] [--dry-run] [--json]\n"
+    "usage: campaign scan [--db FILE] [--dry-run] [--json] [--verify]\n"
     "Rebuild every run's state from its run directory (DONE and summary.json: done, ingested), and\n"
     "for runs in a Slurm queue from one squeue call (a task that left the queue ended as its\n"
     "directory says). Safe at any time, also while jobs run; runs a live runner holds are\n"
@@ -36,10 +40,44 @@ const char kScanHelp[] =
     "  --dry-run    show what would change, write nothing\n"
     "  --json       {\"runs\", \"counts\", \"agrees\", \"changes\": [{\"run_id\", \"from\", \"to\", \"reason\", \"written\"}],\n"
     "               \"lost\": [run ids of done runs whose directory was deleted]}\n"
-    "Exit: 0 (also when states changed), 2 usage error, 3 storage error (database unreadable or\n"
-    "unwritable).\n";
+    "  --verify     also check every done run's files against the manifest its engine wrote\n"
+    "               (every checksum and count, every byte read): damaged runs are listed with\n"
+    "               each file and what differs; with --json, \"verify\": {\"whole\", \"damaged\":\n"
+    "               [{\"run_id\", \"problems\": [{\"file\", \"what\"}]}], \"not_verifiable\"}\n"
+    "Exit: 0 (also when states changed), 4 --verify found damaged runs, 2 usage error, 3 storage\n"
+    "error (database unreadable or unwritable).\n";
 
-int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+// scan --verify: every done run's every checksum; the damaged ones with what differs.
+int VerifyCampaign(Store& store, bool as_json, std::ostream& out, std::ostream& err, json* doc) {
+  const std::vector<RunRow> runs = load_runs(store, false);
+  const bool tty = &err == &std::cerr && isatty(STDERR_FILENO);
+  const auto checks = check_done_runs(runs, rundir::VerifyLevel::kChecksums, [&](int done, int total) {
+    if (tty) err << "\rverifying runs " << Bar(static_cast<double>(done) / std::max(1, total), 30) << " " << done << "/" << total
+                 << (done == total ? "\n" : "") << std::flush;
+  });
+  const IntegrityCounts counts = count_integrity(checks);
+  if (as_json) {
+    json damaged = json::array();
+    for (const auto& [id, v] : checks) {
+      if (v.integrity != rundir::Integrity::kDamaged) continue;
+      json problems = json::array();
+      for (const auto& p : v.problems) problems.push_back({{"file", p.file}, {"what", p.what}});
+      damaged.push_back({{"run_id", id}, {"problems", problems}});
+    }
+    (*doc)["verify"] = {{"whole", counts.whole}, {"damaged", damaged}, {"not_verifiable", counts.not_verifiable}};
+  } else {
+    out << "  verified " << checks.size() << " done run(s) against their manifests: " << counts.whole << " whole, "
+        << counts.damaged << " damaged, " << counts.not_verifiable << " not verifiable (written before manifests)\n";
+    for (const auto& [id, v] : checks) {
+      if (v.integrity != rundir::Integrity::kDamaged) continue;
+      out << "  damaged " << id << ":\n";
+      for (const auto& p : v.problems) out << "    " << p.file << ": " << p.what << "\n";
+    }
+  }
+  return counts.damaged > 0 ? kExitDamagedRuns : 0;
+}
+
+int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args a = Parse(argv, "scan");
   if (!a.positional.empty()) throw UsageError("campaign scan: unexpected argument \"" + a.positional[0] + "\"");
   const std::string db = DbPath(a);
@@ -54,8 +92,9 @@ int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
     }
     json doc = {{"runs", r.runs}, {"counts", r.counts}, {"agrees", r.changes.empty()}, {"changes", changes}, {"lost", r.lost}};
     if (!r.queue_error.empty()) doc["queue_error"] = r.queue_error;
+    const int code = a.has("verify") ? VerifyCampaign(store, true, out, err, &doc) : 0;
     out << doc.dump(2) << "\n";
-    return 0;
+    return code;
   }
   out << "campaign scan: " << r.runs << " runs;";
   for (const auto& [state, n] : r.counts) out << " " << state << " " << n;
@@ -70,7 +109,7 @@ int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
     out << "  " << c.run_id << "  " << c.from << " -> " << c.to << (c.written ? "" : a.has("dry-run") ? " (dry run)" : " (not written)")
         << (c.reason.empty() ? "" : ": " + c.reason.substr(0, c.reason.find('\n'))) << "\n";
   }
-  return 0;
+  return a.has("verify") ? VerifyCampaign(store, false, out, err, nullptr) : 0;
 }
 
 const char kCleanHelp[] =
@@ -84,7 +123,8 @@ const char kCleanHelp[] =
     "             beds are never touched; a bed needed again is prepared again)\n"
     "  --locks    lock files (bed cache, run directories of runs not running) that nobody holds\n"
     "  --dry-run  say what would be removed and how much it would free; remove nothing\n"
-    "Never touches done, planned, running or interrupted runs' directories.\n";
+    "Never touches done, planned, running or interrupted runs' directories.\n"
+    "Exit: 0, 2 usage error, 3 storage error.\n";
 
 int Clean(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, "clean");
@@ -150,7 +190,8 @@ const char kSchemaHelp[] =
     "generated from the tables the validator reads (docs/campaign-spec.md). An editor that\n"
     "knows it checks a spec as it is typed and completes its keys (VS Code: docs/campaign-spec.md,\n"
     "\"Editing specs\"). The repository keeps a copy in docs/campaign.schema.json.\n"
-    "  --out FILE   write it to FILE instead of stdout\n";
+    "  --out FILE   write it to FILE instead of stdout\n"
+    "Exit: 0, 1 FILE cannot be written, 2 usage error.\n";
 
 int Schema(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, "schema");
@@ -174,7 +215,8 @@ const char kCompletionHelp[] =
     "from the database (--db, or granary.db here), engines and colours. To use it now:\n"
     "  source <(campaign completion bash)\n"
     "and for every shell, put that line into ~/.bashrc (or the output into\n"
-    "/etc/bash_completion.d/campaign).\n";
+    "/etc/bash_completion.d/campaign).\n"
+    "Exit: 0, 2 usage error (a shell other than bash).\n";
 
 // The script: bash asks the binary (`campaign __complete CWORD WORDS...`), so completion knows
 // exactly the verbs and flags that the parser accepts and the run ids in the database.
@@ -205,7 +247,7 @@ int Completion(const std::vector<std::string>& argv, std::ostream& out, std::ost
 
 Verb ScanVerb() {
   return {"scan", "rebuild run states from the run directories (and the Slurm queue)", kScanHelp, Scan,
-          {{"db", true}, {"dry-run", false}, {"json", false}, {"help", false}}};
+          {{"db", true}, {"dry-run", false}, {"json", false}, {"verify", false}, {"help", false}}};
 }
 
 Verb CleanVerb() {

@@ -34,7 +34,9 @@ const char kPlanHelp[] =
     "  --db FILE    database (created if missing); run directories go to <db dir>/runs/<run id>/\n"
     "  --dry-run    validate and show what would change, store nothing\n"
     "  --json       print the summary as JSON\n"
-    "  --max-runs N refuse a sweep of more than N runs (default 100000), before expanding it\n";
+    "  --max-runs N refuse a sweep of more than N runs (default 100000), before expanding it\n"
+    "Exit: 0 planned (or the dry run shown), 2 spec or usage error (the message names the JSON\n"
+    "path, or FILE:LINE:COLUMN), 3 storage error.\n";
 
 }  // namespace
 
@@ -44,7 +46,9 @@ json ReadSpecFile(const std::string& verb, const std::string& spec_path) {
   std::stringstream text;
   text << in.rdbuf();
   try {
-    return parse_spec_text(text.str(), spec_path);
+    json spec = parse_spec_text(text.str(), spec_path);
+    resolve_spec_paths(spec, spec_path);
+    return spec;
   } catch (const std::invalid_argument& e) {
     throw UsageError(e.what());
   }

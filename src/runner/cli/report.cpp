@@ -19,9 +19,14 @@
 #include "runner/campaign_db.h"
 #include "runner/cli/common.h"
 #include "runner/cli/plan.h"
+#include "runner/cli/report.h"
 #include "runner/cli/run.h"
 #include "runner/store.h"
+#include "runner/scheduler.h"
+#include "rundir/files.h"
+#include "rundir/manifest.h"
 #ifdef GRANARY_HAVE_ANALYSIS
+#include "analysis/expectations.h"
 #include "analysis/export.h"
 #include "analysis/registry.h"
 #include "analysis/report.h"
@@ -40,8 +45,14 @@ namespace {
 const char kReportHelp[] =
     "usage: campaign report [--db FILE] [--out DIR] [--only FILTER]... [--no-figures]\n"
     "Write report.md, report.html, figures and CSVs of the finished runs (default DIR:\n"
-    "<db dir>/report).\n"
-    "  --only FILTER  report only these runs (as for campaign run; repeat for several)\n";
+    "<db dir>/report). Each run is first checked against the manifest its engine wrote; a\n"
+    "damaged run (a file cut, changed or missing) is left out of every number and listed on\n"
+    "stderr and in the report.\n"
+    "  --out DIR      the report's folder\n"
+    "  --only FILTER  report only these runs (as for campaign run; repeat for several)\n"
+    "  --no-figures   no gnuplot figures (faster)\n"
+    "Exit: 0 written, 4 written but some finished runs are damaged (left out), 5 no finished\n"
+    "run to analyse (an empty report), 2 usage error, 3 storage error.\n";
 
 #ifdef GRANARY_HAVE_ANALYSIS
 // A campaign loaded from its database and analysed: what report, export and compare share.
@@ -62,12 +73,30 @@ std::function<void(int, int)> AnalysisProgress(std::ostream& err) {
   };
 }
 
+// The finished runs an analysis left out, on stderr: every damaged run with each file and
+// what differs, every unreadable one, and how many used runs could not be verified.
+void SayRunsKeptOut(const analysis::CampaignView& v, const std::string& verb, std::ostream& err) {
+  for (const auto& [r, problems] : v.damaged) {
+    err << verb << ": run " << r->run_id << " (" << CompactPoint(r->point) << " r" << r->replica
+        << ") is damaged and left out:\n";
+    for (const rundir::FileProblem& p : problems) err << "    " << p.file << ": " << p.what << "\n";
+  }
+  for (const auto& [r, why] : v.unreadable)
+    err << verb << ": run " << r->run_id << " (" << CompactPoint(r->point) << " r" << r->replica
+        << ") is unreadable and left out: " << why << "\n";
+  if (!v.unverifiable.empty())
+    err << verb << ": " << v.unverifiable.size() << " of " << v.used.size()
+        << " used runs are not verifiable (written before engines recorded manifest.json; first: "
+        << v.unverifiable.front()->run_id << ")\n";
+}
+
 // Loads the campaign in `db`, analyses its finished runs (each run's cache first, runs in
 // parallel) and stores their per-run metrics in the database (table metrics).
 // With `only` (--only filters), the selected runs alone.
+// `store_results` false: read the database only (status).
 std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const std::string& verb, std::ostream& err,
-                                                    const std::vector<std::string>& only = {}) {
-  const auto opened = OpenCampaignDb(db, verb);
+                                                    const std::vector<std::string>& only = {}, bool store_results = true) {
+  const auto opened = OpenCampaignDb(db, verb, verb == "report" || verb == "export" || !store_results);
   Store& store = *opened;
   const auto campaign = load_campaign(store);
   if (!campaign) throw UsageError("campaign " + verb + ": " + db + " holds no campaign");
@@ -109,6 +138,7 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
   analysis::CampaignAnalysisOptions options;
   options.progress = AnalysisProgress(err);
   c->analysis = analysis::analyse_campaign(c->info, c->records, c->setup, options);
+  if (!store_results) return c;
   std::vector<RunMetrics> rows;
   const analysis::CampaignAnalysis& a = *c->analysis;
   for (std::size_t u = 0; u < a.view.used.size(); ++u)
@@ -119,9 +149,36 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
       for (const analysis::Metric& m : a.run_metrics(k, u)) rm.metrics.push_back({m.name, m.unit, m.value, m.se});
       rows.push_back(std::move(rm));
     }
-  store_metrics(store, rows, now_seconds());
+  if (store.read_only()) {
+    err << verb << ": the database " << db << " cannot be written here (read-only): the metrics are not stored in it\n";
+  } else {
+    store_metrics(store, rows, now_seconds());
+    // A damaged run's metrics stored by an earlier report are no longer numbers of the campaign.
+    std::vector<std::string> damaged;
+    for (const auto& [r, problems] : a.view.damaged) damaged.push_back(r->run_id);
+    forget_metrics(store, damaged);
+  }
+  SayRunsKeptOut(a.view, verb, err);
   return c;
 }
+
+}  // namespace
+
+std::optional<std::string> ExpectationCounts(const std::string& db, std::ostream& err, const std::vector<std::string>& only) {
+  {
+    const auto opened = OpenCampaignDb(db, "status");
+    const auto campaign = load_campaign(*opened);
+    if (!campaign || !campaign->spec.is_object() || !campaign->spec.contains("expect")) return std::nullopt;
+  }
+  const auto c = AnalyseCampaignIn(db, "status", err, only, false);
+  try {
+    return analysis::to_string(analysis::count(analysis::reproduce(*c->analysis)->results));
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("campaign spec: ") + e.what());
+  }
+}
+
+namespace {
 
 // The report of the campaign in `db`.
 analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out_dir, bool figures, std::ostream& err,
@@ -153,6 +210,12 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
     }
   };
 #endif
+  // One report at a time into one folder: a second waits, and says so (two writing at once
+  // left report.md without some figure links).
+  fs::create_directories(out_dir);
+  const FileLock lock(out_dir / ".report.lock", [&] {
+    err << "report: another campaign report is writing " << out_dir.string() << "; waiting for it to finish\n" << std::flush;
+  });
   return analysis::write_report(*c->analysis, options);
 }
 #endif
@@ -166,13 +229,21 @@ int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                                      !a.has("no-figures"), err, a.all("only"));
   out << "report: " << summary.markdown.string() << "\n        " << summary.html.string() << "\n  runs used "
       << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed
+      << (summary.runs_damaged > 0 ? ", damaged " + std::to_string(summary.runs_damaged) + " (left out; listed above and in the report)"
+                                   : std::string())
       << (summary.runs_lost > 0 ? ", lost " + std::to_string(summary.runs_lost) +
                                       " (done, run directory deleted: campaign run --rerun-lost)"
                                 : std::string())
+      << (summary.runs_unverifiable > 0 ? ", not verifiable " + std::to_string(summary.runs_unverifiable) : std::string())
       << "\n"
       << "  analysis results: " << summary.results_from_cache << " from the runs' caches, " << summary.results_computed
       << " computed\n";
-  return 0;
+  if (!summary.expectations.empty()) out << "  expectations: " << summary.expectations << " (Key results)\n";
+  if (summary.runs_used == 0) {
+    err << "report: no finished run to analyse: the report has no numbers (campaign status says where the runs are)\n";
+    return kExitNothingToAnalyse;
+  }
+  return summary.runs_damaged > 0 ? kExitDamagedRuns : 0;
 #else
   (void)out;
   (void)err;
@@ -182,17 +253,25 @@ int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream
 
 // ---------------------------------------------------------------- export
 const char kExportHelp[] =
-    "usage: campaign export [--db FILE] [--format csv|json] [--level run|point] [--out FILE] [--only FILTER]...\n"
+    "usage: campaign export [--db FILE] [--format csv|json] [--level run|point] [--expectations] [--out FILE]\n"
+    "                       [--only FILTER]...\n"
     "Analyse the finished runs (each run's cached results are reused) and write their metrics as\n"
     "one tidy table: one row per run, or per sweep point; each swept parameter a column named by\n"
-    "its short path (base_outlets.0.width), each metric and its se (per point also n) numeric\n"
-    "columns. The per-run metrics are stored in the database too (table metrics, view\n"
-    "run_metrics; docs/data.md shows both read with pandas).\n"
+    "its short name (W, X_db, D_b), each derived axis of the spec's /axes, each metric and its se\n"
+    "(per point also n) numeric columns. The per-run metrics are stored in the database too (table\n"
+    "metrics, view run_metrics; docs/data.md shows both read with pandas).\n"
     "  --db FILE         database (default granary.db)\n"
     "  --format F        csv (default) or json (an array of objects)\n"
     "  --level L         run (default) or point\n"
+    "  --expectations    the reproduction table instead: each expected value of the spec's /expect\n"
+    "                    with the measured value, se, n, runs and the verdict (agrees, disagrees,\n"
+    "                    not enough runs), as in the report's Key results\n"
     "  --out FILE        write there (default: standard output)\n"
-    "  --only FILTER     only these runs (as for campaign run; repeat for several)\n";
+    "  --only FILTER     only these runs (as for campaign run; repeat for several)\n"
+    "Damaged runs (a file differs from the engine's manifest) and unreadable ones are left out\n"
+    "and named on stderr.\n"
+    "Exit: 0 written, 4 written but some finished runs are damaged (left out), 5 no finished\n"
+    "run to analyse (no rows), 2 usage error, 3 storage error.\n";
 
 int Export(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args a = Parse(argv, "export");
@@ -202,18 +281,36 @@ int Export(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   if (level != "run" && level != "point") throw UsageError("--level: must be run or point (got \"" + level + "\")");
   const std::string db = DbPath(a);
 #ifdef GRANARY_HAVE_ANALYSIS
+  if (a.has("expectations") && a.has("level")) throw UsageError("--expectations: a table of its own; drop --level");
   const auto c = AnalyseCampaignIn(db, "export", err, a.all("only"));
-  const analysis::ExportTable table =
-      analysis::export_table(*c->analysis, level == "run" ? analysis::ExportLevel::kRun : analysis::ExportLevel::kPoint);
+  analysis::ExportTable table;
+  if (a.has("expectations")) {
+    std::unique_ptr<analysis::Reproduction> r;
+    try {
+      r = analysis::reproduce(*c->analysis);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(std::string("campaign spec: ") + e.what());
+    }
+    if (r->expectations.empty()) throw UsageError("--expectations: the campaign spec has no \"expect\" (docs/analyses.md)");
+    table = analysis::expectations_table(r->results);
+  } else {
+    table = analysis::export_table(*c->analysis, level == "run" ? analysis::ExportLevel::kRun : analysis::ExportLevel::kPoint);
+  }
   const std::string text = format == "csv" ? analysis::to_csv(table) : analysis::to_json(table).dump(2) + "\n";
   if (a.has("out")) {
     WriteAtomically(a.get("out", ""), text);
-    err << "export: " << table.rows.size() << " " << level << (table.rows.size() == 1 ? "" : "s") << " to "
+    const std::string what = a.has("expectations") ? "expectation" : level;
+    err << "export: " << table.rows.size() << " " << what << (table.rows.size() == 1 ? "" : "s") << " to "
         << a.get("out", "") << "\n";
   } else {
     out << text;
   }
-  return 0;
+  const analysis::CampaignView& view = c->analysis->view;
+  if (view.used.empty()) {
+    err << "export: no finished run to analyse: the table has no rows (campaign status says where the runs are)\n";
+    return kExitNothingToAnalyse;
+  }
+  return view.damaged.empty() ? 0 : kExitDamagedRuns;
 #else
   (void)out;
   (void)err;
@@ -342,7 +439,7 @@ Verb ReportVerb() {
 
 Verb ExportVerb() {
   return {"export", "write every run's (or point's) metrics as one CSV or JSON table", kExportHelp, Export,
-          {{"db", true}, {"format", true}, {"level", true}, {"out", true}, {"only", true}, {"help", false}}};
+          {{"db", true}, {"format", true}, {"level", true}, {"expectations", false}, {"out", true}, {"only", true}, {"help", false}}};
 }
 
 Verb CompareVerb() {

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "runner/campaign_db.h"
+#include <cstdlib>
 #include "runner/cli/console_observer.h"
 #include "runner/slurm.h"
 
@@ -40,7 +41,9 @@ const char kRunHelp[] =
     "  --jobs N             concurrent runs (default: number of cores)\n"
     "  --engine E           native | liggghts: only runs of that engine; a path: use that executable\n"
     "  --only FILTER        a run-id prefix, or POINTER=VALUE, e.g. /silo/base_outlets/0/width=10\n"
-    "                       (a short name that ends one sweep axis will do: width=10); repeat it:\n"
+    "                       (an axis' short name as the report prints it will do: W=10, D_b=1.5;\n"
+    "                       so will a derived axis of the spec's /axes, or a short name that ends\n"
+    "                       one sweep axis: width=10); repeat it:\n"
     "                       values of one parameter are alternatives, different parameters all hold\n"
     "  --threads-per-run T  passed to the engine as --threads (default 1)\n"
     "  --time-limit S       wall seconds per run; a run over it is stopped and marked failed\n"
@@ -214,6 +217,21 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
     if (!campaign) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
     spec = campaign->spec;
     name = campaign->name;
+    // The bed cache is part of each planned run (bed/cache_file in run.json): a
+    // GRANARY_CACHE_DIR set now that differs is not used, and saying so beats beds appearing
+    // elsewhere without a word.
+    if (const char* env = std::getenv("GRANARY_CACHE_DIR"); env && *env) {
+      for (const RunRow& r : load_runs(*opened, true)) {
+        if (r.state == RunState::kDone || r.state == RunState::kRetired) continue;
+        const json* file = r.params.contains("bed") ? &r.params["bed"] : nullptr;
+        if (!file || !file->contains("cache_file") || !(*file)["cache_file"].is_string()) continue;
+        const fs::path planned = fs::path((*file)["cache_file"].get<std::string>()).parent_path();
+        if (fs::weakly_canonical(planned) != fs::weakly_canonical(env))
+          out << "note: GRANARY_CACHE_DIR=" << env << " is not used: the plan fixed the prepared beds' directory at "
+              << planned.string() << " (bed/cache_file of each planned run; campaign plan stores it)\n";
+        break;
+      }
+    }
   }
   ExecutorChoice c = ChooseExecutor(a, spec, db, o);
   c.settings.campaign = name;

@@ -16,7 +16,9 @@
 #include "rundir/progress.h"
 #include "runner/campaign_db.h"
 #include "runner/cli/common.h"
+#include "runner/cli/report.h"
 #include "runner/inspect.h"
+#include "runner/scan.h"
 #include "runner/executor.h"
 #include "runner/util.h"
 
@@ -32,11 +34,16 @@ const char kStatusHelp[] =
     "Counts by state (they add up to the runs of the campaign; retired runs, no longer in the\n"
     "spec, are counted apart), progress of running runs, failures with the tail of their log,\n"
     "elapsed time and ETA; how many finished runs have their metrics in the database (with\n"
-    "--json, every stored metric of every run). Runs in a Slurm queue: pending and running per\n"
+    "--json, every stored metric of every run); when the spec states expected values (/expect),\n"
+    "how many agree, disagree and are not yet judged (the finished runs analysed, caches first). Runs in a Slurm queue: pending and running per\n"
     "array, asked from squeue (one call), or as last seen when squeue cannot answer.\n"
-    "  --only FILTER  only these runs: a run-id prefix, or POINTER=VALUE (a short name that ends\n"
-    "                 one sweep axis will do: width=9); repeat for several (docs/cli.md)\n"
-    "  --json         the same as JSON\n";
+    "  --only FILTER  only these runs: a run-id prefix, or POINTER=VALUE (an axis' short name as\n"
+    "                 the report prints it, D_b=1.5, or a derived axis of /axes, or a short name\n"
+    "                 that ends one sweep axis: width=9); repeat for several (docs/cli.md)\n"
+    "  --json         the same as JSON\n"
+    "Done runs whose files differ from their engine's manifest (a stat per file) are listed as\n"
+    "damaged; their stored metrics are not shown.\n"
+    "Exit: 0, 2 usage error (no database, --only that selects nothing), 3 storage error.\n";
 
 // Runs in a batch queue, per array job: their queue states, live from the queue when it answers.
 struct QueueView {
@@ -82,11 +89,11 @@ QueueView ViewQueue(const std::vector<RunRow>& runs) {
   return v;
 }
 
-int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
+int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args a = Parse(argv, "status");
   if (!a.positional.empty()) throw UsageError("campaign status: unexpected argument \"" + a.positional[0] + "\"");
   const std::string db = DbPath(a);
-  const auto opened = OpenCampaignDb(db, "status");
+  const auto opened = OpenCampaignDb(db, "status", true);
   Store& store = *opened;
   const auto campaign = load_campaign(store);
   std::vector<RunRow> all = load_runs(store, a.has("only"));
@@ -97,7 +104,14 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     filters = filter.texts();
   }
   const std::vector<RunRow>& runs = all;
-  const auto metrics = load_metrics(store);
+  // Sizes against the manifests (a stat per file): a damaged run's stored metrics are not shown.
+  const auto checks = check_done_runs(runs, rundir::VerifyLevel::kSizes);
+  const auto damaged = [&](const std::string& id) {
+    const auto it = checks.find(id);
+    return it != checks.end() && it->second.integrity == rundir::Integrity::kDamaged;
+  };
+  auto metrics = load_metrics(store);
+  std::erase_if(metrics, [&](const auto& m) { return damaged(m.first); });
   const QueueView queue = ViewQueue(runs);
   std::map<std::string, int> counts;
   for (const RunState state : kLiveRunStates) counts[to_string(state)] = 0;
@@ -122,13 +136,17 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     }
     if (runnable(r.state)) remaining_work += 1;
     if (r.state == RunState::kRunning) {
-      ++active;
+      // A run whose runner is gone is not progressing: no ETA counts on it (a task in a batch
+      // queue is at work with or without a runner watching).
+      const bool in_queue = r.queued() && !queue.state_by_run.at(r.run_id).empty();
+      if (in_queue || !lease_expired(r, this_process_holder().host, now)) ++active;
       const double f = r.progress.is_object() ? r.progress.value("fraction", 0.0) : 0.0;
       remaining_work += 1 - std::clamp(f, 0.0, 1.0);
     }
   }
   const double elapsed = first_start > 0 ? (active > 0 ? now : std::max(last_end, first_start)) - first_start : 0;
-  const double eta = wall_n > 0 ? remaining_work * (wall_sum / wall_n) / std::max(1, active) : -1;
+  // An ETA only while something runs: with no live runner nothing will finish by itself.
+  const double eta = wall_n > 0 && active > 0 ? remaining_work * (wall_sum / wall_n) / active : -1;
   if (a.has("json")) {
     json list = json::array();
     for (const auto& r : runs) {
@@ -152,6 +170,14 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
         j["metrics"] = m;
       }
       if (r.state == RunState::kDone && !fs::exists(r.run_dir)) j["run_dir_missing"] = true;
+      if (const auto it = checks.find(r.run_id); it != checks.end()) {
+        j["integrity"] = rundir::IntegrityName(it->second.integrity);
+        if (!it->second.problems.empty()) {
+          json problems = json::array();
+          for (const auto& p : it->second.problems) problems.push_back({{"file", p.file}, {"what", p.what}});
+          j["problems"] = problems;
+        }
+      }
       if (r.job_array != 0) j["job"] = r.job_id.empty() ? json(nullptr) : json(r.job_id + "_" + std::to_string(r.job_index));
       if (r.queued()) j["queue_state"] = queue.state_by_run.at(r.run_id);
       list.push_back(j);
@@ -162,9 +188,13 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                 {"retired", retired},
                 {"only", filters},
                 {"lost", lost},
+                {"damaged", count_integrity(checks).damaged},
                 {"elapsed_s", elapsed},
                 {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
                 {"runs", list}};
+#ifdef GRANARY_HAVE_ANALYSIS
+    if (const auto e = ExpectationCounts(db, err, a.all("only"))) doc["expectations"] = *e;
+#endif
     if (queue.any) {
       json arrays = json::array();
       for (const auto& q : queue.arrays) {
@@ -184,7 +214,11 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     out << (state == RunState::kPlanned ? " " : ", ") << state << " " << counts[to_string(state)];
   if (retired > 0) out << "  (and " << retired << " retired: no longer in the spec, not counted)";
   out << "\n  elapsed " << Duration(elapsed) << ", ETA "
-      << (total - counts[to_string(RunState::kDone)] == 0 ? std::string("-") : eta >= 0 ? Duration(eta) : "?") << "\n";
+      << (total - counts[to_string(RunState::kDone)] == 0 ? std::string("-")
+          : active == 0               ? std::string("- (no runner at work: campaign run continues)")
+          : eta >= 0                  ? Duration(eta)
+                                      : "?")
+      << "\n";
   if (queue.any) {
     const BatchQueue& batch = batch_queue();
     out << batch.name() << " queue ("
@@ -206,11 +240,25 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     for (const auto& r : runs)
       if (r.state == RunState::kDone && !fs::exists(r.run_dir)) out << "  " << r.run_id << "  " << r.run_dir << "\n";
   }
+  if (const int n = count_integrity(checks).damaged; n > 0) {
+    out << "damaged: " << n << " done run(s) whose files differ from what the engine recorded; left out of every "
+        << "number (campaign scan --verify checks every byte; delete the run directory and campaign run --rerun-lost to "
+        << "run one again):\n";
+    for (const auto& [id, v] : checks) {
+      if (v.integrity != rundir::Integrity::kDamaged) continue;
+      out << "  " << id << "\n";
+      for (const auto& p : v.problems) out << "    " << p.file << ": " << p.what << "\n";
+    }
+  }
   int analysed = 0;
   for (const auto& r : runs) analysed += r.state == RunState::kDone && metrics.count(r.run_id) ? 1 : 0;
   if (counts[to_string(RunState::kDone)] > 0)
     out << "  metrics in the database for " << analysed << " of " << counts[to_string(RunState::kDone)] << " done runs"
         << (analysed < counts[to_string(RunState::kDone)] ? " (campaign report or export analyses the others)" : "") << "\n";
+#ifdef GRANARY_HAVE_ANALYSIS
+  if (const auto e = ExpectationCounts(db, err, a.all("only")))
+    out << "  expectations: " << *e << " (campaign export --expectations, or the report's Key results)\n";
+#endif
   bool header = false;
   for (const auto& r : runs) {
     if (r.state != RunState::kRunning) continue;
@@ -223,7 +271,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     if (progress.is_null() && r.queued()) {
       if (const auto p = rundir::ReadProgress(r.run_dir)) progress = p->ToJson();
     }
-    out << "  " << r.run_id << " " << ProgressText(progress, 0) << "  " << CompactPoint(r.point) << " r" << r.replica
+    out << "  " << r.run_id << " " << ProgressText(progress, false) << "  " << CompactPoint(r.point) << " r" << r.replica
         << (r.queued() ? "  " + std::string(batch_queue().name()) + " " + r.job_id + "_" + std::to_string(r.job_index) +
                              (r.lease_holder.empty() || lease_expired(r, this_process_holder().host, now)
                                   ? " (no runner watching: campaign scan or campaign run --executor slurm)"
@@ -253,7 +301,10 @@ const char kShowHelp[] =
     "engine log.\n"
     "  RUN        a run id (a unique start of one will do) or a run directory\n"
     "  --log N    lines of engine.log to show (default 20)\n"
-    "  --json     the same as JSON\n";
+    "  --json     the same as JSON\n"
+    "A done run's files are checked against its manifest (\"files\": whole, damaged with what\n"
+    "differs, or not verifiable).\n"
+    "Exit: 0, 2 usage error (no such run, no database), 3 storage error.\n";
 
 // RUN of `show`: a run id (a unique prefix will do) of the database, or a run directory of it.
 RunRow FindRun(const std::string& verb, const std::string& run, Store& store, const std::string& db) {
@@ -317,7 +368,7 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   const Args a = Parse(argv, "show");
   if (a.positional.size() != 1) throw UsageError("campaign show: needs exactly one RUN (see campaign show --help)");
   const std::string db = DbPath(a);
-  const auto opened = OpenCampaignDb(db, "show");
+  const auto opened = OpenCampaignDb(db, "show", true);
   Store& store = *opened;
   const RunRow run = FindRun("show", a.positional[0], store, db);
   const json d = run_details(store, run, a.integer("log", 20, 0));
@@ -342,21 +393,41 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
     state += ", " + ValueText(results["exited"]) + " exits of " + ValueText(results["bodies"]) + " bodies";
   if (results.contains("t_end")) state += ", t_end " + ValueText(results["t_end"]);
   row("state", state);
-  if (run.state == RunState::kRunning) row("progress", ProgressText(run.progress, 0));
+  if (run.state == RunState::kRunning) row("progress", ProgressText(run.progress, false));
   row("attempts", std::to_string(run.attempts));
   row("engine", run.engine + (run.engine_version.empty() ? "" : " " + run.engine_version));
   if (!run.host.empty()) row("host", run.host);
   std::string when = "started " + LocalTime(run.started_at);
   if (run.ended_at > 0) when += ", ended " + LocalTime(run.ended_at);
-  if (run.wall_s > 0) when += ", wall " + Duration(run.wall_s);
+  // The engine's own wall time covers every attempt (a resumed run's bed and discharge); the
+  // runner's figure is its last attempt's alone.
+  const bool engine_wall = results.contains("timing/wall_s") && results["timing/wall_s"].is_number();
+  if (engine_wall) {
+    when += ", wall " + Duration(results["timing/wall_s"].get<double>());
+  } else if (run.wall_s > 0) {
+    when += ", wall " + Duration(run.wall_s);
+  }
   if (results.contains("timing/bed_wall_s") && results.contains("timing/discharge_wall_s"))
     when += " (bed " + Duration(results["timing/bed_wall_s"].get<double>()) + ", discharge " +
             Duration(results["timing/discharge_wall_s"].get<double>()) + ")";
+  if (engine_wall && run.attempts > 1 && run.wall_s >= 0) when += "; last attempt " + Duration(run.wall_s);
   row("time", when);
   row("directory", run.run_dir + (d["run_dir_exists"].get<bool>() ? "" : "  (missing)"));
+  if (d.contains("integrity")) {
+    std::string text = d["integrity"].get<std::string>();
+    for (const auto& p : d.value("problems", json::array()))
+      text += "\n    " + p.value("file", std::string()) + ": " + p.value("what", std::string());
+    if (text == "damaged") text += " (campaign scan --verify)";
+    row("files", text);
+  }
   if (!run.failure.empty()) {
     out << "failure:\n";
     std::istringstream lines(run.failure);
+    for (std::string line; std::getline(lines, line);) out << "  | " << line << "\n";
+  }
+  for (const auto& f : d["analysis_failures"]) {
+    out << "analysis " << f["analysis"].get<std::string>() << " failed (campaign report: Python analysis):\n";
+    std::istringstream lines(f["error"].get<std::string>());
     for (std::string line; std::getline(lines, line);) out << "  | " << line << "\n";
   }
   if (!results.empty()) {

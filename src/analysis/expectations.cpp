@@ -1,0 +1,301 @@
+// See expectations.h.
+#include "analysis/expectations.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "analysis/options.h"
+
+namespace granary::analysis {
+namespace {
+
+constexpr const char* kKeys[] = {"metric", "fit", "parameter", "at", "value", "tolerance", "source", "min_runs"};
+
+std::string at_text(const Expectation& e) {
+  std::string s;
+  for (const auto& [name, v] : e.at)
+    s += (s.empty() ? "" : ", ") + name + " = " + (v.is_string() ? v.get<std::string>() : format_number(v.get<double>(), 6));
+  return s;
+}
+
+}  // namespace
+
+std::vector<Expectation> read_expectations(const nlohmann::json& spec, const std::vector<FigureSpec>& figures) {
+  if (!spec.is_object() || !spec.contains("expect")) return {};
+  const nlohmann::json& list = spec.at("expect");
+  if (!list.is_array())
+    throw OptionError("/expect", list,
+                      "must be an array of {\"metric\", \"at\", \"value\", \"tolerance\", \"source\"} or {\"fit\", "
+                      "\"parameter\", \"value\", ...}");
+  const CampaignAxes axes = CampaignAxes::of_campaign_spec(spec);
+  std::vector<std::string> fits;
+  for (const FigureSpec& f : figures)
+    if (f.fit) fits.push_back(f.name);
+  std::vector<Expectation> out;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string path = "/expect/" + std::to_string(i);
+    const nlohmann::json& j = list[i];
+    if (!j.is_object()) throw OptionError(path, j, "must be an object {\"metric\", \"at\", \"value\", \"tolerance\", \"source\"}");
+    for (const auto& [key, v] : j.items())
+      if (std::none_of(std::begin(kKeys), std::end(kKeys), [&](const char* k) { return key == k; }))
+        throw OptionError(path + "/" + key, v,
+                          "unknown key (known: metric, fit, parameter, at, value, tolerance, source, min_runs)");
+    Expectation e;
+    e.path = path;
+    auto text = [&](const char* key) -> std::string {
+      if (!j.contains(key)) return "";
+      if (!j.at(key).is_string() || j.at(key).get<std::string>().empty())
+        throw OptionError(path + "/" + key, j.at(key), "must be a non-empty string");
+      return j.at(key).get<std::string>();
+    };
+    e.metric = text("metric");
+    e.fit = text("fit");
+    e.parameter = text("parameter");
+    e.source = text("source");
+    if (e.metric.empty() == e.fit.empty())
+      throw OptionError(path, j, "needs either \"metric\" (a metric or an expression, with \"at\") or \"fit\" (a figure of "
+                                 "/report/figures with a fit) and \"parameter\"");
+    if (!e.metric.empty()) {
+      try {
+        Expression::parse(e.metric, {});
+      } catch (const ExpressionError& err) {
+        throw OptionError(path + "/metric", j.at("metric"), err.what());
+      }
+    } else {
+      if (std::find(fits.begin(), fits.end(), e.fit) == fits.end()) {
+        std::string known;
+        for (const auto& f : fits) known += (known.empty() ? "" : ", ") + f;
+        throw OptionError(path + "/fit", j.at("fit"), "names no figure with a fit (figures with fits: " +
+                                                          (known.empty() ? std::string("none") : known) + ")");
+      }
+      if (e.parameter.empty()) throw OptionError(path + "/parameter", nullptr, "must name a parameter of the fit's model");
+      const FigureSpec& f = *std::find_if(figures.begin(), figures.end(), [&](const FigureSpec& s) { return s.name == e.fit; });
+      const Expression model = Expression::parse(f.fit->model, f.fit->over);
+      const auto& ps = model.parameters();
+      if (std::find(ps.begin(), ps.end(), e.parameter) == ps.end()) {
+        std::string known;
+        for (const auto& p : ps) known += (known.empty() ? "" : ", ") + p;
+        throw OptionError(path + "/parameter", j.at("parameter"), "is not a parameter of " + f.fit->model + " (its parameters: " + known + ")");
+      }
+    }
+    if (j.contains("at")) {
+      const nlohmann::json& at = j.at("at");
+      if (!at.is_object()) throw OptionError(path + "/at", at, "must be an object {axis: value}, e.g. {\"W\": 11}");
+      for (const auto& [k, v] : at.items()) {
+        const bool known = axes.find_derived(k) || axes.pointer_of(k) || k == "L";
+        if (!known) {
+          std::string names;
+          for (const auto& n : axes.names()) names += (names.empty() ? "" : ", ") + n;
+          throw OptionError(path + "/at/" + k, v, "names no axis (axes: " + names + ")");
+        }
+        if (!v.is_number() && !v.is_string()) throw OptionError(path + "/at/" + k, v, "must be a number or a string");
+        const auto pointer = axes.pointer_of(k);
+        e.at.emplace_back(pointer ? axes.short_name(*pointer) : k, v);
+      }
+    }
+    if (!j.contains("value")) throw OptionError(path + "/value", nullptr, "must be the expected number");
+    e.value = option_number(j.at("value"), path + "/value", -1e300, 1e300);
+    if (j.contains("tolerance")) e.tolerance = option_number(j.at("tolerance"), path + "/tolerance", 0.0, 1e300);
+    if (j.contains("min_runs")) e.min_runs = option_integer(j.at("min_runs"), path + "/min_runs", 1, 1000000);
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
+std::string to_string(Verdict v) {
+  switch (v) {
+    case Verdict::kAgrees: return "agrees";
+    case Verdict::kDisagrees: return "disagrees";
+    case Verdict::kNotEnough: break;
+  }
+  return "not enough runs";
+}
+
+std::vector<ExpectationResult> judge_expectations(const CampaignAnalysis& ca, const std::vector<Expectation>& expectations,
+                                                  const std::vector<FigureOutcome>& figures) {
+  const CampaignView& v = ca.view;
+  std::vector<ExpectationResult> out;
+  for (const Expectation& e : expectations) {
+    ExpectationResult r;
+    r.expectation = &e;
+    if (!e.fit.empty()) {
+      r.what = e.parameter + " of the fit of figure " + e.fit;
+      const FigureOutcome* f = nullptr;
+      for (const FigureOutcome& o : figures)
+        if (o.spec && o.spec->name == e.fit) f = &o;
+      const FitParameter* p = f && f->fit ? f->fit->parameter(e.parameter) : nullptr;
+      if (f)
+        for (const FigureDatum& d : f->data)
+          for (std::size_t k : d.points) r.runs += static_cast<int>(v.points[k].runs.size());
+      if (!p || !f->fit->ok()) {
+        r.why = f && f->fit ? "fit " + f->fit->verdict() : "figure " + e.fit + " has no fit yet";
+        out.push_back(r);
+        continue;
+      }
+      r.measured = p->value;
+      r.se = p->se;
+      r.n = static_cast<int>(f->fit->y.size());
+      if (f->fit->quality != FitQuality::kGood) {
+        r.why = "fit " + f->fit->verdict();
+        out.push_back(r);
+        continue;
+      }
+    } else {
+      r.what = e.metric + (e.at.empty() ? "" : " at " + at_text(e));
+      std::vector<std::size_t> points;
+      for (std::size_t p = 0; p < v.points.size(); ++p) {
+        bool keep = !v.points[p].runs.empty();
+        for (const auto& [name, want] : e.at) keep = keep && axis_value_matches(v, v.points[p], name, want);
+        if (keep) points.push_back(p);
+      }
+      for (std::size_t p : points) r.runs += static_cast<int>(v.points[p].runs.size());
+      if (points.empty()) {
+        r.why = "no finished run at " + (e.at.empty() ? std::string("any point") : at_text(e));
+        out.push_back(r);
+        continue;
+      }
+      std::string problem;
+      const MeanSe m = y_value(e.metric, pooled_metrics(ca, points), point_axes(v, v.points[points.front()]), problem);
+      r.measured = m.mean;
+      r.se = m.se;
+      r.n = m.n;
+      if (!problem.empty() || !std::isfinite(m.mean)) {
+        r.why = problem.empty() ? "not measured at these runs" : problem;
+        out.push_back(r);
+        continue;
+      }
+      if (r.runs < e.min_runs) {
+        r.why = std::to_string(r.runs) + " finished run" + (r.runs == 1 ? "" : "s") + ", needs " + std::to_string(e.min_runs);
+        out.push_back(r);
+        continue;
+      }
+    }
+    const double diff = std::abs(r.measured - e.value);
+    const double se = std::isfinite(r.se) ? r.se : 0.0;
+    const double allowed = e.tolerance + 2.0 * se;
+    r.verdict = diff <= allowed ? Verdict::kAgrees : Verdict::kDisagrees;
+    r.why = "|" + format_number(r.measured, 4) + " - " + format_number(e.value, 4) + "| = " + format_number(diff, 3) +
+            (r.verdict == Verdict::kAgrees ? " <= " : " > ") + "tolerance " + format_number(e.tolerance, 3) + " + 2 se (" +
+            format_number(2.0 * se, 2) + ")" + (std::isfinite(r.se) ? "" : "; no se");
+    out.push_back(r);
+  }
+  return out;
+}
+
+std::unique_ptr<Reproduction> reproduce(const CampaignAnalysis& ca) {
+  auto r = std::make_unique<Reproduction>();
+  const nlohmann::json& spec = ca.view.campaign ? ca.view.campaign->spec : nlohmann::json();
+  r->figure_specs = read_figure_specs(spec);
+  for (const FigureSpec& f : r->figure_specs) r->figures.push_back(make_figure(ca, f));
+  r->expectations = read_expectations(spec, r->figure_specs);
+  r->results = judge_expectations(ca, r->expectations, r->figures);
+  return r;
+}
+
+ExpectationCounts count(const std::vector<ExpectationResult>& results) {
+  ExpectationCounts c;
+  for (const auto& r : results) {
+    if (r.verdict == Verdict::kAgrees) ++c.agree;
+    else if (r.verdict == Verdict::kDisagrees) ++c.disagree;
+    else ++c.not_yet;
+  }
+  return c;
+}
+
+std::string to_string(const ExpectationCounts& c) {
+  return std::to_string(c.agree) + " agree, " + std::to_string(c.disagree) + (c.disagree == 1 ? " disagrees, " : " disagree, ") +
+         std::to_string(c.not_yet) + " not yet";
+}
+
+ExportTable expectations_table(const std::vector<ExpectationResult>& results) {
+  ExportTable t;
+  t.columns = {"quantity", "expected", "tolerance", "source", "measured", "measured_se", "n", "runs", "verdict", "why"};
+  auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
+  for (const auto& r : results) {
+    const Expectation& e = *r.expectation;
+    t.rows.push_back({r.what, number(e.value), number(e.tolerance), e.source, number(r.measured), number(r.se), r.n, r.runs,
+                      to_string(r.verdict), r.why});
+  }
+  return t;
+}
+
+std::optional<Section> key_results_section(const std::vector<ExpectationResult>& results) {
+  if (results.empty()) return std::nullopt;
+  Section s{"key-results", "Key results", {}};
+  const ExpectationCounts c = count(results);
+  s.blocks.push_back(Text{"What the campaign spec expects (`/expect`), each beside what the runs measured: **" +
+                          to_string(c) + "**. A value agrees when |measured - expected| <= tolerance + 2 se; too few "
+                          "finished runs (or a fit that does not determine its parameters) is \"not enough runs\"."});
+  Table t{"key_results", "Expected and measured (measured: mean ± se (n))",
+          {"quantity", "expected", "source", "measured", "runs", "verdict", "how judged"},
+          {},
+          {"quantity", "expected", "source", "measured", "runs", "verdict", "why"}};
+  for (const auto& r : results) {
+    const Expectation& e = *r.expectation;
+    t.rows.push_back({r.what,
+                      format_number(e.value, 4) + (e.tolerance > 0 ? " ± " + format_number(e.tolerance, 3) : std::string()),
+                      e.source, Cell::estimate(r.measured, r.se, r.n), Cell::count(r.runs),
+                      (r.verdict == Verdict::kAgrees ? "**agrees**" : r.verdict == Verdict::kDisagrees ? "**disagrees**" : "not enough runs"),
+                      r.why});
+  }
+  s.blocks.push_back(t);
+  return s;
+}
+
+nlohmann::json axes_json_schema() {
+  return {{"type", "object"},
+          {"description", "derived axes {name: expression over the sweep axes' short names and the derived axes before it}, "
+                          "e.g. {\"D_eq\": \"sqrt(1 + D_b^2)\", \"W_over_D_eq\": \"W / D_eq\"}"},
+          {"additionalProperties", {{"type", "string"}}}};
+}
+
+nlohmann::json figures_json_schema() {
+  const nlohmann::json axis_or_list = {{"oneOf", {{{"type", "string"}}, {{"type", "array"}, {"items", {{"type", "string"}}}}}}};
+  nlohmann::json fit = {{"type", "object"},
+                        {"additionalProperties", false},
+                        {"required", {"model"}},
+                        {"properties",
+                         {{"model", {{"type", "string"}, {"description", "an expression over axes; other names are parameters"}}},
+                          {"over", axis_or_list},
+                          {"initial", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}},
+                          {"collapse", {{"type", "boolean"}, {"description", "also draw the data divided by the fitted law"}}}}}};
+  nlohmann::json figure = {
+      {"type", "object"},
+      {"additionalProperties", false},
+      {"required", {"name"}},
+      {"properties",
+       {{"name", {{"type", "string"}, {"pattern", "^[A-Za-z0-9._-]+$"}}},
+        {"kind", {{"enum", {"points", "pictures"}}}},
+        {"picture", {{"enum", {"end", "bed"}}, {"description", "pictures: the last frame (default) or the bed at t = 0"}}},
+        {"y", {{"type", "string"}, {"description", "a metric, or an expression over metrics and axes"}}},
+        {"ylabel", {{"type", "string"}}},
+        {"x", {{"type", "string"}, {"description", "a sweep axis (short name) or a derived axis; default the report's x"}}},
+        {"group", axis_or_list},
+        {"pool", axis_or_list},
+        {"only", {{"type", "object"}, {"description", "{axis: value or [values]}"}}},
+        {"fit", fit},
+        {"title", {{"type", "string"}}},
+        {"caption", {{"type", "string"}}},
+        {"reference", {{"type", "string"}}},
+        {"logx", {{"type", "boolean"}}},
+        {"logy", {{"type", "boolean"}}}}}};
+  return {{"type", "array"}, {"description", "figures drawn in the report's Figures section (docs/analyses.md)"}, {"items", figure}};
+}
+
+nlohmann::json expect_json_schema() {
+  nlohmann::json item = {{"type", "object"},
+                         {"additionalProperties", false},
+                         {"required", {"value"}},
+                         {"properties",
+                          {{"metric", {{"type", "string"}}},
+                           {"fit", {{"type", "string"}, {"description", "the name of a figure with a fit"}}},
+                           {"parameter", {{"type", "string"}}},
+                           {"at", {{"type", "object"}, {"description", "{axis: value}"}}},
+                           {"value", {{"type", "number"}}},
+                           {"tolerance", {{"type", "number"}, {"minimum", 0}}},
+                           {"source", {{"type", "string"}}},
+                           {"min_runs", {{"type", "integer"}, {"minimum", 1}}}}}};
+  return {{"type", "array"}, {"description", "expected values with their source (the report's Key results)"}, {"items", item}};
+}
+
+}  // namespace granary::analysis

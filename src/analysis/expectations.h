@@ -1,0 +1,82 @@
+// The reproduction table: values a campaign spec expects (/expect), each with its source, beside
+// what the campaign measured. An expectation names a metric (or an expression over metrics and
+// axes, as a figure's y) at a point of the sweep, or a parameter of a figure's fit, with a value
+// and a tolerance: "does it reproduce the paper?" becomes one table. Pure.
+#pragma once
+
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "analysis/export.h"
+#include "analysis/figures.h"
+
+namespace granary::analysis {
+
+struct Expectation {
+  std::string path;                        // "/expect/2"
+  std::string metric;                      // a metric or expression; "" for a fitted parameter
+  std::string fit, parameter;              // a figure of /report/figures and its fit's parameter
+  std::vector<std::pair<std::string, nlohmann::json>> at;  // axis -> value (all must hold)
+  double value = kNaN;
+  double tolerance = 0.0;                  // absolute
+  std::string source;                      // "thesis fig. 3.3a"
+  int min_runs = 2;                        // fewer finished runs at the point: not enough runs
+};
+
+// Reads /expect of a campaign spec (absent: none); `figures` are its /report/figures, which a
+// fitted parameter must name. Errors are OptionErrors naming the JSON path.
+std::vector<Expectation> read_expectations(const nlohmann::json& campaign_spec, const std::vector<FigureSpec>& figures);
+
+enum class Verdict { kAgrees, kDisagrees, kNotEnough };
+// "agrees", "disagrees", "not enough runs".
+std::string to_string(Verdict verdict);
+
+struct ExpectationResult {
+  const Expectation* expectation = nullptr;
+  std::string what;                        // "psi at W = 11", "b of fig-5.2"
+  double measured = kNaN, se = kNaN;
+  int n = 0;                               // the measurement's n (replicas, pooled items, fit points)
+  int runs = 0;                            // finished runs behind it
+  Verdict verdict = Verdict::kNotEnough;
+  std::string why;                         // "|0.61 - 0.66| = 0.05 <= 0.15 + 2 se", "1 run, needs 2"
+};
+
+// Judges every expectation: agrees when |measured - value| <= tolerance + 2 se, disagrees
+// otherwise; not enough runs when the point has fewer than min_runs finished runs, nothing was
+// measured, or a fit is not good (fit.h). `figures` are the made figures (their fits).
+std::vector<ExpectationResult> judge_expectations(const CampaignAnalysis& analysis, const std::vector<Expectation>& expectations,
+                                                  const std::vector<FigureOutcome>& figures);
+
+// A campaign's figures of /report/figures and its judged /expect, made together (an
+// expectation may name a figure's fit); the pointers inside point into this object.
+struct Reproduction {
+  std::vector<FigureSpec> figure_specs;
+  std::vector<FigureOutcome> figures;
+  std::vector<Expectation> expectations;
+  std::vector<ExpectationResult> results;
+};
+// Throws OptionError for a bad /report/figures or /expect.
+std::unique_ptr<Reproduction> reproduce(const CampaignAnalysis& analysis);
+
+struct ExpectationCounts {
+  int agree = 0, disagree = 0, not_yet = 0;
+};
+ExpectationCounts count(const std::vector<ExpectationResult>& results);
+// "7 agree, 1 disagrees, 3 not yet".
+std::string to_string(const ExpectationCounts& counts);
+
+// The table of `campaign export --expectations` and of the report's Key results.
+ExportTable expectations_table(const std::vector<ExpectationResult>& results);
+// JSON Schemas (draft-07) of the campaign spec's /axes, /report/figures and /expect, for
+// `campaign schema`.
+nlohmann::json axes_json_schema();
+nlohmann::json figures_json_schema();
+nlohmann::json expect_json_schema();
+
+// "Key results": the reproduction table first in the report; nullopt without expectations.
+std::optional<Section> key_results_section(const std::vector<ExpectationResult>& results);
+
+}  // namespace granary::analysis

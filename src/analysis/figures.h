@@ -1,0 +1,92 @@
+// The figure layer: figures a campaign spec asks for under /report/figures, drawn the way the
+// thesis draws them. A figure is y (a metric, or an expression over metrics and axes) against
+// x (a sweep axis, a derived axis of /axes, or the view's x such as the gap L), one curve per
+// group, on a subset of the points (only), with points pooled over some axes (pool), and
+// optionally a model over one or several axes fitted across every point of the figure at
+// once (fit), drawn as curves or as a collapse (the data divided by the fitted law). Knows no
+// metric by name: any metric an analysis returns can be asked for. Pure: an analysed campaign
+// in, report blocks and fit results out.
+#pragma once
+
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/axes.h"
+#include "analysis/campaign_analysis.h"
+#include "analysis/fit.h"
+#include "analysis/report_document.h"
+
+namespace granary::analysis {
+
+struct FigureFitSpec {
+  std::string model;                       // "a * W^(1.5 + X_db/2) / (1.43 + 17 * X_db^2)"
+  std::vector<std::string> over;           // its variables (axes); default: the axis names it uses
+  std::map<std::string, double> initial;   // parameters' start values (missing: 1)
+  bool collapse = false;                   // also draw y / law against x (should lie on 1)
+};
+
+struct FigureSpec {
+  std::string path;                        // "/report/figures/3", for messages
+  std::string name;                        // file stem, and what expectations name ("fit": name)
+  std::string kind = "points";             // points with error bars, or "pictures" of the chosen points
+  std::string picture = "end";             // pictures: "end" (the last frame: clogged, discharged) or "bed"
+  std::string y;                           // a metric name or an expression over metrics and axes
+  std::string ylabel;                      // default: y
+  std::string x;                           // an axis name; "" = the report's x axis
+  std::vector<std::string> group;          // axes making one curve each
+  bool group_given = false;                // false: every sweep axis but x and the pooled ones
+  std::vector<std::string> pool;           // axes pooled over (points differing only there are one)
+  std::vector<std::pair<std::string, std::vector<nlohmann::json>>> only;  // axis -> accepted values
+  std::optional<FigureFitSpec> fit;
+  std::string title, caption, reference;
+  bool logx = false, logy = false;
+};
+
+// Reads /report/figures of a campaign spec (absent: none). Every error is an OptionError naming
+// the JSON path, the value and what is allowed; axis names are checked against the spec's
+// sweep and /axes.
+std::vector<FigureSpec> read_figure_specs(const nlohmann::json& campaign_spec);
+
+// One data point of a figure: a set of sweep points (pooled), its axes' values, y ± se (n).
+struct FigureDatum {
+  std::vector<std::size_t> points;         // indices into CampaignView::points
+  std::map<std::string, double> axes;      // every axis by name (sweep short names, derived, L)
+  double x = kNaN, y = kNaN, se = kNaN;
+  int n = 0;
+  std::string group;                       // "X_db = 0.5" (the group axes' values)
+};
+
+struct FigureOutcome {
+  const FigureSpec* spec = nullptr;
+  std::vector<FigureDatum> data;
+  std::optional<FitResult> fit;            // when the figure has a fit (perhaps not good)
+  std::vector<Block> blocks;               // the figure(s), fit table and notes
+};
+
+// The axes of a point of the view by name: CampaignAxes::values plus the report's x symbol
+// when x is not a sweep axis (the gap L between two outlets).
+std::map<std::string, double> point_axes(const CampaignView& view, const Point& point);
+
+// Does the value of axis `name` at a point equal `want` (numbers as numbers, to 6 significant
+// digits as the report prints them; strings as strings)?
+bool axis_value_matches(const CampaignView& view, const Point& point, const std::string& name, const nlohmann::json& want);
+
+// Point metrics of several points pooled: means weighted by n, standard errors combined
+// (one point: its metrics as they are).
+std::map<std::string, MeanSe> pooled_metrics(const CampaignAnalysis& analysis, const std::vector<std::size_t>& points);
+// y (a metric name, or an expression over metrics and axes) from such metrics and a point's
+// axes: a metric as it is; an expression with its metrics' standard errors propagated to first
+// order and n the fewest of theirs. Sets `problem` (and returns NaN) for a name that is neither.
+MeanSe y_value(const std::string& y, const std::map<std::string, MeanSe>& metrics, const std::map<std::string, double>& axes,
+               std::string& problem);
+
+// The data of a figure (only, pool, y per point) and, with a fit, the fit across them.
+FigureOutcome make_figure(const CampaignAnalysis& analysis, const FigureSpec& spec);
+
+// The "Figures" section of the report: every figure of /report/figures; nullopt when none.
+std::optional<Section> figures_section(const std::vector<FigureOutcome>& figures);
+
+}  // namespace granary::analysis
