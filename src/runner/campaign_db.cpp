@@ -70,10 +70,10 @@ PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vec
   sum.points = static_cast<int>(point_ids.size());
 
   Transaction tx(store);
-  std::map<std::string, std::string> existing;  // run_id -> state
+  std::map<std::string, RunState> existing;  // run_id -> state
   {
     Statement q = store.prepare("SELECT run_id, state FROM runs ORDER BY seq");
-    while (q.step()) existing[q.text(0)] = q.text(1);
+    while (q.step()) existing[q.text(0)] = run_state_from_string(q.text(1));
   }
   std::int64_t next_seq = 0;
   {
@@ -84,11 +84,11 @@ PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vec
   for (const auto& r : runs) {
     auto it = existing.find(r.run_id);
     if (it == existing.end()) ++sum.added;
-    else if (it->second == "retired") ++sum.revived;
+    else if (it->second == RunState::kRetired) ++sum.revived;
     else ++sum.unchanged;
   }
   for (const auto& [id, state] : existing) {
-    if (!ids.count(id) && state != "retired") ++sum.retired;
+    if (!ids.count(id) && state != RunState::kRetired) ++sum.retired;
   }
   // Extensions: an old native run, not running, whose spec the new one extends.
   {
@@ -154,14 +154,14 @@ PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vec
       insert.bind(6, r.params_json).bind(7, r.engine).bind(8, GRANARY_VERSION).bind(9, granary::GitCommit());
       insert.bind(10, (std::filesystem::path(runs_root) / r.run_id).string());
       insert.run();
-    } else if (it->second == "retired") {
+    } else if (it->second == RunState::kRetired) {
       revive.reset();
       revive.bind(1, r.run_id).run();
     }
   }
   // Retiring never deletes: a finished run keeps its results and comes back if re-planned.
   for (const auto& [id, state] : existing) {
-    if (!ids.count(id) && state != "retired") {
+    if (!ids.count(id) && state != RunState::kRetired) {
       retire.reset();
       retire.bind(1, id).run();
     }
@@ -241,7 +241,7 @@ RunRow ReadRow(const Statement& q, bool with_params) {
   r.point = json::parse(q.text(3));
   r.replica = static_cast<int>(q.integer(4));
   if (with_params) r.params = json::parse(q.text(5));
-  r.state = q.text(6);
+  r.state = run_state_from_string(q.text(6));
   r.attempts = static_cast<int>(q.integer(7));
   r.engine = q.text(8);
   r.engine_version = q.text(9);
@@ -310,7 +310,7 @@ void forget_retired_results(Store& store, const std::string& run_id) {
 }
 
 bool lease_expired(const RunRow& row, const std::string& host, double now) {
-  if (row.state != "running") return false;
+  if (row.state != RunState::kRunning) return false;
   return now - row.lease_heartbeat > lease_stale_seconds() || (row.lease_host == host && !PidAlive(row.lease_pid));
 }
 
@@ -369,7 +369,7 @@ std::optional<RunRow> claim_next(Store& store, const Holder& me, double now,
   u.bind(6, GRANARY_VERSION).bind(7, granary::GitCommit()).run();
   if (sqlite3_changes(store.handle()) != 1) return std::nullopt;
   tx.commit();
-  found->state = "running";
+  found->state = RunState::kRunning;
   found->attempts += 1;
   found->started_at = now;
   return found;
@@ -460,14 +460,15 @@ bool record_done(Store& store, const std::string& run_id, const std::string& hol
   return true;
 }
 
-bool record_end(Store& store, const std::string& run_id, const std::string& holder, const std::string& state,
+bool record_end(Store& store, const std::string& run_id, const std::string& holder, RunState state,
                 const std::string& reason, double now, double wall_s) {
   Transaction tx(store);
   Statement u = store.prepare(
       "UPDATE runs SET state = ?2, failure = ?3, ended_at = ?4, wall_s = ?5, end_reason = ?6, lease_holder = NULL, "
       "lease_host = NULL, lease_pid = NULL, lease_heartbeat = NULL "
       "WHERE run_id = ?1 AND state = 'running' AND lease_holder = ?7");
-  u.bind(1, run_id).bind(2, state).bind(3, reason).bind(4, now).bind(5, wall_s).bind(6, state).bind(7, holder).run();
+  const std::string word = to_string(state);
+  u.bind(1, run_id).bind(2, word).bind(3, reason).bind(4, now).bind(5, wall_s).bind(6, word).bind(7, holder).run();
   if (sqlite3_changes(store.handle()) != 1) return false;
   tx.commit();
   return true;
@@ -598,7 +599,7 @@ int release_queued_runs(Store& store, const Holder& me) {
   return sqlite3_changes(store.handle());
 }
 
-bool settle_run(Store& store, const RunRow& seen, const std::string& state, const std::string& reason,
+bool settle_run(Store& store, const RunRow& seen, RunState state, const std::string& reason,
                 const json* summary, double wall_s, double now) {
   Transaction tx(store);
   Statement u = store.prepare(
@@ -606,14 +607,15 @@ bool settle_run(Store& store, const RunRow& seen, const std::string& state, cons
       "engine_version = COALESCE(?7, engine_version), summary = COALESCE(?8, summary), job_state = NULL, "
       "lease_holder = NULL, lease_host = NULL, lease_pid = NULL, lease_heartbeat = NULL "
       "WHERE run_id = ?1 AND state = ?9 AND COALESCE(lease_holder, '') = ?10");
-  u.bind(1, seen.run_id).bind(2, state);
+  const std::string word = to_string(state);
+  u.bind(1, seen.run_id).bind(2, word);
   if (summary) {
     u.bind_null(3).bind(4, summary->value("end_reason", std::string())).bind(7, summary->value("engine_version", std::string()));
     u.bind(8, summary->dump());
   } else {
-    u.bind(3, reason).bind(4, state).bind_null(7).bind_null(8);
+    u.bind(3, reason).bind(4, word).bind_null(7).bind_null(8);
   }
-  u.bind(5, now).bind(6, wall_s).bind(9, seen.state).bind(10, seen.lease_holder).run();
+  u.bind(5, now).bind(6, wall_s).bind(9, std::string(to_string(seen.state))).bind(10, seen.lease_holder).run();
   if (sqlite3_changes(store.handle()) != 1) return false;
   if (summary) {
     StoreResults(store, seen.run_id, *summary);

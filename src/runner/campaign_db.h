@@ -13,6 +13,7 @@
 
 #include "runner/campaign_spec.h"
 #include "runner/executor.h"
+#include "runner/run_state.h"
 #include "runner/store.h"
 
 namespace granary::runner {
@@ -51,7 +52,7 @@ struct RunRow {
   nlohmann::json point;
   int replica = 0;
   nlohmann::json params;
-  std::string state;
+  RunState state = RunState::kPlanned;
   int attempts = 0;
   std::string engine;
   std::string engine_version;
@@ -76,7 +77,7 @@ struct RunRow {
   std::string job_name;
   std::string job_state;  // the queue state last seen
   // In a batch queue now: its job, not a runner, holds it.
-  bool queued() const { return state == "running" && job_array != 0; }
+  bool queued() const { return state == RunState::kRunning && job_array != 0; }
 };
 
 struct CampaignRow {
@@ -150,7 +151,7 @@ std::set<std::string> heartbeat(Store& store, const Holder& me, double now,
 bool record_done(Store& store, const std::string& run_id, const std::string& holder, const nlohmann::json& summary,
                  double now, double wall_s);
 // state failed or interrupted with the reason (and log tail); lease cleared.
-bool record_end(Store& store, const std::string& run_id, const std::string& holder, const std::string& state,
+bool record_end(Store& store, const std::string& run_id, const std::string& holder, RunState state,
                 const std::string& reason, double now, double wall_s);
 
 // One run's metrics from one analysis (db/003_metrics.sql): what campaign report, export and
@@ -196,7 +197,7 @@ std::vector<RunRow> adopt_queued_runs(Store& store, const Holder& me, double now
 // campaign scan: sets a run's state from what its directory shows (done: `summary` ingested
 // as record_done does), provided the row is still as the scan read it (same state, same
 // lease holder), so whatever a runner recorded in between wins. Returns whether it wrote.
-bool settle_run(Store& store, const RunRow& seen, const std::string& state, const std::string& reason,
+bool settle_run(Store& store, const RunRow& seen, RunState state, const std::string& reason,
                 const nlohmann::json* summary, double wall_s, double now);
 
 // Detach: `me` stops watching its queued runs; they stay `running` in their jobs, for a

@@ -1,7 +1,7 @@
 // Executors start engine processes on run directories and report when they end. Runs
 // report only through their run directories (progress.json, summary.json, DONE), so an
 // executor needs nothing but a command line: the local Boost.Process pool, or Slurm job
-// arrays (slurm_executor.h) (style.md 8.3 item 12, after ninja's CommandRunner). The
+// arrays (slurm_executor.h) (after ninja's CommandRunner). The
 // interface says what the scheduler wants (start, stop and why), never how: no signals, no
 // pids, so every executor serves the same scheduler. A batch queue adds a place for each run
 // (array, index, job id) that the scheduler records, so a restarted runner finds its jobs.
@@ -9,6 +9,8 @@
 
 #include <map>
 #include <memory>
+#include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -96,6 +98,47 @@ class Executor {
   // Places whose queue state (PENDING, RUNNING, ...) or job id changed since the last call.
   virtual std::map<std::string, QueuePlace> queue_changes() { return {}; }
 };
+
+// One task of a batch queue as the queue reports it.
+struct QueueEntry {
+  std::string job_id;  // the array job id
+  int task = -1;       // the array index; -1 for a job that is not an array
+  std::string state;   // the queue's word: PENDING, RUNNING, COMPLETED, ...
+  double started_at = 0;  // unix seconds; 0 = not started
+  std::string name;
+  std::string reason;
+};
+
+// What a queue state means for the run its task carries.
+enum class TaskFate {
+  kQueued,     // waiting for a node (PENDING, REQUEUED, ...)
+  kRunning,    // at work, or a state not understood (never resubmit what is not understood)
+  kCompleted,  // ended normally: done if its run directory says so
+  kFailed,     // the run failed (FAILED, OUT_OF_MEMORY)
+  kTimedOut,   // the queue's time limit ran out (the run continues from its checkpoint if retried)
+  kLost,       // cancelled, preempted, node failure: resubmitted, continues from its checkpoint
+};
+bool is_queued_or_running(TaskFate fate);
+
+// The batch queue that queued runs (RunRow::queued()) are in, as the verbs that do not submit
+// see it: status and scan ask it about runs a runner may no longer watch, the display asks
+// which runs still wait. Only the batch executor's files know which queue it is.
+class BatchQueue {
+ public:
+  virtual ~BatchQueue() = default;
+  virtual const char* name() const = 0;          // in messages: "Slurm"
+  virtual const char* query_tool() const = 0;    // the command query() runs: "squeue"
+  virtual TaskFate fate_of(const std::string& state) const = 0;
+  // One query for these array jobs (every task, every state); nullopt when the queue could not
+  // answer, with the reason in *error. A job the queue no longer knows is simply absent.
+  virtual std::optional<std::vector<QueueEntry>> query(const std::set<std::string>& job_ids,
+                                                       std::string* error) const = 0;
+  // How a task that left the queue's live states ended (`state`, or "" when the queue no longer
+  // knows its job), from what its run directory says.
+  virtual Finished task_end(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
+                            const std::string& state) const = 0;
+};
+const BatchQueue& batch_queue();
 
 // Runs up to `slots` engines at once as child processes, each in its own process group.
 // A stop for kInterrupt or kTimeLimit sends SIGTERM to the engine (which checkpoints and

@@ -83,8 +83,8 @@ json run_details(Store& store, const RunRow& r, int log_lines) {
             {"params", r.params},
             {"results", results},
             {"files", files}};
-  if (r.state == "running") j["progress"] = r.progress;
-  if (r.state == "done" && fs::is_directory(r.run_dir, ec)) {
+  if (r.state == RunState::kRunning) j["progress"] = r.progress;
+  if (r.state == RunState::kDone && fs::is_directory(r.run_dir, ec)) {
     // Checksums only of what changed since the run was last found whole (manifest.h).
     const rundir::Verification v = rundir::VerifyRun(r.run_dir);
     j["integrity"] = rundir::IntegrityName(v.integrity);
@@ -145,9 +145,9 @@ std::vector<CleanItem> plan_clean(Store& store, const CleanOptions& o) {
   std::error_code ec;
   for (const RunRow& r : runs) {
     const bool dir = fs::is_directory(r.run_dir, ec);
-    if (dir && ((o.retired && r.state == "retired") || (o.failed && r.state == "failed")))
-      items.push_back({r.state, r.run_dir, r.run_id, disk_bytes(r.run_dir)});
-    else if (dir && o.locks && r.state != "running")
+    if (dir && ((o.retired && r.state == RunState::kRetired) || (o.failed && r.state == RunState::kFailed)))
+      items.push_back({to_string(r.state), r.run_dir, r.run_id, disk_bytes(r.run_dir)});
+    else if (dir && o.locks && r.state != RunState::kRunning)
       for (const auto& e : fs::directory_iterator(r.run_dir, ec))
         if (IsLockName(e.path()) && LockIsFree(e.path())) items.push_back({"lock", e.path(), r.run_id, disk_bytes(e.path())});
   }
@@ -158,7 +158,7 @@ std::vector<CleanItem> plan_clean(Store& store, const CleanOptions& o) {
     if (!r.params.contains(p) || !r.params[p].is_string()) continue;
     const std::string file = r.params[p].get<std::string>();
     if (file.empty()) continue;
-    bed_needed[file] = bed_needed[file] || !(r.state == "done" || r.state == "retired");
+    bed_needed[file] = bed_needed[file] || !(r.state == RunState::kDone || r.state == RunState::kRetired);
   }
   std::set<fs::path> taken;
   if (o.beds)

@@ -176,6 +176,8 @@ class LocalExecutor : public Executor {
 
 }  // namespace
 
+bool is_queued_or_running(TaskFate fate) { return fate == TaskFate::kQueued || fate == TaskFate::kRunning; }
+
 const char* to_string(StopReason reason) {
   switch (reason) {
     case StopReason::kInterrupt: return "interrupt";

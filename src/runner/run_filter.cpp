@@ -111,7 +111,7 @@ RunFilter resolve_filters(const std::vector<std::string>& filters, const Campaig
                           const std::vector<RunRow>& runs) {
   std::vector<const RunRow*> live;
   for (const auto& r : runs)
-    if (r.state != "retired") live.push_back(&r);
+    if (r.state != RunState::kRetired) live.push_back(&r);
   const std::string axes = campaign.axes.empty() ? std::string("it has no sweep axes") : "axes: " + List(campaign.axes);
   std::vector<std::string> resolved;
 #ifdef GRANARY_HAVE_ANALYSIS

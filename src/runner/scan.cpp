@@ -2,7 +2,6 @@
 #include "runner/scan.h"
 
 #include <filesystem>
-#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "rundir/files.h"
@@ -11,7 +10,6 @@
 #include "rundir/summary.h"
 #include "runner/campaign_db.h"
 #include "runner/scheduler.h"
-#include "runner/slurm_executor.h"
 
 namespace granary::runner {
 
@@ -32,13 +30,13 @@ json FinishedSummary(const fs::path& dir) {
 
 }  // namespace
 
-ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run) {
+ScanReport scan_campaign(Store& store, const BatchQueue& queue, bool dry_run) {
   ScanReport report;
   const std::vector<RunRow> rows = load_runs(store, false);
   const Holder me = this_process_holder();
   const double now = now_seconds();
 
-  // One squeue call for every queued run.
+  // One query of the queue for every queued run.
   std::set<std::string> job_ids;
   for (const auto& r : rows) {
     if (r.queued() && !r.job_id.empty()) job_ids.insert(r.job_id);
@@ -47,7 +45,7 @@ ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run) {
   bool queue_known = true;
   if (!job_ids.empty()) {
     report.queue_asked = true;
-    const auto entries = queue(job_ids, &report.queue_error);
+    const auto entries = queue.query(job_ids, &report.queue_error);
     if (entries) {
       for (const auto& e : *entries) seen[{e.job_id, e.task}] = e;
     } else {
@@ -57,55 +55,54 @@ ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run) {
 
   std::map<std::string, std::string> queue_states;
   for (const auto& r : rows) {
-    if (r.state == "retired") continue;
+    if (r.state == RunState::kRetired) continue;
     ++report.runs;
     const fs::path dir = r.run_dir;
     const json summary = FinishedSummary(dir);
-    std::string to = r.state, reason;
+    RunState to = r.state;
+    std::string reason;
     double wall = r.wall_s;
     if (summary.is_object()) {
-      to = "done";
+      to = RunState::kDone;
       if (const auto t = summary.find("timing"); t != summary.end() && t->is_object()) wall = t->value("wall_s", wall);
     } else if (r.queued()) {
       const auto e = seen.find({r.job_id, r.job_index});
-      if (!queue_known || (e != seen.end() && is_queued_or_running(fate_of(e->second.state)))) {
+      if (!queue_known || (e != seen.end() && is_queued_or_running(queue.fate_of(e->second.state)))) {
         if (e != seen.end() && e->second.state != r.job_state) queue_states[r.run_id] = e->second.state;
       } else {
         const QueuePlace place{r.job_dir, r.job_script, r.job_name, r.job_index, r.job_id, r.job_state};
-        // The time limit the task ran under is in its script; 124 from `timeout` says it was hit.
-        const Finished f = slurm_task_end(r.run_id, r.run_dir, place, e == seen.end() ? "" : e->second.state,
-                                          std::numeric_limits<double>::infinity(), "");
+        const Finished f = queue.task_end(r.run_id, r.run_dir, place, e == seen.end() ? "" : e->second.state);
         std::tie(to, reason) = end_state_of(f, false, 0, (dir / rundir::kEngineLogFile).string());
         if (f.wall_s >= 0) wall = f.wall_s;
       }
-    } else if (r.state == "running") {
+    } else if (r.state == RunState::kRunning) {
       if (lease_expired(r, me.host, now)) {
-        to = "interrupted";
+        to = RunState::kInterrupted;
         reason = "runner lost (lease expired); continues from its checkpoint";
       }
-    } else if (r.state == "done" && !fs::exists(dir)) {
+    } else if (r.state == RunState::kDone && !fs::exists(dir)) {
       // Its results are in the database; only --rerun-lost runs it again (docs/cli.md).
       report.lost.push_back(r.run_id);
-    } else if (r.state == "done" && rundir::IsDone(dir)) {
+    } else if (r.state == RunState::kDone && rundir::IsDone(dir)) {
       // DONE is there but summary.json cannot be read: the run finished and was damaged
       // since; it stays done and is reported damaged (scan --verify, report, status), not run
       // again over what is left.
-    } else if (r.state == "done") {
-      to = "interrupted";
+    } else if (r.state == RunState::kDone) {
+      to = RunState::kInterrupted;
       reason = "done in the database, but " + dir.string() + " has no DONE and summary.json (moved or deleted?)";
     }
     if (to != r.state) {
       ScanChange c{r.run_id, r.state, to, reason, false};
       // A live runner records its own runs.
-      const bool held = r.state == "running" && !r.lease_holder.empty() && !lease_expired(r, me.host, now);
+      const bool held = r.state == RunState::kRunning && !r.lease_holder.empty() && !lease_expired(r, me.host, now);
       if (!dry_run && !held) {
         c.written = settle_run(store, r, to, reason, summary.is_object() ? &summary : nullptr, wall, now);
       }
       if (held) c.reason = (c.reason.empty() ? "" : c.reason + "; ") + "left to the runner that holds it (" + r.lease_holder + ")";
       report.changes.push_back(c);
-      ++report.counts[c.written || dry_run ? to : r.state];
+      ++report.counts[to_string(c.written || dry_run ? to : r.state)];
     } else {
-      ++report.counts[r.state];
+      ++report.counts[to_string(r.state)];
     }
   }
   if (!dry_run) record_job_states(store, queue_states);
@@ -116,7 +113,7 @@ std::map<std::string, rundir::Verification> check_done_runs(const std::vector<Ru
                                                             const std::function<void(int, int)>& progress) {
   std::vector<const RunRow*> done;
   for (const RunRow& r : runs)
-    if (r.state == "done" && fs::is_directory(r.run_dir)) done.push_back(&r);
+    if (r.state == RunState::kDone && fs::is_directory(r.run_dir)) done.push_back(&r);
   std::map<std::string, rundir::Verification> out;
   int n = 0;
   for (const RunRow* r : done) {

@@ -7,7 +7,6 @@
 // written: that runner records them.
 #pragma once
 
-#include <functional>
 #include <map>
 #include <optional>
 #include <set>
@@ -16,15 +15,16 @@
 
 #include "rundir/manifest.h"
 #include "runner/campaign_db.h"
-#include "runner/slurm.h"
+#include "runner/executor.h"
+#include "runner/run_state.h"
 #include "runner/store.h"
 
 namespace granary::runner {
 
 struct ScanChange {
   std::string run_id;
-  std::string from;    // state in the database
-  std::string to;      // state the directory (and queue) shows
+  RunState from;       // state in the database
+  RunState to;         // state the directory (and queue) shows
   std::string reason;
   bool written = false;  // false: dry run, or a live runner holds the row
 };
@@ -38,10 +38,7 @@ struct ScanReport {
   std::vector<std::string> lost;      // done runs whose directory was deleted: left done (campaign run --rerun-lost)
 };
 
-// The queue's answer for these array jobs (query_queue), or nullopt with a reason.
-using QueueQuery = std::function<std::optional<std::vector<QueueEntry>>(const std::set<std::string>&, std::string*)>;
-
-ScanReport scan_campaign(Store& store, const QueueQuery& queue, bool dry_run);
+ScanReport scan_campaign(Store& store, const BatchQueue& queue, bool dry_run);
 
 // The done runs among `runs` (directory present) checked against their manifests
 // (rundir::VerifyRun at `level`), by run id; `progress(done, total)` after each, when set.

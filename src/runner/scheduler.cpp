@@ -22,7 +22,6 @@
 #include "rundir/files.h"
 #include "rundir/progress.h"
 #include "rundir/run_directory.h"
-#include "runner/slurm.h"
 #include "runner/run_filter.h"
 
 namespace granary::runner {
@@ -53,24 +52,24 @@ std::string How(const Finished& f) {
 
 }  // namespace
 
-std::pair<std::string, std::string> end_state_of(const Finished& f, bool timed_out, double time_limit,
-                                                 const std::string& log_file) {
+std::pair<RunState, std::string> end_state_of(const Finished& f, bool timed_out, double time_limit,
+                                              const std::string& log_file) {
   // The executor's words where it has them (a batch queue's state), else the status'.
   const auto said = [&](const std::string& status) { return (f.how.empty() ? status : f.how) + "\n" + TailOfFile(log_file, 20); };
   if (timed_out || f.timed_out) {
-    return {"failed", said(time_limit > 0 ? "wall-time limit of " + Number(time_limit) + " s exceeded"
+    return {RunState::kFailed, said(time_limit > 0 ? "wall-time limit of " + Number(time_limit) + " s exceeded"
                                           : "wall-time limit exceeded")};
   }
   if (f.signal == 0 && f.exit_code == 0) {
-    return {"failed", "engine exited 0 without DONE and summary.json\n" + TailOfFile(log_file, 20)};
+    return {RunState::kFailed, "engine exited 0 without DONE and summary.json\n" + TailOfFile(log_file, 20)};
   }
   if (f.signal == 0 && f.exit_code == kExitRunDirectoryBusy) {
     // Another engine held the directory: nothing was touched; it runs again later.
-    return {"interrupted", said("engine " + How(f) + ": its run directory was locked by another engine")};
+    return {RunState::kInterrupted, said("engine " + How(f) + ": its run directory was locked by another engine")};
   }
   // Killed from outside: it continues from its checkpoint on the next attempt.
-  if (f.signal != 0) return {"interrupted", said("engine " + How(f))};
-  return {"failed", said("engine " + How(f))};
+  if (f.signal != 0) return {RunState::kInterrupted, said("engine " + How(f))};
+  return {RunState::kFailed, said("engine " + How(f))};
 }
 
 namespace {
@@ -93,7 +92,7 @@ Launch LaunchOf(const RunRow& row, const std::string& exe, int threads) {
 
 // Is the run's engine at work (so that its progress.json is worth reading)?
 bool EngineAtWork(const std::string& queue_state) {
-  return queue_state.empty() || fate_of(queue_state) == TaskFate::kRunning;
+  return queue_state.empty() || batch_queue().fate_of(queue_state) == TaskFate::kRunning;
 }
 
 // A message if the file system holding `dir` (or its nearest existing parent) is full, or
@@ -142,22 +141,22 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   // can analyse them. Said at every start; run again on request.
   std::vector<std::string> lost;
   for (const auto& r : load_runs(store, true))
-    if (r.state == "done" && !fs::exists(r.run_dir) && accept(r)) lost.push_back(r.run_id);
+    if (r.state == RunState::kDone && !fs::exists(r.run_dir) && accept(r)) lost.push_back(r.run_id);
   const int requeued = options.rerun_lost ? requeue_done_runs(store, lost, kLostRunDirectory) : 0;
 
   int total = 0, done = 0, failed = 0;
   for (const auto& r : load_runs(store, !filter.empty())) {
-    if (r.state == "retired" || !filter.matches(r)) continue;
+    if (r.state == RunState::kRetired || !filter.matches(r)) continue;
     ++total;
-    if (r.state == "done") ++done;
-    if (r.state == "failed") ++failed;
+    if (r.state == RunState::kDone) ++done;
+    if (r.state == RunState::kFailed) ++failed;
   }
   observer.on_begin(total, done, failed);
   if (recovered > 0) {
-    observer.on_event("", "interrupted", std::to_string(recovered) + " run(s) of a lost runner will continue");
+    observer.on_event("", to_string(RunState::kInterrupted), std::to_string(recovered) + " run(s) of a lost runner will continue");
   }
   if (requeued > 0) {
-    observer.on_event("", "planned", std::to_string(requeued) + " done run(s) whose run directory was deleted will run again");
+    observer.on_event("", to_string(RunState::kPlanned), std::to_string(requeued) + " done run(s) whose run directory was deleted will run again");
   } else if (!lost.empty()) {
     observer.on_event("", "lost", std::to_string(lost.size()) + " done run(s) have no run directory (deleted after they "
                                   "finished; first " + lost.front() + "): their results are in the database only; "
@@ -180,20 +179,20 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   };
 
   // Records an end state under our lease; false (and nothing recorded) if it is not ours.
-  auto end_run = [&](const std::string& id, const std::string& state, const std::string& reason, double wall) {
+  auto end_run = [&](const std::string& id, RunState state, const std::string& reason, double wall) {
     if (!record_end(store, id, me.id, state, reason, now_seconds(), wall)) {
-      lease_lost(id, "its end (" + state + ") is not recorded");
+      lease_lost(id, std::string("its end (") + to_string(state) + ") is not recorded");
       return;
     }
-    if (state == "failed") ++failed;
+    if (state == RunState::kFailed) ++failed;
     ++failures[id];
     if (failures[id] > options.retries) {
       skip.insert(id);
-      if (state == "failed") any_final_failure = true;
-    } else if (state == "failed") {
+      if (state == RunState::kFailed) any_final_failure = true;
+    } else if (state == RunState::kFailed) {
       --failed;  // will be retried: not counted as failed in the display
     }
-    observer.on_event(id, state, reason);
+    observer.on_event(id, to_string(state), reason);
   };
 
   // A run whose directory has DONE and summary.json is ingested; false if it has not.
@@ -211,11 +210,11 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       return true;
     }
     ++done;
-    if (row.state == "failed") --failed;
+    if (row.state == RunState::kFailed) --failed;
     std::ostringstream what;
     what << (summary.end_reason.empty() ? std::string("finished") : summary.end_reason) << " at t = " << summary.t_end
          << ", " << summary.exited << " exits, " << static_cast<int>(wall) << " s";
-    observer.on_event(row.run_id, "done", what.str());
+    observer.on_event(row.run_id, to_string(RunState::kDone), what.str());
     return true;
   };
 
@@ -233,7 +232,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     if (finish_done(row, row.wall_s)) return;
     const std::string exe = EngineExe(options, row.engine);
     if (!fs::exists(exe)) {
-      record_end(store, row.run_id, me.id, "interrupted", "engine executable not found: " + exe, now_seconds(), 0);
+      record_end(store, row.run_id, me.id, RunState::kInterrupted, "engine executable not found: " + exe, now_seconds(), 0);
       throw std::invalid_argument("engine executable not found: " + exe + " (build it, or pass --engine PATH)");
     }
     try {
@@ -242,14 +241,14 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     } catch (const std::exception& e) {
       if (const std::string full = FullFileSystem(row.run_dir); !full.empty()) {
         storage_full = full;
-        end_run(row.run_id, "interrupted", full + ": " + e.what(), 0);
+        end_run(row.run_id, RunState::kInterrupted, full + ": " + e.what(), 0);
       } else {
-        end_run(row.run_id, "failed", e.what(), 0);
+        end_run(row.run_id, RunState::kFailed, e.what(), 0);
       }
       return;
     }
     slots[row.run_id] = Slot{row, clock(), false, false};
-    observer.on_event(row.run_id, "running",
+    observer.on_event(row.run_id, to_string(RunState::kRunning),
                       "attempt " + std::to_string(row.attempts) + (executor.outlives_runner() ? ", to the queue" : ""));
   };
 
@@ -266,14 +265,14 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     } else if (f.signal == 0 && f.exit_code == 0 && !f.timed_out && finish_done(slot.row, wall)) {
     } else if (f.signal == 0 && f.exit_code == kExitRunDirectoryBusy) {
       // Another engine took the directory between our look and the engine's lock.
-      if (stopping) end_run(f.run_id, "interrupted", "interrupted while waiting for its directory", wall);
+      if (stopping) end_run(f.run_id, RunState::kInterrupted, "interrupted while waiting for its directory", wall);
       else waiting[f.run_id] = slot.row;
     } else if (stopping) {
-      end_run(f.run_id, "interrupted", "interrupted by the user (runner stopped)", wall);
+      end_run(f.run_id, RunState::kInterrupted, "interrupted by the user (runner stopped)", wall);
     } else if (const std::string full = FullFileSystem(slot.row.run_dir); !full.empty()) {
       // Not the run's fault: it continues from its checkpoint once there is room.
       storage_full = full;
-      end_run(f.run_id, "interrupted", "engine " + How(f) + "; " + full + "\n" + TailOfFile(log, 20), wall);
+      end_run(f.run_id, RunState::kInterrupted, "engine " + How(f) + "; " + full + "\n" + TailOfFile(log, 20), wall);
     } else {
       const auto [state, reason] = end_state_of(f, slot.timed_out, options.time_limit, log);
       end_run(f.run_id, state, reason, wall);
@@ -319,7 +318,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
         continue;
       }
       for (const auto& [id, index] : a.runs) {
-        if (!record_end(store, id, me.id, "interrupted", a.error, now_seconds(), 0)) lease_lost(id, "its end is not recorded");
+        if (!record_end(store, id, me.id, RunState::kInterrupted, a.error, now_seconds(), 0)) lease_lost(id, "its end is not recorded");
         skip.insert(id);
         slots.erase(id);
         queue_state.erase(id);
@@ -332,7 +331,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   // Leaves the queued runs to their jobs (a later runner or campaign scan collects them);
   // runs still waiting for their directory were never queued: they are interrupted.
   auto detach = [&](const std::string& what) {
-    for (const auto& [id, row] : waiting) end_run(id, "interrupted", "waiting for its directory when the runner detached", 0);
+    for (const auto& [id, row] : waiting) end_run(id, RunState::kInterrupted, "waiting for its directory when the runner detached", 0);
     waiting.clear();
     const int released = release_queued_runs(store, me);
     observer.on_event("", "detached", std::to_string(released) + what);
@@ -373,7 +372,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
           for (const auto& f : executor.poll()) finished(f, true);
           if (executor.active() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
         }
-        for (const auto& [id, row] : waiting) end_run(id, "interrupted", "interrupted while waiting for its directory", 0);
+        for (const auto& [id, row] : waiting) end_run(id, RunState::kInterrupted, "interrupted while waiting for its directory", 0);
         observer.on_end(done, failed, total);
         return ExitCode::kInterrupted;
       }
@@ -463,7 +462,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     // running: their runs stay queued under this runner's lease, and the next runner adopts
     // them once it has expired.
     if (executor.outlives_runner()) {
-      throw StoreError(e.code(), std::string(e.what()) + "\ncampaign run stopped watching its Slurm jobs (they keep running; "
+      throw StoreError(e.code(), std::string(e.what()) + "\ncampaign run stopped watching its " + batch_queue().name() + " jobs (they keep running; "
                                                          "the next campaign run or campaign scan collects them). Free space "
                                                          "(or fix the database) and run campaign run again.");
     }
@@ -481,7 +480,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     }
     for (const auto& id : held) {
       try {
-        if (id == "?" || !record_end(store, id, me.id, "interrupted", "the database could not be written: " +
+        if (id == "?" || !record_end(store, id, me.id, RunState::kInterrupted, "the database could not be written: " +
                                                                    std::string(e.what()), now_seconds(), 0))
           ++unrecorded;
       } catch (const StoreError&) {
@@ -495,7 +494,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
                                    ". Free space (or fix the database) and run campaign run again.");
   }
   if (!storage_full.empty()) {
-    for (const auto& [id, row] : waiting) end_run(id, "interrupted", storage_full, 0);
+    for (const auto& [id, row] : waiting) end_run(id, RunState::kInterrupted, storage_full, 0);
     observer.on_event("", "stopped", storage_full + ": no more runs started; the interrupted ones continue from their "
                                      "checkpoints once there is room (campaign run again)");
     observer.on_end(done, failed, total);

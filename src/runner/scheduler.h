@@ -1,6 +1,6 @@
 // `campaign run`: claims runs under leases, launches engines through an Executor, watches
 // time limits and signals, and records every end in its own transaction the moment it is
-// seen (style.md 8.3 item 11). The scheduler never prints: it reports to a RunObserver.
+// seen. The scheduler never prints: it reports to a RunObserver.
 #pragma once
 
 #include <csignal>
@@ -59,17 +59,19 @@ class RunObserver {
  public:
   virtual ~RunObserver() = default;
   virtual void on_begin(int total, int done, int failed) = 0;
-  virtual void on_event(const std::string& run_id, const std::string& state, const std::string& message) = 0;
+  // `what`: the state the run entered (to_string(RunState)), or what happened to it ("waiting",
+  // "lease lost", "not submitted", ...); run_id "" for the campaign as a whole.
+  virtual void on_event(const std::string& run_id, const std::string& what, const std::string& message) = 0;
   virtual void on_tick(const std::vector<ActiveRun>& active, int done, int failed, int total) = 0;
   virtual void on_end(int done, int failed, int total) = 0;
 };
 
 // What is recorded for an engine that ended but did not finish its run (no DONE, or a failure):
-// {"failed" | "interrupted", reason with the tail of its log}. Killed from outside means
+// {failed | interrupted, reason with the tail of its log}. Killed from outside means
 // interrupted (it continues from its checkpoint); a time limit (the scheduler's, `timed_out`,
 // or the executor's, f.timed_out) or an exit status means failed.
-std::pair<std::string, std::string> end_state_of(const Finished& f, bool timed_out, double time_limit,
-                                                 const std::string& log_file);
+std::pair<RunState, std::string> end_state_of(const Finished& f, bool timed_out, double time_limit,
+                                              const std::string& log_file);
 
 // The failure note of a done run put back to planned because its directory was deleted.
 extern const char kLostRunDirectory[];

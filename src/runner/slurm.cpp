@@ -286,8 +286,6 @@ TaskFate fate_of(const std::string& state) {
   return TaskFate::kRunning;
 }
 
-bool is_queued_or_running(TaskFate fate) { return fate == TaskFate::kQueued || fate == TaskFate::kRunning; }
-
 std::optional<TaskRecord> parse_task_record(const std::string& text) {
   const json j = json::parse(text, nullptr, false);
   if (!j.is_object() || !j.contains("job") || !j["job"].is_string()) return std::nullopt;

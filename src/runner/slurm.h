@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "runner/executor.h"
+
 namespace granary::runner {
 
 struct SlurmOptions {
@@ -67,30 +69,13 @@ std::string batch_script(const BatchJob& job);
 
 // `squeue --noheader --array --states=all --format=kSqueueFormat` with SLURM_TIME_FORMAT=%s.
 inline constexpr char kSqueueFormat[] = "%F|%K|%T|%S|%j|%r";
-struct QueueEntry {
-  std::string job_id;  // the array job id
-  int task = -1;       // the array index; -1 for a job that is not an array
-  std::string state;   // PENDING, RUNNING, COMPLETED, ...
-  double started_at = 0;  // unix seconds; 0 = not started
-  std::string name;
-  std::string reason;
-};
 std::vector<QueueEntry> parse_squeue(const std::string& text);
 
 // MaxArraySize from `scontrol show config` (Slurm's default 1001 when absent).
 int parse_max_array_size(const std::string& show_config);
 
-// What a job state means for the run it carries.
-enum class TaskFate {
-  kQueued,     // PENDING, REQUEUED, ...: waiting for a node
-  kRunning,    // RUNNING, COMPLETING, SUSPENDED, ...
-  kCompleted,  // COMPLETED: done if its run directory says so
-  kFailed,     // FAILED, OUT_OF_MEMORY: the run failed
-  kTimedOut,   // TIMEOUT: Slurm's --time ran out (the run continues from its checkpoint if retried)
-  kLost,       // CANCELLED, PREEMPTED, NODE_FAIL, BOOT_FAIL, DEADLINE: resubmitted, continues from its checkpoint
-};
+// What a Slurm job state means for the run it carries (TaskFate in executor.h).
 TaskFate fate_of(const std::string& state);
-bool is_queued_or_running(TaskFate fate);
 
 // DIR/slurm-task.json, written by the batch script: which task ran the run, when it started,
 // and (once the engine ended) its exit status.

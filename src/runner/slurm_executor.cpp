@@ -1,6 +1,7 @@
 // See slurm_executor.h.
 #include "runner/slurm_executor.h"
 
+#include <limits>
 #include <fcntl.h>
 #include <signal.h>
 #include <unistd.h>
@@ -529,6 +530,28 @@ std::vector<PlannedArray> plan_slurm_arrays(const std::vector<Launch>& launches,
 
 std::unique_ptr<Executor> make_slurm_executor(const SlurmSettings& settings) {
   return std::make_unique<SlurmExecutor>(settings);
+}
+
+namespace {
+class SlurmQueue : public BatchQueue {
+ public:
+  const char* name() const override { return "Slurm"; }
+  const char* query_tool() const override { return "squeue"; }
+  TaskFate fate_of(const std::string& state) const override { return runner::fate_of(state); }
+  std::optional<std::vector<QueueEntry>> query(const std::set<std::string>& job_ids, std::string* error) const override {
+    return query_queue(job_ids, error);
+  }
+  // The time limit the task ran under is in its script; 124 from `timeout` says it was hit.
+  Finished task_end(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
+                    const std::string& state) const override {
+    return slurm_task_end(run_id, run_dir, place, state, std::numeric_limits<double>::infinity(), "");
+  }
+};
+}  // namespace
+
+const BatchQueue& batch_queue() {
+  static const SlurmQueue queue;
+  return queue;
 }
 
 }  // namespace granary::runner

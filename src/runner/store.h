@@ -1,4 +1,4 @@
-// Store: the one owner of a campaign's SQLite database (style.md 8.3 item 10). RAII handle
+// Store: the one owner of a campaign's SQLite database. RAII handle
 // and statements, a Transaction that rolls back unless committed, one exception type that
 // carries the SQLite result code, and versioned migrations (db/NNN_*.sql, embedded at build
 // time) applied on open. A database newer than this binary is refused.

@@ -175,7 +175,7 @@ TEST_F(BatchSchedulerTest, PlacesAreRecordedBeforeTheQueueSeesAJob) {
   EXPECT_EQ(run_campaign(*store_, options_, queue, observer_, nullptr), ExitCode::kOk);
   EXPECT_EQ(checked, 3);
   for (const auto& [id, r] : Rows()) {
-    EXPECT_EQ(r.state, "done");
+    EXPECT_EQ(r.state, RunState::kDone);
     EXPECT_EQ(r.job_id, "100");  // recorded once sbatch answered
     EXPECT_EQ(r.job_dir, "/queue/a0");
   }
@@ -201,7 +201,7 @@ TEST_F(BatchSchedulerTest, AnInterruptedRunnerDetachesAndTheNextOneAdoptsWithout
   EXPECT_TRUE(next.started.empty());  // nothing started twice
   EXPECT_EQ(next.attached.size(), 3u);
   for (const auto& [id, r] : Rows()) {
-    EXPECT_EQ(r.state, "done");
+    EXPECT_EQ(r.state, RunState::kDone);
     EXPECT_EQ(r.attempts, 1);
   }
 }
@@ -239,7 +239,7 @@ TEST_F(BatchSchedulerTest, ARunnerThatLostItsLeaseLetsTheJobsGoAndRecordsNothing
   EXPECT_TRUE(taken);
   EXPECT_EQ(queue.let_go.size(), 3u);  // let go, not cancelled: the adopter watches the jobs
   for (const auto& [id, r] : Rows()) {
-    EXPECT_EQ(r.state, "running") << id;  // nothing recorded by the stalled runner
+    EXPECT_EQ(r.state, RunState::kRunning) << id;  // nothing recorded by the stalled runner
     EXPECT_EQ(r.lease_holder, adopter.id);
     EXPECT_TRUE(r.queued());
   }
@@ -251,7 +251,7 @@ TEST_F(BatchSchedulerTest, ARunnerThatLostItsLeaseLetsTheJobsGoAndRecordsNothing
   EXPECT_EQ(run_campaign(*store_, options_, next, observer_, nullptr), ExitCode::kOk);
   EXPECT_TRUE(next.started.empty());
   for (const auto& [id, r] : Rows()) {
-    EXPECT_EQ(r.state, "done") << id;
+    EXPECT_EQ(r.state, RunState::kDone) << id;
     EXPECT_EQ(r.attempts, 1);
   }
 }
@@ -279,7 +279,7 @@ TEST_F(BatchSchedulerTest, ATaskThatFoundItsDirectoryLockedIsQueuedAgainOnceFree
     if (!queue.exit_once.empty() || !lock) return;
     // Its task has ended busy: while the lock is held, it is not queued again.
     EXPECT_EQ(std::count(queue.started.begin(), queue.started.end(), busy_run), 1);
-    EXPECT_EQ(Rows()[busy_run].state, "running");  // claimed, waiting; not failed
+    EXPECT_EQ(Rows()[busy_run].state, RunState::kRunning);  // claimed, waiting; not failed
     if (++polls_while_waiting == 3) {
       lock.reset();  // the other engine ends
       queue.finish.insert(busy_run);
@@ -290,7 +290,7 @@ TEST_F(BatchSchedulerTest, ATaskThatFoundItsDirectoryLockedIsQueuedAgainOnceFree
   EXPECT_EQ(std::count(queue.started.begin(), queue.started.end(), busy_run), 2);  // queued again once the lock was free
   EXPECT_EQ(queue.started.size(), 4u);
   for (const auto& [id, r] : Rows()) {
-    EXPECT_EQ(r.state, "done") << id;
+    EXPECT_EQ(r.state, RunState::kDone) << id;
     EXPECT_EQ(r.attempts, 1) << id;
   }
 }

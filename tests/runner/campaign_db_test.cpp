@@ -24,7 +24,7 @@ PlanSummary Plan(Store& store, const std::string& widths) {
 
 std::map<std::string, std::string> States(Store& store) {
   std::map<std::string, std::string> m;
-  for (const auto& r : load_runs(store, false)) m[r.run_id] = r.state;
+  for (const auto& r : load_runs(store, false)) m[r.run_id] = to_string(r.state);
   return m;
 }
 
@@ -141,10 +141,10 @@ TEST(LeaseTest, OnlyTheHolderRecordsAnEnd) {
   // nor a failure is recorded.
   EXPECT_TRUE(heartbeat(store, old_holder, 201.0, {{first->run_id, json{{"fraction", 0.9}}}}).empty());
   EXPECT_FALSE(record_done(store, first->run_id, old_holder.id, json{{"end_reason", "discharged"}, {"exited", 3}}, 202.0, 1.0));
-  EXPECT_FALSE(record_end(store, first->run_id, old_holder.id, "failed", "late", 202.0, 1.0));
+  EXPECT_FALSE(record_end(store, first->run_id, old_holder.id, RunState::kFailed, "late", 202.0, 1.0));
   const RunRow now_row = load_runs(store, false)[0];  // plan order: the claimed run first
   ASSERT_EQ(now_row.run_id, first->run_id);
-  EXPECT_EQ(now_row.state, "running");
+  EXPECT_EQ(now_row.state, RunState::kRunning);
   EXPECT_EQ(now_row.lease_holder, new_holder.id);
   EXPECT_TRUE(now_row.progress.is_null());
   {
@@ -155,7 +155,7 @@ TEST(LeaseTest, OnlyTheHolderRecordsAnEnd) {
   // The holder's own end is recorded.
   EXPECT_EQ(heartbeat(store, new_holder, 203.0, {}), std::set<std::string>{first->run_id});
   EXPECT_TRUE(record_done(store, first->run_id, new_holder.id, json{{"end_reason", "discharged"}, {"exited", 3}}, 204.0, 1.0));
-  EXPECT_EQ(load_runs(store, false)[0].state, "done");
+  EXPECT_EQ(load_runs(store, false)[0].state, RunState::kDone);
 }
 
 // A re-plan that retires a running run takes its lease with it: the runner learns it at its
@@ -207,7 +207,7 @@ TEST(QueueTest, QueuedRunsAreAdoptedNotRecoveredAndKeepTheirHandle) {
   EXPECT_EQ(States(store)[r1->run_id], "running");
   EXPECT_EQ(adopt_queued_runs(store, other, now_seconds()).size(), 1u);
   // Ended and claimed again, it leaves the queue but the claim still names its last place.
-  EXPECT_TRUE(record_end(store, r1->run_id, other.id, "interrupted", "Slurm task 41_0 CANCELLED", now_seconds(), 1));
+  EXPECT_TRUE(record_end(store, r1->run_id, other.id, RunState::kInterrupted, "Slurm task 41_0 CANCELLED", now_seconds(), 1));
   auto again = claim_next(store, me, now_seconds(), [&](const RunRow& r) { return r.run_id == r1->run_id; }, {});
   ASSERT_TRUE(again);
   EXPECT_EQ(again->job_id, "41");

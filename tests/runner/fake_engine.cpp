@@ -3,7 +3,7 @@
 // counts steps with a short sleep each, writes progress.json and a checkpoint after every step, continues from the checkpoint
 // when restarted, and ends with summary.json then DONE. Every start and finish is appended to
 // DIR/launches.txt so tests can prove that nothing ran twice. Like the engines, it holds the
-// directory's writer lock (engine/files.h) for its life.
+// directory's writer lock (rundir/files.h) for its life.
 // Behaviour from run.json: /discharge/max_time == 13 -> fails (exit 3); == 666 -> hangs.
 // FAKE_ENGINE_STEPS (default 10) and FAKE_ENGINE_STEP_MS (default 30) set the length;
 // FAKE_ENGINE_FIRST_LAUNCH_STEP_MS the step of a run's first launch (long: it cannot finish

@@ -26,7 +26,7 @@ Runs MakeRuns() {
     for (double db : {1.0, 1.5}) {
       RunRow row;
       row.run_id = "w" + std::to_string(static_cast<int>(w)) + "db" + std::to_string(static_cast<int>(db * 10));
-      row.state = "done";
+      row.state = RunState::kDone;
       row.point = {{"/silo/base_outlets/0/width", w}, {"/bodies/species/0/big_diameter", db}};
       row.params = {{"silo", {{"base_outlets", {{{"width", w}}}}}},
                     {"bodies", {{"species", {{{"shape", "snowman"}, {"diameter", 1.0}, {"big_diameter", db}}}}}}};

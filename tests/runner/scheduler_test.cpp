@@ -173,7 +173,7 @@ TEST_F(SchedulerTest, RunsEveryRunOnceAndRecordsItDone) {
   EXPECT_EQ(Run(), ExitCode::kOk);
   EXPECT_EQ(executor_.started.size(), 2u);
   for (const auto& [id, row] : Rows()) {
-    EXPECT_EQ(row.state, "done") << id;
+    EXPECT_EQ(row.state, RunState::kDone) << id;
     EXPECT_EQ(row.attempts, 1);
     EXPECT_EQ(ResultCount(id), 3);  // run_id, end_reason, exited
     EXPECT_TRUE(fs::exists(fs::path(row.run_dir) / "run.json"));
@@ -194,7 +194,7 @@ TEST_F(SchedulerTest, AStopRequestInterruptsTheRunsInFlightAndTheyResume) {
   ASSERT_EQ(executor_.stops.size(), 2u);
   for (const auto& [id, reason] : executor_.stops) EXPECT_EQ(reason, StopReason::kInterrupt);
   for (const auto& [id, row] : Rows()) {
-    EXPECT_EQ(row.state, "interrupted") << id;
+    EXPECT_EQ(row.state, RunState::kInterrupted) << id;
     EXPECT_EQ(row.failure, "interrupted by the user (runner stopped)");
     EXPECT_TRUE(row.lease_holder.empty());
   }
@@ -203,7 +203,7 @@ TEST_F(SchedulerTest, AStopRequestInterruptsTheRunsInFlightAndTheyResume) {
   executor_.on_poll = nullptr;
   EXPECT_EQ(Run(), ExitCode::kOk);
   for (const auto& [id, row] : Rows()) {
-    EXPECT_EQ(row.state, "done") << id;
+    EXPECT_EQ(row.state, RunState::kDone) << id;
     EXPECT_EQ(row.attempts, 2);
   }
 }
@@ -216,7 +216,7 @@ TEST_F(SchedulerTest, ARunOverItsTimeLimitIsStoppedAndFails) {
   ASSERT_EQ(executor_.stops.size(), 2u);
   for (const auto& [id, reason] : executor_.stops) EXPECT_EQ(reason, StopReason::kTimeLimit);
   for (const auto& [id, row] : Rows()) {
-    EXPECT_EQ(row.state, "failed");
+    EXPECT_EQ(row.state, RunState::kFailed);
     EXPECT_EQ(row.failure.rfind("wall-time limit of 5 s exceeded\n", 0), 0u) << row.failure;
   }
   EXPECT_LT(executor_.polls, 10);
@@ -228,7 +228,7 @@ TEST_F(SchedulerTest, AFailedRunIsRetriedThenReported) {
   EXPECT_EQ(Run(), ExitCode::kRunsFailed);
   EXPECT_EQ(executor_.started.size(), 4u);  // two runs, two attempts each
   for (const auto& [id, row] : Rows()) {
-    EXPECT_EQ(row.state, "failed");
+    EXPECT_EQ(row.state, RunState::kFailed);
     EXPECT_EQ(row.attempts, 2);
     EXPECT_EQ(row.failure.rfind("engine exited with status 3\n", 0), 0u) << row.failure;
   }
@@ -254,7 +254,7 @@ TEST_F(SchedulerTest, ALeaseTakenOverStopsTheEngineAndRecordsNothing) {
   ASSERT_EQ(executor_.stops.size(), 1u);
   EXPECT_EQ(executor_.stops[0], std::make_pair(first, StopReason::kLeaseLost));
   const RunRow row = Rows()[first];
-  EXPECT_EQ(row.state, "running");
+  EXPECT_EQ(row.state, RunState::kRunning);
   EXPECT_EQ(row.lease_holder, other.id);
   EXPECT_EQ(ResultCount(first), 0);
   EXPECT_EQ(observer_.count("lease lost"), 1) << observer_.all();
@@ -275,7 +275,7 @@ TEST_F(SchedulerTest, AResultSeenAfterTheLeaseWasTakenOverIsNotRecorded) {
   };
   EXPECT_EQ(Run(), ExitCode::kOk);
   const RunRow row = Rows()[first];
-  EXPECT_EQ(row.state, "running");
+  EXPECT_EQ(row.state, RunState::kRunning);
   EXPECT_EQ(row.lease_holder, other.id);
   EXPECT_EQ(ResultCount(first), 0);
   EXPECT_EQ(observer_.count("its result is not recorded"), 1) << observer_.all();
@@ -292,19 +292,19 @@ TEST_F(SchedulerTest, ARunRetiredWhileItRunsIsStoppedAndStaysRetired) {
   for (const auto& [id, row] : Rows()) {
     if (row.point["/silo/base_outlets/0/width"] == 4) {
       ++retired_runs;
-      EXPECT_EQ(row.state, "retired");
+      EXPECT_EQ(row.state, RunState::kRetired);
       EXPECT_EQ(ResultCount(id), 0);
       ASSERT_EQ(executor_.stops.size(), 1u);
       EXPECT_EQ(executor_.stops[0], std::make_pair(id, StopReason::kLeaseLost));
     } else {
-      EXPECT_EQ(row.state, "done");
+      EXPECT_EQ(row.state, RunState::kDone);
     }
   }
   EXPECT_EQ(retired_runs, 1);
   Plan("[4, 6]");  // back in the spec: it continues, it is not done
   for (const auto& [id, row] : Rows()) {
     if (row.point["/silo/base_outlets/0/width"] == 4) {
-      EXPECT_EQ(row.state, "interrupted");
+      EXPECT_EQ(row.state, RunState::kInterrupted);
     }
   }
 }
@@ -331,7 +331,7 @@ TEST_F(SchedulerTest, NoEngineStartsOnADirectoryAnotherEngineHolds) {
   EXPECT_EQ(Run(), ExitCode::kOk);
   EXPECT_EQ(observer_.count(first + " waiting: its directory is locked by engine pid " + std::to_string(getpid())), 1)
       << observer_.all();
-  for (const auto& [id, row] : Rows()) EXPECT_EQ(row.state, "done");
+  for (const auto& [id, row] : Rows()) EXPECT_EQ(row.state, RunState::kDone);
   EXPECT_EQ(executor_.started.size(), 2u);
 }
 
@@ -348,7 +348,7 @@ TEST_F(SchedulerTest, ARunFinishedByTheEngineThatHeldItsDirectoryIsIngested) {
     }
   };
   EXPECT_EQ(Run(), ExitCode::kOk);
-  EXPECT_EQ(Rows()[first].state, "done");
+  EXPECT_EQ(Rows()[first].state, RunState::kDone);
   EXPECT_EQ(ResultCount(first), 3);
   EXPECT_EQ(executor_.started, std::vector<std::string>{Ids()[1]});
 }
@@ -366,7 +366,7 @@ TEST_F(SchedulerTest, AnEngineThatFoundItsDirectoryBusyIsStartedAgain) {
   };
   EXPECT_EQ(Run(), ExitCode::kOk);
   EXPECT_EQ(executor_.started.size(), 3u);
-  for (const auto& [id, row] : Rows()) EXPECT_EQ(row.state, "done");
+  for (const auto& [id, row] : Rows()) EXPECT_EQ(row.state, RunState::kDone);
 }
 
 // The database stops taking writes while engines run (a full disk, a read-only file): the
@@ -391,7 +391,7 @@ TEST_F(SchedulerTest, ADatabaseThatCannotBeWrittenStopsTheEngines) {
   for (const auto& [id, reason] : executor_.stops) EXPECT_EQ(reason, StopReason::kInterrupt);
   EXPECT_EQ(executor_.active(), 0u);
   store_->exec("PRAGMA query_only = OFF");
-  for (const auto& [id, row] : Rows()) EXPECT_EQ(row.state, "running");  // as the next runner will find them
+  for (const auto& [id, row] : Rows()) EXPECT_EQ(row.state, RunState::kRunning);  // as the next runner will find them
 }
 
 // issue 13: a done run whose directory was deleted went unnoticed by `run`. It is reported at
@@ -408,7 +408,7 @@ TEST_F(SchedulerTest, DoneRunsWhoseDirectoryWasDeletedAreReportedAndRunAgainOnRe
   EXPECT_EQ(Run(), ExitCode::kOk);
   ASSERT_EQ(executor_.started.size(), 3u);
   EXPECT_EQ(executor_.started.back(), first);
-  EXPECT_EQ(Rows()[first].state, "done");
+  EXPECT_EQ(Rows()[first].state, RunState::kDone);
   EXPECT_EQ(Rows()[first].attempts, 2);
   EXPECT_TRUE(fs::exists(fs::path(Rows()[first].run_dir) / "DONE"));
 }

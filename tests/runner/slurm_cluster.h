@@ -1,8 +1,8 @@
 // A one-node Slurm cluster on localhost for the Slurm tests: munged, slurmctld and slurmd
 // from Debian's packages, started in the foreground as children of the test process in a
 // private directory (mkdtemp) with free ports, and stopped by the destructor. Two test
-// processes on one machine each get their own cluster. The recipe is
-// /work/shared/docs/slurm-notes.md: linuxproc proctrack, no task plugin, no accounting,
+// processes on one machine each get their own cluster. The recipe (docs/slurm.md):
+// linuxproc proctrack, no task plugin, no accounting,
 // select/cons_tres, the node line from `slurmd -C`.
 #pragma once
 

@@ -140,7 +140,7 @@ TEST(SlurmTaskEnd, EveryVerdictFromTheStateAndTheRunDirectory) {
   f = end("FAILED");
   EXPECT_EQ(f.exit_code, kExitRunDirectoryBusy);
   EXPECT_EQ(f.signal, 0);
-  EXPECT_EQ(end_state_of(f, false, 0, (dir / "engine.log").string()).first, "interrupted");
+  EXPECT_EQ(end_state_of(f, false, 0, (dir / "engine.log").string()).first, RunState::kInterrupted);
   record("7_2", R"(, "exit_code": 124, "ended_at": 160)");
   f = end("FAILED", 60);
   EXPECT_TRUE(f.timed_out);

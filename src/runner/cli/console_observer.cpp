@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "runner/cli/common.h"
-#include "runner/slurm.h"
+#include "runner/executor.h"
 
 namespace granary::runner::cli {
 
@@ -57,15 +57,15 @@ class ConsoleObserver : public RunObserver {
   }
   void on_event(const std::string& run_id, const std::string& state, const std::string& message) override {
     Clear();
-    if (state != "running") {
+    if (state != to_string(RunState::kRunning)) {
       std::erase_if(active_, [&](const ActiveRun& a) { return a.run_id == run_id; });
-      if (state == "done") ++done_;
+      if (state == to_string(RunState::kDone)) ++done_;
     }
     std::string first = message.substr(0, message.find('\n'));
     std::string where;
     if (const auto it = points_.find(run_id); it != points_.end()) where = it->second + ": ";
     out_ << std::left << std::setw(12) << state << " " << (run_id.empty() ? "" : run_id + "  ") << where << first << "\n";
-    if (state == "failed" || state == "interrupted") {
+    if (state == to_string(RunState::kFailed) || state == to_string(RunState::kInterrupted)) {
       const auto nl = message.find('\n');
       if (nl != std::string::npos) {
         std::istringstream tail(message.substr(nl + 1));
@@ -125,7 +125,7 @@ class ConsoleObserver : public RunObserver {
     ++lines_;
   }
   static bool IsQueued(const ActiveRun& a) {
-    return !a.queue_state.empty() && fate_of(a.queue_state) != TaskFate::kRunning;
+    return !a.queue_state.empty() && batch_queue().fate_of(a.queue_state) != TaskFate::kRunning;
   }
   static int Queued(const std::vector<ActiveRun>& active) {
     return static_cast<int>(std::count_if(active.begin(), active.end(), IsQueued));
@@ -139,7 +139,7 @@ class ConsoleObserver : public RunObserver {
          << " failed, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed);
     Line(head.str());
     // Runs waiting in a batch queue get one line for all of them.
-    if (const int queued = Queued(active_); queued > 0) Line("  " + std::to_string(queued) + " queued (Slurm)");
+    if (const int queued = Queued(active_); queued > 0) Line("  " + std::to_string(queued) + " queued (" + batch_queue().name() + ")");
     for (const auto& a : active_) {
       if (IsQueued(a)) continue;
       const auto it = points_.find(a.run_id);

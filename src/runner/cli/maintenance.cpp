@@ -21,8 +21,7 @@
 #include "runner/inspect.h"
 #include "runner/scan.h"
 #include "runner/scheduler.h"
-#include "runner/slurm.h"
-#include "runner/slurm_executor.h"
+#include "runner/executor.h"
 #include "runner/util.h"
 
 namespace granary::runner::cli {
@@ -85,12 +84,11 @@ int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream& 
   const auto opened = OpenCampaignDb(db, "scan");
   Store& store = *opened;
   if (!load_campaign(store)) throw UsageError("campaign scan: " + db + " holds no campaign");
-  const ScanReport r = scan_campaign(
-      store, [](const std::set<std::string>& ids, std::string* error) { return query_queue(ids, error); }, a.has("dry-run"));
+  const ScanReport r = scan_campaign(store, batch_queue(), a.has("dry-run"));
   if (a.has("json")) {
     json changes = json::array();
     for (const auto& c : r.changes) {
-      changes.push_back({{"run_id", c.run_id}, {"from", c.from}, {"to", c.to}, {"reason", c.reason}, {"written", c.written}});
+      changes.push_back({{"run_id", c.run_id}, {"from", to_string(c.from)}, {"to", to_string(c.to)}, {"reason", c.reason}, {"written", c.written}});
     }
     json doc = {{"runs", r.runs}, {"counts", r.counts}, {"agrees", r.changes.empty()}, {"changes", changes}, {"lost", r.lost}};
     if (!r.queue_error.empty()) doc["queue_error"] = r.queue_error;
@@ -144,7 +142,7 @@ int Clean(const std::vector<std::string>& argv, std::ostream& out, std::ostream&
   // A running runner may be writing into failed runs' directories (retries).
   if (o.failed)
     for (const RunRow& r : load_runs(store, false))
-      if (r.state == "running" && !lease_expired(r, this_process_holder().host, now_seconds()))
+      if (r.state == RunState::kRunning && !lease_expired(r, this_process_holder().host, now_seconds()))
         throw UsageError("campaign clean --failed: a campaign run is running on " + db +
                          " (it retries failed runs); clean when it has finished");
   const std::vector<CleanItem> items = plan_clean(store, o);

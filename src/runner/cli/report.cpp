@@ -117,10 +117,10 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
   c->info.granary_version = campaign->granary_version;
   c->info.git_commit = campaign->git_commit;
   for (const auto& r : runs) {
-    if (r.state == "retired") continue;
+    if (r.state == RunState::kRetired) continue;
     analysis::RunRecord rec;
     rec.run_id = r.run_id;
-    rec.state = r.state;
+    rec.state = to_string(r.state);
     rec.engine = r.engine;
     rec.point_id = r.point_id;
     rec.replica = r.replica;

@@ -167,7 +167,7 @@ int DryRun(const std::string& db, const RunOptions& o, ExecutorChoice& c, std::o
   }
   std::vector<Launch> launches;
   for (const auto& r : load_runs(store, true)) {
-    if (r.state != "planned" && r.state != "interrupted" && r.state != "failed") continue;
+    if (!runnable(r.state)) continue;
     if ((o.engine == "native" || o.engine == "liggghts" || o.engine == "lammps") && r.engine != o.engine) continue;
     if (!filter.matches(r)) continue;
     Launch l;
@@ -227,7 +227,7 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
     // elsewhere without a word.
     if (const char* env = std::getenv("GRANARY_CACHE_DIR"); env && *env) {
       for (const RunRow& r : load_runs(*opened, true)) {
-        if (r.state == "done" || r.state == "retired") continue;
+        if (r.state == RunState::kDone || r.state == RunState::kRetired) continue;
         const json* file = r.params.contains("bed") ? &r.params["bed"] : nullptr;
         if (!file || !file->contains("cache_file") || !(*file)["cache_file"].is_string()) continue;
         const fs::path planned = fs::path((*file)["cache_file"].get<std::string>()).parent_path();

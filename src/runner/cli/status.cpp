@@ -21,8 +21,7 @@
 #include "runner/cli/report.h"
 #include "runner/inspect.h"
 #include "runner/scan.h"
-#include "runner/slurm.h"
-#include "runner/slurm_executor.h"
+#include "runner/executor.h"
 #include "runner/util.h"
 
 namespace granary::runner::cli {
@@ -48,10 +47,7 @@ const char kStatusHelp[] =
     "damaged; their stored metrics are not shown.\n"
     "Exit: 0, 2 usage error (no database, --only that selects nothing), 3 storage error.\n";
 
-// The states a campaign's runs are in, in the order status shows them (retired apart).
-const char* const kLiveStates[] = {"planned", "running", "done", "failed", "interrupted"};
-
-// Runs in a batch queue, per array job: their queue states, live from squeue when it answers.
+// Runs in a batch queue, per array job: their queue states, live from the queue when it answers.
 struct QueueView {
   bool any = false;
   bool live = false;
@@ -74,7 +70,7 @@ QueueView ViewQueue(const std::vector<RunRow>& runs) {
     if (!r.job_id.empty()) ids.insert(r.job_id);
   }
   if (!v.any) return v;
-  if (const auto entries = query_queue(ids, &v.error)) {
+  if (const auto entries = batch_queue().query(ids, &v.error)) {
     v.live = true;
     std::map<std::pair<std::string, int>, std::string> live;
     for (const auto& e : *entries) live[{e.job_id, e.task}] = e.state;
@@ -120,28 +116,28 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   std::erase_if(metrics, [&](const auto& m) { return damaged(m.first); });
   const QueueView queue = ViewQueue(runs);
   std::map<std::string, int> counts;
-  for (const char* state : kLiveStates) counts[state] = 0;
+  for (const RunState state : kLiveRunStates) counts[to_string(state)] = 0;
   int retired = 0, total = 0;
   double first_start = 0, last_end = 0, wall_sum = 0, remaining_work = 0;
   int wall_n = 0, active = 0;
   const double now = now_seconds();
   int lost = 0;  // done, but the run directory is gone
   for (const auto& r : runs) {
-    if (r.state == "retired") {
+    if (r.state == RunState::kRetired) {
       ++retired;
       continue;
     }
     ++total;
-    ++counts[r.state];
-    if (r.state == "done" && !fs::exists(r.run_dir)) ++lost;
+    ++counts[to_string(r.state)];
+    if (r.state == RunState::kDone && !fs::exists(r.run_dir)) ++lost;
     if (r.started_at > 0 && (first_start == 0 || r.started_at < first_start)) first_start = r.started_at;
     last_end = std::max(last_end, r.ended_at);
-    if (r.state == "done" && r.wall_s > 0) {
+    if (r.state == RunState::kDone && r.wall_s > 0) {
       wall_sum += r.wall_s;
       ++wall_n;
     }
-    if (r.state == "planned" || r.state == "interrupted" || r.state == "failed") remaining_work += 1;
-    if (r.state == "running") {
+    if (runnable(r.state)) remaining_work += 1;
+    if (r.state == RunState::kRunning) {
       // A run whose runner is gone is not progressing: no ETA counts on it (a task in a batch
       // queue is at work with or without a runner watching).
       const bool in_queue = r.queued() && !queue.state_by_run.at(r.run_id).empty();
@@ -187,10 +183,10 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   if (a.has("json")) {
     json list = json::array();
     for (const auto& r : runs) {
-      json j = {{"run_id", r.run_id}, {"state", r.state},       {"point", r.point},      {"replica", r.replica},
+      json j = {{"run_id", r.run_id}, {"state", to_string(r.state)},       {"point", r.point},      {"replica", r.replica},
                 {"attempts", r.attempts}, {"engine", r.engine}, {"wall_s", r.wall_s},    {"run_dir", r.run_dir}};
       // Progress belongs to running runs only: a finished run's last progress.json is history.
-      if (r.state == "running") {
+      if (r.state == RunState::kRunning) {
         if (!r.progress.is_null()) j["progress"] = r.progress;
         j["lease_expired"] = lease_expired(r, this_process_holder().host, now);
       }
@@ -206,7 +202,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                          {"analysis", rm.analysis}};
         j["metrics"] = m;
       }
-      if (r.state == "done" && !fs::exists(r.run_dir)) j["run_dir_missing"] = true;
+      if (r.state == RunState::kDone && !fs::exists(r.run_dir)) j["run_dir_missing"] = true;
       if (const auto it = checks.find(r.run_id); it != checks.end()) {
         j["integrity"] = rundir::IntegrityName(it->second.integrity);
         if (!it->second.problems.empty()) {
@@ -248,10 +244,11 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   for (const auto& f : filters) only += (only.empty() ? "" : ", ") + f;
   out << "campaign " << (campaign ? campaign->name : "?") << ": " << total << " runs" << (only.empty() ? "" : " with " + only)
       << " (" << db << ")\n ";
-  for (const char* state : kLiveStates) out << (std::string(state) == "planned" ? " " : ", ") << state << " " << counts[state];
+  for (const RunState state : kLiveRunStates)
+    out << (state == RunState::kPlanned ? " " : ", ") << state << " " << counts[to_string(state)];
   if (retired > 0) out << "  (and " << retired << " retired: no longer in the spec, not counted)";
   out << "\n  elapsed " << Duration(elapsed) << ", ETA "
-      << (total - counts["done"] == 0 ? std::string("-")
+      << (total - counts[to_string(RunState::kDone)] == 0 ? std::string("-")
           : active == 0               ? std::string("- (no runner at work: campaign run continues)")
           : eta >= 0                  ? Duration(eta)
                                       : "?");
@@ -260,7 +257,10 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
         << (active > 0 ? ", on the " + std::to_string(active) + " run(s) at work now" : "") << ")";
   out << "\n";
   if (queue.any) {
-    out << "Slurm queue (" << (queue.live ? "live" : "as last seen; squeue: " + queue.error) << "):\n";
+    const BatchQueue& batch = batch_queue();
+    out << batch.name() << " queue ("
+        << (queue.live ? std::string("live") : "as last seen; " + std::string(batch.query_tool()) + ": " + queue.error)
+        << "):\n";
     for (const auto& q : queue.arrays) {
       out << "  array " << (q.job_id.empty() ? "?" : q.job_id) << " " << q.name << ":";
       std::string sep = " ";
@@ -275,7 +275,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     out << "lost: " << lost << " done run(s) have no run directory (deleted after they finished); their results "
         << "are in the database only (campaign run --rerun-lost runs them again):\n";
     for (const auto& r : runs)
-      if (r.state == "done" && !fs::exists(r.run_dir)) out << "  " << r.run_id << "  " << r.run_dir << "\n";
+      if (r.state == RunState::kDone && !fs::exists(r.run_dir)) out << "  " << r.run_id << "  " << r.run_dir << "\n";
   }
   if (const int n = count_integrity(checks).damaged; n > 0) {
     out << "damaged: " << n << " done run(s) whose files differ from what the engine recorded; left out of every "
@@ -288,19 +288,19 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     }
   }
   int analysed = 0;
-  for (const auto& r : runs) analysed += r.state == "done" && metrics.count(r.run_id) ? 1 : 0;
-  if (counts["done"] > 0)
-    out << "  metrics in the database for " << analysed << " of " << counts["done"] << " done runs"
-        << (analysed < counts["done"] ? " (campaign report or export analyses the others)" : "") << "\n";
+  for (const auto& r : runs) analysed += r.state == RunState::kDone && metrics.count(r.run_id) ? 1 : 0;
+  if (counts[to_string(RunState::kDone)] > 0)
+    out << "  metrics in the database for " << analysed << " of " << counts[to_string(RunState::kDone)] << " done runs"
+        << (analysed < counts[to_string(RunState::kDone)] ? " (campaign report or export analyses the others)" : "") << "\n";
 #ifdef GRANARY_HAVE_ANALYSIS
   if (const auto e = ExpectationCounts(db, err, a.all("only")))
     out << "  expectations: " << *e << " (campaign export --expectations, or the report's Key results)\n";
 #endif
   bool header = false;
   for (const auto& r : runs) {
-    if (r.state != "running") continue;
+    if (r.state != RunState::kRunning) continue;
     // Queued runs not yet at work are counted per array above, not listed one by one.
-    if (r.queued() && fate_of(queue.state_by_run.at(r.run_id)) != TaskFate::kRunning) continue;
+    if (r.queued() && batch_queue().fate_of(queue.state_by_run.at(r.run_id)) != TaskFate::kRunning) continue;
     if (!header) out << "running:\n";
     header = true;
     // A task nobody watches (detached) has its progress only in its directory.
@@ -309,7 +309,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       if (const auto p = rundir::ReadProgress(r.run_dir)) progress = p->ToJson();
     }
     out << "  " << r.run_id << " " << ProgressText(progress, false) << "  " << CompactPoint(r.point) << " r" << r.replica
-        << (r.queued() ? "  Slurm " + r.job_id + "_" + std::to_string(r.job_index) +
+        << (r.queued() ? "  " + std::string(batch_queue().name()) + " " + r.job_id + "_" + std::to_string(r.job_index) +
                              (r.lease_holder.empty() || lease_expired(r, this_process_holder().host, now)
                                   ? " (no runner watching: campaign scan or campaign run --executor slurm)"
                                   : "")
@@ -319,7 +319,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   }
   header = false;
   for (const auto& r : runs) {
-    if (r.state != "failed") continue;
+    if (r.state != RunState::kFailed) continue;
     if (!header) out << "failed:\n";
     header = true;
     out << "  " << r.run_id << "  " << CompactPoint(r.point) << " r" << r.replica << " (attempts " << r.attempts << ")\n";
@@ -423,14 +423,14 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   std::string point = CompactPoint(run.point) + ", replica " + std::to_string(run.replica);
   if (run.params.contains("seed")) point += ", seed " + run.params["seed"].dump();
   row("point", point);
-  std::string state = run.state;
+  std::string state = to_string(run.state);
   if (!run.end_reason.empty()) state += ": " + run.end_reason;
   const json& results = d["results"];
   if (results.contains("exited") && results.contains("bodies"))
     state += ", " + ValueText(results["exited"]) + " exits of " + ValueText(results["bodies"]) + " bodies";
   if (results.contains("t_end")) state += ", t_end " + ValueText(results["t_end"]);
   row("state", state);
-  if (run.state == "running") row("progress", ProgressText(run.progress, false));
+  if (run.state == RunState::kRunning) row("progress", ProgressText(run.progress, false));
   row("attempts", std::to_string(run.attempts));
   row("engine", run.engine + (run.engine_version.empty() ? "" : " " + run.engine_version));
   if (!run.host.empty()) row("host", run.host);
