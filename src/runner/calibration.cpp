@@ -178,7 +178,7 @@ CampaignEstimate estimate_runs(const std::vector<PlannedRun>& runs, Store* store
 std::vector<PlannedRun> runs_left(Store& store) {
   std::vector<PlannedRun> left;
   for (const RunRow& r : load_runs(store, true)) {
-    if (r.state == "done" || r.state == "retired") continue;
+    if (r.state == RunState::kDone || r.state == RunState::kRetired) continue;
     PlannedRun p;
     p.run_id = r.run_id;
     p.point_id = r.point_id;
