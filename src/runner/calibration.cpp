@@ -175,18 +175,20 @@ CampaignEstimate estimate_runs(const std::vector<PlannedRun>& runs, Store* store
   return estimate_campaign(runs, cal, jobs, ready);
 }
 
+PlannedRun planned_run(const RunRow& r) {
+  PlannedRun p;
+  p.run_id = r.run_id;
+  p.point_id = r.point_id;
+  p.point = r.point;
+  p.engine = r.engine;
+  p.params_json = r.params.dump();
+  return p;
+}
+
 std::vector<PlannedRun> runs_left(Store& store) {
   std::vector<PlannedRun> left;
-  for (const RunRow& r : load_runs(store, true)) {
-    if (r.state == RunState::kDone || r.state == RunState::kRetired) continue;
-    PlannedRun p;
-    p.run_id = r.run_id;
-    p.point_id = r.point_id;
-    p.point = r.point;
-    p.engine = r.engine;
-    p.params_json = r.params.dump();
-    left.push_back(std::move(p));
-  }
+  for (const RunRow& r : load_runs(store, true))
+    if (r.state != RunState::kDone && r.state != RunState::kRetired) left.push_back(planned_run(r));
   return left;
 }
 

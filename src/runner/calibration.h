@@ -27,6 +27,7 @@ Calibration obtain_calibration(const std::string& engine_exe, const std::functio
 Calibration cached_calibration(const std::string& engine_exe);
 
 class Store;
+struct RunRow;
 
 // The estimate as `campaign plan` and `campaign status` show it: the calibration for the
 // native engine in `exe_dir` (cached; measured now when `measure` and none is), scaled by the
@@ -36,6 +37,8 @@ CampaignEstimate estimate_runs(const std::vector<PlannedRun>& runs, Store* store
                                bool measure, const std::function<void(const std::string&)>& say);
 
 // The runs of the campaign in `store` that are not done, as planned runs (for the estimate).
+// What the estimator needs of a stored run.
+PlannedRun planned_run(const RunRow& r);
 std::vector<PlannedRun> runs_left(Store& store);
 
 }  // namespace granary::runner

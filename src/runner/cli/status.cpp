@@ -157,13 +157,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     std::vector<double> fraction_left;
     for (const auto& r : runs) {
       if (r.state == RunState::kDone || r.state == RunState::kRetired) continue;
-      PlannedRun p;
-      p.run_id = r.run_id;
-      p.point_id = r.point_id;
-      p.point = r.point;
-      p.engine = r.engine;
-      p.params_json = r.params.dump();
-      left.push_back(std::move(p));
+      left.push_back(planned_run(r));
       const double f = r.state == RunState::kRunning && r.progress.is_object() ? r.progress.value("fraction", 0.0) : 0.0;
       fraction_left.push_back(1 - std::clamp(f, 0.0, 1.0));
     }
