@@ -9,6 +9,7 @@ docs/python.md walks through them."""
 
 import os
 
+from . import formats  # noqa: F401 (granary.formats.register: where a frame format plugs in)
 from .bodies import BODY_DTYPE, bodies_of
 from .campaign import Campaign, FilterError, short_axis
 from .dump import CONTACT_DTYPE, DISC_DTYPE, ContactFrame, DumpReader, Frame

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import MissingFileError
+from .expression import derived_axes
 from .run import Run
 
 from .axes import axis_short_names, short_axis  # noqa: F401 (short_axis: part of the API)
@@ -62,6 +63,29 @@ def parameter_matches(params, pointer, text):
     return isinstance(actual, str) and actual == text
 
 
+def _format_number(v, significant=6):
+    """A number as the report prints it (analysis::format_number)."""
+    if not math.isfinite(v):
+        return ""
+    if v == math.floor(v) and abs(v) < 1e9:
+        return "%.0f" % v
+    return "%.*g" % (significant, v)
+
+
+def _derived_matches(actual, text):
+    """A derived axis' value equals VALUE: as numbers, or to the 6 significant digits the report
+    prints (as the C++ --only does)."""
+    try:
+        want = json.loads(text)
+    except ValueError:
+        return False
+    if isinstance(want, bool) or not isinstance(want, (int, float)) or not math.isfinite(actual):
+        return False
+    want = float(want)
+    return actual == want or abs(actual - want) <= 1e-9 * max(abs(actual), abs(want)) or \
+        _format_number(actual) == _format_number(want)
+
+
 class FilterError(ValueError):
     """A filter that selects nothing; the message says what there is to choose from."""
 
@@ -105,6 +129,9 @@ class Campaign:
         self.name = row[0]
         self.spec = json.loads(row[1])
         self.axes = json.loads(row[2])
+        # The derived axes of /axes, in the order the C++ side reads them (by name).
+        block = self.spec.get("axes") if isinstance(self.spec, dict) else None
+        self.derived = dict(derived_axes(dict(sorted(block.items())) if isinstance(block, dict) else None))
         self._runs = None
 
     def close(self):
@@ -125,8 +152,8 @@ class Campaign:
     @property
     def runs(self):
         """Every run that is not retired, one row each: run_id, point_id, replica, engine, state,
-        end_reason, attempts, wall_s, run_dir, the sweep axes by their short names, then every
-        stored metric and its standard error (`q_count`, `q_count_se`, ...: the metrics
+        end_reason, attempts, wall_s, run_dir, the sweep axes by their short names, the derived
+        axes of the spec's /axes (as `campaign export` computes them), then every stored metric and its standard error (`q_count`, `q_count_se`, ...: the metrics
         `campaign report`, `export` or `compare` stored)."""
         if self._runs is None:
             runs = pd.read_sql_query(
@@ -139,6 +166,23 @@ class Campaign:
             self.axis_names = axis_short_names(self.axes, first)
             for axis in self.axes:
                 runs[self.axis_names[axis]] = [p.get(axis, np.nan) for p in points]
+            self._derived_values = {}
+            for rid, p in zip(runs["run_id"], points):
+                values = {}
+                for axis in self.axes:
+                    v = p.get(axis)
+                    if v is None:
+                        try:
+                            v = _pointer_get(self._params[rid], axis)
+                        except KeyError:
+                            v = None
+                    number = isinstance(v, (int, float)) and not isinstance(v, bool)
+                    values[self.axis_names[axis]] = float(v) if number else np.nan
+                for name, expression in self.derived.items():
+                    values[name] = expression.evaluate(values)
+                self._derived_values[rid] = values
+            for name in self.derived:
+                runs[name] = [self._derived_values[rid][name] for rid in runs["run_id"]]
             metrics = pd.read_sql_query("SELECT run_id, metric, value, se FROM metrics", self._con)
             if len(metrics):
                 wide = metrics.pivot_table(index="run_id", columns="metric", values=["value", "se"],
@@ -159,7 +203,7 @@ class Campaign:
         (avalanches, Psi) have their own point metrics in `campaign export --level point`."""
         runs = self.runs
         done = runs[runs["state"] == "done"]
-        axes = [self.axis_names[a] for a in self.axes]
+        axes = [self.axis_names[a] for a in self.axes] + list(self.derived)
         metric_cols = [c for c in runs.columns[9 + len(axes):] if not c.endswith("_se")]
         rows = []
         for (point_id, engine), group in runs.groupby(["point_id", "engine"], sort=False):
@@ -187,8 +231,9 @@ class Campaign:
 
     def select(self, *filters, state="done", **short):
         """The runs that pass every filter, as Run objects in planning order. A filter is what
-        `--only` takes: a run-id prefix, or "POINTER=VALUE" where POINTER is a JSON Pointer or a
-        short name that ends exactly one sweep axis ("width=11"); keywords are short names
+        `--only` takes: a run-id prefix, or "POINTER=VALUE" where POINTER is a JSON Pointer, a
+        short name that ends exactly one sweep axis ("width=11") or a derived axis of the spec's
+        /axes (D_eq=1.80278: equal to the 6 digits the report prints); keywords are short names
         (width=11; a list gives alternatives: width=[9, 11]). Values of one parameter are
         alternatives, different parameters must all hold, run-id prefixes are alternatives.
         state: only runs in this state ("done" by default; None for all but retired ones)."""
@@ -206,7 +251,7 @@ class Campaign:
         ids = list(runs["run_id"])
         params = [self._params[r] for r in ids]
         axes = "axes: " + _listing(self.axes) if self.axes else "it has no sweep axes"
-        prefixes, values = [], {}
+        prefixes, values, derived = [], {}, {}
         for f in texts:
             if not f:
                 raise FilterError("an empty filter (give a run-id prefix or POINTER=VALUE)")
@@ -218,6 +263,18 @@ class Campaign:
                 continue
             pointer, value = f.split("=", 1)
             by_name = {name: axis for axis, name in self.axis_names.items()}
+            if pointer in self.derived and pointer not in by_name:
+                # A derived axis is no parameter of a run: the runs whose value matches.
+                shown = []
+                for r in ids:
+                    actual = self._derived_values[r][pointer]
+                    if _format_number(actual) not in shown:
+                        shown.append(_format_number(actual))
+                    if _derived_matches(actual, value):
+                        derived.setdefault(pointer, set()).add(r)
+                if pointer not in derived:
+                    raise FilterError(f"{f}: no run has {pointer} = {value} (its values: {_listing(shown)})")
+                continue
             if pointer in by_name:
                 pointer = by_name[pointer]
             elif not pointer.startswith("/"):
@@ -240,6 +297,8 @@ class Campaign:
 
         def passes(run_id, p):
             if prefixes and not any(run_id.startswith(x) for x in prefixes):
+                return False
+            if not all(run_id in passing for passing in derived.values()):
                 return False
             return all(any(parameter_matches(p, ptr, t) for t in ts) for ptr, ts in values.items())
 

@@ -17,6 +17,8 @@ import warnings
 import numpy as np
 
 from .errors import FormatError, MissingFileError, TruncatedError
+from .formats import Entry, register, select
+from .formats import stride_of as _stride, window_of as _window  # noqa: F401 (the names run.py used)
 
 # A disc of frames.dump, the fields of the C++ rundir::Disc.
 DISC_DTYPE = np.dtype([("id", "<i8"), ("mol", "<i8"), ("type", "<i4"), ("x", "<f8"), ("y", "<f8"),
@@ -102,30 +104,31 @@ class _Lines:
 
     def rows(self, n, keep=True):
         """The next n lines as one bytes object (None if not kept), and whether all n were
-        there: (block, complete). A last line without its newline counts as a line."""
+        there: (block, complete). A last line without its newline counts as a line.
+
+        The rows end where the next block's "ITEM: " line starts (a row never holds "ITEM"),
+        found with one bytes.find; the parser then checks that they are n. Only the last block
+        of a file, which has no next one, has its lines counted."""
         if n == 0:
             return (b"" if keep else None), True
+        scanned = 0  # bytes after _pos already searched without a hit
         while True:
             buf, pos = self._buf, self._pos
-            have = buf.count(b"\n", pos)
-            if have >= n:
-                if have == n and buf.endswith(b"\n"):
-                    end = len(buf)
-                else:
-                    newlines = np.flatnonzero(np.frombuffer(buf, np.uint8, offset=pos) == 10)
-                    end = pos + int(newlines[n - 1]) + 1
+            hit = buf.find(b"\nITEM: ", pos + max(scanned - 8, 0))
+            if hit >= 0:
+                end = hit + 1
                 block = buf[pos:end] if keep else None
                 self._pos = end
                 self.line += n
                 return block, True
-            # Enough for the rest at the length of the rows seen so far.
-            seen = max(len(buf) - pos, 1)
-            need = int(seen / max(have, 1) * (n - have) * 1.05) + 4096
-            if not self._fill(need):
+            scanned = len(buf) - pos
+            if not self._fill(max(_CHUNK, scanned)):
+                # The last block of the file: its lines are counted.
                 block = buf[pos:]
-                complete = have == n - 1 and len(block) > 0 and not self.cut
+                have = block.count(b"\n")
+                complete = have >= n or (have == n - 1 and not block.endswith(b"\n") and not self.cut)
                 self._pos = len(self._buf)
-                self.line += have + (1 if complete else 0)
+                self.line += min(have + (0 if block.endswith(b"\n") else 1), n) if block else 0
                 return (block if keep else None), complete
 
 
@@ -388,15 +391,24 @@ class DumpReader:
         than the header names, as the C++ reader does)."""
         need = max(usecols) + 1
         values = np.empty((count, len(usecols)))
-        lines = block.split(b"\n")
+        lines = [line for line in block.split(b"\n") if line.strip()]
         unterminated = not block.endswith(b"\n")
+        noun = "atom" if self.kind == "frames" else "entry"
+        if len(lines) < count and not unterminated:
+            self._fail(f"the block has {len(lines)} {noun} rows, its header says {count}", first_line + len(lines))
+        if len(lines) > count:
+            self._fail(f"the block has {len(lines)} {noun} rows, its header says {count} (an 'ITEM:' line "
+                       f"expected)", first_line + count)
         for r in range(count):
+            if r >= len(lines):
+                self._cut_short(f"the block ends after {r} of its {count} rows")
+                return None
             f = lines[r].split()
             if len(f) < need and r == count - 1 and unterminated:
                 self._cut_short(f"the last row (line {first_line + r}) is cut short")
                 return None
             if len(f) < need:
-                self._fail(f"{'atom' if self.kind == 'frames' else 'entry'} row has {len(f)} fields, the header "
+                self._fail(f"{noun} row has {len(f)} fields, the header "
                            f"names {len(columns)}", first_line + r)
             for k, c in enumerate(usecols):
                 try:
@@ -406,49 +418,31 @@ class DumpReader:
                                first_line + r)
         return values
 
-    def blocks(self, stride=1, window=None):
-        """Yields the blocks (Frame or ContactFrame) whose time is in `window` ((t0, t1), both
-        ends included; None for either end: open), every `stride`-th of those; stops once past
-        the window. Skipped blocks are not parsed."""
-        t0, t1 = _window(window)
-        stride = _stride(stride)
-        kept = 0
-        make = Frame if self.kind == "frames" else ContactFrame
+    def entries(self):
+        """One formats.Entry per block, in file order: its header and load() (read_rows). A
+        block whose load() is not called is skipped unparsed by the next one."""
         while True:
             header = self.next_header()
             if header is None:
                 return
-            timestep, time, box, _, _ = header
-            if time > t1:
-                return
-            if time < t0 or kept % stride:
-                if time >= t0:
-                    kept += 1
-                if not self.skip_rows():
-                    return
-                continue
-            kept += 1
-            rows = self.read_rows()
-            if rows is None:
-                return
-            yield make(timestep, time, box, rows)
+            timestep, time, box, count, _ = header
+            yield Entry(timestep, time, box, count, self.read_rows)
+
+    def blocks(self, stride=1, window=None):
+        """Yields the blocks (Frame or ContactFrame) whose time is in `window` ((t0, t1), both
+        ends included; None for either end: open), every `stride`-th of those; stops once past
+        the window. Skipped blocks are not parsed."""
+        return select(self.entries(), Frame if self.kind == "frames" else ContactFrame, stride, window)
 
 
-def _window(window):
-    if window is None:
-        return -math.inf, math.inf
-    try:
-        t0, t1 = window
-    except (TypeError, ValueError):
-        raise ValueError(f"window must be (t0, t1) with None for an open end, not {window!r}") from None
-    t0 = -math.inf if t0 is None else float(t0)
-    t1 = math.inf if t1 is None else float(t1)
-    if t1 < t0:
-        raise ValueError(f"window ({t0:g}, {t1:g}) ends before it starts")
-    return t0, t1
+def open_dump(path, kind, finished=True, density=1.0):
+    """The opener of the text dumps for formats.register: frames and clog frames are read as
+    frames, contacts and clog contacts as contacts."""
+    return DumpReader(path, "frames" if kind in ("frames", "clog_frames") else "contacts", finished, density)
 
 
-def _stride(stride):
-    if not isinstance(stride, (int, np.integer)) or stride < 1:
-        raise ValueError(f"stride must be a whole number >= 1, not {stride!r}")
-    return int(stride)
+# The run directory's text dumps (docs/run-directory.md), plain or gzip-compressed.
+for _kind, _names in (("frames", ("frames.dump", "frames.dump.gz")), ("contacts", ("contacts.dump", "contacts.dump.gz")),
+                      ("clog_frames", ("clog_frames.dump",)), ("clog_contacts", ("clog_contacts.dump",))):
+    for _name in _names:
+        register(_kind, _name, open_dump)

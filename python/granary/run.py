@@ -6,7 +6,8 @@ import os
 import numpy as np
 import pandas as pd
 
-from .dump import DumpReader, _stride, _window
+from . import formats
+from .dump import ContactFrame, Frame
 from .errors import FormatError, MissingFileError, NewerFormatError, TruncatedError
 
 # The file names of a run directory (src/rundir/layout.h).
@@ -23,8 +24,7 @@ CLOG_CONTACTS = "clog_contacts.dump"
 SILO = "silo.vtk"
 ANALYSES = "analyses"
 
-_KNOWN = {RUN_SPEC, SUMMARY, DONE, EVENTS, FRAMES, CONTACTS, FRAMES_GZ, CONTACTS_GZ, CLOG_FRAMES,
-          CLOG_CONTACTS, SILO}
+_KNOWN = {RUN_SPEC, SUMMARY, DONE, EVENTS, SILO}
 
 
 class Clog:
@@ -150,22 +150,28 @@ class Run:
         df = df[["time", "body", "shape", "mass", "outlet"]]
         return df.sort_values("time", kind="stable").reset_index(drop=True)
 
-    def _dump_file(self, plain, compressed):
-        if os.path.exists(self.file(plain)):
-            return self.file(plain)
-        if os.path.exists(self.file(compressed)):
-            return self.file(compressed)
-        self._check_newer_format(plain)
+    def _source(self, kind):
+        """(path, opener) of the first file of `kind` this run directory has, in the order the
+        formats registered them (formats.py); None when it has none."""
+        for name in formats.names(kind):
+            if os.path.exists(self.file(name)):
+                return self.file(name), formats.opener_of(kind, name)
+        self._check_newer_format(formats.names(kind)[0])
         return None
 
     def _check_newer_format(self, plain):
         stem = plain.split(".")[0]
-        others = sorted(n for n in os.listdir(self.path) if n.startswith(stem + ".") and n not in _KNOWN)
+        known = _KNOWN | formats.known_names()
+        others = sorted(n for n in os.listdir(self.path) if n.startswith(stem + ".") and n not in known)
         if others:
             raise NewerFormatError(
                 f"{self.path}: has {', '.join(others)} but no {plain}: its {stem} are in a format newer "
                 "than this reader knows (docs/run-directory.md); use the python/granary of the Granary that "
                 "wrote the run")
+
+    def _open(self, kind, source, density=False):
+        path, opener = source
+        return opener(path, kind, finished=self.done, density=self._density() if density else 1.0)
 
     def _density(self):
         try:
@@ -173,75 +179,79 @@ class Run:
         except (MissingFileError, AttributeError, TypeError, ValueError):
             return 1.0
 
-    def frames(self, stride=1, window=None, contacts=False):
-        """Iterates the frames of frames.dump (or frames.dump.gz) one at a time, never holding
-        the file: each a Frame with `time`, `timestep`, `box`, `discs` (a structured array:
-        id mol type x y radius mass vx vy omega; `frame["x"]` works too) and `bodies()`.
-        window=(t0, t1): only frames with t0 <= time <= t1 (None: open end); stride=k: every
-        k-th of those. contacts=True: each frame also gets `contacts`, the contact frame of the
-        same timestep from contacts.dump (an error if it has none)."""
-        path = self._dump_file(FRAMES, FRAMES_GZ)
-        if path is None:
-            raise MissingFileError(f"{self.file(FRAMES)}: no such file (nor {FRAMES_GZ}); the spec's "
-                                   "output/frame_interval decides whether a run writes frames")
-        _window(window), _stride(stride)
-        return self._frames(path, stride, window, contacts)
+    def _missing(self, kind, why):
+        names = formats.names(kind)
+        return MissingFileError(f"{self.file(names[0])}: no such file (nor {', '.join(names[1:])}); {why}")
 
-    def _frames(self, path, stride, window, contacts):
-        with DumpReader(path, "frames", finished=self.done, density=self._density()) as reader:
+    def frames(self, stride=1, window=None, contacts=False):
+        """Iterates the frames of frames.dump (or frames.dump.gz, or another format a module
+        registered: formats.py) one at a time, never holding the file: each a Frame with `time`,
+        `timestep`, `box`, `discs` (a structured array: id mol type x y radius mass vx vy omega;
+        `frame["x"]` works too) and `bodies()`. window=(t0, t1): only frames with
+        t0 <= time <= t1 (None: open end); stride=k: every k-th of those. contacts=True: each
+        frame also gets `contacts`, the contact frame of the same timestep from contacts.dump
+        (an error if it has none)."""
+        source = self._source("frames")
+        if source is None:
+            raise self._missing("frames", "the spec's output/frame_interval decides whether a run writes frames")
+        formats.window_of(window), formats.stride_of(stride)
+        return self._frames(source, stride, window, contacts)
+
+    def _frames(self, source, stride, window, contacts):
+        with self._open("frames", source, density=True) as reader:
             if not contacts:
-                yield from reader.blocks(stride, window)
+                yield from formats.select(reader.entries(), Frame, stride, window)
                 return
-            cpath = self._dump_file(CONTACTS, CONTACTS_GZ)
-            if cpath is None:
-                raise MissingFileError(f"{self.file(CONTACTS)}: no such file (nor {CONTACTS_GZ}); a run writes "
-                                       "contact frames when its spec sets output/contact_forces")
-            with DumpReader(cpath, "contacts", finished=self.done) as creader:
-                for frame in reader.blocks(stride, window):
+            csource = self._source("contacts")
+            if csource is None:
+                raise self._missing("contacts", "a run writes contact frames when its spec sets output/contact_forces")
+            with self._open("contacts", csource) as creader:
+                centries = creader.entries()
+                for frame in formats.select(reader.entries(), Frame, stride, window):
                     while True:
-                        header = creader.next_header()
-                        if header is None or header[0] > frame.timestep:
-                            raise FormatError(f"{cpath}: no contact frame at timestep {frame.timestep} "
-                                              f"(t = {frame.time:g}) of {path}")
-                        if header[0] == frame.timestep:
+                        entry = next(centries, None)
+                        if entry is None or entry.timestep > frame.timestep:
+                            raise FormatError(f"{csource[0]}: no contact frame at timestep {frame.timestep} "
+                                              f"(t = {frame.time:g}) of {source[0]}")
+                        if entry.timestep == frame.timestep:
                             break
-                        creader.skip_rows()
-                    rows = creader.read_rows()
+                    rows = entry.load()
                     if rows is None:
                         return
                     frame.contacts = rows
                     yield frame
 
     def contacts(self, stride=1, window=None):
-        """Iterates the contact frames of contacts.dump (or .gz) like frames(): each a
-        ContactFrame with `time`, `timestep`, `box` and `contacts` (body_i body_j xi yi xj yj
-        cx cy fx fy; body_j = -1 for a wall or obstacle; the force is on body i)."""
-        path = self._dump_file(CONTACTS, CONTACTS_GZ)
-        if path is None:
-            raise MissingFileError(f"{self.file(CONTACTS)}: no such file (nor {CONTACTS_GZ}); a run writes "
-                                   "contact frames when its spec sets output/contact_forces")
-        _window(window), _stride(stride)
-        return self._contacts(path, stride, window)
+        """Iterates the contact frames of contacts.dump (or .gz, or a registered format) like
+        frames(): each a ContactFrame with `time`, `timestep`, `box` and `contacts` (body_i
+        body_j xi yi xj yj cx cy fx fy; body_j = -1 for a wall or obstacle; the force is on
+        body i)."""
+        source = self._source("contacts")
+        if source is None:
+            raise self._missing("contacts", "a run writes contact frames when its spec sets output/contact_forces")
+        formats.window_of(window), formats.stride_of(stride)
+        return self._contacts(source, stride, window)
 
-    def _contacts(self, path, stride, window):
-        with DumpReader(path, "contacts", finished=self.done) as reader:
-            yield from reader.blocks(stride, window)
+    def _contacts(self, source, stride, window):
+        with self._open("contacts", source) as reader:
+            yield from formats.select(reader.entries(), ContactFrame, stride, window)
 
     def clogs(self):
         """Every clog the engine kept (clog_frames.dump with clog_contacts.dump), in the order
         they happened: a list of Clog (`frame`, `contacts`, `time`). Empty for a run that never
         clogged; MissingFileError for a run written before engines kept clogs."""
+        fsource, csource = self._source("clog_frames"), self._source("clog_contacts")
         fpath, cpath = self.file(CLOG_FRAMES), self.file(CLOG_CONTACTS)
-        has_f, has_c = os.path.exists(fpath), os.path.exists(cpath)
-        if not has_f and not has_c:
+        if fsource is None and csource is None:
             raise MissingFileError(f"{self.path}: has no {CLOG_FRAMES} and {CLOG_CONTACTS}: the run was written "
                                    "before engines kept their clogs")
-        if has_f != has_c:
-            raise FormatError(f"{cpath if has_f else fpath}: missing beside its pair")
+        if (fsource is None) != (csource is None):
+            raise FormatError(f"{cpath if fsource else fpath}: missing beside its pair")
+        fpath, cpath = fsource[0], csource[0]
         out = []
-        with DumpReader(fpath, "frames", finished=self.done, density=self._density()) as frames, \
-                DumpReader(cpath, "contacts", finished=self.done) as contacts:
-            f_iter, c_iter = frames.blocks(), contacts.blocks()
+        with self._open("clog_frames", fsource, density=True) as frames, self._open("clog_contacts", csource) as contacts:
+            f_iter = formats.select(frames.entries(), Frame)
+            c_iter = formats.select(contacts.entries(), ContactFrame)
             while True:
                 frame = next(f_iter, None)
                 contact = next(c_iter, None)

@@ -3,8 +3,12 @@
 
 Protocol: one JSON object per line on stdin, one answer per line on the stdout the process
 started with. A request is {"run": DIR, "key": KEY, "script": PATH, "source": TEXT, "options":
-{...}}; the answer {"ok": true, "metrics": {name: [value, se, unit]}} or {"ok": false, "error":
-TEXT}; {"quit": true} ends the process. The script's own printing goes to a buffer (fd 1 and 2 point elsewhere while it runs),
+{...}, "timeout": SECONDS}; the answer {"ok": true, "metrics": {name: [value, se, unit]}} or
+{"ok": false, "error": TEXT, "retry": true when the failure may not happen again (a timeout)};
+{"quit": true} ends the process. Before the first request the worker answers {"ready": true}
+once it has imported granary (NumPy, pandas). A script still running after `timeout` seconds is stopped by
+an alarm raised inside it (the pass itself stops the interpreter a little later if the alarm
+cannot interrupt it, e.g. inside a long C call). The script's own printing goes to a buffer (fd 1 and 2 point elsewhere while it runs),
 so nothing it writes can be taken for an answer; its last lines are part of a failure.
 
 The script defines `analyse(run, options)` (or `analyze`), `run` a granary.Run, returning
@@ -17,6 +21,7 @@ import json
 import math
 import os
 import re
+import signal
 import sys
 import tempfile
 import traceback
@@ -27,6 +32,15 @@ _TAIL_LINES = 8
 
 class AnalysisFailure(Exception):
     pass
+
+
+class AnalysisTimeout(BaseException):
+    """Raised inside the script when its time is up (a BaseException: `except Exception` in a
+    script does not swallow it)."""
+
+
+def _alarm(signum, frame):
+    raise AnalysisTimeout()
 
 
 def _tail(text, lines=_TAIL_LINES):
@@ -98,11 +112,25 @@ class Worker:
             os.dup2(captured.fileno(), 1)
             os.dup2(captured.fileno(), 2)
             sys.stdout = sys.stderr = text
+            timeout = float(request.get("timeout") or 0)
             try:
-                fn = self.function_of(path, request["source"])
-                run = open_run(request["run"])
-                metrics = check_metrics(fn(run, dict(request.get("options") or {})), key)
+                if timeout > 0:
+                    signal.signal(signal.SIGALRM, _alarm)
+                    signal.setitimer(signal.ITIMER_REAL, timeout)
+                try:
+                    fn = self.function_of(path, request["source"])
+                    run = open_run(request["run"])
+                    metrics = check_metrics(fn(run, dict(request.get("options") or {})), key)
+                finally:
+                    if timeout > 0:
+                        signal.setitimer(signal.ITIMER_REAL, 0)
                 return {"ok": True, "metrics": metrics}
+            except AnalysisTimeout as e:
+                frames = [f for f in traceback.extract_tb(e.__traceback__) if f.filename != __file__]
+                where = "".join(traceback.format_list(frames[-2:])).rstrip()
+                return {"ok": False, "retry": True, "output": self._output(captured, text),
+                        "error": f"{path}: analyse() ran longer than its timeout of {timeout:g} s "
+                                 f"(/report/python/.../timeout); stopped at:\n{_tail(where, 4)}"}
             except AnalysisFailure as e:
                 return {"ok": False, "error": f"{path}: {e}", "output": self._output(captured, text)}
             except BaseException as e:  # noqa: B902 (a script's SystemExit is a failure too)
@@ -130,6 +158,11 @@ def main():
     answers = os.fdopen(os.dup(1), "w", encoding="utf-8")
     os.dup2(2, 1)
     sys.stdout = sys.stderr
+    # Imported before the first request, and said: the pass starts a script's clock (its
+    # timeout) only once the interpreter is ready.
+    import granary  # noqa: F401
+    answers.write(json.dumps({"ready": True}) + "\n")
+    answers.flush()
     worker = Worker()
     for line in sys.stdin:
         if not line.strip():

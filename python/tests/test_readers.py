@@ -197,7 +197,67 @@ def test_a_malformed_row_names_its_line(tmp_path):
 
 def test_frames_in_a_newer_format_are_named_as_such(tmp_path):
     d = copy_run(tmp_path)
-    os.rename(d / "frames.dump", d / "frames.gsd")
-    with pytest.raises(granary.NewerFormatError, match="frames.gsd but no frames.dump.*newer"):
+    os.rename(d / "frames.dump", d / "frames.v99")
+    with pytest.raises(granary.NewerFormatError, match="frames.v99 but no frames.dump.*newer"):
         granary.open(d).frames()
+
+
+def test_a_block_with_more_or_fewer_rows_than_its_header_says_names_its_line(tmp_path):
+    d = copy_run(tmp_path)
+    text = (d / "frames.dump").read_text()
+    lines = text.split("\n")
+    header = lines.index(next(line for line in lines if line.startswith("ITEM: ATOMS")))
+    count = int(lines[lines.index("ITEM: NUMBER OF ATOMS") + 1])
+    first_row = header + 2  # 1-based line number of the first row
+    # One row dropped from the first block: the next block's ITEM line comes a row early.
+    (d / "frames.dump").write_text("\n".join(lines[:header + 1] + lines[header + 2:]))
+    with pytest.raises(granary.FormatError, match=rf"frames.dump:{first_row + count - 1}: the block has {count - 1} "
+                                                  rf"atom rows, its header says {count}"):
+        list(granary.open(d).frames())
+    # One row too many.
+    (d / "frames.dump").write_text("\n".join(lines[:header + 2] + lines[header + 1:]))
+    with pytest.raises(granary.FormatError, match=rf"frames.dump:{first_row + count}: the block has {count + 1} "
+                                                  rf"atom rows, its header says {count}"):
+        list(granary.open(d).frames())
+
+
+def test_a_frame_format_plugs_in_through_granary_formats(tmp_path):
+    """A format module registers an opener per kind; Run reads through it, frames with their
+    contacts paired by timestep, window and stride as for the dumps (here: NumPy .npz files
+    made from the dumps, read back equal)."""
+    d = copy_run(tmp_path)
+    run = granary.open(d)
+    frames, contacts = list(run.frames()), list(run.contacts())
+    for name, blocks in (("frames.npz", frames), ("contacts.npz", contacts)):
+        np.savez(d / name, **{f"b{k}": b.rows for k, b in enumerate(blocks)},
+                 heads=np.array([(b.timestep, b.time) for b in blocks]))
+
+    class NpzReader:
+        def __init__(self, path, kind, finished=True, density=1.0):
+            self.data = np.load(path)
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.data.close()
+
+        def entries(self):
+            for k, (step, time) in enumerate(self.data["heads"]):
+                yield granary.formats.Entry(int(step), float(time), np.zeros((3, 2)), None,
+                                            lambda k=k: self.data[f"b{k}"])
+
+    os.rename(d / "frames.dump", d / "frames.dump.old")
+    os.rename(d / "contacts.dump", d / "contacts.dump.old")
+    granary.formats.register("frames", "frames.npz", NpzReader)
+    granary.formats.register("contacts", "contacts.npz", NpzReader)
+    try:
+        paired = list(granary.open(d).frames(contacts=True, stride=2, window=(frames[1].time, None)))
+        assert [f.timestep for f in paired] == [f.timestep for f in frames[1::2]]
+        for f in paired:
+            np.testing.assert_array_equal(f.discs, next(g.discs for g in frames if g.timestep == f.timestep))
+            np.testing.assert_array_equal(f.contacts, next(c.contacts for c in contacts if c.timestep == f.timestep))
+    finally:
+        for kind, name in (("frames", "frames.npz"), ("contacts", "contacts.npz")):
+            granary.formats._FORMATS[kind][:] = [e for e in granary.formats._FORMATS[kind] if e[0] != name]
 

@@ -120,6 +120,11 @@ struct FrameRequest {
   bool contacts = false;              // also the contact frame at each selected frame
 };
 
+// A per-run result with this key set to true is cached (so `campaign show` sees it) but never
+// read back: a failure that may not happen again (a Python script's timeout, an interpreter
+// that died), which the next report computes again.
+inline constexpr char kRecompute[] = "recompute";
+
 // One analysis on one run: made by Analysis::start, fed by the pass, finished once.
 class RunAccumulator {
  public:
@@ -128,7 +133,8 @@ class RunAccumulator {
   // accumulator, counting the frames inside its windows.
   virtual FrameRequest frames() const { return {}; }
   virtual void add_frame(const FrameView& frame) { (void)frame; }
-  // The per-run result. A key "notes" (array of strings) is shown beside the run in the report.
+  // The per-run result. A key "notes" (array of strings) is shown beside the run in the report;
+  // kRecompute: true has the next pass compute it again instead of reading the cache.
   virtual nlohmann::json finish() = 0;
 };
 

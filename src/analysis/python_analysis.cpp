@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <boost/process.hpp>
+#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <cstdlib>
@@ -28,6 +29,11 @@ namespace {
 namespace bp = boost::process;
 using nlohmann::json;
 
+// Seconds a script may run on one run unless its entry sets /report/python/<i>/timeout, and
+// how much longer the pass waits before it stops an interpreter the worker's alarm did not.
+constexpr double kDefaultTimeout = 600.0;
+double GraceSeconds(double timeout) { return std::min(10.0, std::max(1.0, timeout)); }
+
 // Interpreters running `python -m granary.worker`, started when a request finds none idle (at
 // most one per hardware thread: the pass runs that many runs at once), kept for the next
 // request, stopped with the pool. One request = one JSON line each way.
@@ -42,7 +48,10 @@ class PythonPool {
 
   // The worker's answer, or {"ok": false, "error": why} when there is none (no interpreter,
   // it died, it answered something that is not JSON).
-  json call(const json& request) {
+  //
+  // `limit`: the interpreter is stopped when it has not answered by then (the worker's own
+  // alarm stops a script at its timeout; this catches what the alarm cannot interrupt).
+  json call(const json& request, std::chrono::duration<double> limit) {
     std::unique_ptr<Worker> w = Take();
     if (!w) return Failed("cannot start " + python_interpreter() + " -m granary.worker: " + start_error_);
     std::string line;
@@ -50,8 +59,29 @@ class PythonPool {
       w->in << request.dump() << "\n" << std::flush;
     } catch (const std::exception&) {
     }
-    if (!std::getline(w->out, line)) {
-      const std::string why = Died(*w);
+    std::mutex m;
+    std::condition_variable cv;
+    bool answered = false, stopped = false;
+    std::thread watchdog([&] {
+      std::unique_lock<std::mutex> lock(m);
+      if (!cv.wait_for(lock, limit, [&] { return answered; })) {
+        stopped = true;
+        std::error_code ec;
+        w->child.terminate(ec);
+      }
+    });
+    const bool got = static_cast<bool>(std::getline(w->out, line));
+    {
+      std::lock_guard<std::mutex> lock(m);
+      answered = true;
+    }
+    cv.notify_one();
+    watchdog.join();
+    if (!got || stopped) {
+      std::string why = Died(*w);
+      if (stopped)
+        why = "the Python interpreter running the script did not answer within " + FormatSeconds(limit.count()) +
+              " s and was stopped (the script's timeout, /report/python/.../timeout, plus a grace period)";
       Release(nullptr);
       return Failed(why);
     }
@@ -60,7 +90,9 @@ class PythonPool {
       // The protocol is broken: this interpreter is not trusted with another request.
       Stop(*w);
       Release(nullptr);
-      return Failed("the Python worker answered something that is not an answer: '" + line.substr(0, 200) + "'");
+      json failed = Failed("the Python worker answered something that is not an answer: '" + line.substr(0, 200) + "'");
+      failed.erase("retry");
+      return failed;
     }
     Release(std::move(w));
     return answer;
@@ -73,7 +105,13 @@ class PythonPool {
     bp::child child;
   };
 
-  static json Failed(const std::string& why) { return {{"ok", false}, {"error", why}}; }
+  // No answer (no interpreter, it died or was stopped): a failure that may not happen again.
+  static json Failed(const std::string& why) { return {{"ok", false}, {"error", why}, {"retry", true}}; }
+  static std::string FormatSeconds(double s) {
+    std::ostringstream o;
+    o << s;
+    return o.str();
+  }
 
   std::unique_ptr<Worker> Take() {
     std::unique_lock<std::mutex> lock(m_);
@@ -95,6 +133,16 @@ class PythonPool {
       }
       w->child = bp::child(python_interpreter(), "-m", "granary.worker", bp::std_in<w->in, bp::std_out> w->out,
                            bp::std_err > bp::null, env);
+      // Its first line says it has imported granary: a script's timeout counts from there.
+      std::string ready;
+      const bool got = static_cast<bool>(std::getline(w->out, ready));
+      const json hello = got ? json::parse(ready, nullptr, false) : json();
+      if (!hello.is_object() || !hello.value("ready", false)) {
+        std::error_code ec;
+        w->child.wait(ec);
+        throw std::runtime_error("it did not start (exit status " + std::to_string(ec ? -1 : w->child.exit_code()) +
+                                 "; is python/granary on its path, with NumPy and pandas?)");
+      }
       return w;
     } catch (const std::exception& e) {
       lock.lock();
@@ -164,7 +212,8 @@ class PythonAccumulator : public RunAccumulator {
 
   // The script reads what it wants itself; the pass reads no frame for it.
   json finish() override {
-    const json answer = pool_->call(request_);
+    const double timeout = request_.value("timeout", kDefaultTimeout);
+    const json answer = pool_->call(request_, std::chrono::duration<double>(timeout + GraceSeconds(timeout)));
     const std::string key = request_.value("key", "");
     if (answer.value("ok", false)) {
       json metrics = json::array();
@@ -184,19 +233,27 @@ class PythonAccumulator : public RunAccumulator {
       if (bad.empty()) return {{"metrics", metrics}};
       return Failure(key, "the worker's answer is not {name: [value, se, unit]} (" + bad + ")");
     }
-    std::string error = answer.value("error", std::string("failed"));
+    const std::string error = answer.value("error", std::string("failed"));
     const std::string output = answer.value("output", std::string());
-    if (!output.empty()) error += "\n(the script printed: " + output + ")";
-    return Failure(key, error);
+    json failed = Failure(key, error, output.empty() ? "" : "\n(the script printed: " + output + ")");
+    // A timeout or an interpreter that died may not recur: the next report runs the script again.
+    if (answer.value("retry", false)) failed[kRecompute] = true;
+    return failed;
   }
 
  private:
-  static json Failure(const std::string& key, const std::string& error) {
-    // The note is the error's last line (the exception), the result keeps the traceback's tail.
-    std::string last = error;
-    while (!last.empty() && last.back() == '\n') last.pop_back();
-    if (const auto nl = last.rfind('\n'); nl != std::string::npos) last = last.substr(nl + 1);
-    return {{"failed", error}, {"notes", json::array({"python analysis '" + key + "' failed: " + last})}};
+  static json Failure(const std::string& key, const std::string& error, const std::string& printed = "") {
+    // The note is one line: a traceback's last (the exception), else the message's first (a
+    // timeout's "where it was stopped" follows it). The result keeps the whole tail.
+    std::string line = error;
+    while (!line.empty() && line.back() == '\n') line.pop_back();
+    const bool traceback = line.rfind("Traceback", 0) == 0 || line.rfind(' ', 0) == 0;
+    if (traceback) {
+      if (const auto nl = line.rfind('\n'); nl != std::string::npos) line = line.substr(nl + 1);
+    } else if (const auto nl = line.find('\n'); nl != std::string::npos) {
+      line = line.substr(0, nl);
+    }
+    return {{"failed", error + printed}, {"notes", json::array({"python analysis '" + key + "' failed: " + line})}};
   }
 
   std::shared_ptr<PythonPool> pool_;
@@ -205,12 +262,14 @@ class PythonAccumulator : public RunAccumulator {
 
 class PythonAnalysis : public Analysis {
  public:
-  PythonAnalysis(std::string key, std::string script, std::string source, json options, std::shared_ptr<PythonPool> pool)
+  PythonAnalysis(std::string key, std::string script, std::string source, json options, double timeout,
+                 std::shared_ptr<PythonPool> pool)
       : key_(std::move(key)),
         script_(std::move(script)),
         source_(std::move(source)),
         hash_(hash_hex(source_)),
         options_(std::move(options)),
+        timeout_(timeout),
         pool_(std::move(pool)) {}
 
   std::string key() const override { return key_; }
@@ -224,6 +283,7 @@ class PythonAnalysis : public Analysis {
                           {"script", script_},
                           {"source", source_},
                           {"options", options_},
+                          {"timeout", timeout_},
                           {"run", run.data ? run.data->dir.string() : std::string()}};
     return std::make_unique<PythonAccumulator>(pool_, request);
   }
@@ -291,6 +351,7 @@ class PythonAnalysis : public Analysis {
  private:
   std::string key_, script_, source_, hash_;
   json options_;
+  double timeout_;
   std::shared_ptr<PythonPool> pool_;
 };
 
@@ -314,7 +375,7 @@ std::vector<std::unique_ptr<Analysis>> make_python_analyses(const json& options,
   std::vector<std::string> keys;
   for (std::size_t k = 0; k < options.size(); ++k) {
     const std::string p = path + "/" + std::to_string(k);
-    const json& e = option_object(options[k], p, {"key", "script", "options"});
+    const json& e = option_object(options[k], p, {"key", "script", "options", "timeout"});
     if (!e.contains("key") || !e.at("key").is_string() || !IsMetricName(e.at("key").get<std::string>()))
       throw OptionError(p + "/key", e.value("key", json()), "a name of a-z, 0-9 and _ (the analysis' key)");
     const std::string key = e.at("key").get<std::string>();
@@ -326,8 +387,11 @@ std::vector<std::unique_ptr<Analysis>> make_python_analyses(const json& options,
     const std::string script = e.at("script").get<std::string>();
     json script_options = e.value("options", json::object());
     if (!script_options.is_object()) throw OptionError(p + "/options", script_options, "an object (the script's options)");
+    const json timeout = e.value("timeout", json(kDefaultTimeout));
+    if (!timeout.is_number() || !(timeout.get<double>() > 0.0) || !std::isfinite(timeout.get<double>()))
+      throw OptionError(p + "/timeout", timeout, "a number of seconds > 0 (how long the script may run on one run)");
     out.push_back(std::make_unique<PythonAnalysis>(key, script, ReadScript(script, p + "/script"),
-                                                   std::move(script_options), pool));
+                                                   std::move(script_options), timeout.get<double>(), pool));
   }
   return out;
 }

@@ -17,6 +17,7 @@
 #include "analysis/stats.h"
 #include "analysis/report_document.h"
 #include "analysis/system.h"
+#include "rundir/replica_rule.h"
 #include "rundir/version.h"
 
 namespace granary::analysis {
@@ -77,6 +78,59 @@ std::optional<Section> runs_section(const CampaignView& c) {
                             "written before engines recorded a manifest of their files, so a file cut or changed "
                             "since cannot be told from a whole one (only `events.csv` against `summary.json` is "
                             "checked). First of them: `" + c.unverifiable.front()->run_id + "`."});
+  return s;
+}
+
+// Adaptive replicas (rundir/replica_rule.h): the stopping rule, and per point its targets as
+// the used runs reach them; a point that got `max` replicas without reaching one is marked.
+std::optional<Section> replicas_section(const CampaignAnalysis& ca) {
+  const CampaignView& c = ca.view;
+  const nlohmann::json& spec = c.campaign->spec;
+  if (!spec.is_object() || !spec.contains("replicas") || !spec["replicas"].is_object()) return std::nullopt;
+  ReplicaRule rule;
+  try {
+    rule = ReplicaRule::from_json(spec["replicas"]);
+  } catch (const std::exception&) {
+    return std::nullopt;  // the runner validated it when it was planned
+  }
+  Section s{"replicas", "Replicas: the stopping rule", {}};
+  s.blocks.push_back(Text{
+      "Replicas were added adaptively: " + rule.text() +
+      ". After every finished run the runner judges each point whose runs have all ended and plans more where a "
+      "target is not met (as many as se ~ 1/sqrt(n) says it needs, at most doubling). The number of runs per point "
+      "is therefore itself random, and stopping when the standard error looks small favours stretches of runs that "
+      "happened to agree: the se of a point that stopped at its target is slightly optimistic, and a mean whose "
+      "spread grows with its size (avalanche sizes) is biased low by a term of order 1/n. The `min` pilot runs keep "
+      "n from stopping on one or two lucky runs; the bias is small against the se at the targets used here "
+      "(docs/analyses.md \"Sequential stopping\"). Points marked **max reached** stopped at `max` without reaching "
+      "their target: their se is larger than asked for."});
+  std::map<std::string, int> planned;
+  for (const UsedRun& u : c.used) ++planned[u.record->point_id];
+  for (const RunRecord* r : c.missing) ++planned[r->point_id];
+  for (const RunRecord* r : c.failed) ++planned[r->point_id];
+  std::vector<std::string> header = {"point", "runs used", "runs planned"};
+  for (const ReplicaTarget& t : rule.until)
+    header.insert(header.end(), {t.metric, (t.relative ? "se/|" + t.metric + "|" : "se(" + t.metric + ")") +
+                                               " (target " + Cell::number(t.value, 3).shown() + ")"});
+  header.push_back("verdict");
+  Table t{"replicas", "Adaptive replicas per point: each target and how far the point got", header, {}, {}};
+  for (std::size_t p = 0; p < c.points.size(); ++p) {
+    std::map<std::string, MetricEstimate> metrics;
+    for (const PointMetric& m : ca.all_point_metrics(p)) metrics[m.name] = {m.mean, m.se, m.n};
+    const std::vector<TargetStatus> targets = judge_targets(rule, metrics);
+    const int n_planned = planned[c.points[p].id];
+    std::vector<Cell> row = {point_label(c, c.points[p].point, c.points[p].spec, NameForm::kShort),
+                             Cell::count(static_cast<long long>(c.points[p].runs.size())), Cell::count(n_planned)};
+    bool met = true;
+    for (const TargetStatus& x : targets) {
+      row.push_back(Cell::estimate(x.estimate.value, x.estimate.se, x.estimate.n));
+      row.push_back(Cell::number(x.achieved, 3));
+      met = met && x.met;
+    }
+    row.push_back(met ? "met" : n_planned >= rule.max ? "**max reached, target not met**" : "not yet (more runs planned or to plan)");
+    t.rows.push_back(std::move(row));
+  }
+  s.blocks.push_back(t);
   return s;
 }
 
@@ -385,6 +439,7 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   if (comparison)
     if (auto s = engine_comparison_section(c, *comparison)) sections.push_back(std::move(*s));
   if (auto s = system_section(c)) sections.push_back(std::move(*s));
+  if (auto s = replicas_section(ca)) sections.push_back(std::move(*s));
   if (auto s = runs_section(c)) sections.push_back(std::move(*s));
   if (auto s = provenance_section(c)) sections.push_back(std::move(*s));
   if (auto s = per_run_section(ca)) sections.push_back(std::move(*s));

@@ -286,7 +286,8 @@ RunPassResult analyse_run(const std::filesystem::path& dir, const std::vector<co
     keys.push_back(cache_key(*analyses[k], pass));
     if (options.read_cache && !summary_hash.empty()) {
       const auto cached = rundir::ReadCachedResult(dir, analyses[k]->key());
-      if (cached && cached->key == keys[k] && cached->summary_hash == summary_hash) {
+      const bool recompute = cached && cached->result.is_object() && cached->result.value(kRecompute, false);
+      if (cached && cached->key == keys[k] && cached->summary_hash == summary_hash && !recompute) {
         out.results[k] = cached->result;
         ++out.from_cache;
         continue;

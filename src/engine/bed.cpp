@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <numbers>
 #include <stdexcept>
 
@@ -189,6 +190,65 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
               [](const HistoryEntry& a, const HistoryEntry& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
   bed.height = world.MaxDiscTop();
   bed.settle_time = t;
+  return bed;
+}
+
+BedState LoosePlacement(const RunSpec& spec) {
+  const std::vector<ShapeTemplate> templates = MakeTemplates(spec);
+  Rng rng(spec.seed);
+  std::vector<int> order;
+  const std::vector<int> counts = SpeciesCounts(spec.bodies);
+  for (std::size_t k = 0; k < counts.size(); ++k) order.insert(order.end(), static_cast<std::size_t>(counts[k]), static_cast<int>(k));
+  for (std::size_t i = order.size(); i > 1; --i) {
+    const std::size_t j = static_cast<std::size_t>(rng.Next() % i);
+    std::swap(order[i - 1], order[j]);
+  }
+  // One region for all bodies, as loose as a batch's, from just above the base; a grid of
+  // cells of the largest bounding diameter finds the neighbours to test.
+  double area = 0.0, cell = 0.0;
+  for (int k : order) {
+    area += templates[static_cast<std::size_t>(k)].area;
+    cell = std::max(cell, 2 * templates[static_cast<std::size_t>(k)].bound_radius);
+  }
+  double height = area / (spec.silo.width * kInsertPackingFraction);
+  const double hw = spec.silo.width / 2, y_base = 0.5;
+  std::map<std::pair<long, long>, std::vector<int>> grid;
+  BedState bed;
+  for (int k : order) {
+    const ShapeTemplate& tp = templates[static_cast<std::size_t>(k)];
+    const double rb = tp.bound_radius;
+    double x = 0, y = 0, th = 0;
+    for (int attempt = 0;; ++attempt) {
+      if (attempt > 0 && attempt % 200 == 0) height *= 1.1;  // region too crowded: grow it
+      x = rng.Uniform(-hw + rb, hw - rb);
+      y = rng.Uniform(y_base + rb, y_base + rb + height);
+      th = rng.Uniform(0.0, 2.0 * std::numbers::pi);
+      const long cx = std::lround(std::floor(x / cell)), cy = std::lround(std::floor(y / cell));
+      bool ok = true;
+      for (long i = cx - 1; i <= cx + 1 && ok; ++i)
+        for (long j = cy - 1; j <= cy + 1 && ok; ++j) {
+          const auto it = grid.find({i, j});
+          if (it == grid.end()) continue;
+          for (int b : it->second)
+            if (Overlaps(tp, x, y, th, templates[static_cast<std::size_t>(bed.species[b])], bed.x[b], bed.y[b],
+                         bed.theta[b])) {
+              ok = false;
+              break;
+            }
+        }
+      if (!ok) continue;
+      grid[{cx, cy}].push_back(static_cast<int>(bed.species.size()));
+      break;
+    }
+    bed.species.push_back(k);
+    bed.x.push_back(x);
+    bed.y.push_back(y);
+    bed.theta.push_back(th);
+    bed.vx.push_back(0.0);
+    bed.vy.push_back(0.0);
+    bed.omega.push_back(0.0);
+    bed.height = std::max(bed.height, y + rb);
+  }
   return bed;
 }
 

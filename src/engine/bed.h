@@ -41,6 +41,11 @@ std::vector<ShapeTemplate> MakeTemplates(const RunSpec& spec);
 // threads) and gives the same bed to the bit (Bed.TheSkinDoesNotChangeTheBed).
 inline constexpr double kBedSkin = 0.4;
 
+// The bodies of the spec placed at random, without overlaps, in one loose region (the packing
+// of an insertion batch) above the base of the closed silo, at rest: the start of a bed that
+// another engine settles (bed/settled_by "lammps", docs/lammps.md). No contact history.
+BedState LoosePlacement(const RunSpec& spec);
+
 // Prepares a bed from scratch (deterministic in spec.seed; `skin` only changes the speed).
 BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double skin = kBedSkin);
 

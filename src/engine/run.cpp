@@ -302,9 +302,16 @@ void Discharge::StartFresh() {
 
 void Discharge::PlaceBed() {
   const auto t0 = Clock::now();
-  ObtainedBed ob = ObtainBed(spec_, dir_.string(), [&](double f, double t) {
-    ReportProgress({"bed", f, t, 0, 0, Seconds(t0)}, options_.quiet);
-  });
+  ObtainedBed ob;
+  if (spec_.bed.settled_by == BedSettler::kLammps) {
+    // Only `start-frame` gets here (validate: only a LAMMPS run settles in LAMMPS): the loose
+    // placement LAMMPS settles, neither cached nor prepared.
+    ob.bed = LoosePlacement(spec_);
+  } else {
+    ob = ObtainBed(spec_, dir_.string(), [&](double f, double t) {
+      ReportProgress({"bed", f, t, 0, 0, Seconds(t0)}, options_.quiet);
+    });
+  }
   bed_file_ = ob.file;
   bed_prepared_here_ = ob.prepared_here;
   bed_height_ = ob.bed.height;
@@ -922,6 +929,18 @@ RunResult Discharge::Run() {
   }
   World& w = *world_;
   std::string end_reason;
+  if (continued_ && Unclogging() && in_clog_ && unclog_attempts_ == 0) {
+    // Continued from the checkpoint of a run that ended at max_clogs (only that leaves a clog
+    // of an unclogging run without an attempt): what this step does with the limit now — unclog
+    // (a larger max_clogs) or end again — then the frame of this step, which the checkpoint was
+    // written before, so the outputs are those of a run that never stopped here.
+    if (clogs_ >= spec_.discharge.unclog.max_clogs) end_reason = "max_clogs";
+    else Unclog();
+    if (frame_every_ > 0 && step_ % frame_every_ == 0) {
+      WriteFrame();
+      if (contacts_.is_open()) WriteContacts();
+    }
+  }
   auto last_report = Clock::now();
   const std::int64_t first_step = step_;
   g_stop_accepted = 1;  // from here a stop request is honoured with a checkpoint
@@ -966,6 +985,10 @@ RunResult Discharge::Run() {
         if (Unclogging()) {
           if (clogs_ >= spec_.discharge.unclog.max_clogs) {
             end_reason = "max_clogs";
+            // A last checkpoint, before this step's frame: the run planned again with a larger
+            // max_clogs (granary::extends) continues from here and unclogs this clog as a run
+            // planned with that limit does at this step (below, after the continue).
+            WriteCheckpoint();
           } else {
             Unclog();
           }

@@ -28,11 +28,11 @@
 #include <sstream>
 
 #include <boost/process.hpp>
-#include <boost/process/extend.hpp>
 
 #include "engine/geometry.h"
 #include "engine/silo_outline.h"
 #include "engine/stall.h"
+#include "external/driver.h"
 #include "lammps/input_script.h"
 #include "rundir/clogs.h"
 #include "rundir/events.h"
@@ -50,178 +50,47 @@ namespace fs = std::filesystem;
 namespace bp = boost::process;
 using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
+using external::ChildRun;
+using external::Diagnostics;
+using external::NearestImage;
+using external::NewestCheckpoint;
+using external::NextDumpBlock;
+using external::PruneCheckpoints;
+using external::Tokens;
+using external::TruncateDump;
 
 namespace {
 
-constexpr int kLogTailLines = 25;
 constexpr char kStartFrame[] = "start.dump";           // the native bed as the discharge starts from it
 constexpr char kStateFile[] = "lammps_state.json";     // bed provenance, clogs, wall time across sessions
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
 
-volatile std::sig_atomic_t g_stop_signal = 0;
-
-// A killed backend never leaves LAMMPS writing into a directory the runner will relaunch; and
-// the child leads its own process group, so that ending it ends what it started too (a
-// `shell` command of LAMMPS, MPI ranks).
-struct DieWithParent : bp::extend::handler {
-  template <class Executor>
-  void on_exec_setup(Executor&) const {
-    setpgid(0, 0);
-    prctl(PR_SET_PDEATHSIG, SIGKILL);
-  }
-};
-
-// granary-lammps itself (it runs each LAMMPS process through `exec-helper`, which holds the
-// directory's helper lock), or "" when the library runs inside another program.
-std::string HelperExe() {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  return !ec && self.filename() == "granary-lammps" ? self.string() : std::string();
-}
-
-// How a subprocess ended and what it said.
-struct Child {
-  int exit_code = 0;
-  int signal = 0;
-  bool stopped = false;         // LAMMPS checkpointed and ended on a stop request
-  std::string stop_reason;      // why the backend ended it
-  std::vector<std::string> errors;
-  std::deque<std::string> screen;
-  std::string how(const std::string& what) const {
-    if (!stop_reason.empty()) return stop_reason;
-    if (signal != 0) return what + " killed by " + SignalName(signal);
-    return what + " exit status " + std::to_string(exit_code);
-  }
-};
-
-std::string Diagnostics(const Child& r, const fs::path& log) {
-  std::string msg;
-  for (const std::string& e : r.errors) msg += "\n" + e;
-  msg += "\n--- screen output, last lines ---\n";
-  for (const std::string& l : r.screen) msg += l + "\n";
-  if (r.screen.empty()) msg += "(none)\n";
-  if (!log.empty()) {
-    const std::string tail = TailOfFile(log, kLogTailLines);
-    msg += "--- last lines of " + log.filename().string() + " ---\n" + (tail.empty() ? "(empty or missing)\n" : tail);
-  }
-  return msg;
-}
-
-// Runs `program args` in `dir`, its stdout and stderr read line by line (on_line for each). A
-// stop request writes `control` (LAMMPS checkpoints and ends at its next chunk) or, without one,
-// ends the child at once; so does silence for `silence_limit` seconds (hung).
-Child RunChild(const std::string& program, const std::vector<std::string>& args, const fs::path& dir,
-               const fs::path& control, double silence_limit, const std::string& what,
-               const std::function<void(const std::string&)>& on_line) {
-  bp::pipe out;
-  std::error_code ec;
-  bp::child child(bp::exe = program, bp::args = args, bp::start_dir = dir.string(), bp::std_in < bp::null,
-                  (bp::std_out & bp::std_err) > out, DieWithParent{}, ec);
-  if (ec) throw LammpsError("cannot start " + program + ": " + ec.message());
-  Child r;
-  const int fd = out.native_source();
-  std::string pending;
-  char buf[4096];
-  auto last_output = Clock::now();
-  bool stop_sent = false;
-  const auto handle = [&](const std::string& line) {
-    r.screen.push_back(line);
-    if (r.screen.size() > static_cast<std::size_t>(kLogTailLines)) r.screen.pop_front();
-    if (line.rfind("GRANARY_STOPPED", 0) == 0) r.stopped = true;
-    if (line.find("ERROR") != std::string::npos && r.errors.size() < 5) r.errors.push_back(line);
-    on_line(line);
-  };
-  while (true) {
-    pollfd p{fd, POLLIN, 0};
-    const int ready = ::poll(&p, 1, 1000);
-    if (ready > 0) {
-      const ssize_t n = ::read(fd, buf, sizeof buf);
-      if (n == 0) break;
-      if (n > 0) {
-        last_output = Clock::now();
-        pending.append(buf, static_cast<std::size_t>(n));
-        for (std::size_t nl; (nl = pending.find('\n')) != std::string::npos; pending.erase(0, nl + 1))
-          handle(pending.substr(0, nl));
-      } else if (errno != EINTR) {
-        break;
-      }
-    } else if (ready < 0 && errno != EINTR) {
-      break;
-    }
-    if (g_stop_signal != 0 && !stop_sent) {
-      stop_sent = true;
-      if (!control.empty()) {
-        WriteAtomically(control, "variable stop_requested equal 1\n", Durability::kVisible);
-        std::fprintf(stderr, "granary-lammps: stop requested (%s): LAMMPS checkpoints at the end of its chunk\n",
-                     SignalName(g_stop_signal).c_str());
-      } else {
-        r.stop_reason = "stopped on request (" + SignalName(g_stop_signal) + ")";
-        kill(-child.id(), SIGTERM);
-      }
-    }
-    if (silence_limit > 0 && Seconds(last_output) > silence_limit && r.stop_reason.empty()) {
-      r.stop_reason = what + " printed nothing for " + std::to_string(static_cast<long long>(silence_limit)) +
-                      " s and was ended (hung? the limit is --silence-limit)";
-      kill(-child.id(), SIGKILL);
-    }
-    // Ended, though something it started still holds its output open.
-    if (ready == 0 && !child.running()) break;
-  }
-  if (!pending.empty()) handle(pending);
-  child.wait(ec);
-  const int status = child.native_exit_code();
-  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
-  else r.exit_code = WEXITSTATUS(status);
-  return r;
-}
-
 // LAMMPS on `input` in `dir`, one process or `threads` MPI ranks, each through exec-helper.
-Child RunLammps(const std::string& exe, int threads, const fs::path& dir, const std::string& input,
-                const std::string& log, const fs::path& control, double silence_limit,
-                const std::function<void(const std::string&)>& on_line) {
+ChildRun RunLammps(const std::string& exe, int threads, const fs::path& dir, const std::string& input,
+                   const std::string& log, const fs::path& control, double silence_limit,
+                   const std::function<void(const std::string&)>& on_line) {
   // LAMMPS writes its screen through stdio, fully buffered into a pipe: line-buffered, its
   // progress lines come when printed and none is lost when it is killed.
   std::vector<std::string> lmp = {exe};
   if (const std::string stdbuf = bp::search_path("stdbuf").string(); !stdbuf.empty()) lmp = {stdbuf, "-oL", exe};
-  const std::string helper = HelperExe();
-  if (!helper.empty()) lmp.insert(lmp.begin(), {helper, "exec-helper", dir.string()});
-  std::string program;
-  std::vector<std::string> args;
-  if (threads > 1) {
-    std::vector<std::string> launcher;
-    std::istringstream words(std::getenv("GRANARY_MPI_LAUNCHER") ? std::getenv("GRANARY_MPI_LAUNCHER") : "");
-    for (std::string w; words >> w;) launcher.push_back(w);
-    if (launcher.empty()) launcher = {"mpirun"};
-    program = bp::search_path(launcher[0]).string();
-    if (program.empty())
-      throw LammpsError("--threads " + std::to_string(threads) + " needs " + launcher[0] +
-                        (launcher[0] == "mpirun" ? " (Debian package openmpi-bin)" : " (from GRANARY_MPI_LAUNCHER)"));
-    args.assign(launcher.begin() + 1, launcher.end());
-    if (fs::path(program).filename() == "srun") {
-      args.push_back("--ntasks=" + std::to_string(threads));
-    } else {
-      if (geteuid() == 0 && fs::path(program).filename() == "mpirun") args.push_back("--allow-run-as-root");
-      args.insert(args.end(), {"-np", std::to_string(threads)});
-    }
-    args.insert(args.end(), lmp.begin(), lmp.end());
-  } else {
-    program = lmp[0];
-    args.assign(lmp.begin() + 1, lmp.end());
+  external::Command c;
+  try {
+    c = external::LaunchCommand(lmp, threads, dir, external::HelperExe("granary-lammps"));
+  } catch (const std::runtime_error& e) {
+    throw LammpsError(e.what());
   }
-  args.insert(args.end(), {"-in", input, "-log", log, "-echo", "none", "-nocite"});
-  return RunChild(program, args, dir, control, silence_limit, "LAMMPS", on_line);
+  c.args.insert(c.args.end(), {"-in", input, "-log", log, "-echo", "none", "-nocite"});
+  try {
+    return external::RunChild(c.program, c.args, {dir, control, silence_limit, "LAMMPS", "granary-lammps", dir / log},
+                              on_line);
+  } catch (const std::runtime_error& e) {
+    throw LammpsError(e.what());
+  }
 }
 
-[[noreturn]] void Fail(const std::string& what, const Child& r, const fs::path& log) {
-  throw LammpsError(what + " (" + r.how("LAMMPS") + ")" + Diagnostics(r, log));
-}
-
-std::vector<std::string> Tokens(const std::string& line) {
-  std::istringstream in(line);
-  std::vector<std::string> t;
-  for (std::string w; in >> w;) t.push_back(w);
-  return t;
+[[noreturn]] void Fail(const std::string& what, const ChildRun& r, const fs::path& log) {
+  throw LammpsError(what + " (" + r.how("LAMMPS") + ")" + Diagnostics(r, log, "LAMMPS"));
 }
 
 // granary-engine, which prepares (or finds in its cache) the native bed.
@@ -246,15 +115,21 @@ std::string FindEngine(const std::string& preferred) {
 json ObtainStart(const fs::path& dir, const BackendOptions& options) {
   const std::string engine = FindEngine(options.engine);
   json provenance;
-  const Child r = RunChild(engine, {"start-frame", dir.string(), (dir / kStartFrame).string()}, dir, {},
-                           options.silence_limit, "granary-engine", [&](const std::string& line) {
+  ChildRun r;
+  try {
+    r = external::RunChild(engine, {"start-frame", dir.string(), (dir / kStartFrame).string()},
+                           {dir, {}, options.silence_limit, "granary-engine", "granary-lammps", {}},
+                           [&](const std::string& line) {
                              if (!line.empty() && line[0] == '{') provenance = json::parse(line, nullptr, false);
                            });
-  if (g_stop_signal != 0) throw Stopped(g_stop_signal, "stopped while the native engine prepared the bed");
+  } catch (const std::runtime_error& e) {
+    throw LammpsError(e.what());
+  }
+  if (external::StopSignal() != 0) throw Stopped(external::StopSignal(), "stopped while the native engine prepared the bed");
   if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty() || !provenance.is_object() ||
       !fs::exists(dir / kStartFrame))
     throw LammpsError("the native engine could not provide the bed (" + r.how("granary-engine") + ")" +
-                      Diagnostics(r, {}));
+                      Diagnostics(r, {}, "granary-engine"));
   return provenance;
 }
 
@@ -263,67 +138,6 @@ rundir::Frame ReadStart(const fs::path& dir, const RunSpec& spec) {
   rundir::Frame f;
   if (!in.Next(f) || f.discs.empty()) throw LammpsError("the start frame " + (dir / kStartFrame).string() + " is empty");
   return f;
-}
-
-struct Checkpoint {
-  fs::path file;
-  long long step = -1;
-};
-std::vector<std::pair<long long, fs::path>> Checkpoints(const fs::path& dir) {
-  static const std::regex name(R"(checkpoint\.(\d+)\.restart)");
-  std::vector<std::pair<long long, fs::path>> found;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    std::smatch m;
-    const std::string f = e.path().filename().string();
-    if (std::regex_match(f, m, name)) found.emplace_back(std::stoll(m[1]), e.path());
-  }
-  std::sort(found.rbegin(), found.rend());
-  return found;
-}
-Checkpoint NewestCheckpoint(const fs::path& dir) {
-  const auto found = Checkpoints(dir);
-  return found.empty() ? Checkpoint{} : Checkpoint{found[0].second, found[0].first};
-}
-void PruneCheckpoints(const fs::path& dir, std::size_t keep) {
-  const auto found = Checkpoints(dir);
-  for (std::size_t i = keep; i < found.size(); ++i) fs::remove(found[i].second);
-}
-
-// The next block of a LAMMPS text dump: its step and row count, leaving `in` at its first row.
-bool NextDumpBlock(std::istream& in, long long& step, long long& rows) {
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line != "ITEM: TIMESTEP") continue;
-    std::string step_s, n_s;
-    std::getline(in, step_s);
-    std::getline(in, line);  // ITEM: NUMBER OF ATOMS
-    std::getline(in, n_s);
-    for (int i = 0; i < 5; ++i) std::getline(in, line);  // BOX BOUNDS + 3 lines, ITEM: ATOMS
-    step = std::stoll(step_s);
-    rows = std::stoll(n_s);
-    return true;
-  }
-  return false;
-}
-
-// Cuts a dump back to the blocks at or before `step` (a continue runs the later ones again).
-void TruncateDump(const fs::path& file, long long step) {
-  if (!fs::exists(file)) return;
-  std::ifstream in(file);
-  std::string line, kept;
-  bool keep = true;
-  while (std::getline(in, line)) {
-    if (line == "ITEM: TIMESTEP") {
-      std::string s;
-      std::getline(in, s);
-      keep = std::stoll(s) <= step;
-      if (keep) kept += line + "\n" + s + "\n";
-      continue;
-    }
-    if (keep) kept += line + "\n";
-  }
-  in.close();
-  WriteAtomically(file, kept);
 }
 
 struct Event {
@@ -378,13 +192,6 @@ std::vector<Event> ReadEvents(const fs::path& file, const RunSpec& spec, const S
     }
   }
   return events;
-}
-
-// The periodic image of y nearest to `near`.
-double NearestImage(double y, double near, double height) {
-  if (y - near > height / 2) return y - height;
-  if (near - y > height / 2) return y + height;
-  return y;
 }
 
 // The frames' box: LAMMPS' box, with room in y for clumps put back together across the
@@ -522,6 +329,52 @@ void WriteInputsInto(const fs::path& dir, const RunSpec& spec, const Setup& setu
   WriteAtomically(dir / kControlFile, "variable stop_requested equal 0\n");
 }
 
+// bed/settled_by "lammps": LAMMPS settles the loose placement the native engine wrote as the
+// start frame (outlets closed), and the settled bed becomes the start frame, at t = 0.
+json SettleInLammps(const fs::path& dir, const RunSpec& spec, const std::string& exe, const BackendOptions& options,
+                    const json& placed) {
+  const rundir::Frame loose = ReadStart(dir, spec);
+  const Setup s = SettleSetup(spec, loose);
+  double top = 0;
+  for (const rundir::Disc& d : loose.discs) top = std::max(top, d.y + d.radius);
+  // Not settled before the highest body could have fallen to the base (the native batches' wait).
+  const double fall_time = std::sqrt(2.0 * top / spec.gravity) + 1.0;
+  WriteAtomically(dir / kLooseDataFile, DataFile(s, loose));
+  WriteAtomically(dir / "settle.in", SettleScript(spec, s, fall_time));
+  const auto t0 = Clock::now();
+  double settled_t = -1, ke = -1;
+  const ChildRun r = RunLammps(exe, options.threads, dir, "settle.in", "log.settle", {}, options.silence_limit,
+                               [&](const std::string& line) {
+    const auto t = Tokens(line);
+    if (t.size() > 2 && t[0] == "GRANARY_SETTLED") {
+      settled_t = std::stod(t[1]);
+      ke = std::stod(t[2]);
+    } else if (t.size() == 5 && std::isdigit(static_cast<unsigned char>(t[0][0])) &&
+               t[1].find_first_not_of("0123456789.eE+-") == std::string::npos) {
+      const double time = std::stod(t[1]);  // a thermo line: step time atoms ke_per_body cpu
+      rundir::WriteProgress(dir, {"bed", std::min(1.0, time / spec.bed.max_settle_time), time, 0.0, 0, Seconds(t0)},
+                            !options.quiet);
+    }
+  });
+  if (external::StopSignal() != 0)
+    throw Stopped(external::StopSignal(), "stopped while LAMMPS settled the bed (not checkpointed)");
+  if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty() || settled_t < 0 || !fs::exists(dir / kSettledDump))
+    Fail("LAMMPS failed while settling the bed", r, dir / "log.settle");
+  std::ifstream in(dir / kSettledDump);
+  long long step = 0, n = 0;
+  if (!NextDumpBlock(in, step, n)) throw LammpsError("LAMMPS wrote an empty " + std::string(kSettledDump));
+  rundir::Frame bed;
+  ReadFrameBlock(in, n, 0, spec, s, bed);
+  double height = 0;
+  for (const rundir::Disc& d : bed.discs) height = std::max(height, d.y + d.radius);
+  rundir::FrameWriter out = rundir::FrameWriter::Create(dir / kStartFrame);
+  out.Write(bed);
+  out.Close();
+  return {{"settled_by", "lammps"}, {"bed_file", ""}, {"prepared_here", true}, {"height", height},
+          {"settle_time", settled_t}, {"ke_per_body", ke}, {"settled", ke >= 0 && ke < spec.bed.settle_ke_per_body},
+          {"cleared_by_obstacles", placed.value("cleared_by_obstacles", 0)}};
+}
+
 BackendResult RunLocked(const fs::path& dir, const BackendOptions& options);
 
 }  // namespace
@@ -547,7 +400,7 @@ std::vector<std::string> WriteInputs(const std::string& dir_name, const BackendO
   return {kStartFrame, kDataFile, "discharge.in", kControlFile};
 }
 
-void RequestStop(int signal) { g_stop_signal = signal; }
+void RequestStop(int signal) { external::RequestStop(signal); }
 
 BackendResult RunDirectory(const std::string& dir_name, const BackendOptions& options) {
   const RunDirectoryLock lock(fs::absolute(dir_name));
@@ -563,7 +416,7 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
   fs::remove(dir / rundir::kDoneFile);
 
   BackendResult result;
-  const Checkpoint ckpt = NewestCheckpoint(dir);
+  const external::Checkpoint ckpt = NewestCheckpoint(dir);
   const fs::path state_file = dir / kStateFile;
   json state;
   DischargeStart start;
@@ -591,7 +444,8 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
     PruneCheckpoints(dir, 0);
     const auto t0 = Clock::now();
     rundir::WriteProgress(dir, {"bed", 0.0, 0.0, 0.0, 0, 0.0}, !options.quiet);
-    const json bed = ObtainStart(dir, options);
+    json bed = ObtainStart(dir, options);
+    if (spec.bed.settled_by == BedSettler::kLammps) bed = SettleInLammps(dir, spec, exe, options, bed);
     state = {{"bed", bed}, {"bed_wall_s", Seconds(t0)}, {"discharge_wall_s", 0.0}, {"clog_steps", json::array()}};
     WriteAtomically(state_file, state.dump() + "\n");
   }
@@ -629,7 +483,7 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
   int progress_lines = 0;
   const std::string log = result.continued ? "log.discharge." + std::to_string(ckpt.step) : "log.discharge";
   const fs::path control = dir / kControlFile;
-  const Child r = RunLammps(exe, options.threads, dir, "discharge.in", log, control, options.silence_limit,
+  const ChildRun r = RunLammps(exe, options.threads, dir, "discharge.in", log, control, options.silence_limit,
                             [&](const std::string& line) {
     if (line.rfind("GRANARY_", 0) != 0) return;
     const auto t = Tokens(line);
@@ -653,11 +507,11 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
   if (r.stopped) {
     state["discharge_wall_s"] = wall_before + Seconds(t_discharge);
     WriteAtomically(state_file, state.dump() + "\n");
-    throw Stopped(g_stop_signal != 0 ? g_stop_signal : SIGTERM,
+    throw Stopped(external::StopSignal() != 0 ? external::StopSignal() : SIGTERM,
                   "stopped on request; checkpointed by LAMMPS (" + NewestCheckpoint(dir).file.filename().string() + ")");
   }
-  if (g_stop_signal != 0)
-    throw Stopped(g_stop_signal, "stopped on request before LAMMPS checkpointed" + Diagnostics(r, dir / log));
+  if (external::StopSignal() != 0)
+    throw Stopped(external::StopSignal(), "stopped on request before LAMMPS checkpointed" + Diagnostics(r, dir / log, "LAMMPS"));
   if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty() || end_reason.empty() || !fs::exists(dir / kFinalDump)) {
     // A checkpoint cut short by a kill fails at read_restart: drop it, go on from the one before.
     if (result.continued && progress_lines == 0 && r.stop_reason.empty() && r.signal == 0) {

@@ -24,6 +24,9 @@ inline constexpr char kExitsDump[] = "exits.lammps";        // id mol xcm ycm of
 inline constexpr char kPairsDump[] = "contacts.lammps";     // pair contacts (local dump)
 inline constexpr char kFinalDump[] = "final.lammps";        // id mol type x y radius at the end
 inline constexpr char kClogFilePrefix[] = "clog.";          // clog.<step>.atoms, clog.<step>.pairs
+// bed/settled_by "lammps": the loose placement LAMMPS settles, and the settled bed.
+inline constexpr char kLooseDataFile[] = "loose.data";
+inline constexpr char kSettledDump[] = "settled.lammps";    // id mol type x y radius vx vy omegaz
 
 // The box and the bodies as LAMMPS runs them.
 struct Setup {
@@ -59,6 +62,14 @@ struct DischargeStart {
 // clogs), "GRANARY_END reason" and "GRANARY_FINAL step" at the end, "GRANARY_STOPPED step" when
 // stopped on request.
 std::string DischargeScript(const RunSpec& spec, const Setup& setup, const DischargeStart& start);
+
+// bed/settled_by "lammps": the box of the settling (the closed silo, room above the loose
+// placement) and the script that settles the bodies of kLooseDataFile under gravity with the
+// outlets closed until their kinetic energy per body is below bed/settle_ke_per_body (not
+// before `fall_time`, at most bed/max_settle_time), then writes kSettledDump and prints
+// "GRANARY_SETTLED time ke_per_body".
+Setup SettleSetup(const RunSpec& spec, const rundir::Frame& loose);
+std::string SettleScript(const RunSpec& spec, const Setup& setup, double fall_time);
 
 // The exact number formatting used in the inputs (17 significant digits, C locale).
 std::string Num(double v);

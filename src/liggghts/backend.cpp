@@ -31,11 +31,11 @@
 #include <sstream>
 
 #include <boost/process.hpp>
-#include <boost/process/extend.hpp>
 
 #include "engine/shapes.h"
 #include "engine/silo_outline.h"
 #include "engine/stall.h"
+#include "external/driver.h"
 #include "liggghts/input_script.h"
 #include "rundir/clogs.h"
 #include "rundir/contacts.h"
@@ -52,186 +52,58 @@ namespace fs = std::filesystem;
 namespace bp = boost::process;
 using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
+using external::ChildRun;
+using external::NearestImage;
+using external::NewestCheckpoint;
+using external::NextDumpBlock;
+using external::PruneCheckpoints;
+using external::Tokens;
 
 namespace {
 
-constexpr int kLogTailLines = 25;
-
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
-
-// A stop request (SIGTERM, SIGINT: set by the command line's handler, RequestStop).
-volatile std::sig_atomic_t g_stop_signal = 0;
-
-// Parent-death signal in the child: a killed backend never leaves LIGGGHTS writing into a
-// directory the runner will relaunch.
-struct DieWithParent : bp::extend::handler {
-  template <class Executor>
-  void on_exec_setup(Executor&) const {
-    prctl(PR_SET_PDEATHSIG, SIGKILL);
-  }
-};
-
-// granary-liggghts itself, which runs each LIGGGHTS process through `exec-helper` (it takes
-// the directory's helper lock, then execs LIGGGHTS), or "" outside granary-liggghts (the
-// bench and tests link the library into other programs: LIGGGHTS is then run directly).
-std::string HelperExe() {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  return !ec && self.filename() == "granary-liggghts" ? self.string() : std::string();
-}
-
-// How LIGGGHTS ended, and what it said: the "ERROR" lines and the last lines of its screen
-// output (which holds what its log does not: MPI's and the C library's messages).
-struct LiggghtsRun {
-  int exit_code = 0;
-  int signal = 0;              // the signal that ended it (or mpirun), or 0
-  bool stopped = false;        // it checkpointed and ended on a stop request (GRANARY_STOPPED)
-  std::string stop_reason;     // why the backend ended it: a stop request, or silence
-  std::vector<std::string> errors;
-  std::deque<std::string> screen;  // last kLogTailLines lines of its screen output
-  std::string how() const {
-    if (!stop_reason.empty()) return stop_reason;
-    if (signal != 0) return "LIGGGHTS killed by " + SignalName(signal);
-    return "LIGGGHTS exit status " + std::to_string(exit_code);
-  }
-};
-
-std::string Diagnostics(const LiggghtsRun& r, const fs::path& log);
 
 // Runs LIGGGHTS on `input` in `dir` (cwd), its log in `log`; calls on_line for every line
 // LIGGGHTS prints that starts with "GRANARY_". A stop request makes a LIGGGHTS that reads
 // `control` (the discharge) checkpoint and end at its next chunk; any other is ended at once.
-// So is a LIGGGHTS that prints nothing for `silence_limit` seconds (hung).
-LiggghtsRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir, const std::string& input,
-                        const std::string& log, const fs::path& control, double silence_limit,
-                        const std::function<void(const std::string&)>& on_line) {
-  std::vector<std::string> args;
-  std::string program = exe;
-  const std::string helper = HelperExe();
-  std::vector<std::string> liggghts = {exe};
-  if (!helper.empty()) liggghts = {helper, "exec-helper", dir.string(), exe};
-  if (threads > 1) {
-    // $GRANARY_MPI_LAUNCHER (e.g. "srun --mpi=pmix" inside a Slurm task), else mpirun.
-    std::vector<std::string> launcher;
-    std::istringstream words(std::getenv("GRANARY_MPI_LAUNCHER") ? std::getenv("GRANARY_MPI_LAUNCHER") : "");
-    for (std::string w; words >> w;) launcher.push_back(w);
-    if (launcher.empty()) launcher = {"mpirun"};
-    program = bp::search_path(launcher[0]).string();
-    if (program.empty()) {
-      throw LiggghtsError("--threads " + std::to_string(threads) + " needs " + launcher[0] +
-                          (launcher[0] == "mpirun" ? " (Debian package openmpi-bin)" : " (from GRANARY_MPI_LAUNCHER)"));
-    }
-    args.assign(launcher.begin() + 1, launcher.end());
-    if (fs::path(program).filename() == "srun") {
-      args.push_back("--ntasks=" + std::to_string(threads));
-    } else {
-      if (geteuid() == 0 && fs::path(program).filename() == "mpirun") args.push_back("--allow-run-as-root");
-      args.insert(args.end(), {"-np", std::to_string(threads)});
-    }
-    args.insert(args.end(), liggghts.begin(), liggghts.end());
-  } else {
-    program = liggghts[0];
-    args.insert(args.end(), liggghts.begin() + 1, liggghts.end());
+// So is a LIGGGHTS that prints nothing for `silence_limit` seconds (hung). The subprocess is
+// the external-engine driver's (external/driver.h), shared with the LAMMPS backend.
+ChildRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir, const std::string& input,
+                     const std::string& log, const fs::path& control, double silence_limit,
+                     const std::function<void(const std::string&)>& on_line) {
+  external::Command c;
+  try {
+    c = external::LaunchCommand({exe}, threads, dir, external::HelperExe("granary-liggghts"));
+  } catch (const std::runtime_error& e) {
+    throw LiggghtsError(e.what());
   }
-  args.insert(args.end(), {"-in", input, "-log", log, "-echo", "none"});
+  c.args.insert(c.args.end(), {"-in", input, "-log", log, "-echo", "none"});
   if (threads > 1) {
-    std::string line = program;
-    for (const auto& a : args) line += " " + a;
+    std::string line = c.program;
+    for (const auto& a : c.args) line += " " + a;
     std::cout << "granary-liggghts: " << line << std::endl;
   }
-  bp::pipe out;
-  std::error_code ec;
-  bp::child child(bp::exe = program, bp::args = args, bp::start_dir = dir.string(), bp::std_in < bp::null,
-                  (bp::std_out & bp::std_err) > out, DieWithParent{}, ec);
-  if (ec) throw LiggghtsError("cannot start " + program + ": " + ec.message());
-  LiggghtsRun r;
-  const int fd = out.native_source();
-  std::string pending;
-  char buf[4096];
-  auto last_output = Clock::now();
-  bool stop_sent = false;
-  const auto handle = [&](const std::string& line) {
-    r.screen.push_back(line);
-    if (r.screen.size() > static_cast<std::size_t>(kLogTailLines)) r.screen.pop_front();
-    if (line.rfind("GRANARY_STOPPED", 0) == 0) r.stopped = true;
-    if (line.rfind("GRANARY_", 0) == 0) on_line(line);
-    else if (line.find("ERROR") != std::string::npos && r.errors.size() < 5) r.errors.push_back(line);
-  };
-  while (true) {
-    pollfd p{fd, POLLIN, 0};
-    const int ready = ::poll(&p, 1, 1000);
-    if (ready > 0) {
-      const ssize_t n = ::read(fd, buf, sizeof buf);
-      if (n == 0) break;  // LIGGGHTS (and every rank) closed its output: it has ended
-      if (n > 0) {
-        last_output = Clock::now();
-        pending.append(buf, static_cast<std::size_t>(n));
-        for (std::size_t nl; (nl = pending.find('\n')) != std::string::npos; pending.erase(0, nl + 1))
-          handle(pending.substr(0, nl));
-      } else if (errno != EINTR) {
-        break;
-      }
-    } else if (ready < 0 && errno != EINTR) {
-      break;
-    }
-    if (g_stop_signal != 0 && !stop_sent) {
-      stop_sent = true;
-      // Said now: a LIGGGHTS that does not react (hung) is killed by the runner after its
-      // grace period, and this is what the run's failure will show.
-      std::fprintf(stderr, "granary-liggghts: %s received; LIGGGHTS so far:%s", SignalName(g_stop_signal).c_str(),
-                   Diagnostics(r, dir / log).c_str());
-      std::fflush(stderr);
-      if (!control.empty()) {
-        // LIGGGHTS reads this file after every chunk (input_script.cpp).
-        WriteAtomically(control, "variable stop_requested equal 1\n", Durability::kVisible);
-        std::fprintf(stderr, "granary-liggghts: stop requested (%s): LIGGGHTS checkpoints at the end of its chunk\n",
-                     SignalName(g_stop_signal).c_str());
-      } else {
-        r.stop_reason = "stopped on request (" + SignalName(g_stop_signal) + ")";
-        kill(child.id(), SIGTERM);
-      }
-    }
-    if (silence_limit > 0 && Seconds(last_output) > silence_limit && r.stop_reason.empty()) {
-      r.stop_reason = "LIGGGHTS printed nothing for " + std::to_string(static_cast<long long>(silence_limit)) +
-                      " s and was ended (hung? the limit is --silence-limit)";
-      kill(child.id(), SIGKILL);  // mpirun ends its ranks; they die with it (PR_SET_PDEATHSIG)
-    }
+  try {
+    return external::RunChild(c.program, c.args, {dir, control, silence_limit, "LIGGGHTS", "granary-liggghts", dir / log},
+                              [&](const std::string& line) {
+                                if (line.rfind("GRANARY_", 0) == 0) on_line(line);
+                              });
+  } catch (const LiggghtsError&) {
+    throw;
+  } catch (const std::runtime_error& e) {
+    throw LiggghtsError(e.what());
   }
-  if (!pending.empty()) handle(pending);
-  child.wait(ec);
-  const int status = child.native_exit_code();
-  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
-  else r.exit_code = WEXITSTATUS(status);
-  return r;
 }
 
-// The screen output and the log tail of a LIGGGHTS run, for a failure message.
-std::string Diagnostics(const LiggghtsRun& r, const fs::path& log) {
-  std::string msg;
-  for (const std::string& e : r.errors) msg += "\n" + e;
-  msg += "\n--- LIGGGHTS screen output, last lines ---\n";
-  for (const std::string& l : r.screen) msg += l + "\n";
-  if (r.screen.empty()) msg += "(none)\n";
-  const std::string tail = TailOfFile(log, kLogTailLines);
-  msg += "--- last lines of " + log.filename().string() + " ---\n" + (tail.empty() ? "(empty or missing)\n" : tail);
-  return msg;
-}
+std::string Diagnostics(const ChildRun& r, const fs::path& log) { return external::Diagnostics(r, log, "LIGGGHTS"); }
 
-[[noreturn]] void Fail(const std::string& what, const LiggghtsRun& r, const fs::path& log) {
-  throw LiggghtsError(what + " (" + r.how() + ")" + Diagnostics(r, log));
+[[noreturn]] void Fail(const std::string& what, const ChildRun& r, const fs::path& log) {
+  throw LiggghtsError(what + " (" + r.how("LIGGGHTS") + ")" + Diagnostics(r, log));
 }
 
 void ReportProgress(const fs::path& dir, const std::string& phase, double fraction, double t, double t_end, int exited,
                     double wall_s, bool quiet) {
   rundir::WriteProgress(dir, {phase, fraction, t, t_end, exited, wall_s}, !quiet);
-}
-
-std::vector<std::string> Tokens(const std::string& line) {
-  std::istringstream in(line);
-  std::vector<std::string> t;
-  std::string w;
-  while (in >> w) t.push_back(w);
-  return t;
 }
 
 // A LIGGGHTS text dump of one frame written by write_dump: columns id mol type x y radius z.
@@ -285,33 +157,6 @@ class BodyIndex {
   std::map<std::pair<long long, long long>, long long> index_;
 };
 
-struct Checkpoint {
-  fs::path file;
-  long long step = -1;
-};
-Checkpoint NewestCheckpoint(const fs::path& dir) {
-  static const std::regex name(R"(checkpoint\.(\d+)\.restart)");
-  Checkpoint best;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    std::smatch m;
-    const std::string f = e.path().filename().string();
-    if (std::regex_match(f, m, name) && std::stoll(m[1]) > best.step) best = {e.path(), std::stoll(m[1])};
-  }
-  return best;
-}
-// Keeps the newest `keep` checkpoints.
-void PruneCheckpoints(const fs::path& dir, std::size_t keep) {
-  static const std::regex name(R"(checkpoint\.(\d+)\.restart)");
-  std::vector<std::pair<long long, fs::path>> found;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    std::smatch m;
-    const std::string f = e.path().filename().string();
-    if (std::regex_match(f, m, name)) found.emplace_back(std::stoll(m[1]), e.path());
-  }
-  std::sort(found.rbegin(), found.rend());
-  for (std::size_t i = keep; i < found.size(); ++i) fs::remove(found[i].second);
-}
-
 // Drops exit lines after the checkpoint (continue): the steps after it run again.
 // Returns the step of the last exit kept (0 if none).
 long long TruncateExits(const fs::path& file, double t_ckpt, double dt) {
@@ -333,26 +178,6 @@ long long TruncateExits(const fs::path& file, double t_ckpt, double dt) {
   in.close();
   WriteAtomically(file, kept);
   return last;
-}
-
-// Drops frames written after the checkpoint (continue).
-void TruncateFrames(const fs::path& file, long long step_ckpt) {
-  if (!fs::exists(file)) return;
-  std::ifstream in(file);
-  std::string line, kept;
-  bool keep = true;
-  while (std::getline(in, line)) {
-    if (line == "ITEM: TIMESTEP") {
-      std::string step;
-      std::getline(in, step);
-      keep = std::stoll(step) <= step_ckpt;
-      if (keep) kept += line + "\n" + step + "\n";
-      continue;
-    }
-    if (keep) kept += line + "\n";
-  }
-  in.close();
-  WriteAtomically(file, kept);
 }
 
 struct Event {
@@ -405,31 +230,6 @@ std::vector<Event> ReadEvents(const fs::path& dir, const std::vector<Counter>& c
     out.push_back(e);
   }
   return out;
-}
-
-// The periodic image of height y (y-periodic box of height box_height) nearest to `near`.
-double NearestImage(double y, double near, double box_height) {
-  if (y - near > box_height / 2) return y - box_height;
-  if (near - y > box_height / 2) return y + box_height;
-  return y;
-}
-
-// The next block of a LIGGGHTS text dump (custom or local): its step and row count, leaving `in`
-// at its first row; false at the end of the file.
-bool NextDumpBlock(std::istream& in, long long& step, long long& rows) {
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line != "ITEM: TIMESTEP") continue;
-    std::string step_s, n_s;
-    std::getline(in, step_s);
-    std::getline(in, line);  // ITEM: NUMBER OF ATOMS / ENTRIES
-    std::getline(in, n_s);
-    for (int i = 0; i < 5; ++i) std::getline(in, line);  // BOX BOUNDS + 3 lines, ITEM: ATOMS / ENTRIES
-    step = std::stoll(step_s);
-    rows = std::stoll(n_s);
-    return true;
-  }
-  return false;
 }
 
 // The box of frames.dump and contacts.dump: LIGGGHTS' discharge box, with room in y for the
@@ -605,7 +405,6 @@ struct Bed {
   std::string refused;  // why a cached bed was refused and prepared again, or ""
 };
 
-
 std::string CacheStem(const RunSpec& spec) {
   json key = spec.bed_key();
   key["liggghts_obstacles"] = spec.to_json()["silo"]["obstacles"];
@@ -680,7 +479,7 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
   WriteAtomically(dir / "bed.in", BedScript(spec, setup));
   long long inserted = -1;
   double settle_t = 0;
-  const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "bed.in", "log.bed", {}, options.silence_limit,
+  const ChildRun r = RunLiggghts(exe, options.threads, dir, "bed.in", "log.bed", {}, options.silence_limit,
                                     [&](const std::string& line) {
     const auto t = Tokens(line);
     if (t[0] == "GRANARY_INSERTED" && t.size() > 1) inserted = std::llround(std::stod(t[1]));
@@ -690,7 +489,7 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
                      options.quiet);
     }
   });
-  if (g_stop_signal != 0) throw Stopped(g_stop_signal, "stopped while preparing the bed (not checkpointed)" + Diagnostics(r, dir / "log.bed"));
+  if (external::StopSignal() != 0) throw Stopped(external::StopSignal(), "stopped while preparing the bed (not checkpointed)" + Diagnostics(r, dir / "log.bed"));
   if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty()) Fail("LIGGGHTS failed while preparing the bed", r, dir / "log.bed");
   if (!fs::exists(dir / "bed.restart")) Fail("LIGGGHTS ended without writing bed.restart while preparing the bed", r, dir / "log.bed");
   const std::vector<Sphere> spheres = ReadAtomsDump(dir / "bed.dump");
@@ -698,7 +497,7 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
   if (static_cast<int>(bodies.size()) != spec.bodies.count)
     throw LiggghtsError("LIGGGHTS inserted " + std::to_string(bodies.size()) + " of " + std::to_string(spec.bodies.count) +
                         " bodies (insert/pack found no room for the rest; spheres after insertion: " +
-                        std::to_string(inserted) + ")\n--- last lines of log.bed ---\n" + TailOfFile(dir / "log.bed", kLogTailLines));
+                        std::to_string(inserted) + ")\n--- last lines of log.bed ---\n" + TailOfFile(dir / "log.bed", external::kLogTailLines));
   bed.prepared_here = true;
   bed.wall_s = Seconds(t0);
   bed.settle_time = settle_t;
@@ -808,7 +607,7 @@ std::vector<std::string> WriteInputs(const std::string& dir_name) {
   return files;
 }
 
-void RequestStop(int signal) { g_stop_signal = signal; }
+void RequestStop(int signal) { external::RequestStop(signal); }
 
 namespace {
 BackendResult RunLocked(const std::string& dir_name, const BackendOptions& options);
@@ -832,7 +631,7 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   fs::remove(dir / rundir::kDoneFile);
 
   BackendResult result;
-  const Checkpoint ckpt = NewestCheckpoint(dir);
+  const external::Checkpoint ckpt = NewestCheckpoint(dir);
   const fs::path state_file = dir / "liggghts_state.json";  // bed provenance, kept for a continue
   json state;
   DischargeStart start;
@@ -846,9 +645,9 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
     for (const Counter& c : setup.counters)
       for (const fs::path& f : CounterFiles(dir, c))
         start.last_exit_step = std::max(start.last_exit_step, TruncateExits(f, t_ckpt, spec.time_step));
-    TruncateFrames(dir / "frames.liggghts", ckpt.step);
-    TruncateFrames(dir / "contacts_pairs.liggghts", ckpt.step);
-    TruncateFrames(dir / "contacts_walls.liggghts", ckpt.step);
+    external::TruncateDump(dir / "frames.liggghts", ckpt.step);
+    external::TruncateDump(dir / "contacts_pairs.liggghts", ckpt.step);
+    external::TruncateDump(dir / "contacts_walls.liggghts", ckpt.step);
     discharge_wall_before = state.value("discharge_wall_s", 0.0);
     // A clog counted before the checkpoint with no exit since: the next stall is the same clog.
     const long long clog_step = state.value("clog_step", -1LL);
@@ -905,7 +704,7 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   // The stop switch LIGGGHTS reads after every chunk (input_script.cpp, docs/liggghts.md).
   const fs::path control = dir / kControlFile;
   WriteAtomically(control, "variable stop_requested equal 0\n");
-  const LiggghtsRun r = RunLiggghts(exe, options.threads, dir, "discharge.in", log, control, options.silence_limit,
+  const ChildRun r = RunLiggghts(exe, options.threads, dir, "discharge.in", log, control, options.silence_limit,
                                     [&](const std::string& line) {
     const auto t = Tokens(line);
     if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
@@ -932,10 +731,10 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   if (r.stopped) {
     state["discharge_wall_s"] = discharge_wall_before + Seconds(t_discharge);
     WriteAtomically(state_file, state.dump() + "\n");
-    throw Stopped(g_stop_signal != 0 ? g_stop_signal : SIGTERM,
+    throw Stopped(external::StopSignal() != 0 ? external::StopSignal() : SIGTERM,
                   "stopped on request; checkpointed by LIGGGHTS (" + NewestCheckpoint(dir).file.filename().string() + ")");
   }
-  if (g_stop_signal != 0) throw Stopped(g_stop_signal, "stopped on request before LIGGGHTS checkpointed" + Diagnostics(r, dir / log));
+  if (external::StopSignal() != 0) throw Stopped(external::StopSignal(), "stopped on request before LIGGGHTS checkpointed" + Diagnostics(r, dir / log));
   if (r.exit_code != 0 || r.signal != 0 || end_reason.empty() || !fs::exists(dir / "final.dump")) {
     // A checkpoint cut short when the run was killed makes read_restart fail at once: drop
     // it and continue from the one before (or from the start).

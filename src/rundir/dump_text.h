@@ -209,6 +209,11 @@ inline void AppendG10(std::string& out, double v) {
   char buf[40];
   out.append(buf, std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, 10).ptr);
 }
+// 17 significant digits: a double read back exactly.
+inline void AppendG17(std::string& out, double v) {
+  char buf[40];
+  out.append(buf, std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, 17).ptr);
+}
 // Writes `text` and clears it (keeping its capacity).
 inline void Drain(std::string& text, std::FILE* out) {
   std::fwrite(text.data(), 1, text.size(), out);

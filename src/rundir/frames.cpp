@@ -74,7 +74,39 @@ FrameWriter FrameWriter::Create(const std::filesystem::path& file, bool gzip) {
   FrameWriter w;
   w.file_ = OutputFile(file);
   w.gzip_ = gzip;
+  // Every engine writes its frames file here, so every run directory gets the data file.
+  if (file.filename() == kFramesFile || file.filename() == kFramesGzFile) {
+    w.data_file_ = file.parent_path() / kFramesDataFile;
+    std::filesystem::remove(w.data_file_);
+  }
   return w;
+}
+
+std::string LammpsDataFile(const Frame& frame) {
+  int types = 1;
+  for (const Disc& d : frame.discs) types = std::max(types, d.type);
+  std::string t = "LAMMPS data file: the discs of a Granary run's first frame (t = " + std::to_string(frame.time) +
+                  "), for read_data before a rerun of its frames (docs/run-directory.md)\n\n";
+  t += std::to_string(frame.discs.size()) + " atoms\n" + std::to_string(types) + " atom types\n\n";
+  const char* axes[] = {"x", "y", "z"};
+  for (int a = 0; a < 3; ++a) {
+    detail::AppendG17(t, frame.box[a][0]);
+    t += ' ';
+    detail::AppendG17(t, frame.box[a][1]);
+    t += std::string(" ") + axes[a] + "lo " + axes[a] + "hi\n";
+  }
+  t += "\nAtoms # sphere\n\n";
+  // id type diameter density x y z: LAMMPS gives a sphere the mass density * (4/3) pi r^3
+  // even in 2-D, so the density is the one that makes that the disc's own mass (rho pi r^2).
+  for (const Disc& d : frame.discs) {
+    detail::AppendInt(t, d.id);
+    t += ' ';
+    detail::AppendInt(t, d.type);
+    const double density = d.radius > 0 ? d.mass / (4.0 / 3.0 * std::numbers::pi * d.radius * d.radius * d.radius) : 1.0;
+    for (const double v : {2 * d.radius, density, d.x, d.y}) t += ' ', detail::AppendG17(t, v);
+    t += " 0\n";
+  }
+  return t;
 }
 
 FrameWriter FrameWriter::ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip) {
@@ -112,6 +144,10 @@ void WriteFrameBlock(std::FILE* f, const Frame& frame, std::string& t) {
 }  // namespace
 
 void FrameWriter::Write(const Frame& frame) {
+  if (!data_file_.empty()) {
+    WriteAtomically(data_file_, LammpsDataFile(frame));
+    data_file_.clear();
+  }
   WriteBlock(file_.get(), gzip_, [&](std::FILE* f) { WriteFrameBlock(f, frame, text_); });
 }
 

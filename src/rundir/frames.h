@@ -48,10 +48,17 @@ struct Body {
 // Bodies of a frame, ordered by body id.
 std::vector<Body> BodiesOf(const std::vector<Disc>& discs);
 
+// The discs of `frame` as a LAMMPS data file (atom_style sphere: id, type, diameter, a density
+// that gives each disc its mass under LAMMPS' sphere-volume convention, position), so that
+// LAMMPS' `read_data` followed by `rerun` of frames.dump keeps every disc's diameter and mass
+// (read_dump cannot read a radius back). docs/run-directory.md "frames.data".
+std::string LammpsDataFile(const Frame& frame);
+
 class FrameWriter {
  public:
   FrameWriter() = default;
-  // `gzip`: each frame one gzip member (frames.dump.gz; gzip.h).
+  // `gzip`: each frame one gzip member (frames.dump.gz; gzip.h). A run's frames file
+  // (frames.dump, frames.dump.gz) also gets frames.data beside it at its first frame.
   static FrameWriter Create(const std::filesystem::path& file, bool gzip = false);
   // The file of an interrupted run cut back to `offset` bytes (what its checkpoint recorded).
   static FrameWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip = false);
@@ -66,6 +73,7 @@ class FrameWriter {
   OutputFile file_;
   std::string text_;  // rows being formatted (kept: its capacity)
   bool gzip_ = false;
+  std::filesystem::path data_file_;  // frames.data, written with the first frame; "" = none
 };
 
 // The bytes FrameWriter::Write adds to the file for `frame` (gzipped or not); nothing is written.

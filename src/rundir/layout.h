@@ -16,6 +16,7 @@ inline constexpr char kClogFramesFile[] = "clog_frames.dump";      // engine: th
 inline constexpr char kClogContactsFile[] = "clog_contacts.dump";  // engine: its contact forces
 inline constexpr char kUnclogsFile[] = "unclogs.csv";     // native engine, on_clog "unclog": how each clog was broken
 inline constexpr char kFramesGzFile[] = "frames.dump.gz";      // the same, gzip (output.compress)
+inline constexpr char kFramesDataFile[] = "frames.data";       // the first frame's discs as a LAMMPS data file (rerun)
 inline constexpr char kContactsGzFile[] = "contacts.dump.gz";  // the same, gzip (output.compress)
 inline constexpr char kSiloFile[] = "silo.vtk";               // engine: walls, outlets, obstacles (OVITO)
 inline constexpr char kSummaryFile[] = "summary.json";    // engine: what happened

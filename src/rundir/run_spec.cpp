@@ -246,6 +246,8 @@ constexpr std::initializer_list<std::pair<const char*, UnclogMethod>> kUnclogMet
     {"remove_arch", UnclogMethod::kRemoveArch}, {"kick", UnclogMethod::kKick}};
 constexpr std::initializer_list<std::pair<const char*, NextBatch>> kNextBatches = {
     {"landed", NextBatch::kLanded}, {"fixed", NextBatch::kFixed}};
+constexpr std::initializer_list<std::pair<const char*, BedSettler>> kSettlers = {
+    {"native", BedSettler::kNative}, {"lammps", BedSettler::kLammps}};
 constexpr std::initializer_list<std::pair<const char*, TangentialCap>> kCaps = {
     {"lammps", TangentialCap::kLammps}, {"liggghts", TangentialCap::kLiggghts}};
 constexpr std::initializer_list<std::pair<const char*, Wall>> kWalls = {{"left", Wall::kLeft},
@@ -339,6 +341,8 @@ SpecTable MakeRunSpecTable() {
              "native engine: the bed-preparation time step; 0 = 8 x time_step (docs/run-spec.md)"),
       enumeration("/bed/next_batch", "landed", names(kNextBatches),
                   "native engine: the next batch once the previous has landed, or after the fixed wait sqrt(2 h/g) + 1"),
+      enumeration("/bed/settled_by", "native", names(kSettlers),
+                  "LAMMPS backend: its bed settled by the native engine (the native runs' bed) or by LAMMPS itself"),
       plain("/bed/cache_file", T::kString, "", "set by the runner: where the prepared bed is kept"),
       plain("/discharge", T::kObject, nullptr, "the discharge after the outlets open"),
       enumeration("/discharge/mode", "remove", names(kModes),
@@ -538,6 +542,12 @@ std::string to_string(NextBatch next) {
   }
   return "?";
 }
+std::string to_string(BedSettler settler) {
+  for (const auto& [name, value] : kSettlers) {
+    if (value == settler) return name;
+  }
+  return "?";
+}
 std::string to_string(OnClog on_clog) {
   for (const auto& [name, value] : kOnClogs) {
     if (value == on_clog) return name;
@@ -592,6 +602,7 @@ RunSpec RunSpec::from_json(const json& j) {
     b.Number("max_settle_time", s.bed.max_settle_time);
     b.Number("time_step", s.bed.time_step);
     b.Enum("next_batch", s.bed.next_batch, kNextBatches);
+    b.Enum("settled_by", s.bed.settled_by, kSettlers);
     b.String("cache_file", s.bed.cache_file);
   }
   if (r.Has("discharge")) {
@@ -793,6 +804,9 @@ void validate(const RunSpec& s) {
   CheckBounds("/output/frame_interval", s.output.frame_interval);
   CheckBounds("/output/checkpoint_interval", s.output.checkpoint_interval);
 
+  if (s.bed.settled_by == BedSettler::kLammps && s.engine != "lammps")
+    throw SpecError("/bed/settled_by", "only the LAMMPS backend settles its bed in LAMMPS; the " + s.engine +
+                                           " engine prepares its own (got \"lammps\", allowed: \"native\")");
   // What the LIGGGHTS backend cannot do is refused when the run is planned, not when it runs.
   if (s.engine == "liggghts") validate_for_liggghts(s);
   if (s.engine == "lammps") validate_for_lammps(s);
@@ -867,6 +881,7 @@ json BedJson(const Bed& b, bool with_cache_file) {
   // Only when not the default, so that run ids planned before this option existed stay valid.
   if (b.time_step != Bed{}.time_step) j["time_step"] = b.time_step;
   if (b.next_batch != Bed{}.next_batch) j["next_batch"] = to_string(b.next_batch);
+  if (b.settled_by != Bed{}.settled_by) j["settled_by"] = to_string(b.settled_by);
   return j;
 }
 
@@ -930,7 +945,8 @@ json RunSpec::bed_key() const {
   // Everything the bed preparation (physics.md, procedure step 1) depends on, and nothing
   // about outlets or obstacles, so runs differing only in those share one prepared bed.
   // A LAMMPS run discharges the native engine's bed (docs/lammps.md): the same key, one bed.
-  const std::string bed_engine = engine == "lammps" ? "native" : engine;
+  const std::string bed_engine =
+      engine == "lammps" ? (bed.settled_by == BedSettler::kLammps ? "lammps" : "native") : engine;
   json key = {{"engine", bed_engine},
           {"seed", seed},
           {"time_step", time_step},
@@ -953,7 +969,7 @@ json RunSpec::bed_key() const {
 }
 
 const std::vector<std::string>& extendable_keys() {
-  static const std::vector<std::string> keys = {"/discharge/max_time"};
+  static const std::vector<std::string> keys = {"/discharge/max_time", "/discharge/unclog/max_clogs"};
   return keys;
 }
 
@@ -963,6 +979,7 @@ bool extends(const nlohmann::json& from, const nlohmann::json& to) {
   bool raised = false;
   for (const std::string& key : extendable_keys()) {
     const nlohmann::json::json_pointer p(key);
+    if (!a.contains(p) && !b.contains(p)) continue;  // a limit of a block neither has (no unclog protocol)
     if (!a.contains(p) || !b.contains(p) || !a.at(p).is_number() || !b.at(p).is_number()) return false;
     const double old_value = a.at(p).get<double>(), new_value = b.at(p).get<double>();
     if (new_value < old_value) return false;

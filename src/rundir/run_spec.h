@@ -91,6 +91,9 @@ struct Contact {
 // (its kinetic energy per body has risen above and fallen back below kBedLandedKePerBody, at
 // most the fixed wait), or after the fixed wait sqrt(2 h / g) + 1 for a batch region of height h.
 enum class NextBatch { kLanded, kFixed };
+// Who settles a LAMMPS run's bed (docs/lammps.md "The bed"): the native engine (the bed a
+// native run of the same seed discharges, cached) or LAMMPS itself, from a loose placement.
+enum class BedSettler { kNative, kLammps };
 
 struct Bed {
   int batch_size = 500;            // bodies inserted per batch
@@ -100,6 +103,7 @@ struct Bed {
   // (bed_time_step()). A bed at rest does not depend on it; docs/engine.md says why 8x is safe.
   double time_step = 0.0;
   NextBatch next_batch = NextBatch::kLanded;  // native engine only
+  BedSettler settled_by = BedSettler::kNative; // LAMMPS backend only: who settles its bed
   std::string cache_file;          // resolved by the runner: where the prepared bed is (or is to be) stored;
                                    // empty = prepare inside the run directory (bed.json)
 };
@@ -220,6 +224,7 @@ std::string to_string(DischargeMode mode);
 std::string to_string(ReinjectPosition position);
 std::string to_string(TangentialCap cap);
 std::string to_string(NextBatch next);
+std::string to_string(BedSettler settler);
 std::string to_string(OnClog on_clog);
 std::string to_string(UnclogMethod method);
 

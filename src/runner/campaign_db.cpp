@@ -48,6 +48,51 @@ Holder this_process_holder() {
   return holder;
 }
 
+std::vector<PlannedRun> with_added_replicas(Store& store, const CampaignSpec& spec, std::vector<PlannedRun> runs) {
+  std::set<std::string> live;
+  Statement q = store.prepare("SELECT run_id FROM runs WHERE state != 'retired'");
+  while (q.step()) live.insert(q.text(0));
+  std::erase_if(runs, [&](const PlannedRun& r) { return r.replica >= spec.replicas && !live.count(r.run_id); });
+  return runs;
+}
+
+int add_planned_runs(Store& store, const std::vector<PlannedRun>& runs, const std::string& runs_root) {
+  Transaction tx(store);
+  std::int64_t next_seq = 0;
+  {
+    Statement q = store.prepare("SELECT COALESCE(MAX(seq), -1) + 1 FROM runs");
+    q.step();
+    next_seq = q.integer(0);
+  }
+  Statement state = store.prepare("SELECT state FROM runs WHERE run_id = ?1");
+  Statement insert = store.prepare(
+      "INSERT INTO runs (run_id, seq, point_id, point, replica, params, state, engine, granary_version, "
+      "git_commit, run_dir) VALUES (?1, ?2, ?3, ?4, ?5, ?6, 'planned', ?7, ?8, ?9, ?10)");
+  Statement revive = store.prepare(
+      "UPDATE runs SET state = COALESCE(retired_from, 'planned'), retired_from = NULL WHERE run_id = ?1");
+  int changed = 0;
+  for (const PlannedRun& r : runs) {
+    state.reset();
+    state.bind(1, r.run_id);
+    if (state.step()) {
+      if (state.text(0) == "retired") {
+        revive.reset();
+        revive.bind(1, r.run_id).run();
+        ++changed;
+      }
+      continue;
+    }
+    insert.reset();
+    insert.bind(1, r.run_id).bind(2, next_seq++).bind(3, r.point_id).bind(4, r.point_json).bind(5, r.replica);
+    insert.bind(6, r.params_json).bind(7, r.engine).bind(8, GRANARY_VERSION).bind(9, granary::GitCommit());
+    insert.bind(10, (std::filesystem::path(runs_root) / r.run_id).string());
+    insert.run();
+    ++changed;
+  }
+  tx.commit();
+  return changed;
+}
+
 PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vector<PlannedRun>& runs,
                           const std::string& runs_root, bool dry_run) {
   PlanSummary sum;

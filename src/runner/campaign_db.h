@@ -45,6 +45,16 @@ struct PlanSummary {
 PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vector<PlannedRun>& runs,
                           const std::string& runs_root, bool dry_run);
 
+// Adaptive replicas (rundir/replica_rule.h): of `runs`, expanded up to the rule's max, the
+// first `min` replicas of each point and those a runner added (in the database, not
+// retired), so a re-plan of the same spec keeps what the runner added (plan stays idempotent).
+std::vector<PlannedRun> with_added_replicas(Store& store, const CampaignSpec& spec, std::vector<PlannedRun> runs);
+
+// The runner adds replicas (adaptive): `runs` become planned runs in one transaction; a run
+// already there is left as it is (a retired one comes back). Returns how many changed, so a
+// runner killed before, inside or after the transaction loses and repeats nothing.
+int add_planned_runs(Store& store, const std::vector<PlannedRun>& runs, const std::string& runs_root);
+
 struct RunRow {
   std::string run_id;
   std::int64_t seq = 0;

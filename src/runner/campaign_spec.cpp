@@ -64,9 +64,12 @@ SpecTable MakeCampaignSpecTable() {
   SpecField name{"/name", T::kString, "the campaign's name"};
   name.required = true;
   name.min_length = 1;
-  SpecField replicas{"/replicas", T::kInteger, "runs per sweep point, differing only in their seed", 1};
-  replicas.minimum = SpecBound{1, false};
-  replicas.maximum = SpecBound{100000, false};
+  // An integer or the adaptive block (rundir/replica_rule.h, which validates it; the schema's
+  // oneOf is written by campaign_spec_schema()).
+  SpecField replicas{"/replicas", T::kOpenObject,
+                     "runs per sweep point, differing only in their seed: N, or {\"min\": N, \"max\": M, \"until\": "
+                     "{\"metric\": NAME, \"rel_se\" | \"se\": X}} (more replicas until the metric's standard error "
+                     "reaches the target; docs/campaign-spec.md)"};
   SpecField engine{"/engine", T::kEnumOrList,
                    "native, liggghts, lammps, or several as a list: every sweep point is then planned once per engine",
                    "native"};
@@ -201,6 +204,29 @@ json campaign_spec_schema() {
   json run_spec = run_spec_table().json_schema("", axes);
   run_spec["description"] = "a run spec (docs/run-spec.md): every key optional";
   s["definitions"] = {{"run_spec", run_spec}};
+  if (s.contains("properties") && s["properties"].contains("replicas")) {
+    const json target = {{"type", "object"},
+                         {"properties",
+                          {{"metric", {{"type", "string"}, {"pattern", "^[a-z0-9_]+$"}, {"description", "a point metric"}}},
+                           {"rel_se", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "target se/|mean|"}}},
+                           {"se", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "target se"}}}}},
+                         {"required", {"metric"}},
+                         {"oneOf", json::array({{{"required", {"rel_se"}}}, {{"required", {"se"}}}})},
+                         {"additionalProperties", false}};
+    const json count = {{"type", "integer"}, {"minimum", 1}, {"maximum", 100000}};
+    json& r = s["properties"]["replicas"];
+    const json description = r.value("description", json(""));
+    r = {{"description", description},
+         {"default", 1},
+         {"oneOf", json::array({count,
+                                {{"type", "object"},
+                                 {"properties",
+                                  {{"min", count},
+                                   {"max", count},
+                                   {"until", {{"oneOf", json::array({target, {{"type", "array"}, {"minItems", 1}, {"items", target}}})}}}}},
+                                 {"required", {"max", "until"}},
+                                 {"additionalProperties", false}}})}};
+  }
 #ifdef GRANARY_HAVE_ANALYSIS
   // The blocks the analysis library reads, in detail.
   if (s.contains("properties")) {
@@ -307,12 +333,8 @@ CampaignSpec CampaignSpec::from_json(const json& j) {
     s.seed = j["seed"];
   }
   if (j.contains("replicas")) {
-    const json& r = j["replicas"];
-    const SpecField& field = campaign_spec_table().at("/replicas");
-    if (!r.is_number_integer() || !spec_bound_error(field, static_cast<double>(r.get<std::int64_t>())).empty()) {
-      throw SpecError("/replicas", spec_bound_error(field, 0) + " (got " + r.dump() + ")");
-    }
-    s.replicas = r.get<int>();
+    s.replica_rule = ReplicaRule::from_json(j["replicas"], "/replicas");
+    s.replicas = s.replica_rule.min;
   }
   if (j.contains("engine")) {
     const json& e = j["engine"];
@@ -503,7 +525,9 @@ std::uint64_t planned_run_count(const CampaignSpec& spec) {
   return n;
 }
 
-std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cache_dir, std::uint64_t max_runs) {
+std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cache_dir, std::uint64_t max_runs,
+                               int replicas_upto) {
+  const int replicas = std::max(spec.replicas, replicas_upto);
   // Counted before anything is allocated: a typo of a few zeros must not end in bad_alloc.
   if (const std::uint64_t n = planned_run_count(spec); n > max_runs) {
     std::string factors;
@@ -559,7 +583,7 @@ std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cach
   const std::string no_text = json("").dump();
 
   std::vector<PlannedRun> runs;
-  runs.reserve(points.size() * spec.engines.size() * static_cast<std::size_t>(spec.replicas));
+  runs.reserve(points.size() * spec.engines.size() * static_cast<std::size_t>(replicas));
   for (std::size_t pi = 0; pi < points.size(); ++pi) {
     const json& point = points[pi];
     const std::string where = "point " + std::to_string(pi) + " " + point.dump();
@@ -607,7 +631,7 @@ std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cach
       const DumpTemplate bed_key(rs.bed_key(), {"/seed"});
       // Seed 0 stands for "any replica": replicas of one point share the point id.
       const std::string point_id = hash_hex(resolved.fill({"0", no_text, no_text}));
-      for (int r = 0; r < spec.replicas; ++r) {
+      for (int r = 0; r < replicas; ++r) {
         const std::string seed = std::to_string(replica_seed(seed_source, r));
         PlannedRun run;
         run.run_id = hash_hex(resolved.fill({seed, no_text, no_text}));  // == run_id_of(the replica's RunSpec)

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "rundir/replica_rule.h"
 #include "rundir/run_spec.h"
 
 namespace granary::runner {
@@ -17,7 +18,8 @@ struct CampaignSpec {
   std::string name;
   std::string description;
   std::uint64_t seed = 1;
-  int replicas = 1;
+  int replicas = 1;          // planned per point (the rule's min)
+  ReplicaRule replica_rule;  // `replicas` as given: fixed, or adaptive (min, max, until)
   // "native" and/or "liggghts": every sweep point is planned once per engine (a comparison).
   std::vector<std::string> engines = {"native"};
   nlohmann::json base = nlohmann::json::object();
@@ -94,8 +96,10 @@ std::string default_cache_dir();
 // Expands the sweep into runs (points in order, replicas within a point). Every run is
 // validated; an error names the sweep point. bed.cache_file = <cache_dir>/<hash of bed_key>.bed.
 // Throws SpecError at /sweep when the sweep has more than max_runs runs, before allocating.
+// replicas_upto > spec.replicas: replicas 0..replicas_upto-1 of every point (the adaptive
+// replicas a runner added; the limit counts spec.replicas).
 std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cache_dir,
-                               std::uint64_t max_runs = kDefaultMaxRuns);
+                               std::uint64_t max_runs = kDefaultMaxRuns, int replicas_upto = 0);
 
 // Run id of a resolved run spec: hash of its canonical JSON without run_id and cache_file.
 std::string run_id_of(const RunSpec& spec);

@@ -92,13 +92,23 @@ json run_details(Store& store, const RunRow& r, int log_lines) {
     for (const auto& p : v.problems) problems.push_back({{"file", p.file}, {"what", p.what}});
     if (!problems.empty()) j["problems"] = problems;
   }
-  // Analyses that failed on this run (a Python analysis' script that raised), from the caches
-  // the last report, export or compare wrote.
+  // Analyses of the campaign spec that failed on this run (a Python analysis' script that
+  // raised), from the caches the last report, export or compare wrote; the caches of analyses
+  // the spec no longer names are not the campaign's.
   json failed = json::array();
+  std::vector<std::string> current;
+  if (const auto campaign = load_campaign(store); campaign && campaign->spec.is_object()) {
+    const json python = campaign->spec.value("report", json::object()).value("python", json::array());
+    if (python.is_array())
+      for (const auto& e : python)
+        if (e.is_object() && e.contains("key") && e.at("key").is_string()) current.push_back(e.at("key").get<std::string>());
+  }
   if (fs::is_directory(fs::path(r.run_dir) / rundir::kAnalysesDir, ec)) {
     std::vector<std::string> keys;
     for (const auto& e : fs::directory_iterator(fs::path(r.run_dir) / rundir::kAnalysesDir, ec))
-      if (e.path().extension() == ".json") keys.push_back(e.path().stem().string());
+      if (e.path().extension() == ".json" &&
+          std::find(current.begin(), current.end(), e.path().stem().string()) != current.end())
+        keys.push_back(e.path().stem().string());
     std::sort(keys.begin(), keys.end());
     for (const auto& key : keys)
       if (const auto cached = rundir::ReadCachedResult(r.run_dir, key))

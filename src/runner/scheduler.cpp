@@ -172,6 +172,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   std::string storage_full;  // set when runs/ is full: no new runs start, the invocation ends with kStorage
   double last_heartbeat = clock();
   double last_tick = -1e300;
+  bool replicas_due = true;  // adaptive replicas: a run was recorded done since the last look
 
   auto lease_lost = [&](const std::string& id, const std::string& what) {
     observer.on_event(id, "lease lost",
@@ -188,6 +189,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     ++failures[id];
     if (failures[id] > options.retries) {
       skip.insert(id);
+      replicas_due = true;  // the point's last run may have ended here
       if (state == RunState::kFailed) any_final_failure = true;
     } else if (state == RunState::kFailed) {
       --failed;  // will be retried: not counted as failed in the display
@@ -210,6 +212,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       return true;
     }
     ++done;
+    replicas_due = true;
     if (row.state == RunState::kFailed) --failed;
     std::ostringstream what;
     what << (summary.end_reason.empty() ? std::string("finished") : summary.end_reason) << " at t = " << summary.t_end
@@ -377,6 +380,10 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
         return ExitCode::kInterrupted;
       }
 
+      if (replicas_due && options.add_runs) {
+        replicas_due = false;
+        total += options.add_runs(observer);
+      }
       // Runs waiting for their directory first, then new claims, while there are free slots.
       for (auto it = waiting.begin(); it != waiting.end() && executor.can_start_more() && storage_full.empty();) {
         const RunRow row = (it++)->second;

@@ -24,6 +24,8 @@ inline constexpr int kExitDamagedRuns = 4;
 // report, export: no finished run to analyse.
 inline constexpr int kExitNothingToAnalyse = 5;
 
+class RunObserver;
+
 struct RunOptions {
   int jobs = 1;
   std::string engine;         // "" = each run's own; "native"/"liggghts" = only those; a path = that executable
@@ -39,6 +41,11 @@ struct RunOptions {
   // Batch queues (executor.outlives_runner()): submit what is runnable, then exit and leave
   // the jobs to run (campaign scan or a later campaign run collects them).
   bool detach = false;
+  // Adaptive replicas (rundir/replica_rule.h): called once at the start and after every run
+  // recorded done, outside any transaction of the scheduler's; it adds planned runs to the
+  // database (add_planned_runs) and returns how many, which the loop then claims like any
+  // other. It reports what it did to the observer. None: a fixed number of replicas.
+  std::function<int(RunObserver&)> add_runs;
   // Tests: who claims the runs (default this_process_holder()), and the monotonic clock in
   // seconds that time limits, ticks and heartbeats are measured with (default steady_clock).
   std::optional<Holder> holder;

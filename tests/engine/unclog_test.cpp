@@ -182,6 +182,34 @@ void ExpectSameBits(const std::string& method) {
   }
 }
 
+// A run that ended at max_clogs, planned again with a larger max_clogs (granary::extends),
+// continues from the checkpoint its end wrote (there is no other: no periodic checkpoints) and
+// gives the bits of a run planned with the larger limit from the start, frames included.
+TEST(Unclog, ARaisedMaxClogsContinuesFromTheLastClogWithTheSameBits) {
+  const fs::path extended = FreshDir("unclog-extend"), fresh = FreshDir("unclog-extend-fresh");
+  nlohmann::json spec = UnclogSpec("reinject", "remove_arch", 2);
+  spec["output"] = {{"checkpoint_interval", 0.0}, {"frame_interval", 0.05}};
+  WriteSpec(extended, spec);
+  ASSERT_EQ(RunQuiet(extended).end_reason, "max_clogs");
+  const std::string short_events = Slurp(extended / rundir::kEventsFile);
+  spec["discharge"]["unclog"]["max_clogs"] = 3;
+  WriteSpec(fresh, spec);
+  ASSERT_EQ(RunQuiet(fresh).end_reason, "max_clogs");
+  EXPECT_TRUE(granary::extends(ReadJson(extended / rundir::kRunSpecFile), ReadJson(fresh / rundir::kRunSpecFile)));
+  // As the runner moves a run it extends: its run.json replaced, without DONE.
+  WriteSpec(extended, spec);
+  fs::remove(extended / rundir::kDoneFile);
+  const RunResult r = RunQuiet(extended);
+  EXPECT_TRUE(r.continued);
+  EXPECT_EQ(r.end_reason, "max_clogs");
+  EXPECT_EQ(ReadJson(extended / rundir::kSummaryFile)["clogs"], 3);
+  EXPECT_GT(Slurp(extended / rundir::kEventsFile).size(), short_events.size());
+  for (const char* f : {rundir::kEventsFile, rundir::kUnclogsFile, rundir::kClogFramesFile, rundir::kClogContactsFile,
+                        rundir::kFramesFile})
+    EXPECT_TRUE(Slurp(fresh / f) == Slurp(extended / f)) << f;
+  EXPECT_EQ(ReadJson(fresh / rundir::kSummaryFile)["t_end"], ReadJson(extended / rundir::kSummaryFile)["t_end"]);
+}
+
 TEST(Unclog, KicksGiveTheSameBitsAtAnyThreadCountAndAfterAContinue) { ExpectSameBits("kick"); }
 TEST(Unclog, ArchRemovalsGiveTheSameBitsAtAnyThreadCountAndAfterAContinue) { ExpectSameBits("remove_arch"); }
 

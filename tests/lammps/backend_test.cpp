@@ -286,6 +286,59 @@ TEST(LammpsBackend, AKilledBackendAndAKilledLmpContinueFromTheCheckpoint) {
   EXPECT_NEAR(static_cast<double>(run.events.size()), static_cast<double>(whole.size()), 0.2 * static_cast<double>(whole.size()) + 3);
 }
 
+// bed/settled_by "lammps": LAMMPS settles the loose placement (closed outlets) and discharges
+// the settled bed: the start frame is no longer the loose one, at rest (kinetic energy per body
+// below the threshold), below where the bodies were placed, no disc through the base, and the
+// run goes on to exits as from a native bed. The native engine refuses the value.
+TEST(LammpsBackend, ALammpsSettledBedSettlesThenDischarges) {
+  const json overrides = {{"bodies", {{"count", 60},
+                                      {"species", {{{"shape", "disc"}, {"fraction", 0.5}},
+                                                   {{"shape", "dumbbell"}, {"fraction", 0.5}}}}}},
+                          {"bed", {{"settled_by", "lammps"}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 30}}},
+                          {"discharge", {{"max_time", 4}}},
+                          {"output", {{"frame_interval", 1.0}}}};
+  const fs::path dir = MakeRun("lammps_settled", overrides);
+  const Outcome o = RunLammps(dir);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const json state = json::parse(std::ifstream(dir / "lammps_state.json"));
+  ASSERT_EQ(state["bed"]["settled_by"], "lammps") << state.dump();
+  EXPECT_TRUE(state["bed"]["settled"].get<bool>()) << "kinetic energy per body below 1e-4: " << state.dump();
+  const double settle_time = state["bed"]["settle_time"].get<double>();
+  EXPECT_GT(settle_time, 1.0);
+  EXPECT_LT(settle_time, 30.0);
+  // The loose placement LAMMPS started from, and the bed it settled into.
+  Frame bed;
+  {
+    std::ifstream data(dir / "loose.data");
+    ASSERT_TRUE(data.good());
+  }
+  const std::vector<Frame> start = ReadFrames(dir / "start.dump");
+  ASSERT_EQ(start.size(), 1u);
+  bed = start[0];
+  ASSERT_EQ(bed.discs.size(), 90u) << "30 discs and 30 dumbbells";
+  double top = 0, ke = 0;
+  for (const Disc& d : bed.discs) {
+    EXPECT_GT(d.y, d.radius - 0.05) << "disc " << d.id << " through the base";
+    EXPECT_LT(std::abs(d.x), 8 - d.radius + 0.05) << "disc " << d.id << " through a wall";
+    top = std::max(top, d.y + d.radius);
+    ke += 0.5 * d.mass * (d.vx * d.vx + d.vy * d.vy);
+  }
+  EXPECT_LT(ke / 60, 1e-3) << "at rest";
+  const RunData run = ReadRun(dir);
+  EXPECT_NEAR(run.summary.bed.height, top, 1e-6);
+  EXPECT_NEAR(run.summary.bed.settle_time, settle_time, 1e-9);
+  EXPECT_TRUE(run.summary.bed.prepared_here);
+  EXPECT_GT(run.events.size(), 3u) << "the settled bed discharges";
+  const std::vector<Frame> frames = ReadFrames(dir / kFramesFile);
+  ASSERT_GE(frames.size(), 2u);
+  ExpectRigid(frames);
+  // The same spec on the native engine is refused at plan time, with the path.
+  const fs::path native = MakeRun("lammps_settled_native", overrides, "native");
+  const Outcome n = RunProgram(GRANARY_ENGINE_EXE, {"run", native.string()});
+  EXPECT_EQ(n.exit_code, 2) << n.output;
+  EXPECT_NE(n.output.find("/bed/settled_by"), std::string::npos) << n.output;
+}
+
 // A wrapper around the real `lmp` that changes its input: `line` goes in before the first run.
 fs::path LmpWrapper(const std::string& name, const std::string& line) {
   const fs::path w = kTmp / name;
@@ -372,6 +425,51 @@ TEST(LammpsCampaign, CompareRunsNativeAndLammpsOnTheSameBeds) {
   EXPECT_EQ(c["engine_a"], "native");
   EXPECT_EQ(c["engine_b"], "lammps");
   ASSERT_EQ(c["points"].size(), 1u);
+}
+
+// A tiny campaign on LAMMPS of every shape in both geometries (one base outlet; a base outlet,
+// a side outlet and an obstacle), planned, run and reported through `campaign` as a user
+// would: every run done on LAMMPS, with exits, and the report written.
+TEST(LammpsCampaign, EveryShapeAndGeometryEndToEnd) {
+  const fs::path dir = kTmp / "campaign_shapes";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const json spec = {
+      {"name", "lammps-shapes"},
+      {"engine", "lammps"},
+      {"base", {{"silo", {{"width", 16}, {"base_outlets", {{{"center", -2}, {"width", 5}}}}}},
+                {"bodies", {{"count", 40}}},
+                {"bed", {{"max_settle_time", 40}}},
+                {"discharge", {{"mode", "remove"}, {"max_time", 3}, {"clog_window", 3}}},
+                {"output", {{"checkpoint_interval", 0}, {"frame_interval", 1.0}}}}},
+      {"sweep",
+       {{"grid", {{"/bodies/species/0/shape", {"disc", "dumbbell", "snowman", "rod"}}}},
+        {"points", {{{"/silo/side_outlets", json::array()}},
+                    {{"/silo/side_outlets", {{{"wall", "right"}, {"bottom", 1}, {"width", 5}}}},
+                     {"/silo/obstacles", {{{"x", -2}, {"y", 4}, {"diameter", 2}}}}}}}}}};
+  std::ofstream(dir / "spec.json") << spec.dump(2);
+  const std::string db = (dir / "c.db").string();
+  const Outcome plan = RunProgram(GRANARY_CAMPAIGN_EXE, {"plan", (dir / "spec.json").string(), "--db", db});
+  ASSERT_EQ(plan.exit_code, 0) << plan.output;
+  const Outcome run = RunProgram(GRANARY_CAMPAIGN_EXE, {"run", "--db", db, "--jobs", "2"});
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const Outcome report = RunProgram(GRANARY_CAMPAIGN_EXE, {"report", "--db", db, "--no-figures"});
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  EXPECT_TRUE(fs::exists(dir / "report" / "report.html")) << report.output;
+  int runs = 0, side_exits = 0;
+  std::set<std::string> shapes;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    if (e.path().filename() != "summary.json") continue;
+    const RunData r = ReadRun(e.path().parent_path());
+    ++runs;
+    EXPECT_EQ(r.summary.engine, "lammps");
+    EXPECT_GT(r.summary.exited, 0) << e.path();
+    for (const auto& ev : r.events) shapes.insert(ev.shape);
+    if (r.summary.exits_per_outlet.size() == 2) side_exits += r.summary.exits_per_outlet[1];
+  }
+  EXPECT_EQ(runs, 8) << run.output;
+  EXPECT_EQ(shapes.size(), 4u);
+  EXPECT_GT(side_exits, 0) << "bodies leave through the side outlets";
 }
 
 }  // namespace

@@ -269,6 +269,107 @@ TEST(LammpsReadsTheDumps, OfTheNativeEngineCompressed) {
   LammpsReadsTheRun(dir, 1e-9);
 }
 
+// frames.data (docs/run-directory.md): LAMMPS reads it and reruns frames.dump with the docs'
+// own input, and every disc keeps its diameter and mass — a mixture of two disc sizes and
+// snowmen, where read_dump alone gives every disc diameter 1. The docs' rerun reports the discs'
+// total area per frame and the touching pairs, both of which depend on the diameters.
+TEST(LammpsReadsTheDumps, DiameterOfEveryDiscFromFramesData) {
+  const fs::path dir = kTmp / "lammps_frames_data";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const json j = {{"run_id", "frames_data"},
+                  {"seed", 7},
+                  {"silo", {{"width", 12}, {"base_outlets", {{{"center", 0}, {"width", 6}}}}}},
+                  {"bodies",
+                   {{"count", 60},
+                    {"species",
+                     {{{"name", "big"}, {"shape", "disc"}, {"fraction", 0.4}, {"diameter", 1.0}},
+                      {{"name", "small"}, {"shape", "disc"}, {"fraction", 0.3}, {"diameter", 0.6}},
+                      {{"shape", "snowman"}, {"fraction", 0.3}, {"diameter", 0.7}, {"big_diameter", 1.2}}}}}},
+                  {"bed", {{"settle_ke_per_body", 1e-5}, {"max_settle_time", 20}}},
+                  {"discharge", {{"mode", "remove"}, {"max_time", 3}, {"clog_window", 3}}},
+                  {"output", {{"checkpoint_interval", 0}, {"frame_interval", 0.5}, {"contact_forces", true}}}};
+  std::ofstream(dir / "run.json") << j.dump(2);
+  RunEngine(GRANARY_ENGINE_EXE, dir);
+  if (::testing::Test::HasFatalFailure()) return;
+  ASSERT_TRUE(fs::exists(dir / "frames.data"));
+
+  // The input exactly as docs/run-directory.md gives it (the block after "<!-- rerun-input -->").
+  std::ifstream doc(fs::path(GRANARY_SOURCE_DIR) / "docs" / "run-directory.md");
+  std::string line, input;
+  bool marker = false, inside = false;
+  while (std::getline(doc, line)) {
+    if (line == "<!-- rerun-input -->") marker = true;
+    else if (marker && !inside && line == "```") inside = true;
+    else if (inside && line == "```") break;
+    else if (inside) input += line + "\n";
+  }
+  ASSERT_FALSE(input.empty()) << "docs/run-directory.md has no rerun input";
+  std::ofstream(dir / "rerun.in") << input;
+  const std::string lmp = Lammps();
+  ASSERT_FALSE(lmp.empty()) << "LAMMPS (lmp) not found: install Debian's package lammps (scripts/setup.sh does)";
+  bp::ipstream out;
+  bp::child c(lmp, "-in", "rerun.in", "-log", "log.rerun", "-echo", "none", (bp::std_out & bp::std_err) > out,
+              bp::start_dir(dir.string()));
+  std::string all;
+  while (std::getline(out, line)) all += line + "\n";
+  c.wait();
+  ASSERT_EQ(c.exit_code(), 0) << all;
+
+  std::vector<Frame> frames;
+  FrameReader reader(dir / "frames.dump");
+  for (Frame f; reader.Next(f);) frames.push_back(f);
+  std::vector<ContactFrame> contacts;
+  ContactReader creader(dir / "contacts.dump");
+  for (ContactFrame f; creader.Next(f);) contacts.push_back(f);
+  const std::vector<Block> discs = ReadBlocks(dir / "rerun_discs.dump");
+  const std::vector<Block> pairs = ReadBlocks(dir / "rerun_pairs.dump");
+  ASSERT_GE(frames.size(), 5u);
+  ASSERT_EQ(discs.size(), frames.size()) << "LAMMPS reran every frame";
+  ASSERT_EQ(pairs.size(), frames.size());
+  ASSERT_EQ(contacts.size(), frames.size());
+  EXPECT_LT(frames.back().discs.size(), frames.front().discs.size()) << "bodies left: trim yes deleted them";
+  std::set<double> radii;
+  int touching = 0;
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    const Frame& ours = frames[k];
+    SCOPED_TRACE("frame at t = " + std::to_string(ours.time));
+    ASSERT_EQ(discs[k].rows.size(), ours.discs.size());
+    std::map<long long, const Disc*> by_id;
+    for (const Disc& d : ours.discs) by_id[d.id] = &d;
+    const int c_id = discs[k].col("id"), c_r = discs[k].col("radius"), c_m = discs[k].col("mass"),
+              c_x = discs[k].col("x");
+    for (const auto& row : discs[k].rows) {
+      const auto it = by_id.find(std::llround(row[c_id]));
+      ASSERT_NE(it, by_id.end());
+      const Disc& d = *it->second;
+      EXPECT_NEAR(row[c_r], d.radius, 1e-9 * d.radius);
+      EXPECT_NEAR(row[c_m], d.mass, 1e-9 * d.mass);
+      EXPECT_EQ(row[c_x], d.x);
+      radii.insert(std::round(row[c_r] * 1000) / 1000);
+    }
+    // The pairs of bodies LAMMPS finds touching (distance below the sum of their radii) are
+    // the pair rows of contacts.dump.
+    std::set<std::pair<long long, long long>> sure, maybe, ours_pairs;
+    const int c_a = pairs[k].col("c_touching[1]"), c_b = pairs[k].col("c_touching[2]"), c_d = pairs[k].col("c_distance");
+    for (const auto& row : pairs[k].rows) {
+      const Disc& a = *by_id.at(std::llround(row[c_a]));
+      const Disc& b = *by_id.at(std::llround(row[c_b]));
+      if (a.mol == b.mol) continue;
+      const double reach = a.radius + b.radius;
+      if (row[c_d] < reach - 1e-6) sure.insert(std::minmax(a.mol, b.mol));
+      if (row[c_d] < reach + 1e-6) maybe.insert(std::minmax(a.mol, b.mol));
+    }
+    for (const ContactRow& r : contacts[k].contacts)
+      if (r.body_j >= 0) ours_pairs.insert(std::minmax(r.body_i, r.body_j));
+    for (const auto& p : sure) EXPECT_TRUE(ours_pairs.count(p)) << "LAMMPS: bodies " << p.first << ", " << p.second << " touch";
+    for (const auto& p : ours_pairs) EXPECT_TRUE(maybe.count(p)) << "contacts.dump: bodies " << p.first << ", " << p.second << " touch";
+    touching += static_cast<int>(sure.size());
+  }
+  EXPECT_EQ(radii, (std::set<double>{0.3, 0.35, 0.5, 0.6})) << "two disc sizes and the snowmen's two";
+  EXPECT_GT(touching, 100);
+}
+
 TEST(LammpsReadsTheDumps, OfLiggghtsCompressed) {
   const fs::path dir = MakeRun("liggghts", "lammps_liggghts_gz", true);
   RunEngine(GRANARY_LIGGGHTS_EXE, dir);

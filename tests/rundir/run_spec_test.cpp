@@ -350,3 +350,29 @@ TEST(RunSpecTable, UnknownKeysAreTheTablesComplement) {
 
 }  // namespace
 }  // namespace granary
+
+namespace granary {
+namespace {
+
+// extends(): a larger max_time or max_clogs continues a run; anything else, or a smaller
+// limit, is another run; a spec without the unclog protocol has no max_clogs to compare.
+TEST(RunSpecTest, ExtendsByALargerTimeOrClogLimitOnly) {
+  const auto resolved = [](double max_time, int max_clogs, double mu = 0.5) {
+    json j = {{"run_id", "x"},
+              {"discharge", {{"max_time", max_time}, {"on_clog", "unclog"}, {"unclog", {{"method", "remove_arch"}, {"max_clogs", max_clogs}}}}},
+              {"contact", {{"mu", mu}}}};
+    return RunSpec::from_json(j).to_json();
+  };
+  EXPECT_TRUE(extends(resolved(10, 5), resolved(10, 8)));
+  EXPECT_TRUE(extends(resolved(10, 5), resolved(20, 8)));
+  EXPECT_TRUE(extends(resolved(10, 5), resolved(20, 5)));
+  EXPECT_FALSE(extends(resolved(10, 5), resolved(10, 5)));
+  EXPECT_FALSE(extends(resolved(10, 8), resolved(20, 5)));
+  EXPECT_FALSE(extends(resolved(10, 5), resolved(10, 8, 0.4)));
+  const json plain_a = RunSpec::from_json(json{{"discharge", {{"max_time", 10}}}}).to_json();
+  const json plain_b = RunSpec::from_json(json{{"discharge", {{"max_time", 12}}}}).to_json();
+  EXPECT_TRUE(extends(plain_a, plain_b));
+}
+
+}  // namespace
+}  // namespace granary

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <set>
 
 #include "runner/util.h"
@@ -33,6 +34,41 @@ TEST(HashTest, Fnv1aKnownAnswers) {
 TEST(NearestTest, SuggestsCloseWordsOnly) {
   EXPECT_EQ(nearest("stauts", {"plan", "run", "status", "report"}), "status");
   EXPECT_EQ(nearest("xyzzy", {"plan", "run", "status", "report"}), "");
+}
+
+// Adaptive replicas: the plan has `min` per point; the replicas a runner adds later are the
+// ones a plan of more replicas would have had (same seeds and ids), replicas 0..min-1 unchanged.
+TEST(CampaignSpecTest, AdaptiveReplicasPlanMinAndAddWithThePlansIds) {
+  const json j = json::parse(R"({"name": "t", "replicas": {"min": 2, "max": 5, "until": {"metric": "q_count", "rel_se": 0.1}},
+    "base": {"bodies": {"count": 300}, "silo": {"width": 30}},
+    "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6]}}})");
+  const CampaignSpec s = CampaignSpec::from_json(j);
+  EXPECT_EQ(s.replicas, 2);
+  EXPECT_TRUE(s.replica_rule.adaptive());
+  EXPECT_EQ(s.replica_rule.max, 5);
+  const auto planned = expand(s, "/cache");
+  ASSERT_EQ(planned.size(), 4u);
+  const auto more = expand(s, "/cache", kDefaultMaxRuns, 5);
+  ASSERT_EQ(more.size(), 10u);
+  for (const auto& p : planned) {
+    const auto it = std::find_if(more.begin(), more.end(), [&](const PlannedRun& m) { return m.run_id == p.run_id; });
+    ASSERT_NE(it, more.end());
+    EXPECT_EQ(it->replica, p.replica);
+    EXPECT_EQ(it->params_json, p.params_json);
+  }
+  // A fixed spec of 5 replicas has the same runs.
+  json fixed = j;
+  fixed["replicas"] = 5;
+  const auto five = expand(CampaignSpec::from_json(fixed), "/cache");
+  ASSERT_EQ(five.size(), 10u);
+  for (std::size_t k = 0; k < five.size(); ++k) EXPECT_EQ(five[k].run_id, more[k].run_id);
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "replicas": {"max": 5, "until": {"metric": "q", "rel_se": 0}}})")),
+            "/replicas/until/rel_se: must be a positive number (got 0)");
+  // The schema offers both forms.
+  const json schema = campaign_spec_schema();
+  ASSERT_TRUE(schema["properties"]["replicas"].contains("oneOf")) << schema["properties"]["replicas"].dump();
+  EXPECT_EQ(schema["properties"]["replicas"]["oneOf"][0]["type"], "integer");
+  EXPECT_EQ(schema["properties"]["replicas"]["oneOf"][1]["required"], json({"max", "until"}));
 }
 
 TEST(CampaignSpecTest, GridZipPointsAndReplicasExpand) {

@@ -355,7 +355,16 @@ TEST_F(CliUsability, SchemaAcceptsTheShippedCampaignsAndRefusesWhatTheValidatorR
   const fs::path spec = dir_ / "s.json";
   std::ofstream(spec) << good;
   EXPECT_EQ(validates(spec).code, 0) << validates(spec).output;
+  {
+    json adaptive = good;
+    adaptive["replicas"] = json::parse(R"({"min": 3, "max": 50, "until": [{"metric": "avalanche_size", "rel_se": 0.05}]})");
+    std::ofstream(spec, std::ios::trunc) << adaptive;
+    EXPECT_EQ(validates(spec).code, 0) << validates(spec).output;
+    EXPECT_EQ(Sh(Cmd("plan --dry-run " + spec.string())).code, 0);
+  }
   for (const auto& [pointer, bad] : std::vector<std::pair<std::string, json>>{
+           {"/replicas", {{"min", 2}, {"max", 5}}},                                             // no target
+           {"/replicas", {{"max", 5}, {"until", {{"metric", "q_count"}, {"se", 1}, {"rel_se", 1}}}}},  // two targets in one
            {"/base/contact/muu", 0.3},        // unknown key (did you mean mu)
            {"/base/contact/mu", -0.1},        // below its minimum
            {"/replicas", "two"},              // wrong type

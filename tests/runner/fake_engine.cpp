@@ -4,7 +4,9 @@
 // when restarted, and ends with summary.json then DONE. Every start and finish is appended to
 // DIR/launches.txt so tests can prove that nothing ran twice. Like the engines, it holds the
 // directory's writer lock (rundir/files.h) for its life.
-// Behaviour from run.json: /discharge/max_time == 13 -> fails (exit 3); == 666 -> hangs.
+// Behaviour from run.json: /discharge/max_time == 13 -> fails (exit 3); == 666 -> hangs;
+// == 21 -> its exits are 1 + (seed % 5) / 4 apart, so the flow rate differs between replicas
+// by a known, deterministic amount (the adaptive-replica tests).
 // FAKE_ENGINE_STEPS (default 10) and FAKE_ENGINE_STEP_MS (default 30) set the length;
 // FAKE_ENGINE_FIRST_LAUNCH_STEP_MS the step of a run's first launch (long: it cannot finish
 // before a test kills it; the relaunch is quick).
@@ -13,6 +15,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -95,7 +98,8 @@ int main(int argc, char** argv) {
   summary.bodies = spec["bodies"]["count"];
   summary.exited = steps;
   summary.remaining = 0;
-  summary.t_end = static_cast<double>(steps);
+  const double dt = max_time == 21 ? 1.0 + static_cast<double>(spec["seed"].get<std::uint64_t>() % 5) / 4.0 : 1.0;
+  summary.t_end = steps * dt;
   summary.timing = granary::rundir::Timing{steps * step_ms / 1000.0, 0.0, steps * step_ms / 1000.0, 0.0, 1};
   granary::rundir::WriteSummary(dir, summary);
   {
@@ -105,7 +109,7 @@ int main(int argc, char** argv) {
   // One exit per step, as summary.json says (a finished run whose events.csv disagrees with
   // its summary is damaged).
   std::vector<granary::rundir::ExitEvent> exits;
-  for (int k = 0; k < steps; ++k) exits.push_back({static_cast<double>(k + 1), k, "disc", 0.785, 0});
+  for (int k = 0; k < steps; ++k) exits.push_back({(k + 1) * dt, k, "disc", 0.785, 0});
   granary::rundir::WriteEvents(dir / "events.csv", exits);
   granary::rundir::WriteDone(dir, summary.end_reason);
   return 0;

@@ -98,7 +98,7 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
 #endif
   std::vector<PlannedRun> runs;
   try {
-    runs = expand(spec, default_cache_dir(), max_runs);
+    runs = expand(spec, default_cache_dir(), max_runs, spec.replica_rule.max);
   } catch (const SpecError& e) {
     throw SpecError(e.path(), e.message() + " [" + spec_path + "]");
   }
@@ -111,6 +111,8 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
     if (ec) throw UsageError("campaign plan: cannot make the directory " + DbDir(db).string() + " for --db " + db + ": " + ec.message());
   }
   Store store(dry_run && !fs::exists(db) ? std::string(":memory:") : db);
+  // Adaptive replicas: the first `min` per point, and those a runner added keep their place.
+  runs = with_added_replicas(store, spec, std::move(runs));
   PlanSummary s = plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
   if (estimate) {
     *estimate = estimate_runs(runs, &store, ExeDir(), jobs, true, [](const std::string& line) {
@@ -172,6 +174,9 @@ void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s
   } else {
     out << "  points " << s.points << " x replicas " << spec.replicas << " = " << s.total << " runs\n";
   }
+  if (spec.replica_rule.adaptive())
+    out << "  adaptive replicas: " << spec.replica_rule.text() << " (campaign run adds them; " << s.total
+        << " runs planned now, counting those a runner added)\n";
   out << "  added " << s.added << ", unchanged " << s.unchanged << ", revived " << s.revived << ", retired "
       << s.retired << "\n";
   if (!s.extended.empty()) {
@@ -200,7 +205,8 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
     out << json{{"campaign", spec.name}, {"runs", s.total},         {"points", s.points},   {"replicas", spec.replicas},
                 {"engines", spec.engines}, {"added", s.added},      {"unchanged", s.unchanged}, {"revived", s.revived},
                 {"retired", s.retired},  {"axes", axes},            {"dry_run", a.has("dry-run")},
-                {"extended", Extensions(s.extended)}, {"estimate", to_json(*estimate)}}
+                {"extended", Extensions(s.extended)}, {"estimate", to_json(*estimate)},
+                {"replica_rule", spec.replica_rule.adaptive() ? json(spec.replica_rule.text()) : json(nullptr)}}
                .dump(2)
         << "\n";
     return 0;

@@ -24,6 +24,7 @@
 #include "runner/campaign_db.h"
 #include <cstdlib>
 #include "runner/cli/console_observer.h"
+#include "runner/cli/replicas.h"
 #include "runner/slurm.h"
 
 namespace granary::runner::cli {
@@ -280,6 +281,9 @@ int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, 
   sigaction(SIGINT, &sa, &old_int);
   sigaction(SIGTERM, &sa, &old_term);
   g_stop = 0;
+  std::set<std::string> reported;  // adaptive replicas: points whose verdict was said
+  if (CampaignSpec::from_json(campaign->spec).replica_rule.adaptive())
+    o.add_runs = [&store, &reported](RunObserver& observer) { return AddReplicas(store, observer, reported); };
   auto executor = slurm ? make_slurm_executor(*slurm) : make_local_executor(o.jobs);
   const auto observer = MakeConsoleObserver(out, &out == &std::cout && isatty(STDOUT_FILENO));
   ExitCode code;

@@ -19,6 +19,8 @@
 #include "runner/cli/common.h"
 #include "runner/cli/run.h"
 #include "runner/cli/report.h"
+#include "runner/cli/replicas.h"
+#include "runner/campaign_spec.h"
 #include "runner/inspect.h"
 #include "runner/scan.h"
 #include "runner/executor.h"
@@ -223,6 +225,10 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
 #ifdef GRANARY_HAVE_ANALYSIS
     if (const auto e = ExpectationCounts(db, err, a.all("only"))) doc["expectations"] = *e;
 #endif
+    if (campaign) {
+      const CampaignSpec cs = CampaignSpec::from_json(campaign->spec);
+      if (cs.replica_rule.adaptive()) doc["replicas"] = ReplicaProgressJson(ReplicaStates(store, nullptr, false), cs.replica_rule);
+    }
     if (queue.any) {
       json arrays = json::array();
       for (const auto& q : queue.arrays) {
@@ -286,6 +292,10 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   if (counts[to_string(RunState::kDone)] > 0)
     out << "  metrics in the database for " << analysed << " of " << counts[to_string(RunState::kDone)] << " done runs"
         << (analysed < counts[to_string(RunState::kDone)] ? " (campaign report or export analyses the others)" : "") << "\n";
+  if (campaign) {
+    const CampaignSpec cs = CampaignSpec::from_json(campaign->spec);
+    if (cs.replica_rule.adaptive()) PrintReplicaProgress(out, ReplicaStates(store, nullptr, false), cs.replica_rule);
+  }
 #ifdef GRANARY_HAVE_ANALYSIS
   if (const auto e = ExpectationCounts(db, err, a.all("only")))
     out << "  expectations: " << *e << " (campaign export --expectations, or the report's Key results)\n";
