@@ -364,6 +364,10 @@ int EngineMain(const std::vector<std::string>& args) {
   } catch (const RunDirectoryBusy& e) {
     std::cerr << "granary-engine " << args[0] << ": " << e.what() << "\n";
     return kExitRunDirectoryBusy;
+  } catch (const SpecError& e) {
+    // A run.json the engine refuses is the caller's input, as with the external backends.
+    std::cerr << "granary-engine " << args[0] << ": error: " << e.what() << "\n";
+    return 2;
   } catch (const std::exception& e) {
     std::cerr << "granary-engine " << args[0] << ": error: " << e.what() << "\n";
     return 1;

@@ -189,7 +189,9 @@ class Discharge {
   bool StallIsAClog() const;
   bool Unclogging() const { return spec_.discharge.on_clog == OnClog::kUnclog; }
   // One attempt at breaking the current clog (on_clog "unclog"), written to unclogs.csv.
-  void Unclog();
+  // remove_arch takes out `arch` when given (the arch found when the clog was counted), else
+  // the arch the contacts of this step show.
+  void Unclog(const std::vector<std::int64_t>* arch = nullptr);
   // The bodies of the arches sealing the outlets, as the arch analysis finds them.
   std::vector<std::int64_t> ArchBodies();
   void WriteSummary(const std::string& end_reason);
@@ -222,6 +224,9 @@ class Discharge {
   std::int64_t last_unclog_step_ = -1;
   int unclog_removed_ = 0;
   Rng unclog_rng_;
+  // remove_arch: the arch of the clog just counted, found from the contact forces of that
+  // step before the lists are rebuilt (which clears them).
+  std::vector<std::int64_t> clog_arch_;
   // Periodic reinjection: bodies counted but still falling to the bottom of the box, and the
   // box height they jump up by (checkpointed).
   std::vector<std::uint8_t> falling_;
@@ -413,6 +418,7 @@ void Discharge::WriteCheckpoint() {
   o.Put(unclog_removed_);
   o.PutStr(unclog_rng_.Save());
   o.Put(unclogs_out_.Offset());
+  o.PutVec(clog_arch_);
   Out file;
   file.PutStr(kCheckpointMagic);
   file.Put(kCheckpointVersion);
@@ -496,6 +502,7 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   int unclog_attempts = 0, unclogged = 0, unclog_removed = 0;
   std::int64_t last_unclog_step = -1, unclogs_offset = 0;
   std::string unclog_rng;
+  std::vector<std::int64_t> clog_arch;
   if (!in.AtEnd()) {
     unclog_attempts = in.Get<int>();
     unclogged = in.Get<int>();
@@ -504,6 +511,7 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
     unclog_rng = in.GetStr();
     unclogs_offset = in.Get<std::int64_t>();
   }
+  if (!in.AtEnd()) clog_arch = in.GetVec<std::int64_t>();
   if (Unclogging() && unclog_rng.empty())
     throw CheckpointError(name + " was written without the unclog protocol's state");
   if (Unclogging()) {
@@ -557,6 +565,7 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   unclogged_ = unclogged;
   last_unclog_step_ = last_unclog_step;
   unclog_removed_ = unclog_removed;
+  clog_arch_ = clog_arch;
   if (Unclogging()) {
     unclog_rng_.Load(unclog_rng);
     unclogs_out_ = rundir::UnclogWriter::ContinueAt(dir_ / rundir::kUnclogsFile, unclogs_offset);
@@ -770,7 +779,7 @@ std::vector<std::int64_t> Discharge::ArchBodies() {
 // mode; they are not exits). kick: every body whose centre is within kick_radius of an
 // outlet's centre gets kick_speed in a direction drawn uniformly within 45 degrees of the
 // upward vertical, in body order (the same numbers at any thread count).
-void Discharge::Unclog() {
+void Discharge::Unclog(const std::vector<std::int64_t>* arch) {
   World& w = *world_;
   const granary::Unclog& u = spec_.discharge.unclog;
   ++unclog_attempts_;
@@ -782,7 +791,7 @@ void Discharge::Unclog() {
   e.attempt = unclog_attempts_;
   e.method = to_string(u.method);
   if (u.method == UnclogMethod::kRemoveArch) {
-    e.bodies = ArchBodies();
+    e.bodies = arch != nullptr ? *arch : ArchBodies();
     if (spec_.discharge.mode == DischargeMode::kReinject) {
       w.MarkBodiesInContact(in_contact_);
       for (std::int64_t b : e.bodies) Reinject(static_cast<int>(b));
@@ -935,7 +944,7 @@ RunResult Discharge::Run() {
     // (a larger max_clogs) or end again — then the frame of this step, which the checkpoint was
     // written before, so the outputs are those of a run that never stopped here.
     if (clogs_ >= spec_.discharge.unclog.max_clogs) end_reason = "max_clogs";
-    else Unclog();
+    else Unclog(clog_arch_.empty() ? nullptr : &clog_arch_);
     if (frame_every_ > 0 && step_ % frame_every_ == 0) {
       WriteFrame();
       if (contacts_.is_open()) WriteContacts();
@@ -983,6 +992,13 @@ RunResult Discharge::Run() {
         WriteClog();
         if (spec_.discharge.on_clog == OnClog::kStop) end_reason = "clogged";
         if (Unclogging()) {
+          // The lists rebuilt at every clog, as the last checkpoint below rebuilds them: then a run
+          // continued from a smaller max_clogs and a run planned with the larger one have
+          // rebuilt at the same steps, and give the same bits. The arch is found before: a
+          // rebuild clears the contact forces it is found from.
+          clog_arch_.clear();
+          if (spec_.discharge.unclog.method == UnclogMethod::kRemoveArch) clog_arch_ = ArchBodies();
+          world_->RebuildNow();
           if (clogs_ >= spec_.discharge.unclog.max_clogs) {
             end_reason = "max_clogs";
             // A last checkpoint, before this step's frame: the run planned again with a larger
@@ -990,7 +1006,7 @@ RunResult Discharge::Run() {
             // planned with that limit does at this step (below, after the continue).
             WriteCheckpoint();
           } else {
-            Unclog();
+            Unclog(&clog_arch_);
           }
         }
       } else if (unclog_attempts_ >= spec_.discharge.unclog.max_attempts) {
