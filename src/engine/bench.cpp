@@ -22,7 +22,7 @@
 #include <omp.h>
 
 #include "engine/run.h"
-#include "engine/shapes.h"
+#include "silo/shapes.h"
 #include "rundir/files.h"
 #include "rundir/hash.h"
 #include "rundir/layout.h"
@@ -233,8 +233,8 @@ double LoopTimeRate(const std::string& log_file) {
 
 LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std::string& data_file,
                              std::int64_t steps) {
-  const std::vector<ShapeTemplate> templates = MakeTemplates(spec);
-  for (const ShapeTemplate& t : templates)
+  const std::vector<silo::ShapeTemplate> templates = MakeTemplates(spec);
+  for (const silo::ShapeTemplate& t : templates)
     if (t.r.size() != 1)
       throw std::invalid_argument("LAMMPS side by side: every body must be a disc (species \"" + t.name + "\" is not)");
   if (spec.silo.base_outlets.size() != 1 || !spec.silo.side_outlets.empty() || !spec.silo.obstacles.empty())
@@ -243,7 +243,7 @@ LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std
   const BaseOutlet& outlet = spec.silo.base_outlets[0];
   double top = 0.0, r_max = 0.0;
   for (std::size_t b = 0; b < bed.x.size(); ++b) top = std::max(top, bed.y[b]);
-  for (const ShapeTemplate& t : templates) r_max = std::max(r_max, t.r[0]);
+  for (const silo::ShapeTemplate& t : templates) r_max = std::max(r_max, t.r[0]);
   const double ylo = -(spec.discharge.exit_distance + kPeriodicFall), yhi = top + 2 * r_max + 1.0;
 
   std::ostringstream data;
@@ -253,7 +253,7 @@ LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std
        << -hw - 1 << " " << hw + 1 << " xlo xhi\n" << ylo << " " << yhi << " ylo yhi\n-0.5 0.5 zlo zhi\n\n"
        << "Atoms # sphere\n\n";
   for (std::size_t b = 0; b < bed.x.size(); ++b) {
-    const ShapeTemplate& t = templates[static_cast<std::size_t>(bed.species[b])];
+    const silo::ShapeTemplate& t = templates[static_cast<std::size_t>(bed.species[b])];
     data << b + 1 << " " << bed.species[b] + 1 << " " << 2 * t.r[0] << " " << spec.bodies.density << " " << bed.x[b]
          << " " << bed.y[b] << " 0\n";
   }

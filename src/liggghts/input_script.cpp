@@ -10,11 +10,11 @@
 #include <numbers>
 #include <sstream>
 
-#include "engine/shapes.h"
+#include "silo/shapes.h"
 
 namespace granary::liggghts {
 
-using engine::ShapeTemplate;
+using silo::ShapeTemplate;
 
 namespace {
 
@@ -169,8 +169,8 @@ SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
 
   std::vector<ShapeTemplate> templates;
   for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
-    templates.push_back(engine::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
-  const std::vector<int> counts = engine::SpeciesCounts(spec.bodies);
+    templates.push_back(silo::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
+  const std::vector<int> counts = silo::SpeciesCounts(spec.bodies);
   s.species = static_cast<int>(templates.size());
   s.wall_type = s.species + 1;
   double bound = 0, area = 0, mass = 0;
@@ -487,7 +487,7 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
   p << "variable since_exit equal step-v_last_exit_step\n";  // `if` compares numbers, it does no arithmetic
   // A stall: no exit for clog_window, counted once until the next exit. In remove mode the
   // backend decides from the final dump whether an arch seals an outlet (a clog) or the silo has
-  // discharged what can flow (engine::SealedOutlets, as the native engine); the restart written
+  // discharged what can flow (silo::SealedOutlets, as the native engine); the restart written
   // here lets it go on through a clog when the spec asks for that.
   // Every stall also keeps its configuration and contact forces (ClogDumps): a clog's, or in
   // remove mode one the backend may judge a discharge and drop.

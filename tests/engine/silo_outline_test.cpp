@@ -1,6 +1,6 @@
 // The silo outline (walls with their outer side, outlets, obstacles) and silo.vtk, the mesh of
 // it that OVITO reads: legacy ASCII VTK, triangles only, one colour per triangle.
-#include "engine/silo_outline.h"
+#include "silo/silo_outline.h"
 
 #include <gtest/gtest.h>
 
@@ -23,8 +23,8 @@ Silo TestSilo() {
   return s;
 }
 
-TEST(SiloOutline, WallsOutletsAndObstaclesWithTheirOuterSides) {
-  const SiloOutline o = OutlineOf(TestSilo(), 30.0);
+TEST(silo::SiloOutline, WallsOutletsAndObstaclesWithTheirOuterSides) {
+  const silo::SiloOutline o = silo::OutlineOf(TestSilo(), 30.0);
   // Base left and right of the outlet; left wall whole; right wall below and above its outlet.
   ASSERT_EQ(o.walls.size(), 5u);
   double base = 0, left = 0, right = 0;
@@ -49,8 +49,8 @@ TEST(SiloOutline, WallsOutletsAndObstaclesWithTheirOuterSides) {
   EXPECT_DOUBLE_EQ(o.obstacles[0].r, 1);
 }
 
-TEST(SiloOutline, VtkIsATriangleMeshWithAColourPerTriangleOutsideTheSilo) {
-  const std::string vtk = SiloVtk(OutlineOf(TestSilo(), 30.0), 0.5);
+TEST(silo::SiloOutline, VtkIsATriangleMeshWithAColourPerTriangleOutsideTheSilo) {
+  const std::string vtk = silo::SiloVtk(silo::OutlineOf(TestSilo(), 30.0), 0.5);
   std::istringstream in(vtk);
   std::string line;
   std::getline(in, line);

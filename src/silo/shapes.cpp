@@ -1,11 +1,11 @@
 // Shape templates of discs, dumbbells, snowmen and rods (physics.md "Particles").
-#include "engine/shapes.h"
+#include "silo/shapes.h"
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 
-namespace granary::engine {
+namespace granary::silo {
 
 ShapeTemplate MakeTemplate(const Species& s, double density, int index) {
   ShapeTemplate t;
@@ -70,4 +70,4 @@ std::vector<int> SpeciesCounts(const Bodies& bodies) {
   return counts;
 }
 
-}  // namespace granary::engine
+}  // namespace granary::silo

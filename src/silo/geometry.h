@@ -9,7 +9,7 @@
 
 #include "rundir/run_spec.h"
 
-namespace granary::engine {
+namespace granary::silo {
 
 enum class ElementKind { kSegment, kPoint, kCircle };
 enum class WallGroup { kAlways, kPlug, kOpen };
@@ -54,4 +54,4 @@ int SideOf(const SiloGeometry& g, int element);
 // The always-active segment of `side` whose interior is under (px, py), or -1 (over a gap).
 int SegmentUnder(const SiloGeometry& g, Side side, double px, double py);
 
-}  // namespace granary::engine
+}  // namespace granary::silo

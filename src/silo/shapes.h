@@ -8,7 +8,7 @@
 
 #include "rundir/run_spec.h"
 
-namespace granary::engine {
+namespace granary::silo {
 
 struct ShapeTemplate {
   std::string name;
@@ -27,4 +27,4 @@ ShapeTemplate MakeTemplate(const Species& species, double density, int index);
 // sum to `count` exactly and do not depend on anything else.
 std::vector<int> SpeciesCounts(const Bodies& bodies);
 
-}  // namespace granary::engine
+}  // namespace granary::silo
