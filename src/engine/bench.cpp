@@ -22,6 +22,7 @@
 #include <omp.h>
 
 #include "engine/run.h"
+#include "external/bench_log.h"
 #include "silo/shapes.h"
 #include "rundir/files.h"
 #include "rundir/hash.h"
@@ -33,13 +34,6 @@ extern char** environ;
 
 namespace granary::engine {
 namespace fs = std::filesystem;
-
-double BenchMedian(std::vector<double> rates) {
-  if (rates.empty()) return 0.0;
-  std::sort(rates.begin(), rates.end());
-  const std::size_t n = rates.size();
-  return n % 2 ? rates[n / 2] : 0.5 * (rates[n / 2 - 1] + rates[n / 2]);
-}
 
 nlohmann::json BenchSpecies(const std::string& shape) {
   if (shape == "disc") return {{{"shape", "disc"}}};
@@ -217,20 +211,6 @@ std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::ve
   return results;
 }
 
-double LoopTimeRate(const std::string& log_file) {
-  static const std::regex loop(R"(Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps with (\d+) atoms)");
-  std::ifstream in(log_file);
-  std::string line;
-  double work = 0, seconds = 0;
-  while (std::getline(in, line)) {
-    std::smatch m;
-    if (!std::regex_search(line, m, loop)) continue;
-    seconds += std::stod(m[1]);
-    work += std::stod(m[3]) * std::stod(m[4]);
-  }
-  return seconds > 0 ? work / seconds : 0.0;
-}
-
 LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std::string& data_file,
                              std::int64_t steps) {
   const std::vector<silo::ShapeTemplate> templates = MakeTemplates(spec);
@@ -324,7 +304,7 @@ double LammpsRound(const fs::path& dir, int processes) {
   }
   argv.insert(argv.end(), {"lmp", "-in", (dir / "in.bench").string(), "-log", log.string(), "-screen", "none"});
   const int status = RunProgram(argv);
-  const double rate = LoopTimeRate(log.string());
+  const double rate = external::LoopTimeRate(log.string());
   if (status != 0 || rate <= 0)
     throw std::runtime_error("LAMMPS failed (exit status " + std::to_string(status) + "); last lines of " +
                              log.string() + ":\n" + TailOfFile(log, 15));

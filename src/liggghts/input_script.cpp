@@ -10,6 +10,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "rundir/shape_table.h"
 #include "silo/shapes.h"
 
 namespace granary::liggghts {
@@ -298,9 +299,9 @@ SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
   std::string dist;
   for (std::size_t k = 0; k < templates.size(); ++k) {
     const ShapeTemplate& tp = templates[k];
-    const Shape shape = spec.bodies.species[k].shape;
-    const int angles = tp.r.size() == 1 ? 1 : (shape == Shape::kSnowman ? 12 : 6);
-    const double span = shape == Shape::kSnowman ? 2 * std::numbers::pi : std::numbers::pi;
+    const bool half_turn = ShapeRowOf(spec.bodies.species[k].shape).half_turn_symmetric;
+    const int angles = tp.r.size() == 1 ? 1 : (half_turn ? 6 : 12);
+    const double span = half_turn ? std::numbers::pi : 2 * std::numbers::pi;
     double sphere_volume = 0;
     for (double r : tp.r) sphere_volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
     const double density3d = tp.mass / sphere_volume;  // nominal: the mass is given explicitly
