@@ -1,4 +1,4 @@
-// Bed preparation (physics.md "A run's life" step 1): bodies inserted at random, without
+// Bed preparation (docs/model.md "A run", step 1): bodies inserted at random, without
 // overlap, in batches with random orientations, then settled under gravity with the outlets
 // plugged. A prepared bed depends only on RunSpec::bed_key(); it is stored as JSON and
 // shared between runs through bed.cache_file (written atomically under an flock).

@@ -257,7 +257,7 @@ LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std
      << "processors * 1 1   # ranks side by side in x\n"
      << "comm_modify vel yes\n"
      << "read_data " << data_file << "\n"
-     << "set group all density/disc " << spec.bodies.density << "   # disc mass rho pi r^2 (physics.md)\n"
+     << "set group all density/disc " << spec.bodies.density << "   # disc mass rho pi r^2 (docs/model.md)\n"
      << "pair_style gran/" << pair_law << "\npair_coeff * *\n"
      << "neighbor 0.2 bin\nneigh_modify delay 0 every 1 check yes\n"
      << "timestep " << spec.time_step << "\n"

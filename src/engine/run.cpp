@@ -327,7 +327,7 @@ void Discharge::PlaceBed() {
   for (int b = 0; b < w.body_count(); ++b)
     w.PlaceBody(b, ob.bed.x[b], ob.bed.y[b], ob.bed.theta[b], ob.bed.vx[b], ob.bed.vy[b], ob.bed.omega[b]);
   // The bed was prepared without obstacles (it is shared by runs that differ only in their
-  // outlets or obstacles, physics.md): a body an obstacle overlaps is taken out, or the
+  // outlets or obstacles, docs/model.md): a body an obstacle overlaps is taken out, or the
   // overlap would fire it off at t = 0.
   for (int i = 0; i < w.disc_count(); ++i) {
     const int b = w.dbody_[i];

@@ -1,4 +1,4 @@
-// Forces, neighbour lists and the velocity-Verlet step of the rigid-clump DEM (physics.md).
+// Forces, neighbour lists and the velocity-Verlet step of the rigid-clump DEM (docs/model.md).
 #include "engine/world.h"
 
 #include <omp.h>

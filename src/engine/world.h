@@ -1,6 +1,6 @@
-// The simulated system: a structure-of-arrays body store over shape templates
-// (style.md 8.2), the wall elements, the Verlet neighbour lists with per-contact shear
-// history, and the velocity-Verlet rigid-body step (physics.md).
+// The simulated system: a structure-of-arrays body store over shape templates,
+// the wall elements, the Verlet neighbour lists with per-contact shear
+// history, and the velocity-Verlet rigid-body step (docs/model.md).
 //
 // Determinism: every pair force is computed once, in a fixed block of discs (force_block),
 // and summed per disc and per body in an order fixed by the disc numbering and the block

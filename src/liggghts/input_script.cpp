@@ -1,5 +1,5 @@
 // LIGGGHTS 3.8 input generation (input_script.h). The set-up follows the verified
-// quasi-2-D recipe of shared/docs/liggghts-notes.md: a 3-D box, every sphere centre in the
+// quasi-2-D recipe of docs/liggghts.md: a 3-D box, every sphere centre in the
 // plane z = 0, multisphere bodies with fflag/tflag locking out-of-plane motion, walls as
 // primitives or STL meshes, the base closed by a mesh while the bed settles.
 #include "liggghts/input_script.h"

@@ -1,6 +1,6 @@
 // Parsing, validation and canonical serialisation of the resolved run spec (run_spec.h).
 // Every error is a SpecError naming the JSON Pointer of the offending value, the value and
-// what is allowed, so a user can fix a campaign without reading code (style.md 8.3 item 8).
+// what is allowed, so a user can fix a campaign without reading code.
 // Keys, defaults and allowed values are documented in docs/run-spec.md.
 #include "rundir/run_spec.h"
 
@@ -338,7 +338,7 @@ SpecTable MakeRunSpecTable() {
       number("/bodies/species/*/diameter", 1.0, positive, "disc: D; dumbbell: d; snowman: D_s; rod: each disc"),
       number("/bodies/species/*/big_diameter", 1.0, positive, "snowman only: D_b, with D_b/D_s in [1, 2]"),
       integer("/bodies/species/*/n", 2, 2, "rod only: number of discs in a line"),
-      plain("/contact", T::kObject, nullptr, "the contact law (physics.md)"),
+      plain("/contact", T::kObject, nullptr, "the contact law (docs/model.md)"),
       number("/contact/kn", 2.0e6, positive, "normal stiffness"),
       number("/contact/kt", 2.45e6, positive, "tangential stiffness"),
       number("/contact/gamma_n", 1000.0, non_negative, "normal damping"),
@@ -580,7 +580,7 @@ RunSpec RunSpec::from_json(const json& j) {
     c.Number("gamma_n", s.contact.gamma_n);
     c.Number("gamma_t", s.contact.gamma_t);
     c.Number("mu", s.contact.mu);
-    s.contact.mu_wall = s.contact.mu;  // physics.md: wall friction defaults to mu
+    s.contact.mu_wall = s.contact.mu;  // docs/model.md "Boundaries": wall friction defaults to mu
     c.Number("mu_wall", s.contact.mu_wall);
     c.Enum("tangential_cap", s.contact.tangential_cap, kCaps);
     c.Bool("clip_normal", s.contact.clip_normal);
@@ -644,7 +644,7 @@ void validate(const RunSpec& s) {
   CheckBounds("/time_step", s.time_step);
   CheckBounds("/gravity", s.gravity);
 
-  // Contact parameters (physics.md, contact law): stiffnesses positive, damping and friction >= 0.
+  // Contact parameters (docs/model.md "Contact law"): stiffnesses positive, damping and friction >= 0.
   CheckBounds("/contact/kn", s.contact.kn);
   CheckBounds("/contact/kt", s.contact.kt);
   CheckBounds("/contact/gamma_n", s.contact.gamma_n);
@@ -683,7 +683,7 @@ void validate(const RunSpec& s) {
     throw SpecError("/bodies/species", "fractions must sum to 1 (got " + Shown(fraction_sum) + ")");
   }
 
-  // Silo geometry: walls at x = +-width/2, base at y = 0 (physics.md, geometry).
+  // Silo geometry: walls at x = +-width/2, base at y = 0 (docs/model.md "Units").
   const Silo& silo = s.silo;
   CheckBounds("/silo/width", silo.width);
   CheckBounds("/silo/height", silo.height);
@@ -925,7 +925,7 @@ json RunSpec::to_json() const {
 }
 
 json RunSpec::bed_key() const {
-  // Everything the bed preparation (physics.md, procedure step 1) depends on, and nothing
+  // Everything the bed preparation (docs/model.md "A run", step 1) depends on, and nothing
   // about outlets or obstacles, so runs differing only in those share one prepared bed.
   // A LAMMPS run discharges the native engine's bed (docs/lammps.md): the same key, one bed.
   const std::string bed_engine =

@@ -1,5 +1,5 @@
-// Silo boundaries (physics.md "Boundaries"): walls are line segments, outlet edges are
-// points, obstacles are fixed circles. Elements belong to named groups (style.md 8.2 item 7):
+// Silo boundaries (docs/model.md "Boundaries"): walls are line segments, outlet edges are
+// points, obstacles are fixed circles. Elements belong to named groups:
 // the plug closes the outlets during bed preparation and is switched off at t = 0, when the
 // outlet-edge points switch on (while the plug is in, a disc over an edge would otherwise
 // touch both the edge point and the plug).

@@ -1,6 +1,6 @@
 // Dynamics of one or two bodies against closed forms and independent integrations:
 // restitution (RK4 of the Hertz-damped oscillator), friction on an incline, energy
-// conservation, free rotation, obstacle deflection, free fall (physics.md; style.md 8.7).
+// conservation, free rotation, obstacle deflection, free fall (docs/model.md).
 #include "engine/world.h"
 
 #include <omp.h>
