@@ -94,7 +94,7 @@ constexpr char kBenchHelp[] =
     "                frames and contact frames every T time units, and prints both rates\n"
     "  --bed-prep    bed preparation instead of discharge: --repeat N replicas (seeds 1..N),\n"
     "                each prepared from scratch by the old procedure (bed step = time_step,\n"
-    "                fixed wait per batch, skin 0.2: the beds before issue 19) and by the\n"
+    "                fixed wait per batch, skin 0.2: bed/next_batch "fixed") and by the\n"
     "                default one (8 x time_step, next batch once the last has landed, skin\n"
     "                0.4), interleaved, on the largest thread count; prints wall time,\n"
     "                simulated time, top, surface and packing fraction, and per procedure\n"
@@ -188,7 +188,7 @@ int BenchOutputCost(const BenchOptions& options, double interval) {
 
 // Per replica and procedure the wall time and the bed's shape; then per procedure the median
 // wall time and the mean and standard deviation of the shape over the replicas. "old" is the
-// preparation of before issue 19 (bed step = time step, fixed wait per batch), "new" the default.
+// fixed procedure (bed step = time step, fixed wait per batch), "new" the default.
 int BenchBedPrep(const BenchOptions& options) {
   const std::vector<BedProcedure> procedures = {{"old", 1.0, NextBatch::kFixed, WorldParams{}.skin},
                                                 {"new", kBedTimeStepFactor, NextBatch::kLanded, kBedSkin}};

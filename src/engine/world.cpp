@@ -443,8 +443,8 @@ namespace {
 // which the whole block's loop adds them), then continues as that loop, so a block summed
 // in parts gives the bits of a block summed at once. An entry that does not touch adds
 // +0.0, which leaves every sum as it was (they start at +0.0 and so are never -0.0). A
-// function of its own, not inlined: inside the block's function the loop kept its pointers
-// on the stack (+4 % at one thread out of it). Scalar, so no instruction-set variants.
+// function of its own, not inlined: inside the block's function the loop keeps its pointers
+// on the stack, which costs (docs/benchmarks.md). Scalar, so no instruction-set variants.
 [[gnu::noinline]] void SumBlock(int i0, int i1, const int* __restrict earlier, int n_earlier,
                                 const int* __restrict nl_start, const int* __restrict nl_j,
                                 const double* __restrict nl_fx, const double* __restrict nl_fy,
