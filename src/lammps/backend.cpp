@@ -299,7 +299,7 @@ std::vector<Disc> ReadFinal(const fs::path& file) {
 }
 
 // A stall in remove mode is a clog when an arch seals an outlet from the material above: the
-// native engine's judgement (engine/stall.h) on LAMMPS' final positions.
+// native engine's judgement (silo/stall.h) on LAMMPS' final positions.
 bool StallIsAClog(const RunSpec& spec, const std::vector<Disc>& left, double probe) {
   std::vector<silo::DiscAt> discs;
   double top = 0;

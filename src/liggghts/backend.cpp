@@ -552,7 +552,7 @@ double TopOf(const std::vector<Sphere>& spheres) {
 }
 
 // A stall in remove mode is a clog when an arch seals an outlet from the material above; the same
-// test as the native engine's (engine/stall.h) on LIGGGHTS' final positions.
+// test as the native engine's (silo/stall.h) on LIGGGHTS' final positions.
 bool StallIsAClog(const RunSpec& spec, const std::vector<Sphere>& left) {
   double probe = std::numeric_limits<double>::max();
   for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)

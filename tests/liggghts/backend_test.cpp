@@ -148,7 +148,7 @@ TEST(LiggghtsBackend, DiscBedSettlesAndDischargesInRemoveMode) {
   EXPECT_LT(timing.at("disc_steps_per_s").get<double>(), timing.at("bed_disc_steps_per_s").get<double>());
 }
 
-// Stalls in remove mode are judged as the native engine judges them (engine/stall.h) on
+// Stalls in remove mode are judged as the native engine judges them (silo/stall.h) on
 // LIGGGHTS' final positions: an arch over a narrow outlet is a clog (and the run goes on through
 // it when asked), a wide outlet leaves only the dead zones and the run has discharged.
 TEST(LiggghtsBackend, AStallIsAClogOrADischargeAsOnTheNativeEngine) {
