@@ -94,7 +94,7 @@ constexpr char kBenchHelp[] =
     "                frames and contact frames every T time units, and prints both rates\n"
     "  --bed-prep    bed preparation instead of discharge: --repeat N replicas (seeds 1..N),\n"
     "                each prepared from scratch by the old procedure (bed step = time_step,\n"
-    "                fixed wait per batch, skin 0.2: bed/next_batch "fixed") and by the\n"
+    "                fixed wait per batch, skin 0.2: bed/next_batch fixed) and by the\n"
     "                default one (8 x time_step, next batch once the last has landed, skin\n"
     "                0.4), interleaved, on the largest thread count; prints wall time,\n"
     "                simulated time, top, surface and packing fraction, and per procedure\n"

@@ -23,7 +23,7 @@ Silo TestSilo() {
   return s;
 }
 
-TEST(silo::SiloOutline, WallsOutletsAndObstaclesWithTheirOuterSides) {
+TEST(SiloOutline, WallsOutletsAndObstaclesWithTheirOuterSides) {
   const silo::SiloOutline o = silo::OutlineOf(TestSilo(), 30.0);
   // Base left and right of the outlet; left wall whole; right wall below and above its outlet.
   ASSERT_EQ(o.walls.size(), 5u);
@@ -49,7 +49,7 @@ TEST(silo::SiloOutline, WallsOutletsAndObstaclesWithTheirOuterSides) {
   EXPECT_DOUBLE_EQ(o.obstacles[0].r, 1);
 }
 
-TEST(silo::SiloOutline, VtkIsATriangleMeshWithAColourPerTriangleOutsideTheSilo) {
+TEST(SiloOutline, VtkIsATriangleMeshWithAColourPerTriangleOutsideTheSilo) {
   const std::string vtk = silo::SiloVtk(silo::OutlineOf(TestSilo(), 30.0), 0.5);
   std::istringstream in(vtk);
   std::string line;
