@@ -35,7 +35,7 @@ struct CampaignView;
 // ([a-z0-9_]); per-outlet variants end in outlet_suffix(k).
 struct Metric {
   std::string name;
-  std::string unit;                   // reduced units of physics.md: "bodies/sqrt(d/g)", "1", ...
+  std::string unit;                   // reduced units of docs/model.md: "bodies/sqrt(d/g)", "1", ...
   double value = kNaN;                // NaN: not defined for this run
   double se = kNaN;                   // NaN: no error estimate
   std::string title;                  // for tables and print-outs

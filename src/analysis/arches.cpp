@@ -10,7 +10,7 @@
 #include <stdexcept>
 
 #include "analysis/orientation.h"
-#include "engine/stall.h"
+#include "silo/stall.h"
 #include "rundir/run_spec.h"
 
 namespace granary::analysis {
@@ -123,10 +123,10 @@ bool Stretch(const std::vector<Item>& items, std::vector<Item>& stretch) {
 
 }  // namespace
 
-engine::SiloGeometry silo_of(const nlohmann::json& spec, double top) {
+silo::SiloGeometry silo_of(const nlohmann::json& spec, double top) {
   try {
     const RunSpec rs = RunSpec::from_json(spec);
-    return engine::BuildGeometry(rs.silo, rs.silo.height > 0 ? rs.silo.height : top);
+    return silo::BuildGeometry(rs.silo, rs.silo.height > 0 ? rs.silo.height : top);
   } catch (const std::exception& e) {
     throw std::invalid_argument(std::string("the run's spec does not describe a silo: ") + e.what());
   }
@@ -166,7 +166,7 @@ ContactTypes contact_types(const rundir::Frame& frame, const rundir::ContactFram
   return t;
 }
 
-ClogArches analyse_clog(const rundir::ClogState& clog, const engine::SiloGeometry& silo) {
+ClogArches analyse_clog(const rundir::ClogState& clog, const silo::SiloGeometry& silo) {
   const std::vector<rundir::Disc>& discs = clog.frame.discs;
   ClogArches out;
   out.timestep = clog.frame.timestep;
@@ -189,15 +189,15 @@ ClogArches analyse_clog(const rundir::ClogState& clog, const engine::SiloGeometr
   }
   std::map<std::int64_t, std::vector<std::pair<double, double>>> on_walls;  // contact points
   for (const rundir::Disc& d : discs) {
-    for (const engine::WallElement& e : silo.elements) {
-      if (e.group == engine::WallGroup::kPlug) continue;
+    for (const silo::WallElement& e : silo.elements) {
+      if (e.group == silo::WallGroup::kPlug) continue;
       double qx = e.ax, qy = e.ay;
-      if (e.kind == engine::ElementKind::kSegment) {
-        const engine::Closest q = engine::ClosestPoint(e, d.x, d.y);
+      if (e.kind == silo::ElementKind::kSegment) {
+        const silo::Closest q = silo::ClosestPoint(e, d.x, d.y);
         if (!q.valid) continue;
         qx = q.qx, qy = q.qy;
       }
-      const double r = std::hypot(d.x - qx, d.y - qy), surface = e.kind == engine::ElementKind::kCircle ? e.radius : 0.0;
+      const double r = std::hypot(d.x - qx, d.y - qy), surface = e.kind == silo::ElementKind::kCircle ? e.radius : 0.0;
       if (r - surface > d.radius * (1 + kTouching) || r == 0) continue;
       on_walls[d.mol].emplace_back(qx + surface * (d.x - qx) / r, qy + surface * (d.y - qy) / r);
     }
@@ -207,24 +207,24 @@ ClogArches analyse_clog(const rundir::ClogState& clog, const engine::SiloGeometr
     n.erase(std::unique(n.begin(), n.end()), n.end());
   }
   std::vector<int> circle_of(silo.elements.size(), -1);  // element -> obstacle index
-  std::vector<const engine::WallElement*> circles;
+  std::vector<const silo::WallElement*> circles;
   for (std::size_t e = 0; e < silo.elements.size(); ++e)
-    if (silo.elements[e].kind == engine::ElementKind::kCircle) {
+    if (silo.elements[e].kind == silo::ElementKind::kCircle) {
       circle_of[e] = static_cast<int>(circles.size());
       circles.push_back(&silo.elements[e]);
     }
 
-  std::vector<engine::DiscAt> at;
+  std::vector<silo::DiscAt> at;
   double probe = std::numeric_limits<double>::max();
   for (const rundir::Disc& d : discs) {
     at.push_back({d.x, d.y, d.radius});
     probe = std::min(probe, d.radius);
   }
   for (int o = 0; o < static_cast<int>(silo.outlets.size()); ++o) {
-    const engine::OutletCavity cavity = engine::CavityUnder(silo, at, probe, o);
+    const silo::OutletCavity cavity = silo::CavityUnder(silo, at, probe, o);
     if (!cavity.sealed) continue;
     out.sealed_outlets.push_back(o);
-    const engine::OutletFrame& f = silo.outlets[static_cast<std::size_t>(o)];
+    const silo::OutletFrame& f = silo.outlets[static_cast<std::size_t>(o)];
     // The supports a body touches, as seen from this outlet: an obstacle, or walls on its
     // s < 0 (left) or s > 0 (right) side.
     auto supports_of = [&](std::int64_t id) {
@@ -283,10 +283,10 @@ ClogArches analyse_clog(const rundir::ClogState& clog, const engine::SiloGeometr
 
     // The edge as objects; then every dead-end excursion A B ... B A cut back to A.
     std::vector<Item> edge;
-    for (const engine::CavityBound& e : cavity.edge) {
-      if (e.kind == engine::CavityBound::Kind::kDisc) {
+    for (const silo::CavityBound& e : cavity.edge) {
+      if (e.kind == silo::CavityBound::Kind::kDisc) {
         edge.push_back({Item::Kind::kBody, discs[static_cast<std::size_t>(e.index)].mol});
-      } else if (e.kind == engine::CavityBound::Kind::kElement) {
+      } else if (e.kind == silo::CavityBound::Kind::kElement) {
         const int k = circle_of[static_cast<std::size_t>(e.index)];
         edge.push_back(k >= 0 ? Item{Item::Kind::kObstacle, k} : Item{e.s < 0 ? Item::Kind::kLeft : Item::Kind::kRight, 0});
       }

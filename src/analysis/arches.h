@@ -2,7 +2,7 @@
 // ch. 6 figs. 6.3-6.9; docs/analyses.md "Arches"). Pure: a clog (rundir/clogs.h) and the silo's
 // geometry in, the arch over every sealed outlet and the clogged system's contact statistics out.
 //
-// The arch of an outlet is read off the edge of the free space under it (engine::CavityUnder,
+// The arch of an outlet is read off the edge of the free space under it (silo::CavityUnder,
 // the stall judgement's flood fill): the objects along that edge from the s < 0 side of the
 // outlet round to the s > 0 side, bodies merged from their discs, with every dead-end excursion
 // (a body, or a branch of bodies, touching the rest of the edge at one body only: A B A) cut
@@ -21,7 +21,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/stats.h"
-#include "engine/geometry.h"
+#include "silo/geometry.h"
 #include "rundir/clogs.h"
 
 namespace granary::analysis {
@@ -79,7 +79,7 @@ struct ClogArches {
 
 // The silo of a resolved run spec (run.json) with side walls up to `top`; throws
 // std::invalid_argument naming what is wrong with the spec.
-engine::SiloGeometry silo_of(const nlohmann::json& spec, double top);
+silo::SiloGeometry silo_of(const nlohmann::json& spec, double top);
 
 // Per-body pressure from the per-disc stress of eq. 6.1 over pair contacts only (as the thesis),
 // with the sign of LAMMPS' compute stress/atom so that compression is positive:
@@ -92,7 +92,7 @@ ContactTypes contact_types(const rundir::Frame& frame, const rundir::ContactFram
 
 // Everything above for one clog, in `silo`; or in the silo of the run's spec (silo_of, with
 // side walls above the clog's highest disc).
-ClogArches analyse_clog(const rundir::ClogState& clog, const engine::SiloGeometry& silo);
+ClogArches analyse_clog(const rundir::ClogState& clog, const silo::SiloGeometry& silo);
 ClogArches analyse_clog(const rundir::ClogState& clog, const nlohmann::json& spec);
 
 // The clogs of a run as JSON (what an analysis caches per run) and back: every number, the

@@ -1,5 +1,5 @@
 // Reading analysis options from the campaign spec's "/report" object: every error names the
-// JSON path, the bad value and what is allowed (style.md 8.3 item 8), e.g.
+// JSON path, the bad value and what is allowed, e.g.
 // "/report/window/start_fraction: must be in [0, 1] (got 1.5)".
 #pragma once
 

@@ -99,7 +99,7 @@ void OrientationSums::add(const OrientationSums& o) {
   if (s_range == 0) s_range = o.s_range;
 }
 
-std::vector<OrientationOptions::Region> orientation_regions(const OrientationOptions& o, const engine::OutletFrame& f) {
+std::vector<OrientationOptions::Region> orientation_regions(const OrientationOptions& o, const silo::OutletFrame& f) {
   if (!o.regions.empty()) return o.regions;
   // |s| < 5, 0 < h < 10 in the outlet's frame, as a rectangle in the silo.
   const double xs[2] = {f.cx + 5 * f.ax, f.cx - 5 * f.ax}, ys[2] = {f.cy + 5 * f.ay, f.cy - 5 * f.ay};
@@ -113,7 +113,7 @@ std::vector<OrientationOptions::Region> orientation_regions(const OrientationOpt
   return {r};
 }
 
-void add_orientation_frame(const std::vector<rundir::Disc>& discs, const engine::OutletFrame& f, double half_width,
+void add_orientation_frame(const std::vector<rundir::Disc>& discs, const silo::OutletFrame& f, double half_width,
                            const OrientationOptions& o, OrientationSums& sums) {
   const std::size_t nh = o.heights.size(), nr = o.radii.size();
   const int sb = std::max(1, o.s_bins), tb = std::max(1, o.theta_bins), ab = std::max(1, o.axis_bins);

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "analysis/stats.h"
-#include "engine/geometry.h"
+#include "silo/geometry.h"
 #include "rundir/frames.h"
 
 namespace granary::analysis {
@@ -81,11 +81,11 @@ struct OrientationSums {
 
 // Adds one frame's elongated bodies (`discs`: every disc of the frame) to `sums`, positions
 // relative to `outlet`; `half_width` is the silo's (the default s range).
-void add_orientation_frame(const std::vector<rundir::Disc>& discs, const engine::OutletFrame& outlet, double half_width,
+void add_orientation_frame(const std::vector<rundir::Disc>& discs, const silo::OutletFrame& outlet, double half_width,
                            const OrientationOptions& options, OrientationSums& sums);
 
 // The regions actually used (options.regions, or the default one above `outlet`).
-std::vector<OrientationOptions::Region> orientation_regions(const OrientationOptions& options, const engine::OutletFrame& outlet);
+std::vector<OrientationOptions::Region> orientation_regions(const OrientationOptions& options, const silo::OutletFrame& outlet);
 
 // Profiles from sums: the mean acute angle per bin (NaN where empty) and its count.
 struct OrientationProfile {

@@ -110,8 +110,8 @@ class OrientationAccumulator : public RunAccumulator {
   const rundir::RunData* data_;
   TimeWindow steady_;
   OrientationAnalysisOptions o_;
-  engine::SiloGeometry silo_;
-  const engine::OutletFrame* outlet_ = nullptr;
+  silo::SiloGeometry silo_;
+  const silo::OutletFrame* outlet_ = nullptr;
   OrientationSums bed_, flow_;
   bool elongated_ = false;
   std::vector<std::string> notes_;

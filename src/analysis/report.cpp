@@ -184,7 +184,7 @@ std::optional<Section> provenance_section(const CampaignView& c) {
     ct.rows.push_back({engine, Cell::count(static_cast<long long>(e[0])), Cell::number(e[1] / 3600.0, 3), Cell::number(e[2] / 3600.0, 3)});
   if (!ct.rows.empty()) s.blocks.push_back(ct);
   s.blocks.push_back(Text{"Tangential cap: `lammps` caps spring plus damping at mu|F_n| (LAMMPS convention, "
-                          "physics.md); `liggghts` caps only the spring part (LIGGGHTS 3.8). Runs with different "
+                          "docs/model.md); `liggghts` caps only the spring part (LIGGGHTS 3.8). Runs with different "
                           "caps are not the same model."});
   if (k.spec.is_object()) {
     s.blocks.push_back(Text{"The campaign spec as planned:"});

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 
+#include "rundir/shape_table.h"
+
 namespace granary::analysis {
 namespace {
 
@@ -27,14 +29,12 @@ std::string SpeciesName(const json& spec, std::size_t k) {
   return "species " + std::to_string(k);
 }
 
-// "X_db" for dumbbells, "X_d" for discs, "X_<name>" otherwise (the thesis' symbols), "X_<k>"
-// for a species without a name.
+// The shape table's symbol ("X_db" for dumbbells, the thesis' symbols), else "X_<name>", or
+// "X_<k>" for a species without a name.
 std::string FractionSymbol(const json& spec, std::size_t k) {
   const json& species = At(At(spec, "bodies"), "species");
   const std::string shape = species.is_array() && k < species.size() ? species[k].value("shape", "") : "";
-  if (shape == "dumbbell") return "X_db";
-  if (shape == "disc") return "X_d";
-  if (shape == "snowman") return "X_sm";
+  if (const ShapeRow* row = FindShapeRow(shape); row && *row->fraction_symbol) return row->fraction_symbol;
   const bool named = species.is_array() && k < species.size() && species[k].contains("name");
   return "X_" + (named ? SpeciesName(spec, k) : std::to_string(k));
 }
@@ -175,14 +175,10 @@ Table fixed_parameters(const json& spec, const std::vector<std::string>& axes) {
   for (std::size_t k = 0; species.is_array() && k < species.size(); ++k) {
     const json& s = species[k];
     const std::string shape = s.value("shape", "");
-    std::string form = shape;
     const std::string ptr = "/bodies/species/" + std::to_string(k);
-    const std::string diameter = V(ptr + "/diameter", At(s, "diameter"));
-    if (shape == "disc") form = "disc of diameter " + diameter;
-    if (shape == "dumbbell") form = "dumbbell: two touching discs of diameter " + diameter;
-    if (shape == "snowman")
-      form = "snowman: discs of diameter " + diameter + " and " + V(ptr + "/big_diameter", At(s, "big_diameter")) + ", touching";
-    if (shape == "rod") form = "rod: " + V(ptr + "/n", At(s, "n")) + " touching discs of diameter " + diameter + " in a line";
+    const ShapeRow* row = FindShapeRow(shape);
+    const std::string form =
+        row ? ShapeText(row->form, [&](const std::string& key) { return V(ptr + "/" + key, At(s, key.c_str())); }) : shape;
     add("bodies", "species " + std::to_string(k + 1) + " \"" + s.value("name", "") + "\"", ptr + "/shape", form);
     add("bodies", "species " + std::to_string(k + 1) + " number fraction " + FractionSymbol(spec, k), ptr + "/fraction",
         Num(At(s, "fraction")));

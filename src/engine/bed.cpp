@@ -26,7 +26,7 @@ constexpr double kInsertPackingFraction = 0.3;  // area fraction of a batch's in
 constexpr double kSettleCheckInterval = 0.02;   // simulated time between kinetic-energy checks
 constexpr long kProgressEvery = 2000;           // steps between progress reports
 
-bool Overlaps(const ShapeTemplate& a, double ax, double ay, double ath, const ShapeTemplate& b, double bx,
+bool Overlaps(const silo::ShapeTemplate& a, double ax, double ay, double ath, const silo::ShapeTemplate& b, double bx,
               double by, double bth) {
   const double ddx = ax - bx, ddy = ay - by;
   const double reach = a.bound_radius + b.bound_radius;
@@ -45,15 +45,15 @@ bool Overlaps(const ShapeTemplate& a, double ax, double ay, double ath, const Sh
 
 }  // namespace
 
-std::vector<ShapeTemplate> MakeTemplates(const RunSpec& spec) {
-  std::vector<ShapeTemplate> t;
+std::vector<silo::ShapeTemplate> MakeTemplates(const RunSpec& spec) {
+  std::vector<silo::ShapeTemplate> t;
   for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
-    t.push_back(MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
+    t.push_back(silo::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
   return t;
 }
 
 BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double skin) {
-  std::vector<ShapeTemplate> templates = MakeTemplates(spec);
+  std::vector<silo::ShapeTemplate> templates = MakeTemplates(spec);
   // The bed never sees outlets or obstacles (bed_key): a closed silo whose walls are one
   // segment per side, so element index = Side.
   Silo closed;
@@ -63,12 +63,12 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
   WorldParams params = ParamsFromSpec(spec);
   params.dt = spec.bed_time_step();
   params.skin = skin;
-  World world(params, templates, BuildGeometry(closed, kTallWall));
+  World world(params, templates, silo::BuildGeometry(closed, kTallWall));
   Rng rng(spec.seed);
 
   // Bodies in random order so that every batch is a mixture.
   std::vector<int> order;
-  const std::vector<int> counts = SpeciesCounts(spec.bodies);
+  const std::vector<int> counts = silo::SpeciesCounts(spec.bodies);
   for (std::size_t k = 0; k < counts.size(); ++k) order.insert(order.end(), static_cast<std::size_t>(counts[k]), static_cast<int>(k));
   for (std::size_t i = order.size(); i > 1; --i) {
     const std::size_t j = static_cast<std::size_t>(rng.Next() % i);
@@ -93,7 +93,7 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
     const double y_base = world.MaxDiscTop() + 0.5;
     std::vector<int> placed;
     for (std::size_t k = inserted; k < batch_end; ++k) {
-      const ShapeTemplate& tp = templates[static_cast<std::size_t>(order[k])];
+      const silo::ShapeTemplate& tp = templates[static_cast<std::size_t>(order[k])];
       const double rb = tp.bound_radius;
       bool ok = false;
       double x = 0, y = 0, th = 0;
@@ -194,10 +194,10 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
 }
 
 BedState LoosePlacement(const RunSpec& spec) {
-  const std::vector<ShapeTemplate> templates = MakeTemplates(spec);
+  const std::vector<silo::ShapeTemplate> templates = MakeTemplates(spec);
   Rng rng(spec.seed);
   std::vector<int> order;
-  const std::vector<int> counts = SpeciesCounts(spec.bodies);
+  const std::vector<int> counts = silo::SpeciesCounts(spec.bodies);
   for (std::size_t k = 0; k < counts.size(); ++k) order.insert(order.end(), static_cast<std::size_t>(counts[k]), static_cast<int>(k));
   for (std::size_t i = order.size(); i > 1; --i) {
     const std::size_t j = static_cast<std::size_t>(rng.Next() % i);
@@ -215,7 +215,7 @@ BedState LoosePlacement(const RunSpec& spec) {
   std::map<std::pair<long, long>, std::vector<int>> grid;
   BedState bed;
   for (int k : order) {
-    const ShapeTemplate& tp = templates[static_cast<std::size_t>(k)];
+    const silo::ShapeTemplate& tp = templates[static_cast<std::size_t>(k)];
     const double rb = tp.bound_radius;
     double x = 0, y = 0, th = 0;
     for (int attempt = 0;; ++attempt) {
@@ -370,11 +370,11 @@ ObtainedBed ObtainBed(const RunSpec& spec, const std::string& run_dir, const Bed
 }
 
 BedShape MeasureBed(const BedState& bed, const RunSpec& spec) {
-  const std::vector<ShapeTemplate> templates = MakeTemplates(spec);
+  const std::vector<silo::ShapeTemplate> templates = MakeTemplates(spec);
   const double hw = spec.silo.width / 2;
   std::vector<double> dx, dy, dr;  // the discs
   for (std::size_t b = 0; b < bed.x.size(); ++b) {
-    const ShapeTemplate& t = templates[static_cast<std::size_t>(bed.species[b])];
+    const silo::ShapeTemplate& t = templates[static_cast<std::size_t>(bed.species[b])];
     const double c = std::cos(bed.theta[b]), s = std::sin(bed.theta[b]);
     for (std::size_t k = 0; k < t.r.size(); ++k) {
       dx.push_back(bed.x[b] + c * t.ox[k] - s * t.oy[k]);

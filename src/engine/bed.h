@@ -1,4 +1,4 @@
-// Bed preparation (physics.md "A run's life" step 1): bodies inserted at random, without
+// Bed preparation (docs/model.md "A run", step 1): bodies inserted at random, without
 // overlap, in batches with random orientations, then settled under gravity with the outlets
 // plugged. A prepared bed depends only on RunSpec::bed_key(); it is stored as JSON and
 // shared between runs through bed.cache_file (written atomically under an flock).
@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "rundir/run_spec.h"
-#include "engine/shapes.h"
+#include "silo/shapes.h"
 #include "engine/world.h"
 
 namespace granary::engine {
@@ -34,7 +34,7 @@ struct BedState {
 // Progress of the preparation: fraction in [0, 1] and simulated time.
 using BedProgress = std::function<void(double fraction, double t)>;
 
-std::vector<ShapeTemplate> MakeTemplates(const RunSpec& spec);
+std::vector<silo::ShapeTemplate> MakeTemplates(const RunSpec& spec);
 
 // Verlet skin while preparing a bed (the run's is 0.2): the falling batches outrun a 0.2 skin
 // every ~50 steps at the bed step; 0.4 halves the rebuilds (~20 % less wall time on two

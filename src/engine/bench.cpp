@@ -22,7 +22,8 @@
 #include <omp.h>
 
 #include "engine/run.h"
-#include "engine/shapes.h"
+#include "external/bench_log.h"
+#include "silo/shapes.h"
 #include "rundir/files.h"
 #include "rundir/hash.h"
 #include "rundir/layout.h"
@@ -33,13 +34,6 @@ extern char** environ;
 
 namespace granary::engine {
 namespace fs = std::filesystem;
-
-double BenchMedian(std::vector<double> rates) {
-  if (rates.empty()) return 0.0;
-  std::sort(rates.begin(), rates.end());
-  const std::size_t n = rates.size();
-  return n % 2 ? rates[n / 2] : 0.5 * (rates[n / 2 - 1] + rates[n / 2]);
-}
 
 nlohmann::json BenchSpecies(const std::string& shape) {
   if (shape == "disc") return {{{"shape", "disc"}}};
@@ -217,24 +211,10 @@ std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::ve
   return results;
 }
 
-double LoopTimeRate(const std::string& log_file) {
-  static const std::regex loop(R"(Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps with (\d+) atoms)");
-  std::ifstream in(log_file);
-  std::string line;
-  double work = 0, seconds = 0;
-  while (std::getline(in, line)) {
-    std::smatch m;
-    if (!std::regex_search(line, m, loop)) continue;
-    seconds += std::stod(m[1]);
-    work += std::stod(m[3]) * std::stod(m[4]);
-  }
-  return seconds > 0 ? work / seconds : 0.0;
-}
-
 LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std::string& data_file,
                              std::int64_t steps) {
-  const std::vector<ShapeTemplate> templates = MakeTemplates(spec);
-  for (const ShapeTemplate& t : templates)
+  const std::vector<silo::ShapeTemplate> templates = MakeTemplates(spec);
+  for (const silo::ShapeTemplate& t : templates)
     if (t.r.size() != 1)
       throw std::invalid_argument("LAMMPS side by side: every body must be a disc (species \"" + t.name + "\" is not)");
   if (spec.silo.base_outlets.size() != 1 || !spec.silo.side_outlets.empty() || !spec.silo.obstacles.empty())
@@ -243,7 +223,7 @@ LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std
   const BaseOutlet& outlet = spec.silo.base_outlets[0];
   double top = 0.0, r_max = 0.0;
   for (std::size_t b = 0; b < bed.x.size(); ++b) top = std::max(top, bed.y[b]);
-  for (const ShapeTemplate& t : templates) r_max = std::max(r_max, t.r[0]);
+  for (const silo::ShapeTemplate& t : templates) r_max = std::max(r_max, t.r[0]);
   const double ylo = -(spec.discharge.exit_distance + kPeriodicFall), yhi = top + 2 * r_max + 1.0;
 
   std::ostringstream data;
@@ -253,7 +233,7 @@ LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std
        << -hw - 1 << " " << hw + 1 << " xlo xhi\n" << ylo << " " << yhi << " ylo yhi\n-0.5 0.5 zlo zhi\n\n"
        << "Atoms # sphere\n\n";
   for (std::size_t b = 0; b < bed.x.size(); ++b) {
-    const ShapeTemplate& t = templates[static_cast<std::size_t>(bed.species[b])];
+    const silo::ShapeTemplate& t = templates[static_cast<std::size_t>(bed.species[b])];
     data << b + 1 << " " << bed.species[b] + 1 << " " << 2 * t.r[0] << " " << spec.bodies.density << " " << bed.x[b]
          << " " << bed.y[b] << " 0\n";
   }
@@ -277,7 +257,7 @@ LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std
      << "processors * 1 1   # ranks side by side in x\n"
      << "comm_modify vel yes\n"
      << "read_data " << data_file << "\n"
-     << "set group all density/disc " << spec.bodies.density << "   # disc mass rho pi r^2 (physics.md)\n"
+     << "set group all density/disc " << spec.bodies.density << "   # disc mass rho pi r^2 (docs/model.md)\n"
      << "pair_style gran/" << pair_law << "\npair_coeff * *\n"
      << "neighbor 0.2 bin\nneigh_modify delay 0 every 1 check yes\n"
      << "timestep " << spec.time_step << "\n"
@@ -324,7 +304,7 @@ double LammpsRound(const fs::path& dir, int processes) {
   }
   argv.insert(argv.end(), {"lmp", "-in", (dir / "in.bench").string(), "-log", log.string(), "-screen", "none"});
   const int status = RunProgram(argv);
-  const double rate = LoopTimeRate(log.string());
+  const double rate = external::LoopTimeRate(log.string());
   if (status != 0 || rate <= 0)
     throw std::runtime_error("LAMMPS failed (exit status " + std::to_string(status) + "); last lines of " +
                              log.string() + ":\n" + TailOfFile(log, 15));

@@ -71,13 +71,6 @@ nlohmann::json BenchSpec(const BenchOptions& options);
 // thread counts. The bed is prepared (or loaded) first and not timed.
 std::vector<BenchResult> RunBenchmark(const BenchOptions& options);
 
-// The median of repeated bench rates (the mean of the middle two for an even count).
-double BenchMedian(std::vector<double> rates);
-
-// Atom (disc, sphere) steps per second of a LAMMPS or LIGGGHTS log: atoms x steps / time
-// summed over its "Loop time of T on P procs for S steps with A atoms" lines (setup
-// excluded); 0 if there are none.
-double LoopTimeRate(const std::string& log_file);
 
 // The LAMMPS input for the bench case on a settled bed of discs: a data file (the bed's
 // positions and velocities; LAMMPS starts without the contact history) and an input script
@@ -99,7 +92,7 @@ struct VersusResult {
   int round;                  // 1..repeat
   int threads;                // native threads and LAMMPS MPI ranks
   double native;              // disc-steps per second
-  double lammps;              // atom-steps per second (LoopTimeRate)
+  double lammps;              // atom-steps per second (external::LoopTimeRate)
   double core_round_trip_ns = 0.0;  // measured before the round when it has two threads or more (CoreRoundTripNs)
 };
 

@@ -18,21 +18,11 @@
 #include "engine/bench.h"
 #include "rundir/files.h"
 #include "engine/run.h"
+#include "external/bench_log.h"
+#include "external/cli.h"
 #include "rundir/stop.h"
 
 namespace granary::engine {
-
-int ParsePositiveInt(const std::string& flag, const std::string& value) {
-  std::size_t used = 0;
-  int v = 0;
-  try {
-    v = std::stoi(value, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used != value.size() || v < 1) throw std::invalid_argument(flag + ": expected a positive integer (got \"" + value + "\")");
-  return v;
-}
 
 double ParsePositiveNumber(const std::string& flag, const std::string& value) {
   std::size_t used = 0;
@@ -104,7 +94,7 @@ constexpr char kBenchHelp[] =
     "                frames and contact frames every T time units, and prints both rates\n"
     "  --bed-prep    bed preparation instead of discharge: --repeat N replicas (seeds 1..N),\n"
     "                each prepared from scratch by the old procedure (bed step = time_step,\n"
-    "                fixed wait per batch, skin 0.2: the beds before issue 19) and by the\n"
+    "                fixed wait per batch, skin 0.2: bed/next_batch fixed) and by the\n"
     "                default one (8 x time_step, next batch once the last has landed, skin\n"
     "                0.4), interleaved, on the largest thread count; prints wall time,\n"
     "                simulated time, top, surface and packing fraction, and per procedure\n"
@@ -119,7 +109,7 @@ int Run(const std::vector<std::string>& args) {
       std::cout << kRunHelp;
       return 0;
     } else if (a == "--threads" && i + 1 < args.size()) {
-      options.threads = ParsePositiveInt("--threads", args[++i]);
+      options.threads = external::ParsePositive("--threads", args[++i]);
     } else if (!a.empty() && a[0] == '-') {
       throw std::invalid_argument("run: unknown option \"" + a + "\"\n" + kRunHelp);
     } else if (dir.empty()) {
@@ -170,7 +160,7 @@ int BenchVersusLammps(const BenchOptions& options, const std::string& dir) {
       const double nb = *std::max_element(v.begin(), v.end()), lb = *std::max_element(l.begin(), l.end());
       std::printf("summary threads=%d rounds=%zu lammps best=%.4g median=%.4g native best=%.4g median=%.4g "
                   "native/lammps of the bests %.2f, of the medians %.2f\n",
-                  threads, v.size(), lb, BenchMedian(l), nb, BenchMedian(v), nb / lb, BenchMedian(v) / BenchMedian(l));
+                  threads, v.size(), lb, external::BenchMedian(l), nb, external::BenchMedian(v), nb / lb, external::BenchMedian(v) / external::BenchMedian(l));
     }
   return 0;
 }
@@ -192,13 +182,13 @@ int BenchOutputCost(const BenchOptions& options, double interval) {
   }
   if (options.repeat > 1)
     for (auto& [threads, v] : costs)
-      std::printf("summary threads=%d rounds=%zu median_output_cost=%.1f%%\n", threads, v.size(), 100.0 * BenchMedian(v));
+      std::printf("summary threads=%d rounds=%zu median_output_cost=%.1f%%\n", threads, v.size(), 100.0 * external::BenchMedian(v));
   return 0;
 }
 
 // Per replica and procedure the wall time and the bed's shape; then per procedure the median
 // wall time and the mean and standard deviation of the shape over the replicas. "old" is the
-// preparation of before issue 19 (bed step = time step, fixed wait per batch), "new" the default.
+// fixed procedure (bed step = time step, fixed wait per batch), "new" the default.
 int BenchBedPrep(const BenchOptions& options) {
   const std::vector<BedProcedure> procedures = {{"old", 1.0, NextBatch::kFixed, WorldParams{}.skin},
                                                 {"new", kBedTimeStepFactor, NextBatch::kLanded, kBedSkin}};
@@ -232,14 +222,14 @@ int BenchBedPrep(const BenchOptions& options) {
       surface.push_back(r.shape.surface);
       phi.push_back(r.shape.phi);
     }
-    median_wall[p.name] = BenchMedian(wall);
+    median_wall[p.name] = external::BenchMedian(wall);
     const auto [tm, ts] = mean_sd(top);
     const auto [sm, ss] = mean_sd(surface);
     const auto [pm, ps] = mean_sd(phi);
     std::printf("summary procedure=%s step_factor=%g next_batch=%s replicas=%zu wall_s median=%.2f best=%.2f "
                 "settle_time median=%.2f top=%.3f+-%.3f surface=%.3f+-%.3f phi=%.4f+-%.4f (mean+-sd)\n",
                 p.name.c_str(), p.step_factor, to_string(p.next_batch).c_str(), rs.size(), median_wall[p.name],
-                *std::min_element(wall.begin(), wall.end()), BenchMedian(settle), tm, ts, sm, ss, pm, ps);
+                *std::min_element(wall.begin(), wall.end()), external::BenchMedian(settle), tm, ts, sm, ss, pm, ps);
   }
   std::printf("summary speedup of the median wall time (old / new): %.2f\n", median_wall["old"] / median_wall["new"]);
   return 0;
@@ -259,11 +249,11 @@ int Bench(const std::vector<std::string>& args) {
       options.shape = args[++i];
       BenchSpecies(options.shape);  // an unknown shape fails here, before any work
     } else if (a == "--bodies" && i + 1 < args.size()) {
-      options.bodies = ParsePositiveInt(a, args[++i]);
+      options.bodies = external::ParsePositive(a, args[++i]);
     } else if (a == "--steps" && i + 1 < args.size()) {
-      options.steps = ParsePositiveInt(a, args[++i]);
+      options.steps = external::ParsePositive(a, args[++i]);
     } else if (a == "--repeat" && i + 1 < args.size()) {
-      options.repeat = ParsePositiveInt(a, args[++i]);
+      options.repeat = external::ParsePositive(a, args[++i]);
     } else if (a == "--bed" && i + 1 < args.size()) {
       options.bed_file = args[++i];
     } else if (a == "--output-cost" && i + 1 < args.size()) {
@@ -279,7 +269,7 @@ int Bench(const std::vector<std::string>& args) {
       options.threads.clear();
       std::stringstream ss(args[++i]);
       std::string item;
-      while (std::getline(ss, item, ',')) options.threads.push_back(ParsePositiveInt(a, item));
+      while (std::getline(ss, item, ',')) options.threads.push_back(external::ParsePositive(a, item));
     } else {
       throw std::invalid_argument("bench: unknown option \"" + a + "\"\n" + kBenchHelp);
     }
@@ -309,8 +299,8 @@ int Bench(const std::vector<std::string>& args) {
   if (options.repeat > 1)
     for (auto& [threads, v] : rates) {
       std::printf("summary threads=%d rounds=%zu best=%.4g median=%.4g median_speedup=%.3f", threads, v.size(),
-                  *std::max_element(v.begin(), v.end()), BenchMedian(v), BenchMedian(speedups[threads]));
-      if (threads > 1) std::printf(" median_core_round_trip_ns=%.0f", BenchMedian(round_trips[threads]));
+                  *std::max_element(v.begin(), v.end()), external::BenchMedian(v), external::BenchMedian(speedups[threads]));
+      if (threads > 1) std::printf(" median_core_round_trip_ns=%.0f", external::BenchMedian(round_trips[threads]));
       std::printf("\n");
     }
   return 0;
@@ -330,7 +320,7 @@ int StartFrame(const std::vector<std::string>& args) {
       std::cout << kStartFrameHelp;
       return 0;
     } else if (a == "--threads" && i + 1 < args.size()) {
-      options.threads = ParsePositiveInt("--threads", args[++i]);
+      options.threads = external::ParsePositive("--threads", args[++i]);
     } else if (!a.empty() && a[0] == '-') {
       throw std::invalid_argument("start-frame: unknown option \"" + a + "\"\n" + kStartFrameHelp);
     } else {

@@ -9,9 +9,6 @@ namespace granary::engine {
 
 int EngineMain(const std::vector<std::string>& args);
 
-// The value of a flag that must be a positive integer; std::invalid_argument naming the flag
-// otherwise. Shared with granary-liggghts' command line.
-int ParsePositiveInt(const std::string& flag, const std::string& value);
 // A finite number > 0, or std::invalid_argument naming the flag.
 double ParsePositiveNumber(const std::string& flag, const std::string& value);
 

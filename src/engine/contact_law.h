@@ -1,7 +1,7 @@
-// The contact law as pure functions (physics.md "Contact law"): Hertz normal force with
+// The contact law as pure functions (docs/model.md "Contact law"): Hertz normal force with
 // velocity damping and a tangential spring with history, capped by Coulomb friction.
 // The convention is LAMMPS pair gran/hertz/history (dampflag 1) with BODY masses in m_eff;
-// the LIGGGHTS 3.8 cap (only the spring part is capped) is selectable (liggghts-notes.md §1).
+// the LIGGGHTS 3.8 cap (only the spring part is capped) is selectable (docs/liggghts.md).
 // Inputs are scalars in reduced units; no state; geometry is computed separately.
 #pragma once
 
@@ -19,13 +19,13 @@ struct ContactParams {
   bool clip_normal = false;   // clip an attractive normal force to zero
 };
 
-// Effective radius of two discs (physics.md): r_i r_j / (r_i + r_j). A wall is r_j = infinity.
+// Effective radius of two discs (docs/model.md): r_i r_j / (r_i + r_j). A wall is r_j = infinity.
 inline double EffectiveRadius(double ri, double rj) { return ri * rj / (ri + rj); }
 // Effective mass of two bodies: M_I M_J / (M_I + M_J). A wall or obstacle: M_I.
 inline double EffectiveMass(double mi, double mj) { return mi * mj / (mi + mj); }
 
 // Normal force magnitude along n (positive = repulsive):
-// F_n = sqrt(R_eff delta) (K_n delta - m_eff gamma_n v_n), v_n = (v_i - v_j).n (physics.md).
+// F_n = sqrt(R_eff delta) (K_n delta - m_eff gamma_n v_n), v_n = (v_i - v_j).n (docs/model.md).
 inline double NormalForce(double delta, double r_eff, double m_eff, double v_n, const ContactParams& p) {
   const double h = std::sqrt(r_eff * delta);
   const double fn = h * (p.kn * delta - m_eff * p.gamma_n * v_n);

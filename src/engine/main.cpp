@@ -1,4 +1,4 @@
-// granary-engine: thin main over granary_engine (style.md 8.1).
+// granary-engine: thin main over granary_engine.
 #include <string>
 #include <vector>
 

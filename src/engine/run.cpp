@@ -28,7 +28,7 @@
 #include "engine/bed.h"
 #include "engine/dump_format.h"
 #include "engine/random.h"
-#include "engine/silo_outline.h"
+#include "silo/silo_outline.h"
 #include "engine/stall_world.h"
 #include "rundir/stop.h"
 #include "engine/world.h"
@@ -262,12 +262,12 @@ class Discharge {
 };
 
 void Discharge::BuildWorld(const std::vector<int>& species, const WorldSnapshot* snapshot) {
-  std::vector<ShapeTemplate> templates = MakeTemplates(spec_);
+  std::vector<silo::ShapeTemplate> templates = MakeTemplates(spec_);
   const double wall_height = spec_.silo.height > 0 ? spec_.silo.height : kTallWall;
   WorldParams params = ParamsFromSpec(spec_);
   if (options_.parallel_min_discs >= 0) params.parallel_min_discs = options_.parallel_min_discs;
   if (options_.force_block >= 1) params.force_block = options_.force_block;
-  world_ = std::make_unique<World>(params, templates, BuildGeometry(spec_.silo, wall_height));
+  world_ = std::make_unique<World>(params, templates, silo::BuildGeometry(spec_.silo, wall_height));
   double mean_mass = 0;
   for (int s : species) mean_mass += templates[static_cast<std::size_t>(s)].mass;
   mean_mass /= static_cast<double>(species.size());
@@ -332,7 +332,7 @@ void Discharge::PlaceBed() {
   for (int b = 0; b < w.body_count(); ++b)
     w.PlaceBody(b, ob.bed.x[b], ob.bed.y[b], ob.bed.theta[b], ob.bed.vx[b], ob.bed.vy[b], ob.bed.omega[b]);
   // The bed was prepared without obstacles (it is shared by runs that differ only in their
-  // outlets or obstacles, physics.md): a body an obstacle overlaps is taken out, or the
+  // outlets or obstacles, docs/model.md): a body an obstacle overlaps is taken out, or the
   // overlap would fire it off at t = 0.
   for (int i = 0; i < w.disc_count(); ++i) {
     const int b = w.dbody_[i];
@@ -348,7 +348,7 @@ void Discharge::PlaceBed() {
   // The bed's wall contacts move to the segments of this silo (none over an open gap).
   std::vector<HistoryEntry> walls;
   for (const HistoryEntry& h : ob.bed.wall_history) {
-    const int e = SegmentUnder(w.geometry(), static_cast<Side>(h.j), w.dx_[h.i], w.dy_[h.i]);
+    const int e = silo::SegmentUnder(w.geometry(), static_cast<silo::Side>(h.j), w.dx_[h.i], w.dy_[h.i]);
     if (e >= 0) walls.push_back({h.i, e, h.sx, h.sy});
   }
   std::stable_sort(walls.begin(), walls.end(),
@@ -621,7 +621,7 @@ int Discharge::OutletOf(int b) const {
 
 void Discharge::Reinject(int b) {
   World& w = *world_;
-  const ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
+  const silo::ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
   const double rb = tp.bound_radius;
   // On top of the bed: a column whose top is a return still falling (no contact, or faster
   // than a body that has fallen its own size) is drawn again, up to kReinjectDraws times. Put
@@ -696,7 +696,7 @@ void Discharge::HandleExits() {
     }
     const int k = OutletOf(b);
     if (k < 0) continue;
-    const ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
+    const silo::ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
     events_.Write({t, b, tp.name, tp.mass, k});
     ++exits_per_outlet_[static_cast<std::size_t>(k)];
     last_exit_step_ = step_;
@@ -724,7 +724,7 @@ bool Discharge::Stalled() const {
   int n = 0;
   for (int b = 0; b < w.body_count(); ++b) {
     if (!w.active_[b]) continue;
-    for (const OutletFrame& o : w.geometry().outlets) {
+    for (const silo::OutletFrame& o : w.geometry().outlets) {
       const double px = w.bx_[b] - o.cx, py = w.by_[b] - o.cy;
       const double s = px * o.ax + py * o.ay, h = px * o.nx + py * o.ny;
       if (std::fabs(s) < o.width && h > -spec_.discharge.exit_distance && h < 2 * o.width) {
@@ -758,7 +758,7 @@ std::vector<std::int64_t> Discharge::ArchBodies() {
     // Sealed, but no chain of bodies from support to support (an arch resting on bodies the
     // probe does not reach): the bodies along the edge of the free space under the outlets.
     double probe = std::numeric_limits<double>::max();
-    std::vector<DiscAt> discs;
+    std::vector<silo::DiscAt> discs;
     std::vector<int> body_of;
     for (int i = 0; i < w.disc_count(); ++i) {
       probe = std::min(probe, w.dr_[i]);
@@ -767,8 +767,8 @@ std::vector<std::int64_t> Discharge::ArchBodies() {
       body_of.push_back(w.dbody_[i]);
     }
     for (int o = 0; o < static_cast<int>(w.geometry().outlets.size()); ++o)
-      for (const CavityBound& e : CavityUnder(w.geometry(), discs, probe, o).edge)
-        if (e.kind == CavityBound::Kind::kDisc) ids.push_back(body_of[static_cast<std::size_t>(e.index)]);
+      for (const silo::CavityBound& e : silo::CavityUnder(w.geometry(), discs, probe, o).edge)
+        if (e.kind == silo::CavityBound::Kind::kDisc) ids.push_back(body_of[static_cast<std::size_t>(e.index)]);
   }
   std::sort(ids.begin(), ids.end());
   ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
@@ -802,7 +802,7 @@ void Discharge::Unclog(const std::vector<std::int64_t>* arch) {
   } else {
     for (int b = 0; b < w.body_count(); ++b) {
       if (!w.active_[b]) continue;
-      for (const OutletFrame& o : w.geometry().outlets) {
+      for (const silo::OutletFrame& o : w.geometry().outlets) {
         const double radius = u.kick_radius > 0 ? u.kick_radius : o.width;
         if (std::hypot(w.bx_[b] - o.cx, w.by_[b] - o.cy) > radius) continue;
         const double angle = unclog_rng_.Uniform(-0.25 * std::numbers::pi, 0.25 * std::numbers::pi);
@@ -934,7 +934,7 @@ RunResult Discharge::Run() {
     double box[3][2];
     DumpBox(box);
     WriteAtomically(dir_ / rundir::kSiloFile,
-                    SiloVtk(OutlineOf(spec_.silo, spec_.silo.height > 0 ? spec_.silo.height : box[1][1])));
+                    silo::SiloVtk(silo::OutlineOf(spec_.silo, spec_.silo.height > 0 ? spec_.silo.height : box[1][1])));
   }
   World& w = *world_;
   std::string end_reason;

@@ -6,7 +6,7 @@
 #include <limits>
 #include <vector>
 
-#include "engine/stall.h"
+#include "silo/stall.h"
 #include "engine/world.h"
 
 namespace granary::engine {
@@ -14,10 +14,10 @@ namespace granary::engine {
 inline std::vector<bool> SealedOutlets(const World& w) {
   double probe = std::numeric_limits<double>::max();
   for (double r : w.dr_) probe = std::min(probe, r);
-  std::vector<DiscAt> discs;
+  std::vector<silo::DiscAt> discs;
   for (int i = 0; i < w.disc_count(); ++i)
     if (w.active_[w.dbody_[i]]) discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
-  return SealedOutlets(w.geometry(), discs, probe);
+  return silo::SealedOutlets(w.geometry(), discs, probe);
 }
 
 }  // namespace granary::engine

@@ -1,4 +1,4 @@
-// Forces, neighbour lists and the velocity-Verlet step of the rigid-clump DEM (physics.md).
+// Forces, neighbour lists and the velocity-Verlet step of the rigid-clump DEM (docs/model.md).
 #include "engine/world.h"
 
 #include <omp.h>
@@ -44,17 +44,17 @@ WorldParams ParamsFromSpec(const RunSpec& spec) {
   return p;
 }
 
-World::World(WorldParams params, std::vector<ShapeTemplate> templates, SiloGeometry geometry)
+World::World(WorldParams params, std::vector<silo::ShapeTemplate> templates, silo::SiloGeometry geometry)
     : params_(params), templates_(std::move(templates)), geometry_(std::move(geometry)),
       use_avx512_(params_.avx512_kernels && Avx512Available()) {
-  for (const ShapeTemplate& t : templates_)
+  for (const silo::ShapeTemplate& t : templates_)
     for (double r : t.r) max_radius_ = std::max(max_radius_, r);
 }
 
 int World::AddBody(int tmpl, double x, double y, double theta) {
   if (tmpl < 0 || tmpl >= static_cast<int>(templates_.size()))
     throw std::invalid_argument("World::AddBody: no shape template " + std::to_string(tmpl));
-  const ShapeTemplate& t = templates_[static_cast<std::size_t>(tmpl)];
+  const silo::ShapeTemplate& t = templates_[static_cast<std::size_t>(tmpl)];
   const int id = body_count();
   tmpl_.push_back(tmpl);
   active_.push_back(1);
@@ -157,11 +157,11 @@ void World::CloseOutlets() {
   rebuild_needed_ = true;
 }
 
-bool World::ElementActive(const WallElement& e) const {
+bool World::ElementActive(const silo::WallElement& e) const {
   switch (e.group) {
-    case WallGroup::kAlways: return true;
-    case WallGroup::kPlug: return !outlets_open_;
-    case WallGroup::kOpen: return outlets_open_;
+    case silo::WallGroup::kAlways: return true;
+    case silo::WallGroup::kPlug: return !outlets_open_;
+    case silo::WallGroup::kOpen: return outlets_open_;
   }
   return true;
 }
@@ -371,11 +371,11 @@ void World::Rebuild() {
   auto for_walls = [&](int i, auto&& visit) {
     if (!active_[dbody_[i]]) return;
     for (int e = 0; e < ne; ++e) {
-      const WallElement& el = geometry_.elements[e];
+      const silo::WallElement& el = geometry_.elements[e];
       if (!ElementActive(el)) continue;
       double reach = dr_[i] + skin;
       double qx, qy;
-      if (el.kind == ElementKind::kSegment) {
+      if (el.kind == silo::ElementKind::kSegment) {
         // Keep segments whose line is within reach, even if the foot is just outside the
         // segment now: the disc may slide onto it before the next rebuild.
         const double sx = el.bx - el.ax, sy = el.by - el.ay;
@@ -443,8 +443,8 @@ namespace {
 // which the whole block's loop adds them), then continues as that loop, so a block summed
 // in parts gives the bits of a block summed at once. An entry that does not touch adds
 // +0.0, which leaves every sum as it was (they start at +0.0 and so are never -0.0). A
-// function of its own, not inlined: inside the block's function the loop kept its pointers
-// on the stack (+4 % at one thread out of it). Scalar, so no instruction-set variants.
+// function of its own, not inlined: inside the block's function the loop keeps its pointers
+// on the stack, which costs (docs/benchmarks.md). Scalar, so no instruction-set variants.
 [[gnu::noinline]] void SumBlock(int i0, int i1, const int* __restrict earlier, int n_earlier,
                                 const int* __restrict nl_start, const int* __restrict nl_j,
                                 const double* __restrict nl_fx, const double* __restrict nl_fy,
@@ -517,8 +517,8 @@ GRANARY_KERNEL void World::SumPartForces(int i0, int i1, const std::vector<int>&
   for (int k = wl_start_[i0]; k < wl_start_[i1]; ++k) {
     const int i = wl_i_[k];
     const DiscKin& a = kin_[i];
-    const WallElement& el = geometry_.elements[wl_e_[k]];
-    const Closest q = ClosestPoint(el, a.x, a.y);
+    const silo::WallElement& el = geometry_.elements[wl_e_[k]];
+    const silo::Closest q = silo::ClosestPoint(el, a.x, a.y);
     const double ddx = a.x - q.qx, ddy = a.y - q.qy;
     const double rsq = ddx * ddx + ddy * ddy;
     const double reach = a.r + el.radius;
@@ -530,7 +530,7 @@ GRANARY_KERNEL void World::SumPartForces(int i0, int i1, const std::vector<int>&
     const double inv_r = 1.0 / r;
     const double nx = ddx * inv_r, ny = ddy * inv_r;
     const double delta = reach - r;
-    const double reff = el.kind == ElementKind::kCircle ? EffectiveRadius(a.r, el.radius) : a.r;
+    const double reff = el.kind == silo::ElementKind::kCircle ? EffectiveRadius(a.r, el.radius) : a.r;
     const double meff = bmass_[dbody_[i]];
     const double vn = a.vx * nx + a.vy * ny;
     const double wr = a.r * a.w;
@@ -1404,10 +1404,10 @@ void World::CollectContacts(std::vector<ContactView>& out) const {
     }
     for (int k = wl_start_[i]; k < wl_start_[i + 1]; ++k) {
       if (wl_fx_[k] == 0.0 && wl_fy_[k] == 0.0) continue;
-      const Closest q = ClosestPoint(geometry_.elements[wl_e_[k]], dx_[i], dy_[i]);
+      const silo::Closest q = silo::ClosestPoint(geometry_.elements[wl_e_[k]], dx_[i], dy_[i]);
       double cx = q.qx, cy = q.qy;
-      const WallElement& el = geometry_.elements[wl_e_[k]];
-      if (el.kind == ElementKind::kCircle) {
+      const silo::WallElement& el = geometry_.elements[wl_e_[k]];
+      if (el.kind == silo::ElementKind::kCircle) {
         const double ddx = dx_[i] - el.ax, ddy = dy_[i] - el.ay;
         const double r = std::sqrt(ddx * ddx + ddy * ddy);
         cx = el.ax + el.radius * ddx / r;

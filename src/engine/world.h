@@ -1,6 +1,6 @@
-// The simulated system: a structure-of-arrays body store over shape templates
-// (style.md 8.2), the wall elements, the Verlet neighbour lists with per-contact shear
-// history, and the velocity-Verlet rigid-body step (physics.md).
+// The simulated system: a structure-of-arrays body store over shape templates,
+// the wall elements, the Verlet neighbour lists with per-contact shear
+// history, and the velocity-Verlet rigid-body step (docs/model.md).
 //
 // Determinism: every pair force is computed once, in a fixed block of discs (force_block),
 // and summed per disc and per body in an order fixed by the disc numbering and the block
@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "engine/contact_law.h"
-#include "engine/geometry.h"
-#include "engine/shapes.h"
+#include "silo/geometry.h"
+#include "silo/shapes.h"
 #include "engine/thread_shared.h"
 
 namespace granary::engine {
@@ -79,7 +79,7 @@ class World {
     double pad0 = 0.0, pad1 = 0.0;  // written with the rest: the disc loop's stores fill the line
   };
 
-  World(WorldParams params, std::vector<ShapeTemplate> templates, SiloGeometry geometry);
+  World(WorldParams params, std::vector<silo::ShapeTemplate> templates, silo::SiloGeometry geometry);
 
   // Adds a body of template `tmpl` at rest; returns its id. Discs of a body are contiguous.
   int AddBody(int tmpl, double x, double y, double theta);
@@ -137,10 +137,10 @@ class World {
   void Restore(const WorldSnapshot& snapshot);
 
   const WorldParams& params() const { return params_; }
-  const std::vector<ShapeTemplate>& templates() const { return templates_; }
-  const SiloGeometry& geometry() const { return geometry_; }
+  const std::vector<silo::ShapeTemplate>& templates() const { return templates_; }
+  const silo::SiloGeometry& geometry() const { return geometry_; }
   // Whether a wall element takes part now (the plug before t = 0, the outlet edges after).
-  bool ElementActive(const WallElement& e) const;
+  bool ElementActive(const silo::WallElement& e) const;
 
   // Body state (public SoA for the drivers, tests and writers).
   std::vector<int> tmpl_;
@@ -219,8 +219,8 @@ class World {
   bool Parallel() const { return disc_count() >= params_.parallel_min_discs; }
 
   WorldParams params_;
-  std::vector<ShapeTemplate> templates_;
-  SiloGeometry geometry_;
+  std::vector<silo::ShapeTemplate> templates_;
+  silo::SiloGeometry geometry_;
   bool outlets_open_ = false;
   bool rebuild_needed_ = true;
   int active_count_ = 0;

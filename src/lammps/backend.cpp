@@ -29,9 +29,9 @@
 
 #include <boost/process.hpp>
 
-#include "engine/geometry.h"
-#include "engine/silo_outline.h"
-#include "engine/stall.h"
+#include "silo/geometry.h"
+#include "silo/silo_outline.h"
+#include "silo/stall.h"
 #include "external/driver.h"
 #include "lammps/input_script.h"
 #include "rundir/clogs.h"
@@ -155,7 +155,7 @@ std::vector<Event> ReadEvents(const fs::path& file, const RunSpec& spec, const S
                               const std::map<long long, int>& species_of) {
   std::vector<Event> events;
   if (!fs::exists(file)) return events;
-  const engine::SiloGeometry g = engine::BuildGeometry(spec.silo, setup.y_hi + 10);
+  const silo::SiloGeometry g = silo::BuildGeometry(spec.silo, setup.y_hi + 10);
   const double ed = spec.discharge.exit_distance, ly = setup.y_hi - setup.y_lo;
   std::map<long long, long long> passes;
   std::ifstream in(file);
@@ -299,15 +299,15 @@ std::vector<Disc> ReadFinal(const fs::path& file) {
 }
 
 // A stall in remove mode is a clog when an arch seals an outlet from the material above: the
-// native engine's judgement (engine/stall.h) on LAMMPS' final positions.
+// native engine's judgement (silo/stall.h) on LAMMPS' final positions.
 bool StallIsAClog(const RunSpec& spec, const std::vector<Disc>& left, double probe) {
-  std::vector<engine::DiscAt> discs;
+  std::vector<silo::DiscAt> discs;
   double top = 0;
   for (const Disc& d : left) {
     discs.push_back({d.x, d.y, d.r});
     top = std::max(top, d.y + d.r);
   }
-  const std::vector<bool> sealed = engine::SealedOutlets(engine::BuildGeometry(spec.silo, top + 1), discs, probe);
+  const std::vector<bool> sealed = silo::SealedOutlets(silo::BuildGeometry(spec.silo, top + 1), discs, probe);
   return std::find(sealed.begin(), sealed.end(), true) != sealed.end();
 }
 
@@ -474,7 +474,7 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
       if (c >= start.last_exit_step) start.in_clog = true;
   }
   WriteAtomically(dir / rundir::kSiloFile,
-                  engine::SiloVtk(engine::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : setup.y_hi)));
+                  silo::SiloVtk(silo::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : setup.y_hi)));
   WriteInputsInto(dir, spec, setup, start_frame, start);
 
   const auto t_discharge = Clock::now();

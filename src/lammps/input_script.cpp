@@ -9,6 +9,8 @@
 #include <map>
 #include <sstream>
 
+#include "rundir/shape_table.h"
+
 namespace granary::lammps {
 
 namespace {
@@ -112,7 +114,7 @@ Setup MakeSetup(const RunSpec& spec, const rundir::Frame& start) {
     discs_of[static_cast<std::size_t>(discs.front()->type - 1)] = static_cast<int>(discs.size());
   }
   for (std::size_t k = 0; k < spec.bodies.species.size(); ++k) {
-    const bool clump = spec.bodies.species[k].shape != Shape::kDisc;
+    const bool clump = DiscsOf(spec.bodies.species[k]).r.size() > 1;  // LAMMPS moves one disc as an atom
     (clump ? s.clump_types : s.disc_types).push_back(static_cast<int>(k) + 1);
   }
   s.bodies = static_cast<int>(bodies.size());

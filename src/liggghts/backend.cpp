@@ -32,9 +32,9 @@
 
 #include <boost/process.hpp>
 
-#include "engine/shapes.h"
-#include "engine/silo_outline.h"
-#include "engine/stall.h"
+#include "silo/shapes.h"
+#include "silo/silo_outline.h"
+#include "silo/stall.h"
 #include "external/driver.h"
 #include "liggghts/input_script.h"
 #include "rundir/clogs.h"
@@ -552,19 +552,19 @@ double TopOf(const std::vector<Sphere>& spheres) {
 }
 
 // A stall in remove mode is a clog when an arch seals an outlet from the material above; the same
-// test as the native engine's (engine/stall.h) on LIGGGHTS' final positions.
+// test as the native engine's (silo/stall.h) on LIGGGHTS' final positions.
 bool StallIsAClog(const RunSpec& spec, const std::vector<Sphere>& left) {
   double probe = std::numeric_limits<double>::max();
   for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
-    for (double r : engine::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)).r)
+    for (double r : silo::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)).r)
       probe = std::min(probe, r);
-  std::vector<engine::DiscAt> discs;
+  std::vector<silo::DiscAt> discs;
   double top = 0;
   for (const Sphere& s : left) {
     discs.push_back({s.x, s.y, s.radius});
     top = std::max(top, s.y + s.radius);
   }
-  const std::vector<bool> sealed = engine::SealedOutlets(engine::BuildGeometry(spec.silo, top + 1), discs, probe);
+  const std::vector<bool> sealed = silo::SealedOutlets(silo::BuildGeometry(spec.silo, top + 1), discs, probe);
   return std::find(sealed.begin(), sealed.end(), true) != sealed.end();
 }
 
@@ -687,7 +687,7 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
     double box[3][2];
     SetBox(setup, box);
     WriteAtomically(dir / rundir::kSiloFile,
-                    engine::SiloVtk(engine::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : box[1][1])));
+                    silo::SiloVtk(silo::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : box[1][1])));
   }
   WriteAtomically(dir / "discharge.in", DischargeScript(spec, setup, start));
   const auto t_discharge = Clock::now();
@@ -769,14 +769,14 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   }
 
   // Convert into the run-directory format.
-  std::vector<engine::ShapeTemplate> templates;
+  std::vector<silo::ShapeTemplate> templates;
   for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
-    templates.push_back(engine::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
+    templates.push_back(silo::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
   const std::vector<Event> events = ReadEvents(dir, setup.counters, spheres, bodies, recross);
   std::vector<rundir::ExitEvent> exits;
   std::vector<int> per_outlet(static_cast<std::size_t>(setup.outlets), 0);
   for (const Event& e : events) {
-    const engine::ShapeTemplate& tp = templates[static_cast<std::size_t>(e.species)];
+    const silo::ShapeTemplate& tp = templates[static_cast<std::size_t>(e.species)];
     exits.push_back({e.time, e.body, tp.name, tp.mass, e.outlet});
     ++per_outlet[static_cast<std::size_t>(e.outlet)];
   }

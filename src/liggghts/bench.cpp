@@ -11,7 +11,7 @@
 #include <regex>
 #include <vector>
 
-#include "engine/bench.h"
+#include "external/bench_log.h"
 #include "liggghts/backend.h"
 #include "rundir/run_directory.h"
 #include "rundir/run_spec.h"
@@ -73,7 +73,7 @@ void RunBench(const BenchOptions& o) {
     BackendOptions bo;
     bo.quiet = true;
     RunDirectory(dir.string(), bo);
-    const double lig = engine::LoopTimeRate((dir / "log.discharge").string());
+    const double lig = external::LoopTimeRate((dir / "log.discharge").string());
     lig_rates.push_back(lig);
     std::printf("%sengine=liggghts threads=1 disc_steps_per_s=%.4g\n", tag.c_str(), lig);
     std::fflush(stdout);
@@ -87,12 +87,12 @@ void RunBench(const BenchOptions& o) {
   if (o.repeat < 2) return;
   auto best = [](const std::vector<double>& v) { return *std::max_element(v.begin(), v.end()); };
   std::printf("summary engine=liggghts rounds=%zu best=%.4g median=%.4g\n", lig_rates.size(), best(lig_rates),
-              engine::BenchMedian(lig_rates));
+              external::BenchMedian(lig_rates));
   if (!o.native) return;
   std::printf("summary engine=native rounds=%zu best=%.4g median=%.4g\n", native_rates.size(), best(native_rates),
-              engine::BenchMedian(native_rates));
+              external::BenchMedian(native_rates));
   std::printf("summary ratio native/liggghts: of the bests %.2f, of the medians %.2f\n",
-              best(native_rates) / best(lig_rates), engine::BenchMedian(native_rates) / engine::BenchMedian(lig_rates));
+              best(native_rates) / best(lig_rates), external::BenchMedian(native_rates) / external::BenchMedian(lig_rates));
 }
 
 }  // namespace granary::liggghts

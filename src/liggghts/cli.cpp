@@ -4,7 +4,6 @@
 #include <iostream>
 #include <string>
 
-#include "engine/cli.h"
 #include "external/cli.h"
 #include "liggghts/backend.h"
 #include "liggghts/bench.h"
@@ -74,10 +73,10 @@ int Bench(const std::vector<std::string>& args) {
   BenchOptions o;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
-    if (a == "--bodies" && i + 1 < args.size()) o.bodies = engine::ParsePositiveInt(a, args[++i]);
-    else if (a == "--steps" && i + 1 < args.size()) o.steps = engine::ParsePositiveInt(a, args[++i]);
+    if (a == "--bodies" && i + 1 < args.size()) o.bodies = external::ParsePositive(a, args[++i]);
+    else if (a == "--steps" && i + 1 < args.size()) o.steps = external::ParsePositive(a, args[++i]);
     else if (a == "--bed-dir" && i + 1 < args.size()) o.bed_dir = args[++i];
-    else if (a == "--repeat" && i + 1 < args.size()) o.repeat = engine::ParsePositiveInt(a, args[++i]);
+    else if (a == "--repeat" && i + 1 < args.size()) o.repeat = external::ParsePositive(a, args[++i]);
     else if (a == "--no-native") o.native = false;
     else throw std::invalid_argument("bench: unknown option \"" + a + "\"\n" + kBenchHelp);
   }

@@ -1,5 +1,5 @@
 // LIGGGHTS 3.8 input generation (input_script.h). The set-up follows the verified
-// quasi-2-D recipe of shared/docs/liggghts-notes.md: a 3-D box, every sphere centre in the
+// quasi-2-D recipe of docs/liggghts.md: a 3-D box, every sphere centre in the
 // plane z = 0, multisphere bodies with fflag/tflag locking out-of-plane motion, walls as
 // primitives or STL meshes, the base closed by a mesh while the bed settles.
 #include "liggghts/input_script.h"
@@ -10,11 +10,12 @@
 #include <numbers>
 #include <sstream>
 
-#include "engine/shapes.h"
+#include "rundir/shape_table.h"
+#include "silo/shapes.h"
 
 namespace granary::liggghts {
 
-using engine::ShapeTemplate;
+using silo::ShapeTemplate;
 
 namespace {
 
@@ -169,8 +170,8 @@ SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
 
   std::vector<ShapeTemplate> templates;
   for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
-    templates.push_back(engine::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
-  const std::vector<int> counts = engine::SpeciesCounts(spec.bodies);
+    templates.push_back(silo::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)));
+  const std::vector<int> counts = silo::SpeciesCounts(spec.bodies);
   s.species = static_cast<int>(templates.size());
   s.wall_type = s.species + 1;
   double bound = 0, area = 0, mass = 0;
@@ -298,9 +299,9 @@ SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
   std::string dist;
   for (std::size_t k = 0; k < templates.size(); ++k) {
     const ShapeTemplate& tp = templates[k];
-    const Shape shape = spec.bodies.species[k].shape;
-    const int angles = tp.r.size() == 1 ? 1 : (shape == Shape::kSnowman ? 12 : 6);
-    const double span = shape == Shape::kSnowman ? 2 * std::numbers::pi : std::numbers::pi;
+    const bool half_turn = ShapeRowOf(spec.bodies.species[k].shape).half_turn_symmetric;
+    const int angles = tp.r.size() == 1 ? 1 : (half_turn ? 6 : 12);
+    const double span = half_turn ? std::numbers::pi : 2 * std::numbers::pi;
     double sphere_volume = 0;
     for (double r : tp.r) sphere_volume += 4.0 / 3.0 * std::numbers::pi * r * r * r;
     const double density3d = tp.mass / sphere_volume;  // nominal: the mass is given explicitly
@@ -487,7 +488,7 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
   p << "variable since_exit equal step-v_last_exit_step\n";  // `if` compares numbers, it does no arithmetic
   // A stall: no exit for clog_window, counted once until the next exit. In remove mode the
   // backend decides from the final dump whether an arch seals an outlet (a clog) or the silo has
-  // discharged what can flow (engine::SealedOutlets, as the native engine); the restart written
+  // discharged what can flow (silo::SealedOutlets, as the native engine); the restart written
   // here lets it go on through a clog when the spec asks for that.
   // Every stall also keeps its configuration and contact forces (ClogDumps): a clog's, or in
   // remove mode one the backend may judge a discharge and drop.

@@ -41,7 +41,7 @@ void Paint(const Scene& s, PixelSize size, Painter& p) {
   const double top = HeaderHeight(s, size.width);
   const auto px = [&](double x) { return (x - w.x_lo) * k; };
   const auto py = [&](double y) { return top + (w.y_hi - y) * k; };
-  const auto band = [&](const engine::OutlineSegment& g, Rgb fill, const char* cls) {
+  const auto band = [&](const silo::OutlineSegment& g, Rgb fill, const char* cls) {
     p.Polygon({{px(g.ax), py(g.ay)},
                {px(g.bx), py(g.by)},
                {px(g.bx + kBand * g.ox), py(g.by + kBand * g.oy)},

@@ -91,7 +91,7 @@ RunSetting SettingOf(const rundir::RunData& run) {
   const double top = TopOf(first);
   // Walls as high as the picture when the spec leaves their height automatic.
   const double wall_top = spec.silo.height > 0 ? spec.silo.height : top + 1;
-  s.silo = engine::OutlineOf(spec.silo, wall_top);
+  s.silo = silo::OutlineOf(spec.silo, wall_top);
   // Up to the bed's top; RunScene and WriteMovie raise it to the frames they draw (reinjected
   // bodies come back above the bed).
   s.window = SiloWindow(s.silo, spec.discharge.exit_distance, std::max(top, spec.silo.height));
@@ -111,7 +111,7 @@ Scene ClogScene(const fs::path& run_dir, int clog, const PictureOptions& o, cons
   const RunSpec spec = RunSpec::from_json(run.spec);
   const double top = TopOf(c.frame);
   RunSetting setting;
-  setting.silo = engine::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : top + 1);
+  setting.silo = silo::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : top + 1);
   setting.window = window ? *window : SiloWindow(setting.silo, spec.discharge.exit_distance, std::max(top, spec.silo.height));
   for (const auto& sp : spec.bodies.species) setting.species.push_back(sp.name);
   SceneOptions so = OptionsFor(setting, o);

@@ -27,7 +27,7 @@ struct PictureOptions {
 
 // What a picture of a run needs besides the frame: the silo, its window, species names.
 struct RunSetting {
-  engine::SiloOutline silo;
+  silo::SiloOutline silo;
   Window window;
   std::vector<std::string> species;
   bool has_contacts = false;

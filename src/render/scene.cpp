@@ -52,7 +52,7 @@ std::string Fixed(double v) {
 
 }  // namespace
 
-Window SiloWindow(const engine::SiloOutline& silo, double exit_distance, double top) {
+Window SiloWindow(const silo::SiloOutline& silo, double exit_distance, double top) {
   Window w{-1, 1, -exit_distance - 1, std::max(top, 1.0) + 1};
   for (const auto* list : {&silo.walls, &silo.outlets})
     for (const auto& s : *list) {
@@ -67,7 +67,7 @@ Window SiloWindow(const engine::SiloOutline& silo, double exit_distance, double 
   return w;
 }
 
-Scene MakeScene(const rundir::Frame& frame, const engine::SiloOutline& silo, const SceneOptions& o) {
+Scene MakeScene(const rundir::Frame& frame, const silo::SiloOutline& silo, const SceneOptions& o) {
   Scene scene;
   scene.window = o.window;
   scene.silo = silo;

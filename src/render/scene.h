@@ -14,7 +14,7 @@
 #include "rundir/contacts.h"
 #include "rundir/frames.h"
 #include "rundir/run_directory.h"
-#include "engine/silo_outline.h"
+#include "silo/silo_outline.h"
 
 namespace granary::render {
 
@@ -39,7 +39,7 @@ struct Line {
 
 struct Scene {
   Window window;
-  engine::SiloOutline silo;
+  silo::SiloOutline silo;
   std::vector<DiscShape> discs;  // one per constituent disc: a dumbbell is two
   std::vector<Line> forces;      // contact-force network, if asked for
   std::string caption;           // top left, e.g. "t = 12.5"
@@ -66,9 +66,9 @@ struct SceneOptions {
 
 // The window of a silo's pictures: the silo's width (and its side outlets' fall zone) and from
 // below the exit line up to just above `top` (the bed's top, so every frame of a run fits).
-Window SiloWindow(const engine::SiloOutline& silo, double exit_distance, double top);
+Window SiloWindow(const silo::SiloOutline& silo, double exit_distance, double top);
 
-Scene MakeScene(const rundir::Frame& frame, const engine::SiloOutline& silo, const SceneOptions& options);
+Scene MakeScene(const rundir::Frame& frame, const silo::SiloOutline& silo, const SceneOptions& options);
 
 // Pixel size of a picture `width_px` wide: the window to scale under a strip for the caption
 // and the legend (both even, as video encoders need).

@@ -31,7 +31,7 @@ struct Frame {
   std::vector<Disc> discs;
 };
 
-// A rigid body reconstructed from its discs (physics.md "Particles").
+// A rigid body reconstructed from its discs (docs/model.md "Bodies").
 struct Body {
   std::int64_t id = 0;
   int type = 1;
@@ -40,7 +40,7 @@ struct Body {
   double x = 0.0, y = 0.0;         // centre of mass
   double vx = 0.0, vy = 0.0;       // centre-of-mass velocity (mass-weighted disc velocities: exact for a rigid body)
   double omega = 0.0;
-  double inertia = 0.0;            // sum m_i |r_i - R|^2 + (2/5) m_i r_i^2 (physics.md)
+  double inertia = 0.0;            // sum m_i |r_i - R|^2 + (2/5) m_i r_i^2 (docs/model.md)
   double theta = 0.0;              // angle of the axis from the lowest-id disc to the highest-id disc, (-pi, pi]; 0 for one disc
   double area = 0.0;               // sum pi r_i^2
 };

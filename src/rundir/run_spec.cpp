@@ -1,6 +1,6 @@
 // Parsing, validation and canonical serialisation of the resolved run spec (run_spec.h).
 // Every error is a SpecError naming the JSON Pointer of the offending value, the value and
-// what is allowed, so a user can fix a campaign without reading code (style.md 8.3 item 8).
+// what is allowed, so a user can fix a campaign without reading code.
 // Keys, defaults and allowed values are documented in docs/run-spec.md.
 #include "rundir/run_spec.h"
 
@@ -19,6 +19,8 @@
 #include <numbers>
 #include <sstream>
 #include <utility>
+
+#include "rundir/shape_table.h"
 
 namespace granary {
 
@@ -200,8 +202,8 @@ class Reader {
     if (!v.is_string()) throw SpecError(Path(key), "must be a string (got " + Shown(v) + ")");
     out = v.get<std::string>();
   }
-  template <typename E>
-  void Enum(const std::string& key, E& out, std::initializer_list<std::pair<const char*, E>> table) const {
+  template <typename E, typename Table>
+  void Enum(const std::string& key, E& out, const Table& table) const {
     Expect(key, SpecType::kEnum);
     if (!Has(key)) return;
     const json& v = j_.at(key);
@@ -234,8 +236,21 @@ class Reader {
   std::string path_;
 };
 
-constexpr std::initializer_list<std::pair<const char*, Shape>> kShapes = {
-    {"disc", Shape::kDisc}, {"dumbbell", Shape::kDumbbell}, {"snowman", Shape::kSnowman}, {"rod", Shape::kRod}};
+// The spec's shape names, from the shape table.
+std::vector<std::pair<const char*, Shape>> ShapeNames() {
+  std::vector<std::pair<const char*, Shape>> names;
+  for (const ShapeRow& row : ShapeTable()) names.emplace_back(row.name, row.shape);
+  return names;
+}
+
+// "disc, dumbbell, snowman or rod": the shapes for the spec table's description.
+std::string ShapeChoices() {
+  std::string out;
+  const std::vector<ShapeRow>& table = ShapeTable();
+  for (std::size_t k = 0; k < table.size(); ++k)
+    out += (k == 0 ? "" : k + 1 == table.size() ? " or " : ", ") + std::string(table[k].name);
+  return out;
+}
 constexpr std::initializer_list<std::pair<const char*, DischargeMode>> kModes = {
     {"remove", DischargeMode::kRemove}, {"reinject", DischargeMode::kReinject}};
 constexpr std::initializer_list<std::pair<const char*, ReinjectPosition>> kReinjectPositions = {
@@ -318,12 +333,12 @@ SpecTable MakeRunSpecTable() {
       plain("/bodies/species/*", T::kObject, nullptr, "one kind of body"),
       plain("/bodies/species/*/name", T::kString, nullptr,
             "label in events.csv and the report: unique, no commas or line breaks (default: the shape, rod<n> for rods)"),
-      enumeration("/bodies/species/*/shape", "dumbbell", names(kShapes), "disc, dumbbell, snowman or rod of discs"),
+      enumeration("/bodies/species/*/shape", "dumbbell", names(ShapeNames()), ShapeChoices() + " of discs"),
       fraction,
       number("/bodies/species/*/diameter", 1.0, positive, "disc: D; dumbbell: d; snowman: D_s; rod: each disc"),
       number("/bodies/species/*/big_diameter", 1.0, positive, "snowman only: D_b, with D_b/D_s in [1, 2]"),
       integer("/bodies/species/*/n", 2, 2, "rod only: number of discs in a line"),
-      plain("/contact", T::kObject, nullptr, "the contact law (physics.md)"),
+      plain("/contact", T::kObject, nullptr, "the contact law (docs/model.md)"),
       number("/contact/kn", 2.0e6, positive, "normal stiffness"),
       number("/contact/kt", 2.45e6, positive, "tangential stiffness"),
       number("/contact/gamma_n", 1000.0, non_negative, "normal damping"),
@@ -406,14 +421,16 @@ void CheckUnclogBounds(const Unclog& u) {
 }
 
 std::string DefaultSpeciesName(const Species& s) {
-  if (s.shape == Shape::kRod) return "rod" + std::to_string(s.n);
-  return to_string(s.shape);
+  return ShapeText(ShapeRowOf(s.shape).default_name, [&](const std::string& key) {
+    if (key == "n") return std::to_string(s.n);
+    throw std::logic_error("shape table: default name of " + to_string(s.shape) + " uses {" + key + "}");
+  });
 }
 
 Species ParseSpecies(const json& j, const std::string& path) {
   Reader r(j, path);
   Species s;
-  r.Enum("shape", s.shape, kShapes);
+  r.Enum("shape", s.shape, ShapeNames());
   r.Number("fraction", s.fraction);
   r.Number("diameter", s.diameter);
   r.Number("big_diameter", s.big_diameter);
@@ -492,38 +509,11 @@ void ParseSilo(const Reader& parent, Silo& s) {
   if (!outlets_given) s.base_outlets = {BaseOutlet{}};
 }
 
-// Largest extent of one body (its length along its axis), in units of d.
-double BodyLength(const Species& s) {
-  switch (s.shape) {
-    case Shape::kDisc: return s.diameter;
-    case Shape::kDumbbell: return 2.0 * s.diameter;
-    case Shape::kSnowman: return s.diameter + s.big_diameter;
-    case Shape::kRod: return s.n * s.diameter;
-  }
-  return s.diameter;
-}
-
-// Area of one body's discs (overlaps of touching discs are zero: they touch, physics.md).
-double BodyArea(const Species& s) {
-  const double a = std::numbers::pi * s.diameter * s.diameter / 4.0;
-  switch (s.shape) {
-    case Shape::kDisc: return a;
-    case Shape::kDumbbell: return 2.0 * a;
-    case Shape::kSnowman: return a + std::numbers::pi * s.big_diameter * s.big_diameter / 4.0;
-    case Shape::kRod: return s.n * a;
-  }
-  return a;
-}
 
 
 }  // namespace
 
-std::string to_string(Shape shape) {
-  for (const auto& [name, value] : kShapes) {
-    if (value == shape) return name;
-  }
-  return "?";
-}
+std::string to_string(Shape shape) { return ShapeRowOf(shape).name; }
 std::string to_string(DischargeMode mode) {
   for (const auto& [name, value] : kModes) {
     if (value == mode) return name;
@@ -590,7 +580,7 @@ RunSpec RunSpec::from_json(const json& j) {
     c.Number("gamma_n", s.contact.gamma_n);
     c.Number("gamma_t", s.contact.gamma_t);
     c.Number("mu", s.contact.mu);
-    s.contact.mu_wall = s.contact.mu;  // physics.md: wall friction defaults to mu
+    s.contact.mu_wall = s.contact.mu;  // docs/model.md "Boundaries": wall friction defaults to mu
     c.Number("mu_wall", s.contact.mu_wall);
     c.Enum("tangential_cap", s.contact.tangential_cap, kCaps);
     c.Bool("clip_normal", s.contact.clip_normal);
@@ -654,7 +644,7 @@ void validate(const RunSpec& s) {
   CheckBounds("/time_step", s.time_step);
   CheckBounds("/gravity", s.gravity);
 
-  // Contact parameters (physics.md, contact law): stiffnesses positive, damping and friction >= 0.
+  // Contact parameters (docs/model.md "Contact law"): stiffnesses positive, damping and friction >= 0.
   CheckBounds("/contact/kn", s.contact.kn);
   CheckBounds("/contact/kt", s.contact.kt);
   CheckBounds("/contact/gamma_n", s.contact.gamma_n);
@@ -676,15 +666,8 @@ void validate(const RunSpec& s) {
     CheckBounds(p + "/fraction", sp.fraction);
     CheckBounds(p + "/diameter", sp.diameter);
     CheckBounds(p + "/big_diameter", sp.big_diameter);
-    if (sp.shape == Shape::kSnowman) {
-      const double ratio = sp.big_diameter / sp.diameter;
-      if (ratio < 1.0 || ratio > 2.0) {
-        throw SpecError(p + "/big_diameter",
-                        "D_b/D_s must be in [1, 2] (got " + Shown(sp.big_diameter) + "/" + Shown(sp.diameter) +
-                            " = " + Shown(ratio) + ")");
-      }
-    }
     CheckBounds(p + "/n", sp.n);
+    if (const auto check = ShapeRowOf(sp.shape).check) check(sp, p);
     if (sp.name.empty()) throw SpecError(p + "/name", "must not be empty (got \"\")");
     for (std::size_t k = 0; k < i; ++k) {
       if (b.species[k].name == sp.name) {
@@ -700,7 +683,7 @@ void validate(const RunSpec& s) {
     throw SpecError("/bodies/species", "fractions must sum to 1 (got " + Shown(fraction_sum) + ")");
   }
 
-  // Silo geometry: walls at x = +-width/2, base at y = 0 (physics.md, geometry).
+  // Silo geometry: walls at x = +-width/2, base at y = 0 (docs/model.md "Units").
   const Silo& silo = s.silo;
   CheckBounds("/silo/width", silo.width);
   CheckBounds("/silo/height", silo.height);
@@ -942,7 +925,7 @@ json RunSpec::to_json() const {
 }
 
 json RunSpec::bed_key() const {
-  // Everything the bed preparation (physics.md, procedure step 1) depends on, and nothing
+  // Everything the bed preparation (docs/model.md "A run", step 1) depends on, and nothing
   // about outlets or obstacles, so runs differing only in those share one prepared bed.
   // A LAMMPS run discharges the native engine's bed (docs/lammps.md): the same key, one bed.
   const std::string bed_engine =

@@ -1,7 +1,7 @@
 // The resolved specification of one run: the contract between the campaign runner,
 // the native engine and the LIGGGHTS backend. The runner expands a campaign into
 // RunSpecs and writes each as `run.json` into the run's directory; an engine reads it.
-// JSON layout, defaults and allowed values: docs/run-spec.md. Physics: shared physics.md.
+// JSON layout, defaults and allowed values: docs/run-spec.md. Physics: docs/model.md.
 #pragma once
 
 #include <cstddef>
@@ -30,7 +30,7 @@ class SpecError : public std::runtime_error {
 
 enum class Shape { kDisc, kDumbbell, kSnowman, kRod };
 
-// One kind of body in the mixture. Every body is a rigid clump of discs (physics.md).
+// One kind of body in the mixture. Every body is a rigid clump of discs (docs/model.md).
 struct Species {
   std::string name;            // label in events and dumps; default: "disc", "dumbbell", "snowman", "rod<n>"
   Shape shape = Shape::kDumbbell;

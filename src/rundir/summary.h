@@ -33,9 +33,9 @@ struct Timing {
   // LIGGGHTS clump).
   double disc_steps_per_s = 0.0;
   int threads = 0;
-  // The bed's discs times the steps, per second: what disc_steps_per_s was before it counted
-  // only the discs still in the silo (twice the true rate for a full remove-mode discharge).
-  // 0 = not written (older runs, where disc_steps_per_s is this figure).
+  // The bed's discs times the steps, per second, counting the discs that left too (twice the
+  // true rate for a full remove-mode discharge); runs of older engines report this figure as
+  // disc_steps_per_s and 0 here.
   double bed_disc_steps_per_s = 0.0;
 };
 

@@ -11,6 +11,7 @@
 
 #include "rundir/contacts.h"
 #include "rundir/frames.h"
+#include "rundir/shape_table.h"
 
 namespace granary::runner {
 
@@ -18,28 +19,8 @@ using nlohmann::json;
 
 namespace {
 
-int DiscsOf(const Species& s) {
-  switch (s.shape) {
-    case Shape::kDisc: return 1;
-    case Shape::kDumbbell: return 2;
-    case Shape::kSnowman: return 2;
-    case Shape::kRod: return s.n;
-  }
-  return 1;
-}
-
-double AreaOf(const Species& s) {
-  const double q = std::numbers::pi / 4;
-  switch (s.shape) {
-    case Shape::kDisc: return q * s.diameter * s.diameter;
-    case Shape::kDumbbell: return 2 * q * s.diameter * s.diameter;
-    case Shape::kSnowman: return q * (s.diameter * s.diameter + s.big_diameter * s.big_diameter);
-    case Shape::kRod: return s.n * q * s.diameter * s.diameter;
-  }
-  return q;
-}
-
-double LargestDiameter(const Species& s) { return s.shape == Shape::kSnowman ? std::max(s.diameter, s.big_diameter) : s.diameter; }
+// The largest disc of one body.
+double LargestDiameter(const DiscLayout& discs) { return 2 * *std::max_element(discs.r.begin(), discs.r.end()); }
 
 // A deterministic stream of numbers in [0, 1) for the sample frames (their digits, not their
 // values, decide the bytes).
@@ -79,11 +60,12 @@ std::vector<rundir::Disc> SampleDiscs(const RunSpec& spec, double discs, double 
   std::vector<rundir::Disc> out;
   for (std::size_t k = 0; static_cast<int>(out.size()) < n; ++k, ++mol) {
     const Species& s = spec.bodies.species[k % spec.bodies.species.size()];
-    const int parts = s.shape == Shape::kDisc ? 1 : s.shape == Shape::kRod ? s.n : 2;
+    const DiscLayout layout = DiscsOf(s);
+    const int parts = static_cast<int>(layout.r.size());
     const double x = (rng.next() - 0.5) * spec.silo.width, y = rng.next() * h, th = rng.next() * 6.283185307179586;
     const double vx = rng.signed_log(1e-4, 1.0), vy = rng.signed_log(1e-4, 1.0), w = rng.signed_log(1e-4, 1.0);
     for (int q = 0; q < parts && static_cast<int>(out.size()) < n; ++q) {
-      const double r = (s.shape == Shape::kSnowman && q == 1 ? s.big_diameter : s.diameter) / 2;
+      const double r = layout.r[static_cast<std::size_t>(q)];
       const double off = (q - 0.5 * (parts - 1)) * s.diameter;
       rundir::Disc d;
       d.id = id++;
@@ -165,9 +147,11 @@ RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepa
   double lone_discs = 0.0, clump_discs = 0.0, area = 0.0, size = 0.0;
   for (const Species& s : spec.bodies.species) {
     const double n = spec.bodies.count * s.fraction;
-    (DiscsOf(s) == 1 ? lone_discs : clump_discs) += n * DiscsOf(s);
-    area += n * AreaOf(s);
-    size += n * LargestDiameter(s);
+    const DiscLayout discs = DiscsOf(s);
+    const double count = static_cast<double>(discs.r.size());
+    (count == 1 ? lone_discs : clump_discs) += n * count;
+    area += n * BodyArea(s);
+    size += n * LargestDiameter(discs);
   }
   e.bodies = spec.bodies.count;
   e.discs = lone_discs + clump_discs;

@@ -53,7 +53,7 @@ struct RunEstimate {
 struct EstimateModel {
   double beverloo_c = 0.67;         // 2-D Beverloo Q = C n sqrt(g) (W - k b)^1.5 (bodies per time)
   double beverloo_k = 1.5;          // k, in units of the body's largest disc diameter
-  double packing_fraction = 0.8;    // area fraction of a bed (physics.md: 0.78-0.85)
+  double packing_fraction = 0.8;    // area fraction of a bed (a random loose packing of discs: 0.78-0.85)
   // Contact rows per disc in a frame of a flowing silo (measured: 1.1 in the ch. 4 mixture and
   // in docs/run-directory.md's dumbbell bed; 0.91 in a tiny dumbbell silo, whose two discs of a
   // body touch each other without a row).

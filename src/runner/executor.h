@@ -146,4 +146,8 @@ const BatchQueue& batch_queue();
 // the group at once. Children get SIGKILL when the runner dies (prctl PR_SET_PDEATHSIG).
 std::unique_ptr<Executor> make_local_executor(int slots, double grace_seconds = 10.0);
 
+// The local pool's row of the executor table (executors.h): --jobs engines at once.
+struct ExecutorRow;
+ExecutorRow local_executor_row();
+
 }  // namespace granary::runner

@@ -16,6 +16,7 @@
 
 #include "rundir/files.h"
 #include "runner/executor.h"
+#include "runner/executors.h"
 
 namespace granary::runner {
 
@@ -189,6 +190,26 @@ const char* to_string(StopReason reason) {
 
 std::unique_ptr<Executor> make_local_executor(int slots, double grace_seconds) {
   return std::make_unique<LocalExecutor>(slots, grace_seconds);
+}
+
+namespace {
+
+class LocalSetup : public ExecutorSetup {
+ public:
+  std::unique_ptr<Executor> make(const RunOptions& options) const override { return make_local_executor(options.jobs); }
+};
+
+}  // namespace
+
+ExecutorRow local_executor_row() {
+  return {"local", "engines on this machine, --jobs at once",
+          {{"jobs", true}, {"threads-per-run", true}},
+          "The local pool:\n"
+          "  --jobs N             concurrent runs (default: number of cores)\n"
+          "  --threads-per-run T  passed to the engine as --threads (default 1)\n",
+          [](const cli::Args&, const nlohmann::json*, const std::string&, const RunOptions&) -> std::unique_ptr<ExecutorSetup> {
+            return std::make_unique<LocalSetup>();
+          }};
 }
 
 }  // namespace granary::runner

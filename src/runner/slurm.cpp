@@ -11,6 +11,7 @@
 #include "rundir/layout.h"
 #include "rundir/run_spec.h"
 #include "runner/campaign_spec.h"
+#include "runner/executors.h"
 
 namespace granary::runner {
 
@@ -52,10 +53,7 @@ void CheckField(const std::string& value, const char* what) {
 std::string parse_executor_block(const json& block, const std::string& path, SlurmOptions& o) {
   check_keys(block, path,
              {"type", "partition", "time", "account", "cpus_per_run", "array_max", "sbatch_args", "poll_interval"});
-  if (!block.contains("type") || !block["type"].is_string() || (block["type"] != "slurm" && block["type"] != "local")) {
-    throw SpecError(path + "/type", "must be \"slurm\" or \"local\" (got " +
-                                        (block.contains("type") ? block["type"].dump() : std::string("nothing")) + ")");
-  }
+  executor_of_block(block, path);
   const auto text = [&](const char* key, std::string& out) {
     if (!block.contains(key)) return;
     if (!block[key].is_string() || block[key].get<std::string>().empty()) {

@@ -24,8 +24,9 @@ struct SlurmOptions {
   double poll_interval = 5;              // seconds between squeue calls at first; backs off to 12x
 };
 
-// The spec's "executor" block: {"type": "slurm" | "local", "partition", "time", "account",
-// "cpus_per_run", "array_max", "sbatch_args": [...], "poll_interval"}. Returns the type;
+// The spec's "executor" block: {"type": a row of the executor table (executors.h), "partition",
+// "time", "account", "cpus_per_run", "array_max", "sbatch_args": [...], "poll_interval"}: the
+// options are Slurm's whatever the type, so `--executor slurm` can use a block of another type. Returns the type;
 // errors (SpecError) name the JSON path under `path`.
 std::string parse_executor_block(const nlohmann::json& block, const std::string& path, SlurmOptions& options);
 

@@ -23,7 +23,12 @@
 #include "rundir/files.h"
 #include "rundir/layout.h"
 #include "rundir/run_directory.h"
+#include "runner/calibration.h"
 #include "runner/campaign_db.h"
+#include "runner/campaign_spec.h"
+#include "runner/cli/common.h"
+#include "runner/executors.h"
+#include "runner/run_filter.h"
 
 namespace granary::runner {
 
@@ -552,6 +557,147 @@ class SlurmQueue : public BatchQueue {
 const BatchQueue& batch_queue() {
   static const SlurmQueue queue;
   return queue;
+}
+
+namespace {
+
+using nlohmann::json;
+using cli::UsageError;
+
+class SlurmSetup : public ExecutorSetup {
+ public:
+  SlurmSetup(SlurmSettings settings, bool dry_run) : settings_(std::move(settings)), dry_run_(dry_run) {}
+
+  void prepare(Store& store, RunOptions& options, std::ostream& out) override {
+    if (const auto campaign = load_campaign(store)) settings_.campaign = campaign->name;
+    options.threads_per_run = settings_.options.cpus_per_run;
+    if (!settings_.options.time.empty() || settings_.time_limit > 0) return;
+    // Each array's --time from the estimate of its longest run, with a margin.
+    const CampaignEstimate e = estimate_runs(runs_left(store), &store, options.exe_dir, 1, true,
+                                             [&](const std::string& line) { out << line << std::endl; });
+    if (e.calibration.valid())
+      for (const auto& [id, run] : e.runs) settings_.estimate_s[id] = run.core_s_high;
+  }
+
+  // The arrays and scripts `campaign run --executor slurm` would submit; nothing is written.
+  std::optional<int> dry_run(Store& store, const RunOptions& o, std::ostream& out) override {
+    if (!dry_run_) return std::nullopt;
+    RunFilter filter;
+    if (const auto campaign = load_campaign(store); campaign && !o.only.empty()) {
+      try {
+        filter = resolve_filters(o.only, *campaign, load_runs(store, true));
+      } catch (const FilterError& e) {
+        throw UsageError(e.what());
+      }
+    }
+    std::string size_note;
+    try {
+      settings_.max_array_size = query_max_array_size();
+    } catch (const std::exception& e) {
+      settings_.max_array_size = 1001;
+      size_note = " (Slurm's default; " + std::string(e.what()) + ")";
+    }
+    std::vector<Launch> launches;
+    for (const auto& r : load_runs(store, true)) {
+      if (!runnable(r.state)) continue;
+      if ((o.engine == "native" || o.engine == "liggghts" || o.engine == "lammps") && r.engine != o.engine) continue;
+      if (!filter.matches(r)) continue;
+      Launch l;
+      l.run_id = r.run_id;
+      l.argv = {o.engine.find('/') != std::string::npos ? o.engine
+                                                        : (fs::path(o.exe_dir) / engine_program(r.engine)).string()};
+      l.engine = r.engine;
+      l.run_dir = r.run_dir;
+      l.place = QueuePlace{r.job_dir, r.job_script, r.job_name, r.job_index, r.job_id, r.job_state};
+      launches.push_back(l);
+    }
+    const auto arrays = plan_slurm_arrays(launches, settings_);
+    out << "campaign run --executor slurm --dry-run: " << launches.size() << " runs in " << arrays.size()
+        << " array(s); MaxArraySize " << settings_.max_array_size << size_note << "; nothing is submitted\n";
+    for (const auto& p : arrays) {
+      out << "\n== " << p.sbatch << "\n";
+      if (p.manifest.empty()) {
+        out << "-- resubmits indices " << p.array.array << " of " << (fs::path(p.array.dir) / "manifest.tsv").string()
+            << "\n";
+      } else {
+        out << "-- " << (fs::path(p.array.dir) / "manifest.tsv").string() << " (" << p.array.runs.size() << " runs)\n";
+        std::istringstream lines(p.manifest);
+        std::string line;
+        int shown = 0;
+        while (std::getline(lines, line)) {
+          if (++shown <= 11) out << line << "\n";
+        }
+        if (shown > 11) out << "... (" << shown - 11 << " more)\n";
+      }
+      out << "-- " << p.array.script << "\n" << p.script;
+    }
+    return 0;
+  }
+
+  std::unique_ptr<Executor> make(const RunOptions&) const override { return make_slurm_executor(settings_); }
+
+ private:
+  SlurmSettings settings_;
+  bool dry_run_;
+};
+
+// Slurm's options from the spec's block, then the flags.
+std::unique_ptr<ExecutorSetup> SetUpSlurm(const cli::Args& a, const json* block, const std::string& db,
+                                          const RunOptions& o) {
+  SlurmSettings settings;
+  SlurmOptions& so = settings.options;
+  if (block) parse_executor_block(*block, "/executor", so);
+  if (a.has("partition")) so.partition = a.get("partition", "");
+  if (a.has("account")) so.account = a.get("account", "");
+  if (a.has("time")) {
+    so.time = a.get("time", "");
+    if (!is_slurm_time(so.time)) {
+      throw UsageError("--time: must be a Slurm time such as 30, 4:00:00 or 1-12:00:00 (got \"" + so.time + "\")");
+    }
+  }
+  so.cpus_per_run = a.integer("cpus-per-run", so.cpus_per_run, 1);
+  so.array_max = a.integer("array-max", so.array_max, 0);
+  so.poll_interval = a.number("poll-interval", so.poll_interval);
+  if (!(so.poll_interval > 0)) throw UsageError("--poll-interval: must be > 0 (got \"" + a.get("poll-interval", "") + "\")");
+  if (a.has("sbatch-arg")) {
+    so.sbatch_args.clear();
+    for (const auto& arg : a.all("sbatch-arg")) {
+      if (arg.rfind("-", 0) != 0 || arg.find_first_of("\n\r") != std::string::npos) {
+        throw UsageError("--sbatch-arg: must be one sbatch option such as --sbatch-arg=--qos=long (got \"" + arg + "\")");
+      }
+      so.sbatch_args.push_back(arg);
+    }
+  }
+  settings.root = (cli::DbDir(db) / "slurm").string();
+  settings.time_limit = o.time_limit;
+  return std::make_unique<SlurmSetup>(std::move(settings), a.has("dry-run"));
+}
+
+}  // namespace
+
+ExecutorRow slurm_executor_row() {
+  return {"slurm",
+          "submit the runs as Slurm job arrays and watch them (docs/slurm.md)",
+          {{"partition", true},
+           {"time", true},
+           {"cpus-per-run", true},
+           {"array-max", true},
+           {"account", true},
+           {"sbatch-arg", true},
+           {"poll-interval", true},
+           {"dry-run", false},
+           {"detach", false}},
+          "Slurm (docs/slurm.md; defaults from the spec's \"executor\" block):\n"
+          "  --partition P, --account A, --time T   sbatch's (T in Slurm's format, e.g. 4:00:00; default\n"
+          "                       from --time-limit, which counts from each task's start)\n"
+          "  --cpus-per-run C     cores per run: native threads, or LIGGGHTS MPI ranks (srun) (default 1)\n"
+          "  --array-max K        at most K tasks of the campaign at once (%K; default: no limit)\n"
+          "  --sbatch-arg ARG     one more sbatch option, e.g. --sbatch-arg=--qos=long (repeatable)\n"
+          "  --poll-interval S    seconds between squeue calls at first, backing off to 12 S (default 5)\n"
+          "  --dry-run            print the manifests and batch scripts; submit nothing\n"
+          "  --detach             submit and exit; campaign status, campaign scan and a later campaign run\n"
+          "                       --executor slurm follow the jobs\n",
+          SetUpSlurm};
 }
 
 }  // namespace granary::runner

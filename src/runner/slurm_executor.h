@@ -50,6 +50,12 @@ std::vector<PlannedArray> plan_slurm_arrays(const std::vector<Launch>& launches,
 
 std::unique_ptr<Executor> make_slurm_executor(const SlurmSettings& settings);
 
+// Slurm's row of the executor table (executors.h): its flags (--partition, --time,
+// --cpus-per-run, --array-max, --account, --sbatch-arg, --poll-interval, --dry-run, --detach)
+// over the spec's executor block, the arrays' --time from the estimate, the dry run.
+struct ExecutorRow;
+ExecutorRow slurm_executor_row();
+
 // One squeue call for these array jobs (every task, every state). nullopt when squeue could
 // not answer (not installed, controller unreachable); `error` then says why. A job squeue no
 // longer knows is simply absent.

@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/arches.h"
-#include "engine/geometry.h"
+#include "silo/geometry.h"
 #include "rundir/clogs.h"
 
 namespace granary::analysis::testing {
@@ -41,7 +41,7 @@ class Clog {
   const rundir::ClogState& Made() {
     state_.contacts.contacts.clear();
     const auto& d = state_.frame.discs;
-    const engine::SiloGeometry g = silo_of(spec_, 20);
+    const silo::SiloGeometry g = silo_of(spec_, 20);
     for (std::size_t i = 0; i < d.size(); ++i) {
       for (std::size_t j = i + 1; j < d.size(); ++j) {
         if (d[i].mol == d[j].mol) continue;
@@ -50,18 +50,18 @@ class Clog {
         state_.contacts.contacts.push_back({d[i].mol, d[j].mol, d[i].x, d[i].y, d[j].x, d[j].y, d[i].x + d[i].radius * dx / r,
                                             d[i].y + d[i].radius * dy / r, -dx / r, -dy / r});
       }
-      for (const engine::WallElement& e : g.elements) {
-        if (e.group == engine::WallGroup::kPlug) continue;
-        double cx = e.ax, cy = e.ay, reach = d[i].radius + (e.kind == engine::ElementKind::kCircle ? e.radius : 0);
-        if (e.kind == engine::ElementKind::kSegment) {
-          const engine::Closest q = engine::ClosestPoint(e, d[i].x, d[i].y);
+      for (const silo::WallElement& e : g.elements) {
+        if (e.group == silo::WallGroup::kPlug) continue;
+        double cx = e.ax, cy = e.ay, reach = d[i].radius + (e.kind == silo::ElementKind::kCircle ? e.radius : 0);
+        if (e.kind == silo::ElementKind::kSegment) {
+          const silo::Closest q = silo::ClosestPoint(e, d[i].x, d[i].y);
           if (!q.valid) continue;
           cx = q.qx, cy = q.qy;
         }
         const double dx = d[i].x - cx, dy = d[i].y - cy, r = std::hypot(dx, dy);
         if (r > reach + 0.01) continue;
-        const double px = cx + (e.kind == engine::ElementKind::kCircle ? e.radius * dx / r : 0);
-        const double py = cy + (e.kind == engine::ElementKind::kCircle ? e.radius * dy / r : 0);
+        const double px = cx + (e.kind == silo::ElementKind::kCircle ? e.radius * dx / r : 0);
+        const double py = cy + (e.kind == silo::ElementKind::kCircle ? e.radius * dy / r : 0);
         state_.contacts.contacts.push_back({d[i].mol, -1, d[i].x, d[i].y, px, py, px, py, dx / r, dy / r});
       }
     }

@@ -136,7 +136,7 @@ TEST(ClogIndex, Equation31WithDiscardRule) {
   EXPECT_DOUBLE_EQ(clogging_index(all_clogged, 10, 20.0).psi.mean, (30.0 / 80.0 + 10.0 / 80.0) / 2.0);
 }
 
-// Issue 29's case: 8000 dumbbells, W = 11 with max_time 150. Two runs clogged (7000 and 7286
+// 8000 dumbbells, W = 11 with max_time 150. Two runs clogged (7000 and 7286
 // left), one reached the time limit still flowing with 6080 inside; N_u = 860 from a full
 // discharge at W = 14. The time-limited run is neither clogged nor discharged: it is left out
 // and its 6080 is not N_u. Psi = ((7000 - 860) + (7286 - 860)) / 2 / 7140 = 0.88.

@@ -21,8 +21,8 @@ void Dumbbell(std::vector<rundir::Disc>& discs, double x, double y, double angle
   discs.push_back({static_cast<std::int64_t>(discs.size() + 1), body, 1, x + dx, y + dy, 0.5, kPi / 4, 0, 0, 0});
 }
 
-engine::OutletFrame BaseOutlet() {
-  engine::OutletFrame f;
+silo::OutletFrame BaseOutlet() {
+  silo::OutletFrame f;
   f.width = 6;
   return f;
 }
@@ -117,7 +117,7 @@ TEST(Orientation, ProfilesRegionsAndTheWindowOfAConstructedField) {
 
 // The default region: the rectangle above the outlet, director along the outlet's normal.
 TEST(Orientation, TheDefaultRegionIsAboveTheOutlet) {
-  engine::OutletFrame side;  // an outlet in the right wall: normal -x
+  silo::OutletFrame side;  // an outlet in the right wall: normal -x
   side.cx = 20;
   side.cy = 8;
   side.ax = 0;

@@ -121,7 +121,7 @@ TEST(RenderReport, MissingGnuplotIsReported) {
 
 }  // namespace
 
-// issue 18: figures a referee can read.
+// Figures a referee can read.
 Series points_at(const std::string& label, std::vector<std::vector<double>> rows,
                  Series::Style style = Series::Style::kErrorBars) {
   Series se;
@@ -171,7 +171,7 @@ TEST(GnuplotScript, AxesFitTheDataNotTheFittedCurves) {
   EXPECT_NE(gnuplot_script(f).find("set yrange [-"), std::string::npos);
 }
 
-// Issue 28: curves offset along x by +-0.25 read as W = 6.25 and put the outermost points
+// Curves offset along x by +-0.25 read as W = 6.25 and put the outermost points
 // outside the x range; every point is drawn at its true x, told apart by colour and shape.
 TEST(GnuplotScript, PointsOfSeveralCurvesAtOneXAreDrawnAtTheirTrueX) {
   Figure f{"side", "Side", "x", "y",

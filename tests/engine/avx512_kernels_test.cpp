@@ -13,7 +13,7 @@
 
 #include "engine/avx512_kernels.h"
 #include "engine/pair_entries.h"
-#include "engine/shapes.h"
+#include "silo/shapes.h"
 #include "world_parts.h"
 
 namespace granary::engine {
@@ -138,12 +138,12 @@ enum class PileOf { kDumbbells, kDiscs, kMixture };
 // group of eight out of the AVX-512 drift); some bodies are switched off for a while, some
 // for good.
 World Pile(bool avx512, PileOf bodies, bool liggghts_cap) {
-  SiloGeometry g;
+  silo::SiloGeometry g;
   g.elements = {WallSegment(-6.5, 0, 6.5, 0), WallSegment(-6.5, 0, -6.5, 60), WallSegment(6.5, 0, 6.5, 60)};
   WorldParams p;
   p.avx512_kernels = avx512;
   p.pair.liggghts_cap = p.wall.liggghts_cap = liggghts_cap;
-  World w(p, {MakeTemplate(DumbbellSpecies(), 1.0, 0), MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
+  World w(p, {silo::MakeTemplate(DumbbellSpecies(), 1.0, 0), silo::MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
   for (int k = 0; k < 61; ++k) {
     const bool disc = bodies == PileOf::kDiscs || (bodies == PileOf::kMixture && k % 3 == 2);
     w.AddBody(disc ? 1 : 0, -4.2 + 2.1 * (k % 5), 0.6 + 1.05 * (k / 5), 0.3 * (k % 7));

@@ -28,7 +28,7 @@ RunSpec SmallBedSpec() {
 double RmsNetForce(const RunSpec& spec, const BedState& bed, bool history, bool flip) {
   Silo closed;
   closed.width = spec.silo.width;
-  World w(ParamsFromSpec(spec), MakeTemplates(spec), BuildGeometry(closed, kTallWall));
+  World w(ParamsFromSpec(spec), MakeTemplates(spec), silo::BuildGeometry(closed, kTallWall));
   for (std::size_t b = 0; b < bed.x.size(); ++b) {
     const int id = w.AddBody(bed.species[b], bed.x[b], bed.y[b], bed.theta[b]);
     w.SetVelocity(id, bed.vx[b], bed.vy[b], bed.omega[b]);

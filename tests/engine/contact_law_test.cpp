@@ -1,4 +1,4 @@
-// Contact law kernels against their closed forms (physics.md "Contact law").
+// Contact law kernels against their closed forms (docs/model.md "Contact law").
 #include "engine/contact_law.h"
 
 #include <cmath>

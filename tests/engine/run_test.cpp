@@ -78,7 +78,7 @@ TEST(Run, SmallSiloDischargesAndItsExitCountGrows) {
   std::size_t blocks = 0;
   for (std::size_t p = frames.find("ITEM: TIMESTEP"); p != std::string::npos; p = frames.find("ITEM: TIMESTEP", p + 1)) ++blocks;
   EXPECT_EQ(blocks, 11u);
-  // issue 27: the rate counts the discs still in the silo. Its ratio to the bed's figure is
+  // The rate counts the discs still in the silo. Its ratio to the bed's figure is
   // the mean fraction of the 240 discs (120 dumbbells) in the silo over the steps, which the
   // exit times give: a body's 2 discs count up to the step it left.
   const double t_end = s["t_end"].get<double>();
@@ -299,10 +299,9 @@ TEST(Run, ReinjectKeepsTheBedAndReusesIds) {
 }
 
 // A returned body lands on the bed, not on an earlier return still in the air: the demo's
-// W = 12 case (300 dumbbells in a 30 d silo, about 11 returns per time unit), where each
-// return used to be put above the highest disc of its column, falling or not; the returns
-// stacked up into a rain (at t = 15, 90 % of the bodies below 41 d instead of 18 d) while the
-// bed drained.
+// W = 12 case (300 dumbbells in a 30 d silo, about 11 returns per time unit): returns put
+// above the highest disc of their column, falling or not, would stack up into a rain (at
+// t = 15, 90 % of the bodies below 41 d instead of 18 d) while the bed drained.
 TEST(Run, ReturnedBodiesLandOnTheBedAndTheBedKeepsItsHeight) {
   const fs::path dir = FreshDir("reinject-height");
   nlohmann::json spec = SmallSpec(12.0, 15.0);
@@ -729,7 +728,7 @@ TEST(Run, SigtermMakesTheExecutableCheckpointAndEndByTheSignal) {
   EXPECT_TRUE(RunQuiet(dir, 1, 10).continued);
 }
 
-// issue 13: 64 bytes overwritten in the middle of checkpoint.bin were accepted, and the run
+// 64 bytes overwritten in the middle of checkpoint.bin were accepted, and the run
 // ended `done` with a different number of exits. Now the checksum refuses it, the run
 // continues from the previous checkpoint, says so, and gives the uninterrupted run's bits.
 TEST(Run, ACorruptCheckpointIsRefusedAndThePreviousOneUsed) {

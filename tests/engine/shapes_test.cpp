@@ -1,5 +1,5 @@
 // Shape templates against hand-computed masses, centres and moments of inertia.
-#include "engine/shapes.h"
+#include "silo/shapes.h"
 
 #include <cmath>
 #include <numbers>
@@ -15,7 +15,7 @@ TEST(Shapes, DumbbellMassAndInertia) {
   Species s;
   s.shape = Shape::kDumbbell;
   s.diameter = 1.0;
-  const ShapeTemplate t = MakeTemplate(s, 1.0, 0);
+  const silo::ShapeTemplate t = silo::MakeTemplate(s, 1.0, 0);
   const double m = kPi * 0.25;  // each disc: pi r^2
   EXPECT_DOUBLE_EQ(t.mass, 2 * m);
   // two discs at +-0.5: 2 (m 0.25 + 0.4 m 0.25)
@@ -28,7 +28,7 @@ TEST(Shapes, SnowmanCentreOfMassAndInertia) {
   s.shape = Shape::kSnowman;
   s.diameter = 1.0;
   s.big_diameter = 1.5;
-  const ShapeTemplate t = MakeTemplate(s, 1.0, 0);
+  const silo::ShapeTemplate t = silo::MakeTemplate(s, 1.0, 0);
   const double ms = kPi * 0.25, mb = kPi * 0.75 * 0.75;
   const double l = 1.25;  // centres (1 + 1.5) / 2 apart
   const double a = mb * l / (ms + mb), b = ms * l / (ms + mb);
@@ -42,7 +42,7 @@ TEST(Shapes, RodDiscsTouchInALine) {
   s.shape = Shape::kRod;
   s.n = 4;
   s.diameter = 0.707;
-  const ShapeTemplate t = MakeTemplate(s, 1.0, 0);
+  const silo::ShapeTemplate t = silo::MakeTemplate(s, 1.0, 0);
   ASSERT_EQ(t.r.size(), 4u);
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(t.ox[k + 1] - t.ox[k], 0.707, 1e-15);
   EXPECT_NEAR(t.ox[0] + t.ox[3], 0.0, 1e-15);
@@ -55,7 +55,7 @@ TEST(Shapes, SpeciesCountsSumToTotal) {
   b.species[0].fraction = 1.0 / 3;
   b.species[1].fraction = 1.0 / 3;
   b.species[2].fraction = 1.0 / 3;
-  const auto c = SpeciesCounts(b);
+  const auto c = silo::SpeciesCounts(b);
   EXPECT_EQ(c[0] + c[1] + c[2], 101);
   EXPECT_EQ(c[0], 34);
   EXPECT_EQ(c[1], 33);

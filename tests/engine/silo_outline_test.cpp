@@ -1,6 +1,6 @@
 // The silo outline (walls with their outer side, outlets, obstacles) and silo.vtk, the mesh of
 // it that OVITO reads: legacy ASCII VTK, triangles only, one colour per triangle.
-#include "engine/silo_outline.h"
+#include "silo/silo_outline.h"
 
 #include <gtest/gtest.h>
 
@@ -24,7 +24,7 @@ Silo TestSilo() {
 }
 
 TEST(SiloOutline, WallsOutletsAndObstaclesWithTheirOuterSides) {
-  const SiloOutline o = OutlineOf(TestSilo(), 30.0);
+  const silo::SiloOutline o = silo::OutlineOf(TestSilo(), 30.0);
   // Base left and right of the outlet; left wall whole; right wall below and above its outlet.
   ASSERT_EQ(o.walls.size(), 5u);
   double base = 0, left = 0, right = 0;
@@ -50,7 +50,7 @@ TEST(SiloOutline, WallsOutletsAndObstaclesWithTheirOuterSides) {
 }
 
 TEST(SiloOutline, VtkIsATriangleMeshWithAColourPerTriangleOutsideTheSilo) {
-  const std::string vtk = SiloVtk(OutlineOf(TestSilo(), 30.0), 0.5);
+  const std::string vtk = silo::SiloVtk(silo::OutlineOf(TestSilo(), 30.0), 0.5);
   std::istringstream in(vtk);
   std::string line;
   std::getline(in, line);

@@ -19,7 +19,7 @@ World OpenSilo(std::vector<BaseOutlet> base, std::vector<Obstacle> obstacles = {
   silo.base_outlets = std::move(base);
   silo.obstacles = std::move(obstacles);
   silo.side_outlets = std::move(side);
-  World w(WorldParams{}, {MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, BuildGeometry(silo, 30));
+  World w(WorldParams{}, {silo::MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, silo::BuildGeometry(silo, 30));
   w.OpenOutlets();
   return w;
 }
@@ -96,8 +96,8 @@ TEST(Stall, EachOutletIsJudgedOnItsOwn) {
 }
 
 // The discs of a world as any engine's discs (stall.h), with the probe of stall_world.h.
-std::vector<DiscAt> DiscsOf(const World& w) {
-  std::vector<DiscAt> discs;
+std::vector<silo::DiscAt> DiscsOf(const World& w) {
+  std::vector<silo::DiscAt> discs;
   for (int i = 0; i < w.disc_count(); ++i) discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
   return discs;
 }
@@ -114,35 +114,35 @@ TEST(Stall, TheCavityUnderAnArchIsBoundedByTheArchFromLeftToRight) {
     w.AddBody(0, radius * std::cos(a), 0.5 + radius * std::sin(a), 0);
   }
   Row(w, -5.5, 5.5, 4.0);  // material above
-  const OutletCavity c = CavityUnder(w.geometry(), DiscsOf(w), 0.5, 0);
+  const silo::OutletCavity c = silo::CavityUnder(w.geometry(), DiscsOf(w), 0.5, 0);
   ASSERT_TRUE(c.sealed);
   std::vector<int> discs;
-  for (const CavityBound& b : c.edge) {
-    if (b.kind == CavityBound::Kind::kDisc) discs.push_back(b.index);
-    EXPECT_NE(b.kind, CavityBound::Kind::kOpen);
+  for (const silo::CavityBound& b : c.edge) {
+    if (b.kind == silo::CavityBound::Kind::kDisc) discs.push_back(b.index);
+    EXPECT_NE(b.kind, silo::CavityBound::Kind::kOpen);
   }
   EXPECT_EQ(discs, (std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7}));
   ASSERT_GE(c.edge.size(), 10u);
-  EXPECT_EQ(c.edge.front().kind, CavityBound::Kind::kElement);  // the left edge of the gap
+  EXPECT_EQ(c.edge.front().kind, silo::CavityBound::Kind::kElement);  // the left edge of the gap
   EXPECT_LT(c.edge.front().s, -1.5);
-  EXPECT_EQ(c.edge.back().kind, CavityBound::Kind::kElement);
+  EXPECT_EQ(c.edge.back().kind, silo::CavityBound::Kind::kElement);
   EXPECT_GT(c.edge.back().s, 1.5);
 
   // A flat arch sitting in the gap itself: the cavity is the passage below it.
   World flat = OpenSilo({{0.0, 4.0}});
   Row(flat, -2.5, 2.5, 0.45);  // discs 1..4 over the gap, 0 and 5 beside it
   Row(flat, -5.5, 5.5, 1.5);
-  const OutletCavity passage = CavityUnder(flat.geometry(), DiscsOf(flat), 0.5, 0);
+  const silo::OutletCavity passage = silo::CavityUnder(flat.geometry(), DiscsOf(flat), 0.5, 0);
   ASSERT_TRUE(passage.sealed);
   discs.clear();
-  for (const CavityBound& b : passage.edge)
-    if (b.kind == CavityBound::Kind::kDisc) discs.push_back(b.index);
+  for (const silo::CavityBound& b : passage.edge)
+    if (b.kind == silo::CavityBound::Kind::kDisc) discs.push_back(b.index);
   EXPECT_EQ(discs, (std::vector<int>{1, 2, 3, 4}));
 
   // Open to the top: no cavity, no edge.
   World crater = OpenSilo({{0.0, 4.0}});
   DeadZones(crater, 2.0);
-  const OutletCavity open = CavityUnder(crater.geometry(), DiscsOf(crater), 0.5, 0);
+  const silo::OutletCavity open = silo::CavityUnder(crater.geometry(), DiscsOf(crater), 0.5, 0);
   EXPECT_FALSE(open.sealed);
   EXPECT_TRUE(open.edge.empty());
 }
@@ -159,11 +159,11 @@ TEST(Stall, TheCavityOfASideOutletRunsFromBelowToAbove) {
     w.AddBody(0, x, 5.5, 0);      // disc 4: at its upper edge (5)
     w.AddBody(0, inner, 4.5, 0);  // disc 5
     Row(w, -5.5, 5.5, 6.5);
-    const OutletCavity c = CavityUnder(w.geometry(), DiscsOf(w), 0.5, 0);
+    const silo::OutletCavity c = silo::CavityUnder(w.geometry(), DiscsOf(w), 0.5, 0);
     ASSERT_TRUE(c.sealed);
     std::vector<int> discs;
-    for (const CavityBound& b : c.edge)
-      if (b.kind == CavityBound::Kind::kDisc) discs.push_back(b.index);
+    for (const silo::CavityBound& b : c.edge)
+      if (b.kind == silo::CavityBound::Kind::kDisc) discs.push_back(b.index);
     SCOPED_TRACE(wall == Wall::kRight ? "right" : "left");
     ASSERT_FALSE(discs.empty());
     EXPECT_EQ(discs.front(), 1);

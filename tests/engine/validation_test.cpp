@@ -2,7 +2,7 @@
 // for dumbbells in reinject mode. The thesis (ch. 5, modified Beverloo law) finds
 // Q ∝ (W/d)^{1.5 + X_db/2}, i.e. (W/d)^2 for pure dumbbells, so Q(14)/Q(8) = 3.06; plain
 // 2-D Beverloo with k = 1 would give 2.53. About 70 and 210 exits are counted, so the
-// ratio is known to ~13 % (Poisson); the bounds are ~2 sigma. Measured 2026-11-22: 3.04.
+// ratio is known to ~13 % (Poisson); the bounds are ~2 sigma.
 #include <filesystem>
 #include <fstream>
 #include <string>

@@ -1,7 +1,7 @@
 // Building blocks shared by the engine tests: body species and wall segments.
 #pragma once
 
-#include "engine/geometry.h"
+#include "silo/geometry.h"
 #include "rundir/run_spec.h"
 
 namespace granary::engine {
@@ -22,9 +22,9 @@ inline Species DumbbellSpecies() {
   return s;
 }
 
-inline WallElement WallSegment(double ax, double ay, double bx, double by) {
-  WallElement e;
-  e.kind = ElementKind::kSegment;
+inline silo::WallElement WallSegment(double ax, double ay, double bx, double by) {
+  silo::WallElement e;
+  e.kind = silo::ElementKind::kSegment;
   e.ax = ax;
   e.ay = ay;
   e.bx = bx;

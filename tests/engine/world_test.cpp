@@ -1,6 +1,6 @@
 // Dynamics of one or two bodies against closed forms and independent integrations:
 // restitution (RK4 of the Hertz-damped oscillator), friction on an incline, energy
-// conservation, free rotation, obstacle deflection, free fall (physics.md; style.md 8.7).
+// conservation, free rotation, obstacle deflection, free fall (docs/model.md).
 #include "engine/world.h"
 
 #include <omp.h>
@@ -51,7 +51,7 @@ double RestitutionRk4(double kn, double gamma, double reff, double meff, double 
 }
 
 TEST(World, DiscDiscRestitutionMatchesIndependentOscillator) {
-  World w(Params(0.0), {MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, SiloGeometry{});
+  World w(Params(0.0), {silo::MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, silo::SiloGeometry{});
   const int a = w.AddBody(0, -0.55, 0.0, 0.0);
   const int b = w.AddBody(0, 0.55, 0.0, 0.0);
   w.SetVelocity(a, 0.5, 0.0, 0.0);
@@ -70,9 +70,9 @@ TEST(World, DiscDiscRestitutionMatchesIndependentOscillator) {
 }
 
 TEST(World, DiscWallRestitutionMatchesIndependentOscillator) {
-  SiloGeometry g;
+  silo::SiloGeometry g;
   g.elements.push_back(WallSegment(-5, 0, 5, 0));
-  World w(Params(0.0), {MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, g);
+  World w(Params(0.0), {silo::MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, g);
   const int a = w.AddBody(0, 0.0, 0.6, 0.0);
   w.SetVelocity(a, 0.0, -1.0, 0.0);
   w.ComputeForces();
@@ -88,9 +88,9 @@ TEST(World, DiscWallRestitutionMatchesIndependentOscillator) {
 double SlideVelocity(double tan_angle, double t_end) {
   const double ang = std::atan(tan_angle);
   const double c = std::cos(ang), s = std::sin(ang);
-  SiloGeometry g;
+  silo::SiloGeometry g;
   g.elements.push_back(WallSegment(-40 * c, -40 * s, 40 * c, 40 * s));
-  World w(Params(1.0), {MakeTemplate(DumbbellSpecies(), 1.0, 0)}, g);
+  World w(Params(1.0), {silo::MakeTemplate(DumbbellSpecies(), 1.0, 0)}, g);
   const int a = w.AddBody(0, -s * 0.5, c * 0.5, ang);
   w.ComputeForces();
   const int steps = static_cast<int>(std::lround(t_end / 1e-4));
@@ -119,12 +119,12 @@ TEST(World, EnergyConservedWithoutDampingAndFriction) {
     c->gamma_n = c->gamma_t = 0.0;
     c->mu = 0.0;
   }
-  SiloGeometry g;
+  silo::SiloGeometry g;
   g.elements.push_back(WallSegment(-3, -3, 3, -3));
   g.elements.push_back(WallSegment(3, -3, 3, 3));
   g.elements.push_back(WallSegment(3, 3, -3, 3));
   g.elements.push_back(WallSegment(-3, 3, -3, -3));
-  World w(p, {MakeTemplate(DiscSpecies(1.0), 1.0, 0), MakeTemplate(DumbbellSpecies(), 1.0, 1)}, g);
+  World w(p, {silo::MakeTemplate(DiscSpecies(1.0), 1.0, 0), silo::MakeTemplate(DumbbellSpecies(), 1.0, 1)}, g);
   w.AddBody(0, -1.5, 0.0, 0.0);
   w.AddBody(0, 1.5, 0.2, 0.0);
   w.AddBody(1, 0.0, -1.8, 0.3);
@@ -156,7 +156,7 @@ TEST(World, EnergyConservedWithoutDampingAndFriction) {
 }
 
 TEST(World, DumbbellRotatesFreely) {
-  World w(Params(0.0), {MakeTemplate(DumbbellSpecies(), 1.0, 0)}, SiloGeometry{});
+  World w(Params(0.0), {silo::MakeTemplate(DumbbellSpecies(), 1.0, 0)}, silo::SiloGeometry{});
   const int a = w.AddBody(0, 1.0, 2.0, 0.3);
   w.SetVelocity(a, 0.1, -0.2, 2.5);
   w.ComputeForces();
@@ -172,16 +172,16 @@ TEST(World, DumbbellRotatesFreely) {
 }
 
 double HorizontalVelocityAfterFall(double x0, bool with_obstacle) {
-  SiloGeometry g;
+  silo::SiloGeometry g;
   if (with_obstacle) {
-    WallElement e;
-    e.kind = ElementKind::kCircle;
+    silo::WallElement e;
+    e.kind = silo::ElementKind::kCircle;
     e.ax = 0.0;
     e.ay = 2.0;
     e.radius = 1.0;
     g.elements.push_back(e);
   }
-  World w(Params(1.0), {MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, g);
+  World w(Params(1.0), {silo::MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, g);
   const int a = w.AddBody(0, x0, 5.0, 0.0);
   w.ComputeForces();
   for (int k = 0; k < 40000; ++k) w.Step();
@@ -197,7 +197,7 @@ TEST(World, ObstacleDeflectsAFallingDisc) {
 }
 
 TEST(World, FreeFallIsExactUnderVelocityVerlet) {
-  World w(Params(1.0), {MakeTemplate(DumbbellSpecies(), 1.0, 0)}, SiloGeometry{});
+  World w(Params(1.0), {silo::MakeTemplate(DumbbellSpecies(), 1.0, 0)}, silo::SiloGeometry{});
   const int a = w.AddBody(0, 0.0, 10.0, 0.0);
   w.SetVelocity(a, 0.0, 0.3, 0.0);
   w.ComputeForces();
@@ -214,12 +214,12 @@ TEST(World, FreeFallIsExactUnderVelocityVerlet) {
 // pile of discs and bouncing off the walls: the lists are rebuilt often enough (no throw),
 // and the collisions happen (the fast bodies lose speed).
 TEST(World, ListsAreRebuiltBeforeFastBodiesOutrunTheSkin) {
-  SiloGeometry g;
+  silo::SiloGeometry g;
   g.elements = {WallSegment(-10, 0, 10, 0), WallSegment(-10, 0, -10, 30), WallSegment(10, 0, 10, 30),
                 WallSegment(-10, 30, 10, 30)};
   WorldParams p = Params(0.0);
   p.parallel_min_discs = 0;  // the threaded path, also on this small system
-  World w(p, {MakeTemplate(DumbbellSpecies(), 1.0, 0), MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
+  World w(p, {silo::MakeTemplate(DumbbellSpecies(), 1.0, 0), silo::MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
   for (int k = 0; k < 60; ++k) w.AddBody(1, -7.5 + 1.5 * (k % 11), 2.0 + 1.5 * (k / 11), 0.0);
   std::vector<int> fast;
   for (int k = 0; k < 6; ++k) {
@@ -239,14 +239,14 @@ TEST(World, ListsAreRebuiltBeforeFastBodiesOutrunTheSkin) {
 // Force blocks change only the summation order: reactions added inside a block (force_block
 // large) and gathered across blocks (force_block 1) give the same pile to rounding.
 TEST(World, ForceBlocksChangeOnlyRounding) {
-  SiloGeometry g;
+  silo::SiloGeometry g;
   g.elements.push_back(WallSegment(-3.2, 0, 3.2, 0));
   g.elements.push_back(WallSegment(-3.2, 0, -3.2, 40));
   g.elements.push_back(WallSegment(3.2, 0, 3.2, 40));
   auto pile = [&](int block) {
     WorldParams p = Params(1.0);
     p.force_block = block;
-    World w(p, {MakeTemplate(DumbbellSpecies(), 1.0, 0), MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
+    World w(p, {silo::MakeTemplate(DumbbellSpecies(), 1.0, 0), silo::MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
     for (int k = 0; k < 36; ++k) w.AddBody(k % 4 == 3 ? 1 : 0, -2.1 + 2.1 * (k % 3), 0.6 + 1.05 * (k / 3), 0.05 * (k % 5));
     w.ComputeForces();
     for (int s = 0; s < 3000; ++s) w.Step();
@@ -270,9 +270,9 @@ TEST(World, ForceBlocksChangeOnlyRounding) {
 // every share and block boundary, beside a disc thrown down past the exit line; force
 // blocks of 64 discs, on the threaded path.
 World SettlingPack(const WorldParams& params) {
-  SiloGeometry g;
+  silo::SiloGeometry g;
   g.elements = {WallSegment(-12, 0, 12, 0), WallSegment(-12, 0, -12, 60), WallSegment(12, 0, 12, 60)};
-  World w(params, {MakeTemplate(DumbbellSpecies(), 1.0, 0), MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
+  World w(params, {silo::MakeTemplate(DumbbellSpecies(), 1.0, 0), silo::MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
   for (int row = 0; w.body_count() < 600; ++row) {
     const double offset = 0.5 * (row % 2), y = 0.5 + 0.866 * row;
     const int places = 24 - row % 2;

@@ -137,7 +137,7 @@ TEST(LiggghtsBackend, DiscBedSettlesAndDischargesInRemoveMode) {
     for (const rundir::Disc& d : f.discs) EXPECT_NEAR(d.mass, std::numbers::pi * d.radius * d.radius, 1e-9);
   }
   EXPECT_GE(n, 3);  // t = 0, 1, 2 (3 if the run reached it)
-  // issue 27: the backend records what it wrote, through the same call as the native engine.
+  // The backend records what it wrote, through the same call as the native engine.
   const auto manifest = rundir::ReadManifest(dir);
   ASSERT_TRUE(manifest.has_value());
   EXPECT_EQ(manifest->counts.at("frames"), n);
@@ -148,7 +148,7 @@ TEST(LiggghtsBackend, DiscBedSettlesAndDischargesInRemoveMode) {
   EXPECT_LT(timing.at("disc_steps_per_s").get<double>(), timing.at("bed_disc_steps_per_s").get<double>());
 }
 
-// Stalls in remove mode are judged as the native engine judges them (engine/stall.h) on
+// Stalls in remove mode are judged as the native engine judges them (silo/stall.h) on
 // LIGGGHTS' final positions: an arch over a narrow outlet is a clog (and the run goes on through
 // it when asked), a wide outlet leaves only the dead zones and the run has discharged.
 TEST(LiggghtsBackend, AStallIsAClogOrADischargeAsOnTheNativeEngine) {
@@ -485,7 +485,7 @@ TEST(LiggghtsBackend, AKilledRunContinuesFromItsCheckpointWithTheSameEarlierEven
   EXPECT_EQ(frames, 7);
 }
 
-// issue 13: with two MPI ranks, the ranks outlived a kill -9 of the backend by up to a second
+// With two MPI ranks, the ranks outlived a kill -9 of the backend by up to a second
 // and kept writing the directory while a new runner could start. Now each rank holds the
 // directory's helper lock (exec-helper) and dies with mpirun: the directory is never free
 // while one of them runs, and a second backend refuses it until then (exit 75).
@@ -567,7 +567,7 @@ Outcome RunWithLiggghts(const fs::path& dir, const fs::path& liggghts, const std
   return RunBackend(dir, env, extra);
 }
 
-// issue 13: a crash by a signal was "exit status 11", garbage output with exit 0 gave an
+// A crash by a signal was "exit status 11", garbage output with exit 0 gave an
 // empty tail, a hang only "wall-time limit exceeded". Now signals are named, LIGGGHTS' own
 // screen output comes with its log's tail, and silence ends a hung LIGGGHTS.
 TEST(LiggghtsBackend, FailuresNameTheSignalAndShowTheScreenOutputAndTheLog) {

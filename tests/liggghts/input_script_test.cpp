@@ -7,7 +7,7 @@
 #include <regex>
 #include <sstream>
 
-#include "engine/shapes.h"
+#include "silo/shapes.h"
 #include "liggghts/input_script.h"
 
 namespace granary::liggghts {
@@ -123,7 +123,7 @@ TEST(InputScript, ClumpTemplatesCarryTheNativeMassAndInertiaInEveryOrientation) 
   const SiloSetup s = MakeSetup(spec);
   ASSERT_EQ(s.template_count, 12 + 6);  // snowmen over 360 degrees, rods over 180
   for (std::size_t k = 0; k < 2; ++k) {
-    const engine::ShapeTemplate tp = engine::MakeTemplate(spec.bodies.species[k], 1.0, static_cast<int>(k));
+    const silo::ShapeTemplate tp = silo::MakeTemplate(spec.bodies.species[k], 1.0, static_cast<int>(k));
     double own = 0;  // the spheres' own moments, sum 0.4 m r^2
     for (std::size_t i = 0; i < tp.r.size(); ++i) own += 0.4 * tp.disc_mass[i] * tp.r[i] * tp.r[i];
     int seen = 0;

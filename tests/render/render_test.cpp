@@ -31,12 +31,12 @@ rundir::Frame TestFrame() {
   return f;
 }
 
-engine::SiloOutline TestSilo() {
+silo::SiloOutline TestSilo() {
   Silo silo;
   silo.width = 10;
   silo.base_outlets = {{3.0, 2.0}};
   silo.obstacles = {{-2.0, 4.0, 1.0}};
-  return engine::OutlineOf(silo, 6.0);
+  return silo::OutlineOf(silo, 6.0);
 }
 
 std::vector<std::array<double, 3>> Circles(const std::string& svg, const std::string& cls) {

@@ -56,7 +56,7 @@ TEST(Readers, FramesRoundTripAndBodies) {
   EXPECT_NEAR(b[0].y, 5.0, 1e-14);
   EXPECT_NEAR(b[0].vx, 1.0, 1e-14);
   EXPECT_NEAR(b[0].mass, kPi / 2.0, 1e-14);
-  // I = 2 [m (1/2)^2 + (2/5) m (1/2)^2] with m = pi/4 (physics.md)
+  // I = 2 [m (1/2)^2 + (2/5) m (1/2)^2] with m = pi/4 (docs/model.md)
   EXPECT_NEAR(b[0].inertia, 2.0 * (kPi / 4.0) * (0.25 + 0.4 * 0.25), 1e-14);
   EXPECT_NEAR(b[0].theta, 0.0, 1e-14);
   EXPECT_NEAR(b[0].area, kPi / 2.0, 1e-14);

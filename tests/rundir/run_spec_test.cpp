@@ -1,5 +1,5 @@
 // Tests of the run spec parser (src/rundir/run_spec.cpp): defaults, canonical JSON and one
-// test per class of error, each asserting the exact message (style.md 8.3 item 8).
+// test per class of error, each asserting the exact message.
 #include "rundir/run_spec.h"
 
 #include <gtest/gtest.h>

@@ -206,7 +206,7 @@ TEST_F(BatchSchedulerTest, AnInterruptedRunnerDetachesAndTheNextOneAdoptsWithout
   }
 }
 
-// Issue 13's guarantee with a batch queue: a runner stalled past its lease, whose queued runs
+// The lease guarantee with a batch queue: a runner stalled past its lease, whose queued runs
 // another runner adopted, lets their jobs go and records nothing, not even the results its
 // jobs left; the adopter records them.
 TEST_F(BatchSchedulerTest, ARunnerThatLostItsLeaseLetsTheJobsGoAndRecordsNothing) {

@@ -124,7 +124,7 @@ TEST(LeaseTest, DeadOrSilentHolderLosesItsLease) {
   EXPECT_EQ(again->attempts, 2);
 }
 
-// The fault of issue 13: a runner whose lease was taken over (it was stopped past the lease
+// The fault guarded against: a runner whose lease was taken over (it was stopped past the lease
 // time) wrote its run's end by run id alone, over the new holder's claim.
 TEST(LeaseTest, OnlyTheHolderRecordsAnEnd) {
   Store store(":memory:");

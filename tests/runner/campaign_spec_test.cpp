@@ -279,7 +279,7 @@ TEST(CampaignSpecTest, ASweptShapeNamesItsDefaultNamedSpecies) {
   EXPECT_EQ(runs2[0].params()["bodies"]["species"][0]["name"], "grain");
 }
 
-// issue 13: sweep pointers that do not resolve gave raw library errors without a /sweep path.
+// Sweep pointers that do not resolve gave raw library errors without a /sweep path.
 TEST(CampaignSpecErrorTest, SweepPointersThatDoNotResolveNameTheAxis) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/width/x": [1]}}})")),
             "/sweep/grid/~1silo~1width~1x: axis \"/silo/width/x\" does not resolve: \"/silo/width\" is a number, not an "
@@ -288,7 +288,7 @@ TEST(CampaignSpecErrorTest, SweepPointersThatDoNotResolveNameTheAxis) {
             "/sweep/grid/~1silo~1base_outlets~199999999999999999999~1width: axis "
             "\"/silo/base_outlets/99999999999999999999/width\" does not resolve: \"/silo/base_outlets\" is an array of 1 "
             "element (indices 0 to 1), not \"99999999999999999999\"");
-  // issue 27: a misspelt key inside the pointer gets the corrected axis.
+  // A misspelt key inside the pointer gets the corrected axis.
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/base_outlet/0/width": [4]}}})")),
             "/sweep/grid/~1silo~1base_outlet~10~1width: axis \"/silo/base_outlet/0/width\" does not resolve: \"/silo\" "
             "has no key \"base_outlet\"; did you mean \"/silo/base_outlets/0/width\"?");
@@ -307,7 +307,7 @@ TEST(CampaignSpecErrorTest, SweepPointersThatDoNotResolveNameTheAxis) {
             "(no error)");
 }
 
-// issue 13: a 300 x 100 grid x 1000 replicas ended in std::bad_alloc. The count is checked
+// A 300 x 100 grid x 1000 replicas ended in std::bad_alloc. The count is checked
 // before anything is expanded (this test would take minutes and gigabytes otherwise).
 TEST(CampaignSpecErrorTest, ASweepOverTheRunLimitIsRefusedBeforeExpanding) {
   json widths = json::array(), mus = json::array();
@@ -333,7 +333,7 @@ TEST(CampaignSpecErrorTest, ASweepOverTheRunLimitIsRefusedBeforeExpanding) {
   EXPECT_EQ(expand(CampaignSpec::from_json(small), "/cache", 3000).size(), 3000u);  // at the limit
 }
 
-// issue 13: /base/engine was silently overridden by the campaign's engine, and an unknown
+// /base/engine was silently overridden by the campaign's engine, and an unknown
 // engine name there was accepted.
 TEST(CampaignSpecErrorTest, TheEngineIsSetInOnePlace) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "base": {"engine": "gromacs"}})")),
@@ -347,7 +347,7 @@ TEST(CampaignSpecErrorTest, TheEngineIsSetInOnePlace) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": ["liggghts"], "base": {"engine": "liggghts"}})")), "(no error)");
 }
 
-// issue 13: a NUL in a species name was accepted and cut the events.csv shape column; line
+// A NUL in a species name was accepted and cut the events.csv shape column; line
 // separators, \v and \f were accepted too.
 TEST(CampaignSpecErrorTest, NamesRefuseControlCharactersAndLineBreaks) {
   const std::vector<std::pair<std::string, std::string>> cases = {
@@ -367,7 +367,7 @@ TEST(CampaignSpecErrorTest, NamesRefuseControlCharactersAndLineBreaks) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "base": {"bodies": {"species": [{"name": "grès-é"}]}}})")), "(no error)");
 }
 
-// issue 13: a syntax error said only "not valid JSON"; a spec nested 10^5 deep crashed
+// A syntax error said only "not valid JSON"; a spec nested 10^5 deep crashed
 // `campaign plan` with SIGSEGV while formatting the error.
 TEST(CampaignSpecErrorTest, SyntaxErrorsAndDeepNestingSayWhere) {
   try {
@@ -388,7 +388,7 @@ TEST(CampaignSpecErrorTest, SyntaxErrorsAndDeepNestingSayWhere) {
   EXPECT_EQ(parse_spec_text(R"({"name": "[[[[{{{{\"[["})", "s.json")["name"], "[[[[{{{{\"[[");
 }
 
-// issue 27: a number out of a double's range gave nlohmann's raw out_of_range.406 text, no place.
+// A number out of a double's range gave nlohmann's raw out_of_range.406 text, no place.
 TEST(CampaignSpecErrorTest, ANumberOutOfRangeSaysWhere) {
   try {
     parse_spec_text("{\n  \"name\": \"1e400\",\n  \"seed\": 1e400\n}\n", "c.json");

@@ -107,7 +107,7 @@ TEST_F(CliTest, SpecErrorExitsTwoWithPath) {
   EXPECT_FALSE(fs::exists(Db()) && Status()["total"] != 0);
 }
 
-// issue 13: a spec nested 10^5 deep crashed `campaign plan` with SIGSEGV; a syntax error said
+// A spec nested 10^5 deep crashed `campaign plan` with SIGSEGV; a syntax error said
 // only "not valid JSON"; a huge sweep ended in std::bad_alloc.
 TEST_F(CliTest, BadSpecFilesAreUsageErrorsThatSayWhere) {
   const fs::path deep = dir_ / "deep.json";
@@ -121,7 +121,7 @@ TEST_F(CliTest, BadSpecFilesAreUsageErrorsThatSayWhere) {
   r = Sh(Cmd("plan " + broken.string()));
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_EQ(r.output.rfind("error: " + broken.string() + ":3:17: not valid JSON: syntax error", 0), 0u) << r.output;
-  // issue 27: a number out of range exited 1 with nlohmann's out_of_range.406 text.
+  // A number out of range exited 1 with nlohmann's out_of_range.406 text.
   const fs::path huge = dir_ / "huge.json";
   std::ofstream(huge) << "{\"name\": \"t\",\n \"seed\": 1e400}\n";
   r = Sh(Cmd("plan " + huge.string()));
@@ -138,7 +138,7 @@ TEST_F(CliTest, BadSpecFilesAreUsageErrorsThatSayWhere) {
   EXPECT_EQ(Sh(Cmd("plan " + big.string() + " --dry-run --max-runs 12000")).code, 0);
 }
 
-// issue 13: --only with a typo or a value not in the sweep ran nothing and exited 0.
+// --only with a typo or a value not in the sweep ran nothing and exited 0.
 TEST_F(CliTest, OnlyMustSelectSomething) {
   Sh(Cmd("plan " + WriteSpec("[4, 6]", 1)));
   auto r = Sh(RunCmd("--only /silo/base_outlet/0/width=4"));
@@ -155,7 +155,7 @@ TEST_F(CliTest, OnlyMustSelectSomething) {
   EXPECT_EQ(Status()["counts"]["planned"], 2);
 }
 
-// issue 13: a zero-length database was reported as an empty campaign; store errors exited 2
+// A zero-length database was reported as an empty campaign; store errors exited 2
 // ("usage"). They exit 3 with what happened.
 TEST_F(CliTest, AZeroLengthDatabaseIsAStorageErrorNotAnEmptyCampaign) {
   Sh(Cmd("plan " + WriteSpec("[4]", 1)));
@@ -167,13 +167,13 @@ TEST_F(CliTest, AZeroLengthDatabaseIsAStorageErrorNotAnEmptyCampaign) {
               std::string::npos) << r.output;
   }
   std::ofstream(Db(), std::ios::trunc) << "this is not an SQLite file, but it is long enough to be looked at as one....";
-  // A file that is not SQLite is the wrong --db, said without SQLite's words (issue 18).
+  // A file that is not SQLite is the wrong --db, said without SQLite's words.
   const auto r = Sh(Cmd("status"));
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("is not a campaign database (not an SQLite file"), std::string::npos) << r.output;
 }
 
-// issue 13: a finished run whose directory was deleted went unnoticed by status and run, and
+// A finished run whose directory was deleted went unnoticed by status and run, and
 // report counted it as failed.
 TEST_F(CliTest, StatusRunAndReportSayWhichDoneRunsLostTheirDirectory) {
   Sh(Cmd("plan " + WriteSpec("[4, 6]", 1)));
@@ -319,7 +319,7 @@ TEST_F(CliTest, ResumesAfterKillMinusNineOfTheRunner) {
   EXPECT_EQ(continued, 2);
 }
 
-// issue 13, end to end: runner A is stopped (kill -STOP, as Ctrl-Z does) while its engine
+// End to end: runner A is stopped (kill -STOP, as Ctrl-Z does) while its engine
 // runs on; once A's lease is stale, runner B recovers the run but starts no engine while A's
 // engine holds the directory. When A continues (kill -CONT), its heartbeat finds the run
 // taken: it stops its engine and records nothing; B then continues the run from its
@@ -418,7 +418,7 @@ TEST_F(CliTest, OnlyFilterSelectsRuns) {
 namespace granary::runner {
 namespace {
 
-// Issue 28 end to end on the real engine: a derived axis in --only and the export, and the
+// End to end on the real engine: a derived axis in --only and the export, and the
 // reproduction table in export --expectations, status and report.
 TEST_F(CliTest, RealEngineDerivedAxesAndExpectations) {
   const std::string engine = testing::BinDir() + "/granary-engine";
@@ -756,7 +756,7 @@ class Tmpfs {
   std::string why_;
 };
 
-// issue 13: a full disk under the database aborted the runner and left runs `running`. Now
+// A full disk under the database aborted the runner and left runs `running`. Now
 // the runner stops its engines (they checkpoint), exits 3 saying the disk is full and what it
 // left, and the next runner (with room again) finishes every run exactly once.
 TEST_F(CliTest, AFullDiskUnderTheDatabaseStopsTheRunnerCleanly) {
@@ -781,7 +781,7 @@ TEST_F(CliTest, AFullDiskUnderTheDatabaseStopsTheRunnerCleanly) {
   EXPECT_EQ(testing::WaitExit(runner), 3) << ReadFile(log);
   const std::string out = ReadFile(log);
   EXPECT_NE(out.find("database or disk is full"), std::string::npos) << out;
-  // issue 27: and where the full disk is.
+  // And where the full disk is.
   EXPECT_NE(out.find("the file system of " + (dir_ / "dbfs").string() + " is full ("), std::string::npos) << out;
   EXPECT_NE(out.find("campaign run stopped its engines (they continue from their checkpoints)"), std::string::npos) << out;
   fs::remove(dir_ / "dbfs" / "filler");
@@ -798,7 +798,7 @@ TEST_F(CliTest, AFullDiskUnderTheDatabaseStopsTheRunnerCleanly) {
   }
 }
 
-// issue 13: a full disk under runs/ showed "engine exited with status 1" with no reason. The
+// A full disk under runs/ showed "engine exited with status 1" with no reason. The
 // real engine fills a small file system with frames: its run is interrupted (not failed)
 // with the reason, no further run starts, and the runner exits 3.
 TEST_F(CliTest, AFullDiskUnderTheRunsIsSaidAndInterruptsTheRun) {
@@ -829,7 +829,7 @@ TEST_F(CliTest, AFullDiskUnderTheRunsIsSaidAndInterruptsTheRun) {
   }
 }
 
-// issue 27: a database in a read-only directory failed even `status` with "unable to open
+// A database in a read-only directory failed even `status` with "unable to open
 // database file (SQLite code 14)". status, show, report and export now read it read-only;
 // a verb that must write says the directory is read-only.
 TEST_F(CliTest, AReadOnlyDatabaseDirectoryIsReadAndSaidSo) {
@@ -860,7 +860,7 @@ TEST_F(CliTest, AReadOnlyDatabaseDirectoryIsReadAndSaidSo) {
   EXPECT_NE(run.output.find("campaign status, show, report and export work read-only"), std::string::npos) << run.output;
 }
 
-// issue 27: campaign report with nothing finished exited 0 without a word.
+// Campaign report with nothing finished exited 0 without a word.
 TEST_F(CliTest, AReportWithNothingFinishedSaysSoAndExitsFive) {
   ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 6]", 1))).code, 0);
   const auto report = Sh(Cmd("report --no-figures --out " + (dir_ / "rep").string()));
@@ -871,7 +871,7 @@ TEST_F(CliTest, AReportWithNothingFinishedSaysSoAndExitsFive) {
   EXPECT_NE(exported.output.find("export: no finished run to analyse"), std::string::npos) << exported.output;
 }
 
-// issue 27: a run directory deleted while its engine ran failed with only "engine exited with
+// A run directory deleted while its engine ran failed with only "engine exited with
 // status 1" (engine.log went with the directory). The runner keeps the log open and tells
 // what the engine last said.
 TEST_F(CliTest, ARunDirectoryDeletedMidRunSaysWhatTheEngineLastSaid) {

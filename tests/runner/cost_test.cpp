@@ -1,4 +1,4 @@
-// Issue 30 end to end with the real `campaign` and `granary-engine`: the estimate of tiny
+// The estimate end to end with the real `campaign` and `granary-engine`: the estimate of tiny
 // campaigns of each shape and mode against what their runs measure (wall time within a
 // factor of 2, disk within 20 %), and a raised max_time that continues finished runs from
 // their checkpoints with the same bits as runs planned with the new limit from the start.

@@ -1,4 +1,4 @@
-// issue 27: a damaged run directory is never analysed as if it were whole. Real runs of the
+// A damaged run directory is never analysed as if it were whole. Real runs of the
 // native engine; every file the analyses read is damaged in turn (cut in half, cut at a
 // frame boundary, header-only, empty, garbage, changed in place), before and after a report
 // has cached the run's analyses, and `report`, `export`, `status`, `show` and `scan --verify`
@@ -206,7 +206,7 @@ TEST_F(DamagedRunsTest, ARunWithoutAManifestIsUsedAndSaidNotVerifiable) {
   EXPECT_EQ(Sh(Cmd("report --no-figures")).code, 0);
 }
 
-// issue 27: two reports into one --out at once lost figure links; the second now waits for
+// Two reports into one --out at once lost figure links; the second now waits for
 // the first and says so.
 TEST_F(DamagedRunsTest, ASecondReportIntoTheSameFolderWaitsAndSaysSo) {
   const fs::path out = *dir_ / "report2";

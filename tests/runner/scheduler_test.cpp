@@ -234,7 +234,7 @@ TEST_F(SchedulerTest, AFailedRunIsRetriedThenReported) {
   }
 }
 
-// issue 13: runner A is stopped (kill -STOP) past its lease; runner B takes the run over.
+// Runner A is stopped (kill -STOP) past its lease; runner B takes the run over.
 // When A comes back, its heartbeat finds the run is not its own: it stops its engine at once
 // and records nothing (before: A wrote `done` by run id over B's claim).
 TEST_F(SchedulerTest, ALeaseTakenOverStopsTheEngineAndRecordsNothing) {
@@ -281,7 +281,7 @@ TEST_F(SchedulerTest, AResultSeenAfterTheLeaseWasTakenOverIsNotRecorded) {
   EXPECT_EQ(observer_.count("its result is not recorded"), 1) << observer_.all();
 }
 
-// issue 13: a run retired by a re-plan while it runs came back `done`.
+// A run retired by a re-plan while it runs came back `done`.
 TEST_F(SchedulerTest, ARunRetiredWhileItRunsIsStoppedAndStaysRetired) {
   executor_.run_polls = 100;
   executor_.on_poll = [&](int poll) {
@@ -394,7 +394,7 @@ TEST_F(SchedulerTest, ADatabaseThatCannotBeWrittenStopsTheEngines) {
   for (const auto& [id, row] : Rows()) EXPECT_EQ(row.state, RunState::kRunning);  // as the next runner will find them
 }
 
-// issue 13: a done run whose directory was deleted went unnoticed by `run`. It is reported at
+// A done run whose directory was deleted went unnoticed by `run`. It is reported at
 // every start, and run again on request (--rerun-lost).
 TEST_F(SchedulerTest, DoneRunsWhoseDirectoryWasDeletedAreReportedAndRunAgainOnRequest) {
   EXPECT_EQ(Run(), ExitCode::kOk);

@@ -121,7 +121,7 @@ TEST(SlurmOptions, ExecutorBlockErrorsNameThePath) {
     }
     return std::string("no error");
   };
-  EXPECT_EQ(error(json{{"partition", "x"}}), "/executor/type: must be \"slurm\" or \"local\" (got nothing)");
+  EXPECT_EQ(error(json{{"partition", "x"}}), "/executor/type: must be \"local\" or \"slurm\" (got nothing)");
   EXPECT_EQ(error(json{{"type", "slurm"}, {"partiton", "x"}}), "/executor/partiton: unknown key; did you mean \"partition\"?");
   EXPECT_EQ(error(json{{"type", "slurm"}, {"time", "2h"}}),
             "/executor/time: must be a Slurm time such as \"30\", \"4:00:00\" or \"1-12:00:00\" (got \"2h\")");
@@ -138,7 +138,7 @@ TEST(SlurmOptions, CampaignSpecCarriesAValidatedExecutorBlock) {
     CampaignSpec::from_json(json{{"name", "t"}, {"executor", {{"type", "pbs"}}}});
     ADD_FAILURE() << "no error";
   } catch (const SpecError& e) {
-    EXPECT_EQ(std::string(e.what()), "/executor/type: must be \"slurm\" or \"local\" (got \"pbs\")");
+    EXPECT_EQ(std::string(e.what()), "/executor/type: must be \"local\" or \"slurm\" (got \"pbs\")");
   }
 }
 

@@ -250,7 +250,7 @@ TEST_F(SlurmCampaignTest, RunnerKilledMinusNineReattachesWithZeroDoubleExecution
   }
 }
 
-// Issue 13's guarantee on Slurm: a runner stopped past its lease (kill -STOP) while its jobs
+// The lease guarantee on Slurm: a runner stopped past its lease (kill -STOP) while its jobs
 // run; a second runner adopts them and collects them; the first, continued, lets them go —
 // it records nothing and cancels nothing. Every run ran once.
 TEST_F(SlurmCampaignTest, AStalledRunnerThatLostItsLeaseRecordsNothingAndCancelsNothing) {

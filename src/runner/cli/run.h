@@ -6,7 +6,7 @@
 
 #include "runner/cli/common.h"
 #include "runner/scheduler.h"
-#include "runner/slurm_executor.h"
+#include "runner/executors.h"
 
 namespace granary::runner::cli {
 
@@ -16,8 +16,8 @@ std::string ExeDir();
 // The flags `run` and `compare` share: --jobs, --threads-per-run, --time-limit, --retries.
 RunOptions RunOptionsFrom(const Args& a);
 
-// Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly. With
-// `slurm`, the runs go to Slurm.
-int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, const SlurmSettings* slurm = nullptr);
+// Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly. The runs
+// go to the executor `setup` makes (nullptr: the local pool, --jobs at once).
+int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, const ExecutorSetup* setup = nullptr);
 
 }  // namespace granary::runner::cli

@@ -1,11 +1,11 @@
-#include "engine/stall.h"
+#include "silo/stall.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 
-namespace granary::engine {
+namespace granary::silo {
 namespace {
 
 // Grid cells whose centre a probe of radius `probe` can occupy without overlapping anything,
@@ -248,4 +248,4 @@ OutletCavity CavityUnder(const SiloGeometry& geometry, const std::vector<DiscAt>
   return cavity;
 }
 
-}  // namespace granary::engine
+}  // namespace granary::silo

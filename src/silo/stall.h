@@ -9,9 +9,9 @@
 
 #include <vector>
 
-#include "engine/geometry.h"
+#include "silo/geometry.h"
 
-namespace granary::engine {
+namespace granary::silo {
 
 struct DiscAt {
   double x, y, r;
@@ -45,4 +45,4 @@ struct OutletCavity {
 };
 OutletCavity CavityUnder(const SiloGeometry& geometry, const std::vector<DiscAt>& discs, double probe, int outlet);
 
-}  // namespace granary::engine
+}  // namespace granary::silo

@@ -1,5 +1,5 @@
-// Silo boundaries (physics.md "Boundaries"): walls are line segments, outlet edges are
-// points, obstacles are fixed circles. Elements belong to named groups (style.md 8.2 item 7):
+// Silo boundaries (docs/model.md "Boundaries"): walls are line segments, outlet edges are
+// points, obstacles are fixed circles. Elements belong to named groups:
 // the plug closes the outlets during bed preparation and is switched off at t = 0, when the
 // outlet-edge points switch on (while the plug is in, a disc over an edge would otherwise
 // touch both the edge point and the plug).
@@ -9,7 +9,7 @@
 
 #include "rundir/run_spec.h"
 
-namespace granary::engine {
+namespace granary::silo {
 
 enum class ElementKind { kSegment, kPoint, kCircle };
 enum class WallGroup { kAlways, kPlug, kOpen };
@@ -54,4 +54,4 @@ int SideOf(const SiloGeometry& g, int element);
 // The always-active segment of `side` whose interior is under (px, py), or -1 (over a gap).
 int SegmentUnder(const SiloGeometry& g, Side side, double px, double py);
 
-}  // namespace granary::engine
+}  // namespace granary::silo

@@ -1,12 +1,12 @@
-#include "engine/silo_outline.h"
+#include "silo/silo_outline.h"
 
 #include <cmath>
 #include <cstdio>
 #include <numbers>
 
-#include "engine/geometry.h"
+#include "silo/geometry.h"
 
-namespace granary::engine {
+namespace granary::silo {
 
 SiloOutline OutlineOf(const Silo& silo, double wall_top) {
   const SiloGeometry g = BuildGeometry(silo, wall_top);
@@ -91,4 +91,4 @@ std::string SiloVtk(const SiloOutline& outline, double thickness) {
   return s;
 }
 
-}  // namespace granary::engine
+}  // namespace granary::silo

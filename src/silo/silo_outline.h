@@ -9,7 +9,7 @@
 
 #include "rundir/run_spec.h"
 
-namespace granary::engine {
+namespace granary::silo {
 
 // A straight piece from a to b; (ox, oy) the unit normal pointing out of the silo.
 struct OutlineSegment {
@@ -34,4 +34,4 @@ SiloOutline OutlineOf(const Silo& silo, double wall_top);
 // the silo, outlets red bands across the openings, obstacles dark grey discs.
 std::string SiloVtk(const SiloOutline& outline, double thickness = 0.5);
 
-}  // namespace granary::engine
+}  // namespace granary::silo

@@ -1,39 +1,21 @@
-// Shape templates of discs, dumbbells, snowmen and rods (physics.md "Particles").
-#include "engine/shapes.h"
+// Shape templates from the shape table's disc layouts (shapes.h).
+#include "silo/shapes.h"
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 
-namespace granary::engine {
+#include "rundir/shape_table.h"
+
+namespace granary::silo {
 
 ShapeTemplate MakeTemplate(const Species& s, double density, int index) {
   ShapeTemplate t;
   t.name = s.name;
   t.species = index;
-  std::vector<double> x, r;
-  switch (s.shape) {
-    case Shape::kDisc:
-      x = {0.0};
-      r = {s.diameter / 2};
-      break;
-    case Shape::kDumbbell:
-      // two discs of diameter d, centres d apart
-      x = {-s.diameter / 2, s.diameter / 2};
-      r = {s.diameter / 2, s.diameter / 2};
-      break;
-    case Shape::kSnowman:
-      // small disc D_s and big disc D_b touching: centres (D_s + D_b)/2 apart
-      x = {0.0, (s.diameter + s.big_diameter) / 2};
-      r = {s.diameter / 2, s.big_diameter / 2};
-      break;
-    case Shape::kRod:
-      for (int k = 0; k < s.n; ++k) {
-        x.push_back(static_cast<double>(k) * s.diameter);
-        r.push_back(s.diameter / 2);
-      }
-      break;
-  }
+  const DiscLayout layout = DiscsOf(s);
+  const std::vector<double>& x = layout.x;
+  const std::vector<double>& r = layout.r;
   double m = 0.0, mx = 0.0;
   for (std::size_t k = 0; k < x.size(); ++k) {
     const double mk = density * std::numbers::pi * r[k] * r[k];
@@ -70,4 +52,4 @@ std::vector<int> SpeciesCounts(const Bodies& bodies) {
   return counts;
 }
 
-}  // namespace granary::engine
+}  // namespace granary::silo

@@ -1,10 +1,10 @@
 // Silo walls, outlet gaps, plug and obstacles as segment/point/circle elements.
-#include "engine/geometry.h"
+#include "silo/geometry.h"
 
 #include <algorithm>
 #include <utility>
 
-namespace granary::engine {
+namespace granary::silo {
 namespace {
 
 void AddSegment(SiloGeometry& g, double ax, double ay, double bx, double by, WallGroup group) {
@@ -126,4 +126,4 @@ int SegmentUnder(const SiloGeometry& g, Side side, double px, double py) {
   return -1;
 }
 
-}  // namespace granary::engine
+}  // namespace granary::silo

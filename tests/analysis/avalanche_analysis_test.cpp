@@ -1,0 +1,71 @@
+// The avalanches analysis on a constructed exit stream with hand-counted avalanches: 4, 2 and
+// 3 bodies between clogs (gaps of 6 and 9 against a clog gap of 5, the run ended clogged), and
+// the same stream cut by the engine's unclogs instead (on_clog "unclog").
+#include "analysis/avalanche_analysis.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "analysis/run_pass.h"
+
+namespace granary::analysis {
+namespace {
+
+rundir::RunData StreamRun(const std::string& on_clog) {
+  rundir::RunData data;
+  data.has_summary = true;
+  data.spec = {{"discharge", {{"mode", "remove"}, {"clog_window", 5.0}, {"on_clog", on_clog}}},
+               {"silo", {{"base_outlets", {{{"center", 0.0}, {"width", 6.0}}}}}}};
+  data.summary.end_reason = "clogged";
+  data.summary.bodies = 100;
+  data.summary.exited = 9;
+  data.summary.remaining = 91;
+  data.summary.t_end = 30.0;
+  for (double t : {1.0, 2.0, 3.0, 4.0, 10.0, 11.0, 20.0, 21.0, 22.0})
+    data.events.push_back({t, static_cast<std::int64_t>(data.events.size()), "dumbbell", 1.0, 0});
+  return data;
+}
+
+std::vector<Metric> MetricsOf(const rundir::RunData& data, nlohmann::json* result = nullptr) {
+  const PassOptions pass;
+  const RunView view = make_run_view(data, pass);
+  const auto analysis = make_avalanche_analysis(nullptr, "/report/avalanches");
+  const nlohmann::json r = analysis->start(view)->finish();
+  if (result) *result = r;
+  return analysis->run_metrics(r);
+}
+
+TEST(AvalancheAnalysis, SizesBetweenClogsOfTheExitStream) {
+  nlohmann::json result;
+  const std::vector<Metric> m = MetricsOf(StreamRun("stop"), &result);
+  EXPECT_EQ(result.at("sizes"), (nlohmann::json{4.0, 2.0, 3.0}));
+  ASSERT_NE(find_metric(m, "avalanche_size"), nullptr);
+  EXPECT_DOUBLE_EQ(find_metric(m, "avalanche_size")->value, 3.0);
+  EXPECT_DOUBLE_EQ(find_metric(m, "avalanche_size")->se, 1.0 / std::sqrt(3.0));  // sizes' sd is 1
+  EXPECT_DOUBLE_EQ(find_metric(m, "avalanches")->value, 3.0);
+  // Two clogs the stream recovered from and the one it ended in.
+  EXPECT_DOUBLE_EQ(find_metric(m, "clogs")->value, 3.0);
+}
+
+TEST(AvalancheAnalysis, AnEngineThatBrokeItsClogsCutsTheStreamAtItsUnclogs) {
+  rundir::RunData data = StreamRun("unclog");
+  // The engine's unclogs of clogs 1 and 2 (a second attempt on clog 2 is not a new cut), and
+  // no gap rule: the stream's gaps no longer decide.
+  data.unclogs = {{5.0, 50000, 1, 1, "kick", {}}, {15.0, 150000, 2, 1, "kick", {}}, {16.0, 160000, 2, 2, "kick", {}}};
+  nlohmann::json result;
+  const std::vector<Metric> m = MetricsOf(data, &result);
+  EXPECT_EQ(result.at("sizes"), (nlohmann::json{4.0, 2.0, 3.0}));
+  EXPECT_EQ(result.at("unclogs"), 2);
+  EXPECT_DOUBLE_EQ(find_metric(m, "clogs")->value, 3.0);
+  // Cut elsewhere, the sizes follow the cuts, not the gaps.
+  data.unclogs = {{2.5, 25000, 1, 1, "kick", {}}};
+  EXPECT_EQ((MetricsOf(data, &result), result.at("sizes")), (nlohmann::json{2.0, 7.0}));
+}
+
+TEST(AvalancheAnalysis, NoOptions) {
+  EXPECT_THROW(make_avalanche_analysis({{"bins", 3}}, "/report/avalanches"), std::exception);
+}
+
+}  // namespace
+}  // namespace granary::analysis
