@@ -427,8 +427,6 @@ void distribution_figure(const CampaignAnalysis& ca, const FigureSpec& spec, Fig
     if (hi <= lo) {
       lo = spec.logx ? lo / 2 : lo - 0.5;
       hi = spec.logx ? hi * 2 : hi + 0.5;
-    } else {
-      hi += spec.logx ? hi * 1e-9 : (hi - lo) * 1e-9;  // the largest value inside [lo, hi)
     }
   }
   Figure f;
@@ -455,7 +453,7 @@ void distribution_figure(const CampaignAnalysis& ca, const FigureSpec& spec, Fig
   }
   f.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Probability density: count / (n x bin width), " +
               std::to_string(spec.bins) + (spec.logx ? " logarithmic" : "") + " bins over [" + format_number(lo, 4) + ", " +
-              format_number(hi, 4) + ") for every curve; n counts every value, those outside the range too; " +
+              format_number(hi, 4) + "] for every curve; n counts every value, those outside the range too; " +
               (source ? "pooled over the runs of each point" : "one value per run (the metric " + spec.of + "), pooled over the runs of each point") +
               (spec.pool.empty() ? "" : " and over " + joined(spec.pool)) + only_text(spec) +
               (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
@@ -631,9 +629,9 @@ Density density_histogram(const Samples& s, int bins, double lo, double hi, bool
     const double x = s.values[k], w = s.weights.empty() ? 1.0 : s.weights[k];
     if (!std::isfinite(x) || !(w > 0)) continue;
     d.total += w;
-    if (x < lo || x >= hi) continue;
-    const double u = log ? std::log(x / lo) / std::log(hi / lo) : (x - lo) / (hi - lo);
-    d.count[static_cast<std::size_t>(std::clamp(static_cast<int>(u * bins), 0, bins - 1))] += w;
+    if (x < lo || x > hi) continue;
+    const double u = log ? std::log(x / lo) * bins / std::log(hi / lo) : (x - lo) * bins / (hi - lo);
+    d.count[static_cast<std::size_t>(std::clamp(static_cast<int>(std::floor(u)), 0, bins - 1))] += w;
   }
   for (int i = 0; i < bins; ++i) {
     const double a = edges[static_cast<std::size_t>(i)], b = edges[static_cast<std::size_t>(i) + 1];

@@ -106,9 +106,10 @@ struct FieldProfile {
 };
 FieldProfile field_profile(const FieldMap& map, char along, double at, double width);
 
-// A histogram of weighted values as a probability density over `bins` equal bins of [lo, hi)
-// (equal in log when `log`): counts, and density = count / (total weight * bin width), the
-// total counting the values outside the range too.
+// A histogram of weighted values as a probability density over `bins` equal bins of [lo, hi]
+// (equal in log when `log`; each bin [a, b) but the last, which holds hi, as numpy's): counts,
+// and density = count / (total weight * bin width), the total counting the values outside the
+// range too.
 struct Density {
   std::vector<double> center, density, count;
   double total = 0.0;

@@ -522,10 +522,10 @@ const Figure* figure_in(const FigureOutcome& f) {
 }
 
 TEST(DensityHistogram, KnownCountsDensitiesAndValuesOutsideTheRange) {
-  const Density d = density_histogram(Samples{{0.5, 1.5, 1.5, 2.5, 2.5, 2.5, 7.0}, {}}, 3, 0, 3, false);
+  const Density d = density_histogram(Samples{{0.5, 1.0, 1.5, 2.5, 2.5, 3.0, 7.0}, {}}, 3, 0, 3, false);
   ASSERT_EQ(d.center.size(), 3u);
   EXPECT_EQ(d.total, 7.0);  // 7.0 lies outside but counts in n
-  EXPECT_EQ(d.count, (std::vector<double>{1, 2, 3}));
+  EXPECT_EQ(d.count, (std::vector<double>{1, 2, 3})) << "bins [0, 1), [1, 2), [2, 3]";
   EXPECT_EQ(d.center, (std::vector<double>{0.5, 1.5, 2.5}));
   for (int i = 0; i < 3; ++i) EXPECT_DOUBLE_EQ(d.density[i], (i + 1) / 7.0);
   // Log bins: [1, 10), [10, 100), weights as counts; density over each bin's own width.
@@ -552,7 +552,7 @@ TEST(FigureKinds, DistributionPoolsReplicasOverOneRangeForEveryCurve) {
   EXPECT_EQ(w14.label, "W = 14 d, mu = 0 (n = 12)");
   ASSERT_EQ(w10.rows.size(), 3u);
   ASSERT_EQ(w14.rows.size(), 3u);
-  // W = 14: 1.5, 2.5 and 3.5 (the top of the range: in the last bin).
+  // W = 14: 1.5, 2.5 and 3.5 (the top of the range: in the last bin, which is closed).
   const double density10[3] = {1.0 / 3, 1.0 / 3, 1.0 / 3}, density14[3] = {0, 1.0 / 3, 2.0 / 3};
   for (int i = 0; i < 3; ++i) {
     EXPECT_NEAR(w10.rows[i][0], 1.0 + i, 1e-6);
