@@ -7,6 +7,7 @@
 // report, the export and the database are the framework's.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
@@ -169,6 +170,45 @@ struct SectionInput {
   DrawClog draw_clog = {};                         // unset: no pictures (the section says so)
 };
 
+// A per-run distribution an analysis offers figures of kind "distribution" (/report/figures,
+// figures.h): what it is called there, and its title and unit for the axis.
+struct DistributionInfo {
+  std::string name;                   // "vx", "avalanche_size": what a figure's "of" names
+  std::string title;                  // "v_x in the region above the outlet"
+  std::string unit;                   // "sqrt(g d)"; "" for a pure number
+};
+// Its values in one run: samples of weight 1 (avalanche sizes), or a histogram the run kept on
+// a fine grid as its bin centres with their counts as weights (velocities). The figure bins
+// them as it is asked; the replicas of a point pool by adding their weights.
+struct Samples {
+  std::vector<double> values;
+  std::vector<double> weights;        // empty: 1 each
+};
+
+// A field over the silo an analysis offers figures of kind "maps" and "profile": its name
+// there, title, unit, and whether it is signed (a diverging colour scale).
+struct FieldInfo {
+  std::string name;                   // "pressure", "speed_clogged"
+  std::string title;                  // "pressure P (contact)"
+  std::string unit;                   // "rho g d"; "" for a pure number
+  bool diverging = false;
+};
+// The field on a regular grid (nodes (x0 + i h, y0 + j h), node j nx + i) from the runs given,
+// merged, with the silo's walls and obstacles to draw over it.
+struct FieldMap {
+  double x0 = 0.0, y0 = 0.0, spacing = 1.0;
+  int nx = 0, ny = 0;
+  std::vector<double> values;         // NaN: not defined at that node
+  std::vector<double> n_frames;       // frames behind each node's value
+  int runs = 0;                       // runs merged
+  int frames = 0;                     // frames of those runs behind the map
+  std::vector<std::vector<std::array<double, 2>>> lines;  // walls, as polylines
+  std::vector<std::array<double, 3>> circles;             // obstacles: x, y, radius
+  double x(int i) const { return x0 + i * spacing; }
+  double y(int j) const { return y0 + j * spacing; }
+  double at(int i, int j) const { return values[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i)]; }
+};
+
 class Analysis {
  public:
   virtual ~Analysis() = default;
@@ -186,6 +226,27 @@ class Analysis {
   virtual std::vector<PointMetric> point_metrics(const AnalysisResults& results, std::size_t point) const;
   virtual std::optional<Section> section(const SectionInput& input) const {
     (void)input;
+    return std::nullopt;
+  }
+  // Distributions and fields any figure of /report/figures may ask for by name (figures.h);
+  // an analysis that offers some overrides these pairs, in its own file pair only.
+  virtual std::vector<DistributionInfo> distribution_names() const { return {}; }
+  // The distribution `name` (one of distribution_names()) of one run's result; empty if the
+  // run has none.
+  virtual Samples distribution(const std::string& name, const nlohmann::json& result) const {
+    (void)name;
+    (void)result;
+    return {};
+  }
+  virtual std::vector<FieldInfo> field_names() const { return {}; }
+  // The field `name` (one of field_names()) from these runs' results merged (the replicas of a
+  // point, or several points pooled); `run_spec` a run spec of them (the silo drawn over it).
+  // nullopt if none of them has it, or their grids differ.
+  virtual std::optional<FieldMap> field(const std::string& name, const std::vector<const nlohmann::json*>& results,
+                                        const nlohmann::json& run_spec) const {
+    (void)name;
+    (void)results;
+    (void)run_spec;
     return std::nullopt;
   }
 };

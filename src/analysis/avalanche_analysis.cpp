@@ -116,6 +116,14 @@ class AvalancheAnalysis : public Analysis {
     return m;
   }
   std::optional<Section> section(const SectionInput& in) const override;
+  // Every avalanche's size (thesis figs. 4.7, 6.7: P(s)); its mean is the metric avalanche_size.
+  std::vector<DistributionInfo> distribution_names() const override {
+    return {{"avalanche_sizes", "avalanche size s", "bodies"}};
+  }
+  Samples distribution(const std::string& name, const nlohmann::json& result) const override {
+    if (name != "avalanche_sizes" || !result.contains("sizes")) return {};
+    return {numbers_of(result.at("sizes")), {}};
+  }
 };
 
 std::optional<Section> AvalancheAnalysis::section(const SectionInput& in) const {

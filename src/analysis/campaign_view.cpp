@@ -95,6 +95,17 @@ std::string point_label(const CampaignView& view, const nlohmann::json& point, c
   return s;
 }
 
+std::string point_label_with_units(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec) {
+  std::string s;
+  for (const auto& axis : view.axes) {
+    const auto v = axis_value(axis, point, spec);
+    const std::string unit = v && v->is_number() ? axis_unit(axis) : "";
+    s += (s.empty() ? "" : ", ") + axis_text(view, axis, spec, NameForm::kShort) + " = " + (v ? value_text(*v) : "?") +
+         (unit.empty() ? "" : " " + unit);
+  }
+  return s;
+}
+
 std::string x_text(const CampaignView& view, double x, NameForm form) {
   if (view.x_axis.empty()) return "";
   return (form == NameForm::kShort ? view.x_symbol : view.x_title) + " = " + format_number(x, 6);

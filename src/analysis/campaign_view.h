@@ -129,6 +129,9 @@ std::string axis_text(const CampaignView& view, const std::string& axis, const n
 // "W = 10, X_db = 0.5" or "outlet width W = 10, dumbbell fraction X_db = 0.5" (axes in `skip` left out).
 std::string point_label(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec,
                         NameForm form, const std::set<std::string>& skip_axes = {});
+// "W = 6 d, D_b = 1.5 d": the short form with each value's unit (system.h axis_unit), for
+// titles that stand alone (map panels).
+std::string point_label_with_units(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec);
 // "W = 10" or "outlet width W = 10": x and its value; "" if the view has no x.
 std::string x_text(const CampaignView& view, double x, NameForm form);
 // The report's name of a point (short form): x first, then its group; the id if it has neither.

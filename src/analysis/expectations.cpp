@@ -265,7 +265,7 @@ nlohmann::json figures_json_schema() {
       {"required", {"name"}},
       {"properties",
        {{"name", {{"type", "string"}, {"pattern", "^[A-Za-z0-9._-]+$"}}},
-        {"kind", {{"enum", {"points", "pictures"}}}},
+        {"kind", {{"enum", {"points", "distribution", "maps", "profile", "pictures"}}}},
         {"picture", {{"enum", {"end", "bed"}}, {"description", "pictures: the last frame (default) or the bed at t = 0"}}},
         {"y", {{"type", "string"}, {"description", "a metric, or an expression over metrics and axes"}}},
         {"ylabel", {{"type", "string"}}},
@@ -278,7 +278,17 @@ nlohmann::json figures_json_schema() {
         {"caption", {{"type", "string"}}},
         {"reference", {{"type", "string"}}},
         {"logx", {{"type", "boolean"}}},
-        {"logy", {{"type", "boolean"}}}}}};
+        {"logy", {{"type", "boolean"}}},
+        {"of", {{"type", "string"},
+                {"description", "distribution: a distribution an analysis offers (vx, vy, avalanche_sizes) or a "
+                                "per-run metric, pooled over the replicas of each point"}}},
+        {"bins", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000}}},
+        {"range", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2}, {"maxItems", 2},
+                   {"description", "distribution: [lo, hi] of the bins, the same for every curve; default the data's"}}},
+        {"field", {{"type", "string"}, {"description", "maps, profile: a field an analysis offers (/report/fields: phi, speed, pressure, ...)"}}},
+        {"along", {{"enum", {"x", "y"}}, {"description", "profile: the direction of the line"}}},
+        {"at", {{"type", "number"}, {"description", "profile: the line's other coordinate (d)"}}},
+        {"width", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "profile: the band averaged across the line (d)"}}}}}};
   return {{"type", "array"}, {"description", "figures drawn in the report's Figures section (docs/analyses.md)"}, {"items", figure}};
 }
 

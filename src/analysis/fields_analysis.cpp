@@ -436,6 +436,52 @@ class FieldsAnalysis : public Analysis {
     return m;
   }
   std::optional<Section> section(const SectionInput& in) const override;
+  // Every field of the table (the sums hold them all), of the first part of the frames; with
+  // frames "split" also each one of the clogged frames, "<name>_clogged".
+  std::vector<FieldInfo> field_names() const override {
+    std::vector<FieldInfo> out;
+    for (const std::string part : {"", "_clogged"}) {
+      if (!part.empty() && o_.frames != FieldsOptions::Frames::kSplit) break;
+      for (const CgFieldInfo& info : cg_field_table())
+        out.push_back({info.name + part, std::string(info.title) + (part.empty() ? "" : " (clogged)"), info.unit,
+                       diverging(info.field)});
+    }
+    return out;
+  }
+  std::optional<FieldMap> field(const std::string& name, const std::vector<const nlohmann::json*>& results,
+                                const nlohmann::json& run_spec) const override {
+    const bool clogged = name.size() > 8 && name.ends_with("_clogged");
+    const std::size_t part = clogged ? 1 : 0;
+    CgField f;
+    if (!cg_field_by_name(clogged ? name.substr(0, name.size() - 8) : name, f)) return std::nullopt;
+    CgSums merged;
+    int runs = 0;
+    for (const nlohmann::json* r : results) {
+      if (!r || !r->contains("parts") || r->at("parts").size() <= part) continue;
+      const nlohmann::json& p = r->at("parts").at(part);
+      if (p.value("frames", 0) == 0) continue;
+      if (!add_common_rows(merged, sums_from_json(p.at("sums")))) return std::nullopt;
+      ++runs;
+    }
+    if (runs == 0) return std::nullopt;
+    const CgMaps maps(std::move(merged));
+    if (!maps.has(f)) return std::nullopt;
+    FieldMap out;
+    const CgGrid& g = maps.grid();
+    out.x0 = g.x0;
+    out.y0 = g.y0;
+    out.spacing = g.spacing;
+    out.nx = g.nx;
+    out.ny = g.ny;
+    out.values = maps.values(f);
+    for (std::size_t n = 0; n < g.size(); ++n) out.n_frames.push_back(maps.n_frames(f, n));
+    out.runs = runs;
+    out.frames = cg_field_info(f).needs_contacts ? maps.contact_frames() : maps.frames();
+    const SiloDrawing silo = silo_drawing(run_spec, g.y(g.ny - 1) + 1.5);
+    out.lines = silo.lines;
+    out.circles = silo.circles;
+    return out;
+  }
 
  private:
   FieldsOptions o_;
@@ -539,9 +585,9 @@ std::optional<Section> FieldsAnalysis::section(const SectionInput& in) const {
   for (const std::string& axis : v.axes)
     axes_text += (axes_text.empty() ? "" : ", ") +
                  axis_text(v, axis, v.points.empty() ? nlohmann::json() : v.points.front().spec, NameForm::kLong);
-  // "W = 6, X_db = 0.5": a value without its name reads as nothing once there are two axes.
+  // "W = 6 d, X_db = 0.5": a value without its name and unit reads as nothing once there are two axes.
   auto values_of = [&](std::size_t p) {
-    const std::string text = point_label(v, v.points[p].point, v.points[p].spec, NameForm::kShort);
+    const std::string text = point_label_with_units(v, v.points[p].point, v.points[p].spec);
     return text.empty() ? point_name(v, v.points[p]) : text;
   };
   const std::string panels_text = axes_text.empty() ? "" : "Panels: " + axes_text + "; ";

@@ -7,12 +7,31 @@
 #include <set>
 
 #include "analysis/options.h"
+#include "analysis/registry.h"
+#include "analysis/system.h"
 
 namespace granary::analysis {
 namespace {
 
-constexpr const char* kFigureKeys[] = {"name", "kind", "picture", "y", "ylabel", "x", "group", "pool", "only", "fit",
-                                       "title", "caption", "reference", "logx", "logy"};
+constexpr const char* kFigureKeys[] = {"name", "kind",    "picture", "y",     "ylabel", "x",     "group", "pool",
+                                       "only", "fit",     "title",   "caption", "reference", "logx", "logy", "of",
+                                       "bins", "range",   "field",   "along", "at",     "width"};
+// The kinds, what each draws and the keys it takes besides name, kind, only, title, caption
+// and reference.
+struct KindKeys {
+  const char* kind;
+  const char* what;
+  std::vector<std::string> keys;
+};
+const std::vector<KindKeys>& figure_kinds() {
+  static const std::vector<KindKeys> kinds = {
+      {"points", "points with error bars", {"y", "ylabel", "x", "group", "pool", "fit", "logx", "logy"}},
+      {"distribution", "a histogram of a per-run distribution at each chosen point", {"of", "bins", "range", "pool", "logx", "logy"}},
+      {"maps", "a field's map at each chosen point", {"field", "pool"}},
+      {"profile", "a field along a line at each chosen point", {"field", "along", "at", "width", "pool", "logy"}},
+      {"pictures", "the silo at each chosen point", {"picture"}}};
+  return kinds;
+}
 constexpr const char* kFitKeys[] = {"model", "over", "initial", "collapse"};
 
 std::string joined(const std::vector<std::string>& items) {
@@ -73,8 +92,35 @@ std::vector<std::pair<std::string, std::vector<nlohmann::json>>> read_only(const
   return out;
 }
 
+// What the campaign's analyses offer figures (distributions, fields), asked for only when a
+// figure needs it: set up from the campaign spec.
+class Offers {
+ public:
+  explicit Offers(const nlohmann::json& campaign_spec) : spec_(campaign_spec) {}
+  std::vector<DistributionInfo> distributions() {
+    std::vector<DistributionInfo> out;
+    for (const Analysis* a : setup().list())
+      for (auto& d : a->distribution_names()) out.push_back(std::move(d));
+    return out;
+  }
+  std::vector<FieldInfo> fields() {
+    std::vector<FieldInfo> out;
+    for (const Analysis* a : setup().list())
+      for (auto& d : a->field_names()) out.push_back(std::move(d));
+    return out;
+  }
+
+ private:
+  const AnalysisSetup& setup() {
+    if (!setup_) setup_ = std::make_unique<AnalysisSetup>(setup_analyses(spec_));
+    return *setup_;
+  }
+  const nlohmann::json& spec_;
+  std::unique_ptr<AnalysisSetup> setup_;
+};
+
 FigureSpec read_one(const nlohmann::json& f, const std::string& path, const CampaignAxes& axes,
-                    const std::set<std::string>& names_before) {
+                    const std::set<std::string>& names_before, Offers& offers) {
   if (!f.is_object())
     throw OptionError(path, f, "must be an object {\"name\", \"y\", \"x\", \"group\", \"only\", \"pool\", \"fit\", ...}");
   check_keys(f, path, std::begin(kFigureKeys), std::end(kFigureKeys));
@@ -86,28 +132,69 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.'))
       throw OptionError(path + "/name", f.at("name"), "letters, digits, '-', '_' and '.' only (it names files)");
   if (names_before.count(s.name)) throw OptionError(path + "/name", f.at("name"), "another figure has this name");
-  if (f.contains("kind")) {
-    s.kind = text_at(f, "kind", path);
-    if (s.kind != "points" && s.kind != "pictures")
-      throw OptionError(path + "/kind", f.at("kind"),
-                        "must be \"points\" (points with error bars) or \"pictures\" (of the points `only` chooses)");
+  if (f.contains("kind")) s.kind = text_at(f, "kind", path);
+  const auto kind = std::find_if(figure_kinds().begin(), figure_kinds().end(), [&](const KindKeys& k) { return s.kind == k.kind; });
+  if (kind == figure_kinds().end()) {
+    std::string allowed;
+    for (const KindKeys& k : figure_kinds()) allowed += (allowed.empty() ? "" : ", ") + std::string("\"") + k.kind + "\" (" + k.what + ")";
+    throw OptionError(path + "/kind", f.at("kind"), "must be " + allowed);
   }
-  if (s.kind == "pictures") {
-    for (const char* key : {"y", "x", "group", "pool", "fit", "ylabel", "logx", "logy"})
-      if (f.contains(key))
-        throw OptionError(path + "/" + key, f.at(key),
-                          "a figure of pictures takes name, only, picture, title, caption and reference");
-    s.picture = f.contains("picture") ? text_at(f, "picture", path) : "end";
-    if (s.picture != "end" && s.picture != "bed")
-      throw OptionError(path + "/picture", f.at("picture"), "must be \"end\" (the last frame) or \"bed\" (t = 0)");
-  } else if (f.contains("picture")) {
-    throw OptionError(path + "/picture", f.at("picture"), "only a figure of kind \"pictures\" takes it");
+  for (const auto& [key, value] : f.items()) {
+    static const std::set<std::string> common = {"name", "kind", "only", "title", "caption", "reference"};
+    if (common.count(key) || std::find(kind->keys.begin(), kind->keys.end(), key) != kind->keys.end()) continue;
+    std::vector<std::string> takes(common.begin(), common.end());
+    takes.insert(takes.end(), kind->keys.begin(), kind->keys.end());
+    throw OptionError(path + "/" + key, value, "a figure of kind \"" + s.kind + "\" takes " + joined(takes));
   }
   s.title = text_at(f, "title", path);
   s.caption = text_at(f, "caption", path);
   s.reference = text_at(f, "reference", path);
+  if (f.contains("only")) s.only = read_only(f.at("only"), path, axes);
+  if (f.contains("pool")) s.pool = axis_list_at(f.at("pool"), path + "/pool", axes);
+  if (f.contains("logx")) s.logx = option_bool(f.at("logx"), path + "/logx");
+  if (f.contains("logy")) s.logy = option_bool(f.at("logy"), path + "/logy");
   if (s.kind == "pictures") {
-    if (f.contains("only")) s.only = read_only(f.at("only"), path, axes);
+    s.picture = f.contains("picture") ? text_at(f, "picture", path) : "end";
+    if (s.picture != "end" && s.picture != "bed")
+      throw OptionError(path + "/picture", f.at("picture"), "must be \"end\" (the last frame) or \"bed\" (t = 0)");
+    return s;
+  }
+  if (s.kind == "distribution") {
+    s.of = text_at(f, "of", path);
+    const std::vector<DistributionInfo> offered = offers.distributions();
+    std::vector<std::string> names;
+    for (const auto& d : offered) names.push_back(d.name);
+    if (s.of.empty() || (!is_identifier(s.of) && std::find(names.begin(), names.end(), s.of) == names.end()))
+      throw OptionError(path + "/of", f.value("of", nlohmann::json()),
+                        "must name a distribution an analysis offers (" + joined(names) + ") or a per-run metric");
+    if (f.contains("bins")) s.bins = option_integer(f.at("bins"), path + "/bins", 1, 1000);
+    if (f.contains("range")) {
+      const nlohmann::json& r = f.at("range");
+      if (!r.is_array() || r.size() != 2 || !r[0].is_number() || !r[1].is_number() || !(r[0].get<double>() < r[1].get<double>()))
+        throw OptionError(path + "/range", r, "must be [lo, hi] with lo < hi");
+      s.range_lo = r[0].get<double>();
+      s.range_hi = r[1].get<double>();
+      if (s.logx && !(s.range_lo > 0)) throw OptionError(path + "/range", r, "must start above 0 with logx (log bins)");
+    }
+    return s;
+  }
+  if (s.kind == "maps" || s.kind == "profile") {
+    s.field = text_at(f, "field", path);
+    const std::vector<FieldInfo> offered = offers.fields();
+    std::vector<std::string> names;
+    for (const auto& d : offered) names.push_back(d.name);
+    if (names.empty())
+      throw OptionError(path + "/field", f.value("field", nlohmann::json()),
+                        "no analysis offers fields: turn on the coarse-grained fields (/report/fields: true)");
+    if (std::find(names.begin(), names.end(), s.field) == names.end())
+      throw OptionError(path + "/field", f.value("field", nlohmann::json()), "must name a field (fields: " + joined(names) + ")");
+    if (s.kind == "maps") return s;
+    s.along = text_at(f, "along", path);
+    if (s.along != "x" && s.along != "y")
+      throw OptionError(path + "/along", f.value("along", nlohmann::json()), "must be \"x\" (a horizontal line) or \"y\" (a vertical one)");
+    if (!f.contains("at")) throw OptionError(path + "/at", nlohmann::json(), std::string("must be the line's ") + (s.along == "x" ? "height y" : "position x") + " (d)");
+    s.at = option_number(f.at("at"), path + "/at", -1e9, 1e9);
+    if (f.contains("width")) s.width = option_number(f.at("width"), path + "/width", 1e-9, 1e9);
     return s;
   }
   s.y = text_at(f, "y", path);
@@ -123,8 +210,6 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
     s.group = axis_list_at(f.at("group"), path + "/group", axes);
     s.group_given = true;
   }
-  if (f.contains("pool")) s.pool = axis_list_at(f.at("pool"), path + "/pool", axes);
-  if (f.contains("only")) s.only = read_only(f.at("only"), path, axes);
   if (f.contains("fit")) {
     const nlohmann::json& fj = f.at("fit");
     const std::string fp = path + "/fit";
@@ -162,8 +247,6 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
     if (fj.contains("collapse")) fit.collapse = option_bool(fj.at("collapse"), fp + "/collapse");
     s.fit = fit;
   }
-  if (f.contains("logx")) s.logx = option_bool(f.at("logx"), path + "/logx");
-  if (f.contains("logy")) s.logy = option_bool(f.at("logy"), path + "/logy");
   return s;
 }
 
@@ -254,6 +337,310 @@ std::string value_words(double v) { return format_number(v, 6); }
 
 }  // namespace
 
+namespace {
+
+// "; only W in {10, 22}; mu in {0.5}" for a caption ("" without `only`).
+std::string only_text(const FigureSpec& spec) {
+  std::string only;
+  for (const auto& [name, values] : spec.only) {
+    std::string vs;
+    for (const auto& w : values) vs += (vs.empty() ? "" : ", ") + (w.is_string() ? w.get<std::string>() : value_words(w.get<double>()));
+    only += (only.empty() ? "" : "; ") + name + " in {" + vs + "}";
+  }
+  return only.empty() ? "" : "; only " + only;
+}
+
+std::string with_unit(const std::string& title, const std::string& unit) { return unit.empty() ? title : title + " (" + unit + ")"; }
+
+// The per-run results of analysis `a` behind a datum: the used runs of its points.
+std::vector<const nlohmann::json*> datum_results(const CampaignAnalysis& ca, std::size_t a, const FigureDatum& d) {
+  std::vector<const nlohmann::json*> out;
+  for (std::size_t p : d.points)
+    for (const nlohmann::json* r : ca.results[a].of_point(p)) out.push_back(r);
+  return out;
+}
+
+// The legend or panel name of a datum: its axes, or the figure's quantity for a campaign of one point.
+std::string datum_label(const FigureDatum& d, const std::string& otherwise) { return d.group.empty() ? otherwise : d.group; }
+
+// A histogram per datum of a distribution an analysis offers (its runs' samples pooled) or of
+// a per-run metric (its runs' values), over one range and one set of bins for every curve.
+void distribution_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
+  const CampaignView& v = ca.view;
+  const std::string where = spec.path + " (\"" + spec.name + "\")";
+  std::optional<std::size_t> source;
+  DistributionInfo info{spec.of, spec.of, ""};
+  std::vector<std::string> offered;
+  for (std::size_t a = 0; ca.setup && a < ca.setup->analyses.size(); ++a)
+    for (const DistributionInfo& d : ca.setup->analyses[a]->distribution_names()) {
+      offered.push_back(d.name);
+      if (d.name == spec.of && !source) {
+        source = a;
+        info = d;
+      }
+    }
+  std::vector<Samples> samples(out.data.size());
+  bool metric_found = false;
+  for (std::size_t i = 0; i < out.data.size(); ++i) {
+    Samples& s = samples[i];
+    auto add = [&](const Samples& one) {
+      for (std::size_t k = 0; k < one.values.size(); ++k) {
+        s.values.push_back(one.values[k]);
+        s.weights.push_back(one.weights.empty() ? 1.0 : one.weights[k]);
+      }
+    };
+    if (source) {
+      for (const nlohmann::json* r : datum_results(ca, *source, out.data[i])) add(ca.setup->analyses[*source]->distribution(spec.of, *r));
+      continue;
+    }
+    for (std::size_t p : out.data[i].points)
+      for (std::size_t run : v.points[p].runs)
+        for (std::size_t a = 0; a < ca.results.size(); ++a)
+          for (const Metric& m : ca.run_metrics(a, run)) {
+            if (m.name != spec.of) continue;
+            metric_found = true;
+            info.title = m.title.empty() ? m.name : m.title;
+            info.unit = m.unit == "1" ? "" : m.unit;
+            if (std::isfinite(m.value)) add({{m.value}, {}});
+          }
+  }
+  if (!source && !metric_found) {
+    out.blocks.push_back(Text{"**Not drawn:** " + where + ": \"" + spec.of + "\" is no distribution an analysis offers (" +
+                              joined(offered) + ") and no run has a metric of that name."});
+    return;
+  }
+  // One range for every curve: the figure's, or the data's (positive values only on log bins).
+  double lo = spec.range_lo, hi = spec.range_hi;
+  if (!std::isfinite(lo)) {
+    lo = std::numeric_limits<double>::infinity();
+    hi = -lo;
+    for (const Samples& s : samples)
+      for (std::size_t k = 0; k < s.values.size(); ++k)
+        if (std::isfinite(s.values[k]) && s.weights[k] > 0 && (!spec.logx || s.values[k] > 0)) {
+          lo = std::min(lo, s.values[k]);
+          hi = std::max(hi, s.values[k]);
+        }
+    if (!std::isfinite(lo)) {
+      out.blocks.push_back(Text{"**Not drawn:** " + where + ": no run has a value of " + spec.of + "."});
+      return;
+    }
+    if (hi <= lo) {
+      lo = spec.logx ? lo / 2 : lo - 0.5;
+      hi = spec.logx ? hi * 2 : hi + 0.5;
+    }
+  }
+  Figure f;
+  f.name = "figure-" + spec.name;
+  f.title = spec.title.empty() ? "Distribution of " + info.title : spec.title;
+  f.xlabel = with_unit(info.title, info.unit);
+  f.ylabel = "probability density" + (info.unit.empty() ? std::string() : " (1/" + info.unit + ")");
+  f.logx = spec.logx;
+  f.logy = spec.logy;
+  for (std::size_t i = 0; i < out.data.size(); ++i) {
+    const Density h = density_histogram(samples[i], spec.bins, lo, hi, spec.logx);
+    if (!(h.total > 0)) continue;
+    Series se;
+    const std::string label = datum_label(out.data[i], spec.of);
+    se.label = label + " (n = " + format_number(h.total, 6) + ")";
+    se.file_label = label;
+    se.columns = {spec.of, "density", "count"};
+    se.style = Series::Style::kLinesPoints;
+    se.color = static_cast<int>(i);
+    for (std::size_t b = 0; b < h.center.size(); ++b)
+      if (!spec.logy || h.density[b] > 0) se.rows.push_back({h.center[b], h.density[b], h.count[b]});
+    out.data[i].n = static_cast<int>(std::lround(std::min(h.total, 2e9)));
+    if (!se.rows.empty()) f.series.push_back(se);
+  }
+  f.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Probability density: count / (n x bin width), " +
+              std::to_string(spec.bins) + (spec.logx ? " logarithmic" : "") + " bins over [" + format_number(lo, 4) + ", " +
+              format_number(hi, 4) + "] for every curve; n counts every value, those outside the range too; " +
+              (source ? "pooled over the runs of each point" : "one value per run (the metric " + spec.of + "), pooled over the runs of each point") +
+              (spec.pool.empty() ? "" : " and over " + joined(spec.pool)) + only_text(spec) +
+              (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
+  if (f.series.empty()) {
+    out.blocks.push_back(Text{"**Not drawn:** " + where + ": no run has a value of " + spec.of + "."});
+    return;
+  }
+  out.blocks.push_back(f);
+}
+
+// Map panels (kind "maps") or line profiles (kind "profile") of a field an analysis offers, one
+// per datum, each from the runs behind it merged.
+void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
+  const CampaignView& v = ca.view;
+  const std::string where = spec.path + " (\"" + spec.name + "\")";
+  std::optional<std::size_t> source;
+  FieldInfo info;
+  for (std::size_t a = 0; ca.setup && a < ca.setup->analyses.size() && !source; ++a)
+    for (const FieldInfo& fi : ca.setup->analyses[a]->field_names())
+      if (fi.name == spec.field) {
+        source = a;
+        info = fi;
+        break;
+      }
+  if (!source) {
+    out.blocks.push_back(Text{"**Not drawn:** " + where + ": no analysis offers the field " + spec.field + "."});
+    return;
+  }
+  const Analysis& analysis = *ca.setup->analyses[*source];
+  std::vector<std::string> missing;
+  MapFigure m;
+  m.name = "figure-" + spec.name;
+  m.title = spec.title.empty() ? info.title : spec.title;
+  m.value_name = with_unit(info.title, info.unit);
+  m.value_key = info.name;
+  m.diverging = info.diverging;
+  double x_lo = std::numeric_limits<double>::infinity(), x_hi = -x_lo, y_lo = x_lo, y_hi = -x_lo;
+  auto extend = [&](double x, double y) {
+    x_lo = std::min(x_lo, x);
+    x_hi = std::max(x_hi, x);
+    y_lo = std::min(y_lo, y);
+    y_hi = std::max(y_hi, y);
+  };
+  const char along = spec.along == "y" ? 'y' : 'x';
+  const char across = along == 'x' ? 'y' : 'x';
+  Figure f;
+  f.name = "figure-" + spec.name;
+  f.title = spec.title.empty() ? info.title + " along " + spec.along + " at " + across + " = " + format_number(spec.at) + " d"
+                               : spec.title;
+  f.xlabel = spec.along + " (d)";
+  f.ylabel = with_unit(info.title, info.unit);
+  f.logy = spec.logy;
+  std::string band;
+  for (std::size_t i = 0; i < out.data.size(); ++i) {
+    FigureDatum& d = out.data[i];
+    const std::string label = datum_label(d, info.name);
+    const std::optional<FieldMap> map = analysis.field(spec.field, datum_results(ca, *source, d), v.points[d.points.front()].spec);
+    if (!map || map->nx == 0 || map->ny == 0) {
+      missing.push_back(label);
+      continue;
+    }
+    d.n = map->runs;
+    if (spec.kind == "maps") {
+      MapPanel panel;
+      panel.title = label + ": " + std::to_string(map->runs) + (map->runs == 1 ? " run, " : " runs, ") +
+                    std::to_string(map->frames) + " frames";
+      for (int j = 0; j < map->ny; ++j)
+        for (int k = 0; k < map->nx; ++k) {
+          const std::size_t n = static_cast<std::size_t>(j) * static_cast<std::size_t>(map->nx) + static_cast<std::size_t>(k);
+          panel.grid.push_back({map->x(k), map->y(j), map->values[n], n < map->n_frames.size() ? map->n_frames[n] : kNaN});
+        }
+      extend(map->x(0) - map->spacing / 2, map->y(0) - map->spacing / 2);
+      extend(map->x(map->nx - 1) + map->spacing / 2, map->y(map->ny - 1) + map->spacing / 2);
+      for (const auto& line : map->lines)
+        for (const auto& pt : line) extend(pt[0], pt[1]);
+      for (const auto& c : map->circles) {
+        extend(c[0] - c[2], c[1] - c[2]);
+        extend(c[0] + c[2], c[1] + c[2]);
+      }
+      panel.lines = map->lines;
+      panel.circles = map->circles;
+      m.panels.push_back(std::move(panel));
+      continue;
+    }
+    const FieldProfile pr = field_profile(*map, along, spec.at, spec.width);
+    if (pr.position.empty()) {
+      const double lo = along == 'x' ? map->y(0) : map->x(0), hi = along == 'x' ? map->y(map->ny - 1) : map->x(map->nx - 1);
+      missing.push_back(label + " (the line " + std::string(1, across) + " = " + format_number(spec.at) +
+                        " d lies outside the grid, " + std::string(1, across) + " = " + format_number(lo) + " .. " +
+                        format_number(hi) + " d)");
+      continue;
+    }
+    if (band.empty())
+      band = pr.band_lo == pr.band_hi ? std::string(1, across) + " = " + format_number(pr.band_lo) + " d"
+                                      : std::string(1, across) + " = " + format_number(pr.band_lo) + " .. " + format_number(pr.band_hi) + " d";
+    Series se;
+    se.label = label + ": " + std::to_string(map->runs) + (map->runs == 1 ? " run" : " runs");
+    se.file_label = label;
+    se.columns = {spec.along, info.name, "nodes"};
+    se.style = Series::Style::kLinesPoints;
+    se.color = static_cast<int>(i);
+    for (std::size_t k = 0; k < pr.position.size(); ++k)
+      if (std::isfinite(pr.value[k]) && (!spec.logy || pr.value[k] > 0))
+        se.rows.push_back({pr.position[k], pr.value[k], static_cast<double>(pr.nodes[k])});
+    if (!se.rows.empty()) f.series.push_back(se);
+  }
+  const std::string tail = (spec.pool.empty() ? "" : "; pooled over " + joined(spec.pool)) + only_text(spec) +
+                           (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
+  if (spec.kind == "maps" && !m.panels.empty()) {
+    m.x_lo = x_lo - 1.0;
+    m.x_hi = x_hi + 1.0;
+    m.y_lo = y_lo - 1.0;
+    m.y_hi = y_hi + 1.0;
+    m.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Each panel: the runs behind it merged, and the frames " +
+                "averaged; one colour scale across the panels; walls black" + tail;
+    out.blocks.push_back(m);
+  }
+  if (spec.kind == "profile" && !f.series.empty()) {
+    f.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "At each " + spec.along + ": the mean of the field over the grid " +
+                (along == 'x' ? "rows " : "columns ") + band + " (within " + format_number(spec.width / 2) + " d of " +
+                std::string(1, across) + " = " + format_number(spec.at) + " d); the runs behind each curve merged" + tail;
+    out.blocks.push_back(f);
+  }
+  if (!missing.empty())
+    out.blocks.push_back(Text{"**Not drawn:** " + where + ": no " + spec.field + " at " + [&] {
+      std::string t;
+      for (const auto& s : missing) t += (t.empty() ? "" : "; ") + s;
+      return t;
+    }() + "."});
+}
+
+}  // namespace
+
+FieldProfile field_profile(const FieldMap& m, char along, double at, double width) {
+  FieldProfile p;
+  const bool ax = along == 'x';
+  const int n_along = ax ? m.nx : m.ny, n_across = ax ? m.ny : m.nx;
+  if (n_along <= 0 || n_across <= 0) return p;
+  const double origin = ax ? m.y0 : m.x0;
+  auto across = [&](int k) { return origin + k * m.spacing; };
+  // A line outside the grid (beyond half a spacing of its outer rows) has no profile.
+  if (at < across(0) - m.spacing / 2 || at > across(n_across - 1) + m.spacing / 2) return p;
+  std::vector<int> band;
+  for (int k = 0; k < n_across; ++k)
+    if (std::abs(across(k) - at) <= width / 2 + 1e-9 * m.spacing) band.push_back(k);
+  if (band.empty()) band.push_back(std::clamp(static_cast<int>(std::lround((at - origin) / m.spacing)), 0, n_across - 1));
+  p.band_lo = across(band.front());
+  p.band_hi = across(band.back());
+  for (int i = 0; i < n_along; ++i) {
+    double sum = 0.0;
+    int n = 0;
+    for (int k : band) {
+      const double value = ax ? m.at(i, k) : m.at(k, i);
+      if (!std::isfinite(value)) continue;
+      sum += value;
+      ++n;
+    }
+    p.position.push_back(ax ? m.x(i) : m.y(i));
+    p.value.push_back(n > 0 ? sum / n : kNaN);
+    p.nodes.push_back(n);
+  }
+  return p;
+}
+
+Density density_histogram(const Samples& s, int bins, double lo, double hi, bool log) {
+  Density d;
+  if (bins <= 0 || !(hi > lo) || (log && !(lo > 0))) return d;
+  std::vector<double> edges(static_cast<std::size_t>(bins) + 1);
+  for (int i = 0; i <= bins; ++i)
+    edges[static_cast<std::size_t>(i)] = log ? lo * std::pow(hi / lo, static_cast<double>(i) / bins) : lo + (hi - lo) * i / bins;
+  d.count.assign(static_cast<std::size_t>(bins), 0.0);
+  for (std::size_t k = 0; k < s.values.size(); ++k) {
+    const double x = s.values[k], w = s.weights.empty() ? 1.0 : s.weights[k];
+    if (!std::isfinite(x) || !(w > 0)) continue;
+    d.total += w;
+    if (x < lo || x > hi) continue;
+    const double u = log ? std::log(x / lo) * bins / std::log(hi / lo) : (x - lo) * bins / (hi - lo);
+    d.count[static_cast<std::size_t>(std::clamp(static_cast<int>(std::floor(u)), 0, bins - 1))] += w;
+  }
+  for (int i = 0; i < bins; ++i) {
+    const double a = edges[static_cast<std::size_t>(i)], b = edges[static_cast<std::size_t>(i) + 1];
+    d.center.push_back(log ? std::sqrt(a * b) : 0.5 * (a + b));
+    d.density.push_back(d.total > 0 ? d.count[static_cast<std::size_t>(i)] / (d.total * (b - a)) : kNaN);
+  }
+  return d;
+}
+
 std::vector<FigureSpec> read_figure_specs(const nlohmann::json& campaign_spec) {
   if (!campaign_spec.is_object() || !campaign_spec.contains("report") || !campaign_spec.at("report").is_object() ||
       !campaign_spec.at("report").contains("figures"))
@@ -263,8 +650,9 @@ std::vector<FigureSpec> read_figure_specs(const nlohmann::json& campaign_spec) {
   const CampaignAxes axes = CampaignAxes::of_campaign_spec(campaign_spec);
   std::vector<FigureSpec> out;
   std::set<std::string> names;
+  Offers offers(campaign_spec);
   for (std::size_t i = 0; i < list.size(); ++i) {
-    out.push_back(read_one(list[i], "/report/figures/" + std::to_string(i), axes, names));
+    out.push_back(read_one(list[i], "/report/figures/" + std::to_string(i), axes, names, offers));
     names.insert(out.back().name);
   }
   return out;
@@ -294,11 +682,14 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   out.spec = &spec;
   const std::string x_name = spec.x.empty() ? v.x_symbol : spec.x;
   // The group axes: as given, or every sweep axis that is not x and not pooled.
+  // A figure at chosen points (distribution, maps, profile): a curve or panel per point, named
+  // by every axis not pooled.
+  const bool per_point = spec.kind == "distribution" || spec.kind == "maps" || spec.kind == "profile";
   std::vector<std::string> group = spec.group;
   if (!spec.group_given)
     for (const auto& axis : v.axes) {
       const std::string n = v.named.short_name(axis);
-      const bool is_x = n == x_name || v.x_axes.count(axis);
+      const bool is_x = !per_point && (n == x_name || v.x_axes.count(axis));
       if (!is_x && std::find(spec.pool.begin(), spec.pool.end(), n) == spec.pool.end()) group.push_back(n);
     }
   std::vector<std::string> notes;
@@ -330,7 +721,8 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
         const auto pointer = v.named.pointer_of(g);
         const auto value = pointer ? axis_value(*pointer, point.point, point.spec) : std::nullopt;
         const std::string text = value ? value_text(*value) : axes.count(g) ? value_words(axes.at(g)) : "?";
-        d.group += (d.group.empty() ? "" : ", ") + g + " = " + text;
+        const std::string unit = pointer ? axis_unit(*pointer) : g == "L" ? "d" : "";
+        d.group += (d.group.empty() ? "" : ", ") + g + " = " + text + (unit.empty() || !value || value->is_string() ? "" : " " + unit);
       }
       out.data.push_back(d);
     }
@@ -340,6 +732,18 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   if (spec.kind == "pictures") {
     if (out.data.empty())
       out.blocks.push_back(Text{"**Not drawn:** " + spec.path + " (\"" + spec.name + "\"): no finished run passes its `only`."});
+    return out;
+  }
+  if (per_point) {
+    for (const auto& name : spec.pool)
+      for (FigureDatum& d : out.data) d.axes.erase(name);
+    const std::string where = spec.path + " (\"" + spec.name + "\")";
+    if (out.data.empty())
+      out.blocks.push_back(Text{"**Not drawn:** " + where + ": no finished run passes its `only`."});
+    else if (spec.kind == "distribution")
+      distribution_figure(ca, spec, out);
+    else
+      field_figure(ca, spec, out);
     return out;
   }
   std::string problem;
@@ -507,15 +911,7 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   std::string caption = spec.caption;
   caption += std::string(caption.empty() ? "" : ". ") + "Error bars: standard errors" +
              (spec.pool.empty() ? "" : "; pooled over " + joined(spec.pool) + " (means weighted by n)");
-  if (!spec.only.empty()) {
-    std::string only;
-    for (const auto& [name, values] : spec.only) {
-      std::string vs;
-      for (const auto& w : values) vs += (vs.empty() ? "" : ", ") + (w.is_string() ? w.get<std::string>() : value_words(w.get<double>()));
-      only += (only.empty() ? "" : "; ") + name + " in {" + vs + "}";
-    }
-    caption += "; only " + only;
-  }
+  caption += only_text(spec);
   if (spec.fit && out.fit && out.fit->quality == FitQuality::kGood) caption += "; dashed: " + spec.fit->model + " fitted across every point";
   if (!spec.reference.empty()) caption += ". Reference: " + spec.reference;
   f.caption = caption;

@@ -31,8 +31,18 @@ struct FigureFitSpec {
 struct FigureSpec {
   std::string path;                        // "/report/figures/3", for messages
   std::string name;                        // file stem, and what expectations name ("fit": name)
-  std::string kind = "points";             // points with error bars, or "pictures" of the chosen points
+  // "points" (with error bars), "distribution" (a histogram per chosen point), "maps" (a field's
+  // map per chosen point), "profile" (a field along a line, a curve per chosen point) or
+  // "pictures" (of the chosen points)
+  std::string kind = "points";
   std::string picture = "end";             // pictures: "end" (the last frame: clogged, discharged) or "bed"
+  std::string of;                          // distribution: an offered distribution or a per-run metric
+  int bins = 30;                           // distribution
+  double range_lo = kNaN, range_hi = kNaN; // distribution: the bins' range (NaN: the data's, common to every curve)
+  std::string field;                       // maps, profile: an offered field
+  std::string along;                       // profile: "x" or "y"
+  double at = kNaN;                        // profile: the line's other coordinate (d)
+  double width = 1.0;                      // profile: the band across the line averaged (d)
   std::string y;                           // a metric name or an expression over metrics and axes
   std::string ylabel;                      // default: y
   std::string x;                           // an axis name; "" = the report's x axis
@@ -85,6 +95,26 @@ MeanSe y_value(const std::string& y, const std::map<std::string, MeanSe>& metric
 
 // The data of a figure (only, pool, y per point) and, with a fit, the fit across them.
 FigureOutcome make_figure(const CampaignAnalysis& analysis, const FigureSpec& spec);
+
+// A field along a line: the mean over the grid nodes whose other coordinate lies within
+// width/2 of `at` (the nearest row or column when the band holds none) at each position along
+// it. `along` is 'x' or 'y'.
+struct FieldProfile {
+  std::vector<double> position, value;     // value NaN where no node of the band is defined
+  std::vector<int> nodes;                  // defined nodes averaged at each position
+  double band_lo = kNaN, band_hi = kNaN;   // the rows (columns) averaged: their coordinates
+};
+FieldProfile field_profile(const FieldMap& map, char along, double at, double width);
+
+// A histogram of weighted values as a probability density over `bins` equal bins of [lo, hi]
+// (equal in log when `log`; each bin [a, b) but the last, which holds hi, as numpy's): counts,
+// and density = count / (total weight * bin width), the total counting the values outside the
+// range too.
+struct Density {
+  std::vector<double> center, density, count;
+  double total = 0.0;
+};
+Density density_histogram(const Samples& samples, int bins, double lo, double hi, bool log);
 
 // The "Figures" section of the report: every figure of /report/figures; nullopt when none.
 std::optional<Section> figures_section(const std::vector<FigureOutcome>& figures);

@@ -107,6 +107,22 @@ class RegionAnalysis : public Analysis {
     return m;
   }
   std::optional<Section> section(const SectionInput& in) const override;
+  // The velocity components in the region next to outlet 0 (thesis figs. 3.5, 4.6).
+  std::vector<DistributionInfo> distribution_names() const override {
+    return {{"vx", "v_x in the region above the outlet", "sqrt(g d)"}, {"vy", "v_y in the region above the outlet", "sqrt(g d)"}};
+  }
+  Samples distribution(const std::string& name, const nlohmann::json& result) const override {
+    Samples out;
+    if (!result.contains("regions") || result.at("regions").empty()) return out;
+    const nlohmann::json velocity = result.at("regions").at(0).value("velocity", nlohmann::json::object());
+    const GridHistogram h = histogram_of(velocity.value(name, nlohmann::json()));
+    for (std::size_t i = 0; i < h.counts.size(); ++i) {
+      if (h.counts[i] <= 0) continue;
+      out.values.push_back(static_cast<double>(h.first + static_cast<long long>(i)) * h.width);
+      out.weights.push_back(h.counts[i]);
+    }
+    return out;
+  }
 
  private:
   RegionSize size_;

@@ -127,6 +127,19 @@ AxisNames axis_names(const std::string& pointer, const json& spec) {
 
 std::string axis_name(const std::string& pointer, const json& spec) { return axis_names(pointer, spec).name; }
 
+std::string axis_unit(const std::string& pointer) {
+  const std::vector<std::string> p = Split(pointer);
+  if (p.empty()) return "";
+  const std::string& last = p.back();
+  if (p.front() == "silo" && (last == "width" || last == "center" || last == "bottom" || last == "x" || last == "y" ||
+                              last == "diameter" || last == "height"))
+    return "d";
+  if (p.front() == "bodies" && last == "big_diameter") return "d";
+  if (pointer == "/time_step" || pointer == "/discharge/max_time") return "sqrt(d/g)";
+  if (pointer == "/discharge/reinject_speed") return "sqrt(g d)";
+  return "";
+}
+
 Table fixed_parameters(const json& spec, const std::vector<std::string>& axes) {
   Table t;
   t.name = "system-parameters";

@@ -25,6 +25,11 @@ struct AxisNames {
 };
 AxisNames axis_names(const std::string& pointer, const nlohmann::json& run_spec);
 
+// The unit of a sweep axis' values in the report's reduced units: "d" for lengths (widths,
+// positions, heights, a big disc's diameter), "sqrt(d/g)" for times, "sqrt(g d)" for speeds;
+// "" for pure numbers, words and the disc diameter d itself (the unit).
+std::string axis_unit(const std::string& pointer);
+
 // The report's units, said once ("The system"): every quantity of every table, figure and
 // export is in these reduced units.
 inline constexpr char kUnitsText[] =

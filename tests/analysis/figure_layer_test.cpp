@@ -109,12 +109,37 @@ std::vector<std::string> points_outside_ranges(const fs::path& report) {
   for (const auto& entry : fs::directory_iterator(report / "figures")) {
     if (entry.path().extension() != ".gp") continue;
     const std::string gp = read_file(entry.path());
-    if (gp.find("set logscale") != std::string::npos || gp.find("multiplot") != std::string::npos) continue;
+    if (gp.find("set logscale") != std::string::npos) continue;
     double lo[2] = {-INFINITY, -INFINITY}, hi[2] = {INFINITY, INFINITY};
     for (std::sregex_iterator it(gp.begin(), gp.end(), range), end; it != end; ++it) {
       const int k = (*it)[1] == "x" ? 0 : 1;
       lo[k] = std::stod((*it)[2]);
       hi[k] = std::stod((*it)[3]);
+    }
+    auto check = [&](const std::string& file, int row, double x, double y) {
+      if (x < lo[0] || x > hi[0] || y < lo[1] || y > hi[1])
+        out.push_back(entry.path().filename().string() + ": " + file + " row " + std::to_string(row) + ": (" +
+                      format_number(x) + ", " + format_number(y) + ") outside [" + format_number(lo[0]) + ":" +
+                      format_number(hi[0]) + "] x [" + format_number(lo[1]) + ":" + format_number(hi[1]) + "]");
+    };
+    if (gp.find("multiplot") != std::string::npos) {
+      // Map panels (one range for all of them): every grid node with a value, every wall point.
+      const std::regex layer(R"('([^']+)' skip 1 using 1:2(:3)? with (image|lines))");
+      for (std::sregex_iterator it(gp.begin(), gp.end(), layer), end; it != end; ++it) {
+        const std::string file = (*it)[1];
+        std::istringstream csv(read_file(report / file));
+        std::string line;
+        std::getline(csv, line);
+        for (int row = 1; std::getline(csv, line); ++row) {
+          std::vector<double> cells;
+          std::stringstream ls(line);
+          std::string cell;
+          while (std::getline(ls, cell, ',')) cells.push_back(cell == "nan" || cell.empty() ? NAN : std::stod(cell));
+          if (cells.size() < 2 || ((*it)[3] == "image" && (cells.size() < 3 || !std::isfinite(cells[2])))) continue;
+          check(file, row, cells[0], cells[1]);
+        }
+      }
+      continue;
     }
     for (std::sregex_iterator it(gp.begin(), gp.end(), item), end; it != end; ++it) {
       const std::string with = (*it)[5];
@@ -135,10 +160,7 @@ std::vector<std::string> points_outside_ranges(const fs::path& report) {
         const double y = cells[yc - 1];
         if (!std::isfinite(x) || !std::isfinite(y)) continue;
         if (!shift.empty()) x = shift[0] == '*' ? x * std::stod(shift.substr(1)) : x + std::stod(shift.substr(1));
-        if (x < lo[0] || x > hi[0] || y < lo[1] || y > hi[1])
-          out.push_back(entry.path().filename().string() + ": " + file + " row " + std::to_string(row) + ": (" +
-                        format_number(x) + ", " + format_number(y) + ") outside [" + format_number(lo[0]) + ":" +
-                        format_number(hi[0]) + "] x [" + format_number(lo[1]) + ":" + format_number(hi[1]) + "]");
+        check(file, row, x, y);
       }
     }
   }
@@ -415,6 +437,329 @@ TEST(ReportFigures, EveryDataPointOfTheStoredEngineCampaignsLiesInsideItsRanges)
     const std::vector<std::string> outside = points_outside_ranges(out.path());
     EXPECT_TRUE(outside.empty()) << name << ": " << outside.size() << " points outside, e.g. " << outside.front();
   }
+}
+
+
+// An analysis registered by these tests alone, offering a distribution and a field of known
+// values: per run at outlet width W, the values {0.5, 1.5, 2.5} + (W - 10)/4 with weights
+// {1, 2, 3} (replica 0) or {3, 2, 1} (replica 1), so that a point's replicas pool to 4 each;
+// and the field 2x + 3y + W on the nodes x = -5..5, y = 0..10 (spacing 1), undefined at
+// (5, 5), 7 frames per run.
+class KnownFigures : public Analysis {
+ public:
+  std::string key() const override { return "known_figures"; }
+  int version() const override { return 1; }
+  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+    class Acc : public RunAccumulator {
+     public:
+      Acc(double w, std::string id) : w_(w), id_(std::move(id)) {}
+      nlohmann::json finish() override { return {{"w", w_}, {"replica", id_.back() == '0' ? 0 : 1}}; }
+
+     private:
+      double w_;
+      std::string id_;
+    };
+    return std::make_unique<Acc>(run.outlets.at(0).width, run.run_id);
+  }
+  std::vector<Metric> run_metrics(const nlohmann::json&) const override { return {}; }
+  std::vector<DistributionInfo> distribution_names() const override { return {{"known", "known quantity s", "bodies"}}; }
+  Samples distribution(const std::string& name, const nlohmann::json& r) const override {
+    EXPECT_EQ(name, "known");
+    const double shift = (r.at("w").get<double>() - 10) / 4;
+    Samples s{{0.5 + shift, 1.5 + shift, 2.5 + shift}, {1, 2, 3}};
+    if (r.at("replica") == 1) s.weights = {3, 2, 1};
+    return s;
+  }
+  std::vector<FieldInfo> field_names() const override { return {{"ramp", "ramp field", "rho g d", false}}; }
+  std::optional<FieldMap> field(const std::string& name, const std::vector<const nlohmann::json*>& results,
+                                const nlohmann::json&) const override {
+    EXPECT_EQ(name, "ramp");
+    if (results.empty()) return std::nullopt;
+    FieldMap m;
+    m.x0 = -5;
+    m.y0 = 0;
+    m.nx = m.ny = 11;
+    const double w = results.front()->at("w").get<double>();
+    for (int j = 0; j < m.ny; ++j)
+      for (int i = 0; i < m.nx; ++i) {
+        m.values.push_back(i == 10 && j == 5 ? kNaN : 2 * m.x(i) + 3 * m.y(j) + w);
+        m.n_frames.push_back(7.0 * static_cast<double>(results.size()));
+      }
+    m.runs = static_cast<int>(results.size());
+    m.frames = 7 * m.runs;
+    m.lines = {{{-6, 12}, {-6, -1}, {-1, -1}}, {{1, -1}, {6, -1}, {6, 12}}};
+    return m;
+  }
+};
+
+AnalysisEntry known_figures_entry() {
+  return {"known_figures", [](const nlohmann::json&, const std::string&) { return std::make_unique<KnownFigures>(); }};
+}
+
+// A constructed campaign with one figure, analysed (kept together: the view points into the
+// campaign, the outcome into the specs).
+struct Analysed {
+  Campaign c;
+  AnalysisSetup setup;
+  std::unique_ptr<CampaignAnalysis> a;
+  std::vector<FigureSpec> specs;
+  FigureOutcome f;
+};
+std::unique_ptr<Analysed> figure_of(const fs::path& root, const nlohmann::json& figure) {
+  auto r = std::make_unique<Analysed>();
+  r->c = make_campaign(root, {{"report", {{"figures", {figure}}}}});
+  r->setup = setup_analyses(r->c.info.spec);
+  r->a = analyse(r->c, r->setup);
+  r->specs = read_figure_specs(r->c.info.spec);
+  r->f = make_figure(*r->a, r->specs.at(0));
+  return r;
+}
+
+const Figure* figure_in(const FigureOutcome& f) {
+  for (const Block& b : f.blocks)
+    if (const auto* fig = std::get_if<Figure>(&b)) return fig;
+  return nullptr;
+}
+
+TEST(DensityHistogram, KnownCountsDensitiesAndValuesOutsideTheRange) {
+  const Density d = density_histogram(Samples{{0.5, 1.0, 1.5, 2.5, 2.5, 3.0, 7.0}, {}}, 3, 0, 3, false);
+  ASSERT_EQ(d.center.size(), 3u);
+  EXPECT_EQ(d.total, 7.0);  // 7.0 lies outside but counts in n
+  EXPECT_EQ(d.count, (std::vector<double>{1, 2, 3})) << "bins [0, 1), [1, 2), [2, 3]";
+  EXPECT_EQ(d.center, (std::vector<double>{0.5, 1.5, 2.5}));
+  for (int i = 0; i < 3; ++i) EXPECT_DOUBLE_EQ(d.density[i], (i + 1) / 7.0);
+  // Log bins: [1, 10), [10, 100), weights as counts; density over each bin's own width.
+  const Density l = density_histogram(Samples{{2, 20, 30, -1}, {1, 2, 1, 5}}, 2, 1, 100, true);
+  EXPECT_EQ(l.count, (std::vector<double>{1, 3}));
+  EXPECT_DOUBLE_EQ(l.total, 9.0);
+  EXPECT_DOUBLE_EQ(l.density[1], 3.0 / (9.0 * 90.0));
+  EXPECT_DOUBLE_EQ(l.center[0], std::sqrt(10.0));
+}
+
+TEST(FigureKinds, DistributionPoolsReplicasOverOneRangeForEveryCurve) {
+  ScopedAnalysis known(known_figures_entry());
+  TempDir dir;
+  const auto r = figure_of(dir.path(), {{"name", "dist"}, {"kind", "distribution"}, {"of", "known"}, {"bins", 3},
+                                                 {"only", {{"W", {10, 14}}, {"mu", 0}}}, {"reference", "thesis fig. 4.6"}});
+  const FigureOutcome& f = r->f;
+  const Figure* fig = figure_in(f);
+  ASSERT_TRUE(fig);
+  ASSERT_EQ(fig->series.size(), 2u);
+  // Range: the data's, 0.5 .. 3.5, three bins of width 1 for both curves.
+  const Series& w10 = fig->series[0];
+  const Series& w14 = fig->series[1];
+  EXPECT_EQ(w10.label, "W = 10 d, mu = 0 (n = 12)");
+  EXPECT_EQ(w14.label, "W = 14 d, mu = 0 (n = 12)");
+  ASSERT_EQ(w10.rows.size(), 3u);
+  ASSERT_EQ(w14.rows.size(), 3u);
+  // W = 14: 1.5, 2.5 and 3.5 (the top of the range: in the last bin, which is closed).
+  const double density10[3] = {1.0 / 3, 1.0 / 3, 1.0 / 3}, density14[3] = {0, 1.0 / 3, 2.0 / 3};
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(w10.rows[i][0], 1.0 + i, 1e-6);
+    EXPECT_NEAR(w14.rows[i][0], w10.rows[i][0], 1e-12) << "one set of bins for every curve";
+    EXPECT_NEAR(w10.rows[i][1], density10[i], 1e-6) << i;
+    EXPECT_NEAR(w14.rows[i][1], density14[i], 1e-6) << i;
+  }
+  EXPECT_EQ(fig->xlabel, "known quantity s (bodies)");
+  EXPECT_NE(fig->caption.find("Reference: thesis fig. 4.6"), std::string::npos);
+  // A given range: [0, 4), four bins; W = 14 pooled (4, 4, 4) in the upper three.
+  nlohmann::json spec = r->c.info.spec;
+  spec["report"]["figures"][0]["range"] = {0, 4};
+  spec["report"]["figures"][0]["bins"] = 4;
+  spec["report"]["figures"][0]["pool"] = "mu";
+  spec["report"]["figures"][0]["only"] = {{"W", 14}};
+  const FigureSpec ranged = read_figure_specs(spec).at(0);
+  const FigureOutcome g = make_figure(*r->a, ranged);
+  const Figure* gf = figure_in(g);
+  ASSERT_TRUE(gf);
+  ASSERT_EQ(gf->series.size(), 1u);  // mu pooled: one curve of 2 points x 2 replicas
+  EXPECT_EQ(gf->series[0].label, "W = 14 d (n = 36)");
+  const double pooled[4] = {0, 1.0 / 3, 1.0 / 3, 1.0 / 3};
+  for (int i = 0; i < 4; ++i) EXPECT_NEAR(gf->series[0].rows[i][1], pooled[i], 1e-9) << i;
+}
+
+TEST(FigureKinds, DistributionOfAPerRunMetricPoolsItsReplicas) {
+  TempDir dir;
+  const auto r =
+      figure_of(dir.path(), {{"name", "q"}, {"kind", "distribution"}, {"of", "q_count"}, {"bins", 2}, {"only", {{"mu", 0}}}});
+  const FigureOutcome& f = r->f;
+  const Figure* fig = figure_in(f);
+  ASSERT_TRUE(fig);
+  ASSERT_EQ(fig->series.size(), 5u);  // W = 10, 14, 18, 22, 26 at mu = 0
+  double total = 0;
+  for (const Series& se : fig->series) {
+    double n = 0;
+    for (const auto& row : se.rows) n += row[2];
+    EXPECT_EQ(n, se.label.find("W = 26") == 0 ? 1 : 2) << se.label;  // one value per run
+    total += n;
+  }
+  EXPECT_EQ(total, 9);
+  // Two bins over [Q(10), Q(26)]: every W < 19.3 in the first.
+  const double mid = 0.5 * (fig->series.front().rows[0][0] + fig->series.front().rows[1][0]);
+  EXPECT_GT(mid, q_of(14, 0) * 1.02);
+  EXPECT_LT(mid, q_of(22, 0) * 0.98);
+  // An unknown name is said, not drawn.
+  nlohmann::json spec = r->c.info.spec;
+  spec["report"]["figures"][0]["of"] = "no_such_metric";
+  const FigureOutcome none = make_figure(*r->a, read_figure_specs(spec).at(0));
+  ASSERT_EQ(none.blocks.size(), 1u);
+  EXPECT_NE(std::get<Text>(none.blocks[0]).markdown.find("no run has a metric of that name"), std::string::npos);
+}
+
+TEST(FigureKinds, MapPanelsAtTheChosenPointsWithAxesAndUnitsInTheirTitles) {
+  ScopedAnalysis known(known_figures_entry());
+  TempDir dir;
+  const auto r = figure_of(dir.path(), {{"name", "maps"}, {"kind", "maps"}, {"field", "ramp"}, {"only", {{"W", {10, 22}}, {"mu", 0.5}}}});
+  const FigureOutcome& f = r->f;
+  const MapFigure* m = nullptr;
+  for (const Block& b : f.blocks)
+    if (const auto* x = std::get_if<MapFigure>(&b)) m = x;
+  ASSERT_TRUE(m);
+  ASSERT_EQ(m->panels.size(), 2u);
+  EXPECT_EQ(m->panels[0].title, "W = 10 d, mu = 0.5: 2 runs, 14 frames");
+  EXPECT_EQ(m->panels[1].title, "W = 22 d, mu = 0.5: 2 runs, 14 frames");
+  EXPECT_EQ(m->value_name, "ramp field (rho g d)");
+  for (std::size_t k = 0; k < 2; ++k) {
+    const double w = k == 0 ? 10 : 22;
+    ASSERT_EQ(m->panels[k].grid.size(), 121u);
+    for (const auto& node : m->panels[k].grid) {
+      EXPECT_GE(node[0], m->x_lo);
+      EXPECT_LE(node[0], m->x_hi);
+      EXPECT_GE(node[1], m->y_lo);
+      EXPECT_LE(node[1], m->y_hi);
+      if (node[0] == 5 && node[1] == 5) EXPECT_TRUE(std::isnan(node[2]));
+      else EXPECT_DOUBLE_EQ(node[2], 2 * node[0] + 3 * node[1] + w);
+    }
+    EXPECT_EQ(m->panels[k].lines.size(), 2u);
+  }
+}
+
+TEST(FigureKinds, ProfileAlongXAndYOfAConstructedField) {
+  FieldMap m;
+  m.x0 = -5;
+  m.y0 = 0;
+  m.nx = m.ny = 11;
+  for (int j = 0; j < m.ny; ++j)
+    for (int i = 0; i < m.nx; ++i) m.values.push_back(i == 10 && j == 5 ? kNaN : 2 * m.x(i) + 3 * m.y(j));
+  const FieldProfile px = field_profile(m, 'x', 5, 2);  // rows y = 4, 5, 6
+  ASSERT_EQ(px.position.size(), 11u);
+  EXPECT_EQ(px.band_lo, 4);
+  EXPECT_EQ(px.band_hi, 6);
+  for (std::size_t i = 0; i < 11; ++i) {
+    EXPECT_DOUBLE_EQ(px.position[i], -5.0 + static_cast<double>(i));
+    EXPECT_DOUBLE_EQ(px.value[i], 2 * px.position[i] + 15) << i;  // at x = 5 rows 4 and 6 alone: still 25
+    EXPECT_EQ(px.nodes[i], i == 10 ? 2 : 3);
+  }
+  const FieldProfile py = field_profile(m, 'y', 0.2, 0.5);  // no column within 0.25 of 0.2: the nearest, x = 0
+  ASSERT_EQ(py.position.size(), 11u);
+  EXPECT_EQ(py.band_lo, 0);
+  for (std::size_t j = 0; j < 11; ++j) EXPECT_DOUBLE_EQ(py.value[j], 3 * py.position[j]);
+  EXPECT_TRUE(field_profile(m, 'x', 11, 1).position.empty()) << "a line above the grid";
+}
+
+TEST(FigureKinds, ProfileFigureOfTheChosenPoints) {
+  ScopedAnalysis known(known_figures_entry());
+  TempDir dir;
+  const auto r = figure_of(dir.path(), {{"name", "prof"}, {"kind", "profile"}, {"field", "ramp"}, {"along", "x"}, {"at", 3},
+                                                 {"width", 2.5}, {"pool", "mu"}, {"only", {{"W", {14, 18}}}}, {"reference", "thesis fig. 5.15"}});
+  const FigureOutcome& f = r->f;
+  const Figure* fig = figure_in(f);
+  ASSERT_TRUE(fig);
+  ASSERT_EQ(fig->series.size(), 2u);
+  EXPECT_EQ(fig->series[0].label, "W = 14 d: 6 runs");  // mu pooled: 3 points x 2 replicas
+  EXPECT_EQ(fig->xlabel, "x (d)");
+  EXPECT_EQ(fig->ylabel, "ramp field (rho g d)");
+  for (const Series& se : fig->series) {
+    const double w = se.label.find("W = 14") == 0 ? 14 : 18;
+    ASSERT_EQ(se.rows.size(), 11u);
+    for (const auto& row : se.rows) EXPECT_DOUBLE_EQ(row[1], 2 * row[0] + 9 + w);  // rows y = 2, 3, 4
+  }
+  EXPECT_NE(fig->caption.find("rows y = 2 .. 4 d"), std::string::npos) << fig->caption;
+  // A line outside the grid is said.
+  nlohmann::json spec = r->c.info.spec;
+  spec["report"]["figures"][0]["at"] = 40;
+  const FigureOutcome out = make_figure(*r->a, read_figure_specs(spec).at(0));
+  ASSERT_FALSE(out.blocks.empty());
+  EXPECT_NE(std::get<Text>(out.blocks.back()).markdown.find("the line y = 40 d lies outside the grid, y = 0 .. 10 d"),
+            std::string::npos);
+}
+
+TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
+  const nlohmann::json base = {{"name", "t"}, {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {4, 6}}}}}}};
+  auto error_of = [&](const nlohmann::json& figure) -> std::string {
+    nlohmann::json spec = base;
+    spec["report"]["figures"] = {figure};
+    try {
+      check_report_spec(spec);
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "";
+  };
+  auto has = [](const std::string& error, const std::string& part) {
+    return error.find(part) != std::string::npos ? ::testing::AssertionSuccess()
+                                                 : ::testing::AssertionFailure() << "\"" << part << "\" not in: " << error;
+  };
+  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "bars"}}), "/report/figures/0/kind: must be \"points\""));
+  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "bars"}}), "\"profile\" (a field along a line at each chosen point)"));
+  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "maps"}, {"field", "phi"}}),
+                  "/report/figures/0/field: no analysis offers fields: turn on the coarse-grained fields (/report/fields: true)"));
+  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vx"}, {"y", "q_count"}}),
+                  "/report/figures/0/y: a figure of kind \"distribution\" takes"));
+  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vx"}, {"bins", 0}}), "/report/figures/0/bins"));
+  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vx"}, {"range", {2, 1}}}),
+                  "/report/figures/0/range: must be [lo, hi] with lo < hi"));
+  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "v x"}}),
+                  "/report/figures/0/of: must name a distribution an analysis offers (vx, vy, avalanche_sizes) or a per-run metric"));
+  EXPECT_EQ(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vy"}, {"logy", true}}), "");
+  nlohmann::json fields = base;
+  fields["report"]["fields"] = true;
+  auto field_error = [&](const nlohmann::json& figure) -> std::string {
+    nlohmann::json spec = fields;
+    spec["report"]["figures"] = {figure};
+    try {
+      check_report_spec(spec);
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "pressure"}, {"only", {{"W", 4}}}}), "");
+  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "presure"}}), "/report/figures/0/field: must name a field (fields: phi,"));
+  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "z"}, {"at", 3}}),
+                  "/report/figures/0/along: must be \"x\""));
+  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "y"}}),
+                  "/report/figures/0/at: must be the line's position x (d)"));
+  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "y"}, {"at", 0}, {"width", -1}}),
+                  "/report/figures/0/width"));
+  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "speed"}, {"at", 0}}),
+                  "/report/figures/0/at: a figure of kind \"maps\" takes"));
+}
+
+// Every new kind in a written report: the .gp scripts hold every point and every map node
+// inside their ranges, the maps and the profile are in the report.
+TEST(ReportFigures, EveryPointOfTheNewKindsLiesInsideItsRanges) {
+  ScopedAnalysis known(known_figures_entry());
+  TempDir dir;
+  const nlohmann::json extra = {
+      {"report",
+       {{"figures",
+         {{{"name", "dist"}, {"kind", "distribution"}, {"of", "known"}, {"bins", 5}},
+          {{"name", "dist-range"}, {"kind", "distribution"}, {"of", "known"}, {"range", {1, 2}}, {"bins", 4}},
+          {{"name", "q-dist"}, {"kind", "distribution"}, {"of", "q_count"}, {"pool", "mu"}},
+          {{"name", "maps"}, {"kind", "maps"}, {"field", "ramp"}, {"only", {{"W", {10, 26}}, {"mu", 0}}}},
+          {{"name", "prof"}, {"kind", "profile"}, {"field", "ramp"}, {"along", "y"}, {"at", 0}, {"only", {{"mu", 1}}}}}}}}};
+  const Campaign c = make_campaign(dir.path() / "runs", extra);
+  ReportOptions o;
+  o.out_dir = dir.path() / "report";
+  o.analysis.read_cache = o.analysis.write_cache = false;
+  const ReportSummary s = write_report(c.info, c.runs, o);
+  for (const char* name : {"figure-dist", "figure-dist-range", "figure-q-dist", "figure-maps", "figure-prof"})
+    EXPECT_TRUE(fs::exists(o.out_dir / "figures" / (std::string(name) + ".gp"))) << name;
+  const std::vector<std::string> outside = points_outside_ranges(o.out_dir);
+  EXPECT_TRUE(outside.empty()) << outside.size() << " points outside, e.g. " << outside.front();
+  EXPECT_NE(read_file(o.out_dir / "figures" / "figure-maps.gp").find("W = 26 d, mu = 0: 1 run, 7 frames"), std::string::npos);
+  EXPECT_NE(read_file(s.markdown).find("figure-prof.svg"), std::string::npos);
 }
 
 }  // namespace
