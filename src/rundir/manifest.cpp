@@ -27,9 +27,9 @@ namespace fs = std::filesystem;
 namespace {
 
 // The files a manifest records, in the order it lists them.
-constexpr const char* kRecorded[] = {kRunSpecFile,   kSummaryFile,     kEventsFile,      kFramesFile,
-                                     kFramesGzFile,  kContactsFile,    kContactsGzFile,  kClogFramesFile,
-                                     kClogContactsFile, kUnclogsFile};
+constexpr const char* kRecorded[] = {kRunSpecFile,     kSummaryFile,     kEventsFile,     kFramesFile,
+                                     kFramesGzFile,    kFramesGsdFile,   kContactsFile,   kContactsGzFile,
+                                     kContactsGsdFile, kClogFramesFile,  kClogContactsFile, kUnclogsFile};
 
 // DIR/analyses/verified.json: the files found equal to their record, by size and mtime, so
 // that a second check hashes only what changed since (manifest.h). Kept beside the cached
@@ -67,13 +67,13 @@ std::int64_t CountOf(const fs::path& dir, const std::string& name, bool lenient 
   try {
     if (name == kEventsFile) return static_cast<std::int64_t>(ReadEvents(file).size());
     if (name == kUnclogsFile) return static_cast<std::int64_t>(ReadUnclogs(file).size());
-    if (name == kFramesFile || name == kFramesGzFile || name == kClogFramesFile) {
+    if (name == kFramesFile || name == kFramesGzFile || name == kFramesGsdFile || name == kClogFramesFile) {
       FrameReader reader(file);
       Frame frame;
       while (reader.NextHeader(frame) && reader.SkipDiscs()) ++n;
       return n;
     }
-    if (name == kContactsFile || name == kContactsGzFile || name == kClogContactsFile) {
+    if (name == kContactsFile || name == kContactsGzFile || name == kContactsGsdFile || name == kClogContactsFile) {
       ContactReader reader(file);
       ContactFrame frame;
       while (reader.NextHeader(frame) && reader.SkipContacts()) ++n;
@@ -109,8 +109,8 @@ nlohmann::json ReadVerified(const fs::path& dir) {
 
 std::string CountNameOf(const std::string& file) {
   if (file == kEventsFile) return "events";
-  if (file == kFramesFile || file == kFramesGzFile) return "frames";
-  if (file == kContactsFile || file == kContactsGzFile) return "contact_frames";
+  if (file == kFramesFile || file == kFramesGzFile || file == kFramesGsdFile) return "frames";
+  if (file == kContactsFile || file == kContactsGzFile || file == kContactsGsdFile) return "contact_frames";
   if (file == kClogFramesFile || file == kClogContactsFile) return "clogs";
   if (file == kUnclogsFile) return "unclog_attempts";
   return "";

@@ -67,9 +67,21 @@ RunData ReadRun(const fs::path& dir) {
   if (fs::exists(dir / kEventsFile)) r.events = ReadEvents(dir / kEventsFile);
   r.unclogs = ReadUnclogs(dir / kUnclogsFile);
   r.compressed = !fs::exists(dir / kFramesFile) && fs::exists(dir / kFramesGzFile);
+  r.gsd = !fs::exists(dir / kFramesFile) && !r.compressed &&
+          (fs::exists(dir / kFramesGsdFile) || fs::exists(dir / kContactsGsdFile));
   r.has_frames = fs::exists(r.frames_file());
   r.has_contacts = fs::exists(r.contacts_file());
   return r;
+}
+
+const char* FramesFileName(const Output& output) {
+  if (output.format == FrameFormat::kGsd) return kFramesGsdFile;
+  return output.compress ? kFramesGzFile : kFramesFile;
+}
+
+const char* ContactsFileName(const Output& output) {
+  if (output.format == FrameFormat::kGsd) return kContactsGsdFile;
+  return output.compress ? kContactsGzFile : kContactsFile;
 }
 
 }  // namespace granary::rundir

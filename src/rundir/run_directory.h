@@ -31,6 +31,10 @@ RunSpec ReadRunSpec(const std::filesystem::path& dir);
 void WriteDone(const std::filesystem::path& dir, const std::string& end_reason);
 bool IsDone(const std::filesystem::path& dir);
 
+// The names of the frames and contact-frame files an engine writes for these options.
+const char* FramesFileName(const Output& output);
+const char* ContactsFileName(const Output& output);
+
 // What a run directory holds, read eagerly except the dumps.
 struct RunData {
   std::filesystem::path dir;
@@ -43,8 +47,13 @@ struct RunData {
   bool has_frames = false;
   bool has_contacts = false;
   bool compressed = false;         // frames.dump.gz / contacts.dump.gz (output.compress)
-  std::filesystem::path frames_file() const { return dir / (compressed ? kFramesGzFile : kFramesFile); }
-  std::filesystem::path contacts_file() const { return dir / (compressed ? kContactsGzFile : kContactsFile); }
+  bool gsd = false;                // frames.gsd / contacts.gsd (output.format "gsd")
+  std::filesystem::path frames_file() const {
+    return dir / (gsd ? kFramesGsdFile : compressed ? kFramesGzFile : kFramesFile);
+  }
+  std::filesystem::path contacts_file() const {
+    return dir / (gsd ? kContactsGsdFile : compressed ? kContactsGzFile : kContactsFile);
+  }
 };
 // Throws ReadError if the directory does not exist or a present file is malformed.
 RunData ReadRun(const std::filesystem::path& dir);
