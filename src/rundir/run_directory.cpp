@@ -3,7 +3,9 @@
 
 #include <fstream>
 
+#include "rundir/contacts.h"
 #include "rundir/files.h"
+#include "rundir/frames.h"
 #include "rundir/manifest.h"
 
 namespace granary::rundir {
@@ -82,6 +84,32 @@ const char* FramesFileName(const Output& output) {
 const char* ContactsFileName(const Output& output) {
   if (output.format == FrameFormat::kGsd) return kContactsGsdFile;
   return output.compress ? kContactsGzFile : kContactsFile;
+}
+
+TextDumps WriteTextDumps(const fs::path& dir, const fs::path& out) {
+  const RunData run = ReadRun(dir);
+  if (!run.has_frames)
+    throw ReadError(run.frames_file().string() + ": no such file (the run writes frames when its spec sets "
+                    "output/frame_interval)");
+  if (fs::exists(out) && fs::equivalent(out, dir))
+    throw ReadError(out.string() + ": is the run directory itself; the text dumps go to another folder");
+  fs::create_directories(out);
+  TextDumps n;
+  {
+    FrameReader in(run.frames_file());
+    FrameWriter w = FrameWriter::Create(out / kFramesFile);
+    for (Frame f; in.Next(f); ++n.frames) w.Write(f);
+    w.Close();
+  }
+  n.bytes = static_cast<std::int64_t>(fs::file_size(out / kFramesFile) + fs::file_size(out / kFramesDataFile));
+  if (run.has_contacts) {
+    ContactReader in(run.contacts_file());
+    ContactWriter w = ContactWriter::Create(out / kContactsFile);
+    for (ContactFrame c; in.Next(c); ++n.contact_frames) w.Write(c);
+    w.Close();
+    n.bytes += static_cast<std::int64_t>(fs::file_size(out / kContactsFile));
+  }
+  return n;
 }
 
 }  // namespace granary::rundir

@@ -58,4 +58,14 @@ struct RunData {
 // Throws ReadError if the directory does not exist or a present file is malformed.
 RunData ReadRun(const std::filesystem::path& dir);
 
+// The frames and contact frames of the run in `dir` (any format) written as LAMMPS text dumps
+// into `out` (created): frames.dump with its frames.data, and contacts.dump if the run has
+// contact frames, for LAMMPS' read_dump/rerun and other tools that read no GSD. `out` must
+// not be `dir` (a run directory holds one frames file). Throws ReadError if the run has no
+// frames.
+struct TextDumps {
+  std::int64_t frames = 0, contact_frames = 0, bytes = 0;
+};
+TextDumps WriteTextDumps(const std::filesystem::path& dir, const std::filesystem::path& out);
+
 }  // namespace granary::rundir

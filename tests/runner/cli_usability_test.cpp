@@ -415,7 +415,7 @@ TEST_F(CliUsability, EveryVerbOfTheTableHasHelpFlagsAndCompletion) {
   std::vector<std::string> verbs;
   std::istringstream lines(help.output.substr(help.output.find("verbs:\n") + 7));
   for (std::string line; std::getline(lines, line) && !line.empty();) verbs.push_back(line.substr(2, line.find(' ', 2) - 2));
-  ASSERT_EQ(verbs.size(), 14u) << help.output;
+  ASSERT_EQ(verbs.size(), 15u) << help.output;
   std::string all;
   for (const auto& v : verbs) all += v + "\n";
   EXPECT_EQ(Sh(testing::Campaign() + " __complete 1 campaign").output, all + "--help\n--version\n");
@@ -435,7 +435,7 @@ TEST_F(CliUsability, EveryVerbOfTheTableHasHelpFlagsAndCompletion) {
   ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4]", "[0.5]", 1))).code, 0);
   const std::string id = Status()["runs"][0]["run_id"];
   const std::map<std::string, std::string> operand = {
-      {"plan", "__files__\n"}, {"compare", "__files__\n"}, {"completion", "bash\n"}, {"show", id + "\n"},
+      {"plan", "__files__\n"}, {"compare", "__files__\n"}, {"dump", "__files__\n"}, {"completion", "bash\n"}, {"show", id + "\n"},
       {"snapshot", id + "\n"}, {"movie", id + "\n"},         {"status", ""},           {"run", ""}};
   for (const auto& [v, expected] : operand)
     EXPECT_EQ(Sh(testing::Campaign() + " __complete 4 campaign " + v + " --db " + Db() + " ''").output, expected) << v;
