@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -196,10 +197,40 @@ std::optional<Manifest> ReadManifest(const fs::path& dir) {
       m.files[name] = r;
     }
     if (j.contains("counts")) m.counts = j.at("counts").get<std::map<std::string, std::int64_t>>();
+    if (j.contains("dropped"))
+      for (const auto& [name, f] : j.at("dropped").items()) {
+        DroppedFile d;
+        d.record.size = f.at("size").get<std::uint64_t>();
+        d.record.xxh3 = f.at("xxh3").get<std::string>();
+        d.at = f.value("at", "");
+        d.by = f.value("by", "");
+        m.dropped[name] = d;
+      }
   } catch (const nlohmann::json::exception& e) {
     throw ReadError(file.string() + ": " + e.what());
   }
   return m;
+}
+
+void RecordDropped(const fs::path& dir, const std::string& name, const std::string& by) {
+  const fs::path file = dir / kManifestFile;
+  nlohmann::ordered_json j;
+  try {
+    j = nlohmann::ordered_json::parse(ReadWholeFile(file));
+  } catch (const std::exception& e) {
+    throw ReadError(file.string() + ": cannot record " + name + " as dropped: " + e.what());
+  }
+  if (!j.contains("files") || !j["files"].contains(name))
+    throw ReadError(file.string() + ": records no " + name + " to drop");
+  nlohmann::ordered_json record = j["files"][name];
+  j["files"].erase(name);
+  const std::time_t now = std::time(nullptr);
+  char at[32];
+  std::strftime(at, sizeof at, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  record["at"] = at;
+  record["by"] = by;
+  j["dropped"][name] = record;
+  WriteAtomically(file, j.dump(2) + "\n");
 }
 
 const char* IntegrityName(Integrity integrity) {

@@ -73,6 +73,21 @@ RunData ReadRun(const fs::path& dir) {
           (fs::exists(dir / kFramesGsdFile) || fs::exists(dir / kContactsGsdFile));
   r.has_frames = fs::exists(r.frames_file());
   r.has_contacts = fs::exists(r.contacts_file());
+  if (!r.has_frames) {
+    std::optional<Manifest> m;
+    try {
+      m = ReadManifest(dir);
+    } catch (const ReadError&) {
+      // A damaged manifest is the integrity check's to report, not this reader's.
+    }
+    for (const char* name : {kFramesFile, kFramesGzFile, kFramesGsdFile})
+      if (m && m->dropped.count(name)) {
+        const DroppedFile& d = m->dropped.at(name);
+        r.frames_dropped = (dir / name).string() + " was removed by " + d.by + " at " + d.at +
+                           " (manifest.json \"dropped\"): the analyses cached before then still report, but one that "
+                           "must read the frames anew (new options, a new analysis or version) cannot; run the run again";
+      }
+  }
   return r;
 }
 

@@ -48,6 +48,9 @@ struct RunData {
   bool has_contacts = false;
   bool compressed = false;         // frames.dump.gz / contacts.dump.gz (output.compress)
   bool gsd = false;                // frames.gsd / contacts.gsd (output.format "gsd")
+  // Why the frames are gone, when campaign clean --frames removed them (manifest.json
+  // "dropped"): a sentence for the error of an analysis that would need them; "" otherwise.
+  std::string frames_dropped;
   std::filesystem::path frames_file() const {
     return dir / (gsd ? kFramesGsdFile : compressed ? kFramesGzFile : kFramesFile);
   }
