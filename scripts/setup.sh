@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
 # Set up Granary on a fresh Debian machine: install missing packages, configure, build.
+# (python3-gsd: HOOMD's own GSD reader, which the tests use to check that frames.gsd is GSD.)
 # Idempotent: packages already installed are not touched; the build is incremental.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -8,7 +9,7 @@ build="${GRANARY_BUILD_DIR:-$here/build}"
 packages=(build-essential cmake pkg-config git libsqlite3-dev sqlite3 nlohmann-json3-dev
           libboost-dev libboost-filesystem-dev libgsl-dev libgtest-dev googletest
           liggghts openmpi-bin gnuplot-nox lammps zlib1g-dev libxxhash-dev
-          libcairo2-dev ffmpeg python3-numpy python3-pandas python3-pytest python3-jsonschema slurmctld slurmd slurm-client munge
+          libcairo2-dev ffmpeg python3-numpy python3-pandas python3-pytest python3-jsonschema python3-gsd slurmctld slurmd slurm-client munge
           libpmix-dev)
 missing=()
 for p in "${packages[@]}"; do

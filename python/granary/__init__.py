@@ -13,6 +13,7 @@ from . import formats  # noqa: F401 (granary.formats.register: where a frame for
 from .bodies import BODY_DTYPE, bodies_of
 from .campaign import Campaign, FilterError, short_axis
 from .dump import CONTACT_DTYPE, DISC_DTYPE, ContactFrame, DumpReader, Frame
+from . import gsdfile  # noqa: F401 (registers frames.gsd and contacts.gsd)
 from .errors import FormatError, MissingFileError, NewerFormatError, RunDirectoryError, TruncatedError
 from .run import Clog, Run
 from .silo import Silo

@@ -179,6 +179,12 @@ class Run:
         except (MissingFileError, AttributeError, TypeError, ValueError):
             return 1.0
 
+    def _contact_interval(self):
+        try:
+            return int(self.spec.get("output", {}).get("contact_interval", 1))
+        except (MissingFileError, AttributeError, TypeError, ValueError):
+            return 1
+
     def _missing(self, kind, why):
         names = formats.names(kind)
         return MissingFileError(f"{self.file(names[0])}: no such file (nor {', '.join(names[1:])}); {why}")
@@ -190,7 +196,8 @@ class Run:
         `frame["x"]` works too) and `bodies()`. window=(t0, t1): only frames with
         t0 <= time <= t1 (None: open end); stride=k: every k-th of those. contacts=True: each
         frame also gets `contacts`, the contact frame of the same timestep from contacts.dump
-        (an error if it has none)."""
+        (an error if it has none; None for the frames between contact frames of a run with
+        output/contact_interval > 1)."""
         source = self._source("frames")
         if source is None:
             raise self._missing("frames", "the spec's output/frame_interval decides whether a run writes frames")
@@ -205,17 +212,25 @@ class Run:
             csource = self._source("contacts")
             if csource is None:
                 raise self._missing("contacts", "a run writes contact frames when its spec sets output/contact_forces")
+            # output/contact_interval k > 1: contact frames with every k-th frame only; the
+            # frames between get contacts None.
+            sparse = self._contact_interval() > 1
             with self._open("contacts", csource) as creader:
                 centries = creader.entries()
+                entry = None
                 for frame in formats.select(reader.entries(), Frame, stride, window):
-                    while True:
+                    while entry is None or entry.timestep < frame.timestep:
                         entry = next(centries, None)
-                        if entry is None or entry.timestep > frame.timestep:
-                            raise FormatError(f"{csource[0]}: no contact frame at timestep {frame.timestep} "
-                                              f"(t = {frame.time:g}) of {source[0]}")
-                        if entry.timestep == frame.timestep:
+                        if entry is None:
                             break
+                    if entry is None or entry.timestep > frame.timestep:
+                        if sparse:
+                            yield frame
+                            continue
+                        raise FormatError(f"{csource[0]}: no contact frame at timestep {frame.timestep} "
+                                          f"(t = {frame.time:g}) of {source[0]}")
                     rows = entry.load()
+                    entry = None
                     if rows is None:
                         return
                     frame.contacts = rows

@@ -4,7 +4,8 @@
 // runs an analysis that asks for every frame with its contacts and touches every disc, body
 // and contact (`--work K` times, standing in for an analysis' own cost), with the pass on 1
 // and on 2 threads, in interleaved rounds. Prints frames per second.
-// Usage: granary-pass-bench [--bodies N] [--frames F] [--work K] [--repeat R] [--dir DIR]
+// Usage: granary-pass-bench [--bodies N] [--frames F] [--work K] [--repeat R] [--dir DIR] [--format text|gsd]
+// (--format gsd: frames.gsd and contacts.gsd, output.format "gsd", docs/run-directory.md)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -33,7 +34,7 @@ using granary::analysis::PassUse;
 using granary::analysis::RunAccumulator;
 using granary::analysis::RunView;
 
-void WriteRun(const fs::path& dir, int bodies, int frames) {
+void WriteRun(const fs::path& dir, int bodies, int frames, bool gsd) {
   namespace rd = granary::rundir;
   fs::create_directories(dir);
   rd::WriteRunSpec(dir, {{"run_id", "bench"}, {"discharge", {{"mode", "reinject"}}}, {"bodies", {{"count", bodies}}}});
@@ -47,8 +48,8 @@ void WriteRun(const fs::path& dir, int bodies, int frames) {
   std::mt19937_64 rng(1);
   std::uniform_real_distribution<double> jitter(-0.05, 0.05);
   const int columns = 100;
-  rd::FrameWriter fw = rd::FrameWriter::Create(dir / rd::kFramesFile);
-  rd::ContactWriter cw = rd::ContactWriter::Create(dir / rd::kContactsFile);
+  rd::FrameWriter fw = rd::FrameWriter::Create(dir / (gsd ? rd::kFramesGsdFile : rd::kFramesFile));
+  rd::ContactWriter cw = rd::ContactWriter::Create(dir / (gsd ? rd::kContactsGsdFile : rd::kContactsFile));
   rd::Frame f;
   rd::ContactFrame c;
   for (int k = 0; k < frames; ++k) {
@@ -112,6 +113,7 @@ class TouchAll : public Analysis {
 int main(int argc, char** argv) {
   int bodies = 15000, frames = 20, repeat = 3, work = 1;
   fs::path dir;
+  bool gsd = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
@@ -120,17 +122,22 @@ int main(int argc, char** argv) {
     else if (a == "--repeat" && has_value) repeat = std::atoi(argv[++i]);
     else if (a == "--work" && has_value) work = std::atoi(argv[++i]);
     else if (a == "--dir" && has_value) dir = argv[++i];
+    else if (a == "--format" && has_value) gsd = std::string(argv[++i]) == "gsd";
     else {
-      std::fprintf(stderr, "usage: granary-pass-bench [--bodies N] [--frames F] [--work K] [--repeat R] [--dir DIR]\n");
+      std::fprintf(stderr,
+                   "usage: granary-pass-bench [--bodies N] [--frames F] [--work K] [--repeat R] [--dir DIR] "
+                   "[--format text|gsd]\n");
       return a == "--help" ? 0 : 2;
     }
   }
   const bool own_dir = dir.empty();
   if (own_dir) dir = fs::temp_directory_path() / ("granary-pass-bench-" + std::to_string(::getpid()));
-  if (!fs::exists(dir / "frames.dump")) WriteRun(dir, bodies, frames);
-  std::printf("pass bench: %d dumbbells (%d discs, ~%d contacts) x %d frames, %.0f MB of dumps, work %d\n", bodies,
+  if (!fs::exists(dir / "frames.dump") && !fs::exists(dir / "frames.gsd")) WriteRun(dir, bodies, frames, gsd);
+  const granary::rundir::RunData data = granary::rundir::ReadRun(dir);
+  std::printf("pass bench: %d dumbbells (%d discs, ~%d contacts) x %d frames, %.1f MB of %s, work %d\n", bodies,
               2 * bodies, 2 * bodies, frames,
-              static_cast<double>(fs::file_size(dir / "frames.dump") + fs::file_size(dir / "contacts.dump")) / 1e6, work);
+              static_cast<double>(fs::file_size(data.frames_file()) + fs::file_size(data.contacts_file())) / 1e6,
+              data.gsd ? "GSD" : "dumps", work);
   const TouchAll analysis(work);
   granary::analysis::PassOptions pass;
   for (int round = 1; round <= repeat; ++round)

@@ -307,8 +307,11 @@ RunPassResult analyse_run(const std::filesystem::path& dir, const std::vector<co
     raw.push_back(accumulators.back().get());
     selectors.emplace_back(raw.back()->frames(), pass);
   }
-  const bool frames = data.has_frames &&
-                      std::any_of(selectors.begin(), selectors.end(), [](const FrameSelector& s) { return !s.done(); });
+  const bool wants_frames =
+      std::any_of(selectors.begin(), selectors.end(), [](const FrameSelector& s) { return !s.done(); });
+  // Frames removed by campaign clean --frames: an analysis not cached before cannot be computed.
+  if (wants_frames && !data.frames_dropped.empty()) throw rundir::ReadError(data.frames_dropped);
+  const bool frames = data.has_frames && wants_frames;
   if (frames) {
     FrameSource source(data, view.density, selectors);
     out.frames_parsed = options.threads >= 2 ? StreamWithReadAhead(source, raw) : Stream(source, raw);

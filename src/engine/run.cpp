@@ -171,6 +171,11 @@ class Discharge {
   void FillFrame(rundir::Frame& f);
   void FillContacts(rundir::ContactFrame& f);
   void WriteFrame();
+  // A contact frame goes with every contact_interval-th frame (counted from step 0, so a
+  // continued run writes the same ones).
+  bool ContactsDue() const {
+    return contacts_.is_open() && (step_ / frame_every_) % spec_.output.contact_interval == 0;
+  }
   void WriteContacts();
   void WriteClog();
   void HandleExits();
@@ -296,12 +301,12 @@ void Discharge::StartFresh() {
   clogs_out_ = rundir::ClogWriter::Create(dir_);
   if (Unclogging()) unclogs_out_ = rundir::UnclogWriter::Create(dir_ / rundir::kUnclogsFile);
   const bool gz = spec_.output.compress;
-  if (frame_every_ > 0) frames_ = rundir::FrameWriter::Create(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), gz);
+  if (frame_every_ > 0) frames_ = rundir::FrameWriter::Create(dir_ / rundir::FramesFileName(spec_.output), gz);
   if (frame_every_ > 0 && spec_.output.contact_forces)
-    contacts_ = rundir::ContactWriter::Create(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), gz);
+    contacts_ = rundir::ContactWriter::Create(dir_ / rundir::ContactsFileName(spec_.output), gz);
   if (frame_every_ > 0) {
     WriteFrame();
-    if (contacts_.is_open()) WriteContacts();
+    if (ContactsDue()) WriteContacts();
   }
 }
 
@@ -526,8 +531,8 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
     throw CheckpointError(name + " is at step " + std::to_string(step) + ", past this run's max_time");
   // The outputs must still hold what the checkpoint saw (truncating a shorter file would pad it).
   const bool gz = spec_.output.compress;
-  const char* outputs[3] = {rundir::kEventsFile, gz ? rundir::kFramesGzFile : rundir::kFramesFile,
-                            gz ? rundir::kContactsGzFile : rundir::kContactsFile};
+  const char* outputs[3] = {rundir::kEventsFile, rundir::FramesFileName(spec_.output),
+                            rundir::ContactsFileName(spec_.output)};
   for (int k = 0; k < 3; ++k) {
     const fs::path out = dir_ / outputs[k];
     std::error_code ec;
@@ -572,9 +577,9 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   }
   events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, offsets[0]);
   clogs_out_ = rundir::ClogWriter::ContinueAfter(dir_, step_);
-  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), offsets[1], gz);
+  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / rundir::FramesFileName(spec_.output), offsets[1], gz);
   if (frame_every_ > 0 && spec_.output.contact_forces)
-    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), offsets[2], gz);
+    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / rundir::ContactsFileName(spec_.output), offsets[2], gz);
   continued_ = true;
   extended_from_ = extended_from;
 }
@@ -947,7 +952,7 @@ RunResult Discharge::Run() {
     else Unclog(clog_arch_.empty() ? nullptr : &clog_arch_);
     if (frame_every_ > 0 && step_ % frame_every_ == 0) {
       WriteFrame();
-      if (contacts_.is_open()) WriteContacts();
+      if (ContactsDue()) WriteContacts();
     }
   }
   auto last_report = Clock::now();
@@ -1017,7 +1022,7 @@ RunResult Discharge::Run() {
     }
     if (frame_every_ > 0 && step_ % frame_every_ == 0) {
       WriteFrame();
-      if (contacts_.is_open()) WriteContacts();
+      if (ContactsDue()) WriteContacts();
     }
     if (checkpoint_every_ > 0 && step_ % checkpoint_every_ == 0 && end_reason.empty()) WriteCheckpoint();
     if (options_.stop_after_steps >= 0 && step_ - first_step >= options_.stop_after_steps) g_stop_signal = SIGTERM;

@@ -17,6 +17,10 @@ using detail::ToInt;
 
 ContactWriter ContactWriter::Create(const std::filesystem::path& file, bool gzip) {
   ContactWriter w;
+  if (file.extension() == ".gsd") {
+    w.gsd_ = gsd::GsdContactWriter::Create(file);
+    return w;
+  }
   w.file_ = OutputFile(file);
   w.gzip_ = gzip;
   return w;
@@ -24,6 +28,10 @@ ContactWriter ContactWriter::Create(const std::filesystem::path& file, bool gzip
 
 ContactWriter ContactWriter::ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip) {
   ContactWriter w;
+  if (file.extension() == ".gsd") {
+    w.gsd_ = gsd::GsdContactWriter::ContinueAt(file, offset);
+    return w;
+  }
   w.file_ = OutputFile(file, offset);
   w.gzip_ = gzip;
   return w;
@@ -51,6 +59,7 @@ void WriteContactBlock(std::FILE* f, const ContactFrame& frame, std::string& t) 
 }  // namespace
 
 void ContactWriter::Write(const ContactFrame& frame) {
+  if (gsd_.is_open()) return gsd_.Write(frame);
   WriteBlock(file_.get(), gzip_, [&](std::FILE* f) { WriteContactBlock(f, frame, text_); });
 }
 
@@ -60,13 +69,19 @@ std::int64_t ContactBytes(const ContactFrame& frame, bool gzip) {
 }
 
 ContactReader::ContactReader(const std::filesystem::path& file)
-    : file_(file), state_(std::make_unique<detail::DumpState>(file)) {}
+    : file_(file) {
+  if (gsd::IsGsdFile(file))
+    gsd_ = std::make_unique<gsd::GsdContactReader>(file);
+  else
+    state_ = std::make_unique<detail::DumpState>(file);
+}
 
 ContactReader::~ContactReader() = default;
 ContactReader::ContactReader(ContactReader&&) noexcept = default;
 ContactReader& ContactReader::operator=(ContactReader&&) noexcept = default;
 
 bool ContactReader::NextHeader(ContactFrame& frame) {
+  if (gsd_) return gsd_->NextHeader(frame);
   detail::DumpState& st = *state_;
   frame.contacts.clear();
   if (st.rows_pending && !detail::SkipDumpRows(st)) return false;
@@ -78,9 +93,10 @@ bool ContactReader::NextHeader(ContactFrame& frame) {
   return true;
 }
 
-bool ContactReader::SkipContacts() { return detail::SkipDumpRows(*state_); }
+bool ContactReader::SkipContacts() { return gsd_ ? gsd_->SkipContacts() : detail::SkipDumpRows(*state_); }
 
 bool ContactReader::ReadContacts(ContactFrame& frame) {
+  if (gsd_) return gsd_->ReadContacts(frame);
   detail::DumpState& st = *state_;
   detail::DumpLines& in = st.lines;
   const detail::DumpHeader& h = st.header;

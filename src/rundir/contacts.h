@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "rundir/files.h"
+#include "rundir/gsd.h"
 
 namespace granary::rundir {
 namespace detail {
@@ -34,18 +35,23 @@ struct ContactFrame {
 class ContactWriter {
  public:
   ContactWriter() = default;
-  // `gzip`: each frame one gzip member (contacts.dump.gz; gzip.h).
+  // `gzip`: each frame one gzip member (contacts.dump.gz; gzip.h). A file named *.gsd is
+  // written as GSD (gsd.h; `gzip` does not apply).
   static ContactWriter Create(const std::filesystem::path& file, bool gzip = false);
   // The file of an interrupted run cut back to `offset` bytes (what its checkpoint recorded).
   static ContactWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip = false);
 
   // Appends one frame; NUMBER OF ENTRIES is frame.contacts.size().
   void Write(const ContactFrame& frame);
-  bool is_open() const { return file_.is_open(); }
-  std::int64_t Offset() { return file_.Offset(); }
-  void Close() { file_.Close(); }
+  bool is_open() const { return gsd_.is_open() || file_.is_open(); }
+  std::int64_t Offset() { return gsd_.is_open() ? gsd_.Offset() : file_.Offset(); }
+  void Close() {
+    gsd_.Close();
+    file_.Close();
+  }
 
  private:
+  gsd::GsdContactWriter gsd_;  // open for a *.gsd file
   OutputFile file_;
   std::string text_;  // rows being formatted (kept: its capacity)
   bool gzip_ = false;
@@ -54,7 +60,7 @@ class ContactWriter {
 // The bytes ContactWriter::Write adds to the file for `frame` (gzipped or not); nothing is written.
 std::int64_t ContactBytes(const ContactFrame& frame, bool gzip);
 
-// Streams a contacts.dump; columns found by name (all ten required). Malformed input throws
+// Streams a contacts.dump (or contacts.dump.gz, or contacts.gsd); columns found by name (all ten required). Malformed input throws
 // ReadError with file:line; a frame cut short at the end of the file ends the stream.
 class ContactReader {
  public:
@@ -70,7 +76,8 @@ class ContactReader {
 
  private:
   std::filesystem::path file_;
-  std::unique_ptr<detail::DumpState> state_;
+  std::unique_ptr<detail::DumpState> state_;  // a text dump
+  std::unique_ptr<gsd::GsdContactReader> gsd_;  // or a GSD file
 };
 
 }  // namespace granary::rundir

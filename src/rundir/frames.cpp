@@ -72,6 +72,10 @@ std::vector<Body> BodiesOf(const std::vector<Disc>& discs) {
 
 FrameWriter FrameWriter::Create(const std::filesystem::path& file, bool gzip) {
   FrameWriter w;
+  if (file.extension() == ".gsd") {
+    w.gsd_ = gsd::GsdFrameWriter::Create(file);
+    return w;
+  }
   w.file_ = OutputFile(file);
   w.gzip_ = gzip;
   // Every engine writes its frames file here, so every run directory gets the data file.
@@ -111,6 +115,10 @@ std::string LammpsDataFile(const Frame& frame) {
 
 FrameWriter FrameWriter::ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip) {
   FrameWriter w;
+  if (file.extension() == ".gsd") {
+    w.gsd_ = gsd::GsdFrameWriter::ContinueAt(file, offset);
+    return w;
+  }
   w.file_ = OutputFile(file, offset);
   w.gzip_ = gzip;
   return w;
@@ -144,6 +152,7 @@ void WriteFrameBlock(std::FILE* f, const Frame& frame, std::string& t) {
 }  // namespace
 
 void FrameWriter::Write(const Frame& frame) {
+  if (gsd_.is_open()) return gsd_.Write(frame);
   if (!data_file_.empty()) {
     WriteAtomically(data_file_, LammpsDataFile(frame));
     data_file_.clear();
@@ -159,13 +168,19 @@ std::int64_t FrameBytes(const Frame& frame, bool gzip) {
 // ---- reader ------------------------------------------------------------------------------
 
 FrameReader::FrameReader(const std::filesystem::path& file, double density)
-    : file_(file), state_(std::make_unique<detail::DumpState>(file)), density_(density) {}
+    : file_(file), density_(density) {
+  if (gsd::IsGsdFile(file))
+    gsd_ = std::make_unique<gsd::GsdFrameReader>(file);
+  else
+    state_ = std::make_unique<detail::DumpState>(file);
+}
 
 FrameReader::~FrameReader() = default;
 FrameReader::FrameReader(FrameReader&&) noexcept = default;
 FrameReader& FrameReader::operator=(FrameReader&&) noexcept = default;
 
 bool FrameReader::NextHeader(Frame& frame) {
+  if (gsd_) return gsd_->NextHeader(frame);
   detail::DumpState& st = *state_;
   frame.discs.clear();
   if (st.rows_pending && !detail::SkipDumpRows(st)) return false;
@@ -177,9 +192,10 @@ bool FrameReader::NextHeader(Frame& frame) {
   return true;
 }
 
-bool FrameReader::SkipDiscs() { return detail::SkipDumpRows(*state_); }
+bool FrameReader::SkipDiscs() { return gsd_ ? gsd_->SkipDiscs() : detail::SkipDumpRows(*state_); }
 
 bool FrameReader::ReadDiscs(Frame& frame) {
+  if (gsd_) return gsd_->ReadDiscs(frame);
   detail::DumpState& st = *state_;
   detail::DumpLines& in = st.lines;
   const detail::DumpHeader& h = st.header;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "rundir/files.h"
+#include "rundir/gsd.h"
 
 namespace granary::rundir {
 namespace detail {
@@ -58,18 +59,23 @@ class FrameWriter {
  public:
   FrameWriter() = default;
   // `gzip`: each frame one gzip member (frames.dump.gz; gzip.h). A run's frames file
-  // (frames.dump, frames.dump.gz) also gets frames.data beside it at its first frame.
+  // (frames.dump, frames.dump.gz) also gets frames.data beside it at its first frame. A file
+  // named *.gsd is written as GSD (gsd.h; `gzip` does not apply).
   static FrameWriter Create(const std::filesystem::path& file, bool gzip = false);
   // The file of an interrupted run cut back to `offset` bytes (what its checkpoint recorded).
   static FrameWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset, bool gzip = false);
 
   // Appends one frame; NUMBER OF ATOMS is frame.discs.size().
   void Write(const Frame& frame);
-  bool is_open() const { return file_.is_open(); }
-  std::int64_t Offset() { return file_.Offset(); }
-  void Close() { file_.Close(); }
+  bool is_open() const { return gsd_.is_open() || file_.is_open(); }
+  std::int64_t Offset() { return gsd_.is_open() ? gsd_.Offset() : file_.Offset(); }
+  void Close() {
+    gsd_.Close();
+    file_.Close();
+  }
 
  private:
+  gsd::GsdFrameWriter gsd_;  // open for a *.gsd file
   OutputFile file_;
   std::string text_;  // rows being formatted (kept: its capacity)
   bool gzip_ = false;
@@ -79,7 +85,7 @@ class FrameWriter {
 // The bytes FrameWriter::Write adds to the file for `frame` (gzipped or not); nothing is written.
 std::int64_t FrameBytes(const Frame& frame, bool gzip);
 
-// Streams a frames.dump (or a frames.dump.gz, told by its magic bytes). Required columns: id mol x y; optional: type radius mass vx vy
+// Streams a frames.dump (or a frames.dump.gz, or a frames.gsd, told by their magic bytes). Required columns: id mol x y; optional: type radius mass vx vy
 // omegaz (missing radius = 0.5, missing mass = density pi r^2, missing velocities = 0).
 // Malformed input throws ReadError with file:line.
 class FrameReader {
@@ -100,7 +106,8 @@ class FrameReader {
 
  private:
   std::filesystem::path file_;
-  std::unique_ptr<detail::DumpState> state_;
+  std::unique_ptr<detail::DumpState> state_;     // a text dump
+  std::unique_ptr<gsd::GsdFrameReader> gsd_;     // or a GSD file
   double density_;
 };
 

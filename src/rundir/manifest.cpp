@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -27,9 +28,9 @@ namespace fs = std::filesystem;
 namespace {
 
 // The files a manifest records, in the order it lists them.
-constexpr const char* kRecorded[] = {kRunSpecFile,   kSummaryFile,     kEventsFile,      kFramesFile,
-                                     kFramesGzFile,  kContactsFile,    kContactsGzFile,  kClogFramesFile,
-                                     kClogContactsFile, kUnclogsFile};
+constexpr const char* kRecorded[] = {kRunSpecFile,     kSummaryFile,     kEventsFile,     kFramesFile,
+                                     kFramesGzFile,    kFramesGsdFile,   kContactsFile,   kContactsGzFile,
+                                     kContactsGsdFile, kClogFramesFile,  kClogContactsFile, kUnclogsFile};
 
 // DIR/analyses/verified.json: the files found equal to their record, by size and mtime, so
 // that a second check hashes only what changed since (manifest.h). Kept beside the cached
@@ -67,13 +68,13 @@ std::int64_t CountOf(const fs::path& dir, const std::string& name, bool lenient 
   try {
     if (name == kEventsFile) return static_cast<std::int64_t>(ReadEvents(file).size());
     if (name == kUnclogsFile) return static_cast<std::int64_t>(ReadUnclogs(file).size());
-    if (name == kFramesFile || name == kFramesGzFile || name == kClogFramesFile) {
+    if (name == kFramesFile || name == kFramesGzFile || name == kFramesGsdFile || name == kClogFramesFile) {
       FrameReader reader(file);
       Frame frame;
       while (reader.NextHeader(frame) && reader.SkipDiscs()) ++n;
       return n;
     }
-    if (name == kContactsFile || name == kContactsGzFile || name == kClogContactsFile) {
+    if (name == kContactsFile || name == kContactsGzFile || name == kContactsGsdFile || name == kClogContactsFile) {
       ContactReader reader(file);
       ContactFrame frame;
       while (reader.NextHeader(frame) && reader.SkipContacts()) ++n;
@@ -109,8 +110,8 @@ nlohmann::json ReadVerified(const fs::path& dir) {
 
 std::string CountNameOf(const std::string& file) {
   if (file == kEventsFile) return "events";
-  if (file == kFramesFile || file == kFramesGzFile) return "frames";
-  if (file == kContactsFile || file == kContactsGzFile) return "contact_frames";
+  if (file == kFramesFile || file == kFramesGzFile || file == kFramesGsdFile) return "frames";
+  if (file == kContactsFile || file == kContactsGzFile || file == kContactsGsdFile) return "contact_frames";
   if (file == kClogFramesFile || file == kClogContactsFile) return "clogs";
   if (file == kUnclogsFile) return "unclog_attempts";
   return "";
@@ -196,10 +197,40 @@ std::optional<Manifest> ReadManifest(const fs::path& dir) {
       m.files[name] = r;
     }
     if (j.contains("counts")) m.counts = j.at("counts").get<std::map<std::string, std::int64_t>>();
+    if (j.contains("dropped"))
+      for (const auto& [name, f] : j.at("dropped").items()) {
+        DroppedFile d;
+        d.record.size = f.at("size").get<std::uint64_t>();
+        d.record.xxh3 = f.at("xxh3").get<std::string>();
+        d.at = f.value("at", "");
+        d.by = f.value("by", "");
+        m.dropped[name] = d;
+      }
   } catch (const nlohmann::json::exception& e) {
     throw ReadError(file.string() + ": " + e.what());
   }
   return m;
+}
+
+void RecordDropped(const fs::path& dir, const std::string& name, const std::string& by) {
+  const fs::path file = dir / kManifestFile;
+  nlohmann::ordered_json j;
+  try {
+    j = nlohmann::ordered_json::parse(ReadWholeFile(file));
+  } catch (const std::exception& e) {
+    throw ReadError(file.string() + ": cannot record " + name + " as dropped: " + e.what());
+  }
+  if (!j.contains("files") || !j["files"].contains(name))
+    throw ReadError(file.string() + ": records no " + name + " to drop");
+  nlohmann::ordered_json record = j["files"][name];
+  j["files"].erase(name);
+  const std::time_t now = std::time(nullptr);
+  char at[32];
+  std::strftime(at, sizeof at, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  record["at"] = at;
+  record["by"] = by;
+  j["dropped"][name] = record;
+  WriteAtomically(file, j.dump(2) + "\n");
 }
 
 const char* IntegrityName(Integrity integrity) {

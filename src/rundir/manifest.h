@@ -31,9 +31,18 @@ struct ManifestFile {
   std::int64_t count = -1;   // frames (dumps), rows (events.csv), clogs (clog files); -1: not counted
 };
 
+// A file removed on purpose after the run (campaign clean --frames): its record as it was,
+// when and by what. Checks no longer look for it; readers say why it is gone.
+struct DroppedFile {
+  ManifestFile record;
+  std::string at;  // UTC, ISO 8601
+  std::string by;  // "campaign clean --frames"
+};
+
 struct Manifest {
   int format = kManifestFormat;
   std::map<std::string, ManifestFile> files;  // by name in the run directory (layout.h)
+  std::map<std::string, DroppedFile> dropped;  // by name: files removed since the run
   // The counts of the files above, by what they count: "frames", "contact_frames", "events", "clogs".
   std::map<std::string, std::int64_t> counts;
 };
@@ -51,6 +60,11 @@ void WriteManifest(const std::filesystem::path& dir);
 // DIR/manifest.json; nothing if absent (a run written before manifests). Throws ReadError if
 // it is present and malformed or of a later format.
 std::optional<Manifest> ReadManifest(const std::filesystem::path& dir);
+
+// Moves the record of DIR/`name` from "files" to "dropped" (with the time and `by`) in
+// DIR/manifest.json, for a file about to be removed on purpose. Throws ReadError if the run
+// has no manifest or it does not record the file.
+void RecordDropped(const std::filesystem::path& dir, const std::string& name, const std::string& by);
 
 // XXH3-64 of a whole file, 16 hex digits; throws ReadError if it cannot be read.
 std::string FileXxh3(const std::filesystem::path& file);

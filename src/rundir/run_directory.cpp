@@ -3,7 +3,9 @@
 
 #include <fstream>
 
+#include "rundir/contacts.h"
 #include "rundir/files.h"
+#include "rundir/frames.h"
 #include "rundir/manifest.h"
 
 namespace granary::rundir {
@@ -67,9 +69,62 @@ RunData ReadRun(const fs::path& dir) {
   if (fs::exists(dir / kEventsFile)) r.events = ReadEvents(dir / kEventsFile);
   r.unclogs = ReadUnclogs(dir / kUnclogsFile);
   r.compressed = !fs::exists(dir / kFramesFile) && fs::exists(dir / kFramesGzFile);
+  r.gsd = !fs::exists(dir / kFramesFile) && !r.compressed &&
+          (fs::exists(dir / kFramesGsdFile) || fs::exists(dir / kContactsGsdFile));
   r.has_frames = fs::exists(r.frames_file());
   r.has_contacts = fs::exists(r.contacts_file());
+  if (!r.has_frames) {
+    std::optional<Manifest> m;
+    try {
+      m = ReadManifest(dir);
+    } catch (const ReadError&) {
+      // A damaged manifest is the integrity check's to report, not this reader's.
+    }
+    for (const char* name : {kFramesFile, kFramesGzFile, kFramesGsdFile})
+      if (m && m->dropped.count(name)) {
+        const DroppedFile& d = m->dropped.at(name);
+        r.frames_dropped = (dir / name).string() + " was removed by " + d.by + " at " + d.at +
+                           " (manifest.json \"dropped\"): the analyses cached before then still report, but one that "
+                           "must read the frames anew (new options, a new analysis or version) cannot; run the run again";
+      }
+  }
   return r;
+}
+
+const char* FramesFileName(const Output& output) {
+  if (output.format == FrameFormat::kGsd) return kFramesGsdFile;
+  return output.compress ? kFramesGzFile : kFramesFile;
+}
+
+const char* ContactsFileName(const Output& output) {
+  if (output.format == FrameFormat::kGsd) return kContactsGsdFile;
+  return output.compress ? kContactsGzFile : kContactsFile;
+}
+
+TextDumps WriteTextDumps(const fs::path& dir, const fs::path& out) {
+  const RunData run = ReadRun(dir);
+  if (!run.has_frames)
+    throw ReadError(run.frames_file().string() + ": no such file (the run writes frames when its spec sets "
+                    "output/frame_interval)");
+  if (fs::exists(out) && fs::equivalent(out, dir))
+    throw ReadError(out.string() + ": is the run directory itself; the text dumps go to another folder");
+  fs::create_directories(out);
+  TextDumps n;
+  {
+    FrameReader in(run.frames_file());
+    FrameWriter w = FrameWriter::Create(out / kFramesFile);
+    for (Frame f; in.Next(f); ++n.frames) w.Write(f);
+    w.Close();
+  }
+  n.bytes = static_cast<std::int64_t>(fs::file_size(out / kFramesFile) + fs::file_size(out / kFramesDataFile));
+  if (run.has_contacts) {
+    ContactReader in(run.contacts_file());
+    ContactWriter w = ContactWriter::Create(out / kContactsFile);
+    for (ContactFrame c; in.Next(c); ++n.contact_frames) w.Write(c);
+    w.Close();
+    n.bytes += static_cast<std::int64_t>(fs::file_size(out / kContactsFile));
+  }
+  return n;
 }
 
 }  // namespace granary::rundir

@@ -31,6 +31,10 @@ RunSpec ReadRunSpec(const std::filesystem::path& dir);
 void WriteDone(const std::filesystem::path& dir, const std::string& end_reason);
 bool IsDone(const std::filesystem::path& dir);
 
+// The names of the frames and contact-frame files an engine writes for these options.
+const char* FramesFileName(const Output& output);
+const char* ContactsFileName(const Output& output);
+
 // What a run directory holds, read eagerly except the dumps.
 struct RunData {
   std::filesystem::path dir;
@@ -43,10 +47,28 @@ struct RunData {
   bool has_frames = false;
   bool has_contacts = false;
   bool compressed = false;         // frames.dump.gz / contacts.dump.gz (output.compress)
-  std::filesystem::path frames_file() const { return dir / (compressed ? kFramesGzFile : kFramesFile); }
-  std::filesystem::path contacts_file() const { return dir / (compressed ? kContactsGzFile : kContactsFile); }
+  bool gsd = false;                // frames.gsd / contacts.gsd (output.format "gsd")
+  // Why the frames are gone, when campaign clean --frames removed them (manifest.json
+  // "dropped"): a sentence for the error of an analysis that would need them; "" otherwise.
+  std::string frames_dropped;
+  std::filesystem::path frames_file() const {
+    return dir / (gsd ? kFramesGsdFile : compressed ? kFramesGzFile : kFramesFile);
+  }
+  std::filesystem::path contacts_file() const {
+    return dir / (gsd ? kContactsGsdFile : compressed ? kContactsGzFile : kContactsFile);
+  }
 };
 // Throws ReadError if the directory does not exist or a present file is malformed.
 RunData ReadRun(const std::filesystem::path& dir);
+
+// The frames and contact frames of the run in `dir` (any format) written as LAMMPS text dumps
+// into `out` (created): frames.dump with its frames.data, and contacts.dump if the run has
+// contact frames, for LAMMPS' read_dump/rerun and other tools that read no GSD. `out` must
+// not be `dir` (a run directory holds one frames file). Throws ReadError if the run has no
+// frames.
+struct TextDumps {
+  std::int64_t frames = 0, contact_frames = 0, bytes = 0;
+};
+TextDumps WriteTextDumps(const std::filesystem::path& dir, const std::filesystem::path& out);
 
 }  // namespace granary::rundir

@@ -255,6 +255,8 @@ constexpr std::initializer_list<std::pair<const char*, DischargeMode>> kModes = 
     {"remove", DischargeMode::kRemove}, {"reinject", DischargeMode::kReinject}};
 constexpr std::initializer_list<std::pair<const char*, ReinjectPosition>> kReinjectPositions = {
     {"random", ReinjectPosition::kRandom}, {"periodic", ReinjectPosition::kPeriodic}};
+constexpr std::initializer_list<std::pair<const char*, FrameFormat>> kFrameFormats = {
+    {"text", FrameFormat::kText}, {"gsd", FrameFormat::kGsd}};
 constexpr std::initializer_list<std::pair<const char*, OnClog>> kOnClogs = {
     {"stop", OnClog::kStop}, {"wait", OnClog::kWait}, {"unclog", OnClog::kUnclog}};
 constexpr std::initializer_list<std::pair<const char*, UnclogMethod>> kUnclogMethods = {
@@ -389,7 +391,11 @@ SpecTable MakeRunSpecTable() {
       plain("/output", T::kObject, nullptr, "what the engine writes"),
       number("/output/frame_interval", 0.0, non_negative, "time between frames (0 = no frames)"),
       plain("/output/contact_forces", T::kBoolean, false, "also contact-force frames"),
-      plain("/output/compress", T::kBoolean, false, "gzip the frames"),
+      integer("/output/contact_interval", 1, 1, "contact-force frames at every k-th frame only"),
+      plain("/output/compress", T::kBoolean, false, "gzip the frames (text format)"),
+      enumeration("/output/format", "text", names(kFrameFormats),
+                  "text: LAMMPS text dumps (frames.dump, contacts.dump); gsd: GSD, HOOMD's binary format "
+                  "(frames.gsd, contacts.gsd), about a tenth of the bytes"),
       number("/output/checkpoint_interval", 10.0, non_negative, "time between checkpoints (0 = none)"),
   });
 }
@@ -526,6 +532,12 @@ std::string to_string(ReinjectPosition position) {
   }
   return "?";
 }
+std::string to_string(FrameFormat format) {
+  for (const auto& [name, value] : kFrameFormats) {
+    if (value == format) return name;
+  }
+  return "?";
+}
 std::string to_string(NextBatch next) {
   for (const auto& [name, value] : kNextBatches) {
     if (value == next) return name;
@@ -633,7 +645,9 @@ RunSpec RunSpec::from_json(const json& j) {
     Reader o(r.At("output"), "/output");
     o.Number("frame_interval", s.output.frame_interval);
     o.Bool("contact_forces", s.output.contact_forces);
+    o.Integer("contact_interval", s.output.contact_interval);
     o.Bool("compress", s.output.compress);
+    o.Enum("format", s.output.format, kFrameFormats);
     o.Number("checkpoint_interval", s.output.checkpoint_interval);
   }
   validate(s);
@@ -786,6 +800,13 @@ void validate(const RunSpec& s) {
 
   CheckBounds("/output/frame_interval", s.output.frame_interval);
   CheckBounds("/output/checkpoint_interval", s.output.checkpoint_interval);
+  CheckBounds("/output/contact_interval", s.output.contact_interval);
+  // Said, but not used: never silently.
+  if (s.output.compress && s.output.format == FrameFormat::kGsd)
+    throw SpecError("/output/compress", "gzips text dumps; GSD frames are binary already (got true with format \"gsd\")");
+  if (s.output.contact_interval != 1 && !s.output.contact_forces)
+    throw SpecError("/output/contact_interval", "applies only with /output/contact_forces true (got " +
+                                                    std::to_string(s.output.contact_interval) + ")");
 
   if (s.bed.settled_by == BedSettler::kLammps && s.engine != "lammps")
     throw SpecError("/bed/settled_by", "only the LAMMPS backend settles its bed in LAMMPS; the " + s.engine +
@@ -795,7 +816,21 @@ void validate(const RunSpec& s) {
   if (s.engine == "lammps") validate_for_lammps(s);
 }
 
+namespace {
+// The external engines' frames are converted to text dumps; GSD and the contact interval are
+// the native engine's for now.
+void ValidateExternalOutput(const RunSpec& s, const std::string& backend) {
+  if (s.output.format != FrameFormat::kText)
+    throw SpecError("/output/format", "the " + backend + " backend writes text dumps only (got \"" +
+                                          to_string(s.output.format) + "\", allowed: \"text\")");
+  if (s.output.contact_interval != 1)
+    throw SpecError("/output/contact_interval", "the " + backend + " backend writes a contact frame at every frame (got " +
+                                                    std::to_string(s.output.contact_interval) + ", allowed: 1)");
+}
+}  // namespace
+
 void validate_for_lammps(const RunSpec& s) {
+  ValidateExternalOutput(s, "LAMMPS");
   if (s.discharge.on_clog == OnClog::kUnclog)
     throw SpecError("/discharge/on_clog",
                     "the LAMMPS backend cannot break a clog yet: it runs one LAMMPS input to the end, with no step "
@@ -815,6 +850,7 @@ void validate_for_lammps(const RunSpec& s) {
 }
 
 void validate_for_liggghts(const RunSpec& s) {
+  ValidateExternalOutput(s, "LIGGGHTS");
   if (s.discharge.on_clog == OnClog::kUnclog)
     throw SpecError("/discharge/on_clog",
                     "the LIGGGHTS backend cannot break a clog: it runs LIGGGHTS' input script to the end, with no "
@@ -911,6 +947,9 @@ json RunSpec::to_json() const {
   if (discharge.periodic_headroom != Discharge{}.periodic_headroom)
     out["discharge"]["periodic_headroom"] = discharge.periodic_headroom;
   if (output.compress) out["output"]["compress"] = true;
+  // Only when not the default, so that run ids planned before these options existed stay valid.
+  if (output.format != FrameFormat::kText) out["output"]["format"] = to_string(output.format);
+  if (output.contact_interval != 1) out["output"]["contact_interval"] = output.contact_interval;
   // The unclog protocol only when chosen (stop and wait are stop_on_clog true and false), so
   // run ids planned before it existed stay valid.
   if (discharge.on_clog == OnClog::kUnclog) {

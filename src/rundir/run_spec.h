@@ -146,10 +146,16 @@ struct Discharge {
   double exit_distance = 2.0;      // a body has left when its centre is this far past the outlet plane
 };
 
+// How frames and contact frames are written: LAMMPS text dumps (frames.dump, contacts.dump,
+// gzipped with output.compress) or GSD (frames.gsd, contacts.gsd; docs/run-directory.md).
+enum class FrameFormat { kText, kGsd };
+
 struct Output {
   double frame_interval = 0.0;     // simulated time between frames (0 = no frames)
   bool contact_forces = false;     // also write contact-force frames at frame_interval
+  int contact_interval = 1;        // ... at every contact_interval-th frame only
   bool compress = false;           // frames.dump.gz, contacts.dump.gz instead of frames.dump, contacts.dump
+  FrameFormat format = FrameFormat::kText;
   double checkpoint_interval = 10.0;  // simulated time between checkpoints (0 = none)
 };
 
@@ -222,6 +228,7 @@ std::size_t edit_distance(const std::string& a, const std::string& b);
 std::string to_string(Shape shape);
 std::string to_string(DischargeMode mode);
 std::string to_string(ReinjectPosition position);
+std::string to_string(FrameFormat format);
 std::string to_string(TangentialCap cap);
 std::string to_string(NextBatch next);
 std::string to_string(BedSettler settler);

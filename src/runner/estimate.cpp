@@ -10,6 +10,7 @@
 #include <set>
 
 #include "rundir/contacts.h"
+#include "rundir/gsd.h"
 #include "rundir/frames.h"
 #include "rundir/shape_table.h"
 
@@ -84,23 +85,31 @@ std::vector<rundir::Disc> SampleDiscs(const RunSpec& spec, double discs, double 
   return out;
 }
 
-RowBytes FrameRowBytes(const RunSpec& spec, double discs, double bodies, bool gzip) {
+RowBytes FrameRowBytes(const RunSpec& spec, double discs, double bodies, const Output& o) {
+  const bool gzip = o.compress;
+  auto bytes = [&](const rundir::Frame& f) {
+    return static_cast<double>(o.format == FrameFormat::kGsd ? rundir::gsd::GsdFrameBytes(f) : rundir::FrameBytes(f, gzip));
+  };
   rundir::Frame f;
   const double h = std::max(10.0, discs / spec.silo.width);
   f.box[0][0] = -spec.silo.width / 2 - 4;
   f.box[0][1] = spec.silo.width / 2 + 4;
   f.box[1][0] = -7;
   f.box[1][1] = 1.2 * h + 4;
-  const double header = static_cast<double>(rundir::FrameBytes(f, gzip));
+  const double header = bytes(f);
   f.discs = SampleDiscs(spec, discs, bodies);
-  return {header, (static_cast<double>(rundir::FrameBytes(f, gzip)) - header) / static_cast<double>(f.discs.size())};
+  return {header, (bytes(f) - header) / static_cast<double>(f.discs.size())};
 }
 
 // Per contact row: the engine lists a disc's contacts one after another (its centre repeated
 // on each row), `per_disc` of them per disc on average.
-RowBytes ContactRowBytes(const RunSpec& spec, double discs, double bodies, double per_disc, bool gzip) {
+RowBytes ContactRowBytes(const RunSpec& spec, double discs, double bodies, double per_disc, const Output& out) {
+  auto bytes = [&](const rundir::ContactFrame& f) {
+    return static_cast<double>(out.format == FrameFormat::kGsd ? rundir::gsd::GsdContactBytes(f)
+                                                               : rundir::ContactBytes(f, out.compress));
+  };
   rundir::ContactFrame f;
-  const double header = static_cast<double>(rundir::ContactBytes(f, gzip));
+  const double header = bytes(f);
   Lcg rng;
   const std::vector<rundir::Disc> sample = SampleDiscs(spec, discs, bodies);
   double owed = 0.0;
@@ -124,7 +133,7 @@ RowBytes ContactRowBytes(const RunSpec& spec, double discs, double bodies, doubl
     }
   }
   if (f.contacts.empty()) return {header, 0.0};
-  return {header, (static_cast<double>(rundir::ContactBytes(f, gzip)) - header) / static_cast<double>(f.contacts.size())};
+  return {header, (bytes(f) - header) / static_cast<double>(f.contacts.size())};
 }
 
 }  // namespace
@@ -233,19 +242,31 @@ RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepa
   const double contacts_per_disc =
       e.discs > 0 ? (lone_discs * m.contacts_per_lone_disc + clump_discs * m.contacts_per_clump_disc) / e.discs : 0.0;
   const std::string memo_key = json{{"bodies", spec.to_json()["bodies"]}, {"width", spec.silo.width}, {"gz", o.compress},
-                                    {"contacts", contacts}}.dump();
+                                    {"format", to_string(o.format)}, {"contacts", contacts}}.dump();
   auto found = memo.find(memo_key);
   if (found == memo.end() && o.frame_interval > 0) {
-    found = memo.emplace(memo_key, std::pair{FrameRowBytes(spec, e.discs, e.bodies, o.compress),
-                                             contacts ? ContactRowBytes(spec, e.discs, e.bodies, contacts_per_disc, o.compress) : RowBytes{}})
+    found = memo.emplace(memo_key, std::pair{FrameRowBytes(spec, e.discs, e.bodies, o),
+                                             contacts ? ContactRowBytes(spec, e.discs, e.bodies, contacts_per_disc, o) : RowBytes{}})
                 .first;
   }
   const RowBytes fr = o.frame_interval > 0 ? found->second.first : RowBytes{};
   const RowBytes cr = contacts ? found->second.second : RowBytes{};
+  // A contact frame with every contact_interval-th frame: its share per frame.
+  const double contact_share = 1.0 / o.contact_interval;
   auto frame_bytes = [&](double discs) {
-    return fr.header + fr.row * discs + (contacts ? cr.header + cr.row * contacts_per_disc * discs : 0.0);
+    return fr.header + fr.row * discs + (contacts ? contact_share * (cr.header + cr.row * contacts_per_disc * discs) : 0.0);
   };
   e.frame_bytes = o.frame_interval > 0 ? frame_bytes(e.discs) : 0.0;
+  // GSD: frame 0's per-disc constants, and each file's header, name list and outgrown index blocks.
+  auto gsd_once = [&](double frames, double discs) {
+    if (o.format != FrameFormat::kGsd || frames <= 0) return 0.0;
+    const double contact_frames = std::floor((frames - 1) / o.contact_interval) + 1;
+    return rundir::gsd::kGsdConstantBytesPerDisc * discs +
+           static_cast<double>(rundir::gsd::GsdOverheadBytes(static_cast<std::uint64_t>(frames * rundir::gsd::kGsdFrameEntries))) +
+           (contacts ? static_cast<double>(rundir::gsd::GsdOverheadBytes(
+                           static_cast<std::uint64_t>(contact_frames * rundir::gsd::kGsdContactEntries)))
+                     : 0.0);
+  };
   // Checkpoint: per body its template, state and 11 doubles; per disc about 1.5 history
   // entries of 24 bytes; the spec; the last two are kept.
   const double checkpoint = 2.0 * (93.0 * e.bodies + 36.0 * e.discs + 4096.0);
@@ -253,7 +274,8 @@ RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepa
   auto bytes_for = [&](double sim, const Span& s) {
     const double exits = removing ? std::min(e.bodies, q * sim) : q * sim;
     const double checkpoints = o.checkpoint_interval > 0 && sim >= o.checkpoint_interval ? checkpoint : 0.0;
-    return frames_in(sim) * frame_bytes(s.mean_discs) + checkpoints + kEventRow * exits + kSmallFiles;
+    return frames_in(sim) * frame_bytes(s.mean_discs) + gsd_once(frames_in(sim), e.discs) + checkpoints +
+           kEventRow * exits + kSmallFiles;
   };
   e.bytes_low = bytes_for(e.sim_low, low);
   e.bytes_high = bytes_for(e.sim_high, high);

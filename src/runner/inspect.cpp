@@ -149,11 +149,38 @@ bool IsLockName(const fs::path& p) {
 
 }  // namespace
 
-std::vector<CleanItem> plan_clean(Store& store, const CleanOptions& o) {
+std::vector<std::string> cached_analyses(const fs::path& run_dir) {
+  std::vector<std::string> keys;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(run_dir / rundir::kAnalysesDir, ec)) {
+    const fs::path p = e.path();
+    if (p.extension() != ".json" || p.filename() == "verified.json") continue;
+    if (rundir::ReadCachedResult(run_dir, p.stem().string())) keys.push_back(p.stem().string());
+  }
+  std::sort(keys.begin(), keys.end());
+  return keys;
+}
+
+std::vector<CleanItem> plan_clean(Store& store, const CleanOptions& o, std::vector<std::string>* frames_kept) {
   std::vector<CleanItem> items;
   const std::vector<RunRow> runs = load_runs(store, true);
   std::error_code ec;
   for (const RunRow& r : runs) {
+    // Frames of done runs once their analyses are cached: what the report reads from then on.
+    if (o.frames && r.state == RunState::kDone && fs::is_directory(r.run_dir, ec)) {
+      std::vector<CleanItem> files;
+      for (const char* name : {rundir::kFramesFile, rundir::kFramesGzFile, rundir::kFramesGsdFile, rundir::kFramesDataFile,
+                               rundir::kContactsFile, rundir::kContactsGzFile, rundir::kContactsGsdFile})
+        if (fs::exists(fs::path(r.run_dir) / name, ec))
+          files.push_back({"frames", fs::path(r.run_dir) / name, r.run_id, disk_bytes(fs::path(r.run_dir) / name)});
+      std::string kept;
+      if (files.empty()) continue;
+      if (cached_analyses(r.run_dir).empty()) kept = "no analysis of it is cached yet (campaign report first)";
+      else if (!fs::exists(fs::path(r.run_dir) / rundir::kManifestFile, ec))
+        kept = "written before manifests: nothing would record that its frames were removed on purpose";
+      if (kept.empty()) items.insert(items.end(), files.begin(), files.end());
+      else if (frames_kept) frames_kept->push_back(r.run_id + ": " + kept);
+    }
     const bool dir = fs::is_directory(r.run_dir, ec);
     if (dir && ((o.retired && r.state == RunState::kRetired) || (o.failed && r.state == RunState::kFailed)))
       items.push_back({to_string(r.state), r.run_dir, r.run_id, disk_bytes(r.run_dir)});
@@ -192,6 +219,14 @@ std::uintmax_t execute_clean(Store& store, const std::vector<CleanItem>& items) 
   for (const CleanItem& it : items) {
     std::error_code ec;
     const std::uintmax_t bytes = disk_bytes(it.path);
+    if (it.kind == "frames") {
+      // Recorded first: a file gone without its record would read as damage. frames.data is
+      // not in the manifest (it is derived from the first frame).
+      const fs::path dir = it.path.parent_path();
+      const auto m = rundir::ReadManifest(dir);
+      if (m && m->files.count(it.path.filename().string()))
+        rundir::RecordDropped(dir, it.path.filename().string(), "campaign clean --frames");
+    }
     fs::remove_all(it.path, ec);
     if (ec) continue;
     freed += bytes;

@@ -29,21 +29,28 @@ struct CleanOptions {
   bool failed = false;   // directories of failed runs (they start afresh when run again)
   bool beds = false;     // cached beds only this campaign's finished or retired runs use
   bool locks = true;     // lock files nobody holds (bed cache, run directories of runs not running)
+  bool frames = false;   // frames and contact frames of done runs whose analyses are cached
   std::string cache_dir; // the prepared-bed cache
 };
 
 struct CleanItem {
-  std::string kind;      // "retired", "failed", "bed", "lock"
+  std::string kind;      // "retired", "failed", "bed", "lock", "frames"
   std::filesystem::path path;
   std::string run_id;    // for run directories
   std::uintmax_t bytes = 0;
 };
 
-// What clean would remove (nothing is touched).
-std::vector<CleanItem> plan_clean(Store& store, const CleanOptions& options);
+// What clean would remove (nothing is touched). `frames_kept`, if given, gets the done runs
+// whose frames --frames keeps, as "RUN_ID: why" (no analysis cached yet; no manifest).
+std::vector<CleanItem> plan_clean(Store& store, const CleanOptions& options,
+                                  std::vector<std::string>* frames_kept = nullptr);
+
+// The analyses cached in a run directory (DIR/analyses/<key>.json), by key.
+std::vector<std::string> cached_analyses(const std::filesystem::path& run_dir);
 
 // Removes the items; a retired run's results are forgotten (forget_retired_results) so that a
-// later plan that brings it back runs it again. Returns the bytes freed.
+// later plan that brings it back runs it again; a dropped frames file is recorded in its run's
+// manifest.json ("dropped", rundir::RecordDropped). Returns the bytes freed.
 std::uintmax_t execute_clean(Store& store, const std::vector<CleanItem>& items);
 
 }  // namespace granary::runner

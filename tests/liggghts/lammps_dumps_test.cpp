@@ -9,6 +9,7 @@
 // (read_dump takes per-atom dumps only), so its rows are checked against LAMMPS' own.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <boost/process.hpp>
 #include <cmath>
 #include <cstdlib>
@@ -128,7 +129,7 @@ void RerunInLammps(const fs::path& dir, const std::string& frames, int types) {
   ASSERT_EQ(c.exit_code(), 0) << all;
 }
 
-fs::path MakeRun(const std::string& engine, const std::string& name, bool compress = false) {
+fs::path MakeRun(const std::string& engine, const std::string& name, bool compress = false, const char* format = "text") {
   const fs::path dir = kTmp / name;
   fs::remove_all(dir);
   fs::create_directories(dir);
@@ -142,7 +143,8 @@ fs::path MakeRun(const std::string& engine, const std::string& name, bool compre
                     {"species", {{{"shape", "disc"}, {"fraction", 0.5}}, {{"shape", "dumbbell"}, {"fraction", 0.5}}}}}},
                   {"bed", {{"settle_ke_per_body", 1e-5}, {"max_settle_time", 20}, {"cache_file", (kTmp / "beds_lammps" / "bed.json").string()}}},
                   {"discharge", {{"mode", "remove"}, {"max_time", 4}, {"clog_window", 3}}},
-                  {"output", {{"checkpoint_interval", 0}, {"frame_interval", 0.5}, {"contact_forces", true}, {"compress", compress}}}};
+                  {"output", {{"checkpoint_interval", 0}, {"frame_interval", 0.5}, {"contact_forces", true}, {"compress", compress},
+                              {"format", format}}}};
   std::ofstream(dir / "run.json") << j.dump(2);
   return dir;
 }
@@ -267,6 +269,37 @@ TEST(LammpsReadsTheDumps, OfTheNativeEngineCompressed) {
   if (::testing::Test::HasFatalFailure()) return;
   ASSERT_TRUE(fs::exists(dir / "frames.dump.gz"));
   LammpsReadsTheRun(dir, 1e-9);
+}
+
+// output.format "gsd": LAMMPS reads no GSD; `campaign dump` (WriteTextDumps) writes the text
+// dumps that it reruns, holding the GSD frames' discs to the text format's ten digits.
+TEST(LammpsReadsTheDumps, OfTheNativeEngineAsGsdAfterCampaignDump) {
+  const fs::path dir = MakeRun("native", "lammps_native_gsd", false, "gsd");
+  RunEngine(GRANARY_ENGINE_EXE, dir);
+  if (::testing::Test::HasFatalFailure()) return;
+  ASSERT_TRUE(fs::exists(dir / "frames.gsd"));
+  ASSERT_FALSE(fs::exists(dir / "frames.dump"));
+  const fs::path text = kTmp / "lammps_native_gsd_text";
+  fs::remove_all(text);
+  const TextDumps n = WriteTextDumps(dir, text);
+  EXPECT_GE(n.frames, 5);
+  EXPECT_EQ(n.contact_frames, n.frames);
+  EXPECT_TRUE(fs::exists(text / "frames.data"));
+  LammpsReadsTheRun(text, 1e-9);
+  FrameReader gsd(dir / "frames.gsd"), dump(text / "frames.dump");
+  int frames = 0;
+  for (Frame g, t; gsd.Next(g); ++frames) {
+    ASSERT_TRUE(dump.Next(t));
+    EXPECT_EQ(t.timestep, g.timestep);
+    ASSERT_EQ(t.discs.size(), g.discs.size());
+    for (std::size_t i = 0; i < g.discs.size(); ++i) {
+      EXPECT_EQ(t.discs[i].id, g.discs[i].id);
+      EXPECT_EQ(t.discs[i].mol, g.discs[i].mol);
+      EXPECT_NEAR(t.discs[i].x, g.discs[i].x, 1e-9 * std::max(1.0, std::abs(g.discs[i].x)));
+      EXPECT_NEAR(t.discs[i].vy, g.discs[i].vy, 1e-9 * std::max(1.0, std::abs(g.discs[i].vy)));
+    }
+  }
+  EXPECT_EQ(frames, n.frames);
 }
 
 // frames.data (docs/run-directory.md): LAMMPS reads it and reruns frames.dump with the docs'

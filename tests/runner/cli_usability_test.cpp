@@ -436,7 +436,7 @@ TEST_F(CliUsability, EveryVerbOfTheTableHasHelpFlagsAndCompletion) {
   ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4]", "[0.5]", 1))).code, 0);
   const std::string id = Status()["runs"][0]["run_id"];
   const std::map<std::string, std::string> operand = {
-      {"plan", "__files__\n"}, {"compare", "__files__\n"}, {"completion", "bash\n"}, {"show", id + "\n"},
+      {"plan", "__files__\n"}, {"compare", "__files__\n"}, {"dump", "__files__\n"}, {"completion", "bash\n"}, {"show", id + "\n"},
       {"snapshot", id + "\n"}, {"movie", id + "\n"},         {"status", ""},           {"run", ""}};
   for (const auto& [v, expected] : operand)
     EXPECT_EQ(Sh(testing::Campaign() + " __complete 4 campaign " + v + " --db " + Db() + " ''").output, expected) << v;

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "test_util.h"
 
@@ -82,7 +83,10 @@ TEST_F(CostTest, EstimatesMatchWhatTinyCampaignsOfEachShapeAndModeTake) {
       Tiny("discs", disc, "reinject", 8, {{"frame_interval", 0.25}}),
       Tiny("dumbbells", dumbbell, "reinject", 6, {{"frame_interval", 0.25}, {"contact_forces", true}}),
       Tiny("mixture", mixture, "reinject", 6, {{"frame_interval", 0.25}, {"compress", true}, {"contact_forces", true}}),
-      Tiny("remove", dumbbell, "remove", 60, {{"frame_interval", 0.5}})};
+      Tiny("remove", dumbbell, "remove", 60, {{"frame_interval", 0.5}}),
+      // output.format "gsd": the estimator counts GSD's bytes, contact frames every 2nd frame.
+      Tiny("gsd", mixture, "reinject", 6,
+           {{"frame_interval", 0.25}, {"format", "gsd"}, {"contact_forces", true}, {"contact_interval", 2}})};
   for (const json& spec : specs) {
     const std::string name = spec["name"];
     const std::string db = name + ".db";
@@ -185,6 +189,77 @@ TEST_F(CostTest, ARaisedMaxTimeContinuesEachRunWithTheBitsOfARunPlannedWithIt) {
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_TRUE(json::parse(r.output)["extended"].empty()) << r.output;
   EXPECT_EQ(json::parse(r.output)["retired"], 2);
+}
+
+// campaign clean --frames on a tiny campaign of the real engine (GSD frames): after a report
+// has cached the analyses, the frames go, the manifests say so, the report gives the same
+// numbers from the cache, the runs stay whole; an analysis that must read the frames anew
+// fails that run with a sentence that says why.
+TEST_F(CostTest, CleanFramesDropsAnalysedFramesAndTheReportKeepsItsNumbers) {
+  if (!fs::exists(engine_)) GTEST_SKIP() << "granary-engine not built";
+#ifndef GRANARY_HAVE_ANALYSIS
+  GTEST_SKIP() << "built without the analyses";
+#else
+  json spec = Tiny("clean", json::array({{{"shape", "dumbbell"}}}), "reinject", 3,
+                   {{"frame_interval", 0.25}, {"format", "gsd"}, {"contact_forces", true}});
+  spec["base"]["bodies"]["count"] = 120;
+  ASSERT_EQ(Sh(Cmd("c.db", "plan " + Write("clean", spec))).code, 0);
+  auto r = Sh(Cmd("c.db", "run --jobs 2"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const json status = json::parse(Sh(Quiet(Cmd("c.db", "status --json"))).output);
+  std::vector<fs::path> dirs;
+  for (const auto& run : status["runs"]) dirs.push_back(run["run_dir"].get<std::string>());
+  ASSERT_EQ(dirs.size(), 2u);
+  for (const fs::path& d : dirs) ASSERT_TRUE(fs::exists(d / "frames.gsd") && fs::exists(d / "contacts.gsd")) << d;
+
+  // Before any report nothing is cached: --frames keeps every run's frames and says why.
+  r = Sh(Quiet(Cmd("c.db", "clean --frames --dry-run --json")));
+  ASSERT_EQ(r.code, 0) << r.output;
+  json j = json::parse(r.output);
+  EXPECT_TRUE(j["items"].empty()) << j.dump();
+  ASSERT_EQ(j["frames_kept"].size(), 2u) << j.dump();
+  EXPECT_NE(j["frames_kept"][0].get<std::string>().find("no analysis of it is cached yet"), std::string::npos);
+
+  r = Sh(Quiet(Cmd("c.db", "export --format json")));
+  ASSERT_EQ(r.code, 0) << r.output;
+  const json before = json::parse(r.output);
+  // The dry run lists the frames files, removes nothing.
+  r = Sh(Quiet(Cmd("c.db", "clean --frames --dry-run --json")));
+  j = json::parse(r.output);
+  EXPECT_TRUE(j["dry_run"].get<bool>());
+  std::uintmax_t listed = 0;
+  for (const auto& it : j["items"]) {
+    EXPECT_EQ(it["kind"], "frames");
+    EXPECT_TRUE(fs::exists(it["path"].get<std::string>()));
+    listed += it["bytes"].get<std::uintmax_t>();
+  }
+  EXPECT_EQ(j["items"].size(), 4u) << j.dump();  // frames.gsd and contacts.gsd of each run
+  r = Sh(Cmd("c.db", "clean --frames"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("frames of analysed runs"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("no longer computable for them"), std::string::npos) << r.output;
+  for (const fs::path& d : dirs) {
+    EXPECT_FALSE(fs::exists(d / "frames.gsd"));
+    EXPECT_FALSE(fs::exists(d / "contacts.gsd"));
+    const json m = json::parse(ReadFile(d / "manifest.json"));
+    EXPECT_TRUE(m["dropped"].contains("frames.gsd")) << m.dump();
+    EXPECT_EQ(m["dropped"]["frames.gsd"]["by"], "campaign clean --frames");
+    EXPECT_FALSE(m["files"].contains("frames.gsd"));
+  }
+  // Whole, and the same numbers from the cache.
+  r = Sh(Cmd("c.db", "scan --verify"));
+  EXPECT_EQ(r.output.find("damaged"), std::string::npos) << r.output;
+  r = Sh(Quiet(Cmd("c.db", "export --format json")));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(json::parse(r.output), before);
+
+  // A cached result gone (as after a new analysis version): that run cannot be analysed anew.
+  for (const auto& e : fs::directory_iterator(dirs[0] / "analyses"))
+    if (e.path().filename() != "verified.json") fs::remove(e.path());
+  r = Sh(Cmd("c.db", "report --no-figures --out " + (dir_ / "rep").string()));
+  EXPECT_NE(r.output.find("was removed by campaign clean --frames"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("run the run again"), std::string::npos) << r.output;
+#endif
 }
 
 // The bed the engine measured is in summary.json and in `campaign show`.

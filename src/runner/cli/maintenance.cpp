@@ -113,7 +113,7 @@ int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream& 
 }
 
 const char kCleanHelp[] =
-    "usage: campaign clean [--retired] [--failed] [--beds] [--locks] [--dry-run] [--db FILE] [--json]\n"
+    "usage: campaign clean [--retired] [--failed] [--beds] [--locks] [--frames] [--dry-run] [--db FILE] [--json]\n"
     "Give disk space back: remove the directories of retired runs (no longer in the spec), lock\n"
     "files nobody holds and, when asked, failed runs' directories and cached beds. Says what it\n"
     "removed and how much space that freed. Without a choice: --retired --locks.\n"
@@ -122,6 +122,9 @@ const char kCleanHelp[] =
     "  --beds     cached beds that only this campaign's done or retired runs use (other campaigns'\n"
     "             beds are never touched; a bed needed again is prepared again)\n"
     "  --locks    lock files (bed cache, run directories of runs not running) that nobody holds\n"
+    "  --frames   frames and contact frames of done runs whose analyses are cached (campaign report\n"
+    "             first); recorded in each run's manifest.json. The cached results still report;\n"
+    "             an analysis not cached then (new options, new analysis) needs the run run again\n"
     "  --dry-run  say what would be removed and how much it would free; remove nothing\n"
     "Never touches done, planned, running or interrupted runs' directories.\n"
     "Exit: 0, 2 usage error, 3 storage error.\n";
@@ -133,11 +136,12 @@ int Clean(const std::vector<std::string>& argv, std::ostream& out, std::ostream&
   const auto opened = OpenCampaignDb(db, "clean");
   Store& store = *opened;
   CleanOptions o;
-  const bool chosen = a.has("retired") || a.has("failed") || a.has("beds") || a.has("locks");
+  const bool chosen = a.has("retired") || a.has("failed") || a.has("beds") || a.has("locks") || a.has("frames");
   o.retired = !chosen || a.has("retired");
   o.locks = !chosen || a.has("locks");
   o.failed = a.has("failed");
   o.beds = a.has("beds");
+  o.frames = a.has("frames");
   o.cache_dir = default_cache_dir();
   // A running runner may be writing into failed runs' directories (retries).
   if (o.failed)
@@ -145,7 +149,8 @@ int Clean(const std::vector<std::string>& argv, std::ostream& out, std::ostream&
       if (r.state == RunState::kRunning && !lease_expired(r, this_process_holder().host, now_seconds()))
         throw UsageError("campaign clean --failed: a campaign run is running on " + db +
                          " (it retries failed runs); clean when it has finished");
-  const std::vector<CleanItem> items = plan_clean(store, o);
+  std::vector<std::string> frames_kept;
+  const std::vector<CleanItem> items = plan_clean(store, o, &frames_kept);
   const bool dry = a.has("dry-run");
   std::map<std::string, std::pair<int, std::uintmax_t>> by_kind;
   std::uintmax_t total = 0;
@@ -159,21 +164,38 @@ int Clean(const std::vector<std::string>& argv, std::ostream& out, std::ostream&
     json list = json::array();
     for (const CleanItem& it : items)
       list.push_back({{"kind", it.kind}, {"path", it.path.string()}, {"run_id", it.run_id}, {"bytes", it.bytes}});
-    out << json{{"dry_run", dry}, {"items", list}, {"bytes", total}, {"freed_bytes", freed}}.dump(2) << "\n";
+    json j = {{"dry_run", dry}, {"items", list}, {"bytes", total}, {"freed_bytes", freed}};
+    if (o.frames) j["frames_kept"] = frames_kept;
+    out << j.dump(2) << "\n";
     return 0;
   }
   out << "campaign clean" << (dry ? " (dry run: nothing removed)" : "") << "\n";
   const std::pair<const char*, const char*> kinds[] = {{"retired", "retired runs' directories"},
                                                        {"failed", "failed runs' directories"},
                                                        {"bed", "cached beds"},
-                                                       {"lock", "lock files nobody holds"}};
+                                                       {"lock", "lock files nobody holds"},
+                                                       {"frames", "frames of analysed runs"}};
   for (const auto& [kind, label] : kinds) {
     const bool asked = (std::string(kind) == "retired" && o.retired) || (std::string(kind) == "failed" && o.failed) ||
-                       (std::string(kind) == "bed" && o.beds) || (std::string(kind) == "lock" && o.locks);
+                       (std::string(kind) == "bed" && o.beds) || (std::string(kind) == "lock" && o.locks) ||
+                       (std::string(kind) == "frames" && o.frames);
     if (!asked) continue;
     const auto& [n, bytes] = by_kind[kind];
     out << "  " << std::left << std::setw(28) << label << std::right << std::setw(5) << n << "  " << std::setw(10)
         << human_bytes(bytes) << "\n";
+  }
+  if (o.frames) {
+    std::set<std::string> runs, cached;
+    for (const CleanItem& it : items)
+      if (it.kind == "frames" && runs.insert(it.run_id).second)
+        for (const std::string& k : cached_analyses(it.path.parent_path())) cached.insert(k);
+    if (!runs.empty()) {
+      out << "  the reports of these " << runs.size() << " run(s) keep their cached analyses:";
+      for (const std::string& k : cached) out << " " << k;
+      out << "\n  no longer computable for them (they need the frames): any other analysis, and these with new "
+             "options or a new version; the report then says so and names the run\n";
+    }
+    for (const std::string& k : frames_kept) out << "  kept the frames of " << k << "\n";
   }
   if (dry) {
     out << "would free " << human_bytes(total) << "\n";
@@ -251,8 +273,8 @@ Verb ScanVerb() {
 }
 
 Verb CleanVerb() {
-  return {"clean", "remove retired (and failed) runs' directories, unused beds, stale locks", kCleanHelp, Clean,
-          {{"db", true}, {"retired", false}, {"failed", false}, {"beds", false}, {"locks", false}, {"dry-run", false},
+  return {"clean", "remove retired (and failed) runs' directories, unused beds, stale locks, analysed frames", kCleanHelp, Clean,
+          {{"db", true}, {"retired", false}, {"failed", false}, {"beds", false}, {"locks", false}, {"frames", false}, {"dry-run", false},
            {"json", false}, {"help", false}}};
 }
 

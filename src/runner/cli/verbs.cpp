@@ -39,6 +39,7 @@ Verb CompareVerb();    // report.cpp
 Verb FieldsVerb();     // pictures.cpp
 Verb ShowVerb();       // status.cpp
 Verb CleanVerb();      // maintenance.cpp
+Verb DumpVerb();       // frames.cpp
 Verb SchemaVerb();     // maintenance.cpp
 Verb CompletionVerb(); // maintenance.cpp
 Verb SnapshotVerb();   // pictures.cpp
@@ -47,7 +48,7 @@ Verb MovieVerb();      // pictures.cpp
 const std::vector<Verb>& Verbs() {
   static const std::vector<Verb> kVerbs = {PlanVerb(),   RunVerb(),    StatusVerb(), ScanVerb(),     ReportVerb(),
                                            ExportVerb(), CompareVerb(), FieldsVerb(), ShowVerb(),     CleanVerb(),
-                                           SchemaVerb(), CompletionVerb(), SnapshotVerb(), MovieVerb()};
+                                           DumpVerb(),   SchemaVerb(), CompletionVerb(), SnapshotVerb(), MovieVerb()};
   return kVerbs;
 }
 
