@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "analysis/options.h"
+#include "analysis/registry.h"
 
 namespace granary::analysis {
 namespace {
@@ -106,14 +107,72 @@ std::string to_string(Verdict v) {
   switch (v) {
     case Verdict::kAgrees: return "agrees";
     case Verdict::kDisagrees: return "disagrees";
+    case Verdict::kNotComparable: return "not comparable at this size";
     case Verdict::kNotEnough: break;
   }
   return "not enough runs";
 }
 
+std::string campaign_size(const nlohmann::json& spec) {
+  if (!spec.is_object() || !spec.contains("size") || !spec.at("size").is_string()) return "";
+  return spec.at("size").get<std::string>();
+}
+
+bool judged_at_size(const std::string& size) { return size.empty() || size == "full"; }
+
+void check_metric_references(const nlohmann::json& spec) {
+  const CampaignAxes axes = CampaignAxes::of_campaign_spec(spec);
+  const AnalysisSetup setup = setup_analyses(spec);
+  const std::vector<AnalysisEntry> rows = registered_analyses();
+  std::vector<const AnalysisEntry*> on;
+  for (const auto& a : setup.analyses) {
+    const auto row = std::find_if(rows.begin(), rows.end(), [&](const AnalysisEntry& e) { return e.key == a->key(); });
+    if (row == rows.end()) return;  // a Python analysis: its metrics are its script's
+    on.push_back(&*row);
+  }
+  const std::vector<std::string> axis_names = axes.names();
+  auto check = [&](const std::string& text, const std::string& path, const nlohmann::json& value) {
+    std::vector<std::string> names;
+    try {
+      names = Expression::parse(text, {}).parameters();  // without variables every name is a "parameter"
+    } catch (const ExpressionError& err) {
+      throw OptionError(path, value, err.what());
+    }
+    for (const std::string& name : names) {
+      if (name == "L" || std::find(axis_names.begin(), axis_names.end(), name) != axis_names.end() || axes.find_derived(name))
+        continue;
+      if (std::any_of(on.begin(), on.end(), [&](const AnalysisEntry* e) { return offers_metric(*e, name); })) continue;
+      for (const AnalysisEntry& e : rows)
+        if (offers_metric(e, name))
+          throw OptionError(path, value, "\"" + name + "\" is a metric of the " + e.key + " analysis, which this spec leaves off (turn it on with /report/" + e.key + ")");
+      std::string offered;
+      for (const AnalysisEntry* e : on)
+        for (const std::string& m : e->metrics) offered += (offered.empty() ? "" : ", ") + m;
+      std::string known_axes;
+      for (const std::string& a : axis_names) known_axes += (known_axes.empty() ? "" : ", ") + a;
+      throw OptionError(path, value, "\"" + name + "\" names no metric of the analyses this spec turns on (" + offered +
+                                         ") and no axis (" + (known_axes.empty() ? std::string("none") : known_axes) + ")");
+    }
+  };
+  for (const FigureSpec& f : read_figure_specs(spec))
+    if (!f.y.empty()) check(f.y, f.path + "/y", f.y);
+  for (const Expectation& e : read_expectations(spec, read_figure_specs(spec)))
+    if (!e.metric.empty()) check(e.metric, e.path + "/metric", e.metric);
+  if (spec.is_object() && spec.contains("replicas") && spec.at("replicas").is_object() && spec.at("replicas").contains("until")) {
+    const nlohmann::json& until = spec.at("replicas").at("until");
+    const nlohmann::json list = until.is_array() ? until : nlohmann::json::array({until});
+    for (std::size_t i = 0; i < list.size(); ++i)
+      if (list[i].is_object() && list[i].contains("metric") && list[i].at("metric").is_string())
+        check(list[i].at("metric").get<std::string>(),
+              until.is_array() ? "/replicas/until/" + std::to_string(i) + "/metric" : std::string("/replicas/until/metric"),
+              list[i].at("metric"));
+  }
+}
+
 std::vector<ExpectationResult> judge_expectations(const CampaignAnalysis& ca, const std::vector<Expectation>& expectations,
                                                   const std::vector<FigureOutcome>& figures) {
   const CampaignView& v = ca.view;
+  const std::string size = ca.view.campaign ? campaign_size(ca.view.campaign->spec) : std::string();
   std::vector<ExpectationResult> out;
   for (const Expectation& e : expectations) {
     ExpectationResult r;
@@ -179,6 +238,13 @@ std::vector<ExpectationResult> judge_expectations(const CampaignAnalysis& ca, co
             format_number(2.0 * se, 2) + ")" + (std::isfinite(r.se) ? "" : "; no se");
     out.push_back(r);
   }
+  // Measured as at full size (the report shows the numbers), but a smaller system than the
+  // thesis' is not judged against its numbers.
+  if (!judged_at_size(size))
+    for (ExpectationResult& r : out) {
+      r.verdict = Verdict::kNotComparable;
+      r.why = "a " + size + " campaign (/size): judged at full size only" + (r.why.empty() ? std::string() : "; " + r.why);
+    }
   return out;
 }
 
@@ -197,6 +263,7 @@ ExpectationCounts count(const std::vector<ExpectationResult>& results) {
   for (const auto& r : results) {
     if (r.verdict == Verdict::kAgrees) ++c.agree;
     else if (r.verdict == Verdict::kDisagrees) ++c.disagree;
+    else if (r.verdict == Verdict::kNotComparable) ++c.not_comparable;
     else ++c.not_yet;
   }
   return c;
@@ -204,7 +271,8 @@ ExpectationCounts count(const std::vector<ExpectationResult>& results) {
 
 std::string to_string(const ExpectationCounts& c) {
   return std::to_string(c.agree) + " agree, " + std::to_string(c.disagree) + (c.disagree == 1 ? " disagrees, " : " disagree, ") +
-         std::to_string(c.not_yet) + " not yet";
+         std::to_string(c.not_yet) + " not yet" +
+         (c.not_comparable > 0 ? ", " + std::to_string(c.not_comparable) + " not comparable at this size" : std::string());
 }
 
 ExportTable expectations_table(const std::vector<ExpectationResult>& results) {
@@ -225,7 +293,8 @@ std::optional<Section> key_results_section(const std::vector<ExpectationResult>&
   const ExpectationCounts c = count(results);
   s.blocks.push_back(Text{"What the campaign spec expects (`/expect`), each beside what the runs measured: **" +
                           to_string(c) + "**. A value agrees when |measured - expected| <= tolerance + 2 se; too few "
-                          "finished runs (or a fit that does not determine its parameters) is \"not enough runs\"."});
+                          "finished runs (or a fit that does not determine its parameters) is \"not enough runs\"; in a quick or medium "
+                          "campaign (`/size`) every value is \"not comparable at this size\": measured, not judged."});
   Table t{"key_results", "Expected and measured (measured: mean ± se (n))",
           {"quantity", "expected", "source", "measured", "runs", "verdict", "how judged"},
           {},
@@ -235,7 +304,9 @@ std::optional<Section> key_results_section(const std::vector<ExpectationResult>&
     t.rows.push_back({r.what,
                       format_number(e.value, 4) + (e.tolerance > 0 ? " ± " + format_number(e.tolerance, 3) : std::string()),
                       e.source, Cell::estimate(r.measured, r.se, r.n), Cell::count(r.runs),
-                      (r.verdict == Verdict::kAgrees ? "**agrees**" : r.verdict == Verdict::kDisagrees ? "**disagrees**" : "not enough runs"),
+                      (r.verdict == Verdict::kAgrees      ? "**agrees**"
+                       : r.verdict == Verdict::kDisagrees ? "**disagrees**"
+                                                          : to_string(r.verdict)),
                       r.why});
   }
   s.blocks.push_back(t);

@@ -30,9 +30,24 @@ struct Expectation {
 // fitted parameter must name. Errors are OptionErrors naming the JSON path.
 std::vector<Expectation> read_expectations(const nlohmann::json& campaign_spec, const std::vector<FigureSpec>& figures);
 
-enum class Verdict { kAgrees, kDisagrees, kNotEnough };
-// "agrees", "disagrees", "not enough runs".
+// kNotComparable: the campaign's /size is "quick" or "medium" (a smaller system than the
+// thesis'): what it measured is shown, but not judged against the thesis' number.
+enum class Verdict { kAgrees, kDisagrees, kNotEnough, kNotComparable };
+// "agrees", "disagrees", "not enough runs", "not comparable at this size".
 std::string to_string(Verdict verdict);
+
+// The campaign spec's /size ("quick", "medium", "full"; "" when it does not say), and whether
+// its expectations are judged at that size (full, or not said).
+std::string campaign_size(const nlohmann::json& campaign_spec);
+bool judged_at_size(const std::string& size);
+
+// Every name a figure's y (/report/figures/i/y), an expectation's metric (/expect/i/metric) and
+// an adaptive-replica target (/replicas/until/i/metric) uses must be an axis of the spec or a
+// metric of an analysis the spec turns on (registry.h, AnalysisEntry::metrics). Throws
+// OptionError naming the JSON path, the name and what the spec offers; a metric of an analysis
+// the spec leaves off (fields) says how to turn it on. Names are not checked when the spec has
+// Python analyses (their metrics are known only when their scripts run).
+void check_metric_references(const nlohmann::json& campaign_spec);
 
 struct ExpectationResult {
   const Expectation* expectation = nullptr;
@@ -62,10 +77,10 @@ struct Reproduction {
 std::unique_ptr<Reproduction> reproduce(const CampaignAnalysis& analysis);
 
 struct ExpectationCounts {
-  int agree = 0, disagree = 0, not_yet = 0;
+  int agree = 0, disagree = 0, not_yet = 0, not_comparable = 0;
 };
 ExpectationCounts count(const std::vector<ExpectationResult>& results);
-// "7 agree, 1 disagrees, 3 not yet".
+// "7 agree, 1 disagrees, 3 not yet", and ", 4 not comparable at this size" when there are any.
 std::string to_string(const ExpectationCounts& counts);
 
 // The table of `campaign export --expectations` and of the report's Key results.

@@ -52,19 +52,33 @@ FlowWindowRule read_window(const nlohmann::json& v, const std::string& path) {
 const std::vector<AnalysisEntry>& builtin_analyses() {
   // Report order. One row per analysis.
   static const std::vector<AnalysisEntry> kTable = {
-      {"flow", make_flow_analysis},
-      {"profile", make_profile_analysis},
-      {"region", make_region_analysis},
-      {"clogging_index", make_clogging_index_analysis},
-      {"avalanches", make_avalanche_analysis},
-      {"intermittency", make_intermittency_analysis},
-      {"arches", make_arches_analysis},
-      {"contacts", make_contacts_analysis},
-      {"orientation", make_orientation_analysis},
-      {"fields", make_fields_analysis},
+      {"flow", make_flow_analysis, {}, {"q_count", "q_mass", "q_count_outlet*", "q_mass_outlet*"}},
+      {"profile", make_profile_analysis, {}, {"v_max", "v_max_outlet*"}},
+      {"region", make_region_analysis, {},
+       {"phi", "tg_translational", "tg_full", "phi_outlet*", "tg_translational_outlet*", "tg_full_outlet*"}},
+      {"clogging_index", make_clogging_index_analysis, {},
+       {"psi", "n_stagnant", "clogged_runs", "discharged_runs", "discarded_runs", "unfinished_runs", "psi_low",
+        "psi_high", "clogged", "undischarged"}},
+      {"avalanches", make_avalanche_analysis, {},
+       {"avalanche_size", "avalanches", "clogs", "avalanche_size_outlet*", "avalanches_outlet*"}},
+      {"intermittency", make_intermittency_analysis, {},
+       {"t_flowing", "t_clogged", "unclog_rate", "t_flowing_outlet*", "t_clogged_outlet*", "unclog_rate_outlet*"}},
+      {"arches", make_arches_analysis, {},
+       {"arches", "obstacle_arches", "arch_n", "arch_width", "arch_width_sd", "arch_height", "arch_height_sd",
+        "arch_perimeter", "arch_c_over_p", "arch_elongated_fraction", "arch_pressure"}},
+      {"contacts", make_contacts_analysis, {}, {"contact_ss", "contact_ls", "contact_ll", "contact_other"}},
+      {"orientation", make_orientation_analysis, {}, {"flow_frames", "order_parameter_*"}},
+      {"fields", make_fields_analysis, {}, {"cg_*"}},
       {"python", nullptr, make_python_analyses},
   };
   return kTable;
+}
+
+bool offers_metric(const AnalysisEntry& row, const std::string& name) {
+  return std::any_of(row.metrics.begin(), row.metrics.end(), [&](const std::string& m) {
+    if (!m.empty() && m.back() == '*') return name.size() >= m.size() && name.compare(0, m.size() - 1, m, 0, m.size() - 1) == 0;
+    return name == m;
+  });
 }
 
 std::vector<AnalysisEntry> registered_analyses() {

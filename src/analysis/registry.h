@@ -22,7 +22,15 @@ struct AnalysisEntry {
   // (/report/python: one analysis per script, python_analysis.h).
   std::function<std::vector<std::unique_ptr<Analysis>>(const nlohmann::json& options, const std::string& path)>
       make_all = {};
+  // The point metrics the analysis can return, for checking a spec's figures, expectations and
+  // replica targets before anything runs: names, or families "prefix*" (per-outlet variants,
+  // one per region or field). Empty: known only when it runs (Python). A test holds these
+  // lists to what the analyses return on stored runs.
+  std::vector<std::string> metrics = {};
 };
+
+// Whether `name` is one of row's metrics (a name, or a name a family "prefix*" covers).
+bool offers_metric(const AnalysisEntry& row, const std::string& name);
 
 // The built-in table.
 const std::vector<AnalysisEntry>& builtin_analyses();

@@ -74,11 +74,16 @@ SpecTable MakeCampaignSpecTable() {
                    "native, liggghts, lammps, or several as a list: every sweep point is then planned once per engine",
                    "native"};
   engine.values = {"native", "liggghts", "lammps"};
+  SpecField size{"/size", T::kEnum,
+                 "the campaign's size: quick (minutes, for trying), medium (the thesis' trends) or full (the "
+                 "thesis' system and statistics); /expect is judged at full size only (docs/analyses.md)"};
+  size.values = {"quick", "medium", "full"};
   return SpecTable({
       {"/$schema", T::kString, "the JSON Schema an editor checks this file with (campaign schema); ignored by Granary"},
       name,
       {"/description", T::kString, "free text: what the campaign is for", ""},
       {"/seed", T::kUnsigned, "the source of every replica's seed", 1},
+      size,
       replicas,
       engine,
       {"/base", T::kRunSpec, "the run spec every run starts from (docs/run-spec.md); missing keys take their defaults"},
@@ -327,6 +332,12 @@ CampaignSpec CampaignSpec::from_json(const json& j) {
   if (j.contains("description")) {
     if (!j["description"].is_string()) throw SpecError("/description", "must be a string (got " + j["description"].dump() + ")");
     s.description = j["description"];
+  }
+  if (j.contains("size")) {
+    const std::vector<std::string>& known = campaign_spec_table().at("/size").values;
+    if (!j["size"].is_string() || std::find(known.begin(), known.end(), j["size"].get<std::string>()) == known.end())
+      throw SpecError("/size", "must be \"quick\", \"medium\" or \"full\" (got " + j["size"].dump() + ")");
+    s.size = j["size"];
   }
   if (j.contains("seed")) {
     if (!j["seed"].is_number_unsigned()) throw SpecError("/seed", "must be a non-negative integer (got " + j["seed"].dump() + ")");

@@ -17,6 +17,7 @@ namespace granary::runner {
 struct CampaignSpec {
   std::string name;
   std::string description;
+  std::string size;          // "quick", "medium", "full", or "" (not said): expectations judged only at full
   std::uint64_t seed = 1;
   int replicas = 1;          // planned per point (the rule's min)
   ReplicaRule replica_rule;  // `replicas` as given: fixed, or adaptive (min, max, until)

@@ -389,6 +389,39 @@ TEST(Expectations, AgreeDisagreeAndTooFewRuns) {
   EXPECT_NE(to_csv(t).find("q_count at W = 14, mu = 0"), std::string::npos) << to_csv(t);
 }
 
+TEST(Expectations, QuickAndMediumSizesAreMeasuredButNotComparable) {
+  TempDir dir;
+  const double q14 = q_of(14, 0);
+  for (const std::string size : {"quick", "medium", "full"}) {
+    const nlohmann::json extra = {
+        {"size", size},
+        {"expect",
+         {{{"metric", "q_count"}, {"at", {{"W", 14}, {"mu", 0}}}, {"value", q14}, {"tolerance", 0.03 * q14}, {"source", "s1"}},
+          {{"metric", "q_count"}, {"at", {{"W", 14}, {"mu", 0}}}, {"value", q14 * 1.5}, {"tolerance", 0.03 * q14}, {"source", "s2"}}}}};
+    const Campaign c = make_campaign(dir.path() / size, extra);
+    const auto a = analyse(c, setup_analyses(c.info.spec));
+    const std::vector<ExpectationResult> r = judge_expectations(*a, read_expectations(c.info.spec, {}), {});
+    ASSERT_EQ(r.size(), 2u);
+    EXPECT_NEAR(r[0].measured, q14 * off(14, 0), 1e-6 * q14) << size;  // measured at every size
+    if (size == "full") {
+      EXPECT_EQ(r[0].verdict, Verdict::kAgrees) << r[0].why;
+      EXPECT_EQ(r[1].verdict, Verdict::kDisagrees) << r[1].why;
+      EXPECT_EQ(to_string(count(r)), "1 agree, 1 disagrees, 0 not yet");
+      continue;
+    }
+    for (const ExpectationResult& x : r) {
+      EXPECT_EQ(x.verdict, Verdict::kNotComparable) << size;
+      EXPECT_EQ(x.why.rfind("a " + size + " campaign (/size): judged at full size only; |", 0), 0u) << x.why;
+    }
+    EXPECT_EQ(to_string(count(r)), "0 agree, 0 disagree, 0 not yet, 2 not comparable at this size");
+    EXPECT_EQ(expectations_table(r).rows[1][8], "not comparable at this size");
+    const std::optional<Section> key = key_results_section(r);
+    ASSERT_TRUE(key.has_value());
+    const Table& t = std::get<Table>(key->blocks[1]);
+    EXPECT_EQ(t.rows[0][5].text, "not comparable at this size");
+  }
+}
+
 TEST(ReportFigures, EveryDataPointLiesInsideItsFigureRanges) {
   TempDir dir;
   const nlohmann::json extra = {

@@ -12,6 +12,7 @@
 // numbers of the analyses before they became registered units (commit message of that change).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -109,6 +110,32 @@ TEST(Regression, StoredRunsGiveTheExpectedMetrics) {
   ASSERT_TRUE(in) << file << " is missing: run granary_analysis_regression --update-references";
   const nlohmann::json expected = nlohmann::json::parse(in);
   expect_same(expected, actual, "");
+}
+
+// Plan-time checks of figures and expectations (check_metric_references) trust each registry
+// row's list of metrics: every point metric an analysis returns on the stored runs must be on
+// its own row's list.
+TEST(Regression, EveryPointMetricIsOnItsRegistryRowsList) {
+  const std::vector<AnalysisEntry> rows = registered_analyses();
+  int checked = 0;
+  for (const char* name : kCampaigns) {
+    const StoredCampaign c = load(data_dir() / name);
+    const AnalysisSetup setup = setup_analyses(c.info.spec);
+    CampaignAnalysisOptions options;
+    options.read_cache = options.write_cache = false;
+    const auto a = analyse_campaign(c.info, c.runs, setup, options);
+    for (std::size_t k = 0; k < setup.analyses.size(); ++k) {
+      const std::string key = setup.analyses[k]->key();
+      const auto row = std::find_if(rows.begin(), rows.end(), [&](const AnalysisEntry& e) { return e.key == key; });
+      ASSERT_NE(row, rows.end()) << key;
+      for (const auto& point : a->point_metrics[k])
+        for (const PointMetric& m : point) {
+          EXPECT_TRUE(offers_metric(*row, m.name)) << name << ": " << key << " returns " << m.name << ", not on its row's list";
+          ++checked;
+        }
+    }
+  }
+  EXPECT_GT(checked, 50);
 }
 
 TEST(Regression, CachedResultsAreTheSameNumbers) {

@@ -18,6 +18,7 @@
 #include "runner/cli/run.h"
 #include "runner/store.h"
 #ifdef GRANARY_HAVE_ANALYSIS
+#include "analysis/expectations.h"
 #include "analysis/fields_analysis.h"
 #include "analysis/report.h"
 #endif
@@ -92,6 +93,7 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
 #ifdef GRANARY_HAVE_ANALYSIS
   try {
     analysis::check_report_spec(j);
+    analysis::check_metric_references(j);
   } catch (const std::invalid_argument& e) {
     throw UsageError(spec_path + ": " + e.what());
   }
