@@ -25,19 +25,28 @@ def bodies_of(discs):
     first = np.concatenate(([0], np.flatnonzero(mol[1:] != mol[:-1]) + 1))
     last = np.append(first[1:], n) - 1
     counts = last - first + 1
-    m, x, y, r = d["mass"], d["x"], d["y"], d["radius"]
+    # The fields as contiguous columns (a structured array's fields are strided views, and
+    # arithmetic on those is several times slower), the sums of a body in one reduceat.
+    m, x, y, r = (np.ascontiguousarray(d[f]) for f in ("mass", "x", "y", "radius"))
+    cols = np.empty((n, 5))
+    cols[:, 0] = m
+    np.multiply(m, x, out=cols[:, 1])
+    np.multiply(m, y, out=cols[:, 2])
+    np.multiply(m, d["vx"], out=cols[:, 3])
+    np.multiply(m, d["vy"], out=cols[:, 4])
+    sums = np.add.reduceat(cols, first, axis=0)
     out = np.zeros(len(first), BODY_DTYPE)
     out["id"] = mol[first]
     out["type"] = d["type"][first]
     out["n_discs"] = counts
-    mass = np.add.reduceat(m, first)
+    mass = sums[:, 0]
     out["mass"] = mass
-    safe = np.where(mass > 0, mass, 1.0)
-    cx = np.where(mass > 0, np.add.reduceat(m * x, first) / safe, 0.0)
-    cy = np.where(mass > 0, np.add.reduceat(m * y, first) / safe, 0.0)
+    has = mass > 0
+    safe = np.where(has, mass, 1.0)
+    means = np.where(has[:, None], sums[:, 1:] / safe[:, None], 0.0)
+    cx, cy = means[:, 0], means[:, 1]
     out["x"], out["y"] = cx, cy
-    out["vx"] = np.where(mass > 0, np.add.reduceat(m * d["vx"], first) / safe, 0.0)
-    out["vy"] = np.where(mass > 0, np.add.reduceat(m * d["vy"], first) / safe, 0.0)
+    out["vx"], out["vy"] = means[:, 2], means[:, 3]
     out["omega"] = d["omega"][first]
     body = np.repeat(np.arange(len(first)), counts)
     dx, dy = x - cx[body], y - cy[body]

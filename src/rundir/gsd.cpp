@@ -498,7 +498,10 @@ void WriteFrameChunks(GsdFile& f, const Frame& frame, bool constants) {
   // Type names "1", "2", ...: the dump's type column (species index + 1).
   constexpr std::uint32_t kNameWidth = 8;
   std::vector<char> names(static_cast<std::size_t>(types) * kNameWidth, '\0');
-  for (int t = 0; t < types; ++t) std::snprintf(&names[static_cast<std::size_t>(t) * kNameWidth], kNameWidth, "%d", t + 1);
+  for (int t = 0; t < types; ++t) {
+    const std::string name = std::to_string(t + 1);
+    std::copy_n(name.begin(), std::min<std::size_t>(name.size(), kNameWidth - 1), &names[static_cast<std::size_t>(t) * kNameWidth]);
+  }
   const std::uint8_t dimensions = 2;
   f.Write("configuration/dimensions", Type::kUint8, 1, 1, &dimensions);
   f.Write("particles/types", Type::kInt8, static_cast<std::uint64_t>(types), kNameWidth, names.data());

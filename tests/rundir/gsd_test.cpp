@@ -299,23 +299,30 @@ TEST(Gsd, TheRunDirectoryFindsGsdAndTextFrames) {
   EXPECT_STREQ(FramesFileName(o), "frames.dump.gz");
 }
 
-// The estimator's count of a frame's bytes is what the writer adds for it.
-TEST(Gsd, FrameBytesAreWhatTheWriterAdds) {
+// The estimator's count of a file's bytes is what the writer writes: per frame its chunks and
+// index entries (GsdFrameBytes), frame 0's constants, and the header, name list and index
+// blocks outgrown on the way (GsdOverheadBytes; 40 frames outgrow the first block).
+TEST(Gsd, FileBytesAreWhatTheEstimatorCounts) {
   TempDir dir;
   const auto file = dir.path() / kFramesGsdFile;
   FrameWriter w = FrameWriter::Create(file);
-  w.Write(Bodies(0));
-  const std::int64_t after_first = w.Offset();
-  w.Write(Bodies(10));
-  EXPECT_EQ(w.Offset() - after_first, gsd::GsdFrameBytes(Bodies(10)));
+  std::int64_t frames = 0;
+  for (int k = 0; k < 40; ++k, frames += gsd::GsdFrameBytes(Bodies(k))) w.Write(Bodies(k));
   w.Close();
+  const std::uint64_t entries = 40 * gsd::kGsdFrameEntries + 7;
+  ASSERT_GT(entries, 256u);
+  // Frame 0's constants: 3 discs, 2 type names of 8 bytes, the dimensions byte; 7 entries.
+  const std::int64_t constants = 3 * gsd::kGsdConstantBytesPerDisc + 2 * 8 + 1 + 7 * 32;
+  EXPECT_EQ(static_cast<std::int64_t>(std::filesystem::file_size(file)),
+            gsd::GsdOverheadBytes(entries) + frames + constants);
   const auto cfile = dir.path() / kContactsGsdFile;
   ContactWriter cw = ContactWriter::Create(cfile);
   ContactFrame c;
   c.contacts.resize(5);
-  const std::int64_t before = cw.Offset();
-  cw.Write(c);
-  EXPECT_EQ(cw.Offset() - before, gsd::GsdContactBytes(c));
+  for (int k = 0; k < 3; ++k) cw.Write(c);
+  cw.Close();
+  EXPECT_EQ(static_cast<std::int64_t>(std::filesystem::file_size(cfile)),
+            gsd::GsdOverheadBytes(3 * gsd::kGsdContactEntries) + 3 * gsd::GsdContactBytes(c));
 }
 
 }  // namespace
