@@ -1,7 +1,8 @@
 // The figure layer, derived axes and the reproduction table on a constructed campaign with two
 // axes and known flow rates Q(W, mu) = a W^(b + mu/2) (point means within 1 % of it, replicas
-// at -+1 % of their mean), and every
-// data point of every figure the report writes inside its figure's ranges (.gp files read back).
+// at -+1 % of their mean); the figures at chosen points (distribution, maps, profile) of a
+// distribution and a field of known values; and every data point and map node of every figure
+// the report writes inside its figure's ranges (.gp files read back).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -576,6 +577,33 @@ TEST(FigureKinds, DistributionPoolsReplicasOverOneRangeForEveryCurve) {
   EXPECT_EQ(gf->series[0].label, "W = 14 d (n = 36)");
   const double pooled[4] = {0, 1.0 / 3, 1.0 / 3, 1.0 / 3};
   for (int i = 0; i < 4; ++i) EXPECT_NEAR(gf->series[0].rows[i][1], pooled[i], 1e-9) << i;
+}
+
+// The built-in offers: the region's velocity histograms as their bins' centres with counts, the
+// avalanches' sizes as samples.
+TEST(FigureKinds, TheAnalysesOfferTheirDistributionsByName) {
+  const AnalysisSetup setup = setup_analyses(nlohmann::json::object());
+  const Analysis* region = nullptr;
+  const Analysis* avalanches = nullptr;
+  for (const Analysis* a : setup.list()) {
+    if (a->key() == "region") region = a;
+    if (a->key() == "avalanches") avalanches = a;
+  }
+  ASSERT_TRUE(region && avalanches);
+  ASSERT_EQ(region->distribution_names().size(), 2u);
+  EXPECT_EQ(region->distribution_names()[0].unit, "sqrt(g d)");
+  // Grid bin k holds [(k - 1/2) w, (k + 1/2) w): centre k w.
+  const nlohmann::json result = {{"regions", {{{"velocity", {{"vx", {{"width", 0.05}, {"first", -2}, {"counts", {1, 0, 3}}}}}}}}}};
+  const Samples vx = region->distribution("vx", result);
+  ASSERT_EQ(vx.values.size(), 2u);  // the empty bin is no sample
+  EXPECT_DOUBLE_EQ(vx.values[0], -0.1);
+  EXPECT_DOUBLE_EQ(vx.values[1], 0.0);
+  EXPECT_EQ(vx.weights, (std::vector<double>{1, 3}));
+  EXPECT_TRUE(region->distribution("vy", result).values.empty());
+  EXPECT_TRUE(region->distribution("vx", nlohmann::json::object()).values.empty()) << "a run without frames";
+  const Samples sizes = avalanches->distribution("avalanche_sizes", {{"sizes", {3, 5, 5}}});
+  EXPECT_EQ(sizes.values, (std::vector<double>{3, 5, 5}));
+  EXPECT_TRUE(sizes.weights.empty());
 }
 
 TEST(FigureKinds, DistributionOfAPerRunMetricPoolsItsReplicas) {
