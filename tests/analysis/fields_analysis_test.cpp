@@ -258,6 +258,16 @@ TEST(FieldsAnalysis, OffersEveryFieldByNameFromRunsMerged) {
       EXPECT_NEAR(across.value[i], 0.0, 1e-12);
     }
   }
+  // |v| comes with the velocity as arrows: straight down while it flows.
+  const std::optional<FieldMap> speed = fields->field("speed", twice, spec);
+  ASSERT_TRUE(speed.has_value());
+  EXPECT_GT(speed->arrow_spacing, 0.0);
+  ASSERT_FALSE(speed->arrows.empty());
+  for (const auto& a : speed->arrows) {
+    EXPECT_NEAR(a[2], 0.0, 1e-12);
+    EXPECT_NEAR(a[3], -1.0, 1e-12);
+  }
+  EXPECT_TRUE(vy->arrows.empty());
   EXPECT_FALSE(fields->field("no_such_field", twice, spec).has_value());
   EXPECT_FALSE(fields->field("vy", {}, spec).has_value());
 }
