@@ -100,6 +100,22 @@ std::unique_ptr<CampaignAnalysis> analyse(const Campaign& c, const AnalysisSetup
   return analyse_campaign(c.info, c.runs, setup, o);
 }
 
+// The rows of a numeric CSV after its header ("nan" and empty cells NaN).
+std::vector<std::vector<double>> csv_rows(const fs::path& file) {
+  std::vector<std::vector<double>> rows;
+  std::istringstream csv(read_file(file));
+  std::string line;
+  std::getline(csv, line);
+  while (std::getline(csv, line)) {
+    std::vector<double> cells;
+    std::stringstream ls(line);
+    std::string cell;
+    while (std::getline(ls, cell, ',')) cells.push_back(cell == "nan" || cell.empty() ? NAN : std::stod(cell));
+    rows.push_back(cells);
+  }
+  return rows;
+}
+
 // Every point a .gp script draws (points, error bars) that lies outside its xrange/yrange:
 // "file.gp: data/x.csv row 3: (5.75, 2) outside [5.8:10.2] x [0:3]".
 std::vector<std::string> points_outside_ranges(const fs::path& report) {
@@ -128,14 +144,9 @@ std::vector<std::string> points_outside_ranges(const fs::path& report) {
       const std::regex layer(R"('([^']+)' skip 1 using 1:2(:3)? with (image|lines))");
       for (std::sregex_iterator it(gp.begin(), gp.end(), layer), end; it != end; ++it) {
         const std::string file = (*it)[1];
-        std::istringstream csv(read_file(report / file));
-        std::string line;
-        std::getline(csv, line);
-        for (int row = 1; std::getline(csv, line); ++row) {
-          std::vector<double> cells;
-          std::stringstream ls(line);
-          std::string cell;
-          while (std::getline(ls, cell, ',')) cells.push_back(cell == "nan" || cell.empty() ? NAN : std::stod(cell));
+        int row = 0;
+        for (const std::vector<double>& cells : csv_rows(report / file)) {
+          ++row;
           if (cells.size() < 2 || ((*it)[3] == "image" && (cells.size() < 3 || !std::isfinite(cells[2])))) continue;
           check(file, row, cells[0], cells[1]);
         }
@@ -148,14 +159,9 @@ std::vector<std::string> points_outside_ranges(const fs::path& report) {
       const std::string file = (*it)[1];
       const int xc = std::stoi((*it)[2]), yc = std::stoi((*it)[4]);
       const std::string shift = (*it)[3];  // "+-0.25" or "*1.02" in scripts that move points
-      std::istringstream csv(read_file(report / file));
-      std::string line;
-      std::getline(csv, line);
-      for (int row = 1; std::getline(csv, line); ++row) {
-        std::vector<double> cells;
-        std::stringstream ls(line);
-        std::string cell;
-        while (std::getline(ls, cell, ',')) cells.push_back(cell == "nan" || cell.empty() ? NAN : std::stod(cell));
+      int row = 0;
+      for (const std::vector<double>& cells : csv_rows(report / file)) {
+        ++row;
         if (static_cast<int>(cells.size()) < std::max(xc, yc)) continue;
         double x = cells[xc - 1];
         const double y = cells[yc - 1];
@@ -714,8 +720,11 @@ TEST(FigureKinds, ProfileFigureOfTheChosenPoints) {
 
 TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
   const nlohmann::json base = {{"name", "t"}, {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {4, 6}}}}}}};
-  auto error_of = [&](const nlohmann::json& figure) -> std::string {
-    nlohmann::json spec = base;
+  nlohmann::json fields = base;
+  fields["report"]["fields"] = true;
+  // The spec's check with one figure, on `base` or with the fields on.
+  auto error_with = [&](const nlohmann::json& on, const nlohmann::json& figure) -> std::string {
+    nlohmann::json spec = on;
     spec["report"]["figures"] = {figure};
     try {
       check_report_spec(spec);
@@ -724,6 +733,8 @@ TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
     }
     return "";
   };
+  auto error_of = [&](const nlohmann::json& figure) { return error_with(base, figure); };
+  auto field_error = [&](const nlohmann::json& figure) { return error_with(fields, figure); };
   auto has = [](const std::string& error, const std::string& part) {
     return error.find(part) != std::string::npos ? ::testing::AssertionSuccess()
                                                  : ::testing::AssertionFailure() << "\"" << part << "\" not in: " << error;
@@ -740,18 +751,6 @@ TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
   EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "v x"}}),
                   "/report/figures/0/of: must name a distribution an analysis offers (vx, vy, avalanche_sizes) or a per-run metric"));
   EXPECT_EQ(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vy"}, {"logy", true}}), "");
-  nlohmann::json fields = base;
-  fields["report"]["fields"] = true;
-  auto field_error = [&](const nlohmann::json& figure) -> std::string {
-    nlohmann::json spec = fields;
-    spec["report"]["figures"] = {figure};
-    try {
-      check_report_spec(spec);
-    } catch (const std::exception& e) {
-      return e.what();
-    }
-    return "";
-  };
   EXPECT_EQ(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "pressure"}, {"only", {{"W", 4}}}}), "");
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "presure"}}), "/report/figures/0/field: must name a field (fields: phi,"));
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "z"}, {"at", 3}}),
