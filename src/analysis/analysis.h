@@ -204,6 +204,10 @@ struct FieldMap {
   int frames = 0;                     // frames of those runs behind the map
   std::vector<std::vector<std::array<double, 2>>> lines;  // walls, as polylines
   std::vector<std::array<double, 3>> circles;             // obstacles: x, y, radius
+  // A vector field's arrows (the velocity over |v|): x, y and the vector in the field's units,
+  // every `arrow_spacing` d; the figure scales them to that spacing.
+  std::vector<std::array<double, 4>> arrows;
+  double arrow_spacing = 0.0;
   double x(int i) const { return x0 + i * spacing; }
   double y(int j) const { return y0 + j * spacing; }
   double at(int i, int j) const { return values[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i)]; }

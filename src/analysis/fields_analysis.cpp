@@ -480,6 +480,17 @@ class FieldsAnalysis : public Analysis {
     const SiloDrawing silo = silo_drawing(run_spec, g.y(g.ny - 1) + 1.5);
     out.lines = silo.lines;
     out.circles = silo.circles;
+    // |v| with its direction, as the section draws it: about 12 arrows across.
+    if (f == CgField::kSpeed) {
+      const int step = std::max(1, g.nx / 12);
+      out.arrow_spacing = step * g.spacing;
+      for (int j = step / 2; j < g.ny; j += step)
+        for (int i = step / 2; i < g.nx; i += step) {
+          const std::size_t n = static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nx) + static_cast<std::size_t>(i);
+          const double vx = maps.value(CgField::kVx, n), vy = maps.value(CgField::kVy, n);
+          if (std::isfinite(vx) && std::isfinite(vy) && (vx != 0.0 || vy != 0.0)) out.arrows.push_back({g.x(i), g.y(j), vx, vy});
+        }
+    }
     return out;
   }
 

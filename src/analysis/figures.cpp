@@ -507,6 +507,7 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
   f.ylabel = with_unit(info.title, info.unit);
   f.logy = spec.logy;
   std::string band;
+  double arrow_spacing = 0.0;
   for (std::size_t i = 0; i < out.data.size(); ++i) {
     FigureDatum& d = out.data[i];
     const std::string label = datum_label(d, info.name);
@@ -535,6 +536,8 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
       }
       panel.lines = map->lines;
       panel.circles = map->circles;
+      panel.arrows = map->arrows;  // scaled below, by one length across the panels
+      if (map->arrow_spacing > 0.0) arrow_spacing = arrow_spacing > 0.0 ? std::min(arrow_spacing, map->arrow_spacing) : map->arrow_spacing;
       m.panels.push_back(std::move(panel));
       continue;
     }
@@ -562,13 +565,30 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
   }
   const std::string tail = (spec.pool.empty() ? "" : "; pooled over " + joined(spec.pool)) + only_text(spec) +
                            (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
+  // Arrows: the longest of every panel 0.9 of their spacing.
+  double longest = 0.0;
+  for (const MapPanel& p : m.panels)
+    for (const auto& a : p.arrows) longest = std::max(longest, std::hypot(a[2], a[3]));
+  std::string arrows_text;
+  if (longest > 0.0 && arrow_spacing > 0.0) {
+    const double scale = 0.9 * arrow_spacing / longest;
+    for (MapPanel& p : m.panels)
+      for (auto& a : p.arrows) {
+        a[2] *= scale;
+        a[3] *= scale;
+      }
+    arrows_text = "; arrows: the vector field, the longest " + format_number(0.9 * arrow_spacing) + " d for " +
+                  format_number(longest) + (info.unit.empty() ? "" : " " + info.unit);
+  } else {
+    for (MapPanel& p : m.panels) p.arrows.clear();
+  }
   if (spec.kind == "maps" && !m.panels.empty()) {
     m.x_lo = x_lo - 1.0;
     m.x_hi = x_hi + 1.0;
     m.y_lo = y_lo - 1.0;
     m.y_hi = y_hi + 1.0;
     m.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Each panel: the runs behind it merged, and the frames " +
-                "averaged; one colour scale across the panels; walls black" + tail;
+                "averaged; one colour scale across the panels; walls black" + arrows_text + tail;
     out.blocks.push_back(m);
   }
   if (spec.kind == "profile" && !f.series.empty()) {

@@ -16,6 +16,12 @@
 namespace granary::analysis {
 namespace {
 
+// A law in tables: its title for the reader ("2-D Beverloo"), its id beside it (what
+// /report/flow/models and scripts name it by), or the id alone for a law without a title.
+std::string model_words(const std::string& title, const std::string& id) {
+  return title.empty() || title == id ? id : title + " (" + id + ")";
+}
+
 constexpr char kQUnit[] = "bodies/sqrt(d/g)";
 constexpr char kQMassUnit[] = "rho d^2/sqrt(d/g)";
 
@@ -342,19 +348,19 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
         try {
           r = fit_model(with_data_guess(model, x, y), x, y, sigma);
         } catch (const std::exception& e) {
-          fits.rows.push_back({g, model.name, "", Cell::number(kNaN), Cell::number(kNaN), Cell::number(kNaN),
+          fits.rows.push_back({g, model_words(model.shown(), model.name), "", Cell::number(kNaN), Cell::number(kNaN), Cell::number(kNaN),
                                Cell::number(kNaN), Cell::number(kNaN), Cell::count(static_cast<long long>(x.size())), "",
                                e.what()});
           continue;
         }
         const std::string weighted = r.sigma.empty() ? "no" : "1/se^2";
         for (const auto& par : r.parameters)
-          fits.rows.push_back({g, r.model_name + ": " + r.expression, par.name, Cell::number(par.value),
+          fits.rows.push_back({g, model_words(r.model_title, r.model_name) + ": " + r.expression, par.name, Cell::number(par.value),
                                Cell::number(par.se, 2), Cell::number(par.ci_low), Cell::number(par.ci_high),
                                Cell::number(r.ok() && r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
                                Cell::count(static_cast<long long>(x.size())), weighted, r.verdict()});
         for (std::size_t i = 0; i < r.x.size(); ++i)
-          residuals.rows.push_back({g, r.model_name, Cell::number(r.x[i], 6), Cell::number(r.y[i]),
+          residuals.rows.push_back({g, model_words(r.model_title, r.model_name), Cell::number(r.x[i], 6), Cell::number(r.y[i]),
                                     Cell::number(r.fitted[i]), Cell::number(r.residuals[i], 3)});
         if (!r.ok()) continue;
         if (std::isfinite(group_value)) {

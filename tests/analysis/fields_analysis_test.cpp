@@ -7,10 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <numbers>
 
+#include "analysis/figures.h"
 #include "analysis/options.h"
 #include "analysis/registry.h"
 #include "analysis/run_pass.h"
@@ -214,6 +216,60 @@ TEST(FieldsAnalysis, SplitIntoFlowingAndClogged) {
   const Pass r = pass_with(dir.path(), {{"frames", {{"from", 2.25}, {"to", 20.0}}}});
   EXPECT_EQ(r.result["parts"][0]["frames"], 2);  // 2.3 and 15
   EXPECT_NEAR(r.metrics.at("cg_speed"), 0.5, 1e-12);
+}
+
+// What the figure kinds "maps" and "profile" ask for: a field by name from several runs'
+// results merged (two copies of the run here), with the silo to draw over it.
+TEST(FieldsAnalysis, OffersEveryFieldByNameFromRunsMerged) {
+  TempDir dir;
+  write_run(dir.path());
+  const Pass p = pass_with(dir.path(), {{"frames", "split"}, {"maps", {"speed"}}});
+  const Analysis* fields = nullptr;
+  for (const Analysis* a : p.setup.list())
+    if (a->key() == "fields") fields = a;
+  ASSERT_TRUE(fields);
+  std::vector<std::string> names;
+  for (const FieldInfo& f : fields->field_names()) names.push_back(f.name);
+  for (const char* want : {"phi", "vy", "pressure", "tg", "vy_clogged", "pressure_clogged"})
+    EXPECT_NE(std::find(names.begin(), names.end(), want), names.end()) << want;
+  const nlohmann::json spec = {{"silo", {{"width", 25.0}, {"base_outlets", {{{"center", 0.0}, {"width", 4.0}}}}}}};
+  const std::vector<const nlohmann::json*> twice = {&p.result, &p.result};
+  const std::optional<FieldMap> vy = fields->field("vy", twice, spec);
+  ASSERT_TRUE(vy.has_value());
+  EXPECT_EQ(vy->runs, 2);
+  EXPECT_EQ(vy->frames, 4);  // the flowing part's 2 frames of each copy
+  ASSERT_EQ(vy->values.size(), static_cast<std::size_t>(vy->nx * vy->ny));
+  int defined = 0;
+  for (double v : vy->values)
+    if (std::isfinite(v)) {
+      EXPECT_NEAR(v, -1.0, 1e-12);  // the lattice falls rigidly at speed 1 while it flows
+      ++defined;
+    }
+  EXPECT_GT(defined, vy->nx * vy->ny / 2);
+  EXPECT_FALSE(vy->lines.empty());
+  // The clogged part: at rest; a profile of it across the silo is 0 wherever defined.
+  const std::optional<FieldMap> rest = fields->field("vy_clogged", twice, spec);
+  ASSERT_TRUE(rest.has_value());
+  EXPECT_EQ(rest->frames, 2);
+  const FieldProfile across = field_profile(*rest, 'x', 5.0, 1.0);
+  ASSERT_EQ(across.position.size(), static_cast<std::size_t>(rest->nx));
+  for (std::size_t i = 0; i < across.position.size(); ++i) {
+    if (across.nodes[i] > 0) {
+      EXPECT_NEAR(across.value[i], 0.0, 1e-12);
+    }
+  }
+  // |v| comes with the velocity as arrows: straight down while it flows.
+  const std::optional<FieldMap> speed = fields->field("speed", twice, spec);
+  ASSERT_TRUE(speed.has_value());
+  EXPECT_GT(speed->arrow_spacing, 0.0);
+  ASSERT_FALSE(speed->arrows.empty());
+  for (const auto& a : speed->arrows) {
+    EXPECT_NEAR(a[2], 0.0, 1e-12);
+    EXPECT_NEAR(a[3], -1.0, 1e-12);
+  }
+  EXPECT_TRUE(vy->arrows.empty());
+  EXPECT_FALSE(fields->field("no_such_field", twice, spec).has_value());
+  EXPECT_FALSE(fields->field("vy", {}, spec).has_value());
 }
 
 TEST(FieldsAnalysis, SiloDrawingLeavesTheOutletsOpen) {

@@ -1,7 +1,8 @@
 // The figure layer, derived axes and the reproduction table on a constructed campaign with two
 // axes and known flow rates Q(W, mu) = a W^(b + mu/2) (point means within 1 % of it, replicas
-// at -+1 % of their mean), and every
-// data point of every figure the report writes inside its figure's ranges (.gp files read back).
+// at -+1 % of their mean); the figures at chosen points (distribution, maps, profile) of a
+// distribution and a field of known values; and every data point and map node of every figure
+// the report writes inside its figure's ranges (.gp files read back).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -99,6 +100,22 @@ std::unique_ptr<CampaignAnalysis> analyse(const Campaign& c, const AnalysisSetup
   return analyse_campaign(c.info, c.runs, setup, o);
 }
 
+// The rows of a numeric CSV after its header ("nan" and empty cells NaN).
+std::vector<std::vector<double>> csv_rows(const fs::path& file) {
+  std::vector<std::vector<double>> rows;
+  std::istringstream csv(read_file(file));
+  std::string line;
+  std::getline(csv, line);
+  while (std::getline(csv, line)) {
+    std::vector<double> cells;
+    std::stringstream ls(line);
+    std::string cell;
+    while (std::getline(ls, cell, ',')) cells.push_back(cell == "nan" || cell.empty() ? NAN : std::stod(cell));
+    rows.push_back(cells);
+  }
+  return rows;
+}
+
 // Every point a .gp script draws (points, error bars) that lies outside its xrange/yrange:
 // "file.gp: data/x.csv row 3: (5.75, 2) outside [5.8:10.2] x [0:3]".
 std::vector<std::string> points_outside_ranges(const fs::path& report) {
@@ -127,14 +144,9 @@ std::vector<std::string> points_outside_ranges(const fs::path& report) {
       const std::regex layer(R"('([^']+)' skip 1 using 1:2(:3)? with (image|lines))");
       for (std::sregex_iterator it(gp.begin(), gp.end(), layer), end; it != end; ++it) {
         const std::string file = (*it)[1];
-        std::istringstream csv(read_file(report / file));
-        std::string line;
-        std::getline(csv, line);
-        for (int row = 1; std::getline(csv, line); ++row) {
-          std::vector<double> cells;
-          std::stringstream ls(line);
-          std::string cell;
-          while (std::getline(ls, cell, ',')) cells.push_back(cell == "nan" || cell.empty() ? NAN : std::stod(cell));
+        int row = 0;
+        for (const std::vector<double>& cells : csv_rows(report / file)) {
+          ++row;
           if (cells.size() < 2 || ((*it)[3] == "image" && (cells.size() < 3 || !std::isfinite(cells[2])))) continue;
           check(file, row, cells[0], cells[1]);
         }
@@ -147,14 +159,9 @@ std::vector<std::string> points_outside_ranges(const fs::path& report) {
       const std::string file = (*it)[1];
       const int xc = std::stoi((*it)[2]), yc = std::stoi((*it)[4]);
       const std::string shift = (*it)[3];  // "+-0.25" or "*1.02" in scripts that move points
-      std::istringstream csv(read_file(report / file));
-      std::string line;
-      std::getline(csv, line);
-      for (int row = 1; std::getline(csv, line); ++row) {
-        std::vector<double> cells;
-        std::stringstream ls(line);
-        std::string cell;
-        while (std::getline(ls, cell, ',')) cells.push_back(cell == "nan" || cell.empty() ? NAN : std::stod(cell));
+      int row = 0;
+      for (const std::vector<double>& cells : csv_rows(report / file)) {
+        ++row;
         if (static_cast<int>(cells.size()) < std::max(xc, yc)) continue;
         double x = cells[xc - 1];
         const double y = cells[yc - 1];
@@ -611,6 +618,33 @@ TEST(FigureKinds, DistributionPoolsReplicasOverOneRangeForEveryCurve) {
   for (int i = 0; i < 4; ++i) EXPECT_NEAR(gf->series[0].rows[i][1], pooled[i], 1e-9) << i;
 }
 
+// The built-in offers: the region's velocity histograms as their bins' centres with counts, the
+// avalanches' sizes as samples.
+TEST(FigureKinds, TheAnalysesOfferTheirDistributionsByName) {
+  const AnalysisSetup setup = setup_analyses(nlohmann::json::object());
+  const Analysis* region = nullptr;
+  const Analysis* avalanches = nullptr;
+  for (const Analysis* a : setup.list()) {
+    if (a->key() == "region") region = a;
+    if (a->key() == "avalanches") avalanches = a;
+  }
+  ASSERT_TRUE(region && avalanches);
+  ASSERT_EQ(region->distribution_names().size(), 2u);
+  EXPECT_EQ(region->distribution_names()[0].unit, "sqrt(g d)");
+  // Grid bin k holds [(k - 1/2) w, (k + 1/2) w): centre k w.
+  const nlohmann::json result = {{"regions", {{{"velocity", {{"vx", {{"width", 0.05}, {"first", -2}, {"counts", {1, 0, 3}}}}}}}}}};
+  const Samples vx = region->distribution("vx", result);
+  ASSERT_EQ(vx.values.size(), 2u);  // the empty bin is no sample
+  EXPECT_DOUBLE_EQ(vx.values[0], -0.1);
+  EXPECT_DOUBLE_EQ(vx.values[1], 0.0);
+  EXPECT_EQ(vx.weights, (std::vector<double>{1, 3}));
+  EXPECT_TRUE(region->distribution("vy", result).values.empty());
+  EXPECT_TRUE(region->distribution("vx", nlohmann::json::object()).values.empty()) << "a run without frames";
+  const Samples sizes = avalanches->distribution("avalanche_sizes", {{"sizes", {3, 5, 5}}});
+  EXPECT_EQ(sizes.values, (std::vector<double>{3, 5, 5}));
+  EXPECT_TRUE(sizes.weights.empty());
+}
+
 TEST(FigureKinds, DistributionOfAPerRunMetricPoolsItsReplicas) {
   TempDir dir;
   const auto r =
@@ -719,8 +753,11 @@ TEST(FigureKinds, ProfileFigureOfTheChosenPoints) {
 
 TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
   const nlohmann::json base = {{"name", "t"}, {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {4, 6}}}}}}};
-  auto error_of = [&](const nlohmann::json& figure) -> std::string {
-    nlohmann::json spec = base;
+  nlohmann::json fields = base;
+  fields["report"]["fields"] = true;
+  // The spec's check with one figure, on `base` or with the fields on.
+  auto error_with = [&](const nlohmann::json& on, const nlohmann::json& figure) -> std::string {
+    nlohmann::json spec = on;
     spec["report"]["figures"] = {figure};
     try {
       check_report_spec(spec);
@@ -729,6 +766,8 @@ TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
     }
     return "";
   };
+  auto error_of = [&](const nlohmann::json& figure) { return error_with(base, figure); };
+  auto field_error = [&](const nlohmann::json& figure) { return error_with(fields, figure); };
   auto has = [](const std::string& error, const std::string& part) {
     return error.find(part) != std::string::npos ? ::testing::AssertionSuccess()
                                                  : ::testing::AssertionFailure() << "\"" << part << "\" not in: " << error;
@@ -745,18 +784,6 @@ TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
   EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "v x"}}),
                   "/report/figures/0/of: must name a distribution an analysis offers (vx, vy, avalanche_sizes) or a per-run metric"));
   EXPECT_EQ(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vy"}, {"logy", true}}), "");
-  nlohmann::json fields = base;
-  fields["report"]["fields"] = true;
-  auto field_error = [&](const nlohmann::json& figure) -> std::string {
-    nlohmann::json spec = fields;
-    spec["report"]["figures"] = {figure};
-    try {
-      check_report_spec(spec);
-    } catch (const std::exception& e) {
-      return e.what();
-    }
-    return "";
-  };
   EXPECT_EQ(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "pressure"}, {"only", {{"W", 4}}}}), "");
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "presure"}}), "/report/figures/0/field: must name a field (fields: phi,"));
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "z"}, {"at", 3}}),
