@@ -47,7 +47,7 @@ int Dump(const std::vector<std::string>& argv, std::ostream& out, std::ostream& 
   out << "campaign dump: " << n.frames << " frame(s)";
   if (n.contact_frames > 0) out << " and " << n.contact_frames << " contact frame(s)";
   out << " as text, " << human_bytes(static_cast<std::uintmax_t>(n.bytes)) << " in " << to.string() << "\n"
-      << "  LAMMPS: cd " << to.string() << " && lmp -in rerun.in (docs/run-directory.md, \"frames.data\")\n";
+      << "  LAMMPS: read_data frames.data, then rerun frames.dump (the input in docs/run-directory.md, \"frames.data\")\n";
   return 0;
 }
 
