@@ -120,6 +120,30 @@ std::vector<Frame> ReadFrames(const fs::path& file) {
   return frames;
 }
 
+std::vector<ContactFrame> ReadContactFrames(const fs::path& file) {
+  std::vector<ContactFrame> frames;
+  ContactReader in(file);
+  for (ContactFrame f; in.Next(f);) frames.push_back(f);
+  return frames;
+}
+
+// Each body's contact forces (rows with it as i, and as j with the force reversed) plus its
+// weight: its mass times its acceleration.
+std::map<std::int64_t, std::pair<double, double>> NetForces(const Frame& frame, const ContactFrame& contacts,
+                                                            double gravity) {
+  std::map<std::int64_t, std::pair<double, double>> net;
+  for (const Disc& d : frame.discs) net[d.mol].second -= d.mass * gravity;
+  for (const ContactRow& c : contacts.contacts) {
+    net[c.body_i].first += c.fx;
+    net[c.body_i].second += c.fy;
+    if (c.body_j >= 0) {
+      net[c.body_j].first -= c.fx;
+      net[c.body_j].second -= c.fy;
+    }
+  }
+  return net;
+}
+
 // Every body's discs keep their distances (rigid) and stay whole in every frame.
 void ExpectRigid(const std::vector<Frame>& frames) {
   std::map<std::pair<std::int64_t, std::int64_t>, double> first;
@@ -178,7 +202,7 @@ TEST(LammpsBackend, DumbbellsReinjectThroughThePeriodicBoxAndStayRigid) {
   const fs::path dir = MakeRun("dumbbells_reinject", {{"bodies", {{"count", 60}, {"species", {{{"shape", "dumbbell"}}}}}},
                                                       {"silo", {{"base_outlets", {{{"center", 0}, {"width", 8}}}}}},
                                                       {"discharge", {{"mode", "reinject"}, {"max_time", 8}, {"clog_window", 3}}},
-                                                      {"output", {{"frame_interval", 0.5}}}});
+                                                      {"output", {{"frame_interval", 0.5}, {"contact_forces", true}}}});
   const Outcome o = RunLammps(dir);
   ASSERT_EQ(o.exit_code, 0) << o.output;
   const RunData run = ReadRun(dir);
@@ -199,6 +223,24 @@ TEST(LammpsBackend, DumbbellsReinjectThroughThePeriodicBoxAndStayRigid) {
   ASSERT_GE(frames.size(), 5u);
   for (const Frame& f : frames) EXPECT_EQ(f.discs.size(), 120u) << "nothing is lost at t = " << f.time;
   ExpectRigid(frames);
+  // Contacts: no pair inside a dumbbell, every pair touching (pairs across the periodic
+  // boundary put next to each other), the contact point on disc i's surface.
+  const std::vector<ContactFrame> contacts = ReadContactFrames(dir / kContactsFile);
+  ASSERT_EQ(contacts.size(), frames.size());
+  std::size_t pairs = 0, walls = 0;
+  for (const ContactFrame& f : contacts)
+    for (const ContactRow& c : f.contacts) {
+      ASSERT_NE(c.body_i, c.body_j) << "a pair inside a body at t = " << f.time;
+      if (c.body_j < 0) {
+        ++walls;
+        continue;
+      }
+      ++pairs;
+      ASSERT_LT(std::hypot(c.xj - c.xi, c.yj - c.yi), 1.0) << "bodies " << c.body_i << ", " << c.body_j << " at t = " << f.time;
+      ASSERT_NEAR(std::hypot(c.cx - c.xi, c.cy - c.yi), 0.5, 1e-6);
+    }
+  EXPECT_GT(pairs, 100u);
+  EXPECT_GT(walls, 10u);
 }
 
 TEST(LammpsBackend, EveryShapeWithASideOutletAndAnObstacleRuns) {
@@ -234,7 +276,7 @@ TEST(LammpsBackend, AKilledBackendAndAKilledLmpContinueFromTheCheckpoint) {
   const fs::path dir = MakeRun("killed", {{"bodies", {{"count", 60}, {"species", {{{"shape", "dumbbell"}}}}}},
                                           {"silo", {{"base_outlets", {{{"center", 0}, {"width", 6}}}}}},
                                           {"discharge", {{"mode", "reinject"}, {"max_time", 5}, {"clog_window", 3}}},
-                                          {"output", {{"checkpoint_interval", 1.0}}}});
+                                          {"output", {{"checkpoint_interval", 1.0}, {"frame_interval", 0.5}, {"contact_forces", true}}}});
   const fs::path twin = kTmp / "killed-whole";
   fs::remove_all(twin);
   fs::create_directories(twin);
@@ -287,6 +329,25 @@ TEST(LammpsBackend, AKilledBackendAndAKilledLmpContinueFromTheCheckpoint) {
     EXPECT_DOUBLE_EQ(a[i].time, b[i].time);
   }
   EXPECT_NEAR(static_cast<double>(run.events.size()), static_cast<double>(whole.size()), 0.2 * static_cast<double>(whole.size()) + 3);
+  // One frame and one contact frame every 0.5, none twice (LAMMPS writes a checkpoint step's
+  // frame again when it continues from it); before the first checkpoint continued from, those
+  // of the uninterrupted run.
+  const std::vector<Frame> frames = ReadFrames(dir / kFramesFile), whole_frames = ReadFrames(twin / kFramesFile);
+  const std::vector<ContactFrame> contacts = ReadContactFrames(dir / kContactsFile),
+                                  whole_contacts = ReadContactFrames(twin / kContactsFile);
+  ASSERT_EQ(frames.size(), 11u);
+  ASSERT_EQ(contacts.size(), 11u);
+  for (std::size_t k = 0; k < frames.size(); ++k) {
+    EXPECT_EQ(frames[k].timestep, static_cast<std::int64_t>(k) * 5000);
+    EXPECT_EQ(contacts[k].timestep, frames[k].timestep);
+  }
+  for (std::size_t k = 0; k < 4; ++k) {
+    ASSERT_EQ(contacts[k].contacts.size(), whole_contacts[k].contacts.size()) << "t = " << contacts[k].time;
+    for (std::size_t i = 0; i < contacts[k].contacts.size(); ++i) {
+      EXPECT_EQ(contacts[k].contacts[i].body_i, whole_contacts[k].contacts[i].body_i);
+      EXPECT_DOUBLE_EQ(contacts[k].contacts[i].fy, whole_contacts[k].contacts[i].fy);
+    }
+  }
 }
 
 // bed/settled_by "lammps": LAMMPS settles the loose placement (closed outlets) and discharges
@@ -352,30 +413,6 @@ fs::path LmpWrapper(const std::string& name, const std::string& line) {
                    << "exec lmp -in discharge.changed.in -log log.discharge -echo none -nocite\n";
   fs::permissions(w, fs::perms::owner_all);
   return w;
-}
-
-std::vector<ContactFrame> ReadContactFrames(const fs::path& file) {
-  std::vector<ContactFrame> frames;
-  ContactReader in(file);
-  for (ContactFrame f; in.Next(f);) frames.push_back(f);
-  return frames;
-}
-
-// Each body's contact forces (rows with it as i, and as j with the force reversed) plus its
-// weight: its mass times its acceleration.
-std::map<std::int64_t, std::pair<double, double>> NetForces(const Frame& frame, const ContactFrame& contacts,
-                                                            double gravity) {
-  std::map<std::int64_t, std::pair<double, double>> net;
-  for (const Disc& d : frame.discs) net[d.mol].second -= d.mass * gravity;
-  for (const ContactRow& c : contacts.contacts) {
-    net[c.body_i].first += c.fx;
-    net[c.body_i].second += c.fy;
-    if (c.body_j >= 0) {
-      net[c.body_j].first -= c.fx;
-      net[c.body_j].second -= c.fy;
-    }
-  }
-  return net;
 }
 
 // A contact seen from the lower body id (pairs) or from its body (walls): the normal part of
