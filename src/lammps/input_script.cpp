@@ -328,10 +328,14 @@ std::string DischargeScript(const RunSpec& spec, const Setup& s, const Discharge
   const std::string stalled = "\"${since_exit} >= " + std::to_string(clog_steps) + " && ${clog_counted} == 0\"";
   const std::string keep = std::string(" \"write_dump all custom ") + kClogFilePrefix +
                            "${step_now}.atoms id mol type x y radius vx vy omegaz modify format line "
-                           "'%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g'\"" + " \"write_dump all local " +
-                           kClogFilePrefix + "${step_now}.pairs " + PairColumns() + " modify format float %.10g\"" +
-                           " \"write_dump all custom " + kClogFilePrefix + "${step_now}.walls " + WallColumns(s) +
-                           " modify thresh v_wall_contacts > 0 format float %.10g\"";
+                           "'%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g'\"" +
+                           // The contacts through dumps and a `run 0`: write_dump refuses a local
+                           // compute between runs ("not current").
+                           " \"dump clog_pairs all local 1 " + kClogFilePrefix + "${step_now}.pairs " + PairColumns() +
+                           "\" \"dump_modify clog_pairs format float %.10g\" \"dump clog_walls all custom 1 " +
+                           kClogFilePrefix + "${step_now}.walls " + WallColumns(s) +
+                           "\" \"dump_modify clog_walls thresh v_wall_contacts > 0 format float %.10g\" \"run 0 post no\" "
+                           "\"undump clog_pairs\" \"undump clog_walls\"";
   if (remove)
     o << "if " << stalled << " then \"write_restart checkpoint.*.restart\"" << keep
       << " \"print 'GRANARY_END stalled'\" \"jump SELF finished\"\n";

@@ -502,6 +502,33 @@ TEST(LammpsBackend, ContactFramesBalanceGravityAndMatchTheNativeEngineAtTheStart
   EXPECT_GT(walls, 15) << "wall contacts are compared too";
 }
 
+// A clog on LAMMPS keeps its contacts (clog_contacts.dump, whatever output asks), as on the
+// native engine: the clogged bed's pairs and wall contacts; stalled for clog_window, the bed is
+// at rest: its weight on the walls, each body's forces balanced (measured: |m a| < 0.05 m g).
+TEST(LammpsBackend, AClogKeepsItsContacts) {
+  const fs::path dir = MakeRun("clog_contacts", {{"silo", {{"base_outlets", {{{"center", 0}, {"width", 2.2}}}}}},
+                                                 {"discharge", {{"max_time", 30}, {"clog_window", 3}}}});
+  const Outcome o = RunLammps(dir);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  const RunData run = ReadRun(dir);
+  ASSERT_EQ(run.summary.end_reason, "clogged") << "an outlet 2.2 discs wide clogs";
+  const std::vector<ClogState> clogs = ReadClogs(dir);
+  ASSERT_EQ(clogs.size(), 1u);
+  const ClogState& clog = clogs[0];
+  EXPECT_EQ(clog.contacts.timestep, clog.frame.timestep);
+  ASSERT_GT(clog.contacts.contacts.size(), clog.frame.discs.size()) << "a packed bed: more contacts than discs";
+  double weight = 0, wall_fy = 0;
+  for (const Disc& d : clog.frame.discs) weight += d.mass * 1.0;
+  for (const ContactRow& c : clog.contacts.contacts) {
+    ASSERT_NE(c.body_i, c.body_j);
+    if (c.body_j < 0) wall_fy += c.fy;
+  }
+  EXPECT_NEAR(wall_fy / weight, 1.0, 0.02);
+  const double m = clog.frame.discs[0].mass;
+  for (const auto& [body, f] : NetForces(clog.frame, clog.contacts, 1.0))
+    EXPECT_LT(std::hypot(f.first, f.second), 0.1 * m) << "body " << body;
+}
+
 TEST(LammpsBackend, ALammpsErrorLineFailsTheRunWithTheLogTail) {
   const fs::path dir = MakeRun("lammps_error", {});
   bp::environment env = boost::this_process::environment();
