@@ -255,7 +255,7 @@ TEST(LammpsBackend, EveryShapeWithASideOutletAndAnObstacleRuns) {
                                         {{"shape", "snowman"}, {"fraction", 0.25}, {"big_diameter", 1.5}},
                                         {{"shape", "rod"}, {"fraction", 0.25}, {"n", 3}}}}}},
                {"discharge", {{"max_time", 5}}},
-               {"output", {{"frame_interval", 1.0}}}});
+               {"output", {{"frame_interval", 1.0}, {"contact_forces", true}}}});
   const Outcome o = RunLammps(dir);
   ASSERT_EQ(o.exit_code, 0) << o.output;
   const RunData run = ReadRun(dir);
@@ -270,6 +270,18 @@ TEST(LammpsBackend, EveryShapeWithASideOutletAndAnObstacleRuns) {
   for (const Frame& f : frames)
     for (const Disc& d : f.discs)
       ASSERT_GT(std::hypot(d.x + 3, d.y - 4), 1.0 + d.radius - 0.05) << "a disc inside the obstacle at t = " << f.time;
+  // Every wall contact point is on a wall: a side wall (x = ±10, the right one's pieces around
+  // the side outlet included), the base (y = 0, the outlet's edges included) or the obstacle.
+  int on_obstacle = 0;
+  for (const ContactFrame& f : ReadContactFrames(dir / kContactsFile))
+    for (const ContactRow& c : f.contacts) {
+      if (c.body_j >= 0) continue;
+      const bool obstacle = std::abs(std::hypot(c.cx + 3, c.cy - 4) - 1.0) < 1e-6;
+      on_obstacle += obstacle;
+      EXPECT_TRUE(obstacle || std::abs(std::abs(c.cx) - 10) < 1e-6 || std::abs(c.cy) < 1e-6)
+          << "a wall contact at (" << c.cx << ", " << c.cy << ") at t = " << f.time;
+    }
+  EXPECT_GT(on_obstacle, 0) << "the obstacle's contacts are written";
 }
 
 TEST(LammpsBackend, AKilledBackendAndAKilledLmpContinueFromTheCheckpoint) {
