@@ -26,6 +26,7 @@
 #include <regex>
 #include <set>
 #include <sstream>
+#include <unordered_map>
 
 #include <boost/process.hpp>
 
@@ -35,6 +36,7 @@
 #include "external/driver.h"
 #include "lammps/input_script.h"
 #include "rundir/clogs.h"
+#include "rundir/contacts.h"
 #include "rundir/events.h"
 #include "rundir/files.h"
 #include "rundir/frames.h"
@@ -232,23 +234,107 @@ void ReadFrameBlock(std::istream& in, long long n, long long step, const RunSpec
   std::sort(frame.discs.begin(), frame.discs.end(), [](const rundir::Disc& a, const rundir::Disc& b) { return a.id < b.id; });
 }
 
-void ConvertFrames(const fs::path& in_path, const fs::path& out_path, const RunSpec& spec, const Setup& setup) {
-  std::ifstream in(in_path);
-  rundir::FrameWriter out = rundir::FrameWriter::Create(out_path, spec.output.compress);
+// The rows of the next block of a LAMMPS dump, which must be at `step` (the contact dumps are
+// written at the frames' steps).
+std::vector<std::vector<std::string>> RowsAt(std::istream& in, const fs::path& file, long long step) {
+  long long at = 0, n = 0;
+  if (!NextDumpBlock(in, at, n) || at != step)
+    throw std::runtime_error(file.string() + " has no block at step " + std::to_string(step) +
+                             " (its blocks must be at the frames' steps)");
+  std::vector<std::vector<std::string>> rows;
+  std::string line;
+  for (long long i = 0; i < n && std::getline(in, line); ++i) rows.push_back(Tokens(line));
+  return rows;
+}
+
+// One contact frame from LAMMPS' pair and wall rows of `frame`'s step (input_script.h
+// kPairsDump, kWallsDump), as the native engine writes it: each touching pair of discs of
+// different bodies once, the force on i (normal + tangential), the disc centres as in the
+// frame (pairs across the periodic boundary unwrapped), the contact point on disc i's surface
+// towards j; then each disc-wall contact with the force on the disc and the contact point on
+// the wall. Contacts with no force (exactly touching) are left out, as the native engine does.
+void ContactFrameOf(const rundir::Frame& frame, const std::vector<std::vector<std::string>>& pairs,
+                    const std::vector<std::vector<std::string>>& walls, const Setup& setup,
+                    rundir::ContactFrame& out) {
+  std::unordered_map<long long, const rundir::Disc*> disc;
+  for (const rundir::Disc& d : frame.discs) disc.emplace(d.id, &d);
+  auto at = [&](const std::string& id) -> const rundir::Disc& {
+    const auto it = disc.find(std::llround(std::stod(id)));
+    if (it == disc.end())
+      throw std::runtime_error("LAMMPS' contacts at step " + std::to_string(frame.timestep) + " name disc " + id +
+                               ", which the frame does not have");
+    return *it->second;
+  };
+  const double ly = setup.y_hi - setup.y_lo;
+  out.timestep = frame.timestep;
+  out.time = frame.time;
+  std::copy(&frame.box[0][0], &frame.box[0][0] + 6, &out.box[0][0]);
+  out.contacts.clear();
+  for (const auto& t : pairs) {
+    if (t.size() < 6) throw std::runtime_error("malformed LAMMPS pair contact row at step " + std::to_string(frame.timestep));
+    const rundir::Disc& a = at(t[0]);
+    const rundir::Disc& b = at(t[1]);
+    if (a.mol == b.mol) continue;  // excluded from LAMMPS' lists (neigh_modify exclude molecule/intra)
+    const double fx = std::stod(t[2]) + std::stod(t[4]), fy = std::stod(t[3]) + std::stod(t[5]);
+    if (fx == 0.0 && fy == 0.0) continue;
+    const double xj = b.x, yj = setup.periodic ? NearestImage(b.y, a.y, ly) : b.y;
+    const double dx = xj - a.x, dy = yj - a.y, r = std::hypot(dx, dy);
+    out.contacts.push_back({a.mol, b.mol, a.x, a.y, xj, yj, a.x + a.radius * dx / r, a.y + a.radius * dy / r, fx, fy});
+  }
+  const std::size_t fixes = setup.wall_fixes.size();
+  for (const auto& t : walls) {
+    if (t.size() < 3 + 4 * fixes)
+      throw std::runtime_error("malformed LAMMPS wall contact row at step " + std::to_string(frame.timestep));
+    const rundir::Disc& d = at(t[0]);
+    // The frame may have moved the disc by a box height (a clump put back together).
+    const double shift = d.y - std::stod(t[2]);
+    for (std::size_t k = 0; k < fixes; ++k) {
+      const double fx = std::stod(t[3 + 4 * k]), fy = std::stod(t[4 + 4 * k]);
+      if (fx == 0.0 && fy == 0.0) continue;
+      const double cx = std::stod(t[5 + 4 * k]), cy = std::stod(t[6 + 4 * k]) + shift;
+      out.contacts.push_back({d.mol, -1, d.x, d.y, cx, cy, cx, cy, fx, fy});
+    }
+  }
+}
+
+// frames.lammps into the frames file and, with output/contact_forces, the two contact dumps
+// into the contacts file, frame by frame.
+void ConvertFrames(const fs::path& dir, const RunSpec& spec, const Setup& setup) {
+  const bool gz = spec.output.compress;
+  std::ifstream in(dir / kFramesDump);
+  rundir::FrameWriter out = rundir::FrameWriter::Create(dir / (gz ? rundir::kFramesGzFile : rundir::kFramesFile), gz);
+  const bool contacts = spec.output.contact_forces;
+  std::ifstream pairs, walls;
+  rundir::ContactWriter contacts_out;
+  if (contacts) {
+    pairs.open(dir / kPairsDump);
+    walls.open(dir / kWallsDump);
+    contacts_out = rundir::ContactWriter::Create(dir / (gz ? rundir::kContactsGzFile : rundir::kContactsFile), gz);
+  }
   long long step = 0, n = 0;
   rundir::Frame frame;
+  rundir::ContactFrame contact_frame;
   while (NextDumpBlock(in, step, n)) {
     ReadFrameBlock(in, n, step, spec, setup, frame);
     out.Write(frame);
+    if (contacts) {
+      ContactFrameOf(frame, RowsAt(pairs, dir / kPairsDump, step), RowsAt(walls, dir / kWallsDump, step), setup,
+                     contact_frame);
+      contacts_out.Write(contact_frame);
+    }
   }
   out.Close();
+  if (contacts) contacts_out.Close();
 }
 
-fs::path ClogFile(const fs::path& dir, long long step) {
-  return dir / (std::string(kClogFilePrefix) + std::to_string(step) + ".atoms");
+fs::path ClogFile(const fs::path& dir, long long step, const char* ext = ".atoms") {
+  return dir / (std::string(kClogFilePrefix) + std::to_string(step) + ext);
+}
+void RemoveClogFiles(const fs::path& dir, long long step) {
+  for (const char* ext : {".atoms", ".pairs", ".walls"}) fs::remove(ClogFile(dir, step, ext));
 }
 void RemoveClogFilesAfter(const fs::path& dir, long long after) {
-  static const std::regex name(R"(clog\.(\d+)\.atoms)");
+  static const std::regex name(R"(clog\.(\d+)\.(atoms|pairs|walls))");
   std::vector<fs::path> doomed;
   for (const auto& e : fs::directory_iterator(dir)) {
     std::smatch m;
@@ -258,8 +344,7 @@ void RemoveClogFilesAfter(const fs::path& dir, long long after) {
   for (const fs::path& f : doomed) fs::remove(f);
 }
 
-// The configurations kept at the clogs into the run directory's clog files (no contact rows:
-// docs/lammps.md).
+// The configurations and contacts kept at the clogs into the run directory's clog files.
 void ConvertClogs(const fs::path& dir, const std::vector<long long>& steps, const RunSpec& spec, const Setup& setup) {
   rundir::ClogWriter out = rundir::ClogWriter::Create(dir);
   rundir::ClogState clog;
@@ -270,10 +355,10 @@ void ConvertClogs(const fs::path& dir, const std::vector<long long>& steps, cons
       throw std::runtime_error("the configuration of the clog at step " + std::to_string(step) + " is missing (" +
                                ClogFile(dir, step).string() + ")");
     ReadFrameBlock(atoms, n, step, spec, setup, clog.frame);
+    std::ifstream pairs(ClogFile(dir, step, ".pairs")), walls(ClogFile(dir, step, ".walls"));
+    ContactFrameOf(clog.frame, RowsAt(pairs, ClogFile(dir, step, ".pairs"), dumped),
+                   RowsAt(walls, ClogFile(dir, step, ".walls"), dumped), setup, clog.contacts);
     clog.contacts.timestep = step;
-    clog.contacts.time = clog.frame.time;
-    std::copy(&clog.frame.box[0][0], &clog.frame.box[0][0] + 6, &clog.contacts.box[0][0]);
-    clog.contacts.contacts.clear();
     out.Write(clog);
   }
   out.Close();
@@ -428,7 +513,8 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
     start.continue_run = true;
     start.restart_file = ckpt.file.filename().string();  // "checkpoint.<digits>.restart": no spec text
     TruncateDump(dir / kExitsDump, ckpt.step);
-    TruncateDump(dir / kFramesDump, ckpt.step);
+    // LAMMPS writes the checkpoint step's frame again when it starts from the checkpoint.
+    for (const char* dump : {kFramesDump, kPairsDump, kWallsDump}) TruncateDump(dir / dump, ckpt.step - 1);
     wall_before = state.value("discharge_wall_s", 0.0);
     std::vector<long long> kept;
     for (long long c : state.value("clog_steps", std::vector<long long>{}))
@@ -436,7 +522,9 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
     state["clog_steps"] = kept;
     RemoveClogFilesAfter(dir, ckpt.step);
   } else {
-    for (const fs::path& f : {fs::path(kExitsDump), fs::path(kFramesDump), fs::path(kFinalDump), fs::path(rundir::kEventsFile),
+    for (const fs::path& f : {fs::path(kExitsDump), fs::path(kFramesDump), fs::path(kPairsDump), fs::path(kWallsDump),
+                             fs::path(rundir::kContactsFile), fs::path(rundir::kContactsGzFile),
+                             fs::path(kFinalDump), fs::path(rundir::kEventsFile),
                              fs::path(rundir::kFramesFile), fs::path(rundir::kFramesGzFile), fs::path(rundir::kClogFramesFile),
                              fs::path(rundir::kClogContactsFile), fs::path(kStartFrame)})
       fs::remove(dir / f);
@@ -538,7 +626,7 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
         return RunLocked(dir, options);
       }
     } else {
-      fs::remove(ClogFile(dir, last_step));
+      RemoveClogFiles(dir, last_step);
     }
   } else if (end_reason == "clogged") {
     state["clog_steps"].push_back(last_step);
@@ -555,9 +643,7 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
     ++per_outlet[static_cast<std::size_t>(e.outlet)];
   }
   rundir::WriteEvents(dir / rundir::kEventsFile, exits);
-  if (spec.output.frame_interval > 0 && fs::exists(dir / kFramesDump))
-    ConvertFrames(dir / kFramesDump, dir / (spec.output.compress ? rundir::kFramesGzFile : rundir::kFramesFile), spec,
-                  setup);
+  if (spec.output.frame_interval > 0 && fs::exists(dir / kFramesDump)) ConvertFrames(dir, spec, setup);
   const std::vector<long long> clog_steps = state.value("clog_steps", std::vector<long long>{});
   ConvertClogs(dir, clog_steps, spec, setup);
 

@@ -66,16 +66,86 @@ void Model(std::ostringstream& o, const RunSpec& spec, const Setup& s, const std
     << "fix plane all enforce2d\n";
 }
 
-// Obstacles: wall/gran/region on cylinders.
-void Obstacles(std::ostringstream& o, const RunSpec& spec) {
+// Obstacles: wall/gran/region on cylinders. `contacts`: each fix keeps, per disc, the force
+// it applied and the contact point (the contact frames and the clogs' contacts).
+void Obstacles(std::vector<std::pair<std::string, std::string>>& fixes, const RunSpec& spec, bool contacts) {
   const std::string wall_region = "wall/gran/region " + Law(spec.contact, spec.contact.mu_wall);
   for (std::size_t k = 0; k < spec.silo.obstacles.size(); ++k) {
     const Obstacle& ob = spec.silo.obstacles[k];
     const std::string id = "obstacle_" + std::to_string(k);
-    o << "region " << id << " cylinder z " << Num(ob.x) << " " << Num(ob.y) << " " << Num(ob.diameter / 2)
-      << " -0.5 0.5 side out units box\n"
-      << "fix " << id << " all " << wall_region << " region " << id << "\n";
+    fixes.emplace_back(id, "region " + id + " cylinder z " + Num(ob.x) + " " + Num(ob.y) + " " + Num(ob.diameter / 2) +
+                               " -0.5 0.5 side out units box\nfix " + id + " all " + wall_region + " region " + id +
+                               (contacts ? " contacts" : "") + "\n");
   }
+}
+
+// The discharge's walls, base and obstacles: (fix id, its input lines). Side walls without an
+// outlet are planes; the base between outlets and side walls with outlets are thin blocks
+// (their corners are the outlet edges).
+std::vector<std::pair<std::string, std::string>> DischargeWalls(const RunSpec& spec, const Setup& s) {
+  const Contact& c = spec.contact;
+  const Silo& silo = spec.silo;
+  const double hw = s.half_width;
+  const std::string wall = "wall/gran " + Law(c, c.mu_wall);
+  const std::string wall_region = "wall/gran/region " + Law(c, c.mu_wall);
+  std::vector<std::pair<std::string, std::string>> fixes;
+  bool left_open = false, right_open = false;
+  for (const SideOutlet& so : silo.side_outlets) (so.wall == Wall::kLeft ? left_open : right_open) = true;
+  auto plane = [&](const std::string& id, const std::string& lo, const std::string& hi) {
+    fixes.emplace_back(id, "fix " + id + " all " + wall + " xplane " + lo + " " + hi + " contacts\n");
+  };
+  if (!left_open && !right_open) {
+    plane("side_walls", Num(-hw), Num(hw));
+  } else {
+    if (!left_open) plane("left_wall", Num(-hw), "NULL");
+    if (!right_open) plane("right_wall", "NULL", Num(hw));
+  }
+  int piece = 0;
+  auto block = [&](double x0, double x1, double y0, double y1) {
+    const std::string id = "wall_piece_" + std::to_string(piece++);
+    fixes.emplace_back(id, "region " + id + " block " + Num(x0) + " " + Num(x1) + " " + Num(y0) + " " + Num(y1) +
+                               " -0.5 0.5 side out units box\nfix " + id + " all " + wall_region + " region " + id +
+                               " contacts\n");
+  };
+  std::vector<std::pair<double, double>> gaps;
+  for (const BaseOutlet& bo : silo.base_outlets) gaps.emplace_back(bo.center - bo.width / 2, bo.center + bo.width / 2);
+  std::sort(gaps.begin(), gaps.end());
+  // The base reaches under the side walls' blocks, so no gap opens at the corners.
+  double x = -hw - kBaseThickness;
+  for (const auto& [g0, g1] : gaps) {
+    if (g0 > x + 1e-9) block(x, g0, -kBaseThickness, 0.0);
+    x = std::max(x, g1);
+  }
+  if (x < hw + kBaseThickness - 1e-9) block(x, hw + kBaseThickness, -kBaseThickness, 0.0);
+  const double wall_top = s.y_hi + 10;
+  for (Wall side : {Wall::kLeft, Wall::kRight}) {
+    if (!(side == Wall::kLeft ? left_open : right_open)) continue;
+    std::vector<std::pair<double, double>> holes;
+    for (const SideOutlet& so : silo.side_outlets)
+      if (so.wall == side) holes.emplace_back(so.bottom, so.bottom + so.width);
+    std::sort(holes.begin(), holes.end());
+    const double x0 = side == Wall::kLeft ? -hw - kBaseThickness : hw, x1 = x0 + kBaseThickness;
+    double y = -kBaseThickness;
+    for (const auto& [h0, h1] : holes) {
+      if (h0 > y + 1e-9) block(x0, x1, y, h0);
+      y = std::max(y, h1);
+    }
+    block(x0, x1, y, wall_top);
+  }
+  Obstacles(fixes, spec, true);
+  return fixes;
+}
+
+// The columns of the contact dumps (input_script.h kPairsDump, kWallsDump), and the per-atom
+// variable that picks the discs touching a wall.
+std::string PairColumns() {
+  return "c_contact_atoms[1] c_contact_atoms[2] c_contact_forces[1] c_contact_forces[2] c_contact_forces[3] "
+         "c_contact_forces[4]";
+}
+std::string WallColumns(const Setup& s) {
+  std::string cols = "id x y";
+  for (const std::string& f : s.wall_fixes) cols += " f_" + f + "[2] f_" + f + "[3] f_" + f + "[5] f_" + f + "[6]";
+  return cols;
 }
 
 }  // namespace
@@ -141,6 +211,7 @@ Setup MakeSetup(const RunSpec& spec, const rundir::Frame& start) {
     s.y_hi = std::max(1.5 * bed_top + 2 * b + 2.0, spec.silo.height);
   }
   s.event_every = StepsOf(kEventInterval, spec.time_step);
+  for (const auto& [id, lines] : DischargeWalls(spec, s)) s.wall_fixes.push_back(id);
   return s;
 }
 
@@ -163,61 +234,24 @@ std::string DataFile(const Setup& s, const rundir::Frame& start) {
 
 std::string DischargeScript(const RunSpec& spec, const Setup& s, const DischargeStart& start) {
   const double dt = spec.time_step;
-  const Contact& c = spec.contact;
   const Silo& silo = spec.silo;
   const double hw = s.half_width, ed = spec.discharge.exit_distance, b = s.bound_radius;
   const long long chunk = StepsOf(std::min(kChunkTime, spec.discharge.clog_window / 4), dt);
   const long long total = StepsOf(spec.discharge.max_time, dt);
   const long long clog_steps = StepsOf(spec.discharge.clog_window, dt);
   const bool remove = spec.discharge.mode == DischargeMode::kRemove;
-  const std::string wall = "wall/gran " + Law(c, c.mu_wall);
-  const std::string wall_region = "wall/gran/region " + Law(c, c.mu_wall);
   std::ostringstream o;
   o << "# Discharge, generated by granary-lammps from run.json (docs/lammps.md)\n";
   Model(o, spec, s, start.continue_run ? "read_restart " + start.restart_file : std::string());
-  // Walls. Side walls without an outlet are planes; the base between outlets and side walls
-  // with outlets are thin blocks (their corners are the outlet edges).
-  bool left_open = false, right_open = false;
-  for (const SideOutlet& so : silo.side_outlets) (so.wall == Wall::kLeft ? left_open : right_open) = true;
-  if (!left_open && !right_open) {
-    o << "fix side_walls all " << wall << " xplane " << Num(-hw) << " " << Num(hw) << "\n";
-  } else {
-    if (!left_open) o << "fix left_wall all " << wall << " xplane " << Num(-hw) << " NULL\n";
-    if (!right_open) o << "fix right_wall all " << wall << " xplane NULL " << Num(hw) << "\n";
-  }
-  int piece = 0;
-  auto block = [&](double x0, double x1, double y0, double y1) {
-    const std::string id = "wall_piece_" + std::to_string(piece++);
-    o << "region " << id << " block " << Num(x0) << " " << Num(x1) << " " << Num(y0) << " " << Num(y1)
-      << " -0.5 0.5 side out units box\n"
-      << "fix " << id << " all " << wall_region << " region " << id << "\n";
-  };
-  std::vector<std::pair<double, double>> gaps;
-  for (const BaseOutlet& bo : silo.base_outlets) gaps.emplace_back(bo.center - bo.width / 2, bo.center + bo.width / 2);
-  std::sort(gaps.begin(), gaps.end());
-  // The base reaches under the side walls' blocks, so no gap opens at the corners.
-  double x = -hw - kBaseThickness;
-  for (const auto& [g0, g1] : gaps) {
-    if (g0 > x + 1e-9) block(x, g0, -kBaseThickness, 0.0);
-    x = std::max(x, g1);
-  }
-  if (x < hw + kBaseThickness - 1e-9) block(x, hw + kBaseThickness, -kBaseThickness, 0.0);
-  const double wall_top = s.y_hi + 10;
-  for (Wall side : {Wall::kLeft, Wall::kRight}) {
-    if (!(side == Wall::kLeft ? left_open : right_open)) continue;
-    std::vector<std::pair<double, double>> holes;
-    for (const SideOutlet& so : silo.side_outlets)
-      if (so.wall == side) holes.emplace_back(so.bottom, so.bottom + so.width);
-    std::sort(holes.begin(), holes.end());
-    const double x0 = side == Wall::kLeft ? -hw - kBaseThickness : hw, x1 = x0 + kBaseThickness;
-    double y = -kBaseThickness;
-    for (const auto& [h0, h1] : holes) {
-      if (h0 > y + 1e-9) block(x0, x1, y, h0);
-      y = std::max(y, h1);
-    }
-    block(x0, x1, y, wall_top);
-  }
-  Obstacles(o, spec);
+  for (const auto& [id, lines] : DischargeWalls(spec, s)) o << lines;
+  // Contacts: the touching pairs (`cutoff radius`; the same neighbour list order in both
+  // computes, so their rows are the same pairs; pairs inside a clump are excluded from the
+  // lists), and the discs touching a wall fix.
+  o << "compute contact_atoms all property/local patom1 patom2 cutoff radius\n"
+    << "compute contact_forces all pair/local fx fy p1 p2 cutoff radius\n"
+    << "variable wall_contacts atom 0";
+  for (const std::string& f : s.wall_fixes) o << "+f_" << f << "[1]";
+  o << "\n";
 
   // Each body's centre of mass on each of its discs (unwrapped: in the periodic box its y
   // keeps falling by the box height at every pass), and 1 / its disc count.
@@ -262,6 +296,14 @@ std::string DischargeScript(const RunSpec& spec, const Setup& s, const Discharge
       << " id mol type x y radius vx vy omegaz\n"
       << "dump_modify frames format line \"%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g\""
       << (start.continue_run ? " append yes" : "") << "\n";
+    if (spec.output.contact_forces) {
+      const long long every = StepsOf(spec.output.frame_interval, dt);
+      o << "dump contact_pairs all local " << every << " " << kPairsDump << " " << PairColumns() << "\n"
+        << "dump_modify contact_pairs format float %.10g" << (start.continue_run ? " append yes" : "") << "\n"
+        << "dump contact_walls all custom " << every << " " << kWallsDump << " " << WallColumns(s) << "\n"
+        << "dump_modify contact_walls thresh v_wall_contacts > 0 format float %.10g"
+        << (start.continue_run ? " append yes" : "") << "\n";
+    }
   }
   if (spec.output.checkpoint_interval > 0)
     o << "restart " << StepsOf(spec.output.checkpoint_interval, dt) << " checkpoint.*.restart\n";
@@ -288,7 +330,14 @@ std::string DischargeScript(const RunSpec& spec, const Setup& s, const Discharge
   const std::string stalled = "\"${since_exit} >= " + std::to_string(clog_steps) + " && ${clog_counted} == 0\"";
   const std::string keep = std::string(" \"write_dump all custom ") + kClogFilePrefix +
                            "${step_now}.atoms id mol type x y radius vx vy omegaz modify format line "
-                           "'%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g'\"";
+                           "'%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g'\"" +
+                           // The contacts through dumps and a `run 0`: write_dump refuses a local
+                           // compute between runs ("not current").
+                           " \"dump clog_pairs all local 1 " + kClogFilePrefix + "${step_now}.pairs " + PairColumns() +
+                           "\" \"dump_modify clog_pairs format float %.10g\" \"dump clog_walls all custom 1 " +
+                           kClogFilePrefix + "${step_now}.walls " + WallColumns(s) +
+                           "\" \"dump_modify clog_walls thresh v_wall_contacts > 0 format float %.10g\" \"run 0 post no\" "
+                           "\"undump clog_pairs\" \"undump clog_walls\"";
   if (remove)
     o << "if " << stalled << " then \"write_restart checkpoint.*.restart\"" << keep
       << " \"print 'GRANARY_END stalled'\" \"jump SELF finished\"\n";
@@ -327,7 +376,9 @@ std::string SettleScript(const RunSpec& spec, const Setup& s, double fall_time) 
   Model(o, spec, s, std::string(), kLooseDataFile);
   o << "fix side_walls all " << wall << " xplane " << Num(-s.half_width) << " " << Num(s.half_width) << "\n"
     << "fix base all " << wall << " yplane 0 NULL\n";
-  Obstacles(o, spec);
+  std::vector<std::pair<std::string, std::string>> obstacles;
+  Obstacles(obstacles, spec, false);
+  for (const auto& [id, lines] : obstacles) o << lines;
   // Atom velocities of a rigid body are its motion at each disc, and its discs' spins its
   // own: the two sums are the bodies' kinetic energy.
   o << "variable bodies equal " << s.bodies << "\n"

@@ -21,9 +21,16 @@ inline constexpr char kDataFile[] = "bed.data";
 // What the script writes (read by the backend, converted into the run-directory files).
 inline constexpr char kFramesDump[] = "frames.lammps";      // id mol type x y radius vx vy omegaz
 inline constexpr char kExitsDump[] = "exits.lammps";        // id mol xcm ycm of bodies past an exit line
-inline constexpr char kPairsDump[] = "contacts.lammps";     // pair contacts (local dump)
+// output/contact_forces, at the frames' steps: the touching pairs of discs of different bodies
+// (compute property/local + pair/local, local dump: id_i id_j fx fy ftx fty, the normal and the
+// tangential force on i), and every disc touching a wall or obstacle (id x y, then fx fy cx cy
+// of each wall fix in kWallFixes order: the force on the disc and the contact point on the wall).
+inline constexpr char kPairsDump[] = "contacts_pairs.lammps";
+inline constexpr char kWallsDump[] = "contacts_walls.lammps";
 inline constexpr char kFinalDump[] = "final.lammps";        // id mol type x y radius at the end
-inline constexpr char kClogFilePrefix[] = "clog.";          // clog.<step>.atoms, clog.<step>.pairs
+// At a stall: clog.<step>.atoms (as kFramesDump), clog.<step>.pairs, clog.<step>.walls (as the
+// two contact dumps).
+inline constexpr char kClogFilePrefix[] = "clog.";
 // bed/settled_by "lammps": the loose placement LAMMPS settles, and the settled bed.
 inline constexpr char kLooseDataFile[] = "loose.data";
 inline constexpr char kSettledDump[] = "settled.lammps";    // id mol type x y radius vx vy omegaz
@@ -39,10 +46,13 @@ struct Setup {
   double bound_radius = 0;      // largest body's bounding radius
   int bodies = 0;               // in the bed at t = 0
   long long event_every = 1;    // steps between looks at the exit lines
+  // The discharge's wall and obstacle fixes (fix wall/gran ... contacts), in the order of
+  // their columns in kWallsDump.
+  std::vector<std::string> wall_fixes;
 };
 
 // Throws SpecError for what LAMMPS cannot run (validate_for_lammps) and for a start frame
-// that does not fit the spec.
+// that does not fit the spec. Names the discharge's wall fixes.
 Setup MakeSetup(const RunSpec& spec, const rundir::Frame& start);
 
 // The bed as a LAMMPS data file: atom ids = the native disc ids, molecule ids = body ids + 1,

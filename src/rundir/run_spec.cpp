@@ -839,10 +839,6 @@ void validate_for_lammps(const RunSpec& s) {
   if (s.contact.clip_normal)
     throw SpecError("/contact/clip_normal", "LAMMPS' pair gran/hertz/history has no clipping of an attractive normal "
                                             "force (got true, allowed: false)");
-  if (s.output.contact_forces)
-    throw SpecError("/output/contact_forces", "the LAMMPS backend does not write contact frames yet (pair and wall "
-                                              "forces from compute pair/local are not converted; got true, allowed: "
-                                              "false)");
   if (s.discharge.mode == DischargeMode::kReinject && !s.silo.side_outlets.empty())
     throw SpecError("/discharge/mode",
                     "the LAMMPS backend reinjects through y-periodicity, which cannot return bodies that leave "
