@@ -1,5 +1,7 @@
 // The profile analysis over a constructed run directory, through the pass: two frames of discs
-// above a base outlet of width 10 at x = 0, binned in two halves of x/W. In the band (0 <= y
+// (at t = 2 and 3, inside the steady window, which starts at /report/window/start_time = 2
+// when the run has no flow window) above a base outlet of width 10 at x = 0, binned in two
+// halves of x/W. In the band (0 <= y
 // <= 2) and inside the outlet: one disc per half, falling at 1 then 2 (left) and at 3 (right);
 // a disc above the band and one beside the outlet fall at 10 and must not count. So v_y is
 // -1.5 and -3 per half, normalised -0.5 and -1, and V_max = 3.
@@ -35,9 +37,9 @@ TEST(ProfileAnalysis, BodyVelocitiesAcrossTheOutletInTheBandOverTheFrames) {
              nlohmann::json{{"silo", {{"width", 40}, {"base_outlets", {{{"center", 0.0}, {"width", 10.0}}}}}},
                             {"bodies", {{"count", 4}}}}
                  .dump());
-  write_file(dir.path() / "summary.json", R"({"engine":"native","bodies":4,"exited":0,"remaining":4,"t_end":3})");
+  write_file(dir.path() / "summary.json", R"({"engine":"native","bodies":4,"exited":0,"remaining":4,"t_end":4})");
   write_file(dir.path() / "events.csv", "time,body,shape,mass,outlet\n");
-  write_file(dir.path() / "frames.dump", FrameText(1, -1.0) + FrameText(2, -2.0));
+  write_file(dir.path() / "frames.dump", FrameText(2, -1.0) + FrameText(3, -2.0));
   const auto analysis = make_profile_analysis({{"bins", 2}}, "/report/profile");
   RunPassOptions no_cache;
   no_cache.read_cache = no_cache.write_cache = false;
