@@ -127,7 +127,8 @@ void check_metric_references(const nlohmann::json& spec) {
   std::vector<const AnalysisEntry*> on;
   for (const auto& a : setup.analyses) {
     const auto row = std::find_if(rows.begin(), rows.end(), [&](const AnalysisEntry& e) { return e.key == a->key(); });
-    if (row == rows.end()) return;  // a Python analysis: its metrics are its script's
+    // A Python analysis (its metrics are its script's) or a row without a list: not checked.
+    if (row == rows.end() || row->metrics.empty()) return;
     on.push_back(&*row);
   }
   const std::vector<std::string> axis_names = axes.names();

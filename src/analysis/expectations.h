@@ -46,7 +46,8 @@ bool judged_at_size(const std::string& size);
 // metric of an analysis the spec turns on (registry.h, AnalysisEntry::metrics). Throws
 // OptionError naming the JSON path, the name and what the spec offers; a metric of an analysis
 // the spec leaves off (fields) says how to turn it on. Names are not checked when the spec has
-// Python analyses (their metrics are known only when their scripts run).
+// Python analyses (their metrics are known only when their scripts run) or an analysis whose
+// registry row lists no metrics.
 void check_metric_references(const nlohmann::json& campaign_spec);
 
 struct ExpectationResult {

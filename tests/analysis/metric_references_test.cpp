@@ -47,7 +47,7 @@ TEST(MetricReferences, AnUnknownNameIsRefusedWithItsPathAndWhatExists) {
   EXPECT_NE(fig.find("/report/figures/1/y"), std::string::npos) << fig;
   EXPECT_NE(fig.find("\"psii\" names no metric"), std::string::npos) << fig;
   EXPECT_NE(fig.find("psi,"), std::string::npos) << fig;            // what the analyses offer
-  EXPECT_NE(fig.find("W, mu, W_over_2"), std::string::npos) << fig;  // and the axes
+  EXPECT_NE(fig.find("no axis (mu, W, W_over_2)"), std::string::npos) << fig;  // and the axes
 
   const std::string exp = error_of(spec_with(nlohmann::json::object(), {{{"metric", "q_cnt"}, {"value", 1}}}));
   EXPECT_NE(exp.find("/expect/0/metric"), std::string::npos) << exp;

@@ -160,12 +160,18 @@ TEST_F(AdaptiveReplicas, APointAtMaxIsMarked) {
   ASSERT_EQ(Sh(Cmd(db, "report --no-figures")).code, 0);
   EXPECT_NE(ReadFile(db.parent_path() / "report" / "report.md").find("max reached, target not met"), std::string::npos);
 
-  // A metric no analysis returns: said, and nothing added.
+  // A name that is no metric at all: refused by the plan, naming the path.
+  const fs::path db0 = dir_ / "n" / "g.db";
+  const auto refused = Sh(Cmd(db0, "plan " + WriteSpec(dir_ / "n", json::parse(R"({"min": 2, "max": 9, "until": {"metric": "no_such_metric", "se": 1}})"))));
+  EXPECT_EQ(refused.code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("/replicas/until/metric: \"no_such_metric\" names no metric"), std::string::npos) << refused.output;
+  // A metric of the analyses that no run of this campaign returns (a third outlet's): said at
+  // run time, and nothing added.
   const fs::path db2 = dir_ / "u" / "g.db";
-  ASSERT_EQ(Sh(Cmd(db2, "plan " + WriteSpec(dir_ / "u", json::parse(R"({"min": 2, "max": 9, "until": {"metric": "no_such_metric", "se": 1}})")))).code, 0);
+  ASSERT_EQ(Sh(Cmd(db2, "plan " + WriteSpec(dir_ / "u", json::parse(R"({"min": 2, "max": 9, "until": {"metric": "avalanche_size_outlet3", "se": 1}})")))).code, 0);
   const auto r2 = Sh(Cmd(db2, "run --jobs 2 --engine " + testing::FakeEngine()));
   EXPECT_EQ(r2.code, 0) << r2.output;
-  EXPECT_NE(r2.output.find("se(no_such_metric) = not a metric of this campaign"), std::string::npos) << r2.output;
+  EXPECT_NE(r2.output.find("se(avalanche_size_outlet3) = not a metric of this campaign"), std::string::npos) << r2.output;
   EXPECT_EQ(RunIds(Status(db2)).size(), 4u);
 }
 

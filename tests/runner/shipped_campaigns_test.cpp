@@ -54,7 +54,8 @@ json without_size(json spec) {
     if (spec.contains(p)) spec.at(p.parent_pointer()).erase(p.back());
   }
   json axes = json::object();
-  for (const auto& [part, value] : spec.value("sweep", json::object()).items()) {
+  const json sweep = spec.value("sweep", json::object());
+  for (const auto& [part, value] : sweep.items()) {
     std::set<std::string> names;
     if (part == "points")
       for (const json& point : value)
