@@ -208,5 +208,111 @@ TEST_F(AdaptiveReplicas, KillMinusNineWhileAddingLosesAndRepeatsNothing) {
   }
 }
 
+// The same on a tiny real campaign: granary-engine's unclog protocol (remove_arch, at most 3
+// clogs per run) in a silo of 200 discs 16 d wide, and the avalanche statistics of the real
+// analyses. Over an outlet of 3 d the runs clog, so each adds avalanches and the point meets a
+// loose target (se/<s> <= 0.5); over 8 d the discs drain without a clog (the clogging
+// probability of discs at W/d = 8 is negligible): no avalanche, no se, so the point asks for one
+// more run each time until max, where it is marked. The campaign is then planned again in a
+// second directory and its runner killed -9 twice after it decided which replicas to add and
+// before it wrote them: the last runner ends with the same runs, each run once, with the same
+// exits, as the campaign never killed.
+TEST_F(AdaptiveReplicas, ARealUnclogCampaignStopsAtItsTargetOrAtMaxAndAKillLosesNothing) {
+  const std::string engine = testing::BinDir() + "/granary-engine";
+  if (!fs::exists(engine)) GTEST_SKIP() << "granary-engine not built";
+  const json rule = json::parse(R"({"min": 2, "max": 4, "until": {"metric": "avalanche_size", "rel_se": 0.5}})");
+  const auto write_spec = [&](const fs::path& folder) {
+    fs::create_directories(folder);
+    const fs::path p = folder / "c.json";
+    std::ofstream(p) << json{
+        {"name", "adaptive-real"},
+        {"seed", 3},
+        {"replicas", rule},
+        {"base",
+         {{"bodies", {{"count", 200}, {"species", {{{"shape", "disc"}}}}}},
+          {"silo", {{"width", 16}, {"base_outlets", {{{"center", 0}, {"width", 3}}}}}},
+          {"bed", {{"batch_size", 200}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 10}}},
+          {"discharge",
+           {{"mode", "remove"},
+            {"max_time", 30},
+            {"clog_window", 2},
+            {"on_clog", "unclog"},
+            {"unclog", {{"method", "remove_arch"}, {"max_clogs", 3}}}}},
+          {"output", {{"checkpoint_interval", 2}, {"frame_interval", 0}}}}},
+        {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {3, 8}}}}}}};
+    return p.string();
+  };
+  const auto point_of = [](const json& status, int width) {
+    for (const json& p : status["replicas"]["points"])
+      if (p["point"]["/silo/base_outlets/0/width"] == width) return p;
+    return json();
+  };
+  // One engine at a time: the test stays on one core (both campaigns share the prepared beds).
+  const fs::path control = dir_ / "control" / "g.db";
+  ASSERT_EQ(Sh(Cmd(control, "plan " + write_spec(dir_ / "control"))).code, 0);
+  const auto run = Sh(Cmd(control, "run --jobs 1"));
+  ASSERT_EQ(run.code, 0) << run.output;
+  const json s = Status(control);
+  const json clogging = point_of(s, 3), draining = point_of(s, 8);
+  ASSERT_FALSE(clogging.is_null() || draining.is_null()) << s.dump();
+  // The clogging point stopped at its target, as decide_replicas judges its final state.
+  EXPECT_EQ(clogging["verdict"], "met") << clogging.dump();
+  EXPECT_GE(clogging["runs"].get<int>(), 2);
+  EXPECT_LE(clogging["runs"].get<int>(), 4);
+  const json& t = clogging["targets"][0];
+  EXPECT_EQ(t["metric"], "avalanche_size");
+  EXPECT_LE(t["achieved"].get<double>(), 0.5);
+  const PointReplicas state{clogging["runs"].get<int>(), 0,
+                            {{"avalanche_size", {t["value"].get<double>(), t["se"].get<double>(), t["n"].get<int>()}}}};
+  EXPECT_EQ(to_string(decide_replicas(ReplicaRule::from_json(rule), state).verdict), std::string("met"));
+  // The runner said so when it stopped adding.
+  EXPECT_NE(run.output.find("width=3: se/|avalanche_size| = "), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("(target 0.5, met) after " + std::to_string(clogging["runs"].get<int>()) + " runs: target met"),
+            std::string::npos)
+      << run.output;
+  // The draining point: no avalanche, so it ran to max and is marked there.
+  EXPECT_EQ(draining["runs"], 4) << draining.dump();
+  EXPECT_EQ(draining["verdict"], "at max") << draining.dump();
+  EXPECT_EQ(draining["targets"][0]["n"], 0) << draining.dump();
+  EXPECT_NE(run.output.find("width=8: se/|avalanche_size| = n/a (target 0.5) after 4 runs: at max (4) without reaching the target"),
+            std::string::npos)
+      << run.output;
+  EXPECT_NE(Sh(Cmd(control, "status")).output.find("AT MAX without reaching the target"), std::string::npos);
+  ASSERT_EQ(Sh(Cmd(control, "report --no-figures")).code, 0);
+  EXPECT_NE(ReadFile(control.parent_path() / "report" / "report.md").find("max reached, target not met"), std::string::npos);
+  const std::set<std::string> expected = RunIds(s);
+  EXPECT_EQ(static_cast<int>(expected.size()), clogging["runs"].get<int>() + 4);
+  std::map<std::string, std::string> exits;  // run id -> events.csv
+  for (const json& r : s["runs"]) {
+    EXPECT_EQ(r["state"], "done");
+    EXPECT_EQ(r["attempts"], 1) << r.dump();
+    exits[r["run_id"]] = ReadFile(fs::path(r["run_dir"].get<std::string>()) / "events.csv");
+  }
+
+  const fs::path db = dir_ / "killed" / "g.db";
+  ASSERT_EQ(Sh(Cmd(db, "plan " + write_spec(dir_ / "killed"))).code, 0);
+  for (int k = 0; k < 2; ++k) {
+    const fs::path hold = dir_ / ("hold" + std::to_string(k));
+    setenv("GRANARY_TEST_HOLD_REPLICAS", hold.c_str(), 1);
+    const std::string log = (dir_ / ("runner" + std::to_string(k) + ".log")).string();
+    const pid_t runner = Spawn({testing::Campaign(), "run", "--db", db.string(), "--jobs", "1"}, log);
+    ASSERT_TRUE(testing::WaitFor([&] { return fs::exists(hold.string() + ".reached"); }, 600)) << ReadFile(log);
+    kill(runner, SIGKILL);
+    EXPECT_EQ(testing::WaitExit(runner), 128 + SIGKILL);
+  }
+  unsetenv("GRANARY_TEST_HOLD_REPLICAS");
+  const auto last = Sh(Cmd(db, "run --jobs 1"));
+  ASSERT_EQ(last.code, 0) << last.output;
+  const json k = Status(db);
+  EXPECT_EQ(RunIds(k), expected);
+  for (const json& r : k["runs"]) {
+    EXPECT_EQ(r["state"], "done");
+    EXPECT_EQ(r["attempts"], 1) << r.dump();
+    EXPECT_TRUE(ReadFile(fs::path(r["run_dir"].get<std::string>()) / "events.csv") == exits[r["run_id"]]) << r["run_id"];
+  }
+  EXPECT_EQ(point_of(k, 3)["verdict"], "met");
+  EXPECT_EQ(point_of(k, 8)["verdict"], "at max");
+}
+
 }  // namespace
 }  // namespace granary::runner

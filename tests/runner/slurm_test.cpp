@@ -169,6 +169,55 @@ TEST_F(SlurmCampaignTest, SmallCampaignRunsToDoneAsArrays) {
   EXPECT_EQ(testing::CountLines(again.output, "submitted"), 0) << again.output;
 }
 
+// Adaptive replicas on Slurm (docs/campaign-spec.md "Adaptive replicas"): the replicas the
+// runner adds after the first array's runs end go out as new array jobs. The fake engine's
+// flow rate is the same for every replica at max_time 20 and differs by seed at 21
+// (fake_engine.cpp), so the first point stops at min and the second grows.
+TEST_F(SlurmCampaignTest, AdaptiveReplicasGoOutAsNewArrayJobs) {
+#ifndef GRANARY_HAVE_ANALYSIS
+  GTEST_SKIP() << "built without the analysis library: no metrics to judge";
+#endif
+  const json rule = json::parse(R"({"min": 2, "max": 8, "until": {"metric": "q_count", "rel_se": 0.08}})");
+  const fs::path p = dir_ / "c.json";
+  std::ofstream(p) << json{{"name", "t"},
+                           {"seed", 3},
+                           {"replicas", rule},
+                           {"base", {{"bodies", {{"count", 100}}}, {"silo", {{"width", 30}}}}},
+                           {"sweep", {{"grid", {{"/discharge/max_time", {20, 21}}}}}},
+                           // the fake engine's 10 exits are all steady flow
+                           {"report", {{"window", {{"min_events", 4}, {"start_time", 0}, {"start_fraction", 0}}}}}};
+  ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
+  const auto r = Sh(RunCmd());
+  ASSERT_EQ(r.code, 0) << r.output << cluster_->log_tails();
+  const json s = Status();
+  ASSERT_TRUE(s.contains("replicas")) << s.dump(2);
+  std::map<int, json> points;  // max_time -> replica progress
+  for (const json& point : s["replicas"]["points"]) points[point["point"]["/discharge/max_time"].get<int>()] = point;
+  EXPECT_EQ(points[20]["runs"], 2) << points[20].dump();
+  EXPECT_EQ(points[20]["verdict"], "met");
+  const int grown = points[21]["runs"].get<int>();
+  EXPECT_GT(grown, 2) << points[21].dump();
+  EXPECT_LE(grown, 8);
+  EXPECT_TRUE(points[21]["verdict"] == "met" || points[21]["verdict"] == "at max") << points[21].dump();
+  // The first array held the 4 planned runs; every added replica went out in a later array.
+  std::map<long long, std::set<int>> arrays;  // job id -> replicas
+  for (const json& run : s["runs"]) {
+    EXPECT_EQ(run["state"], "done") << run.dump(2);
+    EXPECT_EQ(run["attempts"], 1);
+    EXPECT_EQ(testing::CountLines(Launches(run), "start"), 1) << Launches(run);
+    ASSERT_TRUE(run.contains("job") && run["job"].is_string()) << run.dump(2);
+    const std::string job = run["job"];
+    arrays[std::stoll(job.substr(0, job.find('_')))].insert(run["replica"].get<int>());
+  }
+  EXPECT_EQ(static_cast<int>(s["runs"].size()), 2 + grown);
+  EXPECT_GE(arrays.size(), 2u);
+  EXPECT_EQ(testing::CountLines(r.output, "submitted"), static_cast<int>(arrays.size())) << r.output;
+  const std::set<int>& first = arrays.begin()->second;  // job ids grow with submission
+  EXPECT_EQ(first, (std::set<int>{0, 1})) << r.output;
+  for (auto it = std::next(arrays.begin()); it != arrays.end(); ++it)
+    for (int replica : it->second) EXPECT_GE(replica, 2) << it->first;
+}
+
 TEST_F(SlurmCampaignTest, CancelledTaskIsResubmittedAndContinuesFromItsCheckpoint) {
   const fs::path hold = dir_ / "go";
   setenv("FAKE_ENGINE_HOLD", hold.c_str(), 1);
