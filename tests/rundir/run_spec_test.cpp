@@ -298,9 +298,9 @@ TEST(RunSpecTable, CoversTheCanonicalSpecAndItsDefaults) {
     ++checked;
   }
   EXPECT_GT(checked, 40);
-  // reinject_position, periodic_headroom, compress, bed/time_step, bed/next_batch, bed/settled_by,
-  // on_clog and the five keys of discharge/unclog
-  EXPECT_EQ(left_out, 12);
+  // reinject_position, periodic_headroom, compress, output/format, output/contact_interval,
+  // bed/time_step, bed/next_batch, bed/settled_by, on_clog and the five keys of discharge/unclog
+  EXPECT_EQ(left_out, 14);
 }
 
 TEST(RunSpecTable, EveryRowsTypeAndRangeIsEnforced) {
