@@ -45,11 +45,13 @@ std::pair<std::string, std::string> study_and_size(const fs::path& spec) {
 }
 
 // What remains of a spec without what makes its size: names and text, replicas, body count,
-// silo width, time and clog limits, frame interval, and the sweep's values (its axes stay).
+// silo width, time and clog limits, frame interval and format (full sizes write GSD, with
+// fewer contact frames), and the sweep's values (its axes stay).
 json without_size(json spec) {
   for (const char* key : {"name", "description", "size", "replicas"}) spec.erase(key);
   for (const char* pointer : {"/base/bodies/count", "/base/silo/width", "/base/discharge/max_time",
-                              "/base/discharge/unclog/max_clogs", "/base/output/frame_interval"}) {
+                              "/base/discharge/unclog/max_clogs", "/base/output/frame_interval",
+                              "/base/output/format", "/base/output/contact_interval"}) {
     const json::json_pointer p(pointer);
     if (spec.contains(p)) spec.at(p.parent_pointer()).erase(p.back());
   }
