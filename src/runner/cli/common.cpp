@@ -16,6 +16,9 @@
 #include <vector>
 
 #include "runner/util.h"
+#ifdef GRANARY_HAVE_ANALYSIS
+#include "analysis/axes.h"
+#endif
 
 namespace granary::runner::cli {
 
@@ -74,10 +77,31 @@ std::string Duration(double s) {
   return o.str();
 }
 
-std::string CompactPoint(const json& point) {
+std::string CompactPoint(const json& point) { return CompactPoint(point, {}); }
+
+std::map<std::string, std::string> ShortAxisNames(const json& campaign_spec) {
+  std::map<std::string, std::string> names;
+#ifdef GRANARY_HAVE_ANALYSIS
+  try {
+    const analysis::CampaignAxes axes = analysis::CampaignAxes::of_campaign_spec(campaign_spec);
+    for (const std::string& pointer : axes.sweep()) names[pointer] = axes.short_name(pointer);
+  } catch (const std::exception&) {
+    names.clear();  // plan reports what is wrong with the axes; the labels fall back to pointers
+  }
+#else
+  (void)campaign_spec;
+#endif
+  return names;
+}
+
+std::string CompactPoint(const json& point, const std::map<std::string, std::string>& short_names) {
   std::string out;
   for (const auto& [key, value] : point.items()) {
     if (!out.empty()) out += " ";
+    if (const auto named = short_names.find(key); named != short_names.end()) {
+      out += named->second + "=" + value.dump();
+      continue;
+    }
     const auto slash = key.rfind('/');
     std::string label = key.substr(slash + 1);
     // "/silo/base_outlets/0/width" -> "base_outlets/0/width" is clearer than "width".

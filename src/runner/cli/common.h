@@ -90,6 +90,12 @@ std::string DbPath(const Args& a);
 std::filesystem::path DbDir(const std::string& db);
 std::string Duration(double s);
 std::string CompactPoint(const nlohmann::json& point);
+// The same with each axis by its short name where `short_names` (pointer -> name) has one.
+std::string CompactPoint(const nlohmann::json& point, const std::map<std::string, std::string>& short_names);
+// pointer -> short name ("W", "X_db", ...) of every sweep axis of a campaign spec as given, the
+// names the report, --only and the export use; empty if the analyses are not built in or the
+// spec's axes do not resolve.
+std::map<std::string, std::string> ShortAxisNames(const nlohmann::json& campaign_spec);
 std::string Bar(double fraction, int width);
 
 // The database of an existing campaign (only `plan` and `compare` create one): a missing file,

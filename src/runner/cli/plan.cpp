@@ -127,7 +127,7 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
 namespace {
 
 // The estimate under the plan: totals, then one line per point.
-void PrintEstimate(std::ostream& out, const CampaignEstimate& e) {
+void PrintEstimate(std::ostream& out, const CampaignEstimate& e, const std::map<std::string, std::string>& short_names) {
   const bool timed = e.calibration.valid();
   out << "estimate: " << (timed ? core_hours_text(e.core_s_low, e.core_s_high) : std::string("core-hours unknown"));
   if (timed) {
@@ -140,7 +140,7 @@ void PrintEstimate(std::ostream& out, const CampaignEstimate& e) {
   out << "  " << std::left << std::setw(44) << "point" << std::right << std::setw(6) << "runs" << "  " << std::left
       << std::setw(24) << "core-hours" << "disk\n";
   for (const PointEstimate& p : e.points) {
-    std::string label = CompactPoint(p.point);
+    std::string label = CompactPoint(p.point, short_names);
     if (label.empty()) label = "(base)";
     if (e.points.size() > 1 && p.engine != "native") label += " [" + p.engine + "]";
     out << "  " << std::left << std::setw(44) << label << std::right << std::setw(6) << p.runs << "  " << std::left
@@ -160,13 +160,16 @@ json Extensions(const std::vector<PlanSummary::Extension>& list) {
 
 void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s, bool dry_run) {
   out << "campaign " << spec.name << (dry_run ? " (dry run: nothing stored)" : "") << "\n";
+  const std::map<std::string, std::string> short_names = ShortAxisNames(spec.raw);
   out << "  axis                                      values\n";
   for (const auto& axis : s.axes) {
+    const auto named = short_names.find(axis);
+    const std::string label = named != short_names.end() && named->second != axis ? named->second + "  " + axis : axis;
     const auto& vals = s.axis_values.count(axis) ? s.axis_values.at(axis) : std::vector<json>{};
     std::string list;
     for (std::size_t i = 0; i < vals.size() && i < 8; ++i) list += (i ? ", " : "") + vals[i].dump();
     if (vals.size() > 8) list += ", ...";
-    out << "  " << std::left << std::setw(40) << axis << "  " << vals.size() << ": " << list << "\n";
+    out << "  " << std::left << std::setw(40) << label << "  " << vals.size() << ": " << list << "\n";
   }
   if (spec.engines.size() > 1) {
     std::string names;
@@ -214,7 +217,7 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
     return 0;
   }
   PrintPlan(out, spec, s, a.has("dry-run"));
-  PrintEstimate(out, *estimate);
+  PrintEstimate(out, *estimate, ShortAxisNames(spec.raw));
   return 0;
 }
 
