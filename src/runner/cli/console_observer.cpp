@@ -48,7 +48,8 @@ std::string FitColumns(const std::string& line, int columns) {
 
 class ConsoleObserver : public RunObserver {
  public:
-  ConsoleObserver(std::ostream& out, bool tty) : out_(out), tty_(tty) {}
+  ConsoleObserver(std::ostream& out, bool tty, std::map<std::string, std::string> short_names)
+      : out_(out), tty_(tty), short_names_(std::move(short_names)) {}
   void on_begin(int total, int done, int failed) override {
     start_ = std::chrono::steady_clock::now();
     done_at_start_ = done;
@@ -81,7 +82,7 @@ class ConsoleObserver : public RunObserver {
   void on_tick(const std::vector<ActiveRun>& active, int done, int failed, int total) override {
     active_ = active;
     for (const ActiveRun& a : active_)
-      points_[a.run_id] = CompactPoint(json::parse(a.point, nullptr, false)) + " r" + std::to_string(a.replica);
+      points_[a.run_id] = CompactPoint(json::parse(a.point, nullptr, false), short_names_) + " r" + std::to_string(a.replica);
     done_ = done;
     failed_ = failed;
     total_ = total;
@@ -150,6 +151,7 @@ class ConsoleObserver : public RunObserver {
   }
   std::ostream& out_;
   bool tty_;
+  std::map<std::string, std::string> short_names_;
   int columns_ = 80;
   std::chrono::steady_clock::time_point start_;
   int done_at_start_ = 0, done_ = 0, failed_ = 0, total_ = 0, lines_ = 0;
@@ -160,8 +162,8 @@ class ConsoleObserver : public RunObserver {
 
 }  // namespace
 
-std::unique_ptr<RunObserver> MakeConsoleObserver(std::ostream& out, bool tty) {
-  return std::make_unique<ConsoleObserver>(out, tty);
+std::unique_ptr<RunObserver> MakeConsoleObserver(std::ostream& out, bool tty, std::map<std::string, std::string> short_names) {
+  return std::make_unique<ConsoleObserver>(out, tty, std::move(short_names));
 }
 
 }  // namespace granary::runner::cli

@@ -193,7 +193,7 @@ int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, 
   if (CampaignSpec::from_json(campaign->spec).replica_rule.adaptive())
     o.add_runs = [&store, &reported](RunObserver& observer) { return AddReplicas(store, observer, reported); };
   auto executor = setup ? setup->make(o) : make_local_executor(o.jobs);
-  const auto observer = MakeConsoleObserver(out, &out == &std::cout && isatty(STDOUT_FILENO));
+  const auto observer = MakeConsoleObserver(out, &out == &std::cout && isatty(STDOUT_FILENO), ShortAxisNames(campaign->spec));
   ExitCode code;
   try {
     code = run_campaign(store, o, *executor, *observer, &g_stop);
