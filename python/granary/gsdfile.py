@@ -2,7 +2,9 @@
 frames.gsd (HOOMD's schema) and contacts.gsd (schema "granary-contacts"), read with NumPy
 from GSD's documented file layer (gsd.readthedocs.io, "File layer", 2.0). The C++ reader
 (src/rundir/gsd.cpp) is the reference: the same chunks, the same disc velocities rebuilt
-from each body's centre-of-mass velocity and angular velocity.
+from each body's centre-of-mass velocity and angular velocity. A frame's bodies are read from
+those per-body chunks too (Frame.bodies(): no rebuilding from the discs, the C++ BodiesOf's
+to rounding), and what depends on the per-disc constants alone is computed once per file.
 
 Registered after the text dumps: a run directory that had both (none does) would be read
 from its text dumps, as the C++ RunData does.
