@@ -295,7 +295,8 @@ class _Reader:
         out["vx"] = vx[row] - w * ry
         out["vy"] = vy[row] + w * rx
         out["omega"] = w
-        held.update(n=n, consts=c, x=x, y=y, rx=rx, ry=ry, X=X, Y=Y, vx=vx, vy=vy, omega=omega)
+        # Not the offsets rx, ry: a frame kept in memory holds only what bodies() cannot redo.
+        held.update(n=n, consts=c, x=x, y=y, X=X, Y=Y, vx=vx, vy=vy, omega=omega)
         return out
 
     def _bodies(self, held):
@@ -308,13 +309,19 @@ class _Reader:
             return np.zeros(0, BODY_DTYPE)
         c = held["consts"]
         out = _copy(c["body_template"])
-        x, y, rx, ry, first, last = held["x"], held["y"], held["rx"], held["ry"], c["first"], c["last"]
+        x, y, first, last, row = held["x"], held["y"], c["first"], c["last"], c["row"]
+        # The offsets from the centre of mass, as _discs computed them (BodiesOf's dx, dy).
+        rx = x - held["X"][row]
+        ry = y - held["Y"][row]
+        if not c["all_massive"]:
+            rx[~c["massive"][row]] = 0.0
+            ry[~c["massive"][row]] = 0.0
         out["x"] = held["X"]
         out["y"] = held["Y"]
         out["vx"] = held["vx"]
         out["vy"] = held["vy"]
         out["omega"] = held["omega"]
-        out["inertia"] = np.bincount(c["row"], c["m"] * (rx * rx + ry * ry) + c["spin_inertia"], c["bodies"])
+        out["inertia"] = np.bincount(row, c["m"] * (rx * rx + ry * ry) + c["spin_inertia"], c["bodies"])
         two = c["two"]
         out["theta"] = np.where(two, np.arctan2(y[last] - y[first], x[last] - x[first]), 0.0)
         return out
