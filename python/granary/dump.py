@@ -159,16 +159,23 @@ class Block:
 
 
 class Frame(Block):
-    """A frame of frames.dump: `discs` (DISC_DTYPE), `bodies()` rebuilt from them and, when
-    asked for, `contacts` (the ContactFrame of the same time)."""
+    """A frame of frames.dump: `discs` (DISC_DTYPE), `bodies()` rebuilt from them (or read from
+    a file that holds them: `read_bodies`, set by formats.select) and, when asked for,
+    `contacts` (the ContactFrame of the same time)."""
 
-    __slots__ = ()
+    __slots__ = ("read_bodies",)
+
+    def __init__(self, timestep, time, box, rows):
+        super().__init__(timestep, time, box, rows)
+        self.read_bodies = None
 
     @property
     def discs(self):
         return self.rows
 
     def bodies(self):
+        if self.read_bodies is not None:
+            return self.read_bodies()
         from .bodies import bodies_of
         return bodies_of(self.rows)
 

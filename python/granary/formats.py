@@ -8,7 +8,9 @@ opener is called as `opener(path, kind, finished=..., density=...)` and returns 
 a context manager whose `entries()` yields one `Entry` per frame in file order, with the frame's
 header and a `load()` that parses its rows (DISC_DTYPE for frames, CONTACT_DTYPE for contacts;
 None when the file ends inside it and the run is still being written). An entry whose load()
-is not called is skipped unparsed. The text dumps (dump.py) register at import; a binary format
+is not called is skipped unparsed. A format whose file holds the bodies themselves gives the
+entry `bodies`, called (after load()) by `Frame.bodies()` instead of rebuilding them from the
+discs (bodies.py). The text dumps (dump.py) register at import; a binary format
 adds a module that calls `register` and is imported by granary/__init__.py.
 """
 
@@ -17,9 +19,10 @@ import math
 
 import numpy as np
 
-# One frame of a reader: timestep, time, box ([[xlo, xhi], [ylo, yhi], [zlo, zhi]]), count (rows)
-# and load() -> the rows (a structured array) or None.
-Entry = collections.namedtuple("Entry", "timestep time box count load")
+# One frame of a reader: timestep, time, box ([[xlo, xhi], [ylo, yhi], [zlo, zhi]]), count (rows),
+# load() -> the rows (a structured array) or None, and bodies: None, or () -> the frame's bodies
+# (BODY_DTYPE) read from the file.
+Entry = collections.namedtuple("Entry", "timestep time box count load bodies", defaults=(None,))
 
 KINDS = ("frames", "contacts", "clog_frames", "clog_contacts")
 _FORMATS = {kind: [] for kind in KINDS}
@@ -69,7 +72,10 @@ def select(entries, make, stride=1, window=None):
         rows = entry.load()
         if rows is None:
             return
-        yield make(entry.timestep, entry.time, entry.box, rows)
+        made = make(entry.timestep, entry.time, entry.box, rows)
+        if entry.bodies is not None:
+            made.read_bodies = entry.bodies
+        yield made
 
 
 def window_of(window):

@@ -2,7 +2,9 @@
 frames.gsd (HOOMD's schema) and contacts.gsd (schema "granary-contacts"), read with NumPy
 from GSD's documented file layer (gsd.readthedocs.io, "File layer", 2.0). The C++ reader
 (src/rundir/gsd.cpp) is the reference: the same chunks, the same disc velocities rebuilt
-from each body's centre-of-mass velocity and angular velocity.
+from each body's centre-of-mass velocity and angular velocity. A frame's bodies are read from
+those per-body chunks too (Frame.bodies(): no rebuilding from the discs, the C++ BodiesOf's
+to rounding), and what depends on the per-disc constants alone is computed once per file.
 
 Registered after the text dumps: a run directory that had both (none does) would be read
 from its text dumps, as the C++ RunData does.
@@ -15,6 +17,7 @@ import warnings
 
 import numpy as np
 
+from .bodies import BODY_DTYPE
 from .dump import CONTACT_DTYPE, DISC_DTYPE
 from .errors import FormatError, MissingFileError, NewerFormatError, TruncatedError
 from .formats import Entry, register
@@ -184,9 +187,13 @@ class _Reader:
                 return
             timestep, time, box = self._header(f)
             n = int(count[0, 0])
-            load = (lambda f=f, n=n, box=box: self._discs(f, n, box)) if self.kind == "frames" else \
-                (lambda f=f, n=n, box=box: self._contacts(f, n, box))
-            yield Entry(timestep, time, box, n, load)
+            if self.kind == "frames":
+                # What load() read that the frame's bodies are made of (its per-body chunks).
+                held = {}
+                yield Entry(timestep, time, box, n, lambda f=f, n=n, box=box, held=held: self._discs(f, n, box, held),
+                            lambda held=held: self._bodies(held))
+            else:
+                yield Entry(timestep, time, box, n, lambda f=f, n=n, box=box: self._contacts(f, n, box))
         if g.cut:
             self._cut_short("the file ends inside a frame")
 
@@ -204,54 +211,123 @@ class _Reader:
         return a
 
     def _constants(self, f, n):
+        """The per-disc chunks (frame 0's, or the frame's own when it has them) and what follows
+        from them alone, computed once for the frames that share them: the discs' constant
+        fields, each body's mass, area, type, disc count and first and last disc."""
         source = f if self.file.has(f, "particles/typeid") else 0
         if self._constants_from == (source, n):
             return self._consts
         c = {name: self._need(source, name, n, 1)[:, 0]
              for name in ("particles/typeid", "particles/mass", "particles/diameter", "particles/body",
                           "log/particles/id")}
-        # Per-body rows in increasing body id, as the writer orders them.
-        _, row = np.unique(c["particles/body"], return_inverse=True)
-        c["row"] = row.ravel()
-        c["bodies"] = int(row.max()) + 1 if n else 0
+        body = c["particles/body"].astype(np.int64)
+        ident = c["log/particles/id"].astype(np.int64)
+        # Per-body rows in increasing body id, as the writer orders them. Writers put a body's
+        # discs together, bodies in id order and discs in id order: then no sort is needed.
+        in_order = bool(np.all((body[1:] > body[:-1]) | ((body[1:] == body[:-1]) & (ident[1:] > ident[:-1]))))
+        if in_order:
+            starts = np.concatenate(([0], np.flatnonzero(body[1:] != body[:-1]) + 1))
+            ids = body[starts]
+            row = np.zeros(n, np.int64)
+            row[starts[1:]] = 1
+            np.cumsum(row, out=row)
+        else:
+            ids, row = np.unique(body, return_inverse=True)
+            row = row.ravel()
+        nb = len(ids)
+        m = c["particles/mass"].astype(np.float64)
+        r = 0.5 * c["particles/diameter"].astype(np.float64)
+        template = np.zeros(n, DISC_DTYPE)
+        template["id"] = ident
+        template["mol"] = body
+        template["type"] = c["particles/typeid"].astype(np.int64) + 1
+        template["radius"] = r
+        template["mass"] = m
+        mass = np.bincount(row, m, nb)
+        # A body's discs in the order BodiesOf takes them (body id, then disc id): its first
+        # disc gives the type and the axis starts there, its last disc ends the axis.
+        order = np.arange(n) if in_order else np.lexsort((ident, body))
+        counts = np.bincount(row, minlength=nb)
+        ends = np.cumsum(counts)
+        first, last = order[ends - counts], order[ends - 1]
+        bodies = np.zeros(nb, BODY_DTYPE)
+        bodies["id"] = ids
+        bodies["type"] = template["type"][first]
+        bodies["n_discs"] = counts
+        bodies["mass"] = mass
+        bodies["area"] = np.bincount(row, np.pi * r * r, nb)
+        self._consts = {"n": n, "row": row, "bodies": nb, "m": m, "mass": mass, "massive": mass > 0,
+                        "all_massive": bool(np.all(mass > 0)), "safe": np.where(mass > 0, mass, 1.0),
+                        "template": template, "body_template": bodies, "first": first, "last": last,
+                        "two": counts >= 2, "spin_inertia": 0.4 * m * r * r}
         self._constants_from = (source, n)
-        self._consts = c
-        return c
+        return self._consts
 
-    def _discs(self, f, n, box):
-        out = np.zeros(n, DISC_DTYPE)
+    def _discs(self, f, n, box, held):
         if n == 0:
-            return out
+            held["n"] = 0
+            return np.zeros(n, DISC_DTYPE)
         c = self._constants(f, n)
         pos = self._need(f, "particles/position", n, 3)
         nb = c["bodies"]
-        vel = self._need(f, "log/bodies/velocity", nb, 2).astype(np.float64)
+        vel = self._need(f, "log/bodies/velocity", nb, 2)
+        vx, vy = vel[:, 0].astype(np.float64), vel[:, 1].astype(np.float64)
         omega = self._need(f, "log/bodies/omega", nb, 1)[:, 0].astype(np.float64)
         cx, cy = 0.5 * (box[0, 0] + box[0, 1]), 0.5 * (box[1, 0] + box[1, 1])
-        x = pos[:, 0].astype(np.float64) + cx
-        y = pos[:, 1].astype(np.float64) + cy
-        m = c["particles/mass"].astype(np.float64)
-        row = c["row"]
+        # Widened first, as the C++ reader casts then adds (float32 + a Python float stays float32).
+        x = np.add(pos[:, 0], cx, dtype=np.float64)
+        y = np.add(pos[:, 1], cy, dtype=np.float64)
+        m, row = c["m"], c["row"]
         # Disc velocities of a rigid body: V + omega x (r - R), R its centre of mass.
-        mass = np.bincount(row, m, nb)
-        safe = np.where(mass > 0, mass, 1.0)
-        X = np.where(mass > 0, np.bincount(row, m * x, nb) / safe, 0.0)
-        Y = np.where(mass > 0, np.bincount(row, m * y, nb) / safe, 0.0)
+        X = np.bincount(row, m * x, nb) / c["safe"]
+        Y = np.bincount(row, m * y, nb) / c["safe"]
+        rx = x - X[row]
+        ry = y - Y[row]
+        if not c["all_massive"]:
+            X[~c["massive"]] = 0.0
+            Y[~c["massive"]] = 0.0
+            rx[~c["massive"][row]] = 0.0
+            ry[~c["massive"][row]] = 0.0
         w = omega[row]
-        out["id"] = c["log/particles/id"]
-        out["mol"] = c["particles/body"]
-        out["type"] = c["particles/typeid"].astype(np.int64) + 1
+        out = _copy(c["template"])
         out["x"] = x
         out["y"] = y
-        out["radius"] = 0.5 * c["particles/diameter"].astype(np.float64)
-        out["mass"] = m
-        out["vx"] = vel[row, 0] - w * np.where(mass[row] > 0, y - Y[row], 0.0)
-        out["vy"] = vel[row, 1] + w * np.where(mass[row] > 0, x - X[row], 0.0)
+        out["vx"] = vx[row] - w * ry
+        out["vy"] = vy[row] + w * rx
         out["omega"] = w
+        # Not the offsets rx, ry: a frame kept in memory holds only what bodies() cannot redo.
+        held.update(n=n, consts=c, x=x, y=y, X=X, Y=Y, vx=vx, vy=vy, omega=omega)
+        return out
+
+    def _bodies(self, held):
+        """The bodies of a loaded frame from the file's per-body chunks (velocity, angular
+        velocity) and its discs' positions: the fields of bodies.bodies_of (the C++ BodiesOf),
+        whose velocity the C++ reader's disc velocities give back to rounding."""
+        if "n" not in held:
+            raise RuntimeError("Frame.bodies() of a GSD frame before its discs were read")
+        if held["n"] == 0:
+            return np.zeros(0, BODY_DTYPE)
+        c = held["consts"]
+        out = _copy(c["body_template"])
+        x, y, first, last, row = held["x"], held["y"], c["first"], c["last"], c["row"]
+        # The offsets from the centre of mass, as _discs computed them (BodiesOf's dx, dy).
+        rx = x - held["X"][row]
+        ry = y - held["Y"][row]
+        if not c["all_massive"]:
+            rx[~c["massive"][row]] = 0.0
+            ry[~c["massive"][row]] = 0.0
+        out["x"] = held["X"]
+        out["y"] = held["Y"]
+        out["vx"] = held["vx"]
+        out["vy"] = held["vy"]
+        out["omega"] = held["omega"]
+        out["inertia"] = np.bincount(row, c["m"] * (rx * rx + ry * ry) + c["spin_inertia"], c["bodies"])
+        two = c["two"]
+        out["theta"] = np.where(two, np.arctan2(y[last] - y[first], x[last] - x[first]), 0.0)
         return out
 
     def _contacts(self, f, n, box):
-        out = np.zeros(n, CONTACT_DTYPE)
+        out = np.empty(n, CONTACT_DTYPE)  # every field is written below
         if n == 0:
             return out
         body = self._need(f, "contacts/body", n, 2)
@@ -259,14 +335,23 @@ class _Reader:
         point = self._need(f, "contacts/point", n, 2)
         force = self._need(f, "contacts/force", n, 2)
         cx, cy = 0.5 * (box[0, 0] + box[0, 1]), 0.5 * (box[1, 0] + box[1, 1])
-        # Every field of CONTACT_DTYPE is 8 bytes: the rows as an n x 10 table, written a block
-        # of columns at a time (body_i body_j | xi yi xj yj | cx cy | fx fy).
+        # Every field of CONTACT_DTYPE is 8 bytes: the rows as an n x 10 table (body_i body_j |
+        # xi yi xj yj | cx cy | fx fy), the float columns widened in one concatenate and the
+        # box centre added a column at a time (a ufunc over a few strided columns at once,
+        # or with a cast, runs several times slower).
         as_float = out.view(np.float64).reshape(n, 10)
         out.view(np.int64).reshape(n, 10)[:, 0:2] = body
-        np.add(centres, np.array([cx, cy, cx, cy]), out=as_float[:, 2:6], dtype=np.float64)
-        np.add(point, np.array([cx, cy]), out=as_float[:, 6:8], dtype=np.float64)
-        as_float[:, 8:10] = force
+        np.concatenate((centres, point, force), axis=1, out=as_float[:, 2:10])
+        for k, centre in enumerate((cx, cy, cx, cy, cx, cy)):
+            column = as_float[:, 2 + k]
+            np.add(column, centre, out=column)
         return out
+
+
+def _copy(rows):
+    """A copy of a structured array as one memcpy (ndarray.copy() copies a packed structured
+    dtype field by field, several times slower)."""
+    return rows.view(np.uint8).copy().view(rows.dtype)
 
 
 def open_gsd(path, kind, finished=True, density=1.0):
