@@ -767,19 +767,32 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
     return out;
   }
   std::string problem;
+  std::vector<std::string> without_value;  // the data whose points have no value of y
   for (FigureDatum& d : out.data) {
     const std::map<std::string, MeanSe> metrics = pooled_metrics(ca, d.points);
     // Pooled axes vary inside a datum: they are not its axes.
     for (const auto& name : spec.pool) d.axes.erase(name);
     const auto xi = d.axes.find(x_name);
     d.x = xi == d.axes.end() ? kNaN : xi->second;
-    const MeanSe y = y_value(spec.y, metrics, d.axes, problem);
+    std::string datum_problem;
+    const MeanSe y = y_value(spec.y, metrics, d.axes, datum_problem);
+    if (!datum_problem.empty()) problem = datum_problem;
+    if (!datum_problem.empty() || !std::isfinite(y.mean))
+      without_value.push_back((d.group.empty() ? "" : d.group + ", ") + x_name + " = " + format_number(d.x, 6));
     d.y = y.mean;
     d.se = y.se;
     d.n = y.n;
   }
   const std::string where = spec.path + " (\"" + spec.name + "\")";
-  if (!problem.empty()) notes.push_back("**Not drawn:** " + where + ": " + problem);
+  // A metric some points have and others lack (no clog at a point: no avalanche, no arch) leaves
+  // those points out, saying which; only when no point has it is the figure not drawn.
+  if (!problem.empty() && without_value.size() == out.data.size()) {
+    notes.push_back("**Not drawn:** " + where + ": " + problem);
+  } else if (!without_value.empty() && without_value.size() < out.data.size()) {
+    notes.push_back("**Left out:** " + where + ": no value of " + spec.y + " at " + joined(without_value) +
+                    " (no run there gave one)");
+    problem.clear();
+  }
   if (out.data.empty()) notes.push_back("**Not drawn:** " + where + ": no finished run passes its `only`.");
 
   Figure f;

@@ -252,6 +252,39 @@ TEST(FigureLayer, FitAcrossEveryPointOfTheFigureAndCollapse) {
   }
 }
 
+// A metric only some points have (an avalanche needs a clog: only W = 26's run stops for longer
+// than the clog window) draws those points and names the points it leaves out.
+TEST(FigureLayer, PointsWithoutTheMetricAreLeftOutByNameAndTheRestDrawn) {
+  TempDir dir;
+  const nlohmann::json figures = {{"report", {{"figures", {{{"name", "s"}, {"y", "avalanche_size"}, {"x", "W"}}}}}}};
+  const Campaign c = make_campaign(dir.path(), figures);
+  std::ostringstream ev;
+  ev << "time,body,shape,mass,outlet\n";
+  for (int i = 1; i <= 60; ++i) ev << (i <= 30 ? 0.1 * i : 20.0 + 0.1 * i) << "," << i << ",disc,1.0,0\n";
+  const RunRecord& w26 = c.runs.back();  // W = 26: 30 exits, 17 time units of none, 30 more
+  write_file(w26.run_dir / "events.csv", ev.str());
+  nlohmann::json summary = nlohmann::json::parse(read_file(w26.run_dir / "summary.json"));
+  summary["exited"] = 60;
+  summary["remaining"] = 1940;
+  summary["exits_per_outlet"] = {60};
+  summary["t_end"] = 30.0;
+  write_file(w26.run_dir / "summary.json", summary.dump());
+  const auto a = analyse(c, setup_analyses(c.info.spec));
+  const FigureOutcome f = make_figure(*a, read_figure_specs(c.info.spec)[0]);
+  std::string notes;
+  std::vector<double> xs;
+  for (const Block& b : f.blocks) {
+    if (const auto* t = std::get_if<Text>(&b)) notes += t->markdown + "\n";
+    if (const auto* fig = std::get_if<Figure>(&b))
+      for (const Series& s : fig->series)
+        for (const auto& row : s.rows) xs.push_back(row[0]);
+  }
+  EXPECT_EQ(xs, std::vector<double>{26}) << notes;
+  EXPECT_EQ(notes.find("Not drawn"), std::string::npos) << notes;
+  EXPECT_NE(notes.find("**Left out:**"), std::string::npos) << notes;
+  for (const char* w : {"W = 10", "W = 14", "W = 18", "W = 22"}) EXPECT_NE(notes.find(w), std::string::npos) << w << "\n" << notes;
+}
+
 TEST(FigureLayer, PooledFigureWeighsThePointsByTheirN) {
   TempDir dir;
   const nlohmann::json figures = {{"report", {{"figures", {{{"name", "pooled"}, {"y", "q_count"}, {"x", "W"}, {"pool", {"mu"}}}}}}}};
