@@ -43,6 +43,19 @@ bool Overlaps(const silo::ShapeTemplate& a, double ax, double ay, double ath, co
   return false;
 }
 
+// Every body's species index, in a random order from `rng`: the order bodies are placed in, so
+// that every batch (and the loose placement) is a mixture.
+std::vector<int> ShuffledSpecies(const RunSpec& spec, Rng& rng) {
+  std::vector<int> order;
+  const std::vector<int> counts = silo::SpeciesCounts(spec.bodies);
+  for (std::size_t k = 0; k < counts.size(); ++k) order.insert(order.end(), static_cast<std::size_t>(counts[k]), static_cast<int>(k));
+  for (std::size_t i = order.size(); i > 1; --i) {
+    const std::size_t j = static_cast<std::size_t>(rng.Next() % i);
+    std::swap(order[i - 1], order[j]);
+  }
+  return order;
+}
+
 }  // namespace
 
 std::vector<silo::ShapeTemplate> MakeTemplates(const RunSpec& spec) {
@@ -67,13 +80,7 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
   Rng rng(spec.seed);
 
   // Bodies in random order so that every batch is a mixture.
-  std::vector<int> order;
-  const std::vector<int> counts = silo::SpeciesCounts(spec.bodies);
-  for (std::size_t k = 0; k < counts.size(); ++k) order.insert(order.end(), static_cast<std::size_t>(counts[k]), static_cast<int>(k));
-  for (std::size_t i = order.size(); i > 1; --i) {
-    const std::size_t j = static_cast<std::size_t>(rng.Next() % i);
-    std::swap(order[i - 1], order[j]);
-  }
+  const std::vector<int> order = ShuffledSpecies(spec, rng);
   double mean_mass = 0.0;
   for (int s : order) mean_mass += templates[static_cast<std::size_t>(s)].mass;
   mean_mass /= static_cast<double>(order.size());
@@ -196,13 +203,7 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
 BedState LoosePlacement(const RunSpec& spec) {
   const std::vector<silo::ShapeTemplate> templates = MakeTemplates(spec);
   Rng rng(spec.seed);
-  std::vector<int> order;
-  const std::vector<int> counts = silo::SpeciesCounts(spec.bodies);
-  for (std::size_t k = 0; k < counts.size(); ++k) order.insert(order.end(), static_cast<std::size_t>(counts[k]), static_cast<int>(k));
-  for (std::size_t i = order.size(); i > 1; --i) {
-    const std::size_t j = static_cast<std::size_t>(rng.Next() % i);
-    std::swap(order[i - 1], order[j]);
-  }
+  const std::vector<int> order = ShuffledSpecies(spec, rng);
   // One region for all bodies, as loose as a batch's, from just above the base; a grid of
   // cells of the largest bounding diameter finds the neighbours to test.
   double area = 0.0, cell = 0.0;
