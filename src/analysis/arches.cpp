@@ -215,11 +215,12 @@ ClogArches analyse_clog(const rundir::ClogState& clog, const silo::SiloGeometry&
     }
 
   std::vector<silo::DiscAt> at;
-  double probe = std::numeric_limits<double>::max();
+  std::vector<std::int64_t> body_of;
   for (const rundir::Disc& d : discs) {
     at.push_back({d.x, d.y, d.radius});
-    probe = std::min(probe, d.radius);
+    body_of.push_back(d.mol);
   }
+  const double probe = silo::PassageProbe(at, body_of);
   for (int o = 0; o < static_cast<int>(silo.outlets.size()); ++o) {
     const silo::OutletCavity cavity = silo::CavityUnder(silo, at, probe, o);
     if (!cavity.sealed) continue;

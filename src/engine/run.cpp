@@ -762,18 +762,11 @@ std::vector<std::int64_t> Discharge::ArchBodies() {
   if (ids.empty()) {
     // Sealed, but no chain of bodies from support to support (an arch resting on bodies the
     // probe does not reach): the bodies along the edge of the free space under the outlets.
-    double probe = std::numeric_limits<double>::max();
-    std::vector<silo::DiscAt> discs;
-    std::vector<int> body_of;
-    for (int i = 0; i < w.disc_count(); ++i) {
-      probe = std::min(probe, w.dr_[i]);
-      if (!w.active_[w.dbody_[i]]) continue;
-      discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
-      body_of.push_back(w.dbody_[i]);
-    }
+    const SiloDiscs s = DiscsInSilo(w);
+    const double probe = silo::PassageProbe(s.discs, s.body_of);
     for (int o = 0; o < static_cast<int>(w.geometry().outlets.size()); ++o)
-      for (const silo::CavityBound& e : silo::CavityUnder(w.geometry(), discs, probe, o).edge)
-        if (e.kind == silo::CavityBound::Kind::kDisc) ids.push_back(body_of[static_cast<std::size_t>(e.index)]);
+      for (const silo::CavityBound& e : silo::CavityUnder(w.geometry(), s.discs, probe, o).edge)
+        if (e.kind == silo::CavityBound::Kind::kDisc) ids.push_back(s.body_of[static_cast<std::size_t>(e.index)]);
   }
   std::sort(ids.begin(), ids.end());
   ids.erase(std::unique(ids.begin(), ids.end()), ids.end());

@@ -1,8 +1,9 @@
 // The stall judgement (stall.h) of the native engine's world: the discs of the bodies still in
-// the silo, a probe the size of the smallest disc of any species.
+// the silo, and the probe of silo::PassageProbe.
 #pragma once
 
 #include <algorithm>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -11,13 +12,24 @@
 
 namespace granary::engine {
 
-inline std::vector<bool> SealedOutlets(const World& w) {
-  double probe = std::numeric_limits<double>::max();
-  for (double r : w.dr_) probe = std::min(probe, r);
+// The discs of the bodies still in the silo, with each disc's body.
+struct SiloDiscs {
   std::vector<silo::DiscAt> discs;
-  for (int i = 0; i < w.disc_count(); ++i)
-    if (w.active_[w.dbody_[i]]) discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
-  return silo::SealedOutlets(w.geometry(), discs, probe);
+  std::vector<std::int64_t> body_of;
+};
+inline SiloDiscs DiscsInSilo(const World& w) {
+  SiloDiscs s;
+  for (int i = 0; i < w.disc_count(); ++i) {
+    if (!w.active_[w.dbody_[i]]) continue;
+    s.discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
+    s.body_of.push_back(w.dbody_[i]);
+  }
+  return s;
+}
+
+inline std::vector<bool> SealedOutlets(const World& w) {
+  const SiloDiscs s = DiscsInSilo(w);
+  return silo::SealedOutlets(w.geometry(), s.discs, silo::PassageProbe(s.discs, s.body_of));
 }
 
 }  // namespace granary::engine

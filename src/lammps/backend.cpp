@@ -385,14 +385,17 @@ std::vector<Disc> ReadFinal(const fs::path& file) {
 
 // A stall in remove mode is a clog when an arch seals an outlet from the material above: the
 // native engine's judgement (silo/stall.h) on LAMMPS' final positions.
-bool StallIsAClog(const RunSpec& spec, const std::vector<Disc>& left, double probe) {
+bool StallIsAClog(const RunSpec& spec, const std::vector<Disc>& left) {
   std::vector<silo::DiscAt> discs;
+  std::vector<std::int64_t> body_of;
   double top = 0;
   for (const Disc& d : left) {
     discs.push_back({d.x, d.y, d.r});
+    body_of.push_back(d.mol);
     top = std::max(top, d.y + d.r);
   }
-  const std::vector<bool> sealed = silo::SealedOutlets(silo::BuildGeometry(spec.silo, top + 1), discs, probe);
+  const std::vector<bool> sealed =
+      silo::SealedOutlets(silo::BuildGeometry(spec.silo, top + 1), discs, silo::PassageProbe(discs, body_of));
   return std::find(sealed.begin(), sealed.end(), true) != sealed.end();
 }
 
@@ -541,11 +544,7 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
   const Setup setup = MakeSetup(spec, start_frame);
   std::map<long long, int> species_of;
   std::map<int, double> body_mass;
-  double probe = std::numeric_limits<double>::max();
-  for (const rundir::Disc& d : start_frame.discs) {
-    species_of[d.mol] = d.type - 1;
-    probe = std::min(probe, d.radius);
-  }
+  for (const rundir::Disc& d : start_frame.discs) species_of[d.mol] = d.type - 1;
   {
     std::map<long long, double> mass;
     for (const rundir::Disc& d : start_frame.discs) mass[d.mol] += d.mass;
@@ -615,7 +614,7 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
   const double discharge_wall = wall_before + Seconds(t_discharge);
   if (end_reason == "stalled") {
     end_reason = "discharged";
-    if (StallIsAClog(spec, ReadFinal(dir / kFinalDump), probe)) {
+    if (StallIsAClog(spec, ReadFinal(dir / kFinalDump))) {
       state["clog_steps"].push_back(last_step);
       if (spec.discharge.stop_on_clog()) {
         end_reason = "clogged";

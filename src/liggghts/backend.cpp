@@ -554,17 +554,16 @@ double TopOf(const std::vector<Sphere>& spheres) {
 // A stall in remove mode is a clog when an arch seals an outlet from the material above; the same
 // test as the native engine's (silo/stall.h) on LIGGGHTS' final positions.
 bool StallIsAClog(const RunSpec& spec, const std::vector<Sphere>& left) {
-  double probe = std::numeric_limits<double>::max();
-  for (std::size_t k = 0; k < spec.bodies.species.size(); ++k)
-    for (double r : silo::MakeTemplate(spec.bodies.species[k], spec.bodies.density, static_cast<int>(k)).r)
-      probe = std::min(probe, r);
   std::vector<silo::DiscAt> discs;
+  std::vector<std::int64_t> body_of;
   double top = 0;
   for (const Sphere& s : left) {
     discs.push_back({s.x, s.y, s.radius});
+    body_of.push_back(s.mol);
     top = std::max(top, s.y + s.radius);
   }
-  const std::vector<bool> sealed = silo::SealedOutlets(silo::BuildGeometry(spec.silo, top + 1), discs, probe);
+  const std::vector<bool> sealed =
+      silo::SealedOutlets(silo::BuildGeometry(spec.silo, top + 1), discs, silo::PassageProbe(discs, body_of));
   return std::find(sealed.begin(), sealed.end(), true) != sealed.end();
 }
 

@@ -4,8 +4,20 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <unordered_map>
 
 namespace granary::silo {
+
+double PassageProbe(const std::vector<DiscAt>& discs, const std::vector<std::int64_t>& body_of) {
+  std::unordered_map<std::int64_t, double> largest;
+  for (std::size_t i = 0; i < discs.size(); ++i) {
+    double& r = largest[body_of[i]];
+    r = std::max(r, discs[i].r);
+  }
+  double probe = std::numeric_limits<double>::infinity();
+  for (const auto& [body, r] : largest) probe = std::min(probe, r);
+  return probe;
+}
 namespace {
 
 // Grid cells whose centre a probe of radius `probe` can occupy without overlapping anything,
@@ -171,7 +183,8 @@ OutletCavity CavityUnder(const SiloGeometry& geometry, const std::vector<DiscAt>
   const FreeSpace space(geometry, discs, probe, true, margin);
   std::vector<std::uint8_t> seen(static_cast<std::size_t>(space.nx()) * static_cast<std::size_t>(space.ny()));
   std::vector<int> queue;
-  if (Reach(space, mouth, probe, seen, queue, false, margin - space.h()) || queue.empty()) return cavity;
+  const double below = margin - space.h();  // how far below the mouth the fill starts
+  if (Reach(space, mouth, probe, seen, queue, false, below) || queue.empty()) return cavity;
   cavity.sealed = true;
   auto in = [&](int i, int k) { return space.Inside(i, k) && seen[space.Index(i, k)] != 0; };
   auto frame = [&](int i, int k, double& s, double& h) {
@@ -179,14 +192,16 @@ OutletCavity CavityUnder(const SiloGeometry& geometry, const std::vector<DiscAt>
     s = px * mouth.ax + py * mouth.ay;
     h = px * mouth.nx + py * mouth.ny;
   };
-  // Beyond the cavity: out of the grid, or outside the silo beside the gap's passage, is open
-  // (the way out); anything else is blocked by its owner.
+  // Beyond the cavity: out of the grid, outside the silo beside the gap's passage, or in the
+  // passage below where the fill starts, is open (the way out); anything else is blocked by its
+  // owner. The last matters when bodies hang into the gap from both edges: the cavity is then a
+  // pocket of the passage that reaches neither of its sides.
   auto opening = [&](int i, int k) {
     if (!space.Inside(i, k)) return true;
     if (space.InSilo(i, k)) return false;
     double s = 0, h = 0;
     frame(i, k, s, h);
-    return !(std::fabs(s) < mouth.width / 2);
+    return !(std::fabs(s) < mouth.width / 2) || h < -below;
   };
   // The edge starts at an open side of the cavity cell furthest to the s < 0 end of the mouth.
   int si = -1, sk = -1, sside = -1;
@@ -203,7 +218,7 @@ OutletCavity CavityUnder(const SiloGeometry& geometry, const std::vector<DiscAt>
       }
     }
   }
-  if (si < 0) return cavity;  // cannot happen: the passage ends at the grid's border
+  if (si < 0) return cavity;  // cannot happen: the passage's bottom row faces the way out
   // Walk the edge once round with the cavity on the right (the outside on the left), one step
   // per cell side, and note the object beyond each side.
   std::vector<CavityBound> loop;

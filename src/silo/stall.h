@@ -7,6 +7,7 @@
 // native engine's adapter is stall_world.h).
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include "silo/geometry.h"
@@ -17,8 +18,15 @@ struct DiscAt {
   double x, y, r;
 };
 
+// The probe radius of SealedOutlets and CavityUnder: the narrowest gap some body in the silo could
+// pass. A body passes no gap its largest disc cannot, so the probe is the smallest, over the bodies,
+// of the body's largest disc radius (`body_of[i]` is the body of `discs[i]`). With the smallest
+// disc instead, a snowman arch whose gaps admit a small disc but no snowman's large one would be
+// judged open: a clog called a discharge, and an arch nobody could find. Infinity without discs.
+double PassageProbe(const std::vector<DiscAt>& discs, const std::vector<std::int64_t>& body_of);
+
 // For each outlet (geometry order: base outlets, then side outlets), whether it is sealed: a probe
-// disc of radius `probe` (the smallest disc of the bodies), started anywhere in the outlet's
+// disc of radius `probe` (PassageProbe of the bodies in the silo), started anywhere in the outlet's
 // mouth, cannot move to above the highest disc without overlapping a disc (one entry per disc of
 // a body still in the silo), an active wall element or an obstacle of `geometry` with its outlets
 // open. An arch of touching bodies seals the outlet whether it spans the opening itself or the

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "world_parts.h"
@@ -170,6 +171,61 @@ TEST(Stall, TheCavityOfASideOutletRunsFromBelowToAbove) {
     EXPECT_EQ(discs.back(), 4);
     EXPECT_LT(c.edge.front().s, c.edge.back().s);
   }
+}
+
+// The probe is the narrowest gap a body could pass: each body's largest disc, the smallest of those.
+TEST(Stall, ThePassageProbeIsTheSmallestOfTheBodiesLargestDiscs) {
+  const std::vector<silo::DiscAt> discs{{0, 0, 0.5}, {1.25, 0, 0.75}, {5, 0, 0.5}, {6.25, 0, 0.75}};
+  EXPECT_EQ(silo::PassageProbe(discs, {7, 7, 9, 9}), 0.75);                 // two snowmen
+  EXPECT_EQ(silo::PassageProbe(discs, {7, 7, 8, 9}), 0.5);                  // a disc of d = 1 among them
+  EXPECT_EQ(silo::PassageProbe({}, {}), std::numeric_limits<double>::infinity());
+}
+
+// Four upright snowmen (D_s = 1, D_b = 1.5, big disc on the base) across a silo 12 wide, gaps of
+// 1.2 between their big discs and the walls, nothing above: a disc of the small size would pass
+// every gap, no snowman passes any. The outlet is sealed; with the smallest disc as probe it
+// would be judged open, and a stalled remove-mode run called discharged.
+TEST(Stall, SnowmenWhoseGapsOnlyTheirSmallDiscFitsSealTheOutlet) {
+  Silo silo;
+  silo.width = 12;
+  silo.base_outlets = {{0.0, 4.0}};
+  Species snowman;
+  snowman.shape = Shape::kSnowman;
+  snowman.diameter = 1.0;
+  snowman.big_diameter = 1.5;
+  const silo::ShapeTemplate t = silo::MakeTemplate(snowman, 1.0, 0);
+  const int big = t.r[0] > t.r[1] ? 0 : 1;
+  // Rotated by theta, offset (ox, 0) lands at (ox cos theta, ox sin theta): the big disc below.
+  const double theta = t.ox[big] > 0 ? -std::numbers::pi / 2 : std::numbers::pi / 2;
+  World w(WorldParams{}, {t}, silo::BuildGeometry(silo, 30));
+  w.OpenOutlets();
+  for (double x : {-4.05, -1.35, 1.35, 4.05}) w.AddBody(0, x, 0.75 + std::fabs(t.ox[big]), theta);
+  EXPECT_EQ(SealedOutlets(w), std::vector<bool>{true});
+  std::vector<silo::DiscAt> discs;
+  for (int i = 0; i < w.disc_count(); ++i) discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
+  EXPECT_NEAR(discs[static_cast<std::size_t>(big)].y, 0.75, 1e-12);
+  EXPECT_EQ(silo::SealedOutlets(w.geometry(), discs, 0.5), std::vector<bool>{false});
+}
+
+// Bodies hanging into the gap from both its edges, an arch resting on them: the space under the
+// arch is a pocket of the gap's passage that reaches neither side of the passage. Its edge must
+// still be found (from the way out below): a clog whose arch nobody finds cannot be broken by
+// remove_arch, and the run would end there.
+TEST(Stall, AnArchHangingIntoTheGapFromBothEdgesBoundsItsCavity) {
+  World w = OpenSilo({{0.0, 4.0}});
+  w.AddBody(0, -1.7, -0.1, 0);  // over the left edge, its centre below the base
+  for (double x = -1.5; x <= 1.5 + 1e-9; x += 1.0) w.AddBody(0, x, 0.9, 0);
+  w.AddBody(0, 1.7, -0.1, 0);   // over the right edge
+  Row(w, -5.5, 5.5, 3.0);       // material above
+  EXPECT_EQ(SealedOutlets(w), std::vector<bool>{true});
+  const silo::OutletCavity c = silo::CavityUnder(w.geometry(), DiscsOf(w), 0.5, 0);
+  ASSERT_TRUE(c.sealed);
+  std::vector<int> discs;
+  for (const silo::CavityBound& b : c.edge)
+    if (b.kind == silo::CavityBound::Kind::kDisc) discs.push_back(b.index);
+  // The hanging bodies and the arch's middle; the arch's end discs (1, 4) lie behind the hanging
+  // ones, out of the probe's reach.
+  EXPECT_EQ(discs, (std::vector<int>{0, 2, 3, 5}));
 }
 
 }  // namespace
