@@ -337,7 +337,7 @@ nlohmann::json figures_json_schema() {
       {"required", {"name"}},
       {"properties",
        {{"name", {{"type", "string"}, {"pattern", "^[A-Za-z0-9._-]+$"}}},
-        {"kind", {{"enum", {"points", "distribution", "maps", "profile", "pictures"}}}},
+        {"kind", {{"enum", {"points", "distribution", "curves", "maps", "profile", "pictures"}}}},
         {"picture", {{"enum", {"end", "bed"}}, {"description", "pictures: the last frame (default) or the bed at t = 0"}}},
         {"y", {{"type", "string"}, {"description", "a metric, or an expression over metrics and axes"}}},
         {"ylabel", {{"type", "string"}}},
@@ -352,8 +352,10 @@ nlohmann::json figures_json_schema() {
         {"logx", {{"type", "boolean"}}},
         {"logy", {{"type", "boolean"}}},
         {"of", {{"type", "string"},
-                {"description", "distribution: a distribution an analysis offers (vx, vy, avalanche_sizes) or a "
-                                "per-run metric, pooled over the replicas of each point"}}},
+                {"description", "distribution: a distribution an analysis offers (vx, vy, avalanche_sizes, arch_sizes, "
+                                "axis_bed, axis_flow, axis_arches) or a per-run metric, pooled over the replicas of each "
+                                "point; curves: a curve an analysis offers (arch_pressure_theta, arch_axis_mode_theta, "
+                                "arch_pressure_n)"}}},
         {"bins", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000}}},
         {"range", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2}, {"maxItems", 2},
                    {"description", "distribution: [lo, hi] of the bins, the same for every curve; default the data's"}}},

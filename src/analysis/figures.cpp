@@ -27,6 +27,7 @@ const std::vector<KindKeys>& figure_kinds() {
   static const std::vector<KindKeys> kinds = {
       {"points", "points with error bars", {"y", "ylabel", "x", "group", "pool", "fit", "logx", "logy"}},
       {"distribution", "a histogram of a per-run distribution at each chosen point", {"of", "bins", "range", "pool", "logx", "logy"}},
+      {"curves", "an analysis' curve at each chosen point", {"of", "pool", "logx", "logy"}},
       {"maps", "a field's map at each chosen point", {"field", "pool"}},
       {"profile", "a field along a line at each chosen point", {"field", "along", "at", "width", "pool", "logy"}},
       {"pictures", "the silo at each chosen point", {"picture"}}};
@@ -103,6 +104,12 @@ class Offers {
       for (auto& d : a->distribution_names()) out.push_back(std::move(d));
     return out;
   }
+  std::vector<CurveInfo> curves() {
+    std::vector<CurveInfo> out;
+    for (const Analysis* a : setup().list())
+      for (auto& c : a->curve_names()) out.push_back(std::move(c));
+    return out;
+  }
   std::vector<FieldInfo> fields() {
     std::vector<FieldInfo> out;
     for (const Analysis* a : setup().list())
@@ -176,6 +183,15 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
       s.range_hi = r[1].get<double>();
       if (s.logx && !(s.range_lo > 0)) throw OptionError(path + "/range", r, "must start above 0 with logx (log bins)");
     }
+    return s;
+  }
+  if (s.kind == "curves") {
+    s.of = text_at(f, "of", path);
+    std::vector<std::string> names;
+    for (const auto& c : offers.curves()) names.push_back(c.name);
+    if (std::find(names.begin(), names.end(), s.of) == names.end())
+      throw OptionError(path + "/of", f.value("of", nlohmann::json()),
+                        "must name a curve an analysis this spec turns on offers (" + joined(names) + ")");
     return s;
   }
   if (s.kind == "maps" || s.kind == "profile") {
@@ -464,6 +480,125 @@ void distribution_figure(const CampaignAnalysis& ca, const FigureSpec& spec, Fig
   out.blocks.push_back(f);
 }
 
+// A curve per datum that an analysis offers (kind "curves"), each from the runs behind the
+// datum merged (pooled points are one datum), with error bars where the curve has them.
+void curve_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
+  const std::string where = spec.path + " (\"" + spec.name + "\")";
+  std::optional<std::size_t> source;
+  CurveInfo info;
+  for (std::size_t a = 0; ca.setup && a < ca.setup->analyses.size() && !source; ++a)
+    for (const CurveInfo& c : ca.setup->analyses[a]->curve_names())
+      if (c.name == spec.of) {
+        source = a;
+        info = c;
+        break;
+      }
+  if (!source) {
+    out.blocks.push_back(Text{"**Not drawn:** " + where + ": no analysis offers the curve " + spec.of + "."});
+    return;
+  }
+  Figure f;
+  f.name = "figure-" + spec.name;
+  f.title = spec.title.empty() ? info.title : spec.title;
+  f.xlabel = info.xlabel;
+  f.ylabel = info.ylabel;
+  f.logx = spec.logx;
+  f.logy = spec.logy;
+  std::vector<std::string> missing;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (std::size_t i = 0; i < out.data.size(); ++i) {
+    FigureDatum& d = out.data[i];
+    const std::string label = datum_label(d, info.name);
+    const std::vector<CurvePoint> points = ca.setup->analyses[*source]->curve(spec.of, datum_results(ca, *source, d));
+    Series se;
+    se.label = label;
+    se.file_label = label;
+    se.columns = {"x", "y", "y_se", "n"};
+    const bool errors = std::any_of(points.begin(), points.end(), [](const CurvePoint& c) { return std::isfinite(c.se); });
+    se.style = errors ? Series::Style::kErrorBars : Series::Style::kLinesPoints;
+    if (errors) se.err = 2;
+    se.color = static_cast<int>(i);
+    double n = 0.0;
+    for (const CurvePoint& c : points) {
+      if (!std::isfinite(c.x) || !std::isfinite(c.y) || (spec.logx && !(c.x > 0)) || (spec.logy && !(c.y > 0))) continue;
+      se.rows.push_back({c.x, c.y, std::isfinite(c.se) ? c.se : 0.0, c.n});
+      n += c.n;
+      lo = std::min(lo, c.x);
+      hi = std::max(hi, c.x);
+    }
+    if (se.rows.empty()) {
+      missing.push_back(label);
+      continue;
+    }
+    d.n = static_cast<int>(std::lround(std::min(n, 2e9)));
+    f.series.push_back(se);
+  }
+  if (info.diagonal && !f.series.empty()) {
+    Series one;
+    one.label = "y = x";
+    one.columns = {"x", "y"};
+    one.style = Series::Style::kLines;
+    one.role = Series::Role::kReference;
+    one.rows = {{lo, lo}, {hi, hi}};
+    f.series.push_back(one);
+  }
+  f.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Each curve: the runs behind it merged" +
+              (spec.pool.empty() ? "" : ", pooled over " + joined(spec.pool)) + only_text(spec) +
+              (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
+  if (!f.series.empty()) out.blocks.push_back(f);
+  if (!missing.empty())
+    out.blocks.push_back(Text{"**" + std::string(f.series.empty() ? "Not drawn" : "Left out") + ":** " + where + ": no " +
+                              spec.of + " at " + joined(missing) + " (no run there has it)."});
+}
+
+}  // namespace
+
+std::vector<std::vector<std::array<double, 2>>> clip_polylines(const std::vector<std::vector<std::array<double, 2>>>& lines,
+                                                              const std::array<double, 4>& box) {
+  std::vector<std::vector<std::array<double, 2>>> out;
+  for (const auto& line : lines) {
+    std::vector<std::array<double, 2>> run;
+    auto close = [&] {
+      if (run.size() > 1) out.push_back(run);
+      run.clear();
+    };
+    for (std::size_t k = 1; k < line.size(); ++k) {
+      // Liang-Barsky: the parameters t in [0, 1] of a + t (b - a) inside the box.
+      const std::array<double, 2>& a = line[k - 1];
+      const std::array<double, 2>& b = line[k];
+      const double dx = b[0] - a[0], dy = b[1] - a[1];
+      double t0 = 0.0, t1 = 1.0;
+      bool inside = true;
+      const double p[4] = {-dx, dx, -dy, dy}, q[4] = {a[0] - box[0], box[1] - a[0], a[1] - box[2], box[3] - a[1]};
+      for (int i = 0; i < 4 && inside; ++i) {
+        if (p[i] == 0.0) {
+          inside = q[i] >= 0.0;
+        } else {
+          const double t = q[i] / p[i];
+          if (p[i] < 0.0) t0 = std::max(t0, t);
+          else t1 = std::min(t1, t);
+          inside = t0 <= t1;
+        }
+      }
+      if (!inside) {
+        close();
+        continue;
+      }
+      const std::array<double, 2> from = {a[0] + t0 * dx, a[1] + t0 * dy}, to = {a[0] + t1 * dx, a[1] + t1 * dy};
+      if (run.empty() || run.back() != from) {
+        close();
+        run.push_back(from);
+      }
+      run.push_back(to);
+      if (t1 < 1.0) close();
+    }
+    close();
+  }
+  return out;
+}
+
+namespace {
+
 // Map panels (kind "maps") or line profiles (kind "profile") of a field an analysis offers, one
 // per datum, each from the runs behind it merged.
 void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
@@ -526,15 +661,21 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
           const std::size_t n = static_cast<std::size_t>(j) * static_cast<std::size_t>(map->nx) + static_cast<std::size_t>(k);
           panel.grid.push_back({map->x(k), map->y(j), map->values[n], n < map->n_frames.size() ? map->n_frames[n] : kNaN});
         }
-      extend(map->x(0) - map->spacing / 2, map->y(0) - map->spacing / 2);
-      extend(map->x(map->nx - 1) + map->spacing / 2, map->y(map->ny - 1) + map->spacing / 2);
-      for (const auto& line : map->lines)
+      // The panel spans the grid and what of the silo lies within kNear of it: the walls beside
+      // the default window, not those far from a zoomed one (/report/fields/window).
+      constexpr double kNear = 2.0;
+      const double gx0 = map->x(0) - map->spacing / 2, gx1 = map->x(map->nx - 1) + map->spacing / 2;
+      const double gy0 = map->y(0) - map->spacing / 2, gy1 = map->y(map->ny - 1) + map->spacing / 2;
+      const std::array<double, 4> box = {gx0 - kNear, gx1 + kNear, gy0 - kNear, gy1 + kNear};
+      extend(gx0, gy0);
+      extend(gx1, gy1);
+      panel.lines = clip_polylines(map->lines, box);
+      for (const auto& line : panel.lines)
         for (const auto& pt : line) extend(pt[0], pt[1]);
       for (const auto& c : map->circles) {
-        extend(c[0] - c[2], c[1] - c[2]);
-        extend(c[0] + c[2], c[1] + c[2]);
+        extend(std::clamp(c[0] - c[2], box[0], box[1]), std::clamp(c[1] - c[2], box[2], box[3]));
+        extend(std::clamp(c[0] + c[2], box[0], box[1]), std::clamp(c[1] + c[2], box[2], box[3]));
       }
-      panel.lines = map->lines;
       panel.circles = map->circles;
       panel.arrows = map->arrows;  // scaled below, by one length across the panels
       if (map->arrow_spacing > 0.0) arrow_spacing = arrow_spacing > 0.0 ? std::min(arrow_spacing, map->arrow_spacing) : map->arrow_spacing;
@@ -704,7 +845,7 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   // The group axes: as given, or every sweep axis that is not x and not pooled.
   // A figure at chosen points (distribution, maps, profile): a curve or panel per point, named
   // by every axis not pooled.
-  const bool per_point = spec.kind == "distribution" || spec.kind == "maps" || spec.kind == "profile";
+  const bool per_point = spec.kind == "distribution" || spec.kind == "curves" || spec.kind == "maps" || spec.kind == "profile";
   std::vector<std::string> group = spec.group;
   if (!spec.group_given)
     for (const auto& axis : v.axes) {
@@ -762,6 +903,8 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
       out.blocks.push_back(Text{"**Not drawn:** " + where + ": no finished run passes its `only`."});
     else if (spec.kind == "distribution")
       distribution_figure(ca, spec, out);
+    else if (spec.kind == "curves")
+      curve_figure(ca, spec, out);
     else
       field_figure(ca, spec, out);
     return out;

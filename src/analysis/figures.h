@@ -8,6 +8,7 @@
 // in, report blocks and fit results out.
 #pragma once
 
+#include <array>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -31,12 +32,12 @@ struct FigureFitSpec {
 struct FigureSpec {
   std::string path;                        // "/report/figures/3", for messages
   std::string name;                        // file stem, and what expectations name ("fit": name)
-  // "points" (with error bars), "distribution" (a histogram per chosen point), "maps" (a field's
-  // map per chosen point), "profile" (a field along a line, a curve per chosen point) or
-  // "pictures" (of the chosen points)
+  // "points" (with error bars), "distribution" (a histogram per chosen point), "curves" (a curve
+  // an analysis offers, per chosen point), "maps" (a field's map per chosen point), "profile" (a
+  // field along a line, a curve per chosen point) or "pictures" (of the chosen points)
   std::string kind = "points";
   std::string picture = "end";             // pictures: "end" (the last frame: clogged, discharged) or "bed"
-  std::string of;                          // distribution: an offered distribution or a per-run metric
+  std::string of;                          // distribution: an offered distribution or a per-run metric; curves: an offered curve
   int bins = 30;                           // distribution
   double range_lo = kNaN, range_hi = kNaN; // distribution: the bins' range (NaN: the data's, common to every curve)
   std::string field;                       // maps, profile: an offered field
@@ -54,6 +55,11 @@ struct FigureSpec {
   std::string title, caption, reference;
   bool logx = false, logy = false;
 };
+
+// The parts of polylines (the silo's walls over a map) inside box {x0, x1, y0, y1}: a line
+// leaving and re-entering it becomes two.
+std::vector<std::vector<std::array<double, 2>>> clip_polylines(const std::vector<std::vector<std::array<double, 2>>>& lines,
+                                                              const std::array<double, 4>& box);
 
 // Reads /report/figures of a campaign spec (absent: none). Every error is an OptionError naming
 // the JSON path, the value and what is allowed; axis names are checked against the spec's
