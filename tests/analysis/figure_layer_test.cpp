@@ -765,13 +765,15 @@ TEST(FigureKinds, TheArchesAndTheOrientationOfferTheirCurvesAndDistributions) {
     return nlohmann::json{{"discs", 2}, {"theta", theta}, {"axis", axis}, {"pressure", pressure}};
   };
   auto run = [](int n, double mean_pressure, const nlohmann::json& bodies) {
-    return nlohmann::json{{"present", true},
-                          {"clogs", {{{"sealed_outlets", {0}}, {"arches", {{{"outlet", 0}, {"n", n}, {"mean_pressure", mean_pressure},
-                                                                            {"bodies", bodies}}}}}}}};
+    nlohmann::json arch = {{"outlet", 0}, {"n", n}, {"mean_pressure", mean_pressure}};
+    arch["bodies"] = bodies;
+    nlohmann::json clog = {{"sealed_outlets", nlohmann::json::array({0})}};
+    clog["arches"] = nlohmann::json::array({arch});
+    return nlohmann::json{{"present", true}, {"clogs", nlohmann::json::array({clog})}};
   };
   // Default bins: 9 of theta over [0, pi] (20 degrees), 12 of the axis over [0, pi) (15 degrees).
-  const nlohmann::json a = run(3, 2.0, {body(0.1, 0.1, 1.0), body(pi / 2, pi / 2, 3.0)});
-  const nlohmann::json b = run(3, 4.0, {body(pi / 2, pi / 2, 5.0)});
+  const nlohmann::json a = run(3, 2.0, nlohmann::json::array({body(0.1, 0.1, 1.0), body(pi / 2, pi / 2, 3.0)}));
+  const nlohmann::json b = run(3, 4.0, nlohmann::json::array({body(pi / 2, pi / 2, 5.0)}));
   const std::vector<CurvePoint> p = arches->curve("arch_pressure_theta", {&a, &b});
   ASSERT_EQ(p.size(), 2u);
   EXPECT_NEAR(p[0].x, 10, 1e-9);
