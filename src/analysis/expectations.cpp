@@ -362,7 +362,8 @@ nlohmann::json figures_json_schema() {
         {"field", {{"type", "string"}, {"description", "maps, profile: a field an analysis offers (/report/fields: phi, speed, pressure, ...)"}}},
         {"along", {{"enum", {"x", "y"}}, {"description", "profile: the direction of the line"}}},
         {"at", {{"type", "number"}, {"description", "profile: the line's other coordinate (d)"}}},
-        {"width", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "profile: the band averaged across the line (d)"}}}}}};
+        {"width", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "profile: the band averaged across the line (d)"}}},
+        {"one_run", {{"type", "boolean"}, {"description", "maps, profile: the lowest replica that has the field, not the runs merged (one instant: thesis fig. 3.10)"}}}}}};
   return {{"type", "array"}, {"description", "figures drawn in the report's Figures section (docs/analyses.md)"}, {"items", figure}};
 }
 

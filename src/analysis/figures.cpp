@@ -15,7 +15,7 @@ namespace {
 
 constexpr const char* kFigureKeys[] = {"name", "kind",    "picture", "y",     "ylabel", "x",     "group", "pool",
                                        "only", "fit",     "title",   "caption", "reference", "logx", "logy", "of",
-                                       "bins", "range",   "field",   "along", "at",     "width"};
+                                       "bins", "range",   "field",   "along", "at",     "width", "one_run"};
 // The kinds, what each draws and the keys it takes besides name, kind, only, title, caption
 // and reference.
 struct KindKeys {
@@ -28,8 +28,8 @@ const std::vector<KindKeys>& figure_kinds() {
       {"points", "points with error bars", {"y", "ylabel", "x", "group", "pool", "fit", "logx", "logy"}},
       {"distribution", "a histogram of a per-run distribution at each chosen point", {"of", "bins", "range", "pool", "logx", "logy"}},
       {"curves", "an analysis' curve at each chosen point", {"of", "pool", "logx", "logy"}},
-      {"maps", "a field's map at each chosen point", {"field", "pool"}},
-      {"profile", "a field along a line at each chosen point", {"field", "along", "at", "width", "pool", "logy"}},
+      {"maps", "a field's map at each chosen point", {"field", "pool", "one_run"}},
+      {"profile", "a field along a line at each chosen point", {"field", "along", "at", "width", "pool", "one_run", "logy"}},
       {"pictures", "the silo at each chosen point", {"picture"}}};
   return kinds;
 }
@@ -204,6 +204,7 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
                         "no analysis offers fields: turn on the coarse-grained fields (/report/fields: true)");
     if (std::find(names.begin(), names.end(), s.field) == names.end())
       throw OptionError(path + "/field", f.value("field", nlohmann::json()), "must name a field (fields: " + joined(names) + ")");
+    if (f.contains("one_run")) s.one_run = option_bool(f.at("one_run"), path + "/one_run");
     if (s.kind == "maps") return s;
     s.along = text_at(f, "along", path);
     if (s.along != "x" && s.along != "y")
@@ -646,7 +647,25 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
   for (std::size_t i = 0; i < out.data.size(); ++i) {
     FigureDatum& d = out.data[i];
     const std::string label = datum_label(d, info.name);
-    const std::optional<FieldMap> map = analysis.field(spec.field, datum_results(ca, *source, d), v.points[d.points.front()].spec);
+    std::optional<FieldMap> map;
+    std::string one;  // " (replica k)" when one run is drawn
+    if (spec.one_run) {
+      // The lowest replica whose run has the field (a run may end before the fields' frames).
+      std::vector<std::size_t> runs;
+      for (std::size_t p : d.points) runs.insert(runs.end(), v.points[p].runs.begin(), v.points[p].runs.end());
+      std::stable_sort(runs.begin(), runs.end(),
+                       [&](std::size_t a, std::size_t b) { return v.used[a].record->replica < v.used[b].record->replica; });
+      for (std::size_t u : runs) {
+        if (u >= ca.results[*source].runs.size() || ca.results[*source].runs[u].is_null()) continue;
+        map = analysis.field(spec.field, {&ca.results[*source].runs[u]}, v.points[d.points.front()].spec);
+        if (map && map->nx > 0 && map->ny > 0) {
+          one = " (replica " + std::to_string(v.used[u].record->replica) + ")";
+          break;
+        }
+      }
+    } else {
+      map = analysis.field(spec.field, datum_results(ca, *source, d), v.points[d.points.front()].spec);
+    }
     if (!map || map->nx == 0 || map->ny == 0) {
       missing.push_back(label);
       continue;
@@ -654,8 +673,8 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
     d.n = map->runs;
     if (spec.kind == "maps") {
       MapPanel panel;
-      panel.title = label + ": " + std::to_string(map->runs) + (map->runs == 1 ? " run, " : " runs, ") +
-                    std::to_string(map->frames) + " frames";
+      panel.title = label + ": " + std::to_string(map->runs) + (map->runs == 1 ? " run" + one + ", " : " runs, ") +
+                    std::to_string(map->frames) + (map->frames == 1 ? " frame" : " frames");
       for (int j = 0; j < map->ny; ++j)
         for (int k = 0; k < map->nx; ++k) {
           const std::size_t n = static_cast<std::size_t>(j) * static_cast<std::size_t>(map->nx) + static_cast<std::size_t>(k);
@@ -694,7 +713,7 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
       band = pr.band_lo == pr.band_hi ? std::string(1, across) + " = " + format_number(pr.band_lo) + " d"
                                       : std::string(1, across) + " = " + format_number(pr.band_lo) + " .. " + format_number(pr.band_hi) + " d";
     Series se;
-    se.label = label + ": " + std::to_string(map->runs) + (map->runs == 1 ? " run" : " runs");
+    se.label = label + ": " + std::to_string(map->runs) + (map->runs == 1 ? " run" + one : " runs");
     se.file_label = label;
     se.columns = {spec.along, info.name, "nodes"};
     se.style = Series::Style::kLinesPoints;
@@ -728,14 +747,16 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
     m.x_hi = x_hi + 1.0;
     m.y_lo = y_lo - 1.0;
     m.y_hi = y_hi + 1.0;
-    m.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Each panel: the runs behind it merged, and the frames " +
-                "averaged; one colour scale across the panels; walls black" + arrows_text + tail;
+    m.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Each panel: " +
+                (spec.one_run ? "the lowest replica that has the field" : "the runs behind it merged") +
+                ", and the frames averaged; one colour scale across the panels; walls black" + arrows_text + tail;
     out.blocks.push_back(m);
   }
   if (spec.kind == "profile" && !f.series.empty()) {
     f.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "At each " + spec.along + ": the mean of the field over the grid " +
                 (along == 'x' ? "rows " : "columns ") + band + " (within " + format_number(spec.width / 2) + " d of " +
-                std::string(1, across) + " = " + format_number(spec.at) + " d); the runs behind each curve merged" + tail;
+                std::string(1, across) + " = " + format_number(spec.at) + " d); " +
+                (spec.one_run ? "each curve the lowest replica that has the field" : "the runs behind each curve merged") + tail;
     out.blocks.push_back(f);
   }
   if (!missing.empty())

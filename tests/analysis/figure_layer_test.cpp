@@ -832,6 +832,18 @@ TEST(FigureKinds, MapPanelsAtTheChosenPointsWithAxesAndUnitsInTheirTitles) {
     }
     EXPECT_EQ(m->panels[k].lines.size(), 2u);
   }
+  // One run (an instant, fig. 3.10): the lowest replica's, said in the panel's title.
+  nlohmann::json spec = r->c.info.spec;
+  spec["report"]["figures"][0]["one_run"] = true;
+  const FigureOutcome one = make_figure(*r->a, read_figure_specs(spec).at(0));
+  const MapFigure* m1 = nullptr;
+  for (const Block& b : one.blocks)
+    if (const auto* x = std::get_if<MapFigure>(&b)) m1 = x;
+  ASSERT_TRUE(m1);
+  ASSERT_EQ(m1->panels.size(), 2u);
+  EXPECT_EQ(m1->panels[0].title, "W = 10 d, mu = 0.5: 1 run (replica 0), 7 frames");
+  EXPECT_EQ(m1->panels[1].title, "W = 22 d, mu = 0.5: 1 run (replica 0), 7 frames");
+  EXPECT_NE(m1->caption.find("Each panel: the lowest replica that has the field"), std::string::npos) << m1->caption;
 }
 
 // The walls over a zoomed map: only their parts inside the panel's box.
@@ -948,6 +960,9 @@ TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
                   "/report/figures/0/at: must be the line's position x (d)"));
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "y"}, {"at", 0}, {"width", -1}}),
                   "/report/figures/0/width"));
+  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "speed"}, {"one_run", 1}}), "/report/figures/0/one_run"));
+  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vx"}, {"one_run", true}}),
+                  "/report/figures/0/one_run: a figure of kind \"distribution\" takes"));
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "speed"}, {"at", 0}}),
                   "/report/figures/0/at: a figure of kind \"maps\" takes"));
 }
