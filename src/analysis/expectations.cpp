@@ -363,6 +363,7 @@ nlohmann::json figures_json_schema() {
         {"along", {{"enum", {"x", "y"}}, {"description", "profile: the direction of the line"}}},
         {"at", {{"type", "number"}, {"description", "profile: the line's other coordinate (d)"}}},
         {"width", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "profile: the band averaged across the line (d)"}}},
+        {"origin_outlet", {{"type", "integer"}, {"minimum", 0}, {"description", "profile along x: x from the centre of this base outlet of each point (thesis fig. 7.6)"}}},
         {"one_run", {{"type", "boolean"}, {"description", "maps, profile: the lowest replica that has the field, not the runs merged (one instant: thesis fig. 3.10)"}}}}}};
   return {{"type", "array"}, {"description", "figures drawn in the report's Figures section (docs/analyses.md)"}, {"items", figure}};
 }

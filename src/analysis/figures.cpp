@@ -15,7 +15,7 @@ namespace {
 
 constexpr const char* kFigureKeys[] = {"name", "kind",    "picture", "y",     "ylabel", "x",     "group", "pool",
                                        "only", "fit",     "title",   "caption", "reference", "logx", "logy", "of",
-                                       "bins", "range",   "field",   "along", "at",     "width", "one_run"};
+                                       "bins", "range",   "field",   "along", "at",     "width", "one_run", "origin_outlet"};
 // The kinds, what each draws and the keys it takes besides name, kind, only, title, caption
 // and reference.
 struct KindKeys {
@@ -29,7 +29,7 @@ const std::vector<KindKeys>& figure_kinds() {
       {"distribution", "a histogram of a per-run distribution at each chosen point", {"of", "bins", "range", "pool", "logx", "logy"}},
       {"curves", "an analysis' curve at each chosen point", {"of", "pool", "logx", "logy"}},
       {"maps", "a field's map at each chosen point", {"field", "pool", "one_run"}},
-      {"profile", "a field along a line at each chosen point", {"field", "along", "at", "width", "pool", "one_run", "logy"}},
+      {"profile", "a field along a line at each chosen point", {"field", "along", "at", "width", "origin_outlet", "pool", "one_run", "logy"}},
       {"pictures", "the silo at each chosen point", {"picture"}}};
   return kinds;
 }
@@ -212,6 +212,11 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
     if (!f.contains("at")) throw OptionError(path + "/at", nlohmann::json(), std::string("must be the line's ") + (s.along == "x" ? "height y" : "position x") + " (d)");
     s.at = option_number(f.at("at"), path + "/at", -1e9, 1e9);
     if (f.contains("width")) s.width = option_number(f.at("width"), path + "/width", 1e-9, 1e9);
+    if (f.contains("origin_outlet")) {
+      if (s.along != "x")
+        throw OptionError(path + "/origin_outlet", f.at("origin_outlet"), "takes a line along x (the base outlets lie along x)");
+      s.origin_outlet = option_integer(f.at("origin_outlet"), path + "/origin_outlet", 0, 1000);
+    }
     return s;
   }
   s.y = text_at(f, "y", path);
@@ -639,7 +644,8 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
   f.name = "figure-" + spec.name;
   f.title = spec.title.empty() ? info.title + " along " + spec.along + " at " + across + " = " + format_number(spec.at) + " d"
                                : spec.title;
-  f.xlabel = spec.along + " (d)";
+  f.xlabel = spec.origin_outlet >= 0 ? "x from the centre of base outlet " + std::to_string(spec.origin_outlet) + " (d)"
+                                      : spec.along + " (d)";
   f.ylabel = with_unit(info.title, info.unit);
   f.logy = spec.logy;
   std::string band;
@@ -701,6 +707,16 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
       m.panels.push_back(std::move(panel));
       continue;
     }
+    // x from the centre of a base outlet of the point (it may move from point to point).
+    double origin = 0.0;
+    if (spec.origin_outlet >= 0) {
+      const nlohmann::json outlets = v.points[d.points.front()].spec.value("silo", nlohmann::json::object()).value("base_outlets", nlohmann::json::array());
+      if (!outlets.is_array() || static_cast<int>(outlets.size()) <= spec.origin_outlet || !outlets[spec.origin_outlet].is_object()) {
+        missing.push_back(label + " (no base outlet " + std::to_string(spec.origin_outlet) + ")");
+        continue;
+      }
+      origin = outlets[spec.origin_outlet].value("center", 0.0);
+    }
     const FieldProfile pr = field_profile(*map, along, spec.at, spec.width);
     if (pr.position.empty()) {
       const double lo = along == 'x' ? map->y(0) : map->x(0), hi = along == 'x' ? map->y(map->ny - 1) : map->x(map->nx - 1);
@@ -720,7 +736,7 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
     se.color = static_cast<int>(i);
     for (std::size_t k = 0; k < pr.position.size(); ++k)
       if (std::isfinite(pr.value[k]) && (!spec.logy || pr.value[k] > 0))
-        se.rows.push_back({pr.position[k], pr.value[k], static_cast<double>(pr.nodes[k])});
+        se.rows.push_back({pr.position[k] - origin, pr.value[k], static_cast<double>(pr.nodes[k])});
     if (!se.rows.empty()) f.series.push_back(se);
   }
   const std::string tail = (spec.pool.empty() ? "" : "; pooled over " + joined(spec.pool)) + only_text(spec) +

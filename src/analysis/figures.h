@@ -44,6 +44,7 @@ struct FigureSpec {
   std::string along;                       // profile: "x" or "y"
   double at = kNaN;                        // profile: the line's other coordinate (d)
   double width = 1.0;                      // profile: the band across the line averaged (d)
+  int origin_outlet = -1;                  // profile along x: x from this base outlet's centre (-1: the silo's x)
   bool one_run = false;                    // maps, profile: the lowest replica with the field, not the runs merged
   std::string y;                           // a metric name or an expression over metrics and axes
   std::string ylabel;                      // default: y

@@ -903,6 +903,25 @@ TEST(FigureKinds, ProfileFigureOfTheChosenPoints) {
     for (const auto& row : se.rows) EXPECT_DOUBLE_EQ(row[1], 2 * row[0] + 9 + w);  // rows y = 2, 3, 4
   }
   EXPECT_NE(fig->caption.find("rows y = 2 .. 4 d"), std::string::npos) << fig->caption;
+  // x from a base outlet's centre: each point's own (here moved to x = W / 2).
+  for (Point& p : r->a->view.points) p.spec["silo"]["base_outlets"][0]["center"] = p.x / 2;
+  nlohmann::json shifted = r->c.info.spec;
+  shifted["report"]["figures"][0]["origin_outlet"] = 0;
+  const FigureOutcome from = make_figure(*r->a, read_figure_specs(shifted).at(0));
+  const Figure* ff = figure_in(from);
+  ASSERT_TRUE(ff);
+  ASSERT_EQ(ff->series.size(), 2u);
+  EXPECT_EQ(ff->xlabel, "x from the centre of base outlet 0 (d)");
+  for (const Series& se : ff->series) {
+    const double w = se.label.find("W = 14") == 0 ? 14 : 18;
+    ASSERT_EQ(se.rows.size(), 11u);
+    EXPECT_DOUBLE_EQ(se.rows.front()[0], -5 - w / 2);
+    for (const auto& row : se.rows) EXPECT_DOUBLE_EQ(row[1], 2 * (row[0] + w / 2) + 9 + w);
+  }
+  shifted["report"]["figures"][0]["origin_outlet"] = 1;
+  const FigureOutcome none = make_figure(*r->a, read_figure_specs(shifted).at(0));
+  ASSERT_FALSE(none.blocks.empty());
+  EXPECT_NE(std::get<Text>(none.blocks.back()).markdown.find("W = 14 d (no base outlet 1)"), std::string::npos);
   // A line outside the grid is said.
   nlohmann::json spec = r->c.info.spec;
   spec["report"]["figures"][0]["at"] = 40;
@@ -961,6 +980,8 @@ TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "y"}, {"at", 0}, {"width", -1}}),
                   "/report/figures/0/width"));
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "speed"}, {"one_run", 1}}), "/report/figures/0/one_run"));
+  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "y"}, {"at", 0}, {"origin_outlet", 0}}),
+                  "/report/figures/0/origin_outlet: takes a line along x"));
   EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vx"}, {"one_run", true}}),
                   "/report/figures/0/one_run: a figure of kind \"distribution\" takes"));
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "speed"}, {"at", 0}}),
