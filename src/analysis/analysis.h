@@ -185,6 +185,21 @@ struct Samples {
   std::vector<double> weights;        // empty: 1 each
 };
 
+// A curve an analysis offers figures of kind "curves": y against x from the runs behind a
+// chosen point, merged (the arch bodies' pressure against their angular position, thesis fig.
+// 6.7): its name there, the axes' labels with their units, and whether the line y = x belongs
+// to it (fig. 6.6: the axis' mode against theta beside mode = theta).
+struct CurveInfo {
+  std::string name;                   // "arch_pressure_theta": what a figure's "of" names
+  std::string title;                  // "pressure of arch bodies against their angular position"
+  std::string xlabel;                 // "theta (degrees)"
+  std::string ylabel;                 // "P (rho g d)"
+  bool diagonal = false;
+};
+// One point of such a curve: se NaN where the curve has none, n what stands behind y.
+struct CurvePoint {
+  double x = 0.0, y = 0.0, se = 0.0, n = 0.0;
+};
 // A field over the silo an analysis offers figures of kind "maps" and "profile": its name
 // there, title, unit, and whether it is signed (a diverging colour scale).
 struct FieldInfo {
@@ -232,7 +247,7 @@ class Analysis {
     (void)input;
     return std::nullopt;
   }
-  // Distributions and fields any figure of /report/figures may ask for by name (figures.h);
+  // Distributions, curves and fields any figure of /report/figures may ask for by name (figures.h);
   // an analysis that offers some overrides these pairs, in its own file pair only.
   virtual std::vector<DistributionInfo> distribution_names() const { return {}; }
   // The distribution `name` (one of distribution_names()) of one run's result; empty if the
@@ -240,6 +255,14 @@ class Analysis {
   virtual Samples distribution(const std::string& name, const nlohmann::json& result) const {
     (void)name;
     (void)result;
+    return {};
+  }
+  virtual std::vector<CurveInfo> curve_names() const { return {}; }
+  // The curve `name` (one of curve_names()) from these runs' results merged; empty if they have
+  // none of it.
+  virtual std::vector<CurvePoint> curve(const std::string& name, const std::vector<const nlohmann::json*>& results) const {
+    (void)name;
+    (void)results;
     return {};
   }
   virtual std::vector<FieldInfo> field_names() const { return {}; }

@@ -18,14 +18,19 @@ constexpr int kThesisClogs = 100;
 
 double Degrees(double radians) { return radians * 180 / kPi; }
 
-// The arches of every clog of every replica of point p, pooled.
-ArchSummary point_summary(const AnalysisResults& results, std::size_t p, const ArchSummaryOptions& options) {
+// The arches of every clog of these runs, pooled.
+ArchSummary runs_summary(const std::vector<const nlohmann::json*>& runs, const ArchSummaryOptions& options) {
   std::vector<ClogArches> clogs;
-  for (const nlohmann::json* r : results.of_point(p))
+  for (const nlohmann::json* r : runs)
     for (ClogArches& c : clogs_of(*r)) clogs.push_back(std::move(c));
   std::vector<const ClogArches*> list;
   for (const ClogArches& c : clogs) list.push_back(&c);
   return summarize_arches(list, options);
+}
+
+// The arches of every clog of every replica of point p, pooled.
+ArchSummary point_summary(const AnalysisResults& results, std::size_t p, const ArchSummaryOptions& options) {
+  return runs_summary(results.of_point(p), options);
 }
 
 class ArchesAccumulator : public RunAccumulator {
@@ -81,6 +86,36 @@ class ArchesAnalysis : public Analysis {
   }
 
   std::optional<Section> section(const SectionInput& in) const override;
+
+  // The arch sizes N_t, one per arch of the kept clogs (the inset of thesis fig. 6.9).
+  std::vector<DistributionInfo> distribution_names() const override { return {{"arch_sizes", "bodies in an arch N_t", "bodies"}}; }
+  Samples distribution(const std::string& name, const nlohmann::json& result) const override {
+    if (name != "arch_sizes") return {};
+    return {runs_summary({&result}, o_.summary).n_values, {}};
+  }
+  // Per angular position of the arch bodies (figs. 6.6, 6.7) and per arch size (fig. 6.9), from
+  // the arches of the runs given pooled, as the section draws them for the points it picks.
+  std::vector<CurveInfo> curve_names() const override {
+    return {{"arch_pressure_theta", "Pressure of arch bodies against their angular position", "theta (degrees)", "P (rho g d)", false},
+            {"arch_axis_mode_theta", "Most frequent axis angle of arch bodies against their angular position",
+             "theta (degrees)", "mode of the axis angle psi (degrees)", true},
+            {"arch_pressure_n", "Mean arch pressure against the arch's size", "N_t (bodies)", "<P> (rho g d)", false}};
+  }
+  std::vector<CurvePoint> curve(const std::string& name, const std::vector<const nlohmann::json*>& results) const override {
+    const ArchSummary a = runs_summary(results, o_.summary);
+    std::vector<CurvePoint> out;
+    if (name == "arch_pressure_theta" || name == "arch_axis_mode_theta")
+      for (const ThetaBin& b : a.theta) {
+        if (name == "arch_pressure_theta" && b.pressure.n > 0)
+          out.push_back({Degrees(b.theta), b.pressure.mean, b.pressure.se, static_cast<double>(b.pressure.n)});
+        if (name == "arch_axis_mode_theta" && b.elongated > 0)
+          out.push_back({Degrees(b.theta), Degrees(b.axis_mode), kNaN, static_cast<double>(b.elongated)});
+      }
+    if (name == "arch_pressure_n")
+      for (const auto& b : a.pressure_by_n)
+        out.push_back({static_cast<double>(b.n), b.pressure.mean, b.pressure.se, static_cast<double>(b.pressure.n)});
+    return out;
+  }
 
  private:
   struct Mean {

@@ -337,7 +337,7 @@ nlohmann::json figures_json_schema() {
       {"required", {"name"}},
       {"properties",
        {{"name", {{"type", "string"}, {"pattern", "^[A-Za-z0-9._-]+$"}}},
-        {"kind", {{"enum", {"points", "distribution", "maps", "profile", "pictures"}}}},
+        {"kind", {{"enum", {"points", "distribution", "curves", "maps", "profile", "pictures"}}}},
         {"picture", {{"enum", {"end", "bed"}}, {"description", "pictures: the last frame (default) or the bed at t = 0"}}},
         {"y", {{"type", "string"}, {"description", "a metric, or an expression over metrics and axes"}}},
         {"ylabel", {{"type", "string"}}},
@@ -352,15 +352,19 @@ nlohmann::json figures_json_schema() {
         {"logx", {{"type", "boolean"}}},
         {"logy", {{"type", "boolean"}}},
         {"of", {{"type", "string"},
-                {"description", "distribution: a distribution an analysis offers (vx, vy, avalanche_sizes) or a "
-                                "per-run metric, pooled over the replicas of each point"}}},
+                {"description", "distribution: a distribution an analysis offers (vx, vy, avalanche_sizes, arch_sizes, "
+                                "axis_bed, axis_flow, axis_arches) or a per-run metric, pooled over the replicas of each "
+                                "point; curves: a curve an analysis offers (arch_pressure_theta, arch_axis_mode_theta, "
+                                "arch_pressure_n)"}}},
         {"bins", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000}}},
         {"range", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2}, {"maxItems", 2},
                    {"description", "distribution: [lo, hi] of the bins, the same for every curve; default the data's"}}},
         {"field", {{"type", "string"}, {"description", "maps, profile: a field an analysis offers (/report/fields: phi, speed, pressure, ...)"}}},
         {"along", {{"enum", {"x", "y"}}, {"description", "profile: the direction of the line"}}},
         {"at", {{"type", "number"}, {"description", "profile: the line's other coordinate (d)"}}},
-        {"width", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "profile: the band averaged across the line (d)"}}}}}};
+        {"width", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "profile: the band averaged across the line (d)"}}},
+        {"origin_outlet", {{"type", "integer"}, {"minimum", 0}, {"description", "profile along x: x from the centre of this base outlet of each point (thesis fig. 7.6)"}}},
+        {"one_run", {{"type", "boolean"}, {"description", "maps, profile: the lowest replica that has the field, not the runs merged (one instant: thesis fig. 3.10)"}}}}}};
   return {{"type", "array"}, {"description", "figures drawn in the report's Figures section (docs/analyses.md)"}, {"items", figure}};
 }
 

@@ -15,7 +15,7 @@ namespace {
 
 constexpr const char* kFigureKeys[] = {"name", "kind",    "picture", "y",     "ylabel", "x",     "group", "pool",
                                        "only", "fit",     "title",   "caption", "reference", "logx", "logy", "of",
-                                       "bins", "range",   "field",   "along", "at",     "width"};
+                                       "bins", "range",   "field",   "along", "at",     "width", "one_run", "origin_outlet"};
 // The kinds, what each draws and the keys it takes besides name, kind, only, title, caption
 // and reference.
 struct KindKeys {
@@ -27,8 +27,9 @@ const std::vector<KindKeys>& figure_kinds() {
   static const std::vector<KindKeys> kinds = {
       {"points", "points with error bars", {"y", "ylabel", "x", "group", "pool", "fit", "logx", "logy"}},
       {"distribution", "a histogram of a per-run distribution at each chosen point", {"of", "bins", "range", "pool", "logx", "logy"}},
-      {"maps", "a field's map at each chosen point", {"field", "pool"}},
-      {"profile", "a field along a line at each chosen point", {"field", "along", "at", "width", "pool", "logy"}},
+      {"curves", "an analysis' curve at each chosen point", {"of", "pool", "logx", "logy"}},
+      {"maps", "a field's map at each chosen point", {"field", "pool", "one_run"}},
+      {"profile", "a field along a line at each chosen point", {"field", "along", "at", "width", "origin_outlet", "pool", "one_run", "logy"}},
       {"pictures", "the silo at each chosen point", {"picture"}}};
   return kinds;
 }
@@ -101,6 +102,12 @@ class Offers {
     std::vector<DistributionInfo> out;
     for (const Analysis* a : setup().list())
       for (auto& d : a->distribution_names()) out.push_back(std::move(d));
+    return out;
+  }
+  std::vector<CurveInfo> curves() {
+    std::vector<CurveInfo> out;
+    for (const Analysis* a : setup().list())
+      for (auto& c : a->curve_names()) out.push_back(std::move(c));
     return out;
   }
   std::vector<FieldInfo> fields() {
@@ -178,6 +185,15 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
     }
     return s;
   }
+  if (s.kind == "curves") {
+    s.of = text_at(f, "of", path);
+    std::vector<std::string> names;
+    for (const auto& c : offers.curves()) names.push_back(c.name);
+    if (std::find(names.begin(), names.end(), s.of) == names.end())
+      throw OptionError(path + "/of", f.value("of", nlohmann::json()),
+                        "must name a curve an analysis this spec turns on offers (" + joined(names) + ")");
+    return s;
+  }
   if (s.kind == "maps" || s.kind == "profile") {
     s.field = text_at(f, "field", path);
     const std::vector<FieldInfo> offered = offers.fields();
@@ -188,6 +204,7 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
                         "no analysis offers fields: turn on the coarse-grained fields (/report/fields: true)");
     if (std::find(names.begin(), names.end(), s.field) == names.end())
       throw OptionError(path + "/field", f.value("field", nlohmann::json()), "must name a field (fields: " + joined(names) + ")");
+    if (f.contains("one_run")) s.one_run = option_bool(f.at("one_run"), path + "/one_run");
     if (s.kind == "maps") return s;
     s.along = text_at(f, "along", path);
     if (s.along != "x" && s.along != "y")
@@ -195,6 +212,11 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
     if (!f.contains("at")) throw OptionError(path + "/at", nlohmann::json(), std::string("must be the line's ") + (s.along == "x" ? "height y" : "position x") + " (d)");
     s.at = option_number(f.at("at"), path + "/at", -1e9, 1e9);
     if (f.contains("width")) s.width = option_number(f.at("width"), path + "/width", 1e-9, 1e9);
+    if (f.contains("origin_outlet")) {
+      if (s.along != "x")
+        throw OptionError(path + "/origin_outlet", f.at("origin_outlet"), "takes a line along x (the base outlets lie along x)");
+      s.origin_outlet = option_integer(f.at("origin_outlet"), path + "/origin_outlet", 0, 1000);
+    }
     return s;
   }
   s.y = text_at(f, "y", path);
@@ -464,6 +486,125 @@ void distribution_figure(const CampaignAnalysis& ca, const FigureSpec& spec, Fig
   out.blocks.push_back(f);
 }
 
+// A curve per datum that an analysis offers (kind "curves"), each from the runs behind the
+// datum merged (pooled points are one datum), with error bars where the curve has them.
+void curve_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
+  const std::string where = spec.path + " (\"" + spec.name + "\")";
+  std::optional<std::size_t> source;
+  CurveInfo info;
+  for (std::size_t a = 0; ca.setup && a < ca.setup->analyses.size() && !source; ++a)
+    for (const CurveInfo& c : ca.setup->analyses[a]->curve_names())
+      if (c.name == spec.of) {
+        source = a;
+        info = c;
+        break;
+      }
+  if (!source) {
+    out.blocks.push_back(Text{"**Not drawn:** " + where + ": no analysis offers the curve " + spec.of + "."});
+    return;
+  }
+  Figure f;
+  f.name = "figure-" + spec.name;
+  f.title = spec.title.empty() ? info.title : spec.title;
+  f.xlabel = info.xlabel;
+  f.ylabel = info.ylabel;
+  f.logx = spec.logx;
+  f.logy = spec.logy;
+  std::vector<std::string> missing;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (std::size_t i = 0; i < out.data.size(); ++i) {
+    FigureDatum& d = out.data[i];
+    const std::string label = datum_label(d, info.name);
+    const std::vector<CurvePoint> points = ca.setup->analyses[*source]->curve(spec.of, datum_results(ca, *source, d));
+    Series se;
+    se.label = label;
+    se.file_label = label;
+    se.columns = {"x", "y", "y_se", "n"};
+    const bool errors = std::any_of(points.begin(), points.end(), [](const CurvePoint& c) { return std::isfinite(c.se); });
+    se.style = errors ? Series::Style::kErrorBars : Series::Style::kLinesPoints;
+    if (errors) se.err = 2;
+    se.color = static_cast<int>(i);
+    double n = 0.0;
+    for (const CurvePoint& c : points) {
+      if (!std::isfinite(c.x) || !std::isfinite(c.y) || (spec.logx && !(c.x > 0)) || (spec.logy && !(c.y > 0))) continue;
+      se.rows.push_back({c.x, c.y, std::isfinite(c.se) ? c.se : 0.0, c.n});
+      n += c.n;
+      lo = std::min(lo, c.x);
+      hi = std::max(hi, c.x);
+    }
+    if (se.rows.empty()) {
+      missing.push_back(label);
+      continue;
+    }
+    d.n = static_cast<int>(std::lround(std::min(n, 2e9)));
+    f.series.push_back(se);
+  }
+  if (info.diagonal && !f.series.empty()) {
+    Series one;
+    one.label = "y = x";
+    one.columns = {"x", "y"};
+    one.style = Series::Style::kLines;
+    one.role = Series::Role::kReference;
+    one.rows = {{lo, lo}, {hi, hi}};
+    f.series.push_back(one);
+  }
+  f.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Each curve: the runs behind it merged" +
+              (spec.pool.empty() ? "" : ", pooled over " + joined(spec.pool)) + only_text(spec) +
+              (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
+  if (!f.series.empty()) out.blocks.push_back(f);
+  if (!missing.empty())
+    out.blocks.push_back(Text{"**" + std::string(f.series.empty() ? "Not drawn" : "Left out") + ":** " + where + ": no " +
+                              spec.of + " at " + joined(missing) + " (no run there has it)."});
+}
+
+}  // namespace
+
+std::vector<std::vector<std::array<double, 2>>> clip_polylines(const std::vector<std::vector<std::array<double, 2>>>& lines,
+                                                              const std::array<double, 4>& box) {
+  std::vector<std::vector<std::array<double, 2>>> out;
+  for (const auto& line : lines) {
+    std::vector<std::array<double, 2>> run;
+    auto close = [&] {
+      if (run.size() > 1) out.push_back(run);
+      run.clear();
+    };
+    for (std::size_t k = 1; k < line.size(); ++k) {
+      // Liang-Barsky: the parameters t in [0, 1] of a + t (b - a) inside the box.
+      const std::array<double, 2>& a = line[k - 1];
+      const std::array<double, 2>& b = line[k];
+      const double dx = b[0] - a[0], dy = b[1] - a[1];
+      double t0 = 0.0, t1 = 1.0;
+      bool inside = true;
+      const double p[4] = {-dx, dx, -dy, dy}, q[4] = {a[0] - box[0], box[1] - a[0], a[1] - box[2], box[3] - a[1]};
+      for (int i = 0; i < 4 && inside; ++i) {
+        if (p[i] == 0.0) {
+          inside = q[i] >= 0.0;
+        } else {
+          const double t = q[i] / p[i];
+          if (p[i] < 0.0) t0 = std::max(t0, t);
+          else t1 = std::min(t1, t);
+          inside = t0 <= t1;
+        }
+      }
+      if (!inside) {
+        close();
+        continue;
+      }
+      const std::array<double, 2> from = {a[0] + t0 * dx, a[1] + t0 * dy}, to = {a[0] + t1 * dx, a[1] + t1 * dy};
+      if (run.empty() || run.back() != from) {
+        close();
+        run.push_back(from);
+      }
+      run.push_back(to);
+      if (t1 < 1.0) close();
+    }
+    close();
+  }
+  return out;
+}
+
+namespace {
+
 // Map panels (kind "maps") or line profiles (kind "profile") of a field an analysis offers, one
 // per datum, each from the runs behind it merged.
 void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
@@ -503,7 +644,8 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
   f.name = "figure-" + spec.name;
   f.title = spec.title.empty() ? info.title + " along " + spec.along + " at " + across + " = " + format_number(spec.at) + " d"
                                : spec.title;
-  f.xlabel = spec.along + " (d)";
+  f.xlabel = spec.origin_outlet >= 0 ? "x from the centre of base outlet " + std::to_string(spec.origin_outlet) + " (d)"
+                                      : spec.along + " (d)";
   f.ylabel = with_unit(info.title, info.unit);
   f.logy = spec.logy;
   std::string band;
@@ -511,7 +653,25 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
   for (std::size_t i = 0; i < out.data.size(); ++i) {
     FigureDatum& d = out.data[i];
     const std::string label = datum_label(d, info.name);
-    const std::optional<FieldMap> map = analysis.field(spec.field, datum_results(ca, *source, d), v.points[d.points.front()].spec);
+    std::optional<FieldMap> map;
+    std::string one;  // " (replica k)" when one run is drawn
+    if (spec.one_run) {
+      // The lowest replica whose run has the field (a run may end before the fields' frames).
+      std::vector<std::size_t> runs;
+      for (std::size_t p : d.points) runs.insert(runs.end(), v.points[p].runs.begin(), v.points[p].runs.end());
+      std::stable_sort(runs.begin(), runs.end(),
+                       [&](std::size_t a, std::size_t b) { return v.used[a].record->replica < v.used[b].record->replica; });
+      for (std::size_t u : runs) {
+        if (u >= ca.results[*source].runs.size() || ca.results[*source].runs[u].is_null()) continue;
+        map = analysis.field(spec.field, {&ca.results[*source].runs[u]}, v.points[d.points.front()].spec);
+        if (map && map->nx > 0 && map->ny > 0) {
+          one = " (replica " + std::to_string(v.used[u].record->replica) + ")";
+          break;
+        }
+      }
+    } else {
+      map = analysis.field(spec.field, datum_results(ca, *source, d), v.points[d.points.front()].spec);
+    }
     if (!map || map->nx == 0 || map->ny == 0) {
       missing.push_back(label);
       continue;
@@ -519,27 +679,43 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
     d.n = map->runs;
     if (spec.kind == "maps") {
       MapPanel panel;
-      panel.title = label + ": " + std::to_string(map->runs) + (map->runs == 1 ? " run, " : " runs, ") +
-                    std::to_string(map->frames) + " frames";
+      panel.title = label + ": " + std::to_string(map->runs) + (map->runs == 1 ? " run" + one + ", " : " runs, ") +
+                    std::to_string(map->frames) + (map->frames == 1 ? " frame" : " frames");
       for (int j = 0; j < map->ny; ++j)
         for (int k = 0; k < map->nx; ++k) {
           const std::size_t n = static_cast<std::size_t>(j) * static_cast<std::size_t>(map->nx) + static_cast<std::size_t>(k);
           panel.grid.push_back({map->x(k), map->y(j), map->values[n], n < map->n_frames.size() ? map->n_frames[n] : kNaN});
         }
-      extend(map->x(0) - map->spacing / 2, map->y(0) - map->spacing / 2);
-      extend(map->x(map->nx - 1) + map->spacing / 2, map->y(map->ny - 1) + map->spacing / 2);
-      for (const auto& line : map->lines)
+      // The panel spans the grid and what of the silo lies within kNear of it: the walls beside
+      // the default window, not those far from a zoomed one (/report/fields/window).
+      constexpr double kNear = 2.0;
+      const double gx0 = map->x(0) - map->spacing / 2, gx1 = map->x(map->nx - 1) + map->spacing / 2;
+      const double gy0 = map->y(0) - map->spacing / 2, gy1 = map->y(map->ny - 1) + map->spacing / 2;
+      const std::array<double, 4> box = {gx0 - kNear, gx1 + kNear, gy0 - kNear, gy1 + kNear};
+      extend(gx0, gy0);
+      extend(gx1, gy1);
+      panel.lines = clip_polylines(map->lines, box);
+      for (const auto& line : panel.lines)
         for (const auto& pt : line) extend(pt[0], pt[1]);
       for (const auto& c : map->circles) {
-        extend(c[0] - c[2], c[1] - c[2]);
-        extend(c[0] + c[2], c[1] + c[2]);
+        extend(std::clamp(c[0] - c[2], box[0], box[1]), std::clamp(c[1] - c[2], box[2], box[3]));
+        extend(std::clamp(c[0] + c[2], box[0], box[1]), std::clamp(c[1] + c[2], box[2], box[3]));
       }
-      panel.lines = map->lines;
       panel.circles = map->circles;
       panel.arrows = map->arrows;  // scaled below, by one length across the panels
       if (map->arrow_spacing > 0.0) arrow_spacing = arrow_spacing > 0.0 ? std::min(arrow_spacing, map->arrow_spacing) : map->arrow_spacing;
       m.panels.push_back(std::move(panel));
       continue;
+    }
+    // x from the centre of a base outlet of the point (it may move from point to point).
+    double origin = 0.0;
+    if (spec.origin_outlet >= 0) {
+      const nlohmann::json outlets = v.points[d.points.front()].spec.value("silo", nlohmann::json::object()).value("base_outlets", nlohmann::json::array());
+      if (!outlets.is_array() || static_cast<int>(outlets.size()) <= spec.origin_outlet || !outlets[spec.origin_outlet].is_object()) {
+        missing.push_back(label + " (no base outlet " + std::to_string(spec.origin_outlet) + ")");
+        continue;
+      }
+      origin = outlets[spec.origin_outlet].value("center", 0.0);
     }
     const FieldProfile pr = field_profile(*map, along, spec.at, spec.width);
     if (pr.position.empty()) {
@@ -553,14 +729,14 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
       band = pr.band_lo == pr.band_hi ? std::string(1, across) + " = " + format_number(pr.band_lo) + " d"
                                       : std::string(1, across) + " = " + format_number(pr.band_lo) + " .. " + format_number(pr.band_hi) + " d";
     Series se;
-    se.label = label + ": " + std::to_string(map->runs) + (map->runs == 1 ? " run" : " runs");
+    se.label = label + ": " + std::to_string(map->runs) + (map->runs == 1 ? " run" + one : " runs");
     se.file_label = label;
     se.columns = {spec.along, info.name, "nodes"};
     se.style = Series::Style::kLinesPoints;
     se.color = static_cast<int>(i);
     for (std::size_t k = 0; k < pr.position.size(); ++k)
       if (std::isfinite(pr.value[k]) && (!spec.logy || pr.value[k] > 0))
-        se.rows.push_back({pr.position[k], pr.value[k], static_cast<double>(pr.nodes[k])});
+        se.rows.push_back({pr.position[k] - origin, pr.value[k], static_cast<double>(pr.nodes[k])});
     if (!se.rows.empty()) f.series.push_back(se);
   }
   const std::string tail = (spec.pool.empty() ? "" : "; pooled over " + joined(spec.pool)) + only_text(spec) +
@@ -587,14 +763,16 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
     m.x_hi = x_hi + 1.0;
     m.y_lo = y_lo - 1.0;
     m.y_hi = y_hi + 1.0;
-    m.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Each panel: the runs behind it merged, and the frames " +
-                "averaged; one colour scale across the panels; walls black" + arrows_text + tail;
+    m.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Each panel: " +
+                (spec.one_run ? "the lowest replica that has the field" : "the runs behind it merged") +
+                ", and the frames averaged; one colour scale across the panels; walls black" + arrows_text + tail;
     out.blocks.push_back(m);
   }
   if (spec.kind == "profile" && !f.series.empty()) {
     f.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "At each " + spec.along + ": the mean of the field over the grid " +
                 (along == 'x' ? "rows " : "columns ") + band + " (within " + format_number(spec.width / 2) + " d of " +
-                std::string(1, across) + " = " + format_number(spec.at) + " d); the runs behind each curve merged" + tail;
+                std::string(1, across) + " = " + format_number(spec.at) + " d); " +
+                (spec.one_run ? "each curve the lowest replica that has the field" : "the runs behind each curve merged") + tail;
     out.blocks.push_back(f);
   }
   if (!missing.empty())
@@ -704,7 +882,7 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   // The group axes: as given, or every sweep axis that is not x and not pooled.
   // A figure at chosen points (distribution, maps, profile): a curve or panel per point, named
   // by every axis not pooled.
-  const bool per_point = spec.kind == "distribution" || spec.kind == "maps" || spec.kind == "profile";
+  const bool per_point = spec.kind == "distribution" || spec.kind == "curves" || spec.kind == "maps" || spec.kind == "profile";
   std::vector<std::string> group = spec.group;
   if (!spec.group_given)
     for (const auto& axis : v.axes) {
@@ -762,6 +940,8 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
       out.blocks.push_back(Text{"**Not drawn:** " + where + ": no finished run passes its `only`."});
     else if (spec.kind == "distribution")
       distribution_figure(ca, spec, out);
+    else if (spec.kind == "curves")
+      curve_figure(ca, spec, out);
     else
       field_figure(ca, spec, out);
     return out;

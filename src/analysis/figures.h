@@ -8,6 +8,7 @@
 // in, report blocks and fit results out.
 #pragma once
 
+#include <array>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -31,18 +32,20 @@ struct FigureFitSpec {
 struct FigureSpec {
   std::string path;                        // "/report/figures/3", for messages
   std::string name;                        // file stem, and what expectations name ("fit": name)
-  // "points" (with error bars), "distribution" (a histogram per chosen point), "maps" (a field's
-  // map per chosen point), "profile" (a field along a line, a curve per chosen point) or
-  // "pictures" (of the chosen points)
+  // "points" (with error bars), "distribution" (a histogram per chosen point), "curves" (a curve
+  // an analysis offers, per chosen point), "maps" (a field's map per chosen point), "profile" (a
+  // field along a line, a curve per chosen point) or "pictures" (of the chosen points)
   std::string kind = "points";
   std::string picture = "end";             // pictures: "end" (the last frame: clogged, discharged) or "bed"
-  std::string of;                          // distribution: an offered distribution or a per-run metric
+  std::string of;                          // distribution: an offered distribution or a per-run metric; curves: an offered curve
   int bins = 30;                           // distribution
   double range_lo = kNaN, range_hi = kNaN; // distribution: the bins' range (NaN: the data's, common to every curve)
   std::string field;                       // maps, profile: an offered field
   std::string along;                       // profile: "x" or "y"
   double at = kNaN;                        // profile: the line's other coordinate (d)
   double width = 1.0;                      // profile: the band across the line averaged (d)
+  int origin_outlet = -1;                  // profile along x: x from this base outlet's centre (-1: the silo's x)
+  bool one_run = false;                    // maps, profile: the lowest replica with the field, not the runs merged
   std::string y;                           // a metric name or an expression over metrics and axes
   std::string ylabel;                      // default: y
   std::string x;                           // an axis name; "" = the report's x axis
@@ -54,6 +57,11 @@ struct FigureSpec {
   std::string title, caption, reference;
   bool logx = false, logy = false;
 };
+
+// The parts of polylines (the silo's walls over a map) inside box {x0, x1, y0, y1}: a line
+// leaving and re-entering it becomes two.
+std::vector<std::vector<std::array<double, 2>>> clip_polylines(const std::vector<std::vector<std::array<double, 2>>>& lines,
+                                                              const std::array<double, 4>& box);
 
 // Reads /report/figures of a campaign spec (absent: none). Every error is an OptionError naming
 // the JSON path, the value and what is allowed; axis names are checked against the spec's

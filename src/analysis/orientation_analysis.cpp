@@ -141,6 +141,28 @@ class OrientationAnalysis : public Analysis {
     return m;
   }
   std::optional<Section> section(const SectionInput& in) const override;
+  // The axis angles psi in the window (fig. 6.5): in the bed before the opening, during steady
+  // flow, and of the arch bodies; each run keeps them on its grid of axis_bins over [0, 180).
+  std::vector<DistributionInfo> distribution_names() const override {
+    return {{"axis_bed", "axis angle psi in the window, in the bed before the opening", "degrees"},
+            {"axis_flow", "axis angle psi in the window, during steady flow", "degrees"},
+            {"axis_arches", "axis angle psi in the window, of arch bodies", "degrees"}};
+  }
+  Samples distribution(const std::string& name, const nlohmann::json& result) const override {
+    if (!result.value("elongated", false)) return {};
+    std::vector<double> counts;
+    if (name == "axis_bed" || name == "axis_flow")
+      counts = orientation_sums_from_json(result.value(name.substr(5), nlohmann::json::object())).window_axes;
+    else if (name == "axis_arches")
+      counts = Vector(result.value("arch_window", nlohmann::json::array()));
+    Samples out;
+    for (std::size_t b = 0; b < counts.size(); ++b)
+      if (counts[b] > 0) {
+        out.values.push_back(Degrees((static_cast<double>(b) + 0.5) * kPi / static_cast<double>(counts.size())));
+        out.weights.push_back(counts[b]);
+      }
+    return out;
+  }
 
  private:
   OrientationAnalysisOptions o_;

@@ -517,8 +517,9 @@ TEST(ReportFigures, EveryDataPointOfTheStoredEngineCampaignsLiesInsideItsRanges)
 // An analysis registered by these tests alone, offering a distribution and a field of known
 // values: per run at outlet width W, the values {0.5, 1.5, 2.5} + (W - 10)/4 with weights
 // {1, 2, 3} (replica 0) or {3, 2, 1} (replica 1), so that a point's replicas pool to 4 each;
-// and the field 2x + 3y + W on the nodes x = -5..5, y = 0..10 (spacing 1), undefined at
-// (5, 5), 7 frames per run.
+// the field 2x + 3y + W on the nodes x = -5..5, y = 0..10 (spacing 1), undefined at
+// (5, 5), 7 frames per run; and the curve y = k <W> at x = k = 1, 2, 3 with se 0.1 k and n the
+// runs merged (<W> their mean outlet width), with the line y = x.
 class KnownFigures : public Analysis {
  public:
   std::string key() const override { return "known_figures"; }
@@ -543,6 +544,17 @@ class KnownFigures : public Analysis {
     Samples s{{0.5 + shift, 1.5 + shift, 2.5 + shift}, {1, 2, 3}};
     if (r.at("replica") == 1) s.weights = {3, 2, 1};
     return s;
+  }
+  std::vector<CurveInfo> curve_names() const override { return {{"known_curve", "known curve", "k", "y (d)", true}}; }
+  std::vector<CurvePoint> curve(const std::string& name, const std::vector<const nlohmann::json*>& results) const override {
+    EXPECT_EQ(name, "known_curve");
+    if (results.empty()) return {};
+    double w = 0;
+    for (const nlohmann::json* r : results) w += r->at("w").get<double>();
+    w /= static_cast<double>(results.size());
+    std::vector<CurvePoint> out;
+    for (int k = 1; k <= 3; ++k) out.push_back({static_cast<double>(k), k * w, 0.1 * k, static_cast<double>(results.size())});
+    return out;
   }
   std::vector<FieldInfo> field_names() const override { return {{"ramp", "ramp field", "rho g d", false}}; }
   std::optional<FieldMap> field(const std::string& name, const std::vector<const nlohmann::json*>& results,
@@ -707,6 +719,93 @@ TEST(FigureKinds, DistributionOfAPerRunMetricPoolsItsReplicas) {
   EXPECT_NE(std::get<Text>(none.blocks[0]).markdown.find("no run has a metric of that name"), std::string::npos);
 }
 
+TEST(FigureKinds, CurvesOfTheChosenPointsMergeTheirRunsAndDrawTheirLine) {
+  ScopedAnalysis known(known_figures_entry());
+  TempDir dir;
+  const auto r = figure_of(dir.path(), {{"name", "curves"}, {"kind", "curves"}, {"of", "known_curve"}, {"pool", "mu"},
+                                                 {"only", {{"W", {10, 26}}}}, {"reference", "thesis fig. 6.7"}});
+  const Figure* fig = figure_in(r->f);
+  ASSERT_TRUE(fig);
+  ASSERT_EQ(fig->series.size(), 3u);  // W = 10 (mu pooled: 3 points x 2 replicas), W = 26 (one run), y = x
+  EXPECT_EQ(fig->series[0].label, "W = 10 d");
+  EXPECT_EQ(fig->series[1].label, "W = 26 d");
+  EXPECT_EQ(fig->xlabel, "k");
+  EXPECT_EQ(fig->ylabel, "y (d)");
+  for (std::size_t c = 0; c < 2; ++c) {
+    const double w = c == 0 ? 10 : 26, runs = c == 0 ? 6 : 1;
+    const Series& se = fig->series[c];
+    EXPECT_EQ(se.style, Series::Style::kErrorBars);
+    ASSERT_EQ(se.rows.size(), 3u);
+    for (int k = 1; k <= 3; ++k) {
+      EXPECT_DOUBLE_EQ(se.rows[k - 1][0], k);
+      EXPECT_DOUBLE_EQ(se.rows[k - 1][1], k * w);
+      EXPECT_DOUBLE_EQ(se.rows[k - 1][2], 0.1 * k);
+      EXPECT_DOUBLE_EQ(se.rows[k - 1][3], runs);
+    }
+    EXPECT_EQ(r->f.data[c].n, 3 * runs);
+  }
+  EXPECT_EQ(fig->series[2].role, Series::Role::kReference);
+  EXPECT_EQ(fig->series[2].rows, (std::vector<std::vector<double>>{{1, 1}, {3, 3}}));
+  EXPECT_NE(fig->caption.find("pooled over mu; only W in {10, 26}. Reference: thesis fig. 6.7"), std::string::npos) << fig->caption;
+}
+
+// The arches' curves and arch sizes from constructed clogs, the orientation window's axis
+// angles from constructed sums: known bins, means and counts.
+TEST(FigureKinds, TheArchesAndTheOrientationOfferTheirCurvesAndDistributions) {
+  const AnalysisSetup setup = setup_analyses(nlohmann::json::object());
+  const Analysis* arches = nullptr;
+  const Analysis* orientation = nullptr;
+  for (const Analysis* a : setup.list()) {
+    if (a->key() == "arches") arches = a;
+    if (a->key() == "orientation") orientation = a;
+  }
+  ASSERT_TRUE(arches && orientation);
+  const double pi = std::acos(-1.0);
+  auto body = [](double theta, double axis, double pressure) {
+    return nlohmann::json{{"discs", 2}, {"theta", theta}, {"axis", axis}, {"pressure", pressure}};
+  };
+  auto run = [](int n, double mean_pressure, const nlohmann::json& bodies) {
+    nlohmann::json arch = {{"outlet", 0}, {"n", n}, {"mean_pressure", mean_pressure}};
+    arch["bodies"] = bodies;
+    nlohmann::json clog = {{"sealed_outlets", nlohmann::json::array({0})}};
+    clog["arches"] = nlohmann::json::array({arch});
+    return nlohmann::json{{"present", true}, {"clogs", nlohmann::json::array({clog})}};
+  };
+  // Default bins: 9 of theta over [0, pi] (20 degrees), 12 of the axis over [0, pi) (15 degrees).
+  const nlohmann::json a = run(3, 2.0, nlohmann::json::array({body(0.1, 0.1, 1.0), body(pi / 2, pi / 2, 3.0)}));
+  const nlohmann::json b = run(3, 4.0, nlohmann::json::array({body(pi / 2, pi / 2, 5.0)}));
+  const std::vector<CurvePoint> p = arches->curve("arch_pressure_theta", {&a, &b});
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_NEAR(p[0].x, 10, 1e-9);
+  EXPECT_DOUBLE_EQ(p[0].y, 1.0);
+  EXPECT_EQ(p[0].n, 1);
+  EXPECT_NEAR(p[1].x, 90, 1e-9);
+  EXPECT_DOUBLE_EQ(p[1].y, 4.0);  // 3 and 5
+  EXPECT_DOUBLE_EQ(p[1].se, 1.0);
+  EXPECT_EQ(p[1].n, 2);
+  const std::vector<CurvePoint> m = arches->curve("arch_axis_mode_theta", {&a, &b});
+  ASSERT_EQ(m.size(), 2u);
+  EXPECT_NEAR(m[0].y, 7.5, 1e-9);
+  EXPECT_NEAR(m[1].y, 97.5, 1e-9);  // pi/2 falls in the axis bin [90, 105)
+  EXPECT_TRUE(std::isnan(m[1].se));
+  const std::vector<CurvePoint> byn = arches->curve("arch_pressure_n", {&a, &b});
+  ASSERT_EQ(byn.size(), 1u);
+  EXPECT_DOUBLE_EQ(byn[0].x, 3);
+  EXPECT_DOUBLE_EQ(byn[0].y, 3.0);
+  EXPECT_EQ(byn[0].n, 2);
+  EXPECT_TRUE(arches->curve("arch_pressure_theta", {}).empty());
+  EXPECT_EQ(arches->distribution("arch_sizes", a).values, (std::vector<double>{3}));
+  // The window's axis angles: 4 bins of 45 degrees as the runs keep them.
+  const nlohmann::json o = {{"elongated", true}, {"bed", {{"window_axes", {5, 0, 0, 1}}}}, {"flow", {{"window_axes", {0, 2, 0, 0}}}},
+                            {"arch_window", {0, 0, 3, 0}}};
+  const Samples bed = orientation->distribution("axis_bed", o);
+  EXPECT_EQ(bed.values, (std::vector<double>{22.5, 157.5}));
+  EXPECT_EQ(bed.weights, (std::vector<double>{5, 1}));
+  EXPECT_EQ(orientation->distribution("axis_flow", o).values, (std::vector<double>{67.5}));
+  EXPECT_EQ(orientation->distribution("axis_arches", o).weights, (std::vector<double>{3}));
+  EXPECT_TRUE(orientation->distribution("axis_flow", {{"elongated", false}}).values.empty()) << "discs have no axis";
+}
+
 TEST(FigureKinds, MapPanelsAtTheChosenPointsWithAxesAndUnitsInTheirTitles) {
   ScopedAnalysis known(known_figures_entry());
   TempDir dir;
@@ -733,6 +832,34 @@ TEST(FigureKinds, MapPanelsAtTheChosenPointsWithAxesAndUnitsInTheirTitles) {
     }
     EXPECT_EQ(m->panels[k].lines.size(), 2u);
   }
+  // One run (an instant, fig. 3.10): the lowest replica's, said in the panel's title.
+  nlohmann::json spec = r->c.info.spec;
+  spec["report"]["figures"][0]["one_run"] = true;
+  const FigureOutcome one = make_figure(*r->a, read_figure_specs(spec).at(0));
+  const MapFigure* m1 = nullptr;
+  for (const Block& b : one.blocks)
+    if (const auto* x = std::get_if<MapFigure>(&b)) m1 = x;
+  ASSERT_TRUE(m1);
+  ASSERT_EQ(m1->panels.size(), 2u);
+  EXPECT_EQ(m1->panels[0].title, "W = 10 d, mu = 0.5: 1 run (replica 0), 7 frames");
+  EXPECT_EQ(m1->panels[1].title, "W = 22 d, mu = 0.5: 1 run (replica 0), 7 frames");
+  EXPECT_NE(m1->caption.find("Each panel: the lowest replica that has the field"), std::string::npos) << m1->caption;
+}
+
+// The walls over a zoomed map: only their parts inside the panel's box.
+TEST(FigureKinds, WallsClippedToTheMapsBox) {
+  using Polyline = std::vector<std::array<double, 2>>;
+  const std::array<double, 4> box = {0, 10, 0, 10};
+  const auto clipped = clip_polylines({{{-5, 5}, {5, 5}, {5, 15}},         // enters, turns, leaves
+                                       {{2, 2}, {20, 2}, {20, 8}, {2, 8}},  // leaves and comes back: two lines
+                                       {{-5, -5}, {-5, 20}},                // never inside
+                                       {{1, 1}, {9, 9}}},                   // inside
+                                      box);
+  ASSERT_EQ(clipped.size(), 4u);
+  EXPECT_EQ(clipped[0], (Polyline{{0, 5}, {5, 5}, {5, 10}}));
+  EXPECT_EQ(clipped[1], (Polyline{{2, 2}, {10, 2}}));
+  EXPECT_EQ(clipped[2], (Polyline{{10, 8}, {2, 8}}));
+  EXPECT_EQ(clipped[3], (Polyline{{1, 1}, {9, 9}}));
 }
 
 TEST(FigureKinds, ProfileAlongXAndYOfAConstructedField) {
@@ -776,6 +903,25 @@ TEST(FigureKinds, ProfileFigureOfTheChosenPoints) {
     for (const auto& row : se.rows) EXPECT_DOUBLE_EQ(row[1], 2 * row[0] + 9 + w);  // rows y = 2, 3, 4
   }
   EXPECT_NE(fig->caption.find("rows y = 2 .. 4 d"), std::string::npos) << fig->caption;
+  // x from a base outlet's centre: each point's own (here moved to x = W / 2).
+  for (Point& p : r->a->view.points) p.spec["silo"]["base_outlets"][0]["center"] = p.x / 2;
+  nlohmann::json shifted = r->c.info.spec;
+  shifted["report"]["figures"][0]["origin_outlet"] = 0;
+  const FigureOutcome from = make_figure(*r->a, read_figure_specs(shifted).at(0));
+  const Figure* ff = figure_in(from);
+  ASSERT_TRUE(ff);
+  ASSERT_EQ(ff->series.size(), 2u);
+  EXPECT_EQ(ff->xlabel, "x from the centre of base outlet 0 (d)");
+  for (const Series& se : ff->series) {
+    const double w = se.label.find("W = 14") == 0 ? 14 : 18;
+    ASSERT_EQ(se.rows.size(), 11u);
+    EXPECT_DOUBLE_EQ(se.rows.front()[0], -5 - w / 2);
+    for (const auto& row : se.rows) EXPECT_DOUBLE_EQ(row[1], 2 * (row[0] + w / 2) + 9 + w);
+  }
+  shifted["report"]["figures"][0]["origin_outlet"] = 1;
+  const FigureOutcome none = make_figure(*r->a, read_figure_specs(shifted).at(0));
+  ASSERT_FALSE(none.blocks.empty());
+  EXPECT_NE(std::get<Text>(none.blocks.back()).markdown.find("W = 14 d (no base outlet 1)"), std::string::npos);
   // A line outside the grid is said.
   nlohmann::json spec = r->c.info.spec;
   spec["report"]["figures"][0]["at"] = 40;
@@ -816,7 +962,14 @@ TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
   EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vx"}, {"range", {2, 1}}}),
                   "/report/figures/0/range: must be [lo, hi] with lo < hi"));
   EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "v x"}}),
-                  "/report/figures/0/of: must name a distribution an analysis offers (vx, vy, avalanche_sizes) or a per-run metric"));
+                  "/report/figures/0/of: must name a distribution an analysis offers (vx, vy, avalanche_sizes, arch_sizes, "
+                  "axis_bed, axis_flow, axis_arches) or a per-run metric"));
+  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "curves"}, {"of", "arch_presure_theta"}}),
+                  "/report/figures/0/of: must name a curve an analysis this spec turns on offers (arch_pressure_theta, "
+                  "arch_axis_mode_theta, arch_pressure_n) (got \"arch_presure_theta\")"));
+  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "curves"}, {"of", "arch_pressure_n"}, {"bins", 3}}),
+                  "/report/figures/0/bins: a figure of kind \"curves\" takes"));
+  EXPECT_EQ(error_of({{"name", "f"}, {"kind", "curves"}, {"of", "arch_pressure_n"}, {"pool", "W"}}), "");
   EXPECT_EQ(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vy"}, {"logy", true}}), "");
   EXPECT_EQ(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "pressure"}, {"only", {{"W", 4}}}}), "");
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "presure"}}), "/report/figures/0/field: must name a field (fields: phi,"));
@@ -826,6 +979,11 @@ TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
                   "/report/figures/0/at: must be the line's position x (d)"));
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "y"}, {"at", 0}, {"width", -1}}),
                   "/report/figures/0/width"));
+  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "speed"}, {"one_run", 1}}), "/report/figures/0/one_run"));
+  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "y"}, {"at", 0}, {"origin_outlet", 0}}),
+                  "/report/figures/0/origin_outlet: takes a line along x"));
+  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vx"}, {"one_run", true}}),
+                  "/report/figures/0/one_run: a figure of kind \"distribution\" takes"));
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "speed"}, {"at", 0}}),
                   "/report/figures/0/at: a figure of kind \"maps\" takes"));
 }
@@ -842,13 +1000,14 @@ TEST(ReportFigures, EveryPointOfTheNewKindsLiesInsideItsRanges) {
           {{"name", "dist-range"}, {"kind", "distribution"}, {"of", "known"}, {"range", {1, 2}}, {"bins", 4}},
           {{"name", "q-dist"}, {"kind", "distribution"}, {"of", "q_count"}, {"pool", "mu"}},
           {{"name", "maps"}, {"kind", "maps"}, {"field", "ramp"}, {"only", {{"W", {10, 26}}, {"mu", 0}}}},
+          {{"name", "curves"}, {"kind", "curves"}, {"of", "known_curve"}, {"only", {{"mu", 0.5}}}},
           {{"name", "prof"}, {"kind", "profile"}, {"field", "ramp"}, {"along", "y"}, {"at", 0}, {"only", {{"mu", 1}}}}}}}}};
   const Campaign c = make_campaign(dir.path() / "runs", extra);
   ReportOptions o;
   o.out_dir = dir.path() / "report";
   o.analysis.read_cache = o.analysis.write_cache = false;
   const ReportSummary s = write_report(c.info, c.runs, o);
-  for (const char* name : {"figure-dist", "figure-dist-range", "figure-q-dist", "figure-maps", "figure-prof"})
+  for (const char* name : {"figure-dist", "figure-dist-range", "figure-q-dist", "figure-maps", "figure-prof", "figure-curves"})
     EXPECT_TRUE(fs::exists(o.out_dir / "figures" / (std::string(name) + ".gp"))) << name;
   const std::vector<std::string> outside = points_outside_ranges(o.out_dir);
   EXPECT_TRUE(outside.empty()) << outside.size() << " points outside, e.g. " << outside.front();
