@@ -220,7 +220,12 @@ GsdFile GsdFile::ContinueAt(const std::filesystem::path& file, std::int64_t offs
   g.path_ = file;
   g.schema_ = schema;
   g.schema_version_ = MakeVersion(major, minor);
-  const bool replayed = g.Replay(h.names, kept, offset);
+  bool replayed = false;
+  try {
+    replayed = g.Replay(h.names, kept, offset);
+  } catch (const std::exception&) {
+    // A chunk named twice in a frame, say: not this layout; continued as an older one below.
+  }
   g.dry_ = false;
   g.fd_ = fd;
   if (::ftruncate(g.fd_, offset) != 0) throw std::runtime_error("cannot cut " + file.string() + ": " + ErrnoText());
