@@ -149,6 +149,7 @@ GsdFile& GsdFile::operator=(GsdFile&& other) noexcept {
     pending_ = std::move(other.pending_);
     frame_ = other.frame_;
     end_ = other.end_;
+    dry_ = other.dry_;
   }
   return *this;
 }
@@ -160,44 +161,105 @@ GsdFile GsdFile::Create(const std::filesystem::path& file, const std::string& sc
   if (g.fd_ < 0) throw std::runtime_error("cannot create " + file.string() + ": " + ErrnoText());
   g.schema_ = schema;
   g.schema_version_ = MakeVersion(major, minor);
-  g.end_ = sizeof(Header);
-  g.names_capacity_ = kFirstNameBytes;
-  g.WriteNames(true);
-  g.WriteIndex(kFirstIndexEntries);
+  g.Begin();
   return g;
+}
+
+// The header, the first name list and the first index block of a new file.
+void GsdFile::Begin() {
+  end_ = sizeof(Header);
+  names_capacity_ = kFirstNameBytes;
+  WriteNames(true);
+  WriteIndex(kFirstIndexEntries, true);
+}
+
+// Follows, without writing, what writing `kept` (a file's first entries, whole frames) into a
+// new file does: the name ids they get, where their data goes, where the name list and index
+// blocks move. True, with this GsdFile in the state it had after their last frame, if every
+// entry is where the file has it and the frames end at `offset`.
+bool GsdFile::Replay(const std::vector<std::string>& names, const std::vector<IndexEntry>& kept, std::int64_t offset) {
+  dry_ = true;
+  Begin();
+  for (std::size_t first = 0; first < kept.size();) {
+    std::size_t last = first;
+    while (last < kept.size() && kept[last].frame == kept[first].frame) ++last;
+    if (kept[first].frame != frame_) return false;
+    // A frame's entries are sorted by name id; its chunks were written in the order of their data.
+    std::vector<IndexEntry> written(kept.begin() + static_cast<std::ptrdiff_t>(first), kept.begin() + static_cast<std::ptrdiff_t>(last));
+    std::sort(written.begin(), written.end(), [](const IndexEntry& a, const IndexEntry& b) { return a.location < b.location; });
+    for (const IndexEntry& e : written) {
+      if (e.id >= names.size()) return false;
+      Write(names[e.id], static_cast<Type>(e.type), e.n, e.m, nullptr);
+      if (std::memcmp(&pending_.back(), &e, sizeof e) != 0) return false;
+    }
+    EndFrame();
+    first = last;
+  }
+  return end_ == offset;
 }
 
 GsdFile GsdFile::ContinueAt(const std::filesystem::path& file, std::int64_t offset, const std::string& schema, int major,
                             int minor) {
   if (!std::filesystem::exists(file) || offset < static_cast<std::int64_t>(sizeof(Header)))
     return Create(file, schema, major, minor);
+  const int fd = ::open(file.c_str(), O_RDWR | O_CLOEXEC);
+  if (fd < 0) throw std::runtime_error("cannot open " + file.string() + ": " + ErrnoText());
+  FileHead h;
+  try {
+    h = ReadHead(fd, file, FileSize(fd, file));
+  } catch (...) {
+    ::close(fd);
+    throw;
+  }
+  // The frames the checkpoint had: their data ends before `offset` (a checkpoint is taken
+  // between frames, so a frame is kept whole or dropped whole).
+  std::vector<IndexEntry> kept;
+  for (const IndexEntry& e : h.entries)
+    if (e.location + static_cast<std::int64_t>(e.bytes()) <= offset) kept.push_back(e);
   GsdFile g;
   g.path_ = file;
-  g.fd_ = ::open(file.c_str(), O_RDWR | O_CLOEXEC);
-  if (g.fd_ < 0) throw std::runtime_error("cannot open " + file.string() + ": " + ErrnoText());
-  FileHead h = ReadHead(g.fd_, file, FileSize(g.fd_, file));
   g.schema_ = schema;
   g.schema_version_ = MakeVersion(major, minor);
+  bool replayed = false;
+  try {
+    replayed = g.Replay(h.names, kept, offset);
+  } catch (const std::exception&) {
+    // A chunk named twice in a frame, say: not this layout; continued as an older one below.
+  }
+  g.dry_ = false;
+  g.fd_ = fd;
+  if (::ftruncate(g.fd_, offset) != 0) throw std::runtime_error("cannot cut " + file.string() + ": " + ErrnoText());
+  if (replayed) {
+    // The name list and index block in use at the checkpoint lie before `offset`; entries and
+    // names the interrupted run added to them after it are cleared.
+    g.WriteNames(false);
+    g.WriteIndex(g.index_capacity_, false);
+    return g;
+  }
+  g.names_.clear();
+  g.ids_.clear();
+  g.names_used_ = 0;
   for (const std::string& name : h.names) {
     g.ids_.emplace(name, static_cast<std::uint16_t>(g.names_.size()));
     g.names_.push_back(name);
     g.names_used_ += name.size() + 1;
   }
-  // The frames the checkpoint had: their data ends before `offset` (a checkpoint is taken
-  // between frames, so a frame is kept whole or dropped whole).
-  for (const IndexEntry& e : h.entries)
-    if (e.location + static_cast<std::int64_t>(e.bytes()) <= offset) g.index_.push_back(e);
+  g.index_ = kept;
+  g.pending_.clear();
   g.frame_ = g.index_.empty() ? 0 : g.index_.back().frame + 1;
-  if (::ftruncate(g.fd_, offset) != 0) throw std::runtime_error("cannot cut " + file.string() + ": " + ErrnoText());
   g.end_ = offset;
   // The old blocks may lie past the offset, or list frames after it: both are written anew.
   g.names_capacity_ = std::max<std::uint64_t>(kFirstNameBytes, 2 * g.names_used_ + kNameSlot);
   g.WriteNames(true);
-  g.WriteIndex(std::max<std::uint64_t>(kFirstIndexEntries, 2 * g.index_.size()));
+  g.WriteIndex(std::max<std::uint64_t>(kFirstIndexEntries, 2 * g.index_.size()), true);
   return g;
 }
 
 void GsdFile::PutAt(std::int64_t at, const void* data, std::size_t bytes) {
+  if (dry_) {
+    end_ = std::max(end_, at + static_cast<std::int64_t>(bytes));
+    return;
+  }
   const auto* p = static_cast<const char*>(data);
   while (bytes > 0) {
     const ssize_t put = ::pwrite(fd_, p, bytes, at);
@@ -232,13 +294,18 @@ void GsdFile::WriteNames(bool relocate) {
   WriteHeader();
 }
 
-// The committed entries in a new index block of `capacity` at the end of the file.
-void GsdFile::WriteIndex(std::uint64_t capacity) {
+// The committed entries in an index block of `capacity`: a new one at the end of the file
+// (relocate) or the one in use.
+void GsdFile::WriteIndex(std::uint64_t capacity, bool relocate) {
+  index_capacity_ = capacity;
+  if (relocate) index_location_ = static_cast<std::uint64_t>(end_);
+  if (dry_) {
+    PutAt(static_cast<std::int64_t>(index_location_), nullptr, capacity * sizeof(IndexEntry));
+    return;
+  }
   std::vector<IndexEntry> block(capacity);
   std::copy(index_.begin(), index_.end(), block.begin());
-  index_location_ = static_cast<std::uint64_t>(end_);
-  index_capacity_ = capacity;
-  PutAt(end_, block.data(), block.size() * sizeof(IndexEntry));
+  PutAt(static_cast<std::int64_t>(index_location_), block.data(), block.size() * sizeof(IndexEntry));
   WriteHeader();
 }
 
@@ -280,7 +347,7 @@ void GsdFile::EndFrame() {
     index_.insert(index_.end(), pending_.begin(), pending_.end());
     std::uint64_t capacity = std::max<std::uint64_t>(index_capacity_, 1);
     while (capacity < index_.size()) capacity *= 2;
-    WriteIndex(capacity);
+    WriteIndex(capacity, true);
   } else {
     PutAt(static_cast<std::int64_t>(index_location_ + index_.size() * sizeof(IndexEntry)), pending_.data(),
           pending_.size() * sizeof(IndexEntry));

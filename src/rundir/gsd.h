@@ -58,8 +58,14 @@ class GsdFile {
   // Creates (truncates) `file` with the schema's name and version (major, minor).
   static GsdFile Create(const std::filesystem::path& file, const std::string& schema, int major, int minor);
   // The file of an interrupted run cut back to `offset` bytes (an Offset() its checkpoint
-  // recorded): frames whose data ends past it are dropped, the name list and index are
-  // written anew at the end. A missing file, or one cut before any frame, is created.
+  // recorded): frames whose data ends past it are dropped, and the file is left byte for byte
+  // as it was when the checkpoint was taken, so that the continued run writes the same bytes
+  // as an uninterrupted one. Where the name list and the index block lay then follows from the
+  // frames kept (where each chunk and block goes depends only on the chunks written before
+  // it): Replay finds it by writing the kept frames again without writing. A file whose
+  // layout is not that (continued by an older build, which moved both to the end) gets its
+  // name list and index written anew at the end. A missing file, or one cut before any frame,
+  // is created.
   static GsdFile ContinueAt(const std::filesystem::path& file, std::int64_t offset, const std::string& schema,
                             int major, int minor);
 
@@ -73,11 +79,13 @@ class GsdFile {
   void Close();
 
  private:
+  void Begin();
+  bool Replay(const std::vector<std::string>& names, const std::vector<IndexEntry>& kept, std::int64_t offset);
   std::uint16_t IdOf(std::string_view name);
   void PutAt(std::int64_t at, const void* data, std::size_t bytes);
   void WriteHeader();
   void WriteNames(bool relocate);
-  void WriteIndex(std::uint64_t capacity);
+  void WriteIndex(std::uint64_t capacity, bool relocate);
 
   std::filesystem::path path_;
   int fd_ = -1;
@@ -91,6 +99,7 @@ class GsdFile {
   std::vector<IndexEntry> pending_;  // the current frame's
   std::uint64_t frame_ = 0;
   std::int64_t end_ = 0;
+  bool dry_ = false;  // Replay: the layout is followed, nothing is written
 };
 
 // A GSD file read through its index. The frames are those complete when it was opened (an

@@ -206,6 +206,66 @@ TEST(Run, ContinuedRunEqualsUninterruptedRun) {
   }
 }
 
+// output.format "gsd": a run killed (SIGKILL, at whatever step the machine's speed gives)
+// after a checkpoint, with frames written past it, continues into the uninterrupted run's
+// bytes, and HOOMD's own reader (python3-gsd) opens the continued file.
+TEST(Run, AKilledGsdRunContinuesIntoTheUninterruptedRunsBytes) {
+  const fs::path a = FreshDir("gsd-kill-a"), b = FreshDir("gsd-kill-b");
+  nlohmann::json spec = SmallSpec(8.0, 4.0);
+  spec["discharge"]["mode"] = "reinject";
+  // 81 frames: the index outgrows its first two blocks (at frames 31 and 63).
+  spec["output"] = {{"checkpoint_interval", 1.0}, {"frame_interval", 0.05}, {"format", "gsd"},
+                    {"contact_forces", true}, {"contact_interval", 3}};
+  WriteSpec(a, spec);
+  WriteSpec(b, spec);
+  RunQuiet(a);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1);
+    ::execl(GRANARY_ENGINE_EXE, GRANARY_ENGINE_EXE, "run", b.c_str(), "--threads", "1", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  // Killed once a checkpoint is written and a frame after it (frames.gsd has grown since): the
+  // killed file holds frames the checkpoint does not know of.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  auto size = [&](const char* file) {
+    std::error_code ec;
+    const auto n = fs::file_size(b / file, ec);
+    return ec ? std::uintmax_t{0} : n;
+  };
+  std::uintmax_t at_checkpoint = 0;
+  while (std::chrono::steady_clock::now() < deadline && !fs::exists(b / "DONE")) {
+    if (at_checkpoint == 0 && fs::exists(b / "checkpoint.bin")) at_checkpoint = size("frames.gsd");
+    if (at_checkpoint > 0 && size("frames.gsd") > at_checkpoint + 4096) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  ::kill(pid, SIGKILL);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the run ended before it could be killed after a checkpoint";
+  ASSERT_FALSE(fs::exists(b / "DONE"));
+  ASSERT_EQ(RunExe("run " + b.string() + " --threads 1"), 0);
+  EXPECT_TRUE(ReadJson(b / "summary.json")["continued_from_checkpoint"].get<bool>());
+  for (const char* file : {"events.csv", "frames.gsd", "contacts.gsd"}) {
+    ASSERT_GT(fs::file_size(a / file), 100u) << file;
+    EXPECT_TRUE(Slurp(a / file) == Slurp(b / file)) << file << " differs from the uninterrupted run's";
+  }
+  const nlohmann::json ma = ReadJson(a / "manifest.json"), mb = ReadJson(b / "manifest.json");
+  for (const char* file : {"events.csv", "frames.gsd", "contacts.gsd"}) EXPECT_EQ(ma["files"][file], mb["files"][file]) << file;
+  EXPECT_EQ(rundir::VerifyRun(b, {rundir::VerifyLevel::kChecksums, false}).integrity, rundir::Integrity::kWhole);
+  rundir::FrameReader r(b / "frames.gsd");
+  rundir::Frame f;
+  int frames = 0;
+  while (r.Next(f)) ++frames;
+  EXPECT_EQ(frames, 81);
+  const std::string check = std::string(GRANARY_PYTHON) +
+                            " -c 'import sys, gsd.hoomd; t = gsd.hoomd.open(sys.argv[1], \"rb\"); "
+                            "sys.exit(0 if len(t) == 81 and t[80].particles.N > 0 else 1)' " +
+                            (b / "frames.gsd").string() + " > /dev/null 2>&1";
+  EXPECT_EQ(std::system(check.c_str()), 0) << check;
+}
+
 std::string Gunzip(const fs::path& p) {
   gzFile f = gzopen(p.c_str(), "rb");
   if (!f) return "";

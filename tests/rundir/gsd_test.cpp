@@ -233,6 +233,103 @@ TEST(Gsd, ContinuingCutsTheFileBackToTheCheckpoint) {
   EXPECT_EQ(steps, want);
 }
 
+// A run killed after a checkpoint and continued writes the uninterrupted run's bytes: for
+// checkpoints before the first frame, before and after the index outgrows a block (frame 0
+// has 15 entries, later ones 8: the 256-entry block is outgrown at frame 31, the 512-entry one
+// at frame 63), and with the killed run's index grown past the checkpoint.
+TEST(Gsd, AContinuedFileIsByteForByteTheUninterruptedOne) {
+  TempDir dir;
+  const auto whole = dir.path() / "whole.gsd";
+  FrameWriter a = FrameWriter::Create(whole);
+  for (int k = 0; k < 100; ++k) a.Write(Bodies(k * 10, 0.01 * k));
+  a.Close();
+  const std::string want = read_file(whole);
+  for (const int checkpoint : {-1, 0, 30, 31, 40, 62, 63, 99}) {
+    const auto file = dir.path() / ("cut-" + std::to_string(checkpoint) + ".gsd");
+    FrameWriter w = FrameWriter::Create(file);
+    std::int64_t offset = w.Offset();
+    for (int k = 0; k < std::min(checkpoint + 30, 100); ++k) {
+      w.Write(Bodies(k * 10, 0.01 * k));
+      if (k == checkpoint) offset = w.Offset();
+    }
+    w = FrameWriter();  // killed: the frames after the checkpoint stay in the file
+    w = FrameWriter::ContinueAt(file, offset);
+    for (int k = checkpoint + 1; k < 100; ++k) w.Write(Bodies(k * 10, 0.01 * k));
+    w.Close();
+    EXPECT_EQ(read_file(file) == want, true) << "checkpoint after frame " << checkpoint;
+  }
+}
+
+// contacts.gsd names its contact chunks at the first frame with contacts: a checkpoint before
+// it, and a killed run that named them after it, continue into the same bytes.
+TEST(Gsd, AContinuedContactFileIsByteForByteTheUninterruptedOne) {
+  TempDir dir;
+  auto frame = [](int k) {
+    ContactFrame c;
+    c.timestep = k;
+    c.time = 0.01 * k;
+    if (k >= 5) c.contacts.assign(static_cast<std::size_t>(k), {0, 1, 2.1, 4.0, 2.9, 4.3, 2.5, 4.15, 1e-3 * k, -3.75});
+    return c;
+  };
+  const auto whole = dir.path() / "whole.gsd";
+  ContactWriter a = ContactWriter::Create(whole);
+  for (int k = 0; k < 60; ++k) a.Write(frame(k));
+  a.Close();
+  const auto file = dir.path() / "cut.gsd";
+  ContactWriter w = ContactWriter::Create(file);
+  std::int64_t offset = 0;
+  for (int k = 0; k < 40; ++k) {
+    w.Write(frame(k));
+    if (k == 3) offset = w.Offset();
+  }
+  w = ContactWriter();
+  w = ContactWriter::ContinueAt(file, offset);
+  for (int k = 4; k < 60; ++k) w.Write(frame(k));
+  w.Close();
+  EXPECT_EQ(read_file(file) == read_file(whole), true);
+}
+
+// A file continued by an older build has its name list and index moved to the end, where
+// writing its frames anew would not put them: it is continued as before (name list and index
+// written anew at the end) and reads whole.
+TEST(Gsd, AFileContinuedByAnOlderBuildStillContinuesAndReads) {
+  TempDir dir;
+  const auto file = dir.path() / kFramesGsdFile;
+  FrameWriter w = FrameWriter::Create(file);
+  for (int k = 0; k < 10; ++k) w.Write(Bodies(k));
+  w.Close();
+  // The older build's continue: a copy of the name list and of the index (twice the entries,
+  // at least 256) at the end, the header pointing at them.
+  std::string bytes = read_file(file);
+  std::uint64_t index_location = 0, index_entries = 0, names_location = 0, name_slots = 0;
+  std::memcpy(&index_location, bytes.data() + 8, 8);
+  std::memcpy(&index_entries, bytes.data() + 16, 8);
+  std::memcpy(&names_location, bytes.data() + 24, 8);
+  std::memcpy(&name_slots, bytes.data() + 32, 8);
+  const std::string names = bytes.substr(names_location, name_slots * 64);
+  std::string index = bytes.substr(index_location, index_entries * 32);
+  const std::uint64_t used = 10 * gsd::kGsdFrameEntries + 7;
+  index.resize(std::max<std::uint64_t>(256, 2 * used) * 32, '\0');
+  const std::uint64_t new_names = bytes.size(), new_index = bytes.size() + names.size(), new_slots = names.size() / 64,
+                      new_entries = index.size() / 32;
+  bytes += names + index;
+  std::memcpy(bytes.data() + 8, &new_index, 8);
+  std::memcpy(bytes.data() + 16, &new_entries, 8);
+  std::memcpy(bytes.data() + 24, &new_names, 8);
+  std::memcpy(bytes.data() + 32, &new_slots, 8);
+  write_file(file, bytes);
+  ASSERT_EQ(gsd::GsdReader(file).frames(), 10u);
+  w = FrameWriter::ContinueAt(file, static_cast<std::int64_t>(bytes.size()));
+  for (int k = 10; k < 40; ++k) w.Write(Bodies(k));
+  w.Close();
+  FrameReader r(file);
+  Frame f;
+  std::vector<std::int64_t> steps, want;
+  while (r.Next(f)) steps.push_back(f.timestep);
+  for (int k = 0; k < 40; ++k) want.push_back(k);
+  EXPECT_EQ(steps, want);
+}
+
 TEST(Gsd, AFileCutInsideItsLastFrameEndsBeforeIt) {
   TempDir dir;
   const auto file = dir.path() / kFramesGsdFile;

@@ -8,6 +8,8 @@
 #include <signal.h>
 #include <sys/stat.h>
 
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -508,6 +510,62 @@ TEST_F(SlurmCampaignTest, TimeLimitCountsFromTheTasksStartNotFromSubmission) {
   ASSERT_TRUE(first && second);
   // The second run was submitted with the first yet started after the first's limit.
   EXPECT_GE(second->started_at - first->started_at, 2);
+}
+
+// Each array's --time is the estimate of its longest run (what `campaign plan --json` says of
+// the point, calibrated by granary-engine bench on this machine) times 2 plus 10 minutes,
+// rounded up to a minute: in the submitted script and in Slurm's TimeLimit. --time set by the
+// user wins. The runs are of full size (20,000 discs, 100 time units: a core-quarter-hour and more, so that the
+// factor 2 shows beside the 10 minutes); the fake engine runs them in a moment.
+TEST_F(SlurmCampaignTest, EachArraysTimeIsTheEstimateWithItsMarginUnlessSet) {
+  const fs::path spec = dir_ / "big.json";
+  auto plan_widths = [&](const std::vector<int>& widths) {
+    std::ofstream(spec) << json{{"name", "t"},
+                                {"replicas", 1},
+                                {"base",
+                                 {{"bodies", {{"count", 20000}}},
+                                  {"silo", {{"width", 100}}},
+                                  {"discharge", {{"mode", "reinject"}, {"max_time", 100}}}}},
+                                {"sweep", {{"grid", {{"/silo/base_outlets/0/width", widths}}}}}};
+    const auto r = Sh(Cmd("plan " + spec.string()));
+    ASSERT_EQ(r.code, 0) << r.output;
+  };
+  plan_widths({20});
+  const auto plan = Sh(Cmd("plan " + spec.string() + " --dry-run --json"));
+  ASSERT_EQ(plan.code, 0) << plan.output;
+  const json e = json::parse(plan.output.substr(plan.output.find('{')))["estimate"];
+  ASSERT_TRUE(e["core_hours"].is_array()) << "no calibration: " << e.dump();
+  const double core_s = e["points"][0]["core_hours"][1].get<double>() * 3600;
+  ASSERT_GT(core_s, 900) << e.dump();
+  const long want_minutes = static_cast<long>(std::ceil((2 * core_s + 600) / 60));
+  char want[32];
+  std::snprintf(want, sizeof want, "%02ld:%02ld:00", want_minutes / 60, want_minutes % 60);
+  auto time_limit = [&](const std::string& job) {
+    const std::string out = Sh("scontrol show job " + job.substr(0, job.find('_'))).output;
+    const auto at = out.find("TimeLimit=");
+    return at == std::string::npos ? out : out.substr(at + 10, out.find_first_of(" \n", at) - at - 10);
+  };
+  const auto r = Sh(RunCmd());
+  ASSERT_EQ(r.code, 0) << r.output << cluster_->log_tails();
+  const std::string script = ReadFile(dir_ / "slurm" / "t-0001" / "job-1.sh");
+  EXPECT_NE(script.find("#SBATCH --time=0-" + std::string(want) + "\n"), std::string::npos) << want << "\n" << script;
+  const json s = Status();
+  ASSERT_EQ(s["runs"].size(), 1u);
+  EXPECT_EQ(time_limit(s["runs"][0]["job"]), want);
+  // Set by the user: that time, whatever the estimate.
+  plan_widths({20, 30});
+  const auto set = Sh(RunCmd("--time 7:00"));
+  ASSERT_EQ(set.code, 0) << set.output << cluster_->log_tails();
+  EXPECT_NE(ReadFile(dir_ / "slurm" / "t-0002" / "job-1.sh").find("#SBATCH --time=7:00\n"), std::string::npos);
+  int checked = 0;
+  const json after = Status();
+  for (const auto& run : after["runs"]) {
+    if (run["point"]["/silo/base_outlets/0/width"] == 30) {
+      EXPECT_EQ(time_limit(run["job"]), "00:07:00");
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 1) << after.dump();
 }
 
 TEST_F(SlurmCampaignTest, ScanAgreesWithTheDatabaseAndCollectsADetachedCampaign) {
