@@ -1,5 +1,5 @@
 // Dynamics of one or two bodies against closed forms and independent integrations:
-// restitution (RK4 of the Hertz-damped oscillator), friction on an incline, energy
+// restitution (RK4 of the Hertz-damped oscillator; Hooke's closed form), friction on an incline, energy
 // conservation, free rotation, obstacle deflection, free fall (docs/model.md).
 #include "engine/world.h"
 
@@ -81,6 +81,68 @@ TEST(World, DiscWallRestitutionMatchesIndependentOscillator) {
   const WorldParams p = Params(0.0);
   const double e_ref = RestitutionRk4(p.wall.kn, p.wall.gamma_n, 0.5, m, 1.0);
   EXPECT_NEAR(w.bvy_[a], e_ref, 0.01 * e_ref) << "e_ref=" << e_ref;
+}
+
+// Hooke (linear spring-dashpot, LAMMPS gran/hooke/history): m_eff delta'' = -K_n delta -
+// m_eff gamma_n delta' from delta = 0, delta' = v0 is delta = v0/w e^(-gamma_n t/2) sin(w t),
+// w = sqrt(K_n/m_eff - (gamma_n/2)^2): the contact lasts t_c = pi/w and the normal speed
+// comes back as e v0, e = exp(-gamma_n pi / (2 w)). Stiffness and damping chosen so that a
+// contact lasts ~140 steps; returns (contact steps x dt, e) of the world's collision.
+struct HookeCollision {
+  double duration, restitution;
+};
+WorldParams HookeParams() {
+  WorldParams p = Params(0.0);
+  for (ContactParams* c : {&p.pair, &p.wall}) {
+    c->normal_model = NormalModel::kHooke;
+    c->kn = 2.0e4;
+    c->gamma_n = 100.0;
+  }
+  return p;
+}
+double HookeOmega(double meff) {
+  const WorldParams p = HookeParams();
+  return std::sqrt(p.pair.kn / meff - 0.25 * p.pair.gamma_n * p.pair.gamma_n);
+}
+
+TEST(World, HookeDiscDiscCollisionHasTheAnalyticDurationAndRestitution) {
+  World w(HookeParams(), {silo::MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, silo::SiloGeometry{});
+  const int a = w.AddBody(0, -0.55, 0.0, 0.0);
+  const int b = w.AddBody(0, 0.55, 0.0, 0.0);
+  w.SetVelocity(a, 0.5, 0.0, 0.0);
+  w.SetVelocity(b, -0.5, 0.0, 0.0);
+  w.ComputeForces();
+  int touching = 0;
+  for (int s = 0; s < 2000; ++s) {
+    w.Step();
+    touching += w.bx_[b] - w.bx_[a] < 1.0;
+  }
+  const double meff = std::numbers::pi * 0.25 / 2, omega = HookeOmega(meff);
+  const double t_c = std::numbers::pi / omega, e = std::exp(-100.0 * std::numbers::pi / (2 * omega));
+  EXPECT_GT(t_c, 100 * 1e-4);
+  EXPECT_NEAR(touching * 1e-4, t_c, 1.5e-4) << "steps in contact " << touching;
+  EXPECT_NEAR(w.bvx_[b] - w.bvx_[a], e, 0.002 * e) << "e=" << e;
+  // Hertz with the same constants gives another collision (the model is in use).
+  EXPECT_GT(std::fabs(e - RestitutionRk4(2.0e4, 100.0, 0.25, meff, 1.0)), 0.05);
+  EXPECT_NEAR(w.bvx_[a] + w.bvx_[b], 0.0, 1e-12);
+}
+
+TEST(World, HookeDiscWallCollisionHasTheAnalyticDurationAndRestitution) {
+  silo::SiloGeometry g;
+  g.elements.push_back(WallSegment(-5, 0, 5, 0));
+  World w(HookeParams(), {silo::MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, g);
+  const int a = w.AddBody(0, 0.0, 0.6, 0.0);
+  w.SetVelocity(a, 0.0, -1.0, 0.0);
+  w.ComputeForces();
+  int touching = 0;
+  for (int s = 0; s < 2000; ++s) {
+    w.Step();
+    touching += w.by_[a] < 0.5;
+  }
+  const double m = std::numbers::pi * 0.25, omega = HookeOmega(m);  // the wall: m_eff = M_I
+  const double t_c = std::numbers::pi / omega, e = std::exp(-100.0 * std::numbers::pi / (2 * omega));
+  EXPECT_NEAR(touching * 1e-4, t_c, 1.5e-4) << "steps in contact " << touching;
+  EXPECT_NEAR(w.bvy_[a], e, 0.002 * e) << "e=" << e;
 }
 
 // A dumbbell lying along an inclined wall: static friction holds it while tan(angle) < mu;
