@@ -148,6 +148,11 @@ World Pile(bool avx512, PileOf bodies, bool liggghts_cap, NormalModel model = No
   p.avx512_kernels = avx512;
   p.pair.liggghts_cap = p.wall.liggghts_cap = liggghts_cap;
   p.pair.normal_model = p.wall.normal_model = model;
+  if (model == NormalModel::kHooke)  // a linear spring as stiff at the start's overlaps as Hertz
+    for (ContactParams* c : {&p.pair, &p.wall}) {
+      c->kn = 2.0e4;
+      c->kt = 2.45e4;
+    }
   World w(p, {silo::MakeTemplate(DumbbellSpecies(), 1.0, 0), silo::MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
   for (int k = 0; k < 61; ++k) {
     const bool disc = bodies == PileOf::kDiscs || (bodies == PileOf::kMixture && k % 3 == 2);
