@@ -177,18 +177,18 @@ TEST(Avx512Kernels, APileStepsToTheSameBitsWithAndWithout) {
   for (const PileOf bodies : {PileOf::kDumbbells, PileOf::kDiscs, PileOf::kMixture})
     for (const bool cap : {false, true})
       for (const NormalModel model : {NormalModel::kHertz, NormalModel::kHooke}) {
-      const World simd = Pile(true, bodies, cap, model), portable = Pile(false, bodies, cap, model);
-      const int what = static_cast<int>(bodies) + 10 * static_cast<int>(model);
-      for (const auto member : {&World::bx_, &World::by_, &World::bth_, &World::bc_, &World::bs_, &World::bvx_,
-                                &World::bvy_, &World::bw_, &World::bfx_, &World::bfy_, &World::btq_, &World::dx_,
-                                &World::dy_, &World::dfx_, &World::dfy_, &World::dtz_})
-        EXPECT_TRUE(SameBits(simd.*member, portable.*member)) << "bodies " << what << " cap " << cap;
-      // The bodies fell onto each other (free fall alone: 0.045 d in the 3000 steps).
-      double fell = 0.0;
-      for (int b = 0; b < simd.body_count(); ++b)
-        if (b % 11 != 5 && b % 13 != 3) fell = std::max(fell, 0.6 + 1.05 * (b / 5) - simd.by_[b]);
-      EXPECT_GT(fell, 0.1) << "bodies " << what;
-    }
+        const World simd = Pile(true, bodies, cap, model), portable = Pile(false, bodies, cap, model);
+        const int what = static_cast<int>(bodies) + 10 * static_cast<int>(model);
+        for (const auto member : {&World::bx_, &World::by_, &World::bth_, &World::bc_, &World::bs_, &World::bvx_,
+                                  &World::bvy_, &World::bw_, &World::bfx_, &World::bfy_, &World::btq_, &World::dx_,
+                                  &World::dy_, &World::dfx_, &World::dfy_, &World::dtz_})
+          EXPECT_TRUE(SameBits(simd.*member, portable.*member)) << "bodies " << what << " cap " << cap;
+        // The bodies fell onto each other (free fall alone: 0.045 d in the 3000 steps).
+        double fell = 0.0;
+        for (int b = 0; b < simd.body_count(); ++b)
+          if (b % 11 != 5 && b % 13 != 3) fell = std::max(fell, 0.6 + 1.05 * (b / 5) - simd.by_[b]);
+        EXPECT_GT(fell, 0.1) << "bodies " << what;
+      }
 }
 
 }  // namespace
