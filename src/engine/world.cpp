@@ -36,6 +36,7 @@ WorldParams ParamsFromSpec(const RunSpec& spec) {
   c.gamma_n = spec.contact.gamma_n;
   c.gamma_t = spec.contact.gamma_t;
   c.mu = spec.contact.mu;
+  c.normal_model = spec.contact.normal_model;
   c.liggghts_cap = spec.contact.tangential_cap == TangentialCap::kLiggghts;
   c.clip_normal = spec.contact.clip_normal;
   p.pair = c;

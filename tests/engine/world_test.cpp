@@ -10,6 +10,7 @@
 #include <numbers>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "world_parts.h"
 
@@ -126,6 +127,13 @@ TEST(World, HookeDiscDiscCollisionHasTheAnalyticDurationAndRestitution) {
   // Hertz with the same constants gives another collision (the model is in use).
   EXPECT_GT(std::fabs(e - RestitutionRk4(2.0e4, 100.0, 0.25, meff, 1.0)), 0.05);
   EXPECT_NEAR(w.bvx_[a] + w.bvx_[b], 0.0, 1e-12);
+}
+
+TEST(World, TheSpecsNormalModelReachesPairsAndWalls) {
+  EXPECT_EQ(ParamsFromSpec(RunSpec::from_json(nlohmann::json::object())).pair.normal_model, NormalModel::kHertz);
+  const WorldParams p = ParamsFromSpec(RunSpec::from_json({{"contact", {{"normal_model", "hooke"}}}}));
+  EXPECT_EQ(p.pair.normal_model, NormalModel::kHooke);
+  EXPECT_EQ(p.wall.normal_model, NormalModel::kHooke);
 }
 
 TEST(World, HookeDiscWallCollisionHasTheAnalyticDurationAndRestitution) {
