@@ -1,7 +1,8 @@
-// AVX-512 loops of the step (avx512_kernels.h): the pair-force loop and the drift of bodies
-// of one or two discs. Every arithmetic line mirrors an operation of the portable code (PairEntries,
-// NormalForce, TangentialForceT; world.cpp's PlaceDisc) in the same order; with contraction
-// off (CMakeLists.txt) each is one correctly rounded IEEE operation, as in the scalar code.
+// AVX-512 loops of the step (avx512_kernels.h): the pair-force loop (loads, transposes and the
+// lane type; the arithmetic is contact_law.h's), and the drift and body sums of bodies of one
+// or two discs, where every arithmetic line mirrors an operation of the portable code
+// (world.cpp's PlaceDisc, BodySumsUpTo2) in the same order. With contraction off
+// (CMakeLists.txt) each is one correctly rounded IEEE operation, as in the scalar code.
 #include "engine/avx512_kernels.h"
 
 #include <cstddef>
@@ -71,109 +72,63 @@ GRANARY_AVX512 __m512d Neg(__m512d a) {
 // m ? b : a
 GRANARY_AVX512 __m512d Select(__mmask8 m, __m512d b, __m512d a) { return _mm512_mask_blend_pd(m, a, b); }
 
-template <bool kLiggghtsCap>
-__attribute__((target("avx512f"))) int PairEntriesAvx512Impl(int e0, int e1, const int* __restrict nl_i,
-                                                             const int* __restrict nl_j,
-                                                             const double* __restrict nl_reff,
-                                                             const double* __restrict nl_meff, double* __restrict nl_sx,
-                                                             double* __restrict nl_sy, double* __restrict nl_fx,
-                                                             double* __restrict nl_fy, double* __restrict nl_c,
-                                                             const World::DiscKin* __restrict kin,
-                                                             const ContactParams& pp, double dt_scalar) {
-  const __m512d zero = _mm512_setzero_pd(), one = _mm512_set1_pd(1.0);
-  const __m512d kn = _mm512_set1_pd(pp.kn), kt = _mm512_set1_pd(pp.kt);
-  const __m512d gamma_n = _mm512_set1_pd(pp.gamma_n), gamma_t = _mm512_set1_pd(pp.gamma_t);
-  const __m512d mu = _mm512_set1_pd(pp.mu), dt = _mm512_set1_pd(dt_scalar);
-  const bool clip = pp.clip_normal;
+// The contact kernel's value type for eight entries (contact_law.h): one lane each, every
+// operation one AVX-512 instruction, correctly rounded as the scalar one. Its operations are
+// inline but not always_inline: the kernel templates (no target) cannot take target code
+// inline; the flatten of PairEntriesImpl inlines all of it there.
+#define GRANARY_LANE __attribute__((target("avx512f"))) inline
+struct Mask8 {
+  __mmask8 m;
+};
+struct Lane8 {
+  __m512d v;
+  Lane8() = default;
+  GRANARY_LANE Lane8(__m512d x) : v(x) {}
+  GRANARY_LANE explicit Lane8(double x) : v(_mm512_set1_pd(x)) {}
+};
+GRANARY_LANE Lane8 operator+(Lane8 a, Lane8 b) { return _mm512_add_pd(a.v, b.v); }
+GRANARY_LANE Lane8 operator-(Lane8 a, Lane8 b) { return _mm512_sub_pd(a.v, b.v); }
+GRANARY_LANE Lane8 operator*(Lane8 a, Lane8 b) { return _mm512_mul_pd(a.v, b.v); }
+GRANARY_LANE Lane8 operator/(Lane8 a, Lane8 b) { return _mm512_div_pd(a.v, b.v); }
+GRANARY_LANE Lane8 operator-(Lane8 a) { return Neg(a.v); }
+GRANARY_LANE Mask8 operator<(Lane8 a, Lane8 b) { return {_mm512_cmp_pd_mask(a.v, b.v, _CMP_LT_OQ)}; }
+GRANARY_LANE Mask8 operator>(Lane8 a, Lane8 b) { return {_mm512_cmp_pd_mask(a.v, b.v, _CMP_GT_OQ)}; }
+GRANARY_LANE Mask8 operator!=(Lane8 a, Lane8 b) { return {_mm512_cmp_pd_mask(a.v, b.v, _CMP_NEQ_UQ)}; }
+GRANARY_LANE Mask8 operator&(Mask8 a, Mask8 b) { return {static_cast<__mmask8>(a.m & b.m)}; }
+GRANARY_LANE Lane8 Sqrt(Lane8 a) { return _mm512_sqrt_pd(a.v); }
+GRANARY_LANE Lane8 Abs(Lane8 a) { return _mm512_abs_pd(a.v); }
+GRANARY_LANE Lane8 Select(Mask8 m, Lane8 if_true, Lane8 if_false) {
+  return _mm512_mask_blend_pd(m.m, if_false.v, if_true.v);
+}
+GRANARY_LANE bool NeedAny(Mask8 m) { return m.m != 0; }
+GRANARY_LANE void Store(double* p, Lane8 a) { _mm512_storeu_pd(p, a.v); }
+
+}  // namespace
+
+template <>
+GRANARY_LANE Lane8 Load<Lane8>(const double* p) { return _mm512_loadu_pd(p); }
+#undef GRANARY_LANE
+
+namespace {
+
+template <class Normal, bool kLiggghtsCap>
+__attribute__((target("avx512f"), flatten)) int PairEntriesImpl(int e0, int e1, const int* __restrict nl_i,
+                                                                const int* __restrict nl_j,
+                                                                const double* __restrict nl_reff,
+                                                                const double* __restrict nl_meff,
+                                                                double* __restrict nl_sx, double* __restrict nl_sy,
+                                                                double* __restrict nl_fx, double* __restrict nl_fy,
+                                                                double* __restrict nl_c,
+                                                                const World::DiscKin* __restrict kin,
+                                                                const ContactParams& pp, double dt) {
+  const LawConstants<Lane8> law(pp, dt);
   int e = e0;
   for (; e + 8 <= e1; e += 8) {
     const Lanes a = LoadLanes(kin, nl_i + e);
     const Lanes b = LoadLanes(kin, nl_j + e);
-    // PairEntries: geometry and relative velocity.
-    const __m512d ddx = Sub(a.x, b.x), ddy = Sub(a.y, b.y);
-    const __m512d rsq = Add(Mul(ddx, ddx), Mul(ddy, ddy));
-    const __m512d radsum = Add(a.r, b.r);
-    const __mmask8 touch = _mm512_cmp_pd_mask(rsq, Mul(radsum, radsum), _CMP_LT_OQ);
-    if (touch == 0) {  // nothing touches: every output is zero (as the selects give)
-      _mm512_storeu_pd(nl_sx + e, zero);
-      _mm512_storeu_pd(nl_sy + e, zero);
-      _mm512_storeu_pd(nl_fx + e, zero);
-      _mm512_storeu_pd(nl_fy + e, zero);
-      _mm512_storeu_pd(nl_c + e, zero);
-      continue;
-    }
-    const __m512d r = _mm512_sqrt_pd(rsq);
-    const __m512d inv_r = _mm512_div_pd(one, r);
-    const __m512d nx = Mul(ddx, inv_r), ny = Mul(ddy, inv_r);
-    const __m512d delta = Sub(radsum, r);
-    const __m512d reff = _mm512_loadu_pd(nl_reff + e), meff = _mm512_loadu_pd(nl_meff + e);
-    const __m512d vrx = Sub(a.vx, b.vx), vry = Sub(a.vy, b.vy);
-    const __m512d vn = Add(Mul(vrx, nx), Mul(vry, ny));
-    const __m512d wr = Add(Mul(a.r, a.w), Mul(b.r, b.w));
-    const __m512d vtx = Add(Sub(vrx, Mul(vn, nx)), Mul(wr, ny));
-    const __m512d vty = Sub(Sub(vry, Mul(vn, ny)), Mul(wr, nx));
-    // NormalForce.
-    const __m512d h = _mm512_sqrt_pd(Mul(reff, delta));
-    __m512d fn = Mul(h, Sub(Mul(kn, delta), Mul(Mul(meff, gamma_n), vn)));
-    if (clip) fn = _mm512_mask_mov_pd(fn, _mm512_cmp_pd_mask(fn, zero, _CMP_LT_OQ), zero);
-    // TangentialForceT: history update and projection.
-    __m512d sx = _mm512_loadu_pd(nl_sx + e), sy = _mm512_loadu_pd(nl_sy + e);
-    sx = Add(sx, Mul(vtx, dt));
-    sy = Add(sy, Mul(vty, dt));
-    const __m512d shrmag2 = Add(Mul(sx, sx), Mul(sy, sy));
-    const __m512d rsht = Add(Mul(sx, nx), Mul(sy, ny));
-    sx = Sub(sx, Mul(rsht, nx));
-    sy = Sub(sy, Mul(rsht, ny));
-    const __m512d cap = Mul(mu, _mm512_abs_pd(fn));
-    __m512d tsx, tsy, tfx, tfy;
-    if constexpr (!kLiggghtsCap) {
-      const __m512d damp_x = Mul(Mul(meff, gamma_t), vtx);
-      const __m512d damp_y = Mul(Mul(meff, gamma_t), vty);
-      const __m512d neg_h = Neg(h);
-      const __m512d fx = Mul(neg_h, Add(Mul(kt, sx), damp_x));
-      const __m512d fy = Mul(neg_h, Add(Mul(kt, sy), damp_y));
-      const __m512d fs2 = Add(Mul(fx, fx), Mul(fy, fy));
-      const __mmask8 slip = _mm512_cmp_pd_mask(fs2, Mul(cap, cap), _CMP_GT_OQ);
-      tsx = sx;
-      tsy = sy;
-      tfx = fx;
-      tfy = fy;
-      if ((slip & touch) != 0) {  // rare: a touching lane slips
-        const __mmask8 rescale = slip & _mm512_cmp_pd_mask(shrmag2, zero, _CMP_NEQ_UQ);
-        const __m512d ratio = _mm512_div_pd(cap, _mm512_sqrt_pd(fs2));
-        const __m512d kx = _mm512_div_pd(damp_x, kt), ky = _mm512_div_pd(damp_y, kt);
-        tsx = Select(rescale, Sub(Mul(ratio, Add(sx, kx)), kx), sx);
-        tsy = Select(rescale, Sub(Mul(ratio, Add(sy, ky)), ky), sy);
-        tfx = Select(slip, Select(rescale, Mul(fx, ratio), zero), fx);
-        tfy = Select(slip, Select(rescale, Mul(fy, ratio), zero), fy);
-      }
-    } else {
-      const __m512d kt_eff = Mul(h, kt);
-      const __m512d gt_eff = Mul(Mul(h, meff), gamma_t);
-      const __m512d neg_kt_eff = Neg(kt_eff);
-      const __m512d spx = Mul(neg_kt_eff, sx), spy = Mul(neg_kt_eff, sy);
-      const __m512d spring2 = Add(Mul(spx, spx), Mul(spy, spy));
-      const __mmask8 slip = _mm512_cmp_pd_mask(spring2, Mul(cap, cap), _CMP_GT_OQ);
-      tfx = Sub(spx, Mul(gt_eff, vtx));
-      tfy = Sub(spy, Mul(gt_eff, vty));
-      tsx = sx;
-      tsy = sy;
-      if ((slip & touch) != 0) {
-        const __m512d ratio = _mm512_div_pd(cap, _mm512_sqrt_pd(spring2));
-        const __m512d cfx = Mul(spx, ratio), cfy = Mul(spy, ratio);
-        tfx = Select(slip, cfx, tfx);
-        tfy = Select(slip, cfy, tfy);
-        const __mmask8 reset = slip & _mm512_cmp_pd_mask(kt_eff, zero, _CMP_GT_OQ);
-        tsx = Select(reset, _mm512_div_pd(Neg(cfx), kt_eff), sx);
-        tsy = Select(reset, _mm512_div_pd(Neg(cfy), kt_eff), sy);
-      }
-    }
-    // PairEntries: outputs, zero where the discs do not touch.
-    _mm512_storeu_pd(nl_sx + e, _mm512_maskz_mov_pd(touch, tsx));
-    _mm512_storeu_pd(nl_sy + e, _mm512_maskz_mov_pd(touch, tsy));
-    _mm512_storeu_pd(nl_fx + e, _mm512_maskz_mov_pd(touch, Add(Mul(fn, nx), tfx)));
-    _mm512_storeu_pd(nl_fy + e, _mm512_maskz_mov_pd(touch, Add(Mul(fn, ny), tfy)));
-    _mm512_storeu_pd(nl_c + e, _mm512_maskz_mov_pd(touch, Sub(Mul(nx, tfy), Mul(ny, tfx))));
+    PairEntry<Normal, kLiggghtsCap>(DiscState<Lane8>{a.x, a.y, a.vx, a.vy, a.r, a.w},
+                                    DiscState<Lane8>{b.x, b.y, b.vx, b.vy, b.r, b.w}, nl_reff + e, nl_meff + e,
+                                    nl_sx + e, nl_sy + e, nl_fx + e, nl_fy + e, nl_c + e, law);
   }
   return e;
 }
@@ -465,12 +420,13 @@ __attribute__((target("avx512f"))) int BodySumsUpTo2Impl(int b0, int b1, const B
 
 }  // namespace
 
-template <bool kLiggghtsCap>
-int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const double* nl_reff,
-                      const double* nl_meff, double* nl_sx, double* nl_sy, double* nl_fx, double* nl_fy,
-                      double* nl_c, const World::DiscKin* kin, const ContactParams& pp, double dt) {
-  return PairEntriesAvx512Impl<kLiggghtsCap>(e0, e1, nl_i, nl_j, nl_reff, nl_meff, nl_sx, nl_sy, nl_fx, nl_fy, nl_c,
-                                             kin, pp, dt);
+int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const double* nl_reff, const double* nl_meff,
+                      double* nl_sx, double* nl_sy, double* nl_fx, double* nl_fy, double* nl_c,
+                      const World::DiscKin* kin, const ContactParams& pp, double dt) {
+  return WithContactLaw(pp, [&](auto model, auto cap) {
+    return PairEntriesImpl<decltype(model), decltype(cap)::value>(e0, e1, nl_i, nl_j, nl_reff, nl_meff, nl_sx, nl_sy,
+                                                                  nl_fx, nl_fy, nl_c, kin, pp, dt);
+  });
 }
 
 template <int kDiscs>
@@ -494,7 +450,6 @@ int BodySumsUpTo2Avx512(int b0, int b1, const BodySumArrays& arrays, int disc_en
 
 bool Avx512Available() { return false; }
 
-template <bool kLiggghtsCap>
 int PairEntriesAvx512(int e0, int, const int*, const int*, const double*, const double*, double*, double*, double*,
                       double*, double*, const World::DiscKin*, const ContactParams&, double) {
   return e0;
@@ -514,13 +469,9 @@ int BodySumsUpTo2Avx512(int b0, int, const BodySumArrays&, int, double, double, 
 
 #endif
 
-template int PairEntriesAvx512<false>(int, int, const int*, const int*, const double*, const double*, double*, double*,
-                                      double*, double*, double*, const World::DiscKin*, const ContactParams&, double);
 template int BodySumsUpTo2Avx512<false>(int, int, const BodySumArrays&, int, double, double, double, double, bool*);
 template int BodySumsUpTo2Avx512<true>(int, int, const BodySumArrays&, int, double, double, double, double, bool*);
 template int DriftUniformAvx512<1>(int, int, const DriftArrays&, double, const double[3], double, bool*, bool*);
 template int DriftUniformAvx512<2>(int, int, const DriftArrays&, double, const double[3], double, bool*, bool*);
-template int PairEntriesAvx512<true>(int, int, const int*, const int*, const double*, const double*, double*, double*,
-                                     double*, double*, double*, const World::DiscKin*, const ContactParams&, double);
 
 }  // namespace granary::engine

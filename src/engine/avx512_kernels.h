@@ -1,6 +1,7 @@
-// Two loops of the step written with AVX-512 intrinsics: the same IEEE operations in the
-// same order as their portable versions (pair_entries.h; world.cpp PlaceDisc), so the
-// results are the same to the bit.
+// Loops of the step with AVX-512 intrinsics: the pair loop runs the contact kernel
+// (contact_law.h) on an eight-lane value type; the drift and body sums do the same IEEE
+// operations in the same order as their portable versions (world.cpp PlaceDisc,
+// BodySumsUpTo2), so the results are the same to the bit.
 //
 // Why by hand: both move whole 64-byte disc records (World::DiscKin), which GCC reads and
 // writes element by element (~200 scalar loads or stores and inserts per 16 records).
@@ -19,14 +20,14 @@ bool Avx512Available();
 
 // Pair forces of entries [e0, e0 + 8 k) for the largest such k with e0 + 8 k <= e1 (the
 // caller does the rest with the portable loop); returns e0 + 8 k. Same arguments and
-// outputs as PairEntries. Call only when Avx512Available().
-template <bool kLiggghtsCap>
-int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const double* nl_reff,
-                      const double* nl_meff, double* nl_sx, double* nl_sy, double* nl_fx, double* nl_fy,
-                      double* nl_c, const World::DiscKin* kin, const ContactParams& pp, double dt);
+// outputs as PairEntries with the law of pp (contact_law.h PairEntry on eight lanes).
+// Call only when Avx512Available().
+int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const double* nl_reff, const double* nl_meff,
+                      double* nl_sx, double* nl_sy, double* nl_fx, double* nl_fy, double* nl_c,
+                      const World::DiscKin* kin, const ContactParams& pp, double dt);
 // (A branch-free loop would compute the slip rescale, two divisions and a square root, for
 // every entry, though ~5 % of contacts slip: here only for the groups of eight where a
-// touching lane slips.)
+// touching lane slips; NeedAny.)
 
 // The arrays a drift reads and writes (World's body and disc state).
 struct DriftArrays {

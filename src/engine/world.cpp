@@ -36,6 +36,7 @@ WorldParams ParamsFromSpec(const RunSpec& spec) {
   c.gamma_n = spec.contact.gamma_n;
   c.gamma_t = spec.contact.gamma_t;
   c.mu = spec.contact.mu;
+  c.normal_model = spec.contact.normal_model;
   c.liggghts_cap = spec.contact.tangential_cap == TangentialCap::kLiggghts;
   c.clip_normal = spec.contact.clip_normal;
   p.pair = c;
@@ -483,38 +484,33 @@ namespace {
 
 // Eight entries at a time by the AVX-512 loop where the CPU has it, the rest (or all) by the
 // portable loop; both give the same bits. (Inlined into PairEntriesOf's instruction-set variants.)
-template <bool kLiggghtsCap>
+template <class Normal, bool kLiggghtsCap>
 [[gnu::always_inline]] inline void World::PairRange(int e0, int e1) {
   const ContactParams& pp = params_.pair;
-  const int e = use_avx512_ ? PairEntriesAvx512<kLiggghtsCap>(e0, e1, nl_i_.data(), nl_j_.data(), nl_reff_.data(),
-                                                              nl_meff_.data(), nl_sx_.data(), nl_sy_.data(),
-                                                              nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(),
-                                                              pp, params_.dt)
+  const int e = use_avx512_ ? PairEntriesAvx512(e0, e1, nl_i_.data(), nl_j_.data(), nl_reff_.data(), nl_meff_.data(),
+                                                nl_sx_.data(), nl_sy_.data(), nl_fx_.data(), nl_fy_.data(),
+                                                nl_c_.data(), kin_.data(), pp, params_.dt)
                             : e0;
-  PairEntries<kLiggghtsCap>(e, e1, nl_i_.data(), nl_j_.data(), nl_reff_.data(), nl_meff_.data(), nl_sx_.data(),
-                            nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(), kin_.data(), pp, params_.dt);
+  PairEntries<Normal, kLiggghtsCap>(e, e1, nl_i_.data(), nl_j_.data(), nl_reff_.data(), nl_meff_.data(),
+                                    nl_sx_.data(), nl_sy_.data(), nl_fx_.data(), nl_fy_.data(), nl_c_.data(),
+                                    kin_.data(), pp, params_.dt);
 }
 
 GRANARY_KERNEL void World::PairEntriesOf(int i0, int i1) {
-  if (params_.pair.liggghts_cap)
-    PairRange<true>(nl_start_[i0], nl_start_[i1]);
-  else
-    PairRange<false>(nl_start_[i0], nl_start_[i1]);
+  WithContactLaw(params_.pair, [&](auto model, auto cap) __attribute__((always_inline)) {
+    PairRange<decltype(model), decltype(cap)::value>(nl_start_[i0], nl_start_[i1]);
+  });
 }
 
-GRANARY_KERNEL void World::SumPartForces(int i0, int i1, const std::vector<int>& earlier) {
-  const double dt = params_.dt;
-  const ContactParams wp = params_.wall;
+// The wall entries [k0, k1) of a force block: the contact kernel with the closest point of
+// the element as the partner (radius el.radius, at rest, infinite mass).
+template <class Normal, bool kLiggghtsCap>
+[[gnu::always_inline]] inline void World::WallEntries(int k0, int k1, const ContactParams& wp) {
+  const LawConstants<double> law(wp, params_.dt);
   double* __restrict dfx = dfx_.data();
   double* __restrict dfy = dfy_.data();
   double* __restrict dtz = dtz_.data();
-  // 2. Sums per disc and reactions inside the block.
-  SumBlock(i0, i1, earlier.data(), static_cast<int>(earlier.size()), nl_start_.data(), nl_j_.data(), nl_fx_.data(),
-           nl_fy_.data(), nl_c_.data(), dr_.data(), dfx, dfy, dtz);
-  // 3. Wall contacts, added after each disc's pair sums as before, but in a loop of their
-  // own over the block's few wall entries: the pair-sum loop above stays small (no disc
-  // record, no wall state in registers).
-  for (int k = wl_start_[i0]; k < wl_start_[i1]; ++k) {
+  for (int k = k0; k < k1; ++k) {
     const int i = wl_i_[k];
     const DiscKin& a = kin_[i];
     const silo::WallElement& el = geometry_.elements[wl_e_[k]];
@@ -526,27 +522,35 @@ GRANARY_KERNEL void World::SumPartForces(int i0, int i1, const std::vector<int>&
       wl_sx_[k] = wl_sy_[k] = wl_fx_[k] = wl_fy_[k] = 0.0;
       continue;
     }
-    const double r = std::sqrt(rsq);
-    const double inv_r = 1.0 / r;
-    const double nx = ddx * inv_r, ny = ddy * inv_r;
-    const double delta = reach - r;
+    const ContactGeometry<double> g = Geometry(ddx, ddy, rsq, reach, a.vx, a.vy, a.r * a.w);
     const double reff = el.kind == silo::ElementKind::kCircle ? EffectiveRadius(a.r, el.radius) : a.r;
     const double meff = bmass_[dbody_[i]];
-    const double vn = a.vx * nx + a.vy * ny;
-    const double wr = a.r * a.w;
-    const double vtx = a.vx - vn * nx + wr * ny;
-    const double vty = a.vy - vn * ny - wr * nx;
-    const double fn = NormalForce(delta, reff, meff, vn, wp);
-    const Tangential t = TangentialForce(wl_sx_[k], wl_sy_[k], nx, ny, vtx, vty, delta, reff, meff, fn, dt, wp);
-    wl_sx_[k] = t.sx;
-    wl_sy_[k] = t.sy;
-    const double wfx = fn * nx + t.fx, wfy = fn * ny + t.fy;
-    wl_fx_[k] = wfx;
-    wl_fy_[k] = wfy;
-    dfx[i] += wfx;
-    dfy[i] += wfy;
-    dtz[i] -= a.r * (nx * t.fy - ny * t.fx);
+    const ContactForce<double> f =
+        ContactLaw<Normal, kLiggghtsCap>(g, reff, meff, wl_sx_[k], wl_sy_[k], true, law);
+    wl_sx_[k] = f.sx;
+    wl_sy_[k] = f.sy;
+    wl_fx_[k] = f.fx;
+    wl_fy_[k] = f.fy;
+    dfx[i] += f.fx;
+    dfy[i] += f.fy;
+    dtz[i] -= a.r * f.c;
   }
+}
+
+GRANARY_KERNEL void World::SumPartForces(int i0, int i1, const std::vector<int>& earlier) {
+  const ContactParams wp = params_.wall;
+  double* __restrict dfx = dfx_.data();
+  double* __restrict dfy = dfy_.data();
+  double* __restrict dtz = dtz_.data();
+  // 2. Sums per disc and reactions inside the block.
+  SumBlock(i0, i1, earlier.data(), static_cast<int>(earlier.size()), nl_start_.data(), nl_j_.data(), nl_fx_.data(),
+           nl_fy_.data(), nl_c_.data(), dr_.data(), dfx, dfy, dtz);
+  // 3. Wall contacts, added after each disc's pair sums as before, but in a loop of their
+  // own over the block's few wall entries: the pair-sum loop above stays small (no disc
+  // record, no wall state in registers).
+  WithContactLaw(wp, [&](auto model, auto cap) __attribute__((always_inline)) {
+    WallEntries<decltype(model), decltype(cap)::value>(wl_start_[i0], wl_start_[i1], wp);
+  });
 }
 
 namespace {

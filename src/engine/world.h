@@ -181,8 +181,10 @@ class World {
   // Sums and wall forces of discs [i0, i1) of one force block; `earlier`: the entries from
   // the block's discs before i0 into them (LeadSources).
   void SumPartForces(int i0, int i1, const std::vector<int>& earlier);
-  template <bool kLiggghtsCap>
+  template <class Normal, bool kLiggghtsCap>
   void PairRange(int e0, int e1);                // the pair loop over list entries [e0, e1)
+  template <class Normal, bool kLiggghtsCap>
+  void WallEntries(int k0, int k1, const ContactParams& wp);  // the wall loop of a force block
   // Cross-block reactions, body sums, kick; returns whether the next drift may take a disc
   // of these bodies beyond half the skin from its rebuild position (OutrunsSkin).
   bool BodyForces(int b0, int b1, bool kick);

@@ -265,6 +265,8 @@ constexpr std::initializer_list<std::pair<const char*, NextBatch>> kNextBatches 
     {"landed", NextBatch::kLanded}, {"fixed", NextBatch::kFixed}};
 constexpr std::initializer_list<std::pair<const char*, BedSettler>> kSettlers = {
     {"native", BedSettler::kNative}, {"lammps", BedSettler::kLammps}};
+constexpr std::initializer_list<std::pair<const char*, NormalModel>> kNormalModels = {
+    {"hertz", NormalModel::kHertz}, {"hooke", NormalModel::kHooke}};
 constexpr std::initializer_list<std::pair<const char*, TangentialCap>> kCaps = {
     {"lammps", TangentialCap::kLammps}, {"liggghts", TangentialCap::kLiggghts}};
 constexpr std::initializer_list<std::pair<const char*, Wall>> kWalls = {{"left", Wall::kLeft},
@@ -347,6 +349,9 @@ SpecTable MakeRunSpecTable() {
       number("/contact/gamma_t", 1000.0, non_negative, "tangential damping"),
       number("/contact/mu", 0.5, non_negative, "friction between bodies"),
       number("/contact/mu_wall", nullptr, non_negative, "friction with walls and obstacles (default: mu)"),
+      enumeration("/contact/normal_model", "hertz", names(kNormalModels),
+                  "hertz: F_n ~ sqrt(R_eff delta) delta (gran/hertz/history); hooke: linear spring-dashpot "
+                  "(gran/hooke/history)"),
       enumeration("/contact/tangential_cap", "lammps", names(kCaps),
                   "lammps: the Coulomb cap on spring + damping; liggghts: on the spring part only"),
       plain("/contact/clip_normal", T::kBoolean, false, "clip an attractive normal force to zero"),
@@ -562,6 +567,12 @@ std::string to_string(UnclogMethod method) {
   }
   return "?";
 }
+std::string to_string(NormalModel model) {
+  for (const auto& [name, value] : kNormalModels) {
+    if (value == model) return name;
+  }
+  return "?";
+}
 std::string to_string(TangentialCap cap) {
   for (const auto& [name, value] : kCaps) {
     if (value == cap) return name;
@@ -594,6 +605,7 @@ RunSpec RunSpec::from_json(const json& j) {
     c.Number("mu", s.contact.mu);
     s.contact.mu_wall = s.contact.mu;  // docs/model.md "Boundaries": wall friction defaults to mu
     c.Number("mu_wall", s.contact.mu_wall);
+    c.Enum("normal_model", s.contact.normal_model, kNormalModels);
     c.Enum("tangential_cap", s.contact.tangential_cap, kCaps);
     c.Bool("clip_normal", s.contact.clip_normal);
   }
@@ -836,6 +848,11 @@ void validate_for_lammps(const RunSpec& s) {
                     "the LAMMPS backend cannot break a clog yet: it runs one LAMMPS input to the end, with no step "
                     "at which to take out an arch or kick the bodies over the outlet; use the native engine, or "
                     "\"stop\" or \"wait\" (got \"unclog\")");
+  if (s.contact.normal_model != Contact{}.normal_model)
+    throw SpecError("/contact/normal_model", "the LAMMPS backend writes pair gran/hertz/history only; " +
+                                                 to_string(s.contact.normal_model) +
+                                                 " is the native engine's (got \"" + to_string(s.contact.normal_model) +
+                                                 "\", allowed: \"hertz\")");
   if (s.contact.clip_normal)
     throw SpecError("/contact/clip_normal", "LAMMPS' pair gran/hertz/history has no clipping of an attractive normal "
                                             "force (got true, allowed: false)");
@@ -847,6 +864,11 @@ void validate_for_lammps(const RunSpec& s) {
 
 void validate_for_liggghts(const RunSpec& s) {
   ValidateExternalOutput(s, "LIGGGHTS");
+  if (s.contact.normal_model != Contact{}.normal_model)
+    throw SpecError("/contact/normal_model", "the LIGGGHTS backend writes model hertz/stiffness only; " +
+                                                 to_string(s.contact.normal_model) +
+                                                 " is the native engine's (got \"" + to_string(s.contact.normal_model) +
+                                                 "\", allowed: \"hertz\")");
   if (s.discharge.on_clog == OnClog::kUnclog)
     throw SpecError("/discharge/on_clog",
                     "the LIGGGHTS backend cannot break a clog: it runs LIGGGHTS' input script to the end, with no "
@@ -878,7 +900,7 @@ json BodiesJson(const Bodies& b) {
 }
 
 json ContactJson(const Contact& c) {
-  return {{"kn", c.kn},
+  json j = {{"kn", c.kn},
           {"kt", c.kt},
           {"gamma_n", c.gamma_n},
           {"gamma_t", c.gamma_t},
@@ -886,6 +908,9 @@ json ContactJson(const Contact& c) {
           {"mu_wall", c.mu_wall},
           {"tangential_cap", to_string(c.tangential_cap)},
           {"clip_normal", c.clip_normal}};
+  // Only when not the default, so that run ids planned before this option existed stay valid.
+  if (c.normal_model != Contact{}.normal_model) j["normal_model"] = to_string(c.normal_model);
+  return j;
 }
 
 json BedJson(const Bed& b, bool with_cache_file) {

@@ -75,6 +75,9 @@ struct Silo {
 
 // LAMMPS caps spring + damping at mu|F_n|; LIGGGHTS 3.8 caps only the spring part.
 enum class TangentialCap { kLammps, kLiggghts };
+// The normal-force model (docs/model.md "Contact law"): Hertz F_n ~ delta^1.5 (LAMMPS
+// gran/hertz/history) or a linear spring-dashpot (LAMMPS gran/hooke/history).
+enum class NormalModel { kHertz, kHooke };
 
 struct Contact {
   double kn = 2.0e6;
@@ -83,6 +86,7 @@ struct Contact {
   double gamma_t = 1000.0;
   double mu = 0.5;             // body-body friction
   double mu_wall = 0.5;        // body-wall and body-obstacle friction (defaults to mu)
+  NormalModel normal_model = NormalModel::kHertz;
   TangentialCap tangential_cap = TangentialCap::kLammps;
   bool clip_normal = false;    // clip attractive F_n to zero (off: LAMMPS default)
 };
@@ -229,6 +233,7 @@ std::string to_string(Shape shape);
 std::string to_string(DischargeMode mode);
 std::string to_string(ReinjectPosition position);
 std::string to_string(FrameFormat format);
+std::string to_string(NormalModel model);
 std::string to_string(TangentialCap cap);
 std::string to_string(NextBatch next);
 std::string to_string(BedSettler settler);

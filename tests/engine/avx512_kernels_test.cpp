@@ -1,7 +1,7 @@
 // The AVX-512 loops (avx512_kernels.h) against the portable ones: the pair loop
 // (pair_entries.h) gives the same bits for every output, over entries that touch or not,
-// stick or slip, with and without shear history, under both tangential caps and the normal
-// clip; piles of discs, dumbbells and both step to the same bits with the AVX-512 pair loop
+// stick or slip, with and without shear history, under both normal models, both tangential
+// caps and the normal clip; piles of discs, dumbbells and both step to the same bits with the AVX-512 pair loop
 // and drift as without them.
 #include <algorithm>
 #include <cmath>
@@ -58,19 +58,18 @@ Entries MakeEntries(int n, std::uint32_t seed) {
   return s;
 }
 
-template <bool kCap>
+template <class Normal, bool kCap>
 void Portable(Entries& s, const ContactParams& p, double dt) {
-  PairEntries<kCap>(0, s.size(), s.i.data(), s.j.data(), s.reff.data(), s.meff.data(), s.sx.data(), s.sy.data(),
+  PairEntries<Normal, kCap>(0, s.size(), s.i.data(), s.j.data(), s.reff.data(), s.meff.data(), s.sx.data(), s.sy.data(),
                     s.fx.data(), s.fy.data(), s.c.data(), s.kin.data(), p, dt);
 }
 
-template <bool kCap>
+template <class Normal, bool kCap>
 void Simd(Entries& s, const ContactParams& p, double dt) {
-  const int done = PairEntriesAvx512<kCap>(0, s.size(), s.i.data(), s.j.data(), s.reff.data(), s.meff.data(),
-                                           s.sx.data(), s.sy.data(), s.fx.data(), s.fy.data(), s.c.data(),
-                                           s.kin.data(), p, dt);
+  const int done = PairEntriesAvx512(0, s.size(), s.i.data(), s.j.data(), s.reff.data(), s.meff.data(), s.sx.data(),
+                                     s.sy.data(), s.fx.data(), s.fy.data(), s.c.data(), s.kin.data(), p, dt);
   EXPECT_EQ(done, s.size() / 8 * 8);
-  PairEntries<kCap>(done, s.size(), s.i.data(), s.j.data(), s.reff.data(), s.meff.data(), s.sx.data(), s.sy.data(),
+  PairEntries<Normal, kCap>(done, s.size(), s.i.data(), s.j.data(), s.reff.data(), s.meff.data(), s.sx.data(), s.sy.data(),
                     s.fx.data(), s.fy.data(), s.c.data(), s.kin.data(), p, dt);
 }
 
@@ -79,9 +78,10 @@ bool SameBits(const A& a, const B& b) {  // (std::vector<double> or the world's 
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
 }
 
-template <bool kCap>
+template <class Normal, bool kCap>
 void ExpectSameBits(bool clip) {
   ContactParams p;
+  p.normal_model = Normal::kModel;
   p.liggghts_cap = kCap;
   p.clip_normal = clip;
   const double dt = 1e-4;
@@ -89,8 +89,8 @@ void ExpectSameBits(bool clip) {
   Entries simd = portable;
   // Two steps: the second starts from the history the first wrote.
   for (int step = 0; step < 2; ++step) {
-    Portable<kCap>(portable, p, dt);
-    Simd<kCap>(simd, p, dt);
+    Portable<Normal, kCap>(portable, p, dt);
+    Simd<Normal, kCap>(simd, p, dt);
   }
   EXPECT_TRUE(SameBits(portable.sx, simd.sx));
   EXPECT_TRUE(SameBits(portable.sy, simd.sy));
@@ -120,14 +120,18 @@ void ExpectSameBits(bool clip) {
 
 TEST(PairKernel, Avx512LoopGivesThePortableBitsWithTheLammpsCap) {
   if (!Avx512Available()) GTEST_SKIP() << "this CPU has no AVX-512F";
-  ExpectSameBits<false>(false);
-  ExpectSameBits<false>(true);
+  ExpectSameBits<HertzNormal, false>(false);
+  ExpectSameBits<HertzNormal, false>(true);
+  ExpectSameBits<HookeNormal, false>(false);
+  ExpectSameBits<HookeNormal, false>(true);
 }
 
 TEST(PairKernel, Avx512LoopGivesThePortableBitsWithTheLiggghtsCap) {
   if (!Avx512Available()) GTEST_SKIP() << "this CPU has no AVX-512F";
-  ExpectSameBits<true>(false);
-  ExpectSameBits<true>(true);
+  ExpectSameBits<HertzNormal, true>(false);
+  ExpectSameBits<HertzNormal, true>(true);
+  ExpectSameBits<HookeNormal, true>(false);
+  ExpectSameBits<HookeNormal, true>(true);
 }
 
 enum class PileOf { kDumbbells, kDiscs, kMixture };
@@ -137,12 +141,18 @@ enum class PileOf { kDumbbells, kDiscs, kMixture };
 // seventh body starts spinning fast (|w dt| >= 0.01: a rotation by libm, which takes its
 // group of eight out of the AVX-512 drift); some bodies are switched off for a while, some
 // for good.
-World Pile(bool avx512, PileOf bodies, bool liggghts_cap) {
+World Pile(bool avx512, PileOf bodies, bool liggghts_cap, NormalModel model = NormalModel::kHertz) {
   silo::SiloGeometry g;
   g.elements = {WallSegment(-6.5, 0, 6.5, 0), WallSegment(-6.5, 0, -6.5, 60), WallSegment(6.5, 0, 6.5, 60)};
   WorldParams p;
   p.avx512_kernels = avx512;
   p.pair.liggghts_cap = p.wall.liggghts_cap = liggghts_cap;
+  p.pair.normal_model = p.wall.normal_model = model;
+  if (model == NormalModel::kHooke)  // a linear spring as stiff at the start's overlaps as Hertz
+    for (ContactParams* c : {&p.pair, &p.wall}) {
+      c->kn = 2.0e4;
+      c->kt = 2.45e4;
+    }
   World w(p, {silo::MakeTemplate(DumbbellSpecies(), 1.0, 0), silo::MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
   for (int k = 0; k < 61; ++k) {
     const bool disc = bodies == PileOf::kDiscs || (bodies == PileOf::kMixture && k % 3 == 2);
@@ -165,19 +175,20 @@ World Pile(bool avx512, PileOf bodies, bool liggghts_cap) {
 TEST(Avx512Kernels, APileStepsToTheSameBitsWithAndWithout) {
   if (!Avx512Available()) GTEST_SKIP() << "this CPU has no AVX-512F";
   for (const PileOf bodies : {PileOf::kDumbbells, PileOf::kDiscs, PileOf::kMixture})
-    for (const bool cap : {false, true}) {
-      const World simd = Pile(true, bodies, cap), portable = Pile(false, bodies, cap);
-      const int what = static_cast<int>(bodies);
-      for (const auto member : {&World::bx_, &World::by_, &World::bth_, &World::bc_, &World::bs_, &World::bvx_,
-                                &World::bvy_, &World::bw_, &World::bfx_, &World::bfy_, &World::btq_, &World::dx_,
-                                &World::dy_, &World::dfx_, &World::dfy_, &World::dtz_})
-        EXPECT_TRUE(SameBits(simd.*member, portable.*member)) << "bodies " << what << " cap " << cap;
-      // The bodies fell onto each other (free fall alone: 0.045 d in the 3000 steps).
-      double fell = 0.0;
-      for (int b = 0; b < simd.body_count(); ++b)
-        if (b % 11 != 5 && b % 13 != 3) fell = std::max(fell, 0.6 + 1.05 * (b / 5) - simd.by_[b]);
-      EXPECT_GT(fell, 0.1) << "bodies " << what;
-    }
+    for (const bool cap : {false, true})
+      for (const NormalModel model : {NormalModel::kHertz, NormalModel::kHooke}) {
+        const World simd = Pile(true, bodies, cap, model), portable = Pile(false, bodies, cap, model);
+        const int what = static_cast<int>(bodies) + 10 * static_cast<int>(model);
+        for (const auto member : {&World::bx_, &World::by_, &World::bth_, &World::bc_, &World::bs_, &World::bvx_,
+                                  &World::bvy_, &World::bw_, &World::bfx_, &World::bfy_, &World::btq_, &World::dx_,
+                                  &World::dy_, &World::dfx_, &World::dfy_, &World::dtz_})
+          EXPECT_TRUE(SameBits(simd.*member, portable.*member)) << "bodies " << what << " cap " << cap;
+        // The bodies fell onto each other (free fall alone: 0.045 d in the 3000 steps).
+        double fell = 0.0;
+        for (int b = 0; b < simd.body_count(); ++b)
+          if (b % 11 != 5 && b % 13 != 3) fell = std::max(fell, 0.6 + 1.05 * (b / 5) - simd.by_[b]);
+        EXPECT_GT(fell, 0.1) << "bodies " << what;
+      }
 }
 
 }  // namespace

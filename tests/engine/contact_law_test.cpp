@@ -15,6 +15,16 @@ TEST(ContactLaw, NormalForceIsHertzWithDamping) {
   EXPECT_DOUBLE_EQ(NormalForce(delta, reff, meff, vn, p), expected);
 }
 
+TEST(ContactLaw, HookeIsLinearWithDampingAndNoOverlapScale) {
+  ContactParams p;
+  p.normal_model = NormalModel::kHooke;
+  p.mu = 1e9;  // never slips
+  const double delta = 1e-3, reff = 0.25, meff = 0.4, vn = -0.3, dt = 1e-4;
+  EXPECT_DOUBLE_EQ(NormalForce(delta, reff, meff, vn, p), p.kn * delta - meff * p.gamma_n * vn);
+  const Tangential t = TangentialForce(0.0, 1e-5, 1.0, 0.0, 0.0, 0.2, delta, reff, meff, 10.0, dt, p);
+  EXPECT_DOUBLE_EQ(t.fy, -(p.kt * (1e-5 + 0.2 * dt) + meff * p.gamma_t * 0.2));
+}
+
 TEST(ContactLaw, ClipNormalRemovesAttraction) {
   ContactParams p;
   const double delta = 1e-6, vn = 5.0;  // separating fast: damping beats the spring

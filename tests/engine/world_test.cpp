@@ -1,5 +1,5 @@
 // Dynamics of one or two bodies against closed forms and independent integrations:
-// restitution (RK4 of the Hertz-damped oscillator), friction on an incline, energy
+// restitution (RK4 of the Hertz-damped oscillator; Hooke's closed form), friction on an incline, energy
 // conservation, free rotation, obstacle deflection, free fall (docs/model.md).
 #include "engine/world.h"
 
@@ -10,6 +10,7 @@
 #include <numbers>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "world_parts.h"
 
@@ -81,6 +82,76 @@ TEST(World, DiscWallRestitutionMatchesIndependentOscillator) {
   const WorldParams p = Params(0.0);
   const double e_ref = RestitutionRk4(p.wall.kn, p.wall.gamma_n, 0.5, m, 1.0);
   EXPECT_NEAR(w.bvy_[a], e_ref, 0.01 * e_ref) << "e_ref=" << e_ref;
+}
+
+// Hooke (linear spring-dashpot, LAMMPS gran/hooke/history): m_eff delta'' = -K_n delta -
+// m_eff gamma_n delta' from delta = 0, delta' = v0 is delta = v0/w e^(-gamma_n t/2) sin(w t),
+// w = sqrt(K_n/m_eff - (gamma_n/2)^2): the contact lasts t_c = pi/w and the normal speed
+// comes back as e v0, e = exp(-gamma_n pi / (2 w)). The damping force jumps to m_eff gamma_n
+// v0 when the discs touch and from about as much when they part, and the step places each
+// jump within dt: e is off by up to gamma_n v0 dt (here 1e-3, at dt = 1e-5), the duration by
+// a step. Stiffness and damping chosen so that a contact lasts ~1400 steps.
+constexpr double kHookeDt = 1e-5;
+WorldParams HookeParams() {
+  WorldParams p = Params(0.0);
+  p.dt = kHookeDt;
+  for (ContactParams* c : {&p.pair, &p.wall}) {
+    c->normal_model = NormalModel::kHooke;
+    c->kn = 2.0e4;
+    c->gamma_n = 100.0;
+  }
+  return p;
+}
+double HookeOmega(double meff) {
+  const WorldParams p = HookeParams();
+  return std::sqrt(p.pair.kn / meff - 0.25 * p.pair.gamma_n * p.pair.gamma_n);
+}
+
+TEST(World, HookeDiscDiscCollisionHasTheAnalyticDurationAndRestitution) {
+  World w(HookeParams(), {silo::MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, silo::SiloGeometry{});
+  const int a = w.AddBody(0, -0.55, 0.0, 0.0);
+  const int b = w.AddBody(0, 0.55, 0.0, 0.0);
+  w.SetVelocity(a, 0.5, 0.0, 0.0);
+  w.SetVelocity(b, -0.5, 0.0, 0.0);
+  w.ComputeForces();
+  int touching = 0;
+  for (int s = 0; s < 20000; ++s) {
+    w.Step();
+    touching += w.bx_[b] - w.bx_[a] < 1.0;
+  }
+  const double meff = std::numbers::pi * 0.25 / 2, omega = HookeOmega(meff);
+  const double t_c = std::numbers::pi / omega, e = std::exp(-100.0 * std::numbers::pi / (2 * omega));
+  EXPECT_GT(t_c, 1000 * kHookeDt);
+  EXPECT_NEAR(touching * kHookeDt, t_c, 1.5 * kHookeDt) << "steps in contact " << touching;
+  EXPECT_NEAR(w.bvx_[b] - w.bvx_[a], e, 100.0 * kHookeDt) << "e=" << e;
+  // Hertz with the same constants gives another collision (the model is in use).
+  EXPECT_GT(std::fabs(e - RestitutionRk4(2.0e4, 100.0, 0.25, meff, 1.0)), 0.05);
+  EXPECT_NEAR(w.bvx_[a] + w.bvx_[b], 0.0, 1e-12);
+}
+
+TEST(World, TheSpecsNormalModelReachesPairsAndWalls) {
+  EXPECT_EQ(ParamsFromSpec(RunSpec::from_json(nlohmann::json::object())).pair.normal_model, NormalModel::kHertz);
+  const WorldParams p = ParamsFromSpec(RunSpec::from_json({{"contact", {{"normal_model", "hooke"}}}}));
+  EXPECT_EQ(p.pair.normal_model, NormalModel::kHooke);
+  EXPECT_EQ(p.wall.normal_model, NormalModel::kHooke);
+}
+
+TEST(World, HookeDiscWallCollisionHasTheAnalyticDurationAndRestitution) {
+  silo::SiloGeometry g;
+  g.elements.push_back(WallSegment(-5, 0, 5, 0));
+  World w(HookeParams(), {silo::MakeTemplate(DiscSpecies(1.0), 1.0, 0)}, g);
+  const int a = w.AddBody(0, 0.0, 0.6, 0.0);
+  w.SetVelocity(a, 0.0, -1.0, 0.0);
+  w.ComputeForces();
+  int touching = 0;
+  for (int s = 0; s < 20000; ++s) {
+    w.Step();
+    touching += w.by_[a] < 0.5;
+  }
+  const double m = std::numbers::pi * 0.25, omega = HookeOmega(m);  // the wall: m_eff = M_I
+  const double t_c = std::numbers::pi / omega, e = std::exp(-100.0 * std::numbers::pi / (2 * omega));
+  EXPECT_NEAR(touching * kHookeDt, t_c, 1.5 * kHookeDt) << "steps in contact " << touching;
+  EXPECT_NEAR(w.bvy_[a], e, 100.0 * kHookeDt) << "e=" << e;
 }
 
 // A dumbbell lying along an inclined wall: static friction holds it while tan(angle) < mu;

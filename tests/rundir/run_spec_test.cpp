@@ -177,6 +177,24 @@ TEST(RunSpecErrorTest, WhatTheLiggghtsBackendCannotDoIsRefusedAtPlanning) {
     "silo": {"side_outlets": [{"wall": "right", "bottom": 3, "width": 5}]}})")));
 }
 
+TEST(RunSpecTest, NormalModelIsHertzByDefaultAndHookeOnTheNativeEngineOnly) {
+  EXPECT_EQ(RunSpec::from_json(json::object()).contact.normal_model, NormalModel::kHertz);
+  EXPECT_FALSE(RunSpec::from_json(json::object()).to_json()["contact"].contains("normal_model"));
+  const RunSpec hooke = RunSpec::from_json(json::parse(R"({"contact": {"normal_model": "hooke"}})"));
+  EXPECT_EQ(hooke.contact.normal_model, NormalModel::kHooke);
+  EXPECT_EQ(hooke.to_json()["contact"]["normal_model"], "hooke");
+  EXPECT_EQ(RunSpec::from_json(hooke.to_json()).to_json(), hooke.to_json());
+  EXPECT_NE(hooke.bed_key(), RunSpec::from_json(json::object()).bed_key()) << "a Hooke bed is not a Hertz bed";
+  EXPECT_EQ(ErrorOf(json::parse(R"({"contact": {"normal_model": "hook"}})")).substr(0, 45),
+            "/contact/normal_model: must be one of \"hertz\"");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "lammps", "contact": {"normal_model": "hooke"}})")),
+            "/contact/normal_model: the LAMMPS backend writes pair gran/hertz/history only; hooke is the native "
+            "engine's (got \"hooke\", allowed: \"hertz\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "liggghts", "contact": {"normal_model": "hooke"}})")),
+            "/contact/normal_model: the LIGGGHTS backend writes model hertz/stiffness only; hooke is the native "
+            "engine's (got \"hooke\", allowed: \"hertz\")");
+}
+
 TEST(RunSpecErrorTest, SpeciesNameThatWouldBreakEventsCsv) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"name": "a,b"}]}})")),
             "/bodies/species/0/name: must be a non-empty name without commas, control characters or line breaks (it is "
@@ -300,7 +318,7 @@ TEST(RunSpecTable, CoversTheCanonicalSpecAndItsDefaults) {
   EXPECT_GT(checked, 40);
   // reinject_position, periodic_headroom, compress, output/format, output/contact_interval,
   // bed/time_step, bed/next_batch, bed/settled_by, on_clog and the five keys of discharge/unclog
-  EXPECT_EQ(left_out, 14);
+  EXPECT_EQ(left_out, 15);
 }
 
 TEST(RunSpecTable, EveryRowsTypeAndRangeIsEnforced) {
