@@ -396,6 +396,10 @@ std::string html_inline(const std::string& text) {
   std::string e = html_escape(text);
   e = std::regex_replace(e, std::regex("\\*\\*([^*]+)\\*\\*"), "<b>$1</b>");
   e = std::regex_replace(e, std::regex("`([^`]+)`"), "<code>$1</code>");
+  // Links within the report only: an anchor or a file beside report.html (relative, so the
+  // folder can be moved); anything with a scheme or a quote stays text.
+  e = std::regex_replace(e, std::regex("\\[([^\\]]+)\\]\\((#[A-Za-z0-9_.-]+|[A-Za-z0-9_][A-Za-z0-9_./-]*)\\)"),
+                         "<a href=\"$2\">$1</a>");
   return e;
 }
 

@@ -32,6 +32,7 @@ TEST(RenderReport, TablesFiguresAndCsv) {
   TempDir dir;
   Section s{"sec", "A section", {}};
   s.blocks.push_back(Text{"Some **bold** and `code` <tag>."});
+  s.blocks.push_back(Text{"See the [gallery](#gallery), [data](data/tab.csv) and [elsewhere](http://x.org)."});
   s.blocks.push_back(Table{"tab", "A table", {"name", "value"}, {{"x|y", "1,5"}}, {}});
   // Numbers to full precision in the CSV, an estimate in three columns named by the keys.
   s.blocks.push_back(Table{"numbers",
@@ -63,6 +64,9 @@ TEST(RenderReport, TablesFiguresAndCsv) {
   EXPECT_NE(html.find("<b>bold</b>"), std::string::npos);
   EXPECT_NE(html.find("<code>code</code>"), std::string::npos);
   EXPECT_NE(html.find("&lt;tag&gt;"), std::string::npos);
+  EXPECT_NE(html.find("<a href=\"#gallery\">gallery</a>"), std::string::npos);
+  EXPECT_NE(html.find("<a href=\"data/tab.csv\">data</a>"), std::string::npos);
+  EXPECT_NE(html.find("[elsewhere](http://x.org)"), std::string::npos);  // no links out of the report
   if (opt.figures) {
     EXPECT_EQ(r.figures_drawn, 1) << (r.problems.empty() ? "" : r.problems.front());
     EXPECT_NE(html.find("<svg"), std::string::npos);
