@@ -98,26 +98,18 @@ std::vector<std::pair<std::string, std::vector<nlohmann::json>>> read_only(const
 class Offers {
  public:
   explicit Offers(const nlohmann::json& campaign_spec) : spec_(campaign_spec) {}
-  std::vector<DistributionInfo> distributions() {
-    std::vector<DistributionInfo> out;
-    for (const Analysis* a : setup().list())
-      for (auto& d : a->distribution_names()) out.push_back(std::move(d));
-    return out;
-  }
-  std::vector<CurveInfo> curves() {
-    std::vector<CurveInfo> out;
-    for (const Analysis* a : setup().list())
-      for (auto& c : a->curve_names()) out.push_back(std::move(c));
-    return out;
-  }
-  std::vector<FieldInfo> fields() {
-    std::vector<FieldInfo> out;
-    for (const Analysis* a : setup().list())
-      for (auto& d : a->field_names()) out.push_back(std::move(d));
-    return out;
-  }
+  std::vector<DistributionInfo> distributions() { return all(&Analysis::distribution_names); }
+  std::vector<CurveInfo> curves() { return all(&Analysis::curve_names); }
+  std::vector<FieldInfo> fields() { return all(&Analysis::field_names); }
 
  private:
+  template <class Info>
+  std::vector<Info> all(std::vector<Info> (Analysis::*offers)() const) {
+    std::vector<Info> out;
+    for (const Analysis* a : setup().list())
+      for (Info& i : (a->*offers)()) out.push_back(std::move(i));
+    return out;
+  }
   const AnalysisSetup& setup() {
     if (!setup_) setup_ = std::make_unique<AnalysisSetup>(setup_analyses(spec_));
     return *setup_;
@@ -486,23 +478,33 @@ void distribution_figure(const CampaignAnalysis& ca, const FigureSpec& spec, Fig
   out.blocks.push_back(f);
 }
 
+// The first of the campaign's analyses that offers `name` among its distributions, curves or
+// fields (`offers`), with what it says of it.
+template <class Info>
+struct Offered {
+  std::size_t analysis;
+  Info info;
+};
+template <class Info>
+std::optional<Offered<Info>> find_offered(const CampaignAnalysis& ca, const std::string& name,
+                                          std::vector<Info> (Analysis::*offers)() const) {
+  for (std::size_t a = 0; ca.setup && a < ca.setup->analyses.size(); ++a)
+    for (Info& i : ((*ca.setup->analyses[a]).*offers)())
+      if (i.name == name) return Offered<Info>{a, std::move(i)};
+  return std::nullopt;
+}
+
 // A curve per datum that an analysis offers (kind "curves"), each from the runs behind the
 // datum merged (pooled points are one datum), with error bars where the curve has them.
 void curve_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
   const std::string where = spec.path + " (\"" + spec.name + "\")";
-  std::optional<std::size_t> source;
-  CurveInfo info;
-  for (std::size_t a = 0; ca.setup && a < ca.setup->analyses.size() && !source; ++a)
-    for (const CurveInfo& c : ca.setup->analyses[a]->curve_names())
-      if (c.name == spec.of) {
-        source = a;
-        info = c;
-        break;
-      }
-  if (!source) {
+  const std::optional<Offered<CurveInfo>> found = find_offered(ca, spec.of, &Analysis::curve_names);
+  if (!found) {
     out.blocks.push_back(Text{"**Not drawn:** " + where + ": no analysis offers the curve " + spec.of + "."});
     return;
   }
+  const std::size_t source = found->analysis;
+  const CurveInfo& info = found->info;
   Figure f;
   f.name = "figure-" + spec.name;
   f.title = spec.title.empty() ? info.title : spec.title;
@@ -515,7 +517,7 @@ void curve_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
   for (std::size_t i = 0; i < out.data.size(); ++i) {
     FigureDatum& d = out.data[i];
     const std::string label = datum_label(d, info.name);
-    const std::vector<CurvePoint> points = ca.setup->analyses[*source]->curve(spec.of, datum_results(ca, *source, d));
+    const std::vector<CurvePoint> points = ca.setup->analyses[source]->curve(spec.of, datum_results(ca, source, d));
     Series se;
     se.label = label;
     se.file_label = label;
@@ -610,20 +612,14 @@ namespace {
 void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
   const CampaignView& v = ca.view;
   const std::string where = spec.path + " (\"" + spec.name + "\")";
-  std::optional<std::size_t> source;
-  FieldInfo info;
-  for (std::size_t a = 0; ca.setup && a < ca.setup->analyses.size() && !source; ++a)
-    for (const FieldInfo& fi : ca.setup->analyses[a]->field_names())
-      if (fi.name == spec.field) {
-        source = a;
-        info = fi;
-        break;
-      }
-  if (!source) {
+  const std::optional<Offered<FieldInfo>> found = find_offered(ca, spec.field, &Analysis::field_names);
+  if (!found) {
     out.blocks.push_back(Text{"**Not drawn:** " + where + ": no analysis offers the field " + spec.field + "."});
     return;
   }
-  const Analysis& analysis = *ca.setup->analyses[*source];
+  const std::size_t source = found->analysis;
+  const FieldInfo& info = found->info;
+  const Analysis& analysis = *ca.setup->analyses[source];
   std::vector<std::string> missing;
   MapFigure m;
   m.name = "figure-" + spec.name;
@@ -662,15 +658,15 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
       std::stable_sort(runs.begin(), runs.end(),
                        [&](std::size_t a, std::size_t b) { return v.used[a].record->replica < v.used[b].record->replica; });
       for (std::size_t u : runs) {
-        if (u >= ca.results[*source].runs.size() || ca.results[*source].runs[u].is_null()) continue;
-        map = analysis.field(spec.field, {&ca.results[*source].runs[u]}, v.points[d.points.front()].spec);
+        if (u >= ca.results[source].runs.size() || ca.results[source].runs[u].is_null()) continue;
+        map = analysis.field(spec.field, {&ca.results[source].runs[u]}, v.points[d.points.front()].spec);
         if (map && map->nx > 0 && map->ny > 0) {
           one = " (replica " + std::to_string(v.used[u].record->replica) + ")";
           break;
         }
       }
     } else {
-      map = analysis.field(spec.field, datum_results(ca, *source, d), v.points[d.points.front()].spec);
+      map = analysis.field(spec.field, datum_results(ca, source, d), v.points[d.points.front()].spec);
     }
     if (!map || map->nx == 0 || map->ny == 0) {
       missing.push_back(label);
