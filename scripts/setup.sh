@@ -10,7 +10,7 @@ packages=(build-essential cmake pkg-config git libsqlite3-dev sqlite3 nlohmann-j
           libboost-dev libboost-filesystem-dev libgsl-dev libgtest-dev googletest
           liggghts openmpi-bin gnuplot-nox lammps zlib1g-dev libxxhash-dev
           libcairo2-dev ffmpeg python3-numpy python3-pandas python3-pytest python3-jsonschema python3-gsd slurmctld slurmd slurm-client munge
-          libpmix-dev)
+          libpmix-dev clang-format clang-tidy clang-tools)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

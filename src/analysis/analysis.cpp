@@ -7,7 +7,7 @@
 
 namespace granary::analysis {
 
-std::vector<const nlohmann::json*> AnalysisResults::of_point(std::size_t p) const {
+std::vector<const nlohmann::json*> AnalysisResults::OfPoint(std::size_t p) const {
   std::vector<const nlohmann::json*> out;
   if (!view || p >= view->points.size()) return out;
   for (std::size_t i : view->points[p].runs)
@@ -15,15 +15,15 @@ std::vector<const nlohmann::json*> AnalysisResults::of_point(std::size_t p) cons
   return out;
 }
 
-std::vector<PointMetric> Analysis::point_metrics(const AnalysisResults& results, std::size_t point) const {
-  return mean_over_runs(*this, results.of_point(point));
+std::vector<PointMetric> Analysis::PointMetrics(const AnalysisResults& results, std::size_t point) const {
+  return MeanOverRuns(*this, results.OfPoint(point));
 }
 
-std::vector<PointMetric> mean_over_runs(const Analysis& analysis, const std::vector<const nlohmann::json*>& runs) {
+std::vector<PointMetric> MeanOverRuns(const Analysis& analysis, const std::vector<const nlohmann::json*>& runs) {
   std::vector<PointMetric> out;
   std::vector<std::vector<double>> values;
   for (const nlohmann::json* r : runs) {
-    for (const Metric& m : analysis.run_metrics(*r)) {
+    for (const Metric& m : analysis.RunMetrics(*r)) {
       auto it = std::find_if(out.begin(), out.end(), [&](const PointMetric& p) { return p.name == m.name; });
       if (it == out.end()) {
         out.push_back({m.name, m.unit, kNaN, kNaN, 0, m.title, m.headline, ""});
@@ -34,7 +34,7 @@ std::vector<PointMetric> mean_over_runs(const Analysis& analysis, const std::vec
     }
   }
   for (std::size_t k = 0; k < out.size(); ++k) {
-    const MeanSe s = mean_se_finite(values[k]);
+    const MeanSe s = MeanSeFinite(values[k]);
     out[k].mean = s.mean;
     out[k].se = s.se;
     out[k].n = s.n;
@@ -42,48 +42,48 @@ std::vector<PointMetric> mean_over_runs(const Analysis& analysis, const std::vec
   return out;
 }
 
-const Metric* find_metric(const std::vector<Metric>& metrics, const std::string& name) {
+const Metric* FindMetric(const std::vector<Metric>& metrics, const std::string& name) {
   for (const Metric& m : metrics)
     if (m.name == name) return &m;
   return nullptr;
 }
 
-const PointMetric* find_metric(const std::vector<PointMetric>& metrics, const std::string& name) {
+const PointMetric* FindMetric(const std::vector<PointMetric>& metrics, const std::string& name) {
   for (const PointMetric& m : metrics)
     if (m.name == name) return &m;
   return nullptr;
 }
 
-nlohmann::json json_number(double value) { return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr); }
+nlohmann::json JsonNumber(double value) { return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr); }
 
-double number_of(const nlohmann::json& value) { return value.is_number() ? value.get<double>() : kNaN; }
+double NumberOf(const nlohmann::json& value) { return value.is_number() ? value.get<double>() : kNaN; }
 
-double number_at(const nlohmann::json& object, const char* key) {
-  return object.is_object() && object.contains(key) ? number_of(object.at(key)) : kNaN;
+double NumberAt(const nlohmann::json& object, const char* key) {
+  return object.is_object() && object.contains(key) ? NumberOf(object.at(key)) : kNaN;
 }
 
-nlohmann::json to_json(const MeanSe& m) { return {{"mean", json_number(m.mean)}, {"se", json_number(m.se)}, {"n", m.n}}; }
+nlohmann::json to_json(const MeanSe& m) { return {{"mean", JsonNumber(m.mean)}, {"se", JsonNumber(m.se)}, {"n", m.n}}; }
 
-MeanSe mean_se_of(const nlohmann::json& j) {
+MeanSe MeanSeOf(const nlohmann::json& j) {
   if (!j.is_object()) return {};
-  return {number_at(j, "mean"), number_at(j, "se"), j.value("n", 0)};
+  return {NumberAt(j, "mean"), NumberAt(j, "se"), j.value("n", 0)};
 }
 
-std::vector<double> numbers_of(const nlohmann::json& array) {
+std::vector<double> NumbersOf(const nlohmann::json& array) {
   std::vector<double> out;
   if (!array.is_array()) return out;
   out.reserve(array.size());
-  for (const auto& v : array) out.push_back(number_of(v));
+  for (const auto& v : array) out.push_back(NumberOf(v));
   return out;
 }
 
-nlohmann::json json_numbers(const std::vector<double>& values) {
+nlohmann::json JsonNumbers(const std::vector<double>& values) {
   nlohmann::json out = nlohmann::json::array();
-  for (double v : values) out.push_back(json_number(v));
+  for (double v : values) out.push_back(JsonNumber(v));
   return out;
 }
 
-std::string string_at(const nlohmann::json& array, std::size_t k) {
+std::string StringAt(const nlohmann::json& array, std::size_t k) {
   return array.is_array() && k < array.size() && array[k].is_string() ? array[k].get<std::string>() : "";
 }
 

@@ -33,7 +33,7 @@ namespace granary::analysis {
 struct CampaignView;
 
 // One number of one run. `name` is a column of the export and a key of the database
-// ([a-z0-9_]); per-outlet variants end in outlet_suffix(k).
+// ([a-z0-9_]); per-outlet variants end in OutletSuffix(k).
 struct Metric {
   std::string name;
   std::string unit;                   // reduced units of docs/model.md: "bodies/sqrt(d/g)", "1", ...
@@ -55,7 +55,7 @@ struct PointMetric {
   bool headline = false;
   std::string note;
   bool compare = true;                // compared across engines (counts of runs are not)
-  MeanSe estimate() const { return {mean, se, n}; }
+  MeanSe Estimate() const { return {mean, se, n}; }
 };
 
 // Options of the pass that several analyses share (/report/window, clog_gap, frame_stride,
@@ -78,7 +78,7 @@ struct PassUse {
 struct TimeWindow {
   double start = -std::numeric_limits<double>::infinity();
   double end = std::numeric_limits<double>::infinity();
-  bool contains(double t) const { return t >= start && t <= end; }
+  bool Contains(double t) const { return t >= start && t <= end; }
 };
 
 // What the pass knows of a run before any analysis starts: the run directory's summary, spec
@@ -132,11 +132,11 @@ class RunAccumulator {
   virtual ~RunAccumulator() = default;
   // Asked once, before the first frame. The pass applies frame_stride and max_frames per
   // accumulator, counting the frames inside its windows.
-  virtual FrameRequest frames() const { return {}; }
-  virtual void add_frame(const FrameView& frame) { (void)frame; }
+  virtual FrameRequest Frames() const { return {}; }
+  virtual void AddFrame(const FrameView& frame) { (void)frame; }
   // The per-run result. A key "notes" (array of strings) is shown beside the run in the report;
   // kRecompute: true has the next pass compute it again instead of reading the cache.
-  virtual nlohmann::json finish() = 0;
+  virtual nlohmann::json Finish() = 0;
 };
 
 // One analysis' per-run results over the used runs of a campaign (CampaignView::used order;
@@ -145,7 +145,7 @@ struct AnalysisResults {
   const CampaignView* view = nullptr;
   std::vector<nlohmann::json> runs;
   // The results of the used runs of point p (CampaignView::points order).
-  std::vector<const nlohmann::json*> of_point(std::size_t p) const;
+  std::vector<const nlohmann::json*> OfPoint(std::size_t p) const;
 };
 
 // A clog an engine kept (clog_frames.dump) drawn to scale around its outlet, the bodies in
@@ -223,53 +223,53 @@ struct FieldMap {
   // every `arrow_spacing` d; the figure scales them to that spacing.
   std::vector<std::array<double, 4>> arrows;
   double arrow_spacing = 0.0;
-  double x(int i) const { return x0 + i * spacing; }
-  double y(int j) const { return y0 + j * spacing; }
-  double at(int i, int j) const { return values[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i)]; }
+  double X(int i) const { return x0 + i * spacing; }
+  double Y(int j) const { return y0 + j * spacing; }
+  double At(int i, int j) const { return values[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i)]; }
 };
 
 class Analysis {
  public:
   virtual ~Analysis() = default;
-  virtual std::string key() const = 0;
+  virtual std::string Key() const = 0;
   // Bump when the per-run results of the same inputs change: cached results become stale.
-  virtual int version() const = 0;
+  virtual int Version() const = 0;
   // The options the per-run results depend on (canonical JSON); part of the cache key. Options
   // that only change aggregation or the section (fit models, discard rules) stay out of it.
-  virtual nlohmann::json run_options() const { return nullptr; }
-  virtual PassUse pass_use() const { return {}; }
-  virtual std::unique_ptr<RunAccumulator> start(const RunView& run) const = 0;
-  virtual std::vector<Metric> run_metrics(const nlohmann::json& result) const = 0;
+  virtual nlohmann::json RunOptions() const { return nullptr; }
+  virtual PassUse PassOptionsUsed() const { return {}; }
+  virtual std::unique_ptr<RunAccumulator> Start(const RunView& run) const = 0;
+  virtual std::vector<Metric> RunMetrics(const nlohmann::json& result) const = 0;
   // Default: every per-run metric as mean ± standard error over the point's runs where it is
   // finite (n = those runs).
-  virtual std::vector<PointMetric> point_metrics(const AnalysisResults& results, std::size_t point) const;
-  virtual std::optional<Section> section(const SectionInput& input) const {
+  virtual std::vector<PointMetric> PointMetrics(const AnalysisResults& results, std::size_t point) const;
+  virtual std::optional<Section> BuildSection(const SectionInput& input) const {
     (void)input;
     return std::nullopt;
   }
   // Distributions, curves and fields any figure of /report/figures may ask for by name (figures.h);
   // an analysis that offers some overrides these pairs, in its own file pair only.
-  virtual std::vector<DistributionInfo> distribution_names() const { return {}; }
-  // The distribution `name` (one of distribution_names()) of one run's result; empty if the
+  virtual std::vector<DistributionInfo> DistributionNames() const { return {}; }
+  // The distribution `name` (one of DistributionNames()) of one run's result; empty if the
   // run has none.
-  virtual Samples distribution(const std::string& name, const nlohmann::json& result) const {
+  virtual Samples Distribution(const std::string& name, const nlohmann::json& result) const {
     (void)name;
     (void)result;
     return {};
   }
-  virtual std::vector<CurveInfo> curve_names() const { return {}; }
-  // The curve `name` (one of curve_names()) from these runs' results merged; empty if they have
+  virtual std::vector<CurveInfo> CurveNames() const { return {}; }
+  // The curve `name` (one of CurveNames()) from these runs' results merged; empty if they have
   // none of it.
-  virtual std::vector<CurvePoint> curve(const std::string& name, const std::vector<const nlohmann::json*>& results) const {
+  virtual std::vector<CurvePoint> Curve(const std::string& name, const std::vector<const nlohmann::json*>& results) const {
     (void)name;
     (void)results;
     return {};
   }
-  virtual std::vector<FieldInfo> field_names() const { return {}; }
-  // The field `name` (one of field_names()) from these runs' results merged (the replicas of a
+  virtual std::vector<FieldInfo> FieldNames() const { return {}; }
+  // The field `name` (one of FieldNames()) from these runs' results merged (the replicas of a
   // point, or several points pooled); `run_spec` a run spec of them (the silo drawn over it).
   // nullopt if none of them has it, or their grids differ.
-  virtual std::optional<FieldMap> field(const std::string& name, const std::vector<const nlohmann::json*>& results,
+  virtual std::optional<FieldMap> Field(const std::string& name, const std::vector<const nlohmann::json*>& results,
                                         const nlohmann::json& run_spec) const {
     (void)name;
     (void)results;
@@ -279,21 +279,21 @@ class Analysis {
 };
 
 // Mean ± se over runs of each metric name, in first-appearance order (the default aggregation).
-std::vector<PointMetric> mean_over_runs(const Analysis& analysis, const std::vector<const nlohmann::json*>& runs);
+std::vector<PointMetric> MeanOverRuns(const Analysis& analysis, const std::vector<const nlohmann::json*>& runs);
 
 // The metric called `name` of a list, or nullptr.
-const Metric* find_metric(const std::vector<Metric>& metrics, const std::string& name);
-const PointMetric* find_metric(const std::vector<PointMetric>& metrics, const std::string& name);
+const Metric* FindMetric(const std::vector<Metric>& metrics, const std::string& name);
+const PointMetric* FindMetric(const std::vector<PointMetric>& metrics, const std::string& name);
 
 // JSON numbers with NaN as null (JSON has no NaN), and back.
-nlohmann::json json_number(double value);
-double number_of(const nlohmann::json& value);
-double number_at(const nlohmann::json& object, const char* key);
+nlohmann::json JsonNumber(double value);
+double NumberOf(const nlohmann::json& value);
+double NumberAt(const nlohmann::json& object, const char* key);
 nlohmann::json to_json(const MeanSe& m);
-MeanSe mean_se_of(const nlohmann::json& j);
-std::vector<double> numbers_of(const nlohmann::json& array);
-nlohmann::json json_numbers(const std::vector<double>& values);
+MeanSe MeanSeOf(const nlohmann::json& j);
+std::vector<double> NumbersOf(const nlohmann::json& array);
+nlohmann::json JsonNumbers(const std::vector<double>& values);
 // The k-th string of a JSON array, or "" (outlet labels of a result).
-std::string string_at(const nlohmann::json& array, std::size_t k);
+std::string StringAt(const nlohmann::json& array, std::size_t k);
 
 }  // namespace granary::analysis

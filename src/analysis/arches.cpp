@@ -33,7 +33,7 @@ struct Bodies {
     for (std::size_t i = 0; i < d.size(); ++i) discs[index.at(d[i].mol)].push_back(i);
     for (auto& v : discs) std::sort(v.begin(), v.end(), [&](std::size_t a, std::size_t b) { return d[a].id < d[b].id; });
   }
-  const rundir::Body* find(std::int64_t id) const {
+  const rundir::Body* Find(std::int64_t id) const {
     const auto it = index.find(id);
     return it == index.end() ? nullptr : &list[it->second];
   }
@@ -123,16 +123,16 @@ bool Stretch(const std::vector<Item>& items, std::vector<Item>& stretch) {
 
 }  // namespace
 
-silo::SiloGeometry silo_of(const nlohmann::json& spec, double top) {
+silo::SiloGeometry SiloOf(const nlohmann::json& spec, double top) {
   try {
-    const RunSpec rs = RunSpec::from_json(spec);
+    const RunSpec rs = RunSpec::FromJson(spec);
     return silo::BuildGeometry(rs.silo, rs.silo.height > 0 ? rs.silo.height : top);
   } catch (const std::exception& e) {
     throw std::invalid_argument(std::string("the run's spec does not describe a silo: ") + e.what());
   }
 }
 
-std::vector<double> body_pressures(const rundir::Frame& frame, const rundir::ContactFrame& contacts) {
+std::vector<double> BodyPressures(const rundir::Frame& frame, const rundir::ContactFrame& contacts) {
   const Bodies b(frame.discs);
   std::vector<double> virial(b.list.size(), 0.0);
   for (const rundir::ContactRow& c : contacts.contacts) {
@@ -150,7 +150,7 @@ std::vector<double> body_pressures(const rundir::Frame& frame, const rundir::Con
   return p;
 }
 
-ContactTypes contact_types(const rundir::Frame& frame, const rundir::ContactFrame& contacts) {
+ContactTypes CountContactTypes(const rundir::Frame& frame, const rundir::ContactFrame& contacts) {
   const Bodies b(frame.discs);
   ContactTypes t;
   for (const rundir::ContactRow& c : contacts.contacts) {
@@ -166,17 +166,17 @@ ContactTypes contact_types(const rundir::Frame& frame, const rundir::ContactFram
   return t;
 }
 
-ClogArches analyse_clog(const rundir::ClogState& clog, const silo::SiloGeometry& silo) {
+ClogArches AnalyseClog(const rundir::ClogState& clog, const silo::SiloGeometry& silo) {
   const std::vector<rundir::Disc>& discs = clog.frame.discs;
   ClogArches out;
   out.timestep = clog.frame.timestep;
   out.time = clog.frame.time;
-  out.contact_types = contact_types(clog.frame, clog.contacts);
+  out.contact_types = CountContactTypes(clog.frame, clog.contacts);
   const Bodies b(discs);
   out.bodies = static_cast<int>(b.list.size());
   if (discs.empty()) return out;
-  const std::vector<BodyAxis> axes = body_axes(discs);
-  const std::vector<double> pressure = body_pressures(clog.frame, clog.contacts);
+  const std::vector<BodyAxis> axes = BodyAxes(discs);
+  const std::vector<double> pressure = BodyPressures(clog.frame, clog.contacts);
 
   // The contact network: which bodies touch (the contact rows), and where each touches a wall or
   // an obstacle (from the geometry: LIGGGHTS reports wall contacts only with mesh walls).
@@ -271,11 +271,11 @@ ClogArches analyse_clog(const rundir::ClogState& clog, const silo::SiloGeometry&
           if (it == neighbours.end()) continue;
           std::vector<std::int64_t> near = it->second;
           std::stable_sort(near.begin(), near.end(), [&](std::int64_t a, std::int64_t z) {
-            const rundir::Body &ba = *b.find(a), &bz = *b.find(z);
+            const rundir::Body &ba = *b.Find(a), &bz = *b.Find(z);
             return std::hypot(ba.x - f.cx, ba.y - f.cy) < std::hypot(bz.x - f.cx, bz.y - f.cy);
           });
           for (std::int64_t n : near)
-            if (b.find(n) && parent.emplace(n, id).second) next.push_back(n);
+            if (b.Find(n) && parent.emplace(n, id).second) next.push_back(n);
         }
         level = std::move(next);
       }
@@ -342,7 +342,7 @@ ClogArches analyse_clog(const rundir::ClogState& clog, const silo::SiloGeometry&
       ab.y = body.y;
       ab.s = (body.x - f.cx) * f.ax + (body.y - f.cy) * f.ay;
       ab.h = (body.x - f.cx) * f.nx + (body.y - f.cy) * f.ny;
-      ab.theta = angular_position(ab.s, ab.h);
+      ab.theta = AngularPosition(ab.s, ab.h);
       ab.axis = axes[bi].angle;
       ab.pressure = pressure[bi];
       arch.bodies.push_back(ab);
@@ -390,10 +390,10 @@ ClogArches analyse_clog(const rundir::ClogState& clog, const silo::SiloGeometry&
   return out;
 }
 
-ClogArches analyse_clog(const rundir::ClogState& clog, const nlohmann::json& spec) {
+ClogArches AnalyseClog(const rundir::ClogState& clog, const nlohmann::json& spec) {
   double top = 0;
   for (const rundir::Disc& d : clog.frame.discs) top = std::max(top, d.y + d.radius);
-  return analyse_clog(clog, silo_of(spec, top + 1));
+  return AnalyseClog(clog, SiloOf(spec, top + 1));
 }
 
 }  // namespace granary::analysis
@@ -431,7 +431,7 @@ nlohmann::json to_json(const ClogArches& clog) {
           {"arches", arches}};
 }
 
-ClogArches clog_arches_from_json(const nlohmann::json& j) {
+ClogArches ClogArchesFromJson(const nlohmann::json& j) {
   ClogArches c;
   c.timestep = j.value("timestep", std::int64_t{0});
   c.time = NumAt(j, "time");
@@ -470,7 +470,7 @@ ClogArches clog_arches_from_json(const nlohmann::json& j) {
   return c;
 }
 
-ArchSummary summarize_arches(const std::vector<const ClogArches*>& clogs, const ArchSummaryOptions& o) {
+ArchSummary SummarizeArches(const std::vector<const ClogArches*>& clogs, const ArchSummaryOptions& o) {
   ArchSummary s;
   std::vector<double> n, width, height, perimeter, cp, elongated, pressure, angle, concave, dead;
   std::vector<double> ss, ls, ll, other;
@@ -482,8 +482,8 @@ ArchSummary summarize_arches(const std::vector<const ClogArches*>& clogs, const 
     ++s.clogs;
     s.sealed += static_cast<int>(c->sealed_outlets.size());
     const ContactTypes& t = c->contact_types;
-    if (t.total() > 0) {
-      const double total = t.total();
+    if (t.Total() > 0) {
+      const double total = t.Total();
       ss.push_back(t.small_small / total);
       ls.push_back(t.large_small / total);
       ll.push_back(t.large_large / total);
@@ -518,16 +518,16 @@ ArchSummary summarize_arches(const std::vector<const ClogArches*>& clogs, const 
       }
     }
   }
-  s.n = mean_se_finite(n);
-  s.width = mean_se_finite(width);
-  s.height = mean_se_finite(height);
-  s.perimeter = mean_se_finite(perimeter);
-  s.c_over_p = mean_se_finite(cp);
-  s.elongated_fraction = mean_se_finite(elongated);
-  s.mean_pressure = mean_se_finite(pressure);
-  s.max_angle = mean_se_finite(angle);
-  s.concave = mean_se_finite(concave);
-  s.dead_ends = mean_se_finite(dead);
+  s.n = MeanSeFinite(n);
+  s.width = MeanSeFinite(width);
+  s.height = MeanSeFinite(height);
+  s.perimeter = MeanSeFinite(perimeter);
+  s.c_over_p = MeanSeFinite(cp);
+  s.elongated_fraction = MeanSeFinite(elongated);
+  s.mean_pressure = MeanSeFinite(pressure);
+  s.max_angle = MeanSeFinite(angle);
+  s.concave = MeanSeFinite(concave);
+  s.dead_ends = MeanSeFinite(dead);
   auto sd = [](const MeanSe& m) { return m.n >= 2 ? m.se * std::sqrt(static_cast<double>(m.n)) : kNaN; };
   s.width_sd = sd(s.width);
   s.height_sd = sd(s.height);
@@ -535,18 +535,18 @@ ArchSummary summarize_arches(const std::vector<const ClogArches*>& clogs, const 
   for (int k = 0; k < tb; ++k) {
     ThetaBin bin;
     bin.theta = (k + 0.5) * kPi / tb;
-    bin.pressure = mean_se_finite(theta_pressure[static_cast<std::size_t>(k)]);
+    bin.pressure = MeanSeFinite(theta_pressure[static_cast<std::size_t>(k)]);
     const std::vector<int>& axes = theta_axes[static_cast<std::size_t>(k)];
     const auto most = std::max_element(axes.begin(), axes.end());
     for (int c : axes) bin.elongated += c;
     if (bin.elongated > 0) bin.axis_mode = (static_cast<double>(most - axes.begin()) + 0.5) * kPi / ab;
     s.theta.push_back(bin);
   }
-  for (const auto& [size, p] : by_n) s.pressure_by_n.push_back({size, mean_se(p)});
-  s.small_small = mean_se(ss);
-  s.large_small = mean_se(ls);
-  s.large_large = mean_se(ll);
-  s.other = mean_se(other);
+  for (const auto& [size, p] : by_n) s.pressure_by_n.push_back({size, MeanAndSe(p)});
+  s.small_small = MeanAndSe(ss);
+  s.large_small = MeanAndSe(ls);
+  s.large_large = MeanAndSe(ll);
+  s.other = MeanAndSe(other);
   return s;
 }
 

@@ -65,7 +65,7 @@ struct Arch {
 // a contact that involves a disc alone or a rod's disc counts as `other`.
 struct ContactTypes {
   int small_small = 0, large_small = 0, large_large = 0, other = 0;
-  int total() const { return small_small + large_small + large_large + other; }
+  int Total() const { return small_small + large_small + large_large + other; }
 };
 
 struct ClogArches {
@@ -79,26 +79,26 @@ struct ClogArches {
 
 // The silo of a resolved run spec (run.json) with side walls up to `top`; throws
 // std::invalid_argument naming what is wrong with the spec.
-silo::SiloGeometry silo_of(const nlohmann::json& spec, double top);
+silo::SiloGeometry SiloOf(const nlohmann::json& spec, double top);
 
 // Per-body pressure from the per-disc stress of eq. 6.1 over pair contacts only (as the thesis),
 // with the sign of LAMMPS' compute stress/atom so that compression is positive:
 // P = sum over the body's pair contacts of (r_i - r_j) . F_i / (4 A), r_i and r_j the touching
 // discs' centres, F_i the force on this body's disc, A the body's area (sum pi r^2 of its discs).
 // In the order of rundir::BodiesOf(frame.discs) (by body id).
-std::vector<double> body_pressures(const rundir::Frame& frame, const rundir::ContactFrame& contacts);
+std::vector<double> BodyPressures(const rundir::Frame& frame, const rundir::ContactFrame& contacts);
 
-ContactTypes contact_types(const rundir::Frame& frame, const rundir::ContactFrame& contacts);
+ContactTypes CountContactTypes(const rundir::Frame& frame, const rundir::ContactFrame& contacts);
 
 // Everything above for one clog, in `silo`; or in the silo of the run's spec (silo_of, with
 // side walls above the clog's highest disc).
-ClogArches analyse_clog(const rundir::ClogState& clog, const silo::SiloGeometry& silo);
-ClogArches analyse_clog(const rundir::ClogState& clog, const nlohmann::json& spec);
+ClogArches AnalyseClog(const rundir::ClogState& clog, const silo::SiloGeometry& silo);
+ClogArches AnalyseClog(const rundir::ClogState& clog, const nlohmann::json& spec);
 
 // The clogs of a run as JSON (what an analysis caches per run) and back: every number, the
 // arch bodies with their id, type, discs, s, h, theta, axis and pressure (positions x, y too).
 nlohmann::json to_json(const ClogArches& clog);
-ClogArches clog_arches_from_json(const nlohmann::json& j);
+ClogArches ClogArchesFromJson(const nlohmann::json& j);
 
 // Arches pooled over clogs (a run's, or every replica's of a sweep point): the thesis averages
 // over clogged states (ch. 4: at least 100, ch. 6: 100), so means are over arches, n = arches.
@@ -131,6 +131,6 @@ struct ArchSummary {
   // Contact types over the clogged systems (fig. 6.8): each clog's fractions, mean +- se over clogs.
   MeanSe small_small, large_small, large_large, other;
 };
-ArchSummary summarize_arches(const std::vector<const ClogArches*>& clogs, const ArchSummaryOptions& options = {});
+ArchSummary SummarizeArches(const std::vector<const ClogArches*>& clogs, const ArchSummaryOptions& options = {});
 
 }  // namespace granary::analysis

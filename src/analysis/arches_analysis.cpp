@@ -19,24 +19,24 @@ constexpr int kThesisClogs = 100;
 double Degrees(double radians) { return radians * 180 / kPi; }
 
 // The arches of every clog of these runs, pooled.
-ArchSummary runs_summary(const std::vector<const nlohmann::json*>& runs, const ArchSummaryOptions& options) {
+ArchSummary RunsSummary(const std::vector<const nlohmann::json*>& runs, const ArchSummaryOptions& options) {
   std::vector<ClogArches> clogs;
   for (const nlohmann::json* r : runs)
-    for (ClogArches& c : clogs_of(*r)) clogs.push_back(std::move(c));
+    for (ClogArches& c : ClogsOf(*r)) clogs.push_back(std::move(c));
   std::vector<const ClogArches*> list;
   for (const ClogArches& c : clogs) list.push_back(&c);
-  return summarize_arches(list, options);
+  return SummarizeArches(list, options);
 }
 
 // The arches of every clog of every replica of point p, pooled.
-ArchSummary point_summary(const AnalysisResults& results, std::size_t p, const ArchSummaryOptions& options) {
-  return runs_summary(results.of_point(p), options);
+ArchSummary PointSummary(const AnalysisResults& results, std::size_t p, const ArchSummaryOptions& options) {
+  return RunsSummary(results.OfPoint(p), options);
 }
 
 class ArchesAccumulator : public RunAccumulator {
  public:
   explicit ArchesAccumulator(const RunView& run) : run_(run.data) {}
-  nlohmann::json finish() override { return arches_run_result(*run_); }
+  nlohmann::json Finish() override { return ArchesRunResult(*run_); }
 
  private:
   const rundir::RunData* run_;
@@ -45,64 +45,64 @@ class ArchesAccumulator : public RunAccumulator {
 class ArchesAnalysis : public Analysis {
  public:
   explicit ArchesAnalysis(ArchesOptions options) : o_(options) {}
-  std::string key() const override { return "arches"; }
-  int version() const override { return 1; }
-  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+  std::string Key() const override { return "arches"; }
+  int Version() const override { return 1; }
+  std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<ArchesAccumulator>(run);
   }
 
   // Means over the run's arches, se over them.
-  std::vector<Metric> run_metrics(const nlohmann::json& result) const override {
+  std::vector<Metric> RunMetrics(const nlohmann::json& result) const override {
     if (!result.value("present", false)) return {};
-    const std::vector<ClogArches> clogs = clogs_of(result);
+    const std::vector<ClogArches> clogs = ClogsOf(result);
     std::vector<const ClogArches*> list;
     for (const ClogArches& c : clogs) list.push_back(&c);
-    const ArchSummary s = summarize_arches(list, o_.summary);
+    const ArchSummary s = SummarizeArches(list, o_.summary);
     std::vector<Metric> m = {{"arches", "arches", static_cast<double>(s.arches), kNaN, "arches in the kept clogs", false},
                              {"obstacle_arches", "arches", static_cast<double>(s.obstacle_arches), kNaN,
                               "arches through an obstacle", false}};
-    for (const auto& [name, unit, estimate, title, headline] : means(s))
+    for (const auto& [name, unit, estimate, title, headline] : Means(s))
       m.push_back({name, unit, estimate.mean, estimate.se, title, headline});
     return m;
   }
 
   // Pooled over the arches of every replica (the thesis averages over clogged states): n = arches.
-  std::vector<PointMetric> point_metrics(const AnalysisResults& results, std::size_t point) const override {
+  std::vector<PointMetric> PointMetrics(const AnalysisResults& results, std::size_t point) const override {
     bool present = false;
-    for (const nlohmann::json* r : results.of_point(point)) present = present || r->value("present", false);
+    for (const nlohmann::json* r : results.OfPoint(point)) present = present || r->value("present", false);
     if (!present) return {};
-    const ArchSummary s = point_summary(results, point, o_.summary);
+    const ArchSummary s = PointSummary(results, point, o_.summary);
     const std::string note =
         s.arches < kThesisClogs ? "fewer than " + std::to_string(kThesisClogs) + " arches (the thesis averages >= 100)" : "";
     std::vector<PointMetric> m = {
         {"arches", "arches", static_cast<double>(s.arches), kNaN, s.clogs, "arches in the kept clogs (n = clogs)", false, "", false},
         {"obstacle_arches", "arches", static_cast<double>(s.obstacle_arches), kNaN, s.clogs, "arches through an obstacle",
          false, "", false}};
-    for (const auto& [name, unit, estimate, title, headline] : means(s))
+    for (const auto& [name, unit, estimate, title, headline] : Means(s))
       m.push_back({name, unit, estimate.mean, estimate.se, estimate.n, title, headline, note});
     m.push_back({"arch_width_sd", "d", s.width_sd, kNaN, s.width.n, "standard deviation of w (table 3.1)", false, note});
     m.push_back({"arch_height_sd", "d", s.height_sd, kNaN, s.height.n, "standard deviation of h (table 3.1)", false, note});
     return m;
   }
 
-  std::optional<Section> section(const SectionInput& in) const override;
+  std::optional<Section> BuildSection(const SectionInput& in) const override;
 
   // The arch sizes N_t, one per arch of the kept clogs (the inset of thesis fig. 6.9).
-  std::vector<DistributionInfo> distribution_names() const override { return {{"arch_sizes", "bodies in an arch N_t", "bodies"}}; }
-  Samples distribution(const std::string& name, const nlohmann::json& result) const override {
+  std::vector<DistributionInfo> DistributionNames() const override { return {{"arch_sizes", "bodies in an arch N_t", "bodies"}}; }
+  Samples Distribution(const std::string& name, const nlohmann::json& result) const override {
     if (name != "arch_sizes") return {};
-    return {runs_summary({&result}, o_.summary).n_values, {}};
+    return {RunsSummary({&result}, o_.summary).n_values, {}};
   }
   // Per angular position of the arch bodies (figs. 6.6, 6.7) and per arch size (fig. 6.9), from
   // the arches of the runs given pooled, as the section draws them for the points it picks.
-  std::vector<CurveInfo> curve_names() const override {
+  std::vector<CurveInfo> CurveNames() const override {
     return {{"arch_pressure_theta", "Pressure of arch bodies against their angular position", "theta (degrees)", "P (rho g d)", false},
             {"arch_axis_mode_theta", "Most frequent axis angle of arch bodies against their angular position",
              "theta (degrees)", "mode of the axis angle psi (degrees)", true},
             {"arch_pressure_n", "Mean arch pressure against the arch's size", "N_t (bodies)", "<P> (rho g d)", false}};
   }
-  std::vector<CurvePoint> curve(const std::string& name, const std::vector<const nlohmann::json*>& results) const override {
-    const ArchSummary a = runs_summary(results, o_.summary);
+  std::vector<CurvePoint> Curve(const std::string& name, const std::vector<const nlohmann::json*>& results) const override {
+    const ArchSummary a = RunsSummary(results, o_.summary);
     std::vector<CurvePoint> out;
     if (name == "arch_pressure_theta" || name == "arch_axis_mode_theta")
       for (const ThetaBin& b : a.theta) {
@@ -125,7 +125,7 @@ class ArchesAnalysis : public Analysis {
     const char* title;
     bool headline;
   };
-  static std::vector<Mean> means(const ArchSummary& s) {
+  static std::vector<Mean> Means(const ArchSummary& s) {
     return {{"arch_n", "bodies", s.n, "bodies in an arch N_t", true},
             {"arch_width", "d", s.width, "arch width w", false},
             {"arch_height", "d", s.height, "arch height h", false},
@@ -134,19 +134,19 @@ class ArchesAnalysis : public Analysis {
             {"arch_elongated_fraction", "1", s.elongated_fraction, "elongated bodies in an arch X^arch", false},
             {"arch_pressure", "rho g d", s.mean_pressure, "mean pressure of an arch <P>", false}};
   }
-  void add_pictures(const SectionInput& in, const std::vector<ArchSummary>& sums, Section& s) const;
+  void AddPictures(const SectionInput& in, const std::vector<ArchSummary>& sums, Section& s) const;
 
   ArchesOptions o_;
 };
 
-std::optional<Section> ArchesAnalysis::section(const SectionInput& in) const {
+std::optional<Section> ArchesAnalysis::BuildSection(const SectionInput& in) const {
   const CampaignView& v = in.view;
   std::vector<ArchSummary> sums;
   bool any_files = false, any = false;
   for (std::size_t p = 0; p < v.points.size(); ++p) {
-    sums.push_back(point_summary(in.results, p, o_.summary));
+    sums.push_back(PointSummary(in.results, p, o_.summary));
     any = any || sums.back().arches > 0;
-    for (const nlohmann::json* r : in.results.of_point(p)) any_files = any_files || r->value("present", false);
+    for (const nlohmann::json* r : in.results.OfPoint(p)) any_files = any_files || r->value("present", false);
   }
   if (!any_files) return std::nullopt;
   Section s{"arches", "Arches (ch. 3, 4, 6)", {}};
@@ -178,11 +178,11 @@ std::optional<Section> ArchesAnalysis::section(const SectionInput& in) const {
     if (a.arches < kThesisClogs) note = "fewer than " + std::to_string(kThesisClogs) + " arches (the thesis averages >= 100)";
     if (a.unsupported > 0)
       note += std::string(note.empty() ? "" : "; ") + std::to_string(a.unsupported) + " with an end off its support";
-    t.rows.push_back({point_name(v, v.points[k]), Cell::count(a.clogs), Cell::count(a.arches),
-                      std::to_string(a.particle_arches) + " / " + std::to_string(a.obstacle_arches), Cell::estimate(a.n),
-                      Cell::estimate(a.width), Cell::number(a.width_sd), Cell::estimate(a.height), Cell::number(a.height_sd),
-                      Cell::estimate(a.perimeter), Cell::estimate(a.c_over_p), Cell::estimate(a.elongated_fraction),
-                      Cell::estimate(a.mean_pressure), Cell::count(a.with_defects), Cell::count(a.with_gaps), note});
+    t.rows.push_back({PointName(v, v.points[k]), Cell::Count(a.clogs), Cell::Count(a.arches),
+                      std::to_string(a.particle_arches) + " / " + std::to_string(a.obstacle_arches), Cell::Estimate(a.n),
+                      Cell::Estimate(a.width), Cell::Number(a.width_sd), Cell::Estimate(a.height), Cell::Number(a.height_sd),
+                      Cell::Estimate(a.perimeter), Cell::Estimate(a.c_over_p), Cell::Estimate(a.elongated_fraction),
+                      Cell::Estimate(a.mean_pressure), Cell::Count(a.with_defects), Cell::Count(a.with_gaps), note});
   }
   s.blocks.push_back(t);
   if (obstacles)
@@ -190,12 +190,12 @@ std::optional<Section> ArchesAnalysis::section(const SectionInput& in) const {
                             "particle arches span the outlet without it. Both are in the means unless "
                             "`/report/arches/obstacle_arches` is false; the counts are apart."});
 
-  if (has_x(v)) {
+  if (HasX(v)) {
     const std::pair<const char*, const char*> metrics[] = {
         {"arch_n", "N_t (bodies)"}, {"arch_width", "w (d)"}, {"arch_height", "h (d)"}, {"arch_perimeter", "p (d)"},
         {"arch_c_over_p", "c/p"},   {"arch_elongated_fraction", "X^arch (elongated bodies in the arch)"}};
     for (const auto& [name, ylabel] : metrics) {
-      std::vector<Series> series = point_series(v, in.points, name, name);
+      std::vector<Series> series = PointSeries(v, in.points, name, name);
       if (series.empty()) continue;
       s.blocks.push_back(Figure{name, std::string(ylabel) + " against " + v.x_label, v.x_label, ylabel, series, false,
                                 false, "Error bars: standard error over arches"});
@@ -203,7 +203,7 @@ std::optional<Section> ArchesAnalysis::section(const SectionInput& in) const {
   }
 
   // Per angular position (figs. 6.6, 6.7) and per N_t (fig. 6.9): a few points drawn.
-  const std::vector<std::size_t> drawn = spread_points(v, [&](std::size_t k) { return sums[k].arches > 0; });
+  const std::vector<std::size_t> drawn = SpreadPoints(v, [&](std::size_t k) { return sums[k].arches > 0; });
   Figure pressure{"arch_pressure_theta", "Pressure of arch bodies against their angular position", "theta (degrees)",
                   "P (rho g d)", {}, false, false,
                   "Fig. 6.7: mean over the arch bodies in each bin of theta around the outlet's centre (90 = above it); "
@@ -217,7 +217,7 @@ std::optional<Section> ArchesAnalysis::section(const SectionInput& in) const {
   bool any_axis = false;
   for (std::size_t k : drawn) {
     const ArchSummary& a = sums[k];
-    const std::string name = point_name(v, v.points[k]);
+    const std::string name = PointName(v, v.points[k]);
     Series sp{name, {"theta_deg", "P", "P_se", "bodies"}, {}, Series::Style::kErrorBars, 0, 1, 2};
     Series sm{name, {"theta_deg", "axis_mode_deg", "axes"}, {}, Series::Style::kLinesPoints};
     for (const ThetaBin& b : a.theta) {
@@ -248,12 +248,12 @@ std::optional<Section> ArchesAnalysis::section(const SectionInput& in) const {
   }
   if (!by_n.series.empty()) s.blocks.push_back(by_n);
   if (!hist.series.empty()) s.blocks.push_back(hist);
-  add_pictures(in, sums, s);
+  AddPictures(in, sums, s);
   return s;
 }
 
 // For each point the clogs whose arch has the point's median N_t (fig. 3.4, 6.3).
-void ArchesAnalysis::add_pictures(const SectionInput& in, const std::vector<ArchSummary>& sums, Section& s) const {
+void ArchesAnalysis::AddPictures(const SectionInput& in, const std::vector<ArchSummary>& sums, Section& s) const {
   if (o_.pictures <= 0) return;
   if (!in.draw_clog) {
     s.blocks.push_back(Text{"(No pictures of clogs: this report was written without the renderer.)"});
@@ -264,7 +264,7 @@ void ArchesAnalysis::add_pictures(const SectionInput& in, const std::vector<Arch
   std::filesystem::create_directories(in.out_dir / "pictures");
   for (std::size_t k = 0; k < v.points.size(); ++k) {
     if (sums[k].arches == 0) continue;
-    const double median_n = median(sums[k].n_values);
+    const double median_n = Median(sums[k].n_values);
     struct Candidate {
       std::size_t run;  // index into CampaignView::used
       int clog;
@@ -274,7 +274,7 @@ void ArchesAnalysis::add_pictures(const SectionInput& in, const std::vector<Arch
     std::vector<Candidate> candidates;
     for (std::size_t run : v.points[k].runs) {
       if (run >= in.results.runs.size() || in.results.runs[run].is_null()) continue;
-      const std::vector<ClogArches> clogs = clogs_of(in.results.runs[run]);
+      const std::vector<ClogArches> clogs = ClogsOf(in.results.runs[run]);
       for (std::size_t c = 0; c < clogs.size(); ++c)
         for (const Arch& a : clogs[c].arches)
           candidates.push_back({run, static_cast<int>(c) + 1, a, std::fabs(a.n - median_n)});
@@ -282,7 +282,7 @@ void ArchesAnalysis::add_pictures(const SectionInput& in, const std::vector<Arch
     std::stable_sort(candidates.begin(), candidates.end(),
                      [](const Candidate& a, const Candidate& b) { return a.distance < b.distance; });
     Pictures pics;
-    pics.caption = point_title(v, v.points[k]) + ": clogs with the median arch size (N_t = " + format_number(median_n, 3) +
+    pics.caption = PointTitle(v, v.points[k]) + ": clogs with the median arch size (N_t = " + FormatNumber(median_n, 3) +
                    "), arch bodies outlined";
     for (std::size_t i = 0; i < candidates.size() && static_cast<int>(pics.pictures.size()) < o_.pictures; ++i) {
       const Candidate& c = candidates[i];
@@ -302,42 +302,42 @@ void ArchesAnalysis::add_pictures(const SectionInput& in, const std::vector<Arch
       const std::string problem = in.draw_clog(record.run_dir, pic, in.out_dir / file);
       if (problem.empty()) {
         pics.pictures.push_back({file, "run `" + record.run_id.substr(0, 10) + "`, clog " + std::to_string(c.clog) +
-                                           ": N_t = " + std::to_string(c.arch.n) + ", w = " + format_number(c.arch.width, 3) +
-                                           " d, h = " + format_number(c.arch.height, 3) + " d" +
+                                           ": N_t = " + std::to_string(c.arch.n) + ", w = " + FormatNumber(c.arch.width, 3) +
+                                           " d, h = " + FormatNumber(c.arch.height, 3) + " d" +
                                            (c.arch.obstacle ? ", through the obstacle" : "")});
       } else {
-        not_drawn.add(problem);
+        not_drawn.Add(problem);
       }
     }
     if (!pics.pictures.empty()) s.blocks.push_back(pics);
   }
-  not_drawn.append_to(s);
+  not_drawn.AppendTo(s);
 }
 
 }  // namespace
 
-ArchesOptions read_arches_options(const nlohmann::json& options, const std::string& path) {
+ArchesOptions ReadArchesOptions(const nlohmann::json& options, const std::string& path) {
   ArchesOptions o;
   if (options.is_null()) return o;
-  option_object(options, path, {"theta_bins", "axis_bins", "obstacle_arches", "pictures"});
+  OptionObject(options, path, {"theta_bins", "axis_bins", "obstacle_arches", "pictures"});
   for (const auto& [k, v] : options.items()) {
     const std::string p = path + "/" + k;
-    if (k == "theta_bins") o.summary.theta_bins = option_integer(v, p, 1, 180);
-    if (k == "axis_bins") o.summary.axis_bins = option_integer(v, p, 1, 180);
-    if (k == "obstacle_arches") o.summary.obstacle_arches = option_bool(v, p);
-    if (k == "pictures") o.pictures = option_integer(v, p, 0, 10);
+    if (k == "theta_bins") o.summary.theta_bins = OptionInteger(v, p, 1, 180);
+    if (k == "axis_bins") o.summary.axis_bins = OptionInteger(v, p, 1, 180);
+    if (k == "obstacle_arches") o.summary.obstacle_arches = OptionBool(v, p);
+    if (k == "pictures") o.pictures = OptionInteger(v, p, 0, 10);
   }
   return o;
 }
 
-nlohmann::json arches_run_result(const rundir::RunData& run) {
+nlohmann::json ArchesRunResult(const rundir::RunData& run) {
   nlohmann::json result = {{"present", false}, {"clogs", nlohmann::json::array()}, {"notes", nlohmann::json::array()}};
   try {
     rundir::ClogReader reader(run.dir);
-    result["present"] = reader.present();
-    if (!reader.present()) return result;  // a run directory written before the engines kept clogs
+    result["present"] = reader.Present();
+    if (!reader.Present()) return result;  // a run directory written before the engines kept clogs
     rundir::ClogState clog;
-    while (reader.Next(clog)) result["clogs"].push_back(to_json(analyse_clog(clog, run.spec)));
+    while (reader.Next(clog)) result["clogs"].push_back(to_json(AnalyseClog(clog, run.spec)));
   } catch (const std::exception& e) {
     result["clogs"] = nlohmann::json::array();
     result["notes"].push_back(std::string("arches: ") + e.what());
@@ -345,15 +345,15 @@ nlohmann::json arches_run_result(const rundir::RunData& run) {
   return result;
 }
 
-std::vector<ClogArches> clogs_of(const nlohmann::json& result) {
+std::vector<ClogArches> ClogsOf(const nlohmann::json& result) {
   std::vector<ClogArches> clogs;
   if (!result.is_object() || !result.contains("clogs")) return clogs;
-  for (const nlohmann::json& c : result.at("clogs")) clogs.push_back(clog_arches_from_json(c));
+  for (const nlohmann::json& c : result.at("clogs")) clogs.push_back(ClogArchesFromJson(c));
   return clogs;
 }
 
-std::unique_ptr<Analysis> make_arches_analysis(const nlohmann::json& options, const std::string& path) {
-  return std::make_unique<ArchesAnalysis>(read_arches_options(options, path));
+std::unique_ptr<Analysis> MakeArchesAnalysis(const nlohmann::json& options, const std::string& path) {
+  return std::make_unique<ArchesAnalysis>(ReadArchesOptions(options, path));
 }
 
 }  // namespace granary::analysis

@@ -22,14 +22,14 @@ struct ArchesOptions {
   int pictures = 1;                   // clogs drawn per point: those whose arch has the point's median N_t
 };
 // From /report/arches (null: the defaults); throws OptionError naming `path` and below.
-ArchesOptions read_arches_options(const nlohmann::json& options, const std::string& path);
+ArchesOptions ReadArchesOptions(const nlohmann::json& options, const std::string& path);
 
-// A run's result: {"present": whether the run has clog files, "clogs": [to_json(ClogArches)],
+// A run's result: {"present": whether the run has clog files, "clogs": [ToJson(ClogArches)],
 // "notes": [..]}. A spec that describes no silo or malformed clog files give a note and no clogs.
-nlohmann::json arches_run_result(const rundir::RunData& run);
+nlohmann::json ArchesRunResult(const rundir::RunData& run);
 // The clogs of a result.
-std::vector<ClogArches> clogs_of(const nlohmann::json& result);
+std::vector<ClogArches> ClogsOf(const nlohmann::json& result);
 
-std::unique_ptr<Analysis> make_arches_analysis(const nlohmann::json& options, const std::string& path);
+std::unique_ptr<Analysis> MakeArchesAnalysis(const nlohmann::json& options, const std::string& path);
 
 }  // namespace granary::analysis

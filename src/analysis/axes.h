@@ -30,24 +30,24 @@ class CampaignAxes {
   CampaignAxes(const std::vector<std::string>& sweep, const nlohmann::json& run_spec, const nlohmann::json& axes_block);
   // From a whole campaign spec: its sweep axes (grid, zip, points) and its /axes, symbols from
   // its /base. For checking a spec before it is planned.
-  static CampaignAxes of_campaign_spec(const nlohmann::json& campaign_spec);
+  static CampaignAxes OfCampaignSpec(const nlohmann::json& campaign_spec);
 
-  const std::vector<std::string>& sweep() const { return sweep_; }
+  const std::vector<std::string>& Sweep() const { return sweep_; }
   // The short name of a sweep axis; the pointer itself if it is not one.
-  std::string short_name(const std::string& pointer) const;
+  std::string ShortName(const std::string& pointer) const;
   // The sweep axis a name stands for: its short name or its pointer.
-  std::optional<std::string> pointer_of(const std::string& name) const;
-  const std::vector<DerivedAxis>& derived() const { return derived_; }
-  const DerivedAxis* find_derived(const std::string& name) const;
+  std::optional<std::string> PointerOf(const std::string& name) const;
+  const std::vector<DerivedAxis>& Derived() const { return derived_; }
+  const DerivedAxis* FindDerived(const std::string& name) const;
   // Every name an axis can be asked for by: the sweep axes' short names, then the derived axes.
-  std::vector<std::string> names() const;
-  // The names usable inside expressions (those that are identifiers), in names() order.
-  std::vector<std::string> expression_names() const;
+  std::vector<std::string> Names() const;
+  // The names usable inside expressions (those that are identifiers), in Names() order.
+  std::vector<std::string> ExpressionNames() const;
   // The numeric value of every sweep axis (by short name; strings and missing values: NaN) and
   // every derived axis at a point (`point` the sweep values, `spec` its resolved run spec).
-  std::map<std::string, double> values(const nlohmann::json& point, const nlohmann::json& spec) const;
+  std::map<std::string, double> Values(const nlohmann::json& point, const nlohmann::json& spec) const;
   // One axis (short name, pointer or derived name); nullopt if no axis has that name.
-  std::optional<double> value(const std::string& name, const nlohmann::json& point, const nlohmann::json& spec) const;
+  std::optional<double> Value(const std::string& name, const nlohmann::json& point, const nlohmann::json& spec) const;
 
  private:
   std::vector<std::string> sweep_;
@@ -57,10 +57,10 @@ class CampaignAxes {
 
 // The short names of `axes` (pointers): each axis' symbol (system.h axis_names), or its short
 // path (short_axis) where two axes share a symbol.
-std::map<std::string, std::string> axis_short_names(const std::vector<std::string>& axes, const nlohmann::json& run_spec);
+std::map<std::string, std::string> AxisShortNames(const std::vector<std::string>& axes, const nlohmann::json& run_spec);
 // Whether `name` can stand in an expression (letters, digits and '_', not starting with a digit).
-bool is_identifier(const std::string& name);
+bool IsIdentifier(const std::string& name);
 // The sweep axes of a campaign spec, in the planner's order: grid, zip, then point keys.
-std::vector<std::string> campaign_spec_axes(const nlohmann::json& campaign_spec);
+std::vector<std::string> CampaignSpecAxes(const nlohmann::json& campaign_spec);
 
 }  // namespace granary::analysis

@@ -10,23 +10,23 @@
 
 namespace granary::analysis {
 
-std::vector<Metric> CampaignAnalysis::run_metrics(std::size_t a, std::size_t run) const {
+std::vector<Metric> CampaignAnalysis::RunMetrics(std::size_t a, std::size_t run) const {
   if (a >= results.size() || run >= results[a].runs.size() || results[a].runs[run].is_null()) return {};
-  return setup->analyses[a]->run_metrics(results[a].runs[run]);
+  return setup->analyses[a]->RunMetrics(results[a].runs[run]);
 }
 
-std::vector<PointMetric> CampaignAnalysis::all_point_metrics(std::size_t p) const {
+std::vector<PointMetric> CampaignAnalysis::AllPointMetrics(std::size_t p) const {
   std::vector<PointMetric> out;
   for (const PointMetricTable& t : point_metrics)
     if (p < t.size()) out.insert(out.end(), t[p].begin(), t[p].end());
   return out;
 }
 
-std::unique_ptr<CampaignAnalysis> analyse_campaign(const CampaignInfo& info, const std::vector<RunRecord>& runs,
+std::unique_ptr<CampaignAnalysis> AnalyseCampaign(const CampaignInfo& info, const std::vector<RunRecord>& runs,
                                                    const AnalysisSetup& setup, const CampaignAnalysisOptions& options) {
   auto out = std::make_unique<CampaignAnalysis>();
   out->setup = &setup;
-  const std::vector<const Analysis*> analyses = setup.list();
+  const std::vector<const Analysis*> analyses = setup.List();
   std::vector<const RunRecord*> done;
   for (const RunRecord& r : runs)
     if (r.state == "done" && std::filesystem::exists(r.run_dir)) done.push_back(&r);  // else lost
@@ -54,7 +54,7 @@ std::unique_ptr<CampaignAnalysis> analyse_campaign(const CampaignInfo& info, con
         // analysed again, and its cached results are not used (rundir/manifest.h).
         check = rundir::VerifyRun(done[i]->run_dir, {rundir::VerifyLevel::kCached, options.write_cache});
         if (check.integrity != rundir::Integrity::kDamaged)
-          passes[i] = analyse_run(done[i]->run_dir, analyses, setup.pass, pass_options);
+          passes[i] = AnalyseRun(done[i]->run_dir, analyses, setup.pass, pass_options);
       } catch (const std::exception& e) {
         error = e.what();
       }
@@ -73,7 +73,7 @@ std::unique_ptr<CampaignAnalysis> analyse_campaign(const CampaignInfo& info, con
     for (std::thread& t : threads) t.join();
   }
 
-  out->view = make_campaign_view(info, runs, unreadable, checks);
+  out->view = MakeCampaignView(info, runs, unreadable, checks);
   std::map<const RunRecord*, const RunPassResult*> by_record;
   for (std::size_t i = 0; i < done.size(); ++i) by_record[done[i]] = &passes[i];
   out->results.assign(analyses.size(), AnalysisResults{&out->view, {}});
@@ -87,7 +87,7 @@ std::unique_ptr<CampaignAnalysis> analyse_campaign(const CampaignInfo& info, con
   }
   for (std::size_t a = 0; a < analyses.size(); ++a) {
     PointMetricTable table;
-    for (std::size_t p = 0; p < out->view.points.size(); ++p) table.push_back(analyses[a]->point_metrics(out->results[a], p));
+    for (std::size_t p = 0; p < out->view.points.size(); ++p) table.push_back(analyses[a]->PointMetrics(out->results[a], p));
     out->point_metrics.push_back(std::move(table));
   }
   return out;

@@ -30,13 +30,13 @@ struct CampaignAnalysis {
   int results_computed = 0;
 
   // The per-run metrics of used run `run` from analysis `a`.
-  std::vector<Metric> run_metrics(std::size_t a, std::size_t run) const;
+  std::vector<Metric> RunMetrics(std::size_t a, std::size_t run) const;
   // Every analysis' point metrics of point `p`, in setup order.
-  std::vector<PointMetric> all_point_metrics(std::size_t p) const;
+  std::vector<PointMetric> AllPointMetrics(std::size_t p) const;
 };
 
 // `info` and `runs` must outlive the result (the view points into them).
-std::unique_ptr<CampaignAnalysis> analyse_campaign(const CampaignInfo& info, const std::vector<RunRecord>& runs,
+std::unique_ptr<CampaignAnalysis> AnalyseCampaign(const CampaignInfo& info, const std::vector<RunRecord>& runs,
                                                    const AnalysisSetup& setup, const CampaignAnalysisOptions& options = {});
 
 }  // namespace granary::analysis

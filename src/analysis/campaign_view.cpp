@@ -13,14 +13,14 @@
 namespace granary::analysis {
 namespace {
 
-std::string tangential_cap_of(const nlohmann::json& spec) {
+std::string TangentialCapOf(const nlohmann::json& spec) {
   if (spec.is_object() && spec.contains("contact") && spec.at("contact").is_object())
     return spec.at("contact").value("tangential_cap", std::string("lammps")) + "";
   return "lammps (default)";
 }
 
 // The used run of a done record, or the reason it cannot be used.
-std::optional<UsedRun> used_run(const RunRecord& r, std::string& why) {
+std::optional<UsedRun> ToUsedRun(const RunRecord& r, std::string& why) {
   UsedRun u;
   u.record = &r;
   try {
@@ -34,7 +34,7 @@ std::optional<UsedRun> used_run(const RunRecord& r, std::string& why) {
   }
   if (u.spec.is_null()) u.spec = u.summary.spec;
   // LIGGGHTS says which cap and which reinjection it applied, whatever the spec asks.
-  u.tangential_cap = !u.summary.tangential_cap.empty() ? u.summary.tangential_cap : tangential_cap_of(u.spec);
+  u.tangential_cap = !u.summary.tangential_cap.empty() ? u.summary.tangential_cap : TangentialCapOf(u.spec);
   const nlohmann::json discharge =
       u.spec.is_object() ? u.spec.value("discharge", nlohmann::json::object()) : nlohmann::json::object();
   if (discharge.value("mode", std::string()) == "reinject")
@@ -47,19 +47,19 @@ std::optional<UsedRun> used_run(const RunRecord& r, std::string& why) {
     u.timing.threads = u.summary.timing->threads;
   }
   if (u.summary.engine.empty()) u.summary.engine = r.engine;
-  u.outlets = outlets_of(u.spec).size();
+  u.outlets = OutletsOf(u.spec).size();
   return u;
 }
 
 }  // namespace
 
-std::string value_text(const nlohmann::json& v) {
-  if (v.is_number()) return format_number(v.get<double>(), 6);
+std::string ValueText(const nlohmann::json& v) {
+  if (v.is_number()) return FormatNumber(v.get<double>(), 6);
   if (v.is_string()) return v.get<std::string>();
   return v.dump();
 }
 
-std::string short_axis(const std::string& pointer) {
+std::string ShortAxis(const std::string& pointer) {
   std::string s = pointer;
   if (!s.empty() && s.front() == '/') s.erase(0, 1);
   for (const char* prefix : {"silo/", "bodies/", "contact/", "discharge/", "output/", "bed/"})
@@ -68,7 +68,7 @@ std::string short_axis(const std::string& pointer) {
   return s;
 }
 
-std::optional<nlohmann::json> axis_value(const std::string& axis, const nlohmann::json& point, const nlohmann::json& spec) {
+std::optional<nlohmann::json> AxisValue(const std::string& axis, const nlohmann::json& point, const nlohmann::json& spec) {
   if (point.is_object() && point.contains(axis)) return point.at(axis);
   try {
     const nlohmann::json::json_pointer ptr(axis);
@@ -78,73 +78,73 @@ std::optional<nlohmann::json> axis_value(const std::string& axis, const nlohmann
   return std::nullopt;
 }
 
-std::string axis_text(const CampaignView& view, const std::string& axis, const nlohmann::json& spec, NameForm form) {
+std::string AxisText(const CampaignView& view, const std::string& axis, const nlohmann::json& spec, NameForm form) {
   if (form == NameForm::kShort)
     if (const auto it = view.axis_symbols.find(axis); it != view.axis_symbols.end()) return it->second;
-  return axis_name(axis, spec);
+  return AxisName(axis, spec);
 }
 
-std::string point_label(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec,
+std::string PointLabel(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec,
                         NameForm form, const std::set<std::string>& skip_axes) {
   std::string s;
   for (const auto& axis : view.axes) {
     if (skip_axes.count(axis)) continue;
-    const auto v = axis_value(axis, point, spec);
-    s += (s.empty() ? "" : ", ") + axis_text(view, axis, spec, form) + " = " + (v ? value_text(*v) : "?");
+    const auto v = AxisValue(axis, point, spec);
+    s += (s.empty() ? "" : ", ") + AxisText(view, axis, spec, form) + " = " + (v ? ValueText(*v) : "?");
   }
   return s;
 }
 
-std::string point_label_with_units(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec) {
+std::string PointLabelWithUnits(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec) {
   std::string s;
   for (const auto& axis : view.axes) {
-    const auto v = axis_value(axis, point, spec);
-    const std::string unit = v && v->is_number() ? axis_unit(axis) : "";
-    s += (s.empty() ? "" : ", ") + axis_text(view, axis, spec, NameForm::kShort) + " = " + (v ? value_text(*v) : "?") +
+    const auto v = AxisValue(axis, point, spec);
+    const std::string unit = v && v->is_number() ? AxisUnit(axis) : "";
+    s += (s.empty() ? "" : ", ") + AxisText(view, axis, spec, NameForm::kShort) + " = " + (v ? ValueText(*v) : "?") +
          (unit.empty() ? "" : " " + unit);
   }
   return s;
 }
 
-std::string x_text(const CampaignView& view, double x, NameForm form) {
+std::string XText(const CampaignView& view, double x, NameForm form) {
   if (view.x_axis.empty()) return "";
-  return (form == NameForm::kShort ? view.x_symbol : view.x_title) + " = " + format_number(x, 6);
+  return (form == NameForm::kShort ? view.x_symbol : view.x_title) + " = " + FormatNumber(x, 6);
 }
 
-std::string point_name(const CampaignView& view, const Point& p) {
+std::string PointName(const CampaignView& view, const Point& p) {
   std::string s = p.group;
-  if (!view.x_axis.empty()) s = x_text(view, p.x, NameForm::kShort) + (s.empty() ? "" : ", " + s);
+  if (!view.x_axis.empty()) s = XText(view, p.x, NameForm::kShort) + (s.empty() ? "" : ", " + s);
   return s.empty() ? p.id : s;
 }
 
-std::string point_title(const CampaignView& view, const Point& p) {
+std::string PointTitle(const CampaignView& view, const Point& p) {
   std::string s = p.group_title;
-  if (!view.x_axis.empty()) s = x_text(view, p.x, NameForm::kLong) + (s.empty() ? "" : ", " + s);
+  if (!view.x_axis.empty()) s = XText(view, p.x, NameForm::kLong) + (s.empty() ? "" : ", " + s);
   return s.empty() ? p.id : s;
 }
 
-std::vector<std::string> groups_of(const CampaignView& view) {
+std::vector<std::string> GroupsOf(const CampaignView& view) {
   std::vector<std::string> g;
   for (const Point& p : view.points)
     if (std::find(g.begin(), g.end(), p.group) == g.end()) g.push_back(p.group);
   return g;
 }
 
-bool has_x(const CampaignView& view) {
+bool HasX(const CampaignView& view) {
   int n = 0;
   for (const Point& p : view.points) n += std::isfinite(p.x) ? 1 : 0;
   return n >= 2;
 }
 
-std::string group_axis(const CampaignView& view) {
-  const std::vector<std::string> groups = groups_of(view);
+std::string GroupAxis(const CampaignView& view) {
+  const std::vector<std::string> groups = GroupsOf(view);
   if (groups.size() < 2) return "";
   for (const auto& axis : view.axes) {
     if (view.x_axes.count(axis)) continue;
     std::map<std::string, double> value_of_group;
     bool ok = true;
     for (const Point& p : view.points) {
-      const auto v = axis_value(axis, p.point, p.spec);
+      const auto v = AxisValue(axis, p.point, p.spec);
       if (!v || !v->is_number()) {
         ok = false;
         break;
@@ -159,7 +159,7 @@ std::string group_axis(const CampaignView& view) {
   return "";
 }
 
-CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
+CampaignView MakeCampaignView(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
                                 const std::map<std::string, std::string>& unreadable, const RunChecks& checks) {
   CampaignView c;
   c.campaign = &campaign;
@@ -187,7 +187,7 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
       c.unreadable.emplace_back(&r, it->second);
     } else {
       std::string why;
-      if (auto u = used_run(r, why)) {
+      if (auto u = ToUsedRun(r, why)) {
         if (check != checks.end() && check->second.integrity == rundir::Integrity::kNotVerifiable)
           c.unverifiable.push_back(&r);
         c.used.push_back(std::move(*u));
@@ -201,7 +201,7 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
     if (!most || u.outlets > most->outlets) most = &u;
   if (most) {
     c.outlets = std::max<std::size_t>(1, most->outlets);
-    for (const OutletGeometry& o : outlets_of(most->spec)) c.outlet_labels.push_back(o.label);
+    for (const OutletGeometry& o : OutletsOf(most->spec)) c.outlet_labels.push_back(o.label);
   }
   // Each axis' one short name (its symbol; two axes with one symbol, such as two species' "d",
   // their short paths), and the derived axes of the campaign spec's /axes.
@@ -209,7 +209,7 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
     const nlohmann::json& spec = runs.empty() ? nlohmann::json() : runs.front().spec;
     const nlohmann::json& cs = campaign.spec;
     c.named = CampaignAxes(c.axes, spec, cs.is_object() && cs.contains("axes") ? cs.at("axes") : nlohmann::json());
-    for (const auto& axis : c.axes) c.axis_symbols[axis] = c.named.short_name(axis);
+    for (const auto& axis : c.axes) c.axis_symbols[axis] = c.named.ShortName(axis);
   }
   // The x axis: the gap between two base outlets if a base outlet's centre is swept (the
   // thesis plots ch. 5b and 7 against L), else an outlet width if swept, else the first
@@ -217,7 +217,7 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
   const std::regex centre_axis(R"(/silo/base_outlets/\d+/center)");
   const std::regex width_axis(R"(/silo/(base|side)_outlets/(\d+)/width)");
   bool two_base_outlets = !runs.empty();
-  for (const RunRecord& r : runs) two_base_outlets = two_base_outlets && base_outlet_gap(r.spec).has_value();
+  for (const RunRecord& r : runs) two_base_outlets = two_base_outlets && BaseOutletGap(r.spec).has_value();
   for (const auto& axis : c.axes)
     if (two_base_outlets && std::regex_match(axis, centre_axis)) c.x_axes.insert(axis);
   if (!c.x_axes.empty()) {
@@ -234,14 +234,14 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
     c.x_axes = {axis};
     c.x_is_width = true;
     c.x_name = c.axis_symbols[axis];
-    c.x_title = axis_name(axis, runs.empty() ? nlohmann::json() : runs.front().spec);
+    c.x_title = AxisName(axis, runs.empty() ? nlohmann::json() : runs.front().spec);
     c.x_symbol = c.axis_symbols[axis];
     c.x_label = "W/d (" + c.x_title + ")";
     // Outlets are numbered in event order: base outlets first, then side outlets.
     c.x_outlet = std::stoi(m[2].str());
     if (m[1].str() == "side" && !runs.empty()) {
       int base = 0;
-      for (const OutletGeometry& o : outlets_of(runs.front().spec)) base += o.base ? 1 : 0;
+      for (const OutletGeometry& o : OutletsOf(runs.front().spec)) base += o.base ? 1 : 0;
       c.x_outlet += base;
     }
     break;
@@ -260,14 +260,14 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
     for (const auto& axis : c.axes) {
       bool numeric = true;
       for (const RunRecord& r : runs) {
-        const auto v = axis_value(axis, r.point, r.spec);
+        const auto v = AxisValue(axis, r.point, r.spec);
         if (!v || !v->is_number()) numeric = false;
       }
       if (numeric && !runs.empty()) {
         c.x_axis = axis;
         c.x_axes = {axis};
         c.x_name = c.axis_symbols[axis];
-        c.x_label = c.x_title = axis_name(axis, runs.front().spec);
+        c.x_label = c.x_title = AxisName(axis, runs.front().spec);
         c.x_symbol = c.axis_symbols[axis];
         break;
       }
@@ -283,19 +283,19 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
           break;
         }
     if (c.x_is_gap) {
-      p.x = base_outlet_gap(spec).value_or(kNaN);
+      p.x = BaseOutletGap(spec).value_or(kNaN);
     } else if (!c.x_axis.empty()) {
-      const auto v = axis_value(c.x_axis, p.point, spec);
+      const auto v = AxisValue(c.x_axis, p.point, spec);
       if (v && v->is_number()) p.x = v->get<double>();
     }
-    p.group = point_label(c, p.point, spec, NameForm::kShort, c.x_axes);
-    p.group_title = point_label(c, p.point, spec, NameForm::kLong, c.x_axes);
+    p.group = PointLabel(c, p.point, spec, NameForm::kShort, c.x_axes);
+    p.group_title = PointLabel(c, p.point, spec, NameForm::kLong, c.x_axes);
     p.spec = spec;
-    const auto engine = axis_value("/engine", p.point, spec);
+    const auto engine = AxisValue("/engine", p.point, spec);
     p.engine = engine && engine->is_string() ? engine->get<std::string>() : "";
     std::set<std::string> skip = c.x_axes;
     skip.insert("/engine");
-    p.shared_group = point_label(c, p.point, spec, NameForm::kShort, skip);
+    p.shared_group = PointLabel(c, p.point, spec, NameForm::kShort, skip);
   }
   std::stable_sort(c.points.begin(), c.points.end(), [](const Point& a, const Point& b) {
     if (a.group != b.group) return a.group < b.group;
@@ -307,7 +307,7 @@ CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<
 namespace {
 
 // The curve of metric `name` over the points of `group`: rows (x, mean, se, n) where defined.
-Series metric_curve(const CampaignView& view, const PointMetricTable& metrics, const std::string& name,
+Series MetricCurve(const CampaignView& view, const PointMetricTable& metrics, const std::string& name,
                     const std::string& group, const std::string& label, const std::string& column) {
   Series s;
   s.label = label;
@@ -317,7 +317,7 @@ Series metric_curve(const CampaignView& view, const PointMetricTable& metrics, c
   for (std::size_t i = 0; i < view.points.size() && i < metrics.size(); ++i) {
     const Point& p = view.points[i];
     if (p.group != group || !std::isfinite(p.x)) continue;
-    const PointMetric* m = find_metric(metrics[i], name);
+    const PointMetric* m = FindMetric(metrics[i], name);
     if (!m || !std::isfinite(m->mean)) continue;
     s.rows.push_back({p.x, m->mean, m->se, static_cast<double>(m->n)});
   }
@@ -326,17 +326,17 @@ Series metric_curve(const CampaignView& view, const PointMetricTable& metrics, c
 
 }  // namespace
 
-std::vector<Series> point_series(const CampaignView& view, const PointMetricTable& metrics, const std::string& name,
+std::vector<Series> PointSeries(const CampaignView& view, const PointMetricTable& metrics, const std::string& name,
                                  const std::string& column) {
   std::vector<Series> out;
-  for (const auto& g : groups_of(view)) {
-    Series s = metric_curve(view, metrics, name, g, g.empty() ? column : g, column);
+  for (const auto& g : GroupsOf(view)) {
+    Series s = MetricCurve(view, metrics, name, g, g.empty() ? column : g, column);
     if (!s.rows.empty()) out.push_back(std::move(s));
   }
   return out;
 }
 
-std::vector<std::size_t> spread_points(const CampaignView& view, const std::function<bool(std::size_t)>& has,
+std::vector<std::size_t> SpreadPoints(const CampaignView& view, const std::function<bool(std::size_t)>& has,
                                        std::size_t most) {
   std::vector<std::size_t> with;
   for (std::size_t k = 0; k < view.points.size(); ++k)
@@ -347,14 +347,14 @@ std::vector<std::size_t> spread_points(const CampaignView& view, const std::func
   return out;
 }
 
-std::vector<Series> outlet_series(const CampaignView& view, const PointMetricTable& metrics,
+std::vector<Series> OutletSeries(const CampaignView& view, const PointMetricTable& metrics,
                                   const std::function<std::string(std::size_t)>& name_of,
                                   const std::vector<std::string>& outlet_labels, const std::string& column) {
   std::vector<Series> out;
   for (std::size_t o = 0; o < view.outlets; ++o) {
     const std::string label = o < outlet_labels.size() ? outlet_labels[o] : "outlet " + std::to_string(o);
-    for (const auto& g : groups_of(view)) {
-      Series s = metric_curve(view, metrics, name_of(o), g, label + (g.empty() ? "" : ", " + g), column);
+    for (const auto& g : GroupsOf(view)) {
+      Series s = MetricCurve(view, metrics, name_of(o), g, label + (g.empty() ? "" : ", " + g), column);
       if (!s.rows.empty()) out.push_back(std::move(s));
     }
   }

@@ -110,54 +110,54 @@ using RunChecks = std::map<std::string, rundir::Verification>;
 // Sorts `runs` (which must outlive the view): a done run is used unless its summary.json
 // cannot be read, `unreadable` names it (run id -> reason, e.g. from the analysis pass) or
 // `checks` found it damaged.
-CampaignView make_campaign_view(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
+CampaignView MakeCampaignView(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
                                 const std::map<std::string, std::string>& unreadable = {},
                                 const RunChecks& checks = {});
 
 // "/silo/base_outlets/0/width" -> "base_outlets.0.width".
-std::string short_axis(const std::string& pointer);
+std::string ShortAxis(const std::string& pointer);
 // A sweep value as text: numbers to 6 significant digits, strings as they are.
-std::string value_text(const nlohmann::json& value);
+std::string ValueText(const nlohmann::json& value);
 // The value of a sweep axis for a point: from the point record, else from the run spec.
-std::optional<nlohmann::json> axis_value(const std::string& axis, const nlohmann::json& point, const nlohmann::json& spec);
+std::optional<nlohmann::json> AxisValue(const std::string& axis, const nlohmann::json& point, const nlohmann::json& spec);
 // Point names come in two forms: short, the symbols alone ("W = 10, X_db = 0.5"), in tables'
 // point columns, figure keys and the data/ file names made from them; long, in words ("outlet
 // width W = 10, dumbbell fraction X_db = 0.5"), in captions (The system explains the symbols).
 enum class NameForm { kShort, kLong };
 // An axis' name in that form (CampaignView::axis_symbols; axis_name for the long one).
-std::string axis_text(const CampaignView& view, const std::string& axis, const nlohmann::json& spec, NameForm form);
+std::string AxisText(const CampaignView& view, const std::string& axis, const nlohmann::json& spec, NameForm form);
 // "W = 10, X_db = 0.5" or "outlet width W = 10, dumbbell fraction X_db = 0.5" (axes in `skip` left out).
-std::string point_label(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec,
+std::string PointLabel(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec,
                         NameForm form, const std::set<std::string>& skip_axes = {});
 // "W = 6 d, D_b = 1.5 d": the short form with each value's unit (system.h axis_unit), for
 // titles that stand alone (map panels).
-std::string point_label_with_units(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec);
+std::string PointLabelWithUnits(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec);
 // "W = 10" or "outlet width W = 10": x and its value; "" if the view has no x.
-std::string x_text(const CampaignView& view, double x, NameForm form);
+std::string XText(const CampaignView& view, double x, NameForm form);
 // The report's name of a point (short form): x first, then its group; the id if it has neither.
-std::string point_name(const CampaignView& view, const Point& point);
+std::string PointName(const CampaignView& view, const Point& point);
 // The same in the long form, for captions.
-std::string point_title(const CampaignView& view, const Point& point);
-std::vector<std::string> groups_of(const CampaignView& view);
+std::string PointTitle(const CampaignView& view, const Point& point);
+std::vector<std::string> GroupsOf(const CampaignView& view);
 // At least two points have an x value: figures against x make sense.
-bool has_x(const CampaignView& view);
+bool HasX(const CampaignView& view);
 // The sweep axis that names the groups with one number per group, different in every group
 // (fitted parameters are drawn against it); "" if none.
-std::string group_axis(const CampaignView& view);
+std::string GroupAxis(const CampaignView& view);
 
 // Up to `most` indices of points for which `has` holds, spread evenly over them (figures that
 // draw one curve per point; every point is in the CSVs).
-std::vector<std::size_t> spread_points(const CampaignView& view, const std::function<bool(std::size_t)>& has,
+std::vector<std::size_t> SpreadPoints(const CampaignView& view, const std::function<bool(std::size_t)>& has,
                                        std::size_t most = 6);
 
 // Point metrics of one analysis, per point in CampaignView::points order.
 using PointMetricTable = std::vector<std::vector<PointMetric>>;
 // One series per group of (x, mean, se, n) of the point metric `name`.
-std::vector<Series> point_series(const CampaignView& view, const PointMetricTable& metrics, const std::string& name,
+std::vector<Series> PointSeries(const CampaignView& view, const PointMetricTable& metrics, const std::string& name,
                                  const std::string& column);
 // One series per (outlet, group) of the metric `name_of(k)` of outlet k, labelled with the
 // outlet's label; for runs with several outlets.
-std::vector<Series> outlet_series(const CampaignView& view, const PointMetricTable& metrics,
+std::vector<Series> OutletSeries(const CampaignView& view, const PointMetricTable& metrics,
                                   const std::function<std::string(std::size_t)>& name_of,
                                   const std::vector<std::string>& outlet_labels, const std::string& column);
 

@@ -66,7 +66,7 @@ const std::array<Quadrature, kMaxQuadrature + 1> kGaussLegendre = [] {
   return t;
 }();
 
-const Quadrature& gauss_legendre(int points) {
+const Quadrature& GaussLegendre(int points) {
   return kGaussLegendre[static_cast<std::size_t>(std::clamp(points, 1, static_cast<int>(kMaxQuadrature)))];
 }
 
@@ -75,7 +75,7 @@ const Quadrature& gauss_legendre(int points) {
 // up to 6 w -- more than any body's centre-to-contact distance. The tolerance is kept well
 // below the kernel's own cut, exp(-cutoff^2) of the peak (1.2e-4 at 3 w): 1e-6 for cutoffs up
 // to 3.2 w, 3e-8 beyond.
-int quadrature_points(double length_over_w, double cutoff) {
+int QuadraturePoints(double length_over_w, double cutoff) {
   static constexpr double kLimit6[] = {0.508, 1.022, 1.603, 2.214, 2.839, 3.47, 4.1, 4.7, 5.3, 6.0};  // 1e-6, from 3 points
   static constexpr double kLimit8[] = {0.28, 0.65, 1.11, 1.62, 2.15, 2.69, 3.25, 3.80, 4.36, 4.92, 5.47, 6.0};  // 3e-8
   int n = 3;
@@ -100,7 +100,7 @@ struct Kernel {
 
 // exp(-(x0 + k h - p)^2 / w^2) for k = 0..n-1 by the recurrence e_{k+1} = e_k r_k,
 // r_{k+1} = r_k exp(-2 h^2 / w^2); d2[k] = (x0 + k h - p)^2.
-inline void axis_factors(double first_node, double h, double p, int n, double inv_w2, double q2, double* e,
+inline void AxisFactors(double first_node, double h, double p, int n, double inv_w2, double q2, double* e,
                          double* d2) {
   const double d0 = first_node - p;
   double ek = std::exp(-d0 * d0 * inv_w2);
@@ -115,7 +115,7 @@ inline void axis_factors(double first_node, double h, double p, int n, double in
 }
 
 // The same factors without the squared distances (the contacts' quadrature points).
-inline void axis_exp(double first_node, double h, double p, int n, double inv_w2, double q2, double* e) {
+inline void AxisExp(double first_node, double h, double p, int n, double inv_w2, double q2, double* e) {
   const double d0 = first_node - p;
   double ek = std::exp(-d0 * d0 * inv_w2);
   double rk = std::exp(-(2.0 * d0 * h + h * h) * inv_w2);
@@ -134,12 +134,12 @@ inline void axis_exp(double first_node, double h, double p, int n, double inv_w2
 #pragma GCC diagnostic ignored "-Wpsabi"
 typedef double Lanes __attribute__((vector_size(32)));
 constexpr int kLanes = 4;
-[[gnu::always_inline]] inline Lanes load_lanes(const double* p) {
+[[gnu::always_inline]] inline Lanes LoadLanes(const double* p) {
   Lanes v;
   std::memcpy(&v, p, sizeof v);
   return v;
 }
-[[gnu::always_inline]] inline void store_lanes(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
+[[gnu::always_inline]] inline void StoreLanes(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
 
 // A contact's branch: one or two segments from a common start a -- the contact point to each
 // body's centre, or from one round body's centre through the contact point to the other's.
@@ -152,7 +152,7 @@ struct Branch {
 
 }  // namespace
 
-CgGrid grid_over(const Rect& window, double spacing) {
+CgGrid GridOver(const Rect& window, double spacing) {
   CgGrid g;
   g.x0 = window.x0;
   g.y0 = window.y0;
@@ -163,7 +163,7 @@ CgGrid grid_over(const Rect& window, double spacing) {
   return g;
 }
 
-Rect cg_default_window(double silo_width, double bed_top) {
+Rect CgDefaultWindow(double silo_width, double bed_top) {
   constexpr double kInset = 1.5, kTop = 148.5;
   Rect r;
   r.x0 = -0.5 * silo_width + kInset;
@@ -173,8 +173,8 @@ Rect cg_default_window(double silo_width, double bed_top) {
   return r;
 }
 
-std::span<const CgFieldInfo> cg_field_table() {
-  static const CgFieldInfo table[] = {
+std::span<const CgFieldInfo> CgFieldTable() {
+  static const CgFieldInfo kTable[] = {
       {CgField::kPhi, "phi", "area fraction phi", "", false},
       {CgField::kVx, "vx", "velocity v_x", "sqrt(g d)", false},
       {CgField::kVy, "vy", "velocity v_y", "sqrt(g d)", false},
@@ -195,17 +195,17 @@ std::span<const CgFieldInfo> cg_field_table() {
       {CgField::kTotalShear, "total_shear", "shear stress |tau| (contact + kinetic)", "rho g d", true},
       {CgField::kTotalFriction, "total_friction", "dynamic friction |tau|/P (contact + kinetic)", "", true},
   };
-  return table;
+  return kTable;
 }
 
-const CgFieldInfo& cg_field_info(CgField field) {
-  for (const CgFieldInfo& f : cg_field_table())
+const CgFieldInfo& CgFieldInfoFor(CgField field) {
+  for (const CgFieldInfo& f : CgFieldTable())
     if (f.field == field) return f;
   throw std::logic_error("cg_field_info: unknown field");
 }
 
-bool cg_field_by_name(std::string_view name, CgField& field) {
-  for (const CgFieldInfo& f : cg_field_table())
+bool CgFieldByName(std::string_view name, CgField& field) {
+  for (const CgFieldInfo& f : CgFieldTable())
     if (name == f.name) {
       field = f.field;
       return true;
@@ -215,7 +215,7 @@ bool cg_field_by_name(std::string_view name, CgField& field) {
 
 // ---- sums and maps -----------------------------------------------------------------------
 
-void CgSums::resize(const CgGrid& g) {
+void CgSums::Resize(const CgGrid& g) {
   grid = g;
   const std::size_t n = g.size();
   for (auto* v : {&phi, &vx, &vy, &omega, &omega_fl2, &tg, &tg_eq46, &sxx, &sxy, &syx, &syy, &kxx, &kxy, &kyy})
@@ -223,7 +223,7 @@ void CgSums::resize(const CgGrid& g) {
   n_defined.assign(n, 0);
 }
 
-void CgSums::add(const CgSums& o) {
+void CgSums::Add(const CgSums& o) {
   if (!(o.grid == grid)) throw std::invalid_argument("CgSums::add: the grids differ");
   frames += o.frames;
   contact_frames += o.contact_frames;
@@ -253,28 +253,28 @@ namespace {
 struct Invariants {
   double pressure, shear;
 };
-inline Invariants invariants(double sxx, double sxy, double syx, double syy) {
+inline Invariants StressInvariants(double sxx, double sxy, double syx, double syy) {
   const double s = 0.5 * (sxy + syx), d = 0.5 * (sxx - syy);
   return {-0.5 * (sxx + syy), std::sqrt(d * d + s * s)};
 }
 
 }  // namespace
 
-double CgMaps::value(CgField f, std::size_t n) const {
+double CgMaps::Value(CgField f, std::size_t n) const {
   const CgSums& s = sums_;
   const double frames = s.frames, defined = s.n_defined[n], cframes = s.contact_frames;
   auto per_defined = [&](const std::vector<double>& v) { return defined > 0 ? v[n] / defined : kNaN; };
   auto contact = [&]() {
-    return cframes > 0 ? invariants(s.sxx[n] / cframes, s.sxy[n] / cframes, s.syx[n] / cframes, s.syy[n] / cframes)
+    return cframes > 0 ? StressInvariants(s.sxx[n] / cframes, s.sxy[n] / cframes, s.syx[n] / cframes, s.syy[n] / cframes)
                        : Invariants{kNaN, kNaN};
   };
   auto kinetic = [&]() {
-    return frames > 0 ? invariants(s.kxx[n] / frames, s.kxy[n] / frames, s.kxy[n] / frames, s.kyy[n] / frames)
+    return frames > 0 ? StressInvariants(s.kxx[n] / frames, s.kxy[n] / frames, s.kxy[n] / frames, s.kyy[n] / frames)
                       : Invariants{kNaN, kNaN};
   };
   auto total = [&]() {
     if (cframes <= 0 || frames <= 0) return Invariants{kNaN, kNaN};
-    return invariants(s.sxx[n] / cframes + s.kxx[n] / frames, s.sxy[n] / cframes + s.kxy[n] / frames,
+    return StressInvariants(s.sxx[n] / cframes + s.kxx[n] / frames, s.sxy[n] / cframes + s.kxy[n] / frames,
                       s.syx[n] / cframes + s.kxy[n] / frames, s.syy[n] / cframes + s.kyy[n] / frames);
   };
   switch (f) {
@@ -307,7 +307,7 @@ double CgMaps::value(CgField f, std::size_t n) const {
   return kNaN;
 }
 
-int CgMaps::n_frames(CgField f, std::size_t n) const {
+int CgMaps::NFrames(CgField f, std::size_t n) const {
   switch (f) {
     case CgField::kPhi:
     case CgField::kKineticPressure:
@@ -323,36 +323,36 @@ int CgMaps::n_frames(CgField f, std::size_t n) const {
   }
 }
 
-std::vector<double> CgMaps::values(CgField f) const {
-  std::vector<double> v(grid().size());
-  for (std::size_t n = 0; n < v.size(); ++n) v[n] = value(f, n);
+std::vector<double> CgMaps::Values(CgField f) const {
+  std::vector<double> v(Grid().size());
+  for (std::size_t n = 0; n < v.size(); ++n) v[n] = Value(f, n);
   return v;
 }
 
-std::string cg_map_csv(const CgMaps& maps, CgField field) {
-  std::string out = std::string("x,y,") + cg_field_info(field).name + ",n_frames\n";
-  const CgGrid& g = maps.grid();
+std::string CgMapCsv(const CgMaps& maps, CgField field) {
+  std::string out = std::string("x,y,") + CgFieldInfoFor(field).name + ",n_frames\n";
+  const CgGrid& g = maps.Grid();
   char line[128];
   for (int j = 0; j < g.ny; ++j)
     for (int i = 0; i < g.nx; ++i) {
       const std::size_t n = static_cast<std::size_t>(j) * g.nx + i;
-      const double v = maps.value(field, n);
-      const int len = std::isnan(v) ? std::snprintf(line, sizeof line, "%.10g,%.10g,nan,%d\n", g.x(i), g.y(j), maps.n_frames(field, n))
-                                    : std::snprintf(line, sizeof line, "%.10g,%.10g,%.10g,%d\n", g.x(i), g.y(j), v, maps.n_frames(field, n));
+      const double v = maps.Value(field, n);
+      const int len = std::isnan(v) ? std::snprintf(line, sizeof line, "%.10g,%.10g,nan,%d\n", g.X(i), g.Y(j), maps.NFrames(field, n))
+                                    : std::snprintf(line, sizeof line, "%.10g,%.10g,%.10g,%d\n", g.X(i), g.Y(j), v, maps.NFrames(field, n));
       out.append(line, static_cast<std::size_t>(len));
     }
   return out;
 }
 
-CgRegionMean cg_region_mean(const CgMaps& maps, CgField field, const Rect& region) {
+CgRegionMean MeanOverRegion(const CgMaps& maps, CgField field, const Rect& region) {
   auto mean_of = [&](CgField f) {
     CgRegionMean r;
     double sum = 0.0;
-    const CgGrid& g = maps.grid();
+    const CgGrid& g = maps.Grid();
     for (int j = 0; j < g.ny; ++j)
       for (int i = 0; i < g.nx; ++i) {
-        if (!region.contains(g.x(i), g.y(j))) continue;
-        const double v = maps.value(f, static_cast<std::size_t>(j) * g.nx + i);
+        if (!region.Contains(g.X(i), g.Y(j))) continue;
+        const double v = maps.Value(f, static_cast<std::size_t>(j) * g.nx + i);
         if (std::isnan(v)) continue;
         sum += v;
         ++r.nodes;
@@ -372,7 +372,7 @@ CgRegionMean cg_region_mean(const CgMaps& maps, CgField field, const Rect& regio
   return mean_of(field);
 }
 
-double cg_line_integral(double rx, double ry, double ax, double ay, double bx, double by, const CgOptions& options) {
+double CgLineIntegral(double rx, double ry, double ax, double ay, double bx, double by, const CgOptions& options) {
   const Kernel k(options);
   const double ux = bx - ax, uy = by - ay, length2 = ux * ux + uy * uy;
   // Zero beyond the cutoff from the segment's line or beyond its ends (as MercuryCG cuts its
@@ -381,7 +381,7 @@ double cg_line_integral(double rx, double ry, double ax, double ay, double bx, d
   if (!(length > 0.0)) return 0.0;
   const double along = ((rx - ax) * ux + (ry - ay) * uy) / length, perp = ((rx - ax) * uy - (ry - ay) * ux) / length;
   if (!(along > -k.rc && along < length + k.rc && perp * perp < k.rc2)) return 0.0;
-  const Quadrature& q = gauss_legendre(quadrature_points(std::sqrt(length2) / options.width, options.cutoff));
+  const Quadrature& q = GaussLegendre(QuadraturePoints(std::sqrt(length2) / options.width, options.cutoff));
   double sum = 0.0;
   for (int p = 0; p < q.n; ++p) {
     const double dx = rx - ax - q.s[p] * ux, dy = ry - ay - q.s[p] * uy;
@@ -417,17 +417,17 @@ struct CgAccumulator::Impl {
 
   explicit Impl(const CgOptions& o) : opt(o), kernel(o) {}
 
-  int bands() const { return (ext.ny + band_rows - 1) / band_rows; }
-  int threads() const { return opt.threads > 0 ? opt.threads : omp_get_max_threads(); }
+  int Bands() const { return (ext.ny + band_rows - 1) / band_rows; }
+  int Threads() const { return opt.threads > 0 ? opt.threads : omp_get_max_threads(); }
 
-  void select(std::span<const rundir::Disc> discs);
-  void body_centres(std::span<const rundir::Disc> discs);
-  void build_segments(const rundir::ContactFrame& contacts);
-  void clear_band(int band);
-  void pass1(std::span<const std::int32_t> discs, std::span<const std::int32_t> contacts);
-  void pass2(std::span<const std::int32_t> discs);
-  void finish_frame(double time, bool with_contacts);
-  double frame_value(CgField f, std::size_t n_ext) const;
+  void Select(std::span<const rundir::Disc> discs);
+  void BodyCentres(std::span<const rundir::Disc> discs);
+  void BuildSegments(const rundir::ContactFrame& contacts);
+  void ClearBand(int band);
+  void Pass1(std::span<const std::int32_t> discs, std::span<const std::int32_t> contacts);
+  void Pass2(std::span<const std::int32_t> discs);
+  void FinishFrame(double time, bool with_contacts);
+  double FrameValue(CgField f, std::size_t n_ext) const;
 };
 
 CgAccumulator::CgAccumulator(const CgOptions& options, std::vector<CgSeriesRequest> series)
@@ -442,7 +442,7 @@ CgAccumulator::CgAccumulator(const CgOptions& options, std::vector<CgSeriesReque
   if (!(o.window.x1 > o.window.x0) || !(o.window.y1 >= o.window.y0))
     throw std::invalid_argument("coarse-graining window is empty");
   if (!(o.min_phi > 0.0)) throw std::invalid_argument("min_phi must be > 0 (got " + std::to_string(o.min_phi) + ")");
-  m.grid = grid_over(o.window, o.spacing);
+  m.grid = GridOver(o.window, o.spacing);
   if (m.grid.size() > 50'000'000) throw std::invalid_argument("coarse-graining grid has more than 5e7 nodes");
   m.margin = static_cast<int>(std::ceil(m.kernel.rc / o.spacing)) + 1;
   m.ext = m.grid;
@@ -453,11 +453,11 @@ CgAccumulator::CgAccumulator(const CgOptions& options, std::vector<CgSeriesReque
   m.q2 = std::exp(-2.0 * o.spacing * o.spacing * m.kernel.inv_w2);
   // A disc reaches the rows within rc of it: at most floor(2 rc / h) + 1.
   m.band_rows = std::max(kMinBandRows, static_cast<int>(std::floor(2.0 * m.kernel.rc / o.spacing)) + 1);
-  m.sums.resize(m.grid);
+  m.sums.Resize(m.grid);
   for (auto* v : {&m.phi, &m.px, &m.py, &m.om, &m.om2, &m.v2, &m.ta, &m.kxx, &m.kxy, &m.kyy, &m.sxx, &m.sxy, &m.syx, &m.syy})
     v->assign(m.ext.size(), 0.0);
-  m.band_discs.resize(static_cast<std::size_t>(m.bands()));
-  m.band_segments.resize(static_cast<std::size_t>(m.bands()));
+  m.band_discs.resize(static_cast<std::size_t>(m.Bands()));
+  m.band_segments.resize(static_cast<std::size_t>(m.Bands()));
   for (CgSeriesRequest& r : series) m.series.push_back(CgSeries{std::move(r), {}, {}});
 }
 
@@ -465,18 +465,18 @@ CgAccumulator::~CgAccumulator() = default;
 CgAccumulator::CgAccumulator(CgAccumulator&&) noexcept = default;
 CgAccumulator& CgAccumulator::operator=(CgAccumulator&&) noexcept = default;
 
-const CgSums& CgAccumulator::sums() const { return impl_->sums; }
-const std::vector<CgSeries>& CgAccumulator::series() const { return impl_->series; }
-const CgOptions& CgAccumulator::options() const { return impl_->opt; }
-const CgGrid& CgAccumulator::grid() const { return impl_->grid; }
+const CgSums& CgAccumulator::Sums() const { return impl_->sums; }
+const std::vector<CgSeries>& CgAccumulator::Series() const { return impl_->series; }
+const CgOptions& CgAccumulator::Options() const { return impl_->opt; }
+const CgGrid& CgAccumulator::Grid() const { return impl_->grid; }
 
-void CgAccumulator::Impl::select(std::span<const rundir::Disc> discs) {
+void CgAccumulator::Impl::Select(std::span<const rundir::Disc> discs) {
   for (auto* v : {&dx, &dy, &da, &dm, &dvx, &dvy, &dom}) v->clear();
   near_window.clear();
   for (auto& b : band_discs) b.clear();
   const double rc = kernel.rc, h = opt.spacing;
-  const double ex0 = ext.x0 - rc, ex1 = ext.x(ext.nx - 1) + rc, ey0 = ext.y0 - rc, ey1 = ext.y(ext.ny - 1) + rc;
-  const double wx0 = grid.x0 - rc, wx1 = grid.x(grid.nx - 1) + rc, wy0 = grid.y0 - rc, wy1 = grid.y(grid.ny - 1) + rc;
+  const double ex0 = ext.x0 - rc, ex1 = ext.X(ext.nx - 1) + rc, ey0 = ext.y0 - rc, ey1 = ext.Y(ext.ny - 1) + rc;
+  const double wx0 = grid.x0 - rc, wx1 = grid.X(grid.nx - 1) + rc, wy0 = grid.y0 - rc, wy1 = grid.Y(grid.ny - 1) + rc;
   for (const rundir::Disc& d : discs) {
     if (!(d.x > ex0 && d.x < ex1 && d.y > ey0 && d.y < ey1)) continue;  // also drops NaN
     const auto k = static_cast<std::int32_t>(dx.size());
@@ -494,7 +494,7 @@ void CgAccumulator::Impl::select(std::span<const rundir::Disc> discs) {
   }
 }
 
-void CgAccumulator::Impl::body_centres(std::span<const rundir::Disc> discs) {
+void CgAccumulator::Impl::BodyCentres(std::span<const rundir::Disc> discs) {
   std::int64_t max_id = -1;
   for (const rundir::Disc& d : discs) max_id = std::max(max_id, d.mol);
   // Body ids are dense (0-based, docs/run-directory.md); a sparse numbering gets no centres
@@ -519,12 +519,12 @@ void CgAccumulator::Impl::body_centres(std::span<const rundir::Disc> discs) {
     }
 }
 
-void CgAccumulator::Impl::build_segments(const rundir::ContactFrame& contacts) {
+void CgAccumulator::Impl::BuildSegments(const rundir::ContactFrame& contacts) {
   segments.clear();
   for (auto& b : band_segments) b.clear();
   tall_segments.clear();
   const double rc = kernel.rc, h = opt.spacing;
-  const double wx0 = grid.x0 - rc, wx1 = grid.x(grid.nx - 1) + rc, wy0 = grid.y0 - rc, wy1 = grid.y(grid.ny - 1) + rc;
+  const double wx0 = grid.x0 - rc, wx1 = grid.X(grid.nx - 1) + rc, wy0 = grid.y0 - rc, wy1 = grid.Y(grid.ny - 1) + rc;
   auto centre = [&](std::int64_t body, double disc_x, double disc_y, double cx, double cy, double& x, double& y) {
     x = disc_x;
     y = disc_y;
@@ -591,7 +591,7 @@ void CgAccumulator::Impl::build_segments(const rundir::ContactFrame& contacts) {
   }
 }
 
-void CgAccumulator::Impl::clear_band(int band) {
+void CgAccumulator::Impl::ClearBand(int band) {
   const int j0 = band * band_rows, j1 = std::min(ext.ny, j0 + band_rows);  // rows [j0, j1)
   const std::size_t n0 = static_cast<std::size_t>(j0) * ext.nx, n1 = static_cast<std::size_t>(j1) * ext.nx;
   for (auto* v : {&phi, &px, &py, &om, &om2, &v2, &ta, &kxx, &kxy, &kyy, &sxx, &sxy, &syx, &syy})
@@ -599,7 +599,7 @@ void CgAccumulator::Impl::clear_band(int band) {
 }
 
 // Discs and contacts onto all the rows they reach (the caller keeps threads apart).
-__attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass1(
+__attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::Pass1(
     std::span<const std::int32_t> disc_list, std::span<const std::int32_t> contact_list) {
   const double h = opt.spacing, rc = kernel.rc, rc2 = kernel.rc2, inv_w2 = kernel.inv_w2, norm = kernel.norm;
   // Row and column ranges are clamped to the grid, so its dimensions bound the scratch.
@@ -620,8 +620,8 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass
     const int r_hi = std::min(ext.ny - 1, static_cast<int>(std::floor((y + rc - ext.y0) / h)));
     const int ni = i_hi - i_lo + 1, nj = r_hi - r_lo + 1;
     if (ni <= 0 || nj <= 0) continue;
-    axis_factors(ext.x(i_lo), h, x, ni, inv_w2, q2, ex, dx2);
-    axis_factors(ext.y(r_lo), h, y, nj, inv_w2, q2, ey, dy2);
+    AxisFactors(ext.X(i_lo), h, x, ni, inv_w2, q2, ex, dx2);
+    AxisFactors(ext.Y(r_lo), h, y, nj, inv_w2, q2, ey, dy2);
     const double a = da[k], avx = a * dvx[k], avy = a * dvy[k], aom = a * dom[k], aom2 = aom * dom[k];
     const double av2 = a * (dvx[k] * dvx[k] + dvy[k] * dvy[k]);
     for (int r = 0; r < nj; ++r) {
@@ -677,21 +677,21 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass
     double e_x[2] = {0, 0}, e_y[2] = {0, 0}, along_hi[2] = {0, 0};
     for (int half = 0; half < br.halves; ++half) {
       const double ux = br.bx[half] - br.ax, uy = br.by[half] - br.ay, length = std::sqrt(ux * ux + uy * uy);
-      rule[half] = &gauss_legendre(quadrature_points(length / opt.width, opt.cutoff));
+      rule[half] = &GaussLegendre(QuadraturePoints(length / opt.width, opt.cutoff));
       nq[half] = rule[half]->n;
       e_x[half] = ux / length;
       e_y[half] = uy / length;
       along_hi[half] = length + rc;
       for (int p = 0; p < nq[half]; ++p) {
         const std::size_t block = static_cast<std::size_t>(half) * kMaxQuadrature + static_cast<std::size_t>(p);
-        axis_exp(ext.x(i_lo), h, br.ax + rule[half]->s[p] * ux, ni, inv_w2, q2, qx + block * cols);
-        axis_exp(ext.y(r_lo), h, br.ay + rule[half]->s[p] * uy, nj, inv_w2, q2, qy + block * rows);
+        AxisExp(ext.X(i_lo), h, br.ax + rule[half]->s[p] * ux, ni, inv_w2, q2, qx + block * cols);
+        AxisExp(ext.Y(r_lo), h, br.ay + rule[half]->s[p] * uy, nj, inv_w2, q2, qy + block * rows);
       }
     }
-    const double x_first = ext.x(i_lo) - br.ax;
+    const double x_first = ext.X(i_lo) - br.ax;
     const int halves = br.halves;
     for (int r = 0; r < nj; ++r) {
-      const double ry = ext.y(r_lo + r) - br.ay;
+      const double ry = ext.Y(r_lo + r) - br.ay;
       double cq[2][kMaxQuadrature];
       for (int half = 0; half < halves; ++half) {
         const double* const fy = qy + static_cast<std::size_t>(half) * kMaxQuadrature * rows + r;
@@ -709,7 +709,7 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass
           // cut (and inside the branch's columns).
           const double* const fx = qx + static_cast<std::size_t>(half) * kMaxQuadrature * cols + i0;
           Lanes line = {};
-          for (int p = 0; p < nq[half]; ++p) line += cq[half][p] * load_lanes(fx + static_cast<std::size_t>(p) * cols);
+          for (int p = 0; p < nq[half]; ++p) line += cq[half][p] * LoadLanes(fx + static_cast<std::size_t>(p) * cols);
           const Lanes along = rx * e_x[half] + ry * e_y[half], perp = rx * e_y[half] - ry * e_x[half];
           const auto inside = (along > -rc) & (along < along_hi[half]) & (perp * perp < rc2) & (col > col_lo) &
                               (col < col_hi);
@@ -718,7 +718,7 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass
         }
         for (int c = 0; c < 4; ++c) {
           double* const o = out[c] + base + i0;
-          store_lanes(o, load_lanes(o) + acc[c]);
+          StoreLanes(o, LoadLanes(o) + acc[c]);
         }
       }
     }
@@ -726,7 +726,7 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass
 }
 
 // The discs' velocity fluctuations onto the window's rows they reach.
-__attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass2(std::span<const std::int32_t> disc_list) {
+__attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::Pass2(std::span<const std::int32_t> disc_list) {
   const int j0 = margin, j1 = margin + grid.ny;  // the window's rows [j0, j1)
   const int wi0 = margin, wi1 = margin + grid.nx - 1;
   const double h = opt.spacing, rc = kernel.rc, rc2 = kernel.rc2, inv_w2 = kernel.inv_w2, norm = kernel.norm;
@@ -761,8 +761,8 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass
     const double m = dm[k];
     const double qa = da[k] * (dvx_i * dvx_i + dvy_i * dvy_i), qxx = m * dvx_i * dvx_i, qxy = m * dvx_i * dvy_i,
                  qyy = m * dvy_i * dvy_i;
-    axis_factors(ext.x(i_lo), h, x, ni, inv_w2, q2, ex, dx2);
-    axis_factors(ext.y(r_lo), h, y, nj, inv_w2, q2, ey, dy2);
+    AxisFactors(ext.X(i_lo), h, x, ni, inv_w2, q2, ex, dx2);
+    AxisFactors(ext.Y(r_lo), h, y, nj, inv_w2, q2, ey, dy2);
     for (int r = 0; r < nj; ++r) {
       const double room = rc2 - dy2[r], c = norm * ey[r];
       const std::size_t base = static_cast<std::size_t>(r_lo + r) * ext.nx + i_lo;
@@ -782,7 +782,7 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::pass
   }
 }
 
-double CgAccumulator::Impl::frame_value(CgField f, std::size_t n) const {
+double CgAccumulator::Impl::FrameValue(CgField f, std::size_t n) const {
   const double p = phi[n];
   const bool defined = p >= opt.min_phi;
   switch (f) {
@@ -805,28 +805,28 @@ double CgAccumulator::Impl::frame_value(CgField f, std::size_t n) const {
     case CgField::kSigmaXX: return sxx[n];
     case CgField::kSigmaXY: return 0.5 * (sxy[n] + syx[n]);
     case CgField::kSigmaYY: return syy[n];
-    case CgField::kPressure: return invariants(sxx[n], sxy[n], syx[n], syy[n]).pressure;
-    case CgField::kShear: return invariants(sxx[n], sxy[n], syx[n], syy[n]).shear;
+    case CgField::kPressure: return StressInvariants(sxx[n], sxy[n], syx[n], syy[n]).pressure;
+    case CgField::kShear: return StressInvariants(sxx[n], sxy[n], syx[n], syy[n]).shear;
     case CgField::kFriction: {
-      const Invariants c = invariants(sxx[n], sxy[n], syx[n], syy[n]);
+      const Invariants c = StressInvariants(sxx[n], sxy[n], syx[n], syy[n]);
       return c.pressure > 0.0 ? c.shear / c.pressure : kNaN;
     }
-    case CgField::kKineticPressure: return invariants(-kxx[n], -kxy[n], -kxy[n], -kyy[n]).pressure;
-    case CgField::kKineticShear: return invariants(-kxx[n], -kxy[n], -kxy[n], -kyy[n]).shear;
+    case CgField::kKineticPressure: return StressInvariants(-kxx[n], -kxy[n], -kxy[n], -kyy[n]).pressure;
+    case CgField::kKineticShear: return StressInvariants(-kxx[n], -kxy[n], -kxy[n], -kyy[n]).shear;
     case CgField::kTotalPressure:
-      return invariants(sxx[n] - kxx[n], sxy[n] - kxy[n], syx[n] - kxy[n], syy[n] - kyy[n]).pressure;
+      return StressInvariants(sxx[n] - kxx[n], sxy[n] - kxy[n], syx[n] - kxy[n], syy[n] - kyy[n]).pressure;
     case CgField::kTotalShear:
-      return invariants(sxx[n] - kxx[n], sxy[n] - kxy[n], syx[n] - kxy[n], syy[n] - kyy[n]).shear;
+      return StressInvariants(sxx[n] - kxx[n], sxy[n] - kxy[n], syx[n] - kxy[n], syy[n] - kyy[n]).shear;
     case CgField::kTotalFriction: {
-      const Invariants t = invariants(sxx[n] - kxx[n], sxy[n] - kxy[n], syx[n] - kxy[n], syy[n] - kyy[n]);
+      const Invariants t = StressInvariants(sxx[n] - kxx[n], sxy[n] - kxy[n], syx[n] - kxy[n], syy[n] - kyy[n]);
       return t.pressure > 0.0 ? t.shear / t.pressure : kNaN;
     }
   }
   return kNaN;
 }
 
-void CgAccumulator::Impl::finish_frame(double time, bool with_contacts) {
-  const int nt = threads();
+void CgAccumulator::Impl::FinishFrame(double time, bool with_contacts) {
+  const int nt = Threads();
 #pragma omp parallel for schedule(static) num_threads(nt)
   for (int j = 0; j < grid.ny; ++j) {
     for (int i = 0; i < grid.nx; ++i) {
@@ -848,9 +848,9 @@ void CgAccumulator::Impl::finish_frame(double time, bool with_contacts) {
       sums.vx[w] += px[n] / p;
       sums.vy[w] += py[n] / p;
       sums.omega[w] += om[n] / p;
-      sums.omega_fl2[w] += frame_value(CgField::kOmegaFl2, n);
+      sums.omega_fl2[w] += FrameValue(CgField::kOmegaFl2, n);
       sums.tg[w] += ta[n] / (2.0 * p);
-      sums.tg_eq46[w] += frame_value(CgField::kTgEq46, n);
+      sums.tg_eq46[w] += FrameValue(CgField::kTgEq46, n);
     }
   }
   ++sums.frames;
@@ -860,27 +860,27 @@ void CgAccumulator::Impl::finish_frame(double time, bool with_contacts) {
     int count = 0;
     for (int j = 0; j < grid.ny; ++j)
       for (int i = 0; i < grid.nx; ++i) {
-        if (!s.request.region.contains(grid.x(i), grid.y(j))) continue;
-        const double v = frame_value(s.request.field, static_cast<std::size_t>(j + margin) * ext.nx + (i + margin));
+        if (!s.request.region.Contains(grid.X(i), grid.Y(j))) continue;
+        const double v = FrameValue(s.request.field, static_cast<std::size_t>(j + margin) * ext.nx + (i + margin));
         if (std::isnan(v)) continue;
         sum += v;
         ++count;
       }
-    const bool stress = cg_field_info(s.request.field).needs_contacts;
+    const bool stress = CgFieldInfoFor(s.request.field).needs_contacts;
     s.time.push_back(time);
     s.value.push_back(count > 0 && (with_contacts || !stress) ? sum / count : kNaN);
   }
 }
 
-void CgAccumulator::add_frame(double time, std::span<const rundir::Disc> discs, const rundir::ContactFrame* contacts) {
+void CgAccumulator::AddFrame(double time, std::span<const rundir::Disc> discs, const rundir::ContactFrame* contacts) {
   Impl& m = *impl_;
-  m.select(discs);
+  m.Select(discs);
   const bool with_contacts = contacts != nullptr;
   if (with_contacts) {
-    m.body_centres(discs);
-    m.build_segments(*contacts);
+    m.BodyCentres(discs);
+    m.BuildSegments(*contacts);
   }
-  const int nb = m.bands(), nt = m.threads();
+  const int nb = m.Bands(), nt = m.Threads();
   const std::span<const std::int32_t> none;
   auto contacts_of = [&](int b) {
     return with_contacts ? std::span<const std::int32_t>(m.band_segments[static_cast<std::size_t>(b)]) : none;
@@ -890,19 +890,19 @@ void CgAccumulator::add_frame(double time, std::span<const rundir::Disc> discs, 
 #pragma omp parallel num_threads(nt)
   {
 #pragma omp for schedule(static)
-    for (int b = 0; b < nb; ++b) m.clear_band(b);
+    for (int b = 0; b < nb; ++b) m.ClearBand(b);
     for (int parity = 0; parity < 2; ++parity) {
 #pragma omp for schedule(dynamic, 1)
-      for (int b = parity; b < nb; b += 2) m.pass1(m.band_discs[static_cast<std::size_t>(b)], contacts_of(b));
+      for (int b = parity; b < nb; b += 2) m.Pass1(m.band_discs[static_cast<std::size_t>(b)], contacts_of(b));
     }
 #pragma omp single
-    if (with_contacts) m.pass1(none, m.tall_segments);
+    if (with_contacts) m.Pass1(none, m.tall_segments);
     for (int parity = 0; parity < 2; ++parity) {
 #pragma omp for schedule(dynamic, 1)
-      for (int b = parity; b < nb; b += 2) m.pass2(m.band_discs[static_cast<std::size_t>(b)]);
+      for (int b = parity; b < nb; b += 2) m.Pass2(m.band_discs[static_cast<std::size_t>(b)]);
     }
   }
-  m.finish_frame(time, with_contacts);
+  m.FinishFrame(time, with_contacts);
 }
 
 }  // namespace granary::analysis

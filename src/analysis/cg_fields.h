@@ -30,13 +30,13 @@ struct CgGrid {
   double x0 = 0.0, y0 = 0.0;
   double spacing = 1.0;
   int nx = 0, ny = 0;
-  double x(int i) const { return x0 + i * spacing; }
-  double y(int j) const { return y0 + j * spacing; }
+  double X(int i) const { return x0 + i * spacing; }
+  double Y(int j) const { return y0 + j * spacing; }
   std::size_t size() const { return static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny); }
   bool operator==(const CgGrid&) const = default;
 };
 // The nodes of a window: the first at its low corner, every `spacing`, as many as fit in it.
-CgGrid grid_over(const Rect& window, double spacing);
+CgGrid GridOver(const Rect& window, double spacing);
 
 struct CgOptions {
   double width = 1.414;     // w of W(r) = exp(-r^2/w^2) / (pi w^2), eq. 4.1 (d)
@@ -50,7 +50,7 @@ struct CgOptions {
 // The default window of a silo `width` wide whose bed reaches `bed_top`: 1.5 d inside the
 // side walls, from 1.5 d above the base up to min(148.5 d, bed_top) (the thesis' maps span
 // 1.5 <= y <= 148.5, ch. 5-6).
-Rect cg_default_window(double silo_width, double bed_top);
+Rect CgDefaultWindow(double silo_width, double bed_top);
 
 // The fields a map can show. Contact stress follows eq. 4.7 (see docs/analyses.md for its
 // sign: tension positive, so P = -tr(sigma)/2 > 0 in compression), kinetic stress is
@@ -81,10 +81,10 @@ struct CgFieldInfo {
   const char* unit;          // "" (dimensionless), "sqrt(g d)", ...
   bool needs_contacts;       // contact or total stress
 };
-std::span<const CgFieldInfo> cg_field_table();
-const CgFieldInfo& cg_field_info(CgField field);
+std::span<const CgFieldInfo> CgFieldTable();
+const CgFieldInfo& CgFieldInfoFor(CgField field);
 // The field named `name`; false if there is none.
-bool cg_field_by_name(std::string_view name, CgField& field);
+bool CgFieldByName(std::string_view name, CgField& field);
 
 // Time sums per window node; sums of runs on the same grid add (replicas of a sweep point).
 struct CgSums {
@@ -96,9 +96,9 @@ struct CgSums {
   std::vector<double> vx, vy, omega, omega_fl2, tg, tg_eq46;  // over the defined frames
   std::vector<double> sxx, sxy, syx, syy;   // contact stress, over the contact frames
   std::vector<double> kxx, kxy, kyy;        // kinetic stress, over all frames
-  void resize(const CgGrid& g);
+  void Resize(const CgGrid& g);
   // Adds `other` (same grid; throws std::invalid_argument otherwise).
-  void add(const CgSums& other);
+  void Add(const CgSums& other);
 };
 
 // Time-averaged fields: the value of any field at a node and the frames behind it.
@@ -106,16 +106,16 @@ class CgMaps {
  public:
   CgMaps() = default;
   explicit CgMaps(CgSums sums) : sums_(std::move(sums)) {}
-  const CgGrid& grid() const { return sums_.grid; }
-  const CgSums& sums() const { return sums_; }
-  int frames() const { return sums_.frames; }
-  int contact_frames() const { return sums_.contact_frames; }
-  bool has(CgField f) const { return !cg_field_info(f).needs_contacts || sums_.contact_frames > 0; }
+  const CgGrid& Grid() const { return sums_.grid; }
+  const CgSums& Sums() const { return sums_; }
+  int Frames() const { return sums_.frames; }
+  int ContactFrames() const { return sums_.contact_frames; }
+  bool Has(CgField f) const { return !CgFieldInfoFor(f).needs_contacts || sums_.contact_frames > 0; }
   // NaN where the field is not defined (no frame with phi >= min_phi; stress without contacts).
-  double value(CgField f, std::size_t node) const;
-  int n_frames(CgField f, std::size_t node) const;
+  double Value(CgField f, std::size_t node) const;
+  int NFrames(CgField f, std::size_t node) const;
   // The whole map, node order.
-  std::vector<double> values(CgField f) const;
+  std::vector<double> Values(CgField f) const;
 
  private:
   CgSums sums_;
@@ -123,7 +123,7 @@ class CgMaps {
 
 // The map as CSV: a header "x,y,<name>,n_frames" and one row per node (rows in y, then x);
 // an undefined value is "nan".
-std::string cg_map_csv(const CgMaps& maps, CgField field);
+std::string CgMapCsv(const CgMaps& maps, CgField field);
 
 // Mean of a field over the window nodes inside `region` (NaN where none is defined). The
 // friction fields are the ratio of the region means of |tau| and P (thesis fig. 5.3: shear
@@ -132,7 +132,7 @@ struct CgRegionMean {
   double value = kNaN;
   int nodes = 0;             // nodes inside the region with a defined value
 };
-CgRegionMean cg_region_mean(const CgMaps& maps, CgField field, const Rect& region);
+CgRegionMean MeanOverRegion(const CgMaps& maps, CgField field, const Rect& region);
 
 // A time series of a region mean of a per-frame field (thesis fig. 7.2: the speed above the
 // small outlet against time).
@@ -159,13 +159,13 @@ class CgAccumulator {
   // `contacts` = nullptr: a frame without contact forces (stress sums unchanged). Contact
   // branch vectors run from the contact point to each body's centre of mass, which the
   // discs give; a wall or obstacle contact contributes its half from the contact point.
-  void add_frame(double time, std::span<const rundir::Disc> discs, const rundir::ContactFrame* contacts);
+  void AddFrame(double time, std::span<const rundir::Disc> discs, const rundir::ContactFrame* contacts);
 
-  const CgSums& sums() const;
-  CgMaps maps() const { return CgMaps(sums()); }
-  const std::vector<CgSeries>& series() const;
-  const CgOptions& options() const;
-  const CgGrid& grid() const;
+  const CgSums& Sums() const;
+  CgMaps Maps() const { return CgMaps(Sums()); }
+  const std::vector<CgSeries>& Series() const;
+  const CgOptions& Options() const;
+  const CgGrid& Grid() const;
 
  private:
   struct Impl;
@@ -176,6 +176,6 @@ class CgAccumulator {
 // within the cutoff of the segment's line and of its ends (zero elsewhere, as MercuryCG cuts
 // it), by Gauss-Legendre quadrature with enough points for an error below 1e-6 of W's peak
 // (cutoff <= 3.2 w) or 3e-8 (larger cutoffs) -- what add_frame uses; exposed for tests.
-double cg_line_integral(double rx, double ry, double ax, double ay, double bx, double by, const CgOptions& options);
+double CgLineIntegral(double rx, double ry, double ax, double ay, double bx, double by, const CgOptions& options);
 
 }  // namespace granary::analysis

@@ -14,7 +14,7 @@
 
 namespace granary::analysis {
 
-const rundir::ContactFrame* ContactFrameMatcher::at(std::int64_t timestep) {
+const rundir::ContactFrame* ContactFrameMatcher::At(std::int64_t timestep) {
   while (!done_) {
     if (!pending_) {
       if (!reader_.NextHeader(frame_)) {
@@ -38,39 +38,39 @@ const rundir::ContactFrame* ContactFrameMatcher::at(std::int64_t timestep) {
   return nullptr;
 }
 
-Rect cg_run_window(const rundir::RunData& data) {
+Rect CgRunWindow(const rundir::RunData& data) {
   double width = 100.0;
   if (data.spec.is_object() && data.spec.contains("silo") && data.spec.at("silo").is_object())
     width = data.spec.at("silo").value("width", 100.0);
   double top = data.has_summary ? data.summary.bed.height : 0.0;
   if (!(top > 0.0) && data.has_frames) {
-    rundir::FrameReader reader(data.frames_file());
+    rundir::FrameReader reader(data.FramesFile());
     rundir::Frame frame;
     if (reader.Next(frame))
       for (const rundir::Disc& d : frame.discs) top = std::max(top, d.y + d.radius);
   }
   if (!(top > 0.0)) top = 148.5;
-  return cg_default_window(width, top);
+  return CgDefaultWindow(width, top);
 }
 
-CgRunResult cg_fields_of_run(const rundir::RunData& data, const CgRunOptions& options) {
+CgRunResult CgFieldsOfRun(const rundir::RunData& data, const CgRunOptions& options) {
   CgRunResult result;
   CgOptions cg = options.cg;
-  if (!(cg.window.x1 > cg.window.x0)) cg.window = cg_run_window(data);
+  if (!(cg.window.x1 > cg.window.x0)) cg.window = CgRunWindow(data);
   result.window = cg.window;
   const int parts = options.route ? std::max(1, options.parts) : 1;
   std::vector<CgAccumulator> acc;
   for (int p = 0; p < parts; ++p) acc.emplace_back(cg, options.series);
   if (!data.has_frames) {
-    for (auto& a : acc) result.parts.push_back(a.sums());
+    for (auto& a : acc) result.parts.push_back(a.Sums());
     return result;
   }
   double density = 1.0;
   if (data.spec.is_object() && data.spec.contains("bodies") && data.spec.at("bodies").is_object())
     density = data.spec.at("bodies").value("density", 1.0);
-  rundir::FrameReader frames(data.frames_file(), density);
+  rundir::FrameReader frames(data.FramesFile(), density);
   std::optional<ContactFrameMatcher> contacts;
-  if (options.contacts && data.has_contacts) contacts.emplace(data.contacts_file());
+  if (options.contacts && data.has_contacts) contacts.emplace(data.ContactsFile());
   result.has_contacts = contacts.has_value();
   rundir::Frame frame;
   int in_range = 0, used = 0;
@@ -99,7 +99,7 @@ CgRunResult cg_fields_of_run(const rundir::RunData& data, const CgRunOptions& op
       }
 #pragma omp section
       try {
-        if (contacts) c = contacts->at(frame.timestep);
+        if (contacts) c = contacts->At(frame.timestep);
       } catch (...) {
         errors[1] = std::current_exception();
       }
@@ -107,18 +107,18 @@ CgRunResult cg_fields_of_run(const rundir::RunData& data, const CgRunOptions& op
     for (const std::exception_ptr& e : errors)
       if (e) std::rethrow_exception(e);
     if (!discs_read) break;  // cut short at the end of the file (an engine still writing)
-    acc[static_cast<std::size_t>(part)].add_frame(frame.time, frame.discs, c);
+    acc[static_cast<std::size_t>(part)].AddFrame(frame.time, frame.discs, c);
     if (c == nullptr) ++result.frames_without_contacts;
     if (used++ == 0) result.first_time = frame.time;
     result.last_time = frame.time;
     if (options.max_frames > 0 && used >= options.max_frames) break;
   }
-  for (auto& a : acc) result.parts.push_back(a.sums());
+  for (auto& a : acc) result.parts.push_back(a.Sums());
   // Each part has the series of its frames; together they are the series of every frame used.
-  result.series = acc.front().series();
+  result.series = acc.front().Series();
   for (std::size_t p = 1; p < acc.size(); ++p)
     for (std::size_t k = 0; k < result.series.size(); ++k) {
-      const CgSeries& s = acc[p].series()[k];
+      const CgSeries& s = acc[p].Series()[k];
       CgSeries& out = result.series[k];
       out.time.insert(out.time.end(), s.time.begin(), s.time.end());
       out.value.insert(out.value.end(), s.value.begin(), s.value.end());

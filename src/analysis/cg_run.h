@@ -47,7 +47,7 @@ class ContactFrameMatcher {
  public:
   explicit ContactFrameMatcher(const std::filesystem::path& contacts_file) : reader_(contacts_file) {}
   // The contact frame of `timestep`, or nullptr; timesteps must not decrease between calls.
-  const rundir::ContactFrame* at(std::int64_t timestep);
+  const rundir::ContactFrame* At(std::int64_t timestep);
 
  private:
   rundir::ContactReader reader_;
@@ -57,9 +57,9 @@ class ContactFrameMatcher {
 
 // The silo's default window: `/silo/width` of the spec and the bed's height from summary.json
 // (else the top of the discs of the first frame).
-Rect cg_run_window(const rundir::RunData& data);
+Rect CgRunWindow(const rundir::RunData& data);
 
 // Throws rundir::ReadError on a malformed dump, std::invalid_argument on bad options.
-CgRunResult cg_fields_of_run(const rundir::RunData& data, const CgRunOptions& options);
+CgRunResult CgFieldsOfRun(const rundir::RunData& data, const CgRunOptions& options);
 
 }  // namespace granary::analysis

@@ -6,40 +6,40 @@
 
 namespace granary::analysis {
 
-int ClogSeries::unclogs() const {
+int ClogSeries::Unclogs() const {
   int n = 0;
   for (const auto& c : clogged) n += c.complete ? 1 : 0;
   return n;
 }
 
-std::vector<double> ClogSeries::avalanche_sizes() const {
+std::vector<double> ClogSeries::AvalancheSizes() const {
   std::vector<double> s;
   for (const auto& f : flowing)
     if (f.complete) s.push_back(f.exits);
   return s;
 }
 
-std::vector<double> ClogSeries::flowing_times() const {
+std::vector<double> ClogSeries::FlowingTimes() const {
   std::vector<double> t;
   for (const auto& f : flowing)
-    if (f.complete) t.push_back(f.duration());
+    if (f.complete) t.push_back(f.Duration());
   return t;
 }
 
-std::vector<double> ClogSeries::clogged_times() const {
+std::vector<double> ClogSeries::CloggedTimes() const {
   std::vector<double> t;
   for (const auto& c : clogged)
-    if (c.complete) t.push_back(c.duration());
+    if (c.complete) t.push_back(c.Duration());
   return t;
 }
 
-RunEnd run_end_of(const std::string& end_reason) {
+RunEnd RunEndOf(const std::string& end_reason) {
   if (end_reason == "clogged" || end_reason == "max_clogs") return RunEnd::kClogged;
   if (end_reason == "discharged") return RunEnd::kDischarged;
   return RunEnd::kOther;
 }
 
-ClogSeries clog_series(std::span<const rundir::ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end,
+ClogSeries ComputeClogSeries(std::span<const rundir::ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end,
                        bool engine_stops_on_clog) {
   const bool gaps_are_clogs = !(engine_stops_on_clog && end == RunEnd::kDischarged && outlet < 0);
   ClogSeries s;
@@ -72,7 +72,7 @@ ClogSeries clog_series(std::span<const rundir::ExitEvent> events, int outlet, do
   return s;
 }
 
-std::vector<double> avalanches_between_unclogs(std::span<const rundir::ExitEvent> events, int outlet,
+std::vector<double> AvalanchesBetweenUnclogs(std::span<const rundir::ExitEvent> events, int outlet,
                                                std::span<const double> unclog_times, RunEnd end) {
   std::vector<double> sizes(unclog_times.size() + 1, 0.0);
   for (const auto& e : events) {
@@ -84,35 +84,35 @@ std::vector<double> avalanches_between_unclogs(std::span<const rundir::ExitEvent
   return sizes;
 }
 
-IntermittencyStats intermittency(std::span<const ClogSeries> runs) {
+IntermittencyStats Intermittency(std::span<const ClogSeries> runs) {
   IntermittencyStats st;
   std::vector<double> tf, tc;
   for (const auto& r : runs) {
-    for (double t : r.flowing_times()) tf.push_back(t);
-    for (double t : r.clogged_times()) tc.push_back(t);
-    st.unclogs += r.unclogs();
+    for (double t : r.FlowingTimes()) tf.push_back(t);
+    for (double t : r.CloggedTimes()) tc.push_back(t);
+    st.unclogs += r.Unclogs();
     st.observed_time += r.t_end;
   }
-  st.t_flowing = mean_se(tf);
-  st.t_clogged = mean_se(tc);
+  st.t_flowing = MeanAndSe(tf);
+  st.t_clogged = MeanAndSe(tc);
   if (st.observed_time > 0.0) st.unclog_rate = st.unclogs / st.observed_time;
   return st;
 }
 
-AvalancheStats avalanche_stats(std::span<const double> sizes, int bins, double tail_from) {
+AvalancheStats ComputeAvalancheStats(std::span<const double> sizes, int bins, double tail_from) {
   AvalancheStats a;
   a.sizes.assign(sizes.begin(), sizes.end());
-  a.size = mean_se(sizes);
+  a.size = MeanAndSe(sizes);
   if (sizes.empty()) return a;
   double hi = 0.0;
   for (double s : sizes) hi = std::max(hi, s);
-  a.histogram = make_histogram(sizes, bins, 0.0, hi + std::max(1.0, hi / bins));
-  const double from = tail_from >= 0.0 ? tail_from : median(a.sizes);
-  a.tail = fit_exponential_tail(sizes, from);
+  a.histogram = MakeHistogram(sizes, bins, 0.0, hi + std::max(1.0, hi / bins));
+  const double from = tail_from >= 0.0 ? tail_from : Median(a.sizes);
+  a.tail = FitExponentialTail(sizes, from);
   return a;
 }
 
-ClogIndex clogging_index(std::span<const ClogRun> runs, int min_exits, double stagnant) {
+ClogIndex CloggingIndex(std::span<const ClogRun> runs, int min_exits, double stagnant) {
   ClogIndex ci;
   std::vector<const ClogRun*> used, unfinished;
   std::vector<double> free_remaining;
@@ -134,7 +134,7 @@ ClogIndex clogging_index(std::span<const ClogRun> runs, int min_exits, double st
   if (stagnant >= 0.0) {
     ci.n_stagnant = stagnant;
   } else if (!free_remaining.empty()) {
-    ci.n_stagnant = mean_se(free_remaining).mean;
+    ci.n_stagnant = MeanAndSe(free_remaining).mean;
   } else {
     ci.note = "N_u missing: no run discharged, so Psi is not defined";
     return ci;
@@ -146,7 +146,7 @@ ClogIndex clogging_index(std::span<const ClogRun> runs, int min_exits, double st
   std::vector<double> psi;
   for (const ClogRun* r : used)
     if (const double x = term(*r); std::isfinite(x)) psi.push_back(x);
-  ci.psi = mean_se(psi);
+  ci.psi = MeanAndSe(psi);
   if (!unfinished.empty()) {
     std::vector<double> low = psi, high = psi;
     for (const ClogRun* r : unfinished) {
@@ -156,8 +156,8 @@ ClogIndex clogging_index(std::span<const ClogRun> runs, int min_exits, double st
       }
     }
     if (!low.empty()) {
-      ci.psi_low = mean_se(low).mean;
-      ci.psi_high = mean_se(high).mean;
+      ci.psi_low = MeanAndSe(low).mean;
+      ci.psi_high = MeanAndSe(high).mean;
     }
   }
   return ci;

@@ -23,30 +23,30 @@ namespace granary::analysis {
 // the final stall a discharge (every outlet open to the top: the silo ran out of what can flow,
 // docs/engine.md); that last clog has no end (censored): it counts for the avalanche but not for <t_c>.
 enum class RunEnd { kOther, kClogged, kDischarged };
-RunEnd run_end_of(const std::string& end_reason);
+RunEnd RunEndOf(const std::string& end_reason);
 struct Stretch {
   double start = 0.0;
   double end = 0.0;
   int exits = 0;                    // exits in a flowing stretch; 0 for a clog
   bool complete = true;             // a flowing stretch ending in a clog / a clog ending in an unclog
-  double duration() const { return end - start; }
+  double Duration() const { return end - start; }
 };
 
 struct ClogSeries {
   std::vector<Stretch> flowing;     // in time order; the last one may be incomplete (run ended flowing)
   std::vector<Stretch> clogged;     // the last one may be incomplete (run ended clogged)
   double t_end = 0.0;
-  int unclogs() const;              // number of complete clogs
-  std::vector<double> avalanche_sizes() const;  // exits of each flowing stretch that ended in a clog
-  std::vector<double> flowing_times() const;    // durations of complete flowing stretches
-  std::vector<double> clogged_times() const;    // durations of complete clogs
+  int Unclogs() const;              // number of complete clogs
+  std::vector<double> AvalancheSizes() const;  // exits of each flowing stretch that ended in a clog
+  std::vector<double> FlowingTimes() const;    // durations of complete flowing stretches
+  std::vector<double> CloggedTimes() const;    // durations of complete clogs
 };
 
 // `engine_stops_on_clog` (spec stop_on_clog) with a run the engine ended `discharged`: the
 // engine judged every stall of the whole silo it met and stopped at the first, finding every
 // outlet open, so the stream of all outlets (`outlet` < 0) has no clog at all: its gaps were the
 // slow trickle off the dead zones at the end of a discharge, bodies still moving, not arches.
-ClogSeries clog_series(std::span<const rundir::ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end,
+ClogSeries ComputeClogSeries(std::span<const rundir::ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end,
                        bool engine_stops_on_clog = false);
 
 // Avalanche sizes of a run whose engine broke its clogs (discharge/on_clog "unclog"): the exits
@@ -54,7 +54,7 @@ ClogSeries clog_series(std::span<const rundir::ExitEvent> events, int outlet, do
 // (the first attempt on each clog, in time order), the first from the opening. The stretch
 // after the last unclog is an avalanche when the run ended in a clog (`end` kClogged: its last
 // clog, max_clogs, or one the protocol could not break), else it was cut short and is not.
-std::vector<double> avalanches_between_unclogs(std::span<const rundir::ExitEvent> events, int outlet,
+std::vector<double> AvalanchesBetweenUnclogs(std::span<const rundir::ExitEvent> events, int outlet,
                                                std::span<const double> unclog_times, RunEnd end);
 
 // t_f, t_c and N_u of one outlet, pooled over several runs (each run's series).
@@ -65,7 +65,7 @@ struct IntermittencyStats {
   int unclogs = 0;
   double observed_time = 0.0;
 };
-IntermittencyStats intermittency(std::span<const ClogSeries> runs);
+IntermittencyStats Intermittency(std::span<const ClogSeries> runs);
 
 struct AvalancheStats {
   MeanSe size;                      // <s>, its standard error and the number of avalanches
@@ -74,7 +74,7 @@ struct AvalancheStats {
   std::vector<double> sizes;
 };
 // tail_from < 0: the tail starts at the median size.
-AvalancheStats avalanche_stats(std::span<const double> sizes, int bins = 20, double tail_from = -1.0);
+AvalancheStats ComputeAvalancheStats(std::span<const double> sizes, int bins = 20, double tail_from = -1.0);
 
 // One run's numbers for eq. 3.1. `end` is how the run ended for the index: kClogged (an
 // arch sealed an outlet for good), kDischarged (the silo ran out of what can flow: what is left
@@ -107,6 +107,6 @@ struct ClogIndex {
   double psi_high = kNaN;
   std::string note;
 };
-ClogIndex clogging_index(std::span<const ClogRun> runs, int min_exits = 100, double stagnant = -1.0);
+ClogIndex CloggingIndex(std::span<const ClogRun> runs, int min_exits = 100, double stagnant = -1.0);
 
 }  // namespace granary::analysis

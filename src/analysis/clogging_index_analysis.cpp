@@ -10,7 +10,7 @@
 namespace granary::analysis {
 namespace {
 
-const char* end_name(RunEnd e) {
+const char* EndName(RunEnd e) {
   return e == RunEnd::kClogged ? "clogged" : e == RunEnd::kDischarged ? "discharged" : "neither";
 }
 
@@ -29,11 +29,11 @@ class ClogRunAccumulator : public RunAccumulator {
       result_["notes"] = {"clogging index: left out: the engine broke its clogs (on_clog \"unclog\")"};
       return;
     }
-    RunEnd end = run_end_of(run.end_reason);
+    RunEnd end = RunEndOf(run.end_reason);
     nlohmann::json notes = nlohmann::json::array();
-    const std::string at = "t = " + format_number(run.t_end) + " with " + std::to_string(run.undischarged) + " bodies inside";
+    const std::string at = "t = " + FormatNumber(run.t_end) + " with " + std::to_string(run.undischarged) + " bodies inside";
     if (end == RunEnd::kOther && !run.stop_on_clog && run.data) {
-      const ClogSeries s = clog_series(run.data->events, -1, run.t_end, run.clog_gap, RunEnd::kOther);
+      const ClogSeries s = ComputeClogSeries(run.data->events, -1, run.t_end, run.clog_gap, RunEnd::kOther);
       const bool ends_in_a_gap = !s.clogged.empty() && !s.clogged.back().complete;
       if (ends_in_a_gap && run.data->summary.clogs.value_or(0) > 0) {
         end = RunEnd::kClogged;
@@ -44,19 +44,19 @@ class ClogRunAccumulator : public RunAccumulator {
     if (end == RunEnd::kOther)
       notes.push_back("clogging index: left out: it ended (" + (run.end_reason.empty() ? std::string("no end reason") : run.end_reason) +
                       ") at " + at + ", neither clogged nor discharged");
-    result_["end"] = end_name(end);
+    result_["end"] = EndName(end);
     result_["bodies"] = run.bodies;
     result_["exited"] = run.exited;
     result_["undischarged"] = run.undischarged;
     result_["notes"] = notes;
   }
-  nlohmann::json finish() override { return result_; }
+  nlohmann::json Finish() override { return result_; }
 
  private:
   nlohmann::json result_;
 };
 
-std::optional<ClogRun> clog_run_of(const nlohmann::json& r) {
+std::optional<ClogRun> ClogRunOf(const nlohmann::json& r) {
   if (!r.is_object() || !r.value("remove_mode", false) || r.value("unclog", false)) return std::nullopt;
   const std::string end = r.value("end", std::string());
   return ClogRun{end == "clogged" ? RunEnd::kClogged : end == "discharged" ? RunEnd::kDischarged : RunEnd::kOther,
@@ -64,14 +64,14 @@ std::optional<ClogRun> clog_run_of(const nlohmann::json& r) {
 }
 
 // N_u of eq. 3.1 from the runs that discharged: their mean N_undis and how many, or n = 0.
-MeanSe stagnant_count(const std::vector<const nlohmann::json*>& runs) {
+MeanSe StagnantCount(const std::vector<const nlohmann::json*>& runs) {
   std::vector<double> left;
   for (const nlohmann::json* r : runs)
-    if (const auto c = clog_run_of(*r); c && c->end == RunEnd::kDischarged) left.push_back(c->undischarged);
-  return mean_se(left);
+    if (const auto c = ClogRunOf(*r); c && c->end == RunEnd::kDischarged) left.push_back(c->undischarged);
+  return MeanAndSe(left);
 }
 
-std::string replicas_text(const std::vector<int>& replicas) {
+std::string ReplicasText(const std::vector<int>& replicas) {
   std::string s = replicas.size() == 1 ? "replica " : "replicas ";
   for (std::size_t k = 0; k < replicas.size(); ++k) s += (k ? ", " : "") + std::to_string(replicas[k]);
   return s;
@@ -80,14 +80,14 @@ std::string replicas_text(const std::vector<int>& replicas) {
 class ClogIndexAnalysis : public Analysis {
  public:
   explicit ClogIndexAnalysis(int min_exits) : min_exits_(min_exits) {}
-  std::string key() const override { return "clogging_index"; }
-  int version() const override { return 2; }
-  PassUse pass_use() const override { return {false, true, false}; }
-  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+  std::string Key() const override { return "clogging_index"; }
+  int Version() const override { return 2; }
+  PassUse PassOptionsUsed() const override { return {false, true, false}; }
+  std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<ClogRunAccumulator>(run);
   }
-  std::vector<Metric> run_metrics(const nlohmann::json& result) const override {
-    const auto c = clog_run_of(result);
+  std::vector<Metric> RunMetrics(const nlohmann::json& result) const override {
+    const auto c = ClogRunOf(result);
     if (!c) return {};
     return {{"clogged", "1", c->end == RunEnd::kClogged ? 1.0 : 0.0, kNaN, "clogged (1) or not (0)", false},
             {"undischarged", "bodies", static_cast<double>(c->undischarged), kNaN, "bodies left in the silo", false}};
@@ -97,13 +97,13 @@ class ClogIndexAnalysis : public Analysis {
   // discharged runs; when it has none (every run clogged: narrow outlets; or ran out of time),
   // from the discharged runs of its group (same silo, other widths), else of the whole
   // campaign, else missing. The note says which runs were used and which were left out.
-  std::vector<PointMetric> point_metrics(const AnalysisResults& results, std::size_t point) const override {
+  std::vector<PointMetric> PointMetrics(const AnalysisResults& results, std::size_t point) const override {
     const CampaignView& v = *results.view;
     std::vector<ClogRun> clog_runs;
     std::vector<int> early, neither;
     for (std::size_t u : v.points[point].runs) {
       if (u >= results.runs.size()) continue;
-      const auto c = clog_run_of(results.runs[u]);
+      const auto c = ClogRunOf(results.runs[u]);
       if (!c) continue;
       clog_runs.push_back(*c);
       const int replica = v.used[u].record ? v.used[u].record->replica : 0;
@@ -111,7 +111,7 @@ class ClogIndexAnalysis : public Analysis {
       if (c->end == RunEnd::kClogged && c->exited < min_exits_) early.push_back(replica);
     }
     if (clog_runs.empty()) return {};
-    const MeanSe own = stagnant_count(results.of_point(point));
+    const MeanSe own = StagnantCount(results.OfPoint(point));
     double stagnant = -1.0;
     std::string source;
     if (own.n > 0) {
@@ -120,12 +120,12 @@ class ClogIndexAnalysis : public Analysis {
       const std::string& group = v.points[point].group;
       std::vector<const nlohmann::json*> in_group, all;
       for (std::size_t p = 0; p < v.points.size(); ++p)
-        for (const nlohmann::json* r : results.of_point(p)) {
+        for (const nlohmann::json* r : results.OfPoint(p)) {
           all.push_back(r);
           if (v.points[p].group == group) in_group.push_back(r);
         }
-      const MeanSe g = stagnant_count(in_group);
-      const MeanSe a = stagnant_count(all);
+      const MeanSe g = StagnantCount(in_group);
+      const MeanSe a = StagnantCount(all);
       const MeanSe& from = g.n > 0 ? g : a;
       if (from.n > 0) {
         stagnant = from.mean;
@@ -133,13 +133,13 @@ class ClogIndexAnalysis : public Analysis {
                  (g.n > 0 && !group.empty() ? group : std::string("the campaign"));
       }
     }
-    const ClogIndex ci = clogging_index(clog_runs, min_exits_, stagnant);
+    const ClogIndex ci = CloggingIndex(clog_runs, min_exits_, stagnant);
     std::string note = "used " + std::to_string(ci.clogged) + " clogged and " + std::to_string(ci.discharged) +
                        " discharged run" + (ci.clogged + ci.discharged == 1 ? "" : "s");
     if (!early.empty())
-      note += "; left out " + replicas_text(early) + ": clogged before " + std::to_string(min_exits_) + " exits";
+      note += "; left out " + ReplicasText(early) + ": clogged before " + std::to_string(min_exits_) + " exits";
     if (!neither.empty())
-      note += "; left out " + replicas_text(neither) + ": neither clogged nor discharged (time limit)";
+      note += "; left out " + ReplicasText(neither) + ": neither clogged nor discharged (time limit)";
     note += source.empty() ? "; " + ci.note : "; N_u from " + source;
     return {{"psi", "1", ci.psi.mean, ci.psi.se, ci.psi.n, "clogging index Psi", true, note},
             {"n_stagnant", "bodies", ci.n_stagnant, kNaN, ci.psi.n, "N_u (stagnant bodies)", false, note},
@@ -156,11 +156,11 @@ class ClogIndexAnalysis : public Analysis {
              "", false}};
   }
 
-  std::optional<Section> section(const SectionInput& in) const override {
+  std::optional<Section> BuildSection(const SectionInput& in) const override {
     const CampaignView& v = in.view;
     bool any = false;
     for (const auto& m : in.points)
-      if (const PointMetric* c = find_metric(m, "clogged_runs")) any = any || c->mean > 0;
+      if (const PointMetric* c = FindMetric(m, "clogged_runs")) any = any || c->mean > 0;
     if (!any) return std::nullopt;
     Section s{"clogging-index", "Clogging index Psi (ch. 3, eq. 3.1)", {}};
     s.blocks.push_back(Text{
@@ -177,22 +177,22 @@ class ClogIndexAnalysis : public Analysis {
             {"point", "psi", "clogged_runs", "discharged_runs", "discarded_runs", "unfinished_runs", "n_stagnant",
              "psi_range", "note"}};
     for (std::size_t p = 0; p < v.points.size(); ++p) {
-      const PointMetric* psi = find_metric(in.points[p], "psi");
+      const PointMetric* psi = FindMetric(in.points[p], "psi");
       if (!psi) continue;
       auto count = [&](const char* name) {
-        const PointMetric* m = find_metric(in.points[p], name);
+        const PointMetric* m = FindMetric(in.points[p], name);
         return m ? m->mean : kNaN;
       };
       const double low = count("psi_low"), high = count("psi_high");
-      const std::string range = std::isfinite(low) ? format_number(low) + " .. " + format_number(high) : "";
-      t.rows.push_back({point_name(v, v.points[p]), Cell::estimate(psi->estimate()), Cell::number(count("clogged_runs")),
-                        Cell::number(count("discharged_runs")), Cell::number(count("discarded_runs")),
-                        Cell::number(count("unfinished_runs")), Cell::number(count("n_stagnant")), range, psi->note});
+      const std::string range = std::isfinite(low) ? FormatNumber(low) + " .. " + FormatNumber(high) : "";
+      t.rows.push_back({PointName(v, v.points[p]), Cell::Estimate(psi->Estimate()), Cell::Number(count("clogged_runs")),
+                        Cell::Number(count("discharged_runs")), Cell::Number(count("discarded_runs")),
+                        Cell::Number(count("unfinished_runs")), Cell::Number(count("n_stagnant")), range, psi->note});
     }
     s.blocks.push_back(t);
-    if (has_x(v))
+    if (HasX(v))
       s.blocks.push_back(Figure{"clogging_index", "Clogging index Psi against " + v.x_label, v.x_label, "Psi",
-                                point_series(v, in.points, "psi", "Psi"), false, false, "Error bars: se over replicas"});
+                                PointSeries(v, in.points, "psi", "Psi"), false, false, "Error bars: se over replicas"});
     return s;
   }
 
@@ -202,12 +202,12 @@ class ClogIndexAnalysis : public Analysis {
 
 }  // namespace
 
-std::unique_ptr<Analysis> make_clogging_index_analysis(const nlohmann::json& options, const std::string& path) {
+std::unique_ptr<Analysis> MakeCloggingIndexAnalysis(const nlohmann::json& options, const std::string& path) {
   int min_exits = 100;  // ch. 3 discard rule
   if (!options.is_null()) {
-    option_object(options, path, {"min_exits_before_clog"});
+    OptionObject(options, path, {"min_exits_before_clog"});
     if (options.contains("min_exits_before_clog"))
-      min_exits = option_integer(options.at("min_exits_before_clog"), path + "/min_exits_before_clog", 0, 1000000000);
+      min_exits = OptionInteger(options.at("min_exits_before_clog"), path + "/min_exits_before_clog", 0, 1000000000);
   }
   return std::make_unique<ClogIndexAnalysis>(min_exits);
 }

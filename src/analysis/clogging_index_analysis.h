@@ -12,6 +12,6 @@
 
 namespace granary::analysis {
 
-std::unique_ptr<Analysis> make_clogging_index_analysis(const nlohmann::json& options, const std::string& path);
+std::unique_ptr<Analysis> MakeCloggingIndexAnalysis(const nlohmann::json& options, const std::string& path);
 
 }  // namespace granary::analysis

@@ -18,7 +18,7 @@ constexpr const char* kTitles[kKinds] = {"small-small contacts in the clogged sy
 
 // Per clog with contacts: the four fractions of all its contacts; a clog without a contact
 // between two-disc bodies (only lone discs) has no size classes: NaN for those three.
-void add_fractions(const nlohmann::json& result, std::vector<double> (&out)[kKinds]) {
+void AddFractions(const nlohmann::json& result, std::vector<double> (&out)[kKinds]) {
   if (!result.is_object() || !result.contains("clogs")) return;
   for (const nlohmann::json& c : result.at("clogs")) {
     const double v[kKinds] = {c.value("small_small", 0.0), c.value("large_small", 0.0), c.value("large_large", 0.0),
@@ -33,7 +33,7 @@ void add_fractions(const nlohmann::json& result, std::vector<double> (&out)[kKin
 class ContactsAccumulator : public RunAccumulator {
  public:
   explicit ContactsAccumulator(const RunView& run) : run_(run.data) {}
-  nlohmann::json finish() override { return contacts_run_result(*run_); }
+  nlohmann::json Finish() override { return ContactsRunResult(*run_); }
 
  private:
   const rundir::RunData* run_;
@@ -41,40 +41,40 @@ class ContactsAccumulator : public RunAccumulator {
 
 class ContactsAnalysis : public Analysis {
  public:
-  std::string key() const override { return "contacts"; }
-  int version() const override { return 1; }
-  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+  std::string Key() const override { return "contacts"; }
+  int Version() const override { return 1; }
+  std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<ContactsAccumulator>(run);
   }
   // Mean ± se over the run's clogs.
-  std::vector<Metric> run_metrics(const nlohmann::json& result) const override {
+  std::vector<Metric> RunMetrics(const nlohmann::json& result) const override {
     std::vector<double> f[kKinds];
-    add_fractions(result, f);
+    AddFractions(result, f);
     if (f[0].empty()) return {};
     std::vector<Metric> m;
     for (int k = 0; k < kKinds; ++k) {
-      const MeanSe x = mean_se_finite(f[k]);
+      const MeanSe x = MeanSeFinite(f[k]);
       m.push_back({kNames[k], "1", x.mean, x.se, kTitles[k], false});
     }
     return m;
   }
   // Pooled over the clogs of every replica: n = clogs.
-  std::vector<PointMetric> point_metrics(const AnalysisResults& results, std::size_t point) const override {
+  std::vector<PointMetric> PointMetrics(const AnalysisResults& results, std::size_t point) const override {
     std::vector<double> f[kKinds];
-    for (const nlohmann::json* r : results.of_point(point)) add_fractions(*r, f);
+    for (const nlohmann::json* r : results.OfPoint(point)) AddFractions(*r, f);
     if (f[0].empty()) return {};
     std::vector<PointMetric> m;
     for (int k = 0; k < kKinds; ++k) {
-      const MeanSe x = mean_se_finite(f[k]);
+      const MeanSe x = MeanSeFinite(f[k]);
       m.push_back({kNames[k], "1", x.mean, x.se, x.n, kTitles[k], false, ""});
     }
     return m;
   }
 
-  std::optional<Section> section(const SectionInput& in) const override {
+  std::optional<Section> BuildSection(const SectionInput& in) const override {
     const CampaignView& v = in.view;
     bool any = false;
-    for (const auto& m : in.points) any = any || find_metric(m, "contact_ss");
+    for (const auto& m : in.points) any = any || FindMetric(m, "contact_ss");
     if (!any) return std::nullopt;
     Section s{"contacts", "Contacts in the clogged system (ch. 6)", {}};
     s.blocks.push_back(Text{
@@ -87,18 +87,18 @@ class ContactsAnalysis : public Analysis {
             {"point", "small-small", "large-small", "large-large", "other"}, {},
             {"point", "contact_ss", "contact_ls", "contact_ll", "contact_other"}};
     for (std::size_t p = 0; p < v.points.size(); ++p) {
-      if (!find_metric(in.points[p], "contact_ss")) continue;
-      std::vector<Cell> row = {point_name(v, v.points[p])};
-      for (const char* name : kNames) row.push_back(Cell::estimate(find_metric(in.points[p], name)->estimate()));
+      if (!FindMetric(in.points[p], "contact_ss")) continue;
+      std::vector<Cell> row = {PointName(v, v.points[p])};
+      for (const char* name : kNames) row.push_back(Cell::Estimate(FindMetric(in.points[p], name)->Estimate()));
       t.rows.push_back(row);
     }
     s.blocks.push_back(t);
-    if (has_x(v)) {
+    if (HasX(v)) {
       Figure f{"contact_types", "Contact types in the clogged system against " + v.x_label, v.x_label,
                "fraction of contacts", {}, false, false, "Error bars: standard error over clogs"};
       const std::pair<const char*, const char*> kinds[] = {{"contact_ss", "s-s"}, {"contact_ls", "l-s"}, {"contact_ll", "l-l"}};
       for (const auto& [name, label] : kinds)
-        for (Series se : point_series(v, in.points, name, label)) {
+        for (Series se : PointSeries(v, in.points, name, label)) {
           se.label = std::string(label) + (se.label == label ? "" : ", " + se.label);
           f.series.push_back(se);
         }
@@ -110,14 +110,14 @@ class ContactsAnalysis : public Analysis {
 
 }  // namespace
 
-nlohmann::json contacts_run_result(const rundir::RunData& run) {
+nlohmann::json ContactsRunResult(const rundir::RunData& run) {
   nlohmann::json result = {{"present", false}, {"clogs", nlohmann::json::array()}, {"notes", nlohmann::json::array()}};
   try {
     rundir::ClogReader reader(run.dir);
-    result["present"] = reader.present();
+    result["present"] = reader.Present();
     rundir::ClogState clog;
     while (reader.Next(clog)) {
-      const ContactTypes t = contact_types(clog.frame, clog.contacts);
+      const ContactTypes t = CountContactTypes(clog.frame, clog.contacts);
       result["clogs"].push_back({{"timestep", clog.frame.timestep},
                                  {"time", clog.frame.time},
                                  {"small_small", t.small_small},
@@ -132,8 +132,8 @@ nlohmann::json contacts_run_result(const rundir::RunData& run) {
   return result;
 }
 
-std::unique_ptr<Analysis> make_contacts_analysis(const nlohmann::json& options, const std::string& path) {
-  if (!options.is_null()) option_object(options, path, {});
+std::unique_ptr<Analysis> MakeContactsAnalysis(const nlohmann::json& options, const std::string& path) {
+  if (!options.is_null()) OptionObject(options, path, {});
   return std::make_unique<ContactsAnalysis>();
 }
 

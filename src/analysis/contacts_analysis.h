@@ -14,8 +14,8 @@ namespace granary::analysis {
 
 // A run's result: {"present", "clogs": [{"timestep", "time", "small_small", "large_small",
 // "large_large", "other"}], "notes"}.
-nlohmann::json contacts_run_result(const rundir::RunData& run);
+nlohmann::json ContactsRunResult(const rundir::RunData& run);
 
-std::unique_ptr<Analysis> make_contacts_analysis(const nlohmann::json& options, const std::string& path);
+std::unique_ptr<Analysis> MakeContactsAnalysis(const nlohmann::json& options, const std::string& path);
 
 }  // namespace granary::analysis

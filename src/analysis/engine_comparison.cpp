@@ -9,7 +9,7 @@
 
 namespace granary::analysis {
 
-std::vector<PointComparison> compare_points(const std::vector<EnginePoint>& a, const std::vector<EnginePoint>& b) {
+std::vector<PointComparison> ComparePoints(const std::vector<EnginePoint>& a, const std::vector<EnginePoint>& b) {
   std::vector<PointComparison> out;
   for (const EnginePoint& pa : a) {
     const auto pb = std::find_if(b.begin(), b.end(), [&](const EnginePoint& x) { return x.point == pa.point; });
@@ -19,9 +19,9 @@ std::vector<PointComparison> compare_points(const std::vector<EnginePoint>& a, c
     c.point_id_a = pa.point_id;
     c.point_id_b = pb->point_id;
     for (const PointMetric& ma : pa.metrics) {
-      const PointMetric* mb = find_metric(pb->metrics, ma.name);
+      const PointMetric* mb = FindMetric(pb->metrics, ma.name);
       if (!ma.compare || !mb || !std::isfinite(ma.mean) || !std::isfinite(mb->mean)) continue;
-      MetricDifference d{ma.name, ma.estimate(), mb->estimate(), ma.mean - mb->mean, std::hypot(ma.se, mb->se), kNaN,
+      MetricDifference d{ma.name, ma.Estimate(), mb->Estimate(), ma.mean - mb->mean, std::hypot(ma.se, mb->se), kNaN,
                          ma.title, ma.headline};
       if (d.se > 0.0) d.z = d.difference / d.se;
       c.metrics.push_back(d);
@@ -31,7 +31,7 @@ std::vector<PointComparison> compare_points(const std::vector<EnginePoint>& a, c
   return out;
 }
 
-MetricAgreement agreement_of(const MetricDifference& d) {
+MetricAgreement AgreementOf(const MetricDifference& d) {
   MetricAgreement m;
   m.difference = d;
   if (d.a.mean != 0.0 && std::isfinite(d.a.mean) && std::isfinite(d.b.mean)) {
@@ -47,12 +47,12 @@ MetricAgreement agreement_of(const MetricDifference& d) {
   return m;
 }
 
-std::string agreement_text(const std::optional<bool>& agree) {
+std::string AgreementText(const std::optional<bool>& agree) {
   if (!agree) return "n/a";
   return *agree ? "yes" : "no";
 }
 
-EngineCost engine_cost(const std::string& engine, const std::vector<RunTiming>& runs) {
+EngineCost SumEngineCost(const std::string& engine, const std::vector<RunTiming>& runs) {
   EngineCost c;
   c.engine = engine;
   std::vector<double> rates;
@@ -63,30 +63,30 @@ EngineCost engine_cost(const std::string& engine, const std::vector<RunTiming>& 
     if (std::isfinite(t.disc_steps_per_s) && t.disc_steps_per_s > 0) rates.push_back(t.disc_steps_per_s);
     c.threads = std::max(c.threads, t.threads);
   }
-  c.disc_steps_per_s = mean_se_finite(rates);
+  c.disc_steps_per_s = MeanSeFinite(rates);
   return c;
 }
 
-EngineComparison compare_engines(const std::string& engine_a, const std::vector<EnginePoint>& a,
+EngineComparison CompareEngines(const std::string& engine_a, const std::vector<EnginePoint>& a,
                                  const std::vector<RunTiming>& timings_a, const std::string& engine_b,
                                  const std::vector<EnginePoint>& b, const std::vector<RunTiming>& timings_b) {
   EngineComparison c;
   c.engine_a = engine_a;
   c.engine_b = engine_b;
-  for (const PointComparison& pc : compare_points(a, b)) {
+  for (const PointComparison& pc : ComparePoints(a, b)) {
     PointAgreement p;
     p.point = pc.point;
-    for (const MetricDifference& d : pc.metrics) p.metrics.push_back(agreement_of(d));
+    for (const MetricDifference& d : pc.metrics) p.metrics.push_back(AgreementOf(d));
     c.points.push_back(std::move(p));
   }
-  c.costs = {engine_cost(engine_a, timings_a), engine_cost(engine_b, timings_b)};
+  c.costs = {SumEngineCost(engine_a, timings_a), SumEngineCost(engine_b, timings_b)};
   return c;
 }
 
 namespace {
-nlohmann::json number(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
-nlohmann::json mean_se_json(const MeanSe& m) {
-  return {{"mean", number(m.mean)}, {"se", number(m.se)}, {"n", m.n}};
+nlohmann::json Number(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+nlohmann::json MeanSeJson(const MeanSe& m) {
+  return {{"mean", Number(m.mean)}, {"se", Number(m.se)}, {"n", m.n}};
 }
 }  // namespace
 
@@ -95,11 +95,11 @@ nlohmann::json to_json(const EngineComparison& c) {
   for (const PointAgreement& p : c.points) {
     nlohmann::json metrics = nlohmann::json::object();
     for (const MetricAgreement& m : p.metrics) {
-      metrics[m.difference.name] = {{c.engine_a, mean_se_json(m.difference.a)},
-                                    {c.engine_b, mean_se_json(m.difference.b)},
-                                    {"ratio", number(m.ratio)},
-                                    {"ratio_se", number(m.ratio_se)},
-                                    {"z", number(m.difference.z)},
+      metrics[m.difference.name] = {{c.engine_a, MeanSeJson(m.difference.a)},
+                                    {c.engine_b, MeanSeJson(m.difference.b)},
+                                    {"ratio", Number(m.ratio)},
+                                    {"ratio_se", Number(m.ratio_se)},
+                                    {"z", Number(m.difference.z)},
                                     {"agree", m.agree ? nlohmann::json(*m.agree) : nlohmann::json(nullptr)},
                                     {"title", m.difference.title},
                                     {"headline", m.difference.headline}};
@@ -114,7 +114,7 @@ nlohmann::json to_json(const EngineComparison& c) {
                      {"runs", e.runs},
                      {"wall_s", e.wall_s},
                      {"discharge_wall_s", e.discharge_wall_s},
-                     {"disc_steps_per_s", mean_se_json(e.disc_steps_per_s)},
+                     {"disc_steps_per_s", MeanSeJson(e.disc_steps_per_s)},
                      {"threads", e.threads}});
   }
   // Metric names in the analyses' order (the objects above are keyed, hence sorted).
@@ -140,24 +140,24 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 namespace {
 
 // The point of `engine` with these sweep values, or nullptr.
-const Point* engine_point(const CampaignView& c, const nlohmann::json& point, const std::string& engine) {
+const Point* ToEnginePoint(const CampaignView& c, const nlohmann::json& point, const std::string& engine) {
   for (const Point& p : c.points)
     if (p.engine == engine && p.point == point) return &p;
   return nullptr;
 }
 
 // The report's name of a compared point: the x value and the groups without the engine.
-std::string shared_point_name(const CampaignView& c, const nlohmann::json& point, const std::string& engine) {
-  const Point* p = engine_point(c, point, engine);
+std::string SharedPointName(const CampaignView& c, const nlohmann::json& point, const std::string& engine) {
+  const Point* p = ToEnginePoint(c, point, engine);
   if (!p) return point.dump();
   std::string s = p->shared_group;
-  if (!c.x_axis.empty()) s = x_text(c, p->x, NameForm::kShort) + (s.empty() ? "" : ", " + s);
+  if (!c.x_axis.empty()) s = XText(c, p->x, NameForm::kShort) + (s.empty() ? "" : ", " + s);
   return s;
 }
 
 }  // namespace
 
-std::optional<EngineComparison> engine_comparison_of(const CampaignView& c,
+std::optional<EngineComparison> EngineComparisonOf(const CampaignView& c,
                                                      const std::vector<std::vector<PointMetric>>& metrics) {
   if (c.engines.size() < 2) return std::nullopt;
   const bool has_native = std::find(c.engines.begin(), c.engines.end(), "native") != c.engines.end();
@@ -177,13 +177,13 @@ std::optional<EngineComparison> engine_comparison_of(const CampaignView& c,
     if (r.record->engine == a) ta.push_back(r.timing);
     if (r.record->engine == b) tb.push_back(r.timing);
   }
-  EngineComparison k = compare_engines(a, ma, ta, b, mb, tb);
-  for (PointAgreement& p : k.points) p.name = shared_point_name(c, p.point, a);
+  EngineComparison k = CompareEngines(a, ma, ta, b, mb, tb);
+  for (PointAgreement& p : k.points) p.name = SharedPointName(c, p.point, a);
   return k;
 }
 
 
-std::optional<Section> engine_comparison_section(const CampaignView& c, const EngineComparison& k) {
+std::optional<Section> EngineComparisonSection(const CampaignView& c, const EngineComparison& k) {
   const std::string& a = k.engine_a;
   const std::string& b = k.engine_b;
   Section s{"engine-comparison", "Engine comparison: " + a + " and " + b, {}};
@@ -212,7 +212,7 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
                               "from the same configurations"
                             : "beds are prepared by each engine, so replicas are statistically, not bodily, the same") +
       "). Ratio = " + b + " / " + a + ", with the standard error of both "
-      "means propagated. **agree**: the difference is within " + format_number(kAgreementSigmas) +
+      "means propagated. **agree**: the difference is within " + FormatNumber(kAgreementSigmas) +
       " combined standard errors. Coulomb cap of the tangential force: " + a + " `" + cap_text(a) + "`, " + b + " `" +
       cap_text(b) + "` (`lammps` caps spring + damping, `liggghts` the spring part only; docs/liggghts.md)." +
       reinjection_text});
@@ -250,9 +250,9 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
       sum += m->ratio;
       ++n;
     }
-    overview.rows.push_back({name, Cell::count(static_cast<long long>(by_metric[name].size())), Cell::count(agree),
-                             Cell::count(disagree), Cell::count(unknown),
-                             Cell::number(n ? lo : kNaN), Cell::number(n ? sum / n : kNaN), Cell::number(n ? hi : kNaN)});
+    overview.rows.push_back({name, Cell::Count(static_cast<long long>(by_metric[name].size())), Cell::Count(agree),
+                             Cell::Count(disagree), Cell::Count(unknown),
+                             Cell::Number(n ? lo : kNaN), Cell::Number(n ? sum / n : kNaN), Cell::Number(n ? hi : kNaN)});
   }
   if (k.points.empty()) {
     s.blocks.push_back(Text{"No sweep point has finished runs on both engines yet."});
@@ -262,17 +262,17 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
             {"point", "metric", "", a, b, "ratio " + b + "/" + a, "z", "agree"}, {},
             {"point", "metric", "title", a, b, "ratio", "z", "agree"}};
     for (const PointAgreement& p : k.points) {
-      const std::string name = p.name.empty() ? shared_point_name(c, p.point, a) : p.name;
+      const std::string name = p.name.empty() ? SharedPointName(c, p.point, a) : p.name;
       for (const MetricAgreement& m : p.metrics) {
         const MetricDifference& d = m.difference;
-        t.rows.push_back({name, d.name, metric_title(d.name), Cell::estimate(d.a), Cell::estimate(d.b),
-                          Cell::estimate(m.ratio, m.ratio_se, -1), Cell::number(d.z, 3), agreement_text(m.agree)});
+        t.rows.push_back({name, d.name, metric_title(d.name), Cell::Estimate(d.a), Cell::Estimate(d.b),
+                          Cell::Estimate(m.ratio, m.ratio_se, -1), Cell::Number(d.z, 3), AgreementText(m.agree)});
       }
     }
     s.blocks.push_back(t);
   }
   // Ratio against x, one series per (metric, group), with the 10 % band.
-  if (has_x(c) && !k.points.empty()) {
+  if (HasX(c) && !k.points.empty()) {
     Figure f{"engine_ratio", "Ratio " + b + " / " + a + " against " + c.x_label, c.x_label, b + " / " + a, {}, false,
              false, "Error bars: propagated se of both means. Reference lines: equal (solid black), -10 % (dashed grey) "
              "and +10 % (dotted grey)"};
@@ -281,7 +281,7 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
       std::map<std::string, Series> by_group;
       std::vector<std::string> order;
       for (const PointAgreement& p : k.points) {
-        const Point* pa = engine_point(c, p.point, a);
+        const Point* pa = ToEnginePoint(c, p.point, a);
         if (!pa || !std::isfinite(pa->x)) continue;
         for (const MetricAgreement& m : p.metrics) {
           if (m.difference.name != metric || !std::isfinite(m.ratio)) continue;
@@ -325,9 +325,9 @@ std::optional<Section> engine_comparison_section(const CampaignView& c, const En
              {"engine", "runs", "wall_s", "discharge_wall_s", "disc_steps_per_s", "threads", "throughput_ratio"}};
   const double base_rate = k.costs.empty() ? kNaN : k.costs.front().disc_steps_per_s.mean;
   for (const EngineCost& e : k.costs) {
-    cost.rows.push_back({e.engine, Cell::count(e.runs), Cell::number(e.wall_s), Cell::number(e.discharge_wall_s),
-                         Cell::estimate(e.disc_steps_per_s), Cell::count(e.threads),
-                         Cell::number(e.disc_steps_per_s.mean / base_rate, 3)});
+    cost.rows.push_back({e.engine, Cell::Count(e.runs), Cell::Number(e.wall_s), Cell::Number(e.discharge_wall_s),
+                         Cell::Estimate(e.disc_steps_per_s), Cell::Count(e.threads),
+                         Cell::Number(e.disc_steps_per_s.mean / base_rate, 3)});
   }
   s.blocks.push_back(cost);
   return s;

@@ -42,7 +42,7 @@ struct PointComparison {
 };
 // Pure. Points are matched by their sweep values (`point`), not by id; points present in
 // only one list are left out. Metrics that are not to be compared (PointMetric::compare) are too.
-std::vector<PointComparison> compare_points(const std::vector<EnginePoint>& a, const std::vector<EnginePoint>& b);
+std::vector<PointComparison> ComparePoints(const std::vector<EnginePoint>& a, const std::vector<EnginePoint>& b);
 
 // One metric of one point on both engines: b / a with its standard error (first-order
 // propagation of both se), and agreement within the combined uncertainty.
@@ -56,7 +56,7 @@ struct MetricAgreement {
 };
 
 // "yes", "no" or "n/a" (agreement unknown), as tables and the CLI show it.
-std::string agreement_text(const std::optional<bool>& agree);
+std::string AgreementText(const std::optional<bool>& agree);
 
 struct PointAgreement {
   nlohmann::json point;               // sweep values shared by both engines
@@ -85,10 +85,10 @@ struct EngineComparison {
 // standard errors (about 95 % for normal errors).
 constexpr double kAgreementSigmas = 2.0;
 
-MetricAgreement agreement_of(const MetricDifference& d);
-EngineCost engine_cost(const std::string& engine, const std::vector<RunTiming>& runs);
+MetricAgreement AgreementOf(const MetricDifference& d);
+EngineCost SumEngineCost(const std::string& engine, const std::vector<RunTiming>& runs);
 // Points are matched by their sweep values; points on only one engine are left out.
-EngineComparison compare_engines(const std::string& engine_a, const std::vector<EnginePoint>& a,
+EngineComparison CompareEngines(const std::string& engine_a, const std::vector<EnginePoint>& a,
                                  const std::vector<RunTiming>& timings_a, const std::string& engine_b,
                                  const std::vector<EnginePoint>& b, const std::vector<RunTiming>& timings_b);
 
@@ -97,9 +97,9 @@ nlohmann::json to_json(const EngineComparison& c);
 
 // The comparison of the first two engines of a campaign (native is `a` when present), from
 // every analysis' point metrics per point (CampaignView::points order); nothing with one engine.
-std::optional<EngineComparison> engine_comparison_of(const CampaignView& view,
+std::optional<EngineComparison> EngineComparisonOf(const CampaignView& view,
                                                      const std::vector<std::vector<PointMetric>>& metrics);
 // Its report section.
-std::optional<Section> engine_comparison_section(const CampaignView& view, const EngineComparison& comparison);
+std::optional<Section> EngineComparisonSection(const CampaignView& view, const EngineComparison& comparison);
 
 }  // namespace granary::analysis

@@ -12,23 +12,23 @@ namespace {
 
 constexpr const char* kKeys[] = {"metric", "fit", "parameter", "at", "value", "tolerance", "source", "min_runs"};
 
-std::string at_text(const Expectation& e) {
+std::string AtText(const Expectation& e) {
   std::string s;
   for (const auto& [name, v] : e.at)
-    s += (s.empty() ? "" : ", ") + name + " = " + (v.is_string() ? v.get<std::string>() : format_number(v.get<double>(), 6));
+    s += (s.empty() ? "" : ", ") + name + " = " + (v.is_string() ? v.get<std::string>() : FormatNumber(v.get<double>(), 6));
   return s;
 }
 
 }  // namespace
 
-std::vector<Expectation> read_expectations(const nlohmann::json& spec, const std::vector<FigureSpec>& figures) {
+std::vector<Expectation> ReadExpectations(const nlohmann::json& spec, const std::vector<FigureSpec>& figures) {
   if (!spec.is_object() || !spec.contains("expect")) return {};
   const nlohmann::json& list = spec.at("expect");
   if (!list.is_array())
     throw OptionError("/expect", list,
                       "must be an array of {\"metric\", \"at\", \"value\", \"tolerance\", \"source\"} or {\"fit\", "
                       "\"parameter\", \"value\", ...}");
-  const CampaignAxes axes = CampaignAxes::of_campaign_spec(spec);
+  const CampaignAxes axes = CampaignAxes::OfCampaignSpec(spec);
   std::vector<std::string> fits;
   for (const FigureSpec& f : figures)
     if (f.fit) fits.push_back(f.name);
@@ -58,7 +58,7 @@ std::vector<Expectation> read_expectations(const nlohmann::json& spec, const std
                                  "/report/figures with a fit) and \"parameter\"");
     if (!e.metric.empty()) {
       try {
-        Expression::parse(e.metric, {});
+        Expression::Parse(e.metric, {});
       } catch (const ExpressionError& err) {
         throw OptionError(path + "/metric", j.at("metric"), err.what());
       }
@@ -71,8 +71,8 @@ std::vector<Expectation> read_expectations(const nlohmann::json& spec, const std
       }
       if (e.parameter.empty()) throw OptionError(path + "/parameter", nullptr, "must name a parameter of the fit's model");
       const FigureSpec& f = *std::find_if(figures.begin(), figures.end(), [&](const FigureSpec& s) { return s.name == e.fit; });
-      const Expression model = Expression::parse(f.fit->model, f.fit->over);
-      const auto& ps = model.parameters();
+      const Expression model = Expression::Parse(f.fit->model, f.fit->over);
+      const auto& ps = model.Parameters();
       if (std::find(ps.begin(), ps.end(), e.parameter) == ps.end()) {
         std::string known;
         for (const auto& p : ps) known += (known.empty() ? "" : ", ") + p;
@@ -83,27 +83,27 @@ std::vector<Expectation> read_expectations(const nlohmann::json& spec, const std
       const nlohmann::json& at = j.at("at");
       if (!at.is_object()) throw OptionError(path + "/at", at, "must be an object {axis: value}, e.g. {\"W\": 11}");
       for (const auto& [k, v] : at.items()) {
-        const bool known = axes.find_derived(k) || axes.pointer_of(k) || k == "L";
+        const bool known = axes.FindDerived(k) || axes.PointerOf(k) || k == "L";
         if (!known) {
           std::string names;
-          for (const auto& n : axes.names()) names += (names.empty() ? "" : ", ") + n;
+          for (const auto& n : axes.Names()) names += (names.empty() ? "" : ", ") + n;
           throw OptionError(path + "/at/" + k, v, "names no axis (axes: " + names + ")");
         }
         if (!v.is_number() && !v.is_string()) throw OptionError(path + "/at/" + k, v, "must be a number or a string");
-        const auto pointer = axes.pointer_of(k);
-        e.at.emplace_back(pointer ? axes.short_name(*pointer) : k, v);
+        const auto pointer = axes.PointerOf(k);
+        e.at.emplace_back(pointer ? axes.ShortName(*pointer) : k, v);
       }
     }
     if (!j.contains("value")) throw OptionError(path + "/value", nullptr, "must be the expected number");
-    e.value = option_number(j.at("value"), path + "/value", -1e300, 1e300);
-    if (j.contains("tolerance")) e.tolerance = option_number(j.at("tolerance"), path + "/tolerance", 0.0, 1e300);
-    if (j.contains("min_runs")) e.min_runs = option_integer(j.at("min_runs"), path + "/min_runs", 1, 1000000);
+    e.value = OptionNumber(j.at("value"), path + "/value", -1e300, 1e300);
+    if (j.contains("tolerance")) e.tolerance = OptionNumber(j.at("tolerance"), path + "/tolerance", 0.0, 1e300);
+    if (j.contains("min_runs")) e.min_runs = OptionInteger(j.at("min_runs"), path + "/min_runs", 1, 1000000);
     out.push_back(std::move(e));
   }
   return out;
 }
 
-std::string to_string(Verdict v) {
+std::string ToString(Verdict v) {
   switch (v) {
     case Verdict::kAgrees: return "agrees";
     case Verdict::kDisagrees: return "disagrees";
@@ -113,38 +113,38 @@ std::string to_string(Verdict v) {
   return "not enough runs";
 }
 
-std::string campaign_size(const nlohmann::json& spec) {
+std::string CampaignSize(const nlohmann::json& spec) {
   if (!spec.is_object() || !spec.contains("size") || !spec.at("size").is_string()) return "";
   return spec.at("size").get<std::string>();
 }
 
-bool judged_at_size(const std::string& size) { return size.empty() || size == "full"; }
+bool JudgedAtSize(const std::string& size) { return size.empty() || size == "full"; }
 
-void check_metric_references(const nlohmann::json& spec) {
-  const CampaignAxes axes = CampaignAxes::of_campaign_spec(spec);
-  const AnalysisSetup setup = setup_analyses(spec);
-  const std::vector<AnalysisEntry> rows = registered_analyses();
+void CheckMetricReferences(const nlohmann::json& spec) {
+  const CampaignAxes axes = CampaignAxes::OfCampaignSpec(spec);
+  const AnalysisSetup setup = SetupAnalyses(spec);
+  const std::vector<AnalysisEntry> rows = RegisteredAnalyses();
   std::vector<const AnalysisEntry*> on;
   for (const auto& a : setup.analyses) {
-    const auto row = std::find_if(rows.begin(), rows.end(), [&](const AnalysisEntry& e) { return e.key == a->key(); });
+    const auto row = std::find_if(rows.begin(), rows.end(), [&](const AnalysisEntry& e) { return e.key == a->Key(); });
     // A Python analysis (its metrics are its script's) or a row without a list: not checked.
     if (row == rows.end() || row->metrics.empty()) return;
     on.push_back(&*row);
   }
-  const std::vector<std::string> axis_names = axes.names();
+  const std::vector<std::string> axis_names = axes.Names();
   auto check = [&](const std::string& text, const std::string& path, const nlohmann::json& value) {
     std::vector<std::string> names;
     try {
-      names = Expression::parse(text, {}).parameters();  // without variables every name is a "parameter"
+      names = Expression::Parse(text, {}).Parameters();  // without variables every name is a "parameter"
     } catch (const ExpressionError& err) {
       throw OptionError(path, value, err.what());
     }
     for (const std::string& name : names) {
-      if (name == "L" || std::find(axis_names.begin(), axis_names.end(), name) != axis_names.end() || axes.find_derived(name))
+      if (name == "L" || std::find(axis_names.begin(), axis_names.end(), name) != axis_names.end() || axes.FindDerived(name))
         continue;
-      if (std::any_of(on.begin(), on.end(), [&](const AnalysisEntry* e) { return offers_metric(*e, name); })) continue;
+      if (std::any_of(on.begin(), on.end(), [&](const AnalysisEntry* e) { return OffersMetric(*e, name); })) continue;
       for (const AnalysisEntry& e : rows)
-        if (offers_metric(e, name))
+        if (OffersMetric(e, name))
           throw OptionError(path, value, "\"" + name + "\" is a metric of the " + e.key + " analysis, which this spec leaves off (turn it on with /report/" + e.key + ")");
       std::string offered;
       for (const AnalysisEntry* e : on)
@@ -155,9 +155,9 @@ void check_metric_references(const nlohmann::json& spec) {
                                          ") and no axis (" + (known_axes.empty() ? std::string("none") : known_axes) + ")");
     }
   };
-  for (const FigureSpec& f : read_figure_specs(spec))
+  for (const FigureSpec& f : ReadFigureSpecs(spec))
     if (!f.y.empty()) check(f.y, f.path + "/y", f.y);
-  for (const Expectation& e : read_expectations(spec, read_figure_specs(spec)))
+  for (const Expectation& e : ReadExpectations(spec, ReadFigureSpecs(spec)))
     if (!e.metric.empty()) check(e.metric, e.path + "/metric", e.metric);
   if (spec.is_object() && spec.contains("replicas") && spec.at("replicas").is_object() && spec.at("replicas").contains("until")) {
     const nlohmann::json& until = spec.at("replicas").at("until");
@@ -170,10 +170,10 @@ void check_metric_references(const nlohmann::json& spec) {
   }
 }
 
-std::vector<ExpectationResult> judge_expectations(const CampaignAnalysis& ca, const std::vector<Expectation>& expectations,
+std::vector<ExpectationResult> JudgeExpectations(const CampaignAnalysis& ca, const std::vector<Expectation>& expectations,
                                                   const std::vector<FigureOutcome>& figures) {
   const CampaignView& v = ca.view;
-  const std::string size = ca.view.campaign ? campaign_size(ca.view.campaign->spec) : std::string();
+  const std::string size = ca.view.campaign ? CampaignSize(ca.view.campaign->spec) : std::string();
   std::vector<ExpectationResult> out;
   for (const Expectation& e : expectations) {
     ExpectationResult r;
@@ -183,12 +183,12 @@ std::vector<ExpectationResult> judge_expectations(const CampaignAnalysis& ca, co
       const FigureOutcome* f = nullptr;
       for (const FigureOutcome& o : figures)
         if (o.spec && o.spec->name == e.fit) f = &o;
-      const FitParameter* p = f && f->fit ? f->fit->parameter(e.parameter) : nullptr;
+      const FitParameter* p = f && f->fit ? f->fit->Parameter(e.parameter) : nullptr;
       if (f)
         for (const FigureDatum& d : f->data)
           for (std::size_t k : d.points) r.runs += static_cast<int>(v.points[k].runs.size());
-      if (!p || !f->fit->ok()) {
-        r.why = f && f->fit ? "fit " + f->fit->verdict() : "figure " + e.fit + " has no fit yet";
+      if (!p || !f->fit->Ok()) {
+        r.why = f && f->fit ? "fit " + f->fit->Verdict() : "figure " + e.fit + " has no fit yet";
         out.push_back(r);
         continue;
       }
@@ -196,26 +196,26 @@ std::vector<ExpectationResult> judge_expectations(const CampaignAnalysis& ca, co
       r.se = p->se;
       r.n = static_cast<int>(f->fit->y.size());
       if (f->fit->quality != FitQuality::kGood) {
-        r.why = "fit " + f->fit->verdict();
+        r.why = "fit " + f->fit->Verdict();
         out.push_back(r);
         continue;
       }
     } else {
-      r.what = e.metric + (e.at.empty() ? "" : " at " + at_text(e));
+      r.what = e.metric + (e.at.empty() ? "" : " at " + AtText(e));
       std::vector<std::size_t> points;
       for (std::size_t p = 0; p < v.points.size(); ++p) {
         bool keep = !v.points[p].runs.empty();
-        for (const auto& [name, want] : e.at) keep = keep && axis_value_matches(v, v.points[p], name, want);
+        for (const auto& [name, want] : e.at) keep = keep && AxisValueMatches(v, v.points[p], name, want);
         if (keep) points.push_back(p);
       }
       for (std::size_t p : points) r.runs += static_cast<int>(v.points[p].runs.size());
       if (points.empty()) {
-        r.why = "no finished run at " + (e.at.empty() ? std::string("any point") : at_text(e));
+        r.why = "no finished run at " + (e.at.empty() ? std::string("any point") : AtText(e));
         out.push_back(r);
         continue;
       }
       std::string problem;
-      const MeanSe m = y_value(e.metric, pooled_metrics(ca, points), point_axes(v, v.points[points.front()]), problem);
+      const MeanSe m = YValue(e.metric, PooledMetrics(ca, points), PointAxes(v, v.points[points.front()]), problem);
       r.measured = m.mean;
       r.se = m.se;
       r.n = m.n;
@@ -234,14 +234,14 @@ std::vector<ExpectationResult> judge_expectations(const CampaignAnalysis& ca, co
     const double se = std::isfinite(r.se) ? r.se : 0.0;
     const double allowed = e.tolerance + 2.0 * se;
     r.verdict = diff <= allowed ? Verdict::kAgrees : Verdict::kDisagrees;
-    r.why = "|" + format_number(r.measured, 4) + " - " + format_number(e.value, 4) + "| = " + format_number(diff, 3) +
-            (r.verdict == Verdict::kAgrees ? " <= " : " > ") + "tolerance " + format_number(e.tolerance, 3) + " + 2 se (" +
-            format_number(2.0 * se, 2) + ")" + (std::isfinite(r.se) ? "" : "; no se");
+    r.why = "|" + FormatNumber(r.measured, 4) + " - " + FormatNumber(e.value, 4) + "| = " + FormatNumber(diff, 3) +
+            (r.verdict == Verdict::kAgrees ? " <= " : " > ") + "tolerance " + FormatNumber(e.tolerance, 3) + " + 2 se (" +
+            FormatNumber(2.0 * se, 2) + ")" + (std::isfinite(r.se) ? "" : "; no se");
     out.push_back(r);
   }
   // Measured as at full size (the report shows the numbers), but a smaller system than the
   // thesis' is not judged against its numbers.
-  if (!judged_at_size(size))
+  if (!JudgedAtSize(size))
     for (ExpectationResult& r : out) {
       r.verdict = Verdict::kNotComparable;
       r.why = "a " + size + " campaign (/size): judged at full size only" + (r.why.empty() ? std::string() : "; " + r.why);
@@ -249,17 +249,17 @@ std::vector<ExpectationResult> judge_expectations(const CampaignAnalysis& ca, co
   return out;
 }
 
-std::unique_ptr<Reproduction> reproduce(const CampaignAnalysis& ca) {
+std::unique_ptr<Reproduction> Reproduce(const CampaignAnalysis& ca) {
   auto r = std::make_unique<Reproduction>();
   const nlohmann::json& spec = ca.view.campaign ? ca.view.campaign->spec : nlohmann::json();
-  r->figure_specs = read_figure_specs(spec);
-  for (const FigureSpec& f : r->figure_specs) r->figures.push_back(make_figure(ca, f));
-  r->expectations = read_expectations(spec, r->figure_specs);
-  r->results = judge_expectations(ca, r->expectations, r->figures);
+  r->figure_specs = ReadFigureSpecs(spec);
+  for (const FigureSpec& f : r->figure_specs) r->figures.push_back(MakeFigure(ca, f));
+  r->expectations = ReadExpectations(spec, r->figure_specs);
+  r->results = JudgeExpectations(ca, r->expectations, r->figures);
   return r;
 }
 
-ExpectationCounts count(const std::vector<ExpectationResult>& results) {
+ExpectationCounts Count(const std::vector<ExpectationResult>& results) {
   ExpectationCounts c;
   for (const auto& r : results) {
     if (r.verdict == Verdict::kAgrees) ++c.agree;
@@ -270,30 +270,30 @@ ExpectationCounts count(const std::vector<ExpectationResult>& results) {
   return c;
 }
 
-std::string to_string(const ExpectationCounts& c) {
+std::string ToString(const ExpectationCounts& c) {
   return std::to_string(c.agree) + " agree, " + std::to_string(c.disagree) + (c.disagree == 1 ? " disagrees, " : " disagree, ") +
          std::to_string(c.not_yet) + " not yet" +
          (c.not_comparable > 0 ? ", " + std::to_string(c.not_comparable) + " not comparable at this size" : std::string());
 }
 
-ExportTable expectations_table(const std::vector<ExpectationResult>& results) {
+ExportTable ExpectationsTable(const std::vector<ExpectationResult>& results) {
   ExportTable t;
   t.columns = {"quantity", "expected", "tolerance", "source", "measured", "measured_se", "n", "runs", "verdict", "why"};
   auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
   for (const auto& r : results) {
     const Expectation& e = *r.expectation;
     t.rows.push_back({r.what, number(e.value), number(e.tolerance), e.source, number(r.measured), number(r.se), r.n, r.runs,
-                      to_string(r.verdict), r.why});
+                      ToString(r.verdict), r.why});
   }
   return t;
 }
 
-std::optional<Section> key_results_section(const std::vector<ExpectationResult>& results) {
+std::optional<Section> KeyResultsSection(const std::vector<ExpectationResult>& results) {
   if (results.empty()) return std::nullopt;
   Section s{"key-results", "Key results", {}};
-  const ExpectationCounts c = count(results);
+  const ExpectationCounts c = Count(results);
   s.blocks.push_back(Text{"What the campaign spec expects (`/expect`), each beside what the runs measured: **" +
-                          to_string(c) + "**. A value agrees when |measured - expected| <= tolerance + 2 se; too few "
+                          ToString(c) + "**. A value agrees when |measured - expected| <= tolerance + 2 se; too few "
                           "finished runs (or a fit that does not determine its parameters) is \"not enough runs\"; in a quick or medium "
                           "campaign (`/size`) every value is \"not comparable at this size\": measured, not judged."});
   Table t{"key_results", "Expected and measured (measured: mean ± se (n))",
@@ -303,25 +303,25 @@ std::optional<Section> key_results_section(const std::vector<ExpectationResult>&
   for (const auto& r : results) {
     const Expectation& e = *r.expectation;
     t.rows.push_back({r.what,
-                      format_number(e.value, 4) + (e.tolerance > 0 ? " ± " + format_number(e.tolerance, 3) : std::string()),
-                      e.source, Cell::estimate(r.measured, r.se, r.n), Cell::count(r.runs),
+                      FormatNumber(e.value, 4) + (e.tolerance > 0 ? " ± " + FormatNumber(e.tolerance, 3) : std::string()),
+                      e.source, Cell::Estimate(r.measured, r.se, r.n), Cell::Count(r.runs),
                       (r.verdict == Verdict::kAgrees      ? "**agrees**"
                        : r.verdict == Verdict::kDisagrees ? "**disagrees**"
-                                                          : to_string(r.verdict)),
+                                                          : ToString(r.verdict)),
                       r.why});
   }
   s.blocks.push_back(t);
   return s;
 }
 
-nlohmann::json axes_json_schema() {
+nlohmann::json AxesJsonSchema() {
   return {{"type", "object"},
           {"description", "derived axes {name: expression over the sweep axes' short names and the derived axes before it}, "
                           "e.g. {\"D_eq\": \"sqrt(1 + D_b^2)\", \"W_over_D_eq\": \"W / D_eq\"}"},
           {"additionalProperties", {{"type", "string"}}}};
 }
 
-nlohmann::json figures_json_schema() {
+nlohmann::json FiguresJsonSchema() {
   const nlohmann::json axis_or_list = {{"oneOf", {{{"type", "string"}}, {{"type", "array"}, {"items", {{"type", "string"}}}}}}};
   nlohmann::json fit = {{"type", "object"},
                         {"additionalProperties", false},
@@ -368,7 +368,7 @@ nlohmann::json figures_json_schema() {
   return {{"type", "array"}, {"description", "figures drawn in the report's Figures section (docs/analyses.md)"}, {"items", figure}};
 }
 
-nlohmann::json expect_json_schema() {
+nlohmann::json ExpectJsonSchema() {
   nlohmann::json item = {{"type", "object"},
                          {"additionalProperties", false},
                          {"required", {"value"}},

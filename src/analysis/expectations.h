@@ -28,18 +28,18 @@ struct Expectation {
 
 // Reads /expect of a campaign spec (absent: none); `figures` are its /report/figures, which a
 // fitted parameter must name. Errors are OptionErrors naming the JSON path.
-std::vector<Expectation> read_expectations(const nlohmann::json& campaign_spec, const std::vector<FigureSpec>& figures);
+std::vector<Expectation> ReadExpectations(const nlohmann::json& campaign_spec, const std::vector<FigureSpec>& figures);
 
 // kNotComparable: the campaign's /size is "quick" or "medium" (a smaller system than the
 // thesis'): what it measured is shown, but not judged against the thesis' number.
 enum class Verdict { kAgrees, kDisagrees, kNotEnough, kNotComparable };
 // "agrees", "disagrees", "not enough runs", "not comparable at this size".
-std::string to_string(Verdict verdict);
+std::string ToString(Verdict verdict);
 
 // The campaign spec's /size ("quick", "medium", "full"; "" when it does not say), and whether
 // its expectations are judged at that size (full, or not said).
-std::string campaign_size(const nlohmann::json& campaign_spec);
-bool judged_at_size(const std::string& size);
+std::string CampaignSize(const nlohmann::json& campaign_spec);
+bool JudgedAtSize(const std::string& size);
 
 // Every name a figure's y (/report/figures/i/y), an expectation's metric (/expect/i/metric) and
 // an adaptive-replica target (/replicas/until/i/metric) uses must be an axis of the spec or a
@@ -48,7 +48,7 @@ bool judged_at_size(const std::string& size);
 // the spec leaves off (fields) says how to turn it on. Names are not checked when the spec has
 // Python analyses (their metrics are known only when their scripts run) or an analysis whose
 // registry row lists no metrics.
-void check_metric_references(const nlohmann::json& campaign_spec);
+void CheckMetricReferences(const nlohmann::json& campaign_spec);
 
 struct ExpectationResult {
   const Expectation* expectation = nullptr;
@@ -63,7 +63,7 @@ struct ExpectationResult {
 // Judges every expectation: agrees when |measured - value| <= tolerance + 2 se, disagrees
 // otherwise; not enough runs when the point has fewer than min_runs finished runs, nothing was
 // measured, or a fit is not good (fit.h). `figures` are the made figures (their fits).
-std::vector<ExpectationResult> judge_expectations(const CampaignAnalysis& analysis, const std::vector<Expectation>& expectations,
+std::vector<ExpectationResult> JudgeExpectations(const CampaignAnalysis& analysis, const std::vector<Expectation>& expectations,
                                                   const std::vector<FigureOutcome>& figures);
 
 // A campaign's figures of /report/figures and its judged /expect, made together (an
@@ -75,24 +75,24 @@ struct Reproduction {
   std::vector<ExpectationResult> results;
 };
 // Throws OptionError for a bad /report/figures or /expect.
-std::unique_ptr<Reproduction> reproduce(const CampaignAnalysis& analysis);
+std::unique_ptr<Reproduction> Reproduce(const CampaignAnalysis& analysis);
 
 struct ExpectationCounts {
   int agree = 0, disagree = 0, not_yet = 0, not_comparable = 0;
 };
-ExpectationCounts count(const std::vector<ExpectationResult>& results);
+ExpectationCounts Count(const std::vector<ExpectationResult>& results);
 // "7 agree, 1 disagrees, 3 not yet", and ", 4 not comparable at this size" when there are any.
-std::string to_string(const ExpectationCounts& counts);
+std::string ToString(const ExpectationCounts& counts);
 
 // The table of `campaign export --expectations` and of the report's Key results.
-ExportTable expectations_table(const std::vector<ExpectationResult>& results);
+ExportTable ExpectationsTable(const std::vector<ExpectationResult>& results);
 // JSON Schemas (draft-07) of the campaign spec's /axes, /report/figures and /expect, for
 // `campaign schema`.
-nlohmann::json axes_json_schema();
-nlohmann::json figures_json_schema();
-nlohmann::json expect_json_schema();
+nlohmann::json AxesJsonSchema();
+nlohmann::json FiguresJsonSchema();
+nlohmann::json ExpectJsonSchema();
 
 // "Key results": the reproduction table first in the report; nullopt without expectations.
-std::optional<Section> key_results_section(const std::vector<ExpectationResult>& results);
+std::optional<Section> KeyResultsSection(const std::vector<ExpectationResult>& results);
 
 }  // namespace granary::analysis

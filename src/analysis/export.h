@@ -19,9 +19,9 @@ struct ExportTable {
 
 enum class ExportLevel { kRun, kPoint };
 
-ExportTable export_table(const CampaignAnalysis& analysis, ExportLevel level);
+ExportTable MakeExportTable(const CampaignAnalysis& analysis, ExportLevel level);
 // CSV with a header line; numbers to full precision, missing values empty.
-std::string to_csv(const ExportTable& table);
+std::string ToCsv(const ExportTable& table);
 // An array of objects, one per row, keys in column order (missing values null).
 nlohmann::ordered_json to_json(const ExportTable& table);
 

@@ -23,112 +23,112 @@ class ExpressionParser {
  public:
   ExpressionParser(Expression& e, const std::string& text) : e_(e), s_(text) {}
 
-  std::size_t parse_all() {
-    const std::size_t root = parse_sum();
-    skip_space();
-    if (pos_ < s_.size()) fail(std::string("unexpected '") + s_[pos_] + "'");
+  std::size_t ParseAll() {
+    const std::size_t root = ParseSum();
+    SkipSpace();
+    if (pos_ < s_.size()) Fail(std::string("unexpected '") + s_[pos_] + "'");
     return root;
   }
 
  private:
   using Op = Expression::Op;
 
-  [[noreturn]] void fail(const std::string& what) const {
+  [[noreturn]] void Fail(const std::string& what) const {
     throw ExpressionError("model '" + s_ + "': position " + std::to_string(pos_ + 1) + ": " + what);
   }
-  void skip_space() {
+  void SkipSpace() {
     while (pos_ < s_.size() && std::isspace(static_cast<unsigned char>(s_[pos_]))) ++pos_;
   }
-  bool accept(char c) {
-    skip_space();
+  bool Accept(char c) {
+    SkipSpace();
     if (pos_ < s_.size() && s_[pos_] == c) {
       ++pos_;
       return true;
     }
     return false;
   }
-  std::size_t add(Expression::Node n) {
+  std::size_t Add(Expression::Node n) {
     e_.nodes_.push_back(std::move(n));
     return e_.nodes_.size() - 1;
   }
-  std::size_t binary(Op op, std::size_t a, std::size_t b) {
+  std::size_t Binary(Op op, std::size_t a, std::size_t b) {
     Expression::Node n;
     n.op = op;
     n.args = {a, b};
-    return add(std::move(n));
+    return Add(std::move(n));
   }
 
-  std::size_t parse_sum() {
-    std::size_t left = parse_product();
+  std::size_t ParseSum() {
+    std::size_t left = ParseProduct();
     for (;;) {
-      if (accept('+')) {
-        left = binary(Op::kAdd, left, parse_product());
-      } else if (accept('-')) {
-        left = binary(Op::kSub, left, parse_product());
+      if (Accept('+')) {
+        left = Binary(Op::kAdd, left, ParseProduct());
+      } else if (Accept('-')) {
+        left = Binary(Op::kSub, left, ParseProduct());
       } else {
         return left;
       }
     }
   }
-  std::size_t parse_product() {
-    std::size_t left = parse_unary();
+  std::size_t ParseProduct() {
+    std::size_t left = ParseUnary();
     for (;;) {
-      if (accept('*')) {
-        left = binary(Op::kMul, left, parse_unary());
-      } else if (accept('/')) {
-        left = binary(Op::kDiv, left, parse_unary());
+      if (Accept('*')) {
+        left = Binary(Op::kMul, left, ParseUnary());
+      } else if (Accept('/')) {
+        left = Binary(Op::kDiv, left, ParseUnary());
       } else {
         return left;
       }
     }
   }
-  std::size_t parse_unary() {
-    if (accept('-')) {
+  std::size_t ParseUnary() {
+    if (Accept('-')) {
       Expression::Node n;
       n.op = Op::kNeg;
-      n.args = {parse_unary()};
-      return add(std::move(n));
+      n.args = {ParseUnary()};
+      return Add(std::move(n));
     }
-    if (accept('+')) return parse_unary();
-    return parse_power();
+    if (Accept('+')) return ParseUnary();
+    return ParsePower();
   }
-  std::size_t parse_power() {
-    const std::size_t base = parse_primary();
-    if (accept('^')) return binary(Op::kPow, base, parse_unary());
+  std::size_t ParsePower() {
+    const std::size_t base = ParsePrimary();
+    if (Accept('^')) return Binary(Op::kPow, base, ParseUnary());
     return base;
   }
-  std::size_t parse_primary() {
-    skip_space();
-    if (pos_ >= s_.size()) fail("expected a number, name or '(' but the text ended");
+  std::size_t ParsePrimary() {
+    SkipSpace();
+    if (pos_ >= s_.size()) Fail("expected a number, name or '(' but the text ended");
     const char c = s_[pos_];
     if (c == '(') {
       ++pos_;
-      const std::size_t inner = parse_sum();
-      if (!accept(')')) fail("expected ')'");
+      const std::size_t inner = ParseSum();
+      if (!Accept(')')) Fail("expected ')'");
       return inner;
     }
-    if (std::isdigit(static_cast<unsigned char>(c)) || c == '.') return parse_number();
-    if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') return parse_name();
-    fail(std::string("expected a number, name or '(' but found '") + c + "'");
+    if (std::isdigit(static_cast<unsigned char>(c)) || c == '.') return ParseNumber();
+    if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') return ParseName();
+    Fail(std::string("expected a number, name or '(' but found '") + c + "'");
   }
-  std::size_t parse_number() {
+  std::size_t ParseNumber() {
     const char* begin = s_.c_str() + pos_;
     char* end = nullptr;
     const double v = std::strtod(begin, &end);
-    if (end == begin) fail("malformed number");
+    if (end == begin) Fail("malformed number");
     pos_ += static_cast<std::size_t>(end - begin);
     Expression::Node n;
     n.op = Op::kNumber;
     n.value = v;
-    return add(std::move(n));
+    return Add(std::move(n));
   }
-  std::size_t parse_name() {
+  std::size_t ParseName() {
     const std::size_t start = pos_;
     while (pos_ < s_.size() &&
            (std::isalnum(static_cast<unsigned char>(s_[pos_])) || s_[pos_] == '_'))
       ++pos_;
     const std::string name = s_.substr(start, pos_ - start);
-    skip_space();
+    SkipSpace();
     if (pos_ < s_.size() && s_[pos_] == '(') {
       const std::size_t name_pos = start;
       ++pos_;
@@ -136,21 +136,21 @@ class ExpressionParser {
       while (f < std::size(kFunctions) && name != kFunctions[f].name) ++f;
       if (f == std::size(kFunctions)) {
         pos_ = name_pos;
-        fail("unknown function '" + name + "' (known: exp, log, sqrt, abs, pow, min, max)");
+        Fail("unknown function '" + name + "' (known: exp, log, sqrt, abs, pow, min, max)");
       }
       Expression::Node n;
       n.op = Op::kFunction;
       n.index = f;
-      if (!accept(')')) {
+      if (!Accept(')')) {
         do {
-          n.args.push_back(parse_sum());
-        } while (accept(','));
-        if (!accept(')')) fail("expected ',' or ')' in the arguments of " + name + "()");
+          n.args.push_back(ParseSum());
+        } while (Accept(','));
+        if (!Accept(')')) Fail("expected ',' or ')' in the arguments of " + name + "()");
       }
       if (static_cast<int>(n.args.size()) != kFunctions[f].arity)
-        fail(name + "() takes " + std::to_string(kFunctions[f].arity) + " argument(s), got " +
+        Fail(name + "() takes " + std::to_string(kFunctions[f].arity) + " argument(s), got " +
              std::to_string(n.args.size()));
-      return add(std::move(n));
+      return Add(std::move(n));
     }
     Expression::Node n;
     const auto& vars = e_.variables_;
@@ -167,7 +167,7 @@ class ExpressionParser {
       n.op = Op::kParameter;
       n.index = static_cast<std::size_t>(pt - pars.begin());
     }
-    return add(std::move(n));
+    return Add(std::move(n));
   }
 
   Expression& e_;
@@ -175,26 +175,26 @@ class ExpressionParser {
   std::size_t pos_ = 0;
 };
 
-Expression Expression::parse(const std::string& text, const std::vector<std::string>& variables) {
+Expression Expression::Parse(const std::string& text, const std::vector<std::string>& variables) {
   Expression e;
   e.text_ = text;
   e.variables_ = variables;
   ExpressionParser parser(e, e.text_);
-  e.root_ = parser.parse_all();
+  e.root_ = parser.ParseAll();
   return e;
 }
 
-double Expression::evaluate(std::span<const double> vars, std::span<const double> pars) const {
+double Expression::Evaluate(std::span<const double> vars, std::span<const double> pars) const {
   if (vars.size() != variables_.size() || pars.size() != parameters_.size())
     throw ExpressionError("model '" + text_ + "': evaluated with " + std::to_string(vars.size()) +
                           " variable(s) and " + std::to_string(pars.size()) + " parameter(s), expected " +
                           std::to_string(variables_.size()) + " and " + std::to_string(parameters_.size()));
-  return eval_node(root_, vars, pars);
+  return EvalNode(root_, vars, pars);
 }
 
-double Expression::eval_node(std::size_t i, std::span<const double> vars, std::span<const double> pars) const {
+double Expression::EvalNode(std::size_t i, std::span<const double> vars, std::span<const double> pars) const {
   const Node& n = nodes_[i];
-  auto arg = [&](std::size_t k) { return eval_node(n.args[k], vars, pars); };
+  auto arg = [&](std::size_t k) { return EvalNode(n.args[k], vars, pars); };
   switch (n.op) {
     case Op::kNumber: return n.value;
     case Op::kVariable: return vars[n.index];

@@ -23,15 +23,15 @@ class ExpressionError : public std::runtime_error {
 class Expression {
  public:
   // Throws ExpressionError on a syntax error, an unknown function or a wrong argument count.
-  static Expression parse(const std::string& text, const std::vector<std::string>& variables);
+  static Expression Parse(const std::string& text, const std::vector<std::string>& variables);
 
-  const std::string& text() const { return text_; }
-  const std::vector<std::string>& variables() const { return variables_; }
+  const std::string& Text() const { return text_; }
+  const std::vector<std::string>& Variables() const { return variables_; }
   // Parameter names in order of first appearance.
-  const std::vector<std::string>& parameters() const { return parameters_; }
+  const std::vector<std::string>& Parameters() const { return parameters_; }
 
-  // Values in the order of variables() and parameters(); sizes are checked.
-  double evaluate(std::span<const double> variables, std::span<const double> parameters) const;
+  // Values in the order of Variables() and Parameters(); sizes are checked.
+  double Evaluate(std::span<const double> variables, std::span<const double> parameters) const;
 
  private:
   enum class Op { kNumber, kVariable, kParameter, kAdd, kSub, kMul, kDiv, kPow, kNeg, kFunction };
@@ -43,7 +43,7 @@ class Expression {
   };
   friend class ExpressionParser;
 
-  double eval_node(std::size_t node, std::span<const double> vars, std::span<const double> pars) const;
+  double EvalNode(std::size_t node, std::span<const double> vars, std::span<const double> pars) const;
 
   std::string text_;
   std::vector<std::string> variables_;

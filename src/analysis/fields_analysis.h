@@ -19,7 +19,7 @@
 namespace granary::analysis {
 
 struct FieldsOptions {
-  std::vector<CgField> maps;          // default: thesis_maps()
+  std::vector<CgField> maps;          // default: ThesisMaps()
   CgOptions cg;                       // cg.window empty: each run's silo (cg_run_window)
   // Which frames: the flow analysis' steady window; all after /report/window/start_time; those
   // split into flowing and clogged (the clogged states of the exit stream); or [from, to].
@@ -30,29 +30,29 @@ struct FieldsOptions {
   bool force_chains = true;           // one frame's contact network (fig. 4.16)
   RegionSize region;                  // the region next to each outlet (default: ch. 4-6)
   FieldsOptions();
-  nlohmann::json to_json() const;     // canonical: the cache key's part
+  nlohmann::json ToJson() const;     // canonical: the cache key's part
 };
 
 // The thesis' maps (figs. 4.10-4.17): phi, |v| (with arrows), Omega, Omega_fl^2, T_g, P, |tau|, mu.
-std::vector<CgField> thesis_maps();
+std::vector<CgField> ThesisMaps();
 // Whether the options need contacts.dump (a stress map or force chains).
-bool fields_need_contacts(const FieldsOptions& options);
+bool FieldsNeedContacts(const FieldsOptions& options);
 
 // Reads /report/fields: true (the defaults), false or absent (nullopt: off), or an object.
 // Throws OptionError naming the JSON path, the bad value and what is allowed.
-std::optional<FieldsOptions> read_fields_options(const nlohmann::json& options, const std::string& path);
+std::optional<FieldsOptions> ReadFieldsOptions(const nlohmann::json& options, const std::string& path);
 
 // A campaign spec whose /report/fields needs contact forces (a stress map, force chains) gets
 // /base/output/contact_forces = true where it is unset; returns the spec to plan. Throws
 // OptionError naming the JSON path where the spec turns them off or writes no frames
 // (/base/output/frame_interval unset or 0, or set so by a sweep axis).
-nlohmann::json with_fields_output(const nlohmann::json& campaign_spec);
+nlohmann::json WithFieldsOutput(const nlohmann::json& campaign_spec);
 
-std::unique_ptr<Analysis> make_fields_analysis(const nlohmann::json& options, const std::string& path);
+std::unique_ptr<Analysis> MakeFieldsAnalysis(const nlohmann::json& options, const std::string& path);
 
 // The region next to an outlet in silo coordinates: above a base outlet, beside a lateral one
 // (the region analysis' rectangle, ch. 5a R1).
-Rect outlet_region(const OutletGeometry& outlet, const RegionSize& size);
+Rect OutletRegion(const OutletGeometry& outlet, const RegionSize& size);
 
 // The silo of a run spec drawn over a map: walls with the outlets' gaps as polylines, up to
 // `top`, and the obstacles as circles.
@@ -60,14 +60,14 @@ struct SiloDrawing {
   std::vector<std::vector<std::array<double, 2>>> lines;
   std::vector<std::array<double, 3>> circles;
 };
-SiloDrawing silo_drawing(const nlohmann::json& spec, double top);
+SiloDrawing MakeSiloDrawing(const nlohmann::json& spec, double top);
 
 // Per-run sums as JSON (a result's "parts") and back; sums of a sweep point's replicas are
 // merged by add_common_rows.
-nlohmann::json sums_to_json(const CgSums& sums);
-CgSums sums_from_json(const nlohmann::json& j);
+nlohmann::json SumsToJson(const CgSums& sums);
+CgSums SumsFromJson(const nlohmann::json& j);
 // Adds `other` to `sums` over the rows both have (the same columns and spacing: the window's
 // bottom and sides come from the spec, its top from each run's bed); false if the columns differ.
-bool add_common_rows(CgSums& sums, const CgSums& other);
+bool AddCommonRows(CgSums& sums, const CgSums& other);
 
 }  // namespace granary::analysis

@@ -23,33 +23,33 @@ struct KindKeys {
   const char* what;
   std::vector<std::string> keys;
 };
-const std::vector<KindKeys>& figure_kinds() {
-  static const std::vector<KindKeys> kinds = {
+const std::vector<KindKeys>& FigureKinds() {
+  static const std::vector<KindKeys> kInds = {
       {"points", "points with error bars", {"y", "ylabel", "x", "group", "pool", "fit", "logx", "logy"}},
       {"distribution", "a histogram of a per-run distribution at each chosen point", {"of", "bins", "range", "pool", "logx", "logy"}},
       {"curves", "an analysis' curve at each chosen point", {"of", "pool", "logx", "logy"}},
       {"maps", "a field's map at each chosen point", {"field", "pool", "one_run"}},
       {"profile", "a field along a line at each chosen point", {"field", "along", "at", "width", "origin_outlet", "pool", "one_run", "logy"}},
       {"pictures", "the silo at each chosen point", {"picture"}}};
-  return kinds;
+  return kInds;
 }
 constexpr const char* kFitKeys[] = {"model", "over", "initial", "collapse"};
 
-std::string joined(const std::vector<std::string>& items) {
+std::string Joined(const std::vector<std::string>& items) {
   std::string s;
   for (const auto& i : items) s += (s.empty() ? "" : ", ") + i;
   return s.empty() ? "none" : s;
 }
 
-void check_keys(const nlohmann::json& j, const std::string& path, const char* const* begin, const char* const* end) {
+void CheckKeys(const nlohmann::json& j, const std::string& path, const char* const* begin, const char* const* end) {
   for (const auto& [key, v] : j.items())
     if (std::find_if(begin, end, [&](const char* k) { return key == k; }) == end) {
       std::vector<std::string> names(begin, end);
-      throw OptionError(path + "/" + key, v, "unknown key (known: " + joined(names) + ")");
+      throw OptionError(path + "/" + key, v, "unknown key (known: " + Joined(names) + ")");
     }
 }
 
-std::string text_at(const nlohmann::json& j, const std::string& key, const std::string& path) {
+std::string TextAt(const nlohmann::json& j, const std::string& key, const std::string& path) {
   if (!j.contains(key)) return "";
   if (!j.at(key).is_string()) throw OptionError(path + "/" + key, j.at(key), "must be a string");
   return j.at(key).get<std::string>();
@@ -57,30 +57,30 @@ std::string text_at(const nlohmann::json& j, const std::string& key, const std::
 
 // An axis name that the campaign has (a sweep axis by short name or pointer, a derived axis,
 // or "L" where the view's x is the gap: it is checked again against the view).
-std::string axis_name_at(const nlohmann::json& v, const std::string& path, const CampaignAxes& axes) {
-  const std::vector<std::string> names = axes.names();
-  if (!v.is_string()) throw OptionError(path, v, "must be an axis name (axes: " + joined(names) + ")");
+std::string AxisNameAt(const nlohmann::json& v, const std::string& path, const CampaignAxes& axes) {
+  const std::vector<std::string> names = axes.Names();
+  if (!v.is_string()) throw OptionError(path, v, "must be an axis name (axes: " + Joined(names) + ")");
   const std::string name = v.get<std::string>();
-  if (axes.find_derived(name)) return name;
-  if (const auto pointer = axes.pointer_of(name)) return axes.short_name(*pointer);
+  if (axes.FindDerived(name)) return name;
+  if (const auto pointer = axes.PointerOf(name)) return axes.ShortName(*pointer);
   if (name == "L") return name;  // the gap between two outlets, when the campaign has two
-  throw OptionError(path, v, "names no axis (axes: " + joined(names) + ")");
+  throw OptionError(path, v, "names no axis (axes: " + Joined(names) + ")");
 }
 
-std::vector<std::string> axis_list_at(const nlohmann::json& v, const std::string& path, const CampaignAxes& axes) {
+std::vector<std::string> AxisListAt(const nlohmann::json& v, const std::string& path, const CampaignAxes& axes) {
   std::vector<std::string> out;
-  if (v.is_string()) return {axis_name_at(v, path, axes)};
-  if (!v.is_array()) throw OptionError(path, v, "must be an axis name or a list of them (axes: " + joined(axes.names()) + ")");
-  for (std::size_t i = 0; i < v.size(); ++i) out.push_back(axis_name_at(v[i], path + "/" + std::to_string(i), axes));
+  if (v.is_string()) return {AxisNameAt(v, path, axes)};
+  if (!v.is_array()) throw OptionError(path, v, "must be an axis name or a list of them (axes: " + Joined(axes.Names()) + ")");
+  for (std::size_t i = 0; i < v.size(); ++i) out.push_back(AxisNameAt(v[i], path + "/" + std::to_string(i), axes));
   return out;
 }
 
-std::vector<std::pair<std::string, std::vector<nlohmann::json>>> read_only(const nlohmann::json& o, const std::string& path,
+std::vector<std::pair<std::string, std::vector<nlohmann::json>>> ReadOnly(const nlohmann::json& o, const std::string& path,
                                                                           const CampaignAxes& axes) {
   if (!o.is_object()) throw OptionError(path + "/only", o, "must be an object {axis: value or [values]}, e.g. {\"W\": [15, 25]}");
   std::vector<std::pair<std::string, std::vector<nlohmann::json>>> out;
   for (const auto& [k, v] : o.items()) {
-    const std::string name = axis_name_at(nlohmann::json(k), path + "/only/" + k, axes);
+    const std::string name = AxisNameAt(nlohmann::json(k), path + "/only/" + k, axes);
     std::vector<nlohmann::json> values;
     for (const auto& one : v.is_array() ? v : nlohmann::json::array({v})) {
       if (!one.is_number() && !one.is_string())
@@ -98,75 +98,75 @@ std::vector<std::pair<std::string, std::vector<nlohmann::json>>> read_only(const
 class Offers {
  public:
   explicit Offers(const nlohmann::json& campaign_spec) : spec_(campaign_spec) {}
-  std::vector<DistributionInfo> distributions() { return all(&Analysis::distribution_names); }
-  std::vector<CurveInfo> curves() { return all(&Analysis::curve_names); }
-  std::vector<FieldInfo> fields() { return all(&Analysis::field_names); }
+  std::vector<DistributionInfo> Distributions() { return All(&Analysis::DistributionNames); }
+  std::vector<CurveInfo> Curves() { return All(&Analysis::CurveNames); }
+  std::vector<FieldInfo> Fields() { return All(&Analysis::FieldNames); }
 
  private:
   template <class Info>
-  std::vector<Info> all(std::vector<Info> (Analysis::*offers)() const) {
+  std::vector<Info> All(std::vector<Info> (Analysis::*offers)() const) {
     std::vector<Info> out;
-    for (const Analysis* a : setup().list())
+    for (const Analysis* a : Setup().List())
       for (Info& i : (a->*offers)()) out.push_back(std::move(i));
     return out;
   }
-  const AnalysisSetup& setup() {
-    if (!setup_) setup_ = std::make_unique<AnalysisSetup>(setup_analyses(spec_));
+  const AnalysisSetup& Setup() {
+    if (!setup_) setup_ = std::make_unique<AnalysisSetup>(SetupAnalyses(spec_));
     return *setup_;
   }
   const nlohmann::json& spec_;
   std::unique_ptr<AnalysisSetup> setup_;
 };
 
-FigureSpec read_one(const nlohmann::json& f, const std::string& path, const CampaignAxes& axes,
+FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const CampaignAxes& axes,
                     const std::set<std::string>& names_before, Offers& offers) {
   if (!f.is_object())
     throw OptionError(path, f, "must be an object {\"name\", \"y\", \"x\", \"group\", \"only\", \"pool\", \"fit\", ...}");
-  check_keys(f, path, std::begin(kFigureKeys), std::end(kFigureKeys));
+  CheckKeys(f, path, std::begin(kFigureKeys), std::end(kFigureKeys));
   FigureSpec s;
   s.path = path;
-  s.name = text_at(f, "name", path);
+  s.name = TextAt(f, "name", path);
   if (s.name.empty()) throw OptionError(path + "/name", f.value("name", nlohmann::json()), "must be a non-empty name (the figure's file stem)");
   for (char c : s.name)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.'))
       throw OptionError(path + "/name", f.at("name"), "letters, digits, '-', '_' and '.' only (it names files)");
   if (names_before.count(s.name)) throw OptionError(path + "/name", f.at("name"), "another figure has this name");
-  if (f.contains("kind")) s.kind = text_at(f, "kind", path);
-  const auto kind = std::find_if(figure_kinds().begin(), figure_kinds().end(), [&](const KindKeys& k) { return s.kind == k.kind; });
-  if (kind == figure_kinds().end()) {
+  if (f.contains("kind")) s.kind = TextAt(f, "kind", path);
+  const auto kind = std::find_if(FigureKinds().begin(), FigureKinds().end(), [&](const KindKeys& k) { return s.kind == k.kind; });
+  if (kind == FigureKinds().end()) {
     std::string allowed;
-    for (const KindKeys& k : figure_kinds()) allowed += (allowed.empty() ? "" : ", ") + std::string("\"") + k.kind + "\" (" + k.what + ")";
+    for (const KindKeys& k : FigureKinds()) allowed += (allowed.empty() ? "" : ", ") + std::string("\"") + k.kind + "\" (" + k.what + ")";
     throw OptionError(path + "/kind", f.at("kind"), "must be " + allowed);
   }
   for (const auto& [key, value] : f.items()) {
-    static const std::set<std::string> common = {"name", "kind", "only", "title", "caption", "reference"};
-    if (common.count(key) || std::find(kind->keys.begin(), kind->keys.end(), key) != kind->keys.end()) continue;
-    std::vector<std::string> takes(common.begin(), common.end());
+    static const std::set<std::string> kCommon = {"name", "kind", "only", "title", "caption", "reference"};
+    if (kCommon.count(key) || std::find(kind->keys.begin(), kind->keys.end(), key) != kind->keys.end()) continue;
+    std::vector<std::string> takes(kCommon.begin(), kCommon.end());
     takes.insert(takes.end(), kind->keys.begin(), kind->keys.end());
-    throw OptionError(path + "/" + key, value, "a figure of kind \"" + s.kind + "\" takes " + joined(takes));
+    throw OptionError(path + "/" + key, value, "a figure of kind \"" + s.kind + "\" takes " + Joined(takes));
   }
-  s.title = text_at(f, "title", path);
-  s.caption = text_at(f, "caption", path);
-  s.reference = text_at(f, "reference", path);
-  if (f.contains("only")) s.only = read_only(f.at("only"), path, axes);
-  if (f.contains("pool")) s.pool = axis_list_at(f.at("pool"), path + "/pool", axes);
-  if (f.contains("logx")) s.logx = option_bool(f.at("logx"), path + "/logx");
-  if (f.contains("logy")) s.logy = option_bool(f.at("logy"), path + "/logy");
+  s.title = TextAt(f, "title", path);
+  s.caption = TextAt(f, "caption", path);
+  s.reference = TextAt(f, "reference", path);
+  if (f.contains("only")) s.only = ReadOnly(f.at("only"), path, axes);
+  if (f.contains("pool")) s.pool = AxisListAt(f.at("pool"), path + "/pool", axes);
+  if (f.contains("logx")) s.logx = OptionBool(f.at("logx"), path + "/logx");
+  if (f.contains("logy")) s.logy = OptionBool(f.at("logy"), path + "/logy");
   if (s.kind == "pictures") {
-    s.picture = f.contains("picture") ? text_at(f, "picture", path) : "end";
+    s.picture = f.contains("picture") ? TextAt(f, "picture", path) : "end";
     if (s.picture != "end" && s.picture != "bed")
       throw OptionError(path + "/picture", f.at("picture"), "must be \"end\" (the last frame) or \"bed\" (t = 0)");
     return s;
   }
   if (s.kind == "distribution") {
-    s.of = text_at(f, "of", path);
-    const std::vector<DistributionInfo> offered = offers.distributions();
+    s.of = TextAt(f, "of", path);
+    const std::vector<DistributionInfo> offered = offers.Distributions();
     std::vector<std::string> names;
     for (const auto& d : offered) names.push_back(d.name);
-    if (s.of.empty() || (!is_identifier(s.of) && std::find(names.begin(), names.end(), s.of) == names.end()))
+    if (s.of.empty() || (!IsIdentifier(s.of) && std::find(names.begin(), names.end(), s.of) == names.end()))
       throw OptionError(path + "/of", f.value("of", nlohmann::json()),
-                        "must name a distribution an analysis offers (" + joined(names) + ") or a per-run metric");
-    if (f.contains("bins")) s.bins = option_integer(f.at("bins"), path + "/bins", 1, 1000);
+                        "must name a distribution an analysis offers (" + Joined(names) + ") or a per-run metric");
+    if (f.contains("bins")) s.bins = OptionInteger(f.at("bins"), path + "/bins", 1, 1000);
     if (f.contains("range")) {
       const nlohmann::json& r = f.at("range");
       if (!r.is_array() || r.size() != 2 || !r[0].is_number() || !r[1].is_number() || !(r[0].get<double>() < r[1].get<double>()))
@@ -178,87 +178,87 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
     return s;
   }
   if (s.kind == "curves") {
-    s.of = text_at(f, "of", path);
+    s.of = TextAt(f, "of", path);
     std::vector<std::string> names;
-    for (const auto& c : offers.curves()) names.push_back(c.name);
+    for (const auto& c : offers.Curves()) names.push_back(c.name);
     if (std::find(names.begin(), names.end(), s.of) == names.end())
       throw OptionError(path + "/of", f.value("of", nlohmann::json()),
-                        "must name a curve an analysis this spec turns on offers (" + joined(names) + ")");
+                        "must name a curve an analysis this spec turns on offers (" + Joined(names) + ")");
     return s;
   }
   if (s.kind == "maps" || s.kind == "profile") {
-    s.field = text_at(f, "field", path);
-    const std::vector<FieldInfo> offered = offers.fields();
+    s.field = TextAt(f, "field", path);
+    const std::vector<FieldInfo> offered = offers.Fields();
     std::vector<std::string> names;
     for (const auto& d : offered) names.push_back(d.name);
     if (names.empty())
       throw OptionError(path + "/field", f.value("field", nlohmann::json()),
                         "no analysis offers fields: turn on the coarse-grained fields (/report/fields: true)");
     if (std::find(names.begin(), names.end(), s.field) == names.end())
-      throw OptionError(path + "/field", f.value("field", nlohmann::json()), "must name a field (fields: " + joined(names) + ")");
-    if (f.contains("one_run")) s.one_run = option_bool(f.at("one_run"), path + "/one_run");
+      throw OptionError(path + "/field", f.value("field", nlohmann::json()), "must name a field (fields: " + Joined(names) + ")");
+    if (f.contains("one_run")) s.one_run = OptionBool(f.at("one_run"), path + "/one_run");
     if (s.kind == "maps") return s;
-    s.along = text_at(f, "along", path);
+    s.along = TextAt(f, "along", path);
     if (s.along != "x" && s.along != "y")
       throw OptionError(path + "/along", f.value("along", nlohmann::json()), "must be \"x\" (a horizontal line) or \"y\" (a vertical one)");
     if (!f.contains("at")) throw OptionError(path + "/at", nlohmann::json(), std::string("must be the line's ") + (s.along == "x" ? "height y" : "position x") + " (d)");
-    s.at = option_number(f.at("at"), path + "/at", -1e9, 1e9);
-    if (f.contains("width")) s.width = option_number(f.at("width"), path + "/width", 1e-9, 1e9);
+    s.at = OptionNumber(f.at("at"), path + "/at", -1e9, 1e9);
+    if (f.contains("width")) s.width = OptionNumber(f.at("width"), path + "/width", 1e-9, 1e9);
     if (f.contains("origin_outlet")) {
       if (s.along != "x")
         throw OptionError(path + "/origin_outlet", f.at("origin_outlet"), "takes a line along x (the base outlets lie along x)");
-      s.origin_outlet = option_integer(f.at("origin_outlet"), path + "/origin_outlet", 0, 1000);
+      s.origin_outlet = OptionInteger(f.at("origin_outlet"), path + "/origin_outlet", 0, 1000);
     }
     return s;
   }
-  s.y = text_at(f, "y", path);
+  s.y = TextAt(f, "y", path);
   if (s.y.empty()) throw OptionError(path + "/y", f.value("y", nlohmann::json()), "must be a metric name or an expression over metrics and axes");
   try {
-    Expression::parse(s.y, {});  // the grammar; names are checked against the metrics when drawn
+    Expression::Parse(s.y, {});  // the grammar; names are checked against the metrics when drawn
   } catch (const ExpressionError& e) {
     throw OptionError(path + "/y", f.at("y"), e.what());
   }
-  s.ylabel = text_at(f, "ylabel", path);
-  if (f.contains("x")) s.x = axis_name_at(f.at("x"), path + "/x", axes);
+  s.ylabel = TextAt(f, "ylabel", path);
+  if (f.contains("x")) s.x = AxisNameAt(f.at("x"), path + "/x", axes);
   if (f.contains("group")) {
-    s.group = axis_list_at(f.at("group"), path + "/group", axes);
+    s.group = AxisListAt(f.at("group"), path + "/group", axes);
     s.group_given = true;
   }
   if (f.contains("fit")) {
     const nlohmann::json& fj = f.at("fit");
     const std::string fp = path + "/fit";
     if (!fj.is_object()) throw OptionError(fp, fj, "must be {\"model\": \"C * W^b\", \"over\": [axes], \"initial\": {..}, \"collapse\": bool}");
-    check_keys(fj, fp, std::begin(kFitKeys), std::end(kFitKeys));
+    CheckKeys(fj, fp, std::begin(kFitKeys), std::end(kFitKeys));
     FigureFitSpec fit;
-    fit.model = text_at(fj, "model", fp);
+    fit.model = TextAt(fj, "model", fp);
     if (fit.model.empty()) throw OptionError(fp + "/model", fj.value("model", nlohmann::json()), "must be an expression, e.g. \"C * W^b\"");
-    std::vector<std::string> usable = axes.expression_names();
+    std::vector<std::string> usable = axes.ExpressionNames();
     if (std::find(usable.begin(), usable.end(), "L") == usable.end()) usable.push_back("L");
     if (fj.contains("over")) {
-      fit.over = axis_list_at(fj.at("over"), fp + "/over", axes);
+      fit.over = AxisListAt(fj.at("over"), fp + "/over", axes);
       for (const auto& v : fit.over)
-        if (!is_identifier(v)) throw OptionError(fp + "/over", fj.at("over"), "\"" + v + "\" cannot stand in an expression; declare it under /axes with a name of letters, digits and '_'");
+        if (!IsIdentifier(v)) throw OptionError(fp + "/over", fj.at("over"), "\"" + v + "\" cannot stand in an expression; declare it under /axes with a name of letters, digits and '_'");
     }
     Expression e;
     try {
-      e = Expression::parse(fit.model, fj.contains("over") ? fit.over : usable);
+      e = Expression::Parse(fit.model, fj.contains("over") ? fit.over : usable);
     } catch (const ExpressionError& err) {
       throw OptionError(fp + "/model", fj.at("model"), err.what());
     }
     if (!fj.contains("over")) {
       // The axes the model names (without variables, every name it uses is a "parameter").
-      const std::vector<std::string> named = Expression::parse(fit.model, {}).parameters();
+      const std::vector<std::string> named = Expression::Parse(fit.model, {}).Parameters();
       for (const auto& v : named)  // in the order the model names them
         if (std::find(usable.begin(), usable.end(), v) != usable.end()) fit.over.push_back(v);
       if (fit.over.empty())
-        throw OptionError(fp + "/model", fj.at("model"), "uses no axis; its variables must be axes (" + joined(usable) + ")");
+        throw OptionError(fp + "/model", fj.at("model"), "uses no axis; its variables must be axes (" + Joined(usable) + ")");
     }
-    if (e.parameters().empty()) throw OptionError(fp + "/model", fj.at("model"), "has no parameter to fit");
+    if (e.Parameters().empty()) throw OptionError(fp + "/model", fj.at("model"), "has no parameter to fit");
     if (fj.contains("initial")) {
       if (!fj.at("initial").is_object()) throw OptionError(fp + "/initial", fj.at("initial"), "must be {parameter: value}");
-      for (const auto& [k, v] : fj.at("initial").items()) fit.initial[k] = option_number(v, fp + "/initial/" + k, -1e300, 1e300);
+      for (const auto& [k, v] : fj.at("initial").items()) fit.initial[k] = OptionNumber(v, fp + "/initial/" + k, -1e300, 1e300);
     }
-    if (fj.contains("collapse")) fit.collapse = option_bool(fj.at("collapse"), fp + "/collapse");
+    if (fj.contains("collapse")) fit.collapse = OptionBool(fj.at("collapse"), fp + "/collapse");
     s.fit = fit;
   }
   return s;
@@ -266,30 +266,30 @@ FigureSpec read_one(const nlohmann::json& f, const std::string& path, const Camp
 
 }  // namespace
 
-MeanSe y_value(const std::string& y, const std::map<std::string, MeanSe>& metrics, const std::map<std::string, double>& axes,
+MeanSe YValue(const std::string& y, const std::map<std::string, MeanSe>& metrics, const std::map<std::string, double>& axes,
                std::string& problem) {
   if (const auto it = metrics.find(y); it != metrics.end()) return it->second;
   std::vector<std::string> variables;
   for (const auto& [name, e] : metrics)
-    if (is_identifier(name)) variables.push_back(name);
+    if (IsIdentifier(name)) variables.push_back(name);
   for (const auto& [name, v] : axes)
-    if (is_identifier(name) && !metrics.count(name)) variables.push_back(name);
+    if (IsIdentifier(name) && !metrics.count(name)) variables.push_back(name);
   Expression e;
   try {
-    e = Expression::parse(y, variables);
+    e = Expression::Parse(y, variables);
   } catch (const ExpressionError& err) {
     problem = err.what();
     return {};
   }
-  if (!e.parameters().empty()) {
-    problem = "y \"" + y + "\" names no metric or axis: " + joined(e.parameters());
+  if (!e.Parameters().empty()) {
+    problem = "y \"" + y + "\" names no metric or axis: " + Joined(e.Parameters());
     return {};
   }
   std::vector<double> values;
   std::vector<double> ses;
   MeanSe out;
   out.n = -1;
-  for (const auto& name : e.variables()) {
+  for (const auto& name : e.Variables()) {
     if (const auto it = metrics.find(name); it != metrics.end()) {
       values.push_back(it->second.mean);
       ses.push_back(it->second.se);
@@ -299,7 +299,7 @@ MeanSe y_value(const std::string& y, const std::map<std::string, MeanSe>& metric
       ses.push_back(0.0);
     }
   }
-  out.mean = e.evaluate(values, {});
+  out.mean = e.Evaluate(values, {});
   double var = 0.0;
   for (std::size_t i = 0; i < values.size(); ++i) {
     if (ses[i] == 0.0) continue;
@@ -308,7 +308,7 @@ MeanSe y_value(const std::string& y, const std::map<std::string, MeanSe>& metric
     std::vector<double> up = values, down = values;
     up[i] += h;
     down[i] -= h;
-    const double d = (e.evaluate(up, {}) - e.evaluate(down, {})) / (2 * h);
+    const double d = (e.Evaluate(up, {}) - e.Evaluate(down, {})) / (2 * h);
     if (d == 0.0) continue;
     if (!std::isfinite(ses[i])) {
       var = kNaN;
@@ -321,14 +321,14 @@ MeanSe y_value(const std::string& y, const std::map<std::string, MeanSe>& metric
   return out;
 }
 
-std::map<std::string, MeanSe> pooled_metrics(const CampaignAnalysis& ca, const std::vector<std::size_t>& points) {
+std::map<std::string, MeanSe> PooledMetrics(const CampaignAnalysis& ca, const std::vector<std::size_t>& points) {
   std::map<std::string, std::vector<PointMetric>> by_name;
   for (std::size_t p : points)
-    for (const PointMetric& m : ca.all_point_metrics(p)) by_name[m.name].push_back(m);
+    for (const PointMetric& m : ca.AllPointMetrics(p)) by_name[m.name].push_back(m);
   std::map<std::string, MeanSe> out;
   for (const auto& [name, list] : by_name) {
     if (list.size() == 1) {
-      out[name] = list.front().estimate();
+      out[name] = list.front().Estimate();
       continue;
     }
     double sum = 0, weight = 0, var = 0;
@@ -347,46 +347,46 @@ std::map<std::string, MeanSe> pooled_metrics(const CampaignAnalysis& ca, const s
 
 namespace {
 
-std::string value_words(double v) { return format_number(v, 6); }
+std::string ValueWords(double v) { return FormatNumber(v, 6); }
 
 }  // namespace
 
 namespace {
 
 // "; only W in {10, 22}; mu in {0.5}" for a caption ("" without `only`).
-std::string only_text(const FigureSpec& spec) {
+std::string OnlyText(const FigureSpec& spec) {
   std::string only;
   for (const auto& [name, values] : spec.only) {
     std::string vs;
-    for (const auto& w : values) vs += (vs.empty() ? "" : ", ") + (w.is_string() ? w.get<std::string>() : value_words(w.get<double>()));
+    for (const auto& w : values) vs += (vs.empty() ? "" : ", ") + (w.is_string() ? w.get<std::string>() : ValueWords(w.get<double>()));
     only += (only.empty() ? "" : "; ") + name + " in {" + vs + "}";
   }
   return only.empty() ? "" : "; only " + only;
 }
 
-std::string with_unit(const std::string& title, const std::string& unit) { return unit.empty() ? title : title + " (" + unit + ")"; }
+std::string WithUnit(const std::string& title, const std::string& unit) { return unit.empty() ? title : title + " (" + unit + ")"; }
 
 // The per-run results of analysis `a` behind a datum: the used runs of its points.
-std::vector<const nlohmann::json*> datum_results(const CampaignAnalysis& ca, std::size_t a, const FigureDatum& d) {
+std::vector<const nlohmann::json*> DatumResults(const CampaignAnalysis& ca, std::size_t a, const FigureDatum& d) {
   std::vector<const nlohmann::json*> out;
   for (std::size_t p : d.points)
-    for (const nlohmann::json* r : ca.results[a].of_point(p)) out.push_back(r);
+    for (const nlohmann::json* r : ca.results[a].OfPoint(p)) out.push_back(r);
   return out;
 }
 
 // The legend or panel name of a datum: its axes, or the figure's quantity for a campaign of one point.
-std::string datum_label(const FigureDatum& d, const std::string& otherwise) { return d.group.empty() ? otherwise : d.group; }
+std::string DatumLabel(const FigureDatum& d, const std::string& otherwise) { return d.group.empty() ? otherwise : d.group; }
 
 // A histogram per datum of a distribution an analysis offers (its runs' samples pooled) or of
 // a per-run metric (its runs' values), over one range and one set of bins for every curve.
-void distribution_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
+void DistributionFigure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
   const CampaignView& v = ca.view;
   const std::string where = spec.path + " (\"" + spec.name + "\")";
   std::optional<std::size_t> source;
   DistributionInfo info{spec.of, spec.of, ""};
   std::vector<std::string> offered;
   for (std::size_t a = 0; ca.setup && a < ca.setup->analyses.size(); ++a)
-    for (const DistributionInfo& d : ca.setup->analyses[a]->distribution_names()) {
+    for (const DistributionInfo& d : ca.setup->analyses[a]->DistributionNames()) {
       offered.push_back(d.name);
       if (d.name == spec.of && !source) {
         source = a;
@@ -404,13 +404,13 @@ void distribution_figure(const CampaignAnalysis& ca, const FigureSpec& spec, Fig
       }
     };
     if (source) {
-      for (const nlohmann::json* r : datum_results(ca, *source, out.data[i])) add(ca.setup->analyses[*source]->distribution(spec.of, *r));
+      for (const nlohmann::json* r : DatumResults(ca, *source, out.data[i])) add(ca.setup->analyses[*source]->Distribution(spec.of, *r));
       continue;
     }
     for (std::size_t p : out.data[i].points)
       for (std::size_t run : v.points[p].runs)
         for (std::size_t a = 0; a < ca.results.size(); ++a)
-          for (const Metric& m : ca.run_metrics(a, run)) {
+          for (const Metric& m : ca.RunMetrics(a, run)) {
             if (m.name != spec.of) continue;
             metric_found = true;
             info.title = m.title.empty() ? m.name : m.title;
@@ -420,7 +420,7 @@ void distribution_figure(const CampaignAnalysis& ca, const FigureSpec& spec, Fig
   }
   if (!source && !metric_found) {
     out.blocks.push_back(Text{"**Not drawn:** " + where + ": \"" + spec.of + "\" is no distribution an analysis offers (" +
-                              joined(offered) + ") and no run has a metric of that name."});
+                              Joined(offered) + ") and no run has a metric of that name."});
     return;
   }
   // One range for every curve: the figure's, or the data's (positive values only on log bins).
@@ -446,16 +446,16 @@ void distribution_figure(const CampaignAnalysis& ca, const FigureSpec& spec, Fig
   Figure f;
   f.name = "figure-" + spec.name;
   f.title = spec.title.empty() ? "Distribution of " + info.title : spec.title;
-  f.xlabel = with_unit(info.title, info.unit);
+  f.xlabel = WithUnit(info.title, info.unit);
   f.ylabel = "probability density" + (info.unit.empty() ? std::string() : " (1/" + info.unit + ")");
   f.logx = spec.logx;
   f.logy = spec.logy;
   for (std::size_t i = 0; i < out.data.size(); ++i) {
-    const Density h = density_histogram(samples[i], spec.bins, lo, hi, spec.logx);
+    const Density h = DensityHistogram(samples[i], spec.bins, lo, hi, spec.logx);
     if (!(h.total > 0)) continue;
     Series se;
-    const std::string label = datum_label(out.data[i], spec.of);
-    se.label = label + " (n = " + format_number(h.total, 6) + ")";
+    const std::string label = DatumLabel(out.data[i], spec.of);
+    se.label = label + " (n = " + FormatNumber(h.total, 6) + ")";
     se.file_label = label;
     se.columns = {spec.of, "density", "count"};
     se.style = Series::Style::kLinesPoints;
@@ -466,10 +466,10 @@ void distribution_figure(const CampaignAnalysis& ca, const FigureSpec& spec, Fig
     if (!se.rows.empty()) f.series.push_back(se);
   }
   f.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Probability density: count / (n x bin width), " +
-              std::to_string(spec.bins) + (spec.logx ? " logarithmic" : "") + " bins over [" + format_number(lo, 4) + ", " +
-              format_number(hi, 4) + "] for every curve; n counts every value, those outside the range too; " +
+              std::to_string(spec.bins) + (spec.logx ? " logarithmic" : "") + " bins over [" + FormatNumber(lo, 4) + ", " +
+              FormatNumber(hi, 4) + "] for every curve; n counts every value, those outside the range too; " +
               (source ? "pooled over the runs of each point" : "one value per run (the metric " + spec.of + "), pooled over the runs of each point") +
-              (spec.pool.empty() ? "" : " and over " + joined(spec.pool)) + only_text(spec) +
+              (spec.pool.empty() ? "" : " and over " + Joined(spec.pool)) + OnlyText(spec) +
               (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
   if (f.series.empty()) {
     out.blocks.push_back(Text{"**Not drawn:** " + where + ": no run has a value of " + spec.of + "."});
@@ -486,7 +486,7 @@ struct Offered {
   Info info;
 };
 template <class Info>
-std::optional<Offered<Info>> find_offered(const CampaignAnalysis& ca, const std::string& name,
+std::optional<Offered<Info>> FindOffered(const CampaignAnalysis& ca, const std::string& name,
                                           std::vector<Info> (Analysis::*offers)() const) {
   for (std::size_t a = 0; ca.setup && a < ca.setup->analyses.size(); ++a)
     for (Info& i : ((*ca.setup->analyses[a]).*offers)())
@@ -496,9 +496,9 @@ std::optional<Offered<Info>> find_offered(const CampaignAnalysis& ca, const std:
 
 // A curve per datum that an analysis offers (kind "curves"), each from the runs behind the
 // datum merged (pooled points are one datum), with error bars where the curve has them.
-void curve_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
+void CurveFigure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
   const std::string where = spec.path + " (\"" + spec.name + "\")";
-  const std::optional<Offered<CurveInfo>> found = find_offered(ca, spec.of, &Analysis::curve_names);
+  const std::optional<Offered<CurveInfo>> found = FindOffered(ca, spec.of, &Analysis::CurveNames);
   if (!found) {
     out.blocks.push_back(Text{"**Not drawn:** " + where + ": no analysis offers the curve " + spec.of + "."});
     return;
@@ -516,8 +516,8 @@ void curve_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (std::size_t i = 0; i < out.data.size(); ++i) {
     FigureDatum& d = out.data[i];
-    const std::string label = datum_label(d, info.name);
-    const std::vector<CurvePoint> points = ca.setup->analyses[source]->curve(spec.of, datum_results(ca, source, d));
+    const std::string label = DatumLabel(d, info.name);
+    const std::vector<CurvePoint> points = ca.setup->analyses[source]->Curve(spec.of, DatumResults(ca, source, d));
     Series se;
     se.label = label;
     se.file_label = label;
@@ -551,17 +551,17 @@ void curve_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
     f.series.push_back(one);
   }
   f.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Each curve: the runs behind it merged" +
-              (spec.pool.empty() ? "" : ", pooled over " + joined(spec.pool)) + only_text(spec) +
+              (spec.pool.empty() ? "" : ", pooled over " + Joined(spec.pool)) + OnlyText(spec) +
               (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
   if (!f.series.empty()) out.blocks.push_back(f);
   if (!missing.empty())
     out.blocks.push_back(Text{"**" + std::string(f.series.empty() ? "Not drawn" : "Left out") + ":** " + where + ": no " +
-                              spec.of + " at " + joined(missing) + " (no run there has it)."});
+                              spec.of + " at " + Joined(missing) + " (no run there has it)."});
 }
 
 }  // namespace
 
-std::vector<std::vector<std::array<double, 2>>> clip_polylines(const std::vector<std::vector<std::array<double, 2>>>& lines,
+std::vector<std::vector<std::array<double, 2>>> ClipPolylines(const std::vector<std::vector<std::array<double, 2>>>& lines,
                                                               const std::array<double, 4>& box) {
   std::vector<std::vector<std::array<double, 2>>> out;
   for (const auto& line : lines) {
@@ -609,10 +609,10 @@ namespace {
 
 // Map panels (kind "maps") or line profiles (kind "profile") of a field an analysis offers, one
 // per datum, each from the runs behind it merged.
-void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
+void FieldFigure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutcome& out) {
   const CampaignView& v = ca.view;
   const std::string where = spec.path + " (\"" + spec.name + "\")";
-  const std::optional<Offered<FieldInfo>> found = find_offered(ca, spec.field, &Analysis::field_names);
+  const std::optional<Offered<FieldInfo>> found = FindOffered(ca, spec.field, &Analysis::FieldNames);
   if (!found) {
     out.blocks.push_back(Text{"**Not drawn:** " + where + ": no analysis offers the field " + spec.field + "."});
     return;
@@ -624,7 +624,7 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
   MapFigure m;
   m.name = "figure-" + spec.name;
   m.title = spec.title.empty() ? info.title : spec.title;
-  m.value_name = with_unit(info.title, info.unit);
+  m.value_name = WithUnit(info.title, info.unit);
   m.value_key = info.name;
   m.diverging = info.diverging;
   double x_lo = std::numeric_limits<double>::infinity(), x_hi = -x_lo, y_lo = x_lo, y_hi = -x_lo;
@@ -638,17 +638,17 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
   const char across = along == 'x' ? 'y' : 'x';
   Figure f;
   f.name = "figure-" + spec.name;
-  f.title = spec.title.empty() ? info.title + " along " + spec.along + " at " + across + " = " + format_number(spec.at) + " d"
+  f.title = spec.title.empty() ? info.title + " along " + spec.along + " at " + across + " = " + FormatNumber(spec.at) + " d"
                                : spec.title;
   f.xlabel = spec.origin_outlet >= 0 ? "x from the centre of base outlet " + std::to_string(spec.origin_outlet) + " (d)"
                                       : spec.along + " (d)";
-  f.ylabel = with_unit(info.title, info.unit);
+  f.ylabel = WithUnit(info.title, info.unit);
   f.logy = spec.logy;
   std::string band;
   double arrow_spacing = 0.0;
   for (std::size_t i = 0; i < out.data.size(); ++i) {
     FigureDatum& d = out.data[i];
-    const std::string label = datum_label(d, info.name);
+    const std::string label = DatumLabel(d, info.name);
     std::optional<FieldMap> map;
     std::string one;  // " (replica k)" when one run is drawn
     if (spec.one_run) {
@@ -659,14 +659,14 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
                        [&](std::size_t a, std::size_t b) { return v.used[a].record->replica < v.used[b].record->replica; });
       for (std::size_t u : runs) {
         if (u >= ca.results[source].runs.size() || ca.results[source].runs[u].is_null()) continue;
-        map = analysis.field(spec.field, {&ca.results[source].runs[u]}, v.points[d.points.front()].spec);
+        map = analysis.Field(spec.field, {&ca.results[source].runs[u]}, v.points[d.points.front()].spec);
         if (map && map->nx > 0 && map->ny > 0) {
           one = " (replica " + std::to_string(v.used[u].record->replica) + ")";
           break;
         }
       }
     } else {
-      map = analysis.field(spec.field, datum_results(ca, source, d), v.points[d.points.front()].spec);
+      map = analysis.Field(spec.field, DatumResults(ca, source, d), v.points[d.points.front()].spec);
     }
     if (!map || map->nx == 0 || map->ny == 0) {
       missing.push_back(label);
@@ -680,17 +680,17 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
       for (int j = 0; j < map->ny; ++j)
         for (int k = 0; k < map->nx; ++k) {
           const std::size_t n = static_cast<std::size_t>(j) * static_cast<std::size_t>(map->nx) + static_cast<std::size_t>(k);
-          panel.grid.push_back({map->x(k), map->y(j), map->values[n], n < map->n_frames.size() ? map->n_frames[n] : kNaN});
+          panel.grid.push_back({map->X(k), map->Y(j), map->values[n], n < map->n_frames.size() ? map->n_frames[n] : kNaN});
         }
       // The panel spans the grid and what of the silo lies within kNear of it: the walls beside
       // the default window, not those far from a zoomed one (/report/fields/window).
       constexpr double kNear = 2.0;
-      const double gx0 = map->x(0) - map->spacing / 2, gx1 = map->x(map->nx - 1) + map->spacing / 2;
-      const double gy0 = map->y(0) - map->spacing / 2, gy1 = map->y(map->ny - 1) + map->spacing / 2;
+      const double gx0 = map->X(0) - map->spacing / 2, gx1 = map->X(map->nx - 1) + map->spacing / 2;
+      const double gy0 = map->Y(0) - map->spacing / 2, gy1 = map->Y(map->ny - 1) + map->spacing / 2;
       const std::array<double, 4> box = {gx0 - kNear, gx1 + kNear, gy0 - kNear, gy1 + kNear};
       extend(gx0, gy0);
       extend(gx1, gy1);
-      panel.lines = clip_polylines(map->lines, box);
+      panel.lines = ClipPolylines(map->lines, box);
       for (const auto& line : panel.lines)
         for (const auto& pt : line) extend(pt[0], pt[1]);
       for (const auto& c : map->circles) {
@@ -713,17 +713,17 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
       }
       origin = outlets[spec.origin_outlet].value("center", 0.0);
     }
-    const FieldProfile pr = field_profile(*map, along, spec.at, spec.width);
+    const FieldProfile pr = ComputeFieldProfile(*map, along, spec.at, spec.width);
     if (pr.position.empty()) {
-      const double lo = along == 'x' ? map->y(0) : map->x(0), hi = along == 'x' ? map->y(map->ny - 1) : map->x(map->nx - 1);
-      missing.push_back(label + " (the line " + std::string(1, across) + " = " + format_number(spec.at) +
-                        " d lies outside the grid, " + std::string(1, across) + " = " + format_number(lo) + " .. " +
-                        format_number(hi) + " d)");
+      const double lo = along == 'x' ? map->Y(0) : map->X(0), hi = along == 'x' ? map->Y(map->ny - 1) : map->X(map->nx - 1);
+      missing.push_back(label + " (the line " + std::string(1, across) + " = " + FormatNumber(spec.at) +
+                        " d lies outside the grid, " + std::string(1, across) + " = " + FormatNumber(lo) + " .. " +
+                        FormatNumber(hi) + " d)");
       continue;
     }
     if (band.empty())
-      band = pr.band_lo == pr.band_hi ? std::string(1, across) + " = " + format_number(pr.band_lo) + " d"
-                                      : std::string(1, across) + " = " + format_number(pr.band_lo) + " .. " + format_number(pr.band_hi) + " d";
+      band = pr.band_lo == pr.band_hi ? std::string(1, across) + " = " + FormatNumber(pr.band_lo) + " d"
+                                      : std::string(1, across) + " = " + FormatNumber(pr.band_lo) + " .. " + FormatNumber(pr.band_hi) + " d";
     Series se;
     se.label = label + ": " + std::to_string(map->runs) + (map->runs == 1 ? " run" + one : " runs");
     se.file_label = label;
@@ -735,7 +735,7 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
         se.rows.push_back({pr.position[k] - origin, pr.value[k], static_cast<double>(pr.nodes[k])});
     if (!se.rows.empty()) f.series.push_back(se);
   }
-  const std::string tail = (spec.pool.empty() ? "" : "; pooled over " + joined(spec.pool)) + only_text(spec) +
+  const std::string tail = (spec.pool.empty() ? "" : "; pooled over " + Joined(spec.pool)) + OnlyText(spec) +
                            (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
   // Arrows: the longest of every panel 0.9 of their spacing.
   double longest = 0.0;
@@ -749,8 +749,8 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
         a[2] *= scale;
         a[3] *= scale;
       }
-    arrows_text = "; arrows: the vector field, the longest " + format_number(0.9 * arrow_spacing) + " d for " +
-                  format_number(longest) + (info.unit.empty() ? "" : " " + info.unit);
+    arrows_text = "; arrows: the vector field, the longest " + FormatNumber(0.9 * arrow_spacing) + " d for " +
+                  FormatNumber(longest) + (info.unit.empty() ? "" : " " + info.unit);
   } else {
     for (MapPanel& p : m.panels) p.arrows.clear();
   }
@@ -766,8 +766,8 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
   }
   if (spec.kind == "profile" && !f.series.empty()) {
     f.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "At each " + spec.along + ": the mean of the field over the grid " +
-                (along == 'x' ? "rows " : "columns ") + band + " (within " + format_number(spec.width / 2) + " d of " +
-                std::string(1, across) + " = " + format_number(spec.at) + " d); " +
+                (along == 'x' ? "rows " : "columns ") + band + " (within " + FormatNumber(spec.width / 2) + " d of " +
+                std::string(1, across) + " = " + FormatNumber(spec.at) + " d); " +
                 (spec.one_run ? "each curve the lowest replica that has the field" : "the runs behind each curve merged") + tail;
     out.blocks.push_back(f);
   }
@@ -781,7 +781,7 @@ void field_figure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutc
 
 }  // namespace
 
-FieldProfile field_profile(const FieldMap& m, char along, double at, double width) {
+FieldProfile ComputeFieldProfile(const FieldMap& m, char along, double at, double width) {
   FieldProfile p;
   const bool ax = along == 'x';
   const int n_along = ax ? m.nx : m.ny, n_across = ax ? m.ny : m.nx;
@@ -800,19 +800,19 @@ FieldProfile field_profile(const FieldMap& m, char along, double at, double widt
     double sum = 0.0;
     int n = 0;
     for (int k : band) {
-      const double value = ax ? m.at(i, k) : m.at(k, i);
+      const double value = ax ? m.At(i, k) : m.At(k, i);
       if (!std::isfinite(value)) continue;
       sum += value;
       ++n;
     }
-    p.position.push_back(ax ? m.x(i) : m.y(i));
+    p.position.push_back(ax ? m.X(i) : m.Y(i));
     p.value.push_back(n > 0 ? sum / n : kNaN);
     p.nodes.push_back(n);
   }
   return p;
 }
 
-Density density_histogram(const Samples& s, int bins, double lo, double hi, bool log) {
+Density DensityHistogram(const Samples& s, int bins, double lo, double hi, bool log) {
   Density d;
   if (bins <= 0 || !(hi > lo) || (log && !(lo > 0))) return d;
   std::vector<double> edges(static_cast<std::size_t>(bins) + 1);
@@ -835,42 +835,42 @@ Density density_histogram(const Samples& s, int bins, double lo, double hi, bool
   return d;
 }
 
-std::vector<FigureSpec> read_figure_specs(const nlohmann::json& campaign_spec) {
+std::vector<FigureSpec> ReadFigureSpecs(const nlohmann::json& campaign_spec) {
   if (!campaign_spec.is_object() || !campaign_spec.contains("report") || !campaign_spec.at("report").is_object() ||
       !campaign_spec.at("report").contains("figures"))
     return {};
   const nlohmann::json& list = campaign_spec.at("report").at("figures");
   if (!list.is_array()) throw OptionError("/report/figures", list, "must be an array of figures ({\"name\", \"y\", ...})");
-  const CampaignAxes axes = CampaignAxes::of_campaign_spec(campaign_spec);
+  const CampaignAxes axes = CampaignAxes::OfCampaignSpec(campaign_spec);
   std::vector<FigureSpec> out;
   std::set<std::string> names;
   Offers offers(campaign_spec);
   for (std::size_t i = 0; i < list.size(); ++i) {
-    out.push_back(read_one(list[i], "/report/figures/" + std::to_string(i), axes, names, offers));
+    out.push_back(ReadOne(list[i], "/report/figures/" + std::to_string(i), axes, names, offers));
     names.insert(out.back().name);
   }
   return out;
 }
 
-std::map<std::string, double> point_axes(const CampaignView& view, const Point& point) {
-  std::map<std::string, double> axes = view.named.values(point.point, point.spec);
+std::map<std::string, double> PointAxes(const CampaignView& view, const Point& point) {
+  std::map<std::string, double> axes = view.named.Values(point.point, point.spec);
   if (!view.x_symbol.empty() && !axes.count(view.x_symbol)) axes[view.x_symbol] = point.x;
   return axes;
 }
 
-bool axis_value_matches(const CampaignView& view, const Point& point, const std::string& name, const nlohmann::json& want) {
-  if (const auto pointer = view.named.pointer_of(name)) {
-    const auto v = axis_value(*pointer, point.point, point.spec);
+bool AxisValueMatches(const CampaignView& view, const Point& point, const std::string& name, const nlohmann::json& want) {
+  if (const auto pointer = view.named.PointerOf(name)) {
+    const auto v = AxisValue(*pointer, point.point, point.spec);
     if (v && v->is_string()) return want.is_string() && want.get<std::string>() == v->get<std::string>();
   }
-  const std::map<std::string, double> axes = point_axes(view, point);
+  const std::map<std::string, double> axes = PointAxes(view, point);
   const auto it = axes.find(name);
   if (it == axes.end() || !std::isfinite(it->second) || !want.is_number()) return false;
   const double a = it->second, b = want.get<double>();
-  return a == b || std::abs(a - b) <= 1e-9 * std::max(std::abs(a), std::abs(b)) || value_words(a) == value_words(b);
+  return a == b || std::abs(a - b) <= 1e-9 * std::max(std::abs(a), std::abs(b)) || ValueWords(a) == ValueWords(b);
 }
 
-FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
+FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   const CampaignView& v = ca.view;
   FigureOutcome out;
   out.spec = &spec;
@@ -882,7 +882,7 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   std::vector<std::string> group = spec.group;
   if (!spec.group_given)
     for (const auto& axis : v.axes) {
-      const std::string n = v.named.short_name(axis);
+      const std::string n = v.named.ShortName(axis);
       const bool is_x = !per_point && (n == x_name || v.x_axes.count(axis));
       if (!is_x && std::find(spec.pool.begin(), spec.pool.end(), n) == spec.pool.end()) group.push_back(n);
     }
@@ -895,27 +895,27 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
     bool keep = true;
     for (const auto& [name, values] : spec.only)
       keep = keep && std::any_of(values.begin(), values.end(),
-                                 [&](const nlohmann::json& w) { return axis_value_matches(v, point, name, w); });
+                                 [&](const nlohmann::json& w) { return AxisValueMatches(v, point, name, w); });
     if (!keep) continue;
-    const std::map<std::string, double> axes = point_axes(v, point);
+    const std::map<std::string, double> axes = PointAxes(v, point);
     std::string key;
     for (const auto& axis : v.axes) {
-      const std::string n = v.named.short_name(axis);
+      const std::string n = v.named.ShortName(axis);
       if (std::find(spec.pool.begin(), spec.pool.end(), n) != spec.pool.end()) continue;
-      const auto value = axis_value(axis, point.point, point.spec);
-      key += n + "=" + (value ? value_text(*value) : "?") + ";";
+      const auto value = AxisValue(axis, point.point, point.spec);
+      key += n + "=" + (value ? ValueText(*value) : "?") + ";";
     }
     if (std::find(spec.pool.begin(), spec.pool.end(), x_name) == spec.pool.end() && axes.count(x_name))
-      key += "x=" + value_words(axes.at(x_name));
+      key += "x=" + ValueWords(axes.at(x_name));
     const auto [it, added] = datum_of.emplace(key, out.data.size());
     if (added) {
       FigureDatum d;
       d.axes = axes;
       for (const auto& g : group) {
-        const auto pointer = v.named.pointer_of(g);
-        const auto value = pointer ? axis_value(*pointer, point.point, point.spec) : std::nullopt;
-        const std::string text = value ? value_text(*value) : axes.count(g) ? value_words(axes.at(g)) : "?";
-        const std::string unit = pointer ? axis_unit(*pointer) : g == "L" ? "d" : "";
+        const auto pointer = v.named.PointerOf(g);
+        const auto value = pointer ? AxisValue(*pointer, point.point, point.spec) : std::nullopt;
+        const std::string text = value ? ValueText(*value) : axes.count(g) ? ValueWords(axes.at(g)) : "?";
+        const std::string unit = pointer ? AxisUnit(*pointer) : g == "L" ? "d" : "";
         d.group += (d.group.empty() ? "" : ", ") + g + " = " + text + (unit.empty() || !value || value->is_string() ? "" : " " + unit);
       }
       out.data.push_back(d);
@@ -935,26 +935,26 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
     if (out.data.empty())
       out.blocks.push_back(Text{"**Not drawn:** " + where + ": no finished run passes its `only`."});
     else if (spec.kind == "distribution")
-      distribution_figure(ca, spec, out);
+      DistributionFigure(ca, spec, out);
     else if (spec.kind == "curves")
-      curve_figure(ca, spec, out);
+      CurveFigure(ca, spec, out);
     else
-      field_figure(ca, spec, out);
+      FieldFigure(ca, spec, out);
     return out;
   }
   std::string problem;
   std::vector<std::string> without_value;  // the data whose points have no value of y
   for (FigureDatum& d : out.data) {
-    const std::map<std::string, MeanSe> metrics = pooled_metrics(ca, d.points);
+    const std::map<std::string, MeanSe> metrics = PooledMetrics(ca, d.points);
     // Pooled axes vary inside a datum: they are not its axes.
     for (const auto& name : spec.pool) d.axes.erase(name);
     const auto xi = d.axes.find(x_name);
     d.x = xi == d.axes.end() ? kNaN : xi->second;
     std::string datum_problem;
-    const MeanSe y = y_value(spec.y, metrics, d.axes, datum_problem);
+    const MeanSe y = YValue(spec.y, metrics, d.axes, datum_problem);
     if (!datum_problem.empty()) problem = datum_problem;
     if (!datum_problem.empty() || !std::isfinite(y.mean))
-      without_value.push_back((d.group.empty() ? "" : d.group + ", ") + x_name + " = " + format_number(d.x, 6));
+      without_value.push_back((d.group.empty() ? "" : d.group + ", ") + x_name + " = " + FormatNumber(d.x, 6));
     d.y = y.mean;
     d.se = y.se;
     d.n = y.n;
@@ -965,7 +965,7 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   if (!problem.empty() && without_value.size() == out.data.size()) {
     notes.push_back("**Not drawn:** " + where + ": " + problem);
   } else if (!without_value.empty() && without_value.size() < out.data.size()) {
-    notes.push_back("**Left out:** " + where + ": no value of " + spec.y + " at " + joined(without_value) +
+    notes.push_back("**Left out:** " + where + ": no value of " + spec.y + " at " + Joined(without_value) +
                     " (no run there gave one)");
     problem.clear();
   }
@@ -1022,26 +1022,26 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
       sigma.push_back(d.se);
       used.push_back(&d);
     }
-    FitResult r = fit_model_multi(spec.name, fs.model, fs.over, xs, ys, sigma, fs.initial);
+    FitResult r = FitModelMulti(spec.name, fs.model, fs.over, xs, ys, sigma, fs.initial);
     out.fit = r;
     fit_table = Table{"figure-" + spec.name + "-fit",
-                      "Fit of " + fs.model + " over " + joined(fs.over) + " across the figure's " +
+                      "Fit of " + fs.model + " over " + Joined(fs.over) + " across the figure's " +
                           std::to_string(xs.size()) + " points (95% confidence intervals, Student t; " +
-                          (r.sigma.empty() ? "unweighted" : "weights 1/se^2") + "): " + r.verdict(),
+                          (r.sigma.empty() ? "unweighted" : "weights 1/se^2") + "): " + r.Verdict(),
                       {"parameter", "value", "se", "95% CI low", "95% CI high", "chi2/dof", "points", "fit quality"},
                       {},
                       {"parameter", "value", "se", "ci_low", "ci_high", "chi2_per_dof", "points", "fit_quality"}};
     for (const FitParameter& par : r.parameters)
-      fit_table.rows.push_back({par.name, Cell::number(par.value, 5), Cell::number(par.se, 2), Cell::number(par.ci_low, 5),
-                                Cell::number(par.ci_high, 5), Cell::number(r.ok() && r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
-                                Cell::count(static_cast<long long>(xs.size())), to_string(r.quality)});
+      fit_table.rows.push_back({par.name, Cell::Number(par.value, 5), Cell::Number(par.se, 2), Cell::Number(par.ci_low, 5),
+                                Cell::Number(par.ci_high, 5), Cell::Number(r.Ok() && r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
+                                Cell::Count(static_cast<long long>(xs.size())), ToString(r.quality)});
     if (r.quality != FitQuality::kGood) {
-      notes.push_back("The fit is not drawn: " + r.verdict() +
+      notes.push_back("The fit is not drawn: " + r.Verdict() +
                       " (a curve is drawn only when every parameter is determined and no 95% interval holds 0).");
     } else {
       // One curve per group: x sampled across the figure's range, the other variables at the
       // group's values (a derived variable recomputed from the sampled sweep value).
-      const auto x_pointer = v.named.pointer_of(x_name);
+      const auto x_pointer = v.named.PointerOf(x_name);
       double lo = std::numeric_limits<double>::infinity(), hi = -lo;
       for (const FigureDatum* d : used)
         if (std::isfinite(d->x)) {
@@ -1067,7 +1067,7 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
           if (x_pointer) {
             nlohmann::json point = rep.point;
             point[*x_pointer] = xv;
-            axes = point_axes(v, Point{rep.id, point, xv, "", "", "", "", rep.spec, {}});
+            axes = PointAxes(v, Point{rep.id, point, xv, "", "", "", "", rep.spec, {}});
           } else if (std::find(fs.over.begin(), fs.over.end(), x_name) != fs.over.end()) {
             axes[x_name] = xv;
           } else {
@@ -1075,7 +1075,7 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
           }
           std::vector<double> at;
           for (const auto& name : fs.over) at.push_back(axes.count(name) ? axes.at(name) : kNaN);
-          const double yv = r.evaluate_at(at);
+          const double yv = r.EvaluateAt(at);
           if (std::isfinite(yv)) curve.rows.push_back({xv, yv});
         }
         if (curve.rows.empty())  // through the fitted values at the data points
@@ -1119,8 +1119,8 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   }
   std::string caption = spec.caption;
   caption += std::string(caption.empty() ? "" : ". ") + "Error bars: standard errors" +
-             (spec.pool.empty() ? "" : "; pooled over " + joined(spec.pool) + " (means weighted by n)");
-  caption += only_text(spec);
+             (spec.pool.empty() ? "" : "; pooled over " + Joined(spec.pool) + " (means weighted by n)");
+  caption += OnlyText(spec);
   if (spec.fit && out.fit && out.fit->quality == FitQuality::kGood) caption += "; dashed: " + spec.fit->model + " fitted across every point";
   if (!spec.reference.empty()) caption += ". Reference: " + spec.reference;
   f.caption = caption;
@@ -1134,7 +1134,7 @@ FigureOutcome make_figure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   return out;
 }
 
-std::optional<Section> figures_section(const std::vector<FigureOutcome>& figures) {
+std::optional<Section> FiguresSection(const std::vector<FigureOutcome>& figures) {
   if (figures.empty()) return std::nullopt;
   Section s{"figures", "Figures", {}};
   s.blocks.push_back(Text{"The figures the campaign spec asks for (`/report/figures`); every analysis' own figures "

@@ -60,13 +60,13 @@ struct FigureSpec {
 
 // The parts of polylines (the silo's walls over a map) inside box {x0, x1, y0, y1}: a line
 // leaving and re-entering it becomes two.
-std::vector<std::vector<std::array<double, 2>>> clip_polylines(const std::vector<std::vector<std::array<double, 2>>>& lines,
+std::vector<std::vector<std::array<double, 2>>> ClipPolylines(const std::vector<std::vector<std::array<double, 2>>>& lines,
                                                               const std::array<double, 4>& box);
 
 // Reads /report/figures of a campaign spec (absent: none). Every error is an OptionError naming
 // the JSON path, the value and what is allowed; axis names are checked against the spec's
 // sweep and /axes.
-std::vector<FigureSpec> read_figure_specs(const nlohmann::json& campaign_spec);
+std::vector<FigureSpec> ReadFigureSpecs(const nlohmann::json& campaign_spec);
 
 // One data point of a figure: a set of sweep points (pooled), its axes' values, y ± se (n).
 struct FigureDatum {
@@ -86,23 +86,23 @@ struct FigureOutcome {
 
 // The axes of a point of the view by name: CampaignAxes::values plus the report's x symbol
 // when x is not a sweep axis (the gap L between two outlets).
-std::map<std::string, double> point_axes(const CampaignView& view, const Point& point);
+std::map<std::string, double> PointAxes(const CampaignView& view, const Point& point);
 
 // Does the value of axis `name` at a point equal `want` (numbers as numbers, to 6 significant
 // digits as the report prints them; strings as strings)?
-bool axis_value_matches(const CampaignView& view, const Point& point, const std::string& name, const nlohmann::json& want);
+bool AxisValueMatches(const CampaignView& view, const Point& point, const std::string& name, const nlohmann::json& want);
 
 // Point metrics of several points pooled: means weighted by n, standard errors combined
 // (one point: its metrics as they are).
-std::map<std::string, MeanSe> pooled_metrics(const CampaignAnalysis& analysis, const std::vector<std::size_t>& points);
+std::map<std::string, MeanSe> PooledMetrics(const CampaignAnalysis& analysis, const std::vector<std::size_t>& points);
 // y (a metric name, or an expression over metrics and axes) from such metrics and a point's
 // axes: a metric as it is; an expression with its metrics' standard errors propagated to first
 // order and n the fewest of theirs. Sets `problem` (and returns NaN) for a name that is neither.
-MeanSe y_value(const std::string& y, const std::map<std::string, MeanSe>& metrics, const std::map<std::string, double>& axes,
+MeanSe YValue(const std::string& y, const std::map<std::string, MeanSe>& metrics, const std::map<std::string, double>& axes,
                std::string& problem);
 
 // The data of a figure (only, pool, y per point) and, with a fit, the fit across them.
-FigureOutcome make_figure(const CampaignAnalysis& analysis, const FigureSpec& spec);
+FigureOutcome MakeFigure(const CampaignAnalysis& analysis, const FigureSpec& spec);
 
 // A field along a line: the mean over the grid nodes whose other coordinate lies within
 // width/2 of `at` (the nearest row or column when the band holds none) at each position along
@@ -112,7 +112,7 @@ struct FieldProfile {
   std::vector<int> nodes;                  // defined nodes averaged at each position
   double band_lo = kNaN, band_hi = kNaN;   // the rows (columns) averaged: their coordinates
 };
-FieldProfile field_profile(const FieldMap& map, char along, double at, double width);
+FieldProfile ComputeFieldProfile(const FieldMap& map, char along, double at, double width);
 
 // A histogram of weighted values as a probability density over `bins` equal bins of [lo, hi]
 // (equal in log when `log`; each bin [a, b) but the last, which holds hi, as numpy's): counts,
@@ -122,9 +122,9 @@ struct Density {
   std::vector<double> center, density, count;
   double total = 0.0;
 };
-Density density_histogram(const Samples& samples, int bins, double lo, double hi, bool log);
+Density DensityHistogram(const Samples& samples, int bins, double lo, double hi, bool log);
 
 // The "Figures" section of the report: every figure of /report/figures; nullopt when none.
-std::optional<Section> figures_section(const std::vector<FigureOutcome>& figures);
+std::optional<Section> FiguresSection(const std::vector<FigureOutcome>& figures);
 
 }  // namespace granary::analysis

@@ -15,15 +15,15 @@
 
 namespace granary::analysis {
 
-FitModel beverloo_2d() { return {"beverloo_2d", "C * (x - k)^1.5", "x", {{"C", 1.0}, {"k", 0.0}}, "2-D Beverloo"}; }
-FitModel beverloo_free() {
+FitModel Beverloo2d() { return {"beverloo_2d", "C * (x - k)^1.5", "x", {{"C", 1.0}, {"k", 0.0}}, "2-D Beverloo"}; }
+FitModel BeverlooFree() {
   return {"beverloo_free", "C * (x - k)^b", "x", {{"C", 1.0}, {"k", 0.0}, {"b", 1.5}}, "Beverloo, free exponent"};
 }
-FitModel mankoc() {
+FitModel Mankoc() {
   return {"mankoc", "C * (1 - exp(-b * (x - 1)) / 2) * (x - 1)^1.5", "x", {{"C", 1.0}, {"b", 1.0}}, "Mankoc"};
 }
 
-FitModel with_data_guess(FitModel model, std::span<const double> x, std::span<const double> y) {
+FitModel WithDataGuess(FitModel model, std::span<const double> x, std::span<const double> y) {
   if (x.empty() || x.size() != y.size()) return model;
   std::size_t imax = 0;
   for (std::size_t i = 1; i < x.size(); ++i)
@@ -39,13 +39,13 @@ FitModel with_data_guess(FitModel model, std::span<const double> x, std::span<co
   return model;
 }
 
-bool FitParameter::determined() const { return std::isfinite(value) && std::isfinite(se); }
+bool FitParameter::Determined() const { return std::isfinite(value) && std::isfinite(se); }
 
-bool FitParameter::ci_spans_zero() const {
+bool FitParameter::CiSpansZero() const {
   return std::isfinite(ci_low) && std::isfinite(ci_high) && ci_low <= 0.0 && ci_high >= 0.0;
 }
 
-std::string to_string(FitQuality quality) {
+std::string ToString(FitQuality quality) {
   switch (quality) {
     case FitQuality::kNotFitted: return "not fitted";
     case FitQuality::kFailed: return "failed";
@@ -55,7 +55,7 @@ std::string to_string(FitQuality quality) {
   return "?";
 }
 
-std::string FitResult::verdict() const {
+std::string FitResult::Verdict() const {
   switch (quality) {
     case FitQuality::kNotFitted: return status;
     case FitQuality::kFailed: return "failed: " + status + " (" + convergence + ", " + std::to_string(iterations) + " it.)";
@@ -64,10 +64,10 @@ std::string FitResult::verdict() const {
   }
   std::string undetermined, spans;
   for (const FitParameter& p : parameters) {
-    if (!p.determined()) undetermined += (undetermined.empty() ? "" : ", ") + p.name;
-    else if (p.ci_spans_zero()) spans += (spans.empty() ? "" : ", ") + p.name;
+    if (!p.Determined()) undetermined += (undetermined.empty() ? "" : ", ") + p.name;
+    else if (p.CiSpansZero()) spans += (spans.empty() ? "" : ", ") + p.name;
   }
-  std::string v = to_string(quality);
+  std::string v = ToString(quality);
   if (!undetermined.empty()) v += ": " + undetermined + " not determined by the data";
   if (!spans.empty()) v += std::string(undetermined.empty() ? ": " : "; ") + "95% CI of " + spans + " include" +
                            (spans.find(',') == std::string::npos ? "s" : "") + " 0";
@@ -76,7 +76,7 @@ std::string FitResult::verdict() const {
   return v;
 }
 
-const FitParameter* FitResult::parameter(const std::string& name) const {
+const FitParameter* FitResult::Parameter(const std::string& name) const {
   for (const auto& p : parameters)
     if (p.name == name) return &p;
   return nullptr;
@@ -91,19 +91,19 @@ struct FitData {
   std::size_t nv = 1;
 };
 
-double model_value(const Expression& e, std::span<const double> vars, const gsl_vector* p) {
+double ModelValue(const Expression& e, std::span<const double> vars, const gsl_vector* p) {
   std::vector<double> pars(p->size);
   for (std::size_t i = 0; i < p->size; ++i) pars[i] = gsl_vector_get(p, i);
-  return e.evaluate(vars, pars);
+  return e.Evaluate(vars, pars);
 }
 
 // Residual vector. A parameter step into a region where the model is undefined (e.g. a
 // negative base under a fractional power) gets a huge residual instead of NaN, so the
 // trust-region method rejects the step and shrinks the radius rather than aborting.
-int residuals_f(const gsl_vector* p, void* params, gsl_vector* f) {
+int ResidualsF(const gsl_vector* p, void* params, gsl_vector* f) {
   const auto* d = static_cast<const FitData*>(params);
   for (std::size_t i = 0; i < d->y.size(); ++i) {
-    double r = d->y[i] - model_value(*d->expression, d->x.subspan(i * d->nv, d->nv), p);
+    double r = d->y[i] - ModelValue(*d->expression, d->x.subspan(i * d->nv, d->nv), p);
     if (!d->sigma.empty()) r /= d->sigma[i];
     if (!std::isfinite(r)) r = 1e150;
     gsl_vector_set(f, i, r);
@@ -123,22 +123,22 @@ struct MatrixDeleter {
 
 }  // namespace
 
-double FitResult::evaluate(double x_value) const {
+double FitResult::Evaluate(double x_value) const {
   const double xv[1] = {x_value};
-  return evaluate_at(xv);
+  return EvaluateAt(xv);
 }
 
-double FitResult::evaluate_at(std::span<const double> values) const {
+double FitResult::EvaluateAt(std::span<const double> values) const {
   if (parameters.empty()) return kNaN;
   try {
-    const Expression e = Expression::parse(expression, variables.empty() ? std::vector<std::string>{variable} : variables);
-    if (values.size() != e.variables().size()) return kNaN;
+    const Expression e = Expression::Parse(expression, variables.empty() ? std::vector<std::string>{variable} : variables);
+    if (values.size() != e.Variables().size()) return kNaN;
     std::vector<double> pars;
-    for (const auto& name : e.parameters()) {
-      const FitParameter* p = parameter(name);
+    for (const auto& name : e.Parameters()) {
+      const FitParameter* p = Parameter(name);
       pars.push_back(p ? p->value : kNaN);
     }
-    return e.evaluate(values, pars);
+    return e.Evaluate(values, pars);
   } catch (const ExpressionError&) {
     return kNaN;
   }
@@ -147,12 +147,12 @@ double FitResult::evaluate_at(std::span<const double> values) const {
 namespace {
 
 // The fit of `e` to n = y.size() points of nv = e.variables().size() variables (`x`, row-major).
-FitResult fit_core(const std::string& name, const Expression& e, std::span<const double> x, std::span<const double> y,
+FitResult FitCore(const std::string& name, const Expression& e, std::span<const double> x, std::span<const double> y,
                    std::span<const double> sigma, const std::map<std::string, double>& initial) {
-  const std::size_t nv = e.variables().size();
+  const std::size_t nv = e.Variables().size();
   FitResult r;
   r.model_name = name;
-  r.expression = e.text();
+  r.expression = e.Text();
   if (x.size() != y.size() * nv || (!sigma.empty() && sigma.size() != y.size()))
     throw std::invalid_argument("fit '" + name + "': x, y and sigma sizes differ (" + std::to_string(x.size() / std::max<std::size_t>(1, nv)) +
                                 ", " + std::to_string(y.size()) + ", " + std::to_string(sigma.size()) + ")");
@@ -164,8 +164,8 @@ FitResult fit_core(const std::string& name, const Expression& e, std::span<const
   if (weighted) r.sigma.assign(sigma.begin(), sigma.end());
 
   const std::size_t n = y.size();
-  const std::size_t p = e.parameters().size();
-  for (const auto& par : e.parameters()) {
+  const std::size_t p = e.Parameters().size();
+  for (const auto& par : e.Parameters()) {
     FitParameter fp;
     fp.name = par;
     auto it = initial.find(par);
@@ -182,7 +182,7 @@ FitResult fit_core(const std::string& name, const Expression& e, std::span<const
 
   FitData data{&e, x, y, weighted ? std::span<const double>(r.sigma) : std::span<const double>(), nv};
   gsl_multifit_nlinear_fdf fdf;
-  fdf.f = residuals_f;
+  fdf.f = ResidualsF;
   fdf.df = nullptr;  // finite-difference Jacobian
   fdf.fvv = nullptr;
   fdf.n = n;
@@ -245,30 +245,30 @@ FitResult fit_core(const std::string& name, const Expression& e, std::span<const
     fp.ci_high = fp.value + t * fp.se;
   }
   for (std::size_t i = 0; i < n; ++i) {
-    r.fitted[i] = model_value(e, x.subspan(i * nv, nv), best);
+    r.fitted[i] = ModelValue(e, x.subspan(i * nv, nv), best);
     r.residuals[i] = y[i] - r.fitted[i];
   }
   const bool all_good = std::all_of(r.parameters.begin(), r.parameters.end(),
-                                    [](const FitParameter& q) { return q.determined() && !q.ci_spans_zero(); });
+                                    [](const FitParameter& q) { return q.Determined() && !q.CiSpansZero(); });
   r.quality = all_good ? FitQuality::kGood : FitQuality::kIllDetermined;
   return r;
 }
 
 }  // namespace
 
-FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<const double> y,
+FitResult MakeFitModel(const FitModel& model, std::span<const double> x, std::span<const double> y,
                     std::span<const double> sigma) {
-  const Expression e = Expression::parse(model.expression, {model.variable});
-  FitResult r = fit_core(model.name, e, x, y, sigma, model.initial);
-  r.model_title = model.shown();
+  const Expression e = Expression::Parse(model.expression, {model.variable});
+  FitResult r = FitCore(model.name, e, x, y, sigma, model.initial);
+  r.model_title = model.Shown();
   r.variable = model.variable;
   return r;
 }
 
-FitResult fit_model_multi(const std::string& name, const std::string& expression, const std::vector<std::string>& variables,
+FitResult FitModelMulti(const std::string& name, const std::string& expression, const std::vector<std::string>& variables,
                           const std::vector<std::vector<double>>& points, std::span<const double> y,
                           std::span<const double> sigma, const std::map<std::string, double>& initial) {
-  const Expression e = Expression::parse(expression, variables);
+  const Expression e = Expression::Parse(expression, variables);
   std::vector<double> flat;
   for (const auto& pt : points) {
     if (pt.size() != variables.size())
@@ -279,7 +279,7 @@ FitResult fit_model_multi(const std::string& name, const std::string& expression
   if (points.size() != y.size())
     throw std::invalid_argument("fit '" + name + "': " + std::to_string(points.size()) + " points for " +
                                 std::to_string(y.size()) + " values");
-  FitResult r = fit_core(name, e, flat, y, sigma, initial);
+  FitResult r = FitCore(name, e, flat, y, sigma, initial);
   r.model_title = name;
   r.variable = variables.empty() ? std::string() : variables.front();
   r.variables = variables;

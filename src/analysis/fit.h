@@ -20,13 +20,13 @@ struct FitModel {
   std::string variable = "x";           // the name of the independent variable in `expression`
   std::map<std::string, double> initial;  // starting values; missing parameters start at 1
   std::string title{};                  // in figure keys and captions ("2-D Beverloo"); "" = name
-  const std::string& shown() const { return title.empty() ? name : title; }
+  const std::string& Shown() const { return title.empty() ? name : title; }
 };
 
 // The three forms of shared analyses.md; x = W/d.
-FitModel beverloo_2d();      // Q = C (x - k)^(3/2)
-FitModel beverloo_free();    // Q = C (x - k)^b
-FitModel mankoc();           // Q = C (1 - exp(-b (x - 1)) / 2) (x - 1)^(3/2)
+FitModel Beverloo2d();      // Q = C (x - k)^(3/2)
+FitModel BeverlooFree();    // Q = C (x - k)^b
+FitModel Mankoc();           // Q = C (1 - exp(-b (x - 1)) / 2) (x - 1)^(3/2)
 
 struct FitParameter {
   std::string name;
@@ -35,8 +35,8 @@ struct FitParameter {
   double se = kNaN;       // NaN: not determined by the data (singular covariance)
   double ci_low = kNaN;   // 95% confidence interval, Student t with dof = n - p
   double ci_high = kNaN;
-  bool determined() const;   // an estimate with a finite standard error
-  bool ci_spans_zero() const;  // the 95% interval holds 0: the sign is not even known
+  bool Determined() const;   // an estimate with a finite standard error
+  bool CiSpansZero() const;  // the 95% interval holds 0: the sign is not even known
 };
 
 // How far a fit can be trusted, worst first.
@@ -46,11 +46,11 @@ enum class FitQuality {
   kIllDetermined,  // converged, but a parameter has no standard error or a 95% interval holding 0
   kGood,           // converged, every parameter determined, no interval holds 0
 };
-std::string to_string(FitQuality quality);  // "not fitted", "failed", "ill-determined", "good"
+std::string ToString(FitQuality quality);  // "not fitted", "failed", "ill-determined", "good"
 
 struct FitResult {
   std::string model_name;
-  std::string model_title;              // FitModel::shown()
+  std::string model_title;              // FitModel::Shown()
   std::string expression;
   std::string variable = "x";
   // Fits over several variables (fit_model_multi): their names and each data point's values
@@ -69,14 +69,14 @@ struct FitResult {
   std::string warning;                  // e.g. "b not determined by the data" (se = NaN)
   FitQuality quality = FitQuality::kNotFitted;
   // The solver converged: parameters hold estimates (perhaps ill-determined ones).
-  bool ok() const { return gsl_status == 0; }
+  bool Ok() const { return gsl_status == 0; }
   // One line for a table: "good", "ill-determined: 95% CI of C, k include 0", "not fitted:
-  // 3 point(s) for 3 parameter(s)", "failed: ..."; with the GSL details where they help.
-  std::string verdict() const;
-  const FitParameter* parameter(const std::string& name) const;
-  double evaluate(double x_value) const;  // the fitted model at x (NaN if it cannot be evaluated)
+  // 3 Point(s) for 3 Parameter(s)", "failed: ..."; with the GSL details where they help.
+  std::string Verdict() const;
+  const FitParameter* Parameter(const std::string& name) const;
+  double Evaluate(double x_value) const;  // the fitted model at x (NaN if it cannot be evaluated)
   // The fitted model at values of `variables` (in that order); NaN if it cannot be evaluated.
-  double evaluate_at(std::span<const double> values) const;
+  double EvaluateAt(std::span<const double> values) const;
 };
 
 // Fits `model` to (x, y). With sigma (same size, all > 0) the residuals are weighted by
@@ -84,18 +84,18 @@ struct FitResult {
 // unweighted by chi2/dof. Needs n > number of parameters; otherwise returns a result with
 // status "not fitted: ..." and gsl_status -1. Parameter values are NaN unless the solver
 // converged (the start values stay in `initial`). Throws ExpressionError for a bad model text.
-FitResult fit_model(const FitModel& model, std::span<const double> x, std::span<const double> y,
+FitResult MakeFitModel(const FitModel& model, std::span<const double> x, std::span<const double> y,
                     std::span<const double> sigma = {});
 
 // The same over several variables: `points[i]` holds the values of `variables` (in order) at
 // data point i, so a thesis law such as "a * W^(1.5 + X/2) / (1.43 + 17 X^2)" is fitted
 // across every point of a figure at once. Every other name in `expression` is a parameter.
-FitResult fit_model_multi(const std::string& name, const std::string& expression, const std::vector<std::string>& variables,
+FitResult FitModelMulti(const std::string& name, const std::string& expression, const std::vector<std::string>& variables,
                           const std::vector<std::vector<double>>& points, std::span<const double> y,
                           std::span<const double> sigma = {}, const std::map<std::string, double>& initial = {});
 
 // Starting values for the built-in forms from the data (C from the largest point, k = 0,
 // b = 1.5 or 1): keeps the solver away from (x - k) < 0.
-FitModel with_data_guess(FitModel model, std::span<const double> x, std::span<const double> y);
+FitModel WithDataGuess(FitModel model, std::span<const double> x, std::span<const double> y);
 
 }  // namespace granary::analysis

@@ -6,7 +6,7 @@
 
 namespace granary::analysis {
 
-FlowWindow flow_window(const FlowInput& in, const FlowWindowRule& rule) {
+FlowWindow FindFlowWindow(const FlowInput& in, const FlowWindowRule& rule) {
   FlowWindow w;
   for (const auto& e : in.events) {
     if (in.outlet >= 0 && e.outlet != in.outlet) continue;
@@ -77,9 +77,9 @@ FlowWindow flow_window(const FlowInput& in, const FlowWindowRule& rule) {
   return w;
 }
 
-FlowRate flow_rate(const FlowInput& in, const FlowWindowRule& rule) {
+FlowRate MeasureFlowRate(const FlowInput& in, const FlowWindowRule& rule) {
   FlowRate q;
-  const FlowWindow w = flow_window(in, rule);
+  const FlowWindow w = FindFlowWindow(in, rule);
   q.note = w.note;
   if (!w.ok) return q;
   std::vector<double> t, count, mass;
@@ -96,11 +96,11 @@ FlowRate flow_rate(const FlowInput& in, const FlowWindowRule& rule) {
   q.t_start = t.front();
   q.t_end = t.back();
   q.n_events = static_cast<int>(t.size());
-  const LineFit fc = fit_line(t, count);
+  const LineFit fc = FitLine(t, count);
   q.q_count = fc.slope;
   q.q_count_se_ols = fc.slope_se;
   q.count_intercept = fc.intercept;
-  if (have_mass) q.q_mass = fit_line(t, mass).slope;
+  if (have_mass) q.q_mass = FitLine(t, mass).slope;
   // Batch means over equal time slices of the window.
   const int batches = std::min(10, q.n_events / 5);
   const double span = q.t_end - q.t_start;
@@ -114,28 +114,28 @@ FlowRate flow_rate(const FlowInput& in, const FlowWindowRule& rule) {
       n_rate[b] += 1.0 / width;
       m_rate[b] += w.masses[i] / width;
     }
-    q.q_count_se = mean_se(n_rate).se;
-    if (have_mass) q.q_mass_se = mean_se(m_rate).se;
+    q.q_count_se = MeanAndSe(n_rate).se;
+    if (have_mass) q.q_mass_se = MeanAndSe(m_rate).se;
   }
   q.ok = std::isfinite(q.q_count);
   if (!q.ok) q.note = "all exits of the window at one time";
   return q;
 }
 
-std::vector<FlowRate> flow_rate_per_outlet(const FlowInput& input, const FlowWindowRule& rule, int outlets) {
+std::vector<FlowRate> FlowRatePerOutlet(const FlowInput& input, const FlowWindowRule& rule, int outlets) {
   std::vector<FlowRate> out(static_cast<std::size_t>(std::max(0, outlets)));
   FlowInput all = input;
   all.outlet = -1;
-  const FlowWindow w = flow_window(all, rule);
+  const FlowWindow w = FindFlowWindow(all, rule);
   if (!w.ok) {
     for (int k = 0; k < outlets; ++k) {
       FlowInput one = input;
       one.outlet = k;
-      out[static_cast<std::size_t>(k)] = flow_rate(one, rule);
+      out[static_cast<std::size_t>(k)] = MeasureFlowRate(one, rule);
     }
     return out;
   }
-  // flow_window(all) keeps every event, so its indices are indices into input.events.
+  // FindFlowWindow(all) keeps every event, so its indices are indices into input.events.
   std::vector<double> t;
   for (std::size_t i = w.first; i <= w.last; ++i) t.push_back(input.events[i].time);
   const int n_all = static_cast<int>(t.size());
@@ -168,15 +168,15 @@ std::vector<FlowRate> flow_rate_per_outlet(const FlowInput& input, const FlowWin
     }
     q.t_start = t.front();
     q.t_end = t.back();
-    const LineFit fc = fit_line(t, count);
+    const LineFit fc = FitLine(t, count);
     q.q_count = fc.slope;
     q.q_count_se_ols = fc.slope_se;
     q.count_intercept = fc.intercept;
-    if (have_mass) q.q_mass = fit_line(t, mass).slope;
+    if (have_mass) q.q_mass = FitLine(t, mass).slope;
     if (batches >= 2 && span > 0.0) {
       q.batches = batches;
-      q.q_count_se = mean_se(n_rate).se;
-      if (have_mass) q.q_mass_se = mean_se(m_rate).se;
+      q.q_count_se = MeanAndSe(n_rate).se;
+      if (have_mass) q.q_mass_se = MeanAndSe(m_rate).se;
     }
     q.ok = std::isfinite(q.q_count);
     q.note = "over the steady window of all outlets together" + (w.note.empty() ? "" : " (" + w.note + ")");
@@ -193,7 +193,7 @@ VelocityProfileAccumulator::VelocityProfileAccumulator(double outlet_center, dou
   count_.assign(bins, 0.0);
 }
 
-void VelocityProfileAccumulator::add(std::span<const rundir::Body> bodies) {
+void VelocityProfileAccumulator::Add(std::span<const rundir::Body> bodies) {
   ++frames_;
   const double bins = static_cast<double>(count_.size());
   for (const rundir::Body& b : bodies) {
@@ -207,7 +207,7 @@ void VelocityProfileAccumulator::add(std::span<const rundir::Body> bodies) {
   }
 }
 
-VelocityProfile VelocityProfileAccumulator::result() const {
+VelocityProfile VelocityProfileAccumulator::Result() const {
   VelocityProfile p;
   p.frames = frames_;
   const std::size_t n = count_.size();

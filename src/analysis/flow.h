@@ -57,7 +57,7 @@ struct FlowRate {
 // understates the uncertainty badly; the se reported is by batch means instead: the window
 // is cut into B = min(10, n/5) equal time batches, the rate of each is count (mass) / length,
 // and se = sd(rates) / sqrt(B) (NaN when B < 2). For a Poisson stream this is ~sqrt(Q/T).
-FlowRate flow_rate(const FlowInput& input, const FlowWindowRule& rule);
+FlowRate MeasureFlowRate(const FlowInput& input, const FlowWindowRule& rule);
 
 // Q through each of `outlets` outlets over the steady window of all outlets together: the
 // least-squares slope of the outlet's cumulative count sampled at every exit time of that
@@ -65,7 +65,7 @@ FlowRate flow_rate(const FlowInput& input, const FlowWindowRule& rule);
 // and an outlet that clogs and unclogs inside the window (ch. 7) gets its mean throughput
 // rather than no rate. se by batch means over the same time slices as the total. If the
 // window of all outlets is undefined, each outlet falls back to its own window (flow_rate).
-std::vector<FlowRate> flow_rate_per_outlet(const FlowInput& input, const FlowWindowRule& rule, int outlets);
+std::vector<FlowRate> FlowRatePerOutlet(const FlowInput& input, const FlowWindowRule& rule, int outlets);
 
 // The window alone, as indices [first, last] into the events of the outlet (all outlets if -1).
 struct FlowWindow {
@@ -75,7 +75,7 @@ struct FlowWindow {
   std::vector<double> masses;
   std::size_t first = 0, last = 0;  // inclusive
 };
-FlowWindow flow_window(const FlowInput& input, const FlowWindowRule& rule);
+FlowWindow FindFlowWindow(const FlowInput& input, const FlowWindowRule& rule);
 
 // Velocity profile across a base outlet (ch. 4, 5): body centre-of-mass velocities of the
 // bodies with centre in the band y in [band_low, band_high] and x inside the outlet, binned
@@ -99,8 +99,8 @@ struct VelocityProfile {
 class VelocityProfileAccumulator {
  public:
   VelocityProfileAccumulator(double outlet_center, double outlet_width, const ProfileOptions& options);
-  void add(std::span<const rundir::Body> bodies);
-  VelocityProfile result() const;
+  void Add(std::span<const rundir::Body> bodies);
+  VelocityProfile Result() const;
 
  private:
   double center_, width_;

@@ -18,42 +18,42 @@ namespace {
 
 // A law in tables: its title for the reader ("2-D Beverloo"), its id beside it (what
 // /report/flow/models and scripts name it by), or the id alone for a law without a title.
-std::string model_words(const std::string& title, const std::string& id) {
+std::string ModelWords(const std::string& title, const std::string& id) {
   return title.empty() || title == id ? id : title + " (" + id + ")";
 }
 
 constexpr char kQUnit[] = "bodies/sqrt(d/g)";
 constexpr char kQMassUnit[] = "rho d^2/sqrt(d/g)";
 
-nlohmann::json flow_json(const FlowRate& f) {
+nlohmann::json FlowJson(const FlowRate& f) {
   return {{"ok", f.ok},
           {"note", f.note},
-          {"t_start", json_number(f.t_start)},
-          {"t_end", json_number(f.t_end)},
+          {"t_start", JsonNumber(f.t_start)},
+          {"t_end", JsonNumber(f.t_end)},
           {"n_events", f.n_events},
-          {"q_count", json_number(f.q_count)},
-          {"q_count_se", json_number(f.q_count_se)},
-          {"q_mass", json_number(f.q_mass)},
-          {"q_mass_se", json_number(f.q_mass_se)},
-          {"q_count_se_ols", json_number(f.q_count_se_ols)},
-          {"count_intercept", json_number(f.count_intercept)},
+          {"q_count", JsonNumber(f.q_count)},
+          {"q_count_se", JsonNumber(f.q_count_se)},
+          {"q_mass", JsonNumber(f.q_mass)},
+          {"q_mass_se", JsonNumber(f.q_mass_se)},
+          {"q_count_se_ols", JsonNumber(f.q_count_se_ols)},
+          {"count_intercept", JsonNumber(f.count_intercept)},
           {"batches", f.batches}};
 }
 
-FlowRate flow_of(const nlohmann::json& j) {
+FlowRate FlowOf(const nlohmann::json& j) {
   FlowRate f;
   if (!j.is_object()) return f;
   f.ok = j.value("ok", false);
   f.note = j.value("note", "");
-  f.t_start = number_at(j, "t_start");
-  f.t_end = number_at(j, "t_end");
+  f.t_start = NumberAt(j, "t_start");
+  f.t_end = NumberAt(j, "t_end");
   f.n_events = j.value("n_events", 0);
-  f.q_count = number_at(j, "q_count");
-  f.q_count_se = number_at(j, "q_count_se");
-  f.q_mass = number_at(j, "q_mass");
-  f.q_mass_se = number_at(j, "q_mass_se");
-  f.q_count_se_ols = number_at(j, "q_count_se_ols");
-  f.count_intercept = number_at(j, "count_intercept");
+  f.q_count = NumberAt(j, "q_count");
+  f.q_count_se = NumberAt(j, "q_count_se");
+  f.q_mass = NumberAt(j, "q_mass");
+  f.q_mass_se = NumberAt(j, "q_mass_se");
+  f.q_count_se_ols = NumberAt(j, "q_count_se_ols");
+  f.count_intercept = NumberAt(j, "count_intercept");
   f.batches = j.value("batches", 0);
   return f;
 }
@@ -65,10 +65,10 @@ class FlowAccumulator : public RunAccumulator {
     const std::vector<rundir::ExitEvent>& events = run.data->events;
     const FlowInput in{events, run.remove_mode, run.bodies, run.clog_gap, -1};
     const std::vector<FlowRate> per_outlet =
-        flow_rate_per_outlet(in, run.options->window, static_cast<int>(run.outlets.size()));
+        FlowRatePerOutlet(in, run.options->window, static_cast<int>(run.outlets.size()));
     nlohmann::json outlets = nlohmann::json::array(), rates = nlohmann::json::array();
     for (const OutletGeometry& o : run.outlets) outlets.push_back(o.label);
-    for (const FlowRate& f : per_outlet) rates.push_back(flow_json(f));
+    for (const FlowRate& f : per_outlet) rates.push_back(FlowJson(f));
     // The cumulative exit count, thinned to <= 201 samples, for the diagnostic figure.
     std::vector<double> t, n;
     const std::size_t count = events.size(), stride = std::max<std::size_t>(1, count / 200);
@@ -86,65 +86,65 @@ class FlowAccumulator : public RunAccumulator {
     if (run.data->has_summary && run.data->summary.exited != static_cast<int>(count))
       notes.push_back("events.csv has " + std::to_string(count) + " exits but summary.json says " +
                       std::to_string(run.data->summary.exited));
-    result_ = {{"total", flow_json(run.flow)},
+    result_ = {{"total", FlowJson(run.flow)},
                {"per_outlet", rates},
                {"outlets", outlets},
-               {"cumulative", {{"t", json_numbers(t)}, {"n", json_numbers(n)}}},
+               {"cumulative", {{"t", JsonNumbers(t)}, {"n", JsonNumbers(n)}}},
                {"notes", notes}};
   }
-  nlohmann::json finish() override { return result_; }
+  nlohmann::json Finish() override { return result_; }
 
  private:
   nlohmann::json result_;
 };
 
-std::vector<FlowRate> per_outlet_of(const nlohmann::json& result) {
+std::vector<FlowRate> PerOutletOf(const nlohmann::json& result) {
   std::vector<FlowRate> out;
   if (result.contains("per_outlet"))
-    for (const auto& j : result.at("per_outlet")) out.push_back(flow_of(j));
+    for (const auto& j : result.at("per_outlet")) out.push_back(FlowOf(j));
   return out;
 }
 
-std::vector<std::string> labels_of(const nlohmann::json& result) {
+std::vector<std::string> LabelsOf(const nlohmann::json& result) {
   std::vector<std::string> out;
   if (result.contains("outlets"))
     for (const auto& j : result.at("outlets")) out.push_back(j.get<std::string>());
   return out;
 }
 
-std::string q_name(std::size_t k) { return "q_count" + outlet_suffix(k); }
+std::string QName(std::size_t k) { return "q_count" + OutletSuffix(k); }
 
 class FlowAnalysis : public Analysis {
  public:
   explicit FlowAnalysis(std::vector<FitModel> models) : models_(std::move(models)) {}
-  std::string key() const override { return "flow"; }
-  int version() const override { return 1; }
-  PassUse pass_use() const override { return {true, true, false}; }
-  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+  std::string Key() const override { return "flow"; }
+  int Version() const override { return 1; }
+  PassUse PassOptionsUsed() const override { return {true, true, false}; }
+  std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<FlowAccumulator>(run);
   }
 
-  std::vector<Metric> run_metrics(const nlohmann::json& result) const override {
-    const FlowRate total = flow_of(result.value("total", nlohmann::json()));
+  std::vector<Metric> RunMetrics(const nlohmann::json& result) const override {
+    const FlowRate total = FlowOf(result.value("total", nlohmann::json()));
     std::vector<Metric> m;
     m.push_back({"q_count", kQUnit, total.ok ? total.q_count : kNaN, total.ok ? total.q_count_se : kNaN,
                  "Q (bodies/sqrt(d/g))", true});
     m.push_back({"q_mass", kQMassUnit, total.ok ? total.q_mass : kNaN, total.ok ? total.q_mass_se : kNaN,
                  "Q_m (mass/sqrt(d/g))", false});
-    const std::vector<FlowRate> per_outlet = per_outlet_of(result);
-    const std::vector<std::string> labels = labels_of(result);
+    const std::vector<FlowRate> per_outlet = PerOutletOf(result);
+    const std::vector<std::string> labels = LabelsOf(result);
     if (per_outlet.size() > 1)
       for (std::size_t k = 0; k < per_outlet.size(); ++k) {
         const FlowRate& f = per_outlet[k];
         const std::string where = k < labels.size() ? labels[k] : "outlet " + std::to_string(k);
-        m.push_back({q_name(k), kQUnit, f.ok ? f.q_count : kNaN, f.ok ? f.q_count_se : kNaN, "Q through " + where, false});
-        m.push_back({"q_mass" + outlet_suffix(k), kQMassUnit, f.ok ? f.q_mass : kNaN, f.ok ? f.q_mass_se : kNaN,
+        m.push_back({QName(k), kQUnit, f.ok ? f.q_count : kNaN, f.ok ? f.q_count_se : kNaN, "Q through " + where, false});
+        m.push_back({"q_mass" + OutletSuffix(k), kQMassUnit, f.ok ? f.q_mass : kNaN, f.ok ? f.q_mass_se : kNaN,
                      "Q_m through " + where, false});
       }
     return m;
   }
 
-  std::optional<Section> section(const SectionInput& in) const override;
+  std::optional<Section> BuildSection(const SectionInput& in) const override;
 
  private:
   std::vector<FitModel> models_;  // from /report/flow/models
@@ -152,20 +152,20 @@ class FlowAnalysis : public Analysis {
 
 // The Q the figure and the fits use: through the outlet whose width is the x axis when runs
 // have several outlets (ch. 7: Q of the small outlet against W1), else all outlets together.
-std::string headline_q(const CampaignView& v) {
+std::string HeadlineQ(const CampaignView& v) {
   if (v.outlets > 1 && v.x_outlet >= 0 && static_cast<std::size_t>(v.x_outlet) < v.outlets)
-    return q_name(static_cast<std::size_t>(v.x_outlet));
+    return QName(static_cast<std::size_t>(v.x_outlet));
   return "q_count";
 }
 
-std::string headline_q_what(const CampaignView& v) {
+std::string HeadlineQWhat(const CampaignView& v) {
   if (v.outlets > 1 && v.x_outlet >= 0 && static_cast<std::size_t>(v.x_outlet) < v.outlet_labels.size())
     return "through " + v.outlet_labels[static_cast<std::size_t>(v.x_outlet)];
   return v.outlets > 1 ? "all outlets together" : "";
 }
 
 // The steady windows, the rates and the exit streams of every run.
-void add_per_run(const SectionInput& in, Section& s) {
+void AddPerRun(const SectionInput& in, Section& s) {
   const CampaignView& v = in.view;
   const bool several = v.outlets > 1;
   Table t{"flow_rate_per_run",
@@ -177,7 +177,7 @@ void add_per_run(const SectionInput& in, Section& s) {
   if (several)
     for (std::size_t k = 0; k < v.outlets; ++k) {
       t.header.push_back("Q " + (k < v.outlet_labels.size() ? v.outlet_labels[k] : std::to_string(k)));
-      t.keys.push_back(q_name(k));
+      t.keys.push_back(QName(k));
     }
   Figure cum{"cumulative_exits", "Cumulative exits against time", "t (sqrt(d/g))", "exits (all outlets)", {}, false,
              false,
@@ -189,24 +189,24 @@ void add_per_run(const SectionInput& in, Section& s) {
     for (std::size_t i : point.runs) {
       const nlohmann::json& r = in.results.runs[i];
       if (r.is_null()) continue;
-      const FlowRate f = flow_of(r.value("total", nlohmann::json()));
-      std::vector<Cell> row{v.used[i].record->run_id, point_name(v, point), Cell::count(v.used[i].record->replica),
-                            Cell::number(f.ok ? f.t_start : kNaN), Cell::number(f.ok ? f.t_end : kNaN),
-                            Cell::count(f.n_events), Cell::estimate(f.q_count, f.q_count_se, -1),
-                            Cell::estimate(f.q_mass, f.q_mass_se, -1)};
+      const FlowRate f = FlowOf(r.value("total", nlohmann::json()));
+      std::vector<Cell> row{v.used[i].record->run_id, PointName(v, point), Cell::Count(v.used[i].record->replica),
+                            Cell::Number(f.ok ? f.t_start : kNaN), Cell::Number(f.ok ? f.t_end : kNaN),
+                            Cell::Count(f.n_events), Cell::Estimate(f.q_count, f.q_count_se, -1),
+                            Cell::Estimate(f.q_mass, f.q_mass_se, -1)};
       if (several) {
-        const std::vector<FlowRate> per_outlet = per_outlet_of(r);
+        const std::vector<FlowRate> per_outlet = PerOutletOf(r);
         for (std::size_t k = 0; k < v.outlets; ++k)
-          row.push_back(k < per_outlet.size() ? Cell::estimate(per_outlet[k].q_count, per_outlet[k].q_count_se, -1)
-                                              : Cell::number(kNaN));
+          row.push_back(k < per_outlet.size() ? Cell::Estimate(per_outlet[k].q_count, per_outlet[k].q_count_se, -1)
+                                              : Cell::Number(kNaN));
       }
       t.rows.push_back(row);
       if (!first || shown >= 8) continue;
       first = false;
-      const std::vector<double> ct = numbers_of(r.at("cumulative").at("t")), cn = numbers_of(r.at("cumulative").at("n"));
+      const std::vector<double> ct = NumbersOf(r.at("cumulative").at("t")), cn = NumbersOf(r.at("cumulative").at("n"));
       if (ct.empty()) continue;
       Series data;
-      data.label = point_name(v, point);
+      data.label = PointName(v, point);
       data.columns = {"t", "exits"};
       data.style = Series::Style::kLines;
       data.color = shown;
@@ -243,27 +243,27 @@ void add_per_run(const SectionInput& in, Section& s) {
   }
   const FlowWindowRule& w = in.pass.window;
   s.blocks.push_back(Text{
-      "Steady window: exits before t = " + format_number(w.start_time) + " and the first " +
-      format_number(100 * w.start_fraction) + "% of the exits are dropped; the window ends at the first clog (a gap of "
+      "Steady window: exits before t = " + FormatNumber(w.start_time) + " and the first " +
+      FormatNumber(100 * w.start_fraction) + "% of the exits are dropped; the window ends at the first clog (a gap of "
       "clog_window in the exit stream)" + std::string(w.stop_at_first_clog ? "" : " [off]") +
-      " and, in remove mode, when " + format_number(100 * w.shallow_fraction) + "% of the bodies remain."});
+      " and, in remove mode, when " + FormatNumber(100 * w.shallow_fraction) + "% of the bodies remain."});
 }
 
-std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
+std::optional<Section> FlowAnalysis::BuildSection(const SectionInput& in) const {
   const CampaignView& v = in.view;
   bool any = false;
   for (const auto& metrics : in.points)
-    if (const PointMetric* q = find_metric(metrics, "q_count")) any = any || q->n > 0;
+    if (const PointMetric* q = FindMetric(metrics, "q_count")) any = any || q->n > 0;
   Section s{"flow", "Flow rate", {}};
   if (!any) {
-    add_per_run(in, s);
+    AddPerRun(in, s);
     if (s.blocks.empty()) return std::nullopt;
     return s;
   }
   const bool several = v.outlets > 1;
   auto metric = [&](std::size_t p, const std::string& name) {
-    const PointMetric* m = find_metric(in.points[p], name);
-    return m ? m->estimate() : MeanSe{};
+    const PointMetric* m = FindMetric(in.points[p], name);
+    return m ? m->Estimate() : MeanSe{};
   };
   Table t{"flow_rate", "Flow rate per sweep point: mean ± standard error (replicas)",
           {"point", several ? "Q all outlets (bodies/sqrt(d/g))" : "Q (bodies/sqrt(d/g))",
@@ -273,23 +273,23 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
   if (several)
     for (std::size_t k = 0; k < v.outlets; ++k) {
       t.header.push_back("Q " + (k < v.outlet_labels.size() ? v.outlet_labels[k] : std::to_string(k)));
-      t.keys.push_back(q_name(k));
+      t.keys.push_back(QName(k));
     }
   for (std::size_t p = 0; p < v.points.size(); ++p) {
-    std::vector<Cell> row{point_name(v, v.points[p]), Cell::estimate(metric(p, "q_count")),
-                          Cell::estimate(metric(p, "q_mass"))};
+    std::vector<Cell> row{PointName(v, v.points[p]), Cell::Estimate(metric(p, "q_count")),
+                          Cell::Estimate(metric(p, "q_mass"))};
     if (several)
-      for (std::size_t k = 0; k < v.outlets; ++k) row.push_back(Cell::estimate(metric(p, q_name(k))));
+      for (std::size_t k = 0; k < v.outlets; ++k) row.push_back(Cell::Estimate(metric(p, QName(k))));
     t.rows.push_back(row);
   }
   s.blocks.push_back(t);
-  if (has_x(v)) {
-    const std::string q_what = headline_q_what(v), headline = headline_q(v);
+  if (HasX(v)) {
+    const std::string q_what = HeadlineQWhat(v), headline = HeadlineQ(v);
     Figure f{"flow_rate", "Flow rate Q" + (q_what.empty() ? "" : " " + q_what) + " against " + v.x_label, v.x_label,
-             "Q (bodies/sqrt(d/g))", point_series(v, in.points, headline, "Q"), false, false,
+             "Q (bodies/sqrt(d/g))", PointSeries(v, in.points, headline, "Q"), false, false,
              "Error bars: standard error over replicas"};
     Figure per_outlet_figure{"flow_rate_per_outlet", "Flow rate through each outlet against " + v.x_label, v.x_label,
-                             "Q (bodies/sqrt(d/g))", outlet_series(v, in.points, q_name, v.outlet_labels, "Q"),
+                             "Q (bodies/sqrt(d/g))", OutletSeries(v, in.points, QName, v.outlet_labels, "Q"),
                              false, false, "One curve per outlet (and group); error bars: standard error over replicas"};
     // Fits against W/d per group (>= 3 widths).
     Table fits{"flow_rate_fits",
@@ -304,7 +304,7 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
     Table residuals{"flow_rate_fit_residuals", "Fit residuals (Q - fit)",
                     {"group", "model", "W/d", "Q", "fit", "residual"}, {}, {"group", "model", "x", "q", "fit", "residual"}};
     std::vector<FitModel> models;
-    if (v.x_is_width) models = {beverloo_2d(), beverloo_free(), mankoc()};
+    if (v.x_is_width) models = {Beverloo2d(), BeverlooFree(), Mankoc()};
     for (const auto& m : models_) models.push_back(m);
     int fitted_groups = 0;
     for (std::size_t k = 0; k < f.series.size(); ++k) f.series[k].color = static_cast<int>(k);
@@ -317,17 +317,17 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
     constexpr int kCurveSamples = 200;
     const std::vector<Series> data_series = f.series;
     std::map<std::string, Figure> model_figures;
-    const std::string other_axis = group_axis(v);
+    const std::string other_axis = GroupAxis(v);
     const std::string other_axis_name =
-        other_axis.empty() ? "" : axis_text(v, other_axis, v.points.front().spec, NameForm::kLong);
+        other_axis.empty() ? "" : AxisText(v, other_axis, v.points.front().spec, NameForm::kLong);
     std::map<std::string, Figure> trends;  // per model: its parameters against other_axis
     std::vector<std::string> not_drawn;    // fits without a curve, and why
-    for (const auto& g : groups_of(v)) {
+    for (const auto& g : GroupsOf(v)) {
       double group_value = kNaN;
       if (!other_axis.empty())
         for (const Point& p : v.points)
           if (p.group == g) {
-            const auto gv = axis_value(other_axis, p.point, p.spec);
+            const auto gv = AxisValue(other_axis, p.point, p.spec);
             if (gv && gv->is_number()) group_value = gv->get<double>();
             break;
           }
@@ -346,40 +346,40 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
       for (const FitModel& model : models) {
         FitResult r;
         try {
-          r = fit_model(with_data_guess(model, x, y), x, y, sigma);
+          r = MakeFitModel(WithDataGuess(model, x, y), x, y, sigma);
         } catch (const std::exception& e) {
-          fits.rows.push_back({g, model_words(model.shown(), model.name), "", Cell::number(kNaN), Cell::number(kNaN), Cell::number(kNaN),
-                               Cell::number(kNaN), Cell::number(kNaN), Cell::count(static_cast<long long>(x.size())), "",
+          fits.rows.push_back({g, ModelWords(model.Shown(), model.name), "", Cell::Number(kNaN), Cell::Number(kNaN), Cell::Number(kNaN),
+                               Cell::Number(kNaN), Cell::Number(kNaN), Cell::Count(static_cast<long long>(x.size())), "",
                                e.what()});
           continue;
         }
         const std::string weighted = r.sigma.empty() ? "no" : "1/se^2";
         for (const auto& par : r.parameters)
-          fits.rows.push_back({g, model_words(r.model_title, r.model_name) + ": " + r.expression, par.name, Cell::number(par.value),
-                               Cell::number(par.se, 2), Cell::number(par.ci_low), Cell::number(par.ci_high),
-                               Cell::number(r.ok() && r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
-                               Cell::count(static_cast<long long>(x.size())), weighted, r.verdict()});
+          fits.rows.push_back({g, ModelWords(r.model_title, r.model_name) + ": " + r.expression, par.name, Cell::Number(par.value),
+                               Cell::Number(par.se, 2), Cell::Number(par.ci_low), Cell::Number(par.ci_high),
+                               Cell::Number(r.Ok() && r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
+                               Cell::Count(static_cast<long long>(x.size())), weighted, r.Verdict()});
         for (std::size_t i = 0; i < r.x.size(); ++i)
-          residuals.rows.push_back({g, model_words(r.model_title, r.model_name), Cell::number(r.x[i], 6), Cell::number(r.y[i]),
-                                    Cell::number(r.fitted[i]), Cell::number(r.residuals[i], 3)});
-        if (!r.ok()) continue;
+          residuals.rows.push_back({g, ModelWords(r.model_title, r.model_name), Cell::Number(r.x[i], 6), Cell::Number(r.y[i]),
+                                    Cell::Number(r.fitted[i]), Cell::Number(r.residuals[i], 3)});
+        if (!r.Ok()) continue;
         if (std::isfinite(group_value)) {
           Figure& tf = trends[r.model_name];
           if (tf.name.empty()) {
             tf.name = "fit_parameters_" + r.model_name;
-            tf.title = "Fitted parameters of " + model.shown() + " (" + r.expression + ") against " + other_axis_name;
+            tf.title = "Fitted parameters of " + model.Shown() + " (" + r.expression + ") against " + other_axis_name;
             tf.xlabel = other_axis_name;
             tf.ylabel = "parameter value";
             tf.caption = "Error bars: standard errors of the fit. Parameters not determined by the data or whose 95% "
                          "interval holds 0 are left out (fit table above)";
           }
           for (const auto& par : r.parameters) {
-            if (!par.determined() || par.ci_spans_zero()) continue;
+            if (!par.Determined() || par.CiSpansZero()) continue;
             auto it = std::find_if(tf.series.begin(), tf.series.end(), [&](const Series& se) { return se.label == par.name; });
             if (it == tf.series.end()) {
               Series se;
               se.label = par.name;
-              se.columns = {short_axis(other_axis), par.name, par.name + "_se", "ci_low", "ci_high"};
+              se.columns = {ShortAxis(other_axis), par.name, par.name + "_se", "ci_low", "ci_high"};
               se.style = Series::Style::kErrorBars;
               se.err = 2;
               tf.series.push_back(se);
@@ -391,7 +391,7 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
         // A curve only for a fit whose every parameter is determined: an interval holding 0
         // (Mankoc's C in [-83, 84]) makes the curve one of many the data allow.
         if (r.quality != FitQuality::kGood) {
-          not_drawn.push_back(r.model_title + (g.empty() ? "" : " (" + g + ")") + ": " + r.verdict());
+          not_drawn.push_back(r.model_title + (g.empty() ? "" : " (" + g + ")") + ": " + r.Verdict());
           continue;
         }
         Series curve;
@@ -406,7 +406,7 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
         // widths), not only through the measured widths.
         for (int i = 0; i <= kCurveSamples; ++i) {
           const double xv = x_lo + (x_hi - x_lo) * i / kCurveSamples;
-          const double yv = r.evaluate(xv);
+          const double yv = r.Evaluate(xv);
           if (std::isfinite(yv)) curve.rows.push_back({xv, yv});
         }
         if (curve.rows.empty()) continue;
@@ -417,7 +417,7 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
         } else {
           Figure& mf = model_figures[model.name];
           if (mf.name.empty())
-            mf = Figure{"flow_rate_fit_" + model.name, "Flow rate with the " + model.shown() + " fit (" + r.expression + ")",
+            mf = Figure{"flow_rate_fit_" + model.name, "Flow rate with the " + model.Shown() + " fit (" + r.expression + ")",
                         v.x_label, "Q (bodies/sqrt(d/g))", data_series, false, false, "Error bars: se over replicas"};
           mf.series.push_back(std::move(curve));
         }
@@ -448,11 +448,11 @@ std::optional<Section> FlowAnalysis::section(const SectionInput& in) const {
       s.blocks.push_back(Text{"Beverloo fits need at least 3 outlet widths in a group; this campaign has fewer so far."});
     }
   }
-  add_per_run(in, s);
+  AddPerRun(in, s);
   return s;
 }
 
-std::vector<FitModel> read_models(const nlohmann::json& v, const std::string& path) {
+std::vector<FitModel> ReadModels(const nlohmann::json& v, const std::string& path) {
   if (!v.is_array()) throw OptionError(path, v, "must be an array of {name, expression, variable, initial}");
   std::vector<FitModel> models;
   for (std::size_t i = 0; i < v.size(); ++i) {
@@ -469,10 +469,10 @@ std::vector<FitModel> read_models(const nlohmann::json& v, const std::string& pa
     }
     if (m.contains("initial")) {
       if (!m.at("initial").is_object()) throw OptionError(mp + "/initial", m.at("initial"), "must be {parameter: value}");
-      for (const auto& [k, iv] : m.at("initial").items()) f.initial[k] = option_number(iv, mp + "/initial/" + k, -1e300, 1e300);
+      for (const auto& [k, iv] : m.at("initial").items()) f.initial[k] = OptionNumber(iv, mp + "/initial/" + k, -1e300, 1e300);
     }
     try {
-      Expression::parse(f.expression, {f.variable});
+      Expression::Parse(f.expression, {f.variable});
     } catch (const ExpressionError& e) {
       throw std::invalid_argument(mp + "/expression: " + e.what());
     }
@@ -483,11 +483,11 @@ std::vector<FitModel> read_models(const nlohmann::json& v, const std::string& pa
 
 }  // namespace
 
-std::unique_ptr<Analysis> make_flow_analysis(const nlohmann::json& options, const std::string& path) {
+std::unique_ptr<Analysis> MakeFlowAnalysis(const nlohmann::json& options, const std::string& path) {
   std::vector<FitModel> models;
   if (!options.is_null()) {
-    option_object(options, path, {"models"});
-    if (options.contains("models")) models = read_models(options.at("models"), path + "/models");
+    OptionObject(options, path, {"models"});
+    if (options.contains("models")) models = ReadModels(options.at("models"), path + "/models");
   }
   return std::make_unique<FlowAnalysis>(std::move(models));
 }

@@ -12,6 +12,6 @@
 
 namespace granary::analysis {
 
-std::unique_ptr<Analysis> make_flow_analysis(const nlohmann::json& options, const std::string& path);
+std::unique_ptr<Analysis> MakeFlowAnalysis(const nlohmann::json& options, const std::string& path);
 
 }  // namespace granary::analysis

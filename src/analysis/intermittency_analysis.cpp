@@ -11,24 +11,24 @@
 namespace granary::analysis {
 namespace {
 
-nlohmann::json stretches_json(const std::vector<Stretch>& stretches) {
+nlohmann::json StretchesJson(const std::vector<Stretch>& stretches) {
   nlohmann::json out = nlohmann::json::array();
   for (const Stretch& s : stretches) out.push_back({s.start, s.end, s.exits, s.complete});
   return out;
 }
 
-std::vector<Stretch> stretches_of(const nlohmann::json& j) {
+std::vector<Stretch> StretchesOf(const nlohmann::json& j) {
   std::vector<Stretch> out;
   for (const auto& s : j) out.push_back({s.at(0).get<double>(), s.at(1).get<double>(), s.at(2).get<int>(), s.at(3).get<bool>()});
   return out;
 }
 
-std::vector<ClogSeries> series_of(const nlohmann::json& result) {
+std::vector<ClogSeries> SeriesOf(const nlohmann::json& result) {
   std::vector<ClogSeries> out;
   for (const auto& j : result.at("series")) {
     ClogSeries s;
-    s.flowing = stretches_of(j.at("flowing"));
-    s.clogged = stretches_of(j.at("clogged"));
+    s.flowing = StretchesOf(j.at("flowing"));
+    s.clogged = StretchesOf(j.at("clogged"));
     s.t_end = j.at("t_end").get<double>();
     out.push_back(std::move(s));
   }
@@ -38,60 +38,60 @@ std::vector<ClogSeries> series_of(const nlohmann::json& result) {
 class IntermittencyAccumulator : public RunAccumulator {
  public:
   explicit IntermittencyAccumulator(const RunView& run) {
-    const RunEnd end = run_end_of(run.end_reason);
+    const RunEnd end = RunEndOf(run.end_reason);
     result_ = {{"outlets", nlohmann::json::array()}, {"series", nlohmann::json::array()}};
     for (std::size_t o = 0; o < run.outlets.size(); ++o) {
-      const ClogSeries s = clog_series(run.data->events, static_cast<int>(o), run.t_end, run.clog_gap, end);
+      const ClogSeries s = ComputeClogSeries(run.data->events, static_cast<int>(o), run.t_end, run.clog_gap, end);
       result_["outlets"].push_back(run.outlets[o].label);
-      result_["series"].push_back({{"flowing", stretches_json(s.flowing)}, {"clogged", stretches_json(s.clogged)}, {"t_end", s.t_end}});
+      result_["series"].push_back({{"flowing", StretchesJson(s.flowing)}, {"clogged", StretchesJson(s.clogged)}, {"t_end", s.t_end}});
     }
   }
-  nlohmann::json finish() override { return result_; }
+  nlohmann::json Finish() override { return result_; }
 
  private:
   nlohmann::json result_;
 };
 
 // Metric names of outlet k: without a suffix when the run has one outlet.
-std::string name(const std::string& base, std::size_t k, std::size_t outlets) {
-  return outlets > 1 ? base + outlet_suffix(k) : base;
+std::string Name(const std::string& base, std::size_t k, std::size_t outlets) {
+  return outlets > 1 ? base + OutletSuffix(k) : base;
 }
 
-std::vector<PointMetric> stats_metrics(const IntermittencyStats& st, std::size_t k, std::size_t outlets,
+std::vector<PointMetric> StatsMetrics(const IntermittencyStats& st, std::size_t k, std::size_t outlets,
                                        const std::string& where, int runs) {
   const std::string at = outlets > 1 ? " at " + where : "";
-  return {{name("t_flowing", k, outlets), "sqrt(d/g)", st.t_flowing.mean, st.t_flowing.se, st.t_flowing.n,
+  return {{Name("t_flowing", k, outlets), "sqrt(d/g)", st.t_flowing.mean, st.t_flowing.se, st.t_flowing.n,
            "<t_f> flowing time" + at, false, ""},
-          {name("t_clogged", k, outlets), "sqrt(d/g)", st.t_clogged.mean, st.t_clogged.se, st.t_clogged.n,
+          {Name("t_clogged", k, outlets), "sqrt(d/g)", st.t_clogged.mean, st.t_clogged.se, st.t_clogged.n,
            "<t_c> clogged time" + at, false, ""},
-          {name("unclog_rate", k, outlets), "1/sqrt(d/g)", st.unclog_rate, kNaN, runs, "N_u unclogging rate" + at, false, ""}};
+          {Name("unclog_rate", k, outlets), "1/sqrt(d/g)", st.unclog_rate, kNaN, runs, "N_u unclogging rate" + at, false, ""}};
 }
 
 class IntermittencyAnalysis : public Analysis {
  public:
-  std::string key() const override { return "intermittency"; }
-  int version() const override { return 1; }
-  PassUse pass_use() const override { return {false, true, false}; }
-  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+  std::string Key() const override { return "intermittency"; }
+  int Version() const override { return 1; }
+  PassUse PassOptionsUsed() const override { return {false, true, false}; }
+  std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<IntermittencyAccumulator>(run);
   }
-  std::vector<Metric> run_metrics(const nlohmann::json& result) const override {
+  std::vector<Metric> RunMetrics(const nlohmann::json& result) const override {
     std::vector<Metric> m;
-    const std::vector<ClogSeries> series = series_of(result);
+    const std::vector<ClogSeries> series = SeriesOf(result);
     for (std::size_t k = 0; k < series.size(); ++k) {
-      const IntermittencyStats st = intermittency(std::span<const ClogSeries>(&series[k], 1));
-      for (const PointMetric& p : stats_metrics(st, k, series.size(), result.at("outlets").at(k).get<std::string>(), 1))
+      const IntermittencyStats st = Intermittency(std::span<const ClogSeries>(&series[k], 1));
+      for (const PointMetric& p : StatsMetrics(st, k, series.size(), result.at("outlets").at(k).get<std::string>(), 1))
         m.push_back({p.name, p.unit, p.mean, p.se, p.title, false});
     }
     return m;
   }
   // Stretches pooled over replicas (n = stretches); N_u over the replicas' total time.
-  std::vector<PointMetric> point_metrics(const AnalysisResults& results, std::size_t point) const override {
+  std::vector<PointMetric> PointMetrics(const AnalysisResults& results, std::size_t point) const override {
     std::vector<std::vector<ClogSeries>> by_outlet;
     std::vector<std::string> labels;
-    const std::vector<const nlohmann::json*> runs = results.of_point(point);
+    const std::vector<const nlohmann::json*> runs = results.OfPoint(point);
     for (const nlohmann::json* r : runs) {
-      const std::vector<ClogSeries> series = series_of(*r);
+      const std::vector<ClogSeries> series = SeriesOf(*r);
       for (std::size_t k = 0; k < series.size(); ++k) {
         if (by_outlet.size() <= k) {
           by_outlet.emplace_back();
@@ -102,23 +102,23 @@ class IntermittencyAnalysis : public Analysis {
     }
     std::vector<PointMetric> m;
     for (std::size_t k = 0; k < by_outlet.size(); ++k) {
-      const IntermittencyStats st = intermittency(by_outlet[k]);
-      for (PointMetric& p : stats_metrics(st, k, by_outlet.size(), labels[k], static_cast<int>(by_outlet[k].size()))) {
-        if (p.name.rfind("unclog_rate", 0) == 0) p.note = std::to_string(st.unclogs) + " unclogs in " + format_number(st.observed_time);
+      const IntermittencyStats st = Intermittency(by_outlet[k]);
+      for (PointMetric& p : StatsMetrics(st, k, by_outlet.size(), labels[k], static_cast<int>(by_outlet[k].size()))) {
+        if (p.name.rfind("unclog_rate", 0) == 0) p.note = std::to_string(st.unclogs) + " unclogs in " + FormatNumber(st.observed_time);
         m.push_back(p);
       }
     }
     return m;
   }
-  std::optional<Section> section(const SectionInput& in) const override;
+  std::optional<Section> BuildSection(const SectionInput& in) const override;
 };
 
-std::optional<Section> IntermittencyAnalysis::section(const SectionInput& in) const {
+std::optional<Section> IntermittencyAnalysis::BuildSection(const SectionInput& in) const {
   const CampaignView& v = in.view;
   bool any = false;
   for (const nlohmann::json& r : in.results.runs)
     if (!r.is_null())
-      for (const ClogSeries& s : series_of(r)) any = any || s.unclogs() > 0;
+      for (const ClogSeries& s : SeriesOf(r)) any = any || s.Unclogs() > 0;
   if (!any) return std::nullopt;
   Section s{"intermittency", "Flowing and clogged times per outlet (ch. 7)", {}};
   s.blocks.push_back(Text{"From the exit stream of each outlet: a gap of at least clog_window is a clog (t_c from the "
@@ -153,8 +153,8 @@ std::optional<Section> IntermittencyAnalysis::section(const SectionInput& in) co
     const Point& p = v.points[pi];
     std::vector<std::vector<ClogSeries>> by_outlet;
     std::vector<std::string> labels;
-    for (const nlohmann::json* r : in.results.of_point(pi)) {
-      const std::vector<ClogSeries> series = series_of(*r);
+    for (const nlohmann::json* r : in.results.OfPoint(pi)) {
+      const std::vector<ClogSeries> series = SeriesOf(*r);
       for (std::size_t k = 0; k < series.size(); ++k) {
         if (by_outlet.size() <= k) {
           by_outlet.emplace_back();
@@ -165,10 +165,10 @@ std::optional<Section> IntermittencyAnalysis::section(const SectionInput& in) co
       }
     }
     for (std::size_t o = 0; o < by_outlet.size(); ++o) {
-      const IntermittencyStats st = intermittency(by_outlet[o]);
+      const IntermittencyStats st = Intermittency(by_outlet[o]);
       const std::string& label = labels[o];
-      t.rows.push_back({point_name(v, p), label, Cell::estimate(st.t_flowing), Cell::estimate(st.t_clogged),
-                        Cell::number(st.unclog_rate), Cell::count(st.unclogs), Cell::number(st.observed_time)});
+      t.rows.push_back({PointName(v, p), label, Cell::Estimate(st.t_flowing), Cell::Estimate(st.t_clogged),
+                        Cell::Number(st.unclog_rate), Cell::Count(st.unclogs), Cell::Number(st.observed_time)});
       if (!std::isfinite(p.x)) continue;
       const std::string key = label + (p.group.empty() ? "" : ", " + p.group);
       const std::string xname = v.x_name;
@@ -184,7 +184,7 @@ std::optional<Section> IntermittencyAnalysis::section(const SectionInput& in) co
     }
   }
   s.blocks.push_back(t);
-  if (has_x(v)) {
+  if (HasX(v)) {
     if (!times.series.empty()) s.blocks.push_back(times);
     if (!rate.series.empty()) s.blocks.push_back(rate);
   }
@@ -193,8 +193,8 @@ std::optional<Section> IntermittencyAnalysis::section(const SectionInput& in) co
 
 }  // namespace
 
-std::unique_ptr<Analysis> make_intermittency_analysis(const nlohmann::json& options, const std::string& path) {
-  if (!options.is_null()) option_object(options, path, {});
+std::unique_ptr<Analysis> MakeIntermittencyAnalysis(const nlohmann::json& options, const std::string& path) {
+  if (!options.is_null()) OptionObject(options, path, {});
   return std::make_unique<IntermittencyAnalysis>();
 }
 

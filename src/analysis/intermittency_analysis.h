@@ -11,6 +11,6 @@
 
 namespace granary::analysis {
 
-std::unique_ptr<Analysis> make_intermittency_analysis(const nlohmann::json& options, const std::string& path);
+std::unique_ptr<Analysis> MakeIntermittencyAnalysis(const nlohmann::json& options, const std::string& path);
 
 }  // namespace granary::analysis

@@ -7,7 +7,7 @@
 namespace granary::analysis {
 namespace {
 
-std::string shown(double v) {
+std::string Shown(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%g", v);
   return buf;
@@ -18,25 +18,25 @@ std::string shown(double v) {
 OptionError::OptionError(const std::string& path, const nlohmann::json& value, const std::string& allowed)
     : std::invalid_argument(path + ": " + allowed + " (got " + value.dump() + ")"), path_(path) {}
 
-double option_number(const nlohmann::json& value, const std::string& path, double lo, double hi) {
+double OptionNumber(const nlohmann::json& value, const std::string& path, double lo, double hi) {
   if (!value.is_number()) throw OptionError(path, value, "must be a number");
   const double v = value.get<double>();
-  if (!(v >= lo && v <= hi)) throw OptionError(path, value, "must be in [" + shown(lo) + ", " + shown(hi) + "]");
+  if (!(v >= lo && v <= hi)) throw OptionError(path, value, "must be in [" + Shown(lo) + ", " + Shown(hi) + "]");
   return v;
 }
 
-int option_integer(const nlohmann::json& value, const std::string& path, int lo, int hi) {
-  const double v = option_number(value, path, lo, hi);
+int OptionInteger(const nlohmann::json& value, const std::string& path, int lo, int hi) {
+  const double v = OptionNumber(value, path, lo, hi);
   if (v != std::floor(v)) throw OptionError(path, value, "must be an integer");
   return static_cast<int>(v);
 }
 
-bool option_bool(const nlohmann::json& value, const std::string& path) {
+bool OptionBool(const nlohmann::json& value, const std::string& path) {
   if (!value.is_boolean()) throw OptionError(path, value, "must be true or false");
   return value.get<bool>();
 }
 
-const nlohmann::json& option_object(const nlohmann::json& value, const std::string& path,
+const nlohmann::json& OptionObject(const nlohmann::json& value, const std::string& path,
                                     std::initializer_list<const char*> known) {
   std::string list;
   for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);

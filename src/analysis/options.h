@@ -13,19 +13,19 @@ namespace granary::analysis {
 class OptionError : public std::invalid_argument {
  public:
   OptionError(const std::string& path, const nlohmann::json& value, const std::string& allowed);
-  const std::string& path() const { return path_; }
+  const std::string& Path() const { return path_; }
 
  private:
   std::string path_;
 };
 
 // A number in [lo, hi].
-double option_number(const nlohmann::json& value, const std::string& path, double lo, double hi);
+double OptionNumber(const nlohmann::json& value, const std::string& path, double lo, double hi);
 // An integer in [lo, hi].
-int option_integer(const nlohmann::json& value, const std::string& path, int lo, int hi);
-bool option_bool(const nlohmann::json& value, const std::string& path);
+int OptionInteger(const nlohmann::json& value, const std::string& path, int lo, int hi);
+bool OptionBool(const nlohmann::json& value, const std::string& path);
 // An object whose keys are all in `known` (else: "unknown key (known: a, b)").
-const nlohmann::json& option_object(const nlohmann::json& value, const std::string& path,
+const nlohmann::json& OptionObject(const nlohmann::json& value, const std::string& path,
                                     std::initializer_list<const char*> known);
 
 }  // namespace granary::analysis

@@ -17,7 +17,7 @@ double Wrap(double angle, double period) {
 }
 }  // namespace
 
-BodyAxis axis_of(const std::vector<const rundir::Disc*>& discs) {
+BodyAxis AxisOf(const std::vector<const rundir::Disc*>& discs) {
   BodyAxis axis;
   if (discs.size() < 2) return axis;
   std::size_t a = 0, b = 1;
@@ -39,7 +39,7 @@ BodyAxis axis_of(const std::vector<const rundir::Disc*>& discs) {
   return axis;
 }
 
-std::vector<BodyAxis> body_axes(const std::vector<rundir::Disc>& discs) {
+std::vector<BodyAxis> BodyAxes(const std::vector<rundir::Disc>& discs) {
   std::vector<const rundir::Disc*> sorted(discs.size());
   for (std::size_t i = 0; i < discs.size(); ++i) sorted[i] = &discs[i];
   std::stable_sort(sorted.begin(), sorted.end(), [](const rundir::Disc* a, const rundir::Disc* b) { return a->mol < b->mol; });
@@ -48,19 +48,19 @@ std::vector<BodyAxis> body_axes(const std::vector<rundir::Disc>& discs) {
   for (std::size_t i = 0; i < sorted.size(); ++i) {
     body.push_back(sorted[i]);
     if (i + 1 == sorted.size() || sorted[i + 1]->mol != sorted[i]->mol) {
-      axes.push_back(axis_of(body));
+      axes.push_back(AxisOf(body));
       body.clear();
     }
   }
   return axes;
 }
 
-double acute(double axis_angle) {
+double Acute(double axis_angle) {
   const double a = Wrap(axis_angle, kPi);
   return a > kPi / 2 ? kPi - a : a;
 }
 
-double order_parameter(const std::vector<double>& axis_angles, double director) {
+double OrderParameter(const std::vector<double>& axis_angles, double director) {
   if (axis_angles.empty()) return kNaN;
   double sum = 0;
   for (double a : axis_angles) {
@@ -70,13 +70,13 @@ double order_parameter(const std::vector<double>& axis_angles, double director) 
   return 2 * sum / static_cast<double>(axis_angles.size()) - 1;
 }
 
-double angular_position(double s, double h) { return std::atan2(h, s); }
+double AngularPosition(double s, double h) { return std::atan2(h, s); }
 
 }  // namespace granary::analysis
 
 namespace granary::analysis {
 
-void OrientationSums::add(const OrientationSums& o) {
+void OrientationSums::Add(const OrientationSums& o) {
   auto add2 = [](std::vector<std::vector<double>>& a, const std::vector<std::vector<double>>& b) {
     if (a.empty()) a = std::vector<std::vector<double>>(b.size());
     for (std::size_t i = 0; i < b.size() && i < a.size(); ++i) {
@@ -99,7 +99,7 @@ void OrientationSums::add(const OrientationSums& o) {
   if (s_range == 0) s_range = o.s_range;
 }
 
-std::vector<OrientationOptions::Region> orientation_regions(const OrientationOptions& o, const silo::OutletFrame& f) {
+std::vector<OrientationOptions::Region> OrientationRegions(const OrientationOptions& o, const silo::OutletFrame& f) {
   if (!o.regions.empty()) return o.regions;
   // |s| < 5, 0 < h < 10 in the outlet's frame, as a rectangle in the silo.
   const double xs[2] = {f.cx + 5 * f.ax, f.cx - 5 * f.ax}, ys[2] = {f.cy + 5 * f.ay, f.cy - 5 * f.ay};
@@ -113,11 +113,11 @@ std::vector<OrientationOptions::Region> orientation_regions(const OrientationOpt
   return {r};
 }
 
-void add_orientation_frame(const std::vector<rundir::Disc>& discs, const silo::OutletFrame& f, double half_width,
+void AddOrientationFrame(const std::vector<rundir::Disc>& discs, const silo::OutletFrame& f, double half_width,
                            const OrientationOptions& o, OrientationSums& sums) {
   const std::size_t nh = o.heights.size(), nr = o.radii.size();
   const int sb = std::max(1, o.s_bins), tb = std::max(1, o.theta_bins), ab = std::max(1, o.axis_bins);
-  const std::vector<OrientationOptions::Region> regions = orientation_regions(o, f);
+  const std::vector<OrientationOptions::Region> regions = OrientationRegions(o, f);
   const double range = o.s_range > 0 ? o.s_range : half_width;
   if (sums.s_sum.empty()) {
     sums.s_sum.assign(nh, std::vector<double>(static_cast<std::size_t>(sb), 0.0));
@@ -131,10 +131,10 @@ void add_orientation_frame(const std::vector<rundir::Disc>& discs, const silo::O
   }
   ++sums.frames;
   const std::vector<rundir::Body> bodies = rundir::BodiesOf(discs);
-  const std::vector<BodyAxis> axes = body_axes(discs);
+  const std::vector<BodyAxis> axes = BodyAxes(discs);
   for (std::size_t k = 0; k < bodies.size(); ++k) {
     if (!axes[k].elongated) continue;
-    const double axis = axes[k].angle, a = acute(axis);
+    const double axis = axes[k].angle, a = Acute(axis);
     const double px = bodies[k].x - f.cx, py = bodies[k].y - f.cy;
     const double s = px * f.ax + py * f.ay, h = px * f.nx + py * f.ny;
     for (std::size_t i = 0; i < nh; ++i) {
@@ -143,7 +143,7 @@ void add_orientation_frame(const std::vector<rundir::Disc>& discs, const silo::O
       sums.s_sum[i][bin] += a;
       sums.s_count[i][bin] += 1;
     }
-    const double r = std::hypot(s, h), theta = angular_position(s, h);
+    const double r = std::hypot(s, h), theta = AngularPosition(s, h);
     if (h >= 0) {
       for (std::size_t i = 0; i < nr; ++i) {
         if (std::fabs(r - o.radii[i]) > o.ring / 2) continue;
@@ -179,21 +179,21 @@ OrientationProfile Profile(const std::vector<std::vector<double>>& sum, const st
 }
 }  // namespace
 
-OrientationProfile orientation_against_s(const OrientationSums& sums, const OrientationOptions& o) {
+OrientationProfile OrientationAgainstS(const OrientationSums& sums, const OrientationOptions& o) {
   const int sb = std::max(1, o.s_bins);
   std::vector<double> centre;
   for (int j = 0; j < sb; ++j) centre.push_back(-sums.s_range + (j + 0.5) * 2 * sums.s_range / sb);
   return Profile(sums.s_sum, sums.s_count, centre);
 }
 
-OrientationProfile orientation_against_theta(const OrientationSums& sums, const OrientationOptions& o) {
+OrientationProfile OrientationAgainstTheta(const OrientationSums& sums, const OrientationOptions& o) {
   const int tb = std::max(1, o.theta_bins);
   std::vector<double> centre;
   for (int j = 0; j < tb; ++j) centre.push_back((j + 0.5) * kPi / tb);
   return Profile(sums.theta_sum, sums.theta_count, centre);
 }
 
-std::vector<double> order_parameters(const OrientationSums& sums, const OrientationOptions& o) {
+std::vector<double> OrderParameters(const OrientationSums& sums, const OrientationOptions& o) {
   (void)o;
   std::vector<double> s;
   for (std::size_t i = 0; i < sums.cos2_sum.size(); ++i)
@@ -201,7 +201,7 @@ std::vector<double> order_parameters(const OrientationSums& sums, const Orientat
   return s;
 }
 
-std::vector<double> axis_density(const std::vector<double>& counts) {
+std::vector<double> AxisDensity(const std::vector<double>& counts) {
   double total = 0;
   for (double c : counts) total += c;
   std::vector<double> d(counts.size(), kNaN);

@@ -22,21 +22,21 @@ struct BodyAxis {
   double head = kNaN;
 };
 // The axes of the bodies of `discs`, in the order of rundir::BodiesOf (by body id).
-std::vector<BodyAxis> body_axes(const std::vector<rundir::Disc>& discs);
-BodyAxis axis_of(const std::vector<const rundir::Disc*>& body_discs);
+std::vector<BodyAxis> BodyAxes(const std::vector<rundir::Disc>& discs);
+BodyAxis AxisOf(const std::vector<const rundir::Disc*>& body_discs);
 
 // The acute angle of an axis with the horizontal, [0, pi/2]: what the thesis' mean orientation
 // against position averages (fig. 4.3: 90 degrees is vertical whichever way it leans).
-double acute(double axis_angle);
+double Acute(double axis_angle);
 
 // The order parameter S = 2 <cos^2(angle - director)> - 1 of axis angles against a director
 // (radians): 1 all along it, -1 all across it, 0 for isotropic axes (fig. 5.5). NaN when empty.
-double order_parameter(const std::vector<double>& axis_angles, double director);
+double OrderParameter(const std::vector<double>& axis_angles, double director);
 
 // The angular position of a point around an outlet's centre, atan2(h, s) in the outlet's frame
 // (s along the outlet, h into the silo): 0 on the base on the s > 0 side, pi/2 straight above
 // the centre, pi on the base on the s < 0 side (the thesis' theta, figs. 4.3c and 6.5c).
-double angular_position(double s, double h);
+double AngularPosition(double s, double h);
 
 // Where orientation is measured. Lengths in d; positions relative to an outlet in its frame
 // (s along it from its centre, h into the silo), regions in silo coordinates; angles in
@@ -76,16 +76,16 @@ struct OrientationSums {
   std::vector<double> cos2_sum, region_count;               // [region]: cos^2(axis - director)
   std::vector<double> window_axes;                          // [axis bin]: counts in the window
   double s_range = 0;                                       // the range used
-  void add(const OrientationSums& other);
+  void Add(const OrientationSums& other);
 };
 
 // Adds one frame's elongated bodies (`discs`: every disc of the frame) to `sums`, positions
 // relative to `outlet`; `half_width` is the silo's (the default s range).
-void add_orientation_frame(const std::vector<rundir::Disc>& discs, const silo::OutletFrame& outlet, double half_width,
+void AddOrientationFrame(const std::vector<rundir::Disc>& discs, const silo::OutletFrame& outlet, double half_width,
                            const OrientationOptions& options, OrientationSums& sums);
 
 // The regions actually used (options.regions, or the default one above `outlet`).
-std::vector<OrientationOptions::Region> orientation_regions(const OrientationOptions& options, const silo::OutletFrame& outlet);
+std::vector<OrientationOptions::Region> OrientationRegions(const OrientationOptions& options, const silo::OutletFrame& outlet);
 
 // Profiles from sums: the mean acute angle per bin (NaN where empty) and its count.
 struct OrientationProfile {
@@ -93,11 +93,11 @@ struct OrientationProfile {
   std::vector<std::vector<double>> mean;    // [height or radius][bin]
   std::vector<std::vector<double>> count;
 };
-OrientationProfile orientation_against_s(const OrientationSums& sums, const OrientationOptions& options);
-OrientationProfile orientation_against_theta(const OrientationSums& sums, const OrientationOptions& options);
+OrientationProfile OrientationAgainstS(const OrientationSums& sums, const OrientationOptions& options);
+OrientationProfile OrientationAgainstTheta(const OrientationSums& sums, const OrientationOptions& options);
 // S per region (NaN without bodies).
-std::vector<double> order_parameters(const OrientationSums& sums, const OrientationOptions& options);
+std::vector<double> OrderParameters(const OrientationSums& sums, const OrientationOptions& options);
 // The window's distribution as a probability density over [0, pi) (sums to 1 / bin width x bins).
-std::vector<double> axis_density(const std::vector<double>& counts);
+std::vector<double> AxisDensity(const std::vector<double>& counts);
 
 }  // namespace granary::analysis

@@ -21,7 +21,7 @@ double Radians(double degrees) { return degrees * kPi / 180; }
 std::vector<double> Numbers(const nlohmann::json& v, const std::string& path, double lo, double hi) {
   if (!v.is_array() || v.empty()) throw OptionError(path, v, "must be a non-empty array of numbers");
   std::vector<double> out;
-  for (std::size_t k = 0; k < v.size(); ++k) out.push_back(option_number(v[k], path + "/" + std::to_string(k), lo, hi));
+  for (std::size_t k = 0; k < v.size(); ++k) out.push_back(OptionNumber(v[k], path + "/" + std::to_string(k), lo, hi));
   return out;
 }
 
@@ -41,8 +41,8 @@ std::vector<double> Vector(const nlohmann::json& j) {
   return v;
 }
 
-bool any_elongated(const std::vector<rundir::Disc>& discs) {
-  for (const BodyAxis& a : body_axes(discs))
+bool AnyElongated(const std::vector<rundir::Disc>& discs) {
+  for (const BodyAxis& a : BodyAxes(discs))
     if (a.elongated) return true;
   return false;
 }
@@ -53,7 +53,7 @@ class OrientationAccumulator : public RunAccumulator {
  public:
   OrientationAccumulator(const RunView& run, const OrientationAnalysisOptions& o) : data_(run.data), steady_(run.steady), o_(o) {
     try {
-      silo_ = silo_of(data_->spec, 1e3);
+      silo_ = SiloOf(data_->spec, 1e3);
       if (o.outlet >= static_cast<int>(silo_.outlets.size())) {
         notes_.push_back("orientation: the run has no outlet " + std::to_string(o.outlet));
       } else {
@@ -63,17 +63,17 @@ class OrientationAccumulator : public RunAccumulator {
       notes_.push_back(std::string("orientation: ") + e.what());
     }
   }
-  FrameRequest frames() const override {
+  FrameRequest Frames() const override {
     if (!outlet_) return {};
     return {{TimeWindow{-std::numeric_limits<double>::infinity(), 0.0}, steady_}, false};
   }
-  void add_frame(const FrameView& f) override {
+  void AddFrame(const FrameView& f) override {
     const std::vector<rundir::Disc>& discs = f.frame.discs;
-    if (!elongated_) elongated_ = any_elongated(discs);
-    if (f.frame.time <= 0.0 && bed_.frames == 0) add_orientation_frame(discs, *outlet_, silo_.half_width, o_.where, bed_);
-    if (steady_.contains(f.frame.time)) add_orientation_frame(discs, *outlet_, silo_.half_width, o_.where, flow_);
+    if (!elongated_) elongated_ = AnyElongated(discs);
+    if (f.frame.time <= 0.0 && bed_.frames == 0) AddOrientationFrame(discs, *outlet_, silo_.half_width, o_.where, bed_);
+    if (steady_.Contains(f.frame.time)) AddOrientationFrame(discs, *outlet_, silo_.half_width, o_.where, flow_);
   }
-  nlohmann::json finish() override {
+  nlohmann::json Finish() override {
     nlohmann::json result = {{"elongated", false}};
     std::vector<double> arch_window(static_cast<std::size_t>(std::max(1, o_.where.axis_bins)), 0.0);
     if (outlet_) {
@@ -81,8 +81,8 @@ class OrientationAccumulator : public RunAccumulator {
         rundir::ClogReader reader(data_->dir);
         rundir::ClogState clog;
         while (reader.Next(clog)) {
-          if (!elongated_) elongated_ = any_elongated(clog.frame.discs);
-          for (const Arch& a : analyse_clog(clog, silo_).arches) {
+          if (!elongated_) elongated_ = AnyElongated(clog.frame.discs);
+          for (const Arch& a : AnalyseClog(clog, silo_).arches) {
             if (a.outlet != o_.outlet) continue;
             for (const ArchBody& b : a.bodies) {
               if (!std::isfinite(b.axis) || std::fabs(b.theta - o_.where.window_theta) > o_.where.window_dtheta / 2) continue;
@@ -95,7 +95,7 @@ class OrientationAccumulator : public RunAccumulator {
         notes_.push_back(std::string("orientation (arches): ") + e.what());
       }
       std::vector<std::string> names;
-      for (const auto& r : orientation_regions(o_.where, *outlet_)) names.push_back(r.name);
+      for (const auto& r : OrientationRegions(o_.where, *outlet_)) names.push_back(r.name);
       result["regions"] = names;
     }
     result["elongated"] = elongated_;
@@ -120,39 +120,39 @@ class OrientationAccumulator : public RunAccumulator {
 class OrientationAnalysis : public Analysis {
  public:
   OrientationAnalysis(OrientationAnalysisOptions o, nlohmann::json raw) : o_(std::move(o)), raw_(std::move(raw)) {}
-  std::string key() const override { return "orientation"; }
-  int version() const override { return 1; }
-  nlohmann::json run_options() const override { return raw_; }
-  PassUse pass_use() const override { return {true, true, true}; }
-  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+  std::string Key() const override { return "orientation"; }
+  int Version() const override { return 1; }
+  nlohmann::json RunOptions() const override { return raw_; }
+  PassUse PassOptionsUsed() const override { return {true, true, true}; }
+  std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<OrientationAccumulator>(run, o_);
   }
   // flow_frames, order_parameter_<k> for each region k over the run's steady frames.
-  std::vector<Metric> run_metrics(const nlohmann::json& result) const override {
+  std::vector<Metric> RunMetrics(const nlohmann::json& result) const override {
     std::vector<Metric> m;
     if (!result.value("elongated", false)) return m;
-    const OrientationSums flow = orientation_sums_from_json(result.value("flow", nlohmann::json::object()));
+    const OrientationSums flow = OrientationSumsFromJson(result.value("flow", nlohmann::json::object()));
     m.push_back({"flow_frames", "frames", static_cast<double>(flow.frames), kNaN, "frames of steady flow", false});
-    const std::vector<double> s = order_parameters(flow, o_.where);
+    const std::vector<double> s = OrderParameters(flow, o_.where);
     const std::vector<std::string> names = result.value("regions", std::vector<std::string>{});
     for (std::size_t k = 0; k < s.size(); ++k)
       m.push_back({"order_parameter_" + std::to_string(k), "1", s[k], kNaN,
                    "order parameter S" + (k < names.size() ? " in " + names[k] : std::string()), false});
     return m;
   }
-  std::optional<Section> section(const SectionInput& in) const override;
+  std::optional<Section> BuildSection(const SectionInput& in) const override;
   // The axis angles psi in the window (fig. 6.5): in the bed before the opening, during steady
   // flow, and of the arch bodies; each run keeps them on its grid of axis_bins over [0, 180).
-  std::vector<DistributionInfo> distribution_names() const override {
+  std::vector<DistributionInfo> DistributionNames() const override {
     return {{"axis_bed", "axis angle psi in the window, in the bed before the opening", "degrees"},
             {"axis_flow", "axis angle psi in the window, during steady flow", "degrees"},
             {"axis_arches", "axis angle psi in the window, of arch bodies", "degrees"}};
   }
-  Samples distribution(const std::string& name, const nlohmann::json& result) const override {
+  Samples Distribution(const std::string& name, const nlohmann::json& result) const override {
     if (!result.value("elongated", false)) return {};
     std::vector<double> counts;
     if (name == "axis_bed" || name == "axis_flow")
-      counts = orientation_sums_from_json(result.value(name.substr(5), nlohmann::json::object())).window_axes;
+      counts = OrientationSumsFromJson(result.value(name.substr(5), nlohmann::json::object())).window_axes;
     else if (name == "axis_arches")
       counts = Vector(result.value("arch_window", nlohmann::json::array()));
     Samples out;
@@ -169,7 +169,7 @@ class OrientationAnalysis : public Analysis {
   nlohmann::json raw_;
 };
 
-std::optional<Section> OrientationAnalysis::section(const SectionInput& in) const {
+std::optional<Section> OrientationAnalysis::BuildSection(const SectionInput& in) const {
   const OrientationAnalysisOptions& o = o_;
   const CampaignView& v = in.view;
   // Per point: the runs' sums added up; S per region as mean +- se over runs.
@@ -182,13 +182,13 @@ std::optional<Section> OrientationAnalysis::section(const SectionInput& in) cons
   std::vector<PointSums> ps(v.points.size());
   bool any = false;
   for (std::size_t k = 0; k < v.points.size(); ++k) {
-    for (const nlohmann::json* r : in.results.of_point(k)) {
+    for (const nlohmann::json* r : in.results.OfPoint(k)) {
       if (!r->value("elongated", false)) continue;
       PointSums& p = ps[k];
       p.elongated = true;
-      p.bed.add(orientation_sums_from_json(r->value("bed", nlohmann::json::object())));
-      const OrientationSums flow = orientation_sums_from_json(r->value("flow", nlohmann::json::object()));
-      p.flow.add(flow);
+      p.bed.Add(OrientationSumsFromJson(r->value("bed", nlohmann::json::object())));
+      const OrientationSums flow = OrientationSumsFromJson(r->value("flow", nlohmann::json::object()));
+      p.flow.Add(flow);
       const std::vector<double> aw = Vector(r->value("arch_window", nlohmann::json::array()));
       if (p.arch_window.empty()) p.arch_window.assign(aw.size(), 0.0);
       for (std::size_t i = 0; i < aw.size() && i < p.arch_window.size(); ++i) p.arch_window[i] += aw[i];
@@ -204,21 +204,21 @@ std::optional<Section> OrientationAnalysis::section(const SectionInput& in) cons
       ": s along it from its centre, h into the silo, theta = atan2(h, s) (90 = above its centre). The mean "
       "orientation averages the acute angle with the horizontal (90 = vertical, whichever way a body leans; fig. 4.3) "
       "over the frames of steady flow; S = 2 <cos^2(psi - director)> - 1 (fig. 5.5) is 1 along the director, -1 across "
-      "it, 0 for no order. Distributions of psi in the window at theta = " + format_number(Degrees(o.where.window_theta), 3) +
-      " ± " + format_number(Degrees(o.where.window_dtheta / 2), 3) + " degrees and r = " + format_number(o.where.window_radius, 3) +
-      " ± " + format_number(o.where.window_dr / 2, 3) + " d: in the bed before the opening (t = 0), during flow, and of the "
+      "it, 0 for no order. Distributions of psi in the window at theta = " + FormatNumber(Degrees(o.where.window_theta), 3) +
+      " ± " + FormatNumber(Degrees(o.where.window_dtheta / 2), 3) + " degrees and r = " + FormatNumber(o.where.window_radius, 3) +
+      " ± " + FormatNumber(o.where.window_dr / 2, 3) + " d: in the bed before the opening (t = 0), during flow, and of the "
       "arch bodies at that angular position (any radius; fig. 6.5)."});
-  const std::vector<std::size_t> drawn = spread_points(v, [&](std::size_t k) { return ps[k].elongated; });
+  const std::vector<std::size_t> drawn = SpreadPoints(v, [&](std::size_t k) { return ps[k].elongated; });
   // Fig. 4.3a and b: a figure per height and per radius.
   for (std::size_t h = 0; h < o.where.heights.size(); ++h) {
     Figure f{"orientation_s_" + std::to_string(h + 1),
-             "Mean orientation against s at h = " + format_number(o.where.heights[h], 3) + " d", "s (d)",
+             "Mean orientation against s at h = " + FormatNumber(o.where.heights[h], 3) + " d", "s (d)",
              "mean acute angle with the horizontal (degrees)", {}, false, false,
-             "Fig. 4.3a: steady flow, band h ± " + format_number(o.where.band / 2, 3) + " d"};
+             "Fig. 4.3a: steady flow, band h ± " + FormatNumber(o.where.band / 2, 3) + " d"};
     for (std::size_t k : drawn) {
-      const OrientationProfile prof = orientation_against_s(ps[k].flow, o.where);
+      const OrientationProfile prof = OrientationAgainstS(ps[k].flow, o.where);
       if (h >= prof.mean.size()) continue;
-      Series se{point_name(v, v.points[k]), {"s", "angle_deg", "count"}, {}, Series::Style::kLinesPoints};
+      Series se{PointName(v, v.points[k]), {"s", "angle_deg", "count"}, {}, Series::Style::kLinesPoints};
       for (std::size_t b = 0; b < prof.centre.size(); ++b)
         if (std::isfinite(prof.mean[h][b])) se.rows.push_back({prof.centre[b], Degrees(prof.mean[h][b]), prof.count[h][b]});
       if (!se.rows.empty()) f.series.push_back(se);
@@ -227,13 +227,13 @@ std::optional<Section> OrientationAnalysis::section(const SectionInput& in) cons
   }
   for (std::size_t r = 0; r < o.where.radii.size(); ++r) {
     Figure f{"orientation_theta_" + std::to_string(r + 1),
-             "Mean orientation against the angular position at r = " + format_number(o.where.radii[r], 3) + " d",
+             "Mean orientation against the angular position at r = " + FormatNumber(o.where.radii[r], 3) + " d",
              "theta (degrees)", "mean acute angle with the horizontal (degrees)", {}, false, false,
-             "Fig. 4.3b: steady flow, ring r ± " + format_number(o.where.ring / 2, 3) + " d"};
+             "Fig. 4.3b: steady flow, ring r ± " + FormatNumber(o.where.ring / 2, 3) + " d"};
     for (std::size_t k : drawn) {
-      const OrientationProfile prof = orientation_against_theta(ps[k].flow, o.where);
+      const OrientationProfile prof = OrientationAgainstTheta(ps[k].flow, o.where);
       if (r >= prof.mean.size()) continue;
-      Series se{point_name(v, v.points[k]), {"theta_deg", "angle_deg", "count"}, {}, Series::Style::kLinesPoints};
+      Series se{PointName(v, v.points[k]), {"theta_deg", "angle_deg", "count"}, {}, Series::Style::kLinesPoints};
       for (std::size_t b = 0; b < prof.centre.size(); ++b)
         if (std::isfinite(prof.mean[r][b])) se.rows.push_back({Degrees(prof.centre[b]), Degrees(prof.mean[r][b]), prof.count[r][b]});
       if (!se.rows.empty()) f.series.push_back(se);
@@ -252,19 +252,19 @@ std::optional<Section> OrientationAnalysis::section(const SectionInput& in) cons
   }
   for (std::size_t k = 0; k < v.points.size(); ++k) {
     if (!ps[k].elongated) continue;
-    std::vector<Cell> row = {point_name(v, v.points[k]), Cell::count(ps[k].flow.frames)};
+    std::vector<Cell> row = {PointName(v, v.points[k]), Cell::Count(ps[k].flow.frames)};
     for (std::size_t r = 0; r < regions.size(); ++r) {
-      const PointMetric* m = find_metric(in.points[k], "order_parameter_" + std::to_string(r));
-      row.push_back(m ? Cell::estimate(m->estimate()) : Cell());
+      const PointMetric* m = FindMetric(in.points[k], "order_parameter_" + std::to_string(r));
+      row.push_back(m ? Cell::Estimate(m->Estimate()) : Cell());
     }
     t.rows.push_back(row);
   }
   s.blocks.push_back(t);
-  if (has_x(v) && !regions.empty()) {
+  if (HasX(v) && !regions.empty()) {
     Figure f{"orientation_order", "Order parameter against " + v.x_label, v.x_label, "S", {}, false, false,
              "Fig. 5.5: error bars, standard error over runs"};
     for (std::size_t r = 0; r < regions.size(); ++r)
-      for (Series se : point_series(v, in.points, "order_parameter_" + std::to_string(r), "S")) {
+      for (Series se : PointSeries(v, in.points, "order_parameter_" + std::to_string(r), "S")) {
         se.label = regions[r] + (se.label == "S" ? "" : ", " + se.label);
         f.series.push_back(se);
       }
@@ -281,12 +281,12 @@ std::optional<Section> OrientationAnalysis::section(const SectionInput& in) cons
              "psi (degrees)", "probability density (1/rad)", {}, false, false, "Fig. 6.5"};
     for (std::size_t k : drawn) {
       const std::vector<double> counts = scenes[sc].second(k);
-      const std::vector<double> d = axis_density(counts);
+      const std::vector<double> d = AxisDensity(counts);
       double total = 0;
       for (double c : counts) total += c;
       if (total <= 0) continue;
-      Series se{point_name(v, v.points[k]) + " (" + format_number(total, 6) + " axes)", {"psi_deg", "density", "count"}, {}, Series::Style::kSteps};
-      se.file_label = point_name(v, v.points[k]);
+      Series se{PointName(v, v.points[k]) + " (" + FormatNumber(total, 6) + " axes)", {"psi_deg", "density", "count"}, {}, Series::Style::kSteps};
+      se.file_label = PointName(v, v.points[k]);
       for (std::size_t b = 0; b < d.size(); ++b)
         se.rows.push_back({Degrees((static_cast<double>(b) + 0.5) * kPi / static_cast<double>(d.size())), d[b], counts[b]});
       f.series.push_back(se);
@@ -305,7 +305,7 @@ nlohmann::json to_json(const OrientationSums& s) {
           {"region_count", s.region_count}, {"window_axes", s.window_axes}, {"s_range", s.s_range}};
 }
 
-OrientationSums orientation_sums_from_json(const nlohmann::json& j) {
+OrientationSums OrientationSumsFromJson(const nlohmann::json& j) {
   OrientationSums s;
   if (!j.is_object()) return s;
   s.frames = j.value("frames", 0);
@@ -320,35 +320,35 @@ OrientationSums orientation_sums_from_json(const nlohmann::json& j) {
   return s;
 }
 
-OrientationAnalysisOptions read_orientation_options(const nlohmann::json& options, const std::string& path) {
+OrientationAnalysisOptions ReadOrientationOptions(const nlohmann::json& options, const std::string& path) {
   OrientationAnalysisOptions o;
   o.where.heights = {5, 10};
   o.where.radii = {5, 10};
   if (options.is_null()) return o;
-  option_object(options, path,
+  OptionObject(options, path,
                 {"outlet", "heights", "band", "s_range", "s_bins", "radii", "ring", "theta_bins", "regions", "window",
                  "axis_bins"});
   constexpr double kBig = 1e6;
   OrientationOptions& w = o.where;
   for (const auto& [k, v] : options.items()) {
     const std::string p = path + "/" + k;
-    if (k == "outlet") o.outlet = option_integer(v, p, 0, 1000);
+    if (k == "outlet") o.outlet = OptionInteger(v, p, 0, 1000);
     if (k == "heights") w.heights = Numbers(v, p, -kBig, kBig);
-    if (k == "band") w.band = option_number(v, p, 1e-6, kBig);
-    if (k == "s_range") w.s_range = option_number(v, p, 0.0, kBig);
-    if (k == "s_bins") w.s_bins = option_integer(v, p, 1, 1000);
+    if (k == "band") w.band = OptionNumber(v, p, 1e-6, kBig);
+    if (k == "s_range") w.s_range = OptionNumber(v, p, 0.0, kBig);
+    if (k == "s_bins") w.s_bins = OptionInteger(v, p, 1, 1000);
     if (k == "radii") w.radii = Numbers(v, p, 0.0, kBig);
-    if (k == "ring") w.ring = option_number(v, p, 1e-6, kBig);
-    if (k == "theta_bins") w.theta_bins = option_integer(v, p, 1, 360);
-    if (k == "axis_bins") w.axis_bins = option_integer(v, p, 1, 360);
+    if (k == "ring") w.ring = OptionNumber(v, p, 1e-6, kBig);
+    if (k == "theta_bins") w.theta_bins = OptionInteger(v, p, 1, 360);
+    if (k == "axis_bins") w.axis_bins = OptionInteger(v, p, 1, 360);
     if (k == "window") {
-      option_object(v, p, {"theta", "dtheta", "radius", "dr"});
+      OptionObject(v, p, {"theta", "dtheta", "radius", "dr"});
       for (const auto& [wk, wv] : v.items()) {
         const std::string wp = p + "/" + wk;
-        if (wk == "theta") w.window_theta = Radians(option_number(wv, wp, 0.0, 180.0));
-        if (wk == "dtheta") w.window_dtheta = Radians(option_number(wv, wp, 1e-6, 180.0));
-        if (wk == "radius") w.window_radius = option_number(wv, wp, 0.0, kBig);
-        if (wk == "dr") w.window_dr = option_number(wv, wp, 1e-6, kBig);
+        if (wk == "theta") w.window_theta = Radians(OptionNumber(wv, wp, 0.0, 180.0));
+        if (wk == "dtheta") w.window_dtheta = Radians(OptionNumber(wv, wp, 1e-6, 180.0));
+        if (wk == "radius") w.window_radius = OptionNumber(wv, wp, 0.0, kBig);
+        if (wk == "dr") w.window_dr = OptionNumber(wv, wp, 1e-6, kBig);
       }
     }
     if (k == "regions") {
@@ -356,7 +356,7 @@ OrientationAnalysisOptions read_orientation_options(const nlohmann::json& option
       w.regions.clear();
       for (std::size_t i = 0; i < v.size(); ++i) {
         const std::string rp = p + "/" + std::to_string(i);
-        option_object(v[i], rp, {"name", "x", "y", "director"});
+        OptionObject(v[i], rp, {"name", "x", "y", "director"});
         OrientationOptions::Region r;
         r.name = "region " + std::to_string(i + 1);
         if (v[i].contains("name")) {
@@ -371,7 +371,7 @@ OrientationAnalysisOptions read_orientation_options(const nlohmann::json& option
           (axis[0] == 'x' ? r.x0 : r.y0) = range[0];
           (axis[0] == 'x' ? r.x1 : r.y1) = range[1];
         }
-        if (v[i].contains("director")) r.director = Radians(option_number(v[i].at("director"), rp + "/director", -360.0, 360.0));
+        if (v[i].contains("director")) r.director = Radians(OptionNumber(v[i].at("director"), rp + "/director", -360.0, 360.0));
         w.regions.push_back(r);
       }
     }
@@ -379,8 +379,8 @@ OrientationAnalysisOptions read_orientation_options(const nlohmann::json& option
   return o;
 }
 
-std::unique_ptr<Analysis> make_orientation_analysis(const nlohmann::json& options, const std::string& path) {
-  return std::make_unique<OrientationAnalysis>(read_orientation_options(options, path), options);
+std::unique_ptr<Analysis> MakeOrientationAnalysis(const nlohmann::json& options, const std::string& path) {
+  return std::make_unique<OrientationAnalysis>(ReadOrientationOptions(options, path), options);
 }
 
 }  // namespace granary::analysis

@@ -22,11 +22,11 @@ struct OrientationAnalysisOptions {
 };
 // From /report/orientation (null: the defaults, heights 5 and 10 d, radii 5 and 10 d). Throws
 // OptionError naming `path` and below.
-OrientationAnalysisOptions read_orientation_options(const nlohmann::json& options, const std::string& path);
+OrientationAnalysisOptions ReadOrientationOptions(const nlohmann::json& options, const std::string& path);
 
 nlohmann::json to_json(const OrientationSums& sums);
-OrientationSums orientation_sums_from_json(const nlohmann::json& j);
+OrientationSums OrientationSumsFromJson(const nlohmann::json& j);
 
-std::unique_ptr<Analysis> make_orientation_analysis(const nlohmann::json& options, const std::string& path);
+std::unique_ptr<Analysis> MakeOrientationAnalysis(const nlohmann::json& options, const std::string& path);
 
 }  // namespace granary::analysis

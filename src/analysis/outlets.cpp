@@ -6,7 +6,7 @@
 
 namespace granary::analysis {
 
-std::vector<OutletGeometry> outlets_of(const nlohmann::json& spec) {
+std::vector<OutletGeometry> OutletsOf(const nlohmann::json& spec) {
   std::vector<OutletGeometry> out;
   const nlohmann::json silo = spec.is_object() ? spec.value("silo", nlohmann::json::object()) : nlohmann::json::object();
   const double half_width = 0.5 * silo.value("width", 100.0);
@@ -38,15 +38,15 @@ std::vector<OutletGeometry> outlets_of(const nlohmann::json& spec) {
   return out;
 }
 
-std::optional<double> base_outlet_gap(const nlohmann::json& spec) {
+std::optional<double> BaseOutletGap(const nlohmann::json& spec) {
   std::vector<OutletGeometry> base;
-  for (const OutletGeometry& o : outlets_of(spec))
+  for (const OutletGeometry& o : OutletsOf(spec))
     if (o.base) base.push_back(o);
   if (base.size() < 2) return std::nullopt;
   return std::abs(base[1].center - base[0].center) - 0.5 * (base[0].width + base[1].width);
 }
 
-void to_outlet_frame(const OutletGeometry& o, std::vector<rundir::Disc>& discs, std::vector<rundir::Body>& bodies) {
+void ToOutletFrame(const OutletGeometry& o, std::vector<rundir::Disc>& discs, std::vector<rundir::Body>& bodies) {
   // (x, y) -> (u, n): base: u = x - c, n = y. Right wall: u = y - c, n = X_w - x (a rotation).
   // Left wall: u = y - c, n = x - X_w (a reflection; omega changes sign, its squares do not).
   auto map = [&](double& x, double& y, double& vx, double& vy, double& omega) {
@@ -75,6 +75,6 @@ void to_outlet_frame(const OutletGeometry& o, std::vector<rundir::Disc>& discs, 
   }
 }
 
-std::string outlet_suffix(std::size_t k) { return "_outlet" + std::to_string(k); }
+std::string OutletSuffix(std::size_t k) { return "_outlet" + std::to_string(k); }
 
 }  // namespace granary::analysis

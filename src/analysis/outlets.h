@@ -22,18 +22,18 @@ struct OutletGeometry {
 };
 // Outlets of a resolved run spec in event order: base outlets, then side outlets. Missing
 // keys take the run-spec defaults (one base outlet of width 10 at x = 0, silo width 100).
-std::vector<OutletGeometry> outlets_of(const nlohmann::json& spec);
+std::vector<OutletGeometry> OutletsOf(const nlohmann::json& spec);
 
 // Edge-to-edge gap between base outlets 0 and 1 (L of ch. 5b and 7; L = 0 is one outlet of
 // twice the width), or nothing if the spec has fewer than two base outlets.
-std::optional<double> base_outlet_gap(const nlohmann::json& spec);
+std::optional<double> BaseOutletGap(const nlohmann::json& spec);
 
 // Positions and velocities in the outlet's own frame: x = along the outlet from its centre,
 // y = distance from the outlet's wall into the silo, v likewise (outflow has v_y < 0). The map
 // is a rigid rotation or reflection, so packing fractions and temperatures are unchanged.
-void to_outlet_frame(const OutletGeometry& outlet, std::vector<rundir::Disc>& discs, std::vector<rundir::Body>& bodies);
+void ToOutletFrame(const OutletGeometry& outlet, std::vector<rundir::Disc>& discs, std::vector<rundir::Body>& bodies);
 
 // The name suffix of outlet k's metrics: "_outlet<k>".
-std::string outlet_suffix(std::size_t k);
+std::string OutletSuffix(std::size_t k);
 
 }  // namespace granary::analysis

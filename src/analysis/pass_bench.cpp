@@ -78,15 +78,15 @@ void WriteRun(const fs::path& dir, int bodies, int frames, bool gsd) {
 class TouchAll : public Analysis {
  public:
   explicit TouchAll(int work) : work_(work) {}
-  std::string key() const override { return "touch_all"; }
-  int version() const override { return 1; }
-  PassUse pass_use() const override { return {false, false, true}; }
-  std::unique_ptr<RunAccumulator> start(const RunView&) const override {
+  std::string Key() const override { return "touch_all"; }
+  int Version() const override { return 1; }
+  PassUse PassOptionsUsed() const override { return {false, false, true}; }
+  std::unique_ptr<RunAccumulator> Start(const RunView&) const override {
     class Acc : public RunAccumulator {
      public:
       explicit Acc(int work) : work_(work) {}
-      FrameRequest frames() const override { return {{{}}, true}; }
-      void add_frame(const FrameView& f) override {
+      FrameRequest Frames() const override { return {{{}}, true}; }
+      void AddFrame(const FrameView& f) override {
         for (int k = 0; k < std::max(1, work_); ++k) {
           for (const auto& d : f.frame.discs) sum_ += std::sqrt(d.vx * d.vx + d.vy * d.vy + k);
           for (const auto& b : f.bodies) sum_ += std::sqrt(b.vx * b.vx + b.vy * b.vy + k);
@@ -94,7 +94,7 @@ class TouchAll : public Analysis {
             for (const auto& c : f.contacts->contacts) sum_ += std::sqrt(c.fx * c.fx + c.fy * c.fy + k);
         }
       }
-      nlohmann::json finish() override { return sum_; }
+      nlohmann::json Finish() override { return sum_; }
 
      private:
       int work_;
@@ -102,7 +102,7 @@ class TouchAll : public Analysis {
     };
     return std::make_unique<Acc>(work_);
   }
-  std::vector<Metric> run_metrics(const nlohmann::json&) const override { return {}; }
+  std::vector<Metric> RunMetrics(const nlohmann::json&) const override { return {}; }
 
  private:
   int work_;
@@ -136,7 +136,7 @@ int main(int argc, char** argv) {
   const granary::rundir::RunData data = granary::rundir::ReadRun(dir);
   std::printf("pass bench: %d dumbbells (%d discs, ~%d contacts) x %d frames, %.1f MB of %s, work %d\n", bodies,
               2 * bodies, 2 * bodies, frames,
-              static_cast<double>(fs::file_size(data.frames_file()) + fs::file_size(data.contacts_file())) / 1e6,
+              static_cast<double>(fs::file_size(data.FramesFile()) + fs::file_size(data.ContactsFile())) / 1e6,
               data.gsd ? "GSD" : "dumps", work);
   const TouchAll analysis(work);
   granary::analysis::PassOptions pass;
@@ -146,7 +146,7 @@ int main(int argc, char** argv) {
       o.threads = threads;
       o.read_cache = o.write_cache = false;
       const auto t0 = std::chrono::steady_clock::now();
-      const auto r = granary::analysis::analyse_run(dir, {&analysis}, pass, o);
+      const auto r = granary::analysis::AnalyseRun(dir, {&analysis}, pass, o);
       const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::printf("round=%d threads=%d frames=%d seconds=%.3f frames_per_s=%.1f\n", round, threads, r.frames_parsed, s,
                   r.frames_parsed / s);

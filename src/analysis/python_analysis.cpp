@@ -51,9 +51,9 @@ class PythonPool {
   //
   // `limit`: the interpreter is stopped when it has not answered by then (the worker's own
   // alarm stops a script at its timeout; this catches what the alarm cannot interrupt).
-  json call(const json& request, std::chrono::duration<double> limit) {
+  json Call(const json& request, std::chrono::duration<double> limit) {
     std::unique_ptr<Worker> w = Take();
-    if (!w) return Failed("cannot start " + python_interpreter() + " -m granary.worker: " + start_error_);
+    if (!w) return Failed("cannot start " + PythonInterpreter() + " -m granary.worker: " + start_error_);
     std::string line;
     try {
       w->in << request.dump() << "\n" << std::flush;
@@ -131,7 +131,7 @@ class PythonPool {
         const std::string old = env.count("PYTHONPATH") ? env["PYTHONPATH"].to_string() : std::string();
         env["PYTHONPATH"] = old.empty() ? own : own + ":" + old;
       }
-      w->child = bp::child(python_interpreter(), "-m", "granary.worker", bp::std_in<w->in, bp::std_out> w->out,
+      w->child = bp::child(PythonInterpreter(), "-m", "granary.worker", bp::std_in<w->in, bp::std_out> w->out,
                            bp::std_err > bp::null, env);
       // Its first line says it has imported granary: a script's timeout counts from there.
       std::string ready;
@@ -211,9 +211,9 @@ class PythonAccumulator : public RunAccumulator {
       : pool_(std::move(pool)), request_(std::move(request)) {}
 
   // The script reads what it wants itself; the pass reads no frame for it.
-  json finish() override {
+  json Finish() override {
     const double timeout = request_.value("timeout", kDefaultTimeout);
-    const json answer = pool_->call(request_, std::chrono::duration<double>(timeout + GraceSeconds(timeout)));
+    const json answer = pool_->Call(request_, std::chrono::duration<double>(timeout + GraceSeconds(timeout)));
     const std::string key = request_.value("key", "");
     if (answer.value("ok", false)) {
       json metrics = json::array();
@@ -267,18 +267,18 @@ class PythonAnalysis : public Analysis {
       : key_(std::move(key)),
         script_(std::move(script)),
         source_(std::move(source)),
-        hash_(hash_hex(source_)),
+        hash_(HashHex(source_)),
         options_(std::move(options)),
         timeout_(timeout),
         pool_(std::move(pool)) {}
 
-  std::string key() const override { return key_; }
-  // The protocol between the pass and the worker; the script itself is in run_options().
-  int version() const override { return 1; }
+  std::string Key() const override { return key_; }
+  // The protocol between the pass and the worker; the script itself is in RunOptions().
+  int Version() const override { return 1; }
   // A changed script (its text, not its name) or changed options re-analyse the runs.
-  json run_options() const override { return {{"script_hash", hash_}, {"options", options_}}; }
+  json RunOptions() const override { return {{"script_hash", hash_}, {"options", options_}}; }
 
-  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+  std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     const json request = {{"key", key_},
                           {"script", script_},
                           {"source", source_},
@@ -288,16 +288,16 @@ class PythonAnalysis : public Analysis {
     return std::make_unique<PythonAccumulator>(pool_, request);
   }
 
-  std::vector<Metric> run_metrics(const json& result) const override {
+  std::vector<Metric> RunMetrics(const json& result) const override {
     std::vector<Metric> out;
     if (!result.is_object() || !result.contains("metrics")) return out;
     for (const auto& m : result.at("metrics"))
-      out.push_back({m.value("name", ""), m.value("unit", ""), number_at(m, "value"), number_at(m, "se"),
+      out.push_back({m.value("name", ""), m.value("unit", ""), NumberAt(m, "value"), NumberAt(m, "se"),
                      m.value("name", ""), true});
     return out;
   }
 
-  std::optional<Section> section(const SectionInput& in) const override {
+  std::optional<Section> BuildSection(const SectionInput& in) const override {
     const CampaignView& v = in.view;
     Section s{"python-" + key_, "Python analysis " + key_, {}};
     s.blocks.push_back(Text{"Computed by `" + script_ + "` (`analyse(run, options)`, options `" + options_.dump() +
@@ -311,29 +311,29 @@ class PythonAnalysis : public Analysis {
       for (const auto& n : names) {
         const PointMetric* unit_of = nullptr;
         for (const auto& metrics : in.points)
-          if (!unit_of) unit_of = find_metric(metrics, n);
+          if (!unit_of) unit_of = FindMetric(metrics, n);
         t.header.push_back(n + (unit_of && !unit_of->unit.empty() && unit_of->unit != "1" ? " [" + unit_of->unit + "]" : ""));
         t.keys.push_back(n);
       }
       for (std::size_t p = 0; p < v.points.size(); ++p) {
-        std::vector<Cell> row = {point_name(v, v.points[p])};
+        std::vector<Cell> row = {PointName(v, v.points[p])};
         for (const auto& n : names) {
-          const PointMetric* m = find_metric(in.points[p], n);
-          row.push_back(m ? Cell::estimate(m->estimate()) : Cell(""));
+          const PointMetric* m = FindMetric(in.points[p], n);
+          row.push_back(m ? Cell::Estimate(m->Estimate()) : Cell(""));
         }
         t.rows.push_back(row);
       }
       s.blocks.push_back(t);
-      if (has_x(v))
+      if (HasX(v))
         for (const auto& n : names)
           s.blocks.push_back(Figure{"python_" + key_ + "_" + n, n + " against " + v.x_label, v.x_label, n,
-                                    point_series(v, in.points, n, n), false, false, "Error bars: se over replicas"});
+                                    PointSeries(v, in.points, n, n), false, false, "Error bars: se over replicas"});
     }
     // Every failed run with the last lines of its traceback.
     std::string failures;
     int failed = 0;
     for (std::size_t r = 0; r < in.results.runs.size() && r < v.used.size(); ++r) {
-      const std::string why = python_failure(in.results.runs[r]);
+      const std::string why = PythonFailure(in.results.runs[r]);
       if (why.empty()) continue;
       ++failed;
       std::string lines;
@@ -357,17 +357,17 @@ class PythonAnalysis : public Analysis {
 
 }  // namespace
 
-std::string python_interpreter() {
+std::string PythonInterpreter() {
   if (const char* p = std::getenv("GRANARY_PYTHON"); p && *p) return p;
   return GRANARY_PYTHON;
 }
 
-std::string python_failure(const json& result) {
+std::string PythonFailure(const json& result) {
   if (!result.is_object() || !result.contains("failed") || !result.at("failed").is_string()) return "";
   return result.at("failed").get<std::string>();
 }
 
-std::vector<std::unique_ptr<Analysis>> make_python_analyses(const json& options, const std::string& path) {
+std::vector<std::unique_ptr<Analysis>> MakePythonAnalyses(const json& options, const std::string& path) {
   std::vector<std::unique_ptr<Analysis>> out;
   if (options.is_null()) return out;
   if (!options.is_array()) throw OptionError(path, options, "an array of {\"key\", \"script\", \"options\"}");
@@ -375,7 +375,7 @@ std::vector<std::unique_ptr<Analysis>> make_python_analyses(const json& options,
   std::vector<std::string> keys;
   for (std::size_t k = 0; k < options.size(); ++k) {
     const std::string p = path + "/" + std::to_string(k);
-    const json& e = option_object(options[k], p, {"key", "script", "options", "timeout"});
+    const json& e = OptionObject(options[k], p, {"key", "script", "options", "timeout"});
     if (!e.contains("key") || !e.at("key").is_string() || !IsMetricName(e.at("key").get<std::string>()))
       throw OptionError(p + "/key", e.value("key", json()), "a name of a-z, 0-9 and _ (the analysis' key)");
     const std::string key = e.at("key").get<std::string>();

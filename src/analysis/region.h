@@ -16,8 +16,8 @@ namespace granary::analysis {
 
 struct Rect {
   double x0 = 0, x1 = 0, y0 = 0, y1 = 0;
-  double area() const { return (x1 - x0) * (y1 - y0); }
-  bool contains(double x, double y) const { return x >= x0 && x < x1 && y >= y0 && y < y1; }
+  double Area() const { return (x1 - x0) * (y1 - y0); }
+  bool Contains(double x, double y) const { return x >= x0 && x < x1 && y >= y0 && y < y1; }
 };
 
 // Region size around an outlet of width W: (W + pad) x height, from the base upwards,
@@ -27,14 +27,14 @@ struct RegionSize {
   double height = 5.0 * std::numbers::sqrt2;  // ch. 4-6: 5 sqrt(2) d
   std::string label = "ch. 4-6: (W + 2 sqrt2 d) x 5 sqrt2 d";
 };
-RegionSize chapter3_region();   // (W + 2d) x 10d
-RegionSize chapter4_region();   // (W + 2 sqrt2 d) x 5 sqrt2 d
-Rect region_above_outlet(double center, double width, const RegionSize& size);
+RegionSize Chapter3Region();   // (W + 2d) x 10d
+RegionSize Chapter4Region();   // (W + 2 sqrt2 d) x 5 sqrt2 d
+Rect RegionAboveOutlet(double center, double width, const RegionSize& size);
 
 // Exact area of the intersection of a disc (centre cx, cy; radius r) with a rectangle.
 // Used for the packing fraction so that discs cut by the region's edges count with the part
 // that lies inside (no boundary bias from counting whole discs by their centres).
-double disc_rect_overlap(double cx, double cy, double r, const Rect& rect);
+double DiscRectOverlap(double cx, double cy, double r, const Rect& rect);
 
 // One frame. phi = sum of disc areas inside / region area (exact partial discs).
 // Temperatures use the bodies whose centre of mass is inside:
@@ -47,7 +47,7 @@ struct RegionFrame {
   double tg_full = kNaN;
   int bodies = 0;
 };
-RegionFrame region_frame(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies, const Rect& region);
+RegionFrame MakeRegionFrame(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies, const Rect& region);
 
 // Time average over frames: mean and se (over frames) of phi and the temperatures, and the
 // distributions of the velocities of the bodies inside, over every frame.
@@ -65,8 +65,8 @@ class RegionAccumulator {
     stats_.region = region;
     stats_.vx.width = stats_.vy.width = velocity_bin;
   }
-  void add(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies);
-  RegionStats result() const;
+  void Add(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies);
+  RegionStats Result() const;
 
  private:
   RegionStats stats_;

@@ -16,39 +16,39 @@ namespace {
 constexpr double kVelocityBin = 0.05;
 constexpr int kDrawnBins = 40;
 
-nlohmann::json histogram_json(const GridHistogram& h) {
-  return {{"width", h.width}, {"first", h.first}, {"counts", json_numbers(h.counts)}};
+nlohmann::json HistogramJson(const GridHistogram& h) {
+  return {{"width", h.width}, {"first", h.first}, {"counts", JsonNumbers(h.counts)}};
 }
 
-GridHistogram histogram_of(const nlohmann::json& j) {
+GridHistogram HistogramOf(const nlohmann::json& j) {
   GridHistogram h;
   if (!j.is_object()) return h;
   h.width = j.value("width", kVelocityBin);
   h.first = j.value("first", 0LL);
-  h.counts = numbers_of(j.value("counts", nlohmann::json()));
+  h.counts = NumbersOf(j.value("counts", nlohmann::json()));
   return h;
 }
 
-std::string suffix(std::size_t k) { return k == 0 ? "" : outlet_suffix(k); }
+std::string Suffix(std::size_t k) { return k == 0 ? "" : OutletSuffix(k); }
 
 // Every outlet's region, each in its outlet's coordinates, over the steady window.
 class RegionRunAccumulator : public RunAccumulator {
  public:
   RegionRunAccumulator(const RunView& run, const RegionSize& size) : run_(run) {
     // In outlet coordinates every outlet is centred at 0 on the line y = 0.
-    for (const OutletGeometry& o : run.outlets) regions_.emplace_back(region_above_outlet(0.0, o.width, size), kVelocityBin);
+    for (const OutletGeometry& o : run.outlets) regions_.emplace_back(RegionAboveOutlet(0.0, o.width, size), kVelocityBin);
   }
-  FrameRequest frames() const override { return {{run_.steady}, false}; }
-  void add_frame(const FrameView& frame) override {
+  FrameRequest Frames() const override { return {{run_.steady}, false}; }
+  void AddFrame(const FrameView& frame) override {
     for (std::size_t k = 0; k < run_.outlets.size(); ++k) {
       discs_ = frame.frame.discs;
       bodies_ = frame.bodies;
-      to_outlet_frame(run_.outlets[k], discs_, bodies_);
-      regions_[k].add(discs_, bodies_);
+      ToOutletFrame(run_.outlets[k], discs_, bodies_);
+      regions_[k].Add(discs_, bodies_);
     }
     ++frames_;
   }
-  nlohmann::json finish() override {
+  nlohmann::json Finish() override {
     nlohmann::json result = {{"frames", frames_}, {"outlets", nlohmann::json::array()}, {"notes", nlohmann::json::array()}};
     for (const OutletGeometry& o : run_.outlets) result["outlets"].push_back(o.label);
     if (frames_ == 0 || run_.outlets.empty()) {
@@ -59,13 +59,13 @@ class RegionRunAccumulator : public RunAccumulator {
     }
     result["regions"] = nlohmann::json::array();
     for (std::size_t k = 0; k < regions_.size(); ++k) {
-      const RegionStats s = regions_[k].result();
+      const RegionStats s = regions_[k].Result();
       nlohmann::json r = {{"phi", to_json(s.phi)},
                           {"tg_translational", to_json(s.tg_translational)},
                           {"tg_full", to_json(s.tg_full)},
                           {"frames", s.frames}};
       // The distributions of the region next to outlet 0 (the report draws those).
-      if (k == 0) r["velocity"] = {{"vx", histogram_json(s.vx)}, {"vy", histogram_json(s.vy)}};
+      if (k == 0) r["velocity"] = {{"vx", HistogramJson(s.vx)}, {"vy", HistogramJson(s.vy)}};
       result["regions"].push_back(r);
     }
     return result;
@@ -82,40 +82,40 @@ class RegionRunAccumulator : public RunAccumulator {
 class RegionAnalysis : public Analysis {
  public:
   explicit RegionAnalysis(RegionSize size) : size_(std::move(size)) {}
-  std::string key() const override { return "region"; }
-  int version() const override { return 1; }
-  nlohmann::json run_options() const override { return {{"pad", size_.pad}, {"height", size_.height}}; }
-  PassUse pass_use() const override { return {true, true, true}; }
-  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+  std::string Key() const override { return "region"; }
+  int Version() const override { return 1; }
+  nlohmann::json RunOptions() const override { return {{"pad", size_.pad}, {"height", size_.height}}; }
+  PassUse PassOptionsUsed() const override { return {true, true, true}; }
+  std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<RegionRunAccumulator>(run, size_);
   }
-  std::vector<Metric> run_metrics(const nlohmann::json& result) const override {
+  std::vector<Metric> RunMetrics(const nlohmann::json& result) const override {
     std::vector<Metric> m;
     if (!result.contains("regions")) return m;
     const nlohmann::json& regions = result.at("regions");
     const nlohmann::json labels = result.value("outlets", nlohmann::json::array());
     for (std::size_t k = 0; k < regions.size(); ++k) {
-      const std::string s = suffix(k);
-      const std::string where = k == 0 ? "" : " next to " + string_at(labels, k);
-      const MeanSe phi = mean_se_of(regions[k].at("phi"));
-      const MeanSe t3 = mean_se_of(regions[k].at("tg_translational"));
-      const MeanSe t4 = mean_se_of(regions[k].at("tg_full"));
+      const std::string s = Suffix(k);
+      const std::string where = k == 0 ? "" : " next to " + StringAt(labels, k);
+      const MeanSe phi = MeanSeOf(regions[k].at("phi"));
+      const MeanSe t3 = MeanSeOf(regions[k].at("tg_translational"));
+      const MeanSe t4 = MeanSeOf(regions[k].at("tg_full"));
       m.push_back({"phi" + s, "1", phi.mean, phi.se, "packing fraction" + where, k == 0});
       m.push_back({"tg_translational" + s, "g d", t3.mean, t3.se, "T_g translational (ch. 3)" + where, false});
       m.push_back({"tg_full" + s, "rho g d^3", t4.mean, t4.se, "T_g (ch. 4-5)" + where, k == 0});
     }
     return m;
   }
-  std::optional<Section> section(const SectionInput& in) const override;
+  std::optional<Section> BuildSection(const SectionInput& in) const override;
   // The velocity components in the region next to outlet 0 (thesis figs. 3.5, 4.6).
-  std::vector<DistributionInfo> distribution_names() const override {
+  std::vector<DistributionInfo> DistributionNames() const override {
     return {{"vx", "v_x in the region above the outlet", "sqrt(g d)"}, {"vy", "v_y in the region above the outlet", "sqrt(g d)"}};
   }
-  Samples distribution(const std::string& name, const nlohmann::json& result) const override {
+  Samples Distribution(const std::string& name, const nlohmann::json& result) const override {
     Samples out;
     if (!result.contains("regions") || result.at("regions").empty()) return out;
     const nlohmann::json velocity = result.at("regions").at(0).value("velocity", nlohmann::json::object());
-    const GridHistogram h = histogram_of(velocity.value(name, nlohmann::json()));
+    const GridHistogram h = HistogramOf(velocity.value(name, nlohmann::json()));
     for (std::size_t i = 0; i < h.counts.size(); ++i) {
       if (h.counts[i] <= 0) continue;
       out.values.push_back(static_cast<double>(h.first + static_cast<long long>(i)) * h.width);
@@ -128,11 +128,11 @@ class RegionAnalysis : public Analysis {
   RegionSize size_;
 };
 
-std::optional<Section> RegionAnalysis::section(const SectionInput& in) const {
+std::optional<Section> RegionAnalysis::BuildSection(const SectionInput& in) const {
   const CampaignView& v = in.view;
   auto metric = [&](std::size_t p, const std::string& name) {
-    const PointMetric* m = find_metric(in.points[p], name);
-    return m ? m->estimate() : MeanSe{};
+    const PointMetric* m = FindMetric(in.points[p], name);
+    return m ? m->Estimate() : MeanSe{};
   };
   bool any = false;
   for (std::size_t p = 0; p < v.points.size(); ++p) any = any || metric(p, "phi").n > 0;
@@ -141,7 +141,7 @@ std::optional<Section> RegionAnalysis::section(const SectionInput& in) const {
   s.blocks.push_back(Text{"Region " + size_.label + ", centred on " +
                           (v.outlets > 1 ? std::string("each outlet (the first table: outlet 0)") : "the outlet") +
                           " and reaching from its wall into the silo (above a base outlet, beside a lateral one; pad " +
-                          format_number(size_.pad) + " d, height " + format_number(size_.height) +
+                          FormatNumber(size_.pad) + " d, height " + FormatNumber(size_.height) +
                           " d). Packing fraction: exact area of every disc inside the region (discs cut by the "
                           "edge count with their inside part) over the region area. Temperatures over the bodies "
                           "whose centre of mass is inside, per frame, then averaged over frames: ch. 3 "
@@ -151,8 +151,8 @@ std::optional<Section> RegionAnalysis::section(const SectionInput& in) const {
           {"point", "phi", "T_g ch3 (g d)", "T_g ch4 (rho g d^3)"}, {}, {"point", "phi", "tg_translational", "tg_full"}};
   for (std::size_t p = 0; p < v.points.size(); ++p) {
     if (metric(p, "phi").n == 0) continue;
-    t.rows.push_back({point_name(v, v.points[p]), Cell::estimate(metric(p, "phi")),
-                      Cell::estimate(metric(p, "tg_translational")), Cell::estimate(metric(p, "tg_full"))});
+    t.rows.push_back({PointName(v, v.points[p]), Cell::Estimate(metric(p, "phi")),
+                      Cell::Estimate(metric(p, "tg_translational")), Cell::Estimate(metric(p, "tg_full"))});
   }
   s.blocks.push_back(t);
   // Several outlets: the same statistics next to each of them.
@@ -163,19 +163,19 @@ std::optional<Section> RegionAnalysis::section(const SectionInput& in) const {
   if (v.outlets > 1)
     for (std::size_t p = 0; p < v.points.size(); ++p)
       for (std::size_t k = 0; k < v.outlets; ++k) {
-        const std::string sfx = suffix(k);
+        const std::string sfx = Suffix(k);
         if (metric(p, "phi" + sfx).n == 0) continue;
-        per_outlet.rows.push_back({point_name(v, v.points[p]), k < v.outlet_labels.size() ? v.outlet_labels[k] : "",
-                                   Cell::estimate(metric(p, "phi" + sfx)),
-                                   Cell::estimate(metric(p, "tg_translational" + sfx)),
-                                   Cell::estimate(metric(p, "tg_full" + sfx))});
+        per_outlet.rows.push_back({PointName(v, v.points[p]), k < v.outlet_labels.size() ? v.outlet_labels[k] : "",
+                                   Cell::Estimate(metric(p, "phi" + sfx)),
+                                   Cell::Estimate(metric(p, "tg_translational" + sfx)),
+                                   Cell::Estimate(metric(p, "tg_full" + sfx))});
       }
   if (!per_outlet.rows.empty()) s.blocks.push_back(per_outlet);
-  if (has_x(v)) {
+  if (HasX(v)) {
     const std::string where = v.outlets > 1 ? " next to each outlet" : "";
     auto series = [&](const std::string& base, const std::string& column) {
-      return v.outlets > 1 ? outlet_series(v, in.points, [&](std::size_t k) { return base + suffix(k); }, v.outlet_labels, column)
-                           : point_series(v, in.points, base, column);
+      return v.outlets > 1 ? OutletSeries(v, in.points, [&](std::size_t k) { return base + Suffix(k); }, v.outlet_labels, column)
+                           : PointSeries(v, in.points, base, column);
     };
     s.blocks.push_back(Figure{"packing_fraction", "Packing fraction phi" + where + " against " + v.x_label, v.x_label,
                               "phi", series("phi", "phi"), false, false, "Error bars: se over replicas"});
@@ -202,20 +202,20 @@ std::optional<Section> RegionAnalysis::section(const SectionInput& in) const {
   for (std::size_t p = 0; p < v.points.size(); ++p) {
     GridHistogram hx, hy;
     hx.width = hy.width = kVelocityBin;
-    for (const nlohmann::json* r : in.results.of_point(p)) {
+    for (const nlohmann::json* r : in.results.OfPoint(p)) {
       if (!r->contains("regions") || r->at("regions").empty()) continue;
       const nlohmann::json velocity = r->at("regions").at(0).value("velocity", nlohmann::json::object());
-      hx.merge(histogram_of(velocity.value("vx", nlohmann::json())));
-      hy.merge(histogram_of(velocity.value("vy", nlohmann::json())));
+      hx.Merge(HistogramOf(velocity.value("vx", nlohmann::json())));
+      hy.Merge(HistogramOf(velocity.value("vy", nlohmann::json())));
     }
-    if (hx.total() < 2) continue;
+    if (hx.Total() < 2) continue;
     for (auto [grid, fig, name] : {std::tuple{&hx, &dx, "vx"}, std::tuple{&hy, &dy, "vy"}}) {
-      const Histogram h = grid->coarse(kDrawnBins);
+      const Histogram h = grid->Coarse(kDrawnBins);
       Series se;
-      se.label = point_name(v, v.points[p]);
+      se.label = PointName(v, v.points[p]);
       se.columns = {name, "density", "count"};
       se.style = Series::Style::kSteps;
-      for (std::size_t i = 0; i < h.counts.size(); ++i) se.rows.push_back({h.center(i), h.density(i), h.counts[i]});
+      for (std::size_t i = 0; i < h.counts.size(); ++i) se.rows.push_back({h.Center(i), h.Density(i), h.counts[i]});
       fig->series.push_back(se);
     }
   }
@@ -228,16 +228,16 @@ std::optional<Section> RegionAnalysis::section(const SectionInput& in) const {
 
 }  // namespace
 
-std::unique_ptr<Analysis> make_region_analysis(const nlohmann::json& options, const std::string& path) {
-  RegionSize size = chapter4_region();
+std::unique_ptr<Analysis> MakeRegionAnalysis(const nlohmann::json& options, const std::string& path) {
+  RegionSize size = Chapter4Region();
   if (options.is_null() || options == "ch4") return std::make_unique<RegionAnalysis>(size);
-  if (options == "ch3") return std::make_unique<RegionAnalysis>(chapter3_region());
+  if (options == "ch3") return std::make_unique<RegionAnalysis>(Chapter3Region());
   if (!options.is_object() || !options.contains("pad") || !options.contains("height"))
     throw OptionError(path, options, "must be \"ch3\", \"ch4\" or {\"pad\": .., \"height\": ..}");
-  option_object(options, path, {"pad", "height"});
-  size.pad = option_number(options.at("pad"), path + "/pad", -1e300, 1e300);
-  size.height = option_number(options.at("height"), path + "/height", 0.0, 1e300);
-  size.label = "(W + " + format_number(size.pad) + " d) x " + format_number(size.height) + " d";
+  OptionObject(options, path, {"pad", "height"});
+  size.pad = OptionNumber(options.at("pad"), path + "/pad", -1e300, 1e300);
+  size.height = OptionNumber(options.at("height"), path + "/height", 0.0, 1e300);
+  size.label = "(W + " + FormatNumber(size.pad) + " d) x " + FormatNumber(size.height) + " d";
   return std::make_unique<RegionAnalysis>(size);
 }
 

@@ -20,11 +20,11 @@
 namespace granary::analysis {
 namespace {
 
-std::mutex& extra_mutex() {
+std::mutex& ExtraMutex() {
   static std::mutex m;
   return m;
 }
-std::vector<AnalysisEntry>& extra_rows() {
+std::vector<AnalysisEntry>& ExtraRows() {
   static std::vector<AnalysisEntry> rows;
   return rows;
 }
@@ -32,80 +32,80 @@ std::vector<AnalysisEntry>& extra_rows() {
 // Keys of /report read by the pass itself, shared by the analyses.
 constexpr const char* kPassKeys[] = {"window", "clog_gap", "frame_stride", "max_frames"};
 
-FlowWindowRule read_window(const nlohmann::json& v, const std::string& path) {
+FlowWindowRule ReadWindow(const nlohmann::json& v, const std::string& path) {
   FlowWindowRule w;
-  option_object(v, path, {"start_time", "start_fraction", "shallow_fraction", "min_events", "stop_at_first_clog"});
+  OptionObject(v, path, {"start_time", "start_fraction", "shallow_fraction", "min_events", "stop_at_first_clog"});
   constexpr double kBig = 1e300;
   for (const auto& [k, x] : v.items()) {
     const std::string p = path + "/" + k;
-    if (k == "start_time") w.start_time = option_number(x, p, 0.0, kBig);
-    if (k == "start_fraction") w.start_fraction = option_number(x, p, 0.0, 1.0);
-    if (k == "shallow_fraction") w.shallow_fraction = option_number(x, p, 0.0, 1.0);
-    if (k == "min_events") w.min_events = option_integer(x, p, 2, 1000000000);
-    if (k == "stop_at_first_clog") w.stop_at_first_clog = option_bool(x, p);
+    if (k == "start_time") w.start_time = OptionNumber(x, p, 0.0, kBig);
+    if (k == "start_fraction") w.start_fraction = OptionNumber(x, p, 0.0, 1.0);
+    if (k == "shallow_fraction") w.shallow_fraction = OptionNumber(x, p, 0.0, 1.0);
+    if (k == "min_events") w.min_events = OptionInteger(x, p, 2, 1000000000);
+    if (k == "stop_at_first_clog") w.stop_at_first_clog = OptionBool(x, p);
   }
   return w;
 }
 
 }  // namespace
 
-const std::vector<AnalysisEntry>& builtin_analyses() {
+const std::vector<AnalysisEntry>& BuiltinAnalyses() {
   // Report order. One row per analysis.
   static const std::vector<AnalysisEntry> kTable = {
-      {"flow", make_flow_analysis, {}, {"q_count", "q_mass", "q_count_outlet*", "q_mass_outlet*"}},
-      {"profile", make_profile_analysis, {}, {"v_max", "v_max_outlet*"}},
-      {"region", make_region_analysis, {},
+      {"flow", MakeFlowAnalysis, {}, {"q_count", "q_mass", "q_count_outlet*", "q_mass_outlet*"}},
+      {"profile", MakeProfileAnalysis, {}, {"v_max", "v_max_outlet*"}},
+      {"region", MakeRegionAnalysis, {},
        {"phi", "tg_translational", "tg_full", "phi_outlet*", "tg_translational_outlet*", "tg_full_outlet*"}},
-      {"clogging_index", make_clogging_index_analysis, {},
+      {"clogging_index", MakeCloggingIndexAnalysis, {},
        {"psi", "n_stagnant", "clogged_runs", "discharged_runs", "discarded_runs", "unfinished_runs", "psi_low",
         "psi_high", "clogged", "undischarged"}},
-      {"avalanches", make_avalanche_analysis, {},
+      {"avalanches", MakeAvalancheAnalysis, {},
        {"avalanche_size", "avalanches", "clogs", "avalanche_size_outlet*", "avalanches_outlet*"}},
-      {"intermittency", make_intermittency_analysis, {},
+      {"intermittency", MakeIntermittencyAnalysis, {},
        {"t_flowing", "t_clogged", "unclog_rate", "t_flowing_outlet*", "t_clogged_outlet*", "unclog_rate_outlet*"}},
-      {"arches", make_arches_analysis, {},
+      {"arches", MakeArchesAnalysis, {},
        {"arches", "obstacle_arches", "arch_n", "arch_width", "arch_width_sd", "arch_height", "arch_height_sd",
         "arch_perimeter", "arch_c_over_p", "arch_elongated_fraction", "arch_pressure"}},
-      {"contacts", make_contacts_analysis, {}, {"contact_ss", "contact_ls", "contact_ll", "contact_other"}},
-      {"orientation", make_orientation_analysis, {}, {"flow_frames", "order_parameter_*"}},
-      {"fields", make_fields_analysis, {}, {"cg_*"}},
-      {"python", nullptr, make_python_analyses},
+      {"contacts", MakeContactsAnalysis, {}, {"contact_ss", "contact_ls", "contact_ll", "contact_other"}},
+      {"orientation", MakeOrientationAnalysis, {}, {"flow_frames", "order_parameter_*"}},
+      {"fields", MakeFieldsAnalysis, {}, {"cg_*"}},
+      {"python", nullptr, MakePythonAnalyses},
   };
   return kTable;
 }
 
-bool offers_metric(const AnalysisEntry& row, const std::string& name) {
+bool OffersMetric(const AnalysisEntry& row, const std::string& name) {
   return std::any_of(row.metrics.begin(), row.metrics.end(), [&](const std::string& m) {
     if (!m.empty() && m.back() == '*') return name.size() >= m.size() && name.compare(0, m.size() - 1, m, 0, m.size() - 1) == 0;
     return name == m;
   });
 }
 
-std::vector<AnalysisEntry> registered_analyses() {
-  std::vector<AnalysisEntry> rows = builtin_analyses();
-  std::lock_guard<std::mutex> lock(extra_mutex());
-  rows.insert(rows.end(), extra_rows().begin(), extra_rows().end());
+std::vector<AnalysisEntry> RegisteredAnalyses() {
+  std::vector<AnalysisEntry> rows = BuiltinAnalyses();
+  std::lock_guard<std::mutex> lock(ExtraMutex());
+  rows.insert(rows.end(), ExtraRows().begin(), ExtraRows().end());
   return rows;
 }
 
 ScopedAnalysis::ScopedAnalysis(AnalysisEntry entry) : key_(entry.key) {
-  std::lock_guard<std::mutex> lock(extra_mutex());
-  extra_rows().push_back(std::move(entry));
+  std::lock_guard<std::mutex> lock(ExtraMutex());
+  ExtraRows().push_back(std::move(entry));
 }
 
 ScopedAnalysis::~ScopedAnalysis() {
-  std::lock_guard<std::mutex> lock(extra_mutex());
-  std::erase_if(extra_rows(), [&](const AnalysisEntry& e) { return e.key == key_; });
+  std::lock_guard<std::mutex> lock(ExtraMutex());
+  std::erase_if(ExtraRows(), [&](const AnalysisEntry& e) { return e.key == key_; });
 }
 
-std::vector<const Analysis*> AnalysisSetup::list() const {
+std::vector<const Analysis*> AnalysisSetup::List() const {
   std::vector<const Analysis*> out;
   for (const auto& a : analyses) out.push_back(a.get());
   return out;
 }
 
-AnalysisSetup setup_analyses(const nlohmann::json& campaign_spec) {
-  const std::vector<AnalysisEntry> rows = registered_analyses();
+AnalysisSetup SetupAnalyses(const nlohmann::json& campaign_spec) {
+  const std::vector<AnalysisEntry> rows = RegisteredAnalyses();
   nlohmann::json report = nlohmann::json::object();
   if (campaign_spec.is_object() && campaign_spec.contains("report")) {
     report = campaign_spec.at("report");
@@ -119,13 +119,13 @@ AnalysisSetup setup_analyses(const nlohmann::json& campaign_spec) {
   for (const auto& [key, v] : report.items()) {
     const std::string path = "/report/" + key;
     if (key == "window") {
-      setup.pass.window = read_window(v, path);
+      setup.pass.window = ReadWindow(v, path);
     } else if (key == "clog_gap") {
-      setup.pass.clog_gap = option_number(v, path, 0.0, 1e300);
+      setup.pass.clog_gap = OptionNumber(v, path, 0.0, 1e300);
     } else if (key == "frame_stride") {
-      setup.pass.frame_stride = option_integer(v, path, 1, 1000000000);
+      setup.pass.frame_stride = OptionInteger(v, path, 1, 1000000000);
     } else if (key == "max_frames") {
-      setup.pass.max_frames = option_integer(v, path, 0, 1000000000);
+      setup.pass.max_frames = OptionInteger(v, path, 0, 1000000000);
     } else if (key == "figures") {
       continue;  // the figure layer (figures.h) reads it
     } else if (key == "models") {
@@ -143,8 +143,8 @@ AnalysisSetup setup_analyses(const nlohmann::json& campaign_spec) {
       for (auto& a : e.make_all(options, "/report/" + e.key)) {
         // One key, one cache file and one set of metric columns per analysis.
         for (const auto& other : setup.analyses)
-          if (other->key() == a->key())
-            throw OptionError("/report/" + e.key, a->key(), "keys that no other analysis has (" + a->key() + " is taken)");
+          if (other->Key() == a->Key())
+            throw OptionError("/report/" + e.key, a->Key(), "keys that no other analysis has (" + a->Key() + " is taken)");
         setup.analyses.push_back(std::move(a));
       }
     } else if (auto a = e.make(options, "/report/" + e.key)) {

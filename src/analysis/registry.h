@@ -30,12 +30,12 @@ struct AnalysisEntry {
 };
 
 // Whether `name` is one of row's metrics (a name, or a name a family "prefix*" covers).
-bool offers_metric(const AnalysisEntry& row, const std::string& name);
+bool OffersMetric(const AnalysisEntry& row, const std::string& name);
 
 // The built-in table.
-const std::vector<AnalysisEntry>& builtin_analyses();
+const std::vector<AnalysisEntry>& BuiltinAnalyses();
 // The table in use: the built-in rows, then rows added by ScopedAnalysis.
-std::vector<AnalysisEntry> registered_analyses();
+std::vector<AnalysisEntry> RegisteredAnalyses();
 
 // Adds a row for the lifetime of the object (tests register an analysis of their own).
 class ScopedAnalysis {
@@ -54,10 +54,10 @@ class ScopedAnalysis {
 struct AnalysisSetup {
   PassOptions pass;
   std::vector<std::unique_ptr<Analysis>> analyses;
-  std::vector<const Analysis*> list() const;
+  std::vector<const Analysis*> List() const;
 };
 
 // Throws OptionError naming the JSON path (unknown keys list the known ones).
-AnalysisSetup setup_analyses(const nlohmann::json& campaign_spec);
+AnalysisSetup SetupAnalyses(const nlohmann::json& campaign_spec);
 
 }  // namespace granary::analysis

@@ -23,7 +23,7 @@
 namespace granary::analysis {
 namespace {
 
-std::string state_reason(const RunRecord& r) {
+std::string StateReason(const RunRecord& r) {
   std::string f = r.failure;
   if (f.size() > 300) f = f.substr(0, 300) + "...";
   for (char& ch : f)
@@ -31,7 +31,7 @@ std::string state_reason(const RunRecord& r) {
   return f;
 }
 
-std::optional<Section> runs_section(const CampaignView& c) {
+std::optional<Section> RunsSection(const CampaignView& c) {
   Section s{"runs", "Runs", {}};
   const int total = static_cast<int>(c.used.size() + c.missing.size() + c.failed.size() + c.unreadable.size() +
                                      c.damaged.size() + c.lost.size() + c.retired.size());
@@ -50,12 +50,12 @@ std::optional<Section> runs_section(const CampaignView& c) {
                           "than planned says so in its `n`."});
   Table t{"runs_not_used", "Runs not used, with the reason", {"run", "point", "replica", "state", "reason"}, {}, {}};
   auto row = [&](const RunRecord* r, const std::string& reason) {
-    t.rows.push_back({r->run_id, point_label(c, r->point, r->spec, NameForm::kShort), Cell::count(r->replica), r->state, reason});
+    t.rows.push_back({r->run_id, PointLabel(c, r->point, r->spec, NameForm::kShort), Cell::Count(r->replica), r->state, reason});
   };
-  for (const RunRecord* r : c.missing) row(r, r->failure.empty() ? "not finished" : "not finished: " + state_reason(*r));
-  for (const RunRecord* r : c.failed) row(r, state_reason(*r));
+  for (const RunRecord* r : c.missing) row(r, r->failure.empty() ? "not finished" : "not finished: " + StateReason(*r));
+  for (const RunRecord* r : c.failed) row(r, StateReason(*r));
   for (const auto& [r, why] : c.unreadable) row(r, "unreadable: " + why);
-  for (const auto& [r, problems] : c.damaged) row(r, "damaged: " + rundir::Verification{rundir::Integrity::kDamaged, problems, 0}.text());
+  for (const auto& [r, problems] : c.damaged) row(r, "damaged: " + rundir::Verification{rundir::Integrity::kDamaged, problems, 0}.Text());
   for (const RunRecord* r : c.lost)
     row(r, "run directory deleted after it finished (campaign run --rerun-lost runs it again)");
   for (const RunRecord* r : c.retired) row(r, "retired (superseded)");
@@ -70,7 +70,7 @@ std::optional<Section> runs_section(const CampaignView& c) {
             {}, {}};
     for (const auto& [r, problems] : c.damaged)
       for (const rundir::FileProblem& p : problems)
-        d.rows.push_back({r->run_id, point_label(c, r->point, r->spec, NameForm::kShort), Cell::count(r->replica), p.file, p.what});
+        d.rows.push_back({r->run_id, PointLabel(c, r->point, r->spec, NameForm::kShort), Cell::Count(r->replica), p.file, p.what});
     s.blocks.push_back(d);
   }
   if (!c.unverifiable.empty())
@@ -83,19 +83,19 @@ std::optional<Section> runs_section(const CampaignView& c) {
 
 // Adaptive replicas (rundir/replica_rule.h): the stopping rule, and per point its targets as
 // the used runs reach them; a point that got `max` replicas without reaching one is marked.
-std::optional<Section> replicas_section(const CampaignAnalysis& ca) {
+std::optional<Section> ReplicasSection(const CampaignAnalysis& ca) {
   const CampaignView& c = ca.view;
   const nlohmann::json& spec = c.campaign->spec;
   if (!spec.is_object() || !spec.contains("replicas") || !spec["replicas"].is_object()) return std::nullopt;
   ReplicaRule rule;
   try {
-    rule = ReplicaRule::from_json(spec["replicas"]);
+    rule = ReplicaRule::FromJson(spec["replicas"]);
   } catch (const std::exception&) {
     return std::nullopt;  // the runner validated it when it was planned
   }
   Section s{"replicas", "Replicas: the stopping rule", {}};
   s.blocks.push_back(Text{
-      "Replicas were added adaptively: " + rule.text() +
+      "Replicas were added adaptively: " + rule.Text() +
       ". After every finished run the runner judges each point whose runs have all ended and plans more where a "
       "target is not met (as many as se ~ 1/sqrt(n) says it needs, at most doubling). The number of runs per point "
       "is therefore itself random, and stopping when the standard error looks small favours stretches of runs that "
@@ -111,20 +111,20 @@ std::optional<Section> replicas_section(const CampaignAnalysis& ca) {
   std::vector<std::string> header = {"point", "runs used", "runs planned"};
   for (const ReplicaTarget& t : rule.until)
     header.insert(header.end(), {t.metric, (t.relative ? "se/|" + t.metric + "|" : "se(" + t.metric + ")") +
-                                               " (target " + Cell::number(t.value, 3).shown() + ")"});
+                                               " (target " + Cell::Number(t.value, 3).Shown() + ")"});
   header.push_back("verdict");
   Table t{"replicas", "Adaptive replicas per point: each target and how far the point got", header, {}, {}};
   for (std::size_t p = 0; p < c.points.size(); ++p) {
     std::map<std::string, MetricEstimate> metrics;
-    for (const PointMetric& m : ca.all_point_metrics(p)) metrics[m.name] = {m.mean, m.se, m.n};
-    const std::vector<TargetStatus> targets = judge_targets(rule, metrics);
+    for (const PointMetric& m : ca.AllPointMetrics(p)) metrics[m.name] = {m.mean, m.se, m.n};
+    const std::vector<TargetStatus> targets = JudgeTargets(rule, metrics);
     const int n_planned = planned[c.points[p].id];
-    std::vector<Cell> row = {point_label(c, c.points[p].point, c.points[p].spec, NameForm::kShort),
-                             Cell::count(static_cast<long long>(c.points[p].runs.size())), Cell::count(n_planned)};
+    std::vector<Cell> row = {PointLabel(c, c.points[p].point, c.points[p].spec, NameForm::kShort),
+                             Cell::Count(static_cast<long long>(c.points[p].runs.size())), Cell::Count(n_planned)};
     bool met = true;
     for (const TargetStatus& x : targets) {
-      row.push_back(Cell::estimate(x.estimate.value, x.estimate.se, x.estimate.n));
-      row.push_back(Cell::number(x.achieved, 3));
+      row.push_back(Cell::Estimate(x.estimate.value, x.estimate.se, x.estimate.n));
+      row.push_back(Cell::Number(x.achieved, 3));
       met = met && x.met;
     }
     row.push_back(met ? "met" : n_planned >= rule.max ? "**max reached, target not met**" : "not yet (more runs planned or to plan)");
@@ -134,7 +134,7 @@ std::optional<Section> replicas_section(const CampaignAnalysis& ca) {
   return s;
 }
 
-std::optional<Section> provenance_section(const CampaignView& c) {
+std::optional<Section> ProvenanceSection(const CampaignView& c) {
   Section s{"provenance", "Provenance", {}};
   const CampaignInfo& k = *c.campaign;
   auto or_unknown = [](const std::string& v) { return v.empty() ? std::string("unknown") : v; };
@@ -166,7 +166,7 @@ std::optional<Section> provenance_section(const CampaignView& c) {
   Table t{"provenance", "Engines that produced the used runs",
           {"engine", "engine version", "granary commit", "tangential cap (/contact/tangential_cap)", "runs"}, {},
           {"engine", "engine_version", "granary_commit", "tangential_cap", "runs"}};
-  for (const auto& [key, n] : rows) t.rows.push_back({key[0], key[1], key[2], key[3], Cell::count(n)});
+  for (const auto& [key, n] : rows) t.rows.push_back({key[0], key[1], key[2], key[3], Cell::Count(n)});
   s.blocks.push_back(t);
   // What the runs cost, per engine: wall time and core-hours (wall time x threads).
   std::map<std::string, std::array<double, 3>> cost;  // engine -> runs, wall s, core s
@@ -181,7 +181,7 @@ std::optional<Section> provenance_section(const CampaignView& c) {
   Table ct{"provenance_cost", "What the used runs cost (summary.json timing; core-hours = wall time x threads)",
            {"engine", "runs", "wall time (h)", "core-hours"}, {}, {"engine", "runs", "wall_h", "core_hours"}};
   for (const auto& [engine, e] : cost)
-    ct.rows.push_back({engine, Cell::count(static_cast<long long>(e[0])), Cell::number(e[1] / 3600.0, 3), Cell::number(e[2] / 3600.0, 3)});
+    ct.rows.push_back({engine, Cell::Count(static_cast<long long>(e[0])), Cell::Number(e[1] / 3600.0, 3), Cell::Number(e[2] / 3600.0, 3)});
   if (!ct.rows.empty()) s.blocks.push_back(ct);
   s.blocks.push_back(Text{"Tangential cap: `lammps` caps spring plus damping at mu|F_n| (LAMMPS convention, "
                           "docs/model.md); `liggghts` caps only the spring part (LIGGGHTS 3.8). Runs with different "
@@ -195,7 +195,7 @@ std::optional<Section> provenance_section(const CampaignView& c) {
 
 // What was simulated: the campaign's description, the units, its fixed parameters, the swept
 // ones by their human names and the derived axes (the pictures are in the gallery).
-std::optional<Section> system_section(const CampaignView& c) {
+std::optional<Section> SystemSection(const CampaignView& c) {
   Section s{"system", "The system", {}};
   const nlohmann::json& cs = c.campaign->spec;
   s.blocks.push_back(Text{cs.is_object() && cs.contains("description") && cs.at("description").is_string()
@@ -208,11 +208,11 @@ std::optional<Section> system_section(const CampaignView& c) {
     if (spec.is_null() && !list->empty()) spec = list->front()->spec;
   if (spec.is_null()) return s;
   s.blocks.push_back(Text{std::string("Units (every table, figure and export): ") + kUnitsText + "."});
-  s.blocks.push_back(fixed_parameters(spec, c.axes));
-  if (!c.named.derived().empty()) {
+  s.blocks.push_back(FixedParameters(spec, c.axes));
+  if (!c.named.Derived().empty()) {
     Table d{"system-derived-axes", "Derived axes (campaign spec /axes): usable in --only, the export and figures",
             {"name", "expression"}, {}, {}};
-    for (const DerivedAxis& a : c.named.derived()) d.rows.push_back({a.name, a.expression.text()});
+    for (const DerivedAxis& a : c.named.Derived()) d.rows.push_back({a.name, a.expression.Text()});
     s.blocks.push_back(d);
   }
   if (!c.axes.empty()) {
@@ -221,13 +221,13 @@ std::optional<Section> system_section(const CampaignView& c) {
     for (const auto& axis : c.axes) {
       std::vector<std::string> values;
       for (const Point& p : c.points) {
-        const auto v = axis_value(axis, p.point, p.spec);
-        const std::string text = v ? value_text(*v) : "?";
+        const auto v = AxisValue(axis, p.point, p.spec);
+        const std::string text = v ? ValueText(*v) : "?";
         if (std::find(values.begin(), values.end(), text) == values.end()) values.push_back(text);
       }
       std::string joined;
       for (const auto& v : values) joined += (joined.empty() ? "" : ", ") + v;
-      t.rows.push_back({axis_name(axis, spec), axis_text(c, axis, spec, NameForm::kShort), axis,
+      t.rows.push_back({AxisName(axis, spec), AxisText(c, axis, spec, NameForm::kShort), axis,
                         joined.empty() ? "(no finished run yet)" : joined});
     }
     s.blocks.push_back(t);
@@ -251,9 +251,9 @@ std::optional<Section> system_section(const CampaignView& c) {
         settle.push_back(b.settle_time > 0 ? b.settle_time : kNaN);
         any = any || b.packing_fraction.has_value();
       }
-      t.rows.push_back({point_name(c, p), Cell::count(static_cast<long long>(p.runs.size())),
-                        Cell::estimate(mean_se_finite(phi), 3), Cell::estimate(mean_se_finite(top), 4),
-                        Cell::estimate(mean_se_finite(surface), 4), Cell::estimate(mean_se_finite(settle), 3)});
+      t.rows.push_back({PointName(c, p), Cell::Count(static_cast<long long>(p.runs.size())),
+                        Cell::Estimate(MeanSeFinite(phi), 3), Cell::Estimate(MeanSeFinite(top), 4),
+                        Cell::Estimate(MeanSeFinite(surface), 4), Cell::Estimate(MeanSeFinite(settle), 3)});
     }
     if (!t.rows.empty() && any) s.blocks.push_back(t);
   }
@@ -265,7 +265,7 @@ std::optional<Section> system_section(const CampaignView& c) {
 // the report, so that the results come first.
 // Pictures of point k's lowest replica (`kinds`: its bed, its end, or both) as `stem`-bed.png and
 // `stem`-end.png; empty when it has no used run or nothing could be drawn (why: not_drawn).
-Pictures point_pictures(const CampaignView& c, std::size_t k, const ReportOptions& options, bool bed, bool end_picture,
+Pictures PointPictures(const CampaignView& c, std::size_t k, const ReportOptions& options, bool bed, bool end_picture,
                         const std::string& stem, NotDrawn& not_drawn) {
   Pictures pics;
   const Point& p = c.points[k];
@@ -275,14 +275,14 @@ Pictures point_pictures(const CampaignView& c, std::size_t k, const ReportOption
   if (!run) return pics;
   std::filesystem::create_directories(options.out_dir / "pictures");
   // In words, engine included (a campaign on two engines shows each point twice).
-  const std::string label = c.axes.empty() ? std::string() : point_title(c, p);
+  const std::string label = c.axes.empty() ? std::string() : PointTitle(c, p);
   pics.caption = (label.empty() ? std::string("The silo") : label) + " (replica " + std::to_string(run->record->replica) +
                  ", run `" + run->record->run_id.substr(0, 10) + "`)";
   const std::string& end = run->summary.end_reason;
   const std::pair<ReportOptions::Picture, std::string> kinds[] = {
       {ReportOptions::Picture::kBed, "the bed before the outlets open (t = 0)"},
       {ReportOptions::Picture::kEnd, (end == "clogged" ? "clogged" : end == "discharged" ? "discharged" : "the last frame") +
-                                         std::string(" (t = ") + format_number(run->summary.t_end, 4) + ")"}};
+                                         std::string(" (t = ") + FormatNumber(run->summary.t_end, 4) + ")"}};
   for (const auto& [kind, caption] : kinds) {
     const bool is_bed = kind == ReportOptions::Picture::kBed;
     if ((is_bed && !bed) || (!is_bed && !end_picture)) continue;
@@ -291,13 +291,13 @@ Pictures point_pictures(const CampaignView& c, std::size_t k, const ReportOption
     if (problem.empty()) {
       pics.pictures.push_back({file, caption});
     } else {
-      not_drawn.add(problem);
+      not_drawn.Add(problem);
     }
   }
   return pics;
 }
 
-std::optional<Section> gallery_section(const CampaignView& c, const ReportOptions& options) {
+std::optional<Section> GallerySection(const CampaignView& c, const ReportOptions& options) {
   Section s{"gallery", "Gallery: every point", {}};
   if (!options.draw_run) {
     s.blocks.push_back(Text{"(No pictures: this report was written without the renderer.)"});
@@ -305,15 +305,15 @@ std::optional<Section> gallery_section(const CampaignView& c, const ReportOption
   }
   NotDrawn not_drawn;
   for (std::size_t k = 0; k < c.points.size(); ++k) {
-    Pictures pics = point_pictures(c, k, options, true, true, "pictures/point-" + std::to_string(k + 1), not_drawn);
+    Pictures pics = PointPictures(c, k, options, true, true, "pictures/point-" + std::to_string(k + 1), not_drawn);
     if (!pics.pictures.empty()) s.blocks.push_back(pics);
   }
-  not_drawn.append_to(s);
+  not_drawn.AppendTo(s);
   return s;
 }
 
 // A figure of kind "pictures": the chosen points' pictures, side by side, under its caption.
-void add_figure_pictures(const CampaignView& c, FigureOutcome& f, const ReportOptions& options) {
+void AddFigurePictures(const CampaignView& c, FigureOutcome& f, const ReportOptions& options) {
   const FigureSpec& spec = *f.spec;
   if (!options.draw_run) {
     f.blocks.push_back(Text{"(Figure " + spec.name + ": no pictures, this report was written without the renderer.)"});
@@ -325,18 +325,18 @@ void add_figure_pictures(const CampaignView& c, FigureOutcome& f, const ReportOp
   NotDrawn not_drawn;
   for (const FigureDatum& d : f.data)
     for (std::size_t k : d.points) {
-      const Pictures one = point_pictures(c, k, options, spec.picture == "bed", spec.picture == "end",
+      const Pictures one = PointPictures(c, k, options, spec.picture == "bed", spec.picture == "end",
                                           "pictures/figure-" + spec.name + "-" + std::to_string(k + 1), not_drawn);
       for (const Picture& p : one.pictures) all.pictures.push_back({p.file, one.caption + ": " + p.caption});
     }
   if (!all.pictures.empty()) f.blocks.push_back(all);
   Section notes{"", "", {}};
-  not_drawn.append_to(notes);
+  not_drawn.AppendTo(notes);
   for (Block& b : notes.blocks) f.blocks.push_back(std::move(b));
 }
 
 // Every used run with its headline metrics (every analysis' metrics are in the export).
-std::optional<Section> per_run_section(const CampaignAnalysis& ca) {
+std::optional<Section> PerRunSection(const CampaignAnalysis& ca) {
   const CampaignView& c = ca.view;
   if (c.used.empty()) return std::nullopt;
   Section s{"per-run", "Per-run results", {}};
@@ -346,7 +346,7 @@ std::optional<Section> per_run_section(const CampaignAnalysis& ca) {
   for (std::size_t u = 0; u < c.used.size(); ++u) {
     by_run[u].resize(ca.results.size());
     for (std::size_t a = 0; a < ca.results.size(); ++a)
-      for (const Metric& m : ca.run_metrics(a, u)) {
+      for (const Metric& m : ca.RunMetrics(a, u)) {
         if (!m.headline) continue;
         by_run[u][a][m.name] = m;
         if (std::none_of(columns.begin(), columns.end(), [&](const auto& col) { return col.first == m.name; }))
@@ -367,19 +367,19 @@ std::optional<Section> per_run_section(const CampaignAnalysis& ca) {
     for (std::size_t u : p.runs) {
       const UsedRun& r = c.used[u];
       const rundir::Summary& sm = r.summary;
-      std::vector<Cell> row{r.record->run_id, point_name(c, p), Cell::count(r.record->replica), sm.engine,
-                            sm.end_reason, Cell::count(sm.bodies), Cell::count(sm.exited), Cell::number(sm.t_end),
-                            sm.clogs ? Cell::count(*sm.clogs) : Cell::number(kNaN)};
+      std::vector<Cell> row{r.record->run_id, PointName(c, p), Cell::Count(r.record->replica), sm.engine,
+                            sm.end_reason, Cell::Count(sm.bodies), Cell::Count(sm.exited), Cell::Number(sm.t_end),
+                            sm.clogs ? Cell::Count(*sm.clogs) : Cell::Number(kNaN)};
       for (const auto& [name, title] : columns) {
         const Metric* m = nullptr;
         for (const auto& metrics : by_run[u])
           if (const auto it = metrics.find(name); it != metrics.end()) m = &it->second;
         if (!m) {
-          row.push_back(Cell::number(kNaN));
+          row.push_back(Cell::Number(kNaN));
         } else if (std::isfinite(m->se)) {
-          row.push_back(Cell::estimate(m->value, m->se, -1));
+          row.push_back(Cell::Estimate(m->value, m->se, -1));
         } else {
-          row.push_back(Cell::number(m->value));
+          row.push_back(Cell::Number(m->value));
         }
       }
       std::vector<std::string> notes;
@@ -403,51 +403,51 @@ std::optional<Section> per_run_section(const CampaignAnalysis& ca) {
 
 }  // namespace
 
-void check_report_spec(const nlohmann::json& campaign_spec) {
-  CampaignAxes::of_campaign_spec(campaign_spec);
-  setup_analyses(campaign_spec);
-  read_expectations(campaign_spec, read_figure_specs(campaign_spec));
+void CheckReportSpec(const nlohmann::json& campaign_spec) {
+  CampaignAxes::OfCampaignSpec(campaign_spec);
+  SetupAnalyses(campaign_spec);
+  ReadExpectations(campaign_spec, ReadFigureSpecs(campaign_spec));
 }
 
-ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
+ReportSummary WriteReport(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
                            const ReportOptions& options) {
   if (options.out_dir.empty()) throw std::invalid_argument("write_report: ReportOptions::out_dir is empty");
-  const AnalysisSetup setup = setup_analyses(campaign.spec);
-  const std::unique_ptr<CampaignAnalysis> analysis = analyse_campaign(campaign, runs, setup, options.analysis);
-  return write_report(*analysis, options);
+  const AnalysisSetup setup = SetupAnalyses(campaign.spec);
+  const std::unique_ptr<CampaignAnalysis> analysis = AnalyseCampaign(campaign, runs, setup, options.analysis);
+  return WriteReport(*analysis, options);
 }
 
-ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& options) {
+ReportSummary WriteReport(const CampaignAnalysis& ca, const ReportOptions& options) {
   if (options.out_dir.empty()) throw std::invalid_argument("write_report: ReportOptions::out_dir is empty");
   const CampaignView& c = ca.view;
   // Key results (the reproduction table), the spec's figures, each analysis' section, the
   // engine comparison; then what was simulated, the runs, provenance, per-run tables and the
   // gallery of every point.
-  const std::unique_ptr<Reproduction> reproduction = reproduce(ca);
+  const std::unique_ptr<Reproduction> reproduction = Reproduce(ca);
   for (FigureOutcome& f : reproduction->figures)
-    if (f.spec->kind == "pictures") add_figure_pictures(c, f, options);
+    if (f.spec->kind == "pictures") AddFigurePictures(c, f, options);
   std::vector<Section> sections;
-  if (auto s = key_results_section(reproduction->results)) sections.push_back(std::move(*s));
-  if (auto s = figures_section(reproduction->figures)) sections.push_back(std::move(*s));
+  if (auto s = KeyResultsSection(reproduction->results)) sections.push_back(std::move(*s));
+  if (auto s = FiguresSection(reproduction->figures)) sections.push_back(std::move(*s));
   for (std::size_t a = 0; a < ca.setup->analyses.size(); ++a) {
     const SectionInput input{c, ca.results[a], ca.point_metrics[a], ca.setup->pass, options.out_dir, options.draw_clog};
-    if (auto s = ca.setup->analyses[a]->section(input)) sections.push_back(std::move(*s));
+    if (auto s = ca.setup->analyses[a]->BuildSection(input)) sections.push_back(std::move(*s));
   }
   std::vector<std::vector<PointMetric>> all;
-  for (std::size_t p = 0; p < c.points.size(); ++p) all.push_back(ca.all_point_metrics(p));
-  const std::optional<EngineComparison> comparison = engine_comparison_of(c, all);
+  for (std::size_t p = 0; p < c.points.size(); ++p) all.push_back(ca.AllPointMetrics(p));
+  const std::optional<EngineComparison> comparison = EngineComparisonOf(c, all);
   if (comparison)
-    if (auto s = engine_comparison_section(c, *comparison)) sections.push_back(std::move(*s));
-  if (auto s = system_section(c)) sections.push_back(std::move(*s));
-  if (auto s = replicas_section(ca)) sections.push_back(std::move(*s));
-  if (auto s = runs_section(c)) sections.push_back(std::move(*s));
-  if (auto s = provenance_section(c)) sections.push_back(std::move(*s));
-  if (auto s = per_run_section(ca)) sections.push_back(std::move(*s));
-  if (auto s = gallery_section(c, options)) sections.push_back(std::move(*s));
+    if (auto s = EngineComparisonSection(c, *comparison)) sections.push_back(std::move(*s));
+  if (auto s = SystemSection(c)) sections.push_back(std::move(*s));
+  if (auto s = ReplicasSection(ca)) sections.push_back(std::move(*s));
+  if (auto s = RunsSection(c)) sections.push_back(std::move(*s));
+  if (auto s = ProvenanceSection(c)) sections.push_back(std::move(*s));
+  if (auto s = PerRunSection(ca)) sections.push_back(std::move(*s));
+  if (auto s = GallerySection(c, options)) sections.push_back(std::move(*s));
   RenderOptions render;
   render.figures = options.figures;
   render.gnuplot = options.gnuplot;
-  const RenderResult r = render_report("Granary report: " + c.campaign->name, sections, options.out_dir, render);
+  const RenderResult r = RenderReport("Granary report: " + c.campaign->name, sections, options.out_dir, render);
   ReportSummary summary;
   summary.runs_used = static_cast<int>(c.used.size());
   summary.runs_missing = static_cast<int>(c.missing.size());
@@ -460,7 +460,7 @@ ReportSummary write_report(const CampaignAnalysis& ca, const ReportOptions& opti
   summary.markdown = r.markdown;
   summary.html = r.html;
   if (comparison) summary.comparison = to_json(*comparison);
-  if (!reproduction->results.empty()) summary.expectations = to_string(count(reproduction->results));
+  if (!reproduction->results.empty()) summary.expectations = ToString(Count(reproduction->results));
   return summary;
 }
 

@@ -43,17 +43,17 @@ struct ReportSummary {
   int results_computed = 0;
   std::filesystem::path markdown;
   std::filesystem::path html;
-  nlohmann::json comparison;      // runs on two engines: analysis::to_json(EngineComparison), else null
+  nlohmann::json comparison;      // runs on two engines: analysis::ToJson(EngineComparison), else null
   std::string expectations;       // the spec has /expect: "7 agree, 1 disagrees, 3 not yet"; else ""
 };
 
 // Checks the campaign spec's /report object (throws OptionError naming the JSON path).
-void check_report_spec(const nlohmann::json& campaign_spec);
+void CheckReportSpec(const nlohmann::json& campaign_spec);
 
 // Analyses every finished run (setup from campaign.spec's /report) and writes the report.
-ReportSummary write_report(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
+ReportSummary WriteReport(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
                            const ReportOptions& options);
 // The report of an analysed campaign.
-ReportSummary write_report(const CampaignAnalysis& analysis, const ReportOptions& options);
+ReportSummary WriteReport(const CampaignAnalysis& analysis, const ReportOptions& options);
 
 }  // namespace granary::analysis

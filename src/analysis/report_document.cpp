@@ -18,7 +18,7 @@ namespace granary::analysis {
 
 namespace fs = std::filesystem;
 
-std::string format_number(double v, int significant) {
+std::string FormatNumber(double v, int significant) {
   if (!std::isfinite(v)) return "";
   if (v == std::floor(v) && std::abs(v) < 1e9) {
     char buf[32];
@@ -30,15 +30,15 @@ std::string format_number(double v, int significant) {
   return buf;
 }
 
-std::string format_mean_se(double mean, double se, int n, int significant) {
+std::string FormatMeanSe(double mean, double se, int n, int significant) {
   if (!std::isfinite(mean)) return "";
   if (std::isfinite(se) && std::abs(mean) < 1e-9 * se) mean = 0.0;  // rounding noise of an exact zero
-  std::string s = format_number(mean, significant);
-  if (std::isfinite(se)) s += " ± " + format_number(se, 2);
+  std::string s = FormatNumber(mean, significant);
+  if (std::isfinite(se)) s += " ± " + FormatNumber(se, 2);
   return n < 0 ? s : s + " (" + std::to_string(n) + ")";
 }
 
-Cell Cell::number(double value, int digits) {
+Cell Cell::Number(double value, int digits) {
   Cell c;
   c.kind = Kind::kNumber;
   c.value = value;
@@ -46,9 +46,9 @@ Cell Cell::number(double value, int digits) {
   return c;
 }
 
-Cell Cell::count(long long value) { return number(static_cast<double>(value)); }
+Cell Cell::Count(long long value) { return Number(static_cast<double>(value)); }
 
-Cell Cell::estimate(double mean, double se, int n, int digits) {
+Cell Cell::Estimate(double mean, double se, int n, int digits) {
   Cell c;
   c.kind = Kind::kEstimate;
   c.value = mean;
@@ -58,16 +58,16 @@ Cell Cell::estimate(double mean, double se, int n, int digits) {
   return c;
 }
 
-std::string Cell::shown() const {
+std::string Cell::Shown() const {
   switch (kind) {
-    case Kind::kNumber: return format_number(value, digits);
-    case Kind::kEstimate: return format_mean_se(value, se, n, digits);
+    case Kind::kNumber: return FormatNumber(value, digits);
+    case Kind::kEstimate: return FormatMeanSe(value, se, n, digits);
     case Kind::kText: break;
   }
   return text;
 }
 
-std::string csv_number(double v) {
+std::string CsvNumber(double v) {
   if (std::isnan(v)) return "nan";
   if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
   char buf[64];
@@ -75,7 +75,7 @@ std::string csv_number(double v) {
   return ec == std::errc() ? std::string(buf, end) : std::string("nan");
 }
 
-std::vector<std::string> series_files(const Figure& f) {
+std::vector<std::string> SeriesFiles(const Figure& f) {
   std::vector<std::string> names;
   for (std::size_t k = 0; k < f.series.size(); ++k) {
     // The label as a file name: letters, digits, '.', '-' and '_' kept, runs of others -> '_'.
@@ -100,7 +100,7 @@ std::vector<std::string> series_files(const Figure& f) {
   return names;
 }
 
-std::string csv_escape(const std::string& f) {
+std::string CsvEscape(const std::string& f) {
   if (f.find_first_of(",\"\n") == std::string::npos) return f;
   std::string out = "\"";
   for (char c : f) {
@@ -110,7 +110,7 @@ std::string csv_escape(const std::string& f) {
   return out + "\"";
 }
 
-std::string html_escape(const std::string& t) {
+std::string HtmlEscape(const std::string& t) {
   std::string out;
   for (char c : t) {
     switch (c) {
@@ -128,7 +128,7 @@ namespace {
 
 constexpr double kNaNValue = std::numeric_limits<double>::quiet_NaN();
 
-void write_text(const fs::path& file, const std::string& text) {
+void WriteText(const fs::path& file, const std::string& text) {
   std::ofstream out(file);
   out << text;
   if (!out) throw std::runtime_error(file.string() + ": cannot write");
@@ -136,7 +136,7 @@ void write_text(const fs::path& file, const std::string& text) {
 
 // Numbers to full precision and missing ones as "nan" (read as NaN by numpy and pandas), so
 // that the numbers can be re-analysed; an estimate column becomes <key>, <key>_se, <key>_n.
-void write_table_csv(const fs::path& file, const Table& t) {
+void WriteTableCsv(const fs::path& file, const Table& t) {
   const std::size_t columns = t.header.size();
   std::vector<bool> estimate(columns, false), with_n(columns, false);
   for (const auto& row : t.rows)
@@ -148,8 +148,8 @@ void write_table_csv(const fs::path& file, const Table& t) {
   std::ostringstream s;
   for (std::size_t i = 0; i < columns; ++i) {
     const std::string key = i < t.keys.size() ? t.keys[i] : t.header[i];
-    s << (i ? "," : "") << csv_escape(key);
-    if (estimate[i]) s << "," << csv_escape(key + "_se") << (with_n[i] ? "," + csv_escape(key + "_n") : "");
+    s << (i ? "," : "") << CsvEscape(key);
+    if (estimate[i]) s << "," << CsvEscape(key + "_se") << (with_n[i] ? "," + CsvEscape(key + "_n") : "");
   }
   s << "\n";
   for (const auto& row : t.rows) {
@@ -159,32 +159,32 @@ void write_table_csv(const fs::path& file, const Table& t) {
       const Cell& c = i < row.size() ? row[i] : empty;
       if (estimate[i]) {
         const bool is_estimate = c.kind == Cell::Kind::kEstimate;
-        s << (c.kind == Cell::Kind::kText ? csv_escape(c.text) : csv_number(c.value)) << ","
-          << csv_number(is_estimate ? c.se : kNaNValue);
+        s << (c.kind == Cell::Kind::kText ? CsvEscape(c.text) : CsvNumber(c.value)) << ","
+          << CsvNumber(is_estimate ? c.se : kNaNValue);
         if (with_n[i]) s << "," << (is_estimate && c.n >= 0 ? std::to_string(c.n) : std::string("nan"));
       } else if (c.kind == Cell::Kind::kText) {
-        s << csv_escape(c.text);
+        s << CsvEscape(c.text);
       } else {
-        s << csv_number(c.value);
+        s << CsvNumber(c.value);
       }
     }
     s << "\n";
   }
-  write_text(file, s.str());
+  WriteText(file, s.str());
 }
 
-void write_series_csv(const fs::path& file, const Series& se) {
+void WriteSeriesCsv(const fs::path& file, const Series& se) {
   std::ostringstream s;
-  for (std::size_t i = 0; i < se.columns.size(); ++i) s << (i ? "," : "") << csv_escape(se.columns[i]);
+  for (std::size_t i = 0; i < se.columns.size(); ++i) s << (i ? "," : "") << CsvEscape(se.columns[i]);
   s << "\n";
   for (const auto& row : se.rows) {
-    for (std::size_t i = 0; i < row.size(); ++i) s << (i ? "," : "") << csv_number(row[i]);
+    for (std::size_t i = 0; i < row.size(); ++i) s << (i ? "," : "") << CsvNumber(row[i]);
     s << "\n";
   }
-  write_text(file, s.str());
+  WriteText(file, s.str());
 }
 
-bool has_finite_point(const Figure& f) {
+bool HasFinitePoint(const Figure& f) {
   for (const Series& se : f.series)
     for (const auto& row : se.rows) {
       const auto x = static_cast<std::size_t>(se.x), y = static_cast<std::size_t>(se.y);
@@ -193,7 +193,7 @@ bool has_finite_point(const Figure& f) {
   return false;
 }
 
-std::string gp_quote(const std::string& s) {
+std::string GpQuote(const std::string& s) {
   std::string out = "'";
   for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
   return out + "'";
@@ -213,7 +213,7 @@ constexpr int kPointTypes[] = {7, 5, 9, 13, 11, 15};
 struct Range {
   double lo = std::numeric_limits<double>::infinity(), hi = -std::numeric_limits<double>::infinity();
   double lowest_value = std::numeric_limits<double>::infinity();  // of the values alone (no error bars)
-  void add(double v, double err, bool log) {
+  void Add(double v, double err, bool log) {
     if (!std::isfinite(v) || (log && v <= 0)) return;
     lowest_value = std::min(lowest_value, v);
     const double e = std::isfinite(err) ? std::abs(err) : 0.0;
@@ -225,7 +225,7 @@ struct Range {
 
 // "[lo:hi]" that holds the range with a margin; a quantity whose values are all >= 0 does not
 // get a negative axis for its error bars' sake. Log axes get a factor as margin.
-std::string range_text(const Range& r, bool log) {
+std::string RangeText(const Range& r, bool log) {
   double lo = r.lo, hi = r.hi;
   if (log) {
     const double f = hi > lo ? std::pow(hi / lo, 0.05) : 2.0;
@@ -237,16 +237,16 @@ std::string range_text(const Range& r, bool log) {
     lo = r.lowest_value >= 0 ? std::max(0.0, lo - pad) : lo - pad;
     hi += pad;
   }
-  return "[" + csv_number(lo) + ":" + csv_number(hi) + "]";
+  return "[" + CsvNumber(lo) + ":" + CsvNumber(hi) + "]";
 }
 
-double cell(const std::vector<double>& row, int col) {
+double FormatCell(const std::vector<double>& row, int col) {
   return col >= 0 && col < static_cast<int>(row.size()) ? row[static_cast<std::size_t>(col)] : kNaNValue;
 }
 
 }  // namespace
 
-KeyLayout key_layout(const Figure& f) {
+KeyLayout ComputeKeyLayout(const Figure& f) {
   // Gnuplot's svg terminal sizes a key entry as its title's characters at 0.7 font sizes each
   // plus the sample line: at 13 pt, 9.1 px a character and about 8 characters more (measured:
   // titles of 30 characters go in two columns on 800 px, of 36 in one).
@@ -263,16 +263,16 @@ KeyLayout key_layout(const Figure& f) {
   return k;
 }
 
-std::string gnuplot_script(const Figure& f) {
+std::string GnuplotScript(const Figure& f) {
   std::ostringstream s;
-  const std::vector<std::string> files = series_files(f);
-  const KeyLayout key = key_layout(f);
+  const std::vector<std::string> files = SeriesFiles(f);
+  const KeyLayout key = ComputeKeyLayout(f);
   s << "set terminal svg size " << key.width << "," << key.height << " font 'Helvetica,13' background rgb 'white'\n"
-    << "set output " << gp_quote(std::string(kFiguresDir) + "/" + f.name + ".svg") << "\n"
+    << "set output " << GpQuote(std::string(kFiguresDir) + "/" + f.name + ".svg") << "\n"
     << "set datafile separator ','\n"
-    << "set title " << gp_quote(f.title) << " noenhanced\n"
-    << "set xlabel " << gp_quote(f.xlabel) << " noenhanced\n"
-    << "set ylabel " << gp_quote(f.ylabel) << " noenhanced\n"
+    << "set title " << GpQuote(f.title) << " noenhanced\n"
+    << "set xlabel " << GpQuote(f.xlabel) << " noenhanced\n"
+    << "set ylabel " << GpQuote(f.ylabel) << " noenhanced\n"
     << "set grid\nset key below maxcols " << key.columns << " noenhanced\n";
   for (int k = 0; k < 2 * kPaletteSize; ++k)
     s << "set linetype " << k + 1 << " lc rgb '" << kPalette[k % kPaletteSize] << "' lw 1.5 pt "
@@ -284,14 +284,14 @@ std::string gnuplot_script(const Figure& f) {
   for (const Series& se : f.series) {
     if (se.role == Series::Role::kFit) continue;
     for (const auto& row : se.rows) {
-      if (!std::isfinite(cell(row, se.x)) || !std::isfinite(cell(row, se.y))) continue;
-      xr.add(cell(row, se.x), kNaNValue, f.logx);
+      if (!std::isfinite(FormatCell(row, se.x)) || !std::isfinite(FormatCell(row, se.y))) continue;
+      xr.Add(FormatCell(row, se.x), kNaNValue, f.logx);
       const bool bars = se.err >= 0 && (se.style == Series::Style::kErrorBars || se.style == Series::Style::kLinesPoints);
-      yr.add(cell(row, se.y), bars ? cell(row, se.err) : kNaNValue, f.logy);
+      yr.Add(FormatCell(row, se.y), bars ? FormatCell(row, se.err) : kNaNValue, f.logy);
     }
   }
-  if (!xr.empty()) s << "set xrange " << range_text(xr, f.logx) << "\n";
-  if (!yr.empty()) s << "set yrange " << range_text(yr, f.logy) << "\n";
+  if (!xr.empty()) s << "set xrange " << RangeText(xr, f.logx) << "\n";
+  if (!yr.empty()) s << "set yrange " << RangeText(yr, f.logy) << "\n";
   // Every point at its true x: curves that share an x tell apart by colour and marker shape,
   // never by a shifted coordinate (a shift reads as another x and left the outermost points
   // outside the range).
@@ -301,7 +301,7 @@ std::string gnuplot_script(const Figure& f) {
     const Series& se = f.series[k];
     const std::string x = "($" + std::to_string(se.x + 1) + ")";
     const std::string y = "($" + std::to_string(se.y + 1) + ")";
-    s << (k ? ", \\\n     " : "") << gp_quote(std::string(kDataDir) + "/" + files[k]) << " skip 1 using " << x << ":"
+    s << (k ? ", \\\n     " : "") << GpQuote(std::string(kDataDir) + "/" + files[k]) << " skip 1 using " << x << ":"
       << y;
     // An unknown se (nan in the CSV) is no bar: gnuplot reads "nan" as an invalid column,
     // which `$n == $n` alone does not catch (it drew the bar's caps at the axis).
@@ -328,12 +328,12 @@ std::string gnuplot_script(const Figure& f) {
     }
     const bool line = se.style == Series::Style::kLines || se.style == Series::Style::kSteps;
     s << " lw " << (se.role == Series::Role::kReference ? "1.5" : line ? "2" : "1.5");
-    s << " title " << gp_quote(se.label);
+    s << " title " << GpQuote(se.label);
     // The end of a measured curve gets a point of its colour, so that a short curve hidden
     // under longer ones (a stream that clogged at once) is still seen, and where it ends.
     if (se.role == Series::Role::kData && line && !se.rows.empty() && se.style == Series::Style::kLines) {
       const std::size_t last = se.rows.size() - 1;
-      s << ", \\\n     " << gp_quote(std::string(kDataDir) + "/" + files[k]) << " skip 1 every ::" << last << "::" << last
+      s << ", \\\n     " << GpQuote(std::string(kDataDir) + "/" + files[k]) << " skip 1 every ::" << last << "::" << last
         << " using " << x << ":" << y << " with points ps 0.8 lt " << (se.color >= 0 ? se.color : next_colour - 1) % (2 * kPaletteSize) + 1
         << " notitle";
     }
@@ -345,7 +345,7 @@ std::string gnuplot_script(const Figure& f) {
 namespace {
 
 // SVG for inlining: no XML prolog, ids made unique per figure so several SVGs share a page.
-std::string inline_svg(const std::string& svg, const std::string& prefix) {
+std::string InlineSvg(const std::string& svg, const std::string& prefix) {
   std::string s = svg;
   const auto start = s.find("<svg");
   if (start != std::string::npos) s = s.substr(start);
@@ -358,21 +358,21 @@ std::string inline_svg(const std::string& svg, const std::string& prefix) {
 }
 
 // POSIX shell single quoting: ' -> '\''.
-std::string shell_quote(const std::string& s) {
+std::string ShellQuote(const std::string& s) {
   std::string out = "'";
   for (char ch : s) out += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
   return out + "'";
 }
 
-bool have_gnuplot(const std::string& exe) {
-  const std::string cmd = "command -v " + shell_quote(exe) + " > /dev/null 2>&1";
+bool HaveGnuplot(const std::string& exe) {
+  const std::string cmd = "command -v " + ShellQuote(exe) + " > /dev/null 2>&1";
   return std::system(cmd.c_str()) == 0;
 }
 
 // Runs gnuplot in the report directory; returns "" or the problem.
-std::string run_gnuplot(const std::string& exe, const fs::path& dir, const std::string& script) {
-  const std::string cmd = "cd " + shell_quote(dir.string()) + " && " + shell_quote(exe) + " " + shell_quote(script) +
-                          " > " + shell_quote(script + ".log") + " 2>&1";
+std::string RunGnuplot(const std::string& exe, const fs::path& dir, const std::string& script) {
+  const std::string cmd = "cd " + ShellQuote(dir.string()) + " && " + ShellQuote(exe) + " " + ShellQuote(script) +
+                          " > " + ShellQuote(script + ".log") + " 2>&1";
   const int rc = std::system(cmd.c_str());
   if (rc == 0) {
     std::error_code ec;
@@ -386,14 +386,14 @@ std::string run_gnuplot(const std::string& exe, const fs::path& dir, const std::
   return "";
 }
 
-std::string read_text(const fs::path& file) {
+std::string ReadText(const fs::path& file) {
   std::ifstream in(file);
   return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
 // Inline markup of Text: `code` and **bold** only.
-std::string html_inline(const std::string& text) {
-  std::string e = html_escape(text);
+std::string HtmlInline(const std::string& text) {
+  std::string e = HtmlEscape(text);
   e = std::regex_replace(e, std::regex("\\*\\*([^*]+)\\*\\*"), "<b>$1</b>");
   e = std::regex_replace(e, std::regex("`([^`]+)`"), "<code>$1</code>");
   // Links within the report only: an anchor or a file beside report.html (relative, so the
@@ -404,13 +404,13 @@ std::string html_inline(const std::string& text) {
 }
 
 // A link to a file next to report.html (relative: the report folder can be moved or mailed).
-std::string local_link(const std::string& file) {
-  const std::string f = html_escape(file);
+std::string LocalLink(const std::string& file) {
+  const std::string f = HtmlEscape(file);
   return std::string("<a href=\"").append(f).append("\">").append(f).append("</a>");
 }
 
 // Numbers (and "mean ± se (n)") align right, words left.
-bool looks_numeric(const Cell& cell) {
+bool LooksNumeric(const Cell& cell) {
   if (cell.kind != Cell::Kind::kText) return true;
   const std::string& c = cell.text;
   if (c.empty()) return true;
@@ -418,7 +418,7 @@ bool looks_numeric(const Cell& cell) {
   return std::isdigit(static_cast<unsigned char>(first)) || ((first == '-' || first == '.' || first == '[') && c.size() > 1);
 }
 
-std::string md_cell(const std::string& s) {
+std::string MdCell(const std::string& s) {
   std::string out;
   for (char c : s) out += c == '|' ? std::string("\\|") : c == '\n' ? std::string(" ") : std::string(1, c);
   return out;
@@ -438,7 +438,7 @@ const char* kCss =
     ".pics{display:flex;flex-wrap:wrap;gap:1em;align-items:flex-end}.pics figure{margin:0}.pics img{width:320px;border:1px solid #ddd}";
 
 // RFC 4648 base64, for the pictures' data URIs.
-std::string base64(const std::string& bytes) {
+std::string Base64(const std::string& bytes) {
   static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
   out.reserve((bytes.size() + 2) / 3 * 4);
@@ -460,14 +460,14 @@ std::string base64(const std::string& bytes) {
 
 // A table cell in HTML: escaped, and a "name = value" pair (a point name's "W = 12") held on
 // one line with no-break spaces, so a narrow column breaks only between the pairs.
-std::string html_cell_text(const std::string& text) {
-  std::string out = html_escape(text);
+std::string HtmlCellText(const std::string& text) {
+  std::string out = HtmlEscape(text);
   for (std::size_t at = out.find(" = "); at != std::string::npos; at = out.find(" = ", at))
     out.replace(at, 3, "&#160;=&#160;");
   return out;
 }
 
-std::string panel_file(const MapFigure& f, std::size_t k, const char* layer) {
+std::string PanelFile(const MapFigure& f, std::size_t k, const char* layer) {
   std::string file = std::string(kDataDir) + "/" + f.name + "-" + std::to_string(k + 1);
   if (layer[0] != '\0') file.append("-").append(layer);
   return file.append(".csv");
@@ -475,7 +475,7 @@ std::string panel_file(const MapFigure& f, std::size_t k, const char* layer) {
 
 // The colour range of a map: the figure's, or the panels' finite range (symmetric about 0
 // for a diverging field), widened when flat.
-std::pair<double, double> map_range(const MapFigure& f) {
+std::pair<double, double> MapRange(const MapFigure& f) {
   double lo = f.c_lo, hi = f.c_hi;
   if (!std::isfinite(lo) || !std::isfinite(hi)) {
     lo = std::numeric_limits<double>::infinity();
@@ -502,14 +502,14 @@ std::pair<double, double> map_range(const MapFigure& f) {
 
 // Writes the CSV layers of every panel; returns the gnuplot script.
 // A tic step of about a quarter of `range`: 1, 2 or 5 times a power of ten.
-double tic_step(double range) {
+double TicStep(double range) {
   const double raw = std::max(1e-9, range / 4.0), decade = std::pow(10.0, std::floor(std::log10(raw)));
   for (double m : {1.0, 2.0, 5.0})
     if (m * decade >= raw) return m * decade;
   return 10.0 * decade;
 }
 
-std::string map_script(const MapFigure& f, const fs::path& dir) {
+std::string MapScript(const MapFigure& f, const fs::path& dir) {
   // Panels in rows of up to four (three for 5, 6 or 9 panels), each about 330 px wide; the
   // colour bar, the same for every panel, beside the last panel of each row.
   const std::size_t n = std::max<std::size_t>(1, f.panels.size());
@@ -519,21 +519,21 @@ std::string map_script(const MapFigure& f, const fs::path& dir) {
   const int width = static_cast<int>(cols) * panel_w + 90;
   const int panel_h = std::clamp(static_cast<int>((panel_w - 90) * aspect) + 80, 160, 1100);
   const int height = static_cast<int>(rows) * panel_h + 40;
-  const auto [lo, hi] = map_range(f);
+  const auto [lo, hi] = MapRange(f);
   double max_weight = 0.0;
   for (const MapPanel& p : f.panels)
     for (const auto& s : p.segments) max_weight = std::max(max_weight, s[4]);
   std::ostringstream s;
   s << "set terminal svg size " << width << "," << height << " font 'Helvetica,10' background rgb 'white'\n"
-    << "set output " << gp_quote(std::string(kFiguresDir) + "/" + f.name + ".svg") << "\n"
+    << "set output " << GpQuote(std::string(kFiguresDir) + "/" + f.name + ".svg") << "\n"
     << "set datafile separator ','\n"
-    << "set multiplot title " << gp_quote(f.title) << " noenhanced\n"
-    << "set size ratio -1\nset xrange [" << csv_number(f.x_lo) << ":" << csv_number(f.x_hi) << "]\n"
-    << "set yrange [" << csv_number(f.y_lo) << ":" << csv_number(f.y_hi) << "]\n"
-    << "set xtics " << csv_number(tic_step(f.x_hi - f.x_lo)) << "\nset ytics " << csv_number(tic_step(f.y_hi - f.y_lo))
+    << "set multiplot title " << GpQuote(f.title) << " noenhanced\n"
+    << "set size ratio -1\nset xrange [" << CsvNumber(f.x_lo) << ":" << CsvNumber(f.x_hi) << "]\n"
+    << "set yrange [" << CsvNumber(f.y_lo) << ":" << CsvNumber(f.y_hi) << "]\n"
+    << "set xtics " << CsvNumber(TicStep(f.x_hi - f.x_lo)) << "\nset ytics " << CsvNumber(TicStep(f.y_hi - f.y_lo))
     << "\nset format cb '%g'\nset xlabel 'x/d'\nset ylabel 'y/d'\nset tics out nomirror\n"
-    << "set cbrange [" << csv_number(lo) << ":" << csv_number(hi) << "]\n"
-    << "set cblabel " << gp_quote(f.value_name) << " noenhanced\n";
+    << "set cbrange [" << CsvNumber(lo) << ":" << CsvNumber(hi) << "]\n"
+    << "set cblabel " << GpQuote(f.value_name) << " noenhanced\n";
   if (f.diverging)
     s << "set palette defined (0 '#2166ac', 0.25 '#67a9cf', 0.5 '#f7f7f7', 0.75 '#ef8a62', 1 '#b2182b')\n";
   else
@@ -544,64 +544,64 @@ std::string map_script(const MapFigure& f, const fs::path& dir) {
     const MapPanel& p = f.panels[k];
     {
       std::ostringstream csv;
-      csv << "x,y," << csv_escape(f.value_key) << ",n_frames\n";
+      csv << "x,y," << CsvEscape(f.value_key) << ",n_frames\n";
       for (const auto& r : p.grid)
-        csv << csv_number(r[0]) << "," << csv_number(r[1]) << "," << csv_number(r[2]) << "," << csv_number(r[3]) << "\n";
-      write_text(dir / panel_file(f, k, ""), csv.str());
+        csv << CsvNumber(r[0]) << "," << CsvNumber(r[1]) << "," << CsvNumber(r[2]) << "," << CsvNumber(r[3]) << "\n";
+      WriteText(dir / PanelFile(f, k, ""), csv.str());
     }
     std::vector<std::string> layers;
     bool any_value = false;
     for (const auto& r : p.grid) any_value = any_value || std::isfinite(r[2]);
-    if (any_value) layers.push_back(gp_quote(panel_file(f, k, "")) + " skip 1 using 1:2:3 with image notitle");
+    if (any_value) layers.push_back(GpQuote(PanelFile(f, k, "")) + " skip 1 using 1:2:3 with image notitle");
     if (!p.segments.empty() && max_weight > 0.0) {
       std::ostringstream csv;
       csv << "x1,y1,x2,y2,weight\n";
       for (const auto& g : p.segments)
-        csv << csv_number(g[0]) << "," << csv_number(g[1]) << "," << csv_number(g[2]) << "," << csv_number(g[3]) << ","
-            << csv_number(g[4]) << "\n";
-      write_text(dir / panel_file(f, k, "segments"), csv.str());
+        csv << CsvNumber(g[0]) << "," << CsvNumber(g[1]) << "," << CsvNumber(g[2]) << "," << CsvNumber(g[3]) << ","
+            << CsvNumber(g[4]) << "\n";
+      WriteText(dir / PanelFile(f, k, "segments"), csv.str());
       // gnuplot 5.4 has no variable width for vectors: six classes of width.
       constexpr int kClasses = 6;
       for (int c = 1; c <= kClasses; ++c) {
         const double a = max_weight * (c - 1) / kClasses, b = c == kClasses ? 2.0 * max_weight : max_weight * c / kClasses;
-        layers.push_back(gp_quote(panel_file(f, k, "segments")) + " skip 1 using 1:2:(($5 >= " + csv_number(a) +
-                         " && $5 < " + csv_number(b) + ") ? $3 - $1 : 1/0):($4 - $2) with vectors nohead lw " +
-                         csv_number(0.5 * c) + " lc rgb '#202020' notitle");
+        layers.push_back(GpQuote(PanelFile(f, k, "segments")) + " skip 1 using 1:2:(($5 >= " + CsvNumber(a) +
+                         " && $5 < " + CsvNumber(b) + ") ? $3 - $1 : 1/0):($4 - $2) with vectors nohead lw " +
+                         CsvNumber(0.5 * c) + " lc rgb '#202020' notitle");
       }
     }
     if (!p.arrows.empty()) {
       std::ostringstream csv;
       csv << "x,y,dx,dy\n";
       for (const auto& g : p.arrows)
-        csv << csv_number(g[0]) << "," << csv_number(g[1]) << "," << csv_number(g[2]) << "," << csv_number(g[3]) << "\n";
-      write_text(dir / panel_file(f, k, "arrows"), csv.str());
-      layers.push_back(gp_quote(panel_file(f, k, "arrows")) +
+        csv << CsvNumber(g[0]) << "," << CsvNumber(g[1]) << "," << CsvNumber(g[2]) << "," << CsvNumber(g[3]) << "\n";
+      WriteText(dir / PanelFile(f, k, "arrows"), csv.str());
+      layers.push_back(GpQuote(PanelFile(f, k, "arrows")) +
                        " skip 1 using 1:2:3:4 with vectors head size screen 0.006,20 filled lw 1 lc rgb '#101010' notitle");
     }
     if (!p.lines.empty()) {
       std::ostringstream csv;
       csv << "x,y\n";
       for (const auto& line : p.lines) {
-        for (const auto& pt : line) csv << csv_number(pt[0]) << "," << csv_number(pt[1]) << "\n";
+        for (const auto& pt : line) csv << CsvNumber(pt[0]) << "," << CsvNumber(pt[1]) << "\n";
         csv << "\n";
       }
-      write_text(dir / panel_file(f, k, "walls"), csv.str());
-      layers.push_back(gp_quote(panel_file(f, k, "walls")) + " skip 1 using 1:2 with lines lw 2.5 lc rgb 'black' notitle");
+      WriteText(dir / PanelFile(f, k, "walls"), csv.str());
+      layers.push_back(GpQuote(PanelFile(f, k, "walls")) + " skip 1 using 1:2 with lines lw 2.5 lc rgb 'black' notitle");
     }
     if (!p.circles.empty()) {
       std::ostringstream csv;
       csv << "x,y,r\n";
-      for (const auto& c : p.circles) csv << csv_number(c[0]) << "," << csv_number(c[1]) << "," << csv_number(c[2]) << "\n";
-      write_text(dir / panel_file(f, k, "obstacles"), csv.str());
-      layers.push_back(gp_quote(panel_file(f, k, "obstacles")) +
+      for (const auto& c : p.circles) csv << CsvNumber(c[0]) << "," << CsvNumber(c[1]) << "," << CsvNumber(c[2]) << "\n";
+      WriteText(dir / PanelFile(f, k, "obstacles"), csv.str());
+      layers.push_back(GpQuote(PanelFile(f, k, "obstacles")) +
                        " skip 1 using 1:2:3 with circles fill solid 1.0 lc rgb '#808080' notitle");
     }
     const double row = static_cast<double>(k / cols), col = static_cast<double>(k % cols);
     const bool last_in_row = k % cols + 1 == cols || k + 1 == f.panels.size();
-    s << "set origin " << csv_number(col * cell_w) << "," << csv_number(1.0 - 40.0 / height - (row + 1) * cell_h) << "\n"
-      << "set size ratio -1 " << csv_number(last_in_row ? cell_w + 90.0 / width : cell_w) << "," << csv_number(cell_h) << "\n"
+    s << "set origin " << CsvNumber(col * cell_w) << "," << CsvNumber(1.0 - 40.0 / height - (row + 1) * cell_h) << "\n"
+      << "set size ratio -1 " << CsvNumber(last_in_row ? cell_w + 90.0 / width : cell_w) << "," << CsvNumber(cell_h) << "\n"
       << (last_in_row ? "set colorbox\n" : "unset colorbox\n");
-    s << "set title " << gp_quote(p.title) << " noenhanced\n";
+    s << "set title " << GpQuote(p.title) << " noenhanced\n";
     if (layers.empty()) {
       s << "set label 1 'no data' at graph 0.5, graph 0.5 center\nplot 1/0 notitle\nunset label 1\n";
       continue;
@@ -616,12 +616,12 @@ std::string map_script(const MapFigure& f, const fs::path& dir) {
 
 }  // namespace
 
-RenderResult render_report(const std::string& title, const std::vector<Section>& sections, const fs::path& out_dir,
+RenderResult RenderReport(const std::string& title, const std::vector<Section>& sections, const fs::path& out_dir,
                            const RenderOptions& options) {
   fs::create_directories(out_dir / kDataDir);
   RenderResult result;
   bool figures = options.figures;
-  if (figures && !have_gnuplot(options.gnuplot)) {
+  if (figures && !HaveGnuplot(options.gnuplot)) {
     figures = false;
     result.problems.push_back("gnuplot ('" + options.gnuplot +
                               "') was not found: figures are omitted; every figure's numbers are in its CSV files");
@@ -630,23 +630,23 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
   }
   std::ostringstream md, html;
   md << "# " << title << "\n\n";
-  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << html_escape(title)
-       << "</title><style>" << kCss << "</style></head><body>\n<h1>" << html_escape(title) << "</h1>\n<nav>";
-  for (const auto& s : sections) html << "<a href=\"#" << s.id << "\">" << html_escape(s.title) << "</a>";
+  html << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>" << HtmlEscape(title)
+       << "</title><style>" << kCss << "</style></head><body>\n<h1>" << HtmlEscape(title) << "</h1>\n<nav>";
+  for (const auto& s : sections) html << "<a href=\"#" << s.id << "\">" << HtmlEscape(s.title) << "</a>";
   html << "</nav>\n";
   // Problems are known only after drawing; collect the body first.
   std::ostringstream md_body, html_body;
   int figure_no = 0;
   for (const auto& sec : sections) {
     md_body << "## " << sec.title << "\n\n";
-    html_body << "<h2 id=\"" << sec.id << "\">" << html_escape(sec.title) << "</h2>\n";
+    html_body << "<h2 id=\"" << sec.id << "\">" << HtmlEscape(sec.title) << "</h2>\n";
     for (const auto& block : sec.blocks) {
       if (const auto* t = std::get_if<Text>(&block)) {
         md_body << t->markdown << "\n\n";
         std::istringstream paragraphs(t->markdown);
         std::string line, para;
         auto flush = [&]() {
-          if (!para.empty()) html_body << "<p>" << html_inline(para) << "</p>\n";
+          if (!para.empty()) html_body << "<p>" << HtmlInline(para) << "</p>\n";
           para.clear();
         };
         while (std::getline(paragraphs, line)) {
@@ -659,30 +659,30 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         flush();
       } else if (const auto* code = std::get_if<Code>(&block)) {
         md_body << "```\n" << code->text << "\n```\n\n";
-        html_body << "<pre>" << html_escape(code->text) << "</pre>\n";
+        html_body << "<pre>" << HtmlEscape(code->text) << "</pre>\n";
       } else if (const auto* tb = std::get_if<Table>(&block)) {
         const std::string csv = std::string(kDataDir) + "/" + tb->name + ".csv";
-        write_table_csv(out_dir / csv, *tb);
+        WriteTableCsv(out_dir / csv, *tb);
         if (!tb->caption.empty()) md_body << "**" << tb->caption << "** ([" << csv << "](" << csv << "))\n\n";
         md_body << "|";
-        for (const auto& h : tb->header) md_body << " " << md_cell(h) << " |";
+        for (const auto& h : tb->header) md_body << " " << MdCell(h) << " |";
         md_body << "\n|";
         for (std::size_t i = 0; i < tb->header.size(); ++i) md_body << (i ? " ---: |" : " --- |");
         md_body << "\n";
         for (const auto& row : tb->rows) {
           md_body << "|";
-          for (const auto& c : row) md_body << " " << md_cell(c.shown()) << " |";
+          for (const auto& c : row) md_body << " " << MdCell(c.Shown()) << " |";
           md_body << "\n";
         }
         md_body << "\n";
-        html_body << (tb->header.size() > 10 ? "<table class=\"wide\"><caption>" : "<table><caption>") << html_escape(tb->caption) << " <span class=\"csv\">(" << local_link(csv)
+        html_body << (tb->header.size() > 10 ? "<table class=\"wide\"><caption>" : "<table><caption>") << HtmlEscape(tb->caption) << " <span class=\"csv\">(" << LocalLink(csv)
                   << ")</span></caption>\n<tr>";
-        for (const auto& h : tb->header) html_body << "<th>" << html_escape(h) << "</th>";
+        for (const auto& h : tb->header) html_body << "<th>" << HtmlEscape(h) << "</th>";
         html_body << "</tr>\n";
         for (const auto& row : tb->rows) {
           html_body << "<tr>";
           for (const auto& c : row)
-            html_body << (looks_numeric(c) ? "<td>" : "<td class=\"t\">") << html_cell_text(c.shown()) << "</td>";
+            html_body << (LooksNumeric(c) ? "<td>" : "<td class=\"t\">") << HtmlCellText(c.Shown()) << "</td>";
           html_body << "</tr>\n";
         }
         html_body << "</table>\n";
@@ -690,35 +690,35 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         html_body << "<figure><div class=\"pics\">";
         for (const auto& p : pics->pictures) {
           md_body << "![" << p.caption << "](" << p.file << ") ";
-          const std::string png = read_text(out_dir / p.file);
-          html_body << "<figure><img alt=\"" << html_escape(p.caption) << "\" src=\"data:image/png;base64," << base64(png)
-                    << "\"><figcaption>" << html_inline(p.caption) << "</figcaption></figure>";
+          const std::string png = ReadText(out_dir / p.file);
+          html_body << "<figure><img alt=\"" << HtmlEscape(p.caption) << "\" src=\"data:image/png;base64," << Base64(png)
+                    << "\"><figcaption>" << HtmlInline(p.caption) << "</figcaption></figure>";
         }
         md_body << "\n\n*" << pics->caption << "*\n\n";
-        html_body << "</div><figcaption>" << html_inline(pics->caption) << "</figcaption></figure>\n";
+        html_body << "</div><figcaption>" << HtmlInline(pics->caption) << "</figcaption></figure>\n";
       } else if (const auto* f = std::get_if<Figure>(&block)) {
         ++figure_no;
         std::string csvs, csv_links;
-        const std::vector<std::string> files = series_files(*f);
+        const std::vector<std::string> files = SeriesFiles(*f);
         for (std::size_t k = 0; k < f->series.size(); ++k) {
           const std::string file = std::string(kDataDir) + "/" + files[k];
-          write_series_csv(out_dir / file, f->series[k]);
+          WriteSeriesCsv(out_dir / file, f->series[k]);
           if (k > 0) {
             csvs += ", ";
             csv_links += ", ";
           }
           csvs += file;
-          csv_links += local_link(file);
+          csv_links += LocalLink(file);
         }
         std::string svg;
-        if (figures && has_finite_point(*f)) {
+        if (figures && HasFinitePoint(*f)) {
           fs::create_directories(out_dir / kFiguresDir);
           const std::string script = std::string(kFiguresDir) + "/" + f->name + ".gp";
           const std::string svg_file = std::string(kFiguresDir) + "/" + f->name + ".svg";
-          write_text(out_dir / script, gnuplot_script(*f));
-          const std::string problem = run_gnuplot(options.gnuplot, out_dir, script);
+          WriteText(out_dir / script, GnuplotScript(*f));
+          const std::string problem = RunGnuplot(options.gnuplot, out_dir, script);
           if (problem.empty() && fs::exists(out_dir / svg_file)) {
-            svg = read_text(out_dir / svg_file);
+            svg = ReadText(out_dir / svg_file);
             ++result.figures_drawn;
           } else {
             result.problems.push_back(problem.empty() ? svg_file + " was not written" : problem);
@@ -729,21 +729,21 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
         if (!svg.empty()) md_body << "![" << f->title << "](" << kFiguresDir << "/" << f->name << ".svg)\n\n";
         md_body << "*" << caption << "* Data: " << csvs << "\n\n";
         html_body << "<figure>";
-        if (!svg.empty()) html_body << inline_svg(svg, std::string("f").append(std::to_string(figure_no)).append("_"));
-        html_body << "<figcaption>" << html_inline(caption) << " <span class=\"csv\">Data: " << csv_links
+        if (!svg.empty()) html_body << InlineSvg(svg, std::string("f").append(std::to_string(figure_no)).append("_"));
+        html_body << "<figcaption>" << HtmlInline(caption) << " <span class=\"csv\">Data: " << csv_links
                   << "</span></figcaption></figure>\n";
       } else if (const auto* m = std::get_if<MapFigure>(&block)) {
         ++figure_no;
         std::string svg;
-        const std::string script_text = map_script(*m, out_dir);  // writes the panels' CSVs
+        const std::string script_text = MapScript(*m, out_dir);  // writes the panels' CSVs
         if (figures && !m->panels.empty()) {
           fs::create_directories(out_dir / kFiguresDir);
           const std::string script = std::string(kFiguresDir) + "/" + m->name + ".gp";
           const std::string svg_file = std::string(kFiguresDir) + "/" + m->name + ".svg";
-          write_text(out_dir / script, script_text);
-          const std::string problem = run_gnuplot(options.gnuplot, out_dir, script);
+          WriteText(out_dir / script, script_text);
+          const std::string problem = RunGnuplot(options.gnuplot, out_dir, script);
           if (problem.empty() && fs::exists(out_dir / svg_file)) {
-            svg = read_text(out_dir / svg_file);
+            svg = ReadText(out_dir / svg_file);
             ++result.figures_drawn;
           } else {
             result.problems.push_back(problem.empty() ? m->name + ".svg was not written" : problem);
@@ -755,16 +755,16 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
             csvs += ", ";
             csv_links += ", ";
           }
-          csvs += panel_file(*m, k, "");
-          csv_links += local_link(panel_file(*m, k, ""));
+          csvs += PanelFile(*m, k, "");
+          csv_links += LocalLink(PanelFile(*m, k, ""));
         }
         const std::string caption = "Figure " + std::to_string(figure_no) + ": " + m->title +
                                     (m->caption.empty() ? "" : ". " + m->caption);
         if (!svg.empty()) md_body << "![" << m->title << "](" << kFiguresDir << "/" << m->name << ".svg)\n\n";
         md_body << "*" << caption << "* Data: " << csvs << "\n\n";
         html_body << "<figure>";
-        if (!svg.empty()) html_body << inline_svg(svg, std::string("f").append(std::to_string(figure_no)).append("_"));
-        html_body << "<figcaption>" << html_inline(caption) << " <span class=\"csv\">Data: " << csv_links
+        if (!svg.empty()) html_body << InlineSvg(svg, std::string("f").append(std::to_string(figure_no)).append("_"));
+        html_body << "<figcaption>" << HtmlInline(caption) << " <span class=\"csv\">Data: " << csv_links
                   << "</span></figcaption></figure>\n";
       }
     }
@@ -774,7 +774,7 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
     html << "<h2>Problems while writing this report</h2><ul>";
     for (const auto& p : result.problems) {
       md << "- " << p << "\n";
-      html << "<li>" << html_escape(p) << "</li>";
+      html << "<li>" << HtmlEscape(p) << "</li>";
     }
     md << "\n";
     html << "</ul>\n";
@@ -783,12 +783,12 @@ RenderResult render_report(const std::string& title, const std::vector<Section>&
   html << html_body.str() << "</body></html>\n";
   result.markdown = out_dir / "report.md";
   result.html = out_dir / "report.html";
-  write_text(result.markdown, md.str());
-  write_text(result.html, html.str());
+  WriteText(result.markdown, md.str());
+  WriteText(result.html, html.str());
   return result;
 }
 
-void NotDrawn::append_to(Section& s) const {
+void NotDrawn::AppendTo(Section& s) const {
   if (problems_.empty()) return;
   std::string text = "Not drawn:";
   for (const auto& problem : problems_) text += "\n\n" + problem;

@@ -30,12 +30,12 @@ struct Cell {
   Cell() = default;
   Cell(std::string t) : text(std::move(t)) {}  // NOLINT: text cells read naturally in row lists
   Cell(const char* t) : text(t) {}             // NOLINT
-  static Cell number(double value, int digits = 4);
-  static Cell count(long long value);
-  static Cell estimate(double mean, double se, int n, int digits = 4);
-  static Cell estimate(const MeanSe& m, int digits = 4) { return estimate(m.mean, m.se, m.n, digits); }
+  static Cell Number(double value, int digits = 4);
+  static Cell Count(long long value);
+  static Cell Estimate(double mean, double se, int n, int digits = 4);
+  static Cell Estimate(const MeanSe& m, int digits = 4) { return Estimate(m.mean, m.se, m.n, digits); }
   // What markdown and HTML show.
-  std::string shown() const;
+  std::string Shown() const;
 };
 
 struct Table {
@@ -144,10 +144,10 @@ struct Section {
 // few reasons, said once at the end of the section as "Not drawn: ...".
 class NotDrawn {
  public:
-  void add(std::string problem) {
+  void Add(std::string problem) {
     if (problems_.size() < kKept) problems_.push_back(std::move(problem));
   }
-  void append_to(Section& s) const;
+  void AppendTo(Section& s) const;
 
  private:
   static constexpr std::size_t kKept = 5;
@@ -167,19 +167,19 @@ struct RenderResult {
 
 // The gnuplot script that draws `figure` from its series' CSV files; run in the report folder,
 // it reads data/<curve files> and writes figures/<name>.svg.
-std::string gnuplot_script(const Figure& figure);
+std::string GnuplotScript(const Figure& figure);
 
 // Writes report.md and report.html into out_dir, every CSV into out_dir/data and (with
 // figures) every SVG into out_dir/figures.
-RenderResult render_report(const std::string& title, const std::vector<Section>& sections,
+RenderResult RenderReport(const std::string& title, const std::vector<Section>& sections,
                            const std::filesystem::path& out_dir, const RenderOptions& options);
 
 // Helpers for filling tables: numbers with a fixed number of significant digits, NaN as "".
-std::string format_number(double value, int significant = 4);
+std::string FormatNumber(double value, int significant = 4);
 // "mean ± se (n)" in markdown/html cells; se NaN -> "mean (n)"; n < 0 -> no "(n)".
-std::string format_mean_se(double mean, double se, int n, int significant = 4);
+std::string FormatMeanSe(double mean, double se, int n, int significant = 4);
 // Full precision (the shortest text that reads back as the same double); NaN as "nan".
-std::string csv_number(double value);
+std::string CsvNumber(double value);
 // A figure's canvas and its key below the plot: two columns when two of the longest title fit
 // across, else one; a title wider than 800 px widens the canvas (report.html scales the SVG to
 // the page), so the key is never cut or wrapped past the plot's edge.
@@ -187,11 +187,11 @@ struct KeyLayout {
   int width = 800, height = 440;               // SVG size, px
   int columns = 2;                             // of the key
 };
-KeyLayout key_layout(const Figure& figure);
+KeyLayout ComputeKeyLayout(const Figure& figure);
 
 // The CSV files of a figure's curves, in series order: <figure>--<label>.csv, unique.
-std::vector<std::string> series_files(const Figure& figure);
-std::string csv_escape(const std::string& field);
-std::string html_escape(const std::string& text);
+std::vector<std::string> SeriesFiles(const Figure& figure);
+std::string CsvEscape(const std::string& field);
+std::string HtmlEscape(const std::string& text);
 
 }  // namespace granary::analysis

@@ -25,16 +25,16 @@ class FrameSelector {
     done_ = request_.windows.empty();
     for (const TimeWindow& w : request_.windows) last_end_ = std::max(last_end_, w.end);
   }
-  bool done() const { return done_; }
-  bool contacts() const { return request_.contacts; }
-  bool wants(double t) {
+  bool Done() const { return done_; }
+  bool Contacts() const { return request_.contacts; }
+  bool Wants(double t) {
     if (done_) return false;
     if (t > last_end_) {
       done_ = true;
       return false;
     }
     const bool inside = std::any_of(request_.windows.begin(), request_.windows.end(),
-                                    [t](const TimeWindow& w) { return w.contains(t); });
+                                    [t](const TimeWindow& w) { return w.Contains(t); });
     if (!inside || seen_++ % stride_ != 0) return false;
     if (max_ > 0 && ++used_ >= max_) done_ = true;
     return true;
@@ -62,25 +62,25 @@ struct FrameItem {
 class FrameSource {
  public:
   FrameSource(const rundir::RunData& data, double density, std::vector<FrameSelector>& selectors)
-      : frames_(data.frames_file(), density), selectors_(selectors) {
+      : frames_(data.FramesFile(), density), selectors_(selectors) {
     bool contacts = false;
-    for (const FrameSelector& s : selectors_) contacts = contacts || (s.contacts() && !s.done());
-    if (contacts && data.has_contacts) contact_reader_.emplace(data.contacts_file());
+    for (const FrameSelector& s : selectors_) contacts = contacts || (s.Contacts() && !s.Done());
+    if (contacts && data.has_contacts) contact_reader_.emplace(data.ContactsFile());
   }
 
   // Fills `item` with the next wanted frame; false when no selector wants any more.
   bool Next(FrameItem& item) {
     for (;;) {
-      if (std::all_of(selectors_.begin(), selectors_.end(), [](const FrameSelector& s) { return s.done(); }))
+      if (std::all_of(selectors_.begin(), selectors_.end(), [](const FrameSelector& s) { return s.Done(); }))
         return false;
       if (!frames_.NextHeader(item.frame)) return false;
       item.wanted.assign(selectors_.size(), 0);
       bool any = false, contacts = false;
       for (std::size_t k = 0; k < selectors_.size(); ++k) {
-        if (!selectors_[k].wants(item.frame.time)) continue;
+        if (!selectors_[k].Wants(item.frame.time)) continue;
         item.wanted[k] = 1;
         any = true;
-        contacts = contacts || selectors_[k].contacts();
+        contacts = contacts || selectors_[k].Contacts();
       }
       if (!any) {
         if (!frames_.SkipDiscs()) return false;
@@ -93,7 +93,7 @@ class FrameSource {
       return true;
     }
   }
-  int parsed() const { return parsed_; }
+  int Parsed() const { return parsed_; }
 
  private:
   // The contact frame written at `timestep`, if there is one (contact frames come in the
@@ -133,7 +133,7 @@ class FrameSource {
 void Deliver(const FrameItem& item, const std::vector<RunAccumulator*>& accumulators) {
   const FrameView view{item.frame, item.bodies, item.has_contacts ? &item.contacts : nullptr};
   for (std::size_t k = 0; k < accumulators.size(); ++k)
-    if (item.wanted[k]) accumulators[k]->add_frame(view);
+    if (item.wanted[k]) accumulators[k]->AddFrame(view);
 }
 
 // Reading and parsing on a second thread, a few frames ahead of the analyses: the reader
@@ -204,13 +204,13 @@ int StreamWithReadAhead(FrameSource& source, const std::vector<RunAccumulator*>&
   }
   stop_reader();
   if (reader_error) std::rethrow_exception(reader_error);
-  return source.parsed();
+  return source.Parsed();
 }
 
 int Stream(FrameSource& source, const std::vector<RunAccumulator*>& accumulators) {
   FrameItem item;
   while (source.Next(item)) Deliver(item, accumulators);
-  return source.parsed();
+  return source.Parsed();
 }
 
 nlohmann::json PassJson(const PassOptions& p, const PassUse& use) {
@@ -228,11 +228,11 @@ nlohmann::json PassJson(const PassOptions& p, const PassUse& use) {
 
 }  // namespace
 
-nlohmann::json cache_key(const Analysis& a, const PassOptions& pass) {
-  return {{"analysis", a.key()}, {"version", a.version()}, {"options", a.run_options()}, {"pass", PassJson(pass, a.pass_use())}};
+nlohmann::json CacheKey(const Analysis& a, const PassOptions& pass) {
+  return {{"analysis", a.Key()}, {"version", a.Version()}, {"options", a.RunOptions()}, {"pass", PassJson(pass, a.PassOptionsUsed())}};
 }
 
-RunView make_run_view(const rundir::RunData& data, const PassOptions& pass) {
+RunView MakeRunView(const rundir::RunData& data, const PassOptions& pass) {
   RunView v;
   v.data = &data;
   v.options = &pass;
@@ -254,9 +254,9 @@ RunView make_run_view(const rundir::RunData& data, const PassOptions& pass) {
   if (!data.events.empty()) v.t_end = std::max(v.t_end, data.events.back().time);
   v.clog_gap = pass.clog_gap >= 0.0 ? pass.clog_gap : discharge.value("clog_window", 5.0);
   if (spec.is_object() && spec.contains("bodies")) v.density = spec.at("bodies").value("density", 1.0);
-  v.outlets = outlets_of(spec);
-  v.flow = flow_rate({data.events, v.remove_mode, v.bodies, v.clog_gap, -1}, pass.window);
-  const ClogSeries series = clog_series(data.events, -1, v.t_end, v.clog_gap, run_end_of(v.end_reason), v.stop_on_clog);
+  v.outlets = OutletsOf(spec);
+  v.flow = MeasureFlowRate({data.events, v.remove_mode, v.bodies, v.clog_gap, -1}, pass.window);
+  const ClogSeries series = ComputeClogSeries(data.events, -1, v.t_end, v.clog_gap, RunEndOf(v.end_reason), v.stop_on_clog);
   for (const Stretch& c : series.clogged) v.clogged.push_back({c.start, c.end});
   v.steady.start = pass.window.start_time;
   if (v.flow.ok) {
@@ -267,7 +267,7 @@ RunView make_run_view(const rundir::RunData& data, const PassOptions& pass) {
   return v;
 }
 
-RunPassResult analyse_run(const std::filesystem::path& dir, const std::vector<const Analysis*>& analyses,
+RunPassResult AnalyseRun(const std::filesystem::path& dir, const std::vector<const Analysis*>& analyses,
                           const PassOptions& pass, const RunPassOptions& options) {
   RunPassResult out;
   out.results.assign(analyses.size(), nullptr);
@@ -279,13 +279,13 @@ RunPassResult analyse_run(const std::filesystem::path& dir, const std::vector<co
   }
   // A cached result belongs to this summary.json: a run run again is analysed again.
   std::string summary_hash;
-  if (std::filesystem::exists(dir / rundir::kSummaryFile)) summary_hash = hash_hex(ReadWholeFile(dir / rundir::kSummaryFile));
+  if (std::filesystem::exists(dir / rundir::kSummaryFile)) summary_hash = HashHex(ReadWholeFile(dir / rundir::kSummaryFile));
   std::vector<nlohmann::json> keys;
   std::vector<std::size_t> missing;
   for (std::size_t k = 0; k < analyses.size(); ++k) {
-    keys.push_back(cache_key(*analyses[k], pass));
+    keys.push_back(CacheKey(*analyses[k], pass));
     if (options.read_cache && !summary_hash.empty()) {
-      const auto cached = rundir::ReadCachedResult(dir, analyses[k]->key());
+      const auto cached = rundir::ReadCachedResult(dir, analyses[k]->Key());
       const bool recompute = cached && cached->result.is_object() && cached->result.value(kRecompute, false);
       if (cached && cached->key == keys[k] && cached->summary_hash == summary_hash && !recompute) {
         out.results[k] = cached->result;
@@ -298,17 +298,17 @@ RunPassResult analyse_run(const std::filesystem::path& dir, const std::vector<co
   if (missing.empty()) return out;
 
   const rundir::RunData data = rundir::ReadRun(dir);
-  const RunView view = make_run_view(data, pass);
+  const RunView view = MakeRunView(data, pass);
   std::vector<std::unique_ptr<RunAccumulator>> accumulators;
   std::vector<RunAccumulator*> raw;
   std::vector<FrameSelector> selectors;
   for (std::size_t k : missing) {
-    accumulators.push_back(analyses[k]->start(view));
+    accumulators.push_back(analyses[k]->Start(view));
     raw.push_back(accumulators.back().get());
-    selectors.emplace_back(raw.back()->frames(), pass);
+    selectors.emplace_back(raw.back()->Frames(), pass);
   }
   const bool wants_frames =
-      std::any_of(selectors.begin(), selectors.end(), [](const FrameSelector& s) { return !s.done(); });
+      std::any_of(selectors.begin(), selectors.end(), [](const FrameSelector& s) { return !s.Done(); });
   // Frames removed by campaign clean --frames: an analysis not cached before cannot be computed.
   if (wants_frames && !data.frames_dropped.empty()) throw rundir::ReadError(data.frames_dropped);
   const bool frames = data.has_frames && wants_frames;
@@ -318,10 +318,10 @@ RunPassResult analyse_run(const std::filesystem::path& dir, const std::vector<co
   }
   for (std::size_t i = 0; i < missing.size(); ++i) {
     const std::size_t k = missing[i];
-    out.results[k] = raw[i]->finish();
+    out.results[k] = raw[i]->Finish();
     if (!options.write_cache || summary_hash.empty()) continue;
     try {
-      rundir::WriteCachedResult(dir, {analyses[k]->key(), keys[k], summary_hash, out.results[k]});
+      rundir::WriteCachedResult(dir, {analyses[k]->Key(), keys[k], summary_hash, out.results[k]});
     } catch (const std::exception&) {
       // A run directory we may not write (shared, read-only): the result is used, not kept.
     }

@@ -29,14 +29,14 @@ struct RunPassResult {
 };
 
 // Throws rundir::ReadError on a malformed run directory, or what an analysis throws.
-RunPassResult analyse_run(const std::filesystem::path& dir, const std::vector<const Analysis*>& analyses,
+RunPassResult AnalyseRun(const std::filesystem::path& dir, const std::vector<const Analysis*>& analyses,
                           const PassOptions& pass, const RunPassOptions& options = {});
 
 // The RunView of a read run directory (analyses' tests start accumulators on it).
-RunView make_run_view(const rundir::RunData& data, const PassOptions& pass);
+RunView MakeRunView(const rundir::RunData& data, const PassOptions& pass);
 
 // What a cached result of `analysis` depends on besides the run: its key, version, run
 // options and the pass options it uses.
-nlohmann::json cache_key(const Analysis& analysis, const PassOptions& pass);
+nlohmann::json CacheKey(const Analysis& analysis, const PassOptions& pass);
 
 }  // namespace granary::analysis

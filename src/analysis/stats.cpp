@@ -8,7 +8,7 @@
 
 namespace granary::analysis {
 
-MeanSe mean_se(std::span<const double> values) {
+MeanSe MeanAndSe(std::span<const double> values) {
   MeanSe r;
   r.n = static_cast<int>(values.size());
   if (values.empty()) return r;
@@ -23,14 +23,14 @@ MeanSe mean_se(std::span<const double> values) {
   return r;
 }
 
-MeanSe mean_se_finite(std::span<const double> values) {
+MeanSe MeanSeFinite(std::span<const double> values) {
   std::vector<double> finite;
   for (double v : values)
     if (std::isfinite(v)) finite.push_back(v);
-  return mean_se(finite);
+  return MeanAndSe(finite);
 }
 
-LineFit fit_line(std::span<const double> x, std::span<const double> y) {
+LineFit FitLine(std::span<const double> x, std::span<const double> y) {
   if (x.size() != y.size())
     throw std::invalid_argument("fit_line: x has " + std::to_string(x.size()) + " values but y has " +
                                 std::to_string(y.size()));
@@ -65,19 +65,19 @@ LineFit fit_line(std::span<const double> x, std::span<const double> y) {
   return f;
 }
 
-double Histogram::total() const {
+double Histogram::Total() const {
   double t = below + above;
   for (double c : counts) t += c;
   return t;
 }
 
-double Histogram::density(std::size_t i) const {
-  const double t = total();
+double Histogram::Density(std::size_t i) const {
+  const double t = Total();
   if (t <= 0.0) return 0.0;
-  return counts.at(i) / (t * bin_width());
+  return counts.at(i) / (t * BinWidth());
 }
 
-Histogram make_histogram(std::span<const double> values, int bins, double lo, double hi) {
+Histogram MakeHistogram(std::span<const double> values, int bins, double lo, double hi) {
   if (bins < 1) throw std::invalid_argument("make_histogram: bins must be >= 1 (got " + std::to_string(bins) + ")");
   if (!(hi > lo))
     throw std::invalid_argument("make_histogram: need hi > lo (got lo=" + std::to_string(lo) +
@@ -102,7 +102,7 @@ Histogram make_histogram(std::span<const double> values, int bins, double lo, do
   return h;
 }
 
-Histogram make_histogram(std::span<const double> values, int bins) {
+Histogram MakeHistogram(std::span<const double> values, int bins) {
   double lo = std::numeric_limits<double>::infinity();
   double hi = -lo;
   for (double v : values) {
@@ -120,17 +120,17 @@ Histogram make_histogram(std::span<const double> values, int bins) {
     lo -= 0.5;
     hi += 0.5;
   }
-  return make_histogram(values, bins, lo, hi + pad);
+  return MakeHistogram(values, bins, lo, hi + pad);
 }
 
-ExpTailFit fit_exponential_tail(std::span<const double> sizes, double s_min) {
+ExpTailFit FitExponentialTail(std::span<const double> sizes, double s_min) {
   ExpTailFit f;
   f.s_min = s_min;
   std::vector<double> excess;
   for (double s : sizes)
     if (std::isfinite(s) && s >= s_min) excess.push_back(s - s_min);
   f.n_tail = static_cast<int>(excess.size());
-  const MeanSe m = mean_se(excess);
+  const MeanSe m = MeanAndSe(excess);
   if (f.n_tail < 2 || !(m.mean > 0.0)) return f;
   f.q = m.mean / (1.0 + m.mean);
   // s_decay = -1 / ln(m / (1 + m)) = 1 / ln(1 + 1/m); d s_decay / d m = s_decay^2 / (m (1 + m)).
@@ -139,14 +139,14 @@ ExpTailFit fit_exponential_tail(std::span<const double> sizes, double s_min) {
   return f;
 }
 
-double median(std::vector<double> values) {
+double Median(std::vector<double> values) {
   if (values.empty()) return kNaN;
   std::sort(values.begin(), values.end());
   const std::size_t n = values.size();
   return n % 2 == 1 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
-void GridHistogram::add(double value) {
+void GridHistogram::Add(double value) {
   if (!std::isfinite(value)) return;
   const long long k = std::llround(value / width);
   if (counts.empty()) {
@@ -161,7 +161,7 @@ void GridHistogram::add(double value) {
   counts[static_cast<std::size_t>(k - first)] += 1.0;
 }
 
-void GridHistogram::merge(const GridHistogram& other) {
+void GridHistogram::Merge(const GridHistogram& other) {
   if (other.counts.empty()) return;
   if (counts.empty()) {
     *this = other;
@@ -176,13 +176,13 @@ void GridHistogram::merge(const GridHistogram& other) {
   first = lo;
 }
 
-double GridHistogram::total() const {
+double GridHistogram::Total() const {
   double t = 0.0;
   for (double c : counts) t += c;
   return t;
 }
 
-Histogram GridHistogram::coarse(int max_bins) const {
+Histogram GridHistogram::Coarse(int max_bins) const {
   Histogram h;
   if (counts.empty() || max_bins < 1) return h;
   const std::size_t factor = (counts.size() + static_cast<std::size_t>(max_bins) - 1) / static_cast<std::size_t>(max_bins);

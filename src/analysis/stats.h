@@ -19,9 +19,9 @@ struct MeanSe {
   double se = kNaN;
   int n = 0;
 };
-MeanSe mean_se(std::span<const double> values);
+MeanSe MeanAndSe(std::span<const double> values);
 // Ignores NaN entries (runs where the quantity is not defined).
-MeanSe mean_se_finite(std::span<const double> values);
+MeanSe MeanSeFinite(std::span<const double> values);
 
 // Ordinary least squares y = intercept + slope x with the textbook standard errors
 // (residual variance / (n - 2)). Needs n >= 3 distinct x for errors; fewer gives NaNs.
@@ -32,7 +32,7 @@ struct LineFit {
   double intercept_se = kNaN;
   int n = 0;
 };
-LineFit fit_line(std::span<const double> x, std::span<const double> y);
+LineFit FitLine(std::span<const double> x, std::span<const double> y);
 
 // Equal-width bins over [lo, hi); values outside are counted in `below`/`above`.
 struct Histogram {
@@ -41,15 +41,15 @@ struct Histogram {
   std::vector<double> counts;
   double below = 0.0;
   double above = 0.0;
-  double bin_width() const { return counts.empty() ? kNaN : (hi - lo) / static_cast<double>(counts.size()); }
-  double center(std::size_t i) const { return lo + (static_cast<double>(i) + 0.5) * bin_width(); }
-  double total() const;
+  double BinWidth() const { return counts.empty() ? kNaN : (hi - lo) / static_cast<double>(counts.size()); }
+  double Center(std::size_t i) const { return lo + (static_cast<double>(i) + 0.5) * BinWidth(); }
+  double Total() const;
   // Probability density of bin i (counts / (total * width)), total including below/above.
-  double density(std::size_t i) const;
+  double Density(std::size_t i) const;
 };
-Histogram make_histogram(std::span<const double> values, int bins, double lo, double hi);
+Histogram MakeHistogram(std::span<const double> values, int bins, double lo, double hi);
 // Range from the data (min..max, widened a little so the maximum falls inside).
-Histogram make_histogram(std::span<const double> values, int bins);
+Histogram MakeHistogram(std::span<const double> values, int bins);
 
 // Counts on a fixed grid (bin k = [(k - 1/2) width, (k + 1/2) width)), kept from the first to
 // the last occupied bin: histograms of different runs merge exactly, so a run's histogram can
@@ -58,11 +58,11 @@ struct GridHistogram {
   double width = 0.05;
   long long first = 0;              // grid index of counts[0]
   std::vector<double> counts;
-  void add(double value);
-  void merge(const GridHistogram& other);  // same width
-  double total() const;
+  void Add(double value);
+  void Merge(const GridHistogram& other);  // same width
+  double Total() const;
   // As a Histogram of at most `max_bins` bins (adjacent grid bins merged by a whole factor).
-  Histogram coarse(int max_bins) const;
+  Histogram Coarse(int max_bins) const;
 };
 
 // Exponential tail of a distribution of integer sizes s (avalanche sizes, ch. 4 and 6):
@@ -76,8 +76,8 @@ struct ExpTailFit {
   double s_decay_se = kNaN;
   int n_tail = 0;
 };
-ExpTailFit fit_exponential_tail(std::span<const double> sizes, double s_min);
+ExpTailFit FitExponentialTail(std::span<const double> sizes, double s_min);
 
-double median(std::vector<double> values);
+double Median(std::vector<double> values);
 
 }  // namespace granary::analysis

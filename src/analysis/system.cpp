@@ -11,7 +11,7 @@ namespace {
 using nlohmann::json;
 
 std::string Num(const json& v) {
-  if (v.is_number()) return format_number(v.get<double>(), 7);
+  if (v.is_number()) return FormatNumber(v.get<double>(), 7);
   if (v.is_boolean()) return v.get<bool>() ? "yes" : "no";
   if (v.is_string()) return v.get<std::string>();
   return v.dump();
@@ -66,7 +66,7 @@ bool Swept(const std::string& pointer, const std::vector<std::string>& axes) {
 
 }  // namespace
 
-AxisNames axis_names(const std::string& pointer, const json& spec) {
+AxisNames ResolveAxisNames(const std::string& pointer, const json& spec) {
   if (pointer == "engine" || pointer == "/engine") return {"engine", "engine"};
   const std::vector<std::string> p = Split(pointer);
   const auto is = [&](std::initializer_list<const char*> want) {
@@ -125,9 +125,9 @@ AxisNames axis_names(const std::string& pointer, const json& spec) {
   return {pointer, pointer};
 }
 
-std::string axis_name(const std::string& pointer, const json& spec) { return axis_names(pointer, spec).name; }
+std::string AxisName(const std::string& pointer, const json& spec) { return ResolveAxisNames(pointer, spec).name; }
 
-std::string axis_unit(const std::string& pointer) {
+std::string AxisUnit(const std::string& pointer) {
   const std::vector<std::string> p = Split(pointer);
   if (p.empty()) return "";
   const std::string& last = p.back();
@@ -140,7 +140,7 @@ std::string axis_unit(const std::string& pointer) {
   return "";
 }
 
-Table fixed_parameters(const json& spec, const std::vector<std::string>& axes) {
+Table FixedParameters(const json& spec, const std::vector<std::string>& axes) {
   Table t;
   t.name = "system-parameters";
   t.caption = "Fixed parameters (" + std::string(kUnitsText) + ")";
@@ -150,7 +150,7 @@ Table fixed_parameters(const json& spec, const std::vector<std::string>& axes) {
     t.rows.push_back({group, name, !pointer.empty() && Swept(pointer, axes) ? "swept (below)" : value});
   };
   const auto V = [&](const std::string& pointer, const json& value) {
-    return Swept(pointer, axes) ? axis_names(pointer, spec).symbol + " (swept, below)" : Num(value);
+    return Swept(pointer, axes) ? ResolveAxisNames(pointer, spec).symbol + " (swept, below)" : Num(value);
   };
   const json& silo = At(spec, "silo");
   add("silo", "width L", "/silo/width", Num(At(silo, "width")));

@@ -14,7 +14,7 @@ namespace granary::analysis {
 
 // The name of a sweep axis (a JSON pointer into the run spec) for a reader; `run_spec` gives the
 // species' names and how many outlets there are. Unknown pointers come back as they are.
-std::string axis_name(const std::string& pointer, const nlohmann::json& run_spec);
+std::string AxisName(const std::string& pointer, const nlohmann::json& run_spec);
 
 // An axis' long name and its short form for narrow table columns and figure keys: the thesis'
 // symbol ("W", "X_db", "N"), or a word where the quantity has none ("shape", "mode", "engine").
@@ -23,12 +23,12 @@ struct AxisNames {
   std::string name;    // "outlet width W"
   std::string symbol;  // "W"
 };
-AxisNames axis_names(const std::string& pointer, const nlohmann::json& run_spec);
+AxisNames ResolveAxisNames(const std::string& pointer, const nlohmann::json& run_spec);
 
 // The unit of a sweep axis' values in the report's reduced units: "d" for lengths (widths,
 // positions, heights, a big disc's diameter), "sqrt(d/g)" for times, "sqrt(g d)" for speeds;
 // "" for pure numbers, words and the disc diameter d itself (the unit).
-std::string axis_unit(const std::string& pointer);
+std::string AxisUnit(const std::string& pointer);
 
 // The report's units, said once ("The system"): every quantity of every table, figure and
 // export is in these reduced units.
@@ -39,6 +39,6 @@ inline constexpr char kUnitsText[] =
 
 // Rows {group, parameter, value} of everything a run of the campaign shares, from one resolved
 // run spec; a parameter under one of the sweep `axes` reads "swept (below)".
-Table fixed_parameters(const nlohmann::json& run_spec, const std::vector<std::string>& axes);
+Table FixedParameters(const nlohmann::json& run_spec, const std::vector<std::string>& axes);
 
 }  // namespace granary::analysis

@@ -22,8 +22,8 @@ namespace granary::engine {
 #ifdef GRANARY_HAVE_AVX512_KERNEL
 
 bool Avx512Available() {
-  static const bool available = __builtin_cpu_supports("avx512f");
-  return available;
+  static const bool kAvailable = __builtin_cpu_supports("avx512f");
+  return kAvailable;
 }
 
 namespace {

@@ -71,10 +71,10 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
   // segment per side, so element index = Side.
   Silo closed;
   closed.width = spec.silo.width;
-  // The bed is prepared at its own, longer time step (bed_time_step(), docs/run-spec.md):
+  // The bed is prepared at its own, longer time step (BedTimeStep(), docs/run-spec.md):
   // a settled bed does not depend on it, and most of the preparation is free fall.
   WorldParams params = ParamsFromSpec(spec);
-  params.dt = spec.bed_time_step();
+  params.dt = spec.BedTimeStep();
   params.skin = skin;
   World world(params, templates, silo::BuildGeometry(closed, kTallWall));
   Rng rng(spec.seed);
@@ -148,7 +148,7 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
     world.Step();
     t += dt;
     if (s % settle_check_every == 0) {
-      ke = world.KineticEnergy() / static_cast<double>(world.active_count()) / energy_unit;
+      ke = world.KineticEnergy() / static_cast<double>(world.ActiveCount()) / energy_unit;
       if (ke < spec.bed.settle_ke_per_body || t - t_settle0 >= spec.bed.max_settle_time) break;
     }
     if (progress && s % kProgressEvery == 0) {
@@ -158,7 +158,7 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
   }
   // Body ids in spatial order (bands of height 2 d, serpentine in x), so that touching
   // discs are near in memory during the discharge (about 15 % faster force loops).
-  const int nb = world.body_count();
+  const int nb = world.BodyCount();
   std::vector<int> order_new(static_cast<std::size_t>(nb));
   for (int b = 0; b < nb; ++b) order_new[b] = b;
   auto key = [&](int b) {
@@ -168,7 +168,7 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
   };
   std::stable_sort(order_new.begin(), order_new.end(), [&](int a, int b) { return key(a) < key(b); });
   BedState bed;
-  std::vector<int> new_disc(static_cast<std::size_t>(world.disc_count()));
+  std::vector<int> new_disc(static_cast<std::size_t>(world.DiscCount()));
   int next_disc = 0;
   for (int b : order_new) {
     bed.species.push_back(world.tmpl_[b]);
@@ -271,7 +271,7 @@ nlohmann::json BedToJson(const BedState& bed, const RunSpec& spec) {
   nlohmann::json j;
   j["format"] = "granary-bed";
   j["version"] = kBedVersion;
-  j["key"] = spec.bed_key();
+  j["key"] = spec.BedKey();
   j["height"] = bed.height;
   j["settle_time"] = bed.settle_time;
   nlohmann::json rows = nlohmann::json::array();
@@ -297,7 +297,7 @@ BedState BedFromJson(const nlohmann::json& j, const RunSpec& spec, const std::st
   if (const std::string actual = BedChecksum(j); j.value("checksum", "") != actual)
     throw BedFileError("bed file " + file + " is corrupt: its checksum is " + j.value("checksum", "missing") +
                        ", its content gives " + actual);
-  if (j.at("key") != spec.bed_key())
+  if (j.at("key") != spec.BedKey())
     throw std::runtime_error("bed file " + file + " was prepared for another bed key (bodies, width, seed, ...): " +
                              j.at("key").dump());
   BedState bed;

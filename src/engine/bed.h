@@ -1,6 +1,6 @@
 // Bed preparation (docs/model.md "A run", step 1): bodies inserted at random, without
 // overlap, in batches with random orientations, then settled under gravity with the outlets
-// plugged. A prepared bed depends only on RunSpec::bed_key(); it is stored as JSON and
+// plugged. A prepared bed depends only on RunSpec::BedKey(); it is stored as JSON and
 // shared between runs through bed.cache_file (written atomically under an flock).
 #pragma once
 

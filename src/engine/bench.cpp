@@ -58,7 +58,7 @@ nlohmann::json BenchSpec(const BenchOptions& options) {
   spec["bed"]["cache_file"] =
       options.bed_file.empty()
           ? (fs::temp_directory_path() / ("granary-bench-bed-" + options.shape + "-" + std::to_string(options.bodies) +
-                                          "-" + hash_hex(RunSpec::from_json(spec).bed_key().dump()) + ".json"))
+                                          "-" + HashHex(RunSpec::FromJson(spec).BedKey().dump()) + ".json"))
                 .string()
           : options.bed_file;
   return spec;
@@ -74,7 +74,7 @@ int MostThreads(const BenchOptions& options) {
 // Prepares (or loads) the bench bed once with every thread of the list; not timed.
 ObtainedBed BenchBed(const BenchOptions& options, const nlohmann::json& spec, const fs::path& dir) {
   omp_set_num_threads(MostThreads(options));
-  return ObtainBed(RunSpec::from_json(spec), dir.string(), [](double f, double t) {
+  return ObtainBed(RunSpec::FromJson(spec), dir.string(), [](double f, double t) {
     std::printf("bench: preparing bed fraction=%.3f t=%.4g\n", f, t);
     std::fflush(stdout);
   });
@@ -199,9 +199,9 @@ std::vector<BedPrepResult> RunBedPrep(const BenchOptions& options, const std::ve
     for (const BedProcedure& procedure : procedures) {
       nlohmann::json j = BenchSpec(options);
       j["seed"] = seed;
-      j["bed"]["time_step"] = procedure.step_factor * RunSpec::from_json(j).time_step;
-      j["bed"]["next_batch"] = to_string(procedure.next_batch);
-      const RunSpec spec = RunSpec::from_json(j);
+      j["bed"]["time_step"] = procedure.step_factor * RunSpec::FromJson(j).time_step;
+      j["bed"]["next_batch"] = ToString(procedure.next_batch);
+      const RunSpec spec = RunSpec::FromJson(j);
       const auto start = std::chrono::steady_clock::now();
       const BedState bed = PrepareBed(spec, nullptr, procedure.skin);
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -317,7 +317,7 @@ std::vector<VersusResult> RunBenchVersusLammps(const BenchOptions& options, cons
   const fs::path dir = fs::absolute(dir_name);
   fs::create_directories(dir);
   const nlohmann::json spec_json = BenchSpec(options);
-  const RunSpec spec = RunSpec::from_json(spec_json);
+  const RunSpec spec = RunSpec::FromJson(spec_json);
   const ObtainedBed bed = BenchBed(options, spec_json, dir);
   const LammpsInput input = LammpsBenchInput(spec, bed.bed, (dir / "bed.data").string(), options.steps);
   WriteAtomically(dir / "bed.data", input.data);

@@ -127,9 +127,9 @@ int Run(const std::vector<std::string>& args) {
     // Ended as the signal would have ended it: the runner sees an interruption.
     std::cerr << "granary-engine run: " << e.what() << "\n";
     std::cerr.flush();
-    std::signal(e.signal(), SIG_DFL);
-    std::raise(e.signal());
-    return 128 + e.signal();
+    std::signal(e.Signal(), SIG_DFL);
+    std::raise(e.Signal());
+    return 128 + e.Signal();
   }
   std::cout << "done end_reason=" << r.end_reason << " exited=" << r.exited << " t_end=" << r.t_end
             << " steps=" << r.steps << (r.continued ? " (continued from checkpoint)" : "") << "\n";
@@ -200,7 +200,7 @@ int BenchBedPrep(const BenchOptions& options) {
   for (const BedPrepResult& r : RunBedPrep(options, procedures)) {
     std::printf("seed=%d procedure=%s step_factor=%g next_batch=%s wall_s=%.2f settle_time=%.2f top=%.3f "
                 "surface=%.3f phi=%.4f\n",
-                r.seed, r.procedure.name.c_str(), r.procedure.step_factor, to_string(r.procedure.next_batch).c_str(),
+                r.seed, r.procedure.name.c_str(), r.procedure.step_factor, ToString(r.procedure.next_batch).c_str(),
                 r.wall_s, r.settle_time, r.shape.top, r.shape.surface, r.shape.phi);
     std::fflush(stdout);
     by_name[r.procedure.name].push_back(r);
@@ -228,7 +228,7 @@ int BenchBedPrep(const BenchOptions& options) {
     const auto [pm, ps] = mean_sd(phi);
     std::printf("summary procedure=%s step_factor=%g next_batch=%s replicas=%zu wall_s median=%.2f best=%.2f "
                 "settle_time median=%.2f top=%.3f+-%.3f surface=%.3f+-%.3f phi=%.4f+-%.4f (mean+-sd)\n",
-                p.name.c_str(), p.step_factor, to_string(p.next_batch).c_str(), rs.size(), median_wall[p.name],
+                p.name.c_str(), p.step_factor, ToString(p.next_batch).c_str(), rs.size(), median_wall[p.name],
                 *std::min_element(wall.begin(), wall.end()), external::BenchMedian(settle), tm, ts, sm, ss, pm, ps);
   }
   std::printf("summary speedup of the median wall time (old / new): %.2f\n", median_wall["old"] / median_wall["new"]);

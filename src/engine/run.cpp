@@ -98,7 +98,7 @@ class Out {
     Put<std::uint64_t>(s.size());
     buf_ += s;
   }
-  const std::string& str() const { return buf_; }
+  const std::string& Str() const { return buf_; }
 
  private:
   std::string buf_;
@@ -174,7 +174,7 @@ class Discharge {
   // A contact frame goes with every contact_interval-th frame (counted from step 0, so a
   // continued run writes the same ones).
   bool ContactsDue() const {
-    return contacts_.is_open() && (step_ / frame_every_) % spec_.output.contact_interval == 0;
+    return contacts_.IsOpen() && (step_ / frame_every_) % spec_.output.contact_interval == 0;
   }
   void WriteContacts();
   void WriteClog();
@@ -285,8 +285,8 @@ void Discharge::BuildWorld(const std::vector<int>& species, const WorldSnapshot*
   } else {
     for (int s : species) world_->AddBody(s, 0, 0, 0);
   }
-  exits_per_outlet_.assign(world_->geometry().outlets.size(), 0);
-  falling_.assign(static_cast<std::size_t>(world_->body_count()), 0);
+  exits_per_outlet_.assign(world_->Geometry().outlets.size(), 0);
+  falling_.assign(static_cast<std::size_t>(world_->BodyCount()), 0);
   const double ed = spec_.discharge.exit_distance;
   world_->SetExitBox(-hw_ - ed, hw_ + ed, -ed);  // the exit lines of OutletOf
   if (!snapshot) world_->OpenOutlets();
@@ -334,12 +334,12 @@ void Discharge::PlaceBed() {
   bed_surface_ = shape.surface;
   BuildWorld(ob.bed.species);
   World& w = *world_;
-  for (int b = 0; b < w.body_count(); ++b)
+  for (int b = 0; b < w.BodyCount(); ++b)
     w.PlaceBody(b, ob.bed.x[b], ob.bed.y[b], ob.bed.theta[b], ob.bed.vx[b], ob.bed.vy[b], ob.bed.omega[b]);
   // The bed was prepared without obstacles (it is shared by runs that differ only in their
   // outlets or obstacles, docs/model.md): a body an obstacle overlaps is taken out, or the
   // overlap would fire it off at t = 0.
-  for (int i = 0; i < w.disc_count(); ++i) {
+  for (int i = 0; i < w.DiscCount(); ++i) {
     const int b = w.dbody_[i];
     if (!w.active_[b]) continue;
     for (const Obstacle& o : spec_.silo.obstacles) {
@@ -353,7 +353,7 @@ void Discharge::PlaceBed() {
   // The bed's wall contacts move to the segments of this silo (none over an open gap).
   std::vector<HistoryEntry> walls;
   for (const HistoryEntry& h : ob.bed.wall_history) {
-    const int e = silo::SegmentUnder(w.geometry(), static_cast<silo::Side>(h.j), w.dx_[h.i], w.dy_[h.i]);
+    const int e = silo::SegmentUnder(w.Geometry(), static_cast<silo::Side>(h.j), w.dx_[h.i], w.dy_[h.i]);
     if (e >= 0) walls.push_back({h.i, e, h.sx, h.sy});
   }
   std::stable_sort(walls.begin(), walls.end(),
@@ -368,8 +368,8 @@ void Discharge::PlaceBed() {
     // The LIGGGHTS backend's box (input_script.cpp): bottom kPeriodicFall below the counting
     // plane, top 2 bounding radii + periodic_headroom above the highest disc centre.
     double top = -1e300, bound = 0;
-    for (int i = 0; i < w.disc_count(); ++i) top = std::max(top, w.dy_[i]);
-    for (const auto& t : w.templates()) bound = std::max(bound, t.bound_radius);
+    for (int i = 0; i < w.DiscCount(); ++i) top = std::max(top, w.dy_[i]);
+    for (const auto& t : w.Templates()) bound = std::max(bound, t.bound_radius);
     periodic_height_ = (top + 2 * bound + spec_.discharge.periodic_headroom) + (spec_.discharge.exit_distance + kPeriodicFall);
   }
 }
@@ -387,7 +387,7 @@ void Discharge::WriteCheckpoint() {
   // Both this run and a run continued from this checkpoint rebuild the lists here.
   const WorldSnapshot w = world_->Snapshot();
   Out o;
-  o.PutStr(spec_.to_json().dump());
+  o.PutStr(spec_.ToJson().dump());
   o.Put(step_);
   o.Put(last_exit_step_);
   o.Put(disc_steps_);
@@ -427,11 +427,11 @@ void Discharge::WriteCheckpoint() {
   Out file;
   file.PutStr(kCheckpointMagic);
   file.Put(kCheckpointVersion);
-  file.Put<std::uint64_t>(o.str().size());
-  file.Put(Crc32(o.str()));
+  file.Put<std::uint64_t>(o.Str().size());
+  file.Put(Crc32(o.Str()));
   // The last two are kept: a checkpoint found corrupt falls back to the one before.
   if (fs::exists(dir_ / kCheckpointFile)) fs::rename(dir_ / kCheckpointFile, dir_ / kPreviousCheckpointFile);
-  WriteAtomically(dir_ / kCheckpointFile, file.str() + o.str());
+  WriteAtomically(dir_ / kCheckpointFile, file.Str() + o.Str());
 }
 
 // Reads `file` completely before it changes anything: a CheckpointError leaves the run as
@@ -472,10 +472,10 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   In in(payload, name);
   const std::string saved_spec = in.GetStr();
   std::string extended_from;
-  if (saved_spec != spec_.to_json().dump()) {
+  if (saved_spec != spec_.ToJson().dump()) {
     // A finished run planned again with a larger limit (granary::extends) continues from here.
     const nlohmann::json saved = nlohmann::json::parse(saved_spec, nullptr, false);
-    if (!granary::extends(saved, spec_.to_json()))
+    if (!granary::Extends(saved, spec_.ToJson()))
       throw std::runtime_error("checkpoint " + file.string() + " belongs to a different run.json; remove it to start over");
     extended_from = saved.value("run_id", std::string("?"));
   }
@@ -611,7 +611,7 @@ int Discharge::OutletOf(int b) const {
   const double x = w.bx_[b], y = w.by_[b];
   const double ed = spec_.discharge.exit_distance;
   if (!(y < -ed || x > hw_ + ed || x < -hw_ - ed)) return -1;
-  const auto& outlets = w.geometry().outlets;
+  const auto& outlets = w.Geometry().outlets;
   int best = 0;
   double best_d = 1e300;
   for (std::size_t k = 0; k < outlets.size(); ++k) {
@@ -626,7 +626,7 @@ int Discharge::OutletOf(int b) const {
 
 void Discharge::Reinject(int b) {
   World& w = *world_;
-  const silo::ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
+  const silo::ShapeTemplate& tp = w.Templates()[static_cast<std::size_t>(w.tmpl_[b])];
   const double rb = tp.bound_radius;
   // On top of the bed: a column whose top is a return still falling (no contact, or faster
   // than a body that has fallen its own size) is drawn again, up to kReinjectDraws times. Put
@@ -652,10 +652,10 @@ void Discharge::Reinject(int b) {
 // belongs to and its vertical velocity (-1 and 0 on an empty column).
 Discharge::Landing Discharge::LandingOn(int b, double x) const {
   const World& w = *world_;
-  const double rb = w.templates()[static_cast<std::size_t>(w.tmpl_[b])].bound_radius;
+  const double rb = w.Templates()[static_cast<std::size_t>(w.tmpl_[b])].bound_radius;
   double top = 0.0, vy = 0.0;
   int on = -1;
-  for (int i = 0; i < w.disc_count(); ++i) {
+  for (int i = 0; i < w.DiscCount(); ++i) {
     const int ob = w.dbody_[i];
     if (ob == b || !w.active_[ob] || falling_[ob]) continue;
     if (std::fabs(w.dx_[i] - x) < rb + w.dr_[i] && w.dy_[i] + w.dr_[i] > top) {
@@ -672,10 +672,10 @@ void Discharge::HandleExits() {
   // In most steps nothing exits: the step's drift has checked the exit lines (falling bodies
   // jump back below them too), and then a straight pass (it vectorizes) with the tests of
   // the loop below says whether any body needs it.
-  if (!w.beyond_exit_box()) return;
+  if (!w.BeyondExitBox()) return;
   const double ed = spec_.discharge.exit_distance, fall_y = -(ed + kPeriodicFall);
   int any = 0;
-  for (int b = 0; b < w.body_count(); ++b) {
+  for (int b = 0; b < w.BodyCount(); ++b) {
     const double x = w.bx_[b], y = w.by_[b];
     const bool falling = falling_[b] != 0, beyond = (y < -ed) | (x > hw_ + ed) | (x < -hw_ - ed);
     any |= (w.active_[b] != 0) & ((falling & (y < fall_y)) | (!falling & beyond));
@@ -683,7 +683,7 @@ void Discharge::HandleExits() {
   if (!any) return;
   const double t = static_cast<double>(step_) * spec_.time_step;
   bool contacts_marked = false;
-  for (int b = 0; b < w.body_count(); ++b) {
+  for (int b = 0; b < w.BodyCount(); ++b) {
     if (!w.active_[b]) continue;
     if (falling_[b]) {
       // Counted already; through the bottom of the periodic box it comes back at the top,
@@ -701,7 +701,7 @@ void Discharge::HandleExits() {
     }
     const int k = OutletOf(b);
     if (k < 0) continue;
-    const silo::ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
+    const silo::ShapeTemplate& tp = w.Templates()[static_cast<std::size_t>(w.tmpl_[b])];
     events_.Write({t, b, tp.name, tp.mass, k});
     ++exits_per_outlet_[static_cast<std::size_t>(k)];
     last_exit_step_ = step_;
@@ -727,9 +727,9 @@ bool Discharge::Stalled() const {
   const World& w = *world_;
   double ke = 0;
   int n = 0;
-  for (int b = 0; b < w.body_count(); ++b) {
+  for (int b = 0; b < w.BodyCount(); ++b) {
     if (!w.active_[b]) continue;
-    for (const silo::OutletFrame& o : w.geometry().outlets) {
+    for (const silo::OutletFrame& o : w.Geometry().outlets) {
       const double px = w.bx_[b] - o.cx, py = w.by_[b] - o.cy;
       const double s = px * o.ax + py * o.ay, h = px * o.nx + py * o.ny;
       if (std::fabs(s) < o.width && h > -spec_.discharge.exit_distance && h < 2 * o.width) {
@@ -757,15 +757,15 @@ std::vector<std::int64_t> Discharge::ArchBodies() {
   FillFrame(clog.frame);
   FillContacts(clog.contacts);
   std::vector<std::int64_t> ids;
-  for (const analysis::Arch& arch : analysis::analyse_clog(clog, w.geometry()).arches)
+  for (const analysis::Arch& arch : analysis::AnalyseClog(clog, w.Geometry()).arches)
     for (const analysis::ArchBody& b : arch.bodies) ids.push_back(b.id);
   if (ids.empty()) {
     // Sealed, but no chain of bodies from support to support (an arch resting on bodies the
     // probe does not reach): the bodies along the edge of the free space under the outlets.
     const SiloDiscs s = DiscsInSilo(w);
     const double probe = silo::PassageProbe(s.discs, s.body_of);
-    for (int o = 0; o < static_cast<int>(w.geometry().outlets.size()); ++o)
-      for (const silo::CavityBound& e : silo::CavityUnder(w.geometry(), s.discs, probe, o).edge)
+    for (int o = 0; o < static_cast<int>(w.Geometry().outlets.size()); ++o)
+      for (const silo::CavityBound& e : silo::CavityUnder(w.Geometry(), s.discs, probe, o).edge)
         if (e.kind == silo::CavityBound::Kind::kDisc) ids.push_back(s.body_of[static_cast<std::size_t>(e.index)]);
   }
   std::sort(ids.begin(), ids.end());
@@ -787,7 +787,7 @@ void Discharge::Unclog(const std::vector<std::int64_t>* arch) {
   e.step = step_;
   e.clog = clogs_;
   e.attempt = unclog_attempts_;
-  e.method = to_string(u.method);
+  e.method = ToString(u.method);
   if (u.method == UnclogMethod::kRemoveArch) {
     e.bodies = arch != nullptr ? *arch : ArchBodies();
     if (spec_.discharge.mode == DischargeMode::kReinject) {
@@ -798,9 +798,9 @@ void Discharge::Unclog(const std::vector<std::int64_t>* arch) {
       unclog_removed_ += static_cast<int>(e.bodies.size());
     }
   } else {
-    for (int b = 0; b < w.body_count(); ++b) {
+    for (int b = 0; b < w.BodyCount(); ++b) {
       if (!w.active_[b]) continue;
-      for (const silo::OutletFrame& o : w.geometry().outlets) {
+      for (const silo::OutletFrame& o : w.Geometry().outlets) {
         const double radius = u.kick_radius > 0 ? u.kick_radius : o.width;
         if (std::hypot(w.bx_[b] - o.cx, w.by_[b] - o.cy) > radius) continue;
         const double angle = unclog_rng_.Uniform(-0.25 * std::numbers::pi, 0.25 * std::numbers::pi);
@@ -816,7 +816,7 @@ void Discharge::Unclog(const std::vector<std::int64_t>* arch) {
 // From the bed and the spec alone, so a continued run writes the same box.
 void Discharge::DumpBox(double (&box)[3][2]) const {
   double bound = 0;
-  for (const auto& t : world_->templates()) bound = std::max(bound, t.bound_radius);
+  for (const auto& t : world_->Templates()) bound = std::max(bound, t.bound_radius);
   NativeDumpBox(spec_, bed_height_, bound, box);
 }
 
@@ -826,7 +826,7 @@ void Discharge::FillFrame(rundir::Frame& f) {
   f.time = static_cast<double>(step_) * spec_.time_step;
   DumpBox(f.box);
   f.discs.clear();
-  for (int i = 0; i < w.disc_count(); ++i) {
+  for (int i = 0; i < w.DiscCount(); ++i) {
     const int b = w.dbody_[i];
     if (!w.active_[b]) continue;
     // The disc centre moves with the rigid body: v + omega x r.
@@ -886,12 +886,12 @@ void Discharge::WriteSummary(const std::string& end_reason) {
   s.engine_version = GRANARY_VERSION;
   s.granary_commit = granary::GitCommit();
   s.run_id = spec_.run_id;
-  s.spec = spec_.to_json();
+  s.spec = spec_.ToJson();
   s.end_reason = end_reason;
-  s.bodies = w.body_count() - cleared_by_obstacles_;  // in the silo at t = 0
+  s.bodies = w.BodyCount() - cleared_by_obstacles_;  // in the silo at t = 0
   if (!spec_.silo.obstacles.empty()) s.cleared_by_obstacles = cleared_by_obstacles_;
   s.exited = static_cast<int>(exited);
-  s.remaining = w.active_count();
+  s.remaining = w.ActiveCount();
   for (auto e : exits_per_outlet_) s.exits_per_outlet.push_back(static_cast<int>(e));
   s.t_end = static_cast<double>(step_) * spec_.time_step;
   s.steps = step_;
@@ -906,7 +906,7 @@ void Discharge::WriteSummary(const std::string& end_reason) {
   s.timing = rundir::Timing{bed_wall_s_ + discharge_wall, bed_wall_s_, discharge_wall,
                             discharge_wall > 0 ? static_cast<double>(disc_steps_) / discharge_wall : 0.0,
                             omp_get_max_threads(),
-                            discharge_wall > 0 ? static_cast<double>(w.disc_count()) * static_cast<double>(step_) / discharge_wall
+                            discharge_wall > 0 ? static_cast<double>(w.DiscCount()) * static_cast<double>(step_) / discharge_wall
                                                : 0.0};
   s.continued_from_checkpoint = continued_;
   s.extended_from = extended_from_;
@@ -959,7 +959,7 @@ RunResult Discharge::Run() {
       end_reason = "time_limit";
       break;
     }
-    if (w.active_count() == 0) {
+    if (w.ActiveCount() == 0) {
       end_reason = "discharged";
       break;
     }
@@ -972,7 +972,7 @@ RunResult Discharge::Run() {
     for (const std::int64_t after : {options_.stop_after_steps, options_.abort_after_steps})
       if (after >= 0) n = std::min(n, std::max<std::int64_t>(1, first_step + after - step_));
     // The discs these steps compute: bodies leave only at the last of them (Steps returns there).
-    const int discs = w.active_disc_count();
+    const int discs = w.ActiveDiscCount();
     const int taken = w.Steps(static_cast<int>(n));
     step_ += taken;
     disc_steps_ += static_cast<std::int64_t>(taken) * discs;

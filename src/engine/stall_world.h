@@ -19,7 +19,7 @@ struct SiloDiscs {
 };
 inline SiloDiscs DiscsInSilo(const World& w) {
   SiloDiscs s;
-  for (int i = 0; i < w.disc_count(); ++i) {
+  for (int i = 0; i < w.DiscCount(); ++i) {
     if (!w.active_[w.dbody_[i]]) continue;
     s.discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
     s.body_of.push_back(w.dbody_[i]);
@@ -29,7 +29,7 @@ inline SiloDiscs DiscsInSilo(const World& w) {
 
 inline std::vector<bool> SealedOutlets(const World& w) {
   const SiloDiscs s = DiscsInSilo(w);
-  return silo::SealedOutlets(w.geometry(), s.discs, silo::PassageProbe(s.discs, s.body_of));
+  return silo::SealedOutlets(w.Geometry(), s.discs, silo::PassageProbe(s.discs, s.body_of));
 }
 
 }  // namespace granary::engine

@@ -56,7 +56,7 @@ int World::AddBody(int tmpl, double x, double y, double theta) {
   if (tmpl < 0 || tmpl >= static_cast<int>(templates_.size()))
     throw std::invalid_argument("World::AddBody: no shape template " + std::to_string(tmpl));
   const silo::ShapeTemplate& t = templates_[static_cast<std::size_t>(tmpl)];
-  const int id = body_count();
+  const int id = BodyCount();
   tmpl_.push_back(tmpl);
   active_.push_back(1);
   bx_.push_back(x);
@@ -74,7 +74,7 @@ int World::AddBody(int tmpl, double x, double y, double theta) {
   binertia_.push_back(t.inertia);
   binv_mass_.push_back(1.0 / t.mass);
   binv_inertia_.push_back(1.0 / t.inertia);
-  disc_begin_.push_back(disc_count());
+  disc_begin_.push_back(DiscCount());
   disc_n_.push_back(static_cast<int>(t.r.size()));
   double reach = 0.0;
   for (std::size_t k = 0; k < t.r.size(); ++k) reach = std::max(reach, std::hypot(t.ox[k], t.oy[k]));
@@ -133,7 +133,7 @@ void World::PlaceBody(int b, double x, double y, double theta, double vx, double
   rebuild_needed_ = true;
 }
 
-int World::active_disc_count() const {
+int World::ActiveDiscCount() const {
   int n = 0;
   for (std::size_t b = 0; b < active_.size(); ++b)
     if (active_[b]) n += disc_n_[b];
@@ -186,11 +186,11 @@ void World::UpdateDiscs(int b) {
 }
 
 void World::RefreshDiscs() {
-  for (int b = 0; b < body_count(); ++b) UpdateDiscs(b);
+  for (int b = 0; b < BodyCount(); ++b) UpdateDiscs(b);
 }
 
 bool World::NeedsRebuild() const {
-  const int n = disc_count();
+  const int n = DiscCount();
   const double limit = 0.25 * params_.skin * params_.skin;
   double worst = 0.0;
 #pragma omp parallel for schedule(static) reduction(max : worst) if (Parallel())
@@ -207,7 +207,7 @@ void World::RebuildNow() { Rebuild(); }
 void World::Rebuild() {
   ++rebuilds_;
   rebuild_needed_ = false;
-  const int n = disc_count();
+  const int n = DiscCount();
   old_start_.swap(nl_start_);
   old_j_.swap(nl_j_);
   old_sx_.swap(nl_sx_);
@@ -786,12 +786,12 @@ void World::Forces(bool rebuild, bool kick) {
 }
 
 std::int64_t World::NextForcePass() {
-  const int nblocks = (disc_count() + params_.force_block - 1) / params_.force_block;
+  const int nblocks = (DiscCount() + params_.force_block - 1) / params_.force_block;
   if (nblocks != block_done_count_) {  // only when bodies are added
     block_done_ = std::make_unique<PassStamp[]>(static_cast<std::size_t>(nblocks));
     block_done_count_ = nblocks;
   }
-  const int nchunks = (body_count() + kBodyChunk - 1) / kBodyChunk;
+  const int nchunks = (BodyCount() + kBodyChunk - 1) / kBodyChunk;
   if (nchunks != chunk_done_count_) {
     chunk_done_ = std::make_unique<PassStamp[]>(static_cast<std::size_t>(nchunks));
     chunk_done_count_ = nchunks;
@@ -835,7 +835,7 @@ int World::ChunkShareStart(int t, int nt) const {
 }
 
 int World::FindShareStart(int t, int nt) const {
-  const int n = disc_count(), nchunks = (body_count() + kBodyChunk - 1) / kBodyChunk;
+  const int n = DiscCount(), nchunks = (BodyCount() + kBodyChunk - 1) / kBodyChunk;
   if (t <= 0) return 0;
   if (t >= nt) return nchunks;
   if (nl_start_.size() != static_cast<std::size_t>(n) + 1)  // no lists yet (bodies added since)
@@ -883,7 +883,7 @@ void World::Rebalance(int nt, int steps) {
 
 int World::PairShareStart(int t, int nt) const {
   const int b = ChunkShareStart(t, nt) * kBodyChunk;
-  return b >= body_count() ? disc_count() : disc_begin_[b];
+  return b >= BodyCount() ? DiscCount() : disc_begin_[b];
 }
 
 const std::vector<int>& World::LeadSources(int t, int i0, int i1) {
@@ -918,7 +918,7 @@ bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift, double* 
   // sums of the part in the share of its first disc: a later thread computes its part of
   // that block's entries first (share_done_), and its sums last (they need the earlier
   // parts' entries: LeadSources).
-  const int n = disc_count(), block = params_.force_block;
+  const int n = DiscCount(), block = params_.force_block;
   const int m0 = PairShareStart(t, nt), m1 = PairShareStart(t + 1, nt);
   auto await_drift_of = [&](int i, int blk) {
     if (!await_drift) return;
@@ -951,7 +951,7 @@ bool World::ForcePasses(bool kick, std::int64_t pass, bool await_drift, double* 
   // takes its chunks last to first: the last read only its own blocks, and by the time it
   // reaches the first, which read the previous thread's last block, that is done. (Both
   // callers end their parallel region right after, which is a barrier.)
-  const int nb = body_count();
+  const int nb = BodyCount();
   const int ch0 = ChunkShareStart(t, nt), ch1 = ChunkShareStart(t + 1, nt);
   bool outrun = false;
   for (int k = 0; k < ch1 - ch0; k += kChunksPerCall) {
@@ -1017,8 +1017,8 @@ constexpr int kWide = 1, kBeyond = 2;
     bvx[b] = on ? vx : bvx[b];
     bvy[b] = on ? vy : bvy[b];
     bw[b] = on ? w : bw[b];
-    bc[b] = on & small ? cn : bc[b];
-    bs[b] = on & small ? sn : bs[b];
+    bc[b] = (on & small) ? cn : bc[b];
+    bs[b] = (on & small) ? sn : bs[b];
     wide |= on & !small;
     beyond |= on & ((x < xmin) | (x > xmax) | (y < ymin));
   }
@@ -1175,7 +1175,7 @@ int World::DriftBodies(int b0, int b1) {
 }
 
 int World::DriftShare(int t, int nt, std::int64_t pass) {
-  const int nb = body_count();
+  const int nb = BodyCount();
   const int ch0 = ChunkShareStart(t, nt), ch1 = ChunkShareStart(t + 1, nt);
   int flags = 0;
   for (int ch = ch0; ch < ch1; ch += kChunksPerCall) {
@@ -1283,7 +1283,7 @@ void World::SetExitBox(double xmin, double xmax, double ymin) {
 
 double World::KineticEnergy() const {
   double ke = 0.0;
-  for (int b = 0; b < body_count(); ++b) {
+  for (int b = 0; b < BodyCount(); ++b) {
     if (!active_[b]) continue;
     ke += 0.5 * bmass_[b] * (bvx_[b] * bvx_[b] + bvy_[b] * bvy_[b]) + 0.5 * binertia_[b] * bw_[b] * bw_[b];
   }
@@ -1292,7 +1292,7 @@ double World::KineticEnergy() const {
 
 double World::MaxDiscTop() const {
   double top = 0.0;
-  for (int i = 0; i < disc_count(); ++i)
+  for (int i = 0; i < DiscCount(); ++i)
     if (active_[dbody_[i]]) top = std::max(top, dy_[i] + dr_[i]);
   return top;
 }
@@ -1335,8 +1335,8 @@ void HistoryToCsr(const std::vector<HistoryEntry>& entries, int n, const char* w
 
 void World::ImportHistory(const std::vector<HistoryEntry>& pairs, const std::vector<HistoryEntry>& walls) {
   // Present the stored entries as the "current" lists; the rebuild transfers them.
-  HistoryToCsr(pairs, disc_count(), "pair", nl_start_, nl_j_, nl_sx_, nl_sy_);
-  HistoryToCsr(walls, disc_count(), "wall", wl_start_, wl_e_, wl_sx_, wl_sy_);
+  HistoryToCsr(pairs, DiscCount(), "pair", nl_start_, nl_j_, nl_sx_, nl_sy_);
+  HistoryToCsr(walls, DiscCount(), "wall", wl_start_, wl_e_, wl_sx_, wl_sy_);
   Rebuild();
 }
 
@@ -1364,21 +1364,21 @@ WorldSnapshot World::Snapshot() {
 }
 
 void World::Restore(const WorldSnapshot& s) {
-  if (body_count() != 0) throw std::invalid_argument("World::Restore: the world already has bodies");
+  if (BodyCount() != 0) throw std::invalid_argument("World::Restore: the world already has bodies");
   const std::size_t n = s.tmpl.size();
   for (const auto* v : {&s.x, &s.y, &s.theta, &s.c, &s.s, &s.vx, &s.vy, &s.w, &s.fx, &s.fy, &s.torque})
     if (v->size() != n) throw std::invalid_argument("World::Restore: body arrays of different lengths");
   if (s.active.size() != n) throw std::invalid_argument("World::Restore: body arrays of different lengths");
   for (std::size_t b = 0; b < n; ++b) AddBody(s.tmpl[b], 0, 0, 0);  // (throws for an unknown template)
   for (const HistoryEntry& h : s.pairs)
-    if (h.j < 0 || h.j >= disc_count() || h.j <= h.i)
+    if (h.j < 0 || h.j >= DiscCount() || h.j <= h.i)
       throw std::invalid_argument("World::Restore: pair history entry (" + std::to_string(h.i) + ", " + std::to_string(h.j) +
                                   ") is not a pair of discs i < j");
   for (const HistoryEntry& h : s.walls)
     if (h.j < 0 || h.j >= static_cast<int>(geometry_.elements.size()))
       throw std::invalid_argument("World::Restore: wall history names element " + std::to_string(h.j) + " of " +
                                   std::to_string(geometry_.elements.size()));
-  for (int b = 0; b < body_count(); ++b) {
+  for (int b = 0; b < BodyCount(); ++b) {
     PlaceBody(b, s.x[b], s.y[b], s.theta[b], s.vx[b], s.vy[b], s.w[b]);
     if (!s.active[b]) Deactivate(b);
   }

@@ -90,7 +90,7 @@ class World {
   // Switches the plug off and the outlet edges on (t = 0).
   void OpenOutlets();
   void CloseOutlets();
-  bool outlets_open() const { return outlets_open_; }
+  bool OutletsOpen() const { return outlets_open_; }
 
   // Computes forces for the current state (call once before the first Step, and after
   // changing bodies from outside). Rebuilds the neighbour lists if needed.
@@ -99,7 +99,7 @@ class World {
   void Step();
   // Up to `max_steps` steps, the same bits as as many Step() calls; returns how many were
   // taken. Returns early after a step that leaves a body beyond the exit box (then
-  // beyond_exit_box() is true), so the driver handles exits at the step it would have. Steps
+  // BeyondExitBox() is true), so the driver handles exits at the step it would have. Steps
   // that do not rebuild the lists share one parallel region: the threads meet at a
   // light barrier between steps instead of a region's fork and join each step.
   int Steps(int max_steps);
@@ -109,19 +109,19 @@ class World {
   // right of xmax or below ymin (computed in the drift, so the driver need not look at every
   // body each step). Without a box it is always true.
   void SetExitBox(double xmin, double xmax, double ymin);
-  bool beyond_exit_box() const { return beyond_exit_box_; }
+  bool BeyondExitBox() const { return beyond_exit_box_; }
   // Rebuild the lists at the next force computation (after adding/moving/removing bodies).
   void RequestRebuild() { rebuild_needed_ = true; }
 
   // Diagnostics.
   double KineticEnergy() const;  // sum over active bodies, translational + rotational
   double MaxDiscTop() const;     // max y + r over active discs (0 if none)
-  int active_count() const { return active_count_; }
-  int body_count() const { return static_cast<int>(bx_.size()); }
-  int disc_count() const { return static_cast<int>(dr_.size()); }
+  int ActiveCount() const { return active_count_; }
+  int BodyCount() const { return static_cast<int>(bx_.size()); }
+  int DiscCount() const { return static_cast<int>(dr_.size()); }
   // Discs of the active bodies: the discs a step computes (a loop over the bodies).
-  int active_disc_count() const;
-  std::int64_t rebuilds() const { return rebuilds_; }
+  int ActiveDiscCount() const;
+  std::int64_t Rebuilds() const { return rebuilds_; }
 
   // Contact history for checkpoints: the nonzero entries, and restoring them (the lists are
   // rebuilt from positions; a rebuild is forced when saving so that a continued run and an
@@ -136,9 +136,9 @@ class World {
   // parameters, templates and geometry. Throws std::invalid_argument if it does not fit.
   void Restore(const WorldSnapshot& snapshot);
 
-  const WorldParams& params() const { return params_; }
-  const std::vector<silo::ShapeTemplate>& templates() const { return templates_; }
-  const silo::SiloGeometry& geometry() const { return geometry_; }
+  const WorldParams& Params() const { return params_; }
+  const std::vector<silo::ShapeTemplate>& Templates() const { return templates_; }
+  const silo::SiloGeometry& Geometry() const { return geometry_; }
   // Whether a wall element takes part now (the plug before t = 0, the outlet edges after).
   bool ElementActive(const silo::WallElement& e) const;
 
@@ -218,7 +218,7 @@ class World {
   static constexpr int kChunksPerCall = 8;       // chunks per call of the drift and body loops (fewer calls)
   void Rebuild();
   bool NeedsRebuild() const;
-  bool Parallel() const { return disc_count() >= params_.parallel_min_discs; }
+  bool Parallel() const { return DiscCount() >= params_.parallel_min_discs; }
 
   WorldParams params_;
   std::vector<silo::ShapeTemplate> templates_;

@@ -15,13 +15,13 @@ double BenchMedian(std::vector<double> rates) {
 }
 
 double LoopTimeRate(const std::string& log_file) {
-  static const std::regex loop(R"(Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps with (\d+) atoms)");
+  static const std::regex kLoop(R"(Loop time of ([0-9.eE+-]+) on (\d+) procs for (\d+) steps with (\d+) atoms)");
   std::ifstream in(log_file);
   std::string line;
   double work = 0, seconds = 0;
   while (std::getline(in, line)) {
     std::smatch m;
-    if (!std::regex_search(line, m, loop)) continue;
+    if (!std::regex_search(line, m, kLoop)) continue;
     seconds += std::stod(m[1]);
     work += std::stod(m[3]) * std::stod(m[4]);
   }

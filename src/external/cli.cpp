@@ -71,9 +71,9 @@ int RunVerb(const std::string& tag, const std::vector<std::string>& args, const 
     // Ended as the signal would have ended it, so the runner sees an interruption.
     std::cerr << tag << " run: " << e.what() << "\n";
     std::cerr.flush();
-    signal(e.signal(), SIG_DFL);
-    raise(e.signal());
-    return 128 + e.signal();
+    signal(e.Signal(), SIG_DFL);
+    raise(e.Signal());
+    return 128 + e.Signal();
   }
   std::cout << done << "\n";
   return 0;

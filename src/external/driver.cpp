@@ -45,12 +45,12 @@ struct DieWithParent : bp::extend::handler {
 };
 
 std::vector<std::pair<long long, fs::path>> Checkpoints(const fs::path& dir) {
-  static const std::regex name(R"(checkpoint\.(\d+)\.restart)");
+  static const std::regex kName(R"(checkpoint\.(\d+)\.restart)");
   std::vector<std::pair<long long, fs::path>> found;
   for (const auto& e : fs::directory_iterator(dir)) {
     std::smatch m;
     const std::string f = e.path().filename().string();
-    if (std::regex_match(f, m, name)) found.emplace_back(std::stoll(m[1]), e.path());
+    if (std::regex_match(f, m, kName)) found.emplace_back(std::stoll(m[1]), e.path());
   }
   std::sort(found.rbegin(), found.rend());
   return found;
@@ -61,7 +61,7 @@ std::vector<std::pair<long long, fs::path>> Checkpoints(const fs::path& dir) {
 void RequestStop(int signal) { g_stop_signal = signal; }
 int StopSignal() { return g_stop_signal; }
 
-std::string ChildRun::how(const std::string& what) const {
+std::string ChildRun::How(const std::string& what) const {
   if (!stop_reason.empty()) return stop_reason;
   if (signal != 0) return what + " killed by " + SignalName(signal);
   return what + " exit status " + std::to_string(exit_code);

@@ -31,7 +31,7 @@ struct ChildRun {
   std::vector<std::string> errors; // up to five lines with "ERROR" (not the GRANARY_ ones)
   std::deque<std::string> screen;  // the last kLogTailLines lines of its screen output
   // "<what> exit status N", "<what> killed by SIGKILL (Killed)" or the stop reason.
-  std::string how(const std::string& what) const;
+  std::string How(const std::string& what) const;
 };
 
 inline constexpr int kLogTailLines = 25;

@@ -92,7 +92,7 @@ ChildRun RunLammps(const std::string& exe, int threads, const fs::path& dir, con
 }
 
 [[noreturn]] void Fail(const std::string& what, const ChildRun& r, const fs::path& log) {
-  throw LammpsError(what + " (" + r.how("LAMMPS") + ")" + Diagnostics(r, log, "LAMMPS"));
+  throw LammpsError(what + " (" + r.How("LAMMPS") + ")" + Diagnostics(r, log, "LAMMPS"));
 }
 
 // granary-engine, which prepares (or finds in its cache) the native bed.
@@ -130,7 +130,7 @@ json ObtainStart(const fs::path& dir, const BackendOptions& options) {
   if (external::StopSignal() != 0) throw Stopped(external::StopSignal(), "stopped while the native engine prepared the bed");
   if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty() || !provenance.is_object() ||
       !fs::exists(dir / kStartFrame))
-    throw LammpsError("the native engine could not provide the bed (" + r.how("granary-engine") + ")" +
+    throw LammpsError("the native engine could not provide the bed (" + r.How("granary-engine") + ")" +
                       Diagnostics(r, {}, "granary-engine"));
   return provenance;
 }
@@ -334,12 +334,12 @@ void RemoveClogFiles(const fs::path& dir, long long step) {
   for (const char* ext : {".atoms", ".pairs", ".walls"}) fs::remove(ClogFile(dir, step, ext));
 }
 void RemoveClogFilesAfter(const fs::path& dir, long long after) {
-  static const std::regex name(R"(clog\.(\d+)\.(atoms|pairs|walls))");
+  static const std::regex kName(R"(clog\.(\d+)\.(atoms|pairs|walls))");
   std::vector<fs::path> doomed;
   for (const auto& e : fs::directory_iterator(dir)) {
     std::smatch m;
     const std::string f = e.path().filename().string();
-    if (std::regex_match(f, m, name) && std::stoll(m[1]) > after) doomed.push_back(e.path());
+    if (std::regex_match(f, m, kName) && std::stoll(m[1]) > after) doomed.push_back(e.path());
   }
   for (const fs::path& f : doomed) fs::remove(f);
 }
@@ -403,9 +403,9 @@ std::string LammpsVersion(const fs::path& log) {
   std::ifstream in(log);
   std::string line;
   if (std::getline(in, line)) {
-    static const std::regex v(R"(LAMMPS \(([^)]+)\))");
+    static const std::regex kV(R"(LAMMPS \(([^)]+)\))");
     std::smatch m;
-    if (std::regex_search(line, m, v)) return m[1];
+    if (std::regex_search(line, m, kV)) return m[1];
   }
   return "unknown";
 }
@@ -481,7 +481,7 @@ std::string FindLammps(const std::string& preferred) {
 std::vector<std::string> WriteInputs(const std::string& dir_name, const BackendOptions& options) {
   const fs::path dir = fs::absolute(dir_name);
   const RunSpec spec = rundir::ReadRunSpec(dir);
-  validate_for_lammps(spec);
+  ValidateForLammps(spec);
   ObtainStart(dir, options);
   const rundir::Frame start = ReadStart(dir, spec);
   WriteInputsInto(dir, spec, MakeSetup(spec, start), start, DischargeStart{});
@@ -499,7 +499,7 @@ namespace {
 
 BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
   const RunSpec spec = rundir::ReadRunSpec(dir);
-  validate_for_lammps(spec);
+  ValidateForLammps(spec);
   const std::string exe = FindLammps(options.lammps);
   fs::remove(dir / rundir::kDoneFile);
 
@@ -616,7 +616,7 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
     end_reason = "discharged";
     if (StallIsAClog(spec, ReadFinal(dir / kFinalDump))) {
       state["clog_steps"].push_back(last_step);
-      if (spec.discharge.stop_on_clog()) {
+      if (spec.discharge.StopOnClog()) {
         end_reason = "clogged";
       } else {  // go on through the clog from the restart the script wrote at the stall
         state["discharge_wall_s"] = discharge_wall;
@@ -662,7 +662,7 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
   summary.granary_version = GRANARY_VERSION;
   summary.granary_commit = granary::GitCommit();
   summary.run_id = spec.run_id;
-  summary.spec = spec.to_json();
+  summary.spec = spec.ToJson();
   summary.end_reason = end_reason;
   summary.bodies = setup.bodies;
   const json bed = state.value("bed", json::object());

@@ -157,8 +157,8 @@ std::string Num(double v) {
 }
 
 Setup MakeSetup(const RunSpec& spec, const rundir::Frame& start) {
-  validate(spec);
-  validate_for_lammps(spec);
+  Validate(spec);
+  ValidateForLammps(spec);
   Setup s;
   s.species = static_cast<int>(spec.bodies.species.size());
   // Which species are clumps, and the bounding radius of every body, from the bed itself.
@@ -341,7 +341,7 @@ std::string DischargeScript(const RunSpec& spec, const Setup& s, const Discharge
   if (remove)
     o << "if " << stalled << " then \"write_restart checkpoint.*.restart\"" << keep
       << " \"print 'GRANARY_END stalled'\" \"jump SELF finished\"\n";
-  else if (spec.discharge.stop_on_clog())
+  else if (spec.discharge.StopOnClog())
     o << "if " << stalled << " then" << keep << " \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
   else
     o << "if " << stalled << " then" << keep << " \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";

@@ -98,7 +98,7 @@ ChildRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir, c
 std::string Diagnostics(const ChildRun& r, const fs::path& log) { return external::Diagnostics(r, log, "LIGGGHTS"); }
 
 [[noreturn]] void Fail(const std::string& what, const ChildRun& r, const fs::path& log) {
-  throw LiggghtsError(what + " (" + r.how("LIGGGHTS") + ")" + Diagnostics(r, log));
+  throw LiggghtsError(what + " (" + r.How("LIGGGHTS") + ")" + Diagnostics(r, log));
 }
 
 void ReportProgress(const fs::path& dir, const std::string& phase, double fraction, double t, double t_end, int exited,
@@ -143,11 +143,11 @@ class BodyIndex {
     long long next = 0;
     for (auto& [key, value] : index_) value = next++;
   }
-  long long of(long long id, long long mol) const {
+  long long Of(long long id, long long mol) const {
     const auto it = index_.find(Key(id, mol));
     return it == index_.end() ? -1 : it->second;
   }
-  long long of(const Sphere& s) const { return of(s.id, s.mol); }
+  long long Of(const Sphere& s) const { return Of(s.id, s.mol); }
   std::size_t size() const { return index_.size(); }
 
  private:
@@ -216,7 +216,7 @@ std::vector<Event> ReadEvents(const fs::path& dir, const std::vector<Counter>& c
         if (t.size() < 2) continue;
         const auto it = spheres.find(std::stoll(t[0]));
         if (it == spheres.end()) continue;
-        events.push_back({std::stod(t[1]), bodies.of(it->second), it->second.type - 1, k});
+        events.push_back({std::stod(t[1]), bodies.Of(it->second), it->second.type - 1, k});
       }
     }
   }
@@ -259,7 +259,7 @@ void ReadFrameBlock(std::istream& in, long long n, long long step, const RunSpec
     const auto t = Tokens(line);
     if (t.size() < 9) throw std::runtime_error("malformed LIGGGHTS dump line: " + line);
     const double r = std::stod(t[5]);
-    const long long body = bodies.of(std::stoll(t[0]), std::stoll(t[1]));
+    const long long body = bodies.Of(std::stoll(t[0]), std::stoll(t[1]));
     // LIGGGHTS wraps each sphere into the y-periodic box; a clump straddling the boundary
     // is put back together next to its first sphere, as the analyses expect whole bodies.
     double y = std::stod(t[4]);
@@ -318,7 +318,7 @@ void ContactFrameOf(long long step, const std::vector<std::string>& pairs, const
     if (t.size() < 8) throw std::runtime_error("malformed LIGGGHTS contact line: " + line);
     const Sphere& a = sphere(t[4]);
     const Sphere& b = sphere(t[5]);
-    const long long body_a = bodies.of(a), body_b = bodies.of(b);
+    const long long body_a = bodies.Of(a), body_b = bodies.Of(b);
     if (body_a == body_b) continue;
     const double xi = std::stod(t[0]), yi = std::stod(t[1]), xj = std::stod(t[2]);
     const double yj = NearestImage(std::stod(t[3]), yi, box_height);
@@ -332,7 +332,7 @@ void ContactFrameOf(long long step, const std::vector<std::string>& pairs, const
     if (t.size() < 7) throw std::runtime_error("malformed LIGGGHTS wall contact line: " + line);
     const double cx = std::stod(t[0]), cy = std::stod(t[1]);
     frame.contacts.push_back(
-        {bodies.of(sphere(t[4])), -1, std::stod(t[2]), std::stod(t[3]), cx, cy, cx, cy, std::stod(t[5]), std::stod(t[6])});
+        {bodies.Of(sphere(t[4])), -1, std::stod(t[2]), std::stod(t[3]), cx, cy, cx, cy, std::stod(t[5]), std::stod(t[6])});
   }
 }
 
@@ -361,12 +361,12 @@ void RemoveClogFiles(const fs::path& dir, long long step) {
 }
 // Every clog.<step>.* file (continuing: `after` = the checkpoint's step, the later ones go).
 void RemoveClogFilesAfter(const fs::path& dir, long long after) {
-  static const std::regex name(R"(clog\.(\d+)\.(atoms|pairs|walls))");
+  static const std::regex kName(R"(clog\.(\d+)\.(atoms|pairs|walls))");
   std::vector<fs::path> doomed;
   for (const auto& e : fs::directory_iterator(dir)) {
     std::smatch m;
     const std::string f = e.path().filename().string();
-    if (std::regex_match(f, m, name) && std::stoll(m[1]) > after) doomed.push_back(e.path());
+    if (std::regex_match(f, m, kName) && std::stoll(m[1]) > after) doomed.push_back(e.path());
   }
   for (const fs::path& f : doomed) fs::remove(f);
 }
@@ -406,8 +406,8 @@ struct Bed {
 };
 
 std::string CacheStem(const RunSpec& spec) {
-  json key = spec.bed_key();
-  key["liggghts_obstacles"] = spec.to_json()["silo"]["obstacles"];
+  json key = spec.BedKey();
+  key["liggghts_obstacles"] = spec.ToJson()["silo"]["obstacles"];
   if (spec.output.contact_forces && !spec.silo.obstacles.empty()) key["liggghts_obstacles_as_meshes"] = true;
   key["liggghts_side_margin"] = !spec.silo.side_outlets.empty();  // the box width depends on it
   key["liggghts_exit_distance"] = spec.discharge.exit_distance;   // and its bottom on this
@@ -524,9 +524,9 @@ std::string LiggghtsVersion(const fs::path& log) {
   std::ifstream in(log);
   std::string line;
   if (std::getline(in, line)) {
-    static const std::regex v(R"(Version\s+([^,)]+))");
+    static const std::regex kV(R"(Version\s+([^,)]+))");
     std::smatch m;
-    if (std::regex_search(line, m, v)) return m[1];
+    if (std::regex_search(line, m, kV)) return m[1];
   }
   return "unknown";
 }
@@ -751,7 +751,7 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
     if (StallIsAClog(spec, ReadAtomsDump(dir / "final.dump"))) {
       state["clog_steps"].push_back(last_step);
       state["clog_step"] = last_step;
-      if (spec.discharge.stop_on_clog()) {
+      if (spec.discharge.StopOnClog()) {
         end_reason = "clogged";
       } else {  // go on through the clog from the restart the script wrote at the stall
         state["discharge_wall_s"] = discharge_wall;
@@ -791,7 +791,7 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   std::set<long long> remaining;
   double out_of_plane = 0;  // the quasi-2-D set-up must keep every centre in z = 0
   for (const Sphere& s : ReadAtomsDump(dir / "final.dump")) {
-    remaining.insert(bodies.of(s));
+    remaining.insert(bodies.Of(s));
     out_of_plane = std::max(out_of_plane, std::fabs(s.z));
   }
   // Work of this session: the spheres x the steps run since the start or the checkpoint.
@@ -818,7 +818,7 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   summary.granary_version = GRANARY_VERSION;
   summary.granary_commit = granary::GitCommit();
   summary.run_id = spec.run_id;
-  summary.spec = spec.to_json();
+  summary.spec = spec.ToJson();
   summary.end_reason = end_reason;
   summary.bodies = spec.bodies.count;
   summary.exited = result.exited;

@@ -34,10 +34,10 @@ double NativeBenchRate(const BenchOptions& o) {
               "--threads-list", "1", bp::std_out > out);
   std::string line;
   double nat = 0;
-  static const std::regex rate(R"(disc_steps_per_s=([0-9.eE+-]+))");
+  static const std::regex kRate(R"(disc_steps_per_s=([0-9.eE+-]+))");
   while (std::getline(out, line)) {
     std::smatch m;
-    if (std::regex_search(line, m, rate)) nat = std::stod(m[1]);
+    if (std::regex_search(line, m, kRate)) nat = std::stod(m[1]);
   }
   c.wait();
   if (c.exit_code() != 0 || nat <= 0) throw std::runtime_error("granary-engine bench failed");
@@ -60,7 +60,7 @@ void RunBench(const BenchOptions& o) {
                {"cache_file", (base / ("granary-liggghts-bench-bed-" + std::to_string(o.bodies) + ".json")).string()}}},
       {"discharge", {{"mode", "reinject"}, {"max_time", o.steps * 1e-4}, {"stop_on_clog", false}}},
       {"output", {{"checkpoint_interval", 0.0}}}};
-  rundir::WriteRunSpec(dir, RunSpec::from_json(spec).to_json());
+  rundir::WriteRunSpec(dir, RunSpec::FromJson(spec).ToJson());
   std::printf("bench: LIGGGHTS, %d dumbbells, %d steps (the bed is prepared once and cached; not timed)\n", o.bodies, o.steps);
   std::fflush(stdout);
   std::vector<double> lig_rates, native_rates;

@@ -93,7 +93,7 @@ constexpr char kHeader[] = "atom_modify map array\nprocessors * 1 1\n";
 // integrates bodies only, so with a mixture the discs are the group `singles` (by atom type),
 // made after insertion: a static group holds the atoms that exist when it is defined.
 std::string ClumpIntegration(const SiloSetup& setup) {
-  // allow_group_and_set: the groups below and count(all,region) in the discharge.
+  // allow_group_and_set: the groups below and Count(all,region) in the discharge.
   return setup.multisphere ? "fix ms all multisphere allow_group_and_set yes\n" : "";
 }
 std::string SingleIntegration(const SiloSetup& setup, bool define_group) {
@@ -162,8 +162,8 @@ std::string Stl(const MeshFile& m, double half_z) {
 }
 
 SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
-  validate(spec);
-  validate_for_liggghts(spec);
+  Validate(spec);
+  ValidateForLiggghts(spec);
   SiloSetup s;
   const Silo& silo = spec.silo;
   const double ed = spec.discharge.exit_distance;
@@ -497,7 +497,7 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
   if (remove)
     p << "if " << stalled << " then \"write_restart checkpoint.*.restart\"" << keep << " \"print 'GRANARY_END stalled'\" "
       << "\"jump SELF finished\"\n";
-  else if (spec.discharge.stop_on_clog())
+  else if (spec.discharge.StopOnClog())
     p << "if " << stalled << " then" << keep << " \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
   else
     p << "if " << stalled << " then" << keep << " \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";

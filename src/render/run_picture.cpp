@@ -36,9 +36,9 @@ double PickTime(const rundir::RunData& run, const FramePick& pick) {
   }
   // The analyses' rule of a clog (clogging.h), with the run's own clog_window.
   const analysis::PassOptions pass;
-  const analysis::RunView v = analysis::make_run_view(run, pass);
+  const analysis::RunView v = analysis::MakeRunView(run, pass);
   const analysis::ClogSeries series =
-      analysis::clog_series(run.events, -1, v.t_end, v.clog_gap, analysis::run_end_of(v.end_reason), v.stop_on_clog);
+      analysis::ComputeClogSeries(run.events, -1, v.t_end, v.clog_gap, analysis::RunEndOf(v.end_reason), v.stop_on_clog);
   const auto& clogs = series.clogged;
   if (pick.clog < 1 || pick.clog > static_cast<int>(clogs.size()))
     throw std::runtime_error("run " + run.dir.string() + " has " + std::to_string(clogs.size()) + " clog" +
@@ -83,10 +83,10 @@ RunSetting SettingOf(const rundir::RunData& run) {
   if (!run.has_frames)
     throw std::runtime_error("run " + run.dir.string() + " has no frames (its spec's output.frame_interval is 0)");
   if (!run.spec.is_object()) throw std::runtime_error("run " + run.dir.string() + " has no run.json");
-  const RunSpec spec = RunSpec::from_json(run.spec);
-  rundir::FrameReader reader(run.frames_file(), spec.bodies.density);
+  const RunSpec spec = RunSpec::FromJson(run.spec);
+  rundir::FrameReader reader(run.FramesFile(), spec.bodies.density);
   Frame first;
-  if (!reader.Next(first)) throw std::runtime_error("run " + run.dir.string() + ": " + run.frames_file().string() + " has no frame");
+  if (!reader.Next(first)) throw std::runtime_error("run " + run.dir.string() + ": " + run.FramesFile().string() + " has no frame");
   RunSetting s;
   const double top = TopOf(first);
   // Walls as high as the picture when the spec leaves their height automatic.
@@ -108,7 +108,7 @@ Scene ClogScene(const fs::path& run_dir, int clog, const PictureOptions& o, cons
     throw std::runtime_error("run " + run_dir.string() + " kept " + std::to_string(clogs.size()) + " clog" +
                              (clogs.size() == 1 ? "" : "s") + ", not a clog " + std::to_string(clog));
   const rundir::ClogState& c = clogs[static_cast<std::size_t>(clog - 1)];
-  const RunSpec spec = RunSpec::from_json(run.spec);
+  const RunSpec spec = RunSpec::FromJson(run.spec);
   const double top = TopOf(c.frame);
   RunSetting setting;
   setting.silo = silo::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : top + 1);
@@ -121,13 +121,13 @@ Scene ClogScene(const fs::path& run_dir, int clog, const PictureOptions& o, cons
 }
 
 Scene RunScene(const fs::path& run_dir, const PictureOptions& o) {
-  if (o.pick.kind == FramePick::kClog && rundir::ClogReader(run_dir).present()) return ClogScene(run_dir, o.pick.clog, o);
+  if (o.pick.kind == FramePick::kClog && rundir::ClogReader(run_dir).Present()) return ClogScene(run_dir, o.pick.clog, o);
   const rundir::RunData run = rundir::ReadRun(run_dir);
   const RunSetting setting = SettingOf(run);
   if (NeedsContacts(o) && !setting.has_contacts)
     throw std::runtime_error("run " + run_dir.string() + " has no contact frames (its spec's output.contact_forces is false)");
   const double want = PickTime(run, o.pick);
-  rundir::FrameReader reader(run.frames_file(), run.spec.at("bodies").value("density", 1.0));
+  rundir::FrameReader reader(run.FramesFile(), run.spec.at("bodies").value("density", 1.0));
   Frame f, best;
   bool any = false;
   while (reader.Next(f)) {
@@ -137,7 +137,7 @@ Scene RunScene(const fs::path& run_dir, const PictureOptions& o) {
   }
   std::optional<ContactFrame> contacts;
   if (NeedsContacts(o)) {
-    contacts = ContactsAt(run.contacts_file(), best.timestep);
+    contacts = ContactsAt(run.ContactsFile(), best.timestep);
     if (!contacts) throw std::runtime_error("run " + run_dir.string() + " has no contact frame at step " + std::to_string(best.timestep));
   }
   SceneOptions so = OptionsFor(setting, o);
@@ -157,7 +157,7 @@ int WriteMovie(const fs::path& run_dir, const PictureOptions& o, const fs::path&
   int total = 0;
   double top = 0;  // of every frame: one window for the whole movie
   {
-    rundir::FrameReader counter(run.frames_file(), density);
+    rundir::FrameReader counter(run.FramesFile(), density);
     for (Frame f; counter.Next(f);) {
       ++total;
       top = std::max(top, TopOf(f));
@@ -178,9 +178,9 @@ int WriteMovie(const fs::path& run_dir, const PictureOptions& o, const fs::path&
   };
   // An ffmpeg that has died makes the next write fail instead of killing this process.
   const auto old_sigpipe = std::signal(SIGPIPE, SIG_IGN);
-  rundir::FrameReader reader(run.frames_file(), density);
+  rundir::FrameReader reader(run.FramesFile(), density);
   std::optional<rundir::ContactReader> contact_reader;
-  if (NeedsContacts(o)) contact_reader.emplace(run.contacts_file());
+  if (NeedsContacts(o)) contact_reader.emplace(run.ContactsFile());
   SceneOptions so = OptionsFor(setting, o);
   so.window.y_hi = std::max(so.window.y_hi, top + 1);
   std::optional<PixelSize> size;  // the first frame's, for all (the legend's rows do not change)

@@ -35,7 +35,7 @@ class ClogWriter {
   // Appends one clog to both files and flushes them, so that a checkpoint taken after it
   // never counts on a clog that is not in the files.
   void Write(const ClogState& clog);
-  bool is_open() const { return frames_.is_open(); }
+  bool IsOpen() const { return frames_.IsOpen(); }
   void Close();
 
  private:
@@ -50,12 +50,12 @@ std::int64_t DumpOffsetAfter(const std::filesystem::path& file, std::int64_t tim
 
 // Streams the clogs of DIR in the order they happened. Throws ReadError when a file is
 // malformed, or when the two files disagree (another timestep, another number of blocks).
-// A run directory written before engines kept clogs has neither file: `present()` is false
+// A run directory written before engines kept clogs has neither file: `Present()` is false
 // and there are no clogs.
 class ClogReader {
  public:
   explicit ClogReader(const std::filesystem::path& dir);
-  bool present() const { return present_; }
+  bool Present() const { return present_; }
   bool Next(ClogState& clog);
 
  private:

@@ -59,8 +59,8 @@ void WriteContactBlock(std::FILE* f, const ContactFrame& frame, std::string& t) 
 }  // namespace
 
 void ContactWriter::Write(const ContactFrame& frame) {
-  if (gsd_.is_open()) return gsd_.Write(frame);
-  WriteBlock(file_.get(), gzip_, [&](std::FILE* f) { WriteContactBlock(f, frame, text_); });
+  if (gsd_.IsOpen()) return gsd_.Write(frame);
+  WriteBlock(file_.Get(), gzip_, [&](std::FILE* f) { WriteContactBlock(f, frame, text_); });
 }
 
 std::int64_t ContactBytes(const ContactFrame& frame, bool gzip) {
@@ -143,7 +143,7 @@ bool ContactReader::ReadContacts(ContactFrame& frame) {
     if (fast_row(line, frame.contacts.emplace_back())) continue;
     frame.contacts.pop_back();
     Split(line, ' ', f);
-    if (f.size() < need && in.at_end()) {
+    if (f.size() < need && in.AtEnd()) {
       frame.contacts.clear();
       return false;
     }

@@ -43,8 +43,8 @@ class ContactWriter {
 
   // Appends one frame; NUMBER OF ENTRIES is frame.contacts.size().
   void Write(const ContactFrame& frame);
-  bool is_open() const { return gsd_.is_open() || file_.is_open(); }
-  std::int64_t Offset() { return gsd_.is_open() ? gsd_.Offset() : file_.Offset(); }
+  bool IsOpen() const { return gsd_.IsOpen() || file_.IsOpen(); }
+  std::int64_t Offset() { return gsd_.IsOpen() ? gsd_.Offset() : file_.Offset(); }
   void Close() {
     gsd_.Close();
     file_.Close();

@@ -239,7 +239,7 @@ class DumpLines {
   // Throws ReadError "file:line: what".
   [[noreturn]] void Fail(const std::string& what) const;
   // The last line read ended at the end of the file without its '\n' (a writer may be in it).
-  bool at_end() const { return unterminated_; }
+  bool AtEnd() const { return unterminated_; }
   ~DumpLines();
   DumpLines(const DumpLines&) = delete;
   DumpLines& operator=(const DumpLines&) = delete;

@@ -29,7 +29,7 @@ void AppendEvent(std::string& out, const ExitEvent& e) {
 EventWriter EventWriter::Create(const std::filesystem::path& file) {
   EventWriter w;
   w.file_ = OutputFile(file);
-  std::fputs(kHeader, w.file_.get());
+  std::fputs(kHeader, w.file_.Get());
   return w;
 }
 
@@ -42,7 +42,7 @@ EventWriter EventWriter::ContinueAt(const std::filesystem::path& file, std::int6
 void EventWriter::Write(const ExitEvent& e) {
   std::string row;
   AppendEvent(row, e);
-  std::fwrite(row.data(), 1, row.size(), file_.get());
+  std::fwrite(row.data(), 1, row.size(), file_.Get());
 }
 
 void WriteEvents(const std::filesystem::path& file, const std::vector<ExitEvent>& events) {

@@ -54,9 +54,9 @@ class OutputFile {
   OutputFile(const OutputFile&) = delete;
   OutputFile& operator=(const OutputFile&) = delete;
 
-  bool is_open() const { return file_ != nullptr; }
-  std::FILE* get() const { return file_; }
-  const std::filesystem::path& path() const { return path_; }
+  bool IsOpen() const { return file_ != nullptr; }
+  std::FILE* Get() const { return file_; }
+  const std::filesystem::path& Path() const { return path_; }
   // Bytes written so far (flushed first): what a checkpoint records. 0 when not open.
   std::int64_t Offset();
   // Flushes and closes; throws std::runtime_error naming the file if a write failed.

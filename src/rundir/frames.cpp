@@ -152,12 +152,12 @@ void WriteFrameBlock(std::FILE* f, const Frame& frame, std::string& t) {
 }  // namespace
 
 void FrameWriter::Write(const Frame& frame) {
-  if (gsd_.is_open()) return gsd_.Write(frame);
+  if (gsd_.IsOpen()) return gsd_.Write(frame);
   if (!data_file_.empty()) {
     WriteAtomically(data_file_, LammpsDataFile(frame));
     data_file_.clear();
   }
-  WriteBlock(file_.get(), gzip_, [&](std::FILE* f) { WriteFrameBlock(f, frame, text_); });
+  WriteBlock(file_.Get(), gzip_, [&](std::FILE* f) { WriteFrameBlock(f, frame, text_); });
 }
 
 std::int64_t FrameBytes(const Frame& frame, bool gzip) {
@@ -260,7 +260,7 @@ bool FrameReader::ReadDiscs(Frame& frame) {
     if (Disc& d = frame.discs.emplace_back(); fast_row(line, d)) continue;
     frame.discs.pop_back();
     Split(line, ' ', f);
-    if (f.size() < need && in.at_end()) {
+    if (f.size() < need && in.AtEnd()) {
       frame.discs.clear();
       return false;  // last line cut short: an engine still writing
     }

@@ -67,8 +67,8 @@ class FrameWriter {
 
   // Appends one frame; NUMBER OF ATOMS is frame.discs.size().
   void Write(const Frame& frame);
-  bool is_open() const { return gsd_.is_open() || file_.is_open(); }
-  std::int64_t Offset() { return gsd_.is_open() ? gsd_.Offset() : file_.Offset(); }
+  bool IsOpen() const { return gsd_.IsOpen() || file_.IsOpen(); }
+  std::int64_t Offset() { return gsd_.IsOpen() ? gsd_.Offset() : file_.Offset(); }
   void Close() {
     gsd_.Close();
     file_.Close();
@@ -102,7 +102,7 @@ class FrameReader {
   bool NextHeader(Frame& frame);
   bool ReadDiscs(Frame& frame);
   bool SkipDiscs();
-  const std::filesystem::path& file() const { return file_; }
+  const std::filesystem::path& File() const { return file_; }
 
  private:
   std::filesystem::path file_;

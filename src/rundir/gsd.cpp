@@ -215,7 +215,7 @@ GsdFile GsdFile::ContinueAt(const std::filesystem::path& file, std::int64_t offs
   // between frames, so a frame is kept whole or dropped whole).
   std::vector<IndexEntry> kept;
   for (const IndexEntry& e : h.entries)
-    if (e.location + static_cast<std::int64_t>(e.bytes()) <= offset) kept.push_back(e);
+    if (e.location + static_cast<std::int64_t>(e.Bytes()) <= offset) kept.push_back(e);
   GsdFile g;
   g.path_ = file;
   g.schema_ = schema;
@@ -336,7 +336,7 @@ void GsdFile::Write(std::string_view name, Type type, std::uint64_t n, std::uint
   e.location = end_;
   for (const IndexEntry& p : pending_)
     if (p.id == e.id) throw std::logic_error(path_.string() + ": chunk " + std::string(name) + " written twice in a frame");
-  PutAt(end_, data, e.bytes());
+  PutAt(end_, data, e.Bytes());
   pending_.push_back(e);
 }
 
@@ -382,7 +382,7 @@ GsdReader::GsdReader(const std::filesystem::path& file) : path_(file) {
     if (!index_.empty() && e.frame < index_.back().frame)
       Fail("index entry " + std::to_string(k) + " goes back from frame " + std::to_string(index_.back().frame) + " to " +
            std::to_string(e.frame));
-    if (e.location + static_cast<std::int64_t>(e.bytes()) > size) {
+    if (e.location + static_cast<std::int64_t>(e.Bytes()) > size) {
       // Data not all there (a writer at work, or a cut file): the frames before this one.
       while (!index_.empty() && index_.back().frame == e.frame) index_.pop_back();
       break;
@@ -444,7 +444,7 @@ void GsdReader::CheckType(const IndexEntry& e, std::size_t size) const {
          std::to_string(SizeOf(static_cast<Type>(e.type))) + " bytes, expected " + std::to_string(size));
 }
 
-void GsdReader::ReadBytes(const IndexEntry& e, void* out) const { PreadAll(fd_, out, e.bytes(), e.location, path_); }
+void GsdReader::ReadBytes(const IndexEntry& e, void* out) const { PreadAll(fd_, out, e.Bytes(), e.location, path_); }
 
 // ---- frames ------------------------------------------------------------------------------
 
@@ -591,7 +591,7 @@ GsdFrameWriter GsdFrameWriter::ContinueAt(const std::filesystem::path& file, std
   GsdFrameWriter w;
   if (std::filesystem::exists(file) && offset >= static_cast<std::int64_t>(sizeof(Header))) {
     const GsdReader r(file);
-    if (const IndexEntry* e = r.Find(0, "particles/typeid"); e && e->location + static_cast<std::int64_t>(e->bytes()) <= offset) {
+    if (const IndexEntry* e = r.Find(0, "particles/typeid"); e && e->location + static_cast<std::int64_t>(e->Bytes()) <= offset) {
       r.Read(*e, w.typeid0_);
       r.Read(*r.Find(0, "particles/mass"), w.mass0_);
       r.Read(*r.Find(0, "particles/diameter"), w.diameter0_);
@@ -604,7 +604,7 @@ GsdFrameWriter GsdFrameWriter::ContinueAt(const std::filesystem::path& file, std
 }
 
 void GsdFrameWriter::Write(const Frame& frame) {
-  bool constants = file_.frames() == 0 || frame.discs.size() != typeid0_.size();
+  bool constants = file_.Frames() == 0 || frame.discs.size() != typeid0_.size();
   for (std::size_t i = 0; !constants && i < frame.discs.size(); ++i) {
     const Disc& d = frame.discs[i];
     constants = typeid0_[i] != static_cast<std::uint32_t>(std::max(0, d.type - 1)) || mass0_[i] != static_cast<float>(d.mass) ||
@@ -612,7 +612,7 @@ void GsdFrameWriter::Write(const Frame& frame) {
                 id0_[i] != d.id;
   }
   WriteFrameChunks(file_, frame, constants);
-  if (file_.frames() == 0) {
+  if (file_.Frames() == 0) {
     const std::size_t n = frame.discs.size();
     typeid0_.resize(n);
     mass0_.resize(n);
@@ -656,13 +656,13 @@ std::int64_t GsdOverheadBytes(std::uint64_t entries) {
 }
 
 GsdFrameReader::GsdFrameReader(const std::filesystem::path& file) : file_(file) {
-  if (file_.schema() != kFrameSchema) file_.Fail("a GSD file of schema '" + file_.schema() + "', not 'hoomd'");
+  if (file_.Schema() != kFrameSchema) file_.Fail("a GSD file of schema '" + file_.Schema() + "', not 'hoomd'");
 }
 
 bool GsdFrameReader::NextHeader(Frame& frame) {
   frame.discs.clear();
   if (pending_) SkipDiscs();
-  if (next_ >= file_.frames()) return false;
+  if (next_ >= file_.Frames()) return false;
   // The last frame of a file still being written may lack its positions: the end.
   const IndexEntry* n = file_.Find(next_, "particles/N");
   if (!n) return false;
@@ -808,13 +808,13 @@ std::int64_t GsdContactBytes(const ContactFrame& frame) {
 }
 
 GsdContactReader::GsdContactReader(const std::filesystem::path& file) : file_(file) {
-  if (file_.schema() != kContactSchema) file_.Fail("a GSD file of schema '" + file_.schema() + "', not '" + kContactSchema + "'");
+  if (file_.Schema() != kContactSchema) file_.Fail("a GSD file of schema '" + file_.Schema() + "', not '" + kContactSchema + "'");
 }
 
 bool GsdContactReader::NextHeader(ContactFrame& frame) {
   frame.contacts.clear();
   if (pending_) SkipContacts();
-  if (next_ >= file_.frames()) return false;
+  if (next_ >= file_.Frames()) return false;
   const IndexEntry* n = file_.Find(next_, "contacts/N");
   if (!n) return false;
   if (file_.ReadScalar<std::uint64_t>(*n) > 0 && !file_.Find(next_, "contacts/force")) return false;

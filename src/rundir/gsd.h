@@ -36,7 +36,7 @@ struct IndexEntry {
   std::uint16_t id = 0;
   std::uint8_t type = 0;
   std::uint8_t flags = 0;
-  std::uint64_t bytes() const { return n * m * SizeOf(static_cast<Type>(type)); }
+  std::uint64_t Bytes() const { return n * m * SizeOf(static_cast<Type>(type)); }
 };
 static_assert(sizeof(IndexEntry) == 32);
 
@@ -71,8 +71,8 @@ class GsdFile {
 
   void Write(std::string_view name, Type type, std::uint64_t n, std::uint32_t m, const void* data);
   void EndFrame();
-  std::uint64_t frames() const { return frame_; }
-  bool is_open() const { return fd_ >= 0; }
+  std::uint64_t Frames() const { return frame_; }
+  bool IsOpen() const { return fd_ >= 0; }
   // Bytes of the file after the last EndFrame: what a checkpoint records.
   std::int64_t Offset() const { return end_; }
   // Throws std::runtime_error naming the file if a write failed.
@@ -114,8 +114,8 @@ class GsdReader {
   GsdReader(const GsdReader&) = delete;
   GsdReader& operator=(const GsdReader&) = delete;
 
-  std::uint64_t frames() const { return frames_; }
-  const std::string& schema() const { return schema_; }
+  std::uint64_t Frames() const { return frames_; }
+  const std::string& Schema() const { return schema_; }
   // The chunk `name` of `frame`, or nullptr.
   const IndexEntry* Find(std::uint64_t frame, std::string_view name) const;
   // The chunk's n x m values, converted to T (which must be its type's C++ type).
@@ -133,7 +133,7 @@ class GsdReader {
     ReadBytes(e, v.data());
     return v[0];
   }
-  const std::filesystem::path& file() const { return path_; }
+  const std::filesystem::path& File() const { return path_; }
   [[noreturn]] void Fail(const std::string& what) const;
 
  private:
@@ -164,7 +164,7 @@ class GsdFrameWriter {
   static GsdFrameWriter Create(const std::filesystem::path& file);
   static GsdFrameWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset);
   void Write(const Frame& frame);
-  bool is_open() const { return file_.is_open(); }
+  bool IsOpen() const { return file_.IsOpen(); }
   std::int64_t Offset() const { return file_.Offset(); }
   void Close() { file_.Close(); }
 
@@ -222,7 +222,7 @@ class GsdContactWriter {
   static GsdContactWriter Create(const std::filesystem::path& file);
   static GsdContactWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset);
   void Write(const ContactFrame& frame);
-  bool is_open() const { return file_.is_open(); }
+  bool IsOpen() const { return file_.IsOpen(); }
   std::int64_t Offset() const { return file_.Offset(); }
   void Close() { file_.Close(); }
 

@@ -5,7 +5,7 @@
 
 namespace granary {
 
-std::uint64_t fnv1a64(const std::string& data) {
+std::uint64_t Fnv1a64(const std::string& data) {
   std::uint64_t h = 14695981039346656037ull;  // FNV offset basis
   for (unsigned char c : data) {
     h ^= c;
@@ -14,9 +14,9 @@ std::uint64_t fnv1a64(const std::string& data) {
   return h;
 }
 
-std::string hash_hex(const std::string& data) {
+std::string HashHex(const std::string& data) {
   char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(fnv1a64(data)));
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(Fnv1a64(data)));
   return buf;
 }
 

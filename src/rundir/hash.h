@@ -7,8 +7,8 @@
 
 namespace granary {
 
-std::uint64_t fnv1a64(const std::string& data);
+std::uint64_t Fnv1a64(const std::string& data);
 // 16 lower-case hex digits of fnv1a64.
-std::string hash_hex(const std::string& data);
+std::string HashHex(const std::string& data);
 
 }  // namespace granary

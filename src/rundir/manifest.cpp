@@ -243,7 +243,7 @@ const char* IntegrityName(Integrity integrity) {
   return "?";
 }
 
-std::string Verification::text() const {
+std::string Verification::Text() const {
   std::string out;
   for (const FileProblem& p : problems) out += (out.empty() ? "" : "; ") + p.file + ": " + p.what;
   return out;

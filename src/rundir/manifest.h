@@ -88,7 +88,7 @@ struct Verification {
   std::vector<FileProblem> problems;  // damaged: what differs (at least one)
   int files_hashed = 0;               // checksums computed by this check (the others were cached)
   // "frames.dump: 1234 bytes, the manifest records 5678; events.csv: ..." ("" when whole).
-  std::string text() const;
+  std::string Text() const;
 };
 
 enum class VerifyLevel {

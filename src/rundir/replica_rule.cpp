@@ -57,7 +57,7 @@ std::string Number(double x) {
 
 }  // namespace
 
-ReplicaRule ReplicaRule::from_json(const json& j, const std::string& path) {
+ReplicaRule ReplicaRule::FromJson(const json& j, const std::string& path) {
   ReplicaRule r;
   if (j.is_number()) {
     r.min = r.max = ReplicaCount(j, path);
@@ -89,8 +89,8 @@ ReplicaRule ReplicaRule::from_json(const json& j, const std::string& path) {
   return r;
 }
 
-std::string ReplicaRule::text() const {
-  if (!adaptive()) return std::to_string(min) + (min == 1 ? " replica" : " replicas") + " per point";
+std::string ReplicaRule::Text() const {
+  if (!Adaptive()) return std::to_string(min) + (min == 1 ? " replica" : " replicas") + " per point";
   std::string s = std::to_string(min) + " replicas per point, then more until ";
   for (std::size_t k = 0; k < until.size(); ++k) {
     const ReplicaTarget& t = until[k];
@@ -100,7 +100,7 @@ std::string ReplicaRule::text() const {
   return s + ", at most " + std::to_string(max);
 }
 
-std::vector<TargetStatus> judge_targets(const ReplicaRule& rule, const std::map<std::string, MetricEstimate>& metrics) {
+std::vector<TargetStatus> JudgeTargets(const ReplicaRule& rule, const std::map<std::string, MetricEstimate>& metrics) {
   std::vector<TargetStatus> out;
   for (const ReplicaTarget& t : rule.until) {
     TargetStatus s;
@@ -120,7 +120,7 @@ std::vector<TargetStatus> judge_targets(const ReplicaRule& rule, const std::map<
   return out;
 }
 
-const char* to_string(ReplicaVerdict v) {
+const char* ToString(ReplicaVerdict v) {
   switch (v) {
     case ReplicaVerdict::kFixed: return "fixed";
     case ReplicaVerdict::kWaiting: return "waiting";
@@ -132,10 +132,10 @@ const char* to_string(ReplicaVerdict v) {
   return "?";
 }
 
-ReplicaDecision decide_replicas(const ReplicaRule& rule, const PointReplicas& point) {
+ReplicaDecision DecideReplicas(const ReplicaRule& rule, const PointReplicas& point) {
   ReplicaDecision d;
-  if (!rule.adaptive()) return d;
-  d.targets = judge_targets(rule, point.metrics);
+  if (!rule.Adaptive()) return d;
+  d.targets = JudgeTargets(rule, point.metrics);
   if (point.unfinished > 0) {
     d.verdict = ReplicaVerdict::kWaiting;
     return d;

@@ -1,8 +1,8 @@
 // Adaptive replicas (docs/campaign-spec.md "Replicas"): the campaign spec's `replicas` as a
 // rule — `min` runs per sweep point, more until every target metric's standard error is small
 // enough, at most `max` — and the one decision that applies it, as pure functions. The runner
-// applies decide_replicas() after each finished run; `campaign status` and the report show
-// judge_targets(). It lives here, beside the run spec, because the runner (which plans by
+// applies DecideReplicas() after each finished run; `campaign status` and the report show
+// JudgeTargets(). It lives here, beside the run spec, because the runner (which plans by
 // it) and the analysis library (whose report states it) both read it and neither links the
 // other.
 #pragma once
@@ -27,13 +27,13 @@ struct ReplicaRule {
   int max = 1;
   std::vector<ReplicaTarget> until;  // empty: a fixed number of replicas (min == max)
 
-  bool adaptive() const { return !until.empty(); }
+  bool Adaptive() const { return !until.empty(); }
   // `replicas` of a campaign spec: an integer N (fixed: min = max = N) or
   // {"min", "max", "until": {"metric", "rel_se" | "se"} or a list of them}. Throws SpecError
   // naming the JSON path under `path` (e.g. "/replicas/until/1/rel_se").
-  static ReplicaRule from_json(const nlohmann::json& j, const std::string& path = "/replicas");
+  static ReplicaRule FromJson(const nlohmann::json& j, const std::string& path = "/replicas");
   // The stopping rule in words, for plan, status and the report.
-  std::string text() const;
+  std::string Text() const;
 };
 
 // A point metric as the analyses aggregate it (mean ± se over the point's replicas, or pooled).
@@ -53,7 +53,7 @@ struct TargetStatus {
 };
 
 // Every target of `rule` judged against a point's metrics.
-std::vector<TargetStatus> judge_targets(const ReplicaRule& rule, const std::map<std::string, MetricEstimate>& metrics);
+std::vector<TargetStatus> JudgeTargets(const ReplicaRule& rule, const std::map<std::string, MetricEstimate>& metrics);
 
 // What the runner knows of one sweep point.
 struct PointReplicas {
@@ -70,7 +70,7 @@ enum class ReplicaVerdict {
   kUnknown,   // a target's metric is not among the point's metrics (a typo, or no analysis returns it)
   kMore,      // replicas added
 };
-const char* to_string(ReplicaVerdict v);
+const char* ToString(ReplicaVerdict v);
 
 struct ReplicaDecision {
   ReplicaVerdict verdict = ReplicaVerdict::kFixed;
@@ -83,6 +83,6 @@ struct ReplicaDecision {
 // (n_needed = n * (achieved/target)^2 over the point's `planned` runs), at least 1, at most as
 // many as it has (no more than doubling on a noisy se), and never past `max`. A target that
 // cannot be judged yet (no se: a single run, no avalanche) asks for one more.
-ReplicaDecision decide_replicas(const ReplicaRule& rule, const PointReplicas& point);
+ReplicaDecision DecideReplicas(const ReplicaRule& rule, const PointReplicas& point);
 
 }  // namespace granary

@@ -39,9 +39,9 @@ nlohmann::json ReadRunSpecJson(const fs::path& dir) {
 RunSpec ReadRunSpec(const fs::path& dir) {
   const nlohmann::json j = ReadRunSpecJson(dir);
   try {
-    return RunSpec::from_json(j);
+    return RunSpec::FromJson(j);
   } catch (const SpecError& e) {
-    throw SpecError(e.path(), e.message() + " [" + (dir / kRunSpecFile).string() + "]");
+    throw SpecError(e.Path(), e.Message() + " [" + (dir / kRunSpecFile).string() + "]");
   }
 }
 
@@ -71,8 +71,8 @@ RunData ReadRun(const fs::path& dir) {
   r.compressed = !fs::exists(dir / kFramesFile) && fs::exists(dir / kFramesGzFile);
   r.gsd = !fs::exists(dir / kFramesFile) && !r.compressed &&
           (fs::exists(dir / kFramesGsdFile) || fs::exists(dir / kContactsGsdFile));
-  r.has_frames = fs::exists(r.frames_file());
-  r.has_contacts = fs::exists(r.contacts_file());
+  r.has_frames = fs::exists(r.FramesFile());
+  r.has_contacts = fs::exists(r.ContactsFile());
   if (!r.has_frames) {
     std::optional<Manifest> m;
     try {
@@ -104,21 +104,21 @@ const char* ContactsFileName(const Output& output) {
 TextDumps WriteTextDumps(const fs::path& dir, const fs::path& out) {
   const RunData run = ReadRun(dir);
   if (!run.has_frames)
-    throw ReadError(run.frames_file().string() + ": no such file (the run writes frames when its spec sets "
+    throw ReadError(run.FramesFile().string() + ": no such file (the run writes frames when its spec sets "
                     "output/frame_interval)");
   if (fs::exists(out) && fs::equivalent(out, dir))
     throw ReadError(out.string() + ": is the run directory itself; the text dumps go to another folder");
   fs::create_directories(out);
   TextDumps n;
   {
-    FrameReader in(run.frames_file());
+    FrameReader in(run.FramesFile());
     FrameWriter w = FrameWriter::Create(out / kFramesFile);
     for (Frame f; in.Next(f); ++n.frames) w.Write(f);
     w.Close();
   }
   n.bytes = static_cast<std::int64_t>(fs::file_size(out / kFramesFile) + fs::file_size(out / kFramesDataFile));
   if (run.has_contacts) {
-    ContactReader in(run.contacts_file());
+    ContactReader in(run.ContactsFile());
     ContactWriter w = ContactWriter::Create(out / kContactsFile);
     for (ContactFrame c; in.Next(c); ++n.contact_frames) w.Write(c);
     w.Close();

@@ -51,10 +51,10 @@ struct RunData {
   // Why the frames are gone, when campaign clean --frames removed them (manifest.json
   // "dropped"): a sentence for the error of an analysis that would need them; "" otherwise.
   std::string frames_dropped;
-  std::filesystem::path frames_file() const {
+  std::filesystem::path FramesFile() const {
     return dir / (gsd ? kFramesGsdFile : compressed ? kFramesGzFile : kFramesFile);
   }
-  std::filesystem::path contacts_file() const {
+  std::filesystem::path ContactsFile() const {
     return dir / (gsd ? kContactsGsdFile : compressed ? kContactsGzFile : kContactsFile);
   }
 };

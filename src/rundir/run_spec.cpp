@@ -30,7 +30,7 @@ SpecError::SpecError(std::string path, std::string message)
     : std::runtime_error(path + ": " + message), path_(std::move(path)), message_(std::move(message)) {}
 
 // Levenshtein distance for "did you mean" suggestions.
-std::string forbidden_character_in(const std::string& name, const std::string& extra) {
+std::string ForbiddenCharacterIn(const std::string& name, const std::string& extra) {
   char buf[64];
   for (std::size_t i = 0; i < name.size();) {
     const auto c = static_cast<unsigned char>(name[i]);
@@ -77,7 +77,7 @@ std::string forbidden_character_in(const std::string& name, const std::string& e
   return "";
 }
 
-std::size_t edit_distance(const std::string& a, const std::string& b) {
+std::size_t EditDistance(const std::string& a, const std::string& b) {
   std::vector<std::size_t> row(b.size() + 1);
   for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
   for (std::size_t i = 1; i <= a.size(); ++i) {
@@ -126,7 +126,7 @@ std::string UnknownKeyMessage(const std::string& key, const std::vector<std::str
   std::string best;
   std::size_t best_d = std::numeric_limits<std::size_t>::max();
   for (const auto& a : allowed) {
-    const std::size_t d = edit_distance(key, a);
+    const std::size_t d = EditDistance(key, a);
     if (d < best_d) {
       best_d = d;
       best = a;
@@ -139,7 +139,7 @@ std::string UnknownKeyMessage(const std::string& key, const std::vector<std::str
   return "unknown key; allowed: " + Quoted(allowed);
 }
 
-// A JSON object being read: checks for unknown keys up front (the keys of run_spec_table()
+// A JSON object being read: checks for unknown keys up front (the keys of RunSpecTable()
 // at this place) and hands out typed values with their JSON Pointer for error messages; the
 // type each key must have is the table's too.
 class Reader {
@@ -148,7 +148,7 @@ class Reader {
     if (!j.is_object()) {
       throw SpecError(path_.empty() ? "/" : path_, "must be an object (got " + TypeName(j) + ")");
     }
-    const std::vector<std::string> keys = run_spec_table().keys(spec_pattern(path_));
+    const std::vector<std::string> keys = RunSpecTable().Keys(SpecPattern(path_));
     for (const auto& [key, value] : j.items()) {
       if (std::find(keys.begin(), keys.end(), key) == keys.end()) {
         throw SpecError(Path(key), UnknownKeyMessage(key, keys));
@@ -229,7 +229,7 @@ class Reader {
  private:
   // The code reads each key as the type the table gives it (a mismatch is a bug here).
   void Expect(const std::string& key, SpecType type) const {
-    if (run_spec_table().at(spec_pattern(Path(key))).type != type)
+    if (RunSpecTable().At(SpecPattern(Path(key))).type != type)
       throw std::logic_error("run spec table: " + Path(key) + " is read with another type than the table's");
   }
   const json& j_;
@@ -273,7 +273,7 @@ constexpr std::initializer_list<std::pair<const char*, Wall>> kWalls = {{"left",
                                                                         {"right", Wall::kRight}};
 
 // The run spec's keys (docs/run-spec.md). Types and ranges here are all the validator knows of
-// single values; validate() adds the checks that relate several values.
+// single values; Validate() adds the checks that relate several values.
 SpecTable MakeRunSpecTable() {
   using T = SpecType;
   const SpecBound positive{0.0, true}, non_negative{0.0, false};
@@ -407,20 +407,20 @@ SpecTable MakeRunSpecTable() {
 
 }  // namespace
 
-const SpecTable& run_spec_table() {
-  static const SpecTable table = MakeRunSpecTable();
-  return table;
+const SpecTable& RunSpecTable() {
+  static const SpecTable kTable = MakeRunSpecTable();
+  return kTable;
 }
 
 namespace {
 
 // The table's range for the value at `pointer` (a concrete JSON Pointer).
 void CheckBounds(const std::string& pointer, double v) {
-  const std::string problem = spec_bound_error(run_spec_table().at(spec_pattern(pointer)), v);
+  const std::string problem = SpecBoundError(RunSpecTable().At(SpecPattern(pointer)), v);
   if (!problem.empty()) throw SpecError(pointer, problem + " (got " + Shown(v) + ")");
 }
 void CheckBounds(const std::string& pointer, int v) {
-  const std::string problem = spec_bound_error(run_spec_table().at(spec_pattern(pointer)), v);
+  const std::string problem = SpecBoundError(RunSpecTable().At(SpecPattern(pointer)), v);
   if (!problem.empty()) throw SpecError(pointer, problem + " (got " + std::to_string(v) + ")");
 }
 
@@ -434,7 +434,7 @@ void CheckUnclogBounds(const Unclog& u) {
 std::string DefaultSpeciesName(const Species& s) {
   return ShapeText(ShapeRowOf(s.shape).default_name, [&](const std::string& key) {
     if (key == "n") return std::to_string(s.n);
-    throw std::logic_error("shape table: default name of " + to_string(s.shape) + " uses {" + key + "}");
+    throw std::logic_error("shape table: default name of " + ToString(s.shape) + " uses {" + key + "}");
   });
 }
 
@@ -449,7 +449,7 @@ Species ParseSpecies(const json& j, const std::string& path) {
   s.name = DefaultSpeciesName(s);
   r.String("name", s.name);
   // The name is the `shape` column of events.csv and a label in dumps and reports.
-  if (const std::string bad = forbidden_character_in(s.name, ","); s.name.empty() || !bad.empty())
+  if (const std::string bad = ForbiddenCharacterIn(s.name, ","); s.name.empty() || !bad.empty())
     throw SpecError(path + "/name", "must be a non-empty name without commas, control characters or line breaks "
                                     "(it is a column of events.csv) (got " + json(s.name).dump() +
                                     (bad.empty() ? "" : ", which holds " + bad) + ")");
@@ -524,63 +524,63 @@ void ParseSilo(const Reader& parent, Silo& s) {
 
 }  // namespace
 
-std::string to_string(Shape shape) { return ShapeRowOf(shape).name; }
-std::string to_string(DischargeMode mode) {
+std::string ToString(Shape shape) { return ShapeRowOf(shape).name; }
+std::string ToString(DischargeMode mode) {
   for (const auto& [name, value] : kModes) {
     if (value == mode) return name;
   }
   return "?";
 }
-std::string to_string(ReinjectPosition position) {
+std::string ToString(ReinjectPosition position) {
   for (const auto& [name, value] : kReinjectPositions) {
     if (value == position) return name;
   }
   return "?";
 }
-std::string to_string(FrameFormat format) {
+std::string ToString(FrameFormat format) {
   for (const auto& [name, value] : kFrameFormats) {
     if (value == format) return name;
   }
   return "?";
 }
-std::string to_string(NextBatch next) {
+std::string ToString(NextBatch next) {
   for (const auto& [name, value] : kNextBatches) {
     if (value == next) return name;
   }
   return "?";
 }
-std::string to_string(BedSettler settler) {
+std::string ToString(BedSettler settler) {
   for (const auto& [name, value] : kSettlers) {
     if (value == settler) return name;
   }
   return "?";
 }
-std::string to_string(OnClog on_clog) {
+std::string ToString(OnClog on_clog) {
   for (const auto& [name, value] : kOnClogs) {
     if (value == on_clog) return name;
   }
   return "?";
 }
-std::string to_string(UnclogMethod method) {
+std::string ToString(UnclogMethod method) {
   for (const auto& [name, value] : kUnclogMethods) {
     if (value == method) return name;
   }
   return "?";
 }
-std::string to_string(NormalModel model) {
+std::string ToString(NormalModel model) {
   for (const auto& [name, value] : kNormalModels) {
     if (value == model) return name;
   }
   return "?";
 }
-std::string to_string(TangentialCap cap) {
+std::string ToString(TangentialCap cap) {
   for (const auto& [name, value] : kCaps) {
     if (value == cap) return name;
   }
   return "?";
 }
 
-RunSpec RunSpec::from_json(const json& j) {
+RunSpec RunSpec::FromJson(const json& j) {
   Reader r(j, "");
   RunSpec s;
   r.String("run_id", s.run_id);
@@ -630,7 +630,7 @@ RunSpec RunSpec::from_json(const json& j) {
       d.Enum("on_clog", s.discharge.on_clog, kOnClogs);
       // Both spellings given: they must say the same.
       if (d.Has("stop_on_clog") && stop_on_clog != (s.discharge.on_clog == OnClog::kStop))
-        throw SpecError("/discharge/stop_on_clog", "contradicts /discharge/on_clog \"" + to_string(s.discharge.on_clog) +
+        throw SpecError("/discharge/stop_on_clog", "contradicts /discharge/on_clog \"" + ToString(s.discharge.on_clog) +
                                                        "\"; give only on_clog (got " + Shown(d.At("stop_on_clog")) + ")");
     }
     if (d.Has("unclog")) {
@@ -644,7 +644,7 @@ RunSpec RunSpec::from_json(const json& j) {
       // Said, but not used: never silently.
       if (s.discharge.on_clog != OnClog::kUnclog)
         throw SpecError("/discharge/unclog", "applies only with /discharge/on_clog \"unclog\" (on_clog is \"" +
-                                                 to_string(s.discharge.on_clog) + "\")");
+                                                 ToString(s.discharge.on_clog) + "\")");
     }
     d.Number("clog_window", s.discharge.clog_window);
     d.Number("clog_ke_per_body", s.discharge.clog_ke_per_body);
@@ -662,11 +662,11 @@ RunSpec RunSpec::from_json(const json& j) {
     o.Enum("format", s.output.format, kFrameFormats);
     o.Number("checkpoint_interval", s.output.checkpoint_interval);
   }
-  validate(s);
+  Validate(s);
   return s;
 }
 
-void validate(const RunSpec& s) {
+void Validate(const RunSpec& s) {
   CheckBounds("/time_step", s.time_step);
   CheckBounds("/gravity", s.gravity);
 
@@ -824,8 +824,8 @@ void validate(const RunSpec& s) {
     throw SpecError("/bed/settled_by", "only the LAMMPS backend settles its bed in LAMMPS; the " + s.engine +
                                            " engine prepares its own (got \"lammps\", allowed: \"native\")");
   // What the LIGGGHTS backend cannot do is refused when the run is planned, not when it runs.
-  if (s.engine == "liggghts") validate_for_liggghts(s);
-  if (s.engine == "lammps") validate_for_lammps(s);
+  if (s.engine == "liggghts") ValidateForLiggghts(s);
+  if (s.engine == "lammps") ValidateForLammps(s);
 }
 
 namespace {
@@ -834,14 +834,14 @@ namespace {
 void ValidateExternalOutput(const RunSpec& s, const std::string& backend) {
   if (s.output.format != FrameFormat::kText)
     throw SpecError("/output/format", "the " + backend + " backend writes text dumps only (got \"" +
-                                          to_string(s.output.format) + "\", allowed: \"text\")");
+                                          ToString(s.output.format) + "\", allowed: \"text\")");
   if (s.output.contact_interval != 1)
     throw SpecError("/output/contact_interval", "the " + backend + " backend writes a contact frame at every frame (got " +
                                                     std::to_string(s.output.contact_interval) + ", allowed: 1)");
 }
 }  // namespace
 
-void validate_for_lammps(const RunSpec& s) {
+void ValidateForLammps(const RunSpec& s) {
   ValidateExternalOutput(s, "LAMMPS");
   if (s.discharge.on_clog == OnClog::kUnclog)
     throw SpecError("/discharge/on_clog",
@@ -850,8 +850,8 @@ void validate_for_lammps(const RunSpec& s) {
                     "\"stop\" or \"wait\" (got \"unclog\")");
   if (s.contact.normal_model != Contact{}.normal_model)
     throw SpecError("/contact/normal_model", "the LAMMPS backend writes pair gran/hertz/history only; " +
-                                                 to_string(s.contact.normal_model) +
-                                                 " is the native engine's (got \"" + to_string(s.contact.normal_model) +
+                                                 ToString(s.contact.normal_model) +
+                                                 " is the native engine's (got \"" + ToString(s.contact.normal_model) +
                                                  "\", allowed: \"hertz\")");
   if (s.contact.clip_normal)
     throw SpecError("/contact/clip_normal", "LAMMPS' pair gran/hertz/history has no clipping of an attractive normal "
@@ -862,12 +862,12 @@ void validate_for_lammps(const RunSpec& s) {
                     "through a side outlet; use \"remove\" with side outlets (got \"reinject\")");
 }
 
-void validate_for_liggghts(const RunSpec& s) {
+void ValidateForLiggghts(const RunSpec& s) {
   ValidateExternalOutput(s, "LIGGGHTS");
   if (s.contact.normal_model != Contact{}.normal_model)
     throw SpecError("/contact/normal_model", "the LIGGGHTS backend writes model hertz/stiffness only; " +
-                                                 to_string(s.contact.normal_model) +
-                                                 " is the native engine's (got \"" + to_string(s.contact.normal_model) +
+                                                 ToString(s.contact.normal_model) +
+                                                 " is the native engine's (got \"" + ToString(s.contact.normal_model) +
                                                  "\", allowed: \"hertz\")");
   if (s.discharge.on_clog == OnClog::kUnclog)
     throw SpecError("/discharge/on_clog",
@@ -875,7 +875,7 @@ void validate_for_liggghts(const RunSpec& s) {
                     "step at which to take out an arch or kick the bodies over the outlet; use the native engine, or "
                     "\"stop\" or \"wait\" (got \"unclog\")");
   if (s.bed.next_batch != Bed{}.next_batch)
-    throw SpecError("/bed/next_batch", "bed/next_batch is the native engine's (got \"" + to_string(s.bed.next_batch) +
+    throw SpecError("/bed/next_batch", "bed/next_batch is the native engine's (got \"" + ToString(s.bed.next_batch) +
                                            "\", allowed: the default)");
   if (s.bed.time_step != Bed{}.time_step)
     throw SpecError("/bed/time_step", "the LIGGGHTS backend prepares its bed at time_step; bed/time_step is the "
@@ -889,7 +889,7 @@ void validate_for_liggghts(const RunSpec& s) {
 namespace {
 
 json SpeciesJson(const Species& sp) {
-  return {{"name", sp.name},         {"shape", to_string(sp.shape)}, {"fraction", sp.fraction},
+  return {{"name", sp.name},         {"shape", ToString(sp.shape)}, {"fraction", sp.fraction},
           {"diameter", sp.diameter}, {"big_diameter", sp.big_diameter}, {"n", sp.n}};
 }
 
@@ -906,10 +906,10 @@ json ContactJson(const Contact& c) {
           {"gamma_t", c.gamma_t},
           {"mu", c.mu},
           {"mu_wall", c.mu_wall},
-          {"tangential_cap", to_string(c.tangential_cap)},
+          {"tangential_cap", ToString(c.tangential_cap)},
           {"clip_normal", c.clip_normal}};
   // Only when not the default, so that run ids planned before this option existed stay valid.
-  if (c.normal_model != Contact{}.normal_model) j["normal_model"] = to_string(c.normal_model);
+  if (c.normal_model != Contact{}.normal_model) j["normal_model"] = ToString(c.normal_model);
   return j;
 }
 
@@ -920,14 +920,14 @@ json BedJson(const Bed& b, bool with_cache_file) {
   if (with_cache_file) j["cache_file"] = b.cache_file;
   // Only when not the default, so that run ids planned before this option existed stay valid.
   if (b.time_step != Bed{}.time_step) j["time_step"] = b.time_step;
-  if (b.next_batch != Bed{}.next_batch) j["next_batch"] = to_string(b.next_batch);
-  if (b.settled_by != Bed{}.settled_by) j["settled_by"] = to_string(b.settled_by);
+  if (b.next_batch != Bed{}.next_batch) j["next_batch"] = ToString(b.next_batch);
+  if (b.settled_by != Bed{}.settled_by) j["settled_by"] = ToString(b.settled_by);
   return j;
 }
 
 }  // namespace
 
-json RunSpec::to_json() const {
+json RunSpec::ToJson() const {
   json base = json::array();
   for (const auto& o : silo.base_outlets) base.push_back({{"center", o.center}, {"width", o.width}});
   json side = json::array();
@@ -951,9 +951,9 @@ json RunSpec::to_json() const {
           {"contact", ContactJson(contact)},
           {"bed", BedJson(bed, true)},
           {"discharge",
-           {{"mode", to_string(discharge.mode)},
+           {{"mode", ToString(discharge.mode)},
             {"max_time", discharge.max_time},
-            {"stop_on_clog", discharge.stop_on_clog()},
+            {"stop_on_clog", discharge.StopOnClog()},
             {"clog_window", discharge.clog_window},
             {"clog_ke_per_body", discharge.clog_ke_per_body},
             {"reinject_speed", discharge.reinject_speed},
@@ -964,18 +964,18 @@ json RunSpec::to_json() const {
             {"checkpoint_interval", output.checkpoint_interval}}}};
   // Only when not the default, so that run ids planned before this option existed stay valid.
   if (discharge.reinject_position != ReinjectPosition::kRandom)
-    out["discharge"]["reinject_position"] = to_string(discharge.reinject_position);
+    out["discharge"]["reinject_position"] = ToString(discharge.reinject_position);
   if (discharge.periodic_headroom != Discharge{}.periodic_headroom)
     out["discharge"]["periodic_headroom"] = discharge.periodic_headroom;
   if (output.compress) out["output"]["compress"] = true;
   // Only when not the default, so that run ids planned before these options existed stay valid.
-  if (output.format != FrameFormat::kText) out["output"]["format"] = to_string(output.format);
+  if (output.format != FrameFormat::kText) out["output"]["format"] = ToString(output.format);
   if (output.contact_interval != 1) out["output"]["contact_interval"] = output.contact_interval;
   // The unclog protocol only when chosen (stop and wait are stop_on_clog true and false), so
   // run ids planned before it existed stay valid.
   if (discharge.on_clog == OnClog::kUnclog) {
-    out["discharge"]["on_clog"] = to_string(discharge.on_clog);
-    out["discharge"]["unclog"] = {{"method", to_string(discharge.unclog.method)},
+    out["discharge"]["on_clog"] = ToString(discharge.on_clog);
+    out["discharge"]["unclog"] = {{"method", ToString(discharge.unclog.method)},
                                   {"max_clogs", discharge.unclog.max_clogs},
                                   {"max_attempts", discharge.unclog.max_attempts},
                                   {"kick_speed", discharge.unclog.kick_speed},
@@ -984,7 +984,7 @@ json RunSpec::to_json() const {
   return out;
 }
 
-json RunSpec::bed_key() const {
+json RunSpec::BedKey() const {
   // Everything the bed preparation (docs/model.md "A run", step 1) depends on, and nothing
   // about outlets or obstacles, so runs differing only in those share one prepared bed.
   // A LAMMPS run discharges the native engine's bed (docs/lammps.md): the same key, one bed.
@@ -1002,25 +1002,25 @@ json RunSpec::bed_key() const {
   // The native engine's bed depends on the step it is prepared at (the resolved value: a bed
   // prepared before bed/time_step existed, at time_step, is not taken for one at 8 x).
   if (bed_engine == "native") {
-    key["bed"]["resolved_time_step"] = bed_time_step();
+    key["bed"]["resolved_time_step"] = BedTimeStep();
     // Beds of before (fixed wait) are not taken for beds whose batches follow on landing, nor
     // beds landed by another criterion for these.
-    key["bed"]["next_batch"] = to_string(bed.next_batch);
+    key["bed"]["next_batch"] = ToString(bed.next_batch);
     if (bed.next_batch == NextBatch::kLanded) key["bed"]["landed_ke_per_body"] = kBedLandedKePerBody;
   }
   return key;
 }
 
-const std::vector<std::string>& extendable_keys() {
-  static const std::vector<std::string> keys = {"/discharge/max_time", "/discharge/unclog/max_clogs"};
-  return keys;
+const std::vector<std::string>& ExtendableKeys() {
+  static const std::vector<std::string> kEys = {"/discharge/max_time", "/discharge/unclog/max_clogs"};
+  return kEys;
 }
 
-bool extends(const nlohmann::json& from, const nlohmann::json& to) {
+bool Extends(const nlohmann::json& from, const nlohmann::json& to) {
   if (!from.is_object() || !to.is_object()) return false;
   nlohmann::json a = from, b = to;
   bool raised = false;
-  for (const std::string& key : extendable_keys()) {
+  for (const std::string& key : ExtendableKeys()) {
     const nlohmann::json::json_pointer p(key);
     if (!a.contains(p) && !b.contains(p)) continue;  // a limit of a block neither has (no unclog protocol)
     if (!a.contains(p) || !b.contains(p) || !a.at(p).is_number() || !b.at(p).is_number()) return false;

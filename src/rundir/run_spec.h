@@ -20,8 +20,8 @@ namespace granary {
 class SpecError : public std::runtime_error {
  public:
   SpecError(std::string path, std::string message);
-  const std::string& path() const { return path_; }
-  const std::string& message() const { return message_; }
+  const std::string& Path() const { return path_; }
+  const std::string& Message() const { return message_; }
 
  private:
   std::string path_;
@@ -104,7 +104,7 @@ struct Bed {
   double settle_ke_per_body = 1e-6;  // settled when kinetic energy per body (units m g d) is below this
   double max_settle_time = 200.0;  // give up settling after this much simulated time
   // Time step of the native engine's bed preparation; 0 = kBedTimeStepFactor x time_step
-  // (bed_time_step()). A bed at rest does not depend on it; docs/engine.md says why 8x is safe.
+  // (BedTimeStep()). A bed at rest does not depend on it; docs/engine.md says why 8x is safe.
   double time_step = 0.0;
   NextBatch next_batch = NextBatch::kLanded;  // native engine only
   BedSettler settled_by = BedSettler::kNative; // LAMMPS backend only: who settles its bed
@@ -141,7 +141,7 @@ struct Discharge {
   double max_time = 100.0;         // stop at this simulated time after opening
   OnClog on_clog = OnClog::kStop;  // the JSON's stop_on_clog true/false is kStop/kWait
   Unclog unclog;                   // OnClog::kUnclog only
-  bool stop_on_clog() const { return on_clog == OnClog::kStop; }
+  bool StopOnClog() const { return on_clog == OnClog::kStop; }
   double clog_window = 5.0;        // a clog: no exit through any outlet for this long ...
   double clog_ke_per_body = 1e-4;  // ... and kinetic energy per body near the outlets below this
   double reinject_speed = 0.0;     // reinject mode: speed (downwards) given to a reinjected body
@@ -185,24 +185,24 @@ struct RunSpec {
 
   // Parse and validate completely; throws SpecError naming the JSON path.
   // Missing keys take the defaults above; unknown keys are errors with the nearest valid key.
-  static RunSpec from_json(const nlohmann::json& j);
+  static RunSpec FromJson(const nlohmann::json& j);
   // Canonical JSON with every default filled in (sorted keys, as nlohmann::json stores them).
-  nlohmann::json to_json() const;
+  nlohmann::json ToJson() const;
   // The JSON of everything that determines the prepared bed (bodies, silo width, bed procedure,
   // contact, time step, gravity, seed) but not the outlets or obstacles; hash it to name a cached bed.
-  nlohmann::json bed_key() const;
+  nlohmann::json BedKey() const;
   // The native engine's bed-preparation time step: bed.time_step, or kBedTimeStepFactor x
   // time_step when that is 0.
-  double bed_time_step() const { return bed.time_step > 0 ? bed.time_step : kBedTimeStepFactor * time_step; }
+  double BedTimeStep() const { return bed.time_step > 0 ? bed.time_step : kBedTimeStepFactor * time_step; }
 };
 
 // Semantic checks beyond types (geometry fits, fractions sum to 1, ...); from_json calls it.
-void validate(const RunSpec& spec);
-// What the LIGGGHTS backend cannot do (validate() applies it to specs whose engine is
+void Validate(const RunSpec& spec);
+// What the LIGGGHTS backend cannot do (Validate() applies it to specs whose engine is
 // "liggghts"; the backend applies it to whatever spec it is given).
-void validate_for_liggghts(const RunSpec& spec);
+void ValidateForLiggghts(const RunSpec& spec);
 // What the LAMMPS backend cannot do (applied like validate_for_liggghts, docs/lammps.md).
-void validate_for_lammps(const RunSpec& spec);
+void ValidateForLammps(const RunSpec& spec);
 
 // Every key of a run spec with its type, default, range and meaning: what from_json accepts
 // and checks, and what `campaign schema` tells editors (spec_table.h).
@@ -211,33 +211,33 @@ void validate_for_lammps(const RunSpec& spec);
 // continues it from the old run's last checkpoint to the new limit, with the same bits as a
 // run planned with the new limit from the start. Each is a limit a run ends at; one entry here
 // is all a new limit needs.
-const std::vector<std::string>& extendable_keys();
+const std::vector<std::string>& ExtendableKeys();
 
 // Is the run spec `to` the run spec `from` continued further: equal except their run ids, bed
 // cache files and the extendable keys, each of which `to` has at least as large (and one
-// larger)? Both are resolved run specs (RunSpec::to_json()).
-bool extends(const nlohmann::json& from, const nlohmann::json& to);
+// larger)? Both are resolved run specs (RunSpec::ToJson()).
+bool Extends(const nlohmann::json& from, const nlohmann::json& to);
 
-const SpecTable& run_spec_table();
+const SpecTable& RunSpecTable();
 
 // The first character of a name that a name must not hold, described ("U+2028 LINE
 // SEPARATOR", "U+0000 NUL", "a comma"), or "" if there is none: control characters (C0,
 // DEL, C1 such as U+0085), line and paragraph separators, bidirectional and zero-width
 // format characters, the byte-order mark; `extra` adds ASCII characters (",").
-std::string forbidden_character_in(const std::string& name, const std::string& extra = "");
+std::string ForbiddenCharacterIn(const std::string& name, const std::string& extra = "");
 
 // Levenshtein distance, for "did you mean" suggestions (spec keys, CLI verbs).
-std::size_t edit_distance(const std::string& a, const std::string& b);
+std::size_t EditDistance(const std::string& a, const std::string& b);
 
-std::string to_string(Shape shape);
-std::string to_string(DischargeMode mode);
-std::string to_string(ReinjectPosition position);
-std::string to_string(FrameFormat format);
-std::string to_string(NormalModel model);
-std::string to_string(TangentialCap cap);
-std::string to_string(NextBatch next);
-std::string to_string(BedSettler settler);
-std::string to_string(OnClog on_clog);
-std::string to_string(UnclogMethod method);
+std::string ToString(Shape shape);
+std::string ToString(DischargeMode mode);
+std::string ToString(ReinjectPosition position);
+std::string ToString(FrameFormat format);
+std::string ToString(NormalModel model);
+std::string ToString(TangentialCap cap);
+std::string ToString(NextBatch next);
+std::string ToString(BedSettler settler);
+std::string ToString(OnClog on_clog);
+std::string ToString(UnclogMethod method);
 
 }  // namespace granary

@@ -44,7 +44,7 @@ void CheckSnowman(const Species& s, const std::string& path) {
 }  // namespace
 
 const std::vector<ShapeRow>& ShapeTable() {
-  static const std::vector<ShapeRow> table = {
+  static const std::vector<ShapeRow> kTable = {
       {Shape::kDisc, "disc", "disc", "disc of diameter {diameter}", "X_d", true, Disc, nullptr},
       {Shape::kDumbbell, "dumbbell", "dumbbell", "dumbbell: two touching discs of diameter {diameter}", "X_db", true,
        Dumbbell, nullptr},
@@ -53,7 +53,7 @@ const std::vector<ShapeRow>& ShapeTable() {
       {Shape::kRod, "rod", "rod{n}", "rod: {n} touching discs of diameter {diameter} in a line", "", true, Rod,
        nullptr},
   };
-  return table;
+  return kTable;
 }
 
 const ShapeRow& ShapeRowOf(Shape shape) {

@@ -51,7 +51,7 @@ const ShapeRow* FindShapeRow(const std::string& name);
 DiscLayout DiscsOf(const Species& species);
 
 // `pattern` (a row's form or default_name) with {diameter}, {big_diameter} and {n} replaced by
-// value(key).
+// Value(key).
 std::string ShapeText(const std::string& pattern, const std::function<std::string(const std::string& key)>& value);
 
 // Derived from the layout: the body's extent along its axis, and the area of its discs (the

@@ -25,7 +25,7 @@ std::string Last(const std::string& pattern) { return pattern.substr(pattern.rfi
 
 }  // namespace
 
-std::string spec_pattern(const std::string& pointer) {
+std::string SpecPattern(const std::string& pointer) {
   std::string out;
   std::size_t i = 0;
   while (i < pointer.size()) {
@@ -39,7 +39,7 @@ std::string spec_pattern(const std::string& pointer) {
   return out;
 }
 
-std::string spec_bound_error(const SpecField& f, double v) {
+std::string SpecBoundError(const SpecField& f, double v) {
   const bool low = f.minimum && (f.minimum->exclusive ? !(v > f.minimum->value) : !(v >= f.minimum->value));
   const bool high = f.maximum && (f.maximum->exclusive ? !(v < f.maximum->value) : !(v <= f.maximum->value));
   if (!low && !high) return "";
@@ -54,7 +54,7 @@ std::string spec_bound_error(const SpecField& f, double v) {
 SpecTable::SpecTable(std::vector<SpecField> fields) : fields_(std::move(fields)) {
   for (const SpecField& f : fields_) {
     if (f.pattern.empty()) continue;
-    const SpecField* parent = Parent(f.pattern).empty() ? nullptr : find(Parent(f.pattern));
+    const SpecField* parent = Parent(f.pattern).empty() ? nullptr : Find(Parent(f.pattern));
     const bool ok = Parent(f.pattern).empty() ||
                     (parent && (Last(f.pattern) == "*" ? parent->type == SpecType::kArray
                                                        : parent->type == SpecType::kObject));
@@ -62,25 +62,25 @@ SpecTable::SpecTable(std::vector<SpecField> fields) : fields_(std::move(fields))
   }
 }
 
-const SpecField* SpecTable::find(const std::string& pattern) const {
+const SpecField* SpecTable::Find(const std::string& pattern) const {
   for (const SpecField& f : fields_)
     if (f.pattern == pattern) return &f;
   return nullptr;
 }
 
-const SpecField& SpecTable::at(const std::string& pattern) const {
-  if (const SpecField* f = find(pattern)) return *f;
+const SpecField& SpecTable::At(const std::string& pattern) const {
+  if (const SpecField* f = Find(pattern)) return *f;
   throw std::logic_error("spec table: no row " + pattern);
 }
 
-std::vector<std::string> SpecTable::keys(const std::string& pattern) const {
+std::vector<std::string> SpecTable::Keys(const std::string& pattern) const {
   std::vector<std::string> out;
   for (const SpecField& f : fields_)
     if (!f.pattern.empty() && Parent(f.pattern) == pattern && Last(f.pattern) != "*") out.push_back(Last(f.pattern));
   return out;
 }
 
-std::string SpecTable::pointer_regex(const std::vector<std::string>& leave_out) const {
+std::string SpecTable::PointerRegex(const std::vector<std::string>& leave_out) const {
   std::string alternatives;
   for (const SpecField& f : fields_) {
     if (f.pattern.empty()) continue;
@@ -94,8 +94,8 @@ std::string SpecTable::pointer_regex(const std::vector<std::string>& leave_out) 
   return "^(" + alternatives + ")$";
 }
 
-json SpecTable::json_schema(const std::string& pattern, const std::string& axis_pattern) const {
-  const SpecField* f = pattern.empty() ? nullptr : find(pattern);
+json SpecTable::JsonSchema(const std::string& pattern, const std::string& axis_pattern) const {
+  const SpecField* f = pattern.empty() ? nullptr : Find(pattern);
   json s = json::object();
   if (f && !f->description.empty()) s["description"] = f->description;
   if (f && !f->default_value.is_null()) s["default"] = f->default_value;
@@ -109,10 +109,10 @@ json SpecTable::json_schema(const std::string& pattern, const std::string& axis_
       s["type"] = "object";
       json properties = json::object();
       json required = json::array();
-      for (const std::string& key : keys(pattern)) {
+      for (const std::string& key : Keys(pattern)) {
         const std::string child = pattern + "/" + key;
-        properties[key] = json_schema(child, axis_pattern);
-        if (at(child).required) required.push_back(key);
+        properties[key] = JsonSchema(child, axis_pattern);
+        if (At(child).required) required.push_back(key);
       }
       s["properties"] = properties;
       if (!required.empty()) s["required"] = required;
@@ -122,7 +122,7 @@ json SpecTable::json_schema(const std::string& pattern, const std::string& axis_
     case SpecType::kOpenObject: s["type"] = "object"; break;
     case SpecType::kArray:
       s["type"] = "array";
-      if (find(pattern + "/*")) s["items"] = json_schema(pattern + "/*", axis_pattern);
+      if (Find(pattern + "/*")) s["items"] = JsonSchema(pattern + "/*", axis_pattern);
       if (f->min_items > 0) s["minItems"] = f->min_items;
       break;
     case SpecType::kNumber:

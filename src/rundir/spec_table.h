@@ -55,30 +55,30 @@ struct SpecField {
 class SpecTable {
  public:
   explicit SpecTable(std::vector<SpecField> fields);
-  const std::vector<SpecField>& fields() const { return fields_; }
+  const std::vector<SpecField>& Fields() const { return fields_; }
   // The row of a pattern, or nullptr.
-  const SpecField* find(const std::string& pattern) const;
+  const SpecField* Find(const std::string& pattern) const;
   // The row of a pattern; a missing row is a programming error (std::logic_error).
-  const SpecField& at(const std::string& pattern) const;
+  const SpecField& At(const std::string& pattern) const;
   // The keys of the object at `pattern`, in table order ("" is the root).
-  std::vector<std::string> keys(const std::string& pattern) const;
+  std::vector<std::string> Keys(const std::string& pattern) const;
   // JSON Schema (draft-07) of the value at `pattern` ("" is the root). kRunSpec and the axis
   // kinds refer to "#/definitions/run_spec" and use `axis_pattern` (a regular expression of the
   // JSON Pointers an axis may be).
-  nlohmann::json json_schema(const std::string& pattern, const std::string& axis_pattern = "") const;
+  nlohmann::json JsonSchema(const std::string& pattern, const std::string& axis_pattern = "") const;
   // A regular expression matching every JSON Pointer this table allows ("*" = any index):
   // "^(/seed|/silo/base_outlets/[0-9]+/width|...)$". Patterns in `leave_out` are left out.
-  std::string pointer_regex(const std::vector<std::string>& leave_out = {}) const;
+  std::string PointerRegex(const std::vector<std::string>& leave_out = {}) const;
 
  private:
   std::vector<SpecField> fields_;
 };
 
 // The pattern of a concrete JSON Pointer: every array index (all digits) becomes "*".
-std::string spec_pattern(const std::string& pointer);
+std::string SpecPattern(const std::string& pointer);
 
 // "" if `value` is within the field's bounds, else what is allowed: "must be > 0",
 // "must be in [0, 1]", "must be an integer >= 1".
-std::string spec_bound_error(const SpecField& field, double value);
+std::string SpecBoundError(const SpecField& field, double value);
 
 }  // namespace granary

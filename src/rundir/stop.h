@@ -12,7 +12,7 @@ namespace granary {
 class Stopped : public std::runtime_error {
  public:
   Stopped(int signal, const std::string& what) : std::runtime_error(what), signal_(signal) {}
-  int signal() const { return signal_; }
+  int Signal() const { return signal_; }
 
  private:
   int signal_;

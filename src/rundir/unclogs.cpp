@@ -33,7 +33,7 @@ std::string Row(const UnclogEvent& e) {
 UnclogWriter UnclogWriter::Create(const std::filesystem::path& file) {
   UnclogWriter w;
   w.file_ = OutputFile(file);
-  std::fputs(kHeader, w.file_.get());
+  std::fputs(kHeader, w.file_.Get());
   return w;
 }
 
@@ -46,7 +46,7 @@ UnclogWriter UnclogWriter::ContinueAt(const std::filesystem::path& file, std::in
 
 void UnclogWriter::Write(const UnclogEvent& e) {
   const std::string row = Row(e);
-  std::fwrite(row.data(), 1, row.size(), file_.get());
+  std::fwrite(row.data(), 1, row.size(), file_.Get());
 }
 
 std::vector<UnclogEvent> ReadUnclogs(const std::filesystem::path& file) {

@@ -33,7 +33,7 @@ class UnclogWriter {
   static UnclogWriter ContinueAt(const std::filesystem::path& file, std::int64_t offset);
 
   void Write(const UnclogEvent& event);
-  bool is_open() const { return file_.is_open(); }
+  bool IsOpen() const { return file_.IsOpen(); }
   std::int64_t Offset() { return file_.Offset(); }
   void Close() { file_.Close(); }
 

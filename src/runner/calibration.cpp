@@ -51,11 +51,11 @@ std::string Host() {
   return host;
 }
 
-fs::path CacheFile(const std::string& key) { return fs::path(calibration_dir()) / ("calibration-" + hash_hex(key) + ".json"); }
+fs::path CacheFile(const std::string& key) { return fs::path(CalibrationDir()) / ("calibration-" + HashHex(key) + ".json"); }
 
 // One `granary-engine bench` of `shape`; its disc-steps per second, or 0 with `error` set.
 double Bench(const std::string& exe, const std::string& shape, std::string& error) {
-  const std::string bed = (fs::path(calibration_dir()) / ("bench-bed-" + shape + "-" + std::to_string(kBodies) + ".json")).string();
+  const std::string bed = (fs::path(CalibrationDir()) / ("bench-bed-" + shape + "-" + std::to_string(kBodies) + ".json")).string();
   const std::vector<std::string> args = {"bench",          "--shape", shape, "--bodies", std::to_string(kBodies), "--steps",
                                          std::to_string(kSteps), "--threads-list", "1", "--bed", bed};
   boost::asio::io_context io;
@@ -72,8 +72,8 @@ double Bench(const std::string& exe, const std::string& shape, std::string& erro
   const std::string errors = err.get();
   std::smatch m;
   // Per CPU second: a core-hour's worth, whatever else the machine runs meanwhile.
-  static const std::regex rate(R"(threads=1 disc_steps_per_s=[0-9.eE+-]+ .*cpu_disc_steps_per_s=([0-9.eE+-]+))");
-  if (child.exit_code() != 0 || !std::regex_search(text, m, rate)) {
+  static const std::regex kRate(R"(threads=1 disc_steps_per_s=[0-9.eE+-]+ .*cpu_disc_steps_per_s=([0-9.eE+-]+))");
+  if (child.exit_code() != 0 || !std::regex_search(text, m, kRate)) {
     error = exe + " bench --shape " + shape + " failed (exit " + std::to_string(child.exit_code()) + "): " +
             (errors.empty() ? text.substr(0, 200) : errors.substr(0, 200));
     return 0.0;
@@ -83,14 +83,14 @@ double Bench(const std::string& exe, const std::string& shape, std::string& erro
 
 }  // namespace
 
-std::string calibration_dir() {
+std::string CalibrationDir() {
   if (const char* env = std::getenv("GRANARY_CALIBRATION_DIR"); env && *env) return env;
   if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return (fs::path(xdg) / "granary" / "calibration").string();
   const char* home = std::getenv("HOME");
   return (fs::path(home && *home ? home : "/tmp") / ".cache" / "granary" / "calibration").string();
 }
 
-std::string calibration_key(const std::string& engine_exe) {
+std::string CalibrationKey(const std::string& engine_exe) {
   struct stat st {};
   const bool found = ::stat(engine_exe.c_str(), &st) == 0;
   json key = {{"host", Host()},
@@ -104,9 +104,9 @@ std::string calibration_key(const std::string& engine_exe) {
   return key.dump();
 }
 
-Calibration cached_calibration(const std::string& engine_exe) {
+Calibration CachedCalibration(const std::string& engine_exe) {
   Calibration c;
-  const std::string key = calibration_key(engine_exe);
+  const std::string key = CalibrationKey(engine_exe);
   const fs::path file = CacheFile(key);
   std::ifstream in(file);
   if (!in) {
@@ -126,18 +126,18 @@ Calibration cached_calibration(const std::string& engine_exe) {
   return c;
 }
 
-Calibration obtain_calibration(const std::string& engine_exe, const std::function<void(const std::string&)>& say) {
-  Calibration c = cached_calibration(engine_exe);
-  if (c.valid()) return c;
+Calibration ObtainCalibration(const std::string& engine_exe, const std::function<void(const std::string&)>& say) {
+  Calibration c = CachedCalibration(engine_exe);
+  if (c.Valid()) return c;
   if (!fs::exists(engine_exe)) {
     c.source = "no calibration: the engine " + engine_exe + " is not there to measure";
     return c;
   }
   std::error_code ec;
-  fs::create_directories(calibration_dir(), ec);
+  fs::create_directories(CalibrationDir(), ec);
   if (say)
     say("calibrating: " + engine_exe + " bench on " + std::to_string(kBodies) +
-        " discs and dumbbells, one thread (once per machine and build; cached in " + calibration_dir() + ")");
+        " discs and dumbbells, one thread (once per machine and build; cached in " + CalibrationDir() + ")");
   std::string error;
   const double disc = Bench(engine_exe, "disc", error);
   const double dumbbell = disc > 0 ? Bench(engine_exe, "dumbbell", error) : 0.0;
@@ -146,7 +146,7 @@ Calibration obtain_calibration(const std::string& engine_exe, const std::functio
     c.source = "no calibration: " + error;
     return c;
   }
-  const std::string key = calibration_key(engine_exe);
+  const std::string key = CalibrationKey(engine_exe);
   const json doc = {{"key", json::parse(key)},
                     {"disc_steps_per_s_disc", disc},
                     {"disc_steps_per_s_dumbbell", dumbbell},
@@ -162,20 +162,20 @@ Calibration obtain_calibration(const std::string& engine_exe, const std::functio
   return c;
 }
 
-CampaignEstimate estimate_runs(const std::vector<PlannedRun>& runs, Store* store, const std::string& exe_dir, int jobs,
+CampaignEstimate EstimateRuns(const std::vector<PlannedRun>& runs, Store* store, const std::string& exe_dir, int jobs,
                                bool measure, const std::function<void(const std::string&)>& say) {
   const std::string exe = (fs::path(exe_dir) / "granary-engine").string();
-  Calibration cal = measure ? obtain_calibration(exe, say) : cached_calibration(exe);
-  if (store) scale_from_finished(cal, load_finished(*store));
+  Calibration cal = measure ? ObtainCalibration(exe, say) : CachedCalibration(exe);
+  if (store) ScaleFromFinished(cal, LoadFinished(*store));
   std::set<std::string> ready;
   for (const PlannedRun& r : runs) {
-    const std::string bed = r.params().value("bed", json::object()).value("cache_file", std::string());
+    const std::string bed = r.Params().value("bed", json::object()).value("cache_file", std::string());
     if (!bed.empty() && fs::exists(bed)) ready.insert(bed);
   }
-  return estimate_campaign(runs, cal, jobs, ready);
+  return EstimateCampaign(runs, cal, jobs, ready);
 }
 
-PlannedRun planned_run(const RunRow& r) {
+PlannedRun ToPlannedRun(const RunRow& r) {
   PlannedRun p;
   p.run_id = r.run_id;
   p.point_id = r.point_id;
@@ -185,10 +185,10 @@ PlannedRun planned_run(const RunRow& r) {
   return p;
 }
 
-std::vector<PlannedRun> runs_left(Store& store) {
+std::vector<PlannedRun> RunsLeft(Store& store) {
   std::vector<PlannedRun> left;
-  for (const RunRow& r : load_runs(store, true))
-    if (r.state != RunState::kDone && r.state != RunState::kRetired) left.push_back(planned_run(r));
+  for (const RunRow& r : LoadRuns(store, true))
+    if (r.state != RunState::kDone && r.state != RunState::kRetired) left.push_back(ToPlannedRun(r));
   return left;
 }
 

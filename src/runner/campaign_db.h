@@ -27,7 +27,7 @@ struct PlanSummary {
   int points = 0;
   std::vector<std::string> axes;
   std::map<std::string, std::vector<nlohmann::json>> axis_values;  // distinct values per axis, in order
-  // New runs that continue an old one (extends(): only an extendable key raised): the old
+  // New runs that continue an old one (Extends(): only an extendable key raised): the old
   // run's directory becomes the new run's, and its engine continues from the checkpoint.
   struct Extension {
     std::string from;  // the old run (retired)
@@ -42,18 +42,18 @@ struct PlanSummary {
 // dry_run, computes the summary and changes nothing. A new run that extends a native run of
 // the campaign that is not running (its directory there, unlocked) takes over that run's
 // directory, without its DONE, and the old run is retired to start over if it ever comes back.
-PlanSummary plan_campaign(Store& store, const CampaignSpec& spec, const std::vector<PlannedRun>& runs,
+PlanSummary PlanCampaign(Store& store, const CampaignSpec& spec, const std::vector<PlannedRun>& runs,
                           const std::string& runs_root, bool dry_run);
 
 // Adaptive replicas (rundir/replica_rule.h): of `runs`, expanded up to the rule's max, the
 // first `min` replicas of each point and those a runner added (in the database, not
 // retired), so a re-plan of the same spec keeps what the runner added (plan stays idempotent).
-std::vector<PlannedRun> with_added_replicas(Store& store, const CampaignSpec& spec, std::vector<PlannedRun> runs);
+std::vector<PlannedRun> WithAddedReplicas(Store& store, const CampaignSpec& spec, std::vector<PlannedRun> runs);
 
 // The runner adds replicas (adaptive): `runs` become planned runs in one transaction; a run
 // already there is left as it is (a retired one comes back). Returns how many changed, so a
 // runner killed before, inside or after the transaction loses and repeats nothing.
-int add_planned_runs(Store& store, const std::vector<PlannedRun>& runs, const std::string& runs_root);
+int AddPlannedRuns(Store& store, const std::vector<PlannedRun>& runs, const std::string& runs_root);
 
 struct RunRow {
   std::string run_id;
@@ -87,7 +87,7 @@ struct RunRow {
   std::string job_name;
   std::string job_state;  // the queue state last seen
   // In a batch queue now: its job, not a runner, holds it.
-  bool queued() const { return state == RunState::kRunning && job_array != 0; }
+  bool Queued() const { return state == RunState::kRunning && job_array != 0; }
 };
 
 struct CampaignRow {
@@ -99,23 +99,23 @@ struct CampaignRow {
   std::string git_commit;
 };
 
-std::optional<CampaignRow> load_campaign(Store& store);
+std::optional<CampaignRow> LoadCampaign(Store& store);
 // with_params = false skips parsing the resolved parameters (fast status on big campaigns).
-std::vector<RunRow> load_runs(Store& store, bool with_params = true);
+std::vector<RunRow> LoadRuns(Store& store, bool with_params = true);
 
 // The scalar results of one run (summary.json ingested by record_done): key -> number or text.
-std::map<std::string, nlohmann::json> load_results(Store& store, const std::string& run_id);
+std::map<std::string, nlohmann::json> LoadResults(Store& store, const std::string& run_id);
 
 // (resolved run spec, summary.json) of every done run with a summary, retired ones too: what
 // the estimate learns the machine's speed from.
-std::vector<std::pair<nlohmann::json, nlohmann::json>> load_finished(Store& store);
+std::vector<std::pair<nlohmann::json, nlohmann::json>> LoadFinished(Store& store);
 
 // The runs whose id starts with `prefix` (all of them for "").
-std::vector<RunRow> find_runs(Store& store, const std::string& prefix, bool with_params = true);
+std::vector<RunRow> FindRuns(Store& store, const std::string& prefix, bool with_params = true);
 
 // A retired run whose directory was deleted (campaign clean) comes back as planned if a later
 // plan brings it back, not as the done run it was.
-void forget_retired_results(Store& store, const std::string& run_id);
+void ForgetRetiredResults(Store& store, const std::string& run_id);
 
 // Who holds a lease: host, pid and start time make it unique.
 struct Holder {
@@ -123,45 +123,45 @@ struct Holder {
   std::string host;
   int pid = 0;
 };
-Holder this_process_holder();
+Holder ThisProcessHolder();
 
 // A lease is expired when its heartbeat is older than this, or its pid is gone on this host.
 // 60 s, or $GRANARY_LEASE_SECONDS (tests; clusters with slow shared file systems). Runners
 // heartbeat every min(2 s, a fifth of it).
-double lease_stale_seconds();
+double LeaseStaleSeconds();
 
 // Is the lease of a running row expired (stale heartbeat, or holder pid gone on `host`)?
-bool lease_expired(const RunRow& row, const std::string& host, double now);
+bool LeaseExpired(const RunRow& row, const std::string& host, double now);
 
 // Runs left `running` under an expired lease become `interrupted`. Returns how many. Runs in
 // a batch queue are not: their jobs hold them (adopt_queued_runs).
-int recover_expired_leases(Store& store, const Holder& me, double now);
+int RecoverExpiredLeases(Store& store, const Holder& me, double now);
 
 // Claims the first runnable run (planned, interrupted or failed; in plan order) that passes
 // `accept` and is not in `skip`. Marks it running under `me`, attempts + 1, out of any queue
 // (the row returned still names its last submission, which a resubmission reuses).
-std::optional<RunRow> claim_next(Store& store, const Holder& me, double now,
+std::optional<RunRow> ClaimNext(Store& store, const Holder& me, double now,
                                  const std::function<bool(const RunRow&)>& accept,
                                  const std::set<std::string>& skip);
 
 // Done runs back to `planned` (their results deleted), e.g. when their run directory was
 // deleted after they finished; `reason` is kept as the run's failure note. Returns how many.
-int requeue_done_runs(Store& store, const std::vector<std::string>& run_ids, const std::string& reason);
+int RequeueDoneRuns(Store& store, const std::vector<std::string>& run_ids, const std::string& reason);
 
 // Refreshes the heartbeat of every run `me` holds and stores their progress. Returns the
 // runs `me` still holds: a run missing from it was taken over (its lease expired and another
 // runner recovered it) or retired by a re-plan, and its engine must stop.
-std::set<std::string> heartbeat(Store& store, const Holder& me, double now,
+std::set<std::string> Heartbeat(Store& store, const Holder& me, double now,
                                 const std::map<std::string, nlohmann::json>& progress_by_run);
 
 // End states are written only by the lease holder: each is one compare-and-set on
 // (state 'running', lease_holder = holder) and returns false, changing nothing, when `holder`
 // no longer holds the run.
 // Ingests summary.json scalars into results, state done, lease cleared; one transaction.
-bool record_done(Store& store, const std::string& run_id, const std::string& holder, const nlohmann::json& summary,
+bool RecordDone(Store& store, const std::string& run_id, const std::string& holder, const nlohmann::json& summary,
                  double now, double wall_s);
 // state failed or interrupted with the reason (and log tail); lease cleared.
-bool record_end(Store& store, const std::string& run_id, const std::string& holder, RunState state,
+bool RecordEnd(Store& store, const std::string& run_id, const std::string& holder, RunState state,
                 const std::string& reason, double now, double wall_s);
 
 // One run's metrics from one analysis (db/003_metrics.sql): what campaign report, export and
@@ -180,38 +180,38 @@ struct RunMetrics {
   std::vector<MetricRow> metrics;
 };
 // Replaces the stored metrics of each (run, analysis) given; one transaction.
-void store_metrics(Store& store, const std::vector<RunMetrics>& runs, double now);
+void StoreMetrics(Store& store, const std::vector<RunMetrics>& runs, double now);
 // Removes every stored metric of the given runs (damaged runs: kept out of every number).
-void forget_metrics(Store& store, const std::vector<std::string>& run_ids);
+void ForgetMetrics(Store& store, const std::vector<std::string>& run_ids);
 // The stored metrics of every run, by run id (analysis and version filled, options not).
-std::map<std::string, std::vector<RunMetrics>> load_metrics(Store& store);
+std::map<std::string, std::vector<RunMetrics>> LoadMetrics(Store& store);
 
 // Flattens scalar values of summary.json ("timing/wall_s" -> 812.3), skipping "spec".
-std::map<std::string, nlohmann::json> flatten_scalars(const nlohmann::json& summary);
+std::map<std::string, nlohmann::json> FlattenScalars(const nlohmann::json& summary);
 
-double now_seconds();
+double NowSeconds();
 
 // ---- Runs in a batch queue (Slurm job arrays; docs/slurm.md)
 
 // Records an array about to be submitted (before sbatch, so a runner that dies inside sbatch
 // leaves a trace to find the job by), and puts its runs that `me` holds into it, state
 // PENDING. One transaction.
-void record_job_array(Store& store, const Holder& me, const JobArray& array, double now);
+void RecordJobArray(Store& store, const Holder& me, const JobArray& array, double now);
 // The array job id sbatch printed.
-void record_job_id(Store& store, const std::string& script, const std::string& job_id);
+void RecordJobId(Store& store, const std::string& script, const std::string& job_id);
 // Queue states seen in one poll, run id -> state; one transaction.
-void record_job_states(Store& store, const std::map<std::string, std::string>& state_by_run);
+void RecordJobStates(Store& store, const std::map<std::string, std::string>& state_by_run);
 // Re-attach: the queued runs that no live runner watches (no lease, or an expired one) are
 // taken under `me` and returned.
-std::vector<RunRow> adopt_queued_runs(Store& store, const Holder& me, double now);
+std::vector<RunRow> AdoptQueuedRuns(Store& store, const Holder& me, double now);
 // campaign scan: sets a run's state from what its directory shows (done: `summary` ingested
 // as record_done does), provided the row is still as the scan read it (same state, same
 // lease holder), so whatever a runner recorded in between wins. Returns whether it wrote.
-bool settle_run(Store& store, const RunRow& seen, RunState state, const std::string& reason,
+bool SettleRun(Store& store, const RunRow& seen, RunState state, const std::string& reason,
                 const nlohmann::json* summary, double wall_s, double now);
 
 // Detach: `me` stops watching its queued runs; they stay `running` in their jobs, for a
 // later `campaign run` to adopt or `campaign scan` to settle. Returns how many.
-int release_queued_runs(Store& store, const Holder& me);
+int ReleaseQueuedRuns(Store& store, const Holder& me);
 
 }  // namespace granary::runner

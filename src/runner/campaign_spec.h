@@ -1,6 +1,6 @@
 // The campaign spec (docs/campaign-spec.md): a base run spec, sweeps over any run-spec
 // parameter (grid, zip, explicit points; axes are JSON Pointers into the run spec) and
-// replicas. Parsing validates everything before anything runs; expand() resolves every
+// replicas. Parsing validates everything before anything runs; Expand() resolves every
 // run with RunSpec::from_json and gives it a stable id (hash of its canonical parameters).
 #pragma once
 
@@ -32,13 +32,13 @@ struct CampaignSpec {
   std::vector<std::string> axes;                    // grid, then zip, then point keys, in order
 
   // Throws SpecError naming the JSON path in the campaign spec.
-  static CampaignSpec from_json(const nlohmann::json& j);
-  std::string spec_hash() const;
+  static CampaignSpec FromJson(const nlohmann::json& j);
+  std::string SpecHash() const;
 };
 
 // Throws SpecError at `path`/KEY for a key of the object `j` not in `allowed` (with the
 // nearest allowed key as a suggestion), or at `path` when `j` is not an object.
-void check_keys(const nlohmann::json& j, const std::string& path, const std::vector<std::string>& allowed);
+void CheckKeys(const nlohmann::json& j, const std::string& path, const std::vector<std::string>& allowed);
 
 struct PlannedRun {
   std::string run_id;
@@ -48,17 +48,17 @@ struct PlannedRun {
   int replica = 0;
   std::string params_json;  // canonical resolved run spec (run.json), as stored
   std::string engine;
-  nlohmann::json params() const { return nlohmann::json::parse(params_json); }
+  nlohmann::json Params() const { return nlohmann::json::parse(params_json); }
 };
 
 // json::dump() of a document with a few fields left open: dumped once, then filled per
-// replica by string concatenation (planning 10,000 runs: docs/benchmarks.md). fill(values)
+// replica by string concatenation (planning 10,000 runs: docs/benchmarks.md). Fill(values)
 // equals the dump of the document with field i set to the JSON text values[i].
 class DumpTemplate {
  public:
   DumpTemplate(nlohmann::json doc, const std::vector<std::string>& pointers);
-  std::string fill(const std::vector<std::string>& values) const;
-  bool spliced() const { return !pieces_.empty(); }  // false: fill() sets the fields and dumps
+  std::string Fill(const std::vector<std::string>& values) const;
+  bool Spliced() const { return !pieces_.empty(); }  // false: Fill() sets the fields and dumps
 
  private:
   nlohmann::json doc_;
@@ -67,46 +67,46 @@ class DumpTemplate {
   std::vector<std::size_t> order_;   // field index of each gap between pieces
 };
 
-// The campaign spec's own keys (the run spec under /base has run_spec_table()).
-const SpecTable& campaign_spec_table();
-// The JSON Schema (draft-07) of campaign specs, from campaign_spec_table() and
-// run_spec_table(): what `campaign schema` prints for editors.
-nlohmann::json campaign_spec_schema();
+// The campaign spec's own keys (the run spec under /base has RunSpecTable()).
+const SpecTable& CampaignSpecTable();
+// The JSON Schema (draft-07) of campaign specs, from CampaignSpecTable() and
+// RunSpecTable(): what `campaign schema` prints for editors.
+nlohmann::json CampaignSpecSchema();
 
 // A campaign spec's text as JSON. Throws std::invalid_argument naming `source`, the line and
 // the column: for a syntax error, and for nesting deeper than kMaxSpecDepth (checked before
 // parsing; a campaign spec needs fewer than 10 levels).
 inline constexpr int kMaxSpecDepth = 64;
-nlohmann::json parse_spec_text(const std::string& text, const std::string& source);
+nlohmann::json ParseSpecText(const std::string& text, const std::string& source);
 
 // The script paths of /report/python (docs/python.md) made absolute, relative to the folder of
 // the spec file they were read from, so a report finds them from any working directory.
-void resolve_spec_paths(nlohmann::json& spec, const std::string& spec_file);
+void ResolveSpecPaths(nlohmann::json& spec, const std::string& spec_file);
 
 // How many runs the sweep expands to (points x engines x replicas), computed without
 // expanding it; saturates at 2^63.
-std::uint64_t planned_run_count(const CampaignSpec& spec);
+std::uint64_t PlannedRunCount(const CampaignSpec& spec);
 
-// The default limit of expand(): a larger sweep is refused before anything is allocated
+// The default limit of Expand(): a larger sweep is refused before anything is allocated
 // (`campaign plan --max-runs N` raises it).
 inline constexpr std::uint64_t kDefaultMaxRuns = 100000;
 
 // The directory of prepared beds: $GRANARY_CACHE_DIR or ~/.cache/granary/beds.
-std::string default_cache_dir();
+std::string DefaultCacheDir();
 
 // Expands the sweep into runs (points in order, replicas within a point). Every run is
 // validated; an error names the sweep point. bed.cache_file = <cache_dir>/<hash of bed_key>.bed.
 // Throws SpecError at /sweep when the sweep has more than max_runs runs, before allocating.
 // replicas_upto > spec.replicas: replicas 0..replicas_upto-1 of every point (the adaptive
 // replicas a runner added; the limit counts spec.replicas).
-std::vector<PlannedRun> expand(const CampaignSpec& spec, const std::string& cache_dir,
+std::vector<PlannedRun> Expand(const CampaignSpec& spec, const std::string& cache_dir,
                                std::uint64_t max_runs = kDefaultMaxRuns, int replicas_upto = 0);
 
 // Run id of a resolved run spec: hash of its canonical JSON without run_id and cache_file.
-std::string run_id_of(const RunSpec& spec);
+std::string RunIdOf(const RunSpec& spec);
 
 // The program that runs a run of `engine` (found beside `campaign`): granary-engine,
 // granary-liggghts or granary-lammps, all with the command line of docs/run-directory.md.
-std::string engine_program(const std::string& engine);
+std::string EngineProgram(const std::string& engine);
 
 }  // namespace granary::runner

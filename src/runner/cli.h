@@ -11,6 +11,6 @@ namespace granary::runner {
 
 // Returns the process exit code (ExitCode values: 0 ok, 1 runs failed, 2 usage or spec error,
 // 3 storage error, 130 interrupted; docs/cli.md).
-int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+int RunCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
 }  // namespace granary::runner

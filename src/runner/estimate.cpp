@@ -27,15 +27,15 @@ double LargestDiameter(const DiscLayout& discs) { return 2 * *std::max_element(d
 // values, decide the bytes).
 struct Lcg {
   std::uint64_t state = 0x853c49e6748fea9bULL;
-  double next() {
+  double Next() {
     state = state * 6364136223846793005ULL + 1442695040888963407ULL;
     return static_cast<double>(state >> 11) * 0x1.0p-53;
   }
   // Log-uniform magnitude in [lo, hi] with a random sign: velocities and forces of a silo span
   // decades, and their printed length depends on the decade.
-  double signed_log(double lo, double hi) {
-    const double m = lo * std::pow(hi / lo, next());
-    return next() < 0.5 ? -m : m;
+  double SignedLog(double lo, double hi) {
+    const double m = lo * std::pow(hi / lo, Next());
+    return Next() < 0.5 ? -m : m;
   }
 };
 
@@ -63,8 +63,8 @@ std::vector<rundir::Disc> SampleDiscs(const RunSpec& spec, double discs, double 
     const Species& s = spec.bodies.species[k % spec.bodies.species.size()];
     const DiscLayout layout = DiscsOf(s);
     const int parts = static_cast<int>(layout.r.size());
-    const double x = (rng.next() - 0.5) * spec.silo.width, y = rng.next() * h, th = rng.next() * 6.283185307179586;
-    const double vx = rng.signed_log(1e-4, 1.0), vy = rng.signed_log(1e-4, 1.0), w = rng.signed_log(1e-4, 1.0);
+    const double x = (rng.Next() - 0.5) * spec.silo.width, y = rng.Next() * h, th = rng.Next() * 6.283185307179586;
+    const double vx = rng.SignedLog(1e-4, 1.0), vy = rng.SignedLog(1e-4, 1.0), w = rng.SignedLog(1e-4, 1.0);
     for (int q = 0; q < parts && static_cast<int>(out.size()) < n; ++q) {
       const double r = layout.r[static_cast<std::size_t>(q)];
       const double off = (q - 0.5 * (parts - 1)) * s.diameter;
@@ -116,19 +116,19 @@ RowBytes ContactRowBytes(const RunSpec& spec, double discs, double bodies, doubl
   for (const rundir::Disc& d : sample) {
     owed += per_disc;
     for (; owed >= 1.0; owed -= 1.0) {
-      const rundir::Disc& o = sample[static_cast<std::size_t>(rng.next() * static_cast<double>(sample.size()))];
+      const rundir::Disc& o = sample[static_cast<std::size_t>(rng.Next() * static_cast<double>(sample.size()))];
       rundir::ContactRow c;
       c.body_i = d.mol;
-      const bool wall = rng.next() < 0.05;
+      const bool wall = rng.Next() < 0.05;
       c.body_j = wall ? -1 : o.mol;
       c.xi = d.x;
       c.yi = d.y;
-      c.xj = wall ? d.x - d.radius : d.x + rng.signed_log(0.1, 1.0);
-      c.yj = wall ? d.y : d.y + rng.signed_log(0.1, 1.0);
+      c.xj = wall ? d.x - d.radius : d.x + rng.SignedLog(0.1, 1.0);
+      c.yj = wall ? d.y : d.y + rng.SignedLog(0.1, 1.0);
       c.cx = 0.5 * (c.xi + c.xj);
       c.cy = 0.5 * (c.yi + c.yj);
-      c.fx = rng.signed_log(1e-3, 10.0);
-      c.fy = rng.signed_log(1e-3, 10.0);
+      c.fx = rng.SignedLog(1e-3, 10.0);
+      c.fy = rng.SignedLog(1e-3, 10.0);
       f.contacts.push_back(c);
     }
   }
@@ -138,7 +138,7 @@ RowBytes ContactRowBytes(const RunSpec& spec, double discs, double bodies, doubl
 
 }  // namespace
 
-double makespan(const std::vector<double>& durations, int slots) {
+double Makespan(const std::vector<double>& durations, int slots) {
   std::priority_queue<double, std::vector<double>, std::greater<>> free_at;
   for (int k = 0; k < std::max(1, slots); ++k) free_at.push(0.0);
   double end = 0.0;
@@ -151,7 +151,7 @@ double makespan(const std::vector<double>& durations, int slots) {
   return end;
 }
 
-RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepares_bed, const EstimateModel& m) {
+RunEstimate EstimateRun(const RunSpec& spec, const Calibration& cal, bool prepares_bed, const EstimateModel& m) {
   RunEstimate e;
   double lone_discs = 0.0, clump_discs = 0.0, area = 0.0, size = 0.0;
   for (const Species& s : spec.bodies.species) {
@@ -168,7 +168,7 @@ RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepa
   const double mean_size = size / std::max(1.0, e.bodies);
   // Seconds per disc-step: a mixture pays each kind's cost for its share of the discs.
   const double sec_per_disc_step =
-      cal.valid() && e.discs > 0 ? cal.scale * (lone_discs / cal.disc_rate + clump_discs / cal.clump_rate) / e.discs : 0.0;
+      cal.Valid() && e.discs > 0 ? cal.scale * (lone_discs / cal.disc_rate + clump_discs / cal.clump_rate) / e.discs : 0.0;
 
   const double dt = spec.time_step;
   const Discharge& d = spec.discharge;
@@ -201,11 +201,11 @@ RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepa
     e.open_end = true;
     const double t_empty = q > 0 ? e.bodies / q : d.max_time;
     // Without stop_on_clog a clogged silo stays full until max_time: the upper bound.
-    e.sim_high = d.stop_on_clog() ? std::min(d.max_time, t_empty + d.clog_window) : d.max_time;
-    high = d.stop_on_clog() ? span(e.sim_high, true) : Span{e.discs * d.max_time / dt, e.discs};
-    e.sim_low = d.stop_on_clog() ? std::min(d.max_time, d.clog_window) : std::min(d.max_time, t_empty + d.clog_window);
-    low = d.stop_on_clog() ? Span{e.discs * e.sim_low / dt, e.discs} : span(e.sim_low, true);
-  } else if (d.stop_on_clog()) {
+    e.sim_high = d.StopOnClog() ? std::min(d.max_time, t_empty + d.clog_window) : d.max_time;
+    high = d.StopOnClog() ? span(e.sim_high, true) : Span{e.discs * d.max_time / dt, e.discs};
+    e.sim_low = d.StopOnClog() ? std::min(d.max_time, d.clog_window) : std::min(d.max_time, t_empty + d.clog_window);
+    low = d.StopOnClog() ? Span{e.discs * e.sim_low / dt, e.discs} : span(e.sim_low, true);
+  } else if (d.StopOnClog()) {
     e.open_end = true;
     e.sim_high = d.max_time;
     e.sim_low = std::min(d.max_time, d.clog_window);
@@ -227,7 +227,7 @@ RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepa
     const double fall = std::sqrt(2 * batch_height / spec.gravity) + 1.0;
     const double insert = batches * fall;
     const double settle = std::min(spec.bed.max_settle_time, m.bed_final_settle);
-    e.bed_disc_steps = e.discs * (0.5 * insert + settle) / spec.bed_time_step();
+    e.bed_disc_steps = e.discs * (0.5 * insert + settle) / spec.BedTimeStep();
   }
   const double overhead = sec_per_disc_step > 0 ? m.run_overhead_s : 0.0;
   e.core_s_low = (e.bed_disc_steps + e.disc_steps_low) * sec_per_disc_step + overhead;
@@ -241,8 +241,8 @@ RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepa
   const bool contacts = o.frame_interval > 0 && o.contact_forces;
   const double contacts_per_disc =
       e.discs > 0 ? (lone_discs * m.contacts_per_lone_disc + clump_discs * m.contacts_per_clump_disc) / e.discs : 0.0;
-  const std::string memo_key = json{{"bodies", spec.to_json()["bodies"]}, {"width", spec.silo.width}, {"gz", o.compress},
-                                    {"format", to_string(o.format)}, {"contacts", contacts}}.dump();
+  const std::string memo_key = json{{"bodies", spec.ToJson()["bodies"]}, {"width", spec.silo.width}, {"gz", o.compress},
+                                    {"format", ToString(o.format)}, {"contacts", contacts}}.dump();
   auto found = memo.find(memo_key);
   if (found == memo.end() && o.frame_interval > 0) {
     found = memo.emplace(memo_key, std::pair{FrameRowBytes(spec, e.discs, e.bodies, o),
@@ -282,7 +282,7 @@ RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepa
   return e;
 }
 
-CampaignEstimate estimate_campaign(const std::vector<PlannedRun>& runs, const Calibration& cal, int jobs,
+CampaignEstimate EstimateCampaign(const std::vector<PlannedRun>& runs, const Calibration& cal, int jobs,
                                    const std::set<std::string>& beds_ready, const EstimateModel& model) {
   CampaignEstimate c;
   c.calibration = cal;
@@ -292,10 +292,10 @@ CampaignEstimate estimate_campaign(const std::vector<PlannedRun>& runs, const Ca
   std::map<std::string, std::size_t> point_index;
   std::vector<double> low, high;
   for (const PlannedRun& r : runs) {
-    const RunSpec spec = RunSpec::from_json(r.params());
-    const bool first_of_bed = beds.insert(spec.engine + "|" + spec.bed.cache_file + "|" + spec.bed_key().dump()).second &&
+    const RunSpec spec = RunSpec::FromJson(r.Params());
+    const bool first_of_bed = beds.insert(spec.engine + "|" + spec.bed.cache_file + "|" + spec.BedKey().dump()).second &&
                               !beds_ready.count(spec.bed.cache_file);
-    const RunEstimate e = estimate_run(spec, cal, first_of_bed, model);
+    const RunEstimate e = EstimateRun(spec, cal, first_of_bed, model);
     c.runs[r.run_id] = e;
     const std::string key = r.point_id + "|" + r.engine;
     auto [it, fresh] = point_index.emplace(key, c.points.size());
@@ -317,10 +317,10 @@ CampaignEstimate estimate_campaign(const std::vector<PlannedRun>& runs, const Ca
     high.push_back(e.core_s_high);
   }
   c.beds = static_cast<int>(beds.size());
-  c.wall_s_low = makespan(low, c.jobs);
-  c.wall_s_high = makespan(high, c.jobs);
+  c.wall_s_low = Makespan(low, c.jobs);
+  c.wall_s_high = Makespan(high, c.jobs);
   std::string how = "bodies, discs and simulated time per run from the spec; ";
-  if (cal.valid()) {
+  if (cal.Valid()) {
     char rates[160];
     std::snprintf(rates, sizeof rates, "%.3g disc-steps/s for lone discs and %.3g for clumps, one thread per run",
                   cal.disc_rate, cal.clump_rate);
@@ -344,9 +344,9 @@ CampaignEstimate estimate_campaign(const std::vector<PlannedRun>& runs, const Ca
   return c;
 }
 
-void scale_from_finished(Calibration& cal, const std::vector<std::pair<json, json>>& finished, const EstimateModel& model) {
+void ScaleFromFinished(Calibration& cal, const std::vector<std::pair<json, json>>& finished, const EstimateModel& model) {
   if (finished.empty()) return;
-  if (!cal.valid()) {
+  if (!cal.Valid()) {
     double steps = 0.0, core = 0.0;
     for (const auto& [spec, summary] : finished) {
       const json t = summary.value("timing", json::object());
@@ -365,7 +365,7 @@ void scale_from_finished(Calibration& cal, const std::vector<std::pair<json, jso
     const json t = summary.value("timing", json::object());
     const double wall = t.value("wall_s", 0.0);
     if (wall <= 0) continue;
-    RunSpec spec = RunSpec::from_json(spec_json);
+    RunSpec spec = RunSpec::FromJson(spec_json);
     // What it did: its own simulated time, as a reinject run (the discs present at the end
     // averaged with those at the start in remove mode).
     const double t_end = summary.value("t_end", spec.discharge.max_time);
@@ -374,7 +374,7 @@ void scale_from_finished(Calibration& cal, const std::vector<std::pair<json, jso
     const DischargeMode mode = spec.discharge.mode;
     spec.discharge.mode = DischargeMode::kReinject;
     const bool bed_here = summary.value("bed", json::object()).value("prepared_here", false);
-    RunEstimate e = estimate_run(spec, unscaled, bed_here, model);
+    RunEstimate e = EstimateRun(spec, unscaled, bed_here, model);
     double core_s = e.core_s_high;
     if (mode == DischargeMode::kRemove) {
       const double bodies = std::max(1.0, summary.value("bodies", e.bodies));
@@ -390,7 +390,7 @@ void scale_from_finished(Calibration& cal, const std::vector<std::pair<json, jso
   cal.scaled_from_runs = static_cast<int>(finished.size());
 }
 
-std::string core_hours_text(double low_s, double high_s) {
+std::string CoreHoursText(double low_s, double high_s) {
   char buf[96];
   const double lo = low_s / 3600, hi = high_s / 3600;
   if (std::fabs(hi - lo) <= 0.05 * std::max(hi, 1e-9)) std::snprintf(buf, sizeof buf, "%.3g core-hours", hi);
@@ -398,7 +398,7 @@ std::string core_hours_text(double low_s, double high_s) {
   return buf;
 }
 
-std::string bytes_text(double low, double high) {
+std::string BytesText(double low, double high) {
   auto unit = [](double b) -> std::pair<double, const char*> {
     if (b >= 1e12) return {b / 1e12, "TB"};
     if (b >= 1e9) return {b / 1e9, "GB"};
@@ -428,7 +428,7 @@ json to_json(const CampaignEstimate& e) {
                       {"core_hours", {p.core_s_low / 3600, p.core_s_high / 3600}},
                       {"bytes", {p.bytes_low, p.bytes_high}}});
   }
-  const bool timed = e.calibration.valid();
+  const bool timed = e.calibration.Valid();
   auto range = [&](double lo, double hi) { return timed ? json{lo, hi} : json(nullptr); };
   return {{"runs", e.run_count},
           {"open_end_runs", e.open_end_runs},

@@ -26,7 +26,7 @@ struct Calibration {
   double scale = 1.0;
   int scaled_from_runs = 0;
   std::string source;  // how the rates were obtained, in words
-  bool valid() const { return disc_rate > 0.0 && clump_rate > 0.0; }
+  bool Valid() const { return disc_rate > 0.0 && clump_rate > 0.0; }
 };
 
 // One run's cost. Remove-mode runs (and any run that stops at a clog) end when the silo has
@@ -66,7 +66,7 @@ struct EstimateModel {
 
 // bed_prepared: this run prepares its bed (the first run of its bed key); otherwise the bed
 // comes from the cache and costs nothing.
-RunEstimate estimate_run(const RunSpec& spec, const Calibration& cal, bool prepares_bed,
+RunEstimate EstimateRun(const RunSpec& spec, const Calibration& cal, bool prepares_bed,
                          const EstimateModel& model = {});
 
 struct PointEstimate {
@@ -97,23 +97,23 @@ struct CampaignEstimate {
 // The cost of `runs` (in plan order: the first run of a bed key prepares it) on `jobs`
 // concurrent one-thread runs (wall time: each run goes to the slot that frees first).
 // Runs whose bed.cache_file is in `beds_ready` take their bed from the cache.
-CampaignEstimate estimate_campaign(const std::vector<PlannedRun>& runs, const Calibration& cal, int jobs,
+CampaignEstimate EstimateCampaign(const std::vector<PlannedRun>& runs, const Calibration& cal, int jobs,
                                    const std::set<std::string>& beds_ready = {}, const EstimateModel& model = {});
 
 // What the finished runs measured against what the calibration predicts for what they did
 // (their own simulated time and exits, from summary.json): sets cal.scale and
 // cal.scaled_from_runs. `finished` holds (resolved run spec, summary.json) of done runs.
 // Without a valid calibration the rates themselves come from the runs' disc-steps per second.
-void scale_from_finished(Calibration& cal, const std::vector<std::pair<nlohmann::json, nlohmann::json>>& finished,
+void ScaleFromFinished(Calibration& cal, const std::vector<std::pair<nlohmann::json, nlohmann::json>>& finished,
                          const EstimateModel& model = {});
 
 // Greedy list schedule: each duration, in order, to the slot that frees first; the makespan.
-double makespan(const std::vector<double>& durations, int slots);
+double Makespan(const std::vector<double>& durations, int slots);
 
 nlohmann::json to_json(const CampaignEstimate& e);
 
 // "12.3 core-hours", "3.1-14.2 core-hours"; "1.2 GB", "0.4-1.7 GB".
-std::string core_hours_text(double low_s, double high_s);
-std::string bytes_text(double low, double high);
+std::string CoreHoursText(double low_s, double high_s);
+std::string BytesText(double low, double high);
 
 }  // namespace granary::runner

@@ -40,7 +40,7 @@ struct Finished {
   std::string run_id;
   int exit_code = 0;    // valid when signal == 0
   int signal = 0;       // the signal that ended the engine, or 0 (as reported, e.g. by wait or Slurm)
-  bool timed_out = false;  // ended at its time limit by the executor (limits_time())
+  bool timed_out = false;  // ended at its time limit by the executor (LimitsTime())
   std::string how;         // what ended it, in words, where the status alone does not say
   double wall_s = -1;      // the engine's wall time where the executor knows it better (< 0: the scheduler's clock)
 };
@@ -52,7 +52,7 @@ struct JobArray {
   std::string name;    // the job name
   std::string array;   // the --array value
   std::string job_id;  // "" until submitted
-  std::string error;   // why the queue refused it (submit())
+  std::string error;   // why the queue refused it (Submit())
   std::vector<std::pair<std::string, int>> runs;  // run id, array index
 };
 
@@ -64,39 +64,39 @@ enum class StopReason {
   kLeaseLost,   // another runner holds the run now: end the engine at once, nothing of it counts
 };
 
-const char* to_string(StopReason reason);
+const char* ToString(StopReason reason);
 
 class Executor {
  public:
   virtual ~Executor() = default;
-  virtual bool can_start_more() const = 0;
-  virtual void start(const Launch& launch) = 0;     // throws std::runtime_error naming the run
+  virtual bool CanStartMore() const = 0;
+  virtual void Start(const Launch& launch) = 0;     // throws std::runtime_error naming the run
   // Non-blocking: runs that ended since the last poll. Also where an executor escalates a
   // stop whose grace period has passed.
-  virtual std::vector<Finished> poll() = 0;
-  // Asks one run (or every run) to stop; it is reported by poll() once it has ended.
-  virtual void stop(const std::string& run_id, StopReason reason) = 0;
-  virtual void stop_all(StopReason reason) = 0;
-  virtual std::size_t active() const = 0;
+  virtual std::vector<Finished> Poll() = 0;
+  // Asks one run (or every run) to stop; it is reported by Poll() once it has ended.
+  virtual void Stop(const std::string& run_id, StopReason reason) = 0;
+  virtual void StopAll(StopReason reason) = 0;
+  virtual std::size_t Active() const = 0;
 
-  // Batch queues only (a local executor starts its engines in start()).
-  // place(): gives the runs started since the last call their places in job arrays and
+  // Batch queues only (a local executor starts its engines in Start()).
+  // Place(): gives the runs started since the last call their places in job arrays and
   // writes what the queue needs, submitting nothing, so that the scheduler records the
-  // places before the jobs exist. submit(): submits them; each comes back with its job id
-  // or an error (its runs are then reported by neither poll() nor active()).
-  virtual std::vector<JobArray> place() { return {}; }
-  virtual std::vector<JobArray> submit() { return {}; }
+  // places before the jobs exist. Submit(): submits them; each comes back with its job id
+  // or an error (its runs are then reported by neither Poll() nor Active()).
+  virtual std::vector<JobArray> Place() { return {}; }
+  virtual std::vector<JobArray> Submit() { return {}; }
   // A restarted runner takes over a run already in the queue (launch.place set). Returns its
   // place, with the job id found if it was unknown.
-  virtual QueuePlace attach(const Launch& launch) { return launch.place; }
+  virtual QueuePlace Attach(const Launch& launch) { return launch.place; }
   // Runs keep going after the runner exits: an interrupted runner detaches instead of
   // stopping them.
-  virtual bool outlives_runner() const { return false; }
+  virtual bool OutlivesRunner() const { return false; }
   // The executor ends a run at its time limit, counted from the run's own start
   // (Finished::timed_out); the scheduler does not time it.
-  virtual bool limits_time() const { return false; }
+  virtual bool LimitsTime() const { return false; }
   // Places whose queue state (PENDING, RUNNING, ...) or job id changed since the last call.
-  virtual std::map<std::string, QueuePlace> queue_changes() { return {}; }
+  virtual std::map<std::string, QueuePlace> QueueChanges() { return {}; }
 };
 
 // One task of a batch queue as the queue reports it.
@@ -118,36 +118,36 @@ enum class TaskFate {
   kTimedOut,   // the queue's time limit ran out (the run continues from its checkpoint if retried)
   kLost,       // cancelled, preempted, node failure: resubmitted, continues from its checkpoint
 };
-bool is_queued_or_running(TaskFate fate);
+bool IsQueuedOrRunning(TaskFate fate);
 
-// The batch queue that queued runs (RunRow::queued()) are in, as the verbs that do not submit
+// The batch queue that queued runs (RunRow::Queued()) are in, as the verbs that do not submit
 // see it: status and scan ask it about runs a runner may no longer watch, the display asks
 // which runs still wait. Only the batch executor's files know which queue it is.
 class BatchQueue {
  public:
   virtual ~BatchQueue() = default;
-  virtual const char* name() const = 0;          // in messages: "Slurm"
-  virtual const char* query_tool() const = 0;    // the command query() runs: "squeue"
-  virtual TaskFate fate_of(const std::string& state) const = 0;
+  virtual const char* Name() const = 0;          // in messages: "Slurm"
+  virtual const char* QueryTool() const = 0;    // the command Query() runs: "squeue"
+  virtual TaskFate FateOf(const std::string& state) const = 0;
   // One query for these array jobs (every task, every state); nullopt when the queue could not
   // answer, with the reason in *error. A job the queue no longer knows is simply absent.
-  virtual std::optional<std::vector<QueueEntry>> query(const std::set<std::string>& job_ids,
+  virtual std::optional<std::vector<QueueEntry>> Query(const std::set<std::string>& job_ids,
                                                        std::string* error) const = 0;
   // How a task that left the queue's live states ended (`state`, or "" when the queue no longer
   // knows its job), from what its run directory says.
-  virtual Finished task_end(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
+  virtual Finished TaskEnd(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
                             const std::string& state) const = 0;
 };
-const BatchQueue& batch_queue();
+const BatchQueue& DefaultBatchQueue();
 
 // Runs up to `slots` engines at once as child processes, each in its own process group.
 // A stop for kInterrupt or kTimeLimit sends SIGTERM to the engine (which checkpoints and
 // exits) and SIGKILL to its process group `grace_seconds` later; kLeaseLost sends SIGKILL to
 // the group at once. Children get SIGKILL when the runner dies (prctl PR_SET_PDEATHSIG).
-std::unique_ptr<Executor> make_local_executor(int slots, double grace_seconds = 10.0);
+std::unique_ptr<Executor> MakeLocalExecutor(int slots, double grace_seconds = 10.0);
 
 // The local pool's row of the executor table (executors.h): --jobs engines at once.
 struct ExecutorRow;
-ExecutorRow local_executor_row();
+ExecutorRow LocalExecutorRow();
 
 }  // namespace granary::runner

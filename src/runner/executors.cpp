@@ -6,30 +6,30 @@
 
 namespace granary::runner {
 
-const std::vector<ExecutorRow>& executor_table() {
-  static const std::vector<ExecutorRow> table = {local_executor_row(), slurm_executor_row()};
-  return table;
+const std::vector<ExecutorRow>& ExecutorTable() {
+  static const std::vector<ExecutorRow> kTable = {LocalExecutorRow(), SlurmExecutorRow()};
+  return kTable;
 }
 
-const ExecutorRow* find_executor(const std::string& name) {
-  for (const ExecutorRow& row : executor_table())
+const ExecutorRow* FindExecutor(const std::string& name) {
+  for (const ExecutorRow& row : ExecutorTable())
     if (name == row.name) return &row;
   return nullptr;
 }
 
-const ExecutorRow& executor_of_block(const nlohmann::json& block, const std::string& path) {
+const ExecutorRow& ExecutorOfBlock(const nlohmann::json& block, const std::string& path) {
   const ExecutorRow* row = block.is_object() && block.contains("type") && block["type"].is_string()
-                               ? find_executor(block["type"].get<std::string>())
+                               ? FindExecutor(block["type"].get<std::string>())
                                : nullptr;
   if (!row) {
-    throw SpecError(path + "/type", "must be " + executor_names(true) + " (got " +
+    throw SpecError(path + "/type", "must be " + ExecutorNames(true) + " (got " +
                                         (block.is_object() && block.contains("type") ? block["type"].dump() : "nothing") + ")");
   }
   return *row;
 }
 
-std::string executor_names(bool quote) {
-  const std::vector<ExecutorRow>& table = executor_table();
+std::string ExecutorNames(bool quote) {
+  const std::vector<ExecutorRow>& table = ExecutorTable();
   const std::string q = quote ? "\"" : "";
   std::string out;
   for (std::size_t k = 0; k < table.size(); ++k)

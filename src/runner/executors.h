@@ -1,7 +1,7 @@
 // The executors `campaign run` can use, one row each (after the verb table, cli/verbs.cpp): the
 // name --executor and the spec's {"executor": {"type": ...}} give, its lines of `campaign run
 // --help`, the flags only it takes, and how it is set up from them. Each executor's file pair
-// declares its row (local_executor_row() in executor.h, slurm_executor_row() in
+// declares its row (LocalExecutorRow() in executor.h, SlurmExecutorRow() in
 // slurm_executor.h); executors.cpp lists them. Adding an executor is one file pair and one row.
 #pragma once
 
@@ -30,13 +30,13 @@ class ExecutorSetup {
   // Before anything runs, with the campaign's database open: what the executor needs to know
   // of the campaign (Slurm: its name, each run's estimate for the arrays' --time). It may set
   // the run options it decides (Slurm: the threads per run are its --cpus-per-run).
-  virtual void prepare(Store& /*store*/, RunOptions& /*options*/, std::ostream& /*out*/) {}
+  virtual void Prepare(Store& /*store*/, RunOptions& /*options*/, std::ostream& /*out*/) {}
   // When the flags asked for a dry run: prints what would be started and returns the exit
   // code, starting nothing. nullopt: run for real.
-  virtual std::optional<int> dry_run(Store& /*store*/, const RunOptions& /*options*/, std::ostream& /*out*/) {
+  virtual std::optional<int> DryRun(Store& /*store*/, const RunOptions& /*options*/, std::ostream& /*out*/) {
     return std::nullopt;
   }
-  virtual std::unique_ptr<Executor> make(const RunOptions& options) const = 0;
+  virtual std::unique_ptr<Executor> Make(const RunOptions& options) const = 0;
 };
 
 struct ExecutorRow {
@@ -53,13 +53,13 @@ struct ExecutorRow {
 };
 
 // The row the spec's executor block names (its "type"); SpecError under `path` otherwise.
-const ExecutorRow& executor_of_block(const nlohmann::json& block, const std::string& path);
+const ExecutorRow& ExecutorOfBlock(const nlohmann::json& block, const std::string& path);
 
 // Every executor; the first is the default.
-const std::vector<ExecutorRow>& executor_table();
+const std::vector<ExecutorRow>& ExecutorTable();
 // The row named `name`, or nullptr.
-const ExecutorRow* find_executor(const std::string& name);
+const ExecutorRow* FindExecutor(const std::string& name);
 // "\"local\" or \"slurm\"", for messages (`quote`: with the quotes).
-std::string executor_names(bool quote);
+std::string ExecutorNames(bool quote);
 
 }  // namespace granary::runner

@@ -23,7 +23,7 @@ namespace granary::runner {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-std::uintmax_t disk_bytes(const fs::path& path) {
+std::uintmax_t DiskBytes(const fs::path& path) {
   std::error_code ec;
   if (fs::is_regular_file(path, ec)) return fs::file_size(path, ec);
   if (!fs::is_directory(path, ec)) return 0;
@@ -36,7 +36,7 @@ std::uintmax_t disk_bytes(const fs::path& path) {
   return n;
 }
 
-std::string human_bytes(std::uintmax_t bytes) {
+std::string HumanBytes(std::uintmax_t bytes) {
   if (bytes < 1000) return std::to_string(bytes) + " B";
   const char* units[] = {"kB", "MB", "GB", "TB"};
   double v = static_cast<double>(bytes);
@@ -50,7 +50,7 @@ std::string human_bytes(std::uintmax_t bytes) {
   return buf;
 }
 
-json run_details(Store& store, const RunRow& r, int log_lines) {
+json RunDetails(Store& store, const RunRow& r, int log_lines) {
   json files = json::array();
   std::error_code ec;
   if (fs::is_directory(r.run_dir, ec)) {
@@ -60,10 +60,10 @@ json run_details(Store& store, const RunRow& r, int log_lines) {
               [](const auto& a, const auto& b) { return a.path().filename() < b.path().filename(); });
     for (const auto& e : entries)
       files.push_back({{"name", e.path().filename().string() + (e.is_directory() ? "/" : "")},
-                       {"bytes", disk_bytes(e.path())}});
+                       {"bytes", DiskBytes(e.path())}});
   }
   json results = json::object();
-  for (const auto& [key, value] : load_results(store, r.run_id)) results[key] = value;
+  for (const auto& [key, value] : LoadResults(store, r.run_id)) results[key] = value;
   json j = {{"run_id", r.run_id},
             {"point_id", r.point_id},
             {"point", r.point},
@@ -97,7 +97,7 @@ json run_details(Store& store, const RunRow& r, int log_lines) {
   // the spec no longer names are not the campaign's.
   json failed = json::array();
   std::vector<std::string> current;
-  if (const auto campaign = load_campaign(store); campaign && campaign->spec.is_object()) {
+  if (const auto campaign = LoadCampaign(store); campaign && campaign->spec.is_object()) {
     const json python = campaign->spec.value("report", json::object()).value("python", json::array());
     if (python.is_array())
       for (const auto& e : python)
@@ -112,7 +112,7 @@ json run_details(Store& store, const RunRow& r, int log_lines) {
     std::sort(keys.begin(), keys.end());
     for (const auto& key : keys)
       if (const auto cached = rundir::ReadCachedResult(r.run_dir, key))
-        if (const std::string why = analysis::python_failure(cached->result); !why.empty())
+        if (const std::string why = analysis::PythonFailure(cached->result); !why.empty())
           failed.push_back({{"analysis", key}, {"error", why}});
   }
   j["analysis_failures"] = failed;
@@ -149,7 +149,7 @@ bool IsLockName(const fs::path& p) {
 
 }  // namespace
 
-std::vector<std::string> cached_analyses(const fs::path& run_dir) {
+std::vector<std::string> CachedAnalyses(const fs::path& run_dir) {
   std::vector<std::string> keys;
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(run_dir / rundir::kAnalysesDir, ec)) {
@@ -161,9 +161,9 @@ std::vector<std::string> cached_analyses(const fs::path& run_dir) {
   return keys;
 }
 
-std::vector<CleanItem> plan_clean(Store& store, const CleanOptions& o, std::vector<std::string>* frames_kept) {
+std::vector<CleanItem> PlanClean(Store& store, const CleanOptions& o, std::vector<std::string>* frames_kept) {
   std::vector<CleanItem> items;
-  const std::vector<RunRow> runs = load_runs(store, true);
+  const std::vector<RunRow> runs = LoadRuns(store, true);
   std::error_code ec;
   for (const RunRow& r : runs) {
     // Frames of done runs once their analyses are cached: what the report reads from then on.
@@ -172,10 +172,10 @@ std::vector<CleanItem> plan_clean(Store& store, const CleanOptions& o, std::vect
       for (const char* name : {rundir::kFramesFile, rundir::kFramesGzFile, rundir::kFramesGsdFile, rundir::kFramesDataFile,
                                rundir::kContactsFile, rundir::kContactsGzFile, rundir::kContactsGsdFile})
         if (fs::exists(fs::path(r.run_dir) / name, ec))
-          files.push_back({"frames", fs::path(r.run_dir) / name, r.run_id, disk_bytes(fs::path(r.run_dir) / name)});
+          files.push_back({"frames", fs::path(r.run_dir) / name, r.run_id, DiskBytes(fs::path(r.run_dir) / name)});
       std::string kept;
       if (files.empty()) continue;
-      if (cached_analyses(r.run_dir).empty()) kept = "no analysis of it is cached yet (campaign report first)";
+      if (CachedAnalyses(r.run_dir).empty()) kept = "no analysis of it is cached yet (campaign report first)";
       else if (!fs::exists(fs::path(r.run_dir) / rundir::kManifestFile, ec))
         kept = "written before manifests: nothing would record that its frames were removed on purpose";
       if (kept.empty()) items.insert(items.end(), files.begin(), files.end());
@@ -183,10 +183,10 @@ std::vector<CleanItem> plan_clean(Store& store, const CleanOptions& o, std::vect
     }
     const bool dir = fs::is_directory(r.run_dir, ec);
     if (dir && ((o.retired && r.state == RunState::kRetired) || (o.failed && r.state == RunState::kFailed)))
-      items.push_back({to_string(r.state), r.run_dir, r.run_id, disk_bytes(r.run_dir)});
+      items.push_back({ToString(r.state), r.run_dir, r.run_id, DiskBytes(r.run_dir)});
     else if (dir && o.locks && r.state != RunState::kRunning)
       for (const auto& e : fs::directory_iterator(r.run_dir, ec))
-        if (IsLockName(e.path()) && LockIsFree(e.path())) items.push_back({"lock", e.path(), r.run_id, disk_bytes(e.path())});
+        if (IsLockName(e.path()) && LockIsFree(e.path())) items.push_back({"lock", e.path(), r.run_id, DiskBytes(e.path())});
   }
   // Beds: which runs of this campaign use which cached bed.
   std::map<std::string, bool> bed_needed;  // file -> some run not finished still needs it
@@ -201,7 +201,7 @@ std::vector<CleanItem> plan_clean(Store& store, const CleanOptions& o, std::vect
   if (o.beds)
     for (const auto& [file, needed] : bed_needed)
       if (!needed && fs::exists(file, ec)) {
-        items.push_back({"bed", file, "", disk_bytes(file)});
+        items.push_back({"bed", file, "", DiskBytes(file)});
         taken.insert(file);
       }
   if (o.locks && !o.cache_dir.empty() && fs::is_directory(o.cache_dir, ec))
@@ -209,16 +209,16 @@ std::vector<CleanItem> plan_clean(Store& store, const CleanOptions& o, std::vect
       if (!IsLockName(e.path())) continue;
       // A bed's lock: <bed>.lock. Removed with its bed, or when nobody holds it.
       const fs::path bed = e.path().parent_path() / e.path().stem();
-      if (taken.count(bed) || LockIsFree(e.path())) items.push_back({"lock", e.path(), "", disk_bytes(e.path())});
+      if (taken.count(bed) || LockIsFree(e.path())) items.push_back({"lock", e.path(), "", DiskBytes(e.path())});
     }
   return items;
 }
 
-std::uintmax_t execute_clean(Store& store, const std::vector<CleanItem>& items) {
+std::uintmax_t ExecuteClean(Store& store, const std::vector<CleanItem>& items) {
   std::uintmax_t freed = 0;
   for (const CleanItem& it : items) {
     std::error_code ec;
-    const std::uintmax_t bytes = disk_bytes(it.path);
+    const std::uintmax_t bytes = DiskBytes(it.path);
     if (it.kind == "frames") {
       // Recorded first: a file gone without its record would read as damage. frames.data is
       // not in the manifest (it is derived from the first frame).
@@ -230,7 +230,7 @@ std::uintmax_t execute_clean(Store& store, const std::vector<CleanItem>& items) 
     fs::remove_all(it.path, ec);
     if (ec) continue;
     freed += bytes;
-    if (it.kind == "retired") forget_retired_results(store, it.run_id);
+    if (it.kind == "retired") ForgetRetiredResults(store, it.run_id);
   }
   return freed;
 }

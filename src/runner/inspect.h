@@ -16,13 +16,13 @@ namespace granary::runner {
 
 // Everything about one run: its row, parameters, the results ingested from summary.json,
 // the files of its directory and the tail of engine.log. JSON keys: docs/cli.md "campaign show".
-nlohmann::json run_details(Store& store, const RunRow& run, int log_lines = 20);
+nlohmann::json RunDetails(Store& store, const RunRow& run, int log_lines = 20);
 
 // Bytes of a file, or of everything under a directory (0 if it does not exist).
-std::uintmax_t disk_bytes(const std::filesystem::path& path);
+std::uintmax_t DiskBytes(const std::filesystem::path& path);
 
 // "12.3 MB", "512 B": decimal units, three significant digits.
-std::string human_bytes(std::uintmax_t bytes);
+std::string HumanBytes(std::uintmax_t bytes);
 
 struct CleanOptions {
   bool retired = true;   // directories of retired runs (no longer in the spec)
@@ -42,15 +42,15 @@ struct CleanItem {
 
 // What clean would remove (nothing is touched). `frames_kept`, if given, gets the done runs
 // whose frames --frames keeps, as "RUN_ID: why" (no analysis cached yet; no manifest).
-std::vector<CleanItem> plan_clean(Store& store, const CleanOptions& options,
+std::vector<CleanItem> PlanClean(Store& store, const CleanOptions& options,
                                   std::vector<std::string>* frames_kept = nullptr);
 
 // The analyses cached in a run directory (DIR/analyses/<key>.json), by key.
-std::vector<std::string> cached_analyses(const std::filesystem::path& run_dir);
+std::vector<std::string> CachedAnalyses(const std::filesystem::path& run_dir);
 
 // Removes the items; a retired run's results are forgotten (forget_retired_results) so that a
 // later plan that brings it back runs it again; a dropped frames file is recorded in its run's
 // manifest.json ("dropped", rundir::RecordDropped). Returns the bytes freed.
-std::uintmax_t execute_clean(Store& store, const std::vector<CleanItem>& items);
+std::uintmax_t ExecuteClean(Store& store, const std::vector<CleanItem>& items);
 
 }  // namespace granary::runner

@@ -90,9 +90,9 @@ class LocalExecutor : public Executor {
     }
   }
 
-  bool can_start_more() const override { return static_cast<int>(children_.size()) < slots_; }
+  bool CanStartMore() const override { return static_cast<int>(children_.size()) < slots_; }
 
-  void start(const Launch& launch) override {
+  void Start(const Launch& launch) override {
     const int fd = open(launch.log_file.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
     if (fd < 0) throw std::runtime_error("run " + launch.run_id + ": cannot open log " + launch.log_file);
     ChildSetup setup;
@@ -108,7 +108,7 @@ class LocalExecutor : public Executor {
     children_.emplace(launch.run_id, Child{std::move(child), {}, KeptLog(launch.log_file), launch.run_dir});
   }
 
-  std::vector<Finished> poll() override {
+  std::vector<Finished> Poll() override {
     std::vector<Finished> out;
     const auto now = Clock::now();
     for (auto it = children_.begin(); it != children_.end();) {
@@ -136,14 +136,14 @@ class LocalExecutor : public Executor {
     return out;
   }
 
-  void stop(const std::string& run_id, StopReason reason) override {
+  void Stop(const std::string& run_id, StopReason reason) override {
     auto it = children_.find(run_id);
     if (it != children_.end()) Stop(it->second, reason);
   }
-  void stop_all(StopReason reason) override {
+  void StopAll(StopReason reason) override {
     for (auto& [id, child] : children_) Stop(child, reason);
   }
-  std::size_t active() const override { return children_.size(); }
+  std::size_t Active() const override { return children_.size(); }
 
  private:
   struct Child {
@@ -177,9 +177,9 @@ class LocalExecutor : public Executor {
 
 }  // namespace
 
-bool is_queued_or_running(TaskFate fate) { return fate == TaskFate::kQueued || fate == TaskFate::kRunning; }
+bool IsQueuedOrRunning(TaskFate fate) { return fate == TaskFate::kQueued || fate == TaskFate::kRunning; }
 
-const char* to_string(StopReason reason) {
+const char* ToString(StopReason reason) {
   switch (reason) {
     case StopReason::kInterrupt: return "interrupt";
     case StopReason::kTimeLimit: return "time limit";
@@ -188,7 +188,7 @@ const char* to_string(StopReason reason) {
   return "?";
 }
 
-std::unique_ptr<Executor> make_local_executor(int slots, double grace_seconds) {
+std::unique_ptr<Executor> MakeLocalExecutor(int slots, double grace_seconds) {
   return std::make_unique<LocalExecutor>(slots, grace_seconds);
 }
 
@@ -196,12 +196,12 @@ namespace {
 
 class LocalSetup : public ExecutorSetup {
  public:
-  std::unique_ptr<Executor> make(const RunOptions& options) const override { return make_local_executor(options.jobs); }
+  std::unique_ptr<Executor> Make(const RunOptions& options) const override { return MakeLocalExecutor(options.jobs); }
 };
 
 }  // namespace
 
-ExecutorRow local_executor_row() {
+ExecutorRow LocalExecutorRow() {
   return {"local", "engines on this machine, --jobs at once",
           {{"jobs", true}, {"threads-per-run", true}},
           "The local pool:\n"

@@ -6,5 +6,5 @@
 #include "runner/cli.h"
 
 int main(int argc, char** argv) {
-  return granary::runner::run_cli(std::vector<std::string>(argv + 1, argv + argc), std::cout, std::cerr);
+  return granary::runner::RunCli(std::vector<std::string>(argv + 1, argv + argc), std::cout, std::cerr);
 }

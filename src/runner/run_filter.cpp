@@ -56,13 +56,13 @@ bool DerivedMatches(double actual, const std::string& text) {
   if (value.is_discarded() || !value.is_number() || !std::isfinite(actual)) return false;
   const double want = value.get<double>();
   return actual == want || std::abs(actual - want) <= 1e-9 * std::max(std::abs(actual), std::abs(want)) ||
-         analysis::format_number(actual, 6) == analysis::format_number(want, 6);
+         analysis::FormatNumber(actual, 6) == analysis::FormatNumber(want, 6);
 }
 #endif
 
 }  // namespace
 
-bool parameter_matches(const RunRow& row, const std::string& pointer, const std::string& text) {
+bool ParameterMatches(const RunRow& row, const std::string& pointer, const std::string& text) {
   json::json_pointer ptr;
   try {
     ptr = json::json_pointer(pointer);
@@ -97,17 +97,17 @@ RunFilter::RunFilter(const std::vector<std::string>& filters) : texts_(filters) 
   }
 }
 
-bool RunFilter::matches(const RunRow& row) const {
+bool RunFilter::Matches(const RunRow& row) const {
   if (!prefixes_.empty() &&
       std::none_of(prefixes_.begin(), prefixes_.end(), [&](const std::string& p) { return row.run_id.rfind(p, 0) == 0; }))
     return false;
   for (const auto& [pointer, texts] : values_)
-    if (std::none_of(texts.begin(), texts.end(), [&](const std::string& t) { return parameter_matches(row, pointer, t); }))
+    if (std::none_of(texts.begin(), texts.end(), [&](const std::string& t) { return ParameterMatches(row, pointer, t); }))
       return false;
   return true;
 }
 
-RunFilter resolve_filters(const std::vector<std::string>& filters, const CampaignRow& campaign,
+RunFilter ResolveFilters(const std::vector<std::string>& filters, const CampaignRow& campaign,
                           const std::vector<RunRow>& runs) {
   std::vector<const RunRow*> live;
   for (const auto& r : runs)
@@ -122,7 +122,7 @@ RunFilter resolve_filters(const std::vector<std::string>& filters, const Campaig
   std::string names_text;
 #ifdef GRANARY_HAVE_ANALYSIS
   if (named) {
-    for (const auto& n : named->names()) names_text += (names_text.empty() ? "" : ", ") + n;
+    for (const auto& n : named->Names()) names_text += (names_text.empty() ? "" : ", ") + n;
     names_text = "; names: " + names_text;
   }
 #endif
@@ -140,15 +140,15 @@ RunFilter resolve_filters(const std::vector<std::string>& filters, const Campaig
     const std::string value = f.substr(eq + 1);
 #ifdef GRANARY_HAVE_ANALYSIS
     if (named && !pointer.empty() && pointer[0] != '/') {
-      if (const auto p = named->pointer_of(pointer)) {
+      if (const auto p = named->PointerOf(pointer)) {
         pointer = *p;  // the axis' short name, as the report and the export name it ("D_b")
-      } else if (named->find_derived(pointer)) {
+      } else if (named->FindDerived(pointer)) {
         std::set<std::string>& pass = derived[pointer];
         std::vector<std::string> values;
         bool any = false;
         for (const RunRow* r : live) {
-          const double actual = named->values(r->point, r->params).at(pointer);
-          const std::string text = analysis::format_number(actual, 6);
+          const double actual = named->Values(r->point, r->params).at(pointer);
+          const std::string text = analysis::FormatNumber(actual, 6);
           if (std::find(values.begin(), values.end(), text) == values.end()) values.push_back(text);
           if (DerivedMatches(actual, value)) {
             pass.insert(r->run_id);
@@ -165,7 +165,7 @@ RunFilter resolve_filters(const std::vector<std::string>& filters, const Campaig
       // A short name: the one sweep axis that ends in it.
       const std::vector<std::string> found = AxesEndingIn(campaign.axes, pointer);
       if (found.size() != 1) {
-        const std::string best = nearest(pointer, campaign.axes);
+        const std::string best = Nearest(pointer, campaign.axes);
         throw FilterError("--only " + f + ": \"" + pointer + "\" " +
                           (found.empty() ? "ends no sweep axis" : "ends several sweep axes (" + List(found) + ")") +
                           "; give the JSON Pointer" + (best.empty() ? "" : ", e.g. " + best + "=" + value) + " (" +
@@ -180,11 +180,11 @@ RunFilter resolve_filters(const std::vector<std::string>& filters, const Campaig
       throw FilterError("--only " + f + ": \"" + pointer + "\" is not a JSON Pointer such as /silo/width");
     }
     if (std::none_of(live.begin(), live.end(), [&](const RunRow* r) { return r->params.contains(ptr); })) {
-      const std::string best = nearest(pointer, campaign.axes);
+      const std::string best = Nearest(pointer, campaign.axes);
       throw FilterError("--only " + f + ": \"" + pointer + "\" is not a parameter of the runs" +
                         (best.empty() ? "" : "; did you mean \"" + best + "\"?") + " (" + axes + ")");
     }
-    if (std::none_of(live.begin(), live.end(), [&](const RunRow* r) { return parameter_matches(*r, pointer, value); })) {
+    if (std::none_of(live.begin(), live.end(), [&](const RunRow* r) { return ParameterMatches(*r, pointer, value); })) {
       std::vector<std::string> values;
       for (const RunRow* r : live) {
         if (!r->params.contains(ptr)) continue;
@@ -220,7 +220,7 @@ RunFilter resolve_filters(const std::vector<std::string>& filters, const Campaig
 #endif
   RunFilter filter(resolved);
   if (!filters.empty() &&
-      std::none_of(live.begin(), live.end(), [&](const RunRow* r) { return filter.matches(*r); }))
+      std::none_of(live.begin(), live.end(), [&](const RunRow* r) { return filter.Matches(*r); }))
     throw FilterError("--only " + List(filters) + ": each filter selects runs, but no run passes all of them");
   return filter;
 }

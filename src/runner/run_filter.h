@@ -31,9 +31,9 @@ class RunFilter {
   explicit RunFilter(const std::vector<std::string>& filters);
 
   bool empty() const { return prefixes_.empty() && values_.empty(); }
-  bool matches(const RunRow& row) const;
+  bool Matches(const RunRow& row) const;
   // The filters as given to the constructor (full pointers), e.g. for RunOptions::only.
-  const std::vector<std::string>& texts() const { return texts_; }
+  const std::vector<std::string>& Texts() const { return texts_; }
 
  private:
   std::vector<std::string> texts_;
@@ -44,12 +44,12 @@ class RunFilter {
 
 // Does the value at `pointer` of `row`'s parameters equal VALUE (a JSON value, or the text of
 // a string)? Numbers compare as numbers (9 == 9.0).
-bool parameter_matches(const RunRow& row, const std::string& pointer, const std::string& value);
+bool ParameterMatches(const RunRow& row, const std::string& pointer, const std::string& value);
 
 // Resolves short names against the campaign's sweep axes and checks that every filter, and
 // all of them together, select at least one of `runs` that is not retired. Throws FilterError
 // naming the run ids, axes or values there are.
-RunFilter resolve_filters(const std::vector<std::string>& filters, const CampaignRow& campaign,
+RunFilter ResolveFilters(const std::vector<std::string>& filters, const CampaignRow& campaign,
                           const std::vector<RunRow>& runs);
 
 }  // namespace granary::runner

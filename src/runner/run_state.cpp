@@ -13,18 +13,18 @@ constexpr std::pair<RunState, const char*> kNames[] = {
 };
 }  // namespace
 
-const char* to_string(RunState state) {
+const char* ToString(RunState state) {
   for (const auto& [s, name] : kNames)
     if (s == state) return name;
   return "?";
 }
 
-RunState run_state_from_string(std::string_view text) {
+RunState RunStateFromString(std::string_view text) {
   for (const auto& [s, name] : kNames)
     if (text == name) return s;
   throw std::runtime_error("unknown run state \"" + std::string(text) + "\" in the database");
 }
 
-std::ostream& operator<<(std::ostream& out, RunState state) { return out << to_string(state); }
+std::ostream& operator<<(std::ostream& out, RunState state) { return out << ToString(state); }
 
 }  // namespace granary::runner

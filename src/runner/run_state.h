@@ -25,13 +25,13 @@ inline constexpr std::array<RunState, 5> kLiveRunStates = {RunState::kPlanned, R
                                                            RunState::kFailed, RunState::kInterrupted};
 
 // The database's word for the state: "planned", "running", "done", "failed", "interrupted", "retired".
-const char* to_string(RunState state);
+const char* ToString(RunState state);
 // The state the database's word names; throws std::runtime_error for any other text.
-RunState run_state_from_string(std::string_view text);
+RunState RunStateFromString(std::string_view text);
 std::ostream& operator<<(std::ostream& out, RunState state);
 
 // A state the next campaign run starts (planned, interrupted or failed).
-inline bool runnable(RunState s) {
+inline bool Runnable(RunState s) {
   return s == RunState::kPlanned || s == RunState::kInterrupted || s == RunState::kFailed;
 }
 

@@ -30,22 +30,22 @@ json FinishedSummary(const fs::path& dir) {
 
 }  // namespace
 
-ScanReport scan_campaign(Store& store, const BatchQueue& queue, bool dry_run) {
+ScanReport ScanCampaign(Store& store, const BatchQueue& queue, bool dry_run) {
   ScanReport report;
-  const std::vector<RunRow> rows = load_runs(store, false);
-  const Holder me = this_process_holder();
-  const double now = now_seconds();
+  const std::vector<RunRow> rows = LoadRuns(store, false);
+  const Holder me = ThisProcessHolder();
+  const double now = NowSeconds();
 
   // One query of the queue for every queued run.
   std::set<std::string> job_ids;
   for (const auto& r : rows) {
-    if (r.queued() && !r.job_id.empty()) job_ids.insert(r.job_id);
+    if (r.Queued() && !r.job_id.empty()) job_ids.insert(r.job_id);
   }
   std::map<std::pair<std::string, int>, QueueEntry> seen;
   bool queue_known = true;
   if (!job_ids.empty()) {
     report.queue_asked = true;
-    const auto entries = queue.query(job_ids, &report.queue_error);
+    const auto entries = queue.Query(job_ids, &report.queue_error);
     if (entries) {
       for (const auto& e : *entries) seen[{e.job_id, e.task}] = e;
     } else {
@@ -65,18 +65,18 @@ ScanReport scan_campaign(Store& store, const BatchQueue& queue, bool dry_run) {
     if (summary.is_object()) {
       to = RunState::kDone;
       if (const auto t = summary.find("timing"); t != summary.end() && t->is_object()) wall = t->value("wall_s", wall);
-    } else if (r.queued()) {
+    } else if (r.Queued()) {
       const auto e = seen.find({r.job_id, r.job_index});
-      if (!queue_known || (e != seen.end() && is_queued_or_running(queue.fate_of(e->second.state)))) {
+      if (!queue_known || (e != seen.end() && IsQueuedOrRunning(queue.FateOf(e->second.state)))) {
         if (e != seen.end() && e->second.state != r.job_state) queue_states[r.run_id] = e->second.state;
       } else {
         const QueuePlace place{r.job_dir, r.job_script, r.job_name, r.job_index, r.job_id, r.job_state};
-        const Finished f = queue.task_end(r.run_id, r.run_dir, place, e == seen.end() ? "" : e->second.state);
-        std::tie(to, reason) = end_state_of(f, false, 0, (dir / rundir::kEngineLogFile).string());
+        const Finished f = queue.TaskEnd(r.run_id, r.run_dir, place, e == seen.end() ? "" : e->second.state);
+        std::tie(to, reason) = EndStateOf(f, false, 0, (dir / rundir::kEngineLogFile).string());
         if (f.wall_s >= 0) wall = f.wall_s;
       }
     } else if (r.state == RunState::kRunning) {
-      if (lease_expired(r, me.host, now)) {
+      if (LeaseExpired(r, me.host, now)) {
         to = RunState::kInterrupted;
         reason = "runner lost (lease expired); continues from its checkpoint";
       }
@@ -94,22 +94,22 @@ ScanReport scan_campaign(Store& store, const BatchQueue& queue, bool dry_run) {
     if (to != r.state) {
       ScanChange c{r.run_id, r.state, to, reason, false};
       // A live runner records its own runs.
-      const bool held = r.state == RunState::kRunning && !r.lease_holder.empty() && !lease_expired(r, me.host, now);
+      const bool held = r.state == RunState::kRunning && !r.lease_holder.empty() && !LeaseExpired(r, me.host, now);
       if (!dry_run && !held) {
-        c.written = settle_run(store, r, to, reason, summary.is_object() ? &summary : nullptr, wall, now);
+        c.written = SettleRun(store, r, to, reason, summary.is_object() ? &summary : nullptr, wall, now);
       }
       if (held) c.reason = (c.reason.empty() ? "" : c.reason + "; ") + "left to the runner that holds it (" + r.lease_holder + ")";
       report.changes.push_back(c);
-      ++report.counts[to_string(c.written || dry_run ? to : r.state)];
+      ++report.counts[ToString(c.written || dry_run ? to : r.state)];
     } else {
-      ++report.counts[to_string(r.state)];
+      ++report.counts[ToString(r.state)];
     }
   }
-  if (!dry_run) record_job_states(store, queue_states);
+  if (!dry_run) RecordJobStates(store, queue_states);
   return report;
 }
 
-std::map<std::string, rundir::Verification> check_done_runs(const std::vector<RunRow>& runs, rundir::VerifyLevel level,
+std::map<std::string, rundir::Verification> CheckDoneRuns(const std::vector<RunRow>& runs, rundir::VerifyLevel level,
                                                             const std::function<void(int, int)>& progress) {
   std::vector<const RunRow*> done;
   for (const RunRow& r : runs)
@@ -127,7 +127,7 @@ std::map<std::string, rundir::Verification> check_done_runs(const std::vector<Ru
   return out;
 }
 
-IntegrityCounts count_integrity(const std::map<std::string, rundir::Verification>& checks) {
+IntegrityCounts CountIntegrity(const std::map<std::string, rundir::Verification>& checks) {
   IntegrityCounts c;
   for (const auto& [id, v] : checks) {
     if (v.integrity == rundir::Integrity::kWhole) ++c.whole;

@@ -38,18 +38,18 @@ struct ScanReport {
   std::vector<std::string> lost;      // done runs whose directory was deleted: left done (campaign run --rerun-lost)
 };
 
-ScanReport scan_campaign(Store& store, const BatchQueue& queue, bool dry_run);
+ScanReport ScanCampaign(Store& store, const BatchQueue& queue, bool dry_run);
 
 // The done runs among `runs` (directory present) checked against their manifests
 // (rundir::VerifyRun at `level`), by run id; `progress(done, total)` after each, when set.
 // kSizes for status and show (a stat per file), kChecksums for scan --verify (every byte).
-std::map<std::string, rundir::Verification> check_done_runs(const std::vector<RunRow>& runs, rundir::VerifyLevel level,
+std::map<std::string, rundir::Verification> CheckDoneRuns(const std::vector<RunRow>& runs, rundir::VerifyLevel level,
                                                             const std::function<void(int, int)>& progress = {});
 
 // What a check of a campaign found, for the CLI's lines and --json.
 struct IntegrityCounts {
   int whole = 0, damaged = 0, not_verifiable = 0;
 };
-IntegrityCounts count_integrity(const std::map<std::string, rundir::Verification>& checks);
+IntegrityCounts CountIntegrity(const std::map<std::string, rundir::Verification>& checks);
 
 }  // namespace granary::runner

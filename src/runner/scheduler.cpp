@@ -31,8 +31,8 @@ namespace fs = std::filesystem;
 const char kLostRunDirectory[] = "its run directory was deleted after it finished; run again (--rerun-lost)";
 using nlohmann::json;
 
-bool matches_filter(const RunRow& row, const std::string& filter) {
-  return filter.empty() || RunFilter(std::vector<std::string>{filter}).matches(row);
+bool MatchesFilter(const RunRow& row, const std::string& filter) {
+  return filter.empty() || RunFilter(std::vector<std::string>{filter}).Matches(row);
 }
 
 
@@ -52,7 +52,7 @@ std::string How(const Finished& f) {
 
 }  // namespace
 
-std::pair<RunState, std::string> end_state_of(const Finished& f, bool timed_out, double time_limit,
+std::pair<RunState, std::string> EndStateOf(const Finished& f, bool timed_out, double time_limit,
                                               const std::string& log_file) {
   // The executor's words where it has them (a batch queue's state), else the status'.
   const auto said = [&](const std::string& status) { return (f.how.empty() ? status : f.how) + "\n" + TailOfFile(log_file, 20); };
@@ -76,7 +76,7 @@ namespace {
 
 std::string EngineExe(const RunOptions& o, const std::string& engine) {
   if (o.engine.find('/') != std::string::npos) return o.engine;
-  return (fs::path(o.exe_dir) / engine_program(engine)).string();
+  return (fs::path(o.exe_dir) / EngineProgram(engine)).string();
 }
 
 Launch LaunchOf(const RunRow& row, const std::string& exe, int threads) {
@@ -92,7 +92,7 @@ Launch LaunchOf(const RunRow& row, const std::string& exe, int threads) {
 
 // Is the run's engine at work (so that its progress.json is worth reading)?
 bool EngineAtWork(const std::string& queue_state) {
-  return queue_state.empty() || batch_queue().fate_of(queue_state) == TaskFate::kRunning;
+  return queue_state.empty() || DefaultBatchQueue().FateOf(queue_state) == TaskFate::kRunning;
 }
 
 // A message if the file system holding `dir` (or its nearest existing parent) is full, or
@@ -119,46 +119,46 @@ struct Slot {
 
 }  // namespace
 
-ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executor, RunObserver& observer,
+ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor, RunObserver& observer,
                       const volatile std::sig_atomic_t* stop) {
   if (options.engine.find('/') != std::string::npos && !fs::exists(options.engine)) {
     throw std::invalid_argument("engine executable not found: " + options.engine);
   }
-  const Holder me = options.holder ? *options.holder : this_process_holder();
+  const Holder me = options.holder ? *options.holder : ThisProcessHolder();
   const std::function<double()> clock = options.clock ? options.clock : [] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
   };
-  const int recovered = recover_expired_leases(store, me, now_seconds());
+  const int recovered = RecoverExpiredLeases(store, me, NowSeconds());
 
   const RunFilter filter(options.only);
   auto accept = [&](const RunRow& r) {
     if ((options.engine == "native" || options.engine == "liggghts" || options.engine == "lammps") &&
         r.engine != options.engine)
       return false;
-    return filter.matches(r);
+    return filter.Matches(r);
   };
   // Done runs whose directory was deleted: their results are in the database, but nothing
   // can analyse them. Said at every start; run again on request.
   std::vector<std::string> lost;
-  for (const auto& r : load_runs(store, true))
+  for (const auto& r : LoadRuns(store, true))
     if (r.state == RunState::kDone && !fs::exists(r.run_dir) && accept(r)) lost.push_back(r.run_id);
-  const int requeued = options.rerun_lost ? requeue_done_runs(store, lost, kLostRunDirectory) : 0;
+  const int requeued = options.rerun_lost ? RequeueDoneRuns(store, lost, kLostRunDirectory) : 0;
 
   int total = 0, done = 0, failed = 0;
-  for (const auto& r : load_runs(store, !filter.empty())) {
-    if (r.state == RunState::kRetired || !filter.matches(r)) continue;
+  for (const auto& r : LoadRuns(store, !filter.empty())) {
+    if (r.state == RunState::kRetired || !filter.Matches(r)) continue;
     ++total;
     if (r.state == RunState::kDone) ++done;
     if (r.state == RunState::kFailed) ++failed;
   }
-  observer.on_begin(total, done, failed);
+  observer.OnBegin(total, done, failed);
   if (recovered > 0) {
-    observer.on_event("", to_string(RunState::kInterrupted), std::to_string(recovered) + " run(s) of a lost runner will continue");
+    observer.OnEvent("", ToString(RunState::kInterrupted), std::to_string(recovered) + " run(s) of a lost runner will continue");
   }
   if (requeued > 0) {
-    observer.on_event("", to_string(RunState::kPlanned), std::to_string(requeued) + " done run(s) whose run directory was deleted will run again");
+    observer.OnEvent("", ToString(RunState::kPlanned), std::to_string(requeued) + " done run(s) whose run directory was deleted will run again");
   } else if (!lost.empty()) {
-    observer.on_event("", "lost", std::to_string(lost.size()) + " done run(s) have no run directory (deleted after they "
+    observer.OnEvent("", "lost", std::to_string(lost.size()) + " done run(s) have no run directory (deleted after they "
                                   "finished; first " + lost.front() + "): their results are in the database only; "
                                   "campaign run --rerun-lost runs them again");
   }
@@ -175,14 +175,14 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   bool replicas_due = true;  // adaptive replicas: a run was recorded done since the last look
 
   auto lease_lost = [&](const std::string& id, const std::string& what) {
-    observer.on_event(id, "lease lost",
+    observer.OnEvent(id, "lease lost",
                       "another runner holds this run now (this runner's lease expired, or a re-plan retired it); " + what);
   };
 
   // Records an end state under our lease; false (and nothing recorded) if it is not ours.
   auto end_run = [&](const std::string& id, RunState state, const std::string& reason, double wall) {
-    if (!record_end(store, id, me.id, state, reason, now_seconds(), wall)) {
-      lease_lost(id, std::string("its end (") + to_string(state) + ") is not recorded");
+    if (!RecordEnd(store, id, me.id, state, reason, NowSeconds(), wall)) {
+      lease_lost(id, std::string("its end (") + ToString(state) + ") is not recorded");
       return;
     }
     if (state == RunState::kFailed) ++failed;
@@ -194,7 +194,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     } else if (state == RunState::kFailed) {
       --failed;  // will be retried: not counted as failed in the display
     }
-    observer.on_event(id, to_string(state), reason);
+    observer.OnEvent(id, ToString(state), reason);
   };
 
   // A run whose directory has DONE and summary.json is ingested; false if it has not.
@@ -207,7 +207,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     } catch (const rundir::ReadError&) {
       return false;
     }
-    if (!record_done(store, row.run_id, me.id, summary.raw, now_seconds(), wall)) {
+    if (!RecordDone(store, row.run_id, me.id, summary.raw, NowSeconds(), wall)) {
       lease_lost(row.run_id, "its result is not recorded");
       return true;
     }
@@ -217,7 +217,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     std::ostringstream what;
     what << (summary.end_reason.empty() ? std::string("finished") : summary.end_reason) << " at t = " << summary.t_end
          << ", " << summary.exited << " exits, " << static_cast<int>(wall) << " s";
-    observer.on_event(row.run_id, to_string(RunState::kDone), what.str());
+    observer.OnEvent(row.run_id, ToString(RunState::kDone), what.str());
     return true;
   };
 
@@ -225,7 +225,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   auto launch = [&](const RunRow& row) {
     const std::string holder = RunDirectoryHolder(row.run_dir);
     if (!holder.empty()) {
-      if (!waiting.count(row.run_id)) observer.on_event(row.run_id, "waiting", "its directory is locked by " + holder);
+      if (!waiting.count(row.run_id)) observer.OnEvent(row.run_id, "waiting", "its directory is locked by " + holder);
       waiting[row.run_id] = row;
       return;
     }
@@ -235,12 +235,12 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     if (finish_done(row, row.wall_s)) return;
     const std::string exe = EngineExe(options, row.engine);
     if (!fs::exists(exe)) {
-      record_end(store, row.run_id, me.id, RunState::kInterrupted, "engine executable not found: " + exe, now_seconds(), 0);
+      RecordEnd(store, row.run_id, me.id, RunState::kInterrupted, "engine executable not found: " + exe, NowSeconds(), 0);
       throw std::invalid_argument("engine executable not found: " + exe + " (build it, or pass --engine PATH)");
     }
     try {
       rundir::WriteRunSpec(row.run_dir, row.params);
-      executor.start(LaunchOf(row, exe, options.threads_per_run));
+      executor.Start(LaunchOf(row, exe, options.threads_per_run));
     } catch (const std::exception& e) {
       if (const std::string full = FullFileSystem(row.run_dir); !full.empty()) {
         storage_full = full;
@@ -251,8 +251,8 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       return;
     }
     slots[row.run_id] = Slot{row, clock(), false, false};
-    observer.on_event(row.run_id, to_string(RunState::kRunning),
-                      "attempt " + std::to_string(row.attempts) + (executor.outlives_runner() ? ", to the queue" : ""));
+    observer.OnEvent(row.run_id, ToString(RunState::kRunning),
+                      "attempt " + std::to_string(row.attempts) + (executor.OutlivesRunner() ? ", to the queue" : ""));
   };
 
   // One ended engine: its end state, under our lease.
@@ -277,28 +277,28 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       storage_full = full;
       end_run(f.run_id, RunState::kInterrupted, "engine " + How(f) + "; " + full + "\n" + TailOfFile(log, 20), wall);
     } else {
-      const auto [state, reason] = end_state_of(f, slot.timed_out, options.time_limit, log);
+      const auto [state, reason] = EndStateOf(f, slot.timed_out, options.time_limit, log);
       end_run(f.run_id, state, reason, wall);
     }
   };
 
   // Runs a runner before this one put into the queue are watched again, never started twice.
-  if (executor.outlives_runner()) {
-    const auto adopted = adopt_queued_runs(store, me, now_seconds());
+  if (executor.OutlivesRunner()) {
+    const auto adopted = AdoptQueuedRuns(store, me, NowSeconds());
     for (const auto& row : adopted) {
-      const QueuePlace place = executor.attach(LaunchOf(row, EngineExe(options, row.engine), options.threads_per_run));
-      if (place.job_id != row.job_id) record_job_id(store, row.job_script, place.job_id);
+      const QueuePlace place = executor.Attach(LaunchOf(row, EngineExe(options, row.engine), options.threads_per_run));
+      if (place.job_id != row.job_id) RecordJobId(store, row.job_script, place.job_id);
       slots[row.run_id] = Slot{row, clock(), false, false};
       queue_state[row.run_id] = row.job_state;
     }
     if (!adopted.empty()) {
-      observer.on_event("", "attached", std::to_string(adopted.size()) + " run(s) already in the queue: watching them again");
+      observer.OnEvent("", "attached", std::to_string(adopted.size()) + " run(s) already in the queue: watching them again");
     }
   } else {
     int queued = 0;
-    for (const auto& r : load_runs(store, false)) queued += r.queued();
+    for (const auto& r : LoadRuns(store, false)) queued += r.Queued();
     if (queued > 0) {
-      observer.on_event("", "queued", std::to_string(queued) +
+      observer.OnEvent("", "queued", std::to_string(queued) +
                                           " run(s) are in a Slurm queue; campaign run --executor slurm watches them, "
                                           "campaign scan settles them");
     }
@@ -307,27 +307,27 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   // Places the runs started since the last call in the queue: places recorded first, then
   // submitted. An array the queue refuses leaves its runs interrupted, not retried here.
   auto submit_started = [&] {
-    const std::vector<JobArray> placed = executor.place();
+    const std::vector<JobArray> placed = executor.Place();
     if (placed.empty()) return;
-    for (const auto& a : placed) record_job_array(store, me, a, now_seconds());
-    for (const auto& a : executor.submit()) {
+    for (const auto& a : placed) RecordJobArray(store, me, a, NowSeconds());
+    for (const auto& a : executor.Submit()) {
       if (a.error.empty()) {
-        record_job_id(store, a.script, a.job_id);
+        RecordJobId(store, a.script, a.job_id);
         for (const auto& [id, index] : a.runs) {
           if (auto slot = slots.find(id); slot != slots.end()) slot->second.row.job_id = a.job_id;
         }
-        observer.on_event("", "submitted", "array job " + a.job_id + " (" + std::to_string(a.runs.size()) + " runs, --array=" +
+        observer.OnEvent("", "submitted", "array job " + a.job_id + " (" + std::to_string(a.runs.size()) + " runs, --array=" +
                                                a.array + "): " + a.script);
         continue;
       }
       for (const auto& [id, index] : a.runs) {
-        if (!record_end(store, id, me.id, RunState::kInterrupted, a.error, now_seconds(), 0)) lease_lost(id, "its end is not recorded");
+        if (!RecordEnd(store, id, me.id, RunState::kInterrupted, a.error, NowSeconds(), 0)) lease_lost(id, "its end is not recorded");
         skip.insert(id);
         slots.erase(id);
         queue_state.erase(id);
       }
       any_final_failure = true;
-      observer.on_event("", "not submitted", a.error + " (" + std::to_string(a.runs.size()) + " runs left interrupted)");
+      observer.OnEvent("", "not submitted", a.error + " (" + std::to_string(a.runs.size()) + " runs left interrupted)");
     }
   };
 
@@ -336,19 +336,19 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   auto detach = [&](const std::string& what) {
     for (const auto& [id, row] : waiting) end_run(id, RunState::kInterrupted, "waiting for its directory when the runner detached", 0);
     waiting.clear();
-    const int released = release_queued_runs(store, me);
-    observer.on_event("", "detached", std::to_string(released) + what);
-    observer.on_end(done, failed, total);
+    const int released = ReleaseQueuedRuns(store, me);
+    observer.OnEvent("", "detached", std::to_string(released) + what);
+    observer.OnEnd(done, failed, total);
   };
 
   // Heartbeat; engines of runs that are no longer ours are stopped at once (a batch queue's
   // job is left to the runner that holds its run now).
   auto check_leases = [&](const std::map<std::string, json>& progress) {
-    const std::set<std::string> held = heartbeat(store, me, now_seconds(), progress);
+    const std::set<std::string> held = Heartbeat(store, me, NowSeconds(), progress);
     for (auto& [id, slot] : slots) {
       if (slot.lease_lost || held.count(id)) continue;
       slot.lease_lost = true;
-      executor.stop(id, StopReason::kLeaseLost);
+      executor.Stop(id, StopReason::kLeaseLost);
     }
     for (auto it = waiting.begin(); it != waiting.end();) {
       if (held.count(it->first)) {
@@ -362,7 +362,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
 
   try {
     while (true) {
-      if (stop && *stop && executor.outlives_runner()) {
+      if (stop && *stop && executor.OutlivesRunner()) {
         // The jobs keep running; a later runner adopts them.
         detach(" run(s) stay in the queue; campaign run --executor slurm watches them again, campaign scan settles them");
         return ExitCode::kInterrupted;
@@ -370,13 +370,13 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
       if (stop && *stop) {
         // The engines checkpoint and exit (the executor ends them by force after a grace
         // period); they continue next time.
-        executor.stop_all(StopReason::kInterrupt);
-        while (executor.active() > 0) {
-          for (const auto& f : executor.poll()) finished(f, true);
-          if (executor.active() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        executor.StopAll(StopReason::kInterrupt);
+        while (executor.Active() > 0) {
+          for (const auto& f : executor.Poll()) finished(f, true);
+          if (executor.Active() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
         }
         for (const auto& [id, row] : waiting) end_run(id, RunState::kInterrupted, "interrupted while waiting for its directory", 0);
-        observer.on_end(done, failed, total);
+        observer.OnEnd(done, failed, total);
         return ExitCode::kInterrupted;
       }
 
@@ -385,13 +385,13 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
         total += options.add_runs(observer);
       }
       // Runs waiting for their directory first, then new claims, while there are free slots.
-      for (auto it = waiting.begin(); it != waiting.end() && executor.can_start_more() && storage_full.empty();) {
+      for (auto it = waiting.begin(); it != waiting.end() && executor.CanStartMore() && storage_full.empty();) {
         const RunRow row = (it++)->second;
         launch(row);
       }
       bool nothing_left = !storage_full.empty();  // a full runs/ starts nothing more
-      while (!nothing_left && executor.can_start_more()) {
-        auto row = claim_next(store, me, now_seconds(), accept, skip);
+      while (!nothing_left && executor.CanStartMore()) {
+        auto row = ClaimNext(store, me, NowSeconds(), accept, skip);
         if (!row) {
           nothing_left = true;
           break;
@@ -399,16 +399,16 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
         launch(*row);
       }
       submit_started();
-      if (options.detach && nothing_left && executor.outlives_runner()) {
+      if (options.detach && nothing_left && executor.OutlivesRunner()) {
         detach(" run(s) in the queue; campaign status shows them, campaign scan or campaign run --executor slurm "
                "collects them");
         if (!storage_full.empty()) return ExitCode::kStorage;
         return any_final_failure ? ExitCode::kRunsFailed : ExitCode::kOk;
       }
-      if (nothing_left && executor.active() == 0 && (waiting.empty() || !storage_full.empty())) break;
+      if (nothing_left && executor.Active() == 0 && (waiting.empty() || !storage_full.empty())) break;
 
-      for (const auto& f : executor.poll()) finished(f, false);
-      if (auto changes = executor.queue_changes(); !changes.empty()) {
+      for (const auto& f : executor.Poll()) finished(f, false);
+      if (auto changes = executor.QueueChanges(); !changes.empty()) {
         std::map<std::string, std::string> states;
         for (const auto& [id, place] : changes) {
           auto slot = slots.find(id);
@@ -416,19 +416,19 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
           queue_state[id] = states[id] = place.state;
           // A job found by its name after a runner died inside sbatch.
           if (place.job_id != slot->second.row.job_id) {
-            record_job_id(store, place.script, place.job_id);
+            RecordJobId(store, place.script, place.job_id);
             slot->second.row.job_id = place.job_id;
           }
         }
-        record_job_states(store, states);
+        RecordJobStates(store, states);
       }
 
       const double now = clock();
-      if (options.time_limit > 0 && !executor.limits_time()) {
+      if (options.time_limit > 0 && !executor.LimitsTime()) {
         for (auto& [id, slot] : slots) {
           if (!slot.timed_out && !slot.lease_lost && now - slot.started > options.time_limit) {
             slot.timed_out = true;
-            executor.stop(id, StopReason::kTimeLimit);
+            executor.Stop(id, StopReason::kTimeLimit);
           }
         }
       }
@@ -453,7 +453,7 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
           }
           active.push_back(a);
         }
-        observer.on_tick(active, done, failed, total);
+        observer.OnTick(active, done, failed, total);
         if (now - last_heartbeat >= options.heartbeat_interval) {
           last_heartbeat = now;
           check_leases(progress);
@@ -468,33 +468,33 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
     // `campaign run` recovers (this runner is gone by then). Jobs in a batch queue keep
     // running: their runs stay queued under this runner's lease, and the next runner adopts
     // them once it has expired.
-    if (executor.outlives_runner()) {
-      throw StoreError(e.code(), std::string(e.what()) + "\ncampaign run stopped watching its " + batch_queue().name() + " jobs (they keep running; "
+    if (executor.OutlivesRunner()) {
+      throw StoreError(e.Code(), std::string(e.what()) + "\ncampaign run stopped watching its " + DefaultBatchQueue().Name() + " jobs (they keep running; "
                                                          "the next campaign run or campaign scan collects them). Free space "
                                                          "(or fix the database) and run campaign run again.");
     }
-    executor.stop_all(StopReason::kInterrupt);
-    while (executor.active() > 0) {
-      for (const auto& f : executor.poll()) slots.erase(f.run_id);
-      if (executor.active() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    executor.StopAll(StopReason::kInterrupt);
+    while (executor.Active() > 0) {
+      for (const auto& f : executor.Poll()) slots.erase(f.run_id);
+      if (executor.Active() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
     }
     int unrecorded = 0;
     std::vector<std::string> held;
     try {
-      for (const auto& id : heartbeat(store, me, now_seconds(), {})) held.push_back(id);
+      for (const auto& id : Heartbeat(store, me, NowSeconds(), {})) held.push_back(id);
     } catch (const StoreError&) {
       held.assign(1, "?");
     }
     for (const auto& id : held) {
       try {
-        if (id == "?" || !record_end(store, id, me.id, RunState::kInterrupted, "the database could not be written: " +
-                                                                   std::string(e.what()), now_seconds(), 0))
+        if (id == "?" || !RecordEnd(store, id, me.id, RunState::kInterrupted, "the database could not be written: " +
+                                                                   std::string(e.what()), NowSeconds(), 0))
           ++unrecorded;
       } catch (const StoreError&) {
         ++unrecorded;
       }
     }
-    throw StoreError(e.code(), std::string(e.what()) + "\ncampaign run stopped its engines (they continue from their checkpoints)" +
+    throw StoreError(e.Code(), std::string(e.what()) + "\ncampaign run stopped its engines (they continue from their checkpoints)" +
                                    (unrecorded > 0 ? "; runs it could not mark interrupted show as running with their runner gone "
                                                      "until the next campaign run recovers them"
                                                    : "") +
@@ -502,12 +502,12 @@ ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executo
   }
   if (!storage_full.empty()) {
     for (const auto& [id, row] : waiting) end_run(id, RunState::kInterrupted, storage_full, 0);
-    observer.on_event("", "stopped", storage_full + ": no more runs started; the interrupted ones continue from their "
+    observer.OnEvent("", "stopped", storage_full + ": no more runs started; the interrupted ones continue from their "
                                      "checkpoints once there is room (campaign run again)");
-    observer.on_end(done, failed, total);
+    observer.OnEnd(done, failed, total);
     return ExitCode::kStorage;
   }
-  observer.on_end(done, failed, total);
+  observer.OnEnd(done, failed, total);
   return any_final_failure ? ExitCode::kRunsFailed : ExitCode::kOk;
 }
 

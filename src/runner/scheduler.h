@@ -46,7 +46,7 @@ struct RunOptions {
   // database (add_planned_runs) and returns how many, which the loop then claims like any
   // other. It reports what it did to the observer. None: a fixed number of replicas.
   std::function<int(RunObserver&)> add_runs;
-  // Tests: who claims the runs (default this_process_holder()), and the monotonic clock in
+  // Tests: who claims the runs (default ThisProcessHolder()), and the monotonic clock in
   // seconds that time limits, ticks and heartbeats are measured with (default steady_clock).
   std::optional<Holder> holder;
   std::function<double()> clock;
@@ -65,29 +65,29 @@ struct ActiveRun {
 class RunObserver {
  public:
   virtual ~RunObserver() = default;
-  virtual void on_begin(int total, int done, int failed) = 0;
-  // `what`: the state the run entered (to_string(RunState)), or what happened to it ("waiting",
+  virtual void OnBegin(int total, int done, int failed) = 0;
+  // `what`: the state the run entered (ToString(RunState)), or what happened to it ("waiting",
   // "lease lost", "not submitted", ...); run_id "" for the campaign as a whole.
-  virtual void on_event(const std::string& run_id, const std::string& what, const std::string& message) = 0;
-  virtual void on_tick(const std::vector<ActiveRun>& active, int done, int failed, int total) = 0;
-  virtual void on_end(int done, int failed, int total) = 0;
+  virtual void OnEvent(const std::string& run_id, const std::string& what, const std::string& message) = 0;
+  virtual void OnTick(const std::vector<ActiveRun>& active, int done, int failed, int total) = 0;
+  virtual void OnEnd(int done, int failed, int total) = 0;
 };
 
 // What is recorded for an engine that ended but did not finish its run (no DONE, or a failure):
 // {failed | interrupted, reason with the tail of its log}. Killed from outside means
 // interrupted (it continues from its checkpoint); a time limit (the scheduler's, `timed_out`,
 // or the executor's, f.timed_out) or an exit status means failed.
-std::pair<RunState, std::string> end_state_of(const Finished& f, bool timed_out, double time_limit,
+std::pair<RunState, std::string> EndStateOf(const Finished& f, bool timed_out, double time_limit,
                                               const std::string& log_file);
 
 // The failure note of a done run put back to planned because its directory was deleted.
 extern const char kLostRunDirectory[];
 
 // Does `row` pass the --only filter (one filter; RunFilter for several)?
-bool matches_filter(const RunRow& row, const std::string& filter);
+bool MatchesFilter(const RunRow& row, const std::string& filter);
 
 // Runs what is not done. `stop` is set asynchronously (signal handler) to request a clean stop.
-ExitCode run_campaign(Store& store, const RunOptions& options, Executor& executor, RunObserver& observer,
+ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor, RunObserver& observer,
                       const volatile std::sig_atomic_t* stop);
 
 }  // namespace granary::runner

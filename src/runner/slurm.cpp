@@ -50,10 +50,10 @@ void CheckField(const std::string& value, const char* what) {
 
 }  // namespace
 
-std::string parse_executor_block(const json& block, const std::string& path, SlurmOptions& o) {
-  check_keys(block, path,
+std::string ParseExecutorBlock(const json& block, const std::string& path, SlurmOptions& o) {
+  CheckKeys(block, path,
              {"type", "partition", "time", "account", "cpus_per_run", "array_max", "sbatch_args", "poll_interval"});
-  executor_of_block(block, path);
+  ExecutorOfBlock(block, path);
   const auto text = [&](const char* key, std::string& out) {
     if (!block.contains(key)) return;
     if (!block[key].is_string() || block[key].get<std::string>().empty()) {
@@ -64,7 +64,7 @@ std::string parse_executor_block(const json& block, const std::string& path, Slu
   text("partition", o.partition);
   text("account", o.account);
   text("time", o.time);
-  if (!o.time.empty() && !is_slurm_time(o.time)) {
+  if (!o.time.empty() && !IsSlurmTime(o.time)) {
     throw SpecError(path + "/time", "must be a Slurm time such as \"30\", \"4:00:00\" or \"1-12:00:00\" (got \"" + o.time + "\")");
   }
   const auto integer = [&](const char* key, int min, int& out) {
@@ -100,19 +100,19 @@ std::string parse_executor_block(const json& block, const std::string& path, Slu
   return block["type"];
 }
 
-bool is_slurm_time(const std::string& text) {
+bool IsSlurmTime(const std::string& text) {
   static const std::regex kTime(R"(^(\d+|\d+:\d{1,2}|\d+:\d{1,2}:\d{1,2}|\d+-\d+|\d+-\d+:\d{1,2}|\d+-\d+:\d{1,2}:\d{1,2})$)");
   return std::regex_match(text, kTime) || text == "UNLIMITED" || text == "INFINITE";
 }
 
-std::string slurm_time(double seconds) {
+std::string SlurmTime(double seconds) {
   const long minutes = std::max(1L, static_cast<long>(std::ceil(seconds / 60.0)));
   char buf[48];
   std::snprintf(buf, sizeof buf, "%ld-%02ld:%02ld:00", minutes / 1440, (minutes % 1440) / 60, minutes % 60);
   return buf;
 }
 
-std::string manifest_text(const std::vector<ManifestEntry>& entries) {
+std::string ManifestText(const std::vector<ManifestEntry>& entries) {
   std::string out = "# index\trun_id\tengine\texecutable\trun_dir\n";
   for (const auto& e : entries) {
     CheckField(e.run_id, "a run id");
@@ -124,7 +124,7 @@ std::string manifest_text(const std::vector<ManifestEntry>& entries) {
   return out;
 }
 
-std::vector<ManifestEntry> parse_manifest(const std::string& text) {
+std::vector<ManifestEntry> ParseManifest(const std::string& text) {
   std::vector<ManifestEntry> out;
   std::istringstream in(text);
   std::string line;
@@ -149,7 +149,7 @@ std::vector<ManifestEntry> parse_manifest(const std::string& text) {
   return out;
 }
 
-std::string array_spec(const std::vector<int>& indices, int throttle) {
+std::string ArraySpec(const std::vector<int>& indices, int throttle) {
   std::string out;
   for (std::size_t i = 0; i < indices.size();) {
     std::size_t j = i;
@@ -169,7 +169,7 @@ std::string array_spec(const std::vector<int>& indices, int throttle) {
   return out;
 }
 
-std::string batch_script(const BatchJob& job) {
+std::string BatchScript(const BatchJob& job) {
   const SlurmOptions& o = job.options;
   const bool mpi = job.engine == "liggghts" || job.engine == "lammps";
   std::ostringstream s;
@@ -186,7 +186,7 @@ std::string batch_script(const BatchJob& job) {
   if (!o.account.empty()) s << "#SBATCH --account=" << o.account << "\n";
   // Slurm's own limit leaves the engine a minute to checkpoint after `timeout` stopped it.
   if (!o.time.empty()) s << "#SBATCH --time=" << o.time << "\n";
-  else if (job.time_limit > 0) s << "#SBATCH --time=" << slurm_time(job.time_limit + 90) << "\n";
+  else if (job.time_limit > 0) s << "#SBATCH --time=" << SlurmTime(job.time_limit + 90) << "\n";
   if (!job.dependency.empty()) s << "#SBATCH --dependency=" << job.dependency << "\n";
   for (const auto& a : o.sbatch_args) s << "#SBATCH " << a << "\n";
   s << "set -u\n"
@@ -223,7 +223,7 @@ std::string batch_script(const BatchJob& job) {
   return s.str();
 }
 
-std::vector<QueueEntry> parse_squeue(const std::string& text) {
+std::vector<QueueEntry> ParseSqueue(const std::string& text) {
   std::vector<QueueEntry> out;
   std::istringstream in(text);
   std::string line;
@@ -253,7 +253,7 @@ std::vector<QueueEntry> parse_squeue(const std::string& text) {
   return out;
 }
 
-int parse_max_array_size(const std::string& show_config) {
+int ParseMaxArraySize(const std::string& show_config) {
   static const std::regex kLine(R"(^MaxArraySize\s*=\s*(\d+)\s*$)");
   std::istringstream in(show_config);
   std::string line;
@@ -264,7 +264,7 @@ int parse_max_array_size(const std::string& show_config) {
   return 1001;
 }
 
-TaskFate fate_of(const std::string& state) {
+TaskFate FateOf(const std::string& state) {
   // Slurm prints the long names (squeue %T); a trailing "+" (e.g. "CANCELLED+") is dropped.
   std::string s = state;
   while (!s.empty() && s.back() == '+') s.pop_back();
@@ -284,7 +284,7 @@ TaskFate fate_of(const std::string& state) {
   return TaskFate::kRunning;
 }
 
-std::optional<TaskRecord> parse_task_record(const std::string& text) {
+std::optional<TaskRecord> ParseTaskRecord(const std::string& text) {
   const json j = json::parse(text, nullptr, false);
   if (!j.is_object() || !j.contains("job") || !j["job"].is_string()) return std::nullopt;
   TaskRecord r;
@@ -296,7 +296,7 @@ std::optional<TaskRecord> parse_task_record(const std::string& text) {
   return r;
 }
 
-bool ended_by_time_limit(const TaskRecord& record, double time_limit) {
+bool EndedByTimeLimit(const TaskRecord& record, double time_limit) {
   if (time_limit <= 0 || !record.exit_code) return false;
   return *record.exit_code == 124 || (*record.exit_code == 128 + 9 && record.ended_at - record.started_at >= time_limit);
 }

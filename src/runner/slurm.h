@@ -28,12 +28,12 @@ struct SlurmOptions {
 // "time", "account", "cpus_per_run", "array_max", "sbatch_args": [...], "poll_interval"}: the
 // options are Slurm's whatever the type, so `--executor slurm` can use a block of another type. Returns the type;
 // errors (SpecError) name the JSON path under `path`.
-std::string parse_executor_block(const nlohmann::json& block, const std::string& path, SlurmOptions& options);
+std::string ParseExecutorBlock(const nlohmann::json& block, const std::string& path, SlurmOptions& options);
 
 // Is `text` a Slurm time ("MM", "MM:SS", "HH:MM:SS", "D-HH", "D-HH:MM", "D-HH:MM:SS")?
-bool is_slurm_time(const std::string& text);
+bool IsSlurmTime(const std::string& text);
 // Seconds as a Slurm --time value, rounded up to whole minutes ("D-HH:MM:00").
-std::string slurm_time(double seconds);
+std::string SlurmTime(double seconds);
 
 // One line of the manifest: which run an array index stands for.
 struct ManifestEntry {
@@ -45,12 +45,12 @@ struct ManifestEntry {
 };
 // Tab-separated, one run a line after a comment line; throws std::invalid_argument when a
 // field holds a tab or a newline.
-std::string manifest_text(const std::vector<ManifestEntry>& entries);
-std::vector<ManifestEntry> parse_manifest(const std::string& text);
+std::string ManifestText(const std::vector<ManifestEntry>& entries);
+std::vector<ManifestEntry> ParseManifest(const std::string& text);
 
 // The --array value of `indices` (sorted, distinct): ranges where they are consecutive,
 // e.g. {0,1,2,5,7,8} -> "0-2,5,7-8"; with throttle > 0, "%K" appended.
-std::string array_spec(const std::vector<int>& indices, int throttle);
+std::string ArraySpec(const std::vector<int>& indices, int throttle);
 
 // Everything one sbatch call needs.
 struct BatchJob {
@@ -66,17 +66,17 @@ struct BatchJob {
 // The batch script: #SBATCH lines, then look up the task's run in the manifest, record the
 // task in DIR/slurm-task.json, run the engine (under `timeout` when there is a time limit),
 // record its exit status.
-std::string batch_script(const BatchJob& job);
+std::string BatchScript(const BatchJob& job);
 
 // `squeue --noheader --array --states=all --format=kSqueueFormat` with SLURM_TIME_FORMAT=%s.
 inline constexpr char kSqueueFormat[] = "%F|%K|%T|%S|%j|%r";
-std::vector<QueueEntry> parse_squeue(const std::string& text);
+std::vector<QueueEntry> ParseSqueue(const std::string& text);
 
 // MaxArraySize from `scontrol show config` (Slurm's default 1001 when absent).
-int parse_max_array_size(const std::string& show_config);
+int ParseMaxArraySize(const std::string& show_config);
 
 // What a Slurm job state means for the run it carries (TaskFate in executor.h).
-TaskFate fate_of(const std::string& state);
+TaskFate FateOf(const std::string& state);
 
 // DIR/slurm-task.json, written by the batch script: which task ran the run, when it started,
 // and (once the engine ended) its exit status.
@@ -87,10 +87,10 @@ struct TaskRecord {
   std::optional<int> exit_code;
   double ended_at = 0;
 };
-std::optional<TaskRecord> parse_task_record(const std::string& text);
+std::optional<TaskRecord> ParseTaskRecord(const std::string& text);
 
 // Did the task's `timeout` end the engine at `time_limit`? Exit status 124 (stopped), or
 // 128 + 9 (killed after the grace period) once the limit had passed.
-bool ended_by_time_limit(const TaskRecord& record, double time_limit);
+bool EndedByTimeLimit(const TaskRecord& record, double time_limit);
 
 }  // namespace granary::runner

@@ -148,7 +148,7 @@ struct Prepared {
 bool CanResubmitInPlace(const Launch& l) {
   if (l.place.dir.empty() || l.place.index < 0) return false;
   try {
-    for (const auto& e : parse_manifest(ReadText(fs::path(l.place.dir) / "manifest.tsv"))) {
+    for (const auto& e : ParseManifest(ReadText(fs::path(l.place.dir) / "manifest.tsv"))) {
       if (e.index == l.place.index) {
         return e.run_id == l.run_id && e.run_dir == l.run_dir && e.executable == l.argv[0] && e.engine == l.engine;
       }
@@ -176,7 +176,7 @@ std::vector<Prepared> PlanArrays(const std::vector<Launch>& launches, const Slur
     p.array.dir = dir.string();
     p.array.script = script.string();
     p.array.name = "granary-" + dir.filename().string() + "-" + std::to_string(k);
-    p.array.array = array_spec(p.indices, o.array_max);
+    p.array.array = ArraySpec(p.indices, o.array_max);
     BatchJob job;
     job.job_name = p.array.name;
     job.array = p.array.array;
@@ -189,9 +189,9 @@ std::vector<Prepared> PlanArrays(const std::vector<Launch>& launches, const Slur
       double longest = 0;
       for (const auto& [run_id, index] : p.array.runs)
         if (const auto it = s.estimate_s.find(run_id); it != s.estimate_s.end()) longest = std::max(longest, it->second);
-      if (longest > 0) job.options.time = slurm_time(with_time_margin(longest));
+      if (longest > 0) job.options.time = SlurmTime(WithTimeMargin(longest));
     }
-    p.script = batch_script(job);
+    p.script = BatchScript(job);
   };
   for (auto& [dir, runs] : again) {
     std::sort(runs.begin(), runs.end(), [](const Launch& a, const Launch& b) { return a.place.index < b.place.index; });
@@ -220,7 +220,7 @@ std::vector<Prepared> PlanArrays(const std::vector<Launch>& launches, const Slur
         p.array.runs.emplace_back(runs[i].run_id, index);
         p.launches.push_back(runs[i]);
       }
-      p.manifest = manifest_text(entries);
+      p.manifest = ManifestText(entries);
       script_of(p, dir, engine);
       // With a throttle, the arrays of one campaign run one after the other, so that K holds
       // for the campaign, not for each array.
@@ -240,13 +240,13 @@ std::string SbatchLine(const Prepared& p, const std::string& dependency) {
 class SlurmExecutor : public Executor {
  public:
   explicit SlurmExecutor(const SlurmSettings& settings) : s_(settings), interval_(settings.options.poll_interval) {
-    if (s_.max_array_size <= 0) s_.max_array_size = query_max_array_size();
+    if (s_.max_array_size <= 0) s_.max_array_size = QueryMaxArraySize();
   }
 
-  bool can_start_more() const override { return true; }  // the queue (and its %K throttle) decides
-  void start(const Launch& launch) override { started_.push_back(launch); }
+  bool CanStartMore() const override { return true; }  // the queue (and its %K throttle) decides
+  void Start(const Launch& launch) override { started_.push_back(launch); }
 
-  std::vector<JobArray> place() override {
+  std::vector<JobArray> Place() override {
     if (started_.empty()) return {};
     std::vector<Prepared> arrays = PlanArrays(started_, s_, true);
     started_.clear();
@@ -275,7 +275,7 @@ class SlurmExecutor : public Executor {
     return out;
   }
 
-  std::vector<JobArray> submit() override {
+  std::vector<JobArray> Submit() override {
     std::vector<JobArray> out;
     for (std::size_t i = 0; i < prepared_.size(); ++i) {
       Prepared& p = prepared_[i];
@@ -302,7 +302,7 @@ class SlurmExecutor : public Executor {
     return out;
   }
 
-  QueuePlace attach(const Launch& launch) override {
+  QueuePlace Attach(const Launch& launch) override {
     QueuePlace place = launch.place;
     // The runner that submitted it died inside sbatch: find the job by its name and script.
     if (place.job_id.empty() && !FindJob(place)) unfound_.insert(launch.run_id);
@@ -311,7 +311,7 @@ class SlurmExecutor : public Executor {
     return place;
   }
 
-  std::vector<Finished> poll() override {
+  std::vector<Finished> Poll() override {
     std::vector<Finished> out = std::move(ready_);
     ready_.clear();
     const auto now = Clock::now();
@@ -335,7 +335,7 @@ class SlurmExecutor : public Executor {
     if (!ids.empty()) {
       // One call for every job of the campaign; a failure (controller unreachable) proves
       // nothing: try again later.
-      const auto entries = query_queue(ids);
+      const auto entries = QueryQueue(ids);
       if (!entries) {
         Backoff(false);
         return out;
@@ -358,12 +358,12 @@ class SlurmExecutor : public Executor {
           changes_[it->first] = t.place;
           changed = true;
         }
-        if (is_queued_or_running(fate_of(state))) {
+        if (IsQueuedOrRunning(FateOf(state))) {
           ++it;
           continue;
         }
       }
-      out.push_back(slurm_task_end(it->first, t.launch.run_dir, t.place, state, s_.time_limit, s_.options.time));
+      out.push_back(SlurmTaskEnd(it->first, t.launch.run_dir, t.place, state, s_.time_limit, s_.options.time));
       changed = true;
       it = runs_.erase(it);
     }
@@ -371,7 +371,7 @@ class SlurmExecutor : public Executor {
     return out;
   }
 
-  void stop(const std::string& run_id, StopReason reason) override {
+  void Stop(const std::string& run_id, StopReason reason) override {
     auto it = runs_.find(run_id);
     if (it == runs_.end()) return;
     if (reason == StopReason::kLeaseLost) {
@@ -389,16 +389,16 @@ class SlurmExecutor : public Executor {
     next_poll_ = Clock::now();
   }
 
-  void stop_all(StopReason reason) override {
+  void StopAll(StopReason reason) override {
     std::vector<std::string> ids;
     for (const auto& [id, t] : runs_) ids.push_back(id);
-    for (const auto& id : ids) stop(id, reason);
+    for (const auto& id : ids) Stop(id, reason);
   }
 
-  std::size_t active() const override { return started_.size() + runs_.size(); }
-  bool outlives_runner() const override { return true; }
-  bool limits_time() const override { return true; }
-  std::map<std::string, QueuePlace> queue_changes() override {
+  std::size_t Active() const override { return started_.size() + runs_.size(); }
+  bool OutlivesRunner() const override { return true; }
+  bool LimitsTime() const override { return true; }
+  std::map<std::string, QueuePlace> QueueChanges() override {
     std::map<std::string, QueuePlace> c;
     c.swap(changes_);
     return c;
@@ -445,16 +445,16 @@ class SlurmExecutor : public Executor {
 
 }  // namespace
 
-Finished slurm_task_end(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
+Finished SlurmTaskEnd(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
                       const std::string& state, double time_limit, const std::string& slurm_time) {
   Finished f;
   f.run_id = run_id;
   const fs::path dir = run_dir;
   const std::string task = place.job_id.empty() ? "of " + place.name : place.job_id + "_" + std::to_string(place.index);
-  std::optional<TaskRecord> record = parse_task_record(ReadText(dir / rundir::kSlurmTaskFile));
+  std::optional<TaskRecord> record = ParseTaskRecord(ReadText(dir / rundir::kSlurmTaskFile));
   if (record && (place.job_id.empty() || record->job != task)) record.reset();  // an earlier attempt's
   if (record && record->started_at > 0) {
-    f.wall_s = std::max(0.0, (record->ended_at > 0 ? record->ended_at : now_seconds()) - record->started_at);
+    f.wall_s = std::max(0.0, (record->ended_at > 0 ? record->ended_at : NowSeconds()) - record->started_at);
   }
   if (rundir::IsDone(dir)) return f;  // the scheduler ingests it
   const std::string slurm_log = TailOfFile(fs::path(place.dir) / "logs" / (task + ".out"), 10);
@@ -466,7 +466,7 @@ Finished slurm_task_end(const std::string& run_id, const std::string& run_dir, c
     f.how = where + ": the engine ran out of memory (ask for more, e.g. --sbatch-arg=--mem-per-cpu=4G)" + log_note;
     return f;
   }
-  if (!state.empty() && fate_of(state) == TaskFate::kTimedOut) {
+  if (!state.empty() && FateOf(state) == TaskFate::kTimedOut) {
     f.timed_out = true;
     f.exit_code = 1;
     f.how = where + ": Slurm's time limit for the task ran out" + (slurm_time.empty() ? "" : " (--time " + slurm_time + ")") +
@@ -475,7 +475,7 @@ Finished slurm_task_end(const std::string& run_id, const std::string& run_dir, c
   }
   if (record && record->exit_code) {
     f.exit_code = *record->exit_code;
-    if (ended_by_time_limit(*record, time_limit)) {
+    if (EndedByTimeLimit(*record, time_limit)) {
       f.timed_out = true;
     } else if (f.exit_code > 128 && f.exit_code < 128 + 65) {
       f.exit_code = 0;
@@ -486,7 +486,7 @@ Finished slurm_task_end(const std::string& run_id, const std::string& run_dir, c
     }
     return f;
   }
-  const TaskFate fate = state.empty() ? TaskFate::kLost : fate_of(state);
+  const TaskFate fate = state.empty() ? TaskFate::kLost : FateOf(state);
   switch (fate) {
     case TaskFate::kCompleted:
       return f;  // exit 0 without DONE: the scheduler says so
@@ -503,7 +503,7 @@ Finished slurm_task_end(const std::string& run_id, const std::string& run_dir, c
   }
 }
 
-std::optional<std::vector<QueueEntry>> query_queue(const std::set<std::string>& job_ids, std::string* error) {
+std::optional<std::vector<QueueEntry>> QueryQueue(const std::set<std::string>& job_ids, std::string* error) {
   if (job_ids.empty()) return std::vector<QueueEntry>{};
   std::string list;
   for (const auto& id : job_ids) list += (list.empty() ? "" : ",") + id;
@@ -514,16 +514,16 @@ std::optional<std::vector<QueueEntry>> query_queue(const std::set<std::string>& 
     if (error) *error = LastLine(r);
     return std::nullopt;
   }
-  return parse_squeue(r.code == 0 ? r.out : "");
+  return ParseSqueue(r.code == 0 ? r.out : "");
 }
 
-int query_max_array_size() {
+int QueryMaxArraySize() {
   const CommandResult r = RunCommand({"scontrol", "show", "config"});
   if (r.code != 0) throw std::runtime_error("scontrol show config failed: " + LastLine(r));
-  return parse_max_array_size(r.out);
+  return ParseMaxArraySize(r.out);
 }
 
-std::vector<PlannedArray> plan_slurm_arrays(const std::vector<Launch>& launches, const SlurmSettings& settings) {
+std::vector<PlannedArray> PlanSlurmArrays(const std::vector<Launch>& launches, const SlurmSettings& settings) {
   std::vector<PlannedArray> out;
   const std::vector<Prepared> arrays = PlanArrays(launches, settings, false);
   for (const auto& p : arrays) {
@@ -533,30 +533,30 @@ std::vector<PlannedArray> plan_slurm_arrays(const std::vector<Launch>& launches,
   return out;
 }
 
-std::unique_ptr<Executor> make_slurm_executor(const SlurmSettings& settings) {
+std::unique_ptr<Executor> MakeSlurmExecutor(const SlurmSettings& settings) {
   return std::make_unique<SlurmExecutor>(settings);
 }
 
 namespace {
 class SlurmQueue : public BatchQueue {
  public:
-  const char* name() const override { return "Slurm"; }
-  const char* query_tool() const override { return "squeue"; }
-  TaskFate fate_of(const std::string& state) const override { return runner::fate_of(state); }
-  std::optional<std::vector<QueueEntry>> query(const std::set<std::string>& job_ids, std::string* error) const override {
-    return query_queue(job_ids, error);
+  const char* Name() const override { return "Slurm"; }
+  const char* QueryTool() const override { return "squeue"; }
+  TaskFate FateOf(const std::string& state) const override { return runner::FateOf(state); }
+  std::optional<std::vector<QueueEntry>> Query(const std::set<std::string>& job_ids, std::string* error) const override {
+    return QueryQueue(job_ids, error);
   }
   // The time limit the task ran under is in its script; 124 from `timeout` says it was hit.
-  Finished task_end(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
+  Finished TaskEnd(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
                     const std::string& state) const override {
-    return slurm_task_end(run_id, run_dir, place, state, std::numeric_limits<double>::infinity(), "");
+    return SlurmTaskEnd(run_id, run_dir, place, state, std::numeric_limits<double>::infinity(), "");
   }
 };
 }  // namespace
 
-const BatchQueue& batch_queue() {
-  static const SlurmQueue queue;
-  return queue;
+const BatchQueue& DefaultBatchQueue() {
+  static const SlurmQueue kQueue;
+  return kQueue;
 }
 
 namespace {
@@ -568,50 +568,50 @@ class SlurmSetup : public ExecutorSetup {
  public:
   SlurmSetup(SlurmSettings settings, bool dry_run) : settings_(std::move(settings)), dry_run_(dry_run) {}
 
-  void prepare(Store& store, RunOptions& options, std::ostream& out) override {
-    if (const auto campaign = load_campaign(store)) settings_.campaign = campaign->name;
+  void Prepare(Store& store, RunOptions& options, std::ostream& out) override {
+    if (const auto campaign = LoadCampaign(store)) settings_.campaign = campaign->name;
     options.threads_per_run = settings_.options.cpus_per_run;
     if (!settings_.options.time.empty() || settings_.time_limit > 0) return;
     // Each array's --time from the estimate of its longest run, with a margin.
-    const CampaignEstimate e = estimate_runs(runs_left(store), &store, options.exe_dir, 1, true,
+    const CampaignEstimate e = EstimateRuns(RunsLeft(store), &store, options.exe_dir, 1, true,
                                              [&](const std::string& line) { out << line << std::endl; });
-    if (e.calibration.valid())
+    if (e.calibration.Valid())
       for (const auto& [id, run] : e.runs) settings_.estimate_s[id] = run.core_s_high;
   }
 
   // The arrays and scripts `campaign run --executor slurm` would submit; nothing is written.
-  std::optional<int> dry_run(Store& store, const RunOptions& o, std::ostream& out) override {
+  std::optional<int> DryRun(Store& store, const RunOptions& o, std::ostream& out) override {
     if (!dry_run_) return std::nullopt;
     RunFilter filter;
-    if (const auto campaign = load_campaign(store); campaign && !o.only.empty()) {
+    if (const auto campaign = LoadCampaign(store); campaign && !o.only.empty()) {
       try {
-        filter = resolve_filters(o.only, *campaign, load_runs(store, true));
+        filter = ResolveFilters(o.only, *campaign, LoadRuns(store, true));
       } catch (const FilterError& e) {
         throw UsageError(e.what());
       }
     }
     std::string size_note;
     try {
-      settings_.max_array_size = query_max_array_size();
+      settings_.max_array_size = QueryMaxArraySize();
     } catch (const std::exception& e) {
       settings_.max_array_size = 1001;
       size_note = " (Slurm's default; " + std::string(e.what()) + ")";
     }
     std::vector<Launch> launches;
-    for (const auto& r : load_runs(store, true)) {
-      if (!runnable(r.state)) continue;
+    for (const auto& r : LoadRuns(store, true)) {
+      if (!Runnable(r.state)) continue;
       if ((o.engine == "native" || o.engine == "liggghts" || o.engine == "lammps") && r.engine != o.engine) continue;
-      if (!filter.matches(r)) continue;
+      if (!filter.Matches(r)) continue;
       Launch l;
       l.run_id = r.run_id;
       l.argv = {o.engine.find('/') != std::string::npos ? o.engine
-                                                        : (fs::path(o.exe_dir) / engine_program(r.engine)).string()};
+                                                        : (fs::path(o.exe_dir) / EngineProgram(r.engine)).string()};
       l.engine = r.engine;
       l.run_dir = r.run_dir;
       l.place = QueuePlace{r.job_dir, r.job_script, r.job_name, r.job_index, r.job_id, r.job_state};
       launches.push_back(l);
     }
-    const auto arrays = plan_slurm_arrays(launches, settings_);
+    const auto arrays = PlanSlurmArrays(launches, settings_);
     out << "campaign run --executor slurm --dry-run: " << launches.size() << " runs in " << arrays.size()
         << " array(s); MaxArraySize " << settings_.max_array_size << size_note << "; nothing is submitted\n";
     for (const auto& p : arrays) {
@@ -634,7 +634,7 @@ class SlurmSetup : public ExecutorSetup {
     return 0;
   }
 
-  std::unique_ptr<Executor> make(const RunOptions&) const override { return make_slurm_executor(settings_); }
+  std::unique_ptr<Executor> Make(const RunOptions&) const override { return MakeSlurmExecutor(settings_); }
 
  private:
   SlurmSettings settings_;
@@ -646,22 +646,22 @@ std::unique_ptr<ExecutorSetup> SetUpSlurm(const cli::Args& a, const json* block,
                                           const RunOptions& o) {
   SlurmSettings settings;
   SlurmOptions& so = settings.options;
-  if (block) parse_executor_block(*block, "/executor", so);
-  if (a.has("partition")) so.partition = a.get("partition", "");
-  if (a.has("account")) so.account = a.get("account", "");
-  if (a.has("time")) {
-    so.time = a.get("time", "");
-    if (!is_slurm_time(so.time)) {
+  if (block) ParseExecutorBlock(*block, "/executor", so);
+  if (a.Has("partition")) so.partition = a.Get("partition", "");
+  if (a.Has("account")) so.account = a.Get("account", "");
+  if (a.Has("time")) {
+    so.time = a.Get("time", "");
+    if (!IsSlurmTime(so.time)) {
       throw UsageError("--time: must be a Slurm time such as 30, 4:00:00 or 1-12:00:00 (got \"" + so.time + "\")");
     }
   }
-  so.cpus_per_run = a.integer("cpus-per-run", so.cpus_per_run, 1);
-  so.array_max = a.integer("array-max", so.array_max, 0);
-  so.poll_interval = a.number("poll-interval", so.poll_interval);
-  if (!(so.poll_interval > 0)) throw UsageError("--poll-interval: must be > 0 (got \"" + a.get("poll-interval", "") + "\")");
-  if (a.has("sbatch-arg")) {
+  so.cpus_per_run = a.Integer("cpus-per-run", so.cpus_per_run, 1);
+  so.array_max = a.Integer("array-max", so.array_max, 0);
+  so.poll_interval = a.Number("poll-interval", so.poll_interval);
+  if (!(so.poll_interval > 0)) throw UsageError("--poll-interval: must be > 0 (got \"" + a.Get("poll-interval", "") + "\")");
+  if (a.Has("sbatch-arg")) {
     so.sbatch_args.clear();
-    for (const auto& arg : a.all("sbatch-arg")) {
+    for (const auto& arg : a.All("sbatch-arg")) {
       if (arg.rfind("-", 0) != 0 || arg.find_first_of("\n\r") != std::string::npos) {
         throw UsageError("--sbatch-arg: must be one sbatch option such as --sbatch-arg=--qos=long (got \"" + arg + "\")");
       }
@@ -670,12 +670,12 @@ std::unique_ptr<ExecutorSetup> SetUpSlurm(const cli::Args& a, const json* block,
   }
   settings.root = (cli::DbDir(db) / "slurm").string();
   settings.time_limit = o.time_limit;
-  return std::make_unique<SlurmSetup>(std::move(settings), a.has("dry-run"));
+  return std::make_unique<SlurmSetup>(std::move(settings), a.Has("dry-run"));
 }
 
 }  // namespace
 
-ExecutorRow slurm_executor_row() {
+ExecutorRow SlurmExecutorRow() {
   return {"slurm",
           "submit the runs as Slurm job arrays and watch them (docs/slurm.md)",
           {{"partition", true},

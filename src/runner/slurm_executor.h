@@ -1,11 +1,11 @@
 // The Slurm executor (docs/slurm.md): runs go to Slurm as job arrays, one task per run, each
 // task running the engine on its run directory (nothing on a compute node touches SQLite).
-// place() writes a submission directory <root>/<campaign>-NNNN/ with manifest.tsv (array
-// index -> run), the batch script job-K.sh and logs/; submit() calls sbatch; poll() calls
+// Place() writes a submission directory <root>/<campaign>-NNNN/ with manifest.tsv (array
+// index -> run), the batch script job-K.sh and logs/; Submit() calls sbatch; Poll() calls
 // squeue once for every job, backing off while nothing changes, and reports a task as ended
 // when Slurm does, with what its run directory says (DONE, DIR/slurm-task.json). Dead tasks
-// are resubmitted by the scheduler through start() again: runs that were in one submission go
-// back into it as an index list. Jobs outlive the runner; a new runner attach()es to them.
+// are resubmitted by the scheduler through Start() again: runs that were in one submission go
+// back into it as an index list. Jobs outlive the runner; a new runner Attach()es to them.
 #pragma once
 
 #include <map>
@@ -33,10 +33,10 @@ struct SlurmSettings {
 
 // --time from an estimate: twice the estimate (estimates aim at a factor of 2) plus ten
 // minutes for a slow start, a shared file system, the checkpoint at the end.
-inline double with_time_margin(double estimate_s) { return 2.0 * estimate_s + 600.0; }
+inline double WithTimeMargin(double estimate_s) { return 2.0 * estimate_s + 600.0; }
 
 // MaxArraySize from `scontrol show config`; throws std::runtime_error with scontrol's message.
-int query_max_array_size();
+int QueryMaxArraySize();
 
 // The arrays `launches` would be submitted as, with their manifests and scripts; nothing is
 // written (campaign run --executor slurm --dry-run).
@@ -46,25 +46,25 @@ struct PlannedArray {
   std::string script;
   std::string sbatch;    // the sbatch command line
 };
-std::vector<PlannedArray> plan_slurm_arrays(const std::vector<Launch>& launches, const SlurmSettings& settings);
+std::vector<PlannedArray> PlanSlurmArrays(const std::vector<Launch>& launches, const SlurmSettings& settings);
 
-std::unique_ptr<Executor> make_slurm_executor(const SlurmSettings& settings);
+std::unique_ptr<Executor> MakeSlurmExecutor(const SlurmSettings& settings);
 
 // Slurm's row of the executor table (executors.h): its flags (--partition, --time,
 // --cpus-per-run, --array-max, --account, --sbatch-arg, --poll-interval, --dry-run, --detach)
 // over the spec's executor block, the arrays' --time from the estimate, the dry run.
 struct ExecutorRow;
-ExecutorRow slurm_executor_row();
+ExecutorRow SlurmExecutorRow();
 
 // One squeue call for these array jobs (every task, every state). nullopt when squeue could
 // not answer (not installed, controller unreachable); `error` then says why. A job squeue no
 // longer knows is simply absent.
-std::optional<std::vector<QueueEntry>> query_queue(const std::set<std::string>& job_ids, std::string* error = nullptr);
+std::optional<std::vector<QueueEntry>> QueryQueue(const std::set<std::string>& job_ids, std::string* error = nullptr);
 
 // How a task that left the queue's live states ended (`state`, or "" when squeue no longer
 // knows its job), from what its run directory says: DONE, then DIR/slurm-task.json if it is
 // this task's, then the state. `time_limit` as given to the batch script.
-Finished slurm_task_end(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
+Finished SlurmTaskEnd(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
                         const std::string& state, double time_limit, const std::string& slurm_time);
 
 }  // namespace granary::runner

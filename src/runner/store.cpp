@@ -43,7 +43,7 @@ std::string StorageNote(sqlite3* db, int code, const std::string& fallback_path)
 
 }  // namespace
 
-const std::vector<std::string>& migrations() {
+const std::vector<std::string>& Migrations() {
   static const std::vector<std::string> kMigrations = EmbeddedMigrations();
   return kMigrations;
 }
@@ -55,53 +55,53 @@ Statement::Statement(sqlite3* db, const char* sql) : db_(db) {
   stmt_.reset(raw);
 }
 
-Statement& Statement::bind(int index, const std::string& value) {
+Statement& Statement::Bind(int index, const std::string& value) {
   const int rc = sqlite3_bind_text(stmt_.get(), index, value.data(), static_cast<int>(value.size()), SQLITE_TRANSIENT);
   if (rc != SQLITE_OK) Fail(db_, rc, "binding parameter " + std::to_string(index));
   return *this;
 }
-Statement& Statement::bind(int index, const char* value) { return bind(index, std::string(value)); }
-Statement& Statement::bind(int index, double value) {
+Statement& Statement::Bind(int index, const char* value) { return Bind(index, std::string(value)); }
+Statement& Statement::Bind(int index, double value) {
   const int rc = sqlite3_bind_double(stmt_.get(), index, value);
   if (rc != SQLITE_OK) Fail(db_, rc, "binding parameter " + std::to_string(index));
   return *this;
 }
-Statement& Statement::bind(int index, std::int64_t value) {
+Statement& Statement::Bind(int index, std::int64_t value) {
   const int rc = sqlite3_bind_int64(stmt_.get(), index, value);
   if (rc != SQLITE_OK) Fail(db_, rc, "binding parameter " + std::to_string(index));
   return *this;
 }
-Statement& Statement::bind_null(int index) {
+Statement& Statement::BindNull(int index) {
   const int rc = sqlite3_bind_null(stmt_.get(), index);
   if (rc != SQLITE_OK) Fail(db_, rc, "binding parameter " + std::to_string(index));
   return *this;
 }
-Statement& Statement::bind(int index, const std::optional<std::string>& value) {
-  return value ? bind(index, *value) : bind_null(index);
+Statement& Statement::Bind(int index, const std::optional<std::string>& value) {
+  return value ? Bind(index, *value) : BindNull(index);
 }
 
-bool Statement::step() {
+bool Statement::Step() {
   const int rc = sqlite3_step(stmt_.get());
   if (rc == SQLITE_ROW) return true;
   if (rc == SQLITE_DONE) return false;
   Fail(db_, rc, std::string("executing \"") + sqlite3_sql(stmt_.get()) + "\"");
 }
-void Statement::run() {
-  while (step()) {
+void Statement::Run() {
+  while (Step()) {
   }
 }
-void Statement::reset() {
+void Statement::Reset() {
   sqlite3_reset(stmt_.get());
   sqlite3_clear_bindings(stmt_.get());
 }
-bool Statement::is_null(int col) const { return sqlite3_column_type(stmt_.get(), col) == SQLITE_NULL; }
-std::string Statement::text(int col) const {
+bool Statement::IsNull(int col) const { return sqlite3_column_type(stmt_.get(), col) == SQLITE_NULL; }
+std::string Statement::Text(int col) const {
   const unsigned char* p = sqlite3_column_text(stmt_.get(), col);
   if (!p) return "";
   return std::string(reinterpret_cast<const char*>(p), static_cast<std::size_t>(sqlite3_column_bytes(stmt_.get(), col)));
 }
-double Statement::real(int col) const { return sqlite3_column_double(stmt_.get(), col); }
-std::int64_t Statement::integer(int col) const { return sqlite3_column_int64(stmt_.get(), col); }
+double Statement::Real(int col) const { return sqlite3_column_double(stmt_.get(), col); }
+std::int64_t Statement::Integer(int col) const { return sqlite3_column_int64(stmt_.get(), col); }
 
 Store::Store(const std::string& path, int upto_version) : path_(path) {
   std::error_code ec;
@@ -118,23 +118,23 @@ Store::Store(const std::string& path, int upto_version) : path_(path) {
   if (sqlite3_exec(db_.get(), "PRAGMA schema_version", nullptr, nullptr, nullptr) == SQLITE_NOTADB)
     throw StoreError(SQLITE_NOTADB, path + " is not a campaign database (not an SQLite file; campaign plan SPEC --db "
                                            "FILE makes one)");
-  if (schema_version() == 0) {
+  if (SchemaVersion() == 0) {
     // An SQLite file of something else: never add our tables to it.
-    Statement t = prepare("SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name");
+    Statement t = Prepare("SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name");
     std::string tables;
-    while (t.step()) tables += (tables.empty() ? "" : ", ") + t.text(0);
+    while (t.Step()) tables += (tables.empty() ? "" : ", ") + t.Text(0);
     if (!tables.empty())
       throw StoreError(SQLITE_NOTADB, path + " is an SQLite database but not a campaign database (it has the tables " +
                                           tables + "); give another --db");
   }
-  exec("PRAGMA journal_mode = WAL");
-  exec("PRAGMA synchronous = NORMAL");
-  exec("PRAGMA foreign_keys = ON");
+  Exec("PRAGMA journal_mode = WAL");
+  Exec("PRAGMA synchronous = NORMAL");
+  Exec("PRAGMA foreign_keys = ON");
 
-  const int newest = static_cast<int>(migrations().size());
+  const int newest = static_cast<int>(Migrations().size());
   const int target = upto_version < 0 ? newest : std::min(upto_version, newest);
   Transaction tx(*this);
-  int version = schema_version();
+  int version = SchemaVersion();
   if (version > newest) {
     throw StoreError(SQLITE_ERROR, "database " + path + " has schema version " + std::to_string(version) +
                                        ", newer than this granary supports (" + std::to_string(newest) +
@@ -143,11 +143,11 @@ Store::Store(const std::string& path, int upto_version) : path_(path) {
   // Ordered chain: each step runs inside the one transaction, so a failed migration
   // leaves the database as it was.
   while (version < target) {
-    exec(migrations()[static_cast<std::size_t>(version)]);
+    Exec(Migrations()[static_cast<std::size_t>(version)]);
     ++version;
-    exec("PRAGMA user_version = " + std::to_string(version));
+    Exec("PRAGMA user_version = " + std::to_string(version));
   }
-  tx.commit();
+  tx.Commit();
 }
 
 Store::Store(const std::string& path, ReadOnly) : path_(path), read_only_(true) {
@@ -167,11 +167,11 @@ Store::Store(const std::string& path, ReadOnly) : path_(path), read_only_(true) 
     db_.reset(raw);
     if (rc != SQLITE_OK) Fail(raw, rc, "opening database " + path + " read-only", path);
   }
-  if (schema_version() > static_cast<int>(migrations().size()))
+  if (SchemaVersion() > static_cast<int>(Migrations().size()))
     throw StoreError(SQLITE_ERROR, "database " + path + " is newer than this granary");
 }
 
-void Store::exec(const std::string& sql) {
+void Store::Exec(const std::string& sql) {
   char* err = nullptr;
   const int rc = sqlite3_exec(db_.get(), sql.c_str(), nullptr, nullptr, &err);
   if (rc != SQLITE_OK) {
@@ -182,22 +182,22 @@ void Store::exec(const std::string& sql) {
   }
 }
 
-int Store::schema_version() {
-  Statement s = prepare("PRAGMA user_version");
-  s.step();
-  return static_cast<int>(s.integer(0));
+int Store::SchemaVersion() {
+  Statement s = Prepare("PRAGMA user_version");
+  s.Step();
+  return static_cast<int>(s.Integer(0));
 }
 
 Transaction::Transaction(Store& store, bool immediate) : store_(store) {
-  store_.exec(immediate ? "BEGIN IMMEDIATE" : "BEGIN");
+  store_.Exec(immediate ? "BEGIN IMMEDIATE" : "BEGIN");
 }
 
 Transaction::~Transaction() {
-  if (!done_) sqlite3_exec(store_.handle(), "ROLLBACK", nullptr, nullptr, nullptr);  // never throws
+  if (!done_) sqlite3_exec(store_.Handle(), "ROLLBACK", nullptr, nullptr, nullptr);  // never throws
 }
 
-void Transaction::commit() {
-  store_.exec("COMMIT");
+void Transaction::Commit() {
+  store_.Exec("COMMIT");
   done_ = true;
 }
 

@@ -18,14 +18,14 @@ namespace granary::runner {
 class StoreError : public std::runtime_error {
  public:
   StoreError(int code, const std::string& message) : std::runtime_error(message), code_(code) {}
-  int code() const { return code_; }
+  int Code() const { return code_; }
 
  private:
   int code_;
 };
 
-// The migrations compiled in: migrations()[i] takes the schema from version i to i + 1.
-const std::vector<std::string>& migrations();
+// The migrations compiled in: Migrations()[i] takes the schema from version i to i + 1.
+const std::vector<std::string>& Migrations();
 
 class Statement {
  public:
@@ -33,22 +33,22 @@ class Statement {
   Statement(const Statement&) = delete;
   Statement& operator=(const Statement&) = delete;
 
-  Statement& bind(int index, const std::string& value);
-  Statement& bind(int index, const char* value);
-  Statement& bind(int index, double value);
-  Statement& bind(int index, std::int64_t value);
-  Statement& bind(int index, int value) { return bind(index, static_cast<std::int64_t>(value)); }
-  Statement& bind_null(int index);
-  Statement& bind(int index, const std::optional<std::string>& value);
+  Statement& Bind(int index, const std::string& value);
+  Statement& Bind(int index, const char* value);
+  Statement& Bind(int index, double value);
+  Statement& Bind(int index, std::int64_t value);
+  Statement& Bind(int index, int value) { return Bind(index, static_cast<std::int64_t>(value)); }
+  Statement& BindNull(int index);
+  Statement& Bind(int index, const std::optional<std::string>& value);
 
-  bool step();  // true while a row is available
-  void run();   // step to completion
-  void reset();
+  bool Step();  // true while a row is available
+  void Run();   // step to completion
+  void Reset();
 
-  bool is_null(int col) const;
-  std::string text(int col) const;  // "" for NULL
-  double real(int col) const;
-  std::int64_t integer(int col) const;
+  bool IsNull(int col) const;
+  std::string Text(int col) const;  // "" for NULL
+  double Real(int col) const;
+  std::int64_t Integer(int col) const;
 
  private:
   struct Finalizer {
@@ -70,12 +70,12 @@ class Store {
   Store(const Store&) = delete;
   Store& operator=(const Store&) = delete;
 
-  void exec(const std::string& sql);
-  Statement prepare(const char* sql) { return Statement(db_.get(), sql); }
-  int schema_version();
-  sqlite3* handle() { return db_.get(); }
-  const std::string& path() const { return path_; }
-  bool read_only() const { return read_only_; }
+  void Exec(const std::string& sql);
+  Statement Prepare(const char* sql) { return Statement(db_.get(), sql); }
+  int SchemaVersion();
+  sqlite3* Handle() { return db_.get(); }
+  const std::string& Path() const { return path_; }
+  bool ReadOnly() const { return read_only_; }
 
  private:
   struct Closer {
@@ -86,14 +86,14 @@ class Store {
   std::unique_ptr<sqlite3, Closer> db_;
 };
 
-// BEGIN [IMMEDIATE] ... COMMIT; rolls back in the destructor unless commit() was called.
+// BEGIN [IMMEDIATE] ... COMMIT; rolls back in the destructor unless Commit() was called.
 class Transaction {
  public:
   explicit Transaction(Store& store, bool immediate = true);
   Transaction(const Transaction&) = delete;
   Transaction& operator=(const Transaction&) = delete;
   ~Transaction();
-  void commit();
+  void Commit();
 
  private:
   Store& store_;

@@ -9,11 +9,11 @@
 
 namespace granary::runner {
 
-std::string nearest(const std::string& word, const std::vector<std::string>& candidates) {
+std::string Nearest(const std::string& word, const std::vector<std::string>& candidates) {
   std::string best;
   std::size_t best_d = std::numeric_limits<std::size_t>::max();
   for (const auto& c : candidates) {
-    const std::size_t d = granary::edit_distance(word, c);
+    const std::size_t d = granary::EditDistance(word, c);
     if (d < best_d) {
       best_d = d;
       best = c;
@@ -23,7 +23,7 @@ std::string nearest(const std::string& word, const std::vector<std::string>& can
   return best;
 }
 
-std::uint64_t replica_seed(std::uint64_t campaign_seed, int replica) {
+std::uint64_t ReplicaSeed(std::uint64_t campaign_seed, int replica) {
   std::uint64_t z = campaign_seed + 0x9e3779b97f4a7c15ull * (static_cast<std::uint64_t>(replica) + 1);
   z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
   z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
@@ -31,7 +31,7 @@ std::uint64_t replica_seed(std::uint64_t campaign_seed, int replica) {
   return (z % 2147483646ull) + 1;
 }
 
-std::string escape_pointer_token(const std::string& token) {
+std::string EscapePointerToken(const std::string& token) {
   std::string out;
   for (char c : token) {
     if (c == '~') out += "~0";

@@ -11,17 +11,17 @@
 namespace granary::runner {
 
 // FNV-1a 64-bit: stable across platforms and builds (run ids must never change).
-using granary::fnv1a64;
-using granary::hash_hex;
+using granary::Fnv1a64;
+using granary::HashHex;
 
 // The candidate nearest to `word` by edit distance, or "" if none is close enough.
-std::string nearest(const std::string& word, const std::vector<std::string>& candidates);
+std::string Nearest(const std::string& word, const std::vector<std::string>& candidates);
 
 // Seed of replica `replica`: a SplitMix64 mix of the campaign seed and the replica index,
 // kept in [1, 2^31) so that every engine accepts it. Depends on nothing else, so runs that
 // differ only in outlets share a prepared bed.
-std::uint64_t replica_seed(std::uint64_t campaign_seed, int replica);
+std::uint64_t ReplicaSeed(std::uint64_t campaign_seed, int replica);
 
-std::string escape_pointer_token(const std::string& token);
+std::string EscapePointerToken(const std::string& token);
 
 }  // namespace granary::runner

@@ -55,9 +55,9 @@ class FreeSpace {
     }
   }
 
-  int nx() const { return nx_; }
-  int ny() const { return ny_; }
-  double h() const { return h_; }
+  int Nx() const { return nx_; }
+  int Ny() const { return ny_; }
+  double H() const { return h_; }
   double CentreX(int i) const { return x0_ + (i + 0.5) * h_; }
   double CentreY(int k) const { return y0_ + (k + 0.5) * h_; }
   std::size_t Index(int i, int k) const { return static_cast<std::size_t>(k) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(i); }
@@ -130,11 +130,11 @@ bool Reach(const FreeSpace& space, const OutletFrame& mouth, double probe, std::
     const double px = space.CentreX(i) - mouth.cx, py = space.CentreY(k) - mouth.cy;
     return std::fabs(px * mouth.ax + py * mouth.ay) < mouth.width / 2 && px * mouth.nx + py * mouth.ny >= -below;
   };
-  for (int k = 0; k < space.ny(); ++k) {
-    for (int i = 0; i < space.nx(); ++i) {
+  for (int k = 0; k < space.Ny(); ++k) {
+    for (int i = 0; i < space.Nx(); ++i) {
       const double px = space.CentreX(i) - mouth.cx, py = space.CentreY(k) - mouth.cy;
       const double s = px * mouth.ax + py * mouth.ay, h = px * mouth.nx + py * mouth.ny;
-      if (std::fabs(s) < mouth.width / 2 && h >= -below && h < probe + 2 * space.h() && open(i, k)) {
+      if (std::fabs(s) < mouth.width / 2 && h >= -below && h < probe + 2 * space.H() && open(i, k)) {
         seen[space.Index(i, k)] = 1;
         queue.push_back(static_cast<int>(space.Index(i, k)));
       }
@@ -142,8 +142,8 @@ bool Reach(const FreeSpace& space, const OutletFrame& mouth, double probe, std::
   }
   bool top = false;
   for (std::size_t head = 0; head < queue.size(); ++head) {
-    const int i = queue[head] % space.nx(), k = queue[head] / space.nx();
-    if (k == space.ny() - 1) {
+    const int i = queue[head] % space.Nx(), k = queue[head] / space.Nx();
+    if (k == space.Ny() - 1) {
       top = true;
       if (stop_at_top) return true;
     }
@@ -167,7 +167,7 @@ std::vector<bool> SealedOutlets(const SiloGeometry& geometry, const std::vector<
   std::vector<bool> sealed(geometry.outlets.size(), false);
   if (discs.empty()) return sealed;
   const FreeSpace space(geometry, discs, probe, false);
-  std::vector<std::uint8_t> seen(static_cast<std::size_t>(space.nx()) * static_cast<std::size_t>(space.ny()));
+  std::vector<std::uint8_t> seen(static_cast<std::size_t>(space.Nx()) * static_cast<std::size_t>(space.Ny()));
   std::vector<int> queue;
   for (std::size_t o = 0; o < sealed.size(); ++o) sealed[o] = !Reach(space, geometry.outlets[o], probe, seen, queue, true);
   return sealed;
@@ -181,9 +181,9 @@ OutletCavity CavityUnder(const SiloGeometry& geometry, const std::vector<DiscAt>
   // bodies sit in the gap itself.
   const double margin = 2 * probe;
   const FreeSpace space(geometry, discs, probe, true, margin);
-  std::vector<std::uint8_t> seen(static_cast<std::size_t>(space.nx()) * static_cast<std::size_t>(space.ny()));
+  std::vector<std::uint8_t> seen(static_cast<std::size_t>(space.Nx()) * static_cast<std::size_t>(space.Ny()));
   std::vector<int> queue;
-  const double below = margin - space.h();  // how far below the mouth the fill starts
+  const double below = margin - space.H();  // how far below the mouth the fill starts
   if (Reach(space, mouth, probe, seen, queue, false, below) || queue.empty()) return cavity;
   cavity.sealed = true;
   auto in = [&](int i, int k) { return space.Inside(i, k) && seen[space.Index(i, k)] != 0; };
@@ -207,7 +207,7 @@ OutletCavity CavityUnder(const SiloGeometry& geometry, const std::vector<DiscAt>
   int si = -1, sk = -1, sside = -1;
   double best = std::numeric_limits<double>::max();
   for (int cell : queue) {
-    const int i = cell % space.nx(), k = cell / space.nx();
+    const int i = cell % space.Nx(), k = cell / space.Nx();
     for (int side = 0; side < 4; ++side) {
       if (!opening(i + kDi[side], k + kDk[side])) continue;
       double s = 0, h = 0;

@@ -45,7 +45,7 @@ TEST(Arches, AHalfCircleOfDiscsOverTheOutletIsItsArch) {
   Clog c(BaseOutlet(4));
   const double radius = HalfCircle(c, 8);
   c.Row(-5.5, 5.5, 0.5 + radius + 1.2);  // the bed above, not touching the arch
-  const ClogArches clog = analyse_clog(c.Made(), c.spec());
+  const ClogArches clog = AnalyseClog(c.Made(), c.Spec());
   ASSERT_EQ(clog.arches.size(), 1u);
   EXPECT_EQ(clog.sealed_outlets, std::vector<int>{0});
   const Arch& a = clog.arches[0];
@@ -78,7 +78,7 @@ TEST(Arches, AnArchOfDumbbells) {
   const auto d = c.Dumbbell(0.5, top, 1.5, top), e = c.Dumbbell(2.4, 1.5, 2.4, 0.5);
   c.Disc(-4.5, 0.5);  // a disc on the floor beside the arch: not part of it
   c.Row(-5.5, 5.5, 3.6);
-  const ClogArches clog = analyse_clog(c.Made(), c.spec());
+  const ClogArches clog = AnalyseClog(c.Made(), c.Spec());
   ASSERT_EQ(clog.arches.size(), 1u);
   const Arch& arch = clog.arches[0];
   EXPECT_EQ(Ids(arch), (std::vector<std::int64_t>{a, b, d, e}));
@@ -102,7 +102,7 @@ TEST(Arches, ArchesFromTheBaseToAnObstacleAreOneObstacleArch) {
   const double fx = px - std::sqrt(1 - (py - 0.5) * (py - 0.5));
   const auto l0 = c.Disc(fx, 0.5), l1 = c.Disc(px, py), r1 = c.Disc(-px, py), r0 = c.Disc(-fx, 0.5);
   c.Row(-5.5, 5.5, 3.6);
-  const ClogArches clog = analyse_clog(c.Made(), c.spec());
+  const ClogArches clog = AnalyseClog(c.Made(), c.Spec());
   ASSERT_EQ(clog.arches.size(), 1u);
   const Arch& arch = clog.arches[0];
   EXPECT_EQ(Ids(arch), (std::vector<std::int64_t>{l0, l1, r1, r0}));
@@ -116,7 +116,7 @@ TEST(Arches, ArchesFromTheBaseToAnObstacleAreOneObstacleArch) {
   Clog open(WithObstacle(BaseOutlet(3), 0.0, 2.0, 2.0));
   open.Disc(fx, 0.5);
   open.Disc(px, py);
-  EXPECT_TRUE(analyse_clog(open.Made(), open.spec()).arches.empty());
+  EXPECT_TRUE(AnalyseClog(open.Made(), open.Spec()).arches.empty());
 }
 
 // A disc hanging under the arch from one arch disc, and a second hanging from it: a dead-end
@@ -125,11 +125,11 @@ TEST(Arches, ADeadEndBranchIsADefectOutsideTheArch) {
   Clog c(BaseOutlet(4));
   const double radius = HalfCircle(c, 8);
   c.Row(-5.5, 5.5, 0.5 + radius + 1.2);
-  const ClogArches plain = analyse_clog(c.Made(), c.spec());
+  const ClogArches plain = AnalyseClog(c.Made(), c.Spec());
   // Straight down from the highest left disc (3) by one diameter, then one more.
   const double a = kPi * 4 / 7, x = radius * std::cos(a), y = 0.5 + radius * std::sin(a);
   const auto hang = c.Disc(x, y - 1.0), deeper = c.Disc(x, y - 2.0);
-  const ClogArches clog = analyse_clog(c.Made(), c.spec());
+  const ClogArches clog = AnalyseClog(c.Made(), c.Spec());
   ASSERT_EQ(clog.arches.size(), 1u);
   const Arch& arch = clog.arches[0];
   EXPECT_EQ(Ids(arch), (std::vector<std::int64_t>{0, 1, 2, 3, 4, 5, 6, 7}));
@@ -150,7 +150,7 @@ TEST(Arches, ADipInTheArchIsAConcaveAngle) {
     c.Disc(x, y);
   }
   c.Row(-5.5, 5.5, 2.8);
-  const ClogArches clog = analyse_clog(c.Made(), c.spec());
+  const ClogArches clog = AnalyseClog(c.Made(), c.Spec());
   ASSERT_EQ(clog.arches.size(), 1u);
   const Arch& arch = clog.arches[0];
   EXPECT_EQ(Ids(arch), (std::vector<std::int64_t>{first, first + 1, first + 2, first + 3, first + 4}));
@@ -169,7 +169,7 @@ TEST(Arches, AnArchOverASideOutlet) {
     const double a = -kPi / 2 + kPi * k / 7;
     c.Disc(5.5 - radius * std::cos(a), 3.5 + radius * std::sin(a));
   }
-  const ClogArches clog = analyse_clog(c.Made(), c.spec());
+  const ClogArches clog = AnalyseClog(c.Made(), c.Spec());
   ASSERT_EQ(clog.arches.size(), 1u);
   const Arch& arch = clog.arches[0];
   EXPECT_EQ(Ids(arch), (std::vector<std::int64_t>{0, 1, 2, 3, 4, 5, 6, 7}));  // from below to above
@@ -190,7 +190,7 @@ TEST(Arches, PressureIsTheVirialOfEquationSixOneOverTheArea) {
   // right disc by disc 4; a wall contact that eq. 6.1 leaves out.
   c.contacts = {{0, 1, 0, 0, -1, 0, -0.5, 0, force, 0},   {2, 0, 1, 0, 0, 0, 0.5, 0, force, 0},
                 {3, 4, 1, 5, 2, 5, 1.5, 5, -force, 0},   {0, -1, 0, 0, 0, -0.5, 0, -0.5, 0, 7.0}};
-  const std::vector<double> p = body_pressures(f, c);
+  const std::vector<double> p = BodyPressures(f, c);
   ASSERT_EQ(p.size(), 5u);
   EXPECT_NEAR(p[0], 2 * force / (4 * kPi / 4), 1e-12);
   EXPECT_NEAR(p[1], force / (4 * kPi / 4), 1e-12);
@@ -198,7 +198,7 @@ TEST(Arches, PressureIsTheVirialOfEquationSixOneOverTheArea) {
   EXPECT_NEAR(p[4], force / (4 * kPi / 4), 1e-12);
   // Pulled apart (tension) is negative.
   c.contacts = {{0, 1, 0, 0, -1, 0, -0.5, 0, -force, 0}};
-  EXPECT_LT(body_pressures(f, c)[0], 0);
+  EXPECT_LT(BodyPressures(f, c)[0], 0);
 }
 
 // Fig. 6.8's contact types between snowmen (small disc 0.5, big 0.75): small-small, large-small
@@ -217,12 +217,12 @@ TEST(Arches, ContactTypesBySizeOfTheTouchingDiscs) {
                 {2, 0, 2.75, 0, 0, 0, 2, 0, 1, 0},        // large (2) - small (0): disc nearest (0, 0) of body 0
                 {2, 3, 4, 0, 4, 1, 4, 0.5, 0, -1},        // a lone disc
                 {0, -1, 0, 0, 0, -0.5, 0, -0.5, 0, 1}};   // a wall: not a contact between discs
-  const ContactTypes t = contact_types(f, c);
+  const ContactTypes t = CountContactTypes(f, c);
   EXPECT_EQ(t.small_small, 1);
   EXPECT_EQ(t.large_large, 2);
   EXPECT_EQ(t.large_small, 1);
   EXPECT_EQ(t.other, 1);
-  EXPECT_EQ(t.total(), 5);
+  EXPECT_EQ(t.Total(), 5);
 }
 
 // Pooled over clogs: means over arches (n = arches), table 3.1's standard deviations, pressure
@@ -260,7 +260,7 @@ TEST(Arches, ArchesPooledOverClogs) {
   two.arches = {arch(5, 12, 8, 16, {body(0.2, 0.15, 2.0), body(1.5, 1.55, 4.0), body(1.7, 1.6, 6.0), body(2.9, 2.9, 2.0),
                                     body(3.1, 3.0, 1.0)}, true)};
   two.contact_types = {2, 2, 0, 0};
-  const ArchSummary s = summarize_arches({&one, &two}, {3, 6, true});
+  const ArchSummary s = SummarizeArches({&one, &two}, {3, 6, true});
   EXPECT_EQ(s.clogs, 2);
   EXPECT_EQ(s.arches, 2);
   EXPECT_EQ(s.obstacle_arches, 1);
@@ -284,9 +284,9 @@ TEST(Arches, ArchesPooledOverClogs) {
   EXPECT_NEAR(s.small_small.mean, (0.25 + 0.5) / 2, 1e-12);
   EXPECT_NEAR(s.large_large.mean, 0.125, 1e-12);
   // Only particle arches.
-  EXPECT_EQ(summarize_arches({&one, &two}, {3, 6, false}).n.n, 1);
+  EXPECT_EQ(SummarizeArches({&one, &two}, {3, 6, false}).n.n, 1);
 
-  const ClogArches back = clog_arches_from_json(to_json(two));
+  const ClogArches back = ClogArchesFromJson(to_json(two));
   ASSERT_EQ(back.arches.size(), 1u);
   EXPECT_EQ(to_json(back), to_json(two));
   EXPECT_TRUE(back.arches[0].obstacle);

@@ -29,23 +29,23 @@ rundir::RunData StreamRun(const std::string& on_clog) {
 
 std::vector<Metric> MetricsOf(const rundir::RunData& data, nlohmann::json* result = nullptr) {
   const PassOptions pass;
-  const RunView view = make_run_view(data, pass);
-  const auto analysis = make_avalanche_analysis(nullptr, "/report/avalanches");
-  const nlohmann::json r = analysis->start(view)->finish();
+  const RunView view = MakeRunView(data, pass);
+  const auto analysis = MakeAvalancheAnalysis(nullptr, "/report/avalanches");
+  const nlohmann::json r = analysis->Start(view)->Finish();
   if (result) *result = r;
-  return analysis->run_metrics(r);
+  return analysis->RunMetrics(r);
 }
 
 TEST(AvalancheAnalysis, SizesBetweenClogsOfTheExitStream) {
   nlohmann::json result;
   const std::vector<Metric> m = MetricsOf(StreamRun("stop"), &result);
   EXPECT_EQ(result.at("sizes"), (nlohmann::json{4.0, 2.0, 3.0}));
-  ASSERT_NE(find_metric(m, "avalanche_size"), nullptr);
-  EXPECT_DOUBLE_EQ(find_metric(m, "avalanche_size")->value, 3.0);
-  EXPECT_DOUBLE_EQ(find_metric(m, "avalanche_size")->se, 1.0 / std::sqrt(3.0));  // sizes' sd is 1
-  EXPECT_DOUBLE_EQ(find_metric(m, "avalanches")->value, 3.0);
+  ASSERT_NE(FindMetric(m, "avalanche_size"), nullptr);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "avalanche_size")->value, 3.0);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "avalanche_size")->se, 1.0 / std::sqrt(3.0));  // sizes' sd is 1
+  EXPECT_DOUBLE_EQ(FindMetric(m, "avalanches")->value, 3.0);
   // Two clogs the stream recovered from and the one it ended in.
-  EXPECT_DOUBLE_EQ(find_metric(m, "clogs")->value, 3.0);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "clogs")->value, 3.0);
 }
 
 TEST(AvalancheAnalysis, AnEngineThatBrokeItsClogsCutsTheStreamAtItsUnclogs) {
@@ -57,14 +57,14 @@ TEST(AvalancheAnalysis, AnEngineThatBrokeItsClogsCutsTheStreamAtItsUnclogs) {
   const std::vector<Metric> m = MetricsOf(data, &result);
   EXPECT_EQ(result.at("sizes"), (nlohmann::json{4.0, 2.0, 3.0}));
   EXPECT_EQ(result.at("unclogs"), 2);
-  EXPECT_DOUBLE_EQ(find_metric(m, "clogs")->value, 3.0);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "clogs")->value, 3.0);
   // Cut elsewhere, the sizes follow the cuts, not the gaps.
   data.unclogs = {{2.5, 25000, 1, 1, "kick", {}}};
   EXPECT_EQ((MetricsOf(data, &result), result.at("sizes")), (nlohmann::json{2.0, 7.0}));
 }
 
 TEST(AvalancheAnalysis, NoOptions) {
-  EXPECT_THROW(make_avalanche_analysis({{"bins", 3}}, "/report/avalanches"), std::exception);
+  EXPECT_THROW(MakeAvalancheAnalysis({{"bins", 3}}, "/report/avalanches"), std::exception);
 }
 
 }  // namespace

@@ -22,7 +22,7 @@ using rundir::Disc;
 // Square lattice of discs of radius r with spacing a covering [x0, x1] x [y0, y1], one body
 // per disc; velocity and omega from `motion(x, y, disc)`.
 template <class Motion>
-std::vector<Disc> lattice(double x0, double x1, double y0, double y1, double a, double r, Motion motion) {
+std::vector<Disc> Lattice(double x0, double x1, double y0, double y1, double a, double r, Motion motion) {
   std::vector<Disc> discs;
   std::int64_t id = 0;
   for (double y = y0; y <= y1 + 1e-9; y += a)
@@ -40,7 +40,7 @@ std::vector<Disc> lattice(double x0, double x1, double y0, double y1, double a, 
   return discs;
 }
 
-CgOptions options_over(Rect window, double cutoff = 3.0, double spacing = 1.0) {
+CgOptions OptionsOver(Rect window, double cutoff = 3.0, double spacing = 1.0) {
   CgOptions o;
   o.window = window;
   o.cutoff = cutoff;
@@ -49,7 +49,7 @@ CgOptions options_over(Rect window, double cutoff = 3.0, double spacing = 1.0) {
   return o;
 }
 
-double closed_form_line_integral(double rx, double ry, double ax, double ay, double bx, double by, double w) {
+double ClosedFormLineIntegral(double rx, double ry, double ax, double ay, double bx, double by, double w) {
   const double ux = bx - ax, uy = by - ay, L = std::hypot(ux, uy);
   const double ex = ux / L, ey = uy / L;
   const double t = (rx - ax) * ex + (ry - ay) * ey;
@@ -69,14 +69,14 @@ TEST(CgFields, LineIntegralAgreesWithTheErfClosedForm) {
     const double ax = u(rng), ay = u(rng), L = len(rng), phi = ang(rng);
     const double bx = ax + L * std::cos(phi), by = ay + L * std::sin(phi);
     const double rx = u(rng), ry = u(rng);
-    worst = std::max(worst, std::abs(cg_line_integral(rx, ry, ax, ay, bx, by, o) -
-                                     closed_form_line_integral(rx, ry, ax, ay, bx, by, o.width)));
+    worst = std::max(worst, std::abs(CgLineIntegral(rx, ry, ax, ay, bx, by, o) -
+                                     ClosedFormLineIntegral(rx, ry, ax, ay, bx, by, o.width)));
   }
   EXPECT_LT(worst, 3e-8 * peak);
 }
 
 // Sum over nodes of phi h^2 = total disc area, for discs whose kernel lies inside the window.
-double phi_integral_error(const CgOptions& base, int n_discs, unsigned seed) {
+double PhiIntegralError(const CgOptions& base, int n_discs, unsigned seed) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> ux(-10.0, 10.0), uy(10.0, 30.0), ur(0.3, 0.8);
   std::vector<Disc> discs(static_cast<std::size_t>(n_discs));
@@ -91,10 +91,10 @@ double phi_integral_error(const CgOptions& base, int n_discs, unsigned seed) {
   CgOptions o = base;
   o.window = {-25.0, 25.0, -5.0, 45.0};  // 15 d around the discs: more than the cutoff
   CgAccumulator acc(o);
-  acc.add_frame(0.0, discs, nullptr);
-  const CgMaps maps = acc.maps();
+  acc.AddFrame(0.0, discs, nullptr);
+  const CgMaps maps = acc.Maps();
   double sum = 0.0;
-  for (std::size_t n = 0; n < maps.grid().size(); ++n) sum += maps.value(CgField::kPhi, n);
+  for (std::size_t n = 0; n < maps.Grid().size(); ++n) sum += maps.Value(CgField::kPhi, n);
   return std::abs(sum * o.spacing * o.spacing - area) / area;
 }
 
@@ -102,28 +102,28 @@ TEST(CgFields, PhiIntegratesToTheDiscsArea) {
   CgOptions wide;
   wide.cutoff = 5.0;
   wide.spacing = 0.5;
-  EXPECT_LT(phi_integral_error(wide, 300, 1), 1e-12);  // measured 7e-14
+  EXPECT_LT(PhiIntegralError(wide, 300, 1), 1e-12);  // measured 7e-14
   // The thesis' kernel (cut at 3w) on a 1 d grid: the stated discretisation error is 1e-5
   // (docs/analyses.md; measured 4e-7..3e-6), from the nodes that enter and leave the cut disc
   // as a disc moves.
   CgOptions thesis;
-  for (unsigned seed = 1; seed <= 5; ++seed) EXPECT_LT(phi_integral_error(thesis, 300, seed), 1e-5) << seed;
+  for (unsigned seed = 1; seed <= 5; ++seed) EXPECT_LT(PhiIntegralError(thesis, 300, seed), 1e-5) << seed;
 }
 
 TEST(CgFields, UniformLatticeGivesUniformPhi) {
   const double a = 1.1, r = 0.5, phi0 = std::numbers::pi * r * r / (a * a);
-  const auto discs = lattice(-30.0, 30.0, -30.0, 30.0, a, r, [](double, double, Disc&) {});
+  const auto discs = Lattice(-30.0, 30.0, -30.0, 30.0, a, r, [](double, double, Disc&) {});
   for (double cutoff : {3.0, 5.0}) {
-    CgOptions o = options_over({-10.37, 10.0, -9.81, 10.0}, cutoff, 0.7);  // nodes off the lattice
+    CgOptions o = OptionsOver({-10.37, 10.0, -9.81, 10.0}, cutoff, 0.7);  // nodes off the lattice
     CgAccumulator acc(o);
-    acc.add_frame(0.0, discs, nullptr);
-    const CgMaps maps = acc.maps();
+    acc.AddFrame(0.0, discs, nullptr);
+    const CgMaps maps = acc.Maps();
     double worst = 0.0;
-    for (std::size_t n = 0; n < maps.grid().size(); ++n) worst = std::max(worst, std::abs(maps.value(CgField::kPhi, n) - phi0));
+    for (std::size_t n = 0; n < maps.Grid().size(); ++n) worst = std::max(worst, std::abs(maps.Value(CgField::kPhi, n) - phi0));
     // Cut at 3w the lattice points crossing the cut circle make ripples (measured 6e-5); at 5w
     // only the lattice's aliasing is left, ~exp(-pi^2 w^2 / a^2) (measured 2e-7).
     EXPECT_LT(worst, cutoff == 3.0 ? 1e-4 : 1e-6) << "cutoff " << cutoff;
-    const CgRegionMean mean = cg_region_mean(maps, CgField::kPhi, {-5.0, 5.0, -5.0, 5.0});
+    const CgRegionMean mean = MeanOverRegion(maps, CgField::kPhi, {-5.0, 5.0, -5.0, 5.0});
     EXPECT_NEAR(mean.value, phi0, cutoff == 3.0 ? 1e-4 : 1e-6);
     EXPECT_GT(mean.nodes, 150);
   }
@@ -131,31 +131,31 @@ TEST(CgFields, UniformLatticeGivesUniformPhi) {
 
 TEST(CgFields, RigidRotationGivesItsVelocityAndOmegaAndNoTemperature) {
   const double omega = 0.7, vx0 = 0.3, vy0 = -0.2, xc = 1.0, yc = -2.0;
-  const auto discs = lattice(-30.0, 30.0, -30.0, 30.0, 1.0, 0.5, [&](double x, double y, Disc& d) {
+  const auto discs = Lattice(-30.0, 30.0, -30.0, 30.0, 1.0, 0.5, [&](double x, double y, Disc& d) {
     d.vx = vx0 - omega * (y - yc);
     d.vy = vy0 + omega * (x - xc);
     d.omega = omega;
   });
-  CgOptions o = options_over({-10.3, 10.0, -10.2, 10.0}, 5.0, 0.5);
+  CgOptions o = OptionsOver({-10.3, 10.0, -10.2, 10.0}, 5.0, 0.5);
   CgAccumulator acc(o);
-  acc.add_frame(0.0, discs, nullptr);
-  const CgMaps maps = acc.maps();
-  const CgGrid& g = maps.grid();
+  acc.AddFrame(0.0, discs, nullptr);
+  const CgMaps maps = acc.Maps();
+  const CgGrid& g = maps.Grid();
   const double w2 = o.width * o.width;
   for (int j = 0; j < g.ny; ++j)
     for (int i = 0; i < g.nx; ++i) {
       const std::size_t n = static_cast<std::size_t>(j) * g.nx + i;
-      const double x = g.x(i), y = g.y(j);
-      ASSERT_NEAR(maps.value(CgField::kVx, n), vx0 - omega * (y - yc), 1e-6) << x << "," << y;
-      ASSERT_NEAR(maps.value(CgField::kVy, n), vy0 + omega * (x - xc), 1e-6) << x << "," << y;
-      ASSERT_NEAR(maps.value(CgField::kOmega, n), omega, 1e-13);
-      ASSERT_NEAR(maps.value(CgField::kOmegaFl2, n), 0.0, 1e-13);
-      ASSERT_NEAR(maps.value(CgField::kTg, n), 0.0, 1e-12 * omega * omega * w2);
-      ASSERT_NEAR(maps.value(CgField::kKineticPressure, n), 0.0, 1e-12 * omega * omega * w2);
+      const double x = g.X(i), y = g.Y(j);
+      ASSERT_NEAR(maps.Value(CgField::kVx, n), vx0 - omega * (y - yc), 1e-6) << x << "," << y;
+      ASSERT_NEAR(maps.Value(CgField::kVy, n), vy0 + omega * (x - xc), 1e-6) << x << "," << y;
+      ASSERT_NEAR(maps.Value(CgField::kOmega, n), omega, 1e-13);
+      ASSERT_NEAR(maps.Value(CgField::kOmegaFl2, n), 0.0, 1e-13);
+      ASSERT_NEAR(maps.Value(CgField::kTg, n), 0.0, 1e-12 * omega * omega * w2);
+      ASSERT_NEAR(maps.Value(CgField::kKineticPressure, n), 0.0, 1e-12 * omega * omega * w2);
       // Eq. 4.6 as written counts the rotation inside the kernel: omega^2 <|r - r_p|^2> / 2
       // = omega^2 w^2 / 2 for the Gaussian.
-      ASSERT_NEAR(maps.value(CgField::kTgEq46, n), 0.5 * omega * omega * w2, 1e-6 * omega * omega * w2);
-      ASSERT_EQ(maps.n_frames(CgField::kTg, n), 1);
+      ASSERT_NEAR(maps.Value(CgField::kTgEq46, n), 0.5 * omega * omega * w2, 1e-6 * omega * omega * w2);
+      ASSERT_EQ(maps.NFrames(CgField::kTg, n), 1);
     }
 }
 
@@ -164,7 +164,7 @@ TEST(CgFields, RigidRotationGivesItsVelocityAndOmegaAndNoTemperature) {
 // cell of area a^2 with branch length a, sigma = -(1/a) [[f_h, t], [t, f_v]].
 TEST(CgFields, HandMadeContactNetworkGivesItsPressureAndShearStress) {
   const double a = 1.0, f_h = 3.0, f_v = 5.0, t = 0.8;
-  const auto discs = lattice(-20.0, 20.0, -20.0, 20.0, a, 0.5, [](double, double, Disc&) {});
+  const auto discs = Lattice(-20.0, 20.0, -20.0, 20.0, a, 0.5, [](double, double, Disc&) {});
   ContactFrame contacts;
   const int side = 41;  // discs per row
   for (int row = 0; row < side; ++row)
@@ -180,24 +180,24 @@ TEST(CgFields, HandMadeContactNetworkGivesItsPressureAndShearStress) {
         contacts.contacts.push_back({me, me - side, d.x, d.y, b.x, b.y, d.x, d.y - 0.5 * a, t, f_v});
       }
     }
-  CgOptions o = options_over({-8.3, 8.0, -8.2, 8.0}, 5.0, 0.5);
+  CgOptions o = OptionsOver({-8.3, 8.0, -8.2, 8.0}, 5.0, 0.5);
   CgAccumulator acc(o);
-  acc.add_frame(0.0, discs, &contacts);
-  const CgMaps maps = acc.maps();
+  acc.AddFrame(0.0, discs, &contacts);
+  const CgMaps maps = acc.Maps();
   const double p = 0.5 * (f_h + f_v) / a, tau = std::hypot(0.5 * (f_v - f_h), t) / a;
-  for (std::size_t n = 0; n < maps.grid().size(); ++n) {
-    ASSERT_NEAR(maps.value(CgField::kSigmaXX, n), -f_h / a, 1e-6 * f_v);
-    ASSERT_NEAR(maps.value(CgField::kSigmaYY, n), -f_v / a, 1e-6 * f_v);
-    ASSERT_NEAR(maps.value(CgField::kSigmaXY, n), -t / a, 1e-6 * f_v);
-    ASSERT_NEAR(maps.value(CgField::kPressure, n), p, 1e-6 * p);
-    ASSERT_NEAR(maps.value(CgField::kShear, n), tau, 1e-6 * p);
-    ASSERT_NEAR(maps.value(CgField::kFriction, n), tau / p, 1e-6);
+  for (std::size_t n = 0; n < maps.Grid().size(); ++n) {
+    ASSERT_NEAR(maps.Value(CgField::kSigmaXX, n), -f_h / a, 1e-6 * f_v);
+    ASSERT_NEAR(maps.Value(CgField::kSigmaYY, n), -f_v / a, 1e-6 * f_v);
+    ASSERT_NEAR(maps.Value(CgField::kSigmaXY, n), -t / a, 1e-6 * f_v);
+    ASSERT_NEAR(maps.Value(CgField::kPressure, n), p, 1e-6 * p);
+    ASSERT_NEAR(maps.Value(CgField::kShear, n), tau, 1e-6 * p);
+    ASSERT_NEAR(maps.Value(CgField::kFriction, n), tau / p, 1e-6);
     // At rest: no kinetic stress, so the total is the contact stress.
-    ASSERT_EQ(maps.value(CgField::kKineticPressure, n), 0.0);
-    ASSERT_NEAR(maps.value(CgField::kTotalPressure, n), p, 1e-6 * p);
-    ASSERT_EQ(maps.n_frames(CgField::kPressure, n), 1);
+    ASSERT_EQ(maps.Value(CgField::kKineticPressure, n), 0.0);
+    ASSERT_NEAR(maps.Value(CgField::kTotalPressure, n), p, 1e-6 * p);
+    ASSERT_EQ(maps.NFrames(CgField::kPressure, n), 1);
   }
-  const CgRegionMean mu = cg_region_mean(maps, CgField::kFriction, {-4.0, 4.0, -4.0, 4.0});
+  const CgRegionMean mu = MeanOverRegion(maps, CgField::kFriction, {-4.0, 4.0, -4.0, 4.0});
   EXPECT_NEAR(mu.value, tau / p, 1e-6);
 }
 
@@ -210,7 +210,7 @@ struct Pile {
   double weight_per_row = 0;
   int rows = 0;
 };
-Pile stacked_pile(int columns, int rows, double g) {
+Pile StackedPile(int columns, int rows, double g) {
   Pile p;
   p.rows = rows;
   const double r = 0.5, m = std::numbers::pi * r * r;
@@ -235,27 +235,27 @@ Pile stacked_pile(int columns, int rows, double g) {
 }
 
 // int sigma_yy dx over the window's row j (nodes h apart).
-double integrated_syy(const CgMaps& maps, int j) {
+double IntegratedSyy(const CgMaps& maps, int j) {
   double sum = 0.0;
-  for (int i = 0; i < maps.grid().nx; ++i)
-    sum += maps.value(CgField::kSigmaYY, static_cast<std::size_t>(j) * maps.grid().nx + i);
-  return sum * maps.grid().spacing;
+  for (int i = 0; i < maps.Grid().nx; ++i)
+    sum += maps.Value(CgField::kSigmaYY, static_cast<std::size_t>(j) * maps.Grid().nx + i);
+  return sum * maps.Grid().spacing;
 }
 
 TEST(CgFields, StackedPileCarriesItsWeight) {
   const int columns = 20, rows = 40;
-  const Pile pile = stacked_pile(columns, rows, 1.0);
+  const Pile pile = StackedPile(columns, rows, 1.0);
   for (double cutoff : {5.0, 3.0}) {
     // The window spans the pile's width and the kernel's reach on both sides.
-    CgOptions o = options_over({-25.0, 25.0, 8.0, 32.0}, cutoff, cutoff == 5.0 ? 0.5 : 1.0);
+    CgOptions o = OptionsOver({-25.0, 25.0, 8.0, 32.0}, cutoff, cutoff == 5.0 ? 0.5 : 1.0);
     CgAccumulator acc(o);
-    acc.add_frame(0.0, pile.discs, &pile.contacts);
-    const CgMaps maps = acc.maps();
+    acc.AddFrame(0.0, pile.discs, &pile.contacts);
+    const CgMaps maps = acc.Maps();
     double worst = 0.0;
-    for (int j = 0; j < maps.grid().ny; ++j) {
-      const double y = maps.grid().y(j);
+    for (int j = 0; j < maps.Grid().ny; ++j) {
+      const double y = maps.Grid().Y(j);
       const double weight_above = pile.weight_per_row * (rows - y);  // rows are 1 d tall, the top at y = rows
-      worst = std::max(worst, std::abs(integrated_syy(maps, j) + weight_above) / weight_above);
+      worst = std::max(worst, std::abs(IntegratedSyy(maps, j) + weight_above) / weight_above);
     }
     // Stated discretisation error (docs/analyses.md): 2e-4 of the load at the thesis' 3w on a
     // 1 d grid (measured 8.5e-5: the cut kernel's edge, each branch's line integral cut at 3w
@@ -293,65 +293,65 @@ TEST(CgFields, PileOfDumbbellsCarriesItsWeight) {
           contacts.contacts.push_back({body, body - columns, d.x, d.y, d.x, d.y - 1.0, d.x, d.y - 0.5, 0.0, load});
       }
     }
-  CgOptions o = options_over({-20.0, 20.0, 8.0, 32.0}, 5.0, 0.5);
+  CgOptions o = OptionsOver({-20.0, 20.0, 8.0, 32.0}, 5.0, 0.5);
   CgAccumulator acc(o);
-  acc.add_frame(0.0, discs, &contacts);
-  const CgMaps maps = acc.maps();
+  acc.AddFrame(0.0, discs, &contacts);
+  const CgMaps maps = acc.Maps();
   const double weight_per_row = columns * 2 * m;
-  for (int j = 0; j < maps.grid().ny; ++j) {
-    const double weight_above = weight_per_row * (rows - maps.grid().y(j));
-    EXPECT_NEAR(integrated_syy(maps, j), -weight_above, 1e-9 * weight_above) << "y = " << maps.grid().y(j);
+  for (int j = 0; j < maps.Grid().ny; ++j) {
+    const double weight_above = weight_per_row * (rows - maps.Grid().Y(j));
+    EXPECT_NEAR(IntegratedSyy(maps, j), -weight_above, 1e-9 * weight_above) << "y = " << maps.Grid().Y(j);
   }
 }
 
 TEST(CgFields, StreamingSumsAverageFramesAndAddAcrossRuns) {
-  const auto still = lattice(-20.0, 20.0, -20.0, 20.0, 1.0, 0.5, [](double, double, Disc&) {});
-  const auto moving = lattice(-20.0, 20.0, -20.0, 20.0, 1.0, 0.5, [](double, double, Disc& d) { d.vy = -2.0; });
-  const CgOptions o = options_over({-5.0, 5.0, -5.0, 5.0}, 5.0, 1.0);
+  const auto still = Lattice(-20.0, 20.0, -20.0, 20.0, 1.0, 0.5, [](double, double, Disc&) {});
+  const auto moving = Lattice(-20.0, 20.0, -20.0, 20.0, 1.0, 0.5, [](double, double, Disc& d) { d.vy = -2.0; });
+  const CgOptions o = OptionsOver({-5.0, 5.0, -5.0, 5.0}, 5.0, 1.0);
   CgAccumulator both(o), first(o), second(o);
-  both.add_frame(0.0, still, nullptr);
-  both.add_frame(1.0, moving, nullptr);
-  first.add_frame(0.0, still, nullptr);
-  second.add_frame(1.0, moving, nullptr);
-  CgSums merged = first.sums();
-  merged.add(second.sums());
-  const CgMaps a = both.maps(), b(merged);
-  EXPECT_EQ(a.frames(), 2);
-  EXPECT_EQ(a.contact_frames(), 0);
-  EXPECT_FALSE(a.has(CgField::kPressure));
-  EXPECT_TRUE(std::isnan(a.value(CgField::kPressure, 0)));
-  for (std::size_t n = 0; n < a.grid().size(); ++n) {
-    EXPECT_NEAR(a.value(CgField::kVy, n), -1.0, 1e-12);
-    EXPECT_EQ(a.value(CgField::kVy, n), b.value(CgField::kVy, n));
-    EXPECT_EQ(a.value(CgField::kPhi, n), b.value(CgField::kPhi, n));
-    EXPECT_EQ(a.n_frames(CgField::kVy, n), 2);
+  both.AddFrame(0.0, still, nullptr);
+  both.AddFrame(1.0, moving, nullptr);
+  first.AddFrame(0.0, still, nullptr);
+  second.AddFrame(1.0, moving, nullptr);
+  CgSums merged = first.Sums();
+  merged.Add(second.Sums());
+  const CgMaps a = both.Maps(), b(merged);
+  EXPECT_EQ(a.Frames(), 2);
+  EXPECT_EQ(a.ContactFrames(), 0);
+  EXPECT_FALSE(a.Has(CgField::kPressure));
+  EXPECT_TRUE(std::isnan(a.Value(CgField::kPressure, 0)));
+  for (std::size_t n = 0; n < a.Grid().size(); ++n) {
+    EXPECT_NEAR(a.Value(CgField::kVy, n), -1.0, 1e-12);
+    EXPECT_EQ(a.Value(CgField::kVy, n), b.Value(CgField::kVy, n));
+    EXPECT_EQ(a.Value(CgField::kPhi, n), b.Value(CgField::kPhi, n));
+    EXPECT_EQ(a.NFrames(CgField::kVy, n), 2);
   }
   CgSums other;
-  other.resize(grid_over({0, 1, 0, 1}, 1.0));
-  EXPECT_THROW(merged.add(other), std::invalid_argument);
+  other.Resize(GridOver({0, 1, 0, 1}, 1.0));
+  EXPECT_THROW(merged.Add(other), std::invalid_argument);
 }
 
 TEST(CgFields, SeriesOfARegionMeanFollowsTheFrames) {
-  const CgOptions o = options_over({-5.0, 5.0, -5.0, 5.0}, 5.0, 1.0);
+  const CgOptions o = OptionsOver({-5.0, 5.0, -5.0, 5.0}, 5.0, 1.0);
   CgAccumulator acc(o, {{"speed above", {-2.0, 2.0, -2.0, 2.0}, CgField::kSpeed},
                         {"pressure", {-2.0, 2.0, -2.0, 2.0}, CgField::kPressure}});
   for (int f = 0; f < 3; ++f) {
-    const auto discs = lattice(-20.0, 20.0, -20.0, 20.0, 1.0, 0.5, [&](double, double, Disc& d) { d.vx = 0.5 * f; });
-    acc.add_frame(10.0 + f, discs, nullptr);
+    const auto discs = Lattice(-20.0, 20.0, -20.0, 20.0, 1.0, 0.5, [&](double, double, Disc& d) { d.vx = 0.5 * f; });
+    acc.AddFrame(10.0 + f, discs, nullptr);
   }
-  ASSERT_EQ(acc.series().size(), 2u);
-  const CgSeries& s = acc.series()[0];
+  ASSERT_EQ(acc.Series().size(), 2u);
+  const CgSeries& s = acc.Series()[0];
   ASSERT_EQ(s.time.size(), 3u);
   for (int f = 0; f < 3; ++f) {
     EXPECT_EQ(s.time[static_cast<std::size_t>(f)], 10.0 + f);
     EXPECT_NEAR(s.value[static_cast<std::size_t>(f)], 0.5 * f, 1e-12);
-    EXPECT_TRUE(std::isnan(acc.series()[1].value[static_cast<std::size_t>(f)]));  // no contacts
+    EXPECT_TRUE(std::isnan(acc.Series()[1].value[static_cast<std::size_t>(f)]));  // no contacts
   }
 }
 
 // Pile frames with random velocities: 1 and 2 threads give the same bits.
 TEST(CgFields, SameBitsAtAnyThreadCount) {
-  Pile pile = stacked_pile(30, 60, 1.0);
+  Pile pile = StackedPile(30, 60, 1.0);
   std::mt19937_64 rng(3);
   std::normal_distribution<double> n01;
   for (Disc& d : pile.discs) {
@@ -360,14 +360,14 @@ TEST(CgFields, SameBitsAtAnyThreadCount) {
     d.vy = n01(rng);
     d.omega = n01(rng);
   }
-  CgOptions o = options_over(cg_default_window(30.0, 60.0));
+  CgOptions o = OptionsOver(CgDefaultWindow(30.0, 60.0));
   std::vector<CgSums> sums;
   for (int threads : {1, 2, 3}) {
     o.threads = threads;
     CgAccumulator acc(o);
-    acc.add_frame(0.0, pile.discs, &pile.contacts);
-    acc.add_frame(1.0, pile.discs, nullptr);
-    sums.push_back(acc.sums());
+    acc.AddFrame(0.0, pile.discs, &pile.contacts);
+    acc.AddFrame(1.0, pile.discs, nullptr);
+    sums.push_back(acc.Sums());
   }
   for (std::size_t k = 1; k < sums.size(); ++k)
     for (const auto member : {&CgSums::phi, &CgSums::vx, &CgSums::tg, &CgSums::omega_fl2, &CgSums::sxx, &CgSums::syy,
@@ -380,10 +380,10 @@ TEST(CgFields, SameBitsAtAnyThreadCount) {
 }
 
 TEST(CgFields, BadOptionsAreRefusedWithWhatIsAllowed) {
-  CgOptions o = options_over({-5, 5, 0, 10});
+  CgOptions o = OptionsOver({-5, 5, 0, 10});
   o.width = 0.0;
   EXPECT_THROW(CgAccumulator{o}, std::invalid_argument);
-  o = options_over({-5, 5, 0, 10});
+  o = OptionsOver({-5, 5, 0, 10});
   o.spacing = 3.0;
   try {
     CgAccumulator acc(o);
@@ -391,23 +391,23 @@ TEST(CgFields, BadOptionsAreRefusedWithWhatIsAllowed) {
   } catch (const std::invalid_argument& e) {
     EXPECT_STREQ(e.what(), "grid spacing must be > 0 and <= half the cutoff radius 2.121000 (got 3.000000)");
   }
-  o = options_over({5, -5, 0, 10});
+  o = OptionsOver({5, -5, 0, 10});
   EXPECT_THROW(CgAccumulator{o}, std::invalid_argument);
 }
 
 TEST(CgFields, FieldTableNamesEveryField) {
   CgField f;
-  for (const CgFieldInfo& info : cg_field_table()) {
-    ASSERT_TRUE(cg_field_by_name(info.name, f));
+  for (const CgFieldInfo& info : CgFieldTable()) {
+    ASSERT_TRUE(CgFieldByName(info.name, f));
     EXPECT_EQ(f, info.field);
   }
-  EXPECT_FALSE(cg_field_by_name("presure", f));
-  const Rect w = cg_default_window(100.0, 290.0);
+  EXPECT_FALSE(CgFieldByName("presure", f));
+  const Rect w = CgDefaultWindow(100.0, 290.0);
   EXPECT_EQ(w.x0, -48.5);
   EXPECT_EQ(w.x1, 48.5);
   EXPECT_EQ(w.y0, 1.5);
   EXPECT_EQ(w.y1, 148.5);
-  EXPECT_EQ(cg_default_window(30.0, 26.0).y1, 26.0);
+  EXPECT_EQ(CgDefaultWindow(30.0, 26.0).y1, 26.0);
 }
 
 }  // namespace

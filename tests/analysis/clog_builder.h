@@ -41,7 +41,7 @@ class Clog {
   const rundir::ClogState& Made() {
     state_.contacts.contacts.clear();
     const auto& d = state_.frame.discs;
-    const silo::SiloGeometry g = silo_of(spec_, 20);
+    const silo::SiloGeometry g = SiloOf(spec_, 20);
     for (std::size_t i = 0; i < d.size(); ++i) {
       for (std::size_t j = i + 1; j < d.size(); ++j) {
         if (d[i].mol == d[j].mol) continue;
@@ -67,7 +67,7 @@ class Clog {
     }
     return state_;
   }
-  const nlohmann::json& spec() const { return spec_; }
+  const nlohmann::json& Spec() const { return spec_; }
 
  private:
   nlohmann::json spec_;

@@ -22,11 +22,11 @@ namespace granary::analysis {
 namespace {
 
 using testing::Clog;
-using testing::read_file;
+using testing::ReadFile;
 using testing::TempDir;
-using testing::write_file;
+using testing::WriteFile;
 
-nlohmann::json spec_for(double w) {
+nlohmann::json SpecFor(double w) {
   return {{"engine", "native"},
           {"silo", {{"width", 12}, {"base_outlets", {{{"center", 0.0}, {"width", w}}}}}},
           {"bodies", {{"count", 100}, {"species", {{{"shape", "dumbbell"}}}}}},
@@ -48,16 +48,16 @@ Clog ArchOfDumbbells(double w) {
 }
 
 // 30 exits, one clog kept (the arch), three frames of the same bodies at t = 0, 3 and 4.
-void write_run(const std::filesystem::path& dir, double w, const std::string& id) {
+void WriteRun(const std::filesystem::path& dir, double w, const std::string& id) {
   std::ostringstream ev;
   ev << "time,body,shape,mass,outlet\n";
   for (int i = 1; i <= 30; ++i) ev << 0.2 * i << "," << 100 + i << ",dumbbell,1.5707963267948966,0\n";
-  write_file(dir / "events.csv", ev.str());
-  const nlohmann::json summary = {{"engine", "native"}, {"run_id", id},    {"spec", spec_for(w)},  {"end_reason", "clogged"},
+  WriteFile(dir / "events.csv", ev.str());
+  const nlohmann::json summary = {{"engine", "native"}, {"run_id", id},    {"spec", SpecFor(w)},  {"end_reason", "clogged"},
                                   {"bodies", 100},     {"exited", 30},    {"remaining", 70},      {"exits_per_outlet", {30}},
                                   {"t_end", 8.0},      {"clogs", 1}};
-  write_file(dir / "summary.json", summary.dump());
-  write_file(dir / "run.json", spec_for(w).dump());
+  WriteFile(dir / "summary.json", summary.dump());
+  WriteFile(dir / "run.json", SpecFor(w).dump());
   Clog arch = ArchOfDumbbells(w);
   rundir::ClogState clog = arch.Made();
   clog.frame.timestep = clog.contacts.timestep = 80000;
@@ -73,23 +73,23 @@ void write_run(const std::filesystem::path& dir, double w, const std::string& id
     frames.Write(f);
   }
   frames.Close();
-  write_file(dir / "DONE", "clogged");
+  WriteFile(dir / "DONE", "clogged");
 }
 
 // The cell of the column called `name` (the header row) in the first row containing `row`.
-std::string cell(const std::string& csv, const std::string& row, const std::string& name) {
+std::string FormatCell(const std::string& csv, const std::string& row, const std::string& name) {
   const std::string header = csv.substr(0, csv.find('\n'));
   int column = 0;
   std::size_t at = 0;
   for (std::size_t next; (next = header.find(',', at)) != std::string::npos; at = next + 1, ++column)
-    if (header.substr(at, next - at) == name) return testing::csv_cell(csv, {row}, column);
-  return header.substr(at) == name ? testing::csv_cell(csv, {row}, column) : "no column " + name;
+    if (header.substr(at, next - at) == name) return testing::CsvCell(csv, {row}, column);
+  return header.substr(at) == name ? testing::CsvCell(csv, {row}, column) : "no column " + name;
 }
 
 // The CSV of the first curve of figure `name` in the report folder, or "".
-std::string curve_csv(const std::filesystem::path& dir, const std::string& name) {
+std::string CurveCsv(const std::filesystem::path& dir, const std::string& name) {
   for (const auto& e : std::filesystem::directory_iterator(dir))
-    if (e.path().filename().string().rfind(name + "--", 0) == 0) return read_file(e.path());
+    if (e.path().filename().string().rfind(name + "--", 0) == 0) return ReadFile(e.path());
   return "";
 }
 
@@ -116,36 +116,36 @@ TEST(ClogReport, ArchesContactsAndOrientationSectionsWithPictures) {
       r.engine = "native";
       r.state = "done";
       r.point = {{"/silo/base_outlets/0/width", w}};
-      r.spec = spec_for(w);
-      r.run_dir = dir.path() / r.run_id;
-      write_run(r.run_dir, w, r.run_id);
+      r.spec = SpecFor(w);
+      r.run_dir = dir.Path() / r.run_id;
+      WriteRun(r.run_dir, w, r.run_id);
       runs.push_back(r);
     }
   ReportOptions opt;
-  opt.out_dir = dir.path() / "report";
+  opt.out_dir = dir.Path() / "report";
   opt.figures = false;
   std::vector<Drawn> drawn;
   opt.draw_clog = [&](const std::filesystem::path& run_dir, const ClogPicture& p, const std::filesystem::path& png) {
     drawn.push_back({run_dir, p});
-    write_file(png, "png");
+    WriteFile(png, "png");
     return std::string();
   };
-  write_report(info, runs, opt);
-  const std::string md = read_file(opt.out_dir / "report.md");
+  WriteReport(info, runs, opt);
+  const std::string md = ReadFile(opt.out_dir / "report.md");
   EXPECT_NE(md.find("## Arches (ch. 3, 4, 6)"), std::string::npos);
   EXPECT_NE(md.find("## Contacts in the clogged system (ch. 6)"), std::string::npos);
   EXPECT_NE(md.find("## Orientation of elongated bodies (ch. 4, 5, 6)"), std::string::npos);
   // Per point: 2 clogs, 2 arches of N_t = 4, w = 4.8, elongated fraction 1.
-  const std::string arches = read_file(opt.out_dir / "data" / "arches.csv");
-  EXPECT_EQ(cell(arches, "W = 3", "clogs"), "2") << arches;
-  EXPECT_EQ(cell(arches, "W = 3", "arches"), "2");
-  EXPECT_EQ(cell(arches, "W = 4", "arch_n"), "4");
-  EXPECT_EQ(cell(arches, "W = 4", "arch_n_n"), "2");
-  EXPECT_NEAR(std::stod(cell(arches, "W = 4", "arch_width")), 4.8, 1e-9);
-  EXPECT_EQ(cell(arches, "W = 4", "arch_elongated_fraction"), "1");
+  const std::string arches = ReadFile(opt.out_dir / "data" / "arches.csv");
+  EXPECT_EQ(FormatCell(arches, "W = 3", "clogs"), "2") << arches;
+  EXPECT_EQ(FormatCell(arches, "W = 3", "arches"), "2");
+  EXPECT_EQ(FormatCell(arches, "W = 4", "arch_n"), "4");
+  EXPECT_EQ(FormatCell(arches, "W = 4", "arch_n_n"), "2");
+  EXPECT_NEAR(std::stod(FormatCell(arches, "W = 4", "arch_width")), 4.8, 1e-9);
+  EXPECT_EQ(FormatCell(arches, "W = 4", "arch_elongated_fraction"), "1");
   // Figures against W are there (as CSVs without gnuplot).
-  EXPECT_NE(curve_csv(opt.out_dir / "data", "arch_n"), "");
-  EXPECT_NE(curve_csv(opt.out_dir / "data", "arch_pressure_theta"), "");
+  EXPECT_NE(CurveCsv(opt.out_dir / "data", "arch_n"), "");
+  EXPECT_NE(CurveCsv(opt.out_dir / "data", "arch_pressure_theta"), "");
   // One picture per point, of a clog with the arch's bodies outlined, near the outlet.
   ASSERT_EQ(drawn.size(), 2u);
   EXPECT_EQ(drawn[0].picture.clog, 1);
@@ -156,32 +156,32 @@ TEST(ClogReport, ArchesContactsAndOrientationSectionsWithPictures) {
   EXPECT_NE(md.find("pictures/arch-point-1-1.png"), std::string::npos);
   // Contacts: the arch's dumbbells touch with a second disc against a first one (large-small by
   // disc order), everything else involves a lone disc (3 of 14 contacts).
-  const std::string contacts = read_file(opt.out_dir / "data" / "contacts.csv");
-  EXPECT_EQ(cell(contacts, "W = 3", "contact_ss_n"), "2") << contacts;
-  EXPECT_NEAR(std::stod(cell(contacts, "W = 3", "contact_ls")), 3.0 / 14, 1e-12);
-  EXPECT_EQ(cell(contacts, "W = 3", "contact_ls_se"), "0");
+  const std::string contacts = ReadFile(opt.out_dir / "data" / "contacts.csv");
+  EXPECT_EQ(FormatCell(contacts, "W = 3", "contact_ss_n"), "2") << contacts;
+  EXPECT_NEAR(std::stod(FormatCell(contacts, "W = 3", "contact_ls")), 3.0 / 14, 1e-12);
+  EXPECT_EQ(FormatCell(contacts, "W = 3", "contact_ls_se"), "0");
   // Orientation: above the outlet two vertical and two lying dumbbells make S = 0 against the
   // vertical; the band at h = 1.5 holds all four; the arch window one lying axis.
-  const std::string order = read_file(opt.out_dir / "data" / "orientation_order.csv");
-  EXPECT_NEAR(std::stod(cell(order, "W = 3", "order_parameter_0")), 0.0, 1e-12) << order;
-  EXPECT_EQ(cell(order, "W = 3", "order_parameter_0_n"), "2");
-  EXPECT_NE(curve_csv(opt.out_dir / "data", "orientation_s_1"), "");
-  const std::string window = curve_csv(opt.out_dir / "data", "orientation_window_arches");
+  const std::string order = ReadFile(opt.out_dir / "data" / "orientation_order.csv");
+  EXPECT_NEAR(std::stod(FormatCell(order, "W = 3", "order_parameter_0")), 0.0, 1e-12) << order;
+  EXPECT_EQ(FormatCell(order, "W = 3", "order_parameter_0_n"), "2");
+  EXPECT_NE(CurveCsv(opt.out_dir / "data", "orientation_s_1"), "");
+  const std::string window = CurveCsv(opt.out_dir / "data", "orientation_window_arches");
   // Both runs' lying dumbbell, psi in [0, 10) degrees: density 2 / (2 x 10 degrees in radians).
   EXPECT_NE(window.find("\n5,5.729"), std::string::npos) << window;
 
   // Without the renderer the section says so.
   ReportOptions plain = opt;
   plain.draw_clog = nullptr;
-  plain.out_dir = dir.path() / "plain";
-  write_report(info, runs, plain);
-  EXPECT_NE(read_file(plain.out_dir / "report.md").find("No pictures of clogs"), std::string::npos);
+  plain.out_dir = dir.Path() / "plain";
+  WriteReport(info, runs, plain);
+  EXPECT_NE(ReadFile(plain.out_dir / "report.md").find("No pictures of clogs"), std::string::npos);
 }
 
 TEST(ClogReport, OptionErrorsNameTheirJsonPath) {
   auto error = [](const nlohmann::json& report) {
     try {
-      setup_analyses({{"report", report}});
+      SetupAnalyses({{"report", report}});
     } catch (const OptionError& e) {
       return std::string(e.what());
     }
@@ -197,11 +197,11 @@ TEST(ClogReport, OptionErrorsNameTheirJsonPath) {
   EXPECT_EQ(error({{"orientation", {{"window", {{"theta", 200}}}}}}).rfind("/report/orientation/window/theta: must be", 0), 0u);
   EXPECT_EQ(error({{"contacts", {{"x", 1}}}}).rfind("/report/contacts/x: unknown key", 0), 0u);
   EXPECT_EQ(error({{"arches", {{"theta_bins", 6}, {"obstacle_arches", false}, {"pictures", 2}}}}), "no error");
-  const ArchesOptions a = read_arches_options({{"theta_bins", 6}, {"obstacle_arches", false}, {"pictures", 2}}, "/report/arches");
+  const ArchesOptions a = ReadArchesOptions({{"theta_bins", 6}, {"obstacle_arches", false}, {"pictures", 2}}, "/report/arches");
   EXPECT_EQ(a.summary.theta_bins, 6);
   EXPECT_FALSE(a.summary.obstacle_arches);
   EXPECT_EQ(a.pictures, 2);
-  const OrientationAnalysisOptions o = read_orientation_options(
+  const OrientationAnalysisOptions o = ReadOrientationOptions(
       {{"heights", {3}}, {"window", {{"theta", 60}, {"radius", 8}}},
        {"regions", {{{"name", "bulk"}, {"x", {-5, 5}}, {"y", {60, 70}}, {"director", 90}}}}},
       "/report/orientation");
@@ -215,18 +215,18 @@ TEST(ClogReport, OptionErrorsNameTheirJsonPath) {
 // Fractions of all contacts per clog; a clog of lone discs has no size classes, so it counts
 // for `other` only (not as a zero of small-small etc.).
 TEST(ClogReport, ContactFractionsPerClogWithoutSizeClassesForLoneDiscs) {
-  const auto contacts = make_contacts_analysis(nullptr, "/report/contacts");
+  const auto contacts = MakeContactsAnalysis(nullptr, "/report/contacts");
   const nlohmann::json result = {
       {"present", true},
       {"clogs",
        {{{"small_small", 0}, {"large_small", 0}, {"large_large", 0}, {"other", 10}},
         {{"small_small", 1}, {"large_small", 2}, {"large_large", 1}, {"other", 4}}}}};
-  const std::vector<Metric> m = contacts->run_metrics(result);
-  ASSERT_NE(find_metric(m, "contact_ss"), nullptr);
-  EXPECT_DOUBLE_EQ(find_metric(m, "contact_ss")->value, 1.0 / 8);
-  EXPECT_DOUBLE_EQ(find_metric(m, "contact_ls")->value, 2.0 / 8);
-  EXPECT_DOUBLE_EQ(find_metric(m, "contact_other")->value, (1.0 + 0.5) / 2);
-  EXPECT_TRUE(contacts->run_metrics({{"present", false}, {"clogs", nlohmann::json::array()}}).empty());
+  const std::vector<Metric> m = contacts->RunMetrics(result);
+  ASSERT_NE(FindMetric(m, "contact_ss"), nullptr);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "contact_ss")->value, 1.0 / 8);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "contact_ls")->value, 2.0 / 8);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "contact_other")->value, (1.0 + 0.5) / 2);
+  EXPECT_TRUE(contacts->RunMetrics({{"present", false}, {"clogs", nlohmann::json::array()}}).empty());
 }
 
 }  // namespace

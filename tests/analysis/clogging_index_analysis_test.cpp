@@ -16,9 +16,9 @@ namespace granary::analysis {
 namespace {
 
 using testing::TempDir;
-using testing::write_file;
+using testing::WriteFile;
 
-nlohmann::json spec_for(double w) {
+nlohmann::json SpecFor(double w) {
   return {{"engine", "native"},
           {"silo", {{"width", 100}, {"base_outlets", {{{"center", 0.0}, {"width", w}}}}}},
           {"bodies", {{"count", 2000}, {"density", 1.0}}},
@@ -36,15 +36,15 @@ TEST(ClogIndexAnalysis, StagnantCountOfAPointWhereEveryRunClogged) {
   auto add = [&](const std::string& id, double w, double silo, bool clogged, int left) {
     RunRecord r;
     r.run_id = id;
-    r.point_id = "W" + format_number(w) + "S" + format_number(silo);
+    r.point_id = "W" + FormatNumber(w) + "S" + FormatNumber(silo);
     r.state = "done";
     r.point = {{"/silo/base_outlets/0/width", w}, {"/silo/width", silo}};
-    r.spec = spec_for(w);
+    r.spec = SpecFor(w);
     r.spec["silo"]["width"] = silo;
-    r.run_dir = dir.path() / id;
-    write_file(r.run_dir / "run.json", r.spec.dump());
-    write_file(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n");
-    write_file(r.run_dir / "summary.json",
+    r.run_dir = dir.Path() / id;
+    WriteFile(r.run_dir / "run.json", r.spec.dump());
+    WriteFile(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n");
+    WriteFile(r.run_dir / "summary.json",
                nlohmann::json{{"bodies", 1000}, {"exited", 1000 - left}, {"remaining", left},
                               {"end_reason", clogged ? "clogged" : "discharged"}, {"t_end", 10.0}}
                    .dump());
@@ -54,14 +54,14 @@ TEST(ClogIndexAnalysis, StagnantCountOfAPointWhereEveryRunClogged) {
   add("free-200", 20, 200, false, 80);  // silo 200: N_u = 80
   add("narrow-100-a", 4, 100, true, 540);
   add("narrow-100-b", 4, 100, true, 240);
-  const AnalysisSetup setup = setup_analyses({{"report", {{"clogging_index", {{"min_exits_before_clog", 0}}}}}});
-  const auto a = analyse_campaign(info, runs, setup);
+  const AnalysisSetup setup = SetupAnalyses({{"report", {{"clogging_index", {{"min_exits_before_clog", 0}}}}}});
+  const auto a = AnalyseCampaign(info, runs, setup);
   for (std::size_t p = 0; p < a->view.points.size(); ++p) {
     if (a->view.points[p].id != "W4S100") continue;
-    const std::vector<PointMetric> m = a->all_point_metrics(p);
-    EXPECT_DOUBLE_EQ(find_metric(m, "n_stagnant")->mean, 40.0);  // the group silo=100, not the campaign (60)
-    EXPECT_NEAR(find_metric(m, "psi")->mean, (500.0 / 960.0 + 200.0 / 960.0) / 2.0, 1e-14);
-    EXPECT_EQ(find_metric(m, "psi")->note, "used 2 clogged and 0 discharged runs; N_u from the 1 discharged run of L = 100");
+    const std::vector<PointMetric> m = a->AllPointMetrics(p);
+    EXPECT_DOUBLE_EQ(FindMetric(m, "n_stagnant")->mean, 40.0);  // the group silo=100, not the campaign (60)
+    EXPECT_NEAR(FindMetric(m, "psi")->mean, (500.0 / 960.0 + 200.0 / 960.0) / 2.0, 1e-14);
+    EXPECT_EQ(FindMetric(m, "psi")->note, "used 2 clogged and 0 discharged runs; N_u from the 1 discharged run of L = 100");
   }
 }
 
@@ -78,15 +78,15 @@ TEST(ClogIndexAnalysis, LeavesOutRunsThatReachedTheirTimeLimit) {
   auto add = [&](const std::string& id, double w, int replica, const std::string& end, int left, double t_end) {
     RunRecord r;
     r.run_id = id;
-    r.point_id = "W" + format_number(w);
+    r.point_id = "W" + FormatNumber(w);
     r.replica = replica;
     r.state = "done";
     r.point = {{"/silo/base_outlets/0/width", w}};
-    r.spec = spec_for(w);
-    r.run_dir = dir.path() / id;
-    write_file(r.run_dir / "run.json", r.spec.dump());
-    write_file(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n");
-    write_file(r.run_dir / "summary.json", nlohmann::json{{"bodies", 8000}, {"exited", 8000 - left}, {"remaining", left},
+    r.spec = SpecFor(w);
+    r.run_dir = dir.Path() / id;
+    WriteFile(r.run_dir / "run.json", r.spec.dump());
+    WriteFile(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n");
+    WriteFile(r.run_dir / "summary.json", nlohmann::json{{"bodies", 8000}, {"exited", 8000 - left}, {"remaining", left},
                                                           {"end_reason", end}, {"t_end", t_end}}
                                                .dump());
     runs.push_back(r);
@@ -97,12 +97,12 @@ TEST(ClogIndexAnalysis, LeavesOutRunsThatReachedTheirTimeLimit) {
   add("w13-a", 13, 0, "time_limit", 6080, 150.0);
   add("w13-b", 13, 1, "time_limit", 6100, 150.0);
   add("w14-a", 14, 0, "discharged", 860, 900.0);
-  const auto a = analyse_campaign(info, runs, setup_analyses({}));
+  const auto a = AnalyseCampaign(info, runs, SetupAnalyses({}));
   auto metric = [&](const std::string& point, const std::string& name) {
     for (std::size_t p = 0; p < a->view.points.size(); ++p)
       if (a->view.points[p].id == point) {
-        const std::vector<PointMetric> all = a->all_point_metrics(p);
-        if (const PointMetric* m = find_metric(all, name)) return *m;
+        const std::vector<PointMetric> all = a->AllPointMetrics(p);
+        if (const PointMetric* m = FindMetric(all, name)) return *m;
       }
     return PointMetric{};
   };

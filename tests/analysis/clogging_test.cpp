@@ -10,7 +10,7 @@
 namespace granary::analysis {
 namespace {
 
-std::vector<rundir::ExitEvent> at(std::initializer_list<double> times, int outlet = 0) {
+std::vector<rundir::ExitEvent> At(std::initializer_list<double> times, int outlet = 0) {
   std::vector<rundir::ExitEvent> ev;
   for (double t : times) ev.push_back({t, 0, "dumbbell", 1.0, outlet});
   return ev;
@@ -18,18 +18,18 @@ std::vector<rundir::ExitEvent> at(std::initializer_list<double> times, int outle
 
 TEST(ClogSeries, StretchesAvalanchesAndTimes) {
   // Flow 1..3, clog 3 -> 10, flow 10..11, clog 11 -> 20, flow 20..23, clogged until the end (30).
-  const auto ev = at({1, 2, 3, 10, 11, 20, 21, 22, 23});
-  const ClogSeries s = clog_series(ev, -1, 30.0, 5.0, RunEnd::kOther);
+  const auto ev = At({1, 2, 3, 10, 11, 20, 21, 22, 23});
+  const ClogSeries s = ComputeClogSeries(ev, -1, 30.0, 5.0, RunEnd::kOther);
   ASSERT_EQ(s.flowing.size(), 3u);
   ASSERT_EQ(s.clogged.size(), 3u);
-  EXPECT_EQ(s.avalanche_sizes(), (std::vector<double>{3, 2, 4}));
-  EXPECT_EQ(s.flowing_times(), (std::vector<double>{3, 1, 3}));  // 0->3, 10->11, 20->23
-  EXPECT_EQ(s.clogged_times(), (std::vector<double>{7, 9}));      // the last clog is censored
+  EXPECT_EQ(s.AvalancheSizes(), (std::vector<double>{3, 2, 4}));
+  EXPECT_EQ(s.FlowingTimes(), (std::vector<double>{3, 1, 3}));  // 0->3, 10->11, 20->23
+  EXPECT_EQ(s.CloggedTimes(), (std::vector<double>{7, 9}));      // the last clog is censored
   EXPECT_FALSE(s.clogged.back().complete);
-  EXPECT_EQ(s.unclogs(), 2);
+  EXPECT_EQ(s.Unclogs(), 2);
 
   const ClogSeries list[] = {s};
-  const IntermittencyStats st = intermittency(list);
+  const IntermittencyStats st = Intermittency(list);
   EXPECT_DOUBLE_EQ(st.t_flowing.mean, 7.0 / 3.0);
   EXPECT_EQ(st.t_flowing.n, 3);
   EXPECT_DOUBLE_EQ(st.t_clogged.mean, 8.0);
@@ -37,64 +37,64 @@ TEST(ClogSeries, StretchesAvalanchesAndTimes) {
 }
 
 TEST(ClogSeries, EndsFlowingOrStoppedOnClog) {
-  const auto ev = at({1, 2, 3, 4});
+  const auto ev = At({1, 2, 3, 4});
   // Ended while flowing: the only stretch is incomplete, no avalanche.
-  const ClogSeries flowing = clog_series(ev, -1, 6.0, 5.0, RunEnd::kOther);
-  EXPECT_TRUE(flowing.avalanche_sizes().empty());
+  const ClogSeries flowing = ComputeClogSeries(ev, -1, 6.0, 5.0, RunEnd::kOther);
+  EXPECT_TRUE(flowing.AvalancheSizes().empty());
   EXPECT_TRUE(flowing.clogged.empty());
   // The engine stopped on a clog: one avalanche of 4.
-  const ClogSeries clogged = clog_series(ev, -1, 6.0, 5.0, RunEnd::kClogged);
-  EXPECT_EQ(clogged.avalanche_sizes(), std::vector<double>{4});
+  const ClogSeries clogged = ComputeClogSeries(ev, -1, 6.0, 5.0, RunEnd::kClogged);
+  EXPECT_EQ(clogged.AvalancheSizes(), std::vector<double>{4});
   // Stopped long after the last exit: a clog, unless the engine judged the stall a discharge
   // (the silo ran out of what can flow): then no avalanche and no clog, but an earlier gap stays one.
-  EXPECT_EQ(clog_series(ev, -1, 20.0, 5.0, RunEnd::kOther).avalanche_sizes(), std::vector<double>{4});
-  const ClogSeries discharged = clog_series(at({1, 2, 10, 11}), -1, 20.0, 5.0, RunEnd::kDischarged);
-  EXPECT_EQ(discharged.avalanche_sizes(), std::vector<double>{2});
+  EXPECT_EQ(ComputeClogSeries(ev, -1, 20.0, 5.0, RunEnd::kOther).AvalancheSizes(), std::vector<double>{4});
+  const ClogSeries discharged = ComputeClogSeries(At({1, 2, 10, 11}), -1, 20.0, 5.0, RunEnd::kDischarged);
+  EXPECT_EQ(discharged.AvalancheSizes(), std::vector<double>{2});
   EXPECT_EQ(discharged.clogged.size(), 1u);
   EXPECT_FALSE(discharged.flowing.back().complete);
-  EXPECT_EQ(run_end_of("discharged"), RunEnd::kDischarged);
-  EXPECT_EQ(run_end_of("clogged"), RunEnd::kClogged);
-  EXPECT_EQ(run_end_of("time_limit"), RunEnd::kOther);
+  EXPECT_EQ(RunEndOf("discharged"), RunEnd::kDischarged);
+  EXPECT_EQ(RunEndOf("clogged"), RunEnd::kClogged);
+  EXPECT_EQ(RunEndOf("time_limit"), RunEnd::kOther);
   // An engine that stops on the first clog it judges did not stop at the gap and found the silo
   // discharged: not a clog for the silo as a whole, while one outlet's own stream keeps its gap.
-  const ClogSeries trickle = clog_series(at({1, 2, 10, 11}), -1, 20.0, 5.0, RunEnd::kDischarged, true);
+  const ClogSeries trickle = ComputeClogSeries(At({1, 2, 10, 11}), -1, 20.0, 5.0, RunEnd::kDischarged, true);
   EXPECT_TRUE(trickle.clogged.empty());
-  EXPECT_TRUE(trickle.avalanche_sizes().empty());
-  EXPECT_EQ(clog_series(at({1, 2, 10, 11}), -1, 20.0, 5.0, RunEnd::kClogged, true).avalanche_sizes(), (std::vector<double>{2, 2}));
-  EXPECT_EQ(clog_series(at({1, 2, 10, 11}), 0, 20.0, 5.0, RunEnd::kDischarged, true).clogged.size(), 1u);
+  EXPECT_TRUE(trickle.AvalancheSizes().empty());
+  EXPECT_EQ(ComputeClogSeries(At({1, 2, 10, 11}), -1, 20.0, 5.0, RunEnd::kClogged, true).AvalancheSizes(), (std::vector<double>{2, 2}));
+  EXPECT_EQ(ComputeClogSeries(At({1, 2, 10, 11}), 0, 20.0, 5.0, RunEnd::kDischarged, true).clogged.size(), 1u);
 }
 
 TEST(ClogSeries, PerOutlet) {
   // Outlet 1 flows steadily; outlet 0 clogs between 2 and 12.
-  auto ev = at({1, 2, 12, 13});
+  auto ev = At({1, 2, 12, 13});
   for (double t = 0.5; t < 15; t += 1.0) ev.push_back({t, 0, "disc", 1.0, 1});
   std::sort(ev.begin(), ev.end(), [](auto& a, auto& b) { return a.time < b.time; });
-  EXPECT_EQ(clog_series(ev, 0, 15.0, 5.0, RunEnd::kOther).clogged_times(), std::vector<double>{10});
-  EXPECT_TRUE(clog_series(ev, 1, 15.0, 5.0, RunEnd::kOther).clogged.empty());
-  EXPECT_TRUE(clog_series(ev, -1, 15.0, 5.0, RunEnd::kOther).clogged.empty());  // the silo never stops
+  EXPECT_EQ(ComputeClogSeries(ev, 0, 15.0, 5.0, RunEnd::kOther).CloggedTimes(), std::vector<double>{10});
+  EXPECT_TRUE(ComputeClogSeries(ev, 1, 15.0, 5.0, RunEnd::kOther).clogged.empty());
+  EXPECT_TRUE(ComputeClogSeries(ev, -1, 15.0, 5.0, RunEnd::kOther).clogged.empty());  // the silo never stops
 }
 
 TEST(ClogSeries, StartUpDelayIsNotAClogButABlockedOutletIs) {
   // The first body needs 3 time units to leave (gap from the opening > clog_gap = 2): not a clog.
-  const auto ev = at({3.0, 3.5, 4.0, 4.5});
-  const ClogSeries s = clog_series(ev, -1, 5.0, 2.0, RunEnd::kOther);
+  const auto ev = At({3.0, 3.5, 4.0, 4.5});
+  const ClogSeries s = ComputeClogSeries(ev, -1, 5.0, 2.0, RunEnd::kOther);
   EXPECT_TRUE(s.clogged.empty());
   // Outlet 0 stays blocked until t = 10 while outlet 1 flows from t = 3: a clog from 3 to 10.
-  auto two = at({10.0, 10.5}, 0);
+  auto two = At({10.0, 10.5}, 0);
   for (double t = 3.0; t < 12.0; t += 0.5) two.push_back({t, 0, "disc", 1.0, 1});
   std::sort(two.begin(), two.end(), [](auto& a, auto& b) { return a.time < b.time; });
-  const ClogSeries o0 = clog_series(two, 0, 12.0, 2.0, RunEnd::kOther);
-  EXPECT_EQ(o0.clogged_times(), std::vector<double>{7.0});
-  EXPECT_EQ(o0.avalanche_sizes(), std::vector<double>{0.0});  // clogged before its first exit
+  const ClogSeries o0 = ComputeClogSeries(two, 0, 12.0, 2.0, RunEnd::kOther);
+  EXPECT_EQ(o0.CloggedTimes(), std::vector<double>{7.0});
+  EXPECT_EQ(o0.AvalancheSizes(), std::vector<double>{0.0});  // clogged before its first exit
 }
 
 TEST(Avalanches, MeanHistogramAndTail) {
   const std::vector<double> sizes = {10, 20, 30, 40};
-  const AvalancheStats a = avalanche_stats(sizes, 4);
+  const AvalancheStats a = ComputeAvalancheStats(sizes, 4);
   EXPECT_DOUBLE_EQ(a.size.mean, 25.0);
   EXPECT_EQ(a.size.n, 4);
   EXPECT_NEAR(a.size.se, std::sqrt(500.0 / 3.0 / 4.0), 1e-12);
-  EXPECT_DOUBLE_EQ(a.histogram.total(), 4.0);
+  EXPECT_DOUBLE_EQ(a.histogram.Total(), 4.0);
   EXPECT_DOUBLE_EQ(a.tail.s_min, 25.0);  // median
   EXPECT_EQ(a.tail.n_tail, 2);
   // Exponential avalanches with mean 50 (geometric, q = 50/51): tail decay recovered.
@@ -102,7 +102,7 @@ TEST(Avalanches, MeanHistogramAndTail) {
   std::geometric_distribution<int> geo(1.0 / 51.0);
   std::vector<double> s;
   for (int i = 0; i < 5000; ++i) s.push_back(geo(rng));
-  const AvalancheStats b = avalanche_stats(s);
+  const AvalancheStats b = ComputeAvalancheStats(s);
   const double decay = -1.0 / std::log(50.0 / 51.0);
   EXPECT_NEAR(b.tail.s_decay, decay, 4.0 * b.tail.s_decay_se);
   EXPECT_NEAR(b.size.mean, 50.0, 4.0 * b.size.se);
@@ -117,7 +117,7 @@ TEST(ClogIndex, Equation31WithDiscardRule) {
       {kC, 1000, 950, 50},    // clogged before 100 left: discarded
       {kC, 1000, 300, 700},
   };
-  const ClogIndex ci = clogging_index(runs, 100);
+  const ClogIndex ci = CloggingIndex(runs, 100);
   EXPECT_DOUBLE_EQ(ci.n_stagnant, 60.0);
   EXPECT_EQ(ci.discarded, 1);
   EXPECT_EQ(ci.clogged, 2);
@@ -128,12 +128,12 @@ TEST(ClogIndex, Equation31WithDiscardRule) {
   EXPECT_TRUE(std::isnan(ci.psi_low));
   // All clogged and no stagnant count known: N_u and Psi are missing, and said so.
   const std::vector<ClogRun> all_clogged = {{kC, 100, 50, 50}, {kC, 100, 30, 70}};
-  const ClogIndex c2 = clogging_index(all_clogged, 10);
+  const ClogIndex c2 = CloggingIndex(all_clogged, 10);
   EXPECT_TRUE(std::isnan(c2.psi.mean));
   EXPECT_EQ(c2.psi.n, 0);
   EXPECT_TRUE(std::isnan(c2.n_stagnant));
   EXPECT_NE(c2.note.find("N_u missing"), std::string::npos);
-  EXPECT_DOUBLE_EQ(clogging_index(all_clogged, 10, 20.0).psi.mean, (30.0 / 80.0 + 10.0 / 80.0) / 2.0);
+  EXPECT_DOUBLE_EQ(CloggingIndex(all_clogged, 10, 20.0).psi.mean, (30.0 / 80.0 + 10.0 / 80.0) / 2.0);
 }
 
 // 8000 dumbbells, W = 11 with max_time 150. Two runs clogged (7000 and 7286
@@ -144,10 +144,10 @@ TEST(ClogIndex, ARunThatReachedItsTimeLimitIsNeither) {
   const std::vector<ClogRun> w11 = {
       {RunEnd::kClogged, 8000, 7000, 1000}, {RunEnd::kClogged, 8000, 7286, 714}, {RunEnd::kOther, 8000, 6080, 1920}};
   // Without a stagnant count the time-limited run must not stand in for one.
-  const ClogIndex alone = clogging_index(w11, 100);
+  const ClogIndex alone = CloggingIndex(w11, 100);
   EXPECT_TRUE(std::isnan(alone.n_stagnant));
   EXPECT_TRUE(std::isnan(alone.psi.mean));
-  const ClogIndex ci = clogging_index(w11, 100, 860.0);
+  const ClogIndex ci = CloggingIndex(w11, 100, 860.0);
   EXPECT_EQ(ci.clogged, 2);
   EXPECT_EQ(ci.discharged, 0);
   EXPECT_EQ(ci.unfinished, 1);
@@ -159,7 +159,7 @@ TEST(ClogIndex, ARunThatReachedItsTimeLimitIsNeither) {
   EXPECT_NEAR(ci.psi_high, (6140.0 + 6426.0 + 5220.0) / 3.0 / 7140.0, 1e-14);
   // W = 13: every run reached the time limit: Psi over no run, not 0.
   const std::vector<ClogRun> w13 = {{RunEnd::kOther, 8000, 6080, 1920}, {RunEnd::kOther, 8000, 6100, 1900}};
-  const ClogIndex c13 = clogging_index(w13, 100, 860.0);
+  const ClogIndex c13 = CloggingIndex(w13, 100, 860.0);
   EXPECT_EQ(c13.psi.n, 0);
   EXPECT_TRUE(std::isnan(c13.psi.mean));
   EXPECT_EQ(c13.unfinished, 2);
@@ -179,10 +179,10 @@ TEST(Avalanches, BetweenUnclogs) {
   std::vector<rundir::ExitEvent> events;
   for (double t : {1.0, 2.0, 3.0, 20.0, 21.0, 40.0, 41.0, 42.0, 43.0}) events.push_back({t, 0, "disc", 1.0, t < 30 ? 0 : 1});
   const std::vector<double> unclogs = {10.0, 35.0};  // the gap 3 -> 20 and 21 -> 40 were clogs
-  EXPECT_EQ(avalanches_between_unclogs(events, -1, unclogs, RunEnd::kClogged), (std::vector<double>{3, 2, 4}));
-  EXPECT_EQ(avalanches_between_unclogs(events, -1, unclogs, RunEnd::kOther), (std::vector<double>{3, 2}));
-  EXPECT_EQ(avalanches_between_unclogs(events, 1, unclogs, RunEnd::kClogged), (std::vector<double>{0, 0, 4}));
-  EXPECT_EQ(run_end_of("max_clogs"), RunEnd::kClogged);
+  EXPECT_EQ(AvalanchesBetweenUnclogs(events, -1, unclogs, RunEnd::kClogged), (std::vector<double>{3, 2, 4}));
+  EXPECT_EQ(AvalanchesBetweenUnclogs(events, -1, unclogs, RunEnd::kOther), (std::vector<double>{3, 2}));
+  EXPECT_EQ(AvalanchesBetweenUnclogs(events, 1, unclogs, RunEnd::kClogged), (std::vector<double>{0, 0, 4}));
+  EXPECT_EQ(RunEndOf("max_clogs"), RunEnd::kClogged);
 }
 
 }  // namespace

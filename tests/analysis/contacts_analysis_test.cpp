@@ -52,42 +52,42 @@ TEST(ContactsAnalysis, FractionsOfEachKindPerClogAveragedOverTheRunsClogs) {
   second.frame.time = second.contacts.time = 0.2;
   second.contacts.contacts = {Touch(0, 1, s0, s1)};
   {
-    rundir::ClogWriter w = rundir::ClogWriter::Create(dir.path());
+    rundir::ClogWriter w = rundir::ClogWriter::Create(dir.Path());
     w.Write(first);
     w.Write(second);
     w.Close();
   }
   rundir::RunData data;
-  data.dir = dir.path();
+  data.dir = dir.Path();
   data.spec = nlohmann::json::object();
   const PassOptions pass;
-  const RunView view = make_run_view(data, pass);
-  const auto analysis = make_contacts_analysis(nullptr, "/report/contacts");
-  const nlohmann::json result = analysis->start(view)->finish();
+  const RunView view = MakeRunView(data, pass);
+  const auto analysis = MakeContactsAnalysis(nullptr, "/report/contacts");
+  const nlohmann::json result = analysis->Start(view)->Finish();
   ASSERT_EQ(result.at("clogs").size(), 2u);
   EXPECT_EQ(result.at("clogs")[0].at("small_small"), 1);
   EXPECT_EQ(result.at("clogs")[0].at("large_small"), 1);
   EXPECT_EQ(result.at("clogs")[0].at("large_large"), 1);
   EXPECT_EQ(result.at("clogs")[0].at("other"), 1);
-  const std::vector<Metric> m = analysis->run_metrics(result);
-  ASSERT_NE(find_metric(m, "contact_ss"), nullptr);
-  EXPECT_DOUBLE_EQ(find_metric(m, "contact_ss")->value, (0.25 + 1.0) / 2);
-  EXPECT_DOUBLE_EQ(find_metric(m, "contact_ss")->se, 0.375);  // sd of {1/4, 1} over sqrt 2
-  EXPECT_DOUBLE_EQ(find_metric(m, "contact_ls")->value, 0.125);
-  EXPECT_DOUBLE_EQ(find_metric(m, "contact_ll")->value, 0.125);
-  EXPECT_DOUBLE_EQ(find_metric(m, "contact_other")->value, 0.125);
+  const std::vector<Metric> m = analysis->RunMetrics(result);
+  ASSERT_NE(FindMetric(m, "contact_ss"), nullptr);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "contact_ss")->value, (0.25 + 1.0) / 2);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "contact_ss")->se, 0.375);  // sd of {1/4, 1} over sqrt 2
+  EXPECT_DOUBLE_EQ(FindMetric(m, "contact_ls")->value, 0.125);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "contact_ll")->value, 0.125);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "contact_other")->value, 0.125);
 }
 
 TEST(ContactsAnalysis, ARunWithoutClogFilesHasNoMetrics) {
   TempDir dir;
   rundir::RunData data;
-  data.dir = dir.path();
+  data.dir = dir.Path();
   const PassOptions pass;
-  const RunView view = make_run_view(data, pass);
-  const auto analysis = make_contacts_analysis(nullptr, "/report/contacts");
-  const nlohmann::json result = analysis->start(view)->finish();
+  const RunView view = MakeRunView(data, pass);
+  const auto analysis = MakeContactsAnalysis(nullptr, "/report/contacts");
+  const nlohmann::json result = analysis->Start(view)->Finish();
   EXPECT_EQ(result.at("present"), false);
-  EXPECT_TRUE(analysis->run_metrics(result).empty());
+  EXPECT_TRUE(analysis->RunMetrics(result).empty());
 }
 
 }  // namespace

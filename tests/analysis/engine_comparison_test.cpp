@@ -14,38 +14,38 @@
 namespace granary::analysis {
 namespace {
 
-using testing::read_file;
+using testing::ReadFile;
 using testing::TempDir;
-using testing::write_file;
+using testing::WriteFile;
 
-MeanSe ms(double mean, double se, int n) { return MeanSe{mean, se, n}; }
+MeanSe Ms(double mean, double se, int n) { return MeanSe{mean, se, n}; }
 
 TEST(EngineComparison, AgreementRatioAndItsError) {
-  MetricDifference d{"q_count", ms(10.0, 0.3, 4), ms(11.2, 0.4, 4), -1.2, 0.5, -2.4};
-  const MetricAgreement m = agreement_of(d);
+  MetricDifference d{"q_count", Ms(10.0, 0.3, 4), Ms(11.2, 0.4, 4), -1.2, 0.5, -2.4};
+  const MetricAgreement m = AgreementOf(d);
   EXPECT_DOUBLE_EQ(m.ratio, 1.12);
   EXPECT_NEAR(m.ratio_se, 1.12 * std::hypot(0.03, 0.4 / 11.2), 1e-12);
   EXPECT_EQ(m.agree, std::optional<bool>(false));  // 2.4 combined se apart
-  d.b = ms(10.9, 0.4, 4);
+  d.b = Ms(10.9, 0.4, 4);
   d.difference = -0.9;
   d.z = -1.8;
-  EXPECT_EQ(agreement_of(d).agree, std::optional<bool>(true));
+  EXPECT_EQ(AgreementOf(d).agree, std::optional<bool>(true));
   // Unknown uncertainty (one replica): neither agreement nor disagreement, even for equal
   // values; exact equality with se 0 agrees, a difference with se 0 does not.
-  EXPECT_EQ(agreement_of(MetricDifference{"phi", ms(0.8, kNaN, 1), ms(0.8, kNaN, 1), 0.0, kNaN, kNaN}).agree,
+  EXPECT_EQ(AgreementOf(MetricDifference{"phi", Ms(0.8, kNaN, 1), Ms(0.8, kNaN, 1), 0.0, kNaN, kNaN}).agree,
             std::nullopt);
-  EXPECT_EQ(agreement_of(MetricDifference{"phi", ms(0.8, 0.01, 3), ms(0.5, kNaN, 1), 0.3, kNaN, kNaN}).agree,
+  EXPECT_EQ(AgreementOf(MetricDifference{"phi", Ms(0.8, 0.01, 3), Ms(0.5, kNaN, 1), 0.3, kNaN, kNaN}).agree,
             std::nullopt);
-  EXPECT_EQ(agreement_of(MetricDifference{"psi", ms(0.0, 0.0, 3), ms(0.0, 0.0, 3), 0.0, 0.0, kNaN}).agree,
+  EXPECT_EQ(AgreementOf(MetricDifference{"psi", Ms(0.0, 0.0, 3), Ms(0.0, 0.0, 3), 0.0, 0.0, kNaN}).agree,
             std::optional<bool>(true));
-  EXPECT_EQ(agreement_of(MetricDifference{"psi", ms(0.0, 0.0, 3), ms(0.1, 0.0, 3), -0.1, 0.0, kNaN}).agree,
+  EXPECT_EQ(AgreementOf(MetricDifference{"psi", Ms(0.0, 0.0, 3), Ms(0.1, 0.0, 3), -0.1, 0.0, kNaN}).agree,
             std::optional<bool>(false));
-  EXPECT_EQ(agreement_text(std::nullopt), "n/a");
-  EXPECT_EQ(agreement_text(true), "yes");
-  EXPECT_EQ(agreement_text(false), "no");
+  EXPECT_EQ(AgreementText(std::nullopt), "n/a");
+  EXPECT_EQ(AgreementText(true), "yes");
+  EXPECT_EQ(AgreementText(false), "no");
 }
 
-EnginePoint point(double w, double q, double se) {
+EnginePoint Point(double w, double q, double se) {
   EnginePoint p;
   p.point = {{"/silo/base_outlets/0/width", w}};
   p.point_id = "p" + std::to_string(static_cast<int>(w));
@@ -68,7 +68,7 @@ TEST(ComparePoints, MatchedBySweepValuesWithZScores) {
                 {"q_count", "", 19.0, 0.4, 5, "", true, ""},
                 {"clogged_runs", "", 2.0, kNaN, 5, "", false, "", false},
                 {"v_max", "", 3.0, 0.1, 5, "", false, ""}};
-  const auto c = compare_points({a1, a2}, {b1});
+  const auto c = ComparePoints({a1, a2}, {b1});
   ASSERT_EQ(c.size(), 1u);
   EXPECT_EQ(c[0].point_id_b, "liggghts-7");
   ASSERT_EQ(c[0].metrics.size(), 2u);  // q_count and phi
@@ -80,10 +80,10 @@ TEST(ComparePoints, MatchedBySweepValuesWithZScores) {
 }
 
 TEST(EngineComparison, MatchesPointsBySweepValuesAndSumsCosts) {
-  const std::vector<EnginePoint> a = {point(10, 20, 1), point(14, 40, 1), point(18, 60, 1)};
-  const std::vector<EnginePoint> b = {point(14, 44, 1), point(10, 19, 1), point(22, 80, 1)};
+  const std::vector<EnginePoint> a = {Point(10, 20, 1), Point(14, 40, 1), Point(18, 60, 1)};
+  const std::vector<EnginePoint> b = {Point(14, 44, 1), Point(10, 19, 1), Point(22, 80, 1)};
   const EngineComparison c =
-      compare_engines("native", a, {{10.0, 8.0, 2e7, 1}, {20.0, 16.0, 4e7, 1}}, "liggghts", b, {{100.0, 90.0, 5e6, 1}});
+      CompareEngines("native", a, {{10.0, 8.0, 2e7, 1}, {20.0, 16.0, 4e7, 1}}, "liggghts", b, {{100.0, 90.0, 5e6, 1}});
   ASSERT_EQ(c.points.size(), 2u);  // W = 18 and 22 are on one engine only
   EXPECT_EQ(c.points[0].point["/silo/base_outlets/0/width"], 10);
   EXPECT_DOUBLE_EQ(c.points[0].metrics[0].ratio, 19.0 / 20.0);
@@ -103,13 +103,13 @@ TEST(EngineComparison, MatchesPointsBySweepValuesAndSumsCosts) {
 }
 
 // A run of n exits at rate q through one outlet of width w, on `engine`.
-void write_run(const std::filesystem::path& dir, const std::string& engine, double w, double q, int n,
+void WriteRun(const std::filesystem::path& dir, const std::string& engine, double w, double q, int n,
                double rate) {
   std::ostringstream ev;
   ev.precision(17);
   ev << "time,body,shape,mass,outlet\n";
   for (int i = 1; i <= n; ++i) ev << (i / q) << "," << i % 500 << ",disc,1.0,0\n";
-  write_file(dir / "events.csv", ev.str());
+  WriteFile(dir / "events.csv", ev.str());
   const nlohmann::json spec = {{"engine", engine},
                                {"silo", {{"width", 60}, {"base_outlets", {{{"center", 0.0}, {"width", w}}}}}},
                                {"bodies", {{"count", 500}}},
@@ -123,9 +123,9 @@ void write_run(const std::filesystem::path& dir, const std::string& engine, doub
     summary["tangential_cap"] = "liggghts";
     summary["reinject_position"] = "periodic";
   }
-  write_file(dir / "summary.json", summary.dump());
-  write_file(dir / "run.json", spec.dump());
-  write_file(dir / "DONE", "");
+  WriteFile(dir / "summary.json", summary.dump());
+  WriteFile(dir / "run.json", spec.dump());
+  WriteFile(dir / "DONE", "");
 }
 
 TEST(EngineComparison, ReportOfATwoEngineCampaign) {
@@ -147,18 +147,18 @@ TEST(EngineComparison, ReportOfATwoEngineCampaign) {
         r.replica = rep;
         r.state = "done";
         r.point = {{"/silo/base_outlets/0/width", w}};
-        r.run_dir = dir.path() / r.run_id;
+        r.run_dir = dir.Path() / r.run_id;
         const double q = 10.0 * w * (engine == "native" ? 1.0 : f) * (rep == 0 ? 0.99 : 1.01);
-        write_run(r.run_dir, engine, w, q, 400, engine == "native" ? 2e7 : 4e6);
-        r.spec = nlohmann::json::parse(read_file(r.run_dir / "run.json"));
+        WriteRun(r.run_dir, engine, w, q, 400, engine == "native" ? 2e7 : 4e6);
+        r.spec = nlohmann::json::parse(ReadFile(r.run_dir / "run.json"));
         runs.push_back(r);
       }
     }
   }
   ReportOptions o;
-  o.out_dir = dir.path() / "report";
+  o.out_dir = dir.Path() / "report";
   o.figures = false;
-  const ReportSummary s = write_report(info, runs, o);
+  const ReportSummary s = WriteReport(info, runs, o);
   ASSERT_FALSE(s.comparison.is_null());
   const nlohmann::json& c = s.comparison;
   EXPECT_EQ(c["engine_a"], "native");
@@ -171,11 +171,11 @@ TEST(EngineComparison, ReportOfATwoEngineCampaign) {
     ASSERT_TRUE(q["agree"].is_boolean()) << "W = " << w;
     EXPECT_EQ(q["agree"].get<bool>(), w == 10.0) << "W = " << w;
     EXPECT_EQ(q["native"]["n"], 2);
-    EXPECT_EQ(p["name"], "W = " + format_number(w)) << "the JSON keeps the sweep values and adds the name";
+    EXPECT_EQ(p["name"], "W = " + FormatNumber(w)) << "the JSON keeps the sweep values and adds the name";
   }
   EXPECT_DOUBLE_EQ(c["costs"][0]["disc_steps_per_s"]["mean"].get<double>(), 2e7);
   EXPECT_DOUBLE_EQ(c["costs"][1]["disc_steps_per_s"]["mean"].get<double>(), 4e6);
-  const std::string md = read_file(s.markdown);
+  const std::string md = ReadFile(s.markdown);
   EXPECT_NE(md.find("Engine comparison: native and liggghts"), std::string::npos);
   // The engine is one more axis: every table keeps the engines apart.
   EXPECT_NE(md.find("| W = 10, engine = liggghts |"), std::string::npos) << "short point names in tables";
@@ -204,15 +204,15 @@ TEST(EngineComparison, OneReplicaIsNotJudged) {
       r.run_id = r.point_id + "r0";
       r.state = "done";
       r.point = {{"/silo/base_outlets/0/width", w}};
-      r.run_dir = dir.path() / r.run_id;
-      write_run(r.run_dir, engine, w, w * (engine == "native" ? 1.0 : 1.5), 300, 1e7);
-      r.spec = nlohmann::json::parse(read_file(r.run_dir / "run.json"));
+      r.run_dir = dir.Path() / r.run_id;
+      WriteRun(r.run_dir, engine, w, w * (engine == "native" ? 1.0 : 1.5), 300, 1e7);
+      r.spec = nlohmann::json::parse(ReadFile(r.run_dir / "run.json"));
       runs.push_back(r);
     }
   ReportOptions o;
-  o.out_dir = dir.path() / "report";
+  o.out_dir = dir.Path() / "report";
   o.figures = false;
-  const ReportSummary s = write_report(info, runs, o);
+  const ReportSummary s = WriteReport(info, runs, o);
   ASSERT_EQ(s.comparison["points"].size(), 2u);
   int metrics = 0;
   for (const auto& p : s.comparison["points"])
@@ -221,8 +221,8 @@ TEST(EngineComparison, OneReplicaIsNotJudged) {
       EXPECT_TRUE(m["z"].is_null()) << name;
       ++metrics;
     }
-  EXPECT_GT(metrics, 2) << read_file(s.markdown);
-  const std::string table = read_file(o.out_dir / "data" / "engine_comparison.csv");
+  EXPECT_GT(metrics, 2) << ReadFile(s.markdown);
+  const std::string table = ReadFile(o.out_dir / "data" / "engine_comparison.csv");
   EXPECT_NE(table.find("n/a"), std::string::npos);
   EXPECT_EQ(table.find(",no"), std::string::npos) << table;
   EXPECT_EQ(table.find(",yes"), std::string::npos) << table;
@@ -237,13 +237,13 @@ TEST(EngineComparison, OneEngineMeansNoComparison) {
   r.point_id = "p";
   r.run_id = "r";
   r.state = "done";
-  r.run_dir = dir.path() / "r";
-  write_run(r.run_dir, "native", 10, 50, 100, 1e7);
+  r.run_dir = dir.Path() / "r";
+  WriteRun(r.run_dir, "native", 10, 50, 100, 1e7);
   ReportOptions o;
-  o.out_dir = dir.path() / "report";
+  o.out_dir = dir.Path() / "report";
   o.figures = false;
-  EXPECT_TRUE(write_report(info, {r}, o).comparison.is_null());
-  EXPECT_EQ(read_file(o.out_dir / "report.md").find("Engine comparison"), std::string::npos);
+  EXPECT_TRUE(WriteReport(info, {r}, o).comparison.is_null());
+  EXPECT_EQ(ReadFile(o.out_dir / "report.md").find("Engine comparison"), std::string::npos);
 }
 
 }  // namespace

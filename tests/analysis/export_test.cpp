@@ -13,13 +13,13 @@ namespace granary::analysis {
 namespace {
 
 using testing::TempDir;
-using testing::write_file;
+using testing::WriteFile;
 
 // n exits at rate q through a base outlet of width w; remove mode with 1000 bodies.
-RunRecord run(const std::filesystem::path& root, double w, int replica, double q, const std::string& state = "done") {
+RunRecord Run(const std::filesystem::path& root, double w, int replica, double q, const std::string& state = "done") {
   RunRecord r;
   r.engine = "native";
-  r.point_id = "W" + format_number(w);
+  r.point_id = "W" + FormatNumber(w);
   r.run_id = r.point_id + "r" + std::to_string(replica);
   r.replica = replica;
   r.state = state;
@@ -33,9 +33,9 @@ RunRecord run(const std::filesystem::path& root, double w, int replica, double q
   ev.precision(17);
   ev << "time,body,shape,mass,outlet\n";
   for (int i = 1; i <= 500; ++i) ev << i / q << "," << i << ",disc,1,0\n";
-  write_file(r.run_dir / "events.csv", ev.str());
-  write_file(r.run_dir / "run.json", r.spec.dump());
-  write_file(r.run_dir / "summary.json",
+  WriteFile(r.run_dir / "events.csv", ev.str());
+  WriteFile(r.run_dir / "run.json", r.spec.dump());
+  WriteFile(r.run_dir / "summary.json",
              nlohmann::json{{"engine", "native"}, {"end_reason", "time_limit"}, {"bodies", 1000}, {"exited", 500},
                             {"remaining", 500}, {"t_end", 500 / q}}
                  .dump());
@@ -47,12 +47,12 @@ TEST(Export, RunsAndPointsAsTidyTables) {
   CampaignInfo info;
   info.name = "export";
   info.axes = {"/silo/base_outlets/0/width", "/bodies/species/0/shape"};
-  const std::vector<RunRecord> runs = {run(dir.path(), 6, 0, 9.0), run(dir.path(), 6, 1, 11.0), run(dir.path(), 8, 0, 20.0),
-                                       run(dir.path(), 8, 1, 0.0, "failed")};
-  const AnalysisSetup setup = setup_analyses(nlohmann::json::object());
-  const auto a = analyse_campaign(info, runs, setup);
+  const std::vector<RunRecord> runs = {Run(dir.Path(), 6, 0, 9.0), Run(dir.Path(), 6, 1, 11.0), Run(dir.Path(), 8, 0, 20.0),
+                                       Run(dir.Path(), 8, 1, 0.0, "failed")};
+  const AnalysisSetup setup = SetupAnalyses(nlohmann::json::object());
+  const auto a = AnalyseCampaign(info, runs, setup);
 
-  const ExportTable t = export_table(*a, ExportLevel::kRun);
+  const ExportTable t = MakeExportTable(*a, ExportLevel::kRun);
   ASSERT_GE(t.columns.size(), 9u);
   EXPECT_EQ(std::vector<std::string>(t.columns.begin(), t.columns.begin() + 9),
             (std::vector<std::string>{"run_id", "point_id", "replica", "engine", "end_reason", "W",
@@ -63,7 +63,7 @@ TEST(Export, RunsAndPointsAsTidyTables) {
   EXPECT_EQ(t.rows[0][6], "disc");  // a string axis stays a string
   EXPECT_NEAR(t.rows[0][7].get<double>(), 9.0, 1e-9);
 
-  const ExportTable p = export_table(*a, ExportLevel::kPoint);
+  const ExportTable p = MakeExportTable(*a, ExportLevel::kPoint);
   EXPECT_EQ(std::vector<std::string>(p.columns.begin(), p.columns.begin() + 8),
             (std::vector<std::string>{"point_id", "engine", "runs", "W", "shape", "q_count",
                                       "q_count_se", "q_count_n"}));
@@ -76,7 +76,7 @@ TEST(Export, RunsAndPointsAsTidyTables) {
   EXPECT_TRUE(p.rows[1][6].is_null());                  // one replica: no se
 
   // CSV: full precision, missing values empty; JSON: keys in column order, null.
-  const std::string csv = to_csv(p);
+  const std::string csv = ToCsv(p);
   std::istringstream lines(csv);
   std::string header, first, second;
   std::getline(lines, header);

@@ -16,36 +16,36 @@
 namespace granary::analysis {
 namespace {
 
-using testing::read_file;
+using testing::ReadFile;
 using testing::TempDir;
-using testing::write_file;
+using testing::WriteFile;
 
 // Exits per unit time over the whole run, scaled by /report/exit_rate/scale.
 class ExitRate : public Analysis {
  public:
   explicit ExitRate(double scale) : scale_(scale) {}
-  std::string key() const override { return "exit_rate"; }
-  int version() const override { return 1; }
-  nlohmann::json run_options() const override { return {{"scale", scale_}}; }
-  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+  std::string Key() const override { return "exit_rate"; }
+  int Version() const override { return 1; }
+  nlohmann::json RunOptions() const override { return {{"scale", scale_}}; }
+  std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     class Acc : public RunAccumulator {
      public:
       explicit Acc(double rate) : rate_(rate) {}
-      nlohmann::json finish() override { return {{"rate", rate_}}; }
+      nlohmann::json Finish() override { return {{"rate", rate_}}; }
 
      private:
       double rate_;
     };
     return std::make_unique<Acc>(scale_ * static_cast<double>(run.data->events.size()) / run.t_end);
   }
-  std::vector<Metric> run_metrics(const nlohmann::json& r) const override {
+  std::vector<Metric> RunMetrics(const nlohmann::json& r) const override {
     return {{"exit_rate", "1/sqrt(d/g)", r.at("rate").get<double>(), kNaN, "exits per unit time", true}};
   }
-  std::optional<Section> section(const SectionInput& in) const override {
+  std::optional<Section> BuildSection(const SectionInput& in) const override {
     Table t{"exit_rate", "Exit rate per point", {"point", "rate"}, {}, {"point", "exit_rate"}};
     for (std::size_t p = 0; p < in.view.points.size(); ++p) {
-      const PointMetric* m = find_metric(in.points[p], "exit_rate");
-      t.rows.push_back({point_name(in.view, in.view.points[p]), Cell::estimate(m ? m->estimate() : MeanSe{})});
+      const PointMetric* m = FindMetric(in.points[p], "exit_rate");
+      t.rows.push_back({PointName(in.view, in.view.points[p]), Cell::Estimate(m ? m->Estimate() : MeanSe{})});
     }
     return Section{"exit-rate", "Exit rate (registered by a test)", {t}};
   }
@@ -54,20 +54,20 @@ class ExitRate : public Analysis {
   double scale_;
 };
 
-std::unique_ptr<Analysis> make_exit_rate(const nlohmann::json& options, const std::string& path) {
+std::unique_ptr<Analysis> MakeExitRate(const nlohmann::json& options, const std::string& path) {
   double scale = 1.0;
   if (!options.is_null()) {
-    option_object(options, path, {"scale"});
-    scale = option_number(options.at("scale"), path + "/scale", 0.0, 1e9);
+    OptionObject(options, path, {"scale"});
+    scale = OptionNumber(options.at("scale"), path + "/scale", 0.0, 1e9);
   }
   return std::make_unique<ExitRate>(scale);
 }
 
 // A run of n exits at rate q on `engine`, ending at n / q.
-RunRecord run(const std::filesystem::path& root, const std::string& engine, double w, int replica, double q, int n) {
+RunRecord Run(const std::filesystem::path& root, const std::string& engine, double w, int replica, double q, int n) {
   RunRecord r;
   r.engine = engine;
-  r.point_id = engine + format_number(w);
+  r.point_id = engine + FormatNumber(w);
   r.run_id = r.point_id + "r" + std::to_string(replica);
   r.replica = replica;
   r.state = "done";
@@ -81,18 +81,18 @@ RunRecord run(const std::filesystem::path& root, const std::string& engine, doub
   ev.precision(17);
   ev << "time,body,shape,mass,outlet\n";
   for (int i = 1; i <= n; ++i) ev << (i / q) << "," << i << ",disc,1.0,0\n";
-  write_file(r.run_dir / "events.csv", ev.str());
-  write_file(r.run_dir / "summary.json",
+  WriteFile(r.run_dir / "events.csv", ev.str());
+  WriteFile(r.run_dir / "summary.json",
              nlohmann::json{{"engine", engine}, {"end_reason", "time_limit"}, {"bodies", 500}, {"exited", n},
                             {"remaining", 500}, {"t_end", n / q}}
                  .dump());
-  write_file(r.run_dir / "run.json", r.spec.dump());
+  WriteFile(r.run_dir / "run.json", r.spec.dump());
   return r;
 }
 
 TEST(ExtraAnalysis, RegisteredInATestAppearsInReportExportAndComparison) {
   TempDir dir;
-  const std::size_t builtin = registered_analyses().size();
+  const std::size_t builtin = RegisteredAnalyses().size();
   CampaignInfo info;
   info.name = "extra";
   info.axes = {"/silo/base_outlets/0/width"};
@@ -100,26 +100,26 @@ TEST(ExtraAnalysis, RegisteredInATestAppearsInReportExportAndComparison) {
   std::vector<RunRecord> runs;
   for (const std::string engine : {"native", "liggghts"})
     for (double w : {6.0, 9.0})
-      for (int rep = 0; rep < 2; ++rep) runs.push_back(run(dir.path(), engine, w, rep, w * (engine == "native" ? 1.0 : 1.5), 200));
+      for (int rep = 0; rep < 2; ++rep) runs.push_back(Run(dir.Path(), engine, w, rep, w * (engine == "native" ? 1.0 : 1.5), 200));
   {
-    const ScopedAnalysis registered({"exit_rate", make_exit_rate});
-    EXPECT_EQ(registered_analyses().size(), builtin + 1);
-    const AnalysisSetup setup = setup_analyses(info.spec);
-    const auto a = analyse_campaign(info, runs, setup);
+    const ScopedAnalysis registered({"exit_rate", MakeExitRate});
+    EXPECT_EQ(RegisteredAnalyses().size(), builtin + 1);
+    const AnalysisSetup setup = SetupAnalyses(info.spec);
+    const auto a = AnalyseCampaign(info, runs, setup);
 
     ReportOptions o;
-    o.out_dir = dir.path() / "report";
+    o.out_dir = dir.Path() / "report";
     o.figures = false;
-    const ReportSummary s = write_report(*a, o);
-    const std::string md = read_file(s.markdown);
+    const ReportSummary s = WriteReport(*a, o);
+    const std::string md = ReadFile(s.markdown);
     EXPECT_NE(md.find("## Exit rate (registered by a test)"), std::string::npos);
-    EXPECT_NE(read_file(o.out_dir / "data" / "per_run.csv").find(",exit_rate,"), std::string::npos);  // a headline metric
+    EXPECT_NE(ReadFile(o.out_dir / "data" / "per_run.csv").find(",exit_rate,"), std::string::npos);  // a headline metric
     // 200 exits in 200/q: rate q, scaled by 2 from the options.
-    const std::string table = read_file(o.out_dir / "data" / "exit_rate.csv");
+    const std::string table = ReadFile(o.out_dir / "data" / "exit_rate.csv");
     EXPECT_EQ(table.substr(0, table.find('\n')), "point,exit_rate,exit_rate_se,exit_rate_n");
     EXPECT_NE(table.find("\"W = 9, engine = native\",18,0,2"), std::string::npos) << table;
 
-    const ExportTable runs_table = export_table(*a, ExportLevel::kRun), points_table = export_table(*a, ExportLevel::kPoint);
+    const ExportTable runs_table = MakeExportTable(*a, ExportLevel::kRun), points_table = MakeExportTable(*a, ExportLevel::kPoint);
     for (const char* column : {"exit_rate", "exit_rate_se"})
       EXPECT_NE(std::find(runs_table.columns.begin(), runs_table.columns.end(), column), runs_table.columns.end()) << column;
     EXPECT_NE(std::find(points_table.columns.begin(), points_table.columns.end(), "exit_rate_n"), points_table.columns.end());
@@ -135,14 +135,14 @@ TEST(ExtraAnalysis, RegisteredInATestAppearsInReportExportAndComparison) {
     }
     // Its options are checked like every other's.
     try {
-      setup_analyses({{"report", {{"exit_rate", {{"scale", -1}}}}}});
+      SetupAnalyses({{"report", {{"exit_rate", {{"scale", -1}}}}}});
       FAIL() << "no error";
     } catch (const OptionError& e) {
       EXPECT_STREQ(e.what(), "/report/exit_rate/scale: must be in [0, 1e+09] (got -1)");
     }
   }
-  EXPECT_EQ(registered_analyses().size(), builtin);
-  EXPECT_THROW(setup_analyses(info.spec), OptionError);  // /report/exit_rate is unknown again
+  EXPECT_EQ(RegisteredAnalyses().size(), builtin);
+  EXPECT_THROW(SetupAnalyses(info.spec), OptionError);  // /report/exit_rate is unknown again
 }
 
 }  // namespace

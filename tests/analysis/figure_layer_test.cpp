@@ -24,17 +24,17 @@ namespace granary::analysis {
 namespace {
 
 namespace fs = std::filesystem;
-using testing::read_file;
+using testing::ReadFile;
 using testing::TempDir;
-using testing::write_file;
+using testing::WriteFile;
 
 constexpr double kA = 0.3, kB = 1.5;
-double q_of(double w, double mu) { return kA * std::pow(w, kB + mu / 2); }
+double QOf(double w, double mu) { return kA * std::pow(w, kB + mu / 2); }
 // Each point's mean off the law by up to 1 % (its replicas at -+1 % of that): data a fit does
 // not meet exactly, so that its intervals mean something.
-double off(double w, double mu) { return 1 + 0.01 * std::sin(3 * w + 7 * mu); }
+double false(double w, double mu) { return 1 + 0.01 * std::sin(3 * w + 7 * mu); }
 
-nlohmann::json spec_for(double w, double mu) {
+nlohmann::json SpecFor(double w, double mu) {
   return {{"engine", "native"},
           {"silo", {{"width", 100}, {"base_outlets", {{{"center", 0.0}, {"width", w}}}}}},
           {"bodies", {{"count", 2000}, {"density", 1.0}}},
@@ -43,19 +43,19 @@ nlohmann::json spec_for(double w, double mu) {
 }
 
 // A run of n exits at the constant rate q.
-void write_run(const fs::path& dir, const nlohmann::json& spec, double q, int n, const std::string& id) {
+void WriteRun(const fs::path& dir, const nlohmann::json& spec, double q, int n, const std::string& id) {
   std::ostringstream ev;
   ev.precision(17);
   ev << "time,body,shape,mass,outlet\n";
   for (int i = 1; i <= n; ++i) ev << (i / q) << "," << i << ",disc,1.0,0\n";
-  write_file(dir / "events.csv", ev.str());
+  WriteFile(dir / "events.csv", ev.str());
   const nlohmann::json summary = {{"engine", "native"}, {"engine_version", "0.1.0"}, {"granary_commit", "abc"},
                                   {"run_id", id},       {"spec", spec},              {"end_reason", "time_limit"},
                                   {"bodies", 2000},     {"exited", n},               {"remaining", 2000 - n},
                                   {"exits_per_outlet", {n}}, {"t_end", n / q + 1.0}};
-  write_file(dir / "summary.json", summary.dump());
-  write_file(dir / "run.json", spec.dump());
-  write_file(dir / "DONE", "");
+  WriteFile(dir / "summary.json", summary.dump());
+  WriteFile(dir / "run.json", spec.dump());
+  WriteFile(dir / "DONE", "");
 }
 
 struct Campaign {
@@ -64,27 +64,27 @@ struct Campaign {
 };
 
 // W in {10, 14, 18, 22} x mu in {0, 0.5, 1}, two replicas each; and W = 26, mu = 0 with one.
-Campaign make_campaign(const fs::path& root, const nlohmann::json& extra_spec) {
+Campaign MakeCampaign(const fs::path& root, const nlohmann::json& extra_spec) {
   Campaign c;
   c.info.name = "two-axes";
   c.info.axes = {"/silo/base_outlets/0/width", "/contact/mu"};
   c.info.spec = {{"name", "two-axes"},
-                 {"base", spec_for(10, 0)},
+                 {"base", SpecFor(10, 0)},
                  {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {10, 14, 18, 22}}, {"/contact/mu", {0, 0.5, 1}}}}}}};
   c.info.spec.update(extra_spec);
   auto add = [&](double w, double mu, int replicas) {
     for (int rep = 0; rep < replicas; ++rep) {
       RunRecord r;
-      r.point_id = "W" + format_number(w) + "mu" + format_number(mu);
+      r.point_id = "W" + FormatNumber(w) + "mu" + FormatNumber(mu);
       r.run_id = r.point_id + "r" + std::to_string(rep);
       r.replica = rep;
       r.engine = "native";
       r.state = "done";
       r.point = {{"/silo/base_outlets/0/width", w}, {"/contact/mu", mu}};
-      r.spec = spec_for(w, mu);
+      r.spec = SpecFor(w, mu);
       r.run_dir = root / r.run_id;
-      const double q = q_of(w, mu) * off(w, mu) * (replicas == 1 ? 1.0 : rep == 0 ? 0.99 : 1.01);
-      write_run(r.run_dir, r.spec, q, 400, r.run_id);
+      const double q = QOf(w, mu) * false(w, mu) * (replicas == 1 ? 1.0 : rep == 0 ? 0.99 : 1.01);
+      WriteRun(r.run_dir, r.spec, q, 400, r.run_id);
       c.runs.push_back(r);
     }
   };
@@ -94,16 +94,16 @@ Campaign make_campaign(const fs::path& root, const nlohmann::json& extra_spec) {
   return c;
 }
 
-std::unique_ptr<CampaignAnalysis> analyse(const Campaign& c, const AnalysisSetup& setup) {
+std::unique_ptr<CampaignAnalysis> Analyse(const Campaign& c, const AnalysisSetup& setup) {
   CampaignAnalysisOptions o;
   o.read_cache = o.write_cache = false;
-  return analyse_campaign(c.info, c.runs, setup, o);
+  return AnalyseCampaign(c.info, c.runs, setup, o);
 }
 
 // The rows of a numeric CSV after its header ("nan" and empty cells NaN).
-std::vector<std::vector<double>> csv_rows(const fs::path& file) {
+std::vector<std::vector<double>> CsvRows(const fs::path& file) {
   std::vector<std::vector<double>> rows;
-  std::istringstream csv(read_file(file));
+  std::istringstream csv(ReadFile(file));
   std::string line;
   std::getline(csv, line);
   while (std::getline(csv, line)) {
@@ -118,14 +118,14 @@ std::vector<std::vector<double>> csv_rows(const fs::path& file) {
 
 // Every point a .gp script draws (points, error bars) that lies outside its xrange/yrange:
 // "file.gp: data/x.csv row 3: (5.75, 2) outside [5.8:10.2] x [0:3]".
-std::vector<std::string> points_outside_ranges(const fs::path& report) {
+std::vector<std::string> PointsOutsideRanges(const fs::path& report) {
   std::vector<std::string> out;
   const std::regex range(R"(set ([xy])range \[([^:\]]+):([^\]]+)\])");
   const std::regex item(R"('([^']+)' skip 1 using \(\$(\d+)([^)]*)\):\(\$(\d+)\)[^\n]*? with (\w+))");
   if (!fs::exists(report / "figures")) return out;
   for (const auto& entry : fs::directory_iterator(report / "figures")) {
     if (entry.path().extension() != ".gp") continue;
-    const std::string gp = read_file(entry.path());
+    const std::string gp = ReadFile(entry.path());
     if (gp.find("set logscale") != std::string::npos) continue;
     double lo[2] = {-INFINITY, -INFINITY}, hi[2] = {INFINITY, INFINITY};
     for (std::sregex_iterator it(gp.begin(), gp.end(), range), end; it != end; ++it) {
@@ -136,8 +136,8 @@ std::vector<std::string> points_outside_ranges(const fs::path& report) {
     auto check = [&](const std::string& file, int row, double x, double y) {
       if (x < lo[0] || x > hi[0] || y < lo[1] || y > hi[1])
         out.push_back(entry.path().filename().string() + ": " + file + " row " + std::to_string(row) + ": (" +
-                      format_number(x) + ", " + format_number(y) + ") outside [" + format_number(lo[0]) + ":" +
-                      format_number(hi[0]) + "] x [" + format_number(lo[1]) + ":" + format_number(hi[1]) + "]");
+                      FormatNumber(x) + ", " + FormatNumber(y) + ") outside [" + FormatNumber(lo[0]) + ":" +
+                      FormatNumber(hi[0]) + "] x [" + FormatNumber(lo[1]) + ":" + FormatNumber(hi[1]) + "]");
     };
     if (gp.find("multiplot") != std::string::npos) {
       // Map panels (one range for all of them): every grid node with a value, every wall point.
@@ -145,7 +145,7 @@ std::vector<std::string> points_outside_ranges(const fs::path& report) {
       for (std::sregex_iterator it(gp.begin(), gp.end(), layer), end; it != end; ++it) {
         const std::string file = (*it)[1];
         int row = 0;
-        for (const std::vector<double>& cells : csv_rows(report / file)) {
+        for (const std::vector<double>& cells : CsvRows(report / file)) {
           ++row;
           if (cells.size() < 2 || ((*it)[3] == "image" && (cells.size() < 3 || !std::isfinite(cells[2])))) continue;
           check(file, row, cells[0], cells[1]);
@@ -160,7 +160,7 @@ std::vector<std::string> points_outside_ranges(const fs::path& report) {
       const int xc = std::stoi((*it)[2]), yc = std::stoi((*it)[4]);
       const std::string shift = (*it)[3];  // "+-0.25" or "*1.02" in scripts that move points
       int row = 0;
-      for (const std::vector<double>& cells : csv_rows(report / file)) {
+      for (const std::vector<double>& cells : CsvRows(report / file)) {
         ++row;
         if (static_cast<int>(cells.size()) < std::max(xc, yc)) continue;
         double x = cells[xc - 1];
@@ -188,10 +188,10 @@ TEST(FitModelMulti, TwoVariablesRecoverKnownParametersWithinTheirIntervals) {
       sigma.push_back(0.02 * truth);
       y.push_back(truth * (1 + 0.02 * noise(rng)));
     }
-  const FitResult r = fit_model_multi("ch5", "a * W^(b + X/2) / (1.43 + 17 * X^2)", {"W", "X"}, points, y, sigma);
-  ASSERT_EQ(r.quality, FitQuality::kGood) << r.verdict();
-  const FitParameter* pa = r.parameter("a");
-  const FitParameter* pb = r.parameter("b");
+  const FitResult r = FitModelMulti("ch5", "a * W^(b + X/2) / (1.43 + 17 * X^2)", {"W", "X"}, points, y, sigma);
+  ASSERT_EQ(r.quality, FitQuality::kGood) << r.Verdict();
+  const FitParameter* pa = r.Parameter("a");
+  const FitParameter* pb = r.Parameter("b");
   ASSERT_TRUE(pa && pb);
   EXPECT_LE(pa->ci_low, a);
   EXPECT_GE(pa->ci_high, a);
@@ -202,7 +202,7 @@ TEST(FitModelMulti, TwoVariablesRecoverKnownParametersWithinTheirIntervals) {
   EXPECT_LT(pb->ci_high - pb->ci_low, 0.05 * b);
   EXPECT_EQ(r.variables, (std::vector<std::string>{"W", "X"}));
   const double at[2] = {10.0, 0.5};
-  EXPECT_NEAR(r.evaluate_at(at), pa->value * std::pow(10.0, pb->value + 0.25) / (1.43 + 17 * 0.25), 1e-12);
+  EXPECT_NEAR(r.EvaluateAt(at), pa->value * std::pow(10.0, pb->value + 0.25) / (1.43 + 17 * 0.25), 1e-12);
 }
 
 TEST(FigureLayer, FitAcrossEveryPointOfTheFigureAndCollapse) {
@@ -216,17 +216,17 @@ TEST(FigureLayer, FitAcrossEveryPointOfTheFigureAndCollapse) {
                                        {"only", {{"mu", {0, 0.5, 1}}}},
                                        {"fit", {{"model", "a * W^(b + mu/2)"}, {"initial", {{"a", 0.5}, {"b", 1}}}, {"collapse", true}}},
                                        {"reference", "thesis fig. 4.5b"}}}}}}};
-  const Campaign c = make_campaign(dir.path(), figures);
-  const auto a = analyse(c, setup_analyses(c.info.spec));
-  const std::vector<FigureSpec> specs = read_figure_specs(c.info.spec);
+  const Campaign c = MakeCampaign(dir.Path(), figures);
+  const auto a = Analyse(c, SetupAnalyses(c.info.spec));
+  const std::vector<FigureSpec> specs = ReadFigureSpecs(c.info.spec);
   ASSERT_EQ(specs.size(), 1u);
-  const FigureOutcome f = make_figure(*a, specs[0]);
+  const FigureOutcome f = MakeFigure(*a, specs[0]);
   ASSERT_EQ(f.data.size(), 13u);  // 12 points, and W = 26 (one replica, no se): still a point
   ASSERT_TRUE(f.fit.has_value());
   EXPECT_EQ(f.fit->variables, (std::vector<std::string>{"W", "mu"}));
-  ASSERT_EQ(f.fit->quality, FitQuality::kGood) << f.fit->verdict();
+  ASSERT_EQ(f.fit->quality, FitQuality::kGood) << f.fit->Verdict();
   for (const auto& [name, truth] : {std::pair{"a", kA}, std::pair{"b", kB}}) {
-    const FitParameter* p = f.fit->parameter(name);
+    const FitParameter* p = f.fit->Parameter(name);
     ASSERT_TRUE(p);
     EXPECT_LE(p->ci_low, truth) << name;
     EXPECT_GE(p->ci_high, truth) << name;
@@ -257,20 +257,20 @@ TEST(FigureLayer, FitAcrossEveryPointOfTheFigureAndCollapse) {
 TEST(FigureLayer, PointsWithoutTheMetricAreLeftOutByNameAndTheRestDrawn) {
   TempDir dir;
   const nlohmann::json figures = {{"report", {{"figures", {{{"name", "s"}, {"y", "avalanche_size"}, {"x", "W"}}}}}}};
-  const Campaign c = make_campaign(dir.path(), figures);
+  const Campaign c = MakeCampaign(dir.Path(), figures);
   std::ostringstream ev;
   ev << "time,body,shape,mass,outlet\n";
   for (int i = 1; i <= 60; ++i) ev << (i <= 30 ? 0.1 * i : 20.0 + 0.1 * i) << "," << i << ",disc,1.0,0\n";
   const RunRecord& w26 = c.runs.back();  // W = 26: 30 exits, 17 time units of none, 30 more
-  write_file(w26.run_dir / "events.csv", ev.str());
-  nlohmann::json summary = nlohmann::json::parse(read_file(w26.run_dir / "summary.json"));
+  WriteFile(w26.run_dir / "events.csv", ev.str());
+  nlohmann::json summary = nlohmann::json::parse(ReadFile(w26.run_dir / "summary.json"));
   summary["exited"] = 60;
   summary["remaining"] = 1940;
   summary["exits_per_outlet"] = {60};
   summary["t_end"] = 30.0;
-  write_file(w26.run_dir / "summary.json", summary.dump());
-  const auto a = analyse(c, setup_analyses(c.info.spec));
-  const FigureOutcome f = make_figure(*a, read_figure_specs(c.info.spec)[0]);
+  WriteFile(w26.run_dir / "summary.json", summary.dump());
+  const auto a = Analyse(c, SetupAnalyses(c.info.spec));
+  const FigureOutcome f = MakeFigure(*a, ReadFigureSpecs(c.info.spec)[0]);
   std::string notes;
   std::vector<double> xs;
   for (const Block& b : f.blocks) {
@@ -288,9 +288,9 @@ TEST(FigureLayer, PointsWithoutTheMetricAreLeftOutByNameAndTheRestDrawn) {
 TEST(FigureLayer, PooledFigureWeighsThePointsByTheirN) {
   TempDir dir;
   const nlohmann::json figures = {{"report", {{"figures", {{{"name", "pooled"}, {"y", "q_count"}, {"x", "W"}, {"pool", {"mu"}}}}}}}};
-  const Campaign c = make_campaign(dir.path(), figures);
-  const auto a = analyse(c, setup_analyses(c.info.spec));
-  const FigureOutcome f = make_figure(*a, read_figure_specs(c.info.spec)[0]);
+  const Campaign c = MakeCampaign(dir.Path(), figures);
+  const auto a = Analyse(c, SetupAnalyses(c.info.spec));
+  const FigureOutcome f = MakeFigure(*a, ReadFigureSpecs(c.info.spec)[0]);
   ASSERT_EQ(f.data.size(), 5u);  // one per W: mu pooled
   for (const FigureDatum& d : f.data) {
     EXPECT_EQ(d.group, "");
@@ -301,7 +301,7 @@ TEST(FigureLayer, PooledFigureWeighsThePointsByTheirN) {
     ASSERT_EQ(d.points.size(), 3u);
     EXPECT_EQ(d.n, 6);
     // Two replicas at every mu: the pooled mean is the mean of the three Q.
-    const double expected = (q_of(d.x, 0) * off(d.x, 0) + q_of(d.x, 0.5) * off(d.x, 0.5) + q_of(d.x, 1) * off(d.x, 1)) / 3;
+    const double expected = (QOf(d.x, 0) * false(d.x, 0) + QOf(d.x, 0.5) * false(d.x, 0.5) + QOf(d.x, 1) * false(d.x, 1)) / 3;
     EXPECT_NEAR(d.y, expected, 1e-6 * expected) << d.x;
     EXPECT_FALSE(d.axes.count("mu"));
   }
@@ -317,19 +317,19 @@ TEST(FigureLayer, DerivedAxesInFiguresExportAndOnly) {
                                      {"x", "W2"},
                                      {"group", "mu"},
                                      {"only", {{"Wmu", {20, 28.5}}}}}}}}}};
-  const Campaign c = make_campaign(dir.path(), extra);
-  const auto a = analyse(c, setup_analyses(c.info.spec));
-  const FigureOutcome f = make_figure(*a, read_figure_specs(c.info.spec)[0]);
+  const Campaign c = MakeCampaign(dir.Path(), extra);
+  const auto a = Analyse(c, SetupAnalyses(c.info.spec));
+  const FigureOutcome f = MakeFigure(*a, ReadFigureSpecs(c.info.spec)[0]);
   // Wmu = 20: W = 10, mu = 0; Wmu = 28.5: W = 14, mu = 0.5.
   ASSERT_EQ(f.data.size(), 2u);
   for (const FigureDatum& d : f.data) {
     const double w = d.x / 2, mu = d.axes.at("mu");
     EXPECT_TRUE((w == 10 && mu == 0) || (w == 14 && mu == 0.5)) << w << " " << mu;
-    EXPECT_NEAR(d.y, q_of(w, mu) * off(w, mu) / std::pow(w, 1.5), 1e-6);
+    EXPECT_NEAR(d.y, QOf(w, mu) * false(w, mu) / std::pow(w, 1.5), 1e-6);
     EXPECT_GT(d.se, 0.0);  // propagated from q_count's se
   }
   // The export: the axes by their short names, then the derived axes.
-  const ExportTable t = export_table(*a, ExportLevel::kPoint);
+  const ExportTable t = MakeExportTable(*a, ExportLevel::kPoint);
   ASSERT_GE(t.columns.size(), 7u);
   EXPECT_EQ(std::vector<std::string>(t.columns.begin() + 3, t.columns.begin() + 7),
             (std::vector<std::string>{"W", "mu", "W2", "Wmu"}));
@@ -342,7 +342,7 @@ TEST(FigureLayer, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
     nlohmann::json spec = base;
     spec.update(extra);
     try {
-      check_report_spec(spec);
+      CheckReportSpec(spec);
     } catch (const std::exception& e) {
       return e.what();
     }
@@ -371,35 +371,35 @@ TEST(FigureLayer, PicturesOfTheChosenPoints) {
   const nlohmann::json extra = {
       {"report", {{"figures", {{{"name", "arches"}, {"kind", "pictures"}, {"only", {{"W", {10, 22}}, {"mu", 0.5}}},
                                 {"reference", "thesis fig. 3.4"}}}}}}};
-  const Campaign c = make_campaign(dir.path() / "runs", extra);
+  const Campaign c = MakeCampaign(dir.Path() / "runs", extra);
   ReportOptions o;
-  o.out_dir = dir.path() / "report";
+  o.out_dir = dir.Path() / "report";
   o.figures = false;
   o.analysis.read_cache = o.analysis.write_cache = false;
   std::vector<std::string> drawn;
   o.draw_run = [&](const fs::path& run_dir, ReportOptions::Picture kind, const fs::path& png) {
     drawn.push_back(run_dir.filename().string() + (kind == ReportOptions::Picture::kBed ? ":bed" : ":end") + ":" +
                     png.filename().string());
-    write_file(png, "\x89PNG fake");
+    WriteFile(png, "\x89PNG fake");
     return std::string();
   };
-  const ReportSummary s = write_report(c.info, c.runs, o);
+  const ReportSummary s = WriteReport(c.info, c.runs, o);
   // The figure's two points (their first replica's end), then the gallery's bed and end of all 13.
   ASSERT_GE(drawn.size(), 2u);
   EXPECT_EQ(drawn[0], "W10mu0.5r0:end:figure-arches-6-end.png");
   EXPECT_EQ(drawn[1], "W22mu0.5r0:end:figure-arches-9-end.png");
   EXPECT_EQ(drawn.size(), 2u + 2 * 13);
-  const std::string md = read_file(s.markdown);
+  const std::string md = ReadFile(s.markdown);
   EXPECT_LT(md.find("figure-arches-6-end.png"), md.find("## Gallery"));
   EXPECT_NE(md.find("Reference: thesis fig. 3.4"), std::string::npos);
   nlohmann::json bad = c.info.spec;
   bad["report"]["figures"][0]["y"] = "q_count";
-  EXPECT_THROW(read_figure_specs(bad), OptionError);
+  EXPECT_THROW(ReadFigureSpecs(bad), OptionError);
 }
 
 TEST(Expectations, AgreeDisagreeAndTooFewRuns) {
   TempDir dir;
-  const double q14 = q_of(14, 0), q26 = q_of(26, 0);
+  const double q14 = QOf(14, 0), q26 = QOf(26, 0);
   const nlohmann::json extra = {
       {"report", {{"figures", {{{"name", "law"}, {"y", "q_count"}, {"x", "W"}, {"fit", {{"model", "a * W^(b + mu/2)"}}}}}}}},
       {"expect",
@@ -407,56 +407,56 @@ TEST(Expectations, AgreeDisagreeAndTooFewRuns) {
         {{"metric", "q_count"}, {"at", {{"W", 14}, {"mu", 0}}}, {"value", q14 * 1.5}, {"tolerance", 0.03 * q14}, {"source", "s2"}},
         {{"metric", "q_count"}, {"at", {{"W", 26}, {"mu", 0}}}, {"value", q26}, {"source", "s3"}},
         {{"fit", "law"}, {"parameter", "b"}, {"value", 1.5}, {"tolerance", 0.01}, {"source", "s4"}}}}};
-  const Campaign c = make_campaign(dir.path(), extra);
-  const auto a = analyse(c, setup_analyses(c.info.spec));
-  const std::vector<FigureSpec> specs = read_figure_specs(c.info.spec);
+  const Campaign c = MakeCampaign(dir.Path(), extra);
+  const auto a = Analyse(c, SetupAnalyses(c.info.spec));
+  const std::vector<FigureSpec> specs = ReadFigureSpecs(c.info.spec);
   std::vector<FigureOutcome> figures;
-  for (const auto& s : specs) figures.push_back(make_figure(*a, s));
-  const std::vector<Expectation> expect = read_expectations(c.info.spec, specs);
-  const std::vector<ExpectationResult> r = judge_expectations(*a, expect, figures);
+  for (const auto& s : specs) figures.push_back(MakeFigure(*a, s));
+  const std::vector<Expectation> expect = ReadExpectations(c.info.spec, specs);
+  const std::vector<ExpectationResult> r = JudgeExpectations(*a, expect, figures);
   ASSERT_EQ(r.size(), 4u);
   EXPECT_EQ(r[0].verdict, Verdict::kAgrees) << r[0].why;
-  EXPECT_NEAR(r[0].measured, q14 * off(14, 0), 1e-6 * q14);
+  EXPECT_NEAR(r[0].measured, q14 * false(14, 0), 1e-6 * q14);
   EXPECT_EQ(r[0].runs, 2);
   EXPECT_EQ(r[1].verdict, Verdict::kDisagrees) << r[1].why;
   EXPECT_EQ(r[2].verdict, Verdict::kNotEnough) << r[2].why;
   EXPECT_EQ(r[2].why, "1 finished run, needs 2");
   EXPECT_EQ(r[3].verdict, Verdict::kAgrees) << r[3].why;
-  EXPECT_EQ(to_string(count(r)), "2 agree, 1 disagrees, 1 not yet");
-  const ExportTable t = expectations_table(r);
+  EXPECT_EQ(ToString(Count(r)), "2 agree, 1 disagrees, 1 not yet");
+  const ExportTable t = ExpectationsTable(r);
   EXPECT_EQ(t.rows.size(), 4u);
   EXPECT_EQ(t.rows[1][8], "disagrees");
-  EXPECT_NE(to_csv(t).find("q_count at W = 14, mu = 0"), std::string::npos) << to_csv(t);
+  EXPECT_NE(ToCsv(t).find("q_count at W = 14, mu = 0"), std::string::npos) << ToCsv(t);
 }
 
 TEST(Expectations, QuickAndMediumSizesAreMeasuredButNotComparable) {
   TempDir dir;
-  const double q14 = q_of(14, 0);
+  const double q14 = QOf(14, 0);
   for (const std::string size : {"quick", "medium", "full"}) {
     const nlohmann::json extra = {
         {"size", size},
         {"expect",
          {{{"metric", "q_count"}, {"at", {{"W", 14}, {"mu", 0}}}, {"value", q14}, {"tolerance", 0.03 * q14}, {"source", "s1"}},
           {{"metric", "q_count"}, {"at", {{"W", 14}, {"mu", 0}}}, {"value", q14 * 1.5}, {"tolerance", 0.03 * q14}, {"source", "s2"}}}}};
-    const Campaign c = make_campaign(dir.path() / size, extra);
-    const auto a = analyse(c, setup_analyses(c.info.spec));
-    const std::vector<Expectation> expect = read_expectations(c.info.spec, {});
-    const std::vector<ExpectationResult> r = judge_expectations(*a, expect, {});
+    const Campaign c = MakeCampaign(dir.Path() / size, extra);
+    const auto a = Analyse(c, SetupAnalyses(c.info.spec));
+    const std::vector<Expectation> expect = ReadExpectations(c.info.spec, {});
+    const std::vector<ExpectationResult> r = JudgeExpectations(*a, expect, {});
     ASSERT_EQ(r.size(), 2u);
-    EXPECT_NEAR(r[0].measured, q14 * off(14, 0), 1e-6 * q14) << size;  // measured at every size
+    EXPECT_NEAR(r[0].measured, q14 * false(14, 0), 1e-6 * q14) << size;  // measured at every size
     if (size == "full") {
       EXPECT_EQ(r[0].verdict, Verdict::kAgrees) << r[0].why;
       EXPECT_EQ(r[1].verdict, Verdict::kDisagrees) << r[1].why;
-      EXPECT_EQ(to_string(count(r)), "1 agree, 1 disagrees, 0 not yet");
+      EXPECT_EQ(ToString(Count(r)), "1 agree, 1 disagrees, 0 not yet");
       continue;
     }
     for (const ExpectationResult& x : r) {
       EXPECT_EQ(x.verdict, Verdict::kNotComparable) << size;
       EXPECT_EQ(x.why.rfind("a " + size + " campaign (/size): judged at full size only; |", 0), 0u) << x.why;
     }
-    EXPECT_EQ(to_string(count(r)), "0 agree, 0 disagree, 0 not yet, 2 not comparable at this size");
-    EXPECT_EQ(expectations_table(r).rows[1][8], "not comparable at this size");
-    const std::optional<Section> key = key_results_section(r);
+    EXPECT_EQ(ToString(Count(r)), "0 agree, 0 disagree, 0 not yet, 2 not comparable at this size");
+    EXPECT_EQ(ExpectationsTable(r).rows[1][8], "not comparable at this size");
+    const std::optional<Section> key = KeyResultsSection(r);
     ASSERT_TRUE(key.has_value());
     const Table& t = std::get<Table>(key->blocks[1]);
     EXPECT_EQ(t.rows[0][5].text, "not comparable at this size");
@@ -467,19 +467,19 @@ TEST(ReportFigures, EveryDataPointLiesInsideItsFigureRanges) {
   TempDir dir;
   const nlohmann::json extra = {
       {"report", {{"figures", {{{"name", "law"}, {"y", "q_count"}, {"x", "W"}, {"fit", {{"model", "a * W^(b + mu/2)"}, {"collapse", true}}}}}}}},
-      {"expect", {{{"metric", "q_count"}, {"at", {{"W", 14}, {"mu", 0}}}, {"value", q_of(14, 0)}, {"source", "s"}}}}};
-  const Campaign c = make_campaign(dir.path() / "runs", extra);
+      {"expect", {{{"metric", "q_count"}, {"at", {{"W", 14}, {"mu", 0}}}, {"value", QOf(14, 0)}, {"source", "s"}}}}};
+  const Campaign c = MakeCampaign(dir.Path() / "runs", extra);
   ReportOptions o;
-  o.out_dir = dir.path() / "report";
+  o.out_dir = dir.Path() / "report";
   o.analysis.read_cache = o.analysis.write_cache = false;
-  const ReportSummary s = write_report(c.info, c.runs, o);
+  const ReportSummary s = WriteReport(c.info, c.runs, o);
   int scripts = 0;
   for (const auto& e : fs::directory_iterator(o.out_dir / "figures")) scripts += e.path().extension() == ".gp";
   EXPECT_GE(scripts, 5);
-  const std::vector<std::string> outside = points_outside_ranges(o.out_dir);
+  const std::vector<std::string> outside = PointsOutsideRanges(o.out_dir);
   EXPECT_TRUE(outside.empty()) << outside.size() << " points outside, e.g. " << outside.front();
   // Key results first, then the figures; the system after them; the gallery last.
-  const std::string md = read_file(s.markdown);
+  const std::string md = ReadFile(s.markdown);
   const auto key = md.find("## Key results"), figures = md.find("## Figures"), system = md.find("## The system"),
              gallery = md.find("## Gallery");
   ASSERT_NE(key, std::string::npos);
@@ -490,7 +490,7 @@ TEST(ReportFigures, EveryDataPointLiesInsideItsFigureRanges) {
   // Data drawn at their true x: no script shifts a coordinate.
   for (const auto& e : fs::directory_iterator(o.out_dir / "figures")) {
     if (e.path().extension() != ".gp") continue;
-    EXPECT_EQ(read_file(e.path()).find("using ($1+"), std::string::npos) << e.path();
+    EXPECT_EQ(ReadFile(e.path()).find("using ($1+"), std::string::npos) << e.path();
   }
 }
 
@@ -499,16 +499,16 @@ TEST(ReportFigures, EveryDataPointLiesInsideItsFigureRanges) {
 TEST(ReportFigures, EveryDataPointOfTheStoredEngineCampaignsLiesInsideItsRanges) {
   for (const char* name : {"remove", "two-outlets", "lateral"}) {
     const fs::path dir = fs::path(GRANARY_SOURCE_DIR) / "tests" / "data" / "regression" / name;
-    const testing::StoredCampaign stored = testing::load(dir);
+    const testing::StoredCampaign stored = testing::Load(dir);
     TempDir out;
     ReportOptions o;
-    o.out_dir = out.path();
+    o.out_dir = out.Path();
     o.analysis.write_cache = false;  // the stored runs stay as they are
-    write_report(stored.info, stored.runs, o);
+    WriteReport(stored.info, stored.runs, o);
     int scripts = 0;
-    for (const auto& e : fs::directory_iterator(out.path() / "figures")) scripts += e.path().extension() == ".gp";
+    for (const auto& e : fs::directory_iterator(out.Path() / "figures")) scripts += e.path().extension() == ".gp";
     EXPECT_GE(scripts, 3) << name;
-    const std::vector<std::string> outside = points_outside_ranges(out.path());
+    const std::vector<std::string> outside = PointsOutsideRanges(out.Path());
     EXPECT_TRUE(outside.empty()) << name << ": " << outside.size() << " points outside, e.g. " << outside.front();
   }
 }
@@ -522,13 +522,13 @@ TEST(ReportFigures, EveryDataPointOfTheStoredEngineCampaignsLiesInsideItsRanges)
 // runs merged (<W> their mean outlet width), with the line y = x.
 class KnownFigures : public Analysis {
  public:
-  std::string key() const override { return "known_figures"; }
-  int version() const override { return 1; }
-  std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
+  std::string Key() const override { return "known_figures"; }
+  int Version() const override { return 1; }
+  std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     class Acc : public RunAccumulator {
      public:
       Acc(double w, std::string id) : w_(w), id_(std::move(id)) {}
-      nlohmann::json finish() override { return {{"w", w_}, {"replica", id_.back() == '0' ? 0 : 1}}; }
+      nlohmann::json Finish() override { return {{"w", w_}, {"replica", id_.back() == '0' ? 0 : 1}}; }
 
      private:
       double w_;
@@ -536,17 +536,17 @@ class KnownFigures : public Analysis {
     };
     return std::make_unique<Acc>(run.outlets.at(0).width, run.run_id);
   }
-  std::vector<Metric> run_metrics(const nlohmann::json&) const override { return {}; }
-  std::vector<DistributionInfo> distribution_names() const override { return {{"known", "known quantity s", "bodies"}}; }
-  Samples distribution(const std::string& name, const nlohmann::json& r) const override {
+  std::vector<Metric> RunMetrics(const nlohmann::json&) const override { return {}; }
+  std::vector<DistributionInfo> DistributionNames() const override { return {{"known", "known quantity s", "bodies"}}; }
+  Samples Distribution(const std::string& name, const nlohmann::json& r) const override {
     EXPECT_EQ(name, "known");
     const double shift = (r.at("w").get<double>() - 10) / 4;
     Samples s{{0.5 + shift, 1.5 + shift, 2.5 + shift}, {1, 2, 3}};
     if (r.at("replica") == 1) s.weights = {3, 2, 1};
     return s;
   }
-  std::vector<CurveInfo> curve_names() const override { return {{"known_curve", "known curve", "k", "y (d)", true}}; }
-  std::vector<CurvePoint> curve(const std::string& name, const std::vector<const nlohmann::json*>& results) const override {
+  std::vector<CurveInfo> CurveNames() const override { return {{"known_curve", "known curve", "k", "y (d)", true}}; }
+  std::vector<CurvePoint> Curve(const std::string& name, const std::vector<const nlohmann::json*>& results) const override {
     EXPECT_EQ(name, "known_curve");
     if (results.empty()) return {};
     double w = 0;
@@ -556,8 +556,8 @@ class KnownFigures : public Analysis {
     for (int k = 1; k <= 3; ++k) out.push_back({static_cast<double>(k), k * w, 0.1 * k, static_cast<double>(results.size())});
     return out;
   }
-  std::vector<FieldInfo> field_names() const override { return {{"ramp", "ramp field", "rho g d", false}}; }
-  std::optional<FieldMap> field(const std::string& name, const std::vector<const nlohmann::json*>& results,
+  std::vector<FieldInfo> FieldNames() const override { return {{"ramp", "ramp field", "rho g d", false}}; }
+  std::optional<FieldMap> Field(const std::string& name, const std::vector<const nlohmann::json*>& results,
                                 const nlohmann::json&) const override {
     EXPECT_EQ(name, "ramp");
     if (results.empty()) return std::nullopt;
@@ -568,7 +568,7 @@ class KnownFigures : public Analysis {
     const double w = results.front()->at("w").get<double>();
     for (int j = 0; j < m.ny; ++j)
       for (int i = 0; i < m.nx; ++i) {
-        m.values.push_back(i == 10 && j == 5 ? kNaN : 2 * m.x(i) + 3 * m.y(j) + w);
+        m.values.push_back(i == 10 && j == 5 ? kNaN : 2 * m.X(i) + 3 * m.Y(j) + w);
         m.n_frames.push_back(7.0 * static_cast<double>(results.size()));
       }
     m.runs = static_cast<int>(results.size());
@@ -578,7 +578,7 @@ class KnownFigures : public Analysis {
   }
 };
 
-AnalysisEntry known_figures_entry() {
+AnalysisEntry KnownFiguresEntry() {
   return {"known_figures", [](const nlohmann::json&, const std::string&) { return std::make_unique<KnownFigures>(); }};
 }
 
@@ -591,31 +591,31 @@ struct Analysed {
   std::vector<FigureSpec> specs;
   FigureOutcome f;
 };
-std::unique_ptr<Analysed> figure_of(const fs::path& root, const nlohmann::json& figure) {
+std::unique_ptr<Analysed> FigureOf(const fs::path& root, const nlohmann::json& figure) {
   auto r = std::make_unique<Analysed>();
-  r->c = make_campaign(root, {{"report", {{"figures", {figure}}}}});
-  r->setup = setup_analyses(r->c.info.spec);
-  r->a = analyse(r->c, r->setup);
-  r->specs = read_figure_specs(r->c.info.spec);
-  r->f = make_figure(*r->a, r->specs.at(0));
+  r->c = MakeCampaign(root, {{"report", {{"figures", {figure}}}}});
+  r->setup = SetupAnalyses(r->c.info.spec);
+  r->a = Analyse(r->c, r->setup);
+  r->specs = ReadFigureSpecs(r->c.info.spec);
+  r->f = MakeFigure(*r->a, r->specs.at(0));
   return r;
 }
 
-const Figure* figure_in(const FigureOutcome& f) {
+const Figure* FigureIn(const FigureOutcome& f) {
   for (const Block& b : f.blocks)
     if (const auto* fig = std::get_if<Figure>(&b)) return fig;
   return nullptr;
 }
 
 TEST(DensityHistogram, KnownCountsDensitiesAndValuesOutsideTheRange) {
-  const Density d = density_histogram(Samples{{0.5, 1.0, 1.5, 2.5, 2.5, 3.0, 7.0}, {}}, 3, 0, 3, false);
+  const Density d = DensityHistogram(Samples{{0.5, 1.0, 1.5, 2.5, 2.5, 3.0, 7.0}, {}}, 3, 0, 3, false);
   ASSERT_EQ(d.center.size(), 3u);
   EXPECT_EQ(d.total, 7.0);  // 7.0 lies outside but counts in n
   EXPECT_EQ(d.count, (std::vector<double>{1, 2, 3})) << "bins [0, 1), [1, 2), [2, 3]";
   EXPECT_EQ(d.center, (std::vector<double>{0.5, 1.5, 2.5}));
   for (int i = 0; i < 3; ++i) EXPECT_DOUBLE_EQ(d.density[i], (i + 1) / 7.0);
   // Log bins: [1, 10), [10, 100), weights as counts; density over each bin's own width.
-  const Density l = density_histogram(Samples{{2, 20, 30, -1}, {1, 2, 1, 5}}, 2, 1, 100, true);
+  const Density l = DensityHistogram(Samples{{2, 20, 30, -1}, {1, 2, 1, 5}}, 2, 1, 100, true);
   EXPECT_EQ(l.count, (std::vector<double>{1, 3}));
   EXPECT_DOUBLE_EQ(l.total, 9.0);
   EXPECT_DOUBLE_EQ(l.density[1], 3.0 / (9.0 * 90.0));
@@ -623,12 +623,12 @@ TEST(DensityHistogram, KnownCountsDensitiesAndValuesOutsideTheRange) {
 }
 
 TEST(FigureKinds, DistributionPoolsReplicasOverOneRangeForEveryCurve) {
-  ScopedAnalysis known(known_figures_entry());
+  ScopedAnalysis known(KnownFiguresEntry());
   TempDir dir;
-  const auto r = figure_of(dir.path(), {{"name", "dist"}, {"kind", "distribution"}, {"of", "known"}, {"bins", 3},
+  const auto r = FigureOf(dir.Path(), {{"name", "dist"}, {"kind", "distribution"}, {"of", "known"}, {"bins", 3},
                                                  {"only", {{"W", {10, 14}}, {"mu", 0}}}, {"reference", "thesis fig. 4.6"}});
   const FigureOutcome& f = r->f;
-  const Figure* fig = figure_in(f);
+  const Figure* fig = FigureIn(f);
   ASSERT_TRUE(fig);
   ASSERT_EQ(fig->series.size(), 2u);
   // Range: the data's, 0.5 .. 3.5, three bins of width 1 for both curves.
@@ -654,9 +654,9 @@ TEST(FigureKinds, DistributionPoolsReplicasOverOneRangeForEveryCurve) {
   spec["report"]["figures"][0]["bins"] = 4;
   spec["report"]["figures"][0]["pool"] = "mu";
   spec["report"]["figures"][0]["only"] = {{"W", 14}};
-  const FigureSpec ranged = read_figure_specs(spec).at(0);
-  const FigureOutcome g = make_figure(*r->a, ranged);
-  const Figure* gf = figure_in(g);
+  const FigureSpec ranged = ReadFigureSpecs(spec).at(0);
+  const FigureOutcome g = MakeFigure(*r->a, ranged);
+  const Figure* gf = FigureIn(g);
   ASSERT_TRUE(gf);
   ASSERT_EQ(gf->series.size(), 1u);  // mu pooled: one curve of 2 points x 2 replicas
   EXPECT_EQ(gf->series[0].label, "W = 14 d (n = 36)");
@@ -667,26 +667,26 @@ TEST(FigureKinds, DistributionPoolsReplicasOverOneRangeForEveryCurve) {
 // The built-in offers: the region's velocity histograms as their bins' centres with counts, the
 // avalanches' sizes as samples.
 TEST(FigureKinds, TheAnalysesOfferTheirDistributionsByName) {
-  const AnalysisSetup setup = setup_analyses(nlohmann::json::object());
+  const AnalysisSetup setup = SetupAnalyses(nlohmann::json::object());
   const Analysis* region = nullptr;
   const Analysis* avalanches = nullptr;
-  for (const Analysis* a : setup.list()) {
-    if (a->key() == "region") region = a;
-    if (a->key() == "avalanches") avalanches = a;
+  for (const Analysis* a : setup.List()) {
+    if (a->Key() == "region") region = a;
+    if (a->Key() == "avalanches") avalanches = a;
   }
   ASSERT_TRUE(region && avalanches);
-  ASSERT_EQ(region->distribution_names().size(), 2u);
-  EXPECT_EQ(region->distribution_names()[0].unit, "sqrt(g d)");
+  ASSERT_EQ(region->DistributionNames().size(), 2u);
+  EXPECT_EQ(region->DistributionNames()[0].unit, "sqrt(g d)");
   // Grid bin k holds [(k - 1/2) w, (k + 1/2) w): centre k w.
   const nlohmann::json result = {{"regions", {{{"velocity", {{"vx", {{"width", 0.05}, {"first", -2}, {"counts", {1, 0, 3}}}}}}}}}};
-  const Samples vx = region->distribution("vx", result);
+  const Samples vx = region->Distribution("vx", result);
   ASSERT_EQ(vx.values.size(), 2u);  // the empty bin is no sample
   EXPECT_DOUBLE_EQ(vx.values[0], -0.1);
   EXPECT_DOUBLE_EQ(vx.values[1], 0.0);
   EXPECT_EQ(vx.weights, (std::vector<double>{1, 3}));
-  EXPECT_TRUE(region->distribution("vy", result).values.empty());
-  EXPECT_TRUE(region->distribution("vx", nlohmann::json::object()).values.empty()) << "a run without frames";
-  const Samples sizes = avalanches->distribution("avalanche_sizes", {{"sizes", {3, 5, 5}}});
+  EXPECT_TRUE(region->Distribution("vy", result).values.empty());
+  EXPECT_TRUE(region->Distribution("vx", nlohmann::json::object()).values.empty()) << "a run without frames";
+  const Samples sizes = avalanches->Distribution("avalanche_sizes", {{"sizes", {3, 5, 5}}});
   EXPECT_EQ(sizes.values, (std::vector<double>{3, 5, 5}));
   EXPECT_TRUE(sizes.weights.empty());
 }
@@ -694,9 +694,9 @@ TEST(FigureKinds, TheAnalysesOfferTheirDistributionsByName) {
 TEST(FigureKinds, DistributionOfAPerRunMetricPoolsItsReplicas) {
   TempDir dir;
   const auto r =
-      figure_of(dir.path(), {{"name", "q"}, {"kind", "distribution"}, {"of", "q_count"}, {"bins", 2}, {"only", {{"mu", 0}}}});
+      FigureOf(dir.Path(), {{"name", "q"}, {"kind", "distribution"}, {"of", "q_count"}, {"bins", 2}, {"only", {{"mu", 0}}}});
   const FigureOutcome& f = r->f;
-  const Figure* fig = figure_in(f);
+  const Figure* fig = FigureIn(f);
   ASSERT_TRUE(fig);
   ASSERT_EQ(fig->series.size(), 5u);  // W = 10, 14, 18, 22, 26 at mu = 0
   double total = 0;
@@ -709,22 +709,22 @@ TEST(FigureKinds, DistributionOfAPerRunMetricPoolsItsReplicas) {
   EXPECT_EQ(total, 9);
   // Two bins over [Q(10), Q(26)]: every W < 19.3 in the first.
   const double mid = 0.5 * (fig->series.front().rows[0][0] + fig->series.front().rows[1][0]);
-  EXPECT_GT(mid, q_of(14, 0) * 1.02);
-  EXPECT_LT(mid, q_of(22, 0) * 0.98);
+  EXPECT_GT(mid, QOf(14, 0) * 1.02);
+  EXPECT_LT(mid, QOf(22, 0) * 0.98);
   // An unknown name is said, not drawn.
   nlohmann::json spec = r->c.info.spec;
   spec["report"]["figures"][0]["of"] = "no_such_metric";
-  const FigureOutcome none = make_figure(*r->a, read_figure_specs(spec).at(0));
+  const FigureOutcome none = MakeFigure(*r->a, ReadFigureSpecs(spec).at(0));
   ASSERT_EQ(none.blocks.size(), 1u);
   EXPECT_NE(std::get<Text>(none.blocks[0]).markdown.find("no run has a metric of that name"), std::string::npos);
 }
 
 TEST(FigureKinds, CurvesOfTheChosenPointsMergeTheirRunsAndDrawTheirLine) {
-  ScopedAnalysis known(known_figures_entry());
+  ScopedAnalysis known(KnownFiguresEntry());
   TempDir dir;
-  const auto r = figure_of(dir.path(), {{"name", "curves"}, {"kind", "curves"}, {"of", "known_curve"}, {"pool", "mu"},
+  const auto r = FigureOf(dir.Path(), {{"name", "curves"}, {"kind", "curves"}, {"of", "known_curve"}, {"pool", "mu"},
                                                  {"only", {{"W", {10, 26}}}}, {"reference", "thesis fig. 6.7"}});
-  const Figure* fig = figure_in(r->f);
+  const Figure* fig = FigureIn(r->f);
   ASSERT_TRUE(fig);
   ASSERT_EQ(fig->series.size(), 3u);  // W = 10 (mu pooled: 3 points x 2 replicas), W = 26 (one run), y = x
   EXPECT_EQ(fig->series[0].label, "W = 10 d");
@@ -752,12 +752,12 @@ TEST(FigureKinds, CurvesOfTheChosenPointsMergeTheirRunsAndDrawTheirLine) {
 // The arches' curves and arch sizes from constructed clogs, the orientation window's axis
 // angles from constructed sums: known bins, means and counts.
 TEST(FigureKinds, TheArchesAndTheOrientationOfferTheirCurvesAndDistributions) {
-  const AnalysisSetup setup = setup_analyses(nlohmann::json::object());
+  const AnalysisSetup setup = SetupAnalyses(nlohmann::json::object());
   const Analysis* arches = nullptr;
   const Analysis* orientation = nullptr;
-  for (const Analysis* a : setup.list()) {
-    if (a->key() == "arches") arches = a;
-    if (a->key() == "orientation") orientation = a;
+  for (const Analysis* a : setup.List()) {
+    if (a->Key() == "arches") arches = a;
+    if (a->Key() == "orientation") orientation = a;
   }
   ASSERT_TRUE(arches && orientation);
   const double pi = std::acos(-1.0);
@@ -774,7 +774,7 @@ TEST(FigureKinds, TheArchesAndTheOrientationOfferTheirCurvesAndDistributions) {
   // Default bins: 9 of theta over [0, pi] (20 degrees), 12 of the axis over [0, pi) (15 degrees).
   const nlohmann::json a = run(3, 2.0, nlohmann::json::array({body(0.1, 0.1, 1.0), body(pi / 2, pi / 2, 3.0)}));
   const nlohmann::json b = run(3, 4.0, nlohmann::json::array({body(pi / 2, pi / 2, 5.0)}));
-  const std::vector<CurvePoint> p = arches->curve("arch_pressure_theta", {&a, &b});
+  const std::vector<CurvePoint> p = arches->Curve("arch_pressure_theta", {&a, &b});
   ASSERT_EQ(p.size(), 2u);
   EXPECT_NEAR(p[0].x, 10, 1e-9);
   EXPECT_DOUBLE_EQ(p[0].y, 1.0);
@@ -783,33 +783,33 @@ TEST(FigureKinds, TheArchesAndTheOrientationOfferTheirCurvesAndDistributions) {
   EXPECT_DOUBLE_EQ(p[1].y, 4.0);  // 3 and 5
   EXPECT_DOUBLE_EQ(p[1].se, 1.0);
   EXPECT_EQ(p[1].n, 2);
-  const std::vector<CurvePoint> m = arches->curve("arch_axis_mode_theta", {&a, &b});
+  const std::vector<CurvePoint> m = arches->Curve("arch_axis_mode_theta", {&a, &b});
   ASSERT_EQ(m.size(), 2u);
   EXPECT_NEAR(m[0].y, 7.5, 1e-9);
   EXPECT_NEAR(m[1].y, 97.5, 1e-9);  // pi/2 falls in the axis bin [90, 105)
   EXPECT_TRUE(std::isnan(m[1].se));
-  const std::vector<CurvePoint> byn = arches->curve("arch_pressure_n", {&a, &b});
+  const std::vector<CurvePoint> byn = arches->Curve("arch_pressure_n", {&a, &b});
   ASSERT_EQ(byn.size(), 1u);
   EXPECT_DOUBLE_EQ(byn[0].x, 3);
   EXPECT_DOUBLE_EQ(byn[0].y, 3.0);
   EXPECT_EQ(byn[0].n, 2);
-  EXPECT_TRUE(arches->curve("arch_pressure_theta", {}).empty());
-  EXPECT_EQ(arches->distribution("arch_sizes", a).values, (std::vector<double>{3}));
+  EXPECT_TRUE(arches->Curve("arch_pressure_theta", {}).empty());
+  EXPECT_EQ(arches->Distribution("arch_sizes", a).values, (std::vector<double>{3}));
   // The window's axis angles: 4 bins of 45 degrees as the runs keep them.
   const nlohmann::json o = {{"elongated", true}, {"bed", {{"window_axes", {5, 0, 0, 1}}}}, {"flow", {{"window_axes", {0, 2, 0, 0}}}},
                             {"arch_window", {0, 0, 3, 0}}};
-  const Samples bed = orientation->distribution("axis_bed", o);
+  const Samples bed = orientation->Distribution("axis_bed", o);
   EXPECT_EQ(bed.values, (std::vector<double>{22.5, 157.5}));
   EXPECT_EQ(bed.weights, (std::vector<double>{5, 1}));
-  EXPECT_EQ(orientation->distribution("axis_flow", o).values, (std::vector<double>{67.5}));
-  EXPECT_EQ(orientation->distribution("axis_arches", o).weights, (std::vector<double>{3}));
-  EXPECT_TRUE(orientation->distribution("axis_flow", {{"elongated", false}}).values.empty()) << "discs have no axis";
+  EXPECT_EQ(orientation->Distribution("axis_flow", o).values, (std::vector<double>{67.5}));
+  EXPECT_EQ(orientation->Distribution("axis_arches", o).weights, (std::vector<double>{3}));
+  EXPECT_TRUE(orientation->Distribution("axis_flow", {{"elongated", false}}).values.empty()) << "discs have no axis";
 }
 
 TEST(FigureKinds, MapPanelsAtTheChosenPointsWithAxesAndUnitsInTheirTitles) {
-  ScopedAnalysis known(known_figures_entry());
+  ScopedAnalysis known(KnownFiguresEntry());
   TempDir dir;
-  const auto r = figure_of(dir.path(), {{"name", "maps"}, {"kind", "maps"}, {"field", "ramp"}, {"only", {{"W", {10, 22}}, {"mu", 0.5}}}});
+  const auto r = FigureOf(dir.Path(), {{"name", "maps"}, {"kind", "maps"}, {"field", "ramp"}, {"only", {{"W", {10, 22}}, {"mu", 0.5}}}});
   const FigureOutcome& f = r->f;
   const MapFigure* m = nullptr;
   for (const Block& b : f.blocks)
@@ -835,7 +835,7 @@ TEST(FigureKinds, MapPanelsAtTheChosenPointsWithAxesAndUnitsInTheirTitles) {
   // One run (an instant, fig. 3.10): the lowest replica's, said in the panel's title.
   nlohmann::json spec = r->c.info.spec;
   spec["report"]["figures"][0]["one_run"] = true;
-  const FigureOutcome one = make_figure(*r->a, read_figure_specs(spec).at(0));
+  const FigureOutcome one = MakeFigure(*r->a, ReadFigureSpecs(spec).at(0));
   const MapFigure* m1 = nullptr;
   for (const Block& b : one.blocks)
     if (const auto* x = std::get_if<MapFigure>(&b)) m1 = x;
@@ -850,7 +850,7 @@ TEST(FigureKinds, MapPanelsAtTheChosenPointsWithAxesAndUnitsInTheirTitles) {
 TEST(FigureKinds, WallsClippedToTheMapsBox) {
   using Polyline = std::vector<std::array<double, 2>>;
   const std::array<double, 4> box = {0, 10, 0, 10};
-  const auto clipped = clip_polylines({{{-5, 5}, {5, 5}, {5, 15}},         // enters, turns, leaves
+  const auto clipped = ClipPolylines({{{-5, 5}, {5, 5}, {5, 15}},         // enters, turns, leaves
                                        {{2, 2}, {20, 2}, {20, 8}, {2, 8}},  // leaves and comes back: two lines
                                        {{-5, -5}, {-5, 20}},                // never inside
                                        {{1, 1}, {9, 9}}},                   // inside
@@ -868,8 +868,8 @@ TEST(FigureKinds, ProfileAlongXAndYOfAConstructedField) {
   m.y0 = 0;
   m.nx = m.ny = 11;
   for (int j = 0; j < m.ny; ++j)
-    for (int i = 0; i < m.nx; ++i) m.values.push_back(i == 10 && j == 5 ? kNaN : 2 * m.x(i) + 3 * m.y(j));
-  const FieldProfile px = field_profile(m, 'x', 5, 2);  // rows y = 4, 5, 6
+    for (int i = 0; i < m.nx; ++i) m.values.push_back(i == 10 && j == 5 ? kNaN : 2 * m.X(i) + 3 * m.Y(j));
+  const FieldProfile px = ComputeFieldProfile(m, 'x', 5, 2);  // rows y = 4, 5, 6
   ASSERT_EQ(px.position.size(), 11u);
   EXPECT_EQ(px.band_lo, 4);
   EXPECT_EQ(px.band_hi, 6);
@@ -878,20 +878,20 @@ TEST(FigureKinds, ProfileAlongXAndYOfAConstructedField) {
     EXPECT_DOUBLE_EQ(px.value[i], 2 * px.position[i] + 15) << i;  // at x = 5 rows 4 and 6 alone: still 25
     EXPECT_EQ(px.nodes[i], i == 10 ? 2 : 3);
   }
-  const FieldProfile py = field_profile(m, 'y', 0.2, 0.5);  // no column within 0.25 of 0.2: the nearest, x = 0
+  const FieldProfile py = ComputeFieldProfile(m, 'y', 0.2, 0.5);  // no column within 0.25 of 0.2: the nearest, x = 0
   ASSERT_EQ(py.position.size(), 11u);
   EXPECT_EQ(py.band_lo, 0);
   for (std::size_t j = 0; j < 11; ++j) EXPECT_DOUBLE_EQ(py.value[j], 3 * py.position[j]);
-  EXPECT_TRUE(field_profile(m, 'x', 11, 1).position.empty()) << "a line above the grid";
+  EXPECT_TRUE(ComputeFieldProfile(m, 'x', 11, 1).position.empty()) << "a line above the grid";
 }
 
 TEST(FigureKinds, ProfileFigureOfTheChosenPoints) {
-  ScopedAnalysis known(known_figures_entry());
+  ScopedAnalysis known(KnownFiguresEntry());
   TempDir dir;
-  const auto r = figure_of(dir.path(), {{"name", "prof"}, {"kind", "profile"}, {"field", "ramp"}, {"along", "x"}, {"at", 3},
+  const auto r = FigureOf(dir.Path(), {{"name", "prof"}, {"kind", "profile"}, {"field", "ramp"}, {"along", "x"}, {"at", 3},
                                                  {"width", 2.5}, {"pool", "mu"}, {"only", {{"W", {14, 18}}}}, {"reference", "thesis fig. 5.15"}});
   const FigureOutcome& f = r->f;
-  const Figure* fig = figure_in(f);
+  const Figure* fig = FigureIn(f);
   ASSERT_TRUE(fig);
   ASSERT_EQ(fig->series.size(), 2u);
   EXPECT_EQ(fig->series[0].label, "W = 14 d: 6 runs");  // mu pooled: 3 points x 2 replicas
@@ -907,8 +907,8 @@ TEST(FigureKinds, ProfileFigureOfTheChosenPoints) {
   for (Point& p : r->a->view.points) p.spec["silo"]["base_outlets"][0]["center"] = p.x / 2;
   nlohmann::json shifted = r->c.info.spec;
   shifted["report"]["figures"][0]["origin_outlet"] = 0;
-  const FigureOutcome from = make_figure(*r->a, read_figure_specs(shifted).at(0));
-  const Figure* ff = figure_in(from);
+  const FigureOutcome from = MakeFigure(*r->a, ReadFigureSpecs(shifted).at(0));
+  const Figure* ff = FigureIn(from);
   ASSERT_TRUE(ff);
   ASSERT_EQ(ff->series.size(), 2u);
   EXPECT_EQ(ff->xlabel, "x from the centre of base outlet 0 (d)");
@@ -919,13 +919,13 @@ TEST(FigureKinds, ProfileFigureOfTheChosenPoints) {
     for (const auto& row : se.rows) EXPECT_DOUBLE_EQ(row[1], 2 * (row[0] + w / 2) + 9 + w);
   }
   shifted["report"]["figures"][0]["origin_outlet"] = 1;
-  const FigureOutcome none = make_figure(*r->a, read_figure_specs(shifted).at(0));
+  const FigureOutcome none = MakeFigure(*r->a, ReadFigureSpecs(shifted).at(0));
   ASSERT_FALSE(none.blocks.empty());
   EXPECT_NE(std::get<Text>(none.blocks.back()).markdown.find("W = 14 d (no base outlet 1)"), std::string::npos);
   // A line outside the grid is said.
   nlohmann::json spec = r->c.info.spec;
   spec["report"]["figures"][0]["at"] = 40;
-  const FigureOutcome out = make_figure(*r->a, read_figure_specs(spec).at(0));
+  const FigureOutcome out = MakeFigure(*r->a, ReadFigureSpecs(spec).at(0));
   ASSERT_FALSE(out.blocks.empty());
   EXPECT_NE(std::get<Text>(out.blocks.back()).markdown.find("the line y = 40 d lies outside the grid, y = 0 .. 10 d"),
             std::string::npos);
@@ -940,7 +940,7 @@ TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
     nlohmann::json spec = on;
     spec["report"]["figures"] = {figure};
     try {
-      check_report_spec(spec);
+      CheckReportSpec(spec);
     } catch (const std::exception& e) {
       return e.what();
     }
@@ -991,7 +991,7 @@ TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
 // Every new kind in a written report: the .gp scripts hold every point and every map node
 // inside their ranges, the maps and the profile are in the report.
 TEST(ReportFigures, EveryPointOfTheNewKindsLiesInsideItsRanges) {
-  ScopedAnalysis known(known_figures_entry());
+  ScopedAnalysis known(KnownFiguresEntry());
   TempDir dir;
   const nlohmann::json extra = {
       {"report",
@@ -1002,17 +1002,17 @@ TEST(ReportFigures, EveryPointOfTheNewKindsLiesInsideItsRanges) {
           {{"name", "maps"}, {"kind", "maps"}, {"field", "ramp"}, {"only", {{"W", {10, 26}}, {"mu", 0}}}},
           {{"name", "curves"}, {"kind", "curves"}, {"of", "known_curve"}, {"only", {{"mu", 0.5}}}},
           {{"name", "prof"}, {"kind", "profile"}, {"field", "ramp"}, {"along", "y"}, {"at", 0}, {"only", {{"mu", 1}}}}}}}}};
-  const Campaign c = make_campaign(dir.path() / "runs", extra);
+  const Campaign c = MakeCampaign(dir.Path() / "runs", extra);
   ReportOptions o;
-  o.out_dir = dir.path() / "report";
+  o.out_dir = dir.Path() / "report";
   o.analysis.read_cache = o.analysis.write_cache = false;
-  const ReportSummary s = write_report(c.info, c.runs, o);
+  const ReportSummary s = WriteReport(c.info, c.runs, o);
   for (const char* name : {"figure-dist", "figure-dist-range", "figure-q-dist", "figure-maps", "figure-prof", "figure-curves"})
     EXPECT_TRUE(fs::exists(o.out_dir / "figures" / (std::string(name) + ".gp"))) << name;
-  const std::vector<std::string> outside = points_outside_ranges(o.out_dir);
+  const std::vector<std::string> outside = PointsOutsideRanges(o.out_dir);
   EXPECT_TRUE(outside.empty()) << outside.size() << " points outside, e.g. " << outside.front();
-  EXPECT_NE(read_file(o.out_dir / "figures" / "figure-maps.gp").find("W = 26 d, mu = 0: 1 run, 7 frames"), std::string::npos);
-  EXPECT_NE(read_file(s.markdown).find("figure-prof.svg"), std::string::npos);
+  EXPECT_NE(ReadFile(o.out_dir / "figures" / "figure-maps.gp").find("W = 26 d, mu = 0: 1 run, 7 frames"), std::string::npos);
+  EXPECT_NE(ReadFile(s.markdown).find("figure-prof.svg"), std::string::npos);
 }
 
 }  // namespace

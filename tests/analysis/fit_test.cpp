@@ -14,7 +14,7 @@ struct Data {
   std::vector<double> x, y, sigma;
 };
 
-Data make_data(double (*f)(double), double noise, std::uint64_t seed) {
+Data MakeData(double (*f)(double), double noise, std::uint64_t seed) {
   Data d;
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, noise);
@@ -27,8 +27,8 @@ Data make_data(double (*f)(double), double noise, std::uint64_t seed) {
 }
 
 // |fitted - true| within 4 standard errors, and the se itself is of the right size.
-void expect_recovered(const FitResult& r, const std::string& name, double truth, double max_se) {
-  const FitParameter* p = r.parameter(name);
+void ExpectRecovered(const FitResult& r, const std::string& name, double truth, double max_se) {
+  const FitParameter* p = r.Parameter(name);
   ASSERT_NE(p, nullptr) << name;
   EXPECT_NEAR(p->value, truth, 4.0 * p->se) << name;
   EXPECT_GT(p->se, 0.0) << name;
@@ -38,11 +38,11 @@ void expect_recovered(const FitResult& r, const std::string& name, double truth,
 }
 
 TEST(Fit, Beverloo2dRecoversCAndK) {
-  const Data d = make_data([](double w) { return 0.8 * std::pow(w - 1.5, 1.5); }, 0.5, 1);
-  const FitResult r = fit_model(with_data_guess(beverloo_2d(), d.x, d.y), d.x, d.y, d.sigma);
-  ASSERT_TRUE(r.ok()) << r.status;
-  expect_recovered(r, "C", 0.8, 0.01);
-  expect_recovered(r, "k", 1.5, 0.2);
+  const Data d = MakeData([](double w) { return 0.8 * std::pow(w - 1.5, 1.5); }, 0.5, 1);
+  const FitResult r = MakeFitModel(WithDataGuess(Beverloo2d(), d.x, d.y), d.x, d.y, d.sigma);
+  ASSERT_TRUE(r.Ok()) << r.status;
+  ExpectRecovered(r, "C", 0.8, 0.01);
+  ExpectRecovered(r, "k", 1.5, 0.2);
   EXPECT_EQ(r.dof, static_cast<int>(d.x.size()) - 2);
   // chi2 of a correct model with known sigma ~ dof (within 5 sigma of chi2 spread).
   EXPECT_NEAR(r.chi2, r.dof, 5.0 * std::sqrt(2.0 * r.dof));
@@ -51,20 +51,20 @@ TEST(Fit, Beverloo2dRecoversCAndK) {
 }
 
 TEST(Fit, FreeExponentRecoversB) {
-  const Data d = make_data([](double w) { return 0.3 * std::pow(w - 1.0, 1.72); }, 0.5, 2);
-  const FitResult r = fit_model(with_data_guess(beverloo_free(), d.x, d.y), d.x, d.y, d.sigma);
-  ASSERT_TRUE(r.ok()) << r.status;
-  expect_recovered(r, "b", 1.72, 0.05);
-  expect_recovered(r, "C", 0.3, 0.05);
+  const Data d = MakeData([](double w) { return 0.3 * std::pow(w - 1.0, 1.72); }, 0.5, 2);
+  const FitResult r = MakeFitModel(WithDataGuess(BeverlooFree(), d.x, d.y), d.x, d.y, d.sigma);
+  ASSERT_TRUE(r.Ok()) << r.status;
+  ExpectRecovered(r, "b", 1.72, 0.05);
+  ExpectRecovered(r, "C", 0.3, 0.05);
 }
 
 TEST(Fit, MankocRecoversCAndB) {
-  const Data d = make_data(
+  const Data d = MakeData(
       [](double w) { return 0.9 * (1.0 - std::exp(-0.3 * (w - 1.0)) / 2.0) * std::pow(w - 1.0, 1.5); }, 0.3, 3);
-  const FitResult r = fit_model(with_data_guess(mankoc(), d.x, d.y), d.x, d.y, d.sigma);
-  ASSERT_TRUE(r.ok()) << r.status;
-  expect_recovered(r, "C", 0.9, 0.01);
-  expect_recovered(r, "b", 0.3, 0.1);
+  const FitResult r = MakeFitModel(WithDataGuess(Mankoc(), d.x, d.y), d.x, d.y, d.sigma);
+  ASSERT_TRUE(r.Ok()) << r.status;
+  ExpectRecovered(r, "C", 0.9, 0.01);
+  ExpectRecovered(r, "b", 0.3, 0.1);
 }
 
 TEST(Fit, UserModelUnweighted) {
@@ -77,11 +77,11 @@ TEST(Fit, UserModelUnweighted) {
     y.push_back(std::exp(-0.25 * std::pow(l, 0.3)) + gauss(rng));
   }
   FitModel m{"two_outlets", "exp(-a * L^c)", "L", {{"a", 0.1}, {"c", 0.5}}};
-  const FitResult r = fit_model(m, x, y);
-  ASSERT_TRUE(r.ok()) << r.status;
-  expect_recovered(r, "a", 0.25, 0.05);
-  expect_recovered(r, "c", 0.3, 0.05);
-  EXPECT_NEAR(r.evaluate(10.0), std::exp(-r.parameter("a")->value * std::pow(10.0, r.parameter("c")->value)), 1e-12);
+  const FitResult r = MakeFitModel(m, x, y);
+  ASSERT_TRUE(r.Ok()) << r.status;
+  ExpectRecovered(r, "a", 0.25, 0.05);
+  ExpectRecovered(r, "c", 0.3, 0.05);
+  EXPECT_NEAR(r.Evaluate(10.0), std::exp(-r.Parameter("a")->value * std::pow(10.0, r.Parameter("c")->value)), 1e-12);
 }
 
 TEST(Fit, UndeterminedParameterHasNoError) {
@@ -93,14 +93,14 @@ TEST(Fit, UndeterminedParameterHasNoError) {
     y.push_back(2.0 * w + 0.01 * std::sin(w));
   }
   FitModel m{"flat_b", "a * x + exp(-b * x)", "x", {{"a", 1.0}, {"b", 50.0}}};
-  const FitResult r = fit_model(m, x, y);
-  ASSERT_TRUE(r.ok()) << r.status;
-  EXPECT_NEAR(r.parameter("a")->value, 2.0, 1e-3);
-  EXPECT_GT(r.parameter("a")->se, 0.0);
-  EXPECT_TRUE(std::isnan(r.parameter("b")->se));
+  const FitResult r = MakeFitModel(m, x, y);
+  ASSERT_TRUE(r.Ok()) << r.status;
+  EXPECT_NEAR(r.Parameter("a")->value, 2.0, 1e-3);
+  EXPECT_GT(r.Parameter("a")->se, 0.0);
+  EXPECT_TRUE(std::isnan(r.Parameter("b")->se));
   EXPECT_EQ(r.warning, "b not determined by the data");
   EXPECT_EQ(r.quality, FitQuality::kIllDetermined);
-  EXPECT_EQ(r.verdict(), "ill-determined: b not determined by the data");
+  EXPECT_EQ(r.Verdict(), "ill-determined: b not determined by the data");
 }
 
 TEST(Fit, ConfidenceIntervalsCoverTheTruth) {
@@ -108,12 +108,12 @@ TEST(Fit, ConfidenceIntervalsCoverTheTruth) {
   // 95% of them (binomial sd 1.3%), which checks the covariance scaling and the t quantile.
   int covered_c = 0, covered_k = 0, fitted = 0;
   for (std::uint64_t seed = 100; seed < 400; ++seed) {
-    const Data d = make_data([](double w) { return 0.8 * std::pow(w - 1.5, 1.5); }, 1.0, seed);
-    const FitResult r = fit_model(with_data_guess(beverloo_2d(), d.x, d.y), d.x, d.y, d.sigma);
-    if (!r.ok()) continue;
+    const Data d = MakeData([](double w) { return 0.8 * std::pow(w - 1.5, 1.5); }, 1.0, seed);
+    const FitResult r = MakeFitModel(WithDataGuess(Beverloo2d(), d.x, d.y), d.x, d.y, d.sigma);
+    if (!r.Ok()) continue;
     ++fitted;
-    const FitParameter* c = r.parameter("C");
-    const FitParameter* k = r.parameter("k");
+    const FitParameter* c = r.Parameter("C");
+    const FitParameter* k = r.Parameter("k");
     covered_c += (c->ci_low <= 0.8 && 0.8 <= c->ci_high) ? 1 : 0;
     covered_k += (k->ci_low <= 1.5 && 1.5 <= k->ci_high) ? 1 : 0;
   }
@@ -128,22 +128,22 @@ TEST(Fit, TooFewPointsIsReportedNotFitted) {
   const std::vector<double> x = {10, 12, 14};
   const std::vector<double> y = {20, 30, 41};
   // Three widths, three parameters: nothing to fit. The start values are not results.
-  const FitResult r = fit_model(with_data_guess(beverloo_free(), x, y), x, y);
-  EXPECT_FALSE(r.ok());
+  const FitResult r = MakeFitModel(WithDataGuess(BeverlooFree(), x, y), x, y);
+  EXPECT_FALSE(r.Ok());
   EXPECT_EQ(r.quality, FitQuality::kNotFitted);
-  EXPECT_EQ(r.verdict(), "not fitted: 3 points for 3 parameters (needs at least 4)");
+  EXPECT_EQ(r.Verdict(), "not fitted: 3 points for 3 parameters (needs at least 4)");
   for (const FitParameter& p : r.parameters) {
     EXPECT_TRUE(std::isnan(p.value)) << p.name << " = " << p.value;
     EXPECT_TRUE(std::isfinite(p.initial)) << p.name;
   }
-  EXPECT_EQ(r.parameter("b")->initial, 1.5);
+  EXPECT_EQ(r.Parameter("b")->initial, 1.5);
 }
 
 TEST(Fit, GoodFitSaysGood) {
-  const Data d = make_data([](double w) { return 0.8 * std::pow(w - 1.5, 1.5); }, 0.5, 1);
-  const FitResult r = fit_model(with_data_guess(beverloo_2d(), d.x, d.y), d.x, d.y, d.sigma);
+  const Data d = MakeData([](double w) { return 0.8 * std::pow(w - 1.5, 1.5); }, 0.5, 1);
+  const FitResult r = MakeFitModel(WithDataGuess(Beverloo2d(), d.x, d.y), d.x, d.y, d.sigma);
   EXPECT_EQ(r.quality, FitQuality::kGood);
-  EXPECT_EQ(r.verdict(), "good");
+  EXPECT_EQ(r.Verdict(), "good");
 }
 
 // The demo's four widths (W = 5, 7, 9, 12) under the free-exponent law: GSL converges, but
@@ -151,16 +151,16 @@ TEST(Fit, GoodFitSaysGood) {
 TEST(Fit, FreeExponentFromFourPointsIsIllDetermined) {
   const std::vector<double> x = {5, 7, 9, 12};
   const std::vector<double> y = {1.695, 2.834, 6.472, 9.55};
-  const FitResult r = fit_model(with_data_guess(beverloo_free(), x, y), x, y);
-  ASSERT_TRUE(r.ok()) << r.status;
+  const FitResult r = MakeFitModel(WithDataGuess(BeverlooFree(), x, y), x, y);
+  ASSERT_TRUE(r.Ok()) << r.status;
   EXPECT_EQ(r.quality, FitQuality::kIllDetermined);
-  for (const FitParameter& p : r.parameters) EXPECT_TRUE(p.ci_spans_zero()) << p.name;
-  EXPECT_EQ(r.verdict(), "ill-determined: 95% CI of C, k, b include 0; 1 degree of freedom");
+  for (const FitParameter& p : r.parameters) EXPECT_TRUE(p.CiSpansZero()) << p.name;
+  EXPECT_EQ(r.Verdict(), "ill-determined: 95% CI of C, k, b include 0; 1 degree of freedom");
   // The 2-parameter law on the same points determines C but not k's sign.
-  const FitResult two = fit_model(with_data_guess(beverloo_2d(), x, y), x, y);
+  const FitResult two = MakeFitModel(WithDataGuess(Beverloo2d(), x, y), x, y);
   EXPECT_EQ(two.quality, FitQuality::kIllDetermined);
-  EXPECT_FALSE(two.parameter("C")->ci_spans_zero());
-  EXPECT_EQ(two.verdict(), "ill-determined: 95% CI of k includes 0");
+  EXPECT_FALSE(two.Parameter("C")->CiSpansZero());
+  EXPECT_EQ(two.Verdict(), "ill-determined: 95% CI of k includes 0");
 }
 
 TEST(Fit, SolverFailureShowsNoValues) {
@@ -168,14 +168,14 @@ TEST(Fit, SolverFailureShowsNoValues) {
   // start), so the solver stops without converging: its last step is not an estimate.
   const std::vector<double> x = {1, 2, 3, 4, 5};
   const std::vector<double> y = {1, 2, 3, 4, 5};
-  const FitResult r = fit_model({"overflow", "exp(exp(a * x))", "x", {{"a", 10.0}}}, x, y);
-  EXPECT_FALSE(r.ok()) << r.verdict();
+  const FitResult r = MakeFitModel({"overflow", "exp(exp(a * x))", "x", {{"a", 10.0}}}, x, y);
+  EXPECT_FALSE(r.Ok()) << r.Verdict();
   EXPECT_EQ(r.quality, FitQuality::kFailed);
-  EXPECT_TRUE(std::isnan(r.parameter("a")->value));
-  EXPECT_EQ(r.verdict().rfind("failed: ", 0), 0u) << r.verdict();
+  EXPECT_TRUE(std::isnan(r.Parameter("a")->value));
+  EXPECT_EQ(r.Verdict().rfind("failed: ", 0), 0u) << r.Verdict();
 }
 
-TEST(Fit, BadModelTextThrows) { EXPECT_THROW(fit_model({"bad", "C*(x", "x", {}}, {}, {}), ExpressionError); }
+TEST(Fit, BadModelTextThrows) { EXPECT_THROW(MakeFitModel({"bad", "C*(x", "x", {}}, {}, {}), ExpressionError); }
 
 }  // namespace
 }  // namespace granary::analysis

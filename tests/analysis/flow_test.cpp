@@ -10,7 +10,7 @@
 namespace granary::analysis {
 namespace {
 
-std::vector<rundir::ExitEvent> regular(int n, double t0, double dt, double mass = 2.0, int outlet = 0) {
+std::vector<rundir::ExitEvent> Regular(int n, double t0, double dt, double mass = 2.0, int outlet = 0) {
   std::vector<rundir::ExitEvent> ev;
   for (int i = 0; i < n; ++i) ev.push_back({t0 + dt * i, i, "disc", mass, outlet});
   return ev;
@@ -18,14 +18,14 @@ std::vector<rundir::ExitEvent> regular(int n, double t0, double dt, double mass 
 
 TEST(FlowRate, RemoveModeWindowRule) {
   // 900 of 1000 bodies leave every 0.1: Q = 10 bodies, 20 mass per unit time.
-  const auto ev = regular(900, 0.05, 0.1);
+  const auto ev = Regular(900, 0.05, 0.1);
   FlowInput in{ev, true, 1000, 5.0, -1};
   const FlowWindowRule rule;  // start 10% / t >= 2, stop when 30% remain
-  const FlowWindow w = flow_window(in, rule);
+  const FlowWindow w = FindFlowWindow(in, rule);
   ASSERT_TRUE(w.ok) << w.note;
   EXPECT_EQ(w.last, 699u);   // the 701st exit leaves 299 < 300 bodies
   EXPECT_EQ(w.first, 70u);   // ceil(0.1 * 700)
-  const FlowRate q = flow_rate(in, rule);
+  const FlowRate q = MeasureFlowRate(in, rule);
   ASSERT_TRUE(q.ok) << q.note;
   EXPECT_NEAR(q.q_count, 10.0, 1e-9);
   EXPECT_NEAR(q.q_mass, 20.0, 1e-9);
@@ -41,13 +41,13 @@ TEST(FlowRate, PerOutletOverTheWindowOfAllOutletsAddsUp) {
   // Outlet 0 flows at 3 throughout; outlet 1 at 2 but is clogged from t = 10 to 20 (ch. 7).
   // Over the common window the per-outlet rates add up to the total exactly, and outlet 1
   // gets its mean throughput (between 1 and 2), not its rate while flowing.
-  std::vector<rundir::ExitEvent> ev = regular(120, 0.1, 1.0 / 3.0, 2.0, 0);
-  for (const auto& e : regular(20, 0.2, 0.5, 1.0, 1)) ev.push_back(e);
-  for (const auto& e : regular(40, 20.2, 0.5, 1.0, 1)) ev.push_back(e);
+  std::vector<rundir::ExitEvent> ev = Regular(120, 0.1, 1.0 / 3.0, 2.0, 0);
+  for (const auto& e : Regular(20, 0.2, 0.5, 1.0, 1)) ev.push_back(e);
+  for (const auto& e : Regular(40, 20.2, 0.5, 1.0, 1)) ev.push_back(e);
   std::stable_sort(ev.begin(), ev.end(), [](const rundir::ExitEvent& a, const rundir::ExitEvent& b) { return a.time < b.time; });
   FlowInput in{ev, false, 1000, 5.0, -1};
-  const FlowRate total = flow_rate(in, FlowWindowRule());
-  const std::vector<FlowRate> per = flow_rate_per_outlet(in, FlowWindowRule(), 2);
+  const FlowRate total = MeasureFlowRate(in, FlowWindowRule());
+  const std::vector<FlowRate> per = FlowRatePerOutlet(in, FlowWindowRule(), 2);
   ASSERT_TRUE(total.ok && per[0].ok && per[1].ok);
   EXPECT_NEAR(per[0].q_count + per[1].q_count, total.q_count, 1e-9);
   EXPECT_NEAR(per[0].q_mass + per[1].q_mass, total.q_mass, 1e-9);
@@ -68,14 +68,14 @@ TEST(FlowRate, TransientAndClogAreExcluded) {
   FlowInput in{ev, false, 0, 5.0, -1};
   FlowWindowRule rule;
   rule.start_time = 10.0;
-  const FlowRate q = flow_rate(in, rule);
+  const FlowRate q = MeasureFlowRate(in, rule);
   ASSERT_TRUE(q.ok) << q.note;
   EXPECT_NEAR(q.q_count, 5.0, 1e-9);
   EXPECT_NEAR(q.t_end, 10.0 + 0.2 * 249, 1e-12);
   EXPECT_NE(q.note.find("first clog"), std::string::npos) << q.note;
   // Without the clog rule the window runs to the lone exit after the clog.
   rule.stop_at_first_clog = false;
-  EXPECT_DOUBLE_EQ(flow_rate(in, rule).t_end, 80.0);
+  EXPECT_DOUBLE_EQ(MeasureFlowRate(in, rule).t_end, 80.0);
 }
 
 TEST(FlowRate, PerOutletAndNoisyRate) {
@@ -89,9 +89,9 @@ TEST(FlowRate, PerOutletAndNoisyRate) {
   FlowWindowRule rule;
   rule.stop_at_first_clog = false;
   FlowInput in{ev, false, 0, 5.0, 0};
-  const FlowRate q0 = flow_rate(in, rule);
+  const FlowRate q0 = MeasureFlowRate(in, rule);
   in.outlet = 1;
-  const FlowRate q1 = flow_rate(in, rule);
+  const FlowRate q1 = MeasureFlowRate(in, rule);
   ASSERT_TRUE(q0.ok && q1.ok);
   // The OLS se of a cumulative count understates the error; use the Poisson error sqrt(N)/T.
   EXPECT_NEAR(q0.q_count, 4.0, 4.0 * std::sqrt(4.0 * 450) / 450);
@@ -104,19 +104,19 @@ TEST(FlowRate, PerOutletAndNoisyRate) {
 
 TEST(FlowRate, StartUpDelayIsNotAClog) {
   // First exit at t = 3 with clog_gap 2: the window must not end "at the opening".
-  const auto ev = regular(100, 3.0, 0.1);
+  const auto ev = Regular(100, 3.0, 0.1);
   FlowInput in{ev, false, 0, 2.0, -1};
   FlowWindowRule rule;
   rule.start_time = 0.0;
-  const FlowRate q = flow_rate(in, rule);
+  const FlowRate q = MeasureFlowRate(in, rule);
   ASSERT_TRUE(q.ok) << q.note;
   EXPECT_NEAR(q.q_count, 10.0, 1e-9);
 }
 
 TEST(FlowRate, TooFewExits) {
-  const auto ev = regular(5, 3.0, 0.1);
+  const auto ev = Regular(5, 3.0, 0.1);
   FlowInput in{ev, false, 0, 5.0, -1};
-  const FlowRate q = flow_rate(in, FlowWindowRule());
+  const FlowRate q = MeasureFlowRate(in, FlowWindowRule());
   EXPECT_FALSE(q.ok);
   EXPECT_EQ(q.note, "only 4 exits in the steady window (need 10)");
 }
@@ -137,9 +137,9 @@ TEST(VelocityProfile, BinsNormalisesAndVmax) {
                                 body(0, 3, 0, -9),  // above the band
                                 body(6, 1, 0, -9)};  // beside the outlet
   const std::vector<rundir::Body> f2 = {body(0.5, 0.5, 0, -4)};
-  acc.add(f1);
-  acc.add(f2);
-  const VelocityProfile p = acc.result();
+  acc.Add(f1);
+  acc.Add(f2);
+  const VelocityProfile p = acc.Result();
   EXPECT_EQ(p.frames, 2);
   ASSERT_EQ(p.vy.size(), 5u);
   EXPECT_DOUBLE_EQ(p.x_over_w[0], -0.4);

@@ -32,11 +32,11 @@ rundir::RunData StreamRun() {
 TEST(IntermittencyAnalysis, FlowingAndCloggedTimesAndTheUnclogRatePerOutlet) {
   const rundir::RunData data = StreamRun();
   const PassOptions pass;
-  const RunView view = make_run_view(data, pass);
-  const auto analysis = make_intermittency_analysis(nullptr, "/report/intermittency");
-  const std::vector<Metric> m = analysis->run_metrics(analysis->start(view)->finish());
+  const RunView view = MakeRunView(data, pass);
+  const auto analysis = MakeIntermittencyAnalysis(nullptr, "/report/intermittency");
+  const std::vector<Metric> m = analysis->RunMetrics(analysis->Start(view)->Finish());
   const auto value = [&](const std::string& name) {
-    const Metric* x = find_metric(m, name);
+    const Metric* x = FindMetric(m, name);
     EXPECT_NE(x, nullptr) << name;
     return x ? x->value : kNaN;
   };

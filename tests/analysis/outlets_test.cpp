@@ -18,7 +18,7 @@ const nlohmann::json kSpec = {
     {"bodies", {{"count", 10}}}};
 
 TEST(Outlets, FromSpecInEventOrder) {
-  const auto o = outlets_of(kSpec);
+  const auto o = OutletsOf(kSpec);
   ASSERT_EQ(o.size(), 3u);
   EXPECT_TRUE(o[0].base);
   EXPECT_DOUBLE_EQ(o[0].center, -20.0);
@@ -28,13 +28,13 @@ TEST(Outlets, FromSpecInEventOrder) {
   EXPECT_EQ(o[1].label, "side 1 (right)");
   EXPECT_FALSE(o[2].right_wall);
   EXPECT_DOUBLE_EQ(o[2].wall_x, -50.0);
-  const auto d = outlets_of(nlohmann::json::object());  // run-spec defaults
+  const auto d = OutletsOf(nlohmann::json::object());  // run-spec defaults
   ASSERT_EQ(d.size(), 1u);
   EXPECT_DOUBLE_EQ(d[0].width, 10.0);
 }
 
 TEST(Outlets, OutletFrameOfLateralOutlets) {
-  const auto o = outlets_of(kSpec);
+  const auto o = OutletsOf(kSpec);
   rundir::Body b;
   b.x = 48;
   b.y = 20;
@@ -45,7 +45,7 @@ TEST(Outlets, OutletFrameOfLateralOutlets) {
   discs[0].x = 48;
   discs[0].y = 20;
   std::vector<rundir::Body> bodies = {b};
-  to_outlet_frame(o[1], discs, bodies);
+  ToOutletFrame(o[1], discs, bodies);
   EXPECT_DOUBLE_EQ(bodies[0].x, 4.0);   // 20 - 16 along the outlet
   EXPECT_DOUBLE_EQ(bodies[0].y, 2.0);   // 2 from the wall
   EXPECT_DOUBLE_EQ(bodies[0].vx, -1.0);
@@ -58,7 +58,7 @@ TEST(Outlets, OutletFrameOfLateralOutlets) {
   bodies = {b};
   discs[0].x = -48;
   discs[0].y = 20;
-  to_outlet_frame(o[2], discs, bodies);
+  ToOutletFrame(o[2], discs, bodies);
   EXPECT_DOUBLE_EQ(bodies[0].x, 15.0);  // 20 - 5
   EXPECT_DOUBLE_EQ(bodies[0].y, 2.0);
   EXPECT_DOUBLE_EQ(bodies[0].vy, -2.0);
@@ -67,7 +67,7 @@ TEST(Outlets, OutletFrameOfLateralOutlets) {
   b.x = -18;
   b.y = 1;
   bodies = {b};
-  to_outlet_frame(o[0], discs, bodies);
+  ToOutletFrame(o[0], discs, bodies);
   EXPECT_DOUBLE_EQ(bodies[0].x, 2.0);
   EXPECT_DOUBLE_EQ(bodies[0].y, 1.0);
 }

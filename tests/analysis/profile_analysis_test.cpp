@@ -19,7 +19,7 @@ namespace granary::analysis {
 namespace {
 
 using testing::TempDir;
-using testing::write_file;
+using testing::WriteFile;
 
 std::string FrameText(int k, double left_vy) {
   const std::string t = std::to_string(k);
@@ -33,17 +33,17 @@ std::string FrameText(int k, double left_vy) {
 
 TEST(ProfileAnalysis, BodyVelocitiesAcrossTheOutletInTheBandOverTheFrames) {
   TempDir dir;
-  write_file(dir.path() / "run.json",
+  WriteFile(dir.Path() / "run.json",
              nlohmann::json{{"silo", {{"width", 40}, {"base_outlets", {{{"center", 0.0}, {"width", 10.0}}}}}},
                             {"bodies", {{"count", 4}}}}
                  .dump());
-  write_file(dir.path() / "summary.json", R"({"engine":"native","bodies":4,"exited":0,"remaining":4,"t_end":4})");
-  write_file(dir.path() / "events.csv", "time,body,shape,mass,outlet\n");
-  write_file(dir.path() / "frames.dump", FrameText(2, -1.0) + FrameText(3, -2.0));
-  const auto analysis = make_profile_analysis({{"bins", 2}}, "/report/profile");
+  WriteFile(dir.Path() / "summary.json", R"({"engine":"native","bodies":4,"exited":0,"remaining":4,"t_end":4})");
+  WriteFile(dir.Path() / "events.csv", "time,body,shape,mass,outlet\n");
+  WriteFile(dir.Path() / "frames.dump", FrameText(2, -1.0) + FrameText(3, -2.0));
+  const auto analysis = MakeProfileAnalysis({{"bins", 2}}, "/report/profile");
   RunPassOptions no_cache;
   no_cache.read_cache = no_cache.write_cache = false;
-  const RunPassResult pass = analyse_run(dir.path(), {analysis.get()}, PassOptions{}, no_cache);
+  const RunPassResult pass = AnalyseRun(dir.Path(), {analysis.get()}, PassOptions{}, no_cache);
   const nlohmann::json& r = pass.results.at(0);
   ASSERT_TRUE(r.contains("profiles")) << r.dump();
   const nlohmann::json& p = r.at("profiles").at(0);
@@ -54,19 +54,19 @@ TEST(ProfileAnalysis, BodyVelocitiesAcrossTheOutletInTheBandOverTheFrames) {
   EXPECT_DOUBLE_EQ(p.at("vy")[1].get<double>(), -3.0);
   EXPECT_DOUBLE_EQ(p.at("vy_norm")[0].get<double>(), -0.5);
   EXPECT_DOUBLE_EQ(p.at("vx")[1].get<double>(), 0.5);
-  const std::vector<Metric> m = analysis->run_metrics(r);
-  ASSERT_NE(find_metric(m, "v_max"), nullptr);
-  EXPECT_DOUBLE_EQ(find_metric(m, "v_max")->value, 3.0);
+  const std::vector<Metric> m = analysis->RunMetrics(r);
+  ASSERT_NE(FindMetric(m, "v_max"), nullptr);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "v_max")->value, 3.0);
 }
 
 TEST(ProfileAnalysis, OptionsAreCheckedAtTheirPath) {
   try {
-    make_profile_analysis({{"bins", 0}}, "/report/profile");
+    MakeProfileAnalysis({{"bins", 0}}, "/report/profile");
     ADD_FAILURE() << "no error";
   } catch (const std::exception& e) {
     EXPECT_EQ(std::string(e.what()), "/report/profile/bins: must be in [1, 1e+06] (got 0)");
   }
-  EXPECT_EQ(make_profile_analysis({{"bins", 8}}, "/report/profile")->run_options()["bins"], 8);
+  EXPECT_EQ(MakeProfileAnalysis({{"bins", 8}}, "/report/profile")->RunOptions()["bins"], 8);
 }
 
 }  // namespace

@@ -13,7 +13,7 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 
 // Reference: midpoint rule over x of the chord length inside [y0, y1].
-double overlap_numeric(double cx, double cy, double r, const Rect& q) {
+double OverlapNumeric(double cx, double cy, double r, const Rect& q) {
   const int n = 200000;
   const double a = std::max(q.x0, cx - r), b = std::min(q.x1, cx + r);
   if (b <= a) return 0.0;
@@ -29,15 +29,15 @@ double overlap_numeric(double cx, double cy, double r, const Rect& q) {
 
 TEST(DiscRectOverlap, KnownCases) {
   const Rect q{0, 10, 0, 10};
-  EXPECT_NEAR(disc_rect_overlap(5, 5, 1, q), kPi, 1e-14);          // inside
-  EXPECT_NEAR(disc_rect_overlap(0, 5, 1, q), kPi / 2, 1e-14);      // cut through the centre
-  EXPECT_NEAR(disc_rect_overlap(10, 10, 1, q), kPi / 4, 1e-14);    // corner
-  EXPECT_NEAR(disc_rect_overlap(20, 5, 1, q), 0.0, 1e-14);         // outside
+  EXPECT_NEAR(DiscRectOverlap(5, 5, 1, q), kPi, 1e-14);          // inside
+  EXPECT_NEAR(DiscRectOverlap(0, 5, 1, q), kPi / 2, 1e-14);      // cut through the centre
+  EXPECT_NEAR(DiscRectOverlap(10, 10, 1, q), kPi / 4, 1e-14);    // corner
+  EXPECT_NEAR(DiscRectOverlap(20, 5, 1, q), 0.0, 1e-14);         // outside
   // A segment: disc centre 0.5 outside the edge: r^2 acos(d/r) - d sqrt(r^2 - d^2)
-  EXPECT_NEAR(disc_rect_overlap(-0.5, 5, 1, q), std::acos(0.5) - 0.5 * std::sqrt(0.75), 1e-13);
+  EXPECT_NEAR(DiscRectOverlap(-0.5, 5, 1, q), std::acos(0.5) - 0.5 * std::sqrt(0.75), 1e-13);
   // A rectangle thinner than the disc: a band through the middle.
   const Rect band{-10, 10, -0.5, 0.5};
-  EXPECT_NEAR(disc_rect_overlap(0, 0, 1, band), kPi - 2 * (std::acos(0.5) - 0.5 * std::sqrt(0.75)), 1e-13);
+  EXPECT_NEAR(DiscRectOverlap(0, 0, 1, band), kPi - 2 * (std::acos(0.5) - 0.5 * std::sqrt(0.75)), 1e-13);
 }
 
 TEST(DiscRectOverlap, MatchesQuadratureOnRandomCases) {
@@ -47,7 +47,7 @@ TEST(DiscRectOverlap, MatchesQuadratureOnRandomCases) {
     const double x0 = u(rng), y0 = u(rng);
     const Rect q{x0, x0 + std::abs(u(rng)) + 0.1, y0, y0 + std::abs(u(rng)) + 0.1};
     const double r = 0.3 + 0.5 * std::abs(u(rng));
-    EXPECT_NEAR(disc_rect_overlap(0.0, 0.0, r, q), overlap_numeric(0.0, 0.0, r, q), 1e-8)
+    EXPECT_NEAR(DiscRectOverlap(0.0, 0.0, r, q), OverlapNumeric(0.0, 0.0, r, q), 1e-8)
         << "rect " << q.x0 << " " << q.x1 << " " << q.y0 << " " << q.y1 << " r " << r;
   }
 }
@@ -69,7 +69,7 @@ TEST(RegionFrame, PackingAndBothTemperatures) {
   };
   const std::vector<rundir::Body> bodies = {body(1, 1, 1, 0, 1), body(2, 2, -1, 0, -1), body(3, 3, 0, 2, 0),
                                     body(4, 4, 0, -2, 0), body(11, 4, 50, 50, 50)};
-  const RegionFrame f = region_frame(discs, bodies, q);
+  const RegionFrame f = MakeRegionFrame(discs, bodies, q);
   EXPECT_NEAR(f.phi, (kPi + kPi / 2 + kPi / 4) / 100.0, 1e-14);
   EXPECT_EQ(f.bodies, 4);
   EXPECT_NEAR(f.tg_translational, 0.5 * (1 + 1 + 4 + 4) / 4.0, 1e-14);                // 1.25
@@ -78,18 +78,18 @@ TEST(RegionFrame, PackingAndBothTemperatures) {
   // A uniform drift does not change the temperatures.
   std::vector<rundir::Body> moving = bodies;
   for (auto& b : moving) { b.vx += 3.0; b.vy -= 7.0; b.omega += 2.0; }
-  const RegionFrame g = region_frame(discs, moving, q);
+  const RegionFrame g = MakeRegionFrame(discs, moving, q);
   EXPECT_NEAR(g.tg_translational, 1.25, 1e-13);
   EXPECT_NEAR(g.tg_full, 1.75, 1e-13);
 
   RegionAccumulator acc(q);
-  acc.add(discs, bodies);
-  acc.add(discs, moving);
-  const RegionStats s = acc.result();
+  acc.Add(discs, bodies);
+  acc.Add(discs, moving);
+  const RegionStats s = acc.Result();
   EXPECT_EQ(s.frames, 2);
   EXPECT_NEAR(s.phi.mean, f.phi, 1e-14);
   EXPECT_NEAR(s.tg_full.mean, 1.75, 1e-13);
-  EXPECT_EQ(s.vx.total(), 8.0);  // 4 bodies inside, 2 frames
+  EXPECT_EQ(s.vx.Total(), 8.0);  // 4 bodies inside, 2 frames
 }
 
 TEST(RegionAccumulator, VelocityHistogramsOnAFixedGridMergeExactly) {
@@ -103,29 +103,29 @@ TEST(RegionAccumulator, VelocityHistogramsOnAFixedGridMergeExactly) {
     bodies[i].vx = 0.01 * static_cast<double>(i) + 1e-9;
   }
   RegionAccumulator a(q), b(q);
-  a.add({}, bodies);
-  b.add({}, bodies);
-  RegionStats s = a.result();
-  EXPECT_EQ(s.vx.total(), 500.0);
+  a.Add({}, bodies);
+  b.Add({}, bodies);
+  RegionStats s = a.Result();
+  EXPECT_EQ(s.vx.Total(), 500.0);
   EXPECT_EQ(s.vx.first, 0);
   ASSERT_EQ(s.vx.counts.size(), 101u);  // 0 .. 4.99 -> bins 0 .. 100
   EXPECT_EQ(s.vx.counts[0], 3.0);       // 0, 0.01, 0.02
   EXPECT_EQ(s.vx.counts[1], 5.0);
-  s.vx.merge(b.result().vx);
-  EXPECT_EQ(s.vx.total(), 1000.0);
+  s.vx.Merge(b.Result().vx);
+  EXPECT_EQ(s.vx.Total(), 1000.0);
   EXPECT_EQ(s.vx.counts[1], 10.0);
-  const Histogram h = s.vx.coarse(30);  // 101 grid bins -> factor 4 -> 26 bins of 0.2
+  const Histogram h = s.vx.Coarse(30);  // 101 grid bins -> factor 4 -> 26 bins of 0.2
   EXPECT_EQ(h.counts.size(), 26u);
-  EXPECT_NEAR(h.bin_width(), 0.2, 1e-12);
-  EXPECT_EQ(h.total(), 1000.0);
+  EXPECT_NEAR(h.BinWidth(), 0.2, 1e-12);
+  EXPECT_EQ(h.Total(), 1000.0);
   EXPECT_NEAR(h.lo, -0.025, 1e-12);
 }
 
 TEST(Region, ThesisSizes) {
-  const Rect r3 = region_above_outlet(0.0, 11.0, chapter3_region());
+  const Rect r3 = RegionAboveOutlet(0.0, 11.0, Chapter3Region());
   EXPECT_DOUBLE_EQ(r3.x1 - r3.x0, 13.0);
   EXPECT_DOUBLE_EQ(r3.y1, 10.0);
-  const Rect r4 = region_above_outlet(5.0, 20.0, chapter4_region());
+  const Rect r4 = RegionAboveOutlet(5.0, 20.0, Chapter4Region());
   EXPECT_NEAR(r4.x1 - r4.x0, 20.0 + 2.0 * std::sqrt(2.0), 1e-14);
   EXPECT_NEAR(0.5 * (r4.x0 + r4.x1), 5.0, 1e-14);
   EXPECT_NEAR(r4.y1, 5.0 * std::sqrt(2.0), 1e-14);

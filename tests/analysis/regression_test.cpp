@@ -30,7 +30,7 @@ namespace granary::analysis {
 namespace {
 
 namespace fs = std::filesystem;
-using testing::load;
+using testing::Load;
 using testing::StoredCampaign;
 
 bool g_update_references = false;
@@ -39,68 +39,68 @@ constexpr double kRelativeTolerance = 1e-9;
 constexpr double kAbsoluteTolerance = 1e-12;
 constexpr const char* kCampaigns[] = {"remove", "two-outlets", "lateral"};
 
-fs::path data_dir() { return fs::path(GRANARY_SOURCE_DIR) / "tests" / "data" / "regression"; }
+fs::path DataDir() { return fs::path(GRANARY_SOURCE_DIR) / "tests" / "data" / "regression"; }
 
-nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+nlohmann::json Number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 // {"runs": {id: {metric: [value, se]}}, "points": {id: {metric: [mean, se, n]}}}
-nlohmann::json metrics_of(const CampaignAnalysis& a) {
+nlohmann::json MetricsOf(const CampaignAnalysis& a) {
   nlohmann::json runs = nlohmann::json::object(), points = nlohmann::json::object();
   for (std::size_t u = 0; u < a.view.used.size(); ++u) {
     nlohmann::json m = nlohmann::json::object();
     for (std::size_t k = 0; k < a.results.size(); ++k)
-      for (const Metric& x : a.run_metrics(k, u)) m[x.name] = {number(x.value), number(x.se)};
+      for (const Metric& x : a.RunMetrics(k, u)) m[x.name] = {Number(x.value), Number(x.se)};
     runs[a.view.used[u].record->run_id] = m;
   }
   for (std::size_t p = 0; p < a.view.points.size(); ++p) {
     nlohmann::json m = nlohmann::json::object();
-    for (const PointMetric& x : a.all_point_metrics(p)) m[x.name] = {number(x.mean), number(x.se), x.n};
+    for (const PointMetric& x : a.AllPointMetrics(p)) m[x.name] = {Number(x.mean), Number(x.se), x.n};
     points[a.view.points[p].id] = m;
   }
   return {{"runs", runs}, {"points", points}};
 }
 
-nlohmann::json analyse(const std::string& name, bool cache, const fs::path& copy_to = {}) {
-  fs::path dir = data_dir() / name;
+nlohmann::json Analyse(const std::string& name, bool cache, const fs::path& copy_to = {}) {
+  fs::path dir = DataDir() / name;
   if (!copy_to.empty()) {
     fs::copy(dir, copy_to, fs::copy_options::recursive);
     dir = copy_to;
   }
-  const StoredCampaign c = load(dir);
-  const AnalysisSetup setup = setup_analyses(c.info.spec);
+  const StoredCampaign c = Load(dir);
+  const AnalysisSetup setup = SetupAnalyses(c.info.spec);
   CampaignAnalysisOptions options;
   options.read_cache = options.write_cache = cache;  // never write into the source tree
-  const auto a = analyse_campaign(c.info, c.runs, setup, options);
+  const auto a = AnalyseCampaign(c.info, c.runs, setup, options);
   EXPECT_EQ(a->view.unreadable.size(), 0u) << (a->view.unreadable.empty() ? "" : a->view.unreadable.front().second);
-  return metrics_of(*a);
+  return MetricsOf(*a);
 }
 
-bool close(const nlohmann::json& a, const nlohmann::json& b) {
+bool Close(const nlohmann::json& a, const nlohmann::json& b) {
   if (a.is_null() || b.is_null()) return a.is_null() && b.is_null();
   const double x = a.get<double>(), y = b.get<double>();
   return std::abs(x - y) <= kRelativeTolerance * std::max(std::abs(x), std::abs(y)) + kAbsoluteTolerance;
 }
 
 // Every number of `expected` in `actual` and nothing more; failures name the place.
-void expect_same(const nlohmann::json& expected, const nlohmann::json& actual, const std::string& where) {
+void ExpectSame(const nlohmann::json& expected, const nlohmann::json& actual, const std::string& where) {
   ASSERT_EQ(expected.size(), actual.size()) << where << ": expected " << expected.dump() << "\n got " << actual.dump();
   for (const auto& [key, e] : expected.items()) {
     ASSERT_TRUE(actual.contains(key)) << where << "/" << key << " is missing";
     const nlohmann::json& a = actual.at(key);
     if (e.is_object()) {
-      expect_same(e, a, where + "/" + key);
+      ExpectSame(e, a, where + "/" + key);
       continue;
     }
     ASSERT_EQ(e.size(), a.size()) << where << "/" << key;
     for (std::size_t i = 0; i < e.size(); ++i)
-      EXPECT_TRUE(close(e[i], a[i])) << where << "/" << key << "[" << i << "]: expected " << e[i] << ", got " << a[i];
+      EXPECT_TRUE(Close(e[i], a[i])) << where << "/" << key << "[" << i << "]: expected " << e[i] << ", got " << a[i];
   }
 }
 
 TEST(Regression, StoredRunsGiveTheExpectedMetrics) {
-  const fs::path file = data_dir() / "expected_metrics.json";
+  const fs::path file = DataDir() / "expected_metrics.json";
   nlohmann::json actual = nlohmann::json::object();
-  for (const char* name : kCampaigns) actual[name] = analyse(name, false);
+  for (const char* name : kCampaigns) actual[name] = Analyse(name, false);
   if (g_update_references) {
     std::ofstream(file) << actual.dump(1) << "\n";
     std::cout << "wrote " << file << "\n";
@@ -109,28 +109,28 @@ TEST(Regression, StoredRunsGiveTheExpectedMetrics) {
   std::ifstream in(file);
   ASSERT_TRUE(in) << file << " is missing: run granary_analysis_regression --update-references";
   const nlohmann::json expected = nlohmann::json::parse(in);
-  expect_same(expected, actual, "");
+  ExpectSame(expected, actual, "");
 }
 
 // Plan-time checks of figures and expectations (check_metric_references) trust each registry
 // row's list of metrics: every point metric an analysis returns on the stored runs must be on
 // its own row's list.
 TEST(Regression, EveryPointMetricIsOnItsRegistryRowsList) {
-  const std::vector<AnalysisEntry> rows = registered_analyses();
+  const std::vector<AnalysisEntry> rows = RegisteredAnalyses();
   int checked = 0;
   for (const char* name : kCampaigns) {
-    const StoredCampaign c = load(data_dir() / name);
-    const AnalysisSetup setup = setup_analyses(c.info.spec);
+    const StoredCampaign c = Load(DataDir() / name);
+    const AnalysisSetup setup = SetupAnalyses(c.info.spec);
     CampaignAnalysisOptions options;
     options.read_cache = options.write_cache = false;
-    const auto a = analyse_campaign(c.info, c.runs, setup, options);
+    const auto a = AnalyseCampaign(c.info, c.runs, setup, options);
     for (std::size_t k = 0; k < setup.analyses.size(); ++k) {
-      const std::string key = setup.analyses[k]->key();
+      const std::string key = setup.analyses[k]->Key();
       const auto row = std::find_if(rows.begin(), rows.end(), [&](const AnalysisEntry& e) { return e.key == key; });
       ASSERT_NE(row, rows.end()) << key;
       for (const auto& point : a->point_metrics[k])
         for (const PointMetric& m : point) {
-          EXPECT_TRUE(offers_metric(*row, m.name)) << name << ": " << key << " returns " << m.name << ", not on its row's list";
+          EXPECT_TRUE(OffersMetric(*row, m.name)) << name << ": " << key << " returns " << m.name << ", not on its row's list";
           ++checked;
         }
     }
@@ -141,13 +141,13 @@ TEST(Regression, EveryPointMetricIsOnItsRegistryRowsList) {
 TEST(Regression, CachedResultsAreTheSameNumbers) {
   // A copy, so that the caches are written beside the runs and read back.
   testing::TempDir tmp;
-  const nlohmann::json cold = analyse("two-outlets", true, tmp.path() / "c");
-  const StoredCampaign c = load(tmp.path() / "c");
-  const AnalysisSetup setup = setup_analyses(c.info.spec);
-  const auto warm = analyse_campaign(c.info, c.runs, setup);
+  const nlohmann::json cold = Analyse("two-outlets", true, tmp.Path() / "c");
+  const StoredCampaign c = Load(tmp.Path() / "c");
+  const AnalysisSetup setup = SetupAnalyses(c.info.spec);
+  const auto warm = AnalyseCampaign(c.info, c.runs, setup);
   EXPECT_EQ(warm->results_computed, 0);
   EXPECT_EQ(warm->results_from_cache, static_cast<int>(c.runs.size() * setup.analyses.size()));
-  EXPECT_EQ(metrics_of(*warm), cold);
+  EXPECT_EQ(MetricsOf(*warm), cold);
 }
 
 }  // namespace

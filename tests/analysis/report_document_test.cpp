@@ -14,18 +14,18 @@
 namespace granary::analysis {
 namespace {
 
-using testing::read_file;
+using testing::ReadFile;
 using testing::TempDir;
 
 TEST(Format, NumbersAndMeanSe) {
-  EXPECT_EQ(format_number(12.0), "12");
-  EXPECT_EQ(format_number(3.14159265, 4), "3.142");
-  EXPECT_EQ(format_number(std::nan("")), "");
-  EXPECT_EQ(format_mean_se(2.5, 0.25, 4), "2.5 ± 0.25 (4)");
-  EXPECT_EQ(format_mean_se(2.5, std::nan(""), 1), "2.5 (1)");
-  EXPECT_EQ(csv_escape("a,b"), "\"a,b\"");
-  EXPECT_EQ(csv_escape("say \"x\", y"), "\"say \"\"x\"\", y\"");
-  EXPECT_EQ(html_escape("<a & b>"), "&lt;a &amp; b&gt;");
+  EXPECT_EQ(FormatNumber(12.0), "12");
+  EXPECT_EQ(FormatNumber(3.14159265, 4), "3.142");
+  EXPECT_EQ(FormatNumber(std::nan("")), "");
+  EXPECT_EQ(FormatMeanSe(2.5, 0.25, 4), "2.5 ± 0.25 (4)");
+  EXPECT_EQ(FormatMeanSe(2.5, std::nan(""), 1), "2.5 (1)");
+  EXPECT_EQ(CsvEscape("a,b"), "\"a,b\"");
+  EXPECT_EQ(CsvEscape("say \"x\", y"), "\"say \"\"x\"\", y\"");
+  EXPECT_EQ(HtmlEscape("<a & b>"), "&lt;a &amp; b&gt;");
 }
 
 TEST(RenderReport, TablesFiguresAndCsv) {
@@ -38,8 +38,8 @@ TEST(RenderReport, TablesFiguresAndCsv) {
   s.blocks.push_back(Table{"numbers",
                            "Numbers",
                            {"point", "Q (bodies/t)", "count"},
-                           {{"a", Cell::estimate(2.0 / 3.0, 0.125, 4), Cell::count(7)},
-                            {"b", Cell::estimate(1.5, std::nan(""), 1), Cell::number(std::nan(""))}},
+                           {{"a", Cell::Estimate(2.0 / 3.0, 0.125, 4), Cell::Count(7)},
+                            {"b", Cell::Estimate(1.5, std::nan(""), 1), Cell::Number(std::nan(""))}},
                            {"point", "q", "count"}});
   Series se;
   se.label = "data";
@@ -50,17 +50,17 @@ TEST(RenderReport, TablesFiguresAndCsv) {
   s.blocks.push_back(Figure{"fig", "A figure", "x (d)", "y (1/t)", {se}, false, false, "caption"});
   RenderOptions opt;
   opt.figures = std::system("command -v gnuplot > /dev/null 2>&1") == 0;
-  const auto out = dir.path() / "it's a report";  // shell quoting of the gnuplot call
-  const RenderResult r = render_report("Title", {s}, out, opt);
-  const std::string md = read_file(r.markdown);
+  const auto out = dir.Path() / "it's a report";  // shell quoting of the gnuplot call
+  const RenderResult r = RenderReport("Title", {s}, out, opt);
+  const std::string md = ReadFile(r.markdown);
   EXPECT_NE(md.find("| x\\|y | 1,5 |"), std::string::npos) << md;
-  EXPECT_EQ(read_file(out / "data" / "tab.csv"), "name,value\nx|y,\"1,5\"\n");
-  EXPECT_EQ(read_file(out / "data" / "numbers.csv"),
+  EXPECT_EQ(ReadFile(out / "data" / "tab.csv"), "name,value\nx|y,\"1,5\"\n");
+  EXPECT_EQ(ReadFile(out / "data" / "numbers.csv"),
             "point,q,q_se,q_n,count\na,0.6666666666666666,0.125,4,7\nb,1.5,nan,1,nan\n");
   EXPECT_NE(md.find("| a | 0.6667 ± 0.12 (4) | 7 |"), std::string::npos) << md;
   // A figure's data files are named after what they hold.
-  EXPECT_EQ(read_file(out / "data" / "fig--data.csv"), "x,y,y_se\n1,2,0.1\n2,4,nan\n3,6,0.3\n");
-  const std::string html = read_file(r.html);
+  EXPECT_EQ(ReadFile(out / "data" / "fig--data.csv"), "x,y,y_se\n1,2,0.1\n2,4,nan\n3,6,0.3\n");
+  const std::string html = ReadFile(r.html);
   EXPECT_NE(html.find("<b>bold</b>"), std::string::npos);
   EXPECT_NE(html.find("<code>code</code>"), std::string::npos);
   EXPECT_NE(html.find("&lt;tag&gt;"), std::string::npos);
@@ -84,11 +84,11 @@ TEST(GnuplotScript, LinesWithErrorBars) {
   se.style = Series::Style::kLinesPoints;
   se.err = 2;
   Figure f{"prof", "Profile", "x/W", "v", {se}, false, false, ""};
-  EXPECT_NE(gnuplot_script(f).find("using ($1):($2):(valid(3) && $3 == $3 ? $3 : 0) with yerrorlines"), std::string::npos)
-      << gnuplot_script(f);
+  EXPECT_NE(GnuplotScript(f).find("using ($1):($2):(valid(3) && $3 == $3 ? $3 : 0) with yerrorlines"), std::string::npos)
+      << GnuplotScript(f);
   f.series[0].err = -1;
-  EXPECT_EQ(gnuplot_script(f).find("yerror"), std::string::npos);
-  EXPECT_NE(gnuplot_script(f).find("with linespoints"), std::string::npos);
+  EXPECT_EQ(GnuplotScript(f).find("yerror"), std::string::npos);
+  EXPECT_NE(GnuplotScript(f).find("with linespoints"), std::string::npos);
 }
 
 TEST(RenderReport, CurveFilesAreNamedAfterTheirLabelsAndUnique) {
@@ -98,14 +98,14 @@ TEST(RenderReport, CurveFilesAreNamedAfterTheirLabelsAndUnique) {
     se.label = label;
     f.series.push_back(se);
   }
-  EXPECT_EQ(series_files(f), (std::vector<std::string>{"flow_rate--Q.csv", "flow_rate--species.0.fraction_0.5_W_d.csv",
+  EXPECT_EQ(SeriesFiles(f), (std::vector<std::string>{"flow_rate--Q.csv", "flow_rate--species.0.fraction_0.5_W_d.csv",
                                                        "flow_rate--Q-2.csv", "flow_rate--curve4.csv", "flow_rate--a_b.csv"}));
   // A fit whose quality is in its key keeps one file name whatever the quality.
   Series fit;
   fit.label = "beverloo_2d (X_db = 0.5), ill-determined";
   fit.file_label = "beverloo_2d (X_db = 0.5)";
   f.series = {fit};
-  EXPECT_EQ(series_files(f), std::vector<std::string>{"flow_rate--beverloo_2d_X_db_0.5.csv"});
+  EXPECT_EQ(SeriesFiles(f), std::vector<std::string>{"flow_rate--beverloo_2d_X_db_0.5.csv"});
 }
 
 TEST(RenderReport, MissingGnuplotIsReported) {
@@ -116,17 +116,17 @@ TEST(RenderReport, MissingGnuplotIsReported) {
   Section s{"sec", "S", {Figure{"fig", "F", "x", "y", {se}, false, false, ""}}};
   RenderOptions opt;
   opt.gnuplot = "no-such-gnuplot-binary";
-  const RenderResult r = render_report("T", {s}, dir.path(), opt);
+  const RenderResult r = RenderReport("T", {s}, dir.Path(), opt);
   EXPECT_EQ(r.figures_drawn, 0);
   ASSERT_FALSE(r.problems.empty());
-  EXPECT_NE(read_file(r.markdown).find("gnuplot ('no-such-gnuplot-binary') was not found"), std::string::npos);
-  EXPECT_TRUE(std::filesystem::exists(dir.path() / "data" / "fig--curve1.csv"));  // no label: numbered
+  EXPECT_NE(ReadFile(r.markdown).find("gnuplot ('no-such-gnuplot-binary') was not found"), std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(dir.Path() / "data" / "fig--curve1.csv"));  // no label: numbered
 }
 
 }  // namespace
 
 // Figures a referee can read.
-Series points_at(const std::string& label, std::vector<std::vector<double>> rows,
+Series PointsAt(const std::string& label, std::vector<std::vector<double>> rows,
                  Series::Style style = Series::Style::kErrorBars) {
   Series se;
   se.label = label;
@@ -139,8 +139,8 @@ Series points_at(const std::string& label, std::vector<std::vector<double>> rows
 
 TEST(GnuplotScript, TwelveCurvesTakeTwelveDistinctColours) {
   Figure f{"many", "Many", "x", "y", {}, false, false, ""};
-  for (int k = 0; k < 12; ++k) f.series.push_back(points_at("c" + std::to_string(k), {{k + 1.0, 1.0, 0.1}}));
-  const std::string gp = gnuplot_script(f);
+  for (int k = 0; k < 12; ++k) f.series.push_back(PointsAt("c" + std::to_string(k), {{k + 1.0, 1.0, 0.1}}));
+  const std::string gp = GnuplotScript(f);
   for (int k = 1; k <= 12; ++k)
     EXPECT_NE(gp.find(" lt " + std::to_string(k) + " lw 1.5 title 'c" + std::to_string(k - 1) + "'"), std::string::npos) << gp;
   // Every pair of palette colours is far apart in RGB (and none is near the black of the
@@ -162,26 +162,26 @@ TEST(GnuplotScript, TwelveCurvesTakeTwelveDistinctColours) {
 
 TEST(GnuplotScript, AxesFitTheDataNotTheFittedCurves) {
   // Non-negative values whose error bars reach below 0, and a fitted line down to -20.
-  Series fit = points_at("fit", {{0.0, -20.0}, {10.0, 12.0}}, Series::Style::kLines);
+  Series fit = PointsAt("fit", {{0.0, -20.0}, {10.0, 12.0}}, Series::Style::kLines);
   fit.role = Series::Role::kFit;
-  Figure f{"axes", "Axes", "x", "y", {points_at("data", {{2.0, 0.5, 1.0}, {8.0, 10.0, 0.5}}), fit}, false, false, ""};
-  const std::string gp = gnuplot_script(f);
+  Figure f{"axes", "Axes", "x", "y", {PointsAt("data", {{2.0, 0.5, 1.0}, {8.0, 10.0, 0.5}}), fit}, false, false, ""};
+  const std::string gp = GnuplotScript(f);
   EXPECT_NE(gp.find("set yrange [0:"), std::string::npos) << gp;        // no negative axis for >= 0 values
   EXPECT_NE(gp.find("set xrange [1.7:8.3]"), std::string::npos) << gp;  // the data's x, 5 % margin
   EXPECT_EQ(gp.find("-20"), std::string::npos) << gp;
   EXPECT_NE(gp.find("dt 2"), std::string::npos) << gp;                  // the fit: dashed
   // Values below 0 keep their negative axis.
   f.series[0].rows[0][1] = -3.0;
-  EXPECT_NE(gnuplot_script(f).find("set yrange [-"), std::string::npos);
+  EXPECT_NE(GnuplotScript(f).find("set yrange [-"), std::string::npos);
 }
 
 // Curves offset along x by +-0.25 read as W = 6.25 and put the outermost points
 // outside the x range; every point is drawn at its true x, told apart by colour and shape.
 TEST(GnuplotScript, PointsOfSeveralCurvesAtOneXAreDrawnAtTheirTrueX) {
   Figure f{"side", "Side", "x", "y",
-           {points_at("a", {{6.0, 1.0, 0.1}, {10.0, 2.0, 0.1}}), points_at("b", {{6.0, 1.0, 0.1}, {10.0, 2.0, 0.1}})},
+           {PointsAt("a", {{6.0, 1.0, 0.1}, {10.0, 2.0, 0.1}}), PointsAt("b", {{6.0, 1.0, 0.1}, {10.0, 2.0, 0.1}})},
            false, false, ""};
-  const std::string gp = gnuplot_script(f);
+  const std::string gp = GnuplotScript(f);
   EXPECT_EQ(gp.find("($1+"), std::string::npos) << gp;
   EXPECT_EQ(gp.find("($1*"), std::string::npos) << gp;
   std::size_t uses = 0;
@@ -193,13 +193,13 @@ TEST(GnuplotScript, PointsOfSeveralCurvesAtOneXAreDrawnAtTheirTrueX) {
 }
 
 TEST(GnuplotScript, ReferenceLinesCanBeToldApart) {
-  Figure f{"ref", "Ref", "x", "ratio", {points_at("r", {{1.0, 1.0, 0.1}, {2.0, 1.05, 0.1}})}, false, false, ""};
+  Figure f{"ref", "Ref", "x", "ratio", {PointsAt("r", {{1.0, 1.0, 0.1}, {2.0, 1.05, 0.1}})}, false, false, ""};
   for (const char* label : {"equal", "-10 %", "+10 %"}) {
-    Series line = points_at(label, {{1.0, 1.0}, {2.0, 1.0}}, Series::Style::kLines);
+    Series line = PointsAt(label, {{1.0, 1.0}, {2.0, 1.0}}, Series::Style::kLines);
     line.role = Series::Role::kReference;
     f.series.push_back(line);
   }
-  const std::string gp = gnuplot_script(f);
+  const std::string gp = GnuplotScript(f);
   EXPECT_NE(gp.find("lc rgb '#000000' dt 1 lw 1.5 title 'equal'"), std::string::npos) << gp;
   EXPECT_NE(gp.find("dt 2 lw 1.5 title '-10 %'"), std::string::npos) << gp;
   EXPECT_NE(gp.find("dt 3 lw 1.5 title '+10 %'"), std::string::npos) << gp;
@@ -207,18 +207,18 @@ TEST(GnuplotScript, ReferenceLinesCanBeToldApart) {
 
 TEST(RenderReport, FilesAreGroupedIntoDataAndFigures) {
   TempDir dir;
-  Figure f{"g", "G", "x", "y", {points_at("a", {{1.0, 1.0, 0.1}})}, false, false, ""};
+  Figure f{"g", "G", "x", "y", {PointsAt("a", {{1.0, 1.0, 0.1}})}, false, false, ""};
   Table t{"tab", "T", {"a"}, {{Cell("1")}}, {}};
-  const RenderResult r = render_report("grouped", {Section{"s", "S", {t, f}}}, dir.path(), RenderOptions{});
-  EXPECT_TRUE(std::filesystem::exists(dir.path() / "data" / "tab.csv"));
-  EXPECT_TRUE(std::filesystem::exists(dir.path() / "data" / "g--a.csv"));
-  for (const auto& e : std::filesystem::directory_iterator(dir.path()))
+  const RenderResult r = RenderReport("grouped", {Section{"s", "S", {t, f}}}, dir.Path(), RenderOptions{});
+  EXPECT_TRUE(std::filesystem::exists(dir.Path() / "data" / "tab.csv"));
+  EXPECT_TRUE(std::filesystem::exists(dir.Path() / "data" / "g--a.csv"));
+  for (const auto& e : std::filesystem::directory_iterator(dir.Path()))
     EXPECT_TRUE(e.is_directory() || e.path().extension() == ".md" || e.path().extension() == ".html") << e.path();
   if (r.figures_drawn > 0) {
-    EXPECT_TRUE(std::filesystem::exists(dir.path() / "figures" / "g.svg"));
-    EXPECT_FALSE(std::filesystem::exists(dir.path() / "figures" / "g.gp.log"));  // kept only when gnuplot fails
+    EXPECT_TRUE(std::filesystem::exists(dir.Path() / "figures" / "g.svg"));
+    EXPECT_FALSE(std::filesystem::exists(dir.Path() / "figures" / "g.gp.log"));  // kept only when gnuplot fails
   }
-  EXPECT_NE(read_file(dir.path() / "report.html").find("href=\"data/tab.csv\""), std::string::npos);
+  EXPECT_NE(ReadFile(dir.Path() / "report.html").find("href=\"data/tab.csv\""), std::string::npos);
 }
 
 }  // namespace granary::analysis
@@ -235,18 +235,18 @@ TEST(GnuplotScript, AKeyOfLongTitlesFitsInsideTheCanvas) {
   for (const char* shape : {"disc", "dumbbell"})
     for (const char* engine : {"native", "liggghts"}) {
       const std::string group = std::string("body shape = ") + shape + ", number of bodies N = 1000, engine = " + engine;
-      f.series.push_back(points_at(group, {{15, 40, 1}, {25, 90, 2}}));
-      Series fit = points_at("beverloo_2d (" + group + "), ill-determined", {{15, 41}, {25, 89}}, Series::Style::kLines);
+      f.series.push_back(PointsAt(group, {{15, 40, 1}, {25, 90, 2}}));
+      Series fit = PointsAt("beverloo_2d (" + group + "), ill-determined", {{15, 41}, {25, 89}}, Series::Style::kLines);
       fit.role = Series::Role::kFit;
       f.series.push_back(fit);
     }
-  const KeyLayout key = key_layout(f);
+  const KeyLayout key = ComputeKeyLayout(f);
   EXPECT_EQ(key.columns, 1) << "two 95-character titles do not fit across 800 px";
   EXPECT_GT(key.width, 800) << "nor does one";
   RenderOptions opt;
-  const RenderResult r = render_report("T", {Section{"s", "S", {f}}}, dir.path(), opt);
+  const RenderResult r = RenderReport("T", {Section{"s", "S", {f}}}, dir.Path(), opt);
   ASSERT_EQ(r.figures_drawn, 1) << (r.problems.empty() ? "" : r.problems.front());
-  const std::string svg = read_file(dir.path() / "figures" / "flow_rate.svg");
+  const std::string svg = ReadFile(dir.Path() / "figures" / "flow_rate.svg");
   const std::regex size_re(R"re(<svg[^>]*width="(\d+)"[^>]*height="(\d+)")re");
   std::smatch size;
   ASSERT_TRUE(std::regex_search(svg, size, size_re));
@@ -273,10 +273,10 @@ TEST(GnuplotScript, AKeyOfLongTitlesFitsInsideTheCanvas) {
 // inside one ("W =" on one line, "12" on the next); the CSV keeps plain spaces.
 TEST(RenderReport, PointNamesBreakOnlyBetweenTheirPairs) {
   TempDir dir;
-  Table t{"points", "Points", {"point", "Q"}, {{"W = 12, X_db = 0.5", Cell::number(3)}}, {}};
-  const RenderResult r = render_report("T", {Section{"s", "S", {t}}}, dir.path(), RenderOptions{});
-  EXPECT_NE(read_file(r.html).find(">W&#160;=&#160;12, X_db&#160;=&#160;0.5</td>"), std::string::npos) << read_file(r.html);
-  EXPECT_EQ(read_file(dir.path() / "data" / "points.csv"), "point,Q\n\"W = 12, X_db = 0.5\",3\n");
+  Table t{"points", "Points", {"point", "Q"}, {{"W = 12, X_db = 0.5", Cell::Number(3)}}, {}};
+  const RenderResult r = RenderReport("T", {Section{"s", "S", {t}}}, dir.Path(), RenderOptions{});
+  EXPECT_NE(ReadFile(r.html).find(">W&#160;=&#160;12, X_db&#160;=&#160;0.5</td>"), std::string::npos) << ReadFile(r.html);
+  EXPECT_EQ(ReadFile(dir.Path() / "data" / "points.csv"), "point,Q\n\"W = 12, X_db = 0.5\",3\n");
 }
 
 }  // namespace

@@ -16,22 +16,22 @@
 namespace granary::analysis {
 namespace {
 
-using testing::csv_cell;
-using testing::read_file;
+using testing::CsvCell;
+using testing::ReadFile;
 using testing::TempDir;
-using testing::write_file;
+using testing::WriteFile;
 
 constexpr double kC = 0.8, kK = 1.5;
-double beverloo(double w) { return kC * std::pow(w - kK, 1.5); }
+double Beverloo(double w) { return kC * std::pow(w - kK, 1.5); }
 
 // Exit times of a steady stream at rate q in [t0, t1).
-std::vector<double> stream(double q, double t0, double t1) {
+std::vector<double> Stream(double q, double t0, double t1) {
   std::vector<double> t;
   for (int i = 0; t0 + i / q < t1; ++i) t.push_back(t0 + i / q);
   return t;
 }
 
-nlohmann::json silo_spec(const nlohmann::json& base_outlets, const nlohmann::json& side_outlets = nlohmann::json::array()) {
+nlohmann::json SiloSpec(const nlohmann::json& base_outlets, const nlohmann::json& side_outlets = nlohmann::json::array()) {
   return {{"engine", "native"},
           {"silo", {{"width", 100}, {"base_outlets", base_outlets}, {"side_outlets", side_outlets}}},
           {"bodies", {{"count", 2000}}},
@@ -44,7 +44,7 @@ struct Campaign {
   std::filesystem::path root;
 
   // A finished run whose outlet k has the exit times streams[k].
-  void add(const std::string& point_id, const nlohmann::json& point, const nlohmann::json& spec,
+  void Add(const std::string& point_id, const nlohmann::json& point, const nlohmann::json& spec,
            const std::vector<std::vector<double>>& streams, double t_end) {
     std::vector<std::pair<double, int>> events;
     for (std::size_t k = 0; k < streams.size(); ++k)
@@ -63,31 +63,31 @@ struct Campaign {
     ev.precision(17);
     ev << "time,body,shape,mass,outlet\n";
     for (std::size_t i = 0; i < events.size(); ++i) ev << events[i].first << "," << i << ",dumbbell,2.0," << events[i].second << "\n";
-    write_file(r.run_dir / "events.csv", ev.str());
+    WriteFile(r.run_dir / "events.csv", ev.str());
     const int n = static_cast<int>(events.size());
     const nlohmann::json summary = {{"engine", "native"}, {"engine_version", "0.1.0"}, {"run_id", r.run_id},
                                     {"spec", spec},       {"end_reason", "time_limit"}, {"bodies", 2000},
                                     {"exited", n},        {"remaining", 2000},       {"t_end", t_end}};
-    write_file(r.run_dir / "summary.json", summary.dump());
-    write_file(r.run_dir / "run.json", spec.dump());
+    WriteFile(r.run_dir / "summary.json", summary.dump());
+    WriteFile(r.run_dir / "run.json", spec.dump());
     runs.push_back(r);
   }
 
-  std::filesystem::path report(const std::filesystem::path& out, bool figures = false) const {
+  std::filesystem::path Report(const std::filesystem::path& out, bool figures = false) const {
     ReportOptions opt;
     opt.out_dir = out;
     opt.figures = figures;
-    write_report(info, runs, opt);
+    WriteReport(info, runs, opt);
     return out;
   }
 };
 
 // The value of `column` in the CSV row whose first cell is `first`.
-std::string cell_of_row(const std::string& csv, const std::string& first, int column) {
+std::string CellOfRow(const std::string& csv, const std::string& first, int column) {
   std::istringstream in(csv);
   std::string line;
   while (std::getline(in, line))
-    if (line.rfind(first + ",", 0) == 0) return csv_cell(line, {}, column);
+    if (line.rfind(first + ",", 0) == 0) return CsvCell(line, {}, column);
   return "";
 }
 
@@ -97,33 +97,33 @@ TEST(ReportOutlets, TwoBaseOutletsAgainstTheGapWithFlowPerOutlet) {
   // flows at 5 - L/4, outlet 1 at 3 (replicas at -+1%).
   TempDir dir;
   Campaign c;
-  c.root = dir.path() / "runs";
+  c.root = dir.Path() / "runs";
   c.info.name = "two-outlets";
   c.info.axes = {"/silo/base_outlets/0/center", "/silo/base_outlets/1/center"};
   for (double l : {0.0, 4.0, 8.0}) {
     const double centre = 4.0 + l / 2.0;
     const nlohmann::json point = {{"/silo/base_outlets/0/center", -centre}, {"/silo/base_outlets/1/center", centre}};
-    const nlohmann::json spec = silo_spec({{{"center", -centre}, {"width", 8}}, {{"center", centre}, {"width", 8}}});
+    const nlohmann::json spec = SiloSpec({{{"center", -centre}, {"width", 8}}, {{"center", centre}, {"width", 8}}});
     for (double f : {0.99, 1.01})
-      c.add("L" + format_number(l), point, spec, {stream(f * (5.0 - l / 4.0), 0.5, 60.0), stream(f * 3.0, 0.7, 60.0)}, 60.0);
+      c.Add("L" + FormatNumber(l), point, spec, {Stream(f * (5.0 - l / 4.0), 0.5, 60.0), Stream(f * 3.0, 0.7, 60.0)}, 60.0);
   }
-  const auto out = c.report(dir.path() / "report");
-  const std::string flow = read_file(out / "data" / "flow_rate.csv");
+  const auto out = c.Report(dir.Path() / "report");
+  const std::string flow = ReadFile(out / "data" / "flow_rate.csv");
   EXPECT_EQ(flow.substr(0, flow.find('\n')),
             "point,q_count,q_count_se,q_count_n,q_mass,q_mass_se,q_mass_n,q_count_outlet0,q_count_outlet0_se,"
             "q_count_outlet0_n,q_count_outlet1,q_count_outlet1_se,q_count_outlet1_n");
-  EXPECT_NEAR(std::stod(csv_cell(flow, {"L = 4,"}, 7)), 4.0, 1e-3);  // staircase sampled at all exits
-  EXPECT_NEAR(std::stod(csv_cell(flow, {"L = 8,"}, 7)), 3.0, 1e-3);
-  EXPECT_NEAR(std::stod(csv_cell(flow, {"L = 8,"}, 10)), 3.0, 1e-3);
-  EXPECT_NEAR(std::stod(csv_cell(flow, {"L = 0,"}, 1)), 8.0, 0.1);  // merged streams: nearly q0 + q1
+  EXPECT_NEAR(std::stod(CsvCell(flow, {"L = 4,"}, 7)), 4.0, 1e-3);  // staircase sampled at all exits
+  EXPECT_NEAR(std::stod(CsvCell(flow, {"L = 8,"}, 7)), 3.0, 1e-3);
+  EXPECT_NEAR(std::stod(CsvCell(flow, {"L = 8,"}, 10)), 3.0, 1e-3);
+  EXPECT_NEAR(std::stod(CsvCell(flow, {"L = 0,"}, 1)), 8.0, 0.1);  // merged streams: nearly q0 + q1
   // The figure of each outlet against L (edge-to-edge gap computed from the centres).
-  const std::string outlet0 = read_file(out / "data" / "flow_rate_per_outlet--base_0.csv");
+  const std::string outlet0 = ReadFile(out / "data" / "flow_rate_per_outlet--base_0.csv");
   EXPECT_EQ(outlet0.substr(0, outlet0.find('\n')), "L,Q,Q_se,n");
-  EXPECT_NEAR(std::stod(cell_of_row(outlet0, "4", 1)), 4.0, 1e-3);
-  EXPECT_NEAR(std::stod(cell_of_row(outlet0, "4", 2)), 0.04, 1e-3);  // se of the -+1% replicas
+  EXPECT_NEAR(std::stod(CellOfRow(outlet0, "4", 1)), 4.0, 1e-3);
+  EXPECT_NEAR(std::stod(CellOfRow(outlet0, "4", 2)), 0.04, 1e-3);  // se of the -+1% replicas
   EXPECT_EQ(std::count(outlet0.begin(), outlet0.end(), '\n'), 4);
-  EXPECT_NEAR(std::stod(cell_of_row(read_file(out / "data" / "flow_rate_per_outlet--base_1.csv"), "8", 1)), 3.0, 1e-3);
-  const std::string md = read_file(out / "report.md");
+  EXPECT_NEAR(std::stod(CellOfRow(ReadFile(out / "data" / "flow_rate_per_outlet--base_1.csv"), "8", 1)), 3.0, 1e-3);
+  const std::string md = ReadFile(out / "report.md");
   EXPECT_NE(md.find("against L/d (gap between base outlets 0 and 1, edge to edge)"), std::string::npos);
   EXPECT_EQ(md.find("Fits of Q(W/d)"), std::string::npos);  // x is not a width: no Beverloo fits
 }
@@ -133,22 +133,22 @@ TEST(ReportOutlets, FitsAndHeadlineUseTheSweptOutlet) {
   // Q through the small outlet follows Beverloo, the total does not.
   TempDir dir;
   Campaign c;
-  c.root = dir.path() / "runs";
+  c.root = dir.Path() / "runs";
   c.info.name = "small-beside-large";
   c.info.axes = {"/silo/base_outlets/0/width"};
   for (double w : {4.0, 6.0, 8.0, 10.0}) {
-    const nlohmann::json spec = silo_spec({{{"center", -20}, {"width", w}}, {{"center", 20}, {"width", 12}}});
+    const nlohmann::json spec = SiloSpec({{{"center", -20}, {"width", w}}, {{"center", 20}, {"width", 12}}});
     for (double f : {0.99, 1.01})
-      c.add("W" + format_number(w), {{"/silo/base_outlets/0/width", w}}, spec,
-            {stream(f * beverloo(w), 0.5, 60.0), stream(10.0, 0.6, 60.0)}, 60.0);
+      c.Add("W" + FormatNumber(w), {{"/silo/base_outlets/0/width", w}}, spec,
+            {Stream(f * Beverloo(w), 0.5, 60.0), Stream(10.0, 0.6, 60.0)}, 60.0);
   }
-  const auto out = c.report(dir.path() / "report");
-  const std::string fits = read_file(out / "data" / "flow_rate_fits.csv");
-  EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",C,"}, 3)), kC, 1e-3);
-  EXPECT_NEAR(std::stod(csv_cell(fits, {"beverloo_2d", ",k,"}, 3)), kK, 1e-3);
-  const std::string headline = read_file(out / "data" / "flow_rate--Q.csv");
-  EXPECT_NEAR(std::stod(cell_of_row(headline, "6", 1)), beverloo(6.0), 1e-3);
-  EXPECT_NE(read_file(out / "report.md").find("Flow rate Q through base 0 against W/d"), std::string::npos);
+  const auto out = c.Report(dir.Path() / "report");
+  const std::string fits = ReadFile(out / "data" / "flow_rate_fits.csv");
+  EXPECT_NEAR(std::stod(CsvCell(fits, {"beverloo_2d", ",C,"}, 3)), kC, 1e-3);
+  EXPECT_NEAR(std::stod(CsvCell(fits, {"beverloo_2d", ",k,"}, 3)), kK, 1e-3);
+  const std::string headline = ReadFile(out / "data" / "flow_rate--Q.csv");
+  EXPECT_NEAR(std::stod(CellOfRow(headline, "6", 1)), Beverloo(6.0), 1e-3);
+  EXPECT_NE(ReadFile(out / "report.md").find("Flow rate Q through base 0 against W/d"), std::string::npos);
 }
 
 TEST(ReportOutlets, SideOutletWidthCountsAfterTheBaseOutlets) {
@@ -156,19 +156,19 @@ TEST(ReportOutlets, SideOutletWidthCountsAfterTheBaseOutlets) {
   // first, so /silo/side_outlets/0/width is outlet 1, and the fit sees its Q.
   TempDir dir;
   Campaign c;
-  c.root = dir.path() / "runs";
+  c.root = dir.Path() / "runs";
   c.info.name = "side";
   c.info.axes = {"/silo/side_outlets/0/width"};
   for (double w : {5.0, 7.0, 9.0, 11.0}) {
     const nlohmann::json spec =
-        silo_spec({{{"center", 0}, {"width", 10}}}, {{{"wall", "right"}, {"bottom", 3.5}, {"width", w}}});
+        SiloSpec({{{"center", 0}, {"width", 10}}}, {{{"wall", "right"}, {"bottom", 3.5}, {"width", w}}});
     for (double f : {0.99, 1.01})
-      c.add("W" + format_number(w), {{"/silo/side_outlets/0/width", w}}, spec,
-            {stream(5.0, 0.5, 60.0), stream(f * beverloo(w), 0.6, 60.0)}, 60.0);
+      c.Add("W" + FormatNumber(w), {{"/silo/side_outlets/0/width", w}}, spec,
+            {Stream(5.0, 0.5, 60.0), Stream(f * Beverloo(w), 0.6, 60.0)}, 60.0);
   }
-  const auto out = c.report(dir.path() / "report");
-  EXPECT_NEAR(std::stod(csv_cell(read_file(out / "data" / "flow_rate_fits.csv"), {"beverloo_2d", ",k,"}, 3)), kK, 1e-3);
-  EXPECT_NE(read_file(out / "report.md").find("Q side 1 (right)"), std::string::npos);
+  const auto out = c.Report(dir.Path() / "report");
+  EXPECT_NEAR(std::stod(CsvCell(ReadFile(out / "data" / "flow_rate_fits.csv"), {"beverloo_2d", ",k,"}, 3)), kK, 1e-3);
+  EXPECT_NE(ReadFile(out / "report.md").find("Q side 1 (right)"), std::string::npos);
 }
 
 TEST(ReportOutlets, AvalanchesAndIntermittencyOfOneOutletWhileTheOtherFlows) {
@@ -176,24 +176,24 @@ TEST(ReportOutlets, AvalanchesAndIntermittencyOfOneOutletWhileTheOtherFlows) {
   // 1 never stops, so the merged stream has no avalanche but outlet 0 has one of 20 bodies.
   TempDir dir;
   Campaign c;
-  c.root = dir.path() / "runs";
+  c.root = dir.Path() / "runs";
   c.info.name = "intermittent";
   c.info.axes = {"/silo/base_outlets/0/width"};
-  const nlohmann::json spec = silo_spec({{{"center", -20}, {"width", 4}}, {{"center", 20}, {"width", 12}}});
-  std::vector<double> small = stream(2.0, 0.5, 10.01), late = stream(2.0, 20.0, 28.01);
+  const nlohmann::json spec = SiloSpec({{{"center", -20}, {"width", 4}}, {{"center", 20}, {"width", 12}}});
+  std::vector<double> small = Stream(2.0, 0.5, 10.01), late = Stream(2.0, 20.0, 28.01);
   small.insert(small.end(), late.begin(), late.end());
-  c.add("W4", {{"/silo/base_outlets/0/width", 4}}, spec, {small, stream(4.0, 0.25, 30.0)}, 30.0);
-  const auto out = c.report(dir.path() / "report");
-  const std::string av = read_file(out / "data" / "avalanches_per_outlet.csv");
-  EXPECT_EQ(csv_cell(av, {"W_1 = 4", "base 0"}, 2), "20");
-  EXPECT_EQ(csv_cell(av, {"W_1 = 4", "base 0"}, 4), "1");  // n
-  EXPECT_EQ(csv_cell(av, {"W_1 = 4", "base 1"}, 2), "no avalanche");
+  c.Add("W4", {{"/silo/base_outlets/0/width", 4}}, spec, {small, Stream(4.0, 0.25, 30.0)}, 30.0);
+  const auto out = c.Report(dir.Path() / "report");
+  const std::string av = ReadFile(out / "data" / "avalanches_per_outlet.csv");
+  EXPECT_EQ(CsvCell(av, {"W_1 = 4", "base 0"}, 2), "20");
+  EXPECT_EQ(CsvCell(av, {"W_1 = 4", "base 0"}, 4), "1");  // n
+  EXPECT_EQ(CsvCell(av, {"W_1 = 4", "base 1"}, 2), "no avalanche");
   EXPECT_FALSE(std::filesystem::exists(out / "data" / "avalanches.csv"));  // the merged stream never stopped
-  const std::string inter = read_file(out / "data" / "intermittency.csv");
-  EXPECT_EQ(csv_cell(inter, {"W_1 = 4", "base 0"}, 5), "10");  // t_c: 10 -> 20
-  EXPECT_EQ(csv_cell(inter, {"W_1 = 4", "base 0"}, 7), "1");
-  EXPECT_DOUBLE_EQ(std::stod(csv_cell(inter, {"W_1 = 4", "base 0"}, 8)), 1.0 / 30.0);
-  EXPECT_EQ(csv_cell(inter, {"W_1 = 4", "base 1"}, 9), "0");  // unclogs
+  const std::string inter = ReadFile(out / "data" / "intermittency.csv");
+  EXPECT_EQ(CsvCell(inter, {"W_1 = 4", "base 0"}, 5), "10");  // t_c: 10 -> 20
+  EXPECT_EQ(CsvCell(inter, {"W_1 = 4", "base 0"}, 7), "1");
+  EXPECT_DOUBLE_EQ(std::stod(CsvCell(inter, {"W_1 = 4", "base 0"}, 8)), 1.0 / 30.0);
+  EXPECT_EQ(CsvCell(inter, {"W_1 = 4", "base 1"}, 9), "0");  // unclogs
 }
 
 TEST(ReportOutlets, FitsPerGroupOfZippedAxesAndSmoothCurves) {
@@ -202,42 +202,42 @@ TEST(ReportOutlets, FitsPerGroupOfZippedAxesAndSmoothCurves) {
   // each fitted curve is the function sampled over the whole plotted range of W.
   TempDir dir;
   Campaign c;
-  c.root = dir.path() / "runs";
+  c.root = dir.Path() / "runs";
   c.info.name = "zipped";
   c.info.axes = {"/silo/base_outlets/0/width", "/bodies/species/0/fraction", "/bodies/species/1/fraction"};
   for (double x : {0.0, 0.5, 1.0}) {
     for (double w : {8.0, 12.0, 16.0, 20.0}) {
       const double lo_w = x == 1.0 ? w + 4.0 : w;  // the X = 1 group is measured at 12..24
-      nlohmann::json spec = silo_spec({{{"center", 0}, {"width", lo_w}}});
+      nlohmann::json spec = SiloSpec({{{"center", 0}, {"width", lo_w}}});
       spec["bodies"]["species"] = {{{"name", "dumbbell"}, {"shape", "dumbbell"}, {"fraction", x}},
                                    {{"name", "disc"}, {"shape", "disc"}, {"fraction", 1 - x}}};
-      c.add("W" + format_number(lo_w) + "X" + format_number(x),
+      c.Add("W" + FormatNumber(lo_w) + "X" + FormatNumber(x),
             {{"/silo/base_outlets/0/width", lo_w}, {"/bodies/species/0/fraction", x}, {"/bodies/species/1/fraction", 1 - x}},
-            spec, {stream(kC / (1.0 + x / 2.0) * std::pow(lo_w - kK, 1.5), 0.5, 40.0)}, 40.0);
+            spec, {Stream(kC / (1.0 + x / 2.0) * std::pow(lo_w - kK, 1.5), 0.5, 40.0)}, 40.0);
     }
   }
-  const auto out = c.report(dir.path() / "report", true);
-  const std::string trend = read_file(out / "data" / "fit_parameters_beverloo_2d--C.csv");
+  const auto out = c.Report(dir.Path() / "report", true);
+  const std::string trend = ReadFile(out / "data" / "fit_parameters_beverloo_2d--C.csv");
   EXPECT_EQ(trend.substr(0, trend.find('\n')), "species.0.fraction,C,C_se,ci_low,ci_high");
-  EXPECT_NEAR(std::stod(cell_of_row(trend, "0.5", 1)), 0.64, 1e-3);
+  EXPECT_NEAR(std::stod(CellOfRow(trend, "0.5", 1)), 0.64, 1e-3);
   EXPECT_EQ(std::count(trend.begin(), trend.end(), '\n'), 4);
   // The parameters are drawn against the group axis by its name, not its JSON path.
-  const std::string trend_gp = read_file(out / "figures" / "fit_parameters_beverloo_2d.gp");
+  const std::string trend_gp = ReadFile(out / "figures" / "fit_parameters_beverloo_2d.gp");
   EXPECT_NE(trend_gp.find("set xlabel 'dumbbell fraction X_db'"), std::string::npos) << trend_gp;
   // Tables and keys name the points by the thesis' symbols, the W axis in words; the curves'
   // files are named after their keys, short ASCII.
-  EXPECT_NE(csv_cell(read_file(out / "data" / "flow_rate.csv"), {"W = 8, X_db = 0.5, X_d = 0.5"}, 1), "");
-  const std::string flow_gp = read_file(out / "figures" / "flow_rate.gp");
+  EXPECT_NE(CsvCell(ReadFile(out / "data" / "flow_rate.csv"), {"W = 8, X_db = 0.5, X_d = 0.5"}, 1), "");
+  const std::string flow_gp = ReadFile(out / "figures" / "flow_rate.gp");
   EXPECT_NE(flow_gp.find("set xlabel 'W/d (outlet width W)'"), std::string::npos) << flow_gp;
   EXPECT_NE(flow_gp.find("title 'X_db = 0.5, X_d = 0.5'"), std::string::npos) << flow_gp;
   EXPECT_EQ(flow_gp.find("species.0"), std::string::npos) << flow_gp;
   // The data of the three groups, then the Beverloo curve of each.
-  const std::string curve = read_file(out / "data" / "flow_rate--beverloo_2d_X_db_0_X_d_1.csv");
+  const std::string curve = ReadFile(out / "data" / "flow_rate--beverloo_2d_X_db_0_X_d_1.csv");
   ASSERT_EQ(curve.substr(0, curve.find('\n')), "W,Q_fit");
   EXPECT_EQ(std::count(curve.begin(), curve.end(), '\n'), 202);  // header + 201 samples
-  EXPECT_EQ(cell_of_row(curve, "8", 0), "8");
-  EXPECT_NEAR(std::stod(cell_of_row(curve, "24", 1)), beverloo(24.0), 1e-3);  // beyond its own widths
-  EXPECT_NEAR(std::stod(cell_of_row(curve, "14", 1)), beverloo(14.0), 1e-3);  // between measured widths
+  EXPECT_EQ(CellOfRow(curve, "8", 0), "8");
+  EXPECT_NEAR(std::stod(CellOfRow(curve, "24", 1)), Beverloo(24.0), 1e-3);  // beyond its own widths
+  EXPECT_NEAR(std::stod(CellOfRow(curve, "14", 1)), Beverloo(14.0), 1e-3);  // between measured widths
 }
 
 }  // namespace

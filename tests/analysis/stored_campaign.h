@@ -16,7 +16,7 @@ struct StoredCampaign {
   std::vector<RunRecord> runs;
 };
 
-inline StoredCampaign load(const std::filesystem::path& dir) {
+inline StoredCampaign Load(const std::filesystem::path& dir) {
   std::ifstream in(dir / "campaign.json");
   const nlohmann::json c = nlohmann::json::parse(in);
   StoredCampaign s;

@@ -14,9 +14,9 @@ namespace granary::analysis {
 namespace {
 
 using nlohmann::json;
-using testing::read_file;
+using testing::ReadFile;
 using testing::TempDir;
-using testing::write_file;
+using testing::WriteFile;
 
 json MixtureSpec() {
   return {{"engine", "native"},
@@ -45,47 +45,47 @@ TEST(System, AxisNamesAreTheThesisNames) {
   const json two_outlets = MixtureSpec();
   json one_outlet = MixtureSpec();
   one_outlet["silo"]["base_outlets"] = {{{"center", 0}, {"width", 8}}};
-  EXPECT_EQ(axis_name("/silo/base_outlets/0/width", one_outlet), "outlet width W");
-  EXPECT_EQ(axis_name("/silo/base_outlets/1/width", two_outlets), "width W_2 of outlet 2");
-  EXPECT_EQ(axis_name("/silo/base_outlets/0/center", two_outlets), "position x_1 of outlet 1");
-  EXPECT_EQ(axis_name("/bodies/species/0/fraction", two_outlets), "dumbbell fraction X_db");
-  EXPECT_EQ(axis_name("/bodies/species/1/fraction", two_outlets), "disc fraction X_d");
-  EXPECT_EQ(axis_name("/silo/obstacles/0/y", two_outlets), "obstacle height h");
-  EXPECT_EQ(axis_name("/bodies/species/0/big_diameter", two_outlets), "dumbbell big-disc diameter D_b");
-  EXPECT_EQ(axis_name("engine", two_outlets), "engine");
-  EXPECT_EQ(axis_name("/bed/batch_size", two_outlets), "/bed/batch_size") << "unknown: the pointer itself";
+  EXPECT_EQ(AxisName("/silo/base_outlets/0/width", one_outlet), "outlet width W");
+  EXPECT_EQ(AxisName("/silo/base_outlets/1/width", two_outlets), "width W_2 of outlet 2");
+  EXPECT_EQ(AxisName("/silo/base_outlets/0/center", two_outlets), "position x_1 of outlet 1");
+  EXPECT_EQ(AxisName("/bodies/species/0/fraction", two_outlets), "dumbbell fraction X_db");
+  EXPECT_EQ(AxisName("/bodies/species/1/fraction", two_outlets), "disc fraction X_d");
+  EXPECT_EQ(AxisName("/silo/obstacles/0/y", two_outlets), "obstacle height h");
+  EXPECT_EQ(AxisName("/bodies/species/0/big_diameter", two_outlets), "dumbbell big-disc diameter D_b");
+  EXPECT_EQ(AxisName("engine", two_outlets), "engine");
+  EXPECT_EQ(AxisName("/bed/batch_size", two_outlets), "/bed/batch_size") << "unknown: the pointer itself";
 }
 
 TEST(System, AxesHaveShortNamesForTablesAndKeys) {
   const json two_outlets = MixtureSpec();
   json one_species = MixtureSpec();
   one_species["bodies"]["species"] = {{{"shape", "disc"}, {"fraction", 1.0}}};
-  const auto symbol = [](const std::string& pointer, const json& spec) { return axis_names(pointer, spec).symbol; };
+  const auto symbol = [](const std::string& pointer, const json& spec) { return ResolveAxisNames(pointer, spec).symbol; };
   EXPECT_EQ(symbol("/silo/base_outlets/1/width", two_outlets), "W_2");
   EXPECT_EQ(symbol("/bodies/species/0/fraction", two_outlets), "X_db");
   EXPECT_EQ(symbol("/bodies/species/1/fraction", two_outlets), "X_d");
   EXPECT_EQ(symbol("/bodies/count", two_outlets), "N");
   EXPECT_EQ(symbol("/contact/mu", two_outlets), "mu");
   EXPECT_EQ(symbol("engine", two_outlets), "engine");
-  EXPECT_EQ(axis_names("/contact/mu", two_outlets).name, "friction mu") << "the long name ends in the symbol";
+  EXPECT_EQ(ResolveAxisNames("/contact/mu", two_outlets).name, "friction mu") << "the long name ends in the symbol";
   // The shape: of the body when there is one species, of a named species otherwise; its
   // values (disc, dumbbell, ...) are words, so the short name is a word too.
-  EXPECT_EQ(axis_name("/bodies/species/0/shape", one_species), "body shape");
-  EXPECT_EQ(axis_name("/bodies/species/1/shape", two_outlets), "shape of disc");
+  EXPECT_EQ(AxisName("/bodies/species/0/shape", one_species), "body shape");
+  EXPECT_EQ(AxisName("/bodies/species/1/shape", two_outlets), "shape of disc");
   EXPECT_EQ(symbol("/bodies/species/0/shape", one_species), "shape");
   // A species without a name: numbered, not "X_species 0".
   json unnamed = one_species;
   unnamed["bodies"]["species"][0].erase("shape");
-  EXPECT_EQ(axis_name("/bodies/species/0/fraction", unnamed), "species 0 fraction X_0");
+  EXPECT_EQ(AxisName("/bodies/species/0/fraction", unnamed), "species 0 fraction X_0");
   EXPECT_EQ(symbol("/bodies/species/0/fraction", unnamed), "X_0");
 }
 
 TEST(System, FixedParametersSayWhatIsSweptAndDescribeTheBodies) {
-  const Table t = fixed_parameters(MixtureSpec(), {"/silo/base_outlets/0/width", "/bodies/species/0/fraction"});
+  const Table t = FixedParameters(MixtureSpec(), {"/silo/base_outlets/0/width", "/bodies/species/0/fraction"});
   std::map<std::string, std::string> value;
   for (const auto& row : t.rows) {
     ASSERT_EQ(row.size(), 3u);
-    value[row[1].shown()] = row[2].shown();
+    value[row[1].Shown()] = row[2].Shown();
   }
   EXPECT_EQ(value.at("width L"), "100");
   EXPECT_EQ(value.at("height"), "as tall as the bed needs");
@@ -115,11 +115,11 @@ RunRecord ClogRun(const std::filesystem::path& dir, const std::string& run_id, c
   r.point = point;
   r.spec = spec;
   r.run_dir = dir / r.run_id;
-  write_file(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n1.0,3,disc,1.57,0\n");
-  write_file(r.run_dir / "summary.json", json{{"engine", engine}, {"run_id", r.run_id}, {"end_reason", "clogged"},
+  WriteFile(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n1.0,3,disc,1.57,0\n");
+  WriteFile(r.run_dir / "summary.json", json{{"engine", engine}, {"run_id", r.run_id}, {"end_reason", "clogged"},
                                               {"bodies", 15000}, {"exited", 1}, {"remaining", 14999}, {"t_end", 7.5}}
                                                  .dump());
-  write_file(r.run_dir / "run.json", r.spec.dump());
+  WriteFile(r.run_dir / "run.json", r.spec.dump());
   return r;
 }
 
@@ -136,10 +136,10 @@ TEST(System, ResultsComeFirstThenTheSystemAndTheGalleryLast) {
     json spec = MixtureSpec();
     spec["silo"]["base_outlets"][0]["width"] = w;
     const std::string n = std::to_string(static_cast<int>(w));
-    runs.push_back(ClogRun(dir.path(), "run" + n, "W" + n, "native", {{"/silo/base_outlets/0/width", w}}, spec));
+    runs.push_back(ClogRun(dir.Path(), "run" + n, "W" + n, "native", {{"/silo/base_outlets/0/width", w}}, spec));
   }
   ReportOptions opt;
-  opt.out_dir = dir.path() / "report";
+  opt.out_dir = dir.Path() / "report";
   opt.figures = false;
   std::vector<std::string> drawn;
   opt.draw_run = [&](const std::filesystem::path& run_dir, ReportOptions::Picture kind, const std::filesystem::path& png) {
@@ -147,9 +147,9 @@ TEST(System, ResultsComeFirstThenTheSystemAndTheGalleryLast) {
     std::ofstream(png) << "\x89PNG fake " << drawn.back();
     return std::string();
   };
-  const ReportSummary s = write_report(info, runs, opt);
+  const ReportSummary s = WriteReport(info, runs, opt);
   EXPECT_EQ(drawn, (std::vector<std::string>{"run8:bed", "run8:end", "run12:bed", "run12:end"}));
-  const std::string md = read_file(s.markdown), html = read_file(s.html);
+  const std::string md = ReadFile(s.markdown), html = ReadFile(s.html);
   const auto system = md.find("## The system"), gallery = md.find("## Gallery"), first_other = md.find("## ", gallery + 5);
   ASSERT_NE(system, std::string::npos);
   EXPECT_LT(system, md.find("## Runs")) << "the system, then the runs";
@@ -166,8 +166,8 @@ TEST(System, ResultsComeFirstThenTheSystemAndTheGalleryLast) {
 
   // Without the renderer: no pictures, and the section says so.
   opt.draw_run = nullptr;
-  write_report(info, runs, opt);
-  EXPECT_NE(read_file(s.markdown).find("(No pictures"), std::string::npos);
+  WriteReport(info, runs, opt);
+  EXPECT_NE(ReadFile(s.markdown).find("(No pictures"), std::string::npos);
 }
 
 // A campaign on two engines shows each point twice in "The system": each caption names its
@@ -182,17 +182,17 @@ TEST(System, PicturesOfATwoEngineCampaignNameTheEngine) {
     json spec = MixtureSpec();
     spec["engine"] = engine;
     spec["bodies"]["species"] = {{{"shape", "disc"}, {"fraction", 1.0}}};
-    runs.push_back(ClogRun(dir.path(), "run-" + engine, "P-" + engine, engine,
+    runs.push_back(ClogRun(dir.Path(), "run-" + engine, "P-" + engine, engine,
                            {{"/bodies/species/0/shape", "disc"}, {"/engine", engine}}, spec));
   }
   ReportOptions opt;
-  opt.out_dir = dir.path() / "report";
+  opt.out_dir = dir.Path() / "report";
   opt.figures = false;
   opt.draw_run = [&](const std::filesystem::path&, ReportOptions::Picture, const std::filesystem::path& png) {
     std::ofstream(png) << "\x89PNG fake";
     return std::string();
   };
-  const std::string md = read_file(write_report(info, runs, opt).markdown);
+  const std::string md = ReadFile(WriteReport(info, runs, opt).markdown);
   EXPECT_NE(md.find("*body shape = disc, engine = native (replica 0"), std::string::npos) << md;
   EXPECT_NE(md.find("*body shape = disc, engine = liggghts (replica 0"), std::string::npos) << md;
   EXPECT_EQ(md.find("/bodies/species/0/shape ="), std::string::npos) << "the shape axis has a name";

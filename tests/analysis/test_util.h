@@ -28,25 +28,25 @@ class TempDir {
   }
   TempDir(const TempDir&) = delete;
   TempDir& operator=(const TempDir&) = delete;
-  const std::filesystem::path& path() const { return path_; }
+  const std::filesystem::path& Path() const { return path_; }
 
  private:
   std::filesystem::path path_;
 };
 
-inline void write_file(const std::filesystem::path& file, const std::string& text) {
+inline void WriteFile(const std::filesystem::path& file, const std::string& text) {
   std::filesystem::create_directories(file.parent_path());
   std::ofstream out(file);
   out << text;
 }
 
-inline std::string read_file(const std::filesystem::path& file) {
+inline std::string ReadFile(const std::filesystem::path& file) {
   std::ifstream in(file);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
 // The value of `column` in the first CSV row whose cells contain all of `keys`.
-inline std::string csv_cell(const std::string& csv, const std::vector<std::string>& keys, int column) {
+inline std::string CsvCell(const std::string& csv, const std::vector<std::string>& keys, int column) {
   std::istringstream in(csv);
   std::string line;
   while (std::getline(in, line)) {

@@ -185,7 +185,7 @@ TEST(Avx512Kernels, APileStepsToTheSameBitsWithAndWithout) {
           EXPECT_TRUE(SameBits(simd.*member, portable.*member)) << "bodies " << what << " cap " << cap;
         // The bodies fell onto each other (free fall alone: 0.045 d in the 3000 steps).
         double fell = 0.0;
-        for (int b = 0; b < simd.body_count(); ++b)
+        for (int b = 0; b < simd.BodyCount(); ++b)
           if (b % 11 != 5 && b % 13 != 3) fell = std::max(fell, 0.6 + 1.05 * (b / 5) - simd.by_[b]);
         EXPECT_GT(fell, 0.1) << "bodies " << what;
       }

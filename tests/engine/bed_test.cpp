@@ -21,7 +21,7 @@ RunSpec SmallBedSpec() {
                       {"silo", {{"width", 12.0}, {"base_outlets", {{{"center", 0.0}, {"width", 6.0}}}}}},
                       {"bodies", {{"count", 60}}},
                       {"bed", {{"batch_size", 60}, {"settle_ke_per_body", 1e-6}, {"max_settle_time", 30.0}}}};
-  return RunSpec::from_json(j);
+  return RunSpec::FromJson(j);
 }
 
 // RMS over bodies of |net force| / weight at the first force computation.
@@ -40,9 +40,9 @@ double RmsNetForce(const RunSpec& spec, const BedState& bed, bool history, bool 
   w.ImportHistory(pairs, walls);
   w.ComputeForces();
   double sum = 0.0;
-  for (int b = 0; b < w.body_count(); ++b)
+  for (int b = 0; b < w.BodyCount(); ++b)
     sum += (w.bfx_[b] * w.bfx_[b] + w.bfy_[b] * w.bfy_[b]) / (w.bmass_[b] * w.bmass_[b] * spec.gravity * spec.gravity);
-  return std::sqrt(sum / w.body_count());
+  return std::sqrt(sum / w.BodyCount());
 }
 
 TEST(Bed, LoadedBedWithItsHistoryIsInEquilibrium) {

@@ -678,13 +678,13 @@ TEST(Run, BenchBedFileIsNamedByTheBedKey) {
   options.bodies = 8000;
   const nlohmann::json spec = BenchSpec(options);
   const std::string file = spec["bed"]["cache_file"];
-  EXPECT_NE(file.find("granary-bench-bed-disc-8000-" + hash_hex(RunSpec::from_json(spec).bed_key().dump()) + ".json"),
+  EXPECT_NE(file.find("granary-bench-bed-disc-8000-" + HashHex(RunSpec::FromJson(spec).BedKey().dump()) + ".json"),
             std::string::npos)
       << file;
   nlohmann::json fixed = spec;
   fixed["bed"].erase("cache_file");
   fixed["bed"]["next_batch"] = "fixed";
-  EXPECT_NE(RunSpec::from_json(fixed).bed_key(), RunSpec::from_json(spec).bed_key());
+  EXPECT_NE(RunSpec::FromJson(fixed).BedKey(), RunSpec::FromJson(spec).BedKey());
   options.bed_file = "/somewhere/bed.json";
   EXPECT_EQ(BenchSpec(options)["bed"]["cache_file"], "/somewhere/bed.json");
 }
@@ -697,7 +697,7 @@ TEST(Run, BedMeasureOfASquareLattice) {
   BenchOptions options;
   options.shape = "disc";
   options.bodies = 2100;
-  const RunSpec spec = RunSpec::from_json(BenchSpec(options));
+  const RunSpec spec = RunSpec::FromJson(BenchSpec(options));
   BedState bed;
   for (int row = 0; row <= 20; ++row)
     for (int col = 0; col < 100; ++col) {
@@ -745,7 +745,7 @@ TEST(Run, AStopRequestCheckpointsAndTheContinuedRunIsTheSame) {
       RunQuiet(b, 1, -1, 0, 23457);
       FAIL() << "expected a stop";
     } catch (const Stopped& e) {
-      EXPECT_EQ(e.signal(), SIGTERM);
+      EXPECT_EQ(e.Signal(), SIGTERM);
       EXPECT_NE(std::string(e.what()).find("(step 23457); checkpoint written"), std::string::npos) << e.what();
     }
     EXPECT_TRUE(fs::exists(b / "checkpoint.bin"));

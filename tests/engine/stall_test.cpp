@@ -99,7 +99,7 @@ TEST(Stall, EachOutletIsJudgedOnItsOwn) {
 // The discs of a world as any engine's discs (stall.h), with the probe of stall_world.h.
 std::vector<silo::DiscAt> DiscsOf(const World& w) {
   std::vector<silo::DiscAt> discs;
-  for (int i = 0; i < w.disc_count(); ++i) discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
+  for (int i = 0; i < w.DiscCount(); ++i) discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
   return discs;
 }
 
@@ -115,7 +115,7 @@ TEST(Stall, TheCavityUnderAnArchIsBoundedByTheArchFromLeftToRight) {
     w.AddBody(0, radius * std::cos(a), 0.5 + radius * std::sin(a), 0);
   }
   Row(w, -5.5, 5.5, 4.0);  // material above
-  const silo::OutletCavity c = silo::CavityUnder(w.geometry(), DiscsOf(w), 0.5, 0);
+  const silo::OutletCavity c = silo::CavityUnder(w.Geometry(), DiscsOf(w), 0.5, 0);
   ASSERT_TRUE(c.sealed);
   std::vector<int> discs;
   for (const silo::CavityBound& b : c.edge) {
@@ -133,7 +133,7 @@ TEST(Stall, TheCavityUnderAnArchIsBoundedByTheArchFromLeftToRight) {
   World flat = OpenSilo({{0.0, 4.0}});
   Row(flat, -2.5, 2.5, 0.45);  // discs 1..4 over the gap, 0 and 5 beside it
   Row(flat, -5.5, 5.5, 1.5);
-  const silo::OutletCavity passage = silo::CavityUnder(flat.geometry(), DiscsOf(flat), 0.5, 0);
+  const silo::OutletCavity passage = silo::CavityUnder(flat.Geometry(), DiscsOf(flat), 0.5, 0);
   ASSERT_TRUE(passage.sealed);
   discs.clear();
   for (const silo::CavityBound& b : passage.edge)
@@ -143,7 +143,7 @@ TEST(Stall, TheCavityUnderAnArchIsBoundedByTheArchFromLeftToRight) {
   // Open to the top: no cavity, no edge.
   World crater = OpenSilo({{0.0, 4.0}});
   DeadZones(crater, 2.0);
-  const silo::OutletCavity open = silo::CavityUnder(crater.geometry(), DiscsOf(crater), 0.5, 0);
+  const silo::OutletCavity open = silo::CavityUnder(crater.Geometry(), DiscsOf(crater), 0.5, 0);
   EXPECT_FALSE(open.sealed);
   EXPECT_TRUE(open.edge.empty());
 }
@@ -160,7 +160,7 @@ TEST(Stall, TheCavityOfASideOutletRunsFromBelowToAbove) {
     w.AddBody(0, x, 5.5, 0);      // disc 4: at its upper edge (5)
     w.AddBody(0, inner, 4.5, 0);  // disc 5
     Row(w, -5.5, 5.5, 6.5);
-    const silo::OutletCavity c = silo::CavityUnder(w.geometry(), DiscsOf(w), 0.5, 0);
+    const silo::OutletCavity c = silo::CavityUnder(w.Geometry(), DiscsOf(w), 0.5, 0);
     ASSERT_TRUE(c.sealed);
     std::vector<int> discs;
     for (const silo::CavityBound& b : c.edge)
@@ -202,9 +202,9 @@ TEST(Stall, SnowmenWhoseGapsOnlyTheirSmallDiscFitsSealTheOutlet) {
   for (double x : {-4.05, -1.35, 1.35, 4.05}) w.AddBody(0, x, 0.75 + std::fabs(t.ox[big]), theta);
   EXPECT_EQ(SealedOutlets(w), std::vector<bool>{true});
   std::vector<silo::DiscAt> discs;
-  for (int i = 0; i < w.disc_count(); ++i) discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
+  for (int i = 0; i < w.DiscCount(); ++i) discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
   EXPECT_NEAR(discs[static_cast<std::size_t>(big)].y, 0.75, 1e-12);
-  EXPECT_EQ(silo::SealedOutlets(w.geometry(), discs, 0.5), std::vector<bool>{false});
+  EXPECT_EQ(silo::SealedOutlets(w.Geometry(), discs, 0.5), std::vector<bool>{false});
 }
 
 // Bodies hanging into the gap from both its edges, an arch resting on them: the space under the
@@ -218,7 +218,7 @@ TEST(Stall, AnArchHangingIntoTheGapFromBothEdgesBoundsItsCavity) {
   w.AddBody(0, 1.7, -0.1, 0);   // over the right edge
   Row(w, -5.5, 5.5, 3.0);       // material above
   EXPECT_EQ(SealedOutlets(w), std::vector<bool>{true});
-  const silo::OutletCavity c = silo::CavityUnder(w.geometry(), DiscsOf(w), 0.5, 0);
+  const silo::OutletCavity c = silo::CavityUnder(w.Geometry(), DiscsOf(w), 0.5, 0);
   ASSERT_TRUE(c.sealed);
   std::vector<int> discs;
   for (const silo::CavityBound& b : c.edge)

@@ -53,11 +53,11 @@ Outcome Read(const fs::path& dir) {
 
 // The per-run results of the registered analyses on `dir` (no cache).
 std::map<std::string, nlohmann::json> Analyse(const fs::path& dir) {
-  const analysis::AnalysisSetup setup = analysis::setup_analyses(nlohmann::json::object());
-  const std::vector<const analysis::Analysis*> list = setup.list();
-  const analysis::RunPassResult r = analysis::analyse_run(dir, list, setup.pass, {1, false, false});
+  const analysis::AnalysisSetup setup = analysis::SetupAnalyses(nlohmann::json::object());
+  const std::vector<const analysis::Analysis*> list = setup.List();
+  const analysis::RunPassResult r = analysis::AnalyseRun(dir, list, setup.pass, {1, false, false});
   std::map<std::string, nlohmann::json> out;
-  for (std::size_t k = 0; k < list.size(); ++k) out[list[k]->key()] = r.results[k];
+  for (std::size_t k = 0; k < list.size(); ++k) out[list[k]->Key()] = r.results[k];
   return out;
 }
 
@@ -103,7 +103,7 @@ TEST(Unclog, RemoveArchTakesOutTheArchTheAnalysisFindsAndTheFlowGoesOn) {
   int checked = 0;
   for (const rundir::UnclogEvent& u : o.unclogs) {
     if (u.attempt != 1) continue;
-    const analysis::ClogArches arches = analysis::analyse_clog(o.clogs[static_cast<std::size_t>(u.clog - 1)], spec);
+    const analysis::ClogArches arches = analysis::AnalyseClog(o.clogs[static_cast<std::size_t>(u.clog - 1)], spec);
     ASSERT_FALSE(arches.arches.empty());
     std::vector<std::int64_t> ids;
     for (const analysis::Arch& arch : arches.arches)
@@ -195,7 +195,7 @@ TEST(Unclog, ARaisedMaxClogsContinuesFromTheLastClogWithTheSameBits) {
   spec["discharge"]["unclog"]["max_clogs"] = 3;
   WriteSpec(fresh, spec);
   ASSERT_EQ(RunQuiet(fresh).end_reason, "max_clogs");
-  EXPECT_TRUE(granary::extends(ReadJson(extended / rundir::kRunSpecFile), ReadJson(fresh / rundir::kRunSpecFile)));
+  EXPECT_TRUE(granary::Extends(ReadJson(extended / rundir::kRunSpecFile), ReadJson(fresh / rundir::kRunSpecFile)));
   // As the runner moves a run it extends: its run.json replaced, without DONE.
   WriteSpec(extended, spec);
   fs::remove(extended / rundir::kDoneFile);

@@ -130,8 +130,8 @@ TEST(World, HookeDiscDiscCollisionHasTheAnalyticDurationAndRestitution) {
 }
 
 TEST(World, TheSpecsNormalModelReachesPairsAndWalls) {
-  EXPECT_EQ(ParamsFromSpec(RunSpec::from_json(nlohmann::json::object())).pair.normal_model, NormalModel::kHertz);
-  const WorldParams p = ParamsFromSpec(RunSpec::from_json({{"contact", {{"normal_model", "hooke"}}}}));
+  EXPECT_EQ(ParamsFromSpec(RunSpec::FromJson(nlohmann::json::object())).pair.normal_model, NormalModel::kHertz);
+  const WorldParams p = ParamsFromSpec(RunSpec::FromJson({{"contact", {{"normal_model", "hooke"}}}}));
   EXPECT_EQ(p.pair.normal_model, NormalModel::kHooke);
   EXPECT_EQ(p.wall.normal_model, NormalModel::kHooke);
 }
@@ -204,8 +204,8 @@ TEST(World, EnergyConservedWithoutDampingAndFriction) {
   w.SetVelocity(2, 0.2, 0.9, 0.5);
   auto energy = [&] {
     double e = w.KineticEnergy();
-    for (int i = 0; i < w.disc_count(); ++i) {
-      for (int j = i + 1; j < w.disc_count(); ++j) {
+    for (int i = 0; i < w.DiscCount(); ++i) {
+      for (int j = i + 1; j < w.DiscCount(); ++j) {
         if (w.dbody_[i] == w.dbody_[j]) continue;
         const double d = w.dr_[i] + w.dr_[j] - std::hypot(w.dx_[i] - w.dx_[j], w.dy_[i] - w.dy_[j]);
         e += HertzEnergy(p.pair.kn, w.dr_[i] * w.dr_[j] / (w.dr_[i] + w.dr_[j]), d);
@@ -298,10 +298,10 @@ TEST(World, ListsAreRebuiltBeforeFastBodiesOutrunTheSkin) {
     w.SetVelocity(fast.back(), (k % 2 ? -1.0 : 1.0) * 40.0, -60.0, 300.0 * (k % 3 - 1));
   }
   w.ComputeForces();
-  const std::int64_t before = w.rebuilds();
+  const std::int64_t before = w.Rebuilds();
   for (int s = 0; s < 20000; ++s) ASSERT_NO_THROW(w.Step()) << "step " << s;
   // ~70 d/time unit over 2 time units, 0.1 d per rebuild at most: hundreds of rebuilds
-  EXPECT_GT(w.rebuilds() - before, 300);
+  EXPECT_GT(w.Rebuilds() - before, 300);
   double fastest = 0.0;
   for (int b : fast) fastest = std::max(fastest, std::hypot(w.bvx_[b], w.bvy_[b]));
   EXPECT_LT(fastest, 60.0);
@@ -325,7 +325,7 @@ TEST(World, ForceBlocksChangeOnlyRounding) {
   };
   const World one = pile(1), few = pile(7), all = pile(100000);
   double moved = 0.0;
-  for (int b = 0; b < one.body_count(); ++b) {
+  for (int b = 0; b < one.BodyCount(); ++b) {
     moved = std::max(moved, std::fabs(all.by_[b] - (0.6 + 1.05 * (b / 3))));
     for (const World* w : {&few, &all}) {
       EXPECT_NEAR(w->bx_[b], one.bx_[b], 1e-9) << "body " << b;
@@ -344,7 +344,7 @@ World SettlingPack(const WorldParams& params) {
   silo::SiloGeometry g;
   g.elements = {WallSegment(-12, 0, 12, 0), WallSegment(-12, 0, -12, 60), WallSegment(12, 0, 12, 60)};
   World w(params, {silo::MakeTemplate(DumbbellSpecies(), 1.0, 0), silo::MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
-  for (int row = 0; w.body_count() < 600; ++row) {
+  for (int row = 0; w.BodyCount() < 600; ++row) {
     const double offset = 0.5 * (row % 2), y = 0.5 + 0.866 * row;
     const int places = 24 - row % 2;
     for (int c = 0; c < places; ++c) {
@@ -395,21 +395,21 @@ TEST(World, StepsInOneRegionGiveTheBitsOfSingleSteps) {
   int single_exit = -1;
   for (int s = 1; s <= kSteps; ++s) {
     single.Step();
-    if (single.beyond_exit_box() && single_exit < 0) single_exit = s;
+    if (single.BeyondExitBox() && single_exit < 0) single_exit = s;
   }
   World many = SettlingPack(ThreadedParams());
   int many_exit = -1, done = 0, calls = 0;
   while (done < kSteps) {
     done += many.Steps(std::min(400, kSteps - done));
     ++calls;
-    if (many.beyond_exit_box() && many_exit < 0) many_exit = done;
+    if (many.BeyondExitBox() && many_exit < 0) many_exit = done;
   }
   EXPECT_EQ(done, kSteps);
   EXPECT_GT(single_exit, 1000);  // the probe falls 1 d at 5 d per time unit: about step 2000
   EXPECT_EQ(many_exit, single_exit);
   EXPECT_LT(calls, kSteps - single_exit + 50);  // steps before the exit went several at a time
-  EXPECT_GT(single.rebuilds(), 5);
-  EXPECT_EQ(many.rebuilds(), single.rebuilds());
+  EXPECT_GT(single.Rebuilds(), 5);
+  EXPECT_EQ(many.Rebuilds(), single.Rebuilds());
   EXPECT_TRUE(SameState(single, many));
 }
 
@@ -426,7 +426,7 @@ TEST(World, ShareSplitsChangeNoBit) {
     return w;
   };
   const World one = run(1, 0.0);
-  EXPECT_GT(one.rebuilds(), 3);
+  EXPECT_GT(one.Rebuilds(), 3);
   for (const double shift : {-0.2, -0.05, 0.0, 0.07, 0.2})
     EXPECT_TRUE(SameState(one, run(2, shift))) << "shift " << shift;
 }

@@ -175,7 +175,7 @@ TEST(LiggghtsBackend, AStallIsAClogOrADischargeAsOnTheNativeEngine) {
   // The arches analysis reads LIGGGHTS' clog as the native engine's: one arch over the outlet,
   // its bodies touching one another (pair rows), its ends on the base (from the geometry, as
   // LIGGGHTS reports no wall rows for primitive walls), wider than the outlet.
-  const granary::analysis::ClogArches arches = granary::analysis::analyse_clog(clogs[0], run.spec);
+  const granary::analysis::ClogArches arches = granary::analysis::AnalyseClog(clogs[0], run.spec);
   ASSERT_EQ(arches.arches.size(), 1u);
   const granary::analysis::Arch& arch = arches.arches[0];
   EXPECT_EQ(arch.outlet, 0);
@@ -183,7 +183,7 @@ TEST(LiggghtsBackend, AStallIsAClogOrADischargeAsOnTheNativeEngine) {
   EXPECT_EQ(arch.gaps, 0);
   EXPECT_TRUE(arch.supported);
   EXPECT_GT(arch.width, 1.6 - 1.0) << "end bodies' centres at least one diameter less than the outlet apart";
-  EXPECT_GT(arches.contact_types.total(), 40);
+  EXPECT_GT(arches.contact_types.Total(), 40);
 
   json through = narrow;
   through["discharge"]["stop_on_clog"] = false;
@@ -211,7 +211,7 @@ TEST(LiggghtsBackend, AStallIsAClogOrADischargeAsOnTheNativeEngine) {
   EXPECT_LT(run.summary.t_end, 40.0);
   EXPECT_GT(run.summary.remaining, 0) << "the dead zones of the flat bottom stay";
   // What the script kept of the stall went with it: no clog.
-  EXPECT_TRUE(ClogReader(wide).present());
+  EXPECT_TRUE(ClogReader(wide).Present());
   EXPECT_TRUE(ReadClogs(wide).empty());
   for (const auto& e : fs::directory_iterator(wide)) EXPECT_NE(e.path().filename().string().rfind("clog.", 0), 0u) << e.path();
 }
@@ -264,7 +264,7 @@ TEST(LiggghtsBackend, ContactFramesCarryTheWeightOfTheBedOnWallsAndObstacle) {
   ASSERT_EQ(o.exit_code, 0) << o.output;
   const RunData run = ReadRun(dir);
   ASSERT_TRUE(run.has_contacts);
-  ContactReader contacts(run.contacts_file());
+  ContactReader contacts(run.ContactsFile());
   ContactFrame f;
   int frames = 0, on_obstacle = 0, on_base = 0, on_sides = 0, repulsive = 0, pairs = 0;
   double wall_fy = 0;
@@ -466,7 +466,7 @@ TEST(LiggghtsBackend, AKilledRunContinuesFromItsCheckpointWithTheSameEarlierEven
   EXPECT_GT(b.events.size(), early_b.size()) << "events after the restart are recorded";
   EXPECT_EQ(b.summary.t_end, 3.0);
   // Contact frames: one per frame time in both, the same up to the checkpoint.
-  ContactReader ca(a.contacts_file()), cb(b.contacts_file());
+  ContactReader ca(a.ContactsFile()), cb(b.ContactsFile());
   ContactFrame fa, fb;
   int frames = 0;
   while (ca.Next(fa)) {

@@ -18,7 +18,7 @@ using nlohmann::json;
 RunSpec Spec(const json& overrides) {
   json j = {{"run_id", "t"}, {"seed", 11}, {"engine", "liggghts"}};
   j.merge_patch(overrides);
-  return RunSpec::from_json(j);
+  return RunSpec::FromJson(j);
 }
 
 std::vector<double> NumbersAfter(const std::string& line, const std::string& keyword, int n) {
@@ -83,8 +83,8 @@ TEST(InputScript, ReinjectWithASideOutletIsASpecErrorNamingTheMode) {
     Spec(side);
     FAIL() << "expected a SpecError";
   } catch (const SpecError& e) {
-    EXPECT_EQ(e.path(), "/discharge/mode");
-    EXPECT_NE(e.message().find("remove"), std::string::npos);
+    EXPECT_EQ(e.Path(), "/discharge/mode");
+    EXPECT_NE(e.Message().find("remove"), std::string::npos);
   }
   // ... and by the input generator, whatever engine the spec names.
   json native = side;
@@ -93,7 +93,7 @@ TEST(InputScript, ReinjectWithASideOutletIsASpecErrorNamingTheMode) {
     MakeSetup(Spec(native));
     FAIL() << "expected a SpecError";
   } catch (const SpecError& e) {
-    EXPECT_EQ(e.path(), "/discharge/mode");
+    EXPECT_EQ(e.Path(), "/discharge/mode");
   }
 }
 

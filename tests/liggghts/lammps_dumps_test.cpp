@@ -57,7 +57,7 @@ struct Block {
   double box[2][2] = {{0, 0}, {0, 0}};
   std::vector<std::string> columns;
   std::vector<std::vector<double>> rows;
-  int col(const std::string& name) const {
+  int Col(const std::string& name) const {
     for (std::size_t i = 0; i < columns.size(); ++i)
       if (columns[i] == name) return static_cast<int>(i);
     ADD_FAILURE() << "no column " << name;
@@ -164,16 +164,16 @@ void LammpsReadsTheRun(const fs::path& dir, double contact_tolerance) {
   const RunData run = ReadRun(dir);
   ASSERT_TRUE(run.has_frames);
   ASSERT_TRUE(run.has_contacts);
-  RerunInLammps(dir, run.frames_file().filename().string(), 2);
+  RerunInLammps(dir, run.FramesFile().filename().string(), 2);
   if (::testing::Test::HasFatalFailure()) return;
   std::vector<Frame> frames;
   {
-    FrameReader reader(run.frames_file());
+    FrameReader reader(run.FramesFile());
     for (Frame f; reader.Next(f);) frames.push_back(f);
   }
   std::vector<ContactFrame> contacts;
   {
-    ContactReader reader(run.contacts_file());
+    ContactReader reader(run.ContactsFile());
     for (ContactFrame c; reader.Next(c);) contacts.push_back(c);
   }
   const std::vector<Block> atoms = ReadBlocks(dir / "lammps" / "frames.dump");
@@ -207,8 +207,8 @@ void LammpsReadsTheRun(const fs::path& dir, double contact_tolerance) {
     ASSERT_EQ(lammps.rows.size(), ours.discs.size());
     std::map<long long, const Disc*> by_id;
     for (const Disc& d : ours.discs) by_id[d.id] = &d;
-    const int c_id = lammps.col("id"), c_type = lammps.col("type"), c_x = lammps.col("x"), c_y = lammps.col("y"),
-              c_vx = lammps.col("vx"), c_vy = lammps.col("vy");
+    const int c_id = lammps.Col("id"), c_type = lammps.Col("type"), c_x = lammps.Col("x"), c_y = lammps.Col("y"),
+              c_vx = lammps.Col("vx"), c_vy = lammps.Col("vy");
     std::map<long long, std::pair<double, double>> where;
     for (const auto& row : lammps.rows) {
       const auto it = by_id.find(std::llround(row[c_id]));
@@ -225,7 +225,7 @@ void LammpsReadsTheRun(const fs::path& dir, double contact_tolerance) {
     // margin for contacts within rounding of the written positions.
     ASSERT_EQ(pairs[k].step, ours.timestep);
     std::set<std::pair<long long, long long>> lammps_sure, lammps_maybe;
-    const int c_a = pairs[k].col("c_touching[1]"), c_b = pairs[k].col("c_touching[2]"), c_d = pairs[k].col("c_distance");
+    const int c_a = pairs[k].Col("c_touching[1]"), c_b = pairs[k].Col("c_touching[2]"), c_d = pairs[k].Col("c_distance");
     for (const auto& row : pairs[k].rows) {
       const long long bi = by_id.at(std::llround(row[c_a]))->mol, bj = by_id.at(std::llround(row[c_b]))->mol;
       if (bi == bj) continue;
@@ -370,8 +370,8 @@ TEST(LammpsReadsTheDumps, DiameterOfEveryDiscFromFramesData) {
     ASSERT_EQ(discs[k].rows.size(), ours.discs.size());
     std::map<long long, const Disc*> by_id;
     for (const Disc& d : ours.discs) by_id[d.id] = &d;
-    const int c_id = discs[k].col("id"), c_r = discs[k].col("radius"), c_m = discs[k].col("mass"),
-              c_x = discs[k].col("x");
+    const int c_id = discs[k].Col("id"), c_r = discs[k].Col("radius"), c_m = discs[k].Col("mass"),
+              c_x = discs[k].Col("x");
     for (const auto& row : discs[k].rows) {
       const auto it = by_id.find(std::llround(row[c_id]));
       ASSERT_NE(it, by_id.end());
@@ -384,7 +384,7 @@ TEST(LammpsReadsTheDumps, DiameterOfEveryDiscFromFramesData) {
     // The pairs of bodies LAMMPS finds touching (distance below the sum of their radii) are
     // the pair rows of contacts.dump.
     std::set<std::pair<long long, long long>> sure, maybe, ours_pairs;
-    const int c_a = pairs[k].col("c_touching[1]"), c_b = pairs[k].col("c_touching[2]"), c_d = pairs[k].col("c_distance");
+    const int c_a = pairs[k].Col("c_touching[1]"), c_b = pairs[k].Col("c_touching[2]"), c_d = pairs[k].Col("c_distance");
     for (const auto& row : pairs[k].rows) {
       const Disc& a = *by_id.at(std::llround(row[c_a]));
       const Disc& b = *by_id.at(std::llround(row[c_b]));

@@ -55,8 +55,8 @@ int Bench(const fs::path& dir, int repeat) {
   for (int r = 0; r < repeat; ++r) {
     const auto t0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
-    rd::FrameReader fr(run.frames_file());
-    rd::ContactReader cr(run.contacts_file());
+    rd::FrameReader fr(run.FramesFile());
+    rd::ContactReader cr(run.ContactsFile());
     rd::Frame f;
     rd::ContactFrame c;
     frames = discs = contacts = 0;

@@ -225,7 +225,7 @@ TEST(RenderVerbs, AKeptClogInAWindowWithItsArchOutlined) {
   const std::vector<rundir::ClogState> clogs = rundir::ReadClogs(run);
   ASSERT_GE(clogs.size(), 1u);
   const nlohmann::json spec = nlohmann::json::parse(std::ifstream(run / "run.json"));
-  const analysis::ClogArches arches = analysis::analyse_clog(clogs[0], spec);
+  const analysis::ClogArches arches = analysis::AnalyseClog(clogs[0], spec);
   ASSERT_EQ(arches.arches.size(), 1u);
   PictureOptions o;
   std::size_t arch_discs = 0;

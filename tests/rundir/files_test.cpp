@@ -17,7 +17,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using analysis::testing::TempDir;
-using analysis::testing::write_file;
+using analysis::testing::WriteFile;
 
 pid_t DeadPid() {
   const pid_t pid = ::fork();
@@ -34,21 +34,21 @@ TEST(StaleTemporaries, OnlyOldFilesOfDeadProcessesAreRemoved) {
   for (const std::string& name : std::vector<std::string>{"flow.json.tmp." + dead, "progress.json.tmp." + dead,
                                                           "fresh.json.tmp." + dead, "live.json.tmp." + alive,
                                                           "notmine.tmp.x12", "flow.json"}) {
-    write_file(t.path() / name, "{");
-    if (name.rfind("fresh", 0) != 0) fs::last_write_time(t.path() / name, old);
+    WriteFile(t.Path() / name, "{");
+    if (name.rfind("fresh", 0) != 0) fs::last_write_time(t.Path() / name, old);
   }
-  EXPECT_EQ(RemoveStaleTemporaries(t.path()), 2);
-  EXPECT_FALSE(fs::exists(t.path() / ("flow.json.tmp." + dead)));
-  EXPECT_FALSE(fs::exists(t.path() / ("progress.json.tmp." + dead)));
+  EXPECT_EQ(RemoveStaleTemporaries(t.Path()), 2);
+  EXPECT_FALSE(fs::exists(t.Path() / ("flow.json.tmp." + dead)));
+  EXPECT_FALSE(fs::exists(t.Path() / ("progress.json.tmp." + dead)));
   for (const std::string& name :
        std::vector<std::string>{"fresh.json.tmp." + dead, "live.json.tmp." + alive, "notmine.tmp.x12", "flow.json"})
-    EXPECT_TRUE(fs::exists(t.path() / name)) << name;
-  EXPECT_EQ(RemoveStaleTemporaries(t.path() / "missing"), 0);
+    EXPECT_TRUE(fs::exists(t.Path() / name)) << name;
+  EXPECT_EQ(RemoveStaleTemporaries(t.Path() / "missing"), 0);
   // An engine taking the run directory's lock clears it too.
-  write_file(t.path() / ("events.csv.tmp." + dead), "time");
-  fs::last_write_time(t.path() / ("events.csv.tmp." + dead), old);
-  { RunDirectoryLock lock(t.path()); }
-  EXPECT_FALSE(fs::exists(t.path() / ("events.csv.tmp." + dead)));
+  WriteFile(t.Path() / ("events.csv.tmp." + dead), "time");
+  fs::last_write_time(t.Path() / ("events.csv.tmp." + dead), old);
+  { RunDirectoryLock lock(t.Path()); }
+  EXPECT_FALSE(fs::exists(t.Path() / ("events.csv.tmp." + dead)));
 }
 
 }  // namespace

@@ -20,9 +20,9 @@
 namespace granary::rundir {
 namespace {
 
-using analysis::testing::read_file;
+using analysis::testing::ReadFile;
 using analysis::testing::TempDir;
-using analysis::testing::write_file;
+using analysis::testing::WriteFile;
 
 // A rigid dumbbell (body 0: two discs at +-0.5 of (2.3, 4.1), V = (0.2, -1.1), omega = 0.7)
 // and a lone disc (body 1) of another species; a box whose centre is off the origin.
@@ -69,12 +69,12 @@ double Float(double v) { return static_cast<double>(static_cast<float>(v)); }
 
 TEST(Gsd, TheHeaderAndIndexAreTheDocumentedFileLayer) {
   TempDir dir;
-  const auto file = dir.path() / kFramesGsdFile;
+  const auto file = dir.Path() / kFramesGsdFile;
   FrameWriter w = FrameWriter::Create(file);
   w.Write(Bodies(0));
   w.Write(Bodies(100));
   w.Close();
-  const std::string bytes = read_file(file);
+  const std::string bytes = ReadFile(file);
   ASSERT_GE(bytes.size(), 256u);
   std::uint64_t head[5];
   std::uint32_t versions[2];
@@ -100,7 +100,7 @@ TEST(Gsd, TheHeaderAndIndexAreTheDocumentedFileLayer) {
   const std::string names = bytes.substr(head[3], head[4] * 64);
   EXPECT_NE(names.find(std::string("particles/position\0", 19)), std::string::npos);
   gsd::GsdReader r(file);
-  EXPECT_EQ(r.frames(), 2u);
+  EXPECT_EQ(r.Frames(), 2u);
   const gsd::IndexEntry* pos = r.Find(1, "particles/position");
   ASSERT_NE(pos, nullptr);
   EXPECT_EQ(pos->n, 3u);
@@ -111,7 +111,7 @@ TEST(Gsd, TheHeaderAndIndexAreTheDocumentedFileLayer) {
 
 TEST(Gsd, FramesRoundTripWithFloat32PositionsAndRigidBodyVelocities) {
   TempDir dir;
-  const auto file = dir.path() / kFramesGsdFile;
+  const auto file = dir.Path() / kFramesGsdFile;
   FrameWriter w = FrameWriter::Create(file);
   const Frame a = Bodies(0), b = Bodies(250, 0.75);
   const Frame c = [] {
@@ -164,7 +164,7 @@ TEST(Gsd, FramesRoundTripWithFloat32PositionsAndRigidBodyVelocities) {
 
 TEST(Gsd, ContactsRoundTripAsFloat32) {
   TempDir dir;
-  const auto file = dir.path() / kContactsGsdFile;
+  const auto file = dir.Path() / kContactsGsdFile;
   ContactWriter w = ContactWriter::Create(file);
   ContactFrame c;
   c.timestep = 400;
@@ -208,7 +208,7 @@ TEST(Gsd, ContactsRoundTripAsFloat32) {
 // written after it, then the run continued: the frames up to the checkpoint and the new ones.
 TEST(Gsd, ContinuingCutsTheFileBackToTheCheckpoint) {
   TempDir dir;
-  const auto file = dir.path() / kFramesGsdFile;
+  const auto file = dir.Path() / kFramesGsdFile;
   FrameWriter w = FrameWriter::Create(file);
   std::int64_t offset = 0;
   for (int k = 0; k < 100; ++k) {
@@ -239,13 +239,13 @@ TEST(Gsd, ContinuingCutsTheFileBackToTheCheckpoint) {
 // at frame 63), and with the killed run's index grown past the checkpoint.
 TEST(Gsd, AContinuedFileIsByteForByteTheUninterruptedOne) {
   TempDir dir;
-  const auto whole = dir.path() / "whole.gsd";
+  const auto whole = dir.Path() / "whole.gsd";
   FrameWriter a = FrameWriter::Create(whole);
   for (int k = 0; k < 100; ++k) a.Write(Bodies(k * 10, 0.01 * k));
   a.Close();
-  const std::string want = read_file(whole);
+  const std::string want = ReadFile(whole);
   for (const int checkpoint : {-1, 0, 30, 31, 40, 62, 63, 99}) {
-    const auto file = dir.path() / ("cut-" + std::to_string(checkpoint) + ".gsd");
+    const auto file = dir.Path() / ("cut-" + std::to_string(checkpoint) + ".gsd");
     FrameWriter w = FrameWriter::Create(file);
     std::int64_t offset = w.Offset();
     for (int k = 0; k < std::min(checkpoint + 30, 100); ++k) {
@@ -256,7 +256,7 @@ TEST(Gsd, AContinuedFileIsByteForByteTheUninterruptedOne) {
     w = FrameWriter::ContinueAt(file, offset);
     for (int k = checkpoint + 1; k < 100; ++k) w.Write(Bodies(k * 10, 0.01 * k));
     w.Close();
-    EXPECT_EQ(read_file(file) == want, true) << "checkpoint after frame " << checkpoint;
+    EXPECT_EQ(ReadFile(file) == want, true) << "checkpoint after frame " << checkpoint;
   }
 }
 
@@ -271,11 +271,11 @@ TEST(Gsd, AContinuedContactFileIsByteForByteTheUninterruptedOne) {
     if (k >= 5) c.contacts.assign(static_cast<std::size_t>(k), {0, 1, 2.1, 4.0, 2.9, 4.3, 2.5, 4.15, 1e-3 * k, -3.75});
     return c;
   };
-  const auto whole = dir.path() / "whole.gsd";
+  const auto whole = dir.Path() / "whole.gsd";
   ContactWriter a = ContactWriter::Create(whole);
   for (int k = 0; k < 60; ++k) a.Write(frame(k));
   a.Close();
-  const auto file = dir.path() / "cut.gsd";
+  const auto file = dir.Path() / "cut.gsd";
   ContactWriter w = ContactWriter::Create(file);
   std::int64_t offset = 0;
   for (int k = 0; k < 40; ++k) {
@@ -286,7 +286,7 @@ TEST(Gsd, AContinuedContactFileIsByteForByteTheUninterruptedOne) {
   w = ContactWriter::ContinueAt(file, offset);
   for (int k = 4; k < 60; ++k) w.Write(frame(k));
   w.Close();
-  EXPECT_EQ(read_file(file) == read_file(whole), true);
+  EXPECT_EQ(ReadFile(file) == ReadFile(whole), true);
 }
 
 // A file continued by an older build has its name list and index moved to the end, where
@@ -294,13 +294,13 @@ TEST(Gsd, AContinuedContactFileIsByteForByteTheUninterruptedOne) {
 // written anew at the end) and reads whole.
 TEST(Gsd, AFileContinuedByAnOlderBuildStillContinuesAndReads) {
   TempDir dir;
-  const auto file = dir.path() / kFramesGsdFile;
+  const auto file = dir.Path() / kFramesGsdFile;
   FrameWriter w = FrameWriter::Create(file);
   for (int k = 0; k < 10; ++k) w.Write(Bodies(k));
   w.Close();
   // The older build's continue: a copy of the name list and of the index (twice the entries,
   // at least 256) at the end, the header pointing at them.
-  std::string bytes = read_file(file);
+  std::string bytes = ReadFile(file);
   std::uint64_t index_location = 0, index_entries = 0, names_location = 0, name_slots = 0;
   std::memcpy(&index_location, bytes.data() + 8, 8);
   std::memcpy(&index_entries, bytes.data() + 16, 8);
@@ -317,8 +317,8 @@ TEST(Gsd, AFileContinuedByAnOlderBuildStillContinuesAndReads) {
   std::memcpy(bytes.data() + 16, &new_entries, 8);
   std::memcpy(bytes.data() + 24, &new_names, 8);
   std::memcpy(bytes.data() + 32, &new_slots, 8);
-  write_file(file, bytes);
-  ASSERT_EQ(gsd::GsdReader(file).frames(), 10u);
+  WriteFile(file, bytes);
+  ASSERT_EQ(gsd::GsdReader(file).Frames(), 10u);
   w = FrameWriter::ContinueAt(file, static_cast<std::int64_t>(bytes.size()));
   for (int k = 10; k < 40; ++k) w.Write(Bodies(k));
   w.Close();
@@ -332,7 +332,7 @@ TEST(Gsd, AFileContinuedByAnOlderBuildStillContinuesAndReads) {
 
 TEST(Gsd, AFileCutInsideItsLastFrameEndsBeforeIt) {
   TempDir dir;
-  const auto file = dir.path() / kFramesGsdFile;
+  const auto file = dir.Path() / kFramesGsdFile;
   FrameWriter w = FrameWriter::Create(file);
   for (int k = 0; k < 3; ++k) w.Write(Bodies(k));
   w.Close();
@@ -346,14 +346,14 @@ TEST(Gsd, AFileCutInsideItsLastFrameEndsBeforeIt) {
 
 TEST(Gsd, ANewerFileLayerIsRefusedByName) {
   TempDir dir;
-  const auto file = dir.path() / kFramesGsdFile;
+  const auto file = dir.Path() / kFramesGsdFile;
   FrameWriter w = FrameWriter::Create(file);
   w.Write(Bodies(0));
   w.Close();
-  std::string bytes = read_file(file);
+  std::string bytes = ReadFile(file);
   const std::uint32_t v3 = 3u << 16;
   std::memcpy(bytes.data() + 44, &v3, 4);
-  write_file(file, bytes);
+  WriteFile(file, bytes);
   try {
     FrameReader r(file);
     FAIL() << "read a version 3 file";
@@ -366,23 +366,23 @@ TEST(Gsd, ANewerFileLayerIsRefusedByName) {
 // output.format "text") as before.
 TEST(Gsd, TheRunDirectoryFindsGsdAndTextFrames) {
   TempDir dir;
-  FrameWriter::Create(dir.path() / kFramesGsdFile).Write(Bodies(7));
-  ContactWriter::Create(dir.path() / kContactsGsdFile).Write(ContactFrame{});
-  RunData gsd_run = ReadRun(dir.path());
+  FrameWriter::Create(dir.Path() / kFramesGsdFile).Write(Bodies(7));
+  ContactWriter::Create(dir.Path() / kContactsGsdFile).Write(ContactFrame{});
+  RunData gsd_run = ReadRun(dir.Path());
   EXPECT_TRUE(gsd_run.gsd);
-  EXPECT_EQ(gsd_run.frames_file(), dir.path() / kFramesGsdFile);
-  EXPECT_EQ(gsd_run.contacts_file(), dir.path() / kContactsGsdFile);
+  EXPECT_EQ(gsd_run.FramesFile(), dir.Path() / kFramesGsdFile);
+  EXPECT_EQ(gsd_run.ContactsFile(), dir.Path() / kContactsGsdFile);
   EXPECT_TRUE(gsd_run.has_frames);
   EXPECT_TRUE(gsd_run.has_contacts);
   TempDir old;
   {
-    FrameWriter t = FrameWriter::Create(old.path() / kFramesFile);
+    FrameWriter t = FrameWriter::Create(old.Path() / kFramesFile);
     t.Write(Bodies(7));
   }
-  RunData text_run = ReadRun(old.path());
+  RunData text_run = ReadRun(old.Path());
   EXPECT_FALSE(text_run.gsd);
-  EXPECT_EQ(text_run.frames_file(), old.path() / kFramesFile);
-  FrameReader r(text_run.frames_file());
+  EXPECT_EQ(text_run.FramesFile(), old.Path() / kFramesFile);
+  FrameReader r(text_run.FramesFile());
   Frame f;
   ASSERT_TRUE(r.Next(f));
   EXPECT_EQ(f.timestep, 7);
@@ -401,7 +401,7 @@ TEST(Gsd, TheRunDirectoryFindsGsdAndTextFrames) {
 // blocks outgrown on the way (GsdOverheadBytes; 40 frames outgrow the first block).
 TEST(Gsd, FileBytesAreWhatTheEstimatorCounts) {
   TempDir dir;
-  const auto file = dir.path() / kFramesGsdFile;
+  const auto file = dir.Path() / kFramesGsdFile;
   FrameWriter w = FrameWriter::Create(file);
   std::int64_t frames = 0;
   for (int k = 0; k < 40; ++k, frames += gsd::GsdFrameBytes(Bodies(k))) w.Write(Bodies(k));
@@ -412,7 +412,7 @@ TEST(Gsd, FileBytesAreWhatTheEstimatorCounts) {
   const std::int64_t constants = 3 * gsd::kGsdConstantBytesPerDisc + 2 * 8 + 1 + 7 * 32;
   EXPECT_EQ(static_cast<std::int64_t>(std::filesystem::file_size(file)),
             gsd::GsdOverheadBytes(entries) + frames + constants);
-  const auto cfile = dir.path() / kContactsGsdFile;
+  const auto cfile = dir.Path() / kContactsGsdFile;
   ContactWriter cw = ContactWriter::Create(cfile);
   ContactFrame c;
   c.contacts.resize(5);

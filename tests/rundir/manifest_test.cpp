@@ -21,9 +21,9 @@ namespace granary::rundir {
 namespace {
 
 namespace fs = std::filesystem;
-using analysis::testing::read_file;
+using analysis::testing::ReadFile;
 using analysis::testing::TempDir;
-using analysis::testing::write_file;
+using analysis::testing::WriteFile;
 
 Frame FrameAt(std::int64_t step, int discs) {
   Frame f;
@@ -75,19 +75,19 @@ void MakeRun(const fs::path& dir, bool gz = false) {
   WriteDone(dir, "time_limit");
 }
 
-std::string Texts(const Verification& v) { return v.text(); }
+std::string Texts(const Verification& v) { return v.Text(); }
 
 TEST(Manifest, WriteDoneRecordsSizesChecksumsAndCounts) {
   TempDir t;
-  MakeRun(t.path());
-  const auto m = ReadManifest(t.path());
+  MakeRun(t.Path());
+  const auto m = ReadManifest(t.Path());
   ASSERT_TRUE(m.has_value());
   EXPECT_EQ(m->format, kManifestFormat);
   for (const char* name : {kRunSpecFile, kSummaryFile, kEventsFile, kFramesFile, kContactsFile, kClogFramesFile,
                            kClogContactsFile}) {
     ASSERT_TRUE(m->files.count(name)) << name;
-    EXPECT_EQ(m->files.at(name).size, fs::file_size(t.path() / name)) << name;
-    EXPECT_EQ(m->files.at(name).xxh3, FileXxh3(t.path() / name)) << name;
+    EXPECT_EQ(m->files.at(name).size, fs::file_size(t.Path() / name)) << name;
+    EXPECT_EQ(m->files.at(name).xxh3, FileXxh3(t.Path() / name)) << name;
   }
   EXPECT_EQ(m->counts.at("events"), 3);
   EXPECT_EQ(m->counts.at("frames"), 4);
@@ -95,183 +95,183 @@ TEST(Manifest, WriteDoneRecordsSizesChecksumsAndCounts) {
   EXPECT_EQ(m->counts.at("clogs"), 1);
   EXPECT_EQ(m->files.at(kFramesFile).count, 4);
   // The manifest is complete before DONE is: both exist, DONE holds the end reason.
-  EXPECT_EQ(read_file(t.path() / kDoneFile), "time_limit\n");
+  EXPECT_EQ(ReadFile(t.Path() / kDoneFile), "time_limit\n");
   // XXH3-64 of a known text (the reference value of xxhsum -H3 for "abc").
-  write_file(t.path() / "abc", "abc");
-  EXPECT_EQ(FileXxh3(t.path() / "abc"), "78af5f94892f3950");
+  WriteFile(t.Path() / "abc", "abc");
+  EXPECT_EQ(FileXxh3(t.Path() / "abc"), "78af5f94892f3950");
 }
 
 TEST(Manifest, GzipDumpsAreCountedThroughTheirReader) {
   TempDir t;
-  MakeRun(t.path(), true);
-  const auto m = ReadManifest(t.path());
+  MakeRun(t.Path(), true);
+  const auto m = ReadManifest(t.Path());
   ASSERT_TRUE(m.has_value());
   EXPECT_EQ(m->files.at(kFramesGzFile).count, 4);
   EXPECT_EQ(m->files.at(kContactsGzFile).count, 4);
   EXPECT_FALSE(m->files.count(kFramesFile));
-  EXPECT_EQ(VerifyRun(t.path()).integrity, Integrity::kWhole);
+  EXPECT_EQ(VerifyRun(t.Path()).integrity, Integrity::kWhole);
 }
 
 TEST(Manifest, AWholeRunIsHashedOnceThenByItsCachedSizesAndMtimes) {
   TempDir t;
-  MakeRun(t.path());
-  const Verification first = VerifyRun(t.path());
+  MakeRun(t.Path());
+  const Verification first = VerifyRun(t.Path());
   EXPECT_EQ(first.integrity, Integrity::kWhole) << Texts(first);
   EXPECT_EQ(first.files_hashed, 7);
-  const Verification second = VerifyRun(t.path());
+  const Verification second = VerifyRun(t.Path());
   EXPECT_EQ(second.integrity, Integrity::kWhole);
   EXPECT_EQ(second.files_hashed, 0);
-  const Verification full = VerifyRun(t.path(), {VerifyLevel::kChecksums, true});
+  const Verification full = VerifyRun(t.Path(), {VerifyLevel::kChecksums, true});
   EXPECT_EQ(full.files_hashed, 7);
-  EXPECT_EQ(VerifyRun(t.path(), {VerifyLevel::kSizes, true}).files_hashed, 0);
+  EXPECT_EQ(VerifyRun(t.Path(), {VerifyLevel::kSizes, true}).files_hashed, 0);
 }
 
 TEST(Manifest, FramesCutInHalfOrAtAFrameBoundaryAreDamaged) {
   for (const bool boundary : {false, true}) {
     TempDir t;
-    MakeRun(t.path());
-    ASSERT_EQ(VerifyRun(t.path()).integrity, Integrity::kWhole);  // cached as whole first
-    const fs::path frames = t.path() / kFramesFile;
+    MakeRun(t.Path());
+    ASSERT_EQ(VerifyRun(t.Path()).integrity, Integrity::kWhole);  // cached as whole first
+    const fs::path frames = t.Path() / kFramesFile;
     const auto size = fs::file_size(frames);
     // A frame boundary: the start of the third frame.
-    const std::string text = read_file(frames);
+    const std::string text = ReadFile(frames);
     std::size_t cut = size / 2;
     if (boundary) cut = text.find("ITEM: TIME\n", text.find("ITEM: TIME\n", 1) + 1);
     fs::resize_file(frames, cut);
-    const Verification v = VerifyRun(t.path());
+    const Verification v = VerifyRun(t.Path());
     EXPECT_EQ(v.integrity, Integrity::kDamaged);
     ASSERT_FALSE(v.problems.empty());
     EXPECT_EQ(v.problems[0].file, kFramesFile);
-    EXPECT_NE(v.text().find(std::to_string(cut) + " bytes, the manifest records " + std::to_string(size) + " (cut short)"),
+    EXPECT_NE(v.Text().find(std::to_string(cut) + " bytes, the manifest records " + std::to_string(size) + " (cut short)"),
               std::string::npos)
-        << v.text();
-    EXPECT_NE(v.text().find(boundary ? "2 frames readable, the manifest records 4" : "frames readable, the manifest records 4"),
+        << v.Text();
+    EXPECT_NE(v.Text().find(boundary ? "2 frames readable, the manifest records 4" : "frames readable, the manifest records 4"),
               std::string::npos)
-        << v.text();
+        << v.Text();
     // The cheapest check (status) sees it too.
-    EXPECT_EQ(VerifyRun(t.path(), {VerifyLevel::kSizes, true}).integrity, Integrity::kDamaged);
+    EXPECT_EQ(VerifyRun(t.Path(), {VerifyLevel::kSizes, true}).integrity, Integrity::kDamaged);
   }
 }
 
 TEST(Manifest, AByteChangedInPlaceIsFoundAfterTheRunWasVerified) {
   TempDir t;
-  MakeRun(t.path());
-  ASSERT_EQ(VerifyRun(t.path()).integrity, Integrity::kWhole);
+  MakeRun(t.Path());
+  ASSERT_EQ(VerifyRun(t.Path()).integrity, Integrity::kWhole);
   {
-    std::fstream f(t.path() / kContactsFile, std::ios::in | std::ios::out | std::ios::binary);
+    std::fstream f(t.Path() / kContactsFile, std::ios::in | std::ios::out | std::ios::binary);
     f.seekp(-3, std::ios::end);
     f.put('7');
   }
-  const Verification v = VerifyRun(t.path());
+  const Verification v = VerifyRun(t.Path());
   EXPECT_EQ(v.integrity, Integrity::kDamaged);
-  EXPECT_NE(v.text().find("contacts.dump: checksum"), std::string::npos) << v.text();
-  EXPECT_NE(v.text().find("(changed in place)"), std::string::npos) << v.text();
+  EXPECT_NE(v.Text().find("contacts.dump: checksum"), std::string::npos) << v.Text();
+  EXPECT_NE(v.Text().find("(changed in place)"), std::string::npos) << v.Text();
 }
 
 TEST(Manifest, TheCheapCheckHashesOnlyWhatChangedSinceItWasFoundWhole) {
   TempDir t;
-  MakeRun(t.path());
+  MakeRun(t.Path());
   const auto change = [&] {
-    std::fstream f(t.path() / kFramesFile, std::ios::in | std::ios::out | std::ios::binary);
+    std::fstream f(t.Path() / kFramesFile, std::ios::in | std::ios::out | std::ios::binary);
     f.seekp(-3, std::ios::end);
     f.put('7');
   };
   // Never verified: the sizes alone (no file is hashed), so an in-place change is not seen yet.
   change();
-  Verification v = VerifyRun(t.path(), {VerifyLevel::kSizes, true});
+  Verification v = VerifyRun(t.Path(), {VerifyLevel::kSizes, true});
   EXPECT_EQ(v.integrity, Integrity::kWhole);
   EXPECT_EQ(v.files_hashed, 0);
   // Verified whole (as a report does), then changed in place: the cheap check hashes that file.
-  MakeRun(t.path());
-  ASSERT_EQ(VerifyRun(t.path()).integrity, Integrity::kWhole);
-  EXPECT_EQ(VerifyRun(t.path(), {VerifyLevel::kSizes, true}).files_hashed, 0);
+  MakeRun(t.Path());
+  ASSERT_EQ(VerifyRun(t.Path()).integrity, Integrity::kWhole);
+  EXPECT_EQ(VerifyRun(t.Path(), {VerifyLevel::kSizes, true}).files_hashed, 0);
   change();
-  v = VerifyRun(t.path(), {VerifyLevel::kSizes, true});
+  v = VerifyRun(t.Path(), {VerifyLevel::kSizes, true});
   EXPECT_EQ(v.integrity, Integrity::kDamaged);
   EXPECT_EQ(v.files_hashed, 1);
-  EXPECT_NE(v.text().find("frames.dump: checksum"), std::string::npos) << v.text();
+  EXPECT_NE(v.Text().find("frames.dump: checksum"), std::string::npos) << v.Text();
   // What a check found damaged is remembered with the file's size and mtime: the next cheap
   // check says it again without hashing, also when nothing was verified before the damage.
-  v = VerifyRun(t.path(), {VerifyLevel::kSizes, true});
+  v = VerifyRun(t.Path(), {VerifyLevel::kSizes, true});
   EXPECT_EQ(v.integrity, Integrity::kDamaged);
   EXPECT_EQ(v.files_hashed, 0);
-  MakeRun(t.path());
-  std::filesystem::remove_all(t.path() / "analyses");
+  MakeRun(t.Path());
+  std::filesystem::remove_all(t.Path() / "analyses");
   change();
-  ASSERT_EQ(VerifyRun(t.path()).integrity, Integrity::kDamaged);  // a report's check
-  v = VerifyRun(t.path(), {VerifyLevel::kSizes, true});
+  ASSERT_EQ(VerifyRun(t.Path()).integrity, Integrity::kDamaged);  // a report's check
+  v = VerifyRun(t.Path(), {VerifyLevel::kSizes, true});
   EXPECT_EQ(v.integrity, Integrity::kDamaged);
   EXPECT_EQ(v.files_hashed, 0);
-  EXPECT_NE(v.text().find("(changed in place)"), std::string::npos) << v.text();
+  EXPECT_NE(v.Text().find("(changed in place)"), std::string::npos) << v.Text();
   // Restored: whole again.
-  MakeRun(t.path());
-  EXPECT_EQ(VerifyRun(t.path()).integrity, Integrity::kWhole);
-  EXPECT_EQ(VerifyRun(t.path(), {VerifyLevel::kSizes, true}).integrity, Integrity::kWhole);
+  MakeRun(t.Path());
+  EXPECT_EQ(VerifyRun(t.Path()).integrity, Integrity::kWhole);
+  EXPECT_EQ(VerifyRun(t.Path(), {VerifyLevel::kSizes, true}).integrity, Integrity::kWhole);
 }
 
 TEST(Manifest, EventsCutHeaderOnlyOrEmptyDisagreeWithTheSummary) {
   for (const std::string what : {"half", "header", "empty", "missing"}) {
     TempDir t;
-    MakeRun(t.path());
-    const fs::path events = t.path() / kEventsFile;
-    const std::string text = read_file(events);
+    MakeRun(t.Path());
+    const fs::path events = t.Path() / kEventsFile;
+    const std::string text = ReadFile(events);
     if (what == "half") fs::resize_file(events, text.find('\n', text.find('\n') + 1) + 1);  // header and one row
     if (what == "header") fs::resize_file(events, text.find('\n') + 1);
     if (what == "empty") fs::resize_file(events, 0);
     if (what == "missing") fs::remove(events);
-    const Verification v = VerifyRun(t.path());
+    const Verification v = VerifyRun(t.Path());
     EXPECT_EQ(v.integrity, Integrity::kDamaged) << what;
     const std::string rows = what == "half" ? "1 row" : "0 rows";
     if (what == "missing") {
-      EXPECT_NE(v.text().find("events.csv: missing"), std::string::npos) << v.text();
+      EXPECT_NE(v.Text().find("events.csv: missing"), std::string::npos) << v.Text();
     } else {
-      EXPECT_NE(v.text().find("events.csv: " + rows + ", summary.json says 3 bodies exited"), std::string::npos)
-          << what << ": " << v.text();
-      EXPECT_NE(v.text().find("events.csv: " + rows + ", the manifest records 3"), std::string::npos) << v.text();
+      EXPECT_NE(v.Text().find("events.csv: " + rows + ", summary.json says 3 bodies exited"), std::string::npos)
+          << what << ": " << v.Text();
+      EXPECT_NE(v.Text().find("events.csv: " + rows + ", the manifest records 3"), std::string::npos) << v.Text();
     }
   }
 }
 
 TEST(Manifest, GarbageSummaryIsDamaged) {
   TempDir t;
-  MakeRun(t.path());
-  write_file(t.path() / kSummaryFile, "{\"engine\": \"nat");
-  const Verification v = VerifyRun(t.path());
+  MakeRun(t.Path());
+  WriteFile(t.Path() / kSummaryFile, "{\"engine\": \"nat");
+  const Verification v = VerifyRun(t.Path());
   EXPECT_EQ(v.integrity, Integrity::kDamaged);
-  EXPECT_NE(v.text().find("summary.json: not valid JSON"), std::string::npos) << v.text();
+  EXPECT_NE(v.Text().find("summary.json: not valid JSON"), std::string::npos) << v.Text();
 }
 
 TEST(Manifest, ARunWithoutAManifestIsNotVerifiableButStillCrossChecked) {
   TempDir t;
-  MakeRun(t.path());
-  fs::remove(t.path() / kManifestFile);
-  EXPECT_EQ(VerifyRun(t.path()).integrity, Integrity::kNotVerifiable);
+  MakeRun(t.Path());
+  fs::remove(t.Path() / kManifestFile);
+  EXPECT_EQ(VerifyRun(t.Path()).integrity, Integrity::kNotVerifiable);
   EXPECT_STREQ(IntegrityName(Integrity::kNotVerifiable), "not verifiable");
-  fs::resize_file(t.path() / kEventsFile, read_file(t.path() / kEventsFile).find('\n') + 1);
-  const Verification v = VerifyRun(t.path());
+  fs::resize_file(t.Path() / kEventsFile, ReadFile(t.Path() / kEventsFile).find('\n') + 1);
+  const Verification v = VerifyRun(t.Path());
   EXPECT_EQ(v.integrity, Integrity::kDamaged);
-  EXPECT_NE(v.text().find("events.csv: 0 rows, summary.json says 3 bodies exited"), std::string::npos) << v.text();
+  EXPECT_NE(v.Text().find("events.csv: 0 rows, summary.json says 3 bodies exited"), std::string::npos) << v.Text();
 }
 
 TEST(Manifest, AGarbageOrFutureManifestIsDamagedAndAnUnfinishedRunIsNotChecked) {
   TempDir t;
-  MakeRun(t.path());
-  write_file(t.path() / kManifestFile, R"({"format": 99, "files": {}})");
-  const Verification v = VerifyRun(t.path());
+  MakeRun(t.Path());
+  WriteFile(t.Path() / kManifestFile, R"({"format": 99, "files": {}})");
+  const Verification v = VerifyRun(t.Path());
   EXPECT_EQ(v.integrity, Integrity::kDamaged);
-  EXPECT_NE(v.text().find("manifest format 99"), std::string::npos) << v.text();
-  fs::remove(t.path() / kDoneFile);
-  EXPECT_EQ(VerifyRun(t.path()).integrity, Integrity::kNotDone);
-  EXPECT_THROW(VerifyRun(t.path() / "nope"), ReadError);
+  EXPECT_NE(v.Text().find("manifest format 99"), std::string::npos) << v.Text();
+  fs::remove(t.Path() / kDoneFile);
+  EXPECT_EQ(VerifyRun(t.Path()).integrity, Integrity::kNotDone);
+  EXPECT_THROW(VerifyRun(t.Path() / "nope"), ReadError);
 }
 
 TEST(Manifest, WithoutWriteCacheNothingIsKeptAndEveryCheckHashes) {
   TempDir t;
-  MakeRun(t.path());
-  const Verification v = VerifyRun(t.path(), {VerifyLevel::kCached, false});
+  MakeRun(t.Path());
+  const Verification v = VerifyRun(t.Path(), {VerifyLevel::kCached, false});
   EXPECT_EQ(v.integrity, Integrity::kWhole);
-  EXPECT_FALSE(fs::exists(t.path() / "analyses" / "verified.json"));
-  EXPECT_EQ(VerifyRun(t.path(), {VerifyLevel::kCached, false}).files_hashed, 7);
+  EXPECT_FALSE(fs::exists(t.Path() / "analyses" / "verified.json"));
+  EXPECT_EQ(VerifyRun(t.Path(), {VerifyLevel::kCached, false}).files_hashed, 7);
 }
 
 }  // namespace

@@ -17,7 +17,7 @@ namespace granary::rundir {
 namespace {
 
 using analysis::testing::TempDir;
-using analysis::testing::write_file;
+using analysis::testing::WriteFile;
 
 constexpr double kPi = std::numbers::pi;
 
@@ -40,8 +40,8 @@ const char* kFrames =
 
 TEST(Readers, FramesRoundTripAndBodies) {
   TempDir dir;
-  write_file(dir.path() / "frames.dump", kFrames);
-  FrameReader reader(dir.path() / "frames.dump");
+  WriteFile(dir.Path() / "frames.dump", kFrames);
+  FrameReader reader(dir.Path() / "frames.dump");
   Frame f;
   ASSERT_TRUE(reader.Next(f));
   EXPECT_EQ(f.timestep, 100);
@@ -81,8 +81,8 @@ TEST(Readers, TruncatedLastFrameEndsQuietly) {
   TempDir dir;
   std::string text = kFrames;
   text.resize(text.size() - 20);  // cut the last row
-  write_file(dir.path() / "frames.dump", text);
-  FrameReader reader(dir.path() / "frames.dump");
+  WriteFile(dir.Path() / "frames.dump", text);
+  FrameReader reader(dir.Path() / "frames.dump");
   Frame f;
   EXPECT_TRUE(reader.Next(f));
   EXPECT_FALSE(reader.Next(f));
@@ -101,13 +101,13 @@ TEST(Readers, LinesLongerThanABlockAndGzip) {
   for (int f = 0; f < 40000; ++f)  // frames enough to cross many block ends
     text += "ITEM: TIMESTEP\n" + std::to_string(8 + f) + "\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id mol x y\n3 1 " +
             std::to_string(f) + ".125 -0.5\n";
-  write_file(dir.path() / "frames.dump", text);
-  gzFile gz = gzopen((dir.path() / "frames.dump.gz").c_str(), "wb");
+  WriteFile(dir.Path() / "frames.dump", text);
+  gzFile gz = gzopen((dir.Path() / "frames.dump.gz").c_str(), "wb");
   ASSERT_NE(gz, nullptr);
   ASSERT_EQ(gzwrite(gz, text.data(), static_cast<unsigned>(text.size())), static_cast<int>(text.size()));
   gzclose(gz);
   for (const char* name : {"frames.dump", "frames.dump.gz"}) {
-    FrameReader reader(dir.path() / name);
+    FrameReader reader(dir.Path() / name);
     Frame f;
     ASSERT_TRUE(reader.Next(f)) << name;
     EXPECT_EQ(f.timestep, 7);
@@ -128,8 +128,8 @@ TEST(Readers, LinesLongerThanABlockAndGzip) {
 
 TEST(Readers, MalformedFrameNamesFileAndLine) {
   TempDir dir;
-  const auto file = dir.path() / "frames.dump";
-  write_file(file,
+  const auto file = dir.Path() / "frames.dump";
+  WriteFile(file,
              "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id mol x y\n"
              "1 0 abc 2\n");
   FrameReader reader(file);
@@ -140,7 +140,7 @@ TEST(Readers, MalformedFrameNamesFileAndLine) {
   } catch (const ReadError& e) {
     EXPECT_EQ(std::string(e.what()), file.string() + ":6: x 'abc' is not a number");
   }
-  write_file(file, "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id x y\n1 1 2\n");
+  WriteFile(file, "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id x y\n1 1 2\n");
   FrameReader r2(file);
   try {
     r2.Next(f);
@@ -148,15 +148,15 @@ TEST(Readers, MalformedFrameNamesFileAndLine) {
   } catch (const ReadError& e) {
     EXPECT_EQ(std::string(e.what()), file.string() + ":5: atoms header has no 'mol' column ('ITEM: ATOMS id x y')");
   }
-  write_file(file, "garbage\n");
+  WriteFile(file, "garbage\n");
   FrameReader r3(file);
   EXPECT_THROW(r3.Next(f), ReadError);
 }
 
 TEST(Readers, EventsWithExtraColumnsAndOrder) {
   TempDir dir;
-  const auto file = dir.path() / "events.csv";
-  write_file(file,
+  const auto file = dir.Path() / "events.csv";
+  WriteFile(file,
              "time,body,shape,mass,outlet,speed\n"
              "1.5,7,dumbbell,1.5707963267948966,1,0.3\n"
              "0.5,3,disc,1.5707963267948966,0,0.2\r\n");
@@ -172,34 +172,34 @@ TEST(Readers, EventsWithExtraColumnsAndOrder) {
 
 TEST(Readers, MalformedEventsNameFileAndLine) {
   TempDir dir;
-  const auto file = dir.path() / "events.csv";
-  write_file(file, "time,body,shape,mass,outlet\n1.0,1,disc,1.0,0\n2.0,2,disc\n");
+  const auto file = dir.Path() / "events.csv";
+  WriteFile(file, "time,body,shape,mass,outlet\n1.0,1,disc,1.0,0\n2.0,2,disc\n");
   try {
     ReadEvents(file);
     FAIL() << "no error";
   } catch (const ReadError& e) {
     EXPECT_EQ(std::string(e.what()), file.string() + ":3: expected 5 fields, got 3 ('2.0,2,disc')");
   }
-  write_file(file, "time,body,shape,mass,outlet\nx,1,disc,1.0,0\n");
+  WriteFile(file, "time,body,shape,mass,outlet\nx,1,disc,1.0,0\n");
   try {
     ReadEvents(file);
     FAIL() << "no error";
   } catch (const ReadError& e) {
     EXPECT_EQ(std::string(e.what()), file.string() + ":2: time 'x' is not a number");
   }
-  write_file(file, "body,outlet\n1,0\n");
+  WriteFile(file, "body,outlet\n1,0\n");
   EXPECT_THROW(ReadEvents(file), ReadError);
 }
 
 TEST(Readers, SummaryAndRunDirectory) {
   TempDir dir;
-  write_file(dir.path() / "summary.json",
+  WriteFile(dir.Path() / "summary.json",
              R"({"engine":"native","engine_version":"0.1.0","granary_commit":"abc","run_id":"r1",
                  "spec":{"discharge":{"mode":"remove"}},"end_reason":"clogged","bodies":100,
                  "exited":40,"remaining":60,"exits_per_outlet":[40],"t_end":12.5,"new_key":[1,2]})");
-  write_file(dir.path() / "events.csv", "time,body,shape,mass,outlet\n0.1,1,disc,1,0\n");
-  write_file(dir.path() / "DONE", "");
-  const RunData r = ReadRun(dir.path());
+  WriteFile(dir.Path() / "events.csv", "time,body,shape,mass,outlet\n0.1,1,disc,1,0\n");
+  WriteFile(dir.Path() / "DONE", "");
+  const RunData r = ReadRun(dir.Path());
   EXPECT_TRUE(r.done);
   EXPECT_TRUE(r.has_summary);
   EXPECT_FALSE(r.has_frames);
@@ -211,11 +211,11 @@ TEST(Readers, SummaryAndRunDirectory) {
   EXPECT_EQ(r.events.size(), 1u);
   EXPECT_EQ(r.summary.raw["new_key"].size(), 2u);
 
-  write_file(dir.path() / "summary.json", "{\"bodies\": \"many\"}");
-  EXPECT_THROW(ReadRun(dir.path()), ReadError);
-  write_file(dir.path() / "summary.json", "{not json");
-  EXPECT_THROW(ReadRun(dir.path()), ReadError);
-  EXPECT_THROW(ReadRun(dir.path() / "missing"), ReadError);
+  WriteFile(dir.Path() / "summary.json", "{\"bodies\": \"many\"}");
+  EXPECT_THROW(ReadRun(dir.Path()), ReadError);
+  WriteFile(dir.Path() / "summary.json", "{not json");
+  EXPECT_THROW(ReadRun(dir.Path()), ReadError);
+  EXPECT_THROW(ReadRun(dir.Path() / "missing"), ReadError);
 }
 
 // LAMMPS writes ITEM: UNITS and ITEM: TIME before ITEM: TIMESTEP (as the engines now do); run
@@ -236,9 +236,9 @@ TEST(Readers, FramesInLammpsOrderReadAsInTheOldOrder) {
   TempDir dir;
   const std::string lammps = InLammpsOrder(kFrames, true);
   ASSERT_EQ(lammps.rfind("ITEM: UNITS\nlj\nITEM: TIME\n0.01\nITEM: TIMESTEP\n100\nITEM: NUMBER OF ATOMS\n3\n", 0), 0u) << lammps;
-  write_file(dir.path() / "old.dump", kFrames);
-  write_file(dir.path() / "lammps.dump", lammps);
-  FrameReader old_order(dir.path() / "old.dump"), lammps_order(dir.path() / "lammps.dump");
+  WriteFile(dir.Path() / "old.dump", kFrames);
+  WriteFile(dir.Path() / "lammps.dump", lammps);
+  FrameReader old_order(dir.Path() / "old.dump"), lammps_order(dir.Path() / "lammps.dump");
   Frame a, b;
   for (int k = 0; k < 2; ++k) {
     ASSERT_TRUE(old_order.Next(a));
@@ -255,20 +255,20 @@ TEST(Readers, FramesInLammpsOrderReadAsInTheOldOrder) {
   }
   EXPECT_FALSE(lammps_order.Next(b));
   // A time that is not a number is an error wherever it stands.
-  write_file(dir.path() / "bad.dump", "ITEM: TIME\nsoon\nITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n0\nITEM: ATOMS id mol x y\n");
-  FrameReader bad(dir.path() / "bad.dump");
+  WriteFile(dir.Path() / "bad.dump", "ITEM: TIME\nsoon\nITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n0\nITEM: ATOMS id mol x y\n");
+  FrameReader bad(dir.Path() / "bad.dump");
   try {
     bad.Next(b);
     ADD_FAILURE() << "no error";
   } catch (const ReadError& e) {
-    EXPECT_EQ(std::string(e.what()), (dir.path() / "bad.dump").string() + ":2: time 'soon' is not a number");
+    EXPECT_EQ(std::string(e.what()), (dir.Path() / "bad.dump").string() + ":2: time 'soon' is not a number");
   }
 }
 
 TEST(Readers, Contacts) {
   TempDir dir;
-  const auto file = dir.path() / "contacts.dump";
-  write_file(file,
+  const auto file = dir.Path() / "contacts.dump";
+  WriteFile(file,
              "ITEM: TIMESTEP\n5\nITEM: TIME\n0.5\nITEM: NUMBER OF ENTRIES\n2\n"
              "ITEM: BOX BOUNDS ff ff pp\n-50 50\n-5 160\n-0.5 0.5\n"
              "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n"
@@ -286,7 +286,7 @@ TEST(Readers, Contacts) {
   EXPECT_FALSE(reader.Next(f));
 
   // The same frame as LAMMPS' dump local writes it: TIME before TIMESTEP.
-  write_file(file,
+  WriteFile(file,
              "ITEM: TIME\n0.5\nITEM: TIMESTEP\n5\nITEM: NUMBER OF ENTRIES\n1\n"
              "ITEM: BOX BOUNDS ff ff pp\n-50 50\n-5 160\n-0.5 0.5\n"
              "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n"

@@ -17,31 +17,31 @@ using nlohmann::json;
 
 std::string ErrorPath(const json& j) {
   try {
-    ReplicaRule::from_json(j);
+    ReplicaRule::FromJson(j);
   } catch (const SpecError& e) {
-    return e.path();
+    return e.Path();
   }
   return "(no error)";
 }
 
 TEST(ReplicaRule, ParsesAFixedCountAndTheAdaptiveBlock) {
-  const ReplicaRule fixed = ReplicaRule::from_json(json(4));
-  EXPECT_FALSE(fixed.adaptive());
+  const ReplicaRule fixed = ReplicaRule::FromJson(json(4));
+  EXPECT_FALSE(fixed.Adaptive());
   EXPECT_EQ(fixed.min, 4);
   EXPECT_EQ(fixed.max, 4);
 
-  const ReplicaRule r = ReplicaRule::from_json(
+  const ReplicaRule r = ReplicaRule::FromJson(
       json::parse(R"({"min": 5, "max": 100, "until": {"metric": "avalanche_size", "rel_se": 0.05}})"));
-  ASSERT_TRUE(r.adaptive());
+  ASSERT_TRUE(r.Adaptive());
   EXPECT_EQ(r.min, 5);
   EXPECT_EQ(r.max, 100);
   ASSERT_EQ(r.until.size(), 1u);
   EXPECT_EQ(r.until[0].metric, "avalanche_size");
   EXPECT_TRUE(r.until[0].relative);
   EXPECT_DOUBLE_EQ(r.until[0].value, 0.05);
-  EXPECT_EQ(r.text(), "5 replicas per point, then more until se/|avalanche_size| <= 0.05, at most 100");
+  EXPECT_EQ(r.Text(), "5 replicas per point, then more until se/|avalanche_size| <= 0.05, at most 100");
 
-  const ReplicaRule two = ReplicaRule::from_json(json::parse(
+  const ReplicaRule two = ReplicaRule::FromJson(json::parse(
       R"({"max": 8, "until": [{"metric": "q_count", "se": 0.1}, {"metric": "avalanche_size", "rel_se": 0.1}]})"));
   EXPECT_EQ(two.min, 2);  // the default: a standard error needs two
   ASSERT_EQ(two.until.size(), 2u);
@@ -77,7 +77,7 @@ ReplicaRule Rule(double rel_se, int min = 5, int max = 100) {
 TEST(ReplicaRule, JudgesRelativeAndAbsoluteTargets) {
   ReplicaRule r = Rule(0.05);
   r.until.push_back({"q", false, 0.2});
-  const auto t = judge_targets(r, {{"s", {10.0, 0.4, 50}}, {"q", {3.0, 0.3, 5}}});
+  const auto t = JudgeTargets(r, {{"s", {10.0, 0.4, 50}}, {"q", {3.0, 0.3, 5}}});
   ASSERT_EQ(t.size(), 2u);
   EXPECT_TRUE(t[0].known);
   EXPECT_DOUBLE_EQ(t[0].achieved, 0.04);
@@ -85,9 +85,9 @@ TEST(ReplicaRule, JudgesRelativeAndAbsoluteTargets) {
   EXPECT_DOUBLE_EQ(t[1].achieved, 0.3);
   EXPECT_FALSE(t[1].met);
   // No se yet (one run), a zero mean for a relative target, or a missing metric: not met.
-  EXPECT_FALSE(judge_targets(Rule(0.05), {{"s", {10.0, NAN, 1}}})[0].met);
-  EXPECT_FALSE(judge_targets(Rule(0.05), {{"s", {0.0, 0.0, 5}}})[0].met);
-  const auto missing = judge_targets(Rule(0.05), {});
+  EXPECT_FALSE(JudgeTargets(Rule(0.05), {{"s", {10.0, NAN, 1}}})[0].met);
+  EXPECT_FALSE(JudgeTargets(Rule(0.05), {{"s", {0.0, 0.0, 5}}})[0].met);
+  const auto missing = JudgeTargets(Rule(0.05), {});
   EXPECT_FALSE(missing[0].known);
   EXPECT_FALSE(missing[0].met);
 }
@@ -96,42 +96,42 @@ TEST(ReplicaRule, DecidesFromTheWorstTargetAtMostDoubling) {
   // rel se 0.1 after 5 runs, target 0.05: se ~ 1/sqrt(n) asks for 5 * 4 = 20, i.e. 15 more,
   // but at most as many as there are (5).
   PointReplicas p{5, 0, {{"s", {10.0, 1.0, 40}}}};
-  ReplicaDecision d = decide_replicas(Rule(0.05), p);
+  ReplicaDecision d = DecideReplicas(Rule(0.05), p);
   EXPECT_EQ(d.verdict, ReplicaVerdict::kMore);
   EXPECT_EQ(d.add, 5);
   // rel se 0.06 after 10, target 0.05: 10 * 1.44 = 14.4 -> 15 in all, 5 more.
   p = {10, 0, {{"s", {10.0, 0.6, 80}}}};
-  EXPECT_EQ(decide_replicas(Rule(0.05), p).add, 5);
+  EXPECT_EQ(DecideReplicas(Rule(0.05), p).add, 5);
   // Just above the target: at least one more.
   p = {10, 0, {{"s", {10.0, 0.5001, 80}}}};
-  EXPECT_EQ(decide_replicas(Rule(0.05), p).add, 1);
+  EXPECT_EQ(DecideReplicas(Rule(0.05), p).add, 1);
   // Never past max.
   p = {95, 0, {{"s", {10.0, 1.0, 800}}}};
-  EXPECT_EQ(decide_replicas(Rule(0.05), p).add, 5);
+  EXPECT_EQ(DecideReplicas(Rule(0.05), p).add, 5);
   // Several targets: the worst decides.
   ReplicaRule two = Rule(0.05);
   two.until.push_back({"q", false, 0.1});
   p = {10, 0, {{"s", {10.0, 0.4, 80}}, {"q", {3.0, 0.12, 10}}}};  // s met; q: 10 * 1.44 -> 15
-  EXPECT_EQ(decide_replicas(two, p).add, 5);
+  EXPECT_EQ(DecideReplicas(two, p).add, 5);
 }
 
 TEST(ReplicaRule, WaitsMeetsStopsAtMaxAndRefusesUnknownMetrics) {
   PointReplicas p{5, 2, {{"s", {10.0, 1.0, 40}}}};
-  EXPECT_EQ(decide_replicas(Rule(0.05), p).verdict, ReplicaVerdict::kWaiting);
-  EXPECT_EQ(decide_replicas(Rule(0.05), p).add, 0);
+  EXPECT_EQ(DecideReplicas(Rule(0.05), p).verdict, ReplicaVerdict::kWaiting);
+  EXPECT_EQ(DecideReplicas(Rule(0.05), p).add, 0);
   p = {5, 0, {{"s", {10.0, 0.5, 40}}}};
-  EXPECT_EQ(decide_replicas(Rule(0.05), p).verdict, ReplicaVerdict::kMet);
+  EXPECT_EQ(DecideReplicas(Rule(0.05), p).verdict, ReplicaVerdict::kMet);
   p = {100, 0, {{"s", {10.0, 1.0, 800}}}};
-  EXPECT_EQ(decide_replicas(Rule(0.05), p).verdict, ReplicaVerdict::kAtMax);
-  EXPECT_EQ(decide_replicas(Rule(0.05), p).add, 0);
+  EXPECT_EQ(DecideReplicas(Rule(0.05), p).verdict, ReplicaVerdict::kAtMax);
+  EXPECT_EQ(DecideReplicas(Rule(0.05), p).add, 0);
   p = {5, 0, {{"other", {10.0, 1.0, 40}}}};
-  EXPECT_EQ(decide_replicas(Rule(0.05), p).verdict, ReplicaVerdict::kUnknown);
+  EXPECT_EQ(DecideReplicas(Rule(0.05), p).verdict, ReplicaVerdict::kUnknown);
   // A metric without a se yet (no avalanche, one run): one more.
   p = {1, 0, {{"s", {NAN, NAN, 0}}}};
-  const ReplicaDecision d = decide_replicas(Rule(0.05, 1), p);
+  const ReplicaDecision d = DecideReplicas(Rule(0.05, 1), p);
   EXPECT_EQ(d.verdict, ReplicaVerdict::kMore);
   EXPECT_EQ(d.add, 1);
-  EXPECT_EQ(decide_replicas(ReplicaRule::from_json(json(3)), p).verdict, ReplicaVerdict::kFixed);
+  EXPECT_EQ(DecideReplicas(ReplicaRule::FromJson(json(3)), p).verdict, ReplicaVerdict::kFixed);
 }
 
 // The runner applies the decision run after run: on a deterministic sequence of per-run
@@ -149,19 +149,19 @@ TEST(ReplicaRule, AppliedRepeatedlyStopsAtTheTarget) {
   for (const double target : {0.05, 0.02, 0.01}) {
     const ReplicaRule rule = Rule(target, 4, 1000);
     int n = rule.min;
-    for (ReplicaDecision d; (d = decide_replicas(rule, point_after(n))).verdict == ReplicaVerdict::kMore;) n += d.add;
-    const auto t = judge_targets(rule, point_after(n).metrics);
+    for (ReplicaDecision d; (d = DecideReplicas(rule, point_after(n))).verdict == ReplicaVerdict::kMore;) n += d.add;
+    const auto t = JudgeTargets(rule, point_after(n).metrics);
     EXPECT_TRUE(t[0].met) << target;
     // Not far past the first n that meets it (the estimate asks for what se ~ 1/sqrt(n) says).
     int first = rule.min;
-    while (!judge_targets(rule, point_after(first).metrics)[0].met) ++first;
+    while (!JudgeTargets(rule, point_after(first).metrics)[0].met) ++first;
     EXPECT_GE(n, first);
     EXPECT_LE(n, first + 2) << target;
   }
   const ReplicaRule capped = Rule(0.001, 4, 30);
   int n = capped.min;
   ReplicaDecision d;
-  while ((d = decide_replicas(capped, point_after(n))).verdict == ReplicaVerdict::kMore) n += d.add;
+  while ((d = DecideReplicas(capped, point_after(n))).verdict == ReplicaVerdict::kMore) n += d.add;
   EXPECT_EQ(d.verdict, ReplicaVerdict::kAtMax);
   EXPECT_EQ(n, 30);
 }

@@ -14,7 +14,7 @@ using nlohmann::json;
 
 std::string ErrorOf(const json& j) {
   try {
-    RunSpec::from_json(j);
+    RunSpec::FromJson(j);
   } catch (const SpecError& e) {
     return e.what();
   }
@@ -22,7 +22,7 @@ std::string ErrorOf(const json& j) {
 }
 
 TEST(RunSpecTest, EmptyObjectTakesDefaults) {
-  const RunSpec s = RunSpec::from_json(json::object());
+  const RunSpec s = RunSpec::FromJson(json::object());
   EXPECT_EQ(s.bodies.count, 1000);
   ASSERT_EQ(s.bodies.species.size(), 1u);
   EXPECT_EQ(s.bodies.species[0].shape, Shape::kDumbbell);
@@ -34,46 +34,46 @@ TEST(RunSpecTest, EmptyObjectTakesDefaults) {
 }
 
 TEST(RunSpecTest, MuWallDefaultsToMu) {
-  const RunSpec s = RunSpec::from_json(json::parse(R"({"contact": {"mu": 0.3}})"));
+  const RunSpec s = RunSpec::FromJson(json::parse(R"({"contact": {"mu": 0.3}})"));
   EXPECT_EQ(s.contact.mu_wall, 0.3);
-  const RunSpec t = RunSpec::from_json(json::parse(R"({"contact": {"mu": 0.3, "mu_wall": 0.7}})"));
+  const RunSpec t = RunSpec::FromJson(json::parse(R"({"contact": {"mu": 0.3, "mu_wall": 0.7}})"));
   EXPECT_EQ(t.contact.mu_wall, 0.7);
 }
 
 TEST(RunSpecTest, RodDefaultNameCarriesN) {
-  const RunSpec s = RunSpec::from_json(json::parse(R"({"bodies": {"species": [{"shape": "rod", "n": 4}]}})"));
+  const RunSpec s = RunSpec::FromJson(json::parse(R"({"bodies": {"species": [{"shape": "rod", "n": 4}]}})"));
   EXPECT_EQ(s.bodies.species[0].name, "rod4");
 }
 
 TEST(RunSpecTest, ToJsonRoundTripsAndFillsDefaults) {
   const json in = json::parse(R"({"seed": 7, "silo": {"width": 40, "base_outlets": [{"center": -5, "width": 6}]},
     "discharge": {"mode": "reinject"}, "bodies": {"count": 300}})");
-  const RunSpec s = RunSpec::from_json(in);
-  const json out = s.to_json();
+  const RunSpec s = RunSpec::FromJson(in);
+  const json out = s.ToJson();
   EXPECT_EQ(out["discharge"]["mode"], "reinject");
   EXPECT_EQ(out["silo"]["base_outlets"][0]["center"], -5.0);
   EXPECT_EQ(out["contact"]["tangential_cap"], "lammps");
   EXPECT_EQ(out["output"]["checkpoint_interval"], 10.0);
-  EXPECT_EQ(RunSpec::from_json(out).to_json(), out);
+  EXPECT_EQ(RunSpec::FromJson(out).ToJson(), out);
 }
 
 TEST(RunSpecTest, BedKeyIgnoresOutletsAndObstacles) {
-  const RunSpec a = RunSpec::from_json(json::parse(R"({"silo": {"base_outlets": [{"width": 6}]}})"));
-  const RunSpec b = RunSpec::from_json(
+  const RunSpec a = RunSpec::FromJson(json::parse(R"({"silo": {"base_outlets": [{"width": 6}]}})"));
+  const RunSpec b = RunSpec::FromJson(
       json::parse(R"({"silo": {"base_outlets": [{"width": 12}], "obstacles": [{"x": 0, "y": 20, "diameter": 5}]}})"));
-  EXPECT_EQ(a.bed_key(), b.bed_key());
-  const RunSpec c = RunSpec::from_json(json::parse(R"({"seed": 2})"));
-  EXPECT_NE(a.bed_key(), c.bed_key());
+  EXPECT_EQ(a.BedKey(), b.BedKey());
+  const RunSpec c = RunSpec::FromJson(json::parse(R"({"seed": 2})"));
+  EXPECT_NE(a.BedKey(), c.BedKey());
   // The native bed procedure is in the key: a bed poured with the fixed wait (or at another
   // step) is not taken for one poured on landing at the default step.
-  const RunSpec fixed = RunSpec::from_json(json::parse(R"({"bed": {"next_batch": "fixed"}})"));
-  EXPECT_NE(a.bed_key(), fixed.bed_key());
-  EXPECT_EQ(a.bed_key()["bed"]["next_batch"], "landed");
-  EXPECT_EQ(a.bed_key()["bed"]["landed_ke_per_body"], kBedLandedKePerBody);
-  EXPECT_EQ(a.bed_key()["bed"]["resolved_time_step"], kBedTimeStepFactor * a.time_step);
-  EXPECT_FALSE(fixed.bed_key()["bed"].contains("landed_ke_per_body"));
-  const RunSpec step = RunSpec::from_json(json::parse(R"({"bed": {"time_step": 1e-4}})"));
-  EXPECT_NE(a.bed_key(), step.bed_key());
+  const RunSpec fixed = RunSpec::FromJson(json::parse(R"({"bed": {"next_batch": "fixed"}})"));
+  EXPECT_NE(a.BedKey(), fixed.BedKey());
+  EXPECT_EQ(a.BedKey()["bed"]["next_batch"], "landed");
+  EXPECT_EQ(a.BedKey()["bed"]["landed_ke_per_body"], kBedLandedKePerBody);
+  EXPECT_EQ(a.BedKey()["bed"]["resolved_time_step"], kBedTimeStepFactor * a.time_step);
+  EXPECT_FALSE(fixed.BedKey()["bed"].contains("landed_ke_per_body"));
+  const RunSpec step = RunSpec::FromJson(json::parse(R"({"bed": {"time_step": 1e-4}})"));
+  EXPECT_NE(a.BedKey(), step.BedKey());
 }
 
 TEST(RunSpecErrorTest, UnknownKeySuggestsNearest) {
@@ -100,11 +100,11 @@ TEST(RunSpecErrorTest, BadEnum) {
 
 TEST(RunSpecTest, ReinjectPositionIsInTheResolvedSpecOnlyWhenNotTheDefault) {
   // Run ids planned before the option existed stay the same.
-  EXPECT_FALSE(RunSpec::from_json(json::object()).to_json()["discharge"].contains("reinject_position"));
-  const RunSpec p = RunSpec::from_json(json::parse(R"({"discharge": {"mode": "reinject", "reinject_position": "periodic"}})"));
+  EXPECT_FALSE(RunSpec::FromJson(json::object()).ToJson()["discharge"].contains("reinject_position"));
+  const RunSpec p = RunSpec::FromJson(json::parse(R"({"discharge": {"mode": "reinject", "reinject_position": "periodic"}})"));
   EXPECT_EQ(p.discharge.reinject_position, ReinjectPosition::kPeriodic);
-  EXPECT_EQ(p.to_json()["discharge"]["reinject_position"], "periodic");
-  EXPECT_EQ(RunSpec::from_json(p.to_json()).to_json(), p.to_json());
+  EXPECT_EQ(p.ToJson()["discharge"]["reinject_position"], "periodic");
+  EXPECT_EQ(RunSpec::FromJson(p.ToJson()).ToJson(), p.ToJson());
   EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"reinject_position": "top"}})")),
             "/discharge/reinject_position: must be one of \"random\", \"periodic\" (got \"top\")");
   EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"mode": "reinject", "reinject_position": "periodic"},
@@ -116,22 +116,22 @@ TEST(RunSpecTest, ReinjectPositionIsInTheResolvedSpecOnlyWhenNotTheDefault) {
 // on_clog: "stop" and "wait" are the older stop_on_clog true and false (same resolved spec,
 // same run ids); "unclog" with its protocol is written only when chosen.
 TEST(RunSpecTest, OnClogAndTheUnclogProtocol) {
-  const json stop = RunSpec::from_json(json::object()).to_json();
-  EXPECT_EQ(RunSpec::from_json(json::parse(R"({"discharge": {"on_clog": "stop"}})")).to_json(), stop);
+  const json stop = RunSpec::FromJson(json::object()).ToJson();
+  EXPECT_EQ(RunSpec::FromJson(json::parse(R"({"discharge": {"on_clog": "stop"}})")).ToJson(), stop);
   EXPECT_FALSE(stop["discharge"].contains("on_clog"));
-  const json wait = RunSpec::from_json(json::parse(R"({"discharge": {"on_clog": "wait"}})")).to_json();
-  EXPECT_EQ(wait, RunSpec::from_json(json::parse(R"({"discharge": {"stop_on_clog": false}})")).to_json());
+  const json wait = RunSpec::FromJson(json::parse(R"({"discharge": {"on_clog": "wait"}})")).ToJson();
+  EXPECT_EQ(wait, RunSpec::FromJson(json::parse(R"({"discharge": {"stop_on_clog": false}})")).ToJson());
   EXPECT_EQ(wait["discharge"]["stop_on_clog"], false);
-  const RunSpec u = RunSpec::from_json(json::parse(
+  const RunSpec u = RunSpec::FromJson(json::parse(
       R"({"discharge": {"on_clog": "unclog", "unclog": {"method": "kick", "max_clogs": 200, "kick_speed": 2}}})"));
   EXPECT_EQ(u.discharge.on_clog, OnClog::kUnclog);
-  EXPECT_FALSE(u.discharge.stop_on_clog());
+  EXPECT_FALSE(u.discharge.StopOnClog());
   EXPECT_EQ(u.discharge.unclog.method, UnclogMethod::kKick);
   EXPECT_EQ(u.discharge.unclog.max_clogs, 200);
   EXPECT_EQ(u.discharge.unclog.max_attempts, 10);
-  EXPECT_EQ(u.to_json()["discharge"]["on_clog"], "unclog");
-  EXPECT_EQ(u.to_json()["discharge"]["unclog"]["kick_speed"], 2.0);
-  EXPECT_EQ(RunSpec::from_json(u.to_json()).to_json(), u.to_json());
+  EXPECT_EQ(u.ToJson()["discharge"]["on_clog"], "unclog");
+  EXPECT_EQ(u.ToJson()["discharge"]["unclog"]["kick_speed"], 2.0);
+  EXPECT_EQ(RunSpec::FromJson(u.ToJson()).ToJson(), u.ToJson());
   EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"on_clog": "blow"}})")),
             "/discharge/on_clog: must be one of \"stop\", \"wait\", \"unclog\" (got \"blow\")");
   EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"on_clog": "unclog", "stop_on_clog": true}})")),
@@ -159,11 +159,11 @@ TEST(RunSpecTest, OnClogAndTheUnclogProtocol) {
 }
 
 TEST(RunSpecTest, PeriodicHeadroomIsInTheResolvedSpecOnlyWhenNotTheDefault) {
-  EXPECT_FALSE(RunSpec::from_json(json::object()).to_json()["discharge"].contains("periodic_headroom"));
-  const RunSpec p = RunSpec::from_json(json::parse(R"({"discharge": {"periodic_headroom": 30}})"));
+  EXPECT_FALSE(RunSpec::FromJson(json::object()).ToJson()["discharge"].contains("periodic_headroom"));
+  const RunSpec p = RunSpec::FromJson(json::parse(R"({"discharge": {"periodic_headroom": 30}})"));
   EXPECT_EQ(p.discharge.periodic_headroom, 30.0);
-  EXPECT_EQ(p.to_json()["discharge"]["periodic_headroom"], 30.0);
-  EXPECT_EQ(RunSpec::from_json(p.to_json()).to_json(), p.to_json());
+  EXPECT_EQ(p.ToJson()["discharge"]["periodic_headroom"], 30.0);
+  EXPECT_EQ(RunSpec::FromJson(p.ToJson()).ToJson(), p.ToJson());
   EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"periodic_headroom": -1}})")).substr(0, 31),
             "/discharge/periodic_headroom: m");
 }
@@ -173,18 +173,18 @@ TEST(RunSpecErrorTest, WhatTheLiggghtsBackendCannotDoIsRefusedAtPlanning) {
     "silo": {"side_outlets": [{"wall": "right", "bottom": 3, "width": 5}]}})")).substr(0, 40),
             "/discharge/mode: the LIGGGHTS backend re");
   // The same specs are fine on the native engine.
-  EXPECT_NO_THROW(RunSpec::from_json(json::parse(R"({"discharge": {"mode": "reinject"},
+  EXPECT_NO_THROW(RunSpec::FromJson(json::parse(R"({"discharge": {"mode": "reinject"},
     "silo": {"side_outlets": [{"wall": "right", "bottom": 3, "width": 5}]}})")));
 }
 
 TEST(RunSpecTest, NormalModelIsHertzByDefaultAndHookeOnTheNativeEngineOnly) {
-  EXPECT_EQ(RunSpec::from_json(json::object()).contact.normal_model, NormalModel::kHertz);
-  EXPECT_FALSE(RunSpec::from_json(json::object()).to_json()["contact"].contains("normal_model"));
-  const RunSpec hooke = RunSpec::from_json(json::parse(R"({"contact": {"normal_model": "hooke"}})"));
+  EXPECT_EQ(RunSpec::FromJson(json::object()).contact.normal_model, NormalModel::kHertz);
+  EXPECT_FALSE(RunSpec::FromJson(json::object()).ToJson()["contact"].contains("normal_model"));
+  const RunSpec hooke = RunSpec::FromJson(json::parse(R"({"contact": {"normal_model": "hooke"}})"));
   EXPECT_EQ(hooke.contact.normal_model, NormalModel::kHooke);
-  EXPECT_EQ(hooke.to_json()["contact"]["normal_model"], "hooke");
-  EXPECT_EQ(RunSpec::from_json(hooke.to_json()).to_json(), hooke.to_json());
-  EXPECT_NE(hooke.bed_key(), RunSpec::from_json(json::object()).bed_key()) << "a Hooke bed is not a Hertz bed";
+  EXPECT_EQ(hooke.ToJson()["contact"]["normal_model"], "hooke");
+  EXPECT_EQ(RunSpec::FromJson(hooke.ToJson()).ToJson(), hooke.ToJson());
+  EXPECT_NE(hooke.BedKey(), RunSpec::FromJson(json::object()).BedKey()) << "a Hooke bed is not a Hertz bed";
   EXPECT_EQ(ErrorOf(json::parse(R"({"contact": {"normal_model": "hook"}})")).substr(0, 45),
             "/contact/normal_model: must be one of \"hertz\"");
   EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "lammps", "contact": {"normal_model": "hooke"}})")),
@@ -203,7 +203,7 @@ TEST(RunSpecErrorTest, SpeciesNameThatWouldBreakEventsCsv) {
             "/bodies/species/0/name: must be a non-empty name without commas, control characters or line breaks (it is "
             "a column of events.csv) (got \"a\\u0000b\", which holds U+0000 (NUL))");
   EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"name": ""}]}})")).substr(0, 24), "/bodies/species/0/name: ");
-  EXPECT_NO_THROW(RunSpec::from_json(json::parse(R"({"bodies": {"species": [{"name": "big disc D=1.4"}]}})")));
+  EXPECT_NO_THROW(RunSpec::FromJson(json::parse(R"({"bodies": {"species": [{"name": "big disc D=1.4"}]}})")));
 }
 
 TEST(RunSpecErrorTest, NonPositiveParameter) {
@@ -276,21 +276,21 @@ TEST(RunSpecErrorTest, NoOutlet) {
 std::string Concrete(const std::string& pattern) { return std::regex_replace(pattern, std::regex("\\*"), "0"); }
 
 TEST(RunSpecTable, CoversTheCanonicalSpecAndItsDefaults) {
-  const json canonical = RunSpec::from_json(json::object()).to_json();
+  const json canonical = RunSpec::FromJson(json::object()).ToJson();
   std::vector<std::pair<std::string, const json*>> stack = {{"", &canonical}};
   int checked = 0, left_out = 0;
   while (!stack.empty()) {
     const auto [at, v] = stack.back();
     stack.pop_back();
     if (!at.empty()) {
-      EXPECT_NE(run_spec_table().find(spec_pattern(at)), nullptr) << at << " has no row";
+      EXPECT_NE(RunSpecTable().Find(SpecPattern(at)), nullptr) << at << " has no row";
     }
     if (v->is_object())
       for (const auto& [k, child] : v->items()) stack.emplace_back(at + "/" + k, &child);
     if (v->is_array())
       for (std::size_t i = 0; i < v->size(); ++i) stack.emplace_back(at + "/" + std::to_string(i), &(*v)[i]);
   }
-  for (const SpecField& f : run_spec_table().fields()) {
+  for (const SpecField& f : RunSpecTable().Fields()) {
     if (f.default_value.is_null() || f.pattern.find('*') != std::string::npos) continue;
     const json::json_pointer p(f.pattern);
     if (!canonical.contains(p)) {
@@ -306,9 +306,9 @@ TEST(RunSpecTable, CoversTheCanonicalSpecAndItsDefaults) {
     ++checked;
   }
   // Rows inside arrays: the defaults of an element the spec gives empty.
-  const json element = RunSpec::from_json(json::parse(R"({"silo": {"side_outlets": [{}], "obstacles": [{}],
-      "base_outlets": [{}]}, "bodies": {"species": [{}]}})")).to_json();
-  for (const SpecField& f : run_spec_table().fields()) {
+  const json element = RunSpec::FromJson(json::parse(R"({"silo": {"side_outlets": [{}], "obstacles": [{}],
+      "base_outlets": [{}]}, "bodies": {"species": [{}]}})")).ToJson();
+  for (const SpecField& f : RunSpecTable().Fields()) {
     if (f.default_value.is_null() || f.pattern.find('*') == std::string::npos || f.type == SpecType::kObject) continue;
     const json::json_pointer p(Concrete(f.pattern));
     ASSERT_TRUE(element.contains(p)) << f.pattern;
@@ -323,7 +323,7 @@ TEST(RunSpecTable, CoversTheCanonicalSpecAndItsDefaults) {
 
 TEST(RunSpecTable, EveryRowsTypeAndRangeIsEnforced) {
   int checked = 0;
-  for (const SpecField& f : run_spec_table().fields()) {
+  for (const SpecField& f : RunSpecTable().Fields()) {
     if (f.pattern == "/engine") continue;  // the engine has its own message (below)
     const std::string place = Concrete(f.pattern);
     const json::json_pointer p(place);
@@ -357,7 +357,7 @@ TEST(RunSpecTable, EveryRowsTypeAndRangeIsEnforced) {
 }
 
 TEST(RunSpecTable, UnknownKeysAreTheTablesComplement) {
-  for (const SpecField& f : run_spec_table().fields()) {
+  for (const SpecField& f : RunSpecTable().Fields()) {
     if (f.type != SpecType::kObject) continue;
     json spec = json::object();
     const std::string place = Concrete(f.pattern);
@@ -372,24 +372,24 @@ TEST(RunSpecTable, UnknownKeysAreTheTablesComplement) {
 namespace granary {
 namespace {
 
-// extends(): a larger max_time or max_clogs continues a run; anything else, or a smaller
+// Extends(): a larger max_time or max_clogs continues a run; anything else, or a smaller
 // limit, is another run; a spec without the unclog protocol has no max_clogs to compare.
 TEST(RunSpecTest, ExtendsByALargerTimeOrClogLimitOnly) {
   const auto resolved = [](double max_time, int max_clogs, double mu = 0.5) {
     json j = {{"run_id", "x"},
               {"discharge", {{"max_time", max_time}, {"on_clog", "unclog"}, {"unclog", {{"method", "remove_arch"}, {"max_clogs", max_clogs}}}}},
               {"contact", {{"mu", mu}}}};
-    return RunSpec::from_json(j).to_json();
+    return RunSpec::FromJson(j).ToJson();
   };
-  EXPECT_TRUE(extends(resolved(10, 5), resolved(10, 8)));
-  EXPECT_TRUE(extends(resolved(10, 5), resolved(20, 8)));
-  EXPECT_TRUE(extends(resolved(10, 5), resolved(20, 5)));
-  EXPECT_FALSE(extends(resolved(10, 5), resolved(10, 5)));
-  EXPECT_FALSE(extends(resolved(10, 8), resolved(20, 5)));
-  EXPECT_FALSE(extends(resolved(10, 5), resolved(10, 8, 0.4)));
-  const json plain_a = RunSpec::from_json(json{{"discharge", {{"max_time", 10}}}}).to_json();
-  const json plain_b = RunSpec::from_json(json{{"discharge", {{"max_time", 12}}}}).to_json();
-  EXPECT_TRUE(extends(plain_a, plain_b));
+  EXPECT_TRUE(Extends(resolved(10, 5), resolved(10, 8)));
+  EXPECT_TRUE(Extends(resolved(10, 5), resolved(20, 8)));
+  EXPECT_TRUE(Extends(resolved(10, 5), resolved(20, 5)));
+  EXPECT_FALSE(Extends(resolved(10, 5), resolved(10, 5)));
+  EXPECT_FALSE(Extends(resolved(10, 8), resolved(20, 5)));
+  EXPECT_FALSE(Extends(resolved(10, 5), resolved(10, 8, 0.4)));
+  const json plain_a = RunSpec::FromJson(json{{"discharge", {{"max_time", 10}}}}).ToJson();
+  const json plain_b = RunSpec::FromJson(json{{"discharge", {{"max_time", 12}}}}).ToJson();
+  EXPECT_TRUE(Extends(plain_a, plain_b));
 }
 
 }  // namespace

@@ -29,9 +29,9 @@ TEST(ShapeTable, EveryShapeHasOneRowWhoseNameTheSpecReads) {
     EXPECT_TRUE(seen.insert(row.shape).second) << row.name;
     EXPECT_EQ(&ShapeRowOf(row.shape), &row);
     EXPECT_EQ(FindShapeRow(row.name), &row);
-    EXPECT_EQ(to_string(row.shape), row.name);
+    EXPECT_EQ(ToString(row.shape), row.name);
     const nlohmann::json spec = {{"bodies", {{"species", {{{"shape", row.name}, {"big_diameter", 1.5}}}}}}};
-    EXPECT_EQ(RunSpec::from_json(spec).bodies.species.at(0).shape, row.shape) << row.name;
+    EXPECT_EQ(RunSpec::FromJson(spec).bodies.species.at(0).shape, row.shape) << row.name;
   }
   for (Shape s : {Shape::kDisc, Shape::kDumbbell, Shape::kSnowman, Shape::kRod}) EXPECT_TRUE(seen.count(s));
   EXPECT_EQ(FindShapeRow("ellipse"), nullptr);
@@ -57,10 +57,10 @@ TEST(ShapeTable, LayoutsGiveTheClosedFormLengthAreaAndDiscs) {
 
 TEST(ShapeTable, DefaultNamesAndTheSnowmansBound) {
   const nlohmann::json rods = {{"bodies", {{"species", {{{"shape", "rod"}, {"n", 4}}}}}}};
-  EXPECT_EQ(RunSpec::from_json(rods).bodies.species.at(0).name, "rod4");
+  EXPECT_EQ(RunSpec::FromJson(rods).bodies.species.at(0).name, "rod4");
   const nlohmann::json snowman = {{"bodies", {{"species", {{{"shape", "snowman"}, {"big_diameter", 2.5}}}}}}};
   try {
-    RunSpec::from_json(snowman);
+    RunSpec::FromJson(snowman);
     ADD_FAILURE() << "no error";
   } catch (const SpecError& e) {
     EXPECT_EQ(std::string(e.what()), "/bodies/species/0/big_diameter: D_b/D_s must be in [1, 2] (got 2.5/1.0 = 2.5)");

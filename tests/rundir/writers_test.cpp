@@ -28,9 +28,9 @@
 namespace granary::rundir {
 namespace {
 
-using analysis::testing::read_file;
+using analysis::testing::ReadFile;
 using analysis::testing::TempDir;
-using analysis::testing::write_file;
+using analysis::testing::WriteFile;
 
 Frame TwoDiscFrame(std::int64_t step) {
   Frame f;
@@ -47,11 +47,11 @@ Frame TwoDiscFrame(std::int64_t step) {
 
 TEST(Writers, FramesAreTheDocumentedDumpAndReadBack) {
   TempDir dir;
-  const auto file = dir.path() / kFramesFile;
+  const auto file = dir.Path() / kFramesFile;
   FrameWriter w = FrameWriter::Create(file);
   w.Write(TwoDiscFrame(12000));
   w.Close();
-  EXPECT_EQ(read_file(file),
+  EXPECT_EQ(ReadFile(file),
             "ITEM: TIME\n1.2\nITEM: TIMESTEP\n12000\nITEM: NUMBER OF ATOMS\n2\n"
             "ITEM: BOX BOUNDS ff ff pp\n-11 11\n-1.25 18.5\n-0.5 0.5\n"
             "ITEM: ATOMS id mol type x y z radius mass vx vy vz omegaz\n"
@@ -71,7 +71,7 @@ TEST(Writers, FramesAreTheDocumentedDumpAndReadBack) {
 
 TEST(Writers, ContactsAreTheDocumentedDumpAndReadBack) {
   TempDir dir;
-  const auto file = dir.path() / kContactsFile;
+  const auto file = dir.Path() / kContactsFile;
   ContactFrame c;
   c.timestep = 5;
   c.time = 0.5;
@@ -83,7 +83,7 @@ TEST(Writers, ContactsAreTheDocumentedDumpAndReadBack) {
   ContactWriter w = ContactWriter::Create(file);
   w.Write(c);
   w.Close();
-  EXPECT_EQ(read_file(file),
+  EXPECT_EQ(ReadFile(file),
             "ITEM: TIME\n0.5\nITEM: TIMESTEP\n5\nITEM: NUMBER OF ENTRIES\n2\n"
             "ITEM: BOX BOUNDS ff ff pp\n-9 9\n-1 20\n-0.5 0.5\n"
             "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n"
@@ -131,16 +131,16 @@ TEST(Writers, EventsStreamedAndWholeAreTheSameFile) {
   TempDir dir;
   const std::vector<ExitEvent> events = {{1.6123, 4711, "dumbbell", 1.5707963267948966, 0},
                                          {2.0000000000000004, 12, "disc", 0.7853981633974483, 1}};
-  EventWriter w = EventWriter::Create(dir.path() / "streamed.csv");
+  EventWriter w = EventWriter::Create(dir.Path() / "streamed.csv");
   for (const ExitEvent& e : events) w.Write(e);
   w.Close();
-  WriteEvents(dir.path() / "whole.csv", events);
-  const std::string text = read_file(dir.path() / "whole.csv");
+  WriteEvents(dir.Path() / "whole.csv", events);
+  const std::string text = ReadFile(dir.Path() / "whole.csv");
   EXPECT_EQ(text,
             "time,body,shape,mass,outlet\n1.6123,4711,dumbbell,1.5707963267948966,0\n"
             "2,12,disc,0.78539816339744828,1\n");
-  EXPECT_EQ(read_file(dir.path() / "streamed.csv"), text);
-  const std::vector<ExitEvent> back = ReadEvents(dir.path() / "whole.csv");
+  EXPECT_EQ(ReadFile(dir.Path() / "streamed.csv"), text);
+  const std::vector<ExitEvent> back = ReadEvents(dir.Path() / "whole.csv");
   ASSERT_EQ(back.size(), 2u);
   EXPECT_EQ(back[0].body, 4711);
   EXPECT_EQ(back[0].mass, events[0].mass);  // full precision
@@ -152,14 +152,14 @@ TEST(Writers, EventsStreamedAndWholeAreTheSameFile) {
 // offset; a missing file is no unclogs; a bad row names file:line.
 TEST(Writers, UnclogsAreTheDocumentedRowsAndContinueAtTheCheckpoint) {
   TempDir dir;
-  const std::filesystem::path file = dir.path() / "unclogs.csv";
+  const std::filesystem::path file = dir.Path() / "unclogs.csv";
   EXPECT_TRUE(ReadUnclogs(file).empty());
   UnclogWriter w = UnclogWriter::Create(file);
   w.Write({41.23, 412300, 1, 1, "remove_arch", {17, 52, 88, 130}});
   const std::int64_t offset = w.Offset();
   w.Write({60.5, 605000, 2, 1, "kick", {3}});
   w.Close();
-  EXPECT_EQ(read_file(file), "time,step,clog,attempt,method,bodies\n41.23,412300,1,1,remove_arch,17 52 88 130\n"
+  EXPECT_EQ(ReadFile(file), "time,step,clog,attempt,method,bodies\n41.23,412300,1,1,remove_arch,17 52 88 130\n"
                              "60.5,605000,2,1,kick,3\n");
   std::vector<UnclogEvent> back = ReadUnclogs(file);
   ASSERT_EQ(back.size(), 2u);
@@ -173,7 +173,7 @@ TEST(Writers, UnclogsAreTheDocumentedRowsAndContinueAtTheCheckpoint) {
   ASSERT_EQ(back.size(), 2u);
   EXPECT_EQ(back[1].time, 61.0);
   EXPECT_TRUE(back[1].bodies.empty());
-  write_file(file, "time,step,clog,attempt,method,bodies\n1,10,0,1,kick,3\n");
+  WriteFile(file, "time,step,clog,attempt,method,bodies\n1,10,0,1,kick,3\n");
   try {
     ReadUnclogs(file);
     ADD_FAILURE() << "no error";
@@ -184,7 +184,7 @@ TEST(Writers, UnclogsAreTheDocumentedRowsAndContinueAtTheCheckpoint) {
 
 TEST(Writers, ContinuingCutsEveryDumpBackToTheCheckpoint) {
   TempDir dir;
-  const auto events = dir.path() / kEventsFile, frames = dir.path() / kFramesFile;
+  const auto events = dir.Path() / kEventsFile, frames = dir.Path() / kFramesFile;
   EventWriter ew = EventWriter::Create(events);
   FrameWriter fw = FrameWriter::Create(frames);
   ew.Write({0.5, 1, "disc", 1.0, 0});
@@ -194,7 +194,7 @@ TEST(Writers, ContinuingCutsEveryDumpBackToTheCheckpoint) {
   fw.Write(TwoDiscFrame(200));
   ew.Close();
   fw.Close();
-  const std::string events_at_checkpoint = read_file(events).substr(0, static_cast<std::size_t>(event_offset));
+  const std::string events_at_checkpoint = ReadFile(events).substr(0, static_cast<std::size_t>(event_offset));
   ew = EventWriter::ContinueAt(events, event_offset);
   fw = FrameWriter::ContinueAt(frames, frame_offset);
   EXPECT_EQ(ew.Offset(), event_offset);
@@ -202,7 +202,7 @@ TEST(Writers, ContinuingCutsEveryDumpBackToTheCheckpoint) {
   fw.Write(TwoDiscFrame(300));
   ew.Close();
   fw.Close();
-  EXPECT_EQ(read_file(events), events_at_checkpoint + "0.7,2,disc,1,0\n");
+  EXPECT_EQ(ReadFile(events), events_at_checkpoint + "0.7,2,disc,1,0\n");
   FrameReader r(frames);
   Frame f;
   std::vector<std::int64_t> steps;
@@ -223,18 +223,18 @@ ClogState ClogAt(std::int64_t step) {
 // pairs; a continued run keeps the clogs up to its checkpoint's step, whatever the offsets.
 TEST(Writers, ClogsAreFrameAndContactBlocksKeptUpToTheCheckpointOnContinue) {
   TempDir dir;
-  ClogWriter w = ClogWriter::Create(dir.path());
+  ClogWriter w = ClogWriter::Create(dir.Path());
   w.Write(ClogAt(100));
   // Flushed at once: a checkpoint taken now finds the clog on disk.
-  const std::string one_frame = read_file(dir.path() / kClogFramesFile);
+  const std::string one_frame = ReadFile(dir.Path() / kClogFramesFile);
   EXPECT_EQ(one_frame.rfind("ITEM: TIME\n0.01\nITEM: TIMESTEP\n100\n", 0), 0u);
-  EXPECT_NE(read_file(dir.path() / kClogContactsFile).find("ITEM: ENTRIES body_i body_j"), std::string::npos);
+  EXPECT_NE(ReadFile(dir.Path() / kClogContactsFile).find("ITEM: ENTRIES body_i body_j"), std::string::npos);
   w.Write(ClogAt(250));
-  const std::size_t two_clogs = read_file(dir.path() / kClogFramesFile).size();
+  const std::size_t two_clogs = ReadFile(dir.Path() / kClogFramesFile).size();
   w.Write(ClogAt(400));
   w.Close();
-  const std::size_t three_clogs = read_file(dir.path() / kClogFramesFile).size();
-  std::vector<ClogState> clogs = ReadClogs(dir.path());
+  const std::size_t three_clogs = ReadFile(dir.Path() / kClogFramesFile).size();
+  std::vector<ClogState> clogs = ReadClogs(dir.Path());
   ASSERT_EQ(clogs.size(), 3u);
   EXPECT_EQ(clogs[1].frame.timestep, 250);
   EXPECT_EQ(clogs[1].contacts.timestep, 250);
@@ -244,14 +244,14 @@ TEST(Writers, ClogsAreFrameAndContactBlocksKeptUpToTheCheckpointOnContinue) {
 
   // Killed while writing a fourth clog (half a block), continued from a checkpoint at step 250.
   {
-    std::ofstream(dir.path() / kClogFramesFile, std::ios::app) << "ITEM: TIME\n0.05\nITEM: TIMESTEP\n500\nITEM: NUMB";
+    std::ofstream(dir.Path() / kClogFramesFile, std::ios::app) << "ITEM: TIME\n0.05\nITEM: TIMESTEP\n500\nITEM: NUMB";
   }
-  EXPECT_EQ(DumpOffsetAfter(dir.path() / kClogFramesFile, 400), static_cast<std::int64_t>(three_clogs));
-  w = ClogWriter::ContinueAfter(dir.path(), 250);
-  EXPECT_EQ(read_file(dir.path() / kClogFramesFile).size(), two_clogs);
+  EXPECT_EQ(DumpOffsetAfter(dir.Path() / kClogFramesFile, 400), static_cast<std::int64_t>(three_clogs));
+  w = ClogWriter::ContinueAfter(dir.Path(), 250);
+  EXPECT_EQ(ReadFile(dir.Path() / kClogFramesFile).size(), two_clogs);
   w.Write(ClogAt(420));
   w.Close();
-  clogs = ReadClogs(dir.path());
+  clogs = ReadClogs(dir.Path());
   ASSERT_EQ(clogs.size(), 3u);
   EXPECT_EQ(clogs[0].frame.timestep, 100);
   EXPECT_EQ(clogs[1].frame.timestep, 250);
@@ -259,30 +259,30 @@ TEST(Writers, ClogsAreFrameAndContactBlocksKeptUpToTheCheckpointOnContinue) {
   EXPECT_EQ(clogs[2].contacts.timestep, 420);
 
   // A checkpoint before any clog keeps none.
-  w = ClogWriter::ContinueAfter(dir.path(), 99);
+  w = ClogWriter::ContinueAfter(dir.Path(), 99);
   w.Close();
-  EXPECT_TRUE(read_file(dir.path() / kClogFramesFile).empty());
-  EXPECT_TRUE(read_file(dir.path() / kClogContactsFile).empty());
-  EXPECT_TRUE(ReadClogs(dir.path()).empty());
+  EXPECT_TRUE(ReadFile(dir.Path() / kClogFramesFile).empty());
+  EXPECT_TRUE(ReadFile(dir.Path() / kClogContactsFile).empty());
+  EXPECT_TRUE(ReadClogs(dir.Path()).empty());
 }
 
 TEST(Readers, ClogFilesMustAgreeAndMayBeAbsent) {
   TempDir dir;
-  ClogReader none(dir.path());
-  EXPECT_FALSE(none.present());
-  ClogWriter w = ClogWriter::Create(dir.path());
+  ClogReader none(dir.Path());
+  EXPECT_FALSE(none.Present());
+  ClogWriter w = ClogWriter::Create(dir.Path());
   ClogState odd = ClogAt(100);
   odd.contacts.timestep = 101;
   w.Write(odd);
   w.Close();
   try {
-    ReadClogs(dir.path());
+    ReadClogs(dir.Path());
     FAIL() << "expected a ReadError";
   } catch (const ReadError& e) {
     EXPECT_NE(std::string(e.what()).find("timestep 101 beside the configuration at timestep 100"), std::string::npos) << e.what();
   }
-  std::filesystem::remove(dir.path() / kClogContactsFile);
-  EXPECT_THROW(ClogReader{dir.path()}, ReadError);
+  std::filesystem::remove(dir.Path() / kClogContactsFile);
+  EXPECT_THROW(ClogReader{dir.Path()}, ReadError);
 }
 
 TEST(Writers, SummaryRoundTripsAndWritesOnlyTheKeysItHas) {
@@ -303,13 +303,13 @@ TEST(Writers, SummaryRoundTripsAndWritesOnlyTheKeysItHas) {
   s.clogs = 1;
   s.bed = {"bed.json", 20.5, true, 9.5, "", {}, {}};
   s.timing = Timing{3.0, 1.0, 2.0, 5e7, 2};
-  WriteSummary(dir.path(), s);
-  const nlohmann::json j = nlohmann::json::parse(read_file(dir.path() / kSummaryFile));
+  WriteSummary(dir.Path(), s);
+  const nlohmann::json j = nlohmann::json::parse(ReadFile(dir.Path() / kSummaryFile));
   for (const char* absent : {"granary_version", "cleared_by_obstacles", "max_out_of_plane", "tangential_cap",
                              "reinject_position"})
     EXPECT_FALSE(j.contains(absent)) << absent;
   EXPECT_EQ(j["timing"]["threads"], 2);
-  const Summary back = ReadSummary(dir.path() / kSummaryFile);
+  const Summary back = ReadSummary(dir.Path() / kSummaryFile);
   EXPECT_EQ(back.ToJson(), s.ToJson());
   EXPECT_EQ(back.exits_per_outlet, (std::vector<int>{30, 10}));
   ASSERT_TRUE(back.clogs.has_value());
@@ -322,45 +322,45 @@ TEST(Writers, SummaryRoundTripsAndWritesOnlyTheKeysItHas) {
   s.reinject_position = "periodic";
   s.max_out_of_plane = 0.0;
   s.cleared_by_obstacles = 2;
-  WriteSummary(dir.path(), s);
-  EXPECT_EQ(ReadSummary(dir.path() / kSummaryFile).ToJson(), s.ToJson());
+  WriteSummary(dir.Path(), s);
+  EXPECT_EQ(ReadSummary(dir.Path() / kSummaryFile).ToJson(), s.ToJson());
 }
 
 TEST(Writers, ProgressIsReplacedWholeAndClamped) {
   TempDir dir;
-  EXPECT_FALSE(ReadProgress(dir.path()).has_value());
-  WriteProgress(dir.path(), {"discharge", 1.2, 4.2, 10.0, 130, 2.5}, false);
-  EXPECT_EQ(read_file(dir.path() / kProgressFile),
+  EXPECT_FALSE(ReadProgress(dir.Path()).has_value());
+  WriteProgress(dir.Path(), {"discharge", 1.2, 4.2, 10.0, 130, 2.5}, false);
+  EXPECT_EQ(ReadFile(dir.Path() / kProgressFile),
             "{\"exited\":130,\"fraction\":1.0,\"phase\":\"discharge\",\"t\":4.2,\"t_end\":10.0,\"wall_s\":2.5}\n");
-  const auto p = ReadProgress(dir.path());
+  const auto p = ReadProgress(dir.Path());
   ASSERT_TRUE(p.has_value());
   EXPECT_EQ(p->phase, "discharge");
   EXPECT_EQ(p->exited, 130);
   EXPECT_EQ((Progress{"discharge", 0.42, 4.2, 10.0, 130, 2.5}.Line()),
             "progress phase=discharge fraction=0.420 t=4.2 exited=130");
-  write_file(dir.path() / kProgressFile, "{\"phase\": ");  // torn by a foreign writer
-  EXPECT_FALSE(ReadProgress(dir.path()).has_value());
+  WriteFile(dir.Path() / kProgressFile, "{\"phase\": ");  // torn by a foreign writer
+  EXPECT_FALSE(ReadProgress(dir.Path()).has_value());
 }
 
 TEST(Writers, RunSpecAndDone) {
   TempDir dir;
   const nlohmann::json spec = {{"run_id", "r1"}, {"silo", {{"width", -1.0}}}};
-  WriteRunSpec(dir.path() / "run", spec);
-  EXPECT_EQ(read_file(dir.path() / "run" / kRunSpecFile), spec.dump(2) + "\n");
-  EXPECT_EQ(ReadRunSpecJson(dir.path() / "run"), spec);
+  WriteRunSpec(dir.Path() / "run", spec);
+  EXPECT_EQ(ReadFile(dir.Path() / "run" / kRunSpecFile), spec.dump(2) + "\n");
+  EXPECT_EQ(ReadRunSpecJson(dir.Path() / "run"), spec);
   try {
-    ReadRunSpec(dir.path() / "run");
+    ReadRunSpec(dir.Path() / "run");
     FAIL() << "no error";
   } catch (const SpecError& e) {
-    EXPECT_EQ(e.path(), "/silo/width");
-    EXPECT_NE(std::string(e.what()).find("[" + (dir.path() / "run" / kRunSpecFile).string() + "]"), std::string::npos)
+    EXPECT_EQ(e.Path(), "/silo/width");
+    EXPECT_NE(std::string(e.what()).find("[" + (dir.Path() / "run" / kRunSpecFile).string() + "]"), std::string::npos)
         << e.what();
   }
-  EXPECT_THROW(ReadRunSpec(dir.path() / "missing"), ReadError);
-  EXPECT_FALSE(IsDone(dir.path()));
-  WriteDone(dir.path(), "clogged");
-  EXPECT_TRUE(IsDone(dir.path()));
-  EXPECT_EQ(read_file(dir.path() / kDoneFile), "clogged\n");
+  EXPECT_THROW(ReadRunSpec(dir.Path() / "missing"), ReadError);
+  EXPECT_FALSE(IsDone(dir.Path()));
+  WriteDone(dir.Path(), "clogged");
+  EXPECT_TRUE(IsDone(dir.Path()));
+  EXPECT_EQ(ReadFile(dir.Path() / kDoneFile), "clogged\n");
 }
 
 }  // namespace

@@ -114,11 +114,11 @@ TEST_F(AdaptiveReplicas, StopAtTheTargetAndAPlanKeepsWhatWasAdded) {
   EXPECT_EQ(spread["done"], spread["runs"]);
   const json& t = spread["targets"][0];
   EXPECT_EQ(t["metric"], "q_count");
-  ReplicaRule rule = ReplicaRule::from_json(kRule);
+  ReplicaRule rule = ReplicaRule::FromJson(kRule);
   PointReplicas final_state{spread["runs"].get<int>(), 0, {{"q_count", {t["value"].get<double>(), t["se"].get<double>(), t["n"].get<int>()}}}};
-  const ReplicaDecision d = decide_replicas(rule, final_state);
-  EXPECT_TRUE(d.verdict == ReplicaVerdict::kMet || d.verdict == ReplicaVerdict::kAtMax) << to_string(d.verdict);
-  EXPECT_EQ(spread["verdict"], to_string(d.verdict));
+  const ReplicaDecision d = DecideReplicas(rule, final_state);
+  EXPECT_TRUE(d.verdict == ReplicaVerdict::kMet || d.verdict == ReplicaVerdict::kAtMax) << ToString(d.verdict);
+  EXPECT_EQ(spread["verdict"], ToString(d.verdict));
   const int runs = static_cast<int>(RunIds(s).size());
   EXPECT_EQ(runs, 2 + spread["runs"].get<int>());
 
@@ -264,7 +264,7 @@ TEST_F(AdaptiveReplicas, ARealUnclogCampaignStopsAtItsTargetOrAtMaxAndAKillLoses
   EXPECT_LE(t["achieved"].get<double>(), 0.5);
   const PointReplicas state{clogging["runs"].get<int>(), 0,
                             {{"avalanche_size", {t["value"].get<double>(), t["se"].get<double>(), t["n"].get<int>()}}}};
-  EXPECT_EQ(to_string(decide_replicas(ReplicaRule::from_json(rule), state).verdict), std::string("met"));
+  EXPECT_EQ(ToString(DecideReplicas(ReplicaRule::FromJson(rule), state).verdict), std::string("met"));
   // The runner said so when it stopped adding.
   EXPECT_NE(run.output.find("width=3: se/|avalanche_size| = "), std::string::npos) << run.output;
   EXPECT_NE(run.output.find("(target 0.5, met) after " + std::to_string(clogging["runs"].get<int>()) + " runs: target met"),

@@ -26,10 +26,10 @@ using nlohmann::json;
 
 class NullObserver : public RunObserver {
  public:
-  void on_begin(int, int, int) override {}
-  void on_event(const std::string&, const std::string& state, const std::string&) override { events.push_back(state); }
-  void on_tick(const std::vector<ActiveRun>&, int, int, int) override {}
-  void on_end(int, int, int) override {}
+  void OnBegin(int, int, int) override {}
+  void OnEvent(const std::string&, const std::string& state, const std::string&) override { events.push_back(state); }
+  void OnTick(const std::vector<ActiveRun>&, int, int, int) override {}
+  void OnEnd(int, int, int) override {}
   std::vector<std::string> events;
 };
 
@@ -37,19 +37,19 @@ class NullObserver : public RunObserver {
 // summary in its run directory, as an engine would.
 class FakeQueue : public Executor {
  public:
-  std::function<void()> before_submit;  // runs inside submit(), before any job "exists"
-  std::function<void()> on_poll;        // runs at the start of every poll()
+  std::function<void()> before_submit;  // runs inside Submit(), before any job "exists"
+  std::function<void()> on_poll;        // runs at the start of every Poll()
   std::map<std::string, int> exit_once;  // runs whose next job ends with this engine exit status
   std::set<std::string> finish;         // runs whose jobs end at the next poll, done
   std::vector<std::string> started, attached;
   int submissions = 0;
 
-  bool can_start_more() const override { return true; }
-  void start(const Launch& l) override {
+  bool CanStartMore() const override { return true; }
+  void Start(const Launch& l) override {
     started.push_back(l.run_id);
     pending_.push_back(l);
   }
-  std::vector<JobArray> place() override {
+  std::vector<JobArray> Place() override {
     if (pending_.empty()) return {};
     JobArray a;
     a.dir = "/queue/a" + std::to_string(arrays_);
@@ -65,7 +65,7 @@ class FakeQueue : public Executor {
     placed_.push_back(a);
     return {a};
   }
-  std::vector<JobArray> submit() override {
+  std::vector<JobArray> Submit() override {
     if (before_submit) before_submit();
     std::vector<JobArray> out;
     for (auto& a : placed_) {
@@ -75,12 +75,12 @@ class FakeQueue : public Executor {
     placed_.clear();
     return out;
   }
-  QueuePlace attach(const Launch& l) override {
+  QueuePlace Attach(const Launch& l) override {
     attached.push_back(l.run_id);
     queued_[l.run_id] = l;
     return l.place;
   }
-  std::vector<Finished> poll() override {
+  std::vector<Finished> Poll() override {
     if (on_poll) on_poll();
     std::vector<Finished> out = std::move(ready_);
     ready_.clear();
@@ -112,7 +112,7 @@ class FakeQueue : public Executor {
     return out;
   }
   // As the Slurm executor: a run another runner watches now is let go (its job runs on).
-  void stop(const std::string& id, StopReason reason) override {
+  void Stop(const std::string& id, StopReason reason) override {
     if (reason != StopReason::kLeaseLost || !queued_.erase(id)) return;
     let_go.push_back(id);
     Finished f;
@@ -120,11 +120,11 @@ class FakeQueue : public Executor {
     f.signal = 15;
     ready_.push_back(f);
   }
-  void stop_all(StopReason) override {}
-  std::size_t active() const override { return pending_.size() + queued_.size() + ready_.size(); }
+  void StopAll(StopReason) override {}
+  std::size_t Active() const override { return pending_.size() + queued_.size() + ready_.size(); }
   std::vector<std::string> let_go;
-  bool outlives_runner() const override { return true; }
-  bool limits_time() const override { return true; }
+  bool OutlivesRunner() const override { return true; }
+  bool LimitsTime() const override { return true; }
 
  private:
   std::vector<Launch> pending_;
@@ -139,9 +139,9 @@ class BatchSchedulerTest : public ::testing::Test {
   void SetUp() override {
     dir_ = testing::MakeTempDir();
     store_ = std::make_unique<Store>((dir_ / "g.db").string());
-    const CampaignSpec spec = CampaignSpec::from_json(json::parse(
+    const CampaignSpec spec = CampaignSpec::FromJson(json::parse(
         R"({"name": "t", "replicas": 3, "base": {"silo": {"width": 30}}, "sweep": {"grid": {"/silo/base_outlets/0/width": [4]}}})"));
-    plan_campaign(*store_, spec, expand(spec, (dir_ / "beds").string()), (dir_ / "runs").string(), false);
+    PlanCampaign(*store_, spec, Expand(spec, (dir_ / "beds").string()), (dir_ / "runs").string(), false);
     options_.engine = "/bin/true";  // never run: the fake queue only pretends
     options_.poll_interval = 0;
   }
@@ -151,7 +151,7 @@ class BatchSchedulerTest : public ::testing::Test {
   }
   std::map<std::string, RunRow> Rows() {
     std::map<std::string, RunRow> m;
-    for (auto& r : load_runs(*store_, false)) m[r.run_id] = r;
+    for (auto& r : LoadRuns(*store_, false)) m[r.run_id] = r;
     return m;
   }
   fs::path dir_;
@@ -165,14 +165,14 @@ TEST_F(BatchSchedulerTest, PlacesAreRecordedBeforeTheQueueSeesAJob) {
   int checked = 0;
   queue.before_submit = [&] {
     for (const auto& [id, r] : Rows()) {
-      EXPECT_TRUE(r.queued()) << id;       // its place is in the database...
+      EXPECT_TRUE(r.Queued()) << id;       // its place is in the database...
       EXPECT_EQ(r.job_id, "") << id;       // ...and the job does not exist yet
       EXPECT_GE(r.job_index, 0);
       ++checked;
     }
     for (const auto& [id, r] : Rows()) queue.finish.insert(id);
   };
-  EXPECT_EQ(run_campaign(*store_, options_, queue, observer_, nullptr), ExitCode::kOk);
+  EXPECT_EQ(RunCampaign(*store_, options_, queue, observer_, nullptr), ExitCode::kOk);
   EXPECT_EQ(checked, 3);
   for (const auto& [id, r] : Rows()) {
     EXPECT_EQ(r.state, RunState::kDone);
@@ -187,17 +187,17 @@ TEST_F(BatchSchedulerTest, AnInterruptedRunnerDetachesAndTheNextOneAdoptsWithout
   {
     FakeQueue queue;
     queue.before_submit = [&] { stop = 1; };  // Ctrl-C while the jobs are queued
-    EXPECT_EQ(run_campaign(*store_, options_, queue, observer_, &stop), ExitCode::kInterrupted);
+    EXPECT_EQ(RunCampaign(*store_, options_, queue, observer_, &stop), ExitCode::kInterrupted);
     EXPECT_EQ(queue.started.size(), 3u);
   }
   for (const auto& [id, r] : Rows()) {
-    EXPECT_TRUE(r.queued()) << id;  // still in the queue, with nobody watching
+    EXPECT_TRUE(r.Queued()) << id;  // still in the queue, with nobody watching
     EXPECT_EQ(r.lease_holder, "");
     EXPECT_EQ(r.job_id, "100");
   }
   FakeQueue next;
   for (const auto& [id, r] : Rows()) next.finish.insert(id);
-  EXPECT_EQ(run_campaign(*store_, options_, next, observer_, nullptr), ExitCode::kOk);
+  EXPECT_EQ(RunCampaign(*store_, options_, next, observer_, nullptr), ExitCode::kOk);
   EXPECT_TRUE(next.started.empty());  // nothing started twice
   EXPECT_EQ(next.attached.size(), 3u);
   for (const auto& [id, r] : Rows()) {
@@ -211,7 +211,7 @@ TEST_F(BatchSchedulerTest, AnInterruptedRunnerDetachesAndTheNextOneAdoptsWithout
 // jobs left; the adopter records them.
 TEST_F(BatchSchedulerTest, ARunnerThatLostItsLeaseLetsTheJobsGoAndRecordsNothing) {
   const Holder stalled{"elsewhere:5:0", "elsewhere", 5};
-  const Holder me = this_process_holder();
+  const Holder me = ThisProcessHolder();
   const Holder adopter{me.host + ":999999999:0", me.host, 999999999};  // dead by the time we look
   options_.holder = stalled;
   options_.tick_interval = 0;
@@ -223,7 +223,7 @@ TEST_F(BatchSchedulerTest, ARunnerThatLostItsLeaseLetsTheJobsGoAndRecordsNothing
     taken = true;
     // The stalled runner's lease has expired: the adopter takes its queued runs, and the
     // jobs finish (DONE and summary.json in their directories).
-    ASSERT_EQ(adopt_queued_runs(*store_, adopter, now_seconds() + lease_stale_seconds() + 1).size(), 3u);
+    ASSERT_EQ(AdoptQueuedRuns(*store_, adopter, NowSeconds() + LeaseStaleSeconds() + 1).size(), 3u);
     for (const auto& [id, r] : Rows()) {
       fs::create_directories(r.run_dir);
       rundir::Summary summary;
@@ -235,20 +235,20 @@ TEST_F(BatchSchedulerTest, ARunnerThatLostItsLeaseLetsTheJobsGoAndRecordsNothing
     }
   };
   // At its next heartbeat the stalled runner finds that it holds nothing.
-  EXPECT_EQ(run_campaign(*store_, options_, queue, observer_, nullptr), ExitCode::kOk);
+  EXPECT_EQ(RunCampaign(*store_, options_, queue, observer_, nullptr), ExitCode::kOk);
   EXPECT_TRUE(taken);
   EXPECT_EQ(queue.let_go.size(), 3u);  // let go, not cancelled: the adopter watches the jobs
   for (const auto& [id, r] : Rows()) {
     EXPECT_EQ(r.state, RunState::kRunning) << id;  // nothing recorded by the stalled runner
     EXPECT_EQ(r.lease_holder, adopter.id);
-    EXPECT_TRUE(r.queued());
+    EXPECT_TRUE(r.Queued());
   }
   EXPECT_EQ(std::count(observer_.events.begin(), observer_.events.end(), "lease lost"), 3);
   // A later runner (the adopter is gone) attaches and ingests, starting nothing.
   options_.holder.reset();
   FakeQueue next;
   for (const auto& [id, r] : Rows()) next.finish.insert(id);
-  EXPECT_EQ(run_campaign(*store_, options_, next, observer_, nullptr), ExitCode::kOk);
+  EXPECT_EQ(RunCampaign(*store_, options_, next, observer_, nullptr), ExitCode::kOk);
   EXPECT_TRUE(next.started.empty());
   for (const auto& [id, r] : Rows()) {
     EXPECT_EQ(r.state, RunState::kDone) << id;
@@ -285,7 +285,7 @@ TEST_F(BatchSchedulerTest, ATaskThatFoundItsDirectoryLockedIsQueuedAgainOnceFree
       queue.finish.insert(busy_run);
     }
   };
-  EXPECT_EQ(run_campaign(*store_, options_, queue, observer_, nullptr), ExitCode::kOk);
+  EXPECT_EQ(RunCampaign(*store_, options_, queue, observer_, nullptr), ExitCode::kOk);
   EXPECT_EQ(polls_while_waiting, 3);
   EXPECT_EQ(std::count(queue.started.begin(), queue.started.end(), busy_run), 2);  // queued again once the lock was free
   EXPECT_EQ(queue.started.size(), 4u);
@@ -298,10 +298,10 @@ TEST_F(BatchSchedulerTest, ATaskThatFoundItsDirectoryLockedIsQueuedAgainOnceFree
 TEST_F(BatchSchedulerTest, DetachSubmitsAndReturns) {
   FakeQueue queue;
   options_.detach = true;
-  EXPECT_EQ(run_campaign(*store_, options_, queue, observer_, nullptr), ExitCode::kOk);
+  EXPECT_EQ(RunCampaign(*store_, options_, queue, observer_, nullptr), ExitCode::kOk);
   EXPECT_EQ(queue.submissions, 1);
   for (const auto& [id, r] : Rows()) {
-    EXPECT_TRUE(r.queued());
+    EXPECT_TRUE(r.Queued());
     EXPECT_EQ(r.lease_holder, "");
   }
 }

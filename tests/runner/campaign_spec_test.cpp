@@ -16,8 +16,8 @@ using nlohmann::json;
 
 std::string ErrorOf(const json& j) {
   try {
-    const CampaignSpec s = CampaignSpec::from_json(j);
-    expand(s, "/cache");
+    const CampaignSpec s = CampaignSpec::FromJson(j);
+    Expand(s, "/cache");
   } catch (const SpecError& e) {
     return e.what();
   }
@@ -26,14 +26,14 @@ std::string ErrorOf(const json& j) {
 
 TEST(HashTest, Fnv1aKnownAnswers) {
   // Reference values of FNV-1a 64 (Fowler/Noll/Vo test vectors).
-  EXPECT_EQ(hash_hex(""), "cbf29ce484222325");
-  EXPECT_EQ(hash_hex("a"), "af63dc4c8601ec8c");
-  EXPECT_EQ(hash_hex("foobar"), "85944171f73967e8");
+  EXPECT_EQ(HashHex(""), "cbf29ce484222325");
+  EXPECT_EQ(HashHex("a"), "af63dc4c8601ec8c");
+  EXPECT_EQ(HashHex("foobar"), "85944171f73967e8");
 }
 
 TEST(NearestTest, SuggestsCloseWordsOnly) {
-  EXPECT_EQ(nearest("stauts", {"plan", "run", "status", "report"}), "status");
-  EXPECT_EQ(nearest("xyzzy", {"plan", "run", "status", "report"}), "");
+  EXPECT_EQ(Nearest("stauts", {"plan", "run", "status", "report"}), "status");
+  EXPECT_EQ(Nearest("xyzzy", {"plan", "run", "status", "report"}), "");
 }
 
 // Adaptive replicas: the plan has `min` per point; the replicas a runner adds later are the
@@ -42,13 +42,13 @@ TEST(CampaignSpecTest, AdaptiveReplicasPlanMinAndAddWithThePlansIds) {
   const json j = json::parse(R"({"name": "t", "replicas": {"min": 2, "max": 5, "until": {"metric": "q_count", "rel_se": 0.1}},
     "base": {"bodies": {"count": 300}, "silo": {"width": 30}},
     "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6]}}})");
-  const CampaignSpec s = CampaignSpec::from_json(j);
+  const CampaignSpec s = CampaignSpec::FromJson(j);
   EXPECT_EQ(s.replicas, 2);
-  EXPECT_TRUE(s.replica_rule.adaptive());
+  EXPECT_TRUE(s.replica_rule.Adaptive());
   EXPECT_EQ(s.replica_rule.max, 5);
-  const auto planned = expand(s, "/cache");
+  const auto planned = Expand(s, "/cache");
   ASSERT_EQ(planned.size(), 4u);
-  const auto more = expand(s, "/cache", kDefaultMaxRuns, 5);
+  const auto more = Expand(s, "/cache", kDefaultMaxRuns, 5);
   ASSERT_EQ(more.size(), 10u);
   for (const auto& p : planned) {
     const auto it = std::find_if(more.begin(), more.end(), [&](const PlannedRun& m) { return m.run_id == p.run_id; });
@@ -59,13 +59,13 @@ TEST(CampaignSpecTest, AdaptiveReplicasPlanMinAndAddWithThePlansIds) {
   // A fixed spec of 5 replicas has the same runs.
   json fixed = j;
   fixed["replicas"] = 5;
-  const auto five = expand(CampaignSpec::from_json(fixed), "/cache");
+  const auto five = Expand(CampaignSpec::FromJson(fixed), "/cache");
   ASSERT_EQ(five.size(), 10u);
   for (std::size_t k = 0; k < five.size(); ++k) EXPECT_EQ(five[k].run_id, more[k].run_id);
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "replicas": {"max": 5, "until": {"metric": "q", "rel_se": 0}}})")),
             "/replicas/until/rel_se: must be a positive number (got 0)");
   // The schema offers both forms.
-  const json schema = campaign_spec_schema();
+  const json schema = CampaignSpecSchema();
   ASSERT_TRUE(schema["properties"]["replicas"].contains("oneOf")) << schema["properties"]["replicas"].dump();
   EXPECT_EQ(schema["properties"]["replicas"]["oneOf"][0]["type"], "integer");
   EXPECT_EQ(schema["properties"]["replicas"]["oneOf"][1]["required"], json({"max", "until"}));
@@ -77,48 +77,48 @@ TEST(CampaignSpecTest, GridZipPointsAndReplicasExpand) {
     "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6, 8]},
               "zip": {"/contact/mu": [0.3, 0.5], "/contact/mu_wall": [0.2, 0.4]},
               "points": [{"/discharge/mode": "remove"}, {"/discharge/mode": "reinject"}]}})");
-  const CampaignSpec s = CampaignSpec::from_json(j);
+  const CampaignSpec s = CampaignSpec::FromJson(j);
   EXPECT_EQ(s.axes, (std::vector<std::string>{"/silo/base_outlets/0/width", "/contact/mu", "/contact/mu_wall",
                                               "/discharge/mode"}));
-  const auto runs = expand(s, "/cache");
+  const auto runs = Expand(s, "/cache");
   ASSERT_EQ(runs.size(), 3u * 2u * 2u * 2u);
   // Zipped axes stay paired.
   for (const auto& r : runs) {
-    const double mu = r.params()["contact"]["mu"];
-    const double mu_wall = r.params()["contact"]["mu_wall"];
+    const double mu = r.Params()["contact"]["mu"];
+    const double mu_wall = r.Params()["contact"]["mu_wall"];
     EXPECT_EQ(mu == 0.3 ? 0.2 : 0.4, mu_wall);
   }
   std::set<std::string> ids;
   for (const auto& r : runs) ids.insert(r.run_id);
   EXPECT_EQ(ids.size(), runs.size());
   // The first grid axis is the slowest; replicas are innermost.
-  EXPECT_EQ(runs[0].params()["silo"]["base_outlets"][0]["width"], 4.0);
+  EXPECT_EQ(runs[0].Params()["silo"]["base_outlets"][0]["width"], 4.0);
   EXPECT_EQ(runs[0].replica, 0);
   EXPECT_EQ(runs[1].replica, 1);
   EXPECT_EQ(runs[0].point_id, runs[1].point_id);
   EXPECT_NE(runs[0].point_id, runs[2].point_id);
-  EXPECT_EQ(runs[0].params()["run_id"], runs[0].run_id);
+  EXPECT_EQ(runs[0].Params()["run_id"], runs[0].run_id);
   // The id is the hash of the resolved spec, whichever way it is recomputed.
-  for (const auto& r : runs) EXPECT_EQ(run_id_of(RunSpec::from_json(r.params())), r.run_id);
+  for (const auto& r : runs) EXPECT_EQ(RunIdOf(RunSpec::FromJson(r.Params())), r.run_id);
 }
 
 TEST(CampaignSpecTest, ReplicaSeedsAndBedsSharedAcrossOutletWidths) {
   const json j = json::parse(R"({"name": "t", "seed": 9, "replicas": 2, "base": {"silo": {"width": 30}},
     "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6]}}})");
-  const auto runs = expand(CampaignSpec::from_json(j), "/cache");
+  const auto runs = Expand(CampaignSpec::FromJson(j), "/cache");
   ASSERT_EQ(runs.size(), 4u);
-  EXPECT_EQ(runs[0].params()["seed"], runs[2].params()["seed"]);  // replica 0 of both widths
-  EXPECT_NE(runs[0].params()["seed"], runs[1].params()["seed"]);
-  EXPECT_EQ(runs[0].params()["seed"], replica_seed(9, 0));
-  EXPECT_EQ(runs[0].params()["bed"]["cache_file"], runs[2].params()["bed"]["cache_file"]);
-  EXPECT_NE(runs[0].params()["bed"]["cache_file"], runs[1].params()["bed"]["cache_file"]);
-  EXPECT_EQ(runs[0].params()["bed"]["cache_file"].get<std::string>().rfind("/cache/", 0), 0u);
+  EXPECT_EQ(runs[0].Params()["seed"], runs[2].Params()["seed"]);  // replica 0 of both widths
+  EXPECT_NE(runs[0].Params()["seed"], runs[1].Params()["seed"]);
+  EXPECT_EQ(runs[0].Params()["seed"], ReplicaSeed(9, 0));
+  EXPECT_EQ(runs[0].Params()["bed"]["cache_file"], runs[2].Params()["bed"]["cache_file"]);
+  EXPECT_NE(runs[0].Params()["bed"]["cache_file"], runs[1].Params()["bed"]["cache_file"]);
+  EXPECT_EQ(runs[0].Params()["bed"]["cache_file"].get<std::string>().rfind("/cache/", 0), 0u);
 }
 
 TEST(CampaignSpecTest, IdsAreStableAndIgnoreCacheDir) {
   const json j = json::parse(R"({"name": "t", "base": {"silo": {"width": 30}}})");
-  const auto a = expand(CampaignSpec::from_json(j), "/cache-a");
-  const auto b = expand(CampaignSpec::from_json(j), "/cache-b");
+  const auto a = Expand(CampaignSpec::FromJson(j), "/cache-a");
+  const auto b = Expand(CampaignSpec::FromJson(j), "/cache-b");
   EXPECT_EQ(a[0].run_id, b[0].run_id);
   EXPECT_EQ(a[0].run_id.size(), 16u);
 }
@@ -132,23 +132,23 @@ std::vector<ReferenceRun> ReferenceExpand(const CampaignSpec& spec, const std::v
                                           const std::string& cache_dir) {
   json base = spec.base;
   base["engine"] = spec.engines.front();
-  const json canonical = RunSpec::from_json(base).to_json();
+  const json canonical = RunSpec::FromJson(base).ToJson();
   std::vector<ReferenceRun> out;
   for (const json& point : points) {
     json params = canonical;
     for (const auto& [key, value] : point.items()) params[json::json_pointer(key)] = value;
     const std::uint64_t source = point.contains("/seed") ? params["seed"].get<std::uint64_t>() : spec.seed;
     for (int r = 0; r < spec.replicas; ++r) {
-      RunSpec rs = RunSpec::from_json(params);
-      rs.seed = replica_seed(source, r);
+      RunSpec rs = RunSpec::FromJson(params);
+      rs.seed = ReplicaSeed(source, r);
       RunSpec zero = rs;
       zero.seed = 0;
       ReferenceRun ref;
-      ref.run_id = run_id_of(rs);
-      ref.point_id = run_id_of(zero);
+      ref.run_id = RunIdOf(rs);
+      ref.point_id = RunIdOf(zero);
       rs.run_id = ref.run_id;
-      rs.bed.cache_file = cache_dir + "/" + hash_hex(rs.bed_key().dump()) + ".bed";
-      ref.params_json = rs.to_json().dump();
+      rs.bed.cache_file = cache_dir + "/" + HashHex(rs.BedKey().dump()) + ".bed";
+      ref.params_json = rs.ToJson().dump();
       out.push_back(ref);
     }
   }
@@ -161,8 +161,8 @@ TEST(CampaignSpecTest, FastExpansionGivesTheIdsAndParamsOfTheReferencePath) {
              "silo": {"width": 30}},
     "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6.5], "/contact/mu": [0.3, 0.5]},
               "points": [{"/discharge/mode": "remove"}, {"/seed": 12345, "/discharge/mode": "reinject"}]}})");
-  const CampaignSpec s = CampaignSpec::from_json(j);
-  const auto runs = expand(s, "/cache dir");
+  const CampaignSpec s = CampaignSpec::FromJson(j);
+  const auto runs = Expand(s, "/cache dir");
   std::vector<json> points;
   for (std::size_t i = 0; i < runs.size(); i += 3) points.push_back(runs[i].point);
   ASSERT_EQ(points.size(), 8u);
@@ -179,26 +179,26 @@ TEST(CampaignSpecTest, FastExpansionGivesTheIdsAndParamsOfTheReferencePath) {
 TEST(CampaignSpecTest, EngineListPlansEveryPointOncePerEngineWithTheSameSeeds) {
   const json j = json::parse(R"({"name": "t", "replicas": 2, "engine": ["native", "liggghts"],
     "base": {"silo": {"width": 30}}, "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6]}}})");
-  const CampaignSpec s = CampaignSpec::from_json(j);
+  const CampaignSpec s = CampaignSpec::FromJson(j);
   EXPECT_EQ(s.engines, (std::vector<std::string>{"native", "liggghts"}));
-  const auto runs = expand(s, "/cache");
+  const auto runs = Expand(s, "/cache");
   ASSERT_EQ(runs.size(), 2u * 2u * 2u);
   // Point, then engine, then replica.
   const std::vector<std::string> engines = {"native", "native", "liggghts", "liggghts"};
   for (std::size_t i = 0; i < runs.size(); ++i) {
     EXPECT_EQ(runs[i].engine, engines[i % 4]);
-    EXPECT_EQ(runs[i].params()["engine"], engines[i % 4]);
-    EXPECT_EQ(run_id_of(RunSpec::from_json(runs[i].params())), runs[i].run_id);
+    EXPECT_EQ(runs[i].Params()["engine"], engines[i % 4]);
+    EXPECT_EQ(RunIdOf(RunSpec::FromJson(runs[i].Params())), runs[i].run_id);
   }
   EXPECT_EQ(runs[0].point, runs[2].point);
   EXPECT_NE(runs[0].point_id, runs[2].point_id);
   EXPECT_NE(runs[0].run_id, runs[2].run_id);
-  EXPECT_EQ(runs[0].params()["seed"], runs[2].params()["seed"]);
-  EXPECT_NE(runs[0].params()["bed"]["cache_file"], runs[2].params()["bed"]["cache_file"]);
+  EXPECT_EQ(runs[0].Params()["seed"], runs[2].Params()["seed"]);
+  EXPECT_NE(runs[0].Params()["bed"]["cache_file"], runs[2].Params()["bed"]["cache_file"]);
   // The native runs are the runs of the single-engine campaign: a comparison reuses them.
   json single = j;
   single["engine"] = "native";
-  const auto native = expand(CampaignSpec::from_json(single), "/cache");
+  const auto native = Expand(CampaignSpec::FromJson(single), "/cache");
   EXPECT_EQ(native[0].run_id, runs[0].run_id);
   EXPECT_EQ(native[2].run_id, runs[4].run_id);
 }
@@ -206,16 +206,16 @@ TEST(CampaignSpecTest, EngineListPlansEveryPointOncePerEngineWithTheSameSeeds) {
 TEST(DumpTemplateTest, FillEqualsTheDumpOfTheFilledDocument) {
   const json doc = {{"b", {{"x", 1}, {"s", "\x01granary-field-1\x01"}}}, {"a", 2}, {"c", "z"}};
   const DumpTemplate t(doc, {"/c"});
-  EXPECT_TRUE(t.spliced());
+  EXPECT_TRUE(t.Spliced());
   json expect = doc;
   expect["c"] = "q\"";
-  EXPECT_EQ(t.fill({json("q\"").dump()}), expect.dump());
+  EXPECT_EQ(t.Fill({json("q\"").dump()}), expect.dump());
   // A document already holding a placeholder text cannot be spliced; fill still dumps right.
   const DumpTemplate clash(doc, {"/a", "/c"});
-  EXPECT_FALSE(clash.spliced());
+  EXPECT_FALSE(clash.Spliced());
   expect["c"] = "w";
   expect["a"] = 3;
-  EXPECT_EQ(clash.fill({"3", json("w").dump()}), expect.dump());
+  EXPECT_EQ(clash.Fill({"3", json("w").dump()}), expect.dump());
 }
 
 TEST(CampaignSpecErrorTest, UnknownKeys) {
@@ -267,16 +267,16 @@ TEST(CampaignSpecErrorTest, InvalidPointNamesThePoint) {
 TEST(CampaignSpecTest, ASweptShapeNamesItsDefaultNamedSpecies) {
   const json j = json::parse(R"({"name": "t", "base": {"silo": {"width": 30}},
     "sweep": {"grid": {"/bodies/species/0/shape": ["disc", "dumbbell"]}}})");
-  const auto runs = expand(CampaignSpec::from_json(j), "/cache");
+  const auto runs = Expand(CampaignSpec::FromJson(j), "/cache");
   ASSERT_EQ(runs.size(), 2u);
-  EXPECT_EQ(runs[0].params()["bodies"]["species"][0]["name"], "disc");
-  EXPECT_EQ(runs[1].params()["bodies"]["species"][0]["name"], "dumbbell");
+  EXPECT_EQ(runs[0].Params()["bodies"]["species"][0]["name"], "disc");
+  EXPECT_EQ(runs[1].Params()["bodies"]["species"][0]["name"], "dumbbell");
   // A name the user gave stays.
   const json named = json::parse(R"({"name": "t", "base": {"silo": {"width": 30},
     "bodies": {"species": [{"name": "grain"}]}},
     "sweep": {"grid": {"/bodies/species/0/shape": ["disc", "dumbbell"]}}})");
-  const auto runs2 = expand(CampaignSpec::from_json(named), "/cache");
-  EXPECT_EQ(runs2[0].params()["bodies"]["species"][0]["name"], "grain");
+  const auto runs2 = Expand(CampaignSpec::FromJson(named), "/cache");
+  EXPECT_EQ(runs2[0].Params()["bodies"]["species"][0]["name"], "grain");
 }
 
 // Sweep pointers that do not resolve gave raw library errors without a /sweep path.
@@ -317,10 +317,10 @@ TEST(CampaignSpecErrorTest, ASweepOverTheRunLimitIsRefusedBeforeExpanding) {
                   {"replicas", 1000},
                   {"base", {{"silo", {{"width", 30}}}}},
                   {"sweep", {{"grid", {{"/silo/base_outlets/0/width", widths}, {"/contact/mu", mus}}}}}};
-  const CampaignSpec s = CampaignSpec::from_json(j);
-  EXPECT_EQ(planned_run_count(s), 30000000u);
+  const CampaignSpec s = CampaignSpec::FromJson(j);
+  EXPECT_EQ(PlannedRunCount(s), 30000000u);
   try {
-    expand(s, "/cache");
+    Expand(s, "/cache");
     FAIL() << "expected a refusal";
   } catch (const SpecError& e) {
     EXPECT_EQ(std::string(e.what()),
@@ -330,7 +330,7 @@ TEST(CampaignSpecErrorTest, ASweepOverTheRunLimitIsRefusedBeforeExpanding) {
   json small = j;
   small["replicas"] = 2;
   small["sweep"]["grid"]["/contact/mu"] = json::array({0.1, 0.2, 0.3, 0.4, 0.5});
-  EXPECT_EQ(expand(CampaignSpec::from_json(small), "/cache", 3000).size(), 3000u);  // at the limit
+  EXPECT_EQ(Expand(CampaignSpec::FromJson(small), "/cache", 3000).size(), 3000u);  // at the limit
 }
 
 // /base/engine was silently overridden by the campaign's engine, and an unknown
@@ -341,9 +341,9 @@ TEST(CampaignSpecErrorTest, TheEngineIsSetInOnePlace) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": "native", "base": {"engine": "liggghts"}})")),
             "/base/engine: \"liggghts\" conflicts with the campaign's \"engine\" \"native\"; set the engine in one place "
             "(the campaign's \"engine\")");
-  const CampaignSpec s = CampaignSpec::from_json(json::parse(R"({"name": "t", "base": {"engine": "liggghts"}})"));
+  const CampaignSpec s = CampaignSpec::FromJson(json::parse(R"({"name": "t", "base": {"engine": "liggghts"}})"));
   EXPECT_EQ(s.engines, std::vector<std::string>{"liggghts"});
-  EXPECT_EQ(expand(s, "/cache").at(0).engine, "liggghts");
+  EXPECT_EQ(Expand(s, "/cache").at(0).engine, "liggghts");
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": ["liggghts"], "base": {"engine": "liggghts"}})")), "(no error)");
 }
 
@@ -371,7 +371,7 @@ TEST(CampaignSpecErrorTest, NamesRefuseControlCharactersAndLineBreaks) {
 // `campaign plan` with SIGSEGV while formatting the error.
 TEST(CampaignSpecErrorTest, SyntaxErrorsAndDeepNestingSayWhere) {
   try {
-    parse_spec_text("{\n  \"name\": \"t\",\n  \"replicas\": 2,,\n}\n", "c.json");
+    ParseSpecText("{\n  \"name\": \"t\",\n  \"replicas\": 2,,\n}\n", "c.json");
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()).rfind("c.json:3:17: not valid JSON: syntax error while parsing object key", 0), 0u)
@@ -379,26 +379,26 @@ TEST(CampaignSpecErrorTest, SyntaxErrorsAndDeepNestingSayWhere) {
   }
   const std::string deep = "{\"name\": \"t\", \"base\": " + std::string(100000, '[') + std::string(100000, ']') + "}";
   try {
-    parse_spec_text(deep, "deep.json");
+    ParseSpecText(deep, "deep.json");
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()), "deep.json:1:86: nested deeper than 64 levels (a campaign spec needs fewer than 10)");
   }
   // Brackets inside strings do not count.
-  EXPECT_EQ(parse_spec_text(R"({"name": "[[[[{{{{\"[["})", "s.json")["name"], "[[[[{{{{\"[[");
+  EXPECT_EQ(ParseSpecText(R"({"name": "[[[[{{{{\"[["})", "s.json")["name"], "[[[[{{{{\"[[");
 }
 
 // A number out of a double's range gave nlohmann's raw out_of_range.406 text, no place.
 TEST(CampaignSpecErrorTest, ANumberOutOfRangeSaysWhere) {
   try {
-    parse_spec_text("{\n  \"name\": \"1e400\",\n  \"seed\": 1e400\n}\n", "c.json");
+    ParseSpecText("{\n  \"name\": \"1e400\",\n  \"seed\": 1e400\n}\n", "c.json");
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()),
               "c.json:3:11: the number 1e400 is out of range (a JSON number must fit a double, magnitude below 1.8e308)");
   }
   try {
-    parse_spec_text(R"({"name": "t", "base": {"silo": {"width": -2E+999}}})", "d.json");
+    ParseSpecText(R"({"name": "t", "base": {"silo": {"width": -2E+999}}})", "d.json");
     FAIL();
   } catch (const std::invalid_argument& e) {
     EXPECT_EQ(std::string(e.what()).rfind("d.json:1:42: the number -2E+999 is out of range", 0), 0u) << e.what();

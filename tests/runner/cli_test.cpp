@@ -508,13 +508,13 @@ TEST_F(CliTest, RealEngineEndToEnd) {
   EXPECT_TRUE(p_json[0].contains("q_count_n"));
   {
     Store store(Db());
-    Statement q = store.prepare(
+    Statement q = store.Prepare(
         "SELECT json_extract(r.params, '$.silo.base_outlets[0].width'), m.unit FROM metrics m JOIN runs r USING (run_id) "
         "WHERE m.analysis = 'flow' AND m.metric = 'q_count' ORDER BY 1");
     std::vector<double> widths;
-    while (q.step()) {
-      widths.push_back(q.real(0));
-      EXPECT_EQ(q.text(1), "bodies/sqrt(d/g)");
+    while (q.Step()) {
+      widths.push_back(q.Real(0));
+      EXPECT_EQ(q.Text(1), "bodies/sqrt(d/g)");
     }
     EXPECT_EQ(widths, (std::vector<double>{3, 4}));
   }
@@ -739,8 +739,8 @@ class Tmpfs {
   ~Tmpfs() {
     if (mounted_) ::umount2(at_.c_str(), MNT_DETACH);
   }
-  bool mounted() const { return mounted_; }
-  const std::string& why() const { return why_; }
+  bool Mounted() const { return mounted_; }
+  const std::string& Why() const { return why_; }
   // Writes zeros into `file` until the file system is full.
   void Fill(const fs::path& file) const {
     std::FILE* f = std::fopen(file.c_str(), "wb");
@@ -761,7 +761,7 @@ class Tmpfs {
 // left, and the next runner (with room again) finishes every run exactly once.
 TEST_F(CliTest, AFullDiskUnderTheDatabaseStopsTheRunnerCleanly) {
   const Tmpfs disk(dir_ / "dbfs", "2m");
-  if (!disk.mounted()) GTEST_SKIP() << "cannot mount a tmpfs to fill (needs root with CAP_SYS_ADMIN): " << disk.why();
+  if (!disk.Mounted()) GTEST_SKIP() << "cannot mount a tmpfs to fill (needs root with CAP_SYS_ADMIN): " << disk.Why();
   const std::string db = (dir_ / "dbfs" / "g.db").string();
   fs::create_directories(dir_ / "runs-elsewhere");
   fs::create_directory_symlink(dir_ / "runs-elsewhere", dir_ / "dbfs" / "runs");  // only the database is full
@@ -805,7 +805,7 @@ TEST_F(CliTest, AFullDiskUnderTheRunsIsSaidAndInterruptsTheRun) {
   const std::string engine = testing::BinDir() + "/granary-engine";
   if (!fs::exists(engine)) GTEST_SKIP() << "granary-engine not built";
   const Tmpfs disk(dir_ / "runs", "1m");
-  if (!disk.mounted()) GTEST_SKIP() << "cannot mount a tmpfs to fill (needs root with CAP_SYS_ADMIN): " << disk.why();
+  if (!disk.Mounted()) GTEST_SKIP() << "cannot mount a tmpfs to fill (needs root with CAP_SYS_ADMIN): " << disk.Why();
   const fs::path p = dir_ / "frames.json";
   std::ofstream(p) << R"({"name": "full", "seed": 2, "replicas": 2,
     "base": {"bodies": {"count": 60}, "silo": {"width": 12}, "discharge": {"mode": "reinject", "max_time": 50,
@@ -836,7 +836,7 @@ TEST_F(CliTest, AReadOnlyDatabaseDirectoryIsReadAndSaidSo) {
   ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 6]", 1))).code, 0);
   ASSERT_EQ(Sh(RunCmd()).code, 0);
   const Tmpfs disk(dir_ / "ro", "8m");
-  if (!disk.mounted()) GTEST_SKIP() << "cannot mount a tmpfs (needs root with CAP_SYS_ADMIN): " << disk.why();
+  if (!disk.Mounted()) GTEST_SKIP() << "cannot mount a tmpfs (needs root with CAP_SYS_ADMIN): " << disk.Why();
   fs::copy_file(Db(), dir_ / "ro" / "g.db");
   fs::create_directory_symlink(dir_ / "runs", dir_ / "ro" / "runs");
   ASSERT_EQ(::mount("tmpfs", (dir_ / "ro").c_str(), "tmpfs", MS_REMOUNT | MS_RDONLY, nullptr), 0) << std::strerror(errno);

@@ -39,10 +39,10 @@ bool Owns(const ExecutorRow& row, const std::string& flag) {
 }
 
 TEST_F(ExecutorTable, EveryRowIsListedByRunHelpWithItsFlags) {
-  ASSERT_GE(executor_table().size(), 2u);
+  ASSERT_GE(ExecutorTable().size(), 2u);
   const auto help = Sh(testing::Campaign() + " run --help");
   ASSERT_EQ(help.code, 0);
-  for (const ExecutorRow& row : executor_table()) {
+  for (const ExecutorRow& row : ExecutorTable()) {
     EXPECT_NE(help.output.find(std::string(row.name) + " "), std::string::npos) << row.name << "\n" << help.output;
     EXPECT_NE(help.output.find(row.summary), std::string::npos) << row.name;
     for (const auto& [flag, takes_value] : row.flags)
@@ -51,13 +51,13 @@ TEST_F(ExecutorTable, EveryRowIsListedByRunHelpWithItsFlags) {
 }
 
 TEST_F(ExecutorTable, EveryRowIsAnExecutorOfRunAndOfTheSpecAndItsFlagsAreItsOwn) {
-  for (const ExecutorRow& row : executor_table()) {
+  for (const ExecutorRow& row : ExecutorTable()) {
     // The spec's block accepts the row's name (the plan checks it).
-    EXPECT_NO_THROW(CampaignSpec::from_json(json{{"name", "t"}, {"executor", {{"type", row.name}}}})) << row.name;
+    EXPECT_NO_THROW(CampaignSpec::FromJson(json{{"name", "t"}, {"executor", {{"type", row.name}}}})) << row.name;
     // --executor NAME passes, and a flag of another executor is then refused as that one's:
     // the table, not a list of names, decided both.
     bool tried = false;
-    for (const ExecutorRow& other : executor_table()) {
+    for (const ExecutorRow& other : ExecutorTable()) {
       if (&other == &row) continue;
       for (const auto& [flag, takes_value] : other.flags) {
         if (Owns(row, flag)) continue;
@@ -76,13 +76,13 @@ TEST_F(ExecutorTable, EveryRowIsAnExecutorOfRunAndOfTheSpecAndItsFlagsAreItsOwn)
 TEST_F(ExecutorTable, ANameNotInTheTableIsRefusedWithTheTablesNames) {
   const auto r = Sh(Cmd("run --executor pbs"));
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_NE(r.output.find("--executor: must be " + executor_names(false) + " (got \"pbs\")"), std::string::npos)
+  EXPECT_NE(r.output.find("--executor: must be " + ExecutorNames(false) + " (got \"pbs\")"), std::string::npos)
       << r.output;
   try {
-    CampaignSpec::from_json(json{{"name", "t"}, {"executor", {{"type", "pbs"}}}});
+    CampaignSpec::FromJson(json{{"name", "t"}, {"executor", {{"type", "pbs"}}}});
     ADD_FAILURE() << "no error";
   } catch (const SpecError& e) {
-    EXPECT_EQ(std::string(e.what()), "/executor/type: must be " + executor_names(true) + " (got \"pbs\")");
+    EXPECT_EQ(std::string(e.what()), "/executor/type: must be " + ExecutorNames(true) + " (got \"pbs\")");
   }
 }
 

@@ -38,32 +38,32 @@ Runs MakeRuns() {
 std::vector<std::string> Passing(const RunFilter& f, const std::vector<RunRow>& rows) {
   std::vector<std::string> out;
   for (const auto& r : rows)
-    if (f.matches(r)) out.push_back(r.run_id);
+    if (f.Matches(r)) out.push_back(r.run_id);
   return out;
 }
 
 TEST(RunFilter, ShortNamesAsTheReportPrintsThem) {
   const Runs r = MakeRuns();
-  const RunFilter f = resolve_filters({"D_b=1.5", "W=4"}, r.campaign, r.rows);
+  const RunFilter f = ResolveFilters({"D_b=1.5", "W=4"}, r.campaign, r.rows);
   EXPECT_EQ(Passing(f, r.rows), (std::vector<std::string>{"w4db15"}));
-  EXPECT_EQ(f.texts(), (std::vector<std::string>{"/bodies/species/0/big_diameter=1.5", "/silo/base_outlets/0/width=4"}));
+  EXPECT_EQ(f.Texts(), (std::vector<std::string>{"/bodies/species/0/big_diameter=1.5", "/silo/base_outlets/0/width=4"}));
 }
 
 TEST(RunFilter, DerivedAxesSelectTheRunsWhoseValueMatches) {
   const Runs r = MakeRuns();
   // D_eq = sqrt(3.25) = 1.80278 (as the report prints it, 6 digits) selects D_b = 1.5.
-  RunFilter f = resolve_filters({"D_eq=1.80278"}, r.campaign, r.rows);
+  RunFilter f = ResolveFilters({"D_eq=1.80278"}, r.campaign, r.rows);
   EXPECT_EQ(Passing(f, r.rows), (std::vector<std::string>{"w4db15", "w6db15"}));
   // Its texts are the runs' ids: the same filter later, without the campaign at hand.
-  EXPECT_EQ(Passing(RunFilter(f.texts()), r.rows), (std::vector<std::string>{"w4db15", "w6db15"}));
+  EXPECT_EQ(Passing(RunFilter(f.Texts()), r.rows), (std::vector<std::string>{"w4db15", "w6db15"}));
   // Combined with a parameter: both hold.
-  f = resolve_filters({"D_eq=1.80278", "W=6"}, r.campaign, r.rows);
+  f = ResolveFilters({"D_eq=1.80278", "W=6"}, r.campaign, r.rows);
   EXPECT_EQ(Passing(f, r.rows), (std::vector<std::string>{"w6db15"}));
   // A derived axis of a derived axis: W / sqrt(2) for D_b = 1 and W = 4.
-  f = resolve_filters({"W_over=" + std::to_string(4 / std::sqrt(2.0))}, r.campaign, r.rows);
+  f = ResolveFilters({"W_over=" + std::to_string(4 / std::sqrt(2.0))}, r.campaign, r.rows);
   EXPECT_EQ(Passing(f, r.rows), (std::vector<std::string>{"w4db10"}));
   try {
-    resolve_filters({"D_eq=2"}, r.campaign, r.rows);
+    ResolveFilters({"D_eq=2"}, r.campaign, r.rows);
     FAIL() << "D_eq=2 selects nothing";
   } catch (const FilterError& e) {
     EXPECT_EQ(std::string(e.what()), "--only D_eq=2: no run has D_eq = 2 (its values: 1.41421, 1.80278)");

@@ -38,8 +38,8 @@ struct FakeRun {
 class FakeExecutor : public Executor {
  public:
   explicit FakeExecutor(int slots) : slots_(slots) {}
-  bool can_start_more() const override { return static_cast<int>(running_.size()) < slots_; }
-  void start(const Launch& launch) override {
+  bool CanStartMore() const override { return static_cast<int>(running_.size()) < slots_; }
+  void Start(const Launch& launch) override {
     FakeRun r;
     r.launch = launch;
     r.ends_at_poll = polls + run_polls;
@@ -49,7 +49,7 @@ class FakeExecutor : public Executor {
     started.push_back(launch.run_id);
     running_[launch.run_id] = r;
   }
-  std::vector<Finished> poll() override {
+  std::vector<Finished> Poll() override {
     ++polls;
     clock += 1.0;
     if (on_poll) on_poll(polls);
@@ -72,14 +72,14 @@ class FakeExecutor : public Executor {
     }
     return out;
   }
-  void stop(const std::string& run_id, StopReason reason) override {
+  void Stop(const std::string& run_id, StopReason reason) override {
     stops.emplace_back(run_id, reason);
     if (auto it = running_.find(run_id); it != running_.end()) it->second.stopped = reason;
   }
-  void stop_all(StopReason reason) override {
-    for (auto& [id, r] : running_) stop(id, reason);
+  void StopAll(StopReason reason) override {
+    for (auto& [id, r] : running_) Stop(id, reason);
   }
-  std::size_t active() const override { return running_.size(); }
+  std::size_t Active() const override { return running_.size(); }
 
   static void WriteDone(const fs::path& dir, const std::string& run_id) {
     std::ofstream(dir / "summary.json") << json{{"run_id", run_id}, {"end_reason", "discharged"}, {"exited", 7}}.dump();
@@ -102,18 +102,18 @@ class FakeExecutor : public Executor {
 
 class RecordingObserver : public RunObserver {
  public:
-  void on_begin(int, int, int) override {}
-  void on_event(const std::string& run_id, const std::string& state, const std::string& message) override {
+  void OnBegin(int, int, int) override {}
+  void OnEvent(const std::string& run_id, const std::string& state, const std::string& message) override {
     events.push_back(run_id + " " + state + ": " + message);
   }
-  void on_tick(const std::vector<ActiveRun>&, int, int, int) override {}
-  void on_end(int, int, int) override {}
-  int count(const std::string& what) const {
+  void OnTick(const std::vector<ActiveRun>&, int, int, int) override {}
+  void OnEnd(int, int, int) override {}
+  int Count(const std::string& what) const {
     int n = 0;
     for (const auto& e : events) n += e.find(what) != std::string::npos;
     return n;
   }
-  std::string all() const {
+  std::string All() const {
     std::string s;
     for (const auto& e : events) s += e + "\n";
     return s;
@@ -132,33 +132,33 @@ class SchedulerTest : public ::testing::Test {
     options_.poll_interval = 0;
     options_.tick_interval = 0;
     options_.heartbeat_interval = 2;
-    options_.holder = Holder{"test-runner:1:0", this_process_holder().host, static_cast<int>(getpid())};
+    options_.holder = Holder{"test-runner:1:0", ThisProcessHolder().host, static_cast<int>(getpid())};
     options_.clock = [this] { return executor_.clock; };
   }
   void TearDown() override { fs::remove_all(dir_); }
 
   void Plan(const std::string& widths) {
-    const CampaignSpec spec = CampaignSpec::from_json(json::parse(
+    const CampaignSpec spec = CampaignSpec::FromJson(json::parse(
         R"({"name": "t", "base": {"silo": {"width": 30}}, "sweep": {"grid": {"/silo/base_outlets/0/width": )" + widths +
         "}}}"));
-    plan_campaign(*store_, spec, expand(spec, (dir_ / "beds").string()), (dir_ / "runs").string(), false);
+    PlanCampaign(*store_, spec, Expand(spec, (dir_ / "beds").string()), (dir_ / "runs").string(), false);
   }
-  ExitCode Run() { return run_campaign(*store_, options_, executor_, observer_, &stop_); }
+  ExitCode Run() { return RunCampaign(*store_, options_, executor_, observer_, &stop_); }
   std::map<std::string, RunRow> Rows() {
     std::map<std::string, RunRow> m;
-    for (auto& r : load_runs(*store_, false)) m[r.run_id] = r;
+    for (auto& r : LoadRuns(*store_, false)) m[r.run_id] = r;
     return m;
   }
   std::vector<std::string> Ids() {
     std::vector<std::string> ids;
-    for (const auto& r : load_runs(*store_, false)) ids.push_back(r.run_id);
+    for (const auto& r : LoadRuns(*store_, false)) ids.push_back(r.run_id);
     return ids;
   }
   int ResultCount(const std::string& run_id) {
-    Statement q = store_->prepare("SELECT COUNT(*) FROM results WHERE run_id = ?1");
-    q.bind(1, run_id);
-    q.step();
-    return static_cast<int>(q.integer(0));
+    Statement q = store_->Prepare("SELECT COUNT(*) FROM results WHERE run_id = ?1");
+    q.Bind(1, run_id);
+    q.Step();
+    return static_cast<int>(q.Integer(0));
   }
 
   fs::path dir_;
@@ -188,7 +188,7 @@ TEST_F(SchedulerTest, RunsEveryRunOnceAndRecordsItDone) {
 TEST_F(SchedulerTest, AStopRequestInterruptsTheRunsInFlightAndTheyResume) {
   executor_.run_polls = 100;
   executor_.on_poll = [&](int) {
-    if (executor_.active() == 2) stop_ = 1;
+    if (executor_.Active() == 2) stop_ = 1;
   };
   EXPECT_EQ(Run(), ExitCode::kInterrupted);
   ASSERT_EQ(executor_.stops.size(), 2u);
@@ -245,8 +245,8 @@ TEST_F(SchedulerTest, ALeaseTakenOverStopsTheEngineAndRecordsNothing) {
   executor_.on_poll = [&](int poll) {
     if (poll == 1) {
       // Runner B: A's heartbeat is stale, B recovers the run and claims it.
-      ASSERT_EQ(recover_expired_leases(*store_, other, now_seconds() + lease_stale_seconds() + 1), 1);
-      ASSERT_EQ(claim_next(*store_, other, now_seconds(), nullptr, {})->run_id, first);
+      ASSERT_EQ(RecoverExpiredLeases(*store_, other, NowSeconds() + LeaseStaleSeconds() + 1), 1);
+      ASSERT_EQ(ClaimNext(*store_, other, NowSeconds(), nullptr, {})->run_id, first);
     }
   };
   options_.only = {first};
@@ -257,7 +257,7 @@ TEST_F(SchedulerTest, ALeaseTakenOverStopsTheEngineAndRecordsNothing) {
   EXPECT_EQ(row.state, RunState::kRunning);
   EXPECT_EQ(row.lease_holder, other.id);
   EXPECT_EQ(ResultCount(first), 0);
-  EXPECT_EQ(observer_.count("lease lost"), 1) << observer_.all();
+  EXPECT_EQ(observer_.Count("lease lost"), 1) << observer_.All();
 }
 
 // The same, but A's engine finished while A was stopped: its result is not recorded either.
@@ -269,8 +269,8 @@ TEST_F(SchedulerTest, AResultSeenAfterTheLeaseWasTakenOverIsNotRecorded) {
   executor_.run_polls = 2;
   executor_.on_poll = [&](int poll) {
     if (poll == 1) {
-      ASSERT_EQ(recover_expired_leases(*store_, other, now_seconds() + lease_stale_seconds() + 1), 1);
-      ASSERT_TRUE(claim_next(*store_, other, now_seconds(), nullptr, {}));
+      ASSERT_EQ(RecoverExpiredLeases(*store_, other, NowSeconds() + LeaseStaleSeconds() + 1), 1);
+      ASSERT_TRUE(ClaimNext(*store_, other, NowSeconds(), nullptr, {}));
     }
   };
   EXPECT_EQ(Run(), ExitCode::kOk);
@@ -278,7 +278,7 @@ TEST_F(SchedulerTest, AResultSeenAfterTheLeaseWasTakenOverIsNotRecorded) {
   EXPECT_EQ(row.state, RunState::kRunning);
   EXPECT_EQ(row.lease_holder, other.id);
   EXPECT_EQ(ResultCount(first), 0);
-  EXPECT_EQ(observer_.count("its result is not recorded"), 1) << observer_.all();
+  EXPECT_EQ(observer_.Count("its result is not recorded"), 1) << observer_.All();
 }
 
 // A run retired by a re-plan while it runs came back `done`.
@@ -329,8 +329,8 @@ TEST_F(SchedulerTest, NoEngineStartsOnADirectoryAnotherEngineHolds) {
     }
   };
   EXPECT_EQ(Run(), ExitCode::kOk);
-  EXPECT_EQ(observer_.count(first + " waiting: its directory is locked by engine pid " + std::to_string(getpid())), 1)
-      << observer_.all();
+  EXPECT_EQ(observer_.Count(first + " waiting: its directory is locked by engine pid " + std::to_string(getpid())), 1)
+      << observer_.All();
   for (const auto& [id, row] : Rows()) EXPECT_EQ(row.state, RunState::kDone);
   EXPECT_EQ(executor_.started.size(), 2u);
 }
@@ -375,7 +375,7 @@ TEST_F(SchedulerTest, AnEngineThatFoundItsDirectoryBusyIsStartedAgain) {
 TEST_F(SchedulerTest, ADatabaseThatCannotBeWrittenStopsTheEngines) {
   executor_.run_polls = 100;
   executor_.on_poll = [&](int poll) {
-    if (poll == 1) store_->exec("PRAGMA query_only = ON");  // every write now fails
+    if (poll == 1) store_->Exec("PRAGMA query_only = ON");  // every write now fails
   };
   try {
     Run();
@@ -389,8 +389,8 @@ TEST_F(SchedulerTest, ADatabaseThatCannotBeWrittenStopsTheEngines) {
   }
   ASSERT_EQ(executor_.stops.size(), 2u);
   for (const auto& [id, reason] : executor_.stops) EXPECT_EQ(reason, StopReason::kInterrupt);
-  EXPECT_EQ(executor_.active(), 0u);
-  store_->exec("PRAGMA query_only = OFF");
+  EXPECT_EQ(executor_.Active(), 0u);
+  store_->Exec("PRAGMA query_only = OFF");
   for (const auto& [id, row] : Rows()) EXPECT_EQ(row.state, RunState::kRunning);  // as the next runner will find them
 }
 
@@ -402,8 +402,8 @@ TEST_F(SchedulerTest, DoneRunsWhoseDirectoryWasDeletedAreReportedAndRunAgainOnRe
   fs::remove_all(Rows()[first].run_dir);
   EXPECT_EQ(Run(), ExitCode::kOk);
   EXPECT_EQ(executor_.started.size(), 2u);
-  EXPECT_EQ(observer_.count(" lost: 1 done run(s) have no run directory (deleted after they finished; first " + first), 1)
-      << observer_.all();
+  EXPECT_EQ(observer_.Count(" lost: 1 done run(s) have no run directory (deleted after they finished; first " + first), 1)
+      << observer_.All();
   options_.rerun_lost = true;
   EXPECT_EQ(Run(), ExitCode::kOk);
   ASSERT_EQ(executor_.started.size(), 3u);

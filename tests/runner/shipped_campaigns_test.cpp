@@ -24,7 +24,7 @@ using nlohmann::json;
 
 const char* const kSizes[] = {"quick", "medium", "full"};
 
-std::vector<fs::path> shipped_specs() {
+std::vector<fs::path> ShippedSpecs() {
   std::vector<fs::path> out;
   for (const auto& e : fs::directory_iterator(fs::path(GRANARY_SOURCE_DIR) / "campaigns"))
     if (e.path().extension() == ".json") out.push_back(e.path());
@@ -33,7 +33,7 @@ std::vector<fs::path> shipped_specs() {
 }
 
 // "ch3-outlet-width-quick" -> {"ch3-outlet-width", "quick"}; a spec of no chapter study -> {"", ""}.
-std::pair<std::string, std::string> study_and_size(const fs::path& spec) {
+std::pair<std::string, std::string> StudyAndSize(const fs::path& spec) {
   const std::string stem = spec.stem().string();
   if (stem.rfind("ch", 0) != 0) return {"", ""};
   for (const char* size : kSizes) {
@@ -47,7 +47,7 @@ std::pair<std::string, std::string> study_and_size(const fs::path& spec) {
 // What remains of a spec without what makes its size: names and text, replicas, body count,
 // silo width, time and clog limits, frame interval and format (full sizes write GSD, with
 // fewer contact frames), and the sweep's values (its axes stay).
-json without_size(json spec) {
+json WithoutSize(json spec) {
   for (const char* key : {"name", "description", "size", "replicas"}) spec.erase(key);
   for (const char* pointer : {"/base/bodies/count", "/base/silo/width", "/base/discharge/max_time",
                               "/base/discharge/unclog/max_clogs", "/base/output/frame_interval",
@@ -71,7 +71,7 @@ json without_size(json spec) {
 }
 
 TEST(ShippedCampaigns, EverySpecPlansWithFiguresAndExpectationsNamingMetricsAndAxesThatExist) {
-  const std::vector<fs::path> specs = shipped_specs();
+  const std::vector<fs::path> specs = ShippedSpecs();
   ASSERT_GE(specs.size(), 45u);
   const fs::path db = fs::temp_directory_path() / "granary-shipped-campaigns-never-written.db";
   ASSERT_FALSE(fs::exists(db));
@@ -87,9 +87,9 @@ TEST(ShippedCampaigns, EverySpecPlansWithFiguresAndExpectationsNamingMetricsAndA
       continue;
     }
 #ifdef GRANARY_HAVE_ANALYSIS
-    EXPECT_NO_THROW(analysis::check_metric_references(given));
+    EXPECT_NO_THROW(analysis::CheckMetricReferences(given));
 #endif
-    const auto [study, size] = study_and_size(path);
+    const auto [study, size] = StudyAndSize(path);
     if (study.empty()) continue;
     EXPECT_EQ(spec.size, size) << "a chapter study's /size is its file's size";
     EXPECT_TRUE(given.contains(json::json_pointer("/report/figures"))) << "a chapter study draws its chapter's figures";
@@ -99,8 +99,8 @@ TEST(ShippedCampaigns, EverySpecPlansWithFiguresAndExpectationsNamingMetricsAndA
 
 TEST(ShippedCampaigns, EveryChapterStudyComesInThreeSizesThatDifferOnlyInSize) {
   std::map<std::string, std::map<std::string, json>> studies;
-  for (const fs::path& path : shipped_specs()) {
-    const auto [study, size] = study_and_size(path);
+  for (const fs::path& path : ShippedSpecs()) {
+    const auto [study, size] = StudyAndSize(path);
     if (study.empty()) continue;
     ASSERT_FALSE(size.empty()) << path << ": a chapter study's file ends in -quick, -medium or -full";
     studies[study][size] = cli::ReadSpecFile("plan", path.string());
@@ -109,9 +109,9 @@ TEST(ShippedCampaigns, EveryChapterStudyComesInThreeSizesThatDifferOnlyInSize) {
   for (const auto& [study, sizes] : studies) {
     SCOPED_TRACE(study);
     ASSERT_EQ(sizes.size(), 3u) << "quick, medium and full";
-    const json full = without_size(sizes.at("full"));
+    const json full = WithoutSize(sizes.at("full"));
     for (const char* size : {"quick", "medium"}) {
-      const json other = without_size(sizes.at(size));
+      const json other = WithoutSize(sizes.at(size));
       EXPECT_EQ(other, full) << size << " differs from full beyond its size: " << json::diff(full, other).dump();
     }
     const std::string cost = sizes.at("full").value("description", "");

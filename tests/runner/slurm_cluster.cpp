@@ -137,7 +137,7 @@ void SlurmCluster::Start(const Options& options) {
                                   "--seed-file=" + (dir_ / "munge" / "seed").string()},
                                  dir_ / "munge" / "munged.out"));
   if (!WaitFor([&] { return fs::exists(sock) || Exited(daemons_.back()); }, 20) || !fs::exists(sock)) {
-    throw std::runtime_error("munged did not create its socket\n" + log_tails());
+    throw std::runtime_error("munged did not create its socket\n" + LogTails());
   }
 
   const auto node = Sh("/usr/sbin/slurmd -C");
@@ -177,10 +177,10 @@ void SlurmCluster::Start(const Options& options) {
        << node_line << " NodeAddr=127.0.0.1\n"
        << "PartitionName=debug Nodes=ALL Default=YES MaxTime=INFINITE State=UP\n";
   std::ofstream(dir_ / "slurm.conf") << text.str();
-  setenv("SLURM_CONF", conf().c_str(), 1);
+  setenv("SLURM_CONF", Conf().c_str(), 1);
 
-  daemons_.push_back(StartDaemon({"/usr/sbin/slurmctld", "-D", "-i", "-f", conf()}, dir_ / "slurmctld.out"));
-  daemons_.push_back(StartDaemon({"/usr/sbin/slurmd", "-D", "-f", conf()}, dir_ / "slurmd.out"));
+  daemons_.push_back(StartDaemon({"/usr/sbin/slurmctld", "-D", "-i", "-f", Conf()}, dir_ / "slurmctld.out"));
+  daemons_.push_back(StartDaemon({"/usr/sbin/slurmd", "-D", "-f", Conf()}, dir_ / "slurmd.out"));
   const bool idle = WaitFor(
       [&] {
         for (pid_t pid : daemons_) {
@@ -192,7 +192,7 @@ void SlurmCluster::Start(const Options& options) {
       30);
   const auto r = Sh("sinfo -h -o %T");
   if (!idle || r.output.find("idle") == std::string::npos) {
-    throw std::runtime_error("the node did not become idle (sinfo: " + r.output + ")\n" + log_tails());
+    throw std::runtime_error("the node did not become idle (sinfo: " + r.output + ")\n" + LogTails());
   }
 }
 
@@ -239,7 +239,7 @@ void SlurmCluster::Stop() {
   }
 }
 
-std::string SlurmCluster::log_tails() const {
+std::string SlurmCluster::LogTails() const {
   std::string out;
   for (const char* log : {"munge/munged.log", "munge/munged.out", "slurmctld.log", "slurmctld.out", "slurmd.log", "slurmd.out"}) {
     const std::string tail = TailOfFile(dir_ / log, 15);

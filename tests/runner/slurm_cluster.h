@@ -33,10 +33,10 @@ class SlurmCluster {
   SlurmCluster(const SlurmCluster&) = delete;
   SlurmCluster& operator=(const SlurmCluster&) = delete;
 
-  const std::filesystem::path& dir() const { return dir_; }
-  std::string conf() const { return (dir_ / "slurm.conf").string(); }
+  const std::filesystem::path& Dir() const { return dir_; }
+  std::string Conf() const { return (dir_ / "slurm.conf").string(); }
   // The last lines of the daemons' logs, for failure messages.
-  std::string log_tails() const;
+  std::string LogTails() const;
 
  private:
   void Start(const Options& options);

@@ -56,7 +56,7 @@ class FakeSqueueTest : public ::testing::Test {
     s.campaign = std::string(1, 't');
     s.max_array_size = 10;
     s.options.poll_interval = 0.01;
-    return make_slurm_executor(s);
+    return MakeSlurmExecutor(s);
   }
   Launch Adopted(const std::string& job_id) {
     Launch l;
@@ -74,49 +74,49 @@ class FakeSqueueTest : public ::testing::Test {
 TEST_F(FakeSqueueTest, AQueueThatDoesNotAnswerProvesNothing) {
   Answer("fail");
   auto executor = Make();
-  executor->attach(Adopted("77"));
+  executor->Attach(Adopted("77"));
   // Many polls, squeue failing each time: the run is neither ended nor forgotten.
   ASSERT_TRUE(WaitFor([&] {
-    EXPECT_TRUE(executor->poll().empty());
+    EXPECT_TRUE(executor->Poll().empty());
     return Calls() >= 5;
   }, 30));
-  EXPECT_EQ(executor->active(), 1u);
+  EXPECT_EQ(executor->Active(), 1u);
   // Once squeue says the job is gone, the run directory decides: no task record, so its task
   // never started, and the run continues elsewhere.
   Answer("gone");
   std::vector<Finished> ended;
   ASSERT_TRUE(WaitFor([&] {
-    ended = executor->poll();
+    ended = executor->Poll();
     return !ended.empty();
   }, 30));
   ASSERT_EQ(ended.size(), 1u);
   EXPECT_NE(ended[0].signal, 0);
   EXPECT_EQ(ended[0].how, "Slurm task 77_0 left the queue before its engine started; it continues from its checkpoint");
-  EXPECT_EQ(executor->active(), 0u);
+  EXPECT_EQ(executor->Active(), 0u);
 }
 
 TEST_F(FakeSqueueTest, AJobWhoseIdWasNeverRecordedIsFoundByItsNameOnceSqueueAnswers) {
   Answer("fail");
   auto executor = Make();
-  EXPECT_EQ(executor->attach(Adopted("")).job_id, "");  // not found yet: squeue did not answer
+  EXPECT_EQ(executor->Attach(Adopted("")).job_id, "");  // not found yet: squeue did not answer
   ASSERT_TRUE(WaitFor([&] {
-    EXPECT_TRUE(executor->poll().empty());
+    EXPECT_TRUE(executor->Poll().empty());
     return Calls() >= 3;
   }, 30));
-  EXPECT_TRUE(executor->queue_changes().empty());
+  EXPECT_TRUE(executor->QueueChanges().empty());
   Answer("running");
   ASSERT_TRUE(WaitFor([&] {
-    executor->poll();
-    const auto changes = executor->queue_changes();
+    executor->Poll();
+    const auto changes = executor->QueueChanges();
     return changes.count("r1") && changes.at("r1").job_id == "77";
   }, 30));
   // RUNNING: watched, not ended.
   const int calls = Calls();
   ASSERT_TRUE(WaitFor([&] {
-    EXPECT_TRUE(executor->poll().empty());
+    EXPECT_TRUE(executor->Poll().empty());
     return Calls() >= calls + 3;
   }, 30));
-  EXPECT_EQ(executor->active(), 1u);
+  EXPECT_EQ(executor->Active(), 1u);
 }
 
 // How a task that left the queue ended, from its state and its run directory.
@@ -127,7 +127,7 @@ TEST(SlurmTaskEnd, EveryVerdictFromTheStateAndTheRunDirectory) {
     std::ofstream(dir / rundir::kSlurmTaskFile) << R"({"job": ")" << job << R"(", "node": "n1", "started_at": 100)" << end << "}";
   };
   const auto end = [&](const std::string& state, double time_limit = 0) {
-    return slurm_task_end("r", dir.string(), place, state, time_limit, "1:00:00");
+    return SlurmTaskEnd("r", dir.string(), place, state, time_limit, "1:00:00");
   };
   record("7_2", R"(, "exit_code": 3, "ended_at": 110)");
   Finished f = end("FAILED");
@@ -140,7 +140,7 @@ TEST(SlurmTaskEnd, EveryVerdictFromTheStateAndTheRunDirectory) {
   f = end("FAILED");
   EXPECT_EQ(f.exit_code, kExitRunDirectoryBusy);
   EXPECT_EQ(f.signal, 0);
-  EXPECT_EQ(end_state_of(f, false, 0, (dir / "engine.log").string()).first, RunState::kInterrupted);
+  EXPECT_EQ(EndStateOf(f, false, 0, (dir / "engine.log").string()).first, RunState::kInterrupted);
   record("7_2", R"(, "exit_code": 124, "ended_at": 160)");
   f = end("FAILED", 60);
   EXPECT_TRUE(f.timed_out);

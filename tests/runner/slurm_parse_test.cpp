@@ -19,30 +19,30 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 TEST(SlurmArraySpec, RangesWhereConsecutiveAndTheThrottle) {
-  EXPECT_EQ(array_spec({0, 1, 2, 5, 7, 8}, 0), "0-2,5,7-8");
-  EXPECT_EQ(array_spec({0, 1, 2, 3}, 2), "0-3%2");
-  EXPECT_EQ(array_spec({4}, 0), "4");
-  EXPECT_EQ(array_spec({3, 17}, 8), "3,17%8");
+  EXPECT_EQ(ArraySpec({0, 1, 2, 5, 7, 8}, 0), "0-2,5,7-8");
+  EXPECT_EQ(ArraySpec({0, 1, 2, 3}, 2), "0-3%2");
+  EXPECT_EQ(ArraySpec({4}, 0), "4");
+  EXPECT_EQ(ArraySpec({3, 17}, 8), "3,17%8");
 }
 
 TEST(SlurmManifest, RoundTripsAndRefusesTabsInFields) {
   const std::vector<ManifestEntry> entries = {{0, "aa11", "native", "/opt/g/granary-engine", "/data/c/runs/aa11"},
                                               {1, "bb22", "liggghts", "/opt/g/granary-liggghts", "/data/my runs/bb22"}};
-  const std::string text = manifest_text(entries);
+  const std::string text = ManifestText(entries);
   EXPECT_EQ(text,
             "# index\trun_id\tengine\texecutable\trun_dir\n"
             "0\taa11\tnative\t/opt/g/granary-engine\t/data/c/runs/aa11\n"
             "1\tbb22\tliggghts\t/opt/g/granary-liggghts\t/data/my runs/bb22\n");
-  const auto back = parse_manifest(text);
+  const auto back = ParseManifest(text);
   ASSERT_EQ(back.size(), 2u);
   EXPECT_EQ(back[1].run_dir, "/data/my runs/bb22");
   EXPECT_EQ(back[1].engine, "liggghts");
-  EXPECT_THROW(manifest_text({{0, "x", "native", "/a", "/b\tc"}}), std::invalid_argument);
-  EXPECT_THROW(parse_manifest("0\tx\tnative\n"), std::invalid_argument);
+  EXPECT_THROW(ManifestText({{0, "x", "native", "/a", "/b\tc"}}), std::invalid_argument);
+  EXPECT_THROW(ParseManifest("0\tx\tnative\n"), std::invalid_argument);
 }
 
 TEST(SlurmSqueue, ParsesArrayTasksPlainJobsAndSkipsNoise) {
-  const auto entries = parse_squeue(
+  const auto entries = ParseSqueue(
       "12|3|PENDING|0|granary-t-0001|JobArrayTaskLimit\n"
       "12|0|RUNNING|1795468828|granary-t-0001|None\n"
       "15|N/A|COMPLETED|1795468830|other|None\n"
@@ -61,49 +61,49 @@ TEST(SlurmSqueue, ParsesArrayTasksPlainJobsAndSkipsNoise) {
 }
 
 TEST(SlurmConfig, MaxArraySizeFromShowConfig) {
-  EXPECT_EQ(parse_max_array_size("Configuration data as of 2026-11-23T21:20:11\n"
+  EXPECT_EQ(ParseMaxArraySize("Configuration data as of 2026-11-23T21:20:11\n"
                                  "MailType                = (null)\n"
                                  "MaxArraySize            = 4\n"
                                  "MaxJobCount             = 10000\n"),
             4);
-  EXPECT_EQ(parse_max_array_size("MaxJobCount = 10000\n"), 1001);
+  EXPECT_EQ(ParseMaxArraySize("MaxJobCount = 10000\n"), 1001);
 }
 
 TEST(SlurmStates, EveryStateTheIssueNamesMapsOntoARunState) {
-  EXPECT_EQ(fate_of("PENDING"), TaskFate::kQueued);
-  EXPECT_EQ(fate_of("REQUEUED"), TaskFate::kQueued);
-  EXPECT_EQ(fate_of("CONFIGURING"), TaskFate::kQueued);
-  EXPECT_EQ(fate_of("RUNNING"), TaskFate::kRunning);
-  EXPECT_EQ(fate_of("COMPLETING"), TaskFate::kRunning);
-  EXPECT_EQ(fate_of("SUSPENDED"), TaskFate::kRunning);
-  EXPECT_EQ(fate_of("COMPLETED"), TaskFate::kCompleted);
-  EXPECT_EQ(fate_of("FAILED"), TaskFate::kFailed);
-  EXPECT_EQ(fate_of("OUT_OF_MEMORY"), TaskFate::kFailed);
-  EXPECT_EQ(fate_of("TIMEOUT"), TaskFate::kTimedOut);
-  EXPECT_EQ(fate_of("PREEMPTED"), TaskFate::kLost);
-  EXPECT_EQ(fate_of("NODE_FAIL"), TaskFate::kLost);
-  EXPECT_EQ(fate_of("CANCELLED"), TaskFate::kLost);
-  EXPECT_EQ(fate_of("CANCELLED+"), TaskFate::kLost);
-  EXPECT_EQ(fate_of("BOOT_FAIL"), TaskFate::kLost);
-  EXPECT_EQ(fate_of("SOMETHING_NEW"), TaskFate::kRunning);  // never resubmit what we do not understand
-  EXPECT_TRUE(is_queued_or_running(fate_of("PENDING")));
-  EXPECT_FALSE(is_queued_or_running(fate_of("TIMEOUT")));
+  EXPECT_EQ(FateOf("PENDING"), TaskFate::kQueued);
+  EXPECT_EQ(FateOf("REQUEUED"), TaskFate::kQueued);
+  EXPECT_EQ(FateOf("CONFIGURING"), TaskFate::kQueued);
+  EXPECT_EQ(FateOf("RUNNING"), TaskFate::kRunning);
+  EXPECT_EQ(FateOf("COMPLETING"), TaskFate::kRunning);
+  EXPECT_EQ(FateOf("SUSPENDED"), TaskFate::kRunning);
+  EXPECT_EQ(FateOf("COMPLETED"), TaskFate::kCompleted);
+  EXPECT_EQ(FateOf("FAILED"), TaskFate::kFailed);
+  EXPECT_EQ(FateOf("OUT_OF_MEMORY"), TaskFate::kFailed);
+  EXPECT_EQ(FateOf("TIMEOUT"), TaskFate::kTimedOut);
+  EXPECT_EQ(FateOf("PREEMPTED"), TaskFate::kLost);
+  EXPECT_EQ(FateOf("NODE_FAIL"), TaskFate::kLost);
+  EXPECT_EQ(FateOf("CANCELLED"), TaskFate::kLost);
+  EXPECT_EQ(FateOf("CANCELLED+"), TaskFate::kLost);
+  EXPECT_EQ(FateOf("BOOT_FAIL"), TaskFate::kLost);
+  EXPECT_EQ(FateOf("SOMETHING_NEW"), TaskFate::kRunning);  // never resubmit what we do not understand
+  EXPECT_TRUE(IsQueuedOrRunning(FateOf("PENDING")));
+  EXPECT_FALSE(IsQueuedOrRunning(FateOf("TIMEOUT")));
 }
 
 TEST(SlurmTime, FormatsAndRecognisesSlurmTimes) {
-  EXPECT_EQ(slurm_time(3600), "0-01:00:00");
-  EXPECT_EQ(slurm_time(61), "0-00:02:00");
-  EXPECT_EQ(slurm_time(0.5), "0-00:01:00");
-  EXPECT_EQ(slurm_time(90000), "1-01:00:00");
+  EXPECT_EQ(SlurmTime(3600), "0-01:00:00");
+  EXPECT_EQ(SlurmTime(61), "0-00:02:00");
+  EXPECT_EQ(SlurmTime(0.5), "0-00:01:00");
+  EXPECT_EQ(SlurmTime(90000), "1-01:00:00");
   for (const char* good : {"30", "30:00", "4:00:00", "1-12", "1-12:30", "2-00:00:00", "UNLIMITED"}) {
-    EXPECT_TRUE(is_slurm_time(good)) << good;
+    EXPECT_TRUE(IsSlurmTime(good)) << good;
   }
-  for (const char* bad : {"", "1h", "4:00:00:00", "-1", "1-", "abc"}) EXPECT_FALSE(is_slurm_time(bad)) << bad;
+  for (const char* bad : {"", "1h", "4:00:00:00", "-1", "1-", "abc"}) EXPECT_FALSE(IsSlurmTime(bad)) << bad;
 }
 
 TEST(SlurmOptions, ExecutorBlockErrorsNameThePath) {
   SlurmOptions o;
-  EXPECT_EQ(parse_executor_block(json{{"type", "slurm"}, {"partition", "short"}, {"time", "2:00:00"},
+  EXPECT_EQ(ParseExecutorBlock(json{{"type", "slurm"}, {"partition", "short"}, {"time", "2:00:00"},
                                       {"cpus_per_run", 4}, {"array_max", 50}, {"sbatch_args", {"--qos=long"}}},
                                  "/executor", o),
             "slurm");
@@ -115,7 +115,7 @@ TEST(SlurmOptions, ExecutorBlockErrorsNameThePath) {
   const auto error = [](const json& block) {
     SlurmOptions unused;
     try {
-      parse_executor_block(block, "/executor", unused);
+      ParseExecutorBlock(block, "/executor", unused);
     } catch (const SpecError& e) {
       return std::string(e.what());
     }
@@ -132,10 +132,10 @@ TEST(SlurmOptions, ExecutorBlockErrorsNameThePath) {
 
 TEST(SlurmOptions, CampaignSpecCarriesAValidatedExecutorBlock) {
   const json block = {{"type", "slurm"}, {"array_max", 8}};
-  EXPECT_EQ(CampaignSpec::from_json(json{{"name", "t"}, {"executor", block}}).executor, block);
-  EXPECT_TRUE(CampaignSpec::from_json(json{{"name", "t"}}).executor.is_null());
+  EXPECT_EQ(CampaignSpec::FromJson(json{{"name", "t"}, {"executor", block}}).executor, block);
+  EXPECT_TRUE(CampaignSpec::FromJson(json{{"name", "t"}}).executor.is_null());
   try {
-    CampaignSpec::from_json(json{{"name", "t"}, {"executor", {{"type", "pbs"}}}});
+    CampaignSpec::FromJson(json{{"name", "t"}, {"executor", {{"type", "pbs"}}}});
     ADD_FAILURE() << "no error";
   } catch (const SpecError& e) {
     EXPECT_EQ(std::string(e.what()), "/executor/type: must be \"local\" or \"slurm\" (got \"pbs\")");
@@ -143,19 +143,19 @@ TEST(SlurmOptions, CampaignSpecCarriesAValidatedExecutorBlock) {
 }
 
 TEST(SlurmTaskRecord, ParsesStartAndEnd) {
-  auto r = parse_task_record(R"({"job": "12_3", "run_id": "ab", "node": "n1", "started_at": 100})");
+  auto r = ParseTaskRecord(R"({"job": "12_3", "run_id": "ab", "node": "n1", "started_at": 100})");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->job, "12_3");
   EXPECT_FALSE(r->exit_code);
-  r = parse_task_record(R"({"job": "12_3", "node": "n1", "started_at": 100, "exit_code": 124, "ended_at": 160})");
+  r = ParseTaskRecord(R"({"job": "12_3", "node": "n1", "started_at": 100, "exit_code": 124, "ended_at": 160})");
   ASSERT_TRUE(r);
   EXPECT_EQ(*r->exit_code, 124);
-  EXPECT_TRUE(ended_by_time_limit(*r, 60));
-  EXPECT_FALSE(ended_by_time_limit(*r, 0));
+  EXPECT_TRUE(EndedByTimeLimit(*r, 60));
+  EXPECT_FALSE(EndedByTimeLimit(*r, 0));
   r->exit_code = 137;
-  EXPECT_TRUE(ended_by_time_limit(*r, 60));
-  EXPECT_FALSE(ended_by_time_limit(*r, 600));  // killed by something else before the limit
-  EXPECT_FALSE(parse_task_record("{\"job\": "));
+  EXPECT_TRUE(EndedByTimeLimit(*r, 60));
+  EXPECT_FALSE(EndedByTimeLimit(*r, 600));  // killed by something else before the limit
+  EXPECT_FALSE(ParseTaskRecord("{\"job\": "));
 }
 
 class SlurmScriptTest : public ::testing::Test {
@@ -176,7 +176,7 @@ class SlurmScriptTest : public ::testing::Test {
   }
   // Writes the manifest and the script, then runs the script as Slurm would run task 1.
   testing::Result RunTask(double time_limit) {
-    std::ofstream(dir_ / "manifest.tsv") << manifest_text({{0, "r0", "native", "/nonexistent", "/nonexistent"},
+    std::ofstream(dir_ / "manifest.tsv") << ManifestText({{0, "r0", "native", "/nonexistent", "/nonexistent"},
                                                            {1, "r1", "native", testing::FakeEngine(), run_dir_.string()}});
     BatchJob job;
     job.job_name = "granary-t-0001";
@@ -186,7 +186,7 @@ class SlurmScriptTest : public ::testing::Test {
     job.engine = "native";
     job.time_limit = time_limit;
     job.options.cpus_per_run = 2;
-    std::ofstream(dir_ / "job.sh") << batch_script(job);
+    std::ofstream(dir_ / "job.sh") << BatchScript(job);
     return testing::Sh("env SLURM_ARRAY_JOB_ID=77 SLURM_ARRAY_TASK_ID=1 SLURM_CPUS_PER_TASK=2 bash " +
                        (dir_ / "job.sh").string());
   }
@@ -206,7 +206,7 @@ TEST_F(SlurmScriptTest, HeaderCarriesTheOptions) {
   job.options.account = "proj7";
   job.options.cpus_per_run = 4;
   job.options.sbatch_args = {"--qos=long", "--mem-per-cpu=2G"};
-  const std::string s = batch_script(job);
+  const std::string s = BatchScript(job);
   const std::string header =
       "#SBATCH --job-name=granary-t-0002\n#SBATCH --array=3,17%8\n#SBATCH --ntasks=4\n#SBATCH --cpus-per-task=1\n"
       "#SBATCH --output=/data/c/slurm/t-0002/logs/%A_%a.out\n#SBATCH --partition=short\n#SBATCH --account=proj7\n"
@@ -216,8 +216,8 @@ TEST_F(SlurmScriptTest, HeaderCarriesTheOptions) {
   EXPECT_NE(s.find("srun --mpi=pmix"), std::string::npos);
   job.options.time = "4:00:00";
   job.engine = "native";
-  EXPECT_NE(batch_script(job).find("#SBATCH --ntasks=1\n#SBATCH --cpus-per-task=4\n"), std::string::npos);
-  EXPECT_NE(batch_script(job).find("#SBATCH --time=4:00:00\n"), std::string::npos);
+  EXPECT_NE(BatchScript(job).find("#SBATCH --ntasks=1\n#SBATCH --cpus-per-task=4\n"), std::string::npos);
+  EXPECT_NE(BatchScript(job).find("#SBATCH --time=4:00:00\n"), std::string::npos);
 }
 
 TEST_F(SlurmScriptTest, TaskRunsItsRunAndRecordsTheExit) {
@@ -226,7 +226,7 @@ TEST_F(SlurmScriptTest, TaskRunsItsRunAndRecordsTheExit) {
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_TRUE(fs::exists(run_dir_ / "DONE"));
   EXPECT_NE(testing::ReadFile(run_dir_ / "engine.log").find("progress phase=discharge fraction=1"), std::string::npos);
-  const auto record = parse_task_record(testing::ReadFile(run_dir_ / "slurm-task.json"));
+  const auto record = ParseTaskRecord(testing::ReadFile(run_dir_ / "slurm-task.json"));
   ASSERT_TRUE(record);
   EXPECT_EQ(record->job, "77_1");
   ASSERT_TRUE(record->exit_code);
@@ -238,7 +238,7 @@ TEST_F(SlurmScriptTest, FailingEngineExitStatusIsRecorded) {
   WriteRun(13);  // the fake engine fails with status 3
   const auto r = RunTask(0);
   EXPECT_EQ(r.code, 3) << r.output;
-  const auto record = parse_task_record(testing::ReadFile(run_dir_ / "slurm-task.json"));
+  const auto record = ParseTaskRecord(testing::ReadFile(run_dir_ / "slurm-task.json"));
   ASSERT_TRUE(record && record->exit_code);
   EXPECT_EQ(*record->exit_code, 3);
   EXPECT_NE(testing::ReadFile(run_dir_ / "engine.log").find("deliberate failure"), std::string::npos);
@@ -248,20 +248,20 @@ TEST_F(SlurmScriptTest, TimeLimitCountsFromTheTaskStart) {
   WriteRun(666);  // the fake engine hangs
   const auto r = RunTask(0.3);
   EXPECT_EQ(r.code, 124) << r.output;
-  const auto record = parse_task_record(testing::ReadFile(run_dir_ / "slurm-task.json"));
+  const auto record = ParseTaskRecord(testing::ReadFile(run_dir_ / "slurm-task.json"));
   ASSERT_TRUE(record);
-  EXPECT_TRUE(ended_by_time_limit(*record, 0.3));
+  EXPECT_TRUE(EndedByTimeLimit(*record, 0.3));
 }
 
 TEST_F(SlurmScriptTest, UnknownIndexFailsWithAMessage) {
   WriteRun(20);
-  std::ofstream(dir_ / "manifest.tsv") << manifest_text({});
+  std::ofstream(dir_ / "manifest.tsv") << ManifestText({});
   BatchJob job;
   job.array = "0";
   job.manifest = (dir_ / "manifest.tsv").string();
   job.log_dir = (dir_ / "logs").string();
   job.engine = "native";
-  std::ofstream(dir_ / "job.sh") << batch_script(job);
+  std::ofstream(dir_ / "job.sh") << BatchScript(job);
   const auto r = testing::Sh("env SLURM_ARRAY_JOB_ID=77 SLURM_ARRAY_TASK_ID=5 bash " + (dir_ / "job.sh").string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("granary: array index 5 is not in " + job.manifest), std::string::npos) << r.output;

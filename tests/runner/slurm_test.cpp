@@ -42,11 +42,11 @@ TEST(SlurmClusterTest, RunsAnArrayAndReportsAFailedTask) {
   std::ofstream(script) << "#!/bin/bash\necho \"$SLURM_ARRAY_TASK_ID\" > " << dir.string()
                         << "/out.$SLURM_ARRAY_TASK_ID\nexit $((SLURM_ARRAY_TASK_ID == 2 ? 7 : 0))\n";
   const auto submitted = Sh("sbatch --parsable --array=0-2%2 -o /dev/null " + script.string());
-  ASSERT_EQ(submitted.code, 0) << submitted.output << cluster.log_tails();
+  ASSERT_EQ(submitted.code, 0) << submitted.output << cluster.LogTails();
   const std::string job = submitted.output.substr(0, submitted.output.find_first_of(";\n"));
   const auto states = [&] { return Sh("squeue -h -r -t all -j " + job + " -o '%i %T' | sort").output; };
   EXPECT_TRUE(WaitFor([&] { return states() == job + "_0 COMPLETED\n" + job + "_1 COMPLETED\n" + job + "_2 FAILED\n"; }, 60))
-      << states() << cluster.log_tails();
+      << states() << cluster.LogTails();
   for (int i = 0; i < 3; ++i) EXPECT_EQ(ReadFile(dir / ("out." + std::to_string(i))), std::to_string(i) + "\n");
   EXPECT_NE(Sh("scontrol show job " + job + "_2").output.find("ExitCode=7:0"), std::string::npos);
   fs::remove_all(dir);
@@ -134,7 +134,7 @@ class SlurmCampaignTest : public ::testing::Test {
           return true;
         },
         60))
-        << cluster_->log_tails();
+        << cluster_->LogTails();
     return jobs;
   }
   std::unique_ptr<SlurmCluster> cluster_;
@@ -144,7 +144,7 @@ class SlurmCampaignTest : public ::testing::Test {
 TEST_F(SlurmCampaignTest, SmallCampaignRunsToDoneAsArrays) {
   Plan({4, 6}, 2);
   const auto r = Sh(RunCmd("--array-max 2"));
-  ASSERT_EQ(r.code, 0) << r.output << cluster_->log_tails();
+  ASSERT_EQ(r.code, 0) << r.output << cluster_->LogTails();
   EXPECT_EQ(testing::CountLines(r.output, "submitted"), 1) << r.output;  // one array
   const json s = Status();
   EXPECT_EQ(s["counts"]["done"], 4) << s.dump(2);
@@ -156,7 +156,7 @@ TEST_F(SlurmCampaignTest, SmallCampaignRunsToDoneAsArrays) {
     const std::string job = run["job"];
     arrays.insert(job.substr(0, job.find('_')));
     // The task recorded itself in the run directory, and Slurm agrees it completed.
-    const auto record = parse_task_record(ReadFile(fs::path(run["run_dir"].get<std::string>()) / "slurm-task.json"));
+    const auto record = ParseTaskRecord(ReadFile(fs::path(run["run_dir"].get<std::string>()) / "slurm-task.json"));
     ASSERT_TRUE(record && record->exit_code);
     EXPECT_EQ(record->job, job);
     EXPECT_EQ(*record->exit_code, 0);
@@ -190,7 +190,7 @@ TEST_F(SlurmCampaignTest, AdaptiveReplicasGoOutAsNewArrayJobs) {
                            {"report", {{"window", {{"min_events", 4}, {"start_time", 0}, {"start_fraction", 0}}}}}};
   ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
   const auto r = Sh(RunCmd());
-  ASSERT_EQ(r.code, 0) << r.output << cluster_->log_tails();
+  ASSERT_EQ(r.code, 0) << r.output << cluster_->LogTails();
   const json s = Status();
   ASSERT_TRUE(s.contains("replicas")) << s.dump(2);
   std::map<int, json> points;  // max_time -> replica progress
@@ -237,7 +237,7 @@ TEST_F(SlurmCampaignTest, CancelledTaskIsResubmittedAndContinuesFromItsCheckpoin
         return p && p->fraction >= 0.5;
       },
       60))
-      << cluster_->log_tails();
+      << cluster_->LogTails();
   const std::string task = jobs.at(victim);
   ASSERT_EQ(Sh("scancel " + task).code, 0);
   ASSERT_TRUE(WaitFor([&] { return Sh("squeue -h -t all -j " + task + " -o %T").output == "CANCELLED\n"; }, 60));
@@ -323,7 +323,7 @@ TEST_F(SlurmCampaignTest, AStalledRunnerThatLostItsLeaseRecordsNothingAndCancels
   } reap{stalled};
   const auto jobs = JobsOnceSubmitted();
   ASSERT_EQ(jobs.size(), 2u);
-  ASSERT_TRUE(WaitFor([&] { return Sh("squeue -h -t running -o %i").output.size() > 0; }, 60)) << cluster_->log_tails();
+  ASSERT_TRUE(WaitFor([&] { return Sh("squeue -h -t running -o %i").output.size() > 0; }, 60)) << cluster_->LogTails();
   kill(stalled, SIGSTOP);
   ASSERT_TRUE(WaitFor(
       [&] {
@@ -364,7 +364,7 @@ TEST_F(SlurmCampaignTest, NativeRunsUseThreadsAndLiggghtsRunsMpiRanksUnderSrun) 
                              {"discharge", {{"mode", "reinject"}, {"max_time", 1}, {"stop_on_clog", false}}}}}};
   ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
   const auto r = Sh(testing::Campaign() + " run --db " + Db() + " --executor slurm --cpus-per-run 2 --poll-interval 0.3");
-  ASSERT_EQ(r.code, 0) << r.output << cluster_->log_tails();
+  ASSERT_EQ(r.code, 0) << r.output << cluster_->LogTails();
   const json s = Status();
   ASSERT_EQ(s["counts"]["done"], 2) << s.dump(2);
   for (const auto& run : s["runs"]) {
@@ -387,14 +387,14 @@ TEST_F(SlurmCampaignTest, RunnerDeadInsideSbatchLeavesNothingToRunTwice) {
   Plan({4, 6}, 1);
   {
     Store store(Db());
-    const Holder me = this_process_holder();
+    const Holder me = ThisProcessHolder();
     const Holder dead{me.host + ":999999999:0", me.host, 999999999};  // a pid that does not exist
     SlurmSettings settings;
     settings.root = (dir_ / "slurm").string();
     settings.campaign = "t";
-    auto executor = make_slurm_executor(settings);
+    auto executor = MakeSlurmExecutor(settings);
     for (int i = 0; i < 2; ++i) {
-      auto row = claim_next(store, dead, now_seconds(), nullptr, {});
+      auto row = ClaimNext(store, dead, NowSeconds(), nullptr, {});
       ASSERT_TRUE(row);
       rundir::WriteRunSpec(row->run_dir, row->params);
       Launch l;
@@ -402,20 +402,20 @@ TEST_F(SlurmCampaignTest, RunnerDeadInsideSbatchLeavesNothingToRunTwice) {
       l.argv = {testing::FakeEngine(), "run", row->run_dir, "--threads", "1"};
       l.engine = row->engine;
       l.run_dir = row->run_dir;
-      executor->start(l);
+      executor->Start(l);
       // The first run goes into an array that is submitted, the second into one that is not.
-      const auto placed = executor->place();
+      const auto placed = executor->Place();
       ASSERT_EQ(placed.size(), 1u);
-      record_job_array(store, dead, placed[0], now_seconds());
+      RecordJobArray(store, dead, placed[0], NowSeconds());
       if (i == 0) {
-        const auto submitted = executor->submit();
+        const auto submitted = executor->Submit();
         ASSERT_EQ(submitted.size(), 1u);
         ASSERT_TRUE(submitted[0].error.empty()) << submitted[0].error;
       }
     }
   }
   const auto r = Sh(RunCmd());
-  ASSERT_EQ(r.code, 0) << r.output << cluster_->log_tails();
+  ASSERT_EQ(r.code, 0) << r.output << cluster_->LogTails();
   EXPECT_NE(r.output.find("2 run(s) already in the queue: watching them again"), std::string::npos) << r.output;
   EXPECT_EQ(testing::CountLines(r.output, "submitted"), 1) << r.output;  // only the one that never was
   for (const auto& [id, run] : RunsById()) {
@@ -456,7 +456,7 @@ TEST_F(SlurmSmallArraysTest, ArrayLargerThanMaxArraySizeIsSplit) {
   EXPECT_NE(dry.output.find("7 runs in 3 array(s); MaxArraySize 3;"), std::string::npos) << dry.output;
   EXPECT_FALSE(fs::exists(dir_ / "slurm"));  // a dry run writes nothing
   const auto r = Sh(RunCmd("--array-max 2"));
-  ASSERT_EQ(r.code, 0) << r.output << cluster_->log_tails();
+  ASSERT_EQ(r.code, 0) << r.output << cluster_->LogTails();
   EXPECT_EQ(testing::CountLines(r.output, "submitted"), 3) << r.output;
   std::map<std::string, int> runs_per_array;
   const json s = Status();
@@ -473,7 +473,7 @@ TEST_F(SlurmSmallArraysTest, ArrayLargerThanMaxArraySizeIsSplit) {
   EXPECT_EQ(sizes, (std::multiset<int>{1, 3, 3}));
   // The throttle holds for the campaign: each array after the first waits for the one before.
   EXPECT_NE(r.output.find("(3 runs, --array=0-2%2)"), std::string::npos) << r.output;
-  EXPECT_EQ(parse_manifest(ReadFile(dir_ / "slurm" / "t-0003" / "manifest.tsv")).size(), 1u);
+  EXPECT_EQ(ParseManifest(ReadFile(dir_ / "slurm" / "t-0003" / "manifest.tsv")).size(), 1u);
 }
 
 TEST_F(SlurmCampaignTest, FailingEngineMarksItsRunFailedWithItsLogTail) {
@@ -505,8 +505,8 @@ TEST_F(SlurmCampaignTest, TimeLimitCountsFromTheTasksStartNotFromSubmission) {
   EXPECT_EQ(by_width[4]["state"], "failed");
   EXPECT_EQ(by_width[4]["failure"].get<std::string>().rfind("wall-time limit of 2 s exceeded", 0), 0u) << by_width[4].dump(2);
   EXPECT_EQ(by_width[6]["state"], "done") << by_width[6].dump(2);
-  const auto first = parse_task_record(ReadFile(fs::path(by_width[4]["run_dir"].get<std::string>()) / "slurm-task.json"));
-  const auto second = parse_task_record(ReadFile(fs::path(by_width[6]["run_dir"].get<std::string>()) / "slurm-task.json"));
+  const auto first = ParseTaskRecord(ReadFile(fs::path(by_width[4]["run_dir"].get<std::string>()) / "slurm-task.json"));
+  const auto second = ParseTaskRecord(ReadFile(fs::path(by_width[6]["run_dir"].get<std::string>()) / "slurm-task.json"));
   ASSERT_TRUE(first && second);
   // The second run was submitted with the first yet started after the first's limit.
   EXPECT_GE(second->started_at - first->started_at, 2);
@@ -546,7 +546,7 @@ TEST_F(SlurmCampaignTest, EachArraysTimeIsTheEstimateWithItsMarginUnlessSet) {
     return at == std::string::npos ? out : out.substr(at + 10, out.find_first_of(" \n", at) - at - 10);
   };
   const auto r = Sh(RunCmd());
-  ASSERT_EQ(r.code, 0) << r.output << cluster_->log_tails();
+  ASSERT_EQ(r.code, 0) << r.output << cluster_->LogTails();
   const std::string script = ReadFile(dir_ / "slurm" / "t-0001" / "job-1.sh");
   EXPECT_NE(script.find("#SBATCH --time=0-" + std::string(want) + "\n"), std::string::npos) << want << "\n" << script;
   const json s = Status();
@@ -555,7 +555,7 @@ TEST_F(SlurmCampaignTest, EachArraysTimeIsTheEstimateWithItsMarginUnlessSet) {
   // Set by the user: that time, whatever the estimate.
   plan_widths({20, 30});
   const auto set = Sh(RunCmd("--time 7:00"));
-  ASSERT_EQ(set.code, 0) << set.output << cluster_->log_tails();
+  ASSERT_EQ(set.code, 0) << set.output << cluster_->LogTails();
   EXPECT_NE(ReadFile(dir_ / "slurm" / "t-0002" / "job-1.sh").find("#SBATCH --time=7:00\n"), std::string::npos);
   int checked = 0;
   const json after = Status();
@@ -579,13 +579,13 @@ TEST_F(SlurmCampaignTest, ScanAgreesWithTheDatabaseAndCollectsADetachedCampaign)
   ASSERT_TRUE(WaitFor(
       [&] {
         for (const auto& run : s["runs"]) {
-          const auto rec = parse_task_record(ReadFile(fs::path(run["run_dir"].get<std::string>()) / "slurm-task.json"));
+          const auto rec = ParseTaskRecord(ReadFile(fs::path(run["run_dir"].get<std::string>()) / "slurm-task.json"));
           if (!rec || !rec->exit_code) return false;
         }
         return true;
       },
       60))
-      << cluster_->log_tails();
+      << cluster_->LogTails();
   EXPECT_EQ(Status()["counts"]["running"], 4);  // the database does not know yet
   auto scan = Sh(Cmd("scan --json"));
   ASSERT_EQ(scan.code, 0) << scan.output;

@@ -45,7 +45,7 @@ Args Parse(const std::vector<std::string>& argv, const std::vector<FlagSpec>& kn
     }
     auto it = std::find_if(known.begin(), known.end(), [&](const FlagSpec& f) { return f.name == name; });
     if (it == known.end()) {
-      const std::string best = nearest(name, names);
+      const std::string best = Nearest(name, names);
       throw UsageError("campaign " + verb + ": unknown flag --" + name +
                        (best.empty() ? "" : "; did you mean --" + best + "?") + " (see campaign " + verb + " --help)");
     }
@@ -60,7 +60,7 @@ Args Parse(const std::vector<std::string>& argv, const std::vector<FlagSpec>& kn
 
 Args Parse(const std::vector<std::string>& argv, const std::string& verb) { return Parse(argv, FlagsOf(verb), verb); }
 
-std::string DbPath(const Args& a) { return a.get("db", "granary.db"); }
+std::string DbPath(const Args& a) { return a.Get("db", "granary.db"); }
 
 fs::path DbDir(const std::string& db) {
   const fs::path p = fs::absolute(db).parent_path();
@@ -83,8 +83,8 @@ std::map<std::string, std::string> ShortAxisNames(const json& campaign_spec) {
   std::map<std::string, std::string> names;
 #ifdef GRANARY_HAVE_ANALYSIS
   try {
-    const analysis::CampaignAxes axes = analysis::CampaignAxes::of_campaign_spec(campaign_spec);
-    for (const std::string& pointer : axes.sweep()) names[pointer] = axes.short_name(pointer);
+    const analysis::CampaignAxes axes = analysis::CampaignAxes::OfCampaignSpec(campaign_spec);
+    for (const std::string& pointer : axes.Sweep()) names[pointer] = axes.ShortName(pointer);
   } catch (const std::exception&) {
     names.clear();  // plan reports what is wrong with the axes; the labels fall back to pointers
   }
@@ -142,14 +142,14 @@ std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& 
     return std::make_unique<Store>(db);
   } catch (const StoreError& e) {
     // Not a campaign database at all (a directory, another file): the user gave the wrong path.
-    if (e.code() == SQLITE_NOTADB || fs::is_directory(db)) throw UsageError("campaign " + verb + ": " + e.what());
+    if (e.Code() == SQLITE_NOTADB || fs::is_directory(db)) throw UsageError("campaign " + verb + ": " + e.what());
     throw;
   }
 }
 
 RunFilter ResolveOnly(const Args& a, const CampaignRow& campaign, const std::vector<RunRow>& runs) {
   try {
-    return resolve_filters(a.all("only"), campaign, runs);
+    return ResolveFilters(a.All("only"), campaign, runs);
   } catch (const FilterError& e) {
     throw UsageError(e.what());
   }

@@ -25,21 +25,21 @@ class UsageError : public std::runtime_error {
 };
 
 // Parsed flags of one verb: --name value, --name=value, or --name for booleans. A flag given
-// twice keeps both values (--only); get() gives the last.
+// twice keeps both values (--only); Get() gives the last.
 struct Args {
   std::vector<std::string> positional;
   std::map<std::string, std::vector<std::string>> flags;
-  bool has(const std::string& f) const { return flags.count(f) > 0; }
-  std::string get(const std::string& f, const std::string& def) const {
+  bool Has(const std::string& f) const { return flags.count(f) > 0; }
+  std::string Get(const std::string& f, const std::string& def) const {
     auto it = flags.find(f);
     return it == flags.end() ? def : it->second.back();
   }
-  std::vector<std::string> all(const std::string& f) const {
+  std::vector<std::string> All(const std::string& f) const {
     auto it = flags.find(f);
     return it == flags.end() ? std::vector<std::string>{} : it->second;
   }
-  double number(const std::string& f, double def) const {
-    if (!has(f)) return def;
+  double Number(const std::string& f, double def) const {
+    if (!Has(f)) return def;
     const std::string& v = flags.at(f).back();
     try {
       std::size_t used = 0;
@@ -50,10 +50,10 @@ struct Args {
       throw UsageError("--" + f + ": must be a number (got \"" + v + "\")");
     }
   }
-  int integer(const std::string& f, int def, int min) const {
-    const double x = number(f, def);
+  int Integer(const std::string& f, int def, int min) const {
+    const double x = Number(f, def);
     if (x != std::floor(x) || x < min || x > 1e6) {
-      throw UsageError("--" + f + ": must be an integer >= " + std::to_string(min) + " (got \"" + get(f, "") + "\")");
+      throw UsageError("--" + f + ": must be an integer >= " + std::to_string(min) + " (got \"" + Get(f, "") + "\")");
     }
     return static_cast<int>(x);
   }

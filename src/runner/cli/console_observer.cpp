@@ -50,23 +50,23 @@ class ConsoleObserver : public RunObserver {
  public:
   ConsoleObserver(std::ostream& out, bool tty, std::map<std::string, std::string> short_names)
       : out_(out), tty_(tty), short_names_(std::move(short_names)) {}
-  void on_begin(int total, int done, int failed) override {
+  void OnBegin(int total, int done, int failed) override {
     start_ = std::chrono::steady_clock::now();
     done_at_start_ = done;
     out_ << "campaign run: " << total << " runs, " << done << " done, " << failed << " failed before this run\n";
     out_.flush();
   }
-  void on_event(const std::string& run_id, const std::string& state, const std::string& message) override {
+  void OnEvent(const std::string& run_id, const std::string& state, const std::string& message) override {
     Clear();
-    if (state != to_string(RunState::kRunning)) {
+    if (state != ToString(RunState::kRunning)) {
       std::erase_if(active_, [&](const ActiveRun& a) { return a.run_id == run_id; });
-      if (state == to_string(RunState::kDone)) ++done_;
+      if (state == ToString(RunState::kDone)) ++done_;
     }
     std::string first = message.substr(0, message.find('\n'));
     std::string where;
     if (const auto it = points_.find(run_id); it != points_.end()) where = it->second + ": ";
     out_ << std::left << std::setw(12) << state << " " << (run_id.empty() ? "" : run_id + "  ") << where << first << "\n";
-    if (state == to_string(RunState::kFailed) || state == to_string(RunState::kInterrupted)) {
+    if (state == ToString(RunState::kFailed) || state == ToString(RunState::kInterrupted)) {
       const auto nl = message.find('\n');
       if (nl != std::string::npos) {
         std::istringstream tail(message.substr(nl + 1));
@@ -79,7 +79,7 @@ class ConsoleObserver : public RunObserver {
     out_.flush();
     Draw();
   }
-  void on_tick(const std::vector<ActiveRun>& active, int done, int failed, int total) override {
+  void OnTick(const std::vector<ActiveRun>& active, int done, int failed, int total) override {
     active_ = active;
     for (const ActiveRun& a : active_)
       points_[a.run_id] = CompactPoint(json::parse(a.point, nullptr, false), short_names_) + " r" + std::to_string(a.replica);
@@ -99,7 +99,7 @@ class ConsoleObserver : public RunObserver {
       out_.flush();
     }
   }
-  void on_end(int done, int failed, int total) override {
+  void OnEnd(int done, int failed, int total) override {
     Clear();
     done_ = done;
     failed_ = failed;
@@ -126,7 +126,7 @@ class ConsoleObserver : public RunObserver {
     ++lines_;
   }
   static bool IsQueued(const ActiveRun& a) {
-    return !a.queue_state.empty() && batch_queue().fate_of(a.queue_state) != TaskFate::kRunning;
+    return !a.queue_state.empty() && DefaultBatchQueue().FateOf(a.queue_state) != TaskFate::kRunning;
   }
   static int Queued(const std::vector<ActiveRun>& active) {
     return static_cast<int>(std::count_if(active.begin(), active.end(), IsQueued));
@@ -140,7 +140,7 @@ class ConsoleObserver : public RunObserver {
          << " failed, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed);
     Line(head.str());
     // Runs waiting in a batch queue get one line for all of them.
-    if (const int queued = Queued(active_); queued > 0) Line("  " + std::to_string(queued) + " queued (" + batch_queue().name() + ")");
+    if (const int queued = Queued(active_); queued > 0) Line("  " + std::to_string(queued) + " queued (" + DefaultBatchQueue().Name() + ")");
     for (const auto& a : active_) {
       if (IsQueued(a)) continue;
       const auto it = points_.find(a.run_id);

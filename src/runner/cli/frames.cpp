@@ -31,7 +31,7 @@ int Dump(const std::vector<std::string>& argv, std::ostream& out, std::ostream& 
   if (a.positional.size() != 1) throw UsageError("campaign dump: give one run directory: campaign dump RUN_DIR");
   const fs::path dir = a.positional[0];
   if (!fs::is_directory(dir)) throw UsageError("campaign dump: " + dir.string() + " is not a run directory");
-  const fs::path to = a.has("out") ? fs::path(a.get("out", "")) : dir / "text";
+  const fs::path to = a.Has("out") ? fs::path(a.Get("out", "")) : dir / "text";
   rundir::TextDumps n;
   try {
     n = rundir::WriteTextDumps(dir, to);
@@ -39,14 +39,14 @@ int Dump(const std::vector<std::string>& argv, std::ostream& out, std::ostream& 
     err << "campaign dump: " << e.what() << "\n";
     return 1;
   }
-  if (a.has("json")) {
+  if (a.Has("json")) {
     out << json{{"frames", n.frames}, {"contact_frames", n.contact_frames}, {"bytes", n.bytes}, {"out", to.string()}}.dump(2)
         << "\n";
     return 0;
   }
   out << "campaign dump: " << n.frames << " frame(s)";
   if (n.contact_frames > 0) out << " and " << n.contact_frames << " contact frame(s)";
-  out << " as text, " << human_bytes(static_cast<std::uintmax_t>(n.bytes)) << " in " << to.string() << "\n"
+  out << " as text, " << HumanBytes(static_cast<std::uintmax_t>(n.bytes)) << " in " << to.string() << "\n"
       << "  LAMMPS: read_data frames.data, then rerun frames.dump (the input in docs/run-directory.md, \"frames.data\")\n";
   return 0;
 }

@@ -49,13 +49,13 @@ const char kScanHelp[] =
 
 // scan --verify: every done run's every checksum; the damaged ones with what differs.
 int VerifyCampaign(Store& store, bool as_json, std::ostream& out, std::ostream& err, json* doc) {
-  const std::vector<RunRow> runs = load_runs(store, false);
+  const std::vector<RunRow> runs = LoadRuns(store, false);
   const bool tty = &err == &std::cerr && isatty(STDERR_FILENO);
-  const auto checks = check_done_runs(runs, rundir::VerifyLevel::kChecksums, [&](int done, int total) {
+  const auto checks = CheckDoneRuns(runs, rundir::VerifyLevel::kChecksums, [&](int done, int total) {
     if (tty) err << "\rverifying runs " << Bar(static_cast<double>(done) / std::max(1, total), 30) << " " << done << "/" << total
                  << (done == total ? "\n" : "") << std::flush;
   });
-  const IntegrityCounts counts = count_integrity(checks);
+  const IntegrityCounts counts = CountIntegrity(checks);
   if (as_json) {
     json damaged = json::array();
     for (const auto& [id, v] : checks) {
@@ -83,16 +83,16 @@ int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream& 
   const std::string db = DbPath(a);
   const auto opened = OpenCampaignDb(db, "scan");
   Store& store = *opened;
-  if (!load_campaign(store)) throw UsageError("campaign scan: " + db + " holds no campaign");
-  const ScanReport r = scan_campaign(store, batch_queue(), a.has("dry-run"));
-  if (a.has("json")) {
+  if (!LoadCampaign(store)) throw UsageError("campaign scan: " + db + " holds no campaign");
+  const ScanReport r = ScanCampaign(store, DefaultBatchQueue(), a.Has("dry-run"));
+  if (a.Has("json")) {
     json changes = json::array();
     for (const auto& c : r.changes) {
-      changes.push_back({{"run_id", c.run_id}, {"from", to_string(c.from)}, {"to", to_string(c.to)}, {"reason", c.reason}, {"written", c.written}});
+      changes.push_back({{"run_id", c.run_id}, {"from", ToString(c.from)}, {"to", ToString(c.to)}, {"reason", c.reason}, {"written", c.written}});
     }
     json doc = {{"runs", r.runs}, {"counts", r.counts}, {"agrees", r.changes.empty()}, {"changes", changes}, {"lost", r.lost}};
     if (!r.queue_error.empty()) doc["queue_error"] = r.queue_error;
-    const int code = a.has("verify") ? VerifyCampaign(store, true, out, err, &doc) : 0;
+    const int code = a.Has("verify") ? VerifyCampaign(store, true, out, err, &doc) : 0;
     out << doc.dump(2) << "\n";
     return code;
   }
@@ -106,10 +106,10 @@ int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream& 
         << "): left done, their results are in the database only (campaign run --rerun-lost runs them again)\n";
   }
   for (const auto& c : r.changes) {
-    out << "  " << c.run_id << "  " << c.from << " -> " << c.to << (c.written ? "" : a.has("dry-run") ? " (dry run)" : " (not written)")
+    out << "  " << c.run_id << "  " << c.from << " -> " << c.to << (c.written ? "" : a.Has("dry-run") ? " (dry run)" : " (not written)")
         << (c.reason.empty() ? "" : ": " + c.reason.substr(0, c.reason.find('\n'))) << "\n";
   }
-  return a.has("verify") ? VerifyCampaign(store, false, out, err, nullptr) : 0;
+  return a.Has("verify") ? VerifyCampaign(store, false, out, err, nullptr) : 0;
 }
 
 const char kCleanHelp[] =
@@ -136,22 +136,22 @@ int Clean(const std::vector<std::string>& argv, std::ostream& out, std::ostream&
   const auto opened = OpenCampaignDb(db, "clean");
   Store& store = *opened;
   CleanOptions o;
-  const bool chosen = a.has("retired") || a.has("failed") || a.has("beds") || a.has("locks") || a.has("frames");
-  o.retired = !chosen || a.has("retired");
-  o.locks = !chosen || a.has("locks");
-  o.failed = a.has("failed");
-  o.beds = a.has("beds");
-  o.frames = a.has("frames");
-  o.cache_dir = default_cache_dir();
+  const bool chosen = a.Has("retired") || a.Has("failed") || a.Has("beds") || a.Has("locks") || a.Has("frames");
+  o.retired = !chosen || a.Has("retired");
+  o.locks = !chosen || a.Has("locks");
+  o.failed = a.Has("failed");
+  o.beds = a.Has("beds");
+  o.frames = a.Has("frames");
+  o.cache_dir = DefaultCacheDir();
   // A running runner may be writing into failed runs' directories (retries).
   if (o.failed)
-    for (const RunRow& r : load_runs(store, false))
-      if (r.state == RunState::kRunning && !lease_expired(r, this_process_holder().host, now_seconds()))
+    for (const RunRow& r : LoadRuns(store, false))
+      if (r.state == RunState::kRunning && !LeaseExpired(r, ThisProcessHolder().host, NowSeconds()))
         throw UsageError("campaign clean --failed: a campaign run is running on " + db +
                          " (it retries failed runs); clean when it has finished");
   std::vector<std::string> frames_kept;
-  const std::vector<CleanItem> items = plan_clean(store, o, &frames_kept);
-  const bool dry = a.has("dry-run");
+  const std::vector<CleanItem> items = PlanClean(store, o, &frames_kept);
+  const bool dry = a.Has("dry-run");
   std::map<std::string, std::pair<int, std::uintmax_t>> by_kind;
   std::uintmax_t total = 0;
   for (const CleanItem& it : items) {
@@ -159,8 +159,8 @@ int Clean(const std::vector<std::string>& argv, std::ostream& out, std::ostream&
     by_kind[it.kind].second += it.bytes;
     total += it.bytes;
   }
-  const std::uintmax_t freed = dry ? 0 : execute_clean(store, items);
-  if (a.has("json")) {
+  const std::uintmax_t freed = dry ? 0 : ExecuteClean(store, items);
+  if (a.Has("json")) {
     json list = json::array();
     for (const CleanItem& it : items)
       list.push_back({{"kind", it.kind}, {"path", it.path.string()}, {"run_id", it.run_id}, {"bytes", it.bytes}});
@@ -182,13 +182,13 @@ int Clean(const std::vector<std::string>& argv, std::ostream& out, std::ostream&
     if (!asked) continue;
     const auto& [n, bytes] = by_kind[kind];
     out << "  " << std::left << std::setw(28) << label << std::right << std::setw(5) << n << "  " << std::setw(10)
-        << human_bytes(bytes) << "\n";
+        << HumanBytes(bytes) << "\n";
   }
   if (o.frames) {
     std::set<std::string> runs, cached;
     for (const CleanItem& it : items)
       if (it.kind == "frames" && runs.insert(it.run_id).second)
-        for (const std::string& k : cached_analyses(it.path.parent_path())) cached.insert(k);
+        for (const std::string& k : CachedAnalyses(it.path.parent_path())) cached.insert(k);
     if (!runs.empty()) {
       out << "  the reports of these " << runs.size() << " run(s) keep their cached analyses:";
       for (const std::string& k : cached) out << " " << k;
@@ -198,9 +198,9 @@ int Clean(const std::vector<std::string>& argv, std::ostream& out, std::ostream&
     for (const std::string& k : frames_kept) out << "  kept the frames of " << k << "\n";
   }
   if (dry) {
-    out << "would free " << human_bytes(total) << "\n";
+    out << "would free " << HumanBytes(total) << "\n";
   } else {
-    out << "freed " << human_bytes(freed) << "\n";
+    out << "freed " << HumanBytes(freed) << "\n";
   }
   return 0;
 }
@@ -218,12 +218,12 @@ const char kSchemaHelp[] =
 int Schema(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, "schema");
   if (!a.positional.empty()) throw UsageError("campaign schema: unexpected argument \"" + a.positional[0] + "\"");
-  const std::string text = campaign_spec_schema().dump(2) + "\n";
-  if (!a.has("out")) {
+  const std::string text = CampaignSpecSchema().dump(2) + "\n";
+  if (!a.Has("out")) {
     out << text;
     return 0;
   }
-  const std::string file = a.get("out", "");
+  const std::string file = a.Get("out", "");
   std::ofstream f(file);
   f << text;
   if (!f) throw std::runtime_error("campaign schema: cannot write " + file);

@@ -82,38 +82,38 @@ std::vector<double> NumberList(const std::string& flag, const std::string& text)
 
 analysis::CgRunOptions FieldOptions(const Args& a) {
   analysis::CgRunOptions o;
-  o.cg.width = a.number("width", o.cg.width);
-  o.cg.cutoff = a.number("cutoff", o.cg.cutoff);
-  o.cg.spacing = a.number("spacing", o.cg.spacing);
-  o.cg.min_phi = a.number("min-phi", o.cg.min_phi);
-  o.cg.threads = a.integer("threads", 0, 0);
-  if (a.has("window")) {
-    const auto w = NumberList("window", a.get("window", ""));
+  o.cg.width = a.Number("width", o.cg.width);
+  o.cg.cutoff = a.Number("cutoff", o.cg.cutoff);
+  o.cg.spacing = a.Number("spacing", o.cg.spacing);
+  o.cg.min_phi = a.Number("min-phi", o.cg.min_phi);
+  o.cg.threads = a.Integer("threads", 0, 0);
+  if (a.Has("window")) {
+    const auto w = NumberList("window", a.Get("window", ""));
     if (w.size() != 4 || !(w[1] > w[0]) || !(w[3] >= w[2]))
-      throw UsageError("--window: needs X0,X1,Y0,Y1 with X0 < X1 and Y0 <= Y1 (got \"" + a.get("window", "") + "\")");
+      throw UsageError("--window: needs X0,X1,Y0,Y1 with X0 < X1 and Y0 <= Y1 (got \"" + a.Get("window", "") + "\")");
     o.cg.window = {w[0], w[1], w[2], w[3]};
   }
-  o.t_start = a.number("from", o.t_start);
-  o.t_end = a.number("to", o.t_end);
-  o.frame_stride = a.integer("stride", 1, 1);
-  o.max_frames = a.integer("max-frames", 0, 0);
+  o.t_start = a.Number("from", o.t_start);
+  o.t_end = a.Number("to", o.t_end);
+  o.frame_stride = a.Integer("stride", 1, 1);
+  o.max_frames = a.Integer("max-frames", 0, 0);
   return o;
 }
 
 // `campaign fields --bench`: frames per second, reading alone and the fields per thread count.
 int FieldsBench(const rundir::RunData& data, const Args& a, std::ostream& out) {
   analysis::CgRunOptions o = FieldOptions(a);
-  const int repeat = a.integer("repeat", 3, 1);
+  const int repeat = a.Integer("repeat", 3, 1);
   std::vector<int> threads;
-  for (double t : NumberList("threads-list", a.get("threads-list", "1,2"))) {
+  for (double t : NumberList("threads-list", a.Get("threads-list", "1,2"))) {
     if (t < 1 || t != std::floor(t)) throw UsageError("--threads-list: thread counts are integers >= 1");
     threads.push_back(static_cast<int>(t));
   }
   const int limit = o.max_frames;
   auto read_only = [&]() {
-    rundir::FrameReader frames(data.frames_file());
+    rundir::FrameReader frames(data.FramesFile());
     std::optional<rundir::ContactReader> contacts;
-    if (data.has_contacts) contacts.emplace(data.contacts_file());
+    if (data.has_contacts) contacts.emplace(data.ContactsFile());
     rundir::Frame f;
     rundir::ContactFrame c;
     int n = 0;
@@ -129,11 +129,11 @@ int FieldsBench(const rundir::RunData& data, const Args& a, std::ostream& out) {
   int frames = 0;
   std::size_t nodes = 0, contacts_per_frame = 0, discs_per_frame = 0;
   {
-    rundir::FrameReader fr(data.frames_file());
+    rundir::FrameReader fr(data.FramesFile());
     rundir::Frame f;
     if (fr.Next(f)) discs_per_frame = f.discs.size();
     if (data.has_contacts) {
-      rundir::ContactReader cr(data.contacts_file());
+      rundir::ContactReader cr(data.ContactsFile());
       rundir::ContactFrame c;
       if (cr.Next(c)) contacts_per_frame = c.contacts.size();
     }
@@ -145,7 +145,7 @@ int FieldsBench(const rundir::RunData& data, const Args& a, std::ostream& out) {
         frames = read_only();
       } else {
         o.cg.threads = threads[static_cast<std::size_t>(&what - &order[1])];
-        const analysis::CgRunResult r = analysis::cg_fields_of_run(data, o);
+        const analysis::CgRunResult r = analysis::CgFieldsOfRun(data, o);
         frames = r.parts.front().frames;
         nodes = r.parts.front().grid.size();
       }
@@ -178,18 +178,18 @@ int Fields(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   if (!fs::is_directory(dir)) throw UsageError("campaign fields: no run directory " + dir.string());
   const rundir::RunData data = rundir::ReadRun(dir);
   if (!data.has_frames) throw UsageError("campaign fields: " + dir.string() + " has no frames.dump (output.frame_interval = 0)");
-  if (a.has("bench")) return FieldsBench(data, a, out);
+  if (a.Has("bench")) return FieldsBench(data, a, out);
   const analysis::CgRunOptions o = FieldOptions(a);
   std::vector<analysis::CgField> fields;
-  if (a.has("fields")) {
-    std::stringstream in(a.get("fields", ""));
+  if (a.Has("fields")) {
+    std::stringstream in(a.Get("fields", ""));
     std::string name;
     while (std::getline(in, name, ',')) {
       analysis::CgField f;
-      if (!analysis::cg_field_by_name(name, f)) {
+      if (!analysis::CgFieldByName(name, f)) {
         std::vector<std::string> names;
-        for (const auto& info : analysis::cg_field_table()) names.push_back(info.name);
-        const std::string best = nearest(name, names);
+        for (const auto& info : analysis::CgFieldTable()) names.push_back(info.name);
+        const std::string best = Nearest(name, names);
         throw UsageError("--fields: unknown field \"" + name + "\"" + (best.empty() ? "" : "; did you mean \"" + best + "\"?"));
       }
       fields.push_back(f);
@@ -197,43 +197,43 @@ int Fields(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   }
   analysis::CgRunResult r;
   try {
-    r = analysis::cg_fields_of_run(data, o);
+    r = analysis::CgFieldsOfRun(data, o);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("campaign fields: ") + e.what());
   }
   const analysis::CgMaps maps(r.parts.front());
   if (fields.empty())
-    for (const auto& info : analysis::cg_field_table())
-      if (maps.has(info.field)) fields.push_back(info.field);
-  const fs::path out_dir = a.has("out") ? fs::path(a.get("out", "")) : dir / "fields";
+    for (const auto& info : analysis::CgFieldTable())
+      if (maps.Has(info.field)) fields.push_back(info.field);
+  const fs::path out_dir = a.Has("out") ? fs::path(a.Get("out", "")) : dir / "fields";
   fs::create_directories(out_dir);
   json files = json::array();
   for (analysis::CgField f : fields) {
-    const auto& info = analysis::cg_field_info(f);
-    if (!maps.has(f)) throw UsageError(std::string("campaign fields: ") + info.name + " needs contacts.dump, which " +
+    const auto& info = analysis::CgFieldInfoFor(f);
+    if (!maps.Has(f)) throw UsageError(std::string("campaign fields: ") + info.name + " needs contacts.dump, which " +
                                        dir.string() + " does not have (output.contact_forces)");
     const fs::path file = out_dir / (std::string(info.name) + ".csv");
     std::ofstream csv(file);
-    csv << analysis::cg_map_csv(maps, f);
+    csv << analysis::CgMapCsv(maps, f);
     if (!csv) throw std::runtime_error("cannot write " + file.string());
     files.push_back(file.string());
   }
-  if (a.has("json")) {
+  if (a.Has("json")) {
     out << json{{"run_dir", dir.string()},
-                {"frames", maps.frames()},
-                {"contact_frames", maps.contact_frames()},
+                {"frames", maps.Frames()},
+                {"contact_frames", maps.ContactFrames()},
                 {"first_time", r.first_time},
                 {"last_time", r.last_time},
                 {"window", {r.window.x0, r.window.x1, r.window.y0, r.window.y1}},
-                {"nodes", maps.grid().size()},
+                {"nodes", maps.Grid().size()},
                 {"files", files}}
                .dump(2)
         << "\n";
   } else {
-    out << "fields of " << dir.string() << ": " << maps.frames() << " frames (t = " << r.first_time << " .. "
-        << r.last_time << "), " << maps.contact_frames() << " with contacts; window x " << r.window.x0 << " .. "
-        << r.window.x1 << ", y " << r.window.y0 << " .. " << r.window.y1 << ", " << maps.grid().nx << " x "
-        << maps.grid().ny << " nodes\n  " << files.size() << " CSV files in " << out_dir.string() << "\n";
+    out << "fields of " << dir.string() << ": " << maps.Frames() << " frames (t = " << r.first_time << " .. "
+        << r.last_time << "), " << maps.ContactFrames() << " with contacts; window x " << r.window.x0 << " .. "
+        << r.window.x1 << ", y " << r.window.y0 << " .. " << r.window.y1 << ", " << maps.Grid().nx << " x "
+        << maps.Grid().ny << " nodes\n  " << files.size() << " CSV files in " << out_dir.string() << "\n";
   }
   return 0;
 #else
@@ -284,7 +284,7 @@ fs::path ResolveRun(const std::string& verb, const std::string& run, const Args&
   const auto opened = OpenCampaignDb(db, verb);
   Store& store = *opened;
   std::vector<RunRow> found;
-  for (RunRow& r : load_runs(store, false))
+  for (RunRow& r : LoadRuns(store, false))
     if (r.run_id.rfind(run, 0) == 0) found.push_back(std::move(r));
   if (found.empty()) throw UsageError("campaign " + verb + ": no run directory or run id '" + run + "' in " + db);
   if (found.size() > 1)
@@ -296,25 +296,25 @@ fs::path ResolveRun(const std::string& verb, const std::string& run, const Args&
 render::PictureOptions PictureOptionsFrom(const std::string& verb, const Args& a) {
   render::PictureOptions o;
   int picks = 0;
-  for (const char* f : {"time", "clog", "first", "last"}) picks += a.has(f);
+  for (const char* f : {"time", "clog", "first", "last"}) picks += a.Has(f);
   if (picks > 1) throw UsageError("campaign " + verb + ": give one of --time, --clog, --first, --last");
-  if (a.has("time")) {
+  if (a.Has("time")) {
     o.pick.kind = render::FramePick::kTime;
-    o.pick.time = a.number("time", 0);
-  } else if (a.has("clog")) {
+    o.pick.time = a.Number("time", 0);
+  } else if (a.Has("clog")) {
     o.pick.kind = render::FramePick::kClog;
-    o.pick.clog = a.integer("clog", 1, 1);
-  } else if (a.has("first")) {
+    o.pick.clog = a.Integer("clog", 1, 1);
+  } else if (a.Has("first")) {
     o.pick.kind = render::FramePick::kFirst;
   }
   try {
-    o.colour = render::ColourFromName(a.get("color", "species"));
+    o.colour = render::ColourFromName(a.Get("color", "species"));
   } catch (const std::invalid_argument& e) {
     throw UsageError("campaign " + verb + ": --color: " + e.what());
   }
-  o.forces = a.has("forces");
-  if (a.has("highlight")) {
-    std::stringstream ids(a.get("highlight", ""));
+  o.forces = a.Has("forces");
+  if (a.Has("highlight")) {
+    std::stringstream ids(a.Get("highlight", ""));
     for (std::string id; std::getline(ids, id, ',');) {
       std::size_t used = 0;
       long long v = -1;
@@ -334,14 +334,14 @@ render::PictureOptions PictureOptionsFrom(const std::string& verb, const Args& a
 int Snapshot(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, "snapshot");
   if (a.positional.size() != 1) throw UsageError("campaign snapshot: needs exactly one RUN (see campaign snapshot --help)");
-  if (!a.has("out")) throw UsageError("campaign snapshot: --out FILE.png or FILE.svg is required");
-  const fs::path file = a.get("out", "");
+  if (!a.Has("out")) throw UsageError("campaign snapshot: --out FILE.png or FILE.svg is required");
+  const fs::path file = a.Get("out", "");
   const std::string ext = file.extension().string();
   if (ext != ".png" && ext != ".svg") throw UsageError("campaign snapshot: --out must end in .png or .svg, not '" + ext + "'");
 #ifdef GRANARY_HAVE_RENDER
   const render::PictureOptions o = PictureOptionsFrom("snapshot", a);
   const fs::path run = ResolveRun("snapshot", a.positional[0], a);
-  const int width = a.integer("width", 1000, 16);
+  const int width = a.Integer("width", 1000, 16);
   try {
     const render::Scene scene = render::RunScene(run, o);
     if (ext == ".svg") {
@@ -365,14 +365,14 @@ int Snapshot(const std::vector<std::string>& argv, std::ostream& out, std::ostre
 int Movie(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args a = Parse(argv, "movie");
   if (a.positional.size() != 1) throw UsageError("campaign movie: needs exactly one RUN (see campaign movie --help)");
-  if (!a.has("out")) throw UsageError("campaign movie: --out FILE.mp4 is required");
-  const fs::path file = a.get("out", "");
+  if (!a.Has("out")) throw UsageError("campaign movie: --out FILE.mp4 is required");
+  const fs::path file = a.Get("out", "");
   if (file.extension() != ".mp4") throw UsageError("campaign movie: --out must end in .mp4");
 #ifdef GRANARY_HAVE_RENDER
   const render::PictureOptions o = PictureOptionsFrom("movie", a);
   const fs::path run = ResolveRun("movie", a.positional[0], a);
-  const int width = a.integer("width", 800, 16);
-  const int fps = a.integer("fps", 20, 1);
+  const int width = a.Integer("width", 800, 16);
+  const int fps = a.Integer("fps", 20, 1);
   const bool tty = isatty(STDERR_FILENO);
   const int frames = render::WriteMovie(run, o, file, width, fps, [&](int done, int total) {
     if (!tty && done != total) return;

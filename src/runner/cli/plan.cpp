@@ -56,8 +56,8 @@ json ReadSpecFile(const std::string& verb, const std::string& spec_path) {
   std::stringstream text;
   text << in.rdbuf();
   try {
-    json spec = parse_spec_text(text.str(), spec_path);
-    resolve_spec_paths(spec, spec_path);
+    json spec = ParseSpecText(text.str(), spec_path);
+    ResolveSpecPaths(spec, spec_path);
     return spec;
   } catch (const std::invalid_argument& e) {
     throw UsageError(e.what());
@@ -65,8 +65,8 @@ json ReadSpecFile(const std::string& verb, const std::string& spec_path) {
 }
 
 std::uint64_t MaxRuns(const Args& a) {
-  if (!a.has("max-runs")) return kDefaultMaxRuns;
-  const std::string v = a.get("max-runs", "");
+  if (!a.Has("max-runs")) return kDefaultMaxRuns;
+  const std::string v = a.Get("max-runs", "");
   if (v.empty() || v.size() > 18 || v.find_first_not_of("0123456789") != std::string::npos || std::stoull(v) == 0)
     throw UsageError("--max-runs: must be a positive integer (got \"" + v + "\")");
   return std::stoull(v);
@@ -77,7 +77,7 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
 #ifdef GRANARY_HAVE_ANALYSIS
   // Coarse-grained stress fields need contact frames: the runs write them.
   try {
-    j = analysis::with_fields_output(given);
+    j = analysis::WithFieldsOutput(given);
   } catch (const std::invalid_argument& e) {
     throw UsageError(spec_path + ": " + e.what());
   }
@@ -86,23 +86,23 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
               << "frames (/base/output/contact_forces: true; the disk estimate counts them)\n";
 #endif
   try {
-    spec = CampaignSpec::from_json(j);
+    spec = CampaignSpec::FromJson(j);
   } catch (const SpecError& e) {
-    throw SpecError(e.path(), e.message() + " [" + spec_path + "]");
+    throw SpecError(e.Path(), e.Message() + " [" + spec_path + "]");
   }
 #ifdef GRANARY_HAVE_ANALYSIS
   try {
-    analysis::check_report_spec(j);
-    analysis::check_metric_references(j);
+    analysis::CheckReportSpec(j);
+    analysis::CheckMetricReferences(j);
   } catch (const std::invalid_argument& e) {
     throw UsageError(spec_path + ": " + e.what());
   }
 #endif
   std::vector<PlannedRun> runs;
   try {
-    runs = expand(spec, default_cache_dir(), max_runs, spec.replica_rule.max);
+    runs = Expand(spec, DefaultCacheDir(), max_runs, spec.replica_rule.max);
   } catch (const SpecError& e) {
-    throw SpecError(e.path(), e.message() + " [" + spec_path + "]");
+    throw SpecError(e.Path(), e.Message() + " [" + spec_path + "]");
   }
   // A dry run against a database that does not exist compares with an empty one in memory:
   // it creates no file.
@@ -114,10 +114,10 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
   }
   Store store(dry_run && !fs::exists(db) ? std::string(":memory:") : db);
   // Adaptive replicas: the first `min` per point, and those a runner added keep their place.
-  runs = with_added_replicas(store, spec, std::move(runs));
-  PlanSummary s = plan_campaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
+  runs = WithAddedReplicas(store, spec, std::move(runs));
+  PlanSummary s = PlanCampaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
   if (estimate) {
-    *estimate = estimate_runs(runs, &store, ExeDir(), jobs, true, [](const std::string& line) {
+    *estimate = EstimateRuns(runs, &store, ExeDir(), jobs, true, [](const std::string& line) {
       std::cerr << line << std::endl;
     });
   }
@@ -128,14 +128,14 @@ namespace {
 
 // The estimate under the plan: totals, then one line per point.
 void PrintEstimate(std::ostream& out, const CampaignEstimate& e, const std::map<std::string, std::string>& short_names) {
-  const bool timed = e.calibration.valid();
-  out << "estimate: " << (timed ? core_hours_text(e.core_s_low, e.core_s_high) : std::string("core-hours unknown"));
+  const bool timed = e.calibration.Valid();
+  out << "estimate: " << (timed ? CoreHoursText(e.core_s_low, e.core_s_high) : std::string("core-hours unknown"));
   if (timed) {
     out << ", wall " << Duration(e.wall_s_low);
     if (e.wall_s_high > 1.05 * e.wall_s_low) out << "-" << Duration(e.wall_s_high);
     out << " on " << e.jobs << (e.jobs == 1 ? " job" : " jobs");
   }
-  out << ", disk " << bytes_text(e.bytes_low, e.bytes_high) << "\n";
+  out << ", disk " << BytesText(e.bytes_low, e.bytes_high) << "\n";
   out << "  how: " << e.method << "\n";
   out << "  " << std::left << std::setw(44) << "point" << std::right << std::setw(6) << "runs" << "  " << std::left
       << std::setw(24) << "core-hours" << "disk\n";
@@ -144,8 +144,8 @@ void PrintEstimate(std::ostream& out, const CampaignEstimate& e, const std::map<
     if (label.empty()) label = "(base)";
     if (e.points.size() > 1 && p.engine != "native") label += " [" + p.engine + "]";
     out << "  " << std::left << std::setw(44) << label << std::right << std::setw(6) << p.runs << "  " << std::left
-        << std::setw(24) << (timed ? core_hours_text(p.core_s_low, p.core_s_high) : std::string("?"))
-        << bytes_text(p.bytes_low, p.bytes_high) << (p.open_end ? "  (ends at a clog or discharge: range)" : "") << "\n";
+        << std::setw(24) << (timed ? CoreHoursText(p.core_s_low, p.core_s_high) : std::string("?"))
+        << BytesText(p.bytes_low, p.bytes_high) << (p.open_end ? "  (ends at a clog or discharge: range)" : "") << "\n";
   }
   out << std::right;
 }
@@ -179,8 +179,8 @@ void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s
   } else {
     out << "  points " << s.points << " x replicas " << spec.replicas << " = " << s.total << " runs\n";
   }
-  if (spec.replica_rule.adaptive())
-    out << "  adaptive replicas: " << spec.replica_rule.text() << " (campaign run adds them; " << s.total
+  if (spec.replica_rule.Adaptive())
+    out << "  adaptive replicas: " << spec.replica_rule.Text() << " (campaign run adds them; " << s.total
         << " runs planned now, counting those a runner added)\n";
   out << "  added " << s.added << ", unchanged " << s.unchanged << ", revived " << s.revived << ", retired "
       << s.retired << "\n";
@@ -201,22 +201,22 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   const std::string spec_path = a.positional[0];
   CampaignSpec spec;
   std::optional<CampaignEstimate> estimate;
-  const int jobs = a.integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
-  const PlanSummary s = PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.has("dry-run"), MaxRuns(a), spec,
+  const int jobs = a.Integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
+  const PlanSummary s = PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.Has("dry-run"), MaxRuns(a), spec,
                                  &estimate, jobs);
-  if (a.has("json")) {
+  if (a.Has("json")) {
     json axes = json::object();
     for (const auto& [axis, values] : s.axis_values) axes[axis] = values;
     out << json{{"campaign", spec.name}, {"runs", s.total},         {"points", s.points},   {"replicas", spec.replicas},
                 {"engines", spec.engines}, {"added", s.added},      {"unchanged", s.unchanged}, {"revived", s.revived},
-                {"retired", s.retired},  {"axes", axes},            {"dry_run", a.has("dry-run")},
+                {"retired", s.retired},  {"axes", axes},            {"dry_run", a.Has("dry-run")},
                 {"extended", Extensions(s.extended)}, {"estimate", to_json(*estimate)},
-                {"replica_rule", spec.replica_rule.adaptive() ? json(spec.replica_rule.text()) : json(nullptr)}}
+                {"replica_rule", spec.replica_rule.Adaptive() ? json(spec.replica_rule.Text()) : json(nullptr)}}
                .dump(2)
         << "\n";
     return 0;
   }
-  PrintPlan(out, spec, s, a.has("dry-run"));
+  PrintPlan(out, spec, s, a.Has("dry-run"));
   PrintEstimate(out, *estimate, ShortAxisNames(spec.raw));
   return 0;
 }

@@ -60,12 +60,12 @@ std::string TargetsText(const std::vector<TargetStatus>& targets) {
 std::vector<PointReplicaState> ReplicaStates(Store& store, const std::set<std::string>* settled, bool write_cache) {
   const bool undecided_only = settled != nullptr;
   std::vector<PointReplicaState> out;
-  const auto campaign = load_campaign(store);
+  const auto campaign = LoadCampaign(store);
   if (!campaign) return out;
-  const CampaignSpec spec = CampaignSpec::from_json(campaign->spec);
+  const CampaignSpec spec = CampaignSpec::FromJson(campaign->spec);
   const ReplicaRule& rule = spec.replica_rule;
-  if (!rule.adaptive()) return out;
-  const std::vector<RunRow> runs = load_runs(store, true);
+  if (!rule.Adaptive()) return out;
+  const std::vector<RunRow> runs = LoadRuns(store, true);
   std::map<std::string, std::size_t> index;  // point_id -> out
   for (const RunRow& r : runs) {
     if (r.state == RunState::kRetired) continue;
@@ -96,7 +96,7 @@ std::vector<PointReplicaState> ReplicaStates(Store& store, const std::set<std::s
       if (r.state != RunState::kDone || !analyse.count(r.point_id)) continue;
       analysis::RunRecord rec;
       rec.run_id = r.run_id;
-      rec.state = to_string(r.state);
+      rec.state = ToString(r.state);
       rec.engine = r.engine;
       rec.point_id = r.point_id;
       rec.replica = r.replica;
@@ -105,37 +105,37 @@ std::vector<PointReplicaState> ReplicaStates(Store& store, const std::set<std::s
       rec.run_dir = fs::absolute(r.run_dir);
       records.push_back(std::move(rec));
     }
-    const analysis::AnalysisSetup setup = analysis::setup_analyses(campaign->spec);
+    const analysis::AnalysisSetup setup = analysis::SetupAnalyses(campaign->spec);
     analysis::CampaignAnalysisOptions options;
     options.jobs = 1;  // beside the engines: one core
     options.write_cache = write_cache;
-    const auto a = analysis::analyse_campaign(info, records, setup, options);
+    const auto a = analysis::AnalyseCampaign(info, records, setup, options);
     for (std::size_t k = 0; k < a->view.points.size(); ++k) {
       const auto it = index.find(a->view.points[k].id);
       if (it == index.end()) continue;
       auto& metrics = out[it->second].counts.metrics;
-      for (const analysis::PointMetric& m : a->all_point_metrics(k)) metrics[m.name] = {m.mean, m.se, m.n};
+      for (const analysis::PointMetric& m : a->AllPointMetrics(k)) metrics[m.name] = {m.mean, m.se, m.n};
     }
   }
 #endif
   for (PointReplicaState& p : out) {
     if (undecided_only && !analyse.count(p.point_id)) continue;  // not judged now
-    p.decision = decide_replicas(rule, p.counts);
+    p.decision = DecideReplicas(rule, p.counts);
   }
   return out;
 }
 
 int AddReplicas(Store& store, RunObserver& observer, std::set<std::string>& reported) {
-  const auto campaign = load_campaign(store);
+  const auto campaign = LoadCampaign(store);
   if (!campaign) return 0;
-  const CampaignSpec spec = CampaignSpec::from_json(campaign->spec);
-  if (!spec.replica_rule.adaptive()) return 0;
+  const CampaignSpec spec = CampaignSpec::FromJson(campaign->spec);
+  if (!spec.replica_rule.Adaptive()) return 0;
   std::vector<PointReplicaState> states;
   try {
     states = ReplicaStates(store, &reported, true);
   } catch (const std::exception& e) {
     // The runs go on; the replicas wait for the next look (a report shows the analysis' error).
-    observer.on_event("", "replicas", std::string("the point metrics could not be computed: ") + e.what());
+    observer.OnEvent("", "replicas", std::string("the point metrics could not be computed: ") + e.what());
     return 0;
   }
   // The runs of the points that need more, with the seeds and ids the plan would give them.
@@ -147,13 +147,13 @@ int AddReplicas(Store& store, RunObserver& observer, std::set<std::string>& repo
     if (d.verdict == ReplicaVerdict::kMore) {
       wanted[p.point_id] = {p.counts.planned, p.counts.planned + d.add};
       upto = std::max(upto, p.counts.planned + d.add);
-      observer.on_event("", "replicas",
+      observer.OnEvent("", "replicas",
                         label + ": " + TargetsText(d.targets) + " after " + std::to_string(p.counts.planned) + " runs: " +
                             std::to_string(d.add) + " more planned");
     } else if ((d.verdict == ReplicaVerdict::kMet || d.verdict == ReplicaVerdict::kAtMax ||
                 d.verdict == ReplicaVerdict::kUnknown) &&
                reported.insert(p.point_id).second) {
-      observer.on_event("", "replicas",
+      observer.OnEvent("", "replicas",
                         label + ": " + TargetsText(d.targets) + " after " + std::to_string(p.counts.planned) + " runs: " +
                             (d.verdict == ReplicaVerdict::kMet    ? std::string("target met")
                              : d.verdict == ReplicaVerdict::kAtMax ? "at max (" + std::to_string(spec.replica_rule.max) +
@@ -164,9 +164,9 @@ int AddReplicas(Store& store, RunObserver& observer, std::set<std::string>& repo
   if (wanted.empty()) return 0;
   // Where the point's runs keep their prepared beds and directories: as planned.
   std::map<std::string, std::pair<std::string, std::string>> places;  // point_id -> (cache dir, runs root)
-  for (const RunRow& r : load_runs(store, true)) {
+  for (const RunRow& r : LoadRuns(store, true)) {
     if (!wanted.count(r.point_id) || places.count(r.point_id)) continue;
-    std::string cache = default_cache_dir();
+    std::string cache = DefaultCacheDir();
     if (r.params.contains("bed") && r.params["bed"].contains("cache_file") && r.params["bed"]["cache_file"].is_string())
       cache = fs::path(r.params["bed"]["cache_file"].get<std::string>()).parent_path().string();
     places[r.point_id] = {cache, fs::path(r.run_dir).parent_path().string()};
@@ -178,7 +178,7 @@ int AddReplicas(Store& store, RunObserver& observer, std::set<std::string>& repo
     const auto& [cache, root] = places[point_id];
     auto it = expanded.find(cache);
     if (it == expanded.end())
-      it = expanded.emplace(cache, expand(spec, cache, std::numeric_limits<std::uint64_t>::max(), upto)).first;
+      it = expanded.emplace(cache, Expand(spec, cache, std::numeric_limits<std::uint64_t>::max(), upto)).first;
     for (const PlannedRun& r : it->second)
       if (r.point_id == point_id && r.replica >= range.first && r.replica < range.second) by_root[root].push_back(r);
   }
@@ -189,7 +189,7 @@ int AddReplicas(Store& store, RunObserver& observer, std::set<std::string>& repo
     while (!fs::exists(hold)) std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   int added = 0;
-  for (const auto& [root, list] : by_root) added += add_planned_runs(store, list, root);
+  for (const auto& [root, list] : by_root) added += AddPlannedRuns(store, list, root);
   return added;
 }
 
@@ -217,15 +217,15 @@ json ReplicaProgressJson(const std::vector<PointReplicaState>& states, const Rep
                       {"runs", p.counts.planned},
                       {"done", p.done},
                       {"unfinished", p.counts.unfinished},
-                      {"verdict", to_string(p.decision.verdict)},
+                      {"verdict", ToString(p.decision.verdict)},
                       {"add", p.decision.add},
                       {"targets", targets}});
   }
-  return {{"rule", rule.text()}, {"min", rule.min}, {"max", rule.max}, {"points", points}};
+  return {{"rule", rule.Text()}, {"min", rule.min}, {"max", rule.max}, {"points", points}};
 }
 
 void PrintReplicaProgress(std::ostream& out, const std::vector<PointReplicaState>& states, const ReplicaRule& rule) {
-  out << "  adaptive replicas: " << rule.text() << "\n";
+  out << "  adaptive replicas: " << rule.Text() << "\n";
   for (const PointReplicaState& p : states) {
     std::string verdict;
     switch (p.decision.verdict) {

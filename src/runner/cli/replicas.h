@@ -1,5 +1,5 @@
 // Adaptive replicas (docs/campaign-spec.md "Replicas"): the runner's side of
-// rundir/replica_rule.h. The decision is the rule's pure decide_replicas(); this file feeds it
+// rundir/replica_rule.h. The decision is the rule's pure DecideReplicas(); this file feeds it
 // what the database and the analyses know of each point, and `campaign run` applies it.
 #pragma once
 

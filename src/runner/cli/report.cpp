@@ -98,13 +98,13 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
                                                     const std::vector<std::string>& only = {}, bool store_results = true) {
   const auto opened = OpenCampaignDb(db, verb, verb == "report" || verb == "export" || !store_results);
   Store& store = *opened;
-  const auto campaign = load_campaign(store);
+  const auto campaign = LoadCampaign(store);
   if (!campaign) throw UsageError("campaign " + verb + ": " + db + " holds no campaign");
-  std::vector<RunRow> runs = load_runs(store, true);
+  std::vector<RunRow> runs = LoadRuns(store, true);
   if (!only.empty()) {
     try {
-      const RunFilter filter = resolve_filters(only, *campaign, runs);
-      std::erase_if(runs, [&](const RunRow& r) { return !filter.matches(r); });
+      const RunFilter filter = ResolveFilters(only, *campaign, runs);
+      std::erase_if(runs, [&](const RunRow& r) { return !filter.Matches(r); });
     } catch (const FilterError& e) {
       throw UsageError(e.what());
     }
@@ -120,7 +120,7 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
     if (r.state == RunState::kRetired) continue;
     analysis::RunRecord rec;
     rec.run_id = r.run_id;
-    rec.state = to_string(r.state);
+    rec.state = ToString(r.state);
     rec.engine = r.engine;
     rec.point_id = r.point_id;
     rec.replica = r.replica;
@@ -131,13 +131,13 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
     c->records.push_back(std::move(rec));
   }
   try {
-    c->setup = analysis::setup_analyses(campaign->spec);
+    c->setup = analysis::SetupAnalyses(campaign->spec);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("campaign spec: ") + e.what());
   }
   analysis::CampaignAnalysisOptions options;
   options.progress = AnalysisProgress(err);
-  c->analysis = analysis::analyse_campaign(c->info, c->records, c->setup, options);
+  c->analysis = analysis::AnalyseCampaign(c->info, c->records, c->setup, options);
   if (!store_results) return c;
   std::vector<RunMetrics> rows;
   const analysis::CampaignAnalysis& a = *c->analysis;
@@ -145,18 +145,18 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
     for (std::size_t k = 0; k < c->setup.analyses.size(); ++k) {
       if (a.results[k].runs[u].is_null()) continue;
       const analysis::Analysis& an = *c->setup.analyses[k];
-      RunMetrics rm{a.view.used[u].record->run_id, an.key(), an.version(), an.run_options(), {}};
-      for (const analysis::Metric& m : a.run_metrics(k, u)) rm.metrics.push_back({m.name, m.unit, m.value, m.se});
+      RunMetrics rm{a.view.used[u].record->run_id, an.Key(), an.Version(), an.RunOptions(), {}};
+      for (const analysis::Metric& m : a.RunMetrics(k, u)) rm.metrics.push_back({m.name, m.unit, m.value, m.se});
       rows.push_back(std::move(rm));
     }
-  if (store.read_only()) {
+  if (store.ReadOnly()) {
     err << verb << ": the database " << db << " cannot be written here (read-only): the metrics are not stored in it\n";
   } else {
-    store_metrics(store, rows, now_seconds());
+    StoreMetrics(store, rows, NowSeconds());
     // A damaged run's metrics stored by an earlier report are no longer numbers of the campaign.
     std::vector<std::string> damaged;
     for (const auto& [r, problems] : a.view.damaged) damaged.push_back(r->run_id);
-    forget_metrics(store, damaged);
+    ForgetMetrics(store, damaged);
   }
   SayRunsKeptOut(a.view, verb, err);
   return c;
@@ -167,12 +167,12 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
 std::optional<std::string> ExpectationCounts(const std::string& db, std::ostream& err, const std::vector<std::string>& only) {
   {
     const auto opened = OpenCampaignDb(db, "status", true);
-    const auto campaign = load_campaign(*opened);
+    const auto campaign = LoadCampaign(*opened);
     if (!campaign || !campaign->spec.is_object() || !campaign->spec.contains("expect")) return std::nullopt;
   }
   const auto c = AnalyseCampaignIn(db, "status", err, only, false);
   try {
-    return analysis::to_string(analysis::count(analysis::reproduce(*c->analysis)->results));
+    return analysis::ToString(analysis::Count(analysis::Reproduce(*c->analysis)->results));
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("campaign spec: ") + e.what());
   }
@@ -216,7 +216,7 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
   const FileLock lock(out_dir / ".report.lock", [&] {
     err << "report: another campaign report is writing " << out_dir.string() << "; waiting for it to finish\n" << std::flush;
   });
-  return analysis::write_report(*c->analysis, options);
+  return analysis::WriteReport(*c->analysis, options);
 }
 #endif
 
@@ -225,8 +225,8 @@ int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   if (!a.positional.empty()) throw UsageError("campaign report: unexpected argument \"" + a.positional[0] + "\"");
   const std::string db = DbPath(a);
 #ifdef GRANARY_HAVE_ANALYSIS
-  const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
-                                     !a.has("no-figures"), err, a.all("only"));
+  const auto summary = WriteReportOf(db, a.Has("out") ? fs::path(a.Get("out", "")) : DbDir(db) / "report",
+                                     !a.Has("no-figures"), err, a.All("only"));
   out << "report: " << summary.markdown.string() << "\n        " << summary.html.string() << "\n  runs used "
       << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed
       << (summary.runs_damaged > 0 ? ", damaged " + std::to_string(summary.runs_damaged) + " (left out; listed above and in the report)"
@@ -276,32 +276,32 @@ const char kExportHelp[] =
 int Export(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args a = Parse(argv, "export");
   if (!a.positional.empty()) throw UsageError("campaign export: unexpected argument \"" + a.positional[0] + "\"");
-  const std::string format = a.get("format", "csv"), level = a.get("level", "run");
+  const std::string format = a.Get("format", "csv"), level = a.Get("level", "run");
   if (format != "csv" && format != "json") throw UsageError("--format: must be csv or json (got \"" + format + "\")");
   if (level != "run" && level != "point") throw UsageError("--level: must be run or point (got \"" + level + "\")");
   const std::string db = DbPath(a);
 #ifdef GRANARY_HAVE_ANALYSIS
-  if (a.has("expectations") && a.has("level")) throw UsageError("--expectations: a table of its own; drop --level");
-  const auto c = AnalyseCampaignIn(db, "export", err, a.all("only"));
+  if (a.Has("expectations") && a.Has("level")) throw UsageError("--expectations: a table of its own; drop --level");
+  const auto c = AnalyseCampaignIn(db, "export", err, a.All("only"));
   analysis::ExportTable table;
-  if (a.has("expectations")) {
+  if (a.Has("expectations")) {
     std::unique_ptr<analysis::Reproduction> r;
     try {
-      r = analysis::reproduce(*c->analysis);
+      r = analysis::Reproduce(*c->analysis);
     } catch (const std::invalid_argument& e) {
       throw UsageError(std::string("campaign spec: ") + e.what());
     }
     if (r->expectations.empty()) throw UsageError("--expectations: the campaign spec has no \"expect\" (docs/analyses.md)");
-    table = analysis::expectations_table(r->results);
+    table = analysis::ExpectationsTable(r->results);
   } else {
-    table = analysis::export_table(*c->analysis, level == "run" ? analysis::ExportLevel::kRun : analysis::ExportLevel::kPoint);
+    table = analysis::MakeExportTable(*c->analysis, level == "run" ? analysis::ExportLevel::kRun : analysis::ExportLevel::kPoint);
   }
-  const std::string text = format == "csv" ? analysis::to_csv(table) : analysis::to_json(table).dump(2) + "\n";
-  if (a.has("out")) {
-    WriteAtomically(a.get("out", ""), text);
-    const std::string what = a.has("expectations") ? "expectation" : level;
+  const std::string text = format == "csv" ? analysis::ToCsv(table) : analysis::to_json(table).dump(2) + "\n";
+  if (a.Has("out")) {
+    WriteAtomically(a.Get("out", ""), text);
+    const std::string what = a.Has("expectations") ? "expectation" : level;
     err << "export: " << table.rows.size() << " " << what << (table.rows.size() == 1 ? "" : "s") << " to "
-        << a.get("out", "") << "\n";
+        << a.Get("out", "") << "\n";
   } else {
     out << text;
   }
@@ -397,18 +397,18 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
   const RunOptions o = RunOptionsFrom(a);
   const std::string db = DbPath(a);
   // With --json, stdout carries only the JSON document.
-  std::ostream& progress = a.has("json") ? err : out;
+  std::ostream& progress = a.Has("json") ? err : out;
   CampaignSpec spec;
   const PlanSummary s = PlanInto(j, spec_path, db, false, MaxRuns(a), spec);
   PrintPlan(progress, spec, s, false);
   int code = 0;
-  if (!a.has("no-run")) {
+  if (!a.Has("no-run")) {
     code = RunAll(db, o, progress);
     if (code == static_cast<int>(ExitCode::kInterrupted)) return code;
   }
-  const auto summary = WriteReportOf(db, a.has("out") ? fs::path(a.get("out", "")) : DbDir(db) / "report",
-                                     !a.has("no-figures"), err);
-  if (a.has("json")) {
+  const auto summary = WriteReportOf(db, a.Has("out") ? fs::path(a.Get("out", "")) : DbDir(db) / "report",
+                                     !a.Has("no-figures"), err);
+  if (a.Has("json")) {
     out << json{{"campaign", spec.name},
                 {"report", summary.html.string()},
                 {"runs_used", summary.runs_used},

@@ -58,17 +58,17 @@ const char kRunHelpTail[] =
 
 // The help of `campaign run`: the executors and their flags from the executor table.
 const char* RunHelp() {
-  static const std::string help = [] {
+  static const std::string kHelp = [] {
     std::string h = kRunHelpHead;
-    for (const ExecutorRow& row : executor_table()) {
+    for (const ExecutorRow& row : ExecutorTable()) {
       std::string name = "    " + std::string(row.name);
       name.resize(std::max<std::size_t>(name.size() + 1, 23), ' ');
       h += name + row.summary + "\n";
     }
-    for (const ExecutorRow& row : executor_table()) h += row.flags_help;
+    for (const ExecutorRow& row : ExecutorTable()) h += row.flags_help;
     return h + kRunHelpTail;
   }();
-  return help.c_str();
+  return kHelp.c_str();
 }
 
 volatile std::sig_atomic_t g_stop = 0;
@@ -85,13 +85,13 @@ std::string ExeDir() {
 // The flags `run` and `compare` share: --jobs, --threads-per-run, --time-limit, --retries.
 RunOptions RunOptionsFrom(const Args& a) {
   RunOptions o;
-  o.jobs = a.integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
-  o.threads_per_run = a.integer("threads-per-run", 1, 1);
-  o.time_limit = a.number("time-limit", 0);
-  if (o.time_limit < 0) throw UsageError("--time-limit: must be >= 0 (got \"" + a.get("time-limit", "") + "\")");
-  o.retries = a.integer("retries", 1, 0);
+  o.jobs = a.Integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
+  o.threads_per_run = a.Integer("threads-per-run", 1, 1);
+  o.time_limit = a.Number("time-limit", 0);
+  if (o.time_limit < 0) throw UsageError("--time-limit: must be >= 0 (got \"" + a.Get("time-limit", "") + "\")");
+  o.retries = a.Integer("retries", 1, 0);
   o.exe_dir = ExeDir();
-  o.heartbeat_interval = std::min(o.heartbeat_interval, lease_stale_seconds() / 5);
+  o.heartbeat_interval = std::min(o.heartbeat_interval, LeaseStaleSeconds() / 5);
   return o;
 }
 
@@ -101,16 +101,16 @@ namespace {
 // table's first; a flag of another executor is refused.
 std::unique_ptr<ExecutorSetup> ChooseExecutor(const Args& a, const json& spec, const std::string& db, const RunOptions& o) {
   const json* block = spec.is_object() && spec.contains("executor") ? &spec["executor"] : nullptr;
-  const ExecutorRow* row = block ? &executor_of_block(*block, "/executor") : &executor_table().front();
-  if (a.has("executor")) {
-    row = find_executor(a.get("executor", ""));
-    if (!row) throw UsageError("--executor: must be " + executor_names(false) + " (got \"" + a.get("executor", "") + "\")");
+  const ExecutorRow* row = block ? &ExecutorOfBlock(*block, "/executor") : &ExecutorTable().front();
+  if (a.Has("executor")) {
+    row = FindExecutor(a.Get("executor", ""));
+    if (!row) throw UsageError("--executor: must be " + ExecutorNames(false) + " (got \"" + a.Get("executor", "") + "\")");
   }
-  for (const ExecutorRow& other : executor_table()) {
+  for (const ExecutorRow& other : ExecutorTable()) {
     if (&other == row) continue;
     for (const auto& [flag, takes_value] : other.flags) {
       const bool own = std::any_of(row->flags.begin(), row->flags.end(), [&](const auto& f) { return f.first == flag; });
-      if (!own && a.has(flag)) {
+      if (!own && a.Has(flag)) {
         throw UsageError("--" + flag + ": only with --executor " + other.name + " (or a spec whose executor is " +
                          other.name + ")");
       }
@@ -123,19 +123,19 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
   const Args a = Parse(argv, "run");
   if (!a.positional.empty()) throw UsageError("campaign run: unexpected argument \"" + a.positional[0] + "\"");
   RunOptions o = RunOptionsFrom(a);
-  o.engine = a.get("engine", "");
+  o.engine = a.Get("engine", "");
   if (!o.engine.empty() && o.engine != "native" && o.engine != "liggghts" && o.engine != "lammps" &&
       o.engine.find('/') == std::string::npos) {
     throw UsageError("--engine: must be native, liggghts, lammps or a path to an engine executable (got \"" + o.engine +
                      "\")");
   }
-  o.only = a.all("only");
+  o.only = a.All("only");
   const std::string db = DbPath(a);
   json spec;
   std::string name;
   {
     const auto opened = OpenCampaignDb(db, "run");
-    const auto campaign = load_campaign(*opened);
+    const auto campaign = LoadCampaign(*opened);
     if (!campaign) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
     spec = campaign->spec;
     name = campaign->name;
@@ -143,7 +143,7 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
     // GRANARY_CACHE_DIR set now that differs is not used, and saying so beats beds appearing
     // elsewhere without a word.
     if (const char* env = std::getenv("GRANARY_CACHE_DIR"); env && *env) {
-      for (const RunRow& r : load_runs(*opened, true)) {
+      for (const RunRow& r : LoadRuns(*opened, true)) {
         if (r.state == RunState::kDone || r.state == RunState::kRetired) continue;
         const json* file = r.params.contains("bed") ? &r.params["bed"] : nullptr;
         if (!file || !file->contains("cache_file") || !(*file)["cache_file"].is_string()) continue;
@@ -156,12 +156,12 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
     }
   }
   const std::unique_ptr<ExecutorSetup> setup = ChooseExecutor(a, spec, db, o);
-  o.detach = a.has("detach");
-  o.rerun_lost = a.has("rerun-lost");
+  o.detach = a.Has("detach");
+  o.rerun_lost = a.Has("rerun-lost");
   {
     const auto opened = OpenCampaignDb(db, "run");
-    setup->prepare(*opened, o, out);
-    if (const std::optional<int> code = setup->dry_run(*opened, o, out)) return *code;
+    setup->Prepare(*opened, o, out);
+    if (const std::optional<int> code = setup->DryRun(*opened, o, out)) return *code;
   }
   return RunAll(db, o, out, setup.get());
 }
@@ -171,12 +171,12 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
 int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, const ExecutorSetup* setup) {
   const auto opened = OpenCampaignDb(db, "run");
   Store& store = *opened;
-  const auto campaign = load_campaign(store);
+  const auto campaign = LoadCampaign(store);
   if (!campaign) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
   RunOptions o = options;
   if (!o.only.empty()) {
     try {
-      o.only = resolve_filters(o.only, *campaign, load_runs(store, true)).texts();
+      o.only = ResolveFilters(o.only, *campaign, LoadRuns(store, true)).Texts();
     } catch (const FilterError& e) {
       throw UsageError(e.what());
     }
@@ -190,13 +190,13 @@ int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, 
   sigaction(SIGTERM, &sa, &old_term);
   g_stop = 0;
   std::set<std::string> reported;  // adaptive replicas: points whose verdict was said
-  if (CampaignSpec::from_json(campaign->spec).replica_rule.adaptive())
+  if (CampaignSpec::FromJson(campaign->spec).replica_rule.Adaptive())
     o.add_runs = [&store, &reported](RunObserver& observer) { return AddReplicas(store, observer, reported); };
-  auto executor = setup ? setup->make(o) : make_local_executor(o.jobs);
+  auto executor = setup ? setup->Make(o) : MakeLocalExecutor(o.jobs);
   const auto observer = MakeConsoleObserver(out, &out == &std::cout && isatty(STDOUT_FILENO), ShortAxisNames(campaign->spec));
   ExitCode code;
   try {
-    code = run_campaign(store, o, *executor, *observer, &g_stop);
+    code = RunCampaign(store, o, *executor, *observer, &g_stop);
   } catch (...) {
     sigaction(SIGINT, &old_int, nullptr);
     sigaction(SIGTERM, &old_term, nullptr);
@@ -210,7 +210,7 @@ int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, 
 Verb RunVerb() {
   std::vector<FlagSpec> flags = {{"db", true},         {"engine", true},      {"only", true},     {"time-limit", true},
                                  {"retries", true},    {"rerun-lost", false}, {"executor", true}, {"help", false}};
-  for (const ExecutorRow& row : executor_table())
+  for (const ExecutorRow& row : ExecutorTable())
     for (const auto& [flag, takes_value] : row.flags)
       if (std::none_of(flags.begin(), flags.end(), [&](const FlagSpec& f) { return f.name == flag; }))
         flags.push_back({flag, takes_value});

@@ -66,25 +66,25 @@ QueueView ViewQueue(const std::vector<RunRow>& runs) {
   QueueView v;
   std::set<std::string> ids;
   for (const auto& r : runs) {
-    if (!r.queued()) continue;
+    if (!r.Queued()) continue;
     v.any = true;
     v.state_by_run[r.run_id] = r.job_state;
     if (!r.job_id.empty()) ids.insert(r.job_id);
   }
   if (!v.any) return v;
-  if (const auto entries = batch_queue().query(ids, &v.error)) {
+  if (const auto entries = DefaultBatchQueue().Query(ids, &v.error)) {
     v.live = true;
     std::map<std::pair<std::string, int>, std::string> live;
     for (const auto& e : *entries) live[{e.job_id, e.task}] = e.state;
     for (const auto& r : runs) {
-      if (!r.queued()) continue;
+      if (!r.Queued()) continue;
       const auto it = live.find({r.job_id, r.job_index});
       v.state_by_run[r.run_id] = it == live.end() ? "" : it->second;
     }
   }
   std::map<std::string, std::size_t> index;  // script -> position in arrays
   for (const auto& r : runs) {
-    if (!r.queued()) continue;
+    if (!r.Queued()) continue;
     auto [it, fresh] = index.emplace(r.job_script, v.arrays.size());
     if (fresh) v.arrays.push_back({r.job_id, r.job_name, r.job_script, {}});
     const std::string& state = v.state_by_run[r.run_id];
@@ -99,30 +99,30 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   const std::string db = DbPath(a);
   const auto opened = OpenCampaignDb(db, "status", true);
   Store& store = *opened;
-  const auto campaign = load_campaign(store);
-  std::vector<RunRow> all = load_runs(store, true);  // the parameters: for --only and the estimate
+  const auto campaign = LoadCampaign(store);
+  std::vector<RunRow> all = LoadRuns(store, true);  // the parameters: for --only and the estimate
   std::vector<std::string> filters;
-  if (a.has("only") && campaign) {
+  if (a.Has("only") && campaign) {
     const RunFilter filter = ResolveOnly(a, *campaign, all);
-    std::erase_if(all, [&](const RunRow& r) { return !filter.matches(r); });
-    filters = filter.texts();
+    std::erase_if(all, [&](const RunRow& r) { return !filter.Matches(r); });
+    filters = filter.Texts();
   }
   const std::vector<RunRow>& runs = all;
   // Sizes against the manifests (a stat per file): a damaged run's stored metrics are not shown.
-  const auto checks = check_done_runs(runs, rundir::VerifyLevel::kSizes);
+  const auto checks = CheckDoneRuns(runs, rundir::VerifyLevel::kSizes);
   const auto damaged = [&](const std::string& id) {
     const auto it = checks.find(id);
     return it != checks.end() && it->second.integrity == rundir::Integrity::kDamaged;
   };
-  auto metrics = load_metrics(store);
+  auto metrics = LoadMetrics(store);
   std::erase_if(metrics, [&](const auto& m) { return damaged(m.first); });
   const QueueView queue = ViewQueue(runs);
   std::map<std::string, int> counts;
-  for (const RunState state : kLiveRunStates) counts[to_string(state)] = 0;
+  for (const RunState state : kLiveRunStates) counts[ToString(state)] = 0;
   int retired = 0, total = 0;
   double first_start = 0, last_end = 0, wall_sum = 0, remaining_work = 0;
   int wall_n = 0, active = 0;
-  const double now = now_seconds();
+  const double now = NowSeconds();
   int lost = 0;  // done, but the run directory is gone
   for (const auto& r : runs) {
     if (r.state == RunState::kRetired) {
@@ -130,7 +130,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       continue;
     }
     ++total;
-    ++counts[to_string(r.state)];
+    ++counts[ToString(r.state)];
     if (r.state == RunState::kDone && !fs::exists(r.run_dir)) ++lost;
     if (r.started_at > 0 && (first_start == 0 || r.started_at < first_start)) first_start = r.started_at;
     last_end = std::max(last_end, r.ended_at);
@@ -138,12 +138,12 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
       wall_sum += r.wall_s;
       ++wall_n;
     }
-    if (runnable(r.state)) remaining_work += 1;
+    if (Runnable(r.state)) remaining_work += 1;
     if (r.state == RunState::kRunning) {
       // A run whose runner is gone is not progressing: no ETA counts on it (a task in a batch
       // queue is at work with or without a runner watching).
-      const bool in_queue = r.queued() && !queue.state_by_run.at(r.run_id).empty();
-      if (in_queue || !lease_expired(r, this_process_holder().host, now)) ++active;
+      const bool in_queue = r.Queued() && !queue.state_by_run.at(r.run_id).empty();
+      if (in_queue || !LeaseExpired(r, ThisProcessHolder().host, now)) ++active;
       const double f = r.progress.is_object() ? r.progress.value("fraction", 0.0) : 0.0;
       remaining_work += 1 - std::clamp(f, 0.0, 1.0);
     }
@@ -159,32 +159,32 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     std::vector<double> fraction_left;
     for (const auto& r : runs) {
       if (r.state == RunState::kDone || r.state == RunState::kRetired) continue;
-      left.push_back(planned_run(r));
+      left.push_back(ToPlannedRun(r));
       const double f = r.state == RunState::kRunning && r.progress.is_object() ? r.progress.value("fraction", 0.0) : 0.0;
       fraction_left.push_back(1 - std::clamp(f, 0.0, 1.0));
     }
-    const CampaignEstimate e = estimate_runs(left, &store, ExeDir(), std::max(1, active), false, nullptr);
-    if (e.calibration.valid() && !left.empty()) {
+    const CampaignEstimate e = EstimateRuns(left, &store, ExeDir(), std::max(1, active), false, nullptr);
+    if (e.calibration.Valid() && !left.empty()) {
       std::vector<double> durations;
       remaining_core_s = 0;
       for (std::size_t k = 0; k < left.size(); ++k) {
         durations.push_back(e.runs.at(left[k].run_id).core_s_high * fraction_left[k]);
         remaining_core_s += durations.back();
       }
-      if (active > 0) eta = makespan(durations, active);
+      if (active > 0) eta = Makespan(durations, active);
     } else if (left.empty()) {
       remaining_core_s = 0;
     }
   }
-  if (a.has("json")) {
+  if (a.Has("json")) {
     json list = json::array();
     for (const auto& r : runs) {
-      json j = {{"run_id", r.run_id}, {"state", to_string(r.state)},       {"point", r.point},      {"replica", r.replica},
+      json j = {{"run_id", r.run_id}, {"state", ToString(r.state)},       {"point", r.point},      {"replica", r.replica},
                 {"attempts", r.attempts}, {"engine", r.engine}, {"wall_s", r.wall_s},    {"run_dir", r.run_dir}};
       // Progress belongs to running runs only: a finished run's last progress.json is history.
       if (r.state == RunState::kRunning) {
         if (!r.progress.is_null()) j["progress"] = r.progress;
-        j["lease_expired"] = lease_expired(r, this_process_holder().host, now);
+        j["lease_expired"] = LeaseExpired(r, ThisProcessHolder().host, now);
       }
       if (!r.failure.empty()) j["failure"] = r.failure;
       if (!r.end_reason.empty()) j["end_reason"] = r.end_reason;
@@ -208,7 +208,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
         }
       }
       if (r.job_array != 0) j["job"] = r.job_id.empty() ? json(nullptr) : json(r.job_id + "_" + std::to_string(r.job_index));
-      if (r.queued()) j["queue_state"] = queue.state_by_run.at(r.run_id);
+      if (r.Queued()) j["queue_state"] = queue.state_by_run.at(r.run_id);
       list.push_back(j);
     }
     json doc = {{"campaign", campaign ? campaign->name : ""},
@@ -217,17 +217,17 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                 {"retired", retired},
                 {"only", filters},
                 {"lost", lost},
-                {"damaged", count_integrity(checks).damaged},
+                {"damaged", CountIntegrity(checks).damaged},
                 {"elapsed_s", elapsed},
                 {"eta_s", eta >= 0 ? json(eta) : json(nullptr)},
                 {"remaining_core_hours", remaining_core_s >= 0 ? json(remaining_core_s / 3600) : json(nullptr)},
                 {"runs", list}};
 #ifdef GRANARY_HAVE_ANALYSIS
-    if (const auto e = ExpectationCounts(db, err, a.all("only"))) doc["expectations"] = *e;
+    if (const auto e = ExpectationCounts(db, err, a.All("only"))) doc["expectations"] = *e;
 #endif
     if (campaign) {
-      const CampaignSpec cs = CampaignSpec::from_json(campaign->spec);
-      if (cs.replica_rule.adaptive()) doc["replicas"] = ReplicaProgressJson(ReplicaStates(store, nullptr, false), cs.replica_rule);
+      const CampaignSpec cs = CampaignSpec::FromJson(campaign->spec);
+      if (cs.replica_rule.Adaptive()) doc["replicas"] = ReplicaProgressJson(ReplicaStates(store, nullptr, false), cs.replica_rule);
     }
     if (queue.any) {
       json arrays = json::array();
@@ -245,21 +245,21 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   out << "campaign " << (campaign ? campaign->name : "?") << ": " << total << " runs" << (only.empty() ? "" : " with " + only)
       << " (" << db << ")\n ";
   for (const RunState state : kLiveRunStates)
-    out << (state == RunState::kPlanned ? " " : ", ") << state << " " << counts[to_string(state)];
+    out << (state == RunState::kPlanned ? " " : ", ") << state << " " << counts[ToString(state)];
   if (retired > 0) out << "  (and " << retired << " retired: no longer in the spec, not counted)";
   out << "\n  elapsed " << Duration(elapsed) << ", ETA "
-      << (total - counts[to_string(RunState::kDone)] == 0 ? std::string("-")
+      << (total - counts[ToString(RunState::kDone)] == 0 ? std::string("-")
           : active == 0               ? std::string("- (no runner at work: campaign run continues)")
           : eta >= 0                  ? Duration(eta)
                                       : "?");
   if (remaining_core_s > 0)
-    out << " (" << core_hours_text(remaining_core_s, remaining_core_s) << " left"
+    out << " (" << CoreHoursText(remaining_core_s, remaining_core_s) << " left"
         << (active > 0 ? ", on the " + std::to_string(active) + " run(s) at work now" : "") << ")";
   out << "\n";
   if (queue.any) {
-    const BatchQueue& batch = batch_queue();
-    out << batch.name() << " queue ("
-        << (queue.live ? std::string("live") : "as last seen; " + std::string(batch.query_tool()) + ": " + queue.error)
+    const BatchQueue& batch = DefaultBatchQueue();
+    out << batch.Name() << " queue ("
+        << (queue.live ? std::string("live") : "as last seen; " + std::string(batch.QueryTool()) + ": " + queue.error)
         << "):\n";
     for (const auto& q : queue.arrays) {
       out << "  array " << (q.job_id.empty() ? "?" : q.job_id) << " " << q.name << ":";
@@ -277,7 +277,7 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     for (const auto& r : runs)
       if (r.state == RunState::kDone && !fs::exists(r.run_dir)) out << "  " << r.run_id << "  " << r.run_dir << "\n";
   }
-  if (const int n = count_integrity(checks).damaged; n > 0) {
+  if (const int n = CountIntegrity(checks).damaged; n > 0) {
     out << "damaged: " << n << " done run(s) whose files differ from what the engine recorded; left out of every "
         << "number (campaign scan --verify checks every byte; delete the run directory and campaign run --rerun-lost to "
         << "run one again):\n";
@@ -289,35 +289,35 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   }
   int analysed = 0;
   for (const auto& r : runs) analysed += r.state == RunState::kDone && metrics.count(r.run_id) ? 1 : 0;
-  if (counts[to_string(RunState::kDone)] > 0)
-    out << "  metrics in the database for " << analysed << " of " << counts[to_string(RunState::kDone)] << " done runs"
-        << (analysed < counts[to_string(RunState::kDone)] ? " (campaign report or export analyses the others)" : "") << "\n";
+  if (counts[ToString(RunState::kDone)] > 0)
+    out << "  metrics in the database for " << analysed << " of " << counts[ToString(RunState::kDone)] << " done runs"
+        << (analysed < counts[ToString(RunState::kDone)] ? " (campaign report or export analyses the others)" : "") << "\n";
   if (campaign) {
-    const CampaignSpec cs = CampaignSpec::from_json(campaign->spec);
-    if (cs.replica_rule.adaptive()) PrintReplicaProgress(out, ReplicaStates(store, nullptr, false), cs.replica_rule);
+    const CampaignSpec cs = CampaignSpec::FromJson(campaign->spec);
+    if (cs.replica_rule.Adaptive()) PrintReplicaProgress(out, ReplicaStates(store, nullptr, false), cs.replica_rule);
   }
 #ifdef GRANARY_HAVE_ANALYSIS
-  if (const auto e = ExpectationCounts(db, err, a.all("only")))
+  if (const auto e = ExpectationCounts(db, err, a.All("only")))
     out << "  expectations: " << *e << " (campaign export --expectations, or the report's Key results)\n";
 #endif
   bool header = false;
   for (const auto& r : runs) {
     if (r.state != RunState::kRunning) continue;
     // Queued runs not yet at work are counted per array above, not listed one by one.
-    if (r.queued() && batch_queue().fate_of(queue.state_by_run.at(r.run_id)) != TaskFate::kRunning) continue;
+    if (r.Queued() && DefaultBatchQueue().FateOf(queue.state_by_run.at(r.run_id)) != TaskFate::kRunning) continue;
     if (!header) out << "running:\n";
     header = true;
     // A task nobody watches (detached) has its progress only in its directory.
     json progress = r.progress;
-    if (progress.is_null() && r.queued()) {
+    if (progress.is_null() && r.Queued()) {
       if (const auto p = rundir::ReadProgress(r.run_dir)) progress = p->ToJson();
     }
     out << "  " << r.run_id << " " << ProgressText(progress, false) << "  " << CompactPoint(r.point) << " r" << r.replica
-        << (r.queued() ? "  " + std::string(batch_queue().name()) + " " + r.job_id + "_" + std::to_string(r.job_index) +
-                             (r.lease_holder.empty() || lease_expired(r, this_process_holder().host, now)
+        << (r.Queued() ? "  " + std::string(DefaultBatchQueue().Name()) + " " + r.job_id + "_" + std::to_string(r.job_index) +
+                             (r.lease_holder.empty() || LeaseExpired(r, ThisProcessHolder().host, now)
                                   ? " (no runner watching: campaign scan or campaign run --executor slurm)"
                                   : "")
-                       : lease_expired(r, this_process_holder().host, now) ? "  (runner gone: resumes on the next campaign run)"
+                       : LeaseExpired(r, ThisProcessHolder().host, now) ? "  (runner gone: resumes on the next campaign run)"
                                                                             : "")
         << "\n";
   }
@@ -352,16 +352,16 @@ RunRow FindRun(const std::string& verb, const std::string& run, Store& store, co
   std::vector<RunRow> found;
   if (fs::is_directory(run)) {
     const fs::path dir = fs::weakly_canonical(run);
-    for (RunRow& r : load_runs(store, true))
+    for (RunRow& r : LoadRuns(store, true))
       if (fs::weakly_canonical(r.run_dir) == dir) found.push_back(std::move(r));
     if (found.empty()) throw UsageError("campaign " + verb + ": " + run + " is not a run directory of " + db);
     return found.front();
   }
-  found = find_runs(store, run);
+  found = FindRuns(store, run);
   if (found.empty()) {
     std::vector<std::string> ids;
-    for (const RunRow& r : load_runs(store, false)) ids.push_back(r.run_id);
-    const std::string best = nearest(run, ids);
+    for (const RunRow& r : LoadRuns(store, false)) ids.push_back(r.run_id);
+    const std::string best = Nearest(run, ids);
     throw UsageError("campaign " + verb + ": no run id starts with \"" + run + "\" in " + db +
                      (best.empty() ? "" : "; did you mean " + best + "?") + " (campaign status lists them)");
   }
@@ -384,7 +384,7 @@ std::string LocalTime(double unix_seconds) {
 // Every leaf of a JSON document as (pointer, value), in document order.
 void Leaves(const json& j, const std::string& at, std::vector<std::pair<std::string, json>>& out) {
   if (j.is_object() && !j.empty()) {
-    for (const auto& [k, v] : j.items()) Leaves(v, at + "/" + escape_pointer_token(k), out);
+    for (const auto& [k, v] : j.items()) Leaves(v, at + "/" + EscapePointerToken(k), out);
   } else if (j.is_array() && !j.empty()) {
     for (std::size_t i = 0; i < j.size(); ++i) Leaves(j[i], at + "/" + std::to_string(i), out);
   } else {
@@ -412,12 +412,12 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   const auto opened = OpenCampaignDb(db, "show", true);
   Store& store = *opened;
   const RunRow run = FindRun("show", a.positional[0], store, db);
-  const json d = run_details(store, run, a.integer("log", 20, 0));
-  if (a.has("json")) {
+  const json d = RunDetails(store, run, a.Integer("log", 20, 0));
+  if (a.Has("json")) {
     out << d.dump(2) << "\n";
     return 0;
   }
-  const auto campaign = load_campaign(store);
+  const auto campaign = LoadCampaign(store);
   std::size_t key_width = 10;
   for (const auto& [key, value] : d["results"].items()) key_width = std::max(key_width, key.size() + 1);
   auto row = [&](const std::string& label, const std::string& value) {
@@ -427,7 +427,7 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   std::string point = CompactPoint(run.point) + ", replica " + std::to_string(run.replica);
   if (run.params.contains("seed")) point += ", seed " + run.params["seed"].dump();
   row("point", point);
-  std::string state = to_string(run.state);
+  std::string state = ToString(run.state);
   if (!run.end_reason.empty()) state += ": " + run.end_reason;
   const json& results = d["results"];
   if (results.contains("exited") && results.contains("bodies"))
@@ -500,7 +500,7 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   if (d["files"].empty()) out << "  (none" << (d["run_dir_exists"].get<bool>() ? "" : ": no directory") << ")\n";
   for (const auto& f : d["files"])
     out << "  " << std::left << std::setw(24) << f["name"].get<std::string>() << std::right << std::setw(10)
-        << human_bytes(f["bytes"].get<std::uintmax_t>()) << "\n";
+        << HumanBytes(f["bytes"].get<std::uintmax_t>()) << "\n";
   if (!d["log_tail"].empty()) {
     out << "engine.log (last " << d["log_tail"].size() << " lines):\n";
     for (const auto& line : d["log_tail"]) out << "  | " << line.get<std::string>() << "\n";

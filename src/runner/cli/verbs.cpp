@@ -85,7 +85,7 @@ void Complete(int cword, const std::vector<std::string>& words, std::ostream& ou
     try {
       if (fs::is_regular_file(db)) {
         Store store(db, Store::ReadOnly{});
-        runs = load_runs(store, with_params);
+        runs = LoadRuns(store, with_params);
       }
     } catch (const std::exception&) {
     }
@@ -153,7 +153,7 @@ namespace granary::runner {
 using cli::UsageError;
 using cli::Verb;
 
-int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+int RunCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
     (args.empty() ? err : out) << cli::MainHelp();
     return args.empty() ? static_cast<int>(ExitCode::kUsage) : 0;
@@ -174,7 +174,7 @@ int run_cli(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     if (args[0] == v.name) verb = &v;
   }
   if (!verb) {
-    const std::string best = nearest(args[0], names);
+    const std::string best = Nearest(args[0], names);
     err << "campaign: unknown verb \"" << args[0] << "\"" << (best.empty() ? "" : "; did you mean \"" + best + "\"?")
         << "\n" << cli::MainHelp();
     return static_cast<int>(ExitCode::kUsage);
