@@ -21,6 +21,9 @@
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -82,7 +85,15 @@ constexpr double kHangingGapInDiameters = 1.0;  // stall.h; measured margins in 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
 
 // Binary (de)serialisation of the checkpoint: native doubles, so a continued run is bitwise
-// the same as an uninterrupted one on the same machine.
+// the same as an uninterrupted one on the same machine. Out and In are the two archives
+// that one Serialize per checkpointed type visits (a field is written and read by the same
+// line): numbers as their bytes, bools as one byte, strings and vectors of plain values as
+// a 64-bit length and their bytes.
+template <typename T>
+struct IsVector : std::false_type {};
+template <typename T>
+struct IsVector<std::vector<T>> : std::true_type {};
+
 class Out {
  public:
   template <typename T>
@@ -99,6 +110,29 @@ class Out {
     buf_ += s;
   }
   const std::string& str() const { return buf_; }
+
+  // The archive interface of Serialize: a writer writes every field of the current version.
+  template <typename... T>
+  void operator()(T&... fields) {
+    (Field(fields), ...);
+  }
+  std::uint32_t version() const { return kCheckpointVersion; }
+  bool more() const { return true; }
+
+ private:
+  template <typename T>
+  void Field(T& v) {
+    if constexpr (std::is_same_v<T, bool>)
+      Put(static_cast<std::uint8_t>(v));
+    else if constexpr (std::is_arithmetic_v<T>)
+      Put(v);
+    else if constexpr (std::is_same_v<T, std::string>)
+      PutStr(v);
+    else if constexpr (IsVector<T>::value)
+      PutVec(v);
+    else
+      Serialize(*this, v);
+  }
 
  private:
   std::string buf_;
@@ -134,20 +168,114 @@ class In {
   std::string Rest() const { return buf_.substr(pos_); }
   bool AtEnd() const { return pos_ >= buf_.size(); }
 
+  // The archive interface of Serialize: a reader reads the fields of `version`; fields
+  // after a `more()` that is false keep the values they had.
+  void set_version(std::uint32_t version) { version_ = version; }
+  template <typename... T>
+  void operator()(T&... fields) {
+    (Field(fields), ...);
+  }
+  std::uint32_t version() const { return version_; }
+  bool more() const { return !AtEnd(); }
+
  private:
+  template <typename T>
+  void Field(T& v) {
+    if constexpr (std::is_same_v<T, bool>)
+      v = Get<std::uint8_t>() != 0;
+    else if constexpr (std::is_arithmetic_v<T>)
+      v = Get<T>();
+    else if constexpr (std::is_same_v<T, std::string>)
+      v = GetStr();
+    else if constexpr (IsVector<T>::value)
+      v = GetVec<typename T::value_type>();
+    else
+      Serialize(*this, v);
+  }
   void Need(std::size_t n) const {
     if (pos_ + n > buf_.size()) throw CheckpointError("checkpoint " + name_ + " is truncated");
   }
   std::string buf_;
   std::string name_;
   std::size_t pos_ = 0;
+  std::uint32_t version_ = kCheckpointVersion;
 };
 
 
+// The discharge's own state that its checkpoints hold (Discharge keeps it as a base, so its
+// members read as the driver's own).
+struct CheckpointedState {
+  // Counters.
+  std::int64_t step_ = 0;
+  std::int64_t last_exit_step_ = 0;
+  std::int64_t disc_steps_ = 0;
+  std::vector<std::int64_t> exits_per_outlet_;
+  int clogs_ = 0;
+  bool in_clog_ = false;
+  // The unclog protocol: attempts on the current clog, clogs broken, the step of the last
+  // attempt (-1: none), arch bodies taken out in remove mode. (Its own random numbers, for
+  // the kicks, are Discharge::unclog_rng_, so that reinjection draws the same numbers
+  // whether a run unclogs or not.)
+  int unclog_attempts_ = 0;
+  int unclogged_ = 0;
+  std::int64_t last_unclog_step_ = -1;
+  int unclog_removed_ = 0;
+  // remove_arch: the arch of the clog just counted, found from the contact forces of that
+  // step before the lists are rebuilt (which clears them).
+  std::vector<std::int64_t> clog_arch_;
+  // Periodic reinjection: bodies counted but still falling to the bottom of the box, and the
+  // box height they jump up by.
+  std::vector<std::uint8_t> falling_;
+  double periodic_height_ = 0;
+  // Bodies of the bed that an obstacle overlaps, taken out at t = 0.
+  int cleared_by_obstacles_ = 0;
+  // Bed provenance.
+  std::string bed_file_;
+  bool bed_prepared_here_ = false;
+  double bed_height_ = 0, bed_settle_time_ = 0, bed_wall_s_ = 0;
+  double bed_phi_ = std::numeric_limits<double>::quiet_NaN();  // NaN: continued from a version-4 checkpoint
+  double bed_surface_ = std::numeric_limits<double>::quiet_NaN();
+};
+
+// Everything a checkpoint holds: the run.json it belongs to, the discharge's state, the wall
+// time of the sessions so far, the random streams, the world, and how far the outputs had
+// got (a continued run cuts them back there).
+struct Checkpoint {
+  std::string spec;
+  CheckpointedState state;
+  double discharge_wall = 0;
+  std::string rng, unclog_rng;
+  WorldSnapshot world;
+  std::int64_t events_offset = 0, frames_offset = 0, contacts_offset = 0, unclogs_offset = 0;
+};
+
+// The checkpoint format (checkpoint.bin's payload), written by Out and read by In: the
+// fields in their order on disk, so a new field is one line here (at the end, behind a
+// version or `more()` test, for the older checkpoints that lack it).
+template <class Archive>
+void Serialize(Archive& ar, WorldSnapshot& w) {
+  ar(w.tmpl, w.active, w.x, w.y, w.theta, w.c, w.s, w.vx, w.vy, w.w, w.fx, w.fy, w.torque);
+  ar(w.pairs, w.walls, w.outlets_open, w.rebuild_predicted);
+}
+
+template <class Archive>
+void Serialize(Archive& ar, Checkpoint& k) {
+  CheckpointedState& s = k.state;
+  ar(k.spec, s.step_, s.last_exit_step_, s.disc_steps_, s.exits_per_outlet_, s.clogs_, s.in_clog_);
+  ar(s.bed_file_, s.bed_prepared_here_, s.bed_height_, s.bed_settle_time_, s.bed_wall_s_);
+  if (ar.version() >= 5) ar(s.bed_phi_, s.bed_surface_);
+  ar(k.discharge_wall, k.rng, k.world, k.events_offset, k.frames_offset, k.contacts_offset);
+  ar(s.falling_, s.periodic_height_, s.cleared_by_obstacles_);
+  // The unclog state last: a checkpoint of an engine from before it reads without it.
+  if (ar.more()) ar(s.unclog_attempts_, s.unclogged_, s.last_unclog_step_, s.unclog_removed_, k.unclog_rng, k.unclogs_offset);
+  if (ar.more()) ar(s.clog_arch_);
+}
+
 }  // namespace
 
-// The state of a discharge, everything a checkpoint must hold.
-class Discharge {
+// The state of a discharge, everything a checkpoint must hold (CheckpointedState and the
+// members Checkpoint names).
+class Discharge : private CheckpointedState {
  public:
   Discharge(const RunSpec& spec, fs::path dir, RunOptions options)
       : spec_(spec),
@@ -210,40 +338,11 @@ class Discharge {
   fs::path dir_;
   RunOptions options_;
   Rng rng_;
+  Rng unclog_rng_;  // the unclog protocol's kicks (CheckpointedState)
   std::unique_ptr<World> world_;
   double energy_unit_ = 1.0;
   double hw_ = 50.0;
   double r_max_ = 0.5;
-  // Counters (checkpointed).
-  std::int64_t step_ = 0;
-  std::int64_t last_exit_step_ = 0;
-  std::int64_t disc_steps_ = 0;
-  std::vector<std::int64_t> exits_per_outlet_;
-  int clogs_ = 0;
-  bool in_clog_ = false;
-  // The unclog protocol (checkpointed): attempts on the current clog, clogs broken, the step
-  // of the last attempt (-1: none), arch bodies taken out in remove mode, its own random
-  // numbers (kicks), so that reinjection draws the same numbers whether a run unclogs or not.
-  int unclog_attempts_ = 0;
-  int unclogged_ = 0;
-  std::int64_t last_unclog_step_ = -1;
-  int unclog_removed_ = 0;
-  Rng unclog_rng_;
-  // remove_arch: the arch of the clog just counted, found from the contact forces of that
-  // step before the lists are rebuilt (which clears them).
-  std::vector<std::int64_t> clog_arch_;
-  // Periodic reinjection: bodies counted but still falling to the bottom of the box, and the
-  // box height they jump up by (checkpointed).
-  std::vector<std::uint8_t> falling_;
-  double periodic_height_ = 0;
-  // Bodies of the bed that an obstacle overlaps, taken out at t = 0 (checkpointed).
-  int cleared_by_obstacles_ = 0;
-  // Bed provenance (checkpointed).
-  std::string bed_file_;
-  bool bed_prepared_here_ = false;
-  double bed_height_ = 0, bed_settle_time_ = 0, bed_wall_s_ = 0;
-  double bed_phi_ = std::numeric_limits<double>::quiet_NaN();  // NaN: continued from a checkpoint without them
-  double bed_surface_ = std::numeric_limits<double>::quiet_NaN();
   std::string bed_refused_;  // a bad cached bed file refused (and prepared again) in this session
   double discharge_wall_before_ = 0;  // wall time of earlier sessions
   bool continued_ = false;
@@ -384,46 +483,20 @@ StartState Discharge::WriteStartFrame(const fs::path& file) {
 }
 
 void Discharge::WriteCheckpoint() {
+  Checkpoint k;
   // Both this run and a run continued from this checkpoint rebuild the lists here.
-  const WorldSnapshot w = world_->Snapshot();
+  k.world = world_->Snapshot();
+  k.spec = spec_.to_json().dump();
+  k.state = *this;
+  k.discharge_wall = discharge_wall_before_ + Seconds(session_start_);
+  k.rng = rng_.Save();
+  k.unclog_rng = unclog_rng_.Save();
+  k.events_offset = events_.Offset();
+  k.frames_offset = frames_.Offset();
+  k.contacts_offset = contacts_.Offset();
+  k.unclogs_offset = unclogs_out_.Offset();
   Out o;
-  o.PutStr(spec_.to_json().dump());
-  o.Put(step_);
-  o.Put(last_exit_step_);
-  o.Put(disc_steps_);
-  o.PutVec(exits_per_outlet_);
-  o.Put(clogs_);
-  o.Put(static_cast<std::uint8_t>(in_clog_));
-  o.PutStr(bed_file_);
-  o.Put(static_cast<std::uint8_t>(bed_prepared_here_));
-  o.Put(bed_height_);
-  o.Put(bed_settle_time_);
-  o.Put(bed_wall_s_);
-  o.Put(bed_phi_);
-  o.Put(bed_surface_);
-  o.Put(discharge_wall_before_ + Seconds(session_start_));
-  o.PutStr(rng_.Save());
-  o.PutVec(w.tmpl);
-  o.PutVec(w.active);
-  for (const auto* v : {&w.x, &w.y, &w.theta, &w.c, &w.s, &w.vx, &w.vy, &w.w, &w.fx, &w.fy, &w.torque}) o.PutVec(*v);
-  o.PutVec(w.pairs);
-  o.PutVec(w.walls);
-  o.Put(static_cast<std::uint8_t>(w.outlets_open));
-  o.Put(static_cast<std::uint8_t>(w.rebuild_predicted));
-  o.Put(events_.Offset());
-  o.Put(frames_.Offset());
-  o.Put(contacts_.Offset());
-  o.PutVec(falling_);
-  o.Put(periodic_height_);
-  o.Put(cleared_by_obstacles_);
-  // The unclog state last: a checkpoint of an engine from before it reads without it.
-  o.Put(unclog_attempts_);
-  o.Put(unclogged_);
-  o.Put(last_unclog_step_);
-  o.Put(unclog_removed_);
-  o.PutStr(unclog_rng_.Save());
-  o.Put(unclogs_out_.Offset());
-  o.PutVec(clog_arch_);
+  Serialize(o, k);
   Out file;
   file.PutStr(kCheckpointMagic);
   file.Put(kCheckpointVersion);
@@ -470,116 +543,62 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
     throw CheckpointError(name + msg);
   }
   In in(payload, name);
-  const std::string saved_spec = in.GetStr();
+  in.set_version(version);
+  Checkpoint k;
+  Serialize(in, k);
+  const CheckpointedState& loaded = k.state;
   std::string extended_from;
-  if (saved_spec != spec_.to_json().dump()) {
+  if (k.spec != spec_.to_json().dump()) {
     // A finished run planned again with a larger limit (granary::extends) continues from here.
-    const nlohmann::json saved = nlohmann::json::parse(saved_spec, nullptr, false);
+    const nlohmann::json saved = nlohmann::json::parse(k.spec, nullptr, false);
     if (!granary::extends(saved, spec_.to_json()))
       throw std::runtime_error("checkpoint " + file.string() + " belongs to a different run.json; remove it to start over");
     extended_from = saved.value("run_id", std::string("?"));
   }
-  const auto step = in.Get<std::int64_t>();
-  const auto last_exit_step = in.Get<std::int64_t>();
-  const auto disc_steps = in.Get<std::int64_t>();
-  const auto exits_per_outlet = in.GetVec<std::int64_t>();
-  const int clogs = in.Get<int>();
-  const bool in_clog = in.Get<std::uint8_t>() != 0;
-  const std::string bed_file = in.GetStr();
-  const bool bed_prepared_here = in.Get<std::uint8_t>() != 0;
-  const double bed_height = in.Get<double>(), bed_settle_time = in.Get<double>(), bed_wall_s = in.Get<double>();
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const double bed_phi = version >= 5 ? in.Get<double>() : nan, bed_surface = version >= 5 ? in.Get<double>() : nan;
-  const double discharge_wall_before = in.Get<double>();
-  const std::string rng = in.GetStr();
-  WorldSnapshot w;
-  w.tmpl = in.GetVec<int>();
-  w.active = in.GetVec<std::uint8_t>();
-  for (auto* v : {&w.x, &w.y, &w.theta, &w.c, &w.s, &w.vx, &w.vy, &w.w, &w.fx, &w.fy, &w.torque}) *v = in.GetVec<double>();
-  w.pairs = in.GetVec<HistoryEntry>();
-  w.walls = in.GetVec<HistoryEntry>();
-  w.outlets_open = in.Get<std::uint8_t>() != 0;
-  w.rebuild_predicted = in.Get<std::uint8_t>() != 0;
-  const long offsets[3] = {in.Get<long>(), in.Get<long>(), in.Get<long>()};
-  const auto falling = in.GetVec<std::uint8_t>();
-  const double periodic_height = in.Get<double>();
-  const int cleared_by_obstacles = in.Get<int>();
-  int unclog_attempts = 0, unclogged = 0, unclog_removed = 0;
-  std::int64_t last_unclog_step = -1, unclogs_offset = 0;
-  std::string unclog_rng;
-  std::vector<std::int64_t> clog_arch;
-  if (!in.AtEnd()) {
-    unclog_attempts = in.Get<int>();
-    unclogged = in.Get<int>();
-    last_unclog_step = in.Get<std::int64_t>();
-    unclog_removed = in.Get<int>();
-    unclog_rng = in.GetStr();
-    unclogs_offset = in.Get<std::int64_t>();
-  }
-  if (!in.AtEnd()) clog_arch = in.GetVec<std::int64_t>();
-  if (Unclogging() && unclog_rng.empty())
+  if (Unclogging() && k.unclog_rng.empty())
     throw CheckpointError(name + " was written without the unclog protocol's state");
   if (Unclogging()) {
     std::error_code ec;
     const fs::path out = dir_ / rundir::kUnclogsFile;
     const auto have = fs::exists(out) ? fs::file_size(out, ec) : 0;
-    if (unclogs_offset > 0 && (ec || have < static_cast<std::uintmax_t>(unclogs_offset)))
-      throw CheckpointError(name + " expects " + std::to_string(unclogs_offset) + " bytes of " + rundir::kUnclogsFile +
+    if (k.unclogs_offset > 0 && (ec || have < static_cast<std::uintmax_t>(k.unclogs_offset)))
+      throw CheckpointError(name + " expects " + std::to_string(k.unclogs_offset) + " bytes of " + rundir::kUnclogsFile +
                             ", the file has " + std::to_string(have));
   }
-  if (step > std::llround(spec_.discharge.max_time / spec_.time_step))
-    throw CheckpointError(name + " is at step " + std::to_string(step) + ", past this run's max_time");
+  if (loaded.step_ > std::llround(spec_.discharge.max_time / spec_.time_step))
+    throw CheckpointError(name + " is at step " + std::to_string(loaded.step_) + ", past this run's max_time");
   // The outputs must still hold what the checkpoint saw (truncating a shorter file would pad it).
   const bool gz = spec_.output.compress;
   const char* outputs[3] = {rundir::kEventsFile, rundir::FramesFileName(spec_.output),
                             rundir::ContactsFileName(spec_.output)};
-  for (int k = 0; k < 3; ++k) {
-    const fs::path out = dir_ / outputs[k];
+  const std::int64_t offsets[3] = {k.events_offset, k.frames_offset, k.contacts_offset};
+  for (int o = 0; o < 3; ++o) {
+    const fs::path out = dir_ / outputs[o];
     std::error_code ec;
     const auto have = fs::exists(out) ? fs::file_size(out, ec) : 0;
-    if (offsets[k] > 0 && (ec || have < static_cast<std::uintmax_t>(offsets[k])))
-      throw CheckpointError(name + " expects " + std::to_string(offsets[k]) + " bytes of " + outputs[k] + ", the file has " +
+    if (offsets[o] > 0 && (ec || have < static_cast<std::uintmax_t>(offsets[o])))
+      throw CheckpointError(name + " expects " + std::to_string(offsets[o]) + " bytes of " + outputs[o] + ", the file has " +
                             std::to_string(have));
   }
   try {
-    BuildWorld(w.tmpl, &w);
+    BuildWorld(k.world.tmpl, &k.world);
   } catch (const std::invalid_argument& e) {
     throw CheckpointError(name + ": " + e.what());
   }
-  if (exits_per_outlet.size() != exits_per_outlet_.size() || falling.size() != falling_.size())
+  if (loaded.exits_per_outlet_.size() != exits_per_outlet_.size() || loaded.falling_.size() != falling_.size())
     throw CheckpointError(name + ": outlet or body count does not match the run");
-  step_ = step;
-  last_exit_step_ = last_exit_step;
-  disc_steps_ = disc_steps;
-  exits_per_outlet_ = exits_per_outlet;
-  clogs_ = clogs;
-  in_clog_ = in_clog;
-  bed_file_ = bed_file;
-  bed_prepared_here_ = bed_prepared_here;
-  bed_height_ = bed_height;
-  bed_settle_time_ = bed_settle_time;
-  bed_wall_s_ = bed_wall_s;
-  bed_phi_ = bed_phi;
-  bed_surface_ = bed_surface;
-  discharge_wall_before_ = discharge_wall_before;
-  rng_.Load(rng);
-  falling_ = falling;
-  periodic_height_ = periodic_height;
-  cleared_by_obstacles_ = cleared_by_obstacles;
-  unclog_attempts_ = unclog_attempts;
-  unclogged_ = unclogged;
-  last_unclog_step_ = last_unclog_step;
-  unclog_removed_ = unclog_removed;
-  clog_arch_ = clog_arch;
+  static_cast<CheckpointedState&>(*this) = loaded;
+  discharge_wall_before_ = k.discharge_wall;
+  rng_.Load(k.rng);
   if (Unclogging()) {
-    unclog_rng_.Load(unclog_rng);
-    unclogs_out_ = rundir::UnclogWriter::ContinueAt(dir_ / rundir::kUnclogsFile, unclogs_offset);
+    unclog_rng_.Load(k.unclog_rng);
+    unclogs_out_ = rundir::UnclogWriter::ContinueAt(dir_ / rundir::kUnclogsFile, k.unclogs_offset);
   }
-  events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, offsets[0]);
+  events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, k.events_offset);
   clogs_out_ = rundir::ClogWriter::ContinueAfter(dir_, step_);
-  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / rundir::FramesFileName(spec_.output), offsets[1], gz);
+  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / rundir::FramesFileName(spec_.output), k.frames_offset, gz);
   if (frame_every_ > 0 && spec_.output.contact_forces)
-    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / rundir::ContactsFileName(spec_.output), offsets[2], gz);
+    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / rundir::ContactsFileName(spec_.output), k.contacts_offset, gz);
   continued_ = true;
   extended_from_ = extended_from;
 }
