@@ -439,10 +439,10 @@ void Discharge::PlaceBed() {
   // outlets or obstacles, docs/model.md): a body an obstacle overlaps is taken out, or the
   // overlap would fire it off at t = 0.
   for (int i = 0; i < w.disc_count(); ++i) {
-    const int b = w.dbody_[i];
-    if (!w.active_[b]) continue;
+    const int b = w.disc_body_[i];
+    if (!w.body_active_[b]) continue;
     for (const Obstacle& o : spec_.silo.obstacles) {
-      if (std::hypot(w.dx_[i] - o.x, w.dy_[i] - o.y) < w.dr_[i] + o.diameter / 2) {
+      if (std::hypot(w.disc_x_[i] - o.x, w.disc_y_[i] - o.y) < w.disc_radius_[i] + o.diameter / 2) {
         w.Deactivate(b);
         ++cleared_by_obstacles_;
         break;
@@ -452,22 +452,22 @@ void Discharge::PlaceBed() {
   // The bed's wall contacts move to the segments of this silo (none over an open gap).
   std::vector<HistoryEntry> walls;
   for (const HistoryEntry& h : ob.bed.wall_history) {
-    const int e = silo::SegmentUnder(w.geometry(), static_cast<silo::Side>(h.j), w.dx_[h.i], w.dy_[h.i]);
+    const int e = silo::SegmentUnder(w.geometry(), static_cast<silo::Side>(h.j), w.disc_x_[h.i], w.disc_y_[h.i]);
     if (e >= 0) walls.push_back({h.i, e, h.sx, h.sy});
   }
   std::stable_sort(walls.begin(), walls.end(),
                    [](const HistoryEntry& a, const HistoryEntry& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
   std::vector<HistoryEntry> pairs;
   for (const HistoryEntry& h : ob.bed.pair_history)
-    if (w.active_[w.dbody_[h.i]] && w.active_[w.dbody_[h.j]]) pairs.push_back(h);
-  std::erase_if(walls, [&](const HistoryEntry& h) { return !w.active_[w.dbody_[h.i]]; });
+    if (w.body_active_[w.disc_body_[h.i]] && w.body_active_[w.disc_body_[h.j]]) pairs.push_back(h);
+  std::erase_if(walls, [&](const HistoryEntry& h) { return !w.body_active_[w.disc_body_[h.i]]; });
   w.ImportHistory(pairs, walls);
   w.ComputeForces();
   if (Periodic()) {
     // The LIGGGHTS backend's box (input_script.cpp): bottom kPeriodicFall below the counting
     // plane, top 2 bounding radii + periodic_headroom above the highest disc centre.
     double top = -1e300, bound = 0;
-    for (int i = 0; i < w.disc_count(); ++i) top = std::max(top, w.dy_[i]);
+    for (int i = 0; i < w.disc_count(); ++i) top = std::max(top, w.disc_y_[i]);
     for (const auto& t : w.templates()) bound = std::max(bound, t.bound_radius);
     periodic_height_ = (top + 2 * bound + spec_.discharge.periodic_headroom) + (spec_.discharge.exit_distance + kPeriodicFall);
   }
@@ -627,7 +627,7 @@ bool Discharge::ContinueFromACheckpoint() {
 
 int Discharge::OutletOf(int b) const {
   const World& w = *world_;
-  const double x = w.bx_[b], y = w.by_[b];
+  const double x = w.body_x_[b], y = w.body_y_[b];
   const double ed = spec_.discharge.exit_distance;
   if (!(y < -ed || x > hw_ + ed || x < -hw_ - ed)) return -1;
   const auto& outlets = w.geometry().outlets;
@@ -645,7 +645,7 @@ int Discharge::OutletOf(int b) const {
 
 void Discharge::Reinject(int b) {
   World& w = *world_;
-  const silo::ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
+  const silo::ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.body_template_[b])];
   const double rb = tp.bound_radius;
   // On top of the bed: a column whose top is a return still falling (no contact, or faster
   // than a body that has fallen its own size) is drawn again, up to kReinjectDraws times. Put
@@ -671,15 +671,15 @@ void Discharge::Reinject(int b) {
 // belongs to and its vertical velocity (-1 and 0 on an empty column).
 Discharge::Landing Discharge::LandingOn(int b, double x) const {
   const World& w = *world_;
-  const double rb = w.templates()[static_cast<std::size_t>(w.tmpl_[b])].bound_radius;
+  const double rb = w.templates()[static_cast<std::size_t>(w.body_template_[b])].bound_radius;
   double top = 0.0, vy = 0.0;
   int on = -1;
   for (int i = 0; i < w.disc_count(); ++i) {
-    const int ob = w.dbody_[i];
-    if (ob == b || !w.active_[ob] || falling_[ob]) continue;
-    if (std::fabs(w.dx_[i] - x) < rb + w.dr_[i] && w.dy_[i] + w.dr_[i] > top) {
-      top = w.dy_[i] + w.dr_[i];
-      vy = w.bvy_[ob];
+    const int ob = w.disc_body_[i];
+    if (ob == b || !w.body_active_[ob] || falling_[ob]) continue;
+    if (std::fabs(w.disc_x_[i] - x) < rb + w.disc_radius_[i] && w.disc_y_[i] + w.disc_radius_[i] > top) {
+      top = w.disc_y_[i] + w.disc_radius_[i];
+      vy = w.body_vy_[ob];
       on = ob;
     }
   }
@@ -695,32 +695,32 @@ void Discharge::HandleExits() {
   const double ed = spec_.discharge.exit_distance, fall_y = -(ed + kPeriodicFall);
   int any = 0;
   for (int b = 0; b < w.body_count(); ++b) {
-    const double x = w.bx_[b], y = w.by_[b];
+    const double x = w.body_x_[b], y = w.body_y_[b];
     const bool falling = falling_[b] != 0, beyond = (y < -ed) | (x > hw_ + ed) | (x < -hw_ - ed);
-    any |= (w.active_[b] != 0) & ((falling & (y < fall_y)) | (!falling & beyond));
+    any |= (w.body_active_[b] != 0) & ((falling & (y < fall_y)) | (!falling & beyond));
   }
   if (!any) return;
   const double t = static_cast<double>(step_) * spec_.time_step;
   bool contacts_marked = false;
   for (int b = 0; b < w.body_count(); ++b) {
-    if (!w.active_[b]) continue;
+    if (!w.body_active_[b]) continue;
     if (falling_[b]) {
       // Counted already; through the bottom of the periodic box it comes back at the top,
       // at the same x and with its velocity.
-      if (w.by_[b] < -(spec_.discharge.exit_distance + kPeriodicFall)) {
+      if (w.body_y_[b] < -(spec_.discharge.exit_distance + kPeriodicFall)) {
         // Where a heap has grown above the box top (returns pile up over the outlet), the
         // body lands on it instead: LIGGGHTS resolves that overlap through the periodic
         // boundary, this engine has no images across it.
-        const double x = w.bx_[b];
-        const double y = std::max(w.by_[b] + periodic_height_, LandingOn(b, x).y);
-        w.PlaceBody(b, x, y, w.bth_[b], w.bvx_[b], w.bvy_[b], w.bw_[b]);
+        const double x = w.body_x_[b];
+        const double y = std::max(w.body_y_[b] + periodic_height_, LandingOn(b, x).y);
+        w.PlaceBody(b, x, y, w.body_angle_[b], w.body_vx_[b], w.body_vy_[b], w.body_spin_[b]);
         falling_[b] = 0;
       }
       continue;
     }
     const int k = OutletOf(b);
     if (k < 0) continue;
-    const silo::ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.tmpl_[b])];
+    const silo::ShapeTemplate& tp = w.templates()[static_cast<std::size_t>(w.body_template_[b])];
     events_.Write({t, b, tp.name, tp.mass, k});
     ++exits_per_outlet_[static_cast<std::size_t>(k)];
     last_exit_step_ = step_;
@@ -747,13 +747,13 @@ bool Discharge::Stalled() const {
   double ke = 0;
   int n = 0;
   for (int b = 0; b < w.body_count(); ++b) {
-    if (!w.active_[b]) continue;
+    if (!w.body_active_[b]) continue;
     for (const silo::OutletFrame& o : w.geometry().outlets) {
-      const double px = w.bx_[b] - o.cx, py = w.by_[b] - o.cy;
+      const double px = w.body_x_[b] - o.cx, py = w.body_y_[b] - o.cy;
       const double s = px * o.ax + py * o.ay, h = px * o.nx + py * o.ny;
       if (std::fabs(s) < o.width && h > -spec_.discharge.exit_distance && h < 2 * o.width) {
-        ke += 0.5 * w.bmass_[b] * (w.bvx_[b] * w.bvx_[b] + w.bvy_[b] * w.bvy_[b]) +
-              0.5 * w.binertia_[b] * w.bw_[b] * w.bw_[b];
+        ke += 0.5 * w.body_mass_[b] * (w.body_vx_[b] * w.body_vx_[b] + w.body_vy_[b] * w.body_vy_[b]) +
+              0.5 * w.body_inertia_[b] * w.body_spin_[b] * w.body_spin_[b];
         ++n;
         break;
       }
@@ -818,12 +818,12 @@ void Discharge::Unclog(const std::vector<std::int64_t>* arch) {
     }
   } else {
     for (int b = 0; b < w.body_count(); ++b) {
-      if (!w.active_[b]) continue;
+      if (!w.body_active_[b]) continue;
       for (const silo::OutletFrame& o : w.geometry().outlets) {
         const double radius = u.kick_radius > 0 ? u.kick_radius : o.width;
-        if (std::hypot(w.bx_[b] - o.cx, w.by_[b] - o.cy) > radius) continue;
+        if (std::hypot(w.body_x_[b] - o.cx, w.body_y_[b] - o.cy) > radius) continue;
         const double angle = unclog_rng_.Uniform(-0.25 * std::numbers::pi, 0.25 * std::numbers::pi);
-        w.SetVelocity(b, u.kick_speed * std::sin(angle), u.kick_speed * std::cos(angle), w.bw_[b]);
+        w.SetVelocity(b, u.kick_speed * std::sin(angle), u.kick_speed * std::cos(angle), w.body_spin_[b]);
         e.bodies.push_back(b);
         break;
       }
@@ -846,19 +846,19 @@ void Discharge::FillFrame(rundir::Frame& f) {
   DumpBox(f.box);
   f.discs.clear();
   for (int i = 0; i < w.disc_count(); ++i) {
-    const int b = w.dbody_[i];
-    if (!w.active_[b]) continue;
+    const int b = w.disc_body_[i];
+    if (!w.body_active_[b]) continue;
     // The disc centre moves with the rigid body: v + omega x r.
-    const double rx = w.dx_[i] - w.bx_[b], ry = w.dy_[i] - w.by_[b];
-    f.discs.push_back({i + 1, b, w.tmpl_[b] + 1, w.dx_[i], w.dy_[i], w.dr_[i], w.dmass_[i], w.bvx_[b] - w.bw_[b] * ry,
-                       w.bvy_[b] + w.bw_[b] * rx, w.bw_[b]});
+    const double rx = w.disc_x_[i] - w.body_x_[b], ry = w.disc_y_[i] - w.body_y_[b];
+    f.discs.push_back({i + 1, b, w.body_template_[b] + 1, w.disc_x_[i], w.disc_y_[i], w.disc_radius_[i], w.disc_mass_[i], w.body_vx_[b] - w.body_spin_[b] * ry,
+                       w.body_vy_[b] + w.body_spin_[b] * rx, w.body_spin_[b]});
     // LAMMPS drops an atom outside a fixed box: never silently.
-    const bool outside = w.dx_[i] < f.box[0][0] || w.dx_[i] > f.box[0][1] || w.dy_[i] < f.box[1][0] || w.dy_[i] > f.box[1][1];
+    const bool outside = w.disc_x_[i] < f.box[0][0] || w.disc_x_[i] > f.box[0][1] || w.disc_y_[i] < f.box[1][0] || w.disc_y_[i] > f.box[1][1];
     if (outside && !warned_outside_box_) {
       std::fprintf(stderr,
                    "warning: the frame at t = %.6g has disc %d at (%.6g, %.6g), outside the dump box "
                    "[%.6g, %.6g] x [%.6g, %.6g]; LAMMPS drops such atoms\n",
-                   f.time, i + 1, w.dx_[i], w.dy_[i], f.box[0][0], f.box[0][1], f.box[1][0], f.box[1][1]);
+                   f.time, i + 1, w.disc_x_[i], w.disc_y_[i], f.box[0][0], f.box[0][1], f.box[1][0], f.box[1][1]);
       warned_outside_box_ = true;
     }
   }
@@ -877,9 +877,9 @@ void Discharge::FillContacts(rundir::ContactFrame& f) {
   DumpBox(f.box);
   f.contacts.clear();
   for (const auto& c : contact_buf_) {
-    const int bj = c.disc_j >= 0 ? w.dbody_[c.disc_j] : -1;
-    const double xj = c.disc_j >= 0 ? w.dx_[c.disc_j] : c.cx, yj = c.disc_j >= 0 ? w.dy_[c.disc_j] : c.cy;
-    f.contacts.push_back({w.dbody_[c.disc_i], bj, w.dx_[c.disc_i], w.dy_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy});
+    const int bj = c.disc_j >= 0 ? w.disc_body_[c.disc_j] : -1;
+    const double xj = c.disc_j >= 0 ? w.disc_x_[c.disc_j] : c.cx, yj = c.disc_j >= 0 ? w.disc_y_[c.disc_j] : c.cy;
+    f.contacts.push_back({w.disc_body_[c.disc_i], bj, w.disc_x_[c.disc_i], w.disc_y_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy});
   }
 }
 
