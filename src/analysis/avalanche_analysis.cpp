@@ -63,7 +63,7 @@ class AvalancheAnalysis : public Analysis {
  public:
   std::string key() const override { return "avalanches"; }
   int version() const override { return 2; }
-  PassUse pass_use() const override { return {false, true, false}; }
+  PassUse pass_use() const override { return {.window = false, .clog_gap = true, .frames = false}; }
   std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
     return std::make_unique<AvalancheAccumulator>(run);
   }

@@ -82,7 +82,7 @@ class ClogIndexAnalysis : public Analysis {
   explicit ClogIndexAnalysis(int min_exits) : min_exits_(min_exits) {}
   std::string key() const override { return "clogging_index"; }
   int version() const override { return 2; }
-  PassUse pass_use() const override { return {false, true, false}; }
+  PassUse pass_use() const override { return {.window = false, .clog_gap = true, .frames = false}; }
   std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
     return std::make_unique<ClogRunAccumulator>(run);
   }

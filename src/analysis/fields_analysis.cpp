@@ -410,7 +410,9 @@ class FieldsAnalysis : public Analysis {
   std::string key() const override { return "fields"; }
   int version() const override { return 1; }
   nlohmann::json run_options() const override { return o_.to_json(); }
-  PassUse pass_use() const override { return {true, o_.frames == FieldsOptions::Frames::kSplit, true}; }
+  PassUse pass_use() const override {
+    return {.window = true, .clog_gap = o_.frames == FieldsOptions::Frames::kSplit, .frames = true};
+  }
   std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
     return std::make_unique<FieldsRunAccumulator>(run, o_);
   }

@@ -119,7 +119,7 @@ class FlowAnalysis : public Analysis {
   explicit FlowAnalysis(std::vector<FitModel> models) : models_(std::move(models)) {}
   std::string key() const override { return "flow"; }
   int version() const override { return 1; }
-  PassUse pass_use() const override { return {true, true, false}; }
+  PassUse pass_use() const override { return {.window = true, .clog_gap = true, .frames = false}; }
   std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
     return std::make_unique<FlowAccumulator>(run);
   }

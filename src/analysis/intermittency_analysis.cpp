@@ -71,7 +71,7 @@ class IntermittencyAnalysis : public Analysis {
  public:
   std::string key() const override { return "intermittency"; }
   int version() const override { return 1; }
-  PassUse pass_use() const override { return {false, true, false}; }
+  PassUse pass_use() const override { return {.window = false, .clog_gap = true, .frames = false}; }
   std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
     return std::make_unique<IntermittencyAccumulator>(run);
   }

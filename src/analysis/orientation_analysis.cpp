@@ -123,7 +123,7 @@ class OrientationAnalysis : public Analysis {
   std::string key() const override { return "orientation"; }
   int version() const override { return 1; }
   nlohmann::json run_options() const override { return raw_; }
-  PassUse pass_use() const override { return {true, true, true}; }
+  PassUse pass_use() const override { return {.window = true, .clog_gap = true, .frames = true}; }
   std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
     return std::make_unique<OrientationAccumulator>(run, o_);
   }

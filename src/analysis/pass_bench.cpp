@@ -80,7 +80,7 @@ class TouchAll : public Analysis {
   explicit TouchAll(int work) : work_(work) {}
   std::string key() const override { return "touch_all"; }
   int version() const override { return 1; }
-  PassUse pass_use() const override { return {false, false, true}; }
+  PassUse pass_use() const override { return {.window = false, .clog_gap = false, .frames = true}; }
   std::unique_ptr<RunAccumulator> start(const RunView&) const override {
     class Acc : public RunAccumulator {
      public:

@@ -83,7 +83,7 @@ class ProfileAnalysis : public Analysis {
   nlohmann::json run_options() const override {
     return {{"bins", options_.bins}, {"band_low", options_.band_low}, {"band_high", options_.band_high}};
   }
-  PassUse pass_use() const override { return {true, true, true}; }
+  PassUse pass_use() const override { return {.window = true, .clog_gap = true, .frames = true}; }
   std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
     return std::make_unique<ProfileAccumulator>(run, options_);
   }

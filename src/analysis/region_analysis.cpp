@@ -85,7 +85,7 @@ class RegionAnalysis : public Analysis {
   std::string key() const override { return "region"; }
   int version() const override { return 1; }
   nlohmann::json run_options() const override { return {{"pad", size_.pad}, {"height", size_.height}}; }
-  PassUse pass_use() const override { return {true, true, true}; }
+  PassUse pass_use() const override { return {.window = true, .clog_gap = true, .frames = true}; }
   std::unique_ptr<RunAccumulator> start(const RunView& run) const override {
     return std::make_unique<RegionRunAccumulator>(run, size_);
   }

@@ -147,7 +147,7 @@ class Recorder : public Analysis {
       : key_(std::move(key)), windows_(std::move(windows)), contacts_(contacts) {}
   std::string key() const override { return key_; }
   int version() const override { return 1; }
-  PassUse pass_use() const override { return {false, false, true}; }
+  PassUse pass_use() const override { return {.window = false, .clog_gap = false, .frames = true}; }
   std::unique_ptr<RunAccumulator> start(const RunView&) const override {
     class Acc : public RunAccumulator {
      public:
