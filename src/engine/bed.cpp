@@ -111,8 +111,8 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
         th = rng.Uniform(0.0, 2.0 * std::numbers::pi);
         ok = true;
         for (int b : placed) {
-          if (Overlaps(tp, x, y, th, templates[static_cast<std::size_t>(world.body_template_[b])], world.body_x_[b], world.body_y_[b],
-                       world.body_angle_[b])) {
+          if (Overlaps(tp, x, y, th, templates[static_cast<std::size_t>(world.body_template_[b])], world.body_x_[b],
+                       world.body_y_[b], world.body_angle_[b])) {
             ok = false;
             break;
           }
@@ -134,7 +134,8 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
       if (spec.bed.next_batch == NextBatch::kLanded && (s + 1) % settle_check_every == 0) {
         // Serially over the batch in placement order: the same sum at any thread count.
         double ke = 0.0;
-        for (int b : placed) ke += world.body_mass_[b] * (world.body_vx_[b] * world.body_vx_[b] + world.body_vy_[b] * world.body_vy_[b]);
+        for (int b : placed)
+          ke += world.body_mass_[b] * (world.body_vx_[b] * world.body_vx_[b] + world.body_vy_[b] * world.body_vy_[b]);
         ke *= 0.5 / (static_cast<double>(placed.size()) * energy_unit);
         if (ke > kBedLandedKePerBody) fell = true;
         else if (fell) break;

@@ -267,7 +267,8 @@ void Serialize(Archive& ar, Checkpoint& k) {
   ar(k.discharge_wall, k.rng, k.world, k.events_offset, k.frames_offset, k.contacts_offset);
   ar(s.falling_, s.periodic_height_, s.cleared_by_obstacles_);
   // The unclog state last: a checkpoint of an engine from before it reads without it.
-  if (ar.more()) ar(s.unclog_attempts_, s.unclogged_, s.last_unclog_step_, s.unclog_removed_, k.unclog_rng, k.unclogs_offset);
+  if (ar.more())
+    ar(s.unclog_attempts_, s.unclogged_, s.last_unclog_step_, s.unclog_removed_, k.unclog_rng, k.unclogs_offset);
   if (ar.more()) ar(s.clog_arch_);
 }
 
@@ -562,8 +563,8 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
     const fs::path out = dir_ / rundir::kUnclogsFile;
     const auto have = fs::exists(out) ? fs::file_size(out, ec) : 0;
     if (k.unclogs_offset > 0 && (ec || have < static_cast<std::uintmax_t>(k.unclogs_offset)))
-      throw CheckpointError(name + " expects " + std::to_string(k.unclogs_offset) + " bytes of " + rundir::kUnclogsFile +
-                            ", the file has " + std::to_string(have));
+      throw CheckpointError(name + " expects " + std::to_string(k.unclogs_offset) + " bytes of " +
+                            rundir::kUnclogsFile + ", the file has " + std::to_string(have));
   }
   if (loaded.step_ > std::llround(spec_.discharge.max_time / spec_.time_step))
     throw CheckpointError(name + " is at step " + std::to_string(loaded.step_) + ", past this run's max_time");
@@ -577,8 +578,8 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
     std::error_code ec;
     const auto have = fs::exists(out) ? fs::file_size(out, ec) : 0;
     if (offsets[o] > 0 && (ec || have < static_cast<std::uintmax_t>(offsets[o])))
-      throw CheckpointError(name + " expects " + std::to_string(offsets[o]) + " bytes of " + outputs[o] + ", the file has " +
-                            std::to_string(have));
+      throw CheckpointError(name + " expects " + std::to_string(offsets[o]) + " bytes of " + outputs[o] +
+                            ", the file has " + std::to_string(have));
   }
   try {
     BuildWorld(k.world.tmpl, &k.world);
@@ -596,7 +597,8 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   }
   events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, k.events_offset);
   clogs_out_ = rundir::ClogWriter::ContinueAfter(dir_, step_);
-  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / rundir::FramesFileName(spec_.output), k.frames_offset, gz);
+  if (frame_every_ > 0)
+    frames_ = rundir::FrameWriter::ContinueAt(dir_ / rundir::FramesFileName(spec_.output), k.frames_offset, gz);
   if (frame_every_ > 0 && spec_.output.contact_forces)
     contacts_ = rundir::ContactWriter::ContinueAt(dir_ / rundir::ContactsFileName(spec_.output), k.contacts_offset, gz);
   continued_ = true;
@@ -850,10 +852,12 @@ void Discharge::FillFrame(rundir::Frame& f) {
     if (!w.body_active_[b]) continue;
     // The disc centre moves with the rigid body: v + omega x r.
     const double rx = w.disc_x_[i] - w.body_x_[b], ry = w.disc_y_[i] - w.body_y_[b];
-    f.discs.push_back({i + 1, b, w.body_template_[b] + 1, w.disc_x_[i], w.disc_y_[i], w.disc_radius_[i], w.disc_mass_[i], w.body_vx_[b] - w.body_spin_[b] * ry,
-                       w.body_vy_[b] + w.body_spin_[b] * rx, w.body_spin_[b]});
+    f.discs.push_back({i + 1, b, w.body_template_[b] + 1, w.disc_x_[i], w.disc_y_[i], w.disc_radius_[i],
+                       w.disc_mass_[i], w.body_vx_[b] - w.body_spin_[b] * ry, w.body_vy_[b] + w.body_spin_[b] * rx,
+                       w.body_spin_[b]});
     // LAMMPS drops an atom outside a fixed box: never silently.
-    const bool outside = w.disc_x_[i] < f.box[0][0] || w.disc_x_[i] > f.box[0][1] || w.disc_y_[i] < f.box[1][0] || w.disc_y_[i] > f.box[1][1];
+    const bool outside = w.disc_x_[i] < f.box[0][0] || w.disc_x_[i] > f.box[0][1] || w.disc_y_[i] < f.box[1][0] ||
+                         w.disc_y_[i] > f.box[1][1];
     if (outside && !warned_outside_box_) {
       std::fprintf(stderr,
                    "warning: the frame at t = %.6g has disc %d at (%.6g, %.6g), outside the dump box "
@@ -879,7 +883,8 @@ void Discharge::FillContacts(rundir::ContactFrame& f) {
   for (const auto& c : contact_buf_) {
     const int bj = c.disc_j >= 0 ? w.disc_body_[c.disc_j] : -1;
     const double xj = c.disc_j >= 0 ? w.disc_x_[c.disc_j] : c.cx, yj = c.disc_j >= 0 ? w.disc_y_[c.disc_j] : c.cy;
-    f.contacts.push_back({w.disc_body_[c.disc_i], bj, w.disc_x_[c.disc_i], w.disc_y_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy});
+    f.contacts.push_back(
+        {w.disc_body_[c.disc_i], bj, w.disc_x_[c.disc_i], w.disc_y_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy});
   }
 }
 

@@ -207,7 +207,8 @@ TEST(World, EnergyConservedWithoutDampingAndFriction) {
     for (int i = 0; i < w.disc_count(); ++i) {
       for (int j = i + 1; j < w.disc_count(); ++j) {
         if (w.disc_body_[i] == w.disc_body_[j]) continue;
-        const double d = w.disc_radius_[i] + w.disc_radius_[j] - std::hypot(w.disc_x_[i] - w.disc_x_[j], w.disc_y_[i] - w.disc_y_[j]);
+        const double d = w.disc_radius_[i] + w.disc_radius_[j] -
+                         std::hypot(w.disc_x_[i] - w.disc_x_[j], w.disc_y_[i] - w.disc_y_[j]);
         e += HertzEnergy(p.pair.kn, w.disc_radius_[i] * w.disc_radius_[j] / (w.disc_radius_[i] + w.disc_radius_[j]), d);
       }
       const double dist[4] = {w.disc_y_[i] + 3, 3 - w.disc_x_[i], 3 - w.disc_y_[i], w.disc_x_[i] + 3};
@@ -375,8 +376,9 @@ bool SameState(const World& a, const World& b) {
   auto same = [](const auto& x, const auto& y) {
     return x.size() == y.size() && std::memcmp(x.data(), y.data(), x.size() * sizeof(double)) == 0;
   };
-  return same(a.body_x_, b.body_x_) && same(a.body_y_, b.body_y_) && same(a.body_angle_, b.body_angle_) && same(a.body_vx_, b.body_vx_) &&
-         same(a.body_vy_, b.body_vy_) && same(a.body_spin_, b.body_spin_) && same(a.body_fx_, b.body_fx_) && same(a.body_torque_, b.body_torque_);
+  return same(a.body_x_, b.body_x_) && same(a.body_y_, b.body_y_) && same(a.body_angle_, b.body_angle_) &&
+         same(a.body_vx_, b.body_vx_) && same(a.body_vy_, b.body_vy_) && same(a.body_spin_, b.body_spin_) &&
+         same(a.body_fx_, b.body_fx_) && same(a.body_torque_, b.body_torque_);
 }
 
 struct ThreadCount {
@@ -441,8 +443,9 @@ TEST(World, ArraysTheThreadsShareStartOnPairsOfCacheLines) {
     EXPECT_TRUE(on_pair(a.data()) && on_pair(b.data())) << n;
   }
   const World w = SettlingPack(ThreadedParams());
-  for (const auto* v : {&w.body_x_, &w.body_y_, &w.body_angle_, &w.body_vx_, &w.body_vy_, &w.body_spin_, &w.body_cos_, &w.body_sin_, &w.body_fx_, &w.body_fy_, &w.body_torque_,
-                        &w.disc_x_, &w.disc_y_, &w.disc_fx_, &w.disc_fy_, &w.disc_torque_})
+  for (const auto* v :
+       {&w.body_x_, &w.body_y_, &w.body_angle_, &w.body_vx_, &w.body_vy_, &w.body_spin_, &w.body_cos_, &w.body_sin_,
+        &w.body_fx_, &w.body_fy_, &w.body_torque_, &w.disc_x_, &w.disc_y_, &w.disc_fx_, &w.disc_fy_, &w.disc_torque_})
     EXPECT_TRUE(on_pair(v->data()));
 }
 
