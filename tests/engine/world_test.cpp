@@ -433,6 +433,24 @@ TEST(World, ShareSplitsChangeNoBit) {
     EXPECT_TRUE(SameState(one, run(2, shift))) << "shift " << shift;
 }
 
+// World's parts (lists, shares, force pass, integrator) point to its body store, parameters
+// and each other: a world moved in the middle of a run points them to itself and steps on
+// to the bits of the world that was not moved (parts left pointing to the moved-from world
+// would read its emptied arrays).
+TEST(World, AMovedWorldStepsOnAsTheWorldItWas) {
+  ThreadCount two(2);
+  World kept = SettlingPack(ThreadedParams());
+  World source = SettlingPack(ThreadedParams());
+  for (int done = 0; done < 500;) done += kept.Steps(500 - done);
+  for (int done = 0; done < 500;) done += source.Steps(500 - done);
+  World moved(std::move(source));
+  for (int done = 0; done < 1500;) done += kept.Steps(1500 - done);
+  for (int done = 0; done < 1500;) done += moved.Steps(1500 - done);
+  EXPECT_GT(moved.rebuilds(), 3);
+  EXPECT_EQ(moved.rebuilds(), kept.rebuilds());
+  EXPECT_TRUE(SameState(kept, moved));
+}
+
 // What the threads write in shares starts on an aligned pair of cache lines (thread_shared.h),
 // so that a share boundary at a whole body chunk shares no pair between two threads: a layout
 // the bench measures (docs/benchmarks.md), kept by this check.
