@@ -63,7 +63,7 @@ class AvalancheAnalysis : public Analysis {
  public:
   std::string Key() const override { return "avalanches"; }
   int Version() const override { return 2; }
-  PassUse PassOptionsUsed() const override { return {false, true, false}; }
+  PassUse PassOptionsUsed() const override { return {.window = false, .clog_gap = true, .frames = false}; }
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<AvalancheAccumulator>(run);
   }

@@ -82,7 +82,7 @@ class ClogIndexAnalysis : public Analysis {
   explicit ClogIndexAnalysis(int min_exits) : min_exits_(min_exits) {}
   std::string Key() const override { return "clogging_index"; }
   int Version() const override { return 2; }
-  PassUse PassOptionsUsed() const override { return {false, true, false}; }
+  PassUse PassOptionsUsed() const override { return {.window = false, .clog_gap = true, .frames = false}; }
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<ClogRunAccumulator>(run);
   }

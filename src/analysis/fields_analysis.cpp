@@ -410,7 +410,9 @@ class FieldsAnalysis : public Analysis {
   std::string Key() const override { return "fields"; }
   int Version() const override { return 1; }
   nlohmann::json RunOptions() const override { return o_.ToJson(); }
-  PassUse PassOptionsUsed() const override { return {true, o_.frames == FieldsOptions::Frames::kSplit, true}; }
+  PassUse PassOptionsUsed() const override {
+    return {.window = true, .clog_gap = o_.frames == FieldsOptions::Frames::kSplit, .frames = true};
+  }
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<FieldsRunAccumulator>(run, o_);
   }

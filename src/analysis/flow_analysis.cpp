@@ -119,7 +119,7 @@ class FlowAnalysis : public Analysis {
   explicit FlowAnalysis(std::vector<FitModel> models) : models_(std::move(models)) {}
   std::string Key() const override { return "flow"; }
   int Version() const override { return 1; }
-  PassUse PassOptionsUsed() const override { return {true, true, false}; }
+  PassUse PassOptionsUsed() const override { return {.window = true, .clog_gap = true, .frames = false}; }
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<FlowAccumulator>(run);
   }

@@ -71,7 +71,7 @@ class IntermittencyAnalysis : public Analysis {
  public:
   std::string Key() const override { return "intermittency"; }
   int Version() const override { return 1; }
-  PassUse PassOptionsUsed() const override { return {false, true, false}; }
+  PassUse PassOptionsUsed() const override { return {.window = false, .clog_gap = true, .frames = false}; }
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<IntermittencyAccumulator>(run);
   }

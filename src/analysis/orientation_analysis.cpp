@@ -123,7 +123,7 @@ class OrientationAnalysis : public Analysis {
   std::string Key() const override { return "orientation"; }
   int Version() const override { return 1; }
   nlohmann::json RunOptions() const override { return raw_; }
-  PassUse PassOptionsUsed() const override { return {true, true, true}; }
+  PassUse PassOptionsUsed() const override { return {.window = true, .clog_gap = true, .frames = true}; }
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<OrientationAccumulator>(run, o_);
   }

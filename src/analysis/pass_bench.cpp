@@ -80,7 +80,7 @@ class TouchAll : public Analysis {
   explicit TouchAll(int work) : work_(work) {}
   std::string Key() const override { return "touch_all"; }
   int Version() const override { return 1; }
-  PassUse PassOptionsUsed() const override { return {false, false, true}; }
+  PassUse PassOptionsUsed() const override { return {.window = false, .clog_gap = false, .frames = true}; }
   std::unique_ptr<RunAccumulator> Start(const RunView&) const override {
     class Acc : public RunAccumulator {
      public:

@@ -83,7 +83,7 @@ class ProfileAnalysis : public Analysis {
   nlohmann::json RunOptions() const override {
     return {{"bins", options_.bins}, {"band_low", options_.band_low}, {"band_high", options_.band_high}};
   }
-  PassUse PassOptionsUsed() const override { return {true, true, true}; }
+  PassUse PassOptionsUsed() const override { return {.window = true, .clog_gap = true, .frames = true}; }
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<ProfileAccumulator>(run, options_);
   }

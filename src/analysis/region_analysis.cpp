@@ -85,7 +85,7 @@ class RegionAnalysis : public Analysis {
   std::string Key() const override { return "region"; }
   int Version() const override { return 1; }
   nlohmann::json RunOptions() const override { return {{"pad", size_.pad}, {"height", size_.height}}; }
-  PassUse PassOptionsUsed() const override { return {true, true, true}; }
+  PassUse PassOptionsUsed() const override { return {.window = true, .clog_gap = true, .frames = true}; }
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<RegionRunAccumulator>(run, size_);
   }

@@ -1,7 +1,7 @@
 // AVX-512 loops of the step (avx512_kernels.h): the pair-force loop (loads, transposes and the
 // lane type; the arithmetic is contact_law.h's), and the drift and body sums of bodies of one
 // or two discs, where every arithmetic line mirrors an operation of the portable code
-// (world.cpp's PlaceDisc, BodySumsUpTo2) in the same order. With contraction off
+// (integrator.cpp's PlaceDisc, force_pass.cpp's BodySumsUpTo2) in the same order. With contraction off
 // (CMakeLists.txt) each is one correctly rounded IEEE operation, as in the scalar code.
 #include "engine/avx512_kernels.h"
 
@@ -37,7 +37,7 @@ struct Lanes {
 
 // Loads the records kin[idx[0..7]] (one 64-byte line each: x y vx vy r w pad pad) and
 // transposes them: unpack pairs of rows, then two rounds of 128-bit lane shuffles.
-GRANARY_AVX512 Lanes LoadLanes(const World::DiscKin* kin, const int* idx) {
+GRANARY_AVX512 Lanes LoadLanes(const DiscKin* kin, const int* idx) {
   __m512d row[8];
   for (int k = 0; k < 8; ++k) row[k] = _mm512_load_pd(&kin[idx[k]].x);
   // t_even: 128-bit lanes (x, vx, r, pad0) of rows 2m, 2m+1; t_odd: (y, vy, w, pad1).
@@ -119,7 +119,7 @@ __attribute__((target("avx512f"), flatten)) int PairEntriesImpl(int e0, int e1, 
                                                                 double* __restrict nl_sx, double* __restrict nl_sy,
                                                                 double* __restrict nl_fx, double* __restrict nl_fy,
                                                                 double* __restrict nl_c,
-                                                                const World::DiscKin* __restrict kin,
+                                                                const DiscKin* __restrict kin,
                                                                 const ContactParams& pp, double dt) {
   const LawConstants<Lane8> law(pp, dt);
   int e = e0;
@@ -136,7 +136,7 @@ __attribute__((target("avx512f"), flatten)) int PairEntriesImpl(int e0, int e1, 
 // Stores eight records kin[first + stride m], m = 0..7, from the lanes of x y vx vy r w
 // (pads zero), the inverse of LoadLanes: unpack pairs of fields, then two rounds of
 // 128-bit lane shuffles give one 64-byte row per record.
-GRANARY_AVX512 void StoreLanes(World::DiscKin* first, int stride, const Lanes& l) {
+GRANARY_AVX512 void StoreLanes(DiscKin* first, int stride, const Lanes& l) {
   const __m512d zero = _mm512_setzero_pd();
   const __m512d t0 = _mm512_unpacklo_pd(l.x, l.y), t1 = _mm512_unpackhi_pd(l.x, l.y);
   const __m512d t2 = _mm512_unpacklo_pd(l.vx, l.vy), t3 = _mm512_unpackhi_pd(l.vx, l.vy);
@@ -151,7 +151,7 @@ GRANARY_AVX512 void StoreLanes(World::DiscKin* first, int stride, const Lanes& l
   // Record 0 = (a0.L0, a0.L2, a1.L0, a1.L2) and record 4 = (a0.L1, a0.L3, a1.L1, a1.L3);
   // likewise records 2 and 6 from b0 and b1, 1 and 5 from c0 and c1, 3 and 7 from d0 and d1.
   constexpr int kRowA = 0x88, kRowB = 0xDD;
-  World::DiscKin* base = first;
+  DiscKin* base = first;
   const std::ptrdiff_t st = stride;
   _mm512_store_pd(&base[0 * st].x, _mm512_shuffle_f64x2(a0, a1, kRowA));
   _mm512_store_pd(&base[4 * st].x, _mm512_shuffle_f64x2(a0, a1, kRowB));
@@ -176,7 +176,7 @@ GRANARY_AVX512 __m512d DiscLanes(const double* a, int k, __m512i even, __m512i o
   return Deinterleave(a, k == 0 ? even : odd);
 }
 
-// DriftUniformAvx512: groups of eight bodies, the body part of world.cpp's DriftKernel and
+// DriftUniformAvx512: groups of eight bodies, the body part of integrator.cpp's DriftKernel and
 // the disc part of its DiscKernelUniform<kDiscs> in one pass (the body state stays in
 // registers).
 template <int kDiscs>
@@ -200,7 +200,7 @@ __attribute__((target("avx512f"))) int DriftUniformImpl(int b0, int b1, const Dr
   const double* __restrict refy = arr.refy;
   double* __restrict dx = arr.dx;
   double* __restrict dy = arr.dy;
-  World::DiscKin* __restrict kin = arr.kin;
+  DiscKin* __restrict kin = arr.kin;
   // Dumbbells: disc k of the eight bodies is lanes 2 m + k of two consecutive vectors.
   const __m512i even = _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14);
   const __m512i odd = _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15);
@@ -422,7 +422,7 @@ __attribute__((target("avx512f"))) int BodySumsUpTo2Impl(int b0, int b1, const B
 
 int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const double* nl_reff, const double* nl_meff,
                       double* nl_sx, double* nl_sy, double* nl_fx, double* nl_fy, double* nl_c,
-                      const World::DiscKin* kin, const ContactParams& pp, double dt) {
+                      const DiscKin* kin, const ContactParams& pp, double dt) {
   return WithContactLaw(pp, [&](auto model, auto cap) {
     return PairEntriesImpl<decltype(model), decltype(cap)::value>(e0, e1, nl_i, nl_j, nl_reff, nl_meff, nl_sx, nl_sy,
                                                                   nl_fx, nl_fy, nl_c, kin, pp, dt);
@@ -451,7 +451,7 @@ int BodySumsUpTo2Avx512(int b0, int b1, const BodySumArrays& arrays, int disc_en
 bool Avx512Available() { return false; }
 
 int PairEntriesAvx512(int e0, int, const int*, const int*, const double*, const double*, double*, double*, double*,
-                      double*, double*, const World::DiscKin*, const ContactParams&, double) {
+                      double*, double*, const DiscKin*, const ContactParams&, double) {
   return e0;
 }
 

@@ -1,9 +1,9 @@
 // Loops of the step with AVX-512 intrinsics: the pair loop runs the contact kernel
 // (contact_law.h) on an eight-lane value type; the drift and body sums do the same IEEE
-// operations in the same order as their portable versions (world.cpp PlaceDisc,
+// operations in the same order as their portable versions (integrator.cpp PlaceDisc,
 // BodySumsUpTo2), so the results are the same to the bit.
 //
-// Why by hand: both move whole 64-byte disc records (World::DiscKin), which GCC reads and
+// Why by hand: both move whole 64-byte disc records (DiscKin), which GCC reads and
 // writes element by element (~200 scalar loads or stores and inserts per 16 records).
 // Here a record is one 64-byte load or store, and eight of them are transposed in registers.
 #pragma once
@@ -11,7 +11,7 @@
 #include <cstdint>
 
 #include "engine/contact_law.h"
-#include "engine/world.h"
+#include "engine/body_store.h"
 
 namespace granary::engine {
 
@@ -24,7 +24,7 @@ bool Avx512Available();
 // Call only when Avx512Available().
 int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const double* nl_reff, const double* nl_meff,
                       double* nl_sx, double* nl_sy, double* nl_fx, double* nl_fy, double* nl_c,
-                      const World::DiscKin* kin, const ContactParams& pp, double dt);
+                      const DiscKin* kin, const ContactParams& pp, double dt);
 // (A branch-free loop would compute the slip rescale, two divisions and a square root, for
 // every entry, though ~5 % of contacts slip: here only for the groups of eight where a
 // touching lane slips; NeedAny.)
@@ -36,11 +36,11 @@ struct DriftArrays {
   const double *bfx, *bfy, *btq, *binv_mass, *binv_inertia;
   const double *dox, *doy, *dr, *refx, *refy;
   double *dx, *dy;
-  World::DiscKin* kin;
+  DiscKin* kin;
 };
 
 // The drift of bodies of kDiscs discs each (1: discs, 2: dumbbells; disc k of body b being
-// kDiscs b + k), eight at a time, as world.cpp's DriftKernel followed by
+// kDiscs b + k), eight at a time, as integrator.cpp's DriftKernel followed by
 // DiscKernelUniform<kDiscs>: half kick, drift and rotation of the bodies, then their discs'
 // positions and records. Stops before the first group of eight with a rotation of 0.01 rad
 // or more (the caller's portable loop, with libm, takes that group) or with fewer than
@@ -53,7 +53,7 @@ int DriftUniformAvx512(int b0, int b1, const DriftArrays& arrays, double dt, con
 
 // The disc part of a drift for discs [d0, d0 + 8 k), the largest such k with d0 + 8 k <= d1,
 // of bodies of any shape (disc d of body dbody[d], discs numbered body by body, every body
-// with at least one, all of them before body_end), as world.cpp's DiscKernel: positions and
+// with at least one, all of them before body_end), as integrator.cpp's DiscKernel: positions and
 // records from the bodies' state after their drift. Returns d0 + 8 k; sets *moved as
 // DriftUniformAvx512. Reads no body from body_end on, and only the disc and body-state
 // arrays of `arrays`. Call only when Avx512Available().
@@ -70,7 +70,7 @@ struct BodySumArrays {
 };
 
 // The body sums (and with kKick the second half kick) of bodies of one or two discs, for
-// bodies [b0, b0 + 8 k), the largest such k with b0 + 8 k <= b1, as world.cpp's
+// bodies [b0, b0 + 8 k), the largest such k with b0 + 8 k <= b1, as force_pass.cpp's
 // BodySumsUpTo2; reads no disc from disc_end on (the first disc after body b1 - 1). Returns
 // b0 + 8 k; sets *outrun if an active body's next drift may take a disc beyond half the
 // skin (OutrunsSkin). Call only when Avx512Available().

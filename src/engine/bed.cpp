@@ -111,8 +111,8 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
         th = rng.Uniform(0.0, 2.0 * std::numbers::pi);
         ok = true;
         for (int b : placed) {
-          if (Overlaps(tp, x, y, th, templates[static_cast<std::size_t>(world.tmpl_[b])], world.bx_[b], world.by_[b],
-                       world.bth_[b])) {
+          if (Overlaps(tp, x, y, th, templates[static_cast<std::size_t>(world.body_template_[b])], world.body_x_[b],
+                       world.body_y_[b], world.body_angle_[b])) {
             ok = false;
             break;
           }
@@ -134,7 +134,8 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
       if (spec.bed.next_batch == NextBatch::kLanded && (s + 1) % settle_check_every == 0) {
         // Serially over the batch in placement order: the same sum at any thread count.
         double ke = 0.0;
-        for (int b : placed) ke += world.bmass_[b] * (world.bvx_[b] * world.bvx_[b] + world.bvy_[b] * world.bvy_[b]);
+        for (int b : placed)
+          ke += world.body_mass_[b] * (world.body_vx_[b] * world.body_vx_[b] + world.body_vy_[b] * world.body_vy_[b]);
         ke *= 0.5 / (static_cast<double>(placed.size()) * energy_unit);
         if (ke > kBedLandedKePerBody) fell = true;
         else if (fell) break;
@@ -162,23 +163,23 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
   std::vector<int> order_new(static_cast<std::size_t>(nb));
   for (int b = 0; b < nb; ++b) order_new[b] = b;
   auto key = [&](int b) {
-    const double band = std::floor(world.by_[b] / 2.0);
+    const double band = std::floor(world.body_y_[b] / 2.0);
     const bool even = static_cast<long>(band) % 2 == 0;
-    return std::pair{band, even ? world.bx_[b] : -world.bx_[b]};
+    return std::pair{band, even ? world.body_x_[b] : -world.body_x_[b]};
   };
   std::stable_sort(order_new.begin(), order_new.end(), [&](int a, int b) { return key(a) < key(b); });
   BedState bed;
   std::vector<int> new_disc(static_cast<std::size_t>(world.DiscCount()));
   int next_disc = 0;
   for (int b : order_new) {
-    bed.species.push_back(world.tmpl_[b]);
-    bed.x.push_back(world.bx_[b]);
-    bed.y.push_back(world.by_[b]);
-    bed.theta.push_back(world.bth_[b]);
-    bed.vx.push_back(world.bvx_[b]);
-    bed.vy.push_back(world.bvy_[b]);
-    bed.omega.push_back(world.bw_[b]);
-    for (int k = 0; k < world.disc_n_[b]; ++k) new_disc[world.disc_begin_[b] + k] = next_disc++;
+    bed.species.push_back(world.body_template_[b]);
+    bed.x.push_back(world.body_x_[b]);
+    bed.y.push_back(world.body_y_[b]);
+    bed.theta.push_back(world.body_angle_[b]);
+    bed.vx.push_back(world.body_vx_[b]);
+    bed.vy.push_back(world.body_vy_[b]);
+    bed.omega.push_back(world.body_spin_[b]);
+    for (int k = 0; k < world.body_disc_count_[b]; ++k) new_disc[world.body_first_disc_[b] + k] = next_disc++;
   }
   world.RebuildNow();
   world.ExportHistory(bed.pair_history, bed.wall_history);

@@ -1,9 +1,9 @@
-// The portable pair-force loop of a force block (world.cpp PairEntriesOf); avx512_kernels.cpp
+// The portable pair-force loop of a force block (force_pass.cpp ForcePass::PairEntriesOf); avx512_kernels.cpp
 // runs the same PairEntry (contact_law.h) on eight entries at a time.
 #pragma once
 
 #include "engine/contact_law.h"
-#include "engine/world.h"
+#include "engine/body_store.h"
 
 namespace granary::engine {
 
@@ -16,12 +16,12 @@ template <class Normal, bool kLiggghtsCap>
                                                const double* __restrict nl_reff, const double* __restrict nl_meff,
                                                double* __restrict nl_sx, double* __restrict nl_sy,
                                                double* __restrict nl_fx, double* __restrict nl_fy,
-                                               double* __restrict nl_c, const World::DiscKin* __restrict kin,
+                                               double* __restrict nl_c, const DiscKin* __restrict kin,
                                                const ContactParams& pp, double dt) {
   const LawConstants<double> law(pp, dt);
   for (int e = e0; e < e1; ++e) {
-    const World::DiscKin& a = kin[nl_i[e]];
-    const World::DiscKin& b = kin[nl_j[e]];
+    const DiscKin& a = kin[nl_i[e]];
+    const DiscKin& b = kin[nl_j[e]];
     PairEntry<Normal, kLiggghtsCap>(DiscState<double>{a.x, a.y, a.vx, a.vy, a.r, a.w},
                                     DiscState<double>{b.x, b.y, b.vx, b.vy, b.r, b.w}, nl_reff + e, nl_meff + e,
                                     nl_sx + e, nl_sy + e, nl_fx + e, nl_fy + e, nl_c + e, law);

@@ -21,6 +21,9 @@
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -82,7 +85,15 @@ constexpr double kHangingGapInDiameters = 1.0;  // stall.h; measured margins in 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
 
 // Binary (de)serialisation of the checkpoint: native doubles, so a continued run is bitwise
-// the same as an uninterrupted one on the same machine.
+// the same as an uninterrupted one on the same machine. Out and In are the two archives
+// that one Serialize per checkpointed type visits (a field is written and read by the same
+// line): numbers as their bytes, bools as one byte, strings and vectors of plain values as
+// a 64-bit length and their bytes.
+template <typename T>
+struct IsVector : std::false_type {};
+template <typename T>
+struct IsVector<std::vector<T>> : std::true_type {};
+
 class Out {
  public:
   template <typename T>
@@ -99,6 +110,29 @@ class Out {
     buf_ += s;
   }
   const std::string& Str() const { return buf_; }
+
+  // The archive interface of Serialize: a writer writes every field of the current version.
+  template <typename... T>
+  void operator()(T&... fields) {
+    (Field(fields), ...);
+  }
+  std::uint32_t version() const { return kCheckpointVersion; }
+  bool more() const { return true; }
+
+ private:
+  template <typename T>
+  void Field(T& v) {
+    if constexpr (std::is_same_v<T, bool>)
+      Put(static_cast<std::uint8_t>(v));
+    else if constexpr (std::is_arithmetic_v<T>)
+      Put(v);
+    else if constexpr (std::is_same_v<T, std::string>)
+      PutStr(v);
+    else if constexpr (IsVector<T>::value)
+      PutVec(v);
+    else
+      Serialize(*this, v);
+  }
 
  private:
   std::string buf_;
@@ -134,20 +168,115 @@ class In {
   std::string Rest() const { return buf_.substr(pos_); }
   bool AtEnd() const { return pos_ >= buf_.size(); }
 
+  // The archive interface of Serialize: a reader reads the fields of `version`; fields
+  // after a `more()` that is false keep the values they had.
+  void set_version(std::uint32_t version) { version_ = version; }
+  template <typename... T>
+  void operator()(T&... fields) {
+    (Field(fields), ...);
+  }
+  std::uint32_t version() const { return version_; }
+  bool more() const { return !AtEnd(); }
+
  private:
+  template <typename T>
+  void Field(T& v) {
+    if constexpr (std::is_same_v<T, bool>)
+      v = Get<std::uint8_t>() != 0;
+    else if constexpr (std::is_arithmetic_v<T>)
+      v = Get<T>();
+    else if constexpr (std::is_same_v<T, std::string>)
+      v = GetStr();
+    else if constexpr (IsVector<T>::value)
+      v = GetVec<typename T::value_type>();
+    else
+      Serialize(*this, v);
+  }
   void Need(std::size_t n) const {
     if (pos_ + n > buf_.size()) throw CheckpointError("checkpoint " + name_ + " is truncated");
   }
   std::string buf_;
   std::string name_;
   std::size_t pos_ = 0;
+  std::uint32_t version_ = kCheckpointVersion;
 };
 
 
+// The discharge's own state that its checkpoints hold (Discharge keeps it as a base, so its
+// members read as the driver's own).
+struct CheckpointedState {
+  // Counters.
+  std::int64_t step_ = 0;
+  std::int64_t last_exit_step_ = 0;
+  std::int64_t disc_steps_ = 0;
+  std::vector<std::int64_t> exits_per_outlet_;
+  int clogs_ = 0;
+  bool in_clog_ = false;
+  // The unclog protocol: attempts on the current clog, clogs broken, the step of the last
+  // attempt (-1: none), arch bodies taken out in remove mode. (Its own random numbers, for
+  // the kicks, are Discharge::unclog_rng_, so that reinjection draws the same numbers
+  // whether a run unclogs or not.)
+  int unclog_attempts_ = 0;
+  int unclogged_ = 0;
+  std::int64_t last_unclog_step_ = -1;
+  int unclog_removed_ = 0;
+  // remove_arch: the arch of the clog just counted, found from the contact forces of that
+  // step before the lists are rebuilt (which clears them).
+  std::vector<std::int64_t> clog_arch_;
+  // Periodic reinjection: bodies counted but still falling to the bottom of the box, and the
+  // box height they jump up by.
+  std::vector<std::uint8_t> falling_;
+  double periodic_height_ = 0;
+  // Bodies of the bed that an obstacle overlaps, taken out at t = 0.
+  int cleared_by_obstacles_ = 0;
+  // Bed provenance.
+  std::string bed_file_;
+  bool bed_prepared_here_ = false;
+  double bed_height_ = 0, bed_settle_time_ = 0, bed_wall_s_ = 0;
+  double bed_phi_ = std::numeric_limits<double>::quiet_NaN();  // NaN: continued from a version-4 checkpoint
+  double bed_surface_ = std::numeric_limits<double>::quiet_NaN();
+};
+
+// Everything a checkpoint holds: the run.json it belongs to, the discharge's state, the wall
+// time of the sessions so far, the random streams, the world, and how far the outputs had
+// got (a continued run cuts them back there).
+struct Checkpoint {
+  std::string spec;
+  CheckpointedState state;
+  double discharge_wall = 0;
+  std::string rng, unclog_rng;
+  WorldSnapshot world;
+  std::int64_t events_offset = 0, frames_offset = 0, contacts_offset = 0, unclogs_offset = 0;
+};
+
+// The checkpoint format (checkpoint.bin's payload), written by Out and read by In: the
+// fields in their order on disk, so a new field is one line here (at the end, behind a
+// version or `more()` test, for the older checkpoints that lack it).
+template <class Archive>
+void Serialize(Archive& ar, WorldSnapshot& w) {
+  ar(w.tmpl, w.active, w.x, w.y, w.theta, w.c, w.s, w.vx, w.vy, w.w, w.fx, w.fy, w.torque);
+  ar(w.pairs, w.walls, w.outlets_open, w.rebuild_predicted);
+}
+
+template <class Archive>
+void Serialize(Archive& ar, Checkpoint& k) {
+  CheckpointedState& s = k.state;
+  ar(k.spec, s.step_, s.last_exit_step_, s.disc_steps_, s.exits_per_outlet_, s.clogs_, s.in_clog_);
+  ar(s.bed_file_, s.bed_prepared_here_, s.bed_height_, s.bed_settle_time_, s.bed_wall_s_);
+  if (ar.version() >= 5) ar(s.bed_phi_, s.bed_surface_);
+  ar(k.discharge_wall, k.rng, k.world, k.events_offset, k.frames_offset, k.contacts_offset);
+  ar(s.falling_, s.periodic_height_, s.cleared_by_obstacles_);
+  // The unclog state last: a checkpoint of an engine from before it reads without it.
+  if (ar.more())
+    ar(s.unclog_attempts_, s.unclogged_, s.last_unclog_step_, s.unclog_removed_, k.unclog_rng, k.unclogs_offset);
+  if (ar.more()) ar(s.clog_arch_);
+}
+
 }  // namespace
 
-// The state of a discharge, everything a checkpoint must hold.
-class Discharge {
+// The state of a discharge, everything a checkpoint must hold (CheckpointedState and the
+// members Checkpoint names).
+class Discharge : private CheckpointedState {
  public:
   Discharge(const RunSpec& spec, fs::path dir, RunOptions options)
       : spec_(spec),
@@ -210,40 +339,11 @@ class Discharge {
   fs::path dir_;
   RunOptions options_;
   Rng rng_;
+  Rng unclog_rng_;  // the unclog protocol's kicks (CheckpointedState)
   std::unique_ptr<World> world_;
   double energy_unit_ = 1.0;
   double hw_ = 50.0;
   double r_max_ = 0.5;
-  // Counters (checkpointed).
-  std::int64_t step_ = 0;
-  std::int64_t last_exit_step_ = 0;
-  std::int64_t disc_steps_ = 0;
-  std::vector<std::int64_t> exits_per_outlet_;
-  int clogs_ = 0;
-  bool in_clog_ = false;
-  // The unclog protocol (checkpointed): attempts on the current clog, clogs broken, the step
-  // of the last attempt (-1: none), arch bodies taken out in remove mode, its own random
-  // numbers (kicks), so that reinjection draws the same numbers whether a run unclogs or not.
-  int unclog_attempts_ = 0;
-  int unclogged_ = 0;
-  std::int64_t last_unclog_step_ = -1;
-  int unclog_removed_ = 0;
-  Rng unclog_rng_;
-  // remove_arch: the arch of the clog just counted, found from the contact forces of that
-  // step before the lists are rebuilt (which clears them).
-  std::vector<std::int64_t> clog_arch_;
-  // Periodic reinjection: bodies counted but still falling to the bottom of the box, and the
-  // box height they jump up by (checkpointed).
-  std::vector<std::uint8_t> falling_;
-  double periodic_height_ = 0;
-  // Bodies of the bed that an obstacle overlaps, taken out at t = 0 (checkpointed).
-  int cleared_by_obstacles_ = 0;
-  // Bed provenance (checkpointed).
-  std::string bed_file_;
-  bool bed_prepared_here_ = false;
-  double bed_height_ = 0, bed_settle_time_ = 0, bed_wall_s_ = 0;
-  double bed_phi_ = std::numeric_limits<double>::quiet_NaN();  // NaN: continued from a checkpoint without them
-  double bed_surface_ = std::numeric_limits<double>::quiet_NaN();
   std::string bed_refused_;  // a bad cached bed file refused (and prepared again) in this session
   double discharge_wall_before_ = 0;  // wall time of earlier sessions
   bool continued_ = false;
@@ -340,10 +440,10 @@ void Discharge::PlaceBed() {
   // outlets or obstacles, docs/model.md): a body an obstacle overlaps is taken out, or the
   // overlap would fire it off at t = 0.
   for (int i = 0; i < w.DiscCount(); ++i) {
-    const int b = w.dbody_[i];
-    if (!w.active_[b]) continue;
+    const int b = w.disc_body_[i];
+    if (!w.body_active_[b]) continue;
     for (const Obstacle& o : spec_.silo.obstacles) {
-      if (std::hypot(w.dx_[i] - o.x, w.dy_[i] - o.y) < w.dr_[i] + o.diameter / 2) {
+      if (std::hypot(w.disc_x_[i] - o.x, w.disc_y_[i] - o.y) < w.disc_radius_[i] + o.diameter / 2) {
         w.Deactivate(b);
         ++cleared_by_obstacles_;
         break;
@@ -353,22 +453,22 @@ void Discharge::PlaceBed() {
   // The bed's wall contacts move to the segments of this silo (none over an open gap).
   std::vector<HistoryEntry> walls;
   for (const HistoryEntry& h : ob.bed.wall_history) {
-    const int e = silo::SegmentUnder(w.Geometry(), static_cast<silo::Side>(h.j), w.dx_[h.i], w.dy_[h.i]);
+    const int e = silo::SegmentUnder(w.Geometry(), static_cast<silo::Side>(h.j), w.disc_x_[h.i], w.disc_y_[h.i]);
     if (e >= 0) walls.push_back({h.i, e, h.sx, h.sy});
   }
   std::stable_sort(walls.begin(), walls.end(),
                    [](const HistoryEntry& a, const HistoryEntry& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
   std::vector<HistoryEntry> pairs;
   for (const HistoryEntry& h : ob.bed.pair_history)
-    if (w.active_[w.dbody_[h.i]] && w.active_[w.dbody_[h.j]]) pairs.push_back(h);
-  std::erase_if(walls, [&](const HistoryEntry& h) { return !w.active_[w.dbody_[h.i]]; });
+    if (w.body_active_[w.disc_body_[h.i]] && w.body_active_[w.disc_body_[h.j]]) pairs.push_back(h);
+  std::erase_if(walls, [&](const HistoryEntry& h) { return !w.body_active_[w.disc_body_[h.i]]; });
   w.ImportHistory(pairs, walls);
   w.ComputeForces();
   if (Periodic()) {
     // The LIGGGHTS backend's box (input_script.cpp): bottom kPeriodicFall below the counting
     // plane, top 2 bounding radii + periodic_headroom above the highest disc centre.
     double top = -1e300, bound = 0;
-    for (int i = 0; i < w.DiscCount(); ++i) top = std::max(top, w.dy_[i]);
+    for (int i = 0; i < w.DiscCount(); ++i) top = std::max(top, w.disc_y_[i]);
     for (const auto& t : w.Templates()) bound = std::max(bound, t.bound_radius);
     periodic_height_ = (top + 2 * bound + spec_.discharge.periodic_headroom) + (spec_.discharge.exit_distance + kPeriodicFall);
   }
@@ -384,46 +484,20 @@ StartState Discharge::WriteStartFrame(const fs::path& file) {
 }
 
 void Discharge::WriteCheckpoint() {
+  Checkpoint k;
   // Both this run and a run continued from this checkpoint rebuild the lists here.
-  const WorldSnapshot w = world_->Snapshot();
+  k.world = world_->Snapshot();
+  k.spec = spec_.ToJson().dump();
+  k.state = *this;
+  k.discharge_wall = discharge_wall_before_ + Seconds(session_start_);
+  k.rng = rng_.Save();
+  k.unclog_rng = unclog_rng_.Save();
+  k.events_offset = events_.Offset();
+  k.frames_offset = frames_.Offset();
+  k.contacts_offset = contacts_.Offset();
+  k.unclogs_offset = unclogs_out_.Offset();
   Out o;
-  o.PutStr(spec_.ToJson().dump());
-  o.Put(step_);
-  o.Put(last_exit_step_);
-  o.Put(disc_steps_);
-  o.PutVec(exits_per_outlet_);
-  o.Put(clogs_);
-  o.Put(static_cast<std::uint8_t>(in_clog_));
-  o.PutStr(bed_file_);
-  o.Put(static_cast<std::uint8_t>(bed_prepared_here_));
-  o.Put(bed_height_);
-  o.Put(bed_settle_time_);
-  o.Put(bed_wall_s_);
-  o.Put(bed_phi_);
-  o.Put(bed_surface_);
-  o.Put(discharge_wall_before_ + Seconds(session_start_));
-  o.PutStr(rng_.Save());
-  o.PutVec(w.tmpl);
-  o.PutVec(w.active);
-  for (const auto* v : {&w.x, &w.y, &w.theta, &w.c, &w.s, &w.vx, &w.vy, &w.w, &w.fx, &w.fy, &w.torque}) o.PutVec(*v);
-  o.PutVec(w.pairs);
-  o.PutVec(w.walls);
-  o.Put(static_cast<std::uint8_t>(w.outlets_open));
-  o.Put(static_cast<std::uint8_t>(w.rebuild_predicted));
-  o.Put(events_.Offset());
-  o.Put(frames_.Offset());
-  o.Put(contacts_.Offset());
-  o.PutVec(falling_);
-  o.Put(periodic_height_);
-  o.Put(cleared_by_obstacles_);
-  // The unclog state last: a checkpoint of an engine from before it reads without it.
-  o.Put(unclog_attempts_);
-  o.Put(unclogged_);
-  o.Put(last_unclog_step_);
-  o.Put(unclog_removed_);
-  o.PutStr(unclog_rng_.Save());
-  o.Put(unclogs_out_.Offset());
-  o.PutVec(clog_arch_);
+  Serialize(o, k);
   Out file;
   file.PutStr(kCheckpointMagic);
   file.Put(kCheckpointVersion);
@@ -470,116 +544,63 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
     throw CheckpointError(name + msg);
   }
   In in(payload, name);
-  const std::string saved_spec = in.GetStr();
+  in.set_version(version);
+  Checkpoint k;
+  Serialize(in, k);
+  const CheckpointedState& loaded = k.state;
   std::string extended_from;
-  if (saved_spec != spec_.ToJson().dump()) {
+  if (k.spec != spec_.ToJson().dump()) {
     // A finished run planned again with a larger limit (granary::extends) continues from here.
-    const nlohmann::json saved = nlohmann::json::parse(saved_spec, nullptr, false);
+    const nlohmann::json saved = nlohmann::json::parse(k.spec, nullptr, false);
     if (!granary::Extends(saved, spec_.ToJson()))
       throw std::runtime_error("checkpoint " + file.string() + " belongs to a different run.json; remove it to start over");
     extended_from = saved.value("run_id", std::string("?"));
   }
-  const auto step = in.Get<std::int64_t>();
-  const auto last_exit_step = in.Get<std::int64_t>();
-  const auto disc_steps = in.Get<std::int64_t>();
-  const auto exits_per_outlet = in.GetVec<std::int64_t>();
-  const int clogs = in.Get<int>();
-  const bool in_clog = in.Get<std::uint8_t>() != 0;
-  const std::string bed_file = in.GetStr();
-  const bool bed_prepared_here = in.Get<std::uint8_t>() != 0;
-  const double bed_height = in.Get<double>(), bed_settle_time = in.Get<double>(), bed_wall_s = in.Get<double>();
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const double bed_phi = version >= 5 ? in.Get<double>() : nan, bed_surface = version >= 5 ? in.Get<double>() : nan;
-  const double discharge_wall_before = in.Get<double>();
-  const std::string rng = in.GetStr();
-  WorldSnapshot w;
-  w.tmpl = in.GetVec<int>();
-  w.active = in.GetVec<std::uint8_t>();
-  for (auto* v : {&w.x, &w.y, &w.theta, &w.c, &w.s, &w.vx, &w.vy, &w.w, &w.fx, &w.fy, &w.torque}) *v = in.GetVec<double>();
-  w.pairs = in.GetVec<HistoryEntry>();
-  w.walls = in.GetVec<HistoryEntry>();
-  w.outlets_open = in.Get<std::uint8_t>() != 0;
-  w.rebuild_predicted = in.Get<std::uint8_t>() != 0;
-  const long offsets[3] = {in.Get<long>(), in.Get<long>(), in.Get<long>()};
-  const auto falling = in.GetVec<std::uint8_t>();
-  const double periodic_height = in.Get<double>();
-  const int cleared_by_obstacles = in.Get<int>();
-  int unclog_attempts = 0, unclogged = 0, unclog_removed = 0;
-  std::int64_t last_unclog_step = -1, unclogs_offset = 0;
-  std::string unclog_rng;
-  std::vector<std::int64_t> clog_arch;
-  if (!in.AtEnd()) {
-    unclog_attempts = in.Get<int>();
-    unclogged = in.Get<int>();
-    last_unclog_step = in.Get<std::int64_t>();
-    unclog_removed = in.Get<int>();
-    unclog_rng = in.GetStr();
-    unclogs_offset = in.Get<std::int64_t>();
-  }
-  if (!in.AtEnd()) clog_arch = in.GetVec<std::int64_t>();
-  if (Unclogging() && unclog_rng.empty())
+  if (Unclogging() && k.unclog_rng.empty())
     throw CheckpointError(name + " was written without the unclog protocol's state");
   if (Unclogging()) {
     std::error_code ec;
     const fs::path out = dir_ / rundir::kUnclogsFile;
     const auto have = fs::exists(out) ? fs::file_size(out, ec) : 0;
-    if (unclogs_offset > 0 && (ec || have < static_cast<std::uintmax_t>(unclogs_offset)))
-      throw CheckpointError(name + " expects " + std::to_string(unclogs_offset) + " bytes of " + rundir::kUnclogsFile +
-                            ", the file has " + std::to_string(have));
+    if (k.unclogs_offset > 0 && (ec || have < static_cast<std::uintmax_t>(k.unclogs_offset)))
+      throw CheckpointError(name + " expects " + std::to_string(k.unclogs_offset) + " bytes of " +
+                            rundir::kUnclogsFile + ", the file has " + std::to_string(have));
   }
-  if (step > std::llround(spec_.discharge.max_time / spec_.time_step))
-    throw CheckpointError(name + " is at step " + std::to_string(step) + ", past this run's max_time");
+  if (loaded.step_ > std::llround(spec_.discharge.max_time / spec_.time_step))
+    throw CheckpointError(name + " is at step " + std::to_string(loaded.step_) + ", past this run's max_time");
   // The outputs must still hold what the checkpoint saw (truncating a shorter file would pad it).
   const bool gz = spec_.output.compress;
   const char* outputs[3] = {rundir::kEventsFile, rundir::FramesFileName(spec_.output),
                             rundir::ContactsFileName(spec_.output)};
-  for (int k = 0; k < 3; ++k) {
-    const fs::path out = dir_ / outputs[k];
+  const std::int64_t offsets[3] = {k.events_offset, k.frames_offset, k.contacts_offset};
+  for (int o = 0; o < 3; ++o) {
+    const fs::path out = dir_ / outputs[o];
     std::error_code ec;
     const auto have = fs::exists(out) ? fs::file_size(out, ec) : 0;
-    if (offsets[k] > 0 && (ec || have < static_cast<std::uintmax_t>(offsets[k])))
-      throw CheckpointError(name + " expects " + std::to_string(offsets[k]) + " bytes of " + outputs[k] + ", the file has " +
-                            std::to_string(have));
+    if (offsets[o] > 0 && (ec || have < static_cast<std::uintmax_t>(offsets[o])))
+      throw CheckpointError(name + " expects " + std::to_string(offsets[o]) + " bytes of " + outputs[o] +
+                            ", the file has " + std::to_string(have));
   }
   try {
-    BuildWorld(w.tmpl, &w);
+    BuildWorld(k.world.tmpl, &k.world);
   } catch (const std::invalid_argument& e) {
     throw CheckpointError(name + ": " + e.what());
   }
-  if (exits_per_outlet.size() != exits_per_outlet_.size() || falling.size() != falling_.size())
+  if (loaded.exits_per_outlet_.size() != exits_per_outlet_.size() || loaded.falling_.size() != falling_.size())
     throw CheckpointError(name + ": outlet or body count does not match the run");
-  step_ = step;
-  last_exit_step_ = last_exit_step;
-  disc_steps_ = disc_steps;
-  exits_per_outlet_ = exits_per_outlet;
-  clogs_ = clogs;
-  in_clog_ = in_clog;
-  bed_file_ = bed_file;
-  bed_prepared_here_ = bed_prepared_here;
-  bed_height_ = bed_height;
-  bed_settle_time_ = bed_settle_time;
-  bed_wall_s_ = bed_wall_s;
-  bed_phi_ = bed_phi;
-  bed_surface_ = bed_surface;
-  discharge_wall_before_ = discharge_wall_before;
-  rng_.Load(rng);
-  falling_ = falling;
-  periodic_height_ = periodic_height;
-  cleared_by_obstacles_ = cleared_by_obstacles;
-  unclog_attempts_ = unclog_attempts;
-  unclogged_ = unclogged;
-  last_unclog_step_ = last_unclog_step;
-  unclog_removed_ = unclog_removed;
-  clog_arch_ = clog_arch;
+  static_cast<CheckpointedState&>(*this) = loaded;
+  discharge_wall_before_ = k.discharge_wall;
+  rng_.Load(k.rng);
   if (Unclogging()) {
-    unclog_rng_.Load(unclog_rng);
-    unclogs_out_ = rundir::UnclogWriter::ContinueAt(dir_ / rundir::kUnclogsFile, unclogs_offset);
+    unclog_rng_.Load(k.unclog_rng);
+    unclogs_out_ = rundir::UnclogWriter::ContinueAt(dir_ / rundir::kUnclogsFile, k.unclogs_offset);
   }
-  events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, offsets[0]);
+  events_ = rundir::EventWriter::ContinueAt(dir_ / rundir::kEventsFile, k.events_offset);
   clogs_out_ = rundir::ClogWriter::ContinueAfter(dir_, step_);
-  if (frame_every_ > 0) frames_ = rundir::FrameWriter::ContinueAt(dir_ / rundir::FramesFileName(spec_.output), offsets[1], gz);
+  if (frame_every_ > 0)
+    frames_ = rundir::FrameWriter::ContinueAt(dir_ / rundir::FramesFileName(spec_.output), k.frames_offset, gz);
   if (frame_every_ > 0 && spec_.output.contact_forces)
-    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / rundir::ContactsFileName(spec_.output), offsets[2], gz);
+    contacts_ = rundir::ContactWriter::ContinueAt(dir_ / rundir::ContactsFileName(spec_.output), k.contacts_offset, gz);
   continued_ = true;
   extended_from_ = extended_from;
 }
@@ -608,7 +629,7 @@ bool Discharge::ContinueFromACheckpoint() {
 
 int Discharge::OutletOf(int b) const {
   const World& w = *world_;
-  const double x = w.bx_[b], y = w.by_[b];
+  const double x = w.body_x_[b], y = w.body_y_[b];
   const double ed = spec_.discharge.exit_distance;
   if (!(y < -ed || x > hw_ + ed || x < -hw_ - ed)) return -1;
   const auto& outlets = w.Geometry().outlets;
@@ -626,7 +647,7 @@ int Discharge::OutletOf(int b) const {
 
 void Discharge::Reinject(int b) {
   World& w = *world_;
-  const silo::ShapeTemplate& tp = w.Templates()[static_cast<std::size_t>(w.tmpl_[b])];
+  const silo::ShapeTemplate& tp = w.Templates()[static_cast<std::size_t>(w.body_template_[b])];
   const double rb = tp.bound_radius;
   // On top of the bed: a column whose top is a return still falling (no contact, or faster
   // than a body that has fallen its own size) is drawn again, up to kReinjectDraws times. Put
@@ -652,15 +673,15 @@ void Discharge::Reinject(int b) {
 // belongs to and its vertical velocity (-1 and 0 on an empty column).
 Discharge::Landing Discharge::LandingOn(int b, double x) const {
   const World& w = *world_;
-  const double rb = w.Templates()[static_cast<std::size_t>(w.tmpl_[b])].bound_radius;
+  const double rb = w.Templates()[static_cast<std::size_t>(w.body_template_[b])].bound_radius;
   double top = 0.0, vy = 0.0;
   int on = -1;
   for (int i = 0; i < w.DiscCount(); ++i) {
-    const int ob = w.dbody_[i];
-    if (ob == b || !w.active_[ob] || falling_[ob]) continue;
-    if (std::fabs(w.dx_[i] - x) < rb + w.dr_[i] && w.dy_[i] + w.dr_[i] > top) {
-      top = w.dy_[i] + w.dr_[i];
-      vy = w.bvy_[ob];
+    const int ob = w.disc_body_[i];
+    if (ob == b || !w.body_active_[ob] || falling_[ob]) continue;
+    if (std::fabs(w.disc_x_[i] - x) < rb + w.disc_radius_[i] && w.disc_y_[i] + w.disc_radius_[i] > top) {
+      top = w.disc_y_[i] + w.disc_radius_[i];
+      vy = w.body_vy_[ob];
       on = ob;
     }
   }
@@ -676,32 +697,32 @@ void Discharge::HandleExits() {
   const double ed = spec_.discharge.exit_distance, fall_y = -(ed + kPeriodicFall);
   int any = 0;
   for (int b = 0; b < w.BodyCount(); ++b) {
-    const double x = w.bx_[b], y = w.by_[b];
+    const double x = w.body_x_[b], y = w.body_y_[b];
     const bool falling = falling_[b] != 0, beyond = (y < -ed) | (x > hw_ + ed) | (x < -hw_ - ed);
-    any |= (w.active_[b] != 0) & ((falling & (y < fall_y)) | (!falling & beyond));
+    any |= (w.body_active_[b] != 0) & ((falling & (y < fall_y)) | (!falling & beyond));
   }
   if (!any) return;
   const double t = static_cast<double>(step_) * spec_.time_step;
   bool contacts_marked = false;
   for (int b = 0; b < w.BodyCount(); ++b) {
-    if (!w.active_[b]) continue;
+    if (!w.body_active_[b]) continue;
     if (falling_[b]) {
       // Counted already; through the bottom of the periodic box it comes back at the top,
       // at the same x and with its velocity.
-      if (w.by_[b] < -(spec_.discharge.exit_distance + kPeriodicFall)) {
+      if (w.body_y_[b] < -(spec_.discharge.exit_distance + kPeriodicFall)) {
         // Where a heap has grown above the box top (returns pile up over the outlet), the
         // body lands on it instead: LIGGGHTS resolves that overlap through the periodic
         // boundary, this engine has no images across it.
-        const double x = w.bx_[b];
-        const double y = std::max(w.by_[b] + periodic_height_, LandingOn(b, x).y);
-        w.PlaceBody(b, x, y, w.bth_[b], w.bvx_[b], w.bvy_[b], w.bw_[b]);
+        const double x = w.body_x_[b];
+        const double y = std::max(w.body_y_[b] + periodic_height_, LandingOn(b, x).y);
+        w.PlaceBody(b, x, y, w.body_angle_[b], w.body_vx_[b], w.body_vy_[b], w.body_spin_[b]);
         falling_[b] = 0;
       }
       continue;
     }
     const int k = OutletOf(b);
     if (k < 0) continue;
-    const silo::ShapeTemplate& tp = w.Templates()[static_cast<std::size_t>(w.tmpl_[b])];
+    const silo::ShapeTemplate& tp = w.Templates()[static_cast<std::size_t>(w.body_template_[b])];
     events_.Write({t, b, tp.name, tp.mass, k});
     ++exits_per_outlet_[static_cast<std::size_t>(k)];
     last_exit_step_ = step_;
@@ -728,13 +749,13 @@ bool Discharge::Stalled() const {
   double ke = 0;
   int n = 0;
   for (int b = 0; b < w.BodyCount(); ++b) {
-    if (!w.active_[b]) continue;
+    if (!w.body_active_[b]) continue;
     for (const silo::OutletFrame& o : w.Geometry().outlets) {
-      const double px = w.bx_[b] - o.cx, py = w.by_[b] - o.cy;
+      const double px = w.body_x_[b] - o.cx, py = w.body_y_[b] - o.cy;
       const double s = px * o.ax + py * o.ay, h = px * o.nx + py * o.ny;
       if (std::fabs(s) < o.width && h > -spec_.discharge.exit_distance && h < 2 * o.width) {
-        ke += 0.5 * w.bmass_[b] * (w.bvx_[b] * w.bvx_[b] + w.bvy_[b] * w.bvy_[b]) +
-              0.5 * w.binertia_[b] * w.bw_[b] * w.bw_[b];
+        ke += 0.5 * w.body_mass_[b] * (w.body_vx_[b] * w.body_vx_[b] + w.body_vy_[b] * w.body_vy_[b]) +
+              0.5 * w.body_inertia_[b] * w.body_spin_[b] * w.body_spin_[b];
         ++n;
         break;
       }
@@ -799,12 +820,12 @@ void Discharge::Unclog(const std::vector<std::int64_t>* arch) {
     }
   } else {
     for (int b = 0; b < w.BodyCount(); ++b) {
-      if (!w.active_[b]) continue;
+      if (!w.body_active_[b]) continue;
       for (const silo::OutletFrame& o : w.Geometry().outlets) {
         const double radius = u.kick_radius > 0 ? u.kick_radius : o.width;
-        if (std::hypot(w.bx_[b] - o.cx, w.by_[b] - o.cy) > radius) continue;
+        if (std::hypot(w.body_x_[b] - o.cx, w.body_y_[b] - o.cy) > radius) continue;
         const double angle = unclog_rng_.Uniform(-0.25 * std::numbers::pi, 0.25 * std::numbers::pi);
-        w.SetVelocity(b, u.kick_speed * std::sin(angle), u.kick_speed * std::cos(angle), w.bw_[b]);
+        w.SetVelocity(b, u.kick_speed * std::sin(angle), u.kick_speed * std::cos(angle), w.body_spin_[b]);
         e.bodies.push_back(b);
         break;
       }
@@ -827,19 +848,21 @@ void Discharge::FillFrame(rundir::Frame& f) {
   DumpBox(f.box);
   f.discs.clear();
   for (int i = 0; i < w.DiscCount(); ++i) {
-    const int b = w.dbody_[i];
-    if (!w.active_[b]) continue;
+    const int b = w.disc_body_[i];
+    if (!w.body_active_[b]) continue;
     // The disc centre moves with the rigid body: v + omega x r.
-    const double rx = w.dx_[i] - w.bx_[b], ry = w.dy_[i] - w.by_[b];
-    f.discs.push_back({i + 1, b, w.tmpl_[b] + 1, w.dx_[i], w.dy_[i], w.dr_[i], w.dmass_[i], w.bvx_[b] - w.bw_[b] * ry,
-                       w.bvy_[b] + w.bw_[b] * rx, w.bw_[b]});
+    const double rx = w.disc_x_[i] - w.body_x_[b], ry = w.disc_y_[i] - w.body_y_[b];
+    f.discs.push_back({i + 1, b, w.body_template_[b] + 1, w.disc_x_[i], w.disc_y_[i], w.disc_radius_[i],
+                       w.disc_mass_[i], w.body_vx_[b] - w.body_spin_[b] * ry, w.body_vy_[b] + w.body_spin_[b] * rx,
+                       w.body_spin_[b]});
     // LAMMPS drops an atom outside a fixed box: never silently.
-    const bool outside = w.dx_[i] < f.box[0][0] || w.dx_[i] > f.box[0][1] || w.dy_[i] < f.box[1][0] || w.dy_[i] > f.box[1][1];
+    const bool outside = w.disc_x_[i] < f.box[0][0] || w.disc_x_[i] > f.box[0][1] || w.disc_y_[i] < f.box[1][0] ||
+                         w.disc_y_[i] > f.box[1][1];
     if (outside && !warned_outside_box_) {
       std::fprintf(stderr,
                    "warning: the frame at t = %.6g has disc %d at (%.6g, %.6g), outside the dump box "
                    "[%.6g, %.6g] x [%.6g, %.6g]; LAMMPS drops such atoms\n",
-                   f.time, i + 1, w.dx_[i], w.dy_[i], f.box[0][0], f.box[0][1], f.box[1][0], f.box[1][1]);
+                   f.time, i + 1, w.disc_x_[i], w.disc_y_[i], f.box[0][0], f.box[0][1], f.box[1][0], f.box[1][1]);
       warned_outside_box_ = true;
     }
   }
@@ -858,9 +881,10 @@ void Discharge::FillContacts(rundir::ContactFrame& f) {
   DumpBox(f.box);
   f.contacts.clear();
   for (const auto& c : contact_buf_) {
-    const int bj = c.disc_j >= 0 ? w.dbody_[c.disc_j] : -1;
-    const double xj = c.disc_j >= 0 ? w.dx_[c.disc_j] : c.cx, yj = c.disc_j >= 0 ? w.dy_[c.disc_j] : c.cy;
-    f.contacts.push_back({w.dbody_[c.disc_i], bj, w.dx_[c.disc_i], w.dy_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy});
+    const int bj = c.disc_j >= 0 ? w.disc_body_[c.disc_j] : -1;
+    const double xj = c.disc_j >= 0 ? w.disc_x_[c.disc_j] : c.cx, yj = c.disc_j >= 0 ? w.disc_y_[c.disc_j] : c.cy;
+    f.contacts.push_back(
+        {w.disc_body_[c.disc_i], bj, w.disc_x_[c.disc_i], w.disc_y_[c.disc_i], xj, yj, c.cx, c.cy, c.fx, c.fy});
   }
 }
 

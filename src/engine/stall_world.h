@@ -20,9 +20,9 @@ struct SiloDiscs {
 inline SiloDiscs DiscsInSilo(const World& w) {
   SiloDiscs s;
   for (int i = 0; i < w.DiscCount(); ++i) {
-    if (!w.active_[w.dbody_[i]]) continue;
-    s.discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
-    s.body_of.push_back(w.dbody_[i]);
+    if (!w.body_active_[w.disc_body_[i]]) continue;
+    s.discs.push_back({w.disc_x_[i], w.disc_y_[i], w.disc_radius_[i]});
+    s.body_of.push_back(w.disc_body_[i]);
   }
   return s;
 }

@@ -6,13 +6,13 @@
 
 namespace granary::runner {
 
-const std::vector<ExecutorRow>& ExecutorTable() {
+const std::vector<ExecutorRow>& ExecutorRows() {
   static const std::vector<ExecutorRow> kTable = {LocalExecutorRow(), SlurmExecutorRow()};
   return kTable;
 }
 
 const ExecutorRow* FindExecutor(const std::string& name) {
-  for (const ExecutorRow& row : ExecutorTable())
+  for (const ExecutorRow& row : ExecutorRows())
     if (name == row.name) return &row;
   return nullptr;
 }
@@ -29,7 +29,7 @@ const ExecutorRow& ExecutorOfBlock(const nlohmann::json& block, const std::strin
 }
 
 std::string ExecutorNames(bool quote) {
-  const std::vector<ExecutorRow>& table = ExecutorTable();
+  const std::vector<ExecutorRow>& table = ExecutorRows();
   const std::string q = quote ? "\"" : "";
   std::string out;
   for (std::size_t k = 0; k < table.size(); ++k)

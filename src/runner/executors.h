@@ -56,7 +56,7 @@ struct ExecutorRow {
 const ExecutorRow& ExecutorOfBlock(const nlohmann::json& block, const std::string& path);
 
 // Every executor; the first is the default.
-const std::vector<ExecutorRow>& ExecutorTable();
+const std::vector<ExecutorRow>& ExecutorRows();
 // The row named `name`, or nullptr.
 const ExecutorRow* FindExecutor(const std::string& name);
 // "\"local\" or \"slurm\"", for messages (`quote`: with the quotes).

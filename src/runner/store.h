@@ -75,7 +75,7 @@ class Store {
   int SchemaVersion();
   sqlite3* Handle() { return db_.get(); }
   const std::string& Path() const { return path_; }
-  bool ReadOnly() const { return read_only_; }
+  bool IsReadOnly() const { return read_only_; }
 
  private:
   struct Closer {

@@ -16,7 +16,7 @@ using testing::TempDir;
 using testing::WriteFile;
 
 // n exits at rate q through a base outlet of width w; remove mode with 1000 bodies.
-RunRecord Run(const std::filesystem::path& root, double w, int replica, double q, const std::string& state = "done") {
+RunRecord MakeRunRecord(const std::filesystem::path& root, double w, int replica, double q, const std::string& state = "done") {
   RunRecord r;
   r.engine = "native";
   r.point_id = "W" + FormatNumber(w);
@@ -47,8 +47,8 @@ TEST(Export, RunsAndPointsAsTidyTables) {
   CampaignInfo info;
   info.name = "export";
   info.axes = {"/silo/base_outlets/0/width", "/bodies/species/0/shape"};
-  const std::vector<RunRecord> runs = {Run(dir.Path(), 6, 0, 9.0), Run(dir.Path(), 6, 1, 11.0), Run(dir.Path(), 8, 0, 20.0),
-                                       Run(dir.Path(), 8, 1, 0.0, "failed")};
+  const std::vector<RunRecord> runs = {MakeRunRecord(dir.Path(), 6, 0, 9.0), MakeRunRecord(dir.Path(), 6, 1, 11.0), MakeRunRecord(dir.Path(), 8, 0, 20.0),
+                                       MakeRunRecord(dir.Path(), 8, 1, 0.0, "failed")};
   const AnalysisSetup setup = SetupAnalyses(nlohmann::json::object());
   const auto a = AnalyseCampaign(info, runs, setup);
 

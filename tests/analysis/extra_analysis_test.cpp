@@ -64,7 +64,7 @@ std::unique_ptr<Analysis> MakeExitRate(const nlohmann::json& options, const std:
 }
 
 // A run of n exits at rate q on `engine`, ending at n / q.
-RunRecord Run(const std::filesystem::path& root, const std::string& engine, double w, int replica, double q, int n) {
+RunRecord MakeRunRecord(const std::filesystem::path& root, const std::string& engine, double w, int replica, double q, int n) {
   RunRecord r;
   r.engine = engine;
   r.point_id = engine + FormatNumber(w);
@@ -100,7 +100,7 @@ TEST(ExtraAnalysis, RegisteredInATestAppearsInReportExportAndComparison) {
   std::vector<RunRecord> runs;
   for (const std::string engine : {"native", "liggghts"})
     for (double w : {6.0, 9.0})
-      for (int rep = 0; rep < 2; ++rep) runs.push_back(Run(dir.Path(), engine, w, rep, w * (engine == "native" ? 1.0 : 1.5), 200));
+      for (int rep = 0; rep < 2; ++rep) runs.push_back(MakeRunRecord(dir.Path(), engine, w, rep, w * (engine == "native" ? 1.0 : 1.5), 200));
   {
     const ScopedAnalysis registered({"exit_rate", MakeExitRate});
     EXPECT_EQ(RegisteredAnalyses().size(), builtin + 1);

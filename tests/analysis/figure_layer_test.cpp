@@ -32,7 +32,7 @@ constexpr double kA = 0.3, kB = 1.5;
 double QOf(double w, double mu) { return kA * std::pow(w, kB + mu / 2); }
 // Each point's mean off the law by up to 1 % (its replicas at -+1 % of that): data a fit does
 // not meet exactly, so that its intervals mean something.
-double false(double w, double mu) { return 1 + 0.01 * std::sin(3 * w + 7 * mu); }
+double Off(double w, double mu) { return 1 + 0.01 * std::sin(3 * w + 7 * mu); }
 
 nlohmann::json SpecFor(double w, double mu) {
   return {{"engine", "native"},
@@ -83,7 +83,7 @@ Campaign MakeCampaign(const fs::path& root, const nlohmann::json& extra_spec) {
       r.point = {{"/silo/base_outlets/0/width", w}, {"/contact/mu", mu}};
       r.spec = SpecFor(w, mu);
       r.run_dir = root / r.run_id;
-      const double q = QOf(w, mu) * false(w, mu) * (replicas == 1 ? 1.0 : rep == 0 ? 0.99 : 1.01);
+      const double q = QOf(w, mu) * Off(w, mu) * (replicas == 1 ? 1.0 : rep == 0 ? 0.99 : 1.01);
       WriteRun(r.run_dir, r.spec, q, 400, r.run_id);
       c.runs.push_back(r);
     }
@@ -301,7 +301,7 @@ TEST(FigureLayer, PooledFigureWeighsThePointsByTheirN) {
     ASSERT_EQ(d.points.size(), 3u);
     EXPECT_EQ(d.n, 6);
     // Two replicas at every mu: the pooled mean is the mean of the three Q.
-    const double expected = (QOf(d.x, 0) * false(d.x, 0) + QOf(d.x, 0.5) * false(d.x, 0.5) + QOf(d.x, 1) * false(d.x, 1)) / 3;
+    const double expected = (QOf(d.x, 0) * Off(d.x, 0) + QOf(d.x, 0.5) * Off(d.x, 0.5) + QOf(d.x, 1) * Off(d.x, 1)) / 3;
     EXPECT_NEAR(d.y, expected, 1e-6 * expected) << d.x;
     EXPECT_FALSE(d.axes.count("mu"));
   }
@@ -325,7 +325,7 @@ TEST(FigureLayer, DerivedAxesInFiguresExportAndOnly) {
   for (const FigureDatum& d : f.data) {
     const double w = d.x / 2, mu = d.axes.at("mu");
     EXPECT_TRUE((w == 10 && mu == 0) || (w == 14 && mu == 0.5)) << w << " " << mu;
-    EXPECT_NEAR(d.y, QOf(w, mu) * false(w, mu) / std::pow(w, 1.5), 1e-6);
+    EXPECT_NEAR(d.y, QOf(w, mu) * Off(w, mu) / std::pow(w, 1.5), 1e-6);
     EXPECT_GT(d.se, 0.0);  // propagated from q_count's se
   }
   // The export: the axes by their short names, then the derived axes.
@@ -416,7 +416,7 @@ TEST(Expectations, AgreeDisagreeAndTooFewRuns) {
   const std::vector<ExpectationResult> r = JudgeExpectations(*a, expect, figures);
   ASSERT_EQ(r.size(), 4u);
   EXPECT_EQ(r[0].verdict, Verdict::kAgrees) << r[0].why;
-  EXPECT_NEAR(r[0].measured, q14 * false(14, 0), 1e-6 * q14);
+  EXPECT_NEAR(r[0].measured, q14 * Off(14, 0), 1e-6 * q14);
   EXPECT_EQ(r[0].runs, 2);
   EXPECT_EQ(r[1].verdict, Verdict::kDisagrees) << r[1].why;
   EXPECT_EQ(r[2].verdict, Verdict::kNotEnough) << r[2].why;
@@ -443,7 +443,7 @@ TEST(Expectations, QuickAndMediumSizesAreMeasuredButNotComparable) {
     const std::vector<Expectation> expect = ReadExpectations(c.info.spec, {});
     const std::vector<ExpectationResult> r = JudgeExpectations(*a, expect, {});
     ASSERT_EQ(r.size(), 2u);
-    EXPECT_NEAR(r[0].measured, q14 * false(14, 0), 1e-6 * q14) << size;  // measured at every size
+    EXPECT_NEAR(r[0].measured, q14 * Off(14, 0), 1e-6 * q14) << size;  // measured at every size
     if (size == "full") {
       EXPECT_EQ(r[0].verdict, Verdict::kAgrees) << r[0].why;
       EXPECT_EQ(r[1].verdict, Verdict::kDisagrees) << r[1].why;

@@ -147,7 +147,7 @@ class Recorder : public Analysis {
       : key_(std::move(key)), windows_(std::move(windows)), contacts_(contacts) {}
   std::string Key() const override { return key_; }
   int Version() const override { return 1; }
-  PassUse PassOptionsUsed() const override { return {false, false, true}; }
+  PassUse PassOptionsUsed() const override { return {.window = false, .clog_gap = false, .frames = true}; }
   std::unique_ptr<RunAccumulator> Start(const RunView&) const override {
     class Acc : public RunAccumulator {
      public:

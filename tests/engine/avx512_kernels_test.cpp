@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/avx512_kernels.h"
+#include "engine/world.h"
 #include "engine/pair_entries.h"
 #include "silo/shapes.h"
 #include "world_parts.h"
@@ -20,7 +21,7 @@ namespace granary::engine {
 namespace {
 
 struct Entries {
-  std::vector<World::DiscKin> kin;
+  std::vector<DiscKin> kin;
   std::vector<int> i, j;
   std::vector<double> reff, meff, sx, sy, fx, fy, c;
   int size() const { return static_cast<int>(i.size()); }
@@ -38,8 +39,8 @@ Entries MakeEntries(int n, std::uint32_t seed) {
     const double angle = 3.14159 * u(rng);
     const double gap = e < 16 ? 0.5 : 0.004 * u(rng);  // < 0: overlap
     const double dist = ri + rj + gap;
-    World::DiscKin& a = s.kin[static_cast<std::size_t>(2 * e)];
-    World::DiscKin& b = s.kin[static_cast<std::size_t>(2 * e + 1)];
+    DiscKin& a = s.kin[static_cast<std::size_t>(2 * e)];
+    DiscKin& b = s.kin[static_cast<std::size_t>(2 * e + 1)];
     a = {10.0 * u(rng), 10.0 * u(rng), u(rng), u(rng), ri, 3.0 * u(rng)};
     b = {a.x - dist * std::cos(angle), a.y - dist * std::sin(angle), u(rng), u(rng), rj, 3.0 * u(rng)};
     s.i.push_back(2 * e);
@@ -101,8 +102,8 @@ void ExpectSameBits(bool clip) {
   // and that slip (tangential force at the Coulomb cap).
   int apart = 0, stick = 0, slip = 0;
   for (int e = 0; e < portable.size(); ++e) {
-    const World::DiscKin& a = portable.kin[static_cast<std::size_t>(portable.i[e])];
-    const World::DiscKin& b = portable.kin[static_cast<std::size_t>(portable.j[e])];
+    const DiscKin& a = portable.kin[static_cast<std::size_t>(portable.i[e])];
+    const DiscKin& b = portable.kin[static_cast<std::size_t>(portable.j[e])];
     const double dx = a.x - b.x, dy = a.y - b.y, r = std::hypot(dx, dy);
     if (r >= a.r + b.r) {
       ++apart;
@@ -179,14 +180,15 @@ TEST(Avx512Kernels, APileStepsToTheSameBitsWithAndWithout) {
       for (const NormalModel model : {NormalModel::kHertz, NormalModel::kHooke}) {
         const World simd = Pile(true, bodies, cap, model), portable = Pile(false, bodies, cap, model);
         const int what = static_cast<int>(bodies) + 10 * static_cast<int>(model);
-        for (const auto member : {&World::bx_, &World::by_, &World::bth_, &World::bc_, &World::bs_, &World::bvx_,
-                                  &World::bvy_, &World::bw_, &World::bfx_, &World::bfy_, &World::btq_, &World::dx_,
-                                  &World::dy_, &World::dfx_, &World::dfy_, &World::dtz_})
+        for (const auto member : {&World::body_x_, &World::body_y_, &World::body_angle_, &World::body_cos_,
+                                  &World::body_sin_, &World::body_vx_, &World::body_vy_, &World::body_spin_,
+                                  &World::body_fx_, &World::body_fy_, &World::body_torque_, &World::disc_x_,
+                                  &World::disc_y_, &World::disc_fx_, &World::disc_fy_, &World::disc_torque_})
           EXPECT_TRUE(SameBits(simd.*member, portable.*member)) << "bodies " << what << " cap " << cap;
         // The bodies fell onto each other (free fall alone: 0.045 d in the 3000 steps).
         double fell = 0.0;
         for (int b = 0; b < simd.BodyCount(); ++b)
-          if (b % 11 != 5 && b % 13 != 3) fell = std::max(fell, 0.6 + 1.05 * (b / 5) - simd.by_[b]);
+          if (b % 11 != 5 && b % 13 != 3) fell = std::max(fell, 0.6 + 1.05 * (b / 5) - simd.body_y_[b]);
         EXPECT_GT(fell, 0.1) << "bodies " << what;
       }
 }

@@ -41,7 +41,8 @@ double RmsNetForce(const RunSpec& spec, const BedState& bed, bool history, bool 
   w.ComputeForces();
   double sum = 0.0;
   for (int b = 0; b < w.BodyCount(); ++b)
-    sum += (w.bfx_[b] * w.bfx_[b] + w.bfy_[b] * w.bfy_[b]) / (w.bmass_[b] * w.bmass_[b] * spec.gravity * spec.gravity);
+    sum += (w.body_fx_[b] * w.body_fx_[b] + w.body_fy_[b] * w.body_fy_[b]) /
+           (w.body_mass_[b] * w.body_mass_[b] * spec.gravity * spec.gravity);
   return std::sqrt(sum / w.BodyCount());
 }
 

@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <cstring>
 #include <chrono>
 #include <thread>
 #include <fcntl.h>
@@ -846,6 +847,57 @@ TEST(Run, ACheckpointThatDoesNotMatchItsOutputsOrFormatIsRefused) {
   EXPECT_NE(out.find("checkpoint.bin expects "), std::string::npos) << out;
   EXPECT_NE(out.find("bytes of events.csv, the file has 10"), std::string::npos) << out;
   EXPECT_NE(out.find("checkpoint.prev.bin is format GRANARY-CHECKPOINT-3, an older engine's"), std::string::npos) << out;
+}
+
+// A version-4 checkpoint (engines before the bed's packing fraction and surface were
+// checkpointed) is still read: made here from a version-5 one by taking those two doubles out
+// of the payload (after the spec, the counters, the outlets' exits and the bed's file, flag,
+// height, settle time and wall time) and writing the header anew. The continued run is the
+// uninterrupted one, and its summary has no bed shape to report.
+TEST(Run, AVersion4CheckpointIsStillRead) {
+  const fs::path a = FreshDir("v4-a"), b = FreshDir("v4-b");
+  WriteSpec(a, SmallSpec(8.0, 4.0));
+  WriteSpec(b, SmallSpec(8.0, 4.0));
+  RunQuiet(a);
+  EXPECT_EQ(RunQuiet(b, 1, 27000).end_reason, "aborted");
+  fs::remove(b / "checkpoint.prev.bin");  // (no fallback: the version-4 file must be read)
+  const std::string file = Slurp(b / "checkpoint.bin");
+  auto u64 = [&](std::size_t pos) {
+    std::uint64_t v;
+    std::memcpy(&v, file.data() + pos, sizeof v);
+    return static_cast<std::size_t>(v);
+  };
+  const std::size_t magic = 8 + u64(0);
+  ASSERT_EQ(file.substr(8, magic - 8), "GRANARY-CHECKPOINT");
+  std::uint32_t version;
+  std::memcpy(&version, file.data() + magic, 4);
+  ASSERT_EQ(version, 5u);
+  const std::size_t payload = magic + 4 + 8 + 4;
+  std::size_t at = payload;
+  at += 8 + u64(at);              // spec
+  at += 3 * 8;                    // step, last exit step, disc steps
+  at += 8 + 8 * u64(at);          // exits per outlet
+  at += 4 + 1;                    // clogs, in clog
+  at += 8 + u64(at);              // bed file
+  at += 1 + 3 * 8;                // prepared here, height, settle time, wall time
+  std::string body = file.substr(payload);
+  body.erase(at - payload, 16);  // packing fraction, surface
+  std::string v4(file.data(), magic);
+  const std::uint32_t four = 4, crc = Crc32(body);
+  const std::uint64_t size = body.size();
+  v4.append(reinterpret_cast<const char*>(&four), 4);
+  v4.append(reinterpret_cast<const char*>(&size), 8);
+  v4.append(reinterpret_cast<const char*>(&crc), 4);
+  std::ofstream(b / "checkpoint.bin", std::ios::binary) << v4 << body;
+  const auto [code, out] = RunExeOutput("run " + b.string() + " --threads 1");
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_EQ(out.find("refusing checkpoint"), std::string::npos) << out;
+  const nlohmann::json summary = ReadJson(b / "summary.json");
+  EXPECT_TRUE(summary["continued_from_checkpoint"].get<bool>());
+  EXPECT_FALSE(summary.value("bed", nlohmann::json::object()).contains("packing_fraction")) << summary.dump();
+  EXPECT_TRUE(ReadJson(a / "summary.json").value("bed", nlohmann::json::object()).contains("packing_fraction"));
+  EXPECT_EQ(Slurp(a / "events.csv"), Slurp(b / "events.csv"));
+  EXPECT_EQ(Slurp(a / "frames.dump"), Slurp(b / "frames.dump"));
 }
 
 // Two engines never write one directory: the executable refuses a directory whose lock is

@@ -99,7 +99,7 @@ TEST(Stall, EachOutletIsJudgedOnItsOwn) {
 // The discs of a world as any engine's discs (stall.h), with the probe of stall_world.h.
 std::vector<silo::DiscAt> DiscsOf(const World& w) {
   std::vector<silo::DiscAt> discs;
-  for (int i = 0; i < w.DiscCount(); ++i) discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
+  for (int i = 0; i < w.DiscCount(); ++i) discs.push_back({w.disc_x_[i], w.disc_y_[i], w.disc_radius_[i]});
   return discs;
 }
 
@@ -202,7 +202,7 @@ TEST(Stall, SnowmenWhoseGapsOnlyTheirSmallDiscFitsSealTheOutlet) {
   for (double x : {-4.05, -1.35, 1.35, 4.05}) w.AddBody(0, x, 0.75 + std::fabs(t.ox[big]), theta);
   EXPECT_EQ(SealedOutlets(w), std::vector<bool>{true});
   std::vector<silo::DiscAt> discs;
-  for (int i = 0; i < w.DiscCount(); ++i) discs.push_back({w.dx_[i], w.dy_[i], w.dr_[i]});
+  for (int i = 0; i < w.DiscCount(); ++i) discs.push_back({w.disc_x_[i], w.disc_y_[i], w.disc_radius_[i]});
   EXPECT_NEAR(discs[static_cast<std::size_t>(big)].y, 0.75, 1e-12);
   EXPECT_EQ(silo::SealedOutlets(w.Geometry(), discs, 0.5), std::vector<bool>{false});
 }

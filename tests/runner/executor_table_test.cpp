@@ -39,10 +39,10 @@ bool Owns(const ExecutorRow& row, const std::string& flag) {
 }
 
 TEST_F(ExecutorTable, EveryRowIsListedByRunHelpWithItsFlags) {
-  ASSERT_GE(ExecutorTable().size(), 2u);
+  ASSERT_GE(ExecutorRows().size(), 2u);
   const auto help = Sh(testing::Campaign() + " run --help");
   ASSERT_EQ(help.code, 0);
-  for (const ExecutorRow& row : ExecutorTable()) {
+  for (const ExecutorRow& row : ExecutorRows()) {
     EXPECT_NE(help.output.find(std::string(row.name) + " "), std::string::npos) << row.name << "\n" << help.output;
     EXPECT_NE(help.output.find(row.summary), std::string::npos) << row.name;
     for (const auto& [flag, takes_value] : row.flags)
@@ -51,13 +51,13 @@ TEST_F(ExecutorTable, EveryRowIsListedByRunHelpWithItsFlags) {
 }
 
 TEST_F(ExecutorTable, EveryRowIsAnExecutorOfRunAndOfTheSpecAndItsFlagsAreItsOwn) {
-  for (const ExecutorRow& row : ExecutorTable()) {
+  for (const ExecutorRow& row : ExecutorRows()) {
     // The spec's block accepts the row's name (the plan checks it).
     EXPECT_NO_THROW(CampaignSpec::FromJson(json{{"name", "t"}, {"executor", {{"type", row.name}}}})) << row.name;
     // --executor NAME passes, and a flag of another executor is then refused as that one's:
     // the table, not a list of names, decided both.
     bool tried = false;
-    for (const ExecutorRow& other : ExecutorTable()) {
+    for (const ExecutorRow& other : ExecutorRows()) {
       if (&other == &row) continue;
       for (const auto& [flag, takes_value] : other.flags) {
         if (Owns(row, flag)) continue;

@@ -149,7 +149,7 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
       for (const analysis::Metric& m : a.RunMetrics(k, u)) rm.metrics.push_back({m.name, m.unit, m.value, m.se});
       rows.push_back(std::move(rm));
     }
-  if (store.ReadOnly()) {
+  if (store.IsReadOnly()) {
     err << verb << ": the database " << db << " cannot be written here (read-only): the metrics are not stored in it\n";
   } else {
     StoreMetrics(store, rows, NowSeconds());

@@ -60,12 +60,12 @@ const char kRunHelpTail[] =
 const char* RunHelp() {
   static const std::string kHelp = [] {
     std::string h = kRunHelpHead;
-    for (const ExecutorRow& row : ExecutorTable()) {
+    for (const ExecutorRow& row : ExecutorRows()) {
       std::string name = "    " + std::string(row.name);
       name.resize(std::max<std::size_t>(name.size() + 1, 23), ' ');
       h += name + row.summary + "\n";
     }
-    for (const ExecutorRow& row : ExecutorTable()) h += row.flags_help;
+    for (const ExecutorRow& row : ExecutorRows()) h += row.flags_help;
     return h + kRunHelpTail;
   }();
   return kHelp.c_str();
@@ -101,12 +101,12 @@ namespace {
 // table's first; a flag of another executor is refused.
 std::unique_ptr<ExecutorSetup> ChooseExecutor(const Args& a, const json& spec, const std::string& db, const RunOptions& o) {
   const json* block = spec.is_object() && spec.contains("executor") ? &spec["executor"] : nullptr;
-  const ExecutorRow* row = block ? &ExecutorOfBlock(*block, "/executor") : &ExecutorTable().front();
+  const ExecutorRow* row = block ? &ExecutorOfBlock(*block, "/executor") : &ExecutorRows().front();
   if (a.Has("executor")) {
     row = FindExecutor(a.Get("executor", ""));
     if (!row) throw UsageError("--executor: must be " + ExecutorNames(false) + " (got \"" + a.Get("executor", "") + "\")");
   }
-  for (const ExecutorRow& other : ExecutorTable()) {
+  for (const ExecutorRow& other : ExecutorRows()) {
     if (&other == row) continue;
     for (const auto& [flag, takes_value] : other.flags) {
       const bool own = std::any_of(row->flags.begin(), row->flags.end(), [&](const auto& f) { return f.first == flag; });
@@ -210,7 +210,7 @@ int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, 
 Verb RunVerb() {
   std::vector<FlagSpec> flags = {{"db", true},         {"engine", true},      {"only", true},     {"time-limit", true},
                                  {"retries", true},    {"rerun-lost", false}, {"executor", true}, {"help", false}};
-  for (const ExecutorRow& row : ExecutorTable())
+  for (const ExecutorRow& row : ExecutorRows())
     for (const auto& [flag, takes_value] : row.flags)
       if (std::none_of(flags.begin(), flags.end(), [&](const FlagSpec& f) { return f.name == flag; }))
         flags.push_back({flag, takes_value});
