@@ -182,9 +182,10 @@ TEST(Run, ArchBesideAnObstacleIsAClogAndAnOpenCraterADischarge) {
 
 // A disc alone on the floor of a drained silo is the stagnant remainder, not a flow: the contact
 // law has no rolling resistance, so a disc rolling there rolls on (here away from the outlet to
-// the side wall and back, ~100 time units, never leaving the region near the outlet in this
-// narrow silo), and the run must end discharged at the first stall check instead of at
-// max_time. A disc that rolls over the outlet's edge is still flowing and leaves.
+// the side wall and back, reaching the outlet's edge long after max_time, never leaving the
+// region near the outlet in this narrow silo), and the run must end discharged at the first
+// stall check instead of at max_time. A disc that rolls over the outlet's edge is still
+// flowing and leaves.
 TEST(Run, ADiscRollingOnTheFloorOfADrainedSiloIsNoFlow) {
   for (const double vx : {0.05, -1.0}) {
     const fs::path dir = FreshDir(vx > 0 ? "rolling-away" : "rolling-out");
