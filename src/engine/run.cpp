@@ -319,7 +319,8 @@ class Discharge : private CheckpointedState {
     return spec_.discharge.mode == DischargeMode::kReinject &&
            spec_.discharge.reinject_position == ReinjectPosition::kPeriodic;
   }
-  bool Stalled() const;
+  bool Stalled();
+  bool RollsOutSoon(int b) const;
   bool StallIsAClog() const;
   bool Unclogging() const { return spec_.discharge.on_clog == OnClog::kUnclog; }
   // One attempt at breaking the current clog (on_clog "unclog"), written to unclogs.csv.
@@ -362,6 +363,7 @@ class Discharge : private CheckpointedState {
   rundir::Frame frame_buf_;
   bool warned_outside_box_ = false;
   std::vector<std::uint8_t> in_contact_;  // bodies in contact in the last force pass, for Reinject
+  std::vector<std::uint8_t> alone_on_floor_;  // Stalled: bodies alone on the floor (stall_world.h)
   rundir::ContactFrame contact_frame_buf_;
   Clock::time_point session_start_ = Clock::now();
 };
@@ -744,24 +746,61 @@ void Discharge::HandleExits() {
 
 // No exit for clog_window and kinetic energy per body near the outlets below the threshold.
 // "Near" an outlet of width W: within W along it and up to 2W into the silo (docs/engine.md).
-bool Discharge::Stalled() const {
+// Bodies alone on the floor (stall_world.h) moving only along it, and not about to roll out of
+// an outlet within clog_window, are left out: they are the stagnant remainder of a drained
+// floor, not a flow. They are looked for only when the bodies near the outlets as a whole are
+// not at rest, so a stall judged before is judged at the same step.
+bool Discharge::Stalled() {
   const World& w = *world_;
-  double ke = 0;
-  int n = 0;
-  for (int b = 0; b < w.BodyCount(); ++b) {
-    if (!w.body_active_[b]) continue;
+  const double threshold = spec_.discharge.clog_ke_per_body;
+  auto near_outlet = [&](int b) {
     for (const silo::OutletFrame& o : w.Geometry().outlets) {
       const double px = w.body_x_[b] - o.cx, py = w.body_y_[b] - o.cy;
       const double s = px * o.ax + py * o.ay, h = px * o.nx + py * o.ny;
-      if (std::fabs(s) < o.width && h > -spec_.discharge.exit_distance && h < 2 * o.width) {
-        ke += 0.5 * w.body_mass_[b] * (w.body_vx_[b] * w.body_vx_[b] + w.body_vy_[b] * w.body_vy_[b]) +
-              0.5 * w.body_inertia_[b] * w.body_spin_[b] * w.body_spin_[b];
-        ++n;
-        break;
-      }
+      if (std::fabs(s) < o.width && h > -spec_.discharge.exit_distance && h < 2 * o.width) return true;
+    }
+    return false;
+  };
+  auto energy = [&](int b) {
+    return 0.5 * w.body_mass_[b] * (w.body_vx_[b] * w.body_vx_[b] + w.body_vy_[b] * w.body_vy_[b]) +
+           0.5 * w.body_inertia_[b] * w.body_spin_[b] * w.body_spin_[b];
+  };
+  double ke = 0;
+  int n = 0;
+  for (int b = 0; b < w.BodyCount(); ++b) {
+    if (!w.body_active_[b] || !near_outlet(b)) continue;
+    ke += energy(b);
+    ++n;
+  }
+  if (n == 0 || ke / n / energy_unit_ < threshold) return true;
+  MarkBodiesAloneOnTheFloor(w, contact_buf_, alone_on_floor_);
+  ke = 0;
+  n = 0;
+  for (int b = 0; b < w.BodyCount(); ++b) {
+    if (!w.body_active_[b] || !near_outlet(b)) continue;
+    if (alone_on_floor_[static_cast<std::size_t>(b)] && 0.5 * w.body_mass_[b] * w.body_vy_[b] * w.body_vy_[b] / energy_unit_ < threshold &&
+        !RollsOutSoon(b))
+      continue;
+    ke += energy(b);
+    ++n;
+  }
+  return n == 0 || ke / n / energy_unit_ < threshold;
+}
+
+// Whether body b, moving along the floor at its present speed, reaches the floor-level end of
+// an outlet within clog_window: then it is still leaving, as a body of the flow would.
+bool Discharge::RollsOutSoon(int b) const {
+  const World& w = *world_;
+  const double vx = w.body_vx_[b];
+  for (const silo::OutletFrame& o : w.Geometry().outlets) {
+    for (const double end : {-0.5, 0.5}) {
+      const double ex = o.cx + end * o.width * o.ax, ey = o.cy + end * o.width * o.ay;
+      if (ey != 0.0) continue;  // not at the floor's height
+      const double gap = ex - w.body_x_[b];
+      if (gap * vx > 0 && std::fabs(gap) < std::fabs(vx) * spec_.discharge.clog_window) return true;
     }
   }
-  return n == 0 || ke / n / energy_unit_ < spec_.discharge.clog_ke_per_body;
+  return false;
 }
 
 // A stall is a clog when an arch seals an outlet from the material above it, whether the arch

@@ -22,9 +22,13 @@ constexpr double kSettleCheck = 0.02;     // simulated time between looks at a s
 
 long long StepsOf(double time, double dt) { return std::max<long long>(1, std::llround(time / dt)); }
 
-// pair_style / wall arguments: gran/hertz/history Kn Kt gamma_n gamma_t mu dampflag 1.
+// The LAMMPS style of the spec's normal model (the native engine's laws are these two styles:
+// engine/contact_law.h).
+std::string Style(const Contact& c) { return c.normal_model == NormalModel::kHooke ? "hooke/history" : "hertz/history"; }
+
+// pair_style / wall arguments: gran/<style> Kn Kt gamma_n gamma_t mu dampflag 1.
 std::string Law(const Contact& c, double mu) {
-  return "hertz/history " + Num(c.kn) + " " + Num(c.kt) + " " + Num(c.gamma_n) + " " + Num(c.gamma_t) + " " + Num(mu) +
+  return Style(c) + " " + Num(c.kn) + " " + Num(c.kt) + " " + Num(c.gamma_n) + " " + Num(c.gamma_t) + " " + Num(mu) +
          " 1";
 }
 
@@ -55,7 +59,7 @@ void Model(std::ostringstream& o, const RunSpec& spec, const Setup& s, const std
   }
   if (!s.disc_types.empty()) o << "group discs type" << Types(s.disc_types) << "\n";
   if (clumps) o << "group clumps type" << Types(s.clump_types) << "\n";
-  o << "# contact law: gran/hertz/history with body masses in m_eff, as the native engine (docs/lammps.md)\n"
+  o << "# contact law: gran/" << Style(c) << " with body masses in m_eff, as the native engine (docs/lammps.md)\n"
     << "pair_style gran/" << Law(c, c.mu) << "\npair_coeff * *\n"
     << "neighbor 0.2 bin\nneigh_modify delay 0 every 1 check yes"
     << (clumps ? " exclude molecule/intra clumps" : "") << "\n"

@@ -848,14 +848,9 @@ void ValidateForLammps(const RunSpec& s) {
                     "the LAMMPS backend cannot break a clog yet: it runs one LAMMPS input to the end, with no step "
                     "at which to take out an arch or kick the bodies over the outlet; use the native engine, or "
                     "\"stop\" or \"wait\" (got \"unclog\")");
-  if (s.contact.normal_model != Contact{}.normal_model)
-    throw SpecError("/contact/normal_model", "the LAMMPS backend writes pair gran/hertz/history only; " +
-                                                 ToString(s.contact.normal_model) +
-                                                 " is the native engine's (got \"" + ToString(s.contact.normal_model) +
-                                                 "\", allowed: \"hertz\")");
   if (s.contact.clip_normal)
-    throw SpecError("/contact/clip_normal", "LAMMPS' pair gran/hertz/history has no clipping of an attractive normal "
-                                            "force (got true, allowed: false)");
+    throw SpecError("/contact/clip_normal", "LAMMPS' pair gran/hertz/history and gran/hooke/history have no clipping "
+                                            "of an attractive normal force (got true, allowed: false)");
   if (s.discharge.mode == DischargeMode::kReinject && !s.silo.side_outlets.empty())
     throw SpecError("/discharge/mode",
                     "the LAMMPS backend reinjects through y-periodicity, which cannot return bodies that leave "

@@ -1,5 +1,6 @@
 // Small silo runs through the library and the real granary-engine executable: discharge,
 // clogging, checkpoint/continue, determinism across seeds and thread counts, bed cache.
+#include "engine/bed.h"
 #include "engine/bench.h"
 #include "run_helpers.h"
 #include "engine/run.h"
@@ -178,6 +179,46 @@ TEST(Run, ArchBesideAnObstacleIsAClogAndAnOpenCraterADischarge) {
   EXPECT_EQ(open.end_reason, "discharged");
   EXPECT_LT(open.t_end, 40.0);
   EXPECT_LT(ReadJson(wide / "summary.json")["remaining"].get<int>(), 20);
+}
+
+// A disc alone on the floor of a drained silo is the stagnant remainder, not a flow: the contact
+// law has no rolling resistance, so a disc rolling there rolls on (here away from the outlet to
+// the side wall and back, reaching the outlet's edge long after max_time, never leaving the
+// region near the outlet in this narrow silo), and the run must end discharged at the first
+// stall check instead of at max_time. A disc that rolls over the outlet's edge is still
+// flowing and leaves.
+TEST(Run, ADiscRollingOnTheFloorOfADrainedSiloIsNoFlow) {
+  for (const double vx : {0.05, -1.0}) {
+    const fs::path dir = FreshDir(vx > 0 ? "rolling-away" : "rolling-out");
+    nlohmann::json spec = {{"run_id", "test"},
+                           {"seed", 1},
+                           {"silo", {{"width", 8.0}, {"base_outlets", {{{"center", 0.0}, {"width", 4.0}}}}}},
+                           {"bodies", {{"count", 1}, {"species", {{{"shape", "disc"}, {"diameter", 1.0}}}}}},
+                           {"bed", {{"cache_file", (dir / "rolling-bed.json").string()}}},
+                           {"discharge", {{"mode", "remove"}, {"max_time", 30.0}, {"clog_window", 2.0}}},
+                           {"output", {{"checkpoint_interval", 0.0}, {"frame_interval", 0.0}}}};
+    BedState bed;
+    bed.species = {0};
+    bed.x = {3.0};
+    bed.y = {0.5};
+    bed.theta = {0.0};
+    bed.vx = {vx};
+    bed.vy = {0.0};
+    bed.omega = {-vx / 0.5};  // rolling without slipping
+    bed.height = 1.0;
+    std::ofstream(dir / "rolling-bed.json") << BedToJson(bed, RunSpec::FromJson(spec)).dump();
+    WriteSpec(dir, spec);
+    const RunResult r = RunQuiet(dir);
+    EXPECT_EQ(r.end_reason, "discharged") << "vx " << vx;
+    if (vx > 0) {
+      EXPECT_EQ(r.exited, 0);
+      EXPECT_LT(r.t_end, 3.0);  // the first check after clog_window
+      EXPECT_EQ(ReadJson(dir / "summary.json")["remaining"], 1);
+    } else {
+      EXPECT_EQ(r.exited, 1);
+      EXPECT_EQ(ReadJson(dir / "summary.json")["remaining"], 0);
+    }
+  }
 }
 
 // Discs, dumbbells and their mixture each take their own loops (world.cpp).

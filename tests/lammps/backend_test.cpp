@@ -198,6 +198,36 @@ TEST(LammpsBackend, DiscsLeaveAsOnTheNativeEngineFromTheSameBed) {
   }
 }
 
+// contact/normal_model "hooke" is LAMMPS' gran/hooke/history, for the pairs and every wall: from
+// the native engine's bed the same discs leave first, at the native Hooke run's times.
+TEST(LammpsBackend, HookeDiscsLeaveAsOnTheNativeHookeEngineFromTheSameBed) {
+  // The bed at the discharge's step: the default 8x step is unstable for this stiff linear
+  // spring (omega dt ~1.8 at K_n 2e6).
+  const fs::path dir =
+      MakeRun("discs_hooke", {{"contact", {{"normal_model", "hooke"}}}, {"bed", {{"time_step", 1e-4}}}});
+  const Outcome o = RunLammps(dir);
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  std::ifstream script_in(dir / "discharge.in");
+  const std::string script((std::istreambuf_iterator<char>(script_in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(script.find("pair_style gran/hooke/history 2000000 2450000 1000 1000 0.5 1"), std::string::npos) << script;
+  EXPECT_NE(script.find("wall/gran hooke/history"), std::string::npos) << script;
+  EXPECT_EQ(script.find("hertz"), std::string::npos) << script;
+  const RunData run = ReadRun(dir);
+  ASSERT_GT(run.events.size(), 10u) << "a 5 d outlet lets discs out";
+  const RunData native = ReadRun(NativeTwin(dir));
+  // Matched by body: two exits 0.013 apart can swap at the backend's 0.01 look at the exit line.
+  ASSERT_GE(native.events.size(), 7u);
+  std::map<std::int64_t, double> lammps_exit;
+  for (const auto& e : run.events) lammps_exit.emplace(e.body, e.time);
+  for (std::size_t i = 0; i < 7; ++i) {
+    const auto it = lammps_exit.find(native.events[i].body);
+    ASSERT_NE(it, lammps_exit.end()) << "native exit " << i << ", body " << native.events[i].body;
+    EXPECT_NEAR(it->second, native.events[i].time, 0.03) << "native exit " << i;
+  }
+  EXPECT_NEAR(static_cast<double>(run.events.size()), static_cast<double>(native.events.size()),
+              0.15 * static_cast<double>(native.events.size()) + 2);
+}
+
 TEST(LammpsBackend, DumbbellsReinjectThroughThePeriodicBoxAndStayRigid) {
   const fs::path dir = MakeRun("dumbbells_reinject", {{"bodies", {{"count", 60}, {"species", {{{"shape", "dumbbell"}}}}}},
                                                       {"silo", {{"base_outlets", {{{"center", 0}, {"width", 8}}}}}},

@@ -45,8 +45,9 @@ std::pair<std::string, std::string> StudyAndSize(const fs::path& spec) {
 }
 
 // What remains of a spec without what makes its size: names and text, replicas, body count,
-// silo width, time and clog limits, frame interval and format (full sizes write GSD, with
-// fewer contact frames), and the sweep's values (its axes stay).
+// silo width, time and clog limits (also where the sweep sets them per point: a full size's
+// wide outlets need longer runs for their clogs), frame interval and format (full sizes write
+// GSD, with fewer contact frames), and the sweep's values (its axes stay).
 json WithoutSize(json spec) {
   for (const char* key : {"name", "description", "size", "replicas"}) spec.erase(key);
   for (const char* pointer : {"/base/bodies/count", "/base/silo/width", "/base/discharge/max_time",
@@ -64,6 +65,7 @@ json WithoutSize(json spec) {
         for (const auto& [axis, v] : point.items()) names.insert(axis);
     else
       for (const auto& [axis, v] : value.items()) names.insert(axis);
+    for (const char* limit : {"/discharge/max_time", "/discharge/unclog/max_clogs"}) names.erase(limit);
     axes[part] = names;
   }
   spec["sweep"] = axes;
