@@ -54,7 +54,9 @@ const PointMetric* FindMetric(const std::vector<PointMetric>& metrics, const std
   return nullptr;
 }
 
-nlohmann::json JsonNumber(double value) { return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr); }
+nlohmann::json JsonNumber(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+}
 
 double NumberOf(const nlohmann::json& value) { return value.is_number() ? value.get<double>() : kNaN; }
 

@@ -36,11 +36,11 @@ struct CampaignView;
 // ([a-z0-9_]); per-outlet variants end in OutletSuffix(k).
 struct Metric {
   std::string name;
-  std::string unit;                   // reduced units of docs/model.md: "bodies/sqrt(d/g)", "1", ...
-  double value = kNaN;                // NaN: not defined for this run
-  double se = kNaN;                   // NaN: no error estimate
-  std::string title;                  // for tables and print-outs
-  bool headline = false;              // shown in the per-run table, `campaign compare`, the engine-ratio figure
+  std::string unit;       // reduced units of docs/model.md: "bodies/sqrt(d/g)", "1", ...
+  double value = kNaN;    // NaN: not defined for this run
+  double se = kNaN;       // NaN: no error estimate
+  std::string title;      // for tables and print-outs
+  bool headline = false;  // shown in the per-run table, `campaign compare`, the engine-ratio figure
 };
 
 // One number of one sweep point: over its replicas, or pooled over what they contain (the
@@ -54,7 +54,7 @@ struct PointMetric {
   std::string title;
   bool headline = false;
   std::string note;
-  bool compare = true;                // compared across engines (counts of runs are not)
+  bool compare = true;  // compared across engines (counts of runs are not)
   MeanSe Estimate() const { return {mean, se, n}; }
 };
 
@@ -62,16 +62,16 @@ struct PointMetric {
 // max_frames): what a steady window and a clog are, and how densely frames are sampled.
 struct PassOptions {
   FlowWindowRule window;
-  double clog_gap = -1.0;             // < 0: each run's /discharge/clog_window
-  int frame_stride = 1;               // every n-th frame of an analysis' windows
-  int max_frames = 0;                 // 0: all of them
+  double clog_gap = -1.0;  // < 0: each run's /discharge/clog_window
+  int frame_stride = 1;    // every n-th frame of an analysis' windows
+  int max_frames = 0;      // 0: all of them
 };
 
 // Which of the pass options an analysis' per-run results depend on (its cache key holds them).
 struct PassUse {
   bool window = false;
   bool clog_gap = false;
-  bool frames = false;                // frame_stride, max_frames
+  bool frames = false;  // frame_stride, max_frames
 };
 
 // A closed interval [start, end] of simulated time since the opening; end may be +inf.
@@ -89,16 +89,16 @@ struct RunView {
   std::string engine;
   std::string end_reason;
   bool remove_mode = true;
-  bool stop_on_clog = true;           // the spec's /discharge/stop_on_clog
-  std::string on_clog = "stop";       // the spec's /discharge/on_clog: "stop", "wait" or "unclog"
-  int bodies = 0;                     // in the silo at the opening
+  bool stop_on_clog = true;      // the spec's /discharge/stop_on_clog
+  std::string on_clog = "stop";  // the spec's /discharge/on_clog: "stop", "wait" or "unclog"
+  int bodies = 0;                // in the silo at the opening
   int exited = 0;
-  int undischarged = 0;               // left in the silo at the end
+  int undischarged = 0;  // left in the silo at the end
   double t_end = 0.0;
-  double clog_gap = 5.0;              // the effective one (PassOptions or the run's clog_window)
-  double density = 1.0;               // areal density of the bodies
+  double clog_gap = 5.0;  // the effective one (PassOptions or the run's clog_window)
+  double density = 1.0;   // areal density of the bodies
   std::vector<OutletGeometry> outlets;
-  FlowRate flow;                      // all outlets together over the steady window
+  FlowRate flow;  // all outlets together over the steady window
   // The frames of steady flow: the flow window of all outlets; without one, from
   // /report/window/start_time up to the first clog.
   TimeWindow steady;
@@ -117,8 +117,8 @@ struct FrameView {
 };
 
 struct FrameRequest {
-  std::vector<TimeWindow> windows;    // frames whose time lies in any of these (none: no frames)
-  bool contacts = false;              // also the contact frame at each selected frame
+  std::vector<TimeWindow> windows;  // frames whose time lies in any of these (none: no frames)
+  bool contacts = false;            // also the contact frame at each selected frame
 };
 
 // A per-run result with this key set to true is cached (so `campaign show` sees it) but never
@@ -152,9 +152,9 @@ struct AnalysisResults {
 // `highlight` outlined: what a section asks the renderer for (the runner sets it from
 // src/render; analyses never draw).
 struct ClogPicture {
-  int clog = 1;                                    // 1-based, in the run's clog files
+  int clog = 1;  // 1-based, in the run's clog files
   std::set<std::int64_t> highlight;
-  double x_lo = 0, x_hi = 0, y_lo = 0, y_hi = 0;   // the part of the silo shown
+  double x_lo = 0, x_hi = 0, y_lo = 0, y_hi = 0;  // the part of the silo shown
 };
 // Draws `picture` of the run into `png`; returns "" or why it could not.
 using DrawClog = std::function<std::string(const std::filesystem::path& run_dir, const ClogPicture& picture,
@@ -166,23 +166,23 @@ struct SectionInput {
   const AnalysisResults& results;
   const std::vector<std::vector<PointMetric>>& points;  // this analysis' point metrics, per point
   const PassOptions& pass;
-  std::filesystem::path out_dir = {};              // the report folder (pictures go below it)
-  DrawClog draw_clog = {};                         // unset: no pictures (the section says so)
+  std::filesystem::path out_dir = {};  // the report folder (pictures go below it)
+  DrawClog draw_clog = {};             // unset: no pictures (the section says so)
 };
 
 // A per-run distribution an analysis offers figures of kind "distribution" (/report/figures,
 // figures.h): what it is called there, and its title and unit for the axis.
 struct DistributionInfo {
-  std::string name;                   // "vx", "avalanche_size": what a figure's "of" names
-  std::string title;                  // "v_x in the region above the outlet"
-  std::string unit;                   // "sqrt(g d)"; "" for a pure number
+  std::string name;   // "vx", "avalanche_size": what a figure's "of" names
+  std::string title;  // "v_x in the region above the outlet"
+  std::string unit;   // "sqrt(g d)"; "" for a pure number
 };
 // Its values in one run: samples of weight 1 (avalanche sizes), or a histogram the run kept on
 // a fine grid as its bin centres with their counts as weights (velocities). The figure bins
 // them as it is asked; the replicas of a point pool by adding their weights.
 struct Samples {
   std::vector<double> values;
-  std::vector<double> weights;        // empty: 1 each
+  std::vector<double> weights;  // empty: 1 each
 };
 
 // A curve an analysis offers figures of kind "curves": y against x from the runs behind a
@@ -190,10 +190,10 @@ struct Samples {
 // 6.7): its name there, the axes' labels with their units, and whether the line y = x belongs
 // to it (fig. 6.6: the axis' mode against theta beside mode = theta).
 struct CurveInfo {
-  std::string name;                   // "arch_pressure_theta": what a figure's "of" names
-  std::string title;                  // "pressure of arch bodies against their angular position"
-  std::string xlabel;                 // "theta (degrees)"
-  std::string ylabel;                 // "P (rho g d)"
+  std::string name;    // "arch_pressure_theta": what a figure's "of" names
+  std::string title;   // "pressure of arch bodies against their angular position"
+  std::string xlabel;  // "theta (degrees)"
+  std::string ylabel;  // "P (rho g d)"
   bool diagonal = false;
 };
 // One point of such a curve: se NaN where the curve has none, n what stands behind y.
@@ -203,9 +203,9 @@ struct CurvePoint {
 // A field over the silo an analysis offers figures of kind "maps" and "profile": its name
 // there, title, unit, and whether it is signed (a diverging colour scale).
 struct FieldInfo {
-  std::string name;                   // "pressure", "speed_clogged"
-  std::string title;                  // "pressure P (contact)"
-  std::string unit;                   // "rho g d"; "" for a pure number
+  std::string name;   // "pressure", "speed_clogged"
+  std::string title;  // "pressure P (contact)"
+  std::string unit;   // "rho g d"; "" for a pure number
   bool diverging = false;
 };
 // The field on a regular grid (nodes (x0 + i h, y0 + j h), node j nx + i) from the runs given,
@@ -213,10 +213,10 @@ struct FieldInfo {
 struct FieldMap {
   double x0 = 0.0, y0 = 0.0, spacing = 1.0;
   int nx = 0, ny = 0;
-  std::vector<double> values;         // NaN: not defined at that node
-  std::vector<double> n_frames;       // frames behind each node's value
-  int runs = 0;                       // runs merged
-  int frames = 0;                     // frames of those runs behind the map
+  std::vector<double> values;                             // NaN: not defined at that node
+  std::vector<double> n_frames;                           // frames behind each node's value
+  int runs = 0;                                           // runs merged
+  int frames = 0;                                         // frames of those runs behind the map
   std::vector<std::vector<std::array<double, 2>>> lines;  // walls, as polylines
   std::vector<std::array<double, 3>> circles;             // obstacles: x, y, radius
   // A vector field's arrows (the velocity over |v|): x, y and the vector in the field's units,
@@ -225,7 +225,9 @@ struct FieldMap {
   double arrow_spacing = 0.0;
   double X(int i) const { return x0 + i * spacing; }
   double Y(int j) const { return y0 + j * spacing; }
-  double At(int i, int j) const { return values[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i)]; }
+  double At(int i, int j) const {
+    return values[static_cast<std::size_t>(j) * static_cast<std::size_t>(nx) + static_cast<std::size_t>(i)];
+  }
 };
 
 class Analysis {
@@ -260,7 +262,8 @@ class Analysis {
   virtual std::vector<CurveInfo> CurveNames() const { return {}; }
   // The curve `name` (one of CurveNames()) from these runs' results merged; empty if they have
   // none of it.
-  virtual std::vector<CurvePoint> Curve(const std::string& name, const std::vector<const nlohmann::json*>& results) const {
+  virtual std::vector<CurvePoint> Curve(const std::string& name,
+                                        const std::vector<const nlohmann::json*>& results) const {
     (void)name;
     (void)results;
     return {};

@@ -24,14 +24,15 @@ constexpr double kTouching = 0.01;
 
 // The bodies of a frame and, per body, its discs.
 struct Bodies {
-  std::vector<rundir::Body> list;                    // BodiesOf order (by id)
-  std::map<std::int64_t, std::size_t> index;         // id -> position in `list`
-  std::vector<std::vector<std::size_t>> discs;       // per body: indices into frame.discs, by disc id
+  std::vector<rundir::Body> list;               // BodiesOf order (by id)
+  std::map<std::int64_t, std::size_t> index;    // id -> position in `list`
+  std::vector<std::vector<std::size_t>> discs;  // per body: indices into frame.discs, by disc id
   explicit Bodies(const std::vector<rundir::Disc>& d) : list(rundir::BodiesOf(d)) {
     for (std::size_t k = 0; k < list.size(); ++k) index.emplace(list[k].id, k);
     discs.resize(list.size());
     for (std::size_t i = 0; i < d.size(); ++i) discs[index.at(d[i].mol)].push_back(i);
-    for (auto& v : discs) std::sort(v.begin(), v.end(), [&](std::size_t a, std::size_t b) { return d[a].id < d[b].id; });
+    for (auto& v : discs)
+      std::sort(v.begin(), v.end(), [&](std::size_t a, std::size_t b) { return d[a].id < d[b].id; });
   }
   const rundir::Body* Find(std::int64_t id) const {
     const auto it = index.find(id);
@@ -61,7 +62,8 @@ SizeClass ClassOf(const Bodies& b, const std::vector<rundir::Disc>& d, std::int6
   const rundir::Disc& second = d[own[1]];
   if (first.radius == second.radius) return disc == own[0] ? SizeClass::kSmall : SizeClass::kLarge;
   const bool this_is_first = disc == own[0];
-  const double mine = this_is_first ? first.radius : second.radius, other = this_is_first ? second.radius : first.radius;
+  const double mine = this_is_first ? first.radius : second.radius,
+               other = this_is_first ? second.radius : first.radius;
   return mine < other ? SizeClass::kSmall : SizeClass::kLarge;
 }
 
@@ -70,7 +72,8 @@ SizeClass ClassOf(const Bodies& b, const std::vector<rundir::Disc>& d, std::int6
 double ArcThrough(double ax, double ay, double mx, double my, double bx, double by) {
   const double chord = std::hypot(bx - ax, by - ay);
   const double d = 2 * (ax * (my - by) + mx * (by - ay) + bx * (ay - my));
-  if (std::fabs(d) < 1e-12 * std::max(1.0, chord * chord) || (mx == ax && my == ay) || (mx == bx && my == by)) return chord;
+  if (std::fabs(d) < 1e-12 * std::max(1.0, chord * chord) || (mx == ax && my == ay) || (mx == bx && my == by))
+    return chord;
   const double a2 = ax * ax + ay * ay, m2 = mx * mx + my * my, b2 = bx * bx + by * by;
   const double cx = (a2 * (my - by) + m2 * (by - ay) + b2 * (ay - my)) / d;
   const double cy = (a2 * (bx - mx) + m2 * (ax - bx) + b2 * (mx - ax)) / d;
@@ -117,7 +120,8 @@ bool Stretch(const std::vector<Item>& items, std::vector<Item>& stretch) {
   for (std::size_t k = 0; k < right; ++k)
     if (items[k].kind == Item::Kind::kLeft) left = k;
   if (right == items.size() || left == items.size() || right - left < 2) return false;
-  stretch.assign(items.begin() + static_cast<std::ptrdiff_t>(left), items.begin() + static_cast<std::ptrdiff_t>(right) + 1);
+  stretch.assign(items.begin() + static_cast<std::ptrdiff_t>(left),
+                 items.begin() + static_cast<std::ptrdiff_t>(right) + 1);
   return true;
 }
 
@@ -155,13 +159,18 @@ ContactTypes CountContactTypes(const rundir::Frame& frame, const rundir::Contact
   ContactTypes t;
   for (const rundir::ContactRow& c : contacts.contacts) {
     if (c.body_j < 0 || c.body_i == c.body_j) continue;
-    const std::size_t di = DiscAt(b, frame.discs, c.body_i, c.xi, c.yi), dj = DiscAt(b, frame.discs, c.body_j, c.xj, c.yj);
+    const std::size_t di = DiscAt(b, frame.discs, c.body_i, c.xi, c.yi),
+                      dj = DiscAt(b, frame.discs, c.body_j, c.xj, c.yj);
     if (di == std::numeric_limits<std::size_t>::max() || dj == std::numeric_limits<std::size_t>::max()) continue;
     const SizeClass a = ClassOf(b, frame.discs, c.body_i, di), z = ClassOf(b, frame.discs, c.body_j, dj);
-    if (a == SizeClass::kOther || z == SizeClass::kOther) ++t.other;
-    else if (a == SizeClass::kSmall && z == SizeClass::kSmall) ++t.small_small;
-    else if (a == SizeClass::kLarge && z == SizeClass::kLarge) ++t.large_large;
-    else ++t.large_small;
+    if (a == SizeClass::kOther || z == SizeClass::kOther)
+      ++t.other;
+    else if (a == SizeClass::kSmall && z == SizeClass::kSmall)
+      ++t.small_small;
+    else if (a == SizeClass::kLarge && z == SizeClass::kLarge)
+      ++t.large_large;
+    else
+      ++t.large_small;
   }
   return t;
 }
@@ -289,7 +298,8 @@ ClogArches AnalyseClog(const rundir::ClogState& clog, const silo::SiloGeometry& 
         edge.push_back({Item::Kind::kBody, discs[static_cast<std::size_t>(e.index)].mol});
       } else if (e.kind == silo::CavityBound::Kind::kElement) {
         const int k = circle_of[static_cast<std::size_t>(e.index)];
-        edge.push_back(k >= 0 ? Item{Item::Kind::kObstacle, k} : Item{e.s < 0 ? Item::Kind::kLeft : Item::Kind::kRight, 0});
+        edge.push_back(k >= 0 ? Item{Item::Kind::kObstacle, k}
+                              : Item{e.s < 0 ? Item::Kind::kLeft : Item::Kind::kRight, 0});
       }
     }
     // The edge starts and ends at the gap's sides; a body over a side of the gap may hide it from
@@ -356,7 +366,8 @@ ClogArches AnalyseClog(const rundir::ClogState& clog, const silo::SiloGeometry& 
     dead.erase(std::unique(dead.begin(), dead.end()), dead.end());
     for (std::int64_t id : dead)
       if (!in_arch.count(id)) arch.dead_ends.push_back(id);
-    arch.supported = touch(arch_items.front(), arch_items[1]) && touch(arch_items[arch_items.size() - 2], arch_items.back());
+    arch.supported =
+        touch(arch_items.front(), arch_items[1]) && touch(arch_items[arch_items.size() - 2], arch_items.back());
     // Metrics.
     double top_h = -std::numeric_limits<double>::max(), pressure_sum = 0;
     std::size_t top = 0;
@@ -413,13 +424,33 @@ nlohmann::json to_json(const ClogArches& clog) {
   for (const Arch& a : clog.arches) {
     nlohmann::json bodies = nlohmann::json::array();
     for (const ArchBody& b : a.bodies)
-      bodies.push_back({{"id", b.id}, {"type", b.type}, {"discs", b.discs}, {"x", Num(b.x)}, {"y", Num(b.y)}, {"s", Num(b.s)},
-                        {"h", Num(b.h)}, {"theta", Num(b.theta)}, {"axis", Num(b.axis)}, {"pressure", Num(b.pressure)}});
-    arches.push_back({{"outlet", a.outlet}, {"obstacle", a.obstacle}, {"obstacles", a.obstacles}, {"bodies", bodies},
-                      {"dead_ends", a.dead_ends}, {"gaps", a.gaps}, {"supported", a.supported}, {"n", a.n},
-                      {"width", Num(a.width)}, {"height", Num(a.height)}, {"perimeter", Num(a.perimeter)},
-                      {"arc", Num(a.arc)}, {"c_over_p", Num(a.c_over_p)}, {"elongated_fraction", Num(a.elongated_fraction)},
-                      {"per_type", a.per_type}, {"mean_pressure", Num(a.mean_pressure)}, {"max_angle", Num(a.max_angle)},
+      bodies.push_back({{"id", b.id},
+                        {"type", b.type},
+                        {"discs", b.discs},
+                        {"x", Num(b.x)},
+                        {"y", Num(b.y)},
+                        {"s", Num(b.s)},
+                        {"h", Num(b.h)},
+                        {"theta", Num(b.theta)},
+                        {"axis", Num(b.axis)},
+                        {"pressure", Num(b.pressure)}});
+    arches.push_back({{"outlet", a.outlet},
+                      {"obstacle", a.obstacle},
+                      {"obstacles", a.obstacles},
+                      {"bodies", bodies},
+                      {"dead_ends", a.dead_ends},
+                      {"gaps", a.gaps},
+                      {"supported", a.supported},
+                      {"n", a.n},
+                      {"width", Num(a.width)},
+                      {"height", Num(a.height)},
+                      {"perimeter", Num(a.perimeter)},
+                      {"arc", Num(a.arc)},
+                      {"c_over_p", Num(a.c_over_p)},
+                      {"elongated_fraction", Num(a.elongated_fraction)},
+                      {"per_type", a.per_type},
+                      {"mean_pressure", Num(a.mean_pressure)},
+                      {"max_angle", Num(a.max_angle)},
                       {"concave", a.concave}});
   }
   const ContactTypes& t = clog.contact_types;
@@ -427,7 +458,11 @@ nlohmann::json to_json(const ClogArches& clog) {
           {"time", Num(clog.time)},
           {"bodies", clog.bodies},
           {"sealed_outlets", clog.sealed_outlets},
-          {"contact_types", {{"small_small", t.small_small}, {"large_small", t.large_small}, {"large_large", t.large_large}, {"other", t.other}}},
+          {"contact_types",
+           {{"small_small", t.small_small},
+            {"large_small", t.large_small},
+            {"large_large", t.large_large},
+            {"other", t.other}}},
           {"arches", arches}};
 }
 
@@ -449,8 +484,9 @@ ClogArches ClogArchesFromJson(const nlohmann::json& j) {
     arch.obstacle = a.value("obstacle", false);
     arch.obstacles = a.value("obstacles", std::vector<int>{});
     for (const nlohmann::json& b : a.value("bodies", nlohmann::json::array()))
-      arch.bodies.push_back({b.value("id", std::int64_t{-1}), b.value("type", 1), b.value("discs", 1), NumAt(b, "x"), NumAt(b, "y"),
-                             NumAt(b, "s"), NumAt(b, "h"), NumAt(b, "theta"), NumAt(b, "axis"), NumAt(b, "pressure")});
+      arch.bodies.push_back({b.value("id", std::int64_t{-1}), b.value("type", 1), b.value("discs", 1), NumAt(b, "x"),
+                             NumAt(b, "y"), NumAt(b, "s"), NumAt(b, "h"), NumAt(b, "theta"), NumAt(b, "axis"),
+                             NumAt(b, "pressure")});
     arch.dead_ends = a.value("dead_ends", std::vector<std::int64_t>{});
     arch.gaps = a.value("gaps", 0);
     arch.supported = a.value("supported", true);
@@ -476,7 +512,8 @@ ArchSummary SummarizeArches(const std::vector<const ClogArches*>& clogs, const A
   std::vector<double> ss, ls, ll, other;
   const int tb = std::max(1, o.theta_bins), ab = std::max(1, o.axis_bins);
   std::vector<std::vector<double>> theta_pressure(static_cast<std::size_t>(tb));
-  std::vector<std::vector<int>> theta_axes(static_cast<std::size_t>(tb), std::vector<int>(static_cast<std::size_t>(ab), 0));
+  std::vector<std::vector<int>> theta_axes(static_cast<std::size_t>(tb),
+                                           std::vector<int>(static_cast<std::size_t>(ab), 0));
   std::map<int, std::vector<double>> by_n;
   for (const ClogArches* c : clogs) {
     ++s.clogs;

@@ -28,13 +28,13 @@ namespace granary::analysis {
 
 struct ArchBody {
   std::int64_t id = -1;
-  int type = 1;             // species index + 1
+  int type = 1;  // species index + 1
   int discs = 1;
-  double x = 0, y = 0;      // centre of mass
-  double s = 0, h = 0;      // in the outlet's frame (s along it from its centre, h into the silo)
-  double theta = kNaN;      // angular position around the outlet's centre, [0, pi] (orientation.h)
-  double axis = kNaN;       // long axis with the horizontal, [0, pi); NaN for a disc
-  double pressure = kNaN;   // eq. 6.1 over the body (body_pressures)
+  double x = 0, y = 0;     // centre of mass
+  double s = 0, h = 0;     // in the outlet's frame (s along it from its centre, h into the silo)
+  double theta = kNaN;     // angular position around the outlet's centre, [0, pi] (orientation.h)
+  double axis = kNaN;      // long axis with the horizontal, [0, pi); NaN for a disc
+  double pressure = kNaN;  // eq. 6.1 over the body (body_pressures)
 };
 
 struct Arch {
@@ -47,16 +47,16 @@ struct Arch {
   bool supported = true;                // both end bodies touch a wall or an obstacle (a contact row)
   // Metrics (docs/analyses.md): N_t, w, h, p, c, c/p, species and the largest angle at a body.
   int n = 0;
-  double width = kNaN;                  // |s_last - s_first| of the end bodies' centres
-  double height = kNaN;                 // highest body's h minus the end bodies' mean h
-  double perimeter = kNaN;              // sum of centre-to-centre distances along the chain
-  double arc = kNaN;                    // the circular arc through the end bodies and the highest one
+  double width = kNaN;      // |s_last - s_first| of the end bodies' centres
+  double height = kNaN;     // highest body's h minus the end bodies' mean h
+  double perimeter = kNaN;  // sum of centre-to-centre distances along the chain
+  double arc = kNaN;        // the circular arc through the end bodies and the highest one
   double c_over_p = kNaN;
-  double elongated_fraction = kNaN;     // bodies of two discs or more (dumbbells, snowmen, rods)
-  std::vector<int> per_type;            // bodies by species index (type - 1)
+  double elongated_fraction = kNaN;  // bodies of two discs or more (dumbbells, snowmen, rods)
+  std::vector<int> per_type;         // bodies by species index (type - 1)
   double mean_pressure = kNaN;
-  double max_angle = kNaN;              // largest angle phi at an inner body, radians (> pi: a concavity)
-  int concave = 0;                      // inner bodies with phi > pi (Garcimartin et al.'s defects)
+  double max_angle = kNaN;  // largest angle phi at an inner body, radians (> pi: a concavity)
+  int concave = 0;          // inner bodies with phi > pi (Garcimartin et al.'s defects)
 };
 
 // Contacts between the discs of different bodies in the whole clogged system (fig. 6.8), by the
@@ -71,10 +71,10 @@ struct ContactTypes {
 struct ClogArches {
   std::int64_t timestep = 0;
   double time = 0;
-  std::vector<Arch> arches;             // one per sealed outlet, in outlet order
+  std::vector<Arch> arches;  // one per sealed outlet, in outlet order
   std::vector<int> sealed_outlets;
   ContactTypes contact_types;
-  int bodies = 0;                       // in the silo at the clog
+  int bodies = 0;  // in the silo at the clog
 };
 
 // The silo of a resolved run spec (run.json) with side walls up to `top`; throws
@@ -103,29 +103,29 @@ ClogArches ClogArchesFromJson(const nlohmann::json& j);
 // Arches pooled over clogs (a run's, or every replica's of a sweep point): the thesis averages
 // over clogged states (ch. 4: at least 100, ch. 6: 100), so means are over arches, n = arches.
 struct ArchSummaryOptions {
-  int theta_bins = 9;                   // angular positions [0, pi] (figs. 6.6, 6.7)
-  int axis_bins = 12;                   // axis angles [0, pi) for the mode (fig. 6.6)
-  bool obstacle_arches = true;          // include obstacle arches in the means (both types are counted apart)
+  int theta_bins = 9;           // angular positions [0, pi] (figs. 6.6, 6.7)
+  int axis_bins = 12;           // axis angles [0, pi) for the mode (fig. 6.6)
+  bool obstacle_arches = true;  // include obstacle arches in the means (both types are counted apart)
 };
 struct ThetaBin {
-  double theta = kNaN;                  // bin centre
-  MeanSe pressure;                      // of the arch bodies whose angular position falls in it
-  double axis_mode = kNaN;              // the most frequent axis angle there (elongated bodies), bin centre
-  int elongated = 0;                    // how many axes the mode is of
+  double theta = kNaN;      // bin centre
+  MeanSe pressure;          // of the arch bodies whose angular position falls in it
+  double axis_mode = kNaN;  // the most frequent axis angle there (elongated bodies), bin centre
+  int elongated = 0;        // how many axes the mode is of
 };
 struct ArchSummary {
-  int clogs = 0;                        // clogged configurations
-  int sealed = 0;                       // outlets they seal
+  int clogs = 0;   // clogged configurations
+  int sealed = 0;  // outlets they seal
   int arches = 0, particle_arches = 0, obstacle_arches = 0;
   int with_gaps = 0, with_defects = 0, unsupported = 0;
   MeanSe n, width, height, perimeter, c_over_p, elongated_fraction, mean_pressure, max_angle;
-  double width_sd = kNaN, height_sd = kNaN;   // table 3.1's sigma_w, sigma_h
-  MeanSe concave, dead_ends;            // per arch
-  std::vector<double> n_values;         // N_t of every arch (its distribution)
-  std::vector<ThetaBin> theta;          // figs. 6.6, 6.7
+  double width_sd = kNaN, height_sd = kNaN;  // table 3.1's sigma_w, sigma_h
+  MeanSe concave, dead_ends;                 // per arch
+  std::vector<double> n_values;              // N_t of every arch (its distribution)
+  std::vector<ThetaBin> theta;               // figs. 6.6, 6.7
   struct ByN {
     int n = 0;
-    MeanSe pressure;                    // mean arch pressure of the arches of N_t = n (fig. 6.9)
+    MeanSe pressure;  // mean arch pressure of the arches of N_t = n (fig. 6.9)
   };
   std::vector<ByN> pressure_by_n;
   // Contact types over the clogged systems (fig. 6.8): each clog's fractions, mean +- se over clogs.

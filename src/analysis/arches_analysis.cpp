@@ -58,9 +58,10 @@ class ArchesAnalysis : public Analysis {
     std::vector<const ClogArches*> list;
     for (const ClogArches& c : clogs) list.push_back(&c);
     const ArchSummary s = SummarizeArches(list, o_.summary);
-    std::vector<Metric> m = {{"arches", "arches", static_cast<double>(s.arches), kNaN, "arches in the kept clogs", false},
-                             {"obstacle_arches", "arches", static_cast<double>(s.obstacle_arches), kNaN,
-                              "arches through an obstacle", false}};
+    std::vector<Metric> m = {
+        {"arches", "arches", static_cast<double>(s.arches), kNaN, "arches in the kept clogs", false},
+        {"obstacle_arches", "arches", static_cast<double>(s.obstacle_arches), kNaN, "arches through an obstacle",
+         false}};
     for (const auto& [name, unit, estimate, title, headline] : Means(s))
       m.push_back({name, unit, estimate.mean, estimate.se, title, headline});
     return m;
@@ -72,23 +73,28 @@ class ArchesAnalysis : public Analysis {
     for (const nlohmann::json* r : results.OfPoint(point)) present = present || r->value("present", false);
     if (!present) return {};
     const ArchSummary s = PointSummary(results, point, o_.summary);
-    const std::string note =
-        s.arches < kThesisClogs ? "fewer than " + std::to_string(kThesisClogs) + " arches (the thesis averages >= 100)" : "";
-    std::vector<PointMetric> m = {
-        {"arches", "arches", static_cast<double>(s.arches), kNaN, s.clogs, "arches in the kept clogs (n = clogs)", false, "", false},
-        {"obstacle_arches", "arches", static_cast<double>(s.obstacle_arches), kNaN, s.clogs, "arches through an obstacle",
-         false, "", false}};
+    const std::string note = s.arches < kThesisClogs
+                                 ? "fewer than " + std::to_string(kThesisClogs) + " arches (the thesis averages >= 100)"
+                                 : "";
+    std::vector<PointMetric> m = {{"arches", "arches", static_cast<double>(s.arches), kNaN, s.clogs,
+                                   "arches in the kept clogs (n = clogs)", false, "", false},
+                                  {"obstacle_arches", "arches", static_cast<double>(s.obstacle_arches), kNaN, s.clogs,
+                                   "arches through an obstacle", false, "", false}};
     for (const auto& [name, unit, estimate, title, headline] : Means(s))
       m.push_back({name, unit, estimate.mean, estimate.se, estimate.n, title, headline, note});
-    m.push_back({"arch_width_sd", "d", s.width_sd, kNaN, s.width.n, "standard deviation of w (table 3.1)", false, note});
-    m.push_back({"arch_height_sd", "d", s.height_sd, kNaN, s.height.n, "standard deviation of h (table 3.1)", false, note});
+    m.push_back(
+        {"arch_width_sd", "d", s.width_sd, kNaN, s.width.n, "standard deviation of w (table 3.1)", false, note});
+    m.push_back(
+        {"arch_height_sd", "d", s.height_sd, kNaN, s.height.n, "standard deviation of h (table 3.1)", false, note});
     return m;
   }
 
   std::optional<Section> BuildSection(const SectionInput& in) const override;
 
   // The arch sizes N_t, one per arch of the kept clogs (the inset of thesis fig. 6.9).
-  std::vector<DistributionInfo> DistributionNames() const override { return {{"arch_sizes", "bodies in an arch N_t", "bodies"}}; }
+  std::vector<DistributionInfo> DistributionNames() const override {
+    return {{"arch_sizes", "bodies in an arch N_t", "bodies"}};
+  }
   Samples Distribution(const std::string& name, const nlohmann::json& result) const override {
     if (name != "arch_sizes") return {};
     return {RunsSummary({&result}, o_.summary).n_values, {}};
@@ -96,12 +102,14 @@ class ArchesAnalysis : public Analysis {
   // Per angular position of the arch bodies (figs. 6.6, 6.7) and per arch size (fig. 6.9), from
   // the arches of the runs given pooled, as the section draws them for the points it picks.
   std::vector<CurveInfo> CurveNames() const override {
-    return {{"arch_pressure_theta", "Pressure of arch bodies against their angular position", "theta (degrees)", "P (rho g d)", false},
+    return {{"arch_pressure_theta", "Pressure of arch bodies against their angular position", "theta (degrees)",
+             "P (rho g d)", false},
             {"arch_axis_mode_theta", "Most frequent axis angle of arch bodies against their angular position",
              "theta (degrees)", "mode of the axis angle psi (degrees)", true},
             {"arch_pressure_n", "Mean arch pressure against the arch's size", "N_t (bodies)", "<P> (rho g d)", false}};
   }
-  std::vector<CurvePoint> Curve(const std::string& name, const std::vector<const nlohmann::json*>& results) const override {
+  std::vector<CurvePoint> Curve(const std::string& name,
+                                const std::vector<const nlohmann::json*>& results) const override {
     const ArchSummary a = RunsSummary(results, o_.summary);
     std::vector<CurvePoint> out;
     if (name == "arch_pressure_theta" || name == "arch_axis_mode_theta")
@@ -164,35 +172,47 @@ std::optional<Section> ArchesAnalysis::BuildSection(const SectionInput& in) cons
     s.blocks.push_back(Text{"No run of this campaign kept a clog, so there is no arch."});
     return s;
   }
-  const bool obstacles = std::any_of(sums.begin(), sums.end(), [](const ArchSummary& a) { return a.obstacle_arches > 0; });
+  const bool obstacles =
+      std::any_of(sums.begin(), sums.end(), [](const ArchSummary& a) { return a.obstacle_arches > 0; });
   Table t{"arches", "Arches per point (pooled over replicas)", {}, {}, {}};
-  t.header = {"point", "clogs", "arches", "particle / obstacle", "N_t", "w (d)", "sigma_w", "h (d)", "sigma_h", "p (d)",
-              "c/p", "X^arch elongated", "<P> (rho g d)", "with defects (dead ends, concavities)", "with gaps", "note"};
-  t.keys = {"point", "clogs", "arches", "particle_obstacle", "arch_n", "arch_width", "arch_width_sd", "arch_height",
-            "arch_height_sd", "arch_perimeter", "arch_c_over_p", "arch_elongated_fraction", "arch_pressure",
-            "with_defects", "with_gaps", "note"};
+  t.header = {"point",         "clogs",
+              "arches",        "particle / obstacle",
+              "N_t",           "w (d)",
+              "sigma_w",       "h (d)",
+              "sigma_h",       "p (d)",
+              "c/p",           "X^arch elongated",
+              "<P> (rho g d)", "with defects (dead ends, concavities)",
+              "with gaps",     "note"};
+  t.keys = {"point",          "clogs",          "arches",        "particle_obstacle",
+            "arch_n",         "arch_width",     "arch_width_sd", "arch_height",
+            "arch_height_sd", "arch_perimeter", "arch_c_over_p", "arch_elongated_fraction",
+            "arch_pressure",  "with_defects",   "with_gaps",     "note"};
   for (std::size_t k = 0; k < v.points.size(); ++k) {
     const ArchSummary& a = sums[k];
     if (a.clogs == 0) continue;
     std::string note;
-    if (a.arches < kThesisClogs) note = "fewer than " + std::to_string(kThesisClogs) + " arches (the thesis averages >= 100)";
+    if (a.arches < kThesisClogs)
+      note = "fewer than " + std::to_string(kThesisClogs) + " arches (the thesis averages >= 100)";
     if (a.unsupported > 0)
       note += std::string(note.empty() ? "" : "; ") + std::to_string(a.unsupported) + " with an end off its support";
     t.rows.push_back({PointName(v, v.points[k]), Cell::Count(a.clogs), Cell::Count(a.arches),
-                      std::to_string(a.particle_arches) + " / " + std::to_string(a.obstacle_arches), Cell::Estimate(a.n),
-                      Cell::Estimate(a.width), Cell::Number(a.width_sd), Cell::Estimate(a.height), Cell::Number(a.height_sd),
-                      Cell::Estimate(a.perimeter), Cell::Estimate(a.c_over_p), Cell::Estimate(a.elongated_fraction),
-                      Cell::Estimate(a.mean_pressure), Cell::Count(a.with_defects), Cell::Count(a.with_gaps), note});
+                      std::to_string(a.particle_arches) + " / " + std::to_string(a.obstacle_arches),
+                      Cell::Estimate(a.n), Cell::Estimate(a.width), Cell::Number(a.width_sd), Cell::Estimate(a.height),
+                      Cell::Number(a.height_sd), Cell::Estimate(a.perimeter), Cell::Estimate(a.c_over_p),
+                      Cell::Estimate(a.elongated_fraction), Cell::Estimate(a.mean_pressure),
+                      Cell::Count(a.with_defects), Cell::Count(a.with_gaps), note});
   }
   s.blocks.push_back(t);
   if (obstacles)
-    s.blocks.push_back(Text{"Obstacle arches run from the base to the obstacle and on to the base (fig. 3.4, first type); "
-                            "particle arches span the outlet without it. Both are in the means unless "
-                            "`/report/arches/obstacle_arches` is false; the counts are apart."});
+    s.blocks.push_back(
+        Text{"Obstacle arches run from the base to the obstacle and on to the base (fig. 3.4, first type); "
+             "particle arches span the outlet without it. Both are in the means unless "
+             "`/report/arches/obstacle_arches` is false; the counts are apart."});
 
   if (HasX(v)) {
     const std::pair<const char*, const char*> metrics[] = {
-        {"arch_n", "N_t (bodies)"}, {"arch_width", "w (d)"}, {"arch_height", "h (d)"}, {"arch_perimeter", "p (d)"},
+        {"arch_n", "N_t (bodies)"}, {"arch_width", "w (d)"},
+        {"arch_height", "h (d)"},   {"arch_perimeter", "p (d)"},
         {"arch_c_over_p", "c/p"},   {"arch_elongated_fraction", "X^arch (elongated bodies in the arch)"}};
     for (const auto& [name, ylabel] : metrics) {
       std::vector<Series> series = PointSeries(v, in.points, name, name);
@@ -204,15 +224,32 @@ std::optional<Section> ArchesAnalysis::BuildSection(const SectionInput& in) cons
 
   // Per angular position (figs. 6.6, 6.7) and per N_t (fig. 6.9): a few points drawn.
   const std::vector<std::size_t> drawn = SpreadPoints(v, [&](std::size_t k) { return sums[k].arches > 0; });
-  Figure pressure{"arch_pressure_theta", "Pressure of arch bodies against their angular position", "theta (degrees)",
-                  "P (rho g d)", {}, false, false,
-                  "Fig. 6.7: mean over the arch bodies in each bin of theta around the outlet's centre (90 = above it); "
-                  "error bars: standard error over bodies"};
-  Figure mode{"arch_axis_mode_theta", "Most frequent axis angle of arch bodies against their angular position",
-              "theta (degrees)", "mode of the axis angle (degrees)", {}, false, false,
+  Figure pressure{
+      "arch_pressure_theta",
+      "Pressure of arch bodies against their angular position",
+      "theta (degrees)",
+      "P (rho g d)",
+      {},
+      false,
+      false,
+      "Fig. 6.7: mean over the arch bodies in each bin of theta around the outlet's centre (90 = above it); "
+      "error bars: standard error over bodies"};
+  Figure mode{"arch_axis_mode_theta",
+              "Most frequent axis angle of arch bodies against their angular position",
+              "theta (degrees)",
+              "mode of the axis angle (degrees)",
+              {},
+              false,
+              false,
               "Fig. 6.6: the line is mode = theta (axes pointing at the outlet's centre)"};
-  Figure by_n{"arch_pressure_n", "Mean arch pressure against the arch's size", "N_t (bodies)", "<P> (rho g d)", {}, false,
-              false, "Fig. 6.9: per arch size, error bars: standard error over arches"};
+  Figure by_n{"arch_pressure_n",
+              "Mean arch pressure against the arch's size",
+              "N_t (bodies)",
+              "<P> (rho g d)",
+              {},
+              false,
+              false,
+              "Fig. 6.9: per arch size, error bars: standard error over arches"};
   Figure hist{"arch_n_distribution", "Arch sizes", "N_t (bodies)", "arches", {}, false, false, "Inset of fig. 6.9"};
   bool any_axis = false;
   for (std::size_t k : drawn) {
@@ -223,7 +260,8 @@ std::optional<Section> ArchesAnalysis::BuildSection(const SectionInput& in) cons
     for (const ThetaBin& b : a.theta) {
       if (b.pressure.n > 0)
         sp.rows.push_back({Degrees(b.theta), b.pressure.mean, b.pressure.se, static_cast<double>(b.pressure.n)});
-      if (b.elongated > 0) sm.rows.push_back({Degrees(b.theta), Degrees(b.axis_mode), static_cast<double>(b.elongated)});
+      if (b.elongated > 0)
+        sm.rows.push_back({Degrees(b.theta), Degrees(b.axis_mode), static_cast<double>(b.elongated)});
     }
     if (!sp.rows.empty()) pressure.series.push_back(sp);
     if (!sm.rows.empty()) {
@@ -238,12 +276,14 @@ std::optional<Section> ArchesAnalysis::BuildSection(const SectionInput& in) cons
     const int hi = static_cast<int>(*std::max_element(a.n_values.begin(), a.n_values.end()));
     Series sh{name, {"N_t", "arches"}, {}, Series::Style::kSteps};
     for (int n = lo; n <= hi; ++n)
-      sh.rows.push_back({static_cast<double>(n), static_cast<double>(std::count(a.n_values.begin(), a.n_values.end(), n))});
+      sh.rows.push_back(
+          {static_cast<double>(n), static_cast<double>(std::count(a.n_values.begin(), a.n_values.end(), n))});
     hist.series.push_back(sh);
   }
   if (!pressure.series.empty()) s.blocks.push_back(pressure);
   if (any_axis) {
-    mode.series.push_back(Series{"mode = theta", {"theta_deg", "mode_deg"}, {{0, 0}, {180, 180}}, Series::Style::kLines});
+    mode.series.push_back(
+        Series{"mode = theta", {"theta_deg", "mode_deg"}, {{0, 0}, {180, 180}}, Series::Style::kLines});
     s.blocks.push_back(mode);
   }
   if (!by_n.series.empty()) s.blocks.push_back(by_n);
@@ -282,8 +322,8 @@ void ArchesAnalysis::AddPictures(const SectionInput& in, const std::vector<ArchS
     std::stable_sort(candidates.begin(), candidates.end(),
                      [](const Candidate& a, const Candidate& b) { return a.distance < b.distance; });
     Pictures pics;
-    pics.caption = PointTitle(v, v.points[k]) + ": clogs with the median arch size (N_t = " + FormatNumber(median_n, 3) +
-                   "), arch bodies outlined";
+    pics.caption = PointTitle(v, v.points[k]) +
+                   ": clogs with the median arch size (N_t = " + FormatNumber(median_n, 3) + "), arch bodies outlined";
     for (std::size_t i = 0; i < candidates.size() && static_cast<int>(pics.pictures.size()) < o_.pictures; ++i) {
       const Candidate& c = candidates[i];
       ClogPicture pic;
@@ -302,9 +342,9 @@ void ArchesAnalysis::AddPictures(const SectionInput& in, const std::vector<ArchS
       const std::string problem = in.draw_clog(record.run_dir, pic, in.out_dir / file);
       if (problem.empty()) {
         pics.pictures.push_back({file, "run `" + record.run_id.substr(0, 10) + "`, clog " + std::to_string(c.clog) +
-                                           ": N_t = " + std::to_string(c.arch.n) + ", w = " + FormatNumber(c.arch.width, 3) +
-                                           " d, h = " + FormatNumber(c.arch.height, 3) + " d" +
-                                           (c.arch.obstacle ? ", through the obstacle" : "")});
+                                           ": N_t = " + std::to_string(c.arch.n) + ", w = " +
+                                           FormatNumber(c.arch.width, 3) + " d, h = " + FormatNumber(c.arch.height, 3) +
+                                           " d" + (c.arch.obstacle ? ", through the obstacle" : "")});
       } else {
         not_drawn.Add(problem);
       }

@@ -19,7 +19,7 @@ namespace granary::analysis {
 
 struct ArchesOptions {
   ArchSummaryOptions summary;
-  int pictures = 1;                   // clogs drawn per point: those whose arch has the point's median N_t
+  int pictures = 1;  // clogs drawn per point: those whose arch has the point's median N_t
 };
 // From /report/arches (null: the defaults); throws OptionError naming `path` and below.
 ArchesOptions ReadArchesOptions(const nlohmann::json& options, const std::string& path);

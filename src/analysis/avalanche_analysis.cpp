@@ -43,7 +43,8 @@ class AvalancheAccumulator : public RunAccumulator {
     for (std::size_t o = 0; o < run.outlets.size(); ++o) {
       // A run that stopped on a clog stopped with every outlet blocked; one that discharged,
       // with every outlet open.
-      per_outlet.push_back(JsonNumbers(ComputeClogSeries(events, static_cast<int>(o), run.t_end, run.clog_gap, end).AvalancheSizes()));
+      per_outlet.push_back(
+          JsonNumbers(ComputeClogSeries(events, static_cast<int>(o), run.t_end, run.clog_gap, end).AvalancheSizes()));
       labels.push_back(run.outlets[o].label);
     }
     result_ = {{"sizes", JsonNumbers(all.AvalancheSizes())},
@@ -80,8 +81,8 @@ class AvalancheAnalysis : public Analysis {
         const MeanSe x = MeanAndSe(so);
         const std::string where = result.at("outlets").at(k).get<std::string>();
         m.push_back({SizeName(k), "bodies", x.mean, x.se, "mean avalanche size at " + where, false});
-        m.push_back({"avalanches" + OutletSuffix(k), "avalanches", static_cast<double>(so.size()), kNaN, "avalanches at " + where,
-                     false});
+        m.push_back({"avalanches" + OutletSuffix(k), "avalanches", static_cast<double>(so.size()), kNaN,
+                     "avalanches at " + where, false});
       }
     return m;
   }
@@ -139,17 +140,25 @@ std::optional<Section> AvalancheAnalysis::BuildSection(const SectionInput& in) c
   }
   if (!any && !(v.outlets > 1 && any_per_outlet)) return std::nullopt;
   Section s{"avalanches", "Avalanche sizes (ch. 4, 6)", {}};
-  s.blocks.push_back(Text{"An avalanche is the number of bodies that leave between the opening (or an unclog) and a "
-                          "clog; a clog is a gap of at least the run's clog_window in the exit stream of all outlets "
-                          "together, or the engine's own stop on a clog. A stretch still flowing when a run ended is "
-                          "not an avalanche. The tail fit is the maximum-likelihood geometric law P(s) ~ "
-                          "exp(-s/s_decay) for s above the median."});
-  Table t{"avalanches", "Avalanche statistics per point (pooled over replicas)",
+  s.blocks.push_back(
+      Text{"An avalanche is the number of bodies that leave between the opening (or an unclog) and a "
+           "clog; a clog is a gap of at least the run's clog_window in the exit stream of all outlets "
+           "together, or the engine's own stop on a clog. A stretch still flowing when a run ended is "
+           "not an avalanche. The tail fit is the maximum-likelihood geometric law P(s) ~ "
+           "exp(-s/s_decay) for s above the median."});
+  Table t{"avalanches",
+          "Avalanche statistics per point (pooled over replicas)",
           {"point", "<s> ± se (avalanches)", "tail from s", "s_decay", "s_decay se", "tail n", "note"},
           {},
           {"point", "avalanche_size", "tail_from", "s_decay", "s_decay_se", "tail_n", "note"}};
-  Figure dist{"avalanche_distribution", "Avalanche size distribution", "s (bodies)", "probability density", {}, false,
-              true, "Pooled over replicas; at most 6 points drawn (all in the table and CSVs)"};
+  Figure dist{"avalanche_distribution",
+              "Avalanche size distribution",
+              "s (bodies)",
+              "probability density",
+              {},
+              false,
+              true,
+              "Pooled over replicas; at most 6 points drawn (all in the table and CSVs)"};
   int colour = 0;
   // The distribution figure shows at most 6 points, spread over the list, to stay legible;
   // the table and the CSVs have them all.
@@ -169,16 +178,17 @@ std::optional<Section> AvalancheAnalysis::BuildSection(const SectionInput& in) c
     const std::string name = PointName(v, v.points[p]);
     t.rows.push_back({name, Cell::Estimate(st.size), Cell::Number(st.tail.s_min), Cell::Number(st.tail.s_decay),
                       Cell::Number(st.tail.s_decay_se, 2), Cell::Count(st.tail.n_tail),
-                      st.size.n < kThesisAvalanches
-                          ? "fewer than " + std::to_string(kThesisAvalanches) + " avalanches (the thesis averages >= 100)"
-                          : ""});
+                      st.size.n < kThesisAvalanches ? "fewer than " + std::to_string(kThesisAvalanches) +
+                                                          " avalanches (the thesis averages >= 100)"
+                                                    : ""});
     if (!drawn.count(p)) continue;
     Series se;
     se.label = name;
     se.columns = {"s", "density", "count"};
     se.style = Series::Style::kPoints;
     for (std::size_t i = 0; i < st.histogram.counts.size(); ++i)
-      if (st.histogram.counts[i] > 0) se.rows.push_back({st.histogram.Center(i), st.histogram.Density(i), st.histogram.counts[i]});
+      if (st.histogram.counts[i] > 0)
+        se.rows.push_back({st.histogram.Center(i), st.histogram.Density(i), st.histogram.counts[i]});
     se.color = colour;
     dist.series.push_back(se);
     // The fitted tail drawn on the same density scale: (n_tail / n) (1 - q) q^(s - s_min).
@@ -207,11 +217,15 @@ std::optional<Section> AvalancheAnalysis::BuildSection(const SectionInput& in) c
   if (v.outlets > 1 && any_per_outlet) {
     // Several outlets: the exit stream of each outlet on its own (ch. 7: the small outlet
     // clogs and unclogs while the large one keeps the silo flowing).
-    s.blocks.push_back(Text{"Per outlet: the same rule applied to each outlet's own exit stream (gaps counted from "
-                            "the first exit through any outlet), so an outlet that clogs while another keeps flowing "
-                            "has avalanches too."});
-    Table po{"avalanches_per_outlet", "Avalanche sizes per point and outlet (pooled over replicas)",
-             {"point", "outlet", "<s> ± se (avalanches)"}, {}, {"point", "outlet", "avalanche_size"}};
+    s.blocks.push_back(
+        Text{"Per outlet: the same rule applied to each outlet's own exit stream (gaps counted from "
+             "the first exit through any outlet), so an outlet that clogs while another keeps flowing "
+             "has avalanches too."});
+    Table po{"avalanches_per_outlet",
+             "Avalanche sizes per point and outlet (pooled over replicas)",
+             {"point", "outlet", "<s> ± se (avalanches)"},
+             {},
+             {"point", "outlet", "avalanche_size"}};
     for (std::size_t p = 0; p < v.points.size(); ++p)
       for (std::size_t k = 0; k < v.outlets; ++k) {
         if (!FindMetric(in.points[p], SizeName(k))) continue;
@@ -222,8 +236,9 @@ std::optional<Section> AvalancheAnalysis::BuildSection(const SectionInput& in) c
     s.blocks.push_back(po);
     if (HasX(v))
       s.blocks.push_back(Figure{"avalanche_mean_per_outlet", "Mean avalanche size per outlet against " + v.x_label,
-                                v.x_label, "<s> (bodies)", OutletSeries(v, in.points, SizeName, v.outlet_labels, "s_mean"),
-                                false, false, "Error bars: standard error over avalanches"});
+                                v.x_label, "<s> (bodies)",
+                                OutletSeries(v, in.points, SizeName, v.outlet_labels, "s_mean"), false, false,
+                                "Error bars: standard error over avalanches"});
   }
   return s;
 }

@@ -18,7 +18,8 @@ bool IsIdentifier(const std::string& name) {
                      [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
 }
 
-std::map<std::string, std::string> AxisShortNames(const std::vector<std::string>& axes, const nlohmann::json& run_spec) {
+std::map<std::string, std::string> AxisShortNames(const std::vector<std::string>& axes,
+                                                  const nlohmann::json& run_spec) {
   std::map<std::string, int> uses;
   for (const auto& axis : axes) ++uses[ResolveAxisNames(axis, run_spec).symbol];
   std::map<std::string, std::string> out;
@@ -51,7 +52,8 @@ CampaignAxes::CampaignAxes(const std::vector<std::string>& sweep, const nlohmann
     : sweep_(sweep), short_(AxisShortNames(sweep, run_spec)) {
   if (axes_block.is_null()) return;
   if (!axes_block.is_object())
-    throw OptionError("/axes", axes_block, "must be an object {name: expression}, e.g. {\"D_eq\": \"sqrt(1 + D_b^2)\"}");
+    throw OptionError("/axes", axes_block,
+                      "must be an object {name: expression}, e.g. {\"D_eq\": \"sqrt(1 + D_b^2)\"}");
   std::vector<std::string> taken = Names();
   for (const auto& [name, text] : axes_block.items()) {
     const std::string path = "/axes/" + name;
@@ -66,7 +68,8 @@ CampaignAxes::CampaignAxes(const std::vector<std::string>& sweep, const nlohmann
     if (std::find(taken.begin(), taken.end(), name) != taken.end())
       throw OptionError(path, text, "\"" + name + "\" already names an axis (names in use: " + listed + ")");
     if (!text.is_string())
-      throw OptionError(path, text, "must be an expression over the axes, e.g. \"sqrt(1 + D_b^2)\" (axes: " + listed + ")");
+      throw OptionError(path, text,
+                        "must be an expression over the axes, e.g. \"sqrt(1 + D_b^2)\" (axes: " + listed + ")");
     Expression e;
     try {
       e = Expression::Parse(text.get<std::string>(), usable);
@@ -87,7 +90,8 @@ CampaignAxes CampaignAxes::OfCampaignSpec(const nlohmann::json& spec) {
   std::vector<std::string> sweep = CampaignSpecAxes(spec);
   if (spec.is_object() && spec.contains("engine") && spec.at("engine").is_array() && spec.at("engine").size() > 1)
     sweep.push_back("/engine");
-  const nlohmann::json base = spec.is_object() ? spec.value("base", nlohmann::json::object()) : nlohmann::json::object();
+  const nlohmann::json base =
+      spec.is_object() ? spec.value("base", nlohmann::json::object()) : nlohmann::json::object();
   const nlohmann::json block = spec.is_object() && spec.contains("axes") ? spec.at("axes") : nlohmann::json();
   return CampaignAxes(sweep, base, block);
 }

@@ -16,8 +16,8 @@
 namespace granary::analysis {
 
 struct DerivedAxis {
-  std::string name;        // "D_eq", "W/D_eq"
-  Expression expression;   // over the sweep axes' short names and the derived axes before it
+  std::string name;       // "D_eq", "W/D_eq"
+  Expression expression;  // over the sweep axes' short names and the derived axes before it
 };
 
 class CampaignAxes {
@@ -51,7 +51,7 @@ class CampaignAxes {
 
  private:
   std::vector<std::string> sweep_;
-  std::map<std::string, std::string> short_;    // pointer -> short name
+  std::map<std::string, std::string> short_;  // pointer -> short name
   std::vector<DerivedAxis> derived_;
 };
 

@@ -23,7 +23,7 @@ std::vector<PointMetric> CampaignAnalysis::AllPointMetrics(std::size_t p) const 
 }
 
 std::unique_ptr<CampaignAnalysis> AnalyseCampaign(const CampaignInfo& info, const std::vector<RunRecord>& runs,
-                                                   const AnalysisSetup& setup, const CampaignAnalysisOptions& options) {
+                                                  const AnalysisSetup& setup, const CampaignAnalysisOptions& options) {
   auto out = std::make_unique<CampaignAnalysis>();
   out->setup = &setup;
   const std::vector<const Analysis*> analyses = setup.List();
@@ -33,7 +33,8 @@ std::unique_ptr<CampaignAnalysis> AnalyseCampaign(const CampaignInfo& info, cons
 
   // One pass per finished run. Many runs: one run per thread; few: each pass reads ahead on a
   // second thread. Either way every result is the same bits.
-  const int jobs = options.jobs > 0 ? options.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int jobs =
+      options.jobs > 0 ? options.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   const int workers = std::max(1, std::min<int>(jobs, static_cast<int>(done.size())));
   RunPassOptions pass_options;
   pass_options.threads = static_cast<int>(done.size()) >= jobs ? 1 : jobs;
@@ -87,7 +88,8 @@ std::unique_ptr<CampaignAnalysis> AnalyseCampaign(const CampaignInfo& info, cons
   }
   for (std::size_t a = 0; a < analyses.size(); ++a) {
     PointMetricTable table;
-    for (std::size_t p = 0; p < out->view.points.size(); ++p) table.push_back(analyses[a]->PointMetrics(out->results[a], p));
+    for (std::size_t p = 0; p < out->view.points.size(); ++p)
+      table.push_back(analyses[a]->PointMetrics(out->results[a], p));
     out->point_metrics.push_back(std::move(table));
   }
   return out;

@@ -14,7 +14,7 @@
 namespace granary::analysis {
 
 struct CampaignAnalysisOptions {
-  int jobs = 0;                   // threads; 0 = every hardware thread
+  int jobs = 0;  // threads; 0 = every hardware thread
   bool read_cache = true;
   bool write_cache = true;
   // Called after each run's pass (from worker threads, one call at a time).
@@ -24,9 +24,9 @@ struct CampaignAnalysisOptions {
 struct CampaignAnalysis {
   CampaignView view;
   const AnalysisSetup* setup = nullptr;
-  std::vector<AnalysisResults> results;        // per analysis (setup order): per used run
-  std::vector<PointMetricTable> point_metrics; // per analysis: per point (view.points order)
-  int results_from_cache = 0;                  // run x analysis results read from the caches
+  std::vector<AnalysisResults> results;         // per analysis (setup order): per used run
+  std::vector<PointMetricTable> point_metrics;  // per analysis: per point (view.points order)
+  int results_from_cache = 0;                   // run x analysis results read from the caches
   int results_computed = 0;
 
   // The per-run metrics of used run `run` from analysis `a`.
@@ -37,6 +37,7 @@ struct CampaignAnalysis {
 
 // `info` and `runs` must outlive the result (the view points into them).
 std::unique_ptr<CampaignAnalysis> AnalyseCampaign(const CampaignInfo& info, const std::vector<RunRecord>& runs,
-                                                   const AnalysisSetup& setup, const CampaignAnalysisOptions& options = {});
+                                                  const AnalysisSetup& setup,
+                                                  const CampaignAnalysisOptions& options = {});
 
 }  // namespace granary::analysis

@@ -68,7 +68,8 @@ std::string ShortAxis(const std::string& pointer) {
   return s;
 }
 
-std::optional<nlohmann::json> AxisValue(const std::string& axis, const nlohmann::json& point, const nlohmann::json& spec) {
+std::optional<nlohmann::json> AxisValue(const std::string& axis, const nlohmann::json& point,
+                                        const nlohmann::json& spec) {
   if (point.is_object() && point.contains(axis)) return point.at(axis);
   try {
     const nlohmann::json::json_pointer ptr(axis);
@@ -84,8 +85,8 @@ std::string AxisText(const CampaignView& view, const std::string& axis, const nl
   return AxisName(axis, spec);
 }
 
-std::string PointLabel(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec,
-                        NameForm form, const std::set<std::string>& skip_axes) {
+std::string PointLabel(const CampaignView& view, const nlohmann::json& point, const nlohmann::json& spec, NameForm form,
+                       const std::set<std::string>& skip_axes) {
   std::string s;
   for (const auto& axis : view.axes) {
     if (skip_axes.count(axis)) continue;
@@ -160,7 +161,7 @@ std::string GroupAxis(const CampaignView& view) {
 }
 
 CampaignView MakeCampaignView(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
-                                const std::map<std::string, std::string>& unreadable, const RunChecks& checks) {
+                              const std::map<std::string, std::string>& unreadable, const RunChecks& checks) {
   CampaignView c;
   c.campaign = &campaign;
   c.axes = campaign.axes;
@@ -308,7 +309,7 @@ namespace {
 
 // The curve of metric `name` over the points of `group`: rows (x, mean, se, n) where defined.
 Series MetricCurve(const CampaignView& view, const PointMetricTable& metrics, const std::string& name,
-                    const std::string& group, const std::string& label, const std::string& column) {
+                   const std::string& group, const std::string& label, const std::string& column) {
   Series s;
   s.label = label;
   s.columns = {view.x_label.empty() ? "x" : view.x_name, column, column + "_se", "n"};
@@ -327,7 +328,7 @@ Series MetricCurve(const CampaignView& view, const PointMetricTable& metrics, co
 }  // namespace
 
 std::vector<Series> PointSeries(const CampaignView& view, const PointMetricTable& metrics, const std::string& name,
-                                 const std::string& column) {
+                                const std::string& column) {
   std::vector<Series> out;
   for (const auto& g : GroupsOf(view)) {
     Series s = MetricCurve(view, metrics, name, g, g.empty() ? column : g, column);
@@ -337,7 +338,7 @@ std::vector<Series> PointSeries(const CampaignView& view, const PointMetricTable
 }
 
 std::vector<std::size_t> SpreadPoints(const CampaignView& view, const std::function<bool(std::size_t)>& has,
-                                       std::size_t most) {
+                                      std::size_t most) {
   std::vector<std::size_t> with;
   for (std::size_t k = 0; k < view.points.size(); ++k)
     if (has(k)) with.push_back(k);
@@ -348,8 +349,8 @@ std::vector<std::size_t> SpreadPoints(const CampaignView& view, const std::funct
 }
 
 std::vector<Series> OutletSeries(const CampaignView& view, const PointMetricTable& metrics,
-                                  const std::function<std::string(std::size_t)>& name_of,
-                                  const std::vector<std::string>& outlet_labels, const std::string& column) {
+                                 const std::function<std::string(std::size_t)>& name_of,
+                                 const std::vector<std::string>& outlet_labels, const std::string& column) {
   std::vector<Series> out;
   for (std::size_t o = 0; o < view.outlets; ++o) {
     const std::string label = o < outlet_labels.size() ? outlet_labels[o] : "outlet " + std::to_string(o);

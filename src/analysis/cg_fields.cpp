@@ -31,7 +31,8 @@ namespace {
 
 constexpr int kMinBandRows = 8;
 constexpr std::size_t kMaxQuadrature = 16;
-constexpr double kMaxBranch = 10.0;     // a body centre further than this from its contact point is not that contact's (a periodic image): the disc centre is used
+constexpr double kMaxBranch =
+    10.0;  // a body centre further than this from its contact point is not that contact's (a periodic image): the disc centre is used
 
 // Gauss-Legendre nodes and weights on [0, 1] for n points (weights sum to 1).
 struct Quadrature {
@@ -76,7 +77,8 @@ const Quadrature& GaussLegendre(int points) {
 // below the kernel's own cut, exp(-cutoff^2) of the peak (1.2e-4 at 3 w): 1e-6 for cutoffs up
 // to 3.2 w, 3e-8 beyond.
 int QuadraturePoints(double length_over_w, double cutoff) {
-  static constexpr double kLimit6[] = {0.508, 1.022, 1.603, 2.214, 2.839, 3.47, 4.1, 4.7, 5.3, 6.0};  // 1e-6, from 3 points
+  static constexpr double kLimit6[] = {0.508, 1.022, 1.603, 2.214, 2.839,
+                                       3.47,  4.1,   4.7,   5.3,   6.0};  // 1e-6, from 3 points
   static constexpr double kLimit8[] = {0.28, 0.65, 1.11, 1.62, 2.15, 2.69, 3.25, 3.80, 4.36, 4.92, 5.47, 6.0};  // 3e-8
   int n = 3;
   for (double limit : cutoff <= 3.2 ? std::span<const double>(kLimit6) : std::span<const double>(kLimit8)) {
@@ -100,8 +102,7 @@ struct Kernel {
 
 // exp(-(x0 + k h - p)^2 / w^2) for k = 0..n-1 by the recurrence e_{k+1} = e_k r_k,
 // r_{k+1} = r_k exp(-2 h^2 / w^2); d2[k] = (x0 + k h - p)^2.
-inline void AxisFactors(double first_node, double h, double p, int n, double inv_w2, double q2, double* e,
-                         double* d2) {
+inline void AxisFactors(double first_node, double h, double p, int n, double inv_w2, double q2, double* e, double* d2) {
   const double d0 = first_node - p;
   double ek = std::exp(-d0 * d0 * inv_w2);
   double rk = std::exp(-(2.0 * d0 * h + h * h) * inv_w2);
@@ -145,9 +146,9 @@ constexpr int kLanes = 4;
 // body's centre, or from one round body's centre through the contact point to the other's.
 struct Branch {
   double ax, ay;
-  int halves;                          // 1 or 2
-  double bx[2], by[2];                 // the segments' ends
-  double t[2][4];                      // -F (x) (b - a), F the force on the body at b: xx, xy, yx, yy
+  int halves;           // 1 or 2
+  double bx[2], by[2];  // the segments' ends
+  double t[2][4];       // -F (x) (b - a), F the force on the body at b: xx, xy, yx, yy
 };
 
 }  // namespace
@@ -265,8 +266,9 @@ double CgMaps::Value(CgField f, std::size_t n) const {
   const double frames = s.frames, defined = s.n_defined[n], cframes = s.contact_frames;
   auto per_defined = [&](const std::vector<double>& v) { return defined > 0 ? v[n] / defined : kNaN; };
   auto contact = [&]() {
-    return cframes > 0 ? StressInvariants(s.sxx[n] / cframes, s.sxy[n] / cframes, s.syx[n] / cframes, s.syy[n] / cframes)
-                       : Invariants{kNaN, kNaN};
+    return cframes > 0
+               ? StressInvariants(s.sxx[n] / cframes, s.sxy[n] / cframes, s.syx[n] / cframes, s.syy[n] / cframes)
+               : Invariants{kNaN, kNaN};
   };
   auto kinetic = [&]() {
     return frames > 0 ? StressInvariants(s.kxx[n] / frames, s.kxy[n] / frames, s.kxy[n] / frames, s.kyy[n] / frames)
@@ -275,7 +277,7 @@ double CgMaps::Value(CgField f, std::size_t n) const {
   auto total = [&]() {
     if (cframes <= 0 || frames <= 0) return Invariants{kNaN, kNaN};
     return StressInvariants(s.sxx[n] / cframes + s.kxx[n] / frames, s.sxy[n] / cframes + s.kxy[n] / frames,
-                      s.syx[n] / cframes + s.kxy[n] / frames, s.syy[n] / cframes + s.kyy[n] / frames);
+                            s.syx[n] / cframes + s.kxy[n] / frames, s.syy[n] / cframes + s.kyy[n] / frames);
   };
   switch (f) {
     case CgField::kPhi: return frames > 0 ? s.phi[n] / frames : kNaN;
@@ -337,8 +339,10 @@ std::string CgMapCsv(const CgMaps& maps, CgField field) {
     for (int i = 0; i < g.nx; ++i) {
       const std::size_t n = static_cast<std::size_t>(j) * g.nx + i;
       const double v = maps.Value(field, n);
-      const int len = std::isnan(v) ? std::snprintf(line, sizeof line, "%.10g,%.10g,nan,%d\n", g.X(i), g.Y(j), maps.NFrames(field, n))
-                                    : std::snprintf(line, sizeof line, "%.10g,%.10g,%.10g,%d\n", g.X(i), g.Y(j), v, maps.NFrames(field, n));
+      const int len =
+          std::isnan(v)
+              ? std::snprintf(line, sizeof line, "%.10g,%.10g,nan,%d\n", g.X(i), g.Y(j), maps.NFrames(field, n))
+              : std::snprintf(line, sizeof line, "%.10g,%.10g,%.10g,%d\n", g.X(i), g.Y(j), v, maps.NFrames(field, n));
       out.append(line, static_cast<std::size_t>(len));
     }
   return out;
@@ -395,25 +399,25 @@ double CgLineIntegral(double rx, double ry, double ax, double ay, double bx, dou
 struct CgAccumulator::Impl {
   CgOptions opt;
   Kernel kernel;
-  CgGrid grid;     // the window's nodes
-  CgGrid ext;      // the window and a margin of `margin` nodes on every side (pass 2 reads the velocity field there)
+  CgGrid grid;  // the window's nodes
+  CgGrid ext;   // the window and a margin of `margin` nodes on every side (pass 2 reads the velocity field there)
   int margin = 0;
-  double q2 = 0;   // exp(-2 h^2 / w^2): ratio of the recurrence ratios
+  double q2 = 0;  // exp(-2 h^2 / w^2): ratio of the recurrence ratios
   CgSums sums;
   std::vector<CgSeries> series;
 
   // The frame on the extended grid.
-  std::vector<double> phi, px, py, om, om2, v2;        // pass 1
-  std::vector<double> ta, kxx, kxy, kyy;               // pass 2: sum a |dv|^2 W, sum m dv dv W
-  std::vector<double> sxx, sxy, syx, syy;              // contacts
+  std::vector<double> phi, px, py, om, om2, v2;  // pass 1
+  std::vector<double> ta, kxx, kxy, kyy;         // pass 2: sum a |dv|^2 W, sum m dv dv W
+  std::vector<double> sxx, sxy, syx, syy;        // contacts
   // The frame's discs that reach the extended grid.
   std::vector<double> dx, dy, da, dm, dvx, dvy, dom;
-  std::vector<unsigned char> near_window;              // within the cutoff of a window node: pass 2
+  std::vector<unsigned char> near_window;  // within the cutoff of a window node: pass 2
   std::vector<Branch> segments;
-  int band_rows = kMinBandRows;                        // >= the rows a disc reaches
+  int band_rows = kMinBandRows;                                      // >= the rows a disc reaches
   std::vector<std::vector<std::int32_t>> band_discs, band_segments;  // by the band of their first row
-  std::vector<std::int32_t> tall_segments;             // contacts reaching more rows than a band has
-  std::vector<double> body_m, body_x, body_y;          // centres of mass by body id
+  std::vector<std::int32_t> tall_segments;                           // contacts reaching more rows than a band has
+  std::vector<double> body_m, body_x, body_y;                        // centres of mass by body id
 
   explicit Impl(const CgOptions& o) : opt(o), kernel(o) {}
 
@@ -434,8 +438,10 @@ CgAccumulator::CgAccumulator(const CgOptions& options, std::vector<CgSeriesReque
     : impl_(std::make_unique<Impl>(options)) {
   Impl& m = *impl_;
   const CgOptions& o = options;
-  if (!(o.width > 0.0)) throw std::invalid_argument("coarse-graining width must be > 0 (got " + std::to_string(o.width) + ")");
-  if (!(o.cutoff >= 1.0)) throw std::invalid_argument("coarse-graining cutoff must be >= 1 width (got " + std::to_string(o.cutoff) + ")");
+  if (!(o.width > 0.0))
+    throw std::invalid_argument("coarse-graining width must be > 0 (got " + std::to_string(o.width) + ")");
+  if (!(o.cutoff >= 1.0))
+    throw std::invalid_argument("coarse-graining cutoff must be >= 1 width (got " + std::to_string(o.cutoff) + ")");
   if (!(o.spacing > 0.0) || !(o.spacing <= 0.5 * o.cutoff * o.width))
     throw std::invalid_argument("grid spacing must be > 0 and <= half the cutoff radius " +
                                 std::to_string(0.5 * o.cutoff * o.width) + " (got " + std::to_string(o.spacing) + ")");
@@ -454,7 +460,8 @@ CgAccumulator::CgAccumulator(const CgOptions& options, std::vector<CgSeriesReque
   // A disc reaches the rows within rc of it: at most floor(2 rc / h) + 1.
   m.band_rows = std::max(kMinBandRows, static_cast<int>(std::floor(2.0 * m.kernel.rc / o.spacing)) + 1);
   m.sums.Resize(m.grid);
-  for (auto* v : {&m.phi, &m.px, &m.py, &m.om, &m.om2, &m.v2, &m.ta, &m.kxx, &m.kxy, &m.kyy, &m.sxx, &m.sxy, &m.syx, &m.syy})
+  for (auto* v :
+       {&m.phi, &m.px, &m.py, &m.om, &m.om2, &m.v2, &m.ta, &m.kxx, &m.kxy, &m.kyy, &m.sxx, &m.sxy, &m.syx, &m.syy})
     v->assign(m.ext.size(), 0.0);
   m.band_discs.resize(static_cast<std::size_t>(m.Bands()));
   m.band_segments.resize(static_cast<std::size_t>(m.Bands()));
@@ -528,7 +535,8 @@ void CgAccumulator::Impl::BuildSegments(const rundir::ContactFrame& contacts) {
   auto centre = [&](std::int64_t body, double disc_x, double disc_y, double cx, double cy, double& x, double& y) {
     x = disc_x;
     y = disc_y;
-    if (body < 0 || static_cast<std::size_t>(body) >= body_m.size() || !(body_m[static_cast<std::size_t>(body)] > 0.0)) return;
+    if (body < 0 || static_cast<std::size_t>(body) >= body_m.size() || !(body_m[static_cast<std::size_t>(body)] > 0.0))
+      return;
     const double bx = body_x[static_cast<std::size_t>(body)], by = body_y[static_cast<std::size_t>(body)];
     if ((bx - cx) * (bx - cx) + (by - cy) * (by - cy) <= kMaxBranch * kMaxBranch) {
       x = bx;
@@ -610,7 +618,7 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::Pass
   double* const dx2 = ex + cols;
   double* const ey = dx2 + cols;
   double* const dy2 = ey + rows;
-  double* const qx = dy2 + rows;              // the quadrature points' factors: per half, kMaxQuadrature rows of cols
+  double* const qx = dy2 + rows;  // the quadrature points' factors: per half, kMaxQuadrature rows of cols
   double* const qy = qx + 2 * kMaxQuadrature * cols;
   for (const std::int32_t k : disc_list) {
     const double x = dx[k], y = dy[k];
@@ -711,8 +719,8 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::Pass
           Lanes line = {};
           for (int p = 0; p < nq[half]; ++p) line += cq[half][p] * LoadLanes(fx + static_cast<std::size_t>(p) * cols);
           const Lanes along = rx * e_x[half] + ry * e_y[half], perp = rx * e_y[half] - ry * e_x[half];
-          const auto inside = (along > -rc) & (along < along_hi[half]) & (perp * perp < rc2) & (col > col_lo) &
-                              (col < col_hi);
+          const auto inside =
+              (along > -rc) & (along < along_hi[half]) & (perp * perp < rc2) & (col > col_lo) & (col < col_hi);
           line = inside ? line : Lanes{};
           for (int c = 0; c < 4; ++c) acc[c] += br.t[half][c] * line;
         }
@@ -726,7 +734,8 @@ __attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::Pass
 }
 
 // The discs' velocity fluctuations onto the window's rows they reach.
-__attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::Pass2(std::span<const std::int32_t> disc_list) {
+__attribute__((target_clones("avx2", "default"))) void CgAccumulator::Impl::Pass2(
+    std::span<const std::int32_t> disc_list) {
   const int j0 = margin, j1 = margin + grid.ny;  // the window's rows [j0, j1)
   const int wi0 = margin, wi1 = margin + grid.nx - 1;
   const double h = opt.spacing, rc = kernel.rc, rc2 = kernel.rc2, inv_w2 = kernel.inv_w2, norm = kernel.norm;

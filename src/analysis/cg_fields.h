@@ -39,12 +39,12 @@ struct CgGrid {
 CgGrid GridOver(const Rect& window, double spacing);
 
 struct CgOptions {
-  double width = 1.414;     // w of W(r) = exp(-r^2/w^2) / (pi w^2), eq. 4.1 (d)
-  double cutoff = 3.0;      // W = 0 beyond cutoff * w (thesis: 3w)
-  double spacing = 1.0;     // grid spacing (d)
-  Rect window;              // the mapped part of the silo; empty (x1 <= x0): cg_default_window
-  double min_phi = 0.05;    // v, Omega, Omega_fl^2, T_g of a frame are defined at a node with phi(t) >= min_phi
-  int threads = 0;          // 0: OpenMP's default; any count gives the same bits
+  double width = 1.414;   // w of W(r) = exp(-r^2/w^2) / (pi w^2), eq. 4.1 (d)
+  double cutoff = 3.0;    // W = 0 beyond cutoff * w (thesis: 3w)
+  double spacing = 1.0;   // grid spacing (d)
+  Rect window;            // the mapped part of the silo; empty (x1 <= x0): cg_default_window
+  double min_phi = 0.05;  // v, Omega, Omega_fl^2, T_g of a frame are defined at a node with phi(t) >= min_phi
+  int threads = 0;        // 0: OpenMP's default; any count gives the same bits
 };
 
 // The default window of a silo `width` wide whose bed reaches `bed_top`: 1.5 d inside the
@@ -56,17 +56,20 @@ Rect CgDefaultWindow(double silo_width, double bed_top);
 // sign: tension positive, so P = -tr(sigma)/2 > 0 in compression), kinetic stress is
 // -sum m dv (x) dv W, total = contact + kinetic.
 enum class CgField {
-  kPhi,            // area fraction, eq. 4.2
-  kVx, kVy,        // velocity, eq. 4.5
-  kSpeed,          // |v| of the time-averaged velocity
-  kOmega,          // rotational velocity, eq. 4.3
-  kOmegaFl2,       // its fluctuation Omega_fl^2, eq. 4.4
-  kTg,             // granular temperature: eq. 4.6 about the velocity field at each disc (no mean-shear part)
-  kTgEq46,         // eq. 4.6 as written: about the velocity at the node (includes the mean shear within w)
-  kSigmaXX, kSigmaXY, kSigmaYY,  // contact stress tensor (symmetric part), eq. 4.7
-  kPressure,       // contact pressure -tr(sigma)/2, eq. 4.8
-  kShear,          // contact shear stress |tau| = sqrt(((sxx - syy)/2)^2 + sxy^2)
-  kFriction,       // contact |tau| / P
+  kPhi,  // area fraction, eq. 4.2
+  kVx,
+  kVy,        // velocity, eq. 4.5
+  kSpeed,     // |v| of the time-averaged velocity
+  kOmega,     // rotational velocity, eq. 4.3
+  kOmegaFl2,  // its fluctuation Omega_fl^2, eq. 4.4
+  kTg,        // granular temperature: eq. 4.6 about the velocity field at each disc (no mean-shear part)
+  kTgEq46,    // eq. 4.6 as written: about the velocity at the node (includes the mean shear within w)
+  kSigmaXX,
+  kSigmaXY,
+  kSigmaYY,   // contact stress tensor (symmetric part), eq. 4.7
+  kPressure,  // contact pressure -tr(sigma)/2, eq. 4.8
+  kShear,     // contact shear stress |tau| = sqrt(((sxx - syy)/2)^2 + sxy^2)
+  kFriction,  // contact |tau| / P
   kKineticPressure,
   kKineticShear,
   kTotalPressure,
@@ -76,10 +79,10 @@ enum class CgField {
 
 struct CgFieldInfo {
   CgField field;
-  const char* name;          // CSV and option name, e.g. "phi", "pressure"
-  const char* title;         // e.g. "area fraction phi"
-  const char* unit;          // "" (dimensionless), "sqrt(g d)", ...
-  bool needs_contacts;       // contact or total stress
+  const char* name;     // CSV and option name, e.g. "phi", "pressure"
+  const char* title;    // e.g. "area fraction phi"
+  const char* unit;     // "" (dimensionless), "sqrt(g d)", ...
+  bool needs_contacts;  // contact or total stress
 };
 std::span<const CgFieldInfo> CgFieldTable();
 const CgFieldInfo& CgFieldInfoFor(CgField field);
@@ -89,13 +92,13 @@ bool CgFieldByName(std::string_view name, CgField& field);
 // Time sums per window node; sums of runs on the same grid add (replicas of a sweep point).
 struct CgSums {
   CgGrid grid;
-  int frames = 0;            // frames added
-  int contact_frames = 0;    // of them with contact forces
-  std::vector<double> phi;                  // over all frames
-  std::vector<std::int32_t> n_defined;      // frames with phi(t) >= min_phi
+  int frames = 0;                                             // frames added
+  int contact_frames = 0;                                     // of them with contact forces
+  std::vector<double> phi;                                    // over all frames
+  std::vector<std::int32_t> n_defined;                        // frames with phi(t) >= min_phi
   std::vector<double> vx, vy, omega, omega_fl2, tg, tg_eq46;  // over the defined frames
-  std::vector<double> sxx, sxy, syx, syy;   // contact stress, over the contact frames
-  std::vector<double> kxx, kxy, kyy;        // kinetic stress, over all frames
+  std::vector<double> sxx, sxy, syx, syy;                     // contact stress, over the contact frames
+  std::vector<double> kxx, kxy, kyy;                          // kinetic stress, over all frames
   void Resize(const CgGrid& g);
   // Adds `other` (same grid; throws std::invalid_argument otherwise).
   void Add(const CgSums& other);
@@ -130,7 +133,7 @@ std::string CgMapCsv(const CgMaps& maps, CgField field);
 // stress and pressure from the time-averaged fields), not the mean of the ratio.
 struct CgRegionMean {
   double value = kNaN;
-  int nodes = 0;             // nodes inside the region with a defined value
+  int nodes = 0;  // nodes inside the region with a defined value
 };
 CgRegionMean MeanOverRegion(const CgMaps& maps, CgField field, const Rect& region);
 
@@ -143,7 +146,7 @@ struct CgSeriesRequest {
 };
 struct CgSeries {
   CgSeriesRequest request;
-  std::vector<double> time, value;   // value NaN in frames where no node inside is defined
+  std::vector<double> time, value;  // value NaN in frames where no node inside is defined
 };
 
 // One frame at a time: add_frame smears the discs (and the contacts, if given) of one frame

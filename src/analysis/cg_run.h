@@ -18,12 +18,12 @@
 namespace granary::analysis {
 
 struct CgRunOptions {
-  CgOptions cg;                  // cg.window empty: cg_default_window of the run
+  CgOptions cg;  // cg.window empty: cg_default_window of the run
   double t_start = -std::numeric_limits<double>::infinity();
-  double t_end = std::numeric_limits<double>::infinity();    // frames with t_start <= t <= t_end
-  int frame_stride = 1;          // every n-th frame of the range
-  int max_frames = 0;            // 0: all
-  bool contacts = true;          // read contacts.dump if the run has one
+  double t_end = std::numeric_limits<double>::infinity();  // frames with t_start <= t <= t_end
+  int frame_stride = 1;                                    // every n-th frame of the range
+  int max_frames = 0;                                      // 0: all
+  bool contacts = true;                                    // read contacts.dump if the run has one
   std::vector<CgSeriesRequest> series;
   // Frames in [t_start, t_end] go to the accumulator `route(t)` returns (an index into the
   // result's `parts`, e.g. 0 flowing, 1 clogged); -1 skips the frame. Empty: one part.
@@ -33,11 +33,11 @@ struct CgRunOptions {
 
 struct CgRunResult {
   Rect window;
-  std::vector<CgSums> parts;     // one per route target
-  std::vector<CgSeries> series;  // over the frames used (every part), in time order
-  int frames_read = 0;           // frames streamed (in and out of the range)
-  bool has_contacts = false;     // contacts.dump read
-  int frames_without_contacts = 0;  // frames used whose timestep had no contact frame
+  std::vector<CgSums> parts;                   // one per route target
+  std::vector<CgSeries> series;                // over the frames used (every part), in time order
+  int frames_read = 0;                         // frames streamed (in and out of the range)
+  bool has_contacts = false;                   // contacts.dump read
+  int frames_without_contacts = 0;             // frames used whose timestep had no contact frame
   double first_time = kNaN, last_time = kNaN;  // of the frames used
 };
 

@@ -39,8 +39,8 @@ RunEnd RunEndOf(const std::string& end_reason) {
   return RunEnd::kOther;
 }
 
-ClogSeries ComputeClogSeries(std::span<const rundir::ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end,
-                       bool engine_stops_on_clog) {
+ClogSeries ComputeClogSeries(std::span<const rundir::ExitEvent> events, int outlet, double t_end, double clog_gap,
+                             RunEnd end, bool engine_stops_on_clog) {
   const bool gaps_are_clogs = !(engine_stops_on_clog && end == RunEnd::kDischarged && outlet < 0);
   ClogSeries s;
   std::vector<double> times;
@@ -64,8 +64,8 @@ ClogSeries ComputeClogSeries(std::span<const rundir::ExitEvent> events, int outl
     previous = t;
   }
   current.end = previous;
-  const bool final_clog = end == RunEnd::kClogged ||
-                          (gaps_are_clogs && end != RunEnd::kDischarged && s.t_end - previous >= clog_gap);
+  const bool final_clog =
+      end == RunEnd::kClogged || (gaps_are_clogs && end != RunEnd::kDischarged && s.t_end - previous >= clog_gap);
   current.complete = final_clog;
   s.flowing.push_back(current);
   if (final_clog) s.clogged.push_back({previous, s.t_end, 0, false});
@@ -73,7 +73,7 @@ ClogSeries ComputeClogSeries(std::span<const rundir::ExitEvent> events, int outl
 }
 
 std::vector<double> AvalanchesBetweenUnclogs(std::span<const rundir::ExitEvent> events, int outlet,
-                                               std::span<const double> unclog_times, RunEnd end) {
+                                             std::span<const double> unclog_times, RunEnd end) {
   std::vector<double> sizes(unclog_times.size() + 1, 0.0);
   for (const auto& e : events) {
     if (outlet >= 0 && e.outlet != outlet) continue;

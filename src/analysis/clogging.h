@@ -27,16 +27,16 @@ RunEnd RunEndOf(const std::string& end_reason);
 struct Stretch {
   double start = 0.0;
   double end = 0.0;
-  int exits = 0;                    // exits in a flowing stretch; 0 for a clog
-  bool complete = true;             // a flowing stretch ending in a clog / a clog ending in an unclog
+  int exits = 0;         // exits in a flowing stretch; 0 for a clog
+  bool complete = true;  // a flowing stretch ending in a clog / a clog ending in an unclog
   double Duration() const { return end - start; }
 };
 
 struct ClogSeries {
-  std::vector<Stretch> flowing;     // in time order; the last one may be incomplete (run ended flowing)
-  std::vector<Stretch> clogged;     // the last one may be incomplete (run ended clogged)
+  std::vector<Stretch> flowing;  // in time order; the last one may be incomplete (run ended flowing)
+  std::vector<Stretch> clogged;  // the last one may be incomplete (run ended clogged)
   double t_end = 0.0;
-  int Unclogs() const;              // number of complete clogs
+  int Unclogs() const;                         // number of complete clogs
   std::vector<double> AvalancheSizes() const;  // exits of each flowing stretch that ended in a clog
   std::vector<double> FlowingTimes() const;    // durations of complete flowing stretches
   std::vector<double> CloggedTimes() const;    // durations of complete clogs
@@ -46,8 +46,8 @@ struct ClogSeries {
 // engine judged every stall of the whole silo it met and stopped at the first, finding every
 // outlet open, so the stream of all outlets (`outlet` < 0) has no clog at all: its gaps were the
 // slow trickle off the dead zones at the end of a discharge, bodies still moving, not arches.
-ClogSeries ComputeClogSeries(std::span<const rundir::ExitEvent> events, int outlet, double t_end, double clog_gap, RunEnd end,
-                       bool engine_stops_on_clog = false);
+ClogSeries ComputeClogSeries(std::span<const rundir::ExitEvent> events, int outlet, double t_end, double clog_gap,
+                             RunEnd end, bool engine_stops_on_clog = false);
 
 // Avalanche sizes of a run whose engine broke its clogs (discharge/on_clog "unclog"): the exits
 // (of outlet `outlet`, or all when < 0) between one unclog and the next, cut at `unclog_times`
@@ -55,21 +55,21 @@ ClogSeries ComputeClogSeries(std::span<const rundir::ExitEvent> events, int outl
 // after the last unclog is an avalanche when the run ended in a clog (`end` kClogged: its last
 // clog, max_clogs, or one the protocol could not break), else it was cut short and is not.
 std::vector<double> AvalanchesBetweenUnclogs(std::span<const rundir::ExitEvent> events, int outlet,
-                                               std::span<const double> unclog_times, RunEnd end);
+                                             std::span<const double> unclog_times, RunEnd end);
 
 // t_f, t_c and N_u of one outlet, pooled over several runs (each run's series).
 struct IntermittencyStats {
-  MeanSe t_flowing;                 // <t_f> over complete flowing stretches
-  MeanSe t_clogged;                 // <t_c> over complete clogs
-  double unclog_rate = kNaN;        // N_u = unclogs / observed time (sum of t_end)
+  MeanSe t_flowing;           // <t_f> over complete flowing stretches
+  MeanSe t_clogged;           // <t_c> over complete clogs
+  double unclog_rate = kNaN;  // N_u = unclogs / observed time (sum of t_end)
   int unclogs = 0;
   double observed_time = 0.0;
 };
 IntermittencyStats Intermittency(std::span<const ClogSeries> runs);
 
 struct AvalancheStats {
-  MeanSe size;                      // <s>, its standard error and the number of avalanches
-  Histogram histogram;              // of s
+  MeanSe size;          // <s>, its standard error and the number of avalanches
+  Histogram histogram;  // of s
   ExpTailFit tail;
   std::vector<double> sizes;
 };
@@ -82,8 +82,8 @@ AvalancheStats ComputeAvalancheStats(std::span<const double> sizes, int bins = 2
 // cut short), which says nothing of either count and is left out.
 struct ClogRun {
   RunEnd end = RunEnd::kOther;
-  int bodies = 0;                   // N_total
-  int undischarged = 0;             // N_undis (remaining)
+  int bodies = 0;        // N_total
+  int undischarged = 0;  // N_undis (remaining)
   int exited = 0;
 };
 
@@ -95,12 +95,12 @@ struct ClogRun {
 // is Psi (the note says so; N_u = 0 would make every clogged run count as if the stagnant
 // zones had flowed out).
 struct ClogIndex {
-  MeanSe psi;                       // over the used runs; se is the replica standard error; NaN without N_u
-  double n_stagnant = kNaN;         // N_u used; NaN: missing
-  int clogged = 0;                  // clogged runs used
-  int discharged = 0;               // discharged runs used
-  int discarded = 0;                // clogged before min_exits
-  int unfinished = 0;               // neither clogged nor discharged: left out
+  MeanSe psi;                // over the used runs; se is the replica standard error; NaN without N_u
+  double n_stagnant = kNaN;  // N_u used; NaN: missing
+  int clogged = 0;           // clogged runs used
+  int discharged = 0;        // discharged runs used
+  int discarded = 0;         // clogged before min_exits
+  int unfinished = 0;        // neither clogged nor discharged: left out
   // With the left-out runs counted too, each between having discharged afterwards (0) and
   // having clogged at its end (its N_undis now): the range Psi could take had they finished.
   double psi_low = kNaN;

@@ -31,7 +31,8 @@ class ClogRunAccumulator : public RunAccumulator {
     }
     RunEnd end = RunEndOf(run.end_reason);
     nlohmann::json notes = nlohmann::json::array();
-    const std::string at = "t = " + FormatNumber(run.t_end) + " with " + std::to_string(run.undischarged) + " bodies inside";
+    const std::string at =
+        "t = " + FormatNumber(run.t_end) + " with " + std::to_string(run.undischarged) + " bodies inside";
     if (end == RunEnd::kOther && !run.stop_on_clog && run.data) {
       const ClogSeries s = ComputeClogSeries(run.data->events, -1, run.t_end, run.clog_gap, RunEnd::kOther);
       const bool ends_in_a_gap = !s.clogged.empty() && !s.clogged.back().complete;
@@ -42,8 +43,9 @@ class ClogRunAccumulator : public RunAccumulator {
       }
     }
     if (end == RunEnd::kOther)
-      notes.push_back("clogging index: left out: it ended (" + (run.end_reason.empty() ? std::string("no end reason") : run.end_reason) +
-                      ") at " + at + ", neither clogged nor discharged");
+      notes.push_back("clogging index: left out: it ended (" +
+                      (run.end_reason.empty() ? std::string("no end reason") : run.end_reason) + ") at " + at +
+                      ", neither clogged nor discharged");
     result_["end"] = EndName(end);
     result_["bodies"] = run.bodies;
     result_["exited"] = run.exited;
@@ -59,7 +61,9 @@ class ClogRunAccumulator : public RunAccumulator {
 std::optional<ClogRun> ClogRunOf(const nlohmann::json& r) {
   if (!r.is_object() || !r.value("remove_mode", false) || r.value("unclog", false)) return std::nullopt;
   const std::string end = r.value("end", std::string());
-  return ClogRun{end == "clogged" ? RunEnd::kClogged : end == "discharged" ? RunEnd::kDischarged : RunEnd::kOther,
+  return ClogRun{end == "clogged"      ? RunEnd::kClogged
+                 : end == "discharged" ? RunEnd::kDischarged
+                                       : RunEnd::kOther,
                  r.value("bodies", 0), r.value("undischarged", 0), r.value("exited", 0)};
 }
 
@@ -141,19 +145,20 @@ class ClogIndexAnalysis : public Analysis {
     if (!neither.empty())
       note += "; left out " + ReplicasText(neither) + ": neither clogged nor discharged (time limit)";
     note += source.empty() ? "; " + ci.note : "; N_u from " + source;
-    return {{"psi", "1", ci.psi.mean, ci.psi.se, ci.psi.n, "clogging index Psi", true, note},
-            {"n_stagnant", "bodies", ci.n_stagnant, kNaN, ci.psi.n, "N_u (stagnant bodies)", false, note},
-            {"clogged_runs", "runs", static_cast<double>(ci.clogged), kNaN, static_cast<int>(clog_runs.size()),
-             "clogged runs", false, "", false},
-            {"discharged_runs", "runs", static_cast<double>(ci.discharged), kNaN, static_cast<int>(clog_runs.size()),
-             "discharged runs", false, "", false},
-            {"discarded_runs", "runs", static_cast<double>(ci.discarded), kNaN, static_cast<int>(clog_runs.size()),
-             "runs discarded (clogged too early)", false, "", false},
-            {"unfinished_runs", "runs", static_cast<double>(ci.unfinished), kNaN, static_cast<int>(clog_runs.size()),
-             "runs left out (neither clogged nor discharged)", false, "", false},
-            {"psi_low", "1", ci.psi_low, kNaN, ci.unfinished, "Psi with the left-out runs as discharged", false, "", false},
-            {"psi_high", "1", ci.psi_high, kNaN, ci.unfinished, "Psi with the left-out runs as clogged at their end", false,
-             "", false}};
+    return {
+        {"psi", "1", ci.psi.mean, ci.psi.se, ci.psi.n, "clogging index Psi", true, note},
+        {"n_stagnant", "bodies", ci.n_stagnant, kNaN, ci.psi.n, "N_u (stagnant bodies)", false, note},
+        {"clogged_runs", "runs", static_cast<double>(ci.clogged), kNaN, static_cast<int>(clog_runs.size()),
+         "clogged runs", false, "", false},
+        {"discharged_runs", "runs", static_cast<double>(ci.discharged), kNaN, static_cast<int>(clog_runs.size()),
+         "discharged runs", false, "", false},
+        {"discarded_runs", "runs", static_cast<double>(ci.discarded), kNaN, static_cast<int>(clog_runs.size()),
+         "runs discarded (clogged too early)", false, "", false},
+        {"unfinished_runs", "runs", static_cast<double>(ci.unfinished), kNaN, static_cast<int>(clog_runs.size()),
+         "runs left out (neither clogged nor discharged)", false, "", false},
+        {"psi_low", "1", ci.psi_low, kNaN, ci.unfinished, "Psi with the left-out runs as discharged", false, "", false},
+        {"psi_high", "1", ci.psi_high, kNaN, ci.unfinished, "Psi with the left-out runs as clogged at their end", false,
+         "", false}};
   }
 
   std::optional<Section> BuildSection(const SectionInput& in) const override {
@@ -167,10 +172,13 @@ class ClogIndexAnalysis : public Analysis {
         "Psi = (1/n) sum_i (N_undis,i - N_u) / (N_total - N_u) over the point's runs that clogged or discharged, N_u "
         "the mean number left by runs that discharged (the stagnant zones): the point's own, else those of its group "
         "(same silo, other widths), else of the campaign; without any, N_u and Psi are missing. Runs that clogged "
-        "before " + std::to_string(min_exits_) + " bodies left are discarded. A run that reached its time limit still "
+        "before " +
+        std::to_string(min_exits_) +
+        " bodies left are discarded. A run that reached its time limit still "
         "flowing neither clogged nor discharged: it is left out, and 'range' gives Psi with those runs counted as if "
         "they had discharged afterwards (low) or clogged at their end (high)."});
-    Table t{"clogging_index", "Clogging index per point: which runs it used, and why others were left out",
+    Table t{"clogging_index",
+            "Clogging index per point: which runs it used, and why others were left out",
             {"point", "Psi", "clogged runs", "discharged runs", "discarded", "left out (time limit)", "N_u",
              "range with left-out runs", "note"},
             {},

@@ -11,10 +11,9 @@ namespace {
 
 constexpr int kKinds = 4;
 constexpr const char* kNames[kKinds] = {"contact_ss", "contact_ls", "contact_ll", "contact_other"};
-constexpr const char* kTitles[kKinds] = {"small-small contacts in the clogged system",
-                                         "large-small contacts in the clogged system",
-                                         "large-large contacts in the clogged system",
-                                         "contacts of single discs or rods in the clogged system"};
+constexpr const char* kTitles[kKinds] = {
+    "small-small contacts in the clogged system", "large-small contacts in the clogged system",
+    "large-large contacts in the clogged system", "contacts of single discs or rods in the clogged system"};
 
 // Per clog with contacts: the four fractions of all its contacts; a clog without a contact
 // between two-disc bodies (only lone discs) has no size classes: NaN for those three.
@@ -83,8 +82,10 @@ class ContactsAnalysis : public Analysis {
         "lower id is small, the thesis' random choice made repeatable, so symmetric dumbbells give about 1/4, 1/2, "
         "1/4); a contact of a single disc or a rod's disc is `other`. Fractions of all contacts per clog, mean ± se over "
         "clogs; a system of lone discs has no size classes (blank)."});
-    Table t{"contacts", "Contact types in the clogged systems (fractions)",
-            {"point", "small-small", "large-small", "large-large", "other"}, {},
+    Table t{"contacts",
+            "Contact types in the clogged systems (fractions)",
+            {"point", "small-small", "large-small", "large-large", "other"},
+            {},
             {"point", "contact_ss", "contact_ls", "contact_ll", "contact_other"}};
     for (std::size_t p = 0; p < v.points.size(); ++p) {
       if (!FindMetric(in.points[p], "contact_ss")) continue;
@@ -94,9 +95,16 @@ class ContactsAnalysis : public Analysis {
     }
     s.blocks.push_back(t);
     if (HasX(v)) {
-      Figure f{"contact_types", "Contact types in the clogged system against " + v.x_label, v.x_label,
-               "fraction of contacts", {}, false, false, "Error bars: standard error over clogs"};
-      const std::pair<const char*, const char*> kinds[] = {{"contact_ss", "s-s"}, {"contact_ls", "l-s"}, {"contact_ll", "l-l"}};
+      Figure f{"contact_types",
+               "Contact types in the clogged system against " + v.x_label,
+               v.x_label,
+               "fraction of contacts",
+               {},
+               false,
+               false,
+               "Error bars: standard error over clogs"};
+      const std::pair<const char*, const char*> kinds[] = {
+          {"contact_ss", "s-s"}, {"contact_ls", "l-s"}, {"contact_ll", "l-l"}};
       for (const auto& [name, label] : kinds)
         for (Series se : PointSeries(v, in.points, name, label)) {
           se.label = std::string(label) + (se.label == label ? "" : ", " + se.label);

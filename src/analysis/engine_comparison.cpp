@@ -21,8 +21,8 @@ std::vector<PointComparison> ComparePoints(const std::vector<EnginePoint>& a, co
     for (const PointMetric& ma : pa.metrics) {
       const PointMetric* mb = FindMetric(pb->metrics, ma.name);
       if (!ma.compare || !mb || !std::isfinite(ma.mean) || !std::isfinite(mb->mean)) continue;
-      MetricDifference d{ma.name, ma.Estimate(), mb->Estimate(), ma.mean - mb->mean, std::hypot(ma.se, mb->se), kNaN,
-                         ma.title, ma.headline};
+      MetricDifference d{ma.name, ma.Estimate(), mb->Estimate(), ma.mean - mb->mean, std::hypot(ma.se, mb->se),
+                         kNaN,    ma.title,      ma.headline};
       if (d.se > 0.0) d.z = d.difference / d.se;
       c.metrics.push_back(d);
     }
@@ -42,7 +42,8 @@ MetricAgreement AgreementOf(const MetricDifference& d) {
   if (std::isfinite(d.z)) m.agree = std::fabs(d.z) <= kAgreementSigmas;
   // Zero uncertainty on both sides (every replica alike, e.g. Psi = 0): equal values agree,
   // different ones do not.
-  else if (d.se == 0.0 && std::isfinite(d.difference)) m.agree = d.difference == 0.0;
+  else if (d.se == 0.0 && std::isfinite(d.difference))
+    m.agree = d.difference == 0.0;
   // Otherwise an se is unknown (one replica): nothing can be said.
   return m;
 }
@@ -68,8 +69,8 @@ EngineCost SumEngineCost(const std::string& engine, const std::vector<RunTiming>
 }
 
 EngineComparison CompareEngines(const std::string& engine_a, const std::vector<EnginePoint>& a,
-                                 const std::vector<RunTiming>& timings_a, const std::string& engine_b,
-                                 const std::vector<EnginePoint>& b, const std::vector<RunTiming>& timings_b) {
+                                const std::vector<RunTiming>& timings_a, const std::string& engine_b,
+                                const std::vector<EnginePoint>& b, const std::vector<RunTiming>& timings_b) {
   EngineComparison c;
   c.engine_a = engine_a;
   c.engine_b = engine_b;
@@ -85,9 +86,7 @@ EngineComparison CompareEngines(const std::string& engine_a, const std::vector<E
 
 namespace {
 nlohmann::json Number(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
-nlohmann::json MeanSeJson(const MeanSe& m) {
-  return {{"mean", Number(m.mean)}, {"se", Number(m.se)}, {"n", m.n}};
-}
+nlohmann::json MeanSeJson(const MeanSe& m) { return {{"mean", Number(m.mean)}, {"se", Number(m.se)}, {"n", m.n}}; }
 }  // namespace
 
 nlohmann::json to_json(const EngineComparison& c) {
@@ -158,7 +157,7 @@ std::string SharedPointName(const CampaignView& c, const nlohmann::json& point, 
 }  // namespace
 
 std::optional<EngineComparison> EngineComparisonOf(const CampaignView& c,
-                                                     const std::vector<std::vector<PointMetric>>& metrics) {
+                                                   const std::vector<std::vector<PointMetric>>& metrics) {
   if (c.engines.size() < 2) return std::nullopt;
   const bool has_native = std::find(c.engines.begin(), c.engines.end(), "native") != c.engines.end();
   const std::string a = has_native ? "native" : c.engines[0];
@@ -182,7 +181,6 @@ std::optional<EngineComparison> EngineComparisonOf(const CampaignView& c,
   return k;
 }
 
-
 std::optional<Section> EngineComparisonSection(const CampaignView& c, const EngineComparison& k) {
   const std::string& a = k.engine_a;
   const std::string& b = k.engine_b;
@@ -199,11 +197,11 @@ std::optional<Section> EngineComparisonSection(const CampaignView& c, const Engi
   };
   auto cap_text = [&](const std::string& e) { return list_text(caps[e]); };
   const std::string reinjection_text =
-      reinjections.empty() ? std::string()
-                           : " Reinjection: " + a + " `" + list_text(reinjections[a]) + "`, " + b + " `" +
-                                 list_text(reinjections[b]) +
-                                 "` (`random`: a random place on top of the bed, the thesis; `periodic`: "
-                                 "through the bottom of a y-periodic box, same x and velocity, LIGGGHTS' way).";
+      reinjections.empty()
+          ? std::string()
+          : " Reinjection: " + a + " `" + list_text(reinjections[a]) + "`, " + b + " `" + list_text(reinjections[b]) +
+                "` (`random`: a random place on top of the bed, the thesis; `periodic`: "
+                "through the bottom of a y-periodic box, same x and velocity, LIGGGHTS' way).";
   // LAMMPS discharges the bed the native engine prepared (docs/lammps.md); LIGGGHTS prepares its own.
   const bool same_beds = (a == "native" || a == "lammps") && (b == "native" || b == "lammps");
   s.blocks.push_back(Text{
@@ -211,18 +209,20 @@ std::optional<Section> EngineComparisonSection(const CampaignView& c, const Engi
       std::string(same_beds ? "both discharge the bed the native engine prepared for each seed, so replicas start "
                               "from the same configurations"
                             : "beds are prepared by each engine, so replicas are statistically, not bodily, the same") +
-      "). Ratio = " + b + " / " + a + ", with the standard error of both "
-      "means propagated. **agree**: the difference is within " + FormatNumber(kAgreementSigmas) +
-      " combined standard errors. Coulomb cap of the tangential force: " + a + " `" + cap_text(a) + "`, " + b + " `" +
-      cap_text(b) + "` (`lammps` caps spring + damping, `liggghts` the spring part only; docs/liggghts.md)." +
-      reinjection_text});
+      "). Ratio = " + b + " / " + a +
+      ", with the standard error of both "
+      "means propagated. **agree**: the difference is within " +
+      FormatNumber(kAgreementSigmas) + " combined standard errors. Coulomb cap of the tangential force: " + a + " `" +
+      cap_text(a) + "`, " + b + " `" + cap_text(b) +
+      "` (`lammps` caps spring + damping, `liggghts` the spring part only; docs/liggghts.md)." + reinjection_text});
   std::map<std::string, std::string> titles;
   std::vector<std::string> headline;
   for (const PointAgreement& p : k.points)
     for (const MetricAgreement& m : p.metrics) {
       const MetricDifference& d = m.difference;
       titles.emplace(d.name, d.title.empty() ? d.name : d.title);
-      if (d.headline && std::find(headline.begin(), headline.end(), d.name) == headline.end()) headline.push_back(d.name);
+      if (d.headline && std::find(headline.begin(), headline.end(), d.name) == headline.end())
+        headline.push_back(d.name);
     }
   auto metric_title = [&](const std::string& name) { return titles.count(name) ? titles.at(name) : name; };
   // One line per metric: how many points agree and the spread of the ratio.
@@ -236,7 +236,8 @@ std::optional<Section> EngineComparisonSection(const CampaignView& c, const Engi
   Table overview{"engine_agreement",
                  "Agreement per metric over all compared points (n/a: no standard error on one side, e.g. one "
                  "replica, so agreement cannot be judged)",
-                 {"metric", "points", "agree", "disagree", "n/a", "ratio min", "ratio mean", "ratio max"}, {},
+                 {"metric", "points", "agree", "disagree", "n/a", "ratio min", "ratio mean", "ratio max"},
+                 {},
                  {"metric", "points", "agree", "disagree", "unknown", "ratio_min", "ratio_mean", "ratio_max"}};
   for (const auto& name : metric_order) {
     int agree = 0, disagree = 0, unknown = 0;
@@ -251,15 +252,17 @@ std::optional<Section> EngineComparisonSection(const CampaignView& c, const Engi
       ++n;
     }
     overview.rows.push_back({name, Cell::Count(static_cast<long long>(by_metric[name].size())), Cell::Count(agree),
-                             Cell::Count(disagree), Cell::Count(unknown),
-                             Cell::Number(n ? lo : kNaN), Cell::Number(n ? sum / n : kNaN), Cell::Number(n ? hi : kNaN)});
+                             Cell::Count(disagree), Cell::Count(unknown), Cell::Number(n ? lo : kNaN),
+                             Cell::Number(n ? sum / n : kNaN), Cell::Number(n ? hi : kNaN)});
   }
   if (k.points.empty()) {
     s.blocks.push_back(Text{"No sweep point has finished runs on both engines yet."});
   } else {
     s.blocks.push_back(overview);
-    Table t{"engine_comparison", "Every metric of every point on both engines (mean ± se (n) over replicas)",
-            {"point", "metric", "", a, b, "ratio " + b + "/" + a, "z", "agree"}, {},
+    Table t{"engine_comparison",
+            "Every metric of every point on both engines (mean ± se (n) over replicas)",
+            {"point", "metric", "", a, b, "ratio " + b + "/" + a, "z", "agree"},
+            {},
             {"point", "metric", "title", a, b, "ratio", "z", "agree"}};
     for (const PointAgreement& p : k.points) {
       const std::string name = p.name.empty() ? SharedPointName(c, p.point, a) : p.name;
@@ -273,8 +276,14 @@ std::optional<Section> EngineComparisonSection(const CampaignView& c, const Engi
   }
   // Ratio against x, one series per (metric, group), with the 10 % band.
   if (HasX(c) && !k.points.empty()) {
-    Figure f{"engine_ratio", "Ratio " + b + " / " + a + " against " + c.x_label, c.x_label, b + " / " + a, {}, false,
-             false, "Error bars: propagated se of both means. Reference lines: equal (solid black), -10 % (dashed grey) "
+    Figure f{"engine_ratio",
+             "Ratio " + b + " / " + a + " against " + c.x_label,
+             c.x_label,
+             b + " / " + a,
+             {},
+             false,
+             false,
+             "Error bars: propagated se of both means. Reference lines: equal (solid black), -10 % (dashed grey) "
              "and +10 % (dotted grey)"};
     double xlo = kInf, xhi = -kInf;
     for (const std::string& metric : headline) {
@@ -318,10 +327,12 @@ std::optional<Section> EngineComparisonSection(const CampaignView& c, const Engi
       s.blocks.push_back(f);
     }
   }
-  Table cost{"engine_cost", "What each engine cost on this campaign (discharge throughput: disc-steps per second "
-                            "per run; one disc = one sphere of a LIGGGHTS multisphere body)",
+  Table cost{"engine_cost",
+             "What each engine cost on this campaign (discharge throughput: disc-steps per second "
+             "per run; one disc = one sphere of a LIGGGHTS multisphere body)",
              {"engine", "runs", "wall time (bed + discharge, s)", "discharge wall time (s)", "disc-steps/s per run",
-              "threads per run", "throughput / " + a}, {},
+              "threads per run", "throughput / " + a},
+             {},
              {"engine", "runs", "wall_s", "discharge_wall_s", "disc_steps_per_s", "threads", "throughput_ratio"}};
   const double base_rate = k.costs.empty() ? kNaN : k.costs.front().disc_steps_per_s.mean;
   for (const EngineCost& e : k.costs) {

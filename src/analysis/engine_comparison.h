@@ -19,7 +19,7 @@ namespace granary::analysis {
 // difference a - b, its standard error sqrt(se_a^2 + se_b^2) and z = difference / se
 // (NaN when an se is unknown).
 struct MetricDifference {
-  std::string name;                   // "q_count", "phi", ...
+  std::string name;  // "q_count", "phi", ...
   MeanSe a, b;
   double difference = kNaN;
   double se = kNaN;
@@ -30,13 +30,13 @@ struct MetricDifference {
 
 // The point metrics of one point of one engine.
 struct EnginePoint {
-  nlohmann::json point;               // sweep values (without the engine)
+  nlohmann::json point;  // sweep values (without the engine)
   std::string point_id;
   std::vector<PointMetric> metrics;
 };
 
 struct PointComparison {
-  nlohmann::json point;               // the sweep values both campaigns share
+  nlohmann::json point;  // the sweep values both campaigns share
   std::string point_id_a, point_id_b;
   std::vector<MetricDifference> metrics;  // only metrics defined in both
 };
@@ -47,8 +47,8 @@ std::vector<PointComparison> ComparePoints(const std::vector<EnginePoint>& a, co
 // One metric of one point on both engines: b / a with its standard error (first-order
 // propagation of both se), and agreement within the combined uncertainty.
 struct MetricAgreement {
-  MetricDifference difference;        // a - b, its se and z
-  double ratio = kNaN;                // b / a
+  MetricDifference difference;  // a - b, its se and z
+  double ratio = kNaN;          // b / a
   double ratio_se = kNaN;
   // |z| <= kAgreementSigmas; nullopt when it cannot be judged (no standard error on one side:
   // a single replica), which is neither agreement nor disagreement.
@@ -59,8 +59,8 @@ struct MetricAgreement {
 std::string AgreementText(const std::optional<bool>& agree);
 
 struct PointAgreement {
-  nlohmann::json point;               // sweep values shared by both engines
-  std::string name{};                 // as the report names it ("W = 15, shape = disc"); "" unknown
+  nlohmann::json point;  // sweep values shared by both engines
+  std::string name{};    // as the report names it ("W = 15, shape = disc"); "" unknown
   std::vector<MetricAgreement> metrics;
 };
 
@@ -69,16 +69,16 @@ struct PointAgreement {
 struct EngineCost {
   std::string engine;
   int runs = 0;
-  double wall_s = 0.0;                // sum over runs
+  double wall_s = 0.0;  // sum over runs
   double discharge_wall_s = 0.0;
-  MeanSe disc_steps_per_s;            // over runs
-  int threads = 0;                    // per run (the largest seen)
+  MeanSe disc_steps_per_s;  // over runs
+  int threads = 0;          // per run (the largest seen)
 };
 
 struct EngineComparison {
-  std::string engine_a, engine_b;     // ratios are b / a
+  std::string engine_a, engine_b;  // ratios are b / a
   std::vector<PointAgreement> points;
-  std::vector<EngineCost> costs;      // a, then b
+  std::vector<EngineCost> costs;  // a, then b
 };
 
 // Two engines agree on a metric when their difference is within this many combined
@@ -89,8 +89,8 @@ MetricAgreement AgreementOf(const MetricDifference& d);
 EngineCost SumEngineCost(const std::string& engine, const std::vector<RunTiming>& runs);
 // Points are matched by their sweep values; points on only one engine are left out.
 EngineComparison CompareEngines(const std::string& engine_a, const std::vector<EnginePoint>& a,
-                                 const std::vector<RunTiming>& timings_a, const std::string& engine_b,
-                                 const std::vector<EnginePoint>& b, const std::vector<RunTiming>& timings_b);
+                                const std::vector<RunTiming>& timings_a, const std::string& engine_b,
+                                const std::vector<EnginePoint>& b, const std::vector<RunTiming>& timings_b);
 
 // JSON of the comparison; an unknown agreement is null (not false), as are NaN numbers.
 nlohmann::json to_json(const EngineComparison& c);
@@ -98,7 +98,7 @@ nlohmann::json to_json(const EngineComparison& c);
 // The comparison of the first two engines of a campaign (native is `a` when present), from
 // every analysis' point metrics per point (CampaignView::points order); nothing with one engine.
 std::optional<EngineComparison> EngineComparisonOf(const CampaignView& view,
-                                                     const std::vector<std::vector<PointMetric>>& metrics);
+                                                   const std::vector<std::vector<PointMetric>>& metrics);
 // Its report section.
 std::optional<Section> EngineComparisonSection(const CampaignView& view, const EngineComparison& comparison);
 

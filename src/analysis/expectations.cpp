@@ -15,7 +15,8 @@ constexpr const char* kKeys[] = {"metric", "fit", "parameter", "at", "value", "t
 std::string AtText(const Expectation& e) {
   std::string s;
   for (const auto& [name, v] : e.at)
-    s += (s.empty() ? "" : ", ") + name + " = " + (v.is_string() ? v.get<std::string>() : FormatNumber(v.get<double>(), 6));
+    s += (s.empty() ? "" : ", ") + name + " = " +
+         (v.is_string() ? v.get<std::string>() : FormatNumber(v.get<double>(), 6));
   return s;
 }
 
@@ -36,7 +37,8 @@ std::vector<Expectation> ReadExpectations(const nlohmann::json& spec, const std:
   for (std::size_t i = 0; i < list.size(); ++i) {
     const std::string path = "/expect/" + std::to_string(i);
     const nlohmann::json& j = list[i];
-    if (!j.is_object()) throw OptionError(path, j, "must be an object {\"metric\", \"at\", \"value\", \"tolerance\", \"source\"}");
+    if (!j.is_object())
+      throw OptionError(path, j, "must be an object {\"metric\", \"at\", \"value\", \"tolerance\", \"source\"}");
     for (const auto& [key, v] : j.items())
       if (std::none_of(std::begin(kKeys), std::end(kKeys), [&](const char* k) { return key == k; }))
         throw OptionError(path + "/" + key, v,
@@ -54,8 +56,9 @@ std::vector<Expectation> ReadExpectations(const nlohmann::json& spec, const std:
     e.parameter = text("parameter");
     e.source = text("source");
     if (e.metric.empty() == e.fit.empty())
-      throw OptionError(path, j, "needs either \"metric\" (a metric or an expression, with \"at\") or \"fit\" (a figure of "
-                                 "/report/figures with a fit) and \"parameter\"");
+      throw OptionError(path, j,
+                        "needs either \"metric\" (a metric or an expression, with \"at\") or \"fit\" (a figure of "
+                        "/report/figures with a fit) and \"parameter\"");
     if (!e.metric.empty()) {
       try {
         Expression::Parse(e.metric, {});
@@ -66,17 +69,21 @@ std::vector<Expectation> ReadExpectations(const nlohmann::json& spec, const std:
       if (std::find(fits.begin(), fits.end(), e.fit) == fits.end()) {
         std::string known;
         for (const auto& f : fits) known += (known.empty() ? "" : ", ") + f;
-        throw OptionError(path + "/fit", j.at("fit"), "names no figure with a fit (figures with fits: " +
-                                                          (known.empty() ? std::string("none") : known) + ")");
+        throw OptionError(
+            path + "/fit", j.at("fit"),
+            "names no figure with a fit (figures with fits: " + (known.empty() ? std::string("none") : known) + ")");
       }
-      if (e.parameter.empty()) throw OptionError(path + "/parameter", nullptr, "must name a parameter of the fit's model");
-      const FigureSpec& f = *std::find_if(figures.begin(), figures.end(), [&](const FigureSpec& s) { return s.name == e.fit; });
+      if (e.parameter.empty())
+        throw OptionError(path + "/parameter", nullptr, "must name a parameter of the fit's model");
+      const FigureSpec& f =
+          *std::find_if(figures.begin(), figures.end(), [&](const FigureSpec& s) { return s.name == e.fit; });
       const Expression model = Expression::Parse(f.fit->model, f.fit->over);
       const auto& ps = model.Parameters();
       if (std::find(ps.begin(), ps.end(), e.parameter) == ps.end()) {
         std::string known;
         for (const auto& p : ps) known += (known.empty() ? "" : ", ") + p;
-        throw OptionError(path + "/parameter", j.at("parameter"), "is not a parameter of " + f.fit->model + " (its parameters: " + known + ")");
+        throw OptionError(path + "/parameter", j.at("parameter"),
+                          "is not a parameter of " + f.fit->model + " (its parameters: " + known + ")");
       }
     }
     if (j.contains("at")) {
@@ -140,38 +147,45 @@ void CheckMetricReferences(const nlohmann::json& spec) {
       throw OptionError(path, value, err.what());
     }
     for (const std::string& name : names) {
-      if (name == "L" || std::find(axis_names.begin(), axis_names.end(), name) != axis_names.end() || axes.FindDerived(name))
+      if (name == "L" || std::find(axis_names.begin(), axis_names.end(), name) != axis_names.end() ||
+          axes.FindDerived(name))
         continue;
       if (std::any_of(on.begin(), on.end(), [&](const AnalysisEntry* e) { return OffersMetric(*e, name); })) continue;
       for (const AnalysisEntry& e : rows)
         if (OffersMetric(e, name))
-          throw OptionError(path, value, "\"" + name + "\" is a metric of the " + e.key + " analysis, which this spec leaves off (turn it on with /report/" + e.key + ")");
+          throw OptionError(path, value,
+                            "\"" + name + "\" is a metric of the " + e.key +
+                                " analysis, which this spec leaves off (turn it on with /report/" + e.key + ")");
       std::string offered;
       for (const AnalysisEntry* e : on)
         for (const std::string& m : e->metrics) offered += (offered.empty() ? "" : ", ") + m;
       std::string known_axes;
       for (const std::string& a : axis_names) known_axes += (known_axes.empty() ? "" : ", ") + a;
-      throw OptionError(path, value, "\"" + name + "\" names no metric of the analyses this spec turns on (" + offered +
-                                         ") and no axis (" + (known_axes.empty() ? std::string("none") : known_axes) + ")");
+      throw OptionError(path, value,
+                        "\"" + name + "\" names no metric of the analyses this spec turns on (" + offered +
+                            ") and no axis (" + (known_axes.empty() ? std::string("none") : known_axes) + ")");
     }
   };
   for (const FigureSpec& f : ReadFigureSpecs(spec))
     if (!f.y.empty()) check(f.y, f.path + "/y", f.y);
   for (const Expectation& e : ReadExpectations(spec, ReadFigureSpecs(spec)))
     if (!e.metric.empty()) check(e.metric, e.path + "/metric", e.metric);
-  if (spec.is_object() && spec.contains("replicas") && spec.at("replicas").is_object() && spec.at("replicas").contains("until")) {
+  if (spec.is_object() && spec.contains("replicas") && spec.at("replicas").is_object() &&
+      spec.at("replicas").contains("until")) {
     const nlohmann::json& until = spec.at("replicas").at("until");
     const nlohmann::json list = until.is_array() ? until : nlohmann::json::array({until});
     for (std::size_t i = 0; i < list.size(); ++i)
       if (list[i].is_object() && list[i].contains("metric") && list[i].at("metric").is_string())
         check(list[i].at("metric").get<std::string>(),
-              until.is_array() ? "/replicas/until/" + std::to_string(i) + "/metric" : std::string("/replicas/until/metric"),
+              until.is_array() ? "/replicas/until/" + std::to_string(i) + "/metric"
+                               : std::string("/replicas/until/metric"),
               list[i].at("metric"));
   }
 }
 
-std::vector<ExpectationResult> JudgeExpectations(const CampaignAnalysis& ca, const std::vector<Expectation>& expectations,
-                                                  const std::vector<FigureOutcome>& figures) {
+std::vector<ExpectationResult> JudgeExpectations(const CampaignAnalysis& ca,
+                                                 const std::vector<Expectation>& expectations,
+                                                 const std::vector<FigureOutcome>& figures) {
   const CampaignView& v = ca.view;
   const std::string size = ca.view.campaign ? CampaignSize(ca.view.campaign->spec) : std::string();
   std::vector<ExpectationResult> out;
@@ -225,7 +239,8 @@ std::vector<ExpectationResult> JudgeExpectations(const CampaignAnalysis& ca, con
         continue;
       }
       if (r.runs < e.min_runs) {
-        r.why = std::to_string(r.runs) + " finished run" + (r.runs == 1 ? "" : "s") + ", needs " + std::to_string(e.min_runs);
+        r.why = std::to_string(r.runs) + " finished run" + (r.runs == 1 ? "" : "s") + ", needs " +
+                std::to_string(e.min_runs);
         out.push_back(r);
         continue;
       }
@@ -235,8 +250,8 @@ std::vector<ExpectationResult> JudgeExpectations(const CampaignAnalysis& ca, con
     const double allowed = e.tolerance + 2.0 * se;
     r.verdict = diff <= allowed ? Verdict::kAgrees : Verdict::kDisagrees;
     r.why = "|" + FormatNumber(r.measured, 4) + " - " + FormatNumber(e.value, 4) + "| = " + FormatNumber(diff, 3) +
-            (r.verdict == Verdict::kAgrees ? " <= " : " > ") + "tolerance " + FormatNumber(e.tolerance, 3) + " + 2 se (" +
-            FormatNumber(2.0 * se, 2) + ")" + (std::isfinite(r.se) ? "" : "; no se");
+            (r.verdict == Verdict::kAgrees ? " <= " : " > ") + "tolerance " + FormatNumber(e.tolerance, 3) +
+            " + 2 se (" + FormatNumber(2.0 * se, 2) + ")" + (std::isfinite(r.se) ? "" : "; no se");
     out.push_back(r);
   }
   // Measured as at full size (the report shows the numbers), but a smaller system than the
@@ -244,7 +259,8 @@ std::vector<ExpectationResult> JudgeExpectations(const CampaignAnalysis& ca, con
   if (!JudgedAtSize(size))
     for (ExpectationResult& r : out) {
       r.verdict = Verdict::kNotComparable;
-      r.why = "a " + size + " campaign (/size): judged at full size only" + (r.why.empty() ? std::string() : "; " + r.why);
+      r.why =
+          "a " + size + " campaign (/size): judged at full size only" + (r.why.empty() ? std::string() : "; " + r.why);
     }
   return out;
 }
@@ -262,18 +278,23 @@ std::unique_ptr<Reproduction> Reproduce(const CampaignAnalysis& ca) {
 ExpectationCounts Count(const std::vector<ExpectationResult>& results) {
   ExpectationCounts c;
   for (const auto& r : results) {
-    if (r.verdict == Verdict::kAgrees) ++c.agree;
-    else if (r.verdict == Verdict::kDisagrees) ++c.disagree;
-    else if (r.verdict == Verdict::kNotComparable) ++c.not_comparable;
-    else ++c.not_yet;
+    if (r.verdict == Verdict::kAgrees)
+      ++c.agree;
+    else if (r.verdict == Verdict::kDisagrees)
+      ++c.disagree;
+    else if (r.verdict == Verdict::kNotComparable)
+      ++c.not_comparable;
+    else
+      ++c.not_yet;
   }
   return c;
 }
 
 std::string ToString(const ExpectationCounts& c) {
-  return std::to_string(c.agree) + " agree, " + std::to_string(c.disagree) + (c.disagree == 1 ? " disagrees, " : " disagree, ") +
-         std::to_string(c.not_yet) + " not yet" +
-         (c.not_comparable > 0 ? ", " + std::to_string(c.not_comparable) + " not comparable at this size" : std::string());
+  return std::to_string(c.agree) + " agree, " + std::to_string(c.disagree) +
+         (c.disagree == 1 ? " disagrees, " : " disagree, ") + std::to_string(c.not_yet) + " not yet" +
+         (c.not_comparable > 0 ? ", " + std::to_string(c.not_comparable) + " not comparable at this size"
+                               : std::string());
 }
 
 ExportTable ExpectationsTable(const std::vector<ExpectationResult>& results) {
@@ -282,8 +303,8 @@ ExportTable ExpectationsTable(const std::vector<ExpectationResult>& results) {
   auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); };
   for (const auto& r : results) {
     const Expectation& e = *r.expectation;
-    t.rows.push_back({r.what, number(e.value), number(e.tolerance), e.source, number(r.measured), number(r.se), r.n, r.runs,
-                      ToString(r.verdict), r.why});
+    t.rows.push_back({r.what, number(e.value), number(e.tolerance), e.source, number(r.measured), number(r.se), r.n,
+                      r.runs, ToString(r.verdict), r.why});
   }
   return t;
 }
@@ -292,23 +313,25 @@ std::optional<Section> KeyResultsSection(const std::vector<ExpectationResult>& r
   if (results.empty()) return std::nullopt;
   Section s{"key-results", "Key results", {}};
   const ExpectationCounts c = Count(results);
-  s.blocks.push_back(Text{"What the campaign spec expects (`/expect`), each beside what the runs measured: **" +
-                          ToString(c) + "**. A value agrees when |measured - expected| <= tolerance + 2 se; too few "
-                          "finished runs (or a fit that does not determine its parameters) is \"not enough runs\"; in a quick or medium "
-                          "campaign (`/size`) every value is \"not comparable at this size\": measured, not judged."});
-  Table t{"key_results", "Expected and measured (measured: mean ± se (n))",
+  s.blocks.push_back(Text{
+      "What the campaign spec expects (`/expect`), each beside what the runs measured: **" + ToString(c) +
+      "**. A value agrees when |measured - expected| <= tolerance + 2 se; too few "
+      "finished runs (or a fit that does not determine its parameters) is \"not enough runs\"; in a quick or medium "
+      "campaign (`/size`) every value is \"not comparable at this size\": measured, not judged."});
+  Table t{"key_results",
+          "Expected and measured (measured: mean ± se (n))",
           {"quantity", "expected", "source", "measured", "runs", "verdict", "how judged"},
           {},
           {"quantity", "expected", "source", "measured", "runs", "verdict", "why"}};
   for (const auto& r : results) {
     const Expectation& e = *r.expectation;
-    t.rows.push_back({r.what,
-                      FormatNumber(e.value, 4) + (e.tolerance > 0 ? " ± " + FormatNumber(e.tolerance, 3) : std::string()),
-                      e.source, Cell::Estimate(r.measured, r.se, r.n), Cell::Count(r.runs),
-                      (r.verdict == Verdict::kAgrees      ? "**agrees**"
-                       : r.verdict == Verdict::kDisagrees ? "**disagrees**"
-                                                          : ToString(r.verdict)),
-                      r.why});
+    t.rows.push_back(
+        {r.what, FormatNumber(e.value, 4) + (e.tolerance > 0 ? " ± " + FormatNumber(e.tolerance, 3) : std::string()),
+         e.source, Cell::Estimate(r.measured, r.se, r.n), Cell::Count(r.runs),
+         (r.verdict == Verdict::kAgrees      ? "**agrees**"
+          : r.verdict == Verdict::kDisagrees ? "**disagrees**"
+                                             : ToString(r.verdict)),
+         r.why});
   }
   s.blocks.push_back(t);
   return s;
@@ -316,21 +339,24 @@ std::optional<Section> KeyResultsSection(const std::vector<ExpectationResult>& r
 
 nlohmann::json AxesJsonSchema() {
   return {{"type", "object"},
-          {"description", "derived axes {name: expression over the sweep axes' short names and the derived axes before it}, "
-                          "e.g. {\"D_eq\": \"sqrt(1 + D_b^2)\", \"W_over_D_eq\": \"W / D_eq\"}"},
+          {"description",
+           "derived axes {name: expression over the sweep axes' short names and the derived axes before it}, "
+           "e.g. {\"D_eq\": \"sqrt(1 + D_b^2)\", \"W_over_D_eq\": \"W / D_eq\"}"},
           {"additionalProperties", {{"type", "string"}}}};
 }
 
 nlohmann::json FiguresJsonSchema() {
-  const nlohmann::json axis_or_list = {{"oneOf", {{{"type", "string"}}, {{"type", "array"}, {"items", {{"type", "string"}}}}}}};
-  nlohmann::json fit = {{"type", "object"},
-                        {"additionalProperties", false},
-                        {"required", {"model"}},
-                        {"properties",
-                         {{"model", {{"type", "string"}, {"description", "an expression over axes; other names are parameters"}}},
-                          {"over", axis_or_list},
-                          {"initial", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}},
-                          {"collapse", {{"type", "boolean"}, {"description", "also draw the data divided by the fitted law"}}}}}};
+  const nlohmann::json axis_or_list = {
+      {"oneOf", {{{"type", "string"}}, {{"type", "array"}, {"items", {{"type", "string"}}}}}}};
+  nlohmann::json fit = {
+      {"type", "object"},
+      {"additionalProperties", false},
+      {"required", {"model"}},
+      {"properties",
+       {{"model", {{"type", "string"}, {"description", "an expression over axes; other names are parameters"}}},
+        {"over", axis_or_list},
+        {"initial", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}},
+        {"collapse", {{"type", "boolean"}, {"description", "also draw the data divided by the fitted law"}}}}}};
   nlohmann::json figure = {
       {"type", "object"},
       {"additionalProperties", false},
@@ -338,10 +364,12 @@ nlohmann::json FiguresJsonSchema() {
       {"properties",
        {{"name", {{"type", "string"}, {"pattern", "^[A-Za-z0-9._-]+$"}}},
         {"kind", {{"enum", {"points", "distribution", "curves", "maps", "profile", "pictures"}}}},
-        {"picture", {{"enum", {"end", "bed"}}, {"description", "pictures: the last frame (default) or the bed at t = 0"}}},
+        {"picture",
+         {{"enum", {"end", "bed"}}, {"description", "pictures: the last frame (default) or the bed at t = 0"}}},
         {"y", {{"type", "string"}, {"description", "a metric, or an expression over metrics and axes"}}},
         {"ylabel", {{"type", "string"}}},
-        {"x", {{"type", "string"}, {"description", "a sweep axis (short name) or a derived axis; default the report's x"}}},
+        {"x",
+         {{"type", "string"}, {"description", "a sweep axis (short name) or a derived axis; default the report's x"}}},
         {"group", axis_or_list},
         {"pool", axis_or_list},
         {"only", {{"type", "object"}, {"description", "{axis: value or [values]}"}}},
@@ -351,21 +379,40 @@ nlohmann::json FiguresJsonSchema() {
         {"reference", {{"type", "string"}}},
         {"logx", {{"type", "boolean"}}},
         {"logy", {{"type", "boolean"}}},
-        {"of", {{"type", "string"},
-                {"description", "distribution: a distribution an analysis offers (vx, vy, avalanche_sizes, arch_sizes, "
-                                "axis_bed, axis_flow, axis_arches) or a per-run metric, pooled over the replicas of each "
-                                "point; curves: a curve an analysis offers (arch_pressure_theta, arch_axis_mode_theta, "
-                                "arch_pressure_n)"}}},
+        {"of",
+         {{"type", "string"},
+          {"description",
+           "distribution: a distribution an analysis offers (vx, vy, avalanche_sizes, arch_sizes, "
+           "axis_bed, axis_flow, axis_arches) or a per-run metric, pooled over the replicas of each "
+           "point; curves: a curve an analysis offers (arch_pressure_theta, arch_axis_mode_theta, "
+           "arch_pressure_n)"}}},
         {"bins", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000}}},
-        {"range", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2}, {"maxItems", 2},
-                   {"description", "distribution: [lo, hi] of the bins, the same for every curve; default the data's"}}},
-        {"field", {{"type", "string"}, {"description", "maps, profile: a field an analysis offers (/report/fields: phi, speed, pressure, ...)"}}},
+        {"range",
+         {{"type", "array"},
+          {"items", {{"type", "number"}}},
+          {"minItems", 2},
+          {"maxItems", 2},
+          {"description", "distribution: [lo, hi] of the bins, the same for every curve; default the data's"}}},
+        {"field",
+         {{"type", "string"},
+          {"description", "maps, profile: a field an analysis offers (/report/fields: phi, speed, pressure, ...)"}}},
         {"along", {{"enum", {"x", "y"}}, {"description", "profile: the direction of the line"}}},
         {"at", {{"type", "number"}, {"description", "profile: the line's other coordinate (d)"}}},
-        {"width", {{"type", "number"}, {"exclusiveMinimum", 0}, {"description", "profile: the band averaged across the line (d)"}}},
-        {"origin_outlet", {{"type", "integer"}, {"minimum", 0}, {"description", "profile along x: x from the centre of this base outlet of each point (thesis fig. 7.6)"}}},
-        {"one_run", {{"type", "boolean"}, {"description", "maps, profile: the lowest replica that has the field, not the runs merged (one instant: thesis fig. 3.10)"}}}}}};
-  return {{"type", "array"}, {"description", "figures drawn in the report's Figures section (docs/analyses.md)"}, {"items", figure}};
+        {"width",
+         {{"type", "number"},
+          {"exclusiveMinimum", 0},
+          {"description", "profile: the band averaged across the line (d)"}}},
+        {"origin_outlet",
+         {{"type", "integer"},
+          {"minimum", 0},
+          {"description", "profile along x: x from the centre of this base outlet of each point (thesis fig. 7.6)"}}},
+        {"one_run",
+         {{"type", "boolean"},
+          {"description",
+           "maps, profile: the lowest replica that has the field, not the runs merged (one instant: thesis fig. 3.10)"}}}}}};
+  return {{"type", "array"},
+          {"description", "figures drawn in the report's Figures section (docs/analyses.md)"},
+          {"items", figure}};
 }
 
 nlohmann::json ExpectJsonSchema() {
@@ -381,7 +428,9 @@ nlohmann::json ExpectJsonSchema() {
                            {"tolerance", {{"type", "number"}, {"minimum", 0}}},
                            {"source", {{"type", "string"}}},
                            {"min_runs", {{"type", "integer"}, {"minimum", 1}}}}}};
-  return {{"type", "array"}, {"description", "expected values with their source (the report's Key results)"}, {"items", item}};
+  return {{"type", "array"},
+          {"description", "expected values with their source (the report's Key results)"},
+          {"items", item}};
 }
 
 }  // namespace granary::analysis

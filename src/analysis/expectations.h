@@ -16,14 +16,14 @@
 namespace granary::analysis {
 
 struct Expectation {
-  std::string path;                        // "/expect/2"
-  std::string metric;                      // a metric or expression; "" for a fitted parameter
-  std::string fit, parameter;              // a figure of /report/figures and its fit's parameter
+  std::string path;                                        // "/expect/2"
+  std::string metric;                                      // a metric or expression; "" for a fitted parameter
+  std::string fit, parameter;                              // a figure of /report/figures and its fit's parameter
   std::vector<std::pair<std::string, nlohmann::json>> at;  // axis -> value (all must hold)
   double value = kNaN;
-  double tolerance = 0.0;                  // absolute
-  std::string source;                      // "thesis fig. 3.3a"
-  int min_runs = 2;                        // fewer finished runs at the point: not enough runs
+  double tolerance = 0.0;  // absolute
+  std::string source;      // "thesis fig. 3.3a"
+  int min_runs = 2;        // fewer finished runs at the point: not enough runs
 };
 
 // Reads /expect of a campaign spec (absent: none); `figures` are its /report/figures, which a
@@ -52,19 +52,20 @@ void CheckMetricReferences(const nlohmann::json& campaign_spec);
 
 struct ExpectationResult {
   const Expectation* expectation = nullptr;
-  std::string what;                        // "psi at W = 11", "b of fig-5.2"
+  std::string what;  // "psi at W = 11", "b of fig-5.2"
   double measured = kNaN, se = kNaN;
-  int n = 0;                               // the measurement's n (replicas, pooled items, fit points)
-  int runs = 0;                            // finished runs behind it
+  int n = 0;     // the measurement's n (replicas, pooled items, fit points)
+  int runs = 0;  // finished runs behind it
   Verdict verdict = Verdict::kNotEnough;
-  std::string why;                         // "|0.61 - 0.66| = 0.05 <= 0.15 + 2 se", "1 run, needs 2"
+  std::string why;  // "|0.61 - 0.66| = 0.05 <= 0.15 + 2 se", "1 run, needs 2"
 };
 
 // Judges every expectation: agrees when |measured - value| <= tolerance + 2 se, disagrees
 // otherwise; not enough runs when the point has fewer than min_runs finished runs, nothing was
 // measured, or a fit is not good (fit.h). `figures` are the made figures (their fits).
-std::vector<ExpectationResult> JudgeExpectations(const CampaignAnalysis& analysis, const std::vector<Expectation>& expectations,
-                                                  const std::vector<FigureOutcome>& figures);
+std::vector<ExpectationResult> JudgeExpectations(const CampaignAnalysis& analysis,
+                                                 const std::vector<Expectation>& expectations,
+                                                 const std::vector<FigureOutcome>& figures);
 
 // A campaign's figures of /report/figures and its judged /expect, made together (an
 // expectation may name a figure's fit); the pointers inside point into this object.

@@ -28,7 +28,8 @@ nlohmann::json AxisCell(const std::string& axis, const nlohmann::json& point, co
 nlohmann::json Number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 // The campaign's derived axes (/axes) as columns after the sweep axes.
-void AddDerived(const CampaignView& v, const nlohmann::json& point, const nlohmann::json& spec, std::vector<nlohmann::json>& head) {
+void AddDerived(const CampaignView& v, const nlohmann::json& point, const nlohmann::json& spec,
+                std::vector<nlohmann::json>& head) {
   if (v.named.Derived().empty()) return;
   const std::map<std::string, double> values = v.named.Values(point, spec);
   for (const DerivedAxis& d : v.named.Derived()) head.push_back(Number(values.at(d.name)));
@@ -79,8 +80,8 @@ ExportTable MakeExportTable(const CampaignAnalysis& a, ExportLevel level) {
     t.columns = {"point_id", "engine", "runs"};
     for (std::size_t p = 0; p < v.points.size(); ++p) {
       const Point& point = v.points[p];
-      std::vector<nlohmann::json> head = {point.id, point.engine.empty() && !v.engines.empty() ? v.engines.front() : point.engine,
-                                          point.runs.size()};
+      std::vector<nlohmann::json> head = {
+          point.id, point.engine.empty() && !v.engines.empty() ? v.engines.front() : point.engine, point.runs.size()};
       for (const auto& axis : axes) head.push_back(AxisCell(axis, point.point, point.spec));
       AddDerived(v, point.point, point.spec, head);
       heads.push_back(head);
@@ -101,7 +102,8 @@ ExportTable MakeExportTable(const CampaignAnalysis& a, ExportLevel level) {
     std::vector<nlohmann::json> row = heads[i];
     for (std::size_t k = 0; k < metrics.Names().size(); ++k) {
       const auto it = values[i].find(k);
-      for (std::size_t c = 0; c < per_metric; ++c) row.push_back(it == values[i].end() ? nlohmann::json(nullptr) : it->second[c]);
+      for (std::size_t c = 0; c < per_metric; ++c)
+        row.push_back(it == values[i].end() ? nlohmann::json(nullptr) : it->second[c]);
     }
     t.rows.push_back(std::move(row));
   }

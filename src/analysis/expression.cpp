@@ -124,9 +124,7 @@ class ExpressionParser {
   }
   std::size_t ParseName() {
     const std::size_t start = pos_;
-    while (pos_ < s_.size() &&
-           (std::isalnum(static_cast<unsigned char>(s_[pos_])) || s_[pos_] == '_'))
-      ++pos_;
+    while (pos_ < s_.size() && (std::isalnum(static_cast<unsigned char>(s_[pos_])) || s_[pos_] == '_')) ++pos_;
     const std::string name = s_.substr(start, pos_ - start);
     SkipSpace();
     if (pos_ < s_.size() && s_[pos_] == '(') {
@@ -186,9 +184,9 @@ Expression Expression::Parse(const std::string& text, const std::vector<std::str
 
 double Expression::Evaluate(std::span<const double> vars, std::span<const double> pars) const {
   if (vars.size() != variables_.size() || pars.size() != parameters_.size())
-    throw ExpressionError("model '" + text_ + "': evaluated with " + std::to_string(vars.size()) +
-                          " variable(s) and " + std::to_string(pars.size()) + " parameter(s), expected " +
-                          std::to_string(variables_.size()) + " and " + std::to_string(parameters_.size()));
+    throw ExpressionError("model '" + text_ + "': evaluated with " + std::to_string(vars.size()) + " variable(s) and " +
+                          std::to_string(pars.size()) + " parameter(s), expected " + std::to_string(variables_.size()) +
+                          " and " + std::to_string(parameters_.size()));
   return EvalNode(root_, vars, pars);
 }
 

@@ -38,7 +38,7 @@ class Expression {
   struct Node {
     Op op = Op::kNumber;
     double value = 0.0;
-    std::size_t index = 0;        // variable / parameter / function index
+    std::size_t index = 0;  // variable / parameter / function index
     std::vector<std::size_t> args;
   };
   friend class ExpressionParser;

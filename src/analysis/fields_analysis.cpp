@@ -13,8 +13,8 @@
 namespace granary::analysis {
 
 std::vector<CgField> ThesisMaps() {
-  return {CgField::kPhi,   CgField::kSpeed,    CgField::kOmega, CgField::kOmegaFl2,
-          CgField::kTg,    CgField::kPressure, CgField::kShear, CgField::kFriction};
+  return {CgField::kPhi, CgField::kSpeed,    CgField::kOmega, CgField::kOmegaFl2,
+          CgField::kTg,  CgField::kPressure, CgField::kShear, CgField::kFriction};
 }
 
 FieldsOptions::FieldsOptions() : maps(ThesisMaps()) {}
@@ -73,9 +73,9 @@ std::optional<FieldsOptions> ReadFieldsOptions(const nlohmann::json& j, const st
     if (!j.get<bool>()) return std::nullopt;
     return FieldsOptions();
   }
-  OptionObject(j, path,
-                {"maps", "width", "cutoff", "spacing", "window", "min_phi", "frames", "series", "force_chains",
-                 "region"});
+  OptionObject(
+      j, path,
+      {"maps", "width", "cutoff", "spacing", "window", "min_phi", "frames", "series", "force_chains", "region"});
   FieldsOptions o;
   constexpr double kBig = 1e300;
   for (const auto& [key, v] : j.items()) {
@@ -87,7 +87,8 @@ std::optional<FieldsOptions> ReadFieldsOptions(const nlohmann::json& j, const st
         CgField f;
         if (!v[i].is_string() || !CgFieldByName(v[i].get<std::string>(), f)) {
           std::string allowed;
-          for (const CgFieldInfo& info : CgFieldTable()) allowed += (allowed.empty() ? "" : ", ") + std::string(info.name);
+          for (const CgFieldInfo& info : CgFieldTable())
+            allowed += (allowed.empty() ? "" : ", ") + std::string(info.name);
           throw OptionError(p + "/" + std::to_string(i), v[i], "must be a field name (" + allowed + ")");
         }
         if (std::find(o.maps.begin(), o.maps.end(), f) == o.maps.end()) o.maps.push_back(f);
@@ -143,8 +144,9 @@ std::optional<FieldsOptions> ReadFieldsOptions(const nlohmann::json& j, const st
   }
   // The kernel must reach the next node: a grid coarser than the kernel's cut misses mass.
   if (o.cg.spacing > 0.5 * o.cg.cutoff * o.cg.width)
-    throw OptionError(path + "/spacing", o.cg.spacing,
-                      "must be <= half the kernel's reach cutoff * width = " + FormatNumber(0.5 * o.cg.cutoff * o.cg.width));
+    throw OptionError(
+        path + "/spacing", o.cg.spacing,
+        "must be <= half the kernel's reach cutoff * width = " + FormatNumber(0.5 * o.cg.cutoff * o.cg.width));
   return o;
 }
 
@@ -157,7 +159,8 @@ Rect OutletRegion(const OutletGeometry& o, const RegionSize& size) {
 
 SiloDrawing MakeSiloDrawing(const nlohmann::json& spec, double top) {
   SiloDrawing d;
-  const nlohmann::json silo = spec.is_object() ? spec.value("silo", nlohmann::json::object()) : nlohmann::json::object();
+  const nlohmann::json silo =
+      spec.is_object() ? spec.value("silo", nlohmann::json::object()) : nlohmann::json::object();
   const double half = 0.5 * silo.value("width", 100.0);
   const std::vector<OutletGeometry> outlets = OutletsOf(spec);
   // A wall from `from` to `to` along one axis with the outlets' gaps left open.
@@ -177,7 +180,8 @@ SiloDrawing MakeSiloDrawing(const nlohmann::json& spec, double top) {
   wall(right, 0.0, top, [&](double y) { return std::array<double, 2>{half, y}; });
   if (silo.contains("obstacles") && silo.at("obstacles").is_array())
     for (const auto& ob : silo.at("obstacles"))
-      if (ob.is_object()) d.circles.push_back({ob.value("x", 0.0), ob.value("y", 10.0), 0.5 * ob.value("diameter", 6.0)});
+      if (ob.is_object())
+        d.circles.push_back({ob.value("x", 0.0), ob.value("y", 10.0), 0.5 * ob.value("diameter", 6.0)});
   return d;
 }
 
@@ -185,11 +189,20 @@ namespace {
 
 // The channels of CgSums, by name (the JSON keys).
 using Channel = std::vector<double> CgSums::*;
-constexpr std::pair<const char*, Channel> kChannels[] = {
-    {"phi", &CgSums::phi},       {"vx", &CgSums::vx},   {"vy", &CgSums::vy},   {"omega", &CgSums::omega},
-    {"omega_fl2", &CgSums::omega_fl2}, {"tg", &CgSums::tg}, {"tg_eq46", &CgSums::tg_eq46}, {"sxx", &CgSums::sxx},
-    {"sxy", &CgSums::sxy},       {"syx", &CgSums::syx}, {"syy", &CgSums::syy}, {"kxx", &CgSums::kxx},
-    {"kxy", &CgSums::kxy},       {"kyy", &CgSums::kyy}};
+constexpr std::pair<const char*, Channel> kChannels[] = {{"phi", &CgSums::phi},
+                                                         {"vx", &CgSums::vx},
+                                                         {"vy", &CgSums::vy},
+                                                         {"omega", &CgSums::omega},
+                                                         {"omega_fl2", &CgSums::omega_fl2},
+                                                         {"tg", &CgSums::tg},
+                                                         {"tg_eq46", &CgSums::tg_eq46},
+                                                         {"sxx", &CgSums::sxx},
+                                                         {"sxy", &CgSums::sxy},
+                                                         {"syx", &CgSums::syx},
+                                                         {"syy", &CgSums::syy},
+                                                         {"kxx", &CgSums::kxx},
+                                                         {"kxy", &CgSums::kxy},
+                                                         {"kyy", &CgSums::kyy}};
 
 void KeepRows(CgSums& s, int ny) {
   if (ny >= s.grid.ny) return;
@@ -202,10 +215,12 @@ void KeepRows(CgSums& s, int ny) {
 }  // namespace
 
 nlohmann::json SumsToJson(const CgSums& s) {
-  nlohmann::json j = {{"grid", {{"x0", s.grid.x0}, {"y0", s.grid.y0}, {"spacing", s.grid.spacing}, {"nx", s.grid.nx}, {"ny", s.grid.ny}}},
-                      {"frames", s.frames},
-                      {"contact_frames", s.contact_frames},
-                      {"n_defined", s.n_defined}};
+  nlohmann::json j = {
+      {"grid",
+       {{"x0", s.grid.x0}, {"y0", s.grid.y0}, {"spacing", s.grid.spacing}, {"nx", s.grid.nx}, {"ny", s.grid.ny}}},
+      {"frames", s.frames},
+      {"contact_frames", s.contact_frames},
+      {"n_defined", s.n_defined}};
   for (const auto& [name, member] : kChannels) j[name] = JsonNumbers(s.*member);
   return j;
 }
@@ -302,7 +317,8 @@ class FieldsRunAccumulator : public RunAccumulator {
     }
     std::vector<CgSeriesRequest> series;
     if (o.series)
-      for (const OutletGeometry& g : run.outlets) series.push_back({g.label, OutletRegion(g, o.region), CgField::kSpeed});
+      for (const OutletGeometry& g : run.outlets)
+        series.push_back({g.label, OutletRegion(g, o.region), CgField::kSpeed});
     for (std::size_t p = 0; p < parts_.size(); ++p) acc_.emplace_back(cg_, series);
     first_.assign(parts_.size(), kNaN);
     last_.assign(parts_.size(), kNaN);
@@ -344,7 +360,8 @@ class FieldsRunAccumulator : public RunAccumulator {
         const Rect r = OutletRegion(g, o_.region);
         nlohmann::json means = nlohmann::json::object();
         for (CgField f : RegionFields(o_))
-          means[CgFieldInfoFor(f).name] = JsonNumber(sums.frames > 0 && maps.Has(f) ? MeanOverRegion(maps, f, r).value : kNaN);
+          means[CgFieldInfoFor(f).name] =
+              JsonNumber(sums.frames > 0 && maps.Has(f) ? MeanOverRegion(maps, f, r).value : kNaN);
         part["regions"].push_back({{"rect", RectJson(r)}, {"means", means}});
       }
       if (!chains_[p].is_null()) part["force_chain"] = chains_[p];
@@ -430,8 +447,9 @@ class FieldsAnalysis : public Analysis {
         for (const auto& [name, value] : regions[k].at("means").items()) {
           CgField f;
           if (!CgFieldByName(name, f)) continue;
-          m.push_back({kMetricPrefix + name + part + Suffix(k), CgFieldInfoFor(f).unit[0] ? CgFieldInfoFor(f).unit : "1",
-                       NumberOf(value), kNaN, std::string("coarse-grained ") + CgFieldInfoFor(f).title + where, false});
+          m.push_back({kMetricPrefix + name + part + Suffix(k),
+                       CgFieldInfoFor(f).unit[0] ? CgFieldInfoFor(f).unit : "1", NumberOf(value), kNaN,
+                       std::string("coarse-grained ") + CgFieldInfoFor(f).title + where, false});
         }
       }
     }
@@ -488,9 +506,11 @@ class FieldsAnalysis : public Analysis {
       out.arrow_spacing = step * g.spacing;
       for (int j = step / 2; j < g.ny; j += step)
         for (int i = step / 2; i < g.nx; i += step) {
-          const std::size_t n = static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nx) + static_cast<std::size_t>(i);
+          const std::size_t n =
+              static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nx) + static_cast<std::size_t>(i);
           const double vx = maps.Value(CgField::kVx, n), vy = maps.Value(CgField::kVy, n);
-          if (std::isfinite(vx) && std::isfinite(vy) && (vx != 0.0 || vy != 0.0)) out.arrows.push_back({g.X(i), g.Y(j), vx, vy});
+          if (std::isfinite(vx) && std::isfinite(vy) && (vx != 0.0 || vy != 0.0))
+            out.arrows.push_back({g.X(i), g.Y(j), vx, vy});
         }
     }
     return out;
@@ -549,18 +569,21 @@ std::optional<Section> FieldsAnalysis::BuildSection(const SectionInput& in) cons
   }
   if (!any) return std::nullopt;
   Section s{"fields", "Coarse-grained fields", {}};
-  const char* frames_text = o_.frames == FieldsOptions::Frames::kSteady ? "the frames of the steady window of the flow analysis"
-                            : o_.frames == FieldsOptions::Frames::kAll  ? "all frames after /report/window/start_time"
+  const char* frames_text = o_.frames == FieldsOptions::Frames::kSteady
+                                ? "the frames of the steady window of the flow analysis"
+                            : o_.frames == FieldsOptions::Frames::kAll ? "all frames after /report/window/start_time"
                             : o_.frames == FieldsOptions::Frames::kSplit
                                 ? "all frames after /report/window/start_time, split into flowing and clogged (the "
                                   "clogged states of the exit stream)"
                                 : "the frames of the time range /report/fields/frames";
   s.blocks.push_back(Text{
       "Time-averaged continuum fields (thesis eqs. 4.1-4.8): every frame's discs and contacts smeared onto a grid "
-      "of spacing " + FormatNumber(o_.cg.spacing) + " d with the Gaussian kernel W(r) = exp(-r^2/w^2)/(pi w^2), w = " +
+      "of spacing " +
+      FormatNumber(o_.cg.spacing) + " d with the Gaussian kernel W(r) = exp(-r^2/w^2)/(pi w^2), w = " +
       FormatNumber(o_.cg.width) + " d, cut at " + FormatNumber(o_.cg.cutoff) + "w; over " + frames_text +
       ", summed over the replicas of each point (one colour scale per field across the panels). Velocity, "
-      "Omega and T_g average over the frames where phi >= " + FormatNumber(o_.cg.min_phi) +
+      "Omega and T_g average over the frames where phi >= " +
+      FormatNumber(o_.cg.min_phi) +
       " at a node. Pressure P, shear stress |tau| and mu = |tau|/P are of the **contact stress** of eq. 4.7 "
       "(each contact's force times its branch vector with the kernel integrated along the branch), as the thesis' "
       "maps; `kinetic_*` and `total_*` maps name the kinetic part and the sum. Each map's grid is a CSV (x, y, value, "
@@ -627,21 +650,23 @@ std::optional<Section> FieldsAnalysis::BuildSection(const SectionInput& in) cons
         if (k >= points[p].parts.size() || points[p].parts[k].Frames() == 0) continue;
         const CgMaps& maps = points[p].parts[k];
         if (!maps.Has(field)) continue;
-        MapPanel panel = panel_of(p, values_of(p) + ": " + std::to_string(points[p].runs[k]) + " runs, " +
-                                         std::to_string(info.needs_contacts ? maps.ContactFrames() : maps.Frames()) +
-                                         " frames");
+        MapPanel panel =
+            panel_of(p, values_of(p) + ": " + std::to_string(points[p].runs[k]) + " runs, " +
+                            std::to_string(info.needs_contacts ? maps.ContactFrames() : maps.Frames()) + " frames");
         const CgGrid& g = maps.Grid();
         panel.grid.reserve(g.size());
         for (int j = 0; j < g.ny; ++j)
           for (int i = 0; i < g.nx; ++i) {
-            const std::size_t n = static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nx) + static_cast<std::size_t>(i);
+            const std::size_t n =
+                static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nx) + static_cast<std::size_t>(i);
             panel.grid.push_back({g.X(i), g.Y(j), maps.Value(field, n), static_cast<double>(maps.NFrames(field, n))});
           }
         if (step > 0 && max_speed > 0.0) {
           const double scale = 0.9 * step * spacing / max_speed;
           for (int j = step / 2; j < g.ny; j += step)
             for (int i = step / 2; i < g.nx; i += step) {
-              const std::size_t n = static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nx) + static_cast<std::size_t>(i);
+              const std::size_t n =
+                  static_cast<std::size_t>(j) * static_cast<std::size_t>(g.nx) + static_cast<std::size_t>(i);
               const double vx = maps.Value(CgField::kVx, n), vy = maps.Value(CgField::kVy, n);
               if (std::isfinite(vx) && std::isfinite(vy) && (vx != 0.0 || vy != 0.0))
                 panel.arrows.push_back({g.X(i), g.Y(j), scale * vx, scale * vy});
@@ -653,10 +678,10 @@ std::optional<Section> FieldsAnalysis::BuildSection(const SectionInput& in) cons
       f.value_key = info.name;
       f.caption = panels_text + "runs and " + (info.needs_contacts ? "contact frames" : "frames") +
                   " behind each panel in its title; walls black" +
-                  (field == CgField::kSpeed ? "; arrows: the velocity field, the longest " +
-                                                  FormatNumber(0.9 * step * spacing) + " d for " +
-                                                  FormatNumber(max_speed) + " sqrt(g d)"
-                                            : std::string()) +
+                  (field == CgField::kSpeed
+                       ? "; arrows: the velocity field, the longest " + FormatNumber(0.9 * step * spacing) + " d for " +
+                             FormatNumber(max_speed) + " sqrt(g d)"
+                       : std::string()) +
                   (info.needs_contacts ? "; contact stress (eq. 4.7)" : "");
       s.blocks.push_back(f);
     }
@@ -667,18 +692,21 @@ std::optional<Section> FieldsAnalysis::BuildSection(const SectionInput& in) cons
     if (!points[p].chain_run) continue;
     const nlohmann::json& part = points[p].chain_run->at("parts").at(points[p].chain_part);
     const nlohmann::json& chain = part.at("force_chain");
-    MapPanel panel = panel_of(p, values_of(p) + ": " + part.value("name", std::string()) + ", t = " +
-                                     FormatNumber(NumberAt(chain, "time")));
+    MapPanel panel = panel_of(
+        p, values_of(p) + ": " + part.value("name", std::string()) + ", t = " + FormatNumber(NumberAt(chain, "time")));
     for (const auto& seg : chain.at("segments"))
-      panel.segments.push_back({NumberOf(seg[0]), NumberOf(seg[1]), NumberOf(seg[2]), NumberOf(seg[3]), NumberOf(seg[4])});
+      panel.segments.push_back(
+          {NumberOf(seg[0]), NumberOf(seg[1]), NumberOf(seg[2]), NumberOf(seg[3]), NumberOf(seg[4])});
     chains.panels.push_back(std::move(panel));
   }
   if (!chains.panels.empty()) {
     chains.value_key = "force";
-    chains.caption = panels_text + "the strong network: contacts carrying more than the frame's mean force, drawn from disc centre "
-                     "to disc centre (a wall contact to its contact point) with width in proportion to |F| (thesis fig. "
-                     "4.16); the first replica of each point, its first clogged frame if it has one, else its first "
-                     "frame of the fields' window";
+    chains.caption =
+        panels_text +
+        "the strong network: contacts carrying more than the frame's mean force, drawn from disc centre "
+        "to disc centre (a wall contact to its contact point) with width in proportion to |F| (thesis fig. "
+        "4.16); the first replica of each point, its first clogged frame if it has one, else its first "
+        "frame of the fields' window";
     s.blocks.push_back(chains);
   }
   // Region means above each outlet (the point metrics: mean ± se over replicas).
@@ -702,8 +730,13 @@ std::optional<Section> FieldsAnalysis::BuildSection(const SectionInput& in) cons
     }
   if (!t.rows.empty()) s.blocks.push_back(t);
   // The speed above each outlet against time, first replica of each point (thesis fig. 7.2).
-  Figure series{"fields_speed_series", "Coarse-grained speed over the region next to the outlet against time",
-                "t (sqrt(d/g))", "|v| (sqrt(g d))", {}, false, false,
+  Figure series{"fields_speed_series",
+                "Coarse-grained speed over the region next to the outlet against time",
+                "t (sqrt(d/g))",
+                "|v| (sqrt(g d))",
+                {},
+                false,
+                false,
                 "The mean of the frame's |v| over the nodes inside the region; the first replica of each point"};
   for (std::size_t p = 0; p < v.points.size(); ++p) {
     if (!points[p].series_run) continue;

@@ -19,18 +19,18 @@
 namespace granary::analysis {
 
 struct FieldsOptions {
-  std::vector<CgField> maps;          // default: ThesisMaps()
-  CgOptions cg;                       // cg.window empty: each run's silo (cg_run_window)
+  std::vector<CgField> maps;  // default: ThesisMaps()
+  CgOptions cg;               // cg.window empty: each run's silo (cg_run_window)
   // Which frames: the flow analysis' steady window; all after /report/window/start_time; those
   // split into flowing and clogged (the clogged states of the exit stream); or [from, to].
   enum class Frames { kSteady, kAll, kSplit, kRange };
   Frames frames = Frames::kSteady;
-  double from = 0.0, to = 0.0;        // kRange
-  bool series = true;                 // the speed above each outlet against time (fig. 7.2)
-  bool force_chains = true;           // one frame's contact network (fig. 4.16)
-  RegionSize region;                  // the region next to each outlet (default: ch. 4-6)
+  double from = 0.0, to = 0.0;  // kRange
+  bool series = true;           // the speed above each outlet against time (fig. 7.2)
+  bool force_chains = true;     // one frame's contact network (fig. 4.16)
+  RegionSize region;            // the region next to each outlet (default: ch. 4-6)
   FieldsOptions();
-  nlohmann::json ToJson() const;     // canonical: the cache key's part
+  nlohmann::json ToJson() const;  // canonical: the cache key's part
 };
 
 // The thesis' maps (figs. 4.10-4.17): phi, |v| (with arrows), Omega, Omega_fl^2, T_g, P, |tau|, mu.

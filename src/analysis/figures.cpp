@@ -13,9 +13,10 @@
 namespace granary::analysis {
 namespace {
 
-constexpr const char* kFigureKeys[] = {"name", "kind",    "picture", "y",     "ylabel", "x",     "group", "pool",
-                                       "only", "fit",     "title",   "caption", "reference", "logx", "logy", "of",
-                                       "bins", "range",   "field",   "along", "at",     "width", "one_run", "origin_outlet"};
+constexpr const char* kFigureKeys[] = {"name",      "kind",  "picture", "y",     "ylabel",  "x",
+                                       "group",     "pool",  "only",    "fit",   "title",   "caption",
+                                       "reference", "logx",  "logy",    "of",    "bins",    "range",
+                                       "field",     "along", "at",      "width", "one_run", "origin_outlet"};
 // The kinds, what each draws and the keys it takes besides name, kind, only, title, caption
 // and reference.
 struct KindKeys {
@@ -26,10 +27,14 @@ struct KindKeys {
 const std::vector<KindKeys>& FigureKinds() {
   static const std::vector<KindKeys> kInds = {
       {"points", "points with error bars", {"y", "ylabel", "x", "group", "pool", "fit", "logx", "logy"}},
-      {"distribution", "a histogram of a per-run distribution at each chosen point", {"of", "bins", "range", "pool", "logx", "logy"}},
+      {"distribution",
+       "a histogram of a per-run distribution at each chosen point",
+       {"of", "bins", "range", "pool", "logx", "logy"}},
       {"curves", "an analysis' curve at each chosen point", {"of", "pool", "logx", "logy"}},
       {"maps", "a field's map at each chosen point", {"field", "pool", "one_run"}},
-      {"profile", "a field along a line at each chosen point", {"field", "along", "at", "width", "origin_outlet", "pool", "one_run", "logy"}},
+      {"profile",
+       "a field along a line at each chosen point",
+       {"field", "along", "at", "width", "origin_outlet", "pool", "one_run", "logy"}},
       {"pictures", "the silo at each chosen point", {"picture"}}};
   return kInds;
 }
@@ -70,14 +75,17 @@ std::string AxisNameAt(const nlohmann::json& v, const std::string& path, const C
 std::vector<std::string> AxisListAt(const nlohmann::json& v, const std::string& path, const CampaignAxes& axes) {
   std::vector<std::string> out;
   if (v.is_string()) return {AxisNameAt(v, path, axes)};
-  if (!v.is_array()) throw OptionError(path, v, "must be an axis name or a list of them (axes: " + Joined(axes.Names()) + ")");
+  if (!v.is_array())
+    throw OptionError(path, v, "must be an axis name or a list of them (axes: " + Joined(axes.Names()) + ")");
   for (std::size_t i = 0; i < v.size(); ++i) out.push_back(AxisNameAt(v[i], path + "/" + std::to_string(i), axes));
   return out;
 }
 
-std::vector<std::pair<std::string, std::vector<nlohmann::json>>> ReadOnly(const nlohmann::json& o, const std::string& path,
+std::vector<std::pair<std::string, std::vector<nlohmann::json>>> ReadOnly(const nlohmann::json& o,
+                                                                          const std::string& path,
                                                                           const CampaignAxes& axes) {
-  if (!o.is_object()) throw OptionError(path + "/only", o, "must be an object {axis: value or [values]}, e.g. {\"W\": [15, 25]}");
+  if (!o.is_object())
+    throw OptionError(path + "/only", o, "must be an object {axis: value or [values]}, e.g. {\"W\": [15, 25]}");
   std::vector<std::pair<std::string, std::vector<nlohmann::json>>> out;
   for (const auto& [k, v] : o.items()) {
     const std::string name = AxisNameAt(nlohmann::json(k), path + "/only/" + k, axes);
@@ -119,23 +127,28 @@ class Offers {
 };
 
 FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const CampaignAxes& axes,
-                    const std::set<std::string>& names_before, Offers& offers) {
+                   const std::set<std::string>& names_before, Offers& offers) {
   if (!f.is_object())
-    throw OptionError(path, f, "must be an object {\"name\", \"y\", \"x\", \"group\", \"only\", \"pool\", \"fit\", ...}");
+    throw OptionError(path, f,
+                      "must be an object {\"name\", \"y\", \"x\", \"group\", \"only\", \"pool\", \"fit\", ...}");
   CheckKeys(f, path, std::begin(kFigureKeys), std::end(kFigureKeys));
   FigureSpec s;
   s.path = path;
   s.name = TextAt(f, "name", path);
-  if (s.name.empty()) throw OptionError(path + "/name", f.value("name", nlohmann::json()), "must be a non-empty name (the figure's file stem)");
+  if (s.name.empty())
+    throw OptionError(path + "/name", f.value("name", nlohmann::json()),
+                      "must be a non-empty name (the figure's file stem)");
   for (char c : s.name)
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.'))
       throw OptionError(path + "/name", f.at("name"), "letters, digits, '-', '_' and '.' only (it names files)");
   if (names_before.count(s.name)) throw OptionError(path + "/name", f.at("name"), "another figure has this name");
   if (f.contains("kind")) s.kind = TextAt(f, "kind", path);
-  const auto kind = std::find_if(FigureKinds().begin(), FigureKinds().end(), [&](const KindKeys& k) { return s.kind == k.kind; });
+  const auto kind =
+      std::find_if(FigureKinds().begin(), FigureKinds().end(), [&](const KindKeys& k) { return s.kind == k.kind; });
   if (kind == FigureKinds().end()) {
     std::string allowed;
-    for (const KindKeys& k : FigureKinds()) allowed += (allowed.empty() ? "" : ", ") + std::string("\"") + k.kind + "\" (" + k.what + ")";
+    for (const KindKeys& k : FigureKinds())
+      allowed += (allowed.empty() ? "" : ", ") + std::string("\"") + k.kind + "\" (" + k.what + ")";
     throw OptionError(path + "/kind", f.at("kind"), "must be " + allowed);
   }
   for (const auto& [key, value] : f.items()) {
@@ -169,7 +182,8 @@ FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const Campa
     if (f.contains("bins")) s.bins = OptionInteger(f.at("bins"), path + "/bins", 1, 1000);
     if (f.contains("range")) {
       const nlohmann::json& r = f.at("range");
-      if (!r.is_array() || r.size() != 2 || !r[0].is_number() || !r[1].is_number() || !(r[0].get<double>() < r[1].get<double>()))
+      if (!r.is_array() || r.size() != 2 || !r[0].is_number() || !r[1].is_number() ||
+          !(r[0].get<double>() < r[1].get<double>()))
         throw OptionError(path + "/range", r, "must be [lo, hi] with lo < hi");
       s.range_lo = r[0].get<double>();
       s.range_hi = r[1].get<double>();
@@ -195,24 +209,31 @@ FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const Campa
       throw OptionError(path + "/field", f.value("field", nlohmann::json()),
                         "no analysis offers fields: turn on the coarse-grained fields (/report/fields: true)");
     if (std::find(names.begin(), names.end(), s.field) == names.end())
-      throw OptionError(path + "/field", f.value("field", nlohmann::json()), "must name a field (fields: " + Joined(names) + ")");
+      throw OptionError(path + "/field", f.value("field", nlohmann::json()),
+                        "must name a field (fields: " + Joined(names) + ")");
     if (f.contains("one_run")) s.one_run = OptionBool(f.at("one_run"), path + "/one_run");
     if (s.kind == "maps") return s;
     s.along = TextAt(f, "along", path);
     if (s.along != "x" && s.along != "y")
-      throw OptionError(path + "/along", f.value("along", nlohmann::json()), "must be \"x\" (a horizontal line) or \"y\" (a vertical one)");
-    if (!f.contains("at")) throw OptionError(path + "/at", nlohmann::json(), std::string("must be the line's ") + (s.along == "x" ? "height y" : "position x") + " (d)");
+      throw OptionError(path + "/along", f.value("along", nlohmann::json()),
+                        "must be \"x\" (a horizontal line) or \"y\" (a vertical one)");
+    if (!f.contains("at"))
+      throw OptionError(path + "/at", nlohmann::json(),
+                        std::string("must be the line's ") + (s.along == "x" ? "height y" : "position x") + " (d)");
     s.at = OptionNumber(f.at("at"), path + "/at", -1e9, 1e9);
     if (f.contains("width")) s.width = OptionNumber(f.at("width"), path + "/width", 1e-9, 1e9);
     if (f.contains("origin_outlet")) {
       if (s.along != "x")
-        throw OptionError(path + "/origin_outlet", f.at("origin_outlet"), "takes a line along x (the base outlets lie along x)");
+        throw OptionError(path + "/origin_outlet", f.at("origin_outlet"),
+                          "takes a line along x (the base outlets lie along x)");
       s.origin_outlet = OptionInteger(f.at("origin_outlet"), path + "/origin_outlet", 0, 1000);
     }
     return s;
   }
   s.y = TextAt(f, "y", path);
-  if (s.y.empty()) throw OptionError(path + "/y", f.value("y", nlohmann::json()), "must be a metric name or an expression over metrics and axes");
+  if (s.y.empty())
+    throw OptionError(path + "/y", f.value("y", nlohmann::json()),
+                      "must be a metric name or an expression over metrics and axes");
   try {
     Expression::Parse(s.y, {});  // the grammar; names are checked against the metrics when drawn
   } catch (const ExpressionError& e) {
@@ -227,17 +248,24 @@ FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const Campa
   if (f.contains("fit")) {
     const nlohmann::json& fj = f.at("fit");
     const std::string fp = path + "/fit";
-    if (!fj.is_object()) throw OptionError(fp, fj, "must be {\"model\": \"C * W^b\", \"over\": [axes], \"initial\": {..}, \"collapse\": bool}");
+    if (!fj.is_object())
+      throw OptionError(fp, fj,
+                        "must be {\"model\": \"C * W^b\", \"over\": [axes], \"initial\": {..}, \"collapse\": bool}");
     CheckKeys(fj, fp, std::begin(kFitKeys), std::end(kFitKeys));
     FigureFitSpec fit;
     fit.model = TextAt(fj, "model", fp);
-    if (fit.model.empty()) throw OptionError(fp + "/model", fj.value("model", nlohmann::json()), "must be an expression, e.g. \"C * W^b\"");
+    if (fit.model.empty())
+      throw OptionError(fp + "/model", fj.value("model", nlohmann::json()), "must be an expression, e.g. \"C * W^b\"");
     std::vector<std::string> usable = axes.ExpressionNames();
     if (std::find(usable.begin(), usable.end(), "L") == usable.end()) usable.push_back("L");
     if (fj.contains("over")) {
       fit.over = AxisListAt(fj.at("over"), fp + "/over", axes);
       for (const auto& v : fit.over)
-        if (!IsIdentifier(v)) throw OptionError(fp + "/over", fj.at("over"), "\"" + v + "\" cannot stand in an expression; declare it under /axes with a name of letters, digits and '_'");
+        if (!IsIdentifier(v))
+          throw OptionError(
+              fp + "/over", fj.at("over"),
+              "\"" + v +
+                  "\" cannot stand in an expression; declare it under /axes with a name of letters, digits and '_'");
     }
     Expression e;
     try {
@@ -251,12 +279,15 @@ FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const Campa
       for (const auto& v : named)  // in the order the model names them
         if (std::find(usable.begin(), usable.end(), v) != usable.end()) fit.over.push_back(v);
       if (fit.over.empty())
-        throw OptionError(fp + "/model", fj.at("model"), "uses no axis; its variables must be axes (" + Joined(usable) + ")");
+        throw OptionError(fp + "/model", fj.at("model"),
+                          "uses no axis; its variables must be axes (" + Joined(usable) + ")");
     }
     if (e.Parameters().empty()) throw OptionError(fp + "/model", fj.at("model"), "has no parameter to fit");
     if (fj.contains("initial")) {
-      if (!fj.at("initial").is_object()) throw OptionError(fp + "/initial", fj.at("initial"), "must be {parameter: value}");
-      for (const auto& [k, v] : fj.at("initial").items()) fit.initial[k] = OptionNumber(v, fp + "/initial/" + k, -1e300, 1e300);
+      if (!fj.at("initial").is_object())
+        throw OptionError(fp + "/initial", fj.at("initial"), "must be {parameter: value}");
+      for (const auto& [k, v] : fj.at("initial").items())
+        fit.initial[k] = OptionNumber(v, fp + "/initial/" + k, -1e300, 1e300);
     }
     if (fj.contains("collapse")) fit.collapse = OptionBool(fj.at("collapse"), fp + "/collapse");
     s.fit = fit;
@@ -266,8 +297,8 @@ FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const Campa
 
 }  // namespace
 
-MeanSe YValue(const std::string& y, const std::map<std::string, MeanSe>& metrics, const std::map<std::string, double>& axes,
-               std::string& problem) {
+MeanSe YValue(const std::string& y, const std::map<std::string, MeanSe>& metrics,
+              const std::map<std::string, double>& axes, std::string& problem) {
   if (const auto it = metrics.find(y); it != metrics.end()) return it->second;
   std::vector<std::string> variables;
   for (const auto& [name, e] : metrics)
@@ -358,13 +389,16 @@ std::string OnlyText(const FigureSpec& spec) {
   std::string only;
   for (const auto& [name, values] : spec.only) {
     std::string vs;
-    for (const auto& w : values) vs += (vs.empty() ? "" : ", ") + (w.is_string() ? w.get<std::string>() : ValueWords(w.get<double>()));
+    for (const auto& w : values)
+      vs += (vs.empty() ? "" : ", ") + (w.is_string() ? w.get<std::string>() : ValueWords(w.get<double>()));
     only += (only.empty() ? "" : "; ") + name + " in {" + vs + "}";
   }
   return only.empty() ? "" : "; only " + only;
 }
 
-std::string WithUnit(const std::string& title, const std::string& unit) { return unit.empty() ? title : title + " (" + unit + ")"; }
+std::string WithUnit(const std::string& title, const std::string& unit) {
+  return unit.empty() ? title : title + " (" + unit + ")";
+}
 
 // The per-run results of analysis `a` behind a datum: the used runs of its points.
 std::vector<const nlohmann::json*> DatumResults(const CampaignAnalysis& ca, std::size_t a, const FigureDatum& d) {
@@ -375,7 +409,9 @@ std::vector<const nlohmann::json*> DatumResults(const CampaignAnalysis& ca, std:
 }
 
 // The legend or panel name of a datum: its axes, or the figure's quantity for a campaign of one point.
-std::string DatumLabel(const FigureDatum& d, const std::string& otherwise) { return d.group.empty() ? otherwise : d.group; }
+std::string DatumLabel(const FigureDatum& d, const std::string& otherwise) {
+  return d.group.empty() ? otherwise : d.group;
+}
 
 // A histogram per datum of a distribution an analysis offers (its runs' samples pooled) or of
 // a per-run metric (its runs' values), over one range and one set of bins for every curve.
@@ -404,7 +440,8 @@ void DistributionFigure(const CampaignAnalysis& ca, const FigureSpec& spec, Figu
       }
     };
     if (source) {
-      for (const nlohmann::json* r : DatumResults(ca, *source, out.data[i])) add(ca.setup->analyses[*source]->Distribution(spec.of, *r));
+      for (const nlohmann::json* r : DatumResults(ca, *source, out.data[i]))
+        add(ca.setup->analyses[*source]->Distribution(spec.of, *r));
       continue;
     }
     for (std::size_t p : out.data[i].points)
@@ -419,8 +456,9 @@ void DistributionFigure(const CampaignAnalysis& ca, const FigureSpec& spec, Figu
           }
   }
   if (!source && !metric_found) {
-    out.blocks.push_back(Text{"**Not drawn:** " + where + ": \"" + spec.of + "\" is no distribution an analysis offers (" +
-                              Joined(offered) + ") and no run has a metric of that name."});
+    out.blocks.push_back(Text{"**Not drawn:** " + where + ": \"" + spec.of +
+                              "\" is no distribution an analysis offers (" + Joined(offered) +
+                              ") and no run has a metric of that name."});
     return;
   }
   // One range for every curve: the figure's, or the data's (positive values only on log bins).
@@ -466,9 +504,10 @@ void DistributionFigure(const CampaignAnalysis& ca, const FigureSpec& spec, Figu
     if (!se.rows.empty()) f.series.push_back(se);
   }
   f.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "Probability density: count / (n x bin width), " +
-              std::to_string(spec.bins) + (spec.logx ? " logarithmic" : "") + " bins over [" + FormatNumber(lo, 4) + ", " +
-              FormatNumber(hi, 4) + "] for every curve; n counts every value, those outside the range too; " +
-              (source ? "pooled over the runs of each point" : "one value per run (the metric " + spec.of + "), pooled over the runs of each point") +
+              std::to_string(spec.bins) + (spec.logx ? " logarithmic" : "") + " bins over [" + FormatNumber(lo, 4) +
+              ", " + FormatNumber(hi, 4) + "] for every curve; n counts every value, those outside the range too; " +
+              (source ? "pooled over the runs of each point"
+                      : "one value per run (the metric " + spec.of + "), pooled over the runs of each point") +
               (spec.pool.empty() ? "" : " and over " + Joined(spec.pool)) + OnlyText(spec) +
               (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
   if (f.series.empty()) {
@@ -487,7 +526,7 @@ struct Offered {
 };
 template <class Info>
 std::optional<Offered<Info>> FindOffered(const CampaignAnalysis& ca, const std::string& name,
-                                          std::vector<Info> (Analysis::*offers)() const) {
+                                         std::vector<Info> (Analysis::*offers)() const) {
   for (std::size_t a = 0; ca.setup && a < ca.setup->analyses.size(); ++a)
     for (Info& i : ((*ca.setup->analyses[a]).*offers)())
       if (i.name == name) return Offered<Info>{a, std::move(i)};
@@ -522,13 +561,15 @@ void CurveFigure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutco
     se.label = label;
     se.file_label = label;
     se.columns = {"x", "y", "y_se", "n"};
-    const bool errors = std::any_of(points.begin(), points.end(), [](const CurvePoint& c) { return std::isfinite(c.se); });
+    const bool errors =
+        std::any_of(points.begin(), points.end(), [](const CurvePoint& c) { return std::isfinite(c.se); });
     se.style = errors ? Series::Style::kErrorBars : Series::Style::kLinesPoints;
     if (errors) se.err = 2;
     se.color = static_cast<int>(i);
     double n = 0.0;
     for (const CurvePoint& c : points) {
-      if (!std::isfinite(c.x) || !std::isfinite(c.y) || (spec.logx && !(c.x > 0)) || (spec.logy && !(c.y > 0))) continue;
+      if (!std::isfinite(c.x) || !std::isfinite(c.y) || (spec.logx && !(c.x > 0)) || (spec.logy && !(c.y > 0)))
+        continue;
       se.rows.push_back({c.x, c.y, std::isfinite(c.se) ? c.se : 0.0, c.n});
       n += c.n;
       lo = std::min(lo, c.x);
@@ -555,14 +596,14 @@ void CurveFigure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutco
               (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
   if (!f.series.empty()) out.blocks.push_back(f);
   if (!missing.empty())
-    out.blocks.push_back(Text{"**" + std::string(f.series.empty() ? "Not drawn" : "Left out") + ":** " + where + ": no " +
-                              spec.of + " at " + Joined(missing) + " (no run there has it)."});
+    out.blocks.push_back(Text{"**" + std::string(f.series.empty() ? "Not drawn" : "Left out") + ":** " + where +
+                              ": no " + spec.of + " at " + Joined(missing) + " (no run there has it)."});
 }
 
 }  // namespace
 
-std::vector<std::vector<std::array<double, 2>>> ClipPolylines(const std::vector<std::vector<std::array<double, 2>>>& lines,
-                                                              const std::array<double, 4>& box) {
+std::vector<std::vector<std::array<double, 2>>> ClipPolylines(
+    const std::vector<std::vector<std::array<double, 2>>>& lines, const std::array<double, 4>& box) {
   std::vector<std::vector<std::array<double, 2>>> out;
   for (const auto& line : lines) {
     std::vector<std::array<double, 2>> run;
@@ -583,8 +624,10 @@ std::vector<std::vector<std::array<double, 2>>> ClipPolylines(const std::vector<
           inside = q[i] >= 0.0;
         } else {
           const double t = q[i] / p[i];
-          if (p[i] < 0.0) t0 = std::max(t0, t);
-          else t1 = std::min(t1, t);
+          if (p[i] < 0.0)
+            t0 = std::max(t0, t);
+          else
+            t1 = std::min(t1, t);
           inside = t0 <= t1;
         }
       }
@@ -638,10 +681,11 @@ void FieldFigure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutco
   const char across = along == 'x' ? 'y' : 'x';
   Figure f;
   f.name = "figure-" + spec.name;
-  f.title = spec.title.empty() ? info.title + " along " + spec.along + " at " + across + " = " + FormatNumber(spec.at) + " d"
-                               : spec.title;
+  f.title = spec.title.empty()
+                ? info.title + " along " + spec.along + " at " + across + " = " + FormatNumber(spec.at) + " d"
+                : spec.title;
   f.xlabel = spec.origin_outlet >= 0 ? "x from the centre of base outlet " + std::to_string(spec.origin_outlet) + " (d)"
-                                      : spec.along + " (d)";
+                                     : spec.along + " (d)";
   f.ylabel = WithUnit(info.title, info.unit);
   f.logy = spec.logy;
   std::string band;
@@ -655,8 +699,9 @@ void FieldFigure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutco
       // The lowest replica whose run has the field (a run may end before the fields' frames).
       std::vector<std::size_t> runs;
       for (std::size_t p : d.points) runs.insert(runs.end(), v.points[p].runs.begin(), v.points[p].runs.end());
-      std::stable_sort(runs.begin(), runs.end(),
-                       [&](std::size_t a, std::size_t b) { return v.used[a].record->replica < v.used[b].record->replica; });
+      std::stable_sort(runs.begin(), runs.end(), [&](std::size_t a, std::size_t b) {
+        return v.used[a].record->replica < v.used[b].record->replica;
+      });
       for (std::size_t u : runs) {
         if (u >= ca.results[source].runs.size() || ca.results[source].runs[u].is_null()) continue;
         map = analysis.Field(spec.field, {&ca.results[source].runs[u]}, v.points[d.points.front()].spec);
@@ -679,8 +724,10 @@ void FieldFigure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutco
                     std::to_string(map->frames) + (map->frames == 1 ? " frame" : " frames");
       for (int j = 0; j < map->ny; ++j)
         for (int k = 0; k < map->nx; ++k) {
-          const std::size_t n = static_cast<std::size_t>(j) * static_cast<std::size_t>(map->nx) + static_cast<std::size_t>(k);
-          panel.grid.push_back({map->X(k), map->Y(j), map->values[n], n < map->n_frames.size() ? map->n_frames[n] : kNaN});
+          const std::size_t n =
+              static_cast<std::size_t>(j) * static_cast<std::size_t>(map->nx) + static_cast<std::size_t>(k);
+          panel.grid.push_back(
+              {map->X(k), map->Y(j), map->values[n], n < map->n_frames.size() ? map->n_frames[n] : kNaN});
         }
       // The panel spans the grid and what of the silo lies within kNear of it: the walls beside
       // the default window, not those far from a zoomed one (/report/fields/window).
@@ -699,15 +746,19 @@ void FieldFigure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutco
       }
       panel.circles = map->circles;
       panel.arrows = map->arrows;  // scaled below, by one length across the panels
-      if (map->arrow_spacing > 0.0) arrow_spacing = arrow_spacing > 0.0 ? std::min(arrow_spacing, map->arrow_spacing) : map->arrow_spacing;
+      if (map->arrow_spacing > 0.0)
+        arrow_spacing = arrow_spacing > 0.0 ? std::min(arrow_spacing, map->arrow_spacing) : map->arrow_spacing;
       m.panels.push_back(std::move(panel));
       continue;
     }
     // x from the centre of a base outlet of the point (it may move from point to point).
     double origin = 0.0;
     if (spec.origin_outlet >= 0) {
-      const nlohmann::json outlets = v.points[d.points.front()].spec.value("silo", nlohmann::json::object()).value("base_outlets", nlohmann::json::array());
-      if (!outlets.is_array() || static_cast<int>(outlets.size()) <= spec.origin_outlet || !outlets[spec.origin_outlet].is_object()) {
+      const nlohmann::json outlets = v.points[d.points.front()]
+                                         .spec.value("silo", nlohmann::json::object())
+                                         .value("base_outlets", nlohmann::json::array());
+      if (!outlets.is_array() || static_cast<int>(outlets.size()) <= spec.origin_outlet ||
+          !outlets[spec.origin_outlet].is_object()) {
         missing.push_back(label + " (no base outlet " + std::to_string(spec.origin_outlet) + ")");
         continue;
       }
@@ -715,15 +766,17 @@ void FieldFigure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutco
     }
     const FieldProfile pr = ComputeFieldProfile(*map, along, spec.at, spec.width);
     if (pr.position.empty()) {
-      const double lo = along == 'x' ? map->Y(0) : map->X(0), hi = along == 'x' ? map->Y(map->ny - 1) : map->X(map->nx - 1);
+      const double lo = along == 'x' ? map->Y(0) : map->X(0),
+                   hi = along == 'x' ? map->Y(map->ny - 1) : map->X(map->nx - 1);
       missing.push_back(label + " (the line " + std::string(1, across) + " = " + FormatNumber(spec.at) +
                         " d lies outside the grid, " + std::string(1, across) + " = " + FormatNumber(lo) + " .. " +
                         FormatNumber(hi) + " d)");
       continue;
     }
     if (band.empty())
-      band = pr.band_lo == pr.band_hi ? std::string(1, across) + " = " + FormatNumber(pr.band_lo) + " d"
-                                      : std::string(1, across) + " = " + FormatNumber(pr.band_lo) + " .. " + FormatNumber(pr.band_hi) + " d";
+      band = pr.band_lo == pr.band_hi
+                 ? std::string(1, across) + " = " + FormatNumber(pr.band_lo) + " d"
+                 : std::string(1, across) + " = " + FormatNumber(pr.band_lo) + " .. " + FormatNumber(pr.band_hi) + " d";
     Series se;
     se.label = label + ": " + std::to_string(map->runs) + (map->runs == 1 ? " run" + one : " runs");
     se.file_label = label;
@@ -765,10 +818,12 @@ void FieldFigure(const CampaignAnalysis& ca, const FigureSpec& spec, FigureOutco
     out.blocks.push_back(m);
   }
   if (spec.kind == "profile" && !f.series.empty()) {
-    f.caption = (spec.caption.empty() ? "" : spec.caption + ". ") + "At each " + spec.along + ": the mean of the field over the grid " +
-                (along == 'x' ? "rows " : "columns ") + band + " (within " + FormatNumber(spec.width / 2) + " d of " +
-                std::string(1, across) + " = " + FormatNumber(spec.at) + " d); " +
-                (spec.one_run ? "each curve the lowest replica that has the field" : "the runs behind each curve merged") + tail;
+    f.caption =
+        (spec.caption.empty() ? "" : spec.caption + ". ") + "At each " + spec.along +
+        ": the mean of the field over the grid " + (along == 'x' ? "rows " : "columns ") + band + " (within " +
+        FormatNumber(spec.width / 2) + " d of " + std::string(1, across) + " = " + FormatNumber(spec.at) + " d); " +
+        (spec.one_run ? "each curve the lowest replica that has the field" : "the runs behind each curve merged") +
+        tail;
     out.blocks.push_back(f);
   }
   if (!missing.empty())
@@ -793,7 +848,8 @@ FieldProfile ComputeFieldProfile(const FieldMap& m, char along, double at, doubl
   std::vector<int> band;
   for (int k = 0; k < n_across; ++k)
     if (std::abs(across(k) - at) <= width / 2 + 1e-9 * m.spacing) band.push_back(k);
-  if (band.empty()) band.push_back(std::clamp(static_cast<int>(std::lround((at - origin) / m.spacing)), 0, n_across - 1));
+  if (band.empty())
+    band.push_back(std::clamp(static_cast<int>(std::lround((at - origin) / m.spacing)), 0, n_across - 1));
   p.band_lo = across(band.front());
   p.band_hi = across(band.back());
   for (int i = 0; i < n_along; ++i) {
@@ -817,7 +873,8 @@ Density DensityHistogram(const Samples& s, int bins, double lo, double hi, bool 
   if (bins <= 0 || !(hi > lo) || (log && !(lo > 0))) return d;
   std::vector<double> edges(static_cast<std::size_t>(bins) + 1);
   for (int i = 0; i <= bins; ++i)
-    edges[static_cast<std::size_t>(i)] = log ? lo * std::pow(hi / lo, static_cast<double>(i) / bins) : lo + (hi - lo) * i / bins;
+    edges[static_cast<std::size_t>(i)] =
+        log ? lo * std::pow(hi / lo, static_cast<double>(i) / bins) : lo + (hi - lo) * i / bins;
   d.count.assign(static_cast<std::size_t>(bins), 0.0);
   for (std::size_t k = 0; k < s.values.size(); ++k) {
     const double x = s.values[k], w = s.weights.empty() ? 1.0 : s.weights[k];
@@ -840,7 +897,8 @@ std::vector<FigureSpec> ReadFigureSpecs(const nlohmann::json& campaign_spec) {
       !campaign_spec.at("report").contains("figures"))
     return {};
   const nlohmann::json& list = campaign_spec.at("report").at("figures");
-  if (!list.is_array()) throw OptionError("/report/figures", list, "must be an array of figures ({\"name\", \"y\", ...})");
+  if (!list.is_array())
+    throw OptionError("/report/figures", list, "must be an array of figures ({\"name\", \"y\", ...})");
   const CampaignAxes axes = CampaignAxes::OfCampaignSpec(campaign_spec);
   std::vector<FigureSpec> out;
   std::set<std::string> names;
@@ -858,7 +916,8 @@ std::map<std::string, double> PointAxes(const CampaignView& view, const Point& p
   return axes;
 }
 
-bool AxisValueMatches(const CampaignView& view, const Point& point, const std::string& name, const nlohmann::json& want) {
+bool AxisValueMatches(const CampaignView& view, const Point& point, const std::string& name,
+                      const nlohmann::json& want) {
   if (const auto pointer = view.named.PointerOf(name)) {
     const auto v = AxisValue(*pointer, point.point, point.spec);
     if (v && v->is_string()) return want.is_string() && want.get<std::string>() == v->get<std::string>();
@@ -878,7 +937,8 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   // The group axes: as given, or every sweep axis that is not x and not pooled.
   // A figure at chosen points (distribution, maps, profile): a curve or panel per point, named
   // by every axis not pooled.
-  const bool per_point = spec.kind == "distribution" || spec.kind == "curves" || spec.kind == "maps" || spec.kind == "profile";
+  const bool per_point =
+      spec.kind == "distribution" || spec.kind == "curves" || spec.kind == "maps" || spec.kind == "profile";
   std::vector<std::string> group = spec.group;
   if (!spec.group_given)
     for (const auto& axis : v.axes) {
@@ -916,7 +976,8 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
         const auto value = pointer ? AxisValue(*pointer, point.point, point.spec) : std::nullopt;
         const std::string text = value ? ValueText(*value) : axes.count(g) ? ValueWords(axes.at(g)) : "?";
         const std::string unit = pointer ? AxisUnit(*pointer) : g == "L" ? "d" : "";
-        d.group += (d.group.empty() ? "" : ", ") + g + " = " + text + (unit.empty() || !value || value->is_string() ? "" : " " + unit);
+        d.group += (d.group.empty() ? "" : ", ") + g + " = " + text +
+                   (unit.empty() || !value || value->is_string() ? "" : " " + unit);
       }
       out.data.push_back(d);
     }
@@ -925,7 +986,8 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   // Pictures: the chosen points are the figure; the report draws them (it has the renderer).
   if (spec.kind == "pictures") {
     if (out.data.empty())
-      out.blocks.push_back(Text{"**Not drawn:** " + spec.path + " (\"" + spec.name + "\"): no finished run passes its `only`."});
+      out.blocks.push_back(
+          Text{"**Not drawn:** " + spec.path + " (\"" + spec.name + "\"): no finished run passes its `only`."});
     return out;
   }
   if (per_point) {
@@ -1032,8 +1094,9 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
                       {},
                       {"parameter", "value", "se", "ci_low", "ci_high", "chi2_per_dof", "points", "fit_quality"}};
     for (const FitParameter& par : r.parameters)
-      fit_table.rows.push_back({par.name, Cell::Number(par.value, 5), Cell::Number(par.se, 2), Cell::Number(par.ci_low, 5),
-                                Cell::Number(par.ci_high, 5), Cell::Number(r.Ok() && r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
+      fit_table.rows.push_back({par.name, Cell::Number(par.value, 5), Cell::Number(par.se, 2),
+                                Cell::Number(par.ci_low, 5), Cell::Number(par.ci_high, 5),
+                                Cell::Number(r.Ok() && r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
                                 Cell::Count(static_cast<long long>(xs.size())), ToString(r.quality)});
     if (r.quality != FitQuality::kGood) {
       notes.push_back("The fit is not drawn: " + r.Verdict() +
@@ -1090,8 +1153,9 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
         collapse.xlabel = x_name;
         collapse.ylabel = "(" + spec.y + ") / (" + fs.model + ")";
         collapse.logx = spec.logx;
-        collapse.caption = "The data divided by the law fitted across every point (parameters in the table): a law "
-                           "that holds puts every point on 1";
+        collapse.caption =
+            "The data divided by the law fitted across every point (parameters in the table): a law "
+            "that holds puts every point on 1";
         for (std::size_t gi = 0; gi < groups.size(); ++gi) {
           Series se;
           se.label = groups[gi].empty() ? spec.y : groups[gi];
@@ -1121,7 +1185,8 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   caption += std::string(caption.empty() ? "" : ". ") + "Error bars: standard errors" +
              (spec.pool.empty() ? "" : "; pooled over " + Joined(spec.pool) + " (means weighted by n)");
   caption += OnlyText(spec);
-  if (spec.fit && out.fit && out.fit->quality == FitQuality::kGood) caption += "; dashed: " + spec.fit->model + " fitted across every point";
+  if (spec.fit && out.fit && out.fit->quality == FitQuality::kGood)
+    caption += "; dashed: " + spec.fit->model + " fitted across every point";
   if (!spec.reference.empty()) caption += ". Reference: " + spec.reference;
   f.caption = caption;
   if (!f.series.empty()) out.blocks.push_back(f);
@@ -1137,8 +1202,9 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
 std::optional<Section> FiguresSection(const std::vector<FigureOutcome>& figures) {
   if (figures.empty()) return std::nullopt;
   Section s{"figures", "Figures", {}};
-  s.blocks.push_back(Text{"The figures the campaign spec asks for (`/report/figures`); every analysis' own figures "
-                          "follow in its section."});
+  s.blocks.push_back(
+      Text{"The figures the campaign spec asks for (`/report/figures`); every analysis' own figures "
+           "follow in its section."});
   for (const FigureOutcome& f : figures)
     for (const Block& b : f.blocks) s.blocks.push_back(b);
   return s;

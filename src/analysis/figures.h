@@ -23,35 +23,35 @@
 namespace granary::analysis {
 
 struct FigureFitSpec {
-  std::string model;                       // "a * W^(1.5 + X_db/2) / (1.43 + 17 * X_db^2)"
-  std::vector<std::string> over;           // its variables (axes); default: the axis names it uses
-  std::map<std::string, double> initial;   // parameters' start values (missing: 1)
-  bool collapse = false;                   // also draw y / law against x (should lie on 1)
+  std::string model;                      // "a * W^(1.5 + X_db/2) / (1.43 + 17 * X_db^2)"
+  std::vector<std::string> over;          // its variables (axes); default: the axis names it uses
+  std::map<std::string, double> initial;  // parameters' start values (missing: 1)
+  bool collapse = false;                  // also draw y / law against x (should lie on 1)
 };
 
 struct FigureSpec {
-  std::string path;                        // "/report/figures/3", for messages
-  std::string name;                        // file stem, and what expectations name ("fit": name)
+  std::string path;  // "/report/figures/3", for messages
+  std::string name;  // file stem, and what expectations name ("fit": name)
   // "points" (with error bars), "distribution" (a histogram per chosen point), "curves" (a curve
   // an analysis offers, per chosen point), "maps" (a field's map per chosen point), "profile" (a
   // field along a line, a curve per chosen point) or "pictures" (of the chosen points)
   std::string kind = "points";
-  std::string picture = "end";             // pictures: "end" (the last frame: clogged, discharged) or "bed"
-  std::string of;                          // distribution: an offered distribution or a per-run metric; curves: an offered curve
-  int bins = 30;                           // distribution
-  double range_lo = kNaN, range_hi = kNaN; // distribution: the bins' range (NaN: the data's, common to every curve)
-  std::string field;                       // maps, profile: an offered field
-  std::string along;                       // profile: "x" or "y"
-  double at = kNaN;                        // profile: the line's other coordinate (d)
-  double width = 1.0;                      // profile: the band across the line averaged (d)
-  int origin_outlet = -1;                  // profile along x: x from this base outlet's centre (-1: the silo's x)
-  bool one_run = false;                    // maps, profile: the lowest replica with the field, not the runs merged
-  std::string y;                           // a metric name or an expression over metrics and axes
-  std::string ylabel;                      // default: y
-  std::string x;                           // an axis name; "" = the report's x axis
-  std::vector<std::string> group;          // axes making one curve each
-  bool group_given = false;                // false: every sweep axis but x and the pooled ones
-  std::vector<std::string> pool;           // axes pooled over (points differing only there are one)
+  std::string picture = "end";  // pictures: "end" (the last frame: clogged, discharged) or "bed"
+  std::string of;               // distribution: an offered distribution or a per-run metric; curves: an offered curve
+  int bins = 30;                // distribution
+  double range_lo = kNaN, range_hi = kNaN;  // distribution: the bins' range (NaN: the data's, common to every curve)
+  std::string field;                        // maps, profile: an offered field
+  std::string along;                        // profile: "x" or "y"
+  double at = kNaN;                         // profile: the line's other coordinate (d)
+  double width = 1.0;                       // profile: the band across the line averaged (d)
+  int origin_outlet = -1;                   // profile along x: x from this base outlet's centre (-1: the silo's x)
+  bool one_run = false;                     // maps, profile: the lowest replica with the field, not the runs merged
+  std::string y;                            // a metric name or an expression over metrics and axes
+  std::string ylabel;                       // default: y
+  std::string x;                            // an axis name; "" = the report's x axis
+  std::vector<std::string> group;           // axes making one curve each
+  bool group_given = false;                 // false: every sweep axis but x and the pooled ones
+  std::vector<std::string> pool;            // axes pooled over (points differing only there are one)
   std::vector<std::pair<std::string, std::vector<nlohmann::json>>> only;  // axis -> accepted values
   std::optional<FigureFitSpec> fit;
   std::string title, caption, reference;
@@ -60,8 +60,8 @@ struct FigureSpec {
 
 // The parts of polylines (the silo's walls over a map) inside box {x0, x1, y0, y1}: a line
 // leaving and re-entering it becomes two.
-std::vector<std::vector<std::array<double, 2>>> ClipPolylines(const std::vector<std::vector<std::array<double, 2>>>& lines,
-                                                              const std::array<double, 4>& box);
+std::vector<std::vector<std::array<double, 2>>> ClipPolylines(
+    const std::vector<std::vector<std::array<double, 2>>>& lines, const std::array<double, 4>& box);
 
 // Reads /report/figures of a campaign spec (absent: none). Every error is an OptionError naming
 // the JSON path, the value and what is allowed; axis names are checked against the spec's
@@ -70,18 +70,18 @@ std::vector<FigureSpec> ReadFigureSpecs(const nlohmann::json& campaign_spec);
 
 // One data point of a figure: a set of sweep points (pooled), its axes' values, y ± se (n).
 struct FigureDatum {
-  std::vector<std::size_t> points;         // indices into CampaignView::points
-  std::map<std::string, double> axes;      // every axis by name (sweep short names, derived, L)
+  std::vector<std::size_t> points;     // indices into CampaignView::points
+  std::map<std::string, double> axes;  // every axis by name (sweep short names, derived, L)
   double x = kNaN, y = kNaN, se = kNaN;
   int n = 0;
-  std::string group;                       // "X_db = 0.5" (the group axes' values)
+  std::string group;  // "X_db = 0.5" (the group axes' values)
 };
 
 struct FigureOutcome {
   const FigureSpec* spec = nullptr;
   std::vector<FigureDatum> data;
-  std::optional<FitResult> fit;            // when the figure has a fit (perhaps not good)
-  std::vector<Block> blocks;               // the figure(s), fit table and notes
+  std::optional<FitResult> fit;  // when the figure has a fit (perhaps not good)
+  std::vector<Block> blocks;     // the figure(s), fit table and notes
 };
 
 // The axes of a point of the view by name: CampaignAxes::values plus the report's x symbol
@@ -90,7 +90,8 @@ std::map<std::string, double> PointAxes(const CampaignView& view, const Point& p
 
 // Does the value of axis `name` at a point equal `want` (numbers as numbers, to 6 significant
 // digits as the report prints them; strings as strings)?
-bool AxisValueMatches(const CampaignView& view, const Point& point, const std::string& name, const nlohmann::json& want);
+bool AxisValueMatches(const CampaignView& view, const Point& point, const std::string& name,
+                      const nlohmann::json& want);
 
 // Point metrics of several points pooled: means weighted by n, standard errors combined
 // (one point: its metrics as they are).
@@ -98,8 +99,8 @@ std::map<std::string, MeanSe> PooledMetrics(const CampaignAnalysis& analysis, co
 // y (a metric name, or an expression over metrics and axes) from such metrics and a point's
 // axes: a metric as it is; an expression with its metrics' standard errors propagated to first
 // order and n the fewest of theirs. Sets `problem` (and returns NaN) for a name that is neither.
-MeanSe YValue(const std::string& y, const std::map<std::string, MeanSe>& metrics, const std::map<std::string, double>& axes,
-               std::string& problem);
+MeanSe YValue(const std::string& y, const std::map<std::string, MeanSe>& metrics,
+              const std::map<std::string, double>& axes, std::string& problem);
 
 // The data of a figure (only, pool, y per point) and, with a fit, the fit across them.
 FigureOutcome MakeFigure(const CampaignAnalysis& analysis, const FigureSpec& spec);
@@ -108,9 +109,9 @@ FigureOutcome MakeFigure(const CampaignAnalysis& analysis, const FigureSpec& spe
 // width/2 of `at` (the nearest row or column when the band holds none) at each position along
 // it. `along` is 'x' or 'y'.
 struct FieldProfile {
-  std::vector<double> position, value;     // value NaN where no node of the band is defined
-  std::vector<int> nodes;                  // defined nodes averaged at each position
-  double band_lo = kNaN, band_hi = kNaN;   // the rows (columns) averaged: their coordinates
+  std::vector<double> position, value;    // value NaN where no node of the band is defined
+  std::vector<int> nodes;                 // defined nodes averaged at each position
+  double band_lo = kNaN, band_hi = kNaN;  // the rows (columns) averaged: their coordinates
 };
 FieldProfile ComputeFieldProfile(const FieldMap& map, char along, double at, double width);
 

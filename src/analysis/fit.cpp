@@ -58,19 +58,23 @@ std::string ToString(FitQuality quality) {
 std::string FitResult::Verdict() const {
   switch (quality) {
     case FitQuality::kNotFitted: return status;
-    case FitQuality::kFailed: return "failed: " + status + " (" + convergence + ", " + std::to_string(iterations) + " it.)";
+    case FitQuality::kFailed:
+      return "failed: " + status + " (" + convergence + ", " + std::to_string(iterations) + " it.)";
     case FitQuality::kIllDetermined:
     case FitQuality::kGood: break;
   }
   std::string undetermined, spans;
   for (const FitParameter& p : parameters) {
-    if (!p.Determined()) undetermined += (undetermined.empty() ? "" : ", ") + p.name;
-    else if (p.CiSpansZero()) spans += (spans.empty() ? "" : ", ") + p.name;
+    if (!p.Determined())
+      undetermined += (undetermined.empty() ? "" : ", ") + p.name;
+    else if (p.CiSpansZero())
+      spans += (spans.empty() ? "" : ", ") + p.name;
   }
   std::string v = ToString(quality);
   if (!undetermined.empty()) v += ": " + undetermined + " not determined by the data";
-  if (!spans.empty()) v += std::string(undetermined.empty() ? ": " : "; ") + "95% CI of " + spans + " include" +
-                           (spans.find(',') == std::string::npos ? "s" : "") + " 0";
+  if (!spans.empty())
+    v += std::string(undetermined.empty() ? ": " : "; ") + "95% CI of " + spans + " include" +
+         (spans.find(',') == std::string::npos ? "s" : "") + " 0";
   if (dof == 1) v += std::string(v.find(':') == std::string::npos ? ": " : "; ") + "1 degree of freedom";
   if (!status.empty() && status.rfind("covariance", 0) == 0) v += "; " + status;
   return v;
@@ -131,7 +135,8 @@ double FitResult::Evaluate(double x_value) const {
 double FitResult::EvaluateAt(std::span<const double> values) const {
   if (parameters.empty()) return kNaN;
   try {
-    const Expression e = Expression::Parse(expression, variables.empty() ? std::vector<std::string>{variable} : variables);
+    const Expression e =
+        Expression::Parse(expression, variables.empty() ? std::vector<std::string>{variable} : variables);
     if (values.size() != e.Variables().size()) return kNaN;
     std::vector<double> pars;
     for (const auto& name : e.Parameters()) {
@@ -148,14 +153,15 @@ namespace {
 
 // The fit of `e` to n = y.size() points of nv = e.variables().size() variables (`x`, row-major).
 FitResult FitCore(const std::string& name, const Expression& e, std::span<const double> x, std::span<const double> y,
-                   std::span<const double> sigma, const std::map<std::string, double>& initial) {
+                  std::span<const double> sigma, const std::map<std::string, double>& initial) {
   const std::size_t nv = e.Variables().size();
   FitResult r;
   r.model_name = name;
   r.expression = e.Text();
   if (x.size() != y.size() * nv || (!sigma.empty() && sigma.size() != y.size()))
-    throw std::invalid_argument("fit '" + name + "': x, y and sigma sizes differ (" + std::to_string(x.size() / std::max<std::size_t>(1, nv)) +
-                                ", " + std::to_string(y.size()) + ", " + std::to_string(sigma.size()) + ")");
+    throw std::invalid_argument("fit '" + name + "': x, y and sigma sizes differ (" +
+                                std::to_string(x.size() / std::max<std::size_t>(1, nv)) + ", " +
+                                std::to_string(y.size()) + ", " + std::to_string(sigma.size()) + ")");
   for (std::size_t i = 0; i < y.size(); ++i) r.x.push_back(x[i * nv]);
   r.y.assign(y.begin(), y.end());
   bool weighted = !sigma.empty();
@@ -257,7 +263,7 @@ FitResult FitCore(const std::string& name, const Expression& e, std::span<const 
 }  // namespace
 
 FitResult MakeFitModel(const FitModel& model, std::span<const double> x, std::span<const double> y,
-                    std::span<const double> sigma) {
+                       std::span<const double> sigma) {
   const Expression e = Expression::Parse(model.expression, {model.variable});
   FitResult r = FitCore(model.name, e, x, y, sigma, model.initial);
   r.model_title = model.Shown();
@@ -265,9 +271,10 @@ FitResult MakeFitModel(const FitModel& model, std::span<const double> x, std::sp
   return r;
 }
 
-FitResult FitModelMulti(const std::string& name, const std::string& expression, const std::vector<std::string>& variables,
-                          const std::vector<std::vector<double>>& points, std::span<const double> y,
-                          std::span<const double> sigma, const std::map<std::string, double>& initial) {
+FitResult FitModelMulti(const std::string& name, const std::string& expression,
+                        const std::vector<std::string>& variables, const std::vector<std::vector<double>>& points,
+                        std::span<const double> y, std::span<const double> sigma,
+                        const std::map<std::string, double>& initial) {
   const Expression e = Expression::Parse(expression, variables);
   std::vector<double> flat;
   for (const auto& pt : points) {

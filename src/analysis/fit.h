@@ -15,18 +15,18 @@
 namespace granary::analysis {
 
 struct FitModel {
-  std::string name;                     // "beverloo_2d", or the user's label
-  std::string expression;               // e.g. "C * (x - k)^1.5"
-  std::string variable = "x";           // the name of the independent variable in `expression`
+  std::string name;                       // "beverloo_2d", or the user's label
+  std::string expression;                 // e.g. "C * (x - k)^1.5"
+  std::string variable = "x";             // the name of the independent variable in `expression`
   std::map<std::string, double> initial;  // starting values; missing parameters start at 1
-  std::string title{};                  // in figure keys and captions ("2-D Beverloo"); "" = name
+  std::string title{};                    // in figure keys and captions ("2-D Beverloo"); "" = name
   const std::string& Shown() const { return title.empty() ? name : title; }
 };
 
 // The three forms of shared analyses.md; x = W/d.
-FitModel Beverloo2d();      // Q = C (x - k)^(3/2)
-FitModel BeverlooFree();    // Q = C (x - k)^b
-FitModel Mankoc();           // Q = C (1 - exp(-b (x - 1)) / 2) (x - 1)^(3/2)
+FitModel Beverloo2d();    // Q = C (x - k)^(3/2)
+FitModel BeverlooFree();  // Q = C (x - k)^b
+FitModel Mankoc();        // Q = C (1 - exp(-b (x - 1)) / 2) (x - 1)^(3/2)
 
 struct FitParameter {
   std::string name;
@@ -50,7 +50,7 @@ std::string ToString(FitQuality quality);  // "not fitted", "failed", "ill-deter
 
 struct FitResult {
   std::string model_name;
-  std::string model_title;              // FitModel::Shown()
+  std::string model_title;  // FitModel::Shown()
   std::string expression;
   std::string variable = "x";
   // Fits over several variables (fit_model_multi): their names and each data point's values
@@ -58,15 +58,15 @@ struct FitResult {
   std::vector<std::string> variables;
   std::vector<std::vector<double>> points;
   std::vector<FitParameter> parameters;
-  std::vector<double> x, y, sigma;      // the data used (sigma empty = unweighted)
+  std::vector<double> x, y, sigma;        // the data used (sigma empty = unweighted)
   std::vector<double> fitted, residuals;  // residual = y - fitted
-  double chi2 = kNaN;                   // sum of squared (weighted) residuals
+  double chi2 = kNaN;                     // sum of squared (weighted) residuals
   int dof = 0;
   int iterations = 0;
-  int gsl_status = -1;                  // GSL_SUCCESS (0) or the GSL error code
-  std::string status;                   // gsl_strerror(gsl_status) or why the fit was not tried
-  std::string convergence;              // "small step", "small gradient", ... (GSL info)
-  std::string warning;                  // e.g. "b not determined by the data" (se = NaN)
+  int gsl_status = -1;      // GSL_SUCCESS (0) or the GSL error code
+  std::string status;       // gsl_strerror(gsl_status) or why the fit was not tried
+  std::string convergence;  // "small step", "small gradient", ... (GSL info)
+  std::string warning;      // e.g. "b not determined by the data" (se = NaN)
   FitQuality quality = FitQuality::kNotFitted;
   // The solver converged: parameters hold estimates (perhaps ill-determined ones).
   bool Ok() const { return gsl_status == 0; }
@@ -85,14 +85,15 @@ struct FitResult {
 // status "not fitted: ..." and gsl_status -1. Parameter values are NaN unless the solver
 // converged (the start values stay in `initial`). Throws ExpressionError for a bad model text.
 FitResult MakeFitModel(const FitModel& model, std::span<const double> x, std::span<const double> y,
-                    std::span<const double> sigma = {});
+                       std::span<const double> sigma = {});
 
 // The same over several variables: `points[i]` holds the values of `variables` (in order) at
 // data point i, so a thesis law such as "a * W^(1.5 + X/2) / (1.43 + 17 X^2)" is fitted
 // across every point of a figure at once. Every other name in `expression` is a parameter.
-FitResult FitModelMulti(const std::string& name, const std::string& expression, const std::vector<std::string>& variables,
-                          const std::vector<std::vector<double>>& points, std::span<const double> y,
-                          std::span<const double> sigma = {}, const std::map<std::string, double>& initial = {});
+FitResult FitModelMulti(const std::string& name, const std::string& expression,
+                        const std::vector<std::string>& variables, const std::vector<std::vector<double>>& points,
+                        std::span<const double> y, std::span<const double> sigma = {},
+                        const std::map<std::string, double>& initial = {});
 
 // Starting values for the built-in forms from the data (C from the largest point, k = 0,
 // b = 1.5 or 1): keeps the solver away from (x - k) < 0.

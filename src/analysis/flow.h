@@ -25,7 +25,7 @@ namespace granary::analysis {
 //     the end are dropped (start-up transient).
 // At least `min_events` exits must remain.
 struct FlowWindowRule {
-  double start_time = 2.0;          // sqrt(d/g)
+  double start_time = 2.0;  // sqrt(d/g)
   double start_fraction = 0.1;
   double shallow_fraction = 0.3;
   bool stop_at_first_clog = true;
@@ -35,14 +35,14 @@ struct FlowWindowRule {
 struct FlowInput {
   std::span<const rundir::ExitEvent> events;  // sorted by time
   bool remove_mode = true;
-  int bodies = 0;                   // bodies in the bed at the opening
-  double clog_gap = 5.0;            // a gap this long in the exit stream is a clog
-  int outlet = -1;                  // -1: all outlets together
+  int bodies = 0;         // bodies in the bed at the opening
+  double clog_gap = 5.0;  // a gap this long in the exit stream is a clog
+  int outlet = -1;        // -1: all outlets together
 };
 
 struct FlowRate {
   bool ok = false;
-  std::string note;                 // why not ok, or what limited the window
+  std::string note;  // why not ok, or what limited the window
   double t_start = kNaN, t_end = kNaN;
   int n_events = 0;
   double q_count = kNaN, q_count_se = kNaN;  // bodies per sqrt(d/g); se by batch means
@@ -71,7 +71,7 @@ std::vector<FlowRate> FlowRatePerOutlet(const FlowInput& input, const FlowWindow
 struct FlowWindow {
   bool ok = false;
   std::string note;
-  std::vector<double> times;        // exit times of the selected outlet(s), all of them
+  std::vector<double> times;  // exit times of the selected outlet(s), all of them
   std::vector<double> masses;
   std::size_t first = 0, last = 0;  // inclusive
 };
@@ -88,10 +88,10 @@ struct ProfileOptions {
 };
 
 struct VelocityProfile {
-  std::vector<double> x_over_w;     // bin centres
-  std::vector<double> vx, vy;       // mean per bin (NaN if empty)
+  std::vector<double> x_over_w;  // bin centres
+  std::vector<double> vx, vy;    // mean per bin (NaN if empty)
   std::vector<double> vx_norm, vy_norm;
-  std::vector<double> samples;      // body samples per bin
+  std::vector<double> samples;  // body samples per bin
   double v_max = kNaN;
   int frames = 0;
 };

@@ -137,7 +137,8 @@ class FlowAnalysis : public Analysis {
       for (std::size_t k = 0; k < per_outlet.size(); ++k) {
         const FlowRate& f = per_outlet[k];
         const std::string where = k < labels.size() ? labels[k] : "outlet " + std::to_string(k);
-        m.push_back({QName(k), kQUnit, f.ok ? f.q_count : kNaN, f.ok ? f.q_count_se : kNaN, "Q through " + where, false});
+        m.push_back(
+            {QName(k), kQUnit, f.ok ? f.q_count : kNaN, f.ok ? f.q_count_se : kNaN, "Q through " + where, false});
         m.push_back({"q_mass" + OutletSuffix(k), kQMassUnit, f.ok ? f.q_mass : kNaN, f.ok ? f.q_mass_se : kNaN,
                      "Q_m through " + where, false});
       }
@@ -179,7 +180,12 @@ void AddPerRun(const SectionInput& in, Section& s) {
       t.header.push_back("Q " + (k < v.outlet_labels.size() ? v.outlet_labels[k] : std::to_string(k)));
       t.keys.push_back(QName(k));
     }
-  Figure cum{"cumulative_exits", "Cumulative exits against time", "t (sqrt(d/g))", "exits (all outlets)", {}, false,
+  Figure cum{"cumulative_exits",
+             "Cumulative exits against time",
+             "t (sqrt(d/g))",
+             "exits (all outlets)",
+             {},
+             false,
              false,
              ""};
   int shown = 0;
@@ -190,9 +196,13 @@ void AddPerRun(const SectionInput& in, Section& s) {
       const nlohmann::json& r = in.results.runs[i];
       if (r.is_null()) continue;
       const FlowRate f = FlowOf(r.value("total", nlohmann::json()));
-      std::vector<Cell> row{v.used[i].record->run_id, PointName(v, point), Cell::Count(v.used[i].record->replica),
-                            Cell::Number(f.ok ? f.t_start : kNaN), Cell::Number(f.ok ? f.t_end : kNaN),
-                            Cell::Count(f.n_events), Cell::Estimate(f.q_count, f.q_count_se, -1),
+      std::vector<Cell> row{v.used[i].record->run_id,
+                            PointName(v, point),
+                            Cell::Count(v.used[i].record->replica),
+                            Cell::Number(f.ok ? f.t_start : kNaN),
+                            Cell::Number(f.ok ? f.t_end : kNaN),
+                            Cell::Count(f.n_events),
+                            Cell::Estimate(f.q_count, f.q_count_se, -1),
                             Cell::Estimate(f.q_mass, f.q_mass_se, -1)};
       if (several) {
         const std::vector<FlowRate> per_outlet = PerOutletOf(r);
@@ -233,20 +243,21 @@ void AddPerRun(const SectionInput& in, Section& s) {
   if (!cum.series.empty()) {
     const std::size_t with_runs = static_cast<std::size_t>(
         std::count_if(v.points.begin(), v.points.end(), [](const Point& p) { return !p.runs.empty(); }));
-    cum.caption = "Solid: the exit stream of the first finished replica at " +
-                  (static_cast<std::size_t>(shown) < with_runs
-                       ? "each of the first " + std::to_string(shown) + " of the " + std::to_string(with_runs) +
-                             " sweep points"
-                       : std::string("each sweep point")) +
-                  "; dashed: the straight line fitted over its steady window, whose slope is Q";
+    cum.caption =
+        "Solid: the exit stream of the first finished replica at " +
+        (static_cast<std::size_t>(shown) < with_runs
+             ? "each of the first " + std::to_string(shown) + " of the " + std::to_string(with_runs) + " sweep points"
+             : std::string("each sweep point")) +
+        "; dashed: the straight line fitted over its steady window, whose slope is Q";
     s.blocks.push_back(cum);
   }
   const FlowWindowRule& w = in.pass.window;
-  s.blocks.push_back(Text{
-      "Steady window: exits before t = " + FormatNumber(w.start_time) + " and the first " +
-      FormatNumber(100 * w.start_fraction) + "% of the exits are dropped; the window ends at the first clog (a gap of "
-      "clog_window in the exit stream)" + std::string(w.stop_at_first_clog ? "" : " [off]") +
-      " and, in remove mode, when " + FormatNumber(100 * w.shallow_fraction) + "% of the bodies remain."});
+  s.blocks.push_back(Text{"Steady window: exits before t = " + FormatNumber(w.start_time) + " and the first " +
+                          FormatNumber(100 * w.start_fraction) +
+                          "% of the exits are dropped; the window ends at the first clog (a gap of "
+                          "clog_window in the exit stream)" +
+                          std::string(w.stop_at_first_clog ? "" : " [off]") + " and, in remove mode, when " +
+                          FormatNumber(100 * w.shallow_fraction) + "% of the bodies remain."});
 }
 
 std::optional<Section> FlowAnalysis::BuildSection(const SectionInput& in) const {
@@ -265,7 +276,8 @@ std::optional<Section> FlowAnalysis::BuildSection(const SectionInput& in) const 
     const PointMetric* m = FindMetric(in.points[p], name);
     return m ? m->Estimate() : MeanSe{};
   };
-  Table t{"flow_rate", "Flow rate per sweep point: mean ± standard error (replicas)",
+  Table t{"flow_rate",
+          "Flow rate per sweep point: mean ± standard error (replicas)",
           {"point", several ? "Q all outlets (bodies/sqrt(d/g))" : "Q (bodies/sqrt(d/g))",
            several ? "Q_mass all outlets (mass/sqrt(d/g))" : "Q_mass (mass/sqrt(d/g))"},
           {},
@@ -285,12 +297,22 @@ std::optional<Section> FlowAnalysis::BuildSection(const SectionInput& in) const 
   s.blocks.push_back(t);
   if (HasX(v)) {
     const std::string q_what = HeadlineQWhat(v), headline = HeadlineQ(v);
-    Figure f{"flow_rate", "Flow rate Q" + (q_what.empty() ? "" : " " + q_what) + " against " + v.x_label, v.x_label,
-             "Q (bodies/sqrt(d/g))", PointSeries(v, in.points, headline, "Q"), false, false,
+    Figure f{"flow_rate",
+             "Flow rate Q" + (q_what.empty() ? "" : " " + q_what) + " against " + v.x_label,
+             v.x_label,
+             "Q (bodies/sqrt(d/g))",
+             PointSeries(v, in.points, headline, "Q"),
+             false,
+             false,
              "Error bars: standard error over replicas"};
-    Figure per_outlet_figure{"flow_rate_per_outlet", "Flow rate through each outlet against " + v.x_label, v.x_label,
-                             "Q (bodies/sqrt(d/g))", OutletSeries(v, in.points, QName, v.outlet_labels, "Q"),
-                             false, false, "One curve per outlet (and group); error bars: standard error over replicas"};
+    Figure per_outlet_figure{"flow_rate_per_outlet",
+                             "Flow rate through each outlet against " + v.x_label,
+                             v.x_label,
+                             "Q (bodies/sqrt(d/g))",
+                             OutletSeries(v, in.points, QName, v.outlet_labels, "Q"),
+                             false,
+                             false,
+                             "One curve per outlet (and group); error bars: standard error over replicas"};
     // Fits against W/d per group (>= 3 widths).
     Table fits{"flow_rate_fits",
                "Fits of Q(W/d) per group (95% confidence intervals, Student t). Fit quality: good, ill-determined (a "
@@ -301,8 +323,11 @@ std::optional<Section> FlowAnalysis::BuildSection(const SectionInput& in) const 
                {},
                {"group", "model", "parameter", "value", "se", "ci_low", "ci_high", "chi2_per_dof", "points", "weighted",
                 "fit_quality"}};
-    Table residuals{"flow_rate_fit_residuals", "Fit residuals (Q - fit)",
-                    {"group", "model", "W/d", "Q", "fit", "residual"}, {}, {"group", "model", "x", "q", "fit", "residual"}};
+    Table residuals{"flow_rate_fit_residuals",
+                    "Fit residuals (Q - fit)",
+                    {"group", "model", "W/d", "Q", "fit", "residual"},
+                    {},
+                    {"group", "model", "x", "q", "fit", "residual"}};
     std::vector<FitModel> models;
     if (v.x_is_width) models = {Beverloo2d(), BeverlooFree(), Mankoc()};
     for (const auto& m : models_) models.push_back(m);
@@ -348,20 +373,20 @@ std::optional<Section> FlowAnalysis::BuildSection(const SectionInput& in) const 
         try {
           r = MakeFitModel(WithDataGuess(model, x, y), x, y, sigma);
         } catch (const std::exception& e) {
-          fits.rows.push_back({g, ModelWords(model.Shown(), model.name), "", Cell::Number(kNaN), Cell::Number(kNaN), Cell::Number(kNaN),
-                               Cell::Number(kNaN), Cell::Number(kNaN), Cell::Count(static_cast<long long>(x.size())), "",
-                               e.what()});
+          fits.rows.push_back({g, ModelWords(model.Shown(), model.name), "", Cell::Number(kNaN), Cell::Number(kNaN),
+                               Cell::Number(kNaN), Cell::Number(kNaN), Cell::Number(kNaN),
+                               Cell::Count(static_cast<long long>(x.size())), "", e.what()});
           continue;
         }
         const std::string weighted = r.sigma.empty() ? "no" : "1/se^2";
         for (const auto& par : r.parameters)
-          fits.rows.push_back({g, ModelWords(r.model_title, r.model_name) + ": " + r.expression, par.name, Cell::Number(par.value),
-                               Cell::Number(par.se, 2), Cell::Number(par.ci_low), Cell::Number(par.ci_high),
-                               Cell::Number(r.Ok() && r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
+          fits.rows.push_back({g, ModelWords(r.model_title, r.model_name) + ": " + r.expression, par.name,
+                               Cell::Number(par.value), Cell::Number(par.se, 2), Cell::Number(par.ci_low),
+                               Cell::Number(par.ci_high), Cell::Number(r.Ok() && r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
                                Cell::Count(static_cast<long long>(x.size())), weighted, r.Verdict()});
         for (std::size_t i = 0; i < r.x.size(); ++i)
-          residuals.rows.push_back({g, ModelWords(r.model_title, r.model_name), Cell::Number(r.x[i], 6), Cell::Number(r.y[i]),
-                                    Cell::Number(r.fitted[i]), Cell::Number(r.residuals[i], 3)});
+          residuals.rows.push_back({g, ModelWords(r.model_title, r.model_name), Cell::Number(r.x[i], 6),
+                                    Cell::Number(r.y[i]), Cell::Number(r.fitted[i]), Cell::Number(r.residuals[i], 3)});
         if (!r.Ok()) continue;
         if (std::isfinite(group_value)) {
           Figure& tf = trends[r.model_name];
@@ -370,12 +395,14 @@ std::optional<Section> FlowAnalysis::BuildSection(const SectionInput& in) const 
             tf.title = "Fitted parameters of " + model.Shown() + " (" + r.expression + ") against " + other_axis_name;
             tf.xlabel = other_axis_name;
             tf.ylabel = "parameter value";
-            tf.caption = "Error bars: standard errors of the fit. Parameters not determined by the data or whose 95% "
-                         "interval holds 0 are left out (fit table above)";
+            tf.caption =
+                "Error bars: standard errors of the fit. Parameters not determined by the data or whose 95% "
+                "interval holds 0 are left out (fit table above)";
           }
           for (const auto& par : r.parameters) {
             if (!par.Determined() || par.CiSpansZero()) continue;
-            auto it = std::find_if(tf.series.begin(), tf.series.end(), [&](const Series& se) { return se.label == par.name; });
+            auto it = std::find_if(tf.series.begin(), tf.series.end(),
+                                   [&](const Series& se) { return se.label == par.name; });
             if (it == tf.series.end()) {
               Series se;
               se.label = par.name;
@@ -417,15 +444,22 @@ std::optional<Section> FlowAnalysis::BuildSection(const SectionInput& in) const 
         } else {
           Figure& mf = model_figures[model.name];
           if (mf.name.empty())
-            mf = Figure{"flow_rate_fit_" + model.name, "Flow rate with the " + model.Shown() + " fit (" + r.expression + ")",
-                        v.x_label, "Q (bodies/sqrt(d/g))", data_series, false, false, "Error bars: se over replicas"};
+            mf = Figure{"flow_rate_fit_" + model.name,
+                        "Flow rate with the " + model.Shown() + " fit (" + r.expression + ")",
+                        v.x_label,
+                        "Q (bodies/sqrt(d/g))",
+                        data_series,
+                        false,
+                        false,
+                        "Error bars: se over replicas"};
           mf.series.push_back(std::move(curve));
         }
       }
     }
     if (!not_drawn.empty()) {
-      std::string text = "Dashed: fits whose every parameter the data determine. Not drawn (a parameter without a "
-                         "standard error or with a 95% interval holding 0, so the curve is one of many the data allow): ";
+      std::string text =
+          "Dashed: fits whose every parameter the data determine. Not drawn (a parameter without a "
+          "standard error or with a 95% interval holding 0, so the curve is one of many the data allow): ";
       for (std::size_t i = 0; i < not_drawn.size(); ++i) text += (i ? "; " : "") + not_drawn[i];
       f.caption += ". " + text;
     }
@@ -433,19 +467,21 @@ std::optional<Section> FlowAnalysis::BuildSection(const SectionInput& in) const 
     if (several && !per_outlet_figure.series.empty()) s.blocks.push_back(per_outlet_figure);
     for (auto& [name, mf] : model_figures) s.blocks.push_back(mf);
     if (fitted_groups > 0) {
-      s.blocks.push_back(Text{"Models (shared analyses.md): 2-D Beverloo `Q = C (W/d - k)^(3/2)`, free exponent "
-                              "`Q = C (W/d - k)^b`, Mankoc `Q = C (1 - exp(-b (W/d - 1))/2) (W/d - 1)^(3/2)`, plus "
-                              "any model given in the campaign spec `/report/flow/models`. GSL trust-region "
-                              "Levenberg-Marquardt with a finite-difference Jacobian; weights 1/se^2 when every "
-                              "point has a replica standard error, covariance scaled by max(1, chi2/dof) (weighted) "
-                              "or chi2/dof (unweighted)."});
+      s.blocks.push_back(
+          Text{"Models (shared analyses.md): 2-D Beverloo `Q = C (W/d - k)^(3/2)`, free exponent "
+               "`Q = C (W/d - k)^b`, Mankoc `Q = C (1 - exp(-b (W/d - 1))/2) (W/d - 1)^(3/2)`, plus "
+               "any model given in the campaign spec `/report/flow/models`. GSL trust-region "
+               "Levenberg-Marquardt with a finite-difference Jacobian; weights 1/se^2 when every "
+               "point has a replica standard error, covariance scaled by max(1, chi2/dof) (weighted) "
+               "or chi2/dof (unweighted)."});
       s.blocks.push_back(fits);
       for (auto& [model, tf] : trends)
         if (std::any_of(tf.series.begin(), tf.series.end(), [](const Series& se) { return se.rows.size() >= 2; }))
           s.blocks.push_back(tf);
       s.blocks.push_back(residuals);
     } else if (v.x_is_width) {
-      s.blocks.push_back(Text{"Beverloo fits need at least 3 outlet widths in a group; this campaign has fewer so far."});
+      s.blocks.push_back(
+          Text{"Beverloo fits need at least 3 outlet widths in a group; this campaign has fewer so far."});
     }
   }
   AddPerRun(in, s);
@@ -459,17 +495,21 @@ std::vector<FitModel> ReadModels(const nlohmann::json& v, const std::string& pat
     const nlohmann::json& m = v[i];
     const std::string mp = path + "/" + std::to_string(i);
     if (!m.is_object() || !m.contains("expression") || !m.at("expression").is_string())
-      throw OptionError(mp, m, "must be {\"name\": .., \"expression\": \"C * x^b\", \"variable\": \"x\", \"initial\": {..}}");
+      throw OptionError(mp, m,
+                        "must be {\"name\": .., \"expression\": \"C * x^b\", \"variable\": \"x\", \"initial\": {..}}");
     FitModel f;
-    f.name = m.contains("name") && m.at("name").is_string() ? m.at("name").get<std::string>() : "model_" + std::to_string(i);
+    f.name =
+        m.contains("name") && m.at("name").is_string() ? m.at("name").get<std::string>() : "model_" + std::to_string(i);
     f.expression = m.at("expression").get<std::string>();
     if (m.contains("variable")) {
       if (!m.at("variable").is_string()) throw OptionError(mp + "/variable", m.at("variable"), "must be a name");
       f.variable = m.at("variable").get<std::string>();
     }
     if (m.contains("initial")) {
-      if (!m.at("initial").is_object()) throw OptionError(mp + "/initial", m.at("initial"), "must be {parameter: value}");
-      for (const auto& [k, iv] : m.at("initial").items()) f.initial[k] = OptionNumber(iv, mp + "/initial/" + k, -1e300, 1e300);
+      if (!m.at("initial").is_object())
+        throw OptionError(mp + "/initial", m.at("initial"), "must be {parameter: value}");
+      for (const auto& [k, iv] : m.at("initial").items())
+        f.initial[k] = OptionNumber(iv, mp + "/initial/" + k, -1e300, 1e300);
     }
     try {
       Expression::Parse(f.expression, {f.variable});

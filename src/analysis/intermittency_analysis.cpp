@@ -19,7 +19,8 @@ nlohmann::json StretchesJson(const std::vector<Stretch>& stretches) {
 
 std::vector<Stretch> StretchesOf(const nlohmann::json& j) {
   std::vector<Stretch> out;
-  for (const auto& s : j) out.push_back({s.at(0).get<double>(), s.at(1).get<double>(), s.at(2).get<int>(), s.at(3).get<bool>()});
+  for (const auto& s : j)
+    out.push_back({s.at(0).get<double>(), s.at(1).get<double>(), s.at(2).get<int>(), s.at(3).get<bool>()});
   return out;
 }
 
@@ -43,7 +44,8 @@ class IntermittencyAccumulator : public RunAccumulator {
     for (std::size_t o = 0; o < run.outlets.size(); ++o) {
       const ClogSeries s = ComputeClogSeries(run.data->events, static_cast<int>(o), run.t_end, run.clog_gap, end);
       result_["outlets"].push_back(run.outlets[o].label);
-      result_["series"].push_back({{"flowing", StretchesJson(s.flowing)}, {"clogged", StretchesJson(s.clogged)}, {"t_end", s.t_end}});
+      result_["series"].push_back(
+          {{"flowing", StretchesJson(s.flowing)}, {"clogged", StretchesJson(s.clogged)}, {"t_end", s.t_end}});
     }
   }
   nlohmann::json Finish() override { return result_; }
@@ -58,13 +60,14 @@ std::string Name(const std::string& base, std::size_t k, std::size_t outlets) {
 }
 
 std::vector<PointMetric> StatsMetrics(const IntermittencyStats& st, std::size_t k, std::size_t outlets,
-                                       const std::string& where, int runs) {
+                                      const std::string& where, int runs) {
   const std::string at = outlets > 1 ? " at " + where : "";
   return {{Name("t_flowing", k, outlets), "sqrt(d/g)", st.t_flowing.mean, st.t_flowing.se, st.t_flowing.n,
            "<t_f> flowing time" + at, false, ""},
           {Name("t_clogged", k, outlets), "sqrt(d/g)", st.t_clogged.mean, st.t_clogged.se, st.t_clogged.n,
            "<t_c> clogged time" + at, false, ""},
-          {Name("unclog_rate", k, outlets), "1/sqrt(d/g)", st.unclog_rate, kNaN, runs, "N_u unclogging rate" + at, false, ""}};
+          {Name("unclog_rate", k, outlets), "1/sqrt(d/g)", st.unclog_rate, kNaN, runs, "N_u unclogging rate" + at,
+           false, ""}};
 }
 
 class IntermittencyAnalysis : public Analysis {
@@ -104,7 +107,8 @@ class IntermittencyAnalysis : public Analysis {
     for (std::size_t k = 0; k < by_outlet.size(); ++k) {
       const IntermittencyStats st = Intermittency(by_outlet[k]);
       for (PointMetric& p : StatsMetrics(st, k, by_outlet.size(), labels[k], static_cast<int>(by_outlet[k].size()))) {
-        if (p.name.rfind("unclog_rate", 0) == 0) p.note = std::to_string(st.unclogs) + " unclogs in " + FormatNumber(st.observed_time);
+        if (p.name.rfind("unclog_rate", 0) == 0)
+          p.note = std::to_string(st.unclogs) + " unclogs in " + FormatNumber(st.observed_time);
         m.push_back(p);
       }
     }
@@ -121,19 +125,33 @@ std::optional<Section> IntermittencyAnalysis::BuildSection(const SectionInput& i
       for (const ClogSeries& s : SeriesOf(r)) any = any || s.Unclogs() > 0;
   if (!any) return std::nullopt;
   Section s{"intermittency", "Flowing and clogged times per outlet (ch. 7)", {}};
-  s.blocks.push_back(Text{"From the exit stream of each outlet: a gap of at least clog_window is a clog (t_c from the "
-                          "last exit before it to the first after it); a flowing stretch runs from the opening or an "
-                          "unclog to the last exit before a clog (t_f). Censored stretches (the run ended) are left "
-                          "out of the means. N_u = unclogging events per unit time, over the replicas' total time."});
-  Table t{"intermittency", "t_f, t_c and N_u per point and outlet (pooled over replicas)",
+  s.blocks.push_back(
+      Text{"From the exit stream of each outlet: a gap of at least clog_window is a clog (t_c from the "
+           "last exit before it to the first after it); a flowing stretch runs from the opening or an "
+           "unclog to the last exit before a clog (t_f). Censored stretches (the run ended) are left "
+           "out of the means. N_u = unclogging events per unit time, over the replicas' total time."});
+  Table t{"intermittency",
+          "t_f, t_c and N_u per point and outlet (pooled over replicas)",
           {"point", "outlet", "<t_f> ± se (n)", "<t_c> ± se (n)", "N_u (1/sqrt(d/g))", "unclogs", "time"},
           {},
           {"point", "outlet", "t_flowing", "t_clogged", "unclog_rate", "unclogs", "time"}};
   // Figures against the x axis: one series per (group, outlet).
-  Figure times{"intermittency_times", "Mean flowing and clogged times against " + v.x_label, v.x_label,
-               "<t_f>, <t_c> (sqrt(d/g))", {}, false, false, "Error bars: se over stretches pooled over replicas"};
-  Figure rate{"unclogging_rate", "Unclogging rate N_u against " + v.x_label, v.x_label, "N_u (1/sqrt(d/g))", {}, false,
-              false, "Unclogging events per unit time over the replicas' total time"};
+  Figure times{"intermittency_times",
+               "Mean flowing and clogged times against " + v.x_label,
+               v.x_label,
+               "<t_f>, <t_c> (sqrt(d/g))",
+               {},
+               false,
+               false,
+               "Error bars: se over stretches pooled over replicas"};
+  Figure rate{"unclogging_rate",
+              "Unclogging rate N_u against " + v.x_label,
+              v.x_label,
+              "N_u (1/sqrt(d/g))",
+              {},
+              false,
+              false,
+              "Unclogging events per unit time over the replicas' total time"};
   std::map<std::string, std::size_t> tf_index, tc_index, nu_index;
   auto series_for = [](Figure& f, std::map<std::string, std::size_t>& index, const std::string& label,
                        const std::vector<std::string>& columns, Series::Style style) -> Series& {

@@ -37,7 +37,7 @@ bool OptionBool(const nlohmann::json& value, const std::string& path) {
 }
 
 const nlohmann::json& OptionObject(const nlohmann::json& value, const std::string& path,
-                                    std::initializer_list<const char*> known) {
+                                   std::initializer_list<const char*> known) {
   std::string list;
   for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
   if (!value.is_object()) throw OptionError(path, value, "must be an object with the keys " + list);

@@ -26,6 +26,6 @@ int OptionInteger(const nlohmann::json& value, const std::string& path, int lo, 
 bool OptionBool(const nlohmann::json& value, const std::string& path);
 // An object whose keys are all in `known` (else: "unknown key (known: a, b)").
 const nlohmann::json& OptionObject(const nlohmann::json& value, const std::string& path,
-                                    std::initializer_list<const char*> known);
+                                   std::initializer_list<const char*> known);
 
 }  // namespace granary::analysis

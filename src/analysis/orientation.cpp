@@ -42,7 +42,8 @@ BodyAxis AxisOf(const std::vector<const rundir::Disc*>& discs) {
 std::vector<BodyAxis> BodyAxes(const std::vector<rundir::Disc>& discs) {
   std::vector<const rundir::Disc*> sorted(discs.size());
   for (std::size_t i = 0; i < discs.size(); ++i) sorted[i] = &discs[i];
-  std::stable_sort(sorted.begin(), sorted.end(), [](const rundir::Disc* a, const rundir::Disc* b) { return a->mol < b->mol; });
+  std::stable_sort(sorted.begin(), sorted.end(),
+                   [](const rundir::Disc* a, const rundir::Disc* b) { return a->mol < b->mol; });
   std::vector<BodyAxis> axes;
   std::vector<const rundir::Disc*> body;
   for (std::size_t i = 0; i < sorted.size(); ++i) {
@@ -114,7 +115,7 @@ std::vector<OrientationOptions::Region> OrientationRegions(const OrientationOpti
 }
 
 void AddOrientationFrame(const std::vector<rundir::Disc>& discs, const silo::OutletFrame& f, double half_width,
-                           const OrientationOptions& o, OrientationSums& sums) {
+                         const OrientationOptions& o, OrientationSums& sums) {
   const std::size_t nh = o.heights.size(), nr = o.radii.size();
   const int sb = std::max(1, o.s_bins), tb = std::max(1, o.theta_bins), ab = std::max(1, o.axis_bins);
   const std::vector<OrientationOptions::Region> regions = OrientationRegions(o, f);
@@ -139,7 +140,8 @@ void AddOrientationFrame(const std::vector<rundir::Disc>& discs, const silo::Out
     const double s = px * f.ax + py * f.ay, h = px * f.nx + py * f.ny;
     for (std::size_t i = 0; i < nh; ++i) {
       if (std::fabs(h - o.heights[i]) > o.band / 2 || std::fabs(s) >= range) continue;
-      const auto bin = static_cast<std::size_t>(std::clamp(static_cast<int>((s + range) / (2 * range) * sb), 0, sb - 1));
+      const auto bin =
+          static_cast<std::size_t>(std::clamp(static_cast<int>((s + range) / (2 * range) * sb), 0, sb - 1));
       sums.s_sum[i][bin] += a;
       sums.s_count[i][bin] += 1;
     }

@@ -15,8 +15,8 @@ namespace granary::analysis {
 // The long axis of a body: the line through the centres of its two discs furthest apart (a
 // dumbbell's, a snowman's or a rod's axis; whatever order the engine numbered its discs in).
 struct BodyAxis {
-  bool elongated = false;   // two discs or more (a disc has no axis)
-  double angle = kNaN;      // the axis' angle with the horizontal, in [0, pi)
+  bool elongated = false;  // two discs or more (a disc has no axis)
+  double angle = kNaN;     // the axis' angle with the horizontal, in [0, pi)
   // Snowmen (discs of two sizes): the direction from the centre of the big disc to the centre
   // of the small one (where the head points), in [0, 2 pi); NaN when the end discs are equal.
   double head = kNaN;
@@ -45,7 +45,7 @@ struct OrientationOptions {
   // Fig. 4.3a: the mean acute orientation against s in bands h +- band/2 at these heights.
   std::vector<double> heights = {2, 5, 10, 20};
   double band = 2.0;
-  double s_range = 0.0;               // bins over [-s_range, s_range]; 0: the silo's half width
+  double s_range = 0.0;  // bins over [-s_range, s_range]; 0: the silo's half width
   int s_bins = 24;
   // Fig. 4.3b: against the angular position theta in [0, pi], in rings r +- ring/2 around the
   // outlet's centre.
@@ -58,14 +58,14 @@ struct OrientationOptions {
     double x0 = 0, x1 = 0, y0 = 0, y1 = 0;
     double director = 1.5707963267948966;  // vertical
   };
-  std::vector<Region> regions;        // empty: the region above the outlet (|s| < 5, 0 < h < 10), vertical
+  std::vector<Region> regions;  // empty: the region above the outlet (|s| < 5, 0 < h < 10), vertical
   // Fig. 6.5: distributions of the axis angle in a window at angular position `window_theta`
   // (+- window_dtheta / 2) and radius `window_radius` (+- window_dr / 2).
   double window_theta = 0.7853981633974483;  // pi/4
   double window_radius = 10.0;
-  double window_dtheta = 0.5235987755982988; // pi/6
+  double window_dtheta = 0.5235987755982988;  // pi/6
   double window_dr = 4.0;
-  int axis_bins = 18;                 // over [0, pi)
+  int axis_bins = 18;  // over [0, pi)
 };
 
 // Sums over frames (one run's, or several runs' added up), from which the profiles follow.
@@ -82,15 +82,16 @@ struct OrientationSums {
 // Adds one frame's elongated bodies (`discs`: every disc of the frame) to `sums`, positions
 // relative to `outlet`; `half_width` is the silo's (the default s range).
 void AddOrientationFrame(const std::vector<rundir::Disc>& discs, const silo::OutletFrame& outlet, double half_width,
-                           const OrientationOptions& options, OrientationSums& sums);
+                         const OrientationOptions& options, OrientationSums& sums);
 
 // The regions actually used (options.regions, or the default one above `outlet`).
-std::vector<OrientationOptions::Region> OrientationRegions(const OrientationOptions& options, const silo::OutletFrame& outlet);
+std::vector<OrientationOptions::Region> OrientationRegions(const OrientationOptions& options,
+                                                           const silo::OutletFrame& outlet);
 
 // Profiles from sums: the mean acute angle per bin (NaN where empty) and its count.
 struct OrientationProfile {
-  std::vector<double> centre;         // bin centres (s, or theta in radians)
-  std::vector<std::vector<double>> mean;    // [height or radius][bin]
+  std::vector<double> centre;             // bin centres (s, or theta in radians)
+  std::vector<std::vector<double>> mean;  // [height or radius][bin]
   std::vector<std::vector<double>> count;
 };
 OrientationProfile OrientationAgainstS(const OrientationSums& sums, const OrientationOptions& options);

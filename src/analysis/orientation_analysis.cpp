@@ -51,7 +51,8 @@ bool AnyElongated(const std::vector<rundir::Disc>& discs) {
 // steady window's frames), then the arch bodies of the kept clogs in the window.
 class OrientationAccumulator : public RunAccumulator {
  public:
-  OrientationAccumulator(const RunView& run, const OrientationAnalysisOptions& o) : data_(run.data), steady_(run.steady), o_(o) {
+  OrientationAccumulator(const RunView& run, const OrientationAnalysisOptions& o)
+      : data_(run.data), steady_(run.steady), o_(o) {
     try {
       silo_ = SiloOf(data_->spec, 1e3);
       if (o.outlet >= static_cast<int>(silo_.outlets.size())) {
@@ -85,9 +86,11 @@ class OrientationAccumulator : public RunAccumulator {
           for (const Arch& a : AnalyseClog(clog, silo_).arches) {
             if (a.outlet != o_.outlet) continue;
             for (const ArchBody& b : a.bodies) {
-              if (!std::isfinite(b.axis) || std::fabs(b.theta - o_.where.window_theta) > o_.where.window_dtheta / 2) continue;
+              if (!std::isfinite(b.axis) || std::fabs(b.theta - o_.where.window_theta) > o_.where.window_dtheta / 2)
+                continue;
               const int bins = static_cast<int>(arch_window.size());
-              arch_window[static_cast<std::size_t>(std::clamp(static_cast<int>(b.axis / kPi * bins), 0, bins - 1))] += 1;
+              arch_window[static_cast<std::size_t>(std::clamp(static_cast<int>(b.axis / kPi * bins), 0, bins - 1))] +=
+                  1;
             }
           }
         }
@@ -200,27 +203,34 @@ std::optional<Section> OrientationAnalysis::BuildSection(const SectionInput& in)
   Section s{"orientation", "Orientation of elongated bodies (ch. 4, 5, 6)", {}};
   s.blocks.push_back(Text{
       "The long axis of a body is the line through the centres of its two discs furthest apart; psi is its angle with "
-      "the horizontal in [0, 180) degrees. Positions are taken from outlet " + std::to_string(o.outlet) +
+      "the horizontal in [0, 180) degrees. Positions are taken from outlet " +
+      std::to_string(o.outlet) +
       ": s along it from its centre, h into the silo, theta = atan2(h, s) (90 = above its centre). The mean "
       "orientation averages the acute angle with the horizontal (90 = vertical, whichever way a body leans; fig. 4.3) "
       "over the frames of steady flow; S = 2 <cos^2(psi - director)> - 1 (fig. 5.5) is 1 along the director, -1 across "
-      "it, 0 for no order. Distributions of psi in the window at theta = " + FormatNumber(Degrees(o.where.window_theta), 3) +
-      " ± " + FormatNumber(Degrees(o.where.window_dtheta / 2), 3) + " degrees and r = " + FormatNumber(o.where.window_radius, 3) +
-      " ± " + FormatNumber(o.where.window_dr / 2, 3) + " d: in the bed before the opening (t = 0), during flow, and of the "
+      "it, 0 for no order. Distributions of psi in the window at theta = " +
+      FormatNumber(Degrees(o.where.window_theta), 3) + " ± " + FormatNumber(Degrees(o.where.window_dtheta / 2), 3) +
+      " degrees and r = " + FormatNumber(o.where.window_radius, 3) + " ± " + FormatNumber(o.where.window_dr / 2, 3) +
+      " d: in the bed before the opening (t = 0), during flow, and of the "
       "arch bodies at that angular position (any radius; fig. 6.5)."});
   const std::vector<std::size_t> drawn = SpreadPoints(v, [&](std::size_t k) { return ps[k].elongated; });
   // Fig. 4.3a and b: a figure per height and per radius.
   for (std::size_t h = 0; h < o.where.heights.size(); ++h) {
     Figure f{"orientation_s_" + std::to_string(h + 1),
-             "Mean orientation against s at h = " + FormatNumber(o.where.heights[h], 3) + " d", "s (d)",
-             "mean acute angle with the horizontal (degrees)", {}, false, false,
+             "Mean orientation against s at h = " + FormatNumber(o.where.heights[h], 3) + " d",
+             "s (d)",
+             "mean acute angle with the horizontal (degrees)",
+             {},
+             false,
+             false,
              "Fig. 4.3a: steady flow, band h ± " + FormatNumber(o.where.band / 2, 3) + " d"};
     for (std::size_t k : drawn) {
       const OrientationProfile prof = OrientationAgainstS(ps[k].flow, o.where);
       if (h >= prof.mean.size()) continue;
       Series se{PointName(v, v.points[k]), {"s", "angle_deg", "count"}, {}, Series::Style::kLinesPoints};
       for (std::size_t b = 0; b < prof.centre.size(); ++b)
-        if (std::isfinite(prof.mean[h][b])) se.rows.push_back({prof.centre[b], Degrees(prof.mean[h][b]), prof.count[h][b]});
+        if (std::isfinite(prof.mean[h][b]))
+          se.rows.push_back({prof.centre[b], Degrees(prof.mean[h][b]), prof.count[h][b]});
       if (!se.rows.empty()) f.series.push_back(se);
     }
     if (!f.series.empty()) s.blocks.push_back(f);
@@ -228,14 +238,19 @@ std::optional<Section> OrientationAnalysis::BuildSection(const SectionInput& in)
   for (std::size_t r = 0; r < o.where.radii.size(); ++r) {
     Figure f{"orientation_theta_" + std::to_string(r + 1),
              "Mean orientation against the angular position at r = " + FormatNumber(o.where.radii[r], 3) + " d",
-             "theta (degrees)", "mean acute angle with the horizontal (degrees)", {}, false, false,
+             "theta (degrees)",
+             "mean acute angle with the horizontal (degrees)",
+             {},
+             false,
+             false,
              "Fig. 4.3b: steady flow, ring r ± " + FormatNumber(o.where.ring / 2, 3) + " d"};
     for (std::size_t k : drawn) {
       const OrientationProfile prof = OrientationAgainstTheta(ps[k].flow, o.where);
       if (r >= prof.mean.size()) continue;
       Series se{PointName(v, v.points[k]), {"theta_deg", "angle_deg", "count"}, {}, Series::Style::kLinesPoints};
       for (std::size_t b = 0; b < prof.centre.size(); ++b)
-        if (std::isfinite(prof.mean[r][b])) se.rows.push_back({Degrees(prof.centre[b]), Degrees(prof.mean[r][b]), prof.count[r][b]});
+        if (std::isfinite(prof.mean[r][b]))
+          se.rows.push_back({Degrees(prof.centre[b]), Degrees(prof.mean[r][b]), prof.count[r][b]});
       if (!se.rows.empty()) f.series.push_back(se);
     }
     if (!f.series.empty()) s.blocks.push_back(f);
@@ -244,7 +259,10 @@ std::optional<Section> OrientationAnalysis::BuildSection(const SectionInput& in)
   std::vector<std::string> regions;
   for (const PointSums& p : ps)
     if (regions.size() < p.regions.size()) regions = p.regions;
-  Table t{"orientation_order", "Order parameter S during steady flow (mean ± se over runs)", {"point", "frames"}, {},
+  Table t{"orientation_order",
+          "Order parameter S during steady flow (mean ± se over runs)",
+          {"point", "frames"},
+          {},
           {"point", "flow_frames"}};
   for (std::size_t r = 0; r < regions.size(); ++r) {
     t.header.push_back("S, " + regions[r]);
@@ -261,7 +279,13 @@ std::optional<Section> OrientationAnalysis::BuildSection(const SectionInput& in)
   }
   s.blocks.push_back(t);
   if (HasX(v) && !regions.empty()) {
-    Figure f{"orientation_order", "Order parameter against " + v.x_label, v.x_label, "S", {}, false, false,
+    Figure f{"orientation_order",
+             "Order parameter against " + v.x_label,
+             v.x_label,
+             "S",
+             {},
+             false,
+             false,
              "Fig. 5.5: error bars, standard error over runs"};
     for (std::size_t r = 0; r < regions.size(); ++r)
       for (Series se : PointSeries(v, in.points, "order_parameter_" + std::to_string(r), "S")) {
@@ -277,18 +301,28 @@ std::optional<Section> OrientationAnalysis::BuildSection(const SectionInput& in)
       {"arches", [&](std::size_t k) { return ps[k].arch_window; }}};
   const char* titles[] = {"in the bed before the opening", "during steady flow", "of arch bodies"};
   for (std::size_t sc = 0; sc < std::size(scenes); ++sc) {
-    Figure f{"orientation_window_" + scenes[sc].first, "Axis angles " + std::string(titles[sc]) + " in the window",
-             "psi (degrees)", "probability density (1/rad)", {}, false, false, "Fig. 6.5"};
+    Figure f{"orientation_window_" + scenes[sc].first,
+             "Axis angles " + std::string(titles[sc]) + " in the window",
+             "psi (degrees)",
+             "probability density (1/rad)",
+             {},
+             false,
+             false,
+             "Fig. 6.5"};
     for (std::size_t k : drawn) {
       const std::vector<double> counts = scenes[sc].second(k);
       const std::vector<double> d = AxisDensity(counts);
       double total = 0;
       for (double c : counts) total += c;
       if (total <= 0) continue;
-      Series se{PointName(v, v.points[k]) + " (" + FormatNumber(total, 6) + " axes)", {"psi_deg", "density", "count"}, {}, Series::Style::kSteps};
+      Series se{PointName(v, v.points[k]) + " (" + FormatNumber(total, 6) + " axes)",
+                {"psi_deg", "density", "count"},
+                {},
+                Series::Style::kSteps};
       se.file_label = PointName(v, v.points[k]);
       for (std::size_t b = 0; b < d.size(); ++b)
-        se.rows.push_back({Degrees((static_cast<double>(b) + 0.5) * kPi / static_cast<double>(d.size())), d[b], counts[b]});
+        se.rows.push_back(
+            {Degrees((static_cast<double>(b) + 0.5) * kPi / static_cast<double>(d.size())), d[b], counts[b]});
       f.series.push_back(se);
     }
     if (!f.series.empty()) s.blocks.push_back(f);
@@ -296,13 +330,18 @@ std::optional<Section> OrientationAnalysis::BuildSection(const SectionInput& in)
   return s;
 }
 
-
 }  // namespace
 
 nlohmann::json to_json(const OrientationSums& s) {
-  return {{"frames", s.frames},       {"s_sum", s.s_sum},         {"s_count", s.s_count},
-          {"theta_sum", s.theta_sum}, {"theta_count", s.theta_count}, {"cos2_sum", s.cos2_sum},
-          {"region_count", s.region_count}, {"window_axes", s.window_axes}, {"s_range", s.s_range}};
+  return {{"frames", s.frames},
+          {"s_sum", s.s_sum},
+          {"s_count", s.s_count},
+          {"theta_sum", s.theta_sum},
+          {"theta_count", s.theta_count},
+          {"cos2_sum", s.cos2_sum},
+          {"region_count", s.region_count},
+          {"window_axes", s.window_axes},
+          {"s_range", s.s_range}};
 }
 
 OrientationSums OrientationSumsFromJson(const nlohmann::json& j) {
@@ -326,8 +365,8 @@ OrientationAnalysisOptions ReadOrientationOptions(const nlohmann::json& options,
   o.where.radii = {5, 10};
   if (options.is_null()) return o;
   OptionObject(options, path,
-                {"outlet", "heights", "band", "s_range", "s_bins", "radii", "ring", "theta_bins", "regions", "window",
-                 "axis_bins"});
+               {"outlet", "heights", "band", "s_range", "s_bins", "radii", "ring", "theta_bins", "regions", "window",
+                "axis_bins"});
   constexpr double kBig = 1e6;
   OrientationOptions& w = o.where;
   for (const auto& [k, v] : options.items()) {
@@ -371,7 +410,8 @@ OrientationAnalysisOptions ReadOrientationOptions(const nlohmann::json& options,
           (axis[0] == 'x' ? r.x0 : r.y0) = range[0];
           (axis[0] == 'x' ? r.x1 : r.y1) = range[1];
         }
-        if (v[i].contains("director")) r.director = Radians(OptionNumber(v[i].at("director"), rp + "/director", -360.0, 360.0));
+        if (v[i].contains("director"))
+          r.director = Radians(OptionNumber(v[i].at("director"), rp + "/director", -360.0, 360.0));
         w.regions.push_back(r);
       }
     }

@@ -18,7 +18,7 @@ namespace granary::analysis {
 
 struct OrientationAnalysisOptions {
   OrientationOptions where;
-  int outlet = 0;                     // positions relative to this outlet (event order)
+  int outlet = 0;  // positions relative to this outlet (event order)
 };
 // From /report/orientation (null: the defaults, heights 5 and 10 d, radii 5 and 10 d). Throws
 // OptionError naming `path` and below.

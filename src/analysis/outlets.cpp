@@ -8,7 +8,8 @@ namespace granary::analysis {
 
 std::vector<OutletGeometry> OutletsOf(const nlohmann::json& spec) {
   std::vector<OutletGeometry> out;
-  const nlohmann::json silo = spec.is_object() ? spec.value("silo", nlohmann::json::object()) : nlohmann::json::object();
+  const nlohmann::json silo =
+      spec.is_object() ? spec.value("silo", nlohmann::json::object()) : nlohmann::json::object();
   const double half_width = 0.5 * silo.value("width", 100.0);
   if (silo.contains("base_outlets") && silo.at("base_outlets").is_array()) {
     for (const auto& o : silo.at("base_outlets")) {
@@ -69,9 +70,9 @@ void ToOutletFrame(const OutletGeometry& o, std::vector<rundir::Disc>& discs, st
   for (rundir::Disc& d : discs) map(d.x, d.y, d.vx, d.vy, d.omega);
   for (rundir::Body& b : bodies) {
     map(b.x, b.y, b.vx, b.vy, b.omega);
-    if (!o.base) b.theta = std::remainder(o.right_wall ? b.theta - 0.5 * std::numbers::pi
-                                                        : 0.5 * std::numbers::pi - b.theta,
-                                          2.0 * std::numbers::pi);
+    if (!o.base)
+      b.theta = std::remainder(o.right_wall ? b.theta - 0.5 * std::numbers::pi : 0.5 * std::numbers::pi - b.theta,
+                               2.0 * std::numbers::pi);
   }
 }
 

@@ -13,12 +13,12 @@
 namespace granary::analysis {
 
 struct OutletGeometry {
-  bool base = true;                   // base outlet (x centre, width) or side outlet
-  double center = 0.0;                // base: x of the centre; side: y of the centre
+  bool base = true;     // base outlet (x centre, width) or side outlet
+  double center = 0.0;  // base: x of the centre; side: y of the centre
   double width = 10.0;
-  bool right_wall = true;             // side outlets: in the right (x = +silo/2) or left wall
-  double wall_x = 50.0;               // side outlets: x of that wall
-  std::string label;                  // "base 0", "side 1 (right)"
+  bool right_wall = true;  // side outlets: in the right (x = +silo/2) or left wall
+  double wall_x = 50.0;    // side outlets: x of that wall
+  std::string label;       // "base 0", "side 1 (right)"
 };
 // Outlets of a resolved run spec in event order: base outlets, then side outlets. Missing
 // keys take the run-spec defaults (one base outlet of width 10 at x = 0, silo width 100).

@@ -60,10 +60,13 @@ void WriteRun(const fs::path& dir, int bodies, int frames, bool gsd) {
     for (int b = 0; b < bodies; ++b) {
       const double x = 2.0 * (b % columns) - columns + jitter(rng), y = 1.0 * (b / columns) + jitter(rng);
       f.discs.push_back({2 * b + 1, b, 1, x, y, 0.5, 0.7853981633974483, jitter(rng), -0.3 + jitter(rng), jitter(rng)});
-      f.discs.push_back({2 * b + 2, b, 1, x + 1.0, y, 0.5, 0.7853981633974483, jitter(rng), -0.3 + jitter(rng), jitter(rng)});
+      f.discs.push_back(
+          {2 * b + 2, b, 1, x + 1.0, y, 0.5, 0.7853981633974483, jitter(rng), -0.3 + jitter(rng), jitter(rng)});
       // Contacts with the body to the right and the one above, and the base for the first row.
-      if (b % columns + 1 < columns) c.contacts.push_back({b, b + 1, x + 1, y, x + 2, y, x + 1.5, y, jitter(rng), 1 + jitter(rng)});
-      if (b + columns < bodies) c.contacts.push_back({b, b + columns, x, y, x, y + 1, x, y + 0.5, jitter(rng), 2 + jitter(rng)});
+      if (b % columns + 1 < columns)
+        c.contacts.push_back({b, b + 1, x + 1, y, x + 2, y, x + 1.5, y, jitter(rng), 1 + jitter(rng)});
+      if (b + columns < bodies)
+        c.contacts.push_back({b, b + columns, x, y, x, y + 1, x, y + 0.5, jitter(rng), 2 + jitter(rng)});
       if (b < columns) c.contacts.push_back({b, -1, x, y, x, y - 0.5, x, y - 0.5, 0, 3 + jitter(rng)});
     }
     fw.Write(f);
@@ -117,12 +120,18 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
-    if (a == "--bodies" && has_value) bodies = std::atoi(argv[++i]);
-    else if (a == "--frames" && has_value) frames = std::atoi(argv[++i]);
-    else if (a == "--repeat" && has_value) repeat = std::atoi(argv[++i]);
-    else if (a == "--work" && has_value) work = std::atoi(argv[++i]);
-    else if (a == "--dir" && has_value) dir = argv[++i];
-    else if (a == "--format" && has_value) gsd = std::string(argv[++i]) == "gsd";
+    if (a == "--bodies" && has_value)
+      bodies = std::atoi(argv[++i]);
+    else if (a == "--frames" && has_value)
+      frames = std::atoi(argv[++i]);
+    else if (a == "--repeat" && has_value)
+      repeat = std::atoi(argv[++i]);
+    else if (a == "--work" && has_value)
+      work = std::atoi(argv[++i]);
+    else if (a == "--dir" && has_value)
+      dir = argv[++i];
+    else if (a == "--format" && has_value)
+      gsd = std::string(argv[++i]) == "gsd";
     else {
       std::fprintf(stderr,
                    "usage: granary-pass-bench [--bodies N] [--frames F] [--work K] [--repeat R] [--dir DIR] "

@@ -13,9 +13,14 @@ namespace {
 constexpr char kVelocityUnit[] = "sqrt(g d)";
 
 nlohmann::json ProfileJson(const VelocityProfile& p) {
-  return {{"x_over_w", JsonNumbers(p.x_over_w)}, {"vx", JsonNumbers(p.vx)},           {"vy", JsonNumbers(p.vy)},
-          {"vx_norm", JsonNumbers(p.vx_norm)},   {"vy_norm", JsonNumbers(p.vy_norm)}, {"samples", JsonNumbers(p.samples)},
-          {"v_max", JsonNumber(p.v_max)},        {"frames", p.frames}};
+  return {{"x_over_w", JsonNumbers(p.x_over_w)},
+          {"vx", JsonNumbers(p.vx)},
+          {"vy", JsonNumbers(p.vy)},
+          {"vx_norm", JsonNumbers(p.vx_norm)},
+          {"vy_norm", JsonNumbers(p.vy_norm)},
+          {"samples", JsonNumbers(p.samples)},
+          {"v_max", JsonNumber(p.v_max)},
+          {"frames", p.frames}};
 }
 
 VelocityProfile ProfileOf(const nlohmann::json& j) {
@@ -57,7 +62,8 @@ class ProfileAccumulator : public RunAccumulator {
     ++frames_;
   }
   nlohmann::json Finish() override {
-    nlohmann::json result = {{"frames", frames_}, {"outlets", nlohmann::json::array()}, {"base", nlohmann::json::array()}};
+    nlohmann::json result = {
+        {"frames", frames_}, {"outlets", nlohmann::json::array()}, {"base", nlohmann::json::array()}};
     for (const OutletGeometry& o : run_.outlets) {
       result["outlets"].push_back(o.label);
       result["base"].push_back(o.base);
@@ -93,8 +99,7 @@ class ProfileAnalysis : public Analysis {
     const nlohmann::json labels = result.value("outlets", nlohmann::json::array());
     for (std::size_t k = 0; k < profiles.size(); ++k)
       m.push_back({VMaxName(k), kVelocityUnit, profiles[k].v_max, kNaN,
-                   "V_max / sqrt(g d)" + (k == 0 ? std::string() : " at " + StringAt(labels, k)),
-                   false});
+                   "V_max / sqrt(g d)" + (k == 0 ? std::string() : " at " + StringAt(labels, k)), false});
     return m;
   }
   std::optional<Section> BuildSection(const SectionInput& in) const override;
@@ -116,14 +121,23 @@ std::optional<Section> ProfileAnalysis::BuildSection(const SectionInput& in) con
   Figure fy{"velocity_profile_vy",
             lateral ? "Normalised horizontal (outflow) velocity across the lateral outlet (ch. 5a)"
                     : "Normalised vertical velocity across the outlet",
-            along, lateral ? "v_n / max|v_n| (v_n: velocity away from the wall)" : "v_y / max|v_y|", {}, false, false,
+            along,
+            lateral ? "v_n / max|v_n| (v_n: velocity away from the wall)" : "v_y / max|v_y|",
+            {},
+            false,
+            false,
             "Bodies with centre within " + FormatNumber(options_.band_low) + ".." + FormatNumber(options_.band_high) +
                 " d of " + (v.outlets > 1 ? std::string("each outlet's") : std::string("the outlet's")) +
                 " wall (x along the outlet, v_y normal to it), averaged over the steady-window frames and replicas; "
                 "error bars: standard error over replicas (none with one replica)"};
   Figure fx{"velocity_profile_vx",
-            lateral ? "Normalised vertical velocity across the lateral outlet" : "Normalised horizontal velocity across the outlet",
-            along, lateral ? "v_y / max|v_y|" : "v_x / max|v_x|", {}, false, false,
+            lateral ? "Normalised vertical velocity across the lateral outlet"
+                    : "Normalised horizontal velocity across the outlet",
+            along,
+            lateral ? "v_y / max|v_y|" : "v_x / max|v_x|",
+            {},
+            false,
+            false,
             std::string(lateral ? "Sign: positive upwards. " : "") + "Error bars: standard error over replicas"};
   for (std::size_t pi = 0; pi < v.points.size(); ++pi) {
     const std::vector<const nlohmann::json*> runs = in.results.OfPoint(pi);
@@ -167,7 +181,8 @@ std::optional<Section> ProfileAnalysis::BuildSection(const SectionInput& in) con
   if (!fx.series.empty()) s.blocks.push_back(fx);
   Table t{"v_max_per_point", "V_max per point: mean ± se over replicas (n)", {"point"}, {}, {"point"}};
   for (std::size_t k = 0; k < v.outlets; ++k) {
-    t.header.push_back("V_max" + (v.outlets > 1 && k < v.outlet_labels.size() ? " " + v.outlet_labels[k] : std::string()) +
+    t.header.push_back("V_max" +
+                       (v.outlets > 1 && k < v.outlet_labels.size() ? " " + v.outlet_labels[k] : std::string()) +
                        " (sqrt(g d))");
     t.keys.push_back(VMaxName(k));
   }
@@ -184,7 +199,8 @@ std::optional<Section> ProfileAnalysis::BuildSection(const SectionInput& in) con
     s.blocks.push_back(Figure{"v_max", "V_max against " + v.x_label, v.x_label, "V_max (sqrt(g d))",
                               v.outlets > 1 ? OutletSeries(v, in.points, VMaxName, v.outlet_labels, "V_max")
                                             : PointSeries(v, in.points, "v_max", "V_max"),
-                              false, false, std::string("max |v_y| of the profile") + (v.outlets > 1 ? ", per outlet" : "")});
+                              false, false,
+                              std::string("max |v_y| of the profile") + (v.outlets > 1 ? ", per outlet" : "")});
   return s;
 }
 
@@ -195,7 +211,8 @@ std::unique_ptr<Analysis> MakeProfileAnalysis(const nlohmann::json& options, con
   if (!options.is_null()) {
     OptionObject(options, path, {"bins", "band_low", "band_high"});
     if (options.contains("bins")) o.bins = OptionInteger(options.at("bins"), path + "/bins", 1, 1000000);
-    if (options.contains("band_low")) o.band_low = OptionNumber(options.at("band_low"), path + "/band_low", -1e300, 1e300);
+    if (options.contains("band_low"))
+      o.band_low = OptionNumber(options.at("band_low"), path + "/band_low", -1e300, 1e300);
     if (options.contains("band_high"))
       o.band_high = OptionNumber(options.at("band_high"), path + "/band_high", -1e300, 1e300);
   }

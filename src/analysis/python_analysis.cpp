@@ -200,9 +200,8 @@ std::string ReadScript(const std::string& file, const std::string& path) {
 }
 
 bool IsMetricName(const std::string& s) {
-  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
-  });
+  return !s.empty() && std::all_of(s.begin(), s.end(),
+                                   [](char c) { return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_'; });
 }
 
 class PythonAccumulator : public RunAccumulator {
@@ -279,12 +278,9 @@ class PythonAnalysis : public Analysis {
   json RunOptions() const override { return {{"script_hash", hash_}, {"options", options_}}; }
 
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
-    const json request = {{"key", key_},
-                          {"script", script_},
-                          {"source", source_},
-                          {"options", options_},
-                          {"timeout", timeout_},
-                          {"run", run.data ? run.data->dir.string() : std::string()}};
+    const json request = {{"key", key_},         {"script", script_},
+                          {"source", source_},   {"options", options_},
+                          {"timeout", timeout_}, {"run", run.data ? run.data->dir.string() : std::string()}};
     return std::make_unique<PythonAccumulator>(pool_, request);
   }
 
@@ -312,7 +308,8 @@ class PythonAnalysis : public Analysis {
         const PointMetric* unit_of = nullptr;
         for (const auto& metrics : in.points)
           if (!unit_of) unit_of = FindMetric(metrics, n);
-        t.header.push_back(n + (unit_of && !unit_of->unit.empty() && unit_of->unit != "1" ? " [" + unit_of->unit + "]" : ""));
+        t.header.push_back(
+            n + (unit_of && !unit_of->unit.empty() && unit_of->unit != "1" ? " [" + unit_of->unit + "]" : ""));
         t.keys.push_back(n);
       }
       for (std::size_t p = 0; p < v.points.size(); ++p) {
@@ -386,7 +383,8 @@ std::vector<std::unique_ptr<Analysis>> MakePythonAnalyses(const json& options, c
       throw OptionError(p + "/script", e.value("script", json()), "the path of a Python file");
     const std::string script = e.at("script").get<std::string>();
     json script_options = e.value("options", json::object());
-    if (!script_options.is_object()) throw OptionError(p + "/options", script_options, "an object (the script's options)");
+    if (!script_options.is_object())
+      throw OptionError(p + "/options", script_options, "an object (the script's options)");
     const json timeout = e.value("timeout", json(kDefaultTimeout));
     if (!timeout.is_number() || !(timeout.get<double>() > 0.0) || !std::isfinite(timeout.get<double>()))
       throw OptionError(p + "/timeout", timeout, "a number of seconds > 0 (how long the script may run on one run)");

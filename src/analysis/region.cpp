@@ -50,12 +50,13 @@ double DiscRectOverlap(double cx, double cy, double r, const Rect& q) {
   if (q.x1 <= cx - r || q.x0 >= cx + r || q.y1 <= cy - r || q.y0 >= cy + r) return 0.0;
   if (q.x0 <= cx - r && q.x1 >= cx + r && q.y0 <= cy - r && q.y1 >= cy + r) return std::numbers::pi * r * r;
   const double x0 = q.x0 - cx, x1 = q.x1 - cx, y0 = q.y0 - cy, y1 = q.y1 - cy;
-  const double area = QuadrantArea(r, x1, y1) - QuadrantArea(r, x0, y1) - QuadrantArea(r, x1, y0) +
-                      QuadrantArea(r, x0, y0);
+  const double area =
+      QuadrantArea(r, x1, y1) - QuadrantArea(r, x0, y1) - QuadrantArea(r, x1, y0) + QuadrantArea(r, x0, y0);
   return std::max(0.0, area);
 }
 
-RegionFrame MakeRegionFrame(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies, const Rect& region) {
+RegionFrame MakeRegionFrame(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies,
+                            const Rect& region) {
   RegionFrame f;
   double covered = 0.0;
   for (const rundir::Disc& d : discs) covered += DiscRectOverlap(d.x, d.y, d.radius, region);

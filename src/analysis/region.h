@@ -27,8 +27,8 @@ struct RegionSize {
   double height = 5.0 * std::numbers::sqrt2;  // ch. 4-6: 5 sqrt(2) d
   std::string label = "ch. 4-6: (W + 2 sqrt2 d) x 5 sqrt2 d";
 };
-RegionSize Chapter3Region();   // (W + 2d) x 10d
-RegionSize Chapter4Region();   // (W + 2 sqrt2 d) x 5 sqrt2 d
+RegionSize Chapter3Region();  // (W + 2d) x 10d
+RegionSize Chapter4Region();  // (W + 2 sqrt2 d) x 5 sqrt2 d
 Rect RegionAboveOutlet(double center, double width, const RegionSize& size);
 
 // Exact area of the intersection of a disc (centre cx, cy; radius r) with a rectangle.
@@ -47,14 +47,15 @@ struct RegionFrame {
   double tg_full = kNaN;
   int bodies = 0;
 };
-RegionFrame MakeRegionFrame(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies, const Rect& region);
+RegionFrame MakeRegionFrame(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies,
+                            const Rect& region);
 
 // Time average over frames: mean and se (over frames) of phi and the temperatures, and the
 // distributions of the velocities of the bodies inside, over every frame.
 struct RegionStats {
   Rect region;
   MeanSe phi, tg_translational, tg_full;
-  GridHistogram vx, vy;             // counts of body velocities on a fixed grid (merge over replicas)
+  GridHistogram vx, vy;  // counts of body velocities on a fixed grid (merge over replicas)
   int frames = 0;
 };
 

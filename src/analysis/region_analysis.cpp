@@ -36,7 +36,8 @@ class RegionRunAccumulator : public RunAccumulator {
  public:
   RegionRunAccumulator(const RunView& run, const RegionSize& size) : run_(run) {
     // In outlet coordinates every outlet is centred at 0 on the line y = 0.
-    for (const OutletGeometry& o : run.outlets) regions_.emplace_back(RegionAboveOutlet(0.0, o.width, size), kVelocityBin);
+    for (const OutletGeometry& o : run.outlets)
+      regions_.emplace_back(RegionAboveOutlet(0.0, o.width, size), kVelocityBin);
   }
   FrameRequest Frames() const override { return {{run_.steady}, false}; }
   void AddFrame(const FrameView& frame) override {
@@ -49,7 +50,8 @@ class RegionRunAccumulator : public RunAccumulator {
     ++frames_;
   }
   nlohmann::json Finish() override {
-    nlohmann::json result = {{"frames", frames_}, {"outlets", nlohmann::json::array()}, {"notes", nlohmann::json::array()}};
+    nlohmann::json result = {
+        {"frames", frames_}, {"outlets", nlohmann::json::array()}, {"notes", nlohmann::json::array()}};
     for (const OutletGeometry& o : run_.outlets) result["outlets"].push_back(o.label);
     if (frames_ == 0 || run_.outlets.empty()) {
       if (run_.data->has_frames)
@@ -109,7 +111,8 @@ class RegionAnalysis : public Analysis {
   std::optional<Section> BuildSection(const SectionInput& in) const override;
   // The velocity components in the region next to outlet 0 (thesis figs. 3.5, 4.6).
   std::vector<DistributionInfo> DistributionNames() const override {
-    return {{"vx", "v_x in the region above the outlet", "sqrt(g d)"}, {"vy", "v_y in the region above the outlet", "sqrt(g d)"}};
+    return {{"vx", "v_x in the region above the outlet", "sqrt(g d)"},
+            {"vy", "v_y in the region above the outlet", "sqrt(g d)"}};
   }
   Samples Distribution(const std::string& name, const nlohmann::json& result) const override {
     Samples out;
@@ -147,8 +150,11 @@ std::optional<Section> RegionAnalysis::BuildSection(const SectionInput& in) cons
                           "whose centre of mass is inside, per frame, then averaged over frames: ch. 3 "
                           "`T_g = 1/2 <(v_x - <v_x>)^2 + (v_y - <v_y>)^2>` and ch. 4-5 "
                           "`T_g = 1/3 <m |v - <v>|^2 + I (Omega - <Omega>)^2>`."});
-  Table t{"region", "Region statistics per point: mean ± se over replicas (n)",
-          {"point", "phi", "T_g ch3 (g d)", "T_g ch4 (rho g d^3)"}, {}, {"point", "phi", "tg_translational", "tg_full"}};
+  Table t{"region",
+          "Region statistics per point: mean ± se over replicas (n)",
+          {"point", "phi", "T_g ch3 (g d)", "T_g ch4 (rho g d^3)"},
+          {},
+          {"point", "phi", "tg_translational", "tg_full"}};
   for (std::size_t p = 0; p < v.points.size(); ++p) {
     if (metric(p, "phi").n == 0) continue;
     t.rows.push_back({PointName(v, v.points[p]), Cell::Estimate(metric(p, "phi")),
@@ -156,7 +162,8 @@ std::optional<Section> RegionAnalysis::BuildSection(const SectionInput& in) cons
   }
   s.blocks.push_back(t);
   // Several outlets: the same statistics next to each of them.
-  Table per_outlet{"region_per_outlet", "Region statistics next to every outlet: mean ± se over replicas (n)",
+  Table per_outlet{"region_per_outlet",
+                   "Region statistics next to every outlet: mean ± se over replicas (n)",
                    {"point", "outlet", "phi", "T_g ch3 (g d)", "T_g ch4 (rho g d^3)"},
                    {},
                    {"point", "outlet", "phi", "tg_translational", "tg_full"}};
@@ -174,13 +181,20 @@ std::optional<Section> RegionAnalysis::BuildSection(const SectionInput& in) cons
   if (HasX(v)) {
     const std::string where = v.outlets > 1 ? " next to each outlet" : "";
     auto series = [&](const std::string& base, const std::string& column) {
-      return v.outlets > 1 ? OutletSeries(v, in.points, [&](std::size_t k) { return base + Suffix(k); }, v.outlet_labels, column)
+      return v.outlets > 1 ? OutletSeries(
+                                 v, in.points, [&](std::size_t k) { return base + Suffix(k); }, v.outlet_labels, column)
                            : PointSeries(v, in.points, base, column);
     };
     s.blocks.push_back(Figure{"packing_fraction", "Packing fraction phi" + where + " against " + v.x_label, v.x_label,
                               "phi", series("phi", "phi"), false, false, "Error bars: se over replicas"});
-    Figure tg{"granular_temperature", "Granular temperature" + where + " against " + v.x_label, v.x_label,
-              "T_g (ch. 3: g d; ch. 4-5: rho g d^3)", {}, false, false, "Both definitions; error bars: se over replicas"};
+    Figure tg{"granular_temperature",
+              "Granular temperature" + where + " against " + v.x_label,
+              v.x_label,
+              "T_g (ch. 3: g d; ch. 4-5: rho g d^3)",
+              {},
+              false,
+              false,
+              "Both definitions; error bars: se over replicas"};
     for (auto se : series("tg_translational", "Tg_ch3")) {
       se.label = "ch. 3 " + se.label;
       tg.series.push_back(se);
@@ -195,10 +209,22 @@ std::optional<Section> RegionAnalysis::BuildSection(const SectionInput& in) cons
   const std::string pooled = std::string("Pooled over frames and replicas") +
                              (v.outlets > 1 ? "; the region next to outlet 0" : "") +
                              "; in outlet coordinates (x along the outlet, y from its wall into the silo)";
-  Figure dx{"velocity_distribution_vx", "Distribution of v_x in the region", "v_x (sqrt(g d))", "probability density",
-            {}, false, false, pooled};
-  Figure dy{"velocity_distribution_vy", "Distribution of v_y in the region", "v_y (sqrt(g d))", "probability density",
-            {}, false, false, pooled};
+  Figure dx{"velocity_distribution_vx",
+            "Distribution of v_x in the region",
+            "v_x (sqrt(g d))",
+            "probability density",
+            {},
+            false,
+            false,
+            pooled};
+  Figure dy{"velocity_distribution_vy",
+            "Distribution of v_y in the region",
+            "v_y (sqrt(g d))",
+            "probability density",
+            {},
+            false,
+            false,
+            pooled};
   for (std::size_t p = 0; p < v.points.size(); ++p) {
     GridHistogram hx, hy;
     hx.width = hy.width = kVelocityBin;

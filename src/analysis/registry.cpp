@@ -54,16 +54,26 @@ const std::vector<AnalysisEntry>& BuiltinAnalyses() {
   static const std::vector<AnalysisEntry> kTable = {
       {"flow", MakeFlowAnalysis, {}, {"q_count", "q_mass", "q_count_outlet*", "q_mass_outlet*"}},
       {"profile", MakeProfileAnalysis, {}, {"v_max", "v_max_outlet*"}},
-      {"region", MakeRegionAnalysis, {},
+      {"region",
+       MakeRegionAnalysis,
+       {},
        {"phi", "tg_translational", "tg_full", "phi_outlet*", "tg_translational_outlet*", "tg_full_outlet*"}},
-      {"clogging_index", MakeCloggingIndexAnalysis, {},
+      {"clogging_index",
+       MakeCloggingIndexAnalysis,
+       {},
        {"psi", "n_stagnant", "clogged_runs", "discharged_runs", "discarded_runs", "unfinished_runs", "psi_low",
         "psi_high", "clogged", "undischarged"}},
-      {"avalanches", MakeAvalancheAnalysis, {},
+      {"avalanches",
+       MakeAvalancheAnalysis,
+       {},
        {"avalanche_size", "avalanches", "clogs", "avalanche_size_outlet*", "avalanches_outlet*"}},
-      {"intermittency", MakeIntermittencyAnalysis, {},
+      {"intermittency",
+       MakeIntermittencyAnalysis,
+       {},
        {"t_flowing", "t_clogged", "unclog_rate", "t_flowing_outlet*", "t_clogged_outlet*", "unclog_rate_outlet*"}},
-      {"arches", MakeArchesAnalysis, {},
+      {"arches",
+       MakeArchesAnalysis,
+       {},
        {"arches", "obstacle_arches", "arch_n", "arch_width", "arch_width_sd", "arch_height", "arch_height_sd",
         "arch_perimeter", "arch_c_over_p", "arch_elongated_fraction", "arch_pressure"}},
       {"contacts", MakeContactsAnalysis, {}, {"contact_ss", "contact_ls", "contact_ll", "contact_other"}},
@@ -76,7 +86,8 @@ const std::vector<AnalysisEntry>& BuiltinAnalyses() {
 
 bool OffersMetric(const AnalysisEntry& row, const std::string& name) {
   return std::any_of(row.metrics.begin(), row.metrics.end(), [&](const std::string& m) {
-    if (!m.empty() && m.back() == '*') return name.size() >= m.size() && name.compare(0, m.size() - 1, m, 0, m.size() - 1) == 0;
+    if (!m.empty() && m.back() == '*')
+      return name.size() >= m.size() && name.compare(0, m.size() - 1, m, 0, m.size() - 1) == 0;
     return name == m;
   });
 }
@@ -144,7 +155,8 @@ AnalysisSetup SetupAnalyses(const nlohmann::json& campaign_spec) {
         // One key, one cache file and one set of metric columns per analysis.
         for (const auto& other : setup.analyses)
           if (other->Key() == a->Key())
-            throw OptionError("/report/" + e.key, a->Key(), "keys that no other analysis has (" + a->Key() + " is taken)");
+            throw OptionError("/report/" + e.key, a->Key(),
+                              "keys that no other analysis has (" + a->Key() + " is taken)");
         setup.analyses.push_back(std::move(a));
       }
     } else if (auto a = e.make(options, "/report/" + e.key)) {

@@ -13,7 +13,7 @@
 namespace granary::analysis {
 
 struct AnalysisEntry {
-  std::string key;                 // also the analysis' options key: /report/<key>
+  std::string key;  // also the analysis' options key: /report/<key>
   // Makes the analysis from its options (null json when /report/<key> is absent); returns
   // nullptr for an analysis that is off (one that runs only when asked for, like "fields").
   // Throws OptionError naming `path` and below.

@@ -35,49 +35,58 @@ std::optional<Section> RunsSection(const CampaignView& c) {
   Section s{"runs", "Runs", {}};
   const int total = static_cast<int>(c.used.size() + c.missing.size() + c.failed.size() + c.unreadable.size() +
                                      c.damaged.size() + c.lost.size() + c.retired.size());
-  s.blocks.push_back(Text{std::to_string(total) + " runs in the campaign: **" + std::to_string(c.used.size()) +
-                          " used**, " + std::to_string(c.missing.size()) + " missing (not finished), " +
-                          std::to_string(c.failed.size()) + " failed, " + std::to_string(c.unreadable.size()) +
-                          " finished but unreadable, " +
-                          (c.damaged.empty() ? std::string()
-                                             : "**" + std::to_string(c.damaged.size()) +
-                                                   " finished but damaged** (a file differs from what the engine "
-                                                   "recorded; below), ") +
-                          (c.lost.empty() ? std::string()
-                                          : std::to_string(c.lost.size()) + " finished but their run directory was deleted, ") +
-                          std::to_string(c.retired.size()) + " retired. " +
-                          "Every number below is computed from the used runs only; a point with fewer replicas "
-                          "than planned says so in its `n`."});
+  s.blocks.push_back(
+      Text{std::to_string(total) + " runs in the campaign: **" + std::to_string(c.used.size()) + " used**, " +
+           std::to_string(c.missing.size()) + " missing (not finished), " + std::to_string(c.failed.size()) +
+           " failed, " + std::to_string(c.unreadable.size()) + " finished but unreadable, " +
+           (c.damaged.empty() ? std::string()
+                              : "**" + std::to_string(c.damaged.size()) +
+                                    " finished but damaged** (a file differs from what the engine "
+                                    "recorded; below), ") +
+           (c.lost.empty() ? std::string()
+                           : std::to_string(c.lost.size()) + " finished but their run directory was deleted, ") +
+           std::to_string(c.retired.size()) + " retired. " +
+           "Every number below is computed from the used runs only; a point with fewer replicas "
+           "than planned says so in its `n`."});
   Table t{"runs_not_used", "Runs not used, with the reason", {"run", "point", "replica", "state", "reason"}, {}, {}};
   auto row = [&](const RunRecord* r, const std::string& reason) {
-    t.rows.push_back({r->run_id, PointLabel(c, r->point, r->spec, NameForm::kShort), Cell::Count(r->replica), r->state, reason});
+    t.rows.push_back(
+        {r->run_id, PointLabel(c, r->point, r->spec, NameForm::kShort), Cell::Count(r->replica), r->state, reason});
   };
   for (const RunRecord* r : c.missing) row(r, r->failure.empty() ? "not finished" : "not finished: " + StateReason(*r));
   for (const RunRecord* r : c.failed) row(r, StateReason(*r));
   for (const auto& [r, why] : c.unreadable) row(r, "unreadable: " + why);
-  for (const auto& [r, problems] : c.damaged) row(r, "damaged: " + rundir::Verification{rundir::Integrity::kDamaged, problems, 0}.Text());
+  for (const auto& [r, problems] : c.damaged)
+    row(r, "damaged: " + rundir::Verification{rundir::Integrity::kDamaged, problems, 0}.Text());
   for (const RunRecord* r : c.lost)
     row(r, "run directory deleted after it finished (campaign run --rerun-lost runs it again)");
   for (const RunRecord* r : c.retired) row(r, "retired (superseded)");
   if (!t.rows.empty()) s.blocks.push_back(t);
   if (!c.damaged.empty()) {
-    s.blocks.push_back(Text{"**Damaged runs.** These runs finished, but their files no longer are what the engine "
-                            "recorded when it finished (`manifest.json`: sizes, checksums, counts of frames, events "
-                            "and clogs): cut short, changed or missing. They are kept out of every number of this "
-                            "report, of `campaign export` and of `campaign status`. Restore the files, or delete a "
-                            "run's directory and `campaign run --rerun-lost` runs it again."});
-    Table d{"damaged_runs", "Damaged runs: each file that differs and how", {"run", "point", "replica", "file", "what differs"},
-            {}, {}};
+    s.blocks.push_back(
+        Text{"**Damaged runs.** These runs finished, but their files no longer are what the engine "
+             "recorded when it finished (`manifest.json`: sizes, checksums, counts of frames, events "
+             "and clogs): cut short, changed or missing. They are kept out of every number of this "
+             "report, of `campaign export` and of `campaign status`. Restore the files, or delete a "
+             "run's directory and `campaign run --rerun-lost` runs it again."});
+    Table d{"damaged_runs",
+            "Damaged runs: each file that differs and how",
+            {"run", "point", "replica", "file", "what differs"},
+            {},
+            {}};
     for (const auto& [r, problems] : c.damaged)
       for (const rundir::FileProblem& p : problems)
-        d.rows.push_back({r->run_id, PointLabel(c, r->point, r->spec, NameForm::kShort), Cell::Count(r->replica), p.file, p.what});
+        d.rows.push_back(
+            {r->run_id, PointLabel(c, r->point, r->spec, NameForm::kShort), Cell::Count(r->replica), p.file, p.what});
     s.blocks.push_back(d);
   }
   if (!c.unverifiable.empty())
-    s.blocks.push_back(Text{std::to_string(c.unverifiable.size()) + " of the used runs are **not verifiable**: they were "
+    s.blocks.push_back(Text{std::to_string(c.unverifiable.size()) +
+                            " of the used runs are **not verifiable**: they were "
                             "written before engines recorded a manifest of their files, so a file cut or changed "
                             "since cannot be told from a whole one (only `events.csv` against `summary.json` is "
-                            "checked). First of them: `" + c.unverifiable.front()->run_id + "`."});
+                            "checked). First of them: `" +
+                            c.unverifiable.front()->run_id + "`."});
   return s;
 }
 
@@ -127,7 +136,9 @@ std::optional<Section> ReplicasSection(const CampaignAnalysis& ca) {
       row.push_back(Cell::Number(x.achieved, 3));
       met = met && x.met;
     }
-    row.push_back(met ? "met" : n_planned >= rule.max ? "**max reached, target not met**" : "not yet (more runs planned or to plan)");
+    row.push_back(met                     ? "met"
+                  : n_planned >= rule.max ? "**max reached, target not met**"
+                                          : "not yet (more runs planned or to plan)");
     t.rows.push_back(std::move(row));
   }
   s.blocks.push_back(t);
@@ -163,8 +174,10 @@ std::optional<Section> ProvenanceSection(const CampaignView& c) {
   std::map<std::vector<std::string>, int> rows;
   for (const UsedRun& a : c.used)
     ++rows[{a.summary.engine, a.summary.engine_version, a.summary.granary_commit, a.tangential_cap}];
-  Table t{"provenance", "Engines that produced the used runs",
-          {"engine", "engine version", "granary commit", "tangential cap (/contact/tangential_cap)", "runs"}, {},
+  Table t{"provenance",
+          "Engines that produced the used runs",
+          {"engine", "engine version", "granary commit", "tangential cap (/contact/tangential_cap)", "runs"},
+          {},
           {"engine", "engine_version", "granary_commit", "tangential_cap", "runs"}};
   for (const auto& [key, n] : rows) t.rows.push_back({key[0], key[1], key[2], key[3], Cell::Count(n)});
   s.blocks.push_back(t);
@@ -178,14 +191,19 @@ std::optional<Section> ProvenanceSection(const CampaignView& c) {
       e[2] += a.timing.wall_s * std::max(1, a.timing.threads);
     }
   }
-  Table ct{"provenance_cost", "What the used runs cost (summary.json timing; core-hours = wall time x threads)",
-           {"engine", "runs", "wall time (h)", "core-hours"}, {}, {"engine", "runs", "wall_h", "core_hours"}};
+  Table ct{"provenance_cost",
+           "What the used runs cost (summary.json timing; core-hours = wall time x threads)",
+           {"engine", "runs", "wall time (h)", "core-hours"},
+           {},
+           {"engine", "runs", "wall_h", "core_hours"}};
   for (const auto& [engine, e] : cost)
-    ct.rows.push_back({engine, Cell::Count(static_cast<long long>(e[0])), Cell::Number(e[1] / 3600.0, 3), Cell::Number(e[2] / 3600.0, 3)});
+    ct.rows.push_back({engine, Cell::Count(static_cast<long long>(e[0])), Cell::Number(e[1] / 3600.0, 3),
+                       Cell::Number(e[2] / 3600.0, 3)});
   if (!ct.rows.empty()) s.blocks.push_back(ct);
-  s.blocks.push_back(Text{"Tangential cap: `lammps` caps spring plus damping at mu|F_n| (LAMMPS convention, "
-                          "docs/model.md); `liggghts` caps only the spring part (LIGGGHTS 3.8). Runs with different "
-                          "caps are not the same model."});
+  s.blocks.push_back(
+      Text{"Tangential cap: `lammps` caps spring plus damping at mu|F_n| (LAMMPS convention, "
+           "docs/model.md); `liggghts` caps only the spring part (LIGGGHTS 3.8). Runs with different "
+           "caps are not the same model."});
   if (k.spec.is_object()) {
     s.blocks.push_back(Text{"The campaign spec as planned:"});
     s.blocks.push_back(Code{k.spec.dump(2)});
@@ -210,14 +228,20 @@ std::optional<Section> SystemSection(const CampaignView& c) {
   s.blocks.push_back(Text{std::string("Units (every table, figure and export): ") + kUnitsText + "."});
   s.blocks.push_back(FixedParameters(spec, c.axes));
   if (!c.named.Derived().empty()) {
-    Table d{"system-derived-axes", "Derived axes (campaign spec /axes): usable in --only, the export and figures",
-            {"name", "expression"}, {}, {}};
+    Table d{"system-derived-axes",
+            "Derived axes (campaign spec /axes): usable in --only, the export and figures",
+            {"name", "expression"},
+            {},
+            {}};
     for (const DerivedAxis& a : c.named.Derived()) d.rows.push_back({a.name, a.expression.Text()});
     s.blocks.push_back(d);
   }
   if (!c.axes.empty()) {
-    Table t{"system-axes", "Swept parameters (short: as tables and figure keys name them)",
-            {"parameter", "short", "in the run spec", "values"}, {}, {}};
+    Table t{"system-axes",
+            "Swept parameters (short: as tables and figure keys name them)",
+            {"parameter", "short", "in the run spec", "values"},
+            {},
+            {}};
     for (const auto& axis : c.axes) {
       std::vector<std::string> values;
       for (const Point& p : c.points) {
@@ -239,7 +263,9 @@ std::optional<Section> SystemSection(const CampaignView& c) {
             "full-width band from 5 d above the base to 5 d below the surface, the highest disc's top, the surface "
             "(mean top of 1 d columns) and the simulated settling time; mean +- se over the point's runs (runs "
             "written before engines measured phi have none)",
-            {"point", "runs", "phi", "top", "surface", "settle time"}, {}, {"point", "runs", "phi", "top", "surface", "settle_time"}};
+            {"point", "runs", "phi", "top", "surface", "settle time"},
+            {},
+            {"point", "runs", "phi", "top", "surface", "settle_time"}};
     bool any = false;
     for (const Point& p : c.points) {
       std::vector<double> phi, top, surface, settle;
@@ -266,7 +292,7 @@ std::optional<Section> SystemSection(const CampaignView& c) {
 // Pictures of point k's lowest replica (`kinds`: its bed, its end, or both) as `stem`-bed.png and
 // `stem`-end.png; empty when it has no used run or nothing could be drawn (why: not_drawn).
 Pictures PointPictures(const CampaignView& c, std::size_t k, const ReportOptions& options, bool bed, bool end_picture,
-                        const std::string& stem, NotDrawn& not_drawn) {
+                       const std::string& stem, NotDrawn& not_drawn) {
   Pictures pics;
   const Point& p = c.points[k];
   const UsedRun* run = nullptr;
@@ -276,12 +302,14 @@ Pictures PointPictures(const CampaignView& c, std::size_t k, const ReportOptions
   std::filesystem::create_directories(options.out_dir / "pictures");
   // In words, engine included (a campaign on two engines shows each point twice).
   const std::string label = c.axes.empty() ? std::string() : PointTitle(c, p);
-  pics.caption = (label.empty() ? std::string("The silo") : label) + " (replica " + std::to_string(run->record->replica) +
-                 ", run `" + run->record->run_id.substr(0, 10) + "`)";
+  pics.caption = (label.empty() ? std::string("The silo") : label) + " (replica " +
+                 std::to_string(run->record->replica) + ", run `" + run->record->run_id.substr(0, 10) + "`)";
   const std::string& end = run->summary.end_reason;
   const std::pair<ReportOptions::Picture, std::string> kinds[] = {
       {ReportOptions::Picture::kBed, "the bed before the outlets open (t = 0)"},
-      {ReportOptions::Picture::kEnd, (end == "clogged" ? "clogged" : end == "discharged" ? "discharged" : "the last frame") +
+      {ReportOptions::Picture::kEnd, (end == "clogged"      ? "clogged"
+                                      : end == "discharged" ? "discharged"
+                                                            : "the last frame") +
                                          std::string(" (t = ") + FormatNumber(run->summary.t_end, 4) + ")"}};
   for (const auto& [kind, caption] : kinds) {
     const bool is_bed = kind == ReportOptions::Picture::kBed;
@@ -326,7 +354,7 @@ void AddFigurePictures(const CampaignView& c, FigureOutcome& f, const ReportOpti
   for (const FigureDatum& d : f.data)
     for (std::size_t k : d.points) {
       const Pictures one = PointPictures(c, k, options, spec.picture == "bed", spec.picture == "end",
-                                          "pictures/figure-" + spec.name + "-" + std::to_string(k + 1), not_drawn);
+                                         "pictures/figure-" + spec.name + "-" + std::to_string(k + 1), not_drawn);
       for (const Picture& p : one.pictures) all.pictures.push_back({p.file, one.caption + ": " + p.caption});
     }
   if (!all.pictures.empty()) f.blocks.push_back(all);
@@ -353,7 +381,8 @@ std::optional<Section> PerRunSection(const CampaignAnalysis& ca) {
           columns.emplace_back(m.name, m.title.empty() ? m.name : m.title);
       }
   }
-  Table t{"per_run", "Every used run: its headline metrics (value ± se where the analysis gives one)",
+  Table t{"per_run",
+          "Every used run: its headline metrics (value ± se where the analysis gives one)",
           {"run", "point", "replica", "engine", "end", "bodies", "exited", "t_end", "clogs (engine)"},
           {},
           {"run", "point", "replica", "engine", "end_reason", "bodies", "exited", "t_end", "engine_clogs"}};
@@ -367,8 +396,14 @@ std::optional<Section> PerRunSection(const CampaignAnalysis& ca) {
     for (std::size_t u : p.runs) {
       const UsedRun& r = c.used[u];
       const rundir::Summary& sm = r.summary;
-      std::vector<Cell> row{r.record->run_id, PointName(c, p), Cell::Count(r.record->replica), sm.engine,
-                            sm.end_reason, Cell::Count(sm.bodies), Cell::Count(sm.exited), Cell::Number(sm.t_end),
+      std::vector<Cell> row{r.record->run_id,
+                            PointName(c, p),
+                            Cell::Count(r.record->replica),
+                            sm.engine,
+                            sm.end_reason,
+                            Cell::Count(sm.bodies),
+                            Cell::Count(sm.exited),
+                            Cell::Number(sm.t_end),
                             sm.clogs ? Cell::Count(*sm.clogs) : Cell::Number(kNaN)};
       for (const auto& [name, title] : columns) {
         const Metric* m = nullptr;
@@ -410,7 +445,7 @@ void CheckReportSpec(const nlohmann::json& campaign_spec) {
 }
 
 ReportSummary WriteReport(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
-                           const ReportOptions& options) {
+                          const ReportOptions& options) {
   if (options.out_dir.empty()) throw std::invalid_argument("write_report: ReportOptions::out_dir is empty");
   const AnalysisSetup setup = SetupAnalyses(campaign.spec);
   const std::unique_ptr<CampaignAnalysis> analysis = AnalyseCampaign(campaign, runs, setup, options.analysis);

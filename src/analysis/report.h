@@ -19,9 +19,9 @@
 namespace granary::analysis {
 
 struct ReportOptions {
-  std::filesystem::path out_dir;  // created if missing
-  bool figures = true;            // run gnuplot (off in quick tests)
-  std::string gnuplot = "gnuplot";  // the executable
+  std::filesystem::path out_dir;     // created if missing
+  bool figures = true;               // run gnuplot (off in quick tests)
+  std::string gnuplot = "gnuplot";   // the executable
   CampaignAnalysisOptions analysis;  // threads, cache, progress
   // Draws a run for "The system": its first frame (the bed before the outlets open) or its last,
   // as a PNG at `png`; returns "" or why it could not. The runner sets it (src/render); unset,
@@ -34,17 +34,17 @@ struct ReportOptions {
 
 struct ReportSummary {
   int runs_used = 0;
-  int runs_missing = 0;           // planned/running/interrupted
-  int runs_failed = 0;            // failed, or finished but unreadable
-  int runs_lost = 0;              // done, but their run directories were deleted afterwards
-  int runs_damaged = 0;           // done, but a file differs from the engine's manifest: not used
-  int runs_unverifiable = 0;      // used, but written before manifests (not verifiable)
-  int results_from_cache = 0;     // run x analysis results read from the run directories' caches
+  int runs_missing = 0;        // planned/running/interrupted
+  int runs_failed = 0;         // failed, or finished but unreadable
+  int runs_lost = 0;           // done, but their run directories were deleted afterwards
+  int runs_damaged = 0;        // done, but a file differs from the engine's manifest: not used
+  int runs_unverifiable = 0;   // used, but written before manifests (not verifiable)
+  int results_from_cache = 0;  // run x analysis results read from the run directories' caches
   int results_computed = 0;
   std::filesystem::path markdown;
   std::filesystem::path html;
-  nlohmann::json comparison;      // runs on two engines: analysis::ToJson(EngineComparison), else null
-  std::string expectations;       // the spec has /expect: "7 agree, 1 disagrees, 3 not yet"; else ""
+  nlohmann::json comparison;  // runs on two engines: analysis::ToJson(EngineComparison), else null
+  std::string expectations;   // the spec has /expect: "7 agree, 1 disagrees, 3 not yet"; else ""
 };
 
 // Checks the campaign spec's /report object (throws OptionError naming the JSON path).
@@ -52,7 +52,7 @@ void CheckReportSpec(const nlohmann::json& campaign_spec);
 
 // Analyses every finished run (setup from campaign.spec's /report) and writes the report.
 ReportSummary WriteReport(const CampaignInfo& campaign, const std::vector<RunRecord>& runs,
-                           const ReportOptions& options);
+                          const ReportOptions& options);
 // The report of an analysed campaign.
 ReportSummary WriteReport(const CampaignAnalysis& analysis, const ReportOptions& options);
 

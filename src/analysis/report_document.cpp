@@ -233,7 +233,8 @@ std::string RangeText(const Range& r, bool log) {
     hi *= f;
   } else {
     const double span = hi - lo;
-    const double pad = span > 1e-12 * std::max(1.0, std::abs(lo)) ? 0.05 * span : (lo != 0.0 ? 0.1 * std::abs(lo) : 1.0);
+    const double pad =
+        span > 1e-12 * std::max(1.0, std::abs(lo)) ? 0.05 * span : (lo != 0.0 ? 0.1 * std::abs(lo) : 1.0);
     lo = r.lowest_value >= 0 ? std::max(0.0, lo - pad) : lo - pad;
     hi += pad;
   }
@@ -258,7 +259,8 @@ KeyLayout ComputeKeyLayout(const Figure& f) {
   const int entry = static_cast<int>(std::ceil((static_cast<double>(longest) + 8) * kCharPx));
   k.width = std::max(k.width, entry + kMargin);
   k.columns = 2 * entry + kMargin <= k.width ? 2 : 1;
-  const int rows = static_cast<int>((f.series.size() + static_cast<std::size_t>(k.columns) - 1) / static_cast<std::size_t>(k.columns));
+  const int rows = static_cast<int>((f.series.size() + static_cast<std::size_t>(k.columns) - 1) /
+                                    static_cast<std::size_t>(k.columns));
   k.height = 440 + 20 * rows;
   return k;
 }
@@ -286,7 +288,8 @@ std::string GnuplotScript(const Figure& f) {
     for (const auto& row : se.rows) {
       if (!std::isfinite(FormatCell(row, se.x)) || !std::isfinite(FormatCell(row, se.y))) continue;
       xr.Add(FormatCell(row, se.x), kNaNValue, f.logx);
-      const bool bars = se.err >= 0 && (se.style == Series::Style::kErrorBars || se.style == Series::Style::kLinesPoints);
+      const bool bars =
+          se.err >= 0 && (se.style == Series::Style::kErrorBars || se.style == Series::Style::kLinesPoints);
       yr.Add(FormatCell(row, se.y), bars ? FormatCell(row, se.err) : kNaNValue, f.logy);
     }
   }
@@ -311,8 +314,10 @@ std::string GnuplotScript(const Figure& f) {
       case Series::Style::kErrorBars: s << err << " with yerrorbars ps 0.7"; break;
       case Series::Style::kLines: s << " with lines"; break;
       case Series::Style::kLinesPoints:
-        if (se.err >= 0) s << err << " with yerrorlines ps 0.6";  // a curve of means with their standard errors
-        else s << " with linespoints ps 0.6";
+        if (se.err >= 0)
+          s << err << " with yerrorlines ps 0.6";  // a curve of means with their standard errors
+        else
+          s << " with linespoints ps 0.6";
         break;
       case Series::Style::kSteps: s << " with histeps"; break;
       case Series::Style::kPoints: s << " with points ps 0.7"; break;
@@ -333,9 +338,9 @@ std::string GnuplotScript(const Figure& f) {
     // under longer ones (a stream that clogged at once) is still seen, and where it ends.
     if (se.role == Series::Role::kData && line && !se.rows.empty() && se.style == Series::Style::kLines) {
       const std::size_t last = se.rows.size() - 1;
-      s << ", \\\n     " << GpQuote(std::string(kDataDir) + "/" + files[k]) << " skip 1 every ::" << last << "::" << last
-        << " using " << x << ":" << y << " with points ps 0.8 lt " << (se.color >= 0 ? se.color : next_colour - 1) % (2 * kPaletteSize) + 1
-        << " notitle";
+      s << ", \\\n     " << GpQuote(std::string(kDataDir) + "/" + files[k]) << " skip 1 every ::" << last
+        << "::" << last << " using " << x << ":" << y << " with points ps 0.8 lt "
+        << (se.color >= 0 ? se.color : next_colour - 1) % (2 * kPaletteSize) + 1 << " notitle";
     }
   }
   s << "\n";
@@ -415,7 +420,8 @@ bool LooksNumeric(const Cell& cell) {
   const std::string& c = cell.text;
   if (c.empty()) return true;
   const char first = c.front();
-  return std::isdigit(static_cast<unsigned char>(first)) || ((first == '-' || first == '.' || first == '[') && c.size() > 1);
+  return std::isdigit(static_cast<unsigned char>(first)) ||
+         ((first == '-' || first == '.' || first == '[') && c.size() > 1);
 }
 
 std::string MdCell(const std::string& s) {
@@ -539,7 +545,8 @@ std::string MapScript(const MapFigure& f, const fs::path& dir) {
   else
     s << "set palette defined (0 '#440154', 0.25 '#3b528b', 0.5 '#21918c', 0.75 '#5ec962', 1 '#fde725')\n";
   // Placement in screen fractions: each panel's cell, the last of a row wider by the bar.
-  const double cell_w = static_cast<double>(panel_w) / width, cell_h = (1.0 - 40.0 / height) / static_cast<double>(rows);
+  const double cell_w = static_cast<double>(panel_w) / width,
+               cell_h = (1.0 - 40.0 / height) / static_cast<double>(rows);
   for (std::size_t k = 0; k < f.panels.size(); ++k) {
     const MapPanel& p = f.panels[k];
     {
@@ -563,7 +570,8 @@ std::string MapScript(const MapFigure& f, const fs::path& dir) {
       // gnuplot 5.4 has no variable width for vectors: six classes of width.
       constexpr int kClasses = 6;
       for (int c = 1; c <= kClasses; ++c) {
-        const double a = max_weight * (c - 1) / kClasses, b = c == kClasses ? 2.0 * max_weight : max_weight * c / kClasses;
+        const double a = max_weight * (c - 1) / kClasses,
+                     b = c == kClasses ? 2.0 * max_weight : max_weight * c / kClasses;
         layers.push_back(GpQuote(PanelFile(f, k, "segments")) + " skip 1 using 1:2:(($5 >= " + CsvNumber(a) +
                          " && $5 < " + CsvNumber(b) + ") ? $3 - $1 : 1/0):($4 - $2) with vectors nohead lw " +
                          CsvNumber(0.5 * c) + " lc rgb '#202020' notitle");
@@ -575,8 +583,9 @@ std::string MapScript(const MapFigure& f, const fs::path& dir) {
       for (const auto& g : p.arrows)
         csv << CsvNumber(g[0]) << "," << CsvNumber(g[1]) << "," << CsvNumber(g[2]) << "," << CsvNumber(g[3]) << "\n";
       WriteText(dir / PanelFile(f, k, "arrows"), csv.str());
-      layers.push_back(GpQuote(PanelFile(f, k, "arrows")) +
-                       " skip 1 using 1:2:3:4 with vectors head size screen 0.006,20 filled lw 1 lc rgb '#101010' notitle");
+      layers.push_back(
+          GpQuote(PanelFile(f, k, "arrows")) +
+          " skip 1 using 1:2:3:4 with vectors head size screen 0.006,20 filled lw 1 lc rgb '#101010' notitle");
     }
     if (!p.lines.empty()) {
       std::ostringstream csv;
@@ -586,12 +595,14 @@ std::string MapScript(const MapFigure& f, const fs::path& dir) {
         csv << "\n";
       }
       WriteText(dir / PanelFile(f, k, "walls"), csv.str());
-      layers.push_back(GpQuote(PanelFile(f, k, "walls")) + " skip 1 using 1:2 with lines lw 2.5 lc rgb 'black' notitle");
+      layers.push_back(GpQuote(PanelFile(f, k, "walls")) +
+                       " skip 1 using 1:2 with lines lw 2.5 lc rgb 'black' notitle");
     }
     if (!p.circles.empty()) {
       std::ostringstream csv;
       csv << "x,y,r\n";
-      for (const auto& c : p.circles) csv << CsvNumber(c[0]) << "," << CsvNumber(c[1]) << "," << CsvNumber(c[2]) << "\n";
+      for (const auto& c : p.circles)
+        csv << CsvNumber(c[0]) << "," << CsvNumber(c[1]) << "," << CsvNumber(c[2]) << "\n";
       WriteText(dir / PanelFile(f, k, "obstacles"), csv.str());
       layers.push_back(GpQuote(PanelFile(f, k, "obstacles")) +
                        " skip 1 using 1:2:3 with circles fill solid 1.0 lc rgb '#808080' notitle");
@@ -599,7 +610,8 @@ std::string MapScript(const MapFigure& f, const fs::path& dir) {
     const double row = static_cast<double>(k / cols), col = static_cast<double>(k % cols);
     const bool last_in_row = k % cols + 1 == cols || k + 1 == f.panels.size();
     s << "set origin " << CsvNumber(col * cell_w) << "," << CsvNumber(1.0 - 40.0 / height - (row + 1) * cell_h) << "\n"
-      << "set size ratio -1 " << CsvNumber(last_in_row ? cell_w + 90.0 / width : cell_w) << "," << CsvNumber(cell_h) << "\n"
+      << "set size ratio -1 " << CsvNumber(last_in_row ? cell_w + 90.0 / width : cell_w) << "," << CsvNumber(cell_h)
+      << "\n"
       << (last_in_row ? "set colorbox\n" : "unset colorbox\n");
     s << "set title " << GpQuote(p.title) << " noenhanced\n";
     if (layers.empty()) {
@@ -617,7 +629,7 @@ std::string MapScript(const MapFigure& f, const fs::path& dir) {
 }  // namespace
 
 RenderResult RenderReport(const std::string& title, const std::vector<Section>& sections, const fs::path& out_dir,
-                           const RenderOptions& options) {
+                          const RenderOptions& options) {
   fs::create_directories(out_dir / kDataDir);
   RenderResult result;
   bool figures = options.figures;
@@ -675,7 +687,8 @@ RenderResult RenderReport(const std::string& title, const std::vector<Section>& 
           md_body << "\n";
         }
         md_body << "\n";
-        html_body << (tb->header.size() > 10 ? "<table class=\"wide\"><caption>" : "<table><caption>") << HtmlEscape(tb->caption) << " <span class=\"csv\">(" << LocalLink(csv)
+        html_body << (tb->header.size() > 10 ? "<table class=\"wide\"><caption>" : "<table><caption>")
+                  << HtmlEscape(tb->caption) << " <span class=\"csv\">(" << LocalLink(csv)
                   << ")</span></caption>\n<tr>";
         for (const auto& h : tb->header) html_body << "<th>" << HtmlEscape(h) << "</th>";
         html_body << "</tr>\n";
@@ -691,8 +704,8 @@ RenderResult RenderReport(const std::string& title, const std::vector<Section>& 
         for (const auto& p : pics->pictures) {
           md_body << "![" << p.caption << "](" << p.file << ") ";
           const std::string png = ReadText(out_dir / p.file);
-          html_body << "<figure><img alt=\"" << HtmlEscape(p.caption) << "\" src=\"data:image/png;base64," << Base64(png)
-                    << "\"><figcaption>" << HtmlInline(p.caption) << "</figcaption></figure>";
+          html_body << "<figure><img alt=\"" << HtmlEscape(p.caption) << "\" src=\"data:image/png;base64,"
+                    << Base64(png) << "\"><figcaption>" << HtmlInline(p.caption) << "</figcaption></figure>";
         }
         md_body << "\n\n*" << pics->caption << "*\n\n";
         html_body << "</div><figcaption>" << HtmlInline(pics->caption) << "</figcaption></figure>\n";
@@ -724,8 +737,8 @@ RenderResult RenderReport(const std::string& title, const std::vector<Section>& 
             result.problems.push_back(problem.empty() ? svg_file + " was not written" : problem);
           }
         }
-        const std::string caption = "Figure " + std::to_string(figure_no) + ": " + f->title +
-                                    (f->caption.empty() ? "" : ". " + f->caption);
+        const std::string caption =
+            "Figure " + std::to_string(figure_no) + ": " + f->title + (f->caption.empty() ? "" : ". " + f->caption);
         if (!svg.empty()) md_body << "![" << f->title << "](" << kFiguresDir << "/" << f->name << ".svg)\n\n";
         md_body << "*" << caption << "* Data: " << csvs << "\n\n";
         html_body << "<figure>";
@@ -758,8 +771,8 @@ RenderResult RenderReport(const std::string& title, const std::vector<Section>& 
           csvs += PanelFile(*m, k, "");
           csv_links += LocalLink(PanelFile(*m, k, ""));
         }
-        const std::string caption = "Figure " + std::to_string(figure_no) + ": " + m->title +
-                                    (m->caption.empty() ? "" : ". " + m->caption);
+        const std::string caption =
+            "Figure " + std::to_string(figure_no) + ": " + m->title + (m->caption.empty() ? "" : ". " + m->caption);
         if (!svg.empty()) md_body << "![" << m->title << "](" << kFiguresDir << "/" << m->name << ".svg)\n\n";
         md_body << "*" << caption << "* Data: " << csvs << "\n\n";
         html_body << "<figure>";

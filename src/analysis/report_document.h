@@ -24,8 +24,8 @@ struct Cell {
   std::string text;
   double value = kNaN;
   double se = kNaN;
-  int n = -1;                                // estimates: < 0 = no n
-  int digits = 4;                            // significant digits shown
+  int n = -1;      // estimates: < 0 = no n
+  int digits = 4;  // significant digits shown
 
   Cell() = default;
   Cell(std::string t) : text(std::move(t)) {}  // NOLINT: text cells read naturally in row lists
@@ -39,24 +39,24 @@ struct Cell {
 };
 
 struct Table {
-  std::string name;                          // file stem of its CSV (unique in the report)
+  std::string name;  // file stem of its CSV (unique in the report)
   std::string caption;
-  std::vector<std::string> header;           // what markdown and HTML show
+  std::vector<std::string> header;  // what markdown and HTML show
   std::vector<std::vector<Cell>> rows;
-  std::vector<std::string> keys;             // CSV column names (empty: the header)
+  std::vector<std::string> keys;  // CSV column names (empty: the header)
 };
 
 // One curve of a figure: columns of numbers (NaN = missing). Its CSV is named after the
 // figure and the curve's label (or file_label): <figure>--<label as a file name>.csv.
 struct Series {
   std::string label;
-  std::vector<std::string> columns;          // names, e.g. {"W", "Q", "Q_se"}
+  std::vector<std::string> columns;  // names, e.g. {"W", "Q", "Q_se"}
   std::vector<std::vector<double>> rows;
   enum class Style { kPoints, kErrorBars, kLines, kLinesPoints, kSteps } style = Style::kPoints;
   // Columns plotted (0-based); err < 0: none (kErrorBars needs it; kLinesPoints draws error
   // bars when it is set).
   int x = 0, y = 1, err = -1;
-  int color = -1;                            // palette index (0-based); -1: next in turn
+  int color = -1;  // palette index (0-based); -1: next in turn
   // kData: measured values; the axes are fitted to them, and points of several curves at the
   // same x are drawn side by side. kFit: a model curve over the data (its data's colour; the
   // axes do not stretch for it). kReference: a reference line (black, its own dash pattern).
@@ -77,22 +77,22 @@ inline constexpr char kDataDir[] = "data";
 inline constexpr char kFiguresDir[] = "figures";
 
 struct Figure {
-  std::string name;                          // file stem: <name>.svg, <name>--<curve>.csv
+  std::string name;  // file stem: <name>.svg, <name>--<curve>.csv
   std::string title;
-  std::string xlabel, ylabel;                // with units
+  std::string xlabel, ylabel;  // with units
   std::vector<Series> series;
   bool logx = false, logy = false;
   std::string caption;
 };
 
 struct Text {
-  std::string markdown;                      // plain text with `code` and **bold**; paragraphs by blank lines
+  std::string markdown;  // plain text with `code` and **bold**; paragraphs by blank lines
 };
 
 // Pictures already drawn (PNG files in the report folder), side by side: in report.html as
 // data URIs, so it stays self-contained.
 struct Picture {
-  std::string file;                          // relative to the report folder
+  std::string file;  // relative to the report folder
   std::string caption;
 };
 struct Pictures {
@@ -107,23 +107,23 @@ struct Pictures {
 // grid is its CSV <name>-<k>.csv: columns x, y, <value_key>, n_frames.
 struct MapPanel {
   std::string title;
-  std::vector<std::array<double, 4>> grid;         // x, y, value (NaN: none), n_frames; empty: no colour map
+  std::vector<std::array<double, 4>> grid;                // x, y, value (NaN: none), n_frames; empty: no colour map
   std::vector<std::vector<std::array<double, 2>>> lines;  // polylines (walls)
-  std::vector<std::array<double, 3>> circles;      // x, y, radius (obstacles)
-  std::vector<std::array<double, 4>> arrows;       // x, y, dx, dy (in d, already scaled)
-  std::vector<std::array<double, 5>> segments;     // x1, y1, x2, y2, weight (width in proportion)
+  std::vector<std::array<double, 3>> circles;             // x, y, radius (obstacles)
+  std::vector<std::array<double, 4>> arrows;              // x, y, dx, dy (in d, already scaled)
+  std::vector<std::array<double, 5>> segments;            // x1, y1, x2, y2, weight (width in proportion)
 };
 
 struct MapFigure {
-  std::string name;                                // file stem
+  std::string name;  // file stem
   std::string title;
-  std::string value_name;                          // colour-bar label, e.g. "pressure P (contact) (m g / d)"
-  std::string value_key = "value";                 // its CSV column, e.g. "pressure"
+  std::string value_name;           // colour-bar label, e.g. "pressure P (contact) (m g / d)"
+  std::string value_key = "value";  // its CSV column, e.g. "pressure"
   std::vector<MapPanel> panels;
-  double x_lo = 0, x_hi = 1, y_lo = 0, y_hi = 1;   // the view, in d
+  double x_lo = 0, x_hi = 1, y_lo = 0, y_hi = 1;           // the view, in d
   double c_lo = std::numeric_limits<double>::quiet_NaN();  // colour scale; NaN: the panels' finite range
   double c_hi = std::numeric_limits<double>::quiet_NaN();
-  bool diverging = false;                          // a signed field: range symmetric about 0, blue-white-red
+  bool diverging = false;  // a signed field: range symmetric about 0, blue-white-red
   std::string caption;
 };
 
@@ -135,7 +135,7 @@ struct Code {
 using Block = std::variant<Text, Table, Figure, Pictures, MapFigure, Code>;
 
 struct Section {
-  std::string id;                            // html anchor
+  std::string id;  // html anchor
   std::string title;
   std::vector<Block> blocks;
 };
@@ -162,7 +162,7 @@ struct RenderOptions {
 struct RenderResult {
   std::filesystem::path markdown, html;
   int figures_drawn = 0;
-  std::vector<std::string> problems;         // e.g. "gnuplot not found: figures omitted"
+  std::vector<std::string> problems;  // e.g. "gnuplot not found: figures omitted"
 };
 
 // The gnuplot script that draws `figure` from its series' CSV files; run in the report folder,
@@ -172,7 +172,7 @@ std::string GnuplotScript(const Figure& figure);
 // Writes report.md and report.html into out_dir, every CSV into out_dir/data and (with
 // figures) every SVG into out_dir/figures.
 RenderResult RenderReport(const std::string& title, const std::vector<Section>& sections,
-                           const std::filesystem::path& out_dir, const RenderOptions& options);
+                          const std::filesystem::path& out_dir, const RenderOptions& options);
 
 // Helpers for filling tables: numbers with a fixed number of significant digits, NaN as "".
 std::string FormatNumber(double value, int significant = 4);
@@ -184,8 +184,8 @@ std::string CsvNumber(double value);
 // across, else one; a title wider than 800 px widens the canvas (report.html scales the SVG to
 // the page), so the key is never cut or wrapped past the plot's edge.
 struct KeyLayout {
-  int width = 800, height = 440;               // SVG size, px
-  int columns = 2;                             // of the key
+  int width = 800, height = 440;  // SVG size, px
+  int columns = 2;                // of the key
 };
 KeyLayout ComputeKeyLayout(const Figure& figure);
 

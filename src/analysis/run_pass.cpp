@@ -229,7 +229,10 @@ nlohmann::json PassJson(const PassOptions& p, const PassUse& use) {
 }  // namespace
 
 nlohmann::json CacheKey(const Analysis& a, const PassOptions& pass) {
-  return {{"analysis", a.Key()}, {"version", a.Version()}, {"options", a.RunOptions()}, {"pass", PassJson(pass, a.PassOptionsUsed())}};
+  return {{"analysis", a.Key()},
+          {"version", a.Version()},
+          {"options", a.RunOptions()},
+          {"pass", PassJson(pass, a.PassOptionsUsed())}};
 }
 
 RunView MakeRunView(const rundir::RunData& data, const PassOptions& pass) {
@@ -239,7 +242,8 @@ RunView MakeRunView(const rundir::RunData& data, const PassOptions& pass) {
   const nlohmann::json& spec = data.spec;
   const nlohmann::json none = nlohmann::json::object();
   const nlohmann::json discharge = spec.is_object() ? spec.value("discharge", none) : none;
-  v.run_id = data.summary.run_id.empty() && spec.is_object() ? spec.value("run_id", std::string()) : data.summary.run_id;
+  v.run_id =
+      data.summary.run_id.empty() && spec.is_object() ? spec.value("run_id", std::string()) : data.summary.run_id;
   v.engine = !data.summary.engine.empty() ? data.summary.engine
                                           : (spec.is_object() ? spec.value("engine", std::string("native")) : "native");
   v.end_reason = data.summary.end_reason;
@@ -256,7 +260,8 @@ RunView MakeRunView(const rundir::RunData& data, const PassOptions& pass) {
   if (spec.is_object() && spec.contains("bodies")) v.density = spec.at("bodies").value("density", 1.0);
   v.outlets = OutletsOf(spec);
   v.flow = MeasureFlowRate({data.events, v.remove_mode, v.bodies, v.clog_gap, -1}, pass.window);
-  const ClogSeries series = ComputeClogSeries(data.events, -1, v.t_end, v.clog_gap, RunEndOf(v.end_reason), v.stop_on_clog);
+  const ClogSeries series =
+      ComputeClogSeries(data.events, -1, v.t_end, v.clog_gap, RunEndOf(v.end_reason), v.stop_on_clog);
   for (const Stretch& c : series.clogged) v.clogged.push_back({c.start, c.end});
   v.steady.start = pass.window.start_time;
   if (v.flow.ok) {
@@ -268,7 +273,7 @@ RunView MakeRunView(const rundir::RunData& data, const PassOptions& pass) {
 }
 
 RunPassResult AnalyseRun(const std::filesystem::path& dir, const std::vector<const Analysis*>& analyses,
-                          const PassOptions& pass, const RunPassOptions& options) {
+                         const PassOptions& pass, const RunPassOptions& options) {
   RunPassResult out;
   out.results.assign(analyses.size(), nullptr);
   // What a killed writer left: analyses/*.json.tmp.PID (a killed pass), progress.json.tmp.PID
@@ -279,7 +284,8 @@ RunPassResult AnalyseRun(const std::filesystem::path& dir, const std::vector<con
   }
   // A cached result belongs to this summary.json: a run run again is analysed again.
   std::string summary_hash;
-  if (std::filesystem::exists(dir / rundir::kSummaryFile)) summary_hash = HashHex(ReadWholeFile(dir / rundir::kSummaryFile));
+  if (std::filesystem::exists(dir / rundir::kSummaryFile))
+    summary_hash = HashHex(ReadWholeFile(dir / rundir::kSummaryFile));
   std::vector<nlohmann::json> keys;
   std::vector<std::size_t> missing;
   for (std::size_t k = 0; k < analyses.size(); ++k) {

@@ -30,7 +30,7 @@ struct RunPassResult {
 
 // Throws rundir::ReadError on a malformed run directory, or what an analysis throws.
 RunPassResult AnalyseRun(const std::filesystem::path& dir, const std::vector<const Analysis*>& analyses,
-                          const PassOptions& pass, const RunPassOptions& options = {});
+                         const PassOptions& pass, const RunPassOptions& options = {});
 
 // The RunView of a read run directory (analyses' tests start accumulators on it).
 RunView MakeRunView(const rundir::RunData& data, const PassOptions& pass);

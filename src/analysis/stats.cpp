@@ -168,10 +168,12 @@ void GridHistogram::Merge(const GridHistogram& other) {
     return;
   }
   const long long lo = std::min(first, other.first);
-  const long long hi = std::max(first + static_cast<long long>(counts.size()), other.first + static_cast<long long>(other.counts.size()));
+  const long long hi = std::max(first + static_cast<long long>(counts.size()),
+                                other.first + static_cast<long long>(other.counts.size()));
   std::vector<double> merged(static_cast<std::size_t>(hi - lo), 0.0);
   for (std::size_t i = 0; i < counts.size(); ++i) merged[static_cast<std::size_t>(first - lo) + i] += counts[i];
-  for (std::size_t i = 0; i < other.counts.size(); ++i) merged[static_cast<std::size_t>(other.first - lo) + i] += other.counts[i];
+  for (std::size_t i = 0; i < other.counts.size(); ++i)
+    merged[static_cast<std::size_t>(other.first - lo) + i] += other.counts[i];
   counts = std::move(merged);
   first = lo;
 }
@@ -185,7 +187,8 @@ double GridHistogram::Total() const {
 Histogram GridHistogram::Coarse(int max_bins) const {
   Histogram h;
   if (counts.empty() || max_bins < 1) return h;
-  const std::size_t factor = (counts.size() + static_cast<std::size_t>(max_bins) - 1) / static_cast<std::size_t>(max_bins);
+  const std::size_t factor =
+      (counts.size() + static_cast<std::size_t>(max_bins) - 1) / static_cast<std::size_t>(max_bins);
   h.lo = (static_cast<double>(first) - 0.5) * width;
   const std::size_t bins = (counts.size() + factor - 1) / factor;
   h.hi = h.lo + static_cast<double>(bins * factor) * width;

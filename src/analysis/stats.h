@@ -56,7 +56,7 @@ Histogram MakeHistogram(std::span<const double> values, int bins);
 // be cached and the replicas' pooled afterwards.
 struct GridHistogram {
   double width = 0.05;
-  long long first = 0;              // grid index of counts[0]
+  long long first = 0;  // grid index of counts[0]
   std::vector<double> counts;
   void Add(double value);
   void Merge(const GridHistogram& other);  // same width

@@ -25,7 +25,8 @@ const json& At(const json& j, const char* key) {
 // Species k's name, or "species k".
 std::string SpeciesName(const json& spec, std::size_t k) {
   const json& species = At(At(spec, "bodies"), "species");
-  if (species.is_array() && k < species.size() && species[k].contains("name")) return species[k]["name"].get<std::string>();
+  if (species.is_array() && k < species.size() && species[k].contains("name"))
+    return species[k]["name"].get<std::string>();
   return "species " + std::to_string(k);
 }
 
@@ -83,7 +84,9 @@ AxisNames ResolveAxisNames(const std::string& pointer, const json& spec) {
     return Count(spec, group, list) > 1 ? std::string(what) + " " + std::to_string(k + 1) : std::string(what);
   };
   // {words with the symbol, the symbol}
-  const auto named = [](std::string words, const std::string& symbol) { return AxisNames{words + " " + symbol, symbol}; };
+  const auto named = [](std::string words, const std::string& symbol) {
+    return AxisNames{words + " " + symbol, symbol};
+  };
   if (is({"silo", "base_outlets", "#", "width"})) {
     const std::string k = std::to_string(index(2) + 1);
     return Count(spec, "silo", "base_outlets") > 1 ? AxisNames{"width W_" + k + " of outlet " + k, "W_" + k}
@@ -93,12 +96,16 @@ AxisNames ResolveAxisNames(const std::string& pointer, const json& spec) {
     const std::string k = std::to_string(index(2) + 1);
     return {"position x_" + k + " of " + nth("outlet", index(2), "silo", "base_outlets"), "x_" + k};
   }
-  if (is({"silo", "side_outlets", "#", "width"})) return named(nth("side outlet", index(2), "silo", "side_outlets") + " width", "W_s");
+  if (is({"silo", "side_outlets", "#", "width"}))
+    return named(nth("side outlet", index(2), "silo", "side_outlets") + " width", "W_s");
   if (is({"silo", "side_outlets", "#", "bottom"}))
     return named(nth("side outlet", index(2), "silo", "side_outlets") + " height above the base", "h_s");
-  if (is({"silo", "obstacles", "#", "y"})) return named(nth("obstacle", index(2), "silo", "obstacles") + " height", "h");
-  if (is({"silo", "obstacles", "#", "x"})) return named(nth("obstacle", index(2), "silo", "obstacles") + " position", "x_o");
-  if (is({"silo", "obstacles", "#", "diameter"})) return named(nth("obstacle", index(2), "silo", "obstacles") + " diameter", "D_o");
+  if (is({"silo", "obstacles", "#", "y"}))
+    return named(nth("obstacle", index(2), "silo", "obstacles") + " height", "h");
+  if (is({"silo", "obstacles", "#", "x"}))
+    return named(nth("obstacle", index(2), "silo", "obstacles") + " position", "x_o");
+  if (is({"silo", "obstacles", "#", "diameter"}))
+    return named(nth("obstacle", index(2), "silo", "obstacles") + " diameter", "D_o");
   if (is({"silo", "width"})) return named("silo width", "L");
   if (is({"silo", "height"})) return {"silo height", "silo height"};
   if (is({"bodies", "count"})) return named("number of bodies", "N");
@@ -106,9 +113,12 @@ AxisNames ResolveAxisNames(const std::string& pointer, const json& spec) {
   if (is({"bodies", "species", "#", "fraction"}))
     return named(SpeciesName(spec, index(2)) + " fraction", FractionSymbol(spec, index(2)));
   if (is({"bodies", "species", "#", "shape"}))
-    return {Count(spec, "bodies", "species") > 1 ? "shape of " + SpeciesName(spec, index(2)) : std::string("body shape"), "shape"};
+    return {
+        Count(spec, "bodies", "species") > 1 ? "shape of " + SpeciesName(spec, index(2)) : std::string("body shape"),
+        "shape"};
   if (is({"bodies", "species", "#", "diameter"})) return named(SpeciesName(spec, index(2)) + " disc diameter", "d");
-  if (is({"bodies", "species", "#", "big_diameter"})) return named(SpeciesName(spec, index(2)) + " big-disc diameter", "D_b");
+  if (is({"bodies", "species", "#", "big_diameter"}))
+    return named(SpeciesName(spec, index(2)) + " big-disc diameter", "D_b");
   if (is({"bodies", "species", "#", "n"})) return named(SpeciesName(spec, index(2)) + " discs per rod", "n");
   if (is({"contact", "mu"})) return named("friction", "mu");
   if (is({"contact", "mu_wall"})) return named("wall friction", "mu_w");
@@ -146,7 +156,8 @@ Table FixedParameters(const json& spec, const std::vector<std::string>& axes) {
   t.caption = "Fixed parameters (" + std::string(kUnitsText) + ")";
   t.header = {"", "parameter", "value"};
   // pointer "": a row of several parameters, each of which says itself whether it is swept (V).
-  const auto add = [&](const std::string& group, const std::string& name, const std::string& pointer, const std::string& value) {
+  const auto add = [&](const std::string& group, const std::string& name, const std::string& pointer,
+                       const std::string& value) {
     t.rows.push_back({group, name, !pointer.empty() && Swept(pointer, axes) ? "swept (below)" : value});
   };
   const auto V = [&](const std::string& pointer, const json& value) {
@@ -178,7 +189,8 @@ Table FixedParameters(const json& spec, const std::vector<std::string>& axes) {
   for (std::size_t k = 0; obstacles.is_array() && k < obstacles.size(); ++k) {
     const std::string name = "obstacle" + (obstacles.size() > 1 ? " " + std::to_string(k + 1) : std::string());
     const std::string ptr = "/silo/obstacles/" + std::to_string(k);
-    add("silo", name + ": centre (x, y)", "", "(" + V(ptr + "/x", At(obstacles[k], "x")) + ", " + V(ptr + "/y", At(obstacles[k], "y")) + ")");
+    add("silo", name + ": centre (x, y)", "",
+        "(" + V(ptr + "/x", At(obstacles[k], "x")) + ", " + V(ptr + "/y", At(obstacles[k], "y")) + ")");
     add("silo", name + ": diameter D_o", ptr + "/diameter", Num(At(obstacles[k], "diameter")));
   }
   const json& bodies = At(spec, "bodies");
@@ -191,7 +203,8 @@ Table FixedParameters(const json& spec, const std::vector<std::string>& axes) {
     const std::string ptr = "/bodies/species/" + std::to_string(k);
     const ShapeRow* row = FindShapeRow(shape);
     const std::string form =
-        row ? ShapeText(row->form, [&](const std::string& key) { return V(ptr + "/" + key, At(s, key.c_str())); }) : shape;
+        row ? ShapeText(row->form, [&](const std::string& key) { return V(ptr + "/" + key, At(s, key.c_str())); })
+            : shape;
     add("bodies", "species " + std::to_string(k + 1) + " \"" + s.value("name", "") + "\"", ptr + "/shape", form);
     add("bodies", "species " + std::to_string(k + 1) + " number fraction " + FractionSymbol(spec, k), ptr + "/fraction",
         Num(At(s, "fraction")));
@@ -199,9 +212,11 @@ Table FixedParameters(const json& spec, const std::vector<std::string>& axes) {
   const json& contact = At(spec, "contact");
   add("contact law", "model", "/contact/tangential_cap",
       "Hertz with tangential history; Coulomb cap on " +
-          std::string(At(contact, "tangential_cap") == "liggghts" ? "the spring part (LIGGGHTS)" : "spring + damping (LAMMPS)") +
+          std::string(At(contact, "tangential_cap") == "liggghts" ? "the spring part (LIGGGHTS)"
+                                                                  : "spring + damping (LAMMPS)") +
           (At(contact, "clip_normal") == true ? "; attractive normal force clipped" : ""));
-  add("contact law", "stiffness K_n, K_t", "", V("/contact/kn", At(contact, "kn")) + ", " + V("/contact/kt", At(contact, "kt")));
+  add("contact law", "stiffness K_n, K_t", "",
+      V("/contact/kn", At(contact, "kn")) + ", " + V("/contact/kt", At(contact, "kt")));
   add("contact law", "damping gamma_n, gamma_t", "",
       V("/contact/gamma_n", At(contact, "gamma_n")) + ", " + V("/contact/gamma_t", At(contact, "gamma_t")));
   add("contact law", "friction mu (bodies), mu_w (walls)", "",
@@ -211,8 +226,10 @@ Table FixedParameters(const json& spec, const std::vector<std::string>& axes) {
   add("integration", "engine", "/engine", Num(At(spec, "engine")));
   const json& d = At(spec, "discharge");
   const std::string mode = At(d, "mode").is_string() ? At(d, "mode").get<std::string>() : "remove";
-  std::string mode_text = mode == "reinject" ? "reinject: a body that leaves comes back on top of the bed" : "remove: a body that leaves is gone";
-  if (mode == "reinject" && At(d, "reinject_position") == "periodic") mode_text += " (through a periodic box, as LIGGGHTS)";
+  std::string mode_text = mode == "reinject" ? "reinject: a body that leaves comes back on top of the bed"
+                                             : "remove: a body that leaves is gone";
+  if (mode == "reinject" && At(d, "reinject_position") == "periodic")
+    mode_text += " (through a periodic box, as LIGGGHTS)";
   add("discharge", "mode", "/discharge/mode", mode_text);
   add("discharge", "a body has left", "/discharge/exit_distance",
       "its centre " + Num(At(d, "exit_distance")) + " past the outlet");
@@ -220,7 +237,8 @@ Table FixedParameters(const json& spec, const std::vector<std::string>& axes) {
   if (At(d, "on_clog") == "unclog") {
     const json& u = At(d, "unclog");
     const std::string how = At(u, "method") == "kick"
-                                ? "kicks the bodies within " + (At(u, "kick_radius") == 0.0 ? std::string("W") : Num(At(u, "kick_radius"))) +
+                                ? "kicks the bodies within " +
+                                      (At(u, "kick_radius") == 0.0 ? std::string("W") : Num(At(u, "kick_radius"))) +
                                       " of the outlet upwards at " + Num(At(u, "kick_speed"))
                                 : std::string("takes out the arch's bodies");
     add("discharge", "on a clog", "/discharge/on_clog",
@@ -235,7 +253,9 @@ Table FixedParameters(const json& spec, const std::vector<std::string>& axes) {
           Num(At(d, "clog_ke_per_body")) + " m g d");
   const json& out = At(spec, "output");
   add("output", "frames every", "/output/frame_interval",
-      At(out, "frame_interval").is_number() && At(out, "frame_interval").get<double>() > 0 ? Num(At(out, "frame_interval")) : "no frames");
+      At(out, "frame_interval").is_number() && At(out, "frame_interval").get<double>() > 0
+          ? Num(At(out, "frame_interval"))
+          : "no frames");
   return t;
 }
 

@@ -106,21 +106,19 @@ GRANARY_LANE void Store(double* p, Lane8 a) { _mm512_storeu_pd(p, a.v); }
 }  // namespace
 
 template <>
-GRANARY_LANE Lane8 Load<Lane8>(const double* p) { return _mm512_loadu_pd(p); }
+GRANARY_LANE Lane8 Load<Lane8>(const double* p) {
+  return _mm512_loadu_pd(p);
+}
 #undef GRANARY_LANE
 
 namespace {
 
 template <class Normal, bool kLiggghtsCap>
-__attribute__((target("avx512f"), flatten)) int PairEntriesImpl(int e0, int e1, const int* __restrict nl_i,
-                                                                const int* __restrict nl_j,
-                                                                const double* __restrict nl_reff,
-                                                                const double* __restrict nl_meff,
-                                                                double* __restrict nl_sx, double* __restrict nl_sy,
-                                                                double* __restrict nl_fx, double* __restrict nl_fy,
-                                                                double* __restrict nl_c,
-                                                                const DiscKin* __restrict kin,
-                                                                const ContactParams& pp, double dt) {
+__attribute__((target("avx512f"), flatten)) int PairEntriesImpl(
+    int e0, int e1, const int* __restrict nl_i, const int* __restrict nl_j, const double* __restrict nl_reff,
+    const double* __restrict nl_meff, double* __restrict nl_sx, double* __restrict nl_sy, double* __restrict nl_fx,
+    double* __restrict nl_fy, double* __restrict nl_c, const DiscKin* __restrict kin, const ContactParams& pp,
+    double dt) {
   const LawConstants<Lane8> law(pp, dt);
   int e = e0;
   for (; e + 8 <= e1; e += 8) {
@@ -219,18 +217,18 @@ __attribute__((target("avx512f"))) int DriftUniformImpl(int b0, int b1, const Dr
     // DriftKernel
     const __mmask8 on = _mm512_test_epi64_mask(
         _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(active + b))), _mm512_set1_epi64(0xff));
-    const __m512d vx = Add(_mm512_loadu_pd(bvx + b), Mul(Mul(half, _mm512_loadu_pd(arr.bfx + b)),
-                                                        _mm512_loadu_pd(arr.binv_mass + b)));
-    const __m512d vy = Add(_mm512_loadu_pd(bvy + b), Mul(Mul(half, _mm512_loadu_pd(arr.bfy + b)),
-                                                        _mm512_loadu_pd(arr.binv_mass + b)));
-    const __m512d w = Add(_mm512_loadu_pd(bw + b), Mul(Mul(half, _mm512_loadu_pd(arr.btq + b)),
-                                                      _mm512_loadu_pd(arr.binv_inertia + b)));
+    const __m512d vx =
+        Add(_mm512_loadu_pd(bvx + b), Mul(Mul(half, _mm512_loadu_pd(arr.bfx + b)), _mm512_loadu_pd(arr.binv_mass + b)));
+    const __m512d vy =
+        Add(_mm512_loadu_pd(bvy + b), Mul(Mul(half, _mm512_loadu_pd(arr.bfy + b)), _mm512_loadu_pd(arr.binv_mass + b)));
+    const __m512d w = Add(_mm512_loadu_pd(bw + b),
+                          Mul(Mul(half, _mm512_loadu_pd(arr.btq + b)), _mm512_loadu_pd(arr.binv_inertia + b)));
     const __m512d a = Mul(dt, w);
     const __mmask8 small = _mm512_cmp_pd_mask(_mm512_abs_pd(a), small_angle, _CMP_LT_OQ);
     if ((on & ~small) != 0) break;  // a rotation that needs libm: the caller takes this group
     const __m512d a2 = Mul(a, a);
-    const __m512d ca = Sub(one, Mul(Mul(a2, k2), Sub(one, Mul(Mul(a2, k12), Sub(one, Mul(Mul(a2, k30),
-                                                                                          Sub(one, Mul(a2, k56))))))));
+    const __m512d ca =
+        Sub(one, Mul(Mul(a2, k2), Sub(one, Mul(Mul(a2, k12), Sub(one, Mul(Mul(a2, k30), Sub(one, Mul(a2, k56))))))));
     const __m512d sa = Mul(a, Sub(one, Mul(Mul(a2, k6), Sub(one, Mul(Mul(a2, k20), Sub(one, Mul(a2, k42)))))));
     const __m512d c0 = _mm512_loadu_pd(bc + b), s0 = _mm512_loadu_pd(bs + b);
     const __m512d c1 = Sub(Mul(c0, ca), Mul(s0, sa)), s1 = Add(Mul(s0, ca), Mul(c0, sa));
@@ -296,9 +294,8 @@ GRANARY_AVX512 __m512d BodyLanes(const double* a, int first, __mmask8 valid, __m
   return _mm512_permutexvar_pd(pick, _mm512_maskz_loadu_pd(valid, a + first));
 }
 
-__attribute__((target("avx512f"))) int PlaceDiscsImpl(int d0, int d1, double limit_scalar,
-                                                      const int* __restrict dbody, int body_end,
-                                                      const DriftArrays& arr, bool* moved) {
+__attribute__((target("avx512f"))) int PlaceDiscsImpl(int d0, int d1, double limit_scalar, const int* __restrict dbody,
+                                                      int body_end, const DriftArrays& arr, bool* moved) {
   const __m512d limit = _mm512_set1_pd(limit_scalar);
   __mmask8 far = 0;
   int d = d0;
@@ -307,8 +304,9 @@ __attribute__((target("avx512f"))) int PlaceDiscsImpl(int d0, int d1, double lim
     // (bodies from body_end on are masked off: another thread may be writing them)
     const int past = first + 8 - body_end;
     const __mmask8 valid = past <= 0 ? __mmask8{0xff} : static_cast<__mmask8>(0xffu >> std::min(8, past));
-    const __m512i pick = _mm512_sub_epi64(
-        _mm512_cvtepi32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(dbody + d))), _mm512_set1_epi64(first));
+    const __m512i pick =
+        _mm512_sub_epi64(_mm512_cvtepi32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(dbody + d))),
+                         _mm512_set1_epi64(first));
     const __m512d x = BodyLanes(arr.bx, first, valid, pick), y = BodyLanes(arr.by, first, valid, pick);
     const __m512d vx = BodyLanes(arr.bvx, first, valid, pick), vy = BodyLanes(arr.bvy, first, valid, pick);
     const __m512d w = BodyLanes(arr.bw, first, valid, pick);
@@ -359,7 +357,8 @@ __attribute__((target("avx512f"))) int BodySumsUpTo2Impl(int b0, int b1, const B
     // Discs from disc_end on (another thread's, or beyond the arrays) are masked off.
     const int beyond = base + 16 - disc_end;
     const __mmask8 hi_valid = beyond <= 0 ? __mmask8{0xff} : static_cast<__mmask8>(0xffu >> std::min(8, beyond));
-    const __m512i begin = _mm512_cvtepi32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(arr.disc_begin + b)));
+    const __m512i begin =
+        _mm512_cvtepi32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(arr.disc_begin + b)));
     const __m512i count = _mm512_cvtepi32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(arr.disc_n + b)));
     const __mmask8 two = _mm512_cmpgt_epi64_mask(count, _mm512_set1_epi64(1));
     const __m512i first = _mm512_sub_epi64(begin, _mm512_set1_epi64(base));
@@ -372,8 +371,9 @@ __attribute__((target("avx512f"))) int BodySumsUpTo2Impl(int b0, int b1, const B
     LoadPair(arr.dy, base, hi_valid, first, second, &y0, &y1);
     LoadPair(arr.refx, base, hi_valid, first, second, &rx0, &rx1);
     LoadPair(arr.refy, base, hi_valid, first, second, &ry0, &ry1);
-    const __mmask8 on = _mm512_test_epi64_mask(
-        _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(arr.active + b))), _mm512_set1_epi64(0xff));
+    const __mmask8 on =
+        _mm512_test_epi64_mask(_mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(arr.active + b))),
+                               _mm512_set1_epi64(0xff));
     const __m512d cx = _mm512_loadu_pd(arr.bx + b), cy = _mm512_loadu_pd(arr.by + b);
     // BodySumsUpTo2
     __m512d bfx = Add(zero, fx0), bfy = Add(zero, fy0);
@@ -404,12 +404,11 @@ __attribute__((target("avx512f"))) int BodySumsUpTo2Impl(int b0, int b1, const B
     const __m512d nvx = Add(vx, Mul(Mul(half, bfx), inv_mass));
     const __m512d nvy = Add(vy, Mul(Mul(half, bfy), inv_mass));
     const __m512d nw = Add(w, Mul(Mul(half, btq), inv_inertia));
-    const __m512d reach =
-        Sub(limit, Add(Add(Mul(dt, _mm512_sqrt_pd(Add(Mul(nvx, nvx), Mul(nvy, nvy)))),
-                           Mul(_mm512_abs_pd(Mul(dt, nw)), _mm512_loadu_pd(arr.bradius + b))),
-                       eps));
-    const int runs = _mm512_cmp_pd_mask(reach, zero, _CMP_LE_OQ) |
-                     _mm512_cmp_pd_mask(moved2, Mul(reach, reach), _CMP_GT_OQ);
+    const __m512d reach = Sub(limit, Add(Add(Mul(dt, _mm512_sqrt_pd(Add(Mul(nvx, nvx), Mul(nvy, nvy)))),
+                                             Mul(_mm512_abs_pd(Mul(dt, nw)), _mm512_loadu_pd(arr.bradius + b))),
+                                         eps));
+    const int runs =
+        _mm512_cmp_pd_mask(reach, zero, _CMP_LE_OQ) | _mm512_cmp_pd_mask(moved2, Mul(reach, reach), _CMP_GT_OQ);
     out = static_cast<__mmask8>(out | (on & runs));
   }
   if (out != 0) *outrun = true;
@@ -421,8 +420,8 @@ __attribute__((target("avx512f"))) int BodySumsUpTo2Impl(int b0, int b1, const B
 }  // namespace
 
 int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const double* nl_reff, const double* nl_meff,
-                      double* nl_sx, double* nl_sy, double* nl_fx, double* nl_fy, double* nl_c,
-                      const DiscKin* kin, const ContactParams& pp, double dt) {
+                      double* nl_sx, double* nl_sy, double* nl_fx, double* nl_fy, double* nl_c, const DiscKin* kin,
+                      const ContactParams& pp, double dt) {
   return WithContactLaw(pp, [&](auto model, auto cap) {
     return PairEntriesImpl<decltype(model), decltype(cap)::value>(e0, e1, nl_i, nl_j, nl_reff, nl_meff, nl_sx, nl_sy,
                                                                   nl_fx, nl_fy, nl_c, kin, pp, dt);
@@ -441,8 +440,8 @@ int PlaceDiscsAvx512(int d0, int d1, double limit, const int* dbody, int body_en
 }
 
 template <bool kKick>
-int BodySumsUpTo2Avx512(int b0, int b1, const BodySumArrays& arrays, int disc_end, double g, double half,
-                        double dt, double limit, bool* outrun) {
+int BodySumsUpTo2Avx512(int b0, int b1, const BodySumArrays& arrays, int disc_end, double g, double half, double dt,
+                        double limit, bool* outrun) {
   return BodySumsUpTo2Impl<kKick>(b0, b1, arrays, disc_end, g, half, dt, limit, outrun);
 }
 

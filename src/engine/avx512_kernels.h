@@ -23,8 +23,8 @@ bool Avx512Available();
 // outputs as PairEntries with the law of pp (contact_law.h PairEntry on eight lanes).
 // Call only when Avx512Available().
 int PairEntriesAvx512(int e0, int e1, const int* nl_i, const int* nl_j, const double* nl_reff, const double* nl_meff,
-                      double* nl_sx, double* nl_sy, double* nl_fx, double* nl_fy, double* nl_c,
-                      const DiscKin* kin, const ContactParams& pp, double dt);
+                      double* nl_sx, double* nl_sy, double* nl_fx, double* nl_fy, double* nl_c, const DiscKin* kin,
+                      const ContactParams& pp, double dt);
 // (A branch-free loop would compute the slip rescale, two divisions and a square root, for
 // every entry, though ~5 % of contacts slip: here only for the groups of eight where a
 // touching lane slips; NeedAny.)
@@ -75,7 +75,7 @@ struct BodySumArrays {
 // b0 + 8 k; sets *outrun if an active body's next drift may take a disc beyond half the
 // skin (OutrunsSkin). Call only when Avx512Available().
 template <bool kKick>
-int BodySumsUpTo2Avx512(int b0, int b1, const BodySumArrays& arrays, int disc_end, double g, double half,
-                        double dt, double limit, bool* outrun);
+int BodySumsUpTo2Avx512(int b0, int b1, const BodySumArrays& arrays, int disc_end, double g, double half, double dt,
+                        double limit, bool* outrun);
 
 }  // namespace granary::engine

@@ -48,7 +48,8 @@ bool Overlaps(const silo::ShapeTemplate& a, double ax, double ay, double ath, co
 std::vector<int> ShuffledSpecies(const RunSpec& spec, Rng& rng) {
   std::vector<int> order;
   const std::vector<int> counts = silo::SpeciesCounts(spec.bodies);
-  for (std::size_t k = 0; k < counts.size(); ++k) order.insert(order.end(), static_cast<std::size_t>(counts[k]), static_cast<int>(k));
+  for (std::size_t k = 0; k < counts.size(); ++k)
+    order.insert(order.end(), static_cast<std::size_t>(counts[k]), static_cast<int>(k));
   for (std::size_t i = order.size(); i > 1; --i) {
     const std::size_t j = static_cast<std::size_t>(rng.Next() % i);
     std::swap(order[i - 1], order[j]);
@@ -137,8 +138,10 @@ BedState PrepareBed(const RunSpec& spec, const BedProgress& progress, double ski
         for (int b : placed)
           ke += world.body_mass_[b] * (world.body_vx_[b] * world.body_vx_[b] + world.body_vy_[b] * world.body_vy_[b]);
         ke *= 0.5 / (static_cast<double>(placed.size()) * energy_unit);
-        if (ke > kBedLandedKePerBody) fell = true;
-        else if (fell) break;
+        if (ke > kBedLandedKePerBody)
+          fell = true;
+        else if (fell)
+          break;
       }
     }
   }
@@ -299,8 +302,8 @@ BedState BedFromJson(const nlohmann::json& j, const RunSpec& spec, const std::st
     throw BedFileError("bed file " + file + " is corrupt: its checksum is " + j.value("checksum", "missing") +
                        ", its content gives " + actual);
   if (j.at("key") != spec.BedKey())
-    throw std::runtime_error("bed file " + file + " was prepared for another bed key (bodies, width, seed, ...): " +
-                             j.at("key").dump());
+    throw std::runtime_error("bed file " + file +
+                             " was prepared for another bed key (bodies, width, seed, ...): " + j.at("key").dump());
   BedState bed;
   bed.height = j.at("height").get<double>();
   bed.settle_time = j.at("settle_time").get<double>();
@@ -321,8 +324,8 @@ BedState BedFromJson(const nlohmann::json& j, const RunSpec& spec, const std::st
                     row.at(3).get<double>()});
   }
   if (static_cast<int>(bed.x.size()) != spec.bodies.count)
-    throw std::runtime_error("bed file " + file + " holds " + std::to_string(bed.x.size()) + " bodies, the spec wants " +
-                             std::to_string(spec.bodies.count));
+    throw std::runtime_error("bed file " + file + " holds " + std::to_string(bed.x.size()) +
+                             " bodies, the spec wants " + std::to_string(spec.bodies.count));
   return bed;
 }
 
@@ -339,7 +342,6 @@ BedState ReadBedFile(const std::string& file, const RunSpec& spec) {
   }
   return BedFromJson(j, spec, file);
 }
-
 
 }  // namespace
 

@@ -45,14 +45,15 @@ nlohmann::json BenchSpecies(const std::string& shape) {
 }
 
 nlohmann::json BenchSpec(const BenchOptions& options) {
-  nlohmann::json spec = {{"run_id", "bench"},
-          {"seed", std::uint64_t{1}},
-          {"silo", {{"width", 100.0}, {"base_outlets", {{{"center", 0.0}, {"width", 14.0}}}}}},
-          {"bodies", {{"count", options.bodies}, {"species", BenchSpecies(options.shape)}}},
-          {"discharge",
-           {{"mode", "reinject"}, {"max_time", static_cast<double>(options.steps) * 1e-4}, {"stop_on_clog", false}}},
-          {"output", {{"checkpoint_interval", 0.0}, {"frame_interval", 0.0}}},
-          {"bed", {{"batch_size", 2000}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 30.0}}}};
+  nlohmann::json spec = {
+      {"run_id", "bench"},
+      {"seed", std::uint64_t{1}},
+      {"silo", {{"width", 100.0}, {"base_outlets", {{{"center", 0.0}, {"width", 14.0}}}}}},
+      {"bodies", {{"count", options.bodies}, {"species", BenchSpecies(options.shape)}}},
+      {"discharge",
+       {{"mode", "reinject"}, {"max_time", static_cast<double>(options.steps) * 1e-4}, {"stop_on_clog", false}}},
+      {"output", {{"checkpoint_interval", 0.0}, {"frame_interval", 0.0}}},
+      {"bed", {{"batch_size", 2000}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 30.0}}}};
   // The default cache file is named by the bed key (as the runner's), so that a bed cached by
   // an engine with another bed procedure is not read for this one.
   spec["bed"]["cache_file"] =
@@ -184,8 +185,8 @@ std::vector<OutputCostResult> RunOutputCost(const BenchOptions& options, double 
         }
         if (first_block >= 0) bytes += static_cast<double>(offset - first_block);
       }
-      results.push_back({round, threads, without.disc_steps_per_s, with.disc_steps_per_s, bytes,
-                         threads > 1 ? round_trip : 0.0});
+      results.push_back(
+          {round, threads, without.disc_steps_per_s, with.disc_steps_per_s, bytes, threads > 1 ? round_trip : 0.0});
     }
   }
   fs::remove_all(base);
@@ -229,8 +230,10 @@ LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std
   std::ostringstream data;
   data.precision(17);
   data << "LAMMPS data file: Granary bench bed, " << bed.x.size() << " discs\n\n"
-       << bed.x.size() << " atoms\n" << templates.size() << " atom types\n\n"
-       << -hw - 1 << " " << hw + 1 << " xlo xhi\n" << ylo << " " << yhi << " ylo yhi\n-0.5 0.5 zlo zhi\n\n"
+       << bed.x.size() << " atoms\n"
+       << templates.size() << " atom types\n\n"
+       << -hw - 1 << " " << hw + 1 << " xlo xhi\n"
+       << ylo << " " << yhi << " ylo yhi\n-0.5 0.5 zlo zhi\n\n"
        << "Atoms # sphere\n\n";
   for (std::size_t b = 0; b < bed.x.size(); ++b) {
     const silo::ShapeTemplate& t = templates[static_cast<std::size_t>(bed.species[b])];
@@ -264,7 +267,8 @@ LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std
      << "fix integrate all nve/sphere   # sphere inertia 0.4 m r^2, as the engine\n"
      << "fix gravity all gravity " << spec.gravity << " vector 0 -1 0\n"
      << "fix plane all enforce2d\n"
-     << "fix side_walls all wall/gran " << wall_law << " xplane " << -hw << " " << hw << "\n"
+     << "fix side_walls all wall/gran " << wall_law << " xplane " << -hw << " " << hw
+     << "\n"
      // The base left and right of the outlet: blocks below y = 0 whose outside the discs
      // touch, on their top faces or (at the outlet) their corners.
      << "region base_left block " << -hw - 10 << " " << outlet.center - outlet.width / 2 << " " << ylo - 10

@@ -20,16 +20,16 @@ struct BenchOptions {
   int bodies = 8000;
   std::int64_t steps = 2000;
   std::vector<int> threads = {1, 2};
-  std::string bed_file;         // where to cache the settled bed ("" = a file in the temp dir)
-  int repeat = 1;               // rounds over the thread counts (interleaved, for a shared machine)
+  std::string bed_file;  // where to cache the settled bed ("" = a file in the temp dir)
+  int repeat = 1;        // rounds over the thread counts (interleaved, for a shared machine)
 };
 
 struct OutputCostResult {
-  int round;                   // 1..repeat
+  int round;  // 1..repeat
   int threads;
-  double without;              // disc-steps per second without output
-  double with;                 // ... with frames and contact frames every interval
-  double bytes;                // bytes of frames.dump and contacts.dump written in the timed steps
+  double without;                   // disc-steps per second without output
+  double with;                      // ... with frames and contact frames every interval
+  double bytes;                     // bytes of frames.dump and contacts.dump written in the timed steps
   double core_round_trip_ns = 0.0;  // measured before the round when it has two threads or more (CoreRoundTripNs)
 };
 
@@ -71,7 +71,6 @@ nlohmann::json BenchSpec(const BenchOptions& options);
 // thread counts. The bed is prepared (or loaded) first and not timed.
 std::vector<BenchResult> RunBenchmark(const BenchOptions& options);
 
-
 // The LAMMPS input for the bench case on a settled bed of discs: a data file (the bed's
 // positions and velocities; LAMMPS starts without the contact history) and an input script
 // that reads it from `data_file`: `dimension 2`, pair_style gran/hertz/history with the
@@ -89,26 +88,26 @@ LammpsInput LammpsBenchInput(const RunSpec& spec, const BedState& bed, const std
                              std::int64_t steps);
 
 struct VersusResult {
-  int round;                  // 1..repeat
-  int threads;                // native threads and LAMMPS MPI ranks
-  double native;              // disc-steps per second
-  double lammps;              // atom-steps per second (external::LoopTimeRate)
+  int round;                        // 1..repeat
+  int threads;                      // native threads and LAMMPS MPI ranks
+  double native;                    // disc-steps per second
+  double lammps;                    // atom-steps per second (external::LoopTimeRate)
   double core_round_trip_ns = 0.0;  // measured before the round when it has two threads or more (CoreRoundTripNs)
 };
 
 // One way of preparing the bed: its time step (in time steps) and when the next batch goes in.
 struct BedProcedure {
-  std::string name;        // "old", "new"
-  double step_factor;      // bed time step / time step
+  std::string name;    // "old", "new"
+  double step_factor;  // bed time step / time step
   NextBatch next_batch;
-  double skin;             // Verlet skin (speed only: the bed does not depend on it)
+  double skin;  // Verlet skin (speed only: the bed does not depend on it)
 };
 
 struct BedPrepResult {
-  int seed;                // replica: the spec's seed
+  int seed;  // replica: the spec's seed
   BedProcedure procedure;
-  double wall_s;           // wall time of PrepareBed
-  double settle_time;      // simulated preparation time
+  double wall_s;       // wall time of PrepareBed
+  double settle_time;  // simulated preparation time
   BedShape shape;
 };
 

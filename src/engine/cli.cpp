@@ -139,7 +139,8 @@ int Run(const std::vector<std::string>& args) {
 // Per-round lines of both engines and their ratio; with several rounds, the best and median
 // of each engine per thread count and the ratios of the bests and of the medians.
 int BenchVersusLammps(const BenchOptions& options, const std::string& dir) {
-  if (options.shape != "disc") throw std::invalid_argument("bench --versus lammps: only --shape disc is set up on LAMMPS");
+  if (options.shape != "disc")
+    throw std::invalid_argument("bench --versus lammps: only --shape disc is set up on LAMMPS");
   std::printf("bench: %d discs, %lld steps, LAMMPS and native side by side; LAMMPS input in %s\n", options.bodies,
               static_cast<long long>(options.steps), dir.c_str());
   std::fflush(stdout);
@@ -158,9 +159,11 @@ int BenchVersusLammps(const BenchOptions& options, const std::string& dir) {
     for (auto& [threads, v] : native) {
       const std::vector<double>& l = lammps[threads];
       const double nb = *std::max_element(v.begin(), v.end()), lb = *std::max_element(l.begin(), l.end());
-      std::printf("summary threads=%d rounds=%zu lammps best=%.4g median=%.4g native best=%.4g median=%.4g "
-                  "native/lammps of the bests %.2f, of the medians %.2f\n",
-                  threads, v.size(), lb, external::BenchMedian(l), nb, external::BenchMedian(v), nb / lb, external::BenchMedian(v) / external::BenchMedian(l));
+      std::printf(
+          "summary threads=%d rounds=%zu lammps best=%.4g median=%.4g native best=%.4g median=%.4g "
+          "native/lammps of the bests %.2f, of the medians %.2f\n",
+          threads, v.size(), lb, external::BenchMedian(l), nb, external::BenchMedian(v), nb / lb,
+          external::BenchMedian(v) / external::BenchMedian(l));
     }
   return 0;
 }
@@ -182,7 +185,8 @@ int BenchOutputCost(const BenchOptions& options, double interval) {
   }
   if (options.repeat > 1)
     for (auto& [threads, v] : costs)
-      std::printf("summary threads=%d rounds=%zu median_output_cost=%.1f%%\n", threads, v.size(), 100.0 * external::BenchMedian(v));
+      std::printf("summary threads=%d rounds=%zu median_output_cost=%.1f%%\n", threads, v.size(),
+                  100.0 * external::BenchMedian(v));
   return 0;
 }
 
@@ -192,16 +196,18 @@ int BenchOutputCost(const BenchOptions& options, double interval) {
 int BenchBedPrep(const BenchOptions& options) {
   const std::vector<BedProcedure> procedures = {{"old", 1.0, NextBatch::kFixed, WorldParams{}.skin},
                                                 {"new", kBedTimeStepFactor, NextBatch::kLanded, kBedSkin}};
-  std::printf("bench: preparing %d %s beds of %d bodies, old (bed step 1 x time_step, fixed wait per batch, skin %g) "
-              "and new (%g x, next batch once the last has landed, skin %g)\n",
-              options.repeat, options.shape.c_str(), options.bodies, WorldParams{}.skin, kBedTimeStepFactor, kBedSkin);
+  std::printf(
+      "bench: preparing %d %s beds of %d bodies, old (bed step 1 x time_step, fixed wait per batch, skin %g) "
+      "and new (%g x, next batch once the last has landed, skin %g)\n",
+      options.repeat, options.shape.c_str(), options.bodies, WorldParams{}.skin, kBedTimeStepFactor, kBedSkin);
   std::fflush(stdout);
   std::map<std::string, std::vector<BedPrepResult>> by_name;
   for (const BedPrepResult& r : RunBedPrep(options, procedures)) {
-    std::printf("seed=%d procedure=%s step_factor=%g next_batch=%s wall_s=%.2f settle_time=%.2f top=%.3f "
-                "surface=%.3f phi=%.4f\n",
-                r.seed, r.procedure.name.c_str(), r.procedure.step_factor, ToString(r.procedure.next_batch).c_str(),
-                r.wall_s, r.settle_time, r.shape.top, r.shape.surface, r.shape.phi);
+    std::printf(
+        "seed=%d procedure=%s step_factor=%g next_batch=%s wall_s=%.2f settle_time=%.2f top=%.3f "
+        "surface=%.3f phi=%.4f\n",
+        r.seed, r.procedure.name.c_str(), r.procedure.step_factor, ToString(r.procedure.next_batch).c_str(), r.wall_s,
+        r.settle_time, r.shape.top, r.shape.surface, r.shape.phi);
     std::fflush(stdout);
     by_name[r.procedure.name].push_back(r);
   }
@@ -226,10 +232,11 @@ int BenchBedPrep(const BenchOptions& options) {
     const auto [tm, ts] = mean_sd(top);
     const auto [sm, ss] = mean_sd(surface);
     const auto [pm, ps] = mean_sd(phi);
-    std::printf("summary procedure=%s step_factor=%g next_batch=%s replicas=%zu wall_s median=%.2f best=%.2f "
-                "settle_time median=%.2f top=%.3f+-%.3f surface=%.3f+-%.3f phi=%.4f+-%.4f (mean+-sd)\n",
-                p.name.c_str(), p.step_factor, ToString(p.next_batch).c_str(), rs.size(), median_wall[p.name],
-                *std::min_element(wall.begin(), wall.end()), external::BenchMedian(settle), tm, ts, sm, ss, pm, ps);
+    std::printf(
+        "summary procedure=%s step_factor=%g next_batch=%s replicas=%zu wall_s median=%.2f best=%.2f "
+        "settle_time median=%.2f top=%.3f+-%.3f surface=%.3f+-%.3f phi=%.4f+-%.4f (mean+-sd)\n",
+        p.name.c_str(), p.step_factor, ToString(p.next_batch).c_str(), rs.size(), median_wall[p.name],
+        *std::min_element(wall.begin(), wall.end()), external::BenchMedian(settle), tm, ts, sm, ss, pm, ps);
   }
   std::printf("summary speedup of the median wall time (old / new): %.2f\n", median_wall["old"] / median_wall["new"]);
   return 0;
@@ -278,7 +285,8 @@ int Bench(const std::vector<std::string>& args) {
   if (output_cost > 0) return BenchOutputCost(options, output_cost);
   if (!versus.empty()) {
     if (lammps_dir.empty())
-      lammps_dir = (std::filesystem::temp_directory_path() / ("granary-bench-lammps-" + std::to_string(options.bodies))).string();
+      lammps_dir = (std::filesystem::temp_directory_path() / ("granary-bench-lammps-" + std::to_string(options.bodies)))
+                       .string();
     return BenchVersusLammps(options, lammps_dir);
   }
   const auto results = RunBenchmark(options);
@@ -299,7 +307,8 @@ int Bench(const std::vector<std::string>& args) {
   if (options.repeat > 1)
     for (auto& [threads, v] : rates) {
       std::printf("summary threads=%d rounds=%zu best=%.4g median=%.4g median_speedup=%.3f", threads, v.size(),
-                  *std::max_element(v.begin(), v.end()), external::BenchMedian(v), external::BenchMedian(speedups[threads]));
+                  *std::max_element(v.begin(), v.end()), external::BenchMedian(v),
+                  external::BenchMedian(speedups[threads]));
       if (threads > 1) std::printf(" median_core_round_trip_ns=%.0f", external::BenchMedian(round_trips[threads]));
       std::printf("\n");
     }
@@ -327,11 +336,15 @@ int StartFrame(const std::vector<std::string>& args) {
       positional.push_back(a);
     }
   }
-  if (positional.size() != 2) throw std::invalid_argument(std::string("start-frame: expected DIR FILE\n") + kStartFrameHelp);
+  if (positional.size() != 2)
+    throw std::invalid_argument(std::string("start-frame: expected DIR FILE\n") + kStartFrameHelp);
   const StartState s = WriteStartFrame(positional[0], positional[1], options);
-  const nlohmann::json j = {{"bed_file", s.bed_file},       {"prepared_here", s.bed_prepared_here},
-                            {"height", s.bed_height},       {"settle_time", s.settle_time},
-                            {"bed_wall_s", s.bed_wall_s},   {"refused", s.bed_refused},
+  const nlohmann::json j = {{"bed_file", s.bed_file},
+                            {"prepared_here", s.bed_prepared_here},
+                            {"height", s.bed_height},
+                            {"settle_time", s.settle_time},
+                            {"bed_wall_s", s.bed_wall_s},
+                            {"refused", s.bed_refused},
                             {"cleared_by_obstacles", s.cleared_by_obstacles}};
   std::cout << j.dump() << "\n";
   return 0;

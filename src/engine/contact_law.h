@@ -48,7 +48,9 @@ inline bool NeedAny(bool) { return true; }
 template <class V>
 V Load(const double* p);
 template <>
-inline double Load<double>(const double* p) { return *p; }
+inline double Load<double>(const double* p) {
+  return *p;
+}
 inline void Store(double* p, double v) { *p = v; }
 
 // Normal-force models: F_n = s (K_n delta - m_eff gamma_n v_n) and F_t = -s (K_t xi +
@@ -57,12 +59,16 @@ inline void Store(double* p, double v) { *p = v; }
 struct HertzNormal {  // LAMMPS pair gran/hertz/history: s = sqrt(R_eff delta)
   static constexpr NormalModel kModel = NormalModel::kHertz;
   template <class V>
-  [[gnu::always_inline]] static V Scale(V delta, V r_eff) { return Sqrt(r_eff * delta); }
+  [[gnu::always_inline]] static V Scale(V delta, V r_eff) {
+    return Sqrt(r_eff * delta);
+  }
 };
 struct HookeNormal {  // LAMMPS pair gran/hooke/history: s = 1 (a linear spring-dashpot)
   static constexpr NormalModel kModel = NormalModel::kHooke;
   template <class V>
-  [[gnu::always_inline]] static V Scale(V, V) { return V(1.0); }
+  [[gnu::always_inline]] static V Scale(V, V) {
+    return V(1.0);
+  }
 };
 using NormalModels = std::tuple<HertzNormal, HookeNormal>;
 
@@ -83,8 +89,7 @@ struct LawConstants {
   V kn, kt, gamma_n, gamma_t, mu, dt;
   bool clip_normal;
   [[gnu::always_inline]] LawConstants(const ContactParams& p, double step)
-      : kn(p.kn), kt(p.kt), gamma_n(p.gamma_n), gamma_t(p.gamma_t), mu(p.mu), dt(step),
-        clip_normal(p.clip_normal) {}
+      : kn(p.kn), kt(p.kt), gamma_n(p.gamma_n), gamma_t(p.gamma_t), mu(p.mu), dt(step), clip_normal(p.clip_normal) {}
 };
 
 // A contact's geometry and relative motion: unit normal n from j (or the wall point) to i,
@@ -132,8 +137,8 @@ struct Tangential {
 // of a cap are computed, then selected: a selected value is computed by the same operations
 // as in a branch. Quantities of the side not taken may be inf or NaN.
 template <bool kLiggghtsCap, class V, class M>
-[[gnu::always_inline]] inline Tangential<V> TangentialPart(V sx, V sy, const ContactGeometry<V>& g, V s, V m_eff,
-                                                           V fn, M need, const LawConstants<V>& c) {
+[[gnu::always_inline]] inline Tangential<V> TangentialPart(V sx, V sy, const ContactGeometry<V>& g, V s, V m_eff, V fn,
+                                                           M need, const LawConstants<V>& c) {
   const V nx = g.nx, ny = g.ny, vtx = g.vtx, vty = g.vty;
   sx = sx + vtx * c.dt;
   sy = sy + vty * c.dt;
@@ -151,7 +156,7 @@ template <bool kLiggghtsCap, class V, class M>
     const V fs2 = fx * fx + fy * fy;
     const M slip = fs2 > cap * cap;
     t = {fx, fy, sx, sy};
-    if (NeedAny(slip & need)) {  // rare: an entry slips
+    if (NeedAny(slip & need)) {                      // rare: an entry slips
       const M rescale = slip & (shrmag2 != V(0.0));  // no history to rescale: F_t = 0
       const V ratio = cap / Sqrt(fs2);
       // Rescale xi so that spring + damping give exactly the capped force (LAMMPS).
@@ -239,9 +244,8 @@ template <class Normal, bool kLiggghtsCap, class V>
 // Scalar entry points (tests, tools): the law of p for one contact.
 inline double NormalForce(double delta, double r_eff, double m_eff, double v_n, const ContactParams& p) {
   const LawConstants<double> c(p, 0.0);
-  return WithContactLaw(p, [&](auto model, auto) {
-    return NormalPart(decltype(model)::Scale(delta, r_eff), delta, m_eff, v_n, c);
-  });
+  return WithContactLaw(
+      p, [&](auto model, auto) { return NormalPart(decltype(model)::Scale(delta, r_eff), delta, m_eff, v_n, c); });
 }
 inline Tangential<double> TangentialForce(double sx, double sy, double nx, double ny, double vtx, double vty,
                                           double delta, double r_eff, double m_eff, double fn, double dt,

@@ -4,6 +4,4 @@
 
 #include "engine/cli.h"
 
-int main(int argc, char** argv) {
-  return granary::engine::EngineMain(std::vector<std::string>(argv + 1, argv + argc));
-}
+int main(int argc, char** argv) { return granary::engine::EngineMain(std::vector<std::string>(argv + 1, argv + argc)); }

@@ -16,12 +16,9 @@ namespace granary::engine {
 
 bool ElementActive(const silo::WallElement& e, bool outlets_open) {
   switch (e.group) {
-    case silo::WallGroup::kAlways:
-      return true;
-    case silo::WallGroup::kPlug:
-      return !outlets_open;
-    case silo::WallGroup::kOpen:
-      return outlets_open;
+    case silo::WallGroup::kAlways: return true;
+    case silo::WallGroup::kPlug: return !outlets_open;
+    case silo::WallGroup::kOpen: return outlets_open;
   }
   return true;
 }

@@ -45,7 +45,6 @@
 #include "rundir/unclogs.h"
 #include "rundir/version.h"
 
-
 namespace granary::engine {
 namespace fs = std::filesystem;
 namespace {
@@ -80,7 +79,8 @@ extern "C" void EngineOnStopSignal(int signal) {
   }
 }
 constexpr int kClogCheckEvery = 100;
-constexpr double kHangingGapInDiameters = 1.0;  // stall.h; measured margins in docs/engine.md  // steps between clog checks once no exit for clog_window
+constexpr double kHangingGapInDiameters =
+    1.0;  // stall.h; measured margins in docs/engine.md  // steps between clog checks once no exit for clog_window
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
 
@@ -201,7 +201,6 @@ class In {
   std::uint32_t version_ = kCheckpointVersion;
 };
 
-
 // The discharge's own state that its checkpoints hold (Discharge keeps it as a base, so its
 // members read as the driver's own).
 struct CheckpointedState {
@@ -302,9 +301,7 @@ class Discharge : private CheckpointedState {
   void WriteFrame();
   // A contact frame goes with every contact_interval-th frame (counted from step 0, so a
   // continued run writes the same ones).
-  bool ContactsDue() const {
-    return contacts_.IsOpen() && (step_ / frame_every_) % spec_.output.contact_interval == 0;
-  }
+  bool ContactsDue() const { return contacts_.IsOpen() && (step_ / frame_every_) % spec_.output.contact_interval == 0; }
   void WriteContacts();
   void WriteClog();
   void HandleExits();
@@ -345,10 +342,10 @@ class Discharge : private CheckpointedState {
   double energy_unit_ = 1.0;
   double hw_ = 50.0;
   double r_max_ = 0.5;
-  std::string bed_refused_;  // a bad cached bed file refused (and prepared again) in this session
+  std::string bed_refused_;           // a bad cached bed file refused (and prepared again) in this session
   double discharge_wall_before_ = 0;  // wall time of earlier sessions
   bool continued_ = false;
-  std::string extended_from_;  // the run id whose checkpoint this run continued with a larger limit
+  std::string extended_from_;                     // the run id whose checkpoint this run continued with a larger limit
   std::vector<std::string> refused_checkpoints_;  // why, for summary.json
   // Outputs.
   rundir::EventWriter events_;
@@ -362,7 +359,7 @@ class Discharge : private CheckpointedState {
   std::vector<World::ContactView> contact_buf_;
   rundir::Frame frame_buf_;
   bool warned_outside_box_ = false;
-  std::vector<std::uint8_t> in_contact_;  // bodies in contact in the last force pass, for Reinject
+  std::vector<std::uint8_t> in_contact_;      // bodies in contact in the last force pass, for Reinject
   std::vector<std::uint8_t> alone_on_floor_;  // Stalled: bodies alone on the floor (stall_world.h)
   rundir::ContactFrame contact_frame_buf_;
   Clock::time_point session_start_ = Clock::now();
@@ -472,7 +469,8 @@ void Discharge::PlaceBed() {
     double top = -1e300, bound = 0;
     for (int i = 0; i < w.DiscCount(); ++i) top = std::max(top, w.disc_y_[i]);
     for (const auto& t : w.Templates()) bound = std::max(bound, t.bound_radius);
-    periodic_height_ = (top + 2 * bound + spec_.discharge.periodic_headroom) + (spec_.discharge.exit_distance + kPeriodicFall);
+    periodic_height_ =
+        (top + 2 * bound + spec_.discharge.periodic_headroom) + (spec_.discharge.exit_distance + kPeriodicFall);
   }
 }
 
@@ -482,7 +480,8 @@ StartState Discharge::WriteStartFrame(const fs::path& file) {
   FillFrame(frame_buf_);
   out.Write(frame_buf_);
   out.Close();
-  return {bed_file_, bed_prepared_here_, bed_height_, bed_settle_time_, bed_wall_s_, bed_refused_, cleared_by_obstacles_};
+  return {bed_file_,   bed_prepared_here_, bed_height_,          bed_settle_time_,
+          bed_wall_s_, bed_refused_,       cleared_by_obstacles_};
 }
 
 void Discharge::WriteCheckpoint() {
@@ -538,8 +537,8 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
   const auto crc = header.Get<std::uint32_t>();
   const std::string payload = header.Rest();
   if (payload.size() != size)
-    throw CheckpointError(name + " is truncated or padded: " + std::to_string(payload.size()) + " bytes of payload, the header says " +
-                          std::to_string(size));
+    throw CheckpointError(name + " is truncated or padded: " + std::to_string(payload.size()) +
+                          " bytes of payload, the header says " + std::to_string(size));
   if (const std::uint32_t actual = Crc32(payload); actual != crc) {
     char msg[128];
     std::snprintf(msg, sizeof msg, " is corrupt: CRC-32 of its payload is %08x, its header says %08x", actual, crc);
@@ -555,7 +554,8 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
     // A finished run planned again with a larger limit (granary::extends) continues from here.
     const nlohmann::json saved = nlohmann::json::parse(k.spec, nullptr, false);
     if (!granary::Extends(saved, spec_.ToJson()))
-      throw std::runtime_error("checkpoint " + file.string() + " belongs to a different run.json; remove it to start over");
+      throw std::runtime_error("checkpoint " + file.string() +
+                               " belongs to a different run.json; remove it to start over");
     extended_from = saved.value("run_id", std::string("?"));
   }
   if (Unclogging() && k.unclog_rng.empty())
@@ -625,7 +625,8 @@ bool Discharge::ContinueFromACheckpoint() {
       world_.reset();
     }
   }
-  if (!refused_checkpoints_.empty()) std::fprintf(stderr, "granary-engine: no usable checkpoint; starting the run over\n");
+  if (!refused_checkpoints_.empty())
+    std::fprintf(stderr, "granary-engine: no usable checkpoint; starting the run over\n");
   return false;
 }
 
@@ -778,8 +779,8 @@ bool Discharge::Stalled() {
   n = 0;
   for (int b = 0; b < w.BodyCount(); ++b) {
     if (!w.body_active_[b] || !near_outlet(b)) continue;
-    if (alone_on_floor_[static_cast<std::size_t>(b)] && 0.5 * w.body_mass_[b] * w.body_vy_[b] * w.body_vy_[b] / energy_unit_ < threshold &&
-        !RollsOutSoon(b))
+    if (alone_on_floor_[static_cast<std::size_t>(b)] &&
+        0.5 * w.body_mass_[b] * w.body_vy_[b] * w.body_vy_[b] / energy_unit_ < threshold && !RollsOutSoon(b))
       continue;
     ke += energy(b);
     ++n;
@@ -966,11 +967,13 @@ void Discharge::WriteSummary(const std::string& end_reason) {
   s.bed = {bed_file_, bed_height_, bed_prepared_here_, bed_settle_time_, bed_refused_, {}, {}};
   if (std::isfinite(bed_phi_)) s.bed.packing_fraction = bed_phi_;
   if (std::isfinite(bed_surface_)) s.bed.surface = bed_surface_;
-  s.timing = rundir::Timing{bed_wall_s_ + discharge_wall, bed_wall_s_, discharge_wall,
-                            discharge_wall > 0 ? static_cast<double>(disc_steps_) / discharge_wall : 0.0,
-                            omp_get_max_threads(),
-                            discharge_wall > 0 ? static_cast<double>(w.DiscCount()) * static_cast<double>(step_) / discharge_wall
-                                               : 0.0};
+  s.timing = rundir::Timing{
+      bed_wall_s_ + discharge_wall,
+      bed_wall_s_,
+      discharge_wall,
+      discharge_wall > 0 ? static_cast<double>(disc_steps_) / discharge_wall : 0.0,
+      omp_get_max_threads(),
+      discharge_wall > 0 ? static_cast<double>(w.DiscCount()) * static_cast<double>(step_) / discharge_wall : 0.0};
   s.continued_from_checkpoint = continued_;
   s.extended_from = extended_from_;
   s.refused_checkpoints = refused_checkpoints_;
@@ -980,9 +983,11 @@ void Discharge::WriteSummary(const std::string& end_reason) {
 RunResult Discharge::Run() {
   session_start_ = Clock::now();
   const double dt = spec_.time_step;
-  frame_every_ = spec_.output.frame_interval > 0 ? std::max<std::int64_t>(1, std::llround(spec_.output.frame_interval / dt)) : 0;
-  checkpoint_every_ =
-      spec_.output.checkpoint_interval > 0 ? std::max<std::int64_t>(1, std::llround(spec_.output.checkpoint_interval / dt)) : 0;
+  frame_every_ =
+      spec_.output.frame_interval > 0 ? std::max<std::int64_t>(1, std::llround(spec_.output.frame_interval / dt)) : 0;
+  checkpoint_every_ = spec_.output.checkpoint_interval > 0
+                          ? std::max<std::int64_t>(1, std::llround(spec_.output.checkpoint_interval / dt))
+                          : 0;
   const std::int64_t max_steps = std::llround(spec_.discharge.max_time / dt);
   const std::int64_t clog_steps = std::llround(spec_.discharge.clog_window / dt);
   if (!ContinueFromACheckpoint()) {
@@ -1004,8 +1009,10 @@ RunResult Discharge::Run() {
     // of an unclogging run without an attempt): what this step does with the limit now — unclog
     // (a larger max_clogs) or end again — then the frame of this step, which the checkpoint was
     // written before, so the outputs are those of a run that never stopped here.
-    if (clogs_ >= spec_.discharge.unclog.max_clogs) end_reason = "max_clogs";
-    else Unclog(clog_arch_.empty() ? nullptr : &clog_arch_);
+    if (clogs_ >= spec_.discharge.unclog.max_clogs)
+      end_reason = "max_clogs";
+    else
+      Unclog(clog_arch_.empty() ? nullptr : &clog_arch_);
     if (frame_every_ > 0 && step_ % frame_every_ == 0) {
       WriteFrame();
       if (ContactsDue()) WriteContacts();
@@ -1104,10 +1111,11 @@ RunResult Discharge::Run() {
       last_report = Clock::now();
       std::int64_t exited = 0;
       for (auto e : exits_per_outlet_) exited += e;
-      ReportProgress({"discharge", static_cast<double>(step_) / static_cast<double>(std::max<std::int64_t>(1, max_steps)),
-                      static_cast<double>(step_) * dt, spec_.discharge.max_time, static_cast<int>(exited),
-                      discharge_wall_before_ + Seconds(session_start_)},
-                     options_.quiet);
+      ReportProgress(
+          {"discharge", static_cast<double>(step_) / static_cast<double>(std::max<std::int64_t>(1, max_steps)),
+           static_cast<double>(step_) * dt, spec_.discharge.max_time, static_cast<int>(exited),
+           discharge_wall_before_ + Seconds(session_start_)},
+          options_.quiet);
     }
   }
   g_stop_accepted = 0;  // the outputs are being finished: a stop now ends the run at once
@@ -1139,7 +1147,8 @@ RunResult RunDirectory(const std::string& dir, const RunOptions& options) {
   const RunDirectoryLock lock(d);
   const RunSpec spec = rundir::ReadRunSpec(d);
   if (spec.engine != "native")
-    throw std::runtime_error((d / rundir::kRunSpecFile).string() + ": engine is \"" + spec.engine + "\", not \"native\"");
+    throw std::runtime_error((d / rundir::kRunSpecFile).string() + ": engine is \"" + spec.engine +
+                             "\", not \"native\"");
   fs::remove(d / rundir::kDoneFile);
   Discharge discharge(spec, d, options);
   return discharge.Run();

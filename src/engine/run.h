@@ -12,8 +12,8 @@
 namespace granary::engine {
 
 struct RunOptions {
-  int threads = 0;              // 0 = OpenMP default
-  bool quiet = false;           // no progress lines on stdout
+  int threads = 0;     // 0 = OpenMP default
+  bool quiet = false;  // no progress lines on stdout
   double progress_every_s = 3.0;
   // Tests: stop (as if killed) after this many discharge steps, leaving the checkpoint
   // behind; < 0 = never.
@@ -29,7 +29,7 @@ struct RunOptions {
 };
 
 struct RunResult {
-  std::string end_reason;       // "discharged", "clogged", "time_limit", "aborted"
+  std::string end_reason;  // "discharged", "clogged", "time_limit", "aborted"
   int exited = 0;
   std::int64_t steps = 0;
   double t_end = 0.0;

@@ -46,8 +46,10 @@ inline void MarkBodiesAloneOnTheFloor(const World& w, std::vector<World::Contact
       continue;
     }
     const int side = silo::SideOf(w.Geometry(), c.element);
-    if (side == static_cast<int>(silo::Side::kBase)) out[b] = 1;
-    else if (side < 0) other[b] = 1;
+    if (side == static_cast<int>(silo::Side::kBase))
+      out[b] = 1;
+    else if (side < 0)
+      other[b] = 1;
   }
   for (std::size_t b = 0; b < out.size(); ++b)
     if (other[b]) out[b] = 0;

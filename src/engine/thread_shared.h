@@ -20,9 +20,11 @@ struct PairAlignedAllocator {
   template <class U>
   PairAlignedAllocator(const PairAlignedAllocator<U>&) noexcept {}
   T* allocate(std::size_t n) {
-    return static_cast<T*>(::operator new(Bytes(n), std::align_val_t{kThreadSharedAlign}));
+    return static_cast<T*>(::operator new (Bytes(n), std::align_val_t{kThreadSharedAlign}));
   }
-  void deallocate(T* p, std::size_t n) noexcept { ::operator delete(p, Bytes(n), std::align_val_t{kThreadSharedAlign}); }
+  void deallocate(T* p, std::size_t n) noexcept {
+    ::operator delete (p, Bytes(n), std::align_val_t{kThreadSharedAlign});
+  }
   friend bool operator==(const PairAlignedAllocator&, const PairAlignedAllocator&) { return true; }
 
  private:

@@ -150,9 +150,7 @@ void World::Rebuild() {
   lists_.Rebuild(outlets_open_, Parallel());
 }
 
-void World::ComputeForces() {
-  Forces(rebuild_needed_ || lists_.NeedsRebuild(Parallel()), false);
-}
+void World::ComputeForces() { Forces(rebuild_needed_ || lists_.NeedsRebuild(Parallel()), false); }
 
 void World::Forces(bool rebuild, bool kick) {
   if (rebuild) Rebuild();

@@ -25,9 +25,9 @@ namespace granary::engine {
 struct WorldParams {
   double dt = 1e-4;
   double gravity = 1.0;
-  ContactParams pair;   // body-body
-  ContactParams wall;   // body-wall and body-obstacle (mu_wall)
-  double skin = 0.2;    // Verlet-list skin in d (0.1-0.5 measured: 0.2 balances list length and serial rebuilds)
+  ContactParams pair;  // body-body
+  ContactParams wall;  // body-wall and body-obstacle (mu_wall)
+  double skin = 0.2;   // Verlet-list skin in d (0.1-0.5 measured: 0.2 balances list length and serial rebuilds)
   // Below this many discs the loops run on one thread: forking costs more than it saves
   // (results are the same either way).
   int parallel_min_discs = 2000;

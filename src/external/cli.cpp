@@ -33,7 +33,8 @@ int ParsePositive(const std::string& flag, const std::string& value) {
   } catch (const std::exception&) {
     used = 0;
   }
-  if (used != value.size() || v < 1) throw std::invalid_argument(flag + ": expected a positive integer (got \"" + value + "\")");
+  if (used != value.size() || v < 1)
+    throw std::invalid_argument(flag + ": expected a positive integer (got \"" + value + "\")");
   return v;
 }
 
@@ -52,11 +53,16 @@ int RunVerb(const std::string& tag, const std::vector<std::string>& args, const 
   RunArgs o;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
-    if (a == "--threads" && i + 1 < args.size()) o.threads = ParsePositive(a, args[++i]);
-    else if (a == "--silence-limit" && i + 1 < args.size()) o.silence_limit = ParsePositive(a, args[++i]);
-    else if (!a.empty() && a[0] == '-') throw std::invalid_argument("run: unknown option \"" + a + "\"\n" + help);
-    else if (o.dir.empty()) o.dir = a;
-    else throw std::invalid_argument("run: more than one directory (\"" + o.dir + "\", \"" + a + "\")");
+    if (a == "--threads" && i + 1 < args.size())
+      o.threads = ParsePositive(a, args[++i]);
+    else if (a == "--silence-limit" && i + 1 < args.size())
+      o.silence_limit = ParsePositive(a, args[++i]);
+    else if (!a.empty() && a[0] == '-')
+      throw std::invalid_argument("run: unknown option \"" + a + "\"\n" + help);
+    else if (o.dir.empty())
+      o.dir = a;
+    else
+      throw std::invalid_argument("run: more than one directory (\"" + o.dir + "\", \"" + a + "\")");
   }
   if (o.dir.empty()) throw std::invalid_argument(std::string("run: missing DIR\n") + help);
   struct sigaction sa {};

@@ -84,8 +84,8 @@ ChildRun RunChild(const std::string& program, const std::vector<std::string>& ar
                   const std::function<void(const std::string&)>& on_line) {
   bp::pipe out;
   std::error_code ec;
-  bp::child child(bp::exe = program, bp::args = args, bp::start_dir = o.dir.string(), bp::std_in < bp::null,
-                  (bp::std_out & bp::std_err) > out, DieWithParent{}, ec);
+  bp::child child(bp::exe = program, bp::args = args, bp::start_dir = o.dir.string(),
+                  bp::std_in<bp::null, (bp::std_out & bp::std_err)> out, DieWithParent{}, ec);
   if (ec) throw std::runtime_error("cannot start " + program + ": " + ec.message());
   ChildRun r;
   const int fd = out.native_source();
@@ -145,8 +145,10 @@ ChildRun RunChild(const std::string& program, const std::vector<std::string>& ar
   if (!pending.empty()) handle(pending);
   child.wait(ec);
   const int status = child.native_exit_code();
-  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
-  else r.exit_code = WEXITSTATUS(status);
+  if (WIFSIGNALED(status))
+    r.signal = WTERMSIG(status);
+  else
+    r.exit_code = WEXITSTATUS(status);
   return r;
 }
 
@@ -166,8 +168,9 @@ Command LaunchCommand(const std::vector<std::string>& engine_command, int thread
   if (launcher.empty()) launcher = {"mpirun"};
   c.program = bp::search_path(launcher[0]).string();
   if (c.program.empty())
-    throw std::runtime_error("--threads " + std::to_string(threads) + " needs " + launcher[0] +
-                             (launcher[0] == "mpirun" ? " (Debian package openmpi-bin)" : " (from GRANARY_MPI_LAUNCHER)"));
+    throw std::runtime_error(
+        "--threads " + std::to_string(threads) + " needs " + launcher[0] +
+        (launcher[0] == "mpirun" ? " (Debian package openmpi-bin)" : " (from GRANARY_MPI_LAUNCHER)"));
   c.args.assign(launcher.begin() + 1, launcher.end());
   if (fs::path(c.program).filename() == "srun") {
     c.args.push_back("--ntasks=" + std::to_string(threads));

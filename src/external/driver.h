@@ -25,11 +25,11 @@ int StopSignal();
 // How a subprocess ended and what it said.
 struct ChildRun {
   int exit_code = 0;
-  int signal = 0;                  // the signal that ended it (or mpirun), or 0
-  bool stopped = false;            // it printed GRANARY_STOPPED: checkpointed and ended on a stop request
-  std::string stop_reason;         // why the driver ended it: a stop request without control file, or silence
-  std::vector<std::string> errors; // up to five lines with "ERROR" (not the GRANARY_ ones)
-  std::deque<std::string> screen;  // the last kLogTailLines lines of its screen output
+  int signal = 0;                   // the signal that ended it (or mpirun), or 0
+  bool stopped = false;             // it printed GRANARY_STOPPED: checkpointed and ended on a stop request
+  std::string stop_reason;          // why the driver ended it: a stop request without control file, or silence
+  std::vector<std::string> errors;  // up to five lines with "ERROR" (not the GRANARY_ ones)
+  std::deque<std::string> screen;   // the last kLogTailLines lines of its screen output
   // "<what> exit status N", "<what> killed by SIGKILL (Killed)" or the stop reason.
   std::string How(const std::string& what) const;
 };
@@ -37,14 +37,14 @@ struct ChildRun {
 inline constexpr int kLogTailLines = 25;
 
 struct ChildOptions {
-  std::filesystem::path dir;       // working directory
+  std::filesystem::path dir;  // working directory
   // A stop request writes "variable stop_requested equal 1" here (the engine's script reads
   // it after every chunk, checkpoints and ends); "" = the child is ended at once.
   std::filesystem::path control;
-  double silence_limit = 1800;     // seconds without output: hung, killed; <= 0: no limit
-  std::string what;                // the engine's name in messages: "LAMMPS", "LIGGGHTS"
-  std::string tag;                 // the backend's name on stderr: "granary-lammps"
-  std::filesystem::path log;       // the child's log, whose tail a stop request prints; may be ""
+  double silence_limit = 1800;  // seconds without output: hung, killed; <= 0: no limit
+  std::string what;             // the engine's name in messages: "LAMMPS", "LIGGGHTS"
+  std::string tag;              // the backend's name on stderr: "granary-lammps"
+  std::filesystem::path log;    // the child's log, whose tail a stop request prints; may be ""
 };
 
 // Runs `program args` with stdout and stderr read line by line (on_line for each). The child

@@ -63,8 +63,8 @@ using external::TruncateDump;
 
 namespace {
 
-constexpr char kStartFrame[] = "start.dump";           // the native bed as the discharge starts from it
-constexpr char kStateFile[] = "lammps_state.json";     // bed provenance, clogs, wall time across sessions
+constexpr char kStartFrame[] = "start.dump";        // the native bed as the discharge starts from it
+constexpr char kStateFile[] = "lammps_state.json";  // bed provenance, clogs, wall time across sessions
 
 double Seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
 
@@ -101,7 +101,8 @@ std::string FindEngine(const std::string& preferred) {
   if (exe.empty()) {
     std::error_code ec;
     const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-    if (!ec && fs::exists(self.parent_path() / "granary-engine")) exe = (self.parent_path() / "granary-engine").string();
+    if (!ec && fs::exists(self.parent_path() / "granary-engine"))
+      exe = (self.parent_path() / "granary-engine").string();
   }
   if (exe.empty())
     if (const char* env = std::getenv("GRANARY_ENGINE"); env && *env) exe = env;
@@ -127,7 +128,8 @@ json ObtainStart(const fs::path& dir, const BackendOptions& options) {
   } catch (const std::runtime_error& e) {
     throw LammpsError(e.what());
   }
-  if (external::StopSignal() != 0) throw Stopped(external::StopSignal(), "stopped while the native engine prepared the bed");
+  if (external::StopSignal() != 0)
+    throw Stopped(external::StopSignal(), "stopped while the native engine prepared the bed");
   if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty() || !provenance.is_object() ||
       !fs::exists(dir / kStartFrame))
     throw LammpsError("the native engine could not provide the bed (" + r.How("granary-engine") + ")" +
@@ -138,7 +140,8 @@ json ObtainStart(const fs::path& dir, const BackendOptions& options) {
 rundir::Frame ReadStart(const fs::path& dir, const RunSpec& spec) {
   rundir::FrameReader in(dir / kStartFrame, spec.bodies.density);
   rundir::Frame f;
-  if (!in.Next(f) || f.discs.empty()) throw LammpsError("the start frame " + (dir / kStartFrame).string() + " is empty");
+  if (!in.Next(f) || f.discs.empty())
+    throw LammpsError("the start frame " + (dir / kStartFrame).string() + " is empty");
   return f;
 }
 
@@ -231,7 +234,8 @@ void ReadFrameBlock(std::istream& in, long long n, long long step, const RunSpec
     frame.discs.push_back({std::stoll(t[0]), body, std::stoi(t[2]), std::stod(t[3]), y, r,
                            rho * std::numbers::pi * r * r, std::stod(t[6]), std::stod(t[7]), std::stod(t[8])});
   }
-  std::sort(frame.discs.begin(), frame.discs.end(), [](const rundir::Disc& a, const rundir::Disc& b) { return a.id < b.id; });
+  std::sort(frame.discs.begin(), frame.discs.end(),
+            [](const rundir::Disc& a, const rundir::Disc& b) { return a.id < b.id; });
 }
 
 // The rows of the next block of a LAMMPS dump, which must be at `step` (the contact dumps are
@@ -254,8 +258,7 @@ std::vector<std::vector<std::string>> RowsAt(std::istream& in, const fs::path& f
 // towards j; then each disc-wall contact with the force on the disc and the contact point on
 // the wall. Contacts with no force (exactly touching) are left out, as the native engine does.
 void ContactFrameOf(const rundir::Frame& frame, const std::vector<std::vector<std::string>>& pairs,
-                    const std::vector<std::vector<std::string>>& walls, const Setup& setup,
-                    rundir::ContactFrame& out) {
+                    const std::vector<std::vector<std::string>>& walls, const Setup& setup, rundir::ContactFrame& out) {
   std::unordered_map<long long, const rundir::Disc*> disc;
   for (const rundir::Disc& d : frame.discs) disc.emplace(d.id, &d);
   auto at = [&](const std::string& id) -> const rundir::Disc& {
@@ -271,7 +274,8 @@ void ContactFrameOf(const rundir::Frame& frame, const std::vector<std::vector<st
   std::copy(&frame.box[0][0], &frame.box[0][0] + 6, &out.box[0][0]);
   out.contacts.clear();
   for (const auto& t : pairs) {
-    if (t.size() < 6) throw std::runtime_error("malformed LAMMPS pair contact row at step " + std::to_string(frame.timestep));
+    if (t.size() < 6)
+      throw std::runtime_error("malformed LAMMPS pair contact row at step " + std::to_string(frame.timestep));
     const rundir::Disc& a = at(t[0]);
     const rundir::Disc& b = at(t[1]);
     if (a.mol == b.mol) continue;  // excluded from LAMMPS' lists (neigh_modify exclude molecule/intra)
@@ -378,7 +382,8 @@ std::vector<Disc> ReadFinal(const fs::path& file) {
   for (long long i = 0; i < n && std::getline(in, line); ++i) {
     const auto t = Tokens(line);
     if (t.size() < 6) throw std::runtime_error("malformed line in " + file.string() + ": " + line);
-    out.push_back({std::stoll(t[0]), std::stoll(t[1]), std::stoi(t[2]), std::stod(t[3]), std::stod(t[4]), std::stod(t[5])});
+    out.push_back(
+        {std::stoll(t[0]), std::stoll(t[1]), std::stoi(t[2]), std::stod(t[3]), std::stod(t[4]), std::stod(t[5])});
   }
   return out;
 }
@@ -431,19 +436,19 @@ json SettleInLammps(const fs::path& dir, const RunSpec& spec, const std::string&
   WriteAtomically(dir / "settle.in", SettleScript(spec, s, fall_time));
   const auto t0 = Clock::now();
   double settled_t = -1, ke = -1;
-  const ChildRun r = RunLammps(exe, options.threads, dir, "settle.in", "log.settle", {}, options.silence_limit,
-                               [&](const std::string& line) {
-    const auto t = Tokens(line);
-    if (t.size() > 2 && t[0] == "GRANARY_SETTLED") {
-      settled_t = std::stod(t[1]);
-      ke = std::stod(t[2]);
-    } else if (t.size() == 5 && std::isdigit(static_cast<unsigned char>(t[0][0])) &&
-               t[1].find_first_not_of("0123456789.eE+-") == std::string::npos) {
-      const double time = std::stod(t[1]);  // a thermo line: step time atoms ke_per_body cpu
-      rundir::WriteProgress(dir, {"bed", std::min(1.0, time / spec.bed.max_settle_time), time, 0.0, 0, Seconds(t0)},
-                            !options.quiet);
-    }
-  });
+  const ChildRun r = RunLammps(
+      exe, options.threads, dir, "settle.in", "log.settle", {}, options.silence_limit, [&](const std::string& line) {
+        const auto t = Tokens(line);
+        if (t.size() > 2 && t[0] == "GRANARY_SETTLED") {
+          settled_t = std::stod(t[1]);
+          ke = std::stod(t[2]);
+        } else if (t.size() == 5 && std::isdigit(static_cast<unsigned char>(t[0][0])) &&
+                   t[1].find_first_not_of("0123456789.eE+-") == std::string::npos) {
+          const double time = std::stod(t[1]);  // a thermo line: step time atoms ke_per_body cpu
+          rundir::WriteProgress(dir, {"bed", std::min(1.0, time / spec.bed.max_settle_time), time, 0.0, 0, Seconds(t0)},
+                                !options.quiet);
+        }
+      });
   if (external::StopSignal() != 0)
     throw Stopped(external::StopSignal(), "stopped while LAMMPS settled the bed (not checkpointed)");
   if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty() || settled_t < 0 || !fs::exists(dir / kSettledDump))
@@ -458,8 +463,13 @@ json SettleInLammps(const fs::path& dir, const RunSpec& spec, const std::string&
   rundir::FrameWriter out = rundir::FrameWriter::Create(dir / kStartFrame);
   out.Write(bed);
   out.Close();
-  return {{"settled_by", "lammps"}, {"bed_file", ""}, {"prepared_here", true}, {"height", height},
-          {"settle_time", settled_t}, {"ke_per_body", ke}, {"settled", ke >= 0 && ke < spec.bed.settle_ke_per_body},
+  return {{"settled_by", "lammps"},
+          {"bed_file", ""},
+          {"prepared_here", true},
+          {"height", height},
+          {"settle_time", settled_t},
+          {"ke_per_body", ke},
+          {"settled", ke >= 0 && ke < spec.bed.settle_ke_per_body},
           {"cleared_by_obstacles", placed.value("cleared_by_obstacles", 0)}};
 }
 
@@ -525,11 +535,11 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
     state["clog_steps"] = kept;
     RemoveClogFilesAfter(dir, ckpt.step);
   } else {
-    for (const fs::path& f : {fs::path(kExitsDump), fs::path(kFramesDump), fs::path(kPairsDump), fs::path(kWallsDump),
-                             fs::path(rundir::kContactsFile), fs::path(rundir::kContactsGzFile),
-                             fs::path(kFinalDump), fs::path(rundir::kEventsFile),
-                             fs::path(rundir::kFramesFile), fs::path(rundir::kFramesGzFile), fs::path(rundir::kClogFramesFile),
-                             fs::path(rundir::kClogContactsFile), fs::path(kStartFrame)})
+    for (const fs::path& f :
+         {fs::path(kExitsDump), fs::path(kFramesDump), fs::path(kPairsDump), fs::path(kWallsDump),
+          fs::path(rundir::kContactsFile), fs::path(rundir::kContactsGzFile), fs::path(kFinalDump),
+          fs::path(rundir::kEventsFile), fs::path(rundir::kFramesFile), fs::path(rundir::kFramesGzFile),
+          fs::path(rundir::kClogFramesFile), fs::path(rundir::kClogContactsFile), fs::path(kStartFrame)})
       fs::remove(dir / f);
     RemoveClogFilesAfter(dir, -1);
     PruneCheckpoints(dir, 0);
@@ -554,8 +564,8 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
     // The step of the last exit before the checkpoint, as the script counts it (at the end of
     // the chunk that saw it), and whether a clog was counted since.
     const std::vector<Event> before = ReadEvents(dir / kExitsDump, spec, setup, species_of);
-    const long long chunk = std::max<long long>(
-        1, std::llround(std::min(0.5, spec.discharge.clog_window / 4) / spec.time_step));
+    const long long chunk =
+        std::max<long long>(1, std::llround(std::min(0.5, spec.discharge.clog_window / 4) / spec.time_step));
     if (!before.empty()) start.last_exit_step = std::min(ckpt.step, (before.back().step + chunk - 1) / chunk * chunk);
     for (long long c : state["clog_steps"].get<std::vector<long long>>())
       if (c >= start.last_exit_step) start.in_clog = true;
@@ -570,36 +580,40 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
   int progress_lines = 0;
   const std::string log = result.continued ? "log.discharge." + std::to_string(ckpt.step) : "log.discharge";
   const fs::path control = dir / kControlFile;
-  const ChildRun r = RunLammps(exe, options.threads, dir, "discharge.in", log, control, options.silence_limit,
-                            [&](const std::string& line) {
-    if (line.rfind("GRANARY_", 0) != 0) return;
-    const auto t = Tokens(line);
-    if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
-    if (t[0] == "GRANARY_FINAL" && t.size() > 1) last_step = std::stoll(t[1]);
-    if (t[0] == "GRANARY_CLOG" && t.size() > 1) {
-      state["clog_steps"].push_back(std::stoll(t[1]));
-      WriteAtomically(state_file, state.dump() + "\n");
-    }
-    if (t[0] == "GRANARY_PROGRESS" && t.size() > 2) {
-      ++progress_lines;
-      PruneCheckpoints(dir, 2);
-      const double time = std::stod(t[1]) * spec.time_step;
-      rundir::WriteProgress(dir, {"discharge", time / spec.discharge.max_time, time, spec.discharge.max_time,
-                                  static_cast<int>(std::stoll(t[2])), wall_before + Seconds(t_discharge)},
-                            !options.quiet);
-      state["discharge_wall_s"] = wall_before + Seconds(t_discharge);
-      WriteAtomically(state_file, state.dump() + "\n", Durability::kVisible);
-    }
-  });
+  const ChildRun r = RunLammps(
+      exe, options.threads, dir, "discharge.in", log, control, options.silence_limit, [&](const std::string& line) {
+        if (line.rfind("GRANARY_", 0) != 0) return;
+        const auto t = Tokens(line);
+        if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
+        if (t[0] == "GRANARY_FINAL" && t.size() > 1) last_step = std::stoll(t[1]);
+        if (t[0] == "GRANARY_CLOG" && t.size() > 1) {
+          state["clog_steps"].push_back(std::stoll(t[1]));
+          WriteAtomically(state_file, state.dump() + "\n");
+        }
+        if (t[0] == "GRANARY_PROGRESS" && t.size() > 2) {
+          ++progress_lines;
+          PruneCheckpoints(dir, 2);
+          const double time = std::stod(t[1]) * spec.time_step;
+          rundir::WriteProgress(dir,
+                                {"discharge", time / spec.discharge.max_time, time, spec.discharge.max_time,
+                                 static_cast<int>(std::stoll(t[2])), wall_before + Seconds(t_discharge)},
+                                !options.quiet);
+          state["discharge_wall_s"] = wall_before + Seconds(t_discharge);
+          WriteAtomically(state_file, state.dump() + "\n", Durability::kVisible);
+        }
+      });
   if (r.stopped) {
     state["discharge_wall_s"] = wall_before + Seconds(t_discharge);
     WriteAtomically(state_file, state.dump() + "\n");
-    throw Stopped(external::StopSignal() != 0 ? external::StopSignal() : SIGTERM,
-                  "stopped on request; checkpointed by LAMMPS (" + NewestCheckpoint(dir).file.filename().string() + ")");
+    throw Stopped(
+        external::StopSignal() != 0 ? external::StopSignal() : SIGTERM,
+        "stopped on request; checkpointed by LAMMPS (" + NewestCheckpoint(dir).file.filename().string() + ")");
   }
   if (external::StopSignal() != 0)
-    throw Stopped(external::StopSignal(), "stopped on request before LAMMPS checkpointed" + Diagnostics(r, dir / log, "LAMMPS"));
-  if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty() || end_reason.empty() || !fs::exists(dir / kFinalDump)) {
+    throw Stopped(external::StopSignal(),
+                  "stopped on request before LAMMPS checkpointed" + Diagnostics(r, dir / log, "LAMMPS"));
+  if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty() || end_reason.empty() ||
+      !fs::exists(dir / kFinalDump)) {
     // A checkpoint cut short by a kill fails at read_restart: drop it, go on from the one before.
     if (result.continued && progress_lines == 0 && r.stop_reason.empty() && r.signal == 0) {
       std::fprintf(stderr, "granary-lammps: cannot continue from %s; trying an earlier checkpoint\n",
@@ -675,8 +689,13 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
   summary.steps = last_step;
   summary.tangential_cap = "lammps";  // LAMMPS caps spring + damping, whatever the spec asks
   if (spec.discharge.mode == DischargeMode::kReinject) summary.reinject_position = "periodic";
-  summary.bed = {bed.value("bed_file", ""), bed.value("height", 0.0), bed.value("prepared_here", false),
-                 bed.value("settle_time", 0.0), bed.value("refused", std::string()), {}, {}};
+  summary.bed = {bed.value("bed_file", ""),
+                 bed.value("height", 0.0),
+                 bed.value("prepared_here", false),
+                 bed.value("settle_time", 0.0),
+                 bed.value("refused", std::string()),
+                 {},
+                 {}};
   const double bed_wall = state.value("bed_wall_s", 0.0);
   // Disc-steps of this session: the bed's discs at every step, less those of bodies gone (remove
   // mode: from each exit to the end).
@@ -689,8 +708,11 @@ BackendResult RunLocked(const fs::path& dir, const BackendOptions& options) {
     for (const Event& e : events)
       if (e.step <= last_step) disc_steps -= discs_of[e.body] * static_cast<double>(last_step - std::max(e.step, from));
   }
-  summary.timing = rundir::Timing{bed_wall + discharge_wall, bed_wall, discharge_wall,
-                                  session_wall > 0 ? disc_steps / session_wall : 0.0, options.threads,
+  summary.timing = rundir::Timing{bed_wall + discharge_wall,
+                                  bed_wall,
+                                  discharge_wall,
+                                  session_wall > 0 ? disc_steps / session_wall : 0.0,
+                                  options.threads,
                                   session_wall > 0 ? bed_disc_steps / session_wall : 0.0};
   summary.continued_from_checkpoint = result.continued && ckpt.step != state.value("relaunched_at_step", -1LL);
   for (const auto& why : state.value("refused_checkpoints", json::array())) summary.refused_checkpoints.push_back(why);

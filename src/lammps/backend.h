@@ -12,17 +12,17 @@
 namespace granary::lammps {
 
 struct BackendOptions {
-  int threads = 1;              // > 1: mpirun -np N lmp
+  int threads = 1;  // > 1: mpirun -np N lmp
   bool quiet = false;
-  std::string lammps;           // executable; "" = $GRANARY_LAMMPS or `lmp` on PATH
-  std::string engine;           // granary-engine (the bed); "" = beside this program, $GRANARY_ENGINE or PATH
+  std::string lammps;  // executable; "" = $GRANARY_LAMMPS or `lmp` on PATH
+  std::string engine;  // granary-engine (the bed); "" = beside this program, $GRANARY_ENGINE or PATH
   // LAMMPS printing nothing for this long (seconds) is hung: it is ended and the run fails
   // with its screen output and log tail. Its progress lines come every 0.5 time units.
   double silence_limit = 1800;
 };
 
 struct BackendResult {
-  std::string end_reason;       // "discharged", "clogged", "time_limit"
+  std::string end_reason;  // "discharged", "clogged", "time_limit"
   int exited = 0;
   long long steps = 0;
   bool continued = false;

@@ -41,8 +41,8 @@ int Run(const std::vector<std::string>& args) {
     options.threads = a.threads;
     options.silence_limit = a.silence_limit;
     const BackendResult r = RunDirectory(a.dir, options);
-    return "done end_reason=" + r.end_reason + " exited=" + std::to_string(r.exited) + " steps=" +
-           std::to_string(r.steps) + (r.continued ? " (continued from checkpoint)" : "");
+    return "done end_reason=" + r.end_reason + " exited=" + std::to_string(r.exited) +
+           " steps=" + std::to_string(r.steps) + (r.continued ? " (continued from checkpoint)" : "");
   });
 }
 

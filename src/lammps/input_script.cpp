@@ -15,16 +15,18 @@ namespace granary::lammps {
 
 namespace {
 
-constexpr double kChunkTime = 0.5;        // simulated time between script-level checks
-constexpr double kEventInterval = 0.01;   // simulated time between looks at the exit lines
-constexpr double kBaseThickness = 0.1;    // base and wall pieces: thin blocks, as the native segments
-constexpr double kSettleCheck = 0.02;     // simulated time between looks at a settling bed's energy (engine/bed.cpp)
+constexpr double kChunkTime = 0.5;       // simulated time between script-level checks
+constexpr double kEventInterval = 0.01;  // simulated time between looks at the exit lines
+constexpr double kBaseThickness = 0.1;   // base and wall pieces: thin blocks, as the native segments
+constexpr double kSettleCheck = 0.02;    // simulated time between looks at a settling bed's energy (engine/bed.cpp)
 
 long long StepsOf(double time, double dt) { return std::max<long long>(1, std::llround(time / dt)); }
 
 // The LAMMPS style of the spec's normal model (the native engine's laws are these two styles:
 // engine/contact_law.h).
-std::string Style(const Contact& c) { return c.normal_model == NormalModel::kHooke ? "hooke/history" : "hertz/history"; }
+std::string Style(const Contact& c) {
+  return c.normal_model == NormalModel::kHooke ? "hooke/history" : "hertz/history";
+}
 
 // pair_style / wall arguments: gran/<style> Kn Kt gamma_n gamma_t mu dampflag 1.
 std::string Law(const Contact& c, double mu) {
@@ -61,8 +63,8 @@ void Model(std::ostringstream& o, const RunSpec& spec, const Setup& s, const std
   if (clumps) o << "group clumps type" << Types(s.clump_types) << "\n";
   o << "# contact law: gran/" << Style(c) << " with body masses in m_eff, as the native engine (docs/lammps.md)\n"
     << "pair_style gran/" << Law(c, c.mu) << "\npair_coeff * *\n"
-    << "neighbor 0.2 bin\nneigh_modify delay 0 every 1 check yes"
-    << (clumps ? " exclude molecule/intra clumps" : "") << "\n"
+    << "neighbor 0.2 bin\nneigh_modify delay 0 every 1 check yes" << (clumps ? " exclude molecule/intra clumps" : "")
+    << "\n"
     << "timestep " << Num(spec.time_step) << "\n";
   if (!s.disc_types.empty()) o << "fix integrate_discs discs nve/sphere   # sphere inertia 0.4 m r^2, as the engine\n";
   if (clumps) o << "fix integrate_clumps clumps rigid/small molecule\n";
@@ -222,8 +224,10 @@ Setup MakeSetup(const RunSpec& spec, const rundir::Frame& start) {
 std::string DataFile(const Setup& s, const rundir::Frame& start) {
   std::ostringstream o;
   o << "LAMMPS data file: a Granary bed (granary-lammps, docs/lammps.md), " << start.discs.size() << " discs\n\n"
-    << start.discs.size() << " atoms\n" << s.species << " atom types\n\n"
-    << Num(s.x_lo) << " " << Num(s.x_hi) << " xlo xhi\n" << Num(s.y_lo) << " " << Num(s.y_hi) << " ylo yhi\n"
+    << start.discs.size() << " atoms\n"
+    << s.species << " atom types\n\n"
+    << Num(s.x_lo) << " " << Num(s.x_hi) << " xlo xhi\n"
+    << Num(s.y_lo) << " " << Num(s.y_hi) << " ylo yhi\n"
     << "-0.5 0.5 zlo zhi\n\nAtoms # sphere\n\n";
   // atom-ID atom-type diameter density x y z: the density is set again by `set density/disc`.
   for (const rundir::Disc& d : start.discs)
@@ -275,8 +279,7 @@ std::string DischargeScript(const RunSpec& spec, const Setup& s, const Discharge
       << "compute past_now all reduce sum v_past_body\n"
       << "variable exited equal round(" << s.bodies << "-c_bodies_now+c_past_now)\n"
       << "region gone_below block INF INF INF " << Num(-(ed + b + 0.5)) << " INF INF units box\n"
-      << "fix delete_below all evaporate " << s.event_every << " 1000000000 gone_below " << 4201
-      << " molecule yes\n";
+      << "fix delete_below all evaporate " << s.event_every << " 1000000000 gone_below " << 4201 << " molecule yes\n";
     if (!silo.side_outlets.empty())
       o << "region gone_left block INF " << Num(-(hw + ed + b + 0.5)) << " INF INF INF INF units box\n"
         << "region gone_right block " << Num(hw + ed + b + 0.5) << " INF INF INF INF INF units box\n"
@@ -332,25 +335,28 @@ std::string DischargeScript(const RunSpec& spec, const Setup& s, const Discharge
   if (remove) o << "if \"${atoms_now} == 0\" then \"print 'GRANARY_END discharged'\" \"jump SELF finished\"\n";
   o << "variable since_exit equal step-v_last_exit_step\n";
   const std::string stalled = "\"${since_exit} >= " + std::to_string(clog_steps) + " && ${clog_counted} == 0\"";
-  const std::string keep = std::string(" \"write_dump all custom ") + kClogFilePrefix +
-                           "${step_now}.atoms id mol type x y radius vx vy omegaz modify format line "
-                           "'%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g'\"" +
-                           // The contacts through dumps and a `run 0`: write_dump refuses a local
-                           // compute between runs ("not current").
-                           " \"dump clog_pairs all local 1 " + kClogFilePrefix + "${step_now}.pairs " + PairColumns() +
-                           "\" \"dump_modify clog_pairs format float %.10g\" \"dump clog_walls all custom 1 " +
-                           kClogFilePrefix + "${step_now}.walls " + WallColumns(s) +
-                           "\" \"dump_modify clog_walls thresh v_wall_contacts > 0 format float %.10g\" \"run 0 post no\" "
-                           "\"undump clog_pairs\" \"undump clog_walls\"";
+  const std::string keep =
+      std::string(" \"write_dump all custom ") + kClogFilePrefix +
+      "${step_now}.atoms id mol type x y radius vx vy omegaz modify format line "
+      "'%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g'\"" +
+      // The contacts through dumps and a `run 0`: write_dump refuses a local
+      // compute between runs ("not current").
+      " \"dump clog_pairs all local 1 " + kClogFilePrefix + "${step_now}.pairs " + PairColumns() +
+      "\" \"dump_modify clog_pairs format float %.10g\" \"dump clog_walls all custom 1 " + kClogFilePrefix +
+      "${step_now}.walls " + WallColumns(s) +
+      "\" \"dump_modify clog_walls thresh v_wall_contacts > 0 format float %.10g\" \"run 0 post no\" "
+      "\"undump clog_pairs\" \"undump clog_walls\"";
   if (remove)
     o << "if " << stalled << " then \"write_restart checkpoint.*.restart\"" << keep
       << " \"print 'GRANARY_END stalled'\" \"jump SELF finished\"\n";
   else if (spec.discharge.StopOnClog())
     o << "if " << stalled << " then" << keep << " \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
   else
-    o << "if " << stalled << " then" << keep << " \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";
+    o << "if " << stalled << " then" << keep
+      << " \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";
   o << "jump SELF discharge\nlabel finished\n"
-    << "write_dump all custom " << kFinalDump << " id mol type x y radius modify format line '%d %d %d %.10g %.10g %.10g'\n"
+    << "write_dump all custom " << kFinalDump
+    << " id mol type x y radius modify format line '%d %d %d %.10g %.10g %.10g'\n"
     << "print \"GRANARY_FINAL ${step_now}\"\n"
     << "label stopped\n";
   return o.str();

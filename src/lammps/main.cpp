@@ -4,6 +4,4 @@
 
 #include "lammps/cli.h"
 
-int main(int argc, char** argv) {
-  return granary::lammps::LammpsMain(std::vector<std::string>(argv + 1, argv + argc));
-}
+int main(int argc, char** argv) { return granary::lammps::LammpsMain(std::vector<std::string>(argv + 1, argv + argc)); }

@@ -84,7 +84,8 @@ ChildRun RunLiggghts(const std::string& exe, int threads, const fs::path& dir, c
     std::cout << "granary-liggghts: " << line << std::endl;
   }
   try {
-    return external::RunChild(c.program, c.args, {dir, control, silence_limit, "LIGGGHTS", "granary-liggghts", dir / log},
+    return external::RunChild(c.program, c.args,
+                              {dir, control, silence_limit, "LIGGGHTS", "granary-liggghts", dir / log},
                               [&](const std::string& line) {
                                 if (line.rfind("GRANARY_", 0) == 0) on_line(line);
                               });
@@ -127,8 +128,8 @@ std::vector<Sphere> ReadAtomsDump(const fs::path& path) {
     if (!atoms || line.empty()) continue;
     const auto t = Tokens(line);
     if (t.size() < 7) continue;
-    out.push_back({std::stoll(t[0]), std::stoll(t[1]), std::stoi(t[2]), std::stod(t[3]), std::stod(t[4]), std::stod(t[5]),
-                   std::stod(t[6])});
+    out.push_back({std::stoll(t[0]), std::stoll(t[1]), std::stoi(t[2]), std::stod(t[3]), std::stod(t[4]),
+                   std::stod(t[5]), std::stod(t[6])});
   }
   return out;
 }
@@ -195,7 +196,8 @@ std::vector<fs::path> CounterFiles(const fs::path& dir, const Counter& c) {
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(dir)) {
     const std::string f = e.path().filename().string();
-    if (f == c.file || (f.rfind(c.file + ".", 0) == 0 && f.find_first_not_of("0123456789", c.file.size() + 1) == std::string::npos))
+    if (f == c.file ||
+        (f.rfind(c.file + ".", 0) == 0 && f.find_first_not_of("0123456789", c.file.size() + 1) == std::string::npos))
       files.push_back(e.path());
   }
   return files;
@@ -265,8 +267,8 @@ void ReadFrameBlock(std::istream& in, long long n, long long step, const RunSpec
     double y = std::stod(t[4]);
     const auto [it, first] = first_y.emplace(body, y);
     if (!first) y = NearestImage(y, it->second, box_height);
-    frame.discs.push_back({std::stoll(t[0]), body, std::stoi(t[2]), std::stod(t[3]), y, r, rho * std::numbers::pi * r * r,
-                           std::stod(t[6]), std::stod(t[7]), std::stod(t[8])});
+    frame.discs.push_back({std::stoll(t[0]), body, std::stoi(t[2]), std::stod(t[3]), y, r,
+                           rho * std::numbers::pi * r * r, std::stod(t[6]), std::stod(t[7]), std::stod(t[8])});
   }
 }
 
@@ -331,8 +333,8 @@ void ContactFrameOf(long long step, const std::vector<std::string>& pairs, const
     const auto t = Tokens(line);
     if (t.size() < 7) throw std::runtime_error("malformed LIGGGHTS wall contact line: " + line);
     const double cx = std::stod(t[0]), cy = std::stod(t[1]);
-    frame.contacts.push_back(
-        {bodies.Of(sphere(t[4])), -1, std::stod(t[2]), std::stod(t[3]), cx, cy, cx, cy, std::stod(t[5]), std::stod(t[6])});
+    frame.contacts.push_back({bodies.Of(sphere(t[4])), -1, std::stod(t[2]), std::stod(t[3]), cx, cy, cx, cy,
+                              std::stod(t[5]), std::stod(t[6])});
   }
 }
 
@@ -346,7 +348,8 @@ void ConvertContacts(const fs::path& dir, const RunSpec& spec, const SiloSetup& 
   rundir::ContactFrame frame;
   for (const auto& [step, rows] : pairs) {
     const auto w = walls.find(step);
-    ContactFrameOf(step, rows, w == walls.end() ? nullptr : &w->second, spec, setup, spheres, bodies, box_height, frame);
+    ContactFrameOf(step, rows, w == walls.end() ? nullptr : &w->second, spec, setup, spheres, bodies, box_height,
+                   frame);
     out.Write(frame);
   }
   out.Close();
@@ -409,8 +412,8 @@ std::string CacheStem(const RunSpec& spec) {
   json key = spec.BedKey();
   key["liggghts_obstacles"] = spec.ToJson()["silo"]["obstacles"];
   if (spec.output.contact_forces && !spec.silo.obstacles.empty()) key["liggghts_obstacles_as_meshes"] = true;
-  key["liggghts_side_margin"] = !spec.silo.side_outlets.empty();  // the box width depends on it
-  key["liggghts_exit_distance"] = spec.discharge.exit_distance;   // and its bottom on this
+  key["liggghts_side_margin"] = !spec.silo.side_outlets.empty();          // the box width depends on it
+  key["liggghts_exit_distance"] = spec.discharge.exit_distance;           // and its bottom on this
   if (spec.discharge.periodic_headroom != Discharge{}.periodic_headroom)  // and its top on this
     key["liggghts_periodic_headroom"] = spec.discharge.periodic_headroom;
   const std::string text = key.dump();
@@ -469,10 +472,12 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
         return bed;
       }
       // A bad cached bed is never used: it is put aside and prepared again.
-      std::fprintf(stderr, "granary-liggghts: refusing the cached bed %s: %s; preparing it again\n", stem.c_str(), why.c_str());
+      std::fprintf(stderr, "granary-liggghts: refusing the cached bed %s: %s; preparing it again\n", stem.c_str(),
+                   why.c_str());
       bed.refused = why;
       for (const char* ext : {".restart", ".dump", ".json"})
-        if (fs::exists(cache_dir / (stem + ext))) fs::rename(cache_dir / (stem + ext), cache_dir / (stem + ext + ".corrupt"));
+        if (fs::exists(cache_dir / (stem + ext)))
+          fs::rename(cache_dir / (stem + ext), cache_dir / (stem + ext + ".corrupt"));
     }
   }
   const auto t0 = Clock::now();
@@ -480,24 +485,30 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
   long long inserted = -1;
   double settle_t = 0;
   const ChildRun r = RunLiggghts(exe, options.threads, dir, "bed.in", "log.bed", {}, options.silence_limit,
-                                    [&](const std::string& line) {
-    const auto t = Tokens(line);
-    if (t[0] == "GRANARY_INSERTED" && t.size() > 1) inserted = std::llround(std::stod(t[1]));
-    if ((t[0] == "GRANARY_BED" || t[0] == "GRANARY_BED_DONE") && t.size() > 2) {
-      settle_t = std::stod(t[1]);
-      ReportProgress(dir, "bed", settle_t / spec.bed.max_settle_time, settle_t, spec.bed.max_settle_time, 0, Seconds(t0),
-                     options.quiet);
-    }
-  });
-  if (external::StopSignal() != 0) throw Stopped(external::StopSignal(), "stopped while preparing the bed (not checkpointed)" + Diagnostics(r, dir / "log.bed"));
-  if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty()) Fail("LIGGGHTS failed while preparing the bed", r, dir / "log.bed");
-  if (!fs::exists(dir / "bed.restart")) Fail("LIGGGHTS ended without writing bed.restart while preparing the bed", r, dir / "log.bed");
+                                 [&](const std::string& line) {
+                                   const auto t = Tokens(line);
+                                   if (t[0] == "GRANARY_INSERTED" && t.size() > 1)
+                                     inserted = std::llround(std::stod(t[1]));
+                                   if ((t[0] == "GRANARY_BED" || t[0] == "GRANARY_BED_DONE") && t.size() > 2) {
+                                     settle_t = std::stod(t[1]);
+                                     ReportProgress(dir, "bed", settle_t / spec.bed.max_settle_time, settle_t,
+                                                    spec.bed.max_settle_time, 0, Seconds(t0), options.quiet);
+                                   }
+                                 });
+  if (external::StopSignal() != 0)
+    throw Stopped(external::StopSignal(),
+                  "stopped while preparing the bed (not checkpointed)" + Diagnostics(r, dir / "log.bed"));
+  if (r.exit_code != 0 || r.signal != 0 || !r.stop_reason.empty())
+    Fail("LIGGGHTS failed while preparing the bed", r, dir / "log.bed");
+  if (!fs::exists(dir / "bed.restart"))
+    Fail("LIGGGHTS ended without writing bed.restart while preparing the bed", r, dir / "log.bed");
   const std::vector<Sphere> spheres = ReadAtomsDump(dir / "bed.dump");
   const BodyIndex bodies(spheres);
   if (static_cast<int>(bodies.size()) != spec.bodies.count)
-    throw LiggghtsError("LIGGGHTS inserted " + std::to_string(bodies.size()) + " of " + std::to_string(spec.bodies.count) +
-                        " bodies (insert/pack found no room for the rest; spheres after insertion: " +
-                        std::to_string(inserted) + ")\n--- last lines of log.bed ---\n" + TailOfFile(dir / "log.bed", external::kLogTailLines));
+    throw LiggghtsError(
+        "LIGGGHTS inserted " + std::to_string(bodies.size()) + " of " + std::to_string(spec.bodies.count) +
+        " bodies (insert/pack found no room for the rest; spheres after insertion: " + std::to_string(inserted) +
+        ")\n--- last lines of log.bed ---\n" + TailOfFile(dir / "log.bed", external::kLogTailLines));
   bed.prepared_here = true;
   bed.wall_s = Seconds(t0);
   bed.settle_time = settle_t;
@@ -505,16 +516,18 @@ Bed ObtainBed(const RunSpec& spec, const SiloSetup& setup, const fs::path& dir, 
   if (!cache_dir.empty()) {
     // Copy to temporary names, then rename: a reader never sees half a bed.
     for (const char* ext : {".restart", ".dump"}) {
-      fs::copy_file(dir / (std::string("bed") + ext), cache_dir / (stem + ext + ".tmp"), fs::copy_options::overwrite_existing);
+      fs::copy_file(dir / (std::string("bed") + ext), cache_dir / (stem + ext + ".tmp"),
+                    fs::copy_options::overwrite_existing);
       ReplaceAtomically(cache_dir / (stem + ext + ".tmp"), cache_dir / (stem + ext));
     }
     WriteAtomically(cache_dir / (stem + ".json"), json{{"format", "granary-liggghts-bed"},
-                                                        {"version", kCachedBedVersion},
-                                                        {"settle_time", settle_t},
-                                                        {"bed_wall_s", bed.wall_s},
-                                                        {"restart_crc32", Crc32(ReadWholeFile(dir / "bed.restart"))},
-                                                        {"dump_crc32", Crc32(ReadWholeFile(dir / "bed.dump"))}}
-                                                       .dump() + "\n");
+                                                       {"version", kCachedBedVersion},
+                                                       {"settle_time", settle_t},
+                                                       {"bed_wall_s", bed.wall_s},
+                                                       {"restart_crc32", Crc32(ReadWholeFile(dir / "bed.restart"))},
+                                                       {"dump_crc32", Crc32(ReadWholeFile(dir / "bed.dump"))}}
+                                                          .dump() +
+                                                      "\n");
     bed.file = (cache_dir / (stem + ".restart")).string();
   }
   return bed;
@@ -660,8 +673,8 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
     }
     RemoveClogFilesAfter(dir, ckpt.step);
   } else {
-    for (const char* f : {"frames.liggghts", rundir::kEventsFile, rundir::kFramesFile, rundir::kFramesGzFile, "final.dump",
-                          "contacts_pairs.liggghts", "contacts_walls.liggghts", rundir::kContactsFile,
+    for (const char* f : {"frames.liggghts", rundir::kEventsFile, rundir::kFramesFile, rundir::kFramesGzFile,
+                          "final.dump", "contacts_pairs.liggghts", "contacts_walls.liggghts", rundir::kContactsFile,
                           rundir::kContactsGzFile, rundir::kClogFramesFile, rundir::kClogContactsFile})
       fs::remove(dir / f);
     RemoveClogFilesAfter(dir, -1);
@@ -670,10 +683,10 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
     PruneCheckpoints(dir, 0);
     WriteMeshes(dir, setup);
     const Bed bed = ObtainBed(spec, setup, dir, exe, options);
-    state = {{"bed_file", bed.file},           {"bed_prepared_here", bed.prepared_here},
-             {"bed_wall_s", bed.wall_s},       {"settle_time", bed.settle_time}, {"bed_refused", bed.refused},
-             {"bed_height", TopOf(ReadAtomsDump(dir / "bed.dump"))}, {"discharge_wall_s", 0.0},
-             {"clog_steps", json::array()}};
+    state = {{"bed_file", bed.file},       {"bed_prepared_here", bed.prepared_here},
+             {"bed_wall_s", bed.wall_s},   {"settle_time", bed.settle_time},
+             {"bed_refused", bed.refused}, {"bed_height", TopOf(ReadAtomsDump(dir / "bed.dump"))},
+             {"discharge_wall_s", 0.0},    {"clog_steps", json::array()}};
     WriteAtomically(state_file, state.dump() + "\n");
   }
 
@@ -703,37 +716,40 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   // The stop switch LIGGGHTS reads after every chunk (input_script.cpp, docs/liggghts.md).
   const fs::path control = dir / kControlFile;
   WriteAtomically(control, "variable stop_requested equal 0\n");
-  const ChildRun r = RunLiggghts(exe, options.threads, dir, "discharge.in", log, control, options.silence_limit,
-                                    [&](const std::string& line) {
-    const auto t = Tokens(line);
-    if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
-    if (t[0] == "GRANARY_FINAL" && t.size() > 1) last_step = std::stoll(t[1]);
-    if (t[0] == "GRANARY_BOX" && t.size() > 1) box_height = std::stod(t[1]);
-    if (t[0] == "GRANARY_CLOG" && t.size() > 1) {
-      state["clog_steps"].push_back(std::stoll(t[1]));
-      state["clog_step"] = std::stoll(t[1]);
-      WriteAtomically(state_file, state.dump() + "\n");
-    }
-    if (t[0] == "GRANARY_PROGRESS" && t.size() > 2) {
-      ++progress_lines;
-      PruneCheckpoints(dir, 2);  // those LIGGGHTS finished before this chunk ended
-      const double time = std::stod(t[1]) * spec.time_step;
-      // LIGGGHTS' own count weights a clump's spheres by volume; the events are exact.
-      const int exited = static_cast<int>(ReadEvents(dir, setup.counters, spheres, bodies, recross).size());
-      ReportProgress(dir, "discharge", time / spec.discharge.max_time, time, spec.discharge.max_time, exited,
-                     discharge_wall_before + Seconds(t_discharge), options.quiet);
-      state["discharge_wall_s"] = discharge_wall_before + Seconds(t_discharge);
-      // Every chunk: only the wall-time count would be older after a crash.
-      WriteAtomically(state_file, state.dump() + "\n", Durability::kVisible);
-    }
-  });
+  const ChildRun r = RunLiggghts(
+      exe, options.threads, dir, "discharge.in", log, control, options.silence_limit, [&](const std::string& line) {
+        const auto t = Tokens(line);
+        if (t[0] == "GRANARY_END" && t.size() > 1) end_reason = t[1];
+        if (t[0] == "GRANARY_FINAL" && t.size() > 1) last_step = std::stoll(t[1]);
+        if (t[0] == "GRANARY_BOX" && t.size() > 1) box_height = std::stod(t[1]);
+        if (t[0] == "GRANARY_CLOG" && t.size() > 1) {
+          state["clog_steps"].push_back(std::stoll(t[1]));
+          state["clog_step"] = std::stoll(t[1]);
+          WriteAtomically(state_file, state.dump() + "\n");
+        }
+        if (t[0] == "GRANARY_PROGRESS" && t.size() > 2) {
+          ++progress_lines;
+          PruneCheckpoints(dir, 2);  // those LIGGGHTS finished before this chunk ended
+          const double time = std::stod(t[1]) * spec.time_step;
+          // LIGGGHTS' own count weights a clump's spheres by volume; the events are exact.
+          const int exited = static_cast<int>(ReadEvents(dir, setup.counters, spheres, bodies, recross).size());
+          ReportProgress(dir, "discharge", time / spec.discharge.max_time, time, spec.discharge.max_time, exited,
+                         discharge_wall_before + Seconds(t_discharge), options.quiet);
+          state["discharge_wall_s"] = discharge_wall_before + Seconds(t_discharge);
+          // Every chunk: only the wall-time count would be older after a crash.
+          WriteAtomically(state_file, state.dump() + "\n", Durability::kVisible);
+        }
+      });
   if (r.stopped) {
     state["discharge_wall_s"] = discharge_wall_before + Seconds(t_discharge);
     WriteAtomically(state_file, state.dump() + "\n");
-    throw Stopped(external::StopSignal() != 0 ? external::StopSignal() : SIGTERM,
-                  "stopped on request; checkpointed by LIGGGHTS (" + NewestCheckpoint(dir).file.filename().string() + ")");
+    throw Stopped(
+        external::StopSignal() != 0 ? external::StopSignal() : SIGTERM,
+        "stopped on request; checkpointed by LIGGGHTS (" + NewestCheckpoint(dir).file.filename().string() + ")");
   }
-  if (external::StopSignal() != 0) throw Stopped(external::StopSignal(), "stopped on request before LIGGGHTS checkpointed" + Diagnostics(r, dir / log));
+  if (external::StopSignal() != 0)
+    throw Stopped(external::StopSignal(),
+                  "stopped on request before LIGGGHTS checkpointed" + Diagnostics(r, dir / log));
   if (r.exit_code != 0 || r.signal != 0 || end_reason.empty() || !fs::exists(dir / "final.dump")) {
     // A checkpoint cut short when the run was killed makes read_restart fail at once: drop
     // it and continue from the one before (or from the start).
@@ -781,12 +797,12 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   }
   rundir::WriteEvents(dir / rundir::kEventsFile, exits);
   if (spec.output.frame_interval > 0 && fs::exists(dir / "frames.liggghts"))
-    ConvertFrames(dir / "frames.liggghts", dir / (spec.output.compress ? rundir::kFramesGzFile : rundir::kFramesFile), spec,
-                  setup, bodies, box_height);
+    ConvertFrames(dir / "frames.liggghts", dir / (spec.output.compress ? rundir::kFramesGzFile : rundir::kFramesFile),
+                  spec, setup, bodies, box_height);
   if (spec.output.contact_forces && spec.output.frame_interval > 0 && fs::exists(dir / "contacts_pairs.liggghts"))
     ConvertContacts(dir, spec, setup, spheres, bodies, box_height);
-  ConvertClogs(dir, state.value("clog_steps", json::array()).get<std::vector<long long>>(), spec, setup, spheres, bodies,
-               box_height);
+  ConvertClogs(dir, state.value("clog_steps", json::array()).get<std::vector<long long>>(), spec, setup, spheres,
+               bodies, box_height);
 
   std::set<long long> remaining;
   double out_of_plane = 0;  // the quasi-2-D set-up must keep every centre in z = 0
@@ -804,7 +820,8 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   double sphere_steps = spheres_total * static_cast<double>(session_steps);
   if (spec.discharge.mode == DischargeMode::kRemove)
     for (const Event& e : events) {
-      const double left = std::clamp(e.time / spec.time_step, static_cast<double>(session_start), static_cast<double>(last_step));
+      const double left =
+          std::clamp(e.time / spec.time_step, static_cast<double>(session_start), static_cast<double>(last_step));
       sphere_steps -= static_cast<double>(templates[static_cast<std::size_t>(e.species)].r.size()) *
                       (static_cast<double>(last_step) - left);
     }
@@ -831,13 +848,21 @@ BackendResult RunLocked(const std::string& dir_name, const BackendOptions& optio
   summary.tangential_cap = "liggghts";  // LIGGGHTS caps the spring part only, whatever the spec asks
   // Reinjection is y-periodicity here, whatever the spec asks (docs/liggghts.md).
   if (spec.discharge.mode == DischargeMode::kReinject) summary.reinject_position = "periodic";
-  summary.bed = {state.value("bed_file", ""), state.value("bed_height", 0.0), state.value("bed_prepared_here", false),
-                 state.value("settle_time", 0.0), state.value("bed_refused", std::string()), {}, {}};
+  summary.bed = {state.value("bed_file", ""),
+                 state.value("bed_height", 0.0),
+                 state.value("bed_prepared_here", false),
+                 state.value("settle_time", 0.0),
+                 state.value("bed_refused", std::string()),
+                 {},
+                 {}};
   const double bed_wall = state.value("bed_wall_s", 0.0);
-  summary.timing = rundir::Timing{
-      bed_wall + discharge_wall, bed_wall, discharge_wall,
-      session_wall > 0 ? sphere_steps / session_wall : 0.0, options.threads,
-      session_wall > 0 ? spheres_total * static_cast<double>(session_steps) / session_wall : 0.0};
+  summary.timing =
+      rundir::Timing{bed_wall + discharge_wall,
+                     bed_wall,
+                     discharge_wall,
+                     session_wall > 0 ? sphere_steps / session_wall : 0.0,
+                     options.threads,
+                     session_wall > 0 ? spheres_total * static_cast<double>(session_steps) / session_wall : 0.0};
   // Going on through a clog restarts LIGGGHTS too; only a restart after an interruption counts here.
   summary.continued_from_checkpoint = result.continued && ckpt.step != state.value("relaunched_at_step", -1LL);
   rundir::WriteSummary(dir, summary);

@@ -12,16 +12,16 @@
 namespace granary::liggghts {
 
 struct BackendOptions {
-  int threads = 1;              // > 1: mpirun -np N liggghts
+  int threads = 1;  // > 1: mpirun -np N liggghts
   bool quiet = false;
-  std::string liggghts;         // executable; "" = $GRANARY_LIGGGHTS or `liggghts` on PATH
+  std::string liggghts;  // executable; "" = $GRANARY_LIGGGHTS or `liggghts` on PATH
   // LIGGGHTS printing nothing for this long (seconds) is hung: it is ended and the run fails
   // with its screen output and log tail. Its progress lines come every 0.5 time units.
   double silence_limit = 1800;
 };
 
 struct BackendResult {
-  std::string end_reason;       // "discharged", "clogged", "time_limit"
+  std::string end_reason;  // "discharged", "clogged", "time_limit"
   int exited = 0;
   long long steps = 0;
   bool continued = false;

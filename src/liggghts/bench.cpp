@@ -56,19 +56,23 @@ void RunBench(const BenchOptions& o) {
       {"engine", "liggghts"},
       {"silo", {{"width", 100.0}, {"base_outlets", {{{"center", 0.0}, {"width", 14.0}}}}}},
       {"bodies", {{"count", o.bodies}, {"species", {{{"shape", "dumbbell"}}}}}},
-      {"bed", {{"settle_ke_per_body", 1e-4}, {"max_settle_time", 30.0},
-               {"cache_file", (base / ("granary-liggghts-bench-bed-" + std::to_string(o.bodies) + ".json")).string()}}},
+      {"bed",
+       {{"settle_ke_per_body", 1e-4},
+        {"max_settle_time", 30.0},
+        {"cache_file", (base / ("granary-liggghts-bench-bed-" + std::to_string(o.bodies) + ".json")).string()}}},
       {"discharge", {{"mode", "reinject"}, {"max_time", o.steps * 1e-4}, {"stop_on_clog", false}}},
       {"output", {{"checkpoint_interval", 0.0}}}};
   rundir::WriteRunSpec(dir, RunSpec::FromJson(spec).ToJson());
-  std::printf("bench: LIGGGHTS, %d dumbbells, %d steps (the bed is prepared once and cached; not timed)\n", o.bodies, o.steps);
+  std::printf("bench: LIGGGHTS, %d dumbbells, %d steps (the bed is prepared once and cached; not timed)\n", o.bodies,
+              o.steps);
   std::fflush(stdout);
   std::vector<double> lig_rates, native_rates;
   for (int round = 1; round <= o.repeat; ++round) {
     const std::string tag = o.repeat > 1 ? "round=" + std::to_string(round) + " " : "";
     for (const auto& e : fs::directory_iterator(dir)) {  // a fresh discharge every round
       const std::string name = e.path().filename().string();
-      if (name.rfind("checkpoint.", 0) == 0 || name.rfind("log.discharge", 0) == 0 || name == rundir::kDoneFile) fs::remove(e.path());
+      if (name.rfind("checkpoint.", 0) == 0 || name.rfind("log.discharge", 0) == 0 || name == rundir::kDoneFile)
+        fs::remove(e.path());
     }
     BackendOptions bo;
     bo.quiet = true;
@@ -92,7 +96,8 @@ void RunBench(const BenchOptions& o) {
   std::printf("summary engine=native rounds=%zu best=%.4g median=%.4g\n", native_rates.size(), best(native_rates),
               external::BenchMedian(native_rates));
   std::printf("summary ratio native/liggghts: of the bests %.2f, of the medians %.2f\n",
-              best(native_rates) / best(lig_rates), external::BenchMedian(native_rates) / external::BenchMedian(lig_rates));
+              best(native_rates) / best(lig_rates),
+              external::BenchMedian(native_rates) / external::BenchMedian(lig_rates));
 }
 
 }  // namespace granary::liggghts

@@ -8,9 +8,9 @@ namespace granary::liggghts {
 struct BenchOptions {
   int bodies = 8000;
   int steps = 2000;
-  bool native = true;     // also run `granary-engine bench` (next to this executable) and print the ratio
-  std::string bed_dir;    // where LIGGGHTS' settled bed is cached ("" = the temp directory)
-  int repeat = 1;         // rounds of (LIGGGHTS, native), interleaved, for a shared machine
+  bool native = true;   // also run `granary-engine bench` (next to this executable) and print the ratio
+  std::string bed_dir;  // where LIGGGHTS' settled bed is cached ("" = the temp directory)
+  int repeat = 1;       // rounds of (LIGGGHTS, native), interleaved, for a shared machine
 };
 
 // Prints one line per engine: sphere (disc) steps per second from LIGGGHTS' own "Loop time"

@@ -49,8 +49,8 @@ int Run(const std::vector<std::string>& args) {
     options.threads = a.threads;
     options.silence_limit = a.silence_limit;
     const BackendResult r = RunDirectory(a.dir, options);
-    return "done end_reason=" + r.end_reason + " exited=" + std::to_string(r.exited) + " steps=" +
-           std::to_string(r.steps) + (r.continued ? " (continued from checkpoint)" : "");
+    return "done end_reason=" + r.end_reason + " exited=" + std::to_string(r.exited) +
+           " steps=" + std::to_string(r.steps) + (r.continued ? " (continued from checkpoint)" : "");
   });
 }
 
@@ -73,12 +73,18 @@ int Bench(const std::vector<std::string>& args) {
   BenchOptions o;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
-    if (a == "--bodies" && i + 1 < args.size()) o.bodies = external::ParsePositive(a, args[++i]);
-    else if (a == "--steps" && i + 1 < args.size()) o.steps = external::ParsePositive(a, args[++i]);
-    else if (a == "--bed-dir" && i + 1 < args.size()) o.bed_dir = args[++i];
-    else if (a == "--repeat" && i + 1 < args.size()) o.repeat = external::ParsePositive(a, args[++i]);
-    else if (a == "--no-native") o.native = false;
-    else throw std::invalid_argument("bench: unknown option \"" + a + "\"\n" + kBenchHelp);
+    if (a == "--bodies" && i + 1 < args.size())
+      o.bodies = external::ParsePositive(a, args[++i]);
+    else if (a == "--steps" && i + 1 < args.size())
+      o.steps = external::ParsePositive(a, args[++i]);
+    else if (a == "--bed-dir" && i + 1 < args.size())
+      o.bed_dir = args[++i];
+    else if (a == "--repeat" && i + 1 < args.size())
+      o.repeat = external::ParsePositive(a, args[++i]);
+    else if (a == "--no-native")
+      o.native = false;
+    else
+      throw std::invalid_argument("bench: unknown option \"" + a + "\"\n" + kBenchHelp);
   }
   RunBench(o);
   return 0;

@@ -190,7 +190,7 @@ SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
   s.x_hi = s.half_width + x_margin;
   s.bound_radius = bound;
   s.half_z = std::max(2.0, bound + 1.0);  // more than the bounding radius, or nothing is inserted (notes §4.6)
-  s.y_lo = -(ed + kPeriodicFall);  // the native engine's periodic reinjection uses the same box
+  s.y_lo = -(ed + kPeriodicFall);         // the native engine's periodic reinjection uses the same box
   double floor = 1.0 + bound;
   for (const Obstacle& o : silo.obstacles) floor = std::max(floor, o.y + o.diameter / 2 + bound + 0.5);
   s.insert_x_half = s.half_width - bound - 0.05;
@@ -211,7 +211,8 @@ SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
     if (g0 > x + 1e-9) s.discharge_meshes.push_back({"mesh_base_" + std::to_string(piece++) + ".stl", x, 0.0, g0, 0.0});
     x = std::max(x, g1);
   }
-  if (x < s.half_width - 1e-9) s.discharge_meshes.push_back({"mesh_base_" + std::to_string(piece++) + ".stl", x, 0.0, s.half_width, 0.0});
+  if (x < s.half_width - 1e-9)
+    s.discharge_meshes.push_back({"mesh_base_" + std::to_string(piece++) + ".stl", x, 0.0, s.half_width, 0.0});
 
   // Side walls with outlets become mesh pieces; the others stay primitive planes.
   for (Wall wall : {Wall::kLeft, Wall::kRight}) {
@@ -229,7 +230,8 @@ SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
     int k = 0;
     for (const auto& [h0, h1] : holes) {
       if (h0 > y + 1e-9 && y < top)
-        s.discharge_meshes.push_back({"mesh_" + side + "_" + std::to_string(k++) + ".stl", wx, y, wx, std::min(h0, top)});
+        s.discharge_meshes.push_back(
+            {"mesh_" + side + "_" + std::to_string(k++) + ".stl", wx, y, wx, std::min(h0, top)});
       y = std::max(y, h1);
     }
     if (y < top) s.discharge_meshes.push_back({"mesh_" + side + "_" + std::to_string(k++) + ".stl", wx, y, wx, top});
@@ -270,12 +272,17 @@ SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
     for (std::size_t j = 0; j < silo.base_outlets.size(); ++j) {
       if (j == k) continue;
       const BaseOutlet& p = silo.base_outlets[j];
-      if (p.center > o.center) hi = std::min(hi, 0.5 * (o.center + o.width / 2 + p.center - p.width / 2));
-      else lo = std::max(lo, 0.5 * (p.center + p.width / 2 + o.center - o.width / 2));
+      if (p.center > o.center)
+        hi = std::min(hi, 0.5 * (o.center + o.width / 2 + p.center - p.width / 2));
+      else
+        lo = std::max(lo, 0.5 * (p.center + p.width / 2 + o.center - o.width / 2));
     }
     lo = std::max(lo, s.x_lo + 0.01);
     hi = std::min(hi, s.x_hi - 0.01);
-    s.counters.push_back({{"mesh_exit_" + std::to_string(k) + ".stl", lo, -ed, hi, -ed}, 0.0, -1.0, static_cast<int>(k),
+    s.counters.push_back({{"mesh_exit_" + std::to_string(k) + ".stl", lo, -ed, hi, -ed},
+                          0.0,
+                          -1.0,
+                          static_cast<int>(k),
                           "exits_" + std::to_string(k) + ".txt"});
   }
   for (std::size_t k = 0; k < silo.side_outlets.size(); ++k) {
@@ -284,11 +291,18 @@ SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
     const double cx = sign * (s.half_width + ed);
     const int outlet = static_cast<int>(silo.base_outlets.size() + k);
     const std::string name = std::to_string(outlet);
-    s.counters.push_back({{"mesh_exit_" + name + ".stl", cx, -ed, cx, o.bottom + o.width + 1.0}, sign, 0.0, outlet,
+    s.counters.push_back({{"mesh_exit_" + name + ".stl", cx, -ed, cx, o.bottom + o.width + 1.0},
+                          sign,
+                          0.0,
+                          outlet,
                           "exits_" + name + ".txt"});
     const double inner = sign * (s.half_width + 0.01), outer = sign > 0 ? s.x_hi - 0.01 : s.x_lo + 0.01;
-    s.counters.push_back({{"mesh_exit_" + name + "_below.stl", std::min(inner, outer), -ed, std::max(inner, outer), -ed},
-                          0.0, -1.0, outlet, "exits_" + name + "_below.txt"});
+    s.counters.push_back(
+        {{"mesh_exit_" + name + "_below.stl", std::min(inner, outer), -ed, std::max(inner, outer), -ed},
+         0.0,
+         -1.0,
+         outlet,
+         "exits_" + name + "_below.txt"});
   }
   s.outlets = static_cast<int>(silo.base_outlets.size() + silo.side_outlets.size());
 
@@ -326,9 +340,9 @@ SiloSetup MakeSetup(const RunSpec& spec, double box_top) {
         }
         line = "fix " + id + " all particletemplate/multisphere " + std::to_string(seed) + " atom_type " +
                std::to_string(k + 1) + " density constant " + Num(density3d) + " nspheres " +
-               std::to_string(tp.r.size()) + " ntry 1000000 spheres" + spheres + " type " + std::to_string(++clump_type) +
-               " mass " + Num(tp.mass) + " use_density inertia_tensor " + Num(ixx) + " " + Num(ixy) + " 0 " + Num(iyy) +
-               " 0 " + Num(tp.inertia) + " fflag on on off tflag off off on";
+               std::to_string(tp.r.size()) + " ntry 1000000 spheres" + spheres + " type " +
+               std::to_string(++clump_type) + " mass " + Num(tp.mass) + " use_density inertia_tensor " + Num(ixx) +
+               " " + Num(ixy) + " 0 " + Num(iyy) + " 0 " + Num(tp.inertia) + " fflag on on off tflag off off on";
       }
       s.template_lines.push_back(line + "\n");
       dist += " " + id + " " + Num(spec.bodies.species[k].fraction / angles * tp.mass);
@@ -346,21 +360,20 @@ std::string BedScript(const RunSpec& spec, const SiloSetup& s) {
   const long long chunks = StepsOf(spec.bed.max_settle_time, dt) / chunk + 1;
   std::ostringstream o;
   o << "# Bed preparation, generated by granary-liggghts from run.json (docs/liggghts.md)\n"
-    << "atom_style sphere\n" << kHeader
-    << "boundary f p f\nnewton off\ncommunicate single vel yes\nunits lj\n"
+    << "atom_style sphere\n"
+    << kHeader << "boundary f p f\nnewton off\ncommunicate single vel yes\nunits lj\n"
     << "region box block " << Num(s.x_lo) << " " << Num(s.x_hi) << " " << Num(s.y_lo) << " " << Num(s.y_hi) << " "
     << Num(-s.half_z) << " " << Num(s.half_z) << " units box\n"
     << "create_box " << s.wall_type << " box\n"
     << "neighbor 0.2 bin\nneigh_modify delay 0\n"
     << Material(spec, s) << MeshWalls(spec, s, s.fill_meshes, "walls_fill") << PrimitiveWalls(spec, s, true);
   for (const std::string& l : s.template_lines) o << l;
-  o << "region insert_region block " << Num(-s.insert_x_half) << " " << Num(s.insert_x_half) << " " << Num(s.insert_y_lo)
-    << " " << Num(s.insert_y_hi) << " -1e-6 1e-6 units box\n"
+  o << "region insert_region block " << Num(-s.insert_x_half) << " " << Num(s.insert_x_half) << " "
+    << Num(s.insert_y_lo) << " " << Num(s.insert_y_hi) << " -1e-6 1e-6 units box\n"
     << "fix insert all insert/pack seed " << PrimeSeed(spec.seed, 2)
     << " distributiontemplate bodies insert_every once overlapcheck yes all_in no orientation constant 1 0 0 0"
     << " vel constant 0 -1 0 region insert_region particles_in_region " << spec.bodies.count << "\n"
-    << ClumpIntegration(s)
-    << "variable ke_atom atom 0.5*mass*(vx*vx+vy*vy)\n"
+    << ClumpIntegration(s) << "variable ke_atom atom 0.5*mass*(vx*vx+vy*vy)\n"
     << "compute ke_body all reduce ave v_ke_atom\n"  // a body's mass sits on each of its spheres
     << "compute y_max all reduce max y\n"
     << "variable ke_body equal c_ke_body\nvariable y_max equal c_y_max\nvariable t_now equal time\n"
@@ -395,11 +408,13 @@ std::string BedScript(const RunSpec& spec, const SiloSetup& s) {
 std::string ClogDumps(const SiloSetup& s, bool wall_contacts) {
   std::string c = " \"write_dump all custom " + std::string(kClogFilePrefix) + "${step_now}.atoms id " + BodyColumn(s) +
                   " type x y radius vx vy omegaz modify format '%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g'\"" +
-                  " \"write_dump all local " + kClogFilePrefix + "${step_now}.pairs c_pair_contacts[1] c_pair_contacts[2] "
+                  " \"write_dump all local " + kClogFilePrefix +
+                  "${step_now}.pairs c_pair_contacts[1] c_pair_contacts[2] "
                   "c_pair_contacts[4] c_pair_contacts[5] c_pair_contacts[7] c_pair_contacts[8] c_pair_contacts[10] "
                   "c_pair_contacts[11] modify format '%.10g %.10g %.10g %.10g %.0f %.0f %.10g %.10g'\"";
   if (wall_contacts)
-    c += " \"write_dump all local " + std::string(kClogFilePrefix) + "${step_now}.walls c_wall_contacts[1] c_wall_contacts[2] "
+    c += " \"write_dump all local " + std::string(kClogFilePrefix) +
+         "${step_now}.walls c_wall_contacts[1] c_wall_contacts[2] "
          "c_wall_contacts[4] c_wall_contacts[5] c_wall_contacts[9] c_wall_contacts[10] c_wall_contacts[11] "
          "modify format '%.10g %.10g %.10g %.10g %.0f %.10g %.10g'\"";
   return c;
@@ -447,8 +462,8 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
     << "thermo_modify lost ignore norm no\n"
     << "timestep " << Num(dt) << "\n";
   if (spec.output.frame_interval > 0) {
-    p << "dump frames all custom " << StepsOf(spec.output.frame_interval, dt)
-      << " frames.liggghts id " << BodyColumn(s) << " type x y radius vx vy omegaz\n"
+    p << "dump frames all custom " << StepsOf(spec.output.frame_interval, dt) << " frames.liggghts id " << BodyColumn(s)
+      << " type x y radius vx vy omegaz\n"
       << "dump_modify frames format \"%d %d %d %.10g %.10g %.10g %.10g %.10g %.10g\"\n";
     if (start.continue_run) p << "dump_modify frames append yes\n";
   }
@@ -495,12 +510,14 @@ std::string DischargeScript(const RunSpec& spec, const SiloSetup& s, const Disch
   const std::string stalled = "\"${since_exit} >= " + std::to_string(clog_steps) + " && ${clog_counted} == 0\"";
   const std::string keep = ClogDumps(s, wall_contacts);
   if (remove)
-    p << "if " << stalled << " then \"write_restart checkpoint.*.restart\"" << keep << " \"print 'GRANARY_END stalled'\" "
+    p << "if " << stalled << " then \"write_restart checkpoint.*.restart\"" << keep
+      << " \"print 'GRANARY_END stalled'\" "
       << "\"jump SELF finished\"\n";
   else if (spec.discharge.StopOnClog())
     p << "if " << stalled << " then" << keep << " \"print 'GRANARY_END clogged'\" \"jump SELF finished\"\n";
   else
-    p << "if " << stalled << " then" << keep << " \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";
+    p << "if " << stalled << " then" << keep
+      << " \"print 'GRANARY_CLOG ${step_now}'\" \"variable clog_counted equal 1\"\n";
   p << "next chunk\njump SELF discharge\nlabel finished\n"
     << "write_dump all custom final.dump id " << BodyColumn(s) << " type x y radius z\n"
     << "print \"GRANARY_FINAL ${step_now}\"\n"

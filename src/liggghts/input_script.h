@@ -22,7 +22,7 @@ inline constexpr char kControlFile[] = "granary_control.in";
 // A planar rectangle for an STL mesh: the segment (x0,y0)-(x1,y1) in the silo plane,
 // extruded over z in [-half_z, half_z].
 struct MeshFile {
-  std::string name;   // file name in the run directory, e.g. "mesh_base_0.stl"
+  std::string name;  // file name in the run directory, e.g. "mesh_base_0.stl"
   double x0, y0, x1, y1;
   std::vector<std::array<double, 2>> then = {};  // a polyline goes on through these points
 };
@@ -34,20 +34,20 @@ struct Counter {
   MeshFile mesh;
   double side_x, side_y;  // direction in which a body leaves (massflow vec_side)
   int outlet;
-  std::string file;       // the crossings LIGGGHTS writes (per MPI rank: file.<rank>)
+  std::string file;  // the crossings LIGGGHTS writes (per MPI rank: file.<rank>)
 };
 
 // The quasi-2-D set-up shared by the bed and discharge scripts.
 struct SiloSetup {
-  int species = 0;            // atom types 1..species are the bodies' spheres
-  int wall_type = 0;          // = species + 1
-  bool multisphere = false;   // any clump: clumps are multisphere bodies (fix multisphere)
+  int species = 0;                // atom types 1..species are the bodies' spheres
+  int wall_type = 0;              // = species + 1
+  bool multisphere = false;       // any clump: clumps are multisphere bodies (fix multisphere)
   std::vector<int> single_types;  // atom types of single-disc species, integrated by nve/sphere
-  double half_width = 0;      // side walls at +-half_width
-  double x_lo = 0, x_hi = 0;  // box
-  double y_lo = 0, y_hi = 0;  // box (periodic in y)
-  double half_z = 0;          // box z extent [-half_z, half_z]
-  double bound_radius = 0;    // largest body's bounding radius
+  double half_width = 0;          // side walls at +-half_width
+  double x_lo = 0, x_hi = 0;      // box
+  double y_lo = 0, y_hi = 0;      // box (periodic in y)
+  double half_z = 0;              // box z extent [-half_z, half_z]
+  double bound_radius = 0;        // largest body's bounding radius
   double insert_y_lo = 0, insert_y_hi = 0;
   double insert_x_half = 0;
   double mean_body_mass = 0;

@@ -53,7 +53,8 @@ void Paint(const Scene& s, PixelSize size, Painter& p) {
   for (const auto& c : s.silo.obstacles) p.Circle(px(c.x), py(c.y), c.r * k, kObstacle, kObstacle, 0, "obstacle");
   for (const auto& d : s.discs) {
     const Rgb edge = d.highlight ? kInk : Rgb{d.fill.r * 0.6, d.fill.g * 0.6, d.fill.b * 0.6};
-    p.Circle(px(d.x), py(d.y), d.r * k, d.fill, edge, (d.highlight ? 0.16 : 0.04) * k, d.highlight ? "disc highlight" : "disc");
+    p.Circle(px(d.x), py(d.y), d.r * k, d.fill, edge, (d.highlight ? 0.16 : 0.04) * k,
+             d.highlight ? "disc highlight" : "disc");
   }
   for (const auto& l : s.forces) p.Segment(px(l.x1), py(l.y1), px(l.x2), py(l.y2), l.width * k, l.colour);
   const double font = FontSize(size.width);
@@ -62,8 +63,8 @@ void Paint(const Scene& s, PixelSize size, Painter& p) {
   for (const auto& key : s.legend) {
     const double x = size.width - font * 0.6;
     p.Text(x - font * 1.3, y, font * 0.8, key.label, true);
-    p.Polygon({{x - font, y - font * 0.75}, {x, y - font * 0.75}, {x, y + font * 0.1}, {x - font, y + font * 0.1}}, key.colour,
-              "key");
+    p.Polygon({{x - font, y - font * 0.75}, {x, y - font * 0.75}, {x, y + font * 0.1}, {x - font, y + font * 0.1}},
+              key.colour, "key");
     y += font * 1.2;
   }
 }
@@ -78,10 +79,14 @@ std::string Hex(Rgb c) {
 std::string Escape(const std::string& t) {
   std::string out;
   for (char c : t) {
-    if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '&') out += "&amp;";
-    else out += c;
+    if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else if (c == '&')
+      out += "&amp;";
+    else
+      out += c;
   }
   return out;
 }
@@ -101,8 +106,9 @@ class SvgPainter : public Painter {
     out += "/>\n";
   }
   void Segment(double x1, double y1, double x2, double y2, double width, Rgb colour) override {
-    out += "<line class=\"force\" x1=\"" + Num(x1) + "\" y1=\"" + Num(y1) + "\" x2=\"" + Num(x2) + "\" y2=\"" + Num(y2) +
-           "\" stroke=\"" + Hex(colour) + "\" stroke-width=\"" + Num(width) + "\" stroke-linecap=\"round\"/>\n";
+    out += "<line class=\"force\" x1=\"" + Num(x1) + "\" y1=\"" + Num(y1) + "\" x2=\"" + Num(x2) + "\" y2=\"" +
+           Num(y2) + "\" stroke=\"" + Hex(colour) + "\" stroke-width=\"" + Num(width) +
+           "\" stroke-linecap=\"round\"/>\n";
   }
   void Text(double x, double y, double size, const std::string& text, bool right) override {
     out += "<text x=\"" + Num(x) + "\" y=\"" + Num(y) + "\" font-size=\"" + Num(size) + "\"" +

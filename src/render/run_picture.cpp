@@ -37,8 +37,8 @@ double PickTime(const rundir::RunData& run, const FramePick& pick) {
   // The analyses' rule of a clog (clogging.h), with the run's own clog_window.
   const analysis::PassOptions pass;
   const analysis::RunView v = analysis::MakeRunView(run, pass);
-  const analysis::ClogSeries series =
-      analysis::ComputeClogSeries(run.events, -1, v.t_end, v.clog_gap, analysis::RunEndOf(v.end_reason), v.stop_on_clog);
+  const analysis::ClogSeries series = analysis::ComputeClogSeries(run.events, -1, v.t_end, v.clog_gap,
+                                                                  analysis::RunEndOf(v.end_reason), v.stop_on_clog);
   const auto& clogs = series.clogged;
   if (pick.clog < 1 || pick.clog > static_cast<int>(clogs.size()))
     throw std::runtime_error("run " + run.dir.string() + " has " + std::to_string(clogs.size()) + " clog" +
@@ -86,7 +86,8 @@ RunSetting SettingOf(const rundir::RunData& run) {
   const RunSpec spec = RunSpec::FromJson(run.spec);
   rundir::FrameReader reader(run.FramesFile(), spec.bodies.density);
   Frame first;
-  if (!reader.Next(first)) throw std::runtime_error("run " + run.dir.string() + ": " + run.FramesFile().string() + " has no frame");
+  if (!reader.Next(first))
+    throw std::runtime_error("run " + run.dir.string() + ": " + run.FramesFile().string() + " has no frame");
   RunSetting s;
   const double top = TopOf(first);
   // Walls as high as the picture when the spec leaves their height automatic.
@@ -112,7 +113,8 @@ Scene ClogScene(const fs::path& run_dir, int clog, const PictureOptions& o, cons
   const double top = TopOf(c.frame);
   RunSetting setting;
   setting.silo = silo::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : top + 1);
-  setting.window = window ? *window : SiloWindow(setting.silo, spec.discharge.exit_distance, std::max(top, spec.silo.height));
+  setting.window =
+      window ? *window : SiloWindow(setting.silo, spec.discharge.exit_distance, std::max(top, spec.silo.height));
   for (const auto& sp : spec.bodies.species) setting.species.push_back(sp.name);
   SceneOptions so = OptionsFor(setting, o);
   so.contacts = &c.contacts;
@@ -121,11 +123,13 @@ Scene ClogScene(const fs::path& run_dir, int clog, const PictureOptions& o, cons
 }
 
 Scene RunScene(const fs::path& run_dir, const PictureOptions& o) {
-  if (o.pick.kind == FramePick::kClog && rundir::ClogReader(run_dir).Present()) return ClogScene(run_dir, o.pick.clog, o);
+  if (o.pick.kind == FramePick::kClog && rundir::ClogReader(run_dir).Present())
+    return ClogScene(run_dir, o.pick.clog, o);
   const rundir::RunData run = rundir::ReadRun(run_dir);
   const RunSetting setting = SettingOf(run);
   if (NeedsContacts(o) && !setting.has_contacts)
-    throw std::runtime_error("run " + run_dir.string() + " has no contact frames (its spec's output.contact_forces is false)");
+    throw std::runtime_error("run " + run_dir.string() +
+                             " has no contact frames (its spec's output.contact_forces is false)");
   const double want = PickTime(run, o.pick);
   rundir::FrameReader reader(run.FramesFile(), run.spec.at("bodies").value("density", 1.0));
   Frame f, best;
@@ -138,7 +142,9 @@ Scene RunScene(const fs::path& run_dir, const PictureOptions& o) {
   std::optional<ContactFrame> contacts;
   if (NeedsContacts(o)) {
     contacts = ContactsAt(run.ContactsFile(), best.timestep);
-    if (!contacts) throw std::runtime_error("run " + run_dir.string() + " has no contact frame at step " + std::to_string(best.timestep));
+    if (!contacts)
+      throw std::runtime_error("run " + run_dir.string() + " has no contact frame at step " +
+                               std::to_string(best.timestep));
   }
   SceneOptions so = OptionsFor(setting, o);
   so.window.y_hi = std::max(so.window.y_hi, TopOf(best) + 1);
@@ -152,7 +158,8 @@ int WriteMovie(const fs::path& run_dir, const PictureOptions& o, const fs::path&
   const rundir::RunData run = rundir::ReadRun(run_dir);
   const RunSetting setting = SettingOf(run);
   if (NeedsContacts(o) && !setting.has_contacts)
-    throw std::runtime_error("run " + run_dir.string() + " has no contact frames (its spec's output.contact_forces is false)");
+    throw std::runtime_error("run " + run_dir.string() +
+                             " has no contact frames (its spec's output.contact_forces is false)");
   const double density = run.spec.at("bodies").value("density", 1.0);
   int total = 0;
   double top = 0;  // of every frame: one window for the whole movie
@@ -164,7 +171,8 @@ int WriteMovie(const fs::path& run_dir, const PictureOptions& o, const fs::path&
     }
   }
   const std::string ffmpeg = bp::search_path("ffmpeg").string();
-  if (ffmpeg.empty()) throw std::runtime_error("ffmpeg not found: install Debian's package ffmpeg (scripts/setup.sh does)");
+  if (ffmpeg.empty())
+    throw std::runtime_error("ffmpeg not found: install Debian's package ffmpeg (scripts/setup.sh does)");
   bp::opstream frames_in;
   bp::ipstream log;
   std::optional<bp::child> ff;
@@ -174,7 +182,7 @@ int WriteMovie(const fs::path& run_dir, const PictureOptions& o, const fs::path&
     ff.emplace(ffmpeg, "-hide_banner", "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", "bgra", "-s",
                std::to_string(size.width) + "x" + std::to_string(size.height), "-r", std::to_string(fps), "-i", "-",
                "-c:v", "libx264", "-pix_fmt", "yuv420p", "-movflags", "+faststart", out.string(),
-               bp::std_in < frames_in, (bp::std_out & bp::std_err) > log);
+               bp::std_in<frames_in, (bp::std_out & bp::std_err)> log);
   };
   // An ffmpeg that has died makes the next write fail instead of killing this process.
   const auto old_sigpipe = std::signal(SIGPIPE, SIG_IGN);

@@ -28,12 +28,12 @@ Rgb Map(const Rgb (&stops)[N], double t) {
   const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(t), N - 2);
   return Mix(stops[k], stops[k + 1], t - static_cast<double>(k));
 }
-constexpr Rgb kViridis[] = {{0.267, 0.005, 0.329}, {0.229, 0.322, 0.546}, {0.128, 0.567, 0.551}, {0.369, 0.789, 0.383},
-                            {0.993, 0.906, 0.144}};
+constexpr Rgb kViridis[] = {
+    {0.267, 0.005, 0.329}, {0.229, 0.322, 0.546}, {0.128, 0.567, 0.551}, {0.369, 0.789, 0.383}, {0.993, 0.906, 0.144}};
 constexpr Rgb kDiverging[] = {{0.23, 0.30, 0.75}, {0.87, 0.87, 0.87}, {0.71, 0.02, 0.15}};
 constexpr Rgb kHeat[] = {{1.0, 0.96, 0.75}, {0.99, 0.62, 0.26}, {0.80, 0.11, 0.11}, {0.35, 0.0, 0.10}};
-constexpr Rgb kSpecies[] = {{0.30, 0.45, 0.69}, {0.87, 0.52, 0.32}, {0.33, 0.66, 0.41}, {0.77, 0.31, 0.32},
-                            {0.51, 0.45, 0.70}, {0.58, 0.47, 0.38}};
+constexpr Rgb kSpecies[] = {{0.30, 0.45, 0.69}, {0.87, 0.52, 0.32}, {0.33, 0.66, 0.41},
+                            {0.77, 0.31, 0.32}, {0.51, 0.45, 0.70}, {0.58, 0.47, 0.38}};
 constexpr Rgb kForceLine = {0.55, 0.0, 0.05};
 
 // The q-quantile of `v` (v is reordered).
@@ -92,7 +92,8 @@ Scene MakeScene(const rundir::Frame& frame, const silo::SiloOutline& silo, const
     lo = -hi;
     what = "angular velocity";
   } else if (o.colour == Colour::kForce) {
-    if (!o.contacts) throw std::invalid_argument("colour by force needs the run's contact frames (output.contact_forces)");
+    if (!o.contacts)
+      throw std::invalid_argument("colour by force needs the run's contact frames (output.contact_forces)");
     for (const auto& c : o.contacts->contacts) {
       const double f = std::hypot(c.fx, c.fy);
       value[c.body_i] += f;
@@ -121,16 +122,22 @@ Scene MakeScene(const rundir::Frame& frame, const silo::SiloOutline& silo, const
     for (const auto& d : frame.discs) types.insert(d.type);
     for (int t : types) {
       const std::size_t k = static_cast<std::size_t>(std::max(t - 1, 0));
-      scene.legend.push_back({kSpecies[k % std::size(kSpecies)], k < o.species.size() ? o.species[k] : "type " + std::to_string(t)});
+      scene.legend.push_back(
+          {kSpecies[k % std::size(kSpecies)], k < o.species.size() ? o.species[k] : "type " + std::to_string(t)});
     }
   } else {
-    const auto& stops_lo = o.colour == Colour::kSpeed ? kViridis[0] : o.colour == Colour::kRotation ? kDiverging[0] : kHeat[0];
-    const auto& stops_hi = o.colour == Colour::kSpeed ? kViridis[4] : o.colour == Colour::kRotation ? kDiverging[2] : kHeat[3];
+    const auto& stops_lo = o.colour == Colour::kSpeed      ? kViridis[0]
+                           : o.colour == Colour::kRotation ? kDiverging[0]
+                                                           : kHeat[0];
+    const auto& stops_hi = o.colour == Colour::kSpeed      ? kViridis[4]
+                           : o.colour == Colour::kRotation ? kDiverging[2]
+                                                           : kHeat[3];
     scene.legend.push_back({stops_lo, what + " " + Fixed(lo)});
     scene.legend.push_back({stops_hi, what + " " + Fixed(hi) + (o.colour == Colour::kRotation ? "" : " and above")});
   }
   if (o.forces) {
-    if (!o.contacts) throw std::invalid_argument("the force network needs the run's contact frames (output.contact_forces)");
+    if (!o.contacts)
+      throw std::invalid_argument("the force network needs the run's contact frames (output.contact_forces)");
     std::vector<double> f;
     for (const auto& c : o.contacts->contacts) f.push_back(std::hypot(c.fx, c.fy));
     double mean = 0;
@@ -147,6 +154,5 @@ Scene MakeScene(const rundir::Frame& frame, const silo::SiloOutline& silo, const
   }
   return scene;
 }
-
 
 }  // namespace granary::render

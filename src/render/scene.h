@@ -47,7 +47,7 @@ struct Scene {
     Rgb colour;
     std::string label;
   };
-  std::vector<Key> legend;       // top right: a swatch and a label each
+  std::vector<Key> legend;  // top right: a swatch and a label each
 };
 
 enum class Colour { kSpecies, kSpeed, kRotation, kForce };
@@ -58,9 +58,9 @@ struct SceneOptions {
   Window window;
   Colour colour = Colour::kSpecies;
   const rundir::ContactFrame* contacts = nullptr;  // needed by Colour::kForce and forces
-  bool forces = false;                               // draw the contact-force network
-  std::set<std::int64_t> highlight;                  // body ids drawn outlined
-  std::vector<std::string> species;                  // names by type - 1, for the legend
+  bool forces = false;                             // draw the contact-force network
+  std::set<std::int64_t> highlight;                // body ids drawn outlined
+  std::vector<std::string> species;                // names by type - 1, for the legend
   std::string caption;
 };
 

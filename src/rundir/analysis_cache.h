@@ -14,9 +14,9 @@ namespace granary::rundir {
 inline constexpr char kAnalysesDir[] = "analyses";
 
 struct CachedResult {
-  std::string analysis;            // the analysis' key
-  nlohmann::json key;              // what the result depends on besides the run: version, options
-  std::string summary_hash;        // hash_hex of summary.json: a run run again is analysed again
+  std::string analysis;      // the analysis' key
+  nlohmann::json key;        // what the result depends on besides the run: version, options
+  std::string summary_hash;  // hash_hex of summary.json: a run run again is analysed again
   nlohmann::json result;
 };
 

@@ -70,7 +70,8 @@ std::int64_t DumpOffsetAfter(const fs::path& file, std::int64_t timestep) {
       const int values = item.rfind("ITEM: BOX BOUNDS", 0) == 0 ? 3 : 1;
       for (int k = 0; k < values; ++k)
         if (!next()) return block_start;
-      if (item == "ITEM: TIMESTEP" && !detail::ToInt(line, step)) return fail("timestep '" + line + "' is not an integer");
+      if (item == "ITEM: TIMESTEP" && !detail::ToInt(line, step))
+        return fail("timestep '" + line + "' is not an integer");
       if ((item == "ITEM: NUMBER OF ATOMS" || item == "ITEM: NUMBER OF ENTRIES") && !detail::ToInt(line, count))
         return fail("count '" + line + "' is not an integer");
       if (!next()) return block_start;
@@ -97,8 +98,9 @@ bool ClogReader::Next(ClogState& clog) {
   const bool frame = frames_->Next(clog.frame);
   const bool contacts = contacts_->Next(clog.contacts);
   if (frame && contacts && clog.frame.timestep != clog.contacts.timestep)
-    throw ReadError((dir_ / kClogContactsFile).string() + ": a block at timestep " + std::to_string(clog.contacts.timestep) +
-                    " beside the configuration at timestep " + std::to_string(clog.frame.timestep));
+    throw ReadError((dir_ / kClogContactsFile).string() + ": a block at timestep " +
+                    std::to_string(clog.contacts.timestep) + " beside the configuration at timestep " +
+                    std::to_string(clog.frame.timestep));
   if (frame && !contacts)
     throw ReadError((dir_ / kClogContactsFile).string() + ": no block for the clog at timestep " +
                     std::to_string(clog.frame.timestep));

@@ -68,8 +68,7 @@ std::int64_t ContactBytes(const ContactFrame& frame, bool gzip) {
   return BlockBytes(gzip, [&](std::FILE* f) { WriteContactBlock(f, frame, text); });
 }
 
-ContactReader::ContactReader(const std::filesystem::path& file)
-    : file_(file) {
+ContactReader::ContactReader(const std::filesystem::path& file) : file_(file) {
   if (gsd::IsGsdFile(file))
     gsd_ = std::make_unique<gsd::GsdContactReader>(file);
   else
@@ -151,7 +150,8 @@ bool ContactReader::ReadContacts(ContactFrame& frame) {
       in.Fail("contact row has " + std::to_string(f.size()) + " fields, expected " + std::to_string(h.columns.size()));
     ContactRow c;
     auto field = [&](int k) { return f[static_cast<std::size_t>(cols[k])]; };
-    if (!ToInt(field(0), c.body_i) || !ToInt(field(1), c.body_j)) in.Fail("body ids in '" + std::string(line) + "' are not integers");
+    if (!ToInt(field(0), c.body_i) || !ToInt(field(1), c.body_j))
+      in.Fail("body ids in '" + std::string(line) + "' are not integers");
     double* out[8] = {&c.xi, &c.yi, &c.xj, &c.yj, &c.cx, &c.cy, &c.fx, &c.fy};
     for (int k = 0; k < 8; ++k)
       if (!ToDouble(field(k + 2), *out[k]))

@@ -76,7 +76,7 @@ class ContactReader {
 
  private:
   std::filesystem::path file_;
-  std::unique_ptr<detail::DumpState> state_;  // a text dump
+  std::unique_ptr<detail::DumpState> state_;    // a text dump
   std::unique_ptr<gsd::GsdContactReader> gsd_;  // or a GSD file
 };
 

@@ -104,7 +104,8 @@ bool ReadDumpHeader(DumpLines& in, const char* count_item, const char* columns_i
   while (line == "ITEM: UNITS" || line == "ITEM: TIME") {
     const std::string item = line;
     if (!in.Next(line)) return false;
-    if (item == "ITEM: TIME" && !ToDouble(std::string_view(line), h.time)) in.Fail("time '" + line + "' is not a number");
+    if (item == "ITEM: TIME" && !ToDouble(std::string_view(line), h.time))
+      in.Fail("time '" + line + "' is not a number");
     if (!in.Next(line)) return false;
   }
   if (line.rfind("ITEM: TIMESTEP", 0) != 0) in.Fail("expected 'ITEM: TIMESTEP', got '" + line + "'");

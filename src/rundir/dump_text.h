@@ -31,7 +31,7 @@ inline void Split(std::string_view s, char sep, std::vector<std::string_view>& o
       while (p < end && static_cast<unsigned char>(*p) <= ' ') ++p;
       if (p == end) return;
       const char* start = p;
-      while (p < end && static_cast<unsigned char>(*p) > ' ') ++p;
+      while (p<end&& static_cast<unsigned char>(*p)> ' ') ++p;
       out.emplace_back(start, static_cast<std::size_t>(p - start));
     }
   }
@@ -67,7 +67,8 @@ inline void AppendDigits(const char*& p, const char* const end, std::uint64_t& m
       std::uint64_t v = x << (8 * (8 - n));
       v = v * 10 + (v >> 8);
       v = (((v & 0x000000FF000000FF) * (100 + (1000000ULL << 32))) +
-           (((v >> 16) & 0x000000FF000000FF) * (1 + (10000ULL << 32)))) >> 32;
+           (((v >> 16) & 0x000000FF000000FF) * (1 + (10000ULL << 32)))) >>
+          32;
       m = m * kPow10Int[n] + v;
       p += n;
       if (n < 8) return;
@@ -151,7 +152,7 @@ inline bool SkipBlanks(const char*& p, const char* end) {
 inline std::string_view NextField(const char*& p, const char* end) {
   if (!SkipBlanks(p, end)) return {};
   const char* const start = p;
-  while (p < end && static_cast<unsigned char>(*p) > ' ') ++p;
+  while (p<end&& static_cast<unsigned char>(*p)> ' ') ++p;
   return {start, static_cast<std::size_t>(p - start)};
 }
 inline bool NextDouble(const char*& p, const char* end, double& v) {
@@ -194,8 +195,8 @@ inline void WriteDumpHeader(std::FILE* out, std::int64_t timestep, double time, 
                             std::size_t count, const double (&box)[3][2]) {
   std::fprintf(out, "ITEM: TIME\n%.16g\nITEM: TIMESTEP\n%lld\nITEM: %s\n%zu\n", time, static_cast<long long>(timestep),
                count_item, count);
-  std::fprintf(out, "ITEM: BOX BOUNDS ff ff pp\n%.16g %.16g\n%.16g %.16g\n%.16g %.16g\n", box[0][0], box[0][1], box[1][0],
-               box[1][1], box[2][0], box[2][1]);
+  std::fprintf(out, "ITEM: BOX BOUNDS ff ff pp\n%.16g %.16g\n%.16g %.16g\n%.16g %.16g\n", box[0][0], box[0][1],
+               box[1][0], box[1][1], box[2][0], box[2][1]);
 }
 
 // Dump rows built in memory: numbers by std::to_chars, which the standard defines as printf

@@ -97,12 +97,14 @@ std::vector<ExitEvent> ReadEvents(const std::filesystem::path& file) {
       throw ReadError(Where(file, line_no) + ": mass '" + std::string(field(c_mass)) + "' is not a number");
     if (c_outlet >= 0) {
       if (!detail::ToInt(field(c_outlet), iv) || iv < 0)
-        throw ReadError(Where(file, line_no) + ": outlet '" + std::string(field(c_outlet)) + "' is not an outlet index");
+        throw ReadError(Where(file, line_no) + ": outlet '" + std::string(field(c_outlet)) +
+                        "' is not an outlet index");
       e.outlet = static_cast<int>(iv);
     }
     events.push_back(std::move(e));
   }
-  std::stable_sort(events.begin(), events.end(), [](const ExitEvent& a, const ExitEvent& b) { return a.time < b.time; });
+  std::stable_sort(events.begin(), events.end(),
+                   [](const ExitEvent& a, const ExitEvent& b) { return a.time < b.time; });
   return events;
 }
 

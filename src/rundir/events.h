@@ -12,11 +12,11 @@
 namespace granary::rundir {
 
 struct ExitEvent {
-  double time = 0.0;               // since the outlets opened
-  std::int64_t body = -1;          // body id (0-based, stable for the run)
-  std::string shape;               // species name
-  double mass = 0.0;               // NaN when read from a file without a mass column
-  int outlet = 0;                  // base outlets first in spec order, then side outlets
+  double time = 0.0;       // since the outlets opened
+  std::int64_t body = -1;  // body id (0-based, stable for the run)
+  std::string shape;       // species name
+  double mass = 0.0;       // NaN when read from a file without a mass column
+  int outlet = 0;          // base outlets first in spec order, then side outlets
 };
 
 class EventWriter {

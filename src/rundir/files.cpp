@@ -222,8 +222,8 @@ RunDirectoryLock::RunDirectoryLock(const std::filesystem::path& dir) {
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     ::close(fd_);
     fd_ = -1;
-    throw RunDirectoryBusy("run directory " + dir.string() + " is locked by " + HolderText(dir) +
-                           " (" + file.string() + "); two engines never write one directory");
+    throw RunDirectoryBusy("run directory " + dir.string() + " is locked by " + HolderText(dir) + " (" + file.string() +
+                           "); two engines never write one directory");
   }
   if (!CanLockExclusively(dir / kHelpersLockFile)) {
     ::close(fd_);

@@ -106,7 +106,8 @@ std::string LammpsDataFile(const Frame& frame) {
     detail::AppendInt(t, d.id);
     t += ' ';
     detail::AppendInt(t, d.type);
-    const double density = d.radius > 0 ? d.mass / (4.0 / 3.0 * std::numbers::pi * d.radius * d.radius * d.radius) : 1.0;
+    const double density =
+        d.radius > 0 ? d.mass / (4.0 / 3.0 * std::numbers::pi * d.radius * d.radius * d.radius) : 1.0;
     for (const double v : {2 * d.radius, density, d.x, d.y}) t += ' ', detail::AppendG17(t, v);
     t += " 0\n";
   }
@@ -167,8 +168,7 @@ std::int64_t FrameBytes(const Frame& frame, bool gzip) {
 
 // ---- reader ------------------------------------------------------------------------------
 
-FrameReader::FrameReader(const std::filesystem::path& file, double density)
-    : file_(file), density_(density) {
+FrameReader::FrameReader(const std::filesystem::path& file, double density) : file_(file), density_(density) {
   if (gsd::IsGsdFile(file))
     gsd_ = std::make_unique<gsd::GsdFrameReader>(file);
   else

@@ -17,17 +17,17 @@ struct DumpState;
 }
 
 struct Disc {
-  std::int64_t id = 0;             // disc id (1-based)
-  std::int64_t mol = 0;            // body id (0-based, as in events)
-  int type = 1;                    // species index + 1
+  std::int64_t id = 0;   // disc id (1-based)
+  std::int64_t mol = 0;  // body id (0-based, as in events)
+  int type = 1;          // species index + 1
   double x = 0.0, y = 0.0, radius = 0.5, mass = 0.0;
-  double vx = 0.0, vy = 0.0;       // velocity of the disc centre
-  double omega = 0.0;              // the body's angular velocity
+  double vx = 0.0, vy = 0.0;  // velocity of the disc centre
+  double omega = 0.0;         // the body's angular velocity
 };
 
 struct Frame {
-  std::int64_t timestep = 0;       // steps since the outlets opened
-  double time = 0.0;               // since the outlets opened
+  std::int64_t timestep = 0;  // steps since the outlets opened
+  double time = 0.0;          // since the outlets opened
   double box[3][2] = {{0, 0}, {0, 0}, {-0.5, 0.5}};
   std::vector<Disc> discs;
 };
@@ -37,13 +37,13 @@ struct Body {
   std::int64_t id = 0;
   int type = 1;
   int n_discs = 0;
-  double mass = 0.0;               // sum of disc masses
-  double x = 0.0, y = 0.0;         // centre of mass
-  double vx = 0.0, vy = 0.0;       // centre-of-mass velocity (mass-weighted disc velocities: exact for a rigid body)
+  double mass = 0.0;          // sum of disc masses
+  double x = 0.0, y = 0.0;    // centre of mass
+  double vx = 0.0, vy = 0.0;  // centre-of-mass velocity (mass-weighted disc velocities: exact for a rigid body)
   double omega = 0.0;
-  double inertia = 0.0;            // sum m_i |r_i - R|^2 + (2/5) m_i r_i^2 (docs/model.md)
-  double theta = 0.0;              // angle of the axis from the lowest-id disc to the highest-id disc, (-pi, pi]; 0 for one disc
-  double area = 0.0;               // sum pi r_i^2
+  double inertia = 0.0;  // sum m_i |r_i - R|^2 + (2/5) m_i r_i^2 (docs/model.md)
+  double theta = 0.0;    // angle of the axis from the lowest-id disc to the highest-id disc, (-pi, pi]; 0 for one disc
+  double area = 0.0;     // sum pi r_i^2
 };
 
 // Bodies of a frame, ordered by body id.
@@ -106,8 +106,8 @@ class FrameReader {
 
  private:
   std::filesystem::path file_;
-  std::unique_ptr<detail::DumpState> state_;     // a text dump
-  std::unique_ptr<gsd::GsdFrameReader> gsd_;     // or a GSD file
+  std::unique_ptr<detail::DumpState> state_;  // a text dump
+  std::unique_ptr<gsd::GsdFrameReader> gsd_;  // or a GSD file
   double density_;
 };
 

@@ -51,8 +51,9 @@ void PreadAll(int fd, void* out, std::size_t bytes, std::int64_t at, const std::
   while (bytes > 0) {
     const ssize_t got = ::pread(fd, p, bytes, at);
     if (got < 0 && errno == EINTR) continue;
-    if (got <= 0) throw ReadError(path.string() + ": cannot read " + std::to_string(bytes) + " bytes at " + std::to_string(at) +
-                                  (got < 0 ? ": " + ErrnoText() : ": the file ends"));
+    if (got <= 0)
+      throw ReadError(path.string() + ": cannot read " + std::to_string(bytes) + " bytes at " + std::to_string(at) +
+                      (got < 0 ? ": " + ErrnoText() : ": the file ends"));
     p += got;
     bytes -= static_cast<std::size_t>(got);
     at += got;
@@ -80,7 +81,8 @@ FileHead ReadHead(int fd, const std::filesystem::path& path, std::int64_t size) 
   const std::uint64_t index_bytes = h.header.index_allocated_entries * sizeof(IndexEntry);
   if (h.header.namelist_location + name_bytes > static_cast<std::uint64_t>(size) ||
       h.header.index_location + index_bytes > static_cast<std::uint64_t>(size))
-    throw ReadError(path.string() + ": the header points past the end of the file (" + std::to_string(size) + " bytes)");
+    throw ReadError(path.string() + ": the header points past the end of the file (" + std::to_string(size) +
+                    " bytes)");
   std::string names(name_bytes, '\0');
   PreadAll(fd, names.data(), names.size(), static_cast<std::int64_t>(h.header.namelist_location), path);
   // 1.x: one name per 64-byte slot; 2.x: names end at a 0 byte. Both end at an empty name.
@@ -90,8 +92,10 @@ FileHead ReadHead(int fd, const std::filesystem::path& path, std::int64_t size) 
     at = major == 1 ? at + kNameSlot : end + 1;
   }
   h.entries.resize(h.header.index_allocated_entries);
-  if (index_bytes > 0) PreadAll(fd, h.entries.data(), index_bytes, static_cast<std::int64_t>(h.header.index_location), path);
-  const auto used = std::find_if(h.entries.begin(), h.entries.end(), [](const IndexEntry& e) { return e.location == 0; });
+  if (index_bytes > 0)
+    PreadAll(fd, h.entries.data(), index_bytes, static_cast<std::int64_t>(h.header.index_location), path);
+  const auto used =
+      std::find_if(h.entries.begin(), h.entries.end(), [](const IndexEntry& e) { return e.location == 0; });
   h.entries.erase(used, h.entries.end());
   return h;
 }
@@ -106,10 +110,17 @@ std::int64_t FileSize(int fd, const std::filesystem::path& path) {
 
 std::size_t SizeOf(Type type) {
   switch (type) {
-    case Type::kUint8: case Type::kInt8: case Type::kCharacter: return 1;
-    case Type::kUint16: case Type::kInt16: return 2;
-    case Type::kUint32: case Type::kInt32: case Type::kFloat: return 4;
-    case Type::kUint64: case Type::kInt64: case Type::kDouble: return 8;
+    case Type::kUint8:
+    case Type::kInt8:
+    case Type::kCharacter: return 1;
+    case Type::kUint16:
+    case Type::kInt16: return 2;
+    case Type::kUint32:
+    case Type::kInt32:
+    case Type::kFloat: return 4;
+    case Type::kUint64:
+    case Type::kInt64:
+    case Type::kDouble: return 8;
   }
   return 0;
 }
@@ -185,8 +196,10 @@ bool GsdFile::Replay(const std::vector<std::string>& names, const std::vector<In
     while (last < kept.size() && kept[last].frame == kept[first].frame) ++last;
     if (kept[first].frame != frame_) return false;
     // A frame's entries are sorted by name id; its chunks were written in the order of their data.
-    std::vector<IndexEntry> written(kept.begin() + static_cast<std::ptrdiff_t>(first), kept.begin() + static_cast<std::ptrdiff_t>(last));
-    std::sort(written.begin(), written.end(), [](const IndexEntry& a, const IndexEntry& b) { return a.location < b.location; });
+    std::vector<IndexEntry> written(kept.begin() + static_cast<std::ptrdiff_t>(first),
+                                    kept.begin() + static_cast<std::ptrdiff_t>(last));
+    std::sort(written.begin(), written.end(),
+              [](const IndexEntry& a, const IndexEntry& b) { return a.location < b.location; });
     for (const IndexEntry& e : written) {
       if (e.id >= names.size()) return false;
       Write(names[e.id], static_cast<Type>(e.type), e.n, e.m, nullptr);
@@ -198,8 +211,8 @@ bool GsdFile::Replay(const std::vector<std::string>& names, const std::vector<In
   return end_ == offset;
 }
 
-GsdFile GsdFile::ContinueAt(const std::filesystem::path& file, std::int64_t offset, const std::string& schema, int major,
-                            int minor) {
+GsdFile GsdFile::ContinueAt(const std::filesystem::path& file, std::int64_t offset, const std::string& schema,
+                            int major, int minor) {
   if (!std::filesystem::exists(file) || offset < static_cast<std::int64_t>(sizeof(Header)))
     return Create(file, schema, major, minor);
   const int fd = ::open(file.c_str(), O_RDWR | O_CLOEXEC);
@@ -335,7 +348,8 @@ void GsdFile::Write(std::string_view name, Type type, std::uint64_t n, std::uint
   e.type = static_cast<std::uint8_t>(type);
   e.location = end_;
   for (const IndexEntry& p : pending_)
-    if (p.id == e.id) throw std::logic_error(path_.string() + ": chunk " + std::string(name) + " written twice in a frame");
+    if (p.id == e.id)
+      throw std::logic_error(path_.string() + ": chunk " + std::string(name) + " written twice in a frame");
   PutAt(end_, data, e.Bytes());
   pending_.push_back(e);
 }
@@ -380,8 +394,8 @@ GsdReader::GsdReader(const std::filesystem::path& file) : path_(file) {
       Fail("index entry " + std::to_string(k) + " is corrupt (type " + std::to_string(e.type) + ", name id " +
            std::to_string(e.id) + " of " + std::to_string(names_.size()) + ")");
     if (!index_.empty() && e.frame < index_.back().frame)
-      Fail("index entry " + std::to_string(k) + " goes back from frame " + std::to_string(index_.back().frame) + " to " +
-           std::to_string(e.frame));
+      Fail("index entry " + std::to_string(k) + " goes back from frame " + std::to_string(index_.back().frame) +
+           " to " + std::to_string(e.frame));
     if (e.location + static_cast<std::int64_t>(e.Bytes()) > size) {
       // Data not all there (a writer at work, or a cut file): the frames before this one.
       while (!index_.empty() && index_.back().frame == e.frame) index_.pop_back();
@@ -460,8 +474,12 @@ double CentreOf(const double (&box)[3][2], int axis) { return 0.5 * (box[axis][0
 void WriteBoxAndTime(GsdFile& f, std::int64_t timestep, double time, const double (&box)[3][2]) {
   const auto step = static_cast<std::uint64_t>(timestep);
   f.Write("configuration/step", Type::kUint64, 1, 1, &step);
-  const float hoomd_box[6] = {static_cast<float>(box[0][1] - box[0][0]), static_cast<float>(box[1][1] - box[1][0]),
-                              static_cast<float>(box[2][1] - box[2][0]), 0, 0, 0};
+  const float hoomd_box[6] = {static_cast<float>(box[0][1] - box[0][0]),
+                              static_cast<float>(box[1][1] - box[1][0]),
+                              static_cast<float>(box[2][1] - box[2][0]),
+                              0,
+                              0,
+                              0};
   f.Write("configuration/box", Type::kFloat, 6, 1, hoomd_box);
   f.Write("log/granary/time", Type::kDouble, 1, 1, &time);
   f.Write("log/granary/box", Type::kDouble, 3, 2, &box[0][0]);
@@ -470,7 +488,8 @@ void WriteBoxAndTime(GsdFile& f, std::int64_t timestep, double time, const doubl
 // Step, time and box of `frame` of a frames.gsd or contacts.gsd; false if the frame lacks
 // its step (cut short). A GSD file from elsewhere without Granary's log chunks gets time =
 // step and a box centred on 0.
-bool ReadBoxAndTime(const GsdReader& r, std::uint64_t frame, std::int64_t& timestep, double& time, double (&box)[3][2]) {
+bool ReadBoxAndTime(const GsdReader& r, std::uint64_t frame, std::int64_t& timestep, double& time,
+                    double (&box)[3][2]) {
   const IndexEntry* step = r.Find(frame, "configuration/step");
   if (!step) step = frame == 0 ? nullptr : r.Find(0, "configuration/step");
   timestep = step ? static_cast<std::int64_t>(r.ReadScalar<std::uint64_t>(*step)) : 0;
@@ -479,7 +498,9 @@ bool ReadBoxAndTime(const GsdReader& r, std::uint64_t frame, std::int64_t& times
   if (const IndexEntry* b = r.Find(frame, "log/granary/box")) {
     std::vector<double> v;
     r.Read(*b, v);
-    if (v.size() != 6) r.Fail("log/granary/box of frame " + std::to_string(frame) + " has " + std::to_string(v.size()) + " values, not 6");
+    if (v.size() != 6)
+      r.Fail("log/granary/box of frame " + std::to_string(frame) + " has " + std::to_string(v.size()) +
+             " values, not 6");
     std::copy(v.begin(), v.end(), &box[0][0]);
   } else {
     const IndexEntry* hb = r.Find(frame, "configuration/box");
@@ -567,7 +588,8 @@ void WriteFrameChunks(GsdFile& f, const Frame& frame, bool constants) {
   std::vector<char> names(static_cast<std::size_t>(types) * kNameWidth, '\0');
   for (int t = 0; t < types; ++t) {
     const std::string name = std::to_string(t + 1);
-    std::copy_n(name.begin(), std::min<std::size_t>(name.size(), kNameWidth - 1), &names[static_cast<std::size_t>(t) * kNameWidth]);
+    std::copy_n(name.begin(), std::min<std::size_t>(name.size(), kNameWidth - 1),
+                &names[static_cast<std::size_t>(t) * kNameWidth]);
   }
   const std::uint8_t dimensions = 2;
   f.Write("configuration/dimensions", Type::kUint8, 1, 1, &dimensions);
@@ -591,7 +613,8 @@ GsdFrameWriter GsdFrameWriter::ContinueAt(const std::filesystem::path& file, std
   GsdFrameWriter w;
   if (std::filesystem::exists(file) && offset >= static_cast<std::int64_t>(sizeof(Header))) {
     const GsdReader r(file);
-    if (const IndexEntry* e = r.Find(0, "particles/typeid"); e && e->location + static_cast<std::int64_t>(e->Bytes()) <= offset) {
+    if (const IndexEntry* e = r.Find(0, "particles/typeid");
+        e && e->location + static_cast<std::int64_t>(e->Bytes()) <= offset) {
       r.Read(*e, w.typeid0_);
       r.Read(*r.Find(0, "particles/mass"), w.mass0_);
       r.Read(*r.Find(0, "particles/diameter"), w.diameter0_);
@@ -607,9 +630,9 @@ void GsdFrameWriter::Write(const Frame& frame) {
   bool constants = file_.Frames() == 0 || frame.discs.size() != typeid0_.size();
   for (std::size_t i = 0; !constants && i < frame.discs.size(); ++i) {
     const Disc& d = frame.discs[i];
-    constants = typeid0_[i] != static_cast<std::uint32_t>(std::max(0, d.type - 1)) || mass0_[i] != static_cast<float>(d.mass) ||
-                diameter0_[i] != static_cast<float>(2 * d.radius) || body0_[i] != static_cast<std::int32_t>(d.mol) ||
-                id0_[i] != d.id;
+    constants = typeid0_[i] != static_cast<std::uint32_t>(std::max(0, d.type - 1)) ||
+                mass0_[i] != static_cast<float>(d.mass) || diameter0_[i] != static_cast<float>(2 * d.radius) ||
+                body0_[i] != static_cast<std::int32_t>(d.mol) || id0_[i] != d.id;
   }
   WriteFrameChunks(file_, frame, constants);
   if (file_.Frames() == 0) {
@@ -687,8 +710,9 @@ void GsdFrameReader::LoadConstants(std::uint64_t frame, std::uint64_t n) {
   auto need = [&](const char* name) -> const IndexEntry& {
     const IndexEntry* e = file_.Find(from, name);
     if (!e) file_.Fail(std::string("frame ") + std::to_string(frame) + " has no " + name + " (nor has frame 0)");
-    if (e->n != n) file_.Fail(std::string(name) + " of frame " + std::to_string(from) + " has " + std::to_string(e->n) +
-                              " rows, frame " + std::to_string(frame) + " has " + std::to_string(n) + " discs");
+    if (e->n != n)
+      file_.Fail(std::string(name) + " of frame " + std::to_string(from) + " has " + std::to_string(e->n) +
+                 " rows, frame " + std::to_string(frame) + " has " + std::to_string(n) + " discs");
     return *e;
   };
   file_.Read(need("particles/typeid"), typeid_);
@@ -808,7 +832,8 @@ std::int64_t GsdContactBytes(const ContactFrame& frame) {
 }
 
 GsdContactReader::GsdContactReader(const std::filesystem::path& file) : file_(file) {
-  if (file_.Schema() != kContactSchema) file_.Fail("a GSD file of schema '" + file_.Schema() + "', not '" + kContactSchema + "'");
+  if (file_.Schema() != kContactSchema)
+    file_.Fail("a GSD file of schema '" + file_.Schema() + "', not '" + kContactSchema + "'");
 }
 
 bool GsdContactReader::NextHeader(ContactFrame& frame) {
@@ -844,8 +869,8 @@ bool GsdContactReader::ReadContacts(ContactFrame& frame) {
   auto need = [&](const char* name, std::uint32_t cols, auto& out) {
     const IndexEntry* e = file_.Find(f, name);
     if (!e || e->n != n || e->m != cols)
-      file_.Fail(std::string(name) + " of frame " + std::to_string(f) + " is missing or not " + std::to_string(n) + " x " +
-                 std::to_string(cols));
+      file_.Fail(std::string(name) + " of frame " + std::to_string(f) + " is missing or not " + std::to_string(n) +
+                 " x " + std::to_string(cols));
     file_.Read(*e, out);
   };
   need("contacts/body", 2, body);

@@ -23,7 +23,19 @@ namespace gsd {
 inline constexpr std::uint64_t kMagic = 0x65DF65DF65DF65DFULL;
 
 // Chunk element types (the spec's numbering).
-enum class Type : std::uint8_t { kUint8 = 1, kUint16, kUint32, kUint64, kInt8, kInt16, kInt32, kInt64, kFloat, kDouble, kCharacter };
+enum class Type : std::uint8_t {
+  kUint8 = 1,
+  kUint16,
+  kUint32,
+  kUint64,
+  kInt8,
+  kInt16,
+  kInt32,
+  kInt64,
+  kFloat,
+  kDouble,
+  kCharacter
+};
 std::size_t SizeOf(Type type);  // 0 for an unknown type
 
 // One entry of the index: chunk `id` (its name's place in the name list) of `frame`, an
@@ -95,8 +107,8 @@ class GsdFile {
   std::unordered_map<std::string, std::uint16_t> ids_;
   std::uint64_t names_location_ = 0, names_capacity_ = 0, names_used_ = 0;  // capacity, used: bytes
   std::uint64_t index_location_ = 0, index_capacity_ = 0;                   // capacity: entries
-  std::vector<IndexEntry> index_;    // committed entries
-  std::vector<IndexEntry> pending_;  // the current frame's
+  std::vector<IndexEntry> index_;                                           // committed entries
+  std::vector<IndexEntry> pending_;                                         // the current frame's
   std::uint64_t frame_ = 0;
   std::int64_t end_ = 0;
   bool dry_ = false;  // Replay: the layout is followed, nothing is written
@@ -199,8 +211,8 @@ class GsdFrameReader {
   void LoadConstants(std::uint64_t frame, std::uint64_t n);
 
   GsdReader file_;
-  std::uint64_t next_ = 0;    // the frame NextHeader reads
-  bool pending_ = false;      // a header read, its discs not yet
+  std::uint64_t next_ = 0;  // the frame NextHeader reads
+  bool pending_ = false;    // a header read, its discs not yet
   double centre_[2] = {0, 0};
   // The per-disc constants in use and the frame they came from.
   std::uint64_t constants_from_ = UINT64_MAX;

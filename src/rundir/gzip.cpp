@@ -37,7 +37,8 @@ void WriteBlock(std::FILE* out, bool gzip, const std::function<void(std::FILE*)>
   std::fclose(mem);
   const std::string gz = GzipMember(std::string_view(buf, len));
   std::free(buf);
-  if (std::fwrite(gz.data(), 1, gz.size(), out) != gz.size()) throw std::runtime_error("cannot write a compressed block");
+  if (std::fwrite(gz.data(), 1, gz.size(), out) != gz.size())
+    throw std::runtime_error("cannot write a compressed block");
 }
 
 std::int64_t BlockBytes(bool gzip, const std::function<void(std::FILE*)>& write) {

@@ -28,9 +28,9 @@ namespace fs = std::filesystem;
 namespace {
 
 // The files a manifest records, in the order it lists them.
-constexpr const char* kRecorded[] = {kRunSpecFile,     kSummaryFile,     kEventsFile,     kFramesFile,
-                                     kFramesGzFile,    kFramesGsdFile,   kContactsFile,   kContactsGzFile,
-                                     kContactsGsdFile, kClogFramesFile,  kClogContactsFile, kUnclogsFile};
+constexpr const char* kRecorded[] = {kRunSpecFile,     kSummaryFile,    kEventsFile,       kFramesFile,
+                                     kFramesGzFile,    kFramesGsdFile,  kContactsFile,     kContactsGzFile,
+                                     kContactsGsdFile, kClogFramesFile, kClogContactsFile, kUnclogsFile};
 
 // DIR/analyses/verified.json: the files found equal to their record, by size and mtime, so
 // that a second check hashes only what changed since (manifest.h). Kept beside the cached
@@ -300,8 +300,8 @@ Verification VerifyRun(const fs::path& dir, const VerifyOptions& options) {
       try {
         const std::int64_t rows = static_cast<std::int64_t>(ReadEvents(events_file).size());
         if (summary && rows != summary->exited)
-          problem(kEventsFile, Plural(rows, "row") + ", summary.json says " + std::to_string(summary->exited) +
-                                   " bodies exited");
+          problem(kEventsFile,
+                  Plural(rows, "row") + ", summary.json says " + std::to_string(summary->exited) + " bodies exited");
         if (manifest) {
           const auto it = manifest->files.find(kEventsFile);
           if (it != manifest->files.end() && it->second.count >= 0 && it->second.count != rows)
@@ -324,7 +324,8 @@ Verification VerifyRun(const fs::path& dir, const VerifyOptions& options) {
       nlohmann::json verified = ReadVerified(dir);
       const std::string manifest_hash = FileXxh3(dir / kManifestFile);
       if (verified.value("manifest", std::string()) != manifest_hash) verified = {{"manifest", manifest_hash}};
-      if (!verified.contains("files") || !verified.at("files").is_object()) verified["files"] = nlohmann::json::object();
+      if (!verified.contains("files") || !verified.at("files").is_object())
+        verified["files"] = nlohmann::json::object();
       bool changed = false;
       for (const auto& [name, rec] : manifest->files) {
         const Stat& st = stats[name];

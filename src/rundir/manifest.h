@@ -27,8 +27,8 @@ inline constexpr int kManifestFormat = 1;
 // One file as the engine left it.
 struct ManifestFile {
   std::uint64_t size = 0;
-  std::string xxh3;          // 16 lower-case hex digits of XXH3-64 over the file's bytes
-  std::int64_t count = -1;   // frames (dumps), rows (events.csv), clogs (clog files); -1: not counted
+  std::string xxh3;         // 16 lower-case hex digits of XXH3-64 over the file's bytes
+  std::int64_t count = -1;  // frames (dumps), rows (events.csv), clogs (clog files); -1: not counted
 };
 
 // A file removed on purpose after the run (campaign clean --frames): its record as it was,
@@ -41,7 +41,7 @@ struct DroppedFile {
 
 struct Manifest {
   int format = kManifestFormat;
-  std::map<std::string, ManifestFile> files;  // by name in the run directory (layout.h)
+  std::map<std::string, ManifestFile> files;   // by name in the run directory (layout.h)
   std::map<std::string, DroppedFile> dropped;  // by name: files removed since the run
   // The counts of the files above, by what they count: "frames", "contact_frames", "events", "clogs".
   std::map<std::string, std::int64_t> counts;

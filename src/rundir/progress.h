@@ -11,12 +11,12 @@
 namespace granary::rundir {
 
 struct Progress {
-  std::string phase;               // "bed" or "discharge"
-  double fraction = 0.0;           // of the phase, 0..1
-  double t = 0.0;                  // simulated time of the phase
-  double t_end = 0.0;              // the phase's simulated time limit
+  std::string phase;      // "bed" or "discharge"
+  double fraction = 0.0;  // of the phase, 0..1
+  double t = 0.0;         // simulated time of the phase
+  double t_end = 0.0;     // the phase's simulated time limit
   int exited = 0;
-  double wall_s = 0.0;             // wall time of the phase so far
+  double wall_s = 0.0;  // wall time of the phase so far
 
   nlohmann::json ToJson() const;
   // `progress phase=discharge fraction=0.420 t=4.2 exited=130` (no newline).

@@ -33,13 +33,15 @@ ReplicaTarget Target(const json& j, const std::string& path) {
   ReplicaTarget t;
   if (!j.contains("metric") || !j["metric"].is_string() || j["metric"].get<std::string>().empty() ||
       j["metric"].get<std::string>().find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") != std::string::npos)
-    throw SpecError(path + "/metric", "must be the name of a point metric, e.g. \"avalanche_size\" (letters a-z, digits, _; got " +
-                                          (j.contains("metric") ? j["metric"].dump() : std::string("nothing")) + ")");
+    throw SpecError(path + "/metric",
+                    "must be the name of a point metric, e.g. \"avalanche_size\" (letters a-z, digits, _; got " +
+                        (j.contains("metric") ? j["metric"].dump() : std::string("nothing")) + ")");
   t.metric = j["metric"];
   const bool rel = j.contains("rel_se"), abs = j.contains("se");
   if (rel == abs)
-    throw SpecError(path, std::string(rel ? "has both \"rel_se\" and \"se\"" : "has neither \"rel_se\" nor \"se\"") +
-                              ": give one target, the relative standard error (se/|mean|) or the standard error itself");
+    throw SpecError(path,
+                    std::string(rel ? "has both \"rel_se\" and \"se\"" : "has neither \"rel_se\" nor \"se\"") +
+                        ": give one target, the relative standard error (se/|mean|) or the standard error itself");
   t.relative = rel;
   const std::string key = rel ? "rel_se" : "se";
   const json& v = j[key];
@@ -77,8 +79,9 @@ ReplicaRule ReplicaRule::FromJson(const json& j, const std::string& path) {
   if (r.max < r.min)
     throw SpecError(path + "/max", "must be at least min (" + std::to_string(r.min) + "; got " + j["max"].dump() + ")");
   if (!j.contains("until"))
-    throw SpecError(path + "/until", "is required: {\"metric\": NAME, \"rel_se\": X} or a list of them (for a fixed "
-                                     "number of replicas write \"replicas\": N)");
+    throw SpecError(path + "/until",
+                    "is required: {\"metric\": NAME, \"rel_se\": X} or a list of them (for a fixed "
+                    "number of replicas write \"replicas\": N)");
   const json& u = j["until"];
   if (u.is_array()) {
     if (u.empty()) throw SpecError(path + "/until", "must name at least one target (got [])");
@@ -94,8 +97,10 @@ std::string ReplicaRule::Text() const {
   std::string s = std::to_string(min) + " replicas per point, then more until ";
   for (std::size_t k = 0; k < until.size(); ++k) {
     const ReplicaTarget& t = until[k];
-    s += (k == 0 ? "" : k + 1 == until.size() ? " and " : ", ") + std::string(t.relative ? "se/|" : "se(") + t.metric +
-         (t.relative ? "| <= " : ") <= ") + Number(t.value);
+    s += (k == 0                  ? ""
+          : k + 1 == until.size() ? " and "
+                                  : ", ") +
+         std::string(t.relative ? "se/|" : "se(") + t.metric + (t.relative ? "| <= " : ") <= ") + Number(t.value);
   }
   return s + ", at most " + std::to_string(max);
 }
@@ -110,8 +115,10 @@ std::vector<TargetStatus> JudgeTargets(const ReplicaRule& rule, const std::map<s
       s.estimate = it->second;
       const double v = s.estimate.value, se = s.estimate.se;
       if (std::isfinite(se) && se >= 0 && std::isfinite(v)) {
-        if (!t.relative) s.achieved = se;
-        else if (v != 0) s.achieved = se / std::fabs(v);
+        if (!t.relative)
+          s.achieved = se;
+        else if (v != 0)
+          s.achieved = se / std::fabs(v);
       }
       s.met = std::isfinite(s.achieved) && s.achieved <= t.value;
     }

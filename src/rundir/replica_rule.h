@@ -17,9 +17,9 @@
 namespace granary {
 
 struct ReplicaTarget {
-  std::string metric;     // a point metric of the analyses, e.g. "avalanche_size"
-  bool relative = true;   // true: se/|value| <= value ("rel_se"); false: se <= value ("se")
-  double value = 0;       // the target (> 0)
+  std::string metric;    // a point metric of the analyses, e.g. "avalanche_size"
+  bool relative = true;  // true: se/|value| <= value ("rel_se"); false: se <= value ("se")
+  double value = 0;      // the target (> 0)
 };
 
 struct ReplicaRule {
@@ -63,12 +63,12 @@ struct PointReplicas {
 };
 
 enum class ReplicaVerdict {
-  kFixed,     // not adaptive
-  kWaiting,   // runs of the point are still to end: they decide first
-  kMet,       // every target met
-  kAtMax,     // max replicas planned and a target not met
-  kUnknown,   // a target's metric is not among the point's metrics (a typo, or no analysis returns it)
-  kMore,      // replicas added
+  kFixed,    // not adaptive
+  kWaiting,  // runs of the point are still to end: they decide first
+  kMet,      // every target met
+  kAtMax,    // max replicas planned and a target not met
+  kUnknown,  // a target's metric is not among the point's metrics (a typo, or no analysis returns it)
+  kMore,     // replicas added
 };
 const char* ToString(ReplicaVerdict v);
 

@@ -83,9 +83,10 @@ RunData ReadRun(const fs::path& dir) {
     for (const char* name : {kFramesFile, kFramesGzFile, kFramesGsdFile})
       if (m && m->dropped.count(name)) {
         const DroppedFile& d = m->dropped.at(name);
-        r.frames_dropped = (dir / name).string() + " was removed by " + d.by + " at " + d.at +
-                           " (manifest.json \"dropped\"): the analyses cached before then still report, but one that "
-                           "must read the frames anew (new options, a new analysis or version) cannot; run the run again";
+        r.frames_dropped =
+            (dir / name).string() + " was removed by " + d.by + " at " + d.at +
+            " (manifest.json \"dropped\"): the analyses cached before then still report, but one that "
+            "must read the frames anew (new options, a new analysis or version) cannot; run the run again";
       }
   }
   return r;
@@ -104,7 +105,8 @@ const char* ContactsFileName(const Output& output) {
 TextDumps WriteTextDumps(const fs::path& dir, const fs::path& out) {
   const RunData run = ReadRun(dir);
   if (!run.has_frames)
-    throw ReadError(run.FramesFile().string() + ": no such file (the run writes frames when its spec sets "
+    throw ReadError(run.FramesFile().string() +
+                    ": no such file (the run writes frames when its spec sets "
                     "output/frame_interval)");
   if (fs::exists(out) && fs::equivalent(out, dir))
     throw ReadError(out.string() + ": is the run directory itself; the text dumps go to another folder");

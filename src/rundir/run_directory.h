@@ -38,16 +38,16 @@ const char* ContactsFileName(const Output& output);
 // What a run directory holds, read eagerly except the dumps.
 struct RunData {
   std::filesystem::path dir;
-  bool done = false;               // DONE exists
+  bool done = false;  // DONE exists
   bool has_summary = false;
   Summary summary;
-  nlohmann::json spec;             // run.json if present, else summary.spec
+  nlohmann::json spec;  // run.json if present, else summary.spec
   std::vector<ExitEvent> events;
   std::vector<UnclogEvent> unclogs;  // unclogs.csv (on_clog "unclog"); none without the file
   bool has_frames = false;
   bool has_contacts = false;
-  bool compressed = false;         // frames.dump.gz / contacts.dump.gz (output.compress)
-  bool gsd = false;                // frames.gsd / contacts.gsd (output.format "gsd")
+  bool compressed = false;  // frames.dump.gz / contacts.dump.gz (output.compress)
+  bool gsd = false;         // frames.gsd / contacts.gsd (output.format "gsd")
   // Why the frames are gone, when campaign clean --frames removed them (manifest.json
   // "dropped"): a sentence for the error of an analysis that would need them; "" otherwise.
   std::string frames_dropped;

@@ -55,17 +55,28 @@ std::string ForbiddenCharacterIn(const std::string& name, const std::string& ext
       return buf;
     }
     const char* what = nullptr;
-    if (cp == 0x00) what = "NUL";
-    else if (cp == 0x0A) what = "LINE FEED";
-    else if (cp == 0x0D) what = "CARRIAGE RETURN";
-    else if (cp == 0x09) what = "TAB";
-    else if (cp == 0x0B) what = "LINE TABULATION (\\v)";
-    else if (cp == 0x0C) what = "FORM FEED (\\f)";
-    else if (cp < 0x20 || cp == 0x7F) what = "a control character";
-    else if (cp == 0x85) what = "NEXT LINE";
-    else if (cp >= 0x80 && cp <= 0x9F) what = "a control character";
-    else if (cp == 0x2028) what = "LINE SEPARATOR";
-    else if (cp == 0x2029) what = "PARAGRAPH SEPARATOR";
+    if (cp == 0x00)
+      what = "NUL";
+    else if (cp == 0x0A)
+      what = "LINE FEED";
+    else if (cp == 0x0D)
+      what = "CARRIAGE RETURN";
+    else if (cp == 0x09)
+      what = "TAB";
+    else if (cp == 0x0B)
+      what = "LINE TABULATION (\\v)";
+    else if (cp == 0x0C)
+      what = "FORM FEED (\\f)";
+    else if (cp < 0x20 || cp == 0x7F)
+      what = "a control character";
+    else if (cp == 0x85)
+      what = "NEXT LINE";
+    else if (cp >= 0x80 && cp <= 0x9F)
+      what = "a control character";
+    else if (cp == 0x2028)
+      what = "LINE SEPARATOR";
+    else if (cp == 0x2029)
+      what = "PARAGRAPH SEPARATOR";
     else if ((cp >= 0x200B && cp <= 0x200F) || (cp >= 0x202A && cp <= 0x202E) || (cp >= 0x2066 && cp <= 0x2069) ||
              cp == 0xFEFF)
       what = "an invisible format character";
@@ -97,9 +108,12 @@ namespace {
 std::string EscapePointerToken(const std::string& token) {
   std::string out;
   for (char c : token) {
-    if (c == '~') out += "~0";
-    else if (c == '/') out += "~1";
-    else out += c;
+    if (c == '~')
+      out += "~0";
+    else if (c == '/')
+      out += "~1";
+    else
+      out += c;
   }
   return out;
 }
@@ -255,22 +269,21 @@ constexpr std::initializer_list<std::pair<const char*, DischargeMode>> kModes = 
     {"remove", DischargeMode::kRemove}, {"reinject", DischargeMode::kReinject}};
 constexpr std::initializer_list<std::pair<const char*, ReinjectPosition>> kReinjectPositions = {
     {"random", ReinjectPosition::kRandom}, {"periodic", ReinjectPosition::kPeriodic}};
-constexpr std::initializer_list<std::pair<const char*, FrameFormat>> kFrameFormats = {
-    {"text", FrameFormat::kText}, {"gsd", FrameFormat::kGsd}};
+constexpr std::initializer_list<std::pair<const char*, FrameFormat>> kFrameFormats = {{"text", FrameFormat::kText},
+                                                                                      {"gsd", FrameFormat::kGsd}};
 constexpr std::initializer_list<std::pair<const char*, OnClog>> kOnClogs = {
     {"stop", OnClog::kStop}, {"wait", OnClog::kWait}, {"unclog", OnClog::kUnclog}};
 constexpr std::initializer_list<std::pair<const char*, UnclogMethod>> kUnclogMethods = {
     {"remove_arch", UnclogMethod::kRemoveArch}, {"kick", UnclogMethod::kKick}};
-constexpr std::initializer_list<std::pair<const char*, NextBatch>> kNextBatches = {
-    {"landed", NextBatch::kLanded}, {"fixed", NextBatch::kFixed}};
-constexpr std::initializer_list<std::pair<const char*, BedSettler>> kSettlers = {
-    {"native", BedSettler::kNative}, {"lammps", BedSettler::kLammps}};
-constexpr std::initializer_list<std::pair<const char*, NormalModel>> kNormalModels = {
-    {"hertz", NormalModel::kHertz}, {"hooke", NormalModel::kHooke}};
-constexpr std::initializer_list<std::pair<const char*, TangentialCap>> kCaps = {
-    {"lammps", TangentialCap::kLammps}, {"liggghts", TangentialCap::kLiggghts}};
-constexpr std::initializer_list<std::pair<const char*, Wall>> kWalls = {{"left", Wall::kLeft},
-                                                                        {"right", Wall::kRight}};
+constexpr std::initializer_list<std::pair<const char*, NextBatch>> kNextBatches = {{"landed", NextBatch::kLanded},
+                                                                                   {"fixed", NextBatch::kFixed}};
+constexpr std::initializer_list<std::pair<const char*, BedSettler>> kSettlers = {{"native", BedSettler::kNative},
+                                                                                 {"lammps", BedSettler::kLammps}};
+constexpr std::initializer_list<std::pair<const char*, NormalModel>> kNormalModels = {{"hertz", NormalModel::kHertz},
+                                                                                      {"hooke", NormalModel::kHooke}};
+constexpr std::initializer_list<std::pair<const char*, TangentialCap>> kCaps = {{"lammps", TangentialCap::kLammps},
+                                                                                {"liggghts", TangentialCap::kLiggghts}};
+constexpr std::initializer_list<std::pair<const char*, Wall>> kWalls = {{"left", Wall::kLeft}, {"right", Wall::kRight}};
 
 // The run spec's keys (docs/run-spec.md). Types and ranges here are all the validator knows of
 // single values; Validate() adds the checks that relate several values.
@@ -301,8 +314,12 @@ SpecTable MakeRunSpecTable() {
     return SpecField{std::move(p), type, std::move(what), std::move(def)};
   };
   SpecField species{"/bodies/species", T::kArray, "the kinds of body in the bed (number fractions sum to 1)",
-                    json::array({{{"name", "dumbbell"}, {"shape", "dumbbell"}, {"fraction", 1.0}, {"diameter", 1.0},
-                                  {"big_diameter", 1.0}, {"n", 2}}})};
+                    json::array({{{"name", "dumbbell"},
+                                  {"shape", "dumbbell"},
+                                  {"fraction", 1.0},
+                                  {"diameter", 1.0},
+                                  {"big_diameter", 1.0},
+                                  {"n", 2}}})};
   species.min_items = 1;
   SpecField fraction = number("/bodies/species/*/fraction", 1.0, non_negative, "number fraction among all bodies");
   fraction.maximum = SpecBound{1.0, false};
@@ -335,8 +352,9 @@ SpecTable MakeRunSpecTable() {
       number("/bodies/density", 1.0, positive, "areal density: disc mass = rho pi r^2"),
       species,
       plain("/bodies/species/*", T::kObject, nullptr, "one kind of body"),
-      plain("/bodies/species/*/name", T::kString, nullptr,
-            "label in events.csv and the report: unique, no commas or line breaks (default: the shape, rod<n> for rods)"),
+      plain(
+          "/bodies/species/*/name", T::kString, nullptr,
+          "label in events.csv and the report: unique, no commas or line breaks (default: the shape, rod<n> for rods)"),
       enumeration("/bodies/species/*/shape", "dumbbell", names(ShapeNames()), ShapeChoices() + " of discs"),
       fraction,
       number("/bodies/species/*/diameter", 1.0, positive, "disc: D; dumbbell: d; snowman: D_s; rod: each disc"),
@@ -357,12 +375,14 @@ SpecTable MakeRunSpecTable() {
       plain("/contact/clip_normal", T::kBoolean, false, "clip an attractive normal force to zero"),
       plain("/bed", T::kObject, nullptr, "how the bed is prepared"),
       integer("/bed/batch_size", 500, 1, "bodies inserted per batch"),
-      number("/bed/settle_ke_per_body", 1e-6, positive, "settled when the kinetic energy per body is below this (m g d)"),
+      number("/bed/settle_ke_per_body", 1e-6, positive,
+             "settled when the kinetic energy per body is below this (m g d)"),
       number("/bed/max_settle_time", 200.0, positive, "give up settling after this long"),
       number("/bed/time_step", 0.0, non_negative,
              "native engine: the bed-preparation time step; 0 = 8 x time_step (docs/run-spec.md)"),
-      enumeration("/bed/next_batch", "landed", names(kNextBatches),
-                  "native engine: the next batch once the previous has landed, or after the fixed wait sqrt(2 h/g) + 1"),
+      enumeration(
+          "/bed/next_batch", "landed", names(kNextBatches),
+          "native engine: the next batch once the previous has landed, or after the fixed wait sqrt(2 h/g) + 1"),
       enumeration("/bed/settled_by", "native", names(kSettlers),
                   "LAMMPS backend: its bed settled by the native engine (the native runs' bed) or by LAMMPS itself"),
       plain("/bed/cache_file", T::kString, "", "set by the runner: where the prepared bed is kept"),
@@ -379,20 +399,24 @@ SpecTable MakeRunSpecTable() {
                   "remove_arch: take out the bodies of the arch that seals the outlet; kick: give the bodies near the "
                   "outlet a random upward velocity, again until the flow resumes"),
       integer("/discharge/unclog/max_clogs", 100, 1, "the run ends at this clog (it is not broken)"),
-      integer("/discharge/unclog/max_attempts", 10, 1,
-              "attempts on one clog (kicks, or arch removals that re-clog before a body leaves) before the run ends clogged"),
+      integer(
+          "/discharge/unclog/max_attempts", 10, 1,
+          "attempts on one clog (kicks, or arch removals that re-clog before a body leaves) before the run ends clogged"),
       number("/discharge/unclog/kick_speed", 1.0, positive, "kick: the speed each body gets, in sqrt(g d)"),
       number("/discharge/unclog/kick_radius", 0.0, non_negative,
              "kick: bodies whose centre is within this of an outlet's centre, in d; 0 = the outlet's width"),
       number("/discharge/clog_window", 5.0, positive, "a clog: no exit for this long ..."),
       number("/discharge/clog_ke_per_body", 1e-4, non_negative,
              "... and kinetic energy per body near the outlets below this (m g d)"),
-      number("/discharge/reinject_speed", 0.0, non_negative, "reinject: least downward speed of a returned body (it sinks with the body it is put on when that is faster)"),
+      number(
+          "/discharge/reinject_speed", 0.0, non_negative,
+          "reinject: least downward speed of a returned body (it sinks with the body it is put on when that is faster)"),
       enumeration("/discharge/reinject_position", "random", names(kReinjectPositions),
                   "random: a free place on top of the bed (the thesis); periodic: through the bottom of a y-periodic "
                   "box, as LIGGGHTS does (not with side outlets)"),
       number("/discharge/periodic_headroom", 1.0, non_negative, "room above the bed in the periodic box, in d"),
-      number("/discharge/exit_distance", 2.0, non_negative, "a body has left when its centre is this far past the outlet"),
+      number("/discharge/exit_distance", 2.0, non_negative,
+             "a body has left when its centre is this far past the outlet"),
       plain("/output", T::kObject, nullptr, "what the engine writes"),
       number("/output/frame_interval", 0.0, non_negative, "time between frames (0 = no frames)"),
       plain("/output/contact_forces", T::kBoolean, false, "also contact-force frames"),
@@ -450,9 +474,10 @@ Species ParseSpecies(const json& j, const std::string& path) {
   r.String("name", s.name);
   // The name is the `shape` column of events.csv and a label in dumps and reports.
   if (const std::string bad = ForbiddenCharacterIn(s.name, ","); s.name.empty() || !bad.empty())
-    throw SpecError(path + "/name", "must be a non-empty name without commas, control characters or line breaks "
-                                    "(it is a column of events.csv) (got " + json(s.name).dump() +
-                                    (bad.empty() ? "" : ", which holds " + bad) + ")");
+    throw SpecError(path + "/name",
+                    "must be a non-empty name without commas, control characters or line breaks "
+                    "(it is a column of events.csv) (got " +
+                        json(s.name).dump() + (bad.empty() ? "" : ", which holds " + bad) + ")");
   return s;
 }
 
@@ -519,8 +544,6 @@ void ParseSilo(const Reader& parent, Silo& s) {
   }
   if (!outlets_given) s.base_outlets = {BaseOutlet{}};
 }
-
-
 
 }  // namespace
 
@@ -631,7 +654,8 @@ RunSpec RunSpec::FromJson(const json& j) {
       // Both spellings given: they must say the same.
       if (d.Has("stop_on_clog") && stop_on_clog != (s.discharge.on_clog == OnClog::kStop))
         throw SpecError("/discharge/stop_on_clog", "contradicts /discharge/on_clog \"" + ToString(s.discharge.on_clog) +
-                                                       "\"; give only on_clog (got " + Shown(d.At("stop_on_clog")) + ")");
+                                                       "\"; give only on_clog (got " + Shown(d.At("stop_on_clog")) +
+                                                       ")");
     }
     if (d.Has("unclog")) {
       Reader u(d.At("unclog"), "/discharge/unclog");
@@ -697,8 +721,8 @@ void Validate(const RunSpec& s) {
     if (sp.name.empty()) throw SpecError(p + "/name", "must not be empty (got \"\")");
     for (std::size_t k = 0; k < i; ++k) {
       if (b.species[k].name == sp.name) {
-        throw SpecError(p + "/name", "duplicate species name (got \"" + sp.name + "\", also species " +
-                                         std::to_string(k) + ")");
+        throw SpecError(p + "/name",
+                        "duplicate species name (got \"" + sp.name + "\", also species " + std::to_string(k) + ")");
       }
     }
     fraction_sum += sp.fraction;
@@ -715,8 +739,8 @@ void Validate(const RunSpec& s) {
   CheckBounds("/silo/height", silo.height);
   const double half = silo.width / 2.0;
   if (max_length >= silo.width) {
-    throw SpecError("/silo/width", "bodies of length " + Shown(max_length) + " cannot fit in a silo of width " +
-                                       Shown(silo.width));
+    throw SpecError("/silo/width",
+                    "bodies of length " + Shown(max_length) + " cannot fit in a silo of width " + Shown(silo.width));
   }
   if (silo.height > 0) {
     // A random loose packing of discs fills ~80% of the area; a bed needing more than the silo
@@ -724,8 +748,8 @@ void Validate(const RunSpec& s) {
     const double bed_area = b.count * mean_area / 0.8;
     if (bed_area > silo.width * silo.height) {
       throw SpecError("/silo/height", "the bed of " + std::to_string(b.count) + " bodies needs a height of about " +
-                                          Shown(std::ceil(bed_area / silo.width)) + " (got " +
-                                          Shown(silo.height) + ")");
+                                          Shown(std::ceil(bed_area / silo.width)) + " (got " + Shown(silo.height) +
+                                          ")");
     }
   }
   if (silo.base_outlets.empty() && silo.side_outlets.empty()) {
@@ -741,15 +765,15 @@ void Validate(const RunSpec& s) {
     const double lo = o.center - o.width / 2.0;
     const double hi = o.center + o.width / 2.0;
     if (lo < -half || hi > half) {
-      throw SpecError(p, "outlet [" + Shown(lo) + ", " + Shown(hi) + "] lies outside the base [" + Shown(-half) +
-                             ", " + Shown(half) + "]");
+      throw SpecError(p, "outlet [" + Shown(lo) + ", " + Shown(hi) + "] lies outside the base [" + Shown(-half) + ", " +
+                             Shown(half) + "]");
     }
     for (std::size_t k = 0; k < i; ++k) {
       const BaseOutlet& q = silo.base_outlets[k];
       if (lo < q.center + q.width / 2.0 && q.center - q.width / 2.0 < hi) {
         throw SpecError(p, "overlaps base outlet " + std::to_string(k) + " ([" + Shown(lo) + ", " + Shown(hi) +
-                               "] and [" + Shown(q.center - q.width / 2.0) + ", " +
-                               Shown(q.center + q.width / 2.0) + "])");
+                               "] and [" + Shown(q.center - q.width / 2.0) + ", " + Shown(q.center + q.width / 2.0) +
+                               "])");
       }
     }
   }
@@ -778,8 +802,8 @@ void Validate(const RunSpec& s) {
                              " crosses a side wall at x = +-" + Shown(half));
     }
     if (o.y - r < 0) {
-      throw SpecError(p, "obstacle at y = " + Shown(o.y) + " of diameter " + Shown(o.diameter) +
-                             " crosses the base at y = 0");
+      throw SpecError(
+          p, "obstacle at y = " + Shown(o.y) + " of diameter " + Shown(o.diameter) + " crosses the base at y = 0");
     }
     if (silo.height > 0 && o.y + r > silo.height) {
       throw SpecError(p, "obstacle top " + Shown(o.y + r) + " is above the wall height " + Shown(silo.height));
@@ -815,7 +839,8 @@ void Validate(const RunSpec& s) {
   CheckBounds("/output/contact_interval", s.output.contact_interval);
   // Said, but not used: never silently.
   if (s.output.compress && s.output.format == FrameFormat::kGsd)
-    throw SpecError("/output/compress", "gzips text dumps; GSD frames are binary already (got true with format \"gsd\")");
+    throw SpecError("/output/compress",
+                    "gzips text dumps; GSD frames are binary already (got true with format \"gsd\")");
   if (s.output.contact_interval != 1 && !s.output.contact_forces)
     throw SpecError("/output/contact_interval", "applies only with /output/contact_forces true (got " +
                                                     std::to_string(s.output.contact_interval) + ")");
@@ -836,7 +861,8 @@ void ValidateExternalOutput(const RunSpec& s, const std::string& backend) {
     throw SpecError("/output/format", "the " + backend + " backend writes text dumps only (got \"" +
                                           ToString(s.output.format) + "\", allowed: \"text\")");
   if (s.output.contact_interval != 1)
-    throw SpecError("/output/contact_interval", "the " + backend + " backend writes a contact frame at every frame (got " +
+    throw SpecError("/output/contact_interval", "the " + backend +
+                                                    " backend writes a contact frame at every frame (got " +
                                                     std::to_string(s.output.contact_interval) + ", allowed: 1)");
 }
 }  // namespace
@@ -849,8 +875,9 @@ void ValidateForLammps(const RunSpec& s) {
                     "at which to take out an arch or kick the bodies over the outlet; use the native engine, or "
                     "\"stop\" or \"wait\" (got \"unclog\")");
   if (s.contact.clip_normal)
-    throw SpecError("/contact/clip_normal", "LAMMPS' pair gran/hertz/history and gran/hooke/history have no clipping "
-                                            "of an attractive normal force (got true, allowed: false)");
+    throw SpecError("/contact/clip_normal",
+                    "LAMMPS' pair gran/hertz/history and gran/hooke/history have no clipping "
+                    "of an attractive normal force (got true, allowed: false)");
   if (s.discharge.mode == DischargeMode::kReinject && !s.silo.side_outlets.empty())
     throw SpecError("/discharge/mode",
                     "the LAMMPS backend reinjects through y-periodicity, which cannot return bodies that leave "
@@ -861,9 +888,8 @@ void ValidateForLiggghts(const RunSpec& s) {
   ValidateExternalOutput(s, "LIGGGHTS");
   if (s.contact.normal_model != Contact{}.normal_model)
     throw SpecError("/contact/normal_model", "the LIGGGHTS backend writes model hertz/stiffness only; " +
-                                                 ToString(s.contact.normal_model) +
-                                                 " is the native engine's (got \"" + ToString(s.contact.normal_model) +
-                                                 "\", allowed: \"hertz\")");
+                                                 ToString(s.contact.normal_model) + " is the native engine's (got \"" +
+                                                 ToString(s.contact.normal_model) + "\", allowed: \"hertz\")");
   if (s.discharge.on_clog == OnClog::kUnclog)
     throw SpecError("/discharge/on_clog",
                     "the LIGGGHTS backend cannot break a clog: it runs LIGGGHTS' input script to the end, with no "
@@ -873,8 +899,10 @@ void ValidateForLiggghts(const RunSpec& s) {
     throw SpecError("/bed/next_batch", "bed/next_batch is the native engine's (got \"" + ToString(s.bed.next_batch) +
                                            "\", allowed: the default)");
   if (s.bed.time_step != Bed{}.time_step)
-    throw SpecError("/bed/time_step", "the LIGGGHTS backend prepares its bed at time_step; bed/time_step is the "
-                                      "native engine's (got " + Shown(s.bed.time_step) + ", allowed: 0)");
+    throw SpecError("/bed/time_step",
+                    "the LIGGGHTS backend prepares its bed at time_step; bed/time_step is the "
+                    "native engine's (got " +
+                        Shown(s.bed.time_step) + ", allowed: 0)");
   if (s.discharge.mode == DischargeMode::kReinject && !s.silo.side_outlets.empty())
     throw SpecError("/discharge/mode",
                     "the LIGGGHTS backend reinjects through y-periodicity, which cannot return bodies that leave "
@@ -884,7 +912,7 @@ void ValidateForLiggghts(const RunSpec& s) {
 namespace {
 
 json SpeciesJson(const Species& sp) {
-  return {{"name", sp.name},         {"shape", ToString(sp.shape)}, {"fraction", sp.fraction},
+  return {{"name", sp.name},         {"shape", ToString(sp.shape)},     {"fraction", sp.fraction},
           {"diameter", sp.diameter}, {"big_diameter", sp.big_diameter}, {"n", sp.n}};
 }
 
@@ -896,13 +924,13 @@ json BodiesJson(const Bodies& b) {
 
 json ContactJson(const Contact& c) {
   json j = {{"kn", c.kn},
-          {"kt", c.kt},
-          {"gamma_n", c.gamma_n},
-          {"gamma_t", c.gamma_t},
-          {"mu", c.mu},
-          {"mu_wall", c.mu_wall},
-          {"tangential_cap", ToString(c.tangential_cap)},
-          {"clip_normal", c.clip_normal}};
+            {"kt", c.kt},
+            {"gamma_n", c.gamma_n},
+            {"gamma_t", c.gamma_t},
+            {"mu", c.mu},
+            {"mu_wall", c.mu_wall},
+            {"tangential_cap", ToString(c.tangential_cap)},
+            {"clip_normal", c.clip_normal}};
   // Only when not the default, so that run ids planned before this option existed stay valid.
   if (c.normal_model != Contact{}.normal_model) j["normal_model"] = ToString(c.normal_model);
   return j;
@@ -932,31 +960,31 @@ json RunSpec::ToJson() const {
   json obstacles = json::array();
   for (const auto& o : silo.obstacles) obstacles.push_back({{"x", o.x}, {"y", o.y}, {"diameter", o.diameter}});
   json out = {{"run_id", run_id},
-          {"seed", seed},
-          {"engine", engine},
-          {"time_step", time_step},
-          {"gravity", gravity},
-          {"silo",
-           {{"width", silo.width},
-            {"height", silo.height},
-            {"base_outlets", base},
-            {"side_outlets", side},
-            {"obstacles", obstacles}}},
-          {"bodies", BodiesJson(bodies)},
-          {"contact", ContactJson(contact)},
-          {"bed", BedJson(bed, true)},
-          {"discharge",
-           {{"mode", ToString(discharge.mode)},
-            {"max_time", discharge.max_time},
-            {"stop_on_clog", discharge.StopOnClog()},
-            {"clog_window", discharge.clog_window},
-            {"clog_ke_per_body", discharge.clog_ke_per_body},
-            {"reinject_speed", discharge.reinject_speed},
-            {"exit_distance", discharge.exit_distance}}},
-          {"output",
-           {{"frame_interval", output.frame_interval},
-            {"contact_forces", output.contact_forces},
-            {"checkpoint_interval", output.checkpoint_interval}}}};
+              {"seed", seed},
+              {"engine", engine},
+              {"time_step", time_step},
+              {"gravity", gravity},
+              {"silo",
+               {{"width", silo.width},
+                {"height", silo.height},
+                {"base_outlets", base},
+                {"side_outlets", side},
+                {"obstacles", obstacles}}},
+              {"bodies", BodiesJson(bodies)},
+              {"contact", ContactJson(contact)},
+              {"bed", BedJson(bed, true)},
+              {"discharge",
+               {{"mode", ToString(discharge.mode)},
+                {"max_time", discharge.max_time},
+                {"stop_on_clog", discharge.StopOnClog()},
+                {"clog_window", discharge.clog_window},
+                {"clog_ke_per_body", discharge.clog_ke_per_body},
+                {"reinject_speed", discharge.reinject_speed},
+                {"exit_distance", discharge.exit_distance}}},
+              {"output",
+               {{"frame_interval", output.frame_interval},
+                {"contact_forces", output.contact_forces},
+                {"checkpoint_interval", output.checkpoint_interval}}}};
   // Only when not the default, so that run ids planned before this option existed stay valid.
   if (discharge.reinject_position != ReinjectPosition::kRandom)
     out["discharge"]["reinject_position"] = ToString(discharge.reinject_position);
@@ -985,15 +1013,11 @@ json RunSpec::BedKey() const {
   // A LAMMPS run discharges the native engine's bed (docs/lammps.md): the same key, one bed.
   const std::string bed_engine =
       engine == "lammps" ? (bed.settled_by == BedSettler::kLammps ? "lammps" : "native") : engine;
-  json key = {{"engine", bed_engine},
-          {"seed", seed},
-          {"time_step", time_step},
-          {"gravity", gravity},
-          {"silo_width", silo.width},
-          {"silo_height", silo.height},
-          {"bodies", BodiesJson(bodies)},
-          {"contact", ContactJson(contact)},
-          {"bed", BedJson(bed, false)}};
+  json key = {{"engine", bed_engine},         {"seed", seed},
+              {"time_step", time_step},       {"gravity", gravity},
+              {"silo_width", silo.width},     {"silo_height", silo.height},
+              {"bodies", BodiesJson(bodies)}, {"contact", ContactJson(contact)},
+              {"bed", BedJson(bed, false)}};
   // The native engine's bed depends on the step it is prepared at (the resolved value: a bed
   // prepared before bed/time_step existed, at time_step, is not taken for one at 8 x).
   if (bed_engine == "native") {

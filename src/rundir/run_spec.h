@@ -32,42 +32,42 @@ enum class Shape { kDisc, kDumbbell, kSnowman, kRod };
 
 // One kind of body in the mixture. Every body is a rigid clump of discs (docs/model.md).
 struct Species {
-  std::string name;            // label in events and dumps; default: "disc", "dumbbell", "snowman", "rod<n>"
+  std::string name;  // label in events and dumps; default: "disc", "dumbbell", "snowman", "rod<n>"
   Shape shape = Shape::kDumbbell;
-  double fraction = 1.0;       // number fraction among all bodies (fractions must sum to 1)
-  double diameter = 1.0;       // disc: D; dumbbell: d; snowman: D_s (small disc); rod: each disc
-  double big_diameter = 1.0;   // snowman only: D_b (D_b/D_s in [1, 2])
-  int n = 2;                   // rod only: number of touching discs in a line
+  double fraction = 1.0;      // number fraction among all bodies (fractions must sum to 1)
+  double diameter = 1.0;      // disc: D; dumbbell: d; snowman: D_s (small disc); rod: each disc
+  double big_diameter = 1.0;  // snowman only: D_b (D_b/D_s in [1, 2])
+  int n = 2;                  // rod only: number of touching discs in a line
 };
 
 struct Bodies {
-  int count = 1000;            // total number of bodies in the bed
+  int count = 1000;              // total number of bodies in the bed
   std::vector<Species> species;  // default: one species of dumbbells
-  double density = 1.0;        // areal density rho: disc mass = rho * pi * r^2
+  double density = 1.0;          // areal density rho: disc mass = rho * pi * r^2
 };
 
 struct BaseOutlet {
-  double center = 0.0;         // x of the outlet centre (base at y = 0)
-  double width = 10.0;         // W
+  double center = 0.0;  // x of the outlet centre (base at y = 0)
+  double width = 10.0;  // W
 };
 
 enum class Wall { kLeft, kRight };
 
 struct SideOutlet {
   Wall wall = Wall::kRight;
-  double bottom = 3.5;         // height of the outlet's lower edge above the base
+  double bottom = 3.5;  // height of the outlet's lower edge above the base
   double width = 25.0;
 };
 
 struct Obstacle {
-  double x = 0.0;              // centre (silo coordinates: origin at the centre of the base)
+  double x = 0.0;  // centre (silo coordinates: origin at the centre of the base)
   double y = 10.0;
   double diameter = 6.0;
 };
 
 struct Silo {
-  double width = 100.0;        // side walls at x = +-width/2
-  double height = 0.0;         // side-wall height; 0 = automatic (tall enough for the bed)
+  double width = 100.0;                  // side walls at x = +-width/2
+  double height = 0.0;                   // side-wall height; 0 = automatic (tall enough for the bed)
   std::vector<BaseOutlet> base_outlets;  // default: one outlet of width 10 at x = 0
   std::vector<SideOutlet> side_outlets;
   std::vector<Obstacle> obstacles;
@@ -84,11 +84,11 @@ struct Contact {
   double kt = 2.45e6;
   double gamma_n = 1000.0;
   double gamma_t = 1000.0;
-  double mu = 0.5;             // body-body friction
-  double mu_wall = 0.5;        // body-wall and body-obstacle friction (defaults to mu)
+  double mu = 0.5;       // body-body friction
+  double mu_wall = 0.5;  // body-wall and body-obstacle friction (defaults to mu)
   NormalModel normal_model = NormalModel::kHertz;
   TangentialCap tangential_cap = TangentialCap::kLammps;
-  bool clip_normal = false;    // clip attractive F_n to zero (off: LAMMPS default)
+  bool clip_normal = false;  // clip attractive F_n to zero (off: LAMMPS default)
 };
 
 // When the native bed preparation places the next batch: once the previous one has landed
@@ -100,16 +100,16 @@ enum class NextBatch { kLanded, kFixed };
 enum class BedSettler { kNative, kLammps };
 
 struct Bed {
-  int batch_size = 500;            // bodies inserted per batch
+  int batch_size = 500;              // bodies inserted per batch
   double settle_ke_per_body = 1e-6;  // settled when kinetic energy per body (units m g d) is below this
-  double max_settle_time = 200.0;  // give up settling after this much simulated time
+  double max_settle_time = 200.0;    // give up settling after this much simulated time
   // Time step of the native engine's bed preparation; 0 = kBedTimeStepFactor x time_step
   // (BedTimeStep()). A bed at rest does not depend on it; docs/engine.md says why 8x is safe.
   double time_step = 0.0;
-  NextBatch next_batch = NextBatch::kLanded;  // native engine only
-  BedSettler settled_by = BedSettler::kNative; // LAMMPS backend only: who settles its bed
-  std::string cache_file;          // resolved by the runner: where the prepared bed is (or is to be) stored;
-                                   // empty = prepare inside the run directory (bed.json)
+  NextBatch next_batch = NextBatch::kLanded;    // native engine only
+  BedSettler settled_by = BedSettler::kNative;  // LAMMPS backend only: who settles its bed
+  std::string cache_file;  // resolved by the runner: where the prepared bed is (or is to be) stored;
+                           // empty = prepare inside the run directory (bed.json)
 };
 
 enum class DischargeMode { kRemove, kReinject };
@@ -130,10 +130,10 @@ enum class UnclogMethod { kRemoveArch, kKick };
 
 struct Unclog {
   UnclogMethod method = UnclogMethod::kRemoveArch;
-  int max_clogs = 100;             // the run ends at this clog, which it does not break
-  int max_attempts = 10;           // attempts on one clog before the run ends clogged
-  double kick_speed = 1.0;         // kick: speed given to each body, in sqrt(g d)
-  double kick_radius = 0.0;        // kick: bodies whose centre is within this of an outlet's centre; 0 = its width
+  int max_clogs = 100;       // the run ends at this clog, which it does not break
+  int max_attempts = 10;     // attempts on one clog before the run ends clogged
+  double kick_speed = 1.0;   // kick: speed given to each body, in sqrt(g d)
+  double kick_radius = 0.0;  // kick: bodies whose centre is within this of an outlet's centre; 0 = its width
 };
 
 struct Discharge {
@@ -155,10 +155,10 @@ struct Discharge {
 enum class FrameFormat { kText, kGsd };
 
 struct Output {
-  double frame_interval = 0.0;     // simulated time between frames (0 = no frames)
-  bool contact_forces = false;     // also write contact-force frames at frame_interval
-  int contact_interval = 1;        // ... at every contact_interval-th frame only
-  bool compress = false;           // frames.dump.gz, contacts.dump.gz instead of frames.dump, contacts.dump
+  double frame_interval = 0.0;  // simulated time between frames (0 = no frames)
+  bool contact_forces = false;  // also write contact-force frames at frame_interval
+  int contact_interval = 1;     // ... at every contact_interval-th frame only
+  bool compress = false;        // frames.dump.gz, contacts.dump.gz instead of frames.dump, contacts.dump
   FrameFormat format = FrameFormat::kText;
   double checkpoint_interval = 10.0;  // simulated time between checkpoints (0 = none)
 };
@@ -171,9 +171,9 @@ inline constexpr double kBedTimeStepFactor = 8.0;
 inline constexpr double kBedLandedKePerBody = 0.25;
 
 struct RunSpec {
-  std::string run_id;              // stable id set by the runner (hash of the resolved parameters)
-  std::uint64_t seed = 1;          // bed and reinjection randomness
-  std::string engine = "native";   // "native", "liggghts" or "lammps"
+  std::string run_id;             // stable id set by the runner (hash of the resolved parameters)
+  std::uint64_t seed = 1;         // bed and reinjection randomness
+  std::string engine = "native";  // "native", "liggghts" or "lammps"
   double time_step = 1e-4;
   double gravity = 1.0;
   Silo silo;

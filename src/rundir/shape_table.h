@@ -23,7 +23,7 @@ struct DiscLayout {
 
 struct ShapeRow {
   Shape shape;
-  const char* name;    // as the spec writes it (bodies/species/*/shape)
+  const char* name;  // as the spec writes it (bodies/species/*/shape)
   // The species' name when the spec gives none ({n} as below).
   const char* default_name;
   // How the report describes a species of this shape; {diameter}, {big_diameter} and {n}

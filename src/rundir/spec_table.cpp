@@ -55,9 +55,9 @@ SpecTable::SpecTable(std::vector<SpecField> fields) : fields_(std::move(fields))
   for (const SpecField& f : fields_) {
     if (f.pattern.empty()) continue;
     const SpecField* parent = Parent(f.pattern).empty() ? nullptr : Find(Parent(f.pattern));
-    const bool ok = Parent(f.pattern).empty() ||
-                    (parent && (Last(f.pattern) == "*" ? parent->type == SpecType::kArray
-                                                       : parent->type == SpecType::kObject));
+    const bool ok =
+        Parent(f.pattern).empty() ||
+        (parent && (Last(f.pattern) == "*" ? parent->type == SpecType::kArray : parent->type == SpecType::kObject));
     if (!ok) throw std::logic_error("spec table: " + f.pattern + " has no object or array row above it");
   }
 }

@@ -16,19 +16,19 @@
 namespace granary {
 
 enum class SpecType {
-  kObject,       // the keys are the rows below it
-  kOpenObject,   // any keys (checked elsewhere, e.g. /report by the analysis library)
-  kArray,        // its elements are the row "<pattern>/*"
+  kObject,      // the keys are the rows below it
+  kOpenObject,  // any keys (checked elsewhere, e.g. /report by the analysis library)
+  kArray,       // its elements are the row "<pattern>/*"
   kNumber,
   kInteger,
-  kUnsigned,     // an integer >= 0
+  kUnsigned,  // an integer >= 0
   kBoolean,
   kString,
-  kEnum,         // one of `values`
-  kEnumOrList,   // one of `values`, or a non-empty list of distinct ones (the campaign's engine)
-  kAxisValues,   // {JSON Pointer into the run spec: [values]} (sweep grid and zip)
-  kAxisPoints,   // [{JSON Pointer into the run spec: value}] (sweep points)
-  kRunSpec,      // a run spec (its own table)
+  kEnum,        // one of `values`
+  kEnumOrList,  // one of `values`, or a non-empty list of distinct ones (the campaign's engine)
+  kAxisValues,  // {JSON Pointer into the run spec: [values]} (sweep grid and zip)
+  kAxisPoints,  // [{JSON Pointer into the run spec: value}] (sweep points)
+  kRunSpec,     // a run spec (its own table)
 };
 
 struct SpecBound {
@@ -38,18 +38,20 @@ struct SpecBound {
 
 struct SpecField {
   SpecField(std::string pattern_, SpecType type_, std::string description_, nlohmann::json default_ = nullptr)
-      : pattern(std::move(pattern_)), type(type_), description(std::move(description_)),
+      : pattern(std::move(pattern_)),
+        type(type_),
+        description(std::move(description_)),
         default_value(std::move(default_)) {}
-  std::string pattern;              // "/silo/base_outlets/*/width"
+  std::string pattern;  // "/silo/base_outlets/*/width"
   SpecType type = SpecType::kNumber;
   std::string description;
-  nlohmann::json default_value;     // null: none (required, computed from other keys, or set by the runner)
+  nlohmann::json default_value;  // null: none (required, computed from other keys, or set by the runner)
   std::optional<SpecBound> minimum;
   std::optional<SpecBound> maximum;
   std::vector<std::string> values;  // kEnum, kEnumOrList
   std::size_t min_items = 0;        // kArray
   bool required = false;
-  std::size_t min_length = 0;       // kString
+  std::size_t min_length = 0;  // kString
 };
 
 class SpecTable {

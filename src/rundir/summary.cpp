@@ -27,7 +27,9 @@ nlohmann::json Summary::ToJson() const {
   if (clogs) j["clogs"] = *clogs;
   if (unclogs) j["unclogs"] = *unclogs;
   if (unclog_removed) j["unclog_removed"] = *unclog_removed;
-  j["bed"] = {{"file", bed.file}, {"height", bed.height}, {"prepared_here", bed.prepared_here},
+  j["bed"] = {{"file", bed.file},
+              {"height", bed.height},
+              {"prepared_here", bed.prepared_here},
               {"settle_time", bed.settle_time}};
   if (!bed.refused.empty()) j["bed"]["refused"] = bed.refused;
   if (bed.packing_fraction) j["bed"]["packing_fraction"] = *bed.packing_fraction;

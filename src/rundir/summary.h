@@ -13,11 +13,11 @@
 namespace granary::rundir {
 
 struct BedInfo {
-  std::string file;               // the prepared bed (a cache file or in the run directory)
+  std::string file;  // the prepared bed (a cache file or in the run directory)
   double height = 0.0;
-  bool prepared_here = false;     // false: taken from the cache
+  bool prepared_here = false;  // false: taken from the cache
   double settle_time = 0.0;
-  std::string refused;            // a cached bed file refused (corrupt, old format) and prepared again, or ""
+  std::string refused;  // a cached bed file refused (corrupt, old format) and prepared again, or ""
   // The settled bed's packing fraction (the full-width band from 5 d above the base to 5 d
   // below the surface) and surface (mean top of 1 d columns); absent in older runs.
   std::optional<double> packing_fraction;
@@ -25,7 +25,7 @@ struct BedInfo {
 };
 
 struct Timing {
-  double wall_s = 0.0;            // bed + discharge
+  double wall_s = 0.0;  // bed + discharge
   double bed_wall_s = 0.0;
   double discharge_wall_s = 0.0;
   // Discharge throughput: the discs in the silo at each step (those that left no longer
@@ -40,22 +40,22 @@ struct Timing {
 };
 
 struct Summary {
-  std::string engine;             // "native", "liggghts"
+  std::string engine;  // "native", "liggghts"
   std::string engine_version;
-  std::string granary_version;    // "" = not written (the native engine's version is engine_version)
+  std::string granary_version;  // "" = not written (the native engine's version is engine_version)
   std::string granary_commit;
   std::string run_id;
-  nlohmann::json spec;            // the resolved run spec as the engine saw it
-  std::string end_reason;         // discharged, clogged, time_limit
-  int bodies = 0;                 // in the silo at t = 0
+  nlohmann::json spec;                      // the resolved run spec as the engine saw it
+  std::string end_reason;                   // discharged, clogged, time_limit
+  int bodies = 0;                           // in the silo at t = 0
   std::optional<int> cleared_by_obstacles;  // native, silos with obstacles: bed bodies an obstacle overlapped
   int exited = 0;
   int remaining = 0;
   std::vector<int> exits_per_outlet;
   double t_end = 0.0;
   std::int64_t steps = 0;
-  std::optional<int> clogs;       // clogs the engine counted (kinetic-energy confirmed)
-  std::optional<int> unclogs;     // on_clog "unclog": clogs it broke (unclogs.csv has every attempt)
+  std::optional<int> clogs;           // clogs the engine counted (kinetic-energy confirmed)
+  std::optional<int> unclogs;         // on_clog "unclog": clogs it broke (unclogs.csv has every attempt)
   std::optional<int> unclog_removed;  // remove_arch in remove mode: arch bodies taken out (not exits)
   BedInfo bed;
   std::optional<Timing> timing;
@@ -68,7 +68,7 @@ struct Summary {
   std::string tangential_cap;     // "" = not written
   std::string reinject_position;  // "" = not written
 
-  nlohmann::json raw;             // as read: every key, including unknown ones (reader only)
+  nlohmann::json raw;  // as read: every key, including unknown ones (reader only)
 
   nlohmann::json ToJson() const;
   // Missing keys take the defaults above (remaining: bodies - exited); wrong types throw

@@ -62,22 +62,27 @@ std::vector<UnclogEvent> ReadUnclogs(const std::filesystem::path& file) {
     ++line_no;
     if (line.empty() || line == "\r") continue;
     if (line_no == 1) {
-      if (line + "\n" != kHeader) throw ReadError(Where(file, line_no) + ": header must be '" + std::string(kHeader, sizeof kHeader - 2) + "' (got '" + line + "')");
+      if (line + "\n" != kHeader)
+        throw ReadError(Where(file, line_no) + ": header must be '" + std::string(kHeader, sizeof kHeader - 2) +
+                        "' (got '" + line + "')");
       continue;
     }
     detail::Split(line, ',', f);
     if (f.size() != 6)
-      throw ReadError(Where(file, line_no) + ": expected 6 fields, got " + std::to_string(f.size()) + " ('" + line + "')");
+      throw ReadError(Where(file, line_no) + ": expected 6 fields, got " + std::to_string(f.size()) + " ('" + line +
+                      "')");
     UnclogEvent e;
     std::int64_t iv = 0;
     if (!detail::ToDouble(f[0], e.time) || !std::isfinite(e.time))
       throw ReadError(Where(file, line_no) + ": time '" + std::string(f[0]) + "' is not a number");
-    if (!detail::ToInt(f[1], e.step)) throw ReadError(Where(file, line_no) + ": step '" + std::string(f[1]) + "' is not an integer");
+    if (!detail::ToInt(f[1], e.step))
+      throw ReadError(Where(file, line_no) + ": step '" + std::string(f[1]) + "' is not an integer");
     if (!detail::ToInt(f[2], iv) || iv < 1)
       throw ReadError(Where(file, line_no) + ": clog '" + std::string(f[2]) + "' is not a clog number (1, 2, ...)");
     e.clog = static_cast<int>(iv);
     if (!detail::ToInt(f[3], iv) || iv < 1)
-      throw ReadError(Where(file, line_no) + ": attempt '" + std::string(f[3]) + "' is not an attempt number (1, 2, ...)");
+      throw ReadError(Where(file, line_no) + ": attempt '" + std::string(f[3]) +
+                      "' is not an attempt number (1, 2, ...)");
     e.attempt = static_cast<int>(iv);
     e.method = std::string(f[4]);
     if (e.method != "remove_arch" && e.method != "kick")

@@ -15,7 +15,7 @@
 namespace granary::rundir {
 
 struct UnclogEvent {
-  double time = 0.0;                 // since the outlets opened
+  double time = 0.0;  // since the outlets opened
   std::int64_t step = 0;
   int clog = 1;                      // which clog (1-based, as in clog_frames.dump)
   int attempt = 1;                   // 1 for the first attempt on this clog

@@ -51,17 +51,21 @@ std::string Host() {
   return host;
 }
 
-fs::path CacheFile(const std::string& key) { return fs::path(CalibrationDir()) / ("calibration-" + HashHex(key) + ".json"); }
+fs::path CacheFile(const std::string& key) {
+  return fs::path(CalibrationDir()) / ("calibration-" + HashHex(key) + ".json");
+}
 
 // One `granary-engine bench` of `shape`; its disc-steps per second, or 0 with `error` set.
 double Bench(const std::string& exe, const std::string& shape, std::string& error) {
-  const std::string bed = (fs::path(CalibrationDir()) / ("bench-bed-" + shape + "-" + std::to_string(kBodies) + ".json")).string();
-  const std::vector<std::string> args = {"bench",          "--shape", shape, "--bodies", std::to_string(kBodies), "--steps",
-                                         std::to_string(kSteps), "--threads-list", "1", "--bed", bed};
+  const std::string bed =
+      (fs::path(CalibrationDir()) / ("bench-bed-" + shape + "-" + std::to_string(kBodies) + ".json")).string();
+  const std::vector<std::string> args = {
+      "bench",          "--shape", shape,   "--bodies", std::to_string(kBodies), "--steps", std::to_string(kSteps),
+      "--threads-list", "1",       "--bed", bed};
   boost::asio::io_context io;
   std::future<std::string> out, err;
   std::error_code ec;
-  bp::child child(exe, bp::args(args), bp::std_in < bp::null, bp::std_out > out, bp::std_err > err, io, ec);
+  bp::child child(exe, bp::args(args), bp::std_in<bp::null, bp::std_out> out, bp::std_err > err, io, ec);
   if (ec) {
     error = "cannot start " + exe + ": " + ec.message();
     return 0.0;
@@ -74,8 +78,8 @@ double Bench(const std::string& exe, const std::string& shape, std::string& erro
   // Per CPU second: a core-hour's worth, whatever else the machine runs meanwhile.
   static const std::regex kRate(R"(threads=1 disc_steps_per_s=[0-9.eE+-]+ .*cpu_disc_steps_per_s=([0-9.eE+-]+))");
   if (child.exit_code() != 0 || !std::regex_search(text, m, kRate)) {
-    error = exe + " bench --shape " + shape + " failed (exit " + std::to_string(child.exit_code()) + "): " +
-            (errors.empty() ? text.substr(0, 200) : errors.substr(0, 200));
+    error = exe + " bench --shape " + shape + " failed (exit " + std::to_string(child.exit_code()) +
+            "): " + (errors.empty() ? text.substr(0, 200) : errors.substr(0, 200));
     return 0.0;
   }
   return std::stod(m[1].str());
@@ -85,7 +89,8 @@ double Bench(const std::string& exe, const std::string& shape, std::string& erro
 
 std::string CalibrationDir() {
   if (const char* env = std::getenv("GRANARY_CALIBRATION_DIR"); env && *env) return env;
-  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return (fs::path(xdg) / "granary" / "calibration").string();
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg)
+    return (fs::path(xdg) / "granary" / "calibration").string();
   const char* home = std::getenv("HOME");
   return (fs::path(home && *home ? home : "/tmp") / ".cache" / "granary" / "calibration").string();
 }
@@ -163,7 +168,7 @@ Calibration ObtainCalibration(const std::string& engine_exe, const std::function
 }
 
 CampaignEstimate EstimateRuns(const std::vector<PlannedRun>& runs, Store* store, const std::string& exe_dir, int jobs,
-                               bool measure, const std::function<void(const std::string&)>& say) {
+                              bool measure, const std::function<void(const std::string&)>& say) {
   const std::string exe = (fs::path(exe_dir) / "granary-engine").string();
   Calibration cal = measure ? ObtainCalibration(exe, say) : CachedCalibration(exe);
   if (store) ScaleFromFinished(cal, LoadFinished(*store));

@@ -34,7 +34,7 @@ struct RunRow;
 // done runs in `store` (nullptr: none); runs whose bed is already in the bed cache do not
 // prepare it.
 CampaignEstimate EstimateRuns(const std::vector<PlannedRun>& runs, Store* store, const std::string& exe_dir, int jobs,
-                               bool measure, const std::function<void(const std::string&)>& say);
+                              bool measure, const std::function<void(const std::string&)>& say);
 
 // The runs of the campaign in `store` that are not done, as planned runs (for the estimate).
 // What the estimator needs of a stored run.

@@ -68,8 +68,8 @@ int AddPlannedRuns(Store& store, const std::vector<PlannedRun>& runs, const std:
   Statement insert = store.Prepare(
       "INSERT INTO runs (run_id, seq, point_id, point, replica, params, state, engine, granary_version, "
       "git_commit, run_dir) VALUES (?1, ?2, ?3, ?4, ?5, ?6, 'planned', ?7, ?8, ?9, ?10)");
-  Statement revive = store.Prepare(
-      "UPDATE runs SET state = COALESCE(retired_from, 'planned'), retired_from = NULL WHERE run_id = ?1");
+  Statement revive =
+      store.Prepare("UPDATE runs SET state = COALESCE(retired_from, 'planned'), retired_from = NULL WHERE run_id = ?1");
   int changed = 0;
   for (const PlannedRun& r : runs) {
     state.Reset();
@@ -94,7 +94,7 @@ int AddPlannedRuns(Store& store, const std::vector<PlannedRun>& runs, const std:
 }
 
 PlanSummary PlanCampaign(Store& store, const CampaignSpec& spec, const std::vector<PlannedRun>& runs,
-                          const std::string& runs_root, bool dry_run) {
+                         const std::string& runs_root, bool dry_run) {
   PlanSummary sum;
   sum.total = static_cast<int>(runs.size());
   sum.axes = spec.axes;
@@ -128,9 +128,12 @@ PlanSummary PlanCampaign(Store& store, const CampaignSpec& spec, const std::vect
   }
   for (const auto& r : runs) {
     auto it = existing.find(r.run_id);
-    if (it == existing.end()) ++sum.added;
-    else if (it->second == RunState::kRetired) ++sum.revived;
-    else ++sum.unchanged;
+    if (it == existing.end())
+      ++sum.added;
+    else if (it->second == RunState::kRetired)
+      ++sum.revived;
+    else
+      ++sum.unchanged;
   }
   for (const auto& [id, state] : existing) {
     if (!ids.count(id) && state != RunState::kRetired) ++sum.retired;
@@ -183,8 +186,8 @@ PlanSummary PlanCampaign(Store& store, const CampaignSpec& spec, const std::vect
   Statement insert = store.Prepare(
       "INSERT INTO runs (run_id, seq, point_id, point, replica, params, state, engine, granary_version, "
       "git_commit, run_dir) VALUES (?1, ?2, ?3, ?4, ?5, ?6, 'planned', ?7, ?8, ?9, ?10)");
-  Statement revive = store.Prepare(
-      "UPDATE runs SET state = COALESCE(retired_from, 'planned'), retired_from = NULL WHERE run_id = ?1");
+  Statement revive =
+      store.Prepare("UPDATE runs SET state = COALESCE(retired_from, 'planned'), retired_from = NULL WHERE run_id = ?1");
   // A running run is retired with its lease: its runner stops the engine and records nothing,
   // and if the run comes back it continues from its checkpoint.
   Statement retire = store.Prepare(
@@ -255,7 +258,8 @@ PlanSummary PlanCampaign(Store& store, const CampaignSpec& spec, const std::vect
 }
 
 std::optional<CampaignRow> LoadCampaign(Store& store) {
-  Statement q = store.Prepare("SELECT name, spec, spec_hash, axes, granary_version, git_commit FROM campaign WHERE id = 1");
+  Statement q =
+      store.Prepare("SELECT name, spec, spec_hash, axes, granary_version, git_commit FROM campaign WHERE id = 1");
   if (!q.Step()) return std::nullopt;
   CampaignRow c;
   c.name = q.Text(0);
@@ -325,7 +329,8 @@ std::map<std::string, json> LoadResults(Store& store, const std::string& run_id)
 }
 
 std::vector<std::pair<json, json>> LoadFinished(Store& store) {
-  Statement q = store.Prepare("SELECT params, summary FROM runs WHERE summary IS NOT NULL AND end_reason IS NOT NULL ORDER BY seq");
+  Statement q = store.Prepare(
+      "SELECT params, summary FROM runs WHERE summary IS NOT NULL AND end_reason IS NOT NULL ORDER BY seq");
   std::vector<std::pair<json, json>> out;
   while (q.Step()) {
     json summary = json::parse(q.Text(1), nullptr, false);
@@ -336,7 +341,8 @@ std::vector<std::pair<json, json>> LoadFinished(Store& store) {
 
 std::vector<RunRow> FindRuns(Store& store, const std::string& prefix, bool with_params) {
   // Ids are lower-case hex: a prefix range on the primary key, no LIKE escaping needed.
-  Statement q = store.Prepare((std::string(kRunColumns) + "WHERE substr(run_id, 1, length(?1)) = ?1 ORDER BY seq").c_str());
+  Statement q =
+      store.Prepare((std::string(kRunColumns) + "WHERE substr(run_id, 1, length(?1)) = ?1 ORDER BY seq").c_str());
   q.Bind(1, prefix);
   std::vector<RunRow> rows;
   while (q.Step()) rows.push_back(ReadRow(q, with_params));
@@ -391,8 +397,7 @@ int RecoverExpiredLeases(Store& store, const Holder& me, double now) {
 }
 
 std::optional<RunRow> ClaimNext(Store& store, const Holder& me, double now,
-                                 const std::function<bool(const RunRow&)>& accept,
-                                 const std::set<std::string>& skip) {
+                                const std::function<bool(const RunRow&)>& accept, const std::set<std::string>& skip) {
   Transaction tx(store);
   Statement q = store.Prepare(
       (std::string(kRunColumns) + "WHERE state IN ('planned', 'interrupted', 'failed') ORDER BY seq").c_str());
@@ -444,7 +449,8 @@ std::set<std::string> Heartbeat(Store& store, const Holder& me, double now,
   Transaction tx(store);
   Statement u = store.Prepare("UPDATE runs SET lease_heartbeat = ?2 WHERE lease_holder = ?1 AND state = 'running'");
   u.Bind(1, me.id).Bind(2, now).Run();
-  Statement p = store.Prepare("UPDATE runs SET progress = ?2 WHERE run_id = ?1 AND lease_holder = ?3 AND state = 'running'");
+  Statement p =
+      store.Prepare("UPDATE runs SET progress = ?2 WHERE run_id = ?1 AND lease_holder = ?3 AND state = 'running'");
   for (const auto& [id, prog] : progress_by_run) {
     p.Reset();
     p.Bind(1, id).Bind(2, prog.dump()).Bind(3, me.id).Run();
@@ -463,8 +469,10 @@ std::map<std::string, json> FlattenScalars(const json& summary) {
     for (const auto& [key, value] : j.items()) {
       const std::string name = prefix.empty() ? key : prefix + "/" + key;
       if (prefix.empty() && key == "spec") continue;
-      if (value.is_object()) walk(value, name);
-      else if (value.is_number() || value.is_string() || value.is_boolean()) out[name] = value;
+      if (value.is_object())
+        walk(value, name);
+      else if (value.is_number() || value.is_string() || value.is_boolean())
+        out[name] = value;
     }
   };
   if (summary.is_object()) walk(summary, "");
@@ -481,9 +489,12 @@ void StoreResults(Store& store, const std::string& run_id, const json& summary) 
   for (const auto& [key, value] : FlattenScalars(summary)) {
     ins.Reset();
     ins.Bind(1, run_id).Bind(2, key);
-    if (value.is_number()) ins.Bind(3, value.get<double>()).BindNull(4);
-    else if (value.is_boolean()) ins.Bind(3, value.get<bool>() ? 1.0 : 0.0).BindNull(4);
-    else ins.BindNull(3).Bind(4, value.get<std::string>());
+    if (value.is_number())
+      ins.Bind(3, value.get<double>()).BindNull(4);
+    else if (value.is_boolean())
+      ins.Bind(3, value.get<bool>() ? 1.0 : 0.0).BindNull(4);
+    else
+      ins.BindNull(3).Bind(4, value.get<std::string>());
     ins.Run();
   }
 }
@@ -491,7 +502,7 @@ void StoreResults(Store& store, const std::string& run_id, const json& summary) 
 }  // namespace
 
 bool RecordDone(Store& store, const std::string& run_id, const std::string& holder, const json& summary, double now,
-                 double wall_s) {
+                double wall_s) {
   Transaction tx(store);
   Statement u = store.Prepare(
       "UPDATE runs SET state = 'done', ended_at = ?2, wall_s = ?3, end_reason = ?4, engine_version = ?5, "
@@ -506,7 +517,7 @@ bool RecordDone(Store& store, const std::string& run_id, const std::string& hold
 }
 
 bool RecordEnd(Store& store, const std::string& run_id, const std::string& holder, RunState state,
-                const std::string& reason, double now, double wall_s) {
+               const std::string& reason, double now, double wall_s) {
   Transaction tx(store);
   Statement u = store.Prepare(
       "UPDATE runs SET state = ?2, failure = ?3, ended_at = ?4, wall_s = ?5, end_reason = ?6, lease_holder = NULL, "
@@ -533,13 +544,19 @@ void StoreMetrics(Store& store, const std::vector<RunMetrics>& runs, double now)
     for (const MetricRow& m : r.metrics) {
       ins.Reset();
       ins.Bind(1, r.run_id).Bind(2, r.analysis).Bind(3, m.name).Bind(6, m.unit);
-      if (std::isfinite(m.value)) ins.Bind(4, m.value); else ins.BindNull(4);
-      if (std::isfinite(m.se)) ins.Bind(5, m.se); else ins.BindNull(5);
+      if (std::isfinite(m.value))
+        ins.Bind(4, m.value);
+      else
+        ins.BindNull(4);
+      if (std::isfinite(m.se))
+        ins.Bind(5, m.se);
+      else
+        ins.BindNull(5);
       ins.Run();
     }
     ana.Reset();
     ana.Bind(1, r.run_id).Bind(2, r.analysis).Bind(3, r.version).Bind(4, r.options.dump()).Bind(5, now).Run();
-    }
+  }
   tx.Commit();
 }
 
@@ -562,8 +579,10 @@ void RecordJobArray(Store& store, const Holder& me, const JobArray& array, doubl
   Statement a = store.Prepare(
       "INSERT INTO job_arrays (dir, script, name, array, job_id, submitted_at) VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
   a.Bind(1, array.dir).Bind(2, array.script).Bind(3, array.name).Bind(4, array.array);
-  if (array.job_id.empty()) a.BindNull(5);
-  else a.Bind(5, array.job_id);
+  if (array.job_id.empty())
+    a.BindNull(5);
+  else
+    a.Bind(5, array.job_id);
   a.Bind(6, now).Run();
   const std::int64_t id = sqlite3_last_insert_rowid(store.Handle());
   Statement u = store.Prepare(
@@ -644,8 +663,8 @@ int ReleaseQueuedRuns(Store& store, const Holder& me) {
   return sqlite3_changes(store.Handle());
 }
 
-bool SettleRun(Store& store, const RunRow& seen, RunState state, const std::string& reason,
-                const json* summary, double wall_s, double now) {
+bool SettleRun(Store& store, const RunRow& seen, RunState state, const std::string& reason, const json* summary,
+               double wall_s, double now) {
   Transaction tx(store);
   Statement u = store.Prepare(
       "UPDATE runs SET state = ?2, failure = ?3, end_reason = ?4, ended_at = ?5, wall_s = ?6, "
@@ -655,7 +674,9 @@ bool SettleRun(Store& store, const RunRow& seen, RunState state, const std::stri
   const std::string word = ToString(state);
   u.Bind(1, seen.run_id).Bind(2, word);
   if (summary) {
-    u.BindNull(3).Bind(4, summary->value("end_reason", std::string())).Bind(7, summary->value("engine_version", std::string()));
+    u.BindNull(3)
+        .Bind(4, summary->value("end_reason", std::string()))
+        .Bind(7, summary->value("engine_version", std::string()));
     u.Bind(8, summary->dump());
   } else {
     u.Bind(3, reason).Bind(4, word).BindNull(7).BindNull(8);

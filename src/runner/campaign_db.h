@@ -43,7 +43,7 @@ struct PlanSummary {
 // the campaign that is not running (its directory there, unlocked) takes over that run's
 // directory, without its DONE, and the old run is retired to start over if it ever comes back.
 PlanSummary PlanCampaign(Store& store, const CampaignSpec& spec, const std::vector<PlannedRun>& runs,
-                          const std::string& runs_root, bool dry_run);
+                         const std::string& runs_root, bool dry_run);
 
 // Adaptive replicas (rundir/replica_rule.h): of `runs`, expanded up to the rule's max, the
 // first `min` replicas of each point and those a runner added (in the database, not
@@ -81,8 +81,8 @@ struct RunRow {
   // Its place in a batch queue (docs/slurm.md) from its last submission; 0 = never queued.
   std::int64_t job_array = 0;
   int job_index = -1;
-  std::string job_id;     // the array job id; "" until sbatch returned
-  std::string job_dir;    // the submission's directory (manifest, scripts)
+  std::string job_id;   // the array job id; "" until sbatch returned
+  std::string job_dir;  // the submission's directory (manifest, scripts)
   std::string job_script;
   std::string job_name;
   std::string job_state;  // the queue state last seen
@@ -141,8 +141,7 @@ int RecoverExpiredLeases(Store& store, const Holder& me, double now);
 // `accept` and is not in `skip`. Marks it running under `me`, attempts + 1, out of any queue
 // (the row returned still names its last submission, which a resubmission reuses).
 std::optional<RunRow> ClaimNext(Store& store, const Holder& me, double now,
-                                 const std::function<bool(const RunRow&)>& accept,
-                                 const std::set<std::string>& skip);
+                                const std::function<bool(const RunRow&)>& accept, const std::set<std::string>& skip);
 
 // Done runs back to `planned` (their results deleted), e.g. when their run directory was
 // deleted after they finished; `reason` is kept as the run's failure note. Returns how many.
@@ -159,24 +158,24 @@ std::set<std::string> Heartbeat(Store& store, const Holder& me, double now,
 // no longer holds the run.
 // Ingests summary.json scalars into results, state done, lease cleared; one transaction.
 bool RecordDone(Store& store, const std::string& run_id, const std::string& holder, const nlohmann::json& summary,
-                 double now, double wall_s);
+                double now, double wall_s);
 // state failed or interrupted with the reason (and log tail); lease cleared.
 bool RecordEnd(Store& store, const std::string& run_id, const std::string& holder, RunState state,
-                const std::string& reason, double now, double wall_s);
+               const std::string& reason, double now, double wall_s);
 
 // One run's metrics from one analysis (db/003_metrics.sql): what campaign report, export and
 // compare store after analysing, so that the database answers queries without a report.
 struct MetricRow {
   std::string name;
   std::string unit;
-  double value = 0.0;             // NaN is stored as NULL
+  double value = 0.0;  // NaN is stored as NULL
   double se = 0.0;
 };
 struct RunMetrics {
   std::string run_id;
   std::string analysis;
   int version = 0;
-  nlohmann::json options;         // the analysis' run options
+  nlohmann::json options;  // the analysis' run options
   std::vector<MetricRow> metrics;
 };
 // Replaces the stored metrics of each (run, analysis) given; one transaction.
@@ -208,7 +207,7 @@ std::vector<RunRow> AdoptQueuedRuns(Store& store, const Holder& me, double now);
 // as record_done does), provided the row is still as the scan read it (same state, same
 // lease holder), so whatever a runner recorded in between wins. Returns whether it wrote.
 bool SettleRun(Store& store, const RunRow& seen, RunState state, const std::string& reason,
-                const nlohmann::json* summary, double wall_s, double now);
+               const nlohmann::json* summary, double wall_s, double now);
 
 // Detach: `me` stops watching its queued runs; they stay `running` in their jobs, for a
 // later `campaign run` to adopt or `campaign scan` to settle. Returns how many.

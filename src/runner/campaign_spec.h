@@ -17,7 +17,7 @@ namespace granary::runner {
 struct CampaignSpec {
   std::string name;
   std::string description;
-  std::string size;          // "quick", "medium", "full", or "" (not said): expectations judged only at full
+  std::string size;  // "quick", "medium", "full", or "" (not said): expectations judged only at full
   std::uint64_t seed = 1;
   int replicas = 1;          // planned per point (the rule's min)
   ReplicaRule replica_rule;  // `replicas` as given: fixed, or adaptive (min, max, until)
@@ -42,7 +42,7 @@ void CheckKeys(const nlohmann::json& j, const std::string& path, const std::vect
 
 struct PlannedRun {
   std::string run_id;
-  std::string point_id;  // shared by the replicas of one sweep point
+  std::string point_id;    // shared by the replicas of one sweep point
   nlohmann::json point;    // {pointer: value} of the sweep axes
   std::string point_json;  // point.dump()
   int replica = 0;

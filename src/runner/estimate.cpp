@@ -88,7 +88,8 @@ std::vector<rundir::Disc> SampleDiscs(const RunSpec& spec, double discs, double 
 RowBytes FrameRowBytes(const RunSpec& spec, double discs, double bodies, const Output& o) {
   const bool gzip = o.compress;
   auto bytes = [&](const rundir::Frame& f) {
-    return static_cast<double>(o.format == FrameFormat::kGsd ? rundir::gsd::GsdFrameBytes(f) : rundir::FrameBytes(f, gzip));
+    return static_cast<double>(o.format == FrameFormat::kGsd ? rundir::gsd::GsdFrameBytes(f)
+                                                             : rundir::FrameBytes(f, gzip));
   };
   rundir::Frame f;
   const double h = std::max(10.0, discs / spec.silo.width);
@@ -168,7 +169,8 @@ RunEstimate EstimateRun(const RunSpec& spec, const Calibration& cal, bool prepar
   const double mean_size = size / std::max(1.0, e.bodies);
   // Seconds per disc-step: a mixture pays each kind's cost for its share of the discs.
   const double sec_per_disc_step =
-      cal.Valid() && e.discs > 0 ? cal.scale * (lone_discs / cal.disc_rate + clump_discs / cal.clump_rate) / e.discs : 0.0;
+      cal.Valid() && e.discs > 0 ? cal.scale * (lone_discs / cal.disc_rate + clump_discs / cal.clump_rate) / e.discs
+                                 : 0.0;
 
   const double dt = spec.time_step;
   const Discharge& d = spec.discharge;
@@ -235,18 +237,25 @@ RunEstimate EstimateRun(const RunSpec& spec, const Calibration& cal, bool prepar
 
   // Disk: frames (and contact frames), two checkpoints, events, and the small files.
   const Output& o = spec.output;
-  auto frames_in = [&](double sim) { return o.frame_interval > 0 ? std::floor(sim / o.frame_interval + 1e-9) + 1 : 0.0; };
+  auto frames_in = [&](double sim) {
+    return o.frame_interval > 0 ? std::floor(sim / o.frame_interval + 1e-9) + 1 : 0.0;
+  };
   // Formatting (and compressing) a sample frame takes milliseconds: once per kind of run.
   thread_local std::map<std::string, std::pair<RowBytes, RowBytes>> memo;
   const bool contacts = o.frame_interval > 0 && o.contact_forces;
   const double contacts_per_disc =
       e.discs > 0 ? (lone_discs * m.contacts_per_lone_disc + clump_discs * m.contacts_per_clump_disc) / e.discs : 0.0;
-  const std::string memo_key = json{{"bodies", spec.ToJson()["bodies"]}, {"width", spec.silo.width}, {"gz", o.compress},
-                                    {"format", ToString(o.format)}, {"contacts", contacts}}.dump();
+  const std::string memo_key = json{
+      {"bodies", spec.ToJson()["bodies"]},
+      {"width", spec.silo.width},
+      {"gz", o.compress},
+      {"format", ToString(o.format)},
+      {"contacts", contacts}}.dump();
   auto found = memo.find(memo_key);
   if (found == memo.end() && o.frame_interval > 0) {
     found = memo.emplace(memo_key, std::pair{FrameRowBytes(spec, e.discs, e.bodies, o),
-                                             contacts ? ContactRowBytes(spec, e.discs, e.bodies, contacts_per_disc, o) : RowBytes{}})
+                                             contacts ? ContactRowBytes(spec, e.discs, e.bodies, contacts_per_disc, o)
+                                                      : RowBytes{}})
                 .first;
   }
   const RowBytes fr = o.frame_interval > 0 ? found->second.first : RowBytes{};
@@ -254,7 +263,8 @@ RunEstimate EstimateRun(const RunSpec& spec, const Calibration& cal, bool prepar
   // A contact frame with every contact_interval-th frame: its share per frame.
   const double contact_share = 1.0 / o.contact_interval;
   auto frame_bytes = [&](double discs) {
-    return fr.header + fr.row * discs + (contacts ? contact_share * (cr.header + cr.row * contacts_per_disc * discs) : 0.0);
+    return fr.header + fr.row * discs +
+           (contacts ? contact_share * (cr.header + cr.row * contacts_per_disc * discs) : 0.0);
   };
   e.frame_bytes = o.frame_interval > 0 ? frame_bytes(e.discs) : 0.0;
   // GSD: frame 0's per-disc constants, and each file's header, name list and outgrown index blocks.
@@ -262,7 +272,8 @@ RunEstimate EstimateRun(const RunSpec& spec, const Calibration& cal, bool prepar
     if (o.format != FrameFormat::kGsd || frames <= 0) return 0.0;
     const double contact_frames = std::floor((frames - 1) / o.contact_interval) + 1;
     return rundir::gsd::kGsdConstantBytesPerDisc * discs +
-           static_cast<double>(rundir::gsd::GsdOverheadBytes(static_cast<std::uint64_t>(frames * rundir::gsd::kGsdFrameEntries))) +
+           static_cast<double>(
+               rundir::gsd::GsdOverheadBytes(static_cast<std::uint64_t>(frames * rundir::gsd::kGsdFrameEntries))) +
            (contacts ? static_cast<double>(rundir::gsd::GsdOverheadBytes(
                            static_cast<std::uint64_t>(contact_frames * rundir::gsd::kGsdContactEntries)))
                      : 0.0);
@@ -283,7 +294,7 @@ RunEstimate EstimateRun(const RunSpec& spec, const Calibration& cal, bool prepar
 }
 
 CampaignEstimate EstimateCampaign(const std::vector<PlannedRun>& runs, const Calibration& cal, int jobs,
-                                   const std::set<std::string>& beds_ready, const EstimateModel& model) {
+                                  const std::set<std::string>& beds_ready, const EstimateModel& model) {
   CampaignEstimate c;
   c.calibration = cal;
   c.jobs = std::max(1, jobs);
@@ -293,8 +304,9 @@ CampaignEstimate EstimateCampaign(const std::vector<PlannedRun>& runs, const Cal
   std::vector<double> low, high;
   for (const PlannedRun& r : runs) {
     const RunSpec spec = RunSpec::FromJson(r.Params());
-    const bool first_of_bed = beds.insert(spec.engine + "|" + spec.bed.cache_file + "|" + spec.BedKey().dump()).second &&
-                              !beds_ready.count(spec.bed.cache_file);
+    const bool first_of_bed =
+        beds.insert(spec.engine + "|" + spec.bed.cache_file + "|" + spec.BedKey().dump()).second &&
+        !beds_ready.count(spec.bed.cache_file);
     const RunEstimate e = EstimateRun(spec, cal, first_of_bed, model);
     c.runs[r.run_id] = e;
     const std::string key = r.point_id + "|" + r.engine;
@@ -332,7 +344,8 @@ CampaignEstimate EstimateCampaign(const std::vector<PlannedRun>& runs, const Cal
       how += s;
     }
   } else {
-    how += "no engine speed known (" + (cal.source.empty() ? std::string("no calibration") : cal.source) + "): time not estimated";
+    how += "no engine speed known (" + (cal.source.empty() ? std::string("no calibration") : cal.source) +
+           "): time not estimated";
   }
   how += "; a bed prepared by the first run of its seed (" + std::to_string(c.beds) + " beds); bytes per frame by the ";
   how += "run-directory writer on a frame of the run's size";
@@ -344,7 +357,8 @@ CampaignEstimate EstimateCampaign(const std::vector<PlannedRun>& runs, const Cal
   return c;
 }
 
-void ScaleFromFinished(Calibration& cal, const std::vector<std::pair<json, json>>& finished, const EstimateModel& model) {
+void ScaleFromFinished(Calibration& cal, const std::vector<std::pair<json, json>>& finished,
+                       const EstimateModel& model) {
   if (finished.empty()) return;
   if (!cal.Valid()) {
     double steps = 0.0, core = 0.0;
@@ -393,8 +407,10 @@ void ScaleFromFinished(Calibration& cal, const std::vector<std::pair<json, json>
 std::string CoreHoursText(double low_s, double high_s) {
   char buf[96];
   const double lo = low_s / 3600, hi = high_s / 3600;
-  if (std::fabs(hi - lo) <= 0.05 * std::max(hi, 1e-9)) std::snprintf(buf, sizeof buf, "%.3g core-hours", hi);
-  else std::snprintf(buf, sizeof buf, "%.3g-%.3g core-hours", lo, hi);
+  if (std::fabs(hi - lo) <= 0.05 * std::max(hi, 1e-9))
+    std::snprintf(buf, sizeof buf, "%.3g core-hours", hi);
+  else
+    std::snprintf(buf, sizeof buf, "%.3g-%.3g core-hours", lo, hi);
   return buf;
 }
 

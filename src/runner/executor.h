@@ -33,13 +33,13 @@ struct Launch {
   std::string log_file;           // stdout and stderr are appended here
   std::string engine;             // "native" or "liggghts"
   std::string run_dir;
-  QueuePlace place;               // where an earlier attempt was queued (a resubmission reuses it)
+  QueuePlace place;  // where an earlier attempt was queued (a resubmission reuses it)
 };
 
 struct Finished {
   std::string run_id;
-  int exit_code = 0;    // valid when signal == 0
-  int signal = 0;       // the signal that ended the engine, or 0 (as reported, e.g. by wait or Slurm)
+  int exit_code = 0;       // valid when signal == 0
+  int signal = 0;          // the signal that ended the engine, or 0 (as reported, e.g. by wait or Slurm)
   bool timed_out = false;  // ended at its time limit by the executor (LimitsTime())
   std::string how;         // what ended it, in words, where the status alone does not say
   double wall_s = -1;      // the engine's wall time where the executor knows it better (< 0: the scheduler's clock)
@@ -47,21 +47,21 @@ struct Finished {
 
 // One submission to a batch queue (one sbatch call): the runs it carries, by array index.
 struct JobArray {
-  std::string dir;     // the submission's directory
-  std::string script;  // this call's batch script (unique)
-  std::string name;    // the job name
-  std::string array;   // the --array value
-  std::string job_id;  // "" until submitted
-  std::string error;   // why the queue refused it (Submit())
+  std::string dir;                                // the submission's directory
+  std::string script;                             // this call's batch script (unique)
+  std::string name;                               // the job name
+  std::string array;                              // the --array value
+  std::string job_id;                             // "" until submitted
+  std::string error;                              // why the queue refused it (Submit())
   std::vector<std::pair<std::string, int>> runs;  // run id, array index
 };
 
 // Why the scheduler stops a run. The executor chooses the means.
 enum class StopReason {
-  kInterrupt,   // the runner is stopping (Ctrl-C, SIGTERM): the engine should checkpoint and
-                // exit; it is ended by force if it has not after a grace period
-  kTimeLimit,   // over its wall-time limit: as kInterrupt (a hung engine is ended by force)
-  kLeaseLost,   // another runner holds the run now: end the engine at once, nothing of it counts
+  kInterrupt,  // the runner is stopping (Ctrl-C, SIGTERM): the engine should checkpoint and
+               // exit; it is ended by force if it has not after a grace period
+  kTimeLimit,  // over its wall-time limit: as kInterrupt (a hung engine is ended by force)
+  kLeaseLost,  // another runner holds the run now: end the engine at once, nothing of it counts
 };
 
 const char* ToString(StopReason reason);
@@ -70,7 +70,7 @@ class Executor {
  public:
   virtual ~Executor() = default;
   virtual bool CanStartMore() const = 0;
-  virtual void Start(const Launch& launch) = 0;     // throws std::runtime_error naming the run
+  virtual void Start(const Launch& launch) = 0;  // throws std::runtime_error naming the run
   // Non-blocking: runs that ended since the last poll. Also where an executor escalates a
   // stop whose grace period has passed.
   virtual std::vector<Finished> Poll() = 0;
@@ -101,9 +101,9 @@ class Executor {
 
 // One task of a batch queue as the queue reports it.
 struct QueueEntry {
-  std::string job_id;  // the array job id
-  int task = -1;       // the array index; -1 for a job that is not an array
-  std::string state;   // the queue's word: PENDING, RUNNING, COMPLETED, ...
+  std::string job_id;     // the array job id
+  int task = -1;          // the array index; -1 for a job that is not an array
+  std::string state;      // the queue's word: PENDING, RUNNING, COMPLETED, ...
   double started_at = 0;  // unix seconds; 0 = not started
   std::string name;
   std::string reason;
@@ -126,8 +126,8 @@ bool IsQueuedOrRunning(TaskFate fate);
 class BatchQueue {
  public:
   virtual ~BatchQueue() = default;
-  virtual const char* Name() const = 0;          // in messages: "Slurm"
-  virtual const char* QueryTool() const = 0;    // the command Query() runs: "squeue"
+  virtual const char* Name() const = 0;       // in messages: "Slurm"
+  virtual const char* QueryTool() const = 0;  // the command Query() runs: "squeue"
   virtual TaskFate FateOf(const std::string& state) const = 0;
   // One query for these array jobs (every task, every state); nullopt when the queue could not
   // answer, with the reason in *error. A job the queue no longer knows is simply absent.
@@ -136,7 +136,7 @@ class BatchQueue {
   // How a task that left the queue's live states ended (`state`, or "" when the queue no longer
   // knows its job), from what its run directory says.
   virtual Finished TaskEnd(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
-                            const std::string& state) const = 0;
+                           const std::string& state) const = 0;
 };
 const BatchQueue& DefaultBatchQueue();
 

@@ -22,8 +22,9 @@ const ExecutorRow& ExecutorOfBlock(const nlohmann::json& block, const std::strin
                                ? FindExecutor(block["type"].get<std::string>())
                                : nullptr;
   if (!row) {
-    throw SpecError(path + "/type", "must be " + ExecutorNames(true) + " (got " +
-                                        (block.is_object() && block.contains("type") ? block["type"].dump() : "nothing") + ")");
+    throw SpecError(path + "/type",
+                    "must be " + ExecutorNames(true) + " (got " +
+                        (block.is_object() && block.contains("type") ? block["type"].dump() : "nothing") + ")");
   }
   return *row;
 }

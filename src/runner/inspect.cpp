@@ -59,8 +59,8 @@ json RunDetails(Store& store, const RunRow& r, int log_lines) {
     std::sort(entries.begin(), entries.end(),
               [](const auto& a, const auto& b) { return a.path().filename() < b.path().filename(); });
     for (const auto& e : entries)
-      files.push_back({{"name", e.path().filename().string() + (e.is_directory() ? "/" : "")},
-                       {"bytes", DiskBytes(e.path())}});
+      files.push_back(
+          {{"name", e.path().filename().string() + (e.is_directory() ? "/" : "")}, {"bytes", DiskBytes(e.path())}});
   }
   json results = json::object();
   for (const auto& [key, value] : LoadResults(store, r.run_id)) results[key] = value;
@@ -101,7 +101,8 @@ json RunDetails(Store& store, const RunRow& r, int log_lines) {
     const json python = campaign->spec.value("report", json::object()).value("python", json::array());
     if (python.is_array())
       for (const auto& e : python)
-        if (e.is_object() && e.contains("key") && e.at("key").is_string()) current.push_back(e.at("key").get<std::string>());
+        if (e.is_object() && e.contains("key") && e.at("key").is_string())
+          current.push_back(e.at("key").get<std::string>());
   }
   if (fs::is_directory(fs::path(r.run_dir) / rundir::kAnalysesDir, ec)) {
     std::vector<std::string> keys;
@@ -169,24 +170,29 @@ std::vector<CleanItem> PlanClean(Store& store, const CleanOptions& o, std::vecto
     // Frames of done runs once their analyses are cached: what the report reads from then on.
     if (o.frames && r.state == RunState::kDone && fs::is_directory(r.run_dir, ec)) {
       std::vector<CleanItem> files;
-      for (const char* name : {rundir::kFramesFile, rundir::kFramesGzFile, rundir::kFramesGsdFile, rundir::kFramesDataFile,
-                               rundir::kContactsFile, rundir::kContactsGzFile, rundir::kContactsGsdFile})
+      for (const char* name :
+           {rundir::kFramesFile, rundir::kFramesGzFile, rundir::kFramesGsdFile, rundir::kFramesDataFile,
+            rundir::kContactsFile, rundir::kContactsGzFile, rundir::kContactsGsdFile})
         if (fs::exists(fs::path(r.run_dir) / name, ec))
           files.push_back({"frames", fs::path(r.run_dir) / name, r.run_id, DiskBytes(fs::path(r.run_dir) / name)});
       std::string kept;
       if (files.empty()) continue;
-      if (CachedAnalyses(r.run_dir).empty()) kept = "no analysis of it is cached yet (campaign report first)";
+      if (CachedAnalyses(r.run_dir).empty())
+        kept = "no analysis of it is cached yet (campaign report first)";
       else if (!fs::exists(fs::path(r.run_dir) / rundir::kManifestFile, ec))
         kept = "written before manifests: nothing would record that its frames were removed on purpose";
-      if (kept.empty()) items.insert(items.end(), files.begin(), files.end());
-      else if (frames_kept) frames_kept->push_back(r.run_id + ": " + kept);
+      if (kept.empty())
+        items.insert(items.end(), files.begin(), files.end());
+      else if (frames_kept)
+        frames_kept->push_back(r.run_id + ": " + kept);
     }
     const bool dir = fs::is_directory(r.run_dir, ec);
     if (dir && ((o.retired && r.state == RunState::kRetired) || (o.failed && r.state == RunState::kFailed)))
       items.push_back({ToString(r.state), r.run_dir, r.run_id, DiskBytes(r.run_dir)});
     else if (dir && o.locks && r.state != RunState::kRunning)
       for (const auto& e : fs::directory_iterator(r.run_dir, ec))
-        if (IsLockName(e.path()) && LockIsFree(e.path())) items.push_back({"lock", e.path(), r.run_id, DiskBytes(e.path())});
+        if (IsLockName(e.path()) && LockIsFree(e.path()))
+          items.push_back({"lock", e.path(), r.run_id, DiskBytes(e.path())});
   }
   // Beds: which runs of this campaign use which cached bed.
   std::map<std::string, bool> bed_needed;  // file -> some run not finished still needs it

@@ -25,25 +25,25 @@ std::uintmax_t DiskBytes(const std::filesystem::path& path);
 std::string HumanBytes(std::uintmax_t bytes);
 
 struct CleanOptions {
-  bool retired = true;   // directories of retired runs (no longer in the spec)
-  bool failed = false;   // directories of failed runs (they start afresh when run again)
-  bool beds = false;     // cached beds only this campaign's finished or retired runs use
-  bool locks = true;     // lock files nobody holds (bed cache, run directories of runs not running)
-  bool frames = false;   // frames and contact frames of done runs whose analyses are cached
-  std::string cache_dir; // the prepared-bed cache
+  bool retired = true;    // directories of retired runs (no longer in the spec)
+  bool failed = false;    // directories of failed runs (they start afresh when run again)
+  bool beds = false;      // cached beds only this campaign's finished or retired runs use
+  bool locks = true;      // lock files nobody holds (bed cache, run directories of runs not running)
+  bool frames = false;    // frames and contact frames of done runs whose analyses are cached
+  std::string cache_dir;  // the prepared-bed cache
 };
 
 struct CleanItem {
-  std::string kind;      // "retired", "failed", "bed", "lock", "frames"
+  std::string kind;  // "retired", "failed", "bed", "lock", "frames"
   std::filesystem::path path;
-  std::string run_id;    // for run directories
+  std::string run_id;  // for run directories
   std::uintmax_t bytes = 0;
 };
 
 // What clean would remove (nothing is touched). `frames_kept`, if given, gets the done runs
 // whose frames --frames keeps, as "RUN_ID: why" (no analysis cached yet; no manifest).
 std::vector<CleanItem> PlanClean(Store& store, const CleanOptions& options,
-                                  std::vector<std::string>* frames_kept = nullptr);
+                                 std::vector<std::string>* frames_kept = nullptr);
 
 // The analyses cached in a run directory (DIR/analyses/<key>.json), by key.
 std::vector<std::string> CachedAnalyses(const std::filesystem::path& run_dir);

@@ -124,10 +124,14 @@ class LocalExecutor : public Executor {
       Finished f;
       f.run_id = it->first;
       const int status = it->second.process.native_exit_code();
-      if (WIFSIGNALED(status)) f.signal = WTERMSIG(status);
-      else f.exit_code = WEXITSTATUS(status);
-      if (const std::string said = it->second.log.TailIfDeleted(20); !said.empty() || !std::filesystem::exists(it->second.run_dir, ec))
-        f.how = std::string(f.signal != 0 ? "engine killed by " + SignalName(f.signal) : "engine exited with status " + std::to_string(f.exit_code)) +
+      if (WIFSIGNALED(status))
+        f.signal = WTERMSIG(status);
+      else
+        f.exit_code = WEXITSTATUS(status);
+      if (const std::string said = it->second.log.TailIfDeleted(20);
+          !said.empty() || !std::filesystem::exists(it->second.run_dir, ec))
+        f.how = std::string(f.signal != 0 ? "engine killed by " + SignalName(f.signal)
+                                          : "engine exited with status " + std::to_string(f.exit_code)) +
                 "; its run directory " + it->second.run_dir + " was deleted while it ran" +
                 (said.empty() ? std::string(" (its log is gone with it)") : "; it last said:\n" + said);
       out.push_back(f);
@@ -166,7 +170,8 @@ class LocalExecutor : public Executor {
     }
     // The engine alone: it checkpoints, then ends what it started itself.
     kill(c.process.id(), SIGTERM);
-    const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(grace_));
+    const auto deadline =
+        Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(grace_));
     if (!c.kill_at || deadline < *c.kill_at) c.kill_at = deadline;
   }
 
@@ -202,14 +207,14 @@ class LocalSetup : public ExecutorSetup {
 }  // namespace
 
 ExecutorRow LocalExecutorRow() {
-  return {"local", "engines on this machine, --jobs at once",
+  return {"local",
+          "engines on this machine, --jobs at once",
           {{"jobs", true}, {"threads-per-run", true}},
           "The local pool:\n"
           "  --jobs N             concurrent runs (default: number of cores)\n"
           "  --threads-per-run T  passed to the engine as --threads (default 1)\n",
-          [](const cli::Args&, const nlohmann::json*, const std::string&, const RunOptions&) -> std::unique_ptr<ExecutorSetup> {
-            return std::make_unique<LocalSetup>();
-          }};
+          [](const cli::Args&, const nlohmann::json*, const std::string&,
+             const RunOptions&) -> std::unique_ptr<ExecutorSetup> { return std::make_unique<LocalSetup>(); }};
 }
 
 }  // namespace granary::runner

@@ -98,17 +98,18 @@ RunFilter::RunFilter(const std::vector<std::string>& filters) : texts_(filters) 
 }
 
 bool RunFilter::Matches(const RunRow& row) const {
-  if (!prefixes_.empty() &&
-      std::none_of(prefixes_.begin(), prefixes_.end(), [&](const std::string& p) { return row.run_id.rfind(p, 0) == 0; }))
+  if (!prefixes_.empty() && std::none_of(prefixes_.begin(), prefixes_.end(),
+                                         [&](const std::string& p) { return row.run_id.rfind(p, 0) == 0; }))
     return false;
   for (const auto& [pointer, texts] : values_)
-    if (std::none_of(texts.begin(), texts.end(), [&](const std::string& t) { return ParameterMatches(row, pointer, t); }))
+    if (std::none_of(texts.begin(), texts.end(),
+                     [&](const std::string& t) { return ParameterMatches(row, pointer, t); }))
       return false;
   return true;
 }
 
 RunFilter ResolveFilters(const std::vector<std::string>& filters, const CampaignRow& campaign,
-                          const std::vector<RunRow>& runs) {
+                         const std::vector<RunRow>& runs) {
   std::vector<const RunRow*> live;
   for (const auto& r : runs)
     if (r.state != RunState::kRetired) live.push_back(&r);
@@ -156,7 +157,8 @@ RunFilter ResolveFilters(const std::vector<std::string>& filters, const Campaign
           }
         }
         if (!any)
-          throw FilterError("--only " + f + ": no run has " + pointer + " = " + value + " (its values: " + List(values) + ")");
+          throw FilterError("--only " + f + ": no run has " + pointer + " = " + value +
+                            " (its values: " + List(values) + ")");
         continue;
       }
     }
@@ -204,8 +206,8 @@ RunFilter ResolveFilters(const std::vector<std::string>& filters, const Campaign
     for (const auto& r : resolved)
       if (!IsPointerFilter(r)) prefixes.push_back(r);
     for (const RunRow* r : live) {
-      bool pass = prefixes.empty() ||
-                  std::any_of(prefixes.begin(), prefixes.end(), [&](const std::string& p) { return r->run_id.rfind(p, 0) == 0; });
+      bool pass = prefixes.empty() || std::any_of(prefixes.begin(), prefixes.end(),
+                                                  [&](const std::string& p) { return r->run_id.rfind(p, 0) == 0; });
       for (const auto& [name, ids] : derived) pass = pass && ids.count(r->run_id) > 0;
       if (pass) kept.push_back(r->run_id);
     }
@@ -219,8 +221,7 @@ RunFilter ResolveFilters(const std::vector<std::string>& filters, const Campaign
   }
 #endif
   RunFilter filter(resolved);
-  if (!filters.empty() &&
-      std::none_of(live.begin(), live.end(), [&](const RunRow* r) { return filter.Matches(*r); }))
+  if (!filters.empty() && std::none_of(live.begin(), live.end(), [&](const RunRow* r) { return filter.Matches(*r); }))
     throw FilterError("--only " + List(filters) + ": each filter selects runs, but no run passes all of them");
   return filter;
 }

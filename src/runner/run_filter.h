@@ -50,6 +50,6 @@ bool ParameterMatches(const RunRow& row, const std::string& pointer, const std::
 // all of them together, select at least one of `runs` that is not retired. Throws FilterError
 // naming the run ids, axes or values there are.
 RunFilter ResolveFilters(const std::vector<std::string>& filters, const CampaignRow& campaign,
-                          const std::vector<RunRow>& runs);
+                         const std::vector<RunRow>& runs);
 
 }  // namespace granary::runner

@@ -98,7 +98,9 @@ ScanReport ScanCampaign(Store& store, const BatchQueue& queue, bool dry_run) {
       if (!dry_run && !held) {
         c.written = SettleRun(store, r, to, reason, summary.is_object() ? &summary : nullptr, wall, now);
       }
-      if (held) c.reason = (c.reason.empty() ? "" : c.reason + "; ") + "left to the runner that holds it (" + r.lease_holder + ")";
+      if (held)
+        c.reason =
+            (c.reason.empty() ? "" : c.reason + "; ") + "left to the runner that holds it (" + r.lease_holder + ")";
       report.changes.push_back(c);
       ++report.counts[ToString(c.written || dry_run ? to : r.state)];
     } else {
@@ -110,7 +112,7 @@ ScanReport ScanCampaign(Store& store, const BatchQueue& queue, bool dry_run) {
 }
 
 std::map<std::string, rundir::Verification> CheckDoneRuns(const std::vector<RunRow>& runs, rundir::VerifyLevel level,
-                                                            const std::function<void(int, int)>& progress) {
+                                                          const std::function<void(int, int)>& progress) {
   std::vector<const RunRow*> done;
   for (const RunRow& r : runs)
     if (r.state == RunState::kDone && fs::is_directory(r.run_dir)) done.push_back(&r);

@@ -23,8 +23,8 @@ namespace granary::runner {
 
 struct ScanChange {
   std::string run_id;
-  RunState from;       // state in the database
-  RunState to;         // state the directory (and queue) shows
+  RunState from;  // state in the database
+  RunState to;    // state the directory (and queue) shows
   std::string reason;
   bool written = false;  // false: dry run, or a live runner holds the row
 };
@@ -33,9 +33,9 @@ struct ScanReport {
   int runs = 0;                       // not retired
   std::map<std::string, int> counts;  // by state, after the scan
   std::vector<ScanChange> changes;
-  bool queue_asked = false;           // some runs were in a queue
-  std::string queue_error;            // squeue could not answer: queued runs were left as they were
-  std::vector<std::string> lost;      // done runs whose directory was deleted: left done (campaign run --rerun-lost)
+  bool queue_asked = false;       // some runs were in a queue
+  std::string queue_error;        // squeue could not answer: queued runs were left as they were
+  std::vector<std::string> lost;  // done runs whose directory was deleted: left done (campaign run --rerun-lost)
 };
 
 ScanReport ScanCampaign(Store& store, const BatchQueue& queue, bool dry_run);
@@ -44,7 +44,7 @@ ScanReport ScanCampaign(Store& store, const BatchQueue& queue, bool dry_run);
 // (rundir::VerifyRun at `level`), by run id; `progress(done, total)` after each, when set.
 // kSizes for status and show (a stat per file), kChecksums for scan --verify (every byte).
 std::map<std::string, rundir::Verification> CheckDoneRuns(const std::vector<RunRow>& runs, rundir::VerifyLevel level,
-                                                            const std::function<void(int, int)>& progress = {});
+                                                          const std::function<void(int, int)>& progress = {});
 
 // What a check of a campaign found, for the CLI's lines and --json.
 struct IntegrityCounts {

@@ -35,7 +35,6 @@ bool MatchesFilter(const RunRow& row, const std::string& filter) {
   return filter.empty() || RunFilter(std::vector<std::string>{filter}).Matches(row);
 }
 
-
 namespace {
 
 // 5 -> "5", 0.5 -> "0.5" (json's dump would give "5.0").
@@ -53,12 +52,14 @@ std::string How(const Finished& f) {
 }  // namespace
 
 std::pair<RunState, std::string> EndStateOf(const Finished& f, bool timed_out, double time_limit,
-                                              const std::string& log_file) {
+                                            const std::string& log_file) {
   // The executor's words where it has them (a batch queue's state), else the status'.
-  const auto said = [&](const std::string& status) { return (f.how.empty() ? status : f.how) + "\n" + TailOfFile(log_file, 20); };
+  const auto said = [&](const std::string& status) {
+    return (f.how.empty() ? status : f.how) + "\n" + TailOfFile(log_file, 20);
+  };
   if (timed_out || f.timed_out) {
     return {RunState::kFailed, said(time_limit > 0 ? "wall-time limit of " + Number(time_limit) + " s exceeded"
-                                          : "wall-time limit exceeded")};
+                                                   : "wall-time limit exceeded")};
   }
   if (f.signal == 0 && f.exit_code == 0) {
     return {RunState::kFailed, "engine exited 0 without DONE and summary.json\n" + TailOfFile(log_file, 20)};
@@ -120,7 +121,7 @@ struct Slot {
 }  // namespace
 
 ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor, RunObserver& observer,
-                      const volatile std::sig_atomic_t* stop) {
+                     const volatile std::sig_atomic_t* stop) {
   if (options.engine.find('/') != std::string::npos && !fs::exists(options.engine)) {
     throw std::invalid_argument("engine executable not found: " + options.engine);
   }
@@ -153,20 +154,26 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
   }
   observer.OnBegin(total, done, failed);
   if (recovered > 0) {
-    observer.OnEvent("", ToString(RunState::kInterrupted), std::to_string(recovered) + " run(s) of a lost runner will continue");
+    observer.OnEvent("", ToString(RunState::kInterrupted),
+                     std::to_string(recovered) + " run(s) of a lost runner will continue");
   }
   if (requeued > 0) {
-    observer.OnEvent("", ToString(RunState::kPlanned), std::to_string(requeued) + " done run(s) whose run directory was deleted will run again");
+    observer.OnEvent("", ToString(RunState::kPlanned),
+                     std::to_string(requeued) + " done run(s) whose run directory was deleted will run again");
   } else if (!lost.empty()) {
-    observer.OnEvent("", "lost", std::to_string(lost.size()) + " done run(s) have no run directory (deleted after they "
-                                  "finished; first " + lost.front() + "): their results are in the database only; "
-                                  "campaign run --rerun-lost runs them again");
+    observer.OnEvent("", "lost",
+                     std::to_string(lost.size()) +
+                         " done run(s) have no run directory (deleted after they "
+                         "finished; first " +
+                         lost.front() +
+                         "): their results are in the database only; "
+                         "campaign run --rerun-lost runs them again");
   }
 
-  std::set<std::string> skip;             // exhausted in this invocation
-  std::map<std::string, int> failures;    // failed attempts in this invocation
-  std::map<std::string, Slot> slots;      // engines started
-  std::map<std::string, RunRow> waiting;  // claimed, but another engine still holds the directory
+  std::set<std::string> skip;                      // exhausted in this invocation
+  std::map<std::string, int> failures;             // failed attempts in this invocation
+  std::map<std::string, Slot> slots;               // engines started
+  std::map<std::string, RunRow> waiting;           // claimed, but another engine still holds the directory
   std::map<std::string, std::string> queue_state;  // runs in a batch queue: their last state
   bool any_final_failure = false;
   std::string storage_full;  // set when runs/ is full: no new runs start, the invocation ends with kStorage
@@ -175,8 +182,9 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
   bool replicas_due = true;  // adaptive replicas: a run was recorded done since the last look
 
   auto lease_lost = [&](const std::string& id, const std::string& what) {
-    observer.OnEvent(id, "lease lost",
-                      "another runner holds this run now (this runner's lease expired, or a re-plan retired it); " + what);
+    observer.OnEvent(
+        id, "lease lost",
+        "another runner holds this run now (this runner's lease expired, or a re-plan retired it); " + what);
   };
 
   // Records an end state under our lease; false (and nothing recorded) if it is not ours.
@@ -235,7 +243,8 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
     if (finish_done(row, row.wall_s)) return;
     const std::string exe = EngineExe(options, row.engine);
     if (!fs::exists(exe)) {
-      RecordEnd(store, row.run_id, me.id, RunState::kInterrupted, "engine executable not found: " + exe, NowSeconds(), 0);
+      RecordEnd(store, row.run_id, me.id, RunState::kInterrupted, "engine executable not found: " + exe, NowSeconds(),
+                0);
       throw std::invalid_argument("engine executable not found: " + exe + " (build it, or pass --engine PATH)");
     }
     try {
@@ -252,7 +261,7 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
     }
     slots[row.run_id] = Slot{row, clock(), false, false};
     observer.OnEvent(row.run_id, ToString(RunState::kRunning),
-                      "attempt " + std::to_string(row.attempts) + (executor.OutlivesRunner() ? ", to the queue" : ""));
+                     "attempt " + std::to_string(row.attempts) + (executor.OutlivesRunner() ? ", to the queue" : ""));
   };
 
   // One ended engine: its end state, under our lease.
@@ -268,8 +277,10 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
     } else if (f.signal == 0 && f.exit_code == 0 && !f.timed_out && finish_done(slot.row, wall)) {
     } else if (f.signal == 0 && f.exit_code == kExitRunDirectoryBusy) {
       // Another engine took the directory between our look and the engine's lock.
-      if (stopping) end_run(f.run_id, RunState::kInterrupted, "interrupted while waiting for its directory", wall);
-      else waiting[f.run_id] = slot.row;
+      if (stopping)
+        end_run(f.run_id, RunState::kInterrupted, "interrupted while waiting for its directory", wall);
+      else
+        waiting[f.run_id] = slot.row;
     } else if (stopping) {
       end_run(f.run_id, RunState::kInterrupted, "interrupted by the user (runner stopped)", wall);
     } else if (const std::string full = FullFileSystem(slot.row.run_dir); !full.empty()) {
@@ -292,15 +303,17 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
       queue_state[row.run_id] = row.job_state;
     }
     if (!adopted.empty()) {
-      observer.OnEvent("", "attached", std::to_string(adopted.size()) + " run(s) already in the queue: watching them again");
+      observer.OnEvent("", "attached",
+                       std::to_string(adopted.size()) + " run(s) already in the queue: watching them again");
     }
   } else {
     int queued = 0;
     for (const auto& r : LoadRuns(store, false)) queued += r.Queued();
     if (queued > 0) {
-      observer.OnEvent("", "queued", std::to_string(queued) +
-                                          " run(s) are in a Slurm queue; campaign run --executor slurm watches them, "
-                                          "campaign scan settles them");
+      observer.OnEvent("", "queued",
+                       std::to_string(queued) +
+                           " run(s) are in a Slurm queue; campaign run --executor slurm watches them, "
+                           "campaign scan settles them");
     }
   }
 
@@ -316,12 +329,14 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
         for (const auto& [id, index] : a.runs) {
           if (auto slot = slots.find(id); slot != slots.end()) slot->second.row.job_id = a.job_id;
         }
-        observer.OnEvent("", "submitted", "array job " + a.job_id + " (" + std::to_string(a.runs.size()) + " runs, --array=" +
-                                               a.array + "): " + a.script);
+        observer.OnEvent("", "submitted",
+                         "array job " + a.job_id + " (" + std::to_string(a.runs.size()) + " runs, --array=" + a.array +
+                             "): " + a.script);
         continue;
       }
       for (const auto& [id, index] : a.runs) {
-        if (!RecordEnd(store, id, me.id, RunState::kInterrupted, a.error, NowSeconds(), 0)) lease_lost(id, "its end is not recorded");
+        if (!RecordEnd(store, id, me.id, RunState::kInterrupted, a.error, NowSeconds(), 0))
+          lease_lost(id, "its end is not recorded");
         skip.insert(id);
         slots.erase(id);
         queue_state.erase(id);
@@ -334,7 +349,8 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
   // Leaves the queued runs to their jobs (a later runner or campaign scan collects them);
   // runs still waiting for their directory were never queued: they are interrupted.
   auto detach = [&](const std::string& what) {
-    for (const auto& [id, row] : waiting) end_run(id, RunState::kInterrupted, "waiting for its directory when the runner detached", 0);
+    for (const auto& [id, row] : waiting)
+      end_run(id, RunState::kInterrupted, "waiting for its directory when the runner detached", 0);
     waiting.clear();
     const int released = ReleaseQueuedRuns(store, me);
     observer.OnEvent("", "detached", std::to_string(released) + what);
@@ -364,7 +380,8 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
     while (true) {
       if (stop && *stop && executor.OutlivesRunner()) {
         // The jobs keep running; a later runner adopts them.
-        detach(" run(s) stay in the queue; campaign run --executor slurm watches them again, campaign scan settles them");
+        detach(
+            " run(s) stay in the queue; campaign run --executor slurm watches them again, campaign scan settles them");
         return ExitCode::kInterrupted;
       }
       if (stop && *stop) {
@@ -375,7 +392,8 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
           for (const auto& f : executor.Poll()) finished(f, true);
           if (executor.Active() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(50));
         }
-        for (const auto& [id, row] : waiting) end_run(id, RunState::kInterrupted, "interrupted while waiting for its directory", 0);
+        for (const auto& [id, row] : waiting)
+          end_run(id, RunState::kInterrupted, "interrupted while waiting for its directory", 0);
         observer.OnEnd(done, failed, total);
         return ExitCode::kInterrupted;
       }
@@ -400,8 +418,9 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
       }
       submit_started();
       if (options.detach && nothing_left && executor.OutlivesRunner()) {
-        detach(" run(s) in the queue; campaign status shows them, campaign scan or campaign run --executor slurm "
-               "collects them");
+        detach(
+            " run(s) in the queue; campaign status shows them, campaign scan or campaign run --executor slurm "
+            "collects them");
         if (!storage_full.empty()) return ExitCode::kStorage;
         return any_final_failure ? ExitCode::kRunsFailed : ExitCode::kOk;
       }
@@ -469,9 +488,11 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
     // running: their runs stay queued under this runner's lease, and the next runner adopts
     // them once it has expired.
     if (executor.OutlivesRunner()) {
-      throw StoreError(e.Code(), std::string(e.what()) + "\ncampaign run stopped watching its " + DefaultBatchQueue().Name() + " jobs (they keep running; "
-                                                         "the next campaign run or campaign scan collects them). Free space "
-                                                         "(or fix the database) and run campaign run again.");
+      throw StoreError(e.Code(), std::string(e.what()) + "\ncampaign run stopped watching its " +
+                                     DefaultBatchQueue().Name() +
+                                     " jobs (they keep running; "
+                                     "the next campaign run or campaign scan collects them). Free space "
+                                     "(or fix the database) and run campaign run again.");
     }
     executor.StopAll(StopReason::kInterrupt);
     while (executor.Active() > 0) {
@@ -487,23 +508,26 @@ ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor
     }
     for (const auto& id : held) {
       try {
-        if (id == "?" || !RecordEnd(store, id, me.id, RunState::kInterrupted, "the database could not be written: " +
-                                                                   std::string(e.what()), NowSeconds(), 0))
+        if (id == "?" || !RecordEnd(store, id, me.id, RunState::kInterrupted,
+                                    "the database could not be written: " + std::string(e.what()), NowSeconds(), 0))
           ++unrecorded;
       } catch (const StoreError&) {
         ++unrecorded;
       }
     }
-    throw StoreError(e.Code(), std::string(e.what()) + "\ncampaign run stopped its engines (they continue from their checkpoints)" +
-                                   (unrecorded > 0 ? "; runs it could not mark interrupted show as running with their runner gone "
-                                                     "until the next campaign run recovers them"
-                                                   : "") +
-                                   ". Free space (or fix the database) and run campaign run again.");
+    throw StoreError(
+        e.Code(), std::string(e.what()) + "\ncampaign run stopped its engines (they continue from their checkpoints)" +
+                      (unrecorded > 0 ? "; runs it could not mark interrupted show as running with their runner gone "
+                                        "until the next campaign run recovers them"
+                                      : "") +
+                      ". Free space (or fix the database) and run campaign run again.");
   }
   if (!storage_full.empty()) {
     for (const auto& [id, row] : waiting) end_run(id, RunState::kInterrupted, storage_full, 0);
-    observer.OnEvent("", "stopped", storage_full + ": no more runs started; the interrupted ones continue from their "
-                                     "checkpoints once there is room (campaign run again)");
+    observer.OnEvent("", "stopped",
+                     storage_full +
+                         ": no more runs started; the interrupted ones continue from their "
+                         "checkpoints once there is room (campaign run again)");
     observer.OnEnd(done, failed, total);
     return ExitCode::kStorage;
   }

@@ -28,12 +28,12 @@ class RunObserver;
 
 struct RunOptions {
   int jobs = 1;
-  std::string engine;         // "" = each run's own; "native"/"liggghts" = only those; a path = that executable
+  std::string engine;             // "" = each run's own; "native"/"liggghts" = only those; a path = that executable
   std::vector<std::string> only;  // --only filters with full pointers (run_filter.h); none = every run
   int threads_per_run = 1;
-  double time_limit = 0;      // seconds of wall time per run; 0 = none
-  int retries = 1;            // extra attempts per run within this invocation
-  std::string exe_dir;        // where granary-engine / granary-liggghts live
+  double time_limit = 0;  // seconds of wall time per run; 0 = none
+  int retries = 1;        // extra attempts per run within this invocation
+  std::string exe_dir;    // where granary-engine / granary-liggghts live
   double poll_interval = 0.2;
   double tick_interval = 0.5;       // observer ticks (progress display)
   double heartbeat_interval = 2.0;  // lease heartbeats, and the check that the leases are still ours
@@ -78,7 +78,7 @@ class RunObserver {
 // interrupted (it continues from its checkpoint); a time limit (the scheduler's, `timed_out`,
 // or the executor's, f.timed_out) or an exit status means failed.
 std::pair<RunState, std::string> EndStateOf(const Finished& f, bool timed_out, double time_limit,
-                                              const std::string& log_file);
+                                            const std::string& log_file);
 
 // The failure note of a done run put back to planned because its directory was deleted.
 extern const char kLostRunDirectory[];
@@ -88,6 +88,6 @@ bool MatchesFilter(const RunRow& row, const std::string& filter);
 
 // Runs what is not done. `stop` is set asynchronously (signal handler) to request a clean stop.
 ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor, RunObserver& observer,
-                      const volatile std::sig_atomic_t* stop);
+                     const volatile std::sig_atomic_t* stop);
 
 }  // namespace granary::runner

@@ -23,8 +23,10 @@ namespace {
 std::string Quote(const std::string& s) {
   std::string out = "'";
   for (char c : s) {
-    if (c == '\'') out += "'\\''";
-    else out += c;
+    if (c == '\'')
+      out += "'\\''";
+    else
+      out += c;
   }
   return out + "'";
 }
@@ -52,7 +54,7 @@ void CheckField(const std::string& value, const char* what) {
 
 std::string ParseExecutorBlock(const json& block, const std::string& path, SlurmOptions& o) {
   CheckKeys(block, path,
-             {"type", "partition", "time", "account", "cpus_per_run", "array_max", "sbatch_args", "poll_interval"});
+            {"type", "partition", "time", "account", "cpus_per_run", "array_max", "sbatch_args", "poll_interval"});
   ExecutorOfBlock(block, path);
   const auto text = [&](const char* key, std::string& out) {
     if (!block.contains(key)) return;
@@ -65,7 +67,8 @@ std::string ParseExecutorBlock(const json& block, const std::string& path, Slurm
   text("account", o.account);
   text("time", o.time);
   if (!o.time.empty() && !IsSlurmTime(o.time)) {
-    throw SpecError(path + "/time", "must be a Slurm time such as \"30\", \"4:00:00\" or \"1-12:00:00\" (got \"" + o.time + "\")");
+    throw SpecError(path + "/time",
+                    "must be a Slurm time such as \"30\", \"4:00:00\" or \"1-12:00:00\" (got \"" + o.time + "\")");
   }
   const auto integer = [&](const char* key, int min, int& out) {
     if (!block.contains(key)) return;
@@ -101,7 +104,8 @@ std::string ParseExecutorBlock(const json& block, const std::string& path, Slurm
 }
 
 bool IsSlurmTime(const std::string& text) {
-  static const std::regex kTime(R"(^(\d+|\d+:\d{1,2}|\d+:\d{1,2}:\d{1,2}|\d+-\d+|\d+-\d+:\d{1,2}|\d+-\d+:\d{1,2}:\d{1,2})$)");
+  static const std::regex kTime(
+      R"(^(\d+|\d+:\d{1,2}|\d+:\d{1,2}:\d{1,2}|\d+-\d+|\d+-\d+:\d{1,2}|\d+-\d+:\d{1,2}:\d{1,2})$)");
   return std::regex_match(text, kTime) || text == "UNLIMITED" || text == "INFINITE";
 }
 
@@ -141,8 +145,10 @@ std::vector<ManifestEntry> ParseManifest(const std::string& text) {
       start = tab + 1;
     }
     int index = -1;
-    if (f.size() != 5 || std::from_chars(f[0].data(), f[0].data() + f[0].size(), index).ec != std::errc() || index < 0) {
-      throw std::invalid_argument("manifest line " + std::to_string(number) + ": expected index, run id, engine, executable, run directory");
+    if (f.size() != 5 || std::from_chars(f[0].data(), f[0].data() + f[0].size(), index).ec != std::errc() ||
+        index < 0) {
+      throw std::invalid_argument("manifest line " + std::to_string(number) +
+                                  ": expected index, run id, engine, executable, run directory");
     }
     out.push_back({index, f[1], f[2], f[3], f[4]});
   }
@@ -179,14 +185,18 @@ std::string BatchScript(const BatchJob& job) {
     << "#SBATCH --job-name=" << job.job_name << "\n"
     << "#SBATCH --array=" << job.array << "\n";
   // LIGGGHTS and LAMMPS use MPI ranks (srun inside the task); the native engine uses threads.
-  if (mpi) s << "#SBATCH --ntasks=" << o.cpus_per_run << "\n#SBATCH --cpus-per-task=1\n";
-  else s << "#SBATCH --ntasks=1\n#SBATCH --cpus-per-task=" << o.cpus_per_run << "\n";
+  if (mpi)
+    s << "#SBATCH --ntasks=" << o.cpus_per_run << "\n#SBATCH --cpus-per-task=1\n";
+  else
+    s << "#SBATCH --ntasks=1\n#SBATCH --cpus-per-task=" << o.cpus_per_run << "\n";
   s << "#SBATCH --output=" << job.log_dir << "/%A_%a.out\n";
   if (!o.partition.empty()) s << "#SBATCH --partition=" << o.partition << "\n";
   if (!o.account.empty()) s << "#SBATCH --account=" << o.account << "\n";
   // Slurm's own limit leaves the engine a minute to checkpoint after `timeout` stopped it.
-  if (!o.time.empty()) s << "#SBATCH --time=" << o.time << "\n";
-  else if (job.time_limit > 0) s << "#SBATCH --time=" << SlurmTime(job.time_limit + 90) << "\n";
+  if (!o.time.empty())
+    s << "#SBATCH --time=" << o.time << "\n";
+  else if (job.time_limit > 0)
+    s << "#SBATCH --time=" << SlurmTime(job.time_limit + 90) << "\n";
   if (!job.dependency.empty()) s << "#SBATCH --dependency=" << job.dependency << "\n";
   for (const auto& a : o.sbatch_args) s << "#SBATCH " << a << "\n";
   s << "set -u\n"
@@ -200,7 +210,8 @@ std::string BatchScript(const BatchJob& job) {
     << "IFS=$'\\t' read -r index run_id engine exe dir <<< \"$entry\"\n"
     << "task=\"${SLURM_ARRAY_JOB_ID}_${SLURM_ARRAY_TASK_ID}\"\n"
     << "started=$(date +%s.%N)\n"
-    << "# DIR/" << rundir::kSlurmTaskFile << ": this task, its node and start, then its exit status; replaced atomically.\n"
+    << "# DIR/" << rundir::kSlurmTaskFile
+    << ": this task, its node and start, then its exit status; replaced atomically.\n"
     << "record() {\n"
     << "  local tmp=\"$dir/" << rundir::kSlurmTaskFile << ".tmp.$$\"\n"
     << "  printf '{\"job\": \"%s\", \"run_id\": \"%s\", \"node\": \"%s\", \"started_at\": %s%s}\\n' \\\n"
@@ -298,7 +309,8 @@ std::optional<TaskRecord> ParseTaskRecord(const std::string& text) {
 
 bool EndedByTimeLimit(const TaskRecord& record, double time_limit) {
   if (time_limit <= 0 || !record.exit_code) return false;
-  return *record.exit_code == 124 || (*record.exit_code == 128 + 9 && record.ended_at - record.started_at >= time_limit);
+  return *record.exit_code == 124 ||
+         (*record.exit_code == 128 + 9 && record.ended_at - record.started_at >= time_limit);
 }
 
 }  // namespace granary::runner

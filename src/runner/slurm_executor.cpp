@@ -60,8 +60,8 @@ CommandResult RunCommand(const std::vector<std::string>& argv, const fs::path& c
   auto env = boost::this_process::environment();
   env["SLURM_TIME_FORMAT"] = "%s";
   std::error_code ec;
-  bp::child child(exe.string(), bp::args(std::vector<std::string>(argv.begin() + 1, argv.end())), bp::std_in < bp::null,
-                  bp::std_out > out, bp::std_err > err, bp::start_dir = cwd.string(), env, io, ec);
+  bp::child child(exe.string(), bp::args(std::vector<std::string>(argv.begin() + 1, argv.end())),
+                  bp::std_in<bp::null, bp::std_out> out, bp::std_err > err, bp::start_dir = cwd.string(), env, io, ec);
   if (ec) {
     r.err = "cannot start " + exe.string() + ": " + ec.message();
     return r;
@@ -90,7 +90,8 @@ std::string LastLine(const CommandResult& r) {
 // Campaign names become part of directory and job names: letters, digits, '-', '_', '.'.
 std::string SafeName(const std::string& campaign) {
   std::string out;
-  for (char c : campaign.substr(0, 32)) out += std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' ? c : '_';
+  for (char c : campaign.substr(0, 32))
+    out += std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' ? c : '_';
   return out.empty() ? "campaign" : out;
 }
 
@@ -139,7 +140,7 @@ struct Prepared {
   JobArray array;
   std::string manifest;  // "" = the submission's existing manifest
   std::string script;
-  int depends_on = -1;   // index of the array (in this batch) this one waits for: the campaign-wide throttle
+  int depends_on = -1;  // index of the array (in this batch) this one waits for: the campaign-wide throttle
   std::vector<Launch> launches;
   std::vector<int> indices;
 };
@@ -163,11 +164,13 @@ bool CanResubmitInPlace(const Launch& l) {
 std::vector<Prepared> PlanArrays(const std::vector<Launch>& launches, const SlurmSettings& s, bool create) {
   const int max_size = std::max(1, s.max_array_size);
   const SlurmOptions& o = s.options;
-  std::map<std::string, std::vector<Launch>> again;      // submission dir -> runs
-  std::map<std::string, std::vector<Launch>> fresh;      // engine -> runs
+  std::map<std::string, std::vector<Launch>> again;  // submission dir -> runs
+  std::map<std::string, std::vector<Launch>> fresh;  // engine -> runs
   for (const auto& l : launches) {
-    if (CanResubmitInPlace(l)) again[l.place.dir].push_back(l);
-    else fresh[l.engine].push_back(l);
+    if (CanResubmitInPlace(l))
+      again[l.place.dir].push_back(l);
+    else
+      fresh[l.engine].push_back(l);
   }
   std::vector<Prepared> out;
   const auto script_of = [&](Prepared& p, const fs::path& dir, const std::string& engine) {
@@ -188,7 +191,8 @@ std::vector<Prepared> PlanArrays(const std::vector<Launch>& launches, const Slur
     if (o.time.empty() && s.time_limit <= 0) {
       double longest = 0;
       for (const auto& [run_id, index] : p.array.runs)
-        if (const auto it = s.estimate_s.find(run_id); it != s.estimate_s.end()) longest = std::max(longest, it->second);
+        if (const auto it = s.estimate_s.find(run_id); it != s.estimate_s.end())
+          longest = std::max(longest, it->second);
       if (longest > 0) job.options.time = SlurmTime(WithTimeMargin(longest));
     }
     p.script = BatchScript(job);
@@ -415,7 +419,8 @@ class SlurmExecutor : public Executor {
   // (never submitted, or ended long ago: its run directory decides).
   static bool FindJob(QueuePlace& place) {
     if (place.name.empty()) return true;
-    const CommandResult r = RunCommand({"squeue", "--noheader", "--states=all", "--name=" + place.name, "--format=%F|%o"});
+    const CommandResult r =
+        RunCommand({"squeue", "--noheader", "--states=all", "--name=" + place.name, "--format=%F|%o"});
     if (r.code != 0) return false;
     std::istringstream lines(r.out);
     std::string line;
@@ -469,7 +474,8 @@ Finished SlurmTaskEnd(const std::string& run_id, const std::string& run_dir, con
   if (!state.empty() && FateOf(state) == TaskFate::kTimedOut) {
     f.timed_out = true;
     f.exit_code = 1;
-    f.how = where + ": Slurm's time limit for the task ran out" + (slurm_time.empty() ? "" : " (--time " + slurm_time + ")") +
+    f.how = where + ": Slurm's time limit for the task ran out" +
+            (slurm_time.empty() ? "" : " (--time " + slurm_time + ")") +
             "; with --retries it continues from its checkpoint" + log_note;
     return f;
   }
@@ -488,8 +494,7 @@ Finished SlurmTaskEnd(const std::string& run_id, const std::string& run_dir, con
   }
   const TaskFate fate = state.empty() ? TaskFate::kLost : FateOf(state);
   switch (fate) {
-    case TaskFate::kCompleted:
-      return f;  // exit 0 without DONE: the scheduler says so
+    case TaskFate::kCompleted: return f;  // exit 0 without DONE: the scheduler says so
     case TaskFate::kFailed:
       f.exit_code = 1;
       f.how = where + (record ? " while its engine ran" : " before its engine started") + log_note;
@@ -527,7 +532,8 @@ std::vector<PlannedArray> PlanSlurmArrays(const std::vector<Launch>& launches, c
   std::vector<PlannedArray> out;
   const std::vector<Prepared> arrays = PlanArrays(launches, settings, false);
   for (const auto& p : arrays) {
-    const std::string dependency = p.depends_on >= 0 ? "<job id of " + arrays[static_cast<std::size_t>(p.depends_on)].array.name + ">" : "";
+    const std::string dependency =
+        p.depends_on >= 0 ? "<job id of " + arrays[static_cast<std::size_t>(p.depends_on)].array.name + ">" : "";
     out.push_back({p.array, p.manifest, p.script, SbatchLine(p, dependency)});
   }
   return out;
@@ -543,12 +549,13 @@ class SlurmQueue : public BatchQueue {
   const char* Name() const override { return "Slurm"; }
   const char* QueryTool() const override { return "squeue"; }
   TaskFate FateOf(const std::string& state) const override { return runner::FateOf(state); }
-  std::optional<std::vector<QueueEntry>> Query(const std::set<std::string>& job_ids, std::string* error) const override {
+  std::optional<std::vector<QueueEntry>> Query(const std::set<std::string>& job_ids,
+                                               std::string* error) const override {
     return QueryQueue(job_ids, error);
   }
   // The time limit the task ran under is in its script; 124 from `timeout` says it was hit.
   Finished TaskEnd(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
-                    const std::string& state) const override {
+                   const std::string& state) const override {
     return SlurmTaskEnd(run_id, run_dir, place, state, std::numeric_limits<double>::infinity(), "");
   }
 };
@@ -561,8 +568,8 @@ const BatchQueue& DefaultBatchQueue() {
 
 namespace {
 
-using nlohmann::json;
 using cli::UsageError;
+using nlohmann::json;
 
 class SlurmSetup : public ExecutorSetup {
  public:
@@ -574,7 +581,7 @@ class SlurmSetup : public ExecutorSetup {
     if (!settings_.options.time.empty() || settings_.time_limit > 0) return;
     // Each array's --time from the estimate of its longest run, with a margin.
     const CampaignEstimate e = EstimateRuns(RunsLeft(store), &store, options.exe_dir, 1, true,
-                                             [&](const std::string& line) { out << line << std::endl; });
+                                            [&](const std::string& line) { out << line << std::endl; });
     if (e.calibration.Valid())
       for (const auto& [id, run] : e.runs) settings_.estimate_s[id] = run.core_s_high;
   }
@@ -658,12 +665,14 @@ std::unique_ptr<ExecutorSetup> SetUpSlurm(const cli::Args& a, const json* block,
   so.cpus_per_run = a.Integer("cpus-per-run", so.cpus_per_run, 1);
   so.array_max = a.Integer("array-max", so.array_max, 0);
   so.poll_interval = a.Number("poll-interval", so.poll_interval);
-  if (!(so.poll_interval > 0)) throw UsageError("--poll-interval: must be > 0 (got \"" + a.Get("poll-interval", "") + "\")");
+  if (!(so.poll_interval > 0))
+    throw UsageError("--poll-interval: must be > 0 (got \"" + a.Get("poll-interval", "") + "\")");
   if (a.Has("sbatch-arg")) {
     so.sbatch_args.clear();
     for (const auto& arg : a.All("sbatch-arg")) {
       if (arg.rfind("-", 0) != 0 || arg.find_first_of("\n\r") != std::string::npos) {
-        throw UsageError("--sbatch-arg: must be one sbatch option such as --sbatch-arg=--qos=long (got \"" + arg + "\")");
+        throw UsageError("--sbatch-arg: must be one sbatch option such as --sbatch-arg=--qos=long (got \"" + arg +
+                         "\")");
       }
       so.sbatch_args.push_back(arg);
     }

@@ -22,10 +22,10 @@ namespace granary::runner {
 
 struct SlurmSettings {
   SlurmOptions options;
-  std::string root;         // where submission directories go (<db dir>/slurm)
-  std::string campaign;     // in directory and job names
-  double time_limit = 0;    // per run, seconds from its task's start; 0 = none
-  int max_array_size = 0;   // 0 = the cluster's, from `scontrol show config`
+  std::string root;        // where submission directories go (<db dir>/slurm)
+  std::string campaign;    // in directory and job names
+  double time_limit = 0;   // per run, seconds from its task's start; 0 = none
+  int max_array_size = 0;  // 0 = the cluster's, from `scontrol show config`
   // Estimated wall seconds of each run on its task (estimate.h). Without options.time and
   // time_limit, an array's --time is its longest run's estimate with kTimeMargin.
   std::map<std::string, double> estimate_s;
@@ -44,7 +44,7 @@ struct PlannedArray {
   JobArray array;
   std::string manifest;  // manifest.tsv as it would be written ("" = an existing one is reused)
   std::string script;
-  std::string sbatch;    // the sbatch command line
+  std::string sbatch;  // the sbatch command line
 };
 std::vector<PlannedArray> PlanSlurmArrays(const std::vector<Launch>& launches, const SlurmSettings& settings);
 
@@ -65,6 +65,6 @@ std::optional<std::vector<QueueEntry>> QueryQueue(const std::set<std::string>& j
 // knows its job), from what its run directory says: DONE, then DIR/slurm-task.json if it is
 // this task's, then the state. `time_limit` as given to the batch script.
 Finished SlurmTaskEnd(const std::string& run_id, const std::string& run_dir, const QueuePlace& place,
-                        const std::string& state, double time_limit, const std::string& slurm_time);
+                      const std::string& state, double time_limit, const std::string& slurm_time);
 
 }  // namespace granary::runner

@@ -27,8 +27,8 @@ std::string StorageNote(sqlite3* db, int code, const std::string& fallback_path)
   if (::statvfs(dir.c_str(), &st) == 0) {
     const double free_bytes = static_cast<double>(st.f_bavail) * static_cast<double>(st.f_frsize);
     if ((primary == SQLITE_IOERR || primary == SQLITE_FULL) && free_bytes < (1 << 20))
-      return "; the file system of " + dir.string() + " is full (" + std::to_string(static_cast<long long>(free_bytes / 1024)) +
-             " KiB free)";
+      return "; the file system of " + dir.string() + " is full (" +
+             std::to_string(static_cast<long long>(free_bytes / 1024)) + " KiB free)";
   }
   if (::access(dir.c_str(), W_OK) != 0 && (errno == EROFS || errno == EACCES))
     return "; " + dir.string() + " is read-only (" + std::strerror(errno) +
@@ -98,7 +98,8 @@ bool Statement::IsNull(int col) const { return sqlite3_column_type(stmt_.get(), 
 std::string Statement::Text(int col) const {
   const unsigned char* p = sqlite3_column_text(stmt_.get(), col);
   if (!p) return "";
-  return std::string(reinterpret_cast<const char*>(p), static_cast<std::size_t>(sqlite3_column_bytes(stmt_.get(), col)));
+  return std::string(reinterpret_cast<const char*>(p),
+                     static_cast<std::size_t>(sqlite3_column_bytes(stmt_.get(), col)));
 }
 double Statement::Real(int col) const { return sqlite3_column_double(stmt_.get(), col); }
 std::int64_t Statement::Integer(int col) const { return sqlite3_column_int64(stmt_.get(), col); }
@@ -116,8 +117,9 @@ Store::Store(const std::string& path, int upto_version) : path_(path) {
   sqlite3_busy_timeout(db_.get(), 30000);
   // The first read of the file: anything but an SQLite database fails here. Say so plainly.
   if (sqlite3_exec(db_.get(), "PRAGMA schema_version", nullptr, nullptr, nullptr) == SQLITE_NOTADB)
-    throw StoreError(SQLITE_NOTADB, path + " is not a campaign database (not an SQLite file; campaign plan SPEC --db "
-                                           "FILE makes one)");
+    throw StoreError(SQLITE_NOTADB, path +
+                                        " is not a campaign database (not an SQLite file; campaign plan SPEC --db "
+                                        "FILE makes one)");
   if (SchemaVersion() == 0) {
     // An SQLite file of something else: never add our tables to it.
     Statement t = Prepare("SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name");
@@ -177,8 +179,8 @@ void Store::Exec(const std::string& sql) {
   if (rc != SQLITE_OK) {
     const std::string msg = err ? err : sqlite3_errstr(rc);
     sqlite3_free(err);
-    throw StoreError(rc, "executing \"" + sql.substr(0, 60) + "\": " + msg + " (SQLite code " + std::to_string(rc) + ")" +
-                             StorageNote(db_.get(), rc, path_));
+    throw StoreError(rc, "executing \"" + sql.substr(0, 60) + "\": " + msg + " (SQLite code " + std::to_string(rc) +
+                             ")" + StorageNote(db_.get(), rc, path_));
   }
 }
 

@@ -34,9 +34,12 @@ std::uint64_t ReplicaSeed(std::uint64_t campaign_seed, int replica) {
 std::string EscapePointerToken(const std::string& token) {
   std::string out;
   for (char c : token) {
-    if (c == '~') out += "~0";
-    else if (c == '/') out += "~1";
-    else out += c;
+    if (c == '~')
+      out += "~0";
+    else if (c == '/')
+      out += "~1";
+    else
+      out += c;
   }
   return out;
 }

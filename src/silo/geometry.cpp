@@ -30,8 +30,7 @@ void AddPoint(SiloGeometry& g, double x, double y) {
 // A straight wall from `from` to `to` (coordinate along it) with gaps [lo, hi]; `at` maps a
 // coordinate along the wall to a point.
 template <typename At>
-void AddWallWithGaps(SiloGeometry& g, double from, double to, std::vector<std::pair<double, double>> gaps,
-                     At at) {
+void AddWallWithGaps(SiloGeometry& g, double from, double to, std::vector<std::pair<double, double>> gaps, At at) {
   std::sort(gaps.begin(), gaps.end());
   double cur = from;
   for (const auto& [lo, hi] : gaps) {

@@ -18,7 +18,7 @@ struct WallElement {
   ElementKind kind = ElementKind::kSegment;
   WallGroup group = WallGroup::kAlways;
   double ax = 0, ay = 0, bx = 0, by = 0;  // segment ends; point/circle centre in (ax, ay)
-  double radius = 0;                       // circle only
+  double radius = 0;                      // circle only
 };
 
 // An outlet in its own frame: centre c, unit vector along the gap, unit normal pointing

@@ -43,8 +43,7 @@ std::vector<int> SpeciesCounts(const Bodies& bodies) {
   long prev = 0;
   for (std::size_t k = 0; k < bodies.species.size(); ++k) {
     cum += bodies.species[k].fraction;
-    long upto = (k + 1 == bodies.species.size()) ? bodies.count
-                                                 : std::lround(cum * static_cast<double>(bodies.count));
+    long upto = (k + 1 == bodies.species.size()) ? bodies.count : std::lround(cum * static_cast<double>(bodies.count));
     upto = std::clamp<long>(upto, prev, bodies.count);
     counts.push_back(static_cast<int>(upto - prev));
     prev = upto;

@@ -15,8 +15,8 @@ struct ShapeTemplate {
   int species = 0;
   std::vector<double> ox, oy, r, disc_mass;  // per disc, body frame
   double mass = 0.0;
-  double inertia = 0.0;        // I = sum m_i |r_i - R|^2 + 0.4 m_i r_i^2 (docs/model.md)
-  double bound_radius = 0.0;   // max |offset| + r: a circle around the centre containing the body
+  double inertia = 0.0;       // I = sum m_i |r_i - R|^2 + 0.4 m_i r_i^2 (docs/model.md)
+  double bound_radius = 0.0;  // max |offset| + r: a circle around the centre containing the body
   double area = 0.0;
 };
 

@@ -73,8 +73,10 @@ std::string SiloVtk(const SiloOutline& outline, double thickness) {
     }
   }
   const std::size_t points = m.xy.size() / 2, cells = m.colours.size();
-  std::string s = "# vtk DataFile Version 3.0\nGranary silo: walls (grey), outlets (red), obstacles (dark grey)\nASCII\n"
-                  "DATASET UNSTRUCTURED_GRID\nPOINTS " + std::to_string(points) + " double\n";
+  std::string s =
+      "# vtk DataFile Version 3.0\nGranary silo: walls (grey), outlets (red), obstacles (dark grey)\nASCII\n"
+      "DATASET UNSTRUCTURED_GRID\nPOINTS " +
+      std::to_string(points) + " double\n";
   char buf[96];
   for (std::size_t i = 0; i < points; ++i) {
     std::snprintf(buf, sizeof buf, "%.10g %.10g -0.5\n", m.xy[2 * i], m.xy[2 * i + 1]);

@@ -41,8 +41,7 @@ class FreeSpace {
       owner_.assign(free_.size(), -1);
       clearance_.assign(free_.size(), std::numeric_limits<float>::max());
     }
-    for (std::size_t k = 0; k < discs.size(); ++k)
-      BlockDisc(discs[k].x, discs[k].y, discs[k].r, static_cast<int>(k));
+    for (std::size_t k = 0; k < discs.size(); ++k) BlockDisc(discs[k].x, discs[k].y, discs[k].r, static_cast<int>(k));
     for (std::size_t e = 0; e < g.elements.size(); ++e) {
       const WallElement& el = g.elements[e];
       if (el.group == WallGroup::kPlug) continue;  // outlets open
@@ -60,7 +59,9 @@ class FreeSpace {
   double H() const { return h_; }
   double CentreX(int i) const { return x0_ + (i + 0.5) * h_; }
   double CentreY(int k) const { return y0_ + (k + 0.5) * h_; }
-  std::size_t Index(int i, int k) const { return static_cast<std::size_t>(k) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(i); }
+  std::size_t Index(int i, int k) const {
+    return static_cast<std::size_t>(k) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(i);
+  }
   bool Inside(int i, int k) const { return i >= 0 && i < nx_ && k >= 0 && k < ny_; }
   bool Free(int i, int k) const { return free_[Index(i, k)] != 0; }
   // Whether the centre of cell (i, k) is in the silo (between the side walls, above the base).
@@ -70,7 +71,8 @@ class FreeSpace {
  private:
   // Blocks the cells whose squared distance from the object is below reach^2, recording `owner`
   // where its surface (`surface` beyond that distance) is the nearest yet.
-  void BlockWithin(double xlo, double xhi, double ylo, double yhi, int owner, auto&& distance2, double reach, double surface) {
+  void BlockWithin(double xlo, double xhi, double ylo, double yhi, int owner, auto&& distance2, double reach,
+                   double surface) {
     const int ilo = std::max(0, static_cast<int>(std::floor((xlo - x0_) / h_)));
     const int ihi = std::min(nx_ - 1, static_cast<int>(std::floor((xhi - x0_) / h_)));
     const int klo = std::max(0, static_cast<int>(std::floor((ylo - y0_) / h_)));
@@ -91,19 +93,21 @@ class FreeSpace {
   }
   void BlockDisc(double cx, double cy, double radius, int owner) {
     const double reach = radius + probe_;
-    BlockWithin(cx - reach, cx + reach, cy - reach, cy + reach, owner,
-                [&](double x, double y) { return (x - cx) * (x - cx) + (y - cy) * (y - cy); }, reach, radius);
+    BlockWithin(
+        cx - reach, cx + reach, cy - reach, cy + reach, owner,
+        [&](double x, double y) { return (x - cx) * (x - cx) + (y - cy) * (y - cy); }, reach, radius);
   }
   void BlockSegment(const WallElement& e, int owner) {
     const double ex = e.bx - e.ax, ey = e.by - e.ay, len2 = ex * ex + ey * ey;
-    BlockWithin(std::min(e.ax, e.bx) - probe_, std::max(e.ax, e.bx) + probe_, std::min(e.ay, e.by) - probe_,
-                std::max(e.ay, e.by) + probe_, owner,
-                [&](double x, double y) {
-                  const double t = len2 > 0 ? std::clamp(((x - e.ax) * ex + (y - e.ay) * ey) / len2, 0.0, 1.0) : 0.0;
-                  const double dx = x - (e.ax + t * ex), dy = y - (e.ay + t * ey);
-                  return dx * dx + dy * dy;
-                },
-                probe_, 0.0);
+    BlockWithin(
+        std::min(e.ax, e.bx) - probe_, std::max(e.ax, e.bx) + probe_, std::min(e.ay, e.by) - probe_,
+        std::max(e.ay, e.by) + probe_, owner,
+        [&](double x, double y) {
+          const double t = len2 > 0 ? std::clamp(((x - e.ax) * ex + (y - e.ay) * ey) / len2, 0.0, 1.0) : 0.0;
+          const double dx = x - (e.ax + t * ex), dy = y - (e.ay + t * ey);
+          return dx * dx + dy * dy;
+        },
+        probe_, 0.0);
   }
 
   double probe_, h_, x0_ = 0, y0_ = 0;
@@ -169,7 +173,8 @@ std::vector<bool> SealedOutlets(const SiloGeometry& geometry, const std::vector<
   const FreeSpace space(geometry, discs, probe, false);
   std::vector<std::uint8_t> seen(static_cast<std::size_t>(space.Nx()) * static_cast<std::size_t>(space.Ny()));
   std::vector<int> queue;
-  for (std::size_t o = 0; o < sealed.size(); ++o) sealed[o] = !Reach(space, geometry.outlets[o], probe, seen, queue, true);
+  for (std::size_t o = 0; o < sealed.size(); ++o)
+    sealed[o] = !Reach(space, geometry.outlets[o], probe, seen, queue, true);
   return sealed;
 }
 

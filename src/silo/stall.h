@@ -38,8 +38,8 @@ std::vector<bool> SealedOutlets(const SiloGeometry& geometry, const std::vector<
 struct CavityBound {
   enum class Kind { kDisc, kElement, kOpen };
   Kind kind = Kind::kOpen;
-  int index = -1;      // kDisc: into `discs`; kElement: into geometry.elements; kOpen: -1
-  double s = 0, h = 0; // outlet frame (OutletFrame): where the edge first meets it
+  int index = -1;       // kDisc: into `discs`; kElement: into geometry.elements; kOpen: -1
+  double s = 0, h = 0;  // outlet frame (OutletFrame): where the edge first meets it
 };
 
 // The free space a probe reaches from outlet `outlet`'s mouth (the flood fill of SealedOutlets,

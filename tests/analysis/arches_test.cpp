@@ -163,7 +163,8 @@ TEST(Arches, ADipInTheArchIsAConcaveAngle) {
 // A half circle of discs in the silo in front of an outlet in the right wall, from the wall below
 // it to the wall above it: the same arch as over a base outlet, in the outlet's frame.
 TEST(Arches, AnArchOverASideOutlet) {
-  Clog c({{"base_outlets", nlohmann::json::array()}, {"side_outlets", {{{"wall", "right"}, {"bottom", 2.0}, {"width", 3.0}}}}});
+  Clog c({{"base_outlets", nlohmann::json::array()},
+          {"side_outlets", {{{"wall", "right"}, {"bottom", 2.0}, {"width", 3.0}}}}});
   const double radius = 0.5 / std::sin(kPi / 14);
   for (int k = 0; k < 8; ++k) {
     const double a = -kPi / 2 + kPi * k / 7;
@@ -183,13 +184,15 @@ TEST(Arches, AnArchOverASideOutlet) {
 TEST(Arches, PressureIsTheVirialOfEquationSixOneOverTheArea) {
   rundir::Frame f;
   f.discs = {{1, 0, 1, 0, 0, 0.5, 0, 0, 0, 0}, {2, 1, 1, -1, 0, 0.5, 0, 0, 0, 0}, {3, 2, 1, 1, 0, 0.5, 0, 0, 0, 0},
-             {4, 3, 1, 0, 5, 0.5, 0, 0, 0, 0}, {5, 3, 1, 1, 5, 0.5, 0, 0, 0, 0}, {6, 4, 1, 2, 5, 0.5, 0, 0, 0, 0}};
+             {4, 3, 1, 0, 5, 0.5, 0, 0, 0, 0}, {5, 3, 1, 1, 5, 0.5, 0, 0, 0, 0},  {6, 4, 1, 2, 5, 0.5, 0, 0, 0, 0}};
   rundir::ContactFrame c;
   const double force = 3.0;
   // Body 0 pushed by 1 (left) and 2 (right); the dumbbell 3 (discs at 0 and 1) pushed at its
   // right disc by disc 4; a wall contact that eq. 6.1 leaves out.
-  c.contacts = {{0, 1, 0, 0, -1, 0, -0.5, 0, force, 0},   {2, 0, 1, 0, 0, 0, 0.5, 0, force, 0},
-                {3, 4, 1, 5, 2, 5, 1.5, 5, -force, 0},   {0, -1, 0, 0, 0, -0.5, 0, -0.5, 0, 7.0}};
+  c.contacts = {{0, 1, 0, 0, -1, 0, -0.5, 0, force, 0},
+                {2, 0, 1, 0, 0, 0, 0.5, 0, force, 0},
+                {3, 4, 1, 5, 2, 5, 1.5, 5, -force, 0},
+                {0, -1, 0, 0, 0, -0.5, 0, -0.5, 0, 7.0}};
   const std::vector<double> p = BodyPressures(f, c);
   ASSERT_EQ(p.size(), 5u);
   EXPECT_NEAR(p[0], 2 * force / (4 * kPi / 4), 1e-12);
@@ -206,17 +209,17 @@ TEST(Arches, PressureIsTheVirialOfEquationSixOneOverTheArea) {
 TEST(Arches, ContactTypesBySizeOfTheTouchingDiscs) {
   rundir::Frame f;
   // Snowmen 0..2 (small at x, big at x + 1.25), a lone disc 3.
-  f.discs = {{1, 0, 1, 0, 0, 0.5, 0, 0, 0, 0},  {2, 0, 1, 1.25, 0, 0.75, 0, 0, 0, 0},
-             {3, 1, 1, 0, 1, 0.5, 0, 0, 0, 0},  {4, 1, 1, 1.25, 1.5, 0.75, 0, 0, 0, 0},
+  f.discs = {{1, 0, 1, 0, 0, 0.5, 0, 0, 0, 0},     {2, 0, 1, 1.25, 0, 0.75, 0, 0, 0, 0},
+             {3, 1, 1, 0, 1, 0.5, 0, 0, 0, 0},     {4, 1, 1, 1.25, 1.5, 0.75, 0, 0, 0, 0},
              {5, 2, 1, 2.75, 0, 0.75, 0, 0, 0, 0}, {6, 2, 1, 4, 0, 0.5, 0, 0, 0, 0},
              {7, 3, 2, 4, 1, 0.5, 0, 0, 0, 0}};
   rundir::ContactFrame c;
-  c.contacts = {{0, 1, 0, 0, 0, 1, 0, 0.5, 0, -1},        // small - small
+  c.contacts = {{0, 1, 0, 0, 0, 1, 0, 0.5, 0, -1},              // small - small
                 {0, 1, 1.25, 0, 1.25, 1.5, 1.25, 0.75, 0, -1},  // large - large
-                {1, 2, 1.25, 1.5, 2.75, 0, 2, 0.75, -1, 1},  // large - large
-                {2, 0, 2.75, 0, 0, 0, 2, 0, 1, 0},        // large (2) - small (0): disc nearest (0, 0) of body 0
-                {2, 3, 4, 0, 4, 1, 4, 0.5, 0, -1},        // a lone disc
-                {0, -1, 0, 0, 0, -0.5, 0, -0.5, 0, 1}};   // a wall: not a contact between discs
+                {1, 2, 1.25, 1.5, 2.75, 0, 2, 0.75, -1, 1},     // large - large
+                {2, 0, 2.75, 0, 0, 0, 2, 0, 1, 0},              // large (2) - small (0): disc nearest (0, 0) of body 0
+                {2, 3, 4, 0, 4, 1, 4, 0.5, 0, -1},              // a lone disc
+                {0, -1, 0, 0, 0, -0.5, 0, -0.5, 0, 1}};         // a wall: not a contact between discs
   const ContactTypes t = CountContactTypes(f, c);
   EXPECT_EQ(t.small_small, 1);
   EXPECT_EQ(t.large_large, 2);
@@ -257,8 +260,10 @@ TEST(Arches, ArchesPooledOverClogs) {
   one.arches = {arch(3, 10, 6, 12, {body(0.1, 0.1, 1.0), body(1.6, 1.5, 3.0), body(3.0, 3.0, 5.0)})};
   one.contact_types = {1, 2, 1, 0};
   two.sealed_outlets = {0};
-  two.arches = {arch(5, 12, 8, 16, {body(0.2, 0.15, 2.0), body(1.5, 1.55, 4.0), body(1.7, 1.6, 6.0), body(2.9, 2.9, 2.0),
-                                    body(3.1, 3.0, 1.0)}, true)};
+  two.arches = {
+      arch(5, 12, 8, 16,
+           {body(0.2, 0.15, 2.0), body(1.5, 1.55, 4.0), body(1.7, 1.6, 6.0), body(2.9, 2.9, 2.0), body(3.1, 3.0, 1.0)},
+           true)};
   two.contact_types = {2, 2, 0, 0};
   const ArchSummary s = SummarizeArches({&one, &two}, {3, 6, true});
   EXPECT_EQ(s.clogs, 2);

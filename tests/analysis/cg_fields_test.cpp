@@ -119,7 +119,8 @@ TEST(CgFields, UniformLatticeGivesUniformPhi) {
     acc.AddFrame(0.0, discs, nullptr);
     const CgMaps maps = acc.Maps();
     double worst = 0.0;
-    for (std::size_t n = 0; n < maps.Grid().size(); ++n) worst = std::max(worst, std::abs(maps.Value(CgField::kPhi, n) - phi0));
+    for (std::size_t n = 0; n < maps.Grid().size(); ++n)
+      worst = std::max(worst, std::abs(maps.Value(CgField::kPhi, n) - phi0));
     // Cut at 3w the lattice points crossing the cut circle make ripples (measured 6e-5); at 5w
     // only the lattice's aliasing is left, ~exp(-pi^2 w^2 / a^2) (measured 2e-7).
     EXPECT_LT(worst, cutoff == 3.0 ? 1e-4 : 1e-6) << "cutoff " << cutoff;

@@ -22,7 +22,7 @@ using testing::TempDir;
 // falling at speed `t` at time t; contact frames (vertical chains carrying weight 1 per disc
 // above) only at the timesteps listed.
 void WriteRun(const std::filesystem::path& dir, const std::vector<double>& frame_times,
-               const std::vector<double>& contact_times) {
+              const std::vector<double>& contact_times) {
   rundir::WriteRunSpec(dir, {{"silo", {{"width", 25.0}}}, {"bodies", {{"density", 1.0}}}});
   auto frames = rundir::FrameWriter::Create(dir / rundir::kFramesFile);
   auto contacts = rundir::ContactWriter::Create(dir / rundir::kContactsFile);
@@ -51,8 +51,8 @@ TEST(CgRun, PairsFramesWithTheirContactFramesOverTheTimeRange) {
   const CgRunResult r = CgFieldsOfRun(data, o);
   ASSERT_EQ(r.parts.size(), 1u);
   const CgMaps maps(r.parts[0]);
-  EXPECT_EQ(maps.Frames(), 3);           // t = 1, 2, 3
-  EXPECT_EQ(maps.ContactFrames(), 2);   // t = 2, 3
+  EXPECT_EQ(maps.Frames(), 3);         // t = 1, 2, 3
+  EXPECT_EQ(maps.ContactFrames(), 2);  // t = 2, 3
   EXPECT_EQ(r.frames_without_contacts, 1);
   EXPECT_TRUE(r.has_contacts);
   EXPECT_EQ(r.first_time, 1.0);
@@ -83,8 +83,8 @@ TEST(CgRun, TwoReadersGiveTheSameSumsAndTheirErrors) {
   EXPECT_EQ(one.syy, two.syy);
   EXPECT_EQ(one.kyy, two.kyy);
   testing::WriteFile(tmp.Path() / rundir::kContactsFile,
-                      "ITEM: TIMESTEP\n10000\nITEM: TIME\n1\nITEM: NUMBER OF ENTRIES\n1\n"
-                      "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n0 1 0 0 1 0 0.5 0 abc 0\n");
+                     "ITEM: TIMESTEP\n10000\nITEM: TIME\n1\nITEM: NUMBER OF ENTRIES\n1\n"
+                     "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n0 1 0 0 1 0 0.5 0 abc 0\n");
   const rundir::RunData bad = rundir::ReadRun(tmp.Path());
   EXPECT_THROW(CgFieldsOfRun(bad, o), rundir::ReadError);
 }
@@ -101,8 +101,8 @@ TEST(CgRun, StrideMaxFramesAndRouting) {
   o.series = {{"vy", {-1.0, 1.0, 9.0, 11.0}, CgField::kVy}};
   const CgRunResult r = CgFieldsOfRun(data, o);
   ASSERT_EQ(r.parts.size(), 2u);
-  EXPECT_EQ(r.parts[0].frames, 1);       // t = 2
-  EXPECT_EQ(r.parts[1].frames, 1);       // t = 4
+  EXPECT_EQ(r.parts[0].frames, 1);  // t = 2
+  EXPECT_EQ(r.parts[1].frames, 1);  // t = 4
   EXPECT_EQ(r.parts[0].contact_frames, 0);
   ASSERT_EQ(r.series.size(), 1u);
   ASSERT_EQ(r.series[0].time, (std::vector<double>{2.0, 4.0}));

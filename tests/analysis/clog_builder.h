@@ -20,15 +20,13 @@ namespace granary::analysis::testing {
 // obstacle, with a unit force pushing them apart), in a silo of width 12.
 class Clog {
  public:
-  explicit Clog(nlohmann::json silo) : spec_({{"silo", std::move(silo)}}) {
-    spec_["silo"]["width"] = 12;
-  }
+  explicit Clog(nlohmann::json silo) : spec_({{"silo", std::move(silo)}}) { spec_["silo"]["width"] = 12; }
   // A body of the given discs (x, y, radius), species `type`.
   std::int64_t Body(std::vector<std::array<double, 3>> discs, int type = 1) {
     const std::int64_t id = next_body_++;
     for (const auto& d : discs)
-      state_.frame.discs.push_back({static_cast<std::int64_t>(state_.frame.discs.size() + 1), id, type, d[0], d[1], d[2],
-                                    std::numbers::pi * d[2] * d[2], 0, 0, 0});
+      state_.frame.discs.push_back({static_cast<std::int64_t>(state_.frame.discs.size() + 1), id, type, d[0], d[1],
+                                    d[2], std::numbers::pi * d[2] * d[2], 0, 0, 0});
     return id;
   }
   std::int64_t Disc(double x, double y, double r = 0.5) { return Body({{x, y, r}}); }
@@ -47,8 +45,9 @@ class Clog {
         if (d[i].mol == d[j].mol) continue;
         const double dx = d[j].x - d[i].x, dy = d[j].y - d[i].y, r = std::hypot(dx, dy);
         if (r > d[i].radius + d[j].radius + 0.01) continue;
-        state_.contacts.contacts.push_back({d[i].mol, d[j].mol, d[i].x, d[i].y, d[j].x, d[j].y, d[i].x + d[i].radius * dx / r,
-                                            d[i].y + d[i].radius * dy / r, -dx / r, -dy / r});
+        state_.contacts.contacts.push_back({d[i].mol, d[j].mol, d[i].x, d[i].y, d[j].x, d[j].y,
+                                            d[i].x + d[i].radius * dx / r, d[i].y + d[i].radius * dy / r, -dx / r,
+                                            -dy / r});
       }
       for (const silo::WallElement& e : g.elements) {
         if (e.group == silo::WallGroup::kPlug) continue;

@@ -53,9 +53,10 @@ void WriteRun(const std::filesystem::path& dir, double w, const std::string& id)
   ev << "time,body,shape,mass,outlet\n";
   for (int i = 1; i <= 30; ++i) ev << 0.2 * i << "," << 100 + i << ",dumbbell,1.5707963267948966,0\n";
   WriteFile(dir / "events.csv", ev.str());
-  const nlohmann::json summary = {{"engine", "native"}, {"run_id", id},    {"spec", SpecFor(w)},  {"end_reason", "clogged"},
-                                  {"bodies", 100},     {"exited", 30},    {"remaining", 70},      {"exits_per_outlet", {30}},
-                                  {"t_end", 8.0},      {"clogs", 1}};
+  const nlohmann::json summary = {
+      {"engine", "native"}, {"run_id", id}, {"spec", SpecFor(w)}, {"end_reason", "clogged"},
+      {"bodies", 100},      {"exited", 30}, {"remaining", 70},    {"exits_per_outlet", {30}},
+      {"t_end", 8.0},       {"clogs", 1}};
   WriteFile(dir / "summary.json", summary.dump());
   WriteFile(dir / "run.json", SpecFor(w).dump());
   Clog arch = ArchOfDumbbells(w);
@@ -190,21 +191,27 @@ TEST(ClogReport, OptionErrorsNameTheirJsonPath) {
   EXPECT_EQ(error({{"arches", {{"theta_bins", 0}}}}).rfind("/report/arches/theta_bins: must be", 0), 0u);
   EXPECT_EQ(error({{"arches", {{"pictures", true}}}}).rfind("/report/arches/pictures: must be", 0), 0u);
   EXPECT_EQ(error({{"arches", {{"colour", 1}}}}).rfind("/report/arches/colour: unknown key", 0), 0u);
-  EXPECT_EQ(error({{"orientation", {{"heights", nlohmann::json::array()}}}}).rfind("/report/orientation/heights: must be", 0), 0u);
+  EXPECT_EQ(
+      error({{"orientation", {{"heights", nlohmann::json::array()}}}}).rfind("/report/orientation/heights: must be", 0),
+      0u);
   EXPECT_EQ(error({{"orientation", {{"regions", {{{"x", {3, 1}}, {"y", {0, 1}}}}}}}})
                 .rfind("/report/orientation/regions/0/x: must be [lo, hi] with lo < hi", 0),
             0u);
-  EXPECT_EQ(error({{"orientation", {{"window", {{"theta", 200}}}}}}).rfind("/report/orientation/window/theta: must be", 0), 0u);
+  EXPECT_EQ(
+      error({{"orientation", {{"window", {{"theta", 200}}}}}}).rfind("/report/orientation/window/theta: must be", 0),
+      0u);
   EXPECT_EQ(error({{"contacts", {{"x", 1}}}}).rfind("/report/contacts/x: unknown key", 0), 0u);
   EXPECT_EQ(error({{"arches", {{"theta_bins", 6}, {"obstacle_arches", false}, {"pictures", 2}}}}), "no error");
-  const ArchesOptions a = ReadArchesOptions({{"theta_bins", 6}, {"obstacle_arches", false}, {"pictures", 2}}, "/report/arches");
+  const ArchesOptions a =
+      ReadArchesOptions({{"theta_bins", 6}, {"obstacle_arches", false}, {"pictures", 2}}, "/report/arches");
   EXPECT_EQ(a.summary.theta_bins, 6);
   EXPECT_FALSE(a.summary.obstacle_arches);
   EXPECT_EQ(a.pictures, 2);
-  const OrientationAnalysisOptions o = ReadOrientationOptions(
-      {{"heights", {3}}, {"window", {{"theta", 60}, {"radius", 8}}},
-       {"regions", {{{"name", "bulk"}, {"x", {-5, 5}}, {"y", {60, 70}}, {"director", 90}}}}},
-      "/report/orientation");
+  const OrientationAnalysisOptions o =
+      ReadOrientationOptions({{"heights", {3}},
+                              {"window", {{"theta", 60}, {"radius", 8}}},
+                              {"regions", {{{"name", "bulk"}, {"x", {-5, 5}}, {"y", {60, 70}}, {"director", 90}}}}},
+                             "/report/orientation");
   EXPECT_EQ(o.where.heights, std::vector<double>{3});
   EXPECT_NEAR(o.where.window_theta, std::numbers::pi / 3, 1e-12);
   ASSERT_EQ(o.where.regions.size(), 1u);
@@ -216,11 +223,10 @@ TEST(ClogReport, OptionErrorsNameTheirJsonPath) {
 // for `other` only (not as a zero of small-small etc.).
 TEST(ClogReport, ContactFractionsPerClogWithoutSizeClassesForLoneDiscs) {
   const auto contacts = MakeContactsAnalysis(nullptr, "/report/contacts");
-  const nlohmann::json result = {
-      {"present", true},
-      {"clogs",
-       {{{"small_small", 0}, {"large_small", 0}, {"large_large", 0}, {"other", 10}},
-        {{"small_small", 1}, {"large_small", 2}, {"large_large", 1}, {"other", 4}}}}};
+  const nlohmann::json result = {{"present", true},
+                                 {"clogs",
+                                  {{{"small_small", 0}, {"large_small", 0}, {"large_large", 0}, {"other", 10}},
+                                   {{"small_small", 1}, {"large_small", 2}, {"large_large", 1}, {"other", 4}}}}};
   const std::vector<Metric> m = contacts->RunMetrics(result);
   ASSERT_NE(FindMetric(m, "contact_ss"), nullptr);
   EXPECT_DOUBLE_EQ(FindMetric(m, "contact_ss")->value, 1.0 / 8);

@@ -44,10 +44,12 @@ TEST(ClogIndexAnalysis, StagnantCountOfAPointWhereEveryRunClogged) {
     r.run_dir = dir.Path() / id;
     WriteFile(r.run_dir / "run.json", r.spec.dump());
     WriteFile(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n");
-    WriteFile(r.run_dir / "summary.json",
-               nlohmann::json{{"bodies", 1000}, {"exited", 1000 - left}, {"remaining", left},
-                              {"end_reason", clogged ? "clogged" : "discharged"}, {"t_end", 10.0}}
-                   .dump());
+    WriteFile(r.run_dir / "summary.json", nlohmann::json{{"bodies", 1000},
+                                                         {"exited", 1000 - left},
+                                                         {"remaining", left},
+                                                         {"end_reason", clogged ? "clogged" : "discharged"},
+                                                         {"t_end", 10.0}}
+                                              .dump());
     runs.push_back(r);
   };
   add("free-100", 20, 100, false, 40);  // silo 100: N_u = 40
@@ -61,7 +63,8 @@ TEST(ClogIndexAnalysis, StagnantCountOfAPointWhereEveryRunClogged) {
     const std::vector<PointMetric> m = a->AllPointMetrics(p);
     EXPECT_DOUBLE_EQ(FindMetric(m, "n_stagnant")->mean, 40.0);  // the group silo=100, not the campaign (60)
     EXPECT_NEAR(FindMetric(m, "psi")->mean, (500.0 / 960.0 + 200.0 / 960.0) / 2.0, 1e-14);
-    EXPECT_EQ(FindMetric(m, "psi")->note, "used 2 clogged and 0 discharged runs; N_u from the 1 discharged run of L = 100");
+    EXPECT_EQ(FindMetric(m, "psi")->note,
+              "used 2 clogged and 0 discharged runs; N_u from the 1 discharged run of L = 100");
   }
 }
 
@@ -86,9 +89,10 @@ TEST(ClogIndexAnalysis, LeavesOutRunsThatReachedTheirTimeLimit) {
     r.run_dir = dir.Path() / id;
     WriteFile(r.run_dir / "run.json", r.spec.dump());
     WriteFile(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n");
-    WriteFile(r.run_dir / "summary.json", nlohmann::json{{"bodies", 8000}, {"exited", 8000 - left}, {"remaining", left},
-                                                          {"end_reason", end}, {"t_end", t_end}}
-                                               .dump());
+    WriteFile(r.run_dir / "summary.json",
+              nlohmann::json{
+                  {"bodies", 8000}, {"exited", 8000 - left}, {"remaining", left}, {"end_reason", end}, {"t_end", t_end}}
+                  .dump());
     runs.push_back(r);
   };
   add("w11-a", 11, 0, "clogged", 7000, 40.0);

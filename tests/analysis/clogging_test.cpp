@@ -24,7 +24,7 @@ TEST(ClogSeries, StretchesAvalanchesAndTimes) {
   ASSERT_EQ(s.clogged.size(), 3u);
   EXPECT_EQ(s.AvalancheSizes(), (std::vector<double>{3, 2, 4}));
   EXPECT_EQ(s.FlowingTimes(), (std::vector<double>{3, 1, 3}));  // 0->3, 10->11, 20->23
-  EXPECT_EQ(s.CloggedTimes(), (std::vector<double>{7, 9}));      // the last clog is censored
+  EXPECT_EQ(s.CloggedTimes(), (std::vector<double>{7, 9}));     // the last clog is censored
   EXPECT_FALSE(s.clogged.back().complete);
   EXPECT_EQ(s.Unclogs(), 2);
 
@@ -60,7 +60,8 @@ TEST(ClogSeries, EndsFlowingOrStoppedOnClog) {
   const ClogSeries trickle = ComputeClogSeries(At({1, 2, 10, 11}), -1, 20.0, 5.0, RunEnd::kDischarged, true);
   EXPECT_TRUE(trickle.clogged.empty());
   EXPECT_TRUE(trickle.AvalancheSizes().empty());
-  EXPECT_EQ(ComputeClogSeries(At({1, 2, 10, 11}), -1, 20.0, 5.0, RunEnd::kClogged, true).AvalancheSizes(), (std::vector<double>{2, 2}));
+  EXPECT_EQ(ComputeClogSeries(At({1, 2, 10, 11}), -1, 20.0, 5.0, RunEnd::kClogged, true).AvalancheSizes(),
+            (std::vector<double>{2, 2}));
   EXPECT_EQ(ComputeClogSeries(At({1, 2, 10, 11}), 0, 20.0, 5.0, RunEnd::kDischarged, true).clogged.size(), 1u);
 }
 
@@ -111,10 +112,9 @@ TEST(Avalanches, MeanHistogramAndTail) {
 TEST(ClogIndex, Equation31WithDiscardRule) {
   constexpr RunEnd kC = RunEnd::kClogged, kD = RunEnd::kDischarged;
   const std::vector<ClogRun> runs = {
-      {kD, 1000, 50, 950},   // free: stagnant 50
-      {kD, 1000, 70, 930},   // free: stagnant 70 -> N_u = 60
-      {kC, 1000, 560, 440},
-      {kC, 1000, 950, 50},    // clogged before 100 left: discarded
+      {kD, 1000, 50, 950},                        // free: stagnant 50
+      {kD, 1000, 70, 930},                        // free: stagnant 70 -> N_u = 60
+      {kC, 1000, 560, 440}, {kC, 1000, 950, 50},  // clogged before 100 left: discarded
       {kC, 1000, 300, 700},
   };
   const ClogIndex ci = CloggingIndex(runs, 100);
@@ -177,7 +177,8 @@ namespace {
 // the stream has; the stretch after the last unclog counts only when the run ended clogged.
 TEST(Avalanches, BetweenUnclogs) {
   std::vector<rundir::ExitEvent> events;
-  for (double t : {1.0, 2.0, 3.0, 20.0, 21.0, 40.0, 41.0, 42.0, 43.0}) events.push_back({t, 0, "disc", 1.0, t < 30 ? 0 : 1});
+  for (double t : {1.0, 2.0, 3.0, 20.0, 21.0, 40.0, 41.0, 42.0, 43.0})
+    events.push_back({t, 0, "disc", 1.0, t < 30 ? 0 : 1});
   const std::vector<double> unclogs = {10.0, 35.0};  // the gap 3 -> 20 and 21 -> 40 were clogs
   EXPECT_EQ(AvalanchesBetweenUnclogs(events, -1, unclogs, RunEnd::kClogged), (std::vector<double>{3, 2, 4}));
   EXPECT_EQ(AvalanchesBetweenUnclogs(events, -1, unclogs, RunEnd::kOther), (std::vector<double>{3, 2}));

@@ -45,7 +45,8 @@ TEST(ContactsAnalysis, FractionsOfEachKindPerClogAveragedOverTheRunsClogs) {
   first.frame.timestep = first.contacts.timestep = 1000;
   first.frame.time = first.contacts.time = 0.1;
   first.frame.discs = {s0, l0, s1, l1, lone};
-  first.contacts.contacts = {Touch(0, 1, s0, s1), Touch(1, 0, s1, l0), Touch(0, 1, l0, l1), Touch(2, 0, lone, s0),
+  first.contacts.contacts = {Touch(0, 1, s0, s1), Touch(1, 0, s1, l0),
+                             Touch(0, 1, l0, l1), Touch(2, 0, lone, s0),
                              Touch(0, 0, s0, l0), {0, -1, s0.x, s0.y, s0.x, 0.0, s0.x, 0.0, 0.0, 1.0}};
   rundir::ClogState second = first;
   second.frame.timestep = second.contacts.timestep = 2000;

@@ -60,8 +60,8 @@ TEST(ComparePoints, MatchedBySweepValuesWithZScores) {
   a1.metrics = {{"q_count", "", 20.0, 0.3, 4, "", true, ""},
                 {"phi", "", 0.8, 0.01, 4, "", true, ""},
                 {"clogged_runs", "", 1.0, kNaN, 4, "", false, "", false},  // not compared
-                {"v_max", "", kNaN, kNaN, 0, "", false, ""}};               // undefined
-  a2.point = {{"/silo/base_outlets/0/width", 12}};                          // no partner
+                {"v_max", "", kNaN, kNaN, 0, "", false, ""}};              // undefined
+  a2.point = {{"/silo/base_outlets/0/width", 12}};                         // no partner
   b1.point_id = "liggghts-7";
   b1.point = {{"/silo/base_outlets/0/width", 10}};
   b1.metrics = {{"phi", "", 0.8, kNaN, 1, "", true, ""},
@@ -103,8 +103,7 @@ TEST(EngineComparison, MatchesPointsBySweepValuesAndSumsCosts) {
 }
 
 // A run of n exits at rate q through one outlet of width w, on `engine`.
-void WriteRun(const std::filesystem::path& dir, const std::string& engine, double w, double q, int n,
-               double rate) {
+void WriteRun(const std::filesystem::path& dir, const std::string& engine, double w, double q, int n, double rate) {
   std::ostringstream ev;
   ev.precision(17);
   ev << "time,body,shape,mass,outlet\n";
@@ -114,11 +113,18 @@ void WriteRun(const std::filesystem::path& dir, const std::string& engine, doubl
                                {"silo", {{"width", 60}, {"base_outlets", {{{"center", 0.0}, {"width", w}}}}}},
                                {"bodies", {{"count", 500}}},
                                {"discharge", {{"mode", "reinject"}, {"stop_on_clog", false}}}};
-  nlohmann::json summary = {{"engine", engine},   {"engine_version", "x"}, {"run_id", dir.filename().string()},
-                            {"spec", spec},       {"end_reason", "time_limit"}, {"bodies", 500},
-                            {"exited", n},        {"remaining", 500},      {"exits_per_outlet", {n}},
-                            {"t_end", n / q + 0.5},
-                            {"timing", {{"wall_s", 10.0}, {"discharge_wall_s", 8.0}, {"disc_steps_per_s", rate}, {"threads", 1}}}};
+  nlohmann::json summary = {
+      {"engine", engine},
+      {"engine_version", "x"},
+      {"run_id", dir.filename().string()},
+      {"spec", spec},
+      {"end_reason", "time_limit"},
+      {"bodies", 500},
+      {"exited", n},
+      {"remaining", 500},
+      {"exits_per_outlet", {n}},
+      {"t_end", n / q + 0.5},
+      {"timing", {{"wall_s", 10.0}, {"discharge_wall_s", 8.0}, {"disc_steps_per_s", rate}, {"threads", 1}}}};
   if (engine == "liggghts") {
     summary["tangential_cap"] = "liggghts";
     summary["reinject_position"] = "periodic";

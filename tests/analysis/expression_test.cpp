@@ -61,7 +61,8 @@ TEST(Expression, ErrorsNameTextAndPosition) {
     Expression::Parse("sin(x)", {"x"});
     FAIL() << "no error";
   } catch (const ExpressionError& e) {
-    EXPECT_STREQ(e.what(), "model 'sin(x)': position 1: unknown function 'sin' (known: exp, log, sqrt, abs, pow, min, max)");
+    EXPECT_STREQ(e.what(),
+                 "model 'sin(x)': position 1: unknown function 'sin' (known: exp, log, sqrt, abs, pow, min, max)");
   }
   try {
     Expression::Parse("pow(x)", {"x"});

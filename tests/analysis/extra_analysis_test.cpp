@@ -64,7 +64,8 @@ std::unique_ptr<Analysis> MakeExitRate(const nlohmann::json& options, const std:
 }
 
 // A run of n exits at rate q on `engine`, ending at n / q.
-RunRecord MakeRunRecord(const std::filesystem::path& root, const std::string& engine, double w, int replica, double q, int n) {
+RunRecord MakeRunRecord(const std::filesystem::path& root, const std::string& engine, double w, int replica, double q,
+                        int n) {
   RunRecord r;
   r.engine = engine;
   r.point_id = engine + FormatNumber(w);
@@ -82,10 +83,13 @@ RunRecord MakeRunRecord(const std::filesystem::path& root, const std::string& en
   ev << "time,body,shape,mass,outlet\n";
   for (int i = 1; i <= n; ++i) ev << (i / q) << "," << i << ",disc,1.0,0\n";
   WriteFile(r.run_dir / "events.csv", ev.str());
-  WriteFile(r.run_dir / "summary.json",
-             nlohmann::json{{"engine", engine}, {"end_reason", "time_limit"}, {"bodies", 500}, {"exited", n},
-                            {"remaining", 500}, {"t_end", n / q}}
-                 .dump());
+  WriteFile(r.run_dir / "summary.json", nlohmann::json{{"engine", engine},
+                                                       {"end_reason", "time_limit"},
+                                                       {"bodies", 500},
+                                                       {"exited", n},
+                                                       {"remaining", 500},
+                                                       {"t_end", n / q}}
+                                            .dump());
   WriteFile(r.run_dir / "run.json", r.spec.dump());
   return r;
 }
@@ -100,7 +104,8 @@ TEST(ExtraAnalysis, RegisteredInATestAppearsInReportExportAndComparison) {
   std::vector<RunRecord> runs;
   for (const std::string engine : {"native", "liggghts"})
     for (double w : {6.0, 9.0})
-      for (int rep = 0; rep < 2; ++rep) runs.push_back(MakeRunRecord(dir.Path(), engine, w, rep, w * (engine == "native" ? 1.0 : 1.5), 200));
+      for (int rep = 0; rep < 2; ++rep)
+        runs.push_back(MakeRunRecord(dir.Path(), engine, w, rep, w * (engine == "native" ? 1.0 : 1.5), 200));
   {
     const ScopedAnalysis registered({"exit_rate", MakeExitRate});
     EXPECT_EQ(RegisteredAnalyses().size(), builtin + 1);
@@ -113,16 +118,20 @@ TEST(ExtraAnalysis, RegisteredInATestAppearsInReportExportAndComparison) {
     const ReportSummary s = WriteReport(*a, o);
     const std::string md = ReadFile(s.markdown);
     EXPECT_NE(md.find("## Exit rate (registered by a test)"), std::string::npos);
-    EXPECT_NE(ReadFile(o.out_dir / "data" / "per_run.csv").find(",exit_rate,"), std::string::npos);  // a headline metric
+    EXPECT_NE(ReadFile(o.out_dir / "data" / "per_run.csv").find(",exit_rate,"),
+              std::string::npos);  // a headline metric
     // 200 exits in 200/q: rate q, scaled by 2 from the options.
     const std::string table = ReadFile(o.out_dir / "data" / "exit_rate.csv");
     EXPECT_EQ(table.substr(0, table.find('\n')), "point,exit_rate,exit_rate_se,exit_rate_n");
     EXPECT_NE(table.find("\"W = 9, engine = native\",18,0,2"), std::string::npos) << table;
 
-    const ExportTable runs_table = MakeExportTable(*a, ExportLevel::kRun), points_table = MakeExportTable(*a, ExportLevel::kPoint);
+    const ExportTable runs_table = MakeExportTable(*a, ExportLevel::kRun),
+                      points_table = MakeExportTable(*a, ExportLevel::kPoint);
     for (const char* column : {"exit_rate", "exit_rate_se"})
-      EXPECT_NE(std::find(runs_table.columns.begin(), runs_table.columns.end(), column), runs_table.columns.end()) << column;
-    EXPECT_NE(std::find(points_table.columns.begin(), points_table.columns.end(), "exit_rate_n"), points_table.columns.end());
+      EXPECT_NE(std::find(runs_table.columns.begin(), runs_table.columns.end(), column), runs_table.columns.end())
+          << column;
+    EXPECT_NE(std::find(points_table.columns.begin(), points_table.columns.end(), "exit_rate_n"),
+              points_table.columns.end());
     EXPECT_EQ(runs_table.rows.size(), 8u);
     EXPECT_EQ(points_table.rows.size(), 4u);
 

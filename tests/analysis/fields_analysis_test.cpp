@@ -89,7 +89,8 @@ TEST(FieldsAnalysis, StressMapsTurnContactOutputOnOrThePlanSaysWhy) {
     EXPECT_EQ(e.Path(), "/base/output/frame_interval");
   }
   // Without /report/fields nothing changes.
-  EXPECT_EQ(WithFieldsOutput({{"base", nlohmann::json::object()}}), nlohmann::json({{"base", nlohmann::json::object()}}));
+  EXPECT_EQ(WithFieldsOutput({{"base", nlohmann::json::object()}}),
+            nlohmann::json({{"base", nlohmann::json::object()}}));
 }
 
 CgSums FilledSums(int ny, double value) {
@@ -134,7 +135,7 @@ void WriteRun(const std::filesystem::path& dir) {
                              {"bodies", {{"density", 1.0}, {"count", 525}}},
                              {"discharge", {{"mode", "reinject"}, {"clog_window", 3.0}}}});
   WriteFile(dir / "summary.json",
-             R"({"bodies":525,"exited":12,"remaining":525,"t_end":20,"end_reason":"time_limit","clogs":1})");
+            R"({"bodies":525,"exited":12,"remaining":525,"t_end":20,"end_reason":"time_limit","clogs":1})");
   std::string events = "time,body,shape,mass,outlet\n";
   for (int k = 0; k < 12; ++k) events += std::to_string(2.0 + 0.05 * k) + "," + std::to_string(k) + ",disc,1,0\n";
   WriteFile(dir / "events.csv", events);
@@ -176,7 +177,7 @@ TEST(FieldsAnalysis, SteadyWindowOfTheFlowAnalysis) {
   ASSERT_EQ(p.result["parts"].size(), 1u);
   const nlohmann::json& part = p.result["parts"][0];
   EXPECT_EQ(part["name"], "steady");
-  EXPECT_EQ(part["frames"], 2);          // 2.2 and 2.3: the flow window ends at the last exit, 2.55
+  EXPECT_EQ(part["frames"], 2);  // 2.2 and 2.3: the flow window ends at the last exit, 2.55
   EXPECT_EQ(part["contact_frames"], 2);
   // A rigid translation: v of that translation wherever defined, so its region mean too.
   const CgMaps maps(SumsFromJson(part["sums"]));
@@ -274,10 +275,10 @@ TEST(FieldsAnalysis, OffersEveryFieldByNameFromRunsMerged) {
 
 TEST(FieldsAnalysis, SiloDrawingLeavesTheOutletsOpen) {
   const SiloDrawing d = MakeSiloDrawing({{"silo",
-                                       {{"width", 20.0},
-                                        {"base_outlets", {{{"center", 2.0}, {"width", 4.0}}}},
-                                        {"obstacles", {{{"x", 0.0}, {"y", 8.0}, {"diameter", 3.0}}}}}}},
-                                     30.0);
+                                          {{"width", 20.0},
+                                           {"base_outlets", {{{"center", 2.0}, {"width", 4.0}}}},
+                                           {"obstacles", {{{"x", 0.0}, {"y", 8.0}, {"diameter", 3.0}}}}}}},
+                                        30.0);
   // Base: -10 .. 0 and 4 .. 10; the side walls 0 .. 30.
   ASSERT_EQ(d.lines.size(), 4u);
   EXPECT_EQ(d.lines[0], (std::vector<std::array<double, 2>>{{-10.0, 0.0}, {0.0, 0.0}}));

@@ -49,10 +49,10 @@ void WriteRun(const fs::path& dir, const nlohmann::json& spec, double q, int n, 
   ev << "time,body,shape,mass,outlet\n";
   for (int i = 1; i <= n; ++i) ev << (i / q) << "," << i << ",disc,1.0,0\n";
   WriteFile(dir / "events.csv", ev.str());
-  const nlohmann::json summary = {{"engine", "native"}, {"engine_version", "0.1.0"}, {"granary_commit", "abc"},
-                                  {"run_id", id},       {"spec", spec},              {"end_reason", "time_limit"},
-                                  {"bodies", 2000},     {"exited", n},               {"remaining", 2000 - n},
-                                  {"exits_per_outlet", {n}}, {"t_end", n / q + 1.0}};
+  const nlohmann::json summary = {
+      {"engine", "native"},    {"engine_version", "0.1.0"},  {"granary_commit", "abc"}, {"run_id", id},
+      {"spec", spec},          {"end_reason", "time_limit"}, {"bodies", 2000},          {"exited", n},
+      {"remaining", 2000 - n}, {"exits_per_outlet", {n}},    {"t_end", n / q + 1.0}};
   WriteFile(dir / "summary.json", summary.dump());
   WriteFile(dir / "run.json", spec.dump());
   WriteFile(dir / "DONE", "");
@@ -68,9 +68,10 @@ Campaign MakeCampaign(const fs::path& root, const nlohmann::json& extra_spec) {
   Campaign c;
   c.info.name = "two-axes";
   c.info.axes = {"/silo/base_outlets/0/width", "/contact/mu"};
-  c.info.spec = {{"name", "two-axes"},
-                 {"base", SpecFor(10, 0)},
-                 {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {10, 14, 18, 22}}, {"/contact/mu", {0, 0.5, 1}}}}}}};
+  c.info.spec = {
+      {"name", "two-axes"},
+      {"base", SpecFor(10, 0)},
+      {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {10, 14, 18, 22}}, {"/contact/mu", {0, 0.5, 1}}}}}}};
   c.info.spec.update(extra_spec);
   auto add = [&](double w, double mu, int replicas) {
     for (int rep = 0; rep < replicas; ++rep) {
@@ -207,15 +208,16 @@ TEST(FitModelMulti, TwoVariablesRecoverKnownParametersWithinTheirIntervals) {
 
 TEST(FigureLayer, FitAcrossEveryPointOfTheFigureAndCollapse) {
   TempDir dir;
-  const nlohmann::json figures = {{"report",
-                                   {{"figures",
-                                     {{{"name", "law"},
-                                       {"y", "q_count"},
-                                       {"x", "W"},
-                                       {"group", "mu"},
-                                       {"only", {{"mu", {0, 0.5, 1}}}},
-                                       {"fit", {{"model", "a * W^(b + mu/2)"}, {"initial", {{"a", 0.5}, {"b", 1}}}, {"collapse", true}}},
-                                       {"reference", "thesis fig. 4.5b"}}}}}}};
+  const nlohmann::json figures = {
+      {"report",
+       {{"figures",
+         {{{"name", "law"},
+           {"y", "q_count"},
+           {"x", "W"},
+           {"group", "mu"},
+           {"only", {{"mu", {0, 0.5, 1}}}},
+           {"fit", {{"model", "a * W^(b + mu/2)"}, {"initial", {{"a", 0.5}, {"b", 1}}}, {"collapse", true}}},
+           {"reference", "thesis fig. 4.5b"}}}}}}};
   const Campaign c = MakeCampaign(dir.Path(), figures);
   const auto a = Analyse(c, SetupAnalyses(c.info.spec));
   const std::vector<FigureSpec> specs = ReadFigureSpecs(c.info.spec);
@@ -282,12 +284,14 @@ TEST(FigureLayer, PointsWithoutTheMetricAreLeftOutByNameAndTheRestDrawn) {
   EXPECT_EQ(xs, std::vector<double>{26}) << notes;
   EXPECT_EQ(notes.find("Not drawn"), std::string::npos) << notes;
   EXPECT_NE(notes.find("**Left out:**"), std::string::npos) << notes;
-  for (const char* w : {"W = 10", "W = 14", "W = 18", "W = 22"}) EXPECT_NE(notes.find(w), std::string::npos) << w << "\n" << notes;
+  for (const char* w : {"W = 10", "W = 14", "W = 18", "W = 22"})
+    EXPECT_NE(notes.find(w), std::string::npos) << w << "\n" << notes;
 }
 
 TEST(FigureLayer, PooledFigureWeighsThePointsByTheirN) {
   TempDir dir;
-  const nlohmann::json figures = {{"report", {{"figures", {{{"name", "pooled"}, {"y", "q_count"}, {"x", "W"}, {"pool", {"mu"}}}}}}}};
+  const nlohmann::json figures = {
+      {"report", {{"figures", {{{"name", "pooled"}, {"y", "q_count"}, {"x", "W"}, {"pool", {"mu"}}}}}}}};
   const Campaign c = MakeCampaign(dir.Path(), figures);
   const auto a = Analyse(c, SetupAnalyses(c.info.spec));
   const FigureOutcome f = MakeFigure(*a, ReadFigureSpecs(c.info.spec)[0]);
@@ -333,7 +337,8 @@ TEST(FigureLayer, DerivedAxesInFiguresExportAndOnly) {
   ASSERT_GE(t.columns.size(), 7u);
   EXPECT_EQ(std::vector<std::string>(t.columns.begin() + 3, t.columns.begin() + 7),
             (std::vector<std::string>{"W", "mu", "W2", "Wmu"}));
-  for (const auto& row : t.rows) EXPECT_DOUBLE_EQ(row[6].get<double>(), 2 * row[3].get<double>() + row[4].get<double>());
+  for (const auto& row : t.rows)
+    EXPECT_DOUBLE_EQ(row[6].get<double>(), 2 * row[3].get<double>() + row[4].get<double>());
 }
 
 TEST(FigureLayer, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
@@ -352,13 +357,15 @@ TEST(FigureLayer, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
                 .find("/report/figures/0/x: names no axis (axes: W)"),
             std::string::npos);
   EXPECT_NE(error_of({{"axes", {{"D", "sqrt(W + Z)"}}}}).find("/axes/D"), std::string::npos);
-  EXPECT_NE(error_of({{"axes", {{"D", "sqrt(W + Z)"}}}}).find("names no axis: Z (axes it can use: W)"), std::string::npos);
+  EXPECT_NE(error_of({{"axes", {{"D", "sqrt(W + Z)"}}}}).find("names no axis: Z (axes it can use: W)"),
+            std::string::npos);
   EXPECT_NE(error_of({{"report", {{"figures", {{{"name", "f"}, {"y", "q"}, {"kind", "bars"}}}}}}})
                 .find("/report/figures/0/kind"),
             std::string::npos);
   EXPECT_NE(error_of({{"expect", {{{"fit", "nope"}, {"parameter", "b"}, {"value", 1}}}}}).find("/expect/0/fit"),
             std::string::npos);
-  EXPECT_NE(error_of({{"expect", {{{"metric", "psi"}, {"at", {{"H", 3}}}, {"value", 1}}}}}).find("/expect/0/at/H: names no axis"),
+  EXPECT_NE(error_of({{"expect", {{{"metric", "psi"}, {"at", {{"H", 3}}}, {"value", 1}}}}})
+                .find("/expect/0/at/H: names no axis"),
             std::string::npos);
   EXPECT_EQ(error_of({{"axes", {{"W2", "2 * W"}}},
                       {"report", {{"figures", {{{"name", "f"}, {"y", "q_count"}, {"x", "W2"}}}}}},
@@ -368,9 +375,12 @@ TEST(FigureLayer, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
 
 TEST(FigureLayer, PicturesOfTheChosenPoints) {
   TempDir dir;
-  const nlohmann::json extra = {
-      {"report", {{"figures", {{{"name", "arches"}, {"kind", "pictures"}, {"only", {{"W", {10, 22}}, {"mu", 0.5}}},
-                                {"reference", "thesis fig. 3.4"}}}}}}};
+  const nlohmann::json extra = {{"report",
+                                 {{"figures",
+                                   {{{"name", "arches"},
+                                     {"kind", "pictures"},
+                                     {"only", {{"W", {10, 22}}, {"mu", 0.5}}},
+                                     {"reference", "thesis fig. 3.4"}}}}}}};
   const Campaign c = MakeCampaign(dir.Path() / "runs", extra);
   ReportOptions o;
   o.out_dir = dir.Path() / "report";
@@ -401,10 +411,19 @@ TEST(Expectations, AgreeDisagreeAndTooFewRuns) {
   TempDir dir;
   const double q14 = QOf(14, 0), q26 = QOf(26, 0);
   const nlohmann::json extra = {
-      {"report", {{"figures", {{{"name", "law"}, {"y", "q_count"}, {"x", "W"}, {"fit", {{"model", "a * W^(b + mu/2)"}}}}}}}},
+      {"report",
+       {{"figures", {{{"name", "law"}, {"y", "q_count"}, {"x", "W"}, {"fit", {{"model", "a * W^(b + mu/2)"}}}}}}}},
       {"expect",
-       {{{"metric", "q_count"}, {"at", {{"W", 14}, {"mu", 0}}}, {"value", q14 * 1.02}, {"tolerance", 0.03 * q14}, {"source", "s1"}},
-        {{"metric", "q_count"}, {"at", {{"W", 14}, {"mu", 0}}}, {"value", q14 * 1.5}, {"tolerance", 0.03 * q14}, {"source", "s2"}},
+       {{{"metric", "q_count"},
+         {"at", {{"W", 14}, {"mu", 0}}},
+         {"value", q14 * 1.02},
+         {"tolerance", 0.03 * q14},
+         {"source", "s1"}},
+        {{"metric", "q_count"},
+         {"at", {{"W", 14}, {"mu", 0}}},
+         {"value", q14 * 1.5},
+         {"tolerance", 0.03 * q14},
+         {"source", "s2"}},
         {{"metric", "q_count"}, {"at", {{"W", 26}, {"mu", 0}}}, {"value", q26}, {"source", "s3"}},
         {{"fit", "law"}, {"parameter", "b"}, {"value", 1.5}, {"tolerance", 0.01}, {"source", "s4"}}}}};
   const Campaign c = MakeCampaign(dir.Path(), extra);
@@ -433,11 +452,18 @@ TEST(Expectations, QuickAndMediumSizesAreMeasuredButNotComparable) {
   TempDir dir;
   const double q14 = QOf(14, 0);
   for (const std::string size : {"quick", "medium", "full"}) {
-    const nlohmann::json extra = {
-        {"size", size},
-        {"expect",
-         {{{"metric", "q_count"}, {"at", {{"W", 14}, {"mu", 0}}}, {"value", q14}, {"tolerance", 0.03 * q14}, {"source", "s1"}},
-          {{"metric", "q_count"}, {"at", {{"W", 14}, {"mu", 0}}}, {"value", q14 * 1.5}, {"tolerance", 0.03 * q14}, {"source", "s2"}}}}};
+    const nlohmann::json extra = {{"size", size},
+                                  {"expect",
+                                   {{{"metric", "q_count"},
+                                     {"at", {{"W", 14}, {"mu", 0}}},
+                                     {"value", q14},
+                                     {"tolerance", 0.03 * q14},
+                                     {"source", "s1"}},
+                                    {{"metric", "q_count"},
+                                     {"at", {{"W", 14}, {"mu", 0}}},
+                                     {"value", q14 * 1.5},
+                                     {"tolerance", 0.03 * q14},
+                                     {"source", "s2"}}}}};
     const Campaign c = MakeCampaign(dir.Path() / size, extra);
     const auto a = Analyse(c, SetupAnalyses(c.info.spec));
     const std::vector<Expectation> expect = ReadExpectations(c.info.spec, {});
@@ -466,7 +492,12 @@ TEST(Expectations, QuickAndMediumSizesAreMeasuredButNotComparable) {
 TEST(ReportFigures, EveryDataPointLiesInsideItsFigureRanges) {
   TempDir dir;
   const nlohmann::json extra = {
-      {"report", {{"figures", {{{"name", "law"}, {"y", "q_count"}, {"x", "W"}, {"fit", {{"model", "a * W^(b + mu/2)"}, {"collapse", true}}}}}}}},
+      {"report",
+       {{"figures",
+         {{{"name", "law"},
+           {"y", "q_count"},
+           {"x", "W"},
+           {"fit", {{"model", "a * W^(b + mu/2)"}, {"collapse", true}}}}}}}},
       {"expect", {{{"metric", "q_count"}, {"at", {{"W", 14}, {"mu", 0}}}, {"value", QOf(14, 0)}, {"source", "s"}}}}};
   const Campaign c = MakeCampaign(dir.Path() / "runs", extra);
   ReportOptions o;
@@ -513,7 +544,6 @@ TEST(ReportFigures, EveryDataPointOfTheStoredEngineCampaignsLiesInsideItsRanges)
   }
 }
 
-
 // An analysis registered by these tests alone, offering a distribution and a field of known
 // values: per run at outlet width W, the values {0.5, 1.5, 2.5} + (W - 10)/4 with weights
 // {1, 2, 3} (replica 0) or {3, 2, 1} (replica 1), so that a point's replicas pool to 4 each;
@@ -546,14 +576,16 @@ class KnownFigures : public Analysis {
     return s;
   }
   std::vector<CurveInfo> CurveNames() const override { return {{"known_curve", "known curve", "k", "y (d)", true}}; }
-  std::vector<CurvePoint> Curve(const std::string& name, const std::vector<const nlohmann::json*>& results) const override {
+  std::vector<CurvePoint> Curve(const std::string& name,
+                                const std::vector<const nlohmann::json*>& results) const override {
     EXPECT_EQ(name, "known_curve");
     if (results.empty()) return {};
     double w = 0;
     for (const nlohmann::json* r : results) w += r->at("w").get<double>();
     w /= static_cast<double>(results.size());
     std::vector<CurvePoint> out;
-    for (int k = 1; k <= 3; ++k) out.push_back({static_cast<double>(k), k * w, 0.1 * k, static_cast<double>(results.size())});
+    for (int k = 1; k <= 3; ++k)
+      out.push_back({static_cast<double>(k), k * w, 0.1 * k, static_cast<double>(results.size())});
     return out;
   }
   std::vector<FieldInfo> FieldNames() const override { return {{"ramp", "ramp field", "rho g d", false}}; }
@@ -625,8 +657,12 @@ TEST(DensityHistogram, KnownCountsDensitiesAndValuesOutsideTheRange) {
 TEST(FigureKinds, DistributionPoolsReplicasOverOneRangeForEveryCurve) {
   ScopedAnalysis known(KnownFiguresEntry());
   TempDir dir;
-  const auto r = FigureOf(dir.Path(), {{"name", "dist"}, {"kind", "distribution"}, {"of", "known"}, {"bins", 3},
-                                                 {"only", {{"W", {10, 14}}, {"mu", 0}}}, {"reference", "thesis fig. 4.6"}});
+  const auto r = FigureOf(dir.Path(), {{"name", "dist"},
+                                       {"kind", "distribution"},
+                                       {"of", "known"},
+                                       {"bins", 3},
+                                       {"only", {{"W", {10, 14}}, {"mu", 0}}},
+                                       {"reference", "thesis fig. 4.6"}});
   const FigureOutcome& f = r->f;
   const Figure* fig = FigureIn(f);
   ASSERT_TRUE(fig);
@@ -678,7 +714,8 @@ TEST(FigureKinds, TheAnalysesOfferTheirDistributionsByName) {
   ASSERT_EQ(region->DistributionNames().size(), 2u);
   EXPECT_EQ(region->DistributionNames()[0].unit, "sqrt(g d)");
   // Grid bin k holds [(k - 1/2) w, (k + 1/2) w): centre k w.
-  const nlohmann::json result = {{"regions", {{{"velocity", {{"vx", {{"width", 0.05}, {"first", -2}, {"counts", {1, 0, 3}}}}}}}}}};
+  const nlohmann::json result = {
+      {"regions", {{{"velocity", {{"vx", {{"width", 0.05}, {"first", -2}, {"counts", {1, 0, 3}}}}}}}}}};
   const Samples vx = region->Distribution("vx", result);
   ASSERT_EQ(vx.values.size(), 2u);  // the empty bin is no sample
   EXPECT_DOUBLE_EQ(vx.values[0], -0.1);
@@ -693,8 +730,8 @@ TEST(FigureKinds, TheAnalysesOfferTheirDistributionsByName) {
 
 TEST(FigureKinds, DistributionOfAPerRunMetricPoolsItsReplicas) {
   TempDir dir;
-  const auto r =
-      FigureOf(dir.Path(), {{"name", "q"}, {"kind", "distribution"}, {"of", "q_count"}, {"bins", 2}, {"only", {{"mu", 0}}}});
+  const auto r = FigureOf(
+      dir.Path(), {{"name", "q"}, {"kind", "distribution"}, {"of", "q_count"}, {"bins", 2}, {"only", {{"mu", 0}}}});
   const FigureOutcome& f = r->f;
   const Figure* fig = FigureIn(f);
   ASSERT_TRUE(fig);
@@ -722,8 +759,12 @@ TEST(FigureKinds, DistributionOfAPerRunMetricPoolsItsReplicas) {
 TEST(FigureKinds, CurvesOfTheChosenPointsMergeTheirRunsAndDrawTheirLine) {
   ScopedAnalysis known(KnownFiguresEntry());
   TempDir dir;
-  const auto r = FigureOf(dir.Path(), {{"name", "curves"}, {"kind", "curves"}, {"of", "known_curve"}, {"pool", "mu"},
-                                                 {"only", {{"W", {10, 26}}}}, {"reference", "thesis fig. 6.7"}});
+  const auto r = FigureOf(dir.Path(), {{"name", "curves"},
+                                       {"kind", "curves"},
+                                       {"of", "known_curve"},
+                                       {"pool", "mu"},
+                                       {"only", {{"W", {10, 26}}}},
+                                       {"reference", "thesis fig. 6.7"}});
   const Figure* fig = FigureIn(r->f);
   ASSERT_TRUE(fig);
   ASSERT_EQ(fig->series.size(), 3u);  // W = 10 (mu pooled: 3 points x 2 replicas), W = 26 (one run), y = x
@@ -746,7 +787,8 @@ TEST(FigureKinds, CurvesOfTheChosenPointsMergeTheirRunsAndDrawTheirLine) {
   }
   EXPECT_EQ(fig->series[2].role, Series::Role::kReference);
   EXPECT_EQ(fig->series[2].rows, (std::vector<std::vector<double>>{{1, 1}, {3, 3}}));
-  EXPECT_NE(fig->caption.find("pooled over mu; only W in {10, 26}. Reference: thesis fig. 6.7"), std::string::npos) << fig->caption;
+  EXPECT_NE(fig->caption.find("pooled over mu; only W in {10, 26}. Reference: thesis fig. 6.7"), std::string::npos)
+      << fig->caption;
 }
 
 // The arches' curves and arch sizes from constructed clogs, the orientation window's axis
@@ -796,7 +838,9 @@ TEST(FigureKinds, TheArchesAndTheOrientationOfferTheirCurvesAndDistributions) {
   EXPECT_TRUE(arches->Curve("arch_pressure_theta", {}).empty());
   EXPECT_EQ(arches->Distribution("arch_sizes", a).values, (std::vector<double>{3}));
   // The window's axis angles: 4 bins of 45 degrees as the runs keep them.
-  const nlohmann::json o = {{"elongated", true}, {"bed", {{"window_axes", {5, 0, 0, 1}}}}, {"flow", {{"window_axes", {0, 2, 0, 0}}}},
+  const nlohmann::json o = {{"elongated", true},
+                            {"bed", {{"window_axes", {5, 0, 0, 1}}}},
+                            {"flow", {{"window_axes", {0, 2, 0, 0}}}},
                             {"arch_window", {0, 0, 3, 0}}};
   const Samples bed = orientation->Distribution("axis_bed", o);
   EXPECT_EQ(bed.values, (std::vector<double>{22.5, 157.5}));
@@ -809,7 +853,8 @@ TEST(FigureKinds, TheArchesAndTheOrientationOfferTheirCurvesAndDistributions) {
 TEST(FigureKinds, MapPanelsAtTheChosenPointsWithAxesAndUnitsInTheirTitles) {
   ScopedAnalysis known(KnownFiguresEntry());
   TempDir dir;
-  const auto r = FigureOf(dir.Path(), {{"name", "maps"}, {"kind", "maps"}, {"field", "ramp"}, {"only", {{"W", {10, 22}}, {"mu", 0.5}}}});
+  const auto r = FigureOf(
+      dir.Path(), {{"name", "maps"}, {"kind", "maps"}, {"field", "ramp"}, {"only", {{"W", {10, 22}}, {"mu", 0.5}}}});
   const FigureOutcome& f = r->f;
   const MapFigure* m = nullptr;
   for (const Block& b : f.blocks)
@@ -827,8 +872,10 @@ TEST(FigureKinds, MapPanelsAtTheChosenPointsWithAxesAndUnitsInTheirTitles) {
       EXPECT_LE(node[0], m->x_hi);
       EXPECT_GE(node[1], m->y_lo);
       EXPECT_LE(node[1], m->y_hi);
-      if (node[0] == 5 && node[1] == 5) EXPECT_TRUE(std::isnan(node[2]));
-      else EXPECT_DOUBLE_EQ(node[2], 2 * node[0] + 3 * node[1] + w);
+      if (node[0] == 5 && node[1] == 5)
+        EXPECT_TRUE(std::isnan(node[2]));
+      else
+        EXPECT_DOUBLE_EQ(node[2], 2 * node[0] + 3 * node[1] + w);
     }
     EXPECT_EQ(m->panels[k].lines.size(), 2u);
   }
@@ -850,11 +897,11 @@ TEST(FigureKinds, MapPanelsAtTheChosenPointsWithAxesAndUnitsInTheirTitles) {
 TEST(FigureKinds, WallsClippedToTheMapsBox) {
   using Polyline = std::vector<std::array<double, 2>>;
   const std::array<double, 4> box = {0, 10, 0, 10};
-  const auto clipped = ClipPolylines({{{-5, 5}, {5, 5}, {5, 15}},         // enters, turns, leaves
-                                       {{2, 2}, {20, 2}, {20, 8}, {2, 8}},  // leaves and comes back: two lines
-                                       {{-5, -5}, {-5, 20}},                // never inside
-                                       {{1, 1}, {9, 9}}},                   // inside
-                                      box);
+  const auto clipped = ClipPolylines({{{-5, 5}, {5, 5}, {5, 15}},          // enters, turns, leaves
+                                      {{2, 2}, {20, 2}, {20, 8}, {2, 8}},  // leaves and comes back: two lines
+                                      {{-5, -5}, {-5, 20}},                // never inside
+                                      {{1, 1}, {9, 9}}},                   // inside
+                                     box);
   ASSERT_EQ(clipped.size(), 4u);
   EXPECT_EQ(clipped[0], (Polyline{{0, 5}, {5, 5}, {5, 10}}));
   EXPECT_EQ(clipped[1], (Polyline{{2, 2}, {10, 2}}));
@@ -888,8 +935,15 @@ TEST(FigureKinds, ProfileAlongXAndYOfAConstructedField) {
 TEST(FigureKinds, ProfileFigureOfTheChosenPoints) {
   ScopedAnalysis known(KnownFiguresEntry());
   TempDir dir;
-  const auto r = FigureOf(dir.Path(), {{"name", "prof"}, {"kind", "profile"}, {"field", "ramp"}, {"along", "x"}, {"at", 3},
-                                                 {"width", 2.5}, {"pool", "mu"}, {"only", {{"W", {14, 18}}}}, {"reference", "thesis fig. 5.15"}});
+  const auto r = FigureOf(dir.Path(), {{"name", "prof"},
+                                       {"kind", "profile"},
+                                       {"field", "ramp"},
+                                       {"along", "x"},
+                                       {"at", 3},
+                                       {"width", 2.5},
+                                       {"pool", "mu"},
+                                       {"only", {{"W", {14, 18}}}},
+                                       {"reference", "thesis fig. 5.15"}});
   const FigureOutcome& f = r->f;
   const Figure* fig = FigureIn(f);
   ASSERT_TRUE(fig);
@@ -949,21 +1003,26 @@ TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
   auto error_of = [&](const nlohmann::json& figure) { return error_with(base, figure); };
   auto field_error = [&](const nlohmann::json& figure) { return error_with(fields, figure); };
   auto has = [](const std::string& error, const std::string& part) {
-    return error.find(part) != std::string::npos ? ::testing::AssertionSuccess()
-                                                 : ::testing::AssertionFailure() << "\"" << part << "\" not in: " << error;
+    return error.find(part) != std::string::npos
+               ? ::testing::AssertionSuccess()
+               : ::testing::AssertionFailure() << "\"" << part << "\" not in: " << error;
   };
   EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "bars"}}), "/report/figures/0/kind: must be \"points\""));
-  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "bars"}}), "\"profile\" (a field along a line at each chosen point)"));
-  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "maps"}, {"field", "phi"}}),
-                  "/report/figures/0/field: no analysis offers fields: turn on the coarse-grained fields (/report/fields: true)"));
+  EXPECT_TRUE(
+      has(error_of({{"name", "f"}, {"kind", "bars"}}), "\"profile\" (a field along a line at each chosen point)"));
+  EXPECT_TRUE(has(
+      error_of({{"name", "f"}, {"kind", "maps"}, {"field", "phi"}}),
+      "/report/figures/0/field: no analysis offers fields: turn on the coarse-grained fields (/report/fields: true)"));
   EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vx"}, {"y", "q_count"}}),
                   "/report/figures/0/y: a figure of kind \"distribution\" takes"));
-  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vx"}, {"bins", 0}}), "/report/figures/0/bins"));
+  EXPECT_TRUE(
+      has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vx"}, {"bins", 0}}), "/report/figures/0/bins"));
   EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vx"}, {"range", {2, 1}}}),
                   "/report/figures/0/range: must be [lo, hi] with lo < hi"));
-  EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "v x"}}),
-                  "/report/figures/0/of: must name a distribution an analysis offers (vx, vy, avalanche_sizes, arch_sizes, "
-                  "axis_bed, axis_flow, axis_arches) or a per-run metric"));
+  EXPECT_TRUE(
+      has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "v x"}}),
+          "/report/figures/0/of: must name a distribution an analysis offers (vx, vy, avalanche_sizes, arch_sizes, "
+          "axis_bed, axis_flow, axis_arches) or a per-run metric"));
   EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "curves"}, {"of", "arch_presure_theta"}}),
                   "/report/figures/0/of: must name a curve an analysis this spec turns on offers (arch_pressure_theta, "
                   "arch_axis_mode_theta, arch_pressure_n) (got \"arch_presure_theta\")"));
@@ -972,16 +1031,21 @@ TEST(FigureKinds, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
   EXPECT_EQ(error_of({{"name", "f"}, {"kind", "curves"}, {"of", "arch_pressure_n"}, {"pool", "W"}}), "");
   EXPECT_EQ(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vy"}, {"logy", true}}), "");
   EXPECT_EQ(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "pressure"}, {"only", {{"W", 4}}}}), "");
-  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "presure"}}), "/report/figures/0/field: must name a field (fields: phi,"));
+  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "presure"}}),
+                  "/report/figures/0/field: must name a field (fields: phi,"));
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "z"}, {"at", 3}}),
                   "/report/figures/0/along: must be \"x\""));
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "y"}}),
                   "/report/figures/0/at: must be the line's position x (d)"));
-  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "y"}, {"at", 0}, {"width", -1}}),
-                  "/report/figures/0/width"));
-  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "speed"}, {"one_run", 1}}), "/report/figures/0/one_run"));
-  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "y"}, {"at", 0}, {"origin_outlet", 0}}),
-                  "/report/figures/0/origin_outlet: takes a line along x"));
+  EXPECT_TRUE(has(
+      field_error({{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "y"}, {"at", 0}, {"width", -1}}),
+      "/report/figures/0/width"));
+  EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "speed"}, {"one_run", 1}}),
+                  "/report/figures/0/one_run"));
+  EXPECT_TRUE(has(
+      field_error(
+          {{"name", "f"}, {"kind", "profile"}, {"field", "speed"}, {"along", "y"}, {"at", 0}, {"origin_outlet", 0}}),
+      "/report/figures/0/origin_outlet: takes a line along x"));
   EXPECT_TRUE(has(error_of({{"name", "f"}, {"kind", "distribution"}, {"of", "vx"}, {"one_run", true}}),
                   "/report/figures/0/one_run: a figure of kind \"distribution\" takes"));
   EXPECT_TRUE(has(field_error({{"name", "f"}, {"kind", "maps"}, {"field", "speed"}, {"at", 0}}),
@@ -1001,17 +1065,24 @@ TEST(ReportFigures, EveryPointOfTheNewKindsLiesInsideItsRanges) {
           {{"name", "q-dist"}, {"kind", "distribution"}, {"of", "q_count"}, {"pool", "mu"}},
           {{"name", "maps"}, {"kind", "maps"}, {"field", "ramp"}, {"only", {{"W", {10, 26}}, {"mu", 0}}}},
           {{"name", "curves"}, {"kind", "curves"}, {"of", "known_curve"}, {"only", {{"mu", 0.5}}}},
-          {{"name", "prof"}, {"kind", "profile"}, {"field", "ramp"}, {"along", "y"}, {"at", 0}, {"only", {{"mu", 1}}}}}}}}};
+          {{"name", "prof"},
+           {"kind", "profile"},
+           {"field", "ramp"},
+           {"along", "y"},
+           {"at", 0},
+           {"only", {{"mu", 1}}}}}}}}};
   const Campaign c = MakeCampaign(dir.Path() / "runs", extra);
   ReportOptions o;
   o.out_dir = dir.Path() / "report";
   o.analysis.read_cache = o.analysis.write_cache = false;
   const ReportSummary s = WriteReport(c.info, c.runs, o);
-  for (const char* name : {"figure-dist", "figure-dist-range", "figure-q-dist", "figure-maps", "figure-prof", "figure-curves"})
+  for (const char* name :
+       {"figure-dist", "figure-dist-range", "figure-q-dist", "figure-maps", "figure-prof", "figure-curves"})
     EXPECT_TRUE(fs::exists(o.out_dir / "figures" / (std::string(name) + ".gp"))) << name;
   const std::vector<std::string> outside = PointsOutsideRanges(o.out_dir);
   EXPECT_TRUE(outside.empty()) << outside.size() << " points outside, e.g. " << outside.front();
-  EXPECT_NE(ReadFile(o.out_dir / "figures" / "figure-maps.gp").find("W = 26 d, mu = 0: 1 run, 7 frames"), std::string::npos);
+  EXPECT_NE(ReadFile(o.out_dir / "figures" / "figure-maps.gp").find("W = 26 d, mu = 0: 1 run, 7 frames"),
+            std::string::npos);
   EXPECT_NE(ReadFile(s.markdown).find("figure-prof.svg"), std::string::npos);
 }
 

@@ -23,8 +23,8 @@ TEST(FlowRate, RemoveModeWindowRule) {
   const FlowWindowRule rule;  // start 10% / t >= 2, stop when 30% remain
   const FlowWindow w = FindFlowWindow(in, rule);
   ASSERT_TRUE(w.ok) << w.note;
-  EXPECT_EQ(w.last, 699u);   // the 701st exit leaves 299 < 300 bodies
-  EXPECT_EQ(w.first, 70u);   // ceil(0.1 * 700)
+  EXPECT_EQ(w.last, 699u);  // the 701st exit leaves 299 < 300 bodies
+  EXPECT_EQ(w.first, 70u);  // ceil(0.1 * 700)
   const FlowRate q = MeasureFlowRate(in, rule);
   ASSERT_TRUE(q.ok) << q.note;
   EXPECT_NEAR(q.q_count, 10.0, 1e-9);
@@ -44,7 +44,8 @@ TEST(FlowRate, PerOutletOverTheWindowOfAllOutletsAddsUp) {
   std::vector<rundir::ExitEvent> ev = Regular(120, 0.1, 1.0 / 3.0, 2.0, 0);
   for (const auto& e : Regular(20, 0.2, 0.5, 1.0, 1)) ev.push_back(e);
   for (const auto& e : Regular(40, 20.2, 0.5, 1.0, 1)) ev.push_back(e);
-  std::stable_sort(ev.begin(), ev.end(), [](const rundir::ExitEvent& a, const rundir::ExitEvent& b) { return a.time < b.time; });
+  std::stable_sort(ev.begin(), ev.end(),
+                   [](const rundir::ExitEvent& a, const rundir::ExitEvent& b) { return a.time < b.time; });
   FlowInput in{ev, false, 1000, 5.0, -1};
   const FlowRate total = MeasureFlowRate(in, FlowWindowRule());
   const std::vector<FlowRate> per = FlowRatePerOutlet(in, FlowWindowRule(), 2);
@@ -85,7 +86,8 @@ TEST(FlowRate, PerOutletAndNoisyRate) {
   std::exponential_distribution<double> a(4.0), b(1.0);
   for (double t = a(rng); t < 500; t += a(rng)) ev.push_back({t, 0, "disc", 1.0, 0});
   for (double t = b(rng); t < 500; t += b(rng)) ev.push_back({t, 0, "disc", 1.0, 1});
-  std::sort(ev.begin(), ev.end(), [](const rundir::ExitEvent& x, const rundir::ExitEvent& y) { return x.time < y.time; });
+  std::sort(ev.begin(), ev.end(),
+            [](const rundir::ExitEvent& x, const rundir::ExitEvent& y) { return x.time < y.time; });
   FlowWindowRule rule;
   rule.stop_at_first_clog = false;
   FlowInput in{ev, false, 0, 5.0, 0};
@@ -134,8 +136,8 @@ TEST(VelocityProfile, BinsNormalisesAndVmax) {
     return b;
   };
   const std::vector<rundir::Body> f1 = {body(-4, 1, 0.5, -1), body(0, 1, 0, -2), body(4, 1, -0.5, -1),
-                                body(0, 3, 0, -9),  // above the band
-                                body(6, 1, 0, -9)};  // beside the outlet
+                                        body(0, 3, 0, -9),   // above the band
+                                        body(6, 1, 0, -9)};  // beside the outlet
   const std::vector<rundir::Body> f2 = {body(0.5, 0.5, 0, -4)};
   acc.Add(f1);
   acc.Add(f2);

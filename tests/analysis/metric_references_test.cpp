@@ -32,21 +32,22 @@ std::string ErrorOf(const nlohmann::json& spec) {
 }
 
 TEST(MetricReferences, MetricsAxesAndDerivedAxesPass) {
-  const nlohmann::json spec = SpecWith(
-      {{"figures",
-        {{{"name", "a"}, {"y", "q_count / W^(1.5 + mu/2)"}, {"x", "W"}},
-         {{"name", "b"}, {"y", "psi"}, {"x", "W_over_2"}},
-         {{"name", "c"}, {"y", "q_count_outlet1 + v_max"}},
-         {{"name", "d"}, {"kind", "pictures"}}}}},
-      {{{"metric", "arch_width_sd * W_over_2"}, {"at", {{"W", 6}}}, {"value", 1}, {"source", "s"}}});
+  const nlohmann::json spec =
+      SpecWith({{"figures",
+                 {{{"name", "a"}, {"y", "q_count / W^(1.5 + mu/2)"}, {"x", "W"}},
+                  {{"name", "b"}, {"y", "psi"}, {"x", "W_over_2"}},
+                  {{"name", "c"}, {"y", "q_count_outlet1 + v_max"}},
+                  {{"name", "d"}, {"kind", "pictures"}}}}},
+               {{{"metric", "arch_width_sd * W_over_2"}, {"at", {{"W", 6}}}, {"value", 1}, {"source", "s"}}});
   EXPECT_EQ(ErrorOf(spec), "");
 }
 
 TEST(MetricReferences, AnUnknownNameIsRefusedWithItsPathAndWhatExists) {
-  const std::string fig = ErrorOf(SpecWith({{"figures", {{{"name", "a"}, {"y", "psi"}}, {{"name", "b"}, {"y", "2 * psii"}}}}}));
+  const std::string fig =
+      ErrorOf(SpecWith({{"figures", {{{"name", "a"}, {"y", "psi"}}, {{"name", "b"}, {"y", "2 * psii"}}}}}));
   EXPECT_NE(fig.find("/report/figures/1/y"), std::string::npos) << fig;
   EXPECT_NE(fig.find("\"psii\" names no metric"), std::string::npos) << fig;
-  EXPECT_NE(fig.find("psi,"), std::string::npos) << fig;            // what the analyses offer
+  EXPECT_NE(fig.find("psi,"), std::string::npos) << fig;                       // what the analyses offer
   EXPECT_NE(fig.find("no axis (mu, W, W_over_2)"), std::string::npos) << fig;  // and the axes
 
   const std::string exp = ErrorOf(SpecWith(nlohmann::json::object(), {{{"metric", "q_cnt"}, {"value", 1}}}));
@@ -54,7 +55,10 @@ TEST(MetricReferences, AnUnknownNameIsRefusedWithItsPathAndWhatExists) {
   EXPECT_NE(exp.find("\"q_cnt\""), std::string::npos) << exp;
 
   nlohmann::json adaptive = SpecWith(nlohmann::json::object());
-  adaptive["replicas"] = {{"min", 2}, {"max", 5}, {"until", {{{"metric", "q_count"}, {"rel_se", 0.1}}, {{"metric", "avalanche"}, {"rel_se", 0.1}}}}};
+  adaptive["replicas"] = {
+      {"min", 2},
+      {"max", 5},
+      {"until", {{{"metric", "q_count"}, {"rel_se", 0.1}}, {{"metric", "avalanche"}, {"rel_se", 0.1}}}}};
   const std::string rep = ErrorOf(adaptive);
   EXPECT_NE(rep.find("/replicas/until/1/metric"), std::string::npos) << rep;
 }

@@ -35,7 +35,8 @@ TEST(Orientation, AxesOfDumbbellsSnowmenAndRodsWhateverTheDiscOrder) {
   d.push_back({5, 2, 1, 10, 0, 0.75, 0, 0, 0, 0});
   d.push_back({6, 2, 1, 10 - 1.25 * std::cos(kPi / 3), 1.25 * std::sin(kPi / 3), 0.5, 0, 0, 0, 0});
   // A rod of three discs along 30 degrees, its middle disc numbered last.
-  for (int k : {0, 2, 1}) d.push_back({7 + k, 3, 1, 20 + k * std::cos(kPi / 6), k * std::sin(kPi / 6), 0.5, 0, 0, 0, 0});
+  for (int k : {0, 2, 1})
+    d.push_back({7 + k, 3, 1, 20 + k * std::cos(kPi / 6), k * std::sin(kPi / 6), 0.5, 0, 0, 0, 0});
   d.push_back({11, 4, 2, 30, 0, 0.7, 0, 0, 0, 0});  // a disc
   const std::vector<BodyAxis> a = BodyAxes(d);
   ASSERT_EQ(a.size(), 5u);
@@ -98,7 +99,8 @@ TEST(Orientation, ProfilesRegionsAndTheWindowOfAConstructedField) {
   EXPECT_DOUBLE_EQ(s.count[0][5], 4.0);       // two bodies, two frames
   const OrientationProfile t = OrientationAgainstTheta(sums, o);
   ASSERT_EQ(t.mean[0].size(), 9u);
-  for (int k = 0; k < 9; ++k) EXPECT_NEAR(t.mean[0][static_cast<std::size_t>(k)], Acute((k + 0.5) * kPi / 9), 1e-9) << k;
+  for (int k = 0; k < 9; ++k)
+    EXPECT_NEAR(t.mean[0][static_cast<std::size_t>(k)], Acute((k + 0.5) * kPi / 9), 1e-9) << k;
   const std::vector<double> order = OrderParameters(sums, o);
   ASSERT_EQ(order.size(), 2u);
   EXPECT_NEAR(order[0], 1.0, 1e-12);   // every axis vertical, the director vertical

@@ -13,7 +13,8 @@ const nlohmann::json kSpec = {
     {"silo",
      {{"width", 100},
       {"base_outlets", {{{"center", -20.0}, {"width", 8.0}}}},
-      {"side_outlets", {{{"wall", "right"}, {"bottom", 3.5}, {"width", 25.0}}, {{"wall", "left"}, {"bottom", 0.0}, {"width", 10.0}}}}}},
+      {"side_outlets",
+       {{{"wall", "right"}, {"bottom", 3.5}, {"width", 25.0}}, {{"wall", "left"}, {"bottom", 0.0}, {"width", 10.0}}}}}},
     {"discharge", {{"mode", "reinject"}, {"clog_window", 3.0}}},
     {"bodies", {{"count", 10}}}};
 
@@ -46,8 +47,8 @@ TEST(Outlets, OutletFrameOfLateralOutlets) {
   discs[0].y = 20;
   std::vector<rundir::Body> bodies = {b};
   ToOutletFrame(o[1], discs, bodies);
-  EXPECT_DOUBLE_EQ(bodies[0].x, 4.0);   // 20 - 16 along the outlet
-  EXPECT_DOUBLE_EQ(bodies[0].y, 2.0);   // 2 from the wall
+  EXPECT_DOUBLE_EQ(bodies[0].x, 4.0);  // 20 - 16 along the outlet
+  EXPECT_DOUBLE_EQ(bodies[0].y, 2.0);  // 2 from the wall
   EXPECT_DOUBLE_EQ(bodies[0].vx, -1.0);
   EXPECT_DOUBLE_EQ(bodies[0].vy, -2.0);  // outflow is v_y < 0 as at a base outlet
   EXPECT_DOUBLE_EQ(bodies[0].omega, 0.5);

@@ -23,9 +23,12 @@ using testing::WriteFile;
 
 std::string FrameText(int k, double left_vy) {
   const std::string t = std::to_string(k);
-  return "ITEM: TIMESTEP\n" + t + "0000\nITEM: TIME\n" + t + ".0\nITEM: NUMBER OF ATOMS\n4\n"
+  return "ITEM: TIMESTEP\n" + t + "0000\nITEM: TIME\n" + t +
+         ".0\nITEM: NUMBER OF ATOMS\n4\n"
          "ITEM: ATOMS id mol x y radius vx vy omegaz\n"
-         "1 0 -2.5 1 0.5 0 " + std::to_string(left_vy) + " 0\n"
+         "1 0 -2.5 1 0.5 0 " +
+         std::to_string(left_vy) +
+         " 0\n"
          "2 1 2.5 1 0.5 0.5 -3 0\n"
          "3 2 2.5 5 0.5 0 -10 0\n"
          "4 3 7 1 0.5 0 -10 0\n";
@@ -34,9 +37,9 @@ std::string FrameText(int k, double left_vy) {
 TEST(ProfileAnalysis, BodyVelocitiesAcrossTheOutletInTheBandOverTheFrames) {
   TempDir dir;
   WriteFile(dir.Path() / "run.json",
-             nlohmann::json{{"silo", {{"width", 40}, {"base_outlets", {{{"center", 0.0}, {"width", 10.0}}}}}},
-                            {"bodies", {{"count", 4}}}}
-                 .dump());
+            nlohmann::json{{"silo", {{"width", 40}, {"base_outlets", {{{"center", 0.0}, {"width", 10.0}}}}}},
+                           {"bodies", {{"count", 4}}}}
+                .dump());
   WriteFile(dir.Path() / "summary.json", R"({"engine":"native","bodies":4,"exited":0,"remaining":4,"t_end":4})");
   WriteFile(dir.Path() / "events.csv", "time,body,shape,mass,outlet\n");
   WriteFile(dir.Path() / "frames.dump", FrameText(2, -1.0) + FrameText(3, -2.0));

@@ -31,7 +31,8 @@ def analyse(run, options):
 
 void WriteRun(const std::filesystem::path& dir) {
   WriteFile(dir / "run.json", R"({"run_id": "r1", "bodies": {"count": 10}})");
-  WriteFile(dir / "summary.json", R"({"engine":"native","run_id":"r1","bodies":10,"exited":3,"remaining":7,"t_end":5})");
+  WriteFile(dir / "summary.json",
+            R"({"engine":"native","run_id":"r1","bodies":10,"exited":3,"remaining":7,"t_end":5})");
   WriteFile(dir / "events.csv", "time,body,shape,mass,outlet\n1,0,disc,1,0\n2,1,disc,2,0\n3,2,disc,3,0\n");
 }
 

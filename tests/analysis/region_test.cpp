@@ -29,10 +29,10 @@ double OverlapNumeric(double cx, double cy, double r, const Rect& q) {
 
 TEST(DiscRectOverlap, KnownCases) {
   const Rect q{0, 10, 0, 10};
-  EXPECT_NEAR(DiscRectOverlap(5, 5, 1, q), kPi, 1e-14);          // inside
-  EXPECT_NEAR(DiscRectOverlap(0, 5, 1, q), kPi / 2, 1e-14);      // cut through the centre
-  EXPECT_NEAR(DiscRectOverlap(10, 10, 1, q), kPi / 4, 1e-14);    // corner
-  EXPECT_NEAR(DiscRectOverlap(20, 5, 1, q), 0.0, 1e-14);         // outside
+  EXPECT_NEAR(DiscRectOverlap(5, 5, 1, q), kPi, 1e-14);        // inside
+  EXPECT_NEAR(DiscRectOverlap(0, 5, 1, q), kPi / 2, 1e-14);    // cut through the centre
+  EXPECT_NEAR(DiscRectOverlap(10, 10, 1, q), kPi / 4, 1e-14);  // corner
+  EXPECT_NEAR(DiscRectOverlap(20, 5, 1, q), 0.0, 1e-14);       // outside
   // A segment: disc centre 0.5 outside the edge: r^2 acos(d/r) - d sqrt(r^2 - d^2)
   EXPECT_NEAR(DiscRectOverlap(-0.5, 5, 1, q), std::acos(0.5) - 0.5 * std::sqrt(0.75), 1e-13);
   // A rectangle thinner than the disc: a band through the middle.
@@ -56,28 +56,46 @@ TEST(RegionFrame, PackingAndBothTemperatures) {
   const Rect q{0, 10, 0, 10};
   // Discs: whole (pi), half (pi/2), quarter (pi/4), outside.
   std::vector<rundir::Disc> discs(4);
-  discs[0].x = 5; discs[0].y = 5; discs[0].radius = 1;
-  discs[1].x = 0; discs[1].y = 5; discs[1].radius = 1;
-  discs[2].x = 10; discs[2].y = 10; discs[2].radius = 1;
-  discs[3].x = 30; discs[3].y = 5; discs[3].radius = 1;
+  discs[0].x = 5;
+  discs[0].y = 5;
+  discs[0].radius = 1;
+  discs[1].x = 0;
+  discs[1].y = 5;
+  discs[1].radius = 1;
+  discs[2].x = 10;
+  discs[2].y = 10;
+  discs[2].radius = 1;
+  discs[3].x = 30;
+  discs[3].y = 5;
+  discs[3].radius = 1;
   // Bodies inside with velocities (1,0), (-1,0), (0,2), (0,-2), m = 2, I = 0.5, omega 1, -1, 0, 0;
   // one outside that must be ignored.
   auto body = [](double x, double y, double vx, double vy, double w) {
     rundir::Body b;
-    b.x = x; b.y = y; b.vx = vx; b.vy = vy; b.omega = w; b.mass = 2.0; b.inertia = 0.5;
+    b.x = x;
+    b.y = y;
+    b.vx = vx;
+    b.vy = vy;
+    b.omega = w;
+    b.mass = 2.0;
+    b.inertia = 0.5;
     return b;
   };
   const std::vector<rundir::Body> bodies = {body(1, 1, 1, 0, 1), body(2, 2, -1, 0, -1), body(3, 3, 0, 2, 0),
-                                    body(4, 4, 0, -2, 0), body(11, 4, 50, 50, 50)};
+                                            body(4, 4, 0, -2, 0), body(11, 4, 50, 50, 50)};
   const RegionFrame f = MakeRegionFrame(discs, bodies, q);
   EXPECT_NEAR(f.phi, (kPi + kPi / 2 + kPi / 4) / 100.0, 1e-14);
   EXPECT_EQ(f.bodies, 4);
-  EXPECT_NEAR(f.tg_translational, 0.5 * (1 + 1 + 4 + 4) / 4.0, 1e-14);                // 1.25
+  EXPECT_NEAR(f.tg_translational, 0.5 * (1 + 1 + 4 + 4) / 4.0, 1e-14);                       // 1.25
   EXPECT_NEAR(f.tg_full, (2 * 1 + 0.5 + 2 * 1 + 0.5 + 2 * 4 + 2 * 4) / (3.0 * 4.0), 1e-14);  // 1.75
 
   // A uniform drift does not change the temperatures.
   std::vector<rundir::Body> moving = bodies;
-  for (auto& b : moving) { b.vx += 3.0; b.vy -= 7.0; b.omega += 2.0; }
+  for (auto& b : moving) {
+    b.vx += 3.0;
+    b.vy -= 7.0;
+    b.omega += 2.0;
+  }
   const RegionFrame g = MakeRegionFrame(discs, moving, q);
   EXPECT_NEAR(g.tg_translational, 1.25, 1e-13);
   EXPECT_NEAR(g.tg_full, 1.75, 1e-13);

@@ -130,7 +130,8 @@ TEST(Regression, EveryPointMetricIsOnItsRegistryRowsList) {
       ASSERT_NE(row, rows.end()) << key;
       for (const auto& point : a->point_metrics[k])
         for (const PointMetric& m : point) {
-          EXPECT_TRUE(OffersMetric(*row, m.name)) << name << ": " << key << " returns " << m.name << ", not on its row's list";
+          EXPECT_TRUE(OffersMetric(*row, m.name))
+              << name << ": " << key << " returns " << m.name << ", not on its row's list";
           ++checked;
         }
     }

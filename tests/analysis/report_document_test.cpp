@@ -84,7 +84,8 @@ TEST(GnuplotScript, LinesWithErrorBars) {
   se.style = Series::Style::kLinesPoints;
   se.err = 2;
   Figure f{"prof", "Profile", "x/W", "v", {se}, false, false, ""};
-  EXPECT_NE(GnuplotScript(f).find("using ($1):($2):(valid(3) && $3 == $3 ? $3 : 0) with yerrorlines"), std::string::npos)
+  EXPECT_NE(GnuplotScript(f).find("using ($1):($2):(valid(3) && $3 == $3 ? $3 : 0) with yerrorlines"),
+            std::string::npos)
       << GnuplotScript(f);
   f.series[0].err = -1;
   EXPECT_EQ(GnuplotScript(f).find("yerror"), std::string::npos);
@@ -98,8 +99,9 @@ TEST(RenderReport, CurveFilesAreNamedAfterTheirLabelsAndUnique) {
     se.label = label;
     f.series.push_back(se);
   }
-  EXPECT_EQ(SeriesFiles(f), (std::vector<std::string>{"flow_rate--Q.csv", "flow_rate--species.0.fraction_0.5_W_d.csv",
-                                                       "flow_rate--Q-2.csv", "flow_rate--curve4.csv", "flow_rate--a_b.csv"}));
+  EXPECT_EQ(SeriesFiles(f),
+            (std::vector<std::string>{"flow_rate--Q.csv", "flow_rate--species.0.fraction_0.5_W_d.csv",
+                                      "flow_rate--Q-2.csv", "flow_rate--curve4.csv", "flow_rate--a_b.csv"}));
   // A fit whose quality is in its key keeps one file name whatever the quality.
   Series fit;
   fit.label = "beverloo_2d (X_db = 0.5), ill-determined";
@@ -127,7 +129,7 @@ TEST(RenderReport, MissingGnuplotIsReported) {
 
 // Figures a referee can read.
 Series PointsAt(const std::string& label, std::vector<std::vector<double>> rows,
-                 Series::Style style = Series::Style::kErrorBars) {
+                Series::Style style = Series::Style::kErrorBars) {
   Series se;
   se.label = label;
   se.columns = {"x", "y", "y_se"};
@@ -142,7 +144,8 @@ TEST(GnuplotScript, TwelveCurvesTakeTwelveDistinctColours) {
   for (int k = 0; k < 12; ++k) f.series.push_back(PointsAt("c" + std::to_string(k), {{k + 1.0, 1.0, 0.1}}));
   const std::string gp = GnuplotScript(f);
   for (int k = 1; k <= 12; ++k)
-    EXPECT_NE(gp.find(" lt " + std::to_string(k) + " lw 1.5 title 'c" + std::to_string(k - 1) + "'"), std::string::npos) << gp;
+    EXPECT_NE(gp.find(" lt " + std::to_string(k) + " lw 1.5 title 'c" + std::to_string(k - 1) + "'"), std::string::npos)
+        << gp;
   // Every pair of palette colours is far apart in RGB (and none is near the black of the
   // reference lines).
   auto rgb = [](const char* hex) {
@@ -169,7 +172,7 @@ TEST(GnuplotScript, AxesFitTheDataNotTheFittedCurves) {
   EXPECT_NE(gp.find("set yrange [0:"), std::string::npos) << gp;        // no negative axis for >= 0 values
   EXPECT_NE(gp.find("set xrange [1.7:8.3]"), std::string::npos) << gp;  // the data's x, 5 % margin
   EXPECT_EQ(gp.find("-20"), std::string::npos) << gp;
-  EXPECT_NE(gp.find("dt 2"), std::string::npos) << gp;                  // the fit: dashed
+  EXPECT_NE(gp.find("dt 2"), std::string::npos) << gp;  // the fit: dashed
   // Values below 0 keep their negative axis.
   f.series[0].rows[0][1] = -3.0;
   EXPECT_NE(GnuplotScript(f).find("set yrange [-"), std::string::npos);
@@ -178,17 +181,23 @@ TEST(GnuplotScript, AxesFitTheDataNotTheFittedCurves) {
 // Curves offset along x by +-0.25 read as W = 6.25 and put the outermost points
 // outside the x range; every point is drawn at its true x, told apart by colour and shape.
 TEST(GnuplotScript, PointsOfSeveralCurvesAtOneXAreDrawnAtTheirTrueX) {
-  Figure f{"side", "Side", "x", "y",
+  Figure f{"side",
+           "Side",
+           "x",
+           "y",
            {PointsAt("a", {{6.0, 1.0, 0.1}, {10.0, 2.0, 0.1}}), PointsAt("b", {{6.0, 1.0, 0.1}, {10.0, 2.0, 0.1}})},
-           false, false, ""};
+           false,
+           false,
+           ""};
   const std::string gp = GnuplotScript(f);
   EXPECT_EQ(gp.find("($1+"), std::string::npos) << gp;
   EXPECT_EQ(gp.find("($1*"), std::string::npos) << gp;
   std::size_t uses = 0;
-  for (std::size_t at = gp.find("using ($1):($2)"); at != std::string::npos; at = gp.find("using ($1):($2)", at + 1)) ++uses;
+  for (std::size_t at = gp.find("using ($1):($2)"); at != std::string::npos; at = gp.find("using ($1):($2)", at + 1))
+    ++uses;
   EXPECT_EQ(uses, 2u) << gp;
   EXPECT_NE(gp.find("set xrange [5.8:10.2]"), std::string::npos) << gp;  // holds 6 and 10
-  EXPECT_NE(gp.find(" lt 1 "), std::string::npos) << gp;                // two colours (and point shapes)
+  EXPECT_NE(gp.find(" lt 1 "), std::string::npos) << gp;                 // two colours (and point shapes)
   EXPECT_NE(gp.find(" lt 2 "), std::string::npos) << gp;
 }
 
@@ -234,7 +243,8 @@ TEST(GnuplotScript, AKeyOfLongTitlesFitsInsideTheCanvas) {
   Figure f{"flow_rate", "Flow rate", "W/d (outlet width W)", "Q (bodies/sqrt(d/g))", {}, false, false, ""};
   for (const char* shape : {"disc", "dumbbell"})
     for (const char* engine : {"native", "liggghts"}) {
-      const std::string group = std::string("body shape = ") + shape + ", number of bodies N = 1000, engine = " + engine;
+      const std::string group =
+          std::string("body shape = ") + shape + ", number of bodies N = 1000, engine = " + engine;
       f.series.push_back(PointsAt(group, {{15, 40, 1}, {25, 90, 2}}));
       Series fit = PointsAt("beverloo_2d (" + group + "), ill-determined", {{15, 41}, {25, 89}}, Series::Style::kLines);
       fit.role = Series::Role::kFit;
@@ -275,7 +285,8 @@ TEST(RenderReport, PointNamesBreakOnlyBetweenTheirPairs) {
   TempDir dir;
   Table t{"points", "Points", {"point", "Q"}, {{"W = 12, X_db = 0.5", Cell::Number(3)}}, {}};
   const RenderResult r = RenderReport("T", {Section{"s", "S", {t}}}, dir.Path(), RenderOptions{});
-  EXPECT_NE(ReadFile(r.html).find(">W&#160;=&#160;12, X_db&#160;=&#160;0.5</td>"), std::string::npos) << ReadFile(r.html);
+  EXPECT_NE(ReadFile(r.html).find(">W&#160;=&#160;12, X_db&#160;=&#160;0.5</td>"), std::string::npos)
+      << ReadFile(r.html);
   EXPECT_EQ(ReadFile(dir.Path() / "data" / "points.csv"), "point,Q\n\"W = 12, X_db = 0.5\",3\n");
 }
 

@@ -31,7 +31,8 @@ std::vector<double> Stream(double q, double t0, double t1) {
   return t;
 }
 
-nlohmann::json SiloSpec(const nlohmann::json& base_outlets, const nlohmann::json& side_outlets = nlohmann::json::array()) {
+nlohmann::json SiloSpec(const nlohmann::json& base_outlets,
+                        const nlohmann::json& side_outlets = nlohmann::json::array()) {
   return {{"engine", "native"},
           {"silo", {{"width", 100}, {"base_outlets", base_outlets}, {"side_outlets", side_outlets}}},
           {"bodies", {{"count", 2000}}},
@@ -52,7 +53,8 @@ struct Campaign {
     std::sort(events.begin(), events.end());
     RunRecord r;
     r.point_id = point_id;
-    r.replica = static_cast<int>(std::count_if(runs.begin(), runs.end(), [&](const RunRecord& x) { return x.point_id == point_id; }));
+    r.replica = static_cast<int>(
+        std::count_if(runs.begin(), runs.end(), [&](const RunRecord& x) { return x.point_id == point_id; }));
     r.run_id = point_id + "r" + std::to_string(r.replica);
     r.state = "done";
     r.engine = "native";
@@ -62,12 +64,13 @@ struct Campaign {
     std::ostringstream ev;
     ev.precision(17);
     ev << "time,body,shape,mass,outlet\n";
-    for (std::size_t i = 0; i < events.size(); ++i) ev << events[i].first << "," << i << ",dumbbell,2.0," << events[i].second << "\n";
+    for (std::size_t i = 0; i < events.size(); ++i)
+      ev << events[i].first << "," << i << ",dumbbell,2.0," << events[i].second << "\n";
     WriteFile(r.run_dir / "events.csv", ev.str());
     const int n = static_cast<int>(events.size());
-    const nlohmann::json summary = {{"engine", "native"}, {"engine_version", "0.1.0"}, {"run_id", r.run_id},
+    const nlohmann::json summary = {{"engine", "native"}, {"engine_version", "0.1.0"},  {"run_id", r.run_id},
                                     {"spec", spec},       {"end_reason", "time_limit"}, {"bodies", 2000},
-                                    {"exited", n},        {"remaining", 2000},       {"t_end", t_end}};
+                                    {"exited", n},        {"remaining", 2000},          {"t_end", t_end}};
     WriteFile(r.run_dir / "summary.json", summary.dump());
     WriteFile(r.run_dir / "run.json", spec.dump());
     runs.push_back(r);
@@ -91,7 +94,6 @@ std::string CellOfRow(const std::string& csv, const std::string& first, int colu
   return "";
 }
 
-
 TEST(ReportOutlets, TwoBaseOutletsAgainstTheGapWithFlowPerOutlet) {
   // Ch. 5b: two outlets of width 8 whose centres are zipped to gaps L = 0, 4, 8; outlet 0
   // flows at 5 - L/4, outlet 1 at 3 (replicas at -+1%).
@@ -105,7 +107,8 @@ TEST(ReportOutlets, TwoBaseOutletsAgainstTheGapWithFlowPerOutlet) {
     const nlohmann::json point = {{"/silo/base_outlets/0/center", -centre}, {"/silo/base_outlets/1/center", centre}};
     const nlohmann::json spec = SiloSpec({{{"center", -centre}, {"width", 8}}, {{"center", centre}, {"width", 8}}});
     for (double f : {0.99, 1.01})
-      c.Add("L" + FormatNumber(l), point, spec, {Stream(f * (5.0 - l / 4.0), 0.5, 60.0), Stream(f * 3.0, 0.7, 60.0)}, 60.0);
+      c.Add("L" + FormatNumber(l), point, spec, {Stream(f * (5.0 - l / 4.0), 0.5, 60.0), Stream(f * 3.0, 0.7, 60.0)},
+            60.0);
   }
   const auto out = c.Report(dir.Path() / "report");
   const std::string flow = ReadFile(out / "data" / "flow_rate.csv");
@@ -212,7 +215,9 @@ TEST(ReportOutlets, FitsPerGroupOfZippedAxesAndSmoothCurves) {
       spec["bodies"]["species"] = {{{"name", "dumbbell"}, {"shape", "dumbbell"}, {"fraction", x}},
                                    {{"name", "disc"}, {"shape", "disc"}, {"fraction", 1 - x}}};
       c.Add("W" + FormatNumber(lo_w) + "X" + FormatNumber(x),
-            {{"/silo/base_outlets/0/width", lo_w}, {"/bodies/species/0/fraction", x}, {"/bodies/species/1/fraction", 1 - x}},
+            {{"/silo/base_outlets/0/width", lo_w},
+             {"/bodies/species/0/fraction", x},
+             {"/bodies/species/1/fraction", 1 - x}},
             spec, {Stream(kC / (1.0 + x / 2.0) * std::pow(lo_w - kK, 1.5), 0.5, 40.0)}, 40.0);
     }
   }

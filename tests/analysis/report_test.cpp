@@ -42,10 +42,17 @@ void WriteRun(const std::filesystem::path& dir, double w, double q, int n, const
   ev << "time,body,shape,mass,outlet\n";
   for (int i = 1; i <= n; ++i) ev << (i / q) << "," << i << ",dumbbell,2.0,0\n";
   WriteFile(dir / "events.csv", ev.str());
-  nlohmann::json summary = {{"engine", "native"},          {"engine_version", "0.1.0"}, {"granary_commit", "abc123"},
-                            {"run_id", id},                {"spec", SpecFor(w)},       {"end_reason", "time_limit"},
-                            {"bodies", 2000},              {"exited", n},               {"remaining", 2000 - n},
-                            {"exits_per_outlet", {n}},     {"t_end", n / q + 1.0}};
+  nlohmann::json summary = {{"engine", "native"},
+                            {"engine_version", "0.1.0"},
+                            {"granary_commit", "abc123"},
+                            {"run_id", id},
+                            {"spec", SpecFor(w)},
+                            {"end_reason", "time_limit"},
+                            {"bodies", 2000},
+                            {"exited", n},
+                            {"remaining", 2000 - n},
+                            {"exits_per_outlet", {n}},
+                            {"t_end", n / q + 1.0}};
   WriteFile(dir / "summary.json", summary.dump());
   WriteFile(dir / "run.json", SpecFor(w).dump());
   WriteFile(dir / "DONE", "");
@@ -157,11 +164,18 @@ TEST(WriteReport, SyntheticCampaign) {
   opt.out_dir = dir.Path() / "report";
   opt.figures = std::system("command -v gnuplot > /dev/null 2>&1") == 0;
   Campaign with_model = c;
-  with_model.info.spec = {{"report", {{"flow", {{"models", {{{"name", "power_law"}, {"expression", "a * x^b"},
-                                                              {"variable", "x"}, {"initial", {{"a", 1.0}, {"b", 1.5}}}},
-                                                             // 4 widths for 4 parameters: not fitted
-                                                             {{"name", "four"}, {"expression", "a * x^b + c + e * x"},
-                                                              {"variable", "x"}, {"initial", {{"a", 1.0}, {"b", 1.5}}}}}}}}}}};
+  with_model.info.spec = {{"report",
+                           {{"flow",
+                             {{"models",
+                               {{{"name", "power_law"},
+                                 {"expression", "a * x^b"},
+                                 {"variable", "x"},
+                                 {"initial", {{"a", 1.0}, {"b", 1.5}}}},
+                                // 4 widths for 4 parameters: not fitted
+                                {{"name", "four"},
+                                 {"expression", "a * x^b + c + e * x"},
+                                 {"variable", "x"},
+                                 {"initial", {{"a", 1.0}, {"b", 1.5}}}}}}}}}}};
   const ReportSummary s = WriteReport(with_model.info, c.runs, opt);
   EXPECT_EQ(s.runs_used, 8);
   EXPECT_EQ(s.runs_missing, 1);
@@ -224,7 +238,7 @@ TEST(WriteReport, SyntheticCampaign) {
 
 // A run with the given exit times, mode and end.
 void WriteRunTimes(const std::filesystem::path& dir, const std::vector<double>& times, const std::string& mode,
-                     const std::string& end, int bodies, double t_end, double w) {
+                   const std::string& end, int bodies, double t_end, double w) {
   std::ostringstream ev;
   ev.precision(17);
   ev << "time,body,shape,mass,outlet\n";
@@ -234,9 +248,10 @@ void WriteRunTimes(const std::filesystem::path& dir, const std::vector<double>& 
   spec["discharge"]["mode"] = mode;
   spec["contact"]["tangential_cap"] = "liggghts";
   const int exited = static_cast<int>(times.size());
-  const nlohmann::json summary = {{"engine", "liggghts"}, {"engine_version", "3.8.0"},  {"granary_commit", "def456"},
-                                  {"spec", spec},         {"end_reason", end},         {"bodies", bodies},
-                                  {"exited", exited},     {"remaining", bodies - exited}, {"t_end", t_end}};
+  const nlohmann::json summary = {
+      {"engine", "liggghts"}, {"engine_version", "3.8.0"}, {"granary_commit", "def456"}, {"spec", spec},
+      {"end_reason", end},    {"bodies", bodies},          {"exited", exited},           {"remaining", bodies - exited},
+      {"t_end", t_end}};
   WriteFile(dir / "summary.json", summary.dump());
   WriteFile(dir / "run.json", spec.dump());
   WriteFile(dir / "DONE", "");
@@ -287,8 +302,9 @@ TEST(WriteReport, ClogSectionsWithKnownNumbers) {
   EXPECT_NE(md.find("Flowing and clogged times"), std::string::npos);
 
   const std::string psi = ReadFile(opt.out_dir / "data" / "clogging_index.csv");
-  EXPECT_EQ(psi.substr(0, psi.find('\n')),
-            "point,psi,psi_se,psi_n,clogged_runs,discharged_runs,discarded_runs,unfinished_runs,n_stagnant,psi_range,note");
+  EXPECT_EQ(
+      psi.substr(0, psi.find('\n')),
+      "point,psi,psi_se,psi_n,clogged_runs,discharged_runs,discarded_runs,unfinished_runs,n_stagnant,psi_range,note");
   EXPECT_NEAR(std::stod(CsvCell(psi, {"W = 6"}, 1)), 660.0 / 960.0 / 2.0, 1e-15);
   EXPECT_NEAR(std::stod(CsvCell(psi, {"W = 6"}, 2)), 660.0 / 960.0 / 2.0, 1e-15);
   EXPECT_EQ(CsvCell(psi, {"W = 6"}, 3), "2");
@@ -305,8 +321,8 @@ TEST(WriteReport, ClogSectionsWithKnownNumbers) {
   EXPECT_EQ(CsvCell(av, {"W = 8"}, 3), "1");
 
   const std::string inter = ReadFile(opt.out_dir / "data" / "intermittency.csv");
-  EXPECT_EQ(CsvCell(inter, {"W = 8", "base 0"}, 2), "10");   // t_f: 0 -> 10
-  EXPECT_EQ(CsvCell(inter, {"W = 8", "base 0"}, 5), "10");   // t_c: 10 -> 20
+  EXPECT_EQ(CsvCell(inter, {"W = 8", "base 0"}, 2), "10");  // t_f: 0 -> 10
+  EXPECT_EQ(CsvCell(inter, {"W = 8", "base 0"}, 5), "10");  // t_c: 10 -> 20
   EXPECT_DOUBLE_EQ(std::stod(CsvCell(inter, {"W = 8", "base 0"}, 8)), 1.0 / 26.0);
   // The figure data: t_f of outlet 0 at W = 8 (W = 6 runs stopped on clogs: no complete t_c).
   const std::string tf = ReadFile(opt.out_dir / "data" / "intermittency_times--t_f_base_0.csv");
@@ -367,8 +383,12 @@ std::string ErrorOf(const nlohmann::json& report) {
 }
 
 TEST(ReportSpec, OptionsFromCampaignSpec) {
-  const AnalysisSetup setup = SetupAnalyses({{"report", {{"region", "ch3"}, {"clog_gap", 2.5}, {"window", {{"start_time", 4}}},
-                                                          {"profile", {{"bins", 8}}}, {"frame_stride", 2}}}});
+  const AnalysisSetup setup = SetupAnalyses({{"report",
+                                              {{"region", "ch3"},
+                                               {"clog_gap", 2.5},
+                                               {"window", {{"start_time", 4}}},
+                                               {"profile", {{"bins", 8}}},
+                                               {"frame_stride", 2}}}});
   EXPECT_DOUBLE_EQ(setup.pass.clog_gap, 2.5);
   EXPECT_DOUBLE_EQ(setup.pass.window.start_time, 4.0);
   EXPECT_EQ(setup.pass.frame_stride, 2);
@@ -380,14 +400,16 @@ TEST(ReportSpec, OptionsFromCampaignSpec) {
       EXPECT_EQ(a->RunOptions()["bins"], 8);
     }
   }
-  EXPECT_EQ(ErrorOf({{"window", {{"start_fraction", 1.5}}}}), "/report/window/start_fraction: must be in [0, 1] (got 1.5)");
+  EXPECT_EQ(ErrorOf({{"window", {{"start_fraction", 1.5}}}}),
+            "/report/window/start_fraction: must be in [0, 1] (got 1.5)");
   EXPECT_EQ(ErrorOf({{"flow", {{"models", {{{"expression", "a * (W"}, {"variable", "W"}}}}}}}),
             "/report/flow/models/0/expression: model 'a * (W': position 7: expected ')'");
   EXPECT_EQ(ErrorOf({{"flow", {{"model", 1}}}}), "/report/flow/model: unknown key (known: models) (got 1)");
   EXPECT_EQ(ErrorOf({{"profile", {{"bins", 0}}}}), "/report/profile/bins: must be in [1, 1e+06] (got 0)");
   EXPECT_EQ(ErrorOf({{"clogging_index", {{"min_exits_before_clog", 2.5}}}}),
             "/report/clogging_index/min_exits_before_clog: must be an integer (got 2.5)");
-  EXPECT_EQ(ErrorOf({{"region", "ch5"}}), "/report/region: must be \"ch3\", \"ch4\" or {\"pad\": .., \"height\": ..} (got \"ch5\")");
+  EXPECT_EQ(ErrorOf({{"region", "ch5"}}),
+            "/report/region: must be \"ch3\", \"ch4\" or {\"pad\": .., \"height\": ..} (got \"ch5\")");
   // Keys that moved to their analysis say where to.
   EXPECT_EQ(ErrorOf({{"models", nlohmann::json::array()}}),
             "/report/models: fit models are options of the flow analysis now: /report/flow/models (got [])");

@@ -24,7 +24,8 @@ const nlohmann::json kSpec = {
     {"silo",
      {{"width", 100},
       {"base_outlets", {{{"center", -20.0}, {"width", 8.0}}}},
-      {"side_outlets", {{{"wall", "right"}, {"bottom", 3.5}, {"width", 25.0}}, {{"wall", "left"}, {"bottom", 0.0}, {"width", 10.0}}}}}},
+      {"side_outlets",
+       {{{"wall", "right"}, {"bottom", 3.5}, {"width", 25.0}}, {{"wall", "left"}, {"bottom", 0.0}, {"width", 10.0}}}}}},
     {"discharge", {{"mode", "reinject"}, {"clog_window", 3.0}}},
     {"bodies", {{"count", 10}}}};
 
@@ -50,10 +51,10 @@ TEST(RunPass, RegionBesideASideOutlet) {
   // One disc (r = 1) against the right wall next to the side outlet, one next to the base
   // outlet, moving out of each.
   WriteFile(dir.Path() / "frames.dump",
-             "ITEM: TIMESTEP\n30000\nITEM: TIME\n3.0\nITEM: NUMBER OF ATOMS\n2\n"
-             "ITEM: ATOMS id mol x y radius vx vy omegaz\n"
-             "1 0 48.5 16 1 3 0 0\n"
-             "2 1 -20 1.5 1 0 -4 0\n");
+            "ITEM: TIMESTEP\n30000\nITEM: TIME\n3.0\nITEM: NUMBER OF ATOMS\n2\n"
+            "ITEM: ATOMS id mol x y radius vx vy omegaz\n"
+            "1 0 48.5 16 1 3 0 0\n"
+            "2 1 -20 1.5 1 0 -4 0\n");
   const AnalysisSetup setup = SetupAnalyses(nlohmann::json::object());
   const RunPassResult r = AnalyseRun(dir.Path(), setup.List(), setup.pass, NoCache());
   EXPECT_EQ(r.frames_parsed, 1);
@@ -67,7 +68,7 @@ TEST(RunPass, RegionBesideASideOutlet) {
   EXPECT_DOUBLE_EQ(m["v_max_outlet1"].value, 3.0);  // |v_n| of the disc leaving sideways
   EXPECT_DOUBLE_EQ(m["v_max"].value, 4.0);
   EXPECT_TRUE(std::isnan(m["q_count"].value));  // no exits: no flow rate
-  EXPECT_EQ(m.count("clogged"), 0u);             // reinject mode: no clogging index
+  EXPECT_EQ(m.count("clogged"), 0u);            // reinject mode: no clogging index
 }
 
 TEST(RunPass, WithoutAFlowWindowFramesStopAtTheFirstClog) {
@@ -76,9 +77,11 @@ TEST(RunPass, WithoutAFlowWindowFramesStopAtTheFirstClog) {
   // pass stops reading after it.
   TempDir dir;
   WriteFile(dir.Path() / "run.json", kSpec.dump());
-  WriteFile(dir.Path() / "summary.json", R"({"bodies":10,"exited":5,"remaining":10,"t_end":20,"end_reason":"time_limit","clogs":1})");
-  WriteFile(dir.Path() / "events.csv",
-             "time,body,shape,mass,outlet\n2.1,0,disc,1,0\n2.2,1,disc,1,0\n2.3,2,disc,1,0\n2.4,3,disc,1,0\n2.5,4,disc,1,0\n");
+  WriteFile(dir.Path() / "summary.json",
+            R"({"bodies":10,"exited":5,"remaining":10,"t_end":20,"end_reason":"time_limit","clogs":1})");
+  WriteFile(
+      dir.Path() / "events.csv",
+      "time,body,shape,mass,outlet\n2.1,0,disc,1,0\n2.2,1,disc,1,0\n2.3,2,disc,1,0\n2.4,3,disc,1,0\n2.5,4,disc,1,0\n");
   std::string frames;
   for (double t : {2.2, 15.0})
     frames += "ITEM: TIMESTEP\n1\nITEM: TIME\n" + std::to_string(t) +
@@ -107,7 +110,8 @@ TEST(RunPass, WithoutAFlowWindowFramesStopAtTheFirstClog) {
 
 TEST(RunPass, SummaryAndEventsDisagree) {
   TempDir dir;
-  WriteFile(dir.Path() / "summary.json", R"({"bodies":10,"exited":5,"remaining":5,"t_end":3,"end_reason":"time_limit"})");
+  WriteFile(dir.Path() / "summary.json",
+            R"({"bodies":10,"exited":5,"remaining":5,"t_end":3,"end_reason":"time_limit"})");
   WriteFile(dir.Path() / "events.csv", "time,body,shape,mass,outlet\n1,0,disc,1,0\n2,1,disc,1,0\n2.5,2,disc,1,0\n");
   const AnalysisSetup setup = SetupAnalyses(nlohmann::json::object());
   const RunPassResult r = AnalyseRun(dir.Path(), setup.List(), setup.pass, NoCache());
@@ -186,8 +190,9 @@ TEST(RunPass, EachAnalysisGetsItsWindowsFromOneReadingAtAnyThreadCount) {
     const RunPassResult r = AnalyseRun(dir.Path(), {&early, &late}, pass, o);
     EXPECT_EQ(r.results[0], (nlohmann::json{{1.0, 1.0, -1.0}, {2.0, 2.0, -1.0}, {3.0, 3.0, -1.0}})) << threads;
     // Contact frames exist at even steps only; the late one stops after t = 11.
-    EXPECT_EQ(r.results[1], (nlohmann::json{{6.0, 6.0, 6.0}, {7.0, 7.0, -1.0}, {8.0, 8.0, 8.0}, {9.0, 9.0, -1.0},
-                                            {11.0, 11.0, -1.0}}))
+    EXPECT_EQ(
+        r.results[1],
+        (nlohmann::json{{6.0, 6.0, 6.0}, {7.0, 7.0, -1.0}, {8.0, 8.0, 8.0}, {9.0, 9.0, -1.0}, {11.0, 11.0, -1.0}}))
         << threads;
     EXPECT_EQ(r.frames_parsed, 8) << threads;  // frames 1-3, 6-9 and 11; 4, 5, 10 and 12 skipped unparsed
   }
@@ -219,7 +224,8 @@ TEST(RunPass, ResultsAreCachedAndAChangedOptionReanalysesOnlyItsAnalysis) {
   // The clogging index, avalanches, intermittency, arches and contacts do not use it.
   EXPECT_EQ(window.from_cache, 5);
   // The run run again (a new summary.json): nothing of the cache is used.
-  WriteFile(dir.Path() / "summary.json", R"({"bodies":1,"exited":0,"remaining":1,"t_end":101,"end_reason":"time_limit"})");
+  WriteFile(dir.Path() / "summary.json",
+            R"({"bodies":1,"exited":0,"remaining":1,"t_end":101,"end_reason":"time_limit"})");
   EXPECT_EQ(AnalyseRun(dir.Path(), setup.List(), setup.pass).from_cache, 0);
 }
 

@@ -34,10 +34,22 @@ json MixtureSpec() {
             {"species",
              {{{"name", "dumbbell"}, {"shape", "dumbbell"}, {"fraction", 0.5}, {"diameter", 1.0}},
               {{"name", "disc"}, {"shape", "disc"}, {"fraction", 0.5}, {"diameter", 1.414214}}}}}},
-          {"contact", {{"kn", 2e6}, {"kt", 2.45e6}, {"gamma_n", 1000}, {"gamma_t", 1000}, {"mu", 0.5}, {"mu_wall", 0.5},
-                       {"tangential_cap", "lammps"}, {"clip_normal", false}}},
-          {"discharge", {{"mode", "reinject"}, {"max_time", 200}, {"stop_on_clog", false}, {"clog_window", 5},
-                         {"clog_ke_per_body", 1e-4}, {"exit_distance", 2}}},
+          {"contact",
+           {{"kn", 2e6},
+            {"kt", 2.45e6},
+            {"gamma_n", 1000},
+            {"gamma_t", 1000},
+            {"mu", 0.5},
+            {"mu_wall", 0.5},
+            {"tangential_cap", "lammps"},
+            {"clip_normal", false}}},
+          {"discharge",
+           {{"mode", "reinject"},
+            {"max_time", 200},
+            {"stop_on_clog", false},
+            {"clog_window", 5},
+            {"clog_ke_per_body", 1e-4},
+            {"exit_distance", 2}}},
           {"output", {{"frame_interval", 0.5}}}};
 }
 
@@ -60,7 +72,9 @@ TEST(System, AxesHaveShortNamesForTablesAndKeys) {
   const json two_outlets = MixtureSpec();
   json one_species = MixtureSpec();
   one_species["bodies"]["species"] = {{{"shape", "disc"}, {"fraction", 1.0}}};
-  const auto symbol = [](const std::string& pointer, const json& spec) { return ResolveAxisNames(pointer, spec).symbol; };
+  const auto symbol = [](const std::string& pointer, const json& spec) {
+    return ResolveAxisNames(pointer, spec).symbol;
+  };
   EXPECT_EQ(symbol("/silo/base_outlets/1/width", two_outlets), "W_2");
   EXPECT_EQ(symbol("/bodies/species/0/fraction", two_outlets), "X_db");
   EXPECT_EQ(symbol("/bodies/species/1/fraction", two_outlets), "X_d");
@@ -116,9 +130,14 @@ RunRecord ClogRun(const std::filesystem::path& dir, const std::string& run_id, c
   r.spec = spec;
   r.run_dir = dir / r.run_id;
   WriteFile(r.run_dir / "events.csv", "time,body,shape,mass,outlet\n1.0,3,disc,1.57,0\n");
-  WriteFile(r.run_dir / "summary.json", json{{"engine", engine}, {"run_id", r.run_id}, {"end_reason", "clogged"},
-                                              {"bodies", 15000}, {"exited", 1}, {"remaining", 14999}, {"t_end", 7.5}}
-                                                 .dump());
+  WriteFile(r.run_dir / "summary.json", json{{"engine", engine},
+                                             {"run_id", r.run_id},
+                                             {"end_reason", "clogged"},
+                                             {"bodies", 15000},
+                                             {"exited", 1},
+                                             {"remaining", 14999},
+                                             {"t_end", 7.5}}
+                                            .dump());
   WriteFile(r.run_dir / "run.json", r.spec.dump());
   return r;
 }
@@ -142,7 +161,8 @@ TEST(System, ResultsComeFirstThenTheSystemAndTheGalleryLast) {
   opt.out_dir = dir.Path() / "report";
   opt.figures = false;
   std::vector<std::string> drawn;
-  opt.draw_run = [&](const std::filesystem::path& run_dir, ReportOptions::Picture kind, const std::filesystem::path& png) {
+  opt.draw_run = [&](const std::filesystem::path& run_dir, ReportOptions::Picture kind,
+                     const std::filesystem::path& png) {
     drawn.push_back(run_dir.filename().string() + (kind == ReportOptions::Picture::kBed ? ":bed" : ":end"));
     std::ofstream(png) << "\x89PNG fake " << drawn.back();
     return std::string();
@@ -150,7 +170,8 @@ TEST(System, ResultsComeFirstThenTheSystemAndTheGalleryLast) {
   const ReportSummary s = WriteReport(info, runs, opt);
   EXPECT_EQ(drawn, (std::vector<std::string>{"run8:bed", "run8:end", "run12:bed", "run12:end"}));
   const std::string md = ReadFile(s.markdown), html = ReadFile(s.html);
-  const auto system = md.find("## The system"), gallery = md.find("## Gallery"), first_other = md.find("## ", gallery + 5);
+  const auto system = md.find("## The system"), gallery = md.find("## Gallery"),
+             first_other = md.find("## ", gallery + 5);
   ASSERT_NE(system, std::string::npos);
   EXPECT_LT(system, md.find("## Runs")) << "the system, then the runs";
   EXPECT_LT(md.find("## Flow rate"), system) << "results before the system";
@@ -158,7 +179,8 @@ TEST(System, ResultsComeFirstThenTheSystemAndTheGalleryLast) {
   EXPECT_NE(md.find("Dumbbells and discs through two outlets."), std::string::npos);
   EXPECT_NE(md.find("| width W_1 of outlet 1 | W_1 | /silo/base_outlets/0/width | 8, 12 |"), std::string::npos)
       << "swept axes by their human names and the short ones tables use";
-  EXPECT_NE(md.find("*width W_1 of outlet 1 = 8 (replica 0"), std::string::npos) << "pictures named by the human axis names";
+  EXPECT_NE(md.find("*width W_1 of outlet 1 = 8 (replica 0"), std::string::npos)
+      << "pictures named by the human axis names";
   EXPECT_NE(md.find("![the bed before the outlets open (t = 0)](pictures/point-1-bed.png)"), std::string::npos);
   EXPECT_LT(md.find("clogged (t = 7.5)"), first_other);
   EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos) << "pictures inside the self-contained html";

@@ -62,7 +62,7 @@ Entries MakeEntries(int n, std::uint32_t seed) {
 template <class Normal, bool kCap>
 void Portable(Entries& s, const ContactParams& p, double dt) {
   PairEntries<Normal, kCap>(0, s.size(), s.i.data(), s.j.data(), s.reff.data(), s.meff.data(), s.sx.data(), s.sy.data(),
-                    s.fx.data(), s.fy.data(), s.c.data(), s.kin.data(), p, dt);
+                            s.fx.data(), s.fy.data(), s.c.data(), s.kin.data(), p, dt);
 }
 
 template <class Normal, bool kCap>
@@ -70,8 +70,8 @@ void Simd(Entries& s, const ContactParams& p, double dt) {
   const int done = PairEntriesAvx512(0, s.size(), s.i.data(), s.j.data(), s.reff.data(), s.meff.data(), s.sx.data(),
                                      s.sy.data(), s.fx.data(), s.fy.data(), s.c.data(), s.kin.data(), p, dt);
   EXPECT_EQ(done, s.size() / 8 * 8);
-  PairEntries<Normal, kCap>(done, s.size(), s.i.data(), s.j.data(), s.reff.data(), s.meff.data(), s.sx.data(), s.sy.data(),
-                    s.fx.data(), s.fy.data(), s.c.data(), s.kin.data(), p, dt);
+  PairEntries<Normal, kCap>(done, s.size(), s.i.data(), s.j.data(), s.reff.data(), s.meff.data(), s.sx.data(),
+                            s.sy.data(), s.fx.data(), s.fy.data(), s.c.data(), s.kin.data(), p, dt);
 }
 
 template <class A, class B>

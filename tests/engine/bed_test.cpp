@@ -139,10 +139,10 @@ TEST(Bed, FileOfAnotherBedKeyIsRefused) {
     BedFromJson(j, spec, "beds/x.json");
     FAIL() << "expected a refusal";
   } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("beds/x.json was prepared for another bed key"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("beds/x.json was prepared for another bed key"), std::string::npos)
+        << e.what();
   }
 }
-
 
 // Prepared beds carry a format version and a checksum: a cached bed with one number changed
 // (or of an older format) is refused with a message, put aside and prepared again, so the

@@ -42,23 +42,31 @@ inline fs::path FreshDir(const std::string& name) {
 // shape: "dumbbell" (the default species), "disc" or "mixture" (as the bench's).
 inline std::string BedCache(std::uint64_t seed, const std::string& shape = "dumbbell") {
   const std::string name = shape == "dumbbell" ? "" : shape + "-";
-  return (fs::path(GRANARY_ENGINE_TEST_TMP) / ("bed-" + name + std::to_string(seed) + "-" + granary::GitCommit() + ".json"))
+  return (fs::path(GRANARY_ENGINE_TEST_TMP) /
+          ("bed-" + name + std::to_string(seed) + "-" + granary::GitCommit() + ".json"))
       .string();
 }
 
-inline nlohmann::json SmallSpec(double outlet, double max_time, std::uint64_t seed = 7, const std::string& shape = "dumbbell") {
+inline nlohmann::json SmallSpec(double outlet, double max_time, std::uint64_t seed = 7,
+                                const std::string& shape = "dumbbell") {
   nlohmann::json bodies = {{"count", 120}};
   if (shape != "dumbbell") bodies["species"] = BenchSpecies(shape);
   return {{"run_id", "test"},
           {"seed", seed},
           {"silo", {{"width", 16.0}, {"base_outlets", {{{"center", 0.0}, {"width", outlet}}}}}},
           {"bodies", bodies},
-          {"bed", {{"batch_size", 120}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 10.0}, {"cache_file", BedCache(seed, shape)}}},
+          {"bed",
+           {{"batch_size", 120},
+            {"settle_ke_per_body", 1e-4},
+            {"max_settle_time", 10.0},
+            {"cache_file", BedCache(seed, shape)}}},
           {"discharge", {{"mode", "remove"}, {"max_time", max_time}, {"clog_window", 2.0}}},
           {"output", {{"checkpoint_interval", 1.0}, {"frame_interval", 0.5}}}};
 }
 
-inline void WriteSpec(const fs::path& dir, const nlohmann::json& spec) { std::ofstream(dir / "run.json") << spec.dump(2); }
+inline void WriteSpec(const fs::path& dir, const nlohmann::json& spec) {
+  std::ofstream(dir / "run.json") << spec.dump(2);
+}
 
 inline std::vector<double> EventTimes(const fs::path& dir) {
   std::ifstream in(dir / "events.csv");
@@ -71,7 +79,7 @@ inline std::vector<double> EventTimes(const fs::path& dir) {
 }
 
 inline RunResult RunQuiet(const fs::path& dir, int threads = 1, std::int64_t abort_after = -1, int force_block = 0,
-                   std::int64_t stop_after = -1) {
+                          std::int64_t stop_after = -1) {
   RunOptions o;
   o.stop_after_steps = stop_after;
   o.force_block = force_block;

@@ -78,7 +78,8 @@ TEST(Run, SmallSiloDischargesAndItsExitCountGrows) {
   // frames: one block per 0.5 time units including t = 0
   const std::string frames = Slurp(dir / "frames.dump");
   std::size_t blocks = 0;
-  for (std::size_t p = frames.find("ITEM: TIMESTEP"); p != std::string::npos; p = frames.find("ITEM: TIMESTEP", p + 1)) ++blocks;
+  for (std::size_t p = frames.find("ITEM: TIMESTEP"); p != std::string::npos; p = frames.find("ITEM: TIMESTEP", p + 1))
+    ++blocks;
   EXPECT_EQ(blocks, 11u);
   // The rate counts the discs still in the silo. Its ratio to the bed's figure is
   // the mean fraction of the 240 discs (120 dumbbells) in the silo over the steps, which the
@@ -91,7 +92,8 @@ TEST(Run, SmallSiloDischargesAndItsExitCountGrows) {
   EXPECT_LT(fraction, 0.95);
   EXPECT_NEAR(timing["disc_steps_per_s"].get<double>() / timing["bed_disc_steps_per_s"].get<double>(), fraction, 1e-9);
   EXPECT_NEAR(timing["bed_disc_steps_per_s"].get<double>() * timing["discharge_wall_s"].get<double>(),
-              240.0 * static_cast<double>(s["steps"].get<std::int64_t>()), 1e-6 * 240.0 * static_cast<double>(s["steps"].get<std::int64_t>()));
+              240.0 * static_cast<double>(s["steps"].get<std::int64_t>()),
+              1e-6 * 240.0 * static_cast<double>(s["steps"].get<std::int64_t>()));
   // The manifest records what the run left: 11 frames, the exits as rows, every file whole.
   const nlohmann::json manifest = ReadJson(dir / "manifest.json");
   EXPECT_EQ(manifest["counts"]["frames"], 11);
@@ -113,7 +115,8 @@ TEST(Run, TooNarrowOutletClogs) {
   const std::vector<rundir::ClogState> clogs = rundir::ReadClogs(dir);
   ASSERT_EQ(clogs.size(), 1u);
   EXPECT_EQ(clogs[0].frame.timestep, r.steps);
-  EXPECT_EQ(static_cast<int>(rundir::BodiesOf(clogs[0].frame.discs).size()), ReadJson(dir / "summary.json")["remaining"].get<int>());
+  EXPECT_EQ(static_cast<int>(rundir::BodiesOf(clogs[0].frame.discs).size()),
+            ReadJson(dir / "summary.json")["remaining"].get<int>());
   EXPECT_EQ(clogs[0].contacts.timestep, r.steps);
   int pairs = 0, walls = 0;
   for (const auto& c : clogs[0].contacts.contacts) (c.body_j >= 0 ? pairs : walls) += 1;
@@ -256,8 +259,11 @@ TEST(Run, AKilledGsdRunContinuesIntoTheUninterruptedRunsBytes) {
   nlohmann::json spec = SmallSpec(8.0, 4.0);
   spec["discharge"]["mode"] = "reinject";
   // 81 frames: the index outgrows its first two blocks (at frames 31 and 63).
-  spec["output"] = {{"checkpoint_interval", 1.0}, {"frame_interval", 0.05}, {"format", "gsd"},
-                    {"contact_forces", true}, {"contact_interval", 3}};
+  spec["output"] = {{"checkpoint_interval", 1.0},
+                    {"frame_interval", 0.05},
+                    {"format", "gsd"},
+                    {"contact_forces", true},
+                    {"contact_interval", 3}};
   WriteSpec(a, spec);
   WriteSpec(b, spec);
   RunQuiet(a);
@@ -294,7 +300,8 @@ TEST(Run, AKilledGsdRunContinuesIntoTheUninterruptedRunsBytes) {
     EXPECT_TRUE(Slurp(a / file) == Slurp(b / file)) << file << " differs from the uninterrupted run's";
   }
   const nlohmann::json ma = ReadJson(a / "manifest.json"), mb = ReadJson(b / "manifest.json");
-  for (const char* file : {"events.csv", "frames.gsd", "contacts.gsd"}) EXPECT_EQ(ma["files"][file], mb["files"][file]) << file;
+  for (const char* file : {"events.csv", "frames.gsd", "contacts.gsd"})
+    EXPECT_EQ(ma["files"][file], mb["files"][file]) << file;
   EXPECT_EQ(rundir::VerifyRun(b, {rundir::VerifyLevel::kChecksums, false}).integrity, rundir::Integrity::kWhole);
   rundir::FrameReader r(b / "frames.gsd");
   rundir::Frame f;
@@ -558,7 +565,7 @@ TEST(Run, ContactDumpWallForcesCarryTheBedWeight) {
   spec["silo"]["side_outlets"] = {{{"wall", "right"}, {"bottom", 30.0}, {"width", 5.0}}};
   spec["output"]["contact_forces"] = true;
   spec["output"]["frame_interval"] = 0.01;
-  spec["bed"]["cache_file"] = "";  // silo height is part of the bed key: prepare in DIR
+  spec["bed"]["cache_file"] = "";            // silo height is part of the bed key: prepare in DIR
   spec["bed"]["settle_ke_per_body"] = 1e-7;  // bed momentum << weight x averaging time
   spec["bed"]["max_settle_time"] = 40.0;
   WriteSpec(dir, spec);
@@ -613,7 +620,8 @@ TEST(Run, BenchRepeatsRoundsAndSummarises) {
   const auto [status, out] =
       RunExeOutput("bench --bodies 200 --steps 20 --threads-list 1,2 --repeat 3 --bed " + (dir / "bed.json").string());
   ASSERT_EQ(status, 0) << out;
-  const std::vector<std::string> rounds = LinesStartingWith(out, "round="), summaries = LinesStartingWith(out, "summary ");
+  const std::vector<std::string> rounds = LinesStartingWith(out, "round="),
+                                 summaries = LinesStartingWith(out, "summary ");
   ASSERT_EQ(rounds.size(), 6u);
   EXPECT_EQ(rounds[4].rfind("round=3 threads=1 ", 0), 0u) << rounds[4];
   ASSERT_EQ(summaries.size(), 2u);
@@ -645,10 +653,13 @@ double ValueAfter(const std::string& line, const std::string& key) {
 // frames, what that costs and the bytes written; then the median cost per thread count.
 TEST(Run, BenchOutputCostRunsTheCaseWithoutAndWithOutput) {
   const fs::path dir = FreshDir("bench-output");
-  const auto [status, out] = RunExeOutput("bench --shape disc --bodies 200 --steps 200 --output-cost 0.005 "
-                                          "--threads-list 1,2 --repeat 2 --bed " + (dir / "bed.json").string());
+  const auto [status, out] = RunExeOutput(
+      "bench --shape disc --bodies 200 --steps 200 --output-cost 0.005 "
+      "--threads-list 1,2 --repeat 2 --bed " +
+      (dir / "bed.json").string());
   ASSERT_EQ(status, 0) << out;
-  const std::vector<std::string> rounds = LinesStartingWith(out, "round="), summaries = LinesStartingWith(out, "summary ");
+  const std::vector<std::string> rounds = LinesStartingWith(out, "round="),
+                                 summaries = LinesStartingWith(out, "summary ");
   ASSERT_EQ(rounds.size(), 4u) << out;
   for (const std::string& line : rounds) {
     EXPECT_GT(ValueAfter(line, "without_output"), 0.0) << line;
@@ -669,14 +680,16 @@ TEST(Run, BenchOutputCostRunsTheCaseWithoutAndWithOutput) {
 // mpirun) and on the engine (one thread, then two), with the input LAMMPS ran kept.
 TEST(Run, BenchVersusLammpsRunsBothEnginesOnTheSameBed) {
   const fs::path dir = FreshDir("bench-versus");
-  const auto [status, out] = RunExeOutput("bench --shape disc --bodies 200 --steps 100 --versus lammps "
-                                          "--threads-list 1,2 --bed " + (dir / "bed.json").string() +
-                                          " --lammps-dir " + (dir / "lammps").string());
+  const auto [status, out] = RunExeOutput(
+      "bench --shape disc --bodies 200 --steps 100 --versus lammps "
+      "--threads-list 1,2 --bed " +
+      (dir / "bed.json").string() + " --lammps-dir " + (dir / "lammps").string());
   ASSERT_EQ(status, 0) << out;
   const std::vector<std::string> rows = LinesStartingWith(out, "threads=");
   ASSERT_EQ(rows.size(), 2u) << out;
   for (const std::string& line : rows) {
-    const double lammps = ValueAfter(line, "lammps_disc_steps_per_s"), native = ValueAfter(line, "native_disc_steps_per_s");
+    const double lammps = ValueAfter(line, "lammps_disc_steps_per_s"),
+                 native = ValueAfter(line, "native_disc_steps_per_s");
     EXPECT_GT(lammps, 0.0) << line;
     EXPECT_GT(native, 0.0) << line;
     EXPECT_NEAR(ValueAfter(line, "native/lammps"), native / lammps, 0.01 * native / lammps + 0.006) << line;
@@ -762,7 +775,6 @@ TEST(Run, BedMeasureOfASquareLattice) {
   EXPECT_NEAR(raised.surface, 20.5 + 10.0 / 96, 1e-12);
 }
 
-
 // Writes 64 bytes of garbage into the middle of a file (as the hostile user did).
 void Scribble(const fs::path& file) {
   std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
@@ -818,7 +830,8 @@ TEST(Run, SigtermMakesTheExecutableCheckpointAndEndByTheSignal) {
   }
   // Once the discharge is under way (its first progress.json), not before.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (Slurp(dir / "progress.json").find("\"discharge\"") == std::string::npos && std::chrono::steady_clock::now() < deadline)
+  while (Slurp(dir / "progress.json").find("\"discharge\"") == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   ::kill(pid, SIGTERM);
   int status = 0;
@@ -843,7 +856,8 @@ TEST(Run, ACorruptCheckpointIsRefusedAndThePreviousOneUsed) {
   Scribble(b / "checkpoint.bin");
   const auto [code, out] = RunExeOutput("run " + b.string() + " --threads 1");
   ASSERT_EQ(code, 0) << out;
-  EXPECT_NE(out.find("refusing checkpoint: checkpoint.bin is corrupt: CRC-32 of its payload is "), std::string::npos) << out;
+  EXPECT_NE(out.find("refusing checkpoint: checkpoint.bin is corrupt: CRC-32 of its payload is "), std::string::npos)
+      << out;
   EXPECT_NE(out.find("continuing from the previous checkpoint (checkpoint.prev.bin)"), std::string::npos) << out;
   const nlohmann::json summary = ReadJson(b / "summary.json");
   EXPECT_TRUE(summary["continued_from_checkpoint"].get<bool>());
@@ -881,13 +895,15 @@ TEST(Run, ACheckpointThatDoesNotMatchItsOutputsOrFormatIsRefused) {
   fs::resize_file(b / "events.csv", 10);
   {
     std::string old = Slurp(b / "checkpoint.prev.bin");
-    std::ofstream(b / "checkpoint.prev.bin", std::ios::binary) << std::string("\x14\0\0\0\0\0\0\0", 8) << "GRANARY-CHECKPOINT-3" << old;
+    std::ofstream(b / "checkpoint.prev.bin", std::ios::binary)
+        << std::string("\x14\0\0\0\0\0\0\0", 8) << "GRANARY-CHECKPOINT-3" << old;
   }
   const auto [code, out] = RunExeOutput("run " + b.string() + " --threads 1");
   ASSERT_EQ(code, 0) << out;
   EXPECT_NE(out.find("checkpoint.bin expects "), std::string::npos) << out;
   EXPECT_NE(out.find("bytes of events.csv, the file has 10"), std::string::npos) << out;
-  EXPECT_NE(out.find("checkpoint.prev.bin is format GRANARY-CHECKPOINT-3, an older engine's"), std::string::npos) << out;
+  EXPECT_NE(out.find("checkpoint.prev.bin is format GRANARY-CHECKPOINT-3, an older engine's"), std::string::npos)
+      << out;
 }
 
 // A version-4 checkpoint (engines before the bed's packing fraction and surface were
@@ -915,12 +931,12 @@ TEST(Run, AVersion4CheckpointIsStillRead) {
   ASSERT_EQ(version, 5u);
   const std::size_t payload = magic + 4 + 8 + 4;
   std::size_t at = payload;
-  at += 8 + u64(at);              // spec
-  at += 3 * 8;                    // step, last exit step, disc steps
-  at += 8 + 8 * u64(at);          // exits per outlet
-  at += 4 + 1;                    // clogs, in clog
-  at += 8 + u64(at);              // bed file
-  at += 1 + 3 * 8;                // prepared here, height, settle time, wall time
+  at += 8 + u64(at);      // spec
+  at += 3 * 8;            // step, last exit step, disc steps
+  at += 8 + 8 * u64(at);  // exits per outlet
+  at += 4 + 1;            // clogs, in clog
+  at += 8 + u64(at);      // bed file
+  at += 1 + 3 * 8;        // prepared here, height, settle time, wall time
   std::string body = file.substr(payload);
   body.erase(at - payload, 16);  // packing fraction, surface
   std::string v4(file.data(), magic);

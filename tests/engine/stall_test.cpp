@@ -60,14 +60,14 @@ TEST(Stall, ArchesBesideAnObstacleSealTheOutletAndAGapInOneOpensIt) {
   World w = OpenSilo({{0.0, 2.0}}, {{0.0, 3.0, 2.0}});
   Row(w, -5.5, -1.5, 3.0);  // obstacle surface at x = -1, wall at -6
   Row(w, 1.5, 5.5, 3.0);
-  Row(w, -5.5, 5.5, 6.0);   // material above
+  Row(w, -5.5, 5.5, 6.0);  // material above
   EXPECT_EQ(SealedOutlets(w), std::vector<bool>{true});
 
   World open = OpenSilo({{0.0, 2.0}}, {{0.0, 3.0, 2.0}});
   Row(open, -5.5, -4.5, 3.0);
   Row(open, -1.5, -1.5, 3.0);  // a gap of two diameters at x = -3 ...
   Row(open, 1.5, 5.5, 3.0);
-  Row(open, -5.5, 5.5, 6.0);   // ... but the row above still seals it
+  Row(open, -5.5, 5.5, 6.0);  // ... but the row above still seals it
   EXPECT_EQ(SealedOutlets(open), std::vector<bool>{true});
   World crater = OpenSilo({{0.0, 2.0}}, {{0.0, 3.0, 2.0}});
   Row(crater, -5.5, -4.5, 3.0);
@@ -176,8 +176,8 @@ TEST(Stall, TheCavityOfASideOutletRunsFromBelowToAbove) {
 // The probe is the narrowest gap a body could pass: each body's largest disc, the smallest of those.
 TEST(Stall, ThePassageProbeIsTheSmallestOfTheBodiesLargestDiscs) {
   const std::vector<silo::DiscAt> discs{{0, 0, 0.5}, {1.25, 0, 0.75}, {5, 0, 0.5}, {6.25, 0, 0.75}};
-  EXPECT_EQ(silo::PassageProbe(discs, {7, 7, 9, 9}), 0.75);                 // two snowmen
-  EXPECT_EQ(silo::PassageProbe(discs, {7, 7, 8, 9}), 0.5);                  // a disc of d = 1 among them
+  EXPECT_EQ(silo::PassageProbe(discs, {7, 7, 9, 9}), 0.75);  // two snowmen
+  EXPECT_EQ(silo::PassageProbe(discs, {7, 7, 8, 9}), 0.5);   // a disc of d = 1 among them
   EXPECT_EQ(silo::PassageProbe({}, {}), std::numeric_limits<double>::infinity());
 }
 
@@ -215,8 +215,8 @@ TEST(Stall, AnArchHangingIntoTheGapFromBothEdgesBoundsItsCavity) {
   World w = OpenSilo({{0.0, 4.0}});
   w.AddBody(0, -1.7, -0.1, 0);  // over the left edge, its centre below the base
   for (double x = -1.5; x <= 1.5 + 1e-9; x += 1.0) w.AddBody(0, x, 0.9, 0);
-  w.AddBody(0, 1.7, -0.1, 0);   // over the right edge
-  Row(w, -5.5, 5.5, 3.0);       // material above
+  w.AddBody(0, 1.7, -0.1, 0);  // over the right edge
+  Row(w, -5.5, 5.5, 3.0);      // material above
   EXPECT_EQ(SealedOutlets(w), std::vector<bool>{true});
   const silo::OutletCavity c = silo::CavityUnder(w.Geometry(), DiscsOf(w), 0.5, 0);
   ASSERT_TRUE(c.sealed);

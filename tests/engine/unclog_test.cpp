@@ -176,7 +176,8 @@ void ExpectSameBits(const std::string& method) {
   EXPECT_TRUE(RunQuiet(cont, 1, -1, 32).continued);
   for (const fs::path& d : {two, cont}) {
     SCOPED_TRACE(d.filename().string());
-    for (const char* f : {rundir::kEventsFile, rundir::kUnclogsFile, rundir::kClogFramesFile, rundir::kClogContactsFile})
+    for (const char* f :
+         {rundir::kEventsFile, rundir::kUnclogsFile, rundir::kClogFramesFile, rundir::kClogContactsFile})
       EXPECT_TRUE(Slurp(one / f) == Slurp(d / f)) << f;
     EXPECT_EQ(ReadJson(one / rundir::kSummaryFile)["t_end"], ReadJson(d / rundir::kSummaryFile)["t_end"]);
   }

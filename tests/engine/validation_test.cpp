@@ -20,14 +20,15 @@ double SteadyFlowRate(double outlet) {
   const fs::path dir = fs::path(GRANARY_ENGINE_TEST_TMP) / ("beverloo-" + std::to_string(static_cast<int>(outlet)));
   fs::remove_all(dir);
   fs::create_directories(dir);
-  const nlohmann::json spec = {
-      {"run_id", "beverloo"},
-      {"seed", std::uint64_t{21}},
-      {"silo", {{"width", 40.0}, {"base_outlets", {{{"center", 0.0}, {"width", outlet}}}}}},
-      {"bodies", {{"count", 400}}},
-      {"bed", {{"settle_ke_per_body", 1e-4}, {"cache_file", (fs::path(GRANARY_ENGINE_TEST_TMP) / "bed-beverloo.json").string()}}},
-      {"discharge", {{"mode", "reinject"}, {"max_time", 20.0}, {"stop_on_clog", false}}},
-      {"output", {{"checkpoint_interval", 0.0}}}};
+  const nlohmann::json spec = {{"run_id", "beverloo"},
+                               {"seed", std::uint64_t{21}},
+                               {"silo", {{"width", 40.0}, {"base_outlets", {{{"center", 0.0}, {"width", outlet}}}}}},
+                               {"bodies", {{"count", 400}}},
+                               {"bed",
+                                {{"settle_ke_per_body", 1e-4},
+                                 {"cache_file", (fs::path(GRANARY_ENGINE_TEST_TMP) / "bed-beverloo.json").string()}}},
+                               {"discharge", {{"mode", "reinject"}, {"max_time", 20.0}, {"stop_on_clog", false}}},
+                               {"output", {{"checkpoint_interval", 0.0}}}};
   std::ofstream(dir / "run.json") << spec.dump();
   RunOptions o;
   o.quiet = true;

@@ -169,9 +169,7 @@ double SlideVelocity(double tan_angle, double t_end) {
   return -(w.body_vx_[a] * c + w.body_vy_[a] * s);  // speed down the slope
 }
 
-TEST(World, BodyOnInclineSticksBelowFrictionAngle) {
-  EXPECT_LT(std::fabs(SlideVelocity(0.3, 1.0)), 1e-3);
-}
+TEST(World, BodyOnInclineSticksBelowFrictionAngle) { EXPECT_LT(std::fabs(SlideVelocity(0.3, 1.0)), 1e-3); }
 
 TEST(World, BodyOnInclineSlidesAboveFrictionAngle) {
   const double tan_a = 0.8, ang = std::atan(tan_a), t = 1.0;
@@ -319,7 +317,8 @@ TEST(World, ForceBlocksChangeOnlyRounding) {
     WorldParams p = Params(1.0);
     p.force_block = block;
     World w(p, {silo::MakeTemplate(DumbbellSpecies(), 1.0, 0), silo::MakeTemplate(DiscSpecies(1.0), 1.0, 1)}, g);
-    for (int k = 0; k < 36; ++k) w.AddBody(k % 4 == 3 ? 1 : 0, -2.1 + 2.1 * (k % 3), 0.6 + 1.05 * (k / 3), 0.05 * (k % 5));
+    for (int k = 0; k < 36; ++k)
+      w.AddBody(k % 4 == 3 ? 1 : 0, -2.1 + 2.1 * (k % 3), 0.6 + 1.05 * (k / 3), 0.05 * (k % 5));
     w.ComputeForces();
     for (int s = 0; s < 3000; ++s) w.Step();
     return w;

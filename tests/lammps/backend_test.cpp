@@ -38,7 +38,7 @@ struct Outcome {
 };
 
 Outcome RunProgram(const std::string& exe, const std::vector<std::string>& args,
-            bp::environment env = boost::this_process::environment()) {
+                   bp::environment env = boost::this_process::environment()) {
   bp::ipstream out;
   bp::child c(exe, bp::args = args, (bp::std_out & bp::std_err) > out, env);
   Outcome o;
@@ -229,10 +229,11 @@ TEST(LammpsBackend, HookeDiscsLeaveAsOnTheNativeHookeEngineFromTheSameBed) {
 }
 
 TEST(LammpsBackend, DumbbellsReinjectThroughThePeriodicBoxAndStayRigid) {
-  const fs::path dir = MakeRun("dumbbells_reinject", {{"bodies", {{"count", 60}, {"species", {{{"shape", "dumbbell"}}}}}},
-                                                      {"silo", {{"base_outlets", {{{"center", 0}, {"width", 8}}}}}},
-                                                      {"discharge", {{"mode", "reinject"}, {"max_time", 8}, {"clog_window", 3}}},
-                                                      {"output", {{"frame_interval", 0.5}, {"contact_forces", true}}}});
+  const fs::path dir =
+      MakeRun("dumbbells_reinject", {{"bodies", {{"count", 60}, {"species", {{{"shape", "dumbbell"}}}}}},
+                                     {"silo", {{"base_outlets", {{{"center", 0}, {"width", 8}}}}}},
+                                     {"discharge", {{"mode", "reinject"}, {"max_time", 8}, {"clog_window", 3}}},
+                                     {"output", {{"frame_interval", 0.5}, {"contact_forces", true}}}});
   const Outcome o = RunLammps(dir);
   ASSERT_EQ(o.exit_code, 0) << o.output;
   const RunData run = ReadRun(dir);
@@ -266,7 +267,8 @@ TEST(LammpsBackend, DumbbellsReinjectThroughThePeriodicBoxAndStayRigid) {
         continue;
       }
       ++pairs;
-      ASSERT_LT(std::hypot(c.xj - c.xi, c.yj - c.yi), 1.0) << "bodies " << c.body_i << ", " << c.body_j << " at t = " << f.time;
+      ASSERT_LT(std::hypot(c.xj - c.xi, c.yj - c.yi), 1.0)
+          << "bodies " << c.body_i << ", " << c.body_j << " at t = " << f.time;
       ASSERT_NEAR(std::hypot(c.cx - c.xi, c.cy - c.yi), 0.5, 1e-6);
     }
   EXPECT_GT(pairs, 100u);
@@ -275,17 +277,20 @@ TEST(LammpsBackend, DumbbellsReinjectThroughThePeriodicBoxAndStayRigid) {
 
 TEST(LammpsBackend, EveryShapeWithASideOutletAndAnObstacleRuns) {
   const fs::path dir =
-      MakeRun("shapes_side_obstacle",
-              {{"silo", {{"width", 20}, {"base_outlets", {{{"center", -3}, {"width", 5}}}},
-                         {"side_outlets", {{{"wall", "right"}, {"bottom", 1}, {"width", 5}}}},
-                         {"obstacles", {{{"x", -3}, {"y", 4}, {"diameter", 2}}}}}},
-               {"bodies", {{"count", 80},
-                           {"species", {{{"shape", "disc"}, {"fraction", 0.25}, {"diameter", 1.2}},
-                                        {{"shape", "dumbbell"}, {"fraction", 0.25}},
-                                        {{"shape", "snowman"}, {"fraction", 0.25}, {"big_diameter", 1.5}},
-                                        {{"shape", "rod"}, {"fraction", 0.25}, {"n", 3}}}}}},
-               {"discharge", {{"max_time", 5}}},
-               {"output", {{"frame_interval", 1.0}, {"contact_forces", true}}}});
+      MakeRun("shapes_side_obstacle", {{"silo",
+                                        {{"width", 20},
+                                         {"base_outlets", {{{"center", -3}, {"width", 5}}}},
+                                         {"side_outlets", {{{"wall", "right"}, {"bottom", 1}, {"width", 5}}}},
+                                         {"obstacles", {{{"x", -3}, {"y", 4}, {"diameter", 2}}}}}},
+                                       {"bodies",
+                                        {{"count", 80},
+                                         {"species",
+                                          {{{"shape", "disc"}, {"fraction", 0.25}, {"diameter", 1.2}},
+                                           {{"shape", "dumbbell"}, {"fraction", 0.25}},
+                                           {{"shape", "snowman"}, {"fraction", 0.25}, {"big_diameter", 1.5}},
+                                           {{"shape", "rod"}, {"fraction", 0.25}, {"n", 3}}}}}},
+                                       {"discharge", {{"max_time", 5}}},
+                                       {"output", {{"frame_interval", 1.0}, {"contact_forces", true}}}});
   const Outcome o = RunLammps(dir);
   ASSERT_EQ(o.exit_code, 0) << o.output;
   const RunData run = ReadRun(dir);
@@ -315,10 +320,11 @@ TEST(LammpsBackend, EveryShapeWithASideOutletAndAnObstacleRuns) {
 }
 
 TEST(LammpsBackend, AKilledBackendAndAKilledLmpContinueFromTheCheckpoint) {
-  const fs::path dir = MakeRun("killed", {{"bodies", {{"count", 60}, {"species", {{{"shape", "dumbbell"}}}}}},
-                                          {"silo", {{"base_outlets", {{{"center", 0}, {"width", 6}}}}}},
-                                          {"discharge", {{"mode", "reinject"}, {"max_time", 5}, {"clog_window", 3}}},
-                                          {"output", {{"checkpoint_interval", 1.0}, {"frame_interval", 0.5}, {"contact_forces", true}}}});
+  const fs::path dir = MakeRun(
+      "killed", {{"bodies", {{"count", 60}, {"species", {{{"shape", "dumbbell"}}}}}},
+                 {"silo", {{"base_outlets", {{{"center", 0}, {"width", 6}}}}}},
+                 {"discharge", {{"mode", "reinject"}, {"max_time", 5}, {"clog_window", 3}}},
+                 {"output", {{"checkpoint_interval", 1.0}, {"frame_interval", 0.5}, {"contact_forces", true}}}});
   const fs::path twin = kTmp / "killed-whole";
   fs::remove_all(twin);
   fs::create_directories(twin);
@@ -370,7 +376,8 @@ TEST(LammpsBackend, AKilledBackendAndAKilledLmpContinueFromTheCheckpoint) {
     EXPECT_EQ(a[i].body, b[i].body);
     EXPECT_DOUBLE_EQ(a[i].time, b[i].time);
   }
-  EXPECT_NEAR(static_cast<double>(run.events.size()), static_cast<double>(whole.size()), 0.2 * static_cast<double>(whole.size()) + 3);
+  EXPECT_NEAR(static_cast<double>(run.events.size()), static_cast<double>(whole.size()),
+              0.2 * static_cast<double>(whole.size()) + 3);
   // One frame and one contact frame every 0.5, none twice (LAMMPS writes a checkpoint step's
   // frame again when it continues from it); before the first checkpoint continued from, those
   // of the uninterrupted run.
@@ -397,12 +404,13 @@ TEST(LammpsBackend, AKilledBackendAndAKilledLmpContinueFromTheCheckpoint) {
 // below the threshold), below where the bodies were placed, no disc through the base, and the
 // run goes on to exits as from a native bed. The native engine refuses the value.
 TEST(LammpsBackend, ALammpsSettledBedSettlesThenDischarges) {
-  const json overrides = {{"bodies", {{"count", 60},
-                                      {"species", {{{"shape", "disc"}, {"fraction", 0.5}},
-                                                   {{"shape", "dumbbell"}, {"fraction", 0.5}}}}}},
-                          {"bed", {{"settled_by", "lammps"}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 30}}},
-                          {"discharge", {{"max_time", 4}}},
-                          {"output", {{"frame_interval", 1.0}}}};
+  const json overrides = {
+      {"bodies",
+       {{"count", 60},
+        {"species", {{{"shape", "disc"}, {"fraction", 0.5}}, {{"shape", "dumbbell"}, {"fraction", 0.5}}}}}},
+      {"bed", {{"settled_by", "lammps"}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 30}}},
+      {"discharge", {{"max_time", 4}}},
+      {"output", {{"frame_interval", 1.0}}}};
   const fs::path dir = MakeRun("lammps_settled", overrides);
   const Outcome o = RunLammps(dir);
   ASSERT_EQ(o.exit_code, 0) << o.output;
@@ -469,8 +477,9 @@ std::map<std::tuple<std::int64_t, std::int64_t, long, long>, Seen> ByContact(con
     const double nx = c.xi - c.xj, ny = c.yi - c.yj, dist = std::hypot(nx, ny);
     const Seen seen{(c.fx * nx + c.fy * ny) / dist, (c.body_j < 0 ? r : 2 * r) - dist};
     // A body touches a wall at most once per wall piece: its contact point (to 1e-3) tells them apart.
-    const auto key = c.body_j < 0 ? std::make_tuple(c.body_i, c.body_j, std::lround(c.cx * 1000), std::lround(c.cy * 1000))
-                                  : std::make_tuple(std::min(c.body_i, c.body_j), std::max(c.body_i, c.body_j), 0L, 0L);
+    const auto key = c.body_j < 0
+                         ? std::make_tuple(c.body_i, c.body_j, std::lround(c.cx * 1000), std::lround(c.cy * 1000))
+                         : std::make_tuple(std::min(c.body_i, c.body_j), std::max(c.body_i, c.body_j), 0L, 0L);
     EXPECT_TRUE(out.emplace(key, seen).second) << "one row per contact at t = " << f.time;
   }
   return out;
@@ -623,15 +632,17 @@ TEST(LammpsCampaign, CompareRunsNativeAndLammpsOnTheSameBeds) {
   const json spec = {{"name", "lammps-tiny"},
                      {"engine", {"native", "lammps"}},
                      {"replicas", 2},
-                     {"base", {{"silo", {{"width", 16}}},
-                               {"bodies", {{"count", 60}, {"species", {{{"shape", "disc"}}}}}},
-                               {"bed", {{"max_settle_time", 40}}},
-                               {"discharge", {{"mode", "reinject"}, {"max_time", 3}, {"reinject_position", "periodic"}}},
-                               {"output", {{"checkpoint_interval", 0}}}}},
+                     {"base",
+                      {{"silo", {{"width", 16}}},
+                       {"bodies", {{"count", 60}, {"species", {{{"shape", "disc"}}}}}},
+                       {"bed", {{"max_settle_time", 40}}},
+                       {"discharge", {{"mode", "reinject"}, {"max_time", 3}, {"reinject_position", "periodic"}}},
+                       {"output", {{"checkpoint_interval", 0}}}}},
                      {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {5}}}}}}};
   std::ofstream(dir / "spec.json") << spec.dump(2);
-  const Outcome o = RunProgram(GRANARY_CAMPAIGN_EXE, {"compare", (dir / "spec.json").string(), "--db", (dir / "c.db").string(),
-                                               "--jobs", "2", "--json", "--no-figures"});
+  const Outcome o =
+      RunProgram(GRANARY_CAMPAIGN_EXE, {"compare", (dir / "spec.json").string(), "--db", (dir / "c.db").string(),
+                                        "--jobs", "2", "--json", "--no-figures"});
   ASSERT_EQ(o.exit_code, 0) << o.output;
   const std::size_t from = o.output.find("{\n"), to = o.output.find("\n}\n", from);
   ASSERT_NE(to, std::string::npos) << o.output;
@@ -650,21 +661,22 @@ TEST(LammpsCampaign, EveryShapeAndGeometryEndToEnd) {
   const fs::path dir = kTmp / "campaign_shapes";
   fs::remove_all(dir);
   fs::create_directories(dir);
-  const json spec = {
-      {"name", "lammps-shapes"},
-      {"engine", "lammps"},
-      {"base", {{"silo", {{"width", 16}, {"base_outlets", {{{"center", -2}, {"width", 5}}}}}},
-                {"bodies", {{"count", 40}}},
-                {"bed", {{"max_settle_time", 40}}},
-                // A body counts as gone half a diameter past a wall: from a bed this low, the side
-                // outlet's flow is slow, and three time units carry a body only about one d out.
-                {"discharge", {{"mode", "remove"}, {"max_time", 3}, {"clog_window", 3}, {"exit_distance", 0.5}}},
-                {"output", {{"checkpoint_interval", 0}, {"frame_interval", 1.0}}}}},
-      {"sweep",
-       {{"grid", {{"/bodies/species/0/shape", {"disc", "dumbbell", "snowman", "rod"}}}},
-        {"points", {{{"/silo/side_outlets", json::array()}},
-                    {{"/silo/side_outlets", {{{"wall", "right"}, {"bottom", 0.5}, {"width", 5}}}},
-                     {"/silo/obstacles", {{{"x", -2}, {"y", 4}, {"diameter", 2}}}}}}}}}};
+  const json spec = {{"name", "lammps-shapes"},
+                     {"engine", "lammps"},
+                     {"base",
+                      {{"silo", {{"width", 16}, {"base_outlets", {{{"center", -2}, {"width", 5}}}}}},
+                       {"bodies", {{"count", 40}}},
+                       {"bed", {{"max_settle_time", 40}}},
+                       // A body counts as gone half a diameter past a wall: from a bed this low, the side
+                       // outlet's flow is slow, and three time units carry a body only about one d out.
+                       {"discharge", {{"mode", "remove"}, {"max_time", 3}, {"clog_window", 3}, {"exit_distance", 0.5}}},
+                       {"output", {{"checkpoint_interval", 0}, {"frame_interval", 1.0}}}}},
+                     {"sweep",
+                      {{"grid", {{"/bodies/species/0/shape", {"disc", "dumbbell", "snowman", "rod"}}}},
+                       {"points",
+                        {{{"/silo/side_outlets", json::array()}},
+                         {{"/silo/side_outlets", {{{"wall", "right"}, {"bottom", 0.5}, {"width", 5}}}},
+                          {"/silo/obstacles", {{{"x", -2}, {"y", 4}, {"diameter", 2}}}}}}}}}};
   std::ofstream(dir / "spec.json") << spec.dump(2);
   const std::string db = (dir / "c.db").string();
   const Outcome plan = RunProgram(GRANARY_CAMPAIGN_EXE, {"plan", (dir / "spec.json").string(), "--db", db});

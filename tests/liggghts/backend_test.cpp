@@ -73,7 +73,8 @@ std::vector<int> ProcessesIn(const fs::path& dir) {
   while (std::chrono::steady_clock::now() < deadline) {
     if (granary::RunDirectoryHolder(dir).empty()) {
       const std::vector<int> left = ProcessesIn(dir);
-      if (!left.empty()) return ::testing::AssertionFailure() << "lock free while " << left.size() << " processes still run in " << dir;
+      if (!left.empty())
+        return ::testing::AssertionFailure() << "lock free while " << left.size() << " processes still run in " << dir;
       return ::testing::AssertionSuccess();
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -91,14 +92,16 @@ fs::path MakeRun(const std::string& name, const json& overrides) {
   const fs::path dir = kTmp / name;
   fs::remove_all(dir);
   fs::create_directories(dir);
-  json j = {{"run_id", name},
-            {"seed", 3},
-            {"engine", "liggghts"},
-            {"silo", {{"width", 16}, {"base_outlets", {{{"center", 0}, {"width", 5}}}}}},
-            {"bodies", {{"count", 60}, {"species", {{{"shape", "disc"}}}}}},
-            {"bed", {{"settle_ke_per_body", 1e-3}, {"max_settle_time", 6}, {"cache_file", (kTmp / "beds" / "bed.json").string()}}},
-            {"discharge", {{"mode", "remove"}, {"max_time", 3}, {"clog_window", 3}}},
-            {"output", {{"checkpoint_interval", 0}}}};
+  json j = {
+      {"run_id", name},
+      {"seed", 3},
+      {"engine", "liggghts"},
+      {"silo", {{"width", 16}, {"base_outlets", {{{"center", 0}, {"width", 5}}}}}},
+      {"bodies", {{"count", 60}, {"species", {{{"shape", "disc"}}}}}},
+      {"bed",
+       {{"settle_ke_per_body", 1e-3}, {"max_settle_time", 6}, {"cache_file", (kTmp / "beds" / "bed.json").string()}}},
+      {"discharge", {{"mode", "remove"}, {"max_time", 3}, {"clog_window", 3}}},
+      {"output", {{"checkpoint_interval", 0}}}};
   if (overrides.is_object()) j.merge_patch(overrides);
   std::ofstream(dir / "run.json") << j.dump(2);
   return dir;
@@ -213,7 +216,8 @@ TEST(LiggghtsBackend, AStallIsAClogOrADischargeAsOnTheNativeEngine) {
   // What the script kept of the stall went with it: no clog.
   EXPECT_TRUE(ClogReader(wide).Present());
   EXPECT_TRUE(ReadClogs(wide).empty());
-  for (const auto& e : fs::directory_iterator(wide)) EXPECT_NE(e.path().filename().string().rfind("clog.", 0), 0u) << e.path();
+  for (const auto& e : fs::directory_iterator(wide))
+    EXPECT_NE(e.path().filename().string().rfind("clog.", 0), 0u) << e.path();
 }
 
 // In reinject mode the script stops at the clog itself: it is counted, and kept with the wall
@@ -254,9 +258,10 @@ TEST(LiggghtsBackend, AReinjectClogIsCountedAndKeptWithItsWallForces) {
 // their contact point lies on the first disc's surface.
 TEST(LiggghtsBackend, ContactFramesCarryTheWeightOfTheBedOnWallsAndObstacle) {
   const fs::path dir = MakeRun("contacts", {{"bodies", {{"count", 40}, {"species", {{{"shape", "dumbbell"}}}}}},
-                                            {"silo", {{"base_outlets", json::array()},
-                                                      {"side_outlets", {{{"wall", "right"}, {"bottom", 10}, {"width", 3}}}},
-                                                      {"obstacles", {{{"x", 0}, {"y", 2}, {"diameter", 2}}}}}},
+                                            {"silo",
+                                             {{"base_outlets", json::array()},
+                                              {"side_outlets", {{{"wall", "right"}, {"bottom", 10}, {"width", 3}}}},
+                                              {"obstacles", {{{"x", 0}, {"y", 2}, {"diameter", 2}}}}}},
                                             {"bed", {{"settle_ke_per_body", 1e-7}, {"max_settle_time", 40}}},
                                             {"discharge", {{"max_time", 1}}},
                                             {"output", {{"frame_interval", 0.05}, {"contact_forces", true}}}});
@@ -298,10 +303,11 @@ TEST(LiggghtsBackend, ContactFramesCarryTheWeightOfTheBedOnWallsAndObstacle) {
 }
 
 TEST(LiggghtsBackend, DumbbellBedReinjectsEveryBodyThatLeaves) {
-  const fs::path dir = MakeRun("dumbbells_reinject", {{"bodies", {{"count", 50}, {"species", {{{"shape", "dumbbell"}}}}}},
-                                                      {"silo", {{"width", 20}, {"base_outlets", {{{"center", 0}, {"width", 10}}}}}},
-                                                      {"discharge", {{"mode", "reinject"}, {"max_time", 4}, {"stop_on_clog", false}}},
-                                                      {"output", {{"frame_interval", 2.0}}}});
+  const fs::path dir =
+      MakeRun("dumbbells_reinject", {{"bodies", {{"count", 50}, {"species", {{{"shape", "dumbbell"}}}}}},
+                                     {"silo", {{"width", 20}, {"base_outlets", {{{"center", 0}, {"width", 10}}}}}},
+                                     {"discharge", {{"mode", "reinject"}, {"max_time", 4}, {"stop_on_clog", false}}},
+                                     {"output", {{"frame_interval", 2.0}}}});
   const Outcome o = RunBackend(dir);
   ASSERT_EQ(o.exit_code, 0) << o.output;
   const RunData run = ReadRun(dir);
@@ -350,7 +356,8 @@ TEST(LiggghtsBackend, TwoMpiRanksRunClumpsAsOneRankDoes) {
   EXPECT_EQ(b.summary.remaining, 50);
   EXPECT_LT(b.summary.raw.at("max_out_of_plane").get<double>(), 1e-5);
   ASSERT_GT(a.events.size(), 5u);
-  EXPECT_NEAR(static_cast<double>(b.events.size()), static_cast<double>(a.events.size()), 0.25 * static_cast<double>(a.events.size()));
+  EXPECT_NEAR(static_cast<double>(b.events.size()), static_cast<double>(a.events.size()),
+              0.25 * static_cast<double>(a.events.size()));
   FrameReader frames(two / "frames.dump");
   Frame f;
   int n = 0;
@@ -493,7 +500,8 @@ TEST(LiggghtsBackend, TheDirectoryStaysLockedUntilEveryRankOfAKilledRunIsGone) {
   const json spec = {{"discharge", {{"mode", "reinject"}, {"max_time", 20}, {"stop_on_clog", false}}},
                      {"bodies", {{"count", 60}}}};
   const fs::path dir = MakeRun("ranks_killed", spec);
-  bp::child c(GRANARY_LIGGGHTS_EXE, "run", dir.string(), "--threads", "2", bp::std_out > bp::null, bp::std_err > bp::null);
+  bp::child c(GRANARY_LIGGGHTS_EXE, "run", dir.string(), "--threads", "2", bp::std_out > bp::null,
+              bp::std_err > bp::null);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
   while (c.running() && ReadText(dir / "progress.json").find("discharge") == std::string::npos &&
          std::chrono::steady_clock::now() < deadline)
@@ -543,7 +551,8 @@ TEST(LiggghtsBackend, SigtermCheckpointsTheDischargeBeforeTheBackendEnds) {
   EXPECT_NE(log.find("checkpointed by LIGGGHTS (checkpoint."), std::string::npos) << log;
   EXPECT_FALSE(fs::exists(dir / "DONE"));
   int checkpoints = 0;
-  for (const auto& e : fs::directory_iterator(dir)) checkpoints += e.path().filename().string().rfind("checkpoint.", 0) == 0;
+  for (const auto& e : fs::directory_iterator(dir))
+    checkpoints += e.path().filename().string().rfind("checkpoint.", 0) == 0;
   EXPECT_EQ(checkpoints, 1);
   EXPECT_TRUE(WaitUntilFree(dir));
   const Outcome o = RunBackend(dir);
@@ -576,24 +585,31 @@ TEST(LiggghtsBackend, FailuresNameTheSignalAndShowTheScreenOutputAndTheLog) {
   j["bed"]["cache_file"] = "";  // prepare here: the fake LIGGGHTS runs for the bed
   std::ofstream(dir / "run.json") << j.dump(2);
 
-  Outcome o = RunWithLiggghts(dir, FakeLiggghts("segv", "echo 'LIGGGHTS (Version fake)'\necho 'reading bed.in' > log.bed\nkill -SEGV $$"));
+  Outcome o = RunWithLiggghts(
+      dir, FakeLiggghts("segv", "echo 'LIGGGHTS (Version fake)'\necho 'reading bed.in' > log.bed\nkill -SEGV $$"));
   EXPECT_EQ(o.exit_code, 1);
-  EXPECT_NE(o.output.find("LIGGGHTS failed while preparing the bed (LIGGGHTS killed by signal 11 (Segmentation fault))"),
-            std::string::npos) << o.output;
-  EXPECT_NE(o.output.find("--- LIGGGHTS screen output, last lines ---\nLIGGGHTS (Version fake)\n"), std::string::npos) << o.output;
+  EXPECT_NE(
+      o.output.find("LIGGGHTS failed while preparing the bed (LIGGGHTS killed by signal 11 (Segmentation fault))"),
+      std::string::npos)
+      << o.output;
+  EXPECT_NE(o.output.find("--- LIGGGHTS screen output, last lines ---\nLIGGGHTS (Version fake)\n"), std::string::npos)
+      << o.output;
   EXPECT_NE(o.output.find("--- last lines of log.bed ---\nreading bed.in\n"), std::string::npos) << o.output;
 
   o = RunWithLiggghts(dir, FakeLiggghts("garbage", "echo 'n\\xfd#@ garbage'\nexit 0"));
   EXPECT_EQ(o.exit_code, 1);
-  EXPECT_NE(o.output.find("LIGGGHTS ended without writing bed.restart while preparing the bed (LIGGGHTS exit status 0)"),
-            std::string::npos) << o.output;
+  EXPECT_NE(
+      o.output.find("LIGGGHTS ended without writing bed.restart while preparing the bed (LIGGGHTS exit status 0)"),
+      std::string::npos)
+      << o.output;
   EXPECT_NE(o.output.find("garbage"), std::string::npos) << o.output;
 
   // A hang the runner ends (its --time-limit sends SIGTERM): what LIGGGHTS said is printed at
   // once, so the run's failure shows it even if LIGGGHTS then has to be killed.
   {
     bp::environment env = boost::this_process::environment();
-    env["GRANARY_LIGGGHTS"] = FakeLiggghts("hang-term", "echo 'about to hang'\ntouch started\nexec sleep 1000").string();
+    env["GRANARY_LIGGGHTS"] =
+        FakeLiggghts("hang-term", "echo 'about to hang'\ntouch started\nexec sleep 1000").string();
     fs::remove(dir / "started");
     bp::ipstream out;
     bp::child c(GRANARY_LIGGGHTS_EXE, "run", dir.string(), (bp::std_out & bp::std_err) > out, env);
@@ -605,7 +621,8 @@ TEST(LiggghtsBackend, FailuresNameTheSignalAndShowTheScreenOutputAndTheLog) {
     while (std::getline(out, line)) text += line + "\n";
     c.wait();
     EXPECT_EQ(c.native_exit_code() & 0x7f, SIGTERM) << text;
-    EXPECT_NE(text.find("granary-liggghts: signal 15 (Terminated) received; LIGGGHTS so far:"), std::string::npos) << text;
+    EXPECT_NE(text.find("granary-liggghts: signal 15 (Terminated) received; LIGGGHTS so far:"), std::string::npos)
+        << text;
     EXPECT_NE(text.find("about to hang"), std::string::npos) << text;
   }
   o = RunWithLiggghts(dir, FakeLiggghts("hang", "echo 'about to hang'\nexec sleep 1000"), {"--silence-limit", "1"});

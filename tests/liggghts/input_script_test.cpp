@@ -29,7 +29,8 @@ std::vector<double> NumbersAfter(const std::string& line, const std::string& key
 }
 
 TEST(InputScript, BaseMeshesLeaveAGapAtEachOutletAndCountersStayBelowTheirOwnOutlet) {
-  const RunSpec spec = Spec({{"silo", {{"width", 60}, {"base_outlets", {{{"center", -10}, {"width", 6}}, {{"center", 8}, {"width", 4}}}}}}});
+  const RunSpec spec = Spec(
+      {{"silo", {{"width", 60}, {"base_outlets", {{{"center", -10}, {"width", 6}}, {{"center", 8}, {"width", 4}}}}}}});
   const SiloSetup s = MakeSetup(spec);
   ASSERT_EQ(s.discharge_meshes.size(), 3u);
   EXPECT_DOUBLE_EQ(s.discharge_meshes[0].x0, -30);
@@ -51,8 +52,10 @@ TEST(InputScript, BaseMeshesLeaveAGapAtEachOutletAndCountersStayBelowTheirOwnOut
 }
 
 TEST(InputScript, ASideOutletTurnsItsWallIntoMeshPiecesAroundTheHole) {
-  const RunSpec spec = Spec({{"silo", {{"width", 40}, {"base_outlets", json::array()},
-                                       {"side_outlets", {{{"wall", "right"}, {"bottom", 3}, {"width", 8}}}}}},
+  const RunSpec spec = Spec({{"silo",
+                              {{"width", 40},
+                               {"base_outlets", json::array()},
+                               {"side_outlets", {{{"wall", "right"}, {"bottom", 3}, {"width", 8}}}}}},
                              {"discharge", {{"mode", "remove"}}}});
   const SiloSetup s = MakeSetup(spec, 50.0);
   EXPECT_TRUE(s.wall_lo_primitive);
@@ -64,7 +67,7 @@ TEST(InputScript, ASideOutletTurnsItsWallIntoMeshPiecesAroundTheHole) {
   EXPECT_DOUBLE_EQ(right[0].y0, 0);
   EXPECT_DOUBLE_EQ(right[0].y1, 3);
   EXPECT_DOUBLE_EQ(right[1].y0, 11);
-  EXPECT_LT(right[1].y1, 50.0);  // inside the bed's box
+  EXPECT_LT(right[1].y1, 50.0);      // inside the bed's box
   ASSERT_EQ(s.counters.size(), 2u);  // outside the wall and below the base level
   for (const Counter& c : s.counters) EXPECT_EQ(c.outlet, 0);
   const std::string discharge = DischargeScript(spec, s, {});
@@ -98,9 +101,17 @@ TEST(InputScript, ReinjectWithASideOutletIsASpecErrorNamingTheMode) {
 }
 
 TEST(InputScript, ContactLawMapsOntoHertzStiffnessWithWallFriction) {
-  const RunSpec spec = Spec({{"contact", {{"kn", 3e6}, {"kt", 1e6}, {"gamma_n", 500}, {"gamma_t", 200}, {"mu", 0.3},
-                                          {"mu_wall", 0.7}, {"clip_normal", true}}},
-                             {"bodies", {{"species", {{{"shape", "disc"}, {"fraction", 0.5}}, {{"shape", "dumbbell"}, {"fraction", 0.5}}}}}}});
+  const RunSpec spec =
+      Spec({{"contact",
+             {{"kn", 3e6},
+              {"kt", 1e6},
+              {"gamma_n", 500},
+              {"gamma_t", 200},
+              {"mu", 0.3},
+              {"mu_wall", 0.7},
+              {"clip_normal", true}}},
+            {"bodies",
+             {{"species", {{{"shape", "disc"}, {"fraction", 0.5}}, {{"shape", "dumbbell"}, {"fraction", 0.5}}}}}}});
   const SiloSetup s = MakeSetup(spec);
   EXPECT_EQ(s.wall_type, 3);
   const std::string bed = BedScript(spec, s);
@@ -108,18 +119,22 @@ TEST(InputScript, ContactLawMapsOntoHertzStiffnessWithWallFriction) {
             std::string::npos);
   EXPECT_NE(bed.find("gammat peratomtypepair 3 200 200 200"), std::string::npos);
   // Body-body pairs mu, any pair with the wall type mu_wall.
-  EXPECT_NE(bed.find("coefficientFriction peratomtypepair 3 0.29999999999999999 0.29999999999999999 0.69999999999999996 "
-                     "0.29999999999999999 0.29999999999999999 0.69999999999999996 0.69999999999999996 "
-                     "0.69999999999999996 0.69999999999999996"),
-            std::string::npos);
+  EXPECT_NE(
+      bed.find("coefficientFriction peratomtypepair 3 0.29999999999999999 0.29999999999999999 0.69999999999999996 "
+               "0.29999999999999999 0.29999999999999999 0.69999999999999996 0.69999999999999996 "
+               "0.69999999999999996 0.69999999999999996"),
+      std::string::npos);
   EXPECT_NE(bed.find("pair_style gran model hertz/stiffness tangential history tangential_damping on limitForce on"),
             std::string::npos);
   EXPECT_NE(bed.find("timestep 0.0001"), std::string::npos);
 }
 
 TEST(InputScript, ClumpTemplatesCarryTheNativeMassAndInertiaInEveryOrientation) {
-  const RunSpec spec = Spec({{"bodies", {{"count", 100}, {"species", {{{"shape", "snowman"}, {"big_diameter", 1.6}, {"fraction", 0.5}},
-                                                                       {{"shape", "rod"}, {"n", 4}, {"diameter", 0.707}, {"fraction", 0.5}}}}}}});
+  const RunSpec spec = Spec({{"bodies",
+                              {{"count", 100},
+                               {"species",
+                                {{{"shape", "snowman"}, {"big_diameter", 1.6}, {"fraction", 0.5}},
+                                 {{"shape", "rod"}, {"n", 4}, {"diameter", 0.707}, {"fraction", 0.5}}}}}}});
   const SiloSetup s = MakeSetup(spec);
   ASSERT_EQ(s.template_count, 12 + 6);  // snowmen over 360 degrees, rods over 180
   for (std::size_t k = 0; k < 2; ++k) {
@@ -134,7 +149,7 @@ TEST(InputScript, ClumpTemplatesCarryTheNativeMassAndInertiaInEveryOrientation) 
       const std::vector<double> I = NumbersAfter(line, "inertia_tensor", 6);  // xx xy xz yy yz zz
       EXPECT_NEAR(I[5], tp.inertia, 1e-12);
       EXPECT_NEAR(I[0] + I[3], tp.inertia + own, 1e-9);  // perpendicular-axis theorem, any rotation
-      EXPECT_GT(I[0] * I[3] - I[1] * I[1], 0);          // positive definite
+      EXPECT_GT(I[0] * I[3] - I[1] * I[1], 0);           // positive definite
       EXPECT_NE(line.find("fflag on on off tflag off off on"), std::string::npos);
     }
     EXPECT_EQ(seen, k == 0 ? 12 : 6);
@@ -142,7 +157,9 @@ TEST(InputScript, ClumpTemplatesCarryTheNativeMassAndInertiaInEveryOrientation) 
 }
 
 TEST(InputScript, DistributionWeightsAreMassBasedSoNumberFractionsComeOut) {
-  const RunSpec spec = Spec({{"bodies", {{"species", {{{"shape", "disc"}, {"fraction", 0.25}}, {{"shape", "dumbbell"}, {"fraction", 0.75}}}}}}});
+  const RunSpec spec =
+      Spec({{"bodies",
+             {{"species", {{{"shape", "disc"}, {"fraction", 0.25}}, {{"shape", "dumbbell"}, {"fraction", 0.75}}}}}}});
   const SiloSetup s = MakeSetup(spec);
   const std::string dist = s.template_lines.back();
   // 1 disc template (mass pi/4, weight 0.25 pi/4) and 6 dumbbell templates (mass pi/2, 0.75/6 each).
@@ -156,7 +173,8 @@ TEST(InputScript, DistributionWeightsAreMassBasedSoNumberFractionsComeOut) {
 TEST(InputScript, NoStringFromTheSpecReachesTheScripts) {
   // Line breaks are a spec error in names; substitutions and commands are not.
   const std::string hostile = "x; shell touch /tmp/granary-pwned ${HOME} v_x $(id)";
-  const RunSpec spec = Spec({{"run_id", "r$(touch /tmp/granary-pwned)"}, {"bodies", {{"species", {{{"shape", "dumbbell"}, {"name", hostile}}}}}}});
+  const RunSpec spec = Spec({{"run_id", "r$(touch /tmp/granary-pwned)"},
+                             {"bodies", {{"species", {{{"shape", "dumbbell"}, {"name", hostile}}}}}}});
   const SiloSetup s = MakeSetup(spec);
   for (const std::string& script : {BedScript(spec, s), DischargeScript(spec, s, {})}) {
     EXPECT_EQ(script.find("pwned"), std::string::npos);

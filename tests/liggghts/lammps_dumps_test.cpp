@@ -108,11 +108,15 @@ void RerunInLammps(const fs::path& dir, const std::string& frames, int types) {
   ASSERT_FALSE(lmp.empty()) << "LAMMPS (lmp) not found: install Debian's package lammps (scripts/setup.sh does)";
   std::ofstream(work / "rerun.in")
       << "units lj\natom_style sphere\nboundary f f p\n"
-         "region box block -1 1 -1 1 -0.5 0.5\ncreate_box " << types << " box\n"
+         "region box block -1 1 -1 1 -0.5 0.5\ncreate_box "
+      << types
+      << " box\n"
          // Discs of diameter 1 (atom_style sphere's default); the pair style only makes LAMMPS
          // build the neighbour lists that compute pair/local reports. Its cutoff comes from
          // the radii of the atoms present at the first run, so the first frame is read first.
-         "read_dump ../" << frames << " 0 x y z box yes add keep\n"
+         "read_dump ../"
+      << frames
+      << " 0 x y z box yes add keep\n"
          "pair_style gran/hooke 1.0 NULL 0.0 NULL 0.0 0\npair_coeff * *\ncomm_modify vel yes\n"
          "neighbor 0.3 bin\nthermo_modify lost ignore\n"
          "compute touching all property/local patom1 patom2\ncompute distance all pair/local dist\n"
@@ -120,16 +124,19 @@ void RerunInLammps(const fs::path& dir, const std::string& frames, int types) {
          "dump_modify atoms time yes sort id format float %.17g\n"
          "dump contacts all local 1 contacts.dump c_touching[1] c_touching[2] c_distance\n"
          "dump_modify contacts time yes format float %.17g\n"
-         "rerun ../" << frames << " dump x y z vx vy vz box yes purge yes replace no add keep\n";
+         "rerun ../"
+      << frames << " dump x y z vx vy vz box yes purge yes replace no add keep\n";
   bp::ipstream out;
-  bp::child c(lmp, "-in", "rerun.in", "-log", "log.lammps", (bp::std_out & bp::std_err) > out, bp::start_dir(work.string()));
+  bp::child c(lmp, "-in", "rerun.in", "-log", "log.lammps", (bp::std_out & bp::std_err) > out,
+              bp::start_dir(work.string()));
   std::string all, line;
   while (std::getline(out, line)) all += line + "\n";
   c.wait();
   ASSERT_EQ(c.exit_code(), 0) << all;
 }
 
-fs::path MakeRun(const std::string& engine, const std::string& name, bool compress = false, const char* format = "text") {
+fs::path MakeRun(const std::string& engine, const std::string& name, bool compress = false,
+                 const char* format = "text") {
   const fs::path dir = kTmp / name;
   fs::remove_all(dir);
   fs::create_directories(dir);
@@ -141,10 +148,17 @@ fs::path MakeRun(const std::string& engine, const std::string& name, bool compre
                   {"bodies",
                    {{"count", 60},
                     {"species", {{{"shape", "disc"}, {"fraction", 0.5}}, {{"shape", "dumbbell"}, {"fraction", 0.5}}}}}},
-                  {"bed", {{"settle_ke_per_body", 1e-5}, {"max_settle_time", 20}, {"cache_file", (kTmp / "beds_lammps" / "bed.json").string()}}},
+                  {"bed",
+                   {{"settle_ke_per_body", 1e-5},
+                    {"max_settle_time", 20},
+                    {"cache_file", (kTmp / "beds_lammps" / "bed.json").string()}}},
                   {"discharge", {{"mode", "remove"}, {"max_time", 4}, {"clog_window", 3}}},
-                  {"output", {{"checkpoint_interval", 0}, {"frame_interval", 0.5}, {"contact_forces", true}, {"compress", compress},
-                              {"format", format}}}};
+                  {"output",
+                   {{"checkpoint_interval", 0},
+                    {"frame_interval", 0.5},
+                    {"contact_forces", true},
+                    {"compress", compress},
+                    {"format", format}}}};
   std::ofstream(dir / "run.json") << j.dump(2);
   return dir;
 }
@@ -225,7 +239,8 @@ void LammpsReadsTheRun(const fs::path& dir, double contact_tolerance) {
     // margin for contacts within rounding of the written positions.
     ASSERT_EQ(pairs[k].step, ours.timestep);
     std::set<std::pair<long long, long long>> lammps_sure, lammps_maybe;
-    const int c_a = pairs[k].Col("c_touching[1]"), c_b = pairs[k].Col("c_touching[2]"), c_d = pairs[k].Col("c_distance");
+    const int c_a = pairs[k].Col("c_touching[1]"), c_b = pairs[k].Col("c_touching[2]"),
+              c_d = pairs[k].Col("c_distance");
     for (const auto& row : pairs[k].rows) {
       const long long bi = by_id.at(std::llround(row[c_a]))->mol, bj = by_id.at(std::llround(row[c_b]))->mol;
       if (bi == bj) continue;
@@ -242,14 +257,17 @@ void LammpsReadsTheRun(const fs::path& dir, double contact_tolerance) {
       // The rows' disc centres are discs of those bodies where LAMMPS put them.
       auto at = [&](double x, double y, long long body) {
         for (const Disc& d : ours.discs)
-          if (d.mol == body && std::hypot(where.at(d.id).first - x, where.at(d.id).second - y) < contact_tolerance) return true;
+          if (d.mol == body && std::hypot(where.at(d.id).first - x, where.at(d.id).second - y) < contact_tolerance)
+            return true;
         return false;
       };
       EXPECT_TRUE(at(c.xi, c.yi, c.body_i)) << "body " << c.body_i << " has no disc at " << c.xi << " " << c.yi;
       EXPECT_TRUE(at(c.xj, c.yj, c.body_j)) << "body " << c.body_j << " has no disc at " << c.xj << " " << c.yj;
     }
-    for (const auto& p : lammps_sure) EXPECT_TRUE(ours_pairs.count(p)) << "LAMMPS: bodies " << p.first << ", " << p.second << " touch";
-    for (const auto& p : ours_pairs) EXPECT_TRUE(lammps_maybe.count(p)) << "contacts.dump: bodies " << p.first << ", " << p.second << " touch";
+    for (const auto& p : lammps_sure)
+      EXPECT_TRUE(ours_pairs.count(p)) << "LAMMPS: bodies " << p.first << ", " << p.second << " touch";
+    for (const auto& p : ours_pairs)
+      EXPECT_TRUE(lammps_maybe.count(p)) << "contacts.dump: bodies " << p.first << ", " << p.second << " touch";
     touching_pairs += static_cast<int>(lammps_sure.size());
   }
   EXPECT_GT(touching_pairs, 100) << "a settled bed of 60 bodies has contacts";
@@ -332,10 +350,14 @@ TEST(LammpsReadsTheDumps, DiameterOfEveryDiscFromFramesData) {
   std::string line, input;
   bool marker = false, inside = false;
   while (std::getline(doc, line)) {
-    if (line == "<!-- rerun-input -->") marker = true;
-    else if (marker && !inside && line == "```") inside = true;
-    else if (inside && line == "```") break;
-    else if (inside) input += line + "\n";
+    if (line == "<!-- rerun-input -->")
+      marker = true;
+    else if (marker && !inside && line == "```")
+      inside = true;
+    else if (inside && line == "```")
+      break;
+    else if (inside)
+      input += line + "\n";
   }
   ASSERT_FALSE(input.empty()) << "docs/run-directory.md has no rerun input";
   std::ofstream(dir / "rerun.in") << input;
@@ -384,7 +406,8 @@ TEST(LammpsReadsTheDumps, DiameterOfEveryDiscFromFramesData) {
     // The pairs of bodies LAMMPS finds touching (distance below the sum of their radii) are
     // the pair rows of contacts.dump.
     std::set<std::pair<long long, long long>> sure, maybe, ours_pairs;
-    const int c_a = pairs[k].Col("c_touching[1]"), c_b = pairs[k].Col("c_touching[2]"), c_d = pairs[k].Col("c_distance");
+    const int c_a = pairs[k].Col("c_touching[1]"), c_b = pairs[k].Col("c_touching[2]"),
+              c_d = pairs[k].Col("c_distance");
     for (const auto& row : pairs[k].rows) {
       const Disc& a = *by_id.at(std::llround(row[c_a]));
       const Disc& b = *by_id.at(std::llround(row[c_b]));
@@ -395,8 +418,10 @@ TEST(LammpsReadsTheDumps, DiameterOfEveryDiscFromFramesData) {
     }
     for (const ContactRow& r : contacts[k].contacts)
       if (r.body_j >= 0) ours_pairs.insert(std::minmax(r.body_i, r.body_j));
-    for (const auto& p : sure) EXPECT_TRUE(ours_pairs.count(p)) << "LAMMPS: bodies " << p.first << ", " << p.second << " touch";
-    for (const auto& p : ours_pairs) EXPECT_TRUE(maybe.count(p)) << "contacts.dump: bodies " << p.first << ", " << p.second << " touch";
+    for (const auto& p : sure)
+      EXPECT_TRUE(ours_pairs.count(p)) << "LAMMPS: bodies " << p.first << ", " << p.second << " touch";
+    for (const auto& p : ours_pairs)
+      EXPECT_TRUE(maybe.count(p)) << "contacts.dump: bodies " << p.first << ", " << p.second << " touch";
     touching += static_cast<int>(sure.size());
   }
   EXPECT_EQ(radii, (std::set<double>{0.3, 0.35, 0.5, 0.6})) << "two disc sizes and the snowmen's two";

@@ -36,7 +36,8 @@ json Box(const double (&box)[3][2]) {
 
 json FrameJson(const rd::Frame& f) {
   json discs = json::array(), bodies = json::array();
-  for (const rd::Disc& d : f.discs) discs.push_back({d.id, d.mol, d.type, d.x, d.y, d.radius, d.mass, d.vx, d.vy, d.omega});
+  for (const rd::Disc& d : f.discs)
+    discs.push_back({d.id, d.mol, d.type, d.x, d.y, d.radius, d.mass, d.vx, d.vy, d.omega});
   for (const rd::Body& b : rd::BodiesOf(f.discs))
     bodies.push_back({b.id, b.type, b.n_discs, b.mass, b.x, b.y, b.vx, b.vy, b.omega, b.inertia, b.theta, b.area});
   return {{"timestep", f.timestep}, {"time", f.time}, {"box", Box(f.box)}, {"discs", discs}, {"bodies", bodies}};
@@ -44,7 +45,8 @@ json FrameJson(const rd::Frame& f) {
 
 json ContactJson(const rd::ContactFrame& f) {
   json rows = json::array();
-  for (const rd::ContactRow& c : f.contacts) rows.push_back({c.body_i, c.body_j, c.xi, c.yi, c.xj, c.yj, c.cx, c.cy, c.fx, c.fy});
+  for (const rd::ContactRow& c : f.contacts)
+    rows.push_back({c.body_i, c.body_j, c.xi, c.yi, c.xj, c.yj, c.cx, c.cy, c.fx, c.fy});
   return {{"timestep", f.timestep}, {"time", f.time}, {"box", Box(f.box)}, {"contacts", rows}};
 }
 
@@ -77,9 +79,12 @@ int Bench(const fs::path& dir, int repeat) {
     std::cerr << dir.string() << ": no frames with contacts\n";
     return 1;
   }
-  std::cout << json{{"frames", frames}, {"discs_per_frame", discs / frames}, {"contacts_per_frame", contacts / frames},
+  std::cout << json{{"frames", frames},
+                    {"discs_per_frame", discs / frames},
+                    {"contacts_per_frame", contacts / frames},
                     {"seconds_per_frame", best / static_cast<double>(frames)},
-                    {"cpu_seconds_per_frame", best_cpu / static_cast<double>(frames)}, {"repeat", repeat}}
+                    {"cpu_seconds_per_frame", best_cpu / static_cast<double>(frames)},
+                    {"repeat", repeat}}
                    .dump()
             << "\n";
   return 0;

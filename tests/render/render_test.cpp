@@ -26,7 +26,8 @@ namespace bp = boost::process;
 rundir::Frame TestFrame() {
   rundir::Frame f;
   // A dumbbell (body 0, species 1) lying on the base and a disc (body 1, species 2, r = 0.7).
-  f.discs = {{1, 0, 1, -1.0, 0.5, 0.5, 0.785, 0, 0, 0}, {2, 0, 1, 0.0, 0.5, 0.5, 0.785, 0, 0, 0},
+  f.discs = {{1, 0, 1, -1.0, 0.5, 0.5, 0.785, 0, 0, 0},
+             {2, 0, 1, 0.0, 0.5, 0.5, 0.785, 0, 0, 0},
              {3, 1, 2, 2.0, 3.0, 0.7, 1.54, 0, -2, 0}};
   return f;
 }
@@ -153,7 +154,10 @@ fs::path EngineRun(const std::string& name, double outlet) {
       {"seed", 3},
       {"silo", {{"width", 10}, {"base_outlets", {{{"center", 0}, {"width", outlet}}}}}},
       {"bodies", {{"count", 50}, {"species", {{{"shape", "dumbbell"}}}}}},
-      {"bed", {{"settle_ke_per_body", 1e-4}, {"max_settle_time", 10}, {"cache_file", (dir.parent_path() / "bed.json").string()}}},
+      {"bed",
+       {{"settle_ke_per_body", 1e-4},
+        {"max_settle_time", 10},
+        {"cache_file", (dir.parent_path() / "bed.json").string()}}},
       {"discharge", {{"mode", "remove"}, {"max_time", 3}, {"clog_window", 1}}},
       {"output", {{"frame_interval", 0.25}, {"contact_forces", true}, {"checkpoint_interval", 0}}}};
   std::ofstream(dir / "run.json") << spec.dump(2);
@@ -172,7 +176,8 @@ TEST(RenderVerbs, SnapshotAndMovieOfARun) {
   Outcome o = Campaign({"snapshot", run.string(), "--first", "--out", (tmp / "first.png").string()});
   ASSERT_EQ(o.code, 0) << o.output;
   EXPECT_NE(o.output.find("t = 0 "), std::string::npos) << o.output;
-  o = Campaign({"snapshot", run.string(), "--time", "1.1", "--color", "force", "--forces", "--out", (tmp / "t1.svg").string()});
+  o = Campaign(
+      {"snapshot", run.string(), "--time", "1.1", "--color", "force", "--forces", "--out", (tmp / "t1.svg").string()});
   ASSERT_EQ(o.code, 0) << o.output;
   EXPECT_NE(o.output.find("t = 1 "), std::string::npos) << "nearest frame to 1.1: " << o.output;
   std::ifstream in(tmp / "t1.svg");
@@ -211,7 +216,8 @@ TEST(RenderVerbs, TheClogOfARunThatClogged) {
   const fs::path run = EngineRun("clogged", 1.5);
   const nlohmann::json summary = nlohmann::json::parse(std::ifstream(run / "summary.json"));
   ASSERT_EQ(summary["end_reason"], "clogged");
-  const Outcome o = Campaign({"snapshot", run.string(), "--clog", "1", "--out", (run.parent_path() / "clog.png").string()});
+  const Outcome o =
+      Campaign({"snapshot", run.string(), "--clog", "1", "--out", (run.parent_path() / "clog.png").string()});
   ASSERT_EQ(o.code, 0) << o.output;
   char t[32];
   std::snprintf(t, sizeof t, "t = %.4g ", summary["t_end"].get<double>());

@@ -31,9 +31,9 @@ TEST(StaleTemporaries, OnlyOldFilesOfDeadProcessesAreRemoved) {
   const std::string dead = std::to_string(DeadPid());
   const std::string alive = std::to_string(::getppid());
   const auto old = fs::file_time_type::clock::now() - std::chrono::hours(1);
-  for (const std::string& name : std::vector<std::string>{"flow.json.tmp." + dead, "progress.json.tmp." + dead,
-                                                          "fresh.json.tmp." + dead, "live.json.tmp." + alive,
-                                                          "notmine.tmp.x12", "flow.json"}) {
+  for (const std::string& name :
+       std::vector<std::string>{"flow.json.tmp." + dead, "progress.json.tmp." + dead, "fresh.json.tmp." + dead,
+                                "live.json.tmp." + alive, "notmine.tmp.x12", "flow.json"}) {
     WriteFile(t.Path() / name, "{");
     if (name.rfind("fresh", 0) != 0) fs::last_write_time(t.Path() / name, old);
   }

@@ -80,11 +80,11 @@ TEST(Gsd, TheHeaderAndIndexAreTheDocumentedFileLayer) {
   std::uint32_t versions[2];
   std::memcpy(head, bytes.data(), sizeof head);
   std::memcpy(versions, bytes.data() + 40, sizeof versions);
-  EXPECT_EQ(head[0], 0x65DF65DF65DF65DFULL);                  // magic
-  EXPECT_EQ(versions[0], (1u << 16) | 4u);                    // schema hoomd 1.4
-  EXPECT_EQ(versions[1], 2u << 16);                            // file layer 2.0
-  EXPECT_EQ(std::string(bytes.data() + 48, 7), "Granary");     // application
-  EXPECT_EQ(std::string(bytes.data() + 112), "hoomd");         // schema
+  EXPECT_EQ(head[0], 0x65DF65DF65DF65DFULL);                // magic
+  EXPECT_EQ(versions[0], (1u << 16) | 4u);                  // schema hoomd 1.4
+  EXPECT_EQ(versions[1], 2u << 16);                         // file layer 2.0
+  EXPECT_EQ(std::string(bytes.data() + 48, 7), "Granary");  // application
+  EXPECT_EQ(std::string(bytes.data() + 112), "hoomd");      // schema
   // Index entries (32 bytes) sorted by frame, then by name id, ended by location 0.
   std::vector<gsd::IndexEntry> index(head[2]);
   std::memcpy(index.data(), bytes.data() + head[1], index.size() * sizeof(gsd::IndexEntry));
@@ -173,7 +173,8 @@ TEST(Gsd, ContactsRoundTripAsFloat32) {
   c.box[0][1] = 13.25;
   c.box[1][0] = -7;
   c.box[1][1] = 41.7;
-  c.contacts = {{0, 1, 2.1, 4.0, 2.9, 4.3, 2.5, 4.15, 1.25e-3, -3.75}, {1, -1, -3.0, 0.35, -3.0, 0.0, -3.0, 0.0, 0.0, 12.5}};
+  c.contacts = {{0, 1, 2.1, 4.0, 2.9, 4.3, 2.5, 4.15, 1.25e-3, -3.75},
+                {1, -1, -3.0, 0.35, -3.0, 0.0, -3.0, 0.0, 0.0, 12.5}};
   w.Write(c);
   ContactFrame empty = c;
   empty.timestep = 500;
@@ -358,7 +359,8 @@ TEST(Gsd, ANewerFileLayerIsRefusedByName) {
     FrameReader r(file);
     FAIL() << "read a version 3 file";
   } catch (const ReadError& e) {
-    EXPECT_EQ(std::string(e.what()), file.string() + ": GSD file layer version 3.0 is newer than this build reads (1.x, 2.x)");
+    EXPECT_EQ(std::string(e.what()),
+              file.string() + ": GSD file layer version 3.0 is newer than this build reads (1.x, 2.x)");
   }
 }
 

@@ -83,8 +83,8 @@ TEST(Manifest, WriteDoneRecordsSizesChecksumsAndCounts) {
   const auto m = ReadManifest(t.Path());
   ASSERT_TRUE(m.has_value());
   EXPECT_EQ(m->format, kManifestFormat);
-  for (const char* name : {kRunSpecFile, kSummaryFile, kEventsFile, kFramesFile, kContactsFile, kClogFramesFile,
-                           kClogContactsFile}) {
+  for (const char* name :
+       {kRunSpecFile, kSummaryFile, kEventsFile, kFramesFile, kContactsFile, kClogFramesFile, kClogContactsFile}) {
     ASSERT_TRUE(m->files.count(name)) << name;
     EXPECT_EQ(m->files.at(name).size, fs::file_size(t.Path() / name)) << name;
     EXPECT_EQ(m->files.at(name).xxh3, FileXxh3(t.Path() / name)) << name;
@@ -142,10 +142,12 @@ TEST(Manifest, FramesCutInHalfOrAtAFrameBoundaryAreDamaged) {
     EXPECT_EQ(v.integrity, Integrity::kDamaged);
     ASSERT_FALSE(v.problems.empty());
     EXPECT_EQ(v.problems[0].file, kFramesFile);
-    EXPECT_NE(v.Text().find(std::to_string(cut) + " bytes, the manifest records " + std::to_string(size) + " (cut short)"),
-              std::string::npos)
+    EXPECT_NE(
+        v.Text().find(std::to_string(cut) + " bytes, the manifest records " + std::to_string(size) + " (cut short)"),
+        std::string::npos)
         << v.Text();
-    EXPECT_NE(v.Text().find(boundary ? "2 frames readable, the manifest records 4" : "frames readable, the manifest records 4"),
+    EXPECT_NE(v.Text().find(boundary ? "2 frames readable, the manifest records 4"
+                                     : "frames readable, the manifest records 4"),
               std::string::npos)
         << v.Text();
     // The cheapest check (status) sees it too.

@@ -130,8 +130,8 @@ TEST(Readers, MalformedFrameNamesFileAndLine) {
   TempDir dir;
   const auto file = dir.Path() / "frames.dump";
   WriteFile(file,
-             "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id mol x y\n"
-             "1 0 abc 2\n");
+            "ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id mol x y\n"
+            "1 0 abc 2\n");
   FrameReader reader(file);
   Frame f;
   try {
@@ -157,9 +157,9 @@ TEST(Readers, EventsWithExtraColumnsAndOrder) {
   TempDir dir;
   const auto file = dir.Path() / "events.csv";
   WriteFile(file,
-             "time,body,shape,mass,outlet,speed\n"
-             "1.5,7,dumbbell,1.5707963267948966,1,0.3\n"
-             "0.5,3,disc,1.5707963267948966,0,0.2\r\n");
+            "time,body,shape,mass,outlet,speed\n"
+            "1.5,7,dumbbell,1.5707963267948966,1,0.3\n"
+            "0.5,3,disc,1.5707963267948966,0,0.2\r\n");
   const auto ev = ReadEvents(file);
   ASSERT_EQ(ev.size(), 2u);
   EXPECT_DOUBLE_EQ(ev[0].time, 0.5);
@@ -194,7 +194,7 @@ TEST(Readers, MalformedEventsNameFileAndLine) {
 TEST(Readers, SummaryAndRunDirectory) {
   TempDir dir;
   WriteFile(dir.Path() / "summary.json",
-             R"({"engine":"native","engine_version":"0.1.0","granary_commit":"abc","run_id":"r1",
+            R"({"engine":"native","engine_version":"0.1.0","granary_commit":"abc","run_id":"r1",
                  "spec":{"discharge":{"mode":"remove"}},"end_reason":"clogged","bodies":100,
                  "exited":40,"remaining":60,"exits_per_outlet":[40],"t_end":12.5,"new_key":[1,2]})");
   WriteFile(dir.Path() / "events.csv", "time,body,shape,mass,outlet\n0.1,1,disc,1,0\n");
@@ -221,7 +221,8 @@ TEST(Readers, SummaryAndRunDirectory) {
 // LAMMPS writes ITEM: UNITS and ITEM: TIME before ITEM: TIMESTEP (as the engines now do); run
 // directories of earlier Granary versions have TIME after TIMESTEP. Both read alike.
 std::string InLammpsOrder(std::string dump, bool units) {
-  for (std::size_t p = dump.find("ITEM: TIMESTEP\n"); p != std::string::npos; p = dump.find("ITEM: TIMESTEP\n", p + 1)) {
+  for (std::size_t p = dump.find("ITEM: TIMESTEP\n"); p != std::string::npos;
+       p = dump.find("ITEM: TIMESTEP\n", p + 1)) {
     const std::size_t time = dump.find("ITEM: TIME\n", p);
     const std::size_t end = dump.find('\n', time + 11) + 1;
     const std::string item = dump.substr(time, end - time);
@@ -235,7 +236,8 @@ std::string InLammpsOrder(std::string dump, bool units) {
 TEST(Readers, FramesInLammpsOrderReadAsInTheOldOrder) {
   TempDir dir;
   const std::string lammps = InLammpsOrder(kFrames, true);
-  ASSERT_EQ(lammps.rfind("ITEM: UNITS\nlj\nITEM: TIME\n0.01\nITEM: TIMESTEP\n100\nITEM: NUMBER OF ATOMS\n3\n", 0), 0u) << lammps;
+  ASSERT_EQ(lammps.rfind("ITEM: UNITS\nlj\nITEM: TIME\n0.01\nITEM: TIMESTEP\n100\nITEM: NUMBER OF ATOMS\n3\n", 0), 0u)
+      << lammps;
   WriteFile(dir.Path() / "old.dump", kFrames);
   WriteFile(dir.Path() / "lammps.dump", lammps);
   FrameReader old_order(dir.Path() / "old.dump"), lammps_order(dir.Path() / "lammps.dump");
@@ -255,7 +257,8 @@ TEST(Readers, FramesInLammpsOrderReadAsInTheOldOrder) {
   }
   EXPECT_FALSE(lammps_order.Next(b));
   // A time that is not a number is an error wherever it stands.
-  WriteFile(dir.Path() / "bad.dump", "ITEM: TIME\nsoon\nITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n0\nITEM: ATOMS id mol x y\n");
+  WriteFile(dir.Path() / "bad.dump",
+            "ITEM: TIME\nsoon\nITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n0\nITEM: ATOMS id mol x y\n");
   FrameReader bad(dir.Path() / "bad.dump");
   try {
     bad.Next(b);
@@ -269,11 +272,11 @@ TEST(Readers, Contacts) {
   TempDir dir;
   const auto file = dir.Path() / "contacts.dump";
   WriteFile(file,
-             "ITEM: TIMESTEP\n5\nITEM: TIME\n0.5\nITEM: NUMBER OF ENTRIES\n2\n"
-             "ITEM: BOX BOUNDS ff ff pp\n-50 50\n-5 160\n-0.5 0.5\n"
-             "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n"
-             "0 1 0 0 1 0 0.5 0 -2 0\n"
-             "1 -1 1 0.5 1 0 1 0 0 3\n");
+            "ITEM: TIMESTEP\n5\nITEM: TIME\n0.5\nITEM: NUMBER OF ENTRIES\n2\n"
+            "ITEM: BOX BOUNDS ff ff pp\n-50 50\n-5 160\n-0.5 0.5\n"
+            "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n"
+            "0 1 0 0 1 0 0.5 0 -2 0\n"
+            "1 -1 1 0.5 1 0 1 0 0 3\n");
   ContactReader reader(file);
   ContactFrame f;
   ASSERT_TRUE(reader.Next(f));
@@ -287,10 +290,10 @@ TEST(Readers, Contacts) {
 
   // The same frame as LAMMPS' dump local writes it: TIME before TIMESTEP.
   WriteFile(file,
-             "ITEM: TIME\n0.5\nITEM: TIMESTEP\n5\nITEM: NUMBER OF ENTRIES\n1\n"
-             "ITEM: BOX BOUNDS ff ff pp\n-50 50\n-5 160\n-0.5 0.5\n"
-             "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n"
-             "0 1 0 0 1 0 0.5 0 -2 0\n");
+            "ITEM: TIME\n0.5\nITEM: TIMESTEP\n5\nITEM: NUMBER OF ENTRIES\n1\n"
+            "ITEM: BOX BOUNDS ff ff pp\n-50 50\n-5 160\n-0.5 0.5\n"
+            "ITEM: ENTRIES body_i body_j xi yi xj yj cx cy fx fy\n"
+            "0 1 0 0 1 0 0.5 0 -2 0\n");
   ContactReader lammps_order(file);
   ASSERT_TRUE(lammps_order.Next(f));
   EXPECT_EQ(f.timestep, 5);

@@ -101,7 +101,8 @@ TEST(RunSpecErrorTest, BadEnum) {
 TEST(RunSpecTest, ReinjectPositionIsInTheResolvedSpecOnlyWhenNotTheDefault) {
   // Run ids planned before the option existed stay the same.
   EXPECT_FALSE(RunSpec::FromJson(json::object()).ToJson()["discharge"].contains("reinject_position"));
-  const RunSpec p = RunSpec::FromJson(json::parse(R"({"discharge": {"mode": "reinject", "reinject_position": "periodic"}})"));
+  const RunSpec p =
+      RunSpec::FromJson(json::parse(R"({"discharge": {"mode": "reinject", "reinject_position": "periodic"}})"));
   EXPECT_EQ(p.discharge.reinject_position, ReinjectPosition::kPeriodic);
   EXPECT_EQ(p.ToJson()["discharge"]["reinject_position"], "periodic");
   EXPECT_EQ(RunSpec::FromJson(p.ToJson()).ToJson(), p.ToJson());
@@ -170,7 +171,8 @@ TEST(RunSpecTest, PeriodicHeadroomIsInTheResolvedSpecOnlyWhenNotTheDefault) {
 
 TEST(RunSpecErrorTest, WhatTheLiggghtsBackendCannotDoIsRefusedAtPlanning) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "liggghts", "discharge": {"mode": "reinject"},
-    "silo": {"side_outlets": [{"wall": "right", "bottom": 3, "width": 5}]}})")).substr(0, 40),
+    "silo": {"side_outlets": [{"wall": "right", "bottom": 3, "width": 5}]}})"))
+                .substr(0, 40),
             "/discharge/mode: the LIGGGHTS backend re");
   // The same specs are fine on the native engine.
   EXPECT_NO_THROW(RunSpec::FromJson(json::parse(R"({"discharge": {"mode": "reinject"},
@@ -203,7 +205,8 @@ TEST(RunSpecErrorTest, SpeciesNameThatWouldBreakEventsCsv) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"name": "a\u0000b"}]}})")),
             "/bodies/species/0/name: must be a non-empty name without commas, control characters or line breaks (it is "
             "a column of events.csv) (got \"a\\u0000b\", which holds U+0000 (NUL))");
-  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"name": ""}]}})")).substr(0, 24), "/bodies/species/0/name: ");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"name": ""}]}})")).substr(0, 24),
+            "/bodies/species/0/name: ");
   EXPECT_NO_THROW(RunSpec::FromJson(json::parse(R"({"bodies": {"species": [{"name": "big disc D=1.4"}]}})")));
 }
 
@@ -225,8 +228,9 @@ TEST(RunSpecErrorTest, OutletOutsideBase) {
 }
 
 TEST(RunSpecErrorTest, OverlappingOutlets) {
-  EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"base_outlets": [{"center": 0, "width": 10}, {"center": 8, "width": 10}]}})")),
-            "/silo/base_outlets/1: overlaps base outlet 0 ([3.0, 13.0] and [-5.0, 5.0])");
+  EXPECT_EQ(
+      ErrorOf(json::parse(R"({"silo": {"base_outlets": [{"center": 0, "width": 10}, {"center": 8, "width": 10}]}})")),
+      "/silo/base_outlets/1: overlaps base outlet 0 ([3.0, 13.0] and [-5.0, 5.0])");
 }
 
 TEST(RunSpecErrorTest, SideOutletAboveWall) {
@@ -245,19 +249,22 @@ TEST(RunSpecErrorTest, ObstacleThroughWallOrBase) {
 TEST(RunSpecErrorTest, BodiesDoNotFit) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"width": 1.5, "base_outlets": [{"width": 1}]}})")),
             "/silo/width: bodies of length 2.0 cannot fit in a silo of width 1.5");
-  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"count": 1000}, "silo": {"width": 10, "height": 10, "base_outlets": [{"width": 2}]}})")),
+  EXPECT_EQ(ErrorOf(json::parse(
+                R"({"bodies": {"count": 1000}, "silo": {"width": 10, "height": 10, "base_outlets": [{"width": 2}]}})")),
             "/silo/height: the bed of 1000 bodies needs a height of about 197.0 (got 10.0)");
 }
 
 TEST(RunSpecErrorTest, FractionsMustSumToOne) {
-  EXPECT_EQ(ErrorOf(json::parse(
-                R"({"bodies": {"species": [{"shape": "disc", "fraction": 0.5}, {"shape": "dumbbell", "fraction": 0.4}]}})")),
-            "/bodies/species: fractions must sum to 1 (got 0.9)");
+  EXPECT_EQ(
+      ErrorOf(json::parse(
+          R"({"bodies": {"species": [{"shape": "disc", "fraction": 0.5}, {"shape": "dumbbell", "fraction": 0.4}]}})")),
+      "/bodies/species: fractions must sum to 1 (got 0.9)");
 }
 
 TEST(RunSpecErrorTest, SnowmanRatio) {
-  EXPECT_EQ(ErrorOf(json::parse(R"({"bodies": {"species": [{"shape": "snowman", "diameter": 1, "big_diameter": 2.5}]}})")),
-            "/bodies/species/0/big_diameter: D_b/D_s must be in [1, 2] (got 2.5/1.0 = 2.5)");
+  EXPECT_EQ(
+      ErrorOf(json::parse(R"({"bodies": {"species": [{"shape": "snowman", "diameter": 1, "big_diameter": 2.5}]}})")),
+      "/bodies/species/0/big_diameter: D_b/D_s must be in [1, 2] (got 2.5/1.0 = 2.5)");
 }
 
 TEST(RunSpecErrorTest, RodNeedsTwoDiscs) {
@@ -269,7 +276,6 @@ TEST(RunSpecErrorTest, NoOutlet) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"silo": {"base_outlets": []}})")),
             "/silo/base_outlets: the silo needs at least one outlet (got none)");
 }
-
 
 // The table is what the validator knows: every key it writes has a row, every default in the
 // table is the parser's default, and every row's type and range is enforced (a value just
@@ -308,7 +314,8 @@ TEST(RunSpecTable, CoversTheCanonicalSpecAndItsDefaults) {
   }
   // Rows inside arrays: the defaults of an element the spec gives empty.
   const json element = RunSpec::FromJson(json::parse(R"({"silo": {"side_outlets": [{}], "obstacles": [{}],
-      "base_outlets": [{}]}, "bodies": {"species": [{}]}})")).ToJson();
+      "base_outlets": [{}]}, "bodies": {"species": [{}]}})"))
+                           .ToJson();
   for (const SpecField& f : RunSpecTable().Fields()) {
     if (f.default_value.is_null() || f.pattern.find('*') == std::string::npos || f.type == SpecType::kObject) continue;
     const json::json_pointer p(Concrete(f.pattern));
@@ -378,7 +385,10 @@ namespace {
 TEST(RunSpecTest, ExtendsByALargerTimeOrClogLimitOnly) {
   const auto resolved = [](double max_time, int max_clogs, double mu = 0.5) {
     json j = {{"run_id", "x"},
-              {"discharge", {{"max_time", max_time}, {"on_clog", "unclog"}, {"unclog", {{"method", "remove_arch"}, {"max_clogs", max_clogs}}}}},
+              {"discharge",
+               {{"max_time", max_time},
+                {"on_clog", "unclog"},
+                {"unclog", {{"method", "remove_arch"}, {"max_clogs", max_clogs}}}}},
               {"contact", {{"mu", mu}}}};
     return RunSpec::FromJson(j).ToJson();
   };

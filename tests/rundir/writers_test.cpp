@@ -101,9 +101,26 @@ TEST(Writers, ContactsAreTheDocumentedDumpAndReadBack) {
 // printf's "%.10g" writes: whole numbers, tiny and huge magnitudes, values that round up to
 // another exponent, negative zero, infinities and NaN, and a million random bit patterns.
 TEST(Writers, DumpNumbersAreThoseOfPrintf) {
-  std::vector<double> values = {0.0, -0.0, 1.0, -1.0, 0.5, 1e-4, 9.9999999995e-5, 9.99999999949e9, 1e10, 123456789012.0,
-                                1e-300, 5e-324, 1.7976931348623157e308, 0.1, 2.0 / 3.0, -49.99999999999, 1e15, 1e16,
-                                std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+  std::vector<double> values = {0.0,
+                                -0.0,
+                                1.0,
+                                -1.0,
+                                0.5,
+                                1e-4,
+                                9.9999999995e-5,
+                                9.99999999949e9,
+                                1e10,
+                                123456789012.0,
+                                1e-300,
+                                5e-324,
+                                1.7976931348623157e308,
+                                0.1,
+                                2.0 / 3.0,
+                                -49.99999999999,
+                                1e15,
+                                1e16,
+                                std::numeric_limits<double>::infinity(),
+                                -std::numeric_limits<double>::infinity(),
                                 std::numeric_limits<double>::quiet_NaN()};
   std::mt19937_64 rng(19);
   for (int k = 0; k < 1000000; ++k) {
@@ -159,8 +176,9 @@ TEST(Writers, UnclogsAreTheDocumentedRowsAndContinueAtTheCheckpoint) {
   const std::int64_t offset = w.Offset();
   w.Write({60.5, 605000, 2, 1, "kick", {3}});
   w.Close();
-  EXPECT_EQ(ReadFile(file), "time,step,clog,attempt,method,bodies\n41.23,412300,1,1,remove_arch,17 52 88 130\n"
-                             "60.5,605000,2,1,kick,3\n");
+  EXPECT_EQ(ReadFile(file),
+            "time,step,clog,attempt,method,bodies\n41.23,412300,1,1,remove_arch,17 52 88 130\n"
+            "60.5,605000,2,1,kick,3\n");
   std::vector<UnclogEvent> back = ReadUnclogs(file);
   ASSERT_EQ(back.size(), 2u);
   EXPECT_EQ(back[0].bodies, (std::vector<std::int64_t>{17, 52, 88, 130}));
@@ -243,9 +261,7 @@ TEST(Writers, ClogsAreFrameAndContactBlocksKeptUpToTheCheckpointOnContinue) {
   EXPECT_EQ(clogs[0].frame.discs.size(), 2u);
 
   // Killed while writing a fourth clog (half a block), continued from a checkpoint at step 250.
-  {
-    std::ofstream(dir.Path() / kClogFramesFile, std::ios::app) << "ITEM: TIME\n0.05\nITEM: TIMESTEP\n500\nITEM: NUMB";
-  }
+  { std::ofstream(dir.Path() / kClogFramesFile, std::ios::app) << "ITEM: TIME\n0.05\nITEM: TIMESTEP\n500\nITEM: NUMB"; }
   EXPECT_EQ(DumpOffsetAfter(dir.Path() / kClogFramesFile, 400), static_cast<std::int64_t>(three_clogs));
   w = ClogWriter::ContinueAfter(dir.Path(), 250);
   EXPECT_EQ(ReadFile(dir.Path() / kClogFramesFile).size(), two_clogs);
@@ -279,7 +295,8 @@ TEST(Readers, ClogFilesMustAgreeAndMayBeAbsent) {
     ReadClogs(dir.Path());
     FAIL() << "expected a ReadError";
   } catch (const ReadError& e) {
-    EXPECT_NE(std::string(e.what()).find("timestep 101 beside the configuration at timestep 100"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("timestep 101 beside the configuration at timestep 100"), std::string::npos)
+        << e.what();
   }
   std::filesystem::remove(dir.Path() / kClogContactsFile);
   EXPECT_THROW(ClogReader{dir.Path()}, ReadError);
@@ -305,8 +322,8 @@ TEST(Writers, SummaryRoundTripsAndWritesOnlyTheKeysItHas) {
   s.timing = Timing{3.0, 1.0, 2.0, 5e7, 2};
   WriteSummary(dir.Path(), s);
   const nlohmann::json j = nlohmann::json::parse(ReadFile(dir.Path() / kSummaryFile));
-  for (const char* absent : {"granary_version", "cleared_by_obstacles", "max_out_of_plane", "tangential_cap",
-                             "reinject_position"})
+  for (const char* absent :
+       {"granary_version", "cleared_by_obstacles", "max_out_of_plane", "tangential_cap", "reinject_position"})
     EXPECT_FALSE(j.contains(absent)) << absent;
   EXPECT_EQ(j["timing"]["threads"], 2);
   const Summary back = ReadSummary(dir.Path() / kSummaryFile);
@@ -372,10 +389,30 @@ TEST(DumpText, ToDoubleHasTheBitsOfFromChars) {
   std::mt19937_64 rng(14);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   std::uniform_int_distribution<int> power(-30, 30);
-  std::vector<std::string> texts = {"0",      "-0",     "+1.5",   "1.",      ".5",      "-.5",   "1e22",
-                                    "1e23",   "1e-22",  "1e-23",  "9007199254740993",      "12345678901234567890",
-                                    "0.1e+3", "2E-3",   "1e+",    "1e",      "-",       ".",     "",
-                                    "1e5x",   "inf",    "nan",    "1e00001", "0.000000000000000000001"};
+  std::vector<std::string> texts = {"0",
+                                    "-0",
+                                    "+1.5",
+                                    "1.",
+                                    ".5",
+                                    "-.5",
+                                    "1e22",
+                                    "1e23",
+                                    "1e-22",
+                                    "1e-23",
+                                    "9007199254740993",
+                                    "12345678901234567890",
+                                    "0.1e+3",
+                                    "2E-3",
+                                    "1e+",
+                                    "1e",
+                                    "-",
+                                    ".",
+                                    "",
+                                    "1e5x",
+                                    "inf",
+                                    "nan",
+                                    "1e00001",
+                                    "0.000000000000000000001"};
   for (int i = 0; i < 200000; ++i) {
     const double x = unit(rng) * std::pow(10.0, power(rng));
     char buf[64];

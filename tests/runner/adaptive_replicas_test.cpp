@@ -95,8 +95,9 @@ TEST_F(AdaptiveReplicas, StopAtTheTargetAndAPlanKeepsWhatWasAdded) {
   const std::string spec = WriteSpec(dir_ / "a", kRule);
   const auto plan = Sh(Cmd(db, "plan " + spec));
   ASSERT_EQ(plan.code, 0) << plan.output;
-  EXPECT_NE(plan.output.find("adaptive replicas: 2 replicas per point, then more until se/|q_count| <= 0.08, at most 12"),
-            std::string::npos)
+  EXPECT_NE(
+      plan.output.find("adaptive replicas: 2 replicas per point, then more until se/|q_count| <= 0.08, at most 12"),
+      std::string::npos)
       << plan.output;
   const auto run = Sh(Cmd(db, "run --jobs 2 --engine " + testing::FakeEngine()));
   ASSERT_EQ(run.code, 0) << run.output;
@@ -115,7 +116,9 @@ TEST_F(AdaptiveReplicas, StopAtTheTargetAndAPlanKeepsWhatWasAdded) {
   const json& t = spread["targets"][0];
   EXPECT_EQ(t["metric"], "q_count");
   ReplicaRule rule = ReplicaRule::FromJson(kRule);
-  PointReplicas final_state{spread["runs"].get<int>(), 0, {{"q_count", {t["value"].get<double>(), t["se"].get<double>(), t["n"].get<int>()}}}};
+  PointReplicas final_state{spread["runs"].get<int>(),
+                            0,
+                            {{"q_count", {t["value"].get<double>(), t["se"].get<double>(), t["n"].get<int>()}}}};
   const ReplicaDecision d = DecideReplicas(rule, final_state);
   EXPECT_TRUE(d.verdict == ReplicaVerdict::kMet || d.verdict == ReplicaVerdict::kAtMax) << ToString(d.verdict);
   EXPECT_EQ(spread["verdict"], ToString(d.verdict));
@@ -141,14 +144,20 @@ TEST_F(AdaptiveReplicas, StopAtTheTargetAndAPlanKeepsWhatWasAdded) {
   const auto report = Sh(Cmd(db, "report --no-figures"));
   ASSERT_EQ(report.code, 0) << report.output;
   const std::string md = ReadFile(db.parent_path() / "report" / "report.md");
-  EXPECT_NE(md.find("Replicas were added adaptively: 2 replicas per point, then more until se/|q_count| <= 0.08, at most 12"),
-            std::string::npos);
+  EXPECT_NE(
+      md.find("Replicas were added adaptively: 2 replicas per point, then more until se/|q_count| <= 0.08, at most 12"),
+      std::string::npos);
   EXPECT_NE(md.find("Adaptive replicas per point"), std::string::npos);
 }
 
 TEST_F(AdaptiveReplicas, APointAtMaxIsMarked) {
   const fs::path db = dir_ / "m" / "g.db";
-  ASSERT_EQ(Sh(Cmd(db, "plan " + WriteSpec(dir_ / "m", json::parse(R"({"min": 2, "max": 3, "until": {"metric": "q_count", "rel_se": 1e-6}})")))).code, 0);
+  ASSERT_EQ(
+      Sh(Cmd(db, "plan " +
+                     WriteSpec(dir_ / "m",
+                               json::parse(R"({"min": 2, "max": 3, "until": {"metric": "q_count", "rel_se": 1e-6}})"))))
+          .code,
+      0);
   const auto run = Sh(Cmd(db, "run --jobs 2 --engine " + testing::FakeEngine()));
   ASSERT_EQ(run.code, 0) << run.output;
   const json spread = PointOf(Status(db), 21);
@@ -162,16 +171,28 @@ TEST_F(AdaptiveReplicas, APointAtMaxIsMarked) {
 
   // A name that is no metric at all: refused by the plan, naming the path.
   const fs::path db0 = dir_ / "n" / "g.db";
-  const auto refused = Sh(Cmd(db0, "plan " + WriteSpec(dir_ / "n", json::parse(R"({"min": 2, "max": 9, "until": {"metric": "no_such_metric", "se": 1}})"))));
+  const auto refused = Sh(
+      Cmd(db0,
+          "plan " + WriteSpec(dir_ / "n",
+                              json::parse(R"({"min": 2, "max": 9, "until": {"metric": "no_such_metric", "se": 1}})"))));
   EXPECT_EQ(refused.code, 2) << refused.output;
-  EXPECT_NE(refused.output.find("/replicas/until/metric: \"no_such_metric\" names no metric"), std::string::npos) << refused.output;
+  EXPECT_NE(refused.output.find("/replicas/until/metric: \"no_such_metric\" names no metric"), std::string::npos)
+      << refused.output;
   // A metric of the analyses that no run of this campaign returns (a third outlet's): said at
   // run time, and nothing added.
   const fs::path db2 = dir_ / "u" / "g.db";
-  ASSERT_EQ(Sh(Cmd(db2, "plan " + WriteSpec(dir_ / "u", json::parse(R"({"min": 2, "max": 9, "until": {"metric": "avalanche_size_outlet3", "se": 1}})")))).code, 0);
+  ASSERT_EQ(
+      Sh(Cmd(db2,
+             "plan " +
+                 WriteSpec(
+                     dir_ / "u",
+                     json::parse(R"({"min": 2, "max": 9, "until": {"metric": "avalanche_size_outlet3", "se": 1}})"))))
+          .code,
+      0);
   const auto r2 = Sh(Cmd(db2, "run --jobs 2 --engine " + testing::FakeEngine()));
   EXPECT_EQ(r2.code, 0) << r2.output;
-  EXPECT_NE(r2.output.find("se(avalanche_size_outlet3) = not a metric of this campaign"), std::string::npos) << r2.output;
+  EXPECT_NE(r2.output.find("se(avalanche_size_outlet3) = not a metric of this campaign"), std::string::npos)
+      << r2.output;
   EXPECT_EQ(RunIds(Status(db2)).size(), 4u);
 }
 
@@ -190,8 +211,8 @@ TEST_F(AdaptiveReplicas, KillMinusNineWhileAddingLosesAndRepeatsNothing) {
     const fs::path hold = dir_ / ("hold" + std::to_string(k));
     setenv("GRANARY_TEST_HOLD_REPLICAS", hold.c_str(), 1);
     const std::string log = (dir_ / ("runner" + std::to_string(k) + ".log")).string();
-    const pid_t runner = Spawn({testing::Campaign(), "run", "--db", db.string(), "--jobs", "2", "--engine",
-                                testing::FakeEngine()}, log);
+    const pid_t runner =
+        Spawn({testing::Campaign(), "run", "--db", db.string(), "--jobs", "2", "--engine", testing::FakeEngine()}, log);
     ASSERT_TRUE(testing::WaitFor([&] { return fs::exists(hold.string() + ".reached"); }, 120)) << ReadFile(log);
     kill(runner, SIGKILL);
     EXPECT_EQ(testing::WaitExit(runner), 128 + SIGKILL);
@@ -224,22 +245,21 @@ TEST_F(AdaptiveReplicas, ARealUnclogCampaignStopsAtItsTargetOrAtMaxAndAKillLoses
   const auto write_spec = [&](const fs::path& folder) {
     fs::create_directories(folder);
     const fs::path p = folder / "c.json";
-    std::ofstream(p) << json{
-        {"name", "adaptive-real"},
-        {"seed", 3},
-        {"replicas", rule},
-        {"base",
-         {{"bodies", {{"count", 200}, {"species", {{{"shape", "disc"}}}}}},
-          {"silo", {{"width", 16}, {"base_outlets", {{{"center", 0}, {"width", 3}}}}}},
-          {"bed", {{"batch_size", 200}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 10}}},
-          {"discharge",
-           {{"mode", "remove"},
-            {"max_time", 30},
-            {"clog_window", 2},
-            {"on_clog", "unclog"},
-            {"unclog", {{"method", "remove_arch"}, {"max_clogs", 3}}}}},
-          {"output", {{"checkpoint_interval", 2}, {"frame_interval", 0}}}}},
-        {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {3, 8}}}}}}};
+    std::ofstream(p) << json{{"name", "adaptive-real"},
+                             {"seed", 3},
+                             {"replicas", rule},
+                             {"base",
+                              {{"bodies", {{"count", 200}, {"species", {{{"shape", "disc"}}}}}},
+                               {"silo", {{"width", 16}, {"base_outlets", {{{"center", 0}, {"width", 3}}}}}},
+                               {"bed", {{"batch_size", 200}, {"settle_ke_per_body", 1e-4}, {"max_settle_time", 10}}},
+                               {"discharge",
+                                {{"mode", "remove"},
+                                 {"max_time", 30},
+                                 {"clog_window", 2},
+                                 {"on_clog", "unclog"},
+                                 {"unclog", {{"method", "remove_arch"}, {"max_clogs", 3}}}}},
+                               {"output", {{"checkpoint_interval", 2}, {"frame_interval", 0}}}}},
+                             {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {3, 8}}}}}}};
     return p.string();
   };
   const auto point_of = [](const json& status, int width) {
@@ -262,24 +282,28 @@ TEST_F(AdaptiveReplicas, ARealUnclogCampaignStopsAtItsTargetOrAtMaxAndAKillLoses
   const json& t = clogging["targets"][0];
   EXPECT_EQ(t["metric"], "avalanche_size");
   EXPECT_LE(t["achieved"].get<double>(), 0.5);
-  const PointReplicas state{clogging["runs"].get<int>(), 0,
+  const PointReplicas state{clogging["runs"].get<int>(),
+                            0,
                             {{"avalanche_size", {t["value"].get<double>(), t["se"].get<double>(), t["n"].get<int>()}}}};
   EXPECT_EQ(ToString(DecideReplicas(ReplicaRule::FromJson(rule), state).verdict), std::string("met"));
   // The runner said so when it stopped adding.
   EXPECT_NE(run.output.find("width=3: se/|avalanche_size| = "), std::string::npos) << run.output;
-  EXPECT_NE(run.output.find("(target 0.5, met) after " + std::to_string(clogging["runs"].get<int>()) + " runs: target met"),
-            std::string::npos)
+  EXPECT_NE(
+      run.output.find("(target 0.5, met) after " + std::to_string(clogging["runs"].get<int>()) + " runs: target met"),
+      std::string::npos)
       << run.output;
   // The draining point: no avalanche, so it ran to max and is marked there.
   EXPECT_EQ(draining["runs"], 4) << draining.dump();
   EXPECT_EQ(draining["verdict"], "at max") << draining.dump();
   EXPECT_EQ(draining["targets"][0]["n"], 0) << draining.dump();
-  EXPECT_NE(run.output.find("width=8: se/|avalanche_size| = n/a (target 0.5) after 4 runs: at max (4) without reaching the target"),
+  EXPECT_NE(run.output.find(
+                "width=8: se/|avalanche_size| = n/a (target 0.5) after 4 runs: at max (4) without reaching the target"),
             std::string::npos)
       << run.output;
   EXPECT_NE(Sh(Cmd(control, "status")).output.find("AT MAX without reaching the target"), std::string::npos);
   ASSERT_EQ(Sh(Cmd(control, "report --no-figures")).code, 0);
-  EXPECT_NE(ReadFile(control.parent_path() / "report" / "report.md").find("max reached, target not met"), std::string::npos);
+  EXPECT_NE(ReadFile(control.parent_path() / "report" / "report.md").find("max reached, target not met"),
+            std::string::npos);
   const std::set<std::string> expected = RunIds(s);
   EXPECT_EQ(static_cast<int>(expected.size()), clogging["runs"].get<int>() + 4);
   std::map<std::string, std::string> exits;  // run id -> events.csv
@@ -308,7 +332,8 @@ TEST_F(AdaptiveReplicas, ARealUnclogCampaignStopsAtItsTargetOrAtMaxAndAKillLoses
   for (const json& r : k["runs"]) {
     EXPECT_EQ(r["state"], "done");
     EXPECT_EQ(r["attempts"], 1) << r.dump();
-    EXPECT_TRUE(ReadFile(fs::path(r["run_dir"].get<std::string>()) / "events.csv") == exits[r["run_id"]]) << r["run_id"];
+    EXPECT_TRUE(ReadFile(fs::path(r["run_dir"].get<std::string>()) / "events.csv") == exits[r["run_id"]])
+        << r["run_id"];
   }
   EXPECT_EQ(point_of(k, 3)["verdict"], "met");
   EXPECT_EQ(point_of(k, 8)["verdict"], "at max");

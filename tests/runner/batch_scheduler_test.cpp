@@ -37,10 +37,10 @@ class NullObserver : public RunObserver {
 // summary in its run directory, as an engine would.
 class FakeQueue : public Executor {
  public:
-  std::function<void()> before_submit;  // runs inside Submit(), before any job "exists"
-  std::function<void()> on_poll;        // runs at the start of every Poll()
+  std::function<void()> before_submit;   // runs inside Submit(), before any job "exists"
+  std::function<void()> on_poll;         // runs at the start of every Poll()
   std::map<std::string, int> exit_once;  // runs whose next job ends with this engine exit status
-  std::set<std::string> finish;         // runs whose jobs end at the next poll, done
+  std::set<std::string> finish;          // runs whose jobs end at the next poll, done
   std::vector<std::string> started, attached;
   int submissions = 0;
 
@@ -165,8 +165,8 @@ TEST_F(BatchSchedulerTest, PlacesAreRecordedBeforeTheQueueSeesAJob) {
   int checked = 0;
   queue.before_submit = [&] {
     for (const auto& [id, r] : Rows()) {
-      EXPECT_TRUE(r.Queued()) << id;       // its place is in the database...
-      EXPECT_EQ(r.job_id, "") << id;       // ...and the job does not exist yet
+      EXPECT_TRUE(r.Queued()) << id;  // its place is in the database...
+      EXPECT_EQ(r.job_id, "") << id;  // ...and the job does not exist yet
       EXPECT_GE(r.job_index, 0);
       ++checked;
     }
@@ -287,7 +287,8 @@ TEST_F(BatchSchedulerTest, ATaskThatFoundItsDirectoryLockedIsQueuedAgainOnceFree
   };
   EXPECT_EQ(RunCampaign(*store_, options_, queue, observer_, nullptr), ExitCode::kOk);
   EXPECT_EQ(polls_while_waiting, 3);
-  EXPECT_EQ(std::count(queue.started.begin(), queue.started.end(), busy_run), 2);  // queued again once the lock was free
+  EXPECT_EQ(std::count(queue.started.begin(), queue.started.end(), busy_run),
+            2);  // queued again once the lock was free
   EXPECT_EQ(queue.started.size(), 4u);
   for (const auto& [id, r] : Rows()) {
     EXPECT_EQ(r.state, RunState::kDone) << id;

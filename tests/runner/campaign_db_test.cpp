@@ -14,7 +14,8 @@ using nlohmann::json;
 
 CampaignSpec Spec(const std::string& widths) {
   return CampaignSpec::FromJson(json::parse(R"({"name": "t", "replicas": 2, "base": {"silo": {"width": 30}},
-      "sweep": {"grid": {"/silo/base_outlets/0/width": )" + widths + "}}}"));
+      "sweep": {"grid": {"/silo/base_outlets/0/width": )" +
+                                            widths + "}}}"));
 }
 
 PlanSummary Plan(Store& store, const std::string& widths) {
@@ -140,7 +141,8 @@ TEST(LeaseTest, OnlyTheHolderRecordsAnEnd) {
   // The old holder comes back: its heartbeat says it holds nothing, and neither its result
   // nor a failure is recorded.
   EXPECT_TRUE(Heartbeat(store, old_holder, 201.0, {{first->run_id, json{{"fraction", 0.9}}}}).empty());
-  EXPECT_FALSE(RecordDone(store, first->run_id, old_holder.id, json{{"end_reason", "discharged"}, {"exited", 3}}, 202.0, 1.0));
+  EXPECT_FALSE(
+      RecordDone(store, first->run_id, old_holder.id, json{{"end_reason", "discharged"}, {"exited", 3}}, 202.0, 1.0));
   EXPECT_FALSE(RecordEnd(store, first->run_id, old_holder.id, RunState::kFailed, "late", 202.0, 1.0));
   const RunRow now_row = LoadRuns(store, false)[0];  // plan order: the claimed run first
   ASSERT_EQ(now_row.run_id, first->run_id);
@@ -154,7 +156,8 @@ TEST(LeaseTest, OnlyTheHolderRecordsAnEnd) {
   }
   // The holder's own end is recorded.
   EXPECT_EQ(Heartbeat(store, new_holder, 203.0, {}), std::set<std::string>{first->run_id});
-  EXPECT_TRUE(RecordDone(store, first->run_id, new_holder.id, json{{"end_reason", "discharged"}, {"exited", 3}}, 204.0, 1.0));
+  EXPECT_TRUE(
+      RecordDone(store, first->run_id, new_holder.id, json{{"end_reason", "discharged"}, {"exited", 3}}, 204.0, 1.0));
   EXPECT_EQ(LoadRuns(store, false)[0].state, RunState::kDone);
 }
 
@@ -207,7 +210,8 @@ TEST(QueueTest, QueuedRunsAreAdoptedNotRecoveredAndKeepTheirHandle) {
   EXPECT_EQ(States(store)[r1->run_id], "running");
   EXPECT_EQ(AdoptQueuedRuns(store, other, NowSeconds()).size(), 1u);
   // Ended and claimed again, it leaves the queue but the claim still names its last place.
-  EXPECT_TRUE(RecordEnd(store, r1->run_id, other.id, RunState::kInterrupted, "Slurm task 41_0 CANCELLED", NowSeconds(), 1));
+  EXPECT_TRUE(
+      RecordEnd(store, r1->run_id, other.id, RunState::kInterrupted, "Slurm task 41_0 CANCELLED", NowSeconds(), 1));
   auto again = ClaimNext(store, me, NowSeconds(), [&](const RunRow& r) { return r.run_id == r1->run_id; }, {});
   ASSERT_TRUE(again);
   EXPECT_EQ(again->job_id, "41");
@@ -234,10 +238,11 @@ TEST(MetricsTest, StoredPerRunAndAnalysisReplacedOnTheNextStore) {
   const std::vector<RunRow> runs = LoadRuns(store, false);
   ASSERT_EQ(runs.size(), 2u);
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  StoreMetrics(store,
-                {{runs[0].run_id, "flow", 1, {{"x", 1}}, {{"q_count", "bodies/sqrt(d/g)", 12.5, 0.5}, {"q_mass", "m", nan, nan}}},
-                 {runs[1].run_id, "flow", 1, nullptr, {{"q_count", "bodies/sqrt(d/g)", 11.5, nan}}}},
-                100.0);
+  StoreMetrics(
+      store,
+      {{runs[0].run_id, "flow", 1, {{"x", 1}}, {{"q_count", "bodies/sqrt(d/g)", 12.5, 0.5}, {"q_mass", "m", nan, nan}}},
+       {runs[1].run_id, "flow", 1, nullptr, {{"q_count", "bodies/sqrt(d/g)", 11.5, nan}}}},
+      100.0);
   // The query the database is for: Q of each run with its width.
   Statement q = store.Prepare(
       "SELECT json_extract(r.params, '$.silo.base_outlets[0].width'), m.value, m.se FROM metrics m "

@@ -39,7 +39,8 @@ TEST(NearestTest, SuggestsCloseWordsOnly) {
 // Adaptive replicas: the plan has `min` per point; the replicas a runner adds later are the
 // ones a plan of more replicas would have had (same seeds and ids), replicas 0..min-1 unchanged.
 TEST(CampaignSpecTest, AdaptiveReplicasPlanMinAndAddWithThePlansIds) {
-  const json j = json::parse(R"({"name": "t", "replicas": {"min": 2, "max": 5, "until": {"metric": "q_count", "rel_se": 0.1}},
+  const json j =
+      json::parse(R"({"name": "t", "replicas": {"min": 2, "max": 5, "until": {"metric": "q_count", "rel_se": 0.1}},
     "base": {"bodies": {"count": 300}, "silo": {"width": 30}},
     "sweep": {"grid": {"/silo/base_outlets/0/width": [4, 6]}}})");
   const CampaignSpec s = CampaignSpec::FromJson(j);
@@ -219,14 +220,16 @@ TEST(DumpTemplateTest, FillEqualsTheDumpOfTheFilledDocument) {
 }
 
 TEST(CampaignSpecErrorTest, UnknownKeys) {
-  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "replica": 2})")), "/replica: unknown key; did you mean \"replicas\"?");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "replica": 2})")),
+            "/replica: unknown key; did you mean \"replicas\"?");
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"gird": {}}})")),
             "/sweep/gird: unknown key; did you mean \"grid\"?");
 }
 
 TEST(CampaignSpecErrorTest, BadTopLevelValues) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"replicas": 2})")), "/name: must be a non-empty string (got nothing)");
-  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "replicas": 0})")), "/replicas: must be an integer in [1, 100000] (got 0)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "replicas": 0})")),
+            "/replicas: must be an integer in [1, 100000] (got 0)");
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": "gromacs"})")),
             "/engine: must be \"native\", \"liggghts\", \"lammps\" or a list of them, e.g. [\"native\", \"lammps\"] "
             "(got \"gromacs\")");
@@ -254,14 +257,16 @@ TEST(CampaignSpecErrorTest, ZipLengthsMustMatch) {
 }
 
 TEST(CampaignSpecErrorTest, InvalidPointNamesThePoint) {
-  EXPECT_EQ(ErrorOf(json::parse(
-                R"({"name": "t", "base": {"silo": {"width": 30}}, "sweep": {"grid": {"/silo/base_outlets/0/width": [6, 40]}}})")),
-            "/sweep: point 1 {\"/silo/base_outlets/0/width\":40}: /silo/base_outlets/0/width: must be < the silo width "
-            "30.0 (got 40.0)");
+  EXPECT_EQ(
+      ErrorOf(json::parse(
+          R"({"name": "t", "base": {"silo": {"width": 30}}, "sweep": {"grid": {"/silo/base_outlets/0/width": [6, 40]}}})")),
+      "/sweep: point 1 {\"/silo/base_outlets/0/width\":40}: /silo/base_outlets/0/width: must be < the silo width "
+      "30.0 (got 40.0)");
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/widht": [6]}}})")),
             "/sweep: point 0 {\"/silo/widht\":6}: /silo/widht: unknown key; did you mean \"width\"?");
-  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/nothing/here": [6]}}})")),
-            "/sweep/grid/~1nothing~1here: axis \"/nothing/here\" does not resolve: the run spec has no key \"nothing\"");
+  EXPECT_EQ(
+      ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/nothing/here": [6]}}})")),
+      "/sweep/grid/~1nothing~1here: axis \"/nothing/here\" does not resolve: the run spec has no key \"nothing\"");
 }
 
 TEST(CampaignSpecTest, ASweptShapeNamesItsDefaultNamedSpecies) {
@@ -281,13 +286,16 @@ TEST(CampaignSpecTest, ASweptShapeNamesItsDefaultNamedSpecies) {
 
 // Sweep pointers that do not resolve gave raw library errors without a /sweep path.
 TEST(CampaignSpecErrorTest, SweepPointersThatDoNotResolveNameTheAxis) {
-  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/width/x": [1]}}})")),
-            "/sweep/grid/~1silo~1width~1x: axis \"/silo/width/x\" does not resolve: \"/silo/width\" is a number, not an "
-            "object or array");
-  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/base_outlets/99999999999999999999/width": [1]}}})")),
-            "/sweep/grid/~1silo~1base_outlets~199999999999999999999~1width: axis "
-            "\"/silo/base_outlets/99999999999999999999/width\" does not resolve: \"/silo/base_outlets\" is an array of 1 "
-            "element (indices 0 to 1), not \"99999999999999999999\"");
+  EXPECT_EQ(
+      ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/width/x": [1]}}})")),
+      "/sweep/grid/~1silo~1width~1x: axis \"/silo/width/x\" does not resolve: \"/silo/width\" is a number, not an "
+      "object or array");
+  EXPECT_EQ(
+      ErrorOf(
+          json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/base_outlets/99999999999999999999/width": [1]}}})")),
+      "/sweep/grid/~1silo~1base_outlets~199999999999999999999~1width: axis "
+      "\"/silo/base_outlets/99999999999999999999/width\" does not resolve: \"/silo/base_outlets\" is an array of 1 "
+      "element (indices 0 to 1), not \"99999999999999999999\"");
   // A misspelt key inside the pointer gets the corrected axis.
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "sweep": {"grid": {"/silo/base_outlet/0/width": [4]}}})")),
             "/sweep/grid/~1silo~1base_outlet~10~1width: axis \"/silo/base_outlet/0/width\" does not resolve: \"/silo\" "
@@ -323,9 +331,10 @@ TEST(CampaignSpecErrorTest, ASweepOverTheRunLimitIsRefusedBeforeExpanding) {
     Expand(s, "/cache");
     FAIL() << "expected a refusal";
   } catch (const SpecError& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "/sweep: expands to 30000000 runs (100 x 300 x 1 engine(s) x 1000 replicas), more than the limit of 100000; "
-              "narrow the sweep, or raise the limit with --max-runs");
+    EXPECT_EQ(
+        std::string(e.what()),
+        "/sweep: expands to 30000000 runs (100 x 300 x 1 engine(s) x 1000 replicas), more than the limit of 100000; "
+        "narrow the sweep, or raise the limit with --max-runs");
   }
   json small = j;
   small["replicas"] = 2;
@@ -338,33 +347,42 @@ TEST(CampaignSpecErrorTest, ASweepOverTheRunLimitIsRefusedBeforeExpanding) {
 TEST(CampaignSpecErrorTest, TheEngineIsSetInOnePlace) {
   EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "base": {"engine": "gromacs"}})")),
             "/base/engine: must be \"native\", \"liggghts\" or \"lammps\" (got \"gromacs\")");
-  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": "native", "base": {"engine": "liggghts"}})")),
-            "/base/engine: \"liggghts\" conflicts with the campaign's \"engine\" \"native\"; set the engine in one place "
-            "(the campaign's \"engine\")");
+  EXPECT_EQ(
+      ErrorOf(json::parse(R"({"name": "t", "engine": "native", "base": {"engine": "liggghts"}})")),
+      "/base/engine: \"liggghts\" conflicts with the campaign's \"engine\" \"native\"; set the engine in one place "
+      "(the campaign's \"engine\")");
   const CampaignSpec s = CampaignSpec::FromJson(json::parse(R"({"name": "t", "base": {"engine": "liggghts"}})"));
   EXPECT_EQ(s.engines, std::vector<std::string>{"liggghts"});
   EXPECT_EQ(Expand(s, "/cache").at(0).engine, "liggghts");
-  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": ["liggghts"], "base": {"engine": "liggghts"}})")), "(no error)");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "engine": ["liggghts"], "base": {"engine": "liggghts"}})")),
+            "(no error)");
 }
 
 // A NUL in a species name was accepted and cut the events.csv shape column; line
 // separators, \v and \f were accepted too.
 TEST(CampaignSpecErrorTest, NamesRefuseControlCharactersAndLineBreaks) {
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"a\\u0000b", "U+0000 (NUL)"},           {"a\\u2028b", "U+2028 (LINE SEPARATOR)"},
-      {"a\\u0085b", "U+0085 (NEXT LINE)"},     {"a\\u000bb", "U+000B (LINE TABULATION (\\v))"},
-      {"a\\u000cb", "U+000C (FORM FEED (\\f))"}, {"a\\u2029b", "U+2029 (PARAGRAPH SEPARATOR)"},
-      {"a\\u202eb", "U+202E (an invisible format character)"}, {"a,b", "','"}};
+      {"a\\u0000b", "U+0000 (NUL)"},
+      {"a\\u2028b", "U+2028 (LINE SEPARATOR)"},
+      {"a\\u0085b", "U+0085 (NEXT LINE)"},
+      {"a\\u000bb", "U+000B (LINE TABULATION (\\v))"},
+      {"a\\u000cb", "U+000C (FORM FEED (\\f))"},
+      {"a\\u2029b", "U+2029 (PARAGRAPH SEPARATOR)"},
+      {"a\\u202eb", "U+202E (an invisible format character)"},
+      {"a,b", "','"}};
   for (const auto& [name, what] : cases) {
     const json j = json::parse(R"({"name": "t", "base": {"bodies": {"species": [{"name": ")" + name + R"("}]}}})");
     const std::string error = ErrorOf(j);
-    EXPECT_EQ(error.rfind("/base/bodies/species/0/name: must be a non-empty name without commas, control characters", 0), 0u)
+    EXPECT_EQ(
+        error.rfind("/base/bodies/species/0/name: must be a non-empty name without commas, control characters", 0), 0u)
         << error;
     EXPECT_NE(error.find("which holds " + what + ")"), std::string::npos) << error;
   }
-  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "a\u2028b"})")),
-            "/name: must not hold control characters or line breaks (got \"a\u2028b\", which holds U+2028 (LINE SEPARATOR))");
-  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "base": {"bodies": {"species": [{"name": "grès-é"}]}}})")), "(no error)");
+  EXPECT_EQ(
+      ErrorOf(json::parse(R"({"name": "a\u2028b"})")),
+      "/name: must not hold control characters or line breaks (got \"a\u2028b\", which holds U+2028 (LINE SEPARATOR))");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"name": "t", "base": {"bodies": {"species": [{"name": "grès-é"}]}}})")),
+            "(no error)");
 }
 
 // A syntax error said only "not valid JSON"; a spec nested 10^5 deep crashed
@@ -382,7 +400,8 @@ TEST(CampaignSpecErrorTest, SyntaxErrorsAndDeepNestingSayWhere) {
     ParseSpecText(deep, "deep.json");
     FAIL();
   } catch (const std::invalid_argument& e) {
-    EXPECT_EQ(std::string(e.what()), "deep.json:1:86: nested deeper than 64 levels (a campaign spec needs fewer than 10)");
+    EXPECT_EQ(std::string(e.what()),
+              "deep.json:1:86: nested deeper than 64 levels (a campaign spec needs fewer than 10)");
   }
   // Brackets inside strings do not count.
   EXPECT_EQ(ParseSpecText(R"({"name": "[[[[{{{{\"[["})", "s.json")["name"], "[[[[{{{{\"[[");
@@ -394,8 +413,9 @@ TEST(CampaignSpecErrorTest, ANumberOutOfRangeSaysWhere) {
     ParseSpecText("{\n  \"name\": \"1e400\",\n  \"seed\": 1e400\n}\n", "c.json");
     FAIL();
   } catch (const std::invalid_argument& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "c.json:3:11: the number 1e400 is out of range (a JSON number must fit a double, magnitude below 1.8e308)");
+    EXPECT_EQ(
+        std::string(e.what()),
+        "c.json:3:11: the number 1e400 is out of range (a JSON number must fit a double, magnitude below 1.8e308)");
   }
   try {
     ParseSpecText(R"({"name": "t", "base": {"silo": {"width": -2E+999}}})", "d.json");

@@ -51,11 +51,11 @@ class CliTest : public ::testing::Test {
   // A campaign of `widths` x `replicas` runs; max_time 13 makes the fake engine fail.
   std::string WriteSpec(const std::string& widths, int replicas, double max_time = 20) {
     const fs::path p = dir_ / "c.json";
-    std::ofstream(p) << json{{"name", "t"},
-                             {"replicas", replicas},
-                             {"base", {{"bodies", {{"count", 100}}}, {"silo", {{"width", 30}}},
-                                       {"discharge", {{"max_time", max_time}}}}},
-                             {"sweep", {{"grid", {{"/silo/base_outlets/0/width", json::parse(widths)}}}}}};
+    std::ofstream(p) << json{
+        {"name", "t"},
+        {"replicas", replicas},
+        {"base", {{"bodies", {{"count", 100}}}, {"silo", {{"width", 30}}}, {"discharge", {{"max_time", max_time}}}}},
+        {"sweep", {{"grid", {{"/silo/base_outlets/0/width", json::parse(widths)}}}}}};
     return p.string();
   }
   std::string Db() const { return (dir_ / "g.db").string(); }
@@ -115,7 +115,8 @@ TEST_F(CliTest, BadSpecFilesAreUsageErrorsThatSayWhere) {
   std::ofstream(deep) << "{\"name\": " << std::string(100000, '[') << std::string(100000, ']') << "}";
   auto r = Sh(Cmd("plan " + deep.string()));
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_EQ(r.output, "error: " + deep.string() + ":1:73: nested deeper than 64 levels (a campaign spec needs fewer than 10)\n");
+  EXPECT_EQ(r.output,
+            "error: " + deep.string() + ":1:73: nested deeper than 64 levels (a campaign spec needs fewer than 10)\n");
   const fs::path broken = dir_ / "broken.json";
   std::ofstream(broken) << "{\n  \"name\": \"t\",\n  \"replicas\": 2,,\n}\n";
   r = Sh(Cmd("plan " + broken.string()));
@@ -126,15 +127,18 @@ TEST_F(CliTest, BadSpecFilesAreUsageErrorsThatSayWhere) {
   std::ofstream(huge) << "{\"name\": \"t\",\n \"seed\": 1e400}\n";
   r = Sh(Cmd("plan " + huge.string()));
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_EQ(r.output, "error: " + huge.string() + ":2:10: the number 1e400 is out of range (a JSON number must fit a "
-                      "double, magnitude below 1.8e308)\n");
+  EXPECT_EQ(r.output, "error: " + huge.string() +
+                          ":2:10: the number 1e400 is out of range (a JSON number must fit a "
+                          "double, magnitude below 1.8e308)\n");
   const fs::path big = dir_ / "big.json";
   std::ofstream(big) << R"({"name": "t", "replicas": 1000, "base": {"silo": {"width": 30}},
     "sweep": {"grid": {"/silo/base_outlets/0/width": [3, 4, 5, 6], "/contact/mu": [0.1, 0.2, 0.3]}}})";
   r = Sh(Cmd("plan " + big.string() + " --dry-run --max-runs 11999"));
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_NE(r.output.find("/sweep: expands to 12000 runs (3 x 4 x 1 engine(s) x 1000 replicas), more than the limit of 11999"),
-            std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(
+                "/sweep: expands to 12000 runs (3 x 4 x 1 engine(s) x 1000 replicas), more than the limit of 11999"),
+            std::string::npos)
+      << r.output;
   EXPECT_EQ(Sh(Cmd("plan " + big.string() + " --dry-run --max-runs 12000")).code, 0);
 }
 
@@ -143,12 +147,14 @@ TEST_F(CliTest, OnlyMustSelectSomething) {
   Sh(Cmd("plan " + WriteSpec("[4, 6]", 1)));
   auto r = Sh(RunCmd("--only /silo/base_outlet/0/width=4"));
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_EQ(r.output, "error: --only /silo/base_outlet/0/width=4: \"/silo/base_outlet/0/width\" is not a parameter of "
-                      "the runs; did you mean \"/silo/base_outlets/0/width\"? (axes: /silo/base_outlets/0/width)\n");
+  EXPECT_EQ(r.output,
+            "error: --only /silo/base_outlet/0/width=4: \"/silo/base_outlet/0/width\" is not a parameter of "
+            "the runs; did you mean \"/silo/base_outlets/0/width\"? (axes: /silo/base_outlets/0/width)\n");
   r = Sh(RunCmd("--only /silo/base_outlets/0/width=5"));
   EXPECT_EQ(r.code, 2) << r.output;
-  EXPECT_EQ(r.output, "error: --only /silo/base_outlets/0/width=5: no run has /silo/base_outlets/0/width = 5 (its values: "
-                      "4.0, 6.0)\n");
+  EXPECT_EQ(r.output,
+            "error: --only /silo/base_outlets/0/width=5: no run has /silo/base_outlets/0/width = 5 (its values: "
+            "4.0, 6.0)\n");
   r = Sh(RunCmd("--only zzzz"));
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("error: --only zzzz: no run id starts with \"zzzz\""), std::string::npos) << r.output;
@@ -164,9 +170,11 @@ TEST_F(CliTest, AZeroLengthDatabaseIsAStorageErrorNotAnEmptyCampaign) {
     const auto r = Sh(Cmd(verb));
     EXPECT_EQ(r.code, 3) << verb << ": " << r.output;
     EXPECT_NE(r.output.find("error: database " + Db() + " is empty (0 bytes): whatever campaign it held is lost"),
-              std::string::npos) << r.output;
+              std::string::npos)
+        << r.output;
   }
-  std::ofstream(Db(), std::ios::trunc) << "this is not an SQLite file, but it is long enough to be looked at as one....";
+  std::ofstream(Db(), std::ios::trunc)
+      << "this is not an SQLite file, but it is long enough to be looked at as one....";
   // A file that is not SQLite is the wrong --db, said without SQLite's words.
   const auto r = Sh(Cmd("status"));
   EXPECT_EQ(r.code, 2) << r.output;
@@ -283,8 +291,8 @@ TEST_F(CliTest, ResumesAfterKillMinusNineOfTheRunner) {
   setenv("FAKE_ENGINE_FIRST_LAUNCH_STEP_MS", "1000", 1);
   Sh(Cmd("plan " + WriteSpec("[4, 6, 8]", 1)));
   const std::string log = (dir_ / "runner.log").string();
-  const pid_t pid = Spawn({testing::Campaign(), "run", "--db", Db(), "--jobs", "2", "--engine",
-                                    testing::FakeEngine()}, log);
+  const pid_t pid =
+      Spawn({testing::Campaign(), "run", "--db", Db(), "--jobs", "2", "--engine", testing::FakeEngine()}, log);
   std::vector<fs::path> dirs;
   const json planned = Status();
   for (const auto& run : planned["runs"]) dirs.push_back(run["run_dir"].get<std::string>());
@@ -334,12 +342,15 @@ TEST_F(CliTest, AStalledRunnerThatLostItsLeaseStopsItsEngineAndRecordsNothing) {
   const json planned = Status();
   const fs::path run_dir = planned["runs"][0]["run_dir"].get<std::string>();
   const std::string log_a = (dir_ / "a.log").string(), log_b = (dir_ / "b.log").string();
-  const pid_t a = Spawn({testing::Campaign(), "run", "--db", Db(), "--jobs", "1", "--engine", testing::FakeEngine()}, log_a);
+  const pid_t a =
+      Spawn({testing::Campaign(), "run", "--db", Db(), "--jobs", "1", "--engine", testing::FakeEngine()}, log_a);
   ASSERT_TRUE(testing::WaitFor([&] { return fs::exists(run_dir / "checkpoint.fake"); }, 120)) << ReadFile(log_a);
   kill(a, SIGSTOP);
   ASSERT_TRUE(testing::WaitFor([&] { return Status()["runs"][0].value("lease_expired", false); }, 60));
-  const pid_t b = Spawn({testing::Campaign(), "run", "--db", Db(), "--jobs", "1", "--engine", testing::FakeEngine()}, log_b);
-  ASSERT_TRUE(testing::WaitFor([&] { return ReadFile(log_b).find("waiting") != std::string::npos; }, 60)) << ReadFile(log_b);
+  const pid_t b =
+      Spawn({testing::Campaign(), "run", "--db", Db(), "--jobs", "1", "--engine", testing::FakeEngine()}, log_b);
+  ASSERT_TRUE(testing::WaitFor([&] { return ReadFile(log_b).find("waiting") != std::string::npos; }, 60))
+      << ReadFile(log_b);
   EXPECT_NE(ReadFile(log_b).find("its directory is locked by engine pid"), std::string::npos) << ReadFile(log_b);
   EXPECT_EQ(CountLines(ReadFile(run_dir / "launches.txt"), "start"), 1);  // B started nothing
   kill(a, SIGCONT);
@@ -361,8 +372,9 @@ TEST_F(CliTest, EngineKilledMinusNineIsRelaunchedFromItsCheckpoint) {
   setenv("FAKE_ENGINE_FIRST_LAUNCH_STEP_MS", "1000", 1);
   Sh(Cmd("plan " + WriteSpec("[4]", 1)));
   const std::string log = (dir_ / "runner.log").string();
-  const pid_t runner = Spawn({testing::Campaign(), "run", "--db", Db(), "--jobs", "1", "--retries", "1",
-                                       "--engine", testing::FakeEngine()}, log);
+  const pid_t runner = Spawn(
+      {testing::Campaign(), "run", "--db", Db(), "--jobs", "1", "--retries", "1", "--engine", testing::FakeEngine()},
+      log);
   // Once the engine has passed a checkpoint, kill it (not the runner).
   const json plan = Status();
   const fs::path run_dir = plan["runs"][0]["run_dir"].get<std::string>();
@@ -387,7 +399,7 @@ TEST_F(CliTest, EngineKilledMinusNineIsRelaunchedFromItsCheckpoint) {
 TEST_F(CliTest, TwoRunnersNeverRunTheSameRun) {
   setenv("FAKE_ENGINE_STEP_MS", "15", 1);
   Sh(Cmd("plan " + WriteSpec("[3, 4, 5, 6, 7, 8]", 1)));
-  const std::vector<std::string> argv = {testing::Campaign(), "run", "--db", Db(), "--jobs", "2", "--engine",
+  const std::vector<std::string> argv = {testing::Campaign(),  "run", "--db", Db(), "--jobs", "2", "--engine",
                                          testing::FakeEngine()};
   const pid_t a = Spawn(argv, (dir_ / "a.log").string());
   const pid_t b = Spawn(argv, (dir_ / "b.log").string());
@@ -494,8 +506,7 @@ TEST_F(CliTest, RealEngineEndToEnd) {
   std::istringstream lines(csv.output);
   std::string header, row;
   std::getline(lines, header);
-  EXPECT_EQ(header.rfind("run_id,point_id,replica,engine,end_reason,W,q_count,q_count_se,", 0), 0u)
-      << header;
+  EXPECT_EQ(header.rfind("run_id,point_id,replica,engine,end_reason,W,q_count,q_count_se,", 0), 0u) << header;
   int rows = 0;
   while (std::getline(lines, row)) ++rows;
   EXPECT_EQ(rows, 2);
@@ -633,8 +644,8 @@ TEST_F(CliTest, FieldsInTheReport) {
   const fs::path report = dir_ / "report";
   const std::string md = ReadFile(report / "report.md");
   EXPECT_NE(md.find("## Coarse-grained fields"), std::string::npos);
-  for (const char* map : {"field_phi_flowing", "field_speed_flowing", "field_pressure_flowing", "field_friction_flowing",
-                          "force_chains"})
+  for (const char* map :
+       {"field_phi_flowing", "field_speed_flowing", "field_pressure_flowing", "field_friction_flowing", "force_chains"})
     EXPECT_NE(md.find(std::string("](figures/") + map + ".svg)"), std::string::npos) << map;
   // One CSV per map and point: x, y, value, n_frames over the window's nodes.
   for (int k = 1; k <= 2; ++k) {
@@ -697,7 +708,8 @@ TEST_F(CliTest, CompareRunsBothEnginesAndReportsThem) {
     const double a = m["native"]["mean"].get<double>(), b = m["liggghts"]["mean"].get<double>();
     const double se = std::hypot(m["native"]["se"].get<double>(), m["liggghts"]["se"].get<double>());
     EXPECT_GT(a, 0.0) << name;
-    EXPECT_LT(std::abs(a - b), std::max(4.0 * se, 0.1 * a)) << name << ": native " << a << ", liggghts " << b << ", se " << se;
+    EXPECT_LT(std::abs(a - b), std::max(4.0 * se, 0.1 * a))
+        << name << ": native " << a << ", liggghts " << b << ", se " << se;
   }
   const std::string md = ReadFile(dir_ / "report" / "report.md");
   EXPECT_NE(md.find("Engine comparison: native and liggghts"), std::string::npos);
@@ -770,7 +782,8 @@ TEST_F(CliTest, AFullDiskUnderTheDatabaseStopsTheRunnerCleanly) {
   setenv("FAKE_ENGINE_FIRST_LAUNCH_STEP_MS", "1000", 1);
   ASSERT_EQ(Sh(testing::Campaign() + " plan " + WriteSpec("[4, 6]", 1) + " --db " + db).code, 0);
   const std::string log = (dir_ / "runner.log").string();
-  const pid_t runner = Spawn({testing::Campaign(), "run", "--db", db, "--jobs", "2", "--engine", testing::FakeEngine()}, log);
+  const pid_t runner =
+      Spawn({testing::Campaign(), "run", "--db", db, "--jobs", "2", "--engine", testing::FakeEngine()}, log);
   const auto checkpointed = [&] {
     int n = 0;
     for (const auto& e : fs::directory_iterator(dir_ / "runs-elsewhere")) n += fs::exists(e.path() / "checkpoint.fake");
@@ -783,7 +796,8 @@ TEST_F(CliTest, AFullDiskUnderTheDatabaseStopsTheRunnerCleanly) {
   EXPECT_NE(out.find("database or disk is full"), std::string::npos) << out;
   // And where the full disk is.
   EXPECT_NE(out.find("the file system of " + (dir_ / "dbfs").string() + " is full ("), std::string::npos) << out;
-  EXPECT_NE(out.find("campaign run stopped its engines (they continue from their checkpoints)"), std::string::npos) << out;
+  EXPECT_NE(out.find("campaign run stopped its engines (they continue from their checkpoints)"), std::string::npos)
+      << out;
   fs::remove(dir_ / "dbfs" / "filler");
   unsetenv("FAKE_ENGINE_FIRST_LAUNCH_STEP_MS");
   const auto r = Sh(testing::Campaign() + " run --db " + db + " --engine " + testing::FakeEngine());
@@ -839,25 +853,29 @@ TEST_F(CliTest, AReadOnlyDatabaseDirectoryIsReadAndSaidSo) {
   if (!disk.Mounted()) GTEST_SKIP() << "cannot mount a tmpfs (needs root with CAP_SYS_ADMIN): " << disk.Why();
   fs::copy_file(Db(), dir_ / "ro" / "g.db");
   fs::create_directory_symlink(dir_ / "runs", dir_ / "ro" / "runs");
-  ASSERT_EQ(::mount("tmpfs", (dir_ / "ro").c_str(), "tmpfs", MS_REMOUNT | MS_RDONLY, nullptr), 0) << std::strerror(errno);
+  ASSERT_EQ(::mount("tmpfs", (dir_ / "ro").c_str(), "tmpfs", MS_REMOUNT | MS_RDONLY, nullptr), 0)
+      << std::strerror(errno);
   const std::string db = (dir_ / "ro" / "g.db").string();
   const auto status = Sh(testing::Campaign() + " status --db " + db);
   EXPECT_EQ(status.code, 0) << status.output;
   EXPECT_NE(status.output.find("done 2"), std::string::npos) << status.output;
   const auto report = Sh(testing::Campaign() + " report --no-figures --out " + (dir_ / "rep").string() + " --db " + db);
   EXPECT_EQ(report.code, 0) << report.output;
-  EXPECT_NE(report.output.find("cannot be written here (read-only): the metrics are not stored in it"), std::string::npos)
+  EXPECT_NE(report.output.find("cannot be written here (read-only): the metrics are not stored in it"),
+            std::string::npos)
       << report.output;
   EXPECT_TRUE(fs::exists(dir_ / "rep" / "report.md"));
   const auto exported = Sh(testing::Campaign() + " export --out " + (dir_ / "runs.csv").string() + " --db " + db);
   EXPECT_EQ(exported.code, 0) << exported.output;
-  EXPECT_NE(exported.output.find("export: the database " + db + " cannot be written here (read-only)"), std::string::npos)
+  EXPECT_NE(exported.output.find("export: the database " + db + " cannot be written here (read-only)"),
+            std::string::npos)
       << exported.output;
   EXPECT_EQ(CountLines(ReadFile(dir_ / "runs.csv"), ""), 3);  // header and 2 runs
   const auto run = Sh(testing::Campaign() + " run --engine " + testing::FakeEngine() + " --db " + db);
   EXPECT_EQ(run.code, 3) << run.output;
   EXPECT_NE(run.output.find((dir_ / "ro").string() + " is read-only ("), std::string::npos) << run.output;
-  EXPECT_NE(run.output.find("campaign status, show, report and export work read-only"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("campaign status, show, report and export work read-only"), std::string::npos)
+      << run.output;
 }
 
 // Campaign report with nothing finished exited 0 without a word.

@@ -33,12 +33,12 @@ class CliUsability : public ::testing::Test {
   // widths x mu x replicas runs.
   std::string WriteSpec(const std::string& widths, const std::string& mus, int replicas) {
     const fs::path p = dir_ / "c.json";
-    std::ofstream(p) << json{{"name", "u"},
-                             {"replicas", replicas},
-                             {"base", {{"bodies", {{"count", 100}}}, {"silo", {{"width", 30}}}}},
-                             {"sweep",
-                              {{"grid", {{"/silo/base_outlets/0/width", json::parse(widths)},
-                                         {"/contact/mu", json::parse(mus)}}}}}};
+    std::ofstream(p) << json{
+        {"name", "u"},
+        {"replicas", replicas},
+        {"base", {{"bodies", {{"count", 100}}}, {"silo", {{"width", 30}}}}},
+        {"sweep",
+         {{"grid", {{"/silo/base_outlets/0/width", json::parse(widths)}, {"/contact/mu", json::parse(mus)}}}}}};
     return p.string();
   }
   std::string Db() const { return (dir_ / "g.db").string(); }
@@ -181,7 +181,6 @@ TEST_F(CliUsability, DryRunCreatesNoFile) {
   EXPECT_FALSE(fs::exists(dir_ / "runs"));
 }
 
-
 TEST_F(CliUsability, ShowTellsEverythingAboutOneRun) {
   ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 6]", "[0.5]", 1))).code, 0);
   ASSERT_EQ(Sh(RunCmd("--jobs 1")).code, 0);
@@ -192,9 +191,8 @@ TEST_F(CliUsability, ShowTellsEverythingAboutOneRun) {
   ASSERT_EQ(r.code, 0) << r.output;
   for (const std::string& expected :
        {"run " + id + " of campaign u", std::string(" done: discharged, 4 exits of 100 bodies, t_end 4\n"),
-        std::string("  attempts "), std::string("results (summary.json):"),
-        std::string(" *silo/base_outlets/0/width"), std::string("  contact/kn"), std::string("engine.log (last"),
-        std::string("summary.json")})
+        std::string("  attempts "), std::string("results (summary.json):"), std::string(" *silo/base_outlets/0/width"),
+        std::string("  contact/kn"), std::string("engine.log (last"), std::string("summary.json")})
     EXPECT_NE(r.output.find(expected), std::string::npos) << expected << "\n" << r.output;
   // The same as JSON, found by its directory.
   r = Sh(Cmd("show --json " + runs[0]["run_dir"].get<std::string>()) + " 2>/dev/null");
@@ -221,12 +219,12 @@ TEST_F(CliUsability, ShowTellsEverythingAboutOneRun) {
 TEST_F(CliUsability, CleanRemovesRetiredAndFailedRunsAndUnusedBedsAndSaysHowMuch) {
   auto spec = [&](const std::string& widths) {
     const fs::path p = dir_ / "c.json";
-    std::ofstream(p) << json{{"name", "u"},
-                             {"replicas", 1},
-                             {"base", {{"bodies", {{"count", 100}}}, {"silo", {{"width", 30}}}}},
-                             {"sweep",
-                              {{"grid", {{"/silo/base_outlets/0/width", json::parse(widths)},
-                                         {"/discharge/max_time", {100, 13}}}}}}};
+    std::ofstream(p) << json{
+        {"name", "u"},
+        {"replicas", 1},
+        {"base", {{"bodies", {{"count", 100}}}, {"silo", {{"width", 30}}}}},
+        {"sweep",
+         {{"grid", {{"/silo/base_outlets/0/width", json::parse(widths)}, {"/discharge/max_time", {100, 13}}}}}}};
     return p.string();
   };
   ASSERT_EQ(Sh(Cmd("plan " + spec("[4, 6]"))).code, 0);
@@ -319,7 +317,6 @@ TEST_F(CliUsability, ExportTakesTheSameOnlyFilters) {
 #endif
 }
 
-
 // The schema an editor checks specs with: every shipped campaign passes it, and the mistakes
 // the validator refuses (an unknown key, a value out of range, a wrong type) fail it too.
 // Checked by python3-jsonschema, the validator VS Code's JSON support agrees with on draft-07.
@@ -340,8 +337,10 @@ TEST_F(CliUsability, SchemaAcceptsTheShippedCampaignsAndRefusesWhatTheValidatorR
       << "docs/campaign.schema.json is stale; update it with: build/bin/campaign schema --out docs/campaign.schema.json";
 
   auto validates = [&](const fs::path& spec) {
-    return Sh("python3 -c 'import json, sys, jsonschema; jsonschema.validate(json.load(open(sys.argv[2])), "
-              "json.load(open(sys.argv[1])))' " + schema.string() + " " + spec.string());
+    return Sh(
+        "python3 -c 'import json, sys, jsonschema; jsonschema.validate(json.load(open(sys.argv[2])), "
+        "json.load(open(sys.argv[1])))' " +
+        schema.string() + " " + spec.string());
   };
   int shipped = 0;
   for (const auto& e : fs::directory_iterator(fs::path(GRANARY_SOURCE_DIR) / "campaigns")) {
@@ -351,21 +350,25 @@ TEST_F(CliUsability, SchemaAcceptsTheShippedCampaignsAndRefusesWhatTheValidatorR
     ++shipped;
   }
   EXPECT_GT(shipped, 5);
-  const json good = {{"name", "u"}, {"replicas", 2}, {"base", {{"contact", {{"mu", 0.3}}}}},
+  const json good = {{"name", "u"},
+                     {"replicas", 2},
+                     {"base", {{"contact", {{"mu", 0.3}}}}},
                      {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {4, 6}}}}}}};
   const fs::path spec = dir_ / "s.json";
   std::ofstream(spec) << good;
   EXPECT_EQ(validates(spec).code, 0) << validates(spec).output;
   {
     json adaptive = good;
-    adaptive["replicas"] = json::parse(R"({"min": 3, "max": 50, "until": [{"metric": "avalanche_size", "rel_se": 0.05}]})");
+    adaptive["replicas"] =
+        json::parse(R"({"min": 3, "max": 50, "until": [{"metric": "avalanche_size", "rel_se": 0.05}]})");
     std::ofstream(spec, std::ios::trunc) << adaptive;
     EXPECT_EQ(validates(spec).code, 0) << validates(spec).output;
     EXPECT_EQ(Sh(Cmd("plan --dry-run " + spec.string())).code, 0);
   }
   for (const auto& [pointer, bad] : std::vector<std::pair<std::string, json>>{
-           {"/replicas", {{"min", 2}, {"max", 5}}},                                             // no target
-           {"/replicas", {{"max", 5}, {"until", {{"metric", "q_count"}, {"se", 1}, {"rel_se", 1}}}}},  // two targets in one
+           {"/replicas", {{"min", 2}, {"max", 5}}},  // no target
+           {"/replicas",
+            {{"max", 5}, {"until", {{"metric", "q_count"}, {"se", 1}, {"rel_se", 1}}}}},  // two targets in one
            {"/base/contact/muu", 0.3},        // unknown key (did you mean mu)
            {"/base/contact/mu", -0.1},        // below its minimum
            {"/replicas", "two"},              // wrong type
@@ -389,7 +392,8 @@ TEST_F(CliUsability, BashCompletesVerbsFlagsRunIdsAndFilters) {
     const fs::path t = dir_ / "complete.sh";
     std::ofstream(t, std::ios::trunc) << "source " << script.string() << "\nCOMP_WORDS=(" << testing::Campaign() << " "
                                       << words << ")\nCOMP_CWORD=$((${#COMP_WORDS[@]} - 1))\n"
-                                      << "[[ \"" << words << "\" == *' ' ]] && COMP_WORDS+=('') && COMP_CWORD=$((${#COMP_WORDS[@]} - 1))\n"
+                                      << "[[ \"" << words
+                                      << "\" == *' ' ]] && COMP_WORDS+=('') && COMP_CWORD=$((${#COMP_WORDS[@]} - 1))\n"
                                       << "_campaign\nprintf '%s\\n' \"${COMPREPLY[@]}\"\n";
     const auto r = Sh("bash " + t.string() + " 2>&1");
     EXPECT_EQ(r.code, 0) << r.output;
@@ -415,7 +419,8 @@ TEST_F(CliUsability, EveryVerbOfTheTableHasHelpFlagsAndCompletion) {
   ASSERT_EQ(help.code, 0);
   std::vector<std::string> verbs;
   std::istringstream lines(help.output.substr(help.output.find("verbs:\n") + 7));
-  for (std::string line; std::getline(lines, line) && !line.empty();) verbs.push_back(line.substr(2, line.find(' ', 2) - 2));
+  for (std::string line; std::getline(lines, line) && !line.empty();)
+    verbs.push_back(line.substr(2, line.find(' ', 2) - 2));
   ASSERT_EQ(verbs.size(), cli::Verbs().size()) << help.output;
   std::string all;
   for (const auto& v : verbs) all += v + "\n";
@@ -435,9 +440,15 @@ TEST_F(CliUsability, EveryVerbOfTheTableHasHelpFlagsAndCompletion) {
   }
   ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4]", "[0.5]", 1))).code, 0);
   const std::string id = Status()["runs"][0]["run_id"];
-  const std::map<std::string, std::string> operand = {
-      {"plan", "__files__\n"}, {"compare", "__files__\n"}, {"dump", "__files__\n"}, {"completion", "bash\n"}, {"show", id + "\n"},
-      {"snapshot", id + "\n"}, {"movie", id + "\n"},         {"status", ""},           {"run", ""}};
+  const std::map<std::string, std::string> operand = {{"plan", "__files__\n"},
+                                                      {"compare", "__files__\n"},
+                                                      {"dump", "__files__\n"},
+                                                      {"completion", "bash\n"},
+                                                      {"show", id + "\n"},
+                                                      {"snapshot", id + "\n"},
+                                                      {"movie", id + "\n"},
+                                                      {"status", ""},
+                                                      {"run", ""}};
   for (const auto& [v, expected] : operand)
     EXPECT_EQ(Sh(testing::Campaign() + " __complete 4 campaign " + v + " --db " + Db() + " ''").output, expected) << v;
 }
@@ -464,13 +475,17 @@ TEST_F(CliUsability, StatusHasNoEtaWithoutARunnerAtWork) {
   ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 6]", "[0.5]", 1))).code, 0);
   const auto status = Sh(Cmd("status"));
   EXPECT_EQ(status.code, 0) << status.output;
-  EXPECT_NE(status.output.find("ETA - (no runner at work: campaign run continues)"), std::string::npos) << status.output;
+  EXPECT_NE(status.output.find("ETA - (no runner at work: campaign run continues)"), std::string::npos)
+      << status.output;
   EXPECT_TRUE(Status()["eta_s"].is_null());
   // A run left running in its bed phase by a runner that is gone: its simulated time alone
   // (the bed has no end time), and still no ETA.
-  ASSERT_EQ(Sh("sqlite3 " + Db() + " \"UPDATE runs SET state = 'running', progress = "
+  ASSERT_EQ(Sh("sqlite3 " + Db() +
+               " \"UPDATE runs SET state = 'running', progress = "
                "'{\\\"phase\\\": \\\"bed\\\", \\\"fraction\\\": 0.3, \\\"t\\\": 33.6, \\\"t_end\\\": 0.0, "
-               "\\\"exited\\\": 0, \\\"wall_s\\\": 2.0}' WHERE rowid = 1\"").code, 0);
+               "\\\"exited\\\": 0, \\\"wall_s\\\": 2.0}' WHERE rowid = 1\"")
+                .code,
+            0);
   const auto bed = Sh(Cmd("status"));
   EXPECT_NE(bed.output.find("t 33.6  0 exits"), std::string::npos) << bed.output;
   EXPECT_EQ(bed.output.find("33.6/"), std::string::npos) << bed.output;

@@ -77,8 +77,8 @@ TEST_F(CostTest, EstimatesMatchWhatTinyCampaignsOfEachShapeAndModeTake) {
   if (!fs::exists(engine_)) GTEST_SKIP() << "granary-engine not built";
   const json disc = json::array({{{"shape", "disc"}}});
   const json dumbbell = json::array({{{"shape", "dumbbell"}}});
-  const json mixture = json::array({{{"shape", "dumbbell"}, {"fraction", 0.5}},
-                                    {{"shape", "disc"}, {"diameter", 1.414214}, {"fraction", 0.5}}});
+  const json mixture = json::array(
+      {{{"shape", "dumbbell"}, {"fraction", 0.5}}, {{"shape", "disc"}, {"diameter", 1.414214}, {"fraction", 0.5}}});
   const std::vector<json> specs = {
       Tiny("discs", disc, "reinject", 8, {{"frame_interval", 0.25}}),
       Tiny("dumbbells", dumbbell, "reinject", 6, {{"frame_interval", 0.25}, {"contact_forces", true}}),
@@ -115,10 +115,11 @@ TEST_F(CostTest, EstimatesMatchWhatTinyCampaignsOfEachShapeAndModeTake) {
       // Its end is known: one figure, within a factor of 2 (time) and 20 % (disk) of the measure.
       EXPECT_EQ(wall_low, wall_high) << name;
       EXPECT_EQ(bytes_low, bytes_high) << name;
-      EXPECT_LE(std::fabs(bytes_high - bytes), 0.2 * bytes) << name << ": wrote " << bytes << " bytes, estimated " << e.dump();
+      EXPECT_LE(std::fabs(bytes_high - bytes), 0.2 * bytes)
+          << name << ": wrote " << bytes << " bytes, estimated " << e.dump();
     }
-    std::printf("%s: CPU %.2f s, wall %.2f s (estimated %.2f-%.2f), disk %.0f bytes (estimated %.0f-%.0f)\n", name.c_str(),
-                cpu, wall, wall_low, wall_high, bytes, bytes_low, bytes_high);
+    std::printf("%s: CPU %.2f s, wall %.2f s (estimated %.2f-%.2f), disk %.0f bytes (estimated %.0f-%.0f)\n",
+                name.c_str(), cpu, wall, wall_low, wall_high, bytes, bytes_low, bytes_high);
     // Status after the runs: nothing left, the estimate scaled from them.
     const json status = json::parse(Sh(Quiet(Cmd(db, "status --json"))).output);
     EXPECT_EQ(status["remaining_core_hours"], 0.0) << status.dump();
@@ -273,7 +274,8 @@ TEST_F(CostTest, TheBedsPackingFractionHeightAndSettlingTimeAreRecordedAndShown)
   ASSERT_EQ(Sh(Cmd("c.db", "run")).code, 0);
   const json status = json::parse(Sh(Quiet(Cmd("c.db", "status --json"))).output);
   const std::string id = status["runs"][0]["run_id"];
-  const json summary = json::parse(ReadFile(fs::path(status["runs"][0]["run_dir"].get<std::string>()) / "summary.json"));
+  const json summary =
+      json::parse(ReadFile(fs::path(status["runs"][0]["run_dir"].get<std::string>()) / "summary.json"));
   const double phi = summary["bed"]["packing_fraction"];
   // Monodisperse discs settle into a packing near the hexagonal one (0.907) with defects.
   EXPECT_GT(phi, 0.75);

@@ -135,9 +135,11 @@ TEST_F(DamagedRunsTest, EveryFileTheAnalysesReadBeforeAndAfterACachedReport) {
       EXPECT_EQ(report.code, 4) << what << "\n" << report.output;
       EXPECT_NE(report.output.find("runs used 1, "), std::string::npos) << what << "\n" << report.output;
       EXPECT_NE(report.output.find("damaged 1"), std::string::npos) << what << "\n" << report.output;
-      EXPECT_NE(report.output.find("report: run " + RunId(run) + " (silo/base_outlets/0/width=7 r0) is damaged and left out:"),
+      EXPECT_NE(report.output.find("report: run " + RunId(run) +
+                                   " (silo/base_outlets/0/width=7 r0) is damaged and left out:"),
                 std::string::npos)
-          << what << "\n" << report.output;
+          << what << "\n"
+          << report.output;
       EXPECT_NE(report.output.find("\n    " + d.file + ": "), std::string::npos) << what << "\n" << report.output;
       EXPECT_NE(report.output.find(d.says), std::string::npos) << what << "\n" << report.output;
       const std::string md = ReadFile(*dir_ / "report" / "report.md");
@@ -150,10 +152,12 @@ TEST_F(DamagedRunsTest, EveryFileTheAnalysesReadBeforeAndAfterACachedReport) {
       const std::string table = ReadFile(*dir_ / "runs.csv");
       EXPECT_EQ(ExportRows(table), 1) << what << "\n" << table;
       EXPECT_EQ(table.find(RunId(run)), std::string::npos) << what;
-      EXPECT_NE(exported.output.find("export: run " + RunId(run) + " (silo/base_outlets/0/width=7 r0) is damaged and left out:\n    " +
-                                     d.file + ": "),
-                std::string::npos)
-          << what << "\n" << exported.output;
+      EXPECT_NE(
+          exported.output.find("export: run " + RunId(run) +
+                               " (silo/base_outlets/0/width=7 r0) is damaged and left out:\n    " + d.file + ": "),
+          std::string::npos)
+          << what << "\n"
+          << exported.output;
 
       const json status = Status();
       EXPECT_EQ(status["damaged"], 1) << what;
@@ -163,14 +167,17 @@ TEST_F(DamagedRunsTest, EveryFileTheAnalysesReadBeforeAndAfterACachedReport) {
         EXPECT_FALSE(r.contains("metrics")) << what << ": a damaged run's metrics are no numbers of the campaign";
       }
       const auto text_status = Sh(Cmd("status"));
-      EXPECT_NE(text_status.output.find("damaged: 1 done run(s)"), std::string::npos) << what << "\n" << text_status.output;
+      EXPECT_NE(text_status.output.find("damaged: 1 done run(s)"), std::string::npos) << what << "\n"
+                                                                                      << text_status.output;
       const auto show = Sh(Cmd("show " + RunId(run)));
       EXPECT_NE(show.output.find("damaged"), std::string::npos) << what << "\n" << show.output;
       const auto scan = Sh(Cmd("scan --verify"));
       EXPECT_EQ(scan.code, 4) << what << "\n" << scan.output;
-      EXPECT_NE(scan.output.find("1 whole, 1 damaged, 0 not verifiable"), std::string::npos) << what << "\n" << scan.output;
+      EXPECT_NE(scan.output.find("1 whole, 1 damaged, 0 not verifiable"), std::string::npos) << what << "\n"
+                                                                                             << scan.output;
       EXPECT_NE(scan.output.find("  damaged " + RunId(run) + ":\n    " + d.file + ": "), std::string::npos)
-          << what << "\n" << scan.output;
+          << what << "\n"
+          << scan.output;
 
       // Restored, the run is whole again and used again.
       std::ofstream(file, std::ios::binary) << text;
@@ -215,11 +222,10 @@ TEST_F(DamagedRunsTest, ASecondReportIntoTheSameFolderWaitsAndSaysSo) {
   pid_t pid = -1;
   {
     const FileLock held(out / ".report.lock");  // as a report writing there holds it
-    pid = testing::Spawn({testing::Campaign(), "report", "--no-figures", "--out", out.string(), "--db",
-                          (*dir_ / "g.db").string()},
-                         log);
-    ASSERT_TRUE(testing::WaitFor([&] { return ReadFile(log).find("another campaign report is writing") != std::string::npos; },
-                                 120))
+    pid = testing::Spawn(
+        {testing::Campaign(), "report", "--no-figures", "--out", out.string(), "--db", (*dir_ / "g.db").string()}, log);
+    ASSERT_TRUE(testing::WaitFor(
+        [&] { return ReadFile(log).find("another campaign report is writing") != std::string::npos; }, 120))
         << ReadFile(log);
     EXPECT_FALSE(fs::exists(out / "report.md"));
   }

@@ -58,7 +58,8 @@ TEST(Estimate, AReinjectRunWithoutClogStopIsDiscsTimesStepsAtTheRate) {
 }
 
 TEST(Estimate, AMixturePaysEachKindForItsShareOfTheDiscs) {
-  const json species = json::array({{{"shape", "dumbbell"}, {"fraction", 0.5}}, {{"shape", "disc"}, {"diameter", 1.414214}, {"fraction", 0.5}}});
+  const json species = json::array(
+      {{{"shape", "dumbbell"}, {"fraction", 0.5}}, {{"shape", "disc"}, {"diameter", 1.414214}, {"fraction", 0.5}}});
   const RunSpec spec = RunSpec::FromJson(Reinject(species, 400, 1.0));
   const RunEstimate e = EstimateRun(spec, Rates(2e7, 5e6), false);
   EXPECT_DOUBLE_EQ(e.discs, 600);  // 200 dumbbells, 200 discs
@@ -120,7 +121,8 @@ TEST(Estimate, ACampaignPreparesEachBedOnceAndNotThoseInTheCache) {
   EXPECT_GT(e.runs.at("r3").bed_disc_steps, 0);
   ASSERT_EQ(e.points.size(), 2u);
   EXPECT_EQ(e.points[0].runs, 2);
-  EXPECT_NEAR(e.core_s_high, e.runs.at("r1").core_s_high + e.runs.at("r2").core_s_high + e.runs.at("r3").core_s_high, 1e-9);
+  EXPECT_NEAR(e.core_s_high, e.runs.at("r1").core_s_high + e.runs.at("r2").core_s_high + e.runs.at("r3").core_s_high,
+              1e-9);
   EXPECT_NEAR(e.wall_s_high, e.core_s_high, 1e-9);  // one job
   const CampaignEstimate cached = EstimateCampaign(runs, Rates(1e7, 1e7), 3, {"/beds/2.bed"});
   EXPECT_EQ(cached.runs.at("r3").bed_disc_steps, 0);
@@ -136,7 +138,8 @@ TEST(Estimate, FinishedRunsScaleTheRatesByWhatTheyTook) {
   const json spec = RunSpec::FromJson(Reinject(json::array({{{"shape", "disc"}}}), 300, 1.0)).ToJson();
   // 300 discs x 10000 steps at 1e7/s + the start of a run = 0.8 s predicted; they took 1.6 s.
   const double predicted = 0.3 + EstimateModel{}.run_overhead_s;
-  const json summary = {{"t_end", 1.0}, {"bed", {{"prepared_here", false}}}, {"timing", {{"wall_s", 2 * predicted}, {"threads", 1}}}};
+  const json summary = {
+      {"t_end", 1.0}, {"bed", {{"prepared_here", false}}}, {"timing", {{"wall_s", 2 * predicted}, {"threads", 1}}}};
   Calibration cal = Rates(1e7, 1e7);
   ScaleFromFinished(cal, {{spec, summary}, {spec, summary}});
   EXPECT_NEAR(cal.scale, 2.0, 1e-9);

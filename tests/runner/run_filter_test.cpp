@@ -46,7 +46,8 @@ TEST(RunFilter, ShortNamesAsTheReportPrintsThem) {
   const Runs r = MakeRuns();
   const RunFilter f = ResolveFilters({"D_b=1.5", "W=4"}, r.campaign, r.rows);
   EXPECT_EQ(Passing(f, r.rows), (std::vector<std::string>{"w4db15"}));
-  EXPECT_EQ(f.Texts(), (std::vector<std::string>{"/bodies/species/0/big_diameter=1.5", "/silo/base_outlets/0/width=4"}));
+  EXPECT_EQ(f.Texts(),
+            (std::vector<std::string>{"/bodies/species/0/big_diameter=1.5", "/silo/base_outlets/0/width=4"}));
 }
 
 TEST(RunFilter, DerivedAxesSelectTheRunsWhoseValueMatches) {

@@ -382,9 +382,10 @@ TEST_F(SchedulerTest, ADatabaseThatCannotBeWrittenStopsTheEngines) {
     FAIL() << "expected a StoreError";
   } catch (const StoreError& e) {
     const std::string what = e.what();
-    EXPECT_NE(what.find("campaign run stopped its engines (they continue from their checkpoints); runs it could not mark "
-                        "interrupted show as running with their runner gone"),
-              std::string::npos)
+    EXPECT_NE(
+        what.find("campaign run stopped its engines (they continue from their checkpoints); runs it could not mark "
+                  "interrupted show as running with their runner gone"),
+        std::string::npos)
         << what;
   }
   ASSERT_EQ(executor_.stops.size(), 2u);
@@ -402,7 +403,8 @@ TEST_F(SchedulerTest, DoneRunsWhoseDirectoryWasDeletedAreReportedAndRunAgainOnRe
   fs::remove_all(Rows()[first].run_dir);
   EXPECT_EQ(Run(), ExitCode::kOk);
   EXPECT_EQ(executor_.started.size(), 2u);
-  EXPECT_EQ(observer_.Count(" lost: 1 done run(s) have no run directory (deleted after they finished; first " + first), 1)
+  EXPECT_EQ(observer_.Count(" lost: 1 done run(s) have no run directory (deleted after they finished; first " + first),
+            1)
       << observer_.All();
   options_.rerun_lost = true;
   EXPECT_EQ(Run(), ExitCode::kOk);

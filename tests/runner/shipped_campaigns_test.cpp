@@ -50,9 +50,9 @@ std::pair<std::string, std::string> StudyAndSize(const fs::path& spec) {
 // GSD, with fewer contact frames), and the sweep's values (its axes stay).
 json WithoutSize(json spec) {
   for (const char* key : {"name", "description", "size", "replicas"}) spec.erase(key);
-  for (const char* pointer : {"/base/bodies/count", "/base/silo/width", "/base/discharge/max_time",
-                              "/base/discharge/unclog/max_clogs", "/base/output/frame_interval",
-                              "/base/output/format", "/base/output/contact_interval"}) {
+  for (const char* pointer :
+       {"/base/bodies/count", "/base/silo/width", "/base/discharge/max_time", "/base/discharge/unclog/max_clogs",
+        "/base/output/frame_interval", "/base/output/format", "/base/output/contact_interval"}) {
     const json::json_pointer p(pointer);
     if (spec.contains(p)) spec.at(p.parent_pointer()).erase(p.back());
   }

@@ -110,8 +110,9 @@ SlurmCluster::~SlurmCluster() { Stop(); }
 void SlurmCluster::Start(const Options& options) {
   for (const char* exe : {"/usr/sbin/munged", "/usr/sbin/slurmctld", "/usr/sbin/slurmd", "/usr/bin/sbatch"}) {
     if (!fs::exists(exe)) {
-      throw std::runtime_error(std::string(exe) +
-                               " is missing: install Debian's slurmctld, slurmd, slurm-client and munge (scripts/setup.sh)");
+      throw std::runtime_error(
+          std::string(exe) +
+          " is missing: install Debian's slurmctld, slurmd, slurm-client and munge (scripts/setup.sh)");
     }
   }
   std::string tmpl = (fs::temp_directory_path() / "granary-slurm-XXXXXX").string();
@@ -130,12 +131,11 @@ void SlurmCluster::Start(const Options& options) {
     chmod((dir_ / "munge" / "key").c_str(), 0400);
   }
   const fs::path sock = dir_ / "munge" / "munge.sock";
-  daemons_.push_back(StartDaemon({"/usr/sbin/munged", "--foreground", "--force", "--socket=" + sock.string(),
-                                  "--key-file=" + (dir_ / "munge" / "key").string(),
-                                  "--pid-file=" + (dir_ / "munge" / "munged.pid").string(),
-                                  "--log-file=" + (dir_ / "munge" / "munged.log").string(),
-                                  "--seed-file=" + (dir_ / "munge" / "seed").string()},
-                                 dir_ / "munge" / "munged.out"));
+  daemons_.push_back(StartDaemon(
+      {"/usr/sbin/munged", "--foreground", "--force", "--socket=" + sock.string(),
+       "--key-file=" + (dir_ / "munge" / "key").string(), "--pid-file=" + (dir_ / "munge" / "munged.pid").string(),
+       "--log-file=" + (dir_ / "munge" / "munged.log").string(), "--seed-file=" + (dir_ / "munge" / "seed").string()},
+      dir_ / "munge" / "munged.out"));
   if (!WaitFor([&] { return fs::exists(sock) || Exited(daemons_.back()); }, 20) || !fs::exists(sock)) {
     throw std::runtime_error("munged did not create its socket\n" + LogTails());
   }
@@ -157,10 +157,12 @@ void SlurmCluster::Start(const Options& options) {
        << "SlurmUser=" << user << "\nSlurmdUser=" << user << "\n"
        << "AuthType=auth/munge\nCredType=cred/munge\nAuthInfo=socket=" << sock.string() << "\n"
        << "SlurmctldPort=" << ctld_port << "\nSlurmdPort=" << slurmd_port << "\n"
-       << "StateSaveLocation=" << d << "/state\nSlurmdSpoolDir=" << d << "/spool\n"
+       << "StateSaveLocation=" << d << "/state\nSlurmdSpoolDir=" << d
+       << "/spool\n"
        // PMIx (srun --mpi=pmix) keeps per-step directories under TmpFS, named by job and step
        // id, which a second test cluster on this machine reuses.
-       << "TmpFS=" << d << "/tmp\n"
+       << "TmpFS=" << d
+       << "/tmp\n"
        // Open MPI and PMIx name their session files by job id: two test clusters both at job 1
        // left LIGGGHTS' ranks spinning in MPI_Init. Each cluster numbers its jobs apart.
        << "FirstJobId=" << 1000 * (1 + getpid() % 60000) << "\n"
@@ -241,7 +243,8 @@ void SlurmCluster::Stop() {
 
 std::string SlurmCluster::LogTails() const {
   std::string out;
-  for (const char* log : {"munge/munged.log", "munge/munged.out", "slurmctld.log", "slurmctld.out", "slurmd.log", "slurmd.out"}) {
+  for (const char* log :
+       {"munge/munged.log", "munge/munged.out", "slurmctld.log", "slurmctld.out", "slurmd.log", "slurmd.out"}) {
     const std::string tail = TailOfFile(dir_ / log, 15);
     if (!tail.empty()) out += std::string("--- ") + log + "\n" + tail;
   }

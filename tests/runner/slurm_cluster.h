@@ -46,4 +46,3 @@ class SlurmCluster {
 };
 
 }  // namespace granary::runner::testing
-

@@ -29,17 +29,17 @@ class FakeSqueueTest : public ::testing::Test {
     fs::create_directories(dir_ / "run");
     // Answers from DIR/answer: "fail" (controller unreachable), "gone" (no such job), or
     // "running" (job 77 task 0 runs, found by name with script DIR/job-1.sh).
-    std::ofstream(dir_ / "bin" / "squeue") << "#!/bin/bash\n"
-                                           << "answer=$(cat " << (dir_ / "answer").string() << ")\n"
-                                           << "echo \"$*\" >> " << (dir_ / "calls").string() << "\n"
-                                           << "case $answer in\n"
-                                           << "  fail) echo 'slurm_load_jobs error: Unable to contact slurm controller' >&2; exit 1;;\n"
-                                           << "  gone) case \"$*\" in *--name=*) exit 0;; esac\n"
-                                           << "        echo 'slurm_load_jobs error: Invalid job id specified' >&2; exit 1;;\n"
-                                           << "  running) case \"$*\" in *--name=*) echo '77|" << (dir_ / "job-1.sh").string()
-                                           << "'; exit 0;; esac\n"
-                                           << "        echo '77|0|RUNNING|1795468828|granary-t-0001-1|None'; exit 0;;\n"
-                                           << "esac\n";
+    std::ofstream(dir_ / "bin" / "squeue")
+        << "#!/bin/bash\n"
+        << "answer=$(cat " << (dir_ / "answer").string() << ")\n"
+        << "echo \"$*\" >> " << (dir_ / "calls").string() << "\n"
+        << "case $answer in\n"
+        << "  fail) echo 'slurm_load_jobs error: Unable to contact slurm controller' >&2; exit 1;;\n"
+        << "  gone) case \"$*\" in *--name=*) exit 0;; esac\n"
+        << "        echo 'slurm_load_jobs error: Invalid job id specified' >&2; exit 1;;\n"
+        << "  running) case \"$*\" in *--name=*) echo '77|" << (dir_ / "job-1.sh").string() << "'; exit 0;; esac\n"
+        << "        echo '77|0|RUNNING|1795468828|granary-t-0001-1|None'; exit 0;;\n"
+        << "esac\n";
     fs::permissions(dir_ / "bin" / "squeue", fs::perms::owner_all);
     old_path_ = std::getenv("PATH");
     setenv("PATH", ((dir_ / "bin").string() + ":" + old_path_).c_str(), 1);
@@ -76,19 +76,23 @@ TEST_F(FakeSqueueTest, AQueueThatDoesNotAnswerProvesNothing) {
   auto executor = Make();
   executor->Attach(Adopted("77"));
   // Many polls, squeue failing each time: the run is neither ended nor forgotten.
-  ASSERT_TRUE(WaitFor([&] {
-    EXPECT_TRUE(executor->Poll().empty());
-    return Calls() >= 5;
-  }, 30));
+  ASSERT_TRUE(WaitFor(
+      [&] {
+        EXPECT_TRUE(executor->Poll().empty());
+        return Calls() >= 5;
+      },
+      30));
   EXPECT_EQ(executor->Active(), 1u);
   // Once squeue says the job is gone, the run directory decides: no task record, so its task
   // never started, and the run continues elsewhere.
   Answer("gone");
   std::vector<Finished> ended;
-  ASSERT_TRUE(WaitFor([&] {
-    ended = executor->Poll();
-    return !ended.empty();
-  }, 30));
+  ASSERT_TRUE(WaitFor(
+      [&] {
+        ended = executor->Poll();
+        return !ended.empty();
+      },
+      30));
   ASSERT_EQ(ended.size(), 1u);
   EXPECT_NE(ended[0].signal, 0);
   EXPECT_EQ(ended[0].how, "Slurm task 77_0 left the queue before its engine started; it continues from its checkpoint");
@@ -99,23 +103,29 @@ TEST_F(FakeSqueueTest, AJobWhoseIdWasNeverRecordedIsFoundByItsNameOnceSqueueAnsw
   Answer("fail");
   auto executor = Make();
   EXPECT_EQ(executor->Attach(Adopted("")).job_id, "");  // not found yet: squeue did not answer
-  ASSERT_TRUE(WaitFor([&] {
-    EXPECT_TRUE(executor->Poll().empty());
-    return Calls() >= 3;
-  }, 30));
+  ASSERT_TRUE(WaitFor(
+      [&] {
+        EXPECT_TRUE(executor->Poll().empty());
+        return Calls() >= 3;
+      },
+      30));
   EXPECT_TRUE(executor->QueueChanges().empty());
   Answer("running");
-  ASSERT_TRUE(WaitFor([&] {
-    executor->Poll();
-    const auto changes = executor->QueueChanges();
-    return changes.count("r1") && changes.at("r1").job_id == "77";
-  }, 30));
+  ASSERT_TRUE(WaitFor(
+      [&] {
+        executor->Poll();
+        const auto changes = executor->QueueChanges();
+        return changes.count("r1") && changes.at("r1").job_id == "77";
+      },
+      30));
   // RUNNING: watched, not ended.
   const int calls = Calls();
-  ASSERT_TRUE(WaitFor([&] {
-    EXPECT_TRUE(executor->Poll().empty());
-    return Calls() >= calls + 3;
-  }, 30));
+  ASSERT_TRUE(WaitFor(
+      [&] {
+        EXPECT_TRUE(executor->Poll().empty());
+        return Calls() >= calls + 3;
+      },
+      30));
   EXPECT_EQ(executor->Active(), 1u);
 }
 
@@ -124,7 +134,8 @@ TEST(SlurmTaskEnd, EveryVerdictFromTheStateAndTheRunDirectory) {
   const fs::path dir = testing::MakeTempDir();
   const QueuePlace place{dir.string(), (dir / "job-1.sh").string(), "granary-t-0001-1", 2, "7", "RUNNING"};
   const auto record = [&](const std::string& job, const std::string& end) {
-    std::ofstream(dir / rundir::kSlurmTaskFile) << R"({"job": ")" << job << R"(", "node": "n1", "started_at": 100)" << end << "}";
+    std::ofstream(dir / rundir::kSlurmTaskFile)
+        << R"({"job": ")" << job << R"(", "node": "n1", "started_at": 100)" << end << "}";
   };
   const auto end = [&](const std::string& state, double time_limit = 0) {
     return SlurmTaskEnd("r", dir.string(), place, state, time_limit, "1:00:00");
@@ -155,7 +166,8 @@ TEST(SlurmTaskEnd, EveryVerdictFromTheStateAndTheRunDirectory) {
   record("7_2", "");
   f = end("TIMEOUT");
   EXPECT_TRUE(f.timed_out);
-  EXPECT_EQ(f.how.rfind("Slurm task 7_2 TIMEOUT: Slurm's time limit for the task ran out (--time 1:00:00)", 0), 0u) << f.how;
+  EXPECT_EQ(f.how.rfind("Slurm task 7_2 TIMEOUT: Slurm's time limit for the task ran out (--time 1:00:00)", 0), 0u)
+      << f.how;
   f = end("CANCELLED");
   EXPECT_EQ(f.signal, SIGTERM);
   EXPECT_EQ(f.how, "Slurm task 7_2 CANCELLED while its engine ran; it continues from its checkpoint");

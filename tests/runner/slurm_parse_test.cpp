@@ -62,9 +62,9 @@ TEST(SlurmSqueue, ParsesArrayTasksPlainJobsAndSkipsNoise) {
 
 TEST(SlurmConfig, MaxArraySizeFromShowConfig) {
   EXPECT_EQ(ParseMaxArraySize("Configuration data as of 2026-11-23T21:20:11\n"
-                                 "MailType                = (null)\n"
-                                 "MaxArraySize            = 4\n"
-                                 "MaxJobCount             = 10000\n"),
+                              "MailType                = (null)\n"
+                              "MaxArraySize            = 4\n"
+                              "MaxJobCount             = 10000\n"),
             4);
   EXPECT_EQ(ParseMaxArraySize("MaxJobCount = 10000\n"), 1001);
 }
@@ -103,9 +103,13 @@ TEST(SlurmTime, FormatsAndRecognisesSlurmTimes) {
 
 TEST(SlurmOptions, ExecutorBlockErrorsNameThePath) {
   SlurmOptions o;
-  EXPECT_EQ(ParseExecutorBlock(json{{"type", "slurm"}, {"partition", "short"}, {"time", "2:00:00"},
-                                      {"cpus_per_run", 4}, {"array_max", 50}, {"sbatch_args", {"--qos=long"}}},
-                                 "/executor", o),
+  EXPECT_EQ(ParseExecutorBlock(json{{"type", "slurm"},
+                                    {"partition", "short"},
+                                    {"time", "2:00:00"},
+                                    {"cpus_per_run", 4},
+                                    {"array_max", 50},
+                                    {"sbatch_args", {"--qos=long"}}},
+                               "/executor", o),
             "slurm");
   EXPECT_EQ(o.partition, "short");
   EXPECT_EQ(o.time, "2:00:00");
@@ -122,10 +126,12 @@ TEST(SlurmOptions, ExecutorBlockErrorsNameThePath) {
     return std::string("no error");
   };
   EXPECT_EQ(error(json{{"partition", "x"}}), "/executor/type: must be \"local\" or \"slurm\" (got nothing)");
-  EXPECT_EQ(error(json{{"type", "slurm"}, {"partiton", "x"}}), "/executor/partiton: unknown key; did you mean \"partition\"?");
+  EXPECT_EQ(error(json{{"type", "slurm"}, {"partiton", "x"}}),
+            "/executor/partiton: unknown key; did you mean \"partition\"?");
   EXPECT_EQ(error(json{{"type", "slurm"}, {"time", "2h"}}),
             "/executor/time: must be a Slurm time such as \"30\", \"4:00:00\" or \"1-12:00:00\" (got \"2h\")");
-  EXPECT_EQ(error(json{{"type", "slurm"}, {"cpus_per_run", 0}}), "/executor/cpus_per_run: must be an integer >= 1 (got 0)");
+  EXPECT_EQ(error(json{{"type", "slurm"}, {"cpus_per_run", 0}}),
+            "/executor/cpus_per_run: must be an integer >= 1 (got 0)");
   EXPECT_EQ(error(json{{"type", "slurm"}, {"sbatch_args", {"qos=long"}}}),
             "/executor/sbatch_args/0: must be one sbatch option such as \"--qos=long\" (got \"qos=long\")");
 }
@@ -170,14 +176,16 @@ class SlurmScriptTest : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
   void WriteRun(double max_time) {
-    std::ofstream(run_dir_ / "run.json") << json{{"run_id", "r1"}, {"bodies", {{"count", 10}}},
-                                                 {"discharge", {{"max_time", max_time}}}}
-                                                .dump();
+    std::ofstream(run_dir_ / "run.json") << json{
+        {"run_id", "r1"},
+        {"bodies", {{"count", 10}}},
+        {"discharge", {{"max_time", max_time}}}}.dump();
   }
   // Writes the manifest and the script, then runs the script as Slurm would run task 1.
   testing::Result RunTask(double time_limit) {
-    std::ofstream(dir_ / "manifest.tsv") << ManifestText({{0, "r0", "native", "/nonexistent", "/nonexistent"},
-                                                           {1, "r1", "native", testing::FakeEngine(), run_dir_.string()}});
+    std::ofstream(dir_ / "manifest.tsv") << ManifestText(
+        {{0, "r0", "native", "/nonexistent", "/nonexistent"},
+         {1, "r1", "native", testing::FakeEngine(), run_dir_.string()}});
     BatchJob job;
     job.job_name = "granary-t-0001";
     job.array = "0-1%1";

@@ -45,7 +45,8 @@ TEST(SlurmClusterTest, RunsAnArrayAndReportsAFailedTask) {
   ASSERT_EQ(submitted.code, 0) << submitted.output << cluster.LogTails();
   const std::string job = submitted.output.substr(0, submitted.output.find_first_of(";\n"));
   const auto states = [&] { return Sh("squeue -h -r -t all -j " + job + " -o '%i %T' | sort").output; };
-  EXPECT_TRUE(WaitFor([&] { return states() == job + "_0 COMPLETED\n" + job + "_1 COMPLETED\n" + job + "_2 FAILED\n"; }, 60))
+  EXPECT_TRUE(
+      WaitFor([&] { return states() == job + "_0 COMPLETED\n" + job + "_1 COMPLETED\n" + job + "_2 FAILED\n"; }, 60))
       << states() << cluster.LogTails();
   for (int i = 0; i < 3; ++i) EXPECT_EQ(ReadFile(dir / ("out." + std::to_string(i))), std::to_string(i) + "\n");
   EXPECT_NE(Sh("scontrol show job " + job + "_2").output.find("ExitCode=7:0"), std::string::npos);
@@ -92,8 +93,9 @@ class SlurmCampaignTest : public ::testing::Test {
     return testing::Campaign() + " " + verb_and_flags + " --db " + Db();
   }
   std::vector<std::string> RunArgv(const std::vector<std::string>& flags) const {
-    std::vector<std::string> argv = {testing::Campaign(), "run",         "--db",           Db(), "--executor", "slurm",
-                                     "--engine",          testing::FakeEngine(), "--poll-interval", "0.3"};
+    std::vector<std::string> argv = {testing::Campaign(), "run",   "--db",     Db(),
+                                     "--executor",        "slurm", "--engine", testing::FakeEngine(),
+                                     "--poll-interval",   "0.3"};
     argv.insert(argv.end(), flags.begin(), flags.end());
     return argv;
   }
@@ -257,7 +259,8 @@ TEST_F(SlurmCampaignTest, CancelledTaskIsResubmittedAndContinuesFromItsCheckpoin
       << Log("runner.log");
   // Resubmitted by index into its own submission, as a new array job.
   const std::string index = task.substr(task.find('_') + 1);
-  EXPECT_NE(ReadFile(dir_ / "slurm" / "t-0001" / "job-2.sh").find("#SBATCH --array=" + index + "\n"), std::string::npos);
+  EXPECT_NE(ReadFile(dir_ / "slurm" / "t-0001" / "job-2.sh").find("#SBATCH --array=" + index + "\n"),
+            std::string::npos);
   EXPECT_NE(after.at(victim)["job"], task);
 }
 
@@ -363,7 +366,8 @@ TEST_F(SlurmCampaignTest, NativeRunsUseThreadsAndLiggghtsRunsMpiRanksUnderSrun) 
                              {"bed", {{"max_settle_time", 5}, {"settle_ke_per_body", 1e-3}}},
                              {"discharge", {{"mode", "reinject"}, {"max_time", 1}, {"stop_on_clog", false}}}}}};
   ASSERT_EQ(Sh(Cmd("plan " + p.string())).code, 0);
-  const auto r = Sh(testing::Campaign() + " run --db " + Db() + " --executor slurm --cpus-per-run 2 --poll-interval 0.3");
+  const auto r =
+      Sh(testing::Campaign() + " run --db " + Db() + " --executor slurm --cpus-per-run 2 --poll-interval 0.3");
   ASSERT_EQ(r.code, 0) << r.output << cluster_->LogTails();
   const json s = Status();
   ASSERT_EQ(s["counts"]["done"], 2) << s.dump(2);
@@ -431,7 +435,8 @@ TEST_F(SlurmCampaignTest, ArrayRefusedBySbatchLeavesItsRunsInterruptedWithSbatch
   EXPECT_NE(refused.output.find("not submitted"), std::string::npos) << refused.output;
   for (const auto& [id, run] : RunsById()) {
     EXPECT_EQ(run["state"], "interrupted");
-    EXPECT_NE(run["failure"].get<std::string>().find("Invalid partition name specified"), std::string::npos) << run.dump(2);
+    EXPECT_NE(run["failure"].get<std::string>().find("Invalid partition name specified"), std::string::npos)
+        << run.dump(2);
     EXPECT_FALSE(fs::exists(fs::path(run["run_dir"].get<std::string>()) / "launches.txt"));
   }
   // Nothing is lost: with a partition that exists, they run.
@@ -488,7 +493,8 @@ TEST_F(SlurmCampaignTest, FailingEngineMarksItsRunFailedWithItsLogTail) {
     }
     EXPECT_EQ(run["state"], "failed");
     const std::string failure = run["failure"];
-    EXPECT_EQ(failure.rfind("Slurm task " + run["job"].get<std::string>() + " FAILED: engine exited with status 3\n", 0), 0u)
+    EXPECT_EQ(
+        failure.rfind("Slurm task " + run["job"].get<std::string>() + " FAILED: engine exited with status 3\n", 0), 0u)
         << failure;
     EXPECT_NE(failure.find("fake_engine: deliberate failure at step 5"), std::string::npos) << failure;
   }
@@ -503,10 +509,12 @@ TEST_F(SlurmCampaignTest, TimeLimitCountsFromTheTasksStartNotFromSubmission) {
   const json s = Status();
   for (const auto& run : s["runs"]) by_width[run["point"]["/silo/base_outlets/0/width"]] = run;
   EXPECT_EQ(by_width[4]["state"], "failed");
-  EXPECT_EQ(by_width[4]["failure"].get<std::string>().rfind("wall-time limit of 2 s exceeded", 0), 0u) << by_width[4].dump(2);
+  EXPECT_EQ(by_width[4]["failure"].get<std::string>().rfind("wall-time limit of 2 s exceeded", 0), 0u)
+      << by_width[4].dump(2);
   EXPECT_EQ(by_width[6]["state"], "done") << by_width[6].dump(2);
   const auto first = ParseTaskRecord(ReadFile(fs::path(by_width[4]["run_dir"].get<std::string>()) / "slurm-task.json"));
-  const auto second = ParseTaskRecord(ReadFile(fs::path(by_width[6]["run_dir"].get<std::string>()) / "slurm-task.json"));
+  const auto second =
+      ParseTaskRecord(ReadFile(fs::path(by_width[6]["run_dir"].get<std::string>()) / "slurm-task.json"));
   ASSERT_TRUE(first && second);
   // The second run was submitted with the first yet started after the first's limit.
   EXPECT_GE(second->started_at - first->started_at, 2);

@@ -26,8 +26,9 @@ TEST(StoreTest, MigratesAnOldDatabaseKeepingRows) {
   {
     Store v1(path, 1);
     ASSERT_EQ(v1.SchemaVersion(), 1);
-    v1.Exec("INSERT INTO runs (run_id, seq, point_id, point, replica, params, state, engine, run_dir) "
-            "VALUES ('r1', 0, 'p', '{}', 0, '{}', 'done', 'native', '/x')");
+    v1.Exec(
+        "INSERT INTO runs (run_id, seq, point_id, point, replica, params, state, engine, run_dir) "
+        "VALUES ('r1', 0, 'p', '{}', 0, '{}', 'done', 'native', '/x')");
     EXPECT_THROW(v1.Exec("SELECT summary FROM runs"), StoreError);  // not yet in version 1
   }
   Store v2(path);
@@ -52,9 +53,9 @@ TEST(StoreTest, RefusesTooNewDatabase) {
     Store s(path);
     FAIL() << "opened a too-new database";
   } catch (const StoreError& e) {
-    EXPECT_EQ(std::string(e.what()), "database " + path +
-                                         " has schema version 99, newer than this granary supports (" +
-                                         std::to_string(Migrations().size()) + "); use a newer "
+    EXPECT_EQ(std::string(e.what()), "database " + path + " has schema version 99, newer than this granary supports (" +
+                                         std::to_string(Migrations().size()) +
+                                         "); use a newer "
                                          "campaign binary");
   }
   std::filesystem::remove_all(dir);

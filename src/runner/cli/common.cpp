@@ -71,9 +71,12 @@ std::string Duration(double s) {
   if (!(s >= 0) || !std::isfinite(s)) return "?";
   const long t = std::lround(s);
   std::ostringstream o;
-  if (t >= 3600) o << t / 3600 << "h" << std::setw(2) << std::setfill('0') << (t % 3600) / 60 << "m";
-  else if (t >= 60) o << t / 60 << "m" << std::setw(2) << std::setfill('0') << t % 60 << "s";
-  else o << t << "s";
+  if (t >= 3600)
+    o << t / 3600 << "h" << std::setw(2) << std::setfill('0') << (t % 3600) / 60 << "m";
+  else if (t >= 60)
+    o << t / 60 << "m" << std::setw(2) << std::setfill('0') << t % 60 << "s";
+  else
+    o << t << "s";
   return o.str();
 }
 
@@ -105,7 +108,8 @@ std::string CompactPoint(const json& point, const std::map<std::string, std::str
     const auto slash = key.rfind('/');
     std::string label = key.substr(slash + 1);
     // "/silo/base_outlets/0/width" -> "base_outlets/0/width" is clearer than "width".
-    if (!label.empty() && std::isdigit(static_cast<unsigned char>(label[0]))) label = key;
+    if (!label.empty() && std::isdigit(static_cast<unsigned char>(label[0])))
+      label = key;
     else if (slash != std::string::npos && slash > 0) {
       const auto prev = key.rfind('/', slash - 1);
       const std::string parent = key.substr(prev + 1, slash - prev - 1);
@@ -131,9 +135,11 @@ std::unique_ptr<Store> OpenCampaignDb(const std::string& db, const std::string& 
   }
   std::error_code ec;
   if (!fs::is_directory(db) && fs::file_size(db, ec) == 0 && !ec) {
-    throw StoreError(SQLITE_NOTADB, "database " + db + " is empty (0 bytes): whatever campaign it held is lost (was it "
+    throw StoreError(SQLITE_NOTADB, "database " + db +
+                                        " is empty (0 bytes): whatever campaign it held is lost (was it "
                                         "truncated, or copied while the disk was full?); plan a campaign into it again "
-                                        "with campaign plan SPEC --db " + db);
+                                        "with campaign plan SPEC --db " +
+                                        db);
   }
   const fs::path dir = fs::path(db).parent_path().empty() ? fs::path(".") : fs::path(db).parent_path();
   if (read_only_ok && !fs::is_directory(db) && (::access(db.c_str(), W_OK) != 0 || ::access(dir.c_str(), W_OK) != 0))
@@ -163,11 +169,12 @@ std::string ProgressText(const json& progress, bool eta) {
     f = std::clamp(progress.value("fraction", 0.0), 0.0, 1.0);
     phase = progress.value("phase", std::string("?"));
   }
-  o << std::left << std::setw(9) << phase << " " << Bar(f, 20) << " " << std::right << std::setw(3) << std::lround(f * 100)
-    << "%";
+  o << std::left << std::setw(9) << phase << " " << Bar(f, 20) << " " << std::right << std::setw(3)
+    << std::lround(f * 100) << "%";
   if (progress.is_object() && progress.contains("t") && progress.at("t").is_number()) {
     // The bed phase has no end time (t_end 0): its simulated time alone.
-    const double t_end = progress.contains("t_end") && progress.at("t_end").is_number() ? progress.at("t_end").get<double>() : 0.0;
+    const double t_end =
+        progress.contains("t_end") && progress.at("t_end").is_number() ? progress.at("t_end").get<double>() : 0.0;
     o << "  t " << std::fixed << std::setprecision(1) << progress.at("t").get<double>();
     if (t_end > 0) o << "/" << t_end;
     o.unsetf(std::ios::fixed);

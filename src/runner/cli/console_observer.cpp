@@ -65,7 +65,8 @@ class ConsoleObserver : public RunObserver {
     std::string first = message.substr(0, message.find('\n'));
     std::string where;
     if (const auto it = points_.find(run_id); it != points_.end()) where = it->second + ": ";
-    out_ << std::left << std::setw(12) << state << " " << (run_id.empty() ? "" : run_id + "  ") << where << first << "\n";
+    out_ << std::left << std::setw(12) << state << " " << (run_id.empty() ? "" : run_id + "  ") << where << first
+         << "\n";
     if (state == ToString(RunState::kFailed) || state == ToString(RunState::kInterrupted)) {
       const auto nl = message.find('\n');
       if (nl != std::string::npos) {
@@ -73,7 +74,8 @@ class ConsoleObserver : public RunObserver {
         std::string line;
         std::vector<std::string> lines;
         while (std::getline(tail, line)) lines.push_back(line);
-        for (std::size_t i = lines.size() > 5 ? lines.size() - 5 : 0; i < lines.size(); ++i) out_ << "    | " << lines[i] << "\n";
+        for (std::size_t i = lines.size() > 5 ? lines.size() - 5 : 0; i < lines.size(); ++i)
+          out_ << "    | " << lines[i] << "\n";
       }
     }
     out_.flush();
@@ -82,7 +84,8 @@ class ConsoleObserver : public RunObserver {
   void OnTick(const std::vector<ActiveRun>& active, int done, int failed, int total) override {
     active_ = active;
     for (const ActiveRun& a : active_)
-      points_[a.run_id] = CompactPoint(json::parse(a.point, nullptr, false), short_names_) + " r" + std::to_string(a.replica);
+      points_[a.run_id] =
+          CompactPoint(json::parse(a.point, nullptr, false), short_names_) + " r" + std::to_string(a.replica);
     done_ = done;
     failed_ = failed;
     total_ = total;
@@ -140,7 +143,8 @@ class ConsoleObserver : public RunObserver {
          << " failed, elapsed " << Duration(elapsed) << ", ETA " << Eta(elapsed);
     Line(head.str());
     // Runs waiting in a batch queue get one line for all of them.
-    if (const int queued = Queued(active_); queued > 0) Line("  " + std::to_string(queued) + " queued (" + DefaultBatchQueue().Name() + ")");
+    if (const int queued = Queued(active_); queued > 0)
+      Line("  " + std::to_string(queued) + " queued (" + DefaultBatchQueue().Name() + ")");
     for (const auto& a : active_) {
       if (IsQueued(a)) continue;
       const auto it = points_.find(a.run_id);
@@ -162,7 +166,8 @@ class ConsoleObserver : public RunObserver {
 
 }  // namespace
 
-std::unique_ptr<RunObserver> MakeConsoleObserver(std::ostream& out, bool tty, std::map<std::string, std::string> short_names) {
+std::unique_ptr<RunObserver> MakeConsoleObserver(std::ostream& out, bool tty,
+                                                 std::map<std::string, std::string> short_names) {
   return std::make_unique<ConsoleObserver>(out, tty, std::move(short_names));
 }
 

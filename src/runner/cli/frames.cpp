@@ -40,7 +40,8 @@ int Dump(const std::vector<std::string>& argv, std::ostream& out, std::ostream& 
     return 1;
   }
   if (a.Has("json")) {
-    out << json{{"frames", n.frames}, {"contact_frames", n.contact_frames}, {"bytes", n.bytes}, {"out", to.string()}}.dump(2)
+    out << json{{"frames", n.frames}, {"contact_frames", n.contact_frames}, {"bytes", n.bytes}, {"out", to.string()}}
+               .dump(2)
         << "\n";
     return 0;
   }
@@ -54,8 +55,8 @@ int Dump(const std::vector<std::string>& argv, std::ostream& out, std::ostream& 
 }  // namespace
 
 Verb DumpVerb() {
-  return {"dump", "a run's frames (GSD or text) as LAMMPS text dumps", kDumpHelp, Dump,
-          {{"out", true}, {"json", false}, {"help", false}}, Operand::kFile};
+  return {"dump", "a run's frames (GSD or text) as LAMMPS text dumps", kDumpHelp,
+          Dump,   {{"out", true}, {"json", false}, {"help", false}},   Operand::kFile};
 }
 
 }  // namespace granary::runner::cli

@@ -52,8 +52,9 @@ int VerifyCampaign(Store& store, bool as_json, std::ostream& out, std::ostream& 
   const std::vector<RunRow> runs = LoadRuns(store, false);
   const bool tty = &err == &std::cerr && isatty(STDERR_FILENO);
   const auto checks = CheckDoneRuns(runs, rundir::VerifyLevel::kChecksums, [&](int done, int total) {
-    if (tty) err << "\rverifying runs " << Bar(static_cast<double>(done) / std::max(1, total), 30) << " " << done << "/" << total
-                 << (done == total ? "\n" : "") << std::flush;
+    if (tty)
+      err << "\rverifying runs " << Bar(static_cast<double>(done) / std::max(1, total), 30) << " " << done << "/"
+          << total << (done == total ? "\n" : "") << std::flush;
   });
   const IntegrityCounts counts = CountIntegrity(checks);
   if (as_json) {
@@ -88,9 +89,14 @@ int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream& 
   if (a.Has("json")) {
     json changes = json::array();
     for (const auto& c : r.changes) {
-      changes.push_back({{"run_id", c.run_id}, {"from", ToString(c.from)}, {"to", ToString(c.to)}, {"reason", c.reason}, {"written", c.written}});
+      changes.push_back({{"run_id", c.run_id},
+                         {"from", ToString(c.from)},
+                         {"to", ToString(c.to)},
+                         {"reason", c.reason},
+                         {"written", c.written}});
     }
-    json doc = {{"runs", r.runs}, {"counts", r.counts}, {"agrees", r.changes.empty()}, {"changes", changes}, {"lost", r.lost}};
+    json doc = {
+        {"runs", r.runs}, {"counts", r.counts}, {"agrees", r.changes.empty()}, {"changes", changes}, {"lost", r.lost}};
     if (!r.queue_error.empty()) doc["queue_error"] = r.queue_error;
     const int code = a.Has("verify") ? VerifyCampaign(store, true, out, err, &doc) : 0;
     out << doc.dump(2) << "\n";
@@ -99,14 +105,18 @@ int Scan(const std::vector<std::string>& argv, std::ostream& out, std::ostream& 
   out << "campaign scan: " << r.runs << " runs;";
   for (const auto& [state, n] : r.counts) out << " " << state << " " << n;
   out << "\n";
-  if (!r.queue_error.empty()) out << "  squeue did not answer (" << r.queue_error << "): queued runs left as they were\n";
+  if (!r.queue_error.empty())
+    out << "  squeue did not answer (" << r.queue_error << "): queued runs left as they were\n";
   if (r.changes.empty()) out << "  the database agrees with the run directories\n";
   if (!r.lost.empty()) {
     out << "  " << r.lost.size() << " done run(s) have no run directory (first " << r.lost.front()
         << "): left done, their results are in the database only (campaign run --rerun-lost runs them again)\n";
   }
   for (const auto& c : r.changes) {
-    out << "  " << c.run_id << "  " << c.from << " -> " << c.to << (c.written ? "" : a.Has("dry-run") ? " (dry run)" : " (not written)")
+    out << "  " << c.run_id << "  " << c.from << " -> " << c.to
+        << (c.written          ? ""
+            : a.Has("dry-run") ? " (dry run)"
+                               : " (not written)")
         << (c.reason.empty() ? "" : ": " + c.reason.substr(0, c.reason.find('\n'))) << "\n";
   }
   return a.Has("verify") ? VerifyCampaign(store, false, out, err, nullptr) : 0;
@@ -268,22 +278,40 @@ int Completion(const std::vector<std::string>& argv, std::ostream& out, std::ost
 }  // namespace
 
 Verb ScanVerb() {
-  return {"scan", "rebuild run states from the run directories (and the Slurm queue)", kScanHelp, Scan,
+  return {"scan",
+          "rebuild run states from the run directories (and the Slurm queue)",
+          kScanHelp,
+          Scan,
           {{"db", true}, {"dry-run", false}, {"json", false}, {"verify", false}, {"help", false}}};
 }
 
 Verb CleanVerb() {
-  return {"clean", "remove retired (and failed) runs' directories, unused beds, stale locks, analysed frames", kCleanHelp, Clean,
-          {{"db", true}, {"retired", false}, {"failed", false}, {"beds", false}, {"locks", false}, {"frames", false}, {"dry-run", false},
-           {"json", false}, {"help", false}}};
+  return {"clean",
+          "remove retired (and failed) runs' directories, unused beds, stale locks, analysed frames",
+          kCleanHelp,
+          Clean,
+          {{"db", true},
+           {"retired", false},
+           {"failed", false},
+           {"beds", false},
+           {"locks", false},
+           {"frames", false},
+           {"dry-run", false},
+           {"json", false},
+           {"help", false}}};
 }
 
 Verb SchemaVerb() {
-  return {"schema", "the JSON Schema of campaign specs (for editors)", kSchemaHelp, Schema, {{"out", true}, {"help", false}}};
+  return {"schema",
+          "the JSON Schema of campaign specs (for editors)",
+          kSchemaHelp,
+          Schema,
+          {{"out", true}, {"help", false}}};
 }
 
 Verb CompletionVerb() {
-  return {"completion", "bash completion of verbs, flags and run ids", kCompletionHelp, Completion, {{"help", false}}, Operand::kShell};
+  return {"completion",   "bash completion of verbs, flags and run ids", kCompletionHelp, Completion, {{"help", false}},
+          Operand::kShell};
 }
 
 }  // namespace granary::runner::cli

@@ -172,12 +172,14 @@ int FieldsBench(const rundir::RunData& data, const Args& a, std::ostream& out) {
 
 int Fields(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, "fields");
-  if (a.positional.size() != 1) throw UsageError("campaign fields: needs exactly one RUN_DIR (see campaign fields --help)");
+  if (a.positional.size() != 1)
+    throw UsageError("campaign fields: needs exactly one RUN_DIR (see campaign fields --help)");
 #ifdef GRANARY_HAVE_ANALYSIS
   const fs::path dir = a.positional[0];
   if (!fs::is_directory(dir)) throw UsageError("campaign fields: no run directory " + dir.string());
   const rundir::RunData data = rundir::ReadRun(dir);
-  if (!data.has_frames) throw UsageError("campaign fields: " + dir.string() + " has no frames.dump (output.frame_interval = 0)");
+  if (!data.has_frames)
+    throw UsageError("campaign fields: " + dir.string() + " has no frames.dump (output.frame_interval = 0)");
   if (a.Has("bench")) return FieldsBench(data, a, out);
   const analysis::CgRunOptions o = FieldOptions(a);
   std::vector<analysis::CgField> fields;
@@ -190,7 +192,8 @@ int Fields(const std::vector<std::string>& argv, std::ostream& out, std::ostream
         std::vector<std::string> names;
         for (const auto& info : analysis::CgFieldTable()) names.push_back(info.name);
         const std::string best = Nearest(name, names);
-        throw UsageError("--fields: unknown field \"" + name + "\"" + (best.empty() ? "" : "; did you mean \"" + best + "\"?"));
+        throw UsageError("--fields: unknown field \"" + name + "\"" +
+                         (best.empty() ? "" : "; did you mean \"" + best + "\"?"));
       }
       fields.push_back(f);
     }
@@ -210,8 +213,9 @@ int Fields(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   json files = json::array();
   for (analysis::CgField f : fields) {
     const auto& info = analysis::CgFieldInfoFor(f);
-    if (!maps.Has(f)) throw UsageError(std::string("campaign fields: ") + info.name + " needs contacts.dump, which " +
-                                       dir.string() + " does not have (output.contact_forces)");
+    if (!maps.Has(f))
+      throw UsageError(std::string("campaign fields: ") + info.name + " needs contacts.dump, which " + dir.string() +
+                       " does not have (output.contact_forces)");
     const fs::path file = out_dir / (std::string(info.name) + ".csv");
     std::ofstream csv(file);
     csv << analysis::CgMapCsv(maps, f);
@@ -288,8 +292,8 @@ fs::path ResolveRun(const std::string& verb, const std::string& run, const Args&
     if (r.run_id.rfind(run, 0) == 0) found.push_back(std::move(r));
   if (found.empty()) throw UsageError("campaign " + verb + ": no run directory or run id '" + run + "' in " + db);
   if (found.size() > 1)
-    throw UsageError("campaign " + verb + ": '" + run + "' starts " + std::to_string(found.size()) + " run ids in " + db +
-                     " (" + found[0].run_id + ", " + found[1].run_id + ", ...); give more of it");
+    throw UsageError("campaign " + verb + ": '" + run + "' starts " + std::to_string(found.size()) + " run ids in " +
+                     db + " (" + found[0].run_id + ", " + found[1].run_id + ", ...); give more of it");
   return found[0].run_dir;
 }
 
@@ -323,7 +327,8 @@ render::PictureOptions PictureOptionsFrom(const std::string& verb, const Args& a
       } catch (const std::exception&) {
       }
       if (v < 0 || used != id.size())
-        throw UsageError("campaign " + verb + ": --highlight: body ids are integers >= 0 separated by commas (got \"" + id + "\")");
+        throw UsageError("campaign " + verb + ": --highlight: body ids are integers >= 0 separated by commas (got \"" +
+                         id + "\")");
       o.highlight.insert(v);
     }
   }
@@ -333,11 +338,13 @@ render::PictureOptions PictureOptionsFrom(const std::string& verb, const Args& a
 
 int Snapshot(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, "snapshot");
-  if (a.positional.size() != 1) throw UsageError("campaign snapshot: needs exactly one RUN (see campaign snapshot --help)");
+  if (a.positional.size() != 1)
+    throw UsageError("campaign snapshot: needs exactly one RUN (see campaign snapshot --help)");
   if (!a.Has("out")) throw UsageError("campaign snapshot: --out FILE.png or FILE.svg is required");
   const fs::path file = a.Get("out", "");
   const std::string ext = file.extension().string();
-  if (ext != ".png" && ext != ".svg") throw UsageError("campaign snapshot: --out must end in .png or .svg, not '" + ext + "'");
+  if (ext != ".png" && ext != ".svg")
+    throw UsageError("campaign snapshot: --out must end in .png or .svg, not '" + ext + "'");
 #ifdef GRANARY_HAVE_RENDER
   const render::PictureOptions o = PictureOptionsFrom("snapshot", a);
   const fs::path run = ResolveRun("snapshot", a.positional[0], a);
@@ -391,20 +398,61 @@ int Movie(const std::vector<std::string>& argv, std::ostream& out, std::ostream&
 }  // namespace
 
 Verb FieldsVerb() {
-  return {"fields", "coarse-grained fields of one run directory as CSV maps; --bench", kFieldsHelp, Fields,
-          {{"out", true}, {"fields", true}, {"from", true}, {"to", true}, {"stride", true}, {"max-frames", true},
-           {"width", true}, {"cutoff", true}, {"spacing", true}, {"window", true}, {"min-phi", true}, {"threads", true},
-           {"json", false}, {"bench", false}, {"repeat", true}, {"threads-list", true}, {"help", false}}};
+  return {"fields",
+          "coarse-grained fields of one run directory as CSV maps; --bench",
+          kFieldsHelp,
+          Fields,
+          {{"out", true},
+           {"fields", true},
+           {"from", true},
+           {"to", true},
+           {"stride", true},
+           {"max-frames", true},
+           {"width", true},
+           {"cutoff", true},
+           {"spacing", true},
+           {"window", true},
+           {"min-phi", true},
+           {"threads", true},
+           {"json", false},
+           {"bench", false},
+           {"repeat", true},
+           {"threads-list", true},
+           {"help", false}}};
 }
 
 Verb SnapshotVerb() {
-  return {"snapshot", "a picture of one frame of a run (PNG or SVG)", kSnapshotHelp, Snapshot,
-          {{"time", true}, {"clog", true}, {"first", false}, {"last", false}, {"color", true}, {"forces", false}, {"highlight", true}, {"width", true}, {"out", true}, {"db", true}, {"help", false}}, Operand::kRun};
+  return {"snapshot",
+          "a picture of one frame of a run (PNG or SVG)",
+          kSnapshotHelp,
+          Snapshot,
+          {{"time", true},
+           {"clog", true},
+           {"first", false},
+           {"last", false},
+           {"color", true},
+           {"forces", false},
+           {"highlight", true},
+           {"width", true},
+           {"out", true},
+           {"db", true},
+           {"help", false}},
+          Operand::kRun};
 }
 
 Verb MovieVerb() {
-  return {"movie", "a movie of a run's frames (MP4, ffmpeg)", kMovieHelp, Movie,
-          {{"out", true}, {"fps", true}, {"color", true}, {"forces", false}, {"width", true}, {"db", true}, {"help", false}}, Operand::kRun};
+  return {"movie",
+          "a movie of a run's frames (MP4, ffmpeg)",
+          kMovieHelp,
+          Movie,
+          {{"out", true},
+           {"fps", true},
+           {"color", true},
+           {"forces", false},
+           {"width", true},
+           {"db", true},
+           {"help", false}},
+          Operand::kRun};
 }
 
 }  // namespace granary::runner::cli

@@ -110,16 +110,17 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
     // plan makes the database, and its runs/ beside it, where it is told: like mkdir -p.
     std::error_code ec;
     fs::create_directories(DbDir(db), ec);
-    if (ec) throw UsageError("campaign plan: cannot make the directory " + DbDir(db).string() + " for --db " + db + ": " + ec.message());
+    if (ec)
+      throw UsageError("campaign plan: cannot make the directory " + DbDir(db).string() + " for --db " + db + ": " +
+                       ec.message());
   }
   Store store(dry_run && !fs::exists(db) ? std::string(":memory:") : db);
   // Adaptive replicas: the first `min` per point, and those a runner added keep their place.
   runs = WithAddedReplicas(store, spec, std::move(runs));
   PlanSummary s = PlanCampaign(store, spec, runs, (DbDir(db) / "runs").string(), dry_run);
   if (estimate) {
-    *estimate = EstimateRuns(runs, &store, ExeDir(), jobs, true, [](const std::string& line) {
-      std::cerr << line << std::endl;
-    });
+    *estimate = EstimateRuns(runs, &store, ExeDir(), jobs, true,
+                             [](const std::string& line) { std::cerr << line << std::endl; });
   }
   return s;
 }
@@ -127,7 +128,8 @@ PlanSummary PlanInto(const json& given, const std::string& spec_path, const std:
 namespace {
 
 // The estimate under the plan: totals, then one line per point.
-void PrintEstimate(std::ostream& out, const CampaignEstimate& e, const std::map<std::string, std::string>& short_names) {
+void PrintEstimate(std::ostream& out, const CampaignEstimate& e,
+                   const std::map<std::string, std::string>& short_names) {
   const bool timed = e.calibration.Valid();
   out << "estimate: " << (timed ? CoreHoursText(e.core_s_low, e.core_s_high) : std::string("core-hours unknown"));
   if (timed) {
@@ -137,8 +139,9 @@ void PrintEstimate(std::ostream& out, const CampaignEstimate& e, const std::map<
   }
   out << ", disk " << BytesText(e.bytes_low, e.bytes_high) << "\n";
   out << "  how: " << e.method << "\n";
-  out << "  " << std::left << std::setw(44) << "point" << std::right << std::setw(6) << "runs" << "  " << std::left
-      << std::setw(24) << "core-hours" << "disk\n";
+  out << "  " << std::left << std::setw(44) << "point" << std::right << std::setw(6) << "runs"
+      << "  " << std::left << std::setw(24) << "core-hours"
+      << "disk\n";
   for (const PointEstimate& p : e.points) {
     std::string label = CompactPoint(p.point, short_names);
     if (label.empty()) label = "(base)";
@@ -174,8 +177,8 @@ void PrintPlan(std::ostream& out, const CampaignSpec& spec, const PlanSummary& s
   if (spec.engines.size() > 1) {
     std::string names;
     for (const auto& e : spec.engines) names += (names.empty() ? "" : ", ") + e;
-    out << "  points " << s.points / static_cast<int>(spec.engines.size()) << " x engines " << spec.engines.size() << " ("
-        << names << ") x replicas " << spec.replicas << " = " << s.total << " runs\n";
+    out << "  points " << s.points / static_cast<int>(spec.engines.size()) << " x engines " << spec.engines.size()
+        << " (" << names << ") x replicas " << spec.replicas << " = " << s.total << " runs\n";
   } else {
     out << "  points " << s.points << " x replicas " << spec.replicas << " = " << s.total << " runs\n";
   }
@@ -197,20 +200,30 @@ namespace {
 
 int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, "plan");
-  if (a.positional.size() != 1) throw UsageError("campaign plan: needs exactly one SPEC file (see campaign plan --help)");
+  if (a.positional.size() != 1)
+    throw UsageError("campaign plan: needs exactly one SPEC file (see campaign plan --help)");
   const std::string spec_path = a.positional[0];
   CampaignSpec spec;
   std::optional<CampaignEstimate> estimate;
   const int jobs = a.Integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
-  const PlanSummary s = PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.Has("dry-run"), MaxRuns(a), spec,
-                                 &estimate, jobs);
+  const PlanSummary s = PlanInto(ReadSpecFile("plan", spec_path), spec_path, DbPath(a), a.Has("dry-run"), MaxRuns(a),
+                                 spec, &estimate, jobs);
   if (a.Has("json")) {
     json axes = json::object();
     for (const auto& [axis, values] : s.axis_values) axes[axis] = values;
-    out << json{{"campaign", spec.name}, {"runs", s.total},         {"points", s.points},   {"replicas", spec.replicas},
-                {"engines", spec.engines}, {"added", s.added},      {"unchanged", s.unchanged}, {"revived", s.revived},
-                {"retired", s.retired},  {"axes", axes},            {"dry_run", a.Has("dry-run")},
-                {"extended", Extensions(s.extended)}, {"estimate", to_json(*estimate)},
+    out << json{{"campaign", spec.name},
+                {"runs", s.total},
+                {"points", s.points},
+                {"replicas", spec.replicas},
+                {"engines", spec.engines},
+                {"added", s.added},
+                {"unchanged", s.unchanged},
+                {"revived", s.revived},
+                {"retired", s.retired},
+                {"axes", axes},
+                {"dry_run", a.Has("dry-run")},
+                {"extended", Extensions(s.extended)},
+                {"estimate", to_json(*estimate)},
                 {"replica_rule", spec.replica_rule.Adaptive() ? json(spec.replica_rule.Text()) : json(nullptr)}}
                .dump(2)
         << "\n";
@@ -224,7 +237,10 @@ int Plan(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
 }  // namespace
 
 Verb PlanVerb() {
-  return {"plan", "expand a campaign spec into runs in the database", kPlanHelp, Plan,
+  return {"plan",
+          "expand a campaign spec into runs in the database",
+          kPlanHelp,
+          Plan,
           {{"db", true}, {"dry-run", false}, {"json", false}, {"max-runs", true}, {"jobs", true}, {"help", false}},
           Operand::kFile};
 }

@@ -49,8 +49,8 @@ std::string TargetsText(const std::vector<TargetStatus>& targets) {
   for (const TargetStatus& t : targets) {
     if (!s.empty()) s += ", ";
     s += (t.target.relative ? "se/|" + t.target.metric + "|" : "se(" + t.target.metric + ")") + " = " +
-         (t.known ? Num(t.achieved) : std::string("not a metric of this campaign")) + " (target " + Num(t.target.value) +
-         (t.met ? ", met)" : ")");
+         (t.known ? Num(t.achieved) : std::string("not a metric of this campaign")) + " (target " +
+         Num(t.target.value) + (t.met ? ", met)" : ")");
   }
   return s;
 }
@@ -148,17 +148,18 @@ int AddReplicas(Store& store, RunObserver& observer, std::set<std::string>& repo
       wanted[p.point_id] = {p.counts.planned, p.counts.planned + d.add};
       upto = std::max(upto, p.counts.planned + d.add);
       observer.OnEvent("", "replicas",
-                        label + ": " + TargetsText(d.targets) + " after " + std::to_string(p.counts.planned) + " runs: " +
-                            std::to_string(d.add) + " more planned");
+                       label + ": " + TargetsText(d.targets) + " after " + std::to_string(p.counts.planned) +
+                           " runs: " + std::to_string(d.add) + " more planned");
     } else if ((d.verdict == ReplicaVerdict::kMet || d.verdict == ReplicaVerdict::kAtMax ||
                 d.verdict == ReplicaVerdict::kUnknown) &&
                reported.insert(p.point_id).second) {
       observer.OnEvent("", "replicas",
-                        label + ": " + TargetsText(d.targets) + " after " + std::to_string(p.counts.planned) + " runs: " +
-                            (d.verdict == ReplicaVerdict::kMet    ? std::string("target met")
-                             : d.verdict == ReplicaVerdict::kAtMax ? "at max (" + std::to_string(spec.replica_rule.max) +
-                                                                         ") without reaching the target"
-                                                                   : std::string("no replicas added")));
+                       label + ": " + TargetsText(d.targets) + " after " + std::to_string(p.counts.planned) +
+                           " runs: " +
+                           (d.verdict == ReplicaVerdict::kMet ? std::string("target met")
+                            : d.verdict == ReplicaVerdict::kAtMax
+                                ? "at max (" + std::to_string(spec.replica_rule.max) + ") without reaching the target"
+                                : std::string("no replicas added")));
     }
   }
   if (wanted.empty()) return 0;

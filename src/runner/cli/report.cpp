@@ -95,7 +95,8 @@ void SayRunsKeptOut(const analysis::CampaignView& v, const std::string& verb, st
 // With `only` (--only filters), the selected runs alone.
 // `store_results` false: read the database only (status).
 std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const std::string& verb, std::ostream& err,
-                                                    const std::vector<std::string>& only = {}, bool store_results = true) {
+                                                    const std::vector<std::string>& only = {},
+                                                    bool store_results = true) {
   const auto opened = OpenCampaignDb(db, verb, verb == "report" || verb == "export" || !store_results);
   Store& store = *opened;
   const auto campaign = LoadCampaign(store);
@@ -164,7 +165,8 @@ std::unique_ptr<AnalysedCampaign> AnalyseCampaignIn(const std::string& db, const
 
 }  // namespace
 
-std::optional<std::string> ExpectationCounts(const std::string& db, std::ostream& err, const std::vector<std::string>& only) {
+std::optional<std::string> ExpectationCounts(const std::string& db, std::ostream& err,
+                                             const std::vector<std::string>& only) {
   {
     const auto opened = OpenCampaignDb(db, "status", true);
     const auto campaign = LoadCampaign(*opened);
@@ -214,7 +216,8 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
   // left report.md without some figure links).
   fs::create_directories(out_dir);
   const FileLock lock(out_dir / ".report.lock", [&] {
-    err << "report: another campaign report is writing " << out_dir.string() << "; waiting for it to finish\n" << std::flush;
+    err << "report: another campaign report is writing " << out_dir.string() << "; waiting for it to finish\n"
+        << std::flush;
   });
   return analysis::WriteReport(*c->analysis, options);
 }
@@ -229,12 +232,14 @@ int Report(const std::vector<std::string>& argv, std::ostream& out, std::ostream
                                      !a.Has("no-figures"), err, a.All("only"));
   out << "report: " << summary.markdown.string() << "\n        " << summary.html.string() << "\n  runs used "
       << summary.runs_used << ", missing " << summary.runs_missing << ", failed " << summary.runs_failed
-      << (summary.runs_damaged > 0 ? ", damaged " + std::to_string(summary.runs_damaged) + " (left out; listed above and in the report)"
-                                   : std::string())
+      << (summary.runs_damaged > 0
+              ? ", damaged " + std::to_string(summary.runs_damaged) + " (left out; listed above and in the report)"
+              : std::string())
       << (summary.runs_lost > 0 ? ", lost " + std::to_string(summary.runs_lost) +
                                       " (done, run directory deleted: campaign run --rerun-lost)"
                                 : std::string())
-      << (summary.runs_unverifiable > 0 ? ", not verifiable " + std::to_string(summary.runs_unverifiable) : std::string())
+      << (summary.runs_unverifiable > 0 ? ", not verifiable " + std::to_string(summary.runs_unverifiable)
+                                        : std::string())
       << "\n"
       << "  analysis results: " << summary.results_from_cache << " from the runs' caches, " << summary.results_computed
       << " computed\n";
@@ -291,10 +296,12 @@ int Export(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     } catch (const std::invalid_argument& e) {
       throw UsageError(std::string("campaign spec: ") + e.what());
     }
-    if (r->expectations.empty()) throw UsageError("--expectations: the campaign spec has no \"expect\" (docs/analyses.md)");
+    if (r->expectations.empty())
+      throw UsageError("--expectations: the campaign spec has no \"expect\" (docs/analyses.md)");
     table = analysis::ExpectationsTable(r->results);
   } else {
-    table = analysis::MakeExportTable(*c->analysis, level == "run" ? analysis::ExportLevel::kRun : analysis::ExportLevel::kPoint);
+    table = analysis::MakeExportTable(*c->analysis,
+                                      level == "run" ? analysis::ExportLevel::kRun : analysis::ExportLevel::kPoint);
   }
   const std::string text = format == "csv" ? analysis::ToCsv(table) : analysis::to_json(table).dump(2) + "\n";
   if (a.Has("out")) {
@@ -350,7 +357,8 @@ void PrintComparison(std::ostream& out, const json& c) {
     return o.str();
   };
   out << "    " << std::left << std::setw(16) << "metric" << std::setw(20) << a << std::setw(20) << b << std::setw(18)
-      << "ratio" << "agree\n";
+      << "ratio"
+      << "agree\n";
   bool unknown = false;
   for (const json& p : c.at("points")) {
     out << "  " << (p.contains("name") ? p.at("name").get<std::string>() : CompactPoint(p.at("point"))) << "\n";
@@ -367,8 +375,7 @@ void PrintComparison(std::ostream& out, const json& c) {
           << (m.at("agree").is_boolean() ? (m.at("agree").get<bool>() ? "yes" : "no") : "n/a (no se)") << "\n";
     }
   }
-  if (unknown)
-    out << "  n/a: a value without a standard error (one replica) cannot be judged; plan more replicas\n";
+  if (unknown) out << "  n/a: a value without a standard error (one replica) cannot be judged; plan more replicas\n";
   double rate_a = 0;
   for (const json& e : c.at("costs")) {
     const json& r = e.at("disc_steps_per_s");
@@ -378,7 +385,8 @@ void PrintComparison(std::ostream& out, const json& c) {
         << " runs, wall " << Duration(e.at("wall_s").get<double>()) << " (discharge "
         << Duration(e.at("discharge_wall_s").get<double>()) << "), " << std::setprecision(3) << rate / 1e6
         << " M disc-steps/s per run";
-    if (e.at("engine") != a && rate > 0) out << "; " << a << " is " << std::setprecision(3) << rate_a / rate << "x faster";
+    if (e.at("engine") != a && rate > 0)
+      out << "; " << a << " is " << std::setprecision(3) << rate_a / rate << "x faster";
     out << "\n";
   }
 }
@@ -386,7 +394,8 @@ void PrintComparison(std::ostream& out, const json& c) {
 
 int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const Args a = Parse(argv, "compare");
-  if (a.positional.size() != 1) throw UsageError("campaign compare: needs exactly one SPEC file (see campaign compare --help)");
+  if (a.positional.size() != 1)
+    throw UsageError("campaign compare: needs exactly one SPEC file (see campaign compare --help)");
 #ifdef GRANARY_HAVE_ANALYSIS
   const std::string spec_path = a.positional[0];
   json j = ReadSpecFile("compare", spec_path);
@@ -406,8 +415,8 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
     code = RunAll(db, o, progress);
     if (code == static_cast<int>(ExitCode::kInterrupted)) return code;
   }
-  const auto summary = WriteReportOf(db, a.Has("out") ? fs::path(a.Get("out", "")) : DbDir(db) / "report",
-                                     !a.Has("no-figures"), err);
+  const auto summary =
+      WriteReportOf(db, a.Has("out") ? fs::path(a.Get("out", "")) : DbDir(db) / "report", !a.Has("no-figures"), err);
   if (a.Has("json")) {
     out << json{{"campaign", spec.name},
                 {"report", summary.html.string()},
@@ -435,18 +444,44 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
 }  // namespace
 
 Verb ReportVerb() {
-  return {"report", "write the campaign report (markdown, html, figures, CSV)", kReportHelp, Report,
+  return {"report",
+          "write the campaign report (markdown, html, figures, CSV)",
+          kReportHelp,
+          Report,
           {{"db", true}, {"out", true}, {"only", true}, {"no-figures", false}, {"help", false}}};
 }
 
 Verb ExportVerb() {
-  return {"export", "write every run's (or point's) metrics as one CSV or JSON table", kExportHelp, Export,
-          {{"db", true}, {"format", true}, {"level", true}, {"expectations", false}, {"out", true}, {"only", true}, {"help", false}}};
+  return {"export",
+          "write every run's (or point's) metrics as one CSV or JSON table",
+          kExportHelp,
+          Export,
+          {{"db", true},
+           {"format", true},
+           {"level", true},
+           {"expectations", false},
+           {"out", true},
+           {"only", true},
+           {"help", false}}};
 }
 
 Verb CompareVerb() {
-  return {"compare", "run a campaign on both engines and compare them point by point", kCompareHelp, Compare,
-          {{"db", true}, {"jobs", true}, {"no-run", false}, {"out", true}, {"no-figures", false}, {"json", false}, {"threads-per-run", true}, {"time-limit", true}, {"retries", true}, {"max-runs", true}, {"help", false}}, Operand::kFile};
+  return {"compare",
+          "run a campaign on both engines and compare them point by point",
+          kCompareHelp,
+          Compare,
+          {{"db", true},
+           {"jobs", true},
+           {"no-run", false},
+           {"out", true},
+           {"no-figures", false},
+           {"json", false},
+           {"threads-per-run", true},
+           {"time-limit", true},
+           {"retries", true},
+           {"max-runs", true},
+           {"help", false}},
+          Operand::kFile};
 }
 
 }  // namespace granary::runner::cli

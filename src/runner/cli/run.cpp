@@ -99,17 +99,20 @@ namespace {
 
 // The executor `campaign run` uses: --executor, else the spec's "executor" block, else the
 // table's first; a flag of another executor is refused.
-std::unique_ptr<ExecutorSetup> ChooseExecutor(const Args& a, const json& spec, const std::string& db, const RunOptions& o) {
+std::unique_ptr<ExecutorSetup> ChooseExecutor(const Args& a, const json& spec, const std::string& db,
+                                              const RunOptions& o) {
   const json* block = spec.is_object() && spec.contains("executor") ? &spec["executor"] : nullptr;
   const ExecutorRow* row = block ? &ExecutorOfBlock(*block, "/executor") : &ExecutorRows().front();
   if (a.Has("executor")) {
     row = FindExecutor(a.Get("executor", ""));
-    if (!row) throw UsageError("--executor: must be " + ExecutorNames(false) + " (got \"" + a.Get("executor", "") + "\")");
+    if (!row)
+      throw UsageError("--executor: must be " + ExecutorNames(false) + " (got \"" + a.Get("executor", "") + "\")");
   }
   for (const ExecutorRow& other : ExecutorRows()) {
     if (&other == row) continue;
     for (const auto& [flag, takes_value] : other.flags) {
-      const bool own = std::any_of(row->flags.begin(), row->flags.end(), [&](const auto& f) { return f.first == flag; });
+      const bool own =
+          std::any_of(row->flags.begin(), row->flags.end(), [&](const auto& f) { return f.first == flag; });
       if (!own && a.Has(flag)) {
         throw UsageError("--" + flag + ": only with --executor " + other.name + " (or a spec whose executor is " +
                          other.name + ")");
@@ -185,7 +188,8 @@ int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, 
   struct sigaction sa {};
   sa.sa_handler = RunnerOnStopSignal;
   sigemptyset(&sa.sa_mask);
-  struct sigaction old_int {}, old_term {};
+  struct sigaction old_int {
+  }, old_term{};
   sigaction(SIGINT, &sa, &old_int);
   sigaction(SIGTERM, &sa, &old_term);
   g_stop = 0;
@@ -193,7 +197,8 @@ int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, 
   if (CampaignSpec::FromJson(campaign->spec).replica_rule.Adaptive())
     o.add_runs = [&store, &reported](RunObserver& observer) { return AddReplicas(store, observer, reported); };
   auto executor = setup ? setup->Make(o) : MakeLocalExecutor(o.jobs);
-  const auto observer = MakeConsoleObserver(out, &out == &std::cout && isatty(STDOUT_FILENO), ShortAxisNames(campaign->spec));
+  const auto observer =
+      MakeConsoleObserver(out, &out == &std::cout && isatty(STDOUT_FILENO), ShortAxisNames(campaign->spec));
   ExitCode code;
   try {
     code = RunCampaign(store, o, *executor, *observer, &g_stop);
@@ -208,8 +213,8 @@ int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, 
 }
 
 Verb RunVerb() {
-  std::vector<FlagSpec> flags = {{"db", true},         {"engine", true},      {"only", true},     {"time-limit", true},
-                                 {"retries", true},    {"rerun-lost", false}, {"executor", true}, {"help", false}};
+  std::vector<FlagSpec> flags = {{"db", true},      {"engine", true},      {"only", true},     {"time-limit", true},
+                                 {"retries", true}, {"rerun-lost", false}, {"executor", true}, {"help", false}};
   for (const ExecutorRow& row : ExecutorRows())
     for (const auto& [flag, takes_value] : row.flags)
       if (std::none_of(flags.begin(), flags.end(), [&](const FlagSpec& f) { return f.name == flag; }))

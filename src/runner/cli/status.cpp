@@ -160,7 +160,8 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     for (const auto& r : runs) {
       if (r.state == RunState::kDone || r.state == RunState::kRetired) continue;
       left.push_back(ToPlannedRun(r));
-      const double f = r.state == RunState::kRunning && r.progress.is_object() ? r.progress.value("fraction", 0.0) : 0.0;
+      const double f =
+          r.state == RunState::kRunning && r.progress.is_object() ? r.progress.value("fraction", 0.0) : 0.0;
       fraction_left.push_back(1 - std::clamp(f, 0.0, 1.0));
     }
     const CampaignEstimate e = EstimateRuns(left, &store, ExeDir(), std::max(1, active), false, nullptr);
@@ -179,8 +180,8 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   if (a.Has("json")) {
     json list = json::array();
     for (const auto& r : runs) {
-      json j = {{"run_id", r.run_id}, {"state", ToString(r.state)},       {"point", r.point},      {"replica", r.replica},
-                {"attempts", r.attempts}, {"engine", r.engine}, {"wall_s", r.wall_s},    {"run_dir", r.run_dir}};
+      json j = {{"run_id", r.run_id},     {"state", ToString(r.state)}, {"point", r.point},   {"replica", r.replica},
+                {"attempts", r.attempts}, {"engine", r.engine},         {"wall_s", r.wall_s}, {"run_dir", r.run_dir}};
       // Progress belongs to running runs only: a finished run's last progress.json is history.
       if (r.state == RunState::kRunning) {
         if (!r.progress.is_null()) j["progress"] = r.progress;
@@ -207,7 +208,8 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
           j["problems"] = problems;
         }
       }
-      if (r.job_array != 0) j["job"] = r.job_id.empty() ? json(nullptr) : json(r.job_id + "_" + std::to_string(r.job_index));
+      if (r.job_array != 0)
+        j["job"] = r.job_id.empty() ? json(nullptr) : json(r.job_id + "_" + std::to_string(r.job_index));
       if (r.Queued()) j["queue_state"] = queue.state_by_run.at(r.run_id);
       list.push_back(j);
     }
@@ -227,7 +229,8 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
 #endif
     if (campaign) {
       const CampaignSpec cs = CampaignSpec::FromJson(campaign->spec);
-      if (cs.replica_rule.Adaptive()) doc["replicas"] = ReplicaProgressJson(ReplicaStates(store, nullptr, false), cs.replica_rule);
+      if (cs.replica_rule.Adaptive())
+        doc["replicas"] = ReplicaProgressJson(ReplicaStates(store, nullptr, false), cs.replica_rule);
     }
     if (queue.any) {
       json arrays = json::array();
@@ -242,16 +245,16 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   }
   std::string only;
   for (const auto& f : filters) only += (only.empty() ? "" : ", ") + f;
-  out << "campaign " << (campaign ? campaign->name : "?") << ": " << total << " runs" << (only.empty() ? "" : " with " + only)
-      << " (" << db << ")\n ";
+  out << "campaign " << (campaign ? campaign->name : "?") << ": " << total << " runs"
+      << (only.empty() ? "" : " with " + only) << " (" << db << ")\n ";
   for (const RunState state : kLiveRunStates)
     out << (state == RunState::kPlanned ? " " : ", ") << state << " " << counts[ToString(state)];
   if (retired > 0) out << "  (and " << retired << " retired: no longer in the spec, not counted)";
   out << "\n  elapsed " << Duration(elapsed) << ", ETA "
       << (total - counts[ToString(RunState::kDone)] == 0 ? std::string("-")
-          : active == 0               ? std::string("- (no runner at work: campaign run continues)")
-          : eta >= 0                  ? Duration(eta)
-                                      : "?");
+          : active == 0                                  ? std::string("- (no runner at work: campaign run continues)")
+          : eta >= 0                                     ? Duration(eta)
+                                                         : "?");
   if (remaining_core_s > 0)
     out << " (" << CoreHoursText(remaining_core_s, remaining_core_s) << " left"
         << (active > 0 ? ", on the " + std::to_string(active) + " run(s) at work now" : "") << ")";
@@ -291,7 +294,8 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
   for (const auto& r : runs) analysed += r.state == RunState::kDone && metrics.count(r.run_id) ? 1 : 0;
   if (counts[ToString(RunState::kDone)] > 0)
     out << "  metrics in the database for " << analysed << " of " << counts[ToString(RunState::kDone)] << " done runs"
-        << (analysed < counts[ToString(RunState::kDone)] ? " (campaign report or export analyses the others)" : "") << "\n";
+        << (analysed < counts[ToString(RunState::kDone)] ? " (campaign report or export analyses the others)" : "")
+        << "\n";
   if (campaign) {
     const CampaignSpec cs = CampaignSpec::FromJson(campaign->spec);
     if (cs.replica_rule.Adaptive()) PrintReplicaProgress(out, ReplicaStates(store, nullptr, false), cs.replica_rule);
@@ -312,13 +316,15 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     if (progress.is_null() && r.Queued()) {
       if (const auto p = rundir::ReadProgress(r.run_dir)) progress = p->ToJson();
     }
-    out << "  " << r.run_id << " " << ProgressText(progress, false) << "  " << CompactPoint(r.point) << " r" << r.replica
-        << (r.Queued() ? "  " + std::string(DefaultBatchQueue().Name()) + " " + r.job_id + "_" + std::to_string(r.job_index) +
-                             (r.lease_holder.empty() || LeaseExpired(r, ThisProcessHolder().host, now)
-                                  ? " (no runner watching: campaign scan or campaign run --executor slurm)"
-                                  : "")
-                       : LeaseExpired(r, ThisProcessHolder().host, now) ? "  (runner gone: resumes on the next campaign run)"
-                                                                            : "")
+    out << "  " << r.run_id << " " << ProgressText(progress, false) << "  " << CompactPoint(r.point) << " r"
+        << r.replica
+        << (r.Queued()
+                ? "  " + std::string(DefaultBatchQueue().Name()) + " " + r.job_id + "_" + std::to_string(r.job_index) +
+                      (r.lease_holder.empty() || LeaseExpired(r, ThisProcessHolder().host, now)
+                           ? " (no runner watching: campaign scan or campaign run --executor slurm)"
+                           : "")
+            : LeaseExpired(r, ThisProcessHolder().host, now) ? "  (runner gone: resumes on the next campaign run)"
+                                                             : "")
         << "\n";
   }
   header = false;
@@ -326,7 +332,8 @@ int Status(const std::vector<std::string>& argv, std::ostream& out, std::ostream
     if (r.state != RunState::kFailed) continue;
     if (!header) out << "failed:\n";
     header = true;
-    out << "  " << r.run_id << "  " << CompactPoint(r.point) << " r" << r.replica << " (attempts " << r.attempts << ")\n";
+    out << "  " << r.run_id << "  " << CompactPoint(r.point) << " r" << r.replica << " (attempts " << r.attempts
+        << ")\n";
     std::istringstream lines(r.failure);
     std::string line;
     while (std::getline(lines, line)) out << "    | " << line << "\n";
@@ -367,7 +374,8 @@ RunRow FindRun(const std::string& verb, const std::string& run, Store& store, co
   }
   if (found.size() > 1)
     throw UsageError("campaign " + verb + ": \"" + run + "\" starts " + std::to_string(found.size()) + " run ids (" +
-                     found[0].run_id + ", " + found[1].run_id + (found.size() > 2 ? ", ..." : "") + "); give more of it");
+                     found[0].run_id + ", " + found[1].run_id + (found.size() > 2 ? ", ..." : "") +
+                     "); give more of it");
   return found.front();
 }
 
@@ -398,8 +406,10 @@ std::string ValueText(const json& v) {
   if (v.is_number_float()) {
     const double x = v.get<double>();
     std::ostringstream o;
-    if (std::isfinite(x) && x == std::floor(x) && std::fabs(x) < 1e15) o << static_cast<long long>(x);
-    else o << std::setprecision(6) << x;
+    if (std::isfinite(x) && x == std::floor(x) && std::fabs(x) < 1e15)
+      o << static_cast<long long>(x);
+    else
+      o << std::setprecision(6) << x;
     return o.str();
   }
   return v.dump();
@@ -455,10 +465,12 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   row("time", when);
   if (results.contains("bed/height")) {
     std::string bed;
-    if (results.contains("bed/packing_fraction")) bed += "packing fraction " + ValueText(results["bed/packing_fraction"]) + ", ";
+    if (results.contains("bed/packing_fraction"))
+      bed += "packing fraction " + ValueText(results["bed/packing_fraction"]) + ", ";
     bed += "top " + ValueText(results["bed/height"]);
     if (results.contains("bed/surface")) bed += ", surface " + ValueText(results["bed/surface"]);
-    if (results.contains("bed/settle_time")) bed += ", settled in " + ValueText(results["bed/settle_time"]) + " time units";
+    if (results.contains("bed/settle_time"))
+      bed += ", settled in " + ValueText(results["bed/settle_time"]) + " time units";
     if (results.contains("bed/prepared_here"))
       bed += results["bed/prepared_here"].get<double>() != 0 ? " (prepared by this run)" : " (from the bed cache)";
     row("bed", bed);
@@ -511,13 +523,20 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
 }  // namespace
 
 Verb StatusVerb() {
-  return {"status", "counts, progress, failures, ETA", kStatusHelp, Status,
+  return {"status",
+          "counts, progress, failures, ETA",
+          kStatusHelp,
+          Status,
           {{"db", true}, {"only", true}, {"json", false}, {"help", false}}};
 }
 
 Verb ShowVerb() {
-  return {"show", "everything about one run: state, timings, results, parameters, files, log", kShowHelp, Show,
-          {{"db", true}, {"log", true}, {"json", false}, {"help", false}}, Operand::kRun};
+  return {"show",
+          "everything about one run: state, timings, results, parameters, files, log",
+          kShowHelp,
+          Show,
+          {{"db", true}, {"log", true}, {"json", false}, {"help", false}},
+          Operand::kRun};
 }
 
 }  // namespace granary::runner::cli

@@ -29,26 +29,26 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 // The rows, in the order `campaign --help` lists them; each is defined in its verb's file.
-Verb PlanVerb();       // plan.cpp
-Verb RunVerb();        // run.cpp
-Verb StatusVerb();     // status.cpp
-Verb ScanVerb();       // maintenance.cpp
-Verb ReportVerb();     // report.cpp
-Verb ExportVerb();     // report.cpp
-Verb CompareVerb();    // report.cpp
-Verb FieldsVerb();     // pictures.cpp
-Verb ShowVerb();       // status.cpp
-Verb CleanVerb();      // maintenance.cpp
-Verb DumpVerb();       // frames.cpp
-Verb SchemaVerb();     // maintenance.cpp
-Verb CompletionVerb(); // maintenance.cpp
-Verb SnapshotVerb();   // pictures.cpp
-Verb MovieVerb();      // pictures.cpp
+Verb PlanVerb();        // plan.cpp
+Verb RunVerb();         // run.cpp
+Verb StatusVerb();      // status.cpp
+Verb ScanVerb();        // maintenance.cpp
+Verb ReportVerb();      // report.cpp
+Verb ExportVerb();      // report.cpp
+Verb CompareVerb();     // report.cpp
+Verb FieldsVerb();      // pictures.cpp
+Verb ShowVerb();        // status.cpp
+Verb CleanVerb();       // maintenance.cpp
+Verb DumpVerb();        // frames.cpp
+Verb SchemaVerb();      // maintenance.cpp
+Verb CompletionVerb();  // maintenance.cpp
+Verb SnapshotVerb();    // pictures.cpp
+Verb MovieVerb();       // pictures.cpp
 
 const std::vector<Verb>& Verbs() {
-  static const std::vector<Verb> kVerbs = {PlanVerb(),   RunVerb(),    StatusVerb(), ScanVerb(),     ReportVerb(),
-                                           ExportVerb(), CompareVerb(), FieldsVerb(), ShowVerb(),     CleanVerb(),
-                                           DumpVerb(),   SchemaVerb(), CompletionVerb(), SnapshotVerb(), MovieVerb()};
+  static const std::vector<Verb> kVerbs = {PlanVerb(),   RunVerb(),     StatusVerb(),     ScanVerb(),     ReportVerb(),
+                                           ExportVerb(), CompareVerb(), FieldsVerb(),     ShowVerb(),     CleanVerb(),
+                                           DumpVerb(),   SchemaVerb(),  CompletionVerb(), SnapshotVerb(), MovieVerb()};
   return kVerbs;
 }
 
@@ -91,8 +91,8 @@ void Complete(int cword, const std::vector<std::string>& words, std::ostream& ou
     }
     return runs;
   };
-  const auto flag = std::find_if(verb->flags.begin(), verb->flags.end(),
-                                 [&](const FlagSpec& f) { return prev == "--" + f.name; });
+  const auto flag =
+      std::find_if(verb->flags.begin(), verb->flags.end(), [&](const FlagSpec& f) { return prev == "--" + f.name; });
   if (flag != verb->flags.end() && flag->takes_value) {
     const std::string name = flag->name;
     if (name == "engine") {
@@ -121,14 +121,9 @@ void Complete(int cword, const std::vector<std::string>& words, std::ostream& ou
     case Operand::kRun:
       for (const RunRow& r : runs_of_db(false)) say(r.run_id);
       break;
-    case Operand::kFile:
-      say("__files__");
-      break;
-    case Operand::kShell:
-      say("bash");
-      break;
-    case Operand::kNone:
-      break;
+    case Operand::kFile: say("__files__"); break;
+    case Operand::kShell: say("bash"); break;
+    case Operand::kNone: break;
   }
 }
 
@@ -160,7 +155,8 @@ int RunCli(const std::vector<std::string>& args, std::ostream& out, std::ostream
   }
   if (args[0] == "__complete") {  // asked by the bash completion script; not a verb of its own
     const int cword = args.size() > 1 ? std::atoi(args[1].c_str()) : 0;
-    cli::Complete(cword, std::vector<std::string>(args.begin() + std::min<std::size_t>(2, args.size()), args.end()), out);
+    cli::Complete(cword, std::vector<std::string>(args.begin() + std::min<std::size_t>(2, args.size()), args.end()),
+                  out);
     return 0;
   }
   if (args[0] == "--version") {
@@ -176,11 +172,13 @@ int RunCli(const std::vector<std::string>& args, std::ostream& out, std::ostream
   if (!verb) {
     const std::string best = Nearest(args[0], names);
     err << "campaign: unknown verb \"" << args[0] << "\"" << (best.empty() ? "" : "; did you mean \"" + best + "\"?")
-        << "\n" << cli::MainHelp();
+        << "\n"
+        << cli::MainHelp();
     return static_cast<int>(ExitCode::kUsage);
   }
   const std::vector<std::string> rest(args.begin() + 1, args.end());
-  if (std::find(rest.begin(), rest.end(), "--help") != rest.end() || std::find(rest.begin(), rest.end(), "-h") != rest.end()) {
+  if (std::find(rest.begin(), rest.end(), "--help") != rest.end() ||
+      std::find(rest.begin(), rest.end(), "-h") != rest.end()) {
     out << verb->help;
     return 0;
   }
