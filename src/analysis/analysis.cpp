@@ -54,16 +54,6 @@ const PointMetric* FindMetric(const std::vector<PointMetric>& metrics, const std
   return nullptr;
 }
 
-nlohmann::json JsonNumber(double value) {
-  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
-}
-
-double NumberOf(const nlohmann::json& value) { return value.is_number() ? value.get<double>() : kNaN; }
-
-double NumberAt(const nlohmann::json& object, const char* key) {
-  return object.is_object() && object.contains(key) ? NumberOf(object.at(key)) : kNaN;
-}
-
 nlohmann::json to_json(const MeanSe& m) { return {{"mean", JsonNumber(m.mean)}, {"se", JsonNumber(m.se)}, {"n", m.n}}; }
 
 MeanSe MeanSeOf(const nlohmann::json& j) {

@@ -23,6 +23,7 @@
 #include "analysis/flow.h"
 #include "analysis/outlets.h"
 #include "analysis/report_document.h"
+#include "analysis/json_numbers.h"
 #include "analysis/stats.h"
 #include "rundir/contacts.h"
 #include "rundir/frames.h"
@@ -288,10 +289,6 @@ std::vector<PointMetric> MeanOverRuns(const Analysis& analysis, const std::vecto
 const Metric* FindMetric(const std::vector<Metric>& metrics, const std::string& name);
 const PointMetric* FindMetric(const std::vector<PointMetric>& metrics, const std::string& name);
 
-// JSON numbers with NaN as null (JSON has no NaN), and back.
-nlohmann::json JsonNumber(double value);
-double NumberOf(const nlohmann::json& value);
-double NumberAt(const nlohmann::json& object, const char* key);
 nlohmann::json to_json(const MeanSe& m);
 MeanSe MeanSeOf(const nlohmann::json& j);
 std::vector<double> NumbersOf(const nlohmann::json& array);

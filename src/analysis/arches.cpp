@@ -1,5 +1,6 @@
 // See arches.h.
 #include "analysis/arches.h"
+#include "analysis/json_numbers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -411,14 +412,6 @@ ClogArches AnalyseClog(const rundir::ClogState& clog, const nlohmann::json& spec
 
 namespace granary::analysis {
 
-namespace {
-nlohmann::json Num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
-double NumAt(const nlohmann::json& j, const char* key) {
-  const auto it = j.find(key);
-  return it == j.end() || !it->is_number() ? kNaN : it->get<double>();
-}
-}  // namespace
-
 nlohmann::json to_json(const ClogArches& clog) {
   nlohmann::json arches = nlohmann::json::array();
   for (const Arch& a : clog.arches) {
@@ -427,13 +420,13 @@ nlohmann::json to_json(const ClogArches& clog) {
       bodies.push_back({{"id", b.id},
                         {"type", b.type},
                         {"discs", b.discs},
-                        {"x", Num(b.x)},
-                        {"y", Num(b.y)},
-                        {"s", Num(b.s)},
-                        {"h", Num(b.h)},
-                        {"theta", Num(b.theta)},
-                        {"axis", Num(b.axis)},
-                        {"pressure", Num(b.pressure)}});
+                        {"x", JsonNumber(b.x)},
+                        {"y", JsonNumber(b.y)},
+                        {"s", JsonNumber(b.s)},
+                        {"h", JsonNumber(b.h)},
+                        {"theta", JsonNumber(b.theta)},
+                        {"axis", JsonNumber(b.axis)},
+                        {"pressure", JsonNumber(b.pressure)}});
     arches.push_back({{"outlet", a.outlet},
                       {"obstacle", a.obstacle},
                       {"obstacles", a.obstacles},
@@ -442,20 +435,20 @@ nlohmann::json to_json(const ClogArches& clog) {
                       {"gaps", a.gaps},
                       {"supported", a.supported},
                       {"n", a.n},
-                      {"width", Num(a.width)},
-                      {"height", Num(a.height)},
-                      {"perimeter", Num(a.perimeter)},
-                      {"arc", Num(a.arc)},
-                      {"c_over_p", Num(a.c_over_p)},
-                      {"elongated_fraction", Num(a.elongated_fraction)},
+                      {"width", JsonNumber(a.width)},
+                      {"height", JsonNumber(a.height)},
+                      {"perimeter", JsonNumber(a.perimeter)},
+                      {"arc", JsonNumber(a.arc)},
+                      {"c_over_p", JsonNumber(a.c_over_p)},
+                      {"elongated_fraction", JsonNumber(a.elongated_fraction)},
                       {"per_type", a.per_type},
-                      {"mean_pressure", Num(a.mean_pressure)},
-                      {"max_angle", Num(a.max_angle)},
+                      {"mean_pressure", JsonNumber(a.mean_pressure)},
+                      {"max_angle", JsonNumber(a.max_angle)},
                       {"concave", a.concave}});
   }
   const ContactTypes& t = clog.contact_types;
   return {{"timestep", clog.timestep},
-          {"time", Num(clog.time)},
+          {"time", JsonNumber(clog.time)},
           {"bodies", clog.bodies},
           {"sealed_outlets", clog.sealed_outlets},
           {"contact_types",
@@ -469,7 +462,7 @@ nlohmann::json to_json(const ClogArches& clog) {
 ClogArches ClogArchesFromJson(const nlohmann::json& j) {
   ClogArches c;
   c.timestep = j.value("timestep", std::int64_t{0});
-  c.time = NumAt(j, "time");
+  c.time = NumberAt(j, "time");
   c.bodies = j.value("bodies", 0);
   c.sealed_outlets = j.value("sealed_outlets", std::vector<int>{});
   if (const auto t = j.find("contact_types"); t != j.end()) {
@@ -484,22 +477,22 @@ ClogArches ClogArchesFromJson(const nlohmann::json& j) {
     arch.obstacle = a.value("obstacle", false);
     arch.obstacles = a.value("obstacles", std::vector<int>{});
     for (const nlohmann::json& b : a.value("bodies", nlohmann::json::array()))
-      arch.bodies.push_back({b.value("id", std::int64_t{-1}), b.value("type", 1), b.value("discs", 1), NumAt(b, "x"),
-                             NumAt(b, "y"), NumAt(b, "s"), NumAt(b, "h"), NumAt(b, "theta"), NumAt(b, "axis"),
-                             NumAt(b, "pressure")});
+      arch.bodies.push_back({b.value("id", std::int64_t{-1}), b.value("type", 1), b.value("discs", 1), NumberAt(b, "x"),
+                             NumberAt(b, "y"), NumberAt(b, "s"), NumberAt(b, "h"), NumberAt(b, "theta"), NumberAt(b, "axis"),
+                             NumberAt(b, "pressure")});
     arch.dead_ends = a.value("dead_ends", std::vector<std::int64_t>{});
     arch.gaps = a.value("gaps", 0);
     arch.supported = a.value("supported", true);
     arch.n = a.value("n", 0);
-    arch.width = NumAt(a, "width");
-    arch.height = NumAt(a, "height");
-    arch.perimeter = NumAt(a, "perimeter");
-    arch.arc = NumAt(a, "arc");
-    arch.c_over_p = NumAt(a, "c_over_p");
-    arch.elongated_fraction = NumAt(a, "elongated_fraction");
+    arch.width = NumberAt(a, "width");
+    arch.height = NumberAt(a, "height");
+    arch.perimeter = NumberAt(a, "perimeter");
+    arch.arc = NumberAt(a, "arc");
+    arch.c_over_p = NumberAt(a, "c_over_p");
+    arch.elongated_fraction = NumberAt(a, "elongated_fraction");
     arch.per_type = a.value("per_type", std::vector<int>{});
-    arch.mean_pressure = NumAt(a, "mean_pressure");
-    arch.max_angle = NumAt(a, "max_angle");
+    arch.mean_pressure = NumberAt(a, "mean_pressure");
+    arch.max_angle = NumberAt(a, "max_angle");
     arch.concave = a.value("concave", 0);
     c.arches.push_back(std::move(arch));
   }

@@ -3,6 +3,7 @@
 // what is allowed, so a user can fix a campaign without reading code.
 // Keys, defaults and allowed values are documented in docs/run-spec.md.
 #include "rundir/run_spec.h"
+#include "rundir/json_pointer.h"
 
 // GCC 12 reports a false -Warray-bounds inside nlohmann::json's object construction when
 // JSON_DIAGNOSTICS is on (also seen in src/analysis); it is not a bug in this file.
@@ -103,8 +104,6 @@ std::size_t EditDistance(const std::string& a, const std::string& b) {
   return row[b.size()];
 }
 
-namespace {
-
 std::string EscapePointerToken(const std::string& token) {
   std::string out;
   for (char c : token) {
@@ -117,6 +116,9 @@ std::string EscapePointerToken(const std::string& token) {
   }
   return out;
 }
+
+namespace {
+
 
 // A value as it appears in JSON, for messages ("got -3", "got \"abc\"").
 std::string Shown(const json& v) { return v.dump(); }

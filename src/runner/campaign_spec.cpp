@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "runner/slurm.h"
+#include "rundir/json_pointer.h"
 #include "runner/util.h"
 #ifdef GRANARY_HAVE_ANALYSIS
 #include "analysis/expectations.h"

@@ -30,13 +30,13 @@ class ExecutorSetup {
   // Before anything runs, with the campaign's database open: what the executor needs to know
   // of the campaign (Slurm: its name, each run's estimate for the arrays' --time). It may set
   // the run options it decides (Slurm: the threads per run are its --cpus-per-run).
-  virtual void Prepare(Store& /*store*/, RunOptions& /*options*/, std::ostream& /*out*/) {}
+  virtual void Prepare(Store& /*store*/, CampaignRunOptions& /*options*/, std::ostream& /*out*/) {}
   // When the flags asked for a dry run: prints what would be started and returns the exit
   // code, starting nothing. nullopt: run for real.
-  virtual std::optional<int> DryRun(Store& /*store*/, const RunOptions& /*options*/, std::ostream& /*out*/) {
+  virtual std::optional<int> DryRun(Store& /*store*/, const CampaignRunOptions& /*options*/, std::ostream& /*out*/) {
     return std::nullopt;
   }
-  virtual std::unique_ptr<Executor> Make(const RunOptions& options) const = 0;
+  virtual std::unique_ptr<Executor> Make(const CampaignRunOptions& options) const = 0;
 };
 
 struct ExecutorRow {
@@ -49,7 +49,7 @@ struct ExecutorRow {
   // Reads its flags (`block`: the spec's executor block, or nullptr) into a setup; throws
   // cli::UsageError naming the flag.
   std::unique_ptr<ExecutorSetup> (*setup)(const cli::Args& flags, const nlohmann::json* block, const std::string& db,
-                                          const RunOptions& options);
+                                          const CampaignRunOptions& options);
 };
 
 // The row the spec's executor block names (its "type"); SpecError under `path` otherwise.

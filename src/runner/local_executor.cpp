@@ -201,7 +201,7 @@ namespace {
 
 class LocalSetup : public ExecutorSetup {
  public:
-  std::unique_ptr<Executor> Make(const RunOptions& options) const override { return MakeLocalExecutor(options.jobs); }
+  std::unique_ptr<Executor> Make(const CampaignRunOptions& options) const override { return MakeLocalExecutor(options.jobs); }
 };
 
 }  // namespace
@@ -214,7 +214,7 @@ ExecutorRow LocalExecutorRow() {
           "  --jobs N             concurrent runs (default: number of cores)\n"
           "  --threads-per-run T  passed to the engine as --threads (default 1)\n",
           [](const cli::Args&, const nlohmann::json*, const std::string&,
-             const RunOptions&) -> std::unique_ptr<ExecutorSetup> { return std::make_unique<LocalSetup>(); }};
+             const CampaignRunOptions&) -> std::unique_ptr<ExecutorSetup> { return std::make_unique<LocalSetup>(); }};
 }
 
 }  // namespace granary::runner

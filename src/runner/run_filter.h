@@ -32,7 +32,7 @@ class RunFilter {
 
   bool empty() const { return prefixes_.empty() && values_.empty(); }
   bool Matches(const RunRow& row) const;
-  // The filters as given to the constructor (full pointers), e.g. for RunOptions::only.
+  // The filters as given to the constructor (full pointers), e.g. for CampaignRunOptions::only.
   const std::vector<std::string>& Texts() const { return texts_; }
 
  private:

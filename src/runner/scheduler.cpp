@@ -75,7 +75,7 @@ std::pair<RunState, std::string> EndStateOf(const Finished& f, bool timed_out, d
 
 namespace {
 
-std::string EngineExe(const RunOptions& o, const std::string& engine) {
+std::string EngineExe(const CampaignRunOptions& o, const std::string& engine) {
   if (o.engine.find('/') != std::string::npos) return o.engine;
   return (fs::path(o.exe_dir) / EngineProgram(engine)).string();
 }
@@ -120,7 +120,7 @@ struct Slot {
 
 }  // namespace
 
-ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor, RunObserver& observer,
+ExitCode RunCampaign(Store& store, const CampaignRunOptions& options, Executor& executor, RunObserver& observer,
                      const volatile std::sig_atomic_t* stop) {
   if (options.engine.find('/') != std::string::npos && !fs::exists(options.engine)) {
     throw std::invalid_argument("engine executable not found: " + options.engine);

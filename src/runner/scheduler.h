@@ -26,7 +26,7 @@ inline constexpr int kExitNothingToAnalyse = 5;
 
 class RunObserver;
 
-struct RunOptions {
+struct CampaignRunOptions {
   int jobs = 1;
   std::string engine;             // "" = each run's own; "native"/"liggghts" = only those; a path = that executable
   std::vector<std::string> only;  // --only filters with full pointers (run_filter.h); none = every run
@@ -87,7 +87,7 @@ extern const char kLostRunDirectory[];
 bool MatchesFilter(const RunRow& row, const std::string& filter);
 
 // Runs what is not done. `stop` is set asynchronously (signal handler) to request a clean stop.
-ExitCode RunCampaign(Store& store, const RunOptions& options, Executor& executor, RunObserver& observer,
+ExitCode RunCampaign(Store& store, const CampaignRunOptions& options, Executor& executor, RunObserver& observer,
                      const volatile std::sig_atomic_t* stop);
 
 }  // namespace granary::runner

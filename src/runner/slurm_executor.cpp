@@ -575,7 +575,7 @@ class SlurmSetup : public ExecutorSetup {
  public:
   SlurmSetup(SlurmSettings settings, bool dry_run) : settings_(std::move(settings)), dry_run_(dry_run) {}
 
-  void Prepare(Store& store, RunOptions& options, std::ostream& out) override {
+  void Prepare(Store& store, CampaignRunOptions& options, std::ostream& out) override {
     if (const auto campaign = LoadCampaign(store)) settings_.campaign = campaign->name;
     options.threads_per_run = settings_.options.cpus_per_run;
     if (!settings_.options.time.empty() || settings_.time_limit > 0) return;
@@ -587,7 +587,7 @@ class SlurmSetup : public ExecutorSetup {
   }
 
   // The arrays and scripts `campaign run --executor slurm` would submit; nothing is written.
-  std::optional<int> DryRun(Store& store, const RunOptions& o, std::ostream& out) override {
+  std::optional<int> DryRun(Store& store, const CampaignRunOptions& o, std::ostream& out) override {
     if (!dry_run_) return std::nullopt;
     RunFilter filter;
     if (const auto campaign = LoadCampaign(store); campaign && !o.only.empty()) {
@@ -641,7 +641,7 @@ class SlurmSetup : public ExecutorSetup {
     return 0;
   }
 
-  std::unique_ptr<Executor> Make(const RunOptions&) const override { return MakeSlurmExecutor(settings_); }
+  std::unique_ptr<Executor> Make(const CampaignRunOptions&) const override { return MakeSlurmExecutor(settings_); }
 
  private:
   SlurmSettings settings_;
@@ -650,7 +650,7 @@ class SlurmSetup : public ExecutorSetup {
 
 // Slurm's options from the spec's block, then the flags.
 std::unique_ptr<ExecutorSetup> SetUpSlurm(const cli::Args& a, const json* block, const std::string& db,
-                                          const RunOptions& o) {
+                                          const CampaignRunOptions& o) {
   SlurmSettings settings;
   SlurmOptions& so = settings.options;
   if (block) ParseExecutorBlock(*block, "/executor", so);

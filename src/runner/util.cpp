@@ -31,17 +31,4 @@ std::uint64_t ReplicaSeed(std::uint64_t campaign_seed, int replica) {
   return (z % 2147483646ull) + 1;
 }
 
-std::string EscapePointerToken(const std::string& token) {
-  std::string out;
-  for (char c : token) {
-    if (c == '~')
-      out += "~0";
-    else if (c == '/')
-      out += "~1";
-    else
-      out += c;
-  }
-  return out;
-}
-
 }  // namespace granary::runner

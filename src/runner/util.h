@@ -22,6 +22,4 @@ std::string Nearest(const std::string& word, const std::vector<std::string>& can
 // differ only in outlets share a prepared bed.
 std::uint64_t ReplicaSeed(std::uint64_t campaign_seed, int replica);
 
-std::string EscapePointerToken(const std::string& token);
-
 }  // namespace granary::runner

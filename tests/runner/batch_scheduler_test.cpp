@@ -156,7 +156,7 @@ class BatchSchedulerTest : public ::testing::Test {
   }
   fs::path dir_;
   std::unique_ptr<Store> store_;
-  RunOptions options_;
+  CampaignRunOptions options_;
   NullObserver observer_;
 };
 

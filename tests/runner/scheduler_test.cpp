@@ -163,7 +163,7 @@ class SchedulerTest : public ::testing::Test {
 
   fs::path dir_;
   std::unique_ptr<Store> store_;
-  RunOptions options_;
+  CampaignRunOptions options_;
   FakeExecutor executor_{2};
   RecordingObserver observer_;
   volatile std::sig_atomic_t stop_ = 0;

@@ -31,7 +31,7 @@ struct PointReplicaState {
 // a campaign with a fixed number of replicas.
 std::vector<PointReplicaState> ReplicaStates(Store& store, const std::set<std::string>* settled, bool write_cache);
 
-// What `campaign run` calls after each finished run (RunOptions::add_runs): plans the replicas
+// What `campaign run` calls after each finished run (CampaignRunOptions::add_runs): plans the replicas
 // the decision asks for and reports each point's verdict once. Returns how many runs it added.
 // `reported` keeps the points already reported as met, at max or unknown across calls.
 int AddReplicas(Store& store, RunObserver& observer, std::set<std::string>& reported);

@@ -403,7 +403,7 @@ int Compare(const std::vector<std::string>& argv, std::ostream& out, std::ostrea
     j["engine"] = json::array({"native", "liggghts"});
     if (j.contains("base") && j["base"].is_object()) j["base"].erase("engine");  // both, whatever it says
   }
-  const RunOptions o = RunOptionsFrom(a);
+  const CampaignRunOptions o = RunOptionsFrom(a);
   const std::string db = DbPath(a);
   // With --json, stdout carries only the JSON document.
   std::ostream& progress = a.Has("json") ? err : out;

@@ -83,8 +83,8 @@ std::string ExeDir() {
 }
 
 // The flags `run` and `compare` share: --jobs, --threads-per-run, --time-limit, --retries.
-RunOptions RunOptionsFrom(const Args& a) {
-  RunOptions o;
+CampaignRunOptions RunOptionsFrom(const Args& a) {
+  CampaignRunOptions o;
   o.jobs = a.Integer("jobs", static_cast<int>(std::max(1u, std::thread::hardware_concurrency())), 1);
   o.threads_per_run = a.Integer("threads-per-run", 1, 1);
   o.time_limit = a.Number("time-limit", 0);
@@ -100,7 +100,7 @@ namespace {
 // The executor `campaign run` uses: --executor, else the spec's "executor" block, else the
 // table's first; a flag of another executor is refused.
 std::unique_ptr<ExecutorSetup> ChooseExecutor(const Args& a, const json& spec, const std::string& db,
-                                              const RunOptions& o) {
+                                              const CampaignRunOptions& o) {
   const json* block = spec.is_object() && spec.contains("executor") ? &spec["executor"] : nullptr;
   const ExecutorRow* row = block ? &ExecutorOfBlock(*block, "/executor") : &ExecutorRows().front();
   if (a.Has("executor")) {
@@ -125,7 +125,7 @@ std::unique_ptr<ExecutorSetup> ChooseExecutor(const Args& a, const json& spec, c
 int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) {
   const Args a = Parse(argv, "run");
   if (!a.positional.empty()) throw UsageError("campaign run: unexpected argument \"" + a.positional[0] + "\"");
-  RunOptions o = RunOptionsFrom(a);
+  CampaignRunOptions o = RunOptionsFrom(a);
   o.engine = a.Get("engine", "");
   if (!o.engine.empty() && o.engine != "native" && o.engine != "liggghts" && o.engine != "lammps" &&
       o.engine.find('/') == std::string::npos) {
@@ -171,12 +171,12 @@ int Run(const std::vector<std::string>& argv, std::ostream& out, std::ostream&) 
 
 }  // namespace
 
-int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, const ExecutorSetup* setup) {
+int RunAll(const std::string& db, const CampaignRunOptions& options, std::ostream& out, const ExecutorSetup* setup) {
   const auto opened = OpenCampaignDb(db, "run");
   Store& store = *opened;
   const auto campaign = LoadCampaign(store);
   if (!campaign) throw UsageError("campaign run: " + db + " holds no campaign (run campaign plan first)");
-  RunOptions o = options;
+  CampaignRunOptions o = options;
   if (!o.only.empty()) {
     try {
       o.only = ResolveFilters(o.only, *campaign, LoadRuns(store, true)).Texts();

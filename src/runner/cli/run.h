@@ -14,10 +14,10 @@ namespace granary::runner::cli {
 std::string ExeDir();
 
 // The flags `run` and `compare` share: --jobs, --threads-per-run, --time-limit, --retries.
-RunOptions RunOptionsFrom(const Args& a);
+CampaignRunOptions RunOptionsFrom(const Args& a);
 
 // Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly. The runs
 // go to the executor `setup` makes (nullptr: the local pool, --jobs at once).
-int RunAll(const std::string& db, const RunOptions& options, std::ostream& out, const ExecutorSetup* setup = nullptr);
+int RunAll(const std::string& db, const CampaignRunOptions& options, std::ostream& out, const ExecutorSetup* setup = nullptr);
 
 }  // namespace granary::runner::cli

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "rundir/json_pointer.h"
 #include "rundir/progress.h"
 #include "runner/calibration.h"
 #include "runner/campaign_db.h"
