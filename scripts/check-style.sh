@@ -36,14 +36,19 @@ case "$what" in
   naming)
     need run-clang-tidy
     [ -f "$build/compile_commands.json" ] || { echo "check-style: no $build/compile_commands.json (configure with cmake first)" >&2; exit 2; }
-    # GCC-only warning flags in the compile commands are not clang's to judge.
-    args=(-p "$build" -quiet -j "$(nproc)" -extra-arg=-Wno-unknown-warning-option)
+    # The compiler's warnings are GCC's to give (the build has them as errors); clang parses
+    # only to see the names. Clang leaves sized deallocation off by default, GCC on.
+    args=(-p "$build" -quiet -j "$(nproc)" -extra-arg=-w -extra-arg=-fsized-deallocation)
     [ -n "$fix" ] && args+=(-fix)
     log="$(mktemp)"; trap 'rm -f "$log"' EXIT
     filters=("$@")
     ((${#filters[@]})) || filters=("$here/src/" "$here/tests/")
     if run-clang-tidy "${args[@]}" "${filters[@]}" >"$log" 2>&1; then
       echo "check-style: names follow .clang-tidy"
+    elif [ -n "$fix" ]; then
+      # clang-tidy reports what it found before it renamed; uses it cannot see (a template's
+      # dependent calls) show up in the build.
+      echo "check-style: renamed what departed; build, then run scripts/check-style.sh naming again"
     else
       grep -E "error:|warning:" "$log" | grep -v "^Error while processing" | sort -u | head -200 >&2 || true
       echo "check-style: names depart from .clang-tidy (scripts/check-style.sh naming --fix renames them)" >&2

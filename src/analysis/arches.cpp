@@ -478,8 +478,8 @@ ClogArches ClogArchesFromJson(const nlohmann::json& j) {
     arch.obstacles = a.value("obstacles", std::vector<int>{});
     for (const nlohmann::json& b : a.value("bodies", nlohmann::json::array()))
       arch.bodies.push_back({b.value("id", std::int64_t{-1}), b.value("type", 1), b.value("discs", 1), NumberAt(b, "x"),
-                             NumberAt(b, "y"), NumberAt(b, "s"), NumberAt(b, "h"), NumberAt(b, "theta"), NumberAt(b, "axis"),
-                             NumberAt(b, "pressure")});
+                             NumberAt(b, "y"), NumberAt(b, "s"), NumberAt(b, "h"), NumberAt(b, "theta"),
+                             NumberAt(b, "axis"), NumberAt(b, "pressure")});
     arch.dead_ends = a.value("dead_ends", std::vector<std::int64_t>{});
     arch.gaps = a.value("gaps", 0);
     arch.supported = a.value("supported", true);

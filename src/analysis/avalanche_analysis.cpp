@@ -1,6 +1,7 @@
 // See avalanche_analysis.h; clog series and the tail fit are clogging.h and stats.h.
 #include "analysis/avalanche_analysis.h"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -27,6 +28,12 @@ class AvalancheAccumulator : public RunAccumulator {
       int last_clog = 0;
       for (const rundir::UnclogEvent& u : run.data->unclogs)
         if (u.clog != last_clog) cuts.push_back(u.time), last_clog = u.clog;
+      // A clog the protocol could not break ends the run with its attempts and no exit after
+      // them: they are no unclog, and the stretch before them is the avalanche that ended in it
+      // (not one of size 0 after them).
+      if (end == RunEnd::kClogged && !cuts.empty() &&
+          std::none_of(events.begin(), events.end(), [&](const rundir::ExitEvent& e) { return e.time > cuts.back(); }))
+        cuts.pop_back();
       const std::vector<double> sizes = AvalanchesBetweenUnclogs(events, -1, cuts, end);
       for (std::size_t o = 0; o < run.outlets.size(); ++o) {
         per_outlet.push_back(JsonNumbers(AvalanchesBetweenUnclogs(events, static_cast<int>(o), cuts, end)));
@@ -63,7 +70,7 @@ std::string SizeName(std::size_t k) { return "avalanche_size" + OutletSuffix(k);
 class AvalancheAnalysis : public Analysis {
  public:
   std::string Key() const override { return "avalanches"; }
-  int Version() const override { return 2; }
+  int Version() const override { return 3; }
   PassUse PassOptionsUsed() const override { return {.window = false, .clog_gap = true, .frames = false}; }
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<AvalancheAccumulator>(run);

@@ -421,7 +421,7 @@ bool ForcePass::Run(bool kick, std::int64_t pass, bool await_drift, double* wait
     if (!await_drift) return;
     const int c1 = bodies_->disc_body_[lists_->block_last_partner_[blk]] / ThreadShares::kBodyChunk;
     for (int c = bodies_->disc_body_[i] / ThreadShares::kBodyChunk; c <= c1; ++c)
-      AwaitPass(shares_->chunk_done(c).pass, pass, waited);
+      AwaitPass(shares_->ChunkDone(c).pass, pass, waited);
   };
   int i = m0;
   int lead_end = m0;  // [m0, lead_end): the part of a block that starts in an earlier share
@@ -432,7 +432,7 @@ bool ForcePass::Run(bool kick, std::int64_t pass, bool await_drift, double* wait
     PairEntriesOf(i, lead_end);
     i = lead_end;
   }
-  shares_->share_done(t).pass.store(pass, std::memory_order_release);
+  shares_->ShareDone(t).pass.store(pass, std::memory_order_release);
   static const std::vector<int> kNone;
   while (i < m1) {  // blocks that start in the share
     const int blk = i / block, i1 = std::min(n, i + block), end = std::min(i1, m1);
@@ -440,8 +440,8 @@ bool ForcePass::Run(bool kick, std::int64_t pass, bool await_drift, double* wait
     PairEntriesOf(i, end);
     SumPartForces(i, end, kNone);
     for (int u = t + 1; u < nt && shares_->PairShareStart(u, nt) < i1; ++u)
-      AwaitPass(shares_->share_done(u).pass, pass, waited);
-    shares_->block_done(blk).pass.store(pass, std::memory_order_release);
+      AwaitPass(shares_->ShareDone(u).pass, pass, waited);
+    shares_->BlockDone(blk).pass.store(pass, std::memory_order_release);
     i = i1;
   }
   // 2. Reactions across blocks, body forces, gravity, torques (and the half kick). A chunk
@@ -462,7 +462,7 @@ bool ForcePass::Run(bool kick, std::int64_t pass, bool await_drift, double* wait
         (bodies_->body_first_disc_[b1 - 1] + bodies_->body_disc_count_[b1 - 1] - 1) / params_->force_block;
     int from = first_block;
     for (int blk = first_block; blk <= last_block; ++blk) from = std::min(from, lists_->block_first_source_[blk]);
-    for (int blk = from; blk <= last_block; ++blk) AwaitPass(shares_->block_done(blk).pass, pass, waited);
+    for (int blk = from; blk <= last_block; ++blk) AwaitPass(shares_->BlockDone(blk).pass, pass, waited);
     if (lead_end > m0 && bodies_->body_first_disc_[b0] < lead_end) {  // (its block's stamp is awaited above)
       SumPartForces(m0, lead_end, LeadSources(t, m0, lead_end));
       lead_end = m0;

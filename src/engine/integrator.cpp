@@ -247,7 +247,7 @@ int Integrator::DriftShare(int t, int nt, std::int64_t pass) {
   for (int ch = ch0; ch < ch1; ch += ThreadShares::kChunksPerCall) {
     const int end = std::min(ch1, ch + ThreadShares::kChunksPerCall);
     flags |= DriftBodies(ch * ThreadShares::kBodyChunk, std::min(nb, end * ThreadShares::kBodyChunk));
-    for (int c = ch; c < end; ++c) shares_->chunk_done(c).pass.store(pass, std::memory_order_release);
+    for (int c = ch; c < end; ++c) shares_->ChunkDone(c).pass.store(pass, std::memory_order_release);
   }
   return flags;
 }

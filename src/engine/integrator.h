@@ -34,7 +34,7 @@ class Integrator {
 
   // The exit box {xmin, xmax, ymin} that kDriftBeyond reports on.
   void SetExitBox(double xmin, double xmax, double ymin);
-  bool exit_box_set() const { return exit_box_set_; }
+  bool ExitBoxSet() const { return exit_box_set_; }
 
   // Thread t's of nt share of the drift (body chunks), publishing each chunk with `pass`
   // (ThreadShares::chunk_done); returns the flags.

@@ -116,8 +116,8 @@ class Out {
   void operator()(T&... fields) {
     (Field(fields), ...);
   }
-  std::uint32_t version() const { return kCheckpointVersion; }
-  bool more() const { return true; }
+  std::uint32_t Version() const { return kCheckpointVersion; }
+  bool More() const { return true; }
 
  private:
   template <typename T>
@@ -169,14 +169,14 @@ class In {
   bool AtEnd() const { return pos_ >= buf_.size(); }
 
   // The archive interface of Serialize: a reader reads the fields of `version`; fields
-  // after a `more()` that is false keep the values they had.
-  void set_version(std::uint32_t version) { version_ = version; }
+  // after a `More()` that is false keep the values they had.
+  void SetVersion(std::uint32_t version) { version_ = version; }
   template <typename... T>
   void operator()(T&... fields) {
     (Field(fields), ...);
   }
-  std::uint32_t version() const { return version_; }
-  bool more() const { return !AtEnd(); }
+  std::uint32_t Version() const { return version_; }
+  bool More() const { return !AtEnd(); }
 
  private:
   template <typename T>
@@ -250,7 +250,7 @@ struct Checkpoint {
 
 // The checkpoint format (checkpoint.bin's payload), written by Out and read by In: the
 // fields in their order on disk, so a new field is one line here (at the end, behind a
-// version or `more()` test, for the older checkpoints that lack it).
+// version or `More()` test, for the older checkpoints that lack it).
 template <class Archive>
 void Serialize(Archive& ar, WorldSnapshot& w) {
   ar(w.tmpl, w.active, w.x, w.y, w.theta, w.c, w.s, w.vx, w.vy, w.w, w.fx, w.fy, w.torque);
@@ -262,13 +262,13 @@ void Serialize(Archive& ar, Checkpoint& k) {
   CheckpointedState& s = k.state;
   ar(k.spec, s.step_, s.last_exit_step_, s.disc_steps_, s.exits_per_outlet_, s.clogs_, s.in_clog_);
   ar(s.bed_file_, s.bed_prepared_here_, s.bed_height_, s.bed_settle_time_, s.bed_wall_s_);
-  if (ar.version() >= 5) ar(s.bed_phi_, s.bed_surface_);
+  if (ar.Version() >= 5) ar(s.bed_phi_, s.bed_surface_);
   ar(k.discharge_wall, k.rng, k.world, k.events_offset, k.frames_offset, k.contacts_offset);
   ar(s.falling_, s.periodic_height_, s.cleared_by_obstacles_);
   // The unclog state last: a checkpoint of an engine from before it reads without it.
-  if (ar.more())
+  if (ar.More())
     ar(s.unclog_attempts_, s.unclogged_, s.last_unclog_step_, s.unclog_removed_, k.unclog_rng, k.unclogs_offset);
-  if (ar.more()) ar(s.clog_arch_);
+  if (ar.More()) ar(s.clog_arch_);
 }
 
 }  // namespace
@@ -545,7 +545,7 @@ void Discharge::LoadCheckpoint(const fs::path& file) {
     throw CheckpointError(name + msg);
   }
   In in(payload, name);
-  in.set_version(version);
+  in.SetVersion(version);
   Checkpoint k;
   Serialize(in, k);
   const CheckpointedState& loaded = k.state;

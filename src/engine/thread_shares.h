@@ -83,15 +83,15 @@ class ThreadShares {
 
   // Which force pass each force block has finished (ForcePass): a thread's body forces wait
   // for the blocks they read, not for every thread at a barrier.
-  PassStamp& block_done(int block) { return block_done_[block]; }
+  PassStamp& BlockDone(int block) { return block_done_[block]; }
   // Which pass each body chunk's drift has finished: a pair block waits for the chunks that
   // hold its discs and partners (from the first disc to NeighbourLists::block_last_partner_).
-  PassStamp& chunk_done(int chunk) { return chunk_done_[chunk]; }
+  PassStamp& ChunkDone(int chunk) { return chunk_done_[chunk]; }
   // Per thread: the pass whose pair entries it has computed in the block an earlier thread
   // sums (ForcePass).
-  PassStamp& share_done(int t) { return share_done_[t]; }
-  StepDone& step_done(int t) { return step_done_[t]; }
-  ThreadClock& thread_busy(int t) { return thread_busy_[t]; }
+  PassStamp& ShareDone(int t) { return share_done_[t]; }
+  StepDone& StepDoneOf(int t) { return step_done_[t]; }
+  ThreadClock& ThreadBusy(int t) { return thread_busy_[t]; }
 
  private:
   static constexpr int kBalanceEvery = 100;

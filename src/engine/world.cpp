@@ -191,7 +191,7 @@ void World::Step() {
     if (flags & Integrator::kDriftMoved)
       throw std::logic_error("engine: a disc moved more than half the Verlet skin between list rebuilds");
   }
-  beyond_exit_box_ = !integrator_.exit_box_set() || (flags & Integrator::kDriftBeyond) != 0;
+  beyond_exit_box_ = !integrator_.ExitBoxSet() || (flags & Integrator::kDriftBeyond) != 0;
 }
 
 int World::Steps(int max_steps) {
@@ -199,7 +199,7 @@ int World::Steps(int max_steps) {
   while (taken < max_steps) {
     // A step that rebuilds the lists has serial parts and parallel loops of its own (Step);
     // without an exit box every step is "beyond" it, so steps go one by one.
-    if (rebuild_needed_ || rebuild_predicted_ || !integrator_.exit_box_set() || !Parallel() || max_steps - taken == 1) {
+    if (rebuild_needed_ || rebuild_predicted_ || !integrator_.ExitBoxSet() || !Parallel() || max_steps - taken == 1) {
       Step();
       ++taken;
     } else {
@@ -227,15 +227,15 @@ int World::StepsInOneRegion(int max_steps) {
       double waited = 0.0;
       int mine = integrator_.DriftShare(t, nt, pass);
       if (forces_.Run(true, pass, true, &waited)) mine |= kStepOutrun;
-      shares_.thread_busy(t).busy +=
+      shares_.ThreadBusy(t).busy +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() - waited;
-      StepDone& own = shares_.step_done(t);
+      StepDone& own = shares_.StepDoneOf(t);
       own.flags[static_cast<std::size_t>(pass & 1)] = mine;
       own.pass.store(pass, std::memory_order_release);
       int all = 0;
       for (int u = 0; u < nt; ++u) {
-        AwaitPass(shares_.step_done(u).pass, pass);
-        all |= shares_.step_done(u).flags[static_cast<std::size_t>(pass & 1)];
+        AwaitPass(shares_.StepDoneOf(u).pass, pass);
+        all |= shares_.StepDoneOf(u).flags[static_cast<std::size_t>(pass & 1)];
       }
       if (all != 0 || k + 1 == max_steps) {
         if (t == 0) {

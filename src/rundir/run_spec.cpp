@@ -119,7 +119,6 @@ std::string EscapePointerToken(const std::string& token) {
 
 namespace {
 
-
 // A value as it appears in JSON, for messages ("got -3", "got \"abc\"").
 std::string Shown(const json& v) { return v.dump(); }
 std::string Shown(double v) { return json(v).dump(); }

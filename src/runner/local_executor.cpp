@@ -201,7 +201,9 @@ namespace {
 
 class LocalSetup : public ExecutorSetup {
  public:
-  std::unique_ptr<Executor> Make(const CampaignRunOptions& options) const override { return MakeLocalExecutor(options.jobs); }
+  std::unique_ptr<Executor> Make(const CampaignRunOptions& options) const override {
+    return MakeLocalExecutor(options.jobs);
+  }
 };
 
 }  // namespace

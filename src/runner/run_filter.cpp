@@ -101,10 +101,12 @@ bool RunFilter::Matches(const RunRow& row) const {
   if (!prefixes_.empty() && std::none_of(prefixes_.begin(), prefixes_.end(),
                                          [&](const std::string& p) { return row.run_id.rfind(p, 0) == 0; }))
     return false;
-  for (const auto& [pointer, texts] : values_)
+  for (const auto& [key, texts] : values_) {
+    const std::string& pointer = key;
     if (std::none_of(texts.begin(), texts.end(),
                      [&](const std::string& t) { return ParameterMatches(row, pointer, t); }))
       return false;
+  }
   return true;
 }
 

@@ -63,6 +63,24 @@ TEST(AvalancheAnalysis, AnEngineThatBrokeItsClogsCutsTheStreamAtItsUnclogs) {
   EXPECT_EQ((MetricsOf(data, &result), result.at("sizes")), (nlohmann::json{2.0, 7.0}));
 }
 
+TEST(AvalancheAnalysis, AClogTheProtocolCouldNotBreakEndsTheLastAvalancheNotAnEmptyOne) {
+  rundir::RunData data = StreamRun("unclog");
+  // Clog 1 broken at 5; clog 2, after the exit at 11, met three attempts (15, 16, 25) after
+  // which nothing left, and the run ended clogged: the stream is the first six exits.
+  data.events.resize(6);
+  data.unclogs = {{5.0, 50000, 1, 1, "remove_arch", {}},
+                  {15.0, 150000, 2, 1, "remove_arch", {}},
+                  {16.0, 160000, 2, 2, "remove_arch", {}},
+                  {25.0, 250000, 2, 3, "remove_arch", {}}};
+  nlohmann::json result;
+  const std::vector<Metric> m = MetricsOf(data, &result);
+  // 4 exits up to the unclog at 5, then 2 (at 10 and 11) that ended in the clog never broken.
+  EXPECT_EQ(result.at("sizes"), (nlohmann::json{4.0, 2.0}));
+  EXPECT_EQ(result.at("unclogs"), 1);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "clogs")->value, 2.0);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "avalanche_size")->value, 3.0);
+}
+
 TEST(AvalancheAnalysis, NoOptions) {
   EXPECT_THROW(MakeAvalancheAnalysis({{"bins", 3}}, "/report/avalanches"), std::exception);
 }

@@ -110,7 +110,8 @@ std::unique_ptr<ExecutorSetup> ChooseExecutor(const Args& a, const json& spec, c
   }
   for (const ExecutorRow& other : ExecutorRows()) {
     if (&other == row) continue;
-    for (const auto& [flag, takes_value] : other.flags) {
+    for (const auto& other_flag : other.flags) {
+      const std::string& flag = other_flag.first;
       const bool own =
           std::any_of(row->flags.begin(), row->flags.end(), [&](const auto& f) { return f.first == flag; });
       if (!own && a.Has(flag)) {
@@ -216,9 +217,9 @@ Verb RunVerb() {
   std::vector<FlagSpec> flags = {{"db", true},      {"engine", true},      {"only", true},     {"time-limit", true},
                                  {"retries", true}, {"rerun-lost", false}, {"executor", true}, {"help", false}};
   for (const ExecutorRow& row : ExecutorRows())
-    for (const auto& [flag, takes_value] : row.flags)
-      if (std::none_of(flags.begin(), flags.end(), [&](const FlagSpec& f) { return f.name == flag; }))
-        flags.push_back({flag, takes_value});
+    for (const auto& row_flag : row.flags)
+      if (std::none_of(flags.begin(), flags.end(), [&](const FlagSpec& f) { return f.name == row_flag.first; }))
+        flags.push_back({row_flag.first, row_flag.second});
   return {"run", "run what is not done (resumable, leases, N at a time)", RunHelp(), Run, flags};
 }
 

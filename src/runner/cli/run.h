@@ -18,6 +18,7 @@ CampaignRunOptions RunOptionsFrom(const Args& a);
 
 // Runs the campaign in `db` with a console display; Ctrl-C / SIGTERM stop it cleanly. The runs
 // go to the executor `setup` makes (nullptr: the local pool, --jobs at once).
-int RunAll(const std::string& db, const CampaignRunOptions& options, std::ostream& out, const ExecutorSetup* setup = nullptr);
+int RunAll(const std::string& db, const CampaignRunOptions& options, std::ostream& out,
+           const ExecutorSetup* setup = nullptr);
 
 }  // namespace granary::runner::cli

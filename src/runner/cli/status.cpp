@@ -503,7 +503,9 @@ int Show(const std::vector<std::string>& argv, std::ostream& out, std::ostream&)
   Leaves(run.params, "", leaves);
   std::size_t width = 0;
   for (const auto& [p, v] : leaves) width = std::max(width, p.size());
-  for (const auto& [p, v] : leaves) {
+  for (const auto& leaf : leaves) {
+    const std::string& p = leaf.first;
+    const nlohmann::json& v = leaf.second;
     const bool swept = std::any_of(run.point.items().begin(), run.point.items().end(),
                                    [&](const auto& kv) { return p == kv.key() || p.rfind(kv.key() + "/", 0) == 0; });
     out << (swept ? " *" : "  ") << std::left << std::setw(static_cast<int>(width) + 2) << p.substr(1)
