@@ -1,0 +1,140 @@
+// The region analysis on lattice frames (lattice_frame.h: discs of radius 0.5 at unit spacing,
+// packing fraction pi/4 in any rectangle whose edges cut the discs through their centres)
+// whose columns move sideways at +-a, so that the bodies in a region have <v_x> = 0 and hand-
+// counted temperatures T_g(ch. 3) = a^2 / 2 and T_g(ch. 4-5) = m a^2 / 3 (m = pi/4): the
+// region next to each outlet in that outlet's coordinates, the per-outlet metric names, the
+// mean and se over frames, the frames it asks for, and the errors of /report/region.
+#include "analysis/region_analysis.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "analysis/run_pass.h"
+#include "lattice_frame.h"
+
+namespace granary::analysis {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// Two base outlets of width 2 at x = -6 and x = 6: the ch. 3 region of each, (W + 2) x 10,
+// covers the columns x = -8 .. -5 (outlet 0) and 4 .. 7 (outlet 1), rows y = 0.5 .. 9.5.
+rundir::RunData TwoOutletRun() {
+  rundir::RunData data;
+  const nlohmann::json outlets = {{{"center", -6.0}, {"width", 2.0}}, {{"center", 6.0}, {"width", 2.0}}};
+  data.spec = {{"discharge", {{"mode", "remove"}, {"clog_window", 5.0}}},
+               {"silo", {{"width", 24.0}, {"base_outlets", outlets}}}};
+  data.has_frames = true;
+  return data;
+}
+
+// The lattice at time t, columns moving at +a and -a alternately: amplitude `left` for x < 0,
+// `right` for x > 0.
+rundir::Frame ShearedLattice(double t, double left, double right) {
+  rundir::Frame f = testing::LatticeFrame(t, 0.0).first;
+  for (rundir::Disc& d : f.discs) {
+    const long col = std::lround(d.x);
+    d.vx = (col % 2 == 0 ? 1.0 : -1.0) * (d.x < 0 ? left : right);
+  }
+  return f;
+}
+
+void Add(RunAccumulator& accumulator, const rundir::Frame& frame) {
+  const std::vector<rundir::Body> bodies = rundir::BodiesOf(frame.discs);
+  accumulator.AddFrame({frame, bodies, nullptr});
+}
+
+TEST(RegionAnalysis, EachOutletsRegionInItsOwnMetrics) {
+  const rundir::RunData data = TwoOutletRun();
+  const PassOptions pass;
+  const RunView view = MakeRunView(data, pass);
+  const auto analysis = MakeRegionAnalysis("ch3", "/report/region");
+  const auto accumulator = analysis->Start(view);
+  // The frames of the steady window, without contacts.
+  const FrameRequest request = accumulator->Frames();
+  ASSERT_EQ(request.windows.size(), 1u);
+  EXPECT_EQ(request.windows[0].start, view.steady.start);
+  EXPECT_EQ(request.windows[0].end, view.steady.end);
+  EXPECT_FALSE(request.contacts);
+  // Frame 1: a = 1 on the left, 2 on the right; frame 2: a = 2 and 4.
+  Add(*accumulator, ShearedLattice(3.0, 1.0, 2.0));
+  Add(*accumulator, ShearedLattice(4.0, 2.0, 4.0));
+  const nlohmann::json result = accumulator->Finish();
+  EXPECT_EQ(result.at("frames"), 2);
+  const std::vector<Metric> m = analysis->RunMetrics(result);
+  std::vector<std::string> names;
+  for (const Metric& x : m) names.push_back(x.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"phi", "tg_translational", "tg_full", "phi_outlet1",
+                                             "tg_translational_outlet1", "tg_full_outlet1"}));
+  EXPECT_NEAR(FindMetric(m, "phi")->value, kPi / 4, 1e-12);
+  EXPECT_NEAR(FindMetric(m, "phi_outlet1")->value, kPi / 4, 1e-12);
+  EXPECT_NEAR(FindMetric(m, "phi")->se, 0.0, 1e-12);  // the same in both frames
+  // Outlet 0: a^2 / 2 = 0.5 and 2 over the two frames: mean 1.25, se |2 - 0.5| / 2 = 0.75.
+  EXPECT_NEAR(FindMetric(m, "tg_translational")->value, 1.25, 1e-12);
+  EXPECT_NEAR(FindMetric(m, "tg_translational")->se, 0.75, 1e-12);
+  // Outlet 1: 2 and 8.
+  EXPECT_NEAR(FindMetric(m, "tg_translational_outlet1")->value, 5.0, 1e-12);
+  EXPECT_NEAR(FindMetric(m, "tg_translational_outlet1")->se, 3.0, 1e-12);
+  // m a^2 / 3 with m = pi/4: (1 + 4) / 2 and (4 + 16) / 2 times pi / 12.
+  EXPECT_NEAR(FindMetric(m, "tg_full")->value, 2.5 * kPi / 12, 1e-12);
+  EXPECT_NEAR(FindMetric(m, "tg_full_outlet1")->value, 10.0 * kPi / 12, 1e-12);
+  EXPECT_EQ(FindMetric(m, "phi")->unit, "1");
+  EXPECT_EQ(FindMetric(m, "tg_translational")->unit, "g d");
+  EXPECT_EQ(FindMetric(m, "tg_full")->unit, "rho g d^3");
+  EXPECT_TRUE(FindMetric(m, "phi")->headline);
+  EXPECT_FALSE(FindMetric(m, "phi_outlet1")->headline);
+  EXPECT_EQ(FindMetric(m, "phi_outlet1")->title,
+            "packing fraction next to " + result.at("outlets").at(1).get<std::string>());
+  // The velocity distribution of the region next to outlet 0: 40 bodies a frame at v_x = +-1
+  // (frame 1) and +-2 (frame 2), 20 each.
+  const Samples vx = analysis->Distribution("vx", result);
+  ASSERT_EQ(vx.values.size(), 4u);
+  EXPECT_NEAR(vx.values[0], -2.0, 1e-9);
+  EXPECT_NEAR(vx.values[3], 2.0, 1e-9);
+  EXPECT_EQ(vx.weights, (std::vector<double>{20, 20, 20, 20}));
+}
+
+// The ch. 4 region (the default) is (W + 2 sqrt2) x 5 sqrt2: its own size, which the run
+// options (the cache key) carry.
+TEST(RegionAnalysis, RegionSizeOptions) {
+  EXPECT_EQ(MakeRegionAnalysis(nullptr, "/report/region")->RunOptions(),
+            MakeRegionAnalysis("ch4", "/report/region")->RunOptions());
+  const nlohmann::json ch3 = MakeRegionAnalysis("ch3", "/report/region")->RunOptions();
+  EXPECT_DOUBLE_EQ(ch3.at("pad").get<double>(), 2.0);
+  EXPECT_DOUBLE_EQ(ch3.at("height").get<double>(), 10.0);
+  const nlohmann::json own = MakeRegionAnalysis({{"pad", 1.5}, {"height", 3}}, "/report/region")->RunOptions();
+  EXPECT_DOUBLE_EQ(own.at("pad").get<double>(), 1.5);
+  EXPECT_DOUBLE_EQ(own.at("height").get<double>(), 3.0);
+  auto error = [](const nlohmann::json& options) -> std::string {
+    try {
+      MakeRegionAnalysis(options, "/report/region");
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_EQ(error("ch5").rfind("/report/region: must be \"ch3\", \"ch4\" or {", 0), 0u);
+  EXPECT_EQ(error({{"pad", 2}}).rfind("/report/region: must be", 0), 0u);
+  EXPECT_EQ(error({{"pad", 2}, {"height", -1}}).rfind("/report/region/height: must be in", 0), 0u);
+  EXPECT_EQ(error({{"pad", "2"}, {"height", 1}}).rfind("/report/region/pad: must be a number", 0), 0u);
+  EXPECT_EQ(error({{"pad", 2}, {"height", 1}, {"width", 3}}).rfind("/report/region/width: unknown key", 0), 0u);
+}
+
+// A run whose frames all lie outside the window: no regions, no metrics, and a note saying so.
+TEST(RegionAnalysis, NoFramesInTheWindowGiveNoMetrics) {
+  const rundir::RunData data = TwoOutletRun();
+  const PassOptions pass;
+  const RunView view = MakeRunView(data, pass);
+  const auto analysis = MakeRegionAnalysis(nullptr, "/report/region");
+  const nlohmann::json result = analysis->Start(view)->Finish();
+  EXPECT_FALSE(result.contains("regions"));
+  EXPECT_EQ(result.at("frames"), 0);
+  ASSERT_EQ(result.at("notes").size(), 1u);
+  EXPECT_EQ(result.at("notes")[0].get<std::string>().rfind("frames: none inside the window", 0), 0u);
+  EXPECT_TRUE(analysis->RunMetrics(result).empty());
+}
+
+}  // namespace
+}  // namespace granary::analysis
