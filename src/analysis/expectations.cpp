@@ -40,7 +40,7 @@ std::vector<Expectation> ReadExpectations(const nlohmann::json& spec, const std:
     if (!j.is_object())
       throw OptionError(path, j, "must be an object {\"metric\", \"at\", \"value\", \"tolerance\", \"source\"}");
     for (const auto& [key, v] : j.items())
-      if (std::none_of(std::begin(kKeys), std::end(kKeys), [&](const char* k) { return key == k; }))
+      if (std::none_of(std::begin(kKeys), std::end(kKeys), [&wanted = key](const char* k) { return wanted == k; }))
         throw OptionError(path + "/" + key, v,
                           "unknown key (known: metric, fit, parameter, at, value, tolerance, source, min_runs)");
     Expectation e;

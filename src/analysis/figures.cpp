@@ -48,7 +48,7 @@ std::string Joined(const std::vector<std::string>& items) {
 
 void CheckKeys(const nlohmann::json& j, const std::string& path, const char* const* begin, const char* const* end) {
   for (const auto& [key, v] : j.items())
-    if (std::find_if(begin, end, [&](const char* k) { return key == k; }) == end) {
+    if (std::find_if(begin, end, [&wanted = key](const char* k) { return wanted == k; }) == end) {
       std::vector<std::string> names(begin, end);
       throw OptionError(path + "/" + key, v, "unknown key (known: " + Joined(names) + ")");
     }
@@ -954,8 +954,9 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
     if (point.runs.empty()) continue;
     bool keep = true;
     for (const auto& [name, values] : spec.only)
-      keep = keep && std::any_of(values.begin(), values.end(),
-                                 [&](const nlohmann::json& w) { return AxisValueMatches(v, point, name, w); });
+      keep = keep && std::any_of(values.begin(), values.end(), [&, &axis = name](const nlohmann::json& w) {
+               return AxisValueMatches(v, point, axis, w);
+             });
     if (!keep) continue;
     const std::map<std::string, double> axes = PointAxes(v, point);
     std::string key;
