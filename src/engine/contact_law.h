@@ -1,7 +1,7 @@
 // The contact kernel (docs/model.md "Contact law"): the geometry of a contact and the force
 // law, written once and templated on the value type V, as LAMMPS' KOKKOS and INTEL kernel
 // functions are. V is double for the portable pair loop (pair_entries.h) and the wall loop
-// (world.cpp), and the eight-lane AVX-512 type of avx512_kernels.cpp for the vector pair
+// (force_pass.cpp), and the eight-lane AVX-512 type of avx512_kernels.cpp for the vector pair
 // loop; both do the same IEEE operations in the same order, so their results are the same
 // to the bit. A value type provides + - * / and unary -, comparisons giving its mask type
 // (bool for double), mask &, and the free functions Sqrt, Abs, Select, NeedAny, Load<V>
@@ -74,7 +74,7 @@ using NormalModels = std::tuple<HertzNormal, HookeNormal>;
 
 // Calls f(Model{}, std::bool_constant<kLiggghtsCap>{}) with the normal model and the cap of p
 // and returns its result: the one place a run's law is chosen. (Inlined, with an inlined f, so
-// that the loops f runs are compiled for the caller's instruction set: world.cpp's kernels.)
+// that the loops f runs are compiled for the caller's instruction set: force_pass.cpp's kernels.)
 template <class F, std::size_t kIndex = 0>
 [[gnu::always_inline]] inline decltype(auto) WithContactLaw(const ContactParams& p, F&& f) {
   using Model = std::tuple_element_t<kIndex, NormalModels>;
