@@ -38,6 +38,7 @@ class Painter {
                          const char* cls) = 0;
   // `text` centred on (x, y) on a white box, or from (x, y) rightwards when not `centred`.
   virtual void Label(double x, double y, double size, const std::string& text, bool centred) = 0;
+  virtual double TextWidth(double size, const std::string& text) = 0;
 };
 
 double FontSize(int width) { return std::clamp(width / 45.0, 11.0, 28.0); }
@@ -74,7 +75,16 @@ void PaintMarks(const Scene& s, double k, double top, double font, Painter& p) {
     const double nx = len > 0 ? -(by - ay) / len : 0, ny = len > 0 ? (bx - ax) / len : 1;
     for (const auto& [ex, ey] : {std::pair{ax, ay}, std::pair{bx, by}})
       p.Segment(ex - tick * nx, ey - tick * ny, ex + tick * nx, ey + tick * ny, line, kInk, "dimension");
-    if (!m.label.empty()) p.Label(0.5 * (ax + bx), 0.5 * (ay + by), font, m.label, true);
+    if (m.label.empty()) continue;
+    // On the line's middle where it fits; else beside it: above a level line, right of another.
+    double lx = 0.5 * (ax + bx), ly = 0.5 * (ay + by);
+    const double text = p.TextWidth(font, m.label) + 0.6 * font;
+    if (std::fabs(bx - ax) >= std::fabs(by - ay)) {
+      if (text > 0.9 * len) ly -= 1.4 * font;
+    } else if (1.4 * font > 0.9 * len) {
+      lx += 0.5 * text + 0.3 * font;
+    }
+    p.Label(lx, ly, font, m.label, true);
   }
 }
 
@@ -102,6 +112,9 @@ void Paint(const Scene& s, PixelSize size, Painter& p) {
   for (const auto& l : s.forces) p.Segment(px(l.x1), py(l.y1), px(l.x2), py(l.y2), l.width * k, l.colour, "force");
   const double font = FontSize(size.width);
   PaintMarks(s, k, top, font, p);
+  // The header strip clear of bodies that reach above the window (a zoom into the bed).
+  p.Polygon({{0, 0}, {static_cast<double>(size.width), 0}, {static_cast<double>(size.width), top}, {0, top}},
+            kBackground, "header");
   if (!s.caption.empty()) p.Text(font * 0.6, font * 1.3, font, s.caption, false);
   double y = font * 1.3;
   for (const auto& key : s.legend) {
@@ -165,9 +178,12 @@ class SvgPainter : public Painter {
            (opacity > 0 ? " fill-opacity=\"" + Num(opacity) + "\"" : "") + " stroke=\"" + Hex(kInk) +
            "\" stroke-width=\"" + Num(sw) + "\"/>\n";
   }
+  // No font metrics here: 0.6 em per character, as sans-serif roughly is.
+  double TextWidth(double size, const std::string& text) override {
+    return 0.6 * size * static_cast<double>(text.size());
+  }
   void Label(double x, double y, double size, const std::string& text, bool centred) override {
-    // No font metrics here: the box assumes 0.6 em per character, as sans-serif roughly is.
-    const double w = 0.6 * size * static_cast<double>(text.size()) + 0.6 * size, h = 1.3 * size;
+    const double w = TextWidth(size, text) + 0.6 * size, h = 1.3 * size;
     const double left = centred ? x - 0.5 * w : x - 0.3 * size, baseline = centred ? y + 0.35 * size : y;
     out += "<rect class=\"label-box\" x=\"" + Num(left) + "\" y=\"" + Num(baseline - 0.95 * size) + "\" width=\"" +
            Num(w) + "\" height=\"" + Num(h) + "\" fill=\"" + Hex(kBackground) + "\" fill-opacity=\"0.85\"/>\n";
@@ -233,6 +249,13 @@ class CairoPainter : public Painter {
     Set(kInk);
     cairo_set_line_width(cr_, sw);
     cairo_stroke(cr_);
+  }
+  double TextWidth(double size, const std::string& text) override {
+    cairo_select_font_face(cr_, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_set_font_size(cr_, size);
+    cairo_text_extents_t e;
+    cairo_text_extents(cr_, text.c_str(), &e);
+    return e.x_advance;
   }
   void Label(double x, double y, double size, const std::string& text, bool centred) override {
     cairo_select_font_face(cr_, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
