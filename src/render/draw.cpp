@@ -53,7 +53,7 @@ void PaintMarks(const Scene& s, double k, double top, double font, Painter& p) {
   const Window& w = s.window;
   const auto px = [&](double x) { return (x - w.x_lo) * k; };
   const auto py = [&](double y) { return top + (w.y_hi - y) * k; };
-  const double line = std::max(2.0, 0.2 * k);
+  const double line = std::max(0.18 * font, 0.2 * k);
   for (const Mark& m : s.marks) {
     if (m.kind == Mark::Kind::kRect) {
       const double x0 = std::max(std::min(m.x0, m.x1), w.x_lo), x1 = std::min(std::max(m.x0, m.x1), w.x_hi);
@@ -111,7 +111,9 @@ void Paint(const Scene& s, PixelSize size, Painter& p) {
   }
   for (const auto& l : s.forces) p.Segment(px(l.x1), py(l.y1), px(l.x2), py(l.y2), l.width * k, l.colour, "force");
   const double font = FontSize(size.width);
-  PaintMarks(s, k, top, font, p);
+  // The report shows pictures at about half their width: marks' labels half as large again as
+  // the caption, so that they read there.
+  PaintMarks(s, k, top, 1.6 * font, p);
   // The header strip clear of bodies that reach above the window (a zoom into the bed).
   p.Polygon({{0, 0}, {static_cast<double>(size.width), 0}, {static_cast<double>(size.width), top}, {0, top}},
             kBackground, "header");
