@@ -139,8 +139,8 @@ struct MarkKind {
   const char* meaning;
 };
 constexpr MarkKind kMarkKinds[] = {
-    {"region", true, "region", "the region analysis' rectangle next to an outlet (/report/region)"},
-    {"fields", true, "maps", "the maps' window (/report/fields/window)"},
+    {"region", true, "region", "the region analysis' rectangle next to an outlet, /report/region"},
+    {"fields", true, "maps", "the maps' window, /report/fields/window"},
     {"outlet_width", false, "W", "the outlet's width"},
     {"obstacle_height", false, "H", "the obstacle centre's height above the base"},
     {"obstacle_offset", false, "L", "the obstacle centre's distance from the silo's axis"},
