@@ -49,7 +49,7 @@ double HeaderHeight(const Scene& s, int width) {
 
 // The marks, clipped to the window (the header strip above it stays clear); lines at least
 // 2 px wide, dimension ticks and labels sized to the font so that they read at report size.
-void PaintMarks(const Scene& s, double k, double top, double font, Painter& p) {
+void PaintMarks(const Scene& s, double k, double top, double width, double font, Painter& p) {
   const Window& w = s.window;
   const auto px = [&](double x) { return (x - w.x_lo) * k; };
   const auto py = [&](double y) { return top + (w.y_hi - y) * k; };
@@ -84,6 +84,8 @@ void PaintMarks(const Scene& s, double k, double top, double font, Painter& p) {
     } else if (1.4 * font > 0.9 * len) {
       lx += 0.5 * text + 0.3 * font;
     }
+    // Inside the picture: a line along its edge (a side outlet's W) moves its label inwards.
+    lx = std::clamp(lx, 0.5 * text + 2, std::max(0.5 * text + 2, width - 0.5 * text - 2));
     p.Label(lx, ly, font, m.label, true);
   }
 }
@@ -113,7 +115,7 @@ void Paint(const Scene& s, PixelSize size, Painter& p) {
   const double font = FontSize(size.width);
   // The report shows pictures at about half their width: marks' labels half as large again as
   // the caption, so that they read there.
-  PaintMarks(s, k, top, 1.6 * font, p);
+  PaintMarks(s, k, top, size.width, 1.6 * font, p);
   // The header strip clear of bodies that reach above the window (a zoom into the bed).
   p.Polygon({{0, 0}, {static_cast<double>(size.width), 0}, {static_cast<double>(size.width), top}, {0, top}},
             kBackground, "header");
