@@ -149,6 +149,16 @@ struct AnalysisResults {
   std::vector<const nlohmann::json*> OfPoint(std::size_t p) const;
 };
 
+// What a picture shows besides the bodies and the silo (a figure of kind "pictures",
+// figures.h): a rectangle outlined (and shaded), or a dimension line with its label, in silo
+// coordinates (d, x from the silo's centre, y up from the base).
+struct PictureMark {
+  enum class Kind { kRect, kDimension } kind = Kind::kRect;
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;  // the rectangle's corners, or the dimension's ends
+  std::string label;                      // "A", "W = 11 d"; drawn at the rectangle's top left or the line's middle
+  bool shade = false;                     // rectangles: filled translucent, not only outlined
+};
+
 // A clog an engine kept (clog_frames.dump) drawn to scale around its outlet, the bodies in
 // `highlight` outlined: what a section asks the renderer for (the runner sets it from
 // src/render; analyses never draw).
@@ -156,6 +166,8 @@ struct ClogPicture {
   int clog = 1;  // 1-based, in the run's clog files
   std::set<std::int64_t> highlight;
   double x_lo = 0, x_hi = 0, y_lo = 0, y_hi = 0;  // the part of the silo shown
+  std::vector<PictureMark> marks;
+  bool colour_by_disc = false;  // each disc of a body by its place in the body (a snowman's head and body)
 };
 // Draws `picture` of the run into `png`; returns "" or why it could not.
 using DrawClog = std::function<std::string(const std::filesystem::path& run_dir, const ClogPicture& picture,

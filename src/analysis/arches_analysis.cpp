@@ -326,16 +326,7 @@ void ArchesAnalysis::AddPictures(const SectionInput& in, const std::vector<ArchS
                    ": clogs with the median arch size (N_t = " + FormatNumber(median_n, 3) + "), arch bodies outlined";
     for (std::size_t i = 0; i < candidates.size() && static_cast<int>(pics.pictures.size()) < o_.pictures; ++i) {
       const Candidate& c = candidates[i];
-      ClogPicture pic;
-      pic.clog = c.clog;
-      double x_lo = 1e300, x_hi = -1e300, y_lo = 0, y_hi = -1e300;
-      for (const ArchBody& b : c.arch.bodies) {
-        pic.highlight.insert(b.id);
-        x_lo = std::min(x_lo, b.x), x_hi = std::max(x_hi, b.x);
-        y_lo = std::min(y_lo, b.y), y_hi = std::max(y_hi, b.y);
-      }
-      const double pad = 4 + 0.25 * (x_hi - x_lo);
-      pic.x_lo = x_lo - pad, pic.x_hi = x_hi + pad, pic.y_lo = y_lo - 2.5, pic.y_hi = y_hi + pad;
+      const ClogPicture pic = ArchPicture(c.clog, c.arch);
       const std::string file =
           "pictures/arch-point-" + std::to_string(k + 1) + "-" + std::to_string(pics.pictures.size() + 1) + ".png";
       const RunRecord& record = *v.used[c.run].record;
@@ -355,6 +346,20 @@ void ArchesAnalysis::AddPictures(const SectionInput& in, const std::vector<ArchS
 }
 
 }  // namespace
+
+ClogPicture ArchPicture(int clog, const Arch& arch) {
+  ClogPicture pic;
+  pic.clog = clog;
+  double x_lo = 1e300, x_hi = -1e300, y_lo = 0, y_hi = -1e300;
+  for (const ArchBody& b : arch.bodies) {
+    pic.highlight.insert(b.id);
+    x_lo = std::min(x_lo, b.x), x_hi = std::max(x_hi, b.x);
+    y_lo = std::min(y_lo, b.y), y_hi = std::max(y_hi, b.y);
+  }
+  const double pad = 4 + 0.25 * (x_hi - x_lo);
+  pic.x_lo = x_lo - pad, pic.x_hi = x_hi + pad, pic.y_lo = y_lo - 2.5, pic.y_hi = y_hi + pad;
+  return pic;
+}
 
 ArchesOptions ReadArchesOptions(const nlohmann::json& options, const std::string& path) {
   ArchesOptions o;

@@ -30,6 +30,10 @@ nlohmann::json ArchesRunResult(const rundir::RunData& run);
 // The clogs of a result.
 std::vector<ClogArches> ClogsOf(const nlohmann::json& result);
 
+// Clog `clog` (1-based) with `arch`'s bodies outlined, in a window around the arch: the
+// pictures of representative clogs (figs. 3.4, 4.26, 6.3).
+ClogPicture ArchPicture(int clog, const Arch& arch);
+
 std::unique_ptr<Analysis> MakeArchesAnalysis(const nlohmann::json& options, const std::string& path);
 
 }  // namespace granary::analysis

@@ -365,7 +365,10 @@ nlohmann::json FiguresJsonSchema() {
        {{"name", {{"type", "string"}, {"pattern", "^[A-Za-z0-9._-]+$"}}},
         {"kind", {{"enum", {"points", "distribution", "curves", "maps", "profile", "pictures"}}}},
         {"picture",
-         {{"enum", {"end", "bed"}}, {"description", "pictures: the last frame (default) or the bed at t = 0"}}},
+         {{"enum", {"end", "bed", "clog"}},
+          {"description",
+           "pictures: the last frame (default), the bed at t = 0, or the kept clog of the lowest replica whose "
+           "arch has the point's median N_t (its arch outlined)"}}},
         {"y", {{"type", "string"}, {"description", "a metric, or an expression over metrics and axes"}}},
         {"ylabel", {{"type", "string"}}},
         {"x",
@@ -409,7 +412,34 @@ nlohmann::json FiguresJsonSchema() {
         {"one_run",
          {{"type", "boolean"},
           {"description",
-           "maps, profile: the lowest replica that has the field, not the runs merged (one instant: thesis fig. 3.10)"}}}}}};
+           "maps, profile: the lowest replica that has the field, not the runs merged (one instant: thesis fig. 3.10)"}}},
+        {"annotate",
+         {{"type", "array"},
+          {"description",
+           "pictures: marks drawn over them: {\"region\": \"region\" (the /report/region rectangle next to each "
+           "outlet) or \"fields\" (the maps' window), \"outlet\", \"label\", \"shade\"} or {\"dimension\": "
+           "\"outlet_width\", \"obstacle_height\", \"obstacle_offset\" or \"outlet_gap\", \"outlet\", "
+           "\"obstacle\", \"label\"}"},
+          {"items",
+           {{"type", "object"},
+            {"additionalProperties", false},
+            {"properties",
+             {{"region", {{"enum", {"region", "fields"}}}},
+              {"dimension", {{"enum", {"outlet_width", "obstacle_height", "obstacle_offset", "outlet_gap"}}}},
+              {"outlet", {{"type", "integer"}, {"minimum", 0}}},
+              {"obstacle", {{"type", "integer"}, {"minimum", 0}}},
+              {"label", {{"type", "string"}}},
+              {"shade", {{"type", "boolean"}}}}}}}}},
+        {"window",
+         {{"type", "array"},
+          {"items", {{"type", "number"}}},
+          {"minItems", 4},
+          {"maxItems", 4},
+          {"description", "pictures: a zoom [x_lo, x_hi, y_lo, y_hi] in d drawn besides the whole silo"}}},
+        {"colour",
+         {{"enum", {"species", "disc"}},
+          {"description",
+           "pictures: one colour per species (default) or per disc of a body (a snowman's head and body)"}}}}}};
   return {{"type", "array"},
           {"description", "figures drawn in the report's Figures section (docs/analyses.md)"},
           {"items", figure}};

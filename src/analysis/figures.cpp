@@ -6,17 +6,21 @@
 #include <limits>
 #include <set>
 
+#include "analysis/cg_fields.h"
+#include "analysis/fields_analysis.h"
 #include "analysis/options.h"
+#include "analysis/outlets.h"
+#include "analysis/region_analysis.h"
 #include "analysis/registry.h"
 #include "analysis/system.h"
 
 namespace granary::analysis {
 namespace {
 
-constexpr const char* kFigureKeys[] = {"name",      "kind",  "picture", "y",     "ylabel",  "x",
-                                       "group",     "pool",  "only",    "fit",   "title",   "caption",
-                                       "reference", "logx",  "logy",    "of",    "bins",    "range",
-                                       "field",     "along", "at",      "width", "one_run", "origin_outlet"};
+constexpr const char* kFigureKeys[] = {"name",  "kind",    "picture",       "y",        "ylabel",  "x",         "group",
+                                       "pool",  "only",    "fit",           "title",    "caption", "reference", "logx",
+                                       "logy",  "of",      "bins",          "range",    "field",   "along",     "at",
+                                       "width", "one_run", "origin_outlet", "annotate", "window",  "colour"};
 // The kinds, what each draws and the keys it takes besides name, kind, only, title, caption
 // and reference.
 struct KindKeys {
@@ -35,7 +39,7 @@ const std::vector<KindKeys>& FigureKinds() {
       {"profile",
        "a field along a line at each chosen point",
        {"field", "along", "at", "width", "origin_outlet", "pool", "one_run", "logy"}},
-      {"pictures", "the silo at each chosen point", {"picture"}}};
+      {"pictures", "the silo at each chosen point", {"picture", "annotate", "window", "colour"}}};
   return kInds;
 }
 constexpr const char* kFitKeys[] = {"model", "over", "initial", "collapse"};
@@ -106,6 +110,7 @@ std::vector<std::pair<std::string, std::vector<nlohmann::json>>> ReadOnly(const 
 class Offers {
  public:
   explicit Offers(const nlohmann::json& campaign_spec) : spec_(campaign_spec) {}
+  const nlohmann::json& CampaignSpec() const { return spec_; }
   std::vector<DistributionInfo> Distributions() { return All(&Analysis::DistributionNames); }
   std::vector<CurveInfo> Curves() { return All(&Analysis::CurveNames); }
   std::vector<FieldInfo> Fields() { return All(&Analysis::FieldNames); }
@@ -125,6 +130,106 @@ class Offers {
   const nlohmann::json& spec_;
   std::unique_ptr<AnalysisSetup> setup_;
 };
+
+// The marks a pictures figure may ask for: what each is, its kind, its default label.
+struct MarkKind {
+  const char* what;
+  bool rect;
+  const char* label;
+  const char* meaning;
+};
+constexpr MarkKind kMarkKinds[] = {
+    {"region", true, "region", "the region analysis' rectangle next to an outlet, /report/region"},
+    {"fields", true, "maps", "the maps' window, /report/fields/window"},
+    {"outlet_width", false, "W", "the outlet's width"},
+    {"obstacle_height", false, "H", "the obstacle centre's height above the base"},
+    {"obstacle_offset", false, "L", "the obstacle centre's distance from the silo's axis"},
+    {"outlet_gap", false, "L", "the gap between base outlets 0 and 1, edge to edge"}};
+
+const MarkKind* FindMarkKind(const std::string& what) {
+  for (const MarkKind& k : kMarkKinds)
+    if (what == k.what) return &k;
+  return nullptr;
+}
+
+std::string MarkKindNames(bool rect) {
+  std::string s;
+  for (const MarkKind& k : kMarkKinds)
+    if (k.rect == rect) s += (s.empty() ? "" : ", ") + std::string("\"") + k.what + "\" (" + k.meaning + ")";
+  return s;
+}
+
+bool FieldsOn(const nlohmann::json& campaign_spec) {
+  if (!campaign_spec.is_object() || !campaign_spec.contains("report") || !campaign_spec.at("report").is_object())
+    return false;
+  const nlohmann::json& r = campaign_spec.at("report");
+  return r.contains("fields") && !r.at("fields").is_null() && r.at("fields") != false;
+}
+
+// A pictures figure's own keys: picture, annotate, window, colour.
+void ReadPictureKeys(const nlohmann::json& f, const std::string& path, const nlohmann::json& campaign_spec,
+                     FigureSpec& s) {
+  s.picture = f.contains("picture") ? TextAt(f, "picture", path) : "end";
+  if (s.picture != "end" && s.picture != "bed" && s.picture != "clog")
+    throw OptionError(path + "/picture", f.at("picture"),
+                      "must be \"end\" (the last frame), \"bed\" (t = 0) or \"clog\" (a kept clog, its arch outlined)");
+  if (f.contains("colour")) {
+    const std::string colour = TextAt(f, "colour", path);
+    if (colour != "species" && colour != "disc")
+      throw OptionError(path + "/colour", f.at("colour"),
+                        "must be \"species\" (one colour per species) or \"disc\" (each disc of a body by its place "
+                        "in the body: a snowman's head and body apart)");
+    s.colour_by_disc = colour == "disc";
+  }
+  if (f.contains("window")) {
+    const nlohmann::json& w = f.at("window");
+    if (!w.is_array() || w.size() != 4 ||
+        !std::all_of(w.begin(), w.end(), [](const auto& v) { return v.is_number(); }) ||
+        !(w[0].get<double>() < w[1].get<double>()) || !(w[2].get<double>() < w[3].get<double>()))
+      throw OptionError(
+          path + "/window", w,
+          "must be [x_lo, x_hi, y_lo, y_hi] in d (x from the silo's centre, y from the base) with lo < hi");
+    s.window = std::array<double, 4>{w[0].get<double>(), w[1].get<double>(), w[2].get<double>(), w[3].get<double>()};
+  }
+  if (!f.contains("annotate")) return;
+  const nlohmann::json& list = f.at("annotate");
+  if (!list.is_array())
+    throw OptionError(path + "/annotate", list,
+                      "must be a list of marks, e.g. [{\"region\": \"region\", \"label\": \"A\"}, {\"dimension\": "
+                      "\"outlet_width\"}]");
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string p = path + "/annotate/" + std::to_string(i);
+    const nlohmann::json& m = list[i];
+    if (!m.is_object() || m.contains("region") == m.contains("dimension"))
+      throw OptionError(p, m, "must be an object with \"region\" or \"dimension\"");
+    const bool rect = m.contains("region");
+    if (rect)
+      OptionObject(m, p, {"region", "outlet", "label", "shade"});
+    else
+      OptionObject(m, p, {"dimension", "outlet", "obstacle", "label"});
+    MarkSpec mark;
+    const std::string key = rect ? "region" : "dimension";
+    mark.what = TextAt(m, key, p);
+    const MarkKind* kind = FindMarkKind(mark.what);
+    if (!kind || kind->rect != rect) throw OptionError(p + "/" + key, m.at(key), "must be " + MarkKindNames(rect));
+    if (mark.what == "fields" && !FieldsOn(campaign_spec))
+      throw OptionError(p + "/region", m.at(key), "names the maps' window, but this spec has no /report/fields");
+    mark.label = m.contains("label") ? TextAt(m, "label", p) : kind->label;
+    if (m.contains("shade")) mark.shade = OptionBool(m.at("shade"), p + "/shade");
+    if (m.contains("outlet")) {
+      if (mark.what == "fields" || mark.what == "outlet_gap" || mark.what.rfind("obstacle", 0) == 0)
+        throw OptionError(p + "/outlet", m.at("outlet"), "\"" + mark.what + "\" takes no outlet");
+      mark.index = OptionInteger(m.at("outlet"), p + "/outlet", 0, 1000);
+    }
+    if (m.contains("obstacle")) {
+      if (mark.what.rfind("obstacle", 0) != 0)
+        throw OptionError(p + "/obstacle", m.at("obstacle"), "\"" + mark.what + "\" takes no obstacle");
+      mark.index = OptionInteger(m.at("obstacle"), p + "/obstacle", 0, 1000);
+    }
+    if (!rect && mark.index < 0) mark.index = 0;
+    s.annotate.push_back(std::move(mark));
+  }
+}
 
 FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const CampaignAxes& axes,
                    const std::set<std::string>& names_before, Offers& offers) {
@@ -166,9 +271,7 @@ FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const Campa
   if (f.contains("logx")) s.logx = OptionBool(f.at("logx"), path + "/logx");
   if (f.contains("logy")) s.logy = OptionBool(f.at("logy"), path + "/logy");
   if (s.kind == "pictures") {
-    s.picture = f.contains("picture") ? TextAt(f, "picture", path) : "end";
-    if (s.picture != "end" && s.picture != "bed")
-      throw OptionError(path + "/picture", f.at("picture"), "must be \"end\" (the last frame) or \"bed\" (t = 0)");
+    ReadPictureKeys(f, path, offers.CampaignSpec(), s);
     return s;
   }
   if (s.kind == "distribution") {
@@ -906,6 +1009,80 @@ std::vector<FigureSpec> ReadFigureSpecs(const nlohmann::json& campaign_spec) {
   for (std::size_t i = 0; i < list.size(); ++i) {
     out.push_back(ReadOne(list[i], "/report/figures/" + std::to_string(i), axes, names, offers));
     names.insert(out.back().name);
+  }
+  return out;
+}
+
+std::vector<PictureMark> PictureMarksOf(const FigureSpec& figure, const nlohmann::json& campaign_spec,
+                                        const nlohmann::json& run_spec, double bed_top,
+                                        std::vector<std::string>& problems) {
+  std::vector<PictureMark> out;
+  const std::vector<OutletGeometry> outlets = OutletsOf(run_spec);
+  const nlohmann::json report = campaign_spec.is_object() && campaign_spec.contains("report")
+                                    ? campaign_spec.at("report")
+                                    : nlohmann::json::object();
+  // Dimension lines of the outlets run 1.5 d outside the silo: clear of the outlet's band.
+  constexpr double kOff = 1.5;
+  const auto dimension = [&](double x0, double y0, double x1, double y1, const MarkSpec& m) {
+    out.push_back({PictureMark::Kind::kDimension, x0, y0, x1, y1,
+                   m.label + " = " + FormatNumber(std::hypot(x1 - x0, y1 - y0), 3) + " d", false});
+  };
+  for (const MarkSpec& m : figure.annotate) {
+    if (m.what == "region") {
+      const RegionSize size = ReadRegionSize(report.value("region", nlohmann::json()), "/report/region");
+      for (std::size_t k = 0; k < outlets.size(); ++k) {
+        if (m.index >= 0 && static_cast<std::size_t>(m.index) != k) continue;
+        const Rect r = OutletRegion(outlets[k], size);
+        out.push_back({PictureMark::Kind::kRect, r.x0, r.y0, r.x1, r.y1, m.label, m.shade});
+      }
+      if (m.index >= static_cast<int>(outlets.size()))
+        problems.push_back(m.label + ": the run has no outlet " + std::to_string(m.index));
+    } else if (m.what == "fields") {
+      const std::optional<FieldsOptions> fields =
+          ReadFieldsOptions(report.value("fields", nlohmann::json()), "/report/fields");
+      Rect w = fields ? fields->cg.window : Rect{};
+      if (!(w.x1 > w.x0)) {
+        const nlohmann::json silo = run_spec.value("silo", nlohmann::json::object());
+        w = CgDefaultWindow(silo.value("width", 100.0), bed_top > 0 ? bed_top : 148.5);
+      }
+      out.push_back({PictureMark::Kind::kRect, w.x0, w.y0, w.x1, w.y1, m.label, m.shade});
+    } else if (m.what == "outlet_width") {
+      if (m.index >= static_cast<int>(outlets.size())) {
+        problems.push_back(m.label + ": the run has no outlet " + std::to_string(m.index));
+        continue;
+      }
+      const OutletGeometry& o = outlets[static_cast<std::size_t>(m.index)];
+      const double lo = o.center - 0.5 * o.width, hi = o.center + 0.5 * o.width;
+      if (o.base) {
+        dimension(lo, -kOff, hi, -kOff, m);
+      } else {
+        const double x = o.wall_x + (o.right_wall ? kOff : -kOff);
+        dimension(x, lo, x, hi, m);
+      }
+    } else if (m.what == "outlet_gap") {
+      std::vector<OutletGeometry> base;
+      for (const OutletGeometry& o : outlets)
+        if (o.base) base.push_back(o);
+      if (base.size() < 2) {
+        problems.push_back(m.label + ": the run has fewer than two base outlets");
+        continue;
+      }
+      const OutletGeometry& left = base[0].center < base[1].center ? base[0] : base[1];
+      const OutletGeometry& right = base[0].center < base[1].center ? base[1] : base[0];
+      dimension(left.center + 0.5 * left.width, -kOff, right.center - 0.5 * right.width, -kOff, m);
+    } else {  // obstacle_height, obstacle_offset
+      const std::vector<std::array<double, 3>> obstacles = MakeSiloDrawing(run_spec, 0.0).circles;
+      if (m.index >= static_cast<int>(obstacles.size())) {
+        problems.push_back(m.label + ": the run has no obstacle " + std::to_string(m.index));
+        continue;
+      }
+      const double x = obstacles[static_cast<std::size_t>(m.index)][0],
+                   y = obstacles[static_cast<std::size_t>(m.index)][1];
+      if (m.what == "obstacle_height")
+        dimension(x, 0.0, x, y, m);
+      else
+        dimension(0.0, y, x, y, m);
+    }
   }
   return out;
 }

@@ -29,6 +29,20 @@ struct FigureFitSpec {
   bool collapse = false;                  // also draw y / law against x (should lie on 1)
 };
 
+// A mark a pictures figure asks for (/report/figures/k/annotate/i); PictureMarksOf places it
+// on each run.
+struct MarkSpec {
+  // Rectangles: "region" (the region analysis' rectangle next to an outlet, /report/region) or
+  // "fields" (the maps' window, /report/fields/window or each run's default). Dimensions from
+  // the run spec: "outlet_width" (W), "obstacle_height" (H: base to the obstacle's centre),
+  // "obstacle_offset" (L: the silo's axis to the obstacle's centre), "outlet_gap" (L: edge to
+  // edge of base outlets 0 and 1).
+  std::string what;
+  int index = -1;  // the outlet or obstacle (event order); -1: every outlet (rectangles), 0 (dimensions)
+  std::string label;
+  bool shade = false;
+};
+
 struct FigureSpec {
   std::string path;  // "/report/figures/3", for messages
   std::string name;  // file stem, and what expectations name ("fit": name)
@@ -36,9 +50,12 @@ struct FigureSpec {
   // an analysis offers, per chosen point), "maps" (a field's map per chosen point), "profile" (a
   // field along a line, a curve per chosen point) or "pictures" (of the chosen points)
   std::string kind = "points";
-  std::string picture = "end";  // pictures: "end" (the last frame: clogged, discharged) or "bed"
-  std::string of;               // distribution: an offered distribution or a per-run metric; curves: an offered curve
-  int bins = 30;                // distribution
+  std::string picture = "end";     // pictures: "end" (the last frame: clogged, discharged), "bed" or "clog"
+  std::vector<MarkSpec> annotate;  // pictures: regions and dimensions drawn over them
+  std::optional<std::array<double, 4>> window;  // pictures: a zoom (x_lo, x_hi, y_lo, y_hi in d) besides the whole
+  bool colour_by_disc = false;                  // pictures: "colour": "disc" (a snowman's head and body apart)
+  std::string of;  // distribution: an offered distribution or a per-run metric; curves: an offered curve
+  int bins = 30;   // distribution
   double range_lo = kNaN, range_hi = kNaN;  // distribution: the bins' range (NaN: the data's, common to every curve)
   std::string field;                        // maps, profile: an offered field
   std::string along;                        // profile: "x" or "y"
@@ -67,6 +84,13 @@ std::vector<std::vector<std::array<double, 2>>> ClipPolylines(
 // the JSON path, the value and what is allowed; axis names are checked against the spec's
 // sweep and /axes.
 std::vector<FigureSpec> ReadFigureSpecs(const nlohmann::json& campaign_spec);
+
+// The marks of a pictures figure on one run, in silo coordinates: from its run spec, the
+// campaign spec (/report/region, /report/fields) and its bed's top (the maps' default window).
+// A mark the run has nothing for (no obstacle, one outlet) is left out and said in `problems`.
+std::vector<PictureMark> PictureMarksOf(const FigureSpec& figure, const nlohmann::json& campaign_spec,
+                                        const nlohmann::json& run_spec, double bed_top,
+                                        std::vector<std::string>& problems);
 
 // One data point of a figure: a set of sweep points (pooled), its axes' values, y ± se (n).
 struct FigureDatum {

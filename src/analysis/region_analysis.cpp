@@ -254,17 +254,21 @@ std::optional<Section> RegionAnalysis::BuildSection(const SectionInput& in) cons
 
 }  // namespace
 
-std::unique_ptr<Analysis> MakeRegionAnalysis(const nlohmann::json& options, const std::string& path) {
+RegionSize ReadRegionSize(const nlohmann::json& options, const std::string& path) {
   RegionSize size = Chapter4Region();
-  if (options.is_null() || options == "ch4") return std::make_unique<RegionAnalysis>(size);
-  if (options == "ch3") return std::make_unique<RegionAnalysis>(Chapter3Region());
+  if (options.is_null() || options == "ch4") return size;
+  if (options == "ch3") return Chapter3Region();
   if (!options.is_object() || !options.contains("pad") || !options.contains("height"))
     throw OptionError(path, options, "must be \"ch3\", \"ch4\" or {\"pad\": .., \"height\": ..}");
   OptionObject(options, path, {"pad", "height"});
   size.pad = OptionNumber(options.at("pad"), path + "/pad", -1e300, 1e300);
   size.height = OptionNumber(options.at("height"), path + "/height", 0.0, 1e300);
   size.label = "(W + " + FormatNumber(size.pad) + " d) x " + FormatNumber(size.height) + " d";
-  return std::make_unique<RegionAnalysis>(size);
+  return size;
+}
+
+std::unique_ptr<Analysis> MakeRegionAnalysis(const nlohmann::json& options, const std::string& path) {
+  return std::make_unique<RegionAnalysis>(ReadRegionSize(options, path));
 }
 
 }  // namespace granary::analysis

@@ -8,8 +8,12 @@
 #include <string>
 
 #include "analysis/analysis.h"
+#include "analysis/region.h"
 
 namespace granary::analysis {
+
+// The region's size from /report/region (null: ch. 4's); throws OptionError naming `path`.
+RegionSize ReadRegionSize(const nlohmann::json& options, const std::string& path);
 
 std::unique_ptr<Analysis> MakeRegionAnalysis(const nlohmann::json& options, const std::string& path);
 

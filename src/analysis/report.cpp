@@ -11,6 +11,7 @@
 #include <optional>
 #include <unistd.h>
 
+#include "analysis/arches_analysis.h"
 #include "analysis/engine_comparison.h"
 #include "analysis/expectations.h"
 #include "analysis/figures.h"
@@ -289,15 +290,39 @@ std::optional<Section> SystemSection(const CampaignView& c) {
 
 // Each point: the bed before the outlets open and the last state of its first replica; last in
 // the report, so that the results come first.
+// The used run of point k with the lowest replica, or nullptr.
+const UsedRun* LowestReplica(const CampaignView& c, std::size_t k) {
+  const UsedRun* run = nullptr;
+  for (std::size_t u : c.points[k].runs)
+    if (!run || c.used[u].record->replica < run->record->replica) run = &c.used[u];
+  return run;
+}
+
+// A figure's marks on `run` (none without a figure); what the run has no geometry for goes to
+// not_drawn.
+std::vector<PictureMark> MarksOn(const CampaignView& c, const UsedRun& run, const FigureSpec* figure,
+                                 NotDrawn& not_drawn) {
+  if (!figure || figure->annotate.empty()) return {};
+  std::vector<std::string> problems;
+  std::vector<PictureMark> marks = PictureMarksOf(*figure, c.campaign ? c.campaign->spec : nlohmann::json(), run.spec,
+                                                  run.summary.bed.height, problems);
+  for (const std::string& p : problems) not_drawn.Add("run " + run.record->run_id.substr(0, 10) + ": " + p);
+  return marks;
+}
+
+// The outline of a figure's zoom window on the whole picture.
+PictureMark ZoomMark(const std::array<double, 4>& w) {
+  return {PictureMark::Kind::kRect, w[0], w[2], w[1], w[3], "zoom", false};
+}
+
 // Pictures of point k's lowest replica (`kinds`: its bed, its end, or both) as `stem`-bed.png and
-// `stem`-end.png; empty when it has no used run or nothing could be drawn (why: not_drawn).
+// `stem`-end.png; with a figure, its marks drawn, its colouring, and its zoom as `stem`-bed-zoom.png
+// besides; empty when it has no used run or nothing could be drawn (why: not_drawn).
 Pictures PointPictures(const CampaignView& c, std::size_t k, const ReportOptions& options, bool bed, bool end_picture,
-                       const std::string& stem, NotDrawn& not_drawn) {
+                       const std::string& stem, NotDrawn& not_drawn, const FigureSpec* figure = nullptr) {
   Pictures pics;
   const Point& p = c.points[k];
-  const UsedRun* run = nullptr;
-  for (std::size_t u : p.runs)
-    if (!run || c.used[u].record->replica < run->record->replica) run = &c.used[u];
+  const UsedRun* run = LowestReplica(c, k);
   if (!run) return pics;
   std::filesystem::create_directories(options.out_dir / "pictures");
   // In words, engine included (a campaign on two engines shows each point twice).
@@ -311,16 +336,85 @@ Pictures PointPictures(const CampaignView& c, std::size_t k, const ReportOptions
                                       : end == "discharged" ? "discharged"
                                                             : "the last frame") +
                                          std::string(" (t = ") + FormatNumber(run->summary.t_end, 4) + ")"}};
+  const std::vector<PictureMark> marks = MarksOn(c, *run, figure, not_drawn);
   for (const auto& [kind, caption] : kinds) {
     const bool is_bed = kind == ReportOptions::Picture::kBed;
     if ((is_bed && !bed) || (!is_bed && !end_picture)) continue;
+    ReportOptions::RunPicture picture{kind, marks, figure && figure->colour_by_disc, std::nullopt};
+    if (figure && figure->window) picture.marks.push_back(ZoomMark(*figure->window));
     const std::string file = stem + (is_bed ? "-bed.png" : "-end.png");
-    const std::string problem = options.draw_run(run->record->run_dir, kind, options.out_dir / file);
-    if (problem.empty()) {
-      pics.pictures.push_back({file, caption});
-    } else {
+    const std::string problem = options.draw_run(run->record->run_dir, picture, options.out_dir / file);
+    if (!problem.empty()) {
       not_drawn.Add(problem);
+      continue;
     }
+    pics.pictures.push_back({file, caption});
+    if (!figure || !figure->window) continue;
+    picture.marks = marks;
+    picture.window = figure->window;
+    const std::string zoom = stem + (is_bed ? "-bed-zoom.png" : "-end-zoom.png");
+    const std::string zoom_problem = options.draw_run(run->record->run_dir, picture, options.out_dir / zoom);
+    if (zoom_problem.empty())
+      pics.pictures.push_back({zoom, caption + ", near the outlet"});
+    else
+      not_drawn.Add(zoom_problem);
+  }
+  return pics;
+}
+
+// A figure's "clog" picture of point k: the kept clog of its lowest replica with clogs whose
+// arch's N_t is nearest the point's median N_t (as the arches section chooses), the arch's
+// bodies outlined, in a window around the arch or the figure's own.
+Pictures ClogPictureOf(const CampaignView& c, std::size_t k, const AnalysisResults& arches,
+                       const ReportOptions& options, const FigureSpec& figure, NotDrawn& not_drawn) {
+  Pictures pics;
+  std::vector<std::size_t> runs = c.points[k].runs;
+  std::sort(runs.begin(), runs.end(),
+            [&](std::size_t a, std::size_t b) { return c.used[a].record->replica < c.used[b].record->replica; });
+  std::vector<double> n_values;
+  for (std::size_t u : runs)
+    if (u < arches.runs.size() && !arches.runs[u].is_null())
+      for (const ClogArches& clog : ClogsOf(arches.runs[u]))
+        for (const Arch& a : clog.arches) n_values.push_back(a.n);
+  const std::string title = c.axes.empty() ? std::string("The silo") : PointTitle(c, c.points[k]);
+  if (n_values.empty()) {
+    not_drawn.Add(title + ": no kept clog with an arch");
+    return pics;
+  }
+  const double median_n = Median(n_values);
+  for (std::size_t u : runs) {
+    if (u >= arches.runs.size() || arches.runs[u].is_null()) continue;
+    const std::vector<ClogArches> clogs = ClogsOf(arches.runs[u]);
+    int best_clog = 0;
+    const Arch* best = nullptr;
+    for (std::size_t i = 0; i < clogs.size(); ++i)
+      for (const Arch& a : clogs[i].arches)
+        if (!best || std::fabs(a.n - median_n) < std::fabs(best->n - median_n)) {
+          best = &a;
+          best_clog = static_cast<int>(i) + 1;
+        }
+    if (!best) continue;
+    const UsedRun& run = c.used[u];
+    ClogPicture picture = ArchPicture(best_clog, *best);
+    picture.marks = MarksOn(c, run, &figure, not_drawn);
+    picture.colour_by_disc = figure.colour_by_disc;
+    if (figure.window) {
+      const auto& w = *figure.window;
+      picture.x_lo = w[0], picture.x_hi = w[1], picture.y_lo = w[2], picture.y_hi = w[3];
+    }
+    std::filesystem::create_directories(options.out_dir / "pictures");
+    const std::string file = "pictures/figure-" + figure.name + "-" + std::to_string(k + 1) + "-clog.png";
+    const std::string problem = options.draw_clog(run.record->run_dir, picture, options.out_dir / file);
+    if (!problem.empty()) {
+      not_drawn.Add(problem);
+      return pics;
+    }
+    pics.caption = title + " (replica " + std::to_string(run.record->replica) + ", run `" +
+                   run.record->run_id.substr(0, 10) + "`)";
+    pics.pictures.push_back({file, "clog " + std::to_string(best_clog) + ": N_t = " + std::to_string(best->n) +
+                                       " (the point's median N_t = " + FormatNumber(median_n, 3) +
+                                       "), arch bodies outlined"});
+    return pics;
   }
   return pics;
 }
@@ -341,20 +435,29 @@ std::optional<Section> GallerySection(const CampaignView& c, const ReportOptions
 }
 
 // A figure of kind "pictures": the chosen points' pictures, side by side, under its caption.
-void AddFigurePictures(const CampaignView& c, FigureOutcome& f, const ReportOptions& options) {
+void AddFigurePictures(const CampaignAnalysis& ca, FigureOutcome& f, const ReportOptions& options) {
+  const CampaignView& c = ca.view;
   const FigureSpec& spec = *f.spec;
-  if (!options.draw_run) {
+  const bool clog = spec.picture == "clog";
+  if (clog ? !options.draw_clog : !options.draw_run) {
     f.blocks.push_back(Text{"(Figure " + spec.name + ": no pictures, this report was written without the renderer.)"});
     return;
   }
+  const AnalysisResults* arches = nullptr;
+  for (std::size_t a = 0; a < ca.setup->analyses.size(); ++a)
+    if (ca.setup->analyses[a]->Key() == "arches") arches = &ca.results[a];
   Pictures all;
   all.caption = (spec.title.empty() ? spec.name : spec.title) + (spec.caption.empty() ? "" : ". " + spec.caption) +
                 (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
   NotDrawn not_drawn;
+  if (clog && !arches) not_drawn.Add("\"picture\": \"clog\" needs the arches analysis, which this report has not run");
   for (const FigureDatum& d : f.data)
     for (std::size_t k : d.points) {
-      const Pictures one = PointPictures(c, k, options, spec.picture == "bed", spec.picture == "end",
-                                         "pictures/figure-" + spec.name + "-" + std::to_string(k + 1), not_drawn);
+      if (clog && !arches) break;
+      const Pictures one =
+          clog ? ClogPictureOf(c, k, *arches, options, spec, not_drawn)
+               : PointPictures(c, k, options, spec.picture == "bed", spec.picture == "end",
+                               "pictures/figure-" + spec.name + "-" + std::to_string(k + 1), not_drawn, &spec);
       for (const Picture& p : one.pictures) all.pictures.push_back({p.file, one.caption + ": " + p.caption});
     }
   if (!all.pictures.empty()) f.blocks.push_back(all);
@@ -460,7 +563,7 @@ ReportSummary WriteReport(const CampaignAnalysis& ca, const ReportOptions& optio
   // gallery of every point.
   const std::unique_ptr<Reproduction> reproduction = Reproduce(ca);
   for (FigureOutcome& f : reproduction->figures)
-    if (f.spec->kind == "pictures") AddFigurePictures(c, f, options);
+    if (f.spec->kind == "pictures") AddFigurePictures(ca, f, options);
   std::vector<Section> sections;
   if (auto s = KeyResultsSection(reproduction->results)) sections.push_back(std::move(*s));
   if (auto s = FiguresSection(reproduction->figures)) sections.push_back(std::move(*s));

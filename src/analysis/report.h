@@ -7,9 +7,11 @@
 // of every point.
 #pragma once
 
+#include <array>
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,11 +25,19 @@ struct ReportOptions {
   bool figures = true;               // run gnuplot (off in quick tests)
   std::string gnuplot = "gnuplot";   // the executable
   CampaignAnalysisOptions analysis;  // threads, cache, progress
-  // Draws a run for "The system": its first frame (the bed before the outlets open) or its last,
-  // as a PNG at `png`; returns "" or why it could not. The runner sets it (src/render); unset,
-  // the report has no pictures and says so.
+  // Draws a run for "The system" and the pictures figures: its first frame (the bed before the
+  // outlets open) or its last, with a figure's marks, as a PNG at `png`; returns "" or why it
+  // could not. The runner sets it (src/render); unset, the report has no pictures and says so.
   enum class Picture { kBed, kEnd };
-  std::function<std::string(const std::filesystem::path& run_dir, Picture, const std::filesystem::path& png)> draw_run;
+  struct RunPicture {
+    Picture kind = Picture::kEnd;
+    std::vector<PictureMark> marks;
+    bool colour_by_disc = false;
+    std::optional<std::array<double, 4>> window;  // x_lo, x_hi, y_lo, y_hi (d): a zoom; else the whole silo
+  };
+  std::function<std::string(const std::filesystem::path& run_dir, const RunPicture& picture,
+                            const std::filesystem::path& png)>
+      draw_run;
   // Draws a kept clog with its arch outlined (the arches section); set by the runner like draw_run.
   DrawClog draw_clog;
 };

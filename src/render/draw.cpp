@@ -2,9 +2,11 @@
 // of a scene show the same thing.
 #include <cairo.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <utility>
 
 #include "render/scene.h"
 
@@ -14,6 +16,10 @@ namespace {
 constexpr double kBand = 0.5;  // wall and outlet bands, d wide, outside the silo (as silo.vtk)
 constexpr Rgb kWall = {0.55, 0.55, 0.55}, kOutlet = {0.85, 0.15, 0.1}, kObstacle = {0.3, 0.3, 0.3};
 constexpr Rgb kBackground = {1, 1, 1}, kInk = {0.1, 0.1, 0.1};
+// Marks: a shaded region in translucent gold over the bodies (they show through), outlines and
+// dimension lines in near-black.
+constexpr Rgb kShade = {1.0, 0.78, 0.0};
+constexpr double kShadeOpacity = 0.35;
 
 struct Point {
   double x, y;
@@ -25,14 +31,63 @@ class Painter {
   virtual ~Painter() = default;
   virtual void Polygon(const std::vector<Point>& p, Rgb fill, const char* cls) = 0;
   virtual void Circle(double x, double y, double r, Rgb fill, Rgb stroke, double stroke_width, const char* cls) = 0;
-  virtual void Segment(double x1, double y1, double x2, double y2, double width, Rgb colour) = 0;
+  virtual void Segment(double x1, double y1, double x2, double y2, double width, Rgb colour, const char* cls) = 0;
   virtual void Text(double x, double y, double size, const std::string& text, bool right) = 0;
+  // An axis-aligned rectangle, filled with `opacity` (0: not filled) and outlined.
+  virtual void Rectangle(double x, double y, double w, double h, Rgb fill, double opacity, double stroke_width,
+                         const char* cls) = 0;
+  // `text` centred on (x, y) on a white box, or from (x, y) rightwards when not `centred`.
+  virtual void Label(double x, double y, double size, const std::string& text, bool centred) = 0;
+  virtual double TextWidth(double size, const std::string& text) = 0;
 };
 
 double FontSize(int width) { return std::clamp(width / 45.0, 11.0, 28.0); }
 // The strip above the silo for the caption and the legend.
 double HeaderHeight(const Scene& s, int width) {
   return FontSize(width) * (0.5 + 1.2 * static_cast<double>(std::max<std::size_t>(1, s.legend.size())));
+}
+
+// The marks, clipped to the window (the header strip above it stays clear); lines at least
+// 2 px wide, dimension ticks and labels sized to the font so that they read at report size.
+void PaintMarks(const Scene& s, double k, double top, double width, double font, Painter& p) {
+  const Window& w = s.window;
+  const auto px = [&](double x) { return (x - w.x_lo) * k; };
+  const auto py = [&](double y) { return top + (w.y_hi - y) * k; };
+  const double line = std::max(0.18 * font, 0.2 * k);
+  for (const Mark& m : s.marks) {
+    if (m.kind == Mark::Kind::kRect) {
+      const double x0 = std::max(std::min(m.x0, m.x1), w.x_lo), x1 = std::min(std::max(m.x0, m.x1), w.x_hi);
+      const double y0 = std::max(std::min(m.y0, m.y1), w.y_lo), y1 = std::min(std::max(m.y0, m.y1), w.y_hi);
+      if (!(x1 > x0 && y1 > y0)) continue;
+      p.Rectangle(px(x0), py(y1), (x1 - x0) * k, (y1 - y0) * k, kShade, m.shade ? kShadeOpacity : 0.0, line,
+                  m.shade ? "mark shaded" : "mark");
+      if (!m.label.empty()) p.Label(px(x0) + 0.4 * font, py(y1) + 1.3 * font, font, m.label, false);
+      continue;
+    }
+    // A dimension: both ends clamped into the window; nothing when it lies wholly outside.
+    const double mx = 0.5 * (m.x0 + m.x1), my = 0.5 * (m.y0 + m.y1);
+    if (mx < w.x_lo || mx > w.x_hi || my < w.y_lo || my > w.y_hi) continue;
+    const auto cx = [&](double x) { return px(std::clamp(x, w.x_lo, w.x_hi)); };
+    const auto cy = [&](double y) { return py(std::clamp(y, w.y_lo, w.y_hi)); };
+    const double ax = cx(m.x0), ay = cy(m.y0), bx = cx(m.x1), by = cy(m.y1);
+    p.Segment(ax, ay, bx, by, line, kInk, "dimension");
+    const double len = std::hypot(bx - ax, by - ay), tick = 0.5 * font;
+    const double nx = len > 0 ? -(by - ay) / len : 0, ny = len > 0 ? (bx - ax) / len : 1;
+    for (const auto& [ex, ey] : {std::pair{ax, ay}, std::pair{bx, by}})
+      p.Segment(ex - tick * nx, ey - tick * ny, ex + tick * nx, ey + tick * ny, line, kInk, "dimension");
+    if (m.label.empty()) continue;
+    // On the line's middle where it fits; else beside it: above a level line, right of another.
+    double lx = 0.5 * (ax + bx), ly = 0.5 * (ay + by);
+    const double text = p.TextWidth(font, m.label) + 0.6 * font;
+    if (std::fabs(bx - ax) >= std::fabs(by - ay)) {
+      if (text > 0.9 * len) ly -= 1.4 * font;
+    } else if (1.4 * font > 0.9 * len) {
+      lx += 0.5 * text + 0.3 * font;
+    }
+    // Inside the picture: a line along its edge (a side outlet's W) moves its label inwards.
+    lx = std::clamp(lx, 0.5 * text + 2, std::max(0.5 * text + 2, width - 0.5 * text - 2));
+    p.Label(lx, ly, font, m.label, true);
+  }
 }
 
 void Paint(const Scene& s, PixelSize size, Painter& p) {
@@ -56,8 +111,14 @@ void Paint(const Scene& s, PixelSize size, Painter& p) {
     p.Circle(px(d.x), py(d.y), d.r * k, d.fill, edge, (d.highlight ? 0.16 : 0.04) * k,
              d.highlight ? "disc highlight" : "disc");
   }
-  for (const auto& l : s.forces) p.Segment(px(l.x1), py(l.y1), px(l.x2), py(l.y2), l.width * k, l.colour);
+  for (const auto& l : s.forces) p.Segment(px(l.x1), py(l.y1), px(l.x2), py(l.y2), l.width * k, l.colour, "force");
   const double font = FontSize(size.width);
+  // The report shows pictures at about half their width: marks' labels half as large again as
+  // the caption, so that they read there.
+  PaintMarks(s, k, top, size.width, 1.6 * font, p);
+  // The header strip clear of bodies that reach above the window (a zoom into the bed).
+  p.Polygon({{0, 0}, {static_cast<double>(size.width), 0}, {static_cast<double>(size.width), top}, {0, top}},
+            kBackground, "header");
   if (!s.caption.empty()) p.Text(font * 0.6, font * 1.3, font, s.caption, false);
   double y = font * 1.3;
   for (const auto& key : s.legend) {
@@ -105,14 +166,33 @@ class SvgPainter : public Painter {
     if (sw > 0) out += " stroke=\"" + Hex(stroke) + "\" stroke-width=\"" + Num(sw) + "\"";
     out += "/>\n";
   }
-  void Segment(double x1, double y1, double x2, double y2, double width, Rgb colour) override {
-    out += "<line class=\"force\" x1=\"" + Num(x1) + "\" y1=\"" + Num(y1) + "\" x2=\"" + Num(x2) + "\" y2=\"" +
-           Num(y2) + "\" stroke=\"" + Hex(colour) + "\" stroke-width=\"" + Num(width) +
+  void Segment(double x1, double y1, double x2, double y2, double width, Rgb colour, const char* cls) override {
+    out += "<line class=\"" + std::string(cls) + "\" x1=\"" + Num(x1) + "\" y1=\"" + Num(y1) + "\" x2=\"" + Num(x2) +
+           "\" y2=\"" + Num(y2) + "\" stroke=\"" + Hex(colour) + "\" stroke-width=\"" + Num(width) +
            "\" stroke-linecap=\"round\"/>\n";
   }
   void Text(double x, double y, double size, const std::string& text, bool right) override {
     out += "<text x=\"" + Num(x) + "\" y=\"" + Num(y) + "\" font-size=\"" + Num(size) + "\"" +
            (right ? " text-anchor=\"end\"" : "") + ">" + Escape(text) + "</text>\n";
+  }
+  void Rectangle(double x, double y, double w, double h, Rgb fill, double opacity, double sw,
+                 const char* cls) override {
+    out += "<rect class=\"" + std::string(cls) + "\" x=\"" + Num(x) + "\" y=\"" + Num(y) + "\" width=\"" + Num(w) +
+           "\" height=\"" + Num(h) + "\" fill=\"" + (opacity > 0 ? Hex(fill) : "none") + "\"" +
+           (opacity > 0 ? " fill-opacity=\"" + Num(opacity) + "\"" : "") + " stroke=\"" + Hex(kInk) +
+           "\" stroke-width=\"" + Num(sw) + "\"/>\n";
+  }
+  // No font metrics here: 0.6 em per character, as sans-serif roughly is.
+  double TextWidth(double size, const std::string& text) override {
+    return 0.6 * size * static_cast<double>(text.size());
+  }
+  void Label(double x, double y, double size, const std::string& text, bool centred) override {
+    const double w = TextWidth(size, text) + 0.6 * size, h = 1.3 * size;
+    const double left = centred ? x - 0.5 * w : x - 0.3 * size, baseline = centred ? y + 0.35 * size : y;
+    out += "<rect class=\"label-box\" x=\"" + Num(left) + "\" y=\"" + Num(baseline - 0.95 * size) + "\" width=\"" +
+           Num(w) + "\" height=\"" + Num(h) + "\" fill=\"" + Hex(kBackground) + "\" fill-opacity=\"0.85\"/>\n";
+    out += "<text class=\"label\" x=\"" + Num(x) + "\" y=\"" + Num(baseline) + "\" font-size=\"" + Num(size) + "\"" +
+           (centred ? " text-anchor=\"middle\"" : "") + ">" + Escape(text) + "</text>\n";
   }
 
  private:
@@ -147,7 +227,7 @@ class CairoPainter : public Painter {
       cairo_fill(cr_);
     }
   }
-  void Segment(double x1, double y1, double x2, double y2, double width, Rgb colour) override {
+  void Segment(double x1, double y1, double x2, double y2, double width, Rgb colour, const char*) override {
     cairo_move_to(cr_, x1, y1);
     cairo_line_to(cr_, x2, y2);
     Set(colour);
@@ -161,6 +241,37 @@ class CairoPainter : public Painter {
     cairo_text_extents_t e;
     cairo_text_extents(cr_, text.c_str(), &e);
     cairo_move_to(cr_, right ? x - e.x_advance : x, y);
+    Set(kInk);
+    cairo_show_text(cr_, text.c_str());
+  }
+  void Rectangle(double x, double y, double w, double h, Rgb fill, double opacity, double sw, const char*) override {
+    cairo_rectangle(cr_, x, y, w, h);
+    if (opacity > 0) {
+      cairo_set_source_rgba(cr_, fill.r, fill.g, fill.b, opacity);
+      cairo_fill_preserve(cr_);
+    }
+    Set(kInk);
+    cairo_set_line_width(cr_, sw);
+    cairo_stroke(cr_);
+  }
+  double TextWidth(double size, const std::string& text) override {
+    cairo_select_font_face(cr_, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_set_font_size(cr_, size);
+    cairo_text_extents_t e;
+    cairo_text_extents(cr_, text.c_str(), &e);
+    return e.x_advance;
+  }
+  void Label(double x, double y, double size, const std::string& text, bool centred) override {
+    cairo_select_font_face(cr_, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_set_font_size(cr_, size);
+    cairo_text_extents_t e;
+    cairo_text_extents(cr_, text.c_str(), &e);
+    const double w = e.x_advance + 0.6 * size, h = 1.3 * size;
+    const double left = centred ? x - 0.5 * w : x - 0.3 * size, baseline = centred ? y + 0.35 * size : y;
+    cairo_rectangle(cr_, left, baseline - 0.95 * size, w, h);
+    cairo_set_source_rgba(cr_, kBackground.r, kBackground.g, kBackground.b, 0.85);
+    cairo_fill(cr_);
+    cairo_move_to(cr_, centred ? x - 0.5 * e.x_advance : x, baseline);
     Set(kInk);
     cairo_show_text(cr_, text.c_str());
   }

@@ -72,6 +72,7 @@ SceneOptions OptionsFor(const RunSetting& setting, const PictureOptions& o) {
   s.forces = o.forces;
   s.highlight = o.highlight;
   s.species = setting.species;
+  s.marks = o.marks;
   return s;
 }
 
@@ -113,8 +114,9 @@ Scene ClogScene(const fs::path& run_dir, int clog, const PictureOptions& o, cons
   const double top = TopOf(c.frame);
   RunSetting setting;
   setting.silo = silo::OutlineOf(spec.silo, spec.silo.height > 0 ? spec.silo.height : top + 1);
-  setting.window =
-      window ? *window : SiloWindow(setting.silo, spec.discharge.exit_distance, std::max(top, spec.silo.height));
+  setting.window = window     ? *window
+                   : o.window ? *o.window
+                              : SiloWindow(setting.silo, spec.discharge.exit_distance, std::max(top, spec.silo.height));
   for (const auto& sp : spec.bodies.species) setting.species.push_back(sp.name);
   SceneOptions so = OptionsFor(setting, o);
   so.contacts = &c.contacts;
@@ -147,7 +149,10 @@ Scene RunScene(const fs::path& run_dir, const PictureOptions& o) {
                                std::to_string(best.timestep));
   }
   SceneOptions so = OptionsFor(setting, o);
-  so.window.y_hi = std::max(so.window.y_hi, TopOf(best) + 1);
+  if (o.window)
+    so.window = *o.window;
+  else
+    so.window.y_hi = std::max(so.window.y_hi, TopOf(best) + 1);
   so.contacts = contacts ? &*contacts : nullptr;
   so.caption = Caption(best, run);
   return MakeScene(best, setting.silo, so);

@@ -23,6 +23,8 @@ struct PictureOptions {
   Colour colour = Colour::kSpecies;
   bool forces = false;
   std::set<std::int64_t> highlight;
+  std::vector<Mark> marks;
+  std::optional<Window> window;  // a zoom; else the silo's window (RunScene, ClogScene's default)
 };
 
 // What a picture of a run needs besides the frame: the silo, its window, species names.

@@ -13,7 +13,8 @@ Colour ColourFromName(const std::string& name) {
   if (name == "speed") return Colour::kSpeed;
   if (name == "rotation") return Colour::kRotation;
   if (name == "force") return Colour::kForce;
-  throw std::invalid_argument("colour '" + name + "' is not one of species, speed, rotation, force");
+  if (name == "disc") return Colour::kDisc;
+  throw std::invalid_argument("colour '" + name + "' is not one of species, speed, rotation, force, disc");
 }
 
 namespace {
@@ -72,6 +73,7 @@ Scene MakeScene(const rundir::Frame& frame, const silo::SiloOutline& silo, const
   scene.window = o.window;
   scene.silo = silo;
   scene.caption = o.caption;
+  scene.marks = o.marks;
   const std::vector<rundir::Body> bodies = rundir::BodiesOf(frame.discs);
   std::map<std::int64_t, const rundir::Body*> body_of;
   for (const auto& b : bodies) body_of[b.id] = &b;
@@ -104,9 +106,30 @@ Scene MakeScene(const rundir::Frame& frame, const silo::SiloOutline& silo, const
     hi = std::max(Quantile(all, 0.99), 1e-12);
     what = "contact force on body";
   }
+  // kDisc: each disc's place in its body, the largest first (ties by disc id), and one colour
+  // per (species, place).
+  std::map<std::int64_t, std::vector<const rundir::Disc*>> discs_of;
+  std::map<std::pair<int, std::size_t>, std::size_t> role_colour;
+  std::map<const rundir::Disc*, std::size_t> role_of;
+  if (o.colour == Colour::kDisc) {
+    for (const auto& d : frame.discs) discs_of[d.mol].push_back(&d);
+    for (auto& [mol, list] : discs_of) {
+      std::sort(list.begin(), list.end(), [](const rundir::Disc* a, const rundir::Disc* b) {
+        return a->radius != b->radius ? a->radius > b->radius : a->id < b->id;
+      });
+      for (std::size_t k = 0; k < list.size(); ++k) {
+        role_of[list[k]] = k;
+        role_colour.emplace(std::make_pair(list[k]->type, k), 0);
+      }
+    }
+    std::size_t next = 0;
+    for (auto& [role, colour] : role_colour) colour = next++;
+  }
   for (const auto& d : frame.discs) {
     DiscShape s{d.x, d.y, d.radius, {}, o.highlight.count(d.mol) > 0};
-    if (o.colour == Colour::kSpecies) {
+    if (o.colour == Colour::kDisc) {
+      s.fill = kSpecies[role_colour.at({d.type, role_of.at(&d)}) % std::size(kSpecies)];
+    } else if (o.colour == Colour::kSpecies) {
       s.fill = kSpecies[static_cast<std::size_t>(std::max(d.type - 1, 0)) % std::size(kSpecies)];
     } else {
       const auto it = value.find(d.mol);
@@ -117,7 +140,24 @@ Scene MakeScene(const rundir::Frame& frame, const silo::SiloOutline& silo, const
     }
     scene.discs.push_back(s);
   }
-  if (o.colour == Colour::kSpecies) {
+  if (o.colour == Colour::kDisc) {
+    // One key per (species, place): its diameter when the body's discs differ in size.
+    std::map<std::pair<int, std::size_t>, const rundir::Disc*> example;
+    std::map<int, std::set<double>> radii;
+    for (const auto& [mol, list] : discs_of)
+      for (std::size_t k = 0; k < list.size(); ++k) {
+        example.emplace(std::make_pair(list[k]->type, k), list[k]);
+        radii[list[k]->type].insert(list[k]->radius);
+      }
+    for (const auto& [role, colour] : role_colour) {
+      const std::size_t t = static_cast<std::size_t>(std::max(role.first - 1, 0));
+      const std::string species = t < o.species.size() ? o.species[t] : "type " + std::to_string(role.first);
+      const rundir::Disc& d = *example.at(role);
+      const std::string place = radii[role.first].size() > 1 ? "disc of D = " + Fixed(2 * d.radius) + " d"
+                                                             : "disc " + std::to_string(role.second + 1);
+      scene.legend.push_back({kSpecies[colour % std::size(kSpecies)], species + ": " + place});
+    }
+  } else if (o.colour == Colour::kSpecies) {
     std::set<int> types;
     for (const auto& d : frame.discs) types.insert(d.type);
     for (int t : types) {

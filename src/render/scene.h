@@ -1,5 +1,5 @@
 // Pictures of a silo: a Scene (bodies to scale, walls, outlets, obstacles, an optional
-// contact-force network) made from one frame, drawn as SVG text or as PNG pixels (cairo).
+// contact-force network, marks such as regions and dimensions) made from one frame, drawn as SVG text or as PNG pixels (cairo).
 // Pure: no files but the one WritePng is asked to write. The verbs `campaign snapshot` and
 // `campaign movie` (src/runner) and the report's pictures are thin layers over it; a caller
 // marks bodies to draw outlined (an arch, say) through SceneOptions::highlight.
@@ -37,6 +37,16 @@ struct Line {
   Rgb colour;
 };
 
+// A mark over the picture, in silo units: a rectangle (a region, a zoom's outline), outlined
+// and perhaps shaded, its label inside its top left corner; or a dimension line between two
+// points with end ticks, its label on a white box at its middle ("W = 11 d").
+struct Mark {
+  enum class Kind { kRect, kDimension } kind = Kind::kRect;
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  std::string label;
+  bool shade = false;
+};
+
 struct Scene {
   Window window;
   silo::SiloOutline silo;
@@ -48,10 +58,13 @@ struct Scene {
     std::string label;
   };
   std::vector<Key> legend;  // top right: a swatch and a label each
+  std::vector<Mark> marks;  // over the bodies, clipped to the window
 };
 
-enum class Colour { kSpecies, kSpeed, kRotation, kForce };
-// "species", "speed", "rotation", "force"; throws std::invalid_argument naming the choices.
+// kDisc: each disc by its species and its place in the body, the largest first (a snowman's
+// body and head apart, thesis figs. 6.1, 6.3; a dumbbell's two discs apart).
+enum class Colour { kSpecies, kSpeed, kRotation, kForce, kDisc };
+// "species", "speed", "rotation", "force", "disc"; throws std::invalid_argument naming the choices.
 Colour ColourFromName(const std::string& name);
 
 struct SceneOptions {
@@ -62,6 +75,7 @@ struct SceneOptions {
   std::set<std::int64_t> highlight;                // body ids drawn outlined
   std::vector<std::string> species;                // names by type - 1, for the legend
   std::string caption;
+  std::vector<Mark> marks;
 };
 
 // The window of a silo's pictures: the silo's width (and its side outlets' fall zone) and from
@@ -78,7 +92,8 @@ struct PixelSize {
 PixelSize SizeFor(const Scene& scene, int width_px);
 
 // An SVG document: one <circle> per disc (in pixels, y up), walls and outlets as <polygon>s,
-// obstacles as <circle class="obstacle">, forces as <line>s.
+// obstacles as <circle class="obstacle">, forces as <line>s, marks as <rect class="mark">
+// and <line class="dimension">s with their labels as <text class="label">.
 std::string Svg(const Scene& scene, int width_px);
 
 // The same picture in pixels: cairo's ARGB32 (premultiplied, native-endian: B G R A bytes on

@@ -179,6 +179,73 @@ TEST(ClogReport, ArchesContactsAndOrientationSectionsWithPictures) {
   EXPECT_NE(ReadFile(plain.out_dir / "report.md").find("No pictures of clogs"), std::string::npos);
 }
 
+// A pictures figure of kind "clog": per point the kept clog of its lowest replica whose arch
+// has the point's median N_t, the arch's bodies outlined, the figure's marks and colouring
+// handed on; the figure's window replaces the arch's.
+TEST(ClogReport, APicturesFigureOfTheKeptClogs) {
+  TempDir dir;
+  CampaignInfo info;
+  info.name = "arches";
+  info.axes = {"/silo/base_outlets/0/width"};
+  info.spec = {{"base", SpecFor(3)},
+               {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {3, 4}}}}}},
+               {"report",
+                {{"arches", {{"pictures", 0}}},
+                 {"figures",
+                  {{{"name", "arches"},
+                    {"kind", "pictures"},
+                    {"picture", "clog"},
+                    {"colour", "disc"},
+                    {"annotate", {{{"dimension", "outlet_width"}}}}},
+                   {{"name", "zoomed"},
+                    {"kind", "pictures"},
+                    {"picture", "clog"},
+                    {"only", {{"W", 4}}},
+                    {"window", {-5, 5, -1, 6}}}}}}}};
+  std::vector<RunRecord> runs;
+  for (double w : {3.0, 4.0})
+    for (int rep = 1; rep >= 0; --rep) {
+      RunRecord r;
+      r.point_id = "W" + std::to_string(static_cast<int>(w));
+      r.run_id = r.point_id + "r" + std::to_string(rep);
+      r.replica = rep;
+      r.engine = "native";
+      r.state = "done";
+      r.point = {{"/silo/base_outlets/0/width", w}};
+      r.spec = SpecFor(w);
+      r.run_dir = dir.Path() / r.run_id;
+      WriteRun(r.run_dir, w, r.run_id);
+      runs.push_back(r);
+    }
+  ReportOptions opt;
+  opt.out_dir = dir.Path() / "report";
+  opt.figures = false;
+  std::vector<Drawn> drawn;
+  opt.draw_clog = [&](const std::filesystem::path& run_dir, const ClogPicture& p, const std::filesystem::path& png) {
+    drawn.push_back({run_dir, p});
+    WriteFile(png, "png");
+    return std::string();
+  };
+  WriteReport(info, runs, opt);
+  ASSERT_EQ(drawn.size(), 3u) << "two points, then the zoomed one";
+  EXPECT_EQ(drawn[0].run_dir.filename(), "W3r0") << "the lowest replica";
+  EXPECT_EQ(drawn[1].run_dir.filename(), "W4r0");
+  EXPECT_EQ(drawn[0].picture.clog, 1);
+  EXPECT_EQ(drawn[0].picture.highlight, (std::set<std::int64_t>{0, 1, 2, 3}));
+  EXPECT_TRUE(drawn[0].picture.colour_by_disc);
+  EXPECT_LT(drawn[0].picture.x_lo, -2.4) << "a window around the arch";
+  EXPECT_GT(drawn[0].picture.x_hi, 2.4);
+  ASSERT_EQ(drawn[0].picture.marks.size(), 1u);
+  EXPECT_EQ(drawn[0].picture.marks[0].label, "W = 3 d");
+  EXPECT_DOUBLE_EQ(drawn[0].picture.marks[0].x0, -1.5);
+  EXPECT_FALSE(drawn[2].picture.colour_by_disc);
+  EXPECT_EQ(drawn[2].picture.x_lo, -5) << "the figure's window";
+  EXPECT_EQ(drawn[2].picture.y_hi, 6);
+  const std::string md = ReadFile(opt.out_dir / "report.md");
+  EXPECT_NE(md.find("(pictures/figure-arches-1-clog.png)"), std::string::npos) << md;
+  EXPECT_NE(md.find("clog 1: N_t = 4 (the point's median N_t = 4), arch bodies outlined"), std::string::npos);
+}
+
 TEST(ClogReport, OptionErrorsNameTheirJsonPath) {
   auto error = [](const nlohmann::json& report) {
     try {

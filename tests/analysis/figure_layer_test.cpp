@@ -5,6 +5,7 @@
 // the report writes inside its figure's ranges (.gp files read back).
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <random>
 #include <regex>
@@ -376,10 +377,16 @@ TEST(FigureLayer, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
 TEST(FigureLayer, PicturesOfTheChosenPoints) {
   TempDir dir;
   const nlohmann::json extra = {{"report",
-                                 {{"figures",
+                                 {{"region", "ch3"},
+                                  {"figures",
                                    {{{"name", "arches"},
                                      {"kind", "pictures"},
                                      {"only", {{"W", {10, 22}}, {"mu", 0.5}}},
+                                     {"annotate",
+                                      {{{"region", "region"}, {"label", "R"}, {"shade", true}},
+                                       {{"dimension", "outlet_width"}},
+                                       {{"dimension", "obstacle_height"}}}},
+                                     {"window", {-8, 8, -3, 12}},
                                      {"reference", "thesis fig. 3.4"}}}}}}};
   const Campaign c = MakeCampaign(dir.Path() / "runs", extra);
   ReportOptions o;
@@ -387,24 +394,98 @@ TEST(FigureLayer, PicturesOfTheChosenPoints) {
   o.figures = false;
   o.analysis.read_cache = o.analysis.write_cache = false;
   std::vector<std::string> drawn;
-  o.draw_run = [&](const fs::path& run_dir, ReportOptions::Picture kind, const fs::path& png) {
-    drawn.push_back(run_dir.filename().string() + (kind == ReportOptions::Picture::kBed ? ":bed" : ":end") + ":" +
-                    png.filename().string());
+  std::vector<ReportOptions::RunPicture> pictures;
+  o.draw_run = [&](const fs::path& run_dir, const ReportOptions::RunPicture& picture, const fs::path& png) {
+    drawn.push_back(run_dir.filename().string() + (picture.kind == ReportOptions::Picture::kBed ? ":bed" : ":end") +
+                    ":" + png.filename().string());
+    pictures.push_back(picture);
     WriteFile(png, "\x89PNG fake");
     return std::string();
   };
   const ReportSummary s = WriteReport(c.info, c.runs, o);
-  // The figure's two points (their first replica's end), then the gallery's bed and end of all 13.
-  ASSERT_GE(drawn.size(), 2u);
+  // The figure's two points (their first replica's end, whole and zoomed), then the gallery's
+  // bed and end of all 13.
+  ASSERT_GE(drawn.size(), 4u);
   EXPECT_EQ(drawn[0], "W10mu0.5r0:end:figure-arches-6-end.png");
-  EXPECT_EQ(drawn[1], "W22mu0.5r0:end:figure-arches-9-end.png");
-  EXPECT_EQ(drawn.size(), 2u + 2 * 13);
+  EXPECT_EQ(drawn[1], "W10mu0.5r0:end:figure-arches-6-end-zoom.png");
+  EXPECT_EQ(drawn[2], "W22mu0.5r0:end:figure-arches-9-end.png");
+  EXPECT_EQ(drawn.size(), 4u + 2 * 13);
+  // W = 10: region R of ch. 3, (W + 2 d) x 10 d above the outlet, and W's dimension below the
+  // base; the whole picture outlines the zoom besides; the runs have no obstacle for H.
+  ASSERT_EQ(pictures[0].marks.size(), 3u);
+  const PictureMark& r = pictures[0].marks[0];
+  EXPECT_EQ(r.kind, PictureMark::Kind::kRect);
+  EXPECT_DOUBLE_EQ(r.x0, -6);
+  EXPECT_DOUBLE_EQ(r.x1, 6);
+  EXPECT_DOUBLE_EQ(r.y0, 0);
+  EXPECT_DOUBLE_EQ(r.y1, 10);
+  EXPECT_EQ(r.label, "R");
+  EXPECT_TRUE(r.shade);
+  const PictureMark& w = pictures[0].marks[1];
+  EXPECT_EQ(w.kind, PictureMark::Kind::kDimension);
+  EXPECT_DOUBLE_EQ(w.x0, -5);
+  EXPECT_DOUBLE_EQ(w.x1, 5);
+  EXPECT_DOUBLE_EQ(w.y0, w.y1);
+  EXPECT_LT(w.y0, 0) << "below the base";
+  EXPECT_EQ(w.label, "W = 10 d");
+  EXPECT_EQ(pictures[0].marks[2].label, "zoom");
+  EXPECT_FALSE(pictures[0].window);
+  ASSERT_TRUE(pictures[1].window);
+  EXPECT_EQ(*pictures[1].window, (std::array<double, 4>{-8, 8, -3, 12}));
+  EXPECT_EQ(pictures[1].marks.size(), 2u) << "the zoom without its own outline";
+  EXPECT_DOUBLE_EQ(pictures[2].marks[0].x1, 12) << "W = 22: the region (22 + 2) d wide";
+  EXPECT_TRUE(pictures[4].marks.empty()) << "the gallery draws no marks";
   const std::string md = ReadFile(s.markdown);
   EXPECT_LT(md.find("figure-arches-6-end.png"), md.find("## Gallery"));
+  EXPECT_NE(md.find("figure-arches-6-end-zoom.png"), std::string::npos);
   EXPECT_NE(md.find("Reference: thesis fig. 3.4"), std::string::npos);
+  EXPECT_NE(md.find("H: the run has no obstacle 0"), std::string::npos) << "what could not be marked is said";
   nlohmann::json bad = c.info.spec;
   bad["report"]["figures"][0]["y"] = "q_count";
   EXPECT_THROW(ReadFigureSpecs(bad), OptionError);
+}
+
+// The keys of a pictures figure: each bad value is an error naming its JSON path.
+TEST(FigureLayer, PictureKeysAreChecked) {
+  const auto error_of = [](const nlohmann::json& figure, const nlohmann::json& report_extra = {}) -> std::string {
+    nlohmann::json spec = {{"name", "p"},
+                           {"base", SpecFor(10, 0)},
+                           {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {10, 14}}}}}},
+                           {"report", {{"figures", {figure}}}}};
+    if (report_extra.is_object()) spec["report"].update(report_extra);
+    try {
+      ReadFigureSpecs(spec);
+      return "";
+    } catch (const OptionError& e) {
+      return e.Path();
+    }
+  };
+  const nlohmann::json base = {{"name", "f"}, {"kind", "pictures"}};
+  const auto with = [&](const nlohmann::json& more) {
+    nlohmann::json f = base;
+    f.update(more);
+    return f;
+  };
+  EXPECT_EQ(error_of(with({{"picture", "clog"}, {"colour", "disc"}})), "");
+  EXPECT_EQ(error_of(with({{"picture", "arch"}})), "/report/figures/0/picture");
+  EXPECT_EQ(error_of(with({{"colour", "speed"}})), "/report/figures/0/colour");
+  EXPECT_EQ(error_of(with({{"window", {1, 0, 0, 1}}})), "/report/figures/0/window");
+  EXPECT_EQ(error_of(with({{"window", {0, 1, 0}}})), "/report/figures/0/window");
+  EXPECT_EQ(error_of(with({{"annotate", {{{"region", "A"}}}}})), "/report/figures/0/annotate/0/region");
+  EXPECT_EQ(error_of(with({{"annotate", {{{"dimension", "region"}}}}})), "/report/figures/0/annotate/0/dimension");
+  EXPECT_EQ(error_of(with({{"annotate", {{{"region", "region"}, {"dimension", "outlet_width"}}}}})),
+            "/report/figures/0/annotate/0");
+  EXPECT_EQ(error_of(with({{"annotate", {{{"region", "region"}, {"colour", "red"}}}}})),
+            "/report/figures/0/annotate/0/colour");
+  EXPECT_EQ(error_of(with({{"annotate", {{{"dimension", "obstacle_height"}, {"outlet", 1}}}}})),
+            "/report/figures/0/annotate/0/outlet");
+  EXPECT_EQ(error_of(with({{"annotate", {{{"region", "fields"}}}}})), "/report/figures/0/annotate/0/region")
+      << "the maps' window needs /report/fields";
+  EXPECT_EQ(error_of(with({{"annotate", {{{"region", "fields"}, {"shade", true}}}}}), {{"fields", true}}), "");
+  // Keys of other kinds, and a pictures key on another kind.
+  EXPECT_EQ(error_of(with({{"y", "q_count"}})), "/report/figures/0/y");
+  EXPECT_EQ(error_of({{"name", "f"}, {"y", "q_count"}, {"annotate", nlohmann::json::array()}}),
+            "/report/figures/0/annotate");
 }
 
 TEST(Expectations, AgreeDisagreeAndTooFewRuns) {

@@ -161,9 +161,9 @@ TEST(System, ResultsComeFirstThenTheSystemAndTheGalleryLast) {
   opt.out_dir = dir.Path() / "report";
   opt.figures = false;
   std::vector<std::string> drawn;
-  opt.draw_run = [&](const std::filesystem::path& run_dir, ReportOptions::Picture kind,
+  opt.draw_run = [&](const std::filesystem::path& run_dir, const ReportOptions::RunPicture& picture,
                      const std::filesystem::path& png) {
-    drawn.push_back(run_dir.filename().string() + (kind == ReportOptions::Picture::kBed ? ":bed" : ":end"));
+    drawn.push_back(run_dir.filename().string() + (picture.kind == ReportOptions::Picture::kBed ? ":bed" : ":end"));
     std::ofstream(png) << "\x89PNG fake " << drawn.back();
     return std::string();
   };
@@ -210,7 +210,7 @@ TEST(System, PicturesOfATwoEngineCampaignNameTheEngine) {
   ReportOptions opt;
   opt.out_dir = dir.Path() / "report";
   opt.figures = false;
-  opt.draw_run = [&](const std::filesystem::path&, ReportOptions::Picture, const std::filesystem::path& png) {
+  opt.draw_run = [&](const std::filesystem::path&, const ReportOptions::RunPicture&, const std::filesystem::path& png) {
     std::ofstream(png) << "\x89PNG fake";
     return std::string();
   };

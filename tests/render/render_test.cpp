@@ -129,6 +129,80 @@ TEST(Render, PngHasTheSizeAndTheBodiesWhereTheyAre) {
   cairo_surface_destroy(png);
 }
 
+// Marks: a region outlined and shaded, a dimension with its label, both where the silo
+// coordinates put them; in the SVG text and in the PNG's pixels.
+TEST(Render, MarksSitWhereTheirCoordinatesSay) {
+  SceneOptions o;
+  o.window = {-6, 6, -3, 7};  // 12 d wide
+  o.marks = {{Mark::Kind::kRect, -2.5, 0, 1.5, 4, "A", true},
+             {Mark::Kind::kDimension, 1.5, -1.5, 4.5, -1.5, "W = 3 d"}};
+  const Scene scene = MakeScene(TestFrame(), TestSilo(), o);
+  const std::string svg = Svg(scene, 1200);  // 100 px per d
+  // The window's top in pixels, from the obstacle's centre (y = 4): the header's height is not whole.
+  const double header = Circles(svg, "obstacle").at(0)[1] - (7 - 4) * 100;
+  const std::regex rect(
+      "<rect class=\"mark shaded\" x=\"([-0-9.]+)\" y=\"([-0-9.]+)\" width=\"([-0-9.]+)\" "
+      "height=\"([-0-9.]+)\" fill=\"#ffc700\" fill-opacity=\"0.35\"");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(svg, m, rect)) << svg;
+  EXPECT_NEAR(std::stod(m[1]), (-2.5 + 6) * 100, 0.01);
+  EXPECT_NEAR(std::stod(m[2]), header + (7 - 4) * 100, 0.01) << "its top at y = 4";
+  EXPECT_NEAR(std::stod(m[3]), 4 * 100, 0.01);
+  EXPECT_NEAR(std::stod(m[4]), 4 * 100, 0.01);
+  EXPECT_NE(svg.find(">A</text>"), std::string::npos);
+  const std::regex line("<line class=\"dimension\" x1=\"([-0-9.]+)\" y1=\"([-0-9.]+)\" x2=\"([-0-9.]+)\"");
+  ASSERT_TRUE(std::regex_search(svg, m, line)) << svg;
+  EXPECT_NEAR(std::stod(m[1]), (1.5 + 6) * 100, 0.01);
+  EXPECT_NEAR(std::stod(m[2]), header + (7 + 1.5) * 100, 0.01);
+  EXPECT_NEAR(std::stod(m[3]), (4.5 + 6) * 100, 0.01);
+  EXPECT_NE(svg.find("text-anchor=\"middle\">W = 3 d</text>"), std::string::npos) << "the label on its line";
+  // A mark outside the window is clipped to it: the header strip stays clear.
+  SceneOptions far = o;
+  far.marks = {{Mark::Kind::kRect, -2, 5, 2, 50, "", false}};
+  const std::string clipped = Svg(MakeScene(TestFrame(), TestSilo(), far), 1200);
+  ASSERT_TRUE(std::regex_search(clipped, m, std::regex("<rect class=\"mark\" x=\"[-0-9.]+\" y=\"([-0-9.]+)\"")));
+  EXPECT_NEAR(std::stod(m[1]), header, 0.01) << "cut at the window's top";
+  EXPECT_GT(header, 20) << "below the header strip";
+
+  // The PNG: translucent gold over white inside the region where no body is, white outside it.
+  const PixelSize size = SizeFor(scene, 600);  // 50 px per d
+  const std::vector<unsigned char> px = Pixels(scene, size);
+  const int top = size.height - 10 * 50;
+  const auto at = [&](double x, double y) {
+    const std::size_t i = 4 * (static_cast<std::size_t>(top + static_cast<int>((7 - y) * 50)) * size.width +
+                               static_cast<std::size_t>((x + 6) * 50));
+    return std::array<int, 3>{px[i + 2], px[i + 1], px[i]};
+  };
+  const auto blend = [](double c) { return static_cast<int>(std::lround(255 * (0.65 + 0.35 * c))); };
+  const std::array<int, 3> inside = at(1.0, 2.5);
+  EXPECT_NEAR(inside[0], blend(1.0), 2);
+  EXPECT_NEAR(inside[1], blend(0.78), 2);
+  EXPECT_NEAR(inside[2], blend(0.0), 2);
+  EXPECT_EQ(at(1.0, 5.5), (std::array<int, 3>{255, 255, 255})) << "above the region";
+}
+
+// Colour by disc: a snowman's large and small discs apart, each kind the same in every body.
+TEST(Render, ColourByDiscTellsASnowmansHeadFromItsBody) {
+  rundir::Frame f;
+  f.discs = {{1, 0, 1, 0.0, 1.0, 0.5, 0.785, 0, 0, 0},
+             {2, 0, 1, 1.5, 1.0, 1.0, 3.14, 0, 0, 0},
+             {3, 1, 1, 3.0, 4.0, 1.0, 3.14, 0, 0, 0},
+             {4, 1, 1, 4.5, 4.0, 0.5, 0.785, 0, 0, 0}};
+  SceneOptions o;
+  o.window = {-6, 6, -3, 7};
+  o.colour = ColourFromName("disc");
+  o.species = {"snowman"};
+  const Scene s = MakeScene(f, TestSilo(), o);
+  const auto same = [](const Rgb& a, const Rgb& b) { return a.r == b.r && a.g == b.g && a.b == b.b; };
+  EXPECT_FALSE(same(s.discs[0].fill, s.discs[1].fill)) << "head and body apart";
+  EXPECT_TRUE(same(s.discs[0].fill, s.discs[3].fill)) << "the heads alike, whatever their order in the body";
+  EXPECT_TRUE(same(s.discs[1].fill, s.discs[2].fill));
+  ASSERT_EQ(s.legend.size(), 2u);
+  EXPECT_EQ(s.legend[0].label, "snowman: disc of D = 2 d");
+  EXPECT_EQ(s.legend[1].label, "snowman: disc of D = 1 d");
+  EXPECT_THROW(ColourFromName("mood"), std::invalid_argument);
+}
+
 // ---- the verbs on a real run -------------------------------------------------------------
 
 struct Outcome {

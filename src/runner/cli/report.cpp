@@ -182,6 +182,18 @@ std::optional<std::string> ExpectationCounts(const std::string& db, std::ostream
 
 namespace {
 
+#ifdef GRANARY_HAVE_RENDER
+// A figure's marks as the renderer draws them.
+std::vector<render::Mark> MarksOf(const std::vector<analysis::PictureMark>& marks) {
+  std::vector<render::Mark> out;
+  for (const analysis::PictureMark& m : marks)
+    out.push_back(
+        {m.kind == analysis::PictureMark::Kind::kRect ? render::Mark::Kind::kRect : render::Mark::Kind::kDimension,
+         m.x0, m.y0, m.x1, m.y1, m.label, m.shade});
+  return out;
+}
+#endif
+
 // The report of the campaign in `db`.
 analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out_dir, bool figures, std::ostream& err,
                                       const std::vector<std::string>& only = {}) {
@@ -190,9 +202,15 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
   options.out_dir = out_dir;
   options.figures = figures;
 #ifdef GRANARY_HAVE_RENDER
-  options.draw_run = [](const fs::path& run_dir, analysis::ReportOptions::Picture kind, const fs::path& png) {
+  options.draw_run = [](const fs::path& run_dir, const analysis::ReportOptions::RunPicture& picture,
+                        const fs::path& png) {
     render::PictureOptions o;
-    o.pick.kind = kind == analysis::ReportOptions::Picture::kBed ? render::FramePick::kFirst : render::FramePick::kLast;
+    o.pick.kind =
+        picture.kind == analysis::ReportOptions::Picture::kBed ? render::FramePick::kFirst : render::FramePick::kLast;
+    o.marks = MarksOf(picture.marks);
+    if (picture.colour_by_disc) o.colour = render::Colour::kDisc;
+    if (picture.window)
+      o.window = render::Window{(*picture.window)[0], (*picture.window)[1], (*picture.window)[2], (*picture.window)[3]};
     try {
       render::WritePng(render::RunScene(run_dir, o), 640, png);
       return std::string();
@@ -203,6 +221,8 @@ analysis::ReportSummary WriteReportOf(const std::string& db, const fs::path& out
   options.draw_clog = [](const fs::path& run_dir, const analysis::ClogPicture& picture, const fs::path& png) {
     render::PictureOptions o;
     o.highlight = picture.highlight;
+    o.marks = MarksOf(picture.marks);
+    if (picture.colour_by_disc) o.colour = render::Colour::kDisc;
     try {
       const render::Window window{picture.x_lo, picture.x_hi, picture.y_lo, picture.y_hi};
       render::WritePng(render::ClogScene(run_dir, picture.clog, o, window), 480, png);
