@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/axes.h"
 #include "analysis/flow.h"
 #include "analysis/outlets.h"
 #include "analysis/report_document.h"
@@ -253,6 +254,10 @@ class Analysis {
   // that only change aggregation or the section (fit models, discard rules) stay out of it.
   virtual nlohmann::json RunOptions() const { return nullptr; }
   virtual PassUse PassOptionsUsed() const { return {}; }
+  // The campaign's axes, handed over by SetupAnalyses once every analysis is made: options
+  // that name axes (an orientation region's bound "W_s - 5", evaluated per run from its spec)
+  // are checked here, at plan time. Throws OptionError naming the option's path.
+  virtual void UseAxes(const CampaignAxes& axes) { (void)axes; }
   virtual std::unique_ptr<RunAccumulator> Start(const RunView& run) const = 0;
   virtual std::vector<Metric> RunMetrics(const nlohmann::json& result) const = 0;
   // Default: every per-run metric as mean ± standard error over the point's runs where it is

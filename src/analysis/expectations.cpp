@@ -167,7 +167,8 @@ void CheckMetricReferences(const nlohmann::json& spec) {
     }
   };
   for (const FigureSpec& f : ReadFigureSpecs(spec))
-    if (!f.y.empty()) check(f.y, f.path + "/y", f.y);
+    for (std::size_t k = 0; k < f.y.size(); ++k)
+      check(f.y[k], f.path + "/y" + (f.y_list ? "/" + std::to_string(k) : ""), f.y[k]);
   for (const Expectation& e : ReadExpectations(spec, ReadFigureSpecs(spec)))
     if (!e.metric.empty()) check(e.metric, e.path + "/metric", e.metric);
   if (spec.is_object() && spec.contains("replicas") && spec.at("replicas").is_object() &&
@@ -369,7 +370,18 @@ nlohmann::json FiguresJsonSchema() {
           {"description",
            "pictures: the last frame (default), the bed at t = 0, or the kept clog of the lowest replica whose "
            "arch has the point's median N_t (its arch outlined)"}}},
-        {"y", {{"type", "string"}, {"description", "a metric, or an expression over metrics and axes"}}},
+        {"y",
+         {{"oneOf", {{{"type", "string"}}, {{"type", "array"}, {"items", {{"type", "string"}}}, {"minItems", 1}}}},
+          {"description",
+           "points: a metric, or an expression over metrics and axes; a list of them draws a curve of each"}}},
+        {"labels",
+         {{"type", "array"},
+          {"items", {{"type", "string"}}},
+          {"description", "points with a list of y: the legend label of each"}}},
+        {"normalize",
+         {{"type", "object"},
+          {"description",
+           "points: {axis: value}, each curve divided by its value at that point (Q/Q_0 with {\"L\": 0})"}}},
         {"ylabel", {{"type", "string"}}},
         {"x",
          {{"type", "string"}, {"description", "a sweep axis (short name) or a derived axis; default the report's x"}}},

@@ -17,10 +17,7 @@
 namespace granary::analysis {
 namespace {
 
-constexpr const char* kFigureKeys[] = {"name",  "kind",    "picture",       "y",        "ylabel",  "x",         "group",
-                                       "pool",  "only",    "fit",           "title",    "caption", "reference", "logx",
-                                       "logy",  "of",      "bins",          "range",    "field",   "along",     "at",
-                                       "width", "one_run", "origin_outlet", "annotate", "window",  "colour"};
+constexpr const char* kFigureKeys[] = {"name", "kind", "picture", "y", "labels", "ylabel", "x", "group", "pool", "only", "fit", "normalize", "title", "caption", "reference", "logx", "logy", "of", "bins", "range", "field", "along", "at", "width", "one_run", "origin_outlet", "annotate", "window", "colour"};
 // The kinds, what each draws and the keys it takes besides name, kind, only, title, caption
 // and reference.
 struct KindKeys {
@@ -30,7 +27,9 @@ struct KindKeys {
 };
 const std::vector<KindKeys>& FigureKinds() {
   static const std::vector<KindKeys> kInds = {
-      {"points", "points with error bars", {"y", "ylabel", "x", "group", "pool", "fit", "logx", "logy"}},
+      {"points",
+       "points with error bars",
+       {"y", "labels", "ylabel", "x", "group", "pool", "fit", "normalize", "logx", "logy"}},
       {"distribution",
        "a histogram of a per-run distribution at each chosen point",
        {"of", "bins", "range", "pool", "logx", "logy"}},
@@ -333,14 +332,47 @@ FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const Campa
     }
     return s;
   }
-  s.y = TextAt(f, "y", path);
-  if (s.y.empty())
-    throw OptionError(path + "/y", f.value("y", nlohmann::json()),
-                      "must be a metric name or an expression over metrics and axes");
-  try {
-    Expression::Parse(s.y, {});  // the grammar; names are checked against the metrics when drawn
-  } catch (const ExpressionError& e) {
-    throw OptionError(path + "/y", f.at("y"), e.what());
+  const nlohmann::json y = f.value("y", nlohmann::json());
+  constexpr const char* kWhatY = "must be a metric name or an expression over metrics and axes, or a list of them";
+  s.y_list = y.is_array();
+  if (y.is_string()) s.y.push_back(y.get<std::string>());
+  if (s.y_list) {
+    if (y.empty()) throw OptionError(path + "/y", y, kWhatY);
+    for (const auto& one : y) {
+      if (!one.is_string()) throw OptionError(path + "/y/" + std::to_string(s.y.size()), one, kWhatY);
+      s.y.push_back(one.get<std::string>());
+    }
+  }
+  if (s.y.empty()) throw OptionError(path + "/y", y, kWhatY);
+  for (std::size_t k = 0; k < s.y.size(); ++k) {
+    const std::string yp = path + "/y" + (s.y_list ? "/" + std::to_string(k) : "");
+    if (s.y[k].empty()) throw OptionError(yp, s.y[k], kWhatY);
+    try {
+      Expression::Parse(s.y[k], {});  // the grammar; names are checked against the metrics when drawn
+    } catch (const ExpressionError& e) {
+      throw OptionError(yp, s.y[k], e.what());
+    }
+  }
+  if (f.contains("labels")) {
+    const nlohmann::json& l = f.at("labels");
+    if (!s.y_list)
+      throw OptionError(path + "/labels", l, "names the curves of a list of y; give y as a list (\"y\": [..])");
+    if (!l.is_array() || l.size() != s.y.size() ||
+        !std::all_of(l.begin(), l.end(), [](const nlohmann::json& one) { return one.is_string(); }))
+      throw OptionError(path + "/labels", l,
+                        "must be a list of " + std::to_string(s.y.size()) + " strings, one legend label per y");
+    for (const auto& one : l) s.labels.push_back(one.get<std::string>());
+  }
+  if (f.contains("normalize")) {
+    const nlohmann::json& n = f.at("normalize");
+    const std::string np = path + "/normalize";
+    if (!n.is_object() || n.empty())
+      throw OptionError(np, n, "must be {axis: value}: each curve divided by its value there, e.g. {\"L\": 0}");
+    for (const auto& [k, v] : n.items()) {
+      const std::string name = AxisNameAt(nlohmann::json(k), np + "/" + k, axes);
+      if (!v.is_number() && !v.is_string()) throw OptionError(np + "/" + k, v, "must be a number or a string");
+      s.normalize.emplace_back(name, v);
+    }
   }
   s.ylabel = TextAt(f, "ylabel", path);
   if (f.contains("x")) s.x = AxisNameAt(f.at("x"), path + "/x", axes);
@@ -393,6 +425,7 @@ FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const Campa
         fit.initial[k] = OptionNumber(v, fp + "/initial/" + k, -1e300, 1e300);
     }
     if (fj.contains("collapse")) fit.collapse = OptionBool(fj.at("collapse"), fp + "/collapse");
+    if (s.y.size() > 1) throw OptionError(fp, fj, "fits one y; this figure has " + std::to_string(s.y.size()));
     s.fit = fit;
   }
   return s;
@@ -453,6 +486,14 @@ MeanSe YValue(const std::string& y, const std::map<std::string, MeanSe>& metrics
   out.se = std::isfinite(var) ? std::sqrt(var) : kNaN;
   if (out.n < 0) out.n = 0;
   return out;
+}
+
+MeanSe NormalisedValue(const MeanSe& y, const MeanSe& y0, bool same) {
+  if (!std::isfinite(y.mean) || !std::isfinite(y0.mean) || y0.mean == 0.0) return {};
+  if (same) return {1.0, 0.0, y.n};
+  const double r = y.mean / y0.mean;
+  const double rel = std::hypot(y.se / y.mean, y0.se / y0.mean);
+  return {r, y.mean == 0.0 ? std::abs(y.se / y0.mean) : std::abs(r) * rel, std::min(y.n, y0.n)};
 }
 
 std::map<std::string, MeanSe> PooledMetrics(const CampaignAnalysis& ca, const std::vector<std::size_t>& points) {
@@ -1182,62 +1223,139 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
       FieldFigure(ca, spec, out);
     return out;
   }
+  // One datum per point set and y: the data of y k follow those of y k - 1.
+  const std::size_t sets = out.data.size();
+  for (FigureDatum& d : out.data)
+    for (const auto& name : spec.pool) d.axes.erase(name);  // pooled axes vary inside a datum
+  for (std::size_t k = 1; k < spec.y.size(); ++k)
+    for (std::size_t i = 0; i < sets; ++i) {
+      out.data.push_back(out.data[i]);
+      out.data.back().series = k;
+    }
+  // The name of a curve: its y (when several) and its group.
+  auto curve_name = [&](const FigureDatum& d) {
+    if (spec.y.size() == 1) return d.group.empty() ? spec.y.front() : d.group;
+    const std::string& y = spec.labels.empty() ? spec.y[d.series] : spec.labels[d.series];
+    return d.group.empty() ? y : y + ", " + d.group;
+  };
   std::string problem;
-  std::vector<std::string> without_value;  // the data whose points have no value of y
-  for (FigureDatum& d : out.data) {
-    const std::map<std::string, MeanSe> metrics = PooledMetrics(ca, d.points);
-    // Pooled axes vary inside a datum: they are not its axes.
-    for (const auto& name : spec.pool) d.axes.erase(name);
+  std::vector<std::string> without_value;  // the data whose points have no value of their y
+  std::vector<std::map<std::string, MeanSe>> metrics(sets);
+  for (std::size_t i = 0; i < sets; ++i) metrics[i] = PooledMetrics(ca, out.data[i].points);
+  for (std::size_t i = 0; i < out.data.size(); ++i) {
+    FigureDatum& d = out.data[i];
     const auto xi = d.axes.find(x_name);
     d.x = xi == d.axes.end() ? kNaN : xi->second;
     std::string datum_problem;
-    const MeanSe y = YValue(spec.y, metrics, d.axes, datum_problem);
+    const MeanSe y = YValue(spec.y[d.series], metrics[i % sets], d.axes, datum_problem);
     if (!datum_problem.empty()) problem = datum_problem;
     if (!datum_problem.empty() || !std::isfinite(y.mean))
-      without_value.push_back((d.group.empty() ? "" : d.group + ", ") + x_name + " = " + FormatNumber(d.x, 6));
+      without_value.push_back(curve_name(d) + ", " + x_name + " = " + FormatNumber(d.x, 6));
     d.y = y.mean;
     d.se = y.se;
     d.n = y.n;
   }
   const std::string where = spec.path + " (\"" + spec.name + "\")";
+  const std::string y_text = Joined(spec.y);
   // A metric some points have and others lack (no clog at a point: no avalanche, no arch) leaves
   // those points out, saying which; only when no point has it is the figure not drawn.
   if (!problem.empty() && without_value.size() == out.data.size()) {
     notes.push_back("**Not drawn:** " + where + ": " + problem);
   } else if (!without_value.empty() && without_value.size() < out.data.size()) {
-    notes.push_back("**Left out:** " + where + ": no value of " + spec.y + " at " + Joined(without_value) +
+    notes.push_back("**Left out:** " + where + ": no value of " + y_text + " at " + Joined(without_value) +
                     " (no run there gave one)");
     problem.clear();
   }
   if (out.data.empty()) notes.push_back("**Not drawn:** " + where + ": no finished run passes its `only`.");
 
+  // normalize: each datum divided by the datum of its curve at the reference values (its x and
+  // group axes the same but those named).
+  std::string normal_text;
+  for (const auto& [name, want] : spec.normalize)
+    normal_text += (normal_text.empty() ? "" : ", ") + name + " = " +
+                   (want.is_string() ? want.get<std::string>() : ValueWords(want.get<double>()));
+  if (!spec.normalize.empty() && problem.empty()) {
+    auto text_of = [&](const FigureDatum& d, const std::string& axis) {
+      if (axis == x_name) return ValueWords(d.x);
+      const Point& point = v.points[d.points.front()];
+      const auto pointer = v.named.PointerOf(axis);
+      const auto value = pointer ? AxisValue(*pointer, point.point, point.spec) : std::nullopt;
+      return value ? ValueText(*value) : d.axes.count(axis) ? ValueWords(d.axes.at(axis)) : std::string("?");
+    };
+    std::vector<std::string> compared = group;
+    if (std::find(compared.begin(), compared.end(), x_name) == compared.end()) compared.push_back(x_name);
+    std::vector<MeanSe> divided(out.data.size());
+    std::vector<std::string> no_reference, ambiguous;
+    for (std::size_t i = 0; i < out.data.size(); ++i) {
+      const FigureDatum& d = out.data[i];
+      if (!std::isfinite(d.y)) continue;
+      std::vector<std::size_t> refs;
+      for (std::size_t r = 0; r < out.data.size(); ++r) {
+        const FigureDatum& c = out.data[r];
+        if (c.series != d.series) continue;
+        bool same = true;
+        for (const auto& [name, want] : spec.normalize)
+          same = same && AxisValueMatches(v, v.points[c.points.front()], name, want);
+        for (const auto& axis : compared)
+          if (std::none_of(spec.normalize.begin(), spec.normalize.end(),
+                           [&axis](const auto& named) { return named.first == axis; }))
+            same = same && text_of(c, axis) == text_of(d, axis);
+        if (same) refs.push_back(r);
+      }
+      const std::string name = curve_name(d) + ", " + x_name + " = " + FormatNumber(d.x, 6);
+      if (refs.empty() || !std::isfinite(out.data[refs.front()].y) || out.data[refs.front()].y == 0.0) {
+        no_reference.push_back(name);
+        divided[i] = MeanSe{};
+      } else if (refs.size() > 1) {
+        ambiguous.push_back(name);
+        divided[i] = MeanSe{};
+      } else {
+        const FigureDatum& r = out.data[refs.front()];
+        divided[i] = NormalisedValue({d.y, d.se, d.n}, {r.y, r.se, r.n}, refs.front() == i);
+      }
+    }
+    for (std::size_t i = 0; i < out.data.size(); ++i) {
+      out.data[i].y = divided[i].mean;
+      out.data[i].se = divided[i].se;
+    }
+    if (!no_reference.empty())
+      notes.push_back("**Left out:** " + where + ": no point at " + normal_text +
+                      " (with a value of its y) in the curve of " + Joined(no_reference) +
+                      " to divide by (`normalize`)");
+    if (!ambiguous.empty())
+      notes.push_back("**Left out:** " + where + ": several points at " + normal_text + " in the curve of " +
+                      Joined(ambiguous) + " (`normalize` needs one; pool or choose with `only`)");
+  }
+
   Figure f;
   f.name = "figure-" + spec.name;
-  f.title = spec.title.empty() ? spec.y + " against " + x_name : spec.title;
+  f.title = spec.title.empty() ? y_text + " against " + x_name : spec.title;
   f.xlabel = x_name;
-  f.ylabel = spec.ylabel.empty() ? spec.y : spec.ylabel;
+  f.ylabel = spec.ylabel.empty() ? y_text : spec.ylabel;
   f.logx = spec.logx;
   f.logy = spec.logy;
+  // The curves in order: each y, then each group.
   std::vector<std::string> groups;
   for (const FigureDatum& d : out.data)
     if (std::find(groups.begin(), groups.end(), d.group) == groups.end()) groups.push_back(d.group);
-  std::vector<std::pair<std::string, Series>> curves;
-  for (std::size_t gi = 0; gi < groups.size(); ++gi) {
-    Series se;
-    se.label = groups[gi].empty() ? spec.y : groups[gi];
-    se.columns = {x_name, "y", "y_se", "n"};
-    se.style = Series::Style::kErrorBars;
-    se.err = 2;
-    se.color = static_cast<int>(gi);
-    std::vector<const FigureDatum*> in;
-    for (const FigureDatum& d : out.data)
-      if (d.group == groups[gi] && std::isfinite(d.x) && std::isfinite(d.y)) in.push_back(&d);
-    std::sort(in.begin(), in.end(), [](const FigureDatum* a, const FigureDatum* b) { return a->x < b->x; });
-    for (const FigureDatum* d : in) se.rows.push_back({d->x, d->y, d->se, static_cast<double>(d->n)});
-    if (!se.rows.empty()) f.series.push_back(se);
-  }
+  for (std::size_t k = 0; k < spec.y.size(); ++k)
+    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+      Series se;
+      se.columns = {x_name, "y", "y_se", "n"};
+      se.style = Series::Style::kErrorBars;
+      se.err = 2;
+      se.color = static_cast<int>(k * groups.size() + gi);
+      std::vector<const FigureDatum*> in;
+      for (const FigureDatum& d : out.data)
+        if (d.series == k && d.group == groups[gi] && std::isfinite(d.x) && std::isfinite(d.y)) in.push_back(&d);
+      if (in.empty()) continue;
+      se.label = curve_name(*in.front());
+      std::sort(in.begin(), in.end(), [](const FigureDatum* a, const FigureDatum* b) { return a->x < b->x; });
+      for (const FigureDatum* d : in) se.rows.push_back({d->x, d->y, d->se, static_cast<double>(d->n)});
+      f.series.push_back(se);
+    }
   if (problem.empty() && !out.data.empty() && f.series.empty())
-    notes.push_back("**Not drawn:** " + where + ": no point has both " + x_name + " and " + spec.y + ".");
+    notes.push_back("**Not drawn:** " + where + ": no point has both " + x_name + " and " + y_text + ".");
 
   // The fit across every point of the figure.
   Table fit_table;
@@ -1327,16 +1445,16 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
       }
       if (fs.collapse) {
         collapse.name = "figure-" + spec.name + "-collapse";
-        collapse.title = (spec.title.empty() ? spec.y : spec.title) + ", divided by the fitted law";
+        collapse.title = (spec.title.empty() ? y_text : spec.title) + ", divided by the fitted law";
         collapse.xlabel = x_name;
-        collapse.ylabel = "(" + spec.y + ") / (" + fs.model + ")";
+        collapse.ylabel = "(" + y_text + ") / (" + fs.model + ")";
         collapse.logx = spec.logx;
         collapse.caption =
             "The data divided by the law fitted across every point (parameters in the table): a law "
             "that holds puts every point on 1";
         for (std::size_t gi = 0; gi < groups.size(); ++gi) {
           Series se;
-          se.label = groups[gi].empty() ? spec.y : groups[gi];
+          se.label = groups[gi].empty() ? y_text : groups[gi];
           se.columns = {x_name, "y_over_law", "y_over_law_se"};
           se.style = Series::Style::kErrorBars;
           se.err = 2;
@@ -1362,6 +1480,9 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   std::string caption = spec.caption;
   caption += std::string(caption.empty() ? "" : ". ") + "Error bars: standard errors" +
              (spec.pool.empty() ? "" : "; pooled over " + Joined(spec.pool) + " (means weighted by n)");
+  if (!spec.normalize.empty())
+    caption += "; each curve divided by its value at " + normal_text +
+               " (se from both as independent; that point itself is 1 exactly)";
   caption += OnlyText(spec);
   if (spec.fit && out.fit && out.fit->quality == FitQuality::kGood)
     caption += "; dashed: " + spec.fit->model + " fitted across every point";

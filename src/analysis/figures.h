@@ -63,13 +63,20 @@ struct FigureSpec {
   double width = 1.0;                       // profile: the band across the line averaged (d)
   int origin_outlet = -1;                   // profile along x: x from this base outlet's centre (-1: the silo's x)
   bool one_run = false;                     // maps, profile: the lowest replica with the field, not the runs merged
-  std::string y;                            // a metric name or an expression over metrics and axes
-  std::string ylabel;                       // default: y
-  std::string x;                            // an axis name; "" = the report's x axis
-  std::vector<std::string> group;           // axes making one curve each
-  bool group_given = false;                 // false: every sweep axis but x and the pooled ones
-  std::vector<std::string> pool;            // axes pooled over (points differing only there are one)
+  // points: one or several metric names or expressions over metrics and axes, each a curve per
+  // group (thesis fig. 6.8: the s-s, l-s and l-l fractions in one figure)
+  std::vector<std::string> y;
+  bool y_list = false;              // given as a list: /y/<k> in messages, and each curve's label names it
+  std::vector<std::string> labels;  // the legend label of each y (default: the y itself)
+  std::string ylabel;               // default: the y (joined when several)
+  std::string x;                    // an axis name; "" = the report's x axis
+  std::vector<std::string> group;   // axes making one curve each
+  bool group_given = false;         // false: every sweep axis but x and the pooled ones
+  std::vector<std::string> pool;    // axes pooled over (points differing only there are one)
   std::vector<std::pair<std::string, std::vector<nlohmann::json>>> only;  // axis -> accepted values
+  // points: each curve divided by its own value at the point whose axes take these values, the
+  // curve's other axes (x, group) the same ({"L": 0}: Q/Q_0 with Q_0 at L = 0, thesis fig. 5.13a)
+  std::vector<std::pair<std::string, nlohmann::json>> normalize;
   std::optional<FigureFitSpec> fit;
   std::string title, caption, reference;
   bool logx = false, logy = false;
@@ -98,7 +105,8 @@ struct FigureDatum {
   std::map<std::string, double> axes;  // every axis by name (sweep short names, derived, L)
   double x = kNaN, y = kNaN, se = kNaN;
   int n = 0;
-  std::string group;  // "X_db = 0.5" (the group axes' values)
+  std::string group;       // "X_db = 0.5" (the group axes' values)
+  std::size_t series = 0;  // which of the figure's y
 };
 
 struct FigureOutcome {
@@ -126,7 +134,11 @@ std::map<std::string, MeanSe> PooledMetrics(const CampaignAnalysis& analysis, co
 MeanSe YValue(const std::string& y, const std::map<std::string, MeanSe>& metrics,
               const std::map<std::string, double>& axes, std::string& problem);
 
-// The data of a figure (only, pool, y per point) and, with a fit, the fit across them.
+// y / y_0 with y_0 the reference's value: se propagated as from independent values; the
+// reference itself (`same`) is 1 exactly with se 0.
+MeanSe NormalisedValue(const MeanSe& y, const MeanSe& y0, bool same);
+
+// The data of a figure (only, pool, y per point, normalize) and, with a fit, the fit across them.
 FigureOutcome MakeFigure(const CampaignAnalysis& analysis, const FigureSpec& spec);
 
 // A field along a line: the mean over the grid nodes whose other coordinate lies within

@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numbers>
 
 #include "analysis/arches.h"
 #include "analysis/campaign_view.h"
+#include "analysis/expression.h"
 #include "analysis/options.h"
 #include "rundir/clogs.h"
 
@@ -51,8 +53,9 @@ bool AnyElongated(const std::vector<rundir::Disc>& discs) {
 // steady window's frames), then the arch bodies of the kept clogs in the window.
 class OrientationAccumulator : public RunAccumulator {
  public:
-  OrientationAccumulator(const RunView& run, const OrientationAnalysisOptions& o)
-      : data_(run.data), steady_(run.steady), o_(o) {
+  // `notes`: what the analysis found of its options at this run (an empty region).
+  OrientationAccumulator(const RunView& run, const OrientationAnalysisOptions& o, std::vector<std::string> notes)
+      : data_(run.data), steady_(run.steady), o_(o), notes_(std::move(notes)) {
     try {
       silo_ = SiloOf(data_->spec, 1e3);
       if (o.outlet >= static_cast<int>(silo_.outlets.size())) {
@@ -98,8 +101,13 @@ class OrientationAccumulator : public RunAccumulator {
         notes_.push_back(std::string("orientation (arches): ") + e.what());
       }
       std::vector<std::string> names;
-      for (const auto& r : OrientationRegions(o_.where, *outlet_)) names.push_back(r.name);
+      nlohmann::json bounds = nlohmann::json::array();
+      for (const auto& r : OrientationRegions(o_.where, *outlet_)) {
+        names.push_back(r.name);
+        bounds.push_back(JsonNumbers(std::vector<double>{r.x0, r.x1, r.y0, r.y1}));
+      }
       result["regions"] = names;
+      result["region_bounds"] = bounds;  // x0, x1, y0, y1 at this run's point
     }
     result["elongated"] = elongated_;
     result["bed"] = to_json(bed_);
@@ -125,10 +133,59 @@ class OrientationAnalysis : public Analysis {
   OrientationAnalysis(OrientationAnalysisOptions o, nlohmann::json raw) : o_(std::move(o)), raw_(std::move(raw)) {}
   std::string Key() const override { return "orientation"; }
   int Version() const override { return 1; }
-  nlohmann::json RunOptions() const override { return raw_; }
+  // With bounds over axes, the derived axes they may name are part of what a result depends on.
+  nlohmann::json RunOptions() const override {
+    if (o_.bounds.empty()) return raw_;
+    nlohmann::json derived = nlohmann::json::object();
+    for (const DerivedAxis& d : axes_.Derived()) derived[d.name] = d.expression.Text();
+    return {{"options", raw_}, {"axes", derived}};
+  }
   PassUse PassOptionsUsed() const override { return {.window = true, .clog_gap = true, .frames = true}; }
+  void UseAxes(const CampaignAxes& axes) override {
+    axes_ = axes;
+    const std::vector<std::string> names = axes.ExpressionNames();
+    for (const auto& b : o_.bounds) {
+      std::vector<std::string> unknown;
+      try {
+        unknown = Expression::Parse(b.text, names).Parameters();
+      } catch (const ExpressionError& e) {
+        throw OptionError(b.path, b.text, e.what());
+      }
+      if (!unknown.empty()) {
+        std::string list, known;
+        for (const auto& u : unknown) list += (list.empty() ? "" : ", ") + u;
+        for (const auto& n : names) known += (known.empty() ? "" : ", ") + n;
+        throw OptionError(b.path, b.text,
+                          "names no axis: " + list + " (a bound is a number or an expression over the axes: " +
+                              (known.empty() ? std::string("none") : known) + ")");
+      }
+    }
+  }
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
-    return std::make_unique<OrientationAccumulator>(run, o_);
+    if (o_.bounds.empty()) return std::make_unique<OrientationAccumulator>(run, o_, std::vector<std::string>{});
+    // The bounds at this run's point: its axes read from its spec.
+    OrientationAnalysisOptions o = o_;
+    std::vector<std::string> notes;
+    const std::map<std::string, double> values =
+        axes_.Values(nlohmann::json::object(), run.data ? run.data->spec : nlohmann::json::object());
+    const std::vector<std::string> names = axes_.ExpressionNames();
+    for (const auto& b : o_.bounds) {
+      const Expression e = Expression::Parse(b.text, names);
+      std::vector<double> vars;
+      for (const auto& n : e.Variables()) vars.push_back(values.count(n) ? values.at(n) : kNaN);
+      OrientationOptions::Region& r = o.where.regions[b.region];
+      double* side[4] = {&r.x0, &r.x1, &r.y0, &r.y1};
+      *side[b.side] = e.Evaluate(vars, {});
+    }
+    for (OrientationOptions::Region& r : o.where.regions)
+      if (!(r.x0 < r.x1) || !(r.y0 < r.y1)) {
+        notes.push_back("orientation: region \"" + r.name + "\" is empty at this point (x " + FormatNumber(r.x0) +
+                        " .. " + FormatNumber(r.x1) + ", y " + FormatNumber(r.y0) + " .. " + FormatNumber(r.y1) + ")");
+        // A box that holds no body (a NaN bound would hold every body: the test is "outside").
+        r.x0 = r.y0 = std::numeric_limits<double>::infinity();
+        r.x1 = r.y1 = -std::numeric_limits<double>::infinity();
+      }
+    return std::make_unique<OrientationAccumulator>(run, o, notes);
   }
   // flow_frames, order_parameter_<k> for each region k over the run's steady frames.
   std::vector<Metric> RunMetrics(const nlohmann::json& result) const override {
@@ -170,6 +227,7 @@ class OrientationAnalysis : public Analysis {
  private:
   OrientationAnalysisOptions o_;
   nlohmann::json raw_;
+  CampaignAxes axes_;
 };
 
 std::optional<Section> OrientationAnalysis::BuildSection(const SectionInput& in) const {
@@ -404,11 +462,29 @@ OrientationAnalysisOptions ReadOrientationOptions(const nlohmann::json& options,
         }
         for (const char* axis : {"x", "y"}) {
           if (!v[i].contains(axis)) throw OptionError(rp, v[i], std::string("must have \"") + axis + "\": [lo, hi]");
-          const std::vector<double> range = Numbers(v[i].at(axis), rp + "/" + axis, -kBig, kBig);
-          if (range.size() != 2 || !(range[0] < range[1]))
-            throw OptionError(rp + "/" + axis, v[i].at(axis), "must be [lo, hi] with lo < hi");
-          (axis[0] == 'x' ? r.x0 : r.y0) = range[0];
-          (axis[0] == 'x' ? r.x1 : r.y1) = range[1];
+          const nlohmann::json& range = v[i].at(axis);
+          const std::string ap = rp + "/" + axis;
+          if (!range.is_array() || range.size() != 2)
+            throw OptionError(ap, range,
+                              "must be [lo, hi]: numbers (d), or expressions over the campaign's axes (\"W_s - 5\")");
+          double* ends[2] = {axis[0] == 'x' ? &r.x0 : &r.y0, axis[0] == 'x' ? &r.x1 : &r.y1};
+          for (std::size_t e = 0; e < 2; ++e) {
+            const std::string ep = ap + "/" + std::to_string(e);
+            if (range[e].is_string()) {
+              try {
+                Expression::Parse(range[e].get<std::string>(), {});  // the grammar; the names at UseAxes
+              } catch (const ExpressionError& err) {
+                throw OptionError(ep, range[e], err.what());
+              }
+              o.bounds.push_back(
+                  {w.regions.size(), (axis[0] == 'x' ? 0 : 2) + static_cast<int>(e), range[e].get<std::string>(), ep});
+              *ends[e] = kNaN;
+            } else {
+              *ends[e] = OptionNumber(range[e], ep, -kBig, kBig);
+            }
+          }
+          if (std::isfinite(*ends[0]) && std::isfinite(*ends[1]) && !(*ends[0] < *ends[1]))
+            throw OptionError(ap, range, "must be [lo, hi] with lo < hi");
         }
         if (v[i].contains("director"))
           r.director = Radians(OptionNumber(v[i].at("director"), rp + "/director", -360.0, 360.0));

@@ -19,6 +19,16 @@ namespace granary::analysis {
 struct OrientationAnalysisOptions {
   OrientationOptions where;
   int outlet = 0;  // positions relative to this outlet (event order)
+  // Region bounds given as expressions over the campaign's axes (thesis fig. 5.5: 10 < y <
+  // W - 5 with W the point's outlet width), evaluated per run; where.regions holds NaN there
+  // until then.
+  struct Bound {
+    std::size_t region = 0;
+    int side = 0;      // 0 x0, 1 x1, 2 y0, 3 y1
+    std::string text;  // "W_s - 5"
+    std::string path;  // "/report/orientation/regions/0/y/1", for messages
+  };
+  std::vector<Bound> bounds;
 };
 // From /report/orientation (null: the defaults, heights 5 and 10 d, radii 5 and 10 d). Throws
 // OptionError naming `path` and below.

@@ -87,12 +87,15 @@ RegionFrame MakeRegionFrame(std::span<const rundir::Disc> discs, std::span<const
   return f;
 }
 
-void RegionAccumulator::Add(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies) {
+void RegionAccumulator::Add(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies,
+                            bool velocities) {
   const RegionFrame f = MakeRegionFrame(discs, bodies, stats_.region);
   ++stats_.frames;
   phi_.push_back(f.phi);
   tg_translational_.push_back(f.tg_translational);
   tg_full_.push_back(f.tg_full);
+  if (!velocities) return;
+  ++stats_.velocity_frames;
   for (const rundir::Body& b : bodies) {
     if (!stats_.region.Contains(b.x, b.y)) continue;
     stats_.vx.Add(b.vx);

@@ -51,12 +51,14 @@ RegionFrame MakeRegionFrame(std::span<const rundir::Disc> discs, std::span<const
                             const Rect& region);
 
 // Time average over frames: mean and se (over frames) of phi and the temperatures, and the
-// distributions of the velocities of the bodies inside, over every frame.
+// distributions of the velocities of the bodies inside, over the frames added with
+// `velocities` (those of steady flow: region_analysis.h).
 struct RegionStats {
   Rect region;
   MeanSe phi, tg_translational, tg_full;
   GridHistogram vx, vy;  // counts of body velocities on a fixed grid (merge over replicas)
   int frames = 0;
+  int velocity_frames = 0;  // the frames behind vx, vy
 };
 
 class RegionAccumulator {
@@ -66,7 +68,7 @@ class RegionAccumulator {
     stats_.region = region;
     stats_.vx.width = stats_.vy.width = velocity_bin;
   }
-  void Add(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies);
+  void Add(std::span<const rundir::Disc> discs, std::span<const rundir::Body> bodies, bool velocities = true);
   RegionStats Result() const;
 
  private:

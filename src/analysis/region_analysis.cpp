@@ -41,11 +41,14 @@ class RegionRunAccumulator : public RunAccumulator {
   }
   FrameRequest Frames() const override { return {{run_.steady}, false}; }
   void AddFrame(const FrameView& frame) override {
+    // The steady window without a flow window reaches to the first clog, where a run that
+    // clogged soon after opening is mostly at rest: no velocities from it.
+    const bool flowing = run_.flow.ok && run_.flow.t_start <= frame.frame.time && frame.frame.time <= run_.flow.t_end;
     for (std::size_t k = 0; k < run_.outlets.size(); ++k) {
       discs_ = frame.frame.discs;
       bodies_ = frame.bodies;
       ToOutletFrame(run_.outlets[k], discs_, bodies_);
-      regions_[k].Add(discs_, bodies_);
+      regions_[k].Add(discs_, bodies_, flowing);
     }
     ++frames_;
   }
@@ -59,6 +62,9 @@ class RegionRunAccumulator : public RunAccumulator {
                                   std::to_string(run_.steady.end));
       return result;
     }
+    if (!run_.flow.ok)
+      result["notes"].push_back("velocity distributions: none, the run has no steady flow window (" + run_.flow.note +
+                                ")");
     result["regions"] = nlohmann::json::array();
     for (std::size_t k = 0; k < regions_.size(); ++k) {
       const RegionStats s = regions_[k].Result();
@@ -67,7 +73,8 @@ class RegionRunAccumulator : public RunAccumulator {
                           {"tg_full", to_json(s.tg_full)},
                           {"frames", s.frames}};
       // The distributions of the region next to outlet 0 (the report draws those).
-      if (k == 0) r["velocity"] = {{"vx", HistogramJson(s.vx)}, {"vy", HistogramJson(s.vy)}};
+      if (k == 0)
+        r["velocity"] = {{"vx", HistogramJson(s.vx)}, {"vy", HistogramJson(s.vy)}, {"frames", s.velocity_frames}};
       result["regions"].push_back(r);
     }
     return result;
@@ -85,7 +92,7 @@ class RegionAnalysis : public Analysis {
  public:
   explicit RegionAnalysis(RegionSize size) : size_(std::move(size)) {}
   std::string Key() const override { return "region"; }
-  int Version() const override { return 1; }
+  int Version() const override { return 2; }
   nlohmann::json RunOptions() const override { return {{"pad", size_.pad}, {"height", size_.height}}; }
   PassUse PassOptionsUsed() const override { return {.window = true, .clog_gap = true, .frames = true}; }
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
@@ -206,7 +213,7 @@ std::optional<Section> RegionAnalysis::BuildSection(const SectionInput& in) cons
     s.blocks.push_back(tg);
   }
   // Velocity distributions, pooled over the replicas of each point.
-  const std::string pooled = std::string("Pooled over frames and replicas") +
+  const std::string pooled = std::string("Pooled over the frames of steady flow (the flow window) and replicas") +
                              (v.outlets > 1 ? "; the region next to outlet 0" : "") +
                              "; in outlet coordinates (x along the outlet, y from its wall into the silo)";
   Figure dx{"velocity_distribution_vx",

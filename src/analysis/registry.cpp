@@ -164,6 +164,8 @@ AnalysisSetup SetupAnalyses(const nlohmann::json& campaign_spec) {
       setup.analyses.push_back(std::move(a));
     }
   }
+  const CampaignAxes axes = CampaignAxes::OfCampaignSpec(campaign_spec);
+  for (const auto& a : setup.analyses) a->UseAxes(axes);
   return setup;
 }
 

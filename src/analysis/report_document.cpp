@@ -249,15 +249,22 @@ double FormatCell(const std::vector<double>& row, int col) {
 
 KeyLayout ComputeKeyLayout(const Figure& f) {
   // Gnuplot's svg terminal sizes a key entry as its title's characters at 0.7 font sizes each
-  // plus the sample line: at 13 pt, 9.1 px a character and about 8 characters more (measured:
-  // titles of 30 characters go in two columns on 800 px, of 36 in one).
+  // plus the sample line: at 13 pt, 9.1 px a character and the sample line about 10 characters
+  // more (measured: titles of 30 characters go in two columns on 800 px, of 36 in one; a pair
+  // of 32-character titles in two columns ended 10 px from the edge).
   constexpr double kCharPx = 9.1;
   constexpr int kMargin = 40;
   std::size_t longest = 0;
   for (const Series& se : f.series) longest = std::max(longest, se.label.size());
   KeyLayout k;
-  const int entry = static_cast<int>(std::ceil((static_cast<double>(longest) + 8) * kCharPx));
+  const int entry = static_cast<int>(std::ceil((static_cast<double>(longest) + 10) * kCharPx));
   k.width = std::max(k.width, entry + kMargin);
+  // The title is centred over the plot, which the y label's margin moves right: at most
+  // 7.5 px a character (measured 6.6) and that margin on both sides.
+  constexpr double kTitleCharPx = 7.5;
+  constexpr int kTitleMargin = 2 * 70;
+  k.width =
+      std::max(k.width, static_cast<int>(std::ceil(static_cast<double>(f.title.size()) * kTitleCharPx)) + kTitleMargin);
   k.columns = 2 * entry + kMargin <= k.width ? 2 : 1;
   const int rows = static_cast<int>((f.series.size() + static_cast<std::size_t>(k.columns) - 1) /
                                     static_cast<std::size_t>(k.columns));

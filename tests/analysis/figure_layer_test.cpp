@@ -289,6 +289,97 @@ TEST(FigureLayer, PointsWithoutTheMetricAreLeftOutByNameAndTheRestDrawn) {
     EXPECT_NE(notes.find(w), std::string::npos) << w << "\n" << notes;
 }
 
+// Several y in one figure: a curve per y and group, each with its legend label, the values
+// of each y as drawn alone.
+TEST(FigureLayer, SeveralMetricsAreACurveEachWithItsLabel) {
+  TempDir dir;
+  const nlohmann::json figures = {{"report",
+                                   {{"figures",
+                                     {{{"name", "both"},
+                                       {"y", {"q_count", "2 * q_count"}},
+                                       {"labels", {"Q", "2Q"}},
+                                       {"x", "W"},
+                                       {"group", "mu"},
+                                       {"only", {{"mu", {0, 1}}}}}}}}}};
+  const Campaign c = MakeCampaign(dir.Path(), figures);
+  const auto a = Analyse(c, SetupAnalyses(c.info.spec));
+  const FigureOutcome f = MakeFigure(*a, ReadFigureSpecs(c.info.spec)[0]);
+  ASSERT_EQ(f.data.size(), 18u);  // (5 + 4 points) x 2 y
+  const Figure* fig = nullptr;
+  for (const Block& b : f.blocks)
+    if (const auto* one = std::get_if<Figure>(&b)) fig = one;
+  ASSERT_TRUE(fig);
+  std::vector<std::string> labels;
+  for (const Series& s : fig->series) labels.push_back(s.label);
+  EXPECT_EQ(labels, (std::vector<std::string>{"Q, mu = 0", "Q, mu = 1", "2Q, mu = 0", "2Q, mu = 1"}));
+  for (const Series& s : fig->series) {
+    const double mu = s.label.find("mu = 1") != std::string::npos ? 1.0 : 0.0;
+    const double factor = s.label.rfind("2Q", 0) == 0 ? 2.0 : 1.0;
+    ASSERT_EQ(s.rows.size(), mu == 0 ? 5u : 4u) << s.label;
+    for (const auto& row : s.rows) {
+      const double expected = factor * QOf(row[0], mu) * Off(row[0], mu);
+      EXPECT_NEAR(row[1], expected, 1e-6 * expected) << s.label << " W = " << row[0];
+    }
+  }
+  EXPECT_EQ(fig->ylabel, "q_count, 2 * q_count");
+}
+
+// normalize: each curve divided by its own value at W = 10; the se from both values as
+// independent (each point's replicas at -+1 %: se 1 % of its mean), the reference 1 ± 0.
+TEST(FigureLayer, NormalizeDividesEachCurveByItsValueAtTheReferencePoint) {
+  TempDir dir;
+  const nlohmann::json figures = {
+      {"report",
+       {{"figures",
+         {{{"name", "q-over-q0"}, {"y", "q_count"}, {"x", "W"}, {"group", "mu"}, {"normalize", {{"W", 10}}}}}}}}};
+  const Campaign c = MakeCampaign(dir.Path(), figures);
+  const auto a = Analyse(c, SetupAnalyses(c.info.spec));
+  const FigureOutcome f = MakeFigure(*a, ReadFigureSpecs(c.info.spec)[0]);
+  ASSERT_EQ(f.data.size(), 13u);
+  for (const FigureDatum& d : f.data) {
+    const double mu = d.axes.at("mu");
+    const double ratio = QOf(d.x, mu) * Off(d.x, mu) / (QOf(10, mu) * Off(10, mu));
+    EXPECT_NEAR(d.y, ratio, 1e-6 * ratio) << d.group << " W = " << d.x;
+    if (d.x == 10)
+      EXPECT_EQ(d.se, 0.0);
+    else if (d.x == 26)
+      EXPECT_TRUE(std::isnan(d.se));  // one replica: no se of its own
+    else
+      EXPECT_NEAR(d.se, ratio * 0.01 * std::sqrt(2.0), 1e-6 * ratio) << d.group << " W = " << d.x;
+  }
+  // A reference no curve but mu = 0 has: the others are left out, by name.
+  TempDir dir2;
+  nlohmann::json at26 = figures;
+  at26["report"]["figures"][0]["normalize"] = {{"W", 26}};
+  const Campaign c26 = MakeCampaign(dir2.Path(), at26);
+  const auto a26 = Analyse(c26, SetupAnalyses(c26.info.spec));
+  const FigureOutcome g = MakeFigure(*a26, ReadFigureSpecs(c26.info.spec)[0]);
+  std::string notes;
+  std::vector<std::string> drawn;
+  for (const Block& b : g.blocks) {
+    if (const auto* t = std::get_if<Text>(&b)) notes += t->markdown + "\n";
+    if (const auto* fig = std::get_if<Figure>(&b)) {
+      for (const Series& s : fig->series) drawn.push_back(s.label);
+      EXPECT_NE(fig->caption.find("each curve divided by its value at W = 26"), std::string::npos) << fig->caption;
+    }
+  }
+  EXPECT_EQ(drawn, std::vector<std::string>{"mu = 0"});
+  EXPECT_NE(notes.find("**Left out:**"), std::string::npos) << notes;
+  EXPECT_NE(notes.find("no point at W = 26"), std::string::npos) << notes;
+  EXPECT_NE(notes.find("mu = 0.5, W = 10"), std::string::npos) << notes;
+}
+
+TEST(NormalisedValue, RatioAndIndependentErrors) {
+  const MeanSe r = NormalisedValue({6.0, 0.3, 4}, {3.0, 0.4, 2}, false);
+  EXPECT_DOUBLE_EQ(r.mean, 2.0);
+  EXPECT_NEAR(r.se, 2.0 * std::hypot(0.3 / 6.0, 0.4 / 3.0), 1e-15);
+  EXPECT_EQ(r.n, 2);
+  const MeanSe one = NormalisedValue({3.0, 0.4, 2}, {3.0, 0.4, 2}, true);
+  EXPECT_EQ(one.mean, 1.0);
+  EXPECT_EQ(one.se, 0.0);
+  EXPECT_TRUE(std::isnan(NormalisedValue({1.0, 0.1, 2}, {0.0, 0.1, 2}, false).mean));
+}
+
 TEST(FigureLayer, PooledFigureWeighsThePointsByTheirN) {
   TempDir dir;
   const nlohmann::json figures = {
@@ -368,6 +459,27 @@ TEST(FigureLayer, OptionErrorsNameThePathTheValueAndWhatIsAllowed) {
   EXPECT_NE(error_of({{"expect", {{{"metric", "psi"}, {"at", {{"H", 3}}}, {"value", 1}}}}})
                 .find("/expect/0/at/H: names no axis"),
             std::string::npos);
+  // A list of y, its labels, normalize and a fit of several y.
+  auto points = [&](const nlohmann::json& keys) {
+    nlohmann::json f = {{"name", "f"}, {"x", "W"}};
+    f.update(keys);
+    return error_of({{"report", {{"figures", {f}}}}});
+  };
+  EXPECT_NE(points({{"y", {"q_count", 3}}}).find("/report/figures/0/y/1: must be a metric name"), std::string::npos);
+  EXPECT_NE(points({{"y", nlohmann::json::array()}}).find("/report/figures/0/y:"), std::string::npos);
+  EXPECT_NE(points({{"y", {"q_count", "psi"}}, {"labels", {"Q"}}})
+                .find("/report/figures/0/labels: must be a list of 2 strings"),
+            std::string::npos);
+  EXPECT_NE(points({{"y", "q_count"}, {"labels", {"Q"}}}).find("/report/figures/0/labels: names the curves"),
+            std::string::npos);
+  EXPECT_NE(points({{"y", "q_count"}, {"normalize", {{"D", 0}}}}).find("/report/figures/0/normalize/D: names no axis"),
+            std::string::npos);
+  EXPECT_NE(points({{"y", "q_count"}, {"normalize", nlohmann::json::object()}}).find("/report/figures/0/normalize:"),
+            std::string::npos);
+  EXPECT_NE(points({{"y", {"q_count", "psi"}}, {"fit", {{"model", "a * W"}}}})
+                .find("/report/figures/0/fit: fits one y; this figure has 2"),
+            std::string::npos);
+  EXPECT_EQ(points({{"y", {"q_count", "psi"}}, {"labels", {"Q", "Psi"}}, {"normalize", {{"W", 4}}}}), "");
   EXPECT_EQ(error_of({{"axes", {{"W2", "2 * W"}}},
                       {"report", {{"figures", {{{"name", "f"}, {"y", "q_count"}, {"x", "W2"}}}}}},
                       {"expect", {{{"metric", "q_count"}, {"at", {{"W2", 8}}}, {"value", 1}, {"source", "s"}}}}}),

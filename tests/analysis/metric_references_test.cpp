@@ -49,6 +49,10 @@ TEST(MetricReferences, AnUnknownNameIsRefusedWithItsPathAndWhatExists) {
   EXPECT_NE(fig.find("\"psii\" names no metric"), std::string::npos) << fig;
   EXPECT_NE(fig.find("psi,"), std::string::npos) << fig;                       // what the analyses offer
   EXPECT_NE(fig.find("no axis (mu, W, W_over_2)"), std::string::npos) << fig;  // and the axes
+  // A list of y: the path names the one at fault.
+  const std::string listed =
+      ErrorOf(SpecWith({{"figures", {{{"name", "a"}, {"y", {"q_count", "contact_sss"}}, {"x", "W"}}}}}));
+  EXPECT_NE(listed.find("/report/figures/0/y/1: \"contact_sss\" names no metric"), std::string::npos) << listed;
 
   const std::string exp = ErrorOf(SpecWith(nlohmann::json::object(), {{{"metric", "q_cnt"}, {"value", 1}}}));
   EXPECT_NE(exp.find("/expect/0/metric"), std::string::npos) << exp;

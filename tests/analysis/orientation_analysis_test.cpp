@@ -12,6 +12,8 @@
 #include <limits>
 #include <numbers>
 
+#include "analysis/options.h"
+#include "analysis/registry.h"
 #include "analysis/run_pass.h"
 #include "test_util.h"
 
@@ -117,6 +119,78 @@ TEST(OrientationAnalysis, OrderParameterPerRegionOfTheSpec) {
   EXPECT_EQ(m[2].name, "order_parameter_1");
   EXPECT_EQ(m[2].title, "order parameter S in region 2");
   EXPECT_NEAR(m[2].value, 0.0, 1e-12);
+}
+
+// Bounds over the campaign's axes (thesis fig. 5.5: 10 < y < W - 5), evaluated at each run's
+// point from its spec: W/2 < y < W + 2 holds y = 2 .. 6 at W = 4 and 1 .. 4 at W = 2.
+TEST(OrientationAnalysis, RegionBoundsFollowEachPointsAxes) {
+  TempDir dir;
+  const nlohmann::json region = {{"name", "low"}, {"x", {-10, 10}}, {"y", {"W_half", "W + 2"}}, {"director", 90}};
+  const nlohmann::json campaign = {
+      {"name", "bounds"},
+      {"base", {{"silo", {{"width", 40.0}, {"base_outlets", {{{"center", 0.0}, {"width", 4.0}}}}}}}},
+      {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {2, 4}}}}}},
+      {"axes", {{"W_half", "W / 2"}}},
+      {"report", {{"orientation", {{"regions", nlohmann::json::array({region})}}}}}};
+  const AnalysisSetup setup = SetupAnalyses(campaign);
+  const Analysis* orientation = nullptr;
+  for (const Analysis* a : setup.List())
+    if (a->Key() == "orientation") orientation = a;
+  ASSERT_TRUE(orientation);
+  EXPECT_TRUE(orientation->RunOptions().at("axes").contains("W_half"));  // the cache key holds the definitions
+  // Upright bodies at y = 3 and 5: inside 2 < y < 6 at W = 4; at W = 2 (1 < y < 4) only y = 3.
+  // A lying one at y = 4.5: inside at W = 4 only.
+  for (const double w : {4.0, 2.0}) {
+    rundir::RunData data = SiloRun(dir.Path());
+    data.spec["silo"]["base_outlets"][0]["width"] = w;
+    const PassOptions pass;
+    const RunView view = MakeRunView(data, pass);
+    const auto accumulator = orientation->Start(view);
+    Add(*accumulator, Dumbbells(3.0, {{0, 3, 90}, {0, 5, 90}, {4, 4.5, 0}}));
+    const nlohmann::json result = accumulator->Finish();
+    EXPECT_EQ(result.at("region_bounds")[0], (nlohmann::json{-10.0, 10.0, w / 2, w + 2})) << w;
+    const Metric* s = FindMetric(orientation->RunMetrics(result), "order_parameter_0");
+    ASSERT_TRUE(s) << w;
+    // W = 4: two along the director, one across: S = (1 + 1 - 1) / 3. W = 2: one along: S = 1.
+    EXPECT_NEAR(s->value, w == 4.0 ? 1.0 / 3.0 : 1.0, 1e-12) << w;
+  }
+  // An empty region at a point (lo >= hi there): no body in it, and a note naming it.
+  nlohmann::json upside = campaign;
+  upside["report"]["orientation"]["regions"][0]["y"] = {"W", 3};
+  const AnalysisSetup setup2 = SetupAnalyses(upside);
+  for (const Analysis* a : setup2.List())
+    if (a->Key() == "orientation") {
+      rundir::RunData data = SiloRun(dir.Path());
+      const RunView view = MakeRunView(data, PassOptions{});
+      const auto accumulator = a->Start(view);  // W = 4: 4 < y < 3
+      Add(*accumulator, Dumbbells(3.0, {{0, 3.5, 90}}));
+      const nlohmann::json result = accumulator->Finish();
+      ASSERT_TRUE(result.contains("notes"));
+      EXPECT_NE(result.at("notes")[0].get<std::string>().find("region \"low\" is empty at this point"),
+                std::string::npos)
+          << result.at("notes");
+      EXPECT_TRUE(std::isnan(FindMetric(a->RunMetrics(result), "order_parameter_0")->value));
+    }
+  // Names checked when the analyses are set up (plan time), with the path of the bound.
+  auto error = [&](const nlohmann::json& y) -> std::string {
+    nlohmann::json spec = campaign;
+    spec["report"]["orientation"]["regions"][0]["y"] = y;
+    try {
+      SetupAnalyses(spec);
+    } catch (const OptionError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_EQ(error({0, "W_s - 5"})
+                .rfind("/report/orientation/regions/0/y/1: names no axis: W_s (a bound is a number or an expression "
+                       "over the axes: W, W_half)",
+                       0),
+            0u)
+      << error({0, "W_s - 5"});
+  EXPECT_EQ(error({0, "W -"}).rfind("/report/orientation/regions/0/y/1:", 0), 0u) << error({0, "W -"});
+  EXPECT_EQ(error({0, true}).rfind("/report/orientation/regions/0/y/1: must be a number", 0), 0u) << error({0, true});
+  EXPECT_EQ(error({3}).rfind("/report/orientation/regions/0/y: must be [lo, hi]", 0), 0u) << error({3});
 }
 
 // Discs only: nothing to orient, no metrics. An outlet the run does not have: a note, and no

@@ -25,8 +25,12 @@ rundir::RunData TwoOutletRun() {
   rundir::RunData data;
   const nlohmann::json outlets = {{{"center", -6.0}, {"width", 2.0}}, {{"center", 6.0}, {"width", 2.0}}};
   data.spec = {{"discharge", {{"mode", "remove"}, {"clog_window", 5.0}}},
-               {"silo", {{"width", 24.0}, {"base_outlets", outlets}}}};
+               {"silo", {{"width", 24.0}, {"base_outlets", outlets}}},
+               {"bodies", {{"count", 525}}}};
   data.has_frames = true;
+  // Exits to t = 10 through both outlets: a steady flow window around the frames at t = 3, 4.
+  for (int i = 1; i <= 100; ++i) data.events.push_back({0.1 * i, i, "disc", 1.0, i % 2});
+  data.summary.t_end = 10.0;
   return data;
 }
 
@@ -120,6 +124,65 @@ TEST(RegionAnalysis, RegionSizeOptions) {
   EXPECT_EQ(error({{"pad", 2}, {"height", -1}}).rfind("/report/region/height: must be in", 0), 0u);
   EXPECT_EQ(error({{"pad", "2"}, {"height", 1}}).rfind("/report/region/pad: must be a number", 0), 0u);
   EXPECT_EQ(error({{"pad", 2}, {"height", 1}, {"width", 3}}).rfind("/report/region/width: unknown key", 0), 0u);
+}
+
+// One base outlet of width 2 at x = 0 and `exits` exits at 10 a time unit from t = 0.1; the
+// run goes on at rest to t = 30 (a clog).
+rundir::RunData ClogRun(int exits) {
+  rundir::RunData data;
+  data.spec = {{"discharge", {{"mode", "remove"}, {"clog_window", 5.0}}},
+               {"silo", {{"width", 24.0}, {"base_outlets", {{{"center", 0.0}, {"width", 2.0}}}}}},
+               {"bodies", {{"count", 525}}}};
+  data.has_frames = true;
+  for (int i = 1; i <= exits; ++i) data.events.push_back({0.1 * i, i, "disc", 1.0, 0});
+  data.summary.t_end = 30.0;
+  data.summary.bodies = 525;
+  return data;
+}
+
+// Thesis fig. 3.5 takes the velocities in steady flow: the frames of a clogged bed (at rest,
+// after the flow window) add no weight at v = 0, though they count for phi and T_g.
+TEST(RegionAnalysis, VelocityDistributionsTakeTheFlowWindowsFramesOnly) {
+  const rundir::RunData data = ClogRun(100);  // exits to t = 10, then a clog
+  const PassOptions pass;
+  const RunView view = MakeRunView(data, pass);
+  ASSERT_TRUE(view.flow.ok) << view.flow.note;
+  ASSERT_NEAR(view.flow.t_end, 10.0, 1e-9);
+  const auto analysis = MakeRegionAnalysis("ch3", "/report/region");
+  const auto accumulator = analysis->Start(view);
+  // Flowing at v_y = -1 at t = 5 and 6; at rest at t = 15 and 20 (frames the pass would not
+  // hand over inside this window either, added here to see that they are refused).
+  for (const double t : {5.0, 6.0}) Add(*accumulator, testing::LatticeFrame(t, -1.0).first);
+  for (const double t : {15.0, 20.0}) Add(*accumulator, testing::LatticeFrame(t, 0.0).first);
+  const nlohmann::json result = accumulator->Finish();
+  EXPECT_EQ(result.at("frames"), 4);
+  EXPECT_EQ(result.at("regions")[0].at("velocity").at("frames"), 2);
+  // The ch. 3 region of W = 2: 4 columns x 10 rows, 40 bodies a frame, all at v_y = -1.
+  const Samples vy = analysis->Distribution("vy", result);
+  double total = 0.0;
+  for (std::size_t k = 0; k < vy.values.size(); ++k) {
+    EXPECT_NEAR(vy.values[k], -1.0, 1e-9) << "weight " << vy.weights[k] << " at v_y = " << vy.values[k];
+    total += vy.weights[k];
+  }
+  EXPECT_EQ(total, 80.0);
+  EXPECT_NEAR(FindMetric(analysis->RunMetrics(result), "phi")->value, kPi / 4, 1e-12);  // all 4 frames
+}
+
+// A run that clogs after 5 exits has no steady flow window: no velocities, and a note saying so.
+TEST(RegionAnalysis, ARunWithoutAFlowWindowGivesNoVelocities) {
+  const rundir::RunData data = ClogRun(5);
+  const PassOptions pass;
+  const RunView view = MakeRunView(data, pass);
+  ASSERT_FALSE(view.flow.ok);
+  const auto analysis = MakeRegionAnalysis("ch3", "/report/region");
+  const auto accumulator = analysis->Start(view);
+  Add(*accumulator, testing::LatticeFrame(0.3, -1.0).first);
+  const nlohmann::json result = accumulator->Finish();
+  EXPECT_TRUE(analysis->Distribution("vy", result).values.empty());
+  EXPECT_EQ(result.at("regions")[0].at("velocity").at("frames"), 0);
+  ASSERT_EQ(result.at("notes").size(), 1u);
+  EXPECT_EQ(result.at("notes")[0].get<std::string>().rfind("velocity distributions: none", 0), 0u)
+      << result.at("notes")[0];
 }
 
 // A run whose frames all lie outside the window: no regions, no metrics, and a note saying so.

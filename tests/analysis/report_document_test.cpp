@@ -279,6 +279,42 @@ TEST(GnuplotScript, AKeyOfLongTitlesFitsInsideTheCanvas) {
   EXPECT_EQ(titles, 8);
 }
 
+// Thesis fig. 6.5a as the report drew it: a title of 115 characters and two key entries of 32
+// and 33 characters. The title lies inside the canvas (centred on its anchor, at most 7.5 px
+// a character), and so does each key entry's sample line right of its title.
+TEST(GnuplotScript, ALongTitleAndTwoKeyColumnsFitInsideTheCanvas) {
+  TempDir dir;
+  const std::string title =
+      "Axis angle psi in the bed before the outlet opens at theta = 45 degrees, r = 10 d, W/D_eq = 8, one curve "
+      "per D_b/D_s";
+  Figure f{"fig", title, "psi (degrees)", "probability density", {}, false, false, ""};
+  f.series.push_back(PointsAt("D_b = 1 d, W = 11.3137 d (n = 20)", {{5, 0.02, 0.001}, {15, 0.01, 0.001}}));
+  f.series.push_back(PointsAt("D_b = 2 d, W = 17.8885 d (n = 8)", {{5, 0.0125, 0.001}, {15, 0.0, 0.001}}));
+  const KeyLayout key = ComputeKeyLayout(f);
+  const RenderResult r = RenderReport("T", {Section{"s", "S", {f}}}, dir.Path(), RenderOptions{});
+  ASSERT_EQ(r.figures_drawn, 1) << (r.problems.empty() ? "" : r.problems.front());
+  const std::string svg = ReadFile(dir.Path() / "figures" / "fig.svg");
+  const std::regex size_re(R"re(<svg[^>]*width="(\d+)"[^>]*height="(\d+)")re");
+  std::smatch size;
+  ASSERT_TRUE(std::regex_search(svg, size, size_re));
+  const double width = std::stod(size[1]);
+  EXPECT_EQ(width, key.width);
+  auto anchor_x = [&](const std::string& text) {
+    const auto at = svg.find("<text>" + text + "</text>");
+    EXPECT_NE(at, std::string::npos) << text;
+    const auto translate = svg.rfind("translate(", at);
+    return at == std::string::npos || translate == std::string::npos ? -1e9 : std::stod(svg.substr(translate + 10));
+  };
+  const double half = 7.5 * static_cast<double>(title.size()) / 2;
+  EXPECT_GE(anchor_x(title) - half, 0) << "the title runs off the left edge";
+  EXPECT_LE(anchor_x(title) + half, width) << "the title runs off the right edge";
+  for (const Series& se : f.series) {
+    const double x = anchor_x(se.label);
+    EXPECT_LE(x + 40, width) << se.label << ": the sample line right of the title is cut";
+    EXPECT_GE(x - 7.5 * static_cast<double>(se.label.size()), 0) << se.label << ": the title runs off the left edge";
+  }
+}
+
 // A point name in a narrow table column breaks between its "name = value" pairs, never
 // inside one ("W =" on one line, "12" on the next); the CSV keeps plain spaces.
 TEST(RenderReport, PointNamesBreakOnlyBetweenTheirPairs) {
