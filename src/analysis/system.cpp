@@ -236,10 +236,13 @@ Table FixedParameters(const json& spec, const std::vector<std::string>& axes) {
   add("discharge", "stops at time", "/discharge/max_time", Num(At(d, "max_time")));
   if (At(d, "on_clog") == "unclog") {
     const json& u = At(d, "unclog");
-    const std::string how = At(u, "method") == "kick"
-                                ? "kicks the bodies within " +
-                                      (At(u, "kick_radius") == 0.0 ? std::string("W") : Num(At(u, "kick_radius"))) +
-                                      " of the outlet upwards at " + Num(At(u, "kick_speed"))
+    const std::string kick = "kicks the bodies within " +
+                             (At(u, "kick_radius") == 0.0 ? std::string("W") : Num(At(u, "kick_radius"))) +
+                             " of the outlet upwards at " + Num(At(u, "kick_speed"));
+    // run.json names the fallback only when there is one.
+    const std::string how = At(u, "method") == "kick" ? kick
+                            : At(u, "fallback") == "kick"
+                                ? "takes out the arch's bodies; " + kick + " when it finds none"
                                 : std::string("takes out the arch's bodies");
     add("discharge", "on a clog", "/discharge/on_clog",
         "unclogs: " + how + " (up to " + Num(At(u, "max_attempts")) + " attempts) and goes on; ends at clog " +

@@ -324,6 +324,7 @@ class Discharge : private CheckpointedState {
   // remove_arch takes out `arch` when given (the arch found when the clog was counted), else
   // the arch the contacts of this step show.
   void Unclog(const std::vector<std::int64_t>* arch = nullptr);
+  void Kick(std::vector<std::int64_t>& kicked);  // the kick method, also remove_arch's fallback
   // The bodies of the arches sealing the outlets, as the arch analysis finds them.
   std::vector<std::int64_t> ArchBodies();
   void WriteSummary(const std::string& end_reason);
@@ -835,9 +836,8 @@ std::vector<std::int64_t> Discharge::ArchBodies() {
 }
 
 // remove_arch: the arch's bodies go back on top (reinject mode) or out of the silo (remove
-// mode; they are not exits). kick: every body whose centre is within kick_radius of an
-// outlet's centre gets kick_speed in a direction drawn uniformly within 45 degrees of the
-// upward vertical, in body order (the same numbers at any thread count).
+// mode; they are not exits); when there is no arch to take out, the fallback (a kick, or
+// nothing). The row of unclogs.csv names what was done: a fallback kick is a "kick" row.
 void Discharge::Unclog(const std::vector<std::int64_t>* arch) {
   World& w = *world_;
   const granary::Unclog& u = spec_.discharge.unclog;
@@ -851,7 +851,10 @@ void Discharge::Unclog(const std::vector<std::int64_t>* arch) {
   e.method = ToString(u.method);
   if (u.method == UnclogMethod::kRemoveArch) {
     e.bodies = arch != nullptr ? *arch : ArchBodies();
-    if (spec_.discharge.mode == DischargeMode::kReinject) {
+    if (e.bodies.empty() && u.fallback == UnclogFallback::kKick) {
+      e.method = ToString(UnclogMethod::kKick);
+      Kick(e.bodies);
+    } else if (spec_.discharge.mode == DischargeMode::kReinject) {
       w.MarkBodiesInContact(in_contact_);
       for (std::int64_t b : e.bodies) Reinject(static_cast<int>(b));
     } else {
@@ -859,19 +862,28 @@ void Discharge::Unclog(const std::vector<std::int64_t>* arch) {
       unclog_removed_ += static_cast<int>(e.bodies.size());
     }
   } else {
-    for (int b = 0; b < w.BodyCount(); ++b) {
-      if (!w.body_active_[b]) continue;
-      for (const silo::OutletFrame& o : w.Geometry().outlets) {
-        const double radius = u.kick_radius > 0 ? u.kick_radius : o.width;
-        if (std::hypot(w.body_x_[b] - o.cx, w.body_y_[b] - o.cy) > radius) continue;
-        const double angle = unclog_rng_.Uniform(-0.25 * std::numbers::pi, 0.25 * std::numbers::pi);
-        w.SetVelocity(b, u.kick_speed * std::sin(angle), u.kick_speed * std::cos(angle), w.body_spin_[b]);
-        e.bodies.push_back(b);
-        break;
-      }
-    }
+    Kick(e.bodies);
   }
   unclogs_out_.Write(e);
+}
+
+// Every body whose centre is within kick_radius of an outlet's centre gets kick_speed in a
+// direction drawn uniformly within 45 degrees of the upward vertical, in body order (the same
+// numbers at any thread count); their ids appended to `kicked`.
+void Discharge::Kick(std::vector<std::int64_t>& kicked) {
+  World& w = *world_;
+  const granary::Unclog& u = spec_.discharge.unclog;
+  for (int b = 0; b < w.BodyCount(); ++b) {
+    if (!w.body_active_[b]) continue;
+    for (const silo::OutletFrame& o : w.Geometry().outlets) {
+      const double radius = u.kick_radius > 0 ? u.kick_radius : o.width;
+      if (std::hypot(w.body_x_[b] - o.cx, w.body_y_[b] - o.cy) > radius) continue;
+      const double angle = unclog_rng_.Uniform(-0.25 * std::numbers::pi, 0.25 * std::numbers::pi);
+      w.SetVelocity(b, u.kick_speed * std::sin(angle), u.kick_speed * std::cos(angle), w.body_spin_[b]);
+      kicked.push_back(b);
+      break;
+    }
+  }
 }
 
 // From the bed and the spec alone, so a continued run writes the same box.

@@ -276,6 +276,8 @@ constexpr std::initializer_list<std::pair<const char*, OnClog>> kOnClogs = {
     {"stop", OnClog::kStop}, {"wait", OnClog::kWait}, {"unclog", OnClog::kUnclog}};
 constexpr std::initializer_list<std::pair<const char*, UnclogMethod>> kUnclogMethods = {
     {"remove_arch", UnclogMethod::kRemoveArch}, {"kick", UnclogMethod::kKick}};
+constexpr std::initializer_list<std::pair<const char*, UnclogFallback>> kUnclogFallbacks = {
+    {"none", UnclogFallback::kNone}, {"kick", UnclogFallback::kKick}};
 constexpr std::initializer_list<std::pair<const char*, NextBatch>> kNextBatches = {{"landed", NextBatch::kLanded},
                                                                                    {"fixed", NextBatch::kFixed}};
 constexpr std::initializer_list<std::pair<const char*, BedSettler>> kSettlers = {{"native", BedSettler::kNative},
@@ -403,9 +405,15 @@ SpecTable MakeRunSpecTable() {
       integer(
           "/discharge/unclog/max_attempts", 10, 1,
           "attempts on one clog (kicks, or arch removals that re-clog before a body leaves) before the run ends clogged"),
-      number("/discharge/unclog/kick_speed", 1.0, positive, "kick: the speed each body gets, in sqrt(g d)"),
+      number("/discharge/unclog/kick_speed", 1.0, positive,
+             "kick (and the kick fallback): the speed each body gets, in sqrt(g d)"),
       number("/discharge/unclog/kick_radius", 0.0, non_negative,
-             "kick: bodies whose centre is within this of an outlet's centre, in d; 0 = the outlet's width"),
+             "kick (and the kick fallback): bodies whose centre is within this of an outlet's centre, in d; 0 = the "
+             "outlet's width"),
+      enumeration("/discharge/unclog/fallback", "none", names(kUnclogFallbacks),
+                  "remove_arch only: an attempt that finds no arch to take out (no arch seals the stalled outlet) "
+                  "kicks instead (kick_speed, kick_radius); none: it takes out nothing, and max_attempts such "
+                  "attempts end the run clogged"),
       number("/discharge/clog_window", 5.0, positive, "a clog: no exit for this long ..."),
       number("/discharge/clog_ke_per_body", 1e-4, non_negative,
              "... and kinetic energy per body near the outlets below this (m g d)"),
@@ -591,6 +599,12 @@ std::string ToString(UnclogMethod method) {
   }
   return "?";
 }
+std::string ToString(UnclogFallback fallback) {
+  for (const auto& [name, value] : kUnclogFallbacks) {
+    if (value == fallback) return name;
+  }
+  return "?";
+}
 std::string ToString(NormalModel model) {
   for (const auto& [name, value] : kNormalModels) {
     if (value == model) return name;
@@ -665,7 +679,16 @@ RunSpec RunSpec::FromJson(const json& j) {
       u.Integer("max_attempts", s.discharge.unclog.max_attempts);
       u.Number("kick_speed", s.discharge.unclog.kick_speed);
       u.Number("kick_radius", s.discharge.unclog.kick_radius);
+      u.Enum("fallback", s.discharge.unclog.fallback, kUnclogFallbacks);
       CheckUnclogBounds(s.discharge.unclog);
+      // A kick that finds no body near the outlet is no empty arch removal: only remove_arch
+      // falls back, and a fallback said for kick would be ignored.
+      if (s.discharge.unclog.method != UnclogMethod::kRemoveArch &&
+          s.discharge.unclog.fallback != UnclogFallback::kNone)
+        throw SpecError("/discharge/unclog/fallback", "applies only to the method \"remove_arch\" (the method is \"" +
+                                                          ToString(s.discharge.unclog.method) +
+                                                          "\"); leave it out or give \"none\" (got \"" +
+                                                          ToString(s.discharge.unclog.fallback) + "\")");
       // Said, but not used: never silently.
       if (s.discharge.on_clog != OnClog::kUnclog)
         throw SpecError("/discharge/unclog", "applies only with /discharge/on_clog \"unclog\" (on_clog is \"" +
@@ -1004,6 +1027,10 @@ json RunSpec::ToJson() const {
                                   {"max_attempts", discharge.unclog.max_attempts},
                                   {"kick_speed", discharge.unclog.kick_speed},
                                   {"kick_radius", discharge.unclog.kick_radius}};
+    // Only when chosen, so that run ids planned before it existed stay valid (and a run.json
+    // without it is what those runs did: no fallback).
+    if (discharge.unclog.fallback != UnclogFallback::kNone)
+      out["discharge"]["unclog"]["fallback"] = ToString(discharge.unclog.fallback);
   }
   return out;
 }

@@ -127,6 +127,10 @@ enum class OnClog { kStop, kWait, kUnclog };
 // How a clog is broken: the bodies of the arch that seals the outlet are taken out (the arch
 // analysis' judgement), or the bodies near the outlet get a random upward velocity (a blow).
 enum class UnclogMethod { kRemoveArch, kKick };
+// What remove_arch does when it finds no arch to take out (a stall whose outlet no arch seals,
+// e.g. bodies hanging into the opening from its edge onto a body below): nothing (the attempt
+// removes nothing, and after max_attempts such attempts the run ends clogged), or a kick.
+enum class UnclogFallback { kNone, kKick };
 
 struct Unclog {
   UnclogMethod method = UnclogMethod::kRemoveArch;
@@ -134,6 +138,7 @@ struct Unclog {
   int max_attempts = 10;     // attempts on one clog before the run ends clogged
   double kick_speed = 1.0;   // kick: speed given to each body, in sqrt(g d)
   double kick_radius = 0.0;  // kick: bodies whose centre is within this of an outlet's centre; 0 = its width
+  UnclogFallback fallback = UnclogFallback::kNone;  // remove_arch only
 };
 
 struct Discharge {
@@ -239,5 +244,6 @@ std::string ToString(NextBatch next);
 std::string ToString(BedSettler settler);
 std::string ToString(OnClog on_clog);
 std::string ToString(UnclogMethod method);
+std::string ToString(UnclogFallback fallback);
 
 }  // namespace granary

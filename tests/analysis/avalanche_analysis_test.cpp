@@ -81,6 +81,24 @@ TEST(AvalancheAnalysis, AClogTheProtocolCouldNotBreakEndsTheLastAvalancheNotAnEm
   EXPECT_DOUBLE_EQ(FindMetric(m, "avalanche_size")->value, 3.0);
 }
 
+TEST(AvalancheAnalysis, AFallbackKickAfterArchRemovalsIsOneUnclogAndItsAvalancheCounts) {
+  rundir::RunData data = StreamRun("unclog");
+  data.summary.end_reason = "max_clogs";
+  // remove_arch with unclog/fallback "kick": clog 1 broken by its arch at 5; clog 2 (after the
+  // exit at 11) first lost its arch at 12 and stalled again, then at 17 the arch finder found
+  // none and the attempt kicked instead; the flow resumed (20, 21, 22) up to clog 3, which
+  // ended the run at max_clogs (no row).
+  data.unclogs = {{5.0, 50000, 1, 1, "remove_arch", {7, 9}},
+                  {12.0, 120000, 2, 1, "remove_arch", {3}},
+                  {17.0, 170000, 2, 2, "kick", {1, 2, 4}}};
+  nlohmann::json result;
+  const std::vector<Metric> m = MetricsOf(data, &result);
+  // Cut at each clog's first attempt: 4 to clog 1, 2 to clog 2, 3 after the kick to clog 3.
+  EXPECT_EQ(result.at("sizes"), (nlohmann::json{4.0, 2.0, 3.0}));
+  EXPECT_EQ(result.at("unclogs"), 2);
+  EXPECT_DOUBLE_EQ(FindMetric(m, "clogs")->value, 3.0);
+}
+
 TEST(AvalancheAnalysis, NoOptions) {
   EXPECT_THROW(MakeAvalancheAnalysis({{"bins", 3}}, "/report/avalanches"), std::exception);
 }

@@ -118,6 +118,24 @@ TEST(System, FixedParametersSayWhatIsSweptAndDescribeTheBodies) {
   EXPECT_EQ(value.at("stops at time"), "200");
 }
 
+// The unclog protocol in words, with remove_arch's fallback only when the run had one.
+TEST(System, TheUnclogProtocolSaysWhenRemoveArchFallsBackOnAKick) {
+  json spec = MixtureSpec();
+  spec["discharge"]["on_clog"] = "unclog";
+  spec["discharge"]["unclog"] = {
+      {"method", "remove_arch"}, {"max_clogs", 100}, {"max_attempts", 10}, {"kick_speed", 1.5}, {"kick_radius", 0.0}};
+  auto on_a_clog = [](const json& s) {
+    for (const auto& row : FixedParameters(s, {}).rows)
+      if (row[1].Shown() == "on a clog") return row[2].Shown();
+    return std::string("(no row)");
+  };
+  EXPECT_EQ(on_a_clog(spec), "unclogs: takes out the arch's bodies (up to 10 attempts) and goes on; ends at clog 100");
+  spec["discharge"]["unclog"]["fallback"] = "kick";
+  EXPECT_EQ(on_a_clog(spec),
+            "unclogs: takes out the arch's bodies; kicks the bodies within W of the outlet upwards at 1.5 when it "
+            "finds none (up to 10 attempts) and goes on; ends at clog 100");
+}
+
 // A finished run that clogged at t = 7.5 after one exit, written into `dir`.
 RunRecord ClogRun(const std::filesystem::path& dir, const std::string& run_id, const std::string& point_id,
                   const std::string& engine, const json& point, const json& spec) {

@@ -15,6 +15,7 @@
 #include "analysis/arches.h"
 #include "analysis/registry.h"
 #include "analysis/run_pass.h"
+#include "engine/bed.h"
 #include "engine/run.h"
 #include "rundir/clogs.h"
 #include "rundir/events.h"
@@ -207,6 +208,142 @@ TEST(Unclog, ARaisedMaxClogsContinuesFromTheLastClogWithTheSameBits) {
   EXPECT_GT(Slurp(extended / rundir::kEventsFile).size(), short_events.size());
   for (const char* f : {rundir::kEventsFile, rundir::kUnclogsFile, rundir::kClogFramesFile, rundir::kClogContactsFile,
                         rundir::kFramesFile})
+    EXPECT_TRUE(Slurp(fresh / f) == Slurp(extended / f)) << f;
+  EXPECT_EQ(ReadJson(fresh / rundir::kSummaryFile)["t_end"], ReadJson(extended / rundir::kSummaryFile)["t_end"]);
+}
+
+// A stall that no arch seals, so that remove_arch finds nothing to take out (as snowmen that hang
+// into the opening from its edge onto a body below leave it): a bed placed by hand, 8 discs
+// (d = 1) at rest in a row on the floor beside the 3 d outlet, 4 on each side, none near it.
+// Reinject mode judges every stall a clog (remove mode would call this one discharged), so the
+// first clog comes at clog_window, before any exit, and nothing but a kick moves the discs.
+// The kick radius reaches the whole floor (the silo is 16 d wide).
+nlohmann::json NoArchSpec(const fs::path& dir, const std::string& fallback) {
+  nlohmann::json spec = SmallSpec(3.0, 150.0, 13, "disc");
+  spec["bodies"]["count"] = 8;
+  spec["bed"]["batch_size"] = 8;
+  // In the run's directory: a file shared by tests that ctest runs at once could be read torn.
+  spec["bed"]["cache_file"] = (dir / "bed.json").string();
+  spec["discharge"]["mode"] = "reinject";
+  spec["discharge"]["on_clog"] = "unclog";
+  spec["discharge"]["unclog"] = {{"method", "remove_arch"}, {"max_clogs", 3}, {"kick_radius", 8.0}};
+  if (!fallback.empty()) spec["discharge"]["unclog"]["fallback"] = fallback;
+  spec["output"] = {{"checkpoint_interval", 2.0}, {"frame_interval", 0.0}};
+  BedState bed;
+  for (const double x : {-7.0, -6.0, -5.0, -4.0, 4.0, 5.0, 6.0, 7.0}) {
+    bed.species.push_back(0);
+    bed.x.push_back(x);
+    bed.y.push_back(0.5);
+    bed.theta.push_back(0.0);
+    bed.vx.push_back(0.0);
+    bed.vy.push_back(0.0);
+    bed.omega.push_back(0.0);
+    bed.height = std::max(bed.height, bed.y.back() + 0.5);
+  }
+  std::ofstream(spec["bed"]["cache_file"].get<std::string>()) << BedToJson(bed, RunSpec::FromJson(spec)).dump();
+  return spec;
+}
+
+TEST(Unclog, WithoutAFallbackARemoveArchThatFindsNoArchEndsTheRunClogged) {
+  const fs::path dir = FreshDir("unclog-no-arch-none");
+  WriteSpec(dir, NoArchSpec(dir, ""));
+  EXPECT_EQ(RunQuiet(dir).end_reason, "clogged");
+  const Outcome o = Read(dir);
+  EXPECT_EQ(o.summary["clogs"].get<int>(), 1);
+  EXPECT_TRUE(o.events.empty());
+  // max_attempts (10) attempts that took out nothing.
+  ASSERT_EQ(o.unclogs.size(), 10u);
+  for (const rundir::UnclogEvent& u : o.unclogs) {
+    EXPECT_EQ(u.method, "remove_arch");
+    EXPECT_TRUE(u.bodies.empty());
+  }
+}
+
+TEST(Unclog, AKickFallbackBreaksAStallNoArchSealsAndTheRunGoesOnToMaxClogs) {
+  const fs::path dir = FreshDir("unclog-no-arch-kick");
+  WriteSpec(dir, NoArchSpec(dir, "kick"));
+  EXPECT_EQ(RunQuiet(dir).end_reason, "max_clogs");
+  const Outcome o = Read(dir);
+  EXPECT_EQ(o.summary["clogs"].get<int>(), 3);
+  EXPECT_EQ(o.summary["unclogs"].get<int>(), 2);
+  ASSERT_EQ(o.clogs.size(), 3u);
+  // Each attempt found no arch and kicked instead: a "kick" row with the bodies within the kick
+  // radius (all of them: the radius reaches the whole floor and nothing is above 8 d).
+  std::vector<double> cuts;
+  for (const rundir::UnclogEvent& u : o.unclogs) {
+    EXPECT_EQ(u.method, "kick");
+    EXPECT_EQ(u.bodies.size(), 8u);
+    if (u.attempt == 1) cuts.push_back(u.time);
+  }
+  ASSERT_EQ(cuts.size(), 2u);
+  // The avalanche after each fallback kick is the exits up to the next clog, as for any unclog.
+  std::vector<double> expected(3, 0.0);
+  for (const rundir::ExitEvent& e : o.events)
+    expected[static_cast<std::size_t>(std::upper_bound(cuts.begin(), cuts.end(), e.time) - cuts.begin())] += 1;
+  EXPECT_EQ(expected[0], 0.0);  // the bed never flowed before its first stall
+  EXPECT_GT(expected[1], 0.0);
+  EXPECT_GT(expected[2], 0.0);
+  const std::map<std::string, nlohmann::json> a = Analyse(dir);
+  EXPECT_EQ(a.at("avalanches")["sizes"].get<std::vector<double>>(), expected);
+  EXPECT_EQ(a.at("avalanches")["clogs"].get<int>(), 3);
+  EXPECT_EQ(a.at("avalanches")["unclogs"].get<int>(), 2);
+  // The arches analysis sees the three clogs, none of them with an arch.
+  ASSERT_EQ(a.at("arches")["clogs"].size(), 3u);
+  const nlohmann::json spec = ReadJson(dir / rundir::kRunSpecFile);
+  for (const rundir::ClogState& c : o.clogs) EXPECT_TRUE(analysis::AnalyseClog(c, spec).arches.empty());
+}
+
+// The fallback's kicks draw the kicks' random numbers: the same bits at 1 and 2 threads and
+// after a kill after a fallback kick and a continue.
+TEST(Unclog, AKickFallbackGivesTheSameBitsAtAnyThreadCountAndAfterAContinue) {
+  const fs::path one = FreshDir("unclog-no-arch-1"), two = FreshDir("unclog-no-arch-2"),
+                 cont = FreshDir("unclog-no-arch-c");
+  // To the second clog (t = 28.4): short, since forced parallel loops at two threads are slow
+  // when the suite runs two tests on two cores.
+  for (const fs::path& d : {one, two, cont}) {
+    nlohmann::json spec = NoArchSpec(d, "kick");
+    spec["discharge"]["unclog"]["max_clogs"] = 2;
+    WriteSpec(d, spec);
+  }
+  EXPECT_EQ(RunQuiet(one, 1, -1, 32).end_reason, "max_clogs");
+  RunQuiet(two, 2, -1, 32);
+  const Outcome o = Read(one);
+  ASSERT_EQ(o.unclogs.size(), 1u);
+  ASSERT_EQ(o.unclogs[0].method, "kick");
+  // Killed after the fallback kick, past a checkpoint (every 2 time units).
+  const std::int64_t kill_at = o.unclogs[0].step + 25000;
+  EXPECT_EQ(RunQuiet(cont, 1, kill_at, 32).end_reason, "aborted");
+  EXPECT_TRUE(RunQuiet(cont, 1, -1, 32).continued);
+  for (const fs::path& d : {two, cont}) {
+    SCOPED_TRACE(d.filename().string());
+    for (const char* f :
+         {rundir::kEventsFile, rundir::kUnclogsFile, rundir::kClogFramesFile, rundir::kClogContactsFile})
+      EXPECT_TRUE(Slurp(one / f) == Slurp(d / f)) << f;
+    EXPECT_EQ(ReadJson(one / rundir::kSummaryFile)["t_end"], ReadJson(d / rundir::kSummaryFile)["t_end"]);
+  }
+}
+
+// A run that ended at max_clogs on a clog with no arch, planned again with a larger max_clogs,
+// continues with the fallback kick a run planned with the larger limit gives there (the arch is
+// looked for again from the checkpoint's bodies: none, as at the clog).
+TEST(Unclog, ARaisedMaxClogsContinuesFromAClogWithNoArchWithTheFallbackKick) {
+  const fs::path extended = FreshDir("unclog-no-arch-extend"), fresh = FreshDir("unclog-no-arch-extend-fresh");
+  nlohmann::json spec = NoArchSpec(extended, "kick");
+  spec["discharge"]["unclog"]["max_clogs"] = 1;
+  WriteSpec(extended, spec);
+  ASSERT_EQ(RunQuiet(extended).end_reason, "max_clogs");
+  spec["discharge"]["unclog"]["max_clogs"] = 3;
+  WriteSpec(fresh, spec);
+  ASSERT_EQ(RunQuiet(fresh).end_reason, "max_clogs");
+  WriteSpec(extended, spec);
+  fs::remove(extended / rundir::kDoneFile);
+  const RunResult r = RunQuiet(extended);
+  EXPECT_TRUE(r.continued);
+  EXPECT_EQ(r.end_reason, "max_clogs");
+  const Outcome o = Read(extended);
+  ASSERT_FALSE(o.unclogs.empty());
+  EXPECT_EQ(o.unclogs.front().method, "kick");
+  for (const char* f : {rundir::kEventsFile, rundir::kUnclogsFile, rundir::kClogFramesFile, rundir::kClogContactsFile})
     EXPECT_TRUE(Slurp(fresh / f) == Slurp(extended / f)) << f;
   EXPECT_EQ(ReadJson(fresh / rundir::kSummaryFile)["t_end"], ReadJson(extended / rundir::kSummaryFile)["t_end"]);
 }

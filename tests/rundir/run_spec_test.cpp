@@ -147,6 +147,31 @@ TEST(RunSpecTest, OnClogAndTheUnclogProtocol) {
                                                   "on_clog": "unclog"}})")),
             "/discharge/unclog/method: remove_arch returns the arch's bodies on top of the bed, which the periodic box "
             "has no place for; use reinject_position \"random\" or the method \"kick\" (got \"remove_arch\")");
+  // remove_arch's fallback: "none" (the default) is left out of the resolved spec, so runs planned
+  // before it existed keep their ids and a run.json without it says what they did; "kick" is
+  // written. It belongs to remove_arch only.
+  const RunSpec plain = RunSpec::FromJson(json::parse(R"({"discharge": {"on_clog": "unclog"}})"));
+  EXPECT_EQ(plain.discharge.unclog.fallback, UnclogFallback::kNone);
+  EXPECT_FALSE(plain.ToJson()["discharge"]["unclog"].contains("fallback"));
+  EXPECT_EQ(RunSpec::FromJson(json::parse(R"({"discharge": {"on_clog": "unclog", "unclog": {"fallback": "none"}}})"))
+                .ToJson(),
+            plain.ToJson());
+  const RunSpec kicking =
+      RunSpec::FromJson(json::parse(R"({"discharge": {"on_clog": "unclog", "unclog": {"fallback": "kick"}}})"));
+  EXPECT_EQ(kicking.discharge.unclog.fallback, UnclogFallback::kKick);
+  EXPECT_EQ(kicking.ToJson()["discharge"]["unclog"]["fallback"], "kick");
+  EXPECT_EQ(RunSpec::FromJson(kicking.ToJson()).ToJson(), kicking.ToJson());
+  EXPECT_NE(kicking.ToJson(), plain.ToJson());
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"on_clog": "unclog", "unclog": {"fallback": "blow"}}})")),
+            "/discharge/unclog/fallback: must be one of \"none\", \"kick\" (got \"blow\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"on_clog": "unclog", "unclog": {"fallback": true}}})")),
+            "/discharge/unclog/fallback: must be one of \"none\", \"kick\" (got true)");
+  EXPECT_EQ(
+      ErrorOf(json::parse(R"({"discharge": {"on_clog": "unclog", "unclog": {"method": "kick", "fallback": "kick"}}})")),
+      "/discharge/unclog/fallback: applies only to the method \"remove_arch\" (the method is \"kick\"); leave it out "
+      "or give \"none\" (got \"kick\")");
+  EXPECT_EQ(ErrorOf(json::parse(R"({"discharge": {"unclog": {"fallback": "kick"}}})")),
+            "/discharge/unclog: applies only with /discharge/on_clog \"unclog\" (on_clog is \"stop\")");
   // The LIGGGHTS backend refuses it when the run is planned.
   EXPECT_EQ(ErrorOf(json::parse(R"({"engine": "liggghts", "discharge": {"on_clog": "unclog"}})")),
             "/discharge/on_clog: the LIGGGHTS backend cannot break a clog: it runs LIGGGHTS' input script to the end, "
@@ -325,8 +350,8 @@ TEST(RunSpecTable, CoversTheCanonicalSpecAndItsDefaults) {
   }
   EXPECT_GT(checked, 40);
   // reinject_position, periodic_headroom, compress, output/format, output/contact_interval,
-  // bed/time_step, bed/next_batch, bed/settled_by, on_clog and the five keys of discharge/unclog
-  EXPECT_EQ(left_out, 15);
+  // bed/time_step, bed/next_batch, bed/settled_by, on_clog and the six keys of discharge/unclog
+  EXPECT_EQ(left_out, 16);
 }
 
 TEST(RunSpecTable, EveryRowsTypeAndRangeIsEnforced) {
