@@ -17,7 +17,10 @@
 namespace granary::analysis {
 namespace {
 
-constexpr const char* kFigureKeys[] = {"name", "kind", "picture", "y", "labels", "ylabel", "x", "group", "pool", "only", "fit", "normalize", "title", "caption", "reference", "logx", "logy", "of", "bins", "range", "field", "along", "at", "width", "one_run", "origin_outlet", "annotate", "window", "colour"};
+constexpr const char* kFigureKeys[] = {
+    "name",  "kind",      "picture", "y",       "labels",    "ylabel",        "x",        "group",  "pool",  "only",
+    "fit",   "normalize", "title",   "caption", "reference", "logx",          "logy",     "of",     "bins",  "range",
+    "field", "along",     "at",      "width",   "one_run",   "origin_outlet", "annotate", "window", "colour"};
 // The kinds, what each draws and the keys it takes besides name, kind, only, title, caption
 // and reference.
 struct KindKeys {
