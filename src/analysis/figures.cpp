@@ -1205,6 +1205,22 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
     }
     out.data[it->second].points.push_back(p);
   }
+  // A curve or panel per point comes in the order of its x value, then of the other axes' values
+  // in the sweep's order (X_db = 0 -> 1 as the thesis' panels a-e, W = 7 before W = 11), not in
+  // the order the view keeps its points (by their group's text: "X_d = 0" first, "W = 11" before "W = 7").
+  if (per_point || spec.kind == "pictures") {
+    std::vector<std::string> order = {x_name};
+    for (const auto& axis : v.axes) order.push_back(v.named.ShortName(axis));
+    std::stable_sort(out.data.begin(), out.data.end(), [&order](const FigureDatum& a, const FigureDatum& b) {
+      for (const std::string& name : order) {
+        const auto ia = a.axes.find(name);
+        const auto ib = b.axes.find(name);
+        if (ia == a.axes.end() || ib == b.axes.end() || ia->second == ib->second) continue;
+        return ia->second < ib->second;
+      }
+      return false;
+    });
+  }
   // Pictures: the chosen points are the figure; the report draws them (it has the renderer).
   if (spec.kind == "pictures") {
     if (out.data.empty())

@@ -1086,6 +1086,24 @@ TEST(FigureKinds, MapPanelsAtTheChosenPointsWithAxesAndUnitsInTheirTitles) {
   EXPECT_NE(m1->caption.find("Each panel: the lowest replica that has the field"), std::string::npos) << m1->caption;
 }
 
+// Panels come in the order of x, then the other axes, by value: not in the view's order of its
+// points, which sorts them by their group's text (mu = 0 before mu = 1, whatever their W).
+TEST(FigureKinds, PanelsComeInTheOrderOfXThenTheOtherAxes) {
+  ScopedAnalysis known(KnownFiguresEntry());
+  TempDir dir;
+  const auto r = FigureOf(
+      dir.Path(), {{"name", "maps"}, {"kind", "maps"}, {"field", "ramp"}, {"only", {{"W", {10, 22}}, {"mu", {0, 1}}}}});
+  const MapFigure* m = nullptr;
+  for (const Block& b : r->f.blocks)
+    if (const auto* x = std::get_if<MapFigure>(&b)) m = x;
+  ASSERT_TRUE(m);
+  ASSERT_EQ(m->panels.size(), 4u);
+  EXPECT_EQ(m->panels[0].title.substr(0, 16), "W = 10 d, mu = 0");
+  EXPECT_EQ(m->panels[1].title.substr(0, 16), "W = 10 d, mu = 1");
+  EXPECT_EQ(m->panels[2].title.substr(0, 16), "W = 22 d, mu = 0");
+  EXPECT_EQ(m->panels[3].title.substr(0, 16), "W = 22 d, mu = 1");
+}
+
 // The walls over a zoomed map: only their parts inside the panel's box.
 TEST(FigureKinds, WallsClippedToTheMapsBox) {
   using Polyline = std::vector<std::array<double, 2>>;
