@@ -399,7 +399,9 @@ class SlurmExecutor : public Executor {
     for (const auto& id : ids) Stop(id, reason);
   }
 
-  std::size_t Active() const override { return started_.size() + runs_.size(); }
+  // A run let go (lease lost) is active until Poll hands its end over: else the scheduler, seeing
+  // nothing active, ends before it says the lease was lost.
+  std::size_t Active() const override { return started_.size() + runs_.size() + ready_.size(); }
   bool OutlivesRunner() const override { return true; }
   bool LimitsTime() const override { return true; }
   std::map<std::string, QueuePlace> QueueChanges() override {
