@@ -9,6 +9,7 @@
 #include "analysis/campaign_view.h"
 #include "analysis/cg_run.h"
 #include "analysis/options.h"
+#include "analysis/region_analysis.h"
 
 namespace granary::analysis {
 
@@ -62,6 +63,8 @@ nlohmann::json FieldsOptions::ToJson() const {
                       {"series", series},
                       {"force_chains", force_chains},
                       {"region", {region.pad, region.height}}};
+  // A size in d keeps the key its cached results have.
+  if (region.in_d_eq) j["region_unit"] = "D_eq";
   if (cg.window.x1 > cg.window.x0) j["window"] = {cg.window.x0, cg.window.x1, cg.window.y0, cg.window.y1};
   if (frames == Frames::kRange) j["range"] = {from, to};
   return j;
@@ -128,18 +131,7 @@ std::optional<FieldsOptions> ReadFieldsOptions(const nlohmann::json& j, const st
     } else if (key == "force_chains") {
       o.force_chains = OptionBool(v, p);
     } else if (key == "region") {
-      if (v == "ch3") {
-        o.region = Chapter3Region();
-      } else if (v == "ch4") {
-        o.region = Chapter4Region();
-      } else {
-        if (!v.is_object() || !v.contains("pad") || !v.contains("height"))
-          throw OptionError(p, v, "must be \"ch3\", \"ch4\" or {\"pad\": .., \"height\": ..}");
-        OptionObject(v, p, {"pad", "height"});
-        o.region.pad = OptionNumber(v.at("pad"), p + "/pad", -kBig, kBig);
-        o.region.height = OptionNumber(v.at("height"), p + "/height", 0.0, kBig);
-        o.region.label = "(W + " + FormatNumber(o.region.pad) + " d) x " + FormatNumber(o.region.height) + " d";
-      }
+      o.region = ReadRegionSize(v, p);
     }
   }
   // The kernel must reach the next node: a grid coarser than the kernel's cut misses mass.
@@ -292,7 +284,8 @@ nlohmann::json ForceChainJson(const rundir::ContactFrame& frame, const Rect& vie
 
 class FieldsRunAccumulator : public RunAccumulator {
  public:
-  FieldsRunAccumulator(const RunView& run, const FieldsOptions& o) : run_(run), o_(o) {
+  FieldsRunAccumulator(const RunView& run, const FieldsOptions& o)
+      : run_(run), o_(o), region_(RegionForRun(o.region, run.data->spec)) {
     cg_ = o.cg;
     if (!(cg_.window.x1 > cg_.window.x0)) cg_.window = CgRunWindow(*run.data);
     const double start = run.options ? run.options->window.start_time : 0.0;
@@ -318,7 +311,7 @@ class FieldsRunAccumulator : public RunAccumulator {
     std::vector<CgSeriesRequest> series;
     if (o.series)
       for (const OutletGeometry& g : run.outlets)
-        series.push_back({g.label, OutletRegion(g, o.region), CgField::kSpeed});
+        series.push_back({g.label, OutletRegion(g, region_), CgField::kSpeed});
     for (std::size_t p = 0; p < parts_.size(); ++p) acc_.emplace_back(cg_, series);
     first_.assign(parts_.size(), kNaN);
     last_.assign(parts_.size(), kNaN);
@@ -357,7 +350,7 @@ class FieldsRunAccumulator : public RunAccumulator {
                              {"sums", SumsToJson(sums)},
                              {"regions", nlohmann::json::array()}};
       for (const OutletGeometry& g : run_.outlets) {
-        const Rect r = OutletRegion(g, o_.region);
+        const Rect r = OutletRegion(g, region_);
         nlohmann::json means = nlohmann::json::object();
         for (CgField f : RegionFields(o_))
           means[CgFieldInfoFor(f).name] =
@@ -399,6 +392,7 @@ class FieldsRunAccumulator : public RunAccumulator {
  private:
   const RunView& run_;
   const FieldsOptions& o_;
+  RegionSize region_;  // o_.region in d for this run
   CgOptions cg_;
   std::vector<TimeWindow> windows_;
   std::vector<std::string> parts_;

@@ -28,7 +28,7 @@ struct FieldsOptions {
   double from = 0.0, to = 0.0;  // kRange
   bool series = true;           // the speed above each outlet against time (fig. 7.2)
   bool force_chains = true;     // one frame's contact network (fig. 4.16)
-  RegionSize region;            // the region next to each outlet (default: ch. 4-6)
+  RegionSize region;            // the region next to each outlet (default: ch. 4's; ReadRegionSize)
   FieldsOptions();
   nlohmann::json ToJson() const;  // canonical: the cache key's part
 };

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <set>
+#include <stdexcept>
 
 #include "analysis/cg_fields.h"
 #include "analysis/fields_analysis.h"
@@ -1073,7 +1074,14 @@ std::vector<PictureMark> PictureMarksOf(const FigureSpec& figure, const nlohmann
   };
   for (const MarkSpec& m : figure.annotate) {
     if (m.what == "region") {
-      const RegionSize size = ReadRegionSize(report.value("region", nlohmann::json()), "/report/region");
+      const RegionSize asked = ReadRegionSize(report.value("region", nlohmann::json()), "/report/region");
+      RegionSize size;
+      try {
+        size = RegionForRun(asked, run_spec);
+      } catch (const std::invalid_argument& e) {
+        problems.push_back(m.label + ": " + e.what());
+        continue;
+      }
       for (std::size_t k = 0; k < outlets.size(); ++k) {
         if (m.index >= 0 && static_cast<std::size_t>(m.index) != k) continue;
         const Rect r = OutletRegion(outlets[k], size);

@@ -8,6 +8,7 @@ namespace granary::analysis {
 
 RegionSize Chapter3Region() { return {2.0, 10.0, "ch. 3: (W + 2d) x 10d"}; }
 RegionSize Chapter4Region() { return RegionSize(); }
+RegionSize Chapter6Region() { return {2.0, 5.0, "ch. 6: (W + 2 D_eq) x 5 D_eq", true}; }
 
 Rect RegionAboveOutlet(double center, double width, const RegionSize& size) {
   const double half = 0.5 * (width + size.pad);

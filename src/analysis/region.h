@@ -21,14 +21,17 @@ struct Rect {
 };
 
 // Region size around an outlet of width W: (W + pad) x height, from the base upwards,
-// centred on the outlet. Lengths in d.
+// centred on the outlet. Lengths in d, or in D_eq when `in_d_eq` (ch. 6's region R, whose
+// size follows the body: RegionForRun in region_analysis.h turns it into d per run).
 struct RegionSize {
-  double pad = 2.0 * std::numbers::sqrt2;     // ch. 4-6: W + 2 sqrt(2) d
-  double height = 5.0 * std::numbers::sqrt2;  // ch. 4-6: 5 sqrt(2) d
-  std::string label = "ch. 4-6: (W + 2 sqrt2 d) x 5 sqrt2 d";
+  double pad = 2.0 * std::numbers::sqrt2;     // ch. 4-5: W + 2 sqrt(2) d
+  double height = 5.0 * std::numbers::sqrt2;  // ch. 4-5: 5 sqrt(2) d
+  std::string label = "ch. 4-5: (W + 2 sqrt2 d) x 5 sqrt2 d";
+  bool in_d_eq = false;
 };
 RegionSize Chapter3Region();  // (W + 2d) x 10d
 RegionSize Chapter4Region();  // (W + 2 sqrt2 d) x 5 sqrt2 d
+RegionSize Chapter6Region();  // (W + 2 D_eq) x 5 D_eq
 Rect RegionAboveOutlet(double center, double width, const RegionSize& size);
 
 // Exact area of the intersection of a disc (centre cx, cy; radius r) with a rectangle.

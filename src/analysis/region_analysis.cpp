@@ -2,11 +2,15 @@
 #include "analysis/region_analysis.h"
 
 #include <cmath>
+#include <numbers>
+#include <stdexcept>
 #include <tuple>
 
 #include "analysis/campaign_view.h"
 #include "analysis/options.h"
 #include "analysis/region.h"
+#include "rundir/run_spec.h"
+#include "rundir/shape_table.h"
 
 namespace granary::analysis {
 namespace {
@@ -35,9 +39,12 @@ std::string Suffix(std::size_t k) { return k == 0 ? "" : OutletSuffix(k); }
 class RegionRunAccumulator : public RunAccumulator {
  public:
   RegionRunAccumulator(const RunView& run, const RegionSize& size) : run_(run) {
+    const RegionSize in_d = RegionForRun(size, run.data->spec);
     // In outlet coordinates every outlet is centred at 0 on the line y = 0.
     for (const OutletGeometry& o : run.outlets)
-      regions_.emplace_back(RegionAboveOutlet(0.0, o.width, size), kVelocityBin);
+      regions_.emplace_back(RegionAboveOutlet(0.0, o.width, in_d), kVelocityBin);
+    pad_ = in_d.pad;
+    height_ = in_d.height;
   }
   FrameRequest Frames() const override { return {{run_.steady}, false}; }
   void AddFrame(const FrameView& frame) override {
@@ -53,8 +60,11 @@ class RegionRunAccumulator : public RunAccumulator {
     ++frames_;
   }
   nlohmann::json Finish() override {
-    nlohmann::json result = {
-        {"frames", frames_}, {"outlets", nlohmann::json::array()}, {"notes", nlohmann::json::array()}};
+    nlohmann::json result = {{"frames", frames_},
+                             {"outlets", nlohmann::json::array()},
+                             {"notes", nlohmann::json::array()},
+                             {"pad", pad_},
+                             {"height", height_}};
     for (const OutletGeometry& o : run_.outlets) result["outlets"].push_back(o.label);
     if (frames_ == 0 || run_.outlets.empty()) {
       if (run_.data->has_frames)
@@ -86,6 +96,7 @@ class RegionRunAccumulator : public RunAccumulator {
   std::vector<rundir::Disc> discs_;
   std::vector<rundir::Body> bodies_;
   int frames_ = 0;
+  double pad_ = 0.0, height_ = 0.0;  // the region's size in d
 };
 
 class RegionAnalysis : public Analysis {
@@ -93,7 +104,11 @@ class RegionAnalysis : public Analysis {
   explicit RegionAnalysis(RegionSize size) : size_(std::move(size)) {}
   std::string Key() const override { return "region"; }
   int Version() const override { return 2; }
-  nlohmann::json RunOptions() const override { return {{"pad", size_.pad}, {"height", size_.height}}; }
+  nlohmann::json RunOptions() const override {
+    nlohmann::json j = {{"pad", size_.pad}, {"height", size_.height}};
+    if (size_.in_d_eq) j["unit"] = "D_eq";  // sizes in d keep the key their cached results have
+    return j;
+  }
   PassUse PassOptionsUsed() const override { return {.window = true, .clog_gap = true, .frames = true}; }
   std::unique_ptr<RunAccumulator> Start(const RunView& run) const override {
     return std::make_unique<RegionRunAccumulator>(run, size_);
@@ -148,15 +163,18 @@ std::optional<Section> RegionAnalysis::BuildSection(const SectionInput& in) cons
   for (std::size_t p = 0; p < v.points.size(); ++p) any = any || metric(p, "phi").n > 0;
   if (!any) return std::nullopt;
   Section s{"region", "Region above the outlet", {}};
-  s.blocks.push_back(Text{"Region " + size_.label + ", centred on " +
-                          (v.outlets > 1 ? std::string("each outlet (the first table: outlet 0)") : "the outlet") +
-                          " and reaching from its wall into the silo (above a base outlet, beside a lateral one; pad " +
-                          FormatNumber(size_.pad) + " d, height " + FormatNumber(size_.height) +
-                          " d). Packing fraction: exact area of every disc inside the region (discs cut by the "
-                          "edge count with their inside part) over the region area. Temperatures over the bodies "
-                          "whose centre of mass is inside, per frame, then averaged over frames: ch. 3 "
-                          "`T_g = 1/2 <(v_x - <v_x>)^2 + (v_y - <v_y>)^2>` and ch. 4-5 "
-                          "`T_g = 1/3 <m |v - <v>|^2 + I (Omega - <Omega>)^2>`."});
+  const std::string unit = size_.in_d_eq ? " D_eq" : " d";
+  s.blocks.push_back(
+      Text{"Region " + size_.label + ", centred on " +
+           (v.outlets > 1 ? std::string("each outlet (the first table: outlet 0)") : "the outlet") +
+           " and reaching from its wall into the silo (above a base outlet, beside a lateral one; pad " +
+           FormatNumber(size_.pad) + unit + ", height " + FormatNumber(size_.height) + unit +
+           (size_.in_d_eq ? "; D_eq from each run's bodies, the diameter of the disc of a body's area" : "") +
+           "). Packing fraction: exact area of every disc inside the region (discs cut by the "
+           "edge count with their inside part) over the region area. Temperatures over the bodies "
+           "whose centre of mass is inside, per frame, then averaged over frames: ch. 3 "
+           "`T_g = 1/2 <(v_x - <v_x>)^2 + (v_y - <v_y>)^2>` and ch. 4-5 "
+           "`T_g = 1/3 <m |v - <v>|^2 + I (Omega - <Omega>)^2>`."});
   Table t{"region",
           "Region statistics per point: mean ± se over replicas (n)",
           {"point", "phi", "T_g ch3 (g d)", "T_g ch4 (rho g d^3)"},
@@ -265,13 +283,45 @@ RegionSize ReadRegionSize(const nlohmann::json& options, const std::string& path
   RegionSize size = Chapter4Region();
   if (options.is_null() || options == "ch4") return size;
   if (options == "ch3") return Chapter3Region();
+  if (options == "ch6") return Chapter6Region();
   if (!options.is_object() || !options.contains("pad") || !options.contains("height"))
-    throw OptionError(path, options, "must be \"ch3\", \"ch4\" or {\"pad\": .., \"height\": ..}");
-  OptionObject(options, path, {"pad", "height"});
+    throw OptionError(
+        path, options,
+        "must be \"ch3\", \"ch4\", \"ch6\" or {\"pad\": .., \"height\": .., \"unit\": \"d\" or \"D_eq\"}");
+  OptionObject(options, path, {"pad", "height", "unit"});
   size.pad = OptionNumber(options.at("pad"), path + "/pad", -1e300, 1e300);
   size.height = OptionNumber(options.at("height"), path + "/height", 0.0, 1e300);
-  size.label = "(W + " + FormatNumber(size.pad) + " d) x " + FormatNumber(size.height) + " d";
+  std::string unit = "d";
+  if (options.contains("unit")) {
+    const nlohmann::json& u = options.at("unit");
+    if (u != "d" && u != "D_eq") throw OptionError(path + "/unit", u, "must be \"d\" or \"D_eq\"");
+    unit = u.get<std::string>();
+  }
+  size.in_d_eq = unit == "D_eq";
+  size.label = "(W + " + FormatNumber(size.pad) + " " + unit + ") x " + FormatNumber(size.height) + " " + unit;
   return size;
+}
+
+double EquivalentDiameter(const nlohmann::json& run_spec) {
+  RunSpec spec;
+  try {
+    spec = RunSpec::FromJson(run_spec);
+  } catch (const std::exception& e) {
+    throw std::invalid_argument(std::string("D_eq: the run's spec does not describe its bodies: ") + e.what());
+  }
+  double area = 0.0;
+  for (const Species& s : spec.bodies.species) area += s.fraction * BodyArea(s);
+  return std::sqrt(4.0 * area / std::numbers::pi);
+}
+
+RegionSize RegionForRun(const RegionSize& size, const nlohmann::json& run_spec) {
+  if (!size.in_d_eq) return size;
+  const double d_eq = EquivalentDiameter(run_spec);
+  RegionSize out = size;
+  out.pad *= d_eq;
+  out.height *= d_eq;
+  out.in_d_eq = false;
+  return out;
 }
 
 std::unique_ptr<Analysis> MakeRegionAnalysis(const nlohmann::json& options, const std::string& path) {

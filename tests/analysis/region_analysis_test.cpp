@@ -9,8 +9,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <numbers>
+#include <utility>
+#include <vector>
 
+#include "analysis/figures.h"
 #include "analysis/run_pass.h"
 #include "lattice_frame.h"
 
@@ -119,11 +123,120 @@ TEST(RegionAnalysis, RegionSizeOptions) {
     }
     return "no error";
   };
-  EXPECT_EQ(error("ch5").rfind("/report/region: must be \"ch3\", \"ch4\" or {", 0), 0u);
+  EXPECT_EQ(error("ch5").rfind("/report/region: must be \"ch3\", \"ch4\", \"ch6\" or {", 0), 0u);
+  EXPECT_EQ(error({{"pad", 2}, {"height", 5}, {"unit", "cm"}}),
+            "/report/region/unit: must be \"d\" or \"D_eq\" (got \"cm\")");
+  // A size in D_eq has its own cache key; one in d keeps the key it had.
+  EXPECT_EQ(MakeRegionAnalysis("ch6", "/report/region")->RunOptions(),
+            (nlohmann::json{{"pad", 2.0}, {"height", 5.0}, {"unit", "D_eq"}}));
+  EXPECT_EQ(MakeRegionAnalysis({{"pad", 2}, {"height", 5}, {"unit", "D_eq"}}, "/report/region")->RunOptions(),
+            MakeRegionAnalysis("ch6", "/report/region")->RunOptions());
+  EXPECT_EQ(MakeRegionAnalysis({{"pad", 1.5}, {"height", 3}, {"unit", "d"}}, "/report/region")->RunOptions(), own);
   EXPECT_EQ(error({{"pad", 2}}).rfind("/report/region: must be", 0), 0u);
   EXPECT_EQ(error({{"pad", 2}, {"height", -1}}).rfind("/report/region/height: must be in", 0), 0u);
   EXPECT_EQ(error({{"pad", "2"}, {"height", 1}}).rfind("/report/region/pad: must be a number", 0), 0u);
   EXPECT_EQ(error({{"pad", 2}, {"height", 1}, {"width", 3}}).rfind("/report/region/width: unknown key", 0), 0u);
+}
+
+// D_eq, the diameter of the disc of a body's area: sqrt(D_s^2 + D_b^2) for a snowman.
+TEST(RegionAnalysis, EquivalentDiameterOfTheRunsBodies) {
+  auto bodies = [](const nlohmann::json& species) { return nlohmann::json{{"bodies", {{"species", species}}}}; };
+  const nlohmann::json snowman = {{"shape", "snowman"}, {"diameter", 1.0}, {"big_diameter", 2.0}};
+  EXPECT_NEAR(EquivalentDiameter(bodies(nlohmann::json::array({snowman}))), std::sqrt(5.0), 1e-12);
+  EXPECT_NEAR(EquivalentDiameter(bodies({{{"shape", "dumbbell"}}})), std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(EquivalentDiameter(bodies({{{"shape", "disc"}, {"diameter", 3.0}}})), 3.0, 1e-12);
+  EXPECT_NEAR(EquivalentDiameter(bodies({{{"shape", "rod"}, {"n", 4}}})), 2.0, 1e-12);
+  // A mixture: the number-weighted mean area, (1 + 5) / 2 discs of d = 1.
+  nlohmann::json half_snowmen = snowman;
+  half_snowmen["fraction"] = 0.5;
+  half_snowmen["name"] = "sm";
+  EXPECT_NEAR(EquivalentDiameter(bodies({half_snowmen, {{"shape", "disc"}, {"fraction", 0.5}}})), std::sqrt(3.0),
+              1e-12);
+  try {
+    EquivalentDiameter(bodies({{{"shape", "cube"}}}));
+    ADD_FAILURE() << "no error";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("D_eq: the run's spec does not describe its bodies: ", 0), 0u) << what;
+    EXPECT_NE(what.find("/bodies/species/0/shape"), std::string::npos) << what;
+  }
+  // A size in d is the same for every run; one in D_eq scales with the run's.
+  const RegionSize ch4 = RegionForRun(Chapter4Region(), nlohmann::json::object());
+  EXPECT_DOUBLE_EQ(ch4.pad, Chapter4Region().pad);
+  const RegionSize ch6 = RegionForRun(Chapter6Region(), bodies(nlohmann::json::array({snowman})));
+  EXPECT_NEAR(ch6.pad, 2.0 * std::sqrt(5.0), 1e-12);
+  EXPECT_NEAR(ch6.height, 5.0 * std::sqrt(5.0), 1e-12);
+  EXPECT_FALSE(ch6.in_d_eq);
+}
+
+// Thesis ch. 6's region R for snowmen of D_b = 2 (D_eq = sqrt 5) above an outlet of W = 2:
+// (W + 2 sqrt5) x 5 sqrt5 centred on the outlet, x in +-(1 + sqrt5) = +-3.236, y < 11.18. A
+// disc at (0, 9) lies inside it but above ch. 4's region (5 sqrt2 = 7.07 high); one at
+// (0, 12) and one at (5, 2) lie outside.
+TEST(RegionAnalysis, Chapter6RegionIsSizedByTheRunsDeq) {
+  rundir::RunData data;
+  data.spec = {
+      {"discharge", {{"mode", "remove"}, {"clog_window", 5.0}}},
+      {"silo", {{"width", 40.0}, {"base_outlets", {{{"center", 0.0}, {"width", 2.0}}}}}},
+      {"bodies", {{"count", 100}, {"species", {{{"shape", "snowman"}, {"diameter", 1.0}, {"big_diameter", 2.0}}}}}}};
+  data.has_frames = true;
+  for (int i = 1; i <= 100; ++i) data.events.push_back({0.1 * i, i, "snowman", 1.0, 0});
+  data.summary.t_end = 10.0;
+  const PassOptions pass;
+  const RunView view = MakeRunView(data, pass);
+  const auto analysis = MakeRegionAnalysis("ch6", "/report/region");
+  const auto accumulator = analysis->Start(view);
+  rundir::Frame frame;
+  frame.time = 5.0;
+  std::int64_t id = 0;
+  for (const auto& [x, y] : std::vector<std::pair<double, double>>{{0.0, 9.0}, {0.0, 12.0}, {5.0, 2.0}}) {
+    rundir::Disc d;
+    d.id = ++id;
+    d.mol = id;
+    d.x = x;
+    d.y = y;
+    d.radius = 0.5;
+    d.mass = kPi / 4;
+    frame.discs.push_back(d);
+  }
+  Add(*accumulator, frame);
+  const nlohmann::json result = accumulator->Finish();
+  const double d_eq = std::sqrt(5.0);
+  EXPECT_NEAR(result.at("pad").get<double>(), 2 * d_eq, 1e-12);
+  EXPECT_NEAR(result.at("height").get<double>(), 5 * d_eq, 1e-12);
+  const std::vector<Metric> m = analysis->RunMetrics(result);
+  EXPECT_NEAR(FindMetric(m, "phi")->value, (kPi / 4) / ((2.0 + 2 * d_eq) * 5 * d_eq), 1e-12);
+  // The same frame in ch. 4's region: no disc inside.
+  const auto ch4 = MakeRegionAnalysis("ch4", "/report/region");
+  const auto ch4_accumulator = ch4->Start(view);
+  Add(*ch4_accumulator, frame);
+  EXPECT_NEAR(FindMetric(ch4->RunMetrics(ch4_accumulator->Finish()), "phi")->value, 0.0, 1e-12);
+}
+
+// A pictures figure's "region" mark draws the region the analysis measures: ch. 6's R in the
+// run's D_eq, around an outlet of W = 8 at x = 3; a run spec without describable bodies is a
+// problem said, not a wrong outline.
+TEST(RegionAnalysis, PictureMarkOfChapter6Region) {
+  FigureSpec figure;
+  figure.annotate = {MarkSpec{"region", -1, "R", true}};
+  const nlohmann::json campaign = {{"report", {{"region", "ch6"}}}};
+  const nlohmann::json run = {
+      {"silo", {{"width", 40.0}, {"base_outlets", {{{"center", 3.0}, {"width", 8.0}}}}}},
+      {"bodies", {{"species", {{{"shape", "snowman"}, {"diameter", 1.0}, {"big_diameter", 2.0}}}}}}};
+  std::vector<std::string> problems;
+  const std::vector<PictureMark> marks = PictureMarksOf(figure, campaign, run, 0.0, problems);
+  EXPECT_TRUE(problems.empty());
+  ASSERT_EQ(marks.size(), 1u);
+  const double d_eq = std::sqrt(5.0);
+  EXPECT_NEAR(marks[0].x0, 3.0 - 4.0 - d_eq, 1e-12);
+  EXPECT_NEAR(marks[0].x1, 3.0 + 4.0 + d_eq, 1e-12);
+  EXPECT_NEAR(marks[0].y0, 0.0, 1e-12);
+  EXPECT_NEAR(marks[0].y1, 5.0 * d_eq, 1e-12);
+  nlohmann::json bad = run;
+  bad["bodies"]["species"][0]["shape"] = "cube";
+  EXPECT_TRUE(PictureMarksOf(figure, campaign, bad, 0.0, problems).empty());
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_EQ(problems[0].rfind("R: D_eq: the run's spec does not describe its bodies", 0), 0u) << problems[0];
 }
 
 // One base outlet of width 2 at x = 0 and `exits` exits at 10 a time unit from t = 0.1; the

@@ -409,7 +409,8 @@ TEST(ReportSpec, OptionsFromCampaignSpec) {
   EXPECT_EQ(ErrorOf({{"clogging_index", {{"min_exits_before_clog", 2.5}}}}),
             "/report/clogging_index/min_exits_before_clog: must be an integer (got 2.5)");
   EXPECT_EQ(ErrorOf({{"region", "ch5"}}),
-            "/report/region: must be \"ch3\", \"ch4\" or {\"pad\": .., \"height\": ..} (got \"ch5\")");
+            "/report/region: must be \"ch3\", \"ch4\", \"ch6\" or {\"pad\": .., \"height\": .., \"unit\": \"d\" or "
+            "\"D_eq\"} (got \"ch5\")");
   // Keys that moved to their analysis say where to.
   EXPECT_EQ(ErrorOf({{"models", nlohmann::json::array()}}),
             "/report/models: fit models are options of the flow analysis now: /report/flow/models (got [])");
