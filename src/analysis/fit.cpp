@@ -8,7 +8,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <memory>
+#include <sstream>
 #include <stdexcept>
 
 #include "analysis/expression.h"
@@ -77,6 +79,18 @@ std::string FitResult::Verdict() const {
          (spans.find(',') == std::string::npos ? "s" : "") + " 0";
   if (dof == 1) v += std::string(v.find(':') == std::string::npos ? ": " : "; ") + "1 degree of freedom";
   if (!status.empty() && status.rfind("covariance", 0) == 0) v += "; " + status;
+  // Weighted by the points' errors, a chi2 far above its degrees of freedom says the law misses
+  // the points by more than those errors: the parameters' errors are scaled up to cover it, but
+  // a reader must not take "good" for "the law describes the data".
+  if (!sigma.empty() && dof > 0 && std::isfinite(chi2)) {
+    const double p = gsl_cdf_chisq_Q(chi2, dof);
+    if (p < kMisfitP) {
+      std::ostringstream text;
+      text << std::setprecision(3) << "chi2/dof = " << chi2 / dof << " (p = " << p
+           << "): the law misses the points by more than their errors";
+      v += std::string(v.find(':') == std::string::npos ? ": " : "; ") + text.str();
+    }
+  }
   return v;
 }
 

@@ -48,6 +48,10 @@ enum class FitQuality {
 };
 std::string ToString(FitQuality quality);  // "not fitted", "failed", "ill-determined", "good"
 
+// A weighted fit whose chi2 has a smaller chance than this under the law (p of chi2 for its
+// degrees of freedom) says so in its verdict: the law misses the points by more than their errors.
+inline constexpr double kMisfitP = 1e-3;
+
 struct FitResult {
   std::string model_name;
   std::string model_title;  // FitModel::Shown()
