@@ -99,17 +99,11 @@ struct Drawn {
   ClogPicture picture;
 };
 
-TEST(ClogReport, ArchesContactsAndOrientationSectionsWithPictures) {
-  TempDir dir;
-  CampaignInfo info;
-  info.name = "arches";
-  info.axes = {"/silo/base_outlets/0/width"};
-  // The legs' centres are at h = 1, the lying ones at 1.936; the right lying dumbbell is at
-  // 62.7 degrees around the outlet's centre.
-  info.spec = {{"report", {{"orientation", {{"heights", {1.5}}, {"window", {{"theta", 60}}}}}}}};
+// Two replicas at each of W = 3 and 4 d, finished, their replicas listed in `replicas`' order.
+std::vector<RunRecord> RunsAtW3AndW4(const std::filesystem::path& root, const std::vector<int>& replicas) {
   std::vector<RunRecord> runs;
   for (double w : {3.0, 4.0})
-    for (int rep = 0; rep < 2; ++rep) {
+    for (int rep : replicas) {
       RunRecord r;
       r.point_id = "W" + std::to_string(static_cast<int>(w));
       r.run_id = r.point_id + "r" + std::to_string(rep);
@@ -118,19 +112,37 @@ TEST(ClogReport, ArchesContactsAndOrientationSectionsWithPictures) {
       r.state = "done";
       r.point = {{"/silo/base_outlets/0/width", w}};
       r.spec = SpecFor(w);
-      r.run_dir = dir.Path() / r.run_id;
+      r.run_dir = root / r.run_id;
       WriteRun(r.run_dir, w, r.run_id);
       runs.push_back(r);
     }
-  ReportOptions opt;
-  opt.out_dir = dir.Path() / "report";
+  return runs;
+}
+
+// A report without figures whose clog pictures are recorded in `drawn` (a stand-in PNG each).
+void RecordClogPictures(ReportOptions& opt, const std::filesystem::path& out_dir, std::vector<Drawn>& drawn) {
+  opt.out_dir = out_dir;
   opt.figures = false;
-  std::vector<Drawn> drawn;
-  opt.draw_clog = [&](const std::filesystem::path& run_dir, const ClogPicture& p, const std::filesystem::path& png) {
+  opt.draw_clog = [&drawn](const std::filesystem::path& run_dir, const ClogPicture& p,
+                           const std::filesystem::path& png) {
     drawn.push_back({run_dir, p});
     WriteFile(png, "png");
     return std::string();
   };
+}
+
+TEST(ClogReport, ArchesContactsAndOrientationSectionsWithPictures) {
+  TempDir dir;
+  CampaignInfo info;
+  info.name = "arches";
+  info.axes = {"/silo/base_outlets/0/width"};
+  // The legs' centres are at h = 1, the lying ones at 1.936; the right lying dumbbell is at
+  // 62.7 degrees around the outlet's centre.
+  info.spec = {{"report", {{"orientation", {{"heights", {1.5}}, {"window", {{"theta", 60}}}}}}}};
+  const std::vector<RunRecord> runs = RunsAtW3AndW4(dir.Path(), {0, 1});
+  ReportOptions opt;
+  std::vector<Drawn> drawn;
+  RecordClogPictures(opt, dir.Path() / "report", drawn);
   WriteReport(info, runs, opt);
   const std::string md = ReadFile(opt.out_dir / "report.md");
   EXPECT_NE(md.find("## Arches (ch. 3, 4, 6)"), std::string::npos);
@@ -202,30 +214,10 @@ TEST(ClogReport, APicturesFigureOfTheKeptClogs) {
                     {"picture", "clog"},
                     {"only", {{"W", 4}}},
                     {"window", {-5, 5, -1, 6}}}}}}}};
-  std::vector<RunRecord> runs;
-  for (double w : {3.0, 4.0})
-    for (int rep = 1; rep >= 0; --rep) {
-      RunRecord r;
-      r.point_id = "W" + std::to_string(static_cast<int>(w));
-      r.run_id = r.point_id + "r" + std::to_string(rep);
-      r.replica = rep;
-      r.engine = "native";
-      r.state = "done";
-      r.point = {{"/silo/base_outlets/0/width", w}};
-      r.spec = SpecFor(w);
-      r.run_dir = dir.Path() / r.run_id;
-      WriteRun(r.run_dir, w, r.run_id);
-      runs.push_back(r);
-    }
+  const std::vector<RunRecord> runs = RunsAtW3AndW4(dir.Path(), {1, 0});
   ReportOptions opt;
-  opt.out_dir = dir.Path() / "report";
-  opt.figures = false;
   std::vector<Drawn> drawn;
-  opt.draw_clog = [&](const std::filesystem::path& run_dir, const ClogPicture& p, const std::filesystem::path& png) {
-    drawn.push_back({run_dir, p});
-    WriteFile(png, "png");
-    return std::string();
-  };
+  RecordClogPictures(opt, dir.Path() / "report", drawn);
   WriteReport(info, runs, opt);
   ASSERT_EQ(drawn.size(), 3u) << "two points, then the zoomed one";
   EXPECT_EQ(drawn[0].run_dir.filename(), "W3r0") << "the lowest replica";
