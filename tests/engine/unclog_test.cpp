@@ -155,6 +155,14 @@ TEST(Unclog, RemovedArchBodiesAreNotExits) {
   EXPECT_EQ(o.summary["exited"].get<int>() + o.summary["remaining"].get<int>() + removed, 200);
 }
 
+// The files a clog and its unclog write, and the run's end time, the same bytes in `other` as in `reference`.
+void ExpectSameClogOutputs(const fs::path& reference, const fs::path& other) {
+  SCOPED_TRACE(other.filename().string());
+  for (const char* f : {rundir::kEventsFile, rundir::kUnclogsFile, rundir::kClogFramesFile, rundir::kClogContactsFile})
+    EXPECT_TRUE(Slurp(reference / f) == Slurp(other / f)) << f;
+  EXPECT_EQ(ReadJson(reference / rundir::kSummaryFile)["t_end"], ReadJson(other / rundir::kSummaryFile)["t_end"]);
+}
+
 // The same bits at 1 and 2 threads and after a kill and continue (the checkpoint carries the
 // unclog state, the kicks' random numbers and the offset of unclogs.csv).
 void ExpectSameBits(const std::string& method) {
@@ -175,13 +183,7 @@ void ExpectSameBits(const std::string& method) {
   const std::int64_t kill_at = o.unclogs.front().step + 25000;
   EXPECT_EQ(RunQuiet(cont, 1, kill_at, 32).end_reason, "aborted");
   EXPECT_TRUE(RunQuiet(cont, 1, -1, 32).continued);
-  for (const fs::path& d : {two, cont}) {
-    SCOPED_TRACE(d.filename().string());
-    for (const char* f :
-         {rundir::kEventsFile, rundir::kUnclogsFile, rundir::kClogFramesFile, rundir::kClogContactsFile})
-      EXPECT_TRUE(Slurp(one / f) == Slurp(d / f)) << f;
-    EXPECT_EQ(ReadJson(one / rundir::kSummaryFile)["t_end"], ReadJson(d / rundir::kSummaryFile)["t_end"]);
-  }
+  for (const fs::path& d : {two, cont}) ExpectSameClogOutputs(one, d);
 }
 
 // A run that ended at max_clogs, planned again with a larger max_clogs (granary::extends),
@@ -314,13 +316,7 @@ TEST(Unclog, AKickFallbackGivesTheSameBitsAtAnyThreadCountAndAfterAContinue) {
   const std::int64_t kill_at = o.unclogs[0].step + 25000;
   EXPECT_EQ(RunQuiet(cont, 1, kill_at, 32).end_reason, "aborted");
   EXPECT_TRUE(RunQuiet(cont, 1, -1, 32).continued);
-  for (const fs::path& d : {two, cont}) {
-    SCOPED_TRACE(d.filename().string());
-    for (const char* f :
-         {rundir::kEventsFile, rundir::kUnclogsFile, rundir::kClogFramesFile, rundir::kClogContactsFile})
-      EXPECT_TRUE(Slurp(one / f) == Slurp(d / f)) << f;
-    EXPECT_EQ(ReadJson(one / rundir::kSummaryFile)["t_end"], ReadJson(d / rundir::kSummaryFile)["t_end"]);
-  }
+  for (const fs::path& d : {two, cont}) ExpectSameClogOutputs(one, d);
 }
 
 // A run that ended at max_clogs on a clog with no arch, planned again with a larger max_clogs,
@@ -343,9 +339,7 @@ TEST(Unclog, ARaisedMaxClogsContinuesFromAClogWithNoArchWithTheFallbackKick) {
   const Outcome o = Read(extended);
   ASSERT_FALSE(o.unclogs.empty());
   EXPECT_EQ(o.unclogs.front().method, "kick");
-  for (const char* f : {rundir::kEventsFile, rundir::kUnclogsFile, rundir::kClogFramesFile, rundir::kClogContactsFile})
-    EXPECT_TRUE(Slurp(fresh / f) == Slurp(extended / f)) << f;
-  EXPECT_EQ(ReadJson(fresh / rundir::kSummaryFile)["t_end"], ReadJson(extended / rundir::kSummaryFile)["t_end"]);
+  ExpectSameClogOutputs(fresh, extended);
 }
 
 TEST(Unclog, KicksGiveTheSameBitsAtAnyThreadCountAndAfterAContinue) { ExpectSameBits("kick"); }
