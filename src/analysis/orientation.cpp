@@ -94,8 +94,13 @@ void OrientationSums::Add(const OrientationSums& o) {
   add2(s_count, o.s_count);
   add2(theta_sum, o.theta_sum);
   add2(theta_count, o.theta_count);
-  add1(cos2_sum, o.cos2_sum);
   add1(region_count, o.region_count);
+  add1(cos2psi_sum, o.cos2psi_sum);
+  add1(sin2psi_sum, o.sin2psi_sum);
+  add1(flow_count, o.flow_count);
+  add1(vx_sum, o.vx_sum);
+  add1(vy_sum, o.vy_sum);
+  add1(v2_sum, o.v2_sum);
   add1(window_axes, o.window_axes);
   if (s_range == 0) s_range = o.s_range;
 }
@@ -120,20 +125,35 @@ void AddOrientationFrame(const std::vector<rundir::Disc>& discs, const silo::Out
   const int sb = std::max(1, o.s_bins), tb = std::max(1, o.theta_bins), ab = std::max(1, o.axis_bins);
   const std::vector<OrientationOptions::Region> regions = OrientationRegions(o, f);
   const double range = o.s_range > 0 ? o.s_range : half_width;
-  if (sums.s_sum.empty()) {
+  if (sums.frames == 0) {  // not s_sum.empty(): without heights it stays empty
     sums.s_sum.assign(nh, std::vector<double>(static_cast<std::size_t>(sb), 0.0));
     sums.s_count = sums.s_sum;
     sums.theta_sum.assign(nr, std::vector<double>(static_cast<std::size_t>(tb), 0.0));
     sums.theta_count = sums.theta_sum;
-    sums.cos2_sum.assign(regions.size(), 0.0);
-    sums.region_count.assign(regions.size(), 0.0);
+    for (auto* v : {&sums.region_count, &sums.cos2psi_sum, &sums.sin2psi_sum, &sums.flow_count, &sums.vx_sum,
+                    &sums.vy_sum, &sums.v2_sum})
+      v->assign(regions.size(), 0.0);
     sums.window_axes.assign(static_cast<std::size_t>(ab), 0.0);
     sums.s_range = range;
   }
   ++sums.frames;
   const std::vector<rundir::Body> bodies = rundir::BodiesOf(discs);
   const std::vector<BodyAxis> axes = BodyAxes(discs);
+  auto inside = [](const OrientationOptions::Region& g, const rundir::Body& b) {
+    return !(b.x < g.x0 || b.x > g.x1 || b.y < g.y0 || b.y > g.y1);
+  };
   for (std::size_t k = 0; k < bodies.size(); ++k) {
+    // The flow direction from every body, discs too: the director is the flow's, which the
+    // mixture shares (both species move with the bulk), and at small X_db the few dumbbells
+    // alone would give a noisier direction of the same flow.
+    for (std::size_t i = 0; i < regions.size(); ++i) {
+      if (!inside(regions[i], bodies[k])) continue;
+      const double vx = bodies[k].vx, vy = bodies[k].vy;
+      sums.flow_count[i] += 1;
+      sums.vx_sum[i] += vx;
+      sums.vy_sum[i] += vy;
+      sums.v2_sum[i] += vx * vx + vy * vy;
+    }
     if (!axes[k].elongated) continue;
     const double axis = axes[k].angle, a = Acute(axis);
     const double px = bodies[k].x - f.cx, py = bodies[k].y - f.cy;
@@ -157,11 +177,10 @@ void AddOrientationFrame(const std::vector<rundir::Disc>& discs, const silo::Out
         sums.window_axes[static_cast<std::size_t>(std::clamp(static_cast<int>(axis / kPi * ab), 0, ab - 1))] += 1;
     }
     for (std::size_t i = 0; i < regions.size(); ++i) {
-      const auto& g = regions[i];
-      if (bodies[k].x < g.x0 || bodies[k].x > g.x1 || bodies[k].y < g.y0 || bodies[k].y > g.y1) continue;
-      const double c = std::cos(axis - g.director);
-      sums.cos2_sum[i] += c * c;
+      if (!inside(regions[i], bodies[k])) continue;
       sums.region_count[i] += 1;
+      sums.cos2psi_sum[i] += std::cos(2 * axis);
+      sums.sin2psi_sum[i] += std::sin(2 * axis);
     }
   }
 }
@@ -195,11 +214,32 @@ OrientationProfile OrientationAgainstTheta(const OrientationSums& sums, const Or
   return Profile(sums.theta_sum, sums.theta_count, centre);
 }
 
-std::vector<double> OrderParameters(const OrientationSums& sums, const OrientationOptions& o) {
-  (void)o;
+double FlowDirection(const OrientationSums& sums, std::size_t region) {
+  if (region >= sums.flow_count.size() || !(sums.flow_count[region] > 0)) return kNaN;
+  const double n = sums.flow_count[region];
+  const double mx = sums.vx_sum[region] / n, my = sums.vy_sum[region] / n;
+  const double mean2 = mx * mx + my * my;
+  const double variance = std::max(0.0, sums.v2_sum[region] / n - mean2);
+  if (!(mean2 > 9 * variance / n)) return kNaN;
+  return std::atan2(my, mx);
+}
+
+std::vector<double> RegionDirectors(const OrientationSums& sums,
+                                    const std::vector<OrientationOptions::Region>& regions) {
+  std::vector<double> d;
+  for (std::size_t i = 0; i < regions.size(); ++i)
+    d.push_back(regions[i].flow_director ? FlowDirection(sums, i) : regions[i].director);
+  return d;
+}
+
+std::vector<double> OrderParameters(const OrientationSums& sums, const std::vector<double>& directors) {
   std::vector<double> s;
-  for (std::size_t i = 0; i < sums.cos2_sum.size(); ++i)
-    s.push_back(sums.region_count[i] > 0 ? 2 * sums.cos2_sum[i] / sums.region_count[i] - 1 : kNaN);
+  for (std::size_t i = 0; i < sums.region_count.size(); ++i) {
+    const double n = sums.region_count[i], d = i < directors.size() ? directors[i] : kNaN;
+    s.push_back(n > 0 && std::isfinite(d)
+                    ? (std::cos(2 * d) * sums.cos2psi_sum[i] + std::sin(2 * d) * sums.sin2psi_sum[i]) / n
+                    : kNaN);
+  }
   return s;
 }
 

@@ -52,11 +52,14 @@ struct OrientationOptions {
   std::vector<double> radii = {5, 10, 15};
   double ring = 2.0;
   int theta_bins = 18;
-  // Fig. 5.5: the order parameter in rectangles against a director.
+  // Fig. 5.5: the order parameter in rectangles against a director: a fixed angle, or the flow
+  // direction (the thesis' "director vector which indicates the flow direction"), resolved from
+  // the region's mean body velocity over the same frames (FlowDirection).
   struct Region {
     std::string name;
     double x0 = 0, x1 = 0, y0 = 0, y1 = 0;
-    double director = 1.5707963267948966;  // vertical
+    double director = 1.5707963267948966;  // vertical; unused when flow_director
+    bool flow_director = false;
   };
   std::vector<Region> regions;  // empty: the region above the outlet (|s| < 5, 0 < h < 10), vertical
   // Fig. 6.5: distributions of the axis angle in a window at angular position `window_theta`
@@ -73,9 +76,14 @@ struct OrientationSums {
   int frames = 0;
   std::vector<std::vector<double>> s_sum, s_count;          // [height][s bin]: acute angles
   std::vector<std::vector<double>> theta_sum, theta_count;  // [radius][theta bin]
-  std::vector<double> cos2_sum, region_count;               // [region]: cos^2(axis - director)
-  std::vector<double> window_axes;                          // [axis bin]: counts in the window
-  double s_range = 0;                                       // the range used
+  // [region]: the elongated bodies' count and sums of cos 2 psi, sin 2 psi, from which S against
+  // any director psi_d follows, S = cos 2 psi_d <cos 2 psi> + sin 2 psi_d <sin 2 psi>, so that a
+  // director resolved after the pass (the flow's) needs no second pass.
+  std::vector<double> region_count, cos2psi_sum, sin2psi_sum;
+  // [region]: every body's (discs too) count and sums of vx, vy and vx^2 + vy^2: the mean flow.
+  std::vector<double> flow_count, vx_sum, vy_sum, v2_sum;
+  std::vector<double> window_axes;  // [axis bin]: counts in the window
+  double s_range = 0;               // the range used
   void Add(const OrientationSums& other);
 };
 
@@ -96,8 +104,18 @@ struct OrientationProfile {
 };
 OrientationProfile OrientationAgainstS(const OrientationSums& sums, const OrientationOptions& options);
 OrientationProfile OrientationAgainstTheta(const OrientationSums& sums, const OrientationOptions& options);
-// S per region (NaN without bodies).
-std::vector<double> OrderParameters(const OrientationSums& sums, const OrientationOptions& options);
+// The direction of region `region`'s mean body velocity <v>, atan2(<vy>, <vx>) in (-pi, pi]; NaN
+// when the region held no body or <v> is not told apart from zero: |<v>| <= 3 standard errors of
+// the mean, se^2 = (<|v|^2> - |<v>|^2) / n (n body-frames taken as independent), so a bed at rest
+// (every velocity 0, or only jitter around 0) has no flow direction rather than a noisy one.
+double FlowDirection(const OrientationSums& sums, std::size_t region);
+// The directors the regions are measured against (radians): each fixed one, or its flow
+// direction (NaN where that is undefined).
+std::vector<double> RegionDirectors(const OrientationSums& sums,
+                                    const std::vector<OrientationOptions::Region>& regions);
+// S per region against `directors` (nematic: psi_d and psi_d + pi give the same S). NaN without
+// elongated bodies or with a NaN director.
+std::vector<double> OrderParameters(const OrientationSums& sums, const std::vector<double>& directors);
 // The window's distribution as a probability density over [0, pi) (sums to 1 / bin width x bins).
 std::vector<double> AxisDensity(const std::vector<double>& counts);
 

@@ -10,6 +10,7 @@
 #include "analysis/arches.h"
 #include "analysis/campaign_view.h"
 #include "analysis/expression.h"
+#include "analysis/json_numbers.h"
 #include "analysis/options.h"
 #include "rundir/clogs.h"
 
@@ -71,6 +72,15 @@ class OrientationAccumulator : public RunAccumulator {
     if (!outlet_) return {};
     return {{TimeWindow{-std::numeric_limits<double>::infinity(), 0.0}, steady_}, false};
   }
+  // Why region i has no flow direction (FlowDirection gave NaN).
+  std::string NoFlowNote(const std::string& name, std::size_t i) const {
+    const std::string what = "orientation: region \"" + name + "\" ";
+    const double n = i < flow_.flow_count.size() ? flow_.flow_count[i] : 0.0;
+    if (!(n > 0)) return what + "held no body during steady flow: no flow direction, S undefined";
+    const double speed = std::hypot(flow_.vx_sum[i], flow_.vy_sum[i]) / n;
+    return what + "has no flow direction: its mean velocity, " + FormatNumber(speed, 3) + " sqrt(g d) over " +
+           FormatNumber(n, 6) + " body-frames of steady flow, is within 3 standard errors of zero; S undefined";
+  }
   void AddFrame(const FrameView& f) override {
     const std::vector<rundir::Disc>& discs = f.frame.discs;
     if (!elongated_) elongated_ = AnyElongated(discs);
@@ -102,12 +112,22 @@ class OrientationAccumulator : public RunAccumulator {
       }
       std::vector<std::string> names;
       nlohmann::json bounds = nlohmann::json::array();
-      for (const auto& r : OrientationRegions(o_.where, *outlet_)) {
+      const std::vector<OrientationOptions::Region> regions = OrientationRegions(o_.where, *outlet_);
+      for (const auto& r : regions) {
         names.push_back(r.name);
         bounds.push_back(JsonNumbers(std::vector<double>{r.x0, r.x1, r.y0, r.y1}));
       }
       result["regions"] = names;
       result["region_bounds"] = bounds;  // x0, x1, y0, y1 at this run's point
+      // The director S was measured against in each region, in degrees: the fixed one, or for
+      // "flow" the direction the mean velocity pointed (null, with a note, where it had none).
+      const std::vector<double> directors = RegionDirectors(flow_, regions);
+      std::vector<double> degrees;
+      for (std::size_t i = 0; i < regions.size(); ++i) {
+        degrees.push_back(Degrees(directors[i]));
+        if (regions[i].flow_director && !std::isfinite(directors[i])) notes_.push_back(NoFlowNote(regions[i].name, i));
+      }
+      result["directors"] = JsonNumbers(degrees);
     }
     result["elongated"] = elongated_;
     result["bed"] = to_json(bed_);
@@ -132,7 +152,7 @@ class OrientationAnalysis : public Analysis {
  public:
   OrientationAnalysis(OrientationAnalysisOptions o, nlohmann::json raw) : o_(std::move(o)), raw_(std::move(raw)) {}
   std::string Key() const override { return "orientation"; }
-  int Version() const override { return 1; }
+  int Version() const override { return 2; }
   // With bounds over axes, the derived axes they may name are part of what a result depends on.
   nlohmann::json RunOptions() const override {
     if (o_.bounds.empty()) return raw_;
@@ -193,7 +213,9 @@ class OrientationAnalysis : public Analysis {
     if (!result.value("elongated", false)) return m;
     const OrientationSums flow = OrientationSumsFromJson(result.value("flow", nlohmann::json::object()));
     m.push_back({"flow_frames", "frames", static_cast<double>(flow.frames), kNaN, "frames of steady flow", false});
-    const std::vector<double> s = OrderParameters(flow, o_.where);
+    std::vector<double> directors;
+    for (const auto& d : result.value("directors", nlohmann::json::array())) directors.push_back(Radians(NumberOf(d)));
+    const std::vector<double> s = OrderParameters(flow, directors);
     const std::vector<std::string> names = result.value("regions", std::vector<std::string>{});
     for (std::size_t k = 0; k < s.size(); ++k)
       m.push_back({"order_parameter_" + std::to_string(k), "1", s[k], kNaN,
@@ -266,7 +288,8 @@ std::optional<Section> OrientationAnalysis::BuildSection(const SectionInput& in)
       ": s along it from its centre, h into the silo, theta = atan2(h, s) (90 = above its centre). The mean "
       "orientation averages the acute angle with the horizontal (90 = vertical, whichever way a body leans; fig. 4.3) "
       "over the frames of steady flow; S = 2 <cos^2(psi - director)> - 1 (fig. 5.5) is 1 along the director, -1 across "
-      "it, 0 for no order. Distributions of psi in the window at theta = " +
+      "it, 0 for no order; a \"flow\" director is the direction of the region's mean body velocity (all bodies) over "
+      "the run's frames of steady flow (0 = +x, 90 = up, -90 = down). Distributions of psi in the window at theta = " +
       FormatNumber(Degrees(o.where.window_theta), 3) + " ± " + FormatNumber(Degrees(o.where.window_dtheta / 2), 3) +
       " degrees and r = " + FormatNumber(o.where.window_radius, 3) + " ± " + FormatNumber(o.where.window_dr / 2, 3) +
       " d: in the bed before the opening (t = 0), during flow, and of the "
@@ -322,9 +345,15 @@ std::optional<Section> OrientationAnalysis::BuildSection(const SectionInput& in)
           {"point", "frames"},
           {},
           {"point", "flow_frames"}};
+  // A "flow" region also shows which way the flow pointed at the point: the direction of its
+  // mean velocity over all its runs' steady frames (each run's S is against its own).
+  auto flows = [&](std::size_t r) { return r < o.where.regions.size() && o.where.regions[r].flow_director; };
   for (std::size_t r = 0; r < regions.size(); ++r) {
     t.header.push_back("S, " + regions[r]);
     t.keys.push_back("order_parameter_" + std::to_string(r));
+    if (!flows(r)) continue;
+    t.header.push_back("flow direction, " + regions[r] + " (degrees)");
+    t.keys.push_back("flow_direction_" + std::to_string(r));
   }
   for (std::size_t k = 0; k < v.points.size(); ++k) {
     if (!ps[k].elongated) continue;
@@ -332,6 +361,9 @@ std::optional<Section> OrientationAnalysis::BuildSection(const SectionInput& in)
     for (std::size_t r = 0; r < regions.size(); ++r) {
       const PointMetric* m = FindMetric(in.points[k], "order_parameter_" + std::to_string(r));
       row.push_back(m ? Cell::Estimate(m->Estimate()) : Cell());
+      if (!flows(r)) continue;
+      const double d = FlowDirection(ps[k].flow, r);
+      row.push_back(std::isfinite(d) ? Cell::Number(Degrees(d), 3) : Cell("no flow"));
     }
     t.rows.push_back(row);
   }
@@ -391,15 +423,13 @@ std::optional<Section> OrientationAnalysis::BuildSection(const SectionInput& in)
 }  // namespace
 
 nlohmann::json to_json(const OrientationSums& s) {
-  return {{"frames", s.frames},
-          {"s_sum", s.s_sum},
-          {"s_count", s.s_count},
-          {"theta_sum", s.theta_sum},
-          {"theta_count", s.theta_count},
-          {"cos2_sum", s.cos2_sum},
-          {"region_count", s.region_count},
-          {"window_axes", s.window_axes},
-          {"s_range", s.s_range}};
+  return {{"frames", s.frames},           {"s_sum", s.s_sum},
+          {"s_count", s.s_count},         {"theta_sum", s.theta_sum},
+          {"theta_count", s.theta_count}, {"region_count", s.region_count},
+          {"cos2psi_sum", s.cos2psi_sum}, {"sin2psi_sum", s.sin2psi_sum},
+          {"flow_count", s.flow_count},   {"vx_sum", s.vx_sum},
+          {"vy_sum", s.vy_sum},           {"v2_sum", s.v2_sum},
+          {"window_axes", s.window_axes}, {"s_range", s.s_range}};
 }
 
 OrientationSums OrientationSumsFromJson(const nlohmann::json& j) {
@@ -410,8 +440,13 @@ OrientationSums OrientationSumsFromJson(const nlohmann::json& j) {
   s.s_count = Matrix(j.value("s_count", nlohmann::json::array()));
   s.theta_sum = Matrix(j.value("theta_sum", nlohmann::json::array()));
   s.theta_count = Matrix(j.value("theta_count", nlohmann::json::array()));
-  s.cos2_sum = Vector(j.value("cos2_sum", nlohmann::json::array()));
   s.region_count = Vector(j.value("region_count", nlohmann::json::array()));
+  s.cos2psi_sum = Vector(j.value("cos2psi_sum", nlohmann::json::array()));
+  s.sin2psi_sum = Vector(j.value("sin2psi_sum", nlohmann::json::array()));
+  s.flow_count = Vector(j.value("flow_count", nlohmann::json::array()));
+  s.vx_sum = Vector(j.value("vx_sum", nlohmann::json::array()));
+  s.vy_sum = Vector(j.value("vy_sum", nlohmann::json::array()));
+  s.v2_sum = Vector(j.value("v2_sum", nlohmann::json::array()));
   s.window_axes = Vector(j.value("window_axes", nlohmann::json::array()));
   s.s_range = j.value("s_range", 0.0);
   return s;
@@ -486,8 +521,18 @@ OrientationAnalysisOptions ReadOrientationOptions(const nlohmann::json& options,
           if (std::isfinite(*ends[0]) && std::isfinite(*ends[1]) && !(*ends[0] < *ends[1]))
             throw OptionError(ap, range, "must be [lo, hi] with lo < hi");
         }
-        if (v[i].contains("director"))
-          r.director = Radians(OptionNumber(v[i].at("director"), rp + "/director", -360.0, 360.0));
+        if (v[i].contains("director")) {
+          const nlohmann::json& d = v[i].at("director");
+          const std::string dp = rp + "/director";
+          if (d.is_string() && d.get<std::string>() == "flow")
+            r.flow_director = true;
+          else if (d.is_number())
+            r.director = Radians(OptionNumber(d, dp, -360.0, 360.0));
+          else
+            throw OptionError(dp, d,
+                              "must be an angle in degrees in [-360, 360] (0 = horizontal, 90 = vertical) or \"flow\" "
+                              "(the direction of the region's mean velocity)");
+        }
         w.regions.push_back(r);
       }
     }

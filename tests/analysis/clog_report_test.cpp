@@ -47,7 +47,8 @@ Clog ArchOfDumbbells(double w) {
   return c;
 }
 
-// 30 exits, one clog kept (the arch), three frames of the same bodies at t = 0, 3 and 4.
+// 30 exits, one clog kept (the arch), three frames of the same bodies at t = 0, 3 and 4, every
+// disc moving straight down (1 sqrt(g d)) after the opening.
 void WriteRun(const std::filesystem::path& dir, double w, const std::string& id) {
   std::ostringstream ev;
   ev << "time,body,shape,mass,outlet\n";
@@ -71,6 +72,8 @@ void WriteRun(const std::filesystem::path& dir, double w, const std::string& id)
     rundir::Frame f = clog.frame;
     f.time = t;
     f.timestep = static_cast<std::int64_t>(t * 1e4);
+    if (t > 0)
+      for (rundir::Disc& d : f.discs) d.vy = -1.0;
     frames.Write(f);
   }
   frames.Close();
@@ -138,7 +141,12 @@ TEST(ClogReport, ArchesContactsAndOrientationSectionsWithPictures) {
   info.axes = {"/silo/base_outlets/0/width"};
   // The legs' centres are at h = 1, the lying ones at 1.936; the right lying dumbbell is at
   // 62.7 degrees around the outlet's centre.
-  info.spec = {{"report", {{"orientation", {{"heights", {1.5}}, {"window", {{"theta", 60}}}}}}}};
+  // Regions: the default one's place against the vertical, the same against the flow (straight
+  // down), and one above the bodies, where nothing flows.
+  const nlohmann::json regions = {{{"name", "above"}, {"x", {-5, 5}}, {"y", {0, 10}}, {"director", 90}},
+                                  {{"name", "flow"}, {"x", {-5, 5}}, {"y", {0, 10}}, {"director", "flow"}},
+                                  {{"name", "empty"}, {"x", {-5, 5}}, {"y", {50, 60}}, {"director", "flow"}}};
+  info.spec = {{"report", {{"orientation", {{"heights", {1.5}}, {"window", {{"theta", 60}}}, {"regions", regions}}}}}};
   const std::vector<RunRecord> runs = RunsAtW3AndW4(dir.Path(), {0, 1});
   ReportOptions opt;
   std::vector<Drawn> drawn;
@@ -178,6 +186,14 @@ TEST(ClogReport, ArchesContactsAndOrientationSectionsWithPictures) {
   const std::string order = ReadFile(opt.out_dir / "data" / "orientation_order.csv");
   EXPECT_NEAR(std::stod(FormatCell(order, "W = 3", "order_parameter_0")), 0.0, 1e-12) << order;
   EXPECT_EQ(FormatCell(order, "W = 3", "order_parameter_0_n"), "2");
+  // Against the flow: its direction, -90 degrees (down), a line the same as the vertical's.
+  EXPECT_NEAR(std::stod(FormatCell(order, "W = 3", "order_parameter_1")), 0.0, 1e-12);
+  EXPECT_EQ(FormatCell(order, "W = 4", "flow_direction_1"), "-90");
+  EXPECT_EQ(FormatCell(order, "W = 4", "flow_direction_2"), "no flow");
+  EXPECT_EQ(FormatCell(order, "W = 4", "order_parameter_2_n"), "0") << order;
+  EXPECT_NE(
+      md.find("| S, above | S, flow | flow direction, flow (degrees) | S, empty | flow direction, empty (degrees) |"),
+      std::string::npos);
   EXPECT_NE(CurveCsv(opt.out_dir / "data", "orientation_s_1"), "");
   const std::string window = CurveCsv(opt.out_dir / "data", "orientation_window_arches");
   // Both runs' lying dumbbell, psi in [0, 10) degrees: density 2 / (2 x 10 degrees in radians).

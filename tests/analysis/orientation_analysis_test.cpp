@@ -1,7 +1,8 @@
 // The orientation analysis on frames of dumbbells placed by hand: which frames it takes for the
 // bed before the opening (the first at t <= 0) and for steady flow (those in the steady window),
 // its order parameters per region with their metric names (S = 2 <cos^2(axis - director)> - 1
-// counted by hand: 1 for axes along the director, -1 across it, 0 for half of each), the runs
+// counted by hand: 1 for axes along the director, -1 across it, 0 for half of each), a "flow"
+// director resolved per run and reported (or noted as missing where nothing moves), the runs
 // it has nothing to say about, and the errors of /report/orientation.
 #include "analysis/orientation_analysis.h"
 
@@ -119,6 +120,40 @@ TEST(OrientationAnalysis, OrderParameterPerRegionOfTheSpec) {
   EXPECT_EQ(m[2].name, "order_parameter_1");
   EXPECT_EQ(m[2].title, "order parameter S in region 2");
   EXPECT_NEAR(m[2].value, 0.0, 1e-12);
+}
+
+// "director": "flow": each run's S against the direction its region's bodies moved, that
+// direction in the result (degrees); a region whose bodies stood still gets no number but a note.
+TEST(OrientationAnalysis, FlowDirectorPerRunAndNoFlowNoted) {
+  TempDir dir;
+  const rundir::RunData data = SiloRun(dir.Path());
+  const RunView view = MakeRunView(data, PassOptions{});
+  const nlohmann::json options = {{"regions",
+                                   {{{"name", "moving"}, {"x", {-10, -2}}, {"y", {0, 10}}, {"director", "flow"}},
+                                    {{"name", "still"}, {"x", {2, 10}}, {"y", {0, 10}}, {"director", "flow"}},
+                                    {{"name", "fixed"}, {"x", {-10, -2}}, {"y", {0, 10}}, {"director", 0}}}}};
+  const auto analysis = MakeOrientationAnalysis(options, "/report/orientation");
+  const auto accumulator = analysis->Start(view);
+  // Left: axes at 45 degrees moving down-left along them, (-1, -1); right: upright at rest.
+  for (double t : {3.0, 4.0}) {
+    rundir::Frame f = Dumbbells(t, {{-5, 3, 45}, {-4, 6, 45}, {5, 3, 90}});
+    for (std::size_t i = 0; i < 4; ++i) f.discs[i].vx = f.discs[i].vy = -1.0;
+    Add(*accumulator, f);
+  }
+  const nlohmann::json result = accumulator->Finish();
+  ASSERT_EQ(result.at("directors").size(), 3u);
+  EXPECT_NEAR(result.at("directors")[0].get<double>(), -135.0, 1e-9);
+  EXPECT_TRUE(result.at("directors")[1].is_null());
+  EXPECT_NEAR(result.at("directors")[2].get<double>(), 0.0, 1e-12);
+  ASSERT_TRUE(result.contains("notes"));
+  ASSERT_EQ(result.at("notes").size(), 1u);
+  EXPECT_EQ(result.at("notes")[0].get<std::string>().rfind("orientation: region \"still\" has no flow direction", 0),
+            0u)
+      << result.at("notes");
+  const std::vector<Metric> m = analysis->RunMetrics(result);
+  EXPECT_NEAR(FindMetric(m, "order_parameter_0")->value, 1.0, 1e-12);  // along the flow's line
+  EXPECT_TRUE(std::isnan(FindMetric(m, "order_parameter_1")->value));
+  EXPECT_NEAR(FindMetric(m, "order_parameter_2")->value, 0.0, 1e-12);  // cos(2 x 45)
 }
 
 // Bounds over the campaign's axes (thesis fig. 5.5: 10 < y < W - 5), evaluated at each run's
@@ -240,6 +275,20 @@ TEST(OrientationAnalysis, OptionErrorsNameTheirPath) {
   EXPECT_EQ(error({{"regions", {{{"x", {0, 1}}, {"y", {0, 1}}, {"name", 7}}}}})
                 .rfind("/report/orientation/regions/0/name: must be a string", 0),
             0u);
+  // A director is an angle or "flow", nothing else.
+  for (const nlohmann::json& bad : {nlohmann::json("Flow"), nlohmann::json(true), nlohmann::json({0, 1})})
+    EXPECT_EQ(error({{"regions", {{{"x", {0, 1}}, {"y", {0, 1}}, {"director", bad}}}}})
+                  .rfind("/report/orientation/regions/0/director: must be an angle in degrees in [-360, 360] "
+                         "(0 = horizontal, 90 = vertical) or \"flow\"",
+                         0),
+              0u)
+        << bad;
+  const nlohmann::json box = {{"x", {0, 1}}, {"y", {0, 1}}};
+  nlohmann::json far = box;
+  far["director"] = 400;
+  EXPECT_EQ(error({{"regions", {box, far}}}).rfind("/report/orientation/regions/1/director: must be in [-360, 360]", 0),
+            0u);
+  EXPECT_EQ(error({{"regions", {{{"x", {0, 1}}, {"y", {0, 1}}, {"director", "flow"}}}}}), "no error");
   EXPECT_EQ(error({{"outlet", -1}}).rfind("/report/orientation/outlet: must be in", 0), 0u);
   EXPECT_EQ(error({{"rings", 2}}).rfind("/report/orientation/rings: unknown key", 0), 0u);
   // The defaults: heights and radii 5 and 10 d.
