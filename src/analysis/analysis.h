@@ -151,13 +151,15 @@ struct AnalysisResults {
 };
 
 // What a picture shows besides the bodies and the silo (a figure of kind "pictures",
-// figures.h): a rectangle outlined (and shaded), or a dimension line with its label, in silo
-// coordinates (d, x from the silo's centre, y up from the base).
+// figures.h): a rectangle outlined (and shaded), a dimension line with its label, the discs of
+// the body nearest a point measured (the renderer finds the body in the frame), or the origin
+// with x and y arrows; in silo coordinates (d, x from the silo's centre, y up from the base).
 struct PictureMark {
-  enum class Kind { kRect, kDimension } kind = Kind::kRect;
-  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;  // the rectangle's corners, or the dimension's ends
+  enum class Kind { kRect, kDimension, kDiscs, kOrigin } kind = Kind::kRect;
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;  // the rectangle's corners, the dimension's ends, or the point (x0, y0)
   std::string label;                      // "A", "W = 11 d"; drawn at the rectangle's top left or the line's middle
   bool shade = false;                     // rectangles: filled translucent, not only outlined
+  std::vector<std::string> labels = {};   // kDiscs: one per disc size, smallest first (empty: the renderer's)
 };
 
 // A clog an engine kept (clog_frames.dump) drawn to scale around its outlet, the bodies in

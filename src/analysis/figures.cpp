@@ -134,20 +134,25 @@ class Offers {
   std::unique_ptr<AnalysisSetup> setup_;
 };
 
-// The marks a pictures figure may ask for: what each is, its kind, its default label.
+// The marks a pictures figure may ask for: what each is, the key that names it ("region",
+// "dimension" or "point"), its default label, what it means.
 struct MarkKind {
   const char* what;
-  bool rect;
+  const char* key;
   const char* label;
   const char* meaning;
 };
 constexpr MarkKind kMarkKinds[] = {
-    {"region", true, "region", "the region analysis' rectangle next to an outlet, /report/region"},
-    {"fields", true, "maps", "the maps' window, /report/fields/window"},
-    {"outlet_width", false, "W", "the outlet's width"},
-    {"obstacle_height", false, "H", "the obstacle centre's height above the base"},
-    {"obstacle_offset", false, "L", "the obstacle centre's distance from the silo's axis"},
-    {"outlet_gap", false, "L", "the gap between base outlets 0 and 1, edge to edge"}};
+    {"region", "region", "region", "the region analysis' rectangle next to an outlet, /report/region"},
+    {"fields", "region", "maps", "the maps' window, /report/fields/window"},
+    {"outlet_width", "dimension", "W", "the outlet's width"},
+    {"obstacle_height", "dimension", "H", "the obstacle centre's height above the base"},
+    {"obstacle_offset", "dimension", "L", "the obstacle centre's distance from the silo's axis"},
+    {"outlet_gap", "dimension", "L", "the gap between base outlets 0 and 1, edge to edge"},
+    {"disc_diameters", "dimension", "",
+     "the diameter of each disc size of the body nearest \"at\", smallest first, labelled \"labels\""},
+    {"origin", "point", "(0, 0)", "x = 0 on the silo's axis, y = 0 on the base, with x and y arrows"}};
+constexpr const char* kMarkKeys[] = {"region", "dimension", "point"};
 
 const MarkKind* FindMarkKind(const std::string& what) {
   for (const MarkKind& k : kMarkKinds)
@@ -155,10 +160,10 @@ const MarkKind* FindMarkKind(const std::string& what) {
   return nullptr;
 }
 
-std::string MarkKindNames(bool rect) {
+std::string MarkKindNames(const std::string& key) {
   std::string s;
   for (const MarkKind& k : kMarkKinds)
-    if (k.rect == rect) s += (s.empty() ? "" : ", ") + std::string("\"") + k.what + "\" (" + k.meaning + ")";
+    if (k.key == key) s += (s.empty() ? "" : ", ") + std::string("\"") + k.what + "\" (" + k.meaning + ")";
   return s;
 }
 
@@ -203,18 +208,23 @@ void ReadPictureKeys(const nlohmann::json& f, const std::string& path, const nlo
   for (std::size_t i = 0; i < list.size(); ++i) {
     const std::string p = path + "/annotate/" + std::to_string(i);
     const nlohmann::json& m = list[i];
-    if (!m.is_object() || m.contains("region") == m.contains("dimension"))
-      throw OptionError(p, m, "must be an object with \"region\" or \"dimension\"");
-    const bool rect = m.contains("region");
-    if (rect)
-      OptionObject(m, p, {"region", "outlet", "label", "shade"});
-    else
-      OptionObject(m, p, {"dimension", "outlet", "obstacle", "label"});
+    const int keys = m.is_object() ? static_cast<int>(std::count_if(std::begin(kMarkKeys), std::end(kMarkKeys),
+                                                                    [&](const char* k) { return m.contains(k); }))
+                                   : 0;
+    if (keys != 1) throw OptionError(p, m, "must be an object with one of \"region\", \"dimension\" or \"point\"");
+    const std::string key = m.contains("region") ? "region" : m.contains("dimension") ? "dimension" : "point";
     MarkSpec mark;
-    const std::string key = rect ? "region" : "dimension";
     mark.what = TextAt(m, key, p);
     const MarkKind* kind = FindMarkKind(mark.what);
-    if (!kind || kind->rect != rect) throw OptionError(p + "/" + key, m.at(key), "must be " + MarkKindNames(rect));
+    if (!kind || kind->key != key) throw OptionError(p + "/" + key, m.at(key), "must be " + MarkKindNames(key));
+    if (key == "region")
+      OptionObject(m, p, {"region", "outlet", "label", "shade"});
+    else if (mark.what == "disc_diameters")
+      OptionObject(m, p, {"dimension", "at", "labels"});
+    else if (key == "dimension")
+      OptionObject(m, p, {"dimension", "outlet", "obstacle", "label"});
+    else
+      OptionObject(m, p, {"point", "label"});
     if (mark.what == "fields" && !FieldsOn(campaign_spec))
       throw OptionError(p + "/region", m.at(key), "names the maps' window, but this spec has no /report/fields");
     mark.label = m.contains("label") ? TextAt(m, "label", p) : kind->label;
@@ -229,7 +239,27 @@ void ReadPictureKeys(const nlohmann::json& f, const std::string& path, const nlo
         throw OptionError(p + "/obstacle", m.at("obstacle"), "\"" + mark.what + "\" takes no obstacle");
       mark.index = OptionInteger(m.at("obstacle"), p + "/obstacle", 0, 1000);
     }
-    if (!rect && mark.index < 0) mark.index = 0;
+    if (m.contains("at")) {
+      const nlohmann::json& at = m.at("at");
+      if (!at.is_array() || at.size() != 2 || !std::all_of(at.begin(), at.end(), [](const auto& v) {
+            return v.is_number() && std::isfinite(v.template get<double>());
+          }))
+        throw OptionError(p + "/at", at,
+                          "must be [x, y] in d (x from the silo's centre, y from the base): the body nearest it is "
+                          "measured");
+      mark.at = std::array<double, 2>{at[0].get<double>(), at[1].get<double>()};
+    }
+    if (m.contains("labels")) {
+      const nlohmann::json& labels = m.at("labels");
+      if (!labels.is_array() || labels.empty() || !std::all_of(labels.begin(), labels.end(), [](const auto& v) {
+            return v.is_string() && !v.template get<std::string>().empty();
+          }))
+        throw OptionError(p + "/labels", labels,
+                          "must be a non-empty list of names, one per disc size of the body, smallest first (a "
+                          "snowman: [\"D_s\", \"D_b\"])");
+      for (const auto& v : labels) mark.labels.push_back(v.get<std::string>());
+    }
+    if (key == "dimension" && mark.index < 0) mark.index = 0;
     s.annotate.push_back(std::move(mark));
   }
 }
@@ -1098,6 +1128,18 @@ std::vector<PictureMark> PictureMarksOf(const FigureSpec& figure, const nlohmann
         w = CgDefaultWindow(silo.value("width", 100.0), bed_top > 0 ? bed_top : 148.5);
       }
       out.push_back({PictureMark::Kind::kRect, w.x0, w.y0, w.x1, w.y1, m.label, m.shade});
+    } else if (m.what == "disc_diameters") {
+      // Which body is the renderer's to find (the frame is its); the point is the spec's.
+      const std::array<double, 2> at = m.at ? *m.at
+                                       : figure.window
+                                           ? std::array<double, 2>{0.5 * ((*figure.window)[0] + (*figure.window)[1]),
+                                                                   0.5 * ((*figure.window)[2] + (*figure.window)[3])}
+                                           : std::array<double, 2>{0.0, 0.5 * (bed_top > 0 ? bed_top : 10.0)};
+      PictureMark discs{PictureMark::Kind::kDiscs, at[0], at[1], at[0], at[1], ""};
+      discs.labels = m.labels;
+      out.push_back(discs);
+    } else if (m.what == "origin") {
+      out.push_back({PictureMark::Kind::kOrigin, 0.0, 0.0, 0.0, 0.0, m.label});
     } else if (m.what == "outlet_width") {
       if (m.index >= static_cast<int>(outlets.size())) {
         problems.push_back(m.label + ": the run has no outlet " + std::to_string(m.index));

@@ -36,11 +36,14 @@ struct MarkSpec {
   // "fields" (the maps' window, /report/fields/window or each run's default). Dimensions from
   // the run spec: "outlet_width" (W), "obstacle_height" (H: base to the obstacle's centre),
   // "obstacle_offset" (L: the silo's axis to the obstacle's centre), "outlet_gap" (L: edge to
-  // edge of base outlets 0 and 1).
+  // edge of base outlets 0 and 1); from the frame: "disc_diameters" (each disc size of the body
+  // nearest `at`: a snowman's D_s and D_b, thesis fig. 6.1). A point: "origin".
   std::string what;
   int index = -1;  // the outlet or obstacle (event order); -1: every outlet (rectangles), 0 (dimensions)
   std::string label;
   bool shade = false;
+  std::optional<std::array<double, 2>> at = {};  // disc_diameters: default the zoom window's centre, else mid-bed
+  std::vector<std::string> labels = {};          // disc_diameters: one per disc size, smallest first
 };
 
 struct FigureSpec {

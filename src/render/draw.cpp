@@ -64,28 +64,60 @@ void PaintMarks(const Scene& s, double k, double top, double width, double font,
       if (!m.label.empty()) p.Label(px(x0) + 0.4 * font, py(y1) + 1.3 * font, font, m.label, false);
       continue;
     }
+    if (m.kind == Mark::Kind::kOrigin) {
+      if (m.x0 < w.x_lo || m.x0 > w.x_hi || m.y0 < w.y_lo || m.y0 > w.y_hi) continue;
+      // A dot, and arrows 2.5 font sizes long along +x and +y with their names at the tips.
+      const double ox = px(m.x0), oy = py(m.y0), arm = 2.5 * font, head = 0.5 * font;
+      p.Circle(ox, oy, 0.3 * font, kInk, kInk, 0, "origin");
+      p.Segment(ox, oy, ox + arm, oy, line, kInk, "origin");
+      p.Segment(ox + arm, oy, ox + arm - head, oy - 0.6 * head, line, kInk, "origin");
+      p.Segment(ox + arm, oy, ox + arm - head, oy + 0.6 * head, line, kInk, "origin");
+      p.Segment(ox, oy, ox, oy - arm, line, kInk, "origin");
+      p.Segment(ox, oy - arm, ox - 0.6 * head, oy - arm + head, line, kInk, "origin");
+      p.Segment(ox, oy - arm, ox + 0.6 * head, oy - arm + head, line, kInk, "origin");
+      // The names above the x arrow's tip and beside the y arrow's, clear of a dimension below the base.
+      p.Label(ox + arm, oy - 0.8 * font, font, "x", true);
+      p.Label(ox + 0.8 * font, oy - arm, font, "y", true);
+      if (!m.label.empty())
+        p.Label(ox - 0.5 * (p.TextWidth(font, m.label) + 0.6 * font) - 0.3 * font, oy - 0.9 * font, font, m.label,
+                true);
+      continue;
+    }
     // A dimension: both ends clamped into the window; nothing when it lies wholly outside.
     const double mx = 0.5 * (m.x0 + m.x1), my = 0.5 * (m.y0 + m.y1);
     if (mx < w.x_lo || mx > w.x_hi || my < w.y_lo || my > w.y_hi) continue;
     const auto cx = [&](double x) { return px(std::clamp(x, w.x_lo, w.x_hi)); };
     const auto cy = [&](double y) { return py(std::clamp(y, w.y_lo, w.y_hi)); };
     const double ax = cx(m.x0), ay = cy(m.y0), bx = cx(m.x1), by = cy(m.y1);
-    p.Segment(ax, ay, bx, by, line, kInk, "dimension");
-    const double len = std::hypot(bx - ax, by - ay), tick = 0.5 * font;
+    // A short line (a disc's diameter, a few pixels wide) is drawn finer and with shorter ticks,
+    // so that two beside each other (a snowman's) stay apart.
+    const double len = std::hypot(bx - ax, by - ay), tick = std::min(0.5 * font, 0.3 * len);
+    const double stroke = std::min(line, std::max(1.0, 0.12 * len));
+    p.Segment(ax, ay, bx, by, stroke, kInk, "dimension");
     const double nx = len > 0 ? -(by - ay) / len : 0, ny = len > 0 ? (bx - ax) / len : 1;
     for (const auto& [ex, ey] : {std::pair{ax, ay}, std::pair{bx, by}})
-      p.Segment(ex - tick * nx, ey - tick * ny, ex + tick * nx, ey + tick * ny, line, kInk, "dimension");
+      p.Segment(ex - tick * nx, ey - tick * ny, ex + tick * nx, ey + tick * ny, stroke, kInk, "dimension");
     if (m.label.empty()) continue;
     // On the line's middle where it fits; else beside it: above a level line, right of another.
     double lx = 0.5 * (ax + bx), ly = 0.5 * (ay + by);
     const double text = p.TextWidth(font, m.label) + 0.6 * font;
-    if (std::fabs(bx - ax) >= std::fabs(by - ay)) {
+    const double away = std::hypot(m.away_x, m.away_y);
+    if (away > 0) {
+      // Set off along `away` (y flips in pixels): past the half line (what it measures reaches
+      // as far that way: a disc's radius) and half the label's own extent that way.
+      const double ux = m.away_x / away, uy = -m.away_y / away;
+      const double off = 0.5 * len + 0.3 * font + 0.5 * (std::fabs(ux) * text + std::fabs(uy) * 1.3 * font);
+      lx += ux * off;
+      ly += uy * off;
+    } else if (std::fabs(bx - ax) >= std::fabs(by - ay)) {
       if (text > 0.9 * len) ly -= 1.4 * font;
     } else if (1.4 * font > 0.9 * len) {
       lx += 0.5 * text + 0.3 * font;
     }
     // Inside the picture: a line along its edge (a side outlet's W) moves its label inwards.
     lx = std::clamp(lx, 0.5 * text + 2, std::max(0.5 * text + 2, width - 0.5 * text - 2));
+    // And below the header strip, above the window's bottom (a label set off upwards).
+    ly = std::clamp(ly, top + 0.8 * font, std::max(top + 0.8 * font, py(w.y_lo) - 0.8 * font));
     p.Label(lx, ly, font, m.label, true);
   }
 }

@@ -51,6 +51,56 @@ std::string Fixed(double v) {
   return buf;
 }
 
+// The dimension lines of a kDiscs mark: the body whose centre of mass is nearest the mark's
+// point; for each disc size (smallest first) the disc of that size farthest from the centre
+// (an end of the body), its diameter drawn across the body's axis through it and labelled
+// outwards along the axis, so that a snowman's two lines stand apart, each beside its disc.
+std::vector<Mark> DiscDimensions(const Mark& m, const std::vector<rundir::Body>& bodies,
+                                 const std::vector<rundir::Disc>& discs) {
+  const rundir::Body* body = nullptr;
+  for (const auto& b : bodies)
+    if (!body || std::hypot(b.x - m.x0, b.y - m.y0) < std::hypot(body->x - m.x0, body->y - m.y0)) body = &b;
+  if (!body)
+    throw std::invalid_argument("the discs' diameters: the frame has no body near (" + Fixed(m.x0) + ", " +
+                                Fixed(m.y0) + ") to measure");
+  std::vector<const rundir::Disc*> own;
+  for (const auto& d : discs)
+    if (d.mol == body->id) own.push_back(&d);
+  // One disc per size, sizes apart by more than rounding; of equal sizes the farthest out.
+  const auto out = [&](const rundir::Disc* d) { return std::hypot(d->x - body->x, d->y - body->y); };
+  std::sort(own.begin(), own.end(), [&](const rundir::Disc* a, const rundir::Disc* b) {
+    return a->radius != b->radius ? a->radius < b->radius : out(a) > out(b);
+  });
+  std::vector<const rundir::Disc*> sizes;
+  for (const rundir::Disc* d : own)
+    if (sizes.empty() || d->radius - sizes.back()->radius > 1e-6 * d->radius) sizes.push_back(d);
+  std::vector<std::string> labels = m.labels;
+  if (labels.empty()) {
+    if (sizes.size() == 1) labels = {"D"};
+    if (sizes.size() == 2) labels = {"D_s", "D_b"};
+    for (std::size_t k = 0; sizes.size() > 2 && k < sizes.size(); ++k) labels.push_back("D_" + std::to_string(k + 1));
+  }
+  if (labels.size() != sizes.size())
+    throw std::invalid_argument("the discs' diameters: the body nearest (" + Fixed(m.x0) + ", " + Fixed(m.y0) +
+                                ") has " + std::to_string(sizes.size()) + " disc size(s), but " +
+                                std::to_string(labels.size()) + " label(s) were given (one per size, smallest first)");
+  std::vector<Mark> lines;
+  for (std::size_t k = 0; k < sizes.size(); ++k) {
+    const rundir::Disc& d = *sizes[k];
+    // The axis from the body's centre out through this disc; a lone disc (or one at the
+    // centre) is measured level and labelled above.
+    const double len = out(&d);
+    const double ux = len > 1e-9 ? (d.x - body->x) / len : 0.0, uy = len > 1e-9 ? (d.y - body->y) / len : 0.0;
+    const double nx = len > 1e-9 ? -uy : 1.0, ny = len > 1e-9 ? ux : 0.0;
+    Mark line{Mark::Kind::kDimension, d.x - d.radius * nx, d.y - d.radius * ny,
+              d.x + d.radius * nx,    d.y + d.radius * ny, labels[k] + " = " + Fixed(2 * d.radius) + " d"};
+    line.away_x = ux;
+    line.away_y = uy;
+    lines.push_back(line);
+  }
+  return lines;
+}
+
 }  // namespace
 
 Window SiloWindow(const silo::SiloOutline& silo, double exit_distance, double top) {
@@ -73,8 +123,14 @@ Scene MakeScene(const rundir::Frame& frame, const silo::SiloOutline& silo, const
   scene.window = o.window;
   scene.silo = silo;
   scene.caption = o.caption;
-  scene.marks = o.marks;
   const std::vector<rundir::Body> bodies = rundir::BodiesOf(frame.discs);
+  for (const Mark& m : o.marks) {
+    if (m.kind != Mark::Kind::kDiscs) {
+      scene.marks.push_back(m);
+      continue;
+    }
+    for (Mark& line : DiscDimensions(m, bodies, frame.discs)) scene.marks.push_back(std::move(line));
+  }
   std::map<std::int64_t, const rundir::Body*> body_of;
   for (const auto& b : bodies) body_of[b.id] = &b;
 

@@ -38,13 +38,22 @@ struct Line {
 };
 
 // A mark over the picture, in silo units: a rectangle (a region, a zoom's outline), outlined
-// and perhaps shaded, its label inside its top left corner; or a dimension line between two
-// points with end ticks, its label on a white box at its middle ("W = 11 d").
+// and perhaps shaded, its label inside its top left corner; a dimension line between two
+// points with end ticks, its label on a white box at its middle ("W = 11 d"); the discs of
+// one body measured (kDiscs: the body nearest (x0, y0) in the frame, one dimension line
+// across a disc of each size, smallest first, labelled `labels` "= D d"; MakeScene turns it
+// into kDimension marks); or a point with short x and y arrows (kOrigin: the origin at (x0, y0)).
 struct Mark {
-  enum class Kind { kRect, kDimension } kind = Kind::kRect;
+  enum class Kind { kRect, kDimension, kDiscs, kOrigin } kind = Kind::kRect;
   double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
   std::string label;
   bool shade = false;
+  // kDiscs: one label per disc size, smallest first; empty: "D" for one size, "D_s" and "D_b"
+  // for two (a snowman's head and body, thesis fig. 6.1), "D_1", "D_2", ... for more.
+  std::vector<std::string> labels = {};
+  // kDimension: the label set off the line's middle this way (silo units; 0, 0: on the line
+  // or just beside it): a disc's diameter labels outwards along its body's axis, clear of it.
+  double away_x = 0, away_y = 0;
 };
 
 struct Scene {
@@ -82,6 +91,8 @@ struct SceneOptions {
 // below the exit line up to just above `top` (the bed's top, so every frame of a run fits).
 Window SiloWindow(const silo::SiloOutline& silo, double exit_distance, double top);
 
+// Throws std::invalid_argument when a kDiscs mark finds no body in the frame, or its labels
+// are not one per disc size of that body.
 Scene MakeScene(const rundir::Frame& frame, const silo::SiloOutline& silo, const SceneOptions& options);
 
 // Pixel size of a picture `width_px` wide: the window to scale under a strip for the caption
@@ -92,8 +103,9 @@ struct PixelSize {
 PixelSize SizeFor(const Scene& scene, int width_px);
 
 // An SVG document: one <circle> per disc (in pixels, y up), walls and outlets as <polygon>s,
-// obstacles as <circle class="obstacle">, forces as <line>s, marks as <rect class="mark">
-// and <line class="dimension">s with their labels as <text class="label">.
+// obstacles as <circle class="obstacle">, forces as <line>s, marks as <rect class="mark">,
+// <line class="dimension">s and an origin's <circle class="origin"> and <line class="origin">
+// arrows, with their labels as <text class="label">.
 std::string Svg(const Scene& scene, int width_px);
 
 // The same picture in pixels: cairo's ARGB32 (premultiplied, native-endian: B G R A bytes on

@@ -594,10 +594,72 @@ TEST(FigureLayer, PictureKeysAreChecked) {
   EXPECT_EQ(error_of(with({{"annotate", {{{"region", "fields"}}}}})), "/report/figures/0/annotate/0/region")
       << "the maps' window needs /report/fields";
   EXPECT_EQ(error_of(with({{"annotate", {{{"region", "fields"}, {"shade", true}}}}}), {{"fields", true}}), "");
+  // A body's disc diameters: a point [x, y] and a label per disc size; the origin, a point.
+  const nlohmann::json discs = {{"dimension", "disc_diameters"}, {"at", {3, 4}}, {"labels", {"D_s", "D_b"}}};
+  EXPECT_EQ(error_of(with({{"annotate", {discs, {{"point", "origin"}, {"label", "O"}}}}})), "");
+  EXPECT_EQ(error_of(with({{"annotate", {{{"dimension", "disc_diameters"}}}}})), "");
+  const auto discs_with = [&](const char* key, const nlohmann::json& value) {
+    nlohmann::json m = discs;
+    m[key] = value;
+    return error_of(with({{"annotate", {m}}}));
+  };
+  EXPECT_EQ(discs_with("at", {3}), "/report/figures/0/annotate/0/at");
+  EXPECT_EQ(discs_with("at", {3, "top"}), "/report/figures/0/annotate/0/at");
+  EXPECT_EQ(discs_with("labels", nlohmann::json::array()), "/report/figures/0/annotate/0/labels");
+  EXPECT_EQ(discs_with("labels", {"D_s", 2}), "/report/figures/0/annotate/0/labels");
+  EXPECT_EQ(discs_with("labels", "D_s"), "/report/figures/0/annotate/0/labels");
+  EXPECT_EQ(discs_with("label", "D"), "/report/figures/0/annotate/0/label") << "one label per size: labels";
+  EXPECT_EQ(discs_with("outlet", 0), "/report/figures/0/annotate/0/outlet");
+  EXPECT_EQ(error_of(with({{"annotate", {{{"dimension", "outlet_width"}, {"at", {0, 1}}}}}})),
+            "/report/figures/0/annotate/0/at");
+  EXPECT_EQ(error_of(with({{"annotate", {{{"point", "centre"}}}}})), "/report/figures/0/annotate/0/point");
+  EXPECT_EQ(error_of(with({{"annotate", {{{"dimension", "origin"}}}}})), "/report/figures/0/annotate/0/dimension");
+  EXPECT_EQ(error_of(with({{"annotate", {{{"point", "origin"}, {"region", "region"}}}}})),
+            "/report/figures/0/annotate/0");
+  EXPECT_EQ(error_of(with({{"annotate", {{{"point", "origin"}, {"shade", true}}}}})),
+            "/report/figures/0/annotate/0/shade");
   // Keys of other kinds, and a pictures key on another kind.
   EXPECT_EQ(error_of(with({{"y", "q_count"}})), "/report/figures/0/y");
   EXPECT_EQ(error_of({{"name", "f"}, {"y", "q_count"}, {"annotate", nlohmann::json::array()}}),
             "/report/figures/0/annotate");
+}
+
+// disc_diameters asks the renderer for the body nearest its point (as given, else the zoom
+// window's centre, else half way up the bed on the axis) with its labels; origin is (0, 0).
+TEST(FigureLayer, DiscDiametersAndOriginMarks) {
+  const nlohmann::json spec = {{"name", "p"},
+                               {"base", SpecFor(10, 0)},
+                               {"sweep", {{"grid", {{"/silo/base_outlets/0/width", {10, 14}}}}}},
+                               {"report",
+                                {{"figures",
+                                  {{{"name", "f"},
+                                    {"kind", "pictures"},
+                                    {"annotate",
+                                     {{{"dimension", "disc_diameters"}, {"at", {3, 4}}, {"labels", {"D_s", "D_b"}}},
+                                      {{"dimension", "disc_diameters"}},
+                                      {{"point", "origin"}}}}}}}}}};
+  std::vector<FigureSpec> figures = ReadFigureSpecs(spec);
+  ASSERT_EQ(figures.size(), 1u);
+  std::vector<std::string> problems;
+  std::vector<PictureMark> marks = PictureMarksOf(figures[0], spec, spec.at("base"), 30.0, problems);
+  EXPECT_TRUE(problems.empty());
+  ASSERT_EQ(marks.size(), 3u);
+  EXPECT_EQ(marks[0].kind, PictureMark::Kind::kDiscs);
+  EXPECT_DOUBLE_EQ(marks[0].x0, 3);
+  EXPECT_DOUBLE_EQ(marks[0].y0, 4);
+  EXPECT_EQ(marks[0].labels, (std::vector<std::string>{"D_s", "D_b"}));
+  EXPECT_DOUBLE_EQ(marks[1].x0, 0) << "no point, no zoom: on the axis";
+  EXPECT_DOUBLE_EQ(marks[1].y0, 15) << "half way up a bed 30 d high";
+  EXPECT_TRUE(marks[1].labels.empty()) << "the renderer names the sizes";
+  EXPECT_EQ(marks[2].kind, PictureMark::Kind::kOrigin);
+  EXPECT_DOUBLE_EQ(marks[2].x0, 0);
+  EXPECT_DOUBLE_EQ(marks[2].y0, 0);
+  EXPECT_EQ(marks[2].label, "(0, 0)");
+  figures[0].window = std::array<double, 4>{-4, 8, 0, 10};
+  marks = PictureMarksOf(figures[0], spec, spec.at("base"), 30.0, problems);
+  EXPECT_DOUBLE_EQ(marks[1].x0, 2) << "the zoom window's centre";
+  EXPECT_DOUBLE_EQ(marks[1].y0, 5);
+  EXPECT_DOUBLE_EQ(marks[0].x0, 3) << "a point given stays";
 }
 
 TEST(Expectations, AgreeDisagreeAndTooFewRuns) {

@@ -203,6 +203,104 @@ TEST(Render, ColourByDiscTellsASnowmansHeadFromItsBody) {
   EXPECT_THROW(ColourFromName("mood"), std::invalid_argument);
 }
 
+// The dimension lines of kDiscs marks in an SVG: every third <line class="dimension"> is a
+// line itself (the two after it are its end ticks), as {x1, y1, x2, y2} in pixels.
+std::vector<std::array<double, 4>> DimensionLines(const std::string& svg) {
+  const std::regex re(
+      "<line class=\"dimension\" x1=\"([-0-9.]+)\" y1=\"([-0-9.]+)\" x2=\"([-0-9.]+)\" y2=\"([-0-9.]+)\"");
+  std::vector<std::array<double, 4>> out;
+  int k = 0;
+  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), re); it != std::sregex_iterator(); ++it, ++k)
+    if (k % 3 == 0) out.push_back({std::stod((*it)[1]), std::stod((*it)[2]), std::stod((*it)[3]), std::stod((*it)[4])});
+  return out;
+}
+
+// A snowman's two diameters measured on the body nearest the mark's point: one line across each
+// disc, through its centre and across the body's axis, as long as the disc is wide at the
+// picture's scale, labelled D_s and D_b with their values, each label beyond its own disc.
+TEST(Render, DiscDiametersMeasureTheBodyNearestThePoint) {
+  rundir::Frame f;
+  // Body 0: a snowman tilted 30 degrees, head (r = 0.5) at (0, 2), body (r = 1) 1.5 d away along
+  // the axis; body 1: a snowman farther from the point, the lines must not be on it.
+  const double c = std::cos(M_PI / 6), s = std::sin(M_PI / 6);
+  f.discs = {{1, 0, 1, 0.0, 2.0, 0.5, 0.785, 0, 0, 0},
+             {2, 0, 1, 1.5 * c, 2.0 + 1.5 * s, 1.0, 3.14, 0, 0, 0},
+             {3, 1, 1, -4.0, 5.0, 1.0, 3.14, 0, 0, 0},
+             {4, 1, 1, -2.5, 5.0, 0.5, 0.785, 0, 0, 0}};
+  SceneOptions o;
+  o.window = {-6, 6, -3, 7};  // 12 d wide
+  Mark discs{Mark::Kind::kDiscs, 0.5, 2.0, 0.0, 0.0, ""};
+  discs.labels = {"D_s", "D_b"};
+  o.marks = {discs};
+  const std::string svg = Svg(MakeScene(f, TestSilo(), o), 1200);  // 100 px per d
+  const auto circles = Circles(svg, "disc");
+  ASSERT_EQ(circles.size(), 4u);
+  const auto lines = DimensionLines(svg);
+  ASSERT_EQ(lines.size(), 2u) << svg;
+  const double diameter[] = {1.0, 2.0};
+  for (std::size_t k = 0; k < 2; ++k) {
+    const auto& l = lines[k];
+    EXPECT_NEAR(std::hypot(l[2] - l[0], l[3] - l[1]), diameter[k] * 100, 0.02) << "line " << k << " to scale";
+    EXPECT_NEAR(0.5 * (l[0] + l[2]), circles[k][0], 0.02) << "through disc " << k << "'s centre";
+    EXPECT_NEAR(0.5 * (l[1] + l[3]), circles[k][1], 0.02);
+    // Across the axis (c, s) (pixels: y down): no component along it.
+    EXPECT_NEAR((l[2] - l[0]) * c - (l[3] - l[1]) * s, 0.0, 0.02) << "line " << k << " across the axis";
+  }
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(svg, m,
+                                std::regex("x=\"([-0-9.]+)\" y=\"[-0-9.]+\" font-size=\"[-0-9.]+\" "
+                                           "text-anchor=\"middle\">D_s = 1 d</text>")))
+      << svg;
+  EXPECT_LT(std::stod(m[1]), circles[0][0] - 50) << "the head's label beyond the head, away from the body";
+  ASSERT_TRUE(std::regex_search(svg, m,
+                                std::regex("x=\"([-0-9.]+)\" y=\"[-0-9.]+\" font-size=\"[-0-9.]+\" "
+                                           "text-anchor=\"middle\">D_b = 2 d</text>")))
+      << svg;
+  EXPECT_GT(std::stod(m[1]), circles[1][0] + 100) << "the body's label beyond the body";
+
+  // Near body 1 instead: its lines; without labels, the snowman's own names.
+  o.marks = {{Mark::Kind::kDiscs, -3.0, 5.0, 0.0, 0.0, ""}};
+  const std::string other = Svg(MakeScene(f, TestSilo(), o), 1200);
+  const auto other_lines = DimensionLines(other);
+  ASSERT_EQ(other_lines.size(), 2u);
+  EXPECT_NEAR(0.5 * (other_lines[0][0] + other_lines[0][2]), circles[3][0], 0.02) << "body 1's head";
+  EXPECT_NEAR(std::hypot(other_lines[1][2] - other_lines[1][0], other_lines[1][3] - other_lines[1][1]), 200, 0.02);
+  EXPECT_NE(other.find(">D_s = 1 d</text>"), std::string::npos);
+  EXPECT_NE(other.find(">D_b = 2 d</text>"), std::string::npos);
+
+  // A dumbbell has one size: one line, "D"; two labels for it are an error that says so.
+  o.marks = {{Mark::Kind::kDiscs, -0.5, 0.5, 0.0, 0.0, ""}};
+  const std::string dumbbell = Svg(MakeScene(TestFrame(), TestSilo(), o), 1200);
+  ASSERT_EQ(DimensionLines(dumbbell).size(), 1u);
+  EXPECT_NE(dumbbell.find(">D = 1 d</text>"), std::string::npos);
+  o.marks = {discs};
+  o.marks[0].x0 = -0.5;
+  o.marks[0].y0 = 0.5;
+  try {
+    MakeScene(TestFrame(), TestSilo(), o);
+    ADD_FAILURE() << "two labels for one disc size";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("has 1 disc size(s), but 2 label(s)"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(MakeScene(rundir::Frame{}, TestSilo(), o), std::invalid_argument) << "no body to measure";
+}
+
+// The origin: a dot where (x0, y0) is, with x and y arrows and its label.
+TEST(Render, OriginMarkSitsAtItsPoint) {
+  SceneOptions o;
+  o.window = {-6, 6, -3, 7};
+  o.marks = {{Mark::Kind::kOrigin, 0.0, 0.0, 0.0, 0.0, "(0, 0)"}};
+  const std::string svg = Svg(MakeScene(TestFrame(), TestSilo(), o), 1200);
+  const double header = Circles(svg, "obstacle").at(0)[1] - (7 - 4) * 100;
+  const auto dot = Circles(svg, "origin");
+  ASSERT_EQ(dot.size(), 1u) << svg;
+  EXPECT_NEAR(dot[0][0], 6 * 100, 0.01);
+  EXPECT_NEAR(dot[0][1], header + 7 * 100, 0.01);
+  EXPECT_NE(svg.find(">(0, 0)</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">x</text>"), std::string::npos);
+  EXPECT_NE(svg.find(">y</text>"), std::string::npos);
+}
+
 // ---- the verbs on a real run -------------------------------------------------------------
 
 struct Outcome {

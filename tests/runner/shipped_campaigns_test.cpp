@@ -47,12 +47,13 @@ std::pair<std::string, std::string> StudyAndSize(const fs::path& spec) {
 // What remains of a spec without what makes its size: names and text, replicas, body count,
 // silo width, time and clog limits (also where the sweep sets them per point: a full size's
 // wide outlets need longer runs for their clogs), frame interval and format (full sizes write
-// GSD, with fewer contact frames), and the sweep's values (its axes stay).
+// GSD, with fewer contact frames), the maps' window (the thesis' at full size, scaled with the
+// silo and the bed at the others: ch4-free-flow), and the sweep's values (its axes stay).
 json WithoutSize(json spec) {
   for (const char* key : {"name", "description", "size", "replicas"}) spec.erase(key);
-  for (const char* pointer :
-       {"/base/bodies/count", "/base/silo/width", "/base/discharge/max_time", "/base/discharge/unclog/max_clogs",
-        "/base/output/frame_interval", "/base/output/format", "/base/output/contact_interval"}) {
+  for (const char* pointer : {"/base/bodies/count", "/base/silo/width", "/base/discharge/max_time",
+                              "/base/discharge/unclog/max_clogs", "/base/output/frame_interval", "/base/output/format",
+                              "/base/output/contact_interval", "/report/fields/window"}) {
     const json::json_pointer p(pointer);
     if (spec.contains(p)) spec.at(p.parent_pointer()).erase(p.back());
   }

@@ -186,10 +186,14 @@ namespace {
 // A figure's marks as the renderer draws them.
 std::vector<render::Mark> MarksOf(const std::vector<analysis::PictureMark>& marks) {
   std::vector<render::Mark> out;
-  for (const analysis::PictureMark& m : marks)
-    out.push_back(
-        {m.kind == analysis::PictureMark::Kind::kRect ? render::Mark::Kind::kRect : render::Mark::Kind::kDimension,
-         m.x0, m.y0, m.x1, m.y1, m.label, m.shade});
+  for (const analysis::PictureMark& m : marks) {
+    using K = analysis::PictureMark::Kind;
+    const render::Mark::Kind kind = m.kind == K::kRect        ? render::Mark::Kind::kRect
+                                    : m.kind == K::kDimension ? render::Mark::Kind::kDimension
+                                    : m.kind == K::kDiscs     ? render::Mark::Kind::kDiscs
+                                                              : render::Mark::Kind::kOrigin;
+    out.push_back({kind, m.x0, m.y0, m.x1, m.y1, m.label, m.shade, m.labels});
+  }
   return out;
 }
 #endif
