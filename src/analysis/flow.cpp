@@ -30,11 +30,26 @@ FlowWindow FindFlowWindow(const FlowInput& in, const FlowWindowRule& rule) {
           w.note = "outlet clogged from the opening (its first exit at t = " + std::to_string(w.times[0]) + ")";
           return w;
         }
+        if (static_cast<int>(i) < rule.min_exits_before_clog) {
+          w.note = "clogged after " + std::to_string(i) + " exits (t = " + std::to_string(previous) + "), before its " +
+                   std::to_string(rule.min_exits_before_clog) +
+                   "th: a start-up clog, no steady flow (/report/window/min_exits_before_clog)";
+          return w;
+        }
         last = i - 1;
         w.note = "window ends at the first clog (t = " + std::to_string(previous) + ")";
         break;
       }
       previous = w.times[i];
+    }
+    // A run that stopped at a clog (or stood clogged until its time limit) has its last gap
+    // after its last exit.
+    const bool ended_clogged = last == n - 1 && std::isfinite(in.t_end) && in.t_end - w.times[last] >= in.clog_gap;
+    if (ended_clogged && static_cast<int>(n) < rule.min_exits_before_clog) {
+      w.note = "clogged after " + std::to_string(n) + " exits (t = " + std::to_string(w.times[last]) +
+               "), before its " + std::to_string(rule.min_exits_before_clog) +
+               "th: a start-up clog, no steady flow (/report/window/min_exits_before_clog)";
+      return w;
     }
   }
   // 2. Remove mode: stop while enough bodies remain. Counts use every exit (all outlets).

@@ -30,6 +30,9 @@ struct FlowWindowRule {
   double shallow_fraction = 0.3;
   bool stop_at_first_clog = true;
   int min_events = 10;
+  // A run whose first clog comes before this many exits never flowed steadily: its start-up
+  // clog gives no window (ch. 3's discard rule; the clogging index applies it too).
+  int min_exits_before_clog = 100;
 };
 
 struct FlowInput {
@@ -38,6 +41,7 @@ struct FlowInput {
   int bodies = 0;         // bodies in the bed at the opening
   double clog_gap = 5.0;  // a gap this long in the exit stream is a clog
   int outlet = -1;        // -1: all outlets together
+  double t_end = kNaN;    // the run's end, when known: a last gap to it of at least clog_gap is a clog too
 };
 
 struct FlowRate {

@@ -63,7 +63,7 @@ class FlowAccumulator : public RunAccumulator {
  public:
   explicit FlowAccumulator(const RunView& run) {
     const std::vector<rundir::ExitEvent>& events = run.data->events;
-    const FlowInput in{events, run.remove_mode, run.bodies, run.clog_gap, -1};
+    const FlowInput in{events, run.remove_mode, run.bodies, run.clog_gap, -1, run.t_end};
     const std::vector<FlowRate> per_outlet =
         FlowRatePerOutlet(in, run.options->window, static_cast<int>(run.outlets.size()));
     nlohmann::json outlets = nlohmann::json::array(), rates = nlohmann::json::array();
@@ -257,7 +257,11 @@ void AddPerRun(const SectionInput& in, Section& s) {
                           "% of the exits are dropped; the window ends at the first clog (a gap of "
                           "clog_window in the exit stream)" +
                           std::string(w.stop_at_first_clog ? "" : " [off]") + " and, in remove mode, when " +
-                          FormatNumber(100 * w.shallow_fraction) + "% of the bodies remain."});
+                          FormatNumber(100 * w.shallow_fraction) +
+                          "% of the bodies remain. A run that clogs before its " +
+                          std::to_string(w.min_exits_before_clog) +
+                          "th exit has no steady window (a start-up clog): no Q, and the analyses of steady flow leave "
+                          "it out."});
 }
 
 std::optional<Section> FlowAnalysis::BuildSection(const SectionInput& in) const {

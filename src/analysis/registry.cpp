@@ -34,7 +34,9 @@ constexpr const char* kPassKeys[] = {"window", "clog_gap", "frame_stride", "max_
 
 FlowWindowRule ReadWindow(const nlohmann::json& v, const std::string& path) {
   FlowWindowRule w;
-  OptionObject(v, path, {"start_time", "start_fraction", "shallow_fraction", "min_events", "stop_at_first_clog"});
+  OptionObject(v, path,
+               {"start_time", "start_fraction", "shallow_fraction", "min_events", "stop_at_first_clog",
+                "min_exits_before_clog"});
   constexpr double kBig = 1e300;
   for (const auto& [k, x] : v.items()) {
     const std::string p = path + "/" + k;
@@ -43,6 +45,7 @@ FlowWindowRule ReadWindow(const nlohmann::json& v, const std::string& path) {
     if (k == "shallow_fraction") w.shallow_fraction = OptionNumber(x, p, 0.0, 1.0);
     if (k == "min_events") w.min_events = OptionInteger(x, p, 2, 1000000000);
     if (k == "stop_at_first_clog") w.stop_at_first_clog = OptionBool(x, p);
+    if (k == "min_exits_before_clog") w.min_exits_before_clog = OptionInteger(x, p, 0, 1000000000);
   }
   return w;
 }

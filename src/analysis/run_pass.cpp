@@ -220,7 +220,8 @@ nlohmann::json PassJson(const PassOptions& p, const PassUse& use) {
                    {"start_fraction", p.window.start_fraction},
                    {"shallow_fraction", p.window.shallow_fraction},
                    {"stop_at_first_clog", p.window.stop_at_first_clog},
-                   {"min_events", p.window.min_events}};
+                   {"min_events", p.window.min_events},
+                   {"min_exits_before_clog", p.window.min_exits_before_clog}};
   if (use.clog_gap) j["clog_gap"] = p.clog_gap;
   if (use.frames) j["frames"] = {{"stride", p.frame_stride}, {"max", p.max_frames}};
   return j;
@@ -259,7 +260,7 @@ RunView MakeRunView(const rundir::RunData& data, const PassOptions& pass) {
   v.clog_gap = pass.clog_gap >= 0.0 ? pass.clog_gap : discharge.value("clog_window", 5.0);
   if (spec.is_object() && spec.contains("bodies")) v.density = spec.at("bodies").value("density", 1.0);
   v.outlets = OutletsOf(spec);
-  v.flow = MeasureFlowRate({data.events, v.remove_mode, v.bodies, v.clog_gap, -1}, pass.window);
+  v.flow = MeasureFlowRate({data.events, v.remove_mode, v.bodies, v.clog_gap, -1, v.t_end}, pass.window);
   const ClogSeries series =
       ComputeClogSeries(data.events, -1, v.t_end, v.clog_gap, RunEndOf(v.end_reason), v.stop_on_clog);
   for (const Stretch& c : series.clogged) v.clogged.push_back({c.start, c.end});

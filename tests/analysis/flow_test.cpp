@@ -79,6 +79,47 @@ TEST(FlowRate, TransientAndClogAreExcluded) {
   EXPECT_DOUBLE_EQ(MeasureFlowRate(in, rule).t_end, 80.0);
 }
 
+TEST(FlowRate, AClogBeforeTheHundredthExitLeavesNoSteadyWindow) {
+  // 40 exits at 5 per unit time from t = 2.1, then the outlet clogs and the run stops at
+  // t = 20: a start-up clog (ch. 3 discards such runs). Its short stretch would give a Q of 5
+  // from 32 exits; the rule says there is no steady flow instead.
+  const auto ev = Regular(40, 2.1, 0.2);
+  FlowInput in{ev, false, 0, 5.0, -1, 20.0};
+  FlowWindowRule rule;
+  const FlowWindow w = FindFlowWindow(in, rule);
+  EXPECT_FALSE(w.ok);
+  EXPECT_NE(w.note.find("clogged after 40 exits"), std::string::npos) << w.note;
+  EXPECT_NE(w.note.find("start-up clog"), std::string::npos) << w.note;
+  EXPECT_FALSE(MeasureFlowRate(in, rule).ok);
+  // A clog seen as a gap before a later exit counts the same.
+  auto later = ev;
+  later.push_back({30.0, 999, "disc", 2.0, 0});
+  in.events = later;
+  in.t_end = 30.0;
+  EXPECT_NE(FindFlowWindow(in, rule).note.find("clogged after 40 exits"), std::string::npos);
+  // Still flowing at its end (the last exit within clog_gap of it), or an end not known: a
+  // short run, not a clog.
+  in.events = ev;
+  in.t_end = ev.back().time + 1.0;
+  EXPECT_TRUE(FindFlowWindow(in, rule).ok);
+  in.t_end = kNaN;
+  EXPECT_TRUE(FindFlowWindow(in, rule).ok);
+  // The limit is the option's: at 0 the stretch before the clog is the window again.
+  in.t_end = 20.0;
+  rule.min_exits_before_clog = 0;
+  const FlowRate q = MeasureFlowRate(in, rule);
+  ASSERT_TRUE(q.ok) << q.note;
+  EXPECT_NEAR(q.q_count, 5.0, 1e-9);
+  // 150 exits before the clog: a run that flowed, windowed up to its clog.
+  auto long_stream = Regular(150, 2.1, 0.2);
+  long_stream.push_back({60.0, 999, "disc", 2.0, 0});
+  in.events = long_stream;
+  in.t_end = 70.0;
+  const FlowWindow w150 = FindFlowWindow(in, FlowWindowRule());
+  EXPECT_TRUE(w150.ok) << w150.note;
+  EXPECT_EQ(w150.last, 149u);
+}
+
 TEST(FlowRate, PerOutletAndNoisyRate) {
   // Two outlets, Poisson streams of rate 4 and 1: the estimates agree within 4 se.
   std::vector<rundir::ExitEvent> ev;
