@@ -102,7 +102,7 @@ struct RunView {
   std::vector<OutletGeometry> outlets;
   FlowRate flow;  // all outlets together over the steady window
   // The frames of steady flow: the flow window of all outlets; without one, from
-  // /report/window/start_time up to the first clog.
+  // /report/window/start_time up to the first clog; none after a start-up clog (flow.startup_clog).
   TimeWindow steady;
   // The clogged states: each clog of the exit stream of all outlets, from the last exit
   // before it to the first after it (to the end of the run if it never ended).

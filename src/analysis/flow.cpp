@@ -30,7 +30,8 @@ FlowWindow FindFlowWindow(const FlowInput& in, const FlowWindowRule& rule) {
           w.note = "outlet clogged from the opening (its first exit at t = " + std::to_string(w.times[0]) + ")";
           return w;
         }
-        if (static_cast<int>(i) < rule.min_exits_before_clog) {
+        if (in.stops_at_clog && static_cast<int>(i) < rule.min_exits_before_clog) {
+          w.startup_clog = true;
           w.note = "clogged after " + std::to_string(i) + " exits (t = " + std::to_string(previous) + "), before its " +
                    std::to_string(rule.min_exits_before_clog) +
                    "th: a start-up clog, no steady flow (/report/window/min_exits_before_clog)";
@@ -45,7 +46,8 @@ FlowWindow FindFlowWindow(const FlowInput& in, const FlowWindowRule& rule) {
     // A run that stopped at a clog (or stood clogged until its time limit) has its last gap
     // after its last exit.
     const bool ended_clogged = last == n - 1 && std::isfinite(in.t_end) && in.t_end - w.times[last] >= in.clog_gap;
-    if (ended_clogged && static_cast<int>(n) < rule.min_exits_before_clog) {
+    if (in.stops_at_clog && ended_clogged && static_cast<int>(n) < rule.min_exits_before_clog) {
+      w.startup_clog = true;
       w.note = "clogged after " + std::to_string(n) + " exits (t = " + std::to_string(w.times[last]) +
                "), before its " + std::to_string(rule.min_exits_before_clog) +
                "th: a start-up clog, no steady flow (/report/window/min_exits_before_clog)";
@@ -96,6 +98,7 @@ FlowRate MeasureFlowRate(const FlowInput& in, const FlowWindowRule& rule) {
   FlowRate q;
   const FlowWindow w = FindFlowWindow(in, rule);
   q.note = w.note;
+  q.startup_clog = w.startup_clog;
   if (!w.ok) return q;
   std::vector<double> t, count, mass;
   double cumulative_mass = 0.0;

@@ -42,11 +42,16 @@ struct FlowInput {
   double clog_gap = 5.0;  // a gap this long in the exit stream is a clog
   int outlet = -1;        // -1: all outlets together
   double t_end = kNaN;    // the run's end, when known: a last gap to it of at least clog_gap is a clog too
+  // The run's protocol ends it at its first clog (on_clog "stop", ch. 3): only then is a clog
+  // before min_exits_before_clog exits a start-up clog. Runs that wait or unclog go on, and
+  // their first avalanche is often shorter than that (ch. 4, 6).
+  bool stops_at_clog = true;
 };
 
 struct FlowRate {
   bool ok = false;
-  std::string note;  // why not ok, or what limited the window
+  std::string note;           // why not ok, or what limited the window
+  bool startup_clog = false;  // not ok: the run clogged before min_exits_before_clog exits (FlowWindow)
   double t_start = kNaN, t_end = kNaN;
   int n_events = 0;
   double q_count = kNaN, q_count_se = kNaN;  // bodies per sqrt(d/g); se by batch means
@@ -78,6 +83,7 @@ struct FlowWindow {
   std::vector<double> times;  // exit times of the selected outlet(s), all of them
   std::vector<double> masses;
   std::size_t first = 0, last = 0;  // inclusive
+  bool startup_clog = false;        // no window: the run clogged before min_exits_before_clog exits
 };
 FlowWindow FindFlowWindow(const FlowInput& input, const FlowWindowRule& rule);
 

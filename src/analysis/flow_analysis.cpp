@@ -63,7 +63,7 @@ class FlowAccumulator : public RunAccumulator {
  public:
   explicit FlowAccumulator(const RunView& run) {
     const std::vector<rundir::ExitEvent>& events = run.data->events;
-    const FlowInput in{events, run.remove_mode, run.bodies, run.clog_gap, -1, run.t_end};
+    const FlowInput in{events, run.remove_mode, run.bodies, run.clog_gap, -1, run.t_end, run.on_clog == "stop"};
     const std::vector<FlowRate> per_outlet =
         FlowRatePerOutlet(in, run.options->window, static_cast<int>(run.outlets.size()));
     nlohmann::json outlets = nlohmann::json::array(), rates = nlohmann::json::array();

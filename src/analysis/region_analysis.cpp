@@ -67,7 +67,9 @@ class RegionRunAccumulator : public RunAccumulator {
                              {"height", height_}};
     for (const OutletGeometry& o : run_.outlets) result["outlets"].push_back(o.label);
     if (frames_ == 0 || run_.outlets.empty()) {
-      if (run_.data->has_frames)
+      if (run_.flow.startup_clog)
+        result["notes"].push_back("frames: none, " + run_.flow.note);
+      else if (run_.data->has_frames)
         result["notes"].push_back("frames: none inside the window t = " + std::to_string(run_.steady.start) + " .. " +
                                   std::to_string(run_.steady.end));
       return result;

@@ -260,13 +260,16 @@ RunView MakeRunView(const rundir::RunData& data, const PassOptions& pass) {
   v.clog_gap = pass.clog_gap >= 0.0 ? pass.clog_gap : discharge.value("clog_window", 5.0);
   if (spec.is_object() && spec.contains("bodies")) v.density = spec.at("bodies").value("density", 1.0);
   v.outlets = OutletsOf(spec);
-  v.flow = MeasureFlowRate({data.events, v.remove_mode, v.bodies, v.clog_gap, -1, v.t_end}, pass.window);
+  v.flow = MeasureFlowRate({data.events, v.remove_mode, v.bodies, v.clog_gap, -1, v.t_end, v.on_clog == "stop"},
+                           pass.window);
   const ClogSeries series =
       ComputeClogSeries(data.events, -1, v.t_end, v.clog_gap, RunEndOf(v.end_reason), v.stop_on_clog);
   for (const Stretch& c : series.clogged) v.clogged.push_back({c.start, c.end});
   v.steady.start = pass.window.start_time;
   if (v.flow.ok) {
     v.steady = {v.flow.t_start, v.flow.t_end};
+  } else if (v.flow.startup_clog) {
+    v.steady.end = v.steady.start - 1.0;  // a start-up clog: no frames of steady flow at all
   } else if (!series.flowing.empty() && series.flowing.front().complete && series.flowing.front().exits > 0) {
     v.steady.end = series.flowing.front().end;  // no steady window: still only frames before the first clog
   }

@@ -146,7 +146,10 @@ TEST(ClogReport, ArchesContactsAndOrientationSectionsWithPictures) {
   const nlohmann::json regions = {{{"name", "above"}, {"x", {-5, 5}}, {"y", {0, 10}}, {"director", 90}},
                                   {{"name", "flow"}, {"x", {-5, 5}}, {"y", {0, 10}}, {"director", "flow"}},
                                   {{"name", "empty"}, {"x", {-5, 5}}, {"y", {50, 60}}, {"director", "flow"}}};
-  info.spec = {{"report", {{"orientation", {{"heights", {1.5}}, {"window", {{"theta", 60}}}, {"regions", regions}}}}}};
+  // 30 exits before each run's clog: enough for steady flow here (min_exits_before_clog).
+  info.spec = {{"report",
+                {{"window", {{"min_exits_before_clog", 20}}},
+                 {"orientation", {{"heights", {1.5}}, {"window", {{"theta", 60}}}, {"regions", regions}}}}}};
   const std::vector<RunRecord> runs = RunsAtW3AndW4(dir.Path(), {0, 1});
   ReportOptions opt;
   std::vector<Drawn> drawn;

@@ -7,8 +7,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <numbers>
+#include <string>
 
 #include "analysis/registry.h"
 #include "rundir/analysis_cache.h"
@@ -71,23 +73,29 @@ TEST(RunPass, RegionBesideASideOutlet) {
   EXPECT_EQ(m.count("clogged"), 0u);            // reinject mode: no clogging index
 }
 
-TEST(RunPass, WithoutAFlowWindowFramesStopAtTheFirstClog) {
-  // 5 exits (too few for a flow rate), then a clog from t = 2.5 on; frames at t = 2.2
-  // (flowing) and t = 15 (clogged): only the first may enter the region statistics, and the
-  // pass stops reading after it.
-  TempDir dir;
-  WriteFile(dir.Path() / "run.json", kSpec.dump());
-  WriteFile(dir.Path() / "summary.json",
+// A run of 10 bodies (on_clog "stop" by default) with 5 exits, then a clog from t = 2.5 to its
+// end at t = 20; frames at t = 2.2 (flowing) and t = 15 (clogged).
+void WriteRunThatClogsAfterFiveExits(const std::filesystem::path& dir) {
+  WriteFile(dir / "run.json", kSpec.dump());
+  WriteFile(dir / "summary.json",
             R"({"bodies":10,"exited":5,"remaining":10,"t_end":20,"end_reason":"time_limit","clogs":1})");
-  WriteFile(
-      dir.Path() / "events.csv",
-      "time,body,shape,mass,outlet\n2.1,0,disc,1,0\n2.2,1,disc,1,0\n2.3,2,disc,1,0\n2.4,3,disc,1,0\n2.5,4,disc,1,0\n");
+  WriteFile(dir / "events.csv",
+            "time,body,shape,mass,outlet\n2.1,0,disc,1,0\n2.2,1,disc,1,0\n2.3,2,disc,1,0\n2.4,3,disc,1,0\n2.5,4,disc,1,0\n");
   std::string frames;
   for (double t : {2.2, 15.0})
     frames += "ITEM: TIMESTEP\n1\nITEM: TIME\n" + std::to_string(t) +
               "\nITEM: NUMBER OF ATOMS\n1\nITEM: ATOMS id mol x y radius vx vy omegaz\n1 0 -20 1 0.5 0 -1 0\n";
-  WriteFile(dir.Path() / "frames.dump", frames);
-  const AnalysisSetup setup = SetupAnalyses({{"report", {{"window", {{"start_time", 1.0}}}}}});
+  WriteFile(dir / "frames.dump", frames);
+}
+
+TEST(RunPass, WithoutAFlowWindowFramesStopAtTheFirstClog) {
+  // 5 exits (too few for a flow rate), then a clog from t = 2.5 on; frames at t = 2.2
+  // (flowing) and t = 15 (clogged): only the first may enter the region statistics, and the
+  // pass stops reading after it. (min_exits_before_clog 3: the clog is not a start-up clog.)
+  TempDir dir;
+  WriteRunThatClogsAfterFiveExits(dir.Path());
+  const AnalysisSetup setup =
+      SetupAnalyses({{"report", {{"window", {{"start_time", 1.0}, {"min_exits_before_clog", 3}}}}}});
   const RunPassResult r = AnalyseRun(dir.Path(), setup.List(), setup.pass, NoCache());
   EXPECT_EQ(r.frames_parsed, 1);
   auto m = MetricsOf(setup, r);
@@ -103,9 +111,33 @@ TEST(RunPass, WithoutAFlowWindowFramesStopAtTheFirstClog) {
   EXPECT_DOUBLE_EQ(view.steady.end, 2.5);
   for (std::size_t k = 0; k < setup.analyses.size(); ++k) {
     if (setup.analyses[k]->Key() == "region") {
+      ASSERT_TRUE(r.results[k].contains("regions"));
       EXPECT_EQ(r.results[k]["regions"][0]["frames"], 1);
     }
   }
+}
+
+TEST(RunPass, AStartUpClogGivesNoFramesOfSteadyFlow) {
+  // The same run under the default rule (100 exits before a first clog): its 5 exits are a
+  // start-up clog, so no frame is steady flow and the region analysis says why.
+  TempDir dir;
+  WriteRunThatClogsAfterFiveExits(dir.Path());
+  const AnalysisSetup setup = SetupAnalyses({{"report", {{"window", {{"start_time", 1.0}}}}}});
+  const RunPassResult r = AnalyseRun(dir.Path(), setup.List(), setup.pass, NoCache());
+  EXPECT_EQ(r.frames_parsed, 0);
+  const rundir::RunData data = rundir::ReadRun(dir.Path());
+  const RunView view = MakeRunView(data, setup.pass);
+  EXPECT_TRUE(view.flow.startup_clog);
+  EXPECT_FALSE(view.steady.Contains(2.2));
+  ASSERT_EQ(view.clogged.size(), 1u);  // the clog itself is still a clogged state
+  bool noted = false;
+  for (std::size_t k = 0; k < setup.analyses.size(); ++k) {
+    if (setup.analyses[k]->Key() != "region") continue;
+    ASSERT_TRUE(r.results[k].contains("notes"));
+    for (const auto& note : r.results[k]["notes"])
+      noted = noted || note.get<std::string>().find("start-up clog") != std::string::npos;
+  }
+  EXPECT_TRUE(noted);
 }
 
 TEST(RunPass, SummaryAndEventsDisagree) {
