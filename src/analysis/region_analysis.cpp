@@ -68,7 +68,7 @@ class RegionRunAccumulator : public RunAccumulator {
     for (const OutletGeometry& o : run_.outlets) result["outlets"].push_back(o.label);
     if (frames_ == 0 || run_.outlets.empty()) {
       if (run_.flow.startup_clog)
-        result["notes"].push_back("frames: none, " + run_.flow.note);
+        result["notes"].push_back("frames: none (a start-up clog: no steady flow)");
       else if (run_.data->has_frames)
         result["notes"].push_back("frames: none inside the window t = " + std::to_string(run_.steady.start) + " .. " +
                                   std::to_string(run_.steady.end));

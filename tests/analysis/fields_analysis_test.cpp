@@ -158,7 +158,9 @@ struct Pass {
 
 Pass PassWith(const std::filesystem::path& dir, const nlohmann::json& fields) {
   Pass p;
-  p.setup = SetupAnalyses({{"report", {{"window", {{"start_time", 1.0}, {"min_events", 5}, {"min_exits_before_clog", 5}}}, {"fields", fields}}}});
+  p.setup = SetupAnalyses(
+      {{"report",
+        {{"window", {{"start_time", 1.0}, {"min_events", 5}, {"min_exits_before_clog", 5}}}, {"fields", fields}}}});
   RunPassOptions o;
   o.read_cache = o.write_cache = false;
   const RunPassResult r = AnalyseRun(dir, p.setup.List(), p.setup.pass, o);

@@ -79,8 +79,9 @@ void WriteRunThatClogsAfterFiveExits(const std::filesystem::path& dir) {
   WriteFile(dir / "run.json", kSpec.dump());
   WriteFile(dir / "summary.json",
             R"({"bodies":10,"exited":5,"remaining":10,"t_end":20,"end_reason":"time_limit","clogs":1})");
-  WriteFile(dir / "events.csv",
-            "time,body,shape,mass,outlet\n2.1,0,disc,1,0\n2.2,1,disc,1,0\n2.3,2,disc,1,0\n2.4,3,disc,1,0\n2.5,4,disc,1,0\n");
+  WriteFile(
+      dir / "events.csv",
+      "time,body,shape,mass,outlet\n2.1,0,disc,1,0\n2.2,1,disc,1,0\n2.3,2,disc,1,0\n2.4,3,disc,1,0\n2.5,4,disc,1,0\n");
   std::string frames;
   for (double t : {2.2, 15.0})
     frames += "ITEM: TIMESTEP\n1\nITEM: TIME\n" + std::to_string(t) +
