@@ -181,6 +181,21 @@ TEST_F(CliUsability, DryRunCreatesNoFile) {
   EXPECT_FALSE(fs::exists(dir_ / "runs"));
 }
 
+TEST_F(CliUsability, TheEstimateTableKeepsItsColumnsApart) {
+  // A range of core-hours is wider than the column's header: every cell still ends in two spaces.
+  const auto r = Sh(Cmd("plan --dry-run " + WriteSpec("[4, 6]", "[0.5]", 1)));
+  ASSERT_EQ(r.code, 0) << r.output;
+  std::istringstream lines(r.output);
+  int rows = 0;
+  for (std::string line; std::getline(lines, line);) {
+    const std::size_t at = line.find(" core-hours");
+    if (line.rfind("  ", 0) != 0 || at == std::string::npos) continue;  // the header and a row per point
+    ++rows;
+    EXPECT_EQ(line.substr(at + 11, 2), "  ") << line;
+  }
+  EXPECT_EQ(rows, 3) << r.output;
+}
+
 TEST_F(CliUsability, ShowTellsEverythingAboutOneRun) {
   ASSERT_EQ(Sh(Cmd("plan " + WriteSpec("[4, 6]", "[0.5]", 1))).code, 0);
   ASSERT_EQ(Sh(RunCmd("--jobs 1")).code, 0);

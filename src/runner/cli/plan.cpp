@@ -139,17 +139,32 @@ void PrintEstimate(std::ostream& out, const CampaignEstimate& e,
   }
   out << ", disk " << BytesText(e.bytes_low, e.bytes_high) << "\n";
   out << "  how: " << e.method << "\n";
-  out << "  " << std::left << std::setw(44) << "point" << std::right << std::setw(6) << "runs"
-      << "  " << std::left << std::setw(24) << "core-hours"
-      << "disk\n";
+  // Columns as wide as their widest cell, so a long label or range never runs into the next.
+  struct Row {
+    std::string label, runs, cost, disk, note;
+  };
+  std::vector<Row> rows;
+  std::size_t label_w = 5, cost_w = 10;  // "point", "core-hours"
   for (const PointEstimate& p : e.points) {
-    std::string label = CompactPoint(p.point, short_names);
-    if (label.empty()) label = "(base)";
-    if (e.points.size() > 1 && p.engine != "native") label += " [" + p.engine + "]";
-    out << "  " << std::left << std::setw(44) << label << std::right << std::setw(6) << p.runs << "  " << std::left
-        << std::setw(24) << (timed ? CoreHoursText(p.core_s_low, p.core_s_high) : std::string("?"))
-        << BytesText(p.bytes_low, p.bytes_high) << (p.open_end ? "  (ends at a clog or discharge: range)" : "") << "\n";
+    Row r;
+    r.label = CompactPoint(p.point, short_names);
+    if (r.label.empty()) r.label = "(base)";
+    if (e.points.size() > 1 && p.engine != "native") r.label += " [" + p.engine + "]";
+    r.runs = std::to_string(p.runs);
+    r.cost = timed ? CoreHoursText(p.core_s_low, p.core_s_high) : std::string("?");
+    r.disk = BytesText(p.bytes_low, p.bytes_high);
+    r.note = p.open_end ? "  (ends at a clog or discharge: range)" : "";
+    label_w = std::max(label_w, r.label.size());
+    cost_w = std::max(cost_w, r.cost.size());
+    rows.push_back(std::move(r));
   }
+  const auto line = [&](const std::string& label, const std::string& runs, const std::string& cost,
+                        const std::string& disk, const std::string& note) {
+    out << "  " << std::left << std::setw(static_cast<int>(label_w)) << label << std::right << std::setw(6) << runs
+        << "  " << std::left << std::setw(static_cast<int>(cost_w)) << cost << "  " << disk << note << "\n";
+  };
+  line("point", "runs", "core-hours", "disk", "");
+  for (const Row& r : rows) line(r.label, r.runs, r.cost, r.disk, r.note);
   out << std::right;
 }
 
