@@ -83,7 +83,6 @@ std::string ReplicasText(const std::vector<int>& replicas) {
 
 class ClogIndexAnalysis : public Analysis {
  public:
-  explicit ClogIndexAnalysis(int min_exits) : min_exits_(min_exits) {}
   std::string Key() const override { return "clogging_index"; }
   int Version() const override { return 2; }
   PassUse PassOptionsUsed() const override { return {.window = false, .clog_gap = true, .frames = false}; }
@@ -103,6 +102,8 @@ class ClogIndexAnalysis : public Analysis {
   // campaign, else missing. The note says which runs were used and which were left out.
   std::vector<PointMetric> PointMetrics(const AnalysisResults& results, std::size_t point) const override {
     const CampaignView& v = *results.view;
+    // The same rule as the flow window's start-up clogs: one threshold for both.
+    const int min_exits = (results.pass ? results.pass->window : FlowWindowRule{}).min_exits_before_clog;
     std::vector<ClogRun> clog_runs;
     std::vector<int> early, neither;
     for (std::size_t u : v.points[point].runs) {
@@ -112,7 +113,7 @@ class ClogIndexAnalysis : public Analysis {
       clog_runs.push_back(*c);
       const int replica = v.used[u].record ? v.used[u].record->replica : 0;
       if (c->end == RunEnd::kOther) neither.push_back(replica);
-      if (c->end == RunEnd::kClogged && c->exited < min_exits_) early.push_back(replica);
+      if (c->end == RunEnd::kClogged && c->exited < min_exits) early.push_back(replica);
     }
     if (clog_runs.empty()) return {};
     const MeanSe own = StagnantCount(results.OfPoint(point));
@@ -137,11 +138,11 @@ class ClogIndexAnalysis : public Analysis {
                  (g.n > 0 && !group.empty() ? group : std::string("the campaign"));
       }
     }
-    const ClogIndex ci = CloggingIndex(clog_runs, min_exits_, stagnant);
+    const ClogIndex ci = CloggingIndex(clog_runs, min_exits, stagnant);
     std::string note = "used " + std::to_string(ci.clogged) + " clogged and " + std::to_string(ci.discharged) +
                        " discharged run" + (ci.clogged + ci.discharged == 1 ? "" : "s");
     if (!early.empty())
-      note += "; left out " + ReplicasText(early) + ": clogged before " + std::to_string(min_exits_) + " exits";
+      note += "; left out " + ReplicasText(early) + ": clogged before " + std::to_string(min_exits) + " exits";
     if (!neither.empty())
       note += "; left out " + ReplicasText(neither) + ": neither clogged nor discharged (time limit)";
     note += source.empty() ? "; " + ci.note : "; N_u from " + source;
@@ -173,8 +174,8 @@ class ClogIndexAnalysis : public Analysis {
         "the mean number left by runs that discharged (the stagnant zones): the point's own, else those of its group "
         "(same silo, other widths), else of the campaign; without any, N_u and Psi are missing. Runs that clogged "
         "before " +
-        std::to_string(min_exits_) +
-        " bodies left are discarded. A run that reached its time limit still "
+        std::to_string(in.pass.window.min_exits_before_clog) +
+        " bodies left are discarded (/report/window/min_exits_before_clog, as for the flow window). A run that reached its time limit still "
         "flowing neither clogged nor discharged: it is left out, and 'range' gives Psi with those runs counted as if "
         "they had discharged afterwards (low) or clogged at their end (high)."});
     Table t{"clogging_index",
@@ -203,21 +204,17 @@ class ClogIndexAnalysis : public Analysis {
                                 PointSeries(v, in.points, "psi", "Psi"), false, false, "Error bars: se over replicas"});
     return s;
   }
-
- private:
-  int min_exits_;
 };
 
 }  // namespace
 
 std::unique_ptr<Analysis> MakeCloggingIndexAnalysis(const nlohmann::json& options, const std::string& path) {
-  int min_exits = 100;  // ch. 3 discard rule
-  if (!options.is_null()) {
-    OptionObject(options, path, {"min_exits_before_clog"});
-    if (options.contains("min_exits_before_clog"))
-      min_exits = OptionInteger(options.at("min_exits_before_clog"), path + "/min_exits_before_clog", 0, 1000000000);
-  }
-  return std::make_unique<ClogIndexAnalysis>(min_exits);
+  // Its discard rule is the flow window's start-up clog rule: one threshold, one place.
+  if (options.is_object() && options.contains("min_exits_before_clog"))
+    throw OptionError(path + "/min_exits_before_clog", options.at("min_exits_before_clog"),
+                      "moved to /report/window/min_exits_before_clog");
+  if (!options.is_null()) OptionObject(options, path, {});
+  return std::make_unique<ClogIndexAnalysis>();
 }
 
 }  // namespace granary::analysis

@@ -1,7 +1,8 @@
 // The clogging-index analysis (key "clogging_index", ch. 3 eq. 3.1), remove mode: per run
 // whether it clogged and how many bodies it left; per point Psi with N_u, the stagnant count,
 // from the point's freely discharging runs (else its group's, else the campaign's).
-// Options, /report/clogging_index: {"min_exits_before_clog": 100}.
+// Options, /report/clogging_index: none. Runs that clogged before
+// /report/window/min_exits_before_clog exits (default 100) are discarded.
 #pragma once
 
 #include <memory>

@@ -81,10 +81,11 @@ std::string FitResult::Verdict() const {
   if (!status.empty() && status.rfind("covariance", 0) == 0) v += "; " + status;
   // Weighted by the points' errors, a chi2 far above its degrees of freedom says the law misses
   // the points by more than those errors: the parameters' errors are scaled up to cover it, but
-  // a reader must not take "good" for "the law describes the data".
+  // the verdict must not read "good" (its parameters are determined, the law is not borne out).
   if (!sigma.empty() && dof > 0 && std::isfinite(chi2)) {
     const double p = gsl_cdf_chisq_Q(chi2, dof);
     if (p < kMisfitP) {
+      if (quality == FitQuality::kGood) v = "poor" + v.substr(ToString(FitQuality::kGood).size());
       std::ostringstream text;
       text << std::setprecision(3) << "chi2/dof = " << chi2 / dof << " (p = " << p
            << "): the law misses the points by more than their errors";

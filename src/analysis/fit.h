@@ -74,7 +74,8 @@ struct FitResult {
   FitQuality quality = FitQuality::kNotFitted;
   // The solver converged: parameters hold estimates (perhaps ill-determined ones).
   bool Ok() const { return gsl_status == 0; }
-  // One line for a table: "good", "ill-determined: 95% CI of C, k include 0", "not fitted:
+  // One line for a table: "good", "poor: chi2/dof = 18 (p = 2e-09): the law misses ...",
+  // "ill-determined: 95% CI of C, k include 0", "not fitted:
   // 3 Point(s) for 3 Parameter(s)", "failed: ..."; with the GSL details where they help.
   std::string Verdict() const;
   const FitParameter* Parameter(const std::string& name) const;

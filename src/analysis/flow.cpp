@@ -24,19 +24,21 @@ FlowWindow FindFlowWindow(const FlowInput& in, const FlowWindowRule& rule) {
     // The start-up delay (bodies must fall exit_distance before they count) is not a clog:
     // gaps are measured from the first exit through any outlet.
     double previous = in.events.front().time;
+    // A run that stops at its first clog and clogged this early never flowed steadily.
+    const auto startup_clog = [&](std::size_t exits, double t) {
+      w.startup_clog = true;
+      w.note = "clogged after " + std::to_string(exits) + " exits (t = " + std::to_string(t) + "), before its " +
+               std::to_string(rule.min_exits_before_clog) +
+               "th: a start-up clog, no steady flow (/report/window/min_exits_before_clog)";
+      return w;
+    };
     for (std::size_t i = 0; i < n; ++i) {
       if (w.times[i] - previous >= in.clog_gap) {
         if (i == 0) {
           w.note = "outlet clogged from the opening (its first exit at t = " + std::to_string(w.times[0]) + ")";
           return w;
         }
-        if (in.stops_at_clog && static_cast<int>(i) < rule.min_exits_before_clog) {
-          w.startup_clog = true;
-          w.note = "clogged after " + std::to_string(i) + " exits (t = " + std::to_string(previous) + "), before its " +
-                   std::to_string(rule.min_exits_before_clog) +
-                   "th: a start-up clog, no steady flow (/report/window/min_exits_before_clog)";
-          return w;
-        }
+        if (in.stops_at_clog && static_cast<int>(i) < rule.min_exits_before_clog) return startup_clog(i, previous);
         last = i - 1;
         w.note = "window ends at the first clog (t = " + std::to_string(previous) + ")";
         break;
@@ -46,13 +48,8 @@ FlowWindow FindFlowWindow(const FlowInput& in, const FlowWindowRule& rule) {
     // A run that stopped at a clog (or stood clogged until its time limit) has its last gap
     // after its last exit.
     const bool ended_clogged = last == n - 1 && std::isfinite(in.t_end) && in.t_end - w.times[last] >= in.clog_gap;
-    if (in.stops_at_clog && ended_clogged && static_cast<int>(n) < rule.min_exits_before_clog) {
-      w.startup_clog = true;
-      w.note = "clogged after " + std::to_string(n) + " exits (t = " + std::to_string(w.times[last]) +
-               "), before its " + std::to_string(rule.min_exits_before_clog) +
-               "th: a start-up clog, no steady flow (/report/window/min_exits_before_clog)";
-      return w;
-    }
+    if (in.stops_at_clog && ended_clogged && static_cast<int>(n) < rule.min_exits_before_clog)
+      return startup_clog(n, w.times[last]);
   }
   // 2. Remove mode: stop while enough bodies remain. Counts use every exit (all outlets).
   if (in.remove_mode && in.bodies > 0) {

@@ -145,7 +145,7 @@ AnalysisSetup SetupAnalyses(const nlohmann::json& campaign_spec) {
     } else if (key == "models") {
       throw OptionError(path, v, "fit models are options of the flow analysis now: /report/flow/models");
     } else if (key == "min_exits_before_clog") {
-      throw OptionError(path, v, "moved to /report/clogging_index/min_exits_before_clog");
+      throw OptionError(path, v, "moved to /report/window/min_exits_before_clog");
     } else if (std::none_of(rows.begin(), rows.end(),
                             [&wanted = key](const AnalysisEntry& e) { return e.key == wanted; })) {
       throw OptionError(path, v, "unknown key (known: " + known + ")");

@@ -25,13 +25,15 @@ nlohmann::json SpecFor(double w) {
           {"discharge", {{"mode", "remove"}, {"clog_window", 5.0}}}};
 }
 
-// The stagnant count N_u of a point where every run clogged comes from the freely
-// discharging runs of its group (the same silo at other widths), else of the campaign.
-TEST(ClogIndexAnalysis, StagnantCountOfAPointWhereEveryRunClogged) {
-  TempDir dir;
+// Remove-mode runs of 1000 bodies at two widths in two silos: at silo 100 one run discharged
+// (40 left) and two clogged at W = 4 (540 and 240 left); at silo 200 one discharged (80 left).
+CampaignInfo TwoSiloInfo() {
   CampaignInfo info;
   info.name = "nu";
   info.axes = {"/silo/base_outlets/0/width", "/silo/width"};
+  return info;
+}
+std::vector<RunRecord> TwoSiloRuns(const TempDir& dir) {
   std::vector<RunRecord> runs;
   auto add = [&](const std::string& id, double w, double silo, bool clogged, int left) {
     RunRecord r;
@@ -56,7 +58,16 @@ TEST(ClogIndexAnalysis, StagnantCountOfAPointWhereEveryRunClogged) {
   add("free-200", 20, 200, false, 80);  // silo 200: N_u = 80
   add("narrow-100-a", 4, 100, true, 540);
   add("narrow-100-b", 4, 100, true, 240);
-  const AnalysisSetup setup = SetupAnalyses({{"report", {{"clogging_index", {{"min_exits_before_clog", 0}}}}}});
+  return runs;
+}
+
+// The stagnant count N_u of a point where every run clogged comes from the freely
+// discharging runs of its group (the same silo at other widths), else of the campaign.
+TEST(ClogIndexAnalysis, StagnantCountOfAPointWhereEveryRunClogged) {
+  TempDir dir;
+  const CampaignInfo info = TwoSiloInfo();
+  const std::vector<RunRecord> runs = TwoSiloRuns(dir);
+  const AnalysisSetup setup = SetupAnalyses({{"report", {{"window", {{"min_exits_before_clog", 0}}}}}});
   const auto a = AnalyseCampaign(info, runs, setup);
   for (std::size_t p = 0; p < a->view.points.size(); ++p) {
     if (a->view.points[p].id != "W4S100") continue;
@@ -66,6 +77,28 @@ TEST(ClogIndexAnalysis, StagnantCountOfAPointWhereEveryRunClogged) {
     EXPECT_EQ(FindMetric(m, "psi")->note,
               "used 2 clogged and 0 discharged runs; N_u from the 1 discharged run of L = 100");
   }
+}
+
+// Eq. 3.1 discards runs that clogged before /report/window/min_exits_before_clog exits, the
+// threshold that also makes their clog a start-up clog with no steady flow: at 500 the run
+// that clogged after 460 exits is left out, the one after 760 is used.
+TEST(ClogIndexAnalysis, DiscardsByTheFlowWindowsStartUpClogThreshold) {
+  TempDir dir;
+  const CampaignInfo info = TwoSiloInfo();
+  const std::vector<RunRecord> runs = TwoSiloRuns(dir);
+  const AnalysisSetup setup = SetupAnalyses({{"report", {{"window", {{"min_exits_before_clog", 500}}}}}});
+  const auto a = AnalyseCampaign(info, runs, setup);
+  bool seen = false;
+  for (std::size_t p = 0; p < a->view.points.size(); ++p) {
+    if (a->view.points[p].id != "W4S100") continue;
+    seen = true;
+    const std::vector<PointMetric> m = a->AllPointMetrics(p);
+    EXPECT_DOUBLE_EQ(FindMetric(m, "discarded_runs")->mean, 1.0);
+    EXPECT_NEAR(FindMetric(m, "psi")->mean, 200.0 / 960.0, 1e-14);
+    EXPECT_NE(FindMetric(m, "psi")->note.find("clogged before 500 exits"), std::string::npos)
+        << FindMetric(m, "psi")->note;
+  }
+  EXPECT_TRUE(seen);
 }
 
 // 8000 dumbbells, remove mode, W = 11 and 13 with a time limit, W = 14 to full

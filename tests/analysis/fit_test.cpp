@@ -147,7 +147,8 @@ TEST(Fit, GoodFitSaysGood) {
 }
 
 // A law that misses the points by far more than their errors (Beverloo's law plus a wave of 4
-// errors' amplitude, errors of 0.5) stays "good" (its parameters are determined) but says so.
+// errors' amplitude, errors of 0.5) keeps quality kGood (its parameters are determined) but its
+// verdict reads "poor" and says why.
 TEST(Fit, AWeightedFitThatMissesThePointsSaysSo) {
   Data d = MakeData([](double w) { return 0.8 * std::pow(w - 1.5, 1.5); }, 0.5, 1);
   for (std::size_t i = 0; i < d.x.size(); ++i) d.y[i] = 0.8 * std::pow(d.x[i] - 1.5, 1.5) + 2.0 * std::sin(d.x[i]);
@@ -155,7 +156,7 @@ TEST(Fit, AWeightedFitThatMissesThePointsSaysSo) {
   ASSERT_EQ(r.quality, FitQuality::kGood) << r.Verdict();
   ASSERT_GT(r.chi2 / r.dof, 4.0);  // about (2 / 0.5)^2 / 2 = 8
   EXPECT_NE(r.Verdict().find("the law misses the points by more than their errors"), std::string::npos) << r.Verdict();
-  EXPECT_EQ(r.Verdict().rfind("good: chi2/dof = ", 0), 0u) << r.Verdict();
+  EXPECT_EQ(r.Verdict().rfind("poor: chi2/dof = ", 0), 0u) << r.Verdict();  // not "good"
   // Unweighted, there are no errors to miss by: the verdict is as before.
   const FitResult u = MakeFitModel(WithDataGuess(Beverloo2d(), d.x, d.y), d.x, d.y);
   EXPECT_EQ(u.Verdict().find("misses"), std::string::npos) << u.Verdict();

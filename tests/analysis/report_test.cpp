@@ -406,8 +406,8 @@ TEST(ReportSpec, OptionsFromCampaignSpec) {
             "/report/flow/models/0/expression: model 'a * (W': position 7: expected ')'");
   EXPECT_EQ(ErrorOf({{"flow", {{"model", 1}}}}), "/report/flow/model: unknown key (known: models) (got 1)");
   EXPECT_EQ(ErrorOf({{"profile", {{"bins", 0}}}}), "/report/profile/bins: must be in [1, 1e+06] (got 0)");
-  EXPECT_EQ(ErrorOf({{"clogging_index", {{"min_exits_before_clog", 2.5}}}}),
-            "/report/clogging_index/min_exits_before_clog: must be an integer (got 2.5)");
+  EXPECT_EQ(ErrorOf({{"window", {{"min_exits_before_clog", 2.5}}}}),
+            "/report/window/min_exits_before_clog: must be an integer (got 2.5)");
   EXPECT_EQ(ErrorOf({{"region", "ch5"}}),
             "/report/region: must be \"ch3\", \"ch4\", \"ch6\" or {\"pad\": .., \"height\": .., \"unit\": \"d\" or "
             "\"D_eq\"} (got \"ch5\")");
@@ -415,7 +415,10 @@ TEST(ReportSpec, OptionsFromCampaignSpec) {
   EXPECT_EQ(ErrorOf({{"models", nlohmann::json::array()}}),
             "/report/models: fit models are options of the flow analysis now: /report/flow/models (got [])");
   EXPECT_EQ(ErrorOf({{"min_exits_before_clog", 5}}),
-            "/report/min_exits_before_clog: moved to /report/clogging_index/min_exits_before_clog (got 5)");
+            "/report/min_exits_before_clog: moved to /report/window/min_exits_before_clog (got 5)");
+  // The clogging index discards by the flow window's start-up clog rule: one threshold.
+  EXPECT_EQ(ErrorOf({{"clogging_index", {{"min_exits_before_clog", 5}}}}),
+            "/report/clogging_index/min_exits_before_clog: moved to /report/window/min_exits_before_clog (got 5)");
   // An unknown key lists the known ones: the pass' and every registered analysis', in the
   // registry's order.
   const std::string unknown = ErrorOf({{"regoin", "ch3"}});
