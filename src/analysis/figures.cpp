@@ -1462,7 +1462,7 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
       fit_table.rows.push_back({par.name, Cell::Number(par.value, 5), Cell::Number(par.se, 2),
                                 Cell::Number(par.ci_low, 5), Cell::Number(par.ci_high, 5),
                                 Cell::Number(r.Ok() && r.dof > 0 ? r.chi2 / r.dof : kNaN, 3),
-                                Cell::Count(static_cast<long long>(xs.size())), ToString(r.quality)});
+                                Cell::Count(static_cast<long long>(xs.size())), r.Rating()});
     if (r.quality != FitQuality::kGood) {
       notes.push_back("The fit is not drawn: " + r.Verdict() +
                       " (a curve is drawn only when every parameter is determined and no 95% interval holds 0).");

@@ -57,6 +57,18 @@ std::string ToString(FitQuality quality) {
   return "?";
 }
 
+double FitResult::MisfitP() const {
+  if (sigma.empty() || dof <= 0 || !std::isfinite(chi2) || quality == FitQuality::kNotFitted ||
+      quality == FitQuality::kFailed)
+    return kNaN;
+  return gsl_cdf_chisq_Q(chi2, dof);
+}
+
+std::string FitResult::Rating() const {
+  const double p = MisfitP();
+  return quality == FitQuality::kGood && p < kMisfitP ? "poor" : ToString(quality);
+}
+
 std::string FitResult::Verdict() const {
   switch (quality) {
     case FitQuality::kNotFitted: return status;
@@ -72,7 +84,7 @@ std::string FitResult::Verdict() const {
     else if (p.CiSpansZero())
       spans += (spans.empty() ? "" : ", ") + p.name;
   }
-  std::string v = ToString(quality);
+  std::string v = Rating();
   if (!undetermined.empty()) v += ": " + undetermined + " not determined by the data";
   if (!spans.empty())
     v += std::string(undetermined.empty() ? ": " : "; ") + "95% CI of " + spans + " include" +
@@ -82,15 +94,11 @@ std::string FitResult::Verdict() const {
   // Weighted by the points' errors, a chi2 far above its degrees of freedom says the law misses
   // the points by more than those errors: the parameters' errors are scaled up to cover it, but
   // the verdict must not read "good" (its parameters are determined, the law is not borne out).
-  if (!sigma.empty() && dof > 0 && std::isfinite(chi2)) {
-    const double p = gsl_cdf_chisq_Q(chi2, dof);
-    if (p < kMisfitP) {
-      if (quality == FitQuality::kGood) v = "poor" + v.substr(ToString(FitQuality::kGood).size());
-      std::ostringstream text;
-      text << std::setprecision(3) << "chi2/dof = " << chi2 / dof << " (p = " << p
-           << "): the law misses the points by more than their errors";
-      v += std::string(v.find(':') == std::string::npos ? ": " : "; ") + text.str();
-    }
+  if (const double p = MisfitP(); p < kMisfitP) {
+    std::ostringstream text;
+    text << std::setprecision(3) << "chi2/dof = " << chi2 / dof << " (p = " << p
+         << "): the law misses the points by more than their errors";
+    v += std::string(v.find(':') == std::string::npos ? ": " : "; ") + text.str();
   }
   return v;
 }

@@ -78,6 +78,11 @@ struct FitResult {
   // "ill-determined: 95% CI of C, k include 0", "not fitted:
   // 3 Point(s) for 3 Parameter(s)", "failed: ..."; with the GSL details where they help.
   std::string Verdict() const;
+  // The verdict's first word: ToString(quality), but "poor" for a good fit that misses its
+  // points (MisfitP() < kMisfitP).
+  std::string Rating() const;
+  // A weighted fit's chance of a chi2 this large under the law; NaN unweighted or unfitted.
+  double MisfitP() const;
   const FitParameter* Parameter(const std::string& name) const;
   double Evaluate(double x_value) const;  // the fitted model at x (NaN if it cannot be evaluated)
   // The fitted model at values of `variables` (in that order); NaN if it cannot be evaluated.

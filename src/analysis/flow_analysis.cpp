@@ -319,9 +319,9 @@ std::optional<Section> FlowAnalysis::BuildSection(const SectionInput& in) const 
                              "One curve per outlet (and group); error bars: standard error over replicas"};
     // Fits against W/d per group (>= 3 widths).
     Table fits{"flow_rate_fits",
-               "Fits of Q(W/d) per group (95% confidence intervals, Student t). Fit quality: good, ill-determined (a "
-               "parameter without a standard error or whose interval holds 0), failed or not fitted; only converged "
-               "fits show values",
+               "Fits of Q(W/d) per group (95% confidence intervals, Student t). Fit quality: good, poor (weighted, "
+               "and the law misses the points by more than their errors), ill-determined (a parameter without a "
+               "standard error or whose interval holds 0), failed or not fitted; only converged fits show values",
                {"group", "model", "parameter", "value", "se", "95% CI low", "95% CI high", "chi2/dof", "points",
                 "weighted", "fit quality"},
                {},

@@ -157,9 +157,13 @@ TEST(Fit, AWeightedFitThatMissesThePointsSaysSo) {
   ASSERT_GT(r.chi2 / r.dof, 4.0);  // about (2 / 0.5)^2 / 2 = 8
   EXPECT_NE(r.Verdict().find("the law misses the points by more than their errors"), std::string::npos) << r.Verdict();
   EXPECT_EQ(r.Verdict().rfind("poor: chi2/dof = ", 0), 0u) << r.Verdict();  // not "good"
+  EXPECT_EQ(r.Rating(), "poor");                                            // the fit tables' "fit quality" column
+  EXPECT_LT(r.MisfitP(), kMisfitP);
   // Unweighted, there are no errors to miss by: the verdict is as before.
   const FitResult u = MakeFitModel(WithDataGuess(Beverloo2d(), d.x, d.y), d.x, d.y);
   EXPECT_EQ(u.Verdict().find("misses"), std::string::npos) << u.Verdict();
+  EXPECT_EQ(u.Rating(), "good");
+  EXPECT_TRUE(std::isnan(u.MisfitP()));
 }
 
 // The demo's four widths (W = 5, 7, 9, 12) under the free-exponent law: GSL converges, but
