@@ -651,7 +651,8 @@ void DistributionFigure(const CampaignAnalysis& ca, const FigureSpec& spec, Figu
           hi = std::max(hi, s.values[k]);
         }
     if (!std::isfinite(lo)) {
-      out.blocks.push_back(Text{"**Not drawn:** " + where + ": no run has a value of " + spec.of + "."});
+      out.blocks.push_back(
+          Text{"**Not drawn:** " + where + ": no run has a value of " + spec.of + OnlyText(spec) + "."});
       return;
     }
     if (hi <= lo) {
@@ -689,7 +690,7 @@ void DistributionFigure(const CampaignAnalysis& ca, const FigureSpec& spec, Figu
               (spec.pool.empty() ? "" : " and over " + Joined(spec.pool)) + OnlyText(spec) +
               (spec.reference.empty() ? "" : ". Reference: " + spec.reference);
   if (f.series.empty()) {
-    out.blocks.push_back(Text{"**Not drawn:** " + where + ": no run has a value of " + spec.of + "."});
+    out.blocks.push_back(Text{"**Not drawn:** " + where + ": no run has a value of " + spec.of + OnlyText(spec) + "."});
     return;
   }
   out.blocks.push_back(f);
