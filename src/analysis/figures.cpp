@@ -36,12 +36,12 @@ const std::vector<KindKeys>& FigureKinds() {
        {"y", "labels", "ylabel", "x", "group", "pool", "fit", "normalize", "logx", "logy"}},
       {"distribution",
        "a histogram of a per-run distribution at each chosen point",
-       {"of", "bins", "range", "pool", "logx", "logy"}},
-      {"curves", "an analysis' curve at each chosen point", {"of", "pool", "logx", "logy"}},
-      {"maps", "a field's map at each chosen point", {"field", "pool", "one_run"}},
+       {"of", "bins", "range", "group", "pool", "logx", "logy"}},
+      {"curves", "an analysis' curve at each chosen point", {"of", "group", "pool", "logx", "logy"}},
+      {"maps", "a field's map at each chosen point", {"field", "group", "pool", "one_run"}},
       {"profile",
        "a field along a line at each chosen point",
-       {"field", "along", "at", "width", "origin_outlet", "pool", "one_run", "logy"}},
+       {"field", "along", "at", "width", "origin_outlet", "group", "pool", "one_run", "logy"}},
       {"pictures", "the silo at each chosen point", {"picture", "annotate", "window", "colour"}}};
   return kInds;
 }
@@ -301,6 +301,10 @@ FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const Campa
   s.reference = TextAt(f, "reference", path);
   if (f.contains("only")) s.only = ReadOnly(f.at("only"), path, axes);
   if (f.contains("pool")) s.pool = AxisListAt(f.at("pool"), path + "/pool", axes);
+  if (f.contains("group")) {
+    s.group = AxisListAt(f.at("group"), path + "/group", axes);
+    s.group_given = true;
+  }
   if (f.contains("logx")) s.logx = OptionBool(f.at("logx"), path + "/logx");
   if (f.contains("logy")) s.logy = OptionBool(f.at("logy"), path + "/logy");
   if (s.kind == "pictures") {
@@ -410,10 +414,6 @@ FigureSpec ReadOne(const nlohmann::json& f, const std::string& path, const Campa
   }
   s.ylabel = TextAt(f, "ylabel", path);
   if (f.contains("x")) s.x = AxisNameAt(f.at("x"), path + "/x", axes);
-  if (f.contains("group")) {
-    s.group = AxisListAt(f.at("group"), path + "/group", axes);
-    s.group_given = true;
-  }
   if (f.contains("fit")) {
     const nlohmann::json& fj = f.at("fit");
     const std::string fp = path + "/fit";
@@ -1208,16 +1208,31 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
   const std::string x_name = spec.x.empty() ? v.x_symbol : spec.x;
   // The group axes: as given, or every sweep axis that is not x and not pooled.
   // A figure at chosen points (distribution, maps, profile): a curve or panel per point, named
-  // by every axis not pooled.
+  // by every axis not pooled, or by the axes `group` names (a derived one such as L names a
+  // curve as the thesis does; the points stay one curve each).
   const bool per_point =
       spec.kind == "distribution" || spec.kind == "curves" || spec.kind == "maps" || spec.kind == "profile";
-  std::vector<std::string> group = spec.group;
-  if (!spec.group_given)
-    for (const auto& axis : v.axes) {
-      const std::string n = v.named.ShortName(axis);
-      const bool is_x = !per_point && (n == x_name || v.x_axes.count(axis));
-      if (!is_x && std::find(spec.pool.begin(), spec.pool.end(), n) == spec.pool.end()) group.push_back(n);
+  std::vector<std::string> every_axis;
+  for (const auto& axis : v.axes) {
+    const std::string n = v.named.ShortName(axis);
+    const bool is_x = !per_point && (n == x_name || v.x_axes.count(axis));
+    if (!is_x && std::find(spec.pool.begin(), spec.pool.end(), n) == spec.pool.end()) every_axis.push_back(n);
+  }
+  const std::vector<std::string> group = spec.group_given ? spec.group : every_axis;
+  const auto group_text = [&](const std::vector<std::string>& names, const Point& point,
+                              const std::map<std::string, double>& axes) {
+    std::string text;
+    for (const auto& g : names) {
+      const auto pointer = v.named.PointerOf(g);
+      const auto value = pointer ? AxisValue(*pointer, point.point, point.spec) : std::nullopt;
+      const std::string shown = value ? ValueText(*value) : axes.count(g) ? ValueWords(axes.at(g)) : "?";
+      const std::string unit = pointer ? AxisUnit(*pointer) : g == "L" ? "d" : "";
+      text += (text.empty() ? "" : ", ") + g + " = " + shown +
+              (unit.empty() || (value && value->is_string()) || (!value && !axes.count(g)) ? "" : " " + unit);
     }
+    return text;
+  };
+  std::vector<std::string> every_axis_text;  // per datum: its name by every axis (per-point kinds)
   std::vector<std::string> notes;
   // The points the figure shows, merged when they differ only in pooled axes.
   std::map<std::string, std::size_t> datum_of;  // key of the non-pooled axes -> index in out.data
@@ -1244,17 +1259,24 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
     if (added) {
       FigureDatum d;
       d.axes = axes;
-      for (const auto& g : group) {
-        const auto pointer = v.named.PointerOf(g);
-        const auto value = pointer ? AxisValue(*pointer, point.point, point.spec) : std::nullopt;
-        const std::string text = value ? ValueText(*value) : axes.count(g) ? ValueWords(axes.at(g)) : "?";
-        const std::string unit = pointer ? AxisUnit(*pointer) : g == "L" ? "d" : "";
-        d.group += (d.group.empty() ? "" : ", ") + g + " = " + text +
-                   (unit.empty() || !value || value->is_string() ? "" : " " + unit);
-      }
+      d.group = group_text(group, point, axes);
       out.data.push_back(d);
+      every_axis_text.push_back(group_text(every_axis, point, axes));
     }
     out.data[it->second].points.push_back(p);
+  }
+  // Per point, `group` only names the curves: axes that do not tell two apart name them by
+  // every axis, and the figure says so.
+  std::string group_note;
+  if (per_point && spec.group_given) {
+    std::set<std::string> seen;
+    bool apart = true;
+    for (const FigureDatum& d : out.data) apart = apart && seen.insert(d.group).second;
+    if (!apart) {
+      for (std::size_t i = 0; i < out.data.size(); ++i) out.data[i].group = every_axis_text[i];
+      group_note = "**Note:** " + spec.path + " (\"" + spec.name + "\"): `group` (" + Joined(spec.group) +
+                   ") does not tell its points apart: each is named by every axis.";
+    }
   }
   // A curve or panel per point comes in the order of its x value, then of the other axes' values
   // in the sweep's order (X_db = 0 -> 1 as the thesis' panels a-e, W = 7 before W = 11), not in
@@ -1291,6 +1313,7 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
       CurveFigure(ca, spec, out);
     else
       FieldFigure(ca, spec, out);
+    if (!group_note.empty()) out.blocks.push_back(Text{group_note});
     return out;
   }
   // One datum per point set and y: the data of y k follow those of y k - 1.

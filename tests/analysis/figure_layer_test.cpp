@@ -1148,6 +1148,39 @@ TEST(FigureKinds, MapPanelsAtTheChosenPointsWithAxesAndUnitsInTheirTitles) {
   EXPECT_NE(m1->caption.find("Each panel: the lowest replica that has the field"), std::string::npos) << m1->caption;
 }
 
+// `group` names the panels (or curves) of a figure at chosen points by the axes it lists, a
+// derived one too (fig. 7.6: L rather than the outlets' centres); axes that do not tell the
+// points apart name them by every axis, and the figure says so.
+TEST(FigureKinds, GroupNamesThePanelsOfAFigureAtChosenPoints) {
+  ScopedAnalysis known(KnownFiguresEntry());
+  TempDir dir;
+  const nlohmann::json maps = {
+      {"name", "maps"}, {"kind", "maps"}, {"field", "ramp"}, {"only", {{"W", {10, 22}}, {"mu", 0.5}}}};
+  auto panels_of = [&](const nlohmann::json& group, std::string* note) {
+    nlohmann::json figure = maps;
+    figure["group"] = group;
+    const Campaign c = MakeCampaign(dir.Path(), {{"axes", {{"W2", "2 * W"}}}, {"report", {{"figures", {figure}}}}});
+    const AnalysisSetup setup = SetupAnalyses(c.info.spec);
+    const auto a = Analyse(c, setup);
+    const FigureOutcome f = MakeFigure(*a, ReadFigureSpecs(c.info.spec).at(0));
+    std::vector<std::string> titles;
+    for (const Block& b : f.blocks) {
+      if (const auto* m = std::get_if<MapFigure>(&b))
+        for (const auto& panel : m->panels) titles.push_back(panel.title);
+      if (const auto* t = std::get_if<Text>(&b)) *note += t->markdown;
+    }
+    return titles;
+  };
+  std::string note;
+  EXPECT_EQ(panels_of("W2", &note),
+            (std::vector<std::string>{"W2 = 20: 2 runs, 14 frames", "W2 = 44: 2 runs, 14 frames"}));
+  EXPECT_EQ(note, "");
+  EXPECT_EQ(panels_of("mu", &note), (std::vector<std::string>{"W = 10 d, mu = 0.5: 2 runs, 14 frames",
+                                                              "W = 22 d, mu = 0.5: 2 runs, 14 frames"}));
+  EXPECT_NE(note.find("`group` (mu) does not tell its points apart: each is named by every axis"), std::string::npos)
+      << note;
+}
+
 // Panels come in the order of x, then the other axes, by value: not in the view's order of its
 // points, which sorts them by their group's text (mu = 0 before mu = 1, whatever their W).
 TEST(FigureKinds, PanelsComeInTheOrderOfXThenTheOtherAxes) {
