@@ -146,7 +146,7 @@ class RunAccumulator {
 struct AnalysisResults {
   const CampaignView* view = nullptr;
   std::vector<nlohmann::json> runs;
-  const PassOptions* pass = nullptr;  // the pass options the runs were analysed with (null: the defaults)
+  PassOptions pass = {};  // the pass options the runs were analysed with
   // The results of the used runs of point p (CampaignView::points order).
   std::vector<const nlohmann::json*> OfPoint(std::size_t p) const;
 };

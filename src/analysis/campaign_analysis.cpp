@@ -77,7 +77,7 @@ std::unique_ptr<CampaignAnalysis> AnalyseCampaign(const CampaignInfo& info, cons
   out->view = MakeCampaignView(info, runs, unreadable, checks);
   std::map<const RunRecord*, const RunPassResult*> by_record;
   for (std::size_t i = 0; i < done.size(); ++i) by_record[done[i]] = &passes[i];
-  out->results.assign(analyses.size(), AnalysisResults{&out->view, {}, &setup.pass});
+  out->results.assign(analyses.size(), AnalysisResults{&out->view, {}, setup.pass});
   for (std::size_t a = 0; a < analyses.size(); ++a) out->results[a].runs.assign(out->view.used.size(), nullptr);
   for (std::size_t u = 0; u < out->view.used.size(); ++u) {
     const auto it = by_record.find(out->view.used[u].record);

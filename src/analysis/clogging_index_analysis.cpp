@@ -103,7 +103,7 @@ class ClogIndexAnalysis : public Analysis {
   std::vector<PointMetric> PointMetrics(const AnalysisResults& results, std::size_t point) const override {
     const CampaignView& v = *results.view;
     // The same rule as the flow window's start-up clogs: one threshold for both.
-    const int min_exits = (results.pass ? results.pass->window : FlowWindowRule{}).min_exits_before_clog;
+    const int min_exits = results.pass.window.min_exits_before_clog;
     std::vector<ClogRun> clog_runs;
     std::vector<int> early, neither;
     for (std::size_t u : v.points[point].runs) {

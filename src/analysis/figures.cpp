@@ -1232,7 +1232,9 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
     }
     return text;
   };
-  std::vector<std::string> every_axis_text;  // per datum: its name by every axis (per-point kinds)
+  // Per datum, its name by every axis: the fallback of a per-point figure's `group`.
+  const bool group_names_points = per_point && spec.group_given;
+  std::vector<std::string> every_axis_text;
   std::vector<std::string> notes;
   // The points the figure shows, merged when they differ only in pooled axes.
   std::map<std::string, std::size_t> datum_of;  // key of the non-pooled axes -> index in out.data
@@ -1261,14 +1263,14 @@ FigureOutcome MakeFigure(const CampaignAnalysis& ca, const FigureSpec& spec) {
       d.axes = axes;
       d.group = group_text(group, point, axes);
       out.data.push_back(d);
-      every_axis_text.push_back(group_text(every_axis, point, axes));
+      if (group_names_points) every_axis_text.push_back(group_text(every_axis, point, axes));
     }
     out.data[it->second].points.push_back(p);
   }
   // Per point, `group` only names the curves: axes that do not tell two apart name them by
   // every axis, and the figure says so.
   std::string group_note;
-  if (per_point && spec.group_given) {
+  if (group_names_points) {
     std::set<std::string> seen;
     bool apart = true;
     for (const FigureDatum& d : out.data) apart = apart && seen.insert(d.group).second;
